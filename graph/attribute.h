@@ -1,0 +1,35 @@
+#pragma once
+// An attribute of a node type (Maya's MFnAttribute): name, data type, direction, default, limits.
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "graph/value.h"
+
+namespace rig {
+
+using AttrId = int;
+
+struct AttributeSpec {
+    std::string name;
+    ValueType type = ValueType::Double;
+    bool input = true;         // false: an output, written only by the node's compute
+    Value defaultValue;        // in internal units (radians for angles)
+    Unit unit = Unit::None;
+    bool keyable = false;      // an animator control (Maya's keyable flag)
+    bool array = false;        // a multi attribute: elements name[0], name[1], ...
+    std::optional<double> min;  // inclusive limits on numbers (each component of a vector3)
+    std::optional<double> max;
+    std::vector<std::string> enumNames;     // Enum: names of values 0, 1, ...
+    std::array<std::string, 3> childNames;  // Vector3: plugs of the components, e.g. rotateX
+    bool sceneTime = false;    // when unconnected, follows the graph's time (Maya's animCurveT* input)
+    bool dynamic = false;      // added to one node by the rig file (Maya's addAttr), not by its type
+    std::string description;
+};
+
+// Index of `name` among a vector3 spec's childNames, or -1.
+int childIndex(const AttributeSpec& spec, std::string_view name);
+
+}  // namespace rig

@@ -1,0 +1,75 @@
+#pragma once
+// The behaviour of one node instance (Maya's MPxNode) and the only window it has on the graph: its
+// own input values, through a ComputeContext. Reading anything else is impossible by construction.
+
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "graph/attribute.h"
+#include "graph/value.h"
+
+namespace rig {
+
+// Storage of one attribute of one node instance.
+struct AttrData {
+    Value value;                  // non-array attributes
+    std::vector<Value> elements;  // array attributes, by logical index
+    std::vector<bool> present;    // which logical indices exist
+    bool dirty = false;           // outputs: needs compute; inputs: needs a pull from its source
+};
+
+class ComputeContext {
+public:
+    ComputeContext(std::string_view nodeName, const std::vector<AttributeSpec>& specs,
+                   std::vector<AttrData>& data)
+        : nodeName_(nodeName), specs_(specs), data_(data)
+    {
+    }
+
+    std::string_view nodeName() const { return nodeName_; }
+
+    double getDouble(AttrId a) const { return std::get<double>(input(a).value); }
+    int getInt(AttrId a) const { return std::get<int>(input(a).value); }
+    int getEnum(AttrId a) const { return std::get<int>(input(a).value); }
+    bool getBool(AttrId a) const { return std::get<bool>(input(a).value); }
+    const std::string& getString(AttrId a) const { return std::get<std::string>(input(a).value); }
+    const Eigen::Vector3d& getVector3(AttrId a) const { return std::get<Eigen::Vector3d>(input(a).value); }
+    const Eigen::Matrix4d& getMatrix(AttrId a) const { return std::get<Eigen::Matrix4d>(input(a).value); }
+    const std::vector<double>& getDoubleArray(AttrId a) const
+    {
+        return std::get<std::vector<double>>(input(a).value);
+    }
+    const Matrix4Array& getMatrixArray(AttrId a) const { return std::get<Matrix4Array>(input(a).value); }
+
+    // Array inputs: calls f(logicalIndex, value) for each existing element, in index order.
+    template <class F>
+    void forEachElement(AttrId a, F&& f) const
+    {
+        const AttrData& d = input(a);
+        for (std::size_t i = 0; i < d.elements.size(); ++i)
+            if (d.present[i]) f(static_cast<int>(i), d.elements[i]);
+    }
+
+    void setOutput(AttrId a, Value value);
+    // Array outputs: replaces all elements (logical indices 0..n-1).
+    void setOutputElements(AttrId a, std::vector<Value> elements);
+
+private:
+    const AttrData& input(AttrId a) const;
+
+    std::string_view nodeName_;
+    const std::vector<AttributeSpec>& specs_;
+    std::vector<AttrData>& data_;
+};
+
+class Node {
+public:
+    virtual ~Node() = default;
+    // Reads the node's inputs and writes all of its outputs. May throw rig::Error for user errors
+    // (a missing file named by an attribute, say).
+    virtual void compute(ComputeContext& context) = 0;
+};
+
+}  // namespace rig

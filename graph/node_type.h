@@ -1,0 +1,113 @@
+#pragma once
+// Node types are data (Maya's MPxNode::initialize): attributes, the affects table, a factory.
+// A NodeTypeBuilder declares them; build() checks the declaration and freezes it.
+
+#include <functional>
+#include <initializer_list>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "graph/attribute.h"
+#include "graph/node.h"
+
+namespace YAML {
+class Node;
+}
+
+namespace rig {
+
+// A rig-file field that is not one attribute (an animation curve's `keys: [[0, 0], [10, 90]]`):
+// it turns the YAML value into attribute values. It throws rig::Error; `where(n)` gives the
+// "file:line:col" of a YAML node for the message.
+struct YamlFieldContext {
+    std::function<std::string(const YAML::Node&)> where;
+};
+using YamlFieldParser = std::function<std::vector<std::pair<AttrId, Value>>(
+    const YAML::Node& value, const YamlFieldContext& context)>;
+
+class NodeType {
+public:
+    const std::string& name() const { return name_; }
+    const std::string& description() const { return description_; }
+    const std::vector<AttributeSpec>& attributes() const { return attributes_; }
+    const AttributeSpec& attribute(AttrId a) const { return attributes_[static_cast<std::size_t>(a)]; }
+    // The attribute's index, or -1.
+    AttrId findAttribute(std::string_view name) const;
+    // Outputs whose value depends on input `a` (Maya's attributeAffects).
+    const std::vector<AttrId>& affects(AttrId a) const { return affects_[static_cast<std::size_t>(a)]; }
+    // History-dependent nodes give different results when recomputed; checked mode skips them.
+    bool stateful() const { return stateful_; }
+    const std::map<std::string, YamlFieldParser, std::less<>>& yamlFields() const { return yamlFields_; }
+    std::unique_ptr<Node> create() const { return factory_(); }
+
+private:
+    friend class NodeTypeBuilder;
+    friend class AttributeBuilder;
+    std::string name_;
+    std::string description_;
+    std::vector<AttributeSpec> attributes_;
+    std::vector<std::vector<AttrId>> affects_;
+    bool stateful_ = false;
+    std::map<std::string, YamlFieldParser, std::less<>> yamlFields_;
+    std::function<std::unique_ptr<Node>()> factory_;
+};
+
+class NodeTypeBuilder;
+
+// Fluent setters for the attribute just declared.
+class AttributeBuilder {
+public:
+    AttributeBuilder(NodeTypeBuilder& owner, AttrId id) : owner_(owner), id_(id) {}
+    AttributeBuilder& defaultValue(Value value);
+    AttributeBuilder& unit(Unit unit);
+    AttributeBuilder& keyable(bool on = true);
+    AttributeBuilder& array(bool on = true);
+    AttributeBuilder& range(double min, double max);
+    AttributeBuilder& min(double min);
+    AttributeBuilder& max(double max);
+    AttributeBuilder& enumNames(std::vector<std::string> names);
+    // Vector3 components; by default name + "X", "Y", "Z".
+    AttributeBuilder& children(std::string x, std::string y, std::string z);
+    AttributeBuilder& sceneTime(bool on = true);
+    AttributeBuilder& doc(std::string description);
+
+private:
+    AttributeSpec& spec();
+    NodeTypeBuilder& owner_;
+    AttrId id_;
+};
+
+class NodeTypeBuilder {
+public:
+    explicit NodeTypeBuilder(std::string typeName);
+
+    // `id` must equal the number of attributes declared so far: node classes name attributes by an
+    // enum, and this keeps the enum and the declaration in step.
+    AttributeBuilder input(AttrId id, std::string name, ValueType type);
+    AttributeBuilder output(AttrId id, std::string name, ValueType type);
+    NodeTypeBuilder& affects(AttrId input, std::initializer_list<AttrId> outputs);
+    // Every input affects every output.
+    NodeTypeBuilder& affectsAll();
+    NodeTypeBuilder& description(std::string text);
+    NodeTypeBuilder& stateful(bool on = true);
+    NodeTypeBuilder& yamlField(std::string field, YamlFieldParser parser);
+    NodeTypeBuilder& factory(std::function<std::unique_ptr<Node>()> make);
+    template <class T>
+    NodeTypeBuilder& factory()
+    {
+        return factory([] { return std::unique_ptr<Node>(std::make_unique<T>()); });
+    }
+
+    // Checks the declaration (throws std::logic_error naming the type and attribute) and freezes it.
+    std::shared_ptr<const NodeType> build();
+
+private:
+    friend class AttributeBuilder;
+    AttributeBuilder add(AttrId id, std::string name, ValueType type, bool input);
+    NodeType type_;
+};
+
+}  // namespace rig

@@ -1,0 +1,408 @@
+#include "graph/yaml_loader.h"
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "graph/error.h"
+#include "graph/suggest.h"
+
+namespace rig {
+namespace {
+
+std::string markText(const std::string& file, const YAML::Mark& mark)
+{
+    if (mark.line < 0) return file;
+    return formatMark({file, mark.line + 1, mark.column + 1});
+}
+
+std::string describe(const YAML::Node& node)
+{
+    if (node.IsScalar()) return fmt::format("'{}'", node.Scalar());
+    if (node.IsSequence()) return fmt::format("a list of {}", node.size());
+    if (node.IsMap()) return "a map";
+    return "nothing";
+}
+
+double parseNumber(const YAML::Node& node, const std::string& where)
+{
+    if (!node.IsScalar()) throw Error(fmt::format("{}: expected a number, got {}", where, describe(node)));
+    double x = 0.0;
+    if (!YAML::convert<double>::decode(node, x))
+        throw Error(fmt::format("{}: expected a number, got {}", where, describe(node)));
+    if (!std::isfinite(x)) throw Error(fmt::format("{}: {} is not a finite number", where, node.Scalar()));
+    return x;
+}
+
+Value parseOne(const YAML::Node& node, ValueType type, const AttributeSpec& spec, const std::string& where)
+{
+    const double scale = unitFactor(spec.unit == Unit::Angle ? Unit::None : spec.unit, spec.unit);
+    auto numbers = [&](std::size_t count, const char* what) {
+        if (!node.IsSequence() || node.size() != count)
+            throw Error(fmt::format("{}: expected {}, got {}", where, what, describe(node)));
+        std::vector<double> xs;
+        for (std::size_t i = 0; i < count; ++i) xs.push_back(parseNumber(node[i], where));
+        return xs;
+    };
+    switch (type) {
+    case ValueType::Double: return parseNumber(node, where) * scale;
+    case ValueType::Int: {
+        const double x = parseNumber(node, where);
+        if (x != std::floor(x) || std::abs(x) > 2e9)
+            throw Error(fmt::format("{}: expected a whole number, got {}", where, node.Scalar()));
+        return static_cast<int>(x);
+    }
+    case ValueType::Bool: {
+        bool b = false;
+        if (!node.IsScalar() || !YAML::convert<bool>::decode(node, b))
+            throw Error(fmt::format("{}: expected true or false, got {}", where, describe(node)));
+        return b;
+    }
+    case ValueType::Enum: {
+        if (!node.IsScalar()) throw Error(fmt::format("{}: expected an enum name, got {}", where, describe(node)));
+        for (std::size_t i = 0; i < spec.enumNames.size(); ++i)
+            if (spec.enumNames[i] == node.Scalar()) return static_cast<int>(i);
+        int index = -1;
+        if (YAML::convert<int>::decode(node, index) && index >= 0 && static_cast<std::size_t>(index) < spec.enumNames.size())
+            return index;
+        std::string names;
+        for (const auto& n : spec.enumNames) names += (names.empty() ? "" : ", ") + n;
+        throw Error(fmt::format("{}: '{}' is not one of {}{}", where, node.Scalar(), names,
+                                didYouMean(node.Scalar(), spec.enumNames)));
+    }
+    case ValueType::String:
+        if (!node.IsScalar()) throw Error(fmt::format("{}: expected a string, got {}", where, describe(node)));
+        return node.Scalar();
+    case ValueType::Vector3: {
+        const auto xs = numbers(3, "[x, y, z]");
+        return Eigen::Vector3d(xs[0] * scale, xs[1] * scale, xs[2] * scale);
+    }
+    case ValueType::Matrix4: {
+        Eigen::Matrix4d m;
+        if (node.IsSequence() && node.size() == 16) {
+            const auto xs = numbers(16, "16 numbers");
+            for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = xs[static_cast<std::size_t>(i)];
+            return m;
+        }
+        if (!node.IsSequence() || node.size() != 4)
+            throw Error(fmt::format("{}: expected a matrix as four rows [[...], [...], [...], [...]], got {}", where,
+                                    describe(node)));
+        for (int r = 0; r < 4; ++r) {
+            const auto row = parseOne(node[static_cast<std::size_t>(r)], ValueType::DoubleArray, spec, where);
+            const auto& xs = std::get<std::vector<double>>(row);
+            if (xs.size() != 4)
+                throw Error(fmt::format("{}: matrix row {} has {} numbers, expected 4", where, r + 1, xs.size()));
+            for (int c = 0; c < 4; ++c) m(r, c) = xs[static_cast<std::size_t>(c)];
+        }
+        return m;
+    }
+    case ValueType::DoubleArray: {
+        if (!node.IsSequence()) throw Error(fmt::format("{}: expected a list of numbers, got {}", where, describe(node)));
+        std::vector<double> xs;
+        for (const auto& item : node) xs.push_back(parseNumber(item, where) * scale);
+        return xs;
+    }
+    case ValueType::Matrix4Array: {
+        if (!node.IsSequence()) throw Error(fmt::format("{}: expected a list of matrices, got {}", where, describe(node)));
+        Matrix4Array ms;
+        for (const auto& item : node) ms.push_back(std::get<Eigen::Matrix4d>(parseOne(item, ValueType::Matrix4, spec, where)));
+        return ms;
+    }
+    }
+    return zeroValue(type);
+}
+
+// One file being loaded: its name, and the marks where values were set, to report conflicts.
+class Loader {
+public:
+    Loader(std::string file, std::shared_ptr<NodeRegistry> registry)
+        : file_(std::move(file)), graph_(std::make_unique<Graph>(std::move(registry)))
+    {
+    }
+
+    std::unique_ptr<Graph> load(std::string_view text)
+    {
+        YAML::Node root;
+        try {
+            root = YAML::Load(std::string(text));
+        }
+        catch (const YAML::ParserException& e) {
+            throw Error(fmt::format("{}: YAML syntax error: {}", markText(file_, e.mark), e.msg));
+        }
+        if (root.IsNull()) throw Error(fmt::format("{}: the file is empty; a rig file has a 'nodes:' list", file_));
+        if (!root.IsMap())
+            throw Error(fmt::format("{}: expected a map with 'nodes:' (and 'plugins:', 'connections:'), got {}",
+                                    at(root), describe(root)));
+        checkKeys(root, {"plugins", "nodes", "connections"}, "top level");
+        if (const auto plugins = root["plugins"]) loadPlugins(plugins);
+        const auto nodes = root["nodes"];
+        if (!nodes) throw Error(fmt::format("{}: no 'nodes:' list; a rig file needs at least one node", at(root)));
+        if (!nodes.IsSequence()) throw Error(fmt::format("{}: 'nodes' must be a list, got {}", at(nodes), describe(nodes)));
+        for (const auto& n : nodes) createNode(n);
+        for (const auto& n : nodes) fillNode(n);
+        // Parents and connections come after every value, so a plug given both is reported as such.
+        for (const auto& n : nodes)
+            if (const auto parent = n["parent"]) setParent(graph_->findNode(n["name"].Scalar()), parent);
+        if (const auto connections = root["connections"]) {
+            if (!connections.IsSequence())
+                throw Error(fmt::format("{}: 'connections' must be a list, got {}", at(connections), describe(connections)));
+            for (const auto& c : connections) addConnection(c);
+        }
+        return std::move(graph_);
+    }
+
+private:
+    std::string at(const YAML::Node& node) const { return markText(file_, node.Mark()); }
+
+    // Runs a graph call, putting this place in the file in front of its message.
+    template <class F>
+    auto located(const YAML::Node& where, F&& f)
+    {
+        try {
+            return f();
+        }
+        catch (const Error& e) {
+            throw Error(fmt::format("{}: {}", at(where), e.what()));
+        }
+    }
+
+    void checkKeys(const YAML::Node& map, const std::vector<std::string>& allowed, const std::string& what) const
+    {
+        std::set<std::string> seen;
+        for (const auto& entry : map) {
+            const auto key = entry.first.Scalar();
+            if (!seen.insert(key).second)
+                throw Error(fmt::format("{}: '{}' appears twice in {}", at(entry.first), key, what));
+            if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
+                throw Error(fmt::format("{}: unknown key '{}' at {}{}", at(entry.first), key, what, didYouMean(key, allowed)));
+        }
+    }
+
+    void loadPlugins(const YAML::Node& plugins)
+    {
+        if (!plugins.IsSequence())
+            throw Error(fmt::format("{}: 'plugins' must be a list of plugin names, got {}", at(plugins), describe(plugins)));
+        const auto folder = std::filesystem::path(file_).parent_path();
+        for (const auto& p : plugins) {
+            if (!p.IsScalar()) throw Error(fmt::format("{}: a plugin name is a string, got {}", at(p), describe(p)));
+            located(p, [&] { return graph_->registry().loadPlugin(p.Scalar(), {folder.empty() ? "." : folder}); });
+        }
+    }
+
+    std::string requireString(const YAML::Node& node, const char* key) const
+    {
+        const auto v = node[key];
+        if (!v) throw Error(fmt::format("{}: node without '{}:'", at(node), key));
+        if (!v.IsScalar() || v.Scalar().empty())
+            throw Error(fmt::format("{}: '{}' must be a name, got {}", at(v), key, describe(v)));
+        return v.Scalar();
+    }
+
+    void createNode(const YAML::Node& n)
+    {
+        if (!n.IsMap())
+            throw Error(fmt::format("{}: a node is a map like {{name: elbow, type: joint}}, got {}", at(n), describe(n)));
+        const std::string name = requireString(n, "name");
+        const std::string type = requireString(n, "type");
+        located(n["type"], [&] { return graph_->registry().get(type); });
+        located(n["name"], [&] { return graph_->addNode(type, name); });
+    }
+
+    void fillNode(const YAML::Node& n)
+    {
+        const std::string name = n["name"].Scalar();
+        const NodeId id = graph_->findNode(name);
+        const NodeType& type = graph_->nodeType(id);
+        const std::string who = fmt::format("node '{}' ({})", name, type.name());
+
+        std::set<std::string> seen;
+        for (const auto& entry : n)
+            if (!seen.insert(entry.first.Scalar()).second)
+                throw Error(fmt::format("{}: {}: '{}' appears twice", at(entry.first), who, entry.first.Scalar()));
+        if (const auto added = n["addAttr"]) addAttributes(id, added, who);
+
+        for (const auto& entry : n) {
+            const std::string key = entry.first.Scalar();
+            if (key == "name" || key == "type" || key == "addAttr" || key == "parent") continue;
+            if (const auto field = type.yamlFields().find(key); field != type.yamlFields().end()) {
+                YamlFieldContext context{[&](const YAML::Node& y) { return fmt::format("{}: {}", at(y), who); }};
+                for (auto& [attr, value] : field->second(entry.second, context)) {
+                    const Plug p{id, attr, -1, -1};
+                    located(entry.second, [&] { graph_->setValue(p, value); });
+                    valueMarks_[p] = entry.second.Mark();
+                }
+                continue;
+            }
+            Plug p;
+            try {
+                p = graph_->plug(name + "." + key);
+            }
+            catch (const Error&) {
+                std::vector<std::string> names{"name", "type", "parent", "addAttr"};
+                for (const auto& a : graph_->attributes(id)) {
+                    names.push_back(a.name);
+                    if (a.type == ValueType::Vector3) names.insert(names.end(), a.childNames.begin(), a.childNames.end());
+                }
+                for (const auto& f : type.yamlFields()) names.push_back(f.first);
+                throw Error(fmt::format("{}: {} has no attribute '{}'{}", at(entry.first), who, key, didYouMean(key, names)));
+            }
+            setFromYaml(p, entry.second);
+        }
+    }
+
+    void setFromYaml(Plug p, const YAML::Node& value)
+    {
+        const AttributeSpec& spec = graph_->spec(p);
+        const std::string where = fmt::format("{}: {}", at(value), graph_->plugName(p));
+        if (spec.array && p.index < 0) {
+            // A list sets elements 0, 1, ...; a map {index: value} sets the elements it names.
+            if (!value.IsSequence() && !value.IsMap())
+                throw Error(fmt::format("{} is an array attribute: give a list of values or a map {{index: value}}", where));
+            Plug element = p;
+            if (value.IsSequence()) {
+                for (std::size_t i = 0; i < value.size(); ++i) {
+                    element.index = static_cast<int>(i);
+                    setFromYaml(element, value[i]);
+                }
+                return;
+            }
+            for (const auto& item : value) {
+                if (!YAML::convert<int>::decode(item.first, element.index) || element.index < 0
+                    || element.index > Graph::maxArrayIndex)
+                    throw Error(fmt::format("{}: array index '{}' must be a whole number from 0 to {}", at(item.first),
+                                            item.first.Scalar(), Graph::maxArrayIndex));
+                setFromYaml(element, item.second);
+            }
+            return;
+        }
+        const Value parsed = parseYamlValue(value, *graph_, p, where);
+        located(value, [&] { graph_->setValue(p, parsed); });
+        valueMarks_[p] = value.Mark();
+    }
+
+    void addAttributes(NodeId id, const YAML::Node& list, const std::string& who)
+    {
+        if (!list.IsSequence())
+            throw Error(fmt::format("{}: {}: 'addAttr' is a list of {{name: ..., type: double, ...}}", at(list), who));
+        static const std::map<std::string, ValueType> types{
+            {"double", ValueType::Double}, {"int", ValueType::Int}, {"bool", ValueType::Bool},
+            {"enum", ValueType::Enum}, {"string", ValueType::String}, {"vector3", ValueType::Vector3},
+            {"matrix4", ValueType::Matrix4}, {"doubleArray", ValueType::DoubleArray},
+            {"matrix4Array", ValueType::Matrix4Array}};
+        for (const auto& a : list) {
+            if (!a.IsMap()) throw Error(fmt::format("{}: {}: an added attribute is a map, got {}", at(a), who, describe(a)));
+            checkKeys(a, {"name", "type", "default", "min", "max", "keyable", "unit", "enum", "array"}, "addAttr");
+            AttributeSpec spec;
+            spec.name = requireString(a, "name");
+            const std::string typeName = a["type"] ? a["type"].Scalar() : "double";
+            const auto t = types.find(typeName);
+            if (t == types.end()) {
+                std::vector<std::string> names;
+                for (const auto& entry : types) names.push_back(entry.first);
+                throw Error(fmt::format("{}: {}: unknown attribute type '{}'{}", at(a["type"]), who, typeName,
+                                        didYouMean(typeName, names)));
+            }
+            spec.type = t->second;
+            if (const auto u = a["unit"]) {
+                if (u.Scalar() == "angle") spec.unit = Unit::Angle;
+                else if (u.Scalar() == "distance") spec.unit = Unit::Distance;
+                else if (u.Scalar() != "none")
+                    throw Error(fmt::format("{}: {}: unit '{}' is not one of none, angle, distance", at(u), who, u.Scalar()));
+            }
+            if (const auto e = a["enum"]) {
+                if (!e.IsSequence()) throw Error(fmt::format("{}: {}: 'enum' is a list of names", at(e), who));
+                for (const auto& name : e) spec.enumNames.push_back(name.Scalar());
+            }
+            if (spec.type == ValueType::Enum && spec.enumNames.empty())
+                throw Error(fmt::format("{}: {}: an enum attribute needs 'enum: [names...]'", at(a), who));
+            const double scale = unitFactor(Unit::None, spec.unit);
+            if (const auto v = a["min"]) spec.min = parseNumber(v, at(v)) * scale;
+            if (const auto v = a["max"]) spec.max = parseNumber(v, at(v)) * scale;
+            if (spec.min && spec.max && *spec.min > *spec.max)
+                throw Error(fmt::format("{}: {}: min is above max", at(a), who));
+            if (const auto v = a["keyable"]) spec.keyable = std::get<bool>(parseOne(v, ValueType::Bool, spec, at(v)));
+            if (const auto v = a["array"]) spec.array = std::get<bool>(parseOne(v, ValueType::Bool, spec, at(v)));
+            spec.defaultValue = zeroValue(spec.type);
+            const AttrId attr = located(a, [&] { return graph_->addAttribute(id, spec); });
+            if (const auto v = a["default"]) {
+                if (spec.array) throw Error(fmt::format("{}: {}: an array attribute has no default", at(v), who));
+                setFromYaml({id, attr, -1, -1}, v);
+            }
+        }
+    }
+
+    void setParent(NodeId child, const YAML::Node& value)
+    {
+        if (!value.IsScalar()) throw Error(fmt::format("{}: 'parent' is a node name, got {}", at(value), describe(value)));
+        located(value, [&] {
+            const NodeId parent = graph_->node(value.Scalar());
+            const std::string childName = graph_->nodeName(child);
+            const std::string parentName = graph_->nodeName(parent);
+            connectAt(value, graph_->plug(parentName + ".worldMatrix"), graph_->plug(childName + ".parentMatrix"));
+            // Maya connects a parent joint's scale into its child joint's inverseScale.
+            if (graph_->nodeType(parent).findAttribute("scale") >= 0 && graph_->nodeType(child).findAttribute("inverseScale") >= 0)
+                connectAt(value, graph_->plug(parentName + ".scale"), graph_->plug(childName + ".inverseScale"));
+        });
+    }
+
+    void connectAt(const YAML::Node& where, const Plug& source, const Plug& destination)
+    {
+        if (const auto it = valueMarks_.find(destination); it != valueMarks_.end())
+            throw Error(fmt::format("{} is given a value at {} and a connection; remove one of them",
+                                    graph_->plugName(destination), markText(file_, it->second)));
+        located(where, [&] { graph_->connect(source, destination); });
+    }
+
+    void addConnection(const YAML::Node& c)
+    {
+        static constexpr std::string_view arrow = "->";
+        if (!c.IsScalar() || c.Scalar().find(arrow) == std::string::npos)
+            throw Error(fmt::format("{}: a connection is written 'node.attr -> node.attr', got {}", at(c), describe(c)));
+        const std::string& text = c.Scalar();
+        const auto pos = text.find(arrow);
+        auto trim = [](std::string s) {
+            const auto b = s.find_first_not_of(" \t");
+            const auto e = s.find_last_not_of(" \t");
+            return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+        };
+        const std::string from = trim(text.substr(0, pos));
+        const std::string to = trim(text.substr(pos + arrow.size()));
+        const auto [source, destination] = located(c, [&] { return std::pair(graph_->plug(from), graph_->plug(to)); });
+        connectAt(c, source, destination);
+    }
+
+    std::string file_;
+    std::unique_ptr<Graph> graph_;
+    std::map<Plug, YAML::Mark> valueMarks_;
+};
+
+}  // namespace
+
+Value parseYamlValue(const YAML::Node& node, const Graph& graph, const Plug& plug, const std::string& where)
+{
+    return parseOne(node, graph.plugType(plug), graph.spec(plug), where);
+}
+
+std::unique_ptr<Graph> loadGraphText(std::string_view text, const std::string& fileName, std::shared_ptr<NodeRegistry> registry)
+{
+    return Loader(fileName, std::move(registry)).load(text);
+}
+
+std::unique_ptr<Graph> loadGraphFile(const std::filesystem::path& file, std::shared_ptr<NodeRegistry> registry)
+{
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec))
+        throw Error(fmt::format("{}: no such rig file", file.string()));
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw Error(fmt::format("{}: cannot be read", file.string()));
+    std::ostringstream text;
+    text << in.rdbuf();
+    return loadGraphText(text.str(), file.string(), std::move(registry));
+}
+
+}  // namespace rig

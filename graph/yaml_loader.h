@@ -1,0 +1,31 @@
+#pragma once
+// Rig graphs written as YAML (docs/rig-format.md): plugins, nodes with attribute values and
+// `parent:` sugar, dynamic attributes, connections. Every error names file:line:column.
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "graph/graph.h"
+
+namespace YAML {
+class Node;
+}
+
+namespace rig {
+
+// Loads a rig file into a new graph whose types come from `registry` (plugins named by the file are
+// loaded into it). Throws rig::Error with "file:line:col: ..." for any problem in the file.
+std::unique_ptr<Graph> loadGraphFile(const std::filesystem::path& file, std::shared_ptr<NodeRegistry> registry);
+
+// The same from text; `fileName` is used in messages and its folder to look for plugins.
+std::unique_ptr<Graph> loadGraphText(std::string_view text, const std::string& fileName,
+                                     std::shared_ptr<NodeRegistry> registry);
+
+// Parses a value for `plug` written in the file's units (degrees for angles): a number, a bool, an
+// enum name or index, a string, [x, y, z], a 4x4 matrix as four rows, or a list for arrays.
+// `where` prefixes error messages. Used by the loader and by command lines (--set).
+Value parseYamlValue(const YAML::Node& node, const Graph& graph, const Plug& plug, const std::string& where);
+
+}  // namespace rig

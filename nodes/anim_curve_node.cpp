@@ -1,0 +1,164 @@
+// animCurveTU/TA/TL/UU/UA/UL: Maya's animation curves and set-driven keys. T curves are driven by
+// time (in frames; the scene time when `input` is unconnected), U curves by any number; U, A and L
+// outputs are unitless, angles and distances.
+#include <cmath>
+#include <stdexcept>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "graph/error.h"
+#include "nodes/anim_curve_math.h"
+#include "nodes/builtin_nodes.h"
+
+namespace rig {
+namespace {
+
+enum Attr : AttrId { input, keyTime, keyValue, keyInTangent, keyOutTangent, tangents, preInfinity, postInfinity, output };
+
+constexpr int tangentTypeCount = 8;
+constexpr int infinityCount = 5;
+
+std::vector<std::string> tangentNames()
+{
+    std::vector<std::string> names;
+    for (int i = 0; i < tangentTypeCount; ++i) names.emplace_back(tangentTypeName(static_cast<TangentType>(i)));
+    return names;
+}
+
+std::vector<std::string> infinityNames()
+{
+    std::vector<std::string> names;
+    for (int i = 0; i < infinityCount; ++i) names.emplace_back(infinityName(static_cast<Infinity>(i)));
+    return names;
+}
+
+class AnimCurveNode : public Node {
+public:
+    void compute(ComputeContext& c) override
+    {
+        const auto& times = c.getDoubleArray(keyTime);
+        const auto& values = c.getDoubleArray(keyValue);
+        const auto& ins = c.getDoubleArray(keyInTangent);
+        const auto& outs = c.getDoubleArray(keyOutTangent);
+        const int fallback = c.getEnum(tangents);
+        const int pre = c.getEnum(preInfinity);
+        const int post = c.getEnum(postInfinity);
+        // Rebuilding the curve costs more than comparing its keys, and the input changes every frame.
+        if (times != times_ || values != values_ || ins != ins_ || outs != outs_ || fallback != fallback_ || pre != pre_
+            || post != post_) {
+            curve_ = build(c, times, values, ins, outs, fallback, pre, post);
+            times_ = times;
+            values_ = values;
+            ins_ = ins;
+            outs_ = outs;
+            fallback_ = fallback;
+            pre_ = pre;
+            post_ = post;
+        }
+        c.setOutput(output, curve_.evaluate(c.getDouble(input)));
+    }
+
+private:
+    static AnimCurve build(const ComputeContext& c, const std::vector<double>& times, const std::vector<double>& values,
+                           const std::vector<double>& ins, const std::vector<double>& outs, int fallback, int pre,
+                           int post)
+    {
+        if (times.size() != values.size())
+            throw Error(fmt::format("node '{}': keyTime has {} values but keyValue has {}; give one value per key",
+                                    c.nodeName(), times.size(), values.size()));
+        auto tangent = [&](const std::vector<double>& types, std::size_t i, const char* what) {
+            const double t = i < types.size() ? types[i] : -1.0;
+            if (t == -1.0) return static_cast<TangentType>(fallback);
+            if (t != std::floor(t) || t < 0 || t >= tangentTypeCount)
+                throw Error(fmt::format("node '{}': {}[{}] = {} is not a tangent type index", c.nodeName(), what, i, t));
+            return static_cast<TangentType>(static_cast<int>(t));
+        };
+        std::vector<AnimKey> keys;
+        for (std::size_t i = 0; i < times.size(); ++i)
+            keys.push_back({times[i], values[i], tangent(ins, i, "keyInTangent"), tangent(outs, i, "keyOutTangent")});
+        try {
+            return AnimCurve::build(std::move(keys), static_cast<Infinity>(pre), static_cast<Infinity>(post));
+        }
+        catch (const std::invalid_argument& e) {
+            throw Error(fmt::format("node '{}': {}", c.nodeName(), e.what()));
+        }
+    }
+
+    AnimCurve curve_;
+    std::vector<double> times_, values_, ins_, outs_;
+    int fallback_ = -1, pre_ = -1, post_ = -1;
+};
+
+// `keys: [[x, y], [x, y, tangent], [x, y, inTangent, outTangent], ...]`, y in the file's units.
+std::vector<std::pair<AttrId, Value>> parseKeys(const YAML::Node& node, const YamlFieldContext& context, double yScale)
+{
+    if (!node.IsSequence())
+        throw Error(fmt::format("{}: 'keys' is a list of [x, y] or [x, y, tangent] or [x, y, in, out]", context.where(node)));
+    std::vector<double> xs, ys, ins, outs;
+    for (const auto& key : node) {
+        if (!key.IsSequence() || key.size() < 2 || key.size() > 4)
+            throw Error(fmt::format("{}: a key is [x, y], [x, y, tangent] or [x, y, inTangent, outTangent]",
+                                    context.where(key)));
+        double xy[2] = {0, 0};
+        for (std::size_t i = 0; i < 2; ++i)
+            if (!YAML::convert<double>::decode(key[i], xy[i]) || !std::isfinite(xy[i]))
+                throw Error(fmt::format("{}: key {} must be a finite number, got '{}'", context.where(key[i]),
+                                        i == 0 ? "x" : "y", key[i].Scalar()));
+        if (!xs.empty() && xy[0] <= xs.back())
+            throw Error(fmt::format("{}: key x {} is not greater than the previous key's x {} (keys must be strictly "
+                                    "increasing)",
+                                    context.where(key[0]), xy[0], xs.back()));
+        auto tangent = [&](const YAML::Node& t) {
+            const auto type = tangentTypeFromName(t.Scalar());
+            if (!type) {
+                std::string names;
+                for (const auto& n : tangentNames()) names += (names.empty() ? "" : ", ") + n;
+                throw Error(fmt::format("{}: unknown tangent type '{}'; use one of {}", context.where(t), t.Scalar(), names));
+            }
+            return static_cast<double>(*type);
+        };
+        xs.push_back(xy[0]);
+        ys.push_back(xy[1] * yScale);
+        ins.push_back(key.size() >= 3 ? tangent(key[2]) : -1.0);
+        outs.push_back(key.size() == 4 ? tangent(key[3]) : key.size() == 3 ? ins.back() : -1.0);
+    }
+    return {{keyTime, xs}, {keyValue, ys}, {keyInTangent, ins}, {keyOutTangent, outs}};
+}
+
+}  // namespace
+
+std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
+{
+    const std::string name(typeName);
+    if (name.size() != 11 || !name.starts_with("animCurve")) throw std::logic_error("not an animCurve type: " + name);
+    const bool timeDriven = name[9] == 'T';
+    const Unit outUnit = name[10] == 'A' ? Unit::Angle : name[10] == 'L' ? Unit::Distance : Unit::None;
+    const double yScale = unitFactor(Unit::None, outUnit);
+
+    NodeTypeBuilder b(name);
+    b.description(fmt::format("An animation curve as Maya's {}: output = curve(input), keys with Maya's tangent "
+                              "types (docs/nodes.md gives each rule). Driven by {}; output is {}.",
+                              name, timeDriven ? "time in frames (the scene time unless input is connected)" : "any number (a set-driven key)",
+                              outUnit == Unit::Angle ? "an angle (keys in degrees)" : outUnit == Unit::Distance ? "a distance (cm)" : "unitless"));
+    auto in = b.input(input, "input", ValueType::Double).doc(timeDriven ? "Time, frames." : "The driver's value.");
+    if (timeDriven) in.unit(Unit::Time).sceneTime();
+    b.input(keyTime, "keyTime", ValueType::DoubleArray).doc("Key x values, strictly increasing (set with `keys:`).");
+    b.input(keyValue, "keyValue", ValueType::DoubleArray).unit(outUnit).doc("Key y values (set with `keys:`).");
+    b.input(keyInTangent, "keyInTangent", ValueType::DoubleArray)
+        .doc("Per-key in-tangent type index, -1 for `tangents` (set with `keys:`).");
+    b.input(keyOutTangent, "keyOutTangent", ValueType::DoubleArray)
+        .doc("Per-key out-tangent type index, -1 for `tangents` (set with `keys:`).");
+    b.input(tangents, "tangents", ValueType::Enum).enumNames(tangentNames()).defaultValue(static_cast<int>(TangentType::auto_))
+        .doc("Tangent type of keys that do not name one.");
+    b.input(preInfinity, "preInfinity", ValueType::Enum).enumNames(infinityNames()).doc("Before the first key.");
+    b.input(postInfinity, "postInfinity", ValueType::Enum).enumNames(infinityNames()).doc("After the last key.");
+    b.output(output, "output", ValueType::Double).unit(outUnit).doc("The curve's value at input.");
+    b.affectsAll();
+    b.yamlField("keys", [yScale](const YAML::Node& node, const YamlFieldContext& context) {
+        return parseKeys(node, context, yScale);
+    });
+    return b.factory<AnimCurveNode>().build();
+}
+
+}  // namespace rig

@@ -1,0 +1,31 @@
+#include "nodes/builtin_nodes.h"
+
+namespace rig {
+
+void registerBuiltinNodes(NodeRegistry& registry)
+{
+    registry.add(makeTransformType());
+    registry.add(makeJointType());
+    registry.add(makeTimeType());
+    for (const char* name : {"animCurveTU", "animCurveTA", "animCurveTL", "animCurveUU", "animCurveUA", "animCurveUL"})
+        registry.add(makeAnimCurveType(name));
+    registry.add(makeMultiplyDivideType());
+    registry.add(makePlusMinusAverageType());
+    registry.add(makeBlendTwoAttrType());
+    registry.add(makeClampType());
+    registry.add(makeReverseType());
+    registry.add(makeRemapValueType());
+    registry.add(makeConditionType());
+    registry.add(makeMultMatrixType());
+    registry.add(makeComposeMatrixType());
+    registry.add(makeDecomposeMatrixType());
+}
+
+std::shared_ptr<NodeRegistry> makeBuiltinRegistry()
+{
+    auto registry = std::make_shared<NodeRegistry>();
+    registerBuiltinNodes(*registry);
+    return registry;
+}
+
+}  // namespace rig

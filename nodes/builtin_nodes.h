@@ -1,0 +1,32 @@
+#pragma once
+// The node library's built-in types. registerBuiltinNodes adds them all to a registry; each make*
+// function builds one type (one file each under nodes/).
+
+#include <memory>
+
+#include "graph/node_registry.h"
+
+namespace rig {
+
+void registerBuiltinNodes(NodeRegistry& registry);
+// A registry holding the built-in types, ready for a Graph.
+std::shared_ptr<NodeRegistry> makeBuiltinRegistry();
+
+std::shared_ptr<const NodeType> makeTransformType();
+std::shared_ptr<const NodeType> makeJointType();
+std::shared_ptr<const NodeType> makeTimeType();
+// animCurveTU, animCurveTA, animCurveTL, animCurveUU, animCurveUA, animCurveUL.
+std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName);
+
+std::shared_ptr<const NodeType> makeMultiplyDivideType();
+std::shared_ptr<const NodeType> makePlusMinusAverageType();
+std::shared_ptr<const NodeType> makeBlendTwoAttrType();
+std::shared_ptr<const NodeType> makeClampType();
+std::shared_ptr<const NodeType> makeReverseType();
+std::shared_ptr<const NodeType> makeRemapValueType();
+std::shared_ptr<const NodeType> makeConditionType();
+std::shared_ptr<const NodeType> makeMultMatrixType();
+std::shared_ptr<const NodeType> makeComposeMatrixType();
+std::shared_ptr<const NodeType> makeDecomposeMatrixType();
+
+}  // namespace rig

@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Installs what is missing (Debian 12 packages), configures and builds. Quick when nothing changed.
+# Usage: scripts/setup.sh [Release|Debug]   (build folder: build/, or $RIG_BUILD_DIR)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+packages=(cmake ninja-build g++ libeigen3-dev libtbb-dev libyaml-cpp-dev libfmt-dev doctest-dev libcli11-dev
+          assimp-testmodels)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}" >&2
+  sudo=()
+  [ "$(id -u)" -eq 0 ] || sudo=(sudo)
+  "${sudo[@]}" apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+build_type=${1:-Release}
+build_dir=${RIG_BUILD_DIR:-build}
+if [ ! -f "$build_dir/build.ninja" ] || ! grep -q "CMAKE_BUILD_TYPE:STRING=$build_type" "$build_dir/CMakeCache.txt" 2>/dev/null; then
+  cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE="$build_type" >/dev/null
+fi
+cmake --build "$build_dir" -- -j"$(nproc)" | grep -v '^\[' || true
+test "${PIPESTATUS[0]}" -eq 0

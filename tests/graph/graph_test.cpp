@@ -1,0 +1,307 @@
+// The engine: plugs, connections, dirty propagation, pull evaluation, serial vs parallel, checked mode.
+#include <doctest/doctest.h>
+
+#include <numbers>
+
+#include <fmt/format.h>
+#include <random>
+
+#include "graph/error.h"
+#include "graph/graph.h"
+#include "nodes/builtin_nodes.h"
+
+using namespace rig;
+
+namespace {
+
+// sum = a + b; `broken` declares no affects entry from b (the bug checked mode must catch).
+enum AddAttr : AttrId { addA, addB, addSum };
+
+class AddNode : public Node {
+public:
+    void compute(ComputeContext& c) override { c.setOutput(addSum, c.getDouble(addA) + c.getDouble(addB)); }
+};
+
+std::shared_ptr<const NodeType> makeAdd(const char* name, bool broken)
+{
+    NodeTypeBuilder b(name);
+    b.input(addA, "a", ValueType::Double).keyable();
+    b.input(addB, "b", ValueType::Double).keyable().range(-100, 100);
+    b.output(addSum, "sum", ValueType::Double);
+    b.affects(addA, {addSum});
+    if (!broken) b.affects(addB, {addSum});
+    return b.factory<AddNode>().build();
+}
+
+// count = number of computes so far: a history-dependent node.
+enum CounterAttr : AttrId { counterIn, counterOut };
+
+class CounterNode : public Node {
+public:
+    void compute(ComputeContext& c) override { c.setOutput(counterOut, c.getDouble(counterIn) + ++count_); }
+
+private:
+    int count_ = 0;
+};
+
+std::shared_ptr<NodeRegistry> testRegistry()
+{
+    auto registry = makeBuiltinRegistry();
+    registry->add(makeAdd("add", false));
+    registry->add(makeAdd("brokenAdd", true));
+    NodeTypeBuilder b("counter");
+    b.input(counterIn, "input", ValueType::Double);
+    b.output(counterOut, "output", ValueType::Double);
+    b.affects(counterIn, {counterOut});
+    registry->add(b.stateful().factory<CounterNode>().build());
+    return registry;
+}
+
+std::string errorOf(const std::function<void()>& f)
+{
+    try {
+        f();
+    }
+    catch (const Error& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+}  // namespace
+
+TEST_CASE("plugs parse node.attribute, components, array elements, and name what is wrong")
+{
+    Graph g(testRegistry());
+    g.addNode("joint", "elbow");
+    g.addNode("multMatrix", "mm");
+    const Plug rz = g.plug("elbow.rotateZ");
+    CHECK(g.plugName(rz) == "elbow.rotateZ");
+    CHECK(rz.child == 2);
+    CHECK(g.plugType(rz) == ValueType::Double);
+    CHECK(g.plugName(g.plug("mm.matrixIn[3]")) == "mm.matrixIn[3]");
+    CHECK(errorOf([&] { g.plug("elbow.rotat"); }) == "node 'elbow' (joint) has no attribute 'rotat'; did you mean 'rotate'?");
+    CHECK(errorOf([&] { g.plug("elbo.rotate"); }) == "no node named 'elbo'; did you mean 'elbow'?");
+    CHECK(errorOf([&] { g.plug("elbow"); }) == "'elbow' is not a plug: expected node.attribute, e.g. elbow.rotateZ");
+    CHECK(errorOf([&] { g.plug("elbow.rotate[2]"); }) == "'elbow.rotate[2]': rotate is not an array attribute; drop the [index]");
+    CHECK(errorOf([&] { g.plug("mm.matrixIn[x]"); }) == "'mm.matrixIn[x]': bad array index; expected attribute[N] with N = 0, 1, ...");
+    CHECK(errorOf([&] { g.getValue(g.plug("mm.matrixIn")); }) == "mm.matrixIn is an array attribute: name an element, e.g. mm.matrixIn[0]");
+}
+
+TEST_CASE("nodes: unknown types, bad and duplicate names")
+{
+    Graph g(testRegistry());
+    g.addNode("joint", "hips");
+    CHECK(errorOf([&] { g.addNode("jiont", "x"); }) == "unknown node type 'jiont'; did you mean 'joint'?");
+    CHECK(errorOf([&] { g.addNode("joint", "hips"); }) == "duplicate node name 'hips' (already a joint); node names must be unique");
+    CHECK(errorOf([&] { g.addNode("joint", "a.b"); })
+          == "invalid node name 'a.b': use letters, digits, '_' and ':', not starting with a digit");
+    CHECK(g.addNode("joint", "mixamorig:Hips") == 1);
+}
+
+TEST_CASE("connections are type-checked, single-source and acyclic, with the whole cycle in the message")
+{
+    Graph g(testRegistry());
+    for (const char* n : {"a", "b", "c"}) g.addNode("add", n);
+    g.addNode("joint", "j");
+    g.connect(g.plug("a.sum"), g.plug("b.a"));
+    g.connect(g.plug("b.sum"), g.plug("c.a"));
+    CHECK(errorOf([&] { g.connect(g.plug("c.sum"), g.plug("a.a")); })
+          == "cannot connect c.sum -> a.a: it would close a cycle (a.sum -> b.a, b.sum -> c.a, c.sum -> a.a); the graph "
+             "must stay acyclic at node level, so feed a from nodes that do not depend on a");
+    CHECK(errorOf([&] { g.connect(g.plug("a.sum"), g.plug("a.b")); }).starts_with("cannot connect a.sum -> a.b: it would close a cycle"));
+    CHECK(errorOf([&] { g.connect(g.plug("j.worldMatrix"), g.plug("c.b")); })
+          == "cannot connect j.worldMatrix (matrix4) -> c.b (double): the types do not match");
+    CHECK(errorOf([&] { g.connect(g.plug("a.sum"), g.plug("c.a")); })
+          == "cannot connect a.sum -> c.a: c.a is already driven by b.sum; an input takes one source, disconnect it first");
+    CHECK(errorOf([&] { g.connect(g.plug("a.a"), g.plug("c.sum")); })
+          == "cannot connect a.a -> c.sum: c.sum is an output, written by its node's compute; connect into an input");
+    CHECK(errorOf([&] { g.setValue(g.plug("b.a"), 1.0); }) == "cannot set b.a: it is driven by a.sum; disconnect it first");
+    // A component and its parent are one input.
+    g.connect(g.plug("a.sum"), g.plug("j.rotateX"));
+    CHECK(errorOf([&] { g.connect(g.plug("j.translate"), g.plug("j.rotate")); }).find("already driven by a.sum") != std::string::npos);
+    g.disconnect(g.plug("b.sum"), g.plug("c.a"));
+    g.connect(g.plug("c.sum"), g.plug("a.a"));  // no longer a cycle
+    CHECK(errorOf([&] { g.disconnect(g.plug("b.sum"), g.plug("c.a")); }) == "cannot disconnect b.sum -> c.a: they are not connected");
+}
+
+TEST_CASE("values are checked: type, finiteness, limits in user units")
+{
+    Graph g(testRegistry());
+    g.addNode("add", "n");
+    g.addNode("joint", "j");
+    CHECK(errorOf([&] { g.setValue(g.plug("n.b"), 101.0); }) == "cannot set n.b: 101 is above its maximum 100");
+    CHECK(errorOf([&] { g.setValue(g.plug("n.b"), std::nan("")); }) == "cannot set n.b: value is not a finite number");
+    CHECK(errorOf([&] { g.setValue(g.plug("n.b"), std::string("x")); }) == "cannot set n.b: expected a double value");
+    CHECK(errorOf([&] { g.setValue(g.plug("j.rotateOrder"), 6); }) == "cannot set j.rotateOrder: enum index 6 out of range 0..5");
+    CHECK(errorOf([&] { g.setValue(g.plug("n.sum"), 1.0); }) == "cannot set n.sum: it is an output, computed by its node");
+}
+
+TEST_CASE("pull evaluation computes on demand and caches; setting one input recomputes only its downstream")
+{
+    Graph g(testRegistry());
+    // Two independent chains x0 -> x1 -> x2 and y0 -> y1 -> y2.
+    for (const char* n : {"x0", "x1", "x2", "y0", "y1", "y2"}) g.addNode("add", n);
+    g.connect(g.plug("x0.sum"), g.plug("x1.a"));
+    g.connect(g.plug("x1.sum"), g.plug("x2.a"));
+    g.connect(g.plug("y0.sum"), g.plug("y1.a"));
+    g.connect(g.plug("y1.sum"), g.plug("y2.a"));
+    g.setValue(g.plug("x0.a"), 1.0);
+    g.setValue(g.plug("x1.b"), 2.0);
+    CHECK(g.computeCount() == 0);  // nothing is computed until read
+    CHECK(std::get<double>(g.getValue(g.plug("x2.sum"))) == 3.0);
+    CHECK(g.computeCount() == 3);
+    CHECK(std::get<double>(g.getValue(g.plug("x2.sum"))) == 3.0);
+    CHECK(g.computeCount() == 3);  // cached
+    g.evaluateAll();
+    CHECK(g.computeCount() == 6);
+
+    g.setValue(g.plug("x1.b"), 5.0);
+    g.evaluateAll();
+    CHECK(g.computeCount() == 8);  // x1 and x2 only
+    CHECK(g.computeCount(g.node("x0")) == 1);
+    CHECK(g.computeCount(g.node("y2")) == 1);
+    CHECK(std::get<double>(g.getValue(g.plug("x2.sum"))) == 6.0);
+}
+
+TEST_CASE("angle plugs convert across connections as Maya's unitConversion does")
+{
+    Graph g(testRegistry());
+    g.addNode("add", "n");
+    g.addNode("joint", "j");
+    g.addNode("add", "m");
+    g.setValue(g.plug("n.a"), 90.0);
+    g.connect(g.plug("n.sum"), g.plug("j.rotateZ"));  // unitless -> angle: degrees to radians
+    g.connect(g.plug("j.rotateZ"), g.plug("m.a"));    // angle -> unitless: radians to degrees
+    CHECK(std::get<Eigen::Vector3d>(g.getValue(g.plug("j.rotate")))[2] == doctest::Approx(std::numbers::pi / 2));
+    CHECK(std::get<double>(g.getValue(g.plug("m.sum"))) == doctest::Approx(90.0));
+    const auto world = std::get<Eigen::Matrix4d>(g.getValue(g.plug("j.worldMatrix")));
+    CHECK(world(1, 0) == doctest::Approx(1.0));
+}
+
+TEST_CASE("dynamic attributes can be set, connected from and connected into")
+{
+    Graph g(testRegistry());
+    const NodeId ctrl = g.addNode("transform", "ctrl");
+    AttributeSpec bend;
+    bend.name = "bend";
+    bend.min = 0;
+    bend.max = 10;
+    g.addAttribute(ctrl, bend);
+    g.addNode("add", "n");
+    g.connect(g.plug("ctrl.bend"), g.plug("n.a"));
+    g.setValue(g.plug("ctrl.bend"), 4.0);
+    CHECK(std::get<double>(g.getValue(g.plug("n.sum"))) == 4.0);
+    g.setValue(g.plug("ctrl.bend"), 7.0);
+    CHECK(std::get<double>(g.getValue(g.plug("n.sum"))) == 7.0);
+    CHECK(errorOf([&] { g.setValue(g.plug("ctrl.bend"), 11.0); }) == "cannot set ctrl.bend: 11 is above its maximum 10");
+    CHECK(errorOf([&] { g.addAttribute(ctrl, bend); }) == "node 'ctrl' (transform) already has an attribute 'bend'");
+}
+
+TEST_CASE("scene time drives unconnected time inputs")
+{
+    Graph g(testRegistry());
+    g.addNode("time", "time1");
+    g.setTime(12.5);
+    CHECK(std::get<double>(g.getValue(g.plug("time1.outTime"))) == 12.5);
+}
+
+namespace {
+
+// A rig-like graph of 240+ nodes: eight independent joint chains of 30, each joint driven by a curve
+// of its own, so there is real parallel work.
+std::unique_ptr<Graph> makeWideGraph(std::mt19937& rng)
+{
+    auto g = std::make_unique<Graph>(testRegistry());
+    std::uniform_real_distribution<double> angle(-1.5, 1.5);
+    for (int chain = 0; chain < 8; ++chain) {
+        std::string parent;
+        for (int i = 0; i < 30; ++i) {
+            const std::string name = fmt::format("c{}_j{}", chain, i);
+            g->addNode("joint", name);
+            g->setValue(g->plug(name + ".translate"), Eigen::Vector3d(1.0 + i, 0.5 * chain, 0.25));
+            g->setValue(g->plug(name + ".rotateOrder"), (chain + i) % 6);
+            g->setValue(g->plug(name + ".jointOrient"), Eigen::Vector3d(angle(rng), angle(rng), angle(rng)));
+            if (!parent.empty()) {
+                g->connect(g->plug(parent + ".worldMatrix"), g->plug(name + ".parentMatrix"));
+                g->connect(g->plug(parent + ".scale"), g->plug(name + ".inverseScale"));
+            }
+            const std::string curve = name + "_drv";
+            g->addNode("add", curve);
+            g->connect(g->plug(curve + ".sum"), g->plug(name + ".rotateY"));
+            parent = name;
+        }
+    }
+    return g;
+}
+
+}  // namespace
+
+TEST_CASE("serial and parallel evaluation are bit-identical on a 480-node graph")
+{
+    std::mt19937 rngSerial(7), rngParallel(7);
+    auto serial = makeWideGraph(rngSerial);
+    auto parallel = makeWideGraph(rngParallel);
+    CHECK(serial->nodeCount() == 480);
+    parallel->setThreads(4);
+    std::mt19937 values(11);
+    std::uniform_real_distribution<double> x(-90, 90);
+    for (int round = 0; round < 5; ++round) {
+        // Change a few drivers (some chains stay clean), then read every world matrix.
+        for (int k = 0; k < 6; ++k) {
+            const std::string plug = fmt::format("c{}_j{}_drv.a", values() % 8, values() % 30);
+            const double v = x(values);
+            serial->setValue(serial->plug(plug), v);
+            parallel->setValue(parallel->plug(plug), v);
+        }
+        std::vector<Plug> plugs;
+        for (NodeId n = 0; n < serial->nodeCount(); ++n)
+            if (serial->nodeType(n).name() == "joint") plugs.push_back(serial->plug(serial->nodeName(n) + ".worldMatrix"));
+        serial->evaluate(plugs);
+        parallel->evaluate(plugs);
+        CHECK(serial->computeCount() == parallel->computeCount());
+        for (const Plug& p : plugs) REQUIRE(bitEqual(serial->getValue(p), parallel->getValue(p)));
+    }
+}
+
+TEST_CASE("an exception in a compute on the flow graph reaches the caller")
+{
+    Graph g(testRegistry());
+    g.addNode("animCurveUU", "a");
+    g.addNode("animCurveUU", "b");
+    g.setValue(g.plug("a.keyTime"), std::vector<double>{0, 1});
+    g.setValue(g.plug("b.keyTime"), std::vector<double>{0, 1});
+    g.setThreads(2);
+    CHECK(errorOf([&] { g.evaluateAll(); }) == "node 'a': keyTime has 2 values but keyValue has 0; give one value per key");
+}
+
+TEST_CASE("checked mode catches a missing affects entry and ignores stateful nodes")
+{
+    Graph g(testRegistry());
+    g.addNode("brokenAdd", "bad");
+    g.addNode("add", "good");
+    g.addNode("counter", "count");
+    g.addNode("add", "afterCount");
+    g.connect(g.plug("count.output"), g.plug("afterCount.a"));
+    CHECK(g.checkEvaluation().empty());
+    g.setValue(g.plug("bad.b"), 3.0);  // does not dirty bad.sum: the cached 0 is stale
+    g.setValue(g.plug("good.b"), 3.0);
+    const auto mismatches = g.checkEvaluation();
+    REQUIRE(mismatches.size() == 1);
+    CHECK(mismatches[0] == "bad.sum");
+}
+
+TEST_CASE("plugins register node types through initializePlugin")
+{
+    auto registry = makeBuiltinRegistry();
+    const auto folder = std::filesystem::path(RIG_BINARY_DIR) / "test-plugins";
+    const auto file = registry->loadPlugin("test_plugin", {folder});
+    CHECK(file.filename() == "test_plugin.so");
+    CHECK(registry->loadPlugin("test_plugin", {folder}) == file);  // loading twice is harmless
+    Graph g(registry);
+    g.addNode("testDoubler", "d");
+    g.setValue(g.plug("d.input"), 21.0);
+    CHECK(std::get<double>(g.getValue(g.plug("d.output"))) == 42.0);
+    CHECK(errorOf([&] { registry->loadPlugin("noSuchPlugin", {folder}); })
+              .starts_with("plugin 'noSuchPlugin' not found (looked for " + (folder / "noSuchPlugin.so").string()));
+}

@@ -1,0 +1,64 @@
+#include "test_support.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace rig::test {
+
+std::filesystem::path sourceDir() { return RIG_SOURCE_DIR; }
+
+std::filesystem::path binaryDir() { return RIG_BINARY_DIR; }
+
+std::string tool(const std::string& name) { return "'" + (binaryDir() / "bin" / name).string() + "'"; }
+
+std::filesystem::path scratchDir(const std::string& name)
+{
+    const auto dir = binaryDir() / "test-scratch" / name;
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    return dir;
+}
+
+std::filesystem::path writeFile(const std::filesystem::path& file, const std::string& text)
+{
+    std::ofstream(file, std::ios::binary) << text;
+    return file;
+}
+
+namespace {
+
+std::string slurp(const std::filesystem::path& file)
+{
+    std::ifstream in(file, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+}  // namespace
+
+CommandResult run(const std::string& commandLine)
+{
+    static int counter = 0;
+    const auto dir = binaryDir() / "test-scratch" / "commands";
+    std::filesystem::create_directories(dir);
+    const auto tag = std::to_string(::getpid()) + "-" + std::to_string(counter++);
+    const auto outFile = dir / (tag + ".out");
+    const auto errFile = dir / (tag + ".err");
+    const std::string full = "cd '" + sourceDir().string() + "' && " + commandLine + " > '" + outFile.string() + "' 2> '"
+                             + errFile.string() + "' < /dev/null";
+    const int status = std::system(full.c_str());
+    CommandResult result;
+    result.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    result.out = slurp(outFile);
+    result.err = slurp(errFile);
+    std::filesystem::remove(outFile);
+    std::filesystem::remove(errFile);
+    return result;
+}
+
+}  // namespace rig::test
