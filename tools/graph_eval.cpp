@@ -9,6 +9,7 @@
 #include "graph/dot_writer.h"
 #include "graph/error.h"
 #include "graph/plug_glob.h"
+#include "graph/type_reference.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
 #include "tools/cli_common.h"
@@ -26,6 +27,7 @@ struct Options {
     std::string output;
     std::vector<std::string> plugins;
     bool dot = false;
+    bool types = false;
     int threads = 1;
     bool stats = false;
     bool check = false;
@@ -127,6 +129,11 @@ int run(const Options& options)
 {
     auto registry = makeBuiltinRegistry();
     for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
+    if (options.types) {
+        std::cout << nodeTypeReference(*registry);
+        return 0;
+    }
+    if (options.rig.empty()) throw Error("no rig file given; usage: graph-eval RIG.yaml [options], or --help");
     auto graph = loadGraphFile(options.rig, registry);
     graph->setThreads(options.threads);
 
@@ -178,13 +185,14 @@ int main(int argc, char** argv)
                  "per frame: {\"frame\": F, \"node.attr\": value, ...}; matrices are four rows (translation in\n"
                  "the last column). See docs/graph-eval.md.",
                  "graph-eval"};
-    app.add_option("rig", options.rig, "Rig graph file (YAML)")->required();
+    app.add_option("rig", options.rig, "Rig graph file (YAML)");
     app.add_option("--set", options.sets, "Set a plug before evaluating: node.attr=VALUE (repeatable)");
     app.add_option("--get", options.gets, "Plugs to print, by name or glob (repeatable; default: every output)");
     app.add_option("--frames", options.frames, "Frame range A:B[:STEP], inclusive (default: the current time, 0)");
     app.add_option("--format", options.format, "Output format: json (default), csv, or table (aligned, 6 digits)")->check(CLI::IsMember({"json", "csv", "table"}));
     app.add_option("-o,--output", options.output, "Write to this file instead of standard output");
     app.add_option("--plugin", options.plugins, "Load a node plugin before reading the rig (repeatable)");
+    app.add_flag("--types", options.types, "Print the reference of every node type (Markdown) and exit");
     app.add_flag("--dot", options.dot, "Print the graph in Graphviz dot format instead of evaluating");
     app.add_option("--threads", options.threads, "Evaluation threads: 1 serial, N parallel, 0 all cores")
         ->check(CLI::Range(0, 1024));
