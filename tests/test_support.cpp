@@ -5,6 +5,8 @@
 #include <fstream>
 #include <sstream>
 #include <sys/wait.h>
+
+#include <fmt/format.h>
 #include <unistd.h>
 
 namespace rig::test {
@@ -13,7 +15,7 @@ std::filesystem::path sourceDir() { return RIG_SOURCE_DIR; }
 
 std::filesystem::path binaryDir() { return RIG_BINARY_DIR; }
 
-std::string tool(const std::string& name) { return "'" + (binaryDir() / "bin" / name).string() + "'"; }
+std::string tool(const std::string& name) { return fmt::format("'{}'", (binaryDir() / "bin" / name).string()); }
 
 std::filesystem::path scratchDir(const std::string& name)
 {
@@ -46,11 +48,11 @@ CommandResult run(const std::string& commandLine)
     static int counter = 0;
     const auto dir = binaryDir() / "test-scratch" / "commands";
     std::filesystem::create_directories(dir);
-    const auto tag = std::to_string(::getpid()) + "-" + std::to_string(counter++);
-    const auto outFile = dir / (tag + ".out");
-    const auto errFile = dir / (tag + ".err");
-    const std::string full = "cd '" + sourceDir().string() + "' && " + commandLine + " > '" + outFile.string() + "' 2> '"
-                             + errFile.string() + "' < /dev/null";
+    const auto tag = fmt::format("{}-{}", ::getpid(), counter++);
+    const auto outFile = dir / fmt::format("{}.out", tag);
+    const auto errFile = dir / fmt::format("{}.err", tag);
+    const std::string full = fmt::format("cd '{}' && {} > '{}' 2> '{}' < /dev/null", sourceDir().string(), commandLine,
+                                         outFile.string(), errFile.string());
     const int status = std::system(full.c_str());
     CommandResult result;
     result.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
