@@ -117,15 +117,33 @@ Value parseOne(const YAML::Node& node, ValueType type, const AttributeSpec& spec
     return zeroValue(type);
 }
 
-// One file being loaded: its name, and the marks where values were set, to report conflicts.
+std::string readText(const std::filesystem::path& file, const std::string& what)
+{
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec)) throw Error(fmt::format("{}: no such {}", file.string(), what));
+    std::ifstream in(file, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    if (!in && !in.eof()) throw Error(fmt::format("{}: cannot be read", file.string()));
+    return text.str();
+}
+
+// What the loaders of one graph share across included files.
+struct LoadState {
+    std::map<Plug, std::string> valueMarks;  // where each plug was given a value, for conflicts
+    std::vector<std::string> includeStack;   // files being loaded, to refuse include cycles
+};
+
+// One file being loaded into a graph; an included file gets a loader of its own whose node names
+// carry its namespace prefix ("hero:").
 class Loader {
 public:
-    Loader(std::string file, std::shared_ptr<NodeRegistry> registry)
-        : file_(std::move(file)), graph_(std::make_unique<Graph>(std::move(registry)))
+    Loader(std::string file, Graph& graph, std::string prefix, LoadState& state)
+        : file_(std::move(file)), graph_(graph), prefix_(std::move(prefix)), state_(state)
     {
     }
 
-    std::unique_ptr<Graph> load(std::string_view text)
+    void load(std::string_view text)
     {
         YAML::Node root;
         try {
@@ -138,22 +156,23 @@ public:
         if (!root.IsMap())
             throw Error(fmt::format("{}: expected a map with 'nodes:' (and 'plugins:', 'connections:'), got {}",
                                     at(root), describe(root)));
-        checkKeys(root, {"plugins", "nodes", "connections"}, "top level");
+        checkKeys(root, {"include", "plugins", "nodes", "connections"}, "top level");
         if (const auto plugins = root["plugins"]) loadPlugins(plugins);
+        if (const auto includes = root["include"]) loadIncludes(includes);
         const auto nodes = root["nodes"];
+        if (!nodes && root["include"]) return;
         if (!nodes) throw Error(fmt::format("{}: no 'nodes:' list; a rig file needs at least one node", at(root)));
         if (!nodes.IsSequence()) throw Error(fmt::format("{}: 'nodes' must be a list, got {}", at(nodes), describe(nodes)));
         for (const auto& n : nodes) createNode(n);
         for (const auto& n : nodes) fillNode(n);
         // Parents and connections come after every value, so a plug given both is reported as such.
         for (const auto& n : nodes)
-            if (const auto parent = n["parent"]) setParent(graph_->findNode(n["name"].Scalar()), parent);
+            if (const auto parent = n["parent"]) setParent(graph_.findNode(prefix_ + n["name"].Scalar()), parent);
         if (const auto connections = root["connections"]) {
             if (!connections.IsSequence())
                 throw Error(fmt::format("{}: 'connections' must be a list, got {}", at(connections), describe(connections)));
             for (const auto& c : connections) addConnection(c);
         }
-        return std::move(graph_);
     }
 
 private:
@@ -183,6 +202,35 @@ private:
         }
     }
 
+    void loadIncludes(const YAML::Node& includes)
+    {
+        if (!includes.IsSequence())
+            throw Error(fmt::format("{}: 'include' is a list of {{file: rig.yaml, namespace: name}}, got {}", at(includes),
+                                    describe(includes)));
+        for (const auto& entry : includes) {
+            if (!entry.IsMap())
+                throw Error(fmt::format("{}: an include is {{file: rig.yaml, namespace: name}}, got {}", at(entry), describe(entry)));
+            checkKeys(entry, {"file", "namespace"}, "include");
+            const std::string file = requireString(entry, "file");
+            std::string ns;
+            if (const auto n = entry["namespace"]) {
+                ns = n.Scalar();
+                if (ns.empty() || ns.find_first_of(".[]: \t") != std::string::npos)
+                    throw Error(fmt::format("{}: namespace '{}' must be a plain name (letters, digits, _)", at(n), ns));
+            }
+            const auto path = (std::filesystem::path(file_).parent_path() / file).lexically_normal();
+            const std::string name = path.string();
+            for (const auto& open : state_.includeStack)
+                if (std::filesystem::weakly_canonical(open) == std::filesystem::weakly_canonical(path))
+                    throw Error(fmt::format("{}: include cycle: {} is already being loaded; remove this include",
+                                            at(entry["file"]), name));
+            const std::string text = located(entry["file"], [&] { return readText(path, "included rig file"); });
+            state_.includeStack.push_back(name);
+            Loader(name, graph_, ns.empty() ? prefix_ : fmt::format("{}{}:", prefix_, ns), state_).load(text);
+            state_.includeStack.pop_back();
+        }
+    }
+
     void loadPlugins(const YAML::Node& plugins)
     {
         if (!plugins.IsSequence())
@@ -190,7 +238,7 @@ private:
         const auto folder = std::filesystem::path(file_).parent_path();
         for (const auto& p : plugins) {
             if (!p.IsScalar()) throw Error(fmt::format("{}: a plugin name is a string, got {}", at(p), describe(p)));
-            located(p, [&] { return graph_->registry().loadPlugin(p.Scalar(), {folder.empty() ? "." : folder}); });
+            located(p, [&] { return graph_.registry().loadPlugin(p.Scalar(), {folder.empty() ? "." : folder}); });
         }
     }
 
@@ -207,17 +255,17 @@ private:
     {
         if (!n.IsMap())
             throw Error(fmt::format("{}: a node is a map like {{name: elbow, type: joint}}, got {}", at(n), describe(n)));
-        const std::string name = requireString(n, "name");
+        const std::string name = prefix_ + requireString(n, "name");
         const std::string type = requireString(n, "type");
-        located(n["type"], [&] { return graph_->registry().get(type); });
-        located(n["name"], [&] { return graph_->addNode(type, name); });
+        located(n["type"], [&] { return graph_.registry().get(type); });
+        located(n["name"], [&] { return graph_.addNode(type, name); });
     }
 
     void fillNode(const YAML::Node& n)
     {
-        const std::string name = n["name"].Scalar();
-        const NodeId id = graph_->findNode(name);
-        const NodeType& type = graph_->nodeType(id);
+        const std::string name = prefix_ + n["name"].Scalar();
+        const NodeId id = graph_.findNode(name);
+        const NodeType& type = graph_.nodeType(id);
         const std::string who = fmt::format("node '{}' ({})", name, type.name());
 
         std::set<std::string> seen;
@@ -233,18 +281,18 @@ private:
                 YamlFieldContext context{[&](const YAML::Node& y) { return fmt::format("{}: {}", at(y), who); }};
                 for (auto& [attr, value] : field->second(entry.second, context)) {
                     const Plug p{id, attr, -1, -1};
-                    located(entry.second, [&] { graph_->setValue(p, value); });
-                    valueMarks_[p] = entry.second.Mark();
+                    located(entry.second, [&] { graph_.setValue(p, value); });
+                    state_.valueMarks[p] = at(entry.second);
                 }
                 continue;
             }
             Plug p;
             try {
-                p = graph_->plug(name + "." + key);
+                p = graph_.plug(name + "." + key);
             }
             catch (const Error&) {
                 std::vector<std::string> names{"name", "type", "parent", "addAttr"};
-                for (const auto& a : graph_->attributes(id)) {
+                for (const auto& a : graph_.attributes(id)) {
                     names.push_back(a.name);
                     if (a.type == ValueType::Vector3) names.insert(names.end(), a.childNames.begin(), a.childNames.end());
                 }
@@ -257,8 +305,8 @@ private:
 
     void setFromYaml(Plug p, const YAML::Node& value)
     {
-        const AttributeSpec& spec = graph_->spec(p);
-        const std::string where = fmt::format("{}: {}", at(value), graph_->plugName(p));
+        const AttributeSpec& spec = graph_.spec(p);
+        const std::string where = fmt::format("{}: {}", at(value), graph_.plugName(p));
         if (spec.array && p.index < 0) {
             // A list sets elements 0, 1, ...; a map {index: value} sets the elements it names.
             if (!value.IsSequence() && !value.IsMap())
@@ -280,9 +328,9 @@ private:
             }
             return;
         }
-        const Value parsed = parseYamlValue(value, *graph_, p, where);
-        located(value, [&] { graph_->setValue(p, parsed); });
-        valueMarks_[p] = value.Mark();
+        const Value parsed = parseYamlValue(value, graph_, p, where);
+        located(value, [&] { graph_.setValue(p, parsed); });
+        state_.valueMarks[p] = at(value);
     }
 
     void addAttributes(NodeId id, const YAML::Node& list, const std::string& who)
@@ -328,7 +376,7 @@ private:
             if (const auto v = a["keyable"]) spec.keyable = std::get<bool>(parseOne(v, ValueType::Bool, spec, at(v)));
             if (const auto v = a["array"]) spec.array = std::get<bool>(parseOne(v, ValueType::Bool, spec, at(v)));
             spec.defaultValue = zeroValue(spec.type);
-            const AttrId attr = located(a, [&] { return graph_->addAttribute(id, spec); });
+            const AttrId attr = located(a, [&] { return graph_.addAttribute(id, spec); });
             if (const auto v = a["default"]) {
                 if (spec.array) throw Error(fmt::format("{}: {}: an array attribute has no default", at(v), who));
                 setFromYaml({id, attr, -1, -1}, v);
@@ -340,22 +388,22 @@ private:
     {
         if (!value.IsScalar()) throw Error(fmt::format("{}: 'parent' is a node name, got {}", at(value), describe(value)));
         located(value, [&] {
-            const NodeId parent = graph_->node(value.Scalar());
-            const std::string childName = graph_->nodeName(child);
-            const std::string parentName = graph_->nodeName(parent);
-            connectAt(value, graph_->plug(parentName + ".worldMatrix"), graph_->plug(childName + ".parentMatrix"));
+            const NodeId parent = graph_.node(prefix_ + value.Scalar());
+            const std::string childName = graph_.nodeName(child);
+            const std::string parentName = graph_.nodeName(parent);
+            connectAt(value, graph_.plug(parentName + ".worldMatrix"), graph_.plug(childName + ".parentMatrix"));
             // Maya connects a parent joint's scale into its child joint's inverseScale.
-            if (graph_->nodeType(parent).findAttribute("scale") >= 0 && graph_->nodeType(child).findAttribute("inverseScale") >= 0)
-                connectAt(value, graph_->plug(parentName + ".scale"), graph_->plug(childName + ".inverseScale"));
+            if (graph_.nodeType(parent).findAttribute("scale") >= 0 && graph_.nodeType(child).findAttribute("inverseScale") >= 0)
+                connectAt(value, graph_.plug(parentName + ".scale"), graph_.plug(childName + ".inverseScale"));
         });
     }
 
     void connectAt(const YAML::Node& where, const Plug& source, const Plug& destination)
     {
-        if (const auto it = valueMarks_.find(destination); it != valueMarks_.end())
+        if (const auto it = state_.valueMarks.find(destination); it != state_.valueMarks.end())
             throw Error(fmt::format("{} is given a value at {} and a connection; remove one of them",
-                                    graph_->plugName(destination), markText(file_, it->second)));
-        located(where, [&] { graph_->connect(source, destination); });
+                                    graph_.plugName(destination), it->second));
+        located(where, [&] { graph_.connect(source, destination); });
     }
 
     void addConnection(const YAML::Node& c)
@@ -372,13 +420,15 @@ private:
         };
         const std::string from = trim(text.substr(0, pos));
         const std::string to = trim(text.substr(pos + arrow.size()));
-        const auto [source, destination] = located(c, [&] { return std::pair(graph_->plug(from), graph_->plug(to)); });
+        const auto [source, destination] =
+            located(c, [&] { return std::pair(graph_.plug(prefix_ + from), graph_.plug(prefix_ + to)); });
         connectAt(c, source, destination);
     }
 
     std::string file_;
-    std::unique_ptr<Graph> graph_;
-    std::map<Plug, YAML::Mark> valueMarks_;
+    Graph& graph_;
+    std::string prefix_;
+    LoadState& state_;
 };
 
 }  // namespace
@@ -390,19 +440,15 @@ Value parseYamlValue(const YAML::Node& node, const Graph& graph, const Plug& plu
 
 std::unique_ptr<Graph> loadGraphText(std::string_view text, const std::string& fileName, std::shared_ptr<NodeRegistry> registry)
 {
-    return Loader(fileName, std::move(registry)).load(text);
+    auto graph = std::make_unique<Graph>(std::move(registry));
+    LoadState state{{}, {fileName}};
+    Loader(fileName, *graph, "", state).load(text);
+    return graph;
 }
 
 std::unique_ptr<Graph> loadGraphFile(const std::filesystem::path& file, std::shared_ptr<NodeRegistry> registry)
 {
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(file, ec))
-        throw Error(fmt::format("{}: no such rig file", file.string()));
-    std::ifstream in(file, std::ios::binary);
-    if (!in) throw Error(fmt::format("{}: cannot be read", file.string()));
-    std::ostringstream text;
-    text << in.rdbuf();
-    return loadGraphText(text.str(), file.string(), std::move(registry));
+    return loadGraphText(readText(file, "rig file"), file.string(), std::move(registry));
 }
 
 }  // namespace rig

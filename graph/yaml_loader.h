@@ -1,6 +1,7 @@
 #pragma once
-// Rig graphs written as YAML (docs/rig-format.md): plugins, nodes with attribute values and
-// `parent:` sugar, dynamic attributes, connections. Every error names file:line:column.
+// Rig graphs written as YAML (docs/rig-format.md): plugins, included files with namespaces, nodes
+// with attribute values and `parent:` sugar, dynamic attributes, connections. Every error names
+// file:line:column.
 
 #include <filesystem>
 #include <memory>

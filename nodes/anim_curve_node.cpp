@@ -2,6 +2,7 @@
 // time (in frames; the scene time when `input` is unconnected), U curves by any number; U, A and L
 // outputs are unitless, angles and distances.
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -90,6 +91,15 @@ private:
     int fallback_ = -1, pre_ = -1, post_ = -1;
 };
 
+// A YAML value as messages show it: 'text' for a scalar, else what it is (a list, a map, nothing).
+std::string describe(const YAML::Node& node)
+{
+    if (node.IsScalar()) return fmt::format("'{}'", node.Scalar());
+    if (node.IsSequence()) return fmt::format("a list of {}", node.size());
+    if (node.IsMap()) return "a map";
+    return "nothing";
+}
+
 // `keys: [[x, y], [x, y, tangent], [x, y, inTangent, outTangent], ...]`, y in the file's units.
 std::vector<std::pair<AttrId, Value>> parseKeys(const YAML::Node& node, const YamlFieldContext& context, double yScale)
 {
@@ -103,18 +113,18 @@ std::vector<std::pair<AttrId, Value>> parseKeys(const YAML::Node& node, const Ya
         double xy[2] = {0, 0};
         for (std::size_t i = 0; i < 2; ++i)
             if (!YAML::convert<double>::decode(key[i], xy[i]) || !std::isfinite(xy[i]))
-                throw Error(fmt::format("{}: key {} must be a finite number, got '{}'", context.where(key[i]),
-                                        i == 0 ? "x" : "y", key[i].Scalar()));
+                throw Error(fmt::format("{}: key {} must be a finite number, got {}", context.where(key[i]),
+                                        i == 0 ? "x" : "y", describe(key[i])));
         if (!xs.empty() && xy[0] <= xs.back())
             throw Error(fmt::format("{}: key x {} is not greater than the previous key's x {} (keys must be strictly "
                                     "increasing)",
                                     context.where(key[0]), xy[0], xs.back()));
         auto tangent = [&](const YAML::Node& t) {
-            const auto type = tangentTypeFromName(t.Scalar());
+            const auto type = t.IsScalar() ? tangentTypeFromName(t.Scalar()) : std::nullopt;
             if (!type) {
                 std::string names;
                 for (const auto& n : tangentNames()) names += (names.empty() ? "" : ", ") + n;
-                throw Error(fmt::format("{}: unknown tangent type '{}'; use one of {}", context.where(t), t.Scalar(), names));
+                throw Error(fmt::format("{}: unknown tangent type {}; use one of {}", context.where(t), describe(t), names));
             }
             return static_cast<double>(*type);
         };

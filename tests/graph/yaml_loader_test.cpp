@@ -6,6 +6,9 @@
 #include "graph/error.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
+#include "test_support.h"
+
+#include <fmt/format.h>
 
 using namespace rig;
 
@@ -102,5 +105,53 @@ TEST_CASE("a missing rig file is a clear error")
     }
     catch (const Error& e) {
         CHECK(std::string(e.what()) == "no/such/rig.yaml: no such rig file");
+    }
+}
+
+TEST_CASE("included rig files bring their nodes under a namespace, as Maya references do")
+{
+    const auto dir = rig::test::scratchDir("include");
+    rig::test::writeFile(dir / "limb.yaml", R"(
+nodes:
+  - {name: upper, type: joint, translate: [0, 10, 0]}
+  - {name: lower, type: joint, parent: upper, translate: [5, 0, 0]}
+  - {name: bend, type: animCurveUA, keys: [[0, 0], [1, 90]], tangents: linear}
+connections:
+  - bend.output -> lower.rotateZ
+)");
+    std::filesystem::create_directories(dir / "crowd");
+    rig::test::writeFile(dir / "crowd" / "two.yaml", R"(
+include:
+  - {file: ../limb.yaml, namespace: left}
+  - {file: ../limb.yaml, namespace: right}
+nodes:
+  - {name: driver, type: transform, addAttr: [{name: amount, default: 1}]}
+connections:
+  - driver.amount -> left:bend.input
+)");
+    auto g = loadGraphFile(dir / "crowd" / "two.yaml", makeBuiltinRegistry());
+    CHECK(g->nodeCount() == 7);
+    CHECK(g->findNode("right:lower") >= 0);
+    const auto left = std::get<Eigen::Vector3d>(g->getValue(g->plug("left:lower.rotate")));
+    const auto right = std::get<Eigen::Vector3d>(g->getValue(g->plug("right:lower.rotate")));
+    CHECK(left[2] == doctest::Approx(std::numbers::pi / 2));
+    CHECK(right[2] == 0.0);
+
+    rig::test::writeFile(dir / "loop.yaml", "include:\n  - {file: loop.yaml}\n");
+    try {
+        loadGraphFile(dir / "loop.yaml", makeBuiltinRegistry());
+        FAIL("expected an error");
+    }
+    catch (const Error& e) {
+        const std::string path = (dir / "loop.yaml").string();
+        CHECK(std::string(e.what()) == fmt::format("{}:2:12: include cycle: {} is already being loaded; remove this include", path, path));
+    }
+    rig::test::writeFile(dir / "missing.yaml", "include:\n  - {file: nowhere.yaml, namespace: x}\n");
+    try {
+        loadGraphFile(dir / "missing.yaml", makeBuiltinRegistry());
+        FAIL("expected an error");
+    }
+    catch (const Error& e) {
+        CHECK(std::string(e.what()) == fmt::format("{}:2:12: {}: no such included rig file", (dir / "missing.yaml").string(), (dir / "nowhere.yaml").string()));
     }
 }
