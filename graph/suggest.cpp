@@ -36,11 +36,19 @@ std::string closestName(std::string_view name, const std::vector<std::string>& c
 {
     // A third of the name may be wrong, and never all of it ("b" is no typo of "a").
     const std::size_t allowed = std::max<std::size_t>(1, name.size() / 3);
+    // Ties go to the candidate sharing more of the name's start and end ("rotatZ": "rotateZ", not "rotate").
+    auto sharedEnds = [&](std::string_view c) {
+        std::size_t n = 0;
+        while (n < c.size() && n < name.size() && c[n] == name[n]) ++n;
+        for (std::size_t k = 1; k <= c.size() && k <= name.size() && c[c.size() - k] == name[name.size() - k]; ++k) ++n;
+        return n;
+    };
     std::string best;
     std::size_t bestDistance = allowed + 1;
     for (const std::string& candidate : candidates) {
         const std::size_t d = editDistance(name, candidate);
-        if (d < bestDistance && d < name.size()) {
+        if (d >= name.size()) continue;
+        if (d < bestDistance || (d == bestDistance && !best.empty() && sharedEnds(candidate) > sharedEnds(best))) {
             bestDistance = d;
             best = candidate;
         }

@@ -44,7 +44,8 @@ std::vector<double> FrameRange::frames() const
 {
     std::vector<double> out;
     const auto count = static_cast<long long>(std::floor((last - first) / step + 1e-9));
-    for (long long i = 0; i <= count; ++i) out.push_back(first + static_cast<double>(i) * step);
+    // Rounded to 1e-9 frames so 1:2:0.1 gives 1.7, not 1.7000000000000002.
+    for (long long i = 0; i <= count; ++i) out.push_back(std::round((first + static_cast<double>(i) * step) * 1e9) / 1e9);
     return out;
 }
 

@@ -2,6 +2,7 @@
 #include <chrono>
 #include <iostream>
 #include <optional>
+#include <set>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -129,17 +130,13 @@ int run(const Options& options)
 {
     auto registry = makeBuiltinRegistry();
     for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
-    if (options.types) {
-        std::cout << nodeTypeReference(*registry);
-        return 0;
-    }
-    if (options.rig.empty()) throw Error("no rig file given; usage: graph-eval RIG.yaml [options], or --help");
-    auto graph = loadGraphFile(options.rig, registry);
-    graph->setThreads(options.threads);
-
     std::string text;
-    if (options.dot) text = toDot(*graph);
+    if (options.types) text = nodeTypeReference(*registry);
+    else if (options.rig.empty()) throw Error("no rig file given; usage: graph-eval RIG.yaml [options], or --help");
+    else if (options.dot) text = toDot(*loadGraphFile(options.rig, registry));
     else {
+        auto graph = loadGraphFile(options.rig, registry);
+        graph->setThreads(options.threads);
         for (const auto& s : options.sets) applySet(*graph, s);
         std::optional<cli::FrameRange> range;
         if (!options.frames.empty()) range = cli::parseFrameRange(options.frames, "--frames");
@@ -151,10 +148,16 @@ int run(const Options& options)
             for (const Plug& p : allPlugs(*graph))
                 if (!graph->spec(p).input && p.child < 0) plugs.push_back(p);
         }
-        for (const auto& pattern : options.gets) {
-            const auto matched = matchPlugs(*graph, pattern);
-            plugs.insert(plugs.end(), matched.begin(), matched.end());
-        }
+        // A plug named by several --get patterns is printed once (JSON objects must not repeat a key).
+        std::set<Plug> seen;
+        for (const auto& pattern : options.gets)
+            for (const Plug& p : matchPlugs(*graph, pattern))
+                if (seen.insert(p).second) plugs.push_back(p);
+        // CSV and table columns of a vector are its components: a component also selected whole
+        // ('--get node.rotate*' matches rotate and rotateX) would be a second column of the same name.
+        if (options.format != "json")
+            std::erase_if(plugs,
+                          [&](const Plug& p) { return p.child >= 0 && seen.contains({p.node, p.attr, p.index, -1}); });
         const auto computesBefore = graph->computeCount();
         const auto start = std::chrono::steady_clock::now();
         const std::vector<double> frames = range ? range->frames() : std::vector<double>{graph->time()};
@@ -180,18 +183,22 @@ int main(int argc, char** argv)
     CLI::App app{"graph-eval: evaluate a rig graph (YAML) and print plug values.\n\n"
                  "Example:\n"
                  "  graph-eval rigs/examples/arm.yaml --frames 1:24 --get 'wrist.worldMatrix' --get '*.rotateZ'\n"
-                 "  graph-eval rigs/examples/arm.yaml --set arm_ctrl.bend=5 --get elbow.rotate --format csv\n\n"
+                 "  graph-eval rigs/examples/arm.yaml --set shoulder.rotateZ=30 --get wrist_world.outputTranslate --format csv\n\n"
                  "Angles are degrees, distances centimetres, times frames. JSON output is a list with one object\n"
                  "per frame: {\"frame\": F, \"node.attr\": value, ...}; matrices are four rows (translation in\n"
                  "the last column). See docs/graph-eval.md.",
                  "graph-eval"};
     app.add_option("rig", options.rig, "Rig graph file (YAML)");
-    app.add_option("--set", options.sets, "Set a plug before evaluating: node.attr=VALUE (repeatable)");
-    app.add_option("--get", options.gets, "Plugs to print, by name or glob (repeatable; default: every output)");
+    // Repeatable flags take one value each: '--get a.b rig.yaml' must not read the rig as a second --get.
+    app.add_option("--set", options.sets, "Set a plug before evaluating: node.attr=VALUE (repeatable)")
+        ->allow_extra_args(false);
+    app.add_option("--get", options.gets, "Plugs to print, by name or glob (repeatable; default: every output)")
+        ->allow_extra_args(false);
     app.add_option("--frames", options.frames, "Frame range A:B[:STEP], inclusive (default: the current time, 0)");
     app.add_option("--format", options.format, "Output format: json (default), csv, or table (aligned, 6 digits)")->check(CLI::IsMember({"json", "csv", "table"}));
     app.add_option("-o,--output", options.output, "Write to this file instead of standard output");
-    app.add_option("--plugin", options.plugins, "Load a node plugin before reading the rig (repeatable)");
+    app.add_option("--plugin", options.plugins, "Load a node plugin before reading the rig (repeatable)")
+        ->allow_extra_args(false);
     app.add_flag("--types", options.types, "Print the reference of every node type (Markdown) and exit");
     app.add_flag("--dot", options.dot, "Print the graph in Graphviz dot format instead of evaluating");
     app.add_option("--threads", options.threads, "Evaluation threads: 1 serial, N parallel, 0 all cores")

@@ -137,7 +137,7 @@ TEST_CASE("values are checked: type, finiteness, limits in user units")
     CHECK(errorOf([&] { g.setValue(g.plug("n.sum"), 1.0); }) == "cannot set n.sum: it is an output, computed by its node");
 }
 
-TEST_CASE("pull evaluation computes on demand and caches; setting one input recomputes only its downstream")
+TEST_CASE("pull evaluation computes on demand and caches: setting one input recomputes only its downstream")
 {
     Graph g(testRegistry());
     // Two independent chains x0 -> x1 -> x2 and y0 -> y1 -> y2.
