@@ -76,7 +76,7 @@ NodeId Graph::addNode(std::string_view typeName, std::string_view name)
     rec->specs = &type->attributes();
     for (const AttributeSpec& spec : type->attributes()) {
         AttrData d;
-        if (!spec.array) d.value = spec.defaultValue;
+        if (!spec.array) d.value = spec.sceneTime ? Value(time_) : spec.defaultValue;
         d.dirty = !spec.input;  // never computed yet
         rec->data.push_back(std::move(d));
     }

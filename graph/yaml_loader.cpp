@@ -281,8 +281,8 @@ private:
                 YamlFieldContext context{[&](const YAML::Node& y) { return fmt::format("{}: {}", at(y), who); }};
                 for (auto& [attr, value] : field->second(entry.second, context)) {
                     const Plug p{id, attr, -1, -1};
+                    noteValue(p, entry.second);
                     located(entry.second, [&] { graph_.setValue(p, value); });
-                    state_.valueMarks[p] = at(entry.second);
                 }
                 continue;
             }
@@ -329,8 +329,17 @@ private:
             return;
         }
         const Value parsed = parseYamlValue(value, graph_, p, where);
+        noteValue(p, value);
         located(value, [&] { graph_.setValue(p, parsed); });
-        state_.valueMarks[p] = at(value);
+    }
+
+    // A plug given two values (keys: and keyTime:, say) is a mistake: the later one would win silently.
+    void noteValue(const Plug& p, const YAML::Node& where)
+    {
+        const auto [it, added] = state_.valueMarks.emplace(p, at(where));
+        if (!added)
+            throw Error(fmt::format("{}: {} is given a value twice (first at {}); keep one", at(where), graph_.plugName(p),
+                                    it->second));
     }
 
     void addAttributes(NodeId id, const YAML::Node& list, const std::string& who)

@@ -94,6 +94,8 @@ TEST_CASE("rig file errors name file:line:col, the node and attribute, and a fix
           == "rig.yaml:2:48: node 's' (animCurveUU): unknown tangent type 'bouncy'; use one of linear, flat, step, stepnext, spline, clamped, plateau, auto");
     CHECK(errorOf("nodes:\n  - {name: a, type: joint, name: b}") == "rig.yaml:2:28: node 'a' (joint): 'name' appears twice");
     CHECK(errorOf("nodes:\n  - {type: joint}") == "rig.yaml:2:5: node without 'name:'");
+    CHECK(errorOf("nodes:\n  - {name: c, type: animCurveUU, keys: [[0, 0]], keyTime: [1]}")
+          == "rig.yaml:2:59: c.keyTime is given a value twice (first at rig.yaml:2:40); keep one");
     CHECK(errorOf("plugins: [noSuchPlugin]\nnodes: []").starts_with("rig.yaml:1:11: plugin 'noSuchPlugin' not found"));
 }
 
