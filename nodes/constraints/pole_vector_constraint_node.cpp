@@ -1,0 +1,67 @@
+// poleVectorConstraint: Maya's poleVectorConstraint, the pole vector of a rotate-plane ikHandle from
+// the start joint toward the weighted mean of its targets (docs/constraints.md).
+#include "nodes/builtin_nodes.h"
+#include "nodes/constraints/constraint_math.h"
+
+namespace rig {
+namespace {
+
+enum Attr : AttrId {
+    TargetMatrix, TargetWeight, Offset, RestTranslate, PivotSpace, ConstraintRotatePivot,
+    ConstraintParentInverseMatrix, ConstraintTranslate
+};
+
+class PoleVectorConstraintNode final : public Node {
+public:
+    void compute(ComputeContext& c) override
+    {
+        const auto target = constraint::weightedPosition(constraint::gatherTargets(c, TargetMatrix, TargetWeight));
+        if (!target) {
+            c.setOutput(ConstraintTranslate, c.getVector3(RestTranslate));
+            return;
+        }
+        const Eigen::Vector3d start = (c.getMatrix(PivotSpace) * c.getVector3(ConstraintRotatePivot).homogeneous()).head<3>();
+        const Eigen::Vector3d pole =
+            c.getMatrix(ConstraintParentInverseMatrix).topLeftCorner<3, 3>() * (*target - start) + c.getVector3(Offset);
+        c.setOutput(ConstraintTranslate, pole);
+    }
+};
+
+}  // namespace
+
+std::shared_ptr<const NodeType> makePoleVectorConstraintType()
+{
+    NodeTypeBuilder b("poleVectorConstraint");
+    b.description(
+        "The pole vector of a rotate-plane ikHandle toward the weighted mean of its targets, as Maya's "
+        "poleVectorConstraint: constraintTranslate = L * (p - s) + offset, p = sum w_i p_i / sum w_i (the "
+        "translations of targetMatrix[i]), s = pivotSpace * constraintRotatePivot the start joint's world "
+        "position, L the 3x3 part of constraintParentInverseMatrix (identity by default: a world-space "
+        "direction from the start joint, the pole vector the ikHandle takes). With every weight zero (or no "
+        "target) it outputs restTranslate. Wiring: docs/constraints.md.");
+    b.input(TargetMatrix, "targetMatrix", ValueType::Matrix4).array()
+        .doc("World matrix of target i, the pole control (connect from target.worldMatrix); its translation is "
+             "the target's position. A target exists where this element exists.");
+    b.input(TargetWeight, "targetWeight", ValueType::Double).array().defaultValue(1.0).min(0.0).keyable()
+        .doc("Weight of target i (1 when the element is absent); weights are normalized by their sum.");
+    b.input(Offset, "offset", ValueType::Vector3).unit(Unit::Distance).keyable()
+        .doc("Added to the pole vector, cm (Maya's offset, inherited from pointConstraint).");
+    b.input(RestTranslate, "restTranslate", ValueType::Vector3).unit(Unit::Distance)
+        .doc("The output when every weight is zero or there is no target: set the handle's rest pole vector.");
+    b.input(PivotSpace, "pivotSpace", ValueType::Matrix4)
+        .doc("World matrix of the ik chain's start joint's PARENT (connect from parent.worldMatrix; Maya "
+             "connects startJoint.parentMatrix).");
+    b.input(ConstraintRotatePivot, "constraintRotatePivot", ValueType::Vector3).unit(Unit::Distance)
+        .doc("The start joint's translate, cm (set the same constant; connecting the start joint itself would "
+             "close a cycle through the ikHandle). Start joint world position = pivotSpace * this.");
+    b.input(ConstraintParentInverseMatrix, "constraintParentInverseMatrix", ValueType::Matrix4)
+        .doc("Frame the pole vector is expressed in (only its 3x3 part is used): leave identity for a world-space "
+             "pole vector; connect the ikHandle's parent's worldInverseMatrix for a handle that takes it in its "
+             "parent's space (Maya connects handle.parentInverseMatrix).");
+    b.output(ConstraintTranslate, "constraintTranslate", ValueType::Vector3).unit(Unit::Distance)
+        .doc("The pole vector, cm: from the start joint toward the target (connect to ikHandle.poleVector).");
+    for (AttrId in = TargetMatrix; in < ConstraintTranslate; ++in) b.affects(in, {ConstraintTranslate});
+    return b.factory<PoleVectorConstraintNode>().build();
+}
+
+}  // namespace rig
