@@ -19,6 +19,20 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeMultMatrixType());
     registry.add(makeComposeMatrixType());
     registry.add(makeDecomposeMatrixType());
+    registry.add(makeBvhClipType());
+    registry.add(makeIkHandleType());
+    registry.add(makeBlendColorsType());
+    registry.add(makeTwistDistributeType());
+    registry.add(makeSlidingPivotType());
+    registry.add(makeSquashStretchType());
+    registry.add(makeCoupledBendType());
+    registry.add(makeSaturateType());
+    registry.add(makeSpringType());
+    registry.add(makePointConstraintType());
+    registry.add(makeOrientConstraintType());
+    registry.add(makeParentConstraintType());
+    registry.add(makeAimConstraintType());
+    registry.add(makePoleVectorConstraintType());
 }
 
 std::shared_ptr<NodeRegistry> makeBuiltinRegistry()

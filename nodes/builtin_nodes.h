@@ -28,5 +28,20 @@ std::shared_ptr<const NodeType> makeConditionType();
 std::shared_ptr<const NodeType> makeMultMatrixType();
 std::shared_ptr<const NodeType> makeComposeMatrixType();
 std::shared_ptr<const NodeType> makeDecomposeMatrixType();
+std::shared_ptr<const NodeType> makeIkHandleType();  // nodes/ik, nodes/deformers (docs/ik-and-deformers.md)
+std::shared_ptr<const NodeType> makeBlendColorsType();
+std::shared_ptr<const NodeType> makeTwistDistributeType();
+std::shared_ptr<const NodeType> makeSlidingPivotType();
+std::shared_ptr<const NodeType> makeSquashStretchType();
+std::shared_ptr<const NodeType> makeCoupledBendType();
+std::shared_ptr<const NodeType> makeSaturateType();
+std::shared_ptr<const NodeType> makeSpringType();
+std::shared_ptr<const NodeType> makeBvhClipType();  // nodes/clips/, docs/bvh.md
+// Constraints (nodes/constraints/, docs/constraints.md).
+std::shared_ptr<const NodeType> makePointConstraintType();
+std::shared_ptr<const NodeType> makeOrientConstraintType();
+std::shared_ptr<const NodeType> makeParentConstraintType();
+std::shared_ptr<const NodeType> makeAimConstraintType();
+std::shared_ptr<const NodeType> makePoleVectorConstraintType();
 
 }  // namespace rig

@@ -80,7 +80,7 @@ const std::vector<std::string> deformerTypes{"ikHandle", "blendColors", "twistDi
 
 }  // namespace
 
-TEST_CASE("deformers: every type and attribute is documented; only spring is stateful")
+TEST_CASE("deformers: every type and attribute is documented - only spring is stateful")
 {
     const auto registry = rig::makeBuiltinRegistry();
     for (const std::string& name : deformerTypes) {

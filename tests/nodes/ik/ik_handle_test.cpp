@@ -186,7 +186,7 @@ TEST_CASE("ikHandle: twist turns the chain plane about the start-goal axis")
     CHECK(near(r.position("elbow"), twisted));
 }
 
-TEST_CASE("ikHandle: beyond reach the chain points straight at the goal; stretch reaches it")
+TEST_CASE("ikHandle: beyond reach the chain points straight at the goal - stretch reaches it")
 {
     Rig r("arm-ik");
     const Eigen::Vector3d start = r.position("shoulder");
