@@ -168,7 +168,7 @@ public:
         // Parents and connections come after every value, so a plug given both is reported as such.
         for (const auto& n : nodes)
             if (const auto parent = n["parent"]) setParent(graph_.findNode(prefix_ + n["name"].Scalar()), parent);
-        if (const auto connections = root["connections"]) {
+        if (const auto connections = root["connections"]; connections && !connections.IsNull()) {
             if (!connections.IsSequence())
                 throw Error(fmt::format("{}: 'connections' must be a list, got {}", at(connections), describe(connections)));
             for (const auto& c : connections) addConnection(c);
