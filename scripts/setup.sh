@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-packages=(cmake ninja-build g++ libeigen3-dev libtbb-dev libyaml-cpp-dev libfmt-dev doctest-dev libcli11-dev
+packages=(cmake ninja-build g++ python3 libeigen3-dev libtbb-dev libyaml-cpp-dev libfmt-dev doctest-dev libcli11-dev
           assimp-testmodels)
 missing=()
 for p in "${packages[@]}"; do
