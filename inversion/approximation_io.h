@@ -1,0 +1,42 @@
+#pragma once
+// Approximation files (docs/approximation-format.md): a learned approximation as human-readable YAML,
+// read back bit for bit. Numbers are written in the shortest form that reads back to the same double
+// (fmt "{}"), and in internal units (radians for angles, cm), which a comment at the top of the file
+// says. Reading checks everything an evaluation relies on (types, indices, knots) and reports the
+// first problem as "file:line:col: where: what".
+
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include "inversion/approximation.h"
+
+namespace rig {
+
+// A file that is not a valid approximation: one line, "file:line:col: field: problem". Tools turn it
+// into their "error: ..." line and exit code 2 (inversion/ does not know rig::Error).
+class ApproximationFileError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+inline constexpr std::string_view approximationFormatName = "rigInversionApproximation";
+inline constexpr int approximationFormatVersion = 1;
+
+// The file's text. Throws std::invalid_argument naming the field when a number is not finite or the
+// structure is inconsistent (indices out of range): an approximation like that is a bug, not a file.
+std::string approximationToYaml(const Approximation& approximation);
+
+// Parses a file's text; `fileName` is used in messages. Throws ApproximationFileError.
+Approximation approximationFromYaml(std::string_view text, const std::string& fileName);
+
+// Reads and parses a file. Throws ApproximationFileError (also when the file cannot be read).
+Approximation readApproximationFile(const std::filesystem::path& file);
+
+// Compares the fingerprint recorded in the approximation with a rig's current one. Returns "" when they
+// match; otherwise a one-line warning saying the rig changed since learning (re-run rig-learn), or,
+// when `strict`, throws ApproximationFileError with that line.
+std::string checkFingerprint(const Approximation& approximation, const std::string& fingerprint, bool strict);
+
+}  // namespace rig

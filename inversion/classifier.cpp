@@ -1,0 +1,530 @@
+#include "inversion/classifier.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include <Eigen/Dense>
+#include <fmt/format.h>
+
+namespace rig {
+
+const std::vector<Eigen::Matrix4d>& RigProbe::at(int i, double a, int j, double b)
+{
+    values_ = defaults_;
+    if (i >= 0) values_[static_cast<std::size_t>(i)] += a;
+    if (j >= 0) values_[static_cast<std::size_t>(j)] += b;
+    rig_.evaluate(values_, worlds_);
+    return worlds_;
+}
+
+const std::vector<Eigen::Matrix4d>& RigProbe::atValues(const std::vector<double>& values)
+{
+    rig_.evaluate(values, worlds_);
+    return worlds_;
+}
+
+namespace {
+
+constexpr double structureTolerance = 1e-8;
+
+// Samples of one parameter: offsets from its rest value and the affected outputs' world matrices.
+struct Samples {
+    std::map<double, std::vector<Eigen::Matrix4d>> worlds;  // offset -> one per affected output
+};
+
+// A candidate model of a parameter: operators and, per affected output, which one.
+struct Candidate {
+    std::vector<Operator> operators;
+    std::vector<int> operatorOfOutput;
+    std::string form;
+};
+
+struct Context {
+    RigProbe& probe;
+    int index;
+    const LearnOptions& options;
+    std::vector<int> outputs;                   // affected outputs
+    std::vector<Eigen::Matrix4d> rest;          // their rest matrices
+    std::vector<Eigen::Matrix4d> restInverse;
+    Samples samples;
+
+    const std::vector<Eigen::Matrix4d>& sample(double a)
+    {
+        auto it = samples.worlds.find(a);
+        if (it != samples.worlds.end()) return it->second;
+        const auto& all = probe.at(index, a);
+        std::vector<Eigen::Matrix4d> mine;
+        for (int k : outputs) mine.push_back(all[static_cast<std::size_t>(k)]);
+        return samples.worlds.emplace(a, std::move(mine)).first->second;
+    }
+    Eigen::Matrix4d delta(double a, std::size_t e) { return sample(a)[e] * restInverse[e]; }
+    int sampleCount() const { return static_cast<int>(samples.worlds.size()); }
+};
+
+std::vector<double> initialOffsets(double lo, double hi, int count)
+{
+    std::vector<double> offsets;
+    if (lo < 0 && hi > 0) {
+        const int negative = std::max(1, count / 2);
+        const int positive = std::max(1, count - negative);
+        for (int j = negative; j >= 1; --j) offsets.push_back(lo * j / negative);
+        for (int j = 1; j <= positive; ++j) offsets.push_back(hi * j / positive);
+    }
+    else {
+        const double end = hi > 0 ? hi : lo;
+        for (int j = 1; j <= count; ++j) offsets.push_back(end * j / count);
+    }
+    return offsets;
+}
+
+Eigen::Matrix3d linearPart(const Eigen::Matrix4d& m) { return m.block<3, 3>(0, 0); }
+
+// Which analytic kinds the deltas allow.
+std::vector<OperatorKind> plausibleKinds(Context& c, const std::vector<std::size_t>& entries)
+{
+    bool identity = true, rigid = true, symmetric = true;
+    for (const auto& [a, worlds] : c.samples.worlds)
+        for (std::size_t e : entries) {
+            const Eigen::Matrix3d l = linearPart(worlds[e] * c.restInverse[e]);
+            identity = identity && (l - Eigen::Matrix3d::Identity()).norm() < structureTolerance;
+            rigid = rigid && (l.transpose() * l - Eigen::Matrix3d::Identity()).norm() < structureTolerance && l.determinant() > 0;
+            symmetric = symmetric && (l - l.transpose()).norm() < structureTolerance;
+        }
+    if (identity) return {OperatorKind::translation};
+    std::vector<OperatorKind> kinds;
+    if (rigid) kinds.push_back(OperatorKind::rotation);
+    if (symmetric) kinds.insert(kinds.end(), {OperatorKind::uniformScale, OperatorKind::axisScale});
+    return kinds;
+}
+
+// The sample offset of largest magnitude (the clearest view of the structure).
+double largestOffset(const Context& c)
+{
+    double best = 0.0;
+    for (const auto& entry : c.samples.worlds)
+        if (std::abs(entry.first) > std::abs(best)) best = entry.first;
+    return best;
+}
+
+// Least-squares solution of stacked rows (A_j p = b_j), minimum norm, then moved along the null space
+// (the rotation axis, or the plane a scale leaves alone) as close as possible to `near`.
+Eigen::Vector3d solvePivot(const std::vector<Eigen::Matrix3d>& a, const std::vector<Eigen::Vector3d>& b,
+                           const Eigen::Vector3d& near)
+{
+    Eigen::MatrixXd m(3 * a.size(), 3);
+    Eigen::VectorXd r(3 * a.size());
+    for (std::size_t j = 0; j < a.size(); ++j) {
+        m.block<3, 3>(static_cast<Eigen::Index>(3 * j), 0) = a[j];
+        r.segment<3>(static_cast<Eigen::Index>(3 * j)) = b[j];
+    }
+    const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> solver(m);
+    const Eigen::Vector3d p0 = solver.solve(r);
+    // Project `near - p0` onto the null space of m.
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(m, Eigen::ComputeFullV);
+    Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+    const double top = svd.singularValues().size() ? svd.singularValues()[0] : 0.0;
+    for (int k = 0; k < 3; ++k)
+        if (svd.singularValues()[k] <= 1e-9 * std::max(1.0, top)) {
+            const Eigen::Vector3d v = svd.matrixV().col(k);
+            shift += v * v.dot(near - p0);
+        }
+    return p0 + shift;
+}
+
+// Structure (axis, pivot) of an analytic kind from all samples of these outputs, and the magnitude
+// at each offset. Returns false when the data do not determine it.
+bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>& entries, Operator& op,
+                  std::map<double, double>& magnitudes)
+{
+    op = Operator{};
+    op.kind = kind;
+    const double widest = largestOffset(c);
+    const std::size_t e0 = entries.front();
+    const Eigen::Matrix4d dWide = c.delta(widest, e0);
+    const Eigen::Vector3d near = c.rest[e0].block<3, 1>(0, 3);
+    std::vector<Eigen::Matrix3d> rows;
+    std::vector<Eigen::Vector3d> rhs;
+    switch (kind) {
+    case OperatorKind::translation: {
+        const Eigen::Vector3d t = dWide.block<3, 1>(0, 3);
+        if (t.norm() < 1e-12) return false;
+        op.axis = t.normalized() * (widest < 0 ? -1.0 : 1.0);
+        for (const auto& entry : c.samples.worlds) magnitudes[entry.first] = c.delta(entry.first, e0).block<3, 1>(0, 3).dot(op.axis);
+        return true;
+    }
+    case OperatorKind::rotation: {
+        const Eigen::Vector3d r = rotationVector(linearPart(dWide));
+        if (r.norm() < 1e-12) return false;
+        op.axis = r.normalized() * (widest < 0 ? -1.0 : 1.0);
+        for (const auto& entry : c.samples.worlds) {
+            const Eigen::Matrix4d d = c.delta(entry.first, e0);
+            magnitudes[entry.first] = rotationVector(linearPart(d)).dot(op.axis);
+            for (std::size_t e : entries) {
+                const Eigen::Matrix4d de = c.delta(entry.first, e);
+                rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
+                rhs.push_back(de.block<3, 1>(0, 3));
+            }
+        }
+        op.pivot = solvePivot(rows, rhs, near);
+        return true;
+    }
+    case OperatorKind::axisScale: {
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(linearPart(dWide) - Eigen::Matrix3d::Identity());
+        int k = 0;
+        eig.eigenvalues().cwiseAbs().maxCoeff(&k);
+        if (std::abs(eig.eigenvalues()[k]) < 1e-12) return false;
+        op.axis = eig.eigenvectors().col(k).normalized();
+        for (const auto& entry : c.samples.worlds) {
+            const Eigen::Matrix4d d = c.delta(entry.first, e0);
+            magnitudes[entry.first] = op.axis.dot((linearPart(d) - Eigen::Matrix3d::Identity()) * op.axis);
+            for (std::size_t e : entries) {
+                const Eigen::Matrix4d de = c.delta(entry.first, e);
+                rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
+                rhs.push_back(de.block<3, 1>(0, 3));
+            }
+        }
+        op.pivot = solvePivot(rows, rhs, near);
+        return true;
+    }
+    case OperatorKind::uniformScale: {
+        for (const auto& entry : c.samples.worlds) {
+            const Eigen::Matrix4d d = c.delta(entry.first, e0);
+            magnitudes[entry.first] = linearPart(d).trace() / 3.0 - 1.0;
+            for (std::size_t e : entries) {
+                const Eigen::Matrix4d de = c.delta(entry.first, e);
+                rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
+                rhs.push_back(de.block<3, 1>(0, 3));
+            }
+        }
+        if (std::abs(magnitudes[widest]) < 1e-12) return false;
+        op.pivot = solvePivot(rows, rhs, near);
+        return true;
+    }
+    default: return false;
+    }
+}
+
+// Worst error over the samples at these offsets, per unit of the parameter.
+double errorAt(Context& c, const Candidate& candidate, const std::vector<std::size_t>& entries,
+               const std::vector<double>& offsets, std::vector<double>* failing = nullptr)
+{
+    double worst = 0.0;
+    for (double a : offsets) {
+        if (a == 0.0) continue;
+        double here = 0.0;
+        for (std::size_t e : entries) {
+            const Operator& op = candidate.operators[static_cast<std::size_t>(candidate.operatorOfOutput[e])];
+            const Eigen::Matrix4d predicted = op.matrix(a) * c.rest[e];
+            here = std::max(here, matrixError(predicted, c.sample(a)[e], c.options.frameRadius) / std::abs(a));
+        }
+        if (failing && here > c.options.epsilon) failing->push_back(a);
+        worst = std::max(worst, here);
+    }
+    return worst;
+}
+
+std::vector<double> sampledOffsets(const Context& c)
+{
+    std::vector<double> offsets;
+    for (const auto& entry : c.samples.worlds) offsets.push_back(entry.first);
+    return offsets;
+}
+
+// Midpoints between consecutive knots (0 included) that have not been sampled yet.
+std::vector<double> midpoints(const std::vector<double>& knots)
+{
+    std::vector<double> sorted = knots;
+    sorted.push_back(0.0);
+    std::sort(sorted.begin(), sorted.end());
+    sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
+    std::vector<double> mids;
+    for (std::size_t j = 1; j < sorted.size(); ++j) mids.push_back(0.5 * (sorted[j - 1] + sorted[j]));
+    return mids;
+}
+
+using Builder = std::function<bool(const std::vector<double>& knots, Candidate&)>;
+
+// Fits with `build` on the knots, checks every sample and the midpoints between knots, and refines
+// by turning failing midpoints into knots until it validates or the sample budget is spent.
+// `curved` false: a form without knots (linear), checked on the samples only.
+bool refineAndValidate(Context& c, const std::vector<std::size_t>& entries, bool curved, const Builder& build,
+                       Candidate& best, double& bestError)
+{
+    std::vector<double> knots = sampledOffsets(c);
+    while (true) {
+        Candidate candidate;
+        if (!build(knots, candidate)) return false;
+        std::vector<double> checks = sampledOffsets(c);
+        if (curved)
+            for (double m : midpoints(knots)) {
+                c.sample(m);
+                checks.push_back(m);
+            }
+        std::vector<double> failing;
+        const double error = errorAt(c, candidate, entries, checks, &failing);
+        if (error < bestError) {
+            bestError = error;
+            best = candidate;
+        }
+        if (error <= c.options.epsilon) return true;
+        if (!curved || c.sampleCount() >= c.options.maxSamples) return false;
+        std::sort(failing.begin(), failing.end());
+        for (double a : failing)
+            if (std::find(knots.begin(), knots.end(), a) == knots.end()) knots.push_back(a);
+        std::sort(knots.begin(), knots.end());
+    }
+}
+
+CubicSpline<1> magnitudeCurve(const std::map<double, double>& magnitudes, const std::vector<double>& knots)
+{
+    std::vector<double> x{0.0};
+    std::vector<CubicSpline<1>::Vector> y{CubicSpline<1>::Vector::Zero()};
+    for (double a : knots) {
+        x.push_back(a);
+        y.push_back(CubicSpline<1>::Vector(magnitudes.at(a)));
+    }
+    std::vector<std::size_t> order(x.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](std::size_t p, std::size_t q) { return x[p] < x[q]; });
+    std::vector<double> xs;
+    std::vector<CubicSpline<1>::Vector> ys;
+    for (std::size_t i : order) {
+        xs.push_back(x[i]);
+        ys.push_back(y[i]);
+    }
+    return CubicSpline<1>(std::move(xs), std::move(ys));
+}
+
+// An analytic operator shared by `entries`, linear then with a curve magnitude.
+bool tryAnalytic(Context& c, OperatorKind kind, const std::vector<std::size_t>& entries, Candidate& best,
+                 double& bestError, std::string& form)
+{
+    auto makeCandidate = [&](const Operator& op) {
+        Candidate candidate;
+        candidate.operators = {op};
+        candidate.operatorOfOutput.assign(c.outputs.size(), 0);
+        return candidate;
+    };
+    const Builder linear = [&](const std::vector<double>&, Candidate& candidate) {
+        Operator op;
+        std::map<double, double> m;
+        if (!fitStructure(c, kind, entries, op, m)) return false;
+        double num = 0.0, den = 0.0;
+        for (const auto& [a, value] : m) {
+            num += value * a;
+            den += a * a;
+        }
+        op.slope = num / den;
+        candidate = makeCandidate(op);
+        return true;
+    };
+    if (refineAndValidate(c, entries, false, linear, best, bestError)) {
+        form = std::string(operatorKindName(kind));
+        return true;
+    }
+    const Builder curve = [&](const std::vector<double>& knots, Candidate& candidate) {
+        Operator op;
+        std::map<double, double> m;
+        if (!fitStructure(c, kind, entries, op, m)) return false;
+        op.curve = magnitudeCurve(m, knots);
+        candidate = makeCandidate(op);
+        return true;
+    };
+    if (refineAndValidate(c, entries, true, curve, best, bestError)) {
+        form = fmt::format("{} (curve)", operatorKindName(kind));
+        return true;
+    }
+    return false;
+}
+
+// A sampled operator of one output: rigid (rotation vector and translation) or affine.
+bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& bestError)
+{
+    const std::vector<std::size_t> entries{e};
+    const Builder build = [&](const std::vector<double>& knots, Candidate& candidate) {
+        std::vector<double> xs = knots;
+        xs.push_back(0.0);
+        std::sort(xs.begin(), xs.end());
+        Operator op;
+        op.kind = rigid ? OperatorKind::sampledRigid : OperatorKind::sampledAffine;
+        if (rigid) {
+            // Rotation vectors unwrapped outward from 0, so the curve does not jump at 180 degrees.
+            std::vector<CubicSpline<6>::Vector> ys(xs.size());
+            const auto zero = std::find(xs.begin(), xs.end(), 0.0) - xs.begin();
+            auto value = [&](std::ptrdiff_t i, const Eigen::Vector3d& previous) {
+                CubicSpline<6>::Vector v = CubicSpline<6>::Vector::Zero();
+                if (xs[static_cast<std::size_t>(i)] == 0.0) return v;
+                const Eigen::Matrix4d d = c.delta(xs[static_cast<std::size_t>(i)], e);
+                Eigen::Vector3d r = rotationVector(linearPart(d));
+                if (r.norm() > 1e-12) {
+                    const Eigen::Vector3d other = r - 2.0 * std::numbers::pi * r.normalized();
+                    if ((other - previous).norm() < (r - previous).norm()) r = other;
+                }
+                v.head<3>() = r;
+                v.tail<3>() = d.block<3, 1>(0, 3);
+                return v;
+            };
+            ys[static_cast<std::size_t>(zero)] = CubicSpline<6>::Vector::Zero();
+            for (auto i = zero + 1; i < static_cast<std::ptrdiff_t>(xs.size()); ++i)
+                ys[static_cast<std::size_t>(i)] = value(i, ys[static_cast<std::size_t>(i - 1)].head<3>());
+            for (auto i = zero - 1; i >= 0; --i)
+                ys[static_cast<std::size_t>(i)] = value(i, ys[static_cast<std::size_t>(i + 1)].head<3>());
+            op.rigid = CubicSpline<6>(xs, ys);
+        }
+        else {
+            std::vector<CubicSpline<12>::Vector> ys;
+            for (double a : xs) {
+                CubicSpline<12>::Vector v = CubicSpline<12>::Vector::Zero();
+                if (a != 0.0) {
+                    const Eigen::Matrix4d d = c.delta(a, e) - Eigen::Matrix4d::Identity();
+                    for (int r = 0; r < 3; ++r)
+                        for (int col = 0; col < 4; ++col) v[4 * r + col] = d(r, col);
+                }
+                ys.push_back(v);
+            }
+            op.affine = CubicSpline<12>(xs, ys);
+        }
+        candidate.operators = {op};
+        candidate.operatorOfOutput.assign(c.outputs.size(), 0);
+        return true;
+    };
+    return refineAndValidate(c, entries, true, build, best, bestError);
+}
+
+}  // namespace
+
+Classification classifyParameter(RigProbe& probe, int index, const std::vector<Eigen::Matrix4d>& rest,
+                                 const LearnOptions& options)
+{
+    const RigParameter& parameter = probe.rig().parameters()[static_cast<std::size_t>(index)];
+    const auto& outputNames = probe.rig().outputs();
+    Classification result;
+    result.index = index;
+    result.model.parameter = parameter;
+    const double lo = parameter.min - parameter.defaultValue;
+    const double hi = parameter.max - parameter.defaultValue;
+    if (!(hi > lo) || (lo == 0.0 && hi == 0.0)) {
+        result.reason = "its range is empty (min = max = its rest value)";
+        return result;
+    }
+
+    // Sample the parameter alone, then check that the rest pose comes back.
+    const std::vector<double> offsets = initialOffsets(lo, hi, options.samples);
+    std::map<double, std::vector<Eigen::Matrix4d>> all;
+    for (double a : offsets) all[a] = probe.at(index, a);
+    const auto& again = probe.atRest();
+    for (std::size_t k = 0; k < rest.size(); ++k) {
+        const double moved = matrixError(again[k], rest[k], options.frameRadius);
+        if (moved > options.effectTolerance) {
+            result.reason = fmt::format("history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
+                                        "(its outputs depend on earlier evaluations, not on the parameters alone)",
+                                        outputNames[k], moved);
+            return result;
+        }
+    }
+
+    Context c{probe, index, options, {}, {}, {}, {}};
+    for (std::size_t k = 0; k < rest.size(); ++k) {
+        double moved = 0.0;
+        for (const auto& [a, worlds] : all) moved = std::max(moved, matrixError(worlds[k], rest[k], options.frameRadius));
+        if (moved > options.effectTolerance) {
+            c.outputs.push_back(static_cast<int>(k));
+            c.rest.push_back(rest[k]);
+            c.restInverse.push_back(rest[k].inverse());
+        }
+        result.effect = std::max(result.effect, moved);
+    }
+    if (c.outputs.empty()) {
+        result.reason = "no effect: no output moves when it alone changes (the others at their rest values)";
+        return result;
+    }
+    for (const auto& [a, worlds] : all) {
+        std::vector<Eigen::Matrix4d> mine;
+        for (int k : c.outputs) mine.push_back(worlds[static_cast<std::size_t>(k)]);
+        c.samples.worlds[a] = std::move(mine);
+    }
+    result.orderOffset = largestOffset(c);
+    result.orderWorlds = c.samples.worlds.at(result.orderOffset);
+
+    std::vector<std::size_t> everyOutput(c.outputs.size());
+    for (std::size_t e = 0; e < everyOutput.size(); ++e) everyOutput[e] = e;
+    Candidate best;
+    double bestError = std::numeric_limits<double>::infinity();
+    std::string form;
+    auto accept = [&](const Candidate& candidate, std::string how) {
+        result.modelled = true;
+        result.model.outputs = c.outputs;
+        result.model.operators = candidate.operators;
+        result.model.operatorOfOutput = candidate.operatorOfOutput;
+        result.model.form = std::move(how);
+        result.model.samples = c.sampleCount();
+        return result;
+    };
+
+    // 1. One analytic operator for every affected output.
+    for (OperatorKind kind : plausibleKinds(c, everyOutput)) {
+        Candidate candidate;
+        double error = std::numeric_limits<double>::infinity();
+        if (tryAnalytic(c, kind, everyOutput, candidate, error, form)) {
+            result.model.fitError = error;
+            return accept(candidate, form);
+        }
+        if (error < bestError) bestError = error;
+    }
+
+    // 2. One operator per output: analytic where one fits, sampled otherwise.
+    Candidate perOutput;
+    perOutput.operatorOfOutput.assign(c.outputs.size(), 0);
+    std::map<std::string, int> forms;
+    double worst = 0.0;
+    for (std::size_t e = 0; e < c.outputs.size(); ++e) {
+        const std::vector<std::size_t> one{e};
+        Candidate found;
+        double error = std::numeric_limits<double>::infinity();
+        std::string how;
+        bool ok = false;
+        for (OperatorKind kind : plausibleKinds(c, one)) {
+            Candidate candidate;
+            double candidateError = std::numeric_limits<double>::infinity();
+            if (tryAnalytic(c, kind, one, candidate, candidateError, how)) {
+                found = candidate;
+                error = candidateError;
+                ok = true;
+                break;
+            }
+        }
+        if (!ok) {
+            const auto kinds = plausibleKinds(c, one);
+            const bool rigid = std::find(kinds.begin(), kinds.end(), OperatorKind::rotation) != kinds.end()
+                               || std::find(kinds.begin(), kinds.end(), OperatorKind::translation) != kinds.end();
+            Candidate candidate;
+            double candidateError = std::numeric_limits<double>::infinity();
+            ok = (rigid && trySampled(c, e, true, candidate, candidateError))
+                 || trySampled(c, e, false, candidate, candidateError);
+            if (!ok) {
+                result.reason = fmt::format("no operator fits within epsilon {:g}: the best error is {:.3g} cm per unit "
+                                            "on {} after {} samples",
+                                            options.epsilon, std::min(bestError, candidateError),
+                                            outputNames[static_cast<std::size_t>(c.outputs[e])], c.sampleCount());
+                result.model = ModelledParameter{};
+                result.model.parameter = parameter;
+                return result;
+            }
+            found = candidate;
+            error = candidateError;
+            how = std::string(operatorKindName(candidate.operators.front().kind));
+        }
+        perOutput.operatorOfOutput[e] = static_cast<int>(perOutput.operators.size());
+        perOutput.operators.push_back(found.operators.front());
+        ++forms[how];
+        worst = std::max(worst, error);
+    }
+    std::string description = "per output:";
+    for (const auto& [how, count] : forms) description += fmt::format(" {} {}", count, how);
+    result.model.fitError = worst;
+    return accept(perOutput, description);
+}
+
+}  // namespace rig

@@ -1,0 +1,147 @@
+#include "inversion/learner.h"
+
+#include <chrono>
+#include <map>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+
+#include "inversion/classifier.h"
+#include "inversion/ordering.h"
+
+namespace rig {
+
+std::string_view ordererName(Orderer orderer) { return orderer == Orderer::talk ? "talk" : "structured"; }
+
+void LearnOptions::validate() const
+{
+    auto fail = [](std::string_view field, auto value, std::string_view rule) {
+        throw std::invalid_argument(fmt::format("LearnOptions::{} = {}: {}", field, value, rule));
+    };
+    if (!(epsilon > 0) || !std::isfinite(epsilon)) fail("epsilon", epsilon, "must be a positive number");
+    if (!(frameRadius > 0) || !std::isfinite(frameRadius)) fail("frameRadius", frameRadius, "must be a positive number");
+    if (samples < 2) fail("samples", samples, "must be at least 2");
+    if (maxSamples < samples) fail("maxSamples", maxSamples, "must be at least `samples`");
+    if (!(effectTolerance > 0) || !std::isfinite(effectTolerance))
+        fail("effectTolerance", effectTolerance, "must be a positive number");
+    if (validationPoses < 0) fail("validationPoses", validationPoses, "must not be negative");
+}
+
+double matrixError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double frameRadius)
+{
+    const Eigen::Matrix4d d = a - b;
+    const Eigen::Vector3d origin = d.block<3, 1>(0, 3);
+    double worst = origin.norm();
+    for (int c = 0; c < 3; ++c) worst = std::max(worst, (origin + frameRadius * d.block<3, 1>(0, c)).norm());
+    return worst;
+}
+
+namespace {
+
+// Angle between the orientations of two world matrices (scale removed), degrees.
+double rotationErrorDegrees(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
+{
+    auto orientation = [](const Eigen::Matrix4d& m) {
+        Eigen::Matrix3d r = m.block<3, 3>(0, 0);
+        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
+        return Eigen::Quaterniond(Eigen::Matrix3d(svd.matrixU() * svd.matrixV().transpose()));
+    };
+    // atan2 of the relative rotation's halves stays accurate near zero, where acos does not.
+    const Eigen::Quaterniond relative = orientation(a).conjugate() * orientation(b);
+    return 2.0 * std::atan2(relative.vec().norm(), std::abs(relative.w())) * 180.0 / std::numbers::pi;
+}
+
+ValidationSummary validate(RigProbe& probe, const Approximation& approximation, const std::vector<int>& indices,
+                           const LearnOptions& options)
+{
+    ValidationSummary summary;
+    summary.poses = options.validationPoses;
+    std::mt19937 rng(options.seed);
+    std::vector<Eigen::Matrix4d> approximated;
+    double positionSum = 0.0, rotationSum = 0.0;
+    std::size_t count = 0;
+    for (int pose = 0; pose < options.validationPoses; ++pose) {
+        std::vector<double> values = probe.defaults();
+        std::vector<double> modelled;
+        for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
+            const RigParameter& param = approximation.parameters[p].parameter;
+            const double v = std::uniform_real_distribution<double>(param.min, param.max)(rng);
+            values[static_cast<std::size_t>(indices[p])] = v;
+            modelled.push_back(v);
+        }
+        const std::vector<Eigen::Matrix4d> real = probe.atValues(values);
+        approximation.evaluate(modelled, approximated);
+        for (std::size_t k = 0; k < real.size(); ++k) {
+            const double position = (real[k].block<3, 1>(0, 3) - approximated[k].block<3, 1>(0, 3)).norm();
+            const double rotation = rotationErrorDegrees(real[k], approximated[k]);
+            positionSum += position;
+            rotationSum += rotation;
+            ++count;
+            if (position > summary.maxPositionErrorCm || summary.worstPose < 0) {
+                summary.maxPositionErrorCm = std::max(summary.maxPositionErrorCm, position);
+                if (position >= summary.maxPositionErrorCm) {
+                    summary.worstOutput = approximation.outputs[k].name;
+                    summary.worstPose = pose;
+                }
+            }
+            summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, rotation);
+        }
+        if (options.progress) options.progress("validating", static_cast<double>(pose + 1) / options.validationPoses);
+    }
+    if (count > 0) {
+        summary.meanPositionErrorCm = positionSum / static_cast<double>(count);
+        summary.meanRotationErrorDeg = rotationSum / static_cast<double>(count);
+    }
+    return summary;
+}
+
+}  // namespace
+
+Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile)
+{
+    options.validate();
+    const auto start = std::chrono::steady_clock::now();
+    const std::uint64_t evaluationsBefore = rig.evaluationCount();
+    RigProbe probe(rig);
+    const std::vector<Eigen::Matrix4d> rest = probe.atRest();
+    const auto& parameters = rig.parameters();
+
+    std::vector<Classification> classes;
+    std::vector<int> modelled;
+    for (std::size_t i = 0; i < parameters.size(); ++i) {
+        classes.push_back(classifyParameter(probe, static_cast<int>(i), rest, options));
+        if (classes.back().modelled) modelled.push_back(static_cast<int>(i));
+        if (options.progress) options.progress("classifying", static_cast<double>(i + 1) / static_cast<double>(parameters.size()));
+    }
+    const OrderResult order = orderParameters(probe, rest, classes, modelled, options);
+
+    Approximation result;
+    result.rigFile = rigFile;
+    result.rigFingerprint = rig.fingerprint();
+    result.epsilon = options.epsilon;
+    for (std::size_t k = 0; k < rest.size(); ++k) result.outputs.push_back({rig.outputs()[k], rest[k]});
+    std::vector<int> indices;
+    for (int p : order.order) {
+        result.parameters.push_back(classes[static_cast<std::size_t>(p)].model);
+        indices.push_back(p);
+    }
+    std::map<int, std::string> reasons;
+    for (const auto& c : classes)
+        if (!c.modelled) reasons[c.index] = c.reason;
+    for (const auto& [p, reason] : order.discards) reasons[p] = reason;
+    for (const auto& [p, reason] : reasons) result.discarded.push_back({parameters[static_cast<std::size_t>(p)], reason});
+
+    result.validation = validate(probe, result, indices, options);
+    result.training.evaluations = rig.evaluationCount() - evaluationsBefore;
+    result.training.orderEvaluations = order.evaluations;
+    result.training.orderer = std::string(ordererName(options.orderer));
+    if (!order.note.empty()) result.training.orderer += " (" + order.note + ")";
+    result.training.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return result;
+}
+
+}  // namespace rig

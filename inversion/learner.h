@@ -1,0 +1,57 @@
+#pragma once
+// Learning a rig's approximation (sections 3 and 4 of the talk, and past them): classify each
+// parameter by sampling it alone, order the parameters, validate on random poses.
+//
+// Errors between two world matrices are measured as the largest displacement of the output's frame
+// points within `frameRadius` cm of the joint (its origin and the ends of its axes): a length in cm
+// that covers rotation, scale and translation alike. A fit is valid when, at every sample a,
+// error(P(a) F_k(0), F_k(a)) / |a| < epsilon on every affected output k (the talk's test).
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+
+#include "inversion/approximation.h"
+#include "inversion/rig_function.h"
+
+namespace rig {
+
+enum class Orderer {
+    talk,        // insertion sort with a modified binary search over pairwise tests (1) and (2)
+    structured,  // tests only pairs whose affected outputs meet, using the nesting of affected sets
+};
+
+std::string_view ordererName(Orderer orderer);
+
+struct LearnOptions {
+    // Validation threshold, cm of frame-point displacement per unit of the parameter (radian, cm).
+    double epsilon = 1e-3;
+    // Radius of the frame whose points measure an error, cm.
+    double frameRadius = 10.0;
+    // Samples of each parameter alone over its range, before any refinement (at least 2).
+    int samples = 6;
+    // Most samples a parameter may use when its magnitude curve or sampled operator is refined.
+    int maxSamples = 64;
+    // An output moving less than this (cm) is not affected by a parameter.
+    double effectTolerance = 1e-7;
+    Orderer orderer = Orderer::structured;
+    // Random poses within the limits of the modelled parameters for the final validation.
+    int validationPoses = 50;
+    std::uint32_t seed = 1;
+    // Called with a stage name and the fraction done (0..1); may be empty.
+    std::function<void(std::string_view stage, double fraction)> progress;
+
+    // Throws std::invalid_argument naming the field and its bad value.
+    void validate() const;
+};
+
+// Learns the approximation of `rig` (its parameters all at their rest values but the one sampled).
+// `rigFile` is recorded in the approximation. Numerical outcomes (a parameter that fits nothing, a
+// pair that cannot be ordered) are recorded in Approximation::discarded, not thrown.
+Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile);
+
+// The error measure above, for two world matrices.
+double matrixError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double frameRadius);
+
+}  // namespace rig

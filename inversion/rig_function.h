@@ -1,0 +1,37 @@
+#pragma once
+// The rig as the learner sees it: a black box F(beta) from parameter values to the world matrices of
+// its outputs (the talk's rig function). It may be slow and is not thread-safe: a production rig is a
+// stateful graph. inversion/ never sees how it is computed.
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace rig {
+
+struct RigParameter {
+    std::string name;           // e.g. "L_arm_fk_ctrl.rotateX"
+    double defaultValue = 0.0;  // the rest value, internal units (radians for angles, cm)
+    double min = 0.0;           // the range sampled while learning and respected while solving
+    double max = 0.0;
+    bool angular = false;       // radians inside, degrees in files and reports
+};
+
+class RigFunction {
+public:
+    virtual ~RigFunction() = default;
+    virtual const std::vector<RigParameter>& parameters() const = 0;
+    // Names of the outputs (joints), in the order evaluate() writes them.
+    virtual const std::vector<std::string>& outputs() const = 0;
+    // World matrices of every output for these values of every parameter (internal units).
+    virtual void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) = 0;
+    // Rig evaluations so far: the training cost the talk counts.
+    virtual std::uint64_t evaluationCount() const = 0;
+    // Identifies the rig (its files' contents), so an approximation can tell it was made for another.
+    virtual std::string fingerprint() const = 0;
+};
+
+}  // namespace rig
