@@ -132,6 +132,7 @@ std::string readText(const std::filesystem::path& file, const std::string& what)
 struct LoadState {
     std::map<Plug, std::string> valueMarks;  // where each plug was given a value, for conflicts
     std::vector<std::string> includeStack;   // files being loaded, to refuse include cycles
+    std::vector<std::filesystem::path>* filesRead = nullptr;  // every file read, when asked for
 };
 
 // One file being loaded into a graph; an included file gets a loader of its own whose node names
@@ -225,6 +226,7 @@ private:
                     throw Error(fmt::format("{}: include cycle: {} is already being loaded; remove this include",
                                             at(entry["file"]), name));
             const std::string text = located(entry["file"], [&] { return readText(path, "included rig file"); });
+            if (state_.filesRead) state_.filesRead->push_back(path);
             state_.includeStack.push_back(name);
             Loader(name, graph_, ns.empty() ? prefix_ : fmt::format("{}{}:", prefix_, ns), state_).load(text);
             state_.includeStack.pop_back();
@@ -447,17 +449,33 @@ Value parseYamlValue(const YAML::Node& node, const Graph& graph, const Plug& plu
     return parseOne(node, graph.plugType(plug), graph.spec(plug), where);
 }
 
-std::unique_ptr<Graph> loadGraphText(std::string_view text, const std::string& fileName, std::shared_ptr<NodeRegistry> registry)
+namespace {
+
+std::unique_ptr<Graph> loadGraph(std::string_view text, const std::string& fileName, std::shared_ptr<NodeRegistry> registry,
+                                 std::vector<std::filesystem::path>* filesRead)
 {
     auto graph = std::make_unique<Graph>(std::move(registry));
-    LoadState state{{}, {fileName}};
+    LoadState state{{}, {fileName}, filesRead};
     Loader(fileName, *graph, "", state).load(text);
     return graph;
 }
 
-std::unique_ptr<Graph> loadGraphFile(const std::filesystem::path& file, std::shared_ptr<NodeRegistry> registry)
+}  // namespace
+
+std::unique_ptr<Graph> loadGraphText(std::string_view text, const std::string& fileName, std::shared_ptr<NodeRegistry> registry)
 {
-    return loadGraphText(readText(file, "rig file"), file.string(), std::move(registry));
+    return loadGraph(text, fileName, std::move(registry), nullptr);
+}
+
+std::unique_ptr<Graph> loadGraphFile(const std::filesystem::path& file, std::shared_ptr<NodeRegistry> registry,
+                                     std::vector<std::filesystem::path>* filesRead)
+{
+    std::string text = readText(file, "rig file");
+    if (filesRead) {
+        filesRead->clear();
+        filesRead->push_back(file);
+    }
+    return loadGraph(text, file.string(), std::move(registry), filesRead);
 }
 
 }  // namespace rig

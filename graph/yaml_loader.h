@@ -7,6 +7,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "graph/graph.h"
 
@@ -17,8 +18,13 @@ class Node;
 namespace rig {
 
 // Loads a rig file into a new graph whose types come from `registry` (plugins named by the file are
-// loaded into it). Throws rig::Error with "file:line:col: ..." for any problem in the file.
-std::unique_ptr<Graph> loadGraphFile(const std::filesystem::path& file, std::shared_ptr<NodeRegistry> registry);
+// loaded into it). Throws rig::Error with "file:line:col: ..." for any problem in the file. When
+// `filesRead` is given, it is cleared and receives every rig file read, in reading order: `file`
+// first, then each included file (the including file's folder joined with the include's name), once
+// per include (a crowd lists its biped file once per namespace), so a caller can tell when any of
+// them changes (RigFunction::fingerprint). Plugins are not files read and are not listed.
+std::unique_ptr<Graph> loadGraphFile(const std::filesystem::path& file, std::shared_ptr<NodeRegistry> registry,
+                                     std::vector<std::filesystem::path>* filesRead = nullptr);
 
 // The same from text; `fileName` is used in messages and its folder to look for plugins.
 std::unique_ptr<Graph> loadGraphText(std::string_view text, const std::string& fileName,

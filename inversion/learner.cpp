@@ -99,6 +99,32 @@ ValidationSummary validate(RigProbe& probe, const Approximation& approximation, 
     return summary;
 }
 
+// A parameter with no effect on its own may still change what others do (the axis of a bend that
+// turns with it): move it at a few random poses of the modelled parameters and look.
+std::string couplingReason(RigProbe& probe, const RigParameter& parameter, int index, const Approximation& approximation,
+                           const std::vector<int>& indices, const LearnOptions& options)
+{
+    std::mt19937 rng(options.seed + 7919u * static_cast<std::uint32_t>(index));
+    for (int pose = 0; pose < 3; ++pose) {
+        std::vector<double> values = probe.defaults();
+        for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
+            const RigParameter& param = approximation.parameters[p].parameter;
+            values[static_cast<std::size_t>(indices[p])] = std::uniform_real_distribution<double>(param.min, param.max)(rng);
+        }
+        const std::vector<Eigen::Matrix4d> held = probe.atValues(values);
+        values[static_cast<std::size_t>(index)] = parameter.max != parameter.defaultValue ? parameter.max : parameter.min;
+        const std::vector<Eigen::Matrix4d>& moved = probe.atValues(values);
+        for (std::size_t k = 0; k < held.size(); ++k) {
+            const double change = matrixError(held[k], moved[k], options.frameRadius);
+            if (change > options.effectTolerance)
+                return fmt::format("no effect on its own, but it changes what other parameters do (coupled: {} moved by "
+                                   "{:.3g} cm at a random pose); it is held at its rest value",
+                                   approximation.outputs[k].name, change);
+        }
+    }
+    return {};
+}
+
 }  // namespace
 
 Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile)
@@ -129,13 +155,18 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         result.parameters.push_back(classes[static_cast<std::size_t>(p)].model);
         indices.push_back(p);
     }
+    result.validation = validate(probe, result, indices, options);
+
     std::map<int, std::string> reasons;
     for (const auto& c : classes)
-        if (!c.modelled) reasons[c.index] = c.reason;
+        if (!c.modelled) {
+            const bool noEffect = c.reason.starts_with("no effect");
+            const std::string coupled = noEffect ? couplingReason(probe, c.model.parameter, c.index, result, indices, options)
+                                                 : std::string();
+            reasons[c.index] = coupled.empty() ? c.reason : coupled;
+        }
     for (const auto& [p, reason] : order.discards) reasons[p] = reason;
     for (const auto& [p, reason] : reasons) result.discarded.push_back({parameters[static_cast<std::size_t>(p)], reason});
-
-    result.validation = validate(probe, result, indices, options);
     result.training.evaluations = rig.evaluationCount() - evaluationsBefore;
     result.training.orderEvaluations = order.evaluations;
     result.training.orderer = std::string(ordererName(options.orderer));
