@@ -4,12 +4,16 @@
 
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace rig {
 
 class Error : public std::runtime_error {
 public:
-    using std::runtime_error::runtime_error;
+    // A NUL byte in the message (from a name in a binary file) is stored as the text \x00, since
+    // what() is read up to the first NUL.
+    explicit Error(const std::string& message);
+    explicit Error(const char* message) : Error(std::string(message)) {}
 };
 
 // A place in a text file, 1-based, as editors count.
@@ -21,5 +25,14 @@ struct SourceMark {
 
 // "file:line:col" (or just "file" when the line is unknown).
 std::string formatMark(const SourceMark& mark);
+
+// A message made safe to print as one line: control characters (a newline inside a quoted YAML
+// name, a NUL from binary garbage) and bytes that are not UTF-8 are written as escapes (\n, \x00,
+// \xff), and a message longer than
+// `maxLength` keeps its start (where) and end (what to do) around a note of what was cut.
+std::string oneLine(std::string_view message, std::size_t maxLength = 2000);
+
+// User text quoted in a message, cut to `maxLength` characters ("abc..." plus the full length).
+std::string messageExcerpt(std::string_view text, std::size_t maxLength = 80);
 
 }  // namespace rig

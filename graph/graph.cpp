@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <deque>
 #include <unordered_map>
 
@@ -64,12 +65,18 @@ const Graph::NodeRecord& Graph::record(NodeId node) const { return *nodes_.at(st
 NodeId Graph::addNode(std::string_view typeName, std::string_view name)
 {
     auto type = registry_->get(typeName);
+    if (name.size() > maxNameLength)
+        throw Error(fmt::format("a node name of {} characters is too long (at most {})", name.size(), maxNameLength));
     if (!validNodeName(name))
         throw Error(fmt::format("invalid node name '{}': use letters, digits, '_' and ':', not starting with a digit",
                                 name));
     if (const NodeId existing = findNode(name); existing >= 0)
         throw Error(fmt::format("duplicate node name '{}' (already a {}); node names must be unique", name,
                                 record(existing).type->name()));
+    if (nodeCount() >= maxNodes)
+        throw Error(fmt::format("more than {} nodes; this is not a rig (check includes that multiply, e.g. a file "
+                                "included twice at every level)",
+                                maxNodes));
     auto rec = std::make_unique<NodeRecord>();
     rec->name = std::string(name);
     rec->type = type;
@@ -82,6 +89,7 @@ NodeId Graph::addNode(std::string_view typeName, std::string_view name)
     }
     rec->outgoing.resize(rec->data.size());
     rec->impl = type->create();
+    nodeIndex_.emplace(rec->name, static_cast<NodeId>(nodes_.size()));
     nodes_.push_back(std::move(rec));
     topologyChanged();
     return static_cast<NodeId>(nodes_.size() - 1);
@@ -90,6 +98,9 @@ NodeId Graph::addNode(std::string_view typeName, std::string_view name)
 AttrId Graph::addAttribute(NodeId node, AttributeSpec spec)
 {
     NodeRecord& rec = record(node);
+    if (spec.name.size() > maxNameLength)
+        throw Error(fmt::format("node '{}': an attribute name of {} characters is too long (at most {})", rec.name,
+                                spec.name.size(), maxNameLength));
     if (!validNodeName(spec.name))
         throw Error(fmt::format("node '{}': invalid attribute name '{}'", rec.name, spec.name));
     for (const AttributeSpec& existing : *rec.specs)
@@ -112,9 +123,8 @@ AttrId Graph::addAttribute(NodeId node, AttributeSpec spec)
 
 NodeId Graph::findNode(std::string_view name) const
 {
-    for (std::size_t i = 0; i < nodes_.size(); ++i)
-        if (nodes_[i]->name == name) return static_cast<NodeId>(i);
-    return -1;
+    const auto it = nodeIndex_.find(std::string(name));
+    return it == nodeIndex_.end() ? -1 : it->second;
 }
 
 NodeId Graph::node(std::string_view name) const
@@ -123,7 +133,7 @@ NodeId Graph::node(std::string_view name) const
     if (n >= 0) return n;
     std::vector<std::string> names;
     for (const auto& rec : nodes_) names.push_back(rec->name);
-    throw Error(fmt::format("no node named '{}'{}", name, didYouMean(name, names)));
+    throw Error(fmt::format("no node named '{}'{}", messageExcerpt(name), didYouMean(name, names)));
 }
 
 const std::string& Graph::nodeName(NodeId node) const { return record(node).name; }
@@ -136,7 +146,8 @@ Plug Graph::plug(std::string_view path) const
 {
     const auto dot = path.find('.');
     if (dot == std::string_view::npos || dot == 0)
-        throw Error(fmt::format("'{}' is not a plug: expected node.attribute, e.g. elbow.rotateZ", path));
+        throw Error(
+            fmt::format("'{}' is not a plug: expected node.attribute, e.g. elbow.rotateZ", messageExcerpt(path)));
     const NodeId n = node(path.substr(0, dot));
     const NodeRecord& rec = record(n);
     std::string_view rest = path.substr(dot + 1);
@@ -149,18 +160,24 @@ Plug Graph::plug(std::string_view path) const
         const std::string_view digits = rest.substr(1, close == std::string_view::npos ? 0 : close - 1);
         int index = -1;
         const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), index);
+        if (close != std::string_view::npos && ec == std::errc::result_out_of_range && end == digits.data() + digits.size()
+            && digits.front() != '-')
+            throw Error(fmt::format("'{}': array index {} is above the limit {}", messageExcerpt(path),
+                                    messageExcerpt(digits), maxArrayIndex));
         if (close == std::string_view::npos || digits.empty() || ec != std::errc() || end != digits.data() + digits.size()
             || index < 0)
-            throw Error(fmt::format("'{}': bad array index; expected attribute[N] with N = 0, 1, ...", path));
+            throw Error(fmt::format("'{}': bad array index; expected attribute[N] with N = 0, 1, ...",
+                                    messageExcerpt(path)));
         if (index > maxArrayIndex)
-            throw Error(fmt::format("'{}': array index {} is above the limit {}", path, index, maxArrayIndex));
+            throw Error(
+                fmt::format("'{}': array index {} is above the limit {}", messageExcerpt(path), index, maxArrayIndex));
         p.index = index;
         rest.remove_prefix(close + 1);
     }
     std::string_view childName;
     if (!rest.empty()) {
         if (rest.front() != '.' || rest.size() < 2)
-            throw Error(fmt::format("'{}' is not a plug: unexpected '{}'", path, rest));
+            throw Error(fmt::format("'{}' is not a plug: unexpected '{}'", messageExcerpt(path), messageExcerpt(rest)));
         childName = rest.substr(1);
     }
 
@@ -184,11 +201,12 @@ Plug Graph::plug(std::string_view path) const
     }
     const AttributeSpec& spec = rec.spec(p.attr);
     if (p.index >= 0 && !spec.array)
-        throw Error(fmt::format("'{}': {} is not an array attribute; drop the [index]", path, spec.name));
+        throw Error(
+            fmt::format("'{}': {} is not an array attribute; drop the [index]", messageExcerpt(path), spec.name));
     if (!childName.empty()) {
         p.child = childIndex(spec, childName);
         if (p.child < 0)
-            throw Error(fmt::format("'{}': {} has no component '{}'{}", path, spec.name, childName,
+            throw Error(fmt::format("'{}': {} has no component '{}'{}", messageExcerpt(path), spec.name, childName,
                                     spec.type == ValueType::Vector3
                                         ? didYouMean(childName, {spec.childNames.begin(), spec.childNames.end()})
                                         : std::string("; only vector3 attributes have components")));
@@ -254,6 +272,12 @@ void Graph::writeStored(const Plug& p, const Value& value)
     if (rec.spec(p.attr).array) {
         const auto i = static_cast<std::size_t>(p.index);
         if (i >= d.elements.size()) {
+            const std::size_t growth = i + 1 - d.elements.size();
+            if (arrayElements_ + growth > maxArrayElements)
+                throw Error(fmt::format("{}: the rig's array attributes would hold more than {} elements in all; "
+                                        "elements are stored up to the highest index, so number them from 0",
+                                        plugName(p), maxArrayElements));
+            arrayElements_ += growth;
             d.elements.resize(i + 1, rec.spec(p.attr).defaultValue);
             d.present.resize(i + 1, false);
         }
@@ -280,9 +304,9 @@ const Connection* Graph::incomingConnection(const Plug& dst) const
 std::vector<NodeId> Graph::cyclePath(NodeId from, NodeId to) const
 {
     // Breadth-first over connections from `from`; returns the connection indices of a path to `to`.
-    std::vector<int> via(nodes_.size(), -2);
+    // Only the nodes reached are stored (not a table of every node): connecting stays cheap in big graphs.
+    std::unordered_map<NodeId, int> via{{from, -1}};
     std::deque<NodeId> queue{from};
-    via[static_cast<std::size_t>(from)] = -1;
     while (!queue.empty()) {
         const NodeId n = queue.front();
         queue.pop_front();
@@ -290,15 +314,14 @@ std::vector<NodeId> Graph::cyclePath(NodeId from, NodeId to) const
         for (const auto& list : record(n).outgoing)
             for (int ci : list) {
                 const NodeId next = connections_[static_cast<std::size_t>(ci)].destination.node;
-                if (via[static_cast<std::size_t>(next)] != -2) continue;
-                via[static_cast<std::size_t>(next)] = ci;
+                if (!via.emplace(next, ci).second) continue;
                 queue.push_back(next);
             }
     }
     std::vector<int> path;
-    if (via[static_cast<std::size_t>(to)] == -2) return path;
+    if (!via.contains(to)) return path;
     for (NodeId n = to; n != from;) {
-        const int ci = via[static_cast<std::size_t>(n)];
+        const int ci = via.at(n);
         path.push_back(ci);
         n = connections_[static_cast<std::size_t>(ci)].source.node;
     }
@@ -540,16 +563,57 @@ void Graph::evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots)
     for (NodeId n : list) processNode(n);
 }
 
+namespace {
+
+// A number in a message: NaN and infinities as words (fmt would print "-nan").
+std::string numberText(double x)
+{
+    if (std::isnan(x)) return "NaN";
+    if (std::isinf(x)) return x > 0 ? "infinity" : "-infinity";
+    return fmt::format("{}", x);
+}
+
+}  // namespace
+
+Value Graph::pulledValue(const Connection& c) const
+{
+    const ValueType from = plugType(c.source);
+    const ValueType to = plugType(c.destination);
+    const double factor = unitFactor(spec(c.source).unit, spec(c.destination).unit);
+    const Value source = readStored(c.source);
+    if ((to == ValueType::Int || to == ValueType::Enum) && from != ValueType::Int && from != ValueType::Enum) {
+        // A number computed upstream (NaN from a degenerate node, say) must not become an arbitrary int,
+        // nor an enum index the node has no entry for.
+        const double x = std::round(toDouble(source) * factor);
+        const AttributeSpec& s = spec(c.destination);
+        if (to == ValueType::Enum && !(x >= 0 && x < static_cast<double>(s.enumNames.size())))
+            throw Error(fmt::format("{} receives {} from {}, not one of its enum indices 0..{}; clamp or remap the "
+                                    "source",
+                                    plugName(c.destination), numberText(toDouble(source) * factor), plugName(c.source),
+                                    s.enumNames.size() - 1));
+        if (!(std::abs(x) <= 2147483647.0))
+            throw Error(fmt::format("{} receives {} from {}, which is not a whole number an int attribute holds; "
+                                    "clamp the source",
+                                    plugName(c.destination), numberText(toDouble(source) * factor), plugName(c.source)));
+    }
+    if (to == ValueType::Enum && (from == ValueType::Int || from == ValueType::Enum)) {
+        const int v = std::get<int>(source);
+        if (v < 0 || static_cast<std::size_t>(v) >= spec(c.destination).enumNames.size())
+            throw Error(fmt::format("{} receives {} from {}, not one of its enum indices 0..{}; clamp or remap the "
+                                    "source",
+                                    plugName(c.destination), v, plugName(c.source),
+                                    spec(c.destination).enumNames.size() - 1));
+    }
+    return convertValue(source, from, to, factor);
+}
+
 void Graph::processNode(NodeId node)
 {
     NodeRecord& rec = record(node);
     for (int ci : rec.incoming) {
         const Connection& c = connections_[static_cast<std::size_t>(ci)];
         if (!rec.data[static_cast<std::size_t>(c.destination.attr)].dirty) continue;
-        const ValueType from = plugType(c.source);
-        const ValueType to = plugType(c.destination);
-        writeStored(c.destination,
-                    convertValue(readStored(c.source), from, to, unitFactor(spec(c.source).unit, spec(c.destination).unit)));
+        writeStored(c.destination, pulledValue(c));
     }
     for (int ci : rec.incoming)
         rec.data[static_cast<std::size_t>(connections_[static_cast<std::size_t>(ci)].destination.attr)].dirty = false;

@@ -9,6 +9,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "graph/node_registry.h"
@@ -21,6 +22,12 @@ class Graph {
 public:
     // Array elements are stored densely: a typo like matrixIn[100000000] must not eat the memory.
     static constexpr int maxArrayIndex = 1 << 20;
+    // Limits that keep a damaged or hostile rig from eating the memory (docs/robustness.md): array
+    // elements of inputs over the whole graph (stored densely up to the highest index), nodes, and the
+    // length of node and attribute names.
+    static constexpr std::size_t maxArrayElements = std::size_t{1} << 22;
+    static constexpr int maxNodes = 1'000'000;
+    static constexpr std::size_t maxNameLength = 1000;
 
     explicit Graph(std::shared_ptr<NodeRegistry> registry);
     ~Graph();
@@ -102,6 +109,7 @@ private:
     const NodeRecord& record(NodeId node) const;
     AttrData& data(const Plug& plug);
     Value readStored(const Plug& plug) const;
+    Value pulledValue(const Connection& connection) const;
     void writeStored(const Plug& plug, const Value& value);
     void checkPlug(const Plug& plug) const;
 
@@ -118,6 +126,8 @@ private:
 
     std::shared_ptr<NodeRegistry> registry_;
     std::vector<std::unique_ptr<NodeRecord>> nodes_;
+    std::unordered_map<std::string, NodeId> nodeIndex_;  // name -> node: loading stays linear in size
+    std::size_t arrayElements_ = 0;                      // input array elements allocated, all nodes
     std::vector<Connection> connections_;
     std::unique_ptr<Schedule> schedule_;
     double time_ = 0.0;

@@ -29,7 +29,7 @@ std::shared_ptr<const NodeType> NodeRegistry::get(std::string_view name) const
 {
     const auto it = types_.find(name);
     if (it == types_.end())
-        throw Error(fmt::format("unknown node type '{}'{}", name, didYouMean(name, typeNames())));
+        throw Error(fmt::format("unknown node type '{}'{}", messageExcerpt(name), didYouMean(name, typeNames())));
     return it->second;
 }
 
@@ -74,6 +74,7 @@ std::vector<std::filesystem::path> candidates(std::string_view name, const std::
 
 std::filesystem::path NodeRegistry::loadPlugin(std::string_view name, const std::vector<std::filesystem::path>& searchPath)
 {
+    if (name.empty()) throw Error("a plugin name is empty; give a name (myNodes) or a path (./myNodes.so)");
     const auto files = candidates(name, searchPath);
     const auto found = std::find_if(files.begin(), files.end(),
                                     [](const std::filesystem::path& f) { return std::filesystem::is_regular_file(f); });

@@ -43,9 +43,14 @@ std::string closestName(std::string_view name, const std::vector<std::string>& c
         for (std::size_t k = 1; k <= c.size() && k <= name.size() && c[c.size() - k] == name[name.size() - k]; ++k) ++n;
         return n;
     };
+    // A name this long is no typo of anything (and the distance would cost its length squared).
+    if (name.size() > 256) return {};
     std::string best;
     std::size_t bestDistance = allowed + 1;
     for (const std::string& candidate : candidates) {
+        // The distance is at least the difference of the lengths: skip what cannot be close.
+        const std::size_t gap = candidate.size() > name.size() ? candidate.size() - name.size() : name.size() - candidate.size();
+        if (gap > allowed) continue;
         const std::size_t d = editDistance(name, candidate);
         if (d >= name.size()) continue;
         if (d < bestDistance || (d == bestDistance && !best.empty() && sharedEnds(candidate) > sharedEnds(best))) {

@@ -1,12 +1,19 @@
 #include "graph/yaml_loader.h"
 
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include <fmt/format.h>
+#include <yaml-cpp/depthguard.h>
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include "graph/error.h"
@@ -21,9 +28,39 @@ std::string markText(const std::string& file, const YAML::Mark& mark)
     return formatMark({file, mark.line + 1, mark.column + 1});
 }
 
+// Limits that keep damaged or hostile files from exhausting the stack or the memory
+// (docs/robustness.md).
+// (A rig file costs about a hundred times its size while it is parsed: yaml-cpp's nodes are heavy.)
+constexpr std::uintmax_t maxRigFileBytes = std::uintmax_t{16} << 20;
+constexpr std::size_t maxIncludeDepth = 64;
+constexpr int maxIncludedFiles = 20'000;
+
+// Counts what a YAML document holds, to tell an empty document from one with content.
+class DocumentContent : public YAML::EventHandler {
+public:
+    bool content = false;
+    YAML::Mark start;
+
+    void OnDocumentStart(const YAML::Mark& mark) override { start = mark; }
+    void OnDocumentEnd() override {}
+    void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+    void OnAlias(const YAML::Mark&, YAML::anchor_t) override { content = true; }
+    void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override { content = true; }
+    void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override
+    {
+        content = true;
+    }
+    void OnSequenceEnd() override {}
+    void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override
+    {
+        content = true;
+    }
+    void OnMapEnd() override {}
+};
+
 std::string describe(const YAML::Node& node)
 {
-    if (node.IsScalar()) return fmt::format("'{}'", node.Scalar());
+    if (node.IsScalar()) return fmt::format("'{}'", messageExcerpt(node.Scalar()));
     if (node.IsSequence()) return fmt::format("a list of {}", node.size());
     if (node.IsMap()) return "a map";
     return "nothing";
@@ -33,9 +70,20 @@ double parseNumber(const YAML::Node& node, const std::string& where)
 {
     if (!node.IsScalar()) throw Error(fmt::format("{}: expected a number, got {}", where, describe(node)));
     double x = 0.0;
-    if (!YAML::convert<double>::decode(node, x))
-        throw Error(fmt::format("{}: expected a number, got {}", where, describe(node)));
-    if (!std::isfinite(x)) throw Error(fmt::format("{}: {} is not a finite number", where, node.Scalar()));
+    if (!YAML::convert<double>::decode(node, x)) {
+        // yaml-cpp refuses numbers out of a double's range: 1e400 is too large, 1e-400 is (about) 0.
+        const std::string& text = node.Scalar();
+        char* end = nullptr;
+        errno = 0;
+        const double y = std::strtod(text.c_str(), &end);
+        if (text.empty() || end != text.c_str() + text.size() || errno != ERANGE)
+            throw Error(fmt::format("{}: expected a number, got {}", where, describe(node)));
+        if (std::isfinite(y)) return y;
+        throw Error(
+            fmt::format("{}: {} is not a finite number (too large for a double)", where, messageExcerpt(text)));
+    }
+    if (!std::isfinite(x))
+        throw Error(fmt::format("{}: {} is not a finite number", where, messageExcerpt(node.Scalar())));
     return x;
 }
 
@@ -54,7 +102,7 @@ Value parseOne(const YAML::Node& node, ValueType type, const AttributeSpec& spec
     case ValueType::Int: {
         const double x = parseNumber(node, where);
         if (x != std::floor(x) || std::abs(x) > 2e9)
-            throw Error(fmt::format("{}: expected a whole number, got {}", where, node.Scalar()));
+            throw Error(fmt::format("{}: expected a whole number, got {}", where, messageExcerpt(node.Scalar())));
         return static_cast<int>(x);
     }
     case ValueType::Bool: {
@@ -72,7 +120,7 @@ Value parseOne(const YAML::Node& node, ValueType type, const AttributeSpec& spec
             return index;
         std::string names;
         for (const auto& n : spec.enumNames) names += (names.empty() ? "" : ", ") + n;
-        throw Error(fmt::format("{}: '{}' is not one of {}{}", where, node.Scalar(), names,
+        throw Error(fmt::format("{}: '{}' is not one of {}{}", where, messageExcerpt(node.Scalar()), names,
                                 didYouMean(node.Scalar(), spec.enumNames)));
     }
     case ValueType::String:
@@ -120,19 +168,32 @@ Value parseOne(const YAML::Node& node, ValueType type, const AttributeSpec& spec
 std::string readText(const std::filesystem::path& file, const std::string& what)
 {
     std::error_code ec;
-    if (!std::filesystem::is_regular_file(file, ec)) throw Error(fmt::format("{}: no such {}", file.string(), what));
+    const auto status = std::filesystem::status(file, ec);
+    if (!std::filesystem::exists(status)) throw Error(fmt::format("{}: no such {}", file.string(), what));
+    if (std::filesystem::is_directory(status))
+        throw Error(fmt::format("{}: is a folder, not a rig file; give the path of a .yaml file", file.string()));
+    // A device or a pipe (/dev/zero, /dev/stdin) could be endless.
+    if (!std::filesystem::is_regular_file(status))
+        throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the path of a .yaml file",
+                                file.string()));
+    if (const auto size = std::filesystem::file_size(file, ec); !ec && size > maxRigFileBytes)
+        throw Error(fmt::format("{}: {} MB is too large for a {} (the limit is {} MB); split it into included files",
+                                file.string(), size >> 20, what, maxRigFileBytes >> 20));
     std::ifstream in(file, std::ios::binary);
+    if (!in)
+        throw Error(fmt::format("{}: cannot be read ({}); check its permissions", file.string(), std::strerror(errno)));
     std::ostringstream text;
     text << in.rdbuf();
-    if (!in && !in.eof()) throw Error(fmt::format("{}: cannot be read", file.string()));
+    if (in.bad()) throw Error(fmt::format("{}: cannot be read (a read error); check the file", file.string()));
     return text.str();
 }
 
 // What the loaders of one graph share across included files.
 struct LoadState {
     std::map<Plug, std::string> valueMarks;  // where each plug was given a value, for conflicts
-    std::vector<std::string> includeStack;   // files being loaded, to refuse include cycles
+    std::vector<std::filesystem::path> includeStack;  // files being loaded (canonical), to refuse include cycles
     std::vector<std::filesystem::path>* filesRead = nullptr;  // every file read, when asked for
+    int includedFiles = 0;                   // every file included so far, nested ones too
 };
 
 // One file being loaded into a graph; an included file gets a loader of its own whose node names
@@ -147,13 +208,43 @@ public:
     void load(std::string_view text)
     {
         YAML::Node root;
+        std::optional<std::pair<int, int>> second;
         try {
-            root = YAML::Load(std::string(text));
+            const std::string copy(text);
+            root = YAML::Load(copy);
+            second = secondYamlDocument(copy);
+        }
+        catch (const YAML::DeepRecursion& e) {
+            throw Error(fmt::format("{}: YAML lists and maps nested more than {} levels deep; a rig file nests a few "
+                                    "levels, so the file is damaged or not a rig file",
+                                    markText(file_, e.mark), e.depth() - 1));
         }
         catch (const YAML::ParserException& e) {
             throw Error(fmt::format("{}: YAML syntax error: {}", markText(file_, e.mark), e.msg));
         }
-        if (root.IsNull()) throw Error(fmt::format("{}: the file is empty; a rig file has a 'nodes:' list", file_));
+        // Only the first document would be read: a second one ('---' then more) is a mistake.
+        if (second)
+            throw Error(fmt::format("{}: '---' starts a second YAML document; a rig file is one document: remove "
+                                    "this line, or make the second part a file of its own and include it",
+                                    formatMark({file_, second->first + 1, second->second + 1})));
+        if (root.IsNull()) {
+            // Empty, or only comments; but yaml-cpp also reads nothing from some garbage (",a st").
+            int number = 0;
+            for (std::size_t start = 0; start < text.size();) {
+                const std::size_t end = std::min(text.find('\n', start), text.size());
+                std::string_view line = text.substr(start, end - start);
+                ++number;
+                start = end + 1;
+                const auto first = line.find_first_not_of(" \t\r");
+                if (first == std::string_view::npos) continue;
+                line.remove_prefix(first);
+                if (line.starts_with('#') || line.starts_with("---") || line.starts_with("...")) continue;
+                throw Error(fmt::format("{}: expected a map with 'nodes:' (and 'plugins:', 'connections:'), got "
+                                        "nothing YAML can read; is this a rig file?",
+                                        formatMark({file_, number, static_cast<int>(first) + 1})));
+            }
+            throw Error(fmt::format("{}: the file is empty; a rig file has a 'nodes:' list", file_));
+        }
         if (!root.IsMap())
             throw Error(fmt::format("{}: expected a map with 'nodes:' (and 'plugins:', 'connections:'), got {}",
                                     at(root), describe(root)));
@@ -195,12 +286,20 @@ private:
     {
         std::set<std::string> seen;
         for (const auto& entry : map) {
+            requireScalarKey(entry.first, what);
             const auto key = entry.first.Scalar();
             if (!seen.insert(key).second)
                 throw Error(fmt::format("{}: '{}' appears twice in {}", at(entry.first), key, what));
             if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
                 throw Error(fmt::format("{}: unknown key '{}' at {}{}", at(entry.first), key, what, didYouMean(key, allowed)));
         }
+    }
+
+    // A map key that is a list or a map ({[a, b]: 1}) has no name to check.
+    void requireScalarKey(const YAML::Node& key, const std::string& what) const
+    {
+        if (!key.IsScalar())
+            throw Error(fmt::format("{}: a key in {} must be a name, got {}", at(key), what, describe(key)));
     }
 
     void loadIncludes(const YAML::Node& includes)
@@ -221,14 +320,33 @@ private:
             }
             const auto path = (std::filesystem::path(file_).parent_path() / file).lexically_normal();
             const std::string name = path.string();
+            std::error_code ec;
+            const auto canonical = std::filesystem::weakly_canonical(path, ec);
             for (const auto& open : state_.includeStack)
-                if (std::filesystem::weakly_canonical(open) == std::filesystem::weakly_canonical(path))
+                if (open == canonical)
                     throw Error(fmt::format("{}: include cycle: {} is already being loaded; remove this include",
                                             at(entry["file"]), name));
+            if (state_.includeStack.size() > maxIncludeDepth)
+                throw Error(fmt::format("{}: includes nested more than {} files deep; check for a chain of files "
+                                        "including each other",
+                                        at(entry["file"]), maxIncludeDepth));
+            if (++state_.includedFiles > maxIncludedFiles)
+                throw Error(fmt::format("{}: more than {} included files in all; check for files that include the "
+                                        "same file several times at every level",
+                                        at(entry["file"]), maxIncludedFiles));
             const std::string text = located(entry["file"], [&] { return readText(path, "included rig file"); });
             if (state_.filesRead) state_.filesRead->push_back(path);
-            state_.includeStack.push_back(name);
-            Loader(name, graph_, ns.empty() ? prefix_ : fmt::format("{}{}:", prefix_, ns), state_).load(text);
+            const bool fromMainFile = state_.includeStack.size() == 1;
+            state_.includeStack.push_back(canonical);
+            try {
+                Loader(name, graph_, ns.empty() ? prefix_ : fmt::format("{}{}:", prefix_, ns), state_).load(text);
+            }
+            catch (const Error& e) {
+                // The error's place is in the included file; the main file's include that led there is
+                // added (once, by the main file's loader, not at every level).
+                if (!fromMainFile) throw;
+                throw Error(fmt::format("{} (included from {})", e.what(), at(entry["file"])));
+            }
             state_.includeStack.pop_back();
         }
     }
@@ -272,7 +390,7 @@ private:
 
         std::set<std::string> seen;
         for (const auto& entry : n)
-            if (!seen.insert(entry.first.Scalar()).second)
+            if (requireScalarKey(entry.first, who); !seen.insert(entry.first.Scalar()).second)
                 throw Error(fmt::format("{}: {}: '{}' appears twice", at(entry.first), who, entry.first.Scalar()));
         if (const auto added = n["addAttr"]) addAttributes(id, added, who);
 
@@ -283,8 +401,9 @@ private:
                 YamlFieldContext context{[&](const YAML::Node& y) { return fmt::format("{}: {}", at(y), who); }};
                 for (auto& [attr, value] : field->second(entry.second, context)) {
                     const Plug p{id, attr, -1, -1};
+                    const Value& v = value;  // (clang 14 cannot capture a structured binding)
                     noteValue(p, entry.second);
-                    located(entry.second, [&] { graph_.setValue(p, value); });
+                    located(entry.second, [&] { graph_.setValue(p, v); });
                 }
                 continue;
             }
@@ -322,10 +441,10 @@ private:
                 return;
             }
             for (const auto& item : value) {
-                if (!YAML::convert<int>::decode(item.first, element.index) || element.index < 0
-                    || element.index > Graph::maxArrayIndex)
-                    throw Error(fmt::format("{}: array index '{}' must be a whole number from 0 to {}", at(item.first),
-                                            item.first.Scalar(), Graph::maxArrayIndex));
+                if (!item.first.IsScalar() || !YAML::convert<int>::decode(item.first, element.index)
+                    || element.index < 0 || element.index > Graph::maxArrayIndex)
+                    throw Error(fmt::format("{}: {}: array index {} must be a whole number from 0 to {}", at(item.first),
+                                            graph_.plugName(p), describe(item.first), Graph::maxArrayIndex));
                 setFromYaml(element, item.second);
             }
             return;
@@ -380,8 +499,11 @@ private:
             if (spec.type == ValueType::Enum && spec.enumNames.empty())
                 throw Error(fmt::format("{}: {}: an enum attribute needs 'enum: [names...]'", at(a), who));
             const double scale = unitFactor(Unit::None, spec.unit);
-            if (const auto v = a["min"]) spec.min = parseNumber(v, at(v)) * scale;
-            if (const auto v = a["max"]) spec.max = parseNumber(v, at(v)) * scale;
+            auto limit = [&](const YAML::Node& v, const char* key) {
+                return parseNumber(v, fmt::format("{}: {}: {} of '{}'", at(v), who, key, spec.name)) * scale;
+            };
+            if (const auto v = a["min"]) spec.min = limit(v, "min");
+            if (const auto v = a["max"]) spec.max = limit(v, "max");
             if (spec.min && spec.max && *spec.min > *spec.max)
                 throw Error(fmt::format("{}: {}: min is above max", at(a), who));
             if (const auto v = a["keyable"]) spec.keyable = std::get<bool>(parseOne(v, ValueType::Bool, spec, at(v)));
@@ -398,21 +520,22 @@ private:
     void setParent(NodeId child, const YAML::Node& value)
     {
         if (!value.IsScalar()) throw Error(fmt::format("{}: 'parent' is a node name, got {}", at(value), describe(value)));
-        located(value, [&] {
-            const NodeId parent = graph_.node(prefix_ + value.Scalar());
-            const std::string childName = graph_.nodeName(child);
-            const std::string parentName = graph_.nodeName(parent);
-            connectAt(value, graph_.plug(parentName + ".worldMatrix"), graph_.plug(childName + ".parentMatrix"));
-            // Maya connects a parent joint's scale into its child joint's inverseScale.
-            if (graph_.nodeType(parent).findAttribute("scale") >= 0 && graph_.nodeType(child).findAttribute("inverseScale") >= 0)
-                connectAt(value, graph_.plug(parentName + ".scale"), graph_.plug(childName + ".inverseScale"));
+        const auto [parent, world, parentMatrix] = located(value, [&] {
+            const NodeId p = graph_.node(prefix_ + value.Scalar());
+            return std::tuple(p, graph_.plug(graph_.nodeName(p) + ".worldMatrix"),
+                              graph_.plug(graph_.nodeName(child) + ".parentMatrix"));
         });
+        connectAt(value, world, parentMatrix);
+        // Maya connects a parent joint's scale into its child joint's inverseScale.
+        if (graph_.nodeType(parent).findAttribute("scale") >= 0 && graph_.nodeType(child).findAttribute("inverseScale") >= 0)
+            connectAt(value, graph_.plug(graph_.nodeName(parent) + ".scale"),
+                      graph_.plug(graph_.nodeName(child) + ".inverseScale"));
     }
 
     void connectAt(const YAML::Node& where, const Plug& source, const Plug& destination)
     {
         if (const auto it = state_.valueMarks.find(destination); it != state_.valueMarks.end())
-            throw Error(fmt::format("{} is given a value at {} and a connection; remove one of them",
+            throw Error(fmt::format("{}: {} is given a value at {} and a connection; remove one of them", at(where),
                                     graph_.plugName(destination), it->second));
         located(where, [&] { graph_.connect(source, destination); });
     }
@@ -444,6 +567,19 @@ private:
 
 }  // namespace
 
+std::optional<std::pair<int, int>> secondYamlDocument(const std::string& text)
+{
+    // Not YAML::LoadAll: yaml-cpp 0.7 returns empty documents without end on some malformed text
+    // (",a st\ning", found by fuzz/rig_loader_fuzzer) until the memory runs out. Two documents at most.
+    std::istringstream in(text);
+    YAML::Parser parser(in);
+    DocumentContent first;
+    if (!parser.HandleNextDocument(first)) return std::nullopt;
+    DocumentContent next;
+    if (!parser.HandleNextDocument(next) || !next.content) return std::nullopt;
+    return std::pair(next.start.line, next.start.column);
+}
+
 Value parseYamlValue(const YAML::Node& node, const Graph& graph, const Plug& plug, const std::string& where)
 {
     return parseOne(node, graph.plugType(plug), graph.spec(plug), where);
@@ -455,7 +591,8 @@ std::unique_ptr<Graph> loadGraph(std::string_view text, const std::string& fileN
                                  std::vector<std::filesystem::path>* filesRead)
 {
     auto graph = std::make_unique<Graph>(std::move(registry));
-    LoadState state{{}, {fileName}, filesRead};
+    std::error_code ec;
+    LoadState state{{}, {std::filesystem::weakly_canonical(fileName, ec)}, filesRead, 0};
     Loader(fileName, *graph, "", state).load(text);
     return graph;
 }

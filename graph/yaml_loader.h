@@ -5,8 +5,10 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "graph/graph.h"
@@ -29,6 +31,10 @@ std::unique_ptr<Graph> loadGraphFile(const std::filesystem::path& file, std::sha
 // The same from text; `fileName` is used in messages and its folder to look for plugins.
 std::unique_ptr<Graph> loadGraphText(std::string_view text, const std::string& fileName,
                                      std::shared_ptr<NodeRegistry> registry);
+
+// Where a second YAML document begins in `text` (a '---' line followed by content), as 0-based line and
+// column; nothing when the text holds one document. Throws YAML::ParserException on a syntax error.
+std::optional<std::pair<int, int>> secondYamlDocument(const std::string& text);
 
 // Parses a value for `plug` written in the file's units (degrees for angles): a number, a bool, an
 // enum name or index, a string, [x, y, z], a 4x4 matrix as four rows, or a list for arrays.

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -24,18 +25,25 @@ int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
         return app.exit(e);
     }
     catch (const CLI::ParseError& e) {
-        std::cerr << fmt::format("error: {}; run '{} --help' for usage\n", e.what(), app.get_name());
+        std::cerr << fmt::format("error: {}; run '{} --help' for usage\n", oneLine(e.what()), app.get_name());
         return 2;
     }
+    // Messages quote what the user wrote (a name with a newline in it, a 10 MB line): oneLine keeps
+    // them one printable line of bounded length.
     try {
         return body();
     }
     catch (const Error& e) {
-        std::cerr << "error: " << e.what() << '\n';
+        std::cerr << "error: " << oneLine(e.what()) << '\n';
+        return 2;
+    }
+    catch (const std::bad_alloc&) {
+        std::cerr << "error: out of memory; the input is too large for this machine (see docs/robustness.md for "
+                     "the limits)\n";
         return 2;
     }
     catch (const std::exception& e) {
-        std::cerr << "internal error: " << e.what() << '\n';
+        std::cerr << "internal error: " << oneLine(e.what()) << '\n';
         return 1;
     }
 }
@@ -45,7 +53,11 @@ std::vector<double> FrameRange::frames() const
     std::vector<double> out;
     const auto count = static_cast<long long>(std::floor((last - first) / step + 1e-9));
     // Rounded to 1e-9 frames so 1:2:0.1 gives 1.7, not 1.7000000000000002.
-    for (long long i = 0; i <= count; ++i) out.push_back(std::round((first + static_cast<double>(i) * step) * 1e9) / 1e9);
+    for (long long i = 0; i <= count; ++i) {
+        const double frame = first + static_cast<double>(i) * step;
+        // (Far from 0 the rounding would overflow, and a double has no 1e-9 digits there anyway.)
+        out.push_back(std::abs(frame) < 1e6 ? std::round(frame * 1e9) / 1e9 : frame);
+    }
     return out;
 }
 
@@ -75,11 +87,59 @@ FrameRange parseFrameRange(std::string_view text, std::string_view flag)
     return range;
 }
 
+namespace {
+
+std::string temporaryPrefix(const std::filesystem::path& file) { return "." + file.filename().string() + "."; }
+
+std::filesystem::path folderOf(const std::filesystem::path& file)
+{
+    return file.has_parent_path() ? file.parent_path() : std::filesystem::path(".");
+}
+
+}  // namespace
+
+void checkOutputFile(const std::filesystem::path& file, std::string_view example)
+{
+    if (file.empty()) throw Error("the output file name is empty; give -o FILE");
+    std::error_code ec;
+    if (std::filesystem::is_directory(file, ec) || !file.has_filename())
+        throw Error(fmt::format("{}: is a folder; give a file name, e.g. -o {}", file.string(),
+                                (file / example).lexically_normal().string()));
+    const auto folder = folderOf(file);
+    if (!std::filesystem::is_directory(folder, ec))
+        throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable", file.string(),
+                                std::filesystem::exists(folder, ec) ? "Not a directory" : "No such file or directory"));
+}
+
+std::vector<std::filesystem::path> staleTemporaryFiles(const std::filesystem::path& file)
+{
+    std::vector<std::filesystem::path> stale;
+    const std::string prefix = temporaryPrefix(file);
+    std::error_code ec;
+    for (const auto& entry : std::filesystem::directory_iterator(folderOf(file), ec)) {
+        const std::string name = entry.path().filename().string();
+        if (!name.starts_with(prefix) || !name.ends_with(".tmp")) continue;
+        // PID.XXXXXX.tmp after the prefix.
+        const std::string_view rest = std::string_view(name).substr(prefix.size());
+        long long pid = 0;
+        const auto [end, err] = std::from_chars(rest.data(), rest.data() + rest.size(), pid);
+        if (err != std::errc() || pid <= 0 || pid > 0x7fffffff || rest.size() != static_cast<std::size_t>(end - rest.data()) + 11
+            || *end != '.')
+            continue;
+        if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) stale.push_back(entry.path());
+    }
+    return stale;
+}
+
 void writeFileAtomically(const std::filesystem::path& file, std::string_view content)
 {
-    const auto folder = file.has_parent_path() ? file.parent_path() : std::filesystem::path(".");
-    std::string tmpl = (folder / ("." + file.filename().string() + ".XXXXXX")).string();
-    const int fd = mkstemp(tmpl.data());
+    checkOutputFile(file);
+    for (const auto& old : staleTemporaryFiles(file)) {
+        std::error_code ec;
+        std::filesystem::remove(old, ec);
+    }
+    std::string tmpl = (folderOf(file) / fmt::format("{}{}.XXXXXX.tmp", temporaryPrefix(file), ::getpid())).string();
+    const int fd = mkstemps(tmpl.data(), 4);
     if (fd < 0) throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable",
                                         file.string(), std::strerror(errno)));
     bool ok = true;
@@ -88,13 +148,25 @@ void writeFileAtomically(const std::filesystem::path& file, std::string_view con
         ok = n > 0;
         if (ok) rest.remove_prefix(static_cast<std::size_t>(n));
     }
-    ok = ::fsync(fd) == 0 && ok;
-    ok = ::close(fd) == 0 && ok;
-    // mkstemp creates 0600; outputs are ordinary files.
+    int error = ok ? 0 : errno;
+    if (::fsync(fd) != 0 && ok) {
+        ok = false;
+        error = errno;
+    }
+    if (::close(fd) != 0 && ok) {
+        ok = false;
+        error = errno;
+    }
+    // mkstemps creates 0600; outputs are ordinary files.
     ::chmod(tmpl.c_str(), 0644);
-    if (!ok || std::rename(tmpl.c_str(), file.c_str()) != 0) {
+    if (ok && std::rename(tmpl.c_str(), file.c_str()) != 0) {
+        ok = false;
+        error = errno;
+    }
+    if (!ok) {
         std::remove(tmpl.c_str());
-        throw Error(fmt::format("{}: writing failed ({})", file.string(), std::strerror(errno)));
+        throw Error(fmt::format("{}: writing failed ({}); check the free space and the folder's permissions",
+                                file.string(), std::strerror(error)));
     }
 }
 

@@ -24,8 +24,19 @@ struct FrameRange {
 // Throws rig::Error naming the flag when the text is not a valid range.
 FrameRange parseFrameRange(std::string_view text, std::string_view flag);
 
+// Checks, before any work, that `file` can be an output: a non-empty name, not a folder, in a folder
+// that exists. Throws rig::Error with what to do.
+// `example` is the file name the message suggests when `file` is a folder.
+void checkOutputFile(const std::filesystem::path& file, std::string_view example = "out.json");
+
 // Writes through a temporary file in the same folder and renames it, so a failing or interrupted run
 // never leaves a truncated file or damages an existing one. Throws rig::Error when it cannot.
+// The temporary file is ".NAME.PID.XXXXXX.tmp" (PID: the writing process). A process killed while
+// writing leaves it behind; the next write of NAME removes those whose process is gone.
 void writeFileAtomically(const std::filesystem::path& file, std::string_view content);
+
+// The temporary files of `file` that writeFileAtomically left behind in a killed process: the names
+// match ".NAME.PID.XXXXXX.tmp" and no process PID is running. Exposed for tests.
+std::vector<std::filesystem::path> staleTemporaryFiles(const std::filesystem::path& file);
 
 }  // namespace rig::cli

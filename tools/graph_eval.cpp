@@ -1,4 +1,5 @@
 // graph-eval: evaluates a rig graph file, setting and reading plugs, over a frame range.
+#include <charconv>
 #include <chrono>
 #include <iostream>
 #include <optional>
@@ -24,8 +25,10 @@ struct Options {
     std::vector<std::string> sets;
     std::vector<std::string> gets;
     std::string frames;
+    bool framesGiven = false;  // --frames given, possibly empty
     std::string format = "json";
     std::string output;
+    bool outputGiven = false;  // -o given, possibly with an empty name
     std::vector<std::string> plugins;
     bool dot = false;
     bool types = false;
@@ -41,15 +44,34 @@ void applySet(Graph& graph, const std::string& assignment)
         throw Error(fmt::format("--set '{}': expected node.attr=VALUE, e.g. --set elbow.rotateZ=45", assignment));
     const Plug plug = graph.plug(assignment.substr(0, eq));
     const std::string where = fmt::format("--set {}", assignment.substr(0, eq));
+    if (!graph.spec(plug).input)
+        throw Error(fmt::format("cannot set {}: it is an output, computed by its node", graph.plugName(plug)));
     YAML::Node value;
+    bool valid = true;
     try {
         value = YAML::Load(assignment.substr(eq + 1));
+        valid = !secondYamlDocument(assignment.substr(eq + 1));
     }
     catch (const YAML::Exception&) {
+        valid = false;
+    }
+    if (!valid)
         throw Error(fmt::format("{}: '{}' is not a value; numbers, true/false, names, [x, y, z]", where,
                                 assignment.substr(eq + 1)));
-    }
     graph.setValue(plug, parseYamlValue(value, graph, plug, where));
+}
+
+// Runs an evaluation, naming the rig and the frame in front of an error a node met (a malformed clip,
+// a NaN driving an enum): the message alone does not say when it happened.
+template <class F>
+void evaluating(const Options& options, double frame, F&& f)
+{
+    try {
+        f();
+    }
+    catch (const Error& e) {
+        throw Error(fmt::format("{}: evaluating frame {}: {}", options.rig, frame, e.what()));
+    }
 }
 
 std::string joinCsv(const std::vector<std::vector<std::string>>& rows)
@@ -79,15 +101,32 @@ std::string alignTable(const std::vector<std::vector<std::string>>& rows)
     return out;
 }
 
+// The output is built in memory (and written atomically): past this size the run stops with an error
+// instead of exhausting the memory. A CSV of every joint matrix of the biped over 10000 frames is
+// about 300 MB.
+constexpr std::size_t maxOutputBytes = std::size_t{1} << 30;
+
 std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vector<double>& frames, bool useTime,
                    const Options& options)
 {
     std::string out;
     std::vector<std::vector<std::string>> table;
+    std::size_t tableBytes = 0;
     bool firstRow = true;
+    auto checkSize = [&](std::size_t bytes, std::size_t framesDone) {
+        // After the first frame, the size of the whole output is estimated; later the real size is checked.
+        const double estimate = framesDone == 1 ? static_cast<double>(bytes) * static_cast<double>(frames.size())
+                                                : static_cast<double>(bytes);
+        if (estimate > static_cast<double>(maxOutputBytes))
+            throw Error(fmt::format("the output would be about {} MB ({} frames of {} plugs), more than the limit of {} "
+                                    "MB; ask for fewer frames (--frames) or plugs (--get)",
+                                    static_cast<long long>(estimate / 1e6), frames.size(), plugs.size(),
+                                    maxOutputBytes >> 20));
+    };
+    std::size_t framesDone = 0;
     for (double frame : frames) {
         if (useTime) graph.setTime(frame);
-        graph.evaluate(plugs);
+        evaluating(options, frame, [&] { graph.evaluate(plugs); });
         if (options.check) {
             const auto mismatches = graph.checkEvaluation();
             if (!mismatches.empty()) {
@@ -99,7 +138,9 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
             }
         }
         std::vector<Value> values;
-        for (const Plug& p : plugs) values.push_back(graph.getValue(p));
+        evaluating(options, frame, [&] {
+            for (const Plug& p : plugs) values.push_back(graph.getValue(p));
+        });
         if (options.format == "json") {
             out += firstRow ? "[\n" : ",\n";
             out += fmt::format("  {{\"frame\": {}", frame);
@@ -119,15 +160,24 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
             for (std::size_t i = 0; i < plugs.size(); ++i)
                 for (const auto& field : cli::csvFields(graph, plugs[i], values[i], digits)) row.push_back(field);
             table.push_back(row);
+            for (const auto& cell : row) tableBytes += cell.size() + 2;
+            // CSV rows are joined as they come; only the table needs every row to align its columns.
+            if (options.format == "csv") {
+                out += joinCsv(table);
+                table.clear();
+            }
         }
         firstRow = false;
+        checkSize(options.format == "table" ? tableBytes : out.size(), ++framesDone);
     }
     if (options.format == "json") return out + "\n]\n";
-    return options.format == "csv" ? joinCsv(table) : alignTable(table);
+    return options.format == "csv" ? out : alignTable(table);
 }
 
 int run(const Options& options)
 {
+    // A bad -o is reported before any work.
+    if (options.outputGiven) cli::checkOutputFile(options.output);
     auto registry = makeBuiltinRegistry();
     for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
     std::string text;
@@ -139,10 +189,10 @@ int run(const Options& options)
         graph->setThreads(options.threads);
         for (const auto& s : options.sets) applySet(*graph, s);
         std::optional<cli::FrameRange> range;
-        if (!options.frames.empty()) range = cli::parseFrameRange(options.frames, "--frames");
+        if (options.framesGiven) range = cli::parseFrameRange(options.frames, "--frames");
         // Array outputs have elements only once computed; globs see them after a first evaluation.
         if (range) graph->setTime(range->first);
-        graph->evaluateAll();
+        evaluating(options, graph->time(), [&] { graph->evaluateAll(); });
         std::vector<Plug> plugs;
         if (options.gets.empty()) {
             for (const Plug& p : allPlugs(*graph))
@@ -169,7 +219,7 @@ int run(const Options& options)
                                      graph->nodeCount(), graph->connections().size(), graph->threads(), frames.size(),
                                      graph->computeCount() - computesBefore, 1e3 * seconds / static_cast<double>(frames.size()));
     }
-    if (options.output.empty()) std::cout << text;
+    if (!options.outputGiven) std::cout << text;
     else cli::writeFileAtomically(options.output, text);
     return 0;
 }
@@ -202,9 +252,21 @@ int main(int argc, char** argv)
     app.add_flag("--types", options.types, "Print the reference of every node type (Markdown) and exit");
     app.add_flag("--dot", options.dot, "Print the graph in Graphviz dot format instead of evaluating");
     app.add_option("--threads", options.threads, "Evaluation threads: 1 serial, N parallel, 0 all cores")
-        ->check(CLI::Range(0, 1024));
+        ->check(CLI::Validator(
+            [](std::string& text) {
+                int n = -1;
+                const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
+                if (ec != std::errc() || end != text.data() + text.size() || n < 0 || n > 1024)
+                    return fmt::format("'{}' is not a thread count; give a whole number from 0 (all cores) to 1024", text);
+                return std::string();
+            },
+            "0..1024"));
     app.add_flag("--stats", options.stats, "Print node, connection and computation counts and timing to stderr");
     app.add_flag("--check", options.check,
                  "Checked mode: after each frame recompute everything from scratch and fail on any difference");
-    return rig::cli::runMain(app, argc, argv, [&] { return rig::run(options); });
+    return rig::cli::runMain(app, argc, argv, [&] {
+        options.outputGiven = app.count("--output") > 0;
+        options.framesGiven = app.count("--frames") > 0;
+        return rig::run(options);
+    });
 }

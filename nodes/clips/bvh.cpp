@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -75,27 +76,16 @@ public:
     Parser(std::string_view text, const std::string& file) : file_(file)
     {
         if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+        text_ = text;
+        // The number of the last line holding anything, for messages about a file that ends too early.
         int number = 1;
-        std::size_t i = 0;
-        while (i <= text.size()) {
-            std::size_t end = i;
-            while (end < text.size() && text[end] != '\n' && text[end] != '\r') ++end;
-            Line line{number, {}};
-            std::string_view rest = text.substr(i, end - i);
-            std::size_t p = 0;
-            while (p < rest.size()) {
-                while (p < rest.size() && std::isspace(static_cast<unsigned char>(rest[p]))) ++p;
-                const std::size_t start = p;
-                while (p < rest.size() && !std::isspace(static_cast<unsigned char>(rest[p]))) ++p;
-                if (p > start) line.tokens.push_back(rest.substr(start, p - start));
-            }
-            if (!line.tokens.empty()) lines_.push_back(std::move(line));
-            if (end >= text.size()) break;
-            i = end + (text[end] == '\r' && end + 1 < text.size() && text[end + 1] == '\n' ? 2 : 1);
-            ++number;
+        for (std::size_t i = 0; i < text_.size(); ++i) {
+            const char c = text_[i];
+            if (c == '\n' || (c == '\r' && (i + 1 >= text_.size() || text_[i + 1] != '\n'))) ++number;
+            else if (!std::isspace(static_cast<unsigned char>(c))) lastLine_ = number;
         }
-        lastLine_ = lines_.empty() ? 1 : lines_.back().number;
         clip_.file = file;
+        nextLine();
     }
 
     BvhClip parse()
@@ -107,20 +97,39 @@ public:
     }
 
 private:
-    struct Line {
-        int number = 0;
-        std::vector<std::string_view> tokens;
-    };
+    // The text is read a line at a time (only the current line's tokens are kept: a long clip costs
+    // its values, not a token list per value). Blank lines are skipped.
+    void nextLine()
+    {
+        tokens_.clear();
+        ti_ = 0;
+        while (tokens_.empty() && pos_ < text_.size()) {
+            std::size_t end = pos_;
+            while (end < text_.size() && text_[end] != '\n' && text_[end] != '\r') ++end;
+            const std::string_view rest = text_.substr(pos_, end - pos_);
+            std::size_t p = 0;
+            while (p < rest.size()) {
+                while (p < rest.size() && std::isspace(static_cast<unsigned char>(rest[p]))) ++p;
+                const std::size_t start = p;
+                while (p < rest.size() && !std::isspace(static_cast<unsigned char>(rest[p]))) ++p;
+                if (p > start) tokens_.push_back(rest.substr(start, p - start));
+            }
+            lineNumber_ = nextNumber_;
+            if (end >= text_.size()) pos_ = text_.size();
+            else {
+                pos_ = end + (text_[end] == '\r' && end + 1 < text_.size() && text_[end + 1] == '\n' ? 2 : 1);
+                ++nextNumber_;
+            }
+        }
+        if (!tokens_.empty()) ++lineIndex_;
+    }
 
-    bool atEnd() const { return li_ >= lines_.size(); }
-    std::string_view peek() const { return lines_[li_].tokens[ti_]; }
-    int line() const { return atEnd() ? lastLine_ : lines_[li_].number; }
+    bool atEnd() const { return tokens_.empty(); }
+    std::string_view peek() const { return tokens_[ti_]; }
+    int line() const { return atEnd() ? lastLine_ : lineNumber_; }
     void advance()
     {
-        if (++ti_ >= lines_[li_].tokens.size()) {
-            ++li_;
-            ti_ = 0;
-        }
+        if (++ti_ >= tokens_.size()) nextLine();
     }
     std::string_view take()
     {
@@ -204,12 +213,12 @@ private:
         const BvhJoint& j = clip_.joints[static_cast<std::size_t>(joint)];
         const std::string name = j.name;
         const int endLine = line();
-        const std::size_t siteLine = li_;
+        const std::size_t siteLine = lineIndex_;
         const std::string_view site = takeOrFail(truncated(joint));
         if (!iequals(site, "Site"))
             fail(endLine, fmt::format("expected 'Site' after 'End' in joint '{}', found '{}'; write End Site", name, site));
         if (j.endSite) fail(endLine, fmt::format("joint '{}' has a second End Site; a joint ends in at most one", name));
-        while (!atEnd() && li_ == siteLine && peek() != "{") advance();  // "End Site name": the name is dropped
+        while (!atEnd() && lineIndex_ == siteLine && peek() != "{") advance();  // "End Site name": the name is dropped
         const int l1 = line();
         if (const auto t = takeOrFail(truncated(joint)); t != "{")
             fail(l1, fmt::format("expected '{{' after End Site of joint '{}', found '{}'; open the End Site with '{{'",
@@ -239,12 +248,15 @@ private:
                                           bvhMaxDepth));
         // The name is the rest of the keyword's line (it may hold spaces), up to a '{'.
         std::string name;
-        const std::size_t nameLine = li_;
-        while (!atEnd() && li_ == nameLine && ti_ > 0 && peek() != "{") {
+        const std::size_t nameLine = lineIndex_;
+        while (!atEnd() && lineIndex_ == nameLine && ti_ > 0 && peek() != "{") {
             name += name.empty() ? "" : " ";
             name += take();
         }
         if (name.empty()) fail(keywordLine, fmt::format("{} without a name; write {} NAME", keyword, keyword));
+        if (name.size() > static_cast<std::size_t>(bvhMaxNameLength))
+            fail(keywordLine, fmt::format("the name of {} '{}' has {} characters, more than {}; shorten it", keyword,
+                                          excerpt(name), name.size(), bvhMaxNameLength));
 
         const int joint = static_cast<int>(clip_.joints.size());
         BvhJoint j;
@@ -348,14 +360,13 @@ private:
     std::string headerLine(std::string_view key, std::string_view expected, const std::string& ifTruncated, int& number)
     {
         if (atEnd()) fail(lastLine_, ifTruncated);
-        const Line& l = lines_[li_++];
-        ti_ = 0;
-        number = l.number;
+        number = lineNumber_;
         std::string joined;
-        for (std::string_view t : l.tokens) joined += fmt::format("{}{}", joined.empty() ? "" : " ", t);
+        for (std::string_view t : tokens_) joined += fmt::format("{}{}", joined.empty() ? "" : " ", t);
+        nextLine();
         std::string rest = istartsWith(joined, key) ? joined.substr(key.size()) : std::string("?");
         if (!rest.empty() && rest[0] != ' ' && rest[0] != ':')
-            fail(l.number, fmt::format("expected '{}', found '{}'; the MOTION header is 'Frames: N' then 'Frame Time: "
+            fail(number, fmt::format("expected '{}', found '{}'; the MOTION header is 'Frames: N' then 'Frame Time: "
                                        "SECONDS'",
                                        expected, excerpt(joined)));
         if (rest.starts_with(' ')) rest.erase(0, 1);
@@ -393,21 +404,23 @@ private:
                                         "truncated",
                                         *declared));
         const auto perLine = static_cast<std::size_t>(clip_.channelCount);
-        clip_.values.reserve((lines_.size() - li_) * perLine);
+        // Room for the announced frames, but never more than the rest of the text can hold (a value
+        // takes at least two characters): a damaged 'Frames:' must not reserve the memory away.
+        const std::size_t fit = (text_.size() - pos_ + tokens_.size() * 2) / 2 / perLine + 1;
+        clip_.values.reserve(std::min(static_cast<std::size_t>(*declared), fit) * perLine);
         int frame = 0;
-        for (; li_ < lines_.size(); ++li_) {
+        for (; !atEnd(); nextLine()) {
             ++frame;
-            const Line& data = lines_[li_];
-            if (data.tokens.size() != perLine)
-                fail(data.number, fmt::format("motion line {} has {} values but the hierarchy has {} channels; the line "
+            if (tokens_.size() != perLine)
+                fail(lineNumber_, fmt::format("motion line {} has {} values but the hierarchy has {} channels; the line "
                                               "is truncated or does not belong to this hierarchy",
-                                              frame, data.tokens.size(), perLine));
+                                              frame, tokens_.size(), perLine));
             for (std::size_t k = 0; k < perLine; ++k) {
-                const auto x = parseNumber(data.tokens[k]);
+                const auto x = parseNumber(tokens_[k]);
                 if (!x)
-                    fail(data.number, fmt::format("value {} of motion line {} is '{}', not a number; motion lines hold "
+                    fail(lineNumber_, fmt::format("value {} of motion line {} is '{}', not a number; motion lines hold "
                                                   "only numbers",
-                                                  k + 1, frame, data.tokens[k]));
+                                                  k + 1, frame, excerpt(tokens_[k])));
                 clip_.values.push_back(*x);
             }
         }
@@ -448,9 +461,13 @@ private:
     }
 
     std::string file_;
-    std::vector<Line> lines_;
-    std::size_t li_ = 0;
-    std::size_t ti_ = 0;
+    std::string_view text_;
+    std::size_t pos_ = 0;                    // start of the next line to read
+    int nextNumber_ = 1;                     // its number
+    std::vector<std::string_view> tokens_;   // the current line's tokens (empty at the end of the text)
+    std::size_t ti_ = 0;                     // the next token of the current line
+    int lineNumber_ = 0;                     // the current line's number
+    std::size_t lineIndex_ = 0;              // counts the non-blank lines read, to tell lines apart
     int lastLine_ = 1;
     int motionLine_ = 1;
     BvhClip clip_;
@@ -500,15 +517,27 @@ BvhClip parseBvh(std::string_view text, const std::string& fileName) { return Pa
 BvhClip readBvhFile(const std::filesystem::path& file)
 {
     std::error_code ec;
-    if (std::filesystem::is_directory(file, ec))
+    const auto status = std::filesystem::status(file, ec);
+    if (std::filesystem::is_directory(status))
         throw Error(fmt::format("{}: is a folder, not a BVH file; give the path of a .bvh file", file.string()));
+    // A device or a pipe (/dev/zero, a FIFO) could be endless or block forever.
+    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+        throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the path of a .bvh file",
+                                file.string()));
+    if (const auto size = std::filesystem::file_size(file, ec); !ec && size > bvhMaxFileBytes)
+        throw Error(fmt::format("{}: {} MB is more than the {} MB a BVH file may have; cut the clip into shorter "
+                                "ones",
+                                file.string(), size >> 20, bvhMaxFileBytes >> 20));
     std::ifstream in(file, std::ios::binary);
+    if (!in && errno == EACCES)
+        throw Error(fmt::format("{}: cannot open ({}); check its permissions", file.string(), std::strerror(errno)));
     if (!in)
         throw Error(fmt::format("{}: cannot open ({}); check the path (a relative path is read from the current "
                                 "folder)",
                                 file.string(), std::strerror(errno)));
     std::ostringstream text;
     text << in.rdbuf();
+    if (in.bad()) throw Error(fmt::format("{}: cannot be read (a read error); check the file", file.string()));
     return parseBvh(text.str(), file.string());
 }
 

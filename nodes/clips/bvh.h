@@ -27,6 +27,7 @@
 //
 // Errors: readBvhFile and parseBvh throw rig::Error with "FILE:LINE: what is wrong; what to do".
 
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <span>
@@ -75,6 +76,10 @@ struct BvhClip {
 inline constexpr int bvhMaxJoints = 10000;
 inline constexpr int bvhMaxDepth = 256;
 inline constexpr int bvhMaxChannelsPerJoint = 64;
+inline constexpr int bvhMaxNameLength = 500;  // bvh2rig adds a prefix and suffixes within the rig name limit
+// Files larger than this are refused before reading (the parsed clip costs about as much memory as the
+// file again, or up to four times for one-character values).
+inline constexpr std::uintmax_t bvhMaxFileBytes = std::uintmax_t{512} << 20;
 
 // Parses BVH text; `fileName` names it in messages. CRLF, CR or LF line ends, tabs, a UTF-8 BOM and
 // blank lines are accepted. A "Frames:" count that disagrees with the motion lines adds a warning and

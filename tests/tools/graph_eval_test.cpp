@@ -522,7 +522,8 @@ TEST_CASE("graph-eval bad input: exit 2, one error line, nothing on stdout")
     checkBadInput("", "no rig file given; usage: graph-eval RIG.yaml [options], or --help");
     checkBadInput(arm + " --bogus", "The following argument was not expected: --bogus; run 'graph-eval --help' for usage");
     checkBadInput(arm + " --format xml", "--format: xml not in {json,csv,table}; run 'graph-eval --help' for usage");
-    checkBadInput(arm + " --threads -1", "--threads: Value -1 not in range 0 to 1024; run 'graph-eval --help' for usage");
+    checkBadInput(arm + " --threads -1", "--threads: '-1' is not a thread count; give a whole number from 0 (all cores) "
+                                        "to 1024; run 'graph-eval --help' for usage");
     checkBadInput(arm + " --frames 1:x", "--frames '1:x': 'x' is not a number; " + frames);
     checkBadInput(arm + " --frames 5:1", "--frames '5:1': the last frame is before the first; " + frames);
     checkBadInput(arm + " --frames 1:10:0", "--frames '1:10:0': the step must be positive; " + frames);

@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Fuzzes the rig loader and the BVH reader with libFuzzer (clang, AddressSanitizer, UBSan).
+# Usage: scripts/fuzz.sh [SECONDS]   (per target, default 60)
+#   Configures and builds build-fuzz/ (clang++, RIG_FUZZ=ON; $RIG_FUZZ_BUILD_DIR for another folder, $RIG_JOBS
+#   parallel compile jobs, default 1), seeds each fuzzer with the bad-input corpus and the bundled rigs or
+#   BVH files, runs it for SECONDS, and exits non-zero if any target crashed, hung (10 s for one input),
+#   or went past 2 GB. A crash leaves its input as build-fuzz/fuzz-crashes/TARGET-crash-*: reproduce it
+#   with build-fuzz/bin/TARGET_fuzzer FILE, then add it to tests/corpus (docs/robustness.md).
+#   New interesting inputs accumulate in build-fuzz/fuzz-corpus/TARGET/ and seed the next run.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+seconds=${1:-60}
+build=${RIG_FUZZ_BUILD_DIR:-build-fuzz}
+jobs=${RIG_JOBS:-1}
+
+if ! command -v clang++ >/dev/null; then
+  echo "fuzz: clang++ is needed (apt-get install clang libclang-rt-14-dev)" >&2
+  exit 2
+fi
+if [ ! -f "$build/build.ninja" ]; then
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DRIG_FUZZ=ON >/dev/null
+fi
+if ! cmake --build "$build" --target rig_loader_fuzzer bvh_reader_fuzzer -- -j"$jobs" >"$build/build.log" 2>&1; then
+  grep -E 'error|FAILED' "$build/build.log" | head -20 >&2
+  echo "fuzz: the build failed; see $build/build.log" >&2
+  exit 2
+fi
+
+# Seeds: the corpus of bad inputs, and good inputs to mutate from.
+rig_seeds=(tests/corpus/rigs rigs)
+bvh_seeds=(tests/corpus/bvh)
+[ -d /usr/share/assimp/models/BVH ] && bvh_seeds+=(/usr/share/assimp/models/BVH)
+[ -d ../shared/motion ] && bvh_seeds+=(../shared/motion)
+
+failed=()
+run_target() {
+  local target=$1 dict=$2 max_len=$3
+  shift 3
+  local corpus="$build/fuzz-corpus/$target" crashes="$build/fuzz-crashes"
+  mkdir -p "$corpus" "$crashes"
+  echo "fuzz: $target for ${seconds}s (seeds: $*)" >&2
+  local log="$build/fuzz-$target.log"
+  # The first folder receives the new inputs; the others are only read.
+  if "$build/bin/${target}_fuzzer" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -malloc_limit_mb=2048 \
+      -max_len="$max_len" -dict="$dict" -artifact_prefix="$crashes/$target-" -print_final_stats=1 \
+      "$corpus" "$@" >"$log" 2>&1; then
+    grep -E '^stat::number_of_executed_units|^stat::peak_rss_mb' "$log" | tr '\n' ' ' >&2
+    echo >&2
+  else
+    echo "fuzz: $target FAILED; the log is $log, the input in $crashes/:" >&2
+    grep -E '^==[0-9]+==ERROR|SUMMARY|runtime error|ALARM|out-of-memory|Test unit written' "$log" | head -8 >&2 || true
+    failed+=("$target")
+  fi
+}
+run_target rig_loader fuzz/rig.dict 65536 "${rig_seeds[@]}"
+run_target bvh_reader fuzz/bvh.dict 65536 "${bvh_seeds[@]}"
+
+if ((${#failed[@]})); then
+  echo "fuzz: failed: ${failed[*]}" >&2
+  exit 1
+fi
+echo "fuzz: no crash" >&2
