@@ -149,6 +149,12 @@ NodeTypeBuilder& NodeTypeBuilder::yamlField(std::string field, YamlFieldParser p
     return *this;
 }
 
+NodeTypeBuilder& NodeTypeBuilder::yamlConnector(std::string field, YamlConnector connector)
+{
+    type_.yamlConnectors_[std::move(field)] = std::move(connector);
+    return *this;
+}
+
 NodeTypeBuilder& NodeTypeBuilder::factory(std::function<std::unique_ptr<Node>()> make)
 {
     type_.factory_ = std::move(make);
@@ -166,7 +172,8 @@ std::shared_ptr<const NodeType> NodeTypeBuilder::build()
     for (std::size_t i = 0; i < type_.attributes_.size(); ++i) {
         const AttributeSpec& a = type_.attributes_[i];
         if (!names.insert(a.name).second) fail(fmt::format("attribute '{}' declared twice", a.name));
-        if (type_.yamlFields_.count(a.name)) fail(fmt::format("'{}' is both an attribute and a YAML field", a.name));
+        if (type_.yamlFields_.count(a.name) || type_.yamlConnectors_.count(a.name))
+            fail(fmt::format("'{}' is both an attribute and a YAML field", a.name));
         if (zeroValue(a.type).index() != a.defaultValue.index()) fail(fmt::format("attribute '{}': default is not a {}", a.name, valueTypeName(a.type)));
         if (a.type == ValueType::Enum && a.enumNames.empty()) fail(fmt::format("enum '{}' has no names", a.name));
         if (a.min && a.max && *a.min > *a.max) fail(fmt::format("attribute '{}': min > max", a.name));

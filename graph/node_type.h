@@ -12,12 +12,15 @@
 
 #include "graph/attribute.h"
 #include "graph/node.h"
+#include "graph/plug.h"
 
 namespace YAML {
 class Node;
 }
 
 namespace rig {
+
+class Graph;
 
 // A rig-file field that is not one attribute (an animation curve's `keys: [[0, 0], [10, 90]]`):
 // it turns the YAML value into attribute values. It throws rig::Error; `where(n)` gives the
@@ -27,6 +30,11 @@ struct YamlFieldContext {
 };
 using YamlFieldParser = std::function<std::vector<std::pair<AttrId, Value>>(
     const YAML::Node& value, const YamlFieldContext& context)>;
+// A rig-file field that wires its node into the graph (rigInversion's `connect: {targets: clip}`): it runs
+// once every node, value and connection of the file and of its includes exists, in file order, and may
+// read plugs and connect them. It throws rig::Error.
+using YamlConnector =
+    std::function<void(Graph& graph, NodeId node, const YAML::Node& value, const YamlFieldContext& context)>;
 
 class NodeType {
 public:
@@ -41,6 +49,7 @@ public:
     // History-dependent nodes give different results when recomputed; checked mode skips them.
     bool stateful() const { return stateful_; }
     const std::map<std::string, YamlFieldParser, std::less<>>& yamlFields() const { return yamlFields_; }
+    const std::map<std::string, YamlConnector, std::less<>>& yamlConnectors() const { return yamlConnectors_; }
     std::unique_ptr<Node> create() const { return factory_(); }
 
 private:
@@ -52,6 +61,7 @@ private:
     std::vector<std::vector<AttrId>> affects_;
     bool stateful_ = false;
     std::map<std::string, YamlFieldParser, std::less<>> yamlFields_;
+    std::map<std::string, YamlConnector, std::less<>> yamlConnectors_;
     std::function<std::unique_ptr<Node>()> factory_;
 };
 
@@ -94,6 +104,7 @@ public:
     NodeTypeBuilder& description(std::string text);
     NodeTypeBuilder& stateful(bool on = true);
     NodeTypeBuilder& yamlField(std::string field, YamlFieldParser parser);
+    NodeTypeBuilder& yamlConnector(std::string field, YamlConnector connector);
     NodeTypeBuilder& factory(std::function<std::unique_ptr<Node>()> make);
     template <class T>
     NodeTypeBuilder& factory()

@@ -71,9 +71,10 @@ std::string nodeTypeReference(const NodeRegistry& registry)
         const NodeType& type = *registry.find(name);
         out += fmt::format("### {}\n\n{}\n\n", name, type.description());
         if (type.stateful()) out += "History-dependent: its output depends on earlier evaluations.\n\n";
-        if (!type.yamlFields().empty()) {
+        if (!type.yamlFields().empty() || !type.yamlConnectors().empty()) {
             std::string fields;
             for (const auto& f : type.yamlFields()) fields += (fields.empty() ? "`" : ", `") + f.first + "`";
+            for (const auto& f : type.yamlConnectors()) fields += (fields.empty() ? "`" : ", `") + f.first + "`";
             out += fmt::format("Rig-file fields besides attributes: {}.\n\n", fields);
         }
         out += "| attribute | in/out | type | unit | default | limits | keyable | description |\n";

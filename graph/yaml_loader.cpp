@@ -194,6 +194,14 @@ struct LoadState {
     std::vector<std::filesystem::path> includeStack;  // files being loaded (canonical), to refuse include cycles
     std::vector<std::filesystem::path>* filesRead = nullptr;  // every file read, when asked for
     int includedFiles = 0;                   // every file included so far, nested ones too
+    // Connector fields (NodeType::yamlConnectors), run once everything is loaded.
+    struct Deferred {
+        NodeId node;
+        const YamlConnector* connector;
+        YAML::Node value;
+        std::function<std::string(const YAML::Node&)> where;
+    };
+    std::vector<Deferred> deferred;
 };
 
 // One file being loaded into a graph; an included file gets a loader of its own whose node names
@@ -407,6 +415,13 @@ private:
                 }
                 continue;
             }
+            if (const auto connector = type.yamlConnectors().find(key); connector != type.yamlConnectors().end()) {
+                state_.deferred.push_back({id, &connector->second, entry.second,
+                                           [file = file_, who](const YAML::Node& y) {
+                                               return fmt::format("{}: {}", markText(file, y.Mark()), who);
+                                           }});
+                continue;
+            }
             Plug p;
             try {
                 p = graph_.plug(name + "." + key);
@@ -418,6 +433,7 @@ private:
                     if (a.type == ValueType::Vector3) names.insert(names.end(), a.childNames.begin(), a.childNames.end());
                 }
                 for (const auto& f : type.yamlFields()) names.push_back(f.first);
+                for (const auto& f : type.yamlConnectors()) names.push_back(f.first);
                 throw Error(fmt::format("{}: {} has no attribute '{}'{}", at(entry.first), who, key, didYouMean(key, names)));
             }
             setFromYaml(p, entry.second);
@@ -592,8 +608,9 @@ std::unique_ptr<Graph> loadGraph(std::string_view text, const std::string& fileN
 {
     auto graph = std::make_unique<Graph>(std::move(registry));
     std::error_code ec;
-    LoadState state{{}, {std::filesystem::weakly_canonical(fileName, ec)}, filesRead, 0};
+    LoadState state{{}, {std::filesystem::weakly_canonical(fileName, ec)}, filesRead, 0, {}};
     Loader(fileName, *graph, "", state).load(text);
+    for (const auto& d : state.deferred) (*d.connector)(*graph, d.node, d.value, YamlFieldContext{d.where});
     return graph;
 }
 

@@ -9,6 +9,7 @@
 #include "test_support.h"
 
 #include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
 
 using namespace rig;
 
@@ -156,4 +157,65 @@ connections:
     catch (const Error& e) {
         CHECK(std::string(e.what()) == fmt::format("{}:2:12: {}: no such included rig file", (dir / "missing.yaml").string(), (dir / "nowhere.yaml").string()));
     }
+}
+
+namespace {
+
+enum LinkAttr : AttrId { linkInput, linkOutput };
+
+class LinkNode : public Node {
+public:
+    void compute(ComputeContext& c) override { c.setOutput(linkOutput, c.getDouble(linkInput)); }
+};
+
+// A type whose `linkTo: NODE` field connects its output to NODE.input once the whole file is loaded.
+std::shared_ptr<NodeRegistry> registryWithLinks()
+{
+    auto registry = makeBuiltinRegistry();
+    NodeTypeBuilder b("testLink");
+    b.input(linkInput, "input", ValueType::Double);
+    b.output(linkOutput, "output", ValueType::Double);
+    b.affects(linkInput, {linkOutput});
+    b.yamlConnector("linkTo", [](Graph& graph, NodeId node, const YAML::Node& value, const YamlFieldContext& context) {
+        if (graph.findNode(value.Scalar()) < 0)
+            throw Error(fmt::format("{}: no node '{}' to link to", context.where(value), value.Scalar()));
+        graph.connect(graph.plug(graph.nodeName(node) + ".output"), graph.plug(value.Scalar() + ".input"));
+    });
+    registry->add(b.factory<LinkNode>().build());
+    return registry;
+}
+
+}  // namespace
+
+TEST_CASE("a connector field wires its node once the whole file is loaded, and its errors name the place")
+{
+    // `b` is declared after `a` links to it, and `a`'s input is only set later in the file.
+    const auto graph = loadGraphText("nodes:\n"
+                                     "  - {name: a, type: testLink, linkTo: b}\n"
+                                     "  - {name: b, type: testLink}\n"
+                                     "  - {name: c, type: testLink}\n"
+                                     "connections:\n"
+                                     "  - c.output -> a.input\n",
+                                     "rig.yaml", registryWithLinks());
+    REQUIRE(graph->connections().size() == 2);
+    graph->setValue(graph->plug("c.input"), 2.5);
+    CHECK(std::get<double>(graph->getValue(graph->plug("b.output"))) == 2.5);
+
+    std::string error;
+    try {
+        loadGraphText("nodes:\n  - {name: a, type: testLink, linkTo: nobody}\n", "rig.yaml", registryWithLinks());
+    }
+    catch (const Error& e) {
+        error = e.what();
+    }
+    CHECK(error == "rig.yaml:2:39: node 'a' (testLink): no node 'nobody' to link to");
+
+    // A misspelt connector is suggested like an attribute.
+    try {
+        loadGraphText("nodes:\n  - {name: a, type: testLink, linkToo: b}\n", "rig.yaml", registryWithLinks());
+    }
+    catch (const Error& e) {
+        error = e.what();
+    }
+    CHECK(error == "rig.yaml:2:31: node 'a' (testLink) has no attribute 'linkToo'; did you mean 'linkTo'?");
 }
