@@ -1,0 +1,45 @@
+#pragma once
+// Target joints for an inversion: world matrices per frame by joint name, read from
+//   - a BVH file (its joints' world matrices by the reference forward kinematics, nodes/clips/bvh.h), or
+//   - a JSON file of matrices as graph-eval writes them: a list of frames, each {"frame": F,
+//     "JOINT.worldMatrix": [[4 numbers] x 4 rows], ...} (column-vector convention, cm),
+// renamed and scaled by an optional map file (docs/rig-invert.md):
+//
+//   scale: 5.644444444          # target units -> cm (a CMU clip: 2.54 / 0.45); 1 by default
+//   joints:                     # target joint -> rig joint; joints not listed keep their names
+//     LeftUpLeg: L_thigh
+//   ignore: [LHipJoint]         # target joints that must not be targets
+//
+// Errors (missing or malformed files, a map naming joints the clip does not have) throw rig::Error with
+// file:line:col where known.
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace rig {
+
+struct TargetMap {
+    std::string file;                                // the map file, for messages ("" for none)
+    double scale = 1.0;                              // multiplies translations: target units -> cm
+    std::map<std::string, std::string> rename;       // target joint -> rig joint
+    std::map<std::string, int> renameLines;          // the line of each entry, for messages
+    std::vector<std::string> ignore;                 // target joints left out
+};
+
+TargetMap readTargetMap(const std::filesystem::path& file);
+
+struct TargetClip {
+    std::string file;                               // as given, for messages
+    std::vector<std::string> joints;                // rig joint names (after the map), file order
+    std::vector<double> frameNumbers;               // as the file numbers its frames (BVH: 1 = first line)
+    std::vector<std::vector<Eigen::Matrix4d>> worlds;  // [frame][joint], world matrices, cm
+};
+
+// Reads a .bvh or .json target clip and applies the map.
+TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map);
+
+}  // namespace rig
