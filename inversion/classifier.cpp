@@ -59,24 +59,49 @@ struct Context {
         for (int k : outputs) mine.push_back(all[static_cast<std::size_t>(k)]);
         return samples.worlds.emplace(a, std::move(mine)).first->second;
     }
+    bool has(double a) const { return samples.worlds.contains(a); }
     Eigen::Matrix4d delta(double a, std::size_t e) { return sample(a)[e] * restInverse[e]; }
     int sampleCount() const { return static_cast<int>(samples.worlds.size()); }
 };
 
-std::vector<double> initialOffsets(double lo, double hi, int count)
+// `count` offsets spread over [lo, hi], split between the two sides of the rest value. An angle is
+// sampled at least every 90 degrees, so that rotation angles can be unwrapped along the samples
+// (neighbouring samples less than half a turn apart) when its range is wider than +-180 degrees.
+std::vector<double> initialOffsets(double lo, double hi, int count, bool angular)
 {
+    const double step = std::numbers::pi / 2;
+    auto atLeast = [&](int n, double span) { return angular ? std::max(n, static_cast<int>(std::ceil(std::abs(span) / step))) : n; };
     std::vector<double> offsets;
     if (lo < 0 && hi > 0) {
-        const int negative = std::max(1, count / 2);
-        const int positive = std::max(1, count - negative);
+        const int negative = atLeast(std::max(1, count / 2), lo);
+        const int positive = atLeast(std::max(1, count - count / 2), hi);
         for (int j = negative; j >= 1; --j) offsets.push_back(lo * j / negative);
         for (int j = 1; j <= positive; ++j) offsets.push_back(hi * j / positive);
     }
     else {
         const double end = hi > 0 ? hi : lo;
-        for (int j = 1; j <= count; ++j) offsets.push_back(end * j / count);
+        const int n = atLeast(count, end);
+        for (int j = 1; j <= n; ++j) offsets.push_back(end * j / n);
     }
     return offsets;
+}
+
+// Rotation angles of samples sorted by offset, unwrapped outward from 0 (where the angle is 0): each
+// is moved by whole turns to be closest to its neighbour nearer the rest value. A rotation vector
+// only gives angles in [-pi, pi]; a driven joint may turn further.
+void unwrapAngles(std::map<double, double>& angles)
+{
+    constexpr double turn = 2.0 * std::numbers::pi;
+    double previous = 0.0;
+    for (auto it = angles.lower_bound(0.0); it != angles.end(); ++it) {
+        it->second += turn * std::round((previous - it->second) / turn);
+        previous = it->second;
+    }
+    previous = 0.0;
+    for (auto it = std::make_reverse_iterator(angles.lower_bound(0.0)); it != angles.rend(); ++it) {
+        it->second += turn * std::round((previous - it->second) / turn);
+        previous = it->second;
+    }
 }
 
 Eigen::Matrix3d linearPart(const Eigen::Matrix4d& m) { return m.block<3, 3>(0, 0); }
@@ -155,9 +180,24 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
         return true;
     }
     case OperatorKind::rotation: {
-        const Eigen::Vector3d r = rotationVector(linearPart(dWide));
+        // The axis from the sample of largest angle short of half a turn, where the rotation vector's
+        // direction is unambiguous (at half a turn its sign is arbitrary); its magnitude has the sign of
+        // its offset.
+        double reference = 0.0, referenceAngle = -1.0;
+        Eigen::Vector3d r = Eigen::Vector3d::Zero();
+        for (const auto& entry : c.samples.worlds) {
+            const Eigen::Vector3d v = rotationVector(linearPart(c.delta(entry.first, e0)));
+            const double angle = v.norm();
+            const bool better = angle <= 0.9 * std::numbers::pi ? (referenceAngle > 0.9 * std::numbers::pi || angle > referenceAngle)
+                                                                 : referenceAngle < 0.0;
+            if (better) {
+                reference = entry.first;
+                referenceAngle = angle;
+                r = v;
+            }
+        }
         if (r.norm() < 1e-12) return false;
-        op.axis = r.normalized() * (widest < 0 ? -1.0 : 1.0);
+        op.axis = r.normalized() * (reference < 0 ? -1.0 : 1.0);
         for (const auto& entry : c.samples.worlds) {
             const Eigen::Matrix4d d = c.delta(entry.first, e0);
             magnitudes[entry.first] = rotationVector(linearPart(d)).dot(op.axis);
@@ -167,6 +207,7 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
                 rhs.push_back(de.block<3, 1>(0, 3));
             }
         }
+        unwrapAngles(magnitudes);
         op.pivot = solvePivot(rows, rhs, near);
         return true;
     }
@@ -247,7 +288,10 @@ std::vector<double> midpoints(const std::vector<double>& knots)
 using Builder = std::function<bool(const std::vector<double>& knots, Candidate&)>;
 
 // Fits with `build` on the knots, checks every sample and the midpoints between knots, and refines
-// by turning failing midpoints into knots until it validates or the sample budget is spent.
+// by turning failing samples into knots until it validates or nothing new can be learned. The budget
+// is per parameter: midpoints are sampled only while the parameter has used fewer than maxSamples
+// (beyond that only samples already taken are checked), so fitting many outputs one by one cannot
+// multiply the rig evaluations.
 // `curved` false: a form without knots (linear), checked on the samples only.
 bool refineAndValidate(Context& c, const std::vector<std::size_t>& entries, bool curved, const Builder& build,
                        Candidate& best, double& bestError)
@@ -259,6 +303,8 @@ bool refineAndValidate(Context& c, const std::vector<std::size_t>& entries, bool
         std::vector<double> checks = sampledOffsets(c);
         if (curved)
             for (double m : midpoints(knots)) {
+                if (c.has(m)) continue;  // already among the checks
+                if (c.sampleCount() >= c.options.maxSamples) break;
                 c.sample(m);
                 checks.push_back(m);
             }
@@ -269,10 +315,12 @@ bool refineAndValidate(Context& c, const std::vector<std::size_t>& entries, bool
             best = candidate;
         }
         if (error <= c.options.epsilon) return true;
-        if (!curved || c.sampleCount() >= c.options.maxSamples) return false;
-        std::sort(failing.begin(), failing.end());
+        if (!curved) return false;
+        const std::size_t before = knots.size();
         for (double a : failing)
             if (std::find(knots.begin(), knots.end(), a) == knots.end()) knots.push_back(a);
+        // Failing knots: the form itself misses (a wrong axis), more knots cannot help.
+        if (knots.size() == before) return false;
         std::sort(knots.begin(), knots.end());
     }
 }
@@ -395,7 +443,7 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
 
 }  // namespace
 
-Classification classifyParameter(RigProbe& probe, int index, const std::vector<Eigen::Matrix4d>& rest,
+Classification classifyParameter(RigProbe& probe, int index, const std::vector<Eigen::Matrix4d>& rest, RigState& state,
                                  const LearnOptions& options)
 {
     const RigParameter& parameter = probe.rig().parameters()[static_cast<std::size_t>(index)];
@@ -410,23 +458,29 @@ Classification classifyParameter(RigProbe& probe, int index, const std::vector<E
         return result;
     }
 
-    // Sample the parameter alone, then check that the rest pose comes back.
-    const std::vector<double> offsets = initialOffsets(lo, hi, options.samples);
+    // Sample the parameter alone, then check that the rest pose comes back as it was before.
+    const std::vector<double> offsets = initialOffsets(lo, hi, options.samples, parameter.angular);
     std::map<double, std::vector<Eigen::Matrix4d>> all;
     for (double a : offsets) all[a] = probe.at(index, a);
-    const auto& again = probe.atRest();
+    const std::vector<Eigen::Matrix4d> again = probe.atRest();
+    std::string historyDependent;
     for (std::size_t k = 0; k < rest.size(); ++k) {
-        const double moved = matrixError(again[k], rest[k], options.frameRadius);
+        if (state.unreliable[k]) continue;
+        const double moved = matrixError(again[k], state.lastRest[k], options.frameRadius);
         if (moved > options.effectTolerance) {
-            result.reason = fmt::format("history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
-                                        "(its outputs depend on earlier evaluations, not on the parameters alone)",
-                                        outputNames[k], moved);
-            return result;
+            // Its value depends on earlier evaluations: no parameter can be modelled on it.
+            state.unreliable[k] = 1;
+            if (historyDependent.empty())
+                historyDependent = fmt::format("history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
+                                               "(its outputs depend on earlier evaluations, not on the parameters alone)",
+                                               outputNames[k], moved);
         }
     }
+    state.lastRest = again;
 
     Context c{probe, index, options, {}, {}, {}, {}};
     for (std::size_t k = 0; k < rest.size(); ++k) {
+        if (state.unreliable[k]) continue;
         double moved = 0.0;
         for (const auto& [a, worlds] : all) moved = std::max(moved, matrixError(worlds[k], rest[k], options.frameRadius));
         if (moved > options.effectTolerance) {
@@ -437,7 +491,9 @@ Classification classifyParameter(RigProbe& probe, int index, const std::vector<E
         result.effect = std::max(result.effect, moved);
     }
     if (c.outputs.empty()) {
-        result.reason = "no effect: no output moves when it alone changes (the others at their rest values)";
+        result.reason = !historyDependent.empty()
+                            ? historyDependent
+                            : "no effect: no output moves when it alone changes (the others at their rest values)";
         return result;
     }
     for (const auto& [a, worlds] : all) {

@@ -49,7 +49,16 @@ struct Classification {
     double effect = 0.0;                       // largest displacement over the samples, cm
 };
 
-Classification classifyParameter(RigProbe& probe, int index, const std::vector<Eigen::Matrix4d>& rest,
+// What the learner knows of the rig's state between parameters: the rest pose as last evaluated, and
+// the outputs found to depend on earlier evaluations (a spring), which no parameter is modelled on.
+struct RigState {
+    std::vector<Eigen::Matrix4d> lastRest;
+    std::vector<char> unreliable;  // per output
+};
+
+// Classifies one parameter. A parameter after whose samples some outputs do not come back to their
+// rest pose marks them unreliable in `state`; it is modelled on its other outputs, if it moves any.
+Classification classifyParameter(RigProbe& probe, int index, const std::vector<Eigen::Matrix4d>& rest, RigState& state,
                                  const LearnOptions& options);
 
 }  // namespace rig

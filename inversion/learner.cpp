@@ -56,7 +56,7 @@ double rotationErrorDegrees(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 }
 
 ValidationSummary validate(RigProbe& probe, const Approximation& approximation, const std::vector<int>& indices,
-                           const LearnOptions& options)
+                           const std::vector<int>& rigOutput, const LearnOptions& options)
 {
     ValidationSummary summary;
     summary.poses = options.validationPoses;
@@ -64,20 +64,25 @@ ValidationSummary validate(RigProbe& probe, const Approximation& approximation, 
     std::vector<Eigen::Matrix4d> approximated;
     double positionSum = 0.0, rotationSum = 0.0;
     std::size_t count = 0;
+    const auto& parameters = probe.rig().parameters();
     for (int pose = 0; pose < options.validationPoses; ++pose) {
+        // A value for every parameter in rig order, whether modelled or not, so that the poses do not
+        // depend on the composition order (two orderers are compared on the same poses).
+        std::vector<double> drawn;
+        for (const RigParameter& param : parameters) drawn.push_back(std::uniform_real_distribution<double>(param.min, param.max)(rng));
         std::vector<double> values = probe.defaults();
         std::vector<double> modelled;
         for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
-            const RigParameter& param = approximation.parameters[p].parameter;
-            const double v = std::uniform_real_distribution<double>(param.min, param.max)(rng);
-            values[static_cast<std::size_t>(indices[p])] = v;
-            modelled.push_back(v);
+            const auto i = static_cast<std::size_t>(indices[p]);
+            values[i] = drawn[i];
+            modelled.push_back(drawn[i]);
         }
         const std::vector<Eigen::Matrix4d> real = probe.atValues(values);
         approximation.evaluate(modelled, approximated);
-        for (std::size_t k = 0; k < real.size(); ++k) {
-            const double position = (real[k].block<3, 1>(0, 3) - approximated[k].block<3, 1>(0, 3)).norm();
-            const double rotation = rotationErrorDegrees(real[k], approximated[k]);
+        for (std::size_t k = 0; k < approximated.size(); ++k) {
+            const Eigen::Matrix4d& truth = real[static_cast<std::size_t>(rigOutput[k])];
+            const double position = (truth.block<3, 1>(0, 3) - approximated[k].block<3, 1>(0, 3)).norm();
+            const double rotation = rotationErrorDegrees(truth, approximated[k]);
             positionSum += position;
             rotationSum += rotation;
             ++count;
@@ -102,7 +107,7 @@ ValidationSummary validate(RigProbe& probe, const Approximation& approximation, 
 // A parameter with no effect on its own may still change what others do (the axis of a bend that
 // turns with it): move it at a few random poses of the modelled parameters and look.
 std::string couplingReason(RigProbe& probe, const RigParameter& parameter, int index, const Approximation& approximation,
-                           const std::vector<int>& indices, const LearnOptions& options)
+                           const std::vector<int>& indices, const std::vector<int>& rigOutput, const LearnOptions& options)
 {
     std::mt19937 rng(options.seed + 7919u * static_cast<std::uint32_t>(index));
     for (int pose = 0; pose < 3; ++pose) {
@@ -114,15 +119,53 @@ std::string couplingReason(RigProbe& probe, const RigParameter& parameter, int i
         const std::vector<Eigen::Matrix4d> held = probe.atValues(values);
         values[static_cast<std::size_t>(index)] = parameter.max != parameter.defaultValue ? parameter.max : parameter.min;
         const std::vector<Eigen::Matrix4d>& moved = probe.atValues(values);
-        for (std::size_t k = 0; k < held.size(); ++k) {
+        for (std::size_t o = 0; o < rigOutput.size(); ++o) {
+            const auto k = static_cast<std::size_t>(rigOutput[o]);
             const double change = matrixError(held[k], moved[k], options.frameRadius);
             if (change > options.effectTolerance)
                 return fmt::format("no effect on its own, but it changes what other parameters do (coupled: {} moved by "
                                    "{:.3g} cm at a random pose); it is held at its rest value",
-                                   approximation.outputs[k].name, change);
+                                   approximation.outputs[o].name, change);
         }
     }
     return {};
+}
+
+// Removes the unreliable outputs from a classification (with their operators when no output is left
+// using them); a parameter left with no output is no longer modelled.
+void dropOutputs(Classification& c, const std::vector<char>& unreliable)
+{
+    ModelledParameter& m = c.model;
+    std::vector<int> outputs, operatorOfOutput;
+    std::vector<Eigen::Matrix4d> orderWorlds;
+    std::vector<std::string> lost;
+    for (std::size_t e = 0; e < m.outputs.size(); ++e) {
+        if (unreliable[static_cast<std::size_t>(m.outputs[e])]) continue;
+        outputs.push_back(m.outputs[e]);
+        operatorOfOutput.push_back(m.operatorOfOutput[e]);
+        orderWorlds.push_back(c.orderWorlds[e]);
+    }
+    if (outputs.size() == m.outputs.size()) return;
+    if (outputs.empty()) {
+        c.modelled = false;
+        c.reason = "its only effect is on outputs found history-dependent (they do not come back to their rest pose)";
+        return;
+    }
+    // Keep only the operators still used, renumbered.
+    std::vector<int> renumber(m.operators.size(), -1);
+    std::vector<Operator> operators;
+    for (int& o : operatorOfOutput) {
+        auto& r = renumber[static_cast<std::size_t>(o)];
+        if (r < 0) {
+            r = static_cast<int>(operators.size());
+            operators.push_back(m.operators[static_cast<std::size_t>(o)]);
+        }
+        o = r;
+    }
+    m.outputs = std::move(outputs);
+    m.operatorOfOutput = std::move(operatorOfOutput);
+    m.operators = std::move(operators);
+    c.orderWorlds = std::move(orderWorlds);
 }
 
 }  // namespace
@@ -137,31 +180,46 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     const auto& parameters = rig.parameters();
 
     std::vector<Classification> classes;
-    std::vector<int> modelled;
+    RigState state{rest, std::vector<char>(rest.size(), 0)};
     for (std::size_t i = 0; i < parameters.size(); ++i) {
-        classes.push_back(classifyParameter(probe, static_cast<int>(i), rest, options));
-        if (classes.back().modelled) modelled.push_back(static_cast<int>(i));
+        classes.push_back(classifyParameter(probe, static_cast<int>(i), rest, state, options));
         if (options.progress) options.progress("classifying", static_cast<double>(i + 1) / static_cast<double>(parameters.size()));
+    }
+    // Outputs found history-dependent are dropped from what was learned before they were found.
+    std::vector<int> modelled;
+    for (Classification& c : classes) {
+        if (c.modelled) dropOutputs(c, state.unreliable);
+        if (c.modelled) modelled.push_back(c.index);
     }
     const OrderResult order = orderParameters(probe, rest, classes, modelled, options);
 
+    // The approximation's outputs are the reliable ones; `rigOutput` maps them back to the rig's.
     Approximation result;
     result.rigFile = rigFile;
     result.rigFingerprint = rig.fingerprint();
     result.epsilon = options.epsilon;
-    for (std::size_t k = 0; k < rest.size(); ++k) result.outputs.push_back({rig.outputs()[k], rest[k]});
+    std::vector<int> rigOutput, outputIndex(rest.size(), -1);
+    for (std::size_t k = 0; k < rest.size(); ++k)
+        if (!state.unreliable[k]) {
+            outputIndex[k] = static_cast<int>(rigOutput.size());
+            rigOutput.push_back(static_cast<int>(k));
+            result.outputs.push_back({rig.outputs()[k], rest[k]});
+        }
     std::vector<int> indices;
     for (int p : order.order) {
-        result.parameters.push_back(classes[static_cast<std::size_t>(p)].model);
+        ModelledParameter m = classes[static_cast<std::size_t>(p)].model;
+        for (int& k : m.outputs) k = outputIndex[static_cast<std::size_t>(k)];
+        result.parameters.push_back(std::move(m));
         indices.push_back(p);
     }
-    result.validation = validate(probe, result, indices, options);
+    result.validation = validate(probe, result, indices, rigOutput, options);
 
     std::map<int, std::string> reasons;
     for (const auto& c : classes)
         if (!c.modelled) {
             const bool noEffect = c.reason.starts_with("no effect");
-            const std::string coupled = noEffect ? couplingReason(probe, c.model.parameter, c.index, result, indices, options)
+            const std::string coupled = noEffect ? couplingReason(probe, c.model.parameter, c.index, result, indices,
+                                                                  rigOutput, options)
                                                  : std::string();
             reasons[c.index] = coupled.empty() ? c.reason : coupled;
         }

@@ -1,0 +1,493 @@
+#include "inversion/approximation_io.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+namespace rig {
+namespace {
+
+// ---- writing ------------------------------------------------------------------------------------
+
+// The shortest text that reads back to the same double; refuses what YAML readers would not read
+// back as a number.
+std::string number(double x, std::string_view field)
+{
+    if (!std::isfinite(x)) throw std::invalid_argument(fmt::format("approximationToYaml: {} is {}, not a finite number", field, x));
+    return fmt::format("{}", x);
+}
+
+// A YAML double-quoted string: names and reasons may hold ':', '#', quotes or anything else.
+std::string yamlString(std::string_view s)
+{
+    std::string out = "\"";
+    for (const char c : s) {
+        const auto u = static_cast<unsigned char>(c);
+        if (c == '"' || c == '\\') (out += '\\') += c;
+        else if (c == '\n') out += "\\n";
+        else if (c == '\t') out += "\\t";
+        else if (u < 0x20 || u == 0x7f) out += fmt::format("\\x{:02x}", u);
+        else out += c;
+    }
+    return out + "\"";
+}
+
+template <class Range, class F>
+std::string list(const Range& range, F&& item)
+{
+    std::string out = "[";
+    bool first = true;
+    for (const auto& x : range) {
+        out += (first ? "" : ", ") + item(x);
+        first = false;
+    }
+    return out + "]";
+}
+
+std::string vector3(const Eigen::Vector3d& v, std::string_view field)
+{
+    return fmt::format("[{}, {}, {}]", number(v.x(), field), number(v.y(), field), number(v.z(), field));
+}
+
+template <int D>
+std::string splineValues(const CubicSpline<D>& spline, std::string_view field)
+{
+    return list(spline.values(), [&](const typename CubicSpline<D>::Vector& v) {
+        if constexpr (D == 1) return number(v[0], field);
+        else {
+            std::vector<double> entries(v.data(), v.data() + D);
+            return list(entries, [&](double x) { return number(x, field); });
+        }
+    });
+}
+
+std::string parameterFields(const RigParameter& p, const std::string& field, std::string_view indent)
+{
+    return fmt::format("{0}name: {1}\n{0}default: {2}\n{0}min: {3}\n{0}max: {4}\n{0}limited: {5}\n{0}angular: {6}\n",
+                       indent, yamlString(p.name), number(p.defaultValue, field + ".default"),
+                       number(p.min, field + ".min"), number(p.max, field + ".max"), p.limited ? "true" : "false",
+                       p.angular ? "true" : "false");
+}
+
+std::string operatorText(const Operator& op, const std::string& field)
+{
+    constexpr std::string_view indent = "        ";
+    std::string out = fmt::format("      - kind: {}\n", operatorKindName(op.kind));
+    const bool sampled = op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine;
+    if (!sampled) {
+        out += fmt::format("{}axis: {}\n{}pivot: {}\n", indent, vector3(op.axis, field + ".axis"), indent,
+                           vector3(op.pivot, field + ".pivot"));
+        if (op.linear()) out += fmt::format("{}slope: {}\n", indent, number(op.slope, field + ".slope"));
+        else
+            out += fmt::format("{0}curve:\n{0}  knots: {1}\n{0}  values: {2}\n", indent,
+                               list(op.curve.knots(), [&](double x) { return number(x, field + ".curve.knots"); }),
+                               splineValues(op.curve, field + ".curve.values"));
+    }
+    else {
+        const auto& knots = op.kind == OperatorKind::sampledRigid ? op.rigid.knots() : op.affine.knots();
+        if (knots.empty()) throw std::invalid_argument(fmt::format("approximationToYaml: {} has no knots", field));
+        out += fmt::format("{}knots: {}\n", indent, list(knots, [&](double x) { return number(x, field + ".knots"); }));
+        out += fmt::format("{}values: {}\n", indent,
+                           op.kind == OperatorKind::sampledRigid ? splineValues(op.rigid, field + ".values")
+                                                                  : splineValues(op.affine, field + ".values"));
+    }
+    return out;
+}
+
+// ---- reading ------------------------------------------------------------------------------------
+
+class Reader {
+public:
+    explicit Reader(std::string fileName) : file_(std::move(fileName)) {}
+
+    [[noreturn]] void fail(const YAML::Node& at, std::string_view field, std::string_view what) const
+    {
+        const YAML::Mark mark = at.Mark();
+        if (mark.line < 0) throw ApproximationFileError(fmt::format("{}: {}: {}", file_, field, what));
+        throw ApproximationFileError(fmt::format("{}:{}:{}: {}: {}", file_, mark.line + 1, mark.column + 1, field, what));
+    }
+
+    // A map with exactly these keys (those in `optional` may be missing).
+    void checkKeys(const YAML::Node& map, std::string_view field, std::initializer_list<std::string_view> required,
+                   std::initializer_list<std::string_view> optional = {}) const
+    {
+        if (!map.IsMap()) fail(map, field, "expected a map of fields");
+        std::string known;
+        for (auto k : required) known += fmt::format("{}{}", known.empty() ? "" : ", ", k);
+        for (auto k : optional) known += fmt::format("{}{}", known.empty() ? "" : ", ", k);
+        for (const auto& kv : map) {
+            const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string();
+            const bool ok = std::find(required.begin(), required.end(), key) != required.end()
+                            || std::find(optional.begin(), optional.end(), key) != optional.end();
+            if (!ok) fail(kv.first, field, fmt::format("unknown field '{}'; the fields are {}", key, known));
+        }
+        for (auto k : required)
+            if (!map[std::string(k)]) fail(map, field, fmt::format("the field '{}' is missing", k));
+    }
+
+    YAML::Node child(const YAML::Node& map, std::string_view key) const { return map[std::string(key)]; }
+
+    // A field that must be there (before checkKeys has looked, or where it cannot).
+    YAML::Node need(const YAML::Node& map, std::string_view key, std::string_view field) const
+    {
+        if (!map.IsMap()) fail(map, field, "expected a map of fields");
+        YAML::Node n = map[std::string(key)];
+        if (!n) fail(map, field, fmt::format("the field '{}' is missing", key));
+        return n;
+    }
+
+    double real(const YAML::Node& n, std::string_view field) const
+    {
+        if (!n.IsScalar()) fail(n, field, "expected a number");
+        const std::string& text = n.Scalar();
+        double x = 0.0;
+        const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+        if (text.empty() || ec != std::errc() || end != text.data() + text.size())
+            fail(n, field, fmt::format("'{}' is not a number", text));
+        if (!std::isfinite(x)) fail(n, field, fmt::format("'{}' is not a finite number", text));
+        return x;
+    }
+
+    template <class Int>
+    Int integer(const YAML::Node& n, std::string_view field) const
+    {
+        if (!n.IsScalar()) fail(n, field, "expected a whole number");
+        const std::string& text = n.Scalar();
+        Int x = 0;
+        const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+        if (text.empty() || ec != std::errc() || end != text.data() + text.size())
+            fail(n, field, fmt::format("'{}' is not a whole number in range", text));
+        return x;
+    }
+
+    bool boolean(const YAML::Node& n, std::string_view field) const
+    {
+        if (!n.IsScalar() || (n.Scalar() != "true" && n.Scalar() != "false")) fail(n, field, "expected true or false");
+        return n.Scalar() == "true";
+    }
+
+    std::string text(const YAML::Node& n, std::string_view field) const
+    {
+        if (!n.IsScalar()) fail(n, field, "expected a string");
+        return n.Scalar();
+    }
+
+    const YAML::Node& sequence(const YAML::Node& n, std::string_view field, std::size_t size = 0) const
+    {
+        if (!n.IsSequence()) fail(n, field, size ? fmt::format("expected a list of {}", size) : "expected a list");
+        if (size && n.size() != size) fail(n, field, fmt::format("expected {} entries, found {}", size, n.size()));
+        return n;
+    }
+
+    std::vector<double> reals(const YAML::Node& n, const std::string& field, std::size_t size = 0) const
+    {
+        std::vector<double> out;
+        for (const auto& x : sequence(n, field, size)) out.push_back(real(x, field));
+        return out;
+    }
+
+    Eigen::Vector3d vector3(const YAML::Node& n, const std::string& field) const
+    {
+        const auto v = reals(n, field, 3);
+        return {v[0], v[1], v[2]};
+    }
+
+    template <int D>
+    CubicSpline<D> spline(const YAML::Node& knotsNode, const YAML::Node& valuesNode, const std::string& field) const
+    {
+        const std::vector<double> knots = reals(knotsNode, field + ".knots");
+        sequence(valuesNode, field + ".values");
+        if (knots.size() < 2) fail(knotsNode, field + ".knots", "a curve needs at least two knots");
+        if (valuesNode.size() != knots.size())
+            fail(valuesNode, field + ".values", fmt::format("{} values for {} knots", valuesNode.size(), knots.size()));
+        for (std::size_t j = 1; j < knots.size(); ++j)
+            if (!(knots[j] > knots[j - 1])) fail(knotsNode, field + ".knots", "the knots must increase");
+        std::vector<typename CubicSpline<D>::Vector> values;
+        for (const auto& v : valuesNode) {
+            typename CubicSpline<D>::Vector y;
+            if constexpr (D == 1) y[0] = real(v, field + ".values");
+            else {
+                const auto entries = reals(v, field + ".values", D);
+                for (int d = 0; d < D; ++d) y[d] = entries[static_cast<std::size_t>(d)];
+            }
+            values.push_back(y);
+        }
+        return CubicSpline<D>(knots, std::move(values));
+    }
+
+    RigParameter parameter(const YAML::Node& n, const std::string& field) const
+    {
+        RigParameter p;
+        p.name = text(child(n, "name"), field + ".name");
+        if (p.name.empty()) fail(child(n, "name"), field + ".name", "a parameter needs a name");
+        p.defaultValue = real(child(n, "default"), field + ".default");
+        p.min = real(child(n, "min"), field + ".min");
+        p.max = real(child(n, "max"), field + ".max");
+        p.limited = boolean(child(n, "limited"), field + ".limited");
+        p.angular = boolean(child(n, "angular"), field + ".angular");
+        if (!(p.min <= p.defaultValue && p.defaultValue <= p.max))
+            fail(n, field, fmt::format("the default {} is not within min {} and max {}", p.defaultValue, p.min, p.max));
+        return p;
+    }
+
+    Operator op(const YAML::Node& n, const std::string& field) const
+    {
+        const std::string kindName = text(need(n, "kind", field), field + ".kind");
+        const auto kind = operatorKindFromName(kindName);
+        if (!kind)
+            fail(need(n, "kind", field), field + ".kind",
+                 fmt::format("unknown operator '{}'; the operators are translation, rotation, axisScale, uniformScale, "
+                             "sampledRigid, sampledAffine",
+                             kindName));
+        Operator op;
+        op.kind = *kind;
+        if (op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine) {
+            checkKeys(n, field, {"kind", "knots", "values"});
+            if (op.kind == OperatorKind::sampledRigid) op.rigid = spline<6>(child(n, "knots"), child(n, "values"), field);
+            else op.affine = spline<12>(child(n, "knots"), child(n, "values"), field);
+            return op;
+        }
+        checkKeys(n, field, {"kind", "axis", "pivot"}, {"slope", "curve"});
+        if (!child(n, "slope") == !child(n, "curve")) fail(n, field, "give either slope (linear) or curve, not both");
+        op.axis = vector3(child(n, "axis"), field + ".axis");
+        // Axes are unit vectors up to rounding; anything else is a damaged file.
+        if (std::abs(op.axis.norm() - 1.0) > 1e-9) fail(child(n, "axis"), field + ".axis", "not a unit vector");
+        op.pivot = vector3(child(n, "pivot"), field + ".pivot");
+        if (child(n, "slope")) op.slope = real(child(n, "slope"), field + ".slope");
+        else {
+            const YAML::Node curve = child(n, "curve");
+            checkKeys(curve, field + ".curve", {"knots", "values"});
+            op.curve = spline<1>(child(curve, "knots"), child(curve, "values"), field + ".curve");
+        }
+        return op;
+    }
+
+private:
+    std::string file_;
+};
+
+}  // namespace
+
+std::string approximationToYaml(const Approximation& a)
+{
+    std::string out;
+    out += "# A learned rig approximation (docs/approximation-format.md), written by rig-learn.\n";
+    out += "# Internal units: radians for angles, centimetres for distances. Numbers read back bit for bit.\n";
+    out += fmt::format("format: {}\nversion: {}\n", approximationFormatName, approximationFormatVersion);
+    out += fmt::format("rigFile: {}\nrigFingerprint: {}\nepsilon: {}\n", yamlString(a.rigFile), yamlString(a.rigFingerprint),
+                       number(a.epsilon, "epsilon"));
+    const TrainingSummary& t = a.training;
+    out += fmt::format("training:\n  evaluations: {}\n  orderEvaluations: {}\n  seconds: {}\n  orderer: {}\n", t.evaluations,
+                       t.orderEvaluations, number(t.seconds, "training.seconds"), yamlString(t.orderer));
+    const ValidationSummary& v = a.validation;
+    out += fmt::format("validation:\n  poses: {}\n  maxPositionErrorCm: {}\n  meanPositionErrorCm: {}\n"
+                       "  maxRotationErrorDeg: {}\n  meanRotationErrorDeg: {}\n  worstOutput: {}\n  worstPose: {}\n",
+                       v.poses, number(v.maxPositionErrorCm, "validation.maxPositionErrorCm"),
+                       number(v.meanPositionErrorCm, "validation.meanPositionErrorCm"),
+                       number(v.maxRotationErrorDeg, "validation.maxRotationErrorDeg"),
+                       number(v.meanRotationErrorDeg, "validation.meanRotationErrorDeg"), yamlString(v.worstOutput), v.worstPose);
+
+    out += a.outputs.empty() ? "outputs: []\n" : "outputs:\n";
+    for (std::size_t k = 0; k < a.outputs.size(); ++k) {
+        const std::string field = fmt::format("outputs[{}].rest", k);
+        out += fmt::format("  - name: {}\n    rest: [", yamlString(a.outputs[k].name));
+        for (int r = 0; r < 4; ++r) {
+            Eigen::Vector4d row = a.outputs[k].rest.row(r).transpose();
+            out += fmt::format("{}[{}, {}, {}, {}]", r ? ", " : "", number(row[0], field), number(row[1], field),
+                               number(row[2], field), number(row[3], field));
+        }
+        out += "]\n";
+    }
+
+    out += a.parameters.empty() ? "parameters: []\n" : "parameters:  # composition order, outermost first\n";
+    for (std::size_t p = 0; p < a.parameters.size(); ++p) {
+        const ModelledParameter& m = a.parameters[p];
+        const std::string field = fmt::format("parameters[{}]", p);
+        std::string fields = parameterFields(m.parameter, field, "    ");
+        fields.replace(0, 4, "  - ");
+        out += fields;
+        out += fmt::format("    form: {}\n    fitError: {}\n    samples: {}\n", yamlString(m.form),
+                           number(m.fitError, field + ".fitError"), m.samples);
+        if (m.outputs.size() != m.operatorOfOutput.size())
+            throw std::invalid_argument(fmt::format("approximationToYaml: {}: {} outputs but {} operator indices", field,
+                                                    m.outputs.size(), m.operatorOfOutput.size()));
+        out += "    outputs: " + list(m.outputs, [&](int k) {
+                   if (k < 0 || static_cast<std::size_t>(k) >= a.outputs.size())
+                       throw std::invalid_argument(fmt::format("approximationToYaml: {}.outputs: index {} out of range", field, k));
+                   return yamlString(a.outputs[static_cast<std::size_t>(k)].name);
+               }) + "\n";
+        out += "    operatorOfOutput: " + list(m.operatorOfOutput, [&](int o) {
+                   if (o < 0 || static_cast<std::size_t>(o) >= m.operators.size())
+                       throw std::invalid_argument(
+                           fmt::format("approximationToYaml: {}.operatorOfOutput: index {} out of range", field, o));
+                   return fmt::format("{}", o);
+               }) + "\n";
+        out += "    operators:\n";
+        for (std::size_t o = 0; o < m.operators.size(); ++o)
+            out += operatorText(m.operators[o], fmt::format("{}.operators[{}]", field, o));
+    }
+
+    out += a.discarded.empty() ? "discarded: []\n" : "discarded:\n";
+    for (std::size_t d = 0; d < a.discarded.size(); ++d) {
+        std::string fields = parameterFields(a.discarded[d].parameter, fmt::format("discarded[{}]", d), "    ");
+        fields.replace(0, 4, "  - ");
+        out += fields + fmt::format("    reason: {}\n", yamlString(a.discarded[d].reason));
+    }
+    return out;
+}
+
+Approximation approximationFromYaml(std::string_view text, const std::string& fileName)
+{
+    // Read through a const node: operator[] on a mutable one would add the keys it looks for.
+    const YAML::Node root = [&] {
+        try {
+            return YAML::Load(std::string(text));
+        }
+        catch (const YAML::Exception& e) {
+            throw ApproximationFileError(
+                fmt::format("{}:{}:{}: not valid YAML: {}", fileName, e.mark.line + 1, e.mark.column + 1, e.msg));
+        }
+    }();
+    const Reader r(fileName);
+    if (!root.IsMap())
+        throw ApproximationFileError(fmt::format("{}: not an approximation file (expected a map with format: {})", fileName,
+                                                 approximationFormatName));
+    // The format and version first: any other problem in a file of another kind or version says less.
+    const YAML::Node format = r.need(root, "format", "file");
+    if (!format.IsScalar() || format.Scalar() != approximationFormatName)
+        r.fail(format, "format", fmt::format("not an approximation file (expected format: {})", approximationFormatName));
+    const int version = r.integer<int>(r.need(root, "version", "file"), "version");
+    if (version != approximationFormatVersion)
+        r.fail(root["version"], "version",
+               fmt::format("version {} is not supported; this program reads version {} (re-run rig-learn)", version,
+                           approximationFormatVersion));
+    r.checkKeys(root, "file",
+                {"format", "version", "rigFile", "rigFingerprint", "epsilon", "training", "validation", "outputs", "parameters",
+                 "discarded"});
+
+    Approximation a;
+    a.rigFile = r.text(root["rigFile"], "rigFile");
+    a.rigFingerprint = r.text(root["rigFingerprint"], "rigFingerprint");
+    a.epsilon = r.real(root["epsilon"], "epsilon");
+    if (!(a.epsilon > 0)) r.fail(root["epsilon"], "epsilon", "must be positive");
+
+    const YAML::Node training = root["training"];
+    r.checkKeys(training, "training", {"evaluations", "orderEvaluations", "seconds", "orderer"});
+    a.training.evaluations = r.integer<std::uint64_t>(training["evaluations"], "training.evaluations");
+    a.training.orderEvaluations = r.integer<std::uint64_t>(training["orderEvaluations"], "training.orderEvaluations");
+    a.training.seconds = r.real(training["seconds"], "training.seconds");
+    a.training.orderer = r.text(training["orderer"], "training.orderer");
+
+    const YAML::Node validation = root["validation"];
+    r.checkKeys(validation, "validation",
+                {"poses", "maxPositionErrorCm", "meanPositionErrorCm", "maxRotationErrorDeg", "meanRotationErrorDeg",
+                 "worstOutput", "worstPose"});
+    a.validation.poses = r.integer<int>(validation["poses"], "validation.poses");
+    a.validation.maxPositionErrorCm = r.real(validation["maxPositionErrorCm"], "validation.maxPositionErrorCm");
+    a.validation.meanPositionErrorCm = r.real(validation["meanPositionErrorCm"], "validation.meanPositionErrorCm");
+    a.validation.maxRotationErrorDeg = r.real(validation["maxRotationErrorDeg"], "validation.maxRotationErrorDeg");
+    a.validation.meanRotationErrorDeg = r.real(validation["meanRotationErrorDeg"], "validation.meanRotationErrorDeg");
+    a.validation.worstOutput = r.text(validation["worstOutput"], "validation.worstOutput");
+    a.validation.worstPose = r.integer<int>(validation["worstPose"], "validation.worstPose");
+
+    std::map<std::string, int> outputIndex;
+    const YAML::Node outputs = r.sequence(root["outputs"], "outputs");
+    for (std::size_t k = 0; k < outputs.size(); ++k) {
+        const std::string field = fmt::format("outputs[{}]", k);
+        r.checkKeys(outputs[k], field, {"name", "rest"});
+        ApproximationOutput out;
+        out.name = r.text(outputs[k]["name"], field + ".name");
+        if (!outputIndex.emplace(out.name, static_cast<int>(k)).second)
+            r.fail(outputs[k]["name"], field + ".name", fmt::format("the output '{}' is listed twice", out.name));
+        const YAML::Node rows = r.sequence(outputs[k]["rest"], field + ".rest", 4);
+        for (int row = 0; row < 4; ++row) {
+            const auto v = r.reals(rows[static_cast<std::size_t>(row)], field + ".rest", 4);
+            for (int c = 0; c < 4; ++c) out.rest(row, c) = v[static_cast<std::size_t>(c)];
+        }
+        a.outputs.push_back(std::move(out));
+    }
+
+    std::set<std::string> names;
+    const YAML::Node parameters = r.sequence(root["parameters"], "parameters");
+    for (std::size_t p = 0; p < parameters.size(); ++p) {
+        const YAML::Node n = parameters[p];
+        const std::string field = fmt::format("parameters[{}]", p);
+        r.checkKeys(n, field,
+                    {"name", "default", "min", "max", "limited", "angular", "form", "fitError", "samples", "outputs", "operatorOfOutput",
+                     "operators"});
+        ModelledParameter m;
+        m.parameter = r.parameter(n, field);
+        if (!names.insert(m.parameter.name).second)
+            r.fail(n["name"], field + ".name", fmt::format("the parameter '{}' is listed twice", m.parameter.name));
+        m.form = r.text(n["form"], field + ".form");
+        m.fitError = r.real(n["fitError"], field + ".fitError");
+        m.samples = r.integer<int>(n["samples"], field + ".samples");
+        for (const auto& o : r.sequence(n["outputs"], field + ".outputs")) {
+            const std::string name = r.text(o, field + ".outputs");
+            const auto it = outputIndex.find(name);
+            if (it == outputIndex.end()) r.fail(o, field + ".outputs", fmt::format("'{}' is not one of the outputs", name));
+            if (!m.outputs.empty() && it->second <= m.outputs.back())
+                r.fail(o, field + ".outputs", "the outputs must be listed once each, in the order of the outputs list");
+            m.outputs.push_back(it->second);
+        }
+        if (m.outputs.empty()) r.fail(n["outputs"], field + ".outputs", "a modelled parameter affects at least one output");
+        const YAML::Node operators = r.sequence(n["operators"], field + ".operators");
+        if (operators.size() == 0) r.fail(operators, field + ".operators", "a modelled parameter has at least one operator");
+        for (std::size_t o = 0; o < operators.size(); ++o)
+            m.operators.push_back(r.op(operators[o], fmt::format("{}.operators[{}]", field, o)));
+        const YAML::Node which = r.sequence(n["operatorOfOutput"], field + ".operatorOfOutput", m.outputs.size());
+        for (const auto& o : which) {
+            const int index = r.integer<int>(o, field + ".operatorOfOutput");
+            if (index < 0 || static_cast<std::size_t>(index) >= m.operators.size())
+                r.fail(o, field + ".operatorOfOutput",
+                       fmt::format("{} is not an operator index (0..{})", index, m.operators.size() - 1));
+            m.operatorOfOutput.push_back(index);
+        }
+        a.parameters.push_back(std::move(m));
+    }
+
+    const YAML::Node discarded = r.sequence(root["discarded"], "discarded");
+    for (std::size_t d = 0; d < discarded.size(); ++d) {
+        const std::string field = fmt::format("discarded[{}]", d);
+        r.checkKeys(discarded[d], field, {"name", "default", "min", "max", "limited", "angular", "reason"});
+        DiscardedParameter x;
+        x.parameter = r.parameter(discarded[d], field);
+        if (!names.insert(x.parameter.name).second)
+            r.fail(discarded[d]["name"], field + ".name", fmt::format("the parameter '{}' is listed twice", x.parameter.name));
+        x.reason = r.text(discarded[d]["reason"], field + ".reason");
+        a.discarded.push_back(std::move(x));
+    }
+    return a;
+}
+
+Approximation readApproximationFile(const std::filesystem::path& file)
+{
+    std::ifstream in(file, std::ios::binary);
+    if (!in)
+        throw ApproximationFileError(fmt::format("{}: cannot read it ({}); check the name (rig-learn -o writes one)",
+                                                 file.string(), std::strerror(errno)));
+    std::ostringstream s;
+    s << in.rdbuf();
+    return approximationFromYaml(s.str(), file.string());
+}
+
+std::string checkFingerprint(const Approximation& approximation, const std::string& fingerprint, bool strict)
+{
+    if (approximation.rigFingerprint == fingerprint) return {};
+    const std::string message =
+        fmt::format("the rig changed since the approximation was learned from {} (fingerprint {}, now {}); re-run "
+                    "rig-learn",
+                    approximation.rigFile, approximation.rigFingerprint, fingerprint);
+    if (strict) throw ApproximationFileError(message);
+    return message;
+}
+
+}  // namespace rig

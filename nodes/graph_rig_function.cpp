@@ -1,0 +1,202 @@
+#include "nodes/graph_rig_function.h"
+
+#include <fnmatch.h>
+
+#include <algorithm>
+#include <fstream>
+#include <numbers>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "graph/error.h"
+#include "graph/plug_glob.h"
+#include "graph/suggest.h"
+#include "graph/yaml_loader.h"
+#include "nodes/builtin_nodes.h"
+
+namespace rig {
+
+std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t hash)
+{
+    for (const char c : bytes) {
+        hash ^= static_cast<unsigned char>(c);
+        hash *= 0x100000001b3ull;
+    }
+    return hash;
+}
+
+namespace {
+
+bool globMatches(const std::string& glob, const std::string& name) { return fnmatch(glob.c_str(), name.c_str(), 0) == 0; }
+
+// Why a scalar plug cannot be a parameter, or "" when it can.
+std::string whyNotParameter(const Graph& g, const Plug& p)
+{
+    const AttributeSpec& s = g.spec(p);
+    if (!s.input) return "an output, computed by its node";
+    if (g.plugType(p) != ValueType::Double) return fmt::format("a {} value, not a number", valueTypeName(g.plugType(p)));
+    if (!s.keyable) return "not keyable (not an animator control)";
+    if (const Connection* c = g.incomingConnection(p)) return fmt::format("driven by {}", g.plugName(c->source));
+    return {};
+}
+
+// A vector attribute stands for its components.
+std::vector<Plug> scalars(const Graph& g, const Plug& p)
+{
+    if (p.child >= 0 || g.spec(p).type != ValueType::Vector3) return {p};
+    return {{p.node, p.attr, p.index, 0}, {p.node, p.attr, p.index, 1}, {p.node, p.attr, p.index, 2}};
+}
+
+// What to say about a glob that matches no plug: which half of node.attribute is wrong, and a
+// suggestion for a typo.
+std::string noPlugHint(const Graph& g, const std::string& glob)
+{
+    const auto dot = glob.find('.');
+    if (dot == std::string::npos) return "a parameter is node.attribute, e.g. 'L_arm_*.rotate?' or 'hips.translateX'";
+    const std::string nodePart = glob.substr(0, dot), attrPart = glob.substr(dot + 1);
+    std::vector<std::string> nodeNames;
+    std::vector<NodeId> nodes;
+    for (NodeId n = 0; n < g.nodeCount(); ++n) {
+        nodeNames.push_back(g.nodeName(n));
+        if (globMatches(nodePart, nodeNames.back())) nodes.push_back(n);
+    }
+    if (nodes.empty()) return fmt::format("no node matches '{}'{}", nodePart, didYouMean(nodePart, nodeNames));
+    std::set<std::string> attributes;
+    for (const Plug& p : allPlugs(g))
+        if (std::find(nodes.begin(), nodes.end(), p.node) != nodes.end() && whyNotParameter(g, p).empty()) {
+            const std::string name = g.plugName(p);
+            attributes.insert(name.substr(name.find('.') + 1));
+        }
+    const std::vector<std::string> candidates(attributes.begin(), attributes.end());
+    const std::string suggestion = closestName(attrPart, candidates);
+    return fmt::format("{} node{} match '{}', but none has an attribute matching '{}'{}", nodes.size(),
+                       nodes.size() == 1 ? "" : "s", nodePart, attrPart,
+                       suggestion.empty() ? std::string() : fmt::format("; did you mean '{}.{}'?", nodePart, suggestion));
+}
+
+std::string readBytes(const std::filesystem::path& file)
+{
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw Error(fmt::format("{}: cannot read it to fingerprint the rig", file.string()));
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+}  // namespace
+
+GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const GraphRigOptions& options)
+{
+    auto registry = makeBuiltinRegistry();
+    for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
+    std::vector<std::filesystem::path> filesRead;
+    graph_ = loadGraphFile(rigFile, registry, &filesRead);
+    std::uint64_t hash = fnv1a64({});
+    for (const auto& file : filesRead) hash = fnv1a64(readBytes(file), hash);
+    fingerprint_ = fmt::format("{:016x}", hash);
+    Graph& g = *graph_;
+    const std::string rigName = rigFile.string();
+
+    if (options.parameterGlobs.empty())
+        throw Error(fmt::format("{}: no parameters given; name them with plug globs such as 'L_arm_*.rotate?'", rigName));
+    std::set<Plug> seen;
+    for (const std::string& glob : options.parameterGlobs) {
+        std::vector<Plug> matched;
+        if (!isGlobPattern(glob)) {
+            try {
+                matched.push_back(g.plug(glob));
+            }
+            catch (const Error& e) {
+                throw Error(fmt::format("{}: parameter '{}': {}", rigName, glob, e.what()));
+            }
+        }
+        else
+            for (const Plug& p : allPlugs(g))
+                if (globMatches(glob, g.plugName(p))) matched.push_back(p);
+        if (matched.empty()) throw Error(fmt::format("{}: parameter glob '{}' matches no plug: {}", rigName, glob, noPlugHint(g, glob)));
+        std::size_t usable = 0;
+        std::string firstRefusal;
+        for (const Plug& whole : matched)
+            for (const Plug& p : scalars(g, whole)) {
+                const std::string why = whyNotParameter(g, p);
+                if (!why.empty()) {
+                    if (firstRefusal.empty()) firstRefusal = fmt::format("{} is {}", g.plugName(p), why);
+                    continue;
+                }
+                ++usable;
+                if (!seen.insert(p).second) continue;
+                const AttributeSpec& s = g.spec(p);
+                RigParameter param;
+                param.name = g.plugName(p);
+                param.defaultValue = toDouble(g.getValue(p));
+                param.angular = s.unit == Unit::Angle;
+                const double half = param.angular ? defaultAngleRangeDegrees * std::numbers::pi / 180.0
+                                    : s.unit == Unit::Distance ? defaultDistanceRangeCm
+                                                               : defaultUnitlessRange;
+                param.min = s.min ? *s.min : param.defaultValue - half;
+                param.max = s.max ? *s.max : param.defaultValue + half;
+                // An attribute with a limit is held to min..max (a one-sided limit gets the default range
+                // on its other side); one without is free for the solver, the range only for learning.
+                param.limited = s.min || s.max;
+                parameters_.push_back(param);
+                parameterPlugs_.push_back(p);
+                current_.push_back(param.defaultValue);
+            }
+        if (usable == 0)
+            throw Error(fmt::format("{}: parameter glob '{}' matches no free keyable number ({}); parameters are animator "
+                                    "controls that nothing drives",
+                                    rigName, glob, firstRefusal));
+    }
+
+    std::vector<std::string> jointNames;
+    std::vector<NodeId> joints;
+    for (NodeId n = 0; n < g.nodeCount(); ++n)
+        if (g.nodeType(n).name() == "joint") {
+            joints.push_back(n);
+            jointNames.push_back(g.nodeName(n));
+        }
+    std::set<NodeId> chosen;
+    if (options.outputGlobs.empty()) chosen.insert(joints.begin(), joints.end());
+    for (const std::string& glob : options.outputGlobs) {
+        std::size_t found = 0;
+        for (std::size_t j = 0; j < joints.size(); ++j)
+            if (globMatches(glob, jointNames[j])) {
+                chosen.insert(joints[j]);
+                ++found;
+            }
+        if (found > 0) continue;
+        const NodeId other = isGlobPattern(glob) ? -1 : g.findNode(glob);
+        if (other >= 0)
+            throw Error(fmt::format("{}: output '{}' is a {}, not a joint; outputs are joints", rigName, glob,
+                                    g.nodeType(other).name()));
+        throw Error(fmt::format("{}: output glob '{}' matches no joint{}", rigName, glob,
+                                isGlobPattern(glob) ? std::string() : didYouMean(glob, jointNames)));
+    }
+    if (chosen.empty()) throw Error(fmt::format("{}: the rig has no joints to use as outputs", rigName));
+    for (NodeId n : chosen) {
+        outputNames_.push_back(g.nodeName(n));
+        outputPlugs_.push_back(g.plug(g.nodeName(n) + ".worldMatrix"));
+    }
+}
+
+void GraphRigFunction::evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds)
+{
+    if (values.size() != parameters_.size())
+        throw std::invalid_argument(fmt::format("GraphRigFunction::evaluate: {} values for {} parameters", values.size(),
+                                                parameters_.size()));
+    // Only changed plugs are set: setting one dirties its downstream, and most probes move one or two.
+    for (std::size_t i = 0; i < values.size(); ++i)
+        if (!(values[i] == current_[i])) {
+            graph_->setValue(parameterPlugs_[i], values[i]);
+            current_[i] = values[i];
+        }
+    ++evaluations_;
+    graph_->evaluate(outputPlugs_);
+    worlds.resize(outputPlugs_.size());
+    for (std::size_t k = 0; k < outputPlugs_.size(); ++k) worlds[k] = std::get<Eigen::Matrix4d>(graph_->getValue(outputPlugs_[k]));
+}
+
+}  // namespace rig

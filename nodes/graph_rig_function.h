@@ -1,0 +1,72 @@
+#pragma once
+// The rig as a black box for the learner and the solver: a RigFunction backed by a private graph
+// instance loaded from a rig file. Parameters are free keyable scalar input plugs named by globs
+// ('L_arm_*.rotate?', 'hips.translate?'); outputs are joints (all, or by name globs), read as world
+// matrices. Evaluations are counted and serial: the graph is stateful (docs/rig-learn.md).
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "graph/graph.h"
+#include "inversion/rig_function.h"
+
+namespace rig {
+
+struct GraphRigOptions {
+    // Plug globs; each must match at least one free (unconnected) keyable scalar input plug. A vector
+    // attribute ('hips.translate') stands for its X/Y/Z components.
+    std::vector<std::string> parameterGlobs;
+    // Joint-name globs; empty: every joint of the rig.
+    std::vector<std::string> outputGlobs;
+    // Plugins to load before reading the rig (as graph-eval --plugin).
+    std::vector<std::string> plugins;
+};
+
+// Sampling range of a parameter whose attribute declares no min/max, around its current value
+// (docs/rig-learn.md): +-90 degrees for angles, +-50 cm for distances, +-1 otherwise.
+inline constexpr double defaultAngleRangeDegrees = 90.0;
+inline constexpr double defaultDistanceRangeCm = 50.0;
+inline constexpr double defaultUnitlessRange = 1.0;
+
+class GraphRigFunction final : public RigFunction {
+public:
+    // Loads the rig and resolves the globs. Throws rig::Error (one line: "file:line:col: ..." for a
+    // bad rig file; the glob and a suggestion when a glob matches nothing usable).
+    GraphRigFunction(const std::filesystem::path& rigFile, const GraphRigOptions& options);
+
+    const std::vector<RigParameter>& parameters() const override { return parameters_; }
+    const std::vector<std::string>& outputs() const override { return outputNames_; }
+    // Sets the parameter plugs whose value changed since the last call, evaluates, and reads the
+    // outputs' worldMatrix. Throws std::invalid_argument for a wrong number of values, rig::Error for a
+    // value the rig refuses (outside the attribute's limits).
+    void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) override;
+    std::uint64_t evaluationCount() const override { return evaluations_; }
+    // FNV-1a 64 (16 hex digits) over the contents of the rig file and every file it includes.
+    std::string fingerprint() const override { return fingerprint_; }
+
+    // The instance, for tools that also read or set other plugs. Plugs set behind this object's back
+    // are overwritten only when the parameter's value changes.
+    Graph& graph() { return *graph_; }
+    const std::vector<Plug>& parameterPlugs() const { return parameterPlugs_; }
+    const std::vector<Plug>& outputPlugs() const { return outputPlugs_; }
+
+private:
+    std::unique_ptr<Graph> graph_;
+    std::vector<RigParameter> parameters_;
+    std::vector<Plug> parameterPlugs_;
+    std::vector<double> current_;  // the value each parameter plug holds
+    std::vector<std::string> outputNames_;
+    std::vector<Plug> outputPlugs_;
+    std::uint64_t evaluations_ = 0;
+    std::string fingerprint_;
+};
+
+// FNV-1a 64 of bytes, continuing from `hash` (start: the FNV offset basis).
+std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t hash = 0xcbf29ce484222325ull);
+
+}  // namespace rig

@@ -1,0 +1,237 @@
+// rig-learn: learns a rig's approximation (sections 3 and 4 of the talk) and writes it to a file,
+// with a readable report on standard output and, optionally, a JSON one (docs/rig-learn.md).
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "graph/error.h"
+#include "inversion/approximation_io.h"
+#include "inversion/learner.h"
+#include "nodes/graph_rig_function.h"
+#include "tools/cli_common.h"
+#include "tools/progress_bar.h"
+
+namespace rig {
+namespace {
+
+struct Options {
+    std::string rig;
+    std::vector<std::string> params;
+    std::vector<std::string> outputs;
+    std::string output;
+    std::string epsilon;
+    bool epsilonGiven = false;
+    std::string orderer = "structured";
+    std::string reportJson;
+    bool reportGiven = false;
+    std::vector<std::string> plugins;
+};
+
+double parseEpsilon(const std::string& text)
+{
+    double x = 0.0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+    if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !std::isfinite(x))
+        throw Error(fmt::format("--epsilon '{}': not a number; give a positive number of cm per unit of a parameter, "
+                                "e.g. --epsilon 0.001",
+                                text));
+    if (!(x > 0))
+        throw Error(fmt::format("--epsilon '{}': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001", text));
+    return x;
+}
+
+std::string jsonString(std::string_view s)
+{
+    std::string out = "\"";
+    for (const char c : s) {
+        const auto u = static_cast<unsigned char>(c);
+        if (c == '"' || c == '\\') (out += '\\') += c;
+        else if (c == '\n') out += "\\n";
+        else if (u < 0x20) out += fmt::format("\\u{:04x}", u);
+        else out += c;
+    }
+    return out + "\"";
+}
+
+std::string jsonNumber(double x) { return std::isfinite(x) ? fmt::format("{}", x) : std::string("null"); }
+
+// A parameter's value in user units (degrees for angles).
+double userValue(const RigParameter& p, double internal) { return p.angular ? internal * 180.0 / std::numbers::pi : internal; }
+
+std::string rangeText(const RigParameter& p)
+{
+    return fmt::format("{:g}..{:g}{}", userValue(p, p.min), userValue(p, p.max), p.angular ? " deg" : "");
+}
+
+std::string vectorText(const Eigen::Vector3d& v) { // + 0.0 prints -0 as 0.
+    return fmt::format("({:.4g}, {:.4g}, {:.4g})", v.x() + 0.0, v.y() + 0.0, v.z() + 0.0); }
+
+// Columns padded to their widest cell, the first left-aligned: a table to read on a terminal.
+std::string alignTable(const std::vector<std::vector<std::string>>& rows)
+{
+    std::vector<std::size_t> widths;
+    for (const auto& row : rows)
+        for (std::size_t i = 0; i < row.size(); ++i) {
+            if (widths.size() <= i) widths.push_back(0);
+            widths[i] = std::max(widths[i], row[i].size());
+        }
+    std::string out;
+    for (const auto& row : rows) {
+        std::string line = " ";
+        for (std::size_t i = 0; i < row.size(); ++i)
+            line += i == 0 ? fmt::format(" {:>{}}", row[i], widths[i]) : fmt::format("  {:<{}}", row[i], widths[i]);
+        while (!line.empty() && line.back() == ' ') line.pop_back();
+        out += line + "\n";
+    }
+    return out;
+}
+
+std::string readableReport(const Approximation& a, const RigFunction& rig, const Options& options, double loadSeconds)
+{
+    std::string out = fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n\n",
+                                  options.rig, rig.parameters().size(), rig.outputs().size(), a.epsilon, a.training.orderer);
+    out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
+    std::vector<std::vector<std::string>> rows{{"#", "parameter", "form", "axis", "pivot (cm)", "fit error", "samples", "outputs",
+                                                "range"}};
+    for (std::size_t p = 0; p < a.parameters.size(); ++p) {
+        const ModelledParameter& m = a.parameters[p];
+        const Operator& op = m.operators.front();
+        const bool one = m.operators.size() == 1;
+        const bool analytic = op.kind != OperatorKind::sampledRigid && op.kind != OperatorKind::sampledAffine;
+        const bool hasAxis = one && analytic && op.kind != OperatorKind::uniformScale;
+        const bool hasPivot = one && analytic && op.kind != OperatorKind::translation;
+        rows.push_back({fmt::format("{}", p + 1), m.parameter.name, m.form, hasAxis ? vectorText(op.axis) : "-",
+                        hasPivot ? vectorText(op.pivot) : "-", fmt::format("{:.2g}", m.fitError), fmt::format("{}", m.samples),
+                        fmt::format("{}", m.outputs.size()), rangeText(m.parameter)});
+    }
+    out += alignTable(rows);
+    out += fmt::format("\nDiscarded: {} parameters\n", a.discarded.size());
+    for (const auto& d : a.discarded) out += fmt::format("  {}: {}\n", d.parameter.name, d.reason);
+    out += fmt::format("\nTraining: {} rig evaluations ({} for the composition order), {:.2f} s learning, {:.2f} s loading "
+                       "the rig\n",
+                       a.training.evaluations, a.training.orderEvaluations, a.training.seconds, loadSeconds);
+    const ValidationSummary& v = a.validation;
+    out += fmt::format("Validation on {} random poses within the limits of the modelled parameters, real rig against "
+                       "approximation:\n",
+                       v.poses);
+    if (v.poses == 0 || a.parameters.empty()) out += "  not run (no poses or nothing modelled)\n";
+    else {
+        out += fmt::format("  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm\n", v.maxPositionErrorCm,
+                           v.worstOutput, v.worstPose + 1, v.meanPositionErrorCm);
+        out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg, v.meanRotationErrorDeg);
+    }
+    out += fmt::format("\nWrote {}\n", options.output);
+    return out;
+}
+
+std::string jsonReport(const Approximation& a, const RigFunction& rig, const Options& options, double loadSeconds)
+{
+    std::string out = "{\n";
+    out += fmt::format("  \"rig\": {},\n  \"approximation\": {},\n  \"fingerprint\": {},\n", jsonString(options.rig),
+                       jsonString(options.output), jsonString(a.rigFingerprint));
+    out += fmt::format("  \"epsilon\": {},\n  \"orderer\": {},\n", jsonNumber(a.epsilon), jsonString(a.training.orderer));
+    out += fmt::format("  \"parameters\": {},\n  \"outputs\": {},\n", rig.parameters().size(), rig.outputs().size());
+    out += fmt::format("  \"evaluations\": {},\n  \"order_evaluations\": {},\n", a.training.evaluations,
+                       a.training.orderEvaluations);
+    out += fmt::format("  \"seconds\": {},\n  \"load_seconds\": {},\n", jsonNumber(a.training.seconds), jsonNumber(loadSeconds));
+    out += "  \"modelled\": [";
+    for (std::size_t p = 0; p < a.parameters.size(); ++p) out += (p ? ", " : "") + jsonString(a.parameters[p].parameter.name);
+    out += "],\n  \"forms\": [";
+    for (std::size_t p = 0; p < a.parameters.size(); ++p) {
+        const ModelledParameter& m = a.parameters[p];
+        out += fmt::format("{}\n    {{\"name\": {}, \"form\": {}, \"fit_error\": {}, \"samples\": {}, \"outputs\": {}}}",
+                           p ? "," : "", jsonString(m.parameter.name), jsonString(m.form), jsonNumber(m.fitError), m.samples,
+                           m.outputs.size());
+    }
+    out += a.parameters.empty() ? "],\n" : "\n  ],\n";
+    out += "  \"discarded\": [";
+    for (std::size_t d = 0; d < a.discarded.size(); ++d)
+        out += fmt::format("{}\n    {{\"name\": {}, \"reason\": {}}}", d ? "," : "", jsonString(a.discarded[d].parameter.name),
+                           jsonString(a.discarded[d].reason));
+    out += a.discarded.empty() ? "],\n" : "\n  ],\n";
+    const ValidationSummary& v = a.validation;
+    out += fmt::format("  \"validation\": {{\"poses\": {}, \"max_position_error_cm\": {}, \"mean_position_error_cm\": {}, "
+                       "\"max_rotation_error_deg\": {}, \"mean_rotation_error_deg\": {}, \"worst_output\": {}, "
+                       "\"worst_pose\": {}}}\n",
+                       v.poses, jsonNumber(v.maxPositionErrorCm), jsonNumber(v.meanPositionErrorCm),
+                       jsonNumber(v.maxRotationErrorDeg), jsonNumber(v.meanRotationErrorDeg), jsonString(v.worstOutput),
+                       v.worstPose);
+    return out + "}\n";
+}
+
+int run(const Options& options)
+{
+    if (options.rig.empty()) throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
+    // Bad outputs and flags are reported before any work.
+    cli::checkOutputFile(options.output, "approximation.yaml");
+    if (options.reportGiven) cli::checkOutputFile(options.reportJson, "report.json");
+    LearnOptions learn;
+    if (options.epsilonGiven) learn.epsilon = parseEpsilon(options.epsilon);
+    learn.orderer = options.orderer == "talk" ? Orderer::talk : Orderer::structured;
+
+    const auto loadStart = std::chrono::steady_clock::now();
+    GraphRigFunction rig(options.rig, GraphRigOptions{options.params, options.outputs, options.plugins});
+    const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
+
+    cli::ProgressBar bar("learning");
+    // Classification is most of the work; ordering and validation share the rest.
+    learn.progress = [&](std::string_view stage, double fraction) {
+        const double start = stage == "classifying" ? 0.0 : stage == "ordering" ? 0.6 : 0.85;
+        const double width = stage == "classifying" ? 0.6 : stage == "ordering" ? 0.25 : 0.15;
+        bar.update(start + width * fraction, std::string(stage));
+    };
+    Approximation approximation;
+    try {
+        approximation = learnApproximation(rig, learn, options.rig);
+    }
+    catch (const Error& e) {
+        // A rig that refuses a sampled value (a node's own limit) or fails to evaluate: say where.
+        throw Error(fmt::format("{}: evaluating the rig while learning: {}", options.rig, e.what()));
+    }
+    bar.finish();
+
+    cli::writeFileAtomically(options.output, approximationToYaml(approximation));
+    if (options.reportGiven) cli::writeFileAtomically(options.reportJson, jsonReport(approximation, rig, options, loadSeconds));
+    std::cout << readableReport(approximation, rig, options, loadSeconds);
+    if (approximation.parameters.empty())
+        std::cerr << "warning: no parameter could be modelled; the approximation is empty (see the discards above)\n";
+    return 0;
+}
+
+}  // namespace
+}  // namespace rig
+
+int main(int argc, char** argv)
+{
+    rig::Options options;
+    CLI::App app{"rig-learn: learn a rig's approximation (operators and composition order) for inversion.\n\n"
+                 "Example:\n"
+                 "  rig-learn rigs/examples/arm.yaml --params 'shoulder.rotate?' 'wrist.rotate?' -o arm_approx.yaml\n\n"
+                 "Parameters are free keyable plugs named by globs; outputs are joints (default: all). Angles are\n"
+                 "degrees in the report, radians in the file. See docs/rig-learn.md.",
+                 "rig-learn"};
+    app.add_option("rig", options.rig, "Rig graph file (YAML)");
+    app.add_option("--params", options.params,
+                   "Parameter plug globs, e.g. 'L_arm_*.rotate?' 'hips.translate?' (one or more; repeatable)")
+        ->required();
+    app.add_option("--outputs", options.outputs, "Output joint-name globs (default: every joint of the rig)");
+    app.add_option("-o,--output", options.output, "Approximation file to write (YAML)")->required();
+    app.add_option("--epsilon", options.epsilon,
+                   "Validation threshold, cm of frame-point error per unit of a parameter (default 0.001)");
+    app.add_option("--orderer", options.orderer,
+                   "Composition orderer: structured (default: tests only pairs that share outputs) or talk (insertion "
+                   "sort over every pair)")
+        ->check(CLI::IsMember({"talk", "structured"}));
+    app.add_option("--report-json", options.reportJson, "Also write the report as JSON to this file");
+    app.add_option("--plugin", options.plugins, "Load a node plugin before reading the rig (repeatable)")
+        ->allow_extra_args(false);
+    return rig::cli::runMain(app, argc, argv, [&] {
+        options.epsilonGiven = app.count("--epsilon") > 0;
+        options.reportGiven = app.count("--report-json") > 0;
+        return rig::run(options);
+    });
+}
