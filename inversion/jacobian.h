@@ -1,0 +1,170 @@
+#pragma once
+// Residuals of joint targets on the approximation, and their Jacobian (docs/solver.md).
+//
+// Per active target joint k, six rows in this order:
+//   position  w_p * (t_k(beta) - t_target)                                     cm
+//   rotation  w_r * s * log(Q_target^T Q_k(beta))                              radians * s (cm per radian)
+// where Q is the orthonormal (polar) part of a world matrix's 3x3 block, so scale and shear in a target
+// or in the approximation's output (a stretch operator) never count as rotation. The Jacobian is
+// analytic, from the operator product F~_k = P_s1 ... P_sm F_k(0) with prefix and suffix products
+// (dF~_k/da_j = prefix_j * P_j'(a_j) * suffix_j), or central finite differences on the approximation
+// with its columns in parallel (oneTBB, in the caller's task arena).
+
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "inversion/approximation.h"
+
+namespace rig {
+
+enum class JacobianMethod { analytic, finiteDifference };
+
+std::string_view jacobianMethodName(JacobianMethod method);
+
+// What a solve should reach for one output of the approximation (one entry per Approximation::outputs).
+struct JointTarget {
+    bool active = false;  // outputs without a target do not count
+    // Target world matrix, cm. Only the orthonormal (polar) part of the 3x3 block is used as the
+    // target rotation: scale and shear are ignored. A singular 3x3 block makes the target invalid.
+    Eigen::Matrix4d world = Eigen::Matrix4d::Identity();
+    double positionWeight = 1.0;  // per cm of position error; 0 ignores the position
+    double rotationWeight = 1.0;  // multiplies the rotation residual (radians x rotationScaleCm); 0 ignores it
+};
+
+inline constexpr int rowsPerTarget = 6;  // position x, y, z, then rotation x, y, z
+
+// A target ready for the residual: orthonormal rotation, rotation scale folded into its weight.
+struct PreparedTarget {
+    Eigen::Vector3d position = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    double positionWeight = 0.0;
+    double rotationWeight = 0.0;  // JointTarget::rotationWeight * rotationScaleCm
+};
+
+// False when the target cannot be used: a non-finite entry or weight, a negative weight, or a 3x3
+// block too close to singular to have an orientation (smallest singular value below 1e-9 of the largest).
+bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTarget& prepared);
+
+// The orthonormal part of a 3x3 block (polar decomposition, reflections removed).
+Eigen::Matrix3d orthonormalPart(const Eigen::Matrix3d& m);
+
+// Position error (cm) and rotation error (radians) of a world matrix against a prepared target, unweighted.
+struct TargetError {
+    double positionCm = 0.0;
+    double rotationRad = 0.0;
+};
+TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& target);
+
+// The structure of a sub-problem: some parameters are unknowns (the columns), the residuals of some
+// outputs are the rows, every other parameter is held at a given value. Built once, shared read-only
+// (solves on many threads use one structure, each with its own ResidualWorkspace).
+class ResidualStructure {
+public:
+    // `columns`: indices into approximation.parameters; `outputs`: indices into approximation.outputs.
+    // Both increasing. Keeps a reference to the approximation.
+    ResidualStructure(const Approximation& approximation, std::vector<int> columns, std::vector<int> outputs);
+
+    const Approximation& approximation() const { return *approximation_; }
+    const std::vector<int>& columns() const { return columns_; }
+    const std::vector<int>& outputs() const { return outputs_; }
+    int rows() const { return rowsPerTarget * static_cast<int>(outputs_.size()); }
+    int columnCount() const { return static_cast<int>(columns_.size()); }
+    // Positions in outputs() of the outputs column c moves.
+    const std::vector<int>& outputsOfColumn(int c) const { return outputsOfColumn_[static_cast<std::size_t>(c)]; }
+
+private:
+    friend class ResidualWorkspace;
+
+    struct Link {  // one operator in an output's product
+        int parameter = 0;
+        int op = 0;       // index into the parameter's operators
+        int column = -1;  // unknown: its column; -1: held fixed
+        int slot = -1;    // unknown: index into slots_
+    };
+    struct Slot {  // a distinct (column, operator) pair: evaluated once per evaluation
+        int column = 0;
+        int parameter = 0;
+        int op = 0;
+    };
+    struct Chain {                        // output k: C_0 V_0 C_1 V_1 ... V_{v-1} C_v, C_v ending with F_k(0)
+        std::vector<int> varSlots;        // slot of V_j
+        std::vector<int> varColumns;      // column of V_j
+        std::vector<std::vector<Link>> gaps;  // fixed links of C_0 .. C_v
+    };
+
+    const Approximation* approximation_;
+    std::vector<int> columns_;
+    std::vector<int> outputs_;
+    std::vector<Slot> slots_;
+    std::vector<Chain> chains_;
+    std::vector<std::vector<int>> outputsOfColumn_;
+    int maxVars_ = 0;
+    int constantCount_ = 0;  // sum over chains of (vars + 1)
+};
+
+// Per-solve state of one ResidualStructure: the held parameters' products, the prepared targets and
+// scratch. Sized once; evaluating allocates nothing.
+class ResidualWorkspace {
+public:
+    explicit ResidualWorkspace(const ResidualStructure& structure);
+
+    const ResidualStructure& structure() const { return *structure_; }
+
+    // Values of every approximation parameter (absolute): the held ones are read here once.
+    void holdParameters(std::span<const double> values);
+    // One target per Approximation::outputs entry; those of structure().outputs() must be prepared.
+    void setTargets(std::span<const PreparedTarget> targets);
+    void setTarget(int position, const PreparedTarget& target);
+
+    // Residuals at the column values x (size columnCount()); r has rows() entries.
+    void residuals(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r);
+    // Residuals and Jacobian (rows() x columnCount()). Finite differences are central with the given
+    // step; their columns run in parallel (tbb::parallel_for in the current arena) when `parallel`.
+    void jacobian(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
+                  Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::MatrixXd> jacobian);
+    // World matrix of output position o (in structure().outputs()) at the last evaluation.
+    const Eigen::Matrix4d& world(int o) const { return worlds_[static_cast<std::size_t>(o)]; }
+
+private:
+    void evaluateSlots(std::span<const double> x, bool derivatives);
+    // World of output o from the slot matrices, with column `perturbed` (if >= 0) at value `value`.
+    Eigen::Matrix4d chainWorld(int o, int perturbed, double value) const;
+    void outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobian);
+
+    const ResidualStructure* structure_;
+    std::vector<Eigen::Matrix4d> constants_;  // per chain, C_0 .. C_v
+    std::vector<char> identity_;              // per constant: it is I (skip the product)
+    std::vector<int> constantOffset_;         // per chain
+    std::vector<PreparedTarget> targets_;     // per output position
+    std::vector<Eigen::Matrix4d> slotMatrix_;
+    std::vector<Eigen::Matrix4d> slotDerivative_;
+    std::vector<Eigen::Matrix4d> worlds_;     // per output position
+    std::vector<Eigen::Matrix4d> prefix_;
+    std::vector<Eigen::Matrix4d> suffix_;
+};
+
+// The whole problem for tests and benchmarks: every approximation parameter a column (those reaching
+// no active target give zero columns), six rows per active target in output order. Throws
+// std::invalid_argument for a wrong number of targets or values, or an active target prepareTarget refuses.
+class JacobianEvaluator {
+public:
+    JacobianEvaluator(const Approximation& approximation, std::span<const JointTarget> targets, double rotationScaleCm);
+    JacobianEvaluator(const JacobianEvaluator&) = delete;  // the workspace points at the structure
+    JacobianEvaluator& operator=(const JacobianEvaluator&) = delete;
+
+    int rows() const { return structure_.rows(); }
+    int columns() const { return structure_.columnCount(); }
+    void residuals(std::span<const double> values, Eigen::VectorXd& r);
+    // Finite-difference columns run in parallel in the current task arena.
+    void jacobian(std::span<const double> values, JacobianMethod method, double finiteDifferenceStep,
+                  Eigen::MatrixXd& jacobian, Eigen::VectorXd& r);
+
+private:
+    ResidualStructure structure_;
+    ResidualWorkspace workspace_;
+};
+
+}  // namespace rig

@@ -1,0 +1,544 @@
+#include "inversion/solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <fmt/format.h>
+#include <oneapi/tbb/info.h>
+#include <oneapi/tbb/task_arena.h>
+#include <oneapi/tbb/task_group.h>
+
+namespace rig {
+namespace {
+
+// A free list of scratch objects: solves on many threads each take one, and return it, so that a
+// steady stream of solves allocates nothing.
+template <class T>
+class Pool {
+public:
+    template <class Make>
+    std::unique_ptr<T> acquire(Make&& make)
+    {
+        {
+            std::lock_guard lock(mutex_);
+            if (!free_.empty()) {
+                std::unique_ptr<T> item = std::move(free_.back());
+                free_.pop_back();
+                return item;
+            }
+        }
+        return make();
+    }
+    void release(std::unique_ptr<T> item)
+    {
+        std::lock_guard lock(mutex_);
+        free_.push_back(std::move(item));
+    }
+
+private:
+    std::mutex mutex_;
+    std::vector<std::unique_ptr<T>> free_;
+};
+
+// Returns the item to its pool on every way out of a scope.
+template <class T>
+class Borrowed {
+public:
+    template <class Make>
+    Borrowed(Pool<T>& pool, Make&& make) : pool_(pool), item_(pool.acquire(std::forward<Make>(make)))
+    {
+    }
+    ~Borrowed() { pool_.release(std::move(item_)); }
+    Borrowed(const Borrowed&) = delete;
+    Borrowed& operator=(const Borrowed&) = delete;
+    T& operator*() const { return *item_; }
+    T* operator->() const { return item_.get(); }
+
+private:
+    Pool<T>& pool_;
+    std::unique_ptr<T> item_;
+};
+
+// Everything one block's solve touches, sized once for the block.
+struct BlockWorkspace {
+    explicit BlockWorkspace(const ResidualStructure& structure)
+        : residual(structure),
+          x(static_cast<std::size_t>(structure.columnCount())),
+          trial(x.size()),
+          r(structure.rows()),
+          rTrial(structure.rows()),
+          jd(structure.rows()),
+          g(structure.columnCount()),
+          gFree(structure.columnCount()),
+          delta(structure.columnCount()),
+          step(structure.columnCount()),
+          projected(structure.columnCount()),
+          J(structure.rows(), structure.columnCount()),
+          H(structure.columnCount(), structure.columnCount()),
+          llt(structure.columnCount()),
+          eigen(structure.columnCount()),
+          fixed(x.size(), 0)
+    {
+    }
+    ResidualWorkspace residual;
+    std::vector<double> x, trial;
+    Eigen::VectorXd r, rTrial, jd, g, gFree, delta, step, projected;
+    Eigen::MatrixXd J, H;
+    Eigen::LLT<Eigen::MatrixXd> llt;
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
+    std::vector<char> fixed;
+};
+
+struct BlockPlan {
+    BlockPlan(const Approximation& approximation, const PartitionBlock& block)
+        : structure(approximation, block.parameters, block.outputs)
+    {
+        // Only a control's own limits bind; a free one's min..max is just the range it was learned on.
+        constexpr double free = std::numeric_limits<double>::infinity();
+        for (const int p : block.parameters) {
+            const RigParameter& parameter = approximation.parameters[static_cast<std::size_t>(p)].parameter;
+            lower.push_back(parameter.limited ? parameter.min : -free);
+            upper.push_back(parameter.limited ? parameter.max : free);
+        }
+    }
+    ResidualStructure structure;
+    std::vector<double> lower, upper;
+    mutable Pool<BlockWorkspace> pool;
+};
+
+struct WholeWorkspace {
+    explicit WholeWorkspace(const ResidualStructure& structure) : residual(structure), r(structure.rows()) {}
+    ResidualWorkspace residual;
+    Eigen::VectorXd r;
+};
+
+// The partition for one set of counted rows, with what its blocks need.
+struct Plan {
+    Plan(const Approximation& approximation, Partition p, std::vector<int> counted)
+        : partition(std::move(p)), whole(approximation, {}, std::move(counted))
+    {
+        for (const PartitionBlock& block : partition.blocks) blocks.push_back(std::make_unique<BlockPlan>(approximation, block));
+    }
+    Partition partition;
+    std::vector<std::unique_ptr<BlockPlan>> blocks;
+    ResidualStructure whole;  // every counted output, no unknowns: costs and errors
+    mutable Pool<WholeWorkspace> wholePool;
+};
+
+struct BlockResult {
+    int gaussNewton = 0;
+    int levenbergMarquardt = 0;
+    bool converged = false;
+};
+
+// Per-solve scratch sized by the approximation.
+struct SolveScratch {
+    std::vector<PreparedTarget> prepared;
+    std::vector<unsigned char> rows;
+    std::string key;  // rows as the plan cache's key (a std::string: no allocation once it has grown)
+    std::vector<BlockResult> results;
+};
+
+constexpr std::size_t maxCachedPlans = 256;
+// Levenberg-Marquardt's first damping, relative to the largest diagonal entry of J^T J (Nielsen's tau).
+constexpr double initialDamping = 1e-4;
+// Directions whose curvature is below this fraction of the largest are left alone: the minimum-norm step.
+constexpr double rankTolerance = 1e-12;
+
+double clampTo(double v, double lo, double hi) { return std::min(std::max(v, lo), hi); }
+
+}  // namespace
+
+std::string_view terminationName(TerminationType termination)
+{
+    switch (termination) {
+    case TerminationType::converged: return "converged";
+    case TerminationType::noConvergence: return "noConvergence";
+    case TerminationType::invalidTargets: return "invalidTargets";
+    case TerminationType::noTargets: return "noTargets";
+    }
+    return "?";
+}
+
+void SolverOptions::validate() const
+{
+    auto fail = [](std::string_view field, auto value, std::string_view rule) {
+        throw std::invalid_argument(fmt::format("SolverOptions::{} = {}: {}", field, value, rule));
+    };
+    auto nonNegative = [&](std::string_view field, double value) {
+        if (!(value >= 0) || !std::isfinite(value)) fail(field, value, "must be a finite number, 0 or more");
+    };
+    auto positive = [&](std::string_view field, double value) {
+        if (!(value > 0) || !std::isfinite(value)) fail(field, value, "must be a positive number");
+    };
+    if (gaussNewtonIterations < 0) fail("gaussNewtonIterations", gaussNewtonIterations, "must not be negative");
+    if (maxIterations < 1) fail("maxIterations", maxIterations, "must be at least 1");
+    positive("rotationScaleCm", rotationScaleCm);
+    nonNegative("functionTolerance", functionTolerance);
+    nonNegative("parameterTolerance", parameterTolerance);
+    nonNegative("gradientTolerance", gradientTolerance);
+    if (jacobian != JacobianMethod::analytic && jacobian != JacobianMethod::finiteDifference)
+        fail("jacobian", static_cast<int>(jacobian), "must be analytic or finiteDifference");
+    positive("finiteDifferenceStep", finiteDifferenceStep);
+    if (threads < 0) fail("threads", threads, "must not be negative (0: all cores)");
+}
+
+std::string SolveSummary::briefReport() const
+{
+    std::string report = fmt::format("{}: {} iterations ({} Gauss-Newton, {} Levenberg-Marquardt), {} block{}",
+                                     terminationName(termination), iterations, gaussNewtonIterations,
+                                     levenbergMarquardtIterations, blocks, blocks == 1 ? "" : "s");
+    if (termination == TerminationType::invalidTargets) return report;
+    report += fmt::format(", cost {:.6g} -> {:.6g}, worst {:.3g} cm, {:.3g} deg", initialCost, finalCost,
+                          maxPositionErrorCm, maxRotationErrorDeg);
+    if (!worstOutput.empty()) report += fmt::format(" (worst output {})", worstOutput);
+    return report;
+}
+
+struct Solver::Impl {
+    Impl(const Approximation& a, SolverOptions o) : approximation(a), options(o) {}
+
+    const Approximation& approximation;
+    SolverOptions options;
+    std::optional<tbb::task_arena> arena;
+    Pool<SolveScratch> scratchPool;
+    std::mutex plansMutex;
+    std::map<std::string, std::shared_ptr<const Plan>, std::less<>> plans;
+
+    std::shared_ptr<const Plan> plan(const std::vector<unsigned char>& rows, std::string& key)
+    {
+        key.assign(rows.begin(), rows.end());
+        {
+            std::lock_guard lock(plansMutex);
+            const auto found = plans.find(key);
+            if (found != plans.end()) return found->second;
+        }
+        std::vector<int> counted;
+        for (std::size_t k = 0; k < rows.size(); ++k)
+            if (rows[k] != noRows) counted.push_back(static_cast<int>(k));
+        auto made = std::make_shared<const Plan>(approximation, partitionProblem(approximation, rows, options.partition),
+                                                 std::move(counted));
+        std::lock_guard lock(plansMutex);
+        if (plans.size() >= maxCachedPlans) return made;
+        return plans.emplace(key, std::move(made)).first->second;  // another thread's, if it was first
+    }
+
+    BlockResult solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets, std::span<double> values,
+                           bool parallel) const;
+    bool solveStep(BlockWorkspace& w, double mu) const;
+};
+
+Solver::Solver(const Approximation& approximation, SolverOptions options)
+    : impl_(std::make_unique<Impl>(approximation, options))
+{
+    options.validate();
+    for (const auto& m : approximation.parameters) {
+        const RigParameter& p = m.parameter;
+        if (std::isnan(p.min) || std::isnan(p.max) || p.min > p.max)
+            throw std::invalid_argument(fmt::format("Solver: parameter {} has limits [{}, {}]", p.name, p.min, p.max));
+        if (m.outputs.size() != m.operatorOfOutput.size())
+            throw std::invalid_argument(fmt::format("Solver: parameter {} has {} outputs but {} operator indices",
+                                                    p.name, m.outputs.size(), m.operatorOfOutput.size()));
+    }
+    // Above the core count TBB refuses the extra workers (with a warning); the values do not depend on it.
+    if (options.threads > 1) impl_->arena.emplace(std::min(options.threads, tbb::info::default_concurrency()));
+}
+
+Solver::~Solver() = default;
+Solver::Solver(Solver&&) noexcept = default;
+Solver& Solver::operator=(Solver&&) noexcept = default;
+
+const SolverOptions& Solver::options() const { return impl_->options; }
+const Approximation& Solver::approximation() const { return impl_->approximation; }
+
+namespace {
+
+unsigned char countedRows(const JointTarget& t)
+{
+    if (!t.active) return noRows;
+    unsigned char rows = noRows;
+    if (t.positionWeight > 0) rows |= positionRows;
+    if (t.rotationWeight > 0) rows |= rotationRows;
+    return rows;
+}
+
+}  // namespace
+
+Partition Solver::partition(std::span<const JointTarget> targets) const
+{
+    if (targets.size() != impl_->approximation.outputs.size())
+        throw std::invalid_argument(fmt::format("Solver::partition: {} targets for {} outputs", targets.size(),
+                                                impl_->approximation.outputs.size()));
+    std::vector<unsigned char> rows(targets.size());
+    for (std::size_t k = 0; k < targets.size(); ++k) rows[k] = countedRows(targets[k]);
+    std::string key;
+    return impl_->plan(rows, key)->partition;
+}
+
+// Gauss-Newton (mu = 0) or Levenberg-Marquardt step from w.H (lower triangle, J^T J with held
+// parameters' rows and columns replaced by the identity) and w.gFree. Cholesky when the system is well
+// conditioned; otherwise an eigendecomposition that leaves the (near-)null directions alone, which is
+// the minimum-norm step: redundant parameters split a change evenly, a parameter with no effect stays.
+bool Solver::Impl::solveStep(BlockWorkspace& w, double mu) const
+{
+    const Eigen::Index n = w.H.rows();
+    double maxDiagonal = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i)
+        if (!w.fixed[static_cast<std::size_t>(i)]) maxDiagonal = std::max(maxDiagonal, w.H(i, i));
+    if (!(maxDiagonal > 0)) {
+        w.delta.setZero();
+        return true;
+    }
+    w.llt.compute(w.H + mu * Eigen::MatrixXd::Identity(n, n));
+    bool wellConditioned = w.llt.info() == Eigen::Success;
+    if (wellConditioned) {
+        const auto& l = w.llt.matrixLLT();
+        for (Eigen::Index i = 0; i < n; ++i)
+            if (!(l(i, i) * l(i, i) > rankTolerance * maxDiagonal)) wellConditioned = false;
+    }
+    if (wellConditioned) {
+        w.delta = -w.gFree;
+        w.llt.solveInPlace(w.delta);
+    } else {
+        w.eigen.compute(w.H + mu * Eigen::MatrixXd::Identity(n, n));
+        if (w.eigen.info() != Eigen::Success) return false;
+        const auto& lambda = w.eigen.eigenvalues();
+        const double largest = lambda.cwiseAbs().maxCoeff();
+        w.projected.noalias() = w.eigen.eigenvectors().transpose() * w.gFree;
+        for (Eigen::Index i = 0; i < n; ++i)
+            w.projected[i] = lambda[i] > rankTolerance * largest ? w.projected[i] / lambda[i] : 0.0;
+        w.delta.noalias() = -(w.eigen.eigenvectors() * w.projected);
+    }
+    return w.delta.allFinite();
+}
+
+BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets,
+                                     std::span<double> values, bool parallel) const
+{
+    const ResidualStructure& structure = block.structure;
+    Borrowed<BlockWorkspace> borrowed(block.pool, [&] { return std::make_unique<BlockWorkspace>(structure); });
+    BlockWorkspace& w = *borrowed;
+    const auto& columns = structure.columns();
+    const std::size_t n = columns.size();
+    const SolverOptions& o = options;
+
+    // Ancestors are final and siblings never reach these outputs: the held values are settled.
+    w.residual.holdParameters(values);
+    w.residual.setTargets(targets);
+    for (std::size_t c = 0; c < n; ++c)
+        w.x[c] = clampTo(values[static_cast<std::size_t>(columns[c])], block.lower[c], block.upper[c]);
+
+    BlockResult result;
+    auto linearize = [&] {
+        w.residual.jacobian(w.x, o.jacobian, o.finiteDifferenceStep, parallel, w.r, w.J);
+        return w.r.allFinite() && w.J.allFinite();
+    };
+    bool finite = linearize();
+    double cost = 0.5 * w.r.squaredNorm();
+    bool gaussNewton = o.gaussNewtonIterations > 0;
+    double mu = 0.0, nu = 2.0;
+    while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
+        w.g.noalias() = w.J.transpose() * w.r;
+        double projectedGradient = 0.0;
+        for (std::size_t c = 0; c < n; ++c) {
+            const double gc = w.g[static_cast<Eigen::Index>(c)];
+            projectedGradient = std::max(
+                projectedGradient, std::abs(w.x[c] - clampTo(w.x[c] - gc, block.lower[c], block.upper[c])));
+            // At a limit with the descent direction pointing out: held for this step.
+            w.fixed[c] = (w.x[c] <= block.lower[c] && gc > 0) || (w.x[c] >= block.upper[c] && gc < 0);
+        }
+        if (projectedGradient <= o.gradientTolerance) {
+            result.converged = true;
+            break;
+        }
+        w.H.setZero();
+        w.H.selfadjointView<Eigen::Lower>().rankUpdate(w.J.transpose());
+        w.gFree = w.g;
+        for (std::size_t c = 0; c < n; ++c) {
+            if (!w.fixed[c]) continue;
+            const Eigen::Index i = static_cast<Eigen::Index>(c);
+            w.H.row(i).head(i).setZero();
+            w.H.col(i).tail(static_cast<Eigen::Index>(n) - i - 1).setZero();
+            w.H(i, i) = 1.0;
+            w.gFree[i] = 0.0;
+        }
+        if (!gaussNewton && mu == 0.0) {
+            double largest = 0.0;
+            for (std::size_t c = 0; c < n; ++c)
+                if (!w.fixed[c]) largest = std::max(largest, w.H(static_cast<Eigen::Index>(c), static_cast<Eigen::Index>(c)));
+            mu = largest > 0 ? initialDamping * largest : initialDamping;
+        }
+        if (!solveStep(w, gaussNewton ? 0.0 : mu)) break;
+
+        // Projection onto the limits; the step actually taken is what the model and tolerances see.
+        double stepNorm2 = 0.0, xNorm2 = 0.0;
+        for (std::size_t c = 0; c < n; ++c) {
+            w.trial[c] = clampTo(w.x[c] + w.delta[static_cast<Eigen::Index>(c)], block.lower[c], block.upper[c]);
+            w.step[static_cast<Eigen::Index>(c)] = w.trial[c] - w.x[c];
+            stepNorm2 += w.step[static_cast<Eigen::Index>(c)] * w.step[static_cast<Eigen::Index>(c)];
+            xNorm2 += w.x[c] * w.x[c];
+        }
+        const bool smallStep = std::sqrt(stepNorm2) <= o.parameterTolerance * (std::sqrt(xNorm2) + o.parameterTolerance);
+        w.residual.residuals(w.trial, w.rTrial);
+        const double trialCost = 0.5 * w.rTrial.squaredNorm();
+        const bool trialFinite = std::isfinite(trialCost);
+        (gaussNewton ? result.gaussNewton : result.levenbergMarquardt) += 1;
+
+        bool accept = false;
+        if (gaussNewton) {
+            accept = trialFinite && (trialCost < cost || (smallStep && trialCost <= cost));
+            if (!accept && !smallStep) gaussNewton = false;  // Gauss-Newton failed to descend: damp from now on
+        } else {
+            w.jd.noalias() = w.J * w.step;
+            const double predicted = -(w.r.dot(w.jd) + 0.5 * w.jd.squaredNorm());
+            const double actual = cost - trialCost;
+            accept = trialFinite && actual > 0 && predicted > 0;
+            if (accept) {
+                const double rho = actual / predicted;
+                mu *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+                nu = 2.0;
+            } else if (!smallStep) {
+                mu *= nu;
+                nu *= 2.0;
+                if (!std::isfinite(mu)) break;
+            }
+        }
+        if (accept) {
+            const double decrease = cost - trialCost;
+            std::swap(w.x, w.trial);
+            cost = trialCost;
+            if (smallStep || decrease <= o.functionTolerance * (cost + decrease)) {
+                result.converged = true;
+                break;
+            }
+            finite = linearize();
+            if (gaussNewton && result.gaussNewton >= o.gaussNewtonIterations) gaussNewton = false;
+        } else if (smallStep) {
+            result.converged = true;  // a negligible step that does not help: nothing left to gain
+            break;
+        }
+    }
+    for (std::size_t c = 0; c < n; ++c) values[static_cast<std::size_t>(columns[c])] = w.x[c];
+    return result;
+}
+
+SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<double> values) const
+{
+    Impl& impl = *impl_;
+    const Approximation& approximation = impl.approximation;
+    if (targets.size() != approximation.outputs.size())
+        throw std::invalid_argument(fmt::format("Solver::solve: {} targets for {} outputs", targets.size(),
+                                                approximation.outputs.size()));
+    if (values.size() != approximation.parameters.size())
+        throw std::invalid_argument(fmt::format("Solver::solve: {} values for {} parameters", values.size(),
+                                                approximation.parameters.size()));
+    Borrowed<SolveScratch> scratch(impl.scratchPool, [] { return std::make_unique<SolveScratch>(); });
+    scratch->prepared.resize(targets.size());
+    scratch->rows.resize(targets.size());
+
+    SolveSummary summary;
+    for (std::size_t k = 0; k < targets.size(); ++k) {
+        scratch->rows[k] = countedRows(targets[k]);
+        if (targets[k].active && !prepareTarget(targets[k], impl.options.rotationScaleCm, scratch->prepared[k])) {
+            summary.termination = TerminationType::invalidTargets;
+            return summary;
+        }
+    }
+    const std::shared_ptr<const Plan> plan = impl.plan(scratch->rows, scratch->key);
+    const Partition& partition = plan->partition;
+    for (const PartitionBlock& block : partition.blocks)
+        for (const int p : block.parameters)
+            if (!std::isfinite(values[static_cast<std::size_t>(p)]))
+                throw std::invalid_argument(fmt::format("Solver::solve: the value of {} is {}",
+                                                        approximation.parameters[static_cast<std::size_t>(p)].parameter.name,
+                                                        values[static_cast<std::size_t>(p)]));
+
+    // Costs and errors over every counted output, the outputs no parameter reaches included.
+    auto measure = [&](bool final) {
+        const ResidualStructure& whole = plan->whole;
+        Borrowed<WholeWorkspace> w(plan->wholePool, [&] { return std::make_unique<WholeWorkspace>(whole); });
+        w->residual.holdParameters(values);
+        w->residual.setTargets(scratch->prepared);
+        w->residual.residuals({}, w->r);
+        const double cost = 0.5 * w->r.squaredNorm();
+        if (!final) {
+            summary.initialCost = cost;
+            return;
+        }
+        summary.finalCost = cost;
+        double worst = -1.0;
+        for (std::size_t o = 0; o < whole.outputs().size(); ++o) {
+            const std::size_t k = static_cast<std::size_t>(whole.outputs()[o]);
+            const TargetError e = targetError(w->residual.world(static_cast<int>(o)), scratch->prepared[k]);
+            const double position = targets[k].positionWeight > 0 ? e.positionCm : 0.0;
+            const double rotation = targets[k].rotationWeight > 0 ? e.rotationRad : 0.0;
+            summary.maxPositionErrorCm = std::max(summary.maxPositionErrorCm, position);
+            summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, rotation * 180.0 / std::numbers::pi);
+            const double combined = std::max(position, impl.options.rotationScaleCm * rotation);
+            if (combined > worst) {
+                worst = combined;
+                summary.worstOutput = approximation.outputs[k].name;
+            }
+        }
+    };
+    if (plan->whole.outputs().empty()) return summary;  // noTargets
+    measure(false);
+    summary.blocks = static_cast<int>(partition.blocks.size());
+    if (partition.blocks.empty()) {
+        measure(true);
+        return summary;  // noTargets: nothing reaches the targets
+    }
+
+    auto& results = scratch->results;
+    results.assign(partition.blocks.size(), BlockResult{});
+    const bool parallel = impl.options.threads != 1;
+    // A block runs once its parent has; siblings touch disjoint parameters and outputs, so running them
+    // in parallel gives the same values as running them in order.
+    auto run = [&](auto&& self, int b) -> void {
+        results[static_cast<std::size_t>(b)] =
+            impl.solveBlock(*plan->blocks[static_cast<std::size_t>(b)], scratch->prepared, values, parallel);
+        const auto& children = partition.blocks[static_cast<std::size_t>(b)].children;
+        if (parallel && children.size() > 1) {
+            tbb::task_group group;
+            for (const int c : children) group.run([&self, c] { self(self, c); });
+            group.wait();
+        } else {
+            for (const int c : children) self(self, c);
+        }
+    };
+    auto runAll = [&] {
+        if (parallel && partition.roots.size() > 1) {
+            tbb::task_group group;
+            for (const int b : partition.roots) group.run([&run, b] { run(run, b); });
+            group.wait();
+        } else {
+            for (const int b : partition.roots) run(run, b);
+        }
+    };
+    if (impl.arena)
+        impl.arena->execute(runAll);
+    else
+        runAll();
+
+    bool converged = true;
+    for (const BlockResult& r : results) {
+        summary.gaussNewtonIterations += r.gaussNewton;
+        summary.levenbergMarquardtIterations += r.levenbergMarquardt;
+        converged = converged && r.converged;
+    }
+    summary.iterations = summary.gaussNewtonIterations + summary.levenbergMarquardtIterations;
+    summary.termination = converged ? TerminationType::converged : TerminationType::noConvergence;
+    measure(true);
+    return summary;
+}
+
+}  // namespace rig

@@ -1,0 +1,106 @@
+#pragma once
+// Inversion on the approximation (section 5 of the talk, and past it; docs/solver.md): joint targets
+// -> parameter values. Gauss-Newton with minimum-norm steps, then Levenberg-Marquardt; limits kept by
+// projection; analytic or parallel finite-difference Jacobians; independent blocks in parallel.
+
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include "inversion/approximation.h"
+#include "inversion/jacobian.h"
+#include "inversion/partition.h"
+
+namespace rig {
+
+enum class TerminationType {
+    converged,       // a tolerance below was met in every block
+    noConvergence,   // some block used its maxIterations (or its Jacobian stopped being finite)
+    invalidTargets,  // an active target is not usable (non-finite, negative weight, singular): values left unchanged
+    noTargets,       // no active target, or no parameter reaches one: values left unchanged
+};
+
+std::string_view terminationName(TerminationType termination);
+
+// In the manner of Ceres' Solver::Options: every field has a documented default; validate() says
+// which field is wrong.
+struct SolverOptions {
+    // Gauss-Newton iterations before switching to Levenberg-Marquardt (the talk: 30). A Gauss-Newton
+    // step that does not lower the cost switches at once. 0: Levenberg-Marquardt from the start.
+    int gaussNewtonIterations = 30;
+    // Most iterations of both kinds together, per block. At least 1.
+    int maxIterations = 100;
+    // cm per radian in the rotation residual: a rotation error of 1 degree weighs as much as a
+    // position error of rotationScaleCm * pi / 180 cm (with unit weights). The learner's frame radius.
+    double rotationScaleCm = 10.0;
+    // Converged when an accepted step lowers the cost by no more than this fraction of it.
+    double functionTolerance = 1e-8;
+    // Converged when a step is no longer than parameterTolerance * (|x| + parameterTolerance)
+    // (2-norms over the block's parameters, internal units). The step is still taken if it does not
+    // raise the cost.
+    double parameterTolerance = 1e-10;
+    // Converged when the projected gradient max_i |x_i - clamp(x_i - g_i)| is at most this (g = J^T r).
+    double gradientTolerance = 1e-12;
+    JacobianMethod jacobian = JacobianMethod::analytic;
+    // Central finite-difference step, in each parameter's internal unit (JacobianMethod::finiteDifference).
+    double finiteDifferenceStep = 1e-6;
+    // Split the problem into blocks (inversion/partition.h); false solves every parameter together.
+    bool partition = true;
+    // Threads for one solve: 0 uses the caller's task arena (all cores by default, and nested in a
+    // caller's own tbb parallel loops), 1 runs serially without TBB, N > 1 uses the solver's own arena of
+    // N. The values are bit-identical for every count. Many concurrent solves: use 0 or 1.
+    int threads = 0;
+
+    // Throws std::invalid_argument "SolverOptions::<field> = <value>: <rule>".
+    void validate() const;
+};
+
+struct SolveSummary {
+    TerminationType termination = TerminationType::noTargets;
+    int iterations = 0;  // Gauss-Newton plus Levenberg-Marquardt, summed over blocks
+    int gaussNewtonIterations = 0;
+    int levenbergMarquardtIterations = 0;
+    // 1/2 |r|^2 over every active target (weighted residuals), before and after.
+    double initialCost = 0.0;
+    double finalCost = 0.0;
+    // Largest errors over active targets on the approximation, unweighted: position over targets with
+    // positionWeight > 0, rotation over those with rotationWeight > 0.
+    double maxPositionErrorCm = 0.0;
+    double maxRotationErrorDeg = 0.0;
+    // The output with the largest max(position error, rotationScaleCm * rotation error in radians).
+    std::string worstOutput;
+    int blocks = 0;  // partition blocks solved
+
+    // One line: termination, iterations, blocks, costs, worst errors.
+    std::string briefReport() const;
+    bool converged() const { return termination == TerminationType::converged; }
+};
+
+class Solver {
+public:
+    // Keeps a reference to `approximation` (it must outlive the solver). Throws std::invalid_argument when
+    // the options do not validate or a parameter's limits are NaN or reversed.
+    Solver(const Approximation& approximation, SolverOptions options);
+    ~Solver();
+    Solver(Solver&&) noexcept;
+    Solver& operator=(Solver&&) noexcept;
+
+    // targets: one per Approximation::outputs. values: one per Approximation::parameters (internal
+    // units): in, the warm start (the previous frame, or defaults()); out, the solution. Parameters that
+    // reach no active target keep their values; the others are moved onto their limits first.
+    // Const and thread-safe: many threads may solve with one Solver at once.
+    // Throws std::invalid_argument for wrong sizes or a non-finite value of a parameter it would solve.
+    SolveSummary solve(std::span<const JointTarget> targets, std::span<double> values) const;
+
+    const SolverOptions& options() const;
+    const Approximation& approximation() const;
+    // The partition a solve with these targets uses (built once per set of counted rows, then cached).
+    Partition partition(std::span<const JointTarget> targets) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rig

@@ -1,0 +1,222 @@
+#pragma once
+// Rigs for the solver's tests: small RigFunctions with known answers, and a test-only adapter that
+// makes a bundled rig file a RigFunction (the graph-backed RigFunction of nodes/ is not used here).
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <numbers>
+#include <random>
+
+#include <Eigen/Geometry>
+
+#include "graph/plug_glob.h"
+#include "graph/yaml_loader.h"
+#include "inversion/approximation.h"
+#include "inversion/jacobian.h"
+#include "inversion/learner.h"
+#include "nodes/builtin_nodes.h"
+#include "test_rigs.h"
+#include "test_support.h"
+
+namespace rig::test {
+
+inline constexpr double degree = std::numbers::pi / 180.0;
+
+// Root translate X/Y/Z and rotate Y at the hips (1 m up); two arms hanging from the chest, each as
+// fkArm: shoulder rotate X, Y, Z (R = Rx Ry Rz), elbow rotate Z after a 20 degree orient about Y,
+// wrist rotate X; joints 25 cm apart, the left arm along +X, the right along -X. 14 parameters.
+inline LambdaRig twoArms()
+{
+    std::vector<RigParameter> parameters{distance("root.translateX"), distance("root.translateY"),
+                                         distance("root.translateZ"), angle("root.rotateY", -2.5, 2.5)};
+    for (const char* side : {"L", "R"})
+        for (const std::string name : {"shoulder.rotateX", "shoulder.rotateY", "shoulder.rotateZ", "elbow.rotateZ", "wrist.rotateX"}) {
+            const bool elbow = name == "elbow.rotateZ";
+            parameters.push_back(angle(std::string(side) + "_" + name, elbow ? 0.0 : -1.5, elbow ? 2.5 : 1.5));
+        }
+    return LambdaRig(std::move(parameters),
+                     {"hips", "L_shoulder", "L_elbow", "L_wrist", "L_hand", "R_shoulder", "R_elbow", "R_wrist", "R_hand"},
+                     [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                         const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(),
+                                               z = Eigen::Vector3d::UnitZ();
+                         w[0] = translation(v[0], 100 + v[1], v[2]) * rotation(y, v[3]);
+                         for (int side = 0; side < 2; ++side) {
+                             const double s = side == 0 ? 1.0 : -1.0;
+                             const std::size_t p = 4 + 5 * static_cast<std::size_t>(side);
+                             const std::size_t o = 1 + 4 * static_cast<std::size_t>(side);
+                             w[o] = w[0] * translation(s * 15, 40, 0) * rotation(x, v[p]) * rotation(y, v[p + 1]) *
+                                    rotation(z, v[p + 2]);
+                             w[o + 1] = w[o] * translation(s * 25, 0, 0) * rotation(y, 20 * degree) * rotation(z, v[p + 3]);
+                             w[o + 2] = w[o + 1] * translation(s * 25, 0, 0) * rotation(x, v[p + 4]);
+                             w[o + 3] = w[o + 2] * translation(s * 10, 0, 0);
+                         }
+                     });
+}
+
+// Two controls summed into one rotation (redundant), a rotation that saturates past +-0.5 rad
+// (no effect there), and a plain hinge below the redundant joint.
+inline LambdaRig redundantRig()
+{
+    return LambdaRig({angle("redundantA", -1.0, 1.0), angle("redundantB", -1.0, 1.0), angle("tip.rotateX"),
+                      angle("saturated", -1.5, 1.5)},
+                     {"joint", "tip", "end", "sat"},
+                     [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                         const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), z = Eigen::Vector3d::UnitZ();
+                         w[0] = translation(0, 10, 0) * rotation(z, v[0] + v[1]);
+                         w[1] = w[0] * translation(20, 0, 0) * rotation(x, v[2]);
+                         w[2] = w[1] * translation(0, 0, 15);
+                         w[3] = translation(0, -10, 0) * rotation(z, std::clamp(v[3], -0.5, 0.5)) * translation(20, 0, 0);
+                     });
+}
+
+// A hip (rotate X, Z) and a knee whose hinge pivot slides down the shin as it bends (0.8 cm per
+// radian squared): rotation-like, so a fitted rotation is close but not exact.
+inline LambdaRig slidingKnee()
+{
+    return LambdaRig({angle("hip.rotateX", -1.0, 1.0), angle("hip.rotateZ", -1.0, 1.0), angle("knee.bend", 0.0, 2.0)},
+                     {"hip", "knee", "ankle", "toe"},
+                     [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                         const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), z = Eigen::Vector3d::UnitZ();
+                         w[0] = translation(10, 90, 0) * rotation(x, v[0]) * rotation(z, v[1]);
+                         const double slide = 0.8 * v[2] * v[2];
+                         w[1] = w[0] * translation(0, -45 - slide, 0) * rotation(x, v[2]) * translation(0, slide, 0);
+                         w[2] = w[1] * translation(0, -42, 0);
+                         w[3] = w[2] * translation(0, -5, 12);
+                     });
+}
+
+// A bundled rig file as a RigFunction: the parameters are plugs matched by globs (limits from the
+// attribute, else +-120 degrees or +-30 cm about the current value; a connected one is disconnected),
+// the outputs the world matrices of the named joints (all joints when none are named).
+class GraphRig : public RigFunction {
+public:
+    GraphRig(const std::string& relativeFile, const std::vector<std::string>& parameterGlobs,
+             const std::vector<std::string>& outputs = {})
+        : graph_(loadGraphFile(sourceDir() / relativeFile, makeBuiltinRegistry())), file_(relativeFile)
+    {
+        for (const auto& glob : parameterGlobs)
+            for (const Plug& plug : matchPlugs(*graph_, glob)) {
+                if (graph_->plugType(plug) != ValueType::Double || !graph_->spec(plug).input) continue;
+                // An animated control becomes a free one, as a rigger would disconnect it to invert it.
+                if (const Connection* c = graph_->incomingConnection(plug)) graph_->disconnect(c->source, plug);
+                const AttributeSpec& spec = graph_->spec(plug);
+                RigParameter p;
+                p.name = graph_->plugName(plug);
+                p.defaultValue = std::get<double>(graph_->getValue(plug));
+                p.angular = spec.unit == Unit::Angle;
+                p.min = spec.min ? *spec.min : p.defaultValue - (p.angular ? 120 * degree : 30.0);
+                p.max = spec.max ? *spec.max : p.defaultValue + (p.angular ? 120 * degree : 30.0);
+                parameters_.push_back(p);
+                parameterPlugs_.push_back(plug);
+            }
+        for (NodeId n = 0; n < graph_->nodeCount(); ++n)
+            if (graph_->nodeType(n).name() == "joint" &&
+                (outputs.empty() || std::find(outputs.begin(), outputs.end(), graph_->nodeName(n)) != outputs.end())) {
+                outputs_.push_back(graph_->nodeName(n));
+                outputPlugs_.push_back(graph_->plug(graph_->nodeName(n) + ".worldMatrix"));
+            }
+    }
+    const std::vector<RigParameter>& parameters() const override { return parameters_; }
+    const std::vector<std::string>& outputs() const override { return outputs_; }
+    void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) override
+    {
+        ++count_;
+        for (std::size_t i = 0; i < parameterPlugs_.size(); ++i) graph_->setValue(parameterPlugs_[i], values[i]);
+        graph_->evaluate(outputPlugs_);
+        worlds.resize(outputPlugs_.size());
+        for (std::size_t k = 0; k < outputPlugs_.size(); ++k)
+            worlds[k] = std::get<Eigen::Matrix4d>(graph_->getValue(outputPlugs_[k]));
+    }
+    std::uint64_t evaluationCount() const override { return count_; }
+    std::string fingerprint() const override { return file_; }
+
+private:
+    std::unique_ptr<Graph> graph_;
+    std::string file_;
+    std::vector<RigParameter> parameters_;
+    std::vector<Plug> parameterPlugs_;
+    std::vector<std::string> outputs_;
+    std::vector<Plug> outputPlugs_;
+    std::uint64_t count_ = 0;
+};
+
+// The inversion parameters of rigs/biped.yaml (docs/rigs.md).
+inline std::vector<std::string> bipedInversionGlobs()
+{
+    return {"root_ctrl.translate?",      "root_ctrl.rotate?",        "[LR]_hip_ctrl.rotate?", "[LR]_upLeg_fk_ctrl.rotate?",
+            "[LR]_knee_fk_ctrl.rotateX", "[LR]_foot_fk_ctrl.rotate?", "[LR]_toe_ctrl.rotate?", "spine_ctrl.bend*",
+            "spine_ctrl.twist",          "lowerBack_ctrl.rotate?",   "chest_ctrl.rotate?",    "neck_ctrl.rotate?",
+            "head_ctrl.rotate?",         "[LR]_clavicle_ctrl.rotate?", "[LR]_arm_fk_ctrl.rotate?", "[LR]_elbow_ctrl.rotate?",
+            "[LR]_wrist_ctrl.rotate?",   "[LR]_hand_ctrl.fist",      "[LR]_thumb_ctrl.rotate?"};
+}
+
+// The joints of rigs/biped.yaml that a CMU clip has (docs/rigs.md): no eyes (aimed at a world-space
+// control), jaw, twist or finger joints.
+inline std::vector<std::string> bipedCmuJoints()
+{
+    return {"Hips", "LHipJoint", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "LeftToeBase_end", "RHipJoint",
+            "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase", "RightToeBase_end", "LowerBack", "Spine", "Spine1",
+            "Neck", "Neck1", "Head", "Head_end", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand", "LeftFingerBase",
+            "LFingers", "LFingers_end", "LThumb", "LThumb_end", "RightShoulder", "RightArm", "RightForeArm", "RightHand",
+            "RightFingerBase", "RFingers", "RFingers_end", "RThumb", "RThumb_end"};
+}
+
+// Every animator parameter of rigs/nasty.yaml that docs/rigs.md lists.
+inline std::vector<std::string> nastyGlobs()
+{
+    std::vector<std::string> globs{"root_ctrl.translate?", "arm_ctrl.rotate?"};
+    for (const char* name : {"elbowBend", "kneeBend", "wristTwist", "spineBend", "coupledBend", "coupledTurn", "saturated",
+                             "redundantA", "redundantB", "springy", "stretch"})
+        globs.push_back(std::string("nasty_ctrl.") + name);
+    return globs;
+}
+
+inline Approximation learn(RigFunction& rig, const std::string& name)
+{
+    LearnOptions options;
+    options.validationPoses = 5;
+    return learnApproximation(rig, options, name);
+}
+
+// Uniform values within each modelled parameter's limits.
+inline std::vector<double> randomValues(const Approximation& a, std::mt19937& rng, double fraction = 1.0)
+{
+    std::vector<double> values;
+    for (const auto& m : a.parameters) {
+        const RigParameter& p = m.parameter;
+        const double lo = p.defaultValue + fraction * (p.min - p.defaultValue);
+        const double hi = p.defaultValue + fraction * (p.max - p.defaultValue);
+        values.push_back(std::uniform_real_distribution<double>(lo, hi)(rng));
+    }
+    return values;
+}
+
+// Targets on every output: the approximation's own worlds at `values` (reachable exactly).
+inline std::vector<JointTarget> targetsAt(const Approximation& a, std::span<const double> values)
+{
+    std::vector<Eigen::Matrix4d> worlds;
+    a.evaluate(values, worlds);
+    std::vector<JointTarget> targets(worlds.size());
+    for (std::size_t k = 0; k < worlds.size(); ++k) {
+        targets[k].active = true;
+        targets[k].world = worlds[k];
+    }
+    return targets;
+}
+
+inline int parameterIndex(const Approximation& a, const std::string& name)
+{
+    for (std::size_t i = 0; i < a.parameters.size(); ++i)
+        if (a.parameters[i].parameter.name == name) return static_cast<int>(i);
+    return -1;
+}
+
+inline int outputIndex(const Approximation& a, const std::string& name)
+{
+    for (std::size_t i = 0; i < a.outputs.size(); ++i)
+        if (a.outputs[i].name == name) return static_cast<int>(i);
+    return -1;
+}
+
+}  // namespace rig::test
