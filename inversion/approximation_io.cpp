@@ -421,8 +421,8 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         const YAML::Node n = parameters[p];
         const std::string field = fmt::format("parameters[{}]", p);
         r.checkKeys(n, field,
-                    {"name", "default", "min", "max", "limited", "angular", "form", "fitError", "samples", "outputs", "operatorOfOutput",
-                     "operators"});
+                    {"name", "default", "min", "max", "limited", "angular", "form", "fitError", "samples", "outputs",
+                     "operatorOfOutput", "operators"});
         ModelledParameter m;
         m.parameter = r.parameter(n, field);
         if (!names.insert(m.parameter.name).second)

@@ -72,8 +72,10 @@ std::string noPlugHint(const Graph& g, const std::string& glob)
         }
     const std::vector<std::string> candidates(attributes.begin(), attributes.end());
     const std::string suggestion = closestName(attrPart, candidates);
-    return fmt::format("{} node{} match '{}', but none has an attribute matching '{}'{}", nodes.size(),
-                       nodes.size() == 1 ? "" : "s", nodePart, attrPart,
+    const std::string where = nodes.size() == 1 ? fmt::format("node '{}' has no keyable attribute", g.nodeName(nodes.front()))
+                                                : fmt::format("{} nodes match '{}', but none has a keyable attribute",
+                                                              nodes.size(), nodePart);
+    return fmt::format("{} matching '{}'{}", where, attrPart,
                        suggestion.empty() ? std::string() : fmt::format("; did you mean '{}.{}'?", nodePart, suggestion));
 }
 
@@ -118,12 +120,15 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                 if (globMatches(glob, g.plugName(p))) matched.push_back(p);
         if (matched.empty()) throw Error(fmt::format("{}: parameter glob '{}' matches no plug: {}", rigName, glob, noPlugHint(g, glob)));
         std::size_t usable = 0;
-        std::string firstRefusal;
+        std::string refusedPlug, refusedWhy;  // the first plug matched that cannot be a parameter
         for (const Plug& whole : matched)
             for (const Plug& p : scalars(g, whole)) {
                 const std::string why = whyNotParameter(g, p);
                 if (!why.empty()) {
-                    if (firstRefusal.empty()) firstRefusal = fmt::format("{} is {}", g.plugName(p), why);
+                    if (refusedPlug.empty()) {
+                        refusedPlug = g.plugName(p);
+                        refusedWhy = why;
+                    }
                     continue;
                 }
                 ++usable;
@@ -138,17 +143,19 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                                                                : defaultUnitlessRange;
                 param.min = s.min ? *s.min : param.defaultValue - half;
                 param.max = s.max ? *s.max : param.defaultValue + half;
-                // An attribute with a limit is held to min..max (a one-sided limit gets the default range
-                // on its other side); one without is free for the solver, the range only for learning.
-                param.limited = s.min || s.max;
+                // A declared limit binds the solver; a default range is only where learning samples.
+                param.limited = s.min.has_value() || s.max.has_value();
                 parameters_.push_back(param);
                 parameterPlugs_.push_back(p);
                 current_.push_back(param.defaultValue);
             }
+        if (usable == 0 && !isGlobPattern(glob))
+            throw Error(fmt::format("{}: parameter '{}' is {}; parameters are animator controls that nothing drives",
+                                    rigName, refusedPlug, refusedWhy));
         if (usable == 0)
-            throw Error(fmt::format("{}: parameter glob '{}' matches no free keyable number ({}); parameters are animator "
-                                    "controls that nothing drives",
-                                    rigName, glob, firstRefusal));
+            throw Error(fmt::format("{}: parameter glob '{}' matches no free keyable number ({} is {}); parameters are "
+                                    "animator controls that nothing drives",
+                                    rigName, glob, refusedPlug, refusedWhy));
     }
 
     std::vector<std::string> jointNames;

@@ -4,6 +4,8 @@
 #include <numbers>
 #include <random>
 
+#include <fmt/format.h>
+
 #include "inversion/learner.h"
 #include "test_rigs.h"
 
@@ -60,4 +62,104 @@ TEST_CASE("learner: an FK arm is modelled exactly, axes and pivots to 1e-9, in c
         MESSAGE(ordererName(orderer) << ": " << a.training.evaluations << " evaluations, " << a.training.orderEvaluations
                                      << " for the order");
     }
+}
+
+TEST_CASE("learner: rotations past half a turn are unwrapped along the samples")
+{
+    // spin turns its joint 1.5 times its value over +-200 degrees (up to 300 degrees each way); curl
+    // turns a second joint by a + 0.1 a^2 over 0..300 degrees (past a full turn).
+    const double degree = std::numbers::pi / 180;
+    test::LambdaRig rig({test::angle("spin", -200 * degree, 200 * degree), test::angle("curl", 0.0, 300 * degree)},
+                        {"spun", "curled", "tip"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                            const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+                            w[0] = test::translation(10, 0, 0) * test::rotation(z, 1.5 * v[0]);
+                            w[1] = test::translation(0, 30, 0) * test::rotation(z, v[1] + 0.1 * v[1] * v[1]);
+                            w[2] = w[1] * test::translation(8, 0, 0);
+                        });
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "spin");
+    CHECK(a.discarded.empty());
+    const ModelledParameter& spin = find(a, "spin");
+    CHECK(spin.form == "rotation");
+    CHECK(spin.operators[0].axis.z() * spin.operators[0].slope == doctest::Approx(1.5).epsilon(1e-12));
+    const ModelledParameter& curl = find(a, "curl");
+    CHECK(curl.form == "rotation (curve)");
+    const double end = 300 * degree;
+    CHECK(curl.operators[0].axis.z() * curl.operators[0].magnitude(end) == doctest::Approx(end + 0.1 * end * end).epsilon(1e-9));
+    // Exact at the samples, a cubic spline in between.
+    CHECK(a.validation.maxPositionErrorCm < 0.05);
+}
+
+TEST_CASE("learner: a pair that cannot be ordered loses only one of its parameters")
+{
+    // A bend (X) and a side bend (Z) each shared half and half by two joints, as a spine's: on the first
+    // joint the bend is outer, on the second neither order holds. A third parameter elsewhere commutes.
+    for (Orderer orderer : {Orderer::talk, Orderer::structured}) {
+        CAPTURE(ordererName(orderer));
+        test::LambdaRig rig({test::angle("bend", -1, 1), test::angle("side", -0.5, 0.5), test::angle("other")},
+                            {"lower", "upper", "elsewhere"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                                const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), z = Eigen::Vector3d::UnitZ();
+                                const Eigen::Matrix4d share = test::rotation(x, 0.5 * v[0]) * test::rotation(z, 0.5 * v[1]);
+                                w[0] = test::translation(0, 100, 0) * share;
+                                w[1] = w[0] * test::translation(0, 20, 0) * share;
+                                w[2] = test::translation(50, 0, 0) * test::rotation(z, v[2]);
+                            });
+        LearnOptions options;
+        options.orderer = orderer;
+        const Approximation a = learnApproximation(rig, options, "spine");
+        REQUIRE(a.discarded.size() == 1);
+        CHECK(a.discarded[0].parameter.name == "side");  // the smaller effect
+        CHECK(a.discarded[0].reason.starts_with("cannot be ordered with bend: neither composition order holds on upper"));
+        CHECK(position(a, "bend") >= 0);
+        CHECK(position(a, "other") >= 0);
+        // The bend of the upper joint is a sampled operator: exact at the samples, a spline between.
+        CHECK(a.validation.maxPositionErrorCm < 0.01);
+        // The structured orderer never tests "other" against the others: they share no output.
+        if (orderer == Orderer::structured) CHECK(a.training.orderEvaluations == 1);
+    }
+}
+
+TEST_CASE("learner: outputs found history-dependent are dropped, the parameters learned on the others")
+{
+    // springy follows its parameter one step per evaluation that changes it (a spring), so after its
+    // samples the rest pose has moved; root, classified after it, still moves both joints.
+    double state = 0.0, last = 0.0;
+    test::LambdaRig rig({test::angle("arm"), test::distance("springy"), test::distance("root")}, {"arm", "springy"},
+                        [&](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                            if (v[1] != last) state += 0.5 * (v[1] - state);
+                            last = v[1];
+                            w[0] = test::translation(v[2], 0, 0) * test::rotation(Eigen::Vector3d::UnitZ(), v[0]);
+                            w[1] = test::translation(v[2] + state, 10, 0);
+                        });
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "springy");
+    REQUIRE(a.outputs.size() == 1);
+    CHECK(a.outputs[0].name == "arm");
+    REQUIRE(a.discarded.size() == 1);
+    CHECK(a.discarded[0].parameter.name == "springy");
+    CHECK(a.discarded[0].reason.starts_with("history-dependent: after sampling it, the rest pose of springy moved"));
+    CHECK(find(a, "root").form == "translation");
+    CHECK(find(a, "root").outputs == std::vector<int>{0});
+    CHECK(a.validation.maxPositionErrorCm < 1e-9);
+}
+
+TEST_CASE("learner: a parameter spends at most maxSamples rig samples, however many outputs it moves")
+{
+    // One parameter bends a chain of 40 joints about 40 pivots by different amounts: every output needs
+    // a sampled operator of its own, and each used to sample midpoints again.
+    constexpr int joints = 40;
+    std::vector<std::string> names;
+    for (int j = 0; j < joints; ++j) names.push_back(fmt::format("j{}", j));
+    test::LambdaRig rig({test::angle("bend", -1.5, 1.5)}, names, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+        for (int j = 0; j < joints; ++j) {
+            m = m * test::translation(0, 3, 0) * test::rotation(Eigen::Vector3d(1, 0.1 * j, 0), v[0] * (0.02 + 0.001 * j * j));
+            w[static_cast<std::size_t>(j)] = m;
+        }
+    });
+    LearnOptions options;
+    options.validationPoses = 0;
+    const Approximation a = learnApproximation(rig, options, "chain");
+    REQUIRE(a.parameters.size() == 1);
+    CHECK(a.parameters[0].samples <= options.maxSamples);
+    // The samples, the rest pose, and the check that the rest pose comes back.
+    CHECK(a.training.evaluations <= static_cast<std::uint64_t>(options.maxSamples) + 2);
 }

@@ -1,0 +1,348 @@
+// Approximation files: every field read back bit for bit, one-line errors with file:line:col, and the
+// rig fingerprint check.
+#include <doctest/doctest.h>
+
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <random>
+
+#include <fmt/format.h>
+
+#include "inversion/approximation_io.h"
+#include "inversion/learner.h"
+#include "nodes/graph_rig_function.h"
+#include "test_support.h"
+
+using namespace rig;
+
+namespace {
+
+bool same(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
+
+template <class M>
+bool sameMatrix(const M& a, const M& b)
+{
+    if (a.size() != b.size()) return false;
+    for (Eigen::Index i = 0; i < a.size(); ++i)
+        if (!same(a.data()[i], b.data()[i])) return false;
+    return true;
+}
+
+template <int D>
+bool sameSpline(const CubicSpline<D>& a, const CubicSpline<D>& b)
+{
+    if (a.knots().size() != b.knots().size() || a.values().size() != b.values().size()) return false;
+    for (std::size_t j = 0; j < a.knots().size(); ++j)
+        if (!same(a.knots()[j], b.knots()[j]) || !sameMatrix(a.values()[j], b.values()[j])) return false;
+    return true;
+}
+
+void checkSameParameter(const RigParameter& a, const RigParameter& b)
+{
+    CHECK(a.name == b.name);
+    CHECK(same(a.defaultValue, b.defaultValue));
+    CHECK(same(a.min, b.min));
+    CHECK(same(a.max, b.max));
+    CHECK(a.angular == b.angular);
+    CHECK(a.limited == b.limited);
+}
+
+// Every field of two approximations, doubles compared by their bits (-0 is not 0).
+void checkSame(const Approximation& a, const Approximation& b)
+{
+    CHECK(a.rigFile == b.rigFile);
+    CHECK(a.rigFingerprint == b.rigFingerprint);
+    CHECK(same(a.epsilon, b.epsilon));
+    REQUIRE(a.outputs.size() == b.outputs.size());
+    for (std::size_t k = 0; k < a.outputs.size(); ++k) {
+        CHECK(a.outputs[k].name == b.outputs[k].name);
+        CHECK(sameMatrix(a.outputs[k].rest, b.outputs[k].rest));
+    }
+    REQUIRE(a.parameters.size() == b.parameters.size());
+    for (std::size_t p = 0; p < a.parameters.size(); ++p) {
+        const ModelledParameter &x = a.parameters[p], &y = b.parameters[p];
+        CAPTURE(x.parameter.name);
+        checkSameParameter(x.parameter, y.parameter);
+        CHECK(x.outputs == y.outputs);
+        CHECK(x.operatorOfOutput == y.operatorOfOutput);
+        CHECK(x.form == y.form);
+        CHECK(same(x.fitError, y.fitError));
+        CHECK(x.samples == y.samples);
+        REQUIRE(x.operators.size() == y.operators.size());
+        for (std::size_t o = 0; o < x.operators.size(); ++o) {
+            const Operator &u = x.operators[o], &v = y.operators[o];
+            CHECK(u.kind == v.kind);
+            CHECK(sameMatrix(u.axis, v.axis));
+            CHECK(sameMatrix(u.pivot, v.pivot));
+            CHECK(same(u.slope, v.slope));
+            CHECK(sameSpline(u.curve, v.curve));
+            CHECK(sameSpline(u.rigid, v.rigid));
+            CHECK(sameSpline(u.affine, v.affine));
+        }
+    }
+    REQUIRE(a.discarded.size() == b.discarded.size());
+    for (std::size_t d = 0; d < a.discarded.size(); ++d) {
+        checkSameParameter(a.discarded[d].parameter, b.discarded[d].parameter);
+        CHECK(a.discarded[d].reason == b.discarded[d].reason);
+    }
+    CHECK(a.validation.poses == b.validation.poses);
+    CHECK(same(a.validation.maxPositionErrorCm, b.validation.maxPositionErrorCm));
+    CHECK(same(a.validation.meanPositionErrorCm, b.validation.meanPositionErrorCm));
+    CHECK(same(a.validation.maxRotationErrorDeg, b.validation.maxRotationErrorDeg));
+    CHECK(same(a.validation.meanRotationErrorDeg, b.validation.meanRotationErrorDeg));
+    CHECK(a.validation.worstOutput == b.validation.worstOutput);
+    CHECK(a.validation.worstPose == b.validation.worstPose);
+    CHECK(a.training.evaluations == b.training.evaluations);
+    CHECK(a.training.orderEvaluations == b.training.orderEvaluations);
+    CHECK(same(a.training.seconds, b.training.seconds));
+    CHECK(a.training.orderer == b.training.orderer);
+}
+
+// Doubles that a careless writer loses: a third, -0, the smallest subnormal, the largest double, pi.
+const std::vector<double> awkward{0.1 + 0.2, -0.0, 5e-324, std::numeric_limits<double>::max(), std::numbers::pi, 1e-300,
+                                  -123456.78901234567};
+
+double pick(std::size_t& i) { return awkward[i++ % awkward.size()]; }
+
+// One of everything: each operator kind, a linear and a curve magnitude, per-output operators, strings
+// that need quoting, a count past 2^63.
+Approximation everything()
+{
+    std::size_t i = 0;
+    Approximation a;
+    a.rigFile = "rigs/odd \"name\": #1 \\ é.yaml";
+    a.rigFingerprint = "00ff00ff00ff00ff";
+    a.epsilon = 1e-3;
+    for (const char* name : {"root", "mid: #x", "tip"}) {
+        ApproximationOutput out{name, Eigen::Matrix4d::Identity()};
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c) out.rest(r, c) = pick(i);
+        a.outputs.push_back(out);
+    }
+    auto parameter = [&](const std::string& name, bool angular, bool limited) {
+        return RigParameter{name, -0.0, -std::numbers::pi / 2, 1.0 / 3.0, angular, limited};
+    };
+    using V1 = CubicSpline<1>::Vector;
+    ModelledParameter translation{parameter("root_ctrl.translateX", false, false), {0, 1, 2}, {}, {0, 0, 0}, "translation", 1e-17, 6};
+    Operator t;
+    t.kind = OperatorKind::translation;
+    t.axis = Eigen::Vector3d(0.6, -0.0, 0.8);
+    t.slope = 0.1 + 0.2;
+    translation.operators.push_back(t);
+    a.parameters.push_back(translation);
+
+    ModelledParameter rotation{parameter("elbow.rotateZ", true, true), {1, 2}, {}, {0, 1}, "per output: 1 rotation (curve) 1 axisScale", 3e-4, 17};
+    Operator r;
+    r.kind = OperatorKind::rotation;
+    r.axis = Eigen::Vector3d(0, std::sqrt(0.5), -std::sqrt(0.5));
+    r.pivot = Eigen::Vector3d(pick(i), pick(i), pick(i));
+    r.curve = CubicSpline<1>({-1.0, 0.0, 0.1 + 0.2, 2.0}, {V1(-0.7), V1(0.0), V1(std::numbers::pi), V1(-0.0)});
+    Operator s;
+    s.kind = OperatorKind::axisScale;
+    s.axis = Eigen::Vector3d(1, 0, 0);
+    s.pivot = Eigen::Vector3d(1e-300, -0.0, 7);
+    s.slope = -1.0 / 3.0;
+    rotation.operators = {r, s};
+    a.parameters.push_back(rotation);
+
+    ModelledParameter sampled{parameter("spine_ctrl.bend", true, false), {0, 1, 2}, {}, {0, 1, 2}, "per output: 1 sampledRigid 1 sampledAffine 1 uniformScale", 0.0, 64};
+    Operator rigid;
+    rigid.kind = OperatorKind::sampledRigid;
+    std::vector<CubicSpline<6>::Vector> six;
+    for (int j = 0; j < 3; ++j) {
+        CubicSpline<6>::Vector v;
+        for (int d = 0; d < 6; ++d) v[d] = pick(i) * 1e-300 + 0.1 * d * j;
+        six.push_back(v);
+    }
+    rigid.rigid = CubicSpline<6>({-0.5, 0.0, 1e-9}, six);
+    Operator affine;
+    affine.kind = OperatorKind::sampledAffine;
+    std::vector<CubicSpline<12>::Vector> twelve;
+    for (int j = 0; j < 2; ++j) {
+        CubicSpline<12>::Vector v;
+        for (int d = 0; d < 12; ++d) v[d] = pick(i);
+        twelve.push_back(v);
+    }
+    affine.affine = CubicSpline<12>({0.0, 0.25}, twelve);
+    Operator uniform;
+    uniform.kind = OperatorKind::uniformScale;
+    uniform.pivot = Eigen::Vector3d(1, 2, 3);
+    uniform.slope = 5e-324;
+    sampled.operators = {rigid, affine, uniform};
+    a.parameters.push_back(sampled);
+
+    a.discarded.push_back({parameter("nasty_ctrl.springy", false, true), "history-dependent: \"quoted\"\nsecond line\tand a tab"});
+    a.discarded.push_back({parameter("nasty_ctrl.coupledTurn", true, true), "coupled: it changes what others do; ünïcode"});
+    a.validation = {50, 1e-13, 0.1 + 0.2, 180.0, -0.0, "tip", 49};
+    a.training = {std::uint64_t{1} << 63 | 5, 133, 0.0123456789, "structured (note: a fallback)"};
+    return a;
+}
+
+// The minimal valid file the error cases below damage one line of.
+const std::string minimal = R"(format: rigInversionApproximation
+version: 1
+rigFile: "r.yaml"
+rigFingerprint: "00"
+epsilon: 0.001
+training: {evaluations: 1, orderEvaluations: 0, seconds: 0.5, orderer: "talk"}
+validation: {poses: 0, maxPositionErrorCm: 0, meanPositionErrorCm: 0, maxRotationErrorDeg: 0, meanRotationErrorDeg: 0, worstOutput: "", worstPose: -1}
+outputs:
+  - {name: "a", rest: [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}
+parameters:
+  - name: "p"
+    default: 0
+    min: -1
+    max: 1
+    limited: true
+    angular: true
+    form: "rotation"
+    fitError: 0
+    samples: 6
+    outputs: ["a"]
+    operatorOfOutput: [0]
+    operators:
+      - {kind: rotation, axis: [0, 0, 1], pivot: [0, 0, 0], slope: 1}
+discarded: []
+)";
+
+// The message for `minimal` with `from` replaced by `to`.
+std::string errorWith(const std::string& from, const std::string& to)
+{
+    std::string text = minimal;
+    const auto at = text.find(from);
+    REQUIRE(at != std::string::npos);
+    text.replace(at, from.size(), to);
+    try {
+        approximationFromYaml(text, "f.yaml");
+    }
+    catch (const ApproximationFileError& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+}  // namespace
+
+TEST_CASE("approximation files: every field of every operator kind reads back bit for bit")
+{
+    const Approximation a = everything();
+    const std::string text = approximationToYaml(a);
+    const Approximation b = approximationFromYaml(text, "everything.yaml");
+    checkSame(a, b);
+    // Writing what was read gives the same text.
+    CHECK(approximationToYaml(b) == text);
+
+    // Through a file.
+    const auto file = test::scratchDir("approximation-io") / "everything.yaml";
+    test::writeFile(file, text);
+    checkSame(a, readApproximationFile(file));
+}
+
+TEST_CASE("approximation files: a learned approximation evaluates identically after a round trip")
+{
+    // The nasty rig has curve magnitudes, per-output operators, sampled rigid and affine ones.
+    GraphRigFunction rig(test::sourceDir() / "rigs/nasty.yaml",
+                         {{"arm_ctrl.rotate?", "nasty_ctrl.elbowBend", "nasty_ctrl.wristTwist", "nasty_ctrl.spineBend",
+                           "nasty_ctrl.kneeBend", "nasty_ctrl.stretch"},
+                          {},
+                          {}});
+    LearnOptions options;
+    options.validationPoses = 5;
+    const Approximation a = learnApproximation(rig, options, "rigs/nasty.yaml");
+    REQUIRE(a.parameters.size() == 8);
+    const Approximation b = approximationFromYaml(approximationToYaml(a), "nasty.yaml");
+    checkSame(a, b);
+    std::mt19937 rng(7);
+    std::vector<Eigen::Matrix4d> wa, wb;
+    for (int pose = 0; pose < 20; ++pose) {
+        std::vector<double> values;
+        for (const auto& p : a.parameters) values.push_back(std::uniform_real_distribution<double>(p.parameter.min, p.parameter.max)(rng));
+        a.evaluate(values, wa);
+        b.evaluate(values, wb);
+        for (std::size_t k = 0; k < wa.size(); ++k) CHECK(sameMatrix(wa[k], wb[k]));
+    }
+}
+
+TEST_CASE("approximation files: what cannot be written is refused, naming the field")
+{
+    Approximation a = everything();
+    a.parameters[1].operators[0].pivot.y() = std::nan("");
+    CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: parameters[1].operators[0].pivot is nan, not a finite number",
+                         std::invalid_argument);
+    a = everything();
+    a.parameters[0].outputs[2] = 3;
+    CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: parameters[0].outputs: index 3 out of range",
+                         std::invalid_argument);
+}
+
+TEST_CASE("approximation files: a damaged file is one line naming file:line:col and the field")
+{
+    CHECK(errorWith("", "") == "(no error)");
+    CHECK(errorWith("format: rigInversionApproximation", "format: rig")
+          == "f.yaml:1:9: format: not an approximation file (expected format: rigInversionApproximation)");
+    CHECK(errorWith("version: 1", "version: 2")
+          == "f.yaml:2:10: version: version 2 is not supported; this program reads version 1 (re-run rig-learn)");
+    CHECK(errorWith("rigFile:", "rigFiles:")
+          == "f.yaml:3:1: file: unknown field 'rigFiles'; the fields are format, version, rigFile, rigFingerprint, "
+             "epsilon, training, validation, outputs, parameters, discarded");
+    CHECK(errorWith("    samples: 6\n", "") == "f.yaml:11:5: parameters[0]: the field 'samples' is missing");
+    CHECK(errorWith("min: -1", "min: abc") == "f.yaml:13:10: parameters[0].min: 'abc' is not a number");
+    CHECK(errorWith("max: 1", "max: inf") == "f.yaml:14:10: parameters[0].max: 'inf' is not a finite number");
+    CHECK(errorWith("default: 0", "default: 5") == "f.yaml:11:5: parameters[0]: the default 5 is not within min -1 and max 1");
+    CHECK(errorWith("limited: true", "limited: 1") == "f.yaml:15:14: parameters[0].limited: expected true or false");
+    CHECK(errorWith("outputs: [\"a\"]", "outputs: [\"b\"]") == "f.yaml:20:15: parameters[0].outputs: 'b' is not one of the outputs");
+    CHECK(errorWith("operatorOfOutput: [0]", "operatorOfOutput: [3]")
+          == "f.yaml:21:24: parameters[0].operatorOfOutput: 3 is not an operator index (0..0)");
+    CHECK(errorWith("operatorOfOutput: [0]", "operatorOfOutput: [0, 0]")
+          == "f.yaml:21:23: parameters[0].operatorOfOutput: expected 1 entries, found 2");
+    CHECK(errorWith("axis: [0, 0, 1]", "axis: [0, 0, 2]") == "f.yaml:23:32: parameters[0].operators[0].axis: not a unit vector");
+    CHECK(errorWith("kind: rotation", "kind: twist")
+          == "f.yaml:23:16: parameters[0].operators[0].kind: unknown operator 'twist'; the operators are translation, "
+             "rotation, axisScale, uniformScale, sampledRigid, sampledAffine");
+    CHECK(errorWith("slope: 1", "curve: {knots: [0, 0], values: [0, 0]}")
+          == "f.yaml:23:76: parameters[0].operators[0].curve.knots: the knots must increase");
+    CHECK(errorWith("slope: 1", "slope: 1, curve: {knots: [0, 1], values: [0, 1]}")
+          == "f.yaml:23:9: parameters[0].operators[0]: give either slope (linear) or curve, not both");
+    CHECK(errorWith("rest: [[1, 0, 0, 0], ", "rest: [") == "f.yaml:9:23: outputs[0].rest: expected 4 entries, found 3");
+    CHECK(errorWith("discarded: []", "discarded: [") == "f.yaml:25:1: not valid YAML: end of sequence flow not found");
+
+    try {
+        readApproximationFile("no/such/approximation.yaml");
+        FAIL("no error");
+    }
+    catch (const ApproximationFileError& e) {
+        CHECK(std::string(e.what())
+              == "no/such/approximation.yaml: cannot read it (No such file or directory); check the name (rig-learn -o "
+                 "writes one)");
+    }
+}
+
+TEST_CASE("approximation files: a rig that changed since learning is a warning, or an error when strict")
+{
+    Approximation a;
+    a.rigFile = "rigs/biped.yaml";
+    a.rigFingerprint = "0123456789abcdef";
+    CHECK(checkFingerprint(a, "0123456789abcdef", false).empty());
+    CHECK(checkFingerprint(a, "0123456789abcdef", true).empty());
+    const std::string message = "the rig changed since the approximation was learned from rigs/biped.yaml (fingerprint "
+                                "0123456789abcdef, now fedcba9876543210); re-run rig-learn";
+    CHECK(checkFingerprint(a, "fedcba9876543210", false) == message);
+    CHECK_THROWS_WITH_AS(checkFingerprint(a, "fedcba9876543210", true), message.c_str(), ApproximationFileError);
+
+    // The real thing: a rig file edited after learning.
+    const auto dir = test::scratchDir("approximation-fingerprint");
+    const std::string rigText = "nodes:\n  - {name: j, type: joint}\n  - {name: k, type: joint, parent: j, translate: [5, 0, 0]}\n";
+    test::writeFile(dir / "rig.yaml", rigText);
+    const GraphRigOptions options{{"j.rotateZ"}, {}, {}};
+    GraphRigFunction before(dir / "rig.yaml", options);
+    LearnOptions learn;
+    learn.validationPoses = 2;
+    const Approximation learned = learnApproximation(before, learn, "rig.yaml");
+    CHECK(checkFingerprint(learned, GraphRigFunction(dir / "rig.yaml", options).fingerprint(), true).empty());
+    test::writeFile(dir / "rig.yaml", rigText + "  - {name: l, type: joint, parent: k}\n");
+    const std::string now = GraphRigFunction(dir / "rig.yaml", options).fingerprint();
+    CHECK(checkFingerprint(learned, now, false).starts_with("the rig changed since the approximation was learned from rig.yaml"));
+    CHECK_THROWS_AS(checkFingerprint(learned, now, true), ApproximationFileError);
+}
