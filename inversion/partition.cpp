@@ -146,7 +146,8 @@ private:
     }
 
     // Grows the outer set T output by output (the output needing the fewest parameters not yet in T)
-    // until removing T leaves two or more independent groups that T's own outputs determine.
+    // until removing T leaves two or more independent groups; splits there if T's own outputs
+    // determine it, else keeps the group as one block.
     void splitGroup(Group group, int parent)
     {
         const auto& P = group.parameters;
@@ -211,12 +212,12 @@ private:
             std::vector<Group> groups = components(restP, restK);
             for (const int p : P) inP_[static_cast<std::size_t>(p)] = 1;
             if (groups.size() < 2) continue;
+            // The first branching decides: growing T past it would tie the outer block to one branch
+            // (a root fitted to the left arm), so an undetermined T keeps the group whole.
             std::sort(T.begin(), T.end());
             std::sort(KT.begin(), KT.end());
-            if (determined(T, KT)) {
-                inner = std::move(groups);
-                break;
-            }
+            if (determined(T, KT)) inner = std::move(groups);
+            break;
         }
         cleanUp();
         if (inner.empty()) {

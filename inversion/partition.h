@@ -5,10 +5,12 @@
 // outputs (active targets with a weight above zero):
 //  - parameters reaching none of them are not solved (they keep their values);
 //  - independent groups (connected components of the parameter-output incidence) are separate blocks;
-//  - within a group, an outer set T of parameters (a root, a spine) becomes a block of its own, solved
-//    first on the outputs only T reaches, when removing T splits the rest into two or more independent
-//    groups (left arm, right arm) and those outputs determine T (the Jacobian of T on them has full
-//    column rank at generic poses). The groups are then solved after it, in parallel, with T held.
+//  - within a group, the outer set T of parameters (a root, a spine: grown from the outputs that need
+//    the fewest parameters until removing T first splits the rest into two or more independent groups,
+//    left arm and right arm) becomes a block of its own, solved first on the outputs only T reaches, if
+//    those outputs determine T (the Jacobian of T on them has full column rank at generic poses);
+//    otherwise the group stays one block. The inner groups are then split the same way and solved
+//    after T, in parallel, with T held.
 // On targets the rig reaches exactly, this block-triangular order gives the solution of the whole
 // problem; on unreachable ones it fits the outer block first and leaves the remaining error to the
 // inner blocks.
