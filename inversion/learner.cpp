@@ -40,6 +40,31 @@ double matrixError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double fr
     return worst;
 }
 
+std::vector<std::pair<int, int>> redundantParameters(const Approximation& approximation, double tolerance, double frameRadius)
+{
+    std::vector<std::pair<int, int>> pairs;
+    const auto& ps = approximation.parameters;
+    for (std::size_t i = 0; i < ps.size(); ++i)
+        for (std::size_t j = i + 1; j < ps.size(); ++j) {
+            if (ps[i].outputs != ps[j].outputs) continue;
+            const double lo = std::max(ps[i].parameter.min - ps[i].parameter.defaultValue, ps[j].parameter.min - ps[j].parameter.defaultValue);
+            const double hi = std::min(ps[i].parameter.max - ps[i].parameter.defaultValue, ps[j].parameter.max - ps[j].parameter.defaultValue);
+            if (!(hi > lo)) continue;
+            bool same = true;
+            for (int s = 0; s <= 4 && same; ++s) {
+                const double a = lo + (hi - lo) * s / 4.0;
+                for (std::size_t e = 0; e < ps[i].outputs.size() && same; ++e) {
+                    const Eigen::Matrix4d& rest = approximation.outputs[static_cast<std::size_t>(ps[i].outputs[e])].rest;
+                    const Operator& u = ps[i].operators[static_cast<std::size_t>(ps[i].operatorOfOutput[e])];
+                    const Operator& v = ps[j].operators[static_cast<std::size_t>(ps[j].operatorOfOutput[e])];
+                    same = matrixError(u.matrix(a) * rest, v.matrix(a) * rest, frameRadius) <= tolerance;
+                }
+            }
+            if (same) pairs.emplace_back(static_cast<int>(i), static_cast<int>(j));
+        }
+    return pairs;
+}
+
 namespace {
 
 // Angle between the orientations of two world matrices (scale removed), degrees.

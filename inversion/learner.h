@@ -11,6 +11,8 @@
 #include <functional>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 #include "inversion/approximation.h"
 #include "inversion/rig_function.h"
@@ -50,6 +52,12 @@ struct LearnOptions {
 // `rigFile` is recorded in the approximation. Numerical outcomes (a parameter that fits nothing, a
 // pair that cannot be ordered) are recorded in Approximation::discarded, not thrown.
 Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile);
+
+// Pairs of modelled parameters (indices into approximation.parameters, first < second) with the same
+// effect: the same outputs, moved alike at offsets across the range both share (within `tolerance` cm
+// of the error measure). An inversion cannot tell them apart; it has to split their sum.
+std::vector<std::pair<int, int>> redundantParameters(const Approximation& approximation, double tolerance = 1e-6,
+                                                     double frameRadius = 10.0);
 
 // The error measure above, for two world matrices.
 double matrixError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double frameRadius);

@@ -67,10 +67,14 @@ std::string rangeText(const RigParameter& p)
     return fmt::format("{:g}..{:g}{}", userValue(p, p.min), userValue(p, p.max), p.angular ? " deg" : "");
 }
 
-std::string vectorText(const Eigen::Vector3d& v) { // + 0.0 prints -0 as 0.
-    return fmt::format("({:.4g}, {:.4g}, {:.4g})", v.x() + 0.0, v.y() + 0.0, v.z() + 0.0); }
+std::string vectorText(const Eigen::Vector3d& v)
+{
+    // Rounding noise (1e-16 cm) and -0 print as 0.
+    auto clean = [](double x) { return std::abs(x) < 1e-9 ? 0.0 : x; };
+    return fmt::format("({:.4g}, {:.4g}, {:.4g})", clean(v.x()), clean(v.y()), clean(v.z()));
+}
 
-// Columns padded to their widest cell, the first left-aligned: a table to read on a terminal.
+// Columns padded to their widest cell, the first right-aligned: a table to read on a terminal.
 std::string alignTable(const std::vector<std::vector<std::string>>& rows)
 {
     std::vector<std::size_t> widths;
@@ -109,6 +113,12 @@ std::string readableReport(const Approximation& a, const RigFunction& rig, const
                         fmt::format("{}", m.outputs.size()), rangeText(m.parameter)});
     }
     out += alignTable(rows);
+    const auto redundant = redundantParameters(a);
+    if (!redundant.empty())
+        out += fmt::format("\nRedundant: {} pairs with the same effect (an inversion must split it)\n", redundant.size());
+    for (const auto& [i, j] : redundant)
+        out += fmt::format("  {} and {}\n", a.parameters[static_cast<std::size_t>(i)].parameter.name,
+                           a.parameters[static_cast<std::size_t>(j)].parameter.name);
     out += fmt::format("\nDiscarded: {} parameters\n", a.discarded.size());
     for (const auto& d : a.discarded) out += fmt::format("  {}: {}\n", d.parameter.name, d.reason);
     out += fmt::format("\nTraining: {} rig evaluations ({} for the composition order), {:.2f} s learning, {:.2f} s loading "
@@ -121,7 +131,7 @@ std::string readableReport(const Approximation& a, const RigFunction& rig, const
     if (v.poses == 0 || a.parameters.empty()) out += "  not run (no poses or nothing modelled)\n";
     else {
         out += fmt::format("  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm\n", v.maxPositionErrorCm,
-                           v.worstOutput, v.worstPose + 1, v.meanPositionErrorCm);
+                           v.worstOutput, v.worstPose, v.meanPositionErrorCm);
         out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg, v.meanRotationErrorDeg);
     }
     out += fmt::format("\nWrote {}\n", options.output);
@@ -153,6 +163,13 @@ std::string jsonReport(const Approximation& a, const RigFunction& rig, const Opt
         out += fmt::format("{}\n    {{\"name\": {}, \"reason\": {}}}", d ? "," : "", jsonString(a.discarded[d].parameter.name),
                            jsonString(a.discarded[d].reason));
     out += a.discarded.empty() ? "],\n" : "\n  ],\n";
+    out += "  \"redundant\": [";
+    const auto redundant = redundantParameters(a);
+    for (std::size_t r = 0; r < redundant.size(); ++r)
+        out += fmt::format("{}[{}, {}]", r ? ", " : "",
+                           jsonString(a.parameters[static_cast<std::size_t>(redundant[r].first)].parameter.name),
+                           jsonString(a.parameters[static_cast<std::size_t>(redundant[r].second)].parameter.name));
+    out += "],\n";
     const ValidationSummary& v = a.validation;
     out += fmt::format("  \"validation\": {{\"poses\": {}, \"max_position_error_cm\": {}, \"mean_position_error_cm\": {}, "
                        "\"max_rotation_error_deg\": {}, \"mean_rotation_error_deg\": {}, \"worst_output\": {}, "

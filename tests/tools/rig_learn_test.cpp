@@ -1,0 +1,148 @@
+// rig-learn end to end: the built binary through the shell, its report, JSON and approximation file,
+// one-line errors with exit code 2, and outputs that a failing run leaves untouched.
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "inversion/approximation_io.h"
+#include "test_support.h"
+
+using rig::test::run;
+
+namespace {
+
+const std::string arm = "rigs/examples/arm.yaml";
+const std::string armParams = "--params 'shoulder.rotate?' 'elbow.rotate?' 'wrist.rotate?'";
+
+std::string rigLearn(const std::string& args) { return fmt::format("{} {}", rig::test::tool("rig-learn"), args); }
+
+std::string slurp(const std::filesystem::path& file)
+{
+    std::ifstream in(file, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+// Expects exit code 2, nothing on standard output and exactly "error: <message>\n" on standard error.
+void checkBadInput(const std::string& args, const std::string& message)
+{
+    CAPTURE(args);
+    const auto r = run(rigLearn(args));
+    CHECK(r.exitCode == 2);
+    CHECK(r.out.empty());
+    CHECK(r.err == "error: " + message + "\n");
+}
+
+}  // namespace
+
+TEST_CASE("rig-learn: the arm end to end, report, JSON report and approximation file")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-arm");
+    const auto out = dir / "arm_approx.yaml", json = dir / "report.json";
+    const auto r = run(rigLearn(fmt::format("{} {} -o '{}' --report-json '{}'", arm, armParams, out.string(), json.string())));
+    REQUIRE(r.exitCode == 0);
+    CHECK(r.err.empty());  // no progress bar when standard error is not a terminal
+    // The readable report: the table in composition order, discards, training, validation.
+    CHECK(r.out.starts_with("rig-learn rigs/examples/arm.yaml: 7 parameters, 3 outputs, epsilon 0.001 cm per unit, orderer "
+                            "structured\n"));
+    CHECK(r.out.find("Modelled: 7 parameters, in composition order (outermost first)\n") != std::string::npos);
+    CHECK(r.out.find("  #  parameter         form      axis") != std::string::npos);
+    CHECK(r.out.find("  1  shoulder.rotateZ  rotation  (-0.342, 0, 0.9397)  (20, 150, ") != std::string::npos);
+    CHECK(r.out.find("\nDiscarded: 0 parameters\n") != std::string::npos);
+    CHECK(r.out.find("\nTraining: ") != std::string::npos);
+    CHECK(r.out.find(" rig evaluations (") != std::string::npos);
+    CHECK(r.out.find("  position error: worst ") != std::string::npos);
+    CHECK(r.out.find("  rotation error: worst ") != std::string::npos);
+    CHECK(r.out.ends_with(fmt::format("\nWrote {}\n", out.string())));
+
+    // The JSON report (JSON is YAML): the keys of docs/rig-learn.md.
+    const YAML::Node report = YAML::Load(slurp(json));
+    for (const char* key : {"evaluations", "seconds", "modelled", "discarded", "validation", "order_evaluations", "orderer"})
+        CHECK_MESSAGE(report[key], key);
+    CHECK(report["modelled"].size() == 7);
+    CHECK(report["modelled"][0].as<std::string>() == "shoulder.rotateZ");
+    CHECK(report["discarded"].size() == 0);
+    for (const char* key : {"max_position_error_cm", "mean_position_error_cm", "max_rotation_error_deg"}) {
+        CAPTURE(key);
+        REQUIRE(report["validation"][key]);
+        CHECK(report["validation"][key].as<double>() < 1e-6);
+    }
+
+    // The approximation file reads back, and the report's figures are its own.
+    const rig::Approximation a = rig::readApproximationFile(out);
+    CHECK(a.parameters.size() == 7);
+    CHECK(a.rigFile == arm);
+    CHECK(report["evaluations"].as<std::uint64_t>() == a.training.evaluations);
+    CHECK(report["validation"]["max_position_error_cm"].as<double>() == a.validation.maxPositionErrorCm);
+}
+
+TEST_CASE("rig-learn: discards in the report and the JSON, with their reasons; the talk orderer on request")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-nasty");
+    const auto out = dir / "nasty.yaml", json = dir / "nasty.json";
+    const auto r = run(rigLearn(fmt::format("rigs/nasty.yaml --params nasty_ctrl.coupledTurn nasty_ctrl.coupledBend "
+                                            "nasty_ctrl.springy 'nasty_ctrl.redundant?' --orderer talk --epsilon 0.01 -o '{}' "
+                                            "--report-json '{}'",
+                                            out.string(), json.string())));
+    REQUIRE(r.exitCode == 0);
+    CHECK(r.out.find("epsilon 0.01 cm per unit, orderer talk") != std::string::npos);
+    CHECK(r.out.find("\nRedundant: 1 pairs with the same effect (an inversion must split it)\n"
+                     "  nasty_ctrl.redundantA and nasty_ctrl.redundantB\n")
+          != std::string::npos);
+    CHECK(r.out.find("\nDiscarded: 2 parameters\n  nasty_ctrl.coupledTurn: no effect on its own") != std::string::npos);
+    CHECK(r.out.find("\n  nasty_ctrl.springy: history-dependent:") != std::string::npos);
+    const YAML::Node report = YAML::Load(slurp(json));
+    REQUIRE(report["discarded"].size() == 2);
+    CHECK(report["discarded"][0]["name"].as<std::string>() == "nasty_ctrl.coupledTurn");
+    CHECK(report["discarded"][1]["reason"].as<std::string>().starts_with("history-dependent:"));
+    CHECK(report["orderer"].as<std::string>() == "talk");
+    REQUIRE(report["redundant"].size() == 1);
+    CHECK(report["redundant"][0][1].as<std::string>() == "nasty_ctrl.redundantB");
+    CHECK(rig::readApproximationFile(out).epsilon == 0.01);
+}
+
+TEST_CASE("rig-learn: bad input is one error line and exit code 2; an existing output is left untouched")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-errors");
+    const auto out = dir / "approx.yaml";
+    rig::test::writeFile(out, "precious\n");
+    const std::string o = fmt::format("-o '{}'", out.string());
+
+    checkBadInput(fmt::format("{} --params 'shoulder.rotatq?' {}", arm, o),
+                  "rigs/examples/arm.yaml: parameter glob 'shoulder.rotatq?' matches no plug: node 'shoulder' has no "
+                  "keyable attribute matching 'rotatq?'; did you mean 'shoulder.rotateX'?");
+    checkBadInput(fmt::format("{} --params 'elbow.rotateZ' {}", arm, o),
+                  "rigs/examples/arm.yaml: parameter 'elbow.rotateZ' is driven by elbow_bend_sdk.output; parameters are "
+                  "animator controls that nothing drives");
+    checkBadInput(fmt::format("{} {} --outputs wrsit {}", arm, armParams, o),
+                  "rigs/examples/arm.yaml: output glob 'wrsit' matches no joint; did you mean 'wrist'?");
+    checkBadInput(fmt::format("rigs/no_such_rig.yaml {} {}", armParams, o), "rigs/no_such_rig.yaml: no such rig file");
+    checkBadInput(fmt::format("{} {} --epsilon abc {}", arm, armParams, o),
+                  "--epsilon 'abc': not a number; give a positive number of cm per unit of a parameter, e.g. --epsilon 0.001");
+    checkBadInput(fmt::format("{} {} --epsilon 0 {}", arm, armParams, o),
+                  "--epsilon '0': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001");
+    checkBadInput(fmt::format("{} {} --epsilon=-1e-3 {}", arm, armParams, o),
+                  "--epsilon '-1e-3': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001");
+    checkBadInput(fmt::format("{} {} --orderer fast {}", arm, armParams, o),
+                  "--orderer: fast not in {talk,structured}; run 'rig-learn --help' for usage");
+    checkBadInput(fmt::format("{} {}", arm, o), "--params is required; run 'rig-learn --help' for usage");
+    checkBadInput(fmt::format("{} {}", arm, armParams), "--output is required; run 'rig-learn --help' for usage");
+    checkBadInput(fmt::format("{} {} {} --report-json '{}'", arm, armParams, o, (dir / "no" / "r.json").string()),
+                  fmt::format("{}: cannot write here (No such file or directory); check the folder exists and is writable",
+                              (dir / "no" / "r.json").string()));
+    CHECK(slurp(out) == "precious\n");
+    // Nothing left behind but the file itself.
+    int files = 0;
+    for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir)) ++files;
+    CHECK(files == 1);
+
+    // A successful run replaces it.
+    REQUIRE(run(rigLearn(fmt::format("{} --params wrist.rotateX {}", arm, o))).exitCode == 0);
+    CHECK(slurp(out).starts_with("# A learned rig approximation"));
+}
