@@ -98,6 +98,20 @@ struct BlockWorkspace {
     std::vector<char> fixed;
 };
 
+// The period of a control whose every operator is a rotation with a linear magnitude of the same size
+// (a rotate channel, possibly read with another sign): 2 pi / |slope|. 0 when it has none (a curve
+// magnitude, a translation, a sampled operator).
+double rotationPeriod(const ModelledParameter& m)
+{
+    double slope = 0.0;
+    for (const Operator& op : m.operators) {
+        if (op.kind != OperatorKind::rotation || !op.linear() || op.slope == 0.0) return 0.0;
+        if (slope != 0.0 && std::abs(op.slope) != slope) return 0.0;
+        slope = std::abs(op.slope);
+    }
+    return slope > 0.0 ? 2.0 * std::numbers::pi / slope : 0.0;
+}
+
 struct BlockPlan {
     BlockPlan(const Approximation& approximation, const PartitionBlock& block)
         : structure(approximation, block.parameters, block.outputs)
@@ -108,10 +122,14 @@ struct BlockPlan {
             const RigParameter& parameter = approximation.parameters[static_cast<std::size_t>(p)].parameter;
             lower.push_back(parameter.limited ? parameter.min : -free);
             upper.push_back(parameter.limited ? parameter.max : free);
+            angular.push_back(parameter.angular);
+            period.push_back(parameter.limited ? 0.0 : rotationPeriod(approximation.parameters[static_cast<std::size_t>(p)]));
         }
     }
     ResidualStructure structure;
     std::vector<double> lower, upper;
+    std::vector<bool> angular;
+    std::vector<double> period;  // > 0: the values x and x + period give the same pose (see rotationPeriod)
     mutable Pool<BlockWorkspace> pool;
 };
 
@@ -189,6 +207,7 @@ void SolverOptions::validate() const
     if (jacobian != JacobianMethod::analytic && jacobian != JacobianMethod::finiteDifference)
         fail("jacobian", static_cast<int>(jacobian), "must be analytic or finiteDifference");
     positive("finiteDifferenceStep", finiteDifferenceStep);
+    positive("maxAngularStep", maxAngularStep);
     if (threads < 0) fail("threads", threads, "must not be negative (0: all cores)");
 }
 
@@ -378,6 +397,11 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
             mu = largest > 0 ? initialDamping * largest : initialDamping;
         }
         if (!solveStep(w, gaussNewton ? 0.0 : mu)) break;
+        // The rotation trust region (SolverOptions::maxAngularStep): shorten the whole step, keeping its direction.
+        double largestTurn = 0.0;
+        for (std::size_t c = 0; c < n; ++c)
+            if (block.angular[c]) largestTurn = std::max(largestTurn, std::abs(w.delta[static_cast<Eigen::Index>(c)]));
+        if (largestTurn > o.maxAngularStep) w.delta *= o.maxAngularStep / largestTurn;
 
         // Projection onto the limits; the step actually taken is what the model and tolerances see.
         double stepNorm2 = 0.0, xNorm2 = 0.0;
@@ -427,7 +451,14 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
             break;
         }
     }
-    for (std::size_t c = 0; c < n; ++c) values[static_cast<std::size_t>(columns[c])] = w.x[c];
+    // Continuity: of the equivalent values of a periodic control, the one nearest the warm start, so that
+    // a solve never adds whole turns (curves stay continuous from frame to frame).
+    for (std::size_t c = 0; c < n; ++c) {
+        const double start = values[static_cast<std::size_t>(columns[c])];
+        if (block.period[c] > 0.0 && std::isfinite(start))
+            w.x[c] = start + std::remainder(w.x[c] - start, block.period[c]);
+        values[static_cast<std::size_t>(columns[c])] = w.x[c];
+    }
     return result;
 }
 

@@ -43,6 +43,11 @@ struct SolverOptions {
     // Converged when the projected gradient max_i |x_i - clamp(x_i - g_i)| is at most this (g = J^T r).
     double gradientTolerance = 1e-12;
     JacobianMethod jacobian = JacobianMethod::analytic;
+    // Largest change of an angular parameter in one iteration, radians (default 0.5, about 30 degrees):
+    // a longer step is shortened, whole, to this. The linear model of a rotation is only good for a
+    // fraction of a turn; without the cap, a near-singular pose (a straight elbow) lets a step swing
+    // a control by whole turns onto an equivalent pose, which breaks continuity between frames.
+    double maxAngularStep = 0.5;
     // Central finite-difference step, in each parameter's internal unit (JacobianMethod::finiteDifference).
     double finiteDifferenceStep = 1e-6;
     // Split the problem into blocks (inversion/partition.h); false solves every parameter together.

@@ -1,0 +1,155 @@
+#include "inversion/clip_inversion.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <fmt/format.h>
+
+namespace rig {
+namespace {
+
+// The rotation nearest a 3x3 block that may carry scale or shear (a target from any source).
+Eigen::Matrix3d orthonormalPart(const Eigen::Matrix3d& m)
+{
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
+    if (r.determinant() < 0.0) {
+        Eigen::Matrix3d u = svd.matrixU();
+        u.col(2) = -u.col(2);
+        r = u * svd.matrixV().transpose();
+    }
+    return r;
+}
+
+double rotationErrorDeg(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
+{
+    const Eigen::Matrix3d d = orthonormalPart(a.topLeftCorner<3, 3>()).transpose() * orthonormalPart(b.topLeftCorner<3, 3>());
+    return Eigen::AngleAxisd(d).angle() * 180.0 / std::numbers::pi;
+}
+
+}  // namespace
+
+ClipTargets matchTargets(const Approximation& approximation, std::span<const std::string> joints,
+                         std::span<const std::vector<Eigen::Matrix4d>> worlds)
+{
+    ClipTargets targets;
+    for (const auto& joint : joints) {
+        const auto it = std::find_if(approximation.outputs.begin(), approximation.outputs.end(),
+                                     [&](const ApproximationOutput& o) { return o.name == joint; });
+        targets.outputOfJoint.push_back(it == approximation.outputs.end()
+                                            ? -1
+                                            : static_cast<int>(it - approximation.outputs.begin()));
+        if (targets.outputOfJoint.back() >= 0) ++targets.matchedJoints;
+        else targets.unmatchedJoints.push_back(joint);
+    }
+    if (targets.matchedJoints == 0)
+        throw std::invalid_argument(fmt::format(
+            "no joint of the clip is an output of the approximation (the clip has '{}', ...; the approximation "
+            "'{}', ...); rename them with a map file",
+            joints.empty() ? std::string() : joints.front(),
+            approximation.outputs.empty() ? std::string() : approximation.outputs.front().name));
+    for (const auto& frame : worlds) {
+        auto& out = targets.frames.emplace_back(approximation.outputs.size());
+        for (std::size_t j = 0; j < joints.size(); ++j) {
+            const int o = targets.outputOfJoint[j];
+            if (o < 0) continue;
+            out[o].active = true;
+            out[o].world = frame[j];
+        }
+    }
+    return targets;
+}
+
+void ClipInversionOptions::validate() const
+{
+    solver.validate();
+    if (polishCorrections < 0)
+        throw std::invalid_argument(fmt::format("polishCorrections must be >= 0, got {}", polishCorrections));
+    if (restartInterval <= 0)
+        throw std::invalid_argument(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
+}
+
+std::string ClipInversionSummary::briefReport() const
+{
+    return fmt::format("{} frames, {} converged; real rig: worst {:.3g} cm and {:.3g} deg ({}, frame index {}), "
+                       "mean {:.3g} cm and {:.3g} deg; {:.3g} ms per frame",
+                       frames, convergedFrames, maxPositionErrorCm, maxRotationErrorDeg, worstJoint, worstFrame,
+                       meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
+}
+
+ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first,
+                                int last, const ClipInversionOptions& options,
+                                std::vector<std::vector<double>>& values)
+{
+    options.validate();
+    const int frameCount = static_cast<int>(targets.frames.size());
+    if (first < 0 || last >= frameCount || first > last)
+        throw std::invalid_argument(
+            fmt::format("frames {}..{} are not within the clip's 0..{}", first, last, frameCount - 1));
+    const Approximation& approximation = solver.approximation();
+    const std::vector<double> rest = approximation.defaults();
+
+    ClipInversionSummary summary;
+    summary.leadInFrames = first % options.restartInterval;
+    values.clear();
+    std::vector<double> current = rest;
+    std::vector<Eigen::Matrix4d> worlds;
+    double positionSum = 0.0, rotationSum = 0.0;
+    long long jointFrames = 0;
+    using Clock = std::chrono::steady_clock;
+    for (int frame = first - summary.leadInFrames; frame <= last; ++frame) {
+        if (frame % options.restartInterval == 0) current = rest;
+        const auto& frameTargets = targets.frames[frame];
+        const auto start = Clock::now();
+        SolveSummary solve = solver.solve(frameTargets, current);
+        if (options.polishCorrections > 0 && solve.termination != TerminationType::invalidTargets)
+            polish(solver, rig, frameTargets, current, options.polishCorrections);
+        const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+        if (frame < first) continue;
+
+        summary.solveSeconds += seconds;
+        values.push_back(current);
+        FrameInversion result;
+        result.frame = frame;
+        result.solve = solve;
+        rig.evaluate(current, worlds);
+        for (std::size_t o = 0; o < frameTargets.size(); ++o) {
+            if (!frameTargets[o].active) continue;
+            const double p = (worlds[o].block<3, 1>(0, 3) - frameTargets[o].world.block<3, 1>(0, 3)).norm();
+            const double r = rotationErrorDeg(worlds[o], frameTargets[o].world);
+            // A NaN target (reported by the solver) has no error to measure.
+            if (!std::isfinite(p) || !std::isfinite(r)) continue;
+            positionSum += p;
+            rotationSum += r;
+            ++jointFrames;
+            if (p > result.positionErrorCm || result.worstJoint.empty()) {
+                result.positionErrorCm = std::max(result.positionErrorCm, p);
+                result.worstJoint = approximation.outputs[o].name;
+            }
+            result.rotationErrorDeg = std::max(result.rotationErrorDeg, r);
+        }
+        ++summary.frames;
+        if (solve.converged()) ++summary.convergedFrames;
+        if (result.positionErrorCm > summary.maxPositionErrorCm || summary.worstFrame < 0) {
+            summary.maxPositionErrorCm = result.positionErrorCm;
+            summary.worstJoint = result.worstJoint;
+            summary.worstFrame = frame;
+        }
+        summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, result.rotationErrorDeg);
+        summary.perFrame.push_back(std::move(result));
+        if (options.progress) options.progress(static_cast<double>(frame - first + 1) / (last - first + 1));
+    }
+    if (jointFrames > 0) {
+        summary.meanPositionErrorCm = positionSum / static_cast<double>(jointFrames);
+        summary.meanRotationErrorDeg = rotationSum / static_cast<double>(jointFrames);
+    }
+    summary.msPerFrame = summary.frames > 0 ? 1000.0 * summary.solveSeconds / summary.frames : 0.0;
+    return summary;
+}
+
+}  // namespace rig

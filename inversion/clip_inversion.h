@@ -1,0 +1,81 @@
+#pragma once
+// Inverting a clip: one solve per frame on the approximation, warm-started from the previous frame,
+// then the real rig re-evaluated with the recovered values to measure what the animator will see.
+//
+// Warm-start chains and chunks. Frame i (0-based in the clip) is warm-started from frame i - 1's
+// solution, except at restart frames (i a multiple of `restartInterval`), which start from the rest
+// values. A run over frames [first, last] therefore begins its chain at the restart frame at or before
+// `first` and solves the lead-in frames without reporting them: any split of a clip into chunks gives,
+// bit for bit, the values and per-frame errors of one run over the whole clip. Angular parameters move
+// continuously inside a chain (the solver never wraps them); at a restart they start again from rest.
+
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "inversion/approximation.h"
+#include "inversion/rig_binding.h"
+#include "inversion/solver.h"
+
+namespace rig {
+
+// Targets of a clip, matched to the approximation's outputs by name.
+struct ClipTargets {
+    std::vector<int> outputOfJoint;                 // per clip joint: its approximation output, -1 for none
+    std::vector<std::vector<JointTarget>> frames;   // [frame][output]
+    int matchedJoints = 0;                          // clip joints that are outputs
+    std::vector<std::string> unmatchedJoints;       // clip joints that are not (not targets)
+};
+
+// Throws std::invalid_argument when no clip joint is an output of the approximation.
+ClipTargets matchTargets(const Approximation& approximation, std::span<const std::string> joints,
+                         std::span<const std::vector<Eigen::Matrix4d>> worlds);
+
+struct ClipInversionOptions {
+    SolverOptions solver;
+    // Real-rig polish corrections per frame (inversion/solver.h, polish()); 0: approximation only.
+    int polishCorrections = 0;
+    // Frames between warm-start restarts (see above), > 0. 120 frames: one second of a 120 fps clip,
+    // so a chunk re-solves at most 119 lead-in frames.
+    int restartInterval = 120;
+    // Called after each reported frame with the fraction done; may be empty.
+    std::function<void(double fraction)> progress;
+
+    // Throws std::invalid_argument naming the field (and the solver's fields).
+    void validate() const;
+};
+
+struct FrameInversion {
+    int frame = 0;                      // index in the clip, 0-based
+    SolveSummary solve;                 // on the approximation
+    double positionErrorCm = 0.0;       // real rig against the targets, worst active joint
+    double rotationErrorDeg = 0.0;
+    std::string worstJoint;             // where the position error is worst
+};
+
+struct ClipInversionSummary {
+    int frames = 0;
+    int convergedFrames = 0;
+    double maxPositionErrorCm = 0.0;    // real rig, over every active joint of every frame
+    double meanPositionErrorCm = 0.0;   // mean over joints and frames
+    double maxRotationErrorDeg = 0.0;
+    double meanRotationErrorDeg = 0.0;
+    std::string worstJoint;
+    int worstFrame = -1;                // 0-based clip index
+    double solveSeconds = 0.0;          // solver time of the reported frames (lead-in and real rig excluded)
+    double msPerFrame = 0.0;            // solveSeconds per reported frame, ms
+    int leadInFrames = 0;               // solved before `first` to join the warm-start chain
+    std::vector<FrameInversion> perFrame;
+    std::string briefReport() const;
+};
+
+// Inverts frames [first, last] (0-based, inclusive) of `targets`. `values` receives one row per reported
+// frame, one value per Approximation::parameters entry (internal units). `rig` evaluates the real rig.
+ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first,
+                                int last, const ClipInversionOptions& options,
+                                std::vector<std::vector<double>>& values);
+
+}  // namespace rig

@@ -1,0 +1,307 @@
+// rigInversion (a plugin): drives a rig's parameters from target joints with a learned approximation
+// (docs/rig-inversion-node.md). target[k] is the target of the approximation's output k; value[i] is
+// parameter i (the approximation's composition order), angles in degrees as unitless numbers, so that a
+// connection to an angle plug turns them into radians as any unitless source does.
+//
+// Warm start (a stateful node, as production solvers are): an evaluation at time t starts from the
+// solution at t - 1 when the previous evaluation was at t - 1, from the same start again when it was at t,
+// and from the rest values otherwise (the first evaluation, scrubbing backwards, a jump) and at restart
+// frames (t - startFrame a multiple of restartInterval). rig-invert follows the same rule, so the node
+// played frame after frame gives rig-invert's curves.
+#include <cmath>
+#include <memory>
+#include <numbers>
+#include <string>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "graph/error.h"
+#include "graph/graph.h"
+#include "graph/node_registry.h"
+#include "graph/plug_glob.h"
+#include "inversion/approximation_io.h"
+#include "inversion/solver.h"
+#include "nodes/clips/target_clip.h"
+
+namespace rig {
+namespace {
+
+enum Attr : AttrId {
+    file,
+    map,
+    target,
+    targetWeight,
+    rotationWeight,
+    maxIterations,
+    threads,
+    partition,
+    restartInterval,
+    startFrame,
+    sceneTime,
+    value,
+    converged,
+    iterations,
+    worstErrorCm,
+    parameterNames,
+    outputNames,
+};
+
+// An approximation and the solver built on it, shared by every evaluation until `file` changes.
+struct Loaded {
+    std::string path;
+    std::unique_ptr<Approximation> approximation;
+    std::unique_ptr<Solver> solver;
+    SolverOptions options;
+};
+
+std::string joinLines(const std::vector<std::string>& lines)
+{
+    std::string out;
+    for (const auto& line : lines) out += (out.empty() ? "" : "\n") + line;
+    return out;
+}
+
+Approximation readApproximation(const std::string& path, std::string_view node)
+{
+    if (path.empty())
+        throw Error(fmt::format("{}.file is empty; give the approximation file rig-learn wrote", node));
+    try {
+        return readApproximationFile(path);
+    }
+    catch (const ApproximationFileError& e) {
+        throw Error(fmt::format("{}.file: {}", node, e.what()));
+    }
+}
+
+class RigInversionNode : public Node {
+public:
+    void compute(ComputeContext& c) override
+    {
+        const std::string node(c.nodeName());
+        SolverOptions options;
+        options.maxIterations = c.getInt(maxIterations);
+        options.threads = c.getInt(threads);
+        options.partition = c.getBool(partition);
+        try {
+            options.validate();
+        }
+        catch (const std::invalid_argument& e) {
+            throw Error(fmt::format("{}: {}", node, e.what()));
+        }
+        const std::string& path = c.getString(file);
+        if (!loaded_ || loaded_->path != path) {
+            auto fresh = std::make_unique<Loaded>();
+            fresh->path = path;
+            fresh->approximation = std::make_unique<Approximation>(readApproximation(path, node));
+            loaded_ = std::move(fresh);
+            solution_.clear();
+        }
+        if (!loaded_->solver || loaded_->options.maxIterations != options.maxIterations ||
+            loaded_->options.threads != options.threads || loaded_->options.partition != options.partition) {
+            loaded_->solver = std::make_unique<Solver>(*loaded_->approximation, options);
+            loaded_->options = options;
+        }
+        const std::string& mapPath = c.getString(map);
+        if (mapPath != mapPath_) {
+            scale_ = mapPath.empty() ? 1.0 : readTargetMap(mapPath).scale;
+            mapPath_ = mapPath;
+        }
+        const Approximation& a = *loaded_->approximation;
+
+        std::vector<JointTarget> targets(a.outputs.size());
+        const double rotation = c.getDouble(rotationWeight);
+        c.forEachElement(target, [&](int k, const Value& v) {
+            if (k >= static_cast<int>(targets.size())) return;  // past the outputs: nothing to reach
+            targets[k].active = true;
+            targets[k].world = std::get<Eigen::Matrix4d>(v);
+            targets[k].world.block<3, 1>(0, 3) *= scale_;
+            targets[k].rotationWeight = rotation;
+        });
+        c.forEachElement(targetWeight, [&](int k, const Value& v) {
+            if (k < static_cast<int>(targets.size())) targets[k].positionWeight = std::get<double>(v);
+        });
+
+        // The warm-start rule (top of the file).
+        const double t = c.getDouble(sceneTime);
+        const int interval = std::max(1, c.getInt(restartInterval));
+        const double sinceStart = t - c.getDouble(startFrame);
+        const bool restartFrame = sinceStart == std::floor(sinceStart) &&
+                                  std::fmod(sinceStart, static_cast<double>(interval)) == 0.0;
+        if (solution_.empty() || restartFrame || !(t == previousTime_ || t == previousTime_ + 1.0))
+            start_ = a.defaults();
+        else if (t != previousTime_)
+            start_ = solution_;
+        solution_ = start_;
+        const SolveSummary summary = loaded_->solver->solve(targets, solution_);
+        previousTime_ = t;
+
+        std::vector<Value> values;
+        for (std::size_t i = 0; i < a.parameters.size(); ++i) {
+            const auto& p = a.parameters[i].parameter;
+            values.emplace_back(p.angular ? solution_[i] * 180.0 / std::numbers::pi : solution_[i]);
+        }
+        c.setOutputElements(value, std::move(values));
+        c.setOutput(converged, summary.converged());
+        c.setOutput(iterations, summary.iterations);
+        c.setOutput(worstErrorCm, summary.maxPositionErrorCm);
+        std::vector<std::string> names;
+        for (const auto& p : a.parameters) names.push_back(p.parameter.name);
+        c.setOutput(parameterNames, joinLines(names));
+        names.clear();
+        for (const auto& o : a.outputs) names.push_back(o.name);
+        c.setOutput(outputNames, joinLines(names));
+    }
+
+private:
+    std::unique_ptr<Loaded> loaded_;
+    std::string mapPath_;
+    double scale_ = 1.0;
+    double previousTime_ = 0.0;
+    std::vector<double> start_;
+    std::vector<double> solution_;
+};
+
+// connect: {targets: NODE_OR_GLOB, parameters: true}
+//   targets: a bvhClip node (its worldMatrix[j] by jointNames), or a glob of nodes with a worldMatrix
+//   (the joints of another rig); each target joint, renamed by the node's map file, that is an output of
+//   the approximation is connected to target[k]. parameters: value[i] -> the rig's parameter plug i.
+void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const YamlFieldContext& context);
+
+// Errors of the engine (a cycle, a plug already driven) and of the files get the place of `connect:`.
+void connectField(Graph& graph, NodeId id, const YAML::Node& field, const YamlFieldContext& context)
+{
+    try {
+        connectByNames(graph, id, field, context);
+    }
+    catch (const Error& e) {
+        const std::string message = e.what();
+        if (message.starts_with(context.where(field).substr(0, context.where(field).find(':')))) throw;
+        throw Error(fmt::format("{}: {}", context.where(field), message));
+    }
+}
+
+void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const YamlFieldContext& context)
+{
+    const std::string node = graph.nodeName(id);
+    if (!field.IsMap())
+        throw Error(fmt::format("{}: 'connect' is a map {{targets: NODE, parameters: true}}", context.where(field)));
+    const Approximation a =
+        readApproximation(std::get<std::string>(graph.getValue(graph.plug(node + ".file"))), node);
+    const std::string mapPath = std::get<std::string>(graph.getValue(graph.plug(node + ".map")));
+    const TargetMap targetMap = mapPath.empty() ? TargetMap{} : readTargetMap(mapPath);
+    auto outputIndex = [&](const std::string& joint) {
+        const auto renamed = targetMap.rename.count(joint) ? targetMap.rename.at(joint) : joint;
+        if (std::find(targetMap.ignore.begin(), targetMap.ignore.end(), joint) != targetMap.ignore.end()) return -1;
+        for (std::size_t k = 0; k < a.outputs.size(); ++k)
+            if (a.outputs[k].name == renamed) return static_cast<int>(k);
+        return -1;
+    };
+    for (const auto& entry : field) {
+        const std::string key = entry.first.Scalar();
+        const YAML::Node& v = entry.second;
+        if (key == "targets") {
+            if (!v.IsScalar()) throw Error(fmt::format("{}: 'targets' is a node name or a glob", context.where(v)));
+            int connected = 0;
+            const NodeId clip = graph.findNode(v.Scalar());
+            if (clip >= 0 && graph.nodeType(clip).name() == "bvhClip") {
+                const auto names = std::get<std::string>(graph.getValue(graph.plug(v.Scalar() + ".jointNames")));
+                std::vector<std::string> joints;
+                for (std::size_t s = 0; s <= names.size();) {
+                    const auto e = std::min(names.find('\n', s), names.size());
+                    if (e > s) joints.push_back(names.substr(s, e - s));
+                    s = e + 1;
+                }
+                for (std::size_t j = 0; j < joints.size(); ++j)
+                    if (const int k = outputIndex(joints[j]); k >= 0) {
+                        graph.connect(graph.plug(fmt::format("{}.worldMatrix[{}]", v.Scalar(), j)),
+                                      graph.plug(fmt::format("{}.target[{}]", node, k)));
+                        ++connected;
+                    }
+            }
+            else {
+                std::vector<Plug> sources;
+                try {
+                    sources = matchPlugs(graph, v.Scalar() + ".worldMatrix");
+                }
+                catch (const Error& e) {
+                    throw Error(fmt::format("{}: targets: {}", context.where(v), e.what()));
+                }
+                for (const Plug& source : sources)
+                    if (const int k = outputIndex(graph.nodeName(source.node)); k >= 0) {
+                        graph.connect(source, graph.plug(fmt::format("{}.target[{}]", node, k)));
+                        ++connected;
+                    }
+            }
+            if (connected == 0)
+                throw Error(fmt::format("{}: no joint of '{}' is an output of the approximation ({}, ...); give a map "
+                                        "file that renames them",
+                                        context.where(v), v.Scalar(), a.outputs.empty() ? "" : a.outputs[0].name));
+        }
+        else if (key == "parameters") {
+            if (!v.IsScalar() || (v.Scalar() != "true" && v.Scalar() != "false"))
+                throw Error(fmt::format("{}: 'parameters' is true or false", context.where(v)));
+            if (v.Scalar() == "false") continue;
+            for (std::size_t i = 0; i < a.parameters.size(); ++i) {
+                const auto& name = a.parameters[i].parameter.name;
+                Plug destination;
+                try {
+                    destination = graph.plug(name);
+                }
+                catch (const Error&) {
+                    throw Error(fmt::format("{}: the approximation drives '{}', which this graph does not have: it "
+                                            "was learned from another rig ({}); include that rig or learn this one",
+                                            context.where(v), name, a.rigFile));
+                }
+                graph.connect(graph.plug(fmt::format("{}.value[{}]", node, i)), destination);
+            }
+        }
+        else {
+            throw Error(fmt::format("{}: unknown key '{}' in 'connect'; it has 'targets' and 'parameters'",
+                                    context.where(entry.first), key));
+        }
+    }
+}
+
+}  // namespace
+}  // namespace rig
+
+extern "C" void initializePlugin(rig::NodeRegistry& registry)
+{
+    using namespace rig;
+    NodeTypeBuilder b("rigInversion");
+    b.description("Drives a rig's parameters from target joints with an approximation learned by rig-learn "
+                  "(docs/rig-inversion-node.md). target[k] is the target of the approximation's output k; "
+                  "value[i] its parameter i, angles in degrees. Warm-starts from the previous frame when time "
+                  "moves on by one frame. The rig-file field `connect: {targets: NODE_OR_GLOB, parameters: true}` "
+                  "wires it by the names stored in the approximation.");
+    b.input(file, "file", ValueType::String).doc("Approximation file (rig-learn -o); read again when it changes.");
+    b.input(map, "map", ValueType::String)
+        .doc("Map file (docs/rig-invert.md): the targets' scale to cm and their joint names for `connect`.");
+    b.input(target, "target", ValueType::Matrix4).array().doc("Target world matrix of each approximation output.");
+    b.input(targetWeight, "targetWeight", ValueType::Double).array().doc("Position weight of each target (default 1).");
+    b.input(rotationWeight, "rotationWeight", ValueType::Double).defaultValue(1.0).min(0.0)
+        .doc("Weight of the rotation residuals against the positions.");
+    b.input(maxIterations, "maxIterations", ValueType::Int).defaultValue(SolverOptions{}.maxIterations).min(1)
+        .doc("Most solver iterations per evaluation.");
+    b.input(threads, "threads", ValueType::Int).defaultValue(0).min(0)
+        .doc("Solver threads (0: all cores); the values do not depend on it.");
+    b.input(partition, "partition", ValueType::Bool).defaultValue(true)
+        .doc("Solve independent limbs as separate problems.");
+    b.input(restartInterval, "restartInterval", ValueType::Int).defaultValue(120).min(1)
+        .doc("Frames between warm-start restarts, as rig-invert --restart-every.");
+    b.input(startFrame, "startFrame", ValueType::Double).defaultValue(1.0).doc("The clip's first frame.");
+    b.input(sceneTime, "time", ValueType::Double).unit(Unit::Time).sceneTime().doc("The frame being solved.");
+    b.output(value, "value", ValueType::Double).array()
+        .doc("Each parameter of the approximation, angles in degrees (unitless).");
+    b.output(converged, "converged", ValueType::Bool).doc("The solve converged.");
+    b.output(iterations, "iterations", ValueType::Int).doc("Solver iterations of this evaluation.");
+    b.output(worstErrorCm, "worstErrorCm", ValueType::Double)
+        .doc("Worst target position error on the approximation, cm.");
+    b.output(parameterNames, "parameterNames", ValueType::String).doc("The parameters, one per line.");
+    b.output(outputNames, "outputNames", ValueType::String).doc("The outputs (target joints), one per line.");
+    b.affectsAll();
+    b.stateful();
+    b.yamlConnector("connect", connectField);
+    registry.add(b.factory<RigInversionNode>().build());
+}

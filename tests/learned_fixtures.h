@@ -1,0 +1,76 @@
+#pragma once
+// Approximations the end-to-end tests share, learned once per test run with the real rig-learn:
+// the CMU clip's bvh2rig rig over its channels, and the biped over rigs/biped_inversion.yaml.
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <doctest/doctest.h>
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "nodes/clips/bvh.h"
+#include "test_support.h"
+
+namespace rig::test {
+
+inline const std::filesystem::path cmuClip = "/usr/share/assimp/models/BVH/01_01.bvh";
+
+inline std::string shellWords(const std::vector<std::string>& words)
+{
+    std::string out;
+    for (const auto& w : words) out += " '" + w + "'";
+    return out;
+}
+
+struct CmuSetup {
+    std::filesystem::path rig;            // bvh2rig's rig of the clip
+    std::filesystem::path approximation;  // over the channels' plugs, outputs the clip's joints
+    BvhClip clip;
+};
+
+// Needs cmuClip (callers skip when it is absent).
+inline const CmuSetup& cmuSetup()
+{
+    static const CmuSetup setup = [] {
+        CmuSetup s;
+        const auto dir = scratchDir("learned_cmu");
+        s.rig = dir / "cmu.yaml";
+        s.approximation = dir / "cmu.approx.yaml";
+        s.clip = readBvhFile(cmuClip);
+        REQUIRE(run(fmt::format("{} {} -o {}", tool("bvh2rig"), cmuClip.string(), s.rig.string())).exitCode == 0);
+        std::vector<std::string> params{"Hips.translate?"}, outputs;
+        for (const auto& j : s.clip.joints) {
+            outputs.push_back(j.name);
+            for (const auto channel : j.channels)
+                if (bvhIsRotation(channel)) params.push_back(fmt::format("{}.rotate{}", j.name, "XYZ"[bvhChannelAxis(channel)]));
+        }
+        const auto r = run(fmt::format("{} {} --params{} --outputs{} -o {}", tool("rig-learn"), s.rig.string(),
+                                       shellWords(params), shellWords(outputs), s.approximation.string()));
+        INFO(r.err);
+        REQUIRE(r.exitCode == 0);
+        return s;
+    }();
+    return setup;
+}
+
+// The biped's approximation over its inversion parameters and the CMU joints.
+inline std::filesystem::path bipedApproximation()
+{
+    static const std::filesystem::path file = [] {
+        const auto out = scratchDir("learned_biped") / "biped.approx.yaml";
+        const YAML::Node spec = YAML::LoadFile((sourceDir() / "rigs/biped_inversion.yaml").string());
+        std::vector<std::string> params, outputs;
+        for (const auto& p : spec["params"]) params.push_back(p.as<std::string>());
+        for (const auto& o : spec["outputs"]) outputs.push_back(o.as<std::string>());
+        const auto r = run(fmt::format("{} rigs/biped.yaml --params{} --outputs{} -o {}", tool("rig-learn"),
+                                       shellWords(params), shellWords(outputs), out.string()));
+        INFO(r.err);
+        REQUIRE(r.exitCode == 0);
+        return out;
+    }();
+    return file;
+}
+
+}  // namespace rig::test

@@ -1,0 +1,170 @@
+// The rigInversion plugin node end to end through graph-eval: a graph that wires itself from a clip to a
+// rig reproduces the clip's joints, its values equal rig-invert's curves, and a missing file, another
+// rig's approximation, a bad map and a cycle are one-line errors.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "learned_fixtures.h"
+#include "nodes/clips/bvh.h"
+#include "test_support.h"
+
+using namespace rig;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string valueGets(int count)
+{
+    std::string gets;
+    for (int i = 0; i < count; ++i) gets += fmt::format(" --get 'inverter.value[{}]'", i);
+    return gets;
+}
+
+int parameterCount(const fs::path& approximation)
+{
+    return static_cast<int>(YAML::LoadFile(approximation.string())["parameters"].size());
+}
+
+std::string graphFile(const fs::path& rig, const fs::path& approximation, const std::string& map,
+                      const std::string& connect = "{targets: clip, parameters: true}")
+{
+    return fmt::format("plugins: [rigInversion]\ninclude:\n  - {{file: {}}}\nnodes:\n"
+                       "  - {{name: clip, type: bvhClip, file: {}}}\n"
+                       "  - name: inverter\n    type: rigInversion\n    file: {}\n{}    connect: {}\n",
+                       fs::absolute(rig).string(), test::cmuClip.string(), approximation.string(),
+                       map.empty() ? "" : "    map: " + map + "\n", connect);
+}
+
+}  // namespace
+
+TEST_CASE("rigInversion: a bvhClip -> rigInversion -> rig graph reproduces the CMU clip's joints")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto& s = test::cmuSetup();
+    const auto dir = test::scratchDir("rig_inversion_node_cmu");
+    // The rig's joints carry the clip's names: a namespace keeps them apart from nothing here, so the
+    // rig is included as it is and the node's targets come from the clip node.
+    const auto graph = test::writeFile(dir / "mocap.yaml", graphFile(s.rig, s.approximation, ""));
+    std::string gets;
+    for (const auto& j : s.clip.joints) gets += fmt::format(" --get '{}.worldMatrix'", j.name);
+    const auto r = test::run(fmt::format("{} {} --frames 1:60{} --get inverter.converged -o {}", test::tool("graph-eval"),
+                                         graph.string(), gets, (dir / "out.json").string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    const YAML::Node frames = YAML::LoadFile((dir / "out.json").string());
+    REQUIRE(frames.size() == 60);
+    double worst = 0.0;
+    for (int f = 0; f < 60; ++f) {
+        CHECK(frames[f]["inverter.converged"].as<bool>());
+        const auto expected = bvhWorldMatrices(s.clip, f);
+        for (std::size_t j = 0; j < s.clip.joints.size(); ++j) {
+            const YAML::Node m = frames[f][s.clip.joints[j].name + ".worldMatrix"];
+            for (int row = 0; row < 3; ++row)
+                worst = std::max(worst, std::abs(m[row][3].as<double>() - expected[j](row, 3)));
+        }
+    }
+    CHECK(worst < 1e-3);
+}
+
+TEST_CASE("rigInversion: the node's values equal rig-invert's curves on the biped, frame for frame")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto approximation = test::bipedApproximation();
+    const auto dir = test::scratchDir("rig_inversion_node_biped");
+    const auto graph = test::writeFile(
+        dir / "biped_mocap.yaml", graphFile(test::sourceDir() / "rigs/biped.yaml", approximation,
+                                            (test::sourceDir() / "rigs/maps/cmu_to_biped.yaml").string()));
+    const int count = parameterCount(approximation);
+    const auto node = test::run(fmt::format("{} {} --frames 1:80{} -o {}", test::tool("graph-eval"), graph.string(),
+                                            valueGets(count), (dir / "node.json").string()));
+    INFO(node.err);
+    REQUIRE(node.exitCode == 0);
+    const auto invert = test::run(fmt::format("{} {} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} "
+                                              "--frames 1:80 -o {} -q",
+                                              test::tool("rig-invert"), approximation.string(), test::cmuClip.string(),
+                                              (dir / "curves.json").string()));
+    REQUIRE(invert.exitCode == 0);
+    const YAML::Node a = YAML::LoadFile((dir / "node.json").string());
+    const YAML::Node b = YAML::LoadFile((dir / "curves.json").string());
+    REQUIRE(a.size() == 80);
+    REQUIRE(b.size() == 80);
+    int compared = 0, equal = 0;
+    for (std::size_t f = 0; f < 80; ++f) {
+        int i = 0;
+        for (const auto& entry : b[f]) {
+            if (entry.first.as<std::string>() == "frame") continue;
+            // The same text: both print the shortest form of the same double.
+            equal += a[f][fmt::format("inverter.value[{}]", i)].Scalar() == entry.second.Scalar();
+            ++compared;
+            ++i;
+        }
+        CHECK(i == count);
+    }
+    CHECK(equal == compared);
+}
+
+TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are one-line errors")
+{
+    const auto dir = test::scratchDir("rig_inversion_node_errors");
+    const auto arm = dir / "arm.approx.yaml";
+    REQUIRE(test::run(fmt::format("{} rigs/examples/arm.yaml --params 'shoulder.rotate?' 'elbow.rotate?' -o {}",
+                                  test::tool("rig-learn"), arm.string()))
+                .exitCode == 0);
+    const auto evaluate = [&](const std::string& name, const std::string& text) {
+        const auto file = test::writeFile(dir / name, text);
+        const auto r = test::run(fmt::format("{} {} --get 'shoulder.worldMatrix'", test::tool("graph-eval"), file.string()));
+        CHECK(r.exitCode == 2);
+        CHECK(r.out.empty());
+        return r.err;
+    };
+    const std::string rigPath = (test::sourceDir() / "rigs/examples/arm.yaml").string();
+    const std::string header = fmt::format("plugins: [rigInversion]\ninclude:\n  - {{file: {}}}\nnodes:\n", rigPath);
+
+    const std::string missing = (dir / "none.yaml").string();
+    const std::string line = "  - {name: inverter, type: rigInversion, file: " + missing +
+                             ", connect: {targets: 'shoulder', parameters: true}}";
+    CHECK(evaluate("missing.yaml", header + line + "\n") ==
+          fmt::format("error: {}:5:{}: node 'inverter' (rigInversion): inverter.file: {}: cannot read it (No such file "
+                      "or directory); check the name (rig-learn -o writes one)\n",
+                      (dir / "missing.yaml").string(), line.find("{targets") + 1, missing));
+
+    // The arm's approximation in a graph without the arm.
+    const std::string biped = (test::sourceDir() / "rigs/biped.yaml").string();
+    const std::string other = evaluate(
+        "other.yaml", fmt::format("plugins: [rigInversion]\ninclude:\n  - {{file: {}}}\nnodes:\n"
+                                  "  - {{name: inverter, type: rigInversion, file: {}, connect: {{parameters: true}}}}\n",
+                                  biped, arm.string()));
+    CHECK(other.find("the approximation drives 'shoulder.rotateZ', which this graph does not have: it was learned from "
+                     "another rig (rigs/examples/arm.yaml); include that rig or learn this one\n") != std::string::npos);
+
+    const auto map = test::writeFile(dir / "map.yaml", "scale: -1\n");
+    const std::string badMap = evaluate(
+        "badmap.yaml", header + fmt::format("  - {{name: clip, type: bvhClip}}\n  - {{name: inverter, type: rigInversion, "
+                                            "file: {}, map: {}, connect: {{targets: 'shoulder', parameters: true}}}}\n",
+                                            arm.string(), map.string()));
+    CHECK(badMap.starts_with("error: " + (dir / "badmap.yaml").string() + ":6:"));
+    CHECK(badMap.ends_with(map.string() + ":1:8: scale must be positive (target units to cm), got -1\n"));
+
+    // Targets from the very rig the node drives: the engine's cycle message, with the path.
+    const std::string cycle = evaluate(
+        "cycle.yaml", header + fmt::format("  - {{name: inverter, type: rigInversion, file: {}, connect: {{targets: 'wrist', "
+                                           "parameters: true}}}}\n",
+                                           arm.string()));
+    CHECK(cycle.find("it would close a cycle (") != std::string::npos);
+    CHECK(cycle.find("wrist.worldMatrix -> inverter.target[") != std::string::npos);
+    CHECK(std::count(cycle.begin(), cycle.end(), '\n') == 1);
+}

@@ -1,0 +1,231 @@
+// rig-invert end to end: a real CMU clip on its bvh2rig rig (exact: the clip's channels come back),
+// the same clip on the production-style biped (a residual, finite and steady), chunks that equal one
+// run, thread counts that give the same bits, and the command line's errors.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "graph/graph.h"
+#include "graph/yaml_loader.h"
+#include "nodes/builtin_nodes.h"
+#include "nodes/clips/bvh.h"
+#include "nodes/transform_math.h"
+#include "learned_fixtures.h"
+#include "test_support.h"
+
+using namespace rig;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const fs::path& file)
+{
+    std::ifstream in(file, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+test::CommandResult rigInvert(const std::string& args) { return test::run(test::tool("rig-invert") + " " + args); }
+
+YAML::Node report(const fs::path& file) { return YAML::LoadFile(file.string()); }
+
+}  // namespace
+
+TEST_CASE("rig-invert: a CMU clip on its bvh2rig rig converges on every frame and gives the clip's channels back")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto& s = test::cmuSetup();
+    const auto dir = test::scratchDir("rig_invert_cmu_run");
+    const auto r = rigInvert(fmt::format("{} --rig {} --clip {} --frames 1:120 -o {} --report-json {}",
+                                         s.approximation.string(), s.rig.string(), test::cmuClip.string(),
+                                         (dir / "curves.json").string(), (dir / "report.json").string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK(r.err.empty());
+    const auto rep = report(dir / "report.json");
+    CHECK(rep["frames"].as<int>() == 120);
+    CHECK(rep["converged_frames"].as<int>() == 120);
+    CHECK(rep["max_position_error_cm"].as<double>() < 1e-3);
+    CHECK(rep["max_rotation_error_deg"].as<double>() < 1e-3);
+    CHECK(rep["ms_per_frame"].as<double>() > 0.0);
+    CHECK(rep["per_frame"].size() == 120);
+
+    // The channels, up to equivalent Euler angles: the same local rotation in the joint's rotate order.
+    auto rig = loadGraphFile(s.rig, makeBuiltinRegistry());
+    const YAML::Node curves = YAML::LoadFile((dir / "curves.json").string());
+    REQUIRE(curves.size() == 120);
+    double worst = 0.0;
+    for (int f = 0; f < 120; ++f) {
+        const auto channels = bvhRigChannels(s.clip, s.clip.frame(f));
+        for (const auto& j : s.clip.joints) {
+            Eigen::Vector3d fromClip = Eigen::Vector3d::Zero(), fromCurves = Eigen::Vector3d::Zero();
+            bool rotates = false;
+            for (std::size_t c = 0; c < j.channels.size(); ++c) {
+                if (!bvhIsRotation(j.channels[c])) continue;
+                const int axis = bvhChannelAxis(j.channels[c]);
+                const std::string plug = fmt::format("{}.rotate{}", j.name, "XYZ"[axis]);
+                fromClip[axis] = channels[j.firstChannel + c] * std::numbers::pi / 180.0;
+                fromCurves[axis] = curves[f][plug].as<double>() * std::numbers::pi / 180.0;
+                rotates = true;
+            }
+            if (!rotates) continue;
+            const auto order = *rotateOrderFromIndex(std::get<int>(rig->getValue(rig->plug(j.name + ".rotateOrder"))));
+            worst = std::max(worst, (eulerToMatrix(fromClip, order) - eulerToMatrix(fromCurves, order)).cwiseAbs().maxCoeff());
+        }
+    }
+    CHECK(worst < 1e-6);
+}
+
+TEST_CASE("rig-invert: chunks of a clip give the curves of one run, and threads 1, 2 and 8 the same bits")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto dir = test::scratchDir("rig_invert_chunks");
+    const auto approximation = test::bipedApproximation();
+    const auto invert = [&](const std::string& frames, const std::string& out, int threads) {
+        const auto r = rigInvert(fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} "
+                                             "--frames {} --restart-every 40 --threads {} -o {} -q",
+                                             approximation.string(), test::cmuClip.string(), frames, threads,
+                                             (dir / out).string()));
+        INFO(r.err);
+        REQUIRE(r.exitCode == 0);
+        return YAML::LoadFile((dir / out).string());
+    };
+    const auto whole = invert("1:100", "whole.json", 1);
+    const auto first = invert("1:55", "first.json", 2);
+    const auto second = invert("56:100", "second.json", 2);
+    REQUIRE(whole.size() == 100);
+    REQUIRE(first.size() + second.size() == 100);
+    for (std::size_t f = 0; f < 100; ++f) {
+        const YAML::Node chunk = f < 55 ? first[f] : second[f - 55];
+        CHECK(YAML::Dump(chunk) == YAML::Dump(whole[f]));
+    }
+    const std::string one = slurp(dir / "whole.json");
+    invert("1:100", "two.json", 2);
+    invert("1:100", "eight.json", 8);
+    CHECK(slurp(dir / "two.json") == one);
+    CHECK(slurp(dir / "eight.json") == one);
+    // CSV holds the same numbers.
+    const auto r = rigInvert(fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames "
+                                         "1:2 -o {} -q",
+                                         approximation.string(), test::cmuClip.string(), (dir / "curves.csv").string()));
+    REQUIRE(r.exitCode == 0);
+    const std::string csv = slurp(dir / "curves.csv");
+    CHECK(csv.starts_with("frame,root_ctrl.translateX,"));
+    CHECK(std::count(csv.begin(), csv.end(), '\n') == 3);
+}
+
+TEST_CASE("rig-invert: the CMU clip on the biped leaves a finite residual that is steady from frame to frame")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto dir = test::scratchDir("rig_invert_biped_run");
+    const auto r = rigInvert(fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames "
+                                         "1:240 -o {} --report-json {}",
+                                         test::bipedApproximation().string(), test::cmuClip.string(), (dir / "curves.json").string(),
+                                         (dir / "report.json").string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK(r.out.find("frames            240 (") != std::string::npos);
+    const auto rep = report(dir / "report.json");
+    MESSAGE("biped residual on 01_01 frames 1-240: worst " << rep["max_position_error_cm"].as<double>() << " cm, "
+                                                           << rep["max_rotation_error_deg"].as<double>() << " deg, mean "
+                                                           << rep["mean_position_error_cm"].as<double>() << " cm");
+    CHECK(rep["converged_frames"].as<int>() == 240);
+    CHECK(std::isfinite(rep["max_position_error_cm"].as<double>()));
+    // The spine and neck share their rotations and the knee is a hinge: a residual of a few cm, no more.
+    CHECK(rep["max_position_error_cm"].as<double>() < 5.0);
+    // The clip's first line is a calibration pose (every rotation 0 but three): the motion starts at
+    // frame 2, so steadiness is measured from frame 2 to frame 3 on.
+    double previous = -1.0, largestJump = 0.0;
+    for (std::size_t i = 1; i < rep["per_frame"].size(); ++i) {
+        const double e = rep["per_frame"][i]["position_error_cm"].as<double>();
+        CHECK(std::isfinite(e));
+        if (previous >= 0.0) largestJump = std::max(largestJump, std::abs(e - previous));
+        previous = e;
+    }
+    // Steady: at 120 frames per second the residual moves by a fraction of a centimetre per frame.
+    CHECK(largestJump < 0.5);
+    // Continuous controls: no angle jumps by whole turns between frames.
+    const YAML::Node curves = YAML::LoadFile((dir / "curves.json").string());
+    double largestStep = 0.0;
+    for (std::size_t f = 2; f < curves.size(); ++f)
+        for (const auto& entry : curves[f]) {
+            const auto name = entry.first.as<std::string>();
+            if (name == "frame" || name.find(".rotate") == std::string::npos) continue;
+            largestStep = std::max(largestStep, std::abs(entry.second.as<double>() - curves[f - 1][name].as<double>()));
+        }
+    CHECK(largestStep < 45.0);
+}
+
+TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs alone")
+{
+    const auto dir = test::scratchDir("rig_invert_errors");
+    const auto arm = dir / "arm.approx.yaml";
+    REQUIRE(test::run(fmt::format("{} rigs/examples/arm.yaml --params 'shoulder.rotate?' 'elbow.rotate?' -o {}",
+                                  test::tool("rig-learn"), arm.string()))
+                .exitCode == 0);
+    const auto clip = dir / "clip.json";
+    REQUIRE(test::run(fmt::format("{} rigs/examples/arm.yaml --frames 1:3 --get '*.worldMatrix' -o {}",
+                                  test::tool("graph-eval"), clip.string()))
+                .exitCode == 0);
+    const std::string out = (dir / "out.json").string();
+    test::writeFile(out, "previous\n");
+    const std::string base = fmt::format("{} --rig rigs/examples/arm.yaml --clip {}", arm.string(), clip.string());
+    const auto expectError = [&](const std::string& args, const std::string& message) {
+        const auto r = rigInvert(args);
+        CHECK(r.exitCode == 2);
+        CHECK(r.out.empty());
+        CHECK(r.err == "error: " + message + "\n");
+        CHECK(slurp(out) == "previous\n");
+    };
+    expectError(base + " --frames 5:9 -o " + out,
+                fmt::format("--frames 5:9: {} has no frame 5 (its frames are 1 to 3)", clip.string()));
+    expectError(base + " -o " + (dir / "out.txt").string(),
+                fmt::format("-o {}: the curves are written as .json or .csv; give one of those", (dir / "out.txt").string()));
+    expectError(fmt::format("{} --rig rigs/examples/arm.yaml --clip {} -o {}", (dir / "none.yaml").string(),
+                            clip.string(), out),
+                fmt::format("{}: cannot read it (No such file or directory); check the name (rig-learn -o writes one)",
+                            (dir / "none.yaml").string()));
+    expectError(base + " --map " + (dir / "none.yaml").string() + " -o " + out,
+                fmt::format("{}: no such map file; check the path", (dir / "none.yaml").string()));
+    expectError(base + " --threads -1 -o " + out, "bad option: SolverOptions::threads = -1: must not be negative (0: all cores)");
+    expectError(base + " --restart-every 0 -o " + out, "bad option: restartInterval must be > 0 frames, got 0");
+    expectError(base + " --jacobian exact -o " + out, "--jacobian exact: expected analytic or fd");
+
+    // A clip with no joint of the approximation asks for a map.
+    test::writeFile(dir / "other.json", "[{\"frame\": 1, \"x.worldMatrix\": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], "
+                                        "[0, 0, 0, 1]]}]\n");
+    const auto r = rigInvert(fmt::format("{} --rig rigs/examples/arm.yaml --clip {} -o {}", arm.string(),
+                                         (dir / "other.json").string(), out));
+    CHECK(r.exitCode == 2);
+    CHECK(r.err.find("no joint of the clip is an output of the approximation") != std::string::npos);
+
+    // Another rig: a warning, and an error with --strict.
+    test::writeFile(dir / "arm_edited.yaml", slurp(test::sourceDir() / "rigs/examples/arm.yaml") + "# edited\n");
+    const std::string edited = fmt::format("{} --rig {} --clip {} -o {}", arm.string(), (dir / "arm_edited.yaml").string(),
+                                           clip.string(), out);
+    const auto warned = rigInvert(edited + " -q");
+    CHECK(warned.exitCode == 0);
+    CHECK(warned.err.starts_with("warning: "));
+    const auto strict = rigInvert(edited + " --strict");
+    CHECK(strict.exitCode == 2);
+    CHECK(strict.err.starts_with("error: "));
+}

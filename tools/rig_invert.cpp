@@ -1,0 +1,254 @@
+// rig-invert: inverts a clip of target joints to rig parameter curves with a learned approximation,
+// and measures the result on the real rig (docs/rig-invert.md).
+#include <cmath>
+#include <iostream>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "graph/error.h"
+#include "inversion/approximation_io.h"
+#include "inversion/clip_inversion.h"
+#include "nodes/clips/target_clip.h"
+#include "nodes/graph_rig_function.h"
+#include "tools/cli_common.h"
+#include "tools/progress_bar.h"
+
+namespace rig {
+namespace {
+
+struct Options {
+    std::string approximation;
+    std::string rig;
+    std::string clip;
+    std::string map;
+    std::string frames;
+    std::string output;
+    std::string reportJson;
+    std::vector<std::string> plugins;
+    int threads = 0;
+    bool strict = false;
+    bool noPartition = false;
+    std::string jacobian = "analytic";
+    int polish = 0;
+    int restartEvery = ClipInversionOptions{}.restartInterval;
+    bool quiet = false;
+};
+
+double userValue(const RigParameter& p, double value) { return p.angular ? value * 180.0 / std::numbers::pi : value; }
+
+// Numbers as graph-eval prints them: shortest round trip, null when not finite (never written: the
+// solver keeps values finite, but a file must stay valid JSON whatever happens).
+std::string jsonNumber(double x) { return std::isfinite(x) ? fmt::format("{}", x) : "null"; }
+
+std::string jsonString(std::string_view s)
+{
+    std::string out = "\"";
+    for (const char c : s) {
+        if (c == '"' || c == '\\') out += '\\';
+        if (static_cast<unsigned char>(c) < 0x20) out += fmt::format("\\u{:04x}", static_cast<int>(c));
+        else out += c;
+    }
+    return out + "\"";
+}
+
+std::string curvesJson(const Approximation& a, const TargetClip& clip, int first,
+                       const std::vector<std::vector<double>>& values)
+{
+    std::string out = "[\n";
+    for (std::size_t f = 0; f < values.size(); ++f) {
+        out += fmt::format("  {{\"frame\": {}", jsonNumber(clip.frameNumbers[first + f]));
+        for (std::size_t i = 0; i < a.parameters.size(); ++i)
+            out += fmt::format(",\n   {}: {}", jsonString(a.parameters[i].parameter.name),
+                               jsonNumber(userValue(a.parameters[i].parameter, values[f][i])));
+        out += f + 1 < values.size() ? "},\n" : "}\n";
+    }
+    return out + "]\n";
+}
+
+std::string curvesCsv(const Approximation& a, const TargetClip& clip, int first,
+                      const std::vector<std::vector<double>>& values)
+{
+    std::string out = "frame";
+    for (const auto& p : a.parameters) out += "," + p.parameter.name;
+    out += "\n";
+    for (std::size_t f = 0; f < values.size(); ++f) {
+        out += fmt::format("{}", clip.frameNumbers[first + f]);
+        for (std::size_t i = 0; i < a.parameters.size(); ++i) {
+            const double v = userValue(a.parameters[i].parameter, values[f][i]);
+            out += std::isfinite(v) ? fmt::format(",{}", v) : ",";
+        }
+        out += "\n";
+    }
+    return out;
+}
+
+std::string reportJson(const Options& o, const Approximation& a, const TargetClip& clip,
+                       const ClipTargets& targets, const ClipInversionSummary& s)
+{
+    std::string out = "{\n";
+    out += fmt::format("  \"approximation\": {},\n  \"rig\": {},\n  \"clip\": {},\n", jsonString(o.approximation),
+                       jsonString(o.rig), jsonString(o.clip));
+    out += fmt::format("  \"parameters\": {},\n  \"target_joints\": {},\n", a.parameters.size(), targets.matchedJoints);
+    out += fmt::format("  \"frames\": {},\n  \"converged_frames\": {},\n", s.frames, s.convergedFrames);
+    out += fmt::format("  \"max_position_error_cm\": {},\n  \"mean_position_error_cm\": {},\n",
+                       jsonNumber(s.maxPositionErrorCm), jsonNumber(s.meanPositionErrorCm));
+    out += fmt::format("  \"max_rotation_error_deg\": {},\n  \"mean_rotation_error_deg\": {},\n",
+                       jsonNumber(s.maxRotationErrorDeg), jsonNumber(s.meanRotationErrorDeg));
+    out += fmt::format("  \"worst_joint\": {},\n  \"worst_frame\": {},\n", jsonString(s.worstJoint),
+                       s.worstFrame >= 0 ? jsonNumber(clip.frameNumbers[s.worstFrame]) : "null");
+    out += fmt::format("  \"ms_per_frame\": {},\n  \"lead_in_frames\": {},\n", jsonNumber(s.msPerFrame), s.leadInFrames);
+    out += "  \"per_frame\": [\n";
+    for (std::size_t i = 0; i < s.perFrame.size(); ++i) {
+        const auto& f = s.perFrame[i];
+        out += fmt::format("    {{\"frame\": {}, \"termination\": {}, \"iterations\": {}, \"position_error_cm\": {}, "
+                           "\"rotation_error_deg\": {}, \"worst_joint\": {}}}{}\n",
+                           jsonNumber(clip.frameNumbers[f.frame]), jsonString(terminationName(f.solve.termination)),
+                           f.solve.iterations, jsonNumber(f.positionErrorCm), jsonNumber(f.rotationErrorDeg),
+                           jsonString(f.worstJoint), i + 1 < s.perFrame.size() ? "," : "");
+    }
+    return out + "  ]\n}\n";
+}
+
+void printReport(const Options& o, const Approximation& a, const TargetClip& clip, const ClipTargets& targets,
+                 const ClipInversionSummary& s)
+{
+    std::cout << fmt::format("rig-invert: {} on {} with {} ({} parameters, {} target joints)\n", o.clip, o.rig,
+                             o.approximation, a.parameters.size(), targets.matchedJoints);
+    if (!targets.unmatchedJoints.empty())
+        std::cout << fmt::format("  {} clip joints are not outputs of the approximation and were not targets\n",
+                                 targets.unmatchedJoints.size());
+    std::cout << fmt::format("\n{:>8}  {:<14} {:>5}  {:>12}  {:>12}  {}\n", "frame", "termination", "iter",
+                             "error cm", "error deg", "worst joint");
+    for (const auto& f : s.perFrame)
+        std::cout << fmt::format("{:>8}  {:<14} {:>5}  {:>12.4g}  {:>12.4g}  {}\n", clip.frameNumbers[f.frame],
+                                 terminationName(f.solve.termination), f.solve.iterations, f.positionErrorCm,
+                                 f.rotationErrorDeg, f.worstJoint);
+    std::cout << fmt::format("\nframes            {} ({} converged)\n", s.frames, s.convergedFrames);
+    std::cout << fmt::format("real-rig error    worst {:.4g} cm, {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
+                             "{:.4g} deg\n",
+                             s.maxPositionErrorCm, s.maxRotationErrorDeg, s.worstJoint,
+                             s.worstFrame >= 0 ? clip.frameNumbers[s.worstFrame] : 0.0, s.meanPositionErrorCm,
+                             s.meanRotationErrorDeg);
+    std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
+                             s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
+    std::cout << fmt::format("curves            {}\n", o.output);
+}
+
+int run(const Options& o)
+{
+    // Everything that can be checked before the work is.
+    cli::checkOutputFile(o.output, "curves.json");
+    const auto extension = std::filesystem::path(o.output).extension();
+    if (extension != ".json" && extension != ".csv")
+        throw Error(fmt::format("-o {}: the curves are written as .json or .csv; give one of those", o.output));
+    if (!o.reportJson.empty()) cli::checkOutputFile(o.reportJson, "report.json");
+    ClipInversionOptions options;
+    options.solver.threads = o.threads;
+    options.solver.partition = !o.noPartition;
+    if (o.jacobian == "analytic") options.solver.jacobian = JacobianMethod::analytic;
+    else if (o.jacobian == "fd") options.solver.jacobian = JacobianMethod::finiteDifference;
+    else throw Error(fmt::format("--jacobian {}: expected analytic or fd", o.jacobian));
+    options.polishCorrections = o.polish;
+    options.restartInterval = o.restartEvery;
+    try {
+        options.validate();
+    }
+    catch (const std::invalid_argument& e) {
+        throw Error(fmt::format("bad option: {}", e.what()));
+    }
+
+    Approximation approximation;
+    try {
+        approximation = readApproximationFile(o.approximation);
+    }
+    catch (const ApproximationFileError& e) {
+        throw Error(e.what());
+    }
+    if (approximation.parameters.empty())
+        throw Error(fmt::format("{}: the approximation models no parameter (all were discarded); learn it again "
+                                "with other --params",
+                                o.approximation));
+
+    GraphRigOptions rigOptions;
+    for (const auto& p : approximation.parameters) rigOptions.parameterGlobs.push_back(p.parameter.name);
+    for (const auto& out : approximation.outputs) rigOptions.outputGlobs.push_back(out.name);
+    rigOptions.plugins = o.plugins;
+    GraphRigFunction rig(o.rig, rigOptions);
+    try {
+        if (const auto warning = checkFingerprint(approximation, rig.fingerprint(), o.strict); !warning.empty())
+            std::cerr << "warning: " << warning << "\n";
+    }
+    catch (const ApproximationFileError& e) {
+        throw Error(e.what());
+    }
+
+    const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
+    const TargetClip clip = readTargetClip(o.clip, map);
+    int first = 0, last = static_cast<int>(clip.frameNumbers.size()) - 1;
+    if (!o.frames.empty()) {
+        const auto range = cli::parseFrameRange(o.frames, "--frames");
+        if (range.step != 1.0)
+            throw Error(fmt::format("--frames {}: a step is not supported; frames are solved in a warm-start chain",
+                                    o.frames));
+        const auto index = [&](double number) {
+            for (std::size_t i = 0; i < clip.frameNumbers.size(); ++i)
+                if (clip.frameNumbers[i] == number) return static_cast<int>(i);
+            throw Error(fmt::format("--frames {}: {} has no frame {} (its frames are {} to {})", o.frames, o.clip,
+                                    number, clip.frameNumbers.front(), clip.frameNumbers.back()));
+        };
+        first = index(range.first);
+        last = index(range.last);
+    }
+
+    ClipTargets targets;
+    try {
+        targets = matchTargets(approximation, clip.joints, clip.worlds);
+    }
+    catch (const std::invalid_argument& e) {
+        throw Error(fmt::format("{}: {}", o.clip, e.what()));
+    }
+    const Solver solver(approximation, options.solver);
+    RigBinding binding(approximation, rig);
+    cli::ProgressBar bar("inverting");
+    options.progress = [&](double fraction) { bar.update(fraction); };
+    std::vector<std::vector<double>> values;
+    const auto summary = invertClip(solver, binding, targets, first, last, options, values);
+    bar.finish();
+
+    cli::writeFileAtomically(o.output, extension == ".csv" ? curvesCsv(approximation, clip, first, values)
+                                                           : curvesJson(approximation, clip, first, values));
+    if (!o.reportJson.empty())
+        cli::writeFileAtomically(o.reportJson, reportJson(o, approximation, clip, targets, summary));
+    if (!o.quiet) printReport(o, approximation, clip, targets, summary);
+    return 0;
+}
+
+}  // namespace
+}  // namespace rig
+
+int main(int argc, char** argv)
+{
+    rig::Options options;
+    CLI::App app("Inverts a clip of target joints to rig parameter curves with a learned approximation "
+                 "(docs/rig-invert.md).",
+                 "rig-invert");
+    app.add_option("approximation", options.approximation, "Approximation file written by rig-learn")->required();
+    app.add_option("--rig", options.rig, "The rig file the approximation was learned from")->required();
+    app.add_option("--clip", options.clip, "Targets: a .bvh file, or a .json file of world matrices (graph-eval)")
+        ->required();
+    app.add_option("--map", options.map, "Map file: scale of the clip and target-to-rig joint names");
+    app.add_option("--frames", options.frames, "Frames A:B of the clip, inclusive, in the clip's numbering");
+    app.add_option("-o,--output", options.output, "Curves to write: .json or .csv, angles in degrees")->required();
+    app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
+    app.add_option("--threads", options.threads, "Threads for the solver (0: all cores); results do not depend on it");
+    app.add_option("--jacobian", options.jacobian, "analytic (default) or fd (finite differences, in parallel)");
+    app.add_flag("--no-partition", options.noPartition, "Solve all parameters as one problem");
+    app.add_option("--polish", options.polish, "Real-rig corrections per frame (0: approximation only)");
+    app.add_option("--restart-every", options.restartEvery,
+                   "Frames between warm-start restarts (chunks of a clip then match one run)");
+    app.add_flag("--strict", options.strict, "Refuse an approximation learned from another version of the rig");
+    app.add_option("--plugin", options.plugins, "Load a plugin before reading the rig");
+    app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors and warnings");
+    return rig::cli::runMain(app, argc, argv, [&] { return rig::run(options); });
+}
