@@ -234,7 +234,7 @@ TEST_CASE("partition: a long chain stays one block, found without quadratic resc
     CHECK(p.blocks[0].parameters.size() == 3 * joints);
 }
 
-TEST_CASE("partition: bundled rigs are block-triangular; the biped's root comes first, then legs and upper body")
+TEST_CASE("partition: bundled rigs are block-triangular, and the biped's root comes first, then legs and upper body")
 {
     SUBCASE("rigs/biped.yaml")
     {

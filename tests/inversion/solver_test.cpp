@@ -117,7 +117,7 @@ TEST_CASE("solver: two arms, partitioned into root then arms, recover known pose
     }
 }
 
-TEST_CASE("solver: limits are respected; a target past a limit ends on it")
+TEST_CASE("solver: limits are respected, and a target past a limit ends on it")
 {
     auto rig = test::fkArm();
     const Approximation a = test::learn(rig, "arm");
@@ -154,7 +154,7 @@ TEST_CASE("solver: limits are respected; a target past a limit ends on it")
     CHECK(values[static_cast<std::size_t>(elbow)] == 0.0);
 }
 
-TEST_CASE("solver: a redundant pair splits the change evenly, closest to the warm start; a saturated control stays finite")
+TEST_CASE("solver: a redundant pair splits the change evenly, closest to the warm start, and a saturated control stays finite")
 {
     auto rig = test::redundantRig();
     const Approximation a = test::learn(rig, "redundant");

@@ -82,7 +82,7 @@ TEST_CASE("rig-learn: the arm end to end, report, JSON report and approximation 
     CHECK(report["validation"]["max_position_error_cm"].as<double>() == a.validation.maxPositionErrorCm);
 }
 
-TEST_CASE("rig-learn: discards in the report and the JSON, with their reasons; the talk orderer on request")
+TEST_CASE("rig-learn: discards in the report and the JSON, with their reasons, and the talk orderer on request")
 {
     const auto dir = rig::test::scratchDir("rig-learn-nasty");
     const auto out = dir / "nasty.yaml", json = dir / "nasty.json";
@@ -107,7 +107,7 @@ TEST_CASE("rig-learn: discards in the report and the JSON, with their reasons; t
     CHECK(rig::readApproximationFile(out).epsilon == 0.01);
 }
 
-TEST_CASE("rig-learn: bad input is one error line and exit code 2; an existing output is left untouched")
+TEST_CASE("rig-learn: bad input is one error line and exit code 2, and an existing output is left untouched")
 {
     const auto dir = rig::test::scratchDir("rig-learn-errors");
     const auto out = dir / "approx.yaml";
