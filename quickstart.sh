@@ -1,8 +1,31 @@
 #!/usr/bin/env bash
-# Sets everything up and runs the main job on the bundled example.
+# Sets everything up and runs the main job: the bundled biped follows a real CMU motion-capture clip
+# through the rigInversion node (rigs/examples/biped_mocap.yaml), with a short report.
 set -euo pipefail
 cd "$(dirname "$0")"
 scripts/setup.sh Release
-echo "== rigs/examples/arm.yaml: the control's bend drives the elbow through a set-driven key =="
-build/bin/graph-eval rigs/examples/arm.yaml --frames 1:24:2 --format table \
-  --get arm_ctrl.bend --get elbow.rotateZ --get shoulder.rotateY --get wrist_world.outputTranslate
+
+clip=/usr/share/assimp/models/BVH/01_01.bvh
+frames=1:240
+approx=build/biped.approx.yaml
+
+# Learn the biped's approximation when it is missing or older than the rig or the list of what to invert.
+if [ ! -f "$approx" ] || [ rigs/biped.yaml -nt "$approx" ] || [ rigs/biped_inversion.yaml -nt "$approx" ]; then
+  echo "== learning rigs/biped.yaml's approximation (rigs/biped_inversion.yaml) -> $approx"
+  build/bin/rig-learn rigs/biped.yaml --spec rigs/biped_inversion.yaml -o "$approx" \
+    --report-json build/biped.learn.json > build/biped.learn.txt
+  grep -E '^(Training|Discarded|  position error|  rotation error)' build/biped.learn.txt
+  echo "   (the whole report: build/biped.learn.txt)"
+fi
+
+echo "== rigs/examples/biped_mocap.yaml: $clip frames $frames -> rigInversion -> rigs/biped.yaml"
+# rig-invert solves the same frames outside the graph and measures the real rig: its curves must be the graph's.
+build/bin/rig-invert "$approx" --rig rigs/biped.yaml --clip "$clip" --map rigs/maps/cmu_to_biped.yaml \
+  --frames "$frames" -o build/biped_invert_curves.json --report-json build/biped_invert_report.json -q
+gets=$(python3 -c 'import json,sys; print(" ".join("--get " + k for k in json.load(open(sys.argv[1]))[0] if k != "frame"))' \
+  build/biped_invert_curves.json)
+# shellcheck disable=SC2086
+build/bin/graph-eval rigs/examples/biped_mocap.yaml --frames "$frames" $gets --stats \
+  -o build/biped_mocap_curves.json 2> build/biped_mocap_stats.txt || { cat build/biped_mocap_stats.txt >&2; exit 2; }
+scripts/mocap_report.py build/biped_mocap_curves.json build/biped_invert_curves.json \
+  build/biped_invert_report.json build/biped_mocap_stats.txt

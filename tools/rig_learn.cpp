@@ -7,6 +7,7 @@
 #include <numbers>
 
 #include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
 
 #include "graph/error.h"
 #include "inversion/approximation_io.h"
@@ -29,7 +30,43 @@ struct Options {
     std::string reportJson;
     bool reportGiven = false;
     std::vector<std::string> plugins;
+    std::string spec;
 };
+
+// A spec file (docs/rig-learn.md): `params:` and optionally `outputs:`, lists of globs, added to the
+// command line's. Keeps a rig's inversion choices in one place (rigs/biped_inversion.yaml).
+void readSpec(Options& options)
+{
+    YAML::Node root;
+    try {
+        root = YAML::LoadFile(options.spec);
+    }
+    catch (const YAML::BadFile&) {
+        throw Error(fmt::format("--spec {}: cannot read it; check the path", options.spec));
+    }
+    catch (const YAML::ParserException& e) {
+        throw Error(fmt::format("{}: {}", formatMark({options.spec, e.mark.line + 1, e.mark.column + 1}), e.msg));
+    }
+    const auto at = [&](const YAML::Node& n) {
+        return formatMark({options.spec, n.Mark().line + 1, n.Mark().column + 1});
+    };
+    if (!root.IsMap())
+        throw Error(fmt::format("{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs", at(root)));
+    for (const auto& entry : root) {
+        const std::string key = entry.first.IsScalar() ? entry.first.Scalar() : std::string();
+        auto* list = key == "params" ? &options.params : key == "outputs" ? &options.outputs : nullptr;
+        if (!list)
+            throw Error(fmt::format("{}: unknown key '{}'; a spec has 'params:' and 'outputs:'", at(entry.first),
+                                    messageExcerpt(key)));
+        if (!entry.second.IsSequence())
+            throw Error(fmt::format("{}: '{}' must be a list of globs", at(entry.second), key));
+        for (const auto& glob : entry.second) {
+            if (!glob.IsScalar() || glob.Scalar().empty())
+                throw Error(fmt::format("{}: '{}' must be a list of globs", at(glob), key));
+            list->push_back(glob.Scalar());
+        }
+    }
+}
 
 double parseEpsilon(const std::string& text)
 {
@@ -180,9 +217,12 @@ std::string jsonReport(const Approximation& a, const RigFunction& rig, const Opt
     return out + "}\n";
 }
 
-int run(const Options& options)
+int run(Options& options)
 {
     if (options.rig.empty()) throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
+    if (!options.spec.empty()) readSpec(options);
+    if (options.params.empty())
+        throw Error("--params is required; run 'rig-learn --help' for usage");
     // Bad outputs and flags are reported before any work.
     cli::checkOutputFile(options.output, "approximation.yaml");
     if (options.reportGiven) cli::checkOutputFile(options.reportJson, "report.json");
@@ -233,8 +273,9 @@ int main(int argc, char** argv)
                  "rig-learn"};
     app.add_option("rig", options.rig, "Rig graph file (YAML)");
     app.add_option("--params", options.params,
-                   "Parameter plug globs, e.g. 'L_arm_*.rotate?' 'hips.translate?' (one or more; repeatable)")
-        ->required();
+                   "Parameter plug globs, e.g. 'L_arm_*.rotate?' 'hips.translate?' (one or more; repeatable)");
+    app.add_option("--spec", options.spec,
+                   "YAML file with 'params:' and 'outputs:' lists of globs, added to --params and --outputs");
     app.add_option("--outputs", options.outputs, "Output joint-name globs (default: every joint of the rig)");
     app.add_option("-o,--output", options.output, "Approximation file to write (YAML)")->required();
     app.add_option("--epsilon", options.epsilon,

@@ -146,3 +146,22 @@ TEST_CASE("rig-learn: bad input is one error line and exit code 2, and an existi
     REQUIRE(run(rigLearn(fmt::format("{} --params wrist.rotateX {}", arm, o))).exitCode == 0);
     CHECK(slurp(out).starts_with("# A learned rig approximation"));
 }
+
+TEST_CASE("rig-learn --spec: the biped's inversion spec learns what its globs spell out, and a bad spec is one line")
+{
+    const auto dir = rig::test::scratchDir("rig_learn_spec");
+    const auto r = run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion.yaml -o {} --report-json {}",
+                                            (dir / "a.yaml").string(), (dir / "a.json").string())));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    const YAML::Node report = YAML::LoadFile((dir / "a.json").string());
+    CHECK(report["modelled"].size() + report["discarded"].size() == 79);
+    CHECK(YAML::LoadFile((dir / "a.yaml").string())["outputs"].size() == 31);
+
+    const auto spec = rig::test::writeFile(dir / "spec.yaml", "params: ['shoulder.rotate?']\nouptuts: [wrist]\n");
+    const auto bad = run(rigLearn(fmt::format("rigs/examples/arm.yaml --spec {} -o {}", spec.string(),
+                                              (dir / "b.yaml").string())));
+    CHECK(bad.exitCode == 2);
+    CHECK(bad.err == "error: " + spec.string() + ":2:1: unknown key 'ouptuts'; a spec has 'params:' and 'outputs:'\n");
+    CHECK(!std::filesystem::exists(dir / "b.yaml"));
+}
