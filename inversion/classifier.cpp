@@ -49,6 +49,7 @@ struct Context {
     std::vector<Eigen::Matrix4d> rest;          // their rest matrices
     std::vector<Eigen::Matrix4d> restInverse;
     Samples samples;
+    std::vector<double> initial;  // the first, evenly spread offsets: every curve's first knots
 
     const std::vector<Eigen::Matrix4d>& sample(double a)
     {
@@ -288,15 +289,18 @@ std::vector<double> midpoints(const std::vector<double>& knots)
 using Builder = std::function<bool(const std::vector<double>& knots, Candidate&)>;
 
 // Fits with `build` on the knots, checks every sample and the midpoints between knots, and refines
-// by turning failing samples into knots until it validates or nothing new can be learned. The budget
-// is per parameter: midpoints are sampled only while the parameter has used fewer than maxSamples
-// (beyond that only samples already taken are checked), so fitting many outputs one by one cannot
-// multiply the rig evaluations.
+// by turning failing samples into knots until it validates or nothing new can be learned. A curve
+// starts from the initial offsets as knots, whatever earlier fits sampled: their samples are checks
+// that cost nothing, and new samples are taken only around this fit's own failures. The budget is per
+// parameter: midpoints are sampled only while the parameter has used fewer than maxSamples (beyond
+// that only samples already taken are checked), so fitting many outputs one by one cannot multiply
+// the rig evaluations.
 // `curved` false: a form without knots (linear), checked on the samples only.
 bool refineAndValidate(Context& c, const std::vector<std::size_t>& entries, bool curved, const Builder& build,
                        Candidate& best, double& bestError)
 {
-    std::vector<double> knots = sampledOffsets(c);
+    std::vector<double> knots = curved ? c.initial : sampledOffsets(c);
+    std::sort(knots.begin(), knots.end());
     while (true) {
         Candidate candidate;
         if (!build(knots, candidate)) return false;
@@ -316,11 +320,11 @@ bool refineAndValidate(Context& c, const std::vector<std::size_t>& entries, bool
         }
         if (error <= c.options.epsilon) return true;
         if (!curved) return false;
-        const std::size_t before = knots.size();
+        // A curve goes through its knots: missing at one, the form itself misses (a pivot that moves,
+        // an axis that turns), and more knots cannot help. Give up before spending the budget.
         for (double a : failing)
-            if (std::find(knots.begin(), knots.end(), a) == knots.end()) knots.push_back(a);
-        // Failing knots: the form itself misses (a wrong axis), more knots cannot help.
-        if (knots.size() == before) return false;
+            if (std::find(knots.begin(), knots.end(), a) != knots.end()) return false;
+        knots.insert(knots.end(), failing.begin(), failing.end());
         std::sort(knots.begin(), knots.end());
     }
 }
@@ -478,7 +482,7 @@ Classification classifyParameter(RigProbe& probe, int index, const std::vector<E
     }
     state.lastRest = again;
 
-    Context c{probe, index, options, {}, {}, {}, {}};
+    Context c{probe, index, options, {}, {}, {}, {}, offsets};
     for (std::size_t k = 0; k < rest.size(); ++k) {
         if (state.unreliable[k]) continue;
         double moved = 0.0;
