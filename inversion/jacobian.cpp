@@ -1,7 +1,10 @@
 #include "inversion/jacobian.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <stdexcept>
+#include <tuple>
 
 #include <Eigen/Dense>
 #include <fmt/format.h>
@@ -62,14 +65,35 @@ Eigen::Vector3d rotationResidual(const Eigen::Matrix3d& q, const PreparedTarget&
     return rotationVector(t.rotation.transpose() * q);
 }
 
-Vector6d residual6(const Eigen::Matrix4d& world, const PreparedTarget& t)
+// `rigid`: the world is known to be a rotation and a translation (no check, no polar decomposition).
+Vector6d residual6(const Eigen::Matrix4d& world, const PreparedTarget& t, bool rigid = false)
 {
     Vector6d r;
     r.head<3>() = t.positionWeight * (world.block<3, 1>(0, 3) - t.position);
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
-    r.tail<3>() = t.rotationWeight * rotationResidual(nearlyOrthonormal(a) ? a : polar(a, nullptr), t);
+    r.tail<3>() = t.rotationWeight * rotationResidual(rigid || nearlyOrthonormal(a) ? a : polar(a, nullptr), t);
     return r;
 }
+
+using Affine = Eigen::Matrix<double, 3, 4>;
+
+// a * b for 4x4 matrices whose last rows are 0 0 0 1, kept as their top three rows.
+[[gnu::always_inline]] inline Affine compose(const Affine& a, const Affine& b)
+{
+    Affine r;
+    r.leftCols<3>().noalias() = a.leftCols<3>() * b.leftCols<3>();
+    r.col(3).noalias() = a.leftCols<3>() * b.col(3);
+    r.col(3) += a.col(3);
+    return r;
+}
+
+bool rigidKind(OperatorKind kind)
+{
+    return kind == OperatorKind::translation || kind == OperatorKind::rotation || kind == OperatorKind::sampledRigid;
+}
+
+// Below this determinant a linear part is taken as singular: its inverse would be meaningless.
+constexpr double singularDeterminant = 1e-12;
 
 }  // namespace
 
@@ -86,11 +110,15 @@ bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTa
     if (!std::isfinite(target.positionWeight) || !std::isfinite(target.rotationWeight)) return false;
     if (target.positionWeight < 0 || target.rotationWeight < 0) return false;
     const Eigen::Matrix3d a = target.world.block<3, 3>(0, 0);
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a);
-    const auto& sigma = svd.singularValues();
-    if (!(sigma[0] > 0) || sigma[2] <= 1e-9 * sigma[0]) return false;
+    if (nearlyOrthonormal(a)) {
+        prepared.rotation = a;
+    } else {
+        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a);
+        const auto& sigma = svd.singularValues();
+        if (!(sigma[0] > 0) || sigma[2] <= 1e-9 * sigma[0]) return false;
+        prepared.rotation = polar(a, nullptr);
+    }
     prepared.position = target.world.block<3, 1>(0, 3);
-    prepared.rotation = nearlyOrthonormal(a) ? a : polar(a, nullptr);
     prepared.positionWeight = target.positionWeight;
     prepared.rotationWeight = target.rotationWeight * rotationScaleCm;
     return true;
@@ -146,7 +174,8 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
                     if (op == link.op) link.slot = slot;
                 if (link.slot < 0) {
                     link.slot = static_cast<int>(slots_.size());
-                    slots_.push_back({link.column, p, link.op});
+                    slots_.push_back({link.column, p, link.op,
+                                      rigidKind(m.operators[static_cast<std::size_t>(link.op)].kind)});
                     known.emplace_back(link.op, link.slot);
                 }
             }
@@ -172,6 +201,42 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
         maxVars_ = std::max(maxVars_, static_cast<int>(chain.varSlots.size()));
         constantCount_ += static_cast<int>(chain.gaps.size());
     }
+
+    // The prefix tree: an output's path is its links; equal beginnings share nodes.
+    std::map<std::tuple<int, int, int, int>, int> nodeOf;  // parent, slot, parameter, op
+    auto child = [&](int parent, const Link& link) {
+        const int parameter = link.column >= 0 ? -1 : link.parameter;
+        const int op = link.column >= 0 ? -1 : link.op;
+        const auto [it, added] = nodeOf.try_emplace({parent, link.slot, parameter, op}, static_cast<int>(nodes_.size()));
+        if (added) {
+            Node node;
+            node.parent = parent;
+            node.slot = link.slot;
+            node.parameter = parameter;
+            node.op = op;
+            const Node* up = parent < 0 ? nullptr : &nodes_[static_cast<std::size_t>(parent)];
+            node.rigid = (!up || up->rigid) && rigidKind(approximation.parameters[static_cast<std::size_t>(link.parameter)]
+                                                             .operators[static_cast<std::size_t>(link.op)]
+                                                             .kind);
+            node.constant = (!up || up->constant) && link.column < 0;
+            nodes_.push_back(node);
+        }
+        return it->second;
+    };
+    outputNode_.assign(outputs_.size(), -1);
+    outputRigid_.assign(outputs_.size(), 0);
+    outputVars_.assign(outputs_.size(), {});
+    for (std::size_t o = 0; o < outputs_.size(); ++o) {
+        int node = -1;
+        for (const Link& link : links[o]) {
+            node = child(node, link);
+            if (link.column >= 0) outputVars_[o].push_back(node);
+        }
+        outputNode_[o] = node;
+        const Eigen::Matrix4d& rest = approximation.outputs[static_cast<std::size_t>(outputs_[o])].rest;
+        outputRigid_[o] = (node < 0 || nodes_[static_cast<std::size_t>(node)].rigid) &&
+                          nearlyOrthonormal(rest.block<3, 3>(0, 0));
+    }
 }
 
 // --- ResidualWorkspace ---
@@ -193,6 +258,10 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     worlds_.assign(s.outputs_.size(), Eigen::Matrix4d::Identity());
     prefix_.assign(static_cast<std::size_t>(s.maxVars_ + 1), Eigen::Matrix4d::Identity());
     suffix_.assign(static_cast<std::size_t>(s.maxVars_ + 1), Eigen::Matrix4d::Identity());
+    held_.assign(s.approximation_->parameters.size(), 0.0);
+    heldMatrix_.assign(s.nodes_.size(), Affine::Identity());
+    nodeMatrix_.assign(s.nodes_.size(), Affine::Identity());
+    velocity_.assign(s.nodes_.size(), Affine::Zero());
 }
 
 void ResidualWorkspace::holdParameters(std::span<const double> values)
@@ -201,6 +270,25 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
     const Approximation& approx = *s.approximation_;
     if (values.size() != approx.parameters.size())
         throw std::invalid_argument("ResidualWorkspace::holdParameters: one value per modelled parameter");
+    std::copy(values.begin(), values.end(), held_.begin());
+    chainsHeld_ = false;
+    for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
+        const auto& node = s.nodes_[n];
+        if (node.slot >= 0) continue;
+        const ModelledParameter& m = approx.parameters[static_cast<std::size_t>(node.parameter)];
+        heldMatrix_[n] = m.operators[static_cast<std::size_t>(node.op)]
+                             .matrix(values[static_cast<std::size_t>(node.parameter)] - m.parameter.defaultValue)
+                             .topRows<3>();
+        if (node.constant)
+            nodeMatrix_[n] = node.parent < 0 ? heldMatrix_[n] : compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], heldMatrix_[n]);
+    }
+}
+
+void ResidualWorkspace::holdChains()
+{
+    if (chainsHeld_) return;
+    const auto& s = *structure_;
+    const Approximation& approx = *s.approximation_;
     for (std::size_t o = 0; o < s.chains_.size(); ++o) {
         const auto& gaps = s.chains_[o].gaps;
         for (std::size_t g = 0; g < gaps.size(); ++g) {
@@ -209,7 +297,7 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
             for (const auto& link : gaps[g]) {
                 const ModelledParameter& m = approx.parameters[static_cast<std::size_t>(link.parameter)];
                 c = c * m.operators[static_cast<std::size_t>(link.op)].matrix(
-                            values[static_cast<std::size_t>(link.parameter)] - m.parameter.defaultValue);
+                            held_[static_cast<std::size_t>(link.parameter)] - m.parameter.defaultValue);
             }
             const bool last = g + 1 == gaps.size();
             if (last) c = c * approx.outputs[static_cast<std::size_t>(s.outputs_[o])].rest;
@@ -217,6 +305,7 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
             identity_[index] = !last && gaps[g].empty();
         }
     }
+    chainsHeld_ = true;
 }
 
 void ResidualWorkspace::setTargets(std::span<const PreparedTarget> targets)
@@ -240,7 +329,21 @@ void ResidualWorkspace::evaluateSlots(std::span<const double> x, bool derivative
         const Operator& op = m.operators[static_cast<std::size_t>(slot.op)];
         const double a = x[static_cast<std::size_t>(slot.column)] - m.parameter.defaultValue;
         slotMatrix_[i] = op.matrix(a);
-        if (derivatives) slotDerivative_[i] = op.derivative(a);
+        if (!derivatives) continue;
+        // The two commonest kinds from the matrix just made (Operator::derivative would make the
+        // rotation again): dR/da = m'(a) [n]x R about the pivot.
+        if (op.kind == OperatorKind::rotation) {
+            Eigen::Matrix4d& d = slotDerivative_[i];
+            d.setZero();
+            d.block<3, 3>(0, 0) = op.magnitudeDerivative(a) * skew(op.axis) * slotMatrix_[i].block<3, 3>(0, 0);
+            d.block<3, 1>(0, 3) = -d.block<3, 3>(0, 0) * op.pivot;
+        } else if (op.kind == OperatorKind::translation) {
+            Eigen::Matrix4d& d = slotDerivative_[i];
+            d.setZero();
+            d.block<3, 1>(0, 3) = op.magnitudeDerivative(a) * op.axis;
+        } else {
+            slotDerivative_[i] = op.derivative(a);
+        }
     }
 }
 
@@ -264,13 +367,117 @@ Eigen::Matrix4d ResidualWorkspace::chainWorld(int o, int perturbed, double value
     return w;
 }
 
+void ResidualWorkspace::evaluateTree()
+{
+    const auto& s = *structure_;
+    for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
+        const auto& node = s.nodes_[n];
+        if (node.constant) continue;
+        const Affine item = node.slot >= 0 ? Affine(slotMatrix_[static_cast<std::size_t>(node.slot)].topRows<3>())
+                                           : heldMatrix_[n];
+        nodeMatrix_[n] = node.parent < 0 ? item : compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], item);
+    }
+    for (std::size_t o = 0; o < worlds_.size(); ++o) {
+        const Eigen::Matrix4d& rest = s.approximation_->outputs[static_cast<std::size_t>(s.outputs_[o])].rest;
+        const int node = s.outputNode_[o];
+        if (node < 0) {
+            worlds_[o] = rest;
+        } else {
+            worlds_[o].topRows<3>() = compose(nodeMatrix_[static_cast<std::size_t>(node)], rest.topRows<3>());
+            worlds_[o].row(3) = rest.row(3);
+        }
+    }
+}
+
+void ResidualWorkspace::residualRows(Eigen::Ref<Eigen::VectorXd> r) const
+{
+    for (std::size_t o = 0; o < worlds_.size(); ++o)
+        r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o)) =
+            residual6(worlds_[o], targets_[o], structure_->outputRigid_[o]);
+}
+
 void ResidualWorkspace::residuals(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r)
 {
     evaluateSlots(x, false);
-    for (std::size_t o = 0; o < worlds_.size(); ++o) {
-        worlds_[o] = chainWorld(static_cast<int>(o), -1, 0.0);
-        r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o)) = residual6(worlds_[o], targets_[o]);
+    evaluateTree();
+    residualRows(r);
+}
+
+bool ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
+{
+    const auto& s = *structure_;
+    // Xi = P X P^-1 with X = dM M^-1, for 4x4s whose last rows are 0 0 0 1 (P, M) or 0 (dM, X, Xi).
+    for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
+        const auto& node = s.nodes_[n];
+        if (node.slot < 0) continue;
+        const auto& slot = s.slots_[static_cast<std::size_t>(node.slot)];
+        const Affine m = slotMatrix_[static_cast<std::size_t>(node.slot)].topRows<3>();
+        const Affine d = slotDerivative_[static_cast<std::size_t>(node.slot)].topRows<3>();
+        Eigen::Matrix3d mInverse;
+        if (slot.rigid) {
+            mInverse = m.leftCols<3>().transpose();
+        } else {
+            const double det = m.leftCols<3>().determinant();
+            if (!(std::abs(det) > singularDeterminant)) return false;
+            mInverse = m.leftCols<3>().inverse();
+        }
+        const Eigen::Matrix3d xl = d.leftCols<3>() * mInverse;
+        const Eigen::Vector3d xt = d.col(3) - xl * m.col(3);
+        Affine& xi = velocity_[n];
+        if (node.parent < 0) {
+            xi.leftCols<3>() = xl;
+            xi.col(3) = xt;
+            continue;
+        }
+        const Affine& p = nodeMatrix_[static_cast<std::size_t>(node.parent)];
+        Eigen::Matrix3d pInverse;
+        if (s.nodes_[static_cast<std::size_t>(node.parent)].rigid) {
+            pInverse = p.leftCols<3>().transpose();
+        } else {
+            const double det = p.leftCols<3>().determinant();
+            if (!(std::abs(det) > singularDeterminant)) return false;
+            pInverse = p.leftCols<3>().inverse();
+        }
+        xi.leftCols<3>() = p.leftCols<3>() * xl * pInverse;
+        xi.col(3) = p.leftCols<3>() * xt - xi.leftCols<3>() * p.col(3);
     }
+
+    for (std::size_t o = 0; o < worlds_.size(); ++o) {
+        const auto& vars = s.outputVars_[o];
+        if (vars.empty()) continue;
+        const PreparedTarget& t = targets_[o];
+        const Eigen::Matrix3d a = worlds_[o].block<3, 3>(0, 0);
+        const Eigen::Vector3d position = worlds_[o].block<3, 1>(0, 3);
+        // Rotation rows: with A = Q S (polar), dQ = Q [w]x where (tr(S) I - S) w = vee(Q^T dA - dA^T Q);
+        // then d log(Q_t^T Q) = J_r^-1(e) w. For a rotation A, w = Q^T (the skew part of Xi's 3x3).
+        const bool rigid = s.outputRigid_[o] || nearlyOrthonormal(a);
+        Eigen::Matrix3d q, kInverse;
+        if (rigid) {
+            q = a;
+        } else {
+            Eigen::Matrix3d sym;
+            q = polar(a, &sym);
+            kInverse = (sym.trace() * Eigen::Matrix3d::Identity() - sym).inverse();
+        }
+        Eigen::Matrix3d rotationRows = t.rotationWeight * rightJacobianInverse(rotationResidual(q, t));
+        if (!rigid) rotationRows = rotationRows * kInverse;
+        const Eigen::Index row = static_cast<Eigen::Index>(rowsPerTarget * o);
+        for (const int n : vars) {
+            const Affine& xi = velocity_[static_cast<std::size_t>(n)];
+            const Eigen::Index column = s.slots_[static_cast<std::size_t>(s.nodes_[static_cast<std::size_t>(n)].slot)].column;
+            jacobian.block<3, 1>(row, column) = t.positionWeight * (xi.leftCols<3>() * position + xi.col(3));
+            if (rigid) {
+                const Eigen::Vector3d omega(0.5 * (xi(2, 1) - xi(1, 2)), 0.5 * (xi(0, 2) - xi(2, 0)),
+                                            0.5 * (xi(1, 0) - xi(0, 1)));
+                jacobian.block<3, 1>(row + 3, column) = rotationRows * (q.transpose() * omega);
+            } else {
+                const Eigen::Matrix3d x = q.transpose() * (xi.leftCols<3>() * a);
+                const Eigen::Vector3d skewPart(x(2, 1) - x(1, 2), x(0, 2) - x(2, 0), x(1, 0) - x(0, 1));
+                jacobian.block<3, 1>(row + 3, column) = rotationRows * skewPart;
+            }
+        }
+    }
+    return true;
 }
 
 void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobian)
@@ -328,6 +535,18 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
     }
 }
 
+void ResidualWorkspace::jacobianFromSuffixes(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r,
+                                             Eigen::Ref<Eigen::MatrixXd> jacobian)
+{
+    holdChains();
+    evaluateSlots(x, true);
+    jacobian.setZero();
+    for (std::size_t o = 0; o < worlds_.size(); ++o) {
+        outputJacobian(static_cast<int>(o), jacobian);
+        r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o)) = residual6(worlds_[o], targets_[o]);
+    }
+}
+
 void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep,
                                  bool parallel, Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::MatrixXd> jacobian)
 {
@@ -335,12 +554,14 @@ void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod metho
     jacobian.setZero();
     if (method == JacobianMethod::analytic) {
         evaluateSlots(x, true);
-        for (std::size_t o = 0; o < worlds_.size(); ++o) {
-            outputJacobian(static_cast<int>(o), jacobian);
-            r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o)) = residual6(worlds_[o], targets_[o]);
-        }
+        evaluateTree();
+        residualRows(r);
+        if (treeJacobian(jacobian)) return;
+        // A singular operator or product has no inverse: the prefix and suffix products need none.
+        jacobianFromSuffixes(x, r, jacobian);
         return;
     }
+    holdChains();
     residuals(x, r);  // also leaves the slot matrices at x for the columns below
     const double h = finiteDifferenceStep;
     // Each column reads the shared slot matrices and writes only its own entries: the result does not
@@ -417,6 +638,19 @@ void JacobianEvaluator::jacobian(std::span<const double> values, JacobianMethod 
     r.resize(rows());
     jacobian.resize(rows(), columns());
     workspace_.jacobian(values, method, finiteDifferenceStep, true, r, jacobian);
+}
+
+}  // namespace rig
+
+namespace rig {
+
+void JacobianEvaluator::jacobianFromSuffixes(std::span<const double> values, Eigen::MatrixXd& jacobian, Eigen::VectorXd& r)
+{
+    if (values.size() != static_cast<std::size_t>(columns()))
+        throw std::invalid_argument("JacobianEvaluator: one value per modelled parameter");
+    r.resize(rows());
+    jacobian.resize(rows(), columns());
+    workspace_.jacobianFromSuffixes(values, r, jacobian);
 }
 
 }  // namespace rig

@@ -61,6 +61,12 @@ TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& targ
 // The structure of a sub-problem: some parameters are unknowns (the columns), the residuals of some
 // outputs are the rows, every other parameter is held at a given value. Built once, shared read-only
 // (solves on many threads use one structure, each with its own ResidualWorkspace).
+//
+// Outputs' operator products share their beginnings (a hand's product starts as the wrist's), so they
+// are kept as a tree of prefixes: each node multiplies its parent's product by one operator, every
+// product is computed once per evaluation, and those of held operators alone once per holdParameters. The analytic Jacobian
+// then needs one world-space velocity per unknown node, Xi = P dM M^-1 P^-1 (P its parent's product),
+// and dW/da = Xi W for every output below it.
 class ResidualStructure {
 public:
     // `columns`: indices into approximation.parameters; `outputs`: indices into approximation.outputs.
@@ -88,10 +94,19 @@ private:
         int column = 0;
         int parameter = 0;
         int op = 0;
+        bool rigid = false;  // its matrix is a rotation and a translation
     };
-    struct Chain {                        // output k: C_0 V_0 C_1 V_1 ... V_{v-1} C_v, C_v ending with F_k(0)
-        std::vector<int> varSlots;        // slot of V_j
-        std::vector<int> varColumns;      // column of V_j
+    struct Node {            // product = parent's product * one operator's matrix
+        int parent = -1;     // -1: the identity
+        int slot = -1;       // an unknown's operator; -1: a held one
+        int parameter = -1;  // the held operator
+        int op = -1;
+        bool rigid = false;     // the whole product from the root is rigid
+        bool constant = false;  // only held operators from the root: computed once per holdParameters
+    };
+    struct Chain {                            // output k: C_0 V_0 C_1 V_1 ... V_{v-1} C_v, C_v ending with F_k(0)
+        std::vector<int> varSlots;            // slot of V_j
+        std::vector<int> varColumns;          // column of V_j
         std::vector<std::vector<Link>> gaps;  // fixed links of C_0 .. C_v
     };
 
@@ -99,7 +114,11 @@ private:
     std::vector<int> columns_;
     std::vector<int> outputs_;
     std::vector<Slot> slots_;
-    std::vector<Chain> chains_;
+    std::vector<Node> nodes_;                   // parents before children
+    std::vector<int> outputNode_;               // per output: the node whose product it ends with (-1: none)
+    std::vector<char> outputRigid_;             // per output: product and rest rigid (no polar decomposition)
+    std::vector<std::vector<int>> outputVars_;  // per output: the unknown nodes on its path
+    std::vector<Chain> chains_;                 // per output, flat: finite differences and the fallback
     std::vector<std::vector<int>> outputsOfColumn_;
     int maxVars_ = 0;
     int constantCount_ = 0;  // sum over chains of (vars + 1)
@@ -125,23 +144,38 @@ public:
     // step; their columns run in parallel (tbb::parallel_for in the current arena) when `parallel`.
     void jacobian(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
                   Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::MatrixXd> jacobian);
+    // The analytic Jacobian from prefix and suffix products along each output's own product
+    // (dW/da_j = prefix_j dM_j suffix_j): what jacobian() falls back to when an operator or a product
+    // is singular (no inverse for the velocity form). For tests and benchmarks.
+    void jacobianFromSuffixes(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::MatrixXd> jacobian);
     // World matrix of output position o (in structure().outputs()) at the last evaluation.
     const Eigen::Matrix4d& world(int o) const { return worlds_[static_cast<std::size_t>(o)]; }
 
 private:
+    using Affine = Eigen::Matrix<double, 3, 4>;  // the top rows of a 4x4 whose last row is 0 0 0 1 (or 0 for a derivative)
+
     void evaluateSlots(std::span<const double> x, bool derivatives);
+    void evaluateTree();  // node products and worlds from the slot matrices
+    void residualRows(Eigen::Ref<Eigen::VectorXd> r) const;
+    bool treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);  // false: an operator or product is singular
+    void holdChains();  // the flat chains' held products, computed when first needed after holdParameters
     // World of output o from the slot matrices, with column `perturbed` (if >= 0) at value `value`.
     Eigen::Matrix4d chainWorld(int o, int perturbed, double value) const;
     void outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobian);
 
     const ResidualStructure* structure_;
-    std::vector<Eigen::Matrix4d> constants_;  // per chain, C_0 .. C_v
-    std::vector<char> identity_;              // per constant: it is I (skip the product)
-    std::vector<int> constantOffset_;         // per chain
-    std::vector<PreparedTarget> targets_;     // per output position
+    std::vector<double> held_;                 // the values given to holdParameters
+    bool chainsHeld_ = false;
+    std::vector<Affine> heldMatrix_;           // per held node: its operator's matrix
+    std::vector<Affine> nodeMatrix_;           // per node: its product from the root
+    std::vector<Affine> velocity_;             // per unknown node: Xi
+    std::vector<Eigen::Matrix4d> constants_;   // per chain, C_0 .. C_v
+    std::vector<char> identity_;               // per constant: it is I (skip the product)
+    std::vector<int> constantOffset_;          // per chain
+    std::vector<PreparedTarget> targets_;      // per output position
     std::vector<Eigen::Matrix4d> slotMatrix_;
     std::vector<Eigen::Matrix4d> slotDerivative_;
-    std::vector<Eigen::Matrix4d> worlds_;     // per output position
+    std::vector<Eigen::Matrix4d> worlds_;      // per output position
     std::vector<Eigen::Matrix4d> prefix_;
     std::vector<Eigen::Matrix4d> suffix_;
 };
@@ -161,6 +195,8 @@ public:
     // Finite-difference columns run in parallel in the current task arena.
     void jacobian(std::span<const double> values, JacobianMethod method, double finiteDifferenceStep,
                   Eigen::MatrixXd& jacobian, Eigen::VectorXd& r);
+    // ResidualWorkspace::jacobianFromSuffixes on the whole problem.
+    void jacobianFromSuffixes(std::span<const double> values, Eigen::MatrixXd& jacobian, Eigen::VectorXd& r);
 
 private:
     ResidualStructure structure_;

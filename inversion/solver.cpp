@@ -171,6 +171,8 @@ constexpr std::size_t maxCachedPlans = 256;
 constexpr double initialDamping = 1e-4;
 // Directions whose curvature is below this fraction of the largest are left alone: the minimum-norm step.
 constexpr double rankTolerance = 1e-12;
+// Up to this many parameters a block's J^T J is formed coefficient by coefficient.
+constexpr std::size_t smallBlock = 24;
 
 double clampTo(double v, double lo, double hi) { return std::min(std::max(v, lo), hi); }
 
@@ -366,7 +368,11 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
     bool gaussNewton = o.gaussNewtonIterations > 0;
     double mu = 0.0, nu = 2.0;
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
-        w.g.noalias() = w.J.transpose() * w.r;
+        // Small blocks: coefficient-wise products beat the blocked GEMM kernels' set-up.
+        if (n <= smallBlock)
+            w.g.noalias() = w.J.transpose().lazyProduct(w.r);
+        else
+            w.g.noalias() = w.J.transpose() * w.r;
         double projectedGradient = 0.0;
         for (std::size_t c = 0; c < n; ++c) {
             const double gc = w.g[static_cast<Eigen::Index>(c)];
@@ -379,8 +385,12 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
             result.converged = true;
             break;
         }
-        w.H.setZero();
-        w.H.selfadjointView<Eigen::Lower>().rankUpdate(w.J.transpose());
+        if (n <= smallBlock) {
+            w.H.noalias() = w.J.transpose().lazyProduct(w.J);
+        } else {
+            w.H.setZero();
+            w.H.selfadjointView<Eigen::Lower>().rankUpdate(w.J.transpose());
+        }
         w.gFree = w.g;
         for (std::size_t c = 0; c < n; ++c) {
             if (!w.fixed[c]) continue;
