@@ -149,8 +149,9 @@ private:
 
     Verdict compare(const std::vector<int>& a, const std::vector<int>& b, const std::vector<int>& common)
     {
-        const std::vector<Eigen::Matrix4d> fa = worldsOf(a);
-        const std::vector<Eigen::Matrix4d> fb = worldsOf(b);
+        // References stay valid: std::map does not move its elements when it grows.
+        const std::vector<Eigen::Matrix4d>& fa = worldsOf(a);
+        const std::vector<Eigen::Matrix4d>& fb = worldsOf(b);
         std::vector<int> both = a;
         both.insert(both.end(), b.begin(), b.end());
         ++evaluations_;

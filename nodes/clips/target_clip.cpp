@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -122,7 +123,11 @@ Eigen::Matrix4d readMatrix(const YAML::Node& node, const std::string& file, cons
     for (int r = 0; r < 4; ++r) {
         if (!node[r].IsSequence() || node[r].size() != 4)
             throw Error(fmt::format("{}: {} must be a matrix as four rows of four numbers", where(file, node[r]), what));
-        for (int c = 0; c < 4; ++c) m(r, c) = finiteNumber(node[r][c], file, what);
+        for (int c = 0; c < 4; ++c)
+            // null is how graph-eval writes a number that is not finite: a target the solver reports
+            // as invalid for that frame, not a broken file.
+            m(r, c) = node[r][c].IsNull() ? std::numeric_limits<double>::quiet_NaN()
+                                          : finiteNumber(node[r][c], file, what);
     }
     return m;
 }

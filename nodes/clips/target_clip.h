@@ -2,7 +2,8 @@
 // Target joints for an inversion: world matrices per frame by joint name, read from
 //   - a BVH file (its joints' world matrices by the reference forward kinematics, nodes/clips/bvh.h), or
 //   - a JSON file of matrices as graph-eval writes them: a list of frames, each {"frame": F,
-//     "JOINT.worldMatrix": [[4 numbers] x 4 rows], ...} (column-vector convention, cm),
+//     "JOINT.worldMatrix": [[4 numbers] x 4 rows], ...} (column-vector convention, cm; null, graph-eval's
+//     number that is not finite, reads as NaN: the solver reports that frame's target as invalid),
 // renamed and scaled by an optional map file (docs/rig-invert.md):
 //
 //   scale: 5.644444444          # target units -> cm (a CMU clip: 2.54 / 0.45); 1 by default

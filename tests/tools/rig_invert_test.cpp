@@ -229,3 +229,41 @@ TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs
     CHECK(strict.exitCode == 2);
     CHECK(strict.err.starts_with("error: "));
 }
+
+TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keeps the previous frame's values")
+{
+    const auto dir = test::scratchDir("rig_invert_nan");
+    const auto arm = dir / "arm.approx.yaml";
+    REQUIRE(test::run(fmt::format("{} rigs/examples/arm.yaml --params 'shoulder.rotate?' 'elbow.rotate?' -o {}",
+                                  test::tool("rig-learn"), arm.string()))
+                .exitCode == 0);
+    const auto clip = dir / "clip.json";
+    REQUIRE(test::run(fmt::format("{} rigs/examples/arm.yaml --set shoulder.rotateZ=20 --frames 1:3 --get "
+                                  "'*.worldMatrix' -o {}",
+                                  test::tool("graph-eval"), clip.string()))
+                .exitCode == 0);
+    // Frame 2's elbow target as graph-eval writes a NaN: null.
+    std::string text = slurp(clip);
+    const auto second = text.find("\"frame\": 2");
+    const auto elbow = text.find("\"elbow.worldMatrix\": [[", second) + std::string("\"elbow.worldMatrix\": [[").size();
+    text.replace(elbow, text.find(',', elbow) - elbow, "null");
+    test::writeFile(clip, text);
+
+    const auto r = rigInvert(fmt::format("{} --rig rigs/examples/arm.yaml --clip {} -o {} --report-json {}", arm.string(),
+                                         clip.string(), (dir / "curves.json").string(), (dir / "report.json").string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    const auto rep = YAML::LoadFile((dir / "report.json").string());
+    CHECK(rep["frames"].as<int>() == 3);
+    CHECK(rep["converged_frames"].as<int>() == 2);
+    CHECK(rep["per_frame"][1]["termination"].as<std::string>() == "invalidTargets");
+    CHECK(r.out.find("invalidTargets") != std::string::npos);
+    const std::string curves = slurp(dir / "curves.json");
+    CHECK(curves.find("null") == std::string::npos);
+    const YAML::Node c = YAML::LoadFile((dir / "curves.json").string());
+    for (const auto& entry : c[1]) {
+        if (entry.first.as<std::string>() == "frame") continue;
+        CHECK(entry.second.as<double>() == c[0][entry.first.as<std::string>()].as<double>());
+    }
+    CHECK(std::abs(c[0]["shoulder.rotateZ"].as<double>() - 20.0) < 1e-6);
+}
