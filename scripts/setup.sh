@@ -4,8 +4,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# libceres-dev is rig-bench's peer solver only (the project builds without it; docs/performance.md).
 packages=(cmake ninja-build g++ python3 libeigen3-dev libtbb-dev libyaml-cpp-dev libfmt-dev doctest-dev libcli11-dev
-          assimp-testmodels)
+          nlohmann-json3-dev libceres-dev assimp-testmodels)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -31,15 +31,15 @@ std::filesystem::path writeFile(const std::filesystem::path& file, const std::st
     return file;
 }
 
-namespace {
-
-std::string slurp(const std::filesystem::path& file)
+std::string readFile(const std::filesystem::path& file)
 {
     std::ifstream in(file, std::ios::binary);
     std::ostringstream s;
     s << in.rdbuf();
     return s.str();
 }
+
+namespace {
 
 }  // namespace
 
@@ -56,8 +56,8 @@ CommandResult run(const std::string& commandLine)
     const int status = std::system(full.c_str());
     CommandResult result;
     result.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    result.out = slurp(outFile);
-    result.err = slurp(errFile);
+    result.out = readFile(outFile);
+    result.err = readFile(errFile);
     std::filesystem::remove(outFile);
     std::filesystem::remove(errFile);
     return result;

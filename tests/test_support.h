@@ -27,4 +27,7 @@ std::filesystem::path scratchDir(const std::string& name);
 // Writes `text` to `file` and returns the path.
 std::filesystem::path writeFile(const std::filesystem::path& file, const std::string& text);
 
+// The whole file, "" when it cannot be read.
+std::string readFile(const std::filesystem::path& file);
+
 }  // namespace rig::test

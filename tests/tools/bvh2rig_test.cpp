@@ -37,14 +37,6 @@ const fs::path cmuClip = "/usr/share/assimp/models/BVH/01_01.bvh";
 
 fs::path sharedMotion() { return test::sourceDir() / ".." / "shared" / "motion"; }
 
-std::string slurp(const fs::path& file)
-{
-    std::ifstream in(file, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 test::CommandResult bvh2rig(const std::string& args) { return test::run(fmt::format("{} {}", test::tool("bvh2rig"), args)); }
 
 // Which rig node stands for BVH joint j, and for its End Site.
@@ -258,7 +250,7 @@ TEST_CASE("bvh2rig: every channel order, repeated axes, position channels and od
                                    rig.string()));
         const BvhClip clip = readBvhFile(bvh);
         CHECK(clip.joints[9].positionReplacesOffset == whole);
-        const std::string text = slurp(rig);
+        const std::string text = test::readFile(rig);
         // The header lists renamed joints and every parameter.
         CHECK(text.find("#   'a-b' -> a_b\n#   'a_b' -> a_b_2\n#   'Left Hand' -> Left_Hand\n#   '3rd' -> _3rd\n") !=
               std::string::npos);
@@ -320,7 +312,7 @@ TEST_CASE("bvh2rig: without --with-motion the rig is the rest pose, and --prefix
     REQUIRE(r.exitCode == 0);
     CHECK(r.out == fmt::format("wrote {}: 18 joints (12 from BVH joints, 3 End Sites, 3 helpers), 35 parameters\n",
                                (dir / "rig.yaml").string()));
-    const std::string text = slurp(dir / "rig.yaml");
+    const std::string text = test::readFile(dir / "rig.yaml");
     CHECK(text.find("bvhClip") == std::string::npos);
     CHECK(text.find("connections:") == std::string::npos);
     CHECK(text.find("#   'Left Hand' -> mocap:Left_Hand\n") != std::string::npos);
@@ -368,7 +360,7 @@ TEST_CASE("bvh2rig: errors are one line and exit code 2")
     CHECK(r.exitCode == 0);
     CHECK(r.err == fmt::format("warning: {}:8: 'Frames: 3' but the file has 2 motion lines; using the 2 lines\n",
                                odd.string()));
-    CHECK(slurp(dir / "odd.yaml").find("# Warning: ") != std::string::npos);
+    CHECK(test::readFile(dir / "odd.yaml").find("# Warning: ") != std::string::npos);
 }
 
 TEST_CASE("bvh2rig round trip: CMU clip 01_01 (assimp-testmodels), every frame")
@@ -430,7 +422,7 @@ TEST_CASE("bvh2rig round trip through graph-eval: CMU clip 01_01, every frame")
 
     // Columns NODE.worldMatrix[row][col]; the clip's own worldMatrix[j][row][col] columns are skipped.
     const RigNames names = plainNames(clip);
-    std::istringstream csv(slurp(dir / "out.csv"));
+    std::istringstream csv(test::readFile(dir / "out.csv"));
     std::string line;
     REQUIRE(std::getline(csv, line));
     struct Column {

@@ -27,14 +27,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string slurp(const fs::path& file)
-{
-    std::ifstream in(file, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 std::string replaceAll(std::string text, const std::string& from, const std::string& to)
 {
     for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
@@ -56,7 +48,7 @@ std::map<std::string, std::string> snapshot(const fs::path& dir)
         else if (it->is_directory()) files[rel] = "<folder>";
         else if (it->file_size() > (1 << 20) || ::access(it->path().c_str(), R_OK) != 0)
             files[rel] = fmt::format("<{} bytes, {}>", it->file_size(), it->last_write_time().time_since_epoch().count());
-        else files[rel] = slurp(it->path());
+        else files[rel] = rig::test::readFile(it->path());
     }
     return files;
 }
@@ -223,9 +215,9 @@ TEST_CASE("corpus: the manifest is well formed and names every corpus file")
     }
     // Every file kept in tests/corpus is an input of some case: named by the manifest, or by a rig file of
     // the corpus (includes).
-    std::string referenced = slurp(rig::test::sourceDir() / "tests/corpus/cases.yaml");
+    std::string referenced = rig::test::readFile(rig::test::sourceDir() / "tests/corpus/cases.yaml");
     for (const auto& entry : fs::recursive_directory_iterator(rig::test::sourceDir() / "tests/corpus"))
-        if (entry.is_regular_file() && entry.path().extension() == ".yaml") referenced += slurp(entry.path());
+        if (entry.is_regular_file() && entry.path().extension() == ".yaml") referenced += rig::test::readFile(entry.path());
     for (const auto& entry : fs::recursive_directory_iterator(rig::test::sourceDir() / "tests/corpus")) {
         if (!entry.is_regular_file() || entry.path().filename() == "cases.yaml") continue;
         CAPTURE(entry.path().string());

@@ -25,14 +25,6 @@ std::string graphEval(const std::string& args) { return fmt::format("{} {}", rig
 
 std::string quote(const std::filesystem::path& p) { return fmt::format("'{}'", p.string()); }
 
-std::string slurp(const std::filesystem::path& file)
-{
-    std::ifstream in(file, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 std::vector<std::string> lines(const std::string& text)
 {
     std::vector<std::string> out;
@@ -348,16 +340,16 @@ TEST_CASE("graph-eval -o writes the file and prints nothing, and a failing run l
     CHECK(r.exitCode == 0);
     CHECK(r.out.empty());
     CHECK(r.err.empty());
-    CHECK(slurp(file) == expected.out);
+    CHECK(rig::test::readFile(file) == expected.out);
     const auto csv = run(graphEval(args + " --format csv --output " + quote(dir / "out.csv")));
     CHECK(csv.exitCode == 0);
     CHECK(csv.out.empty());
-    CHECK(slurp(dir / "out.csv").starts_with("frame,arm_ctrl.rotateZ,"));
+    CHECK(rig::test::readFile(dir / "out.csv").starts_with("frame,arm_ctrl.rotateZ,"));
 
     // A bad run does not touch an existing output.
     checkBadInput(arm + " --frames 1:x -o " + quote(file),
                   "--frames '1:x': 'x' is not a number; expected A:B[:STEP], e.g. 1:240 or 1:240:2");
-    CHECK(slurp(file) == expected.out);
+    CHECK(rig::test::readFile(file) == expected.out);
 
     // An unwritable path: exit 2, one error line, nothing created (no temporary file left either).
     checkBadInput(arm + " -o /nonexistent/dir/out.json",

@@ -27,14 +27,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string slurp(const fs::path& file)
-{
-    std::ifstream in(file, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 test::CommandResult rigInvert(const std::string& args) { return test::run(test::tool("rig-invert") + " " + args); }
 
 YAML::Node report(const fs::path& file) { return YAML::LoadFile(file.string()); }
@@ -115,17 +107,17 @@ TEST_CASE("rig-invert: chunks of a clip give the curves of one run, and threads 
         const YAML::Node chunk = f < 55 ? first[f] : second[f - 55];
         CHECK(YAML::Dump(chunk) == YAML::Dump(whole[f]));
     }
-    const std::string one = slurp(dir / "whole.json");
+    const std::string one = test::readFile(dir / "whole.json");
     invert("1:100", "two.json", 2);
     invert("1:100", "eight.json", 8);
-    CHECK(slurp(dir / "two.json") == one);
-    CHECK(slurp(dir / "eight.json") == one);
+    CHECK(test::readFile(dir / "two.json") == one);
+    CHECK(test::readFile(dir / "eight.json") == one);
     // CSV holds the same numbers.
     const auto r = rigInvert(fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames "
                                          "1:2 -o {} -q",
                                          approximation.string(), test::cmuClip.string(), (dir / "curves.csv").string()));
     REQUIRE(r.exitCode == 0);
-    const std::string csv = slurp(dir / "curves.csv");
+    const std::string csv = test::readFile(dir / "curves.csv");
     CHECK(csv.starts_with("frame,root_ctrl.translateX,"));
     CHECK(std::count(csv.begin(), csv.end(), '\n') == 3);
 }
@@ -194,7 +186,7 @@ TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs
         CHECK(r.exitCode == 2);
         CHECK(r.out.empty());
         CHECK(r.err == "error: " + message + "\n");
-        CHECK(slurp(out) == "previous\n");
+        CHECK(test::readFile(out) == "previous\n");
     };
     expectError(base + " --frames 5:9 -o " + out,
                 fmt::format("--frames 5:9: {} has no frame 5 (its frames are 1 to 3)", clip.string()));
@@ -219,7 +211,7 @@ TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs
     CHECK(r.err.find("no joint of the clip is an output of the approximation") != std::string::npos);
 
     // Another rig: a warning, and an error with --strict.
-    test::writeFile(dir / "arm_edited.yaml", slurp(test::sourceDir() / "rigs/examples/arm.yaml") + "# edited\n");
+    test::writeFile(dir / "arm_edited.yaml", test::readFile(test::sourceDir() / "rigs/examples/arm.yaml") + "# edited\n");
     const std::string edited = fmt::format("{} --rig {} --clip {} -o {}", arm.string(), (dir / "arm_edited.yaml").string(),
                                            clip.string(), out);
     const auto warned = rigInvert(edited + " -q");
@@ -243,7 +235,7 @@ TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keep
                                   test::tool("graph-eval"), clip.string()))
                 .exitCode == 0);
     // Frame 2's elbow target as graph-eval writes a NaN: null.
-    std::string text = slurp(clip);
+    std::string text = test::readFile(clip);
     const auto second = text.find("\"frame\": 2");
     const auto elbow = text.find("\"elbow.worldMatrix\": [[", second) + std::string("\"elbow.worldMatrix\": [[").size();
     text.replace(elbow, text.find(',', elbow) - elbow, "null");
@@ -258,7 +250,7 @@ TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keep
     CHECK(rep["converged_frames"].as<int>() == 2);
     CHECK(rep["per_frame"][1]["termination"].as<std::string>() == "invalidTargets");
     CHECK(r.out.find("invalidTargets") != std::string::npos);
-    const std::string curves = slurp(dir / "curves.json");
+    const std::string curves = test::readFile(dir / "curves.json");
     CHECK(curves.find("null") == std::string::npos);
     const YAML::Node c = YAML::LoadFile((dir / "curves.json").string());
     for (const auto& entry : c[1]) {

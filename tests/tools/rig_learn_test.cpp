@@ -21,14 +21,6 @@ const std::string armParams = "--params 'shoulder.rotate?' 'elbow.rotate?' 'wris
 
 std::string rigLearn(const std::string& args) { return fmt::format("{} {}", rig::test::tool("rig-learn"), args); }
 
-std::string slurp(const std::filesystem::path& file)
-{
-    std::ifstream in(file, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 // Expects exit code 2, nothing on standard output and exactly "error: <message>\n" on standard error.
 void checkBadInput(const std::string& args, const std::string& message)
 {
@@ -62,7 +54,7 @@ TEST_CASE("rig-learn: the arm end to end, report, JSON report and approximation 
     CHECK(r.out.ends_with(fmt::format("\nWrote {}\n", out.string())));
 
     // The JSON report (JSON is YAML): the keys of docs/rig-learn.md.
-    const YAML::Node report = YAML::Load(slurp(json));
+    const YAML::Node report = YAML::Load(rig::test::readFile(json));
     for (const char* key : {"evaluations", "seconds", "modelled", "discarded", "validation", "order_evaluations", "orderer"})
         CHECK_MESSAGE(report[key], key);
     CHECK(report["modelled"].size() == 7);
@@ -97,7 +89,7 @@ TEST_CASE("rig-learn: discards in the report and the JSON, with their reasons, a
           != std::string::npos);
     CHECK(r.out.find("\nDiscarded: 2 parameters\n  nasty_ctrl.coupledTurn: no effect on its own") != std::string::npos);
     CHECK(r.out.find("\n  nasty_ctrl.springy: history-dependent:") != std::string::npos);
-    const YAML::Node report = YAML::Load(slurp(json));
+    const YAML::Node report = YAML::Load(rig::test::readFile(json));
     REQUIRE(report["discarded"].size() == 2);
     CHECK(report["discarded"][0]["name"].as<std::string>() == "nasty_ctrl.coupledTurn");
     CHECK(report["discarded"][1]["reason"].as<std::string>().starts_with("history-dependent:"));
@@ -136,7 +128,7 @@ TEST_CASE("rig-learn: bad input is one error line and exit code 2, and an existi
     checkBadInput(fmt::format("{} {} {} --report-json '{}'", arm, armParams, o, (dir / "no" / "r.json").string()),
                   fmt::format("{}: cannot write here (No such file or directory); check the folder exists and is writable",
                               (dir / "no" / "r.json").string()));
-    CHECK(slurp(out) == "precious\n");
+    CHECK(rig::test::readFile(out) == "precious\n");
     // Nothing left behind but the file itself.
     int files = 0;
     for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir)) ++files;
@@ -144,7 +136,7 @@ TEST_CASE("rig-learn: bad input is one error line and exit code 2, and an existi
 
     // A successful run replaces it.
     REQUIRE(run(rigLearn(fmt::format("{} --params wrist.rotateX {}", arm, o))).exitCode == 0);
-    CHECK(slurp(out).starts_with("# A learned rig approximation"));
+    CHECK(rig::test::readFile(out).starts_with("# A learned rig approximation"));
 }
 
 TEST_CASE("rig-learn --spec: the biped's inversion spec learns what its globs spell out, and a bad spec is one line")

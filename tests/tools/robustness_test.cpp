@@ -28,14 +28,6 @@ std::string graphEval(const std::string& args) { return fmt::format("{} {}", rig
 
 std::string quote(const fs::path& p) { return fmt::format("'{}'", p.string()); }
 
-std::string slurp(const fs::path& file)
-{
-    std::ifstream in(file, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 std::set<std::string> filesIn(const fs::path& dir)
 {
     std::set<std::string> names;
@@ -111,7 +103,7 @@ TEST_CASE("a graph-eval killed part-way leaves the existing output untouched and
     const auto r = run("timeout -s KILL 1 " + graphEval(quote(rig) + " --frames 1:1000000 --get j399.worldMatrix -o " +
                                                          quote(out)));
     CHECK(r.exitCode == 128 + 9);  // timeout's code for a command killed by SIGKILL
-    CHECK(slurp(out) == "the output of an earlier run\n");
+    CHECK(rig::test::readFile(out) == "the output of an earlier run\n");
     CHECK(filesIn(dir) == std::set<std::string>{"chain.yaml", "out.json"});
 }
 
@@ -129,7 +121,7 @@ TEST_CASE("temporary files of killed writers are removed by the next write of th
     const auto r = run(graphEval("rigs/examples/arm.yaml --get elbow.rotateZ -o " + quote(dir / "out.json")));
     CHECK(r.exitCode == 0);
     CHECK(filesIn(dir) == std::set<std::string>{alive, other, "out.json"});
-    CHECK(slurp(dir / "out.json").starts_with("[\n  {\"frame\": 0,"));
+    CHECK(rig::test::readFile(dir / "out.json").starts_with("[\n  {\"frame\": 0,"));
 }
 
 TEST_CASE("inputs at the limits still load: 64 nested includes, BVH joints 256 deep, 500-character joint names")

@@ -1,0 +1,735 @@
+#include "tools/bench_suite.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <map>
+#include <memory>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+#include <thread>
+
+#include <fmt/format.h>
+#include <oneapi/tbb/task_arena.h>
+#include <yaml-cpp/yaml.h>
+
+#include "graph/error.h"
+#include "inversion/approximation_io.h"
+#include "inversion/learner.h"
+#include "inversion/rig_binding.h"
+#include "inversion/solver.h"
+#include "nodes/clips/target_clip.h"
+#include "nodes/graph_rig_function.h"
+#include "tools/bench_blackbox.h"
+#ifdef RIG_BENCH_HAVE_CERES
+#include "tools/bench_ceres.h"
+#endif
+
+namespace rig::bench {
+
+BenchOptions quickOptions()
+{
+    BenchOptions o;
+    o.frames = 240;
+    o.ceresFrames = 120;
+    o.blackBoxFrames = 10;
+    o.timingBudget = 0.2;
+    o.talkOrderer = false;
+    o.crowdSizes = {1, 2};
+    o.chainSizes = {17, 34};
+    o.scalingFrames = 10;
+    return o;
+}
+
+BenchOptions fullOptions()
+{
+    BenchOptions o;
+    o.crowdSizes = {1, 2, 4, 8, 16, 32, 64};
+    o.chainSizes = {17, 34, 67, 134};
+    return o;
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// rig-invert's default: a warm-start chain restarts from rest every 120 frames (inversion/clip_inversion.h).
+constexpr int restartInterval = 120;
+
+void say(const BenchOptions& o, const std::string& line)
+{
+    if (o.log) o.log(line);
+}
+
+struct InversionSpec {
+    std::vector<std::string> params, outputs;
+};
+
+InversionSpec readSpec(const std::filesystem::path& file)
+{
+    InversionSpec spec;
+    try {
+        const YAML::Node root = YAML::LoadFile(file.string());
+        for (const auto& p : root["params"]) spec.params.push_back(p.as<std::string>());
+        for (const auto& o : root["outputs"]) spec.outputs.push_back(o.as<std::string>());
+    }
+    catch (const YAML::Exception& e) {
+        throw Error(fmt::format("{}: {}", file.string(), e.what()));
+    }
+    if (spec.params.empty()) throw Error(fmt::format("{}: no 'params' list of plug globs", file.string()));
+    return spec;
+}
+
+LearnOptions learnOptions(Orderer orderer)
+{
+    LearnOptions o;  // rig-learn's defaults
+    o.orderer = orderer;
+    return o;
+}
+
+Json trainingJson(const Approximation& a, std::size_t rigParameters)
+{
+    return Json{{"evaluations", a.training.evaluations},
+                {"order_evaluations", a.training.orderEvaluations},
+                {"seconds", a.training.seconds},
+                {"orderer", a.training.orderer},
+                {"parameters", static_cast<long long>(rigParameters)},
+                {"modelled", static_cast<long long>(a.parameters.size())},
+                {"discarded", static_cast<long long>(a.discarded.size())},
+                {"validation_max_position_error_cm", a.validation.maxPositionErrorCm},
+                {"validation_max_rotation_error_deg", a.validation.maxRotationErrorDeg}};
+}
+
+// Targets per frame, one per approximation output; `joint` maps an output's name to the clip joint
+// that drives it ("" for none).
+struct Targets {
+    std::vector<std::vector<JointTarget>> frames;
+    int matchedJoints = 0;
+};
+
+Targets clipTargets(const Approximation& a, const TargetClip& clip, int frames,
+                    const std::function<std::string(const std::string&)>& joint)
+{
+    Targets t;
+    std::vector<int> jointOf;
+    for (const auto& out : a.outputs) {
+        const auto found = std::find(clip.joints.begin(), clip.joints.end(), joint(out.name));
+        jointOf.push_back(found == clip.joints.end() ? -1 : static_cast<int>(found - clip.joints.begin()));
+        t.matchedJoints += jointOf.back() >= 0;
+    }
+    if (t.matchedJoints == 0) throw Error(fmt::format("{}: no joint of the clip is an output of the approximation", clip.file));
+    for (int f = 0; f < std::min(frames, static_cast<int>(clip.worlds.size())); ++f) {
+        auto& frame = t.frames.emplace_back(a.outputs.size());
+        for (std::size_t k = 0; k < a.outputs.size(); ++k)
+            if (jointOf[k] >= 0) {
+                frame[k].active = true;
+                frame[k].world = clip.worlds[static_cast<std::size_t>(f)][static_cast<std::size_t>(jointOf[k])];
+            }
+    }
+    return t;
+}
+
+// Frames [first, last] solved as rig-invert solves them (inversion/clip_inversion.h): warm-start chains
+// from the previous frame, restarted from rest every `restartInterval` frames, a chunk joining its chain
+// with untimed lead-in frames. Only `solve` is timed (wall clock and this thread's CPU); the real rig
+// is evaluated afterwards for the errors.
+struct ChainRun {
+    int first = 0;
+    std::vector<std::vector<double>> values;  // per reported frame
+    double wallSeconds = 0.0;
+    double cpuSeconds = 0.0;
+    int converged = 0;
+    long long iterations = 0;
+    double sumFinalCost = 0.0;
+    std::uint64_t evaluations = 0;  // real-rig evaluations (the black box)
+
+    int frames() const { return static_cast<int>(values.size()); }
+    double msPerFrame() const { return frames() ? 1e3 * wallSeconds / frames() : 0.0; }
+    double cpuMsPerFrame() const { return frames() ? 1e3 * cpuSeconds / frames() : 0.0; }
+};
+
+// solve(targets, values, run): one frame; it adds to run's counters.
+using FrameSolve = std::function<void(const std::vector<JointTarget>&, std::vector<double>&, ChainRun&)>;
+
+ChainRun runChain(const Approximation& approximation, const Targets& targets, int first, int last, const FrameSolve& solve)
+{
+    ChainRun run;
+    run.first = first;
+    const std::vector<double> rest = approximation.defaults();
+    std::vector<double> current = rest;
+    ChainRun leadIn;  // counters of lead-in frames are dropped
+    for (int f = first - first % restartInterval; f <= last; ++f) {
+        if (f % restartInterval == 0) current = rest;
+        const auto& t = targets.frames[static_cast<std::size_t>(f)];
+        if (f < first) {
+            solve(t, current, leadIn);
+            continue;
+        }
+        const double cpu = threadCpuSeconds();
+        const auto start = Clock::now();
+        solve(t, current, run);
+        run.wallSeconds += secondsSince(start);
+        run.cpuSeconds += threadCpuSeconds() - cpu;
+        run.values.push_back(current);
+    }
+    return run;
+}
+
+ErrorStats realRigErrors(RigBinding& binding, const Targets& targets, const ChainRun& run)
+{
+    ErrorStats stats;
+    std::vector<Eigen::Matrix4d> worlds;
+    for (std::size_t f = 0; f < run.values.size(); ++f) {
+        binding.evaluate(run.values[f], worlds);
+        stats.addFrame(worlds, targets.frames[static_cast<std::size_t>(run.first) + f]);
+    }
+    return stats;
+}
+
+#ifdef RIG_BENCH_HAVE_CERES
+std::optional<double> ratio(std::optional<double> a, std::optional<double> b)
+{
+    if (!a || !b || !(*b > 0)) return std::nullopt;
+    return *a / *b;
+}
+#endif
+
+// Our solver as rig-invert runs it: one solve per frame, then the optional polish on the real rig.
+FrameSolve oursSolve(const Solver& solver, RigBinding& binding, int polishCorrections)
+{
+    return [&solver, &binding, polishCorrections](const std::vector<JointTarget>& t, std::vector<double>& values,
+                                                  ChainRun& run) {
+        const SolveSummary s = solver.solve(t, values);
+        if (polishCorrections > 0 && s.termination != TerminationType::invalidTargets)
+            run.evaluations += static_cast<std::uint64_t>(polish(solver, binding, t, values, polishCorrections).evaluations);
+        run.converged += s.converged();
+        run.iterations += s.iterations;
+        run.sumFinalCost += s.finalCost;
+    };
+}
+
+// A solver's figures over a run: timing, convergence and the real rig's errors.
+Json runJson(const ChainRun& run, const ErrorStats& errors, bool singleThread)
+{
+    const int n = std::max(run.frames(), 1);
+    return Json{{"frames", run.frames()},
+                {"ms_per_frame", run.msPerFrame()},
+                {"cpu_ms_per_frame", singleThread ? Json(run.cpuMsPerFrame()) : Json()},
+                {"converged_frames", run.converged},
+                {"mean_iterations", static_cast<double>(run.iterations) / n},
+                {"mean_final_cost", run.sumFinalCost / n},
+                {"real_rig", errors.toJson()}};
+}
+
+struct Variant {
+    std::string name;
+    int threads;
+    JacobianMethod jacobian;
+    bool partition;
+    int polish;
+};
+
+struct VariantResult {
+    Json json;
+    ChainRun run;
+    ErrorStats errors;
+};
+
+VariantResult runVariant(const Variant& v, const Approximation& approximation, RigBinding& binding,
+                         const Targets& targets, int frames)
+{
+    SolverOptions options;
+    options.threads = v.threads;
+    options.jacobian = v.jacobian;
+    options.partition = v.partition;
+    const Solver solver(approximation, options);
+    VariantResult result;
+    result.run = runChain(approximation, targets, 0, frames - 1, oursSolve(solver, binding, v.polish));
+    result.errors = realRigErrors(binding, targets, result.run);
+    result.json = Json{{"name", v.name},
+                       {"threads", v.threads},
+                       {"jacobian", std::string(jacobianMethodName(v.jacobian))},
+                       {"partition", v.partition},
+                       {"polish", v.polish}};
+    const Json figures = runJson(result.run, result.errors, v.threads == 1);
+    for (const char* key : {"frames", "ms_per_frame", "cpu_ms_per_frame", "converged_frames", "mean_iterations",
+                            "mean_final_cost", "real_rig"})
+        result.json[key] = figures.at(key);
+    return result;
+}
+
+// The partitioned problem's Jacobian, block by block, as one solver iteration per block computes it.
+class BlockJacobians {
+public:
+    BlockJacobians(const Solver& solver, std::span<const JointTarget> targets, std::span<const double> values)
+    {
+        const Approximation& a = solver.approximation();
+        std::vector<PreparedTarget> prepared(targets.size());
+        for (std::size_t k = 0; k < targets.size(); ++k)
+            if (targets[k].active && !prepareTarget(targets[k], solver.options().rotationScaleCm, prepared[k]))
+                throw std::invalid_argument(fmt::format("the target of {} is not usable", a.outputs[k].name));
+        for (const PartitionBlock& block : solver.partition(targets).blocks) {
+            auto& b = *blocks_.emplace_back(std::make_unique<Block>(a, block));
+            b.workspace.holdParameters(values);
+            b.workspace.setTargets(prepared);
+            for (const int p : block.parameters) b.x.push_back(values[static_cast<std::size_t>(p)]);
+        }
+    }
+    void evaluate()
+    {
+        for (auto& b : blocks_) b->workspace.jacobian(b->x, JacobianMethod::analytic, 1e-6, false, b->r, b->J);
+    }
+    int blocks() const { return static_cast<int>(blocks_.size()); }
+
+private:
+    struct Block {
+        Block(const Approximation& a, const PartitionBlock& block)
+            : structure(a, block.parameters, block.outputs), workspace(structure), r(structure.rows()),
+              J(structure.rows(), structure.columnCount())
+        {
+        }
+        ResidualStructure structure;
+        ResidualWorkspace workspace;
+        std::vector<double> x;
+        Eigen::VectorXd r;
+        Eigen::MatrixXd J;
+    };
+    std::vector<std::unique_ptr<Block>> blocks_;
+};
+
+Json timingJson(const Timing& t, bool singleThread)
+{
+    return Json{{"median_ms", t.medianMs},
+                {"min_ms", t.minMs},
+                {"cpu_median_ms", singleThread ? Json(t.cpuMedianMs) : Json()},
+                {"calls", t.calls}};
+}
+
+}  // namespace
+
+void runBipedBench(const BenchOptions& o, Json& report)
+{
+    const InversionSpec spec = readSpec(o.spec);
+    GraphRigOptions rigOptions;
+    rigOptions.parameterGlobs = spec.params;
+    rigOptions.outputGlobs = spec.outputs;
+    auto start = Clock::now();
+    GraphRigFunction rig(o.rig, rigOptions);
+    const double loadSeconds = secondsSince(start);
+
+    // --- training ---
+    Json train = Json::object();
+    Approximation approximation;
+    Json orderers = Json::object();
+    for (const Orderer orderer : {Orderer::talk, Orderer::structured}) {
+        if (orderer == Orderer::talk && !o.talkOrderer) {
+            orderers["talk"] = Json();
+            continue;
+        }
+        say(o, fmt::format("training the biped's approximation ({} orderer)", ordererName(orderer)));
+        Approximation a = learnApproximation(rig, learnOptions(orderer), o.rig.string());
+        orderers[std::string(ordererName(orderer))] = trainingJson(a, rig.parameters().size());
+        if (orderer == Orderer::structured) approximation = std::move(a);
+    }
+    train["evaluations"] = approximation.training.evaluations;
+    train["seconds"] = approximation.training.seconds;
+    train["orderer"] = approximation.training.orderer;
+    train["orderers"] = std::move(orderers);
+    if (!o.talkOrderer) train["note"] = "the talk's orderer is not run with --quick";
+    report["train"] = std::move(train);
+    if (approximation.parameters.empty()) throw Error(fmt::format("{}: the approximation models no parameter", o.rig.string()));
+
+    // --- the clip ---
+    const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
+    const TargetClip clip = readTargetClip(o.clip, map);
+    const Targets targets = clipTargets(approximation, clip, std::numeric_limits<int>::max(),
+                                        [](const std::string& name) { return name; });
+    const int frames = std::min(o.frames, static_cast<int>(targets.frames.size()));
+    [[maybe_unused]] const int ceresFrames = std::min(o.ceresFrames, frames);  // without Ceres: unused
+    const int blackBoxFrames = std::min(o.blackBoxFrames, frames);
+    report["biped"] = Json{{"rig", o.rig.string()},
+                             {"parameters", static_cast<long long>(rig.parameters().size())},
+                             {"modelled_parameters", static_cast<long long>(approximation.parameters.size())},
+                             {"outputs", static_cast<long long>(approximation.outputs.size())},
+                             {"clip", o.clip.string()},
+                             {"clip_frames", static_cast<long long>(targets.frames.size())},
+                             {"target_joints", targets.matchedJoints},
+                             {"load_seconds", loadSeconds}};
+    RigBinding binding(approximation, rig);
+    const SolverOptions defaults;
+    const double h = defaults.finiteDifferenceStep;
+
+    // --- Jacobian: black box on the real graph against the approximation ---
+    say(o, "timing Jacobians");
+    const auto& firstTargets = targets.frames.front();
+    const std::vector<double> rest = approximation.defaults();
+    JacobianEvaluator evaluator(approximation, firstTargets, defaults.rotationScaleCm);
+    Eigen::MatrixXd jApprox, jBlack;
+    Eigen::VectorXd rApprox, rBlack;
+    const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    tbb::task_arena allCores(cores), oneCore(1);
+    const Timing analytic = timeRepeated(
+        [&] { evaluator.jacobian(rest, JacobianMethod::analytic, h, jApprox, rApprox); }, o.timingBudget);
+    Timing fdParallel, fdSerial;
+    allCores.execute([&] {
+        fdParallel = timeRepeated([&] { evaluator.jacobian(rest, JacobianMethod::finiteDifference, h, jApprox, rApprox); },
+                                  o.timingBudget);
+    });
+    oneCore.execute([&] {
+        fdSerial = timeRepeated([&] { evaluator.jacobian(rest, JacobianMethod::finiteDifference, h, jApprox, rApprox); },
+                                o.timingBudget);
+    });
+    BlackBoxProblem blackBox(binding, defaults.rotationScaleCm);
+    blackBox.setTargets(firstTargets);
+    const std::uint64_t evaluationsBefore = blackBox.evaluations();
+    const Timing blackForward =
+        timeRepeated([&] { blackBox.jacobian(rest, h, false, &jBlack, rBlack); }, o.timingBudget, 3);
+    const double evaluationsPerJacobian = static_cast<double>(blackBox.evaluations() - evaluationsBefore) /
+                                          static_cast<double>(blackForward.calls + 1);
+    const Timing blackCentral = timeRepeated([&] { blackBox.jacobian(rest, h, true, &jBlack, rBlack); }, o.timingBudget, 3);
+    // Where the approximation is exact, the real rig's Jacobian is the approximation's.
+    evaluator.jacobian(rest, JacobianMethod::analytic, h, jApprox, rApprox);
+    blackBox.jacobian(rest, h, true, &jBlack, rBlack);
+    const double scale = std::max(jApprox.cwiseAbs().maxCoeff(), 1e-300);
+    report["jacobian"] = Json{{"rows", evaluator.rows()},
+                    {"columns", evaluator.columns()},
+                    {"blackbox_fd_ms", blackForward.cpuMedianMs},
+                    {"blackbox_central_fd_ms", blackCentral.cpuMedianMs},
+                    {"blackbox_evaluations_per_jacobian", evaluationsPerJacobian},
+                    {"approx_fd_ms", fdParallel.medianMs},
+                    {"approx_fd_threads", cores},
+                    {"approx_fd_serial_ms", fdSerial.cpuMedianMs},
+                    {"approx_analytic_ms", analytic.cpuMedianMs},
+                    {"speedup_analytic", blackForward.cpuMedianMs / analytic.cpuMedianMs},
+                    {"speedup_fd", blackForward.cpuMedianMs / fdParallel.medianMs},
+                    {"analytic_vs_blackbox_relative_difference", (jApprox - jBlack).cwiseAbs().maxCoeff() / scale},
+                    {"timings", Json{{"blackbox_fd", timingJson(blackForward, true)},
+                                     {"blackbox_central_fd", timingJson(blackCentral, true)},
+                                     {"approx_fd", timingJson(fdParallel, cores == 1)},
+                                     {"approx_fd_serial", timingJson(fdSerial, true)},
+                                     {"approx_analytic", timingJson(analytic, true)}}},
+                    {"note", "single-threaded figures are the thread's CPU time (median of ~1 ms batches), the "
+                                "parallel one wall time; black box: forward differences on the real graph; "
+                                "approximation: central differences (the solver's), and analytic"}};
+
+    // --- inversion of the clip on the approximation ---
+    const std::vector<Variant> variants{
+        {"analytic, 1 thread", 1, JacobianMethod::analytic, true, 0},
+        {"analytic, 2 threads", 2, JacobianMethod::analytic, true, 0},
+        {"fd, 1 thread", 1, JacobianMethod::finiteDifference, true, 0},
+        {"fd, 2 threads", 2, JacobianMethod::finiteDifference, true, 0},
+        {"analytic, whole problem, 1 thread", 1, JacobianMethod::analytic, false, 0},
+        {"analytic, 1 thread, polish 1", 1, JacobianMethod::analytic, true, 1},
+    };
+    Json variantRows = Json::array();
+    std::vector<VariantResult> results;
+    for (const Variant& v : variants) {
+        say(o, fmt::format("inverting {} frames ({})", frames, v.name));
+        results.push_back(runVariant(v, approximation, binding, targets, frames));
+        variantRows.push_back(results.back().json);
+    }
+    const VariantResult& headline = results.front();
+
+    // --- the talk's baseline: Gauss-Newton on the real graph ---
+    say(o, fmt::format("Gauss-Newton on the real graph, {} frames", blackBoxFrames));
+    const ChainRun black = runChain(approximation, targets, 0, blackBoxFrames - 1,
+                                    [&](const std::vector<JointTarget>& t, std::vector<double>& values, ChainRun& run) {
+                                        blackBox.setTargets(t);
+                                        const BlackBoxSolve s = gaussNewtonBlackBox(blackBox, values, defaults);
+                                        run.evaluations += s.evaluations;
+                                        run.sumFinalCost += s.finalCost;
+                                        run.converged += s.converged;
+                                        run.iterations += s.iterations;
+                                    });
+    const ErrorStats blackErrors = realRigErrors(binding, targets, black);
+    // Ours on the same frames: the whole problem, as the black box solves it, and the partitioned one.
+    const VariantResult sameWhole = runVariant(variants[4], approximation, binding, targets, blackBoxFrames);
+    const VariantResult samePartitioned = runVariant(variants[0], approximation, binding, targets, blackBoxFrames);
+    Json blackJson = runJson(black, blackErrors, true);
+    blackJson["evaluations_per_frame"] = static_cast<double>(black.evaluations) / std::max(black.frames(), 1);
+    blackJson["ours_cpu_ms_per_frame"] = samePartitioned.run.cpuMsPerFrame();
+    blackJson["ours_whole_cpu_ms_per_frame"] = sameWhole.run.cpuMsPerFrame();
+    blackJson["ours_whole_mean_final_cost"] = sameWhole.json.at("mean_final_cost");
+    blackJson["speedup"] = black.cpuMsPerFrame() / samePartitioned.run.cpuMsPerFrame();
+    blackJson["speedup_whole"] = black.cpuMsPerFrame() / sameWhole.run.cpuMsPerFrame();
+    blackJson["note"] = "Gauss-Newton with forward-difference Jacobians on the real graph (tools/bench_blackbox.h), the "
+                     "solver's tolerances, the same unknowns; the first frames of the clip, the first from rest";
+    report["blackbox"] = blackJson;
+
+    report["invert"] = Json{{"frames", frames},
+                              {"ms_per_frame", headline.run.cpuMsPerFrame()},
+                              {"wall_ms_per_frame", headline.run.msPerFrame()},
+                              {"threads2_ms_per_frame", results[1].run.msPerFrame()},
+                              {"fd_ms_per_frame", results[2].run.cpuMsPerFrame()},
+                              {"fd_threads2_ms_per_frame", results[3].run.msPerFrame()},
+                              {"whole_ms_per_frame", results[4].run.cpuMsPerFrame()},
+                              {"polish1_ms_per_frame", results[5].run.cpuMsPerFrame()},
+                              {"blackbox_ms_per_frame", black.cpuMsPerFrame()},
+                              {"blackbox_frames", black.frames()},
+                              {"speedup_vs_blackbox_same_frames", blackJson.at("speedup")},
+                              {"variants", std::move(variantRows)},
+                              {"note", "1-thread figures are the thread's CPU time per frame, 2-thread ones wall "
+                                          "time; solver only (the real rig is re-evaluated afterwards for the errors); "
+                                          "warm starts from the previous frame, restarts every 120 frames"}};
+
+    // --- a peer: Ceres on the same residuals ---
+    Json ceres = Json::object();
+    Json accuracy = Json::object();
+#ifdef RIG_BENCH_HAVE_CERES
+    {
+        const VariantResult oursPartitioned = runVariant(variants[0], approximation, binding, targets, ceresFrames);
+        const VariantResult oursWhole = runVariant(variants[4], approximation, binding, targets, ceresFrames);
+        Json rows = Json::array();
+        std::optional<double> best;
+        Json bestRow;
+        // Both dense solvers, with our tolerances (equal stopping rules: the headline) and with Ceres' own.
+        for (const bool ceresTolerances : {false, true})
+            for (const CeresLinearSolver linear : {CeresLinearSolver::denseQr, CeresLinearSolver::denseNormalCholesky}) {
+                const std::string tolerances = ceresTolerances ? "ceres defaults" : "ours";
+                say(o, fmt::format("Ceres ({}, {} tolerances) on {} frames", ceresLinearSolverName(linear), tolerances,
+                                   ceresFrames));
+                CeresInverter inverter(approximation, defaults, linear, ceresTolerances);
+                const ChainRun run =
+                    runChain(approximation, targets, 0, ceresFrames - 1,
+                             [&](const std::vector<JointTarget>& t, std::vector<double>& values, ChainRun& r) {
+                                 const CeresSolve s = inverter.solve(t, values);
+                                 r.converged += s.converged;
+                                 r.iterations += s.iterations;
+                                 r.sumFinalCost += s.finalCost;
+                             });
+                Json row = Json{{"linear_solver", ceresLinearSolverName(linear)},
+                                {"tolerances", tolerances}};
+                const Json figures = runJson(run, realRigErrors(binding, targets, run), true);
+                for (const char* key : {"frames", "ms_per_frame", "cpu_ms_per_frame", "converged_frames",
+                                        "mean_iterations", "mean_final_cost", "real_rig"})
+                    row[key] = figures.at(key);
+                const double cpuMs = run.cpuMsPerFrame();
+                if (!ceresTolerances && (!best || cpuMs < *best)) {
+                    best = cpuMs;
+                    bestRow = row;
+                }
+                rows.push_back(std::move(row));
+            }
+        ceres["version"] = ceresVersion();
+        ceres["ms_per_frame"] = orNull(best);
+        ceres["linear_solver"] = bestRow.at("linear_solver");
+        ceres["frames"] = ceresFrames;
+        ceres["mean_final_cost"] = bestRow.at("mean_final_cost");
+        ceres["ours_ms_per_frame"] = oursPartitioned.run.cpuMsPerFrame();
+        ceres["ours_whole_ms_per_frame"] = oursWhole.run.cpuMsPerFrame();
+        ceres["ours_mean_final_cost"] = oursPartitioned.json.at("mean_final_cost");
+        ceres["ours_whole_mean_final_cost"] = oursWhole.json.at("mean_final_cost");
+        ceres["speedup_ours"] = orNull(ratio(best, oursPartitioned.run.cpuMsPerFrame()));
+        ceres["speedup_ours_whole"] = orNull(ratio(best, oursWhole.run.cpuMsPerFrame()));
+        ceres["variants"] = std::move(rows);
+        ceres["note"] = "Levenberg-Marquardt, 1 thread, our residuals and analytic Jacobian as one dense residual "
+                         "block over all parameters, bounds on limited controls; CPU time per frame; the headline is "
+                         "the faster dense solver with our tolerances";
+        accuracy["ceres"] = bestRow.at("real_rig");
+    }
+#else
+    ceres["ms_per_frame"] = Json();
+    ceres["note"] = "rig-bench was built without Ceres: apt-get install libceres-dev, then configure and build again";
+    accuracy["ceres"] = Json();
+#endif
+    report["ceres"] = std::move(ceres);
+
+    accuracy["approximation"] = headline.errors.toJson();
+    accuracy["approximation_whole"] = results[4].errors.toJson();
+    accuracy["approximation_polish1"] = results[5].errors.toJson();
+    accuracy["approximation_fd"] = results[2].errors.toJson();
+    accuracy["blackbox"] = blackErrors.toJson();
+    accuracy["approximation_on_blackbox_frames"] = samePartitioned.errors.toJson();
+    accuracy["approximation_whole_on_blackbox_frames"] = sameWhole.errors.toJson();
+    accuracy["note"] = "real rig re-evaluated with each method's parameters, against the clip's joints";
+    report["accuracy"] = std::move(accuracy);
+}
+
+// --- scaling ---
+
+namespace {
+
+struct ScalingRig {
+    std::string kind;
+    int count;
+    std::filesystem::path file;
+    std::vector<std::string> params, outputs;
+};
+
+std::string shellQuote(const std::string& s)
+{
+    std::string out = "'";
+    for (const char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return out + "'";
+}
+
+ScalingRig makeRig(const BenchOptions& o, const InversionSpec& biped, const std::string& kind, int count)
+{
+    ScalingRig r{kind, count, o.workDir / fmt::format("{}{}.yaml", kind, count), {}, {}};
+    std::string command = fmt::format("{} {} {} {} -o {}", shellQuote(o.python), shellQuote(o.makeRigs.string()), kind,
+                                      count, shellQuote(r.file.string()));
+    if (kind == "crowd") {
+        command += " --rig " + shellQuote(std::filesystem::absolute(o.rig).string());
+        // Each member under its namespace: the biped's globs with any member's prefix.
+        for (const auto& p : biped.params) r.params.push_back("biped*:" + p);
+        for (const auto& p : biped.outputs) r.outputs.push_back("biped*:" + p);
+    } else {
+        r.params = {"chain*.rotate?"};
+    }
+    if (std::system(command.c_str()) != 0) throw Error(fmt::format("could not write a generated rig: {}", command));
+    return r;
+}
+
+// Crowd: every member follows the clip (members are independent problems). Chain: a smooth random
+// motion within a third of each parameter's range, evaluated on the real rig (reachable targets).
+Targets scalingTargets(const ScalingRig& r, const Approximation& a, RigBinding& binding, const TargetClip& clip,
+                       int frames)
+{
+    if (r.kind == "crowd")
+        return clipTargets(a, clip, frames, [](const std::string& name) {
+            const auto colon = name.rfind(':');
+            return colon == std::string::npos ? name : name.substr(colon + 1);
+        });
+    Targets t;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<double> amplitude, phase, frequency;
+    for (const auto& m : a.parameters) {
+        amplitude.push_back((m.parameter.max - m.parameter.min) / 6.0 * unit(rng));
+        phase.push_back(2 * std::numbers::pi * unit(rng));
+        frequency.push_back(0.5 + 1.5 * unit(rng));
+    }
+    std::vector<double> values = a.defaults();
+    std::vector<Eigen::Matrix4d> worlds;
+    for (int f = 0; f < frames; ++f) {
+        const double time = static_cast<double>(f) / std::max(frames, 1);
+        for (std::size_t p = 0; p < values.size(); ++p)
+            values[p] = a.parameters[p].parameter.defaultValue +
+                        amplitude[p] * std::sin(2 * std::numbers::pi * frequency[p] * time + phase[p]);
+        binding.evaluate(values, worlds);
+        auto& frame = t.frames.emplace_back(a.outputs.size());
+        for (std::size_t k = 0; k < worlds.size(); ++k) {
+            frame[k].active = true;
+            frame[k].world = worlds[k];
+        }
+    }
+    t.matchedJoints = static_cast<int>(a.outputs.size());
+    return t;
+}
+
+}  // namespace
+
+void runScaling(const BenchOptions& o, Json& report)
+{
+    const InversionSpec biped = readSpec(o.spec);
+    const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
+    const TargetClip clip = readTargetClip(o.clip, map);
+    std::filesystem::create_directories(o.workDir);
+    Json rows = Json::array();
+    struct Series {
+        std::vector<double> params, msPerFrame, jacobianMs, blackBoxMs, evaluations, trainSeconds, memoryMb, approxKb;
+    };
+    std::map<std::string, Series> series;
+    std::vector<std::pair<std::string, int>> rigs;
+    for (const int n : o.crowdSizes) rigs.emplace_back("crowd", n);
+    for (const int n : o.chainSizes) rigs.emplace_back("chain", n);
+    const SolverOptions defaults;
+    for (const auto& [kind, count] : rigs) {
+        const ScalingRig r = makeRig(o, biped, kind, count);
+        const bool peakReset = resetPeakResident();
+        const double residentBefore = residentMb();
+
+        auto start = Clock::now();
+        GraphRigOptions rigOptions;
+        rigOptions.parameterGlobs = r.params;
+        rigOptions.outputGlobs = r.outputs;
+        GraphRigFunction rig(r.file, rigOptions);
+        const double loadSeconds = secondsSince(start);
+        const double graphMb = residentMb() - residentBefore;
+        say(o, fmt::format("scaling: {} {} ({} parameters): training", kind, count, rig.parameters().size()));
+        const Approximation a = learnApproximation(rig, learnOptions(Orderer::structured), r.file.string());
+        const double trainingPeakMb = peakResidentMb() - residentBefore;
+        RigBinding binding(a, rig);
+        // Frame 0, a cold start from rest, is a lead-in: the rows compare steady warm-started frames, which
+        // a handful of frames then measures without one outlier dominating.
+        const int frames = std::min(o.scalingFrames + 1, static_cast<int>(clip.worlds.size()));
+        const Targets targets = scalingTargets(r, a, binding, clip, frames);
+        const int first = std::min(1, frames - 1);
+
+        say(o, fmt::format("scaling: {} {}: inverting {} frames", kind, count, frames - first));
+        SolverOptions options;
+        options.threads = 1;
+        const Solver solver(a, options);
+        const ChainRun run = runChain(a, targets, first, frames - 1, oursSolve(solver, binding, 0));
+        const ErrorStats errors = realRigErrors(binding, targets, run);
+
+        const auto& firstTargets = targets.frames[static_cast<std::size_t>(first)];
+        BlockJacobians blocks(solver, firstTargets, run.values.front());
+        const Timing jacobian = timeRepeated([&] { blocks.evaluate(); }, o.timingBudget / 2, 3);
+        std::optional<double> blackMs;
+        if (o.scalingBlackBox) {
+            BlackBoxProblem black(binding, defaults.rotationScaleCm);
+            black.setTargets(firstTargets);
+            Eigen::VectorXd rb;
+            blackMs = timeRepeated([&] { black.jacobian(run.values.front(), defaults.finiteDifferenceStep, false, nullptr, rb); },
+                                   0.0, 1)
+                          .cpuMedianMs;
+        }
+        const double memoryMb = peakResidentMb() - residentBefore;
+        const double approxKb = static_cast<double>(approximationToYaml(a).size()) / 1024.0;
+
+        Series& ser = series[kind];
+        const auto params = static_cast<double>(rig.parameters().size());
+        ser.params.push_back(params);
+        ser.msPerFrame.push_back(run.cpuMsPerFrame());
+        ser.jacobianMs.push_back(jacobian.cpuMedianMs);
+        ser.blackBoxMs.push_back(blackMs.value_or(0.0));
+        ser.evaluations.push_back(static_cast<double>(a.training.evaluations));
+        ser.trainSeconds.push_back(a.training.seconds);
+        ser.memoryMb.push_back(memoryMb);
+        ser.approxKb.push_back(approxKb);
+        rows.push_back(Json{{"rig", kind},
+                       {"count", count},
+                       {"parameters", static_cast<long long>(rig.parameters().size())},
+                       {"modelled", static_cast<long long>(a.parameters.size())},
+                       {"outputs", static_cast<long long>(a.outputs.size())},
+                       {"blocks", blocks.blocks()},
+                       {"load_seconds", loadSeconds},
+                       {"train_evaluations", a.training.evaluations},
+                       {"train_order_evaluations", a.training.orderEvaluations},
+                       {"train_seconds", a.training.seconds},
+                       {"frames", run.frames()},
+                       {"converged_frames", run.converged},
+                       {"ms_per_frame", run.cpuMsPerFrame()},
+                       {"wall_ms_per_frame", run.msPerFrame()},
+                       {"mean_iterations", static_cast<double>(run.iterations) / std::max(run.frames(), 1)},
+                       {"jacobian_ms", jacobian.cpuMedianMs},
+                       {"blackbox_jacobian_ms", orNull(blackMs)},
+                       {"max_position_error_cm", errors.maxPositionCm},
+                       {"max_rotation_error_deg", errors.maxRotationDeg},
+                       {"memory_mb", memoryMb},
+                       {"memory_graph_mb", graphMb},
+                       {"memory_training_peak_mb", trainingPeakMb},
+                       {"memory_peak_reset", peakReset},
+                       {"approximation_kb", approxKb}});
+    }
+    report["scaling"] = std::move(rows);
+
+    Json growth = Json::object();
+    for (const auto& [kind, ser] : series) {
+        auto fit = [&](const std::vector<double>& y) { return orNull(growthExponent(ser.params, y)); };
+        growth[kind] = Json{{"ms_per_frame", fit(ser.msPerFrame)},
+                              {"jacobian_ms", fit(ser.jacobianMs)},
+                              {"blackbox_jacobian_ms", fit(ser.blackBoxMs)},
+                              {"train_evaluations", fit(ser.evaluations)},
+                              {"train_seconds", fit(ser.trainSeconds)},
+                              {"memory_mb", fit(ser.memoryMb)},
+                              {"approximation_kb", fit(ser.approxKb)}};
+    }
+    growth["note"] = "least-squares slope of log(figure) against log(parameters): cost ~ parameters^slope";
+    report["growth"] = std::move(growth);
+}
+
+}  // namespace rig::bench

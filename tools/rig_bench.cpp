@@ -1,0 +1,161 @@
+// rig-bench: the talk's figures side by side in one run (Jacobian, inversion per frame, a peer solver,
+// training, accuracy) and how they grow with rig size, written as JSON (docs/performance.md).
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "graph/error.h"
+#include "tools/bench_common.h"
+#include "tools/bench_suite.h"
+#include "tools/cli_common.h"
+
+namespace rig {
+namespace {
+
+struct Options {
+    bool quick = false;
+    std::string json;
+    std::string rig, spec, clip, map, makeRigs, python;
+    std::optional<int> frames;
+    std::vector<int> crowd, chain;
+    bool noScaling = false;
+    bool noCrowd = false;
+    bool noChain = false;
+    bool quiet = false;
+};
+
+// A figure of the report with its unit, "-" when it is missing (null).
+std::string figure(const bench::Json& j, std::string_view unit = "", int digits = 3)
+{
+    if (!j.is_number()) return "-";
+    return fmt::format("{:.{}g}{}{}", j.get<double>(), digits, unit.empty() ? "" : " ", unit);
+}
+
+std::string text(const bench::Json& j) { return j.is_string() ? j.get<std::string>() : j.dump(); }
+
+void printSummary(const bench::Json& r)
+{
+    const auto& jac = r.at("jacobian");
+    const auto& inv = r.at("invert");
+    const auto& cer = r.at("ceres");
+    const auto& train = r.at("train");
+    const auto& machine = r.at("machine");
+    std::cout << fmt::format("machine     {} cores, {}, {} build\n", figure(machine.at("cores")), text(machine.at("compiler")),
+                             text(machine.at("build_type")));
+    std::cout << fmt::format("jacobian    real graph (fd) {}, approximation fd {}, analytic {} ({}x the real graph)\n",
+                             figure(jac.at("blackbox_fd_ms"), "ms"), figure(jac.at("approx_fd_ms"), "ms"),
+                             figure(jac.at("approx_analytic_ms"), "ms"), figure(jac.at("speedup_analytic"), "", 4));
+    std::cout << fmt::format("inversion   {} per frame (1 thread), {} (2 threads); Gauss-Newton on the real graph {}\n",
+                             figure(inv.at("ms_per_frame"), "ms"), figure(inv.at("threads2_ms_per_frame"), "ms"),
+                             figure(inv.at("blackbox_ms_per_frame"), "ms"));
+    if (cer.at("ms_per_frame").is_null())
+        std::cout << fmt::format("ceres       - ({})\n", text(cer.at("note")));
+    else
+        std::cout << fmt::format("ceres       {} per frame ({}), ours {} on the same frames\n", figure(cer.at("ms_per_frame"), "ms"),
+                                 text(cer.at("linear_solver")), figure(cer.at("ours_ms_per_frame"), "ms"));
+    std::cout << fmt::format("training    {} evaluations, {}\n", figure(train.at("evaluations"), "", 6),
+                             figure(train.at("seconds"), "s"));
+    for (const auto& row : r.at("scaling"))
+        std::cout << fmt::format("scaling     {} {}: {} parameters, {} per frame, jacobian {}, {} evaluations\n",
+                                 text(row.at("rig")), figure(row.at("count"), "", 6), figure(row.at("parameters"), "", 6),
+                                 figure(row.at("ms_per_frame"), "ms"), figure(row.at("jacobian_ms"), "ms"),
+                                 figure(row.at("train_evaluations"), "", 7));
+}
+
+int run(const Options& o)
+{
+    if (!o.json.empty()) cli::checkOutputFile(o.json, "bench.json");
+    bench::BenchOptions options = o.quick ? bench::quickOptions() : bench::fullOptions();
+    if (!o.rig.empty()) options.rig = o.rig;
+    if (!o.spec.empty()) options.spec = o.spec;
+    if (!o.clip.empty()) options.clip = o.clip;
+    if (!o.map.empty()) options.map = o.map;
+    if (!o.makeRigs.empty()) options.makeRigs = o.makeRigs;
+    if (!o.python.empty()) options.python = o.python;
+    if (o.frames) {
+        if (*o.frames < 1) throw Error(fmt::format("--frames {}: give at least 1 frame", *o.frames));
+        options.frames = *o.frames;
+        options.ceresFrames = std::min(options.ceresFrames, *o.frames);
+    }
+    if (!o.crowd.empty()) options.crowdSizes = o.crowd;
+    if (!o.chain.empty()) options.chainSizes = o.chain;
+    if (o.noCrowd) options.crowdSizes.clear();
+    if (o.noChain) options.chainSizes.clear();
+    for (const int n : options.crowdSizes)
+        if (n < 1) throw Error(fmt::format("--crowd {}: a crowd has at least 1 biped", n));
+    for (const int n : options.chainSizes)
+        if (n < 1) throw Error(fmt::format("--chain {}: a chain has at least 1 joint", n));
+    for (const auto& [file, flag] : {std::pair{options.rig, "--rig"}, {options.spec, "--spec"}, {options.clip, "--clip"},
+                                     {options.map, "--map"}, {options.makeRigs, "--make-rigs"}})
+        if (!std::filesystem::exists(file))
+            throw Error(fmt::format("{} {}: no such file{}", flag, file.string(),
+                                    std::string_view(flag) == "--clip" ? " (Debian package assimp-testmodels)" : ""));
+    if (!o.quiet) options.log = [](std::string_view line) { std::cerr << "rig-bench: " << line << "\n"; };
+
+    // Generated rigs go to a fresh folder, removed at the end.
+    std::string pattern = (std::filesystem::temp_directory_path() / "rig-bench.XXXXXX").string();
+    if (!mkdtemp(pattern.data())) throw Error(fmt::format("cannot make a temporary folder {}", pattern));
+    options.workDir = pattern;
+    struct Cleanup {
+        std::filesystem::path dir;
+        ~Cleanup()
+        {
+            std::error_code ignored;
+            std::filesystem::remove_all(dir, ignored);
+        }
+    } cleanup{options.workDir};
+
+    const auto start = std::chrono::steady_clock::now();
+    bench::Json report = bench::Json::object();
+    report["machine"] = bench::machineDescription();
+    report["mode"] = o.quick ? "quick" : "full";
+    bench::runBipedBench(options, report);
+    if (o.noScaling) {
+        report["scaling"] = bench::Json::array();
+        report["growth"] = bench::Json();
+    } else {
+        bench::runScaling(options, report);
+    }
+    bench::Json load = bench::Json::array();
+    for (const double l : bench::loadAverage()) load.push_back(l);
+    report["load_average_at_end"] = std::move(load);
+    report["seconds"] = bench::secondsSince(start);
+
+    if (!o.json.empty()) cli::writeFileAtomically(o.json, report.dump(2) + "\n");
+    if (!o.quiet) printSummary(report);
+    return 0;
+}
+
+}  // namespace
+}  // namespace rig
+
+int main(int argc, char** argv)
+{
+    rig::Options options;
+    CLI::App app("Measures the talk's figures side by side in one run: Jacobians (black box against the "
+                 "approximation), inversion per frame (ours, Ceres, Gauss-Newton on the real rig), training, real-rig "
+                 "accuracy, and their growth on generated rigs (docs/performance.md). Run it from the source folder.",
+                 "rig-bench");
+    app.add_flag("--quick", options.quick, "A smoke run: under a minute, fewer frames and small generated rigs");
+    app.add_option("--json", options.json, "Write every figure as JSON to this file");
+    app.add_option("--rig", options.rig, "The biped rig (default rigs/biped.yaml)");
+    app.add_option("--spec", options.spec, "Its inversion parameters and outputs (default rigs/biped_inversion.yaml)");
+    app.add_option("--clip", options.clip, "Target clip (default /usr/share/assimp/models/BVH/01_01.bvh)");
+    app.add_option("--map", options.map, "Map file of the clip (default rigs/maps/cmu_to_biped.yaml)");
+    app.add_option("--make-rigs", options.makeRigs, "The rig generator (default scripts/make_rigs.py)");
+    app.add_option("--python", options.python, "Python interpreter for the generator (default python3)");
+    app.add_option("--frames", options.frames, "Clip frames to invert with our solver (default: all; --quick 240)");
+    app.add_option("--crowd", options.crowd, "Crowd sizes (bipeds) for the scaling rows")->delimiter(',');
+    app.add_option("--chain", options.chain, "Chain lengths (joints) for the scaling rows")->delimiter(',');
+    app.add_flag("--no-crowd", options.noCrowd, "No crowd rows");
+    app.add_flag("--no-chain", options.noChain, "No chain rows");
+    app.add_flag("--no-scaling", options.noScaling, "Measure the biped only");
+    app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors");
+    return rig::cli::runMain(app, argc, argv, [&] { return rig::run(options); });
+}
