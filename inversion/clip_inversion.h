@@ -7,7 +7,8 @@
 // values. A run over frames [first, last] therefore begins its chain at the restart frame at or before
 // `first` and solves the lead-in frames without reporting them: any split of a clip into chunks gives,
 // bit for bit, the values and per-frame errors of one run over the whole clip. Angular parameters move
-// continuously inside a chain (the solver never wraps them); at a restart they start again from rest.
+// continuously inside a chain (the solver keeps a periodic control at the equivalent value nearest its
+// warm start, never whole turns away); at a restart they start again from rest.
 
 #include <functional>
 #include <span>
@@ -36,7 +37,7 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
 
 struct ClipInversionOptions {
     SolverOptions solver;
-    // Real-rig polish corrections per frame (inversion/solver.h, polish()); 0: approximation only.
+    // Real-rig polish corrections per frame (inversion/rig_binding.h, polish()); 0: approximation only.
     int polishCorrections = 0;
     // Frames between warm-start restarts (see above), > 0. 120 frames: one second of a 120 fps clip,
     // so a chunk re-solves at most 119 lead-in frames.
@@ -65,7 +66,7 @@ struct ClipInversionSummary {
     double meanRotationErrorDeg = 0.0;
     std::string worstJoint;
     int worstFrame = -1;                // 0-based clip index
-    double solveSeconds = 0.0;          // solver time of the reported frames (lead-in and real rig excluded)
+    double solveSeconds = 0.0;          // solver and polish time of the reported frames (lead-in and the error measurement excluded)
     double msPerFrame = 0.0;            // solveSeconds per reported frame, ms
     int leadInFrames = 0;               // solved before `first` to join the warm-start chain
     std::vector<FrameInversion> perFrame;

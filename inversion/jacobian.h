@@ -6,8 +6,9 @@
 //   rotation  w_r * s * log(Q_target^T Q_k(beta))                              radians * s (cm per radian)
 // where Q is the orthonormal (polar) part of a world matrix's 3x3 block, so scale and shear in a target
 // or in the approximation's output (a stretch operator) never count as rotation. The Jacobian is
-// analytic, from the operator product F~_k = P_s1 ... P_sm F_k(0) with prefix and suffix products
-// (dF~_k/da_j = prefix_j * P_j'(a_j) * suffix_j), or central finite differences on the approximation
+// analytic, from the operator product F~_k = P_s1 ... P_sm F_k(0) (dF~_k/da_j = prefix_j * P_j'(a_j) *
+// suffix_j: the outputs' products share their prefixes as a tree, and prefix/suffix products are kept
+// as the fallback for singular operators; ResidualWorkspace says how), or central finite differences on the approximation
 // with its columns in parallel (oneTBB, in the caller's task arena).
 
 #include <span>

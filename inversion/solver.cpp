@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -13,9 +14,9 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
+#include <oneapi/tbb/flow_graph.h>
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/task_arena.h>
-#include <oneapi/tbb/task_group.h>
 
 namespace rig {
 namespace {
@@ -139,6 +140,45 @@ struct WholeWorkspace {
     Eigen::VectorXd r;
 };
 
+// The partition as a TBB flow graph: a node per block, an edge from each block to its children, so that
+// a block runs once its parent has and independent blocks (left arm, right arm) run in parallel. Built
+// once per plan and borrowed by one solve at a time (a graph runs one solve's blocks).
+class BlockGraph {
+public:
+    explicit BlockGraph(const Partition& partition) : start_(graph_)
+    {
+        for (std::size_t b = 0; b < partition.blocks.size(); ++b)
+            nodes_.push_back(std::make_unique<Node>(graph_, [this, b](const tbb::flow::continue_msg&) {
+                (*body_)(static_cast<int>(b));
+            }));
+        for (const int root : partition.roots) tbb::flow::make_edge(start_, *nodes_[static_cast<std::size_t>(root)]);
+        for (std::size_t b = 0; b < partition.blocks.size(); ++b)
+            for (const int child : partition.blocks[b].children)
+                tbb::flow::make_edge(*nodes_[b], *nodes_[static_cast<std::size_t>(child)]);
+    }
+
+    // Runs body(block) for every block, parents before children; returns when all have run.
+    void run(const std::function<void(int)>& body)
+    {
+        body_ = &body;
+        start_.try_put(tbb::flow::continue_msg());
+        try {
+            graph_.wait_for_all();
+        }
+        catch (...) {
+            graph_.reset();  // a block threw: the graph is cancelled; ready it for the next solve
+            throw;
+        }
+    }
+
+private:
+    using Node = tbb::flow::continue_node<tbb::flow::continue_msg>;
+    tbb::flow::graph graph_;
+    tbb::flow::broadcast_node<tbb::flow::continue_msg> start_;
+    std::vector<std::unique_ptr<Node>> nodes_;
+    const std::function<void(int)>* body_ = nullptr;
+};
+
 // The partition for one set of counted rows, with what its blocks need.
 struct Plan {
     Plan(const Approximation& approximation, Partition p, std::vector<int> counted)
@@ -150,6 +190,7 @@ struct Plan {
     std::vector<std::unique_ptr<BlockPlan>> blocks;
     ResidualStructure whole;  // every counted output, no unknowns: costs and errors
     mutable Pool<WholeWorkspace> wholePool;
+    mutable Pool<BlockGraph> graphs;
 };
 
 struct BlockResult {
@@ -542,33 +583,24 @@ SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<doubl
     auto& results = scratch->results;
     results.assign(partition.blocks.size(), BlockResult{});
     const bool parallel = impl.options.threads != 1;
-    // A block runs once its parent has; siblings touch disjoint parameters and outputs, so running them
-    // in parallel gives the same values as running them in order.
-    auto run = [&](auto&& self, int b) -> void {
+    const std::function<void(int)> solveOne = [&](int b) {
         results[static_cast<std::size_t>(b)] =
             impl.solveBlock(*plan->blocks[static_cast<std::size_t>(b)], scratch->prepared, values, parallel);
-        const auto& children = partition.blocks[static_cast<std::size_t>(b)].children;
-        if (parallel && children.size() > 1) {
-            tbb::task_group group;
-            for (const int c : children) group.run([&self, c] { self(self, c); });
-            group.wait();
-        } else {
-            for (const int c : children) self(self, c);
-        }
     };
-    auto runAll = [&] {
-        if (parallel && partition.roots.size() > 1) {
-            tbb::task_group group;
-            for (const int b : partition.roots) group.run([&run, b] { run(run, b); });
-            group.wait();
-        } else {
-            for (const int b : partition.roots) run(run, b);
-        }
-    };
-    if (impl.arena)
-        impl.arena->execute(runAll);
-    else
-        runAll();
+    if (!parallel || partition.blocks.size() == 1) {
+        // Serially, in dependency order: the blocks are listed parents first.
+        for (std::size_t b = 0; b < partition.blocks.size(); ++b) solveOne(static_cast<int>(b));
+    } else {
+        // Siblings touch disjoint parameters and outputs: in parallel they give the values of the serial order.
+        auto runAll = [&] {
+            Borrowed<BlockGraph> graph(plan->graphs, [&] { return std::make_unique<BlockGraph>(partition); });
+            graph->run(solveOne);
+        };
+        if (impl.arena)
+            impl.arena->execute(runAll);  // the graph is made in, and runs on, the solver's arena
+        else
+            runAll();
+    }
 
     bool converged = true;
     for (const BlockResult& r : results) {

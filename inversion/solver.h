@@ -37,8 +37,8 @@ struct SolverOptions {
     // Converged when an accepted step lowers the cost by no more than this fraction of it.
     double functionTolerance = 1e-8;
     // Converged when a step is no longer than parameterTolerance * (|x| + parameterTolerance)
-    // (2-norms over the block's parameters, internal units). The step is still taken if it does not
-    // raise the cost.
+    // (2-norms over the block's parameters, internal units). Gauss-Newton still takes such a step if it
+    // does not raise the cost; Levenberg-Marquardt takes it only if it lowers the cost.
     double parameterTolerance = 1e-10;
     // Converged when the projected gradient max_i |x_i - clamp(x_i - g_i)| is at most this (g = J^T r).
     double gradientTolerance = 1e-12;
@@ -54,7 +54,7 @@ struct SolverOptions {
     bool partition = true;
     // Threads for one solve: 0 uses the caller's task arena (all cores by default, and nested in a
     // caller's own tbb parallel loops), 1 runs serially without TBB, N > 1 uses the solver's own arena of
-    // N. The values are bit-identical for every count. Many concurrent solves: use 0 or 1.
+    // N (at most the machine's cores). The values are bit-identical for every count. Many concurrent solves: use 0 or 1.
     int threads = 0;
 
     // Throws std::invalid_argument "SolverOptions::<field> = <value>: <rule>".

@@ -1,6 +1,10 @@
 #pragma once
 // Approximations the end-to-end tests share, learned once per test run with the real rig-learn:
-// the CMU clip's bvh2rig rig over its channels, and the biped over rigs/biped_inversion.yaml.
+// the CMU clip's bvh2rig rig over its channels, and the biped over rigs/biped_inversion.yaml. Each in a
+// folder of the test process's own: CTest runs test cases as parallel processes, and one learning in a
+// shared folder would wipe another's file.
+
+#include <unistd.h>
 
 #include <filesystem>
 #include <string>
@@ -35,7 +39,7 @@ inline const CmuSetup& cmuSetup()
 {
     static const CmuSetup setup = [] {
         CmuSetup s;
-        const auto dir = scratchDir("learned_cmu");
+        const auto dir = scratchDir(fmt::format("learned_cmu.{}", ::getpid()));
         s.rig = dir / "cmu.yaml";
         s.approximation = dir / "cmu.approx.yaml";
         s.clip = readBvhFile(cmuClip);
@@ -59,7 +63,7 @@ inline const CmuSetup& cmuSetup()
 inline std::filesystem::path bipedApproximation()
 {
     static const std::filesystem::path file = [] {
-        const auto out = scratchDir("learned_biped") / "biped.approx.yaml";
+        const auto out = scratchDir(fmt::format("learned_biped.{}", ::getpid())) / "biped.approx.yaml";
         const YAML::Node spec = YAML::LoadFile((sourceDir() / "rigs/biped_inversion.yaml").string());
         std::vector<std::string> params, outputs;
         for (const auto& p : spec["params"]) params.push_back(p.as<std::string>());

@@ -1,5 +1,5 @@
 // rigInversion (a plugin): drives a rig's parameters from target joints with a learned approximation
-// (docs/rig-inversion-node.md). target[k] is the target of the approximation's output k; value[i] is
+// (docs/inversion-tutorial.md). target[k] is the target of the approximation's output k; value[i] is
 // parameter i (the approximation's composition order), angles in degrees as unitless numbers, so that a
 // connection to an angle plug turns them into radians as any unitless source does.
 //
@@ -271,7 +271,7 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
     using namespace rig;
     NodeTypeBuilder b("rigInversion");
     b.description("Drives a rig's parameters from target joints with an approximation learned by rig-learn "
-                  "(docs/rig-inversion-node.md). target[k] is the target of the approximation's output k; "
+                  "(docs/inversion-tutorial.md). target[k] is the target of the approximation's output k; "
                   "value[i] its parameter i, angles in degrees. Warm-starts from the previous frame when time "
                   "moves on by one frame. The rig-file field `connect: {targets: NODE_OR_GLOB, parameters: true}` "
                   "wires it by the names stored in the approximation.");
