@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -10,6 +11,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 namespace rig {
@@ -129,8 +131,12 @@ public:
                             || std::find(optional.begin(), optional.end(), key) != optional.end();
             if (!ok) fail(kv.first, field, fmt::format("unknown field '{}'; the fields are {}", key, known));
         }
+        // At the top of the file, a missing field is most often a file cut short or edited by hand.
         for (auto k : required)
-            if (!map[std::string(k)]) fail(map, field, fmt::format("the field '{}' is missing", k));
+            if (!map[std::string(k)])
+                fail(map, field,
+                     fmt::format("the field '{}' is missing{}", k,
+                                 field == "file" ? "; the file is incomplete (cut short?) or was edited: re-run rig-learn" : ""));
     }
 
     YAML::Node child(const YAML::Node& map, std::string_view key) const { return map[std::string(key)]; }
@@ -351,17 +357,26 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         try {
             return YAML::Load(std::string(text));
         }
+        catch (const YAML::DeepRecursion& e) {
+            throw ApproximationFileError(fmt::format("{}:{}:{}: YAML lists and maps nested more than {} levels deep; an "
+                                                     "approximation file nests a few levels, so the file is damaged",
+                                                     fileName, e.mark.line + 1, e.mark.column + 1, e.depth() - 1));
+        }
         catch (const YAML::Exception& e) {
             throw ApproximationFileError(
-                fmt::format("{}:{}:{}: not valid YAML: {}", fileName, e.mark.line + 1, e.mark.column + 1, e.msg));
+                fmt::format("{}:{}:{}: YAML syntax error: {}", fileName, e.mark.line + 1, e.mark.column + 1, e.msg));
         }
     }();
     const Reader r(fileName);
     if (!root.IsMap())
-        throw ApproximationFileError(fmt::format("{}: not an approximation file (expected a map with format: {})", fileName,
-                                                 approximationFormatName));
+        throw ApproximationFileError(fmt::format("{}: not an approximation file (expected a map with format: {}); rig-learn -o "
+                                                 "writes one",
+                                                 fileName, approximationFormatName));
     // The format and version first: any other problem in a file of another kind or version says less.
-    const YAML::Node format = r.need(root, "format", "file");
+    if (!root["format"])
+        throw ApproximationFileError(fmt::format("{}: not an approximation file (no 'format: {}'); rig-learn -o writes one",
+                                                 fileName, approximationFormatName));
+    const YAML::Node format = root["format"];
     if (!format.IsScalar() || format.Scalar() != approximationFormatName)
         r.fail(format, "format", fmt::format("not an approximation file (expected format: {})", approximationFormatName));
     const int version = r.integer<int>(r.need(root, "version", "file"), "version");
@@ -470,10 +485,27 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
 
 Approximation readApproximationFile(const std::filesystem::path& file)
 {
+    // A folder opens as a stream of nothing, and a device or a pipe never ends: refuse them by name.
+    std::error_code ec;
+    const auto status = std::filesystem::status(file, ec);
+    if (std::filesystem::is_directory(status))
+        throw ApproximationFileError(
+            fmt::format("{}: is a folder; give the approximation file (rig-learn -o writes one)", file.string()));
+    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+        throw ApproximationFileError(fmt::format("{}: is not a regular file (a device or a pipe?); give the approximation "
+                                                 "file (rig-learn -o writes one)",
+                                                 file.string()));
+    if (std::filesystem::exists(status) && std::filesystem::file_size(file, ec) > approximationMaxFileBytes)
+        throw ApproximationFileError(fmt::format("{}: more than the {} MB an approximation file may have; it is not one, "
+                                                 "or it is damaged",
+                                                 file.string(), approximationMaxFileBytes >> 20));
     std::ifstream in(file, std::ios::binary);
-    if (!in)
-        throw ApproximationFileError(fmt::format("{}: cannot read it ({}); check the name (rig-learn -o writes one)",
-                                                 file.string(), std::strerror(errno)));
+    if (!in) {
+        const int error = errno;
+        throw ApproximationFileError(fmt::format("{}: cannot read it ({}); {}", file.string(), std::strerror(error),
+                                                 error == ENOENT ? "check the name (rig-learn -o writes one)"
+                                                                 : "check its permissions"));
+    }
     std::ostringstream s;
     s << in.rdbuf();
     return approximationFromYaml(s.str(), file.string());

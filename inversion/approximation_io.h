@@ -5,6 +5,7 @@
 // says. Reading checks everything an evaluation relies on (types, indices, knots) and reports the
 // first problem as "file:line:col: where: what".
 
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -23,6 +24,8 @@ public:
 
 inline constexpr std::string_view approximationFormatName = "rigInversionApproximation";
 inline constexpr int approximationFormatVersion = 1;
+// Largest file readApproximationFile reads (a biped's approximation is under 1 MB).
+inline constexpr std::uintmax_t approximationMaxFileBytes = std::uintmax_t{256} << 20;
 
 // The file's text. Throws std::invalid_argument naming the field when a number is not finite or the
 // structure is inconsistent (indices out of range): an approximation like that is a bug, not a file.

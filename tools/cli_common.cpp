@@ -16,6 +16,27 @@
 
 namespace rig::cli {
 
+namespace {
+
+// CLI11 says "Could not convert: --frames = abc" when a value is not of its option's type; say what the
+// option takes instead (every typed option of the tools is a number or a list of numbers).
+std::string conversionMessage(const CLI::App& app, const std::string& what)
+{
+    constexpr std::string_view prefix = "Could not convert: ";
+    const auto equals = what.find(" = ");
+    if (!what.starts_with(prefix) || equals == std::string::npos) return what;
+    const std::string name = what.substr(prefix.size(), equals - prefix.size());
+    const std::string value = what.substr(equals + 3);
+    const CLI::Option* option = app.get_option_no_throw(name);
+    const std::string type = option ? option->get_type_name() : std::string();
+    const std::string_view kind = type.find("FLOAT") != std::string::npos ? "a number"
+                                  : type.find("INT") != std::string::npos ? "a whole number in range"
+                                                                          : "a value this option takes";
+    return fmt::format("{}: '{}' is not {}", name, messageExcerpt(value), kind);
+}
+
+}  // namespace
+
 int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& body)
 {
     try {
@@ -23,6 +44,11 @@ int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
     }
     catch (const CLI::CallForHelp& e) {
         return app.exit(e);
+    }
+    catch (const CLI::ConversionError& e) {
+        std::cerr << fmt::format("error: {}; run '{} --help' for usage\n", oneLine(conversionMessage(app, e.what())),
+                                 app.get_name());
+        return 2;
     }
     catch (const CLI::ParseError& e) {
         std::cerr << fmt::format("error: {}; run '{} --help' for usage\n", oneLine(e.what()), app.get_name());
@@ -98,17 +124,21 @@ std::filesystem::path folderOf(const std::filesystem::path& file)
 
 }  // namespace
 
-void checkOutputFile(const std::filesystem::path& file, std::string_view example)
+void checkOutputFile(const std::filesystem::path& file, std::string_view example, std::string_view flag)
 {
-    if (file.empty()) throw Error("the output file name is empty; give -o FILE");
+    if (file.empty()) throw Error(fmt::format("the output file name is empty; give {} FILE", flag));
     std::error_code ec;
     if (std::filesystem::is_directory(file, ec) || !file.has_filename())
-        throw Error(fmt::format("{}: is a folder; give a file name, e.g. -o {}", file.string(),
+        throw Error(fmt::format("{}: is a folder; give a file name, e.g. {} {}", file.string(), flag,
                                 (file / example).lexically_normal().string()));
     const auto folder = folderOf(file);
     if (!std::filesystem::is_directory(folder, ec))
         throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable", file.string(),
                                 std::filesystem::exists(folder, ec) ? "Not a directory" : "No such file or directory"));
+    // A read-only folder is found now, not after the work (learning a rig can take minutes).
+    if (::access(folder.c_str(), W_OK | X_OK) != 0)
+        throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable", file.string(),
+                                std::strerror(errno)));
 }
 
 std::vector<std::filesystem::path> staleTemporaryFiles(const std::filesystem::path& file)

@@ -25,9 +25,10 @@ struct FrameRange {
 FrameRange parseFrameRange(std::string_view text, std::string_view flag);
 
 // Checks, before any work, that `file` can be an output: a non-empty name, not a folder, in a folder
-// that exists. Throws rig::Error with what to do.
-// `example` is the file name the message suggests when `file` is a folder.
-void checkOutputFile(const std::filesystem::path& file, std::string_view example = "out.json");
+// that exists and this process may write into. Throws rig::Error with what to do.
+// `example` is the file name the message suggests when `file` is a folder; `flag` the option that names
+// the file, for the messages.
+void checkOutputFile(const std::filesystem::path& file, std::string_view example = "out.json", std::string_view flag = "-o");
 
 // Writes through a temporary file in the same folder and renames it, so a failing or interrupted run
 // never leaves a truncated file or damages an existing one. Throws rig::Error when it cannot.

@@ -21,6 +21,7 @@ namespace {
 struct Options {
     bool quick = false;
     std::string json;
+    bool jsonGiven = false;  // --json "" is an error, not no report
     std::string rig, spec, clip, map, makeRigs, python;
     std::optional<int> frames;
     std::vector<int> crowd, chain;
@@ -70,7 +71,7 @@ void printSummary(const bench::Json& r)
 
 int run(const Options& o)
 {
-    if (!o.json.empty()) cli::checkOutputFile(o.json, "bench.json");
+    if (o.jsonGiven) cli::checkOutputFile(o.json, "bench.json", "--json");
     bench::BenchOptions options = o.quick ? bench::quickOptions() : bench::fullOptions();
     if (!o.rig.empty()) options.rig = o.rig;
     if (!o.spec.empty()) options.spec = o.spec;
@@ -94,7 +95,7 @@ int run(const Options& o)
     for (const auto& [file, flag] : {std::pair{options.rig, "--rig"}, {options.spec, "--spec"}, {options.clip, "--clip"},
                                      {options.map, "--map"}, {options.makeRigs, "--make-rigs"}})
         if (!std::filesystem::exists(file))
-            throw Error(fmt::format("{} {}: no such file{}", flag, file.string(),
+            throw Error(fmt::format("{} {}: no such file{}; check the path", flag, file.string(),
                                     std::string_view(flag) == "--clip" ? " (Debian package assimp-testmodels)" : ""));
     if (!o.quiet) options.log = [](std::string_view line) { std::cerr << "rig-bench: " << line << "\n"; };
 
@@ -127,7 +128,7 @@ int run(const Options& o)
     report["load_average_at_end"] = std::move(load);
     report["seconds"] = bench::secondsSince(start);
 
-    if (!o.json.empty()) cli::writeFileAtomically(o.json, report.dump(2) + "\n");
+    if (o.jsonGiven) cli::writeFileAtomically(o.json, report.dump(2) + "\n");
     if (!o.quiet) printSummary(report);
     return 0;
 }
@@ -157,5 +158,8 @@ int main(int argc, char** argv)
     app.add_flag("--no-chain", options.noChain, "No chain rows");
     app.add_flag("--no-scaling", options.noScaling, "Measure the biped only");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors");
-    return rig::cli::runMain(app, argc, argv, [&] { return rig::run(options); });
+    return rig::cli::runMain(app, argc, argv, [&] {
+        options.jsonGiven = app.count("--json") > 0;
+        return rig::run(options);
+    });
 }

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include "graph/error.h"
@@ -26,10 +27,14 @@ std::string where(const std::string& file, const YAML::Node& node)
 std::string readText(const std::filesystem::path& file, std::string_view what)
 {
     std::error_code ec;
-    if (!std::filesystem::exists(file, ec))
+    const auto status = std::filesystem::status(file, ec);
+    if (!std::filesystem::exists(status))
         throw Error(fmt::format("{}: no such {}; check the path", file.string(), what));
-    if (std::filesystem::is_directory(file, ec))
+    if (std::filesystem::is_directory(status))
         throw Error(fmt::format("{}: is a folder, not a {}", file.string(), what));
+    // A device or a pipe never ends (or has no size): refuse it before reading.
+    if (!std::filesystem::is_regular_file(status))
+        throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the path of a {}", file.string(), what));
     if (std::filesystem::file_size(file, ec) > bvhMaxFileBytes)
         throw Error(fmt::format("{}: more than the {} MB a {} may have; cut it into shorter files", file.string(),
                                 bvhMaxFileBytes >> 20, what));
@@ -40,14 +45,30 @@ std::string readText(const std::filesystem::path& file, std::string_view what)
     return text.str();
 }
 
-YAML::Node parseYaml(const std::string& text, const std::string& file)
+// `syntax` names the language in messages: YAML for a map file, JSON for a clip (read as YAML, which
+// JSON is a part of).
+YAML::Node parseYaml(const std::string& text, const std::string& file, std::string_view syntax, std::string_view what)
 {
     try {
         return YAML::Load(text);
     }
-    catch (const YAML::ParserException& e) {
-        throw Error(fmt::format("{}: {}", formatMark({file, e.mark.line + 1, e.mark.column + 1}), e.msg));
+    catch (const YAML::DeepRecursion& e) {
+        throw Error(fmt::format("{}: lists and maps nested more than {} levels deep; a {} nests a few levels, so the "
+                                "file is damaged",
+                                formatMark({file, e.mark.line + 1, e.mark.column + 1}), e.depth() - 1, what));
     }
+    catch (const YAML::ParserException& e) {
+        throw Error(fmt::format("{}: {} syntax error: {}", formatMark({file, e.mark.line + 1, e.mark.column + 1}), syntax,
+                                e.msg));
+    }
+}
+
+// A map's key as text; a key that is a list or a map (YAML allows them) is an error at its place.
+std::string keyText(const YAML::Node& key, const std::string& file, std::string_view what)
+{
+    if (!key.IsScalar())
+        throw Error(fmt::format("{}: a key of {} is a list or a map; keys are names", where(file, key), what));
+    return key.Scalar();
 }
 
 double finiteNumber(const YAML::Node& node, const std::string& file, std::string_view what)
@@ -72,14 +93,19 @@ std::vector<int> applyMap(const std::vector<std::string>& fileJoints, const std:
                           const TargetMap& map, std::vector<std::string>& names)
 {
     const std::set<std::string> present(fileJoints.begin(), fileJoints.end());
+    // file:line of an entry of the map (a map made in code has no lines).
+    const auto at = [&](const std::map<std::string, int>& lines, const std::string& joint) {
+        const auto it = lines.find(joint);
+        return it == lines.end() ? map.file : fmt::format("{}:{}", map.file, it->second);
+    };
     for (const auto& [from, to] : map.rename)
         if (!present.count(from))
-            throw Error(fmt::format("{}:{}: the map renames '{}', which {} does not have; check the joint name",
-                                    map.file, map.renameLines.at(from), from, clipFile));
+            throw Error(fmt::format("{}: the map renames '{}', which {} does not have; check the joint name",
+                                    at(map.renameLines, from), from, clipFile));
     for (const auto& joint : map.ignore)
         if (!present.count(joint))
-            throw Error(fmt::format("{}: the map ignores '{}', which {} does not have; check the joint name", map.file,
-                                    joint, clipFile));
+            throw Error(fmt::format("{}: the map ignores '{}', which {} does not have; check the joint name",
+                                    at(map.ignoreLines, joint), joint, clipFile));
     std::vector<int> kept;
     std::set<std::string> seen;
     for (int j = 0; j < static_cast<int>(fileJoints.size()); ++j) {
@@ -132,11 +158,13 @@ Eigen::Matrix4d readMatrix(const YAML::Node& node, const std::string& file, cons
     return m;
 }
 
-TargetClip readJsonTargets(const std::filesystem::path& file, const TargetMap& map)
+}  // namespace
+
+TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileName, const TargetMap& map)
 {
     TargetClip clip;
-    clip.file = file.string();
-    const YAML::Node root = parseYaml(readText(file, "JSON clip"), clip.file);
+    clip.file = fileName;
+    const YAML::Node root = parseYaml(std::string(text), clip.file, "JSON", "JSON clip");
     if (!root.IsSequence() || root.size() == 0)
         throw Error(fmt::format("{}: expected a list of frames as graph-eval writes them ([{{\"frame\": 1, "
                                 "\"hips.worldMatrix\": [[...], ...]}}, ...])",
@@ -144,7 +172,7 @@ TargetClip readJsonTargets(const std::filesystem::path& file, const TargetMap& m
     static constexpr std::string_view suffix = ".worldMatrix";
     std::vector<std::string> fileJoints;
     for (const auto& entry : root[0]) {
-        const auto key = entry.first.as<std::string>();
+        const auto key = keyText(entry.first, clip.file, "a frame");
         if (key == "frame") continue;
         if (!key.ends_with(suffix))
             throw Error(fmt::format("{}: '{}' is not a joint's world matrix (NODE.worldMatrix); ask graph-eval for "
@@ -181,18 +209,21 @@ TargetClip readJsonTargets(const std::filesystem::path& file, const TargetMap& m
     return clip;
 }
 
-}  // namespace
-
 TargetMap readTargetMap(const std::filesystem::path& file)
 {
+    return parseTargetMap(readText(file, "map file"), file.string());
+}
+
+TargetMap parseTargetMap(std::string_view text, const std::string& fileName)
+{
     TargetMap map;
-    map.file = file.string();
-    const YAML::Node root = parseYaml(readText(file, "map file"), map.file);
+    map.file = fileName;
+    const YAML::Node root = parseYaml(std::string(text), map.file, "YAML", "map file");
     if (!root.IsMap())
         throw Error(fmt::format("{}: a map file is a map with 'scale:', 'joints:' and 'ignore:' (docs/rig-invert.md)",
                                 where(map.file, root)));
     for (const auto& entry : root) {
-        const auto key = entry.first.as<std::string>();
+        const auto key = keyText(entry.first, map.file, "a map file");
         const YAML::Node& value = entry.second;
         if (key == "scale") {
             map.scale = finiteNumber(value, map.file, "scale");
@@ -205,17 +236,25 @@ TargetMap readTargetMap(const std::filesystem::path& file)
                 throw Error(fmt::format("{}: 'joints' must map target joints to rig joints (Hips: pelvis)",
                                         where(map.file, value)));
             for (const auto& rename : value) {
+                const std::string from = keyText(rename.first, map.file, "'joints'");
+                // A missing name (null) has its place after the key: point at the key.
                 if (!rename.second.IsScalar() || rename.second.Scalar().empty())
-                    throw Error(fmt::format("{}: '{}' must be renamed to a rig joint's name", where(map.file, rename.second),
-                                            rename.first.as<std::string>()));
-                map.rename[rename.first.as<std::string>()] = rename.second.Scalar();
-                map.renameLines[rename.first.as<std::string>()] = rename.first.Mark().line + 1;
+                    throw Error(fmt::format("{}: '{}' must be renamed to a rig joint's name (clip joint: rig joint)",
+                                            where(map.file, rename.second.IsNull() ? rename.first : rename.second),
+                                            messageExcerpt(from)));
+                map.rename[from] = rename.second.Scalar();
+                map.renameLines[from] = rename.first.Mark().line + 1;
             }
         }
         else if (key == "ignore") {
             if (!value.IsSequence())
                 throw Error(fmt::format("{}: 'ignore' must be a list of target joints", where(map.file, value)));
-            for (const auto& joint : value) map.ignore.push_back(joint.as<std::string>());
+            for (const auto& joint : value) {
+                if (!joint.IsScalar() || joint.Scalar().empty())
+                    throw Error(fmt::format("{}: 'ignore' must be a list of target joints' names", where(map.file, joint)));
+                map.ignore.push_back(joint.Scalar());
+                map.ignoreLines[joint.Scalar()] = joint.Mark().line + 1;
+            }
         }
         else {
             throw Error(fmt::format("{}: unknown key '{}'; a map file has 'scale:', 'joints:' and 'ignore:'",
@@ -227,9 +266,12 @@ TargetMap readTargetMap(const std::filesystem::path& file)
 
 TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map)
 {
+    std::error_code ec;
+    if (std::filesystem::is_directory(file, ec))
+        throw Error(fmt::format("{}: is a folder; give a clip file (.bvh, or .json of world matrices)", file.string()));
     const auto extension = file.extension().string();
     if (extension == ".bvh" || extension == ".BVH") return readBvhTargets(file, map);
-    if (extension == ".json") return readJsonTargets(file, map);
+    if (extension == ".json") return parseJsonTargetClip(readText(file, "JSON clip"), file.string(), map);
     throw Error(fmt::format("{}: a clip is a .bvh file or a .json file of world matrices (graph-eval's JSON); "
                             "rename it or convert it",
                             file.string()));

@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -29,9 +30,12 @@ struct TargetMap {
     std::map<std::string, std::string> rename;       // target joint -> rig joint
     std::map<std::string, int> renameLines;          // the line of each entry, for messages
     std::vector<std::string> ignore;                 // target joints left out
+    std::map<std::string, int> ignoreLines;          // the line of each, for messages
 };
 
 TargetMap readTargetMap(const std::filesystem::path& file);
+// The same from a map file's text; `fileName` is used in messages.
+TargetMap parseTargetMap(std::string_view text, const std::string& fileName);
 
 struct TargetClip {
     std::string file;                               // as given, for messages
@@ -42,5 +46,7 @@ struct TargetClip {
 
 // Reads a .bvh or .json target clip and applies the map.
 TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map);
+// A .json clip from its text; `fileName` is used in messages.
+TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileName, const TargetMap& map);
 
 }  // namespace rig

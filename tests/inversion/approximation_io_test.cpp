@@ -306,7 +306,7 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
     CHECK(errorWith("slope: 1", "slope: 1, curve: {knots: [0, 1], values: [0, 1]}")
           == "f.yaml:23:9: parameters[0].operators[0]: give either slope (linear) or curve, not both");
     CHECK(errorWith("rest: [[1, 0, 0, 0], ", "rest: [") == "f.yaml:9:23: outputs[0].rest: expected 4 entries, found 3");
-    CHECK(errorWith("discarded: []", "discarded: [") == "f.yaml:25:1: not valid YAML: end of sequence flow not found");
+    CHECK(errorWith("discarded: []", "discarded: [") == "f.yaml:25:1: YAML syntax error: end of sequence flow not found");
 
     try {
         readApproximationFile("no/such/approximation.yaml");

@@ -1,6 +1,7 @@
-// The bad-input corpus (tests/corpus/cases.yaml): every case runs a real command line on a hostile input
-// and must fail cleanly: exit code 2, exactly one "error: ..." line on standard error (the exact text is
-// in the manifest), nothing on standard output, no file created, and an existing output untouched.
+// The bad-input corpus (tests/corpus/cases.yaml): every case runs a real command line (graph-eval,
+// bvh2rig, rig-learn, rig-invert, rig-bench) on a hostile input and must fail cleanly: exit code 2,
+// exactly one "error: ..." line on standard error (the exact text is in the manifest), nothing on standard
+// output, no file created, and an existing output untouched.
 // docs/robustness.md describes the corpus and how to add a case.
 #include <doctest/doctest.h>
 
@@ -91,6 +92,14 @@ void generate(const YAML::Node& spec, const fs::path& dir)
         }
         rig::test::writeFile(dir / fmt::format("f{}.yaml", depth), "nodes:\n  - {name: a, type: joint}\n");
     }
+    else if (kind == "learn") {
+        // An approximation learned now from the rig as it is (its fingerprint matches).
+        std::string command = rig::test::tool("rig-learn");
+        for (const auto& a : spec["args"].as<std::vector<std::string>>()) command += " " + shellQuote(a);
+        const auto r = rig::test::run(command + " -o " + shellQuote(file.string()));
+        INFO(r.err);
+        REQUIRE(r.exitCode == 0);
+    }
     else if (kind == "folder") fs::create_directories(file);
     else if (kind == "fifo") REQUIRE(::mkfifo(file.c_str(), 0644) == 0);
     else FAIL("unknown generator kind '" << kind << "'");
@@ -137,21 +146,44 @@ std::optional<std::string> unprivilegedPrefix()
     return std::string("setpriv --reuid=65534 --regid=65534 --clear-groups ");
 }
 
-// Runs one case (once as written and, for graph-eval without -o, once more writing to an existing
-// output file) and checks everything the corpus promises.
+// The file a case writes with -o directly in its scratch folder ("-o {scratch}/F": F), unless the case
+// makes F itself; "" when there is none.
+std::string scratchOutput(const Case& k)
+{
+    for (std::size_t i = 0; i + 1 < k.args.size(); ++i) {
+        if (k.args[i] != "-o" && k.args[i] != "--output") continue;
+        const std::string& path = k.args[i + 1];
+        if (!path.starts_with("{scratch}/")) return {};
+        const std::string file = path.substr(std::string_view("{scratch}/").size());
+        if (file.empty() || file.find('/') != std::string::npos || k.existing.count(file)) return {};
+        for (const auto& g : k.generated)
+            if (g["file"].as<std::string>("") == file) return {};
+        return file;
+    }
+    return {};
+}
+
+// Runs one case once as written and once more writing over an existing output file (graph-eval without
+// -o: -o {scratch}/previous.json added; a case with -o {scratch}/F: F made first), and checks everything
+// the corpus promises.
 void runCase(const Case& k, int number, const std::string& prefix)
 {
     for (const bool withOutput : {false, true}) {
         const bool hasOutput = std::find_if(k.args.begin(), k.args.end(), [](const std::string& a) {
                                    return a == "-o" || a == "--output" || a.starts_with("--output=");
                                }) != k.args.end();
-        if (withOutput && (k.tool != "graph-eval" || hasOutput)) continue;
+        const std::string output = scratchOutput(k);
+        if (withOutput && output.empty() && (k.tool != "graph-eval" || hasOutput)) continue;
         CAPTURE(withOutput);
         const fs::path dir = rig::test::scratchDir(fmt::format("corpus/{:03}", number));
+        // The unprivileged user's own folder: writable, so that only what the case makes unreadable or
+        // read-only bites.
+        if (k.unprivileged) fs::permissions(dir, fs::perms::all);
         for (const auto& g : k.generated) generate(g, dir);
         for (const auto& [file, text] : k.existing) rig::test::writeFile(dir / file, text);
         std::vector<std::string> args = k.args;
-        if (withOutput) {
+        if (withOutput && !output.empty()) rig::test::writeFile(dir / output, "the previous output\n");
+        else if (withOutput) {
             rig::test::writeFile(dir / "previous.json", "the previous output\n");
             // In front, where it cannot take the place of a missing flag value.
             args.insert(args.begin(), {"-o", "{scratch}/previous.json"});
@@ -175,7 +207,8 @@ void runCase(const Case& k, int number, const std::string& prefix)
     }
 }
 
-// The cases of one section of the manifest (the first word of their names: rig, bvh, graph-eval, bvh2rig).
+// The cases of one section of the manifest (the first word of their names: rig, bvh, graph-eval, bvh2rig,
+// approx, map, clip, rig-learn, rig-invert, rig-bench).
 void runSection(const std::string& section)
 {
     const auto cases = loadCases();
@@ -208,7 +241,8 @@ TEST_CASE("corpus: the manifest is well formed and names every corpus file")
         CAPTURE(k.name);
         CHECK(names.insert(k.name).second);
         CHECK(k.name.find(';') == std::string::npos);
-        CHECK((k.tool == "graph-eval" || k.tool == "bvh2rig"));
+        CHECK((k.tool == "graph-eval" || k.tool == "bvh2rig" || k.tool == "rig-learn" || k.tool == "rig-invert"
+               || k.tool == "rig-bench"));
         CHECK(k.expectExit == 2);
         CHECK(k.expectStderr.starts_with("error: "));
         CHECK(k.expectStderr.find('\n') == std::string::npos);
@@ -232,3 +266,15 @@ TEST_CASE("corpus: hostile BVH files fail with their exact one-line error") { ru
 TEST_CASE("corpus: bad graph-eval command lines fail with their exact one-line error") { runSection("graph-eval"); }
 
 TEST_CASE("corpus: bad bvh2rig command lines fail with their exact one-line error") { runSection("bvh2rig"); }
+
+TEST_CASE("corpus: hostile approximation files fail with their exact one-line error") { runSection("approx"); }
+
+TEST_CASE("corpus: hostile map files fail with their exact one-line error") { runSection("map"); }
+
+TEST_CASE("corpus: hostile target clips fail with their exact one-line error") { runSection("clip"); }
+
+TEST_CASE("corpus: bad rig-learn command lines fail with their exact one-line error") { runSection("rig-learn"); }
+
+TEST_CASE("corpus: bad rig-invert command lines fail with their exact one-line error") { runSection("rig-invert"); }
+
+TEST_CASE("corpus: bad rig-bench command lines fail with their exact one-line error") { runSection("rig-bench"); }
