@@ -186,7 +186,9 @@ public:
         return n.Scalar();
     }
 
-    const YAML::Node& sequence(const YAML::Node& n, std::string_view field, std::size_t size = 0) const
+    // A node by value (a handle): `for (x : sequence(map["key"], ...))` must not hold a reference to the
+    // temporary map["key"], which dies before the loop runs.
+    YAML::Node sequence(const YAML::Node& n, std::string_view field, std::size_t size = 0) const
     {
         if (!n.IsSequence()) fail(n, field, size ? fmt::format("expected a list of {}", size) : "expected a list");
         if (size && n.size() != size) fail(n, field, fmt::format("expected {} entries, found {}", size, n.size()));

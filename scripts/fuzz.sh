@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# Fuzzes the rig loader and the BVH reader with libFuzzer (clang, AddressSanitizer, UBSan).
+# Fuzzes the rig loader, the BVH reader, the approximation loader and the target clip and map reader with
+# libFuzzer (clang, AddressSanitizer, UBSan).
 # Usage: scripts/fuzz.sh [SECONDS]   (per target, default 60)
 #   Configures and builds build-fuzz/ (clang++, RIG_FUZZ=ON; $RIG_FUZZ_BUILD_DIR for another folder, $RIG_JOBS
-#   parallel compile jobs, default 1), seeds each fuzzer with the bad-input corpus and the bundled rigs or
-#   BVH files, runs it for SECONDS, and exits non-zero if any target crashed, hung (10 s for one input),
+#   parallel compile jobs, default 1), seeds each fuzzer with the bad-input corpus and good inputs (the
+#   bundled rigs, BVH files and maps, an approximation learned from rigs/examples/arm.yaml), runs it for
+#   SECONDS, and exits non-zero if any target crashed, hung (10 s for one input),
 #   or went past 2 GB. A crash leaves its input as build-fuzz/fuzz-crashes/TARGET-crash-*: reproduce it
 #   with build-fuzz/bin/TARGET_fuzzer FILE, then add it to tests/corpus (docs/robustness.md).
 #   New interesting inputs accumulate in build-fuzz/fuzz-corpus/TARGET/ and seed the next run.
@@ -21,7 +23,8 @@ fi
 if [ ! -f "$build/build.ninja" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DRIG_FUZZ=ON >/dev/null
 fi
-if ! cmake --build "$build" --target rig_loader_fuzzer bvh_reader_fuzzer -- -j"$jobs" >"$build/build.log" 2>&1; then
+if ! cmake --build "$build" --target rig_loader_fuzzer bvh_reader_fuzzer approximation_loader_fuzzer \
+    target_clip_fuzzer rig-learn -- -j"$jobs" >"$build/build.log" 2>&1; then
   grep -E 'error|FAILED' "$build/build.log" | head -20 >&2
   echo "fuzz: the build failed; see $build/build.log" >&2
   exit 2
@@ -32,6 +35,15 @@ rig_seeds=(tests/corpus/rigs rigs)
 bvh_seeds=(tests/corpus/bvh)
 [ -d /usr/share/assimp/models/BVH ] && bvh_seeds+=(/usr/share/assimp/models/BVH)
 [ -d ../shared/motion ] && bvh_seeds+=(../shared/motion)
+# A good approximation to mutate from, learned by the instrumented rig-learn (a report would fail the run).
+mkdir -p "$build/fuzz-seeds/approximation"
+if ! "$build/bin/rig-learn" rigs/examples/arm.yaml --params 'shoulder.rotate?' 'elbow.rotate?' \
+    -o "$build/fuzz-seeds/approximation/arm.approx.yaml" >"$build/fuzz-seeds/rig-learn.log" 2>&1; then
+  echo "fuzz: learning the seed approximation failed; see $build/fuzz-seeds/rig-learn.log" >&2
+  exit 1
+fi
+approximation_seeds=(tests/corpus/approx "$build/fuzz-seeds/approximation")
+clip_seeds=(tests/corpus/clips tests/corpus/maps rigs/maps)
 
 failed=()
 run_target() {
@@ -55,6 +67,8 @@ run_target() {
 }
 run_target rig_loader fuzz/rig.dict 65536 "${rig_seeds[@]}"
 run_target bvh_reader fuzz/bvh.dict 65536 "${bvh_seeds[@]}"
+run_target approximation_loader fuzz/approximation.dict 65536 "${approximation_seeds[@]}"
+run_target target_clip fuzz/target_clip.dict 65536 "${clip_seeds[@]}"
 
 if ((${#failed[@]})); then
   echo "fuzz: failed: ${failed[*]}" >&2

@@ -170,6 +170,10 @@ TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileNam
                                 "\"hips.worldMatrix\": [[...], ...]}}, ...])",
                                 where(clip.file, root)));
     static constexpr std::string_view suffix = ".worldMatrix";
+    // (Iterating a list as if it were a map throws yaml-cpp's own exception.)
+    if (!root[0].IsMap())
+        throw Error(fmt::format("{}: a frame must be a map with \"frame\" and the joints' world matrices",
+                                where(clip.file, root[0])));
     std::vector<std::string> fileJoints;
     for (const auto& entry : root[0]) {
         const auto key = keyText(entry.first, clip.file, "a frame");
