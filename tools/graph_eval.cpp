@@ -142,11 +142,10 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
             for (const Plug& p : plugs) values.push_back(graph.getValue(p));
         });
         if (options.format == "json") {
-            out += firstRow ? "[\n" : ",\n";
-            out += fmt::format("  {{\"frame\": {}", frame);
+            std::vector<std::pair<std::string, cli::Json>> named;
             for (std::size_t i = 0; i < plugs.size(); ++i)
-                out += fmt::format(",\n   \"{}\": {}", graph.plugName(plugs[i]), cli::valueToJson(graph, plugs[i], values[i]));
-            out += "}";
+                named.emplace_back(graph.plugName(plugs[i]), cli::valueToJson(graph, plugs[i], values[i]));
+            out += (firstRow ? "[\n" : ",\n") + cli::frameJson(frame, named);
         }
         else {
             if (firstRow) {

@@ -13,6 +13,7 @@
 #include "nodes/graph_rig_function.h"
 #include "tools/cli_common.h"
 #include "tools/progress_bar.h"
+#include "tools/value_output.h"
 
 namespace rig {
 namespace {
@@ -37,31 +38,17 @@ struct Options {
 
 double userValue(const RigParameter& p, double value) { return p.angular ? value * 180.0 / std::numbers::pi : value; }
 
-// Numbers as graph-eval prints them: shortest round trip, null when not finite (never written: the
-// solver keeps values finite, but a file must stay valid JSON whatever happens).
-std::string jsonNumber(double x) { return std::isfinite(x) ? fmt::format("{}", x) : "null"; }
-
-std::string jsonString(std::string_view s)
-{
-    std::string out = "\"";
-    for (const char c : s) {
-        if (c == '"' || c == '\\') out += '\\';
-        if (static_cast<unsigned char>(c) < 0x20) out += fmt::format("\\u{:04x}", static_cast<int>(c));
-        else out += c;
-    }
-    return out + "\"";
-}
-
+// graph-eval's layout, so that a graph driven by the curves prints the same file.
 std::string curvesJson(const Approximation& a, const TargetClip& clip, int first,
                        const std::vector<std::vector<double>>& values)
 {
     std::string out = "[\n";
     for (std::size_t f = 0; f < values.size(); ++f) {
-        out += fmt::format("  {{\"frame\": {}", jsonNumber(clip.frameNumbers[first + f]));
+        std::vector<std::pair<std::string, cli::Json>> named;
         for (std::size_t i = 0; i < a.parameters.size(); ++i)
-            out += fmt::format(",\n   {}: {}", jsonString(a.parameters[i].parameter.name),
-                               jsonNumber(userValue(a.parameters[i].parameter, values[f][i])));
-        out += f + 1 < values.size() ? "},\n" : "}\n";
+            named.emplace_back(a.parameters[i].parameter.name,
+                               cli::numberJson(userValue(a.parameters[i].parameter, values[f][i])));
+        out += cli::frameJson(clip.frameNumbers[first + f], named) + (f + 1 < values.size() ? ",\n" : "\n");
     }
     return out + "]\n";
 }
@@ -86,28 +73,32 @@ std::string curvesCsv(const Approximation& a, const TargetClip& clip, int first,
 std::string reportJson(const Options& o, const Approximation& a, const TargetClip& clip,
                        const ClipTargets& targets, const ClipInversionSummary& s)
 {
-    std::string out = "{\n";
-    out += fmt::format("  \"approximation\": {},\n  \"rig\": {},\n  \"clip\": {},\n", jsonString(o.approximation),
-                       jsonString(o.rig), jsonString(o.clip));
-    out += fmt::format("  \"parameters\": {},\n  \"target_joints\": {},\n", a.parameters.size(), targets.matchedJoints);
-    out += fmt::format("  \"frames\": {},\n  \"converged_frames\": {},\n", s.frames, s.convergedFrames);
-    out += fmt::format("  \"max_position_error_cm\": {},\n  \"mean_position_error_cm\": {},\n",
-                       jsonNumber(s.maxPositionErrorCm), jsonNumber(s.meanPositionErrorCm));
-    out += fmt::format("  \"max_rotation_error_deg\": {},\n  \"mean_rotation_error_deg\": {},\n",
-                       jsonNumber(s.maxRotationErrorDeg), jsonNumber(s.meanRotationErrorDeg));
-    out += fmt::format("  \"worst_joint\": {},\n  \"worst_frame\": {},\n", jsonString(s.worstJoint),
-                       s.worstFrame >= 0 ? jsonNumber(clip.frameNumbers[s.worstFrame]) : "null");
-    out += fmt::format("  \"ms_per_frame\": {},\n  \"lead_in_frames\": {},\n", jsonNumber(s.msPerFrame), s.leadInFrames);
-    out += "  \"per_frame\": [\n";
-    for (std::size_t i = 0; i < s.perFrame.size(); ++i) {
-        const auto& f = s.perFrame[i];
-        out += fmt::format("    {{\"frame\": {}, \"termination\": {}, \"iterations\": {}, \"position_error_cm\": {}, "
-                           "\"rotation_error_deg\": {}, \"worst_joint\": {}}}{}\n",
-                           jsonNumber(clip.frameNumbers[f.frame]), jsonString(terminationName(f.solve.termination)),
-                           f.solve.iterations, jsonNumber(f.positionErrorCm), jsonNumber(f.rotationErrorDeg),
-                           jsonString(f.worstJoint), i + 1 < s.perFrame.size() ? "," : "");
-    }
-    return out + "  ]\n}\n";
+    cli::Json perFrame = cli::Json::array();
+    for (const auto& f : s.perFrame)
+        perFrame.push_back({{"frame", cli::numberJson(clip.frameNumbers[f.frame])},
+                            {"termination", terminationName(f.solve.termination)},
+                            {"iterations", f.solve.iterations},
+                            {"position_error_cm", cli::numberJson(f.positionErrorCm)},
+                            {"rotation_error_deg", cli::numberJson(f.rotationErrorDeg)},
+                            {"worst_joint", f.worstJoint}});
+    const cli::Json report{
+        {"approximation", o.approximation},
+        {"rig", o.rig},
+        {"clip", o.clip},
+        {"parameters", a.parameters.size()},
+        {"target_joints", targets.matchedJoints},
+        {"frames", s.frames},
+        {"converged_frames", s.convergedFrames},
+        {"max_position_error_cm", cli::numberJson(s.maxPositionErrorCm)},
+        {"mean_position_error_cm", cli::numberJson(s.meanPositionErrorCm)},
+        {"max_rotation_error_deg", cli::numberJson(s.maxRotationErrorDeg)},
+        {"mean_rotation_error_deg", cli::numberJson(s.meanRotationErrorDeg)},
+        {"worst_joint", s.worstJoint},
+        {"worst_frame", s.worstFrame >= 0 ? cli::numberJson(clip.frameNumbers[s.worstFrame]) : cli::Json()},
+        {"ms_per_frame", cli::numberJson(s.msPerFrame)},
+        {"lead_in_frames", s.leadInFrames},
+        {"per_frame", std::move(perFrame)}};
+    return cli::jsonText(report, 2) + "\n";
 }
 
 void printReport(const Options& o, const Approximation& a, const TargetClip& clip, const ClipTargets& targets,

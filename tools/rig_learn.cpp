@@ -15,6 +15,7 @@
 #include "nodes/graph_rig_function.h"
 #include "tools/cli_common.h"
 #include "tools/progress_bar.h"
+#include "tools/value_output.h"
 
 namespace rig {
 namespace {
@@ -80,21 +81,6 @@ double parseEpsilon(const std::string& text)
         throw Error(fmt::format("--epsilon '{}': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001", text));
     return x;
 }
-
-std::string jsonString(std::string_view s)
-{
-    std::string out = "\"";
-    for (const char c : s) {
-        const auto u = static_cast<unsigned char>(c);
-        if (c == '"' || c == '\\') (out += '\\') += c;
-        else if (c == '\n') out += "\\n";
-        else if (u < 0x20) out += fmt::format("\\u{:04x}", u);
-        else out += c;
-    }
-    return out + "\"";
-}
-
-std::string jsonNumber(double x) { return std::isfinite(x) ? fmt::format("{}", x) : std::string("null"); }
 
 // A parameter's value in user units (degrees for angles).
 double userValue(const RigParameter& p, double internal) { return p.angular ? internal * 180.0 / std::numbers::pi : internal; }
@@ -177,44 +163,47 @@ std::string readableReport(const Approximation& a, const RigFunction& rig, const
 
 std::string jsonReport(const Approximation& a, const RigFunction& rig, const Options& options, double loadSeconds)
 {
-    std::string out = "{\n";
-    out += fmt::format("  \"rig\": {},\n  \"approximation\": {},\n  \"fingerprint\": {},\n", jsonString(options.rig),
-                       jsonString(options.output), jsonString(a.rigFingerprint));
-    out += fmt::format("  \"epsilon\": {},\n  \"orderer\": {},\n", jsonNumber(a.epsilon), jsonString(a.training.orderer));
-    out += fmt::format("  \"parameters\": {},\n  \"outputs\": {},\n", rig.parameters().size(), rig.outputs().size());
-    out += fmt::format("  \"evaluations\": {},\n  \"order_evaluations\": {},\n", a.training.evaluations,
-                       a.training.orderEvaluations);
-    out += fmt::format("  \"seconds\": {},\n  \"load_seconds\": {},\n", jsonNumber(a.training.seconds), jsonNumber(loadSeconds));
-    out += "  \"modelled\": [";
-    for (std::size_t p = 0; p < a.parameters.size(); ++p) out += (p ? ", " : "") + jsonString(a.parameters[p].parameter.name);
-    out += "],\n  \"forms\": [";
-    for (std::size_t p = 0; p < a.parameters.size(); ++p) {
-        const ModelledParameter& m = a.parameters[p];
-        out += fmt::format("{}\n    {{\"name\": {}, \"form\": {}, \"fit_error\": {}, \"samples\": {}, \"outputs\": {}}}",
-                           p ? "," : "", jsonString(m.parameter.name), jsonString(m.form), jsonNumber(m.fitError), m.samples,
-                           m.outputs.size());
+    cli::Json modelled = cli::Json::array(), forms = cli::Json::array();
+    for (const ModelledParameter& m : a.parameters) {
+        modelled.push_back(m.parameter.name);
+        forms.push_back({{"name", m.parameter.name},
+                         {"form", m.form},
+                         {"fit_error", cli::numberJson(m.fitError)},
+                         {"samples", m.samples},
+                         {"outputs", m.outputs.size()}});
     }
-    out += a.parameters.empty() ? "],\n" : "\n  ],\n";
-    out += "  \"discarded\": [";
-    for (std::size_t d = 0; d < a.discarded.size(); ++d)
-        out += fmt::format("{}\n    {{\"name\": {}, \"reason\": {}}}", d ? "," : "", jsonString(a.discarded[d].parameter.name),
-                           jsonString(a.discarded[d].reason));
-    out += a.discarded.empty() ? "],\n" : "\n  ],\n";
-    out += "  \"redundant\": [";
-    const auto redundant = redundantParameters(a);
-    for (std::size_t r = 0; r < redundant.size(); ++r)
-        out += fmt::format("{}[{}, {}]", r ? ", " : "",
-                           jsonString(a.parameters[static_cast<std::size_t>(redundant[r].first)].parameter.name),
-                           jsonString(a.parameters[static_cast<std::size_t>(redundant[r].second)].parameter.name));
-    out += "],\n";
+    cli::Json discarded = cli::Json::array();
+    for (const auto& d : a.discarded) discarded.push_back({{"name", d.parameter.name}, {"reason", d.reason}});
+    cli::Json redundant = cli::Json::array();
+    for (const auto& [i, j] : redundantParameters(a))
+        redundant.push_back(cli::Json::array({a.parameters[static_cast<std::size_t>(i)].parameter.name,
+                                              a.parameters[static_cast<std::size_t>(j)].parameter.name}));
     const ValidationSummary& v = a.validation;
-    out += fmt::format("  \"validation\": {{\"poses\": {}, \"max_position_error_cm\": {}, \"mean_position_error_cm\": {}, "
-                       "\"max_rotation_error_deg\": {}, \"mean_rotation_error_deg\": {}, \"worst_output\": {}, "
-                       "\"worst_pose\": {}}}\n",
-                       v.poses, jsonNumber(v.maxPositionErrorCm), jsonNumber(v.meanPositionErrorCm),
-                       jsonNumber(v.maxRotationErrorDeg), jsonNumber(v.meanRotationErrorDeg), jsonString(v.worstOutput),
-                       v.worstPose);
-    return out + "}\n";
+    const cli::Json report{
+        {"rig", options.rig},
+        {"approximation", options.output},
+        {"fingerprint", a.rigFingerprint},
+        {"epsilon", cli::numberJson(a.epsilon)},
+        {"orderer", a.training.orderer},
+        {"parameters", rig.parameters().size()},
+        {"outputs", rig.outputs().size()},
+        {"evaluations", a.training.evaluations},
+        {"order_evaluations", a.training.orderEvaluations},
+        {"seconds", cli::numberJson(a.training.seconds)},
+        {"load_seconds", cli::numberJson(loadSeconds)},
+        {"modelled", std::move(modelled)},
+        {"forms", std::move(forms)},
+        {"discarded", std::move(discarded)},
+        {"redundant", std::move(redundant)},
+        {"validation",
+         {{"poses", v.poses},
+          {"max_position_error_cm", cli::numberJson(v.maxPositionErrorCm)},
+          {"mean_position_error_cm", cli::numberJson(v.meanPositionErrorCm)},
+          {"max_rotation_error_deg", cli::numberJson(v.maxRotationErrorDeg)},
+          {"mean_rotation_error_deg", cli::numberJson(v.meanRotationErrorDeg)},
+          {"worst_output", v.worstOutput},
+          {"worst_pose", v.worstPose}}}};
+    return cli::jsonText(report, 2) + "\n";
 }
 
 int run(Options& options)

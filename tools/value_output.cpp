@@ -1,13 +1,12 @@
 #include "tools/value_output.h"
 
 #include <cmath>
+#include <cstdint>
 
 #include <fmt/format.h>
 
 namespace rig::cli {
 namespace {
-
-std::string number(double x) { return std::isfinite(x) ? fmt::format("{}", x) : std::string("null"); }
 
 double userScale(const Graph& graph, const Plug& plug) { return unitFactor(graph.spec(plug).unit, Unit::None); }
 
@@ -44,57 +43,68 @@ std::vector<std::pair<std::string, double>> flatten(const Graph& graph, const Pl
     return out;
 }
 
-std::string matrixJson(const Eigen::Matrix4d& m)
+Json matrixJson(const Eigen::Matrix4d& m)
 {
-    std::string out = "[";
+    Json rows = Json::array();
     for (int r = 0; r < 4; ++r)
-        out += fmt::format("{}[{}, {}, {}, {}]", r ? ", " : "", number(m(r, 0)), number(m(r, 1)), number(m(r, 2)),
-                           number(m(r, 3)));
-    return out + "]";
-}
-
-std::string quoted(const std::string& s)
-{
-    std::string out = "\"";
-    for (char c : s) {
-        if (c == '"' || c == '\\') out += '\\';
-        if (static_cast<unsigned char>(c) < 0x20) out += fmt::format("\\u{:04x}", c);
-        else out += c;
-    }
-    return out + "\"";
+        rows.push_back(Json::array({numberJson(m(r, 0)), numberJson(m(r, 1)), numberJson(m(r, 2)), numberJson(m(r, 3))}));
+    return rows;
 }
 
 }  // namespace
 
-std::string valueToJson(const Graph& graph, const Plug& plug, const Value& value)
+Json numberJson(double x)
+{
+    // Below 1e16 every whole double is an exact int64. -0 stays a double: as an integer it would read
+    // back as +0. NaN and infinities stay doubles too, which nlohmann writes as null.
+    if (x == std::trunc(x) && std::abs(x) < 1e16 && !(x == 0.0 && std::signbit(x))) return static_cast<std::int64_t>(x);
+    return x;
+}
+
+std::string jsonText(const Json& json, int indent)
+{
+    if (indent >= 0 || !json.is_array()) return json.dump(indent, ' ', false, Json::error_handler_t::replace);
+    // nlohmann's one-line form has no spaces; values hold arrays, never objects.
+    std::string out = "[";
+    for (std::size_t i = 0; i < json.size(); ++i) (out += i ? ", " : "") += jsonText(json[i]);
+    return out + "]";
+}
+
+std::string frameJson(double frame, const std::vector<std::pair<std::string, Json>>& values)
+{
+    std::string out = "  {\"frame\": " + jsonText(numberJson(frame));
+    for (const auto& [name, value] : values) out += ",\n   " + jsonText(Json(name)) + ": " + jsonText(value);
+    return out + "}";
+}
+
+Json valueToJson(const Graph& graph, const Plug& plug, const Value& value)
 {
     const double k = userScale(graph, plug);
     const AttributeSpec& spec = graph.spec(plug);
     return std::visit(
-        [&](const auto& v) -> std::string {
+        [&](const auto& v) -> Json {
             using T = std::decay_t<decltype(v)>;
             if constexpr (std::is_same_v<T, Eigen::Vector3d>)
-                return fmt::format("[{}, {}, {}]", number(v[0] * k), number(v[1] * k), number(v[2] * k));
+                return Json::array({numberJson(v[0] * k), numberJson(v[1] * k), numberJson(v[2] * k)});
             else if constexpr (std::is_same_v<T, Eigen::Matrix4d>) return matrixJson(v);
             else if constexpr (std::is_same_v<T, std::vector<double>>) {
-                std::string out = "[";
-                for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + number(v[i] * k);
-                return out + "]";
+                Json out = Json::array();
+                for (const double x : v) out.push_back(numberJson(x * k));
+                return out;
             }
             else if constexpr (std::is_same_v<T, Matrix4Array>) {
-                std::string out = "[";
-                for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + matrixJson(v[i]);
-                return out + "]";
+                Json out = Json::array();
+                for (const auto& m : v) out.push_back(matrixJson(m));
+                return out;
             }
-            else if constexpr (std::is_same_v<T, std::string>) return quoted(v);
-            else if constexpr (std::is_same_v<T, bool>) return v ? "true" : "false";
+            else if constexpr (std::is_same_v<T, std::string> || std::is_same_v<T, bool>) return v;
             else if constexpr (std::is_same_v<T, int>) {
                 if (plug.child < 0 && spec.type == ValueType::Enum && v >= 0
                     && static_cast<std::size_t>(v) < spec.enumNames.size())
-                    return quoted(spec.enumNames[static_cast<std::size_t>(v)]);
-                return fmt::format("{}", v);
+                    return spec.enumNames[static_cast<std::size_t>(v)];
+                return v;
             }
-            else return number(v * k);
+            else return numberJson(v * k);
         },
         value);
 }
@@ -115,7 +125,7 @@ std::vector<std::string> csvColumns(const Graph& graph, const Plug& plug, const 
 
 std::vector<std::string> csvFields(const Graph& graph, const Plug& plug, const Value& value, int digits)
 {
-    if (const auto* s = std::get_if<std::string>(&value)) return {quoted(*s)};
+    if (const auto* s = std::get_if<std::string>(&value)) return {jsonText(Json(*s))};
     std::vector<std::string> fields;
     for (const auto& [suffix, x] : flatten(graph, plug, value)) {
         if (!std::isfinite(x)) fields.emplace_back();
