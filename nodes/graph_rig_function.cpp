@@ -112,13 +112,18 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                 matched.push_back(g.plug(glob));
             }
             catch (const Error& e) {
-                throw Error(fmt::format("{}: parameter '{}': {}", rigName, glob, e.what()));
+                throw RigSelectionError(fmt::format("{}: parameter '{}': {}", rigName, glob, e.what()), "parameter", glob,
+                                        e.what());
             }
         }
         else
             for (const Plug& p : allPlugs(g))
                 if (globMatches(glob, g.plugName(p))) matched.push_back(p);
-        if (matched.empty()) throw Error(fmt::format("{}: parameter glob '{}' matches no plug: {}", rigName, glob, noPlugHint(g, glob)));
+        if (matched.empty()) {
+            const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, glob));
+            throw RigSelectionError(fmt::format("{}: parameter glob '{}' {}", rigName, glob, reason), "parameter", glob,
+                                    reason);
+        }
         std::size_t usable = 0;
         std::string refusedPlug, refusedWhy;  // the first plug matched that cannot be a parameter
         for (const Plug& whole : matched)
@@ -150,12 +155,17 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                 current_.push_back(param.defaultValue);
             }
         if (usable == 0 && !isGlobPattern(glob))
-            throw Error(fmt::format("{}: parameter '{}' is {}; parameters are animator controls that nothing drives",
-                                    rigName, refusedPlug, refusedWhy));
-        if (usable == 0)
-            throw Error(fmt::format("{}: parameter glob '{}' matches no free keyable number ({} is {}); parameters are "
-                                    "animator controls that nothing drives",
-                                    rigName, glob, refusedPlug, refusedWhy));
+            throw RigSelectionError(fmt::format("{}: parameter '{}' is {}; parameters are animator controls that nothing "
+                                                "drives",
+                                                rigName, refusedPlug, refusedWhy),
+                                    "parameter", refusedPlug, fmt::format("it is {}", refusedWhy));
+        if (usable == 0) {
+            const std::string reason = fmt::format("matches no free keyable number ({} is {})", refusedPlug, refusedWhy);
+            throw RigSelectionError(fmt::format("{}: parameter glob '{}' {}; parameters are animator controls that "
+                                                "nothing drives",
+                                                rigName, glob, reason),
+                                    "parameter", glob, reason);
+        }
     }
 
     std::vector<std::string> jointNames;
@@ -176,11 +186,15 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
             }
         if (found > 0) continue;
         const NodeId other = isGlobPattern(glob) ? -1 : g.findNode(glob);
-        if (other >= 0)
-            throw Error(fmt::format("{}: output '{}' is a {}, not a joint; outputs are joints", rigName, glob,
-                                    g.nodeType(other).name()));
-        throw Error(fmt::format("{}: output glob '{}' matches no joint{}", rigName, glob,
-                                isGlobPattern(glob) ? std::string() : didYouMean(glob, jointNames)));
+        if (other >= 0) {
+            const std::string reason = fmt::format("it is a {}, not a joint", g.nodeType(other).name());
+            throw RigSelectionError(fmt::format("{}: output '{}' is a {}, not a joint; outputs are joints", rigName, glob,
+                                                g.nodeType(other).name()),
+                                    "output", glob, reason);
+        }
+        const std::string reason =
+            fmt::format("matches no joint{}", isGlobPattern(glob) ? std::string() : didYouMean(glob, jointNames));
+        throw RigSelectionError(fmt::format("{}: output glob '{}' {}", rigName, glob, reason), "output", glob, reason);
     }
     if (chosen.empty()) throw Error(fmt::format("{}: the rig has no joints to use as outputs", rigName));
     for (NodeId n : chosen) {

@@ -12,6 +12,7 @@
 #include <string_view>
 #include <vector>
 
+#include "graph/error.h"
 #include "graph/graph.h"
 #include "inversion/rig_function.h"
 
@@ -27,6 +28,24 @@ struct GraphRigOptions {
     std::vector<std::string> plugins;
 };
 
+// A parameter or output glob the rig cannot provide (no such plug or joint, a driven plug, not a joint).
+// what() is the whole line ("RIG: parameter 'GLOB': REASON", ...); a caller that chose the names itself
+// (rig-invert, from an approximation file) can say more from kind() ("parameter" or "output"), name()
+// (the glob or plug) and reason().
+class RigSelectionError : public Error {
+public:
+    RigSelectionError(const std::string& message, std::string kind, std::string name, std::string reason)
+        : Error(message), kind_(std::move(kind)), name_(std::move(name)), reason_(std::move(reason))
+    {
+    }
+    const std::string& kind() const { return kind_; }
+    const std::string& name() const { return name_; }
+    const std::string& reason() const { return reason_; }
+
+private:
+    std::string kind_, name_, reason_;
+};
+
 // Sampling range of a parameter whose attribute declares no min/max, around its current value
 // (docs/rig-learn.md): +-90 degrees for angles, +-50 cm for distances, +-1 otherwise.
 inline constexpr double defaultAngleRangeDegrees = 90.0;
@@ -36,7 +55,7 @@ inline constexpr double defaultUnitlessRange = 1.0;
 class GraphRigFunction final : public RigFunction {
 public:
     // Loads the rig and resolves the globs. Throws rig::Error (one line: "file:line:col: ..." for a
-    // bad rig file; the glob and a suggestion when a glob matches nothing usable).
+    // bad rig file), RigSelectionError (the glob and a suggestion when a glob matches nothing usable).
     GraphRigFunction(const std::filesystem::path& rigFile, const GraphRigOptions& options);
 
     const std::vector<RigParameter>& parameters() const override { return parameters_; }

@@ -74,6 +74,19 @@ int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
     }
 }
 
+CLI::Validator threadCount()
+{
+    return CLI::Validator(
+        [](std::string& text) {
+            int n = -1;
+            const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
+            if (ec != std::errc() || end != text.data() + text.size() || n < 0 || n > 1024)
+                return fmt::format("'{}' is not a thread count; give a whole number from 0 (all cores) to 1024", text);
+            return std::string();
+        },
+        "0..1024");
+}
+
 std::vector<double> FrameRange::frames() const
 {
     std::vector<double> out;

@@ -14,6 +14,9 @@ namespace rig::cli {
 // Parses the command line into `app` and runs `body`, turning errors into messages and exit codes.
 int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& body);
 
+// The check of a --threads option: a whole number from 0 (all cores) to 1024, else one line that says so.
+CLI::Validator threadCount();
+
 // Frames A:B[:STEP], inclusive, step > 0 (e.g. 1:240, 0:10:0.5).
 struct FrameRange {
     double first = 0.0;

@@ -1,5 +1,4 @@
 // graph-eval: evaluates a rig graph file, setting and reading plugs, over a frame range.
-#include <charconv>
 #include <chrono>
 #include <iostream>
 #include <optional>
@@ -251,15 +250,7 @@ int main(int argc, char** argv)
     app.add_flag("--types", options.types, "Print the reference of every node type (Markdown) and exit");
     app.add_flag("--dot", options.dot, "Print the graph in Graphviz dot format instead of evaluating");
     app.add_option("--threads", options.threads, "Evaluation threads: 1 serial, N parallel, 0 all cores")
-        ->check(CLI::Validator(
-            [](std::string& text) {
-                int n = -1;
-                const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
-                if (ec != std::errc() || end != text.data() + text.size() || n < 0 || n > 1024)
-                    return fmt::format("'{}' is not a thread count; give a whole number from 0 (all cores) to 1024", text);
-                return std::string();
-            },
-            "0..1024"));
+        ->check(rig::cli::threadCount());
     app.add_flag("--stats", options.stats, "Print node, connection and computation counts and timing to stderr");
     app.add_flag("--check", options.check,
                  "Checked mode: after each frame recompute everything from scratch and fail on any difference");

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <iostream>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -24,6 +25,7 @@ struct Options {
     std::string clip;
     std::string map;
     std::string frames;
+    bool framesGiven = false;  // --frames '' is an error, not the whole clip
     std::string output;
     std::string reportJson;
     std::vector<std::string> plugins;
@@ -133,13 +135,19 @@ int run(const Options& o)
     const auto extension = std::filesystem::path(o.output).extension();
     if (extension != ".json" && extension != ".csv")
         throw Error(fmt::format("-o {}: the curves are written as .json or .csv; give one of those", o.output));
-    if (!o.reportJson.empty()) cli::checkOutputFile(o.reportJson, "report.json");
+    if (!o.reportJson.empty()) cli::checkOutputFile(o.reportJson, "report.json", "--report-json");
     ClipInversionOptions options;
     options.solver.threads = o.threads;
     options.solver.partition = !o.noPartition;
     if (o.jacobian == "analytic") options.solver.jacobian = JacobianMethod::analytic;
     else if (o.jacobian == "fd") options.solver.jacobian = JacobianMethod::finiteDifference;
     else throw Error(fmt::format("--jacobian {}: expected analytic or fd", o.jacobian));
+    if (o.polish < 0)
+        throw Error(fmt::format("--polish {}: give 0 (the approximation only) or more real-rig corrections per frame",
+                                o.polish));
+    if (o.restartEvery < 1)
+        throw Error(fmt::format("--restart-every {}: give 1 or more frames between warm-start restarts (default {})",
+                                o.restartEvery, ClipInversionOptions{}.restartInterval));
     options.polishCorrections = o.polish;
     options.restartInterval = o.restartEvery;
     try {
@@ -165,19 +173,34 @@ int run(const Options& o)
     for (const auto& p : approximation.parameters) rigOptions.parameterGlobs.push_back(p.parameter.name);
     for (const auto& out : approximation.outputs) rigOptions.outputGlobs.push_back(out.name);
     rigOptions.plugins = o.plugins;
-    GraphRigFunction rig(o.rig, rigOptions);
+    // The rig must have the approximation's parameters and outputs: an approximation of another rig (or a
+    // name edited by hand) is the approximation's mistake as much as the rig's.
+    const auto learnedFrom = [&] {
+        return fmt::format("the approximation was learned from {}: give that rig with --rig, or learn one for this "
+                           "rig with rig-learn",
+                           approximation.rigFile);
+    };
+    std::optional<GraphRigFunction> loaded;
+    try {
+        loaded.emplace(o.rig, rigOptions);
+    }
+    catch (const RigSelectionError& e) {
+        throw Error(fmt::format("{}: {} '{}' does not fit {} ({}); {}", o.approximation, e.kind(), e.name(), o.rig,
+                                e.reason(), learnedFrom()));
+    }
+    GraphRigFunction& rig = *loaded;
     try {
         if (const auto warning = checkFingerprint(approximation, rig.fingerprint(), o.strict); !warning.empty())
-            std::cerr << "warning: " << warning << "\n";
+            std::cerr << "warning: " << o.approximation << ": " << warning << "\n";
     }
     catch (const ApproximationFileError& e) {
-        throw Error(e.what());
+        throw Error(fmt::format("{}: {} (--strict)", o.approximation, e.what()));
     }
 
     const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
     const TargetClip clip = readTargetClip(o.clip, map);
     int first = 0, last = static_cast<int>(clip.frameNumbers.size()) - 1;
-    if (!o.frames.empty()) {
+    if (o.framesGiven) {
         const auto range = cli::parseFrameRange(o.frames, "--frames");
         if (range.step != 1.0)
             throw Error(fmt::format("--frames {}: a step is not supported; frames are solved in a warm-start chain",
@@ -232,7 +255,8 @@ int main(int argc, char** argv)
     app.add_option("--frames", options.frames, "Frames A:B of the clip, inclusive, in the clip's numbering");
     app.add_option("-o,--output", options.output, "Curves to write: .json or .csv, angles in degrees")->required();
     app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
-    app.add_option("--threads", options.threads, "Threads for the solver (0: all cores); results do not depend on it");
+    app.add_option("--threads", options.threads, "Threads for the solver (0: all cores); results do not depend on it")
+        ->check(rig::cli::threadCount());
     app.add_option("--jacobian", options.jacobian, "analytic (default) or fd (finite differences, in parallel)");
     app.add_flag("--no-partition", options.noPartition, "Solve all parameters as one problem");
     app.add_option("--polish", options.polish, "Real-rig corrections per frame (0: approximation only)");
@@ -241,5 +265,8 @@ int main(int argc, char** argv)
     app.add_flag("--strict", options.strict, "Refuse an approximation learned from another version of the rig");
     app.add_option("--plugin", options.plugins, "Load a plugin before reading the rig");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors and warnings");
-    return rig::cli::runMain(app, argc, argv, [&] { return rig::run(options); });
+    return rig::cli::runMain(app, argc, argv, [&] {
+        options.framesGiven = app.count("--frames") > 0;
+        return rig::run(options);
+    });
 }

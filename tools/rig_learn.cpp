@@ -1,12 +1,18 @@
 // rig-learn: learns a rig's approximation (sections 3 and 4 of the talk) and writes it to a file,
 // with a readable report on standard output and, optionally, a JSON one (docs/rig-learn.md).
+#include <cerrno>
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <numbers>
+#include <sstream>
 
 #include <fmt/format.h>
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include "graph/error.h"
@@ -38,15 +44,33 @@ struct Options {
 // command line's. Keeps a rig's inversion choices in one place (rigs/biped_inversion.yaml).
 void readSpec(Options& options)
 {
+    // Checked before reading: a folder reads as a stream error, a FIFO or a device never ends.
+    std::error_code ec;
+    const auto status = std::filesystem::status(options.spec, ec);
+    if (!std::filesystem::exists(status))
+        throw Error(fmt::format("--spec {}: no such file; check the path", options.spec));
+    if (std::filesystem::is_directory(status))
+        throw Error(fmt::format("--spec {}: is a folder; give a spec file ('params:' and 'outputs:', lists of globs)",
+                                options.spec));
+    if (!std::filesystem::is_regular_file(status))
+        throw Error(fmt::format("--spec {}: is not a regular file (a device or a pipe?); give a spec file", options.spec));
+    std::ifstream in(options.spec, std::ios::binary);
+    if (!in)
+        throw Error(fmt::format("--spec {}: cannot read it ({}); check its permissions", options.spec, std::strerror(errno)));
+    std::ostringstream text;
+    text << in.rdbuf();
     YAML::Node root;
     try {
-        root = YAML::LoadFile(options.spec);
+        root = YAML::Load(text.str());
     }
-    catch (const YAML::BadFile&) {
-        throw Error(fmt::format("--spec {}: cannot read it; check the path", options.spec));
+    catch (const YAML::DeepRecursion& e) {
+        throw Error(fmt::format("{}: lists and maps nested more than {} levels deep; a spec nests two levels, so the "
+                                "file is damaged",
+                                formatMark({options.spec, e.mark.line + 1, e.mark.column + 1}), e.depth() - 1));
     }
     catch (const YAML::ParserException& e) {
-        throw Error(fmt::format("{}: {}", formatMark({options.spec, e.mark.line + 1, e.mark.column + 1}), e.msg));
+        throw Error(
+            fmt::format("{}: YAML syntax error: {}", formatMark({options.spec, e.mark.line + 1, e.mark.column + 1}), e.msg));
     }
     const auto at = [&](const YAML::Node& n) {
         return formatMark({options.spec, n.Mark().line + 1, n.Mark().column + 1});
@@ -54,7 +78,10 @@ void readSpec(Options& options)
     if (!root.IsMap())
         throw Error(fmt::format("{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs", at(root)));
     for (const auto& entry : root) {
-        const std::string key = entry.first.IsScalar() ? entry.first.Scalar() : std::string();
+        if (!entry.first.IsScalar())
+            throw Error(fmt::format("{}: a key of a spec is a list or a map; a spec has 'params:' and 'outputs:'",
+                                    at(entry.first)));
+        const std::string key = entry.first.Scalar();
         auto* list = key == "params" ? &options.params : key == "outputs" ? &options.outputs : nullptr;
         if (!list)
             throw Error(fmt::format("{}: unknown key '{}'; a spec has 'params:' and 'outputs:'", at(entry.first),
@@ -214,7 +241,7 @@ int run(Options& options)
         throw Error("--params is required; run 'rig-learn --help' for usage");
     // Bad outputs and flags are reported before any work.
     cli::checkOutputFile(options.output, "approximation.yaml");
-    if (options.reportGiven) cli::checkOutputFile(options.reportJson, "report.json");
+    if (options.reportGiven) cli::checkOutputFile(options.reportJson, "report.json", "--report-json");
     LearnOptions learn;
     if (options.epsilonGiven) learn.epsilon = parseEpsilon(options.epsilon);
     learn.orderer = options.orderer == "talk" ? Orderer::talk : Orderer::structured;

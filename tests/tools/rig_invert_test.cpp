@@ -198,8 +198,10 @@ TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs
                             (dir / "none.yaml").string()));
     expectError(base + " --map " + (dir / "none.yaml").string() + " -o " + out,
                 fmt::format("{}: no such map file; check the path", (dir / "none.yaml").string()));
-    expectError(base + " --threads -1 -o " + out, "bad option: SolverOptions::threads = -1: must not be negative (0: all cores)");
-    expectError(base + " --restart-every 0 -o " + out, "bad option: restartInterval must be > 0 frames, got 0");
+    expectError(base + " --threads -1 -o " + out, "--threads: '-1' is not a thread count; give a whole number from 0 (all cores) "
+                                                  "to 1024; run 'rig-invert --help' for usage");
+    expectError(base + " --restart-every 0 -o " + out,
+                "--restart-every 0: give 1 or more frames between warm-start restarts (default 120)");
     expectError(base + " --jacobian exact -o " + out, "--jacobian exact: expected analytic or fd");
 
     // A clip with no joint of the approximation asks for a map.
