@@ -8,7 +8,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -38,6 +40,7 @@ struct Options {
     bool reportGiven = false;
     std::vector<std::string> plugins;
     std::string spec;
+    std::map<std::string, std::string> specPlaces;  // glob -> its file:line:col in the spec, for messages
 };
 
 // A spec file (docs/rig-learn.md): `params:` and optionally `outputs:`, lists of globs, added to the
@@ -92,6 +95,7 @@ void readSpec(Options& options)
             if (!glob.IsScalar() || glob.Scalar().empty())
                 throw Error(fmt::format("{}: '{}' must be a list of globs", at(glob), key));
             list->push_back(glob.Scalar());
+            options.specPlaces.emplace(glob.Scalar(), at(glob));
         }
     }
 }
@@ -247,7 +251,18 @@ int run(Options& options)
     learn.orderer = options.orderer == "talk" ? Orderer::talk : Orderer::structured;
 
     const auto loadStart = std::chrono::steady_clock::now();
-    GraphRigFunction rig(options.rig, GraphRigOptions{options.params, options.outputs, options.plugins});
+    std::optional<GraphRigFunction> loaded;
+    try {
+        loaded.emplace(options.rig, GraphRigOptions{options.params, options.outputs, options.plugins});
+    }
+    catch (const RigSelectionError& e) {
+        // A glob of the spec: say where it is written.
+        const auto place = options.specPlaces.find(e.name());
+        if (place == options.specPlaces.end()) throw;
+        throw Error(fmt::format("{}: {} '{}' of the spec does not fit {} ({}); fix or remove it", place->second, e.kind(),
+                                e.name(), options.rig, e.reason()));
+    }
+    GraphRigFunction& rig = *loaded;
     const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
 
     cli::ProgressBar bar("learning");
