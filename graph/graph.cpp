@@ -6,6 +6,7 @@
 #include <cmath>
 #include <deque>
 #include <unordered_map>
+#include <utility>
 
 #include <fmt/format.h>
 #include <tbb/info.h>
@@ -518,15 +519,15 @@ Schedule& Graph::schedule()
 
 void Graph::evaluate(std::span<const Plug> plugs)
 {
-    std::vector<char> needed(nodes_.size(), 0);
     std::vector<NodeId> roots;
     for (const Plug& p : plugs) {
         checkPlug(p);
-        if (data(p).dirty && !needed[static_cast<std::size_t>(p.node)]) {
-            needed[static_cast<std::size_t>(p.node)] = 1;
-            roots.push_back(p.node);
-        }
+        if (data(p).dirty) roots.push_back(p.node);
     }
+    // Reading clean plugs must not cost a pass over the whole graph: a rig reads every joint per evaluation.
+    if (roots.empty()) return;
+    std::vector<char> needed(nodes_.size(), 0);
+    std::erase_if(roots, [&](NodeId n) { return std::exchange(needed[static_cast<std::size_t>(n)], char{1}) != 0; });
     evaluateNodes(needed, std::move(roots));
 }
 

@@ -185,11 +185,15 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
 
     outputsOfColumn_.assign(columns_.size(), {});
     chains_.resize(outputs_.size());
+    std::map<int, int> heldIndex;  // parameter -> index into heldParameters_
     for (std::size_t o = 0; o < outputs_.size(); ++o) {
         Chain& chain = chains_[o];
         chain.gaps.emplace_back();
-        for (const Link& link : links[o]) {
+        for (Link link : links[o]) {
             if (link.column < 0) {
+                const auto [it, added] = heldIndex.try_emplace(link.parameter, static_cast<int>(heldParameters_.size()));
+                if (added) heldParameters_.push_back(link.parameter);
+                link.held = it->second;
                 chain.gaps.back().push_back(link);
                 continue;
             }
@@ -258,7 +262,7 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     worlds_.assign(s.outputs_.size(), Eigen::Matrix4d::Identity());
     prefix_.assign(static_cast<std::size_t>(s.maxVars_ + 1), Eigen::Matrix4d::Identity());
     suffix_.assign(static_cast<std::size_t>(s.maxVars_ + 1), Eigen::Matrix4d::Identity());
-    held_.assign(s.approximation_->parameters.size(), 0.0);
+    held_.assign(s.heldParameters_.size(), 0.0);
     heldMatrix_.assign(s.nodes_.size(), Affine::Identity());
     nodeMatrix_.assign(s.nodes_.size(), Affine::Identity());
     velocity_.assign(s.nodes_.size(), Affine::Zero());
@@ -270,7 +274,8 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
     const Approximation& approx = *s.approximation_;
     if (values.size() != approx.parameters.size())
         throw std::invalid_argument("ResidualWorkspace::holdParameters: one value per modelled parameter");
-    std::copy(values.begin(), values.end(), held_.begin());
+    // Only the parameters this structure holds: a crowd's blocks must not each copy every value.
+    for (std::size_t i = 0; i < s.heldParameters_.size(); ++i) held_[i] = values[static_cast<std::size_t>(s.heldParameters_[i])];
     chainsHeld_ = false;
     for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
         const auto& node = s.nodes_[n];
@@ -297,7 +302,7 @@ void ResidualWorkspace::holdChains()
             for (const auto& link : gaps[g]) {
                 const ModelledParameter& m = approx.parameters[static_cast<std::size_t>(link.parameter)];
                 c = c * m.operators[static_cast<std::size_t>(link.op)].matrix(
-                            held_[static_cast<std::size_t>(link.parameter)] - m.parameter.defaultValue);
+                            held_[static_cast<std::size_t>(link.held)] - m.parameter.defaultValue);
             }
             const bool last = g + 1 == gaps.size();
             if (last) c = c * approx.outputs[static_cast<std::size_t>(s.outputs_[o])].rest;

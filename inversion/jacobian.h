@@ -90,6 +90,7 @@ private:
         int op = 0;       // index into the parameter's operators
         int column = -1;  // unknown: its column; -1: held fixed
         int slot = -1;    // unknown: index into slots_
+        int held = -1;    // held: index into heldParameters_
     };
     struct Slot {  // a distinct (column, operator) pair: evaluated once per evaluation
         int column = 0;
@@ -120,6 +121,7 @@ private:
     std::vector<char> outputRigid_;             // per output: product and rest rigid (no polar decomposition)
     std::vector<std::vector<int>> outputVars_;  // per output: the unknown nodes on its path
     std::vector<Chain> chains_;                 // per output, flat: finite differences and the fallback
+    std::vector<int> heldParameters_;           // the parameters of the chains' held links
     std::vector<std::vector<int>> outputsOfColumn_;
     int maxVars_ = 0;
     int constantCount_ = 0;  // sum over chains of (vars + 1)
@@ -165,7 +167,7 @@ private:
     void outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobian);
 
     const ResidualStructure* structure_;
-    std::vector<double> held_;                 // the values given to holdParameters
+    std::vector<double> held_;                 // per heldParameters_ entry: its value given to holdParameters
     bool chainsHeld_ = false;
     std::vector<Affine> heldMatrix_;           // per held node: its operator's matrix
     std::vector<Affine> nodeMatrix_;           // per node: its product from the root

@@ -22,18 +22,19 @@ struct Verdict {
 // only (1) holds votes "A outer", only (2) "B outer", neither "neither". Unanimous votes decide; votes
 // that disagree (a "neither" disagrees with both orders), or only "neither", are a conflict: on some
 // output the order chosen would be wrong.
-Verdict vote(const std::vector<int>& common, const std::vector<Eigen::Matrix4d>& rest, const std::vector<Eigen::Matrix4d>& fa, const std::vector<Eigen::Matrix4d>& fb,
-             const std::vector<Eigen::Matrix4d>& fab, double tolerance, const std::vector<std::string>& outputNames,
-             double frameRadius)
+// The world matrices are those of the common outputs, in the order of `common`.
+Verdict vote(const std::vector<int>& common, const std::vector<Eigen::Matrix4d>& rest, const std::vector<Eigen::Matrix4d>& fa,
+             const std::vector<Eigen::Matrix4d>& fb, const std::vector<Eigen::Matrix4d>& fab, double tolerance,
+             const std::vector<std::string>& outputNames, double frameRadius)
 {
     int first = 0, second = 0, neither = 0;
     std::string firstAt, secondAt, neitherAt;
     double worstOne = 0.0, worstTwo = 0.0;
-    for (int k : common) {
-        const auto u = static_cast<std::size_t>(k);
-        const Eigen::Matrix4d restInverse = rest[u].inverse();
-        const double one = matrixError(fab[u], fa[u] * restInverse * fb[u], frameRadius);
-        const double two = matrixError(fab[u], fb[u] * restInverse * fa[u], frameRadius);
+    for (std::size_t i = 0; i < common.size(); ++i) {
+        const auto u = static_cast<std::size_t>(common[i]);
+        const Eigen::Matrix4d restInverse = rest[i].inverse();
+        const double one = matrixError(fab[i], fa[i] * restInverse * fb[i], frameRadius);
+        const double two = matrixError(fab[i], fb[i] * restInverse * fa[i], frameRadius);
         const bool ok1 = one <= tolerance, ok2 = two <= tolerance;
         if (ok1 && ok2) continue;
         if (ok1) {
@@ -127,39 +128,60 @@ private:
         return values;
     }
 
-    // F with these parameters at their order offsets. One parameter alone was sampled there while
-    // classifying: its worlds are rebuilt without an evaluation (rest where it has no effect).
-    const std::vector<Eigen::Matrix4d>& worldsOf(const std::vector<int>& members)
+    // F with these parameters at their order offsets, kept for the outputs they affect only: a crowd's
+    // thousands of group tests must not each keep every joint. One parameter alone was sampled there
+    // while classifying: its worlds are rebuilt without an evaluation.
+    struct Moved {
+        std::vector<int> outputs;  // ascending
+        std::vector<Eigen::Matrix4d> worlds;
+
+        const Eigen::Matrix4d& at(int k) const
+        {
+            const auto it = std::lower_bound(outputs.begin(), outputs.end(), k);
+            return worlds[static_cast<std::size_t>(it - outputs.begin())];
+        }
+    };
+
+    const Moved& worldsOf(const std::vector<int>& members)
     {
         auto it = moved_.find(members);
         if (it != moved_.end()) return it->second;
-        std::vector<Eigen::Matrix4d> worlds;
+        Moved m;
+        m.outputs = outputsOf(members);
         if (members.size() == 1) {
             const Classification& c = classes_[static_cast<std::size_t>(members.front())];
-            worlds = rest_;
-            for (std::size_t e = 0; e < c.model.outputs.size(); ++e)
-                worlds[static_cast<std::size_t>(c.model.outputs[e])] = c.orderWorlds[e];
+            for (int k : m.outputs) {
+                const auto e = std::find(c.model.outputs.begin(), c.model.outputs.end(), k) - c.model.outputs.begin();
+                m.worlds.push_back(c.orderWorlds[static_cast<std::size_t>(e)]);
+            }
         }
         else {
             ++evaluations_;
-            worlds = probe_.atValues(valuesWith(members));
+            const std::vector<Eigen::Matrix4d>& worlds = probe_.atValues(valuesWith(members));
+            for (int k : m.outputs) m.worlds.push_back(worlds[static_cast<std::size_t>(k)]);
         }
-        return moved_.emplace(members, std::move(worlds)).first->second;
+        return moved_.emplace(members, std::move(m)).first->second;
     }
 
     Verdict compare(const std::vector<int>& a, const std::vector<int>& b, const std::vector<int>& common)
     {
         // References stay valid: std::map does not move its elements when it grows.
-        const std::vector<Eigen::Matrix4d>& fa = worldsOf(a);
-        const std::vector<Eigen::Matrix4d>& fb = worldsOf(b);
+        const Moved& ma = worldsOf(a);
+        const Moved& mb = worldsOf(b);
         std::vector<int> both = a;
         both.insert(both.end(), b.begin(), b.end());
         ++evaluations_;
-        const std::vector<Eigen::Matrix4d> fab = probe_.atValues(valuesWith(both));
+        const std::vector<Eigen::Matrix4d>& all = probe_.atValues(valuesWith(both));
+        std::vector<Eigen::Matrix4d> rest, fa, fb, fab;
+        for (int k : common) {
+            rest.push_back(rest_[static_cast<std::size_t>(k)]);
+            fa.push_back(ma.at(k));
+            fb.push_back(mb.at(k));
+            fab.push_back(all[static_cast<std::size_t>(k)]);
+        }
         double offsets = 0.0;
         for (int p : both) offsets += std::abs(classes_[static_cast<std::size_t>(p)].orderOffset);
-        return vote(common, rest_, fa, fb, fab, options_.epsilon * offsets, probe_.rig().outputs(),
-                    options_.frameRadius);
+        return vote(common, rest, fa, fb, fab, options_.epsilon * offsets, probe_.rig().outputs(), options_.frameRadius);
     }
 
     RigProbe& probe_;
@@ -167,7 +189,7 @@ private:
     const std::vector<Classification>& classes_;
     const LearnOptions& options_;
     std::map<std::pair<int, int>, Verdict> pairs_;
-    std::map<std::vector<int>, std::vector<Eigen::Matrix4d>> moved_;
+    std::map<std::vector<int>, Moved> moved_;
     std::uint64_t evaluations_ = 0;
 };
 

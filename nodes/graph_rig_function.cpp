@@ -216,8 +216,18 @@ void GraphRigFunction::evaluate(std::span<const double> values, std::vector<Eige
         }
     ++evaluations_;
     graph_->evaluate(outputPlugs_);
-    worlds.resize(outputPlugs_.size());
-    for (std::size_t k = 0; k < outputPlugs_.size(); ++k) worlds[k] = std::get<Eigen::Matrix4d>(graph_->getValue(outputPlugs_[k]));
+    // Only joints computed since the last read are copied out again: a crowd's thousands of joints must
+    // not all be read for each probe of one limb. Counting computes also sees evaluations made through
+    // graph() behind this object's back.
+    outputWorlds_.resize(outputPlugs_.size());
+    computesSeen_.resize(outputPlugs_.size(), notRead);
+    for (std::size_t k = 0; k < outputPlugs_.size(); ++k) {
+        const std::uint64_t computes = graph_->computeCount(outputPlugs_[k].node);
+        if (computes == computesSeen_[k]) continue;
+        outputWorlds_[k] = std::get<Eigen::Matrix4d>(graph_->getValue(outputPlugs_[k]));
+        computesSeen_[k] = computes;
+    }
+    worlds = outputWorlds_;
 }
 
 }  // namespace rig

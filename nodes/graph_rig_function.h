@@ -81,6 +81,10 @@ private:
     std::vector<double> current_;  // the value each parameter plug holds
     std::vector<std::string> outputNames_;
     std::vector<Plug> outputPlugs_;
+    // The outputs as last read, and their node's compute count then (notRead before the first read).
+    static constexpr std::uint64_t notRead = ~std::uint64_t{0};
+    std::vector<Eigen::Matrix4d> outputWorlds_;
+    std::vector<std::uint64_t> computesSeen_;
     std::uint64_t evaluations_ = 0;
     std::string fingerprint_;
 };

@@ -95,6 +95,32 @@ TEST_CASE("GraphRigFunction: evaluate sets the plugs, reads world matrices and c
     CHECK_THROWS_AS(f.evaluate(std::vector<double>{0.0}, worlds), std::invalid_argument);
 }
 
+TEST_CASE("GraphRigFunction: only joints computed since the last read are read again, however they were computed")
+{
+    GraphRigFunction f(arm, {{"shoulder.rotateZ", "wrist.rotateX"}, {"wrist", "elbow"}, {}});
+    Graph& g = f.graph();
+    const NodeId elbow = g.node("elbow"), wrist = g.node("wrist");
+    std::vector<Eigen::Matrix4d> worlds;
+    f.evaluate(std::vector<double>{0.5, 0.0}, worlds);
+    // Moving the wrist computes the wrist and not the elbow, whose world is the one read before.
+    const std::uint64_t elbowComputes = g.computeCount(elbow);
+    const Eigen::Matrix4d elbowBefore = worlds[0];
+    f.evaluate(std::vector<double>{0.5, 0.75}, worlds);
+    CHECK(g.computeCount(elbow) == elbowComputes);
+    CHECK(worlds[0] == elbowBefore);
+    CHECK(worlds[1] == std::get<Eigen::Matrix4d>(g.getValue(g.plug("wrist.worldMatrix"))));
+    // A plug set and pulled through graph() behind the function's back: the same values again must still
+    // return what the graph now holds, not the joints as last read.
+    g.setValue(g.plug("shoulder.rotateZ"), 1.25);
+    const auto elbowNow = std::get<Eigen::Matrix4d>(g.getValue(g.plug("elbow.worldMatrix")));
+    const auto wristNow = std::get<Eigen::Matrix4d>(g.getValue(g.plug("wrist.worldMatrix")));
+    CHECK(elbowNow != elbowBefore);
+    f.evaluate(std::vector<double>{0.5, 0.75}, worlds);
+    CHECK(worlds[0] == elbowNow);
+    CHECK(worlds[1] == wristNow);
+    CHECK(g.computeCount(wrist) > 0);
+}
+
 TEST_CASE("GraphRigFunction: the fingerprint covers the rig file and every file it includes")
 {
     const auto dir = test::scratchDir("graph-rig-fingerprint");
