@@ -16,9 +16,12 @@ seconds=${1:-60}
 build=${RIG_FUZZ_BUILD_DIR:-build-fuzz}
 jobs=${RIG_JOBS:-1}
 
-if ! command -v clang++ >/dev/null; then
-  echo "fuzz: clang++ is needed (apt-get install clang libclang-rt-14-dev)" >&2
-  exit 2
+# libFuzzer comes with clang's runtime libraries: installed when missing, as scripts/setup.sh installs the rest.
+if ! command -v clang++ >/dev/null || ! dpkg -s libclang-rt-14-dev >/dev/null 2>&1; then
+  sudo=()
+  [ "$(id -u)" -eq 0 ] || sudo=(sudo)
+  echo "fuzz: installing clang and libclang-rt-14-dev (libFuzzer)" >&2
+  DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends clang libclang-rt-14-dev >/dev/null
 fi
 if [ ! -f "$build/build.ninja" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DRIG_FUZZ=ON >/dev/null
