@@ -123,7 +123,8 @@ namespace {
 
 bool sameBits(const double* a, const double* b, std::size_t n)
 {
-    return std::memcmp(a, b, n * sizeof(double)) == 0;
+    // An empty vector's data() may be null, which memcmp must not be given even for zero bytes.
+    return n == 0 || std::memcmp(a, b, n * sizeof(double)) == 0;
 }
 
 }  // namespace
