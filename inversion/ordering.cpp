@@ -147,15 +147,14 @@ private:
         auto it = moved_.find(members);
         if (it != moved_.end()) return it->second;
         Moved m;
-        m.outputs = outputsOf(members);
         if (members.size() == 1) {
+            // Classification lists a parameter's outputs in ascending order, with their worlds.
             const Classification& c = classes_[static_cast<std::size_t>(members.front())];
-            for (int k : m.outputs) {
-                const auto e = std::find(c.model.outputs.begin(), c.model.outputs.end(), k) - c.model.outputs.begin();
-                m.worlds.push_back(c.orderWorlds[static_cast<std::size_t>(e)]);
-            }
+            m.outputs = c.model.outputs;
+            m.worlds = c.orderWorlds;
         }
         else {
+            m.outputs = outputsOf(members);
             ++evaluations_;
             const std::vector<Eigen::Matrix4d>& worlds = probe_.atValues(valuesWith(members));
             for (int k : m.outputs) m.worlds.push_back(worlds[static_cast<std::size_t>(k)]);
