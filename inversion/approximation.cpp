@@ -1,6 +1,9 @@
 #include "inversion/approximation.h"
 
+#include <algorithm>
 #include <stdexcept>
+
+#include <fmt/format.h>
 
 namespace rig {
 
@@ -10,8 +13,9 @@ void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::
         throw std::invalid_argument("Approximation::evaluate: one value per modelled parameter");
     worlds.resize(outputs.size());
     for (std::size_t k = 0; k < outputs.size(); ++k) worlds[k].setIdentity();
-    // Walking the parameters outermost first and multiplying on the right composes each output's
-    // operators in order; the rest matrix goes last.
+    // Walking the parameters outermost first and multiplying on the right composes each output's own
+    // operators in order (M_k); then each output's product is its parent's followed by M_k, and the
+    // rest matrix goes last.
     std::vector<Eigen::Matrix4d> matrices;
     for (std::size_t p = 0; p < parameters.size(); ++p) {
         const ModelledParameter& m = parameters[p];
@@ -21,7 +25,63 @@ void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::
         for (std::size_t e = 0; e < m.outputs.size(); ++e)
             worlds[static_cast<std::size_t>(m.outputs[e])] *= matrices[static_cast<std::size_t>(m.operatorOfOutput[e])];
     }
+    for (const int k : outputOrder()) {
+        const int p = outputs[static_cast<std::size_t>(k)].parent;
+        if (p >= 0) worlds[static_cast<std::size_t>(k)] = worlds[static_cast<std::size_t>(p)] * worlds[static_cast<std::size_t>(k)];
+    }
     for (std::size_t k = 0; k < outputs.size(); ++k) worlds[k] *= outputs[k].rest;
+}
+
+std::vector<int> Approximation::outputOrder() const
+{
+    const int n = static_cast<int>(outputs.size());
+    std::vector<int> order;
+    std::vector<char> state(outputs.size(), 0);  // 0 new, 1 on the current walk, 2 placed
+    std::vector<int> walk;
+    for (int k = 0; k < n; ++k) {
+        for (int u = k; u >= 0 && state[static_cast<std::size_t>(u)] == 0; u = outputs[static_cast<std::size_t>(u)].parent) {
+            const int p = outputs[static_cast<std::size_t>(u)].parent;
+            if (p < -1 || p >= n)
+                throw std::invalid_argument(fmt::format("Approximation: output {} has parent index {} of {}",
+                                                        outputs[static_cast<std::size_t>(u)].name, p, n));
+            state[static_cast<std::size_t>(u)] = 1;
+            walk.push_back(u);
+            if (p >= 0 && state[static_cast<std::size_t>(p)] == 1)
+                throw std::invalid_argument(
+                    fmt::format("Approximation: the parents of output {} form a cycle", outputs[static_cast<std::size_t>(u)].name));
+        }
+        for (auto it = walk.rbegin(); it != walk.rend(); ++it) {
+            state[static_cast<std::size_t>(*it)] = 2;
+            order.push_back(*it);
+        }
+        walk.clear();
+    }
+    return order;
+}
+
+std::vector<std::vector<int>> Approximation::reach() const
+{
+    std::vector<std::vector<int>> children(outputs.size());
+    for (std::size_t k = 0; k < outputs.size(); ++k)
+        if (outputs[k].parent >= 0) children[static_cast<std::size_t>(outputs[k].parent)].push_back(static_cast<int>(k));
+    std::vector<std::vector<int>> result;
+    result.reserve(parameters.size());
+    std::vector<char> seen(outputs.size(), 0);
+    for (const ModelledParameter& m : parameters) {
+        std::vector<int> reached, stack(m.outputs.begin(), m.outputs.end());
+        while (!stack.empty()) {
+            const int k = stack.back();
+            stack.pop_back();
+            if (k < 0 || static_cast<std::size_t>(k) >= outputs.size() || seen[static_cast<std::size_t>(k)]) continue;
+            seen[static_cast<std::size_t>(k)] = 1;
+            reached.push_back(k);
+            for (int c : children[static_cast<std::size_t>(k)]) stack.push_back(c);
+        }
+        for (int k : reached) seen[static_cast<std::size_t>(k)] = 0;
+        std::sort(reached.begin(), reached.end());
+        result.push_back(std::move(reached));
+    }
+    return result;
 }
 
 std::vector<double> Approximation::defaults() const

@@ -3,13 +3,21 @@
 // the outputs it affects, in composition order. Stateless and cheap: evaluate() is const and safe to
 // call from many threads, which is what makes a parallel Jacobian possible.
 //
-//   F~_k(beta) = P_s1(a_s1) * ... * P_sm(a_sm) * F_k(0),   a_i = beta_i - default_i,
+// An output is learned in world space (the talk) or relative to its parent output (DESIGN: frames):
 //
-// over the parameters that affect output k, s1 outermost (a root before a shoulder before an elbow).
+//   world:     F~_k(beta) = M_k(beta) * F_k(0)
+//   relative:  F~_k(beta) = F~_p(beta) * F_p(0)^-1 * M_k(beta) * F_k(0)        p = parent of k
+//   M_k(beta)  = P_s1(a_s1) * ... * P_sm(a_sm),   a_i = beta_i - default_i,
+//
+// over the parameters that affect output k directly, s1 outermost (a root before a shoulder before an
+// elbow). A relative output's operators act on its parent-relative transform, written in world
+// coordinates at rest (conjugated by F_p(0)), so every operator of the file reads in one frame and an
+// output's whole product is its ancestors' operators followed by its own.
 
 #include <cstdint>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -22,20 +30,34 @@ namespace rig {
 struct ApproximationOutput {
     std::string name;                                // the rig's joint
     Eigen::Matrix4d rest = Eigen::Matrix4d::Identity();  // F_k(0): world matrix at the rest values
+    int parent = -1;  // the output it is learned relative to (index into Approximation::outputs); -1: world space
+    double validationError = 0.0;  // its worst relative validation error (ValidationSummary), cm per unit
 };
 
 struct ModelledParameter {
     RigParameter parameter;
-    std::vector<int> outputs;           // outputs it affects (indices into Approximation::outputs), increasing
+    // Outputs it affects directly (indices into Approximation::outputs), increasing: the outputs of
+    // relative outputs below them move with them (Approximation::reach).
+    std::vector<int> outputs;
     std::vector<Operator> operators;    // one shared by all its outputs, or one per output
     std::vector<int> operatorOfOutput;  // for each entry of `outputs`, its operator
     std::string form;                   // how it was modelled, for reports: "rotation", "per-output sampledRigid", ...
     double fitError = 0.0;              // worst validation error of its operators, cm per unit of the parameter
     int samples = 0;                    // rig samples of this parameter alone that the fit used
+    double validationError = 0.0;       // worst relative validation error of the outputs it reaches, cm per unit
+    // Ranges of its value (absolute, internal units) over which it moves nothing: a saturated control
+    // (a clamp, a remap that flattens). An inversion cannot tell values inside one apart.
+    std::vector<std::pair<double, double>> noEffect;
 };
 
 struct DiscardedParameter {
     RigParameter parameter;
+    std::string reason;
+};
+
+// A rig output the approximation leaves out: singular or not finite at rest, or history-dependent.
+struct DroppedOutput {
+    std::string name;
     std::string reason;
 };
 
@@ -48,6 +70,13 @@ struct ValidationSummary {
     double meanRotationErrorDeg = 0.0;
     std::string worstOutput;  // where the largest position error is
     int worstPose = -1;       // and in which pose (0-based)
+    // What epsilon bounds, over every pose and output: the output's frame error (learner.h) divided by
+    // the sum of |offset| of the parameters that reach it, cm per unit of a parameter.
+    double maxRelativeError = 0.0;
+    std::string worstRelativeOutput;  // where it is
+    std::string worstParameter;       // the parameter moved furthest there
+    int nonFinitePoses = 0;           // poses where the real rig gave a non-finite matrix (not measured)
+    bool withinEpsilon = true;        // maxRelativeError <= epsilon and every pose measured
 };
 
 struct TrainingSummary {
@@ -64,6 +93,7 @@ struct Approximation {
     std::vector<ApproximationOutput> outputs;
     std::vector<ModelledParameter> parameters;  // composition order: outermost first
     std::vector<DiscardedParameter> discarded;
+    std::vector<DroppedOutput> droppedOutputs;
     ValidationSummary validation;
     TrainingSummary training;
 
@@ -72,6 +102,12 @@ struct Approximation {
     void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) const;
     // The rest values of `parameters`.
     std::vector<double> defaults() const;
+    // Per parameter, every output it moves: those it affects directly and the relative outputs below
+    // them, increasing.
+    std::vector<std::vector<int>> reach() const;
+    // The outputs with parents before children. Throws std::invalid_argument for a parent index out of
+    // range or a cycle of parents.
+    std::vector<int> outputOrder() const;
 };
 
 }  // namespace rig

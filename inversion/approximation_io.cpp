@@ -302,11 +302,22 @@ std::string approximationToYaml(const Approximation& a)
                        number(v.meanPositionErrorCm, "validation.meanPositionErrorCm"),
                        number(v.maxRotationErrorDeg, "validation.maxRotationErrorDeg"),
                        number(v.meanRotationErrorDeg, "validation.meanRotationErrorDeg"), yamlString(v.worstOutput), v.worstPose);
+    out += fmt::format("  maxRelativeError: {}\n  worstRelativeOutput: {}\n  worstParameter: {}\n  nonFinitePoses: {}\n"
+                       "  withinEpsilon: {}\n",
+                       number(v.maxRelativeError, "validation.maxRelativeError"), yamlString(v.worstRelativeOutput),
+                       yamlString(v.worstParameter), v.nonFinitePoses, v.withinEpsilon);
 
     out += a.outputs.empty() ? "outputs: []\n" : "outputs:\n";
     for (std::size_t k = 0; k < a.outputs.size(); ++k) {
         const std::string field = fmt::format("outputs[{}].rest", k);
-        out += fmt::format("  - name: {}\n    rest: [", yamlString(a.outputs[k].name));
+        const ApproximationOutput& o = a.outputs[k];
+        out += fmt::format("  - name: {}\n", yamlString(o.name));
+        if (o.parent >= 0) {
+            if (static_cast<std::size_t>(o.parent) >= a.outputs.size())
+                throw std::invalid_argument(fmt::format("approximationToYaml: outputs[{}].parent: index {} out of range", k, o.parent));
+            out += fmt::format("    parent: {}\n", yamlString(a.outputs[static_cast<std::size_t>(o.parent)].name));
+        }
+        out += fmt::format("    validationError: {}\n    rest: [", number(o.validationError, fmt::format("outputs[{}].validationError", k)));
         for (int r = 0; r < 4; ++r) {
             Eigen::Vector4d row = a.outputs[k].rest.row(r).transpose();
             out += fmt::format("{}[{}, {}, {}, {}]", r ? ", " : "", number(row[0], field), number(row[1], field),
@@ -322,8 +333,13 @@ std::string approximationToYaml(const Approximation& a)
         std::string fields = parameterFields(m.parameter, field, "    ");
         fields.replace(0, 4, "  - ");
         out += fields;
-        out += fmt::format("    form: {}\n    fitError: {}\n    samples: {}\n", yamlString(m.form),
-                           number(m.fitError, field + ".fitError"), m.samples);
+        out += fmt::format("    form: {}\n    fitError: {}\n    samples: {}\n    validationError: {}\n", yamlString(m.form),
+                           number(m.fitError, field + ".fitError"), m.samples,
+                           number(m.validationError, field + ".validationError"));
+        if (!m.noEffect.empty())
+            out += "    noEffect: " + list(m.noEffect, [&](const std::pair<double, double>& r) {
+                       return fmt::format("[{}, {}]", number(r.first, field + ".noEffect"), number(r.second, field + ".noEffect"));
+                   }) + "\n";
         if (m.outputs.size() != m.operatorOfOutput.size())
             throw std::invalid_argument(fmt::format("approximationToYaml: {}: {} outputs but {} operator indices", field,
                                                     m.outputs.size(), m.operatorOfOutput.size()));
@@ -343,6 +359,11 @@ std::string approximationToYaml(const Approximation& a)
             out += operatorText(m.operators[o], fmt::format("{}.operators[{}]", field, o));
     }
 
+    if (!a.droppedOutputs.empty()) {
+        out += "droppedOutputs:\n";
+        for (const DroppedOutput& d : a.droppedOutputs)
+            out += fmt::format("  - name: {}\n    reason: {}\n", yamlString(d.name), yamlString(d.reason));
+    }
     out += a.discarded.empty() ? "discarded: []\n" : "discarded:\n";
     for (std::size_t d = 0; d < a.discarded.size(); ++d) {
         std::string fields = parameterFields(a.discarded[d].parameter, fmt::format("discarded[{}]", d), "    ");
@@ -382,13 +403,14 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     if (!format.IsScalar() || format.Scalar() != approximationFormatName)
         r.fail(format, "format", fmt::format("not an approximation file (expected format: {})", approximationFormatName));
     const int version = r.integer<int>(r.need(root, "version", "file"), "version");
-    if (version != approximationFormatVersion)
+    if (version < 1 || version > approximationFormatVersion)
         r.fail(root["version"], "version",
-               fmt::format("version {} is not supported; this program reads version {} (re-run rig-learn)", version,
+               fmt::format("version {} is not supported; this program reads versions 1 to {} (re-run rig-learn)", version,
                            approximationFormatVersion));
     r.checkKeys(root, "file",
                 {"format", "version", "rigFile", "rigFingerprint", "epsilon", "training", "validation", "outputs", "parameters",
-                 "discarded"});
+                 "discarded"},
+                {"droppedOutputs"});
 
     Approximation a;
     a.rigFile = r.text(root["rigFile"], "rigFile");
@@ -406,7 +428,8 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     const YAML::Node validation = root["validation"];
     r.checkKeys(validation, "validation",
                 {"poses", "maxPositionErrorCm", "meanPositionErrorCm", "maxRotationErrorDeg", "meanRotationErrorDeg",
-                 "worstOutput", "worstPose"});
+                 "worstOutput", "worstPose"},
+                {"maxRelativeError", "worstRelativeOutput", "worstParameter", "nonFinitePoses", "withinEpsilon"});
     a.validation.poses = r.integer<int>(validation["poses"], "validation.poses");
     a.validation.maxPositionErrorCm = r.real(validation["maxPositionErrorCm"], "validation.maxPositionErrorCm");
     a.validation.meanPositionErrorCm = r.real(validation["meanPositionErrorCm"], "validation.meanPositionErrorCm");
@@ -414,12 +437,18 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     a.validation.meanRotationErrorDeg = r.real(validation["meanRotationErrorDeg"], "validation.meanRotationErrorDeg");
     a.validation.worstOutput = r.text(validation["worstOutput"], "validation.worstOutput");
     a.validation.worstPose = r.integer<int>(validation["worstPose"], "validation.worstPose");
+    if (const YAML::Node n = validation["maxRelativeError"]) a.validation.maxRelativeError = r.real(n, "validation.maxRelativeError");
+    if (const YAML::Node n = validation["worstRelativeOutput"])
+        a.validation.worstRelativeOutput = r.text(n, "validation.worstRelativeOutput");
+    if (const YAML::Node n = validation["worstParameter"]) a.validation.worstParameter = r.text(n, "validation.worstParameter");
+    if (const YAML::Node n = validation["nonFinitePoses"]) a.validation.nonFinitePoses = r.integer<int>(n, "validation.nonFinitePoses");
+    if (const YAML::Node n = validation["withinEpsilon"]) a.validation.withinEpsilon = r.boolean(n, "validation.withinEpsilon");
 
     std::map<std::string, int> outputIndex;
     const YAML::Node outputs = r.sequence(root["outputs"], "outputs");
     for (std::size_t k = 0; k < outputs.size(); ++k) {
         const std::string field = fmt::format("outputs[{}]", k);
-        r.checkKeys(outputs[k], field, {"name", "rest"});
+        r.checkKeys(outputs[k], field, {"name", "rest"}, {"parent", "validationError"});
         ApproximationOutput out;
         out.name = r.text(outputs[k]["name"], field + ".name");
         if (!outputIndex.emplace(out.name, static_cast<int>(k)).second)
@@ -429,7 +458,23 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
             const auto v = r.reals(rows[static_cast<std::size_t>(row)], field + ".rest", 4);
             for (int c = 0; c < 4; ++c) out.rest(row, c) = v[static_cast<std::size_t>(c)];
         }
+        if (const YAML::Node n = outputs[k]["validationError"]) out.validationError = r.real(n, field + ".validationError");
         a.outputs.push_back(std::move(out));
+    }
+    for (std::size_t k = 0; k < outputs.size(); ++k) {
+        const YAML::Node n = outputs[k]["parent"];
+        if (!n) continue;
+        const std::string field = fmt::format("outputs[{}].parent", k);
+        const std::string name = r.text(n, field);
+        const auto it = outputIndex.find(name);
+        if (it == outputIndex.end()) r.fail(n, field, fmt::format("'{}' is not one of the outputs", name));
+        a.outputs[k].parent = it->second;
+    }
+    try {
+        a.outputOrder();
+    }
+    catch (const std::invalid_argument&) {
+        r.fail(outputs, "outputs", "the outputs' parents form a cycle; an output's parent is an ancestor joint");
     }
 
     std::set<std::string> names;
@@ -439,7 +484,8 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         const std::string field = fmt::format("parameters[{}]", p);
         r.checkKeys(n, field,
                     {"name", "default", "min", "max", "limited", "angular", "form", "fitError", "samples", "outputs",
-                     "operatorOfOutput", "operators"});
+                     "operatorOfOutput", "operators"},
+                    {"validationError", "noEffect"});
         ModelledParameter m;
         m.parameter = r.parameter(n, field);
         if (!names.insert(m.parameter.name).second)
@@ -447,6 +493,13 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         m.form = r.text(n["form"], field + ".form");
         m.fitError = r.real(n["fitError"], field + ".fitError");
         m.samples = r.integer<int>(n["samples"], field + ".samples");
+        if (const YAML::Node v = n["validationError"]) m.validationError = r.real(v, field + ".validationError");
+        if (const YAML::Node v = n["noEffect"])
+            for (const auto& range : r.sequence(v, field + ".noEffect")) {
+                const auto ends = r.reals(range, field + ".noEffect", 2);
+                if (!(ends[0] <= ends[1])) r.fail(range, field + ".noEffect", "a range is [low, high]");
+                m.noEffect.emplace_back(ends[0], ends[1]);
+            }
         for (const auto& o : r.sequence(n["outputs"], field + ".outputs")) {
             const std::string name = r.text(o, field + ".outputs");
             const auto it = outputIndex.find(name);
@@ -471,6 +524,13 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         a.parameters.push_back(std::move(m));
     }
 
+    if (const YAML::Node droppedOutputs = root["droppedOutputs"])
+        for (std::size_t d = 0; d < r.sequence(droppedOutputs, "droppedOutputs").size(); ++d) {
+            const std::string field = fmt::format("droppedOutputs[{}]", d);
+            r.checkKeys(droppedOutputs[d], field, {"name", "reason"});
+            a.droppedOutputs.push_back({r.text(droppedOutputs[d]["name"], field + ".name"),
+                                        r.text(droppedOutputs[d]["reason"], field + ".reason")});
+        }
     const YAML::Node discarded = r.sequence(root["discarded"], "discarded");
     for (std::size_t d = 0; d < discarded.size(); ++d) {
         const std::string field = fmt::format("discarded[{}]", d);

@@ -23,7 +23,9 @@ public:
 };
 
 inline constexpr std::string_view approximationFormatName = "rigInversionApproximation";
-inline constexpr int approximationFormatVersion = 1;
+// Version 2 added parent-relative outputs (`parent:`), the relative validation figures and `noEffect`
+// ranges; version 1 files still read (every output in world space).
+inline constexpr int approximationFormatVersion = 2;
 // Largest file readApproximationFile reads (a biped's approximation is under 1 MB).
 inline constexpr std::uintmax_t approximationMaxFileBytes = std::uintmax_t{256} << 20;
 

@@ -10,6 +10,13 @@
 
 namespace rig {
 
+RigProbe::RigProbe(RigFunction& rig) : rig_(rig)
+{
+    for (const auto& p : rig.parameters()) defaults_.push_back(p.defaultValue);
+    values_ = defaults_;
+    rig_.evaluate(values_, rest_);
+}
+
 const std::vector<Eigen::Matrix4d>& RigProbe::at(int i, double a, int j, double b)
 {
     values_ = defaults_;
@@ -25,14 +32,35 @@ const std::vector<Eigen::Matrix4d>& RigProbe::atValues(const std::vector<double>
     return worlds_;
 }
 
+Eigen::Matrix4d RigProbe::inFrame(int k, const Eigen::Matrix4d& world, const Eigen::Matrix4d& parentWorld) const
+{
+    const int p = parentOf(k);
+    if (p < 0) return world;
+    // F_p(0) W_p^-1 W_k, with the affine inverse of W_p.
+    const Eigen::Matrix3d inverse = parentWorld.block<3, 3>(0, 0).inverse();
+    Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
+    local.block<3, 3>(0, 0) = inverse * world.block<3, 3>(0, 0);
+    local.block<3, 1>(0, 3) = inverse * (world.block<3, 1>(0, 3) - parentWorld.block<3, 1>(0, 3));
+    return rest_[static_cast<std::size_t>(p)] * local;
+}
+
+Eigen::Matrix4d RigProbe::inFrame(int k, const std::vector<Eigen::Matrix4d>& worlds) const
+{
+    const int p = parentOf(k);
+    return p < 0 ? worlds[static_cast<std::size_t>(k)]
+                 : inFrame(k, worlds[static_cast<std::size_t>(k)], worlds[static_cast<std::size_t>(p)]);
+}
+
+const Eigen::Matrix4d& ParameterSamples::world(int k, double a, const std::vector<Eigen::Matrix4d>& rest) const
+{
+    const auto it = std::lower_bound(moved.begin(), moved.end(), k);
+    if (it == moved.end() || *it != k) return rest[static_cast<std::size_t>(k)];
+    return worlds.at(a)[static_cast<std::size_t>(it - moved.begin())];
+}
+
 namespace {
 
 constexpr double structureTolerance = 1e-8;
-
-// Samples of one parameter: offsets from its rest value and the affected outputs' world matrices.
-struct Samples {
-    std::map<double, std::vector<Eigen::Matrix4d>> worlds;  // offset -> one per affected output
-};
 
 // A candidate model of a parameter: operators and, per affected output, which one.
 struct Candidate {
@@ -45,24 +73,43 @@ struct Context {
     RigProbe& probe;
     int index;
     const LearnOptions& options;
-    std::vector<int> outputs;                   // affected outputs
+    ParameterSamples& store;
+    std::vector<int> outputs;                   // affected outputs (in their frames)
     std::vector<Eigen::Matrix4d> rest;          // their rest matrices
     std::vector<Eigen::Matrix4d> restInverse;
-    Samples samples;
+    std::map<double, std::vector<Eigen::Matrix4d>> framed;  // offset -> affected outputs in their frames
     std::vector<double> initial;  // the first, evenly spread offsets: every curve's first knots
+    bool nonFinite = false;       // a sample gave a non-finite matrix
 
+    // The affected outputs in their frames at offset a: from the stored raw sample, or a new one.
     const std::vector<Eigen::Matrix4d>& sample(double a)
     {
-        auto it = samples.worlds.find(a);
-        if (it != samples.worlds.end()) return it->second;
-        const auto& all = probe.at(index, a);
+        auto it = framed.find(a);
+        if (it != framed.end()) return it->second;
+        if (!store.worlds.contains(a)) {
+            const auto& all = probe.at(index, a);
+            std::vector<Eigen::Matrix4d> raw;
+            for (int k : store.moved) raw.push_back(all[static_cast<std::size_t>(k)]);
+            store.worlds.emplace(a, std::move(raw));
+        }
+        const auto& rigRest = probe.rest();
         std::vector<Eigen::Matrix4d> mine;
-        for (int k : outputs) mine.push_back(all[static_cast<std::size_t>(k)]);
-        return samples.worlds.emplace(a, std::move(mine)).first->second;
+        for (int k : outputs) {
+            const int p = probe.parentOf(k);
+            mine.push_back(probe.inFrame(k, store.world(k, a, rigRest), p < 0 ? rigRest[0] : store.world(p, a, rigRest)));
+            nonFinite = nonFinite || !mine.back().allFinite();
+        }
+        return framed.emplace(a, std::move(mine)).first->second;
     }
-    bool has(double a) const { return samples.worlds.contains(a); }
+    // Every sample so far, in the frames.
+    const std::map<double, std::vector<Eigen::Matrix4d>>& all()
+    {
+        for (const auto& entry : store.worlds) sample(entry.first);
+        return framed;
+    }
+    bool has(double a) const { return store.worlds.contains(a); }
     Eigen::Matrix4d delta(double a, std::size_t e) { return sample(a)[e] * restInverse[e]; }
-    int sampleCount() const { return static_cast<int>(samples.worlds.size()); }
+    int sampleCount() const { return static_cast<int>(store.worlds.size()); }
 };
 
 // `count` offsets spread over [lo, hi], split between the two sides of the rest value. An angle is
@@ -111,7 +158,7 @@ Eigen::Matrix3d linearPart(const Eigen::Matrix4d& m) { return m.block<3, 3>(0, 0
 std::vector<OperatorKind> plausibleKinds(Context& c, const std::vector<std::size_t>& entries)
 {
     bool identity = true, rigid = true, symmetric = true;
-    for (const auto& [a, worlds] : c.samples.worlds)
+    for (const auto& [a, worlds] : c.all())
         for (std::size_t e : entries) {
             const Eigen::Matrix3d l = linearPart(worlds[e] * c.restInverse[e]);
             identity = identity && (l - Eigen::Matrix3d::Identity()).norm() < structureTolerance;
@@ -129,7 +176,7 @@ std::vector<OperatorKind> plausibleKinds(Context& c, const std::vector<std::size
 double largestOffset(const Context& c)
 {
     double best = 0.0;
-    for (const auto& entry : c.samples.worlds)
+    for (const auto& entry : c.store.worlds)
         if (std::abs(entry.first) > std::abs(best)) best = entry.first;
     return best;
 }
@@ -177,7 +224,7 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
         const Eigen::Vector3d t = dWide.block<3, 1>(0, 3);
         if (t.norm() < 1e-12) return false;
         op.axis = t.normalized() * (widest < 0 ? -1.0 : 1.0);
-        for (const auto& entry : c.samples.worlds) magnitudes[entry.first] = c.delta(entry.first, e0).block<3, 1>(0, 3).dot(op.axis);
+        for (const auto& entry : c.all()) magnitudes[entry.first] = c.delta(entry.first, e0).block<3, 1>(0, 3).dot(op.axis);
         return true;
     }
     case OperatorKind::rotation: {
@@ -186,7 +233,7 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
         // its offset.
         double reference = 0.0, referenceAngle = -1.0;
         Eigen::Vector3d r = Eigen::Vector3d::Zero();
-        for (const auto& entry : c.samples.worlds) {
+        for (const auto& entry : c.all()) {
             const Eigen::Vector3d v = rotationVector(linearPart(c.delta(entry.first, e0)));
             const double angle = v.norm();
             const bool better = angle <= 0.9 * std::numbers::pi ? (referenceAngle > 0.9 * std::numbers::pi || angle > referenceAngle)
@@ -199,7 +246,7 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
         }
         if (r.norm() < 1e-12) return false;
         op.axis = r.normalized() * (reference < 0 ? -1.0 : 1.0);
-        for (const auto& entry : c.samples.worlds) {
+        for (const auto& entry : c.all()) {
             const Eigen::Matrix4d d = c.delta(entry.first, e0);
             magnitudes[entry.first] = rotationVector(linearPart(d)).dot(op.axis);
             for (std::size_t e : entries) {
@@ -218,7 +265,7 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
         eig.eigenvalues().cwiseAbs().maxCoeff(&k);
         if (std::abs(eig.eigenvalues()[k]) < 1e-12) return false;
         op.axis = eig.eigenvectors().col(k).normalized();
-        for (const auto& entry : c.samples.worlds) {
+        for (const auto& entry : c.all()) {
             const Eigen::Matrix4d d = c.delta(entry.first, e0);
             magnitudes[entry.first] = op.axis.dot((linearPart(d) - Eigen::Matrix3d::Identity()) * op.axis);
             for (std::size_t e : entries) {
@@ -231,7 +278,7 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
         return true;
     }
     case OperatorKind::uniformScale: {
-        for (const auto& entry : c.samples.worlds) {
+        for (const auto& entry : c.all()) {
             const Eigen::Matrix4d d = c.delta(entry.first, e0);
             magnitudes[entry.first] = linearPart(d).trace() / 3.0 - 1.0;
             for (std::size_t e : entries) {
@@ -270,7 +317,7 @@ double errorAt(Context& c, const Candidate& candidate, const std::vector<std::si
 std::vector<double> sampledOffsets(const Context& c)
 {
     std::vector<double> offsets;
-    for (const auto& entry : c.samples.worlds) offsets.push_back(entry.first);
+    for (const auto& entry : c.store.worlds) offsets.push_back(entry.first);
     return offsets;
 }
 
@@ -445,13 +492,59 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
     return refineAndValidate(c, entries, true, build, best, bestError);
 }
 
+// Ranges of offsets between neighbouring samples (0 included) over which no output moves: where the
+// control is saturated. The ends are found to 1/256 of the neighbouring samples' distance by bisection.
+std::vector<std::pair<double, double>> flatRanges(Context& c, const std::vector<Eigen::Matrix4d>& restFramed)
+{
+    auto worldsAt = [&](double a) -> std::vector<Eigen::Matrix4d> { return a == 0.0 ? restFramed : c.sample(a); };
+    auto same = [&](double a, double b) {
+        const auto wa = worldsAt(a), wb = worldsAt(b);
+        for (std::size_t e = 0; e < wa.size(); ++e)
+            if (matrixError(wa[e], wb[e], c.options.frameRadius) > c.options.effectTolerance) return false;
+        return true;
+    };
+    std::vector<double> xs = c.initial;
+    xs.push_back(0.0);
+    std::sort(xs.begin(), xs.end());
+    std::vector<std::pair<double, double>> ranges;
+    for (std::size_t j = 0; j + 1 < xs.size(); ++j) {
+        if (!same(xs[j], xs[j + 1])) continue;
+        if (!ranges.empty() && ranges.back().second == xs[j]) ranges.back().second = xs[j + 1];
+        else ranges.emplace_back(xs[j], xs[j + 1]);
+    }
+    // A flat range that starts after a moving stretch: bisect where the movement stops (and likewise
+    // at its other end).
+    for (auto& [lo, hi] : ranges) {
+        const auto below = std::find(xs.begin(), xs.end(), lo);
+        if (below != xs.begin()) {
+            double moving = *(below - 1), flat = lo;
+            for (int step = 0; step < 8; ++step) {
+                const double mid = 0.5 * (moving + flat);
+                (same(mid, hi) ? flat : moving) = mid;
+            }
+            lo = flat;
+        }
+        const auto above = std::find(xs.begin(), xs.end(), hi);
+        if (above + 1 != xs.end()) {
+            double moving = *(above + 1), flat = hi;
+            for (int step = 0; step < 8; ++step) {
+                const double mid = 0.5 * (moving + flat);
+                (same(mid, lo) ? flat : moving) = mid;
+            }
+            hi = flat;
+        }
+    }
+    return ranges;
+}
+
 }  // namespace
 
-Classification classifyParameter(RigProbe& probe, int index, const std::vector<Eigen::Matrix4d>& rest, RigState& state,
+Classification classifyParameter(RigProbe& probe, int index, RigState& state, ParameterSamples& samples,
                                  const LearnOptions& options)
 {
     const RigParameter& parameter = probe.rig().parameters()[static_cast<std::size_t>(index)];
     const auto& outputNames = probe.rig().outputs();
+    const auto& rest = probe.rest();
     Classification result;
     result.index = index;
     result.model.parameter = parameter;
@@ -462,51 +555,94 @@ Classification classifyParameter(RigProbe& probe, int index, const std::vector<E
         return result;
     }
 
-    // Sample the parameter alone, then check that the rest pose comes back as it was before.
     const std::vector<double> offsets = initialOffsets(lo, hi, options.samples, parameter.angular);
-    std::map<double, std::vector<Eigen::Matrix4d>> all;
-    for (double a : offsets) all[a] = probe.at(index, a);
-    const std::vector<Eigen::Matrix4d> again = probe.atRest();
-    std::string historyDependent;
-    for (std::size_t k = 0; k < rest.size(); ++k) {
-        if (state.unreliable[k]) continue;
-        const double moved = matrixError(again[k], state.lastRest[k], options.frameRadius);
-        if (moved > options.effectTolerance) {
-            // Its value depends on earlier evaluations: no parameter can be modelled on it.
-            state.unreliable[k] = 1;
-            if (historyDependent.empty())
-                historyDependent = fmt::format("history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
-                                               "(its outputs depend on earlier evaluations, not on the parameters alone)",
-                                               outputNames[k], moved);
+    if (!samples.taken) {
+        // Sample the parameter alone, then check that the rest pose comes back as it was before.
+        samples.taken = true;
+        std::map<double, std::vector<Eigen::Matrix4d>> all;
+        for (double a : offsets) all[a] = probe.at(index, a);
+        const std::vector<Eigen::Matrix4d> again = probe.at(-1, 0.0);
+        for (std::size_t k = 0; k < rest.size(); ++k) {
+            if (state.unreliable[k]) continue;
+            const double moved = matrixError(again[k], state.lastRest[k], options.frameRadius);
+            if (moved > options.effectTolerance) {
+                // Its value depends on earlier evaluations: no parameter can be modelled on it.
+                state.unreliable[k] = 1;
+                if (samples.historyDependent.empty())
+                    samples.historyDependent =
+                        fmt::format("history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
+                                    "(its outputs depend on earlier evaluations, not on the parameters alone)",
+                                    outputNames[k], moved);
+            }
+        }
+        state.lastRest = again;
+        for (std::size_t k = 0; k < rest.size(); ++k)
+            for (const auto& [a, worlds] : all)
+                if (!(matrixError(worlds[k], rest[k], options.frameRadius) <= options.effectTolerance)) {
+                    samples.moved.push_back(static_cast<int>(k));
+                    break;
+                }
+        for (const auto& [a, worlds] : all) {
+            std::vector<Eigen::Matrix4d> raw;
+            for (int k : samples.moved) raw.push_back(worlds[static_cast<std::size_t>(k)]);
+            samples.worlds.emplace(a, std::move(raw));
         }
     }
-    state.lastRest = again;
 
-    Context c{probe, index, options, {}, {}, {}, {}, offsets};
+    Context c{probe, index, options, samples, {}, {}, {}, {}, offsets};
     for (std::size_t k = 0; k < rest.size(); ++k) {
+        const int kk = static_cast<int>(k);
+        if (!std::binary_search(samples.moved.begin(), samples.moved.end(), kk)) continue;
+        double raw = 0.0;
+        for (double a : offsets) raw = std::max(raw, matrixError(samples.world(kk, a, rest), rest[k], options.frameRadius));
+        if (!std::isfinite(raw)) {
+            result.reason = fmt::format("the rig gives a non-finite matrix for {} at {} = {:g} (a zero scale or a singular "
+                                        "matrix?); give it a range where the rig is defined",
+                                        outputNames[k], parameter.name, parameter.defaultValue + [&] {
+                                            for (double a : offsets)
+                                                if (!samples.world(kk, a, rest).allFinite()) return a;
+                                            return 0.0;
+                                        }());
+            result.failedOutput = -1;
+            return result;
+        }
+        result.effect = std::max(result.effect, raw);
+        ++result.reach;
+    }
+    // The affected outputs in their frames: a relative output moves when its parent-relative transform does.
+    for (std::size_t k = 0; k < rest.size(); ++k) {
+        const int kk = static_cast<int>(k);
         if (state.unreliable[k]) continue;
+        const int p = probe.parentOf(kk);
         double moved = 0.0;
-        for (const auto& [a, worlds] : all) moved = std::max(moved, matrixError(worlds[k], rest[k], options.frameRadius));
+        for (double a : offsets) {
+            const Eigen::Matrix4d framed =
+                probe.inFrame(kk, samples.world(kk, a, rest), p < 0 ? rest[0] : samples.world(p, a, rest));
+            moved = std::max(moved, matrixError(framed, rest[k], options.frameRadius));
+        }
         if (moved > options.effectTolerance) {
-            c.outputs.push_back(static_cast<int>(k));
+            c.outputs.push_back(kk);
             c.rest.push_back(rest[k]);
             c.restInverse.push_back(rest[k].inverse());
         }
-        result.effect = std::max(result.effect, moved);
     }
     if (c.outputs.empty()) {
-        result.reason = !historyDependent.empty()
-                            ? historyDependent
+        result.reason = !samples.historyDependent.empty()
+                            ? samples.historyDependent
                             : "no effect: no output moves when it alone changes (the others at their rest values)";
         return result;
     }
-    for (const auto& [a, worlds] : all) {
-        std::vector<Eigen::Matrix4d> mine;
-        for (int k : c.outputs) mine.push_back(worlds[static_cast<std::size_t>(k)]);
-        c.samples.worlds[a] = std::move(mine);
-    }
     result.orderOffset = largestOffset(c);
-    result.orderWorlds = c.samples.worlds.at(result.orderOffset);
+    result.orderWorlds = c.sample(result.orderOffset);
+    result.model.noEffect = flatRanges(c, c.rest);
+    // A curve has knots where the effect stops: a spline smooths a kink it has no knot at.
+    for (const auto& [from, to] : result.model.noEffect)
+        for (const double end : {from, to})
+            if (end != 0.0 && std::find(c.initial.begin(), c.initial.end(), end) == c.initial.end()) c.initial.push_back(end);
+    for (auto& [from, to] : result.model.noEffect) {
+        from += parameter.defaultValue;
+        to += parameter.defaultValue;
+    }
 
     std::vector<std::size_t> everyOutput(c.outputs.size());
     for (std::size_t e = 0; e < everyOutput.size(); ++e) everyOutput[e] = e;
@@ -564,10 +700,16 @@ Classification classifyParameter(RigProbe& probe, int index, const std::vector<E
             ok = (rigid && trySampled(c, e, true, candidate, candidateError))
                  || trySampled(c, e, false, candidate, candidateError);
             if (!ok) {
-                result.reason = fmt::format("no operator fits within epsilon {:g}: the best error is {:.3g} cm per unit "
-                                            "on {} after {} samples",
-                                            options.epsilon, std::min(bestError, candidateError),
-                                            outputNames[static_cast<std::size_t>(c.outputs[e])], c.sampleCount());
+                const std::string& output = outputNames[static_cast<std::size_t>(c.outputs[e])];
+                result.reason = c.nonFinite
+                                    ? fmt::format("the rig gives a non-finite matrix for {} within its range (a zero scale "
+                                                  "or a singular matrix?); give it a range where the rig is defined",
+                                                  output)
+                                    : fmt::format("no operator fits within epsilon {:g}: the best error is {:.3g} cm per "
+                                                  "unit on {} after {} samples",
+                                                  options.epsilon, std::min(bestError, candidateError), output,
+                                                  c.sampleCount());
+                result.failedOutput = c.outputs[e];
                 result.model = ModelledParameter{};
                 result.model.parameter = parameter;
                 return result;

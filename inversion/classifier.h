@@ -4,6 +4,7 @@
 // validates: one analytic operator for all outputs (linear magnitude, then a curve), one per output,
 // then sampled rigid or affine curves, refined where they miss. Internal to the learner.
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -15,27 +16,46 @@
 
 namespace rig {
 
-// Evaluates the rig with some parameters moved off their rest values, counting as it goes.
+// Evaluates the rig, counting as it goes, and sees each output in its learning frame (DESIGN: frames):
+// world space, or relative to its parent output, W'_k = F_p(0) W_p^-1 W_k, which is F_k(0) at rest and
+// moves only with what changes the output's parent-relative transform.
 class RigProbe {
 public:
-    RigProbe(RigFunction& rig) : rig_(rig), values_(), defaults_()
-    {
-        for (const auto& p : rig.parameters()) defaults_.push_back(p.defaultValue);
-        values_ = defaults_;
-    }
-    // World matrices with parameter i at default + a (and j at default + b when j >= 0).
+    explicit RigProbe(RigFunction& rig);
+    // Raw world matrices of every output: with parameter i at default + a (and j at default + b when
+    // j >= 0), or at any values of every parameter. Each call is one rig evaluation.
     const std::vector<Eigen::Matrix4d>& at(int i, double a, int j = -1, double b = 0.0);
-    const std::vector<Eigen::Matrix4d>& atRest() { return at(-1, 0.0); }
-    // Any values of every parameter.
     const std::vector<Eigen::Matrix4d>& atValues(const std::vector<double>& values);
     const std::vector<double>& defaults() const { return defaults_; }
+    // Raw worlds at the rest values, as first evaluated.
+    const std::vector<Eigen::Matrix4d>& rest() const { return rest_; }
     RigFunction& rig() { return rig_; }
+
+    // Per output, the output its frame is relative to; -1: world space. Empty: every output in world space.
+    std::vector<int> parents;
+    int parentOf(int k) const { return parents.empty() ? -1 : parents[static_cast<std::size_t>(k)]; }
+    // Output k in its frame, from its raw world and its parent's.
+    Eigen::Matrix4d inFrame(int k, const Eigen::Matrix4d& world, const Eigen::Matrix4d& parentWorld) const;
+    Eigen::Matrix4d inFrame(int k, const std::vector<Eigen::Matrix4d>& worlds) const;
 
 private:
     RigFunction& rig_;
     std::vector<double> values_;
     std::vector<double> defaults_;
     std::vector<Eigen::Matrix4d> worlds_;
+    std::vector<Eigen::Matrix4d> rest_;
+};
+
+// The raw samples of one parameter alone, kept while the learner tries other frames: classifying it
+// again then costs no rig evaluation.
+struct ParameterSamples {
+    bool taken = false;
+    std::vector<int> moved;  // outputs whose raw world moves at a first sample, increasing
+    std::map<double, std::vector<Eigen::Matrix4d>> worlds;  // offset -> raw world per `moved` entry
+    std::string historyDependent;  // what its first samples showed, if it made an output history-dependent
+
+    // Raw world of output k at a sampled offset (its rest world when k does not move).
+    const Eigen::Matrix4d& world(int k, double a, const std::vector<Eigen::Matrix4d>& rest) const;
 };
 
 struct Classification {
@@ -43,22 +63,26 @@ struct Classification {
     bool modelled = false;
     ModelledParameter model;  // when modelled
     std::string reason;       // when not
-    // For the order tests: a sample offset and the affected outputs' world matrices there.
+    int failedOutput = -1;    // when not: the output where no operator fits (rig index), or -1
+    // For the order tests: a sample offset and the affected outputs' worlds there, in their frames.
     double orderOffset = 0.0;
     std::vector<Eigen::Matrix4d> orderWorlds;  // one per entry of model.outputs
-    double effect = 0.0;                       // largest displacement over the samples, cm
+    double effect = 0.0;                       // largest displacement of a raw world over the samples, cm
+    int reach = 0;                             // outputs whose raw world it moves
 };
 
 // What the learner knows of the rig's state between parameters: the rest pose as last evaluated, and
-// the outputs found to depend on earlier evaluations (a spring), which no parameter is modelled on.
+// the outputs found to depend on earlier evaluations (a spring) or singular at rest, which no
+// parameter is modelled on.
 struct RigState {
     std::vector<Eigen::Matrix4d> lastRest;
     std::vector<char> unreliable;  // per output
 };
 
-// Classifies one parameter. A parameter after whose samples some outputs do not come back to their
-// rest pose marks them unreliable in `state`; it is modelled on its other outputs, if it moves any.
-Classification classifyParameter(RigProbe& probe, int index, const std::vector<Eigen::Matrix4d>& rest, RigState& state,
+// Classifies one parameter in the probe's frames, sampling the rig only where `samples` has no sample
+// yet. A parameter after whose first samples some outputs do not come back to their rest pose marks
+// them unreliable in `state`; it is modelled on its other outputs, if it moves any.
+Classification classifyParameter(RigProbe& probe, int index, RigState& state, ParameterSamples& samples,
                                  const LearnOptions& options);
 
 }  // namespace rig

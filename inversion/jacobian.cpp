@@ -145,16 +145,15 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
             throw std::invalid_argument("ResidualStructure: columns must be increasing parameter indices");
         columnOf[static_cast<std::size_t>(p)] = static_cast<int>(c);
     }
-    std::vector<int> positionOf(static_cast<std::size_t>(outputCount), -1);
     for (std::size_t o = 0; o < outputs_.size(); ++o) {
         const int k = outputs_[o];
         if (k < 0 || k >= outputCount || (o > 0 && k <= outputs_[o - 1]))
             throw std::invalid_argument("ResidualStructure: outputs must be increasing output indices");
-        positionOf[static_cast<std::size_t>(k)] = static_cast<int>(o);
     }
 
-    // Links of every chain, outermost first: walking the parameters in composition order.
-    std::vector<std::vector<Link>> links(outputs_.size());
+    // Each output's own links, outermost first: walking the parameters in composition order. An output's
+    // chain is its ancestors' own links (relative outputs), root first, then its own.
+    std::vector<std::vector<Link>> own(static_cast<std::size_t>(outputCount));
     std::vector<std::vector<std::pair<int, int>>> slotOfColumnOp(columns_.size());  // (op, slot)
     for (int p = 0; p < parameterCount; ++p) {
         const ModelledParameter& m = approximation.parameters[static_cast<std::size_t>(p)];
@@ -165,8 +164,6 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
                 throw std::invalid_argument(
                     fmt::format("ResidualStructure: parameter {} has an inconsistent output or operator index",
                                 m.parameter.name));
-            const int o = positionOf[static_cast<std::size_t>(k)];
-            if (o < 0) continue;
             Link link{p, m.operatorOfOutput[e], columnOf[static_cast<std::size_t>(p)], -1};
             if (link.column >= 0) {
                 auto& known = slotOfColumnOp[static_cast<std::size_t>(link.column)];
@@ -179,8 +176,19 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
                     known.emplace_back(link.op, link.slot);
                 }
             }
-            links[static_cast<std::size_t>(o)].push_back(link);
+            own[static_cast<std::size_t>(k)].push_back(link);
         }
+    }
+    std::vector<std::vector<Link>> links(outputs_.size());
+    for (std::size_t o = 0; o < outputs_.size(); ++o) {
+        std::vector<int> path;
+        for (int k = outputs_[o]; k >= 0; k = approximation.outputs[static_cast<std::size_t>(k)].parent) {
+            if (path.size() > static_cast<std::size_t>(outputCount))
+                throw std::invalid_argument("ResidualStructure: the outputs' parents form a cycle");
+            path.push_back(k);
+        }
+        for (auto it = path.rbegin(); it != path.rend(); ++it)
+            links[o].insert(links[o].end(), own[static_cast<std::size_t>(*it)].begin(), own[static_cast<std::size_t>(*it)].end());
     }
 
     outputsOfColumn_.assign(columns_.size(), {});
@@ -200,7 +208,9 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
             chain.varSlots.push_back(link.slot);
             chain.varColumns.push_back(link.column);
             chain.gaps.emplace_back();
-            outputsOfColumn_[static_cast<std::size_t>(link.column)].push_back(static_cast<int>(o));
+            // A control spread over relative outputs appears once per output on the path.
+            auto& moved = outputsOfColumn_[static_cast<std::size_t>(link.column)];
+            if (moved.empty() || moved.back() != static_cast<int>(o)) moved.push_back(static_cast<int>(o));
         }
         maxVars_ = std::max(maxVars_, static_cast<int>(chain.varSlots.size()));
         constantCount_ += static_cast<int>(chain.gaps.size());
@@ -470,15 +480,16 @@ bool ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
         for (const int n : vars) {
             const Affine& xi = velocity_[static_cast<std::size_t>(n)];
             const Eigen::Index column = s.slots_[static_cast<std::size_t>(s.nodes_[static_cast<std::size_t>(n)].slot)].column;
-            jacobian.block<3, 1>(row, column) = t.positionWeight * (xi.leftCols<3>() * position + xi.col(3));
+            // += : a control spread over relative outputs has one node per output on the path.
+            jacobian.block<3, 1>(row, column) += t.positionWeight * (xi.leftCols<3>() * position + xi.col(3));
             if (rigid) {
                 const Eigen::Vector3d omega(0.5 * (xi(2, 1) - xi(1, 2)), 0.5 * (xi(0, 2) - xi(2, 0)),
                                             0.5 * (xi(1, 0) - xi(0, 1)));
-                jacobian.block<3, 1>(row + 3, column) = rotationRows * (q.transpose() * omega);
+                jacobian.block<3, 1>(row + 3, column) += rotationRows * (q.transpose() * omega);
             } else {
                 const Eigen::Matrix3d x = q.transpose() * (xi.leftCols<3>() * a);
                 const Eigen::Vector3d skewPart(x(2, 1) - x(1, 2), x(0, 2) - x(2, 0), x(1, 0) - x(0, 1));
-                jacobian.block<3, 1>(row + 3, column) = rotationRows * skewPart;
+                jacobian.block<3, 1>(row + 3, column) += rotationRows * skewPart;
             }
         }
     }
@@ -533,10 +544,10 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
             prefix_[j].topRows<3>() * slotDerivative_[static_cast<std::size_t>(chain.varSlots[j])];
         const Eigen::Matrix<double, 3, 4> d = left * suffix_[j];
         const Eigen::Index column = chain.varColumns[j];
-        jacobian.block<3, 1>(row, column) = t.positionWeight * d.col(3);
+        jacobian.block<3, 1>(row, column) += t.positionWeight * d.col(3);
         const Eigen::Matrix3d x = qt * d.leftCols<3>();
         const Eigen::Vector3d skewPart(x(2, 1) - x(1, 2), x(0, 2) - x(2, 0), x(1, 0) - x(0, 1));
-        jacobian.block<3, 1>(row + 3, column) = rotationRows * skewPart;
+        jacobian.block<3, 1>(row + 3, column) += rotationRows * skewPart;
     }
 }
 

@@ -1,8 +1,10 @@
 #include "inversion/learner.h"
 
 #include <chrono>
-#include <map>
 #include <cmath>
+#include <limits>
+#include <map>
+#include <set>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -29,6 +31,7 @@ void LearnOptions::validate() const
     if (!(effectTolerance > 0) || !std::isfinite(effectTolerance))
         fail("effectTolerance", effectTolerance, "must be a positive number");
     if (validationPoses < 0) fail("validationPoses", validationPoses, "must not be negative");
+    if (limitPoses < 0) fail("limitPoses", limitPoses, "must not be negative");
 }
 
 double matrixError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double frameRadius)
@@ -80,32 +83,74 @@ double rotationErrorDegrees(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
     return 2.0 * std::atan2(relative.vec().norm(), std::abs(relative.w())) * 180.0 / std::numbers::pi;
 }
 
-ValidationSummary validate(RigProbe& probe, const Approximation& approximation, const std::vector<int>& indices,
-                           const std::vector<int>& rigOutput, const LearnOptions& options)
+// Validation poses, drawn once (a value for every parameter in rig order, whether modelled or not, so
+// that the poses do not depend on the composition order or on the frames), and the rig's worlds
+// there, evaluated once however many frame choices are validated on them.
+struct ValidationPoses {
+    std::vector<std::vector<double>> drawn;
+    std::vector<int> movedSet;                         // the parameters `worlds` moved (the modelled ones)
+    std::vector<std::vector<Eigen::Matrix4d>> worlds;  // raw, per pose
+};
+
+ValidationPoses drawPoses(const std::vector<RigParameter>& parameters, const LearnOptions& options)
+{
+    ValidationPoses poses;
+    std::mt19937 rng(options.seed);
+    for (int pose = 0; pose < options.validationPoses + options.limitPoses; ++pose) {
+        std::vector<double> values;
+        const bool limits = pose >= options.validationPoses;
+        for (const RigParameter& p : parameters)
+            values.push_back(limits ? (std::bernoulli_distribution(0.5)(rng) ? p.max : p.min)
+                                    : std::uniform_real_distribution<double>(p.min, p.max)(rng));
+        poses.drawn.push_back(std::move(values));
+    }
+    return poses;
+}
+
+// The approximation against the real rig on the poses, with only the modelled parameters moved.
+ValidationSummary validate(RigProbe& probe, Approximation& approximation, const std::vector<int>& indices,
+                           const std::vector<int>& rigOutput, ValidationPoses& poses, const LearnOptions& options)
 {
     ValidationSummary summary;
-    summary.poses = options.validationPoses;
-    std::mt19937 rng(options.seed);
+    summary.poses = static_cast<int>(poses.drawn.size());
+    const std::vector<std::vector<int>> reach = approximation.reach();
+    std::vector<std::vector<int>> reachedBy(approximation.outputs.size());
+    for (std::size_t p = 0; p < reach.size(); ++p)
+        for (const int k : reach[p]) reachedBy[static_cast<std::size_t>(k)].push_back(static_cast<int>(p));
+    for (auto& o : approximation.outputs) o.validationError = 0.0;
+    for (auto& m : approximation.parameters) m.validationError = 0.0;
     std::vector<Eigen::Matrix4d> approximated;
     double positionSum = 0.0, rotationSum = 0.0;
     std::size_t count = 0;
-    const auto& parameters = probe.rig().parameters();
-    for (int pose = 0; pose < options.validationPoses; ++pose) {
-        // A value for every parameter in rig order, whether modelled or not, so that the poses do not
-        // depend on the composition order (two orderers are compared on the same poses).
-        std::vector<double> drawn;
-        for (const RigParameter& param : parameters) drawn.push_back(std::uniform_real_distribution<double>(param.min, param.max)(rng));
+    // The poses move the modelled parameters only: the rig is evaluated again when that set changed.
+    std::vector<int> movedSet = indices;
+    std::sort(movedSet.begin(), movedSet.end());
+    const bool evaluate = poses.worlds.size() != poses.drawn.size() || poses.movedSet != movedSet;
+    poses.worlds.resize(poses.drawn.size());
+    poses.movedSet = movedSet;
+    for (std::size_t pose = 0; pose < poses.drawn.size(); ++pose) {
+        const std::vector<double>& drawn = poses.drawn[pose];
         std::vector<double> values = probe.defaults();
-        std::vector<double> modelled;
+        std::vector<double> modelled, offsets, shares;
         for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
             const auto i = static_cast<std::size_t>(indices[p]);
+            const RigParameter& param = approximation.parameters[p].parameter;
             values[i] = drawn[i];
             modelled.push_back(drawn[i]);
+            offsets.push_back(std::abs(drawn[i] - param.defaultValue));
+            shares.push_back(offsets.back() / std::max(param.max - param.min, 1e-300));
         }
-        const std::vector<Eigen::Matrix4d> real = probe.atValues(values);
+        auto& truthWorlds = poses.worlds[pose];
+        if (evaluate) truthWorlds = probe.atValues(values);
         approximation.evaluate(modelled, approximated);
+        bool finite = true;
+        for (const int k : rigOutput) finite = finite && truthWorlds[static_cast<std::size_t>(k)].allFinite();
+        if (!finite) {
+            ++summary.nonFinitePoses;
+            continue;
+        }
         for (std::size_t k = 0; k < approximated.size(); ++k) {
-            const Eigen::Matrix4d& truth = real[static_cast<std::size_t>(rigOutput[k])];
+            const Eigen::Matrix4d& truth = truthWorlds[static_cast<std::size_t>(rigOutput[k])];
             const double position = (truth.block<3, 1>(0, 3) - approximated[k].block<3, 1>(0, 3)).norm();
             const double rotation = rotationErrorDegrees(truth, approximated[k]);
             positionSum += position;
@@ -115,17 +160,38 @@ ValidationSummary validate(RigProbe& probe, const Approximation& approximation, 
                 summary.maxPositionErrorCm = std::max(summary.maxPositionErrorCm, position);
                 if (position >= summary.maxPositionErrorCm) {
                     summary.worstOutput = approximation.outputs[k].name;
-                    summary.worstPose = pose;
+                    summary.worstPose = static_cast<int>(pose);
                 }
             }
             summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, rotation);
+            // Relative to what moved it: epsilon bounds the error per unit of the parameters moved.
+            double moved = 0.0;
+            int furthest = -1;  // the parameter moved furthest through its range
+            for (const int p : reachedBy[k]) {
+                moved += offsets[static_cast<std::size_t>(p)];
+                if (furthest < 0 || shares[static_cast<std::size_t>(p)] > shares[static_cast<std::size_t>(furthest)]) furthest = p;
+            }
+            const double error = matrixError(truth, approximated[k], options.frameRadius);
+            const double relative = error <= 1e-12 ? 0.0 : moved > 0.0 ? error / moved : std::numeric_limits<double>::max();
+            approximation.outputs[k].validationError = std::max(approximation.outputs[k].validationError, relative);
+            for (const int p : reachedBy[k]) {
+                auto& v = approximation.parameters[static_cast<std::size_t>(p)].validationError;
+                v = std::max(v, relative);
+            }
+            if (relative > summary.maxRelativeError) {
+                summary.maxRelativeError = relative;
+                summary.worstRelativeOutput = approximation.outputs[k].name;
+                summary.worstParameter =
+                    furthest < 0 ? std::string() : approximation.parameters[static_cast<std::size_t>(furthest)].parameter.name;
+            }
         }
-        if (options.progress) options.progress("validating", static_cast<double>(pose + 1) / options.validationPoses);
+        if (options.progress) options.progress("validating", static_cast<double>(pose + 1) / static_cast<double>(poses.drawn.size()));
     }
     if (count > 0) {
         summary.meanPositionErrorCm = positionSum / static_cast<double>(count);
         summary.meanRotationErrorDeg = rotationSum / static_cast<double>(count);
     }
+    summary.withinEpsilon = summary.maxRelativeError <= options.epsilon && summary.nonFinitePoses == 0;
     return summary;
 }
 
@@ -163,7 +229,6 @@ void dropOutputs(Classification& c, const std::vector<char>& unreliable)
     ModelledParameter& m = c.model;
     std::vector<int> outputs, operatorOfOutput;
     std::vector<Eigen::Matrix4d> orderWorlds;
-    std::vector<std::string> lost;
     for (std::size_t e = 0; e < m.outputs.size(); ++e) {
         if (unreliable[static_cast<std::size_t>(m.outputs[e])]) continue;
         outputs.push_back(m.outputs[e]);
@@ -193,6 +258,74 @@ void dropOutputs(Classification& c, const std::vector<char>& unreliable)
     c.orderWorlds = std::move(orderWorlds);
 }
 
+// An output whose rest world has no inverse (a zero scale) or is not finite: no delta can be taken on it.
+std::string singularRest(const Eigen::Matrix4d& rest)
+{
+    if (!rest.allFinite()) return "its rest world matrix is not finite";
+    const Eigen::Matrix3d linear = rest.block<3, 3>(0, 0);
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(linear);
+    const auto& sigma = svd.singularValues();
+    if (!(sigma[0] > 0) || sigma[2] <= 1e-9 * sigma[0])
+        return fmt::format("its rest world matrix is singular (singular values {:.3g}, {:.3g}, {:.3g}: a zero scale?)", sigma[0],
+                           sigma[1], sigma[2]);
+    return {};
+}
+
+// One learning pass in the probe's frames: classify (from stored samples where possible), order,
+// assemble and validate.
+struct Pass {
+    Approximation approximation;
+    std::vector<Classification> classes;
+    OrderResult order;
+    std::vector<int> indices;    // per modelled parameter, its rig index
+    std::vector<int> rigOutput;  // per approximation output, its rig index
+};
+
+Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& samples, ValidationPoses& poses,
+               const LearnOptions& options, const std::string& rigFile)
+{
+    RigFunction& rig = probe.rig();
+    const auto& parameters = rig.parameters();
+    const auto& rest = probe.rest();
+    Pass pass;
+    for (std::size_t i = 0; i < parameters.size(); ++i) {
+        pass.classes.push_back(classifyParameter(probe, static_cast<int>(i), state, samples[i], options));
+        if (options.progress) options.progress("classifying", static_cast<double>(i + 1) / static_cast<double>(parameters.size()));
+    }
+    // Outputs found history-dependent are dropped from what was learned before they were found.
+    std::vector<int> modelled;
+    for (Classification& c : pass.classes) {
+        if (c.modelled) dropOutputs(c, state.unreliable);
+        if (c.modelled) modelled.push_back(c.index);
+    }
+    pass.order = orderParameters(probe, pass.classes, modelled, options);
+
+    // The approximation's outputs are the reliable ones; `rigOutput` maps them back to the rig's.
+    Approximation& result = pass.approximation;
+    result.rigFile = rigFile;
+    result.rigFingerprint = rig.fingerprint();
+    result.epsilon = options.epsilon;
+    std::vector<int> outputIndex(rest.size(), -1);
+    for (std::size_t k = 0; k < rest.size(); ++k)
+        if (!state.unreliable[k]) {
+            outputIndex[k] = static_cast<int>(pass.rigOutput.size());
+            pass.rigOutput.push_back(static_cast<int>(k));
+            result.outputs.push_back({rig.outputs()[k], rest[k]});
+        }
+    for (std::size_t o = 0; o < result.outputs.size(); ++o) {
+        const int p = probe.parentOf(pass.rigOutput[o]);
+        result.outputs[o].parent = p < 0 ? -1 : outputIndex[static_cast<std::size_t>(p)];
+    }
+    for (int p : pass.order.order) {
+        ModelledParameter m = pass.classes[static_cast<std::size_t>(p)].model;
+        for (int& k : m.outputs) k = outputIndex[static_cast<std::size_t>(k)];
+        result.parameters.push_back(std::move(m));
+        pass.indices.push_back(p);
+    }
+    result.validation = validate(probe, result, pass.indices, pass.rigOutput, poses, options);
+    return pass;
+}
+
 }  // namespace
 
 Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile)
@@ -201,59 +334,67 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     const auto start = std::chrono::steady_clock::now();
     const std::uint64_t evaluationsBefore = rig.evaluationCount();
     RigProbe probe(rig);
-    const std::vector<Eigen::Matrix4d> rest = probe.atRest();
+    const std::vector<Eigen::Matrix4d>& rest = probe.rest();
     const auto& parameters = rig.parameters();
 
-    std::vector<Classification> classes;
     RigState state{rest, std::vector<char>(rest.size(), 0)};
-    for (std::size_t i = 0; i < parameters.size(); ++i) {
-        classes.push_back(classifyParameter(probe, static_cast<int>(i), rest, state, options));
-        if (options.progress) options.progress("classifying", static_cast<double>(i + 1) / static_cast<double>(parameters.size()));
+    std::map<int, std::string> dropped;  // rig output -> why the approximation leaves it out
+    for (std::size_t k = 0; k < rest.size(); ++k) {
+        std::string why = singularRest(rest[k]);
+        if (why.empty()) continue;
+        state.unreliable[k] = 1;
+        dropped[static_cast<int>(k)] = std::move(why);
     }
-    // Outputs found history-dependent are dropped from what was learned before they were found.
-    std::vector<int> modelled;
-    for (Classification& c : classes) {
-        if (c.modelled) dropOutputs(c, state.unreliable);
-        if (c.modelled) modelled.push_back(c.index);
-    }
-    const OrderResult order = orderParameters(probe, rest, classes, modelled, options);
+    // Frames: relative to the parent output where there is one (and it is usable).
+    probe.parents = rig.outputParents();
+    if (probe.parents.size() != rest.size())
+        throw std::invalid_argument(fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(),
+                                                rest.size()));
+    auto usableParents = [&] {
+        for (int& p : probe.parents)
+            if (p >= 0 && (static_cast<std::size_t>(p) >= rest.size() || state.unreliable[static_cast<std::size_t>(p)])) p = -1;
+    };
+    usableParents();
 
-    // The approximation's outputs are the reliable ones; `rigOutput` maps them back to the rig's.
-    Approximation result;
-    result.rigFile = rigFile;
-    result.rigFingerprint = rig.fingerprint();
-    result.epsilon = options.epsilon;
-    std::vector<int> rigOutput, outputIndex(rest.size(), -1);
-    for (std::size_t k = 0; k < rest.size(); ++k)
-        if (!state.unreliable[k]) {
-            outputIndex[k] = static_cast<int>(rigOutput.size());
-            rigOutput.push_back(static_cast<int>(k));
-            result.outputs.push_back({rig.outputs()[k], rest[k]});
-        }
-    std::vector<int> indices;
-    for (int p : order.order) {
-        ModelledParameter m = classes[static_cast<std::size_t>(p)].model;
-        for (int& k : m.outputs) k = outputIndex[static_cast<std::size_t>(k)];
-        result.parameters.push_back(std::move(m));
-        indices.push_back(p);
+    std::vector<ParameterSamples> samples(parameters.size());
+    ValidationPoses poses = drawPoses(parameters, options);
+    Pass pass;
+    // Each pass moves to world space the relative outputs where the last one failed; an output never
+    // goes back, so this ends.
+    for (int attempt = 0;; ++attempt) {
+        pass = learnPass(probe, state, samples, poses, options, rigFile);
+        usableParents();
+        std::set<int> failing;
+        auto implicate = [&](int k) {
+            if (k >= 0 && probe.parentOf(k) >= 0) failing.insert(k);
+        };
+        for (const Classification& c : pass.classes) implicate(c.failedOutput);
+        for (const int k : pass.order.conflictOutputs) implicate(k);
+        for (std::size_t o = 0; o < pass.approximation.outputs.size(); ++o)
+            if (!(pass.approximation.outputs[o].validationError <= options.epsilon)) implicate(pass.rigOutput[o]);
+        if (failing.empty()) break;
+        for (const int k : failing) probe.parents[static_cast<std::size_t>(k)] = -1;
     }
-    result.validation = validate(probe, result, indices, rigOutput, options);
 
+    Approximation result = std::move(pass.approximation);
     std::map<int, std::string> reasons;
-    for (const auto& c : classes)
+    for (const auto& c : pass.classes)
         if (!c.modelled) {
             const bool noEffect = c.reason.starts_with("no effect");
-            const std::string coupled = noEffect ? couplingReason(probe, c.model.parameter, c.index, result, indices,
-                                                                  rigOutput, options)
+            const std::string coupled = noEffect ? couplingReason(probe, c.model.parameter, c.index, result, pass.indices,
+                                                                  pass.rigOutput, options)
                                                  : std::string();
             reasons[c.index] = coupled.empty() ? c.reason : coupled;
         }
-    for (const auto& [p, reason] : order.discards) reasons[p] = reason;
+    for (const auto& [p, reason] : pass.order.discards) reasons[p] = reason;
     for (const auto& [p, reason] : reasons) result.discarded.push_back({parameters[static_cast<std::size_t>(p)], reason});
+    for (std::size_t k = 0; k < rest.size(); ++k)
+        if (state.unreliable[k] && !dropped.contains(static_cast<int>(k)))
+            dropped[static_cast<int>(k)] = "history-dependent: it does not come back to its rest pose after other samples";
+    for (const auto& [k, reason] : dropped) result.droppedOutputs.push_back({rig.outputs()[static_cast<std::size_t>(k)], reason});
     result.training.evaluations = rig.evaluationCount() - evaluationsBefore;
-    result.training.orderEvaluations = order.evaluations;
+    result.training.orderEvaluations = pass.order.evaluations;
     result.training.orderer = std::string(ordererName(options.orderer));
-    if (!order.note.empty()) result.training.orderer += " (" + order.note + ")";
     result.training.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
 }

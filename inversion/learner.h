@@ -20,8 +20,8 @@
 namespace rig {
 
 enum class Orderer {
-    talk,        // insertion sort with a modified binary search over pairwise tests (1) and (2)
-    structured,  // tests only pairs whose affected outputs meet, using the nesting of affected sets
+    talk,        // every pair tested on the rig (the reference: what the talk does without structure)
+    structured,  // only pairs sharing an output where their learned operators do not commute
 };
 
 std::string_view ordererName(Orderer orderer);
@@ -40,6 +40,8 @@ struct LearnOptions {
     Orderer orderer = Orderer::structured;
     // Random poses within the limits of the modelled parameters for the final validation.
     int validationPoses = 50;
+    // Poses with every modelled parameter at its min or its max (chosen at random), validated as well.
+    int limitPoses = 10;
     std::uint32_t seed = 1;
     // Called with a stage name and the fraction done (0..1); may be empty.
     std::function<void(std::string_view stage, double fraction)> progress;
@@ -50,7 +52,12 @@ struct LearnOptions {
 
 // Learns the approximation of `rig` (its parameters all at their rest values but the one sampled).
 // `rigFile` is recorded in the approximation. Numerical outcomes (a parameter that fits nothing, a
-// pair that cannot be ordered) are recorded in Approximation::discarded, not thrown.
+// pair that cannot be ordered, a validation over epsilon) are recorded in the approximation
+// (discarded, droppedOutputs, validation.withinEpsilon), not thrown.
+//
+// Frames: every output with a parent output (RigFunction::outputParents) is first learned relative to
+// it; an output where that fails (no operator fits, a pair has neither order there, or its validation
+// exceeds epsilon) is learned again in world space, from the samples already taken.
 Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile);
 
 // Pairs of modelled parameters (indices into approximation.parameters, first < second) with the same

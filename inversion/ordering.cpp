@@ -1,8 +1,10 @@
 #include "inversion/ordering.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <set>
+#include <tuple>
 
 #include <Eigen/LU>
 #include <fmt/format.h>
@@ -10,185 +12,120 @@
 namespace rig {
 namespace {
 
-enum class Relation { firstOuter, secondOuter, commute, conflict };
+enum class Relation { none, firstOuter, secondOuter, conflict };
 
 struct Verdict {
-    Relation relation = Relation::commute;
-    std::string detail;  // for a conflict: which outputs said what
+    Relation relation = Relation::none;
+    std::string detail;                // for a conflict: which outputs said what
+    std::vector<int> neitherOutputs;   // rig outputs where neither order holds
 };
 
-// The talk's tests (1) and (2) for two sets of moved parameters A and B, decided by voting over the
-// outputs both affect: an output where both orders hold says nothing (they commute there); one where
-// only (1) holds votes "A outer", only (2) "B outer", neither "neither". Unanimous votes decide; votes
-// that disagree (a "neither" disagrees with both orders), or only "neither", are a conflict: on some
-// output the order chosen would be wrong.
-// The world matrices are those of the common outputs, in the order of `common`.
-Verdict vote(const std::vector<int>& common, const std::vector<Eigen::Matrix4d>& rest, const std::vector<Eigen::Matrix4d>& fa,
-             const std::vector<Eigen::Matrix4d>& fb, const std::vector<Eigen::Matrix4d>& fab, double tolerance,
-             const std::vector<std::string>& outputNames, double frameRadius)
+// Position of output k among a classification's affected outputs (ascending), or -1.
+int entryOf(const Classification& c, int k)
 {
-    int first = 0, second = 0, neither = 0;
-    std::string firstAt, secondAt, neitherAt;
-    double worstOne = 0.0, worstTwo = 0.0;
-    for (std::size_t i = 0; i < common.size(); ++i) {
-        const auto u = static_cast<std::size_t>(common[i]);
-        const Eigen::Matrix4d restInverse = rest[i].inverse();
-        const double one = matrixError(fab[i], fa[i] * restInverse * fb[i], frameRadius);
-        const double two = matrixError(fab[i], fb[i] * restInverse * fa[i], frameRadius);
-        const bool ok1 = one <= tolerance, ok2 = two <= tolerance;
-        if (ok1 && ok2) continue;
-        if (ok1) {
-            if (first++ == 0) firstAt = outputNames[u];
-        }
-        else if (ok2) {
-            if (second++ == 0) secondAt = outputNames[u];
-        }
-        else if (neither++ == 0) {
-            neitherAt = outputNames[u];
-            worstOne = one;
-            worstTwo = two;
-        }
-    }
-    if (neither > 0)
-        return {Relation::conflict,
-                fmt::format("neither composition order holds on {} (the talk's tests (1) and (2) miss by {:.3g} and {:.3g} cm){}",
-                            neitherAt, worstOne, worstTwo,
-                            first + second > 0 ? fmt::format(", though one does on {}", first > 0 ? firstAt : secondAt) : "")};
-    if (first > 0 && second > 0)
-        return {Relation::conflict, fmt::format("the outputs disagree ({} needs one order, {} the other)", firstAt, secondAt)};
-    if (first > 0) return {Relation::firstOuter, {}};
-    if (second > 0) return {Relation::secondOuter, {}};
-    return {Relation::commute, {}};
+    const auto& outputs = c.model.outputs;
+    const auto it = std::lower_bound(outputs.begin(), outputs.end(), k);
+    return it != outputs.end() && *it == k ? static_cast<int>(it - outputs.begin()) : -1;
 }
 
-// Pairwise and group tests with caches; counts the rig evaluations they cost.
-class Tester {
+const Operator& operatorOn(const Classification& c, int entry)
+{
+    return c.model.operators[static_cast<std::size_t>(c.model.operatorOfOutput[static_cast<std::size_t>(entry)])];
+}
+
+// Whether the learned operators of two parameters commute on one output, at their order offsets and
+// at half of them: rotations about one axis through one pivot, a translation along a rotation's own
+// axis, and operators on disjoint parts of a product do. A tenth of the order tests' tolerance: pairs
+// taken as commuting must not add up to an error over epsilon.
+bool operatorsCommute(const Classification& p, int ep, const Classification& q, int eq, const Eigen::Matrix4d& rest,
+                      const LearnOptions& options)
+{
+    const Operator& u = operatorOn(p, ep);
+    const Operator& v = operatorOn(q, eq);
+    const double a = p.orderOffset, b = q.orderOffset;
+    const double tolerance = 0.1 * options.epsilon * (std::abs(a) + std::abs(b));
+    for (const double scale : {1.0, 0.5}) {
+        const Eigen::Matrix4d x = u.matrix(scale * a), y = v.matrix(scale * b);
+        if (!(matrixError(x * y * rest, y * x * rest, options.frameRadius) <= scale * tolerance)) return false;
+    }
+    return true;
+}
+
+class PairTests {
 public:
-    Tester(RigProbe& probe, const std::vector<Eigen::Matrix4d>& rest, const std::vector<Classification>& classes,
-           const LearnOptions& options)
-        : probe_(probe), rest_(rest), classes_(classes), options_(options)
+    PairTests(RigProbe& probe, const std::vector<Classification>& classes, const LearnOptions& options)
+        : probe_(probe), classes_(classes), options_(options)
     {
     }
 
-    // The relation of i to j. `knowsStructure`: pairs with no output in common commute without an
-    // evaluation (the talk's orderer evaluates them all the same).
-    Verdict test(int i, int j, bool knowsStructure)
+    // The talk's tests (1) and (2) for p and q on the outputs both affect (`everyPair`: on all of them,
+    // after a rig evaluation even where they share none; otherwise only where their operators do not
+    // commute, and without an evaluation when there is no such output). Votes that disagree (one
+    // output needs p outer, another q outer) or an output where neither order holds are a conflict.
+    Verdict test(int p, int q, bool everyPair)
     {
-        const auto key = std::minmax(i, j);
-        auto it = pairs_.find(key);
-        if (it == pairs_.end()) {
-            const std::vector<int> common = commonOutputs({key.first}, {key.second});
-            Verdict v;
-            if (!common.empty() || !knowsStructure) v = compare({key.first}, {key.second}, common);
-            it = pairs_.emplace(key, v).first;
+        const Classification& cp = classes_[static_cast<std::size_t>(p)];
+        const Classification& cq = classes_[static_cast<std::size_t>(q)];
+        const auto& rest = probe_.rest();
+        std::vector<std::tuple<int, int, int>> voting;  // output, entry in p, entry in q
+        for (const int k : cp.model.outputs) {
+            const int eq = entryOf(cq, k);
+            if (eq < 0) continue;
+            const int ep = entryOf(cp, k);
+            if (everyPair || !operatorsCommute(cp, ep, cq, eq, rest[static_cast<std::size_t>(k)], options_))
+                voting.emplace_back(k, ep, eq);
         }
-        Verdict v = it->second;
-        if (i != key.first) v.relation = flipped(v.relation);
-        return v;
-    }
-
-    // Every parameter of `a` moved together against every parameter of `b` moved together, on the
-    // outputs both sets affect.
-    Verdict testGroups(const std::vector<int>& a, const std::vector<int>& b)
-    {
-        return compare(a, b, commonOutputs(a, b));
+        if (voting.empty() && !everyPair) return {};
+        ++evaluations_;
+        std::vector<double> values = probe_.defaults();
+        values[static_cast<std::size_t>(cp.index)] += cp.orderOffset;
+        values[static_cast<std::size_t>(cq.index)] += cq.orderOffset;
+        const std::vector<Eigen::Matrix4d>& both = probe_.atValues(values);
+        const double tolerance = options_.epsilon * (std::abs(cp.orderOffset) + std::abs(cq.orderOffset));
+        const auto& names = probe_.rig().outputs();
+        Verdict verdict;
+        std::string firstAt, secondAt, neitherAt;
+        double worstOne = 0.0, worstTwo = 0.0;
+        for (const auto& [k, ep, eq] : voting) {
+            const Eigen::Matrix4d& fa = cp.orderWorlds[static_cast<std::size_t>(ep)];
+            const Eigen::Matrix4d& fb = cq.orderWorlds[static_cast<std::size_t>(eq)];
+            const Eigen::Matrix4d restInverse = rest[static_cast<std::size_t>(k)].inverse();
+            const Eigen::Matrix4d fab = probe_.inFrame(k, both);
+            const double one = matrixError(fab, fa * restInverse * fb, options_.frameRadius);
+            const double two = matrixError(fab, fb * restInverse * fa, options_.frameRadius);
+            const bool ok1 = one <= tolerance, ok2 = two <= tolerance;
+            if (ok1 && ok2) continue;
+            const std::string& name = names[static_cast<std::size_t>(k)];
+            if (ok1 && firstAt.empty()) firstAt = name;
+            if (ok2 && secondAt.empty()) secondAt = name;
+            if (!ok1 && !ok2) {
+                if (neitherAt.empty()) neitherAt = name;
+                verdict.neitherOutputs.push_back(k);
+                worstOne = std::max(worstOne, one);
+                worstTwo = std::max(worstTwo, two);
+            }
+        }
+        if (!neitherAt.empty()) {
+            verdict.relation = Relation::conflict;
+            verdict.detail = fmt::format("neither order holds on {} (errors {:.3g} and {:.3g} cm, tolerance {:.3g})", neitherAt,
+                                         worstOne, worstTwo, tolerance);
+        } else if (!firstAt.empty() && !secondAt.empty()) {
+            verdict.relation = Relation::conflict;
+            verdict.detail = fmt::format("the outputs disagree ({} needs one order, {} the other)", firstAt, secondAt);
+        } else if (!firstAt.empty()) {
+            verdict.relation = Relation::firstOuter;
+        } else if (!secondAt.empty()) {
+            verdict.relation = Relation::secondOuter;
+        }
+        return verdict;
     }
 
     std::uint64_t evaluations() const { return evaluations_; }
 
-    static Relation flipped(Relation r)
-    {
-        return r == Relation::firstOuter ? Relation::secondOuter : r == Relation::secondOuter ? Relation::firstOuter : r;
-    }
-
 private:
-    std::vector<int> outputsOf(const std::vector<int>& members) const
-    {
-        std::set<int> outputs;
-        for (int p : members)
-            for (int k : classes_[static_cast<std::size_t>(p)].model.outputs) outputs.insert(k);
-        return {outputs.begin(), outputs.end()};
-    }
-
-    std::vector<int> commonOutputs(const std::vector<int>& a, const std::vector<int>& b) const
-    {
-        const std::vector<int> oa = outputsOf(a), ob = outputsOf(b);
-        std::vector<int> common;
-        std::set_intersection(oa.begin(), oa.end(), ob.begin(), ob.end(), std::back_inserter(common));
-        return common;
-    }
-
-    std::vector<double> valuesWith(const std::vector<int>& moved) const
-    {
-        std::vector<double> values = probe_.defaults();
-        for (int p : moved) {
-            const Classification& c = classes_[static_cast<std::size_t>(p)];
-            values[static_cast<std::size_t>(c.index)] += c.orderOffset;
-        }
-        return values;
-    }
-
-    // F with these parameters at their order offsets, kept for the outputs they affect only: a crowd's
-    // thousands of group tests must not each keep every joint. One parameter alone was sampled there
-    // while classifying: its worlds are rebuilt without an evaluation.
-    struct Moved {
-        std::vector<int> outputs;  // ascending
-        std::vector<Eigen::Matrix4d> worlds;
-
-        const Eigen::Matrix4d& at(int k) const
-        {
-            const auto it = std::lower_bound(outputs.begin(), outputs.end(), k);
-            return worlds[static_cast<std::size_t>(it - outputs.begin())];
-        }
-    };
-
-    const Moved& worldsOf(const std::vector<int>& members)
-    {
-        auto it = moved_.find(members);
-        if (it != moved_.end()) return it->second;
-        Moved m;
-        if (members.size() == 1) {
-            // Classification lists a parameter's outputs in ascending order, with their worlds.
-            const Classification& c = classes_[static_cast<std::size_t>(members.front())];
-            m.outputs = c.model.outputs;
-            m.worlds = c.orderWorlds;
-        }
-        else {
-            m.outputs = outputsOf(members);
-            ++evaluations_;
-            const std::vector<Eigen::Matrix4d>& worlds = probe_.atValues(valuesWith(members));
-            for (int k : m.outputs) m.worlds.push_back(worlds[static_cast<std::size_t>(k)]);
-        }
-        return moved_.emplace(members, std::move(m)).first->second;
-    }
-
-    Verdict compare(const std::vector<int>& a, const std::vector<int>& b, const std::vector<int>& common)
-    {
-        // References stay valid: std::map does not move its elements when it grows.
-        const Moved& ma = worldsOf(a);
-        const Moved& mb = worldsOf(b);
-        std::vector<int> both = a;
-        both.insert(both.end(), b.begin(), b.end());
-        ++evaluations_;
-        const std::vector<Eigen::Matrix4d>& all = probe_.atValues(valuesWith(both));
-        std::vector<Eigen::Matrix4d> rest, fa, fb, fab;
-        for (int k : common) {
-            rest.push_back(rest_[static_cast<std::size_t>(k)]);
-            fa.push_back(ma.at(k));
-            fb.push_back(mb.at(k));
-            fab.push_back(all[static_cast<std::size_t>(k)]);
-        }
-        double offsets = 0.0;
-        for (int p : both) offsets += std::abs(classes_[static_cast<std::size_t>(p)].orderOffset);
-        return vote(common, rest, fa, fb, fab, options_.epsilon * offsets, probe_.rig().outputs(), options_.frameRadius);
-    }
-
     RigProbe& probe_;
-    const std::vector<Eigen::Matrix4d>& rest_;
     const std::vector<Classification>& classes_;
     const LearnOptions& options_;
-    std::map<std::pair<int, int>, Verdict> pairs_;
-    std::map<std::vector<int>, Moved> moved_;
     std::uint64_t evaluations_ = 0;
 };
 
@@ -197,188 +134,119 @@ const std::string& nameOf(const std::vector<Classification>& classes, int p)
     return classes[static_cast<std::size_t>(p)].model.parameter.name;
 }
 
-// A pair that cannot be ordered loses only one of its two parameters (the talk discards both): the
-// one with the smaller effect. The other stays, and is judged again by its own later tests.
-int resolveConflict(int p, int q, const Verdict& verdict, const std::vector<Classification>& classes, OrderResult& result)
+// Of two parameters, the one to discard: the smaller effect.
+int smaller(const std::vector<Classification>& classes, int p, int q)
 {
-    const bool dropP = classes[static_cast<std::size_t>(p)].effect <= classes[static_cast<std::size_t>(q)].effect;
-    const int drop = dropP ? p : q, keep = dropP ? q : p;
-    result.discards.emplace_back(
-        drop, fmt::format("cannot be ordered with {}: {}; the one with the smaller effect was discarded, {} was kept",
-                          nameOf(classes, keep), verdict.detail, nameOf(classes, keep)));
-    return drop;
+    return classes[static_cast<std::size_t>(p)].effect <= classes[static_cast<std::size_t>(q)].effect ? p : q;
 }
 
-// Inserts p into `sorted` by binary search (the talk's modified binary search: a commuting pair is
-// passed on the right). Returns false when p was discarded.
-bool insertTalk(std::vector<int>& sorted, int p, Tester& tester, const std::vector<Classification>& classes,
-                OrderResult& result, bool knowsStructure)
+// The pairs to test: every pair (talk), or the pairs that share an affected output (structured; the
+// operator test then decides whether the rig is evaluated).
+std::vector<std::pair<int, int>> candidatePairs(const std::vector<Classification>& classes, const std::vector<int>& modelled,
+                                                bool everyPair)
 {
-    std::size_t lo = 0, hi = sorted.size();
-    while (lo < hi) {
-        const std::size_t mid = (lo + hi) / 2;
-        const int q = sorted[mid];
-        const Verdict v = tester.test(q, p, knowsStructure);
-        if (v.relation == Relation::conflict) {
-            if (resolveConflict(p, q, v, classes, result) == p) return false;
-            sorted.erase(sorted.begin() + static_cast<std::ptrdiff_t>(mid));
-            lo = 0;
-            hi = sorted.size();
-            continue;
-        }
-        if (v.relation == Relation::secondOuter) hi = mid;
-        else lo = mid + 1;
+    std::vector<std::pair<int, int>> pairs;
+    if (everyPair) {
+        for (std::size_t i = 0; i < modelled.size(); ++i)
+            for (std::size_t j = i + 1; j < modelled.size(); ++j)
+                pairs.emplace_back(std::min(modelled[i], modelled[j]), std::max(modelled[i], modelled[j]));
+        std::sort(pairs.begin(), pairs.end());
+        return pairs;
     }
-    sorted.insert(sorted.begin() + static_cast<std::ptrdiff_t>(lo), p);
-    return true;
-}
-
-OrderResult orderTalk(RigProbe& probe, const std::vector<Eigen::Matrix4d>& rest, const std::vector<Classification>& classes,
-                      const std::vector<int>& modelled, const LearnOptions& options)
-{
-    Tester tester(probe, rest, classes, options);
-    OrderResult result;
-    for (std::size_t n = 0; n < modelled.size(); ++n) {
-        insertTalk(result.order, modelled[n], tester, classes, result, false);
-        if (options.progress) options.progress("ordering", static_cast<double>(n + 1) / static_cast<double>(modelled.size()));
-    }
-    result.evaluations = tester.evaluations();
-    return result;
-}
-
-// The structure-aware orderer. Parameters with the same affected outputs form a group, ordered inside
-// by the talk's insertion. Between groups only neighbours are compared: for each output, the groups
-// affecting it sorted from the widest set to the narrowest (a parent before its children). A pair of
-// neighbouring groups is tested as a whole, every member of each moved at once, with one evaluation;
-// only when that test does not give a clear order are its member pairs tested one by one (which finds
-// the pair that conflicts). Groups that share no output are never compared. The parameters are then
-// sorted topologically, ties by the widest set first.
-OrderResult orderStructured(RigProbe& probe, const std::vector<Eigen::Matrix4d>& rest,
-                            const std::vector<Classification>& classes, const std::vector<int>& modelled,
-                            const LearnOptions& options)
-{
-    Tester tester(probe, rest, classes, options);
-    OrderResult result;
-    std::set<int> discarded;
-    auto outputsOf = [&](int p) -> const std::vector<int>& { return classes[static_cast<std::size_t>(p)].model.outputs; };
-
-    std::map<std::vector<int>, std::vector<int>> bySet;
-    for (int p : modelled) bySet[outputsOf(p)].push_back(p);
-    struct Group {
-        std::vector<int> outputs;
-        std::vector<int> members;  // ordered, outermost first
-    };
-    std::vector<Group> groups;
-    for (auto& [outputs, members] : bySet) {
-        Group g{outputs, {}};
-        for (int p : members)
-            if (!insertTalk(g.members, p, tester, classes, result, true)) discarded.insert(p);
-        groups.push_back(std::move(g));
-    }
-    auto prune = [&] {
-        for (const auto& d : result.discards) discarded.insert(d.first);
-        for (auto& g : groups) std::erase_if(g.members, [&](int p) { return discarded.contains(p); });
-    };
-    prune();
-    // The order groups are listed in along every output: widest set first, then rig order.
-    auto before = [&](std::size_t a, std::size_t b) {
-        const auto sa = groups[a].outputs.size(), sb = groups[b].outputs.size();
-        return sa != sb ? sa > sb : groups[a].outputs < groups[b].outputs;
-    };
-
-    std::set<std::pair<std::size_t, std::size_t>> neighbours;  // (outer candidate, inner candidate)
-    std::map<int, std::vector<std::size_t>> groupsOfOutput;
-    for (std::size_t g = 0; g < groups.size(); ++g)
-        for (int k : groups[g].outputs) groupsOfOutput[k].push_back(g);
-    for (auto& [k, list] : groupsOfOutput) {
-        std::sort(list.begin(), list.end(), before);
-        for (std::size_t n = 1; n < list.size(); ++n) neighbours.emplace(list[n - 1], list[n]);
-    }
-
-    std::set<std::pair<int, int>> edges;  // outer parameter -> inner parameter
-    std::size_t done = 0;
-    for (const auto& [wide, narrow] : neighbours) {
-        if (options.progress) options.progress("ordering", static_cast<double>(++done) / static_cast<double>(neighbours.size()));
-        prune();
-        const std::vector<int> w = groups[wide].members, n = groups[narrow].members;
-        if (w.empty() || n.empty()) continue;
-        const Verdict whole = tester.testGroups(w, n);
-        if (whole.relation != Relation::conflict) {
-            const bool narrowOuter = whole.relation == Relation::secondOuter;
-            for (int a : w)
-                for (int b : n) edges.insert(narrowOuter ? std::pair(b, a) : std::pair(a, b));
-            continue;
-        }
-        // No clear order as a whole: find which members conflict and how the others are ordered.
-        for (int a : w) {
-            if (discarded.contains(a)) continue;
-            for (int b : n) {
-                if (discarded.contains(b)) continue;
-                const Verdict v = tester.test(a, b, true);
-                if (v.relation == Relation::firstOuter) edges.emplace(a, b);
-                else if (v.relation == Relation::secondOuter) edges.emplace(b, a);
-                else if (v.relation == Relation::conflict) {
-                    discarded.insert(resolveConflict(a, b, v, classes, result));
-                    if (discarded.contains(a)) break;
-                }
-            }
-        }
-        prune();
-    }
-    prune();
-
-    // Topological sort of the parameters (Kahn): the groups' inner orders as chains, and the edges.
-    std::map<int, std::pair<std::size_t, std::size_t>> rank;  // parameter -> (group rank, position)
-    std::vector<std::size_t> byRank(groups.size());
-    for (std::size_t g = 0; g < groups.size(); ++g) byRank[g] = g;
-    std::sort(byRank.begin(), byRank.end(), before);
-    for (std::size_t r = 0; r < byRank.size(); ++r) {
-        const Group& g = groups[byRank[r]];
-        for (std::size_t m = 0; m < g.members.size(); ++m) {
-            rank[g.members[m]] = {r, m};
-            if (m > 0) edges.emplace(g.members[m - 1], g.members[m]);
-        }
-    }
-    std::map<int, int> indegree;
-    std::map<int, std::vector<int>> next;
-    for (const auto& [p, r] : rank) indegree[p] = 0;
-    for (const auto& [from, to] : edges) {
-        if (!rank.contains(from) || !rank.contains(to)) continue;  // discarded since
-        next[from].push_back(to);
-        ++indegree[to];
-    }
-    std::set<std::pair<std::pair<std::size_t, std::size_t>, int>> ready;
-    for (const auto& [p, d] : indegree)
-        if (d == 0) ready.emplace(rank[p], p);
-    while (!ready.empty()) {
-        const int p = ready.begin()->second;
-        ready.erase(ready.begin());
-        result.order.push_back(p);
-        for (int q : next[p])
-            if (--indegree[q] == 0) ready.emplace(rank[q], q);
-    }
-    if (result.order.size() != rank.size()) {
-        // Inconsistent tests (a cycle): fall back to the talk's orderer on what is left.
-        std::vector<int> left;
-        for (const auto& [p, r] : rank) left.push_back(p);
-        OrderResult fallback = orderTalk(probe, rest, classes, left, options);
-        fallback.discards.insert(fallback.discards.begin(), result.discards.begin(), result.discards.end());
-        fallback.evaluations += tester.evaluations();
-        fallback.note = "the structured tests were not consistent (a cycle); the talk's orderer was used";
-        return fallback;
-    }
-    result.evaluations = tester.evaluations();
-    return result;
+    std::map<int, std::vector<int>> byOutput;
+    for (const int p : modelled)
+        for (const int k : classes[static_cast<std::size_t>(p)].model.outputs) byOutput[k].push_back(p);
+    std::set<std::pair<int, int>> unique;
+    for (const auto& [k, members] : byOutput)
+        for (std::size_t i = 0; i < members.size(); ++i)
+            for (std::size_t j = i + 1; j < members.size(); ++j)
+                unique.emplace(std::min(members[i], members[j]), std::max(members[i], members[j]));
+    return {unique.begin(), unique.end()};
 }
 
 }  // namespace
 
-OrderResult orderParameters(RigProbe& probe, const std::vector<Eigen::Matrix4d>& rest,
-                            const std::vector<Classification>& classes, const std::vector<int>& modelled,
+OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes, const std::vector<int>& modelled,
                             const LearnOptions& options)
 {
-    return options.orderer == Orderer::talk ? orderTalk(probe, rest, classes, modelled, options)
-                                            : orderStructured(probe, rest, classes, modelled, options);
+    const bool everyPair = options.orderer == Orderer::talk;
+    PairTests tests(probe, classes, options);
+    OrderResult result;
+    std::set<int> alive(modelled.begin(), modelled.end());
+    std::map<int, std::set<int>> next;  // outer -> inner
+    const auto pairs = candidatePairs(classes, modelled, everyPair);
+    std::size_t done = 0;
+    for (const auto& [p, q] : pairs) {
+        if (options.progress) options.progress("ordering", static_cast<double>(++done) / static_cast<double>(pairs.size()));
+        if (!alive.contains(p) || !alive.contains(q)) continue;
+        const Verdict v = tests.test(p, q, everyPair);
+        if (v.relation == Relation::firstOuter) next[p].insert(q);
+        if (v.relation == Relation::secondOuter) next[q].insert(p);
+        if (v.relation != Relation::conflict) continue;
+        const int drop = smaller(classes, p, q), keep = drop == p ? q : p;
+        result.discards.emplace_back(
+            drop, fmt::format("cannot be ordered with {}: {}; the one with the smaller effect was discarded, {} was kept",
+                              nameOf(classes, keep), v.detail, nameOf(classes, keep)));
+        result.conflictOutputs.insert(result.conflictOutputs.end(), v.neitherOutputs.begin(), v.neitherOutputs.end());
+        alive.erase(drop);
+    }
+
+    // Topological order (Kahn), ties by the widest reach first, then by name: the order does not depend
+    // on how the parameters were listed. A cycle costs its member with the smallest effect.
+    auto key = [&](int p) {
+        const Classification& c = classes[static_cast<std::size_t>(p)];
+        return std::tuple(-c.reach, c.model.parameter.name, p);
+    };
+    while (true) {
+        std::map<int, int> indegree;
+        for (const int p : alive) indegree[p] = 0;
+        for (const auto& [from, tos] : next)
+            if (alive.contains(from))
+                for (const int to : tos)
+                    if (alive.contains(to)) ++indegree[to];
+        std::set<std::tuple<int, std::string, int>> ready;
+        for (const auto& [p, d] : indegree)
+            if (d == 0) ready.insert(key(p));
+        result.order.clear();
+        while (!ready.empty()) {
+            const int p = std::get<2>(*ready.begin());
+            ready.erase(ready.begin());
+            result.order.push_back(p);
+            for (const int q : next[p])
+                if (alive.contains(q) && --indegree[q] == 0) ready.insert(key(q));
+        }
+        if (result.order.size() == alive.size()) break;
+        // Every parameter left has a predecessor left: walking back along them closes a cycle.
+        std::vector<int> walk;
+        std::map<int, std::size_t> seenAt;
+        int p = -1;
+        for (const auto& [q, d] : indegree)
+            if (d > 0) {
+                p = q;
+                break;
+            }
+        while (!seenAt.contains(p)) {
+            seenAt[p] = walk.size();
+            walk.push_back(p);
+            for (const auto& [from, tos] : next)
+                if (alive.contains(from) && indegree[from] > 0 && tos.contains(p)) {
+                    p = from;
+                    break;
+                }
+        }
+        const std::vector<int> cycle(walk.begin() + static_cast<std::ptrdiff_t>(seenAt[p]), walk.end());
+        int drop = cycle.front();
+        for (const int q : cycle) drop = smaller(classes, drop, q);
+        std::string chain;
+        for (auto it = cycle.rbegin(); it != cycle.rend(); ++it) chain += nameOf(classes, *it) + " before ";
+        chain += nameOf(classes, cycle.back());
+        result.discards.emplace_back(drop, fmt::format("its order tests form a cycle ({}); the one with the smallest effect "
+                                                       "was discarded",
+                                                       chain));
+        alive.erase(drop);
+    }
+    result.evaluations = tests.evaluations();
+    return result;
 }
 
 }  // namespace rig

@@ -1,9 +1,13 @@
 #pragma once
-// Composition order (section 4 of the talk). For parameters i and j, with F(ij) the rig with both
-// moved, test (1) "i outer": F(ij) = D_i F(j), and test (2) "j outer": F(ij) = D_j F(i), on the
-// outputs both affect. Both hold: they commute; one holds: that order; neither: they cannot be
-// ordered, and the one with the smaller effect is discarded (then, if still needed, the other).
-// Internal to the learner.
+// Composition order (section 4 of the talk), right by construction (DESIGN: commuting is not an order).
+// For parameters i and j, with F(ij) the rig with both moved, test (1) "i outer": F(ij) = D_i F(j), and
+// test (2) "j outer": F(ij) = D_j F(i), on an output both affect (in its learning frame). Both hold:
+// they commute there; one holds: that order; neither: they cannot be ordered there.
+//
+// A pair that commutes constrains nothing, and commutation is not transitive: the order is a
+// topological order of the precedence graph whose edges are the non-commuting pairs' verdicts. A pair
+// ordered both ways (on two outputs), a pair with neither order, or a cycle of the graph costs one
+// parameter, the one with the smaller effect; the others keep their edges. Internal to the learner.
 
 #include <cstdint>
 #include <string>
@@ -17,14 +21,15 @@ namespace rig {
 struct OrderResult {
     std::vector<int> order;                             // indices into the classifications, outermost first
     std::vector<std::pair<int, std::string>> discards;  // classification index, reason
-    std::uint64_t evaluations = 0;
-    std::string note;                                   // e.g. a fallback taken
+    std::vector<int> conflictOutputs;                   // rig outputs where a pair had neither order
+    std::uint64_t evaluations = 0;                      // pairs the rig was evaluated for
 };
 
-// `modelled` lists the indices (into `classes`) of the parameters to order, in rig order.
-// `rest` holds the outputs' rest world matrices.
-OrderResult orderParameters(RigProbe& probe, const std::vector<Eigen::Matrix4d>& rest,
-                            const std::vector<Classification>& classes, const std::vector<int>& modelled,
+// `modelled` lists the indices (into `classes`) of the parameters to order.
+//   talk:       every pair is tested on the rig (the reference: the talk knows no structure).
+//   structured: only pairs that share an output where their learned operators do not commute (decided
+//               from the operators, without a rig evaluation).
+OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes, const std::vector<int>& modelled,
                             const LearnOptions& options);
 
 }  // namespace rig

@@ -29,10 +29,14 @@ public:
         parametersOf_.resize(outputCount);
         outputsOf_.resize(parameterCount);
         for (std::size_t p = 0; p < parameterCount; ++p)
-            for (const int k : approximation.parameters[p].outputs) {
+            for (const int k : approximation.parameters[p].outputs)
                 if (k < 0 || static_cast<std::size_t>(k) >= outputCount)
                     throw std::invalid_argument(fmt::format("partitionProblem: parameter {} names output {} of {}",
                                                             approximation.parameters[p].parameter.name, k, outputCount));
+        // A parameter reaches the relative outputs below those it affects directly.
+        const std::vector<std::vector<int>> reach = approximation.reach();
+        for (std::size_t p = 0; p < parameterCount; ++p)
+            for (const int k : reach[p]) {
                 if (rows[static_cast<std::size_t>(k)] == noRows) continue;
                 parametersOf_[static_cast<std::size_t>(k)].push_back(static_cast<int>(p));
                 outputsOf_[p].push_back(k);

@@ -30,6 +30,10 @@ public:
     virtual const std::vector<RigParameter>& parameters() const = 0;
     // Names of the outputs (joints), in the order evaluate() writes them.
     virtual const std::vector<std::string>& outputs() const = 0;
+    // For each output, its parent output: the nearest ancestor in the rig's joint hierarchy that is
+    // itself an output, or -1 (none, or a rig without a hierarchy). The learner may model an output
+    // relative to it (docs/rig-learn.md).
+    virtual std::vector<int> outputParents() const { return std::vector<int>(outputs().size(), -1); }
     // World matrices of every output for these values of every parameter (internal units).
     virtual void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) = 0;
     // Rig evaluations so far: the training cost the talk counts.

@@ -311,6 +311,7 @@ Solver::Solver(const Approximation& approximation, SolverOptions options)
             throw std::invalid_argument(fmt::format("Solver: parameter {} has {} outputs but {} operator indices",
                                                     p.name, m.outputs.size(), m.operatorOfOutput.size()));
     }
+    approximation.outputOrder();  // throws for parents out of range or in a cycle
     // Above the core count TBB refuses the extra workers (with a warning); the values do not depend on it.
     if (options.threads > 1) impl_->arena.emplace(std::min(options.threads, tbb::info::default_concurrency()));
 }

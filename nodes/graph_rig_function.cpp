@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <set>
 #include <sstream>
@@ -86,6 +87,26 @@ std::string readBytes(const std::filesystem::path& file)
     std::ostringstream s;
     s << in.rdbuf();
     return s.str();
+}
+
+// The nearest ancestor of `node` among the outputs: up worldMatrix -> parentMatrix connections, through
+// transforms and joints that are not outputs. Anything else feeding a parentMatrix ends the walk.
+int parentOutput(const Graph& g, NodeId node, const std::map<NodeId, int>& outputOfNode)
+{
+    std::set<NodeId> visited{node};
+    while (true) {
+        const auto& attributes = g.attributes(node);
+        const auto it = std::find_if(attributes.begin(), attributes.end(),
+                                     [](const AttributeSpec& a) { return a.name == "parentMatrix"; });
+        if (it == attributes.end()) return -1;
+        const Connection* c = g.incomingConnection({node, static_cast<AttrId>(it - attributes.begin()), -1, -1});
+        if (!c || g.spec(c->source).name != "worldMatrix") return -1;
+        node = c->source.node;
+        if (!visited.insert(node).second) return -1;
+        if (const auto out = outputOfNode.find(node); out != outputOfNode.end()) return out->second;
+        const std::string& type = g.nodeType(node).name();
+        if (type != "joint" && type != "transform") return -1;
+    }
 }
 
 }  // namespace
@@ -197,10 +218,13 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
         throw RigSelectionError(fmt::format("{}: output glob '{}' {}", rigName, glob, reason), "output", glob, reason);
     }
     if (chosen.empty()) throw Error(fmt::format("{}: the rig has no joints to use as outputs", rigName));
+    std::map<NodeId, int> outputOfNode;
     for (NodeId n : chosen) {
+        outputOfNode[n] = static_cast<int>(outputNames_.size());
         outputNames_.push_back(g.nodeName(n));
         outputPlugs_.push_back(g.plug(g.nodeName(n) + ".worldMatrix"));
     }
+    for (NodeId n : chosen) outputParents_.push_back(parentOutput(g, n, outputOfNode));
 }
 
 void GraphRigFunction::evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds)

@@ -60,6 +60,9 @@ public:
 
     const std::vector<RigParameter>& parameters() const override { return parameters_; }
     const std::vector<std::string>& outputs() const override { return outputNames_; }
+    // Up the parentMatrix connections (a joint's `parent:`) through transforms and joints that are not
+    // outputs; a parentMatrix fed by anything else (a multMatrix, a constraint) ends the walk at -1.
+    std::vector<int> outputParents() const override { return outputParents_; }
     // Sets the parameter plugs whose value changed since the last call, evaluates, and reads the
     // outputs' worldMatrix. Throws std::invalid_argument for a wrong number of values, rig::Error for a
     // value the rig refuses (outside the attribute's limits).
@@ -81,6 +84,7 @@ private:
     std::vector<double> current_;  // the value each parameter plug holds
     std::vector<std::string> outputNames_;
     std::vector<Plug> outputPlugs_;
+    std::vector<int> outputParents_;
     // The outputs as last read, and their node's compute count then (notRead before the first read).
     static constexpr std::uint64_t notRead = ~std::uint64_t{0};
     std::vector<Eigen::Matrix4d> outputWorlds_;

@@ -59,6 +59,8 @@ void checkSame(const Approximation& a, const Approximation& b)
     for (std::size_t k = 0; k < a.outputs.size(); ++k) {
         CHECK(a.outputs[k].name == b.outputs[k].name);
         CHECK(sameMatrix(a.outputs[k].rest, b.outputs[k].rest));
+        CHECK(a.outputs[k].parent == b.outputs[k].parent);
+        CHECK(same(a.outputs[k].validationError, b.outputs[k].validationError));
     }
     REQUIRE(a.parameters.size() == b.parameters.size());
     for (std::size_t p = 0; p < a.parameters.size(); ++p) {
@@ -70,6 +72,12 @@ void checkSame(const Approximation& a, const Approximation& b)
         CHECK(x.form == y.form);
         CHECK(same(x.fitError, y.fitError));
         CHECK(x.samples == y.samples);
+        CHECK(same(x.validationError, y.validationError));
+        REQUIRE(x.noEffect.size() == y.noEffect.size());
+        for (std::size_t r = 0; r < x.noEffect.size(); ++r) {
+            CHECK(same(x.noEffect[r].first, y.noEffect[r].first));
+            CHECK(same(x.noEffect[r].second, y.noEffect[r].second));
+        }
         REQUIRE(x.operators.size() == y.operators.size());
         for (std::size_t o = 0; o < x.operators.size(); ++o) {
             const Operator &u = x.operators[o], &v = y.operators[o];
@@ -94,6 +102,16 @@ void checkSame(const Approximation& a, const Approximation& b)
     CHECK(same(a.validation.meanRotationErrorDeg, b.validation.meanRotationErrorDeg));
     CHECK(a.validation.worstOutput == b.validation.worstOutput);
     CHECK(a.validation.worstPose == b.validation.worstPose);
+    CHECK(same(a.validation.maxRelativeError, b.validation.maxRelativeError));
+    CHECK(a.validation.worstRelativeOutput == b.validation.worstRelativeOutput);
+    CHECK(a.validation.worstParameter == b.validation.worstParameter);
+    CHECK(a.validation.nonFinitePoses == b.validation.nonFinitePoses);
+    CHECK(a.validation.withinEpsilon == b.validation.withinEpsilon);
+    REQUIRE(a.droppedOutputs.size() == b.droppedOutputs.size());
+    for (std::size_t d = 0; d < a.droppedOutputs.size(); ++d) {
+        CHECK(a.droppedOutputs[d].name == b.droppedOutputs[d].name);
+        CHECK(a.droppedOutputs[d].reason == b.droppedOutputs[d].reason);
+    }
     CHECK(a.training.evaluations == b.training.evaluations);
     CHECK(a.training.orderEvaluations == b.training.orderEvaluations);
     CHECK(same(a.training.seconds, b.training.seconds));
@@ -125,7 +143,7 @@ Approximation everything()
         return RigParameter{name, -0.0, -std::numbers::pi / 2, 1.0 / 3.0, angular, limited};
     };
     using V1 = CubicSpline<1>::Vector;
-    ModelledParameter translation{parameter("root_ctrl.translateX", false, false), {0, 1, 2}, {}, {0, 0, 0}, "translation", 1e-17, 6};
+    ModelledParameter translation{parameter("root_ctrl.translateX", false, false), {0, 1, 2}, {}, {0, 0, 0}, "translation", 1e-17, 6, 2e-5, {{-1.5, -0.5}, {0.25, 1.0 / 3.0}}};
     Operator t;
     t.kind = OperatorKind::translation;
     t.axis = Eigen::Vector3d(0.6, -0.0, 0.8);
@@ -133,7 +151,7 @@ Approximation everything()
     translation.operators.push_back(t);
     a.parameters.push_back(translation);
 
-    ModelledParameter rotation{parameter("elbow.rotateZ", true, true), {1, 2}, {}, {0, 1}, "per output: 1 rotation (curve) 1 axisScale", 3e-4, 17};
+    ModelledParameter rotation{parameter("elbow.rotateZ", true, true), {1, 2}, {}, {0, 1}, "per output: 1 rotation (curve) 1 axisScale", 3e-4, 17, 0.0, {}};
     Operator r;
     r.kind = OperatorKind::rotation;
     r.axis = Eigen::Vector3d(0, std::sqrt(0.5), -std::sqrt(0.5));
@@ -147,7 +165,7 @@ Approximation everything()
     rotation.operators = {r, s};
     a.parameters.push_back(rotation);
 
-    ModelledParameter sampled{parameter("spine_ctrl.bend", true, false), {0, 1, 2}, {}, {0, 1, 2}, "per output: 1 sampledRigid 1 sampledAffine 1 uniformScale", 0.0, 64};
+    ModelledParameter sampled{parameter("spine_ctrl.bend", true, false), {0, 1, 2}, {}, {0, 1, 2}, "per output: 1 sampledRigid 1 sampledAffine 1 uniformScale", 0.0, 64, 5e-324, {}};
     Operator rigid;
     rigid.kind = OperatorKind::sampledRigid;
     std::vector<CubicSpline<6>::Vector> six;
@@ -175,7 +193,11 @@ Approximation everything()
 
     a.discarded.push_back({parameter("nasty_ctrl.springy", false, true), "history-dependent: \"quoted\"\nsecond line\tand a tab"});
     a.discarded.push_back({parameter("nasty_ctrl.coupledTurn", true, true), "coupled: it changes what others do; ünïcode"});
-    a.validation = {50, 1e-13, 0.1 + 0.2, 180.0, -0.0, "tip", 49};
+    a.validation = {50, 1e-13, 0.1 + 0.2, 180.0, -0.0, "tip", 49, 7e-4, "mid: #x", "elbow.rotateZ", 2, false};
+    a.outputs[1].parent = 0;  // relative outputs, a parent listed after its child
+    a.outputs[0].parent = 2;
+    a.outputs[2].validationError = 0.1 + 0.2;
+    a.droppedOutputs.push_back({"zero scale: \"x\"", "its rest world matrix is singular"});
     a.training = {std::uint64_t{1} << 63 | 5, 133, 0.0123456789, "structured (note: a fallback)"};
     return a;
 }
@@ -282,11 +304,11 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
     CHECK(errorWith("", "") == "(no error)");
     CHECK(errorWith("format: rigInversionApproximation", "format: rig")
           == "f.yaml:1:9: format: not an approximation file (expected format: rigInversionApproximation)");
-    CHECK(errorWith("version: 1", "version: 2")
-          == "f.yaml:2:10: version: version 2 is not supported; this program reads version 1 (re-run rig-learn)");
+    CHECK(errorWith("version: 1", "version: 3")
+          == "f.yaml:2:10: version: version 3 is not supported; this program reads versions 1 to 2 (re-run rig-learn)");
     CHECK(errorWith("rigFile:", "rigFiles:")
           == "f.yaml:3:1: file: unknown field 'rigFiles'; the fields are format, version, rigFile, rigFingerprint, "
-             "epsilon, training, validation, outputs, parameters, discarded");
+             "epsilon, training, validation, outputs, parameters, discarded, droppedOutputs");
     CHECK(errorWith("    samples: 6\n", "") == "f.yaml:11:5: parameters[0]: the field 'samples' is missing");
     CHECK(errorWith("min: -1", "min: abc") == "f.yaml:13:10: parameters[0].min: 'abc' is not a number");
     CHECK(errorWith("max: 1", "max: inf") == "f.yaml:14:10: parameters[0].max: 'inf' is not a finite number");
