@@ -79,6 +79,13 @@ std::string parameterFields(const RigParameter& p, const std::string& field, std
                        p.angular ? "true" : "false");
 }
 
+// `held: [low, high]`: offsets beyond which the operator is held; an open end is null.
+std::string heldText(const Operator& op, const std::string& field)
+{
+    auto end = [&](double x) { return std::isfinite(x) ? number(x, field + ".held") : std::string("null"); };
+    return fmt::format("        held: [{}, {}]\n", end(op.low), end(op.high));
+}
+
 std::string operatorText(const Operator& op, const std::string& field)
 {
     constexpr std::string_view indent = "        ";
@@ -87,6 +94,7 @@ std::string operatorText(const Operator& op, const std::string& field)
     if (!sampled) {
         out += fmt::format("{}axis: {}\n{}pivot: {}\n", indent, vector3(op.axis, field + ".axis"), indent,
                            vector3(op.pivot, field + ".pivot"));
+        if (op.held()) out += heldText(op, field);
         if (op.linear()) out += fmt::format("{}slope: {}\n", indent, number(op.slope, field + ".slope"));
         else
             out += fmt::format("{0}curve:\n{0}  knots: {1}\n{0}  values: {2}\n", indent,
@@ -95,6 +103,7 @@ std::string operatorText(const Operator& op, const std::string& field)
     }
     else {
         const auto& knots = op.kind == OperatorKind::sampledRigid ? op.rigid.knots() : op.affine.knots();
+        if (op.held()) out += heldText(op, field);
         if (knots.empty()) throw std::invalid_argument(fmt::format("approximationToYaml: {} has no knots", field));
         out += fmt::format("{}knots: {}\n", indent, list(knots, [&](double x) { return number(x, field + ".knots"); }));
         out += fmt::format("{}values: {}\n", indent,
@@ -257,13 +266,22 @@ public:
                              kindName));
         Operator op;
         op.kind = *kind;
+        if (const YAML::Node held = child(n, "held")) {
+            const YAML::Node ends = sequence(held, field + ".held", 2);
+            auto end = [&](const YAML::Node& e, double open) {
+                return e.IsNull() || (e.IsScalar() && e.Scalar() == "null") ? open : real(e, field + ".held");
+            };
+            op.low = end(ends[0], -std::numeric_limits<double>::infinity());
+            op.high = end(ends[1], std::numeric_limits<double>::infinity());
+            if (!(op.low <= 0.0 && 0.0 <= op.high)) fail(held, field + ".held", "expected [low, high] with low <= 0 <= high");
+        }
         if (op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine) {
-            checkKeys(n, field, {"kind", "knots", "values"});
+            checkKeys(n, field, {"kind", "knots", "values"}, {"held"});
             if (op.kind == OperatorKind::sampledRigid) op.rigid = spline<6>(child(n, "knots"), child(n, "values"), field);
             else op.affine = spline<12>(child(n, "knots"), child(n, "values"), field);
             return op;
         }
-        checkKeys(n, field, {"kind", "axis", "pivot"}, {"slope", "curve"});
+        checkKeys(n, field, {"kind", "axis", "pivot"}, {"slope", "curve", "held"});
         if (!child(n, "slope") == !child(n, "curve")) fail(n, field, "give either slope (linear) or curve, not both");
         op.axis = vector3(child(n, "axis"), field + ".axis");
         // Axes are unit vectors up to rounding; anything else is a damaged file.

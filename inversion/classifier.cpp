@@ -80,6 +80,23 @@ struct Context {
     std::map<double, std::vector<Eigen::Matrix4d>> framed;  // offset -> affected outputs in their frames
     std::vector<double> initial;  // the first, evenly spread offsets: every curve's first knots
     bool nonFinite = false;       // a sample gave a non-finite matrix
+    // Offsets beyond which the control is saturated (Operator::low, high): fits use the range between.
+    double low = -std::numeric_limits<double>::infinity();
+    double high = std::numeric_limits<double>::infinity();
+
+    bool acting(double a) const { return a >= low && a <= high; }
+    std::vector<double> acting(const std::vector<double>& offsets) const
+    {
+        std::vector<double> inside;
+        for (double a : offsets)
+            if (acting(a)) inside.push_back(a);
+        return inside;
+    }
+    void hold(Operator& op) const
+    {
+        op.low = low;
+        op.high = high;
+    }
 
     // The affected outputs in their frames at offset a: from the stored raw sample, or a new one.
     const std::vector<Eigen::Matrix4d>& sample(double a)
@@ -411,11 +428,13 @@ bool tryAnalytic(Context& c, OperatorKind kind, const std::vector<std::size_t>& 
         std::map<double, double> m;
         if (!fitStructure(c, kind, entries, op, m)) return false;
         double num = 0.0, den = 0.0;
-        for (const auto& [a, value] : m) {
-            num += value * a;
-            den += a * a;
-        }
+        for (const auto& [a, value] : m)
+            if (c.acting(a)) {
+                num += value * a;
+                den += a * a;
+            }
         op.slope = num / den;
+        c.hold(op);
         candidate = makeCandidate(op);
         return true;
     };
@@ -427,7 +446,8 @@ bool tryAnalytic(Context& c, OperatorKind kind, const std::vector<std::size_t>& 
         Operator op;
         std::map<double, double> m;
         if (!fitStructure(c, kind, entries, op, m)) return false;
-        op.curve = magnitudeCurve(m, knots);
+        op.curve = magnitudeCurve(m, c.acting(knots));
+        c.hold(op);
         candidate = makeCandidate(op);
         return true;
     };
@@ -443,7 +463,7 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
 {
     const std::vector<std::size_t> entries{e};
     const Builder build = [&](const std::vector<double>& knots, Candidate& candidate) {
-        std::vector<double> xs = knots;
+        std::vector<double> xs = c.acting(knots);
         xs.push_back(0.0);
         std::sort(xs.begin(), xs.end());
         Operator op;
@@ -485,6 +505,7 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
             }
             op.affine = CubicSpline<12>(xs, ys);
         }
+        c.hold(op);
         candidate.operators = {op};
         candidate.operatorOfOutput.assign(c.outputs.size(), 0);
         return true;
@@ -635,10 +656,16 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
     result.orderOffset = largestOffset(c);
     result.orderWorlds = c.sample(result.orderOffset);
     result.model.noEffect = flatRanges(c, c.rest);
-    // A curve has knots where the effect stops: a spline smooths a kink it has no knot at.
-    for (const auto& [from, to] : result.model.noEffect)
-        for (const double end : {from, to})
-            if (end != 0.0 && std::find(c.initial.begin(), c.initial.end(), end) == c.initial.end()) c.initial.push_back(end);
+    // Flat to the end of its range: the operators are held from where the effect stops, and fitted on
+    // the range where the control acts (a spline would have to bend round the kink).
+    for (const auto& [from, to] : result.model.noEffect) {
+        if (from == lo && from < 0.0) c.low = to;
+        if (to == hi && to > 0.0) c.high = from;
+    }
+    if (c.low > c.high) c.low = c.high = 0.0;  // flat everywhere it was sampled: nothing left to fit
+    for (const double end : {c.low, c.high})
+        if (std::isfinite(end) && end != 0.0 && std::find(c.initial.begin(), c.initial.end(), end) == c.initial.end())
+            c.initial.push_back(end);
     for (auto& [from, to] : result.model.noEffect) {
         from += parameter.defaultValue;
         to += parameter.defaultValue;

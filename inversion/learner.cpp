@@ -346,7 +346,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         dropped[static_cast<int>(k)] = std::move(why);
     }
     // Frames: relative to the parent output where there is one (and it is usable).
-    probe.parents = rig.outputParents();
+    probe.parents = options.relativeFrames ? rig.outputParents() : std::vector<int>(rest.size(), -1);
     if (probe.parents.size() != rest.size())
         throw std::invalid_argument(fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(),
                                                 rest.size()));

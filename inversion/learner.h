@@ -38,6 +38,9 @@ struct LearnOptions {
     // An output moving less than this (cm) is not affected by a parameter.
     double effectTolerance = 1e-7;
     Orderer orderer = Orderer::structured;
+    // True: outputs with a parent output are learned relative to it where that validates (DESIGN:
+    // frames). False: every output in world space, as in the talk.
+    bool relativeFrames = true;
     // Random poses within the limits of the modelled parameters for the final validation.
     int validationPoses = 50;
     // Poses with every modelled parameter at its min or its max (chosen at random), validated as well.

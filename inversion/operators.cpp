@@ -1,5 +1,6 @@
 #include "inversion/operators.h"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -80,12 +81,21 @@ Eigen::Matrix3d leftJacobian(const Eigen::Vector3d& r)
     return Eigen::Matrix3d::Identity() + (1.0 - std::cos(t)) / (t * t) * k + (t - std::sin(t)) / (t * t * t) * k * k;
 }
 
-double Operator::magnitude(double a) const { return linear() ? slope * a : curve.value(a)[0]; }
+double Operator::magnitude(double a) const
+{
+    a = std::clamp(a, low, high);
+    return linear() ? slope * a : curve.value(a)[0];
+}
 
-double Operator::magnitudeDerivative(double a) const { return linear() ? slope : curve.derivative(a)[0]; }
+double Operator::magnitudeDerivative(double a) const
+{
+    if (!acts(a)) return 0.0;
+    return linear() ? slope : curve.derivative(a)[0];
+}
 
 Eigen::Matrix4d Operator::matrix(double a) const
 {
+    a = std::clamp(a, low, high);
     switch (kind) {
     case OperatorKind::translation: {
         Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
@@ -116,6 +126,7 @@ Eigen::Matrix4d Operator::matrix(double a) const
 
 Eigen::Matrix4d Operator::derivative(double a) const
 {
+    if (!acts(a)) return Eigen::Matrix4d::Zero();
     switch (kind) {
     case OperatorKind::translation: {
         Eigen::Matrix4d m = Eigen::Matrix4d::Zero();

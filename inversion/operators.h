@@ -10,9 +10,13 @@
 //   sampledAffine   P = I + [A(a), t(a)]                   the twelve entries are splines
 //
 // The magnitude m(a) is linear (m = slope * a) or a natural cubic spline through fitted samples
-// (driven keys, aim constraints). Sampled operators interpolate samples of the rig's own world delta:
+// (driven keys, aim constraints). A saturated control (a clamp) holds its operator beyond `low` and
+// `high`: P(a) = P(clamp(a, low, high)), with dP/da = 0 outside, so the fit covers only the range where
+// the control acts and no spline has to bend round a kink. Sampled operators interpolate samples of the rig's own world delta:
 // exact at the samples, and exact in between wherever the delta is itself smooth and well sampled.
 
+#include <cmath>
+#include <limits>
 #include <optional>
 #include <string_view>
 
@@ -35,6 +39,12 @@ struct Operator {
     CubicSpline<1> curve;                             // magnitude through (0, 0) and the samples
     CubicSpline<6> rigid;                             // sampledRigid: rotation vector, translation
     CubicSpline<12> affine;                           // sampledAffine: the 3x4 block of P - I, row by row
+    double low = -std::numeric_limits<double>::infinity();   // offsets beyond which P is held (saturation)
+    double high = std::numeric_limits<double>::infinity();
+
+    bool held() const { return std::isfinite(low) || std::isfinite(high); }
+    // Whether P changes at a (false beyond the held ends).
+    bool acts(double a) const { return a >= low && a <= high; }
 
     bool linear() const { return curve.empty(); }
     double magnitude(double a) const;

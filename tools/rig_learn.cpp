@@ -41,6 +41,8 @@ struct Options {
     std::vector<std::string> plugins;
     std::string spec;
     std::map<std::string, std::string> specPlaces;  // glob -> its file:line:col in the spec, for messages
+    bool allowInexact = false;
+    bool worldSpace = false;
 };
 
 // A spec file (docs/rig-learn.md): `params:` and optionally `outputs:`, lists of globs, added to the
@@ -116,6 +118,11 @@ double parseEpsilon(const std::string& text)
 // A parameter's value in user units (degrees for angles).
 double userValue(const RigParameter& p, double internal) { return p.angular ? internal * 180.0 / std::numbers::pi : internal; }
 
+std::string valueText(const RigParameter& p, double internal)
+{
+    return fmt::format("{:.4g}{}", userValue(p, internal), p.angular ? " deg" : "");
+}
+
 std::string rangeText(const RigParameter& p)
 {
     return fmt::format("{:g}..{:g}{}", userValue(p, p.min), userValue(p, p.max), p.angular ? " deg" : "");
@@ -173,8 +180,23 @@ std::string readableReport(const Approximation& a, const RigFunction& rig, const
     for (const auto& [i, j] : redundant)
         out += fmt::format("  {} and {}\n", a.parameters[static_cast<std::size_t>(i)].parameter.name,
                            a.parameters[static_cast<std::size_t>(j)].parameter.name);
+    std::string saturated;
+    for (const ModelledParameter& m : a.parameters)
+        for (const auto& [from, to] : m.noEffect)
+            saturated += fmt::format("  {}: no effect from {} to {}\n", m.parameter.name, valueText(m.parameter, from),
+                                     valueText(m.parameter, to));
+    if (!saturated.empty()) out += "\nSaturated: ranges where a control moves nothing (an inversion cannot tell values there apart)\n" + saturated;
     out += fmt::format("\nDiscarded: {} parameters\n", a.discarded.size());
     for (const auto& d : a.discarded) out += fmt::format("  {}: {}\n", d.parameter.name, d.reason);
+    std::vector<std::string> world;
+    int relative = 0;
+    for (const ApproximationOutput& o : a.outputs) {
+        if (o.parent >= 0) ++relative;
+        else world.push_back(o.name);
+    }
+    out += fmt::format("\nFrames: {} outputs learned relative to their parent output, {} in world space{}{}\n", relative,
+                       world.size(), world.empty() ? "" : ": ", fmt::join(world, ", "));
+    for (const DroppedOutput& d : a.droppedOutputs) out += fmt::format("  left out: {}: {}\n", d.name, d.reason);
     out += fmt::format("\nTraining: {} rig evaluations ({} for the composition order), {:.2f} s learning, {:.2f} s loading "
                        "the rig\n",
                        a.training.evaluations, a.training.orderEvaluations, a.training.seconds, loadSeconds);
@@ -187,21 +209,30 @@ std::string readableReport(const Approximation& a, const RigFunction& rig, const
         out += fmt::format("  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm\n", v.maxPositionErrorCm,
                            v.worstOutput, v.worstPose, v.meanPositionErrorCm);
         out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg, v.meanRotationErrorDeg);
+        out += fmt::format("  per unit of the parameters moved: worst {:.3g} cm ({}), epsilon {:g}: {}\n", v.maxRelativeError,
+                           v.worstRelativeOutput.empty() ? "-" : v.worstRelativeOutput, a.epsilon,
+                           v.withinEpsilon ? "within" : "EXCEEDED");
+        if (v.nonFinitePoses > 0)
+            out += fmt::format("  {} poses not measured: the rig gave a non-finite matrix there\n", v.nonFinitePoses);
     }
-    out += fmt::format("\nWrote {}\n", options.output);
+    if (a.validation.withinEpsilon || options.allowInexact) out += fmt::format("\nWrote {}\n", options.output);
+    else out += fmt::format("\nNot written: {} (over epsilon; --allow-inexact writes it anyway)\n", options.output);
     return out;
 }
 
 std::string jsonReport(const Approximation& a, const RigFunction& rig, const Options& options, double loadSeconds)
 {
-    cli::Json modelled = cli::Json::array(), forms = cli::Json::array();
+    cli::Json modelled = cli::Json::array(), forms = cli::Json::array(), saturated = cli::Json::array();
     for (const ModelledParameter& m : a.parameters) {
         modelled.push_back(m.parameter.name);
         forms.push_back({{"name", m.parameter.name},
                          {"form", m.form},
                          {"fit_error", cli::numberJson(m.fitError)},
                          {"samples", m.samples},
-                         {"outputs", m.outputs.size()}});
+                         {"outputs", m.outputs.size()},
+                         {"validation_error", cli::numberJson(m.validationError)}});
+        for (const auto& [from, to] : m.noEffect)
+            saturated.push_back({{"name", m.parameter.name}, {"from", cli::numberJson(from)}, {"to", cli::numberJson(to)}});
     }
     cli::Json discarded = cli::Json::array();
     for (const auto& d : a.discarded) discarded.push_back({{"name", d.parameter.name}, {"reason", d.reason}});
@@ -209,6 +240,13 @@ std::string jsonReport(const Approximation& a, const RigFunction& rig, const Opt
     for (const auto& [i, j] : redundantParameters(a))
         redundant.push_back(cli::Json::array({a.parameters[static_cast<std::size_t>(i)].parameter.name,
                                               a.parameters[static_cast<std::size_t>(j)].parameter.name}));
+    cli::Json outputs = cli::Json::array();
+    for (const ApproximationOutput& o : a.outputs)
+        outputs.push_back({{"name", o.name},
+                           {"frame", o.parent >= 0 ? a.outputs[static_cast<std::size_t>(o.parent)].name : std::string("world")},
+                           {"validation_error", cli::numberJson(o.validationError)}});
+    cli::Json dropped = cli::Json::array();
+    for (const DroppedOutput& d : a.droppedOutputs) dropped.push_back({{"name", d.name}, {"reason", d.reason}});
     const ValidationSummary& v = a.validation;
     const cli::Json report{
         {"rig", options.rig},
@@ -226,6 +264,11 @@ std::string jsonReport(const Approximation& a, const RigFunction& rig, const Opt
         {"forms", std::move(forms)},
         {"discarded", std::move(discarded)},
         {"redundant", std::move(redundant)},
+        {"saturated", std::move(saturated)},
+        {"frames", std::move(outputs)},
+        {"dropped_outputs", std::move(dropped)},
+        {"within_epsilon", v.withinEpsilon},
+        {"written", v.withinEpsilon || options.allowInexact},
         {"validation",
          {{"poses", v.poses},
           {"max_position_error_cm", cli::numberJson(v.maxPositionErrorCm)},
@@ -233,7 +276,11 @@ std::string jsonReport(const Approximation& a, const RigFunction& rig, const Opt
           {"max_rotation_error_deg", cli::numberJson(v.maxRotationErrorDeg)},
           {"mean_rotation_error_deg", cli::numberJson(v.meanRotationErrorDeg)},
           {"worst_output", v.worstOutput},
-          {"worst_pose", v.worstPose}}}};
+          {"worst_pose", v.worstPose},
+          {"max_relative_error", cli::numberJson(v.maxRelativeError)},
+          {"worst_relative_output", v.worstRelativeOutput},
+          {"worst_parameter", v.worstParameter},
+          {"non_finite_poses", v.nonFinitePoses}}}};
     return cli::jsonText(report, 2) + "\n";
 }
 
@@ -249,6 +296,7 @@ int run(Options& options)
     LearnOptions learn;
     if (options.epsilonGiven) learn.epsilon = parseEpsilon(options.epsilon);
     learn.orderer = options.orderer == "talk" ? Orderer::talk : Orderer::structured;
+    learn.relativeFrames = !options.worldSpace;
 
     const auto loadStart = std::chrono::steady_clock::now();
     std::optional<GraphRigFunction> loaded;
@@ -282,12 +330,28 @@ int run(Options& options)
     }
     bar.finish();
 
-    cli::writeFileAtomically(options.output, approximationToYaml(approximation));
+    // What the learner measured as wrong is not written as if it were fine (docs/rig-learn.md: exit 3).
+    const ValidationSummary& v = approximation.validation;
+    const bool write = v.withinEpsilon || options.allowInexact;
+    if (write) cli::writeFileAtomically(options.output, approximationToYaml(approximation));
     if (options.reportGiven) cli::writeFileAtomically(options.reportJson, jsonReport(approximation, rig, options, loadSeconds));
     std::cout << readableReport(approximation, rig, options, loadSeconds);
     if (approximation.parameters.empty())
         std::cerr << "warning: no parameter could be modelled; the approximation is empty (see the discards above)\n";
-    return 0;
+    if (v.withinEpsilon) return 0;
+    const std::string what =
+        v.nonFinitePoses > 0
+            ? fmt::format("the rig gave non-finite matrices at {} of {} validation poses", v.nonFinitePoses, v.poses)
+            : fmt::format("the approximation exceeds epsilon {:g}: {:.3g} cm per unit of the parameters moved on {} (moving {} "
+                          "most)",
+                          approximation.epsilon, v.maxRelativeError, v.worstRelativeOutput, v.worstParameter);
+    if (options.allowInexact) {
+        std::cerr << oneLine(fmt::format("warning: {}; written anyway (--allow-inexact)", what)) << '\n';
+        return 0;
+    }
+    std::cerr << oneLine(fmt::format("error: {}; {} not written (--allow-inexact writes it anyway)", what, options.output))
+              << '\n';
+    return 3;
 }
 
 }  // namespace
@@ -312,10 +376,14 @@ int main(int argc, char** argv)
     app.add_option("--epsilon", options.epsilon,
                    "Validation threshold, cm of frame-point error per unit of a parameter (default 0.001)");
     app.add_option("--orderer", options.orderer,
-                   "Composition orderer: structured (default: tests only pairs that share outputs) or talk (insertion "
-                   "sort over every pair)")
+                   "Composition orderer: structured (default: tests only pairs that share an output where their "
+                   "operators do not commute) or talk (tests every pair on the rig)")
         ->check(CLI::IsMember({"talk", "structured"}));
     app.add_option("--report-json", options.reportJson, "Also write the report as JSON to this file");
+    app.add_flag("--world-space", options.worldSpace,
+                 "Learn every output in world space, as the talk does (default: relative to its parent output where that validates)");
+    app.add_flag("--allow-inexact", options.allowInexact,
+                 "Write the approximation even when its validation exceeds epsilon (otherwise exit code 3, nothing written)");
     app.add_option("--plugin", options.plugins, "Load a node plugin before reading the rig (repeatable)")
         ->allow_extra_args(false);
     return rig::cli::runMain(app, argc, argv, [&] {

@@ -30,8 +30,15 @@ public:
     }
     std::uint64_t evaluationCount() const override { return count_; }
     std::string fingerprint() const override { return "test-rig"; }
+    std::vector<int> outputParents() const override
+    {
+        return parents_.empty() ? RigFunction::outputParents() : parents_;
+    }
+    // The joint hierarchy among the outputs (RigFunction::outputParents); none by default.
+    void setParents(std::vector<int> parents) { parents_ = std::move(parents); }
 
 private:
+    std::vector<int> parents_;
     std::vector<RigParameter> parameters_;
     std::vector<std::string> outputs_;
     Function f_;

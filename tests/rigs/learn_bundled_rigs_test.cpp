@@ -237,21 +237,26 @@ TEST_CASE("learning rigs/nasty.yaml: every parameter concludes what docs/rigs.md
         CHECK(turn->reason.starts_with("no effect on its own, but it changes what other parameters do (coupled"));
         checkRotation(modelled(a, "nasty_ctrl.coupledBend"), x, Eigen::Vector3d(-20, 150, 0));
     }
-    SUBCASE("saturated: a rotation with a curve magnitude that is flat past 30 degrees")
+    SUBCASE("saturated: a rotation held past 30 degrees, with its flat ranges reported")
     {
         const ModelledParameter& m = modelled(a, "nasty_ctrl.saturated");
-        CHECK(m.form == "rotation (curve)");
+        CHECK(m.form == "rotation");  // linear where it acts, held beyond: exact, no spline round the kink
         const Operator& op = m.operators[0];
         const double sign = op.axis.z() < 0 ? -1.0 : 1.0;
-        CHECK(sign * op.magnitude(90 * degree) == doctest::Approx(30 * degree).epsilon(1e-6));
-        CHECK(sign * op.magnitude(-90 * degree) == doctest::Approx(-30 * degree).epsilon(1e-6));
-        CHECK(std::abs(op.magnitudeDerivative(80 * degree)) < 1e-6);
+        CHECK(sign * op.magnitude(90 * degree) == doctest::Approx(30 * degree).epsilon(1e-9));
+        CHECK(sign * op.magnitude(-90 * degree) == doctest::Approx(-30 * degree).epsilon(1e-9));
+        CHECK(sign * op.magnitude(20 * degree) == doctest::Approx(20 * degree).epsilon(1e-9));
+        CHECK(op.magnitudeDerivative(80 * degree) == 0.0);
+        CHECK(op.derivative(-80 * degree).isZero());
+        CHECK(op.low == doctest::Approx(-30 * degree).epsilon(1e-6));
+        CHECK(op.high == doctest::Approx(30 * degree).epsilon(1e-6));
         // Where it does nothing is reported: past +-30 degrees, to the bisection's resolution.
         REQUIRE(m.noEffect.size() == 2);
         CHECK(m.noEffect[0].first == doctest::Approx(-90 * degree));
         CHECK(m.noEffect[0].second == doctest::Approx(-30 * degree).epsilon(0.01));
         CHECK(m.noEffect[1].first == doctest::Approx(30 * degree).epsilon(0.01));
         CHECK(m.noEffect[1].second == doctest::Approx(90 * degree));
+        CHECK(m.validationError <= options.epsilon);
     }
     SUBCASE("redundant: redundantA and redundantB, the same exact rotation")
     {
