@@ -615,17 +615,17 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
         const int kk = static_cast<int>(k);
         if (!std::binary_search(samples.moved.begin(), samples.moved.end(), kk)) continue;
         double raw = 0.0;
-        for (double a : offsets) raw = std::max(raw, matrixError(samples.world(kk, a, rest), rest[k], options.frameRadius));
-        if (!std::isfinite(raw)) {
-            result.reason = fmt::format("the rig gives a non-finite matrix for {} at {} = {:g} (a zero scale or a singular "
-                                        "matrix?); give it a range where the rig is defined",
-                                        outputNames[k], parameter.name, parameter.defaultValue + [&] {
-                                            for (double a : offsets)
-                                                if (!samples.world(kk, a, rest).allFinite()) return a;
-                                            return 0.0;
-                                        }());
-            result.failedOutput = -1;
-            return result;
+        for (double a : offsets) {
+            if (!samples.world(kk, a, rest).allFinite()) {
+                result.reason = fmt::format("the rig gives a non-finite matrix for {} at {} = {:g}{} (a zero scale or a "
+                                            "singular matrix?); give it a range where the rig is defined",
+                                            outputNames[k], parameter.name,
+                                            parameter.angular ? (parameter.defaultValue + a) * 180.0 / std::numbers::pi
+                                                              : parameter.defaultValue + a,
+                                            parameter.angular ? " degrees" : "");
+                return result;
+            }
+            raw = std::max(raw, matrixError(samples.world(kk, a, rest), rest[k], options.frameRadius));
         }
         result.effect = std::max(result.effect, raw);
         ++result.reach;

@@ -167,8 +167,10 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                 const double half = param.angular ? defaultAngleRangeDegrees * std::numbers::pi / 180.0
                                     : s.unit == Unit::Distance ? defaultDistanceRangeCm
                                                                : defaultUnitlessRange;
-                param.min = s.min ? *s.min : param.defaultValue - half;
-                param.max = s.max ? *s.max : param.defaultValue + half;
+                // A scale through 0 is singular: every world matrix below it has no inverse.
+                const bool scale = s.unit == Unit::None && s.name.starts_with("scale") && param.defaultValue > 0;
+                param.min = s.min ? *s.min : scale ? param.defaultValue / defaultScaleFactor : param.defaultValue - half;
+                param.max = s.max ? *s.max : scale ? param.defaultValue * defaultScaleFactor : param.defaultValue + half;
                 // A declared limit binds the solver; a default range is only where learning samples.
                 param.limited = s.min.has_value() || s.max.has_value();
                 parameters_.push_back(param);

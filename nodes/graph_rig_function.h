@@ -47,10 +47,12 @@ private:
 };
 
 // Sampling range of a parameter whose attribute declares no min/max, around its current value
-// (docs/rig-learn.md): +-90 degrees for angles, +-50 cm for distances, +-1 otherwise.
+// (docs/rig-learn.md): +-90 degrees for angles, +-50 cm for distances, +-1 otherwise; a positive scale
+// (an attribute named scale*) from half to twice its value, which never passes through a zero scale.
 inline constexpr double defaultAngleRangeDegrees = 90.0;
 inline constexpr double defaultDistanceRangeCm = 50.0;
 inline constexpr double defaultUnitlessRange = 1.0;
+inline constexpr double defaultScaleFactor = 2.0;
 
 class GraphRigFunction final : public RigFunction {
 public:

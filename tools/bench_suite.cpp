@@ -82,10 +82,11 @@ InversionSpec readSpec(const std::filesystem::path& file)
     return spec;
 }
 
-LearnOptions learnOptions(Orderer orderer)
+LearnOptions learnOptions(Orderer orderer, bool relativeFrames = true)
 {
     LearnOptions o;  // rig-learn's defaults
     o.orderer = orderer;
+    o.relativeFrames = relativeFrames;
     return o;
 }
 
@@ -99,7 +100,11 @@ Json trainingJson(const Approximation& a, std::size_t rigParameters)
                 {"modelled", static_cast<long long>(a.parameters.size())},
                 {"discarded", static_cast<long long>(a.discarded.size())},
                 {"validation_max_position_error_cm", a.validation.maxPositionErrorCm},
-                {"validation_max_rotation_error_deg", a.validation.maxRotationErrorDeg}};
+                {"validation_max_rotation_error_deg", a.validation.maxRotationErrorDeg},
+                {"validation_max_relative_error", a.validation.maxRelativeError},
+                {"within_epsilon", a.validation.withinEpsilon},
+                {"relative_outputs", static_cast<long long>(std::count_if(a.outputs.begin(), a.outputs.end(),
+                                                                          [](const auto& out) { return out.parent >= 0; }))}};
 }
 
 // Targets per frame, one per approximation output; `joint` maps an output's name to the clip joint
@@ -333,6 +338,10 @@ void runBipedBench(const BenchOptions& o, Json& report)
         orderers[std::string(ordererName(orderer))] = trainingJson(a, rig.parameters().size());
         if (orderer == Orderer::structured) approximation = std::move(a);
     }
+    // The talk's frames (every output in world space), for the figures before parent-relative outputs.
+    say(o, "training the biped's approximation in world space (the talk's frames)");
+    const Approximation worldSpace = learnApproximation(rig, learnOptions(Orderer::structured, false), o.rig.string());
+    orderers["structured_world_space"] = trainingJson(worldSpace, rig.parameters().size());
     train["evaluations"] = approximation.training.evaluations;
     train["seconds"] = approximation.training.seconds;
     train["orderer"] = approximation.training.orderer;
@@ -540,6 +549,16 @@ void runBipedBench(const BenchOptions& o, Json& report)
     accuracy["approximation_whole"] = results[4].errors.toJson();
     accuracy["approximation_polish1"] = results[5].errors.toJson();
     accuracy["approximation_fd"] = results[2].errors.toJson();
+    {
+        // Before parent-relative outputs: the world-space approximation, which discards what it cannot order.
+        say(o, fmt::format("inverting {} frames with the world-space approximation", frames));
+        RigBinding worldBinding(worldSpace, rig);
+        const Targets worldTargets = clipTargets(worldSpace, clip, std::numeric_limits<int>::max(),
+                                                 [](const std::string& name) { return name; });
+        Json before = runVariant(variants[0], worldSpace, worldBinding, worldTargets, frames).errors.toJson();
+        before["modelled_parameters"] = static_cast<long long>(worldSpace.parameters.size());
+        accuracy["approximation_world_space"] = std::move(before);
+    }
     accuracy["blackbox"] = blackErrors.toJson();
     accuracy["approximation_on_blackbox_frames"] = samePartitioned.errors.toJson();
     accuracy["approximation_whole_on_blackbox_frames"] = sameWhole.errors.toJson();

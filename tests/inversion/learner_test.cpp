@@ -1,6 +1,7 @@
 // The learner on rigs whose answers are known in closed form.
 #include <doctest/doctest.h>
 
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -163,4 +164,22 @@ TEST_CASE("learner: a parameter spends at most maxSamples rig samples, however m
     CHECK(a.parameters[0].samples <= options.maxSamples);
     // The samples, the rest pose, and the check that the rest pose comes back.
     CHECK(a.training.evaluations <= static_cast<std::uint64_t>(options.maxSamples) + 2);
+}
+
+TEST_CASE("learner: a rig that gives a non-finite matrix within a parameter's range discards it with the value, never a NaN")
+{
+    // past 1.2 the joint's matrix is NaN (a rig dividing by zero); `fine` moves another joint.
+    test::LambdaRig rig({test::angle("broken"), test::angle("fine")}, {"a", "b"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+        w[0] = test::rotation(Eigen::Vector3d::UnitZ(), v[0]);
+        if (v[0] > 1.2) w[0](0, 3) = std::numeric_limits<double>::quiet_NaN();
+        w[1] = test::translation(10, 0, 0) * test::rotation(Eigen::Vector3d::UnitX(), v[1]);
+    });
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "broken");
+    REQUIRE(a.discarded.size() == 1);
+    CHECK(a.discarded[0].parameter.name == "broken");
+    CHECK(a.discarded[0].reason == "the rig gives a non-finite matrix for a at broken = 85.9437 degrees (a zero scale or a singular matrix?); "
+                                   "give it a range where the rig is defined");
+    REQUIRE(a.parameters.size() == 1);
+    CHECK(a.validation.withinEpsilon);
+    CHECK(std::isfinite(a.validation.maxRelativeError));
 }

@@ -188,3 +188,28 @@ TEST_CASE("rig-learn: an approximation its own validation measures over epsilon 
     CHECK_FALSE(a.validation.withinEpsilon);
     CHECK(a.validation.worstRelativeOutput == "knee");
 }
+
+TEST_CASE("rig-learn: a joint scaled to zero is left out with its reason, and a scale control's default range avoids zero")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-zero-scale");
+    const auto rigFile = rig::test::writeFile(dir / "flat.yaml", R"(nodes:
+  - {name: root, type: joint, translate: [0, 10, 0]}
+  - {name: flat, type: joint, parent: root, translate: [5, 0, 0], scale: [0, 1, 1]}
+  - {name: tip, type: joint, parent: flat, translate: [5, 0, 0]}
+  - {name: other, type: joint, parent: root, translate: [0, 5, 0]}
+)");
+    const auto out = dir / "flat.approx.yaml";
+    const auto r = run(rigLearn(fmt::format("'{}' --params 'root.rotate?' 'root.scale?' 'other.scaleX' -o '{}'", rigFile.string(),
+                                            out.string())));
+    CHECK(r.exitCode == 0);
+    CHECK(r.err.empty());
+    CHECK(r.out.find("left out: flat: its rest world matrix is singular (singular values 1, 1, 0: a zero scale?)") != std::string::npos);
+    CHECK(r.out.find("root.scaleX ") != std::string::npos);
+    CHECK(r.out.find("0.5..2") != std::string::npos);  // half to twice the rest scale of 1
+    const rig::Approximation a = rig::readApproximationFile(out);
+    CHECK(a.validation.withinEpsilon);
+    REQUIRE(a.droppedOutputs.size() == 2);
+    CHECK(a.droppedOutputs[0].name == "flat");
+    CHECK(a.droppedOutputs[1].name == "tip");
+    CHECK(a.discarded.empty());
+}
