@@ -120,9 +120,14 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         rig.evaluate(current, worlds);
         for (std::size_t o = 0; o < frameTargets.size(); ++o) {
             if (!frameTargets[o].active) continue;
+            // A NaN target (reported by the solver) has no error to measure; a NaN rig is a miss.
+            if (!frameTargets[o].world.topRows<3>().allFinite()) continue;
+            if (!worlds[o].topRows<3>().allFinite()) {
+                if (result.nonFiniteJoint.empty()) result.nonFiniteJoint = approximation.outputs[o].name;
+                continue;
+            }
             const double p = (worlds[o].block<3, 1>(0, 3) - frameTargets[o].world.block<3, 1>(0, 3)).norm();
             const double r = rotationErrorDeg(worlds[o], frameTargets[o].world);
-            // A NaN target (reported by the solver) has no error to measure.
             if (!std::isfinite(p) || !std::isfinite(r)) continue;
             positionSum += p;
             rotationSum += r;
@@ -135,6 +140,10 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         }
         ++summary.frames;
         if (solve.converged()) ++summary.convergedFrames;
+        if (!result.nonFiniteJoint.empty() && summary.nonFiniteFrames++ == 0) {
+            summary.firstNonFiniteJoint = result.nonFiniteJoint;
+            summary.firstNonFiniteFrame = frame;
+        }
         if (result.positionErrorCm > summary.maxPositionErrorCm || summary.worstFrame < 0) {
             summary.maxPositionErrorCm = result.positionErrorCm;
             summary.worstJoint = result.worstJoint;

@@ -55,6 +55,7 @@ struct FrameInversion {
     double positionErrorCm = 0.0;       // real rig against the targets, worst active joint
     double rotationErrorDeg = 0.0;
     std::string worstJoint;             // where the position error is worst
+    std::string nonFiniteJoint;         // a joint the real rig gave a non-finite matrix for (a miss), or ""
 };
 
 struct ClipInversionSummary {
@@ -69,6 +70,11 @@ struct ClipInversionSummary {
     double solveSeconds = 0.0;          // solver and polish time of the reported frames (lead-in and the error measurement excluded)
     double msPerFrame = 0.0;            // solveSeconds per reported frame, ms
     int leadInFrames = 0;               // solved before `first` to join the warm-start chain
+    // Frames where the real rig gave a non-finite matrix for a joint with a target: misses, not
+    // measured as errors; the first such joint and frame.
+    int nonFiniteFrames = 0;
+    std::string firstNonFiniteJoint;
+    int firstNonFiniteFrame = -1;
     std::vector<FrameInversion> perFrame;
     std::string briefReport() const;
 };

@@ -120,6 +120,7 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
     std::uint64_t hash = fnv1a64({});
     for (const auto& file : filesRead) hash = fnv1a64(readBytes(file), hash);
     fingerprint_ = fmt::format("{:016x}", hash);
+    files_ = filesRead;
     Graph& g = *graph_;
     const std::string rigName = rigFile.string();
 

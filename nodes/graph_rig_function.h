@@ -72,6 +72,8 @@ public:
     std::uint64_t evaluationCount() const override { return evaluations_; }
     // FNV-1a 64 (16 hex digits) over the contents of the rig file and every file it includes.
     std::string fingerprint() const override { return fingerprint_; }
+    // The rig file and every file it includes, in reading order.
+    const std::vector<std::filesystem::path>& files() const { return files_; }
 
     // The instance, for tools that also read or set other plugs. Plugs set behind this object's back
     // are overwritten only when the parameter's value changes.
@@ -93,6 +95,7 @@ private:
     std::vector<std::uint64_t> computesSeen_;
     std::uint64_t evaluations_ = 0;
     std::string fingerprint_;
+    std::vector<std::filesystem::path> files_;
 };
 
 // FNV-1a 64 of bytes, continuing from `hash` (start: the FNV offset basis).

@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include <fmt/format.h>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -137,6 +138,19 @@ std::filesystem::path folderOf(const std::filesystem::path& file)
 
 }  // namespace
 
+std::filesystem::path outputTarget(const std::filesystem::path& file)
+{
+    // A chain of links ends at the file the user means; the links themselves are kept.
+    std::filesystem::path target = file;
+    std::error_code ec;
+    for (int hops = 0; hops < 40 && std::filesystem::is_symlink(target, ec); ++hops) {
+        const std::filesystem::path next = std::filesystem::read_symlink(target, ec);
+        if (ec) break;
+        target = next.is_absolute() ? next : folderOf(target) / next;
+    }
+    return target;
+}
+
 void checkOutputFile(const std::filesystem::path& file, std::string_view example, std::string_view flag)
 {
     if (file.empty()) throw Error(fmt::format("the output file name is empty; give {} FILE", flag));
@@ -144,7 +158,19 @@ void checkOutputFile(const std::filesystem::path& file, std::string_view example
     if (std::filesystem::is_directory(file, ec) || !file.has_filename())
         throw Error(fmt::format("{}: is a folder; give a file name, e.g. {} {}", file.string(), flag,
                                 (file / example).lexically_normal().string()));
-    const auto folder = folderOf(file);
+    const std::filesystem::path target = outputTarget(file);
+    struct stat st {};
+    if (::stat(target.c_str(), &st) == 0) {
+        // A FIFO or a device is written through, as a shell's > would; a socket cannot be.
+        if (S_ISFIFO(st.st_mode) || S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)) return;
+        if (S_ISSOCK(st.st_mode))
+            throw Error(fmt::format("{}: is a socket, not a file; give a file name for {}", file.string(), flag));
+        // Root may write anything: the file's own mode says whether its owner meant it to be kept.
+        if (S_ISREG(st.st_mode) && (st.st_mode & 0222) == 0)
+            throw Error(fmt::format("{}: is read-only; it is not replaced (make it writable, or choose another file)",
+                                    file.string()));
+    }
+    const auto folder = folderOf(target);
     if (!std::filesystem::is_directory(folder, ec))
         throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable", file.string(),
                                 std::filesystem::exists(folder, ec) ? "Not a directory" : "No such file or directory"));
@@ -152,6 +178,58 @@ void checkOutputFile(const std::filesystem::path& file, std::string_view example
     if (::access(folder.c_str(), W_OK | X_OK) != 0)
         throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable", file.string(),
                                 std::strerror(errno)));
+}
+
+namespace {
+
+// Where a file is, for telling two names of one file apart: its device and inode when it exists, its
+// resolved path when it does not yet.
+struct FileIdentity {
+    bool exists = false;
+    dev_t device = 0;
+    ino_t inode = 0;
+    std::filesystem::path path;
+
+    explicit FileIdentity(const std::filesystem::path& file)
+    {
+        struct stat st {};
+        if (::stat(file.c_str(), &st) == 0) {
+            exists = true;
+            device = st.st_dev;
+            inode = st.st_ino;
+        }
+        std::error_code ec;
+        path = std::filesystem::weakly_canonical(std::filesystem::absolute(outputTarget(file), ec), ec);
+        if (ec) path = std::filesystem::absolute(file, ec).lexically_normal();
+    }
+    bool same(const FileIdentity& other) const
+    {
+        return exists && other.exists ? device == other.device && inode == other.inode : path == other.path;
+    }
+};
+
+}  // namespace
+
+void checkDistinctFiles(const std::vector<NamedFile>& inputs, const std::vector<NamedFile>& outputs)
+{
+    std::vector<FileIdentity> outputIds;
+    for (const NamedFile& out : outputs) {
+        if (out.path.empty()) continue;
+        const FileIdentity id(out.path);
+        // Devices (/dev/null, a terminal) may take several outputs and may be named as inputs too.
+        struct stat st {};
+        const bool device = ::stat(out.path.c_str(), &st) == 0 && (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode));
+        if (device) continue;
+        for (const NamedFile& in : inputs)
+            if (!in.path.empty() && id.same(FileIdentity(in.path)))
+                throw Error(fmt::format("{} {}: is {} ({}); writing it would destroy an input, choose another output file",
+                                        out.role, out.path.string(), in.role, in.path.string()));
+        for (std::size_t o = 0; o < outputIds.size(); ++o)
+            if (id.same(outputIds[o]))
+                throw Error(fmt::format("{} {}: is also {} ({}); give each output a file of its own", out.role,
+                                        out.path.string(), outputs[o].role, outputs[o].path.string()));
+        outputIds.push_back(id);
+    }
 }
 
 std::vector<std::filesystem::path> staleTemporaryFiles(const std::filesystem::path& file)
@@ -174,25 +252,63 @@ std::vector<std::filesystem::path> staleTemporaryFiles(const std::filesystem::pa
     return stale;
 }
 
+namespace {
+
+// Writes all of `content` to a descriptor; false (errno set) when it cannot.
+bool writeAll(int fd, std::string_view content)
+{
+    for (std::string_view rest = content; !rest.empty();) {
+        const ssize_t n = ::write(fd, rest.data(), rest.size());
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) return false;
+        rest.remove_prefix(static_cast<std::size_t>(n));
+    }
+    return true;
+}
+
+}  // namespace
+
 void writeFileAtomically(const std::filesystem::path& file, std::string_view content)
 {
     checkOutputFile(file);
-    for (const auto& old : staleTemporaryFiles(file)) {
+    // A link is followed: the file it names is replaced, the link stays a link.
+    const std::filesystem::path target = outputTarget(file);
+    struct stat st {};
+    const bool exists = ::stat(target.c_str(), &st) == 0;
+    if (exists && (S_ISFIFO(st.st_mode) || S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode))) {
+        // Streamed: renaming over a FIFO or a device (/dev/null) would replace it with a plain file.
+        const int fd = ::open(target.c_str(), O_WRONLY | O_CLOEXEC);
+        if (fd < 0 || !writeAll(fd, content)) {
+            const int error = errno;
+            if (fd >= 0) ::close(fd);
+            throw Error(fmt::format("{}: writing failed ({})", file.string(), std::strerror(error)));
+        }
+        ::close(fd);
+        return;
+    }
+    for (const auto& old : staleTemporaryFiles(target)) {
         std::error_code ec;
         std::filesystem::remove(old, ec);
     }
-    std::string tmpl = (folderOf(file) / fmt::format("{}{}.XXXXXX.tmp", temporaryPrefix(file), ::getpid())).string();
+    std::string tmpl = (folderOf(target) / fmt::format("{}{}.XXXXXX.tmp", temporaryPrefix(target), ::getpid())).string();
     const int fd = mkstemps(tmpl.data(), 4);
     if (fd < 0) throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable",
                                         file.string(), std::strerror(errno)));
-    bool ok = true;
-    for (std::string_view rest = content; ok && !rest.empty();) {
-        const ssize_t n = ::write(fd, rest.data(), rest.size());
-        ok = n > 0;
-        if (ok) rest.remove_prefix(static_cast<std::size_t>(n));
-    }
+    bool ok = writeAll(fd, content);
     int error = ok ? 0 : errno;
     if (::fsync(fd) != 0 && ok) {
+        ok = false;
+        error = errno;
+    }
+    // mkstemps creates 0600: an existing file keeps its mode, a new one gets what the umask allows.
+    mode_t mode = 0666;
+    if (exists) mode = st.st_mode & 07777;
+    else {
+        const mode_t mask = ::umask(0);
+        ::umask(mask);
+        mode &= ~mask;
+    }
+    if (::fchmod(fd, mode) != 0 && ok) {
         ok = false;
         error = errno;
     }
@@ -200,9 +316,7 @@ void writeFileAtomically(const std::filesystem::path& file, std::string_view con
         ok = false;
         error = errno;
     }
-    // mkstemps creates 0600; outputs are ordinary files.
-    ::chmod(tmpl.c_str(), 0644);
-    if (ok && std::rename(tmpl.c_str(), file.c_str()) != 0) {
+    if (ok && std::rename(tmpl.c_str(), target.c_str()) != 0) {
         ok = false;
         error = errno;
     }

@@ -175,15 +175,27 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
 int run(const Options& options)
 {
     // A bad -o is reported before any work.
-    if (options.outputGiven) cli::checkOutputFile(options.output);
+    if (options.outputGiven) {
+        cli::checkOutputFile(options.output);
+        cli::checkDistinctFiles({{"the rig file", options.rig}}, {{"-o", options.output}});
+    }
     auto registry = makeBuiltinRegistry();
     for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
+    // The files the rig includes are inputs too: -o must not be one of them.
+    auto load = [&] {
+        std::vector<std::filesystem::path> read;
+        auto graph = loadGraphFile(options.rig, registry, &read);
+        std::vector<cli::NamedFile> inputs;
+        for (const auto& file : read) inputs.push_back({"a file the rig reads", file});
+        if (options.outputGiven) cli::checkDistinctFiles(inputs, {{"-o", options.output}});
+        return graph;
+    };
     std::string text;
     if (options.types) text = nodeTypeReference(*registry);
     else if (options.rig.empty()) throw Error("no rig file given; usage: graph-eval RIG.yaml [options], or --help");
-    else if (options.dot) text = toDot(*loadGraphFile(options.rig, registry));
+    else if (options.dot) text = toDot(*load());
     else {
-        auto graph = loadGraphFile(options.rig, registry);
+        auto graph = load();
         graph->setThreads(options.threads);
         for (const auto& s : options.sets) applySet(*graph, s);
         std::optional<cli::FrameRange> range;

@@ -71,7 +71,12 @@ void printSummary(const bench::Json& r)
 
 int run(const Options& o)
 {
-    if (o.jsonGiven) cli::checkOutputFile(o.json, "bench.json", "--json");
+    if (o.jsonGiven) {
+        cli::checkOutputFile(o.json, "bench.json", "--json");
+        cli::checkDistinctFiles({{"the rig file", o.rig}, {"the spec", o.spec}, {"the clip", o.clip}, {"the map", o.map},
+                                 {"the rig generator", o.makeRigs}},
+                                {{"--json", o.json}});
+    }
     bench::BenchOptions options = o.quick ? bench::quickOptions() : bench::fullOptions();
     if (!o.rig.empty()) options.rig = o.rig;
     if (!o.spec.empty()) options.spec = o.spec;

@@ -73,7 +73,7 @@ std::string curvesCsv(const Approximation& a, const TargetClip& clip, int first,
 }
 
 std::string reportJson(const Options& o, const Approximation& a, const TargetClip& clip,
-                       const ClipTargets& targets, const ClipInversionSummary& s)
+                       const ClipTargets& targets, const ClipInversionSummary& s, const std::string& curvesFingerprint)
 {
     cli::Json perFrame = cli::Json::array();
     for (const auto& f : s.perFrame)
@@ -82,7 +82,8 @@ std::string reportJson(const Options& o, const Approximation& a, const TargetCli
                             {"iterations", f.solve.iterations},
                             {"position_error_cm", cli::numberJson(f.positionErrorCm)},
                             {"rotation_error_deg", cli::numberJson(f.rotationErrorDeg)},
-                            {"worst_joint", f.worstJoint}});
+                            {"worst_joint", f.worstJoint},
+                            {"non_finite_joint", f.nonFiniteJoint.empty() ? cli::Json() : cli::Json(f.nonFiniteJoint)}});
     const cli::Json report{
         {"approximation", o.approximation},
         {"rig", o.rig},
@@ -99,6 +100,10 @@ std::string reportJson(const Options& o, const Approximation& a, const TargetCli
         {"worst_frame", s.worstFrame >= 0 ? cli::numberJson(clip.frameNumbers[s.worstFrame]) : cli::Json()},
         {"ms_per_frame", cli::numberJson(s.msPerFrame)},
         {"lead_in_frames", s.leadInFrames},
+        {"non_finite_frames", s.nonFiniteFrames},
+        // Which curves this report belongs to: a run killed between the two writes leaves a pair that
+        // says it does not match.
+        {"curves", {{"file", o.output}, {"fnv1a64", curvesFingerprint}}},
         {"per_frame", std::move(perFrame)}};
     return cli::jsonText(report, 2) + "\n";
 }
@@ -118,6 +123,9 @@ void printReport(const Options& o, const Approximation& a, const TargetClip& cli
                                  terminationName(f.solve.termination), f.solve.iterations, f.positionErrorCm,
                                  f.rotationErrorDeg, f.worstJoint);
     std::cout << fmt::format("\nframes            {} ({} converged)\n", s.frames, s.convergedFrames);
+    if (s.nonFiniteFrames > 0)
+        std::cout << fmt::format("real rig          NOT FINITE at {} frames (first: {} at frame {})\n", s.nonFiniteFrames,
+                                 s.firstNonFiniteJoint, clip.frameNumbers[s.firstNonFiniteFrame]);
     std::cout << fmt::format("real-rig error    worst {:.4g} cm, {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
                              "{:.4g} deg\n",
                              s.maxPositionErrorCm, s.maxRotationErrorDeg, s.worstJoint,
@@ -136,6 +144,8 @@ int run(const Options& o)
     if (extension != ".json" && extension != ".csv")
         throw Error(fmt::format("-o {}: the curves are written as .json or .csv; give one of those", o.output));
     if (!o.reportJson.empty()) cli::checkOutputFile(o.reportJson, "report.json", "--report-json");
+    cli::checkDistinctFiles({{"the approximation", o.approximation}, {"the rig file", o.rig}, {"the clip", o.clip}, {"the map", o.map}},
+                            {{"-o", o.output}, {"--report-json", o.reportJson}});
     ClipInversionOptions options;
     options.solver.threads = o.threads;
     options.solver.partition = !o.noPartition;
@@ -189,6 +199,9 @@ int run(const Options& o)
                                 e.reason(), learnedFrom()));
     }
     GraphRigFunction& rig = *loaded;
+    std::vector<cli::NamedFile> read;
+    for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
+    cli::checkDistinctFiles(read, {{"-o", o.output}, {"--report-json", o.reportJson}});
     try {
         if (const auto warning = checkFingerprint(approximation, rig.fingerprint(), o.strict); !warning.empty())
             std::cerr << "warning: " << o.approximation << ": " << warning << "\n";
@@ -223,18 +236,41 @@ int run(const Options& o)
         throw Error(fmt::format("{}: {}", o.clip, e.what()));
     }
     const Solver solver(approximation, options.solver);
-    RigBinding binding(approximation, rig);
+    // The rig's parameters are scalar plugs: a name edited into a vector ('wrist.rotate') or into a
+    // plug the rig does not offer does not bind.
+    std::optional<RigBinding> bound;
+    try {
+        bound.emplace(approximation, rig);
+    }
+    catch (const std::invalid_argument& e) {
+        std::string why = e.what();
+        if (why.starts_with("RigBinding: ")) why.erase(0, 12);
+        throw Error(fmt::format("{}: {} ({} does not offer it as a free keyable number); {}", o.approximation, why, o.rig,
+                                learnedFrom()));
+    }
+    RigBinding& binding = *bound;
     cli::ProgressBar bar("inverting");
     options.progress = [&](double fraction) { bar.update(fraction); };
     std::vector<std::vector<double>> values;
     const auto summary = invertClip(solver, binding, targets, first, last, options, values);
     bar.finish();
 
-    cli::writeFileAtomically(o.output, extension == ".csv" ? curvesCsv(approximation, clip, first, values)
-                                                           : curvesJson(approximation, clip, first, values));
+    const std::string curves = extension == ".csv" ? curvesCsv(approximation, clip, first, values)
+                                                   : curvesJson(approximation, clip, first, values);
+    cli::writeFileAtomically(o.output, curves);
     if (!o.reportJson.empty())
-        cli::writeFileAtomically(o.reportJson, reportJson(o, approximation, clip, targets, summary));
+        cli::writeFileAtomically(o.reportJson, reportJson(o, approximation, clip, targets, summary,
+                                                          fmt::format("{:016x}", fnv1a64(curves))));
     if (!o.quiet) printReport(o, approximation, clip, targets, summary);
+    // Measured as wrong: never an exit code of success.
+    if (summary.nonFiniteFrames > 0) {
+        std::cerr << oneLine(fmt::format("error: the real rig gives a non-finite matrix at {} of {} frames (first: {} at "
+                                         "frame {}); the rig cannot follow these curves there",
+                                         summary.nonFiniteFrames, summary.frames, summary.firstNonFiniteJoint,
+                                         clip.frameNumbers[summary.firstNonFiniteFrame]))
+                  << '\n';
+        return 3;
+    }
     return 0;
 }
 

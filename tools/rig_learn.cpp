@@ -293,6 +293,8 @@ int run(Options& options)
     // Bad outputs and flags are reported before any work.
     cli::checkOutputFile(options.output, "approximation.yaml");
     if (options.reportGiven) cli::checkOutputFile(options.reportJson, "report.json", "--report-json");
+    const std::vector<cli::NamedFile> outputs{{"-o", options.output}, {"--report-json", options.reportGiven ? options.reportJson : ""}};
+    cli::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
     LearnOptions learn;
     if (options.epsilonGiven) learn.epsilon = parseEpsilon(options.epsilon);
     learn.orderer = options.orderer == "talk" ? Orderer::talk : Orderer::structured;
@@ -311,6 +313,9 @@ int run(Options& options)
                                 e.name(), options.rig, e.reason()));
     }
     GraphRigFunction& rig = *loaded;
+    std::vector<cli::NamedFile> read;
+    for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
+    cli::checkDistinctFiles(read, outputs);
     const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
 
     cli::ProgressBar bar("learning");
