@@ -25,6 +25,7 @@ struct AttributeSpec {
     std::vector<std::string> enumNames;     // Enum: names of values 0, 1, ...
     std::array<std::string, 3> childNames;  // Vector3: plugs of the components, e.g. rotateX
     bool sceneTime = false;    // when unconnected, follows the graph's time (Maya's animCurveT* input)
+    bool filePath = false;     // a String naming a file: a relative one in a rig file is read from that file's folder
     bool dynamic = false;      // added to one node by the rig file (Maya's addAttr), not by its type
     std::string description;
 };

@@ -72,6 +72,12 @@ AttributeBuilder& AttributeBuilder::children(std::string x, std::string y, std::
     return *this;
 }
 
+AttributeBuilder& AttributeBuilder::filePath(bool on)
+{
+    spec().filePath = on;
+    return *this;
+}
+
 AttributeBuilder& AttributeBuilder::sceneTime(bool on)
 {
     spec().sceneTime = on;

@@ -82,6 +82,7 @@ public:
     // Vector3 components; by default name + "X", "Y", "Z".
     AttributeBuilder& children(std::string x, std::string y, std::string z);
     AttributeBuilder& sceneTime(bool on = true);
+    AttributeBuilder& filePath(bool on = true);
     AttributeBuilder& doc(std::string description);
 
 private:

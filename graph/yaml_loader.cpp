@@ -465,7 +465,12 @@ private:
             }
             return;
         }
-        const Value parsed = parseYamlValue(value, graph_, p, where);
+        Value parsed = parseYamlValue(value, graph_, p, where);
+        // A file named in a rig file is found next to it, as an include is, whatever the current folder.
+        if (spec.filePath)
+            if (const auto* text = std::get_if<std::string>(&parsed); text && !text->empty())
+                if (const std::filesystem::path named(*text); named.is_relative())
+                    parsed = (std::filesystem::path(file_).parent_path() / named).lexically_normal().string();
         noteValue(p, value);
         located(value, [&] { graph_.setValue(p, parsed); });
     }

@@ -78,7 +78,8 @@ std::shared_ptr<const NodeType> makeBvhClipType()
                   "interpolated linearly (rotations the shorter way round), worldMatrix being the kinematics of "
                   "those channels. The file is read once and cached until `file` changes.");
     b.input(file, "file", ValueType::String)
-        .doc("Path of the .bvh file; a relative path is read from the current folder. Empty: no joints.");
+        .filePath()
+        .doc("Path of the .bvh file; in a rig file a relative path is read from the rig file's folder. Empty: no joints.");
     b.input(time, "time", ValueType::Double).unit(Unit::Time).sceneTime().doc("Frame to play (1 = first motion line).");
     b.output(worldMatrix, "worldMatrix", ValueType::Matrix4).array()
         .doc("World matrix of each joint, file order (End Sites excluded).");

@@ -275,9 +275,13 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
                   "value[i] its parameter i, angles in degrees. Warm-starts from the previous frame when time "
                   "moves on by one frame. The rig-file field `connect: {targets: NODE_OR_GLOB, parameters: true}` "
                   "wires it by the names stored in the approximation.");
-    b.input(file, "file", ValueType::String).doc("Approximation file (rig-learn -o); read again when it changes.");
+    b.input(file, "file", ValueType::String)
+        .filePath()
+        .doc("Approximation file (rig-learn -o), relative to the rig file that names it; read again when it changes.");
     b.input(map, "map", ValueType::String)
-        .doc("Map file (docs/rig-invert.md): the targets' scale to cm and their joint names for `connect`.");
+        .filePath()
+        .doc("Map file (docs/rig-invert.md), relative to the rig file that names it: the targets' scale to cm and their "
+             "joint names for `connect`.");
     b.input(target, "target", ValueType::Matrix4).array().doc("Target world matrix of each approximation output.");
     b.input(targetWeight, "targetWeight", ValueType::Double).array().doc("Position weight of each target (default 1).");
     b.input(rotationWeight, "rotationWeight", ValueType::Double).defaultValue(1.0).min(0.0)
