@@ -547,8 +547,9 @@ private:
                               graph_.plug(graph_.nodeName(child) + ".parentMatrix"));
         });
         connectAt(value, world, parentMatrix);
-        // Maya connects a parent joint's scale into its child joint's inverseScale.
-        if (graph_.nodeType(parent).findAttribute("scale") >= 0 && graph_.nodeType(child).findAttribute("inverseScale") >= 0)
+        // Maya connects a parent joint's scale into its child joint's inverseScale, and only between
+        // joints: a transform's scale scales the joints below it.
+        if (graph_.nodeType(parent).name() == "joint" && graph_.nodeType(child).findAttribute("inverseScale") >= 0)
             connectAt(value, graph_.plug(graph_.nodeName(parent) + ".scale"),
                       graph_.plug(graph_.nodeName(child) + ".inverseScale"));
     }

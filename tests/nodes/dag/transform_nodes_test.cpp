@@ -357,3 +357,18 @@ nodes:
     // hips Ry(90) sends +X to -Z: leg1 at (0, 95, -10).
     CHECK(near(mat(*g, "leg1.worldMatrix").col(3), point(0, 95, -10)));
 }
+
+TEST_CASE("transform nodes: parent: from a transform to a joint does not compensate the transform's scale, as in Maya")
+{
+    auto g = load(R"(
+nodes:
+  - {name: group, type: transform, scale: [2, 2, 2]}
+  - {name: child, type: joint, parent: group, translate: [1, 0, 0]}
+)");
+    CHECK(g->incomingConnection(g->plug("child.parentMatrix")) != nullptr);
+    CHECK(g->incomingConnection(g->plug("child.inverseScale")) == nullptr);
+    // The group's scale reaches the joint: placed at 2 along x, and scaled by 2.
+    Eigen::Matrix4d expected = scaling(2, 2, 2);
+    expected.col(3) = point(2, 0, 0);
+    CHECK(near(mat(*g, "child.worldMatrix"), expected));
+}
