@@ -1,5 +1,6 @@
 #include "graph/yaml_loader.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -515,7 +516,11 @@ private:
             }
             if (const auto e = a["enum"]) {
                 if (!e.IsSequence()) throw Error(fmt::format("{}: {}: 'enum' is a list of names", at(e), who));
-                for (const auto& name : e) spec.enumNames.push_back(name.Scalar());
+                for (const auto& name : e) {
+                    if (!name.IsScalar())
+                        throw Error(fmt::format("{}: {}: an enum name is a plain name, got {}", at(name), who, describe(name)));
+                    spec.enumNames.push_back(name.Scalar());
+                }
             }
             if (spec.type == ValueType::Enum && spec.enumNames.empty())
                 throw Error(fmt::format("{}: {}: an enum attribute needs 'enum: [names...]'", at(a), who));
@@ -527,9 +532,25 @@ private:
             if (const auto v = a["max"]) spec.max = limit(v, "max");
             if (spec.min && spec.max && *spec.min > *spec.max)
                 throw Error(fmt::format("{}: {}: min is above max", at(a), who));
+            if (spec.type == ValueType::Int)
+                for (const char* key : {"min", "max"})
+                    if (const auto v = a[key]; v && std::floor(limit(v, key)) != limit(v, key))
+                        throw Error(fmt::format("{}: {}: {} of '{}' is {}; an int attribute's limits are whole numbers", at(v),
+                                                who, key, spec.name, v.Scalar()));
             if (const auto v = a["keyable"]) spec.keyable = std::get<bool>(parseOne(v, ValueType::Bool, spec, at(v)));
             if (const auto v = a["array"]) spec.array = std::get<bool>(parseOne(v, ValueType::Bool, spec, at(v)));
             spec.defaultValue = zeroValue(spec.type);
+            // Without a default, a number starts at 0, or at the nearest limit when 0 is outside them (as
+            // Maya's addAttr does): a value outside its own limits could never be set back.
+            if ((spec.type == ValueType::Double || spec.type == ValueType::Int) && !a["default"]) {
+                double start = 0.0;
+                if (spec.min && start < *spec.min) start = *spec.min;
+                if (spec.max && start > *spec.max) start = *spec.max;
+                if (start != 0.0) {
+                    if (spec.type == ValueType::Int) spec.defaultValue = static_cast<int>(start);
+                    else spec.defaultValue = start;
+                }
+            }
             const AttrId attr = located(a, [&] { return graph_.addAttribute(id, spec); });
             if (const auto v = a["default"]) {
                 if (spec.array) throw Error(fmt::format("{}: {}: an array attribute has no default", at(v), who));

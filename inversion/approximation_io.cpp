@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -178,8 +179,26 @@ public:
         const std::string& text = n.Scalar();
         Int x = 0;
         const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+        if (ec == std::errc::result_out_of_range && end == text.data() + text.size())
+            fail(n, field, fmt::format("{} is out of range ({} to {})", text, std::numeric_limits<Int>::min(),
+                                       std::numeric_limits<Int>::max()));
         if (text.empty() || ec != std::errc() || end != text.data() + text.size())
-            fail(n, field, fmt::format("'{}' is not a whole number in range", text));
+            fail(n, field, fmt::format("'{}' is not a whole number", text));
+        return x;
+    }
+
+    // A count, an error or a time: a number that cannot be below zero (from `least`).
+    template <class Int>
+    Int count(const YAML::Node& n, std::string_view field, Int least = 0) const
+    {
+        const Int x = integer<Int>(n, field);
+        if (x < least) fail(n, field, fmt::format("{} is below {}; a count is not negative", x, least));
+        return x;
+    }
+    double nonNegative(const YAML::Node& n, std::string_view field) const
+    {
+        const double x = real(n, field);
+        if (x < 0) fail(n, field, fmt::format("{} is negative; errors and times are not", x));
         return x;
     }
 
@@ -396,7 +415,15 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     // Read through a const node: operator[] on a mutable one would add the keys it looks for.
     const YAML::Node root = [&] {
         try {
-            return YAML::Load(std::string(text));
+            const std::vector<YAML::Node> documents = YAML::LoadAll(std::string(text));
+            if (documents.size() > 1) {
+                const YAML::Mark mark = documents[1].Mark();
+                throw ApproximationFileError(
+                    fmt::format("{}:{}:{}: file: a second YAML document ('---'); an approximation file is one document: "
+                                "remove what follows, or re-run rig-learn",
+                                fileName, std::max(mark.line, 0) + 1, std::max(mark.column, 0) + 1));
+            }
+            return documents.empty() ? YAML::Node() : documents.front();
         }
         catch (const YAML::DeepRecursion& e) {
             throw ApproximationFileError(fmt::format("{}:{}:{}: YAML lists and maps nested more than {} levels deep; an "
@@ -440,7 +467,7 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     r.checkKeys(training, "training", {"evaluations", "orderEvaluations", "seconds", "orderer"});
     a.training.evaluations = r.integer<std::uint64_t>(training["evaluations"], "training.evaluations");
     a.training.orderEvaluations = r.integer<std::uint64_t>(training["orderEvaluations"], "training.orderEvaluations");
-    a.training.seconds = r.real(training["seconds"], "training.seconds");
+    a.training.seconds = r.nonNegative(training["seconds"], "training.seconds");
     a.training.orderer = r.text(training["orderer"], "training.orderer");
 
     const YAML::Node validation = root["validation"];
@@ -448,18 +475,18 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
                 {"poses", "maxPositionErrorCm", "meanPositionErrorCm", "maxRotationErrorDeg", "meanRotationErrorDeg",
                  "worstOutput", "worstPose"},
                 {"maxRelativeError", "worstRelativeOutput", "worstParameter", "nonFinitePoses", "withinEpsilon"});
-    a.validation.poses = r.integer<int>(validation["poses"], "validation.poses");
-    a.validation.maxPositionErrorCm = r.real(validation["maxPositionErrorCm"], "validation.maxPositionErrorCm");
-    a.validation.meanPositionErrorCm = r.real(validation["meanPositionErrorCm"], "validation.meanPositionErrorCm");
-    a.validation.maxRotationErrorDeg = r.real(validation["maxRotationErrorDeg"], "validation.maxRotationErrorDeg");
-    a.validation.meanRotationErrorDeg = r.real(validation["meanRotationErrorDeg"], "validation.meanRotationErrorDeg");
+    a.validation.poses = r.count<int>(validation["poses"], "validation.poses");
+    a.validation.maxPositionErrorCm = r.nonNegative(validation["maxPositionErrorCm"], "validation.maxPositionErrorCm");
+    a.validation.meanPositionErrorCm = r.nonNegative(validation["meanPositionErrorCm"], "validation.meanPositionErrorCm");
+    a.validation.maxRotationErrorDeg = r.nonNegative(validation["maxRotationErrorDeg"], "validation.maxRotationErrorDeg");
+    a.validation.meanRotationErrorDeg = r.nonNegative(validation["meanRotationErrorDeg"], "validation.meanRotationErrorDeg");
     a.validation.worstOutput = r.text(validation["worstOutput"], "validation.worstOutput");
-    a.validation.worstPose = r.integer<int>(validation["worstPose"], "validation.worstPose");
-    if (const YAML::Node n = validation["maxRelativeError"]) a.validation.maxRelativeError = r.real(n, "validation.maxRelativeError");
+    a.validation.worstPose = r.count<int>(validation["worstPose"], "validation.worstPose", -1);
+    if (const YAML::Node n = validation["maxRelativeError"]) a.validation.maxRelativeError = r.nonNegative(n, "validation.maxRelativeError");
     if (const YAML::Node n = validation["worstRelativeOutput"])
         a.validation.worstRelativeOutput = r.text(n, "validation.worstRelativeOutput");
     if (const YAML::Node n = validation["worstParameter"]) a.validation.worstParameter = r.text(n, "validation.worstParameter");
-    if (const YAML::Node n = validation["nonFinitePoses"]) a.validation.nonFinitePoses = r.integer<int>(n, "validation.nonFinitePoses");
+    if (const YAML::Node n = validation["nonFinitePoses"]) a.validation.nonFinitePoses = r.count<int>(n, "validation.nonFinitePoses");
     if (const YAML::Node n = validation["withinEpsilon"]) a.validation.withinEpsilon = r.boolean(n, "validation.withinEpsilon");
 
     std::map<std::string, int> outputIndex;
@@ -476,7 +503,7 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
             const auto v = r.reals(rows[static_cast<std::size_t>(row)], field + ".rest", 4);
             for (int c = 0; c < 4; ++c) out.rest(row, c) = v[static_cast<std::size_t>(c)];
         }
-        if (const YAML::Node n = outputs[k]["validationError"]) out.validationError = r.real(n, field + ".validationError");
+        if (const YAML::Node n = outputs[k]["validationError"]) out.validationError = r.nonNegative(n, field + ".validationError");
         a.outputs.push_back(std::move(out));
     }
     for (std::size_t k = 0; k < outputs.size(); ++k) {
@@ -509,9 +536,9 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         if (!names.insert(m.parameter.name).second)
             r.fail(n["name"], field + ".name", fmt::format("the parameter '{}' is listed twice", m.parameter.name));
         m.form = r.text(n["form"], field + ".form");
-        m.fitError = r.real(n["fitError"], field + ".fitError");
-        m.samples = r.integer<int>(n["samples"], field + ".samples");
-        if (const YAML::Node v = n["validationError"]) m.validationError = r.real(v, field + ".validationError");
+        m.fitError = r.nonNegative(n["fitError"], field + ".fitError");
+        m.samples = r.count<int>(n["samples"], field + ".samples");
+        if (const YAML::Node v = n["validationError"]) m.validationError = r.nonNegative(v, field + ".validationError");
         if (const YAML::Node v = n["noEffect"])
             for (const auto& range : r.sequence(v, field + ".noEffect")) {
                 const auto ends = r.reals(range, field + ".noEffect", 2);

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
@@ -158,12 +159,67 @@ Eigen::Matrix4d readMatrix(const YAML::Node& node, const std::string& file, cons
     return m;
 }
 
+// JSON, strictly: one value and nothing after it (YAML, which reads the clip, would take a second list
+// or trailing text as more of the file, or ignore them). Duplicate keys are checked where the frames
+// are read. Memory stays small: the SAX handler keeps nothing.
+void checkStrictJson(std::string_view text, const std::string& file)
+{
+    struct Checker : nlohmann::json_sax<nlohmann::json> {
+        std::size_t errorAt = 0;
+        std::string message;
+        bool null() override { return true; }
+        bool boolean(bool) override { return true; }
+        bool number_integer(number_integer_t) override { return true; }
+        bool number_unsigned(number_unsigned_t) override { return true; }
+        bool number_float(number_float_t, const string_t&) override { return true; }
+        bool string(string_t&) override { return true; }
+        bool binary(binary_t&) override { return true; }
+        bool start_object(std::size_t) override { return true; }
+        bool key(string_t&) override { return true; }
+        bool end_object() override { return true; }
+        bool start_array(std::size_t) override { return true; }
+        bool end_array() override { return true; }
+        bool parse_error(std::size_t position, const std::string&, const nlohmann::detail::exception& e) override
+        {
+            errorAt = position;
+            message = e.what();
+            return false;
+        }
+    } checker;
+    if (nlohmann::json::sax_parse(text, &checker)) return;
+    // nlohmann's message: "[json.exception.parse_error.101] parse error at line L, column C: WHAT".
+    std::string what = checker.message;
+    if (const auto colon = what.find(": ", what.find("parse error")); colon != std::string::npos) what.erase(0, colon + 2);
+    int line = 1, column = 1;
+    for (std::size_t i = 0; i + 1 < checker.errorAt && i < text.size(); ++i) {
+        if (text[i] == '\n') {
+            ++line;
+            column = 1;
+        } else {
+            ++column;
+        }
+    }
+    throw Error(fmt::format("{}: JSON syntax error: {}; a JSON clip is one list of frames, as graph-eval writes it",
+                            formatMark({file, line, column}), oneLine(what, 200)));
+}
+
+// A frame's keys, each once: YAML keeps both of a duplicated key and would read the first.
+void checkUniqueKeys(const YAML::Node& frame, const std::string& file)
+{
+    std::set<std::string> keys;
+    for (const auto& entry : frame)
+        if (entry.first.IsScalar() && !keys.insert(entry.first.Scalar()).second)
+            throw Error(fmt::format("{}: \"{}\" appears twice in this frame; each key once", where(file, entry.first),
+                                    entry.first.Scalar()));
+}
+
 }  // namespace
 
 TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileName, const TargetMap& map)
 {
     TargetClip clip;
     clip.file = fileName;
+    checkStrictJson(text, clip.file);
     const YAML::Node root = parseYaml(std::string(text), clip.file, "JSON", "JSON clip");
     if (!root.IsSequence() || root.size() == 0)
         throw Error(fmt::format("{}: expected a list of frames as graph-eval writes them ([{{\"frame\": 1, "
@@ -191,6 +247,7 @@ TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileNam
         if (!frameNode.IsMap())
             throw Error(fmt::format("{}: a frame must be a map with \"frame\" and the joints' world matrices",
                                     where(clip.file, frameNode)));
+        checkUniqueKeys(frameNode, clip.file);
         if (!frameNode["frame"])
             throw Error(fmt::format("{}: this frame has no \"frame\" number", where(clip.file, frameNode)));
         const double number = finiteNumber(frameNode["frame"], clip.file, "frame");

@@ -219,3 +219,19 @@ TEST_CASE("a connector field wires its node once the whole file is loaded, and i
     }
     CHECK(error == "rig.yaml:2:31: node 'a' (testLink) has no attribute 'linkToo'; did you mean 'linkTo'?");
 }
+
+TEST_CASE("rig files: an added number without a default starts at 0, or at the nearest limit when 0 is outside them")
+{
+    auto g = load(R"(
+nodes:
+  - name: c
+    type: transform
+    addAttr:
+      - {name: free, type: double}
+      - {name: steps, type: int, min: 5, max: 10}
+      - {name: below, type: double, min: -10, max: -5}
+)");
+    CHECK(std::get<double>(g->getValue(g->plug("c.free"))) == 0.0);
+    CHECK(std::get<int>(g->getValue(g->plug("c.steps"))) == 5);
+    CHECK(std::get<double>(g->getValue(g->plug("c.below"))) == -5.0);
+}

@@ -329,6 +329,20 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
           == "f.yaml:23:9: parameters[0].operators[0]: give either slope (linear) or curve, not both");
     CHECK(errorWith("rest: [[1, 0, 0, 0], ", "rest: [") == "f.yaml:9:23: outputs[0].rest: expected 4 entries, found 3");
     CHECK(errorWith("discarded: []", "discarded: [") == "f.yaml:25:1: YAML syntax error: end of sequence flow not found");
+    // Strict: one document, nothing negative that counts or measures, whole numbers in their range.
+    CHECK(errorWith("discarded: []\n", "discarded: []\n---\nformat: other\n")
+          == "f.yaml:26:1: file: a second YAML document ('---'); an approximation file is one document: remove what "
+             "follows, or re-run rig-learn");
+    CHECK(errorWith("seconds: 0.5", "seconds: -0.5") == "f.yaml:6:58: training.seconds: -0.5 is negative; errors and times are not");
+    CHECK(errorWith("poses: 0", "poses: -3") == "f.yaml:7:21: validation.poses: -3 is below 0; a count is not negative");
+    CHECK(errorWith("maxPositionErrorCm: 0", "maxPositionErrorCm: -1")
+          == "f.yaml:7:44: validation.maxPositionErrorCm: -1 is negative; errors and times are not");
+    CHECK(errorWith("worstPose: -1", "worstPose: -2") == "f.yaml:7:148: validation.worstPose: -2 is below -1; a count is not negative");
+    CHECK(errorWith("samples: 6", "samples: -6") == "f.yaml:19:14: parameters[0].samples: -6 is below 0; a count is not negative");
+    CHECK(errorWith("fitError: 0", "fitError: -1e-9") == "f.yaml:18:15: parameters[0].fitError: -1e-09 is negative; errors and times are not");
+    CHECK(errorWith("evaluations: 1,", "evaluations: 99999999999999999999,")
+          == "f.yaml:6:25: training.evaluations: 99999999999999999999 is out of range (0 to 18446744073709551615)");
+    CHECK(errorWith("evaluations: 1,", "evaluations: -1,") == "f.yaml:6:25: training.evaluations: '-1' is not a whole number");
 
     try {
         readApproximationFile("no/such/approximation.yaml");
