@@ -21,12 +21,13 @@ namespace rig {
 class Graph {
 public:
     // Array elements are stored densely: a typo like matrixIn[100000000] must not eat the memory.
-    static constexpr int maxArrayIndex = 1 << 20;
-    // Limits that keep a damaged or hostile rig from eating the memory (docs/robustness.md): array
-    // elements of inputs over the whole graph (stored densely up to the highest index), nodes, and the
-    // length of node and attribute names.
-    static constexpr std::size_t maxArrayElements = std::size_t{1} << 22;
-    static constexpr int maxNodes = 1'000'000;
+    static constexpr int maxArrayIndex = 1 << 16;
+    // Limits that keep a damaged or hostile rig from eating the memory (docs/robustness.md), checked
+    // before allocating: array elements of inputs over the whole graph (stored densely up to the highest
+    // index, about 150 bytes each: 150 MB at most), nodes (a joint holds about 6 KB: 1.3 GB at most,
+    // room for crowds of 500 bipeds), and the length of node and attribute names.
+    static constexpr std::size_t maxArrayElements = std::size_t{1} << 20;
+    static constexpr int maxNodes = 200'000;
     static constexpr std::size_t maxNameLength = 1000;
 
     explicit Graph(std::shared_ptr<NodeRegistry> registry);

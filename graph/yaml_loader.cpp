@@ -35,6 +35,9 @@ std::string markText(const std::string& file, const YAML::Mark& mark)
 constexpr std::uintmax_t maxRigFileBytes = std::uintmax_t{16} << 20;
 constexpr std::size_t maxIncludeDepth = 64;
 constexpr int maxIncludedFiles = 20'000;
+// Rig text parsed in all, every include counted each time it is included: a small file that includes
+// files that include files must not amplify into gigabytes (parsing costs about 100 times the text).
+constexpr std::uintmax_t maxTotalRigBytes = std::uintmax_t{64} << 20;
 
 // Counts what a YAML document holds, to tell an empty document from one with content.
 class DocumentContent : public YAML::EventHandler {
@@ -195,6 +198,7 @@ struct LoadState {
     std::vector<std::filesystem::path> includeStack;  // files being loaded (canonical), to refuse include cycles
     std::vector<std::filesystem::path>* filesRead = nullptr;  // every file read, when asked for
     int includedFiles = 0;                   // every file included so far, nested ones too
+    std::uintmax_t bytesRead = 0;            // rig text parsed so far, every include counted
     // Connector fields (NodeType::yamlConnectors), run once everything is loaded.
     struct Deferred {
         NodeId node;
@@ -343,7 +347,14 @@ private:
                 throw Error(fmt::format("{}: more than {} included files in all; check for files that include the "
                                         "same file several times at every level",
                                         at(entry["file"]), maxIncludedFiles));
+            std::error_code sizeError;
+            const std::uintmax_t size = std::filesystem::file_size(path, sizeError);
+            if (!sizeError && state_.bytesRead + size > maxTotalRigBytes)
+                throw Error(fmt::format("{}: the included files add up to more than {} MB of rig text ({} files so far); "
+                                        "check for files that include the same file several times at every level",
+                                        at(entry["file"]), maxTotalRigBytes >> 20, state_.includedFiles));
             const std::string text = located(entry["file"], [&] { return readText(path, "included rig file"); });
+            state_.bytesRead += text.size();
             if (state_.filesRead) state_.filesRead->push_back(path);
             const bool fromMainFile = state_.includeStack.size() == 1;
             state_.includeStack.push_back(canonical);
@@ -635,7 +646,7 @@ std::unique_ptr<Graph> loadGraph(std::string_view text, const std::string& fileN
 {
     auto graph = std::make_unique<Graph>(std::move(registry));
     std::error_code ec;
-    LoadState state{{}, {std::filesystem::weakly_canonical(fileName, ec)}, filesRead, 0, {}};
+    LoadState state{{}, {std::filesystem::weakly_canonical(fileName, ec)}, filesRead, 0, text.size(), {}};
     Loader(fileName, *graph, "", state).load(text);
     for (const auto& d : state.deferred) (*d.connector)(*graph, d.node, d.value, YamlFieldContext{d.where});
     return graph;

@@ -1,6 +1,10 @@
 // rig-bench: the talk's figures side by side in one run (Jacobian, inversion per frame, a peer solver,
 // training, accuracy) and how they grow with rig size, written as JSON (docs/performance.md).
+#include <pthread.h>
 #include <unistd.h>
+
+#include <csignal>
+#include <thread>
 
 #include <chrono>
 #include <cstdlib>
@@ -69,6 +73,44 @@ void printSummary(const bench::Json& r)
                                  figure(row.at("train_evaluations"), "", 7));
 }
 
+constexpr int maxCrowd = 512;
+constexpr int maxChain = 2000;
+
+// Removes the temporary folder when the run is interrupted (SIGINT, SIGTERM): the signals are blocked
+// in every thread and taken by a thread of their own with sigwait, so the removal runs as ordinary
+// code, not in a signal handler. Destroyed at the end of a normal run, which removes the folder too.
+class TemporaryFolder {
+public:
+    explicit TemporaryFolder(std::filesystem::path dir) : dir_(std::move(dir))
+    {
+        sigset_t signals;
+        sigemptyset(&signals);
+        for (const int s : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&signals, s);
+        pthread_sigmask(SIG_BLOCK, &signals, nullptr);  // before any worker thread starts: they inherit it
+        watcher_ = std::thread([this, signals] {
+            int received = 0;
+            sigwait(&signals, &received);
+            if (received == SIGUSR1) return;  // the run ended: the destructor cleans up
+            std::error_code ignored;
+            std::filesystem::remove_all(dir_, ignored);
+            std::_Exit(128 + received);
+        });
+    }
+    ~TemporaryFolder()
+    {
+        pthread_kill(watcher_.native_handle(), SIGUSR1);
+        watcher_.join();
+        std::error_code ignored;
+        std::filesystem::remove_all(dir_, ignored);
+    }
+    TemporaryFolder(const TemporaryFolder&) = delete;
+    TemporaryFolder& operator=(const TemporaryFolder&) = delete;
+
+private:
+    std::filesystem::path dir_;
+    std::thread watcher_;
+};
+
 int run(const Options& o)
 {
     if (o.jsonGiven) {
@@ -93,10 +135,13 @@ int run(const Options& o)
     if (!o.chain.empty()) options.chainSizes = o.chain;
     if (o.noCrowd) options.crowdSizes.clear();
     if (o.noChain) options.chainSizes.clear();
+    // Bounded before any work: 512 bipeds of about 290 nodes each stay within Graph::maxNodes (200 000);
+    // a chain of 2000 joints is a dense 6000 x 6000 solve per iteration.
     for (const int n : options.crowdSizes)
-        if (n < 1) throw Error(fmt::format("--crowd {}: a crowd has at least 1 biped", n));
+        if (n < 1 || n > maxCrowd)
+            throw Error(fmt::format("--crowd {}: a crowd has 1 to {} bipeds", n, maxCrowd));
     for (const int n : options.chainSizes)
-        if (n < 1) throw Error(fmt::format("--chain {}: a chain has at least 1 joint", n));
+        if (n < 1 || n > maxChain) throw Error(fmt::format("--chain {}: a chain has 1 to {} joints", n, maxChain));
     for (const auto& [file, flag] : {std::pair{options.rig, "--rig"}, {options.spec, "--spec"}, {options.clip, "--clip"},
                                      {options.map, "--map"}, {options.makeRigs, "--make-rigs"}})
         if (!std::filesystem::exists(file))
@@ -108,14 +153,7 @@ int run(const Options& o)
     std::string pattern = (std::filesystem::temp_directory_path() / "rig-bench.XXXXXX").string();
     if (!mkdtemp(pattern.data())) throw Error(fmt::format("cannot make a temporary folder {}", pattern));
     options.workDir = pattern;
-    struct Cleanup {
-        std::filesystem::path dir;
-        ~Cleanup()
-        {
-            std::error_code ignored;
-            std::filesystem::remove_all(dir, ignored);
-        }
-    } cleanup{options.workDir};
+    const TemporaryFolder cleanup(options.workDir);
 
     const auto start = std::chrono::steady_clock::now();
     bench::Json report = bench::Json::object();

@@ -90,7 +90,9 @@ void generate(const YAML::Node& spec, const fs::path& dir)
             for (int w = 0; w < width; ++w) text += fmt::format("  - {{file: f{}.yaml, namespace: n{}}}\n", i + 1, w);
             rig::test::writeFile(dir / fmt::format("f{}.yaml", i), text);
         }
-        rig::test::writeFile(dir / fmt::format("f{}.yaml", depth), "nodes:\n  - {name: a, type: joint}\n");
+        const int padding = spec["leafComment"] ? spec["leafComment"].as<int>() : 0;
+        rig::test::writeFile(dir / fmt::format("f{}.yaml", depth),
+                             "nodes:\n  - {name: a, type: joint}\n" + (padding ? "# " + std::string(static_cast<std::size_t>(padding), 'x') + "\n" : ""));
     }
     else if (kind == "learn") {
         // An approximation learned now from the rig as it is (its fingerprint matches).

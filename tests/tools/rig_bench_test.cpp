@@ -4,6 +4,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <csignal>
 #include <filesystem>
 #include <string>
 
@@ -214,4 +215,29 @@ TEST_CASE("rig-bench: bad flags and missing inputs are one error line and exit c
     r = rigBench("--json /nonexistent/folder/bench.json -q");
     CHECK(r.exitCode == 2);
     CHECK(r.err.starts_with("error: "));
+}
+
+TEST_CASE("rig-bench: interrupted by SIGINT or SIGTERM, it removes its temporary folder and exits 128 + the signal")
+{
+    for (const int signal : {SIGINT, SIGTERM}) {
+        CAPTURE(signal);
+        // A temporary folder of our own (TMPDIR) to look into.
+        const auto tmp = rig::test::scratchDir(fmt::format("rig-bench-signal-{}", signal));
+        const auto r = rig::test::run(fmt::format("TMPDIR='{}' {} --quick -q & pid=$!; "
+                                                  "for i in $(seq 100); do ls '{}' | grep -q rig-bench && break; sleep 0.1; done; "
+                                                  "kill -{} $pid; wait $pid; echo exit $?",
+                                                  tmp.string(), rig::test::tool("rig-bench"), tmp.string(), signal));
+        CHECK(r.out == fmt::format("exit {}\n", 128 + signal));
+        CHECK(std::filesystem::is_empty(tmp));
+    }
+}
+
+TEST_CASE("rig-bench: crowd and chain sizes are bounded before any work")
+{
+    auto r = rig::test::run(rig::test::tool("rig-bench") + " --crowd 100000 -q");
+    CHECK(r.exitCode == 2);
+    CHECK(r.err == "error: --crowd 100000: a crowd has 1 to 512 bipeds\n");
+    r = rig::test::run(rig::test::tool("rig-bench") + " --chain 2001 -q");
+    CHECK(r.exitCode == 2);
+    CHECK(r.err == "error: --chain 2001: a chain has 1 to 2000 joints\n");
 }
