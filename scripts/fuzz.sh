@@ -16,18 +16,20 @@ seconds=${1:-60}
 build=${RIG_FUZZ_BUILD_DIR:-build-fuzz}
 jobs=${RIG_JOBS:-1}
 
-# libFuzzer comes with clang's runtime libraries: installed when missing, as scripts/setup.sh installs the rest.
-if ! command -v clang++ >/dev/null || ! dpkg -s libclang-rt-14-dev >/dev/null 2>&1; then
+# libFuzzer comes with clang's runtime libraries: installed when missing, as scripts/setup.sh installs the rest
+# (python3-yaml reads the corpus cases into command-line seeds).
+if ! command -v clang++ >/dev/null || ! dpkg -s libclang-rt-14-dev python3-yaml >/dev/null 2>&1; then
   sudo=()
   [ "$(id -u)" -eq 0 ] || sudo=(sudo)
-  echo "fuzz: installing clang and libclang-rt-14-dev (libFuzzer)" >&2
-  DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends clang libclang-rt-14-dev >/dev/null
+  echo "fuzz: installing clang, libclang-rt-14-dev (libFuzzer) and python3-yaml" >&2
+  DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends clang libclang-rt-14-dev \
+    python3-yaml >/dev/null
 fi
 if [ ! -f "$build/build.ninja" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DRIG_FUZZ=ON >/dev/null
 fi
 if ! cmake --build "$build" --target rig_loader_fuzzer bvh_reader_fuzzer approximation_loader_fuzzer \
-    target_clip_fuzzer rig-learn -- -j"$jobs" >"$build/build.log" 2>&1; then
+    target_clip_fuzzer command_line_fuzzer rig-learn -- -j"$jobs" >"$build/build.log" 2>&1; then
   grep -E 'error|FAILED' "$build/build.log" | head -20 >&2
   echo "fuzz: the build failed; see $build/build.log" >&2
   exit 2
@@ -47,6 +49,26 @@ if ! "$build/bin/rig-learn" rigs/examples/arm.yaml --params 'shoulder.rotate?' '
 fi
 approximation_seeds=(tests/corpus/approx "$build/fuzz-seeds/approximation")
 clip_seeds=(tests/corpus/clips tests/corpus/maps rigs/maps)
+# The command lines: one seed per corpus case of the four tools (TOOL, its arguments, then its text files),
+# {scratch} read as the fuzzer's own folder {dir}; and the README's good runs.
+mkdir -p "$build/fuzz-seeds/command_line"
+python3 - "$build/fuzz-seeds/command_line" <<'PY'
+import sys, yaml, pathlib
+out = pathlib.Path(sys.argv[1])
+cases = yaml.safe_load(open("tests/corpus/cases.yaml"))["cases"]
+n = 0
+for case in cases:
+    if case.get("tool") not in ("graph-eval", "bvh2rig", "rig-learn", "rig-invert"):
+        continue
+    lines = [case["tool"]] + [a.replace("{scratch}", "{dir}") for a in case.get("args", [])]
+    for g in case.get("generate", []):
+        if g.get("kind") == "text" and all("count" not in p for p in g.get("parts", [])):
+            lines += ["--- " + g["file"], "".join(p["text"] for p in g["parts"]).rstrip("\n")]
+    (out / f"case{n:04d}").write_text("\n".join(l for l in lines if "\n" not in l or l.startswith("---")) + "\n")
+    n += 1
+(out / "learn-arm").write_text("rig-learn\nrigs/examples/arm.yaml\n--params\nshoulder.rotate?\n-o\n{dir}/a.yaml\n")
+(out / "eval-arm").write_text("graph-eval\nrigs/examples/arm.yaml\n--frames\n1:4\n--get\n*.rotateZ\n--format\ntable\n")
+PY
 
 failed=()
 run_target() {
@@ -72,6 +94,7 @@ run_target rig_loader fuzz/rig.dict 65536 "${rig_seeds[@]}"
 run_target bvh_reader fuzz/bvh.dict 65536 "${bvh_seeds[@]}"
 run_target approximation_loader fuzz/approximation.dict 65536 "${approximation_seeds[@]}"
 run_target target_clip fuzz/target_clip.dict 65536 "${clip_seeds[@]}"
+run_target command_line fuzz/command_line.dict 8192 "$build/fuzz-seeds/command_line"
 
 if ((${#failed[@]})); then
   echo "fuzz: failed: ${failed[*]}" >&2
