@@ -1,5 +1,6 @@
 #include "inversion/learner.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -271,6 +272,15 @@ std::string singularRest(const Eigen::Matrix4d& rest)
     return {};
 }
 
+// Whether a parameter's fit interpolates samples (a curve magnitude or a sampled operator): more samples
+// can make it better between them.
+bool interpolated(const ModelledParameter& m)
+{
+    return std::any_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
+        return !op.linear() || op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine;
+    });
+}
+
 // One learning pass in the probe's frames: classify (from stored samples where possible), order,
 // assemble and validate.
 struct Pass {
@@ -281,15 +291,19 @@ struct Pass {
     std::vector<int> rigOutput;  // per approximation output, its rig index
 };
 
+// `budgets`: per rig parameter, the most samples it may use (LearnOptions::maxSamples, raised by repairs).
 Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& samples, ValidationPoses& poses,
-               const LearnOptions& options, const std::string& rigFile)
+               const LearnOptions& options, const std::vector<int>& budgets, const std::string& rigFile)
 {
     RigFunction& rig = probe.rig();
     const auto& parameters = rig.parameters();
     const auto& rest = probe.rest();
     Pass pass;
+    LearnOptions raised = options;
     for (std::size_t i = 0; i < parameters.size(); ++i) {
-        pass.classes.push_back(classifyParameter(probe, static_cast<int>(i), state, samples[i], options));
+        raised.maxSamples = budgets[i];
+        const LearnOptions& own = budgets[i] == options.maxSamples ? options : raised;
+        pass.classes.push_back(classifyParameter(probe, static_cast<int>(i), state, samples[i], own));
         if (options.progress) options.progress("classifying", static_cast<double>(i + 1) / static_cast<double>(parameters.size()));
     }
     // Outputs found history-dependent are dropped from what was learned before they were found.
@@ -359,10 +373,13 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     std::vector<ParameterSamples> samples(parameters.size());
     ValidationPoses poses = drawPoses(parameters, options);
     Pass pass;
-    // Each pass moves to world space the relative outputs where the last one failed; an output never
-    // goes back, so this ends.
-    for (int attempt = 0;; ++attempt) {
-        pass = learnPass(probe, state, samples, poses, options, rigFile);
+    // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
+    // First, a relative output where learning failed moves to world space (an output never goes back).
+    // Then a parameter fitted by a curve or sampled operator that reaches an output still over epsilon
+    // gets twice its sample budget, up to 8 x maxSamples (its fit was exact at the samples, not between).
+    std::vector<int> budgets(parameters.size(), options.maxSamples);
+    while (true) {
+        pass = learnPass(probe, state, samples, poses, options, budgets, rigFile);
         usableParents();
         std::set<int> failing;
         auto implicate = [&](int k) {
@@ -372,8 +389,22 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         for (const int k : pass.order.conflictOutputs) implicate(k);
         for (std::size_t o = 0; o < pass.approximation.outputs.size(); ++o)
             if (!(pass.approximation.outputs[o].validationError <= options.epsilon)) implicate(pass.rigOutput[o]);
-        if (failing.empty()) break;
         for (const int k : failing) probe.parents[static_cast<std::size_t>(k)] = -1;
+        if (!failing.empty()) continue;
+        const Approximation& a = pass.approximation;
+        const std::vector<std::vector<int>> reach = a.reach();
+        bool raised = false;
+        for (std::size_t p = 0; p < a.parameters.size(); ++p) {
+            int& budget = budgets[static_cast<std::size_t>(pass.indices[p])];
+            if (!interpolated(a.parameters[p]) || budget >= 8 * options.maxSamples) continue;
+            const bool over = std::any_of(reach[p].begin(), reach[p].end(), [&](int k) {
+                return !(a.outputs[static_cast<std::size_t>(k)].validationError <= options.epsilon);
+            });
+            if (!over) continue;
+            budget *= 2;
+            raised = true;
+        }
+        if (!raised) break;
     }
 
     Approximation result = std::move(pass.approximation);

@@ -183,3 +183,21 @@ TEST_CASE("learner: a rig that gives a non-finite matrix within a parameter's ra
     CHECK(a.validation.withinEpsilon);
     CHECK(std::isfinite(a.validation.maxRelativeError));
 }
+
+TEST_CASE("learner: a curve over epsilon between its samples gets more samples until the validation holds")
+{
+    // A driven rotation whose angle wiggles: a curve magnitude, exact at its samples; with a budget of 8
+    // samples it misses between them, and the repair doubles the budget (to at most 8 x 8).
+    test::LambdaRig rig({test::angle("wiggle", -1.5, 1.5)}, {"a"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+        w[0] = test::translation(0, 10, 0) * test::rotation(Eigen::Vector3d::UnitZ(), v[0] + 0.05 * std::sin(4.0 * v[0]));
+    });
+    LearnOptions options;
+    options.maxSamples = 8;
+    options.epsilon = 0.01;
+    const Approximation a = learnApproximation(rig, options, "wiggle");
+    REQUIRE(a.parameters.size() == 1);
+    CHECK(a.parameters[0].form == "rotation (curve)");
+    CHECK(a.parameters[0].samples > 8);
+    CHECK(a.parameters[0].samples <= 64);
+    CHECK(a.validation.withinEpsilon);
+}
