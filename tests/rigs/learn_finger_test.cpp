@@ -58,13 +58,19 @@ TEST_CASE("a finger's curl over three phalanges and its spread are exact relativ
     CHECK(curl->form == "per output: 3 rotation");
     for (std::size_t k = 1; k < a.outputs.size(); ++k) CHECK(a.outputs[k].parent == static_cast<int>(k) - 1);
 
-    // In world space (the talk) the curl is sampled and the validation measures it over epsilon.
+    // In world space (the talk) the curl is only sampled: within epsilon after the learner raised its
+    // sample budget, at several times the rig evaluations, and still not exact.
     LearnOptions world;
     world.relativeFrames = false;
     GraphRigFunction again(file, {globs, {}, {}});
     const Approximation w = learnApproximation(again, world, file.string());
-    CHECK_FALSE(w.validation.withinEpsilon);
-    CHECK(w.validation.worstParameter == "hand_ctrl.curl");
+    const auto sampled = std::find_if(w.parameters.begin(), w.parameters.end(),
+                                      [](const ModelledParameter& m) { return m.parameter.name == "hand_ctrl.curl"; });
+    REQUIRE(sampled != w.parameters.end());
+    CHECK(sampled->form.find("sampledRigid") != std::string::npos);
+    CHECK(sampled->samples > 4 * curl->samples);
+    CHECK(w.training.evaluations > 4 * a.training.evaluations);
+    CHECK(w.validation.maxPositionErrorCm > 1e6 * a.validation.maxPositionErrorCm);
 
     // Poses of the real rig solved from a nearby start: recovered to 1e-6 degrees.
     const Solver solver(a, SolverOptions{});

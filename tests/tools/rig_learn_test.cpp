@@ -161,14 +161,14 @@ TEST_CASE("rig-learn --spec: the biped's inversion spec learns what its globs sp
 TEST_CASE("rig-learn: an approximation its own validation measures over epsilon is not written: exit code 3, one line")
 {
     // The sliding-pivot knee is a sampled curve: exact at its samples, off by more than a tight epsilon
-    // between them, which the validation poses find.
+    // between them, which the validation poses find; more samples (up to 8 x 64) do not reach 1e-5.
     const auto dir = rig::test::scratchDir("rig-learn-inexact");
     const auto out = dir / "knee.yaml", json = dir / "knee.json";
-    const std::string args = fmt::format("rigs/nasty.yaml --params nasty_ctrl.kneeBend --epsilon 0.0001 -o '{}' --report-json '{}'",
+    const std::string args = fmt::format("rigs/nasty.yaml --params nasty_ctrl.kneeBend --epsilon 0.00001 -o '{}' --report-json '{}'",
                                          out.string(), json.string());
     const auto r = run(rigLearn(args));
     CHECK(r.exitCode == 3);
-    CHECK(r.err.starts_with("error: the approximation exceeds epsilon 0.0001: "));
+    CHECK(r.err.starts_with("error: the approximation exceeds epsilon 1e-05: "));
     CHECK(r.err.find(" cm per unit of the parameters moved on knee (moving nasty_ctrl.kneeBend most); ") != std::string::npos);
     CHECK(r.err.ends_with(fmt::format("{} not written (--allow-inexact writes it anyway)\n", out.string())));
     CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
@@ -177,12 +177,12 @@ TEST_CASE("rig-learn: an approximation its own validation measures over epsilon 
     const YAML::Node report = YAML::LoadFile(json.string());
     CHECK(report["within_epsilon"].as<bool>() == false);
     CHECK(report["written"].as<bool>() == false);
-    CHECK(report["validation"]["max_relative_error"].as<double>() > 1e-4);
+    CHECK(report["validation"]["max_relative_error"].as<double>() > 1e-5);
 
     // --allow-inexact writes it, says so in one warning line, and the file says it is not within epsilon.
     const auto allowed = run(rigLearn(args + " --allow-inexact"));
     CHECK(allowed.exitCode == 0);
-    CHECK(allowed.err.starts_with("warning: the approximation exceeds epsilon 0.0001: "));
+    CHECK(allowed.err.starts_with("warning: the approximation exceeds epsilon 1e-05: "));
     CHECK(allowed.err.ends_with("written anyway (--allow-inexact)\n"));
     const rig::Approximation a = rig::readApproximationFile(out);
     CHECK_FALSE(a.validation.withinEpsilon);
