@@ -364,9 +364,16 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     if (probe.parents.size() != rest.size())
         throw std::invalid_argument(fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(),
                                                 rest.size()));
+    // An output relative to one that is out of range or unreliable (found history-dependent while
+    // sampling) is learned in world space. True when a frame changed.
     auto usableParents = [&] {
+        bool changed = false;
         for (int& p : probe.parents)
-            if (p >= 0 && (static_cast<std::size_t>(p) >= rest.size() || state.unreliable[static_cast<std::size_t>(p)])) p = -1;
+            if (p >= 0 && (static_cast<std::size_t>(p) >= rest.size() || state.unreliable[static_cast<std::size_t>(p)])) {
+                p = -1;
+                changed = true;
+            }
+        return changed;
     };
     usableParents();
 
@@ -380,7 +387,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     std::vector<int> budgets(parameters.size(), options.maxSamples);
     while (true) {
         pass = learnPass(probe, state, samples, poses, options, budgets, rigFile);
-        usableParents();
+        if (usableParents()) continue;  // learned relative to an output now dropped: learn those again
         std::set<int> failing;
         auto implicate = [&](int k) {
             if (k >= 0 && probe.parentOf(k) >= 0) failing.insert(k);
