@@ -183,11 +183,12 @@ def train_block(b):
         if t is None:
             rows.append((name, "not run", "", "", "", "", ""))
             continue
-        rows.append((name, num(t["evaluations"]), num(t["order_evaluations"]), num(t["seconds"]),
-                     f"{t['modelled']}/{t['parameters']}", num(t["validation_max_position_error_cm"]),
-                     num(t["validation_max_rotation_error_deg"])))
-    return table(["orderer", "rig evaluations", "of which ordering", "seconds", "modelled", "validation worst cm",
-                  "validation worst deg"], rows)
+        rows.append((name.replace("_", " "), num(t["evaluations"]), num(t["order_evaluations"]), num(t["seconds"]),
+                     f"{t['modelled']}/{t['parameters']}", t.get("relative_outputs", ""),
+                     num(t["validation_max_position_error_cm"]), num(t["validation_max_rotation_error_deg"]),
+                     num(t["validation_max_relative_error"]), "yes" if t["within_epsilon"] else "NO"))
+    return table(["orderer", "rig evaluations", "of which ordering", "seconds", "modelled", "relative outputs",
+                  "validation worst cm", "validation worst deg", "worst cm per unit", "within epsilon"], rows)
 
 
 def accuracy_block(b):
@@ -196,6 +197,7 @@ def accuracy_block(b):
         "approximation": "ours (partitioned, analytic)",
         "approximation_whole": "ours (whole problem, analytic)",
         "approximation_fd": "ours (finite differences)",
+        "approximation_world_space": "ours, world-space approximation (the talk's frames; it discards what it cannot order)",
         "approximation_polish1": "ours + 1 real-rig polish",
         "ceres": "Ceres (headline variant)",
         "blackbox": "Gauss-Newton on the real rig",

@@ -719,6 +719,8 @@ void runScaling(const BenchOptions& o, Json& report)
                        {"train_evaluations", a.training.evaluations},
                        {"train_order_evaluations", a.training.orderEvaluations},
                        {"train_seconds", a.training.seconds},
+                       {"validation_max_relative_error", a.validation.maxRelativeError},
+                       {"within_epsilon", a.validation.withinEpsilon},
                        {"frames", run.frames()},
                        {"converged_frames", run.converged},
                        {"ms_per_frame", run.cpuMsPerFrame()},
