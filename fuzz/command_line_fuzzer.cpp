@@ -6,10 +6,14 @@
 //   --- NAME                  then files: the lines up to the next "--- NAME" are {dir}/NAME
 //   ...
 //
-// The tool runs as a child process (build/bin, from the source folder, as the corpus cases do) with a
-// 20 s limit. Exit codes 0, 2 and 3 are answers; exit code 1 ("internal error"), a signal or the time
-// limit is a bug: the input may name any file and flag, and none of them may reach an internal error.
-// scripts/fuzz.sh seeds it from tests/corpus/cases.yaml; docs/robustness.md.
+// The tool runs as a child process (build/bin) with a 20 s limit, in a sandbox: its working folder is a
+// copy of the project's rigs/ and tests/corpus/ made once per fuzzing process, so the corpus cases'
+// relative paths work and whatever a run writes (-o rigs/biped.yaml) lands in the copy, never in the
+// checkout. An argument that is an absolute path or climbs out with ".." (other than {dir}) skips the
+// input: running as root, a fuzzer must not write over system files. Exit codes 0, 2 and 3 are
+// answers; exit code 1 ("internal error"), a signal or the time limit is a bug: the input may name any
+// file and flag, and none of them may reach an internal error. scripts/fuzz.sh seeds it from
+// tests/corpus/cases.yaml; docs/robustness.md.
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
@@ -53,6 +57,35 @@ std::string replaceDir(std::string_view text, const std::string& dir)
     return out;
 }
 
+// An argument that stays in the sandbox: not an absolute path, no ".." component.
+bool staysInside(std::string_view arg)
+{
+    if (arg.starts_with('/')) return false;
+    for (std::size_t at = arg.find(".."); at != std::string_view::npos; at = arg.find("..", at + 1)) {
+        const bool starts = at == 0 || arg[at - 1] == '/' || arg[at - 1] == '=';
+        const bool ends = at + 2 == arg.size() || arg[at + 2] == '/';
+        if (starts && ends) return false;
+    }
+    return true;
+}
+
+// The sandbox's working folder: a copy of the project's inputs, made once per process.
+const std::filesystem::path& sandbox()
+{
+    static const std::filesystem::path folder = [] {
+        const auto root = std::filesystem::temp_directory_path() / ("rig-cli-fuzz." + std::to_string(::getpid()));
+        for (const char* part : {"rigs", "tests/corpus"})
+            std::filesystem::copy(std::filesystem::path(RIG_FUZZ_SOURCE_DIR) / part, root / "project" / part,
+                                  std::filesystem::copy_options::recursive);
+        std::atexit([] {
+            std::error_code ignored;
+            std::filesystem::remove_all(sandbox().parent_path(), ignored);
+        });
+        return root / "project";
+    }();
+    return folder;
+}
+
 // A file name inside the folder: no separators, no "..", not empty.
 bool plainName(std::string_view name)
 {
@@ -71,13 +104,16 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (const auto t : tools) known = known || text.front() == t;
     if (!known) return 0;
 
-    static int run = 0;
-    const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                      ("rig-cli-fuzz." + std::to_string(::getpid()) + "." + std::to_string(run++));
-    std::filesystem::create_directories(dir);
     std::vector<std::string> args{std::string(RIG_FUZZ_BIN_DIR) + "/" + std::string(text.front())};
     std::size_t i = 1;
-    for (; i < text.size() && !text[i].starts_with("---"); ++i) args.push_back(replaceDir(text[i], dir.string()));
+    for (; i < text.size() && !text[i].starts_with("---"); ++i) {
+        if (!staysInside(text[i])) return 0;
+        args.push_back(std::string(text[i]));
+    }
+    static int run = 0;
+    const std::filesystem::path dir = sandbox().parent_path() / ("run" + std::to_string(run++));
+    std::filesystem::create_directories(dir);
+    for (std::size_t a = 1; a < args.size(); ++a) args[a] = replaceDir(args[a], dir.string());
     while (i < text.size()) {
         const std::string_view name = text[i].substr(std::min<std::size_t>(4, text[i].size()));
         std::string content;
@@ -93,6 +129,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
     posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
     posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+    posix_spawn_file_actions_addchdir_np(&actions, sandbox().c_str());
     pid_t child = 0;
     const int spawned = posix_spawn(&child, argv.front(), &actions, nullptr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&actions);

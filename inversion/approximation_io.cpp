@@ -413,17 +413,29 @@ std::string approximationToYaml(const Approximation& a)
 Approximation approximationFromYaml(std::string_view text, const std::string& fileName)
 {
     // Read through a const node: operator[] on a mutable one would add the keys it looks for.
+    // One document: a marker line ('---' or '...' at column 0, which ends a document wherever it stands)
+    // after the first content line would start another, which YAML::Load would silently drop. Found by
+    // reading lines, not by YAML::LoadAll: yaml-cpp 0.7 returns empty documents without end on some
+    // damaged text until the memory runs out (found by fuzz/approximation_loader_fuzzer).
+    bool content = false;
+    int lineNumber = 0;
+    for (std::size_t start = 0; start < text.size();) {
+        const std::size_t end = std::min(text.find('\n', start), text.size());
+        const std::string_view line = text.substr(start, end - start);
+        start = end + 1;
+        ++lineNumber;
+        const bool marker = (line.starts_with("---") || line.starts_with("...")) &&
+                            (line.size() == 3 || line[3] == ' ' || line[3] == '\t' || line[3] == '\r');
+        if (marker && content)
+            throw ApproximationFileError(fmt::format("{}:{}:1: file: '{}' ends the YAML document; an approximation file is "
+                                                     "one document: remove it and what follows, or re-run rig-learn",
+                                                     fileName, lineNumber, line.substr(0, 3)));
+        const auto first = line.find_first_not_of(" \t\r");
+        content = content || (!marker && first != std::string_view::npos && line[first] != '#');
+    }
     const YAML::Node root = [&] {
         try {
-            const std::vector<YAML::Node> documents = YAML::LoadAll(std::string(text));
-            if (documents.size() > 1) {
-                const YAML::Mark mark = documents[1].Mark();
-                throw ApproximationFileError(
-                    fmt::format("{}:{}:{}: file: a second YAML document ('---'); an approximation file is one document: "
-                                "remove what follows, or re-run rig-learn",
-                                fileName, std::max(mark.line, 0) + 1, std::max(mark.column, 0) + 1));
-            }
-            return documents.empty() ? YAML::Node() : documents.front();
+            return YAML::Load(std::string(text));
         }
         catch (const YAML::DeepRecursion& e) {
             throw ApproximationFileError(fmt::format("{}:{}:{}: YAML lists and maps nested more than {} levels deep; an "

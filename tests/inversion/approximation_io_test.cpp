@@ -331,8 +331,11 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
     CHECK(errorWith("discarded: []", "discarded: [") == "f.yaml:25:1: YAML syntax error: end of sequence flow not found");
     // Strict: one document, nothing negative that counts or measures, whole numbers in their range.
     CHECK(errorWith("discarded: []\n", "discarded: []\n---\nformat: other\n")
-          == "f.yaml:26:1: file: a second YAML document ('---'); an approximation file is one document: remove what "
-             "follows, or re-run rig-learn");
+          == "f.yaml:25:1: file: '---' ends the YAML document; an approximation file is one document: remove it and "
+             "what follows, or re-run rig-learn");
+    CHECK(errorWith("discarded: []\n", "discarded: []\n...\n") ==
+          "f.yaml:25:1: file: '...' ends the YAML document; an approximation file is one document: remove it and what "
+          "follows, or re-run rig-learn");
     CHECK(errorWith("seconds: 0.5", "seconds: -0.5") == "f.yaml:6:58: training.seconds: -0.5 is negative; errors and times are not");
     CHECK(errorWith("poses: 0", "poses: -3") == "f.yaml:7:21: validation.poses: -3 is below 0; a count is not negative");
     CHECK(errorWith("maxPositionErrorCm: 0", "maxPositionErrorCm: -1")
