@@ -74,9 +74,11 @@ const std::filesystem::path& sandbox()
 {
     static const std::filesystem::path folder = [] {
         const auto root = std::filesystem::temp_directory_path() / ("rig-cli-fuzz." + std::to_string(::getpid()));
-        for (const char* part : {"rigs", "tests/corpus"})
+        for (const char* part : {"rigs", "tests/corpus"}) {
+            std::filesystem::create_directories((root / "project" / part).parent_path());
             std::filesystem::copy(std::filesystem::path(RIG_FUZZ_SOURCE_DIR) / part, root / "project" / part,
                                   std::filesystem::copy_options::recursive);
+        }
         std::atexit([] {
             std::error_code ignored;
             std::filesystem::remove_all(sandbox().parent_path(), ignored);
