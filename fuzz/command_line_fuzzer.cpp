@@ -69,10 +69,11 @@ bool staysInside(std::string_view arg)
     return true;
 }
 
-// The sandbox's working folder: a copy of the project's inputs, made once per process.
+// The sandbox's working folder: a copy of the project's inputs, made once per process and removed at
+// exit. (Never destroyed: the exit handler still reads it after static objects are gone.)
 const std::filesystem::path& sandbox()
 {
-    static const std::filesystem::path folder = [] {
+    static const std::filesystem::path& folder = *new std::filesystem::path([] {
         const auto root = std::filesystem::temp_directory_path() / ("rig-cli-fuzz." + std::to_string(::getpid()));
         for (const char* part : {"rigs", "tests/corpus"}) {
             std::filesystem::create_directories((root / "project" / part).parent_path());
@@ -84,7 +85,7 @@ const std::filesystem::path& sandbox()
             std::filesystem::remove_all(sandbox().parent_path(), ignored);
         });
         return root / "project";
-    }();
+    }());
     return folder;
 }
 
