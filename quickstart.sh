@@ -14,7 +14,7 @@ if [ ! -f "$approx" ] || [ rigs/biped.yaml -nt "$approx" ] || [ rigs/biped_inver
   echo "== learning rigs/biped.yaml's approximation (rigs/biped_inversion.yaml) -> $approx"
   build/bin/rig-learn rigs/biped.yaml --spec rigs/biped_inversion.yaml -o "$approx" \
     --report-json build/biped.learn.json > build/biped.learn.txt
-  grep -E '^(Training|Discarded|  position error|  rotation error)' build/biped.learn.txt
+  grep -E '^(Training|Discarded|Frames|  position error|  rotation error|  per unit)' build/biped.learn.txt
   echo "   (the whole report: build/biped.learn.txt)"
 fi
 
