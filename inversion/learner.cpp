@@ -292,8 +292,10 @@ struct Pass {
 };
 
 // `budgets`: per rig parameter, the most samples it may use (LearnOptions::maxSamples, raised by repairs).
+// `distrusted`: rig outputs where every pair is tested on the rig (ordering.h).
 Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& samples, ValidationPoses& poses,
-               const LearnOptions& options, const std::vector<int>& budgets, const std::string& rigFile)
+               const LearnOptions& options, const std::vector<int>& budgets, const std::set<int>& distrusted,
+               const std::string& rigFile)
 {
     RigFunction& rig = probe.rig();
     const auto& parameters = rig.parameters();
@@ -312,7 +314,7 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
         if (c.modelled) dropOutputs(c, state.unreliable);
         if (c.modelled) modelled.push_back(c.index);
     }
-    pass.order = orderParameters(probe, pass.classes, modelled, options);
+    pass.order = orderParameters(probe, pass.classes, modelled, options, distrusted);
 
     // The approximation's outputs are the reliable ones; `rigOutput` maps them back to the rig's.
     Approximation& result = pass.approximation;
@@ -382,11 +384,14 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
     // First, a relative output where learning failed moves to world space (an output never goes back).
+    // Then, on an output still over epsilon, the rig decides the order of every pair (the structured
+    // orderer took some for commuting from their operators, which a non-compositional output belies).
     // Then a parameter fitted by a curve or sampled operator that reaches an output still over epsilon
     // gets twice its sample budget, up to 8 x maxSamples (its fit was exact at the samples, not between).
     std::vector<int> budgets(parameters.size(), options.maxSamples);
+    std::set<int> distrusted;
     while (true) {
-        pass = learnPass(probe, state, samples, poses, options, budgets, rigFile);
+        pass = learnPass(probe, state, samples, poses, options, budgets, distrusted, rigFile);
         if (usableParents()) continue;  // learned relative to an output now dropped: learn those again
         std::set<int> failing;
         auto implicate = [&](int k) {
@@ -399,6 +404,12 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         for (const int k : failing) probe.parents[static_cast<std::size_t>(k)] = -1;
         if (!failing.empty()) continue;
         const Approximation& a = pass.approximation;
+        bool newlyDistrusted = false;
+        if (options.orderer == Orderer::structured)
+            for (std::size_t o = 0; o < a.outputs.size(); ++o)
+                if (!(a.outputs[o].validationError <= options.epsilon))
+                    newlyDistrusted = distrusted.insert(pass.rigOutput[o]).second || newlyDistrusted;
+        if (newlyDistrusted) continue;
         const std::vector<std::vector<int>> reach = a.reach();
         bool raised = false;
         for (std::size_t p = 0; p < a.parameters.size(); ++p) {

@@ -53,8 +53,9 @@ bool operatorsCommute(const Classification& p, int ep, const Classification& q, 
 
 class PairTests {
 public:
-    PairTests(RigProbe& probe, const std::vector<Classification>& classes, const LearnOptions& options)
-        : probe_(probe), classes_(classes), options_(options)
+    PairTests(RigProbe& probe, const std::vector<Classification>& classes, const LearnOptions& options,
+              const std::set<int>& distrusted)
+        : probe_(probe), classes_(classes), options_(options), distrusted_(distrusted)
     {
     }
 
@@ -72,7 +73,8 @@ public:
             const int eq = entryOf(cq, k);
             if (eq < 0) continue;
             const int ep = entryOf(cp, k);
-            if (everyPair || !operatorsCommute(cp, ep, cq, eq, rest[static_cast<std::size_t>(k)], options_))
+            if (everyPair || distrusted_.contains(k) ||
+                !operatorsCommute(cp, ep, cq, eq, rest[static_cast<std::size_t>(k)], options_))
                 voting.emplace_back(k, ep, eq);
         }
         if (voting.empty() && !everyPair) return {};
@@ -126,6 +128,7 @@ private:
     RigProbe& probe_;
     const std::vector<Classification>& classes_;
     const LearnOptions& options_;
+    const std::set<int>& distrusted_;
     std::uint64_t evaluations_ = 0;
 };
 
@@ -167,10 +170,10 @@ std::vector<std::pair<int, int>> candidatePairs(const std::vector<Classification
 }  // namespace
 
 OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes, const std::vector<int>& modelled,
-                            const LearnOptions& options)
+                            const LearnOptions& options, const std::set<int>& distrusted)
 {
     const bool everyPair = options.orderer == Orderer::talk;
-    PairTests tests(probe, classes, options);
+    PairTests tests(probe, classes, options, distrusted);
     OrderResult result;
     std::set<int> alive(modelled.begin(), modelled.end());
     std::map<int, std::set<int>> next;  // outer -> inner

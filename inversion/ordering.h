@@ -10,6 +10,7 @@
 // parameter, the one with the smaller effect; the others keep their edges. Internal to the learner.
 
 #include <cstdint>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -28,8 +29,9 @@ struct OrderResult {
 // `modelled` lists the indices (into `classes`) of the parameters to order.
 //   talk:       every pair is tested on the rig (the reference: the talk knows no structure).
 //   structured: only pairs that share an output where their learned operators do not commute (decided
-//               from the operators, without a rig evaluation).
+//               from the operators, without a rig evaluation), and every pair sharing an output of
+//               `distrusted` (rig outputs where that decision failed the validation: the rig decides there).
 OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes, const std::vector<int>& modelled,
-                            const LearnOptions& options);
+                            const LearnOptions& options, const std::set<int>& distrusted = {});
 
 }  // namespace rig
