@@ -295,7 +295,7 @@ struct Pass {
 // `distrusted`: rig outputs where every pair is tested on the rig (ordering.h).
 Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& samples, ValidationPoses& poses,
                const LearnOptions& options, const std::vector<int>& budgets, const std::set<int>& distrusted,
-               const std::string& rigFile)
+               PairSamples& pairs, const std::string& rigFile)
 {
     RigFunction& rig = probe.rig();
     const auto& parameters = rig.parameters();
@@ -314,7 +314,7 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
         if (c.modelled) dropOutputs(c, state.unreliable);
         if (c.modelled) modelled.push_back(c.index);
     }
-    pass.order = orderParameters(probe, pass.classes, modelled, options, distrusted);
+    pass.order = orderParameters(probe, pass.classes, modelled, options, pairs, distrusted);
 
     // The approximation's outputs are the reliable ones; `rigOutput` maps them back to the rig's.
     Approximation& result = pass.approximation;
@@ -390,8 +390,11 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     // gets twice its sample budget, up to 8 x maxSamples (its fit was exact at the samples, not between).
     std::vector<int> budgets(parameters.size(), options.maxSamples);
     std::set<int> distrusted;
+    PairSamples pairs;
+    std::uint64_t orderEvaluations = 0;  // over every pass
     while (true) {
-        pass = learnPass(probe, state, samples, poses, options, budgets, distrusted, rigFile);
+        pass = learnPass(probe, state, samples, poses, options, budgets, distrusted, pairs, rigFile);
+        orderEvaluations += pass.order.evaluations;
         if (usableParents()) continue;  // learned relative to an output now dropped: learn those again
         std::set<int> failing;
         auto implicate = [&](int k) {
@@ -442,7 +445,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
             dropped[static_cast<int>(k)] = "history-dependent: it does not come back to its rest pose after other samples";
     for (const auto& [k, reason] : dropped) result.droppedOutputs.push_back({rig.outputs()[static_cast<std::size_t>(k)], reason});
     result.training.evaluations = rig.evaluationCount() - evaluationsBefore;
-    result.training.orderEvaluations = pass.order.evaluations;
+    result.training.orderEvaluations = orderEvaluations;
     result.training.orderer = std::string(ordererName(options.orderer));
     result.training.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;

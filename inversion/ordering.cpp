@@ -54,8 +54,8 @@ bool operatorsCommute(const Classification& p, int ep, const Classification& q, 
 class PairTests {
 public:
     PairTests(RigProbe& probe, const std::vector<Classification>& classes, const LearnOptions& options,
-              const std::set<int>& distrusted)
-        : probe_(probe), classes_(classes), options_(options), distrusted_(distrusted)
+              const std::set<int>& distrusted, PairSamples& samples)
+        : probe_(probe), classes_(classes), options_(options), distrusted_(distrusted), samples_(samples)
     {
     }
 
@@ -78,11 +78,30 @@ public:
                 voting.emplace_back(k, ep, eq);
         }
         if (voting.empty() && !everyPair) return {};
-        ++evaluations_;
-        std::vector<double> values = probe_.defaults();
-        values[static_cast<std::size_t>(cp.index)] += cp.orderOffset;
-        values[static_cast<std::size_t>(cq.index)] += cq.orderOffset;
-        const std::vector<Eigen::Matrix4d>& both = probe_.atValues(values);
+        // The raw worlds of the pair moved together: from an earlier pass when it read these outputs
+        // (and their parents) at the same offsets, else one rig evaluation.
+        // (The talk's orderer evaluates every pair once, whether or not it reads an output.)
+        const auto [entry, fresh] = samples_.worlds.try_emplace({cp.index, cq.index});
+        auto& sample = entry->second;
+        if (fresh || sample.offsets != std::pair(cp.orderOffset, cq.orderOffset))
+            sample = {{cp.orderOffset, cq.orderOffset}, {}};
+        auto needed = [&](int k) { return std::pair(k, probe_.parentOf(k)); };
+        const bool known = !fresh && std::all_of(voting.begin(), voting.end(), [&](const auto& v) {
+            const auto [k, parent] = needed(std::get<0>(v));
+            return sample.worlds.contains(k) && (parent < 0 || sample.worlds.contains(parent));
+        });
+        if (!known) {
+            ++evaluations_;
+            std::vector<double> values = probe_.defaults();
+            values[static_cast<std::size_t>(cp.index)] += cp.orderOffset;
+            values[static_cast<std::size_t>(cq.index)] += cq.orderOffset;
+            const std::vector<Eigen::Matrix4d>& all = probe_.atValues(values);
+            for (const auto& v : voting) {
+                const auto [k, parent] = needed(std::get<0>(v));
+                sample.worlds[k] = all[static_cast<std::size_t>(k)];
+                if (parent >= 0) sample.worlds[parent] = all[static_cast<std::size_t>(parent)];
+            }
+        }
         const double tolerance = options_.epsilon * (std::abs(cp.orderOffset) + std::abs(cq.orderOffset));
         const auto& names = probe_.rig().outputs();
         Verdict verdict;
@@ -92,7 +111,8 @@ public:
             const Eigen::Matrix4d& fa = cp.orderWorlds[static_cast<std::size_t>(ep)];
             const Eigen::Matrix4d& fb = cq.orderWorlds[static_cast<std::size_t>(eq)];
             const Eigen::Matrix4d restInverse = rest[static_cast<std::size_t>(k)].inverse();
-            const Eigen::Matrix4d fab = probe_.inFrame(k, both);
+            const int parent = probe_.parentOf(k);
+            const Eigen::Matrix4d fab = probe_.inFrame(k, sample.worlds.at(k), parent < 0 ? rest[0] : sample.worlds.at(parent));
             const double one = matrixError(fab, fa * restInverse * fb, options_.frameRadius);
             const double two = matrixError(fab, fb * restInverse * fa, options_.frameRadius);
             const bool ok1 = one <= tolerance, ok2 = two <= tolerance;
@@ -129,6 +149,7 @@ private:
     const std::vector<Classification>& classes_;
     const LearnOptions& options_;
     const std::set<int>& distrusted_;
+    PairSamples& samples_;
     std::uint64_t evaluations_ = 0;
 };
 
@@ -170,10 +191,10 @@ std::vector<std::pair<int, int>> candidatePairs(const std::vector<Classification
 }  // namespace
 
 OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes, const std::vector<int>& modelled,
-                            const LearnOptions& options, const std::set<int>& distrusted)
+                            const LearnOptions& options, PairSamples& samples, const std::set<int>& distrusted)
 {
     const bool everyPair = options.orderer == Orderer::talk;
-    PairTests tests(probe, classes, options, distrusted);
+    PairTests tests(probe, classes, options, distrusted, samples);
     OrderResult result;
     std::set<int> alive(modelled.begin(), modelled.end());
     std::map<int, std::set<int>> next;  // outer -> inner

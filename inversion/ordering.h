@@ -10,6 +10,7 @@
 // parameter, the one with the smaller effect; the others keep their edges. Internal to the learner.
 
 #include <cstdint>
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
@@ -26,12 +27,23 @@ struct OrderResult {
     std::uint64_t evaluations = 0;                      // pairs the rig was evaluated for
 };
 
+// Raw rig worlds of pairs of parameters moved together at their order offsets, kept across learning
+// passes: only the outputs a test read and their parents (a crowd must not keep every joint of every
+// pair). Keyed by the pair's rig indices.
+struct PairSamples {
+    struct Pair {
+        std::pair<double, double> offsets;
+        std::map<int, Eigen::Matrix4d> worlds;  // rig output -> raw world
+    };
+    std::map<std::pair<int, int>, Pair> worlds;
+};
+
 // `modelled` lists the indices (into `classes`) of the parameters to order.
 //   talk:       every pair is tested on the rig (the reference: the talk knows no structure).
 //   structured: only pairs that share an output where their learned operators do not commute (decided
 //               from the operators, without a rig evaluation), and every pair sharing an output of
 //               `distrusted` (rig outputs where that decision failed the validation: the rig decides there).
 OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes, const std::vector<int>& modelled,
-                            const LearnOptions& options, const std::set<int>& distrusted = {});
+                            const LearnOptions& options, PairSamples& samples, const std::set<int>& distrusted = {});
 
 }  // namespace rig
