@@ -17,11 +17,10 @@ RigProbe::RigProbe(RigFunction& rig) : rig_(rig)
     rig_.evaluate(values_, rest_);
 }
 
-const std::vector<Eigen::Matrix4d>& RigProbe::at(int i, double a, int j, double b)
+const std::vector<Eigen::Matrix4d>& RigProbe::at(int i, double a)
 {
     values_ = defaults_;
     if (i >= 0) values_[static_cast<std::size_t>(i)] += a;
-    if (j >= 0) values_[static_cast<std::size_t>(j)] += b;
     rig_.evaluate(values_, worlds_);
     return worlds_;
 }

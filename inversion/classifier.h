@@ -22,9 +22,9 @@ namespace rig {
 class RigProbe {
 public:
     explicit RigProbe(RigFunction& rig);
-    // Raw world matrices of every output: with parameter i at default + a (and j at default + b when
-    // j >= 0), or at any values of every parameter. Each call is one rig evaluation.
-    const std::vector<Eigen::Matrix4d>& at(int i, double a, int j = -1, double b = 0.0);
+    // Raw world matrices of every output: with parameter i at default + a (every parameter at rest when
+    // i < 0), or at any values of every parameter. Each call is one rig evaluation.
+    const std::vector<Eigen::Matrix4d>& at(int i, double a);
     const std::vector<Eigen::Matrix4d>& atValues(const std::vector<double>& values);
     const std::vector<double>& defaults() const { return defaults_; }
     // Raw worlds at the rest values, as first evaluated.

@@ -104,6 +104,8 @@ std::string_view jacobianMethodName(JacobianMethod method)
 
 Eigen::Matrix3d orthonormalPart(const Eigen::Matrix3d& m) { return polar(m, nullptr); }
 
+bool nearlySingular(const Eigen::Vector3d& sigma) { return !(sigma[0] > 0) || !(sigma[2] > 1e-9 * sigma[0]); }
+
 bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTarget& prepared)
 {
     if (!target.world.topRows<3>().allFinite()) return false;
@@ -113,9 +115,7 @@ bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTa
     if (nearlyOrthonormal(a)) {
         prepared.rotation = a;
     } else {
-        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a);
-        const auto& sigma = svd.singularValues();
-        if (!(sigma[0] > 0) || sigma[2] <= 1e-9 * sigma[0]) return false;
+        if (nearlySingular(Eigen::JacobiSVD<Eigen::Matrix3d>(a).singularValues())) return false;
         prepared.rotation = polar(a, nullptr);
     }
     prepared.position = target.world.block<3, 1>(0, 3);

@@ -52,6 +52,10 @@ bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTa
 // The orthonormal part of a 3x3 block (polar decomposition, reflections removed).
 Eigen::Matrix3d orthonormalPart(const Eigen::Matrix3d& m);
 
+// Whether a 3x3 block is too close to singular to have an orientation or an inverse: its singular values
+// (largest first) are not positive, or the smallest is below 1e-9 of the largest.
+bool nearlySingular(const Eigen::Vector3d& singularValues);
+
 // Position error (cm) and rotation error (radians) of a world matrix against a prepared target, unweighted.
 struct TargetError {
     double positionCm = 0.0;

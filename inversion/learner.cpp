@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 
 #include "inversion/classifier.h"
+#include "inversion/jacobian.h"
 #include "inversion/ordering.h"
 
 namespace rig {
@@ -264,9 +265,8 @@ std::string singularRest(const Eigen::Matrix4d& rest)
 {
     if (!rest.allFinite()) return "its rest world matrix is not finite";
     const Eigen::Matrix3d linear = rest.block<3, 3>(0, 0);
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(linear);
-    const auto& sigma = svd.singularValues();
-    if (!(sigma[0] > 0) || sigma[2] <= 1e-9 * sigma[0])
+    const Eigen::Vector3d sigma = Eigen::JacobiSVD<Eigen::Matrix3d>(linear).singularValues();
+    if (nearlySingular(sigma))
         return fmt::format("its rest world matrix is singular (singular values {:.3g}, {:.3g}, {:.3g}: a zero scale?)", sigma[0],
                            sigma[1], sigma[2]);
     return {};
