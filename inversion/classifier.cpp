@@ -516,9 +516,11 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
 // control is saturated. The ends are found to 1/256 of the neighbouring samples' distance by bisection.
 std::vector<std::pair<double, double>> flatRanges(Context& c, const std::vector<Eigen::Matrix4d>& restFramed)
 {
-    auto worldsAt = [&](double a) -> std::vector<Eigen::Matrix4d> { return a == 0.0 ? restFramed : c.sample(a); };
+    // References stay valid: the samples are kept in a std::map, which never moves its elements.
+    auto worldsAt = [&](double a) -> const std::vector<Eigen::Matrix4d>& { return a == 0.0 ? restFramed : c.sample(a); };
     auto same = [&](double a, double b) {
-        const auto wa = worldsAt(a), wb = worldsAt(b);
+        const auto& wa = worldsAt(a);
+        const auto& wb = worldsAt(b);
         for (std::size_t e = 0; e < wa.size(); ++e)
             if (matrixError(wa[e], wb[e], c.options.frameRadius) > c.options.effectTolerance) return false;
         return true;
