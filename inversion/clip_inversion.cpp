@@ -76,9 +76,9 @@ void ClipInversionOptions::validate() const
 
 std::string ClipInversionSummary::briefReport() const
 {
-    return fmt::format("{} frames, {} converged; real rig: worst {:.3g} cm and {:.3g} deg ({}, frame index {}), "
+    return fmt::format("{} frames, {} converged, {} stuck; real rig: worst {:.3g} cm and {:.3g} deg ({}, frame index {}), "
                        "mean {:.3g} cm and {:.3g} deg; {:.3g} ms per frame",
-                       frames, convergedFrames, maxPositionErrorCm, maxRotationErrorDeg, worstJoint, worstFrame,
+                       frames, convergedFrames, stuckFrames, maxPositionErrorCm, maxRotationErrorDeg, worstJoint, worstFrame,
                        meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
 }
 
@@ -99,13 +99,17 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     values.clear();
     std::vector<double> current = rest;
     std::vector<Eigen::Matrix4d> worlds;
+    std::vector<int> stuckCount(approximation.outputs.size(), 0);
     double positionSum = 0.0, rotationSum = 0.0;
     long long jointFrames = 0;
     using Clock = std::chrono::steady_clock;
     for (int frame = first - summary.leadInFrames; frame <= last; ++frame) {
-        if (frame % options.restartInterval == 0) current = rest;
         const auto& frameTargets = targets.frames[frame];
         const auto start = Clock::now();
+        if (frame % options.restartInterval == 0) {
+            current = rest;
+            if (options.coldStart) solver.initialGuess(frameTargets, current);
+        }
         SolveSummary solve = solver.solve(frameTargets, current);
         if (options.polishCorrections > 0 && solve.termination != TerminationType::invalidTargets)
             polish(solver, rig, frameTargets, current, options.polishCorrections);
@@ -140,6 +144,10 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         }
         ++summary.frames;
         if (solve.converged()) ++summary.convergedFrames;
+        if (solve.termination == TerminationType::stuck) {
+            ++summary.stuckFrames;
+            for (const int k : solve.missedOutputs) ++stuckCount[static_cast<std::size_t>(k)];
+        }
         if (!result.nonFiniteJoint.empty() && summary.nonFiniteFrames++ == 0) {
             summary.firstNonFiniteJoint = result.nonFiniteJoint;
             summary.firstNonFiniteFrame = frame;
@@ -157,6 +165,10 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         summary.meanPositionErrorCm = positionSum / static_cast<double>(jointFrames);
         summary.meanRotationErrorDeg = rotationSum / static_cast<double>(jointFrames);
     }
+    for (std::size_t k = 0; k < stuckCount.size(); ++k)
+        if (stuckCount[k] > 0) summary.stuckJoints.emplace_back(approximation.outputs[k].name, stuckCount[k]);
+    std::stable_sort(summary.stuckJoints.begin(), summary.stuckJoints.end(),
+                     [](const auto& a, const auto& b) { return a.second > b.second; });
     summary.msPerFrame = summary.frames > 0 ? 1000.0 * summary.solveSeconds / summary.frames : 0.0;
     return summary;
 }

@@ -3,16 +3,18 @@
 // then the real rig re-evaluated with the recovered values to measure what the animator will see.
 //
 // Warm-start chains and chunks. Frame i (0-based in the clip) is warm-started from frame i - 1's
-// solution, except at restart frames (i a multiple of `restartInterval`), which start from the rest
-// values. A run over frames [first, last] therefore begins its chain at the restart frame at or before
+// solution, except at restart frames (i a multiple of `restartInterval`), which start again from the
+// rest values, or from Solver::initialGuess on the frame's targets (`coldStart`, the default). A run over frames [first, last] therefore begins its chain at the restart frame at or before
 // `first` and solves the lead-in frames without reporting them: any split of a clip into chunks gives,
 // bit for bit, the values and per-frame errors of one run over the whole clip. Angular parameters move
 // continuously inside a chain (the solver keeps a periodic control at the equivalent value nearest its
-// warm start, never whole turns away); at a restart they start again from rest.
+// warm start, never whole turns away); at a restart they start again from rest or from the guess, at the
+// equivalent value nearest rest.
 
 #include <functional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -42,6 +44,9 @@ struct ClipInversionOptions {
     // Frames between warm-start restarts (see above), > 0. 120 frames: one second of a 120 fps clip,
     // so a chunk re-solves at most 119 lead-in frames.
     int restartInterval = 120;
+    // Restart frames start from Solver::initialGuess (the approximation's structure decomposes each
+    // joint's target) rather than from the rest values, which can lie in another basin of the cost.
+    bool coldStart = true;
     // Called after each reported frame with the fraction done; may be empty.
     std::function<void(double fraction)> progress;
 
@@ -60,7 +65,11 @@ struct FrameInversion {
 
 struct ClipInversionSummary {
     int frames = 0;
-    int convergedFrames = 0;
+    int convergedFrames = 0;  // converged to the targets on the approximation
+    int stuckFrames = 0;      // stationary with a residual (TerminationType::stuck)
+    // Per output left further than targetTolerance by a stuck frame: its name and in how many stuck frames,
+    // most frames first (then in output order).
+    std::vector<std::pair<std::string, int>> stuckJoints;
     double maxPositionErrorCm = 0.0;    // real rig, over every active joint of every frame
     double meanPositionErrorCm = 0.0;   // mean over joints and frames
     double maxRotationErrorDeg = 0.0;

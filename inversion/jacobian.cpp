@@ -44,25 +44,30 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v)
     return s;
 }
 
-// Inverse of the right Jacobian of SO(3): d log(X exp(nu)) = J_r^-1(log X) nu.
-Eigen::Matrix3d rightJacobianInverse(const Eigen::Vector3d& e)
+// The rotation residual: 2 vec(q) for the unit quaternion q = (w, v) of Q_target^T Q, taken with w >= 0,
+// so |r| = 2 sin(theta / 2). Its cost 2 sin^2(theta / 2) = 1 - cos(theta) is smooth everywhere and stationary
+// only at theta = 0 (the minimum) and at half a turn (its maximum). The logarithm's cost theta^2 / 2 has
+// the same minimum, but its derivative blows up at half a turn, where Gauss-Newton's steps shrink to
+// nothing and a solve "converges" 180 degrees away.
+struct HalfAngle {
+    Eigen::Vector3d residual;  // 2 v
+    Eigen::Matrix3d rows;      // d(2 v) / d omega for Q -> Q exp([omega]x): w I + [v]x
+};
+
+HalfAngle halfAngle(const Eigen::Matrix3d& q, const PreparedTarget& t)
 {
-    const double t = e.norm();
-    const Eigen::Matrix3d k = skew(e);
-    double c;
-    if (t < 1e-4) {
-        c = 1.0 / 12.0 + t * t / 720.0;  // series: the closed form cancels catastrophically here
-    } else {
-        // At pi the logarithm itself jumps; keep the coefficient finite there.
-        const double s = std::max(std::sin(t), 1e-12);
-        c = 1.0 / (t * t) - (1.0 + std::cos(t)) / (2.0 * t * s);
-    }
-    return Eigen::Matrix3d::Identity() + 0.5 * k + c * k * k;
+    Eigen::Quaterniond e(t.rotation.transpose() * q);
+    if (e.w() < 0) e.coeffs() = -e.coeffs();
+    HalfAngle h;
+    h.residual = 2.0 * e.vec();
+    h.rows = e.w() * Eigen::Matrix3d::Identity() + skew(e.vec());
+    return h;
 }
 
 Eigen::Vector3d rotationResidual(const Eigen::Matrix3d& q, const PreparedTarget& t)
 {
-    return rotationVector(t.rotation.transpose() * q);
+    Eigen::Quaterniond e(t.rotation.transpose() * q);
+    return 2.0 * (e.w() < 0 ? -e.vec() : Eigen::Vector3d(e.vec()));
 }
 
 // `rigid`: the world is known to be a rotation and a translation (no check, no polar decomposition).
@@ -124,11 +129,16 @@ bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTa
     return true;
 }
 
+Eigen::Matrix<double, 6, 1> targetResidual(const Eigen::Matrix4d& world, const PreparedTarget& target)
+{
+    return residual6(world, target);
+}
+
 TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& target)
 {
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
     const Eigen::Matrix3d q = nearlyOrthonormal(a) ? a : polar(a, nullptr);
-    return {(world.block<3, 1>(0, 3) - target.position).norm(), rotationResidual(q, target).norm()};
+    return {(world.block<3, 1>(0, 3) - target.position).norm(), rotationVector(target.rotation.transpose() * q).norm()};
 }
 
 // --- ResidualStructure ---
@@ -464,7 +474,7 @@ bool ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
         const Eigen::Matrix3d a = worlds_[o].block<3, 3>(0, 0);
         const Eigen::Vector3d position = worlds_[o].block<3, 1>(0, 3);
         // Rotation rows: with A = Q S (polar), dQ = Q [w]x where (tr(S) I - S) w = vee(Q^T dA - dA^T Q);
-        // then d log(Q_t^T Q) = J_r^-1(e) w. For a rotation A, w = Q^T (the skew part of Xi's 3x3).
+        // then d(2 vec q) = (w_q I + [v_q]x) w (halfAngle). For a rotation A, w = Q^T (the skew part of Xi's 3x3).
         const bool rigid = s.outputRigid_[o] || nearlyOrthonormal(a);
         Eigen::Matrix3d q, kInverse;
         if (rigid) {
@@ -474,7 +484,7 @@ bool ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
             q = polar(a, &sym);
             kInverse = (sym.trace() * Eigen::Matrix3d::Identity() - sym).inverse();
         }
-        Eigen::Matrix3d rotationRows = t.rotationWeight * rightJacobianInverse(rotationResidual(q, t));
+        Eigen::Matrix3d rotationRows = t.rotationWeight * halfAngle(q, t).rows;
         if (!rigid) rotationRows = rotationRows * kInverse;
         const Eigen::Index row = static_cast<Eigen::Index>(rowsPerTarget * o);
         for (const int n : vars) {
@@ -523,7 +533,7 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
     }
 
     // Rotation rows: with A = Q S (polar), dQ = Q [w]x where (tr(S) I - S) w = vee(Q^T dA - dA^T Q);
-    // then d log(Q_t^T Q) = J_r^-1(e) w.
+    // then d(2 vec q) = (w_q I + [v_q]x) w (halfAngle).
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
     Eigen::Matrix3d q, kInverse;
     if (nearlyOrthonormal(a)) {
@@ -534,8 +544,7 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
         q = polar(a, &sym);
         kInverse = (sym.trace() * Eigen::Matrix3d::Identity() - sym).inverse();
     }
-    const Eigen::Vector3d e = rotationResidual(q, t);
-    const Eigen::Matrix3d rotationRows = t.rotationWeight * rightJacobianInverse(e) * kInverse;
+    const Eigen::Matrix3d rotationRows = t.rotationWeight * halfAngle(q, t).rows * kInverse;
     const Eigen::Matrix3d qt = q.transpose();
 
     for (std::size_t j = 0; j < v; ++j) {

@@ -3,9 +3,10 @@
 //
 // Per active target joint k, six rows in this order:
 //   position  w_p * (t_k(beta) - t_target)                                     cm
-//   rotation  w_r * s * log(Q_target^T Q_k(beta))                              radians * s (cm per radian)
-// where Q is the orthonormal (polar) part of a world matrix's 3x3 block, so scale and shear in a target
-// or in the approximation's output (a stretch operator) never count as rotation. The Jacobian is
+//   rotation  w_r * s * 2 vec(q),  q = quaternion of Q_target^T Q_k(beta), w_q >= 0   |.| = s * 2 sin(theta / 2)
+// (cost per joint s^2 (1 - cos theta): smooth, stationary only at the target and half a turn away, unlike
+// the logarithm's), where Q is the orthonormal (polar) part of a world matrix's 3x3 block, so scale and
+// shear in a target or in the approximation's output (a stretch operator) never count as rotation. The Jacobian is
 // analytic, from the operator product F~_k = P_s1 ... P_sm F_k(0) (dF~_k/da_j = prefix_j * P_j'(a_j) *
 // suffix_j: the outputs' products share their prefixes as a tree, and prefix/suffix products are kept
 // as the fallback for singular operators; ResidualWorkspace says how), or central finite differences on the approximation
@@ -55,6 +56,10 @@ Eigen::Matrix3d orthonormalPart(const Eigen::Matrix3d& m);
 // Whether a 3x3 block is too close to singular to have an orientation or an inverse: its singular values
 // (largest first) are not positive, or the smallest is below 1e-9 of the largest.
 bool nearlySingular(const Eigen::Vector3d& singularValues);
+
+// The six weighted residual rows of one target (the file's comment says which) for a world matrix: what a
+// black-box problem on the real rig measures, so that its cost is the solver's.
+Eigen::Matrix<double, 6, 1> targetResidual(const Eigen::Matrix4d& world, const PreparedTarget& target);
 
 // Position error (cm) and rotation error (radians) of a world matrix against a prepared target, unweighted.
 struct TargetError {

@@ -1,6 +1,7 @@
 #include "inversion/solver.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -113,6 +114,26 @@ double rotationPeriod(const ModelledParameter& m)
     return slope > 0.0 ? 2.0 * std::numbers::pi / slope : 0.0;
 }
 
+// Three periodic controls that may be Euler angles of one rotation: on the same outputs, rotations
+// through one pivot about mutually orthogonal axes. If they compose in a row, R1(x) R2(y) R3(z) equals
+// R1(x + pi) R2(pi - y) R3(z + pi): the other solution of the same pose, which solveBlock weighs by cost.
+bool eulerTriple(const ModelledParameter& a, const ModelledParameter& b, const ModelledParameter& c)
+{
+    if (a.outputs != b.outputs || a.outputs != c.outputs) return false;
+    for (std::size_t i = 0; i < a.outputs.size(); ++i) {
+        const Operator& p = a.operators[static_cast<std::size_t>(a.operatorOfOutput[i])];
+        const Operator& q = b.operators[static_cast<std::size_t>(b.operatorOfOutput[i])];
+        const Operator& r = c.operators[static_cast<std::size_t>(c.operatorOfOutput[i])];
+        constexpr double orthogonal = 1e-9;
+        if (std::abs(p.axis.dot(q.axis)) > orthogonal || std::abs(q.axis.dot(r.axis)) > orthogonal ||
+            std::abs(p.axis.dot(r.axis)) > orthogonal)
+            return false;
+        const double scale = 1.0 + p.pivot.norm();
+        if ((p.pivot - q.pivot).norm() > 1e-9 * scale || (p.pivot - r.pivot).norm() > 1e-9 * scale) return false;
+    }
+    return true;
+}
+
 struct BlockPlan {
     BlockPlan(const Approximation& approximation, const PartitionBlock& block)
         : structure(approximation, block.parameters, block.outputs)
@@ -120,18 +141,39 @@ struct BlockPlan {
         // Only a control's own limits bind; a free one's min..max is just the range it was learned on.
         constexpr double free = std::numeric_limits<double>::infinity();
         for (const int p : block.parameters) {
-            const RigParameter& parameter = approximation.parameters[static_cast<std::size_t>(p)].parameter;
-            lower.push_back(parameter.limited ? parameter.min : -free);
-            upper.push_back(parameter.limited ? parameter.max : free);
-            angular.push_back(parameter.angular);
-            period.push_back(parameter.limited ? 0.0 : rotationPeriod(approximation.parameters[static_cast<std::size_t>(p)]));
+            const ModelledParameter& m = approximation.parameters[static_cast<std::size_t>(p)];
+            lower.push_back(m.parameter.limited ? m.parameter.min : -free);
+            upper.push_back(m.parameter.limited ? m.parameter.max : free);
+            angular.push_back(m.parameter.angular);
+            period.push_back(m.parameter.limited ? 0.0 : rotationPeriod(m));
+            defaults.push_back(m.parameter.defaultValue);
         }
+        std::vector<char> used(block.parameters.size(), 0);
+        const auto model = [&](std::size_t c) -> const ModelledParameter& {
+            return approximation.parameters[static_cast<std::size_t>(block.parameters[c])];
+        };
+        for (std::size_t i = 0; i < used.size(); ++i)
+            for (std::size_t j = i + 1; j < used.size() && period[i] > 0 && !used[i]; ++j)
+                for (std::size_t k = j + 1; k < used.size() && period[j] > 0 && !used[j]; ++k)
+                    if (period[k] > 0 && !used[k] && eulerTriple(model(i), model(j), model(k))) {
+                        triples.push_back({static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)});
+                        used[i] = used[j] = used[k] = 1;
+                    }
     }
     ResidualStructure structure;
     std::vector<double> lower, upper;
     std::vector<bool> angular;
     std::vector<double> period;  // > 0: the values x and x + period give the same pose (see rotationPeriod)
+    std::vector<double> defaults;
+    std::vector<std::array<int, 3>> triples;  // columns that may be Euler angles of one rotation (eulerTriple)
     mutable Pool<BlockWorkspace> pool;
+};
+
+// One step of Solver::initialGuess: the parameters that the output's target fixes, solved on it alone.
+struct GuessStep {
+    GuessStep(const Approximation& approximation, const PartitionBlock& b) : block(b), plan(approximation, b) {}
+    PartitionBlock block;
+    BlockPlan plan;
 };
 
 struct WholeWorkspace {
@@ -186,8 +228,35 @@ struct Plan {
     {
         for (const PartitionBlock& block : partition.blocks) blocks.push_back(std::make_unique<BlockPlan>(approximation, block));
     }
+    // The steps of initialGuess, made when first needed: parents first, each counted output with the
+    // solved parameters that reach it and no output before it.
+    const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation) const
+    {
+        std::call_once(guessOnce, [&] {
+            std::vector<char> solved(approximation.parameters.size(), 0), assigned(solved.size(), 0);
+            for (const PartitionBlock& block : partition.blocks)
+                for (const int p : block.parameters) solved[static_cast<std::size_t>(p)] = 1;
+            std::vector<char> counted(approximation.outputs.size(), 0);
+            for (const int k : whole.outputs()) counted[static_cast<std::size_t>(k)] = 1;
+            const std::vector<std::vector<int>> reach = approximation.reach();
+            for (const int k : approximation.outputOrder()) {
+                if (!counted[static_cast<std::size_t>(k)]) continue;
+                PartitionBlock step;
+                step.outputs = {k};
+                for (std::size_t p = 0; p < reach.size(); ++p)
+                    if (solved[p] && !assigned[p] && std::binary_search(reach[p].begin(), reach[p].end(), k)) {
+                        step.parameters.push_back(static_cast<int>(p));
+                        assigned[p] = 1;
+                    }
+                if (!step.parameters.empty()) guess.push_back(std::make_unique<GuessStep>(approximation, step));
+            }
+        });
+        return guess;
+    }
     Partition partition;
     std::vector<std::unique_ptr<BlockPlan>> blocks;
+    mutable std::once_flag guessOnce;
+    mutable std::vector<std::unique_ptr<GuessStep>> guess;
     ResidualStructure whole;  // every counted output, no unknowns: costs and errors
     mutable Pool<WholeWorkspace> wholePool;
     mutable Pool<BlockGraph> graphs;
@@ -197,6 +266,7 @@ struct BlockResult {
     int gaussNewton = 0;
     int levenbergMarquardt = 0;
     bool converged = false;
+    double cost = 0.0;  // 1/2 |r|^2 over the block's rows at the values returned
 };
 
 // Per-solve scratch sized by the approximation.
@@ -223,6 +293,7 @@ std::string_view terminationName(TerminationType termination)
 {
     switch (termination) {
     case TerminationType::converged: return "converged";
+    case TerminationType::stuck: return "stuck";
     case TerminationType::noConvergence: return "noConvergence";
     case TerminationType::invalidTargets: return "invalidTargets";
     case TerminationType::noTargets: return "noTargets";
@@ -247,6 +318,7 @@ void SolverOptions::validate() const
     nonNegative("functionTolerance", functionTolerance);
     nonNegative("parameterTolerance", parameterTolerance);
     nonNegative("gradientTolerance", gradientTolerance);
+    nonNegative("targetTolerance", targetTolerance);
     if (jacobian != JacobianMethod::analytic && jacobian != JacobianMethod::finiteDifference)
         fail("jacobian", static_cast<int>(jacobian), "must be analytic or finiteDifference");
     positive("finiteDifferenceStep", finiteDifferenceStep);
@@ -294,8 +366,13 @@ struct Solver::Impl {
         return plans.emplace(key, std::move(made)).first->second;  // another thread's, if it was first
     }
 
+    // `reference` (one value per parameter; empty: `values` as given) is what periodic controls and Euler
+    // triples are kept nearest to.
     BlockResult solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets, std::span<double> values,
-                           bool parallel) const;
+                           bool parallel, std::span<const double> reference = {}) const;
+    // Prepares the targets and finds their plan; false (with the termination) when there is nothing to solve.
+    bool prepare(std::span<const JointTarget> targets, std::span<const double> values, SolveScratch& scratch,
+                 std::shared_ptr<const Plan>& plan, TerminationType& termination);
     bool solveStep(BlockWorkspace& w, double mu) const;
 };
 
@@ -385,7 +462,7 @@ bool Solver::Impl::solveStep(BlockWorkspace& w, double mu) const
 }
 
 BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets,
-                                     std::span<double> values, bool parallel) const
+                                     std::span<double> values, bool parallel, std::span<const double> reference) const
 {
     const ResidualStructure& structure = block.structure;
     Borrowed<BlockWorkspace> borrowed(block.pool, [&] { return std::make_unique<BlockWorkspace>(structure); });
@@ -505,45 +582,146 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
     }
     // Continuity: of the equivalent values of a periodic control, the one nearest the warm start, so that
     // a solve never adds whole turns (curves stay continuous from frame to frame).
-    for (std::size_t c = 0; c < n; ++c) {
-        const double start = values[static_cast<std::size_t>(columns[c])];
-        if (block.period[c] > 0.0 && std::isfinite(start))
-            w.x[c] = start + std::remainder(w.x[c] - start, block.period[c]);
-        values[static_cast<std::size_t>(columns[c])] = w.x[c];
+    const auto near = [&](std::size_t c) { return (reference.empty() ? values : reference)[static_cast<std::size_t>(columns[c])]; };
+    const auto wrap = [&](std::size_t c, double x) {
+        const double start = near(c);
+        return block.period[c] > 0.0 && std::isfinite(start) ? start + std::remainder(x - start, block.period[c]) : x;
+    };
+    for (std::size_t c = 0; c < n; ++c) w.x[c] = wrap(c, w.x[c]);
+    // And of the two Euler solutions of one pose, the nearer (no flip near gimbal lock, nor through a
+    // half turn of all three channels): taken when the block's cost says it is the same pose.
+    for (const auto& triple : block.triples) {
+        const auto [a, b, c] = triple;
+        const auto half = [&](int i) { return 0.5 * block.period[static_cast<std::size_t>(i)]; };
+        std::copy(w.x.begin(), w.x.end(), w.trial.begin());
+        const std::size_t ia = static_cast<std::size_t>(a), ib = static_cast<std::size_t>(b), ic = static_cast<std::size_t>(c);
+        w.trial[ia] = wrap(ia, w.x[ia] + half(a));
+        w.trial[ib] = wrap(ib, 2.0 * block.defaults[ib] + half(b) - w.x[ib]);
+        w.trial[ic] = wrap(ic, w.x[ic] + half(c));
+        double now = 0.0, other = 0.0;
+        for (const std::size_t i : {ia, ib, ic}) {
+            now += (w.x[i] - near(i)) * (w.x[i] - near(i));
+            other += (w.trial[i] - near(i)) * (w.trial[i] - near(i));
+        }
+        if (!(other < now)) continue;
+        w.residual.residuals(w.trial, w.rTrial);
+        if (std::abs(0.5 * w.rTrial.squaredNorm() - cost) <= 1e-9 * cost + 1e-12) std::swap(w.x, w.trial);
     }
+    for (std::size_t c = 0; c < n; ++c) values[static_cast<std::size_t>(columns[c])] = w.x[c];
+    result.cost = cost;
     return result;
 }
 
-SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<double> values) const
+bool Solver::Impl::prepare(std::span<const JointTarget> targets, std::span<const double> values, SolveScratch& scratch,
+                           std::shared_ptr<const Plan>& plan, TerminationType& termination)
 {
-    Impl& impl = *impl_;
-    const Approximation& approximation = impl.approximation;
     if (targets.size() != approximation.outputs.size())
         throw std::invalid_argument(fmt::format("Solver::solve: {} targets for {} outputs", targets.size(),
                                                 approximation.outputs.size()));
     if (values.size() != approximation.parameters.size())
         throw std::invalid_argument(fmt::format("Solver::solve: {} values for {} parameters", values.size(),
                                                 approximation.parameters.size()));
-    Borrowed<SolveScratch> scratch(impl.scratchPool, [] { return std::make_unique<SolveScratch>(); });
-    scratch->prepared.resize(targets.size());
-    scratch->rows.resize(targets.size());
-
-    SolveSummary summary;
+    scratch.prepared.resize(targets.size());
+    scratch.rows.resize(targets.size());
     for (std::size_t k = 0; k < targets.size(); ++k) {
-        scratch->rows[k] = countedRows(targets[k]);
-        if (targets[k].active && !prepareTarget(targets[k], impl.options.rotationScaleCm, scratch->prepared[k])) {
-            summary.termination = TerminationType::invalidTargets;
-            return summary;
+        scratch.rows[k] = countedRows(targets[k]);
+        if (targets[k].active && !prepareTarget(targets[k], options.rotationScaleCm, scratch.prepared[k])) {
+            termination = TerminationType::invalidTargets;
+            return false;
         }
     }
-    const std::shared_ptr<const Plan> plan = impl.plan(scratch->rows, scratch->key);
-    const Partition& partition = plan->partition;
-    for (const PartitionBlock& block : partition.blocks)
+    plan = this->plan(scratch.rows, scratch.key);
+    for (const PartitionBlock& block : plan->partition.blocks)
         for (const int p : block.parameters)
             if (!std::isfinite(values[static_cast<std::size_t>(p)]))
                 throw std::invalid_argument(fmt::format("Solver::solve: the value of {} is {}",
                                                         approximation.parameters[static_cast<std::size_t>(p)].parameter.name,
                                                         values[static_cast<std::size_t>(p)]));
+    termination = TerminationType::noTargets;
+    return !plan->whole.outputs().empty() && !plan->partition.blocks.empty();
+}
+
+TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::span<double> values) const
+{
+    Impl& impl = *impl_;
+    Borrowed<SolveScratch> scratch(impl.scratchPool, [] { return std::make_unique<SolveScratch>(); });
+    std::shared_ptr<const Plan> plan;
+    TerminationType termination;
+    if (!impl.prepare(targets, values, *scratch, plan, termination)) return termination;
+
+    // Each angular unknown starts at its value and a third of a turn either way: of three starts a third
+    // of a turn apart, one lies within a sixth of a turn of any answer, where the cost (1 - cos) is convex
+    // enough for Gauss-Newton. A limited one starts at the middles of the thirds of its range instead.
+    constexpr int maxVaried = 4;  // 3^4 starts at most per output
+    std::vector<double> trial(values.begin(), values.end());
+    std::vector<double> best;
+    std::vector<std::array<double, 3>> offsets;
+    for (const auto& step : plan->guessSteps(impl.approximation)) {
+        const BlockPlan& block = step->plan;
+        const std::vector<int>& columns = step->block.parameters;
+        offsets.clear();
+        int varied = 0;
+        for (std::size_t c = 0; c < columns.size(); ++c) {
+            const RigParameter& p = impl.approximation.parameters[static_cast<std::size_t>(columns[c])].parameter;
+            const double v = values[static_cast<std::size_t>(columns[c])];
+            if (!p.angular || varied == maxVaried) {
+                offsets.push_back({v, v, v});
+                continue;
+            }
+            ++varied;
+            if (p.limited) {
+                const double third = (p.max - p.min) / 3.0;
+                offsets.push_back({clampTo(v, p.min, p.max), p.min + 0.5 * third, p.max - 0.5 * third});
+            } else {
+                const double turn = block.period[c] > 0 ? block.period[c] : 2.0 * std::numbers::pi;
+                offsets.push_back({v, v + turn / 3.0, v - turn / 3.0});
+            }
+        }
+        int starts = 1;
+        for (int i = 0; i < varied; ++i) starts *= 3;
+        // Of the starts' answers, the cheapest; of those as cheap to rounding (another pose the joint's
+        // controls reach equally well), the nearest the values given.
+        double bestCost = std::numeric_limits<double>::infinity(), bestDistance = 0.0;
+        for (int start = 0; start < starts; ++start) {
+            std::copy(values.begin(), values.end(), trial.begin());
+            for (int c = 0, code = start; c < static_cast<int>(columns.size()); ++c) {
+                const auto& o = offsets[static_cast<std::size_t>(c)];
+                const int pick = o[0] == o[1] && o[1] == o[2] ? 0 : code % 3;
+                if (!(o[0] == o[1] && o[1] == o[2])) code /= 3;
+                trial[static_cast<std::size_t>(columns[static_cast<std::size_t>(c)])] = o[static_cast<std::size_t>(pick)];
+            }
+            const BlockResult r = impl.solveBlock(block, scratch->prepared, trial, false, values);
+            double distance = 0.0;
+            for (const int p : columns) {
+                const std::size_t i = static_cast<std::size_t>(p);
+                distance += (trial[i] - values[i]) * (trial[i] - values[i]);
+            }
+            const double slack = 1e-9 * std::min(r.cost, bestCost) + 1e-12;
+            const bool cheaper = r.cost < bestCost - slack;
+            const bool asCheapAndNearer = r.cost <= bestCost + slack && distance < bestDistance;
+            if (cheaper || asCheapAndNearer) {
+                bestCost = std::min(r.cost, bestCost);
+                bestDistance = distance;
+                best.assign(trial.begin(), trial.end());
+            }
+        }
+        if (!std::isfinite(bestCost)) continue;  // no start gave a finite cost: leave these parameters alone
+        // solveBlock kept each result nearest the values given (whole turns, Euler triples).
+        for (const int p : columns) values[static_cast<std::size_t>(p)] = best[static_cast<std::size_t>(p)];
+    }
+    return TerminationType::converged;
+}
+
+SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<double> values) const
+{
+    Impl& impl = *impl_;
+    const Approximation& approximation = impl.approximation;
+    Borrowed<SolveScratch> scratch(impl.scratchPool, [] { return std::make_unique<SolveScratch>(); });
+    SolveSummary summary;
+    std::shared_ptr<const Plan> plan;
+    impl.prepare(targets, values, *scratch, plan, summary.termination);
+    if (summary.termination == TerminationType::invalidTargets) return summary;
+    const Partition& partition = plan->partition;
 
     // Costs and errors over every counted output, the outputs no parameter reaches included.
     auto measure = [&](bool final) {
@@ -567,6 +745,7 @@ SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<doubl
             summary.maxPositionErrorCm = std::max(summary.maxPositionErrorCm, position);
             summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, rotation * 180.0 / std::numbers::pi);
             const double combined = std::max(position, impl.options.rotationScaleCm * rotation);
+            if (!(combined <= impl.options.targetTolerance)) summary.missedOutputs.push_back(static_cast<int>(k));
             if (combined > worst) {
                 worst = combined;
                 summary.worstOutput = approximation.outputs[k].name;
@@ -610,8 +789,9 @@ SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<doubl
         converged = converged && r.converged;
     }
     summary.iterations = summary.gaussNewtonIterations + summary.levenbergMarquardtIterations;
-    summary.termination = converged ? TerminationType::converged : TerminationType::noConvergence;
     measure(true);
+    if (!converged) summary.termination = TerminationType::noConvergence;
+    else summary.termination = summary.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
     return summary;
 }
 

@@ -7,6 +7,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "inversion/approximation.h"
 #include "inversion/jacobian.h"
@@ -15,7 +16,9 @@
 namespace rig {
 
 enum class TerminationType {
-    converged,       // a tolerance below was met in every block
+    converged,       // converged to the targets: a tolerance was met in every block, every target within targetTolerance
+    stuck,           // stationary with a residual: a tolerance was met, but some target is further than targetTolerance
+                     // (out of the rig's reach, or a local minimum: SolveSummary::missedOutputs says where)
     noConvergence,   // some block used its maxIterations (or its Jacobian stopped being finite)
     invalidTargets,  // an active target is not usable (non-finite, negative weight, singular): values left unchanged
     noTargets,       // no active target, or no parameter reaches one: values left unchanged
@@ -42,6 +45,10 @@ struct SolverOptions {
     double parameterTolerance = 1e-10;
     // Converged when the projected gradient max_i |x_i - clamp(x_i - g_i)| is at most this (g = J^T r).
     double gradientTolerance = 1e-12;
+    // A target is reached when max(position error, rotationScaleCm * rotation error in radians) is at most
+    // this, cm, on the halves it counts. A solve that meets a tolerance above with some target further
+    // away ends `stuck` (stationary with a residual), not `converged`.
+    double targetTolerance = 1e-3;
     JacobianMethod jacobian = JacobianMethod::analytic;
     // Largest change of an angular parameter in one iteration, radians (default 0.5, about 30 degrees):
     // a longer step is shortened, whole, to this. The linear model of a rotation is only good for a
@@ -75,6 +82,9 @@ struct SolveSummary {
     double maxRotationErrorDeg = 0.0;
     // The output with the largest max(position error, rotationScaleCm * rotation error in radians).
     std::string worstOutput;
+    // Outputs (indices into Approximation::outputs, increasing) further than targetTolerance from their
+    // targets at the end: where a stuck or unconverged solve left a residual. Empty when converged.
+    std::vector<int> missedOutputs;
     int blocks = 0;  // partition blocks solved
 
     // One line: termination, iterations, blocks, costs, worst errors.
@@ -97,6 +107,17 @@ public:
     // Const and thread-safe: many threads may solve with one Solver at once.
     // Throws std::invalid_argument for wrong sizes or a non-finite value of a parameter it would solve.
     SolveSummary solve(std::span<const JointTarget> targets, std::span<double> values) const;
+
+    // A start found from the approximation's structure instead of from the warm start (DESIGN: cold
+    // starts), for a solve far from the answer: the outputs are taken parents first, and each output's
+    // target fixes the parameters that reach it and no output before it, by a small solve on that output
+    // alone from several starts a third of a turn apart (each rotation's equivalent values), the others
+    // held. With parent-relative operators that is each joint's local transform decomposed in its
+    // channels. `values`: in, the values to start from (rest, or the previous frame); out, the guess.
+    // Parameters that reach no counted target keep their values. invalidTargets and noTargets leave
+    // `values` alone, as solve() does; returns the termination a solve would start with (converged: a guess
+    // was made). Throws as solve() does.
+    TerminationType initialGuess(std::span<const JointTarget> targets, std::span<double> values) const;
 
     const SolverOptions& options() const;
     const Approximation& approximation() const;

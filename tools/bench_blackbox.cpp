@@ -9,20 +9,8 @@
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
 
-#include "inversion/operators.h"
 
 namespace rig::bench {
-namespace {
-
-// The rotation of a world matrix: itself when it is orthonormal to rounding (the common case, and the
-// solver's shortcut), else the polar part.
-Eigen::Matrix3d orientation(const Eigen::Matrix3d& a)
-{
-    if (((a.transpose() * a) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-10) return a;
-    return orthonormalPart(a);
-}
-
-}  // namespace
 
 BlackBoxProblem::BlackBoxProblem(RigBinding& binding, double rotationScaleCm)
     : binding_(binding), rotationScaleCm_(rotationScaleCm)
@@ -56,14 +44,8 @@ double BlackBoxProblem::residuals(std::span<const double> values, Eigen::VectorX
     r.resize(rows());
     for (std::size_t o = 0; o < active_.size(); ++o) {
         const auto k = static_cast<std::size_t>(active_[o]);
-        const PreparedTarget& t = prepared_[k];
-        const Eigen::Matrix4d& w = worlds_[k];
-        const auto row = static_cast<Eigen::Index>(6 * o);
-        // As the solver's residual: weighted position, then the weighted log of the relative rotation of
-        // the orthonormal parts.
-        r.segment<3>(row) = t.positionWeight * (w.block<3, 1>(0, 3) - t.position);
-        const Eigen::Matrix3d a = w.block<3, 3>(0, 0);
-        r.segment<3>(row + 3) = t.rotationWeight * rotationVector(t.rotation.transpose() * orientation(a));
+        // The solver's own residual rows, on the real rig's world matrix.
+        r.segment<6>(static_cast<Eigen::Index>(6 * o)) = targetResidual(worlds_[k], prepared_[k]);
     }
     return 0.5 * r.squaredNorm();
 }

@@ -1,5 +1,6 @@
 // rig-invert: inverts a clip of target joints to rig parameter curves with a learned approximation,
 // and measures the result on the real rig (docs/rig-invert.md).
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <numbers>
@@ -35,6 +36,7 @@ struct Options {
     std::string jacobian = "analytic";
     int polish = 0;
     int restartEvery = ClipInversionOptions{}.restartInterval;
+    bool restStarts = false;
     bool quiet = false;
 };
 
@@ -76,14 +78,20 @@ std::string reportJson(const Options& o, const Approximation& a, const TargetCli
                        const ClipTargets& targets, const ClipInversionSummary& s, const std::string& curvesFingerprint)
 {
     cli::Json perFrame = cli::Json::array();
-    for (const auto& f : s.perFrame)
+    for (const auto& f : s.perFrame) {
+        cli::Json missed = cli::Json::array();
+        for (const int k : f.solve.missedOutputs) missed.push_back(a.outputs[static_cast<std::size_t>(k)].name);
         perFrame.push_back({{"frame", cli::numberJson(clip.frameNumbers[f.frame])},
                             {"termination", terminationName(f.solve.termination)},
+                            {"missed_joints", std::move(missed)},
                             {"iterations", f.solve.iterations},
                             {"position_error_cm", cli::numberJson(f.positionErrorCm)},
                             {"rotation_error_deg", cli::numberJson(f.rotationErrorDeg)},
                             {"worst_joint", f.worstJoint},
                             {"non_finite_joint", f.nonFiniteJoint.empty() ? cli::Json() : cli::Json(f.nonFiniteJoint)}});
+    }
+    cli::Json stuckJoints = cli::Json::object();
+    for (const auto& [joint, frames] : s.stuckJoints) stuckJoints[joint] = frames;
     const cli::Json report{
         {"approximation", o.approximation},
         {"rig", o.rig},
@@ -92,6 +100,8 @@ std::string reportJson(const Options& o, const Approximation& a, const TargetCli
         {"target_joints", targets.matchedJoints},
         {"frames", s.frames},
         {"converged_frames", s.convergedFrames},
+        {"stuck_frames", s.stuckFrames},
+        {"stuck_joints", std::move(stuckJoints)},
         {"max_position_error_cm", cli::numberJson(s.maxPositionErrorCm)},
         {"mean_position_error_cm", cli::numberJson(s.meanPositionErrorCm)},
         {"max_rotation_error_deg", cli::numberJson(s.maxRotationErrorDeg)},
@@ -122,7 +132,18 @@ void printReport(const Options& o, const Approximation& a, const TargetClip& cli
         std::cout << fmt::format("{:>8}  {:<14} {:>5}  {:>12.4g}  {:>12.4g}  {}\n", clip.frameNumbers[f.frame],
                                  terminationName(f.solve.termination), f.solve.iterations, f.positionErrorCm,
                                  f.rotationErrorDeg, f.worstJoint);
-    std::cout << fmt::format("\nframes            {} ({} converged)\n", s.frames, s.convergedFrames);
+    std::cout << fmt::format("\nframes            {} ({} converged to the targets, {} stuck: stationary with a "
+                             "residual, {} not converged)\n",
+                             s.frames, s.convergedFrames, s.stuckFrames, s.frames - s.convergedFrames - s.stuckFrames);
+    if (!s.stuckJoints.empty()) {
+        // The joints a stuck frame left short of their targets, most often first.
+        std::string joints;
+        const std::size_t shown = std::min<std::size_t>(s.stuckJoints.size(), 6);
+        for (std::size_t i = 0; i < shown; ++i)
+            joints += fmt::format("{}{} ({} frames)", i ? ", " : "", s.stuckJoints[i].first, s.stuckJoints[i].second);
+        if (shown < s.stuckJoints.size()) joints += fmt::format(" and {} more", s.stuckJoints.size() - shown);
+        std::cout << fmt::format("stuck joints      {}\n", joints);
+    }
     if (s.nonFiniteFrames > 0)
         std::cout << fmt::format("real rig          NOT FINITE at {} frames (first: {} at frame {})\n", s.nonFiniteFrames,
                                  s.firstNonFiniteJoint, clip.frameNumbers[s.firstNonFiniteFrame]);
@@ -160,6 +181,7 @@ int run(const Options& o)
                                 o.restartEvery, ClipInversionOptions{}.restartInterval));
     options.polishCorrections = o.polish;
     options.restartInterval = o.restartEvery;
+    options.coldStart = !o.restStarts;
     try {
         options.validate();
     }
@@ -298,6 +320,8 @@ int main(int argc, char** argv)
     app.add_option("--polish", options.polish, "Real-rig corrections per frame (0: approximation only)");
     app.add_option("--restart-every", options.restartEvery,
                    "Frames between warm-start restarts (chunks of a clip then match one run)");
+    app.add_flag("--rest-starts", options.restStarts,
+                 "Restart frames start from the rest values instead of the approximation's initial guess");
     app.add_flag("--strict", options.strict, "Refuse an approximation learned from another version of the rig");
     app.add_option("--plugin", options.plugins, "Load a plugin before reading the rig");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors and warnings");

@@ -6,7 +6,8 @@
 // Warm start (a stateful node, as production solvers are): an evaluation at time t starts from the
 // solution at t - 1 when the previous evaluation was at t - 1, from the same start again when it was at t,
 // and from the rest values otherwise (the first evaluation, scrubbing backwards, a jump) and at restart
-// frames (t - startFrame a multiple of restartInterval). rig-invert follows the same rule, so the node
+// frames (t - startFrame a multiple of restartInterval); a start from rest is made a cold start
+// (Solver::initialGuess) unless `coldStart` is off. rig-invert follows the same rule, so the node
 // played frame after frame gives rig-invert's curves.
 #include <cmath>
 #include <memory>
@@ -37,10 +38,12 @@ enum Attr : AttrId {
     threads,
     partition,
     restartInterval,
+    coldStart,
     startFrame,
     sceneTime,
     value,
     converged,
+    stuck,
     iterations,
     worstErrorCm,
     parameterNames,
@@ -128,9 +131,10 @@ public:
         const double sinceStart = t - c.getDouble(startFrame);
         const bool restartFrame = sinceStart == std::floor(sinceStart) &&
                                   std::fmod(sinceStart, static_cast<double>(interval)) == 0.0;
-        if (solution_.empty() || restartFrame || !(t == previousTime_ || t == previousTime_ + 1.0))
+        if (solution_.empty() || restartFrame || !(t == previousTime_ || t == previousTime_ + 1.0)) {
             start_ = a.defaults();
-        else if (t != previousTime_)
+            if (c.getBool(coldStart)) loaded_->solver->initialGuess(targets, start_);
+        } else if (t != previousTime_)
             start_ = solution_;
         solution_ = start_;
         const SolveSummary summary = loaded_->solver->solve(targets, solution_);
@@ -143,6 +147,7 @@ public:
         }
         c.setOutputElements(value, std::move(values));
         c.setOutput(converged, summary.converged());
+        c.setOutput(stuck, summary.termination == TerminationType::stuck);
         c.setOutput(iterations, summary.iterations);
         c.setOutput(worstErrorCm, summary.maxPositionErrorCm);
         std::vector<std::string> names;
@@ -294,11 +299,16 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
         .doc("Solve independent limbs as separate problems.");
     b.input(restartInterval, "restartInterval", ValueType::Int).defaultValue(120).min(1)
         .doc("Frames between warm-start restarts, as rig-invert --restart-every.");
+    b.input(coldStart, "coldStart", ValueType::Bool).defaultValue(true)
+        .doc("A restart starts from the approximation's initial guess for the targets, not from rest (rig-invert "
+             "--rest-starts turns it off).");
     b.input(startFrame, "startFrame", ValueType::Double).defaultValue(1.0).doc("The clip's first frame.");
     b.input(sceneTime, "time", ValueType::Double).unit(Unit::Time).sceneTime().doc("The frame being solved.");
     b.output(value, "value", ValueType::Double).array()
         .doc("Each parameter of the approximation, angles in degrees (unitless).");
-    b.output(converged, "converged", ValueType::Bool).doc("The solve converged.");
+    b.output(converged, "converged", ValueType::Bool).doc("The solve converged to the targets (within 1e-3 cm).");
+    b.output(stuck, "stuck", ValueType::Bool)
+        .doc("The solve stopped at a stationary point with a residual: a target is out of reach, or a local minimum.");
     b.output(iterations, "iterations", ValueType::Int).doc("Solver iterations of this evaluation.");
     b.output(worstErrorCm, "worstErrorCm", ValueType::Double)
         .doc("Worst target position error on the approximation, cm.");

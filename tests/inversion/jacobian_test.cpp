@@ -18,8 +18,8 @@ namespace {
 
 constexpr double rotationScale = 10.0;
 
-// The residuals of jacobian.h, written again from their definition: position difference, and the
-// rotation vector of Q_target^T Q with Q the polar part of the world's 3x3 block.
+// The residuals of jacobian.h, written again from their definition: position difference, and
+// 2 sin(theta / 2) times the axis of Q_target^T Q (theta in [0, pi]) with Q the polar part of the world's 3x3 block.
 Eigen::VectorXd referenceResiduals(const Approximation& a, const std::vector<JointTarget>& targets,
                                    std::span<const double> values)
 {
@@ -35,7 +35,8 @@ Eigen::VectorXd referenceResiduals(const Approximation& a, const std::vector<Joi
         const Eigen::Vector3d dp = worlds[k].block<3, 1>(0, 3) - targets[k].world.block<3, 1>(0, 3);
         const Eigen::AngleAxisd aa(Eigen::Matrix3d(orthonormal(targets[k].world.block<3, 3>(0, 0)).transpose() *
                                                    orthonormal(worlds[k].block<3, 3>(0, 0))));
-        const Eigen::Vector3d e = aa.angle() * aa.axis();
+        const double angle = std::remainder(aa.angle(), 2 * std::numbers::pi);  // [-pi, pi]: the same rotation
+        const Eigen::Vector3d e = 2 * std::sin(angle / 2) * aa.axis();
         for (int i = 0; i < 3; ++i) r.push_back(targets[k].positionWeight * dp[i]);
         for (int i = 0; i < 3; ++i) r.push_back(targets[k].rotationWeight * rotationScale * e[i]);
     }
@@ -60,8 +61,8 @@ Eigen::MatrixXd referenceJacobian(const Approximation& a, const std::vector<Join
 }
 
 // Targets from the approximation at another random pose, with random weights, a target rotation
-// scaled and sheared, and outputs whose rotation error would come near pi (where the logarithm jumps)
-// left inactive.
+// scaled and sheared, and outputs whose rotation error would come near pi (where the half-angle
+// residual changes sign) left inactive.
 std::vector<JointTarget> randomTargets(const Approximation& a, std::span<const double> values, std::mt19937& rng)
 {
     const std::vector<double> other = test::randomValues(a, rng);

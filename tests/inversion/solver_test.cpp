@@ -2,6 +2,8 @@
 // parameters, invalid targets, partitioned against whole solves, thread counts, the polish on the real rig.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+
 #include <cstring>
 #include <numbers>
 #include <random>
@@ -144,7 +146,9 @@ TEST_CASE("solver: limits are respected, and a target past a limit ends on it")
         CHECK(values[static_cast<std::size_t>(shoulderY)] == 1.5);
         CHECK(summary.finalCost > 1.0);  // unreachable within the limits
         CHECK(summary.finalCost < summary.initialCost);
-        CHECK(summary.converged());
+        // Stationary with a residual: stuck, not converged to the targets.
+        CHECK(summary.termination == TerminationType::stuck);
+        CHECK(!summary.missedOutputs.empty());
         if (gaussNewton == 0) CHECK(summary.gaussNewtonIterations == 0);
     }
     // A warm start outside the limits is moved onto them.
@@ -425,16 +429,18 @@ TEST_CASE("solver: the summary reports termination, iterations, costs and the wo
     targets[3].world(0, 3) += 50;  // the hand out of reach
     std::vector<double> values = a.defaults();
     const SolveSummary summary = solver.solve(targets, values);
-    CHECK(summary.converged());
+    CHECK(summary.termination == TerminationType::stuck);  // stationary, with the hand left short
+    CHECK(std::find(summary.missedOutputs.begin(), summary.missedOutputs.end(), 3) != summary.missedOutputs.end());
     CHECK(summary.iterations == summary.gaussNewtonIterations + summary.levenbergMarquardtIterations);
     CHECK(summary.iterations > 0);
     CHECK(summary.worstOutput == "hand");
     CHECK(summary.maxPositionErrorCm > 1.0);
     CHECK(summary.blocks == 1);
     const std::string report = summary.briefReport();
-    CHECK(report.starts_with("converged: "));
+    CHECK(report.starts_with("stuck: "));
     CHECK(report.find("(worst output hand)") != std::string::npos);
     CHECK(terminationName(TerminationType::noConvergence) == "noConvergence");
+    CHECK(terminationName(TerminationType::converged) == "converged");
     CHECK(terminationName(TerminationType::noTargets) == "noTargets");
     // One iteration is not enough from the rest pose.
     SolverOptions once;
@@ -470,7 +476,7 @@ TEST_CASE("polish: corrections on the real rig take a rotation-like knee's error
         }
         std::vector<double> values = a.defaults();
         const SolveSummary summary = solver.solve(targets, values);
-        CHECK(summary.converged());
+        CHECK(summary.termination == TerminationType::stuck);  // the real rig's pose is not the approximation's
         const std::uint64_t before = rig.evaluationCount();
         const PolishSummary p = polish(solver, binding, targets, values, 4);
         CAPTURE(p.positionErrorBeforeCm);

@@ -140,7 +140,15 @@ TEST_CASE("rig-invert: the CMU clip on the biped leaves a finite residual that i
     MESSAGE("biped residual on 01_01 frames 1-240: worst " << rep["max_position_error_cm"].as<double>() << " cm, "
                                                            << rep["max_rotation_error_deg"].as<double>() << " deg, mean "
                                                            << rep["mean_position_error_cm"].as<double>() << " cm");
-    CHECK(rep["converged_frames"].as<int>() == 240);
+    // Out of the rig's exact reach after the calibration pose: stationary with a residual, every frame
+    // accounted for, and the joints left short named.
+    CHECK(rep["converged_frames"].as<int>() + rep["stuck_frames"].as<int>() == 240);
+    CHECK(rep["stuck_frames"].as<int>() >= 230);
+    CHECK(rep["stuck_joints"].size() > 0);
+    CHECK(r.out.find("stuck joints      ") != std::string::npos);
+    for (std::size_t i = 0; i < rep["per_frame"].size(); ++i)
+        if (rep["per_frame"][i]["termination"].as<std::string>() == "stuck")
+            CHECK(rep["per_frame"][i]["missed_joints"].size() > 0);
     CHECK(std::isfinite(rep["max_position_error_cm"].as<double>()));
     // The spine and neck share their rotations and the knee is a hinge: a residual of a few cm, no more.
     CHECK(rep["max_position_error_cm"].as<double>() < 5.0);
@@ -249,7 +257,12 @@ TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keep
     REQUIRE(r.exitCode == 0);
     const auto rep = YAML::LoadFile((dir / "report.json").string());
     CHECK(rep["frames"].as<int>() == 3);
-    CHECK(rep["converged_frames"].as<int>() == 2);
+    // Frame 3's elbow is bent by the arm's animation (arm_ctrl.bend, not a parameter here): out of reach,
+    // so stationary with a residual on the arm's joints.
+    CHECK(rep["converged_frames"].as<int>() == 1);
+    CHECK(rep["stuck_frames"].as<int>() == 1);
+    CHECK(rep["per_frame"][2]["termination"].as<std::string>() == "stuck");
+    CHECK(rep["stuck_joints"]["elbow"].as<int>() == 1);
     CHECK(rep["per_frame"][1]["termination"].as<std::string>() == "invalidTargets");
     CHECK(r.out.find("invalidTargets") != std::string::npos);
     const std::string curves = test::readFile(dir / "curves.json");
