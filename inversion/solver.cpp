@@ -19,6 +19,8 @@
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "inversion/block_elimination.h"
+
 namespace rig {
 namespace {
 
@@ -72,7 +74,7 @@ private:
 
 // Everything one block's solve touches, sized once for the block.
 struct BlockWorkspace {
-    explicit BlockWorkspace(const ResidualStructure& structure)
+    BlockWorkspace(const ResidualStructure& structure, const BlockElimination* coupled)
         : residual(structure),
           x(static_cast<std::size_t>(structure.columnCount())),
           trial(x.size()),
@@ -90,6 +92,7 @@ struct BlockWorkspace {
           eigen(structure.columnCount()),
           fixed(x.size(), 0)
     {
+        if (coupled) elimination = std::make_unique<BlockEliminationWorkspace>(*coupled);
     }
     ResidualWorkspace residual;
     std::vector<double> x, trial;
@@ -98,6 +101,7 @@ struct BlockWorkspace {
     Eigen::LLT<Eigen::MatrixXd> llt;
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
     std::vector<char> fixed;
+    std::unique_ptr<BlockEliminationWorkspace> elimination;  // a coupled plan's step (inversion/block_elimination.h)
 };
 
 // The period of a control whose every operator is a rotation with a linear magnitude of the same size
@@ -166,6 +170,8 @@ struct BlockPlan {
     std::vector<double> period;  // > 0: the values x and x + period give the same pose (see rotationPeriod)
     std::vector<double> defaults;
     std::vector<std::array<int, 3>> triples;  // columns that may be Euler angles of one rotation (eulerTriple)
+    // Set for a partition's coupled solve: the blocks' step by elimination instead of one dense system.
+    std::unique_ptr<BlockElimination> elimination;
     mutable Pool<BlockWorkspace> pool;
 };
 
@@ -223,11 +229,24 @@ private:
 
 // The partition for one set of counted rows, with what its blocks need.
 struct Plan {
-    Plan(const Approximation& approximation, Partition p, std::vector<int> counted)
+    Plan(const Approximation& approximation, Partition p, std::vector<int> counted, bool coupledBlocks)
         : partition(std::move(p)), whole(approximation, {}, std::move(counted))
     {
         for (const PartitionBlock& block : partition.blocks) blocks.push_back(std::make_unique<BlockPlan>(approximation, block));
+        if (!coupledBlocks || partition.blocks.size() < 2) return;
+        PartitionBlock all;
+        for (const PartitionBlock& block : partition.blocks) {
+            all.parameters.insert(all.parameters.end(), block.parameters.begin(), block.parameters.end());
+            all.outputs.insert(all.outputs.end(), block.outputs.begin(), block.outputs.end());
+        }
+        std::sort(all.parameters.begin(), all.parameters.end());
+        std::sort(all.outputs.begin(), all.outputs.end());
+        coupled = std::make_unique<BlockPlan>(approximation, all);
+        coupled->elimination = std::make_unique<BlockElimination>(partition, coupled->structure);
     }
+    // Every block solved at once, its step by block elimination (SolverOptions::coupledBlocks); null
+    // when the blocks are solved one after another or there is one block.
+    std::unique_ptr<BlockPlan> coupled;
     // The steps of initialGuess, made when first needed: parents first, each counted output with the
     // solved parameters that reach it and no output before it.
     const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation) const
@@ -360,7 +379,7 @@ struct Solver::Impl {
         for (std::size_t k = 0; k < rows.size(); ++k)
             if (rows[k] != noRows) counted.push_back(static_cast<int>(k));
         auto made = std::make_shared<const Plan>(approximation, partitionProblem(approximation, rows, options.partition),
-                                                 std::move(counted));
+                                                 std::move(counted), options.coupledBlocks);
         std::lock_guard lock(plansMutex);
         if (plans.size() >= maxCachedPlans) return made;
         return plans.emplace(key, std::move(made)).first->second;  // another thread's, if it was first
@@ -465,7 +484,8 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
                                      std::span<double> values, bool parallel, std::span<const double> reference) const
 {
     const ResidualStructure& structure = block.structure;
-    Borrowed<BlockWorkspace> borrowed(block.pool, [&] { return std::make_unique<BlockWorkspace>(structure); });
+    Borrowed<BlockWorkspace> borrowed(block.pool,
+                                      [&] { return std::make_unique<BlockWorkspace>(structure, block.elimination.get()); });
     BlockWorkspace& w = *borrowed;
     const auto& columns = structure.columns();
     const std::size_t n = columns.size();
@@ -504,28 +524,33 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
             result.converged = true;
             break;
         }
-        if (n <= smallBlock) {
-            w.H.noalias() = w.J.transpose().lazyProduct(w.J);
-        } else {
-            w.H.setZero();
-            w.H.selfadjointView<Eigen::Lower>().rankUpdate(w.J.transpose());
-        }
         w.gFree = w.g;
-        for (std::size_t c = 0; c < n; ++c) {
-            if (!w.fixed[c]) continue;
-            const Eigen::Index i = static_cast<Eigen::Index>(c);
-            w.H.row(i).head(i).setZero();
-            w.H.col(i).tail(static_cast<Eigen::Index>(n) - i - 1).setZero();
-            w.H(i, i) = 1.0;
-            w.gFree[i] = 0.0;
+        for (std::size_t c = 0; c < n; ++c)
+            if (w.fixed[c]) w.gFree[static_cast<Eigen::Index>(c)] = 0.0;
+        double largest = 0.0;  // of the free columns' diagonal of J^T J
+        if (w.elimination) {
+            largest = w.elimination->form(w.J, w.fixed);
+        } else {
+            if (n <= smallBlock) {
+                w.H.noalias() = w.J.transpose().lazyProduct(w.J);
+            } else {
+                w.H.setZero();
+                w.H.selfadjointView<Eigen::Lower>().rankUpdate(w.J.transpose());
+            }
+            for (std::size_t c = 0; c < n; ++c) {
+                const Eigen::Index i = static_cast<Eigen::Index>(c);
+                if (!w.fixed[c]) {
+                    largest = std::max(largest, w.H(i, i));
+                    continue;
+                }
+                w.H.row(i).head(i).setZero();
+                w.H.col(i).tail(static_cast<Eigen::Index>(n) - i - 1).setZero();
+                w.H(i, i) = 1.0;
+            }
         }
-        if (!gaussNewton && mu == 0.0) {
-            double largest = 0.0;
-            for (std::size_t c = 0; c < n; ++c)
-                if (!w.fixed[c]) largest = std::max(largest, w.H(static_cast<Eigen::Index>(c), static_cast<Eigen::Index>(c)));
-            mu = largest > 0 ? initialDamping * largest : initialDamping;
-        }
-        if (!solveStep(w, gaussNewton ? 0.0 : mu)) break;
+        if (!gaussNewton && mu == 0.0) mu = largest > 0 ? initialDamping * largest : initialDamping;
+        const double damping = gaussNewton ? 0.0 : mu;
+        if (!(w.elimination ? w.elimination->solve(w.gFree, damping, w.delta) : solveStep(w, damping))) break;
         // The rotation trust region (SolverOptions::maxAngularStep): shorten the whole step, keeping its direction.
         double largestTurn = 0.0;
         for (std::size_t c = 0; c < n; ++c)
@@ -761,13 +786,15 @@ SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<doubl
     }
 
     auto& results = scratch->results;
-    results.assign(partition.blocks.size(), BlockResult{});
     const bool parallel = impl.options.threads != 1;
+    results.assign(plan->coupled ? 1 : partition.blocks.size(), BlockResult{});
     const std::function<void(int)> solveOne = [&](int b) {
         results[static_cast<std::size_t>(b)] =
             impl.solveBlock(*plan->blocks[static_cast<std::size_t>(b)], scratch->prepared, values, parallel);
     };
-    if (!parallel || partition.blocks.size() == 1) {
+    if (plan->coupled) {
+        results[0] = impl.solveBlock(*plan->coupled, scratch->prepared, values, parallel);
+    } else if (!parallel || partition.blocks.size() == 1) {
         // Serially, in dependency order: the blocks are listed parents first.
         for (std::size_t b = 0; b < partition.blocks.size(); ++b) solveOne(static_cast<int>(b));
     } else {

@@ -59,6 +59,11 @@ struct SolverOptions {
     double finiteDifferenceStep = 1e-6;
     // Split the problem into blocks (inversion/partition.h); false solves every parameter together.
     bool partition = true;
+    // With partition: solve the blocks together, each step by eliminating the blocks of the partition
+    // tree from the leaves up (inversion/block_elimination.h), which reaches the whole problem's optimum.
+    // false: one block after another, each outer block fitted on its own outputs and then held (faster
+    // per frame, a worse optimum on unreachable targets).
+    bool coupledBlocks = true;
     // Threads for one solve: 0 uses the caller's task arena (all cores by default, and nested in a
     // caller's own tbb parallel loops), 1 runs serially without TBB, N > 1 uses the solver's own arena of
     // N (at most the machine's cores). The values are bit-identical for every count. Many concurrent solves: use 0 or 1.
