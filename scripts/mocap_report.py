@@ -15,6 +15,22 @@ import re
 import sys
 
 
+def stuck_joints(report, shown=6):
+    """The joints stuck frames left short of their targets, most often first: 'A, B (N frames each), C (M frames)'."""
+    joints = sorted(report["stuck_joints"].items(), key=lambda item: -item[1])  # stable: ties keep the report's order
+    groups = []
+    for name, frames in joints[:shown]:
+        if groups and groups[-1][1] == frames:
+            groups[-1][0].append(name)
+        else:
+            groups.append(([name], frames))
+    text = ", ".join(f"{', '.join(names)} ({frames} frame{'' if frames == 1 else 's'}{' each' if len(names) > 1 else ''})"
+                     for names, frames in groups)
+    if len(joints) > shown:
+        text += f" and {len(joints) - shown} more"
+    return text
+
+
 def main(graph_curves, invert_curves, invert_report, graph_stats):
     graph = json.load(open(graph_curves))
     invert = json.load(open(invert_curves))
@@ -29,7 +45,11 @@ def main(graph_curves, invert_curves, invert_report, graph_stats):
                 continue
             worst = max(worst, abs(g[name] - value))
     per_frame = re.search(r"([0-9.e+-]+) ms per frame", stats)
-    print(f"frames            {report['frames']} ({report['converged_frames']} converged)")
+    frames, converged, stuck = report["frames"], report["converged_frames"], report["stuck_frames"]
+    print(f"frames            {frames}: {converged} converged to the targets, {stuck} stuck (stationary with a residual),"
+          f" {frames - converged - stuck} not converged")
+    if report["stuck_joints"]:
+        print(f"stuck joints      {stuck_joints(report)}")
     print(f"real-rig error    worst {report['max_position_error_cm']:.3g} cm, {report['max_rotation_error_deg']:.3g} deg"
           f" ({report['worst_joint']} at frame {report['worst_frame']});"
           f" mean {report['mean_position_error_cm']:.3g} cm, {report['mean_rotation_error_deg']:.3g} deg")
