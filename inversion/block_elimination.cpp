@@ -29,6 +29,8 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
     size_.resize(blocks);
     chain_.resize(blocks);
     columns_.resize(blocks);
+    chainColumns_.resize(blocks);
+    chainSegments_.resize(blocks);
     blockOfColumn_.assign(static_cast<std::size_t>(structure.columnCount()), -1);
     localOfColumn_.assign(blockOfColumn_.size(), -1);
     std::vector<int> blockOfOutput(structure.outputs().size(), -1);
@@ -47,22 +49,26 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
     }
     if (std::find(blockOfColumn_.begin(), blockOfColumn_.end(), -1) != blockOfColumn_.end())
         throw std::invalid_argument("BlockElimination: a column of the problem is in no block");
-    for (std::size_t o = 0; o < blockOfOutput.size(); ++o) {
-        auto& columns = outputColumns_.emplace_back();
-        auto& segments = outputSegments_.emplace_back();
-        if (blockOfOutput[o] < 0) continue;  // reached by no block: zero rows
-        for (const int a : chain_[static_cast<std::size_t>(blockOfOutput[o])]) {
-            segments.push_back(static_cast<int>(columns.size()));
-            columns.insert(columns.end(), columns_[static_cast<std::size_t>(a)].begin(),
-                           columns_[static_cast<std::size_t>(a)].end());
+    blockRows_.resize(blocks);
+    for (std::size_t o = 0; o < blockOfOutput.size(); ++o)
+        if (blockOfOutput[o] >= 0) blockRows_[static_cast<std::size_t>(blockOfOutput[o])].push_back(static_cast<int>(o));
+    std::size_t mostRows = 0;
+    for (std::size_t b = 0; b < blocks; ++b) {
+        for (const int a : chain_[b]) {
+            chainSegments_[b].push_back(static_cast<int>(chainColumns_[b].size()));
+            chainColumns_[b].insert(chainColumns_[b].end(), columns_[static_cast<std::size_t>(a)].begin(),
+                                    columns_[static_cast<std::size_t>(a)].end());
         }
-        widest_ = std::max(widest_, static_cast<int>(columns.size()));
+        widest_ = std::max(widest_, static_cast<int>(chainColumns_[b].size()));
+        mostRows = std::max(mostRows, blockRows_[b].size());
     }
+    mostRows_ = static_cast<int>(mostRows);
     // Every column a row moves must be in that row's chain: the partition's promise, checked once.
     for (int c = 0; c < structure.columnCount(); ++c)
         for (const int o : structure.outputsOfColumn(c)) {
-            const auto& columns = outputColumns_[static_cast<std::size_t>(o)];
-            if (std::find(columns.begin(), columns.end(), c) == columns.end())
+            const int owner = blockOfOutput[static_cast<std::size_t>(o)];
+            const auto& columns = chainColumns_[static_cast<std::size_t>(owner < 0 ? 0 : owner)];
+            if (owner < 0 || std::find(columns.begin(), columns.end(), c) == columns.end())
                 throw std::invalid_argument("BlockElimination: a parameter moves an output outside its block's chain");
         }
 }
@@ -83,7 +89,7 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
         step_.emplace_back(elimination.size_[b]);
         scratch_.emplace_back(elimination.size_[b], elimination.widest_);
     }
-    gathered_.resize(rowsPerTarget, elimination.widest_);
+    gathered_.resize(rowsPerTarget * elimination.mostRows_, elimination.widest_);
     product_.resize(elimination.widest_, elimination.widest_);
 }
 
@@ -92,22 +98,28 @@ double BlockEliminationWorkspace::form(const Eigen::Ref<const Eigen::MatrixXd>& 
     const BlockElimination& e = *e_;
     for (auto& row : h_)
         for (auto& m : row) m.setZero();
-    for (std::size_t o = 0; o < e.outputColumns_.size(); ++o) {
-        const auto& columns = e.outputColumns_[o];
-        const auto& segments = e.outputSegments_[o];
-        if (columns.empty()) continue;
+    // Per block, its outputs' rows against its chain's columns at once: one product a block.
+    for (std::size_t b = 0; b < e.blockRows_.size(); ++b) {
+        const auto& rows = e.blockRows_[b];
+        if (rows.empty()) continue;
+        const auto& columns = e.chainColumns_[b];
+        const auto& segments = e.chainSegments_[b];
         const Eigen::Index m = static_cast<Eigen::Index>(columns.size());
-        auto g = gathered_.leftCols(m);
+        auto g = gathered_.topLeftCorner(static_cast<Eigen::Index>(rowsPerTarget * rows.size()), m);
         for (Eigen::Index i = 0; i < m; ++i) {
             const int c = columns[static_cast<std::size_t>(i)];
-            if (fixed[static_cast<std::size_t>(c)]) g.col(i).setZero();
-            else g.col(i) = jacobian.block<rowsPerTarget, 1>(static_cast<Eigen::Index>(rowsPerTarget * o), c);
+            if (fixed[static_cast<std::size_t>(c)]) {
+                g.col(i).setZero();
+                continue;
+            }
+            for (std::size_t r = 0; r < rows.size(); ++r)
+                g.block<rowsPerTarget, 1>(static_cast<Eigen::Index>(rowsPerTarget * r), i) =
+                    jacobian.block<rowsPerTarget, 1>(static_cast<Eigen::Index>(rowsPerTarget * rows[r]), c);
         }
         auto p = product_.topLeftCorner(m, m);
-        p.noalias() = g.transpose().lazyProduct(g);
-        const int owner = e.blockOfColumn_[static_cast<std::size_t>(columns.front())];
-        const auto& chain = e.chain_[static_cast<std::size_t>(owner)];
-        // The chain runs from the owner to the root: entry i's block against entry j >= i, an ancestor.
+        p.noalias() = g.transpose() * g;
+        // The chain runs from the block to its root: entry i's block against entry j >= i, an ancestor.
+        const auto& chain = e.chain_[b];
         for (std::size_t i = 0; i < chain.size(); ++i) {
             const std::size_t x = static_cast<std::size_t>(chain[i]);
             for (std::size_t j = i; j < chain.size(); ++j) {

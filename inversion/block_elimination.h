@@ -42,10 +42,12 @@ private:
     std::vector<std::vector<int>> chain_;     // per block: itself, then its ancestors up to its root
     std::vector<std::vector<int>> columns_;   // per block: its structure columns, in order
     std::vector<int> blockOfColumn_, localOfColumn_;
-    // Per output (structure position): its block's chain's columns, and where each chain block starts in them.
-    std::vector<std::vector<int>> outputColumns_;
-    std::vector<std::vector<int>> outputSegments_;
-    int widest_ = 0;  // the most columns of one output's chain
+    std::vector<std::vector<int>> blockRows_;      // per block: its outputs (structure positions)
+    // Per block: its chain's columns, and where each chain block starts in them.
+    std::vector<std::vector<int>> chainColumns_;
+    std::vector<std::vector<int>> chainSegments_;
+    int widest_ = 0;    // the most columns of one chain
+    int mostRows_ = 0;  // the most outputs of one block
 };
 
 // Per-solve state: the blocks of J^T J along each chain, the right-hand sides and the blocks' inverses.
