@@ -100,6 +100,7 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     std::vector<double> current = rest;
     std::vector<Eigen::Matrix4d> worlds;
     std::vector<int> stuckCount(approximation.outputs.size(), 0);
+    std::vector<double> stuckError(approximation.outputs.size(), 0.0);
     double positionSum = 0.0, rotationSum = 0.0;
     long long jointFrames = 0;
     using Clock = std::chrono::steady_clock;
@@ -146,7 +147,12 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         if (solve.converged()) ++summary.convergedFrames;
         if (solve.termination == TerminationType::stuck) {
             ++summary.stuckFrames;
-            for (const int k : solve.missedOutputs) ++stuckCount[static_cast<std::size_t>(k)];
+            for (const int k : solve.missedOutputs) {
+                const std::size_t o = static_cast<std::size_t>(k);
+                ++stuckCount[o];
+                const double e = (worlds[o].block<3, 1>(0, 3) - frameTargets[o].world.block<3, 1>(0, 3)).norm();
+                if (std::isfinite(e)) stuckError[o] = std::max(stuckError[o], e);
+            }
         }
         if (!result.nonFiniteJoint.empty() && summary.nonFiniteFrames++ == 0) {
             summary.firstNonFiniteJoint = result.nonFiniteJoint;
@@ -166,9 +172,9 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         summary.meanRotationErrorDeg = rotationSum / static_cast<double>(jointFrames);
     }
     for (std::size_t k = 0; k < stuckCount.size(); ++k)
-        if (stuckCount[k] > 0) summary.stuckJoints.emplace_back(approximation.outputs[k].name, stuckCount[k]);
+        if (stuckCount[k] > 0) summary.stuckJoints.push_back({approximation.outputs[k].name, stuckCount[k], stuckError[k]});
     std::stable_sort(summary.stuckJoints.begin(), summary.stuckJoints.end(),
-                     [](const auto& a, const auto& b) { return a.second > b.second; });
+                     [](const auto& a, const auto& b) { return a.worstErrorCm > b.worstErrorCm; });
     summary.msPerFrame = summary.frames > 0 ? 1000.0 * summary.solveSeconds / summary.frames : 0.0;
     return summary;
 }

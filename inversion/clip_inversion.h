@@ -67,9 +67,14 @@ struct ClipInversionSummary {
     int frames = 0;
     int convergedFrames = 0;  // converged to the targets on the approximation
     int stuckFrames = 0;      // stationary with a residual (TerminationType::stuck)
-    // Per output left further than targetTolerance by a stuck frame: its name and in how many stuck frames,
-    // most frames first (then in output order).
-    std::vector<std::pair<std::string, int>> stuckJoints;
+    // The outputs a stuck frame left further than targetTolerance, with how many stuck frames did and the
+    // real rig's worst position error there (cm), the largest error first: where the residual sits.
+    struct StuckJoint {
+        std::string name;
+        int frames = 0;
+        double worstErrorCm = 0.0;
+    };
+    std::vector<StuckJoint> stuckJoints;
     double maxPositionErrorCm = 0.0;    // real rig, over every active joint of every frame
     double meanPositionErrorCm = 0.0;   // mean over joints and frames
     double maxRotationErrorDeg = 0.0;

@@ -15,17 +15,12 @@ import re
 import sys
 
 
-def stuck_joints(report, shown=6):
-    """The joints stuck frames left short of their targets, most often first: 'A, B (N frames each), C (M frames)'."""
-    joints = sorted(report["stuck_joints"].items(), key=lambda item: -item[1])  # stable: ties keep the report's order
-    groups = []
-    for name, frames in joints[:shown]:
-        if groups and groups[-1][1] == frames:
-            groups[-1][0].append(name)
-        else:
-            groups.append(([name], frames))
-    text = ", ".join(f"{', '.join(names)} ({frames} frame{'' if frames == 1 else 's'}{' each' if len(names) > 1 else ''})"
-                     for names, frames in groups)
+def stuck_joints(report, shown=4):
+    """The joints stuck frames left short of their targets, the largest real-rig error first:
+    'A (1.4 cm, 239 frames), B (...) and N more'."""
+    joints = sorted(report["stuck_joints"].items(), key=lambda item: -item[1]["worst_position_error_cm"])
+    text = ", ".join(f"{name} ({j['worst_position_error_cm']:.3g} cm, {j['frames']} frame{'' if j['frames'] == 1 else 's'})"
+                     for name, j in joints[:shown])
     if len(joints) > shown:
         text += f" and {len(joints) - shown} more"
     return text

@@ -91,7 +91,8 @@ std::string reportJson(const Options& o, const Approximation& a, const TargetCli
                             {"non_finite_joint", f.nonFiniteJoint.empty() ? cli::Json() : cli::Json(f.nonFiniteJoint)}});
     }
     cli::Json stuckJoints = cli::Json::object();
-    for (const auto& [joint, frames] : s.stuckJoints) stuckJoints[joint] = frames;
+    for (const auto& joint : s.stuckJoints)
+        stuckJoints[joint.name] = {{"frames", joint.frames}, {"worst_position_error_cm", cli::numberJson(joint.worstErrorCm)}};
     const cli::Json report{
         {"approximation", o.approximation},
         {"rig", o.rig},
@@ -136,11 +137,12 @@ void printReport(const Options& o, const Approximation& a, const TargetClip& cli
                              "residual, {} not converged)\n",
                              s.frames, s.convergedFrames, s.stuckFrames, s.frames - s.convergedFrames - s.stuckFrames);
     if (!s.stuckJoints.empty()) {
-        // The joints a stuck frame left short of their targets, most often first.
+        // The joints stuck frames left short of their targets, the largest real-rig error first.
         std::string joints;
         const std::size_t shown = std::min<std::size_t>(s.stuckJoints.size(), 6);
         for (std::size_t i = 0; i < shown; ++i)
-            joints += fmt::format("{}{} ({} frames)", i ? ", " : "", s.stuckJoints[i].first, s.stuckJoints[i].second);
+            joints += fmt::format("{}{} ({:.3g} cm, {} frames)", i ? ", " : "", s.stuckJoints[i].name,
+                                  s.stuckJoints[i].worstErrorCm, s.stuckJoints[i].frames);
         if (shown < s.stuckJoints.size()) joints += fmt::format(" and {} more", s.stuckJoints.size() - shown);
         std::cout << fmt::format("stuck joints      {}\n", joints);
     }
