@@ -98,6 +98,9 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     summary.leadInFrames = first % options.restartInterval;
     values.clear();
     std::vector<double> current = rest;
+    std::vector<double> warm, retry;
+    double previousCost = 0.0;
+    const double retryFloor = 0.5 * options.solver.targetTolerance * options.solver.targetTolerance;
     std::vector<Eigen::Matrix4d> worlds;
     std::vector<int> stuckCount(approximation.outputs.size(), 0);
     std::vector<double> stuckError(approximation.outputs.size(), 0.0);
@@ -107,11 +110,31 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     for (int frame = first - summary.leadInFrames; frame <= last; ++frame) {
         const auto& frameTargets = targets.frames[frame];
         const auto start = Clock::now();
-        if (frame % options.restartInterval == 0) {
+        const bool restart = frame % options.restartInterval == 0;
+        if (restart) {
             current = rest;
             if (options.coldStart) solver.initialGuess(frameTargets, current);
         }
+        warm = current;
         SolveSummary solve = solver.solve(frameTargets, current);
+        bool retried = false, kept = false;
+        if (options.retryStuck && !restart && solve.termination == TerminationType::stuck &&
+            solve.finalCost > 2.0 * previousCost + retryFloor) {
+            retried = true;
+            retry = warm;
+            solver.initialGuess(frameTargets, retry);
+            SolveSummary second = solver.solve(frameTargets, retry);
+            if (second.finalCost < solve.finalCost * (1.0 - 1e-9) - retryFloor * 1e-6) {
+                kept = true;
+                second.iterations += solve.iterations;
+                second.gaussNewtonIterations += solve.gaussNewtonIterations;
+                second.levenbergMarquardtIterations += solve.levenbergMarquardtIterations;
+                second.initialCost = solve.initialCost;
+                solve = std::move(second);
+                current.swap(retry);
+            }
+        }
+        if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
         if (options.polishCorrections > 0 && solve.termination != TerminationType::invalidTargets)
             polish(solver, rig, frameTargets, current, options.polishCorrections);
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
@@ -144,6 +167,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
             result.rotationErrorDeg = std::max(result.rotationErrorDeg, r);
         }
         ++summary.frames;
+        summary.retriedFrames += retried;
+        summary.retriesKept += kept;
         if (solve.converged()) ++summary.convergedFrames;
         if (solve.termination == TerminationType::stuck) {
             ++summary.stuckFrames;

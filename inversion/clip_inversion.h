@@ -47,6 +47,11 @@ struct ClipInversionOptions {
     // Restart frames start from Solver::initialGuess (the approximation's structure decomposes each
     // joint's target) rather than from the rest values, which can lie in another basin of the cost.
     bool coldStart = true;
+    // A warm-started frame that ends stuck with a cost above twice the previous frame's (a jump into
+    // another basin: a gimbal lock passed, a fast turn) is solved again from Solver::initialGuess started
+    // at the warm start, and the cheaper answer kept. A clip the rig cannot reach exactly stays stuck
+    // at a steady cost and is not solved twice.
+    bool retryStuck = true;
     // Called after each reported frame with the fraction done; may be empty.
     std::function<void(double fraction)> progress;
 
@@ -67,6 +72,8 @@ struct ClipInversionSummary {
     int frames = 0;
     int convergedFrames = 0;  // converged to the targets on the approximation
     int stuckFrames = 0;      // stationary with a residual (TerminationType::stuck)
+    int retriedFrames = 0;    // solved again from the initial guess (retryStuck)
+    int retriesKept = 0;      // of which the second answer was cheaper and kept
     // The outputs a stuck frame left further than targetTolerance, with how many stuck frames did and the
     // real rig's worst position error there (cm), the largest error first: where the residual sits.
     struct StuckJoint {
