@@ -707,6 +707,7 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
         // Of the starts' answers, the cheapest; of those as cheap to rounding (another pose the joint's
         // controls reach equally well), the nearest the values given.
         double bestCost = std::numeric_limits<double>::infinity(), bestDistance = 0.0;
+        const double reachedCost = 0.5 * impl.options.targetTolerance * impl.options.targetTolerance * 1e-6;
         for (int start = 0; start < starts; ++start) {
             std::copy(values.begin(), values.end(), trial.begin());
             for (int c = 0, code = start; c < static_cast<int>(columns.size()); ++c) {
@@ -729,6 +730,8 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
                 bestDistance = distance;
                 best.assign(trial.begin(), trial.end());
             }
+            // The output reached: no start can do better, and the earliest start is the nearest given.
+            if (bestCost <= reachedCost) break;
         }
         if (!std::isfinite(bestCost)) continue;  // no start gave a finite cost: leave these parameters alone
         // solveBlock kept each result nearest the values given (whole turns, Euler triples).

@@ -23,6 +23,7 @@
 #include "nodes/clips/target_clip.h"
 #include "nodes/graph_rig_function.h"
 #include "tools/bench_blackbox.h"
+#include "tools/bench_cold_start.h"
 #ifdef RIG_BENCH_HAVE_CERES
 #include "tools/bench_ceres.h"
 #endif
@@ -35,6 +36,7 @@ BenchOptions quickOptions()
     o.frames = 240;
     o.ceresFrames = 120;
     o.blackBoxFrames = 10;
+    o.coldStartPoses = 100;
     o.timingBudget = 0.2;
     o.talkOrderer = false;
     o.crowdSizes = {1, 2};
@@ -234,6 +236,7 @@ struct Variant {
     JacobianMethod jacobian;
     bool partition;
     int polish;
+    bool coupledBlocks = true;
 };
 
 struct VariantResult {
@@ -249,6 +252,7 @@ VariantResult runVariant(const Variant& v, const Approximation& approximation, R
     options.threads = v.threads;
     options.jacobian = v.jacobian;
     options.partition = v.partition;
+    options.coupledBlocks = v.coupledBlocks;
     const Solver solver(approximation, options);
     VariantResult result;
     result.run = runChain(approximation, targets, 0, frames - 1, oursSolve(solver, binding, v.polish));
@@ -257,6 +261,7 @@ VariantResult runVariant(const Variant& v, const Approximation& approximation, R
                        {"threads", v.threads},
                        {"jacobian", std::string(jacobianMethodName(v.jacobian))},
                        {"partition", v.partition},
+                       {"coupled_blocks", v.partition && v.coupledBlocks},
                        {"polish", v.polish}};
     const Json figures = runJson(result.run, result.errors, v.threads == 1);
     for (const char* key : {"frames", "ms_per_frame", "cpu_ms_per_frame", "converged_frames", "mean_iterations",
@@ -431,6 +436,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
         {"fd, 2 threads", 2, JacobianMethod::finiteDifference, true, 0},
         {"analytic, whole problem, 1 thread", 1, JacobianMethod::analytic, false, 0},
         {"analytic, 1 thread, polish 1", 1, JacobianMethod::analytic, true, 1},
+        {"analytic, 1 thread, block by block", 1, JacobianMethod::analytic, true, 0, false},
     };
     Json variantRows = Json::array();
     std::vector<VariantResult> results;
@@ -475,6 +481,8 @@ void runBipedBench(const BenchOptions& o, Json& report)
                               {"fd_threads2_ms_per_frame", results[3].run.msPerFrame()},
                               {"whole_ms_per_frame", results[4].run.cpuMsPerFrame()},
                               {"polish1_ms_per_frame", results[5].run.cpuMsPerFrame()},
+                              {"block_by_block_ms_per_frame", results[6].run.cpuMsPerFrame()},
+                              {"block_by_block_mean_final_cost", results[6].json.at("mean_final_cost")},
                               {"blackbox_ms_per_frame", black.cpuMsPerFrame()},
                               {"blackbox_frames", black.frames()},
                               {"speedup_vs_blackbox_same_frames", blackJson.at("speedup")},
@@ -490,6 +498,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
     {
         const VariantResult oursPartitioned = runVariant(variants[0], approximation, binding, targets, ceresFrames);
         const VariantResult oursWhole = runVariant(variants[4], approximation, binding, targets, ceresFrames);
+        const VariantResult oursBlockByBlock = runVariant(variants[6], approximation, binding, targets, ceresFrames);
         Json rows = Json::array();
         std::optional<double> best;
         Json bestRow;
@@ -530,6 +539,8 @@ void runBipedBench(const BenchOptions& o, Json& report)
         ceres["ours_whole_ms_per_frame"] = oursWhole.run.cpuMsPerFrame();
         ceres["ours_mean_final_cost"] = oursPartitioned.json.at("mean_final_cost");
         ceres["ours_whole_mean_final_cost"] = oursWhole.json.at("mean_final_cost");
+        ceres["ours_block_by_block_ms_per_frame"] = oursBlockByBlock.run.cpuMsPerFrame();
+        ceres["ours_block_by_block_mean_final_cost"] = oursBlockByBlock.json.at("mean_final_cost");
         ceres["speedup_ours"] = orNull(ratio(best, oursPartitioned.run.cpuMsPerFrame()));
         ceres["speedup_ours_whole"] = orNull(ratio(best, oursWhole.run.cpuMsPerFrame()));
         ceres["variants"] = std::move(rows);
@@ -544,6 +555,9 @@ void runBipedBench(const BenchOptions& o, Json& report)
     accuracy["ceres"] = Json();
 #endif
     report["ceres"] = std::move(ceres);
+
+    say(o, "cold starts: random poses of the approximation from rest");
+    report["cold_start"] = coldStartJson(approximation, o.coldStartPoses);
 
     accuracy["approximation"] = headline.errors.toJson();
     accuracy["approximation_whole"] = results[4].errors.toJson();

@@ -25,6 +25,7 @@ struct BenchOptions {
     int frames = 2752;            // clip frames for our solver (capped by the clip)
     int ceresFrames = 600;        // for Ceres (each linear solver)
     int blackBoxFrames = 240;     // for Gauss-Newton on the real rig
+    int coldStartPoses = 1000;    // random poses solved from rest, with and without the initial guess
     double timingBudget = 1.0;    // seconds per timed operation
     bool talkOrderer = true;      // also train with the talk's orderer
     std::vector<int> crowdSizes;  // bipeds per crowd rig (79 parameters each)
@@ -39,7 +40,7 @@ BenchOptions quickOptions();  // under a minute on two cores
 BenchOptions fullOptions();   // under ten minutes
 
 // Jacobian, inversion, Ceres, training and accuracy on the biped: the objects "biped", "jacobian",
-// "invert", "blackbox", "ceres", "train" and "accuracy" are set in `report`.
+// "invert", "blackbox", "ceres", "cold_start", "train" and "accuracy" are set in `report`.
 void runBipedBench(const BenchOptions& options, Json& report);
 
 // Generated rigs: "scaling" (one row per rig) and "growth" (fitted exponents) are set in `report`.

@@ -33,6 +33,7 @@ struct Options {
     int threads = 0;
     bool strict = false;
     bool noPartition = false;
+    bool blockByBlock = false;
     std::string jacobian = "analytic";
     int polish = 0;
     int restartEvery = ClipInversionOptions{}.restartInterval;
@@ -102,6 +103,8 @@ std::string reportJson(const Options& o, const Approximation& a, const TargetCli
         {"frames", s.frames},
         {"converged_frames", s.convergedFrames},
         {"stuck_frames", s.stuckFrames},
+        {"retried_frames", s.retriedFrames},
+        {"retries_kept", s.retriesKept},
         {"stuck_joints", std::move(stuckJoints)},
         {"max_position_error_cm", cli::numberJson(s.maxPositionErrorCm)},
         {"mean_position_error_cm", cli::numberJson(s.meanPositionErrorCm)},
@@ -172,6 +175,7 @@ int run(const Options& o)
     ClipInversionOptions options;
     options.solver.threads = o.threads;
     options.solver.partition = !o.noPartition;
+    options.solver.coupledBlocks = !o.blockByBlock;
     if (o.jacobian == "analytic") options.solver.jacobian = JacobianMethod::analytic;
     else if (o.jacobian == "fd") options.solver.jacobian = JacobianMethod::finiteDifference;
     else throw Error(fmt::format("--jacobian {}: expected analytic or fd", o.jacobian));
@@ -318,7 +322,10 @@ int main(int argc, char** argv)
     app.add_option("--threads", options.threads, "Threads for the solver (0: all cores); results do not depend on it")
         ->check(rig::cli::threadCount());
     app.add_option("--jacobian", options.jacobian, "analytic (default) or fd (finite differences, in parallel)");
-    app.add_flag("--no-partition", options.noPartition, "Solve all parameters as one problem");
+    app.add_flag("--no-partition", options.noPartition, "Solve all parameters as one dense problem");
+    app.add_flag("--block-by-block", options.blockByBlock,
+                 "Solve the partition's blocks one after another, each outer block held (faster, a worse optimum "
+                 "on unreachable targets)");
     app.add_option("--polish", options.polish, "Real-rig corrections per frame (0: approximation only)");
     app.add_option("--restart-every", options.restartEvery,
                    "Frames between warm-start restarts (chunks of a clip then match one run)");
