@@ -82,6 +82,31 @@ std::string ClipInversionSummary::briefReport() const
                        meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
 }
 
+ChainFrame solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                           double previousCost, std::vector<double>& scratch)
+{
+    scratch = values;  // the warm start
+    ChainFrame frame;
+    frame.summary = solver.solve(targets, values);
+    const double tolerance = solver.options().targetTolerance;
+    const double floor = 0.5 * tolerance * tolerance;
+    if (!(previousCost < retryNever) || frame.summary.termination != TerminationType::stuck ||
+        !(frame.summary.finalCost > 2.0 * previousCost + floor))
+        return frame;
+    frame.retried = true;
+    solver.initialGuess(targets, scratch);
+    SolveSummary second = solver.solve(targets, scratch);
+    if (!(second.finalCost < frame.summary.finalCost * (1.0 - 1e-9) - floor * 1e-6)) return frame;
+    frame.kept = true;
+    second.iterations += frame.summary.iterations;
+    second.gaussNewtonIterations += frame.summary.gaussNewtonIterations;
+    second.levenbergMarquardtIterations += frame.summary.levenbergMarquardtIterations;
+    second.initialCost = frame.summary.initialCost;
+    frame.summary = std::move(second);
+    values.swap(scratch);
+    return frame;
+}
+
 ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first,
                                 int last, const ClipInversionOptions& options,
                                 std::vector<std::vector<double>>& values)
@@ -98,9 +123,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     summary.leadInFrames = first % options.restartInterval;
     values.clear();
     std::vector<double> current = rest;
-    std::vector<double> warm, retry;
+    std::vector<double> retry;
     double previousCost = 0.0;
-    const double retryFloor = 0.5 * options.solver.targetTolerance * options.solver.targetTolerance;
     std::vector<Eigen::Matrix4d> worlds;
     std::vector<int> stuckCount(approximation.outputs.size(), 0);
     std::vector<double> stuckError(approximation.outputs.size(), 0.0);
@@ -115,25 +139,10 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
             current = rest;
             if (options.coldStart) solver.initialGuess(frameTargets, current);
         }
-        warm = current;
-        SolveSummary solve = solver.solve(frameTargets, current);
-        bool retried = false, kept = false;
-        if (options.retryStuck && !restart && solve.termination == TerminationType::stuck &&
-            solve.finalCost > 2.0 * previousCost + retryFloor) {
-            retried = true;
-            retry = warm;
-            solver.initialGuess(frameTargets, retry);
-            SolveSummary second = solver.solve(frameTargets, retry);
-            if (second.finalCost < solve.finalCost * (1.0 - 1e-9) - retryFloor * 1e-6) {
-                kept = true;
-                second.iterations += solve.iterations;
-                second.gaussNewtonIterations += solve.gaussNewtonIterations;
-                second.levenbergMarquardtIterations += solve.levenbergMarquardtIterations;
-                second.initialCost = solve.initialCost;
-                solve = std::move(second);
-                current.swap(retry);
-            }
-        }
+        const ChainFrame solved = solveChainFrame(solver, frameTargets, current,
+                                                  options.retryStuck && !restart ? previousCost : retryNever, retry);
+        const SolveSummary& solve = solved.summary;
+        const bool retried = solved.retried, kept = solved.kept;
         if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
         if (options.polishCorrections > 0 && solve.termination != TerminationType::invalidTargets)
             polish(solver, rig, frameTargets, current, options.polishCorrections);

@@ -12,6 +12,7 @@
 // equivalent value nearest rest.
 
 #include <functional>
+#include <limits>
 #include <span>
 #include <string>
 #include <utility>
@@ -58,6 +59,20 @@ struct ClipInversionOptions {
     // Throws std::invalid_argument naming the field (and the solver's fields).
     void validate() const;
 };
+
+// One frame of a warm-start chain (invertClip and the rigInversion node): solve from `values` (the warm
+// start, out the solution). When it ends stuck at a cost above twice `previousCost` plus
+// 0.5 targetTolerance^2, it is solved again from Solver::initialGuess at the same warm start and the
+// cheaper answer is kept (ClipInversionOptions::retryStuck). `previousCost` = retryNever: no retry
+// (restart frames). `scratch` is reused storage.
+inline constexpr double retryNever = std::numeric_limits<double>::infinity();
+struct ChainFrame {
+    SolveSummary summary;  // of the answer kept; iterations of both solves when the second is kept
+    bool retried = false;
+    bool kept = false;     // the second answer was cheaper
+};
+ChainFrame solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                           double previousCost, std::vector<double>& scratch);
 
 struct FrameInversion {
     int frame = 0;                      // index in the clip, 0-based

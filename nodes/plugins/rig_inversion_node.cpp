@@ -7,7 +7,8 @@
 // solution at t - 1 when the previous evaluation was at t - 1, from the same start again when it was at t,
 // and from the rest values otherwise (the first evaluation, scrubbing backwards, a jump) and at restart
 // frames (t - startFrame a multiple of restartInterval); a start from rest is made a cold start
-// (Solver::initialGuess) unless `coldStart` is off. rig-invert follows the same rule, so the node
+// (Solver::initialGuess) unless `coldStart` is off, and a warm start that ends stuck after a jump in
+// cost is solved again from the guess (solveChainFrame). rig-invert follows the same rule, so the node
 // played frame after frame gives rig-invert's curves.
 #include <cmath>
 #include <memory>
@@ -22,6 +23,7 @@
 #include "graph/node_registry.h"
 #include "graph/plug_glob.h"
 #include "inversion/approximation_io.h"
+#include "inversion/clip_inversion.h"
 #include "inversion/solver.h"
 #include "nodes/clips/target_clip.h"
 
@@ -134,10 +136,14 @@ public:
         if (solution_.empty() || restartFrame || !(t == previousTime_ || t == previousTime_ + 1.0)) {
             start_ = a.defaults();
             if (c.getBool(coldStart)) loaded_->solver->initialGuess(targets, start_);
-        } else if (t != previousTime_)
+            startCost_ = retryNever;  // a restart is not retried, as in rig-invert
+        } else if (t != previousTime_) {
             start_ = solution_;
+            startCost_ = solutionCost_;
+        }
         solution_ = start_;
-        const SolveSummary summary = loaded_->solver->solve(targets, solution_);
+        const SolveSummary summary = solveChainFrame(*loaded_->solver, targets, solution_, startCost_, scratch_).summary;
+        solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
         previousTime_ = t;
 
         std::vector<Value> values;
@@ -164,6 +170,9 @@ private:
     double scale_ = 1.0;
     double previousTime_ = 0.0;
     std::vector<double> start_;
+    double startCost_ = retryNever;     // the cost of the frame start_ came from (retryNever: from rest)
+    double solutionCost_ = retryNever;  // the cost of solution_
+    std::vector<double> scratch_;
     std::vector<double> solution_;
 };
 

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "inversion/approximation_io.h"
+#include "inversion/clip_inversion.h"
 #include "inversion/learner.h"
 #include "inversion/solver.h"
 #include "learned_fixtures.h"
@@ -153,4 +154,41 @@ TEST_CASE("cold starts: random poses of the biped's modelled parameters are reco
     MESSAGE(fmt::format("biped: {} of {} poses recovered from the initial guess, {} from rest", recovery.fromGuess,
                         recovery.poses, recovery.fromRest));
     CHECK(recovery.fromGuess == recovery.poses);
+}
+
+TEST_CASE("cold starts: a cut in a clip, an open hand then curled fingers, is caught by retrying the stuck frame")
+{
+    const auto dir = test::scratchDir("cold-start-cut");
+    const auto file = test::writeFile(dir / "hand.yaml", curlHandRig());
+    GraphRigFunction rig(file, {{"hand_ctrl.curl*", "wrist.rotate?"}, {}, {}});
+    const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
+    // The first random pose that a solve warm-started from the open hand misses.
+    std::mt19937 rng(23);
+    std::vector<double> curled;
+    for (int pose = 0; pose < 100 && curled.empty(); ++pose) {
+        std::vector<double> known = test::randomValues(a, rng), values = a.defaults();
+        if (Solver(a, SolverOptions{}).solve(test::targetsAt(a, known), values).termination == TerminationType::stuck)
+            curled = known;
+    }
+    REQUIRE(!curled.empty());
+    ClipTargets clip;
+    clip.frames = {test::targetsAt(a, a.defaults()), test::targetsAt(a, curled)};
+    RigBinding binding(a, rig);
+    for (const bool retry : {false, true}) {
+        CAPTURE(retry);
+        ClipInversionOptions options;
+        options.retryStuck = retry;
+        std::vector<std::vector<double>> values;
+        const ClipInversionSummary s = invertClip(Solver(a, options.solver), binding, clip, 0, 1, options, values);
+        if (!retry) {
+            // Warm-started from the open hand, the curled frame stops in another basin: stuck.
+            CHECK(s.perFrame[1].solve.termination == TerminationType::stuck);
+            CHECK(s.retriedFrames == 0);
+            continue;
+        }
+        CHECK(s.retriedFrames == 1);
+        CHECK(s.retriesKept == 1);
+        CHECK(s.convergedFrames == 2);
+        CHECK(s.maxPositionErrorCm < recovered);
+    }
 }
