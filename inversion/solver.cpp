@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 #include <oneapi/tbb/flow_graph.h>
 #include <oneapi/tbb/info.h>
+#include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
 #include "inversion/block_elimination.h"
@@ -233,20 +234,44 @@ struct Plan {
         : partition(std::move(p)), whole(approximation, {}, std::move(counted))
     {
         for (const PartitionBlock& block : partition.blocks) blocks.push_back(std::make_unique<BlockPlan>(approximation, block));
-        if (!coupledBlocks || partition.blocks.size() < 2) return;
-        PartitionBlock all;
-        for (const PartitionBlock& block : partition.blocks) {
-            all.parameters.insert(all.parameters.end(), block.parameters.begin(), block.parameters.end());
-            all.outputs.insert(all.outputs.end(), block.outputs.begin(), block.outputs.end());
+        if (!coupledBlocks) return;
+        // One coupled system per independent tree: trees share nothing (a crowd's members), and one
+        // system over all of them would only multiply the Jacobian's zeros.
+        std::vector<int> treeOf(partition.blocks.size(), -1);
+        for (std::size_t t = 0; t < partition.roots.size(); ++t) treeOf[static_cast<std::size_t>(partition.roots[t])] = static_cast<int>(t);
+        for (std::size_t b = 0; b < partition.blocks.size(); ++b)  // parents come first
+            if (treeOf[b] < 0) treeOf[b] = treeOf[static_cast<std::size_t>(partition.blocks[b].parent)];
+        for (std::size_t t = 0; t < partition.roots.size(); ++t) {
+            Partition tree;
+            std::vector<int> index(partition.blocks.size(), -1);
+            PartitionBlock all;
+            for (std::size_t b = 0; b < partition.blocks.size(); ++b) {
+                if (treeOf[b] != static_cast<int>(t)) continue;
+                PartitionBlock block = partition.blocks[b];
+                index[b] = static_cast<int>(tree.blocks.size());
+                block.parent = block.parent < 0 ? -1 : index[static_cast<std::size_t>(block.parent)];
+                block.children.clear();
+                if (block.parent >= 0) tree.blocks[static_cast<std::size_t>(block.parent)].children.push_back(index[b]);
+                all.parameters.insert(all.parameters.end(), block.parameters.begin(), block.parameters.end());
+                all.outputs.insert(all.outputs.end(), block.outputs.begin(), block.outputs.end());
+                tree.blocks.push_back(std::move(block));
+            }
+            if (tree.blocks.size() < 2) {
+                trees.push_back(nullptr);  // one block: its own plan
+                continue;
+            }
+            tree.roots = {0};
+            std::sort(all.parameters.begin(), all.parameters.end());
+            std::sort(all.outputs.begin(), all.outputs.end());
+            auto plan = std::make_unique<BlockPlan>(approximation, all);
+            plan->elimination = std::make_unique<BlockElimination>(tree, plan->structure);
+            trees.push_back(std::move(plan));
         }
-        std::sort(all.parameters.begin(), all.parameters.end());
-        std::sort(all.outputs.begin(), all.outputs.end());
-        coupled = std::make_unique<BlockPlan>(approximation, all);
-        coupled->elimination = std::make_unique<BlockElimination>(partition, coupled->structure);
     }
-    // Every block solved at once, its step by block elimination (SolverOptions::coupledBlocks); null
-    // when the blocks are solved one after another or there is one block.
-    std::unique_ptr<BlockPlan> coupled;
+    // With SolverOptions::coupledBlocks, per root of the partition: its tree's blocks solved at once,
+    // the step by block elimination; null for a tree of one block (blocks[root] solves it). Empty when
+    // the blocks are solved one after another.
+    std::vector<std::unique_ptr<BlockPlan>> trees;
     // The steps of initialGuess, made when first needed: parents first, each counted output with the
     // solved parameters that reach it and no output before it.
     const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation) const
@@ -790,13 +815,27 @@ SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<doubl
 
     auto& results = scratch->results;
     const bool parallel = impl.options.threads != 1;
-    results.assign(plan->coupled ? 1 : partition.blocks.size(), BlockResult{});
+    const bool coupled = !plan->trees.empty();
+    results.assign(coupled ? plan->trees.size() : partition.blocks.size(), BlockResult{});
     const std::function<void(int)> solveOne = [&](int b) {
         results[static_cast<std::size_t>(b)] =
             impl.solveBlock(*plan->blocks[static_cast<std::size_t>(b)], scratch->prepared, values, parallel);
     };
-    if (plan->coupled) {
-        results[0] = impl.solveBlock(*plan->coupled, scratch->prepared, values, parallel);
+    if (coupled) {
+        // Independent trees touch disjoint parameters and outputs: in parallel they give the serial values.
+        const auto solveTree = [&](std::size_t t) {
+            const BlockPlan* tree = plan->trees[t].get();
+            if (!tree) tree = plan->blocks[static_cast<std::size_t>(partition.roots[t])].get();
+            results[t] = impl.solveBlock(*tree, scratch->prepared, values, parallel);
+        };
+        const std::size_t trees = plan->trees.size();
+        if (!parallel || trees == 1) {
+            for (std::size_t t = 0; t < trees; ++t) solveTree(t);
+        } else {
+            auto runAll = [&] { tbb::parallel_for(std::size_t{0}, trees, solveTree); };
+            if (impl.arena) impl.arena->execute(runAll);
+            else runAll();
+        }
     } else if (!parallel || partition.blocks.size() == 1) {
         // Serially, in dependency order: the blocks are listed parents first.
         for (std::size_t b = 0; b < partition.blocks.size(); ++b) solveOne(static_cast<int>(b));
