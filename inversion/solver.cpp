@@ -702,44 +702,44 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
     // Each angular unknown starts at its value and a third of a turn either way: of three starts a third
     // of a turn apart, one lies within a sixth of a turn of any answer, where the cost (1 - cos) is convex
     // enough for Gauss-Newton. A limited one starts at the middles of the thirds of its range instead.
-    constexpr int maxVaried = 4;  // 3^4 starts at most per output
+    constexpr std::size_t maxVaried = 4;  // 3^4 starts at most per output
+    struct Varied {
+        std::size_t parameter;
+        std::array<double, 3> starts;
+    };
     std::vector<double> trial(values.begin(), values.end());
     std::vector<double> best;
-    std::vector<std::array<double, 3>> offsets;
+    std::vector<Varied> varied;
+    // An output is reached when its cost is this far within targetTolerance: no start can do better.
+    const double reachedCost = 0.5 * std::pow(1e-3 * impl.options.targetTolerance, 2);
     for (const auto& step : plan->guessSteps(impl.approximation)) {
         const BlockPlan& block = step->plan;
         const std::vector<int>& columns = step->block.parameters;
-        offsets.clear();
-        int varied = 0;
-        for (std::size_t c = 0; c < columns.size(); ++c) {
-            const RigParameter& p = impl.approximation.parameters[static_cast<std::size_t>(columns[c])].parameter;
-            const double v = values[static_cast<std::size_t>(columns[c])];
-            if (!p.angular || varied == maxVaried) {
-                offsets.push_back({v, v, v});
-                continue;
-            }
-            ++varied;
+        varied.clear();
+        for (std::size_t c = 0; c < columns.size() && varied.size() < maxVaried; ++c) {
+            const std::size_t i = static_cast<std::size_t>(columns[c]);
+            const RigParameter& p = impl.approximation.parameters[i].parameter;
+            if (!p.angular) continue;
+            const double v = values[i];
             if (p.limited) {
                 const double third = (p.max - p.min) / 3.0;
-                offsets.push_back({clampTo(v, p.min, p.max), p.min + 0.5 * third, p.max - 0.5 * third});
+                varied.push_back({i, {clampTo(v, p.min, p.max), p.min + 0.5 * third, p.max - 0.5 * third}});
             } else {
                 const double turn = block.period[c] > 0 ? block.period[c] : 2.0 * std::numbers::pi;
-                offsets.push_back({v, v + turn / 3.0, v - turn / 3.0});
+                varied.push_back({i, {v, v + turn / 3.0, v - turn / 3.0}});
             }
         }
         int starts = 1;
-        for (int i = 0; i < varied; ++i) starts *= 3;
+        for (std::size_t i = 0; i < varied.size(); ++i) starts *= 3;
         // Of the starts' answers, the cheapest; of those as cheap to rounding (another pose the joint's
         // controls reach equally well), the nearest the values given.
         double bestCost = std::numeric_limits<double>::infinity(), bestDistance = 0.0;
-        const double reachedCost = 0.5 * impl.options.targetTolerance * impl.options.targetTolerance * 1e-6;
         for (int start = 0; start < starts; ++start) {
             std::copy(values.begin(), values.end(), trial.begin());
-            for (int c = 0, code = start; c < static_cast<int>(columns.size()); ++c) {
-                const auto& o = offsets[static_cast<std::size_t>(c)];
-                const int pick = o[0] == o[1] && o[1] == o[2] ? 0 : code % 3;
-                if (!(o[0] == o[1] && o[1] == o[2])) code /= 3;
-                trial[static_cast<std::size_t>(columns[static_cast<std::size_t>(c)])] = o[static_cast<std::size_t>(pick)];
+            int code = start;
+            for (const Varied& v : varied) {
+                trial[v.parameter] = v.starts[static_cast<std::size_t>(code % 3)];
+                code /= 3;
             }
             const BlockResult r = impl.solveBlock(block, scratch->prepared, trial, false, values);
             double distance = 0.0;
@@ -755,8 +755,7 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
                 bestDistance = distance;
                 best.assign(trial.begin(), trial.end());
             }
-            // The output reached: no start can do better, and the earliest start is the nearest given.
-            if (bestCost <= reachedCost) break;
+            if (bestCost <= reachedCost) break;  // the earliest start that reaches it: the nearest the values given
         }
         if (!std::isfinite(bestCost)) continue;  // no start gave a finite cost: leave these parameters alone
         // solveBlock kept each result nearest the values given (whole turns, Euler triples).
