@@ -88,9 +88,10 @@ struct BlockWorkspace {
           step(structure.columnCount()),
           projected(structure.columnCount()),
           J(structure.rows(), structure.columnCount()),
-          H(structure.columnCount(), structure.columnCount()),
-          llt(structure.columnCount()),
-          eigen(structure.columnCount()),
+          // The dense system only where the step is not by elimination.
+          H(coupled ? 0 : structure.columnCount(), coupled ? 0 : structure.columnCount()),
+          llt(coupled ? 0 : structure.columnCount()),
+          eigen(coupled ? 0 : structure.columnCount()),
           fixed(x.size(), 0)
     {
         if (coupled) elimination = std::make_unique<BlockEliminationWorkspace>(*coupled);
