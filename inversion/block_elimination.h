@@ -15,7 +15,6 @@
 // only (eigenvalues above 1e-12 of its largest): the minimum-norm step within the block, as the
 // one-block solve takes.
 
-#include <span>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -42,12 +41,9 @@ private:
     std::vector<std::vector<int>> chain_;     // per block: itself, then its ancestors up to its root
     std::vector<std::vector<int>> columns_;   // per block: its structure columns, in order
     std::vector<int> blockOfColumn_, localOfColumn_;
-    std::vector<std::vector<int>> blockRows_;      // per block: its outputs (structure positions)
-    // Per block: its chain's columns, and where each chain block starts in them.
-    std::vector<std::vector<int>> chainColumns_;
-    std::vector<std::vector<int>> chainSegments_;
-    int widest_ = 0;    // the most columns of one chain
-    int mostRows_ = 0;  // the most outputs of one block
+    // Per block and chain entry: where each entry of that block of J^T J is in the whole matrix's lower
+    // triangle (column-major offsets, in the block's own column-major order).
+    std::vector<std::vector<std::vector<int>>> gather_;
 };
 
 // Per-solve state: the blocks of J^T J along each chain, the right-hand sides and the blocks' inverses.
@@ -56,24 +52,24 @@ class BlockEliminationWorkspace {
 public:
     explicit BlockEliminationWorkspace(const BlockElimination& elimination);
 
-    // J^T J from the Jacobian (rows in structure order, six per output), with the columns marked in
-    // `fixed` held (identity row and column, as the one-block solve does). Returns the largest diagonal
-    // entry of the free columns.
-    double form(const Eigen::Ref<const Eigen::MatrixXd>& jacobian, std::span<const char> fixed);
+    // The blocks along each chain from J^T J given whole (its lower triangle, structure columns; held
+    // columns already replaced by identity rows and columns).
+    void form(const Eigen::MatrixXd& h);
     // Solves (J^T J + mu I) delta = -gradient (gradient: zero on fixed columns). False when a block's
     // matrix has no finite inverse.
     bool solve(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
 
 private:
+    bool factor(std::size_t b);  // factor_[b] from work_[b][0]; false when it has no finite inverse
+
     const BlockElimination* e_;
     std::vector<std::vector<Eigen::MatrixXd>> h_;  // h_[b][i]: block b against its i-th chain entry (0: itself)
-    std::vector<std::vector<Eigen::MatrixXd>> work_;  // copies of h_ that the elimination overwrites
-    std::vector<Eigen::MatrixXd> inverse_;         // per block: its eliminated matrix's (pseudo-)inverse
+    std::vector<std::vector<Eigen::MatrixXd>> work_;      // copies of h_ that the elimination overwrites
+    std::vector<std::vector<Eigen::MatrixXd>> coupling_;  // coupling_[b][i] = F_b h_[b][i] (i >= 1)
+    std::vector<Eigen::MatrixXd> factor_;  // per block: F with F^T F the (pseudo-)inverse of its eliminated matrix
     std::vector<Eigen::LLT<Eigen::MatrixXd>> llt_;
     std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen_;
-    std::vector<Eigen::VectorXd> rhs_, step_;
-    std::vector<Eigen::MatrixXd> scratch_;         // per block: inverse * its coupling to one ancestor
-    Eigen::MatrixXd gathered_, product_;
+    std::vector<Eigen::VectorXd> rhs_, y_, step_;
 };
 
 }  // namespace rig

@@ -261,6 +261,42 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
         outputRigid_[o] = (node < 0 || nodes_[static_cast<std::size_t>(node)].rigid) &&
                           nearlyOrthonormal(rest.block<3, 3>(0, 0));
     }
+
+    columnsOfOutput_.assign(outputs_.size(), {});
+    for (std::size_t c = 0; c < outputsOfColumn_.size(); ++c)
+        for (const int o : outputsOfColumn_[c]) columnsOfOutput_[static_cast<std::size_t>(o)].push_back(static_cast<int>(c));
+    unknownUp_.assign(nodes_.size(), -1);
+    twistForm_ = true;
+    for (std::size_t n = 0; n < nodes_.size(); ++n) {
+        const Node& node = nodes_[n];
+        if (node.parent >= 0) {
+            const std::size_t parent = static_cast<std::size_t>(node.parent);
+            unknownUp_[n] = nodes_[parent].slot >= 0 ? node.parent : unknownUp_[parent];
+        }
+        if (node.slot < 0) continue;
+        unknownNodes_.push_back(static_cast<int>(n));
+        twistForm_ = twistForm_ && node.rigid;
+    }
+    const int n = columnCount();
+    const auto columnOfNode = [&](int node) { return slots_[static_cast<std::size_t>(nodes_[static_cast<std::size_t>(node)].slot)].column; };
+    for (const int node : unknownNodes_) {
+        const int c = columnOfNode(node);
+        unknownColumn_.push_back(c);
+        pairBegin_.push_back(static_cast<int>(pairNode_.size()));
+        for (int m = node; m >= 0; m = unknownUp_[static_cast<std::size_t>(m)]) {
+            const int a = columnOfNode(m);
+            pairNode_.push_back(m);
+            pairOffset_.push_back(std::min(a, c) * n + std::max(a, c));
+            pairFactor_.push_back(m != node && a == c ? 2.0 : 1.0);
+        }
+    }
+    pairBegin_.push_back(static_cast<int>(pairNode_.size()));
+    outputDeepest_.assign(outputs_.size(), -1);
+    for (std::size_t o = 0; o < outputs_.size(); ++o) {
+        if (outputVars_[o].empty()) continue;
+        outputDeepest_[o] = outputVars_[o].back();
+        twistForm_ = twistForm_ && outputRigid_[o];
+    }
 }
 
 // --- ResidualWorkspace ---
@@ -286,6 +322,9 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     heldMatrix_.assign(s.nodes_.size(), Affine::Identity());
     nodeMatrix_.assign(s.nodes_.size(), Affine::Identity());
     velocity_.assign(s.nodes_.size(), Affine::Zero());
+    twist_.assign(s.nodes_.size(), Vector6d::Zero());
+    load_.assign(s.nodes_.size(), Vector6d::Zero());
+    weight_.assign(s.nodes_.size(), Eigen::Matrix<double, 6, 6>::Zero());
 }
 
 void ResidualWorkspace::holdParameters(std::span<const double> values)
@@ -428,7 +467,7 @@ void ResidualWorkspace::residuals(std::span<const double> x, Eigen::Ref<Eigen::V
     residualRows(r);
 }
 
-bool ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
+bool ResidualWorkspace::velocities()
 {
     const auto& s = *structure_;
     // Xi = P X P^-1 with X = dM M^-1, for 4x4s whose last rows are 0 0 0 1 (P, M) or 0 (dM, X, Xi).
@@ -466,7 +505,12 @@ bool ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
         xi.leftCols<3>() = p.leftCols<3>() * xl * pInverse;
         xi.col(3) = p.leftCols<3>() * xt - xi.leftCols<3>() * p.col(3);
     }
+    return true;
+}
 
+void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
+{
+    const auto& s = *structure_;
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
         const auto& vars = s.outputVars_[o];
         if (vars.empty()) continue;
@@ -503,7 +547,56 @@ bool ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
             }
         }
     }
-    return true;
+}
+
+void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
+                                             Eigen::MatrixXd& h)
+{
+    const auto& s = *structure_;
+    for (const int n : s.unknownNodes_) {
+        const std::size_t i = static_cast<std::size_t>(n);
+        const Affine& xi = velocity_[i];
+        twist_[i] << 0.5 * (xi(2, 1) - xi(1, 2)), 0.5 * (xi(0, 2) - xi(2, 0)), 0.5 * (xi(1, 0) - xi(0, 1)), xi.col(3);
+        weight_[i].setZero();
+        load_[i].setZero();
+    }
+    // An output's rows for a twist (omega, v) of a node above it: w_p (omega x p + v) and
+    // w_r (w_q I + [v_q]x) Q^T omega (treeJacobian's rigid rows).
+    for (std::size_t o = 0; o < worlds_.size(); ++o) {
+        const int deepest = s.outputDeepest_[o];
+        if (deepest < 0) continue;
+        const PreparedTarget& t = targets_[o];
+        const Eigen::Matrix3d q = worlds_[o].block<3, 3>(0, 0);
+        Eigen::Matrix<double, 6, 6> b;
+        b.topLeftCorner<3, 3>() = -t.positionWeight * skew(worlds_[o].block<3, 1>(0, 3));
+        b.topRightCorner<3, 3>() = t.positionWeight * Eigen::Matrix3d::Identity();
+        b.bottomLeftCorner<3, 3>().noalias() = t.rotationWeight * halfAngle(q, t).rows * q.transpose();
+        b.bottomRightCorner<3, 3>().setZero();
+        const std::size_t d = static_cast<std::size_t>(deepest);
+        weight_[d].noalias() += b.transpose() * b;
+        load_[d].noalias() += b.transpose() * r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o));
+    }
+    // Children after parents: summed leaves first, each node's sums cover every output below it.
+    for (auto it = s.unknownNodes_.rbegin(); it != s.unknownNodes_.rend(); ++it) {
+        const std::size_t n = static_cast<std::size_t>(*it);
+        const int up = s.unknownUp_[n];
+        if (up < 0) continue;
+        weight_[static_cast<std::size_t>(up)] += weight_[n];
+        load_[static_cast<std::size_t>(up)] += load_[n];
+    }
+    g.setZero();
+    h.setZero();
+    double* entries = h.data();
+    for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k) {
+        const std::size_t i = static_cast<std::size_t>(s.unknownNodes_[k]);
+        g[s.unknownColumn_[k]] += twist_[i].dot(load_[i]);
+        const Vector6d u = weight_[i] * twist_[i];
+        // Itself, then every unknown node above: those share exactly the outputs below this one.
+        for (int p = s.pairBegin_[k]; p < s.pairBegin_[k + 1]; ++p) {
+            const std::size_t q = static_cast<std::size_t>(p);
+            entries[s.pairOffset_[q]] += s.pairFactor_[q] * twist_[static_cast<std::size_t>(s.pairNode_[q])].dot(u);
+        }
+    }
 }
 
 void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobian)
@@ -581,7 +674,10 @@ void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod metho
         evaluateSlots(x, true);
         evaluateTree();
         residualRows(r);
-        if (treeJacobian(jacobian)) return;
+        if (velocities()) {
+            treeJacobian(jacobian);
+            return;
+        }
         // A singular operator or product has no inverse: the prefix and suffix products need none.
         jacobianFromSuffixes(x, r, jacobian);
         return;
@@ -603,6 +699,35 @@ void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod metho
         tbb::parallel_for(0, s.columnCount(), column);
     } else {
         for (int c = 0; c < s.columnCount(); ++c) column(c);
+    }
+}
+
+void ResidualWorkspace::normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep,
+                                        bool parallel, Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::VectorXd> g,
+                                        Eigen::MatrixXd& h, Eigen::Ref<Eigen::MatrixXd> jacobian)
+{
+    const auto& s = *structure_;
+    if (method == JacobianMethod::analytic && s.twistForm_) {
+        evaluateSlots(x, true);
+        evaluateTree();
+        residualRows(r);
+        if (velocities()) {
+            twistNormalEquations(r, g, h);
+            return;
+        }
+    }
+    this->jacobian(x, method, finiteDifferenceStep, parallel, r, jacobian);
+    g.setZero();
+    h.setZero();
+    for (std::size_t o = 0; o < s.columnsOfOutput_.size(); ++o) {
+        const auto& columns = s.columnsOfOutput_[o];
+        const Eigen::Index row = static_cast<Eigen::Index>(rowsPerTarget * o);
+        for (std::size_t i = 0; i < columns.size(); ++i) {
+            const auto ji = jacobian.block<rowsPerTarget, 1>(row, columns[i]);
+            g[columns[i]] += ji.dot(r.segment<rowsPerTarget>(row));
+            for (std::size_t j = 0; j <= i; ++j)  // columns increase: (i, j) is in the lower triangle
+                h(columns[i], columns[j]) += ji.dot(jacobian.block<rowsPerTarget, 1>(row, columns[j]));
+        }
     }
 }
 
@@ -665,9 +790,17 @@ void JacobianEvaluator::jacobian(std::span<const double> values, JacobianMethod 
     workspace_.jacobian(values, method, finiteDifferenceStep, true, r, jacobian);
 }
 
-}  // namespace rig
-
-namespace rig {
+void JacobianEvaluator::normalEquations(std::span<const double> values, JacobianMethod method, double finiteDifferenceStep,
+                                        Eigen::VectorXd& g, Eigen::MatrixXd& h, Eigen::VectorXd& r)
+{
+    if (values.size() != static_cast<std::size_t>(columns()))
+        throw std::invalid_argument("JacobianEvaluator: one value per modelled parameter");
+    r.resize(rows());
+    g.resize(columns());
+    h.resize(columns(), columns());
+    Eigen::MatrixXd jacobian(rows(), columns());
+    workspace_.normalEquations(values, method, finiteDifferenceStep, true, r, g, h, jacobian);
+}
 
 void JacobianEvaluator::jacobianFromSuffixes(std::span<const double> values, Eigen::MatrixXd& jacobian, Eigen::VectorXd& r)
 {

@@ -90,6 +90,8 @@ public:
     int columnCount() const { return static_cast<int>(columns_.size()); }
     // Positions in outputs() of the outputs column c moves.
     const std::vector<int>& outputsOfColumn(int c) const { return outputsOfColumn_[static_cast<std::size_t>(c)]; }
+    // Whether the analytic normal equations come from twists, without the Jacobian (ResidualWorkspace::normalEquations).
+    bool twistForm() const { return twistForm_; }
 
 private:
     friend class ResidualWorkspace;
@@ -132,6 +134,19 @@ private:
     std::vector<Chain> chains_;                 // per output, flat: finite differences and the fallback
     std::vector<int> heldParameters_;           // the parameters of the chains' held links
     std::vector<std::vector<int>> outputsOfColumn_;
+    std::vector<std::vector<int>> columnsOfOutput_;  // per output: the columns that move it, increasing
+    // The normal equations up the tree (ResidualWorkspace::normalEquations): the unknown nodes parents
+    // first, each one's nearest unknown ancestor, and each output's deepest unknown node (-1: none).
+    std::vector<int> unknownNodes_;
+    std::vector<int> unknownUp_;  // per node
+    std::vector<int> outputDeepest_;
+    // Per unknown node (in unknownNodes_ order): its column, and its pairs with itself and every unknown
+    // node above it, [pairBegin_[i], pairBegin_[i + 1]): the other node, where the pair's entry is in the
+    // lower triangle of H (column-major offset) and its multiplicity (2 for two nodes of one column).
+    std::vector<int> unknownColumn_;
+    std::vector<int> pairBegin_, pairNode_, pairOffset_;
+    std::vector<double> pairFactor_;
+    bool twistForm_ = false;  // every unknown node and every output with one is rigid
     int maxVars_ = 0;
     int constantCount_ = 0;  // sum over chains of (vars + 1)
 };
@@ -156,6 +171,16 @@ public:
     // step; their columns run in parallel (tbb::parallel_for in the current arena) when `parallel`.
     void jacobian(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
                   Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::MatrixXd> jacobian);
+    // Residuals r, gradient g = J^T r and the lower triangle of H = J^T J at x (g: columnCount();
+    // H: columnCount() square, zeroed here, its strict upper triangle left zero). With the analytic method
+    // on rigid operators and outputs, each unknown's world-space velocity is a twist (omega, v), the
+    // output's rows are a 6x6 map B_k of it, and H_ij = twist_i^T (sum of B_k^T B_k below j) twist_j for
+    // i above j: the sums are accumulated up the prefix tree once, and J is never formed. Otherwise J is
+    // formed in `jacobian` (rows() x columnCount()) and multiplied output by output over the columns that
+    // move it. Either way only pairs of columns that share an output cost anything.
+    void normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
+                         Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::VectorXd> g, Eigen::MatrixXd& h,
+                         Eigen::Ref<Eigen::MatrixXd> jacobian);
     // The analytic Jacobian from prefix and suffix products along each output's own product
     // (dW/da_j = prefix_j dM_j suffix_j): what jacobian() falls back to when an operator or a product
     // is singular (no inverse for the velocity form). For tests and benchmarks.
@@ -169,7 +194,10 @@ private:
     void evaluateSlots(std::span<const double> x, bool derivatives);
     void evaluateTree();  // node products and worlds from the slot matrices
     void residualRows(Eigen::Ref<Eigen::VectorXd> r) const;
-    bool treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);  // false: an operator or product is singular
+    bool velocities();  // Xi per unknown node; false: an operator or product is singular
+    void treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);  // from velocities()
+    void twistNormalEquations(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
+                              Eigen::MatrixXd& h);  // from velocities(); twistForm_ only
     void holdChains();  // the flat chains' held products, computed when first needed after holdParameters
     // World of output o from the slot matrices, with column `perturbed` (if >= 0) at value `value`.
     Eigen::Matrix4d chainWorld(int o, int perturbed, double value) const;
@@ -181,6 +209,8 @@ private:
     std::vector<Affine> heldMatrix_;           // per held node: its operator's matrix
     std::vector<Affine> nodeMatrix_;           // per node: its product from the root
     std::vector<Affine> velocity_;             // per unknown node: Xi
+    std::vector<Eigen::Matrix<double, 6, 1>> twist_, load_;  // per unknown node: (omega, v); sum of B_k^T r_k below
+    std::vector<Eigen::Matrix<double, 6, 6>> weight_;        // per unknown node: sum of B_k^T B_k below
     std::vector<Eigen::Matrix4d> constants_;   // per chain, C_0 .. C_v
     std::vector<char> identity_;               // per constant: it is I (skip the product)
     std::vector<int> constantOffset_;          // per chain
@@ -207,6 +237,10 @@ public:
     // Finite-difference columns run in parallel in the current task arena.
     void jacobian(std::span<const double> values, JacobianMethod method, double finiteDifferenceStep,
                   Eigen::MatrixXd& jacobian, Eigen::VectorXd& r);
+    // ResidualWorkspace::normalEquations on the whole problem (h: its lower triangle).
+    void normalEquations(std::span<const double> values, JacobianMethod method, double finiteDifferenceStep,
+                         Eigen::VectorXd& g, Eigen::MatrixXd& h, Eigen::VectorXd& r);
+    const ResidualStructure& structure() const { return structure_; }
     // ResidualWorkspace::jacobianFromSuffixes on the whole problem.
     void jacobianFromSuffixes(std::span<const double> values, Eigen::MatrixXd& jacobian, Eigen::VectorXd& r);
 

@@ -81,15 +81,16 @@ struct BlockWorkspace {
           trial(x.size()),
           r(structure.rows()),
           rTrial(structure.rows()),
-          jd(structure.rows()),
+          hStep(structure.columnCount()),
           g(structure.columnCount()),
           gFree(structure.columnCount()),
           delta(structure.columnCount()),
           step(structure.columnCount()),
           projected(structure.columnCount()),
           J(structure.rows(), structure.columnCount()),
-          // The dense system only where the step is not by elimination.
-          H(coupled ? 0 : structure.columnCount(), coupled ? 0 : structure.columnCount()),
+          H(structure.columnCount(), structure.columnCount()),
+          // The dense factorizations only where the step is not by elimination.
+          damped(coupled ? 0 : structure.columnCount(), coupled ? 0 : structure.columnCount()),
           llt(coupled ? 0 : structure.columnCount()),
           eigen(coupled ? 0 : structure.columnCount()),
           fixed(x.size(), 0)
@@ -98,8 +99,10 @@ struct BlockWorkspace {
     }
     ResidualWorkspace residual;
     std::vector<double> x, trial;
-    Eigen::VectorXd r, rTrial, jd, g, gFree, delta, step, projected;
-    Eigen::MatrixXd J, H;
+    Eigen::VectorXd r, rTrial, hStep, g, gFree, delta, step, projected;
+    Eigen::MatrixXd J;  // formed only where the normal equations need it (ResidualWorkspace::normalEquations)
+    Eigen::MatrixXd H;       // J^T J, lower triangle
+    Eigen::MatrixXd damped;  // H + mu I, lower triangle: what the dense step factorizes
     Eigen::LLT<Eigen::MatrixXd> llt;
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
     std::vector<char> fixed;
@@ -153,6 +156,7 @@ struct BlockPlan {
             angular.push_back(m.parameter.angular);
             period.push_back(m.parameter.limited ? 0.0 : rotationPeriod(m));
             defaults.push_back(m.parameter.defaultValue);
+            for (const Operator& op : m.operators) rotationsOnly = rotationsOnly && op.kind == OperatorKind::rotation;
         }
         std::vector<char> used(block.parameters.size(), 0);
         const auto model = [&](std::size_t c) -> const ModelledParameter& {
@@ -172,6 +176,7 @@ struct BlockPlan {
     std::vector<double> period;  // > 0: the values x and x + period give the same pose (see rotationPeriod)
     std::vector<double> defaults;
     std::vector<std::array<int, 3>> triples;  // columns that may be Euler angles of one rotation (eulerTriple)
+    bool rotationsOnly = true;  // every operator of every parameter is a rotation about a pivot
     // Set for a partition's coupled solve: the blocks' step by elimination instead of one dense system.
     std::unique_ptr<BlockElimination> elimination;
     mutable Pool<BlockWorkspace> pool;
@@ -327,8 +332,6 @@ constexpr std::size_t maxCachedPlans = 256;
 constexpr double initialDamping = 1e-4;
 // Directions whose curvature is below this fraction of the largest are left alone: the minimum-norm step.
 constexpr double rankTolerance = 1e-12;
-// Up to this many parameters a block's J^T J is formed coefficient by coefficient.
-constexpr std::size_t smallBlock = 24;
 
 double clampTo(double v, double lo, double hi) { return std::min(std::max(v, lo), hi); }
 
@@ -419,6 +422,10 @@ struct Solver::Impl {
     bool prepare(std::span<const JointTarget> targets, std::span<const double> values, SolveScratch& scratch,
                  std::shared_ptr<const Plan>& plan, TerminationType& termination);
     bool solveStep(BlockWorkspace& w, double mu) const;
+    // For a block of rotations only: the position part of its cost at `values` when no parameter of the
+    // block moves any of its outputs' positions (all pivots at the outputs), else -1.
+    double unmovedPositionCost(const BlockPlan& block, std::span<const PreparedTarget> targets,
+                               std::span<const double> values) const;
 };
 
 Solver::Solver(const Approximation& approximation, SolverOptions options)
@@ -483,7 +490,9 @@ bool Solver::Impl::solveStep(BlockWorkspace& w, double mu) const
         w.delta.setZero();
         return true;
     }
-    w.llt.compute(w.H + mu * Eigen::MatrixXd::Identity(n, n));
+    w.damped.triangularView<Eigen::Lower>() = w.H;
+    w.damped.diagonal().array() += mu;
+    w.llt.compute(w.damped);
     bool wellConditioned = w.llt.info() == Eigen::Success;
     if (wellConditioned) {
         const auto& l = w.llt.matrixLLT();
@@ -494,7 +503,7 @@ bool Solver::Impl::solveStep(BlockWorkspace& w, double mu) const
         w.delta = -w.gFree;
         w.llt.solveInPlace(w.delta);
     } else {
-        w.eigen.compute(w.H + mu * Eigen::MatrixXd::Identity(n, n));
+        w.eigen.compute(w.damped);
         if (w.eigen.info() != Eigen::Success) return false;
         const auto& lambda = w.eigen.eigenvalues();
         const double largest = lambda.cwiseAbs().maxCoeff();
@@ -524,20 +533,18 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
         w.x[c] = clampTo(values[static_cast<std::size_t>(columns[c])], block.lower[c], block.upper[c]);
 
     BlockResult result;
+    // The normal equations at w.x; `fresh` until the first step from them (a rejected step reuses them).
+    bool fresh = false;
     auto linearize = [&] {
-        w.residual.jacobian(w.x, o.jacobian, o.finiteDifferenceStep, parallel, w.r, w.J);
-        return w.r.allFinite() && w.J.allFinite();
+        w.residual.normalEquations(w.x, o.jacobian, o.finiteDifferenceStep, parallel, w.r, w.g, w.H, w.J);
+        fresh = true;
+        return w.r.allFinite() && w.g.allFinite() && w.H.allFinite();
     };
     bool finite = linearize();
     double cost = 0.5 * w.r.squaredNorm();
     bool gaussNewton = o.gaussNewtonIterations > 0;
     double mu = 0.0, nu = 2.0;
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
-        // Small blocks: coefficient-wise products beat the blocked GEMM kernels' set-up.
-        if (n <= smallBlock)
-            w.g.noalias() = w.J.transpose().lazyProduct(w.r);
-        else
-            w.g.noalias() = w.J.transpose() * w.r;
         double projectedGradient = 0.0;
         for (std::size_t c = 0; c < n; ++c) {
             const double gc = w.g[static_cast<Eigen::Index>(c)];
@@ -553,27 +560,20 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
         w.gFree = w.g;
         for (std::size_t c = 0; c < n; ++c)
             if (w.fixed[c]) w.gFree[static_cast<Eigen::Index>(c)] = 0.0;
+        // Held columns: identity rows and columns (the same set after a rejected step, at the same x and g).
         double largest = 0.0;  // of the free columns' diagonal of J^T J
-        if (w.elimination) {
-            largest = w.elimination->form(w.J, w.fixed);
-        } else {
-            if (n <= smallBlock) {
-                w.H.noalias() = w.J.transpose().lazyProduct(w.J);
-            } else {
-                w.H.setZero();
-                w.H.selfadjointView<Eigen::Lower>().rankUpdate(w.J.transpose());
+        for (std::size_t c = 0; c < n; ++c) {
+            const Eigen::Index i = static_cast<Eigen::Index>(c);
+            if (!w.fixed[c]) {
+                largest = std::max(largest, w.H(i, i));
+                continue;
             }
-            for (std::size_t c = 0; c < n; ++c) {
-                const Eigen::Index i = static_cast<Eigen::Index>(c);
-                if (!w.fixed[c]) {
-                    largest = std::max(largest, w.H(i, i));
-                    continue;
-                }
-                w.H.row(i).head(i).setZero();
-                w.H.col(i).tail(static_cast<Eigen::Index>(n) - i - 1).setZero();
-                w.H(i, i) = 1.0;
-            }
+            w.H.row(i).head(i).setZero();
+            w.H.col(i).tail(static_cast<Eigen::Index>(n) - i - 1).setZero();
+            w.H(i, i) = 1.0;
         }
+        if (w.elimination && fresh) w.elimination->form(w.H);
+        fresh = false;
         if (!gaussNewton && mu == 0.0) mu = largest > 0 ? initialDamping * largest : initialDamping;
         const double damping = gaussNewton ? 0.0 : mu;
         if (!(w.elimination ? w.elimination->solve(w.gFree, damping, w.delta) : solveStep(w, damping))) break;
@@ -602,8 +602,9 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
             accept = trialFinite && (trialCost < cost || (smallStep && trialCost <= cost));
             if (!accept && !smallStep) gaussNewton = false;  // Gauss-Newton failed to descend: damp from now on
         } else {
-            w.jd.noalias() = w.J * w.step;
-            const double predicted = -(w.r.dot(w.jd) + 0.5 * w.jd.squaredNorm());
+            // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
+            w.hStep.noalias() = w.H.selfadjointView<Eigen::Lower>() * w.step;
+            const double predicted = -(w.g.dot(w.step) + 0.5 * w.step.dot(w.hStep));
             const double actual = cost - trialCost;
             accept = trialFinite && actual > 0 && predicted > 0;
             if (accept) {
@@ -692,6 +693,28 @@ bool Solver::Impl::prepare(std::span<const JointTarget> targets, std::span<const
     return !plan->whole.outputs().empty() && !plan->partition.blocks.empty();
 }
 
+double Solver::Impl::unmovedPositionCost(const BlockPlan& block, std::span<const PreparedTarget> targets,
+                                         std::span<const double> values) const
+{
+    const ResidualStructure& structure = block.structure;
+    Borrowed<BlockWorkspace> borrowed(block.pool,
+                                      [&] { return std::make_unique<BlockWorkspace>(structure, block.elimination.get()); });
+    BlockWorkspace& w = *borrowed;
+    w.residual.holdParameters(values);
+    w.residual.setTargets(targets);
+    for (std::size_t c = 0; c < w.x.size(); ++c) w.x[c] = values[static_cast<std::size_t>(structure.columns()[c])];
+    w.residual.jacobian(w.x, JacobianMethod::analytic, options.finiteDifferenceStep, false, w.r, w.J);
+    // A rotation about pivot c moves a point p by omega x (p - c): zero for every rotation of the product
+    // (at any pose) exactly when every pivot is at p. Rounding aside, which this scale bounds.
+    double position = 0.0, scale = 1.0;
+    for (Eigen::Index o = 0; o < w.r.size(); o += rowsPerTarget) {
+        position += 0.5 * w.r.segment<3>(o).squaredNorm();
+        scale = std::max(scale, w.J.middleRows<3>(o + 3).cwiseAbs().maxCoeff());
+        if (w.J.middleRows<3>(o).cwiseAbs().maxCoeff() > 1e-9 * scale) return -1.0;
+    }
+    return position;
+}
+
 TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::span<double> values) const
 {
     Impl& impl = *impl_;
@@ -716,6 +739,10 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
     for (const auto& step : plan->guessSteps(impl.approximation)) {
         const BlockPlan& block = step->plan;
         const std::vector<int>& columns = step->block.parameters;
+        // Rotations that cannot move the output's position (every pivot at the joint, as a joint's own
+        // rotate channels): its position cost is the same from every start, and a start that reaches the
+        // target's rotation is as good as any.
+        const double floorCost = block.rotationsOnly ? impl.unmovedPositionCost(block, scratch->prepared, values) : -1.0;
         varied.clear();
         for (std::size_t c = 0; c < columns.size() && varied.size() < maxVaried; ++c) {
             const std::size_t i = static_cast<std::size_t>(columns[c]);
@@ -756,7 +783,8 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
                 bestDistance = distance;
                 best.assign(trial.begin(), trial.end());
             }
-            if (bestCost <= reachedCost) break;  // the earliest start that reaches it: the nearest the values given
+            // The earliest start that reaches it: the nearest the values given.
+            if (bestCost <= reachedCost || (floorCost >= 0.0 && bestCost <= floorCost + reachedCost)) break;
         }
         if (!std::isfinite(bestCost)) continue;  // no start gave a finite cost: leave these parameters alone
         // solveBlock kept each result nearest the values given (whole turns, Euler triples).

@@ -126,6 +126,21 @@ void checkJacobians(const Approximation& a, int poses, std::uint32_t seed, doubl
         CHECK(vsReference < tolerance);
         // Something was measured: not every column is zero.
         CHECK(analytic.cwiseAbs().maxCoeff() > 0.1);
+        // The normal equations the solver steps with, twists or not: J^T J (lower triangle) and J^T r.
+        for (const JacobianMethod method : {JacobianMethod::analytic, JacobianMethod::finiteDifference}) {
+            CAPTURE(jacobianMethodName(method));
+            const Eigen::MatrixXd& j = method == JacobianMethod::analytic ? analytic : finite;
+            Eigen::VectorXd g, rNormal;
+            Eigen::MatrixXd h;
+            evaluator.normalEquations(values, method, 1e-6, g, h, rNormal);
+            CHECK(rNormal == r);
+            const Eigen::MatrixXd jtj = j.transpose() * j;
+            const Eigen::VectorXd jtr = j.transpose() * r;
+            CHECK(relativeDifference(h.triangularView<Eigen::Lower>().toDenseMatrix(),
+                                     jtj.triangularView<Eigen::Lower>().toDenseMatrix()) < 1e-12);
+            CHECK(h.triangularView<Eigen::StrictlyUpper>().toDenseMatrix().cwiseAbs().maxCoeff() == 0.0);
+            CHECK(relativeDifference(g, jtr) < 1e-12);
+        }
     }
 }
 
@@ -206,6 +221,8 @@ TEST_CASE("jacobian: analytic equals finite differences for every operator kind,
 {
     const Approximation a = everyOperatorKind();
     checkJacobians(a, 20, 11);
+    // Scales and sampled affine operators: the normal equations above came from the Jacobian.
+    CHECK(!JacobianEvaluator(a, test::targetsAt(a, a.defaults()), rotationScale).structure().twistForm());
 }
 
 TEST_CASE("jacobian: analytic equals finite differences on approximations learned from the test rigs")
@@ -304,5 +321,8 @@ TEST_CASE("jacobian: analytic equals finite differences on approximations learne
         const Approximation a = test::learn(rig, "biped");
         REQUIRE(a.parameters.size() > 70);
         checkJacobians(a, 3, 23);
+        // A skeleton of rigid joints: its normal equations above came from twists, without J.
+        const std::vector<JointTarget> targets = test::targetsAt(a, a.defaults());
+        CHECK(JacobianEvaluator(a, targets, rotationScale).structure().twistForm());
     }
 }
