@@ -103,6 +103,7 @@ void BlockEliminationWorkspace::form(const Eigen::MatrixXd& h)
 
 bool BlockEliminationWorkspace::factor(std::size_t b)
 {
+    // factor_[b] = F^T with F^T F = S^-1 (S^+ where S is singular).
     const Eigen::MatrixXd& s = work_[b][0];  // symmetric by construction; only its lower triangle is read
     const Eigen::Index n = s.rows();
     Eigen::MatrixXd& f = factor_[b];
@@ -115,15 +116,15 @@ bool BlockEliminationWorkspace::factor(std::size_t b)
         for (Eigen::Index i = 0; i < n; ++i)
             if (!(l(i, i) * l(i, i) > rankTolerance * largestDiagonal)) wellConditioned = false;
     if (wellConditioned) {
-        // F = L^-1 by forward substitution: a block is small, and the blocked triangular kernels' set-up
-        // costs more than the arithmetic.
+        // F = L^-1 by forward substitution, kept transposed: a block is small, and the blocked triangular
+        // kernels' set-up costs more than the arithmetic.
         f.setZero();
         for (Eigen::Index j = 0; j < n; ++j) {
             f(j, j) = 1.0 / l(j, j);
             for (Eigen::Index i = j + 1; i < n; ++i) {
                 double sum = 0.0;
-                for (Eigen::Index k = j; k < i; ++k) sum += l(i, k) * f(k, j);
-                f(i, j) = -sum / l(i, i);
+                for (Eigen::Index k = j; k < i; ++k) sum += l(i, k) * f(j, k);
+                f(j, i) = -sum / l(i, i);
             }
         }
     } else {
@@ -134,8 +135,7 @@ bool BlockEliminationWorkspace::factor(std::size_t b)
         const auto& lambda = eigen.eigenvalues();
         const double largest = lambda.cwiseAbs().maxCoeff();
         for (Eigen::Index i = 0; i < n; ++i)
-            f.row(i) = (lambda[i] > rankTolerance * largest ? 1.0 / std::sqrt(lambda[i]) : 0.0) *
-                       eigen.eigenvectors().col(i).transpose();
+            f.col(i) = (lambda[i] > rankTolerance * largest ? 1.0 / std::sqrt(lambda[i]) : 0.0) * eigen.eigenvectors().col(i);
     }
     return f.allFinite();
 }
@@ -157,10 +157,11 @@ bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& g
     for (std::size_t b = blocks; b-- > 0;) {
         if (e.size_[b] == 0) continue;
         if (!factor(b)) return false;
-        const Eigen::MatrixXd& f = factor_[b];
-        y_[b].noalias() = f.lazyProduct(rhs_[b]);
+        // F^T is kept: F X as (F^T)^T X reads both operands' columns contiguously.
+        const Eigen::MatrixXd& ft = factor_[b];
+        y_[b].noalias() = ft.transpose().lazyProduct(rhs_[b]);
         const auto& chain = e.chain_[b];
-        for (std::size_t i = 1; i < chain.size(); ++i) coupling_[b][i].noalias() = f.lazyProduct(work_[b][i]);
+        for (std::size_t i = 1; i < chain.size(); ++i) coupling_[b][i].noalias() = ft.transpose().lazyProduct(work_[b][i]);
         for (std::size_t i = 1; i < chain.size(); ++i) {
             const std::size_t a = static_cast<std::size_t>(chain[i]);
             rhs_[a].noalias() -= coupling_[b][i].transpose().lazyProduct(y_[b]);
@@ -173,9 +174,8 @@ bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& g
         if (e.size_[b] == 0) continue;
         Eigen::VectorXd& z = y_[b];
         const auto& chain = e.chain_[b];
-        for (std::size_t i = 1; i < chain.size(); ++i)
-            z.noalias() -= coupling_[b][i].lazyProduct(step_[static_cast<std::size_t>(chain[i])]);
-        step_[b].noalias() = factor_[b].transpose().lazyProduct(z);
+        for (std::size_t i = 1; i < chain.size(); ++i) z.noalias() -= coupling_[b][i] * step_[static_cast<std::size_t>(chain[i])];
+        step_[b].noalias() = factor_[b] * z;
         for (std::size_t l = 0; l < e.columns_[b].size(); ++l) delta[e.columns_[b][l]] = step_[b][static_cast<Eigen::Index>(l)];
     }
     return delta.allFinite();

@@ -66,7 +66,7 @@ private:
     std::vector<std::vector<Eigen::MatrixXd>> h_;  // h_[b][i]: block b against its i-th chain entry (0: itself)
     std::vector<std::vector<Eigen::MatrixXd>> work_;      // copies of h_ that the elimination overwrites
     std::vector<std::vector<Eigen::MatrixXd>> coupling_;  // coupling_[b][i] = F_b h_[b][i] (i >= 1)
-    std::vector<Eigen::MatrixXd> factor_;  // per block: F with F^T F the (pseudo-)inverse of its eliminated matrix
+    std::vector<Eigen::MatrixXd> factor_;  // per block: F^T, F^T F the (pseudo-)inverse of its eliminated matrix
     std::vector<Eigen::LLT<Eigen::MatrixXd>> llt_;
     std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen_;
     std::vector<Eigen::VectorXd> rhs_, y_, step_;

@@ -82,29 +82,29 @@ std::string ClipInversionSummary::briefReport() const
                        meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
 }
 
-ChainFrame solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
-                           double previousCost, std::vector<double>& scratch)
+void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                     double previousCost, ChainScratch& scratch, ChainFrame& frame)
 {
-    scratch = values;  // the warm start
-    ChainFrame frame;
-    frame.summary = solver.solve(targets, values);
+    scratch.start.assign(values.begin(), values.end());  // the warm start
+    frame.retried = frame.kept = false;
+    solver.solve(targets, values, frame.summary);
     const double tolerance = solver.options().targetTolerance;
     const double floor = 0.5 * tolerance * tolerance;
     if (!(previousCost < retryNever) || frame.summary.termination != TerminationType::stuck ||
         !(frame.summary.finalCost > 2.0 * previousCost + floor))
-        return frame;
+        return;
     frame.retried = true;
-    solver.initialGuess(targets, scratch);
-    SolveSummary second = solver.solve(targets, scratch);
-    if (!(second.finalCost < frame.summary.finalCost * (1.0 - 1e-9) - floor * 1e-6)) return frame;
+    solver.initialGuess(targets, scratch.start);
+    SolveSummary& second = scratch.second;
+    solver.solve(targets, scratch.start, second);
+    if (!(second.finalCost < frame.summary.finalCost * (1.0 - 1e-9) - floor * 1e-6)) return;
     frame.kept = true;
     second.iterations += frame.summary.iterations;
     second.gaussNewtonIterations += frame.summary.gaussNewtonIterations;
     second.levenbergMarquardtIterations += frame.summary.levenbergMarquardtIterations;
     second.initialCost = frame.summary.initialCost;
-    frame.summary = std::move(second);
-    values.swap(scratch);
-    return frame;
+    std::swap(frame.summary, second);
+    values.swap(scratch.start);
 }
 
 ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first,
@@ -123,7 +123,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     summary.leadInFrames = first % options.restartInterval;
     values.clear();
     std::vector<double> current = rest;
-    std::vector<double> retry;
+    ChainScratch chainScratch;
+    ChainFrame solved;
     double previousCost = 0.0;
     std::vector<Eigen::Matrix4d> worlds;
     std::vector<int> stuckCount(approximation.outputs.size(), 0);
@@ -139,8 +140,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
             current = rest;
             if (options.coldStart) solver.initialGuess(frameTargets, current);
         }
-        const ChainFrame solved = solveChainFrame(solver, frameTargets, current,
-                                                  options.retryStuck && !restart ? previousCost : retryNever, retry);
+        solveChainFrame(solver, frameTargets, current, options.retryStuck && !restart ? previousCost : retryNever,
+                        chainScratch, solved);
         const SolveSummary& solve = solved.summary;
         const bool retried = solved.retried, kept = solved.kept;
         if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;

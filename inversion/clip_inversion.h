@@ -64,15 +64,20 @@ struct ClipInversionOptions {
 // start, out the solution). When it ends stuck at a cost above twice `previousCost` plus
 // 0.5 targetTolerance^2, it is solved again from Solver::initialGuess at the same warm start and the
 // cheaper answer is kept (ClipInversionOptions::retryStuck). `previousCost` = retryNever: no retry
-// (restart frames). `scratch` is reused storage.
+// (restart frames). `frame` is the result; it and `scratch` keep their storage from frame to frame, so
+// that a chain allocates nothing once they have grown.
 inline constexpr double retryNever = std::numeric_limits<double>::infinity();
 struct ChainFrame {
     SolveSummary summary;  // of the answer kept; iterations of both solves when the second is kept
     bool retried = false;
     bool kept = false;     // the second answer was cheaper
 };
-ChainFrame solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
-                           double previousCost, std::vector<double>& scratch);
+struct ChainScratch {
+    std::vector<double> start;  // the warm start, for the second solve
+    SolveSummary second;
+};
+void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                     double previousCost, ChainScratch& scratch, ChainFrame& frame);
 
 struct FrameInversion {
     int frame = 0;                      // index in the clip, 0-based

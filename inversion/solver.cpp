@@ -319,12 +319,20 @@ struct BlockResult {
     double cost = 0.0;  // 1/2 |r|^2 over the block's rows at the values returned
 };
 
+// An angular unknown of Solver::initialGuess and its three starts.
+struct Varied {
+    std::size_t parameter;
+    std::array<double, 3> starts;
+};
+
 // Per-solve scratch sized by the approximation.
 struct SolveScratch {
     std::vector<PreparedTarget> prepared;
     std::vector<unsigned char> rows;
     std::string key;  // rows as the plan cache's key (a std::string: no allocation once it has grown)
     std::vector<BlockResult> results;
+    std::vector<double> trial, best;  // initialGuess: the start being solved, the best answer so far
+    std::vector<Varied> varied;
 };
 
 constexpr std::size_t maxCachedPlans = 256;
@@ -398,7 +406,8 @@ struct Solver::Impl {
 
     std::shared_ptr<const Plan> plan(const std::vector<unsigned char>& rows, std::string& key)
     {
-        key.assign(rows.begin(), rows.end());
+        key.resize(rows.size());  // not assign(first, last): libstdc++ would build a temporary string
+        std::copy(rows.begin(), rows.end(), key.begin());
         {
             std::lock_guard lock(plansMutex);
             const auto found = plans.find(key);
@@ -727,13 +736,10 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
     // of a turn apart, one lies within a sixth of a turn of any answer, where the cost (1 - cos) is convex
     // enough for Gauss-Newton. A limited one starts at the middles of the thirds of its range instead.
     constexpr std::size_t maxVaried = 4;  // 3^4 starts at most per output
-    struct Varied {
-        std::size_t parameter;
-        std::array<double, 3> starts;
-    };
-    std::vector<double> trial(values.begin(), values.end());
-    std::vector<double> best;
-    std::vector<Varied> varied;
+    std::vector<double>& trial = scratch->trial;
+    std::vector<double>& best = scratch->best;
+    std::vector<Varied>& varied = scratch->varied;
+    trial.assign(values.begin(), values.end());
     // An output is reached when its cost is this far within targetTolerance: no start can do better.
     const double reachedCost = 0.5 * std::pow(1e-3 * impl.options.targetTolerance, 2);
     for (const auto& step : plan->guessSteps(impl.approximation)) {
@@ -795,13 +801,27 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
 
 SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<double> values) const
 {
+    SolveSummary summary;
+    solve(targets, values, summary);
+    return summary;
+}
+
+void Solver::solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary) const
+{
     Impl& impl = *impl_;
     const Approximation& approximation = impl.approximation;
     Borrowed<SolveScratch> scratch(impl.scratchPool, [] { return std::make_unique<SolveScratch>(); });
-    SolveSummary summary;
+    // Every field anew; the name's and the list's storage kept.
+    std::string worstOutput = std::move(summary.worstOutput);
+    std::vector<int> missedOutputs = std::move(summary.missedOutputs);
+    summary = SolveSummary{};
+    worstOutput.clear();
+    missedOutputs.clear();
+    summary.worstOutput = std::move(worstOutput);
+    summary.missedOutputs = std::move(missedOutputs);
     std::shared_ptr<const Plan> plan;
     impl.prepare(targets, values, *scratch, plan, summary.termination);
-    if (summary.termination == TerminationType::invalidTargets) return summary;
+    if (summary.termination == TerminationType::invalidTargets) return;
     const Partition& partition = plan->partition;
 
     // Costs and errors over every counted output, the outputs no parameter reaches included.
@@ -833,19 +853,19 @@ SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<doubl
             }
         }
     };
-    if (plan->whole.outputs().empty()) return summary;  // noTargets
+    if (plan->whole.outputs().empty()) return;  // noTargets
     measure(false);
     summary.blocks = static_cast<int>(partition.blocks.size());
     if (partition.blocks.empty()) {
         measure(true);
-        return summary;  // noTargets: nothing reaches the targets
+        return;  // noTargets: nothing reaches the targets
     }
 
     auto& results = scratch->results;
     const bool parallel = impl.options.threads != 1;
     const bool coupled = !plan->trees.empty();
     results.assign(coupled ? plan->trees.size() : partition.blocks.size(), BlockResult{});
-    const std::function<void(int)> solveOne = [&](int b) {
+    const auto solveOne = [&](int b) {
         results[static_cast<std::size_t>(b)] =
             impl.solveBlock(*plan->blocks[static_cast<std::size_t>(b)], scratch->prepared, values, parallel);
     };
@@ -871,7 +891,7 @@ SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<doubl
         // Siblings touch disjoint parameters and outputs: in parallel they give the values of the serial order.
         auto runAll = [&] {
             Borrowed<BlockGraph> graph(plan->graphs, [&] { return std::make_unique<BlockGraph>(partition); });
-            graph->run(solveOne);
+            graph->run(std::function<void(int)>(solveOne));
         };
         if (impl.arena)
             impl.arena->execute(runAll);  // the graph is made in, and runs on, the solver's arena
@@ -889,7 +909,7 @@ SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<doubl
     measure(true);
     if (!converged) summary.termination = TerminationType::noConvergence;
     else summary.termination = summary.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
-    return summary;
+
 }
 
 }  // namespace rig

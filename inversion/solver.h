@@ -112,6 +112,9 @@ public:
     // Const and thread-safe: many threads may solve with one Solver at once.
     // Throws std::invalid_argument for wrong sizes or a non-finite value of a parameter it would solve.
     SolveSummary solve(std::span<const JointTarget> targets, std::span<double> values) const;
+    // The same, into `summary`, whose storage is reused: once the solver's scratch and the summary have
+    // grown (after the first solves of a set of counted targets), a solve allocates nothing.
+    void solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary) const;
 
     // A start found from the approximation's structure instead of from the warm start (DESIGN: cold
     // starts), for a solve far from the answer: the outputs are taken parents first, and each output's

@@ -213,12 +213,14 @@ FrameSolve oursSolve(const Solver& solver, RigBinding& binding, int polishCorrec
     // As invertClip: a restart frame starts from the initial guess, a warm start that ends stuck after a
     // jump in cost is retried (solveChainFrame).
     auto previousCost = std::make_shared<double>(retryNever);
-    auto scratch = std::make_shared<std::vector<double>>();
-    return [&solver, &binding, polishCorrections, previousCost, scratch](const std::vector<JointTarget>& t,
-                                                                       std::vector<double>& values, ChainRun& run,
-                                                                       bool restart) {
+    auto scratch = std::make_shared<ChainScratch>();
+    auto frame = std::make_shared<ChainFrame>();
+    return [&solver, &binding, polishCorrections, previousCost, scratch, frame](const std::vector<JointTarget>& t,
+                                                                              std::vector<double>& values, ChainRun& run,
+                                                                              bool restart) {
         if (restart) solver.initialGuess(t, values);
-        const SolveSummary s = solveChainFrame(solver, t, values, restart ? retryNever : *previousCost, *scratch).summary;
+        solveChainFrame(solver, t, values, restart ? retryNever : *previousCost, *scratch, *frame);
+        const SolveSummary& s = frame->summary;
         if (s.termination != TerminationType::invalidTargets) *previousCost = s.finalCost;
         if (polishCorrections > 0 && s.termination != TerminationType::invalidTargets)
             run.evaluations += static_cast<std::uint64_t>(polish(solver, binding, t, values, polishCorrections).evaluations);

@@ -142,7 +142,8 @@ public:
             startCost_ = solutionCost_;
         }
         solution_ = start_;
-        const SolveSummary summary = solveChainFrame(*loaded_->solver, targets, solution_, startCost_, scratch_).summary;
+        solveChainFrame(*loaded_->solver, targets, solution_, startCost_, scratch_, frame_);
+        const SolveSummary& summary = frame_.summary;
         solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
         previousTime_ = t;
 
@@ -172,7 +173,8 @@ private:
     std::vector<double> start_;
     double startCost_ = retryNever;     // the cost of the frame start_ came from (retryNever: from rest)
     double solutionCost_ = retryNever;  // the cost of solution_
-    std::vector<double> scratch_;
+    ChainScratch scratch_;
+    ChainFrame frame_;
     std::vector<double> solution_;
 };
 
