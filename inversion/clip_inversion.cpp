@@ -10,6 +10,8 @@
 #include <Eigen/SVD>
 #include <fmt/format.h>
 
+#include "inversion/continuity.h"
+
 namespace rig {
 namespace {
 
@@ -123,6 +125,16 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     summary.leadInFrames = first % options.restartInterval;
     values.clear();
     std::vector<double> current = rest;
+    // Each chunk shifted by equivalences to meet the frame before it (continuity.h); the chain itself,
+    // `current`, is what was solved.
+    const Equivalences equivalences(approximation);
+    ChunkShift shift = noShift(equivalences);
+    std::vector<double> reported = options.continueFrom;
+    bool continuing = !options.continueFrom.empty();
+    if (continuing && options.continueFrom.size() != rest.size())
+        throw std::invalid_argument(fmt::format("continueFrom has {} values for {} parameters",
+                                                options.continueFrom.size(), rest.size()));
+    reported.resize(rest.size());
     ChainScratch chainScratch;
     ChainFrame solved;
     double previousCost = 0.0;
@@ -147,15 +159,18 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
         if (options.polishCorrections > 0 && solve.termination != TerminationType::invalidTargets)
             polish(solver, rig, frameTargets, current, options.polishCorrections);
+        if (restart) shift = continuing ? continuityShift(equivalences, reported, current) : noShift(equivalences);
+        applyShift(equivalences, shift, current, reported);
+        continuing = true;
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
         if (frame < first) continue;
 
         summary.solveSeconds += seconds;
-        values.push_back(current);
+        values.push_back(reported);
         FrameInversion result;
         result.frame = frame;
         result.solve = solve;
-        rig.evaluate(current, worlds);
+        rig.evaluate(reported, worlds);
         for (std::size_t o = 0; o < frameTargets.size(); ++o) {
             if (!frameTargets[o].active) continue;
             // A NaN target (reported by the solver) has no error to measure; a NaN rig is a miss.

@@ -5,11 +5,13 @@
 // Warm-start chains and chunks. Frame i (0-based in the clip) is warm-started from frame i - 1's
 // solution, except at restart frames (i a multiple of `restartInterval`), which start again from the
 // rest values, or from Solver::initialGuess on the frame's targets (`coldStart`, the default). A run over frames [first, last] therefore begins its chain at the restart frame at or before
-// `first` and solves the lead-in frames without reporting them: any split of a clip into chunks gives,
-// bit for bit, the values and per-frame errors of one run over the whole clip. Angular parameters move
-// continuously inside a chain (the solver keeps a periodic control at the equivalent value nearest its
-// warm start, never whole turns away); at a restart they start again from rest or from the guess, at the
-// equivalent value nearest rest.
+// `first` and solves the lead-in frames without reporting them. Angular parameters move continuously
+// inside a chain (the solver keeps a periodic control at the equivalent value nearest its warm start,
+// never whole turns away); a restart starts again from its targets, so the values reported for each
+// chain after the first are shifted as a whole by equivalences (whole turns, the other Euler solution:
+// inversion/continuity.h) to meet the frame before it. The chain is unchanged, so chunks give, bit for
+// bit, the values and per-frame errors of one run over the whole clip, provided each chunk after the
+// first continues from the values reported for the frame before its lead-in (`continueFrom`).
 
 #include <functional>
 #include <limits>
@@ -53,6 +55,11 @@ struct ClipInversionOptions {
     // at the warm start, and the cheaper answer kept. A clip the rig cannot reach exactly stays stuck
     // at a steady cost and is not solved twice.
     bool retryStuck = true;
+    // The values (internal units, one per parameter) reported for the frame just before the first frame
+    // solved (the restart frame at or before `first`): the chunk before, as one run over both reported it.
+    // The first chain is shifted to meet them, as later chains meet theirs. Empty: the first chain is
+    // reported as solved.
+    std::vector<double> continueFrom;
     // Called after each reported frame with the fraction done; may be empty.
     std::function<void(double fraction)> progress;
 

@@ -21,6 +21,7 @@
 #include <oneapi/tbb/task_arena.h>
 
 #include "inversion/block_elimination.h"
+#include "inversion/continuity.h"
 
 namespace rig {
 namespace {
@@ -108,40 +109,6 @@ struct BlockWorkspace {
     std::vector<char> fixed;
     std::unique_ptr<BlockEliminationWorkspace> elimination;  // a coupled plan's step (inversion/block_elimination.h)
 };
-
-// The period of a control whose every operator is a rotation with a linear magnitude of the same size
-// (a rotate channel, possibly read with another sign): 2 pi / |slope|. 0 when it has none (a curve
-// magnitude, a translation, a sampled operator).
-double rotationPeriod(const ModelledParameter& m)
-{
-    double slope = 0.0;
-    for (const Operator& op : m.operators) {
-        if (op.kind != OperatorKind::rotation || !op.linear() || op.slope == 0.0) return 0.0;
-        if (slope != 0.0 && std::abs(op.slope) != slope) return 0.0;
-        slope = std::abs(op.slope);
-    }
-    return slope > 0.0 ? 2.0 * std::numbers::pi / slope : 0.0;
-}
-
-// Three periodic controls that may be Euler angles of one rotation: on the same outputs, rotations
-// through one pivot about mutually orthogonal axes. If they compose in a row, R1(x) R2(y) R3(z) equals
-// R1(x + pi) R2(pi - y) R3(z + pi): the other solution of the same pose, which solveBlock weighs by cost.
-bool eulerTriple(const ModelledParameter& a, const ModelledParameter& b, const ModelledParameter& c)
-{
-    if (a.outputs != b.outputs || a.outputs != c.outputs) return false;
-    for (std::size_t i = 0; i < a.outputs.size(); ++i) {
-        const Operator& p = a.operators[static_cast<std::size_t>(a.operatorOfOutput[i])];
-        const Operator& q = b.operators[static_cast<std::size_t>(b.operatorOfOutput[i])];
-        const Operator& r = c.operators[static_cast<std::size_t>(c.operatorOfOutput[i])];
-        constexpr double orthogonal = 1e-9;
-        if (std::abs(p.axis.dot(q.axis)) > orthogonal || std::abs(q.axis.dot(r.axis)) > orthogonal ||
-            std::abs(p.axis.dot(r.axis)) > orthogonal)
-            return false;
-        const double scale = 1.0 + p.pivot.norm();
-        if ((p.pivot - q.pivot).norm() > 1e-9 * scale || (p.pivot - r.pivot).norm() > 1e-9 * scale) return false;
-    }
-    return true;
-}
 
 struct BlockPlan {
     BlockPlan(const Approximation& approximation, const PartitionBlock& block)

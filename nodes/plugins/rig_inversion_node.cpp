@@ -8,8 +8,9 @@
 // and from the rest values otherwise (the first evaluation, scrubbing backwards, a jump) and at restart
 // frames (t - startFrame a multiple of restartInterval); a start from rest is made a cold start
 // (Solver::initialGuess) unless `coldStart` is off, and a warm start that ends stuck after a jump in
-// cost is solved again from the guess (solveChainFrame). rig-invert follows the same rule, so the node
-// played frame after frame gives rig-invert's curves.
+// cost is solved again from the guess (solveChainFrame). A chain that starts at a restart frame played in
+// order is shifted by equivalences to meet the frame before it (inversion/continuity.h). rig-invert
+// follows the same rules, so the node played frame after frame gives rig-invert's curves.
 #include <cmath>
 #include <memory>
 #include <numbers>
@@ -24,6 +25,7 @@
 #include "graph/plug_glob.h"
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
+#include "inversion/continuity.h"
 #include "inversion/solver.h"
 #include "nodes/clips/target_clip.h"
 
@@ -58,6 +60,7 @@ struct Loaded {
     std::unique_ptr<Approximation> approximation;
     std::unique_ptr<Solver> solver;
     SolverOptions options;
+    std::unique_ptr<Equivalences> equivalences;  // for the chunks' continuity shifts
 };
 
 std::string joinLines(const std::vector<std::string>& lines)
@@ -99,6 +102,7 @@ public:
             auto fresh = std::make_unique<Loaded>();
             fresh->path = path;
             fresh->approximation = std::make_unique<Approximation>(readApproximation(path, node));
+            fresh->equivalences = std::make_unique<Equivalences>(*fresh->approximation);
             loaded_ = std::move(fresh);
             solution_.clear();
         }
@@ -133,7 +137,12 @@ public:
         const double sinceStart = t - c.getDouble(startFrame);
         const bool restartFrame = sinceStart == std::floor(sinceStart) &&
                                   std::fmod(sinceStart, static_cast<double>(interval)) == 0.0;
-        if (solution_.empty() || restartFrame || !(t == previousTime_ || t == previousTime_ + 1.0)) {
+        // What was reported for the frame before this one, when played in order (continuity shifts).
+        const bool advanced = !solution_.empty() && t == previousTime_ + 1.0;
+        if (advanced) before_ = reported_;
+        else if (solution_.empty() || t != previousTime_) before_.clear();
+        const bool chainStart = solution_.empty() || restartFrame || !(t == previousTime_ || t == previousTime_ + 1.0);
+        if (chainStart) {
             start_ = a.defaults();
             if (c.getBool(coldStart)) loaded_->solver->initialGuess(targets, start_);
             startCost_ = retryNever;  // a restart is not retried, as in rig-invert
@@ -146,11 +155,17 @@ public:
         const SolveSummary& summary = frame_.summary;
         solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
         previousTime_ = t;
+        // A chain after a restart frame played in order meets the frame before it, as rig-invert reports it.
+        const Equivalences& equivalences = *loaded_->equivalences;
+        if (chainStart)
+            shift_ = before_.empty() ? noShift(equivalences) : continuityShift(equivalences, before_, solution_);
+        reported_.resize(solution_.size());
+        applyShift(equivalences, shift_, solution_, reported_);
 
         std::vector<Value> values;
         for (std::size_t i = 0; i < a.parameters.size(); ++i) {
             const auto& p = a.parameters[i].parameter;
-            values.emplace_back(p.angular ? solution_[i] * 180.0 / std::numbers::pi : solution_[i]);
+            values.emplace_back(p.angular ? reported_[i] * 180.0 / std::numbers::pi : reported_[i]);
         }
         c.setOutputElements(value, std::move(values));
         c.setOutput(converged, summary.converged());
@@ -175,7 +190,10 @@ private:
     double solutionCost_ = retryNever;  // the cost of solution_
     ChainScratch scratch_;
     ChainFrame frame_;
-    std::vector<double> solution_;
+    std::vector<double> solution_;  // the chain's, as solved
+    ChunkShift shift_;              // of the current chain (inversion/continuity.h)
+    std::vector<double> reported_;  // solution_ shifted: the values output
+    std::vector<double> before_;    // reported_ of the frame before, when played in order; empty otherwise
 };
 
 // connect: {targets: NODE_OR_GLOB, parameters: true}
