@@ -2,11 +2,13 @@
 // and measures the result on the real rig (docs/rig-invert.md).
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <iostream>
 #include <numbers>
 #include <optional>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "graph/error.h"
 #include "inversion/approximation_io.h"
@@ -38,10 +40,55 @@ struct Options {
     int polish = 0;
     int restartEvery = ClipInversionOptions{}.restartInterval;
     bool restStarts = false;
+    std::string after;  // curves of the chunk before (--after)
     bool quiet = false;
 };
 
 double userValue(const RigParameter& p, double value) { return p.angular ? value * 180.0 / std::numbers::pi : value; }
+
+// --after: the values that the chunk before reported for clip frame `index` (internal units), read from
+// the JSON curves rig-invert wrote for it.
+std::vector<double> valuesReported(const std::string& file, const Approximation& a, const TargetClip& clip, int index,
+                                   const std::string& frames)
+{
+    if (index < 0)
+        throw Error(fmt::format("--after {}: frames {} start at the clip's first chain; there is no frame before them "
+                                "to continue from (leave --after out)",
+                                file, frames));
+    const double number = clip.frameNumbers[static_cast<std::size_t>(index)];
+    std::ifstream in(file);
+    if (!in)
+        throw Error(fmt::format("--after {}: cannot read it; give the curves (.json) rig-invert wrote for the frames before",
+                                file));
+    nlohmann::json curves;
+    try {
+        curves = nlohmann::json::parse(in);
+    }
+    catch (const nlohmann::json::exception& e) {
+        throw Error(fmt::format("--after {}: not JSON curves written by rig-invert ({})", file, e.what()));
+    }
+    if (!curves.is_array())
+        throw Error(fmt::format("--after {}: not JSON curves written by rig-invert (no list of frames)", file));
+    for (const auto& frame : curves) {
+        if (!frame.is_object() || !frame.contains("frame") || !frame["frame"].is_number() ||
+            frame["frame"].get<double>() != number)
+            continue;
+        std::vector<double> values;
+        for (const auto& m : a.parameters) {
+            const RigParameter& p = m.parameter;
+            const auto found = frame.find(p.name);
+            if (found == frame.end() || !found->is_number() || !std::isfinite(found->get<double>()))
+                throw Error(fmt::format("--after {}: frame {} has no finite value of {}; give curves written with this "
+                                        "approximation",
+                                        file, number, p.name));
+            values.push_back(p.angular ? found->get<double>() * std::numbers::pi / 180.0 : found->get<double>());
+        }
+        return values;
+    }
+    throw Error(fmt::format("--after {}: has no frame {}; frames {} start their chain at frame {}, so the curves before "
+                            "must reach the frame before it",
+                            file, number, frames, clip.frameNumbers[static_cast<std::size_t>(index) + 1]));
+}
 
 // graph-eval's layout, so that a graph driven by the curves prints the same file.
 std::string curvesJson(const Approximation& a, const TargetClip& clip, int first,
@@ -170,7 +217,8 @@ int run(const Options& o)
     if (extension != ".json" && extension != ".csv")
         throw Error(fmt::format("-o {}: the curves are written as .json or .csv; give one of those", o.output));
     if (!o.reportJson.empty()) cli::checkOutputFile(o.reportJson, "report.json", "--report-json");
-    cli::checkDistinctFiles({{"the approximation", o.approximation}, {"the rig file", o.rig}, {"the clip", o.clip}, {"the map", o.map}},
+    cli::checkDistinctFiles({{"the approximation", o.approximation}, {"the rig file", o.rig}, {"the clip", o.clip},
+                             {"the map", o.map}, {"--after", o.after}},
                             {{"-o", o.output}, {"--report-json", o.reportJson}});
     ClipInversionOptions options;
     options.solver.threads = o.threads;
@@ -277,6 +325,9 @@ int run(const Options& o)
                                 learnedFrom()));
     }
     RigBinding& binding = *bound;
+    if (!o.after.empty())
+        options.continueFrom = valuesReported(o.after, approximation, clip, first - first % options.restartInterval - 1,
+                                              o.framesGiven ? o.frames : "(all)");
     cli::ProgressBar bar("inverting");
     options.progress = [&](double fraction) { bar.update(fraction); };
     std::vector<std::vector<double>> values;
@@ -329,6 +380,9 @@ int main(int argc, char** argv)
     app.add_option("--polish", options.polish, "Real-rig corrections per frame (0: approximation only)");
     app.add_option("--restart-every", options.restartEvery,
                    "Frames between warm-start restarts (chunks of a clip then match one run)");
+    app.add_option("--after", options.after,
+                   "JSON curves rig-invert wrote for the frames before these: this run continues them (the curves "
+                   "of chunks then equal one run's)");
     app.add_flag("--rest-starts", options.restStarts,
                  "Restart frames start from the rest values instead of the approximation's initial guess");
     app.add_flag("--strict", options.strict, "Refuse an approximation learned from another version of the rig");

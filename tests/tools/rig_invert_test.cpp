@@ -100,7 +100,8 @@ TEST_CASE("rig-invert: chunks of a clip give the curves of one run, and threads 
     };
     const auto whole = invert("1:100", "whole.json", 1);
     const auto first = invert("1:55", "first.json", 2);
-    const auto second = invert("56:100", "second.json", 2);
+    // The second chunk continues the first (its chain starts at frame 41; --after gives frame 40's values).
+    const auto second = invert("56:100 --after " + (dir / "first.json").string(), "second.json", 2);
     REQUIRE(whole.size() == 100);
     REQUIRE(first.size() + second.size() == 100);
     for (std::size_t f = 0; f < 100; ++f) {
@@ -211,6 +212,29 @@ TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs
     expectError(base + " --restart-every 0 -o " + out,
                 "--restart-every 0: give 1 or more frames between warm-start restarts (default 120)");
     expectError(base + " --jacobian exact -o " + out, "--jacobian exact: expected analytic or fd");
+    // --after: the curves of the frames before a chunk's chain.
+    test::writeFile(dir / "before.json", "[{\"frame\": 1, \"shoulder.rotateX\": 1}]\n");
+    expectError(base + " --frames 2:3 --restart-every 1 --after " + (dir / "none.json").string() + " -o " + out,
+                fmt::format("--after {}: cannot read it; give the curves (.json) rig-invert wrote for the frames before",
+                            (dir / "none.json").string()));
+    expectError(base + " --frames 1:3 --after " + (dir / "before.json").string() + " -o " + out,
+                fmt::format("--after {}: frames 1:3 start at the clip's first chain; there is no frame before them to "
+                            "continue from (leave --after out)",
+                            (dir / "before.json").string()));
+    expectError(base + " --frames 3:3 --restart-every 1 --after " + (dir / "before.json").string() + " -o " + out,
+                fmt::format("--after {}: has no frame 2; frames 3:3 start their chain at frame 3, so the curves before "
+                            "must reach the frame before it",
+                            (dir / "before.json").string()));
+    expectError(base + " --frames 2:3 --restart-every 1 --after " + (dir / "before.json").string() + " -o " + out,
+                fmt::format("--after {}: frame 1 has no finite value of shoulder.rotateZ; give curves written with this "
+                            "approximation",
+                            (dir / "before.json").string()));
+    const auto overwrite = rigInvert(base + " --frames 2:3 --restart-every 1 --after " + (dir / "before.json").string() +
+                                     " -o " + (dir / "before.json").string());
+    CHECK(overwrite.exitCode == 2);
+    CHECK(overwrite.err == fmt::format("error: -o {0}: is --after ({0}); writing it would destroy an input, choose "
+                                       "another output file\n",
+                                       (dir / "before.json").string()));
 
     // A clip with no joint of the approximation asks for a map.
     test::writeFile(dir / "other.json", "[{\"frame\": 1, \"x.worldMatrix\": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], "
