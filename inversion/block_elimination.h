@@ -46,7 +46,7 @@ private:
     std::vector<std::vector<std::vector<int>>> gather_;
 };
 
-// Per-solve state: the blocks of J^T J along each chain, the right-hand sides and the blocks' inverses.
+// Per-solve state: the blocks of J^T J along each chain, the right-hand sides and the blocks' factors.
 // Sized once; allocates nothing per step.
 class BlockEliminationWorkspace {
 public:
@@ -65,7 +65,7 @@ private:
     const BlockElimination* e_;
     std::vector<std::vector<Eigen::MatrixXd>> h_;  // h_[b][i]: block b against its i-th chain entry (0: itself)
     std::vector<std::vector<Eigen::MatrixXd>> work_;      // copies of h_ that the elimination overwrites
-    std::vector<std::vector<Eigen::MatrixXd>> coupling_;  // coupling_[b][i] = F_b h_[b][i] (i >= 1)
+    std::vector<std::vector<Eigen::MatrixXd>> coupling_;  // coupling_[b][i] = F_b work_[b][i] (i >= 1), eliminated
     std::vector<Eigen::MatrixXd> factor_;  // per block: F^T, F^T F the (pseudo-)inverse of its eliminated matrix
     std::vector<Eigen::LLT<Eigen::MatrixXd>> llt_;
     std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen_;

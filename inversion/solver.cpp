@@ -682,11 +682,13 @@ double Solver::Impl::unmovedPositionCost(const BlockPlan& block, std::span<const
     w.residual.jacobian(w.x, JacobianMethod::analytic, options.finiteDifferenceStep, false, w.r, w.J);
     // A rotation about pivot c moves a point p by omega x (p - c): zero for every rotation of the product
     // (at any pose) exactly when every pivot is at p. Rounding aside, which this scale bounds.
-    double position = 0.0, scale = 1.0;
-    for (Eigen::Index o = 0; o < w.r.size(); o += rowsPerTarget) {
-        position += 0.5 * w.r.segment<3>(o).squaredNorm();
+    double scale = 1.0;
+    for (Eigen::Index o = 0; o < w.r.size(); o += rowsPerTarget)
         scale = std::max(scale, w.J.middleRows<3>(o + 3).cwiseAbs().maxCoeff());
+    double position = 0.0;
+    for (Eigen::Index o = 0; o < w.r.size(); o += rowsPerTarget) {
         if (w.J.middleRows<3>(o).cwiseAbs().maxCoeff() > 1e-9 * scale) return -1.0;
+        position += 0.5 * w.r.segment<3>(o).squaredNorm();
     }
     return position;
 }
