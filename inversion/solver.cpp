@@ -111,7 +111,7 @@ struct BlockWorkspace {
 };
 
 struct BlockPlan {
-    BlockPlan(const Approximation& approximation, const PartitionBlock& block)
+    BlockPlan(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& block)
         : structure(approximation, block.parameters, block.outputs)
     {
         // Only a control's own limits bind; a free one's min..max is just the range it was learned on.
@@ -121,28 +121,24 @@ struct BlockPlan {
             lower.push_back(m.parameter.limited ? m.parameter.min : -free);
             upper.push_back(m.parameter.limited ? m.parameter.max : free);
             angular.push_back(m.parameter.angular);
-            period.push_back(m.parameter.limited ? 0.0 : rotationPeriod(m));
+            period.push_back(equivalences.period[static_cast<std::size_t>(p)]);
             defaults.push_back(m.parameter.defaultValue);
             for (const Operator& op : m.operators) rotationsOnly = rotationsOnly && op.kind == OperatorKind::rotation;
         }
-        std::vector<char> used(block.parameters.size(), 0);
-        const auto model = [&](std::size_t c) -> const ModelledParameter& {
-            return approximation.parameters[static_cast<std::size_t>(block.parameters[c])];
+        // The approximation's Euler triples whose three channels are all solved here, as columns.
+        const auto column = [&](int p) {
+            const auto it = std::lower_bound(block.parameters.begin(), block.parameters.end(), p);
+            return it != block.parameters.end() && *it == p ? static_cast<int>(it - block.parameters.begin()) : -1;
         };
-        for (std::size_t i = 0; i < used.size(); ++i)
-            for (std::size_t j = i + 1; j < used.size() && period[i] > 0 && !used[i]; ++j)
-                for (std::size_t k = j + 1; k < used.size() && period[j] > 0 && !used[j]; ++k)
-                    if (period[k] > 0 && !used[k] && eulerTriple(model(i), model(j), model(k))) {
-                        triples.push_back({static_cast<int>(i), static_cast<int>(j), static_cast<int>(k)});
-                        used[i] = used[j] = used[k] = 1;
-                    }
+        for (const auto& [a, b, c] : equivalences.triples)
+            if (column(a) >= 0 && column(b) >= 0 && column(c) >= 0) triples.push_back({column(a), column(b), column(c)});
     }
     ResidualStructure structure;
     std::vector<double> lower, upper;
     std::vector<bool> angular;
-    std::vector<double> period;  // > 0: the values x and x + period give the same pose (see rotationPeriod)
+    std::vector<double> period;  // > 0: the values x and x + period give the same pose (Equivalences::period)
     std::vector<double> defaults;
-    std::vector<std::array<int, 3>> triples;  // columns that may be Euler angles of one rotation (eulerTriple)
+    std::vector<std::array<int, 3>> triples;  // columns that are Euler angles of one rotation (Equivalences::triples)
     bool rotationsOnly = true;  // every operator of every parameter is a rotation about a pivot
     // Set for a partition's coupled solve: the blocks' step by elimination instead of one dense system.
     std::unique_ptr<BlockElimination> elimination;
@@ -151,7 +147,10 @@ struct BlockPlan {
 
 // One step of Solver::initialGuess: the parameters that the output's target fixes, solved on it alone.
 struct GuessStep {
-    GuessStep(const Approximation& approximation, const PartitionBlock& b) : block(b), plan(approximation, b) {}
+    GuessStep(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& b)
+        : block(b), plan(approximation, equivalences, b)
+    {
+    }
     PartitionBlock block;
     BlockPlan plan;
 };
@@ -203,10 +202,12 @@ private:
 
 // The partition for one set of counted rows, with what its blocks need.
 struct Plan {
-    Plan(const Approximation& approximation, Partition p, std::vector<int> counted, bool coupledBlocks)
+    Plan(const Approximation& approximation, const Equivalences& equivalences, Partition p, std::vector<int> counted,
+         bool coupledBlocks)
         : partition(std::move(p)), whole(approximation, {}, std::move(counted))
     {
-        for (const PartitionBlock& block : partition.blocks) blocks.push_back(std::make_unique<BlockPlan>(approximation, block));
+        for (const PartitionBlock& block : partition.blocks)
+            blocks.push_back(std::make_unique<BlockPlan>(approximation, equivalences, block));
         if (!coupledBlocks) return;
         // One coupled system per independent tree: trees share nothing (a crowd's members), and one
         // system over all of them would only multiply the Jacobian's zeros.
@@ -236,7 +237,7 @@ struct Plan {
             tree.roots = {0};
             std::sort(all.parameters.begin(), all.parameters.end());
             std::sort(all.outputs.begin(), all.outputs.end());
-            auto plan = std::make_unique<BlockPlan>(approximation, all);
+            auto plan = std::make_unique<BlockPlan>(approximation, equivalences, all);
             plan->elimination = std::make_unique<BlockElimination>(tree, plan->structure);
             trees.push_back(std::move(plan));
         }
@@ -247,7 +248,8 @@ struct Plan {
     std::vector<std::unique_ptr<BlockPlan>> trees;
     // The steps of initialGuess, made when first needed: parents first, each counted output with the
     // solved parameters that reach it and no output before it.
-    const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation) const
+    const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation,
+                                                              const Equivalences& equivalences) const
     {
         std::call_once(guessOnce, [&] {
             std::vector<char> solved(approximation.parameters.size(), 0), assigned(solved.size(), 0);
@@ -265,7 +267,7 @@ struct Plan {
                         step.parameters.push_back(static_cast<int>(p));
                         assigned[p] = 1;
                     }
-                if (!step.parameters.empty()) guess.push_back(std::make_unique<GuessStep>(approximation, step));
+                if (!step.parameters.empty()) guess.push_back(std::make_unique<GuessStep>(approximation, equivalences, step));
             }
         });
         return guess;
@@ -366,6 +368,7 @@ struct Solver::Impl {
 
     const Approximation& approximation;
     SolverOptions options;
+    std::optional<Equivalences> equivalences;  // made once the approximation is checked (Solver's constructor)
     std::optional<tbb::task_arena> arena;
     Pool<SolveScratch> scratchPool;
     std::mutex plansMutex;
@@ -383,8 +386,9 @@ struct Solver::Impl {
         std::vector<int> counted;
         for (std::size_t k = 0; k < rows.size(); ++k)
             if (rows[k] != noRows) counted.push_back(static_cast<int>(k));
-        auto made = std::make_shared<const Plan>(approximation, partitionProblem(approximation, rows, options.partition),
-                                                 std::move(counted), options.coupledBlocks);
+        auto made = std::make_shared<const Plan>(approximation, *equivalences,
+                                                 partitionProblem(approximation, rows, options.partition), std::move(counted),
+                                                 options.coupledBlocks);
         std::lock_guard lock(plansMutex);
         if (plans.size() >= maxCachedPlans) return made;
         return plans.emplace(key, std::move(made)).first->second;  // another thread's, if it was first
@@ -417,6 +421,7 @@ Solver::Solver(const Approximation& approximation, SolverOptions options)
                                                     p.name, m.outputs.size(), m.operatorOfOutput.size()));
     }
     approximation.outputOrder();  // throws for parents out of range or in a cycle
+    impl_->equivalences.emplace(approximation);
     // Above the core count TBB refuses the extra workers (with a warning); the values do not depend on it.
     if (options.threads > 1) impl_->arena.emplace(std::min(options.threads, tbb::info::default_concurrency()));
 }
@@ -711,7 +716,7 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
     trial.assign(values.begin(), values.end());
     // An output is reached when its cost is this far within targetTolerance: no start can do better.
     const double reachedCost = 0.5 * std::pow(1e-3 * impl.options.targetTolerance, 2);
-    for (const auto& step : plan->guessSteps(impl.approximation)) {
+    for (const auto& step : plan->guessSteps(impl.approximation, *impl.equivalences)) {
         const BlockPlan& block = step->plan;
         const std::vector<int>& columns = step->block.parameters;
         // Rotations that cannot move the output's position (every pivot at the joint, as a joint's own
