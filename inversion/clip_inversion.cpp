@@ -127,7 +127,7 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     std::vector<double> current = rest;
     // Each chunk shifted by equivalences to meet the frame before it (continuity.h); the chain itself,
     // `current`, is what was solved.
-    const Equivalences equivalences(approximation);
+    const Equivalences& equivalences = solver.equivalences();
     ChunkShift shift = noShift(equivalences);
     std::vector<double> reported = options.continueFrom;
     bool continuing = !options.continueFrom.empty();

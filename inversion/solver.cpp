@@ -432,6 +432,7 @@ Solver& Solver::operator=(Solver&&) noexcept = default;
 
 const SolverOptions& Solver::options() const { return impl_->options; }
 const Approximation& Solver::approximation() const { return impl_->approximation; }
+const Equivalences& Solver::equivalences() const { return *impl_->equivalences; }
 
 namespace {
 

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "inversion/approximation.h"
+#include "inversion/continuity.h"
 #include "inversion/jacobian.h"
 #include "inversion/partition.h"
 
@@ -129,6 +130,8 @@ public:
 
     const SolverOptions& options() const;
     const Approximation& approximation() const;
+    // The approximation's equivalent values (inversion/continuity.h), made once with the solver.
+    const Equivalences& equivalences() const;
     // The partition a solve with these targets uses (built once per set of counted rows, then cached).
     Partition partition(std::span<const JointTarget> targets) const;
 

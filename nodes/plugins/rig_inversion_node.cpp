@@ -60,7 +60,6 @@ struct Loaded {
     std::unique_ptr<Approximation> approximation;
     std::unique_ptr<Solver> solver;
     SolverOptions options;
-    std::unique_ptr<Equivalences> equivalences;  // for the chunks' continuity shifts
 };
 
 std::string joinLines(const std::vector<std::string>& lines)
@@ -102,7 +101,6 @@ public:
             auto fresh = std::make_unique<Loaded>();
             fresh->path = path;
             fresh->approximation = std::make_unique<Approximation>(readApproximation(path, node));
-            fresh->equivalences = std::make_unique<Equivalences>(*fresh->approximation);
             loaded_ = std::move(fresh);
             solution_.clear();
         }
@@ -156,7 +154,7 @@ public:
         solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
         previousTime_ = t;
         // A chain after a restart frame played in order meets the frame before it, as rig-invert reports it.
-        const Equivalences& equivalences = *loaded_->equivalences;
+        const Equivalences& equivalences = loaded_->solver->equivalences();
         if (chainStart)
             shift_ = before_.empty() ? noShift(equivalences) : continuityShift(equivalences, before_, solution_);
         reported_.resize(solution_.size());
