@@ -9,11 +9,10 @@
 
 #include "graph/dot_writer.h"
 #include "graph/error.h"
-#include "graph/plug_glob.h"
 #include "graph/type_reference.h"
 #include "graph/yaml_loader.h"
-#include "nodes/builtin_nodes.h"
 #include "tools/cli_common.h"
+#include "tools/eval_run.h"
 #include "tools/value_output.h"
 
 namespace rig {
@@ -41,10 +40,8 @@ void applySet(Graph& graph, const std::string& assignment)
     const auto eq = assignment.find('=');
     if (eq == std::string::npos)
         throw Error(fmt::format("--set '{}': expected node.attr=VALUE, e.g. --set elbow.rotateZ=45", assignment));
-    const Plug plug = graph.plug(assignment.substr(0, eq));
-    const std::string where = fmt::format("--set {}", assignment.substr(0, eq));
-    if (!graph.spec(plug).input)
-        throw Error(fmt::format("cannot set {}: it is an output, computed by its node", graph.plugName(plug)));
+    const std::string name = assignment.substr(0, eq);
+    const Plug plug = cli::settablePlug(graph, name);
     YAML::Node value;
     bool valid = true;
     try {
@@ -55,22 +52,9 @@ void applySet(Graph& graph, const std::string& assignment)
         valid = false;
     }
     if (!valid)
-        throw Error(fmt::format("{}: '{}' is not a value; numbers, true/false, names, [x, y, z]", where,
+        throw Error(fmt::format("--set {}: '{}' is not a value; numbers, true/false, names, [x, y, z]", name,
                                 assignment.substr(eq + 1)));
-    graph.setValue(plug, parseYamlValue(value, graph, plug, where));
-}
-
-// Runs an evaluation, naming the rig and the frame in front of an error a node met (a malformed clip,
-// a NaN driving an enum): the message alone does not say when it happened.
-template <class F>
-void evaluating(const Options& options, double frame, F&& f)
-{
-    try {
-        f();
-    }
-    catch (const Error& e) {
-        throw Error(fmt::format("{}: evaluating frame {}: {}", options.rig, frame, e.what()));
-    }
+    cli::setPlug(graph, plug, name, value);
 }
 
 std::string joinCsv(const std::vector<std::vector<std::string>>& rows)
@@ -124,22 +108,7 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
     };
     std::size_t framesDone = 0;
     for (double frame : frames) {
-        if (useTime) graph.setTime(frame);
-        evaluating(options, frame, [&] { graph.evaluate(plugs); });
-        if (options.check) {
-            const auto mismatches = graph.checkEvaluation();
-            if (!mismatches.empty()) {
-                std::string list;
-                for (const auto& m : mismatches) list += (list.empty() ? "" : ", ") + m;
-                throw std::runtime_error(fmt::format("checked mode, frame {}: cached values differ from a full "
-                                                     "recompute for {} (a node type's affects table misses an entry)",
-                                                     frame, list));
-            }
-        }
-        std::vector<Value> values;
-        evaluating(options, frame, [&] {
-            for (const Plug& p : plugs) values.push_back(graph.getValue(p));
-        });
+        const std::vector<Value> values = cli::evaluateFrame(graph, options.rig, frame, useTime, plugs, options.check);
         if (options.format == "json") {
             std::vector<std::pair<std::string, cli::Json>> named;
             for (std::size_t i = 0; i < plugs.size(); ++i)
@@ -179,8 +148,7 @@ int run(const Options& options)
         cli::checkOutputFile(options.output);
         cli::checkDistinctFiles({{"the rig file", options.rig}}, {{"-o", options.output}});
     }
-    auto registry = makeBuiltinRegistry();
-    for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
+    const auto registry = cli::nodeRegistry(options.plugins);
     // The files the rig includes are inputs too: -o must not be one of them.
     auto load = [&] {
         std::vector<std::filesystem::path> read;
@@ -200,19 +168,9 @@ int run(const Options& options)
         for (const auto& s : options.sets) applySet(*graph, s);
         std::optional<cli::FrameRange> range;
         if (options.framesGiven) range = cli::parseFrameRange(options.frames, "--frames");
-        // Array outputs have elements only once computed; globs see them after a first evaluation.
-        if (range) graph->setTime(range->first);
-        evaluating(options, graph->time(), [&] { graph->evaluateAll(); });
-        std::vector<Plug> plugs;
-        if (options.gets.empty()) {
-            for (const Plug& p : allPlugs(*graph))
-                if (!graph->spec(p).input && p.child < 0) plugs.push_back(p);
-        }
-        // A plug named by several --get patterns is printed once (JSON objects must not repeat a key).
-        std::set<Plug> seen;
-        for (const auto& pattern : options.gets)
-            for (const Plug& p : matchPlugs(*graph, pattern))
-                if (seen.insert(p).second) plugs.push_back(p);
+        std::vector<Plug> plugs = cli::selectPlugs(*graph, options.rig, options.gets,
+                                                   range ? std::optional(range->first) : std::nullopt);
+        const std::set<Plug> seen(plugs.begin(), plugs.end());
         // CSV and table columns of a vector are its components: a component also selected whole
         // ('--get node.rotate*' matches rotate and rotateX) would be a second column of the same name.
         if (options.format != "json")

@@ -1,23 +1,15 @@
 // rig-invert: inverts a clip of target joints to rig parameter curves with a learned approximation,
 // and measures the result on the real rig (docs/rig-invert.md).
 #include <algorithm>
-#include <cmath>
-#include <fstream>
+#include <filesystem>
 #include <iostream>
-#include <numbers>
-#include <optional>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include "graph/error.h"
-#include "inversion/approximation_io.h"
-#include "inversion/clip_inversion.h"
-#include "nodes/clips/target_clip.h"
-#include "nodes/graph_rig_function.h"
 #include "tools/cli_common.h"
+#include "tools/invert_run.h"
 #include "tools/progress_bar.h"
-#include "tools/value_output.h"
 
 namespace rig {
 namespace {
@@ -43,131 +35,6 @@ struct Options {
     std::string after;  // curves of the chunk before (--after)
     bool quiet = false;
 };
-
-double userValue(const RigParameter& p, double value) { return p.angular ? value * 180.0 / std::numbers::pi : value; }
-
-// --after: the values that the chunk before reported for clip frame `index` (internal units), read from
-// the JSON curves rig-invert wrote for it.
-std::vector<double> valuesReported(const std::string& file, const Approximation& a, const TargetClip& clip, int index,
-                                   const std::string& frames)
-{
-    if (index < 0)
-        throw Error(fmt::format("--after {}: frames {} start at the clip's first chain; there is no frame before them "
-                                "to continue from (leave --after out)",
-                                file, frames));
-    const double number = clip.frameNumbers[static_cast<std::size_t>(index)];
-    std::ifstream in(file);
-    if (!in)
-        throw Error(fmt::format("--after {}: cannot read it; give the curves (.json) rig-invert wrote for the frames before",
-                                file));
-    nlohmann::json curves;
-    try {
-        curves = nlohmann::json::parse(in);
-    }
-    catch (const nlohmann::json::exception& e) {
-        throw Error(fmt::format("--after {}: not JSON curves written by rig-invert ({})", file, e.what()));
-    }
-    if (!curves.is_array())
-        throw Error(fmt::format("--after {}: not JSON curves written by rig-invert (no list of frames)", file));
-    for (const auto& frame : curves) {
-        if (!frame.is_object() || !frame.contains("frame") || !frame["frame"].is_number() ||
-            frame["frame"].get<double>() != number)
-            continue;
-        std::vector<double> values;
-        for (const auto& m : a.parameters) {
-            const RigParameter& p = m.parameter;
-            const auto found = frame.find(p.name);
-            if (found == frame.end() || !found->is_number() || !std::isfinite(found->get<double>()))
-                throw Error(fmt::format("--after {}: frame {} has no finite value of {}; give curves written with this "
-                                        "approximation",
-                                        file, number, p.name));
-            values.push_back(p.angular ? found->get<double>() * std::numbers::pi / 180.0 : found->get<double>());
-        }
-        return values;
-    }
-    throw Error(fmt::format("--after {}: has no frame {}; frames {} start their chain at frame {}, so the curves before "
-                            "must reach the frame before it",
-                            file, number, frames, clip.frameNumbers[static_cast<std::size_t>(index) + 1]));
-}
-
-// graph-eval's layout, so that a graph driven by the curves prints the same file.
-std::string curvesJson(const Approximation& a, const TargetClip& clip, int first,
-                       const std::vector<std::vector<double>>& values)
-{
-    std::string out = "[\n";
-    for (std::size_t f = 0; f < values.size(); ++f) {
-        std::vector<std::pair<std::string, cli::Json>> named;
-        for (std::size_t i = 0; i < a.parameters.size(); ++i)
-            named.emplace_back(a.parameters[i].parameter.name,
-                               cli::numberJson(userValue(a.parameters[i].parameter, values[f][i])));
-        out += cli::frameJson(clip.frameNumbers[first + f], named) + (f + 1 < values.size() ? ",\n" : "\n");
-    }
-    return out + "]\n";
-}
-
-std::string curvesCsv(const Approximation& a, const TargetClip& clip, int first,
-                      const std::vector<std::vector<double>>& values)
-{
-    std::string out = "frame";
-    for (const auto& p : a.parameters) out += "," + p.parameter.name;
-    out += "\n";
-    for (std::size_t f = 0; f < values.size(); ++f) {
-        out += fmt::format("{}", clip.frameNumbers[first + f]);
-        for (std::size_t i = 0; i < a.parameters.size(); ++i) {
-            const double v = userValue(a.parameters[i].parameter, values[f][i]);
-            out += std::isfinite(v) ? fmt::format(",{}", v) : ",";
-        }
-        out += "\n";
-    }
-    return out;
-}
-
-std::string reportJson(const Options& o, const Approximation& a, const TargetClip& clip,
-                       const ClipTargets& targets, const ClipInversionSummary& s, const std::string& curvesFingerprint)
-{
-    cli::Json perFrame = cli::Json::array();
-    for (const auto& f : s.perFrame) {
-        cli::Json missed = cli::Json::array();
-        for (const int k : f.solve.missedOutputs) missed.push_back(a.outputs[static_cast<std::size_t>(k)].name);
-        perFrame.push_back({{"frame", cli::numberJson(clip.frameNumbers[f.frame])},
-                            {"termination", terminationName(f.solve.termination)},
-                            {"missed_joints", std::move(missed)},
-                            {"iterations", f.solve.iterations},
-                            {"position_error_cm", cli::numberJson(f.positionErrorCm)},
-                            {"rotation_error_deg", cli::numberJson(f.rotationErrorDeg)},
-                            {"worst_joint", f.worstJoint},
-                            {"non_finite_joint", f.nonFiniteJoint.empty() ? cli::Json() : cli::Json(f.nonFiniteJoint)}});
-    }
-    cli::Json stuckJoints = cli::Json::object();
-    for (const auto& joint : s.stuckJoints)
-        stuckJoints[joint.name] = {{"frames", joint.frames}, {"worst_position_error_cm", cli::numberJson(joint.worstErrorCm)}};
-    const cli::Json report{
-        {"approximation", o.approximation},
-        {"rig", o.rig},
-        {"clip", o.clip},
-        {"parameters", a.parameters.size()},
-        {"target_joints", targets.matchedJoints},
-        {"frames", s.frames},
-        {"converged_frames", s.convergedFrames},
-        {"stuck_frames", s.stuckFrames},
-        {"retried_frames", s.retriedFrames},
-        {"retries_kept", s.retriesKept},
-        {"stuck_joints", std::move(stuckJoints)},
-        {"max_position_error_cm", cli::numberJson(s.maxPositionErrorCm)},
-        {"mean_position_error_cm", cli::numberJson(s.meanPositionErrorCm)},
-        {"max_rotation_error_deg", cli::numberJson(s.maxRotationErrorDeg)},
-        {"mean_rotation_error_deg", cli::numberJson(s.meanRotationErrorDeg)},
-        {"worst_joint", s.worstJoint},
-        {"worst_frame", s.worstFrame >= 0 ? cli::numberJson(clip.frameNumbers[s.worstFrame]) : cli::Json()},
-        {"ms_per_frame", cli::numberJson(s.msPerFrame)},
-        {"lead_in_frames", s.leadInFrames},
-        {"non_finite_frames", s.nonFiniteFrames},
-        // Which curves this report belongs to: a run killed between the two writes leaves a pair that
-        // says it does not match.
-        {"curves", {{"file", o.output}, {"fnv1a64", curvesFingerprint}}},
-        {"per_frame", std::move(perFrame)}};
-    return cli::jsonText(report, 2) + "\n";
-}
 
 void printReport(const Options& o, const Approximation& a, const TargetClip& clip, const ClipTargets& targets,
                  const ClipInversionSummary& s)
@@ -220,133 +87,42 @@ int run(const Options& o)
     cli::checkDistinctFiles({{"the approximation", o.approximation}, {"the rig file", o.rig}, {"the clip", o.clip},
                              {"the map", o.map}, {"--after", o.after}},
                             {{"-o", o.output}, {"--report-json", o.reportJson}});
-    ClipInversionOptions options;
-    options.solver.threads = o.threads;
-    options.solver.partition = !o.noPartition;
-    options.solver.coupledBlocks = !o.blockByBlock;
-    if (o.jacobian == "analytic") options.solver.jacobian = JacobianMethod::analytic;
-    else if (o.jacobian == "fd") options.solver.jacobian = JacobianMethod::finiteDifference;
-    else throw Error(fmt::format("--jacobian {}: expected analytic or fd", o.jacobian));
-    if (o.polish < 0)
-        throw Error(fmt::format("--polish {}: give 0 (the approximation only) or more real-rig corrections per frame",
-                                o.polish));
-    if (o.restartEvery < 1)
-        throw Error(fmt::format("--restart-every {}: give 1 or more frames between warm-start restarts (default {})",
-                                o.restartEvery, ClipInversionOptions{}.restartInterval));
-    options.polishCorrections = o.polish;
-    options.restartInterval = o.restartEvery;
-    options.coldStart = !o.restStarts;
-    try {
-        options.validate();
-    }
-    catch (const std::invalid_argument& e) {
-        throw Error(fmt::format("bad option: {}", e.what()));
-    }
-
-    Approximation approximation;
-    try {
-        approximation = readApproximationFile(o.approximation);
-    }
-    catch (const ApproximationFileError& e) {
-        throw Error(e.what());
-    }
-    if (approximation.parameters.empty())
-        throw Error(fmt::format("{}: the approximation models no parameter (all were discarded); learn it again "
-                                "with other --params",
-                                o.approximation));
-
-    GraphRigOptions rigOptions;
-    for (const auto& p : approximation.parameters) rigOptions.parameterGlobs.push_back(p.parameter.name);
-    for (const auto& out : approximation.outputs) rigOptions.outputGlobs.push_back(out.name);
-    rigOptions.plugins = o.plugins;
-    // The rig must have the approximation's parameters and outputs: an approximation of another rig (or a
-    // name edited by hand) is the approximation's mistake as much as the rig's.
-    const auto learnedFrom = [&] {
-        return fmt::format("the approximation was learned from {}: give that rig with --rig, or learn one for this "
-                           "rig with rig-learn",
-                           approximation.rigFile);
+    cli::InvertJob job;
+    job.approximationName = o.approximation;
+    job.rig = o.rig;
+    job.plugins = o.plugins;
+    job.strict = o.strict;
+    job.clip = o.clip;
+    job.map = o.map;
+    if (o.framesGiven) job.frames = o.frames;
+    job.after = o.after;
+    job.settings = {o.threads, o.noPartition, o.blockByBlock, o.jacobian, o.polish, o.restartEvery, o.restStarts};
+    job.warning = [](const std::string& warning) { std::cerr << "warning: " << warning << "\n"; };
+    job.rigLoaded = [&](const GraphRigFunction& rig) {
+        std::vector<cli::NamedFile> read;
+        for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
+        cli::checkDistinctFiles(read, {{"-o", o.output}, {"--report-json", o.reportJson}});
     };
-    std::optional<GraphRigFunction> loaded;
-    try {
-        loaded.emplace(o.rig, rigOptions);
-    }
-    catch (const RigSelectionError& e) {
-        throw Error(fmt::format("{}: {} '{}' does not fit {} ({}); {}", o.approximation, e.kind(), e.name(), o.rig,
-                                e.reason(), learnedFrom()));
-    }
-    GraphRigFunction& rig = *loaded;
-    std::vector<cli::NamedFile> read;
-    for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
-    cli::checkDistinctFiles(read, {{"-o", o.output}, {"--report-json", o.reportJson}});
-    try {
-        if (const auto warning = checkFingerprint(approximation, rig.fingerprint(), o.strict); !warning.empty())
-            std::cerr << "warning: " << o.approximation << ": " << warning << "\n";
-    }
-    catch (const ApproximationFileError& e) {
-        throw Error(fmt::format("{}: {} (--strict)", o.approximation, e.what()));
-    }
-
-    const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
-    const TargetClip clip = readTargetClip(o.clip, map);
-    int first = 0, last = static_cast<int>(clip.frameNumbers.size()) - 1;
-    if (o.framesGiven) {
-        const auto range = cli::parseFrameRange(o.frames, "--frames");
-        if (range.step != 1.0)
-            throw Error(fmt::format("--frames {}: a step is not supported; frames are solved in a warm-start chain",
-                                    o.frames));
-        const auto index = [&](double number) {
-            for (std::size_t i = 0; i < clip.frameNumbers.size(); ++i)
-                if (clip.frameNumbers[i] == number) return static_cast<int>(i);
-            throw Error(fmt::format("--frames {}: {} has no frame {} (its frames are {} to {})", o.frames, o.clip,
-                                    number, clip.frameNumbers.front(), clip.frameNumbers.back()));
-        };
-        first = index(range.first);
-        last = index(range.last);
-    }
-
-    ClipTargets targets;
-    try {
-        targets = matchTargets(approximation, clip.joints, clip.worlds);
-    }
-    catch (const std::invalid_argument& e) {
-        throw Error(fmt::format("{}: {}", o.clip, e.what()));
-    }
-    const Solver solver(approximation, options.solver);
-    // The rig's parameters are scalar plugs: a name edited into a vector ('wrist.rotate') or into a
-    // plug the rig does not offer does not bind.
-    std::optional<RigBinding> bound;
-    try {
-        bound.emplace(approximation, rig);
-    }
-    catch (const std::invalid_argument& e) {
-        std::string why = e.what();
-        if (why.starts_with("RigBinding: ")) why.erase(0, 12);
-        throw Error(fmt::format("{}: {} ({} does not offer it as a free keyable number); {}", o.approximation, why, o.rig,
-                                learnedFrom()));
-    }
-    RigBinding& binding = *bound;
-    if (!o.after.empty())
-        options.continueFrom = valuesReported(o.after, approximation, clip, first - first % options.restartInterval - 1,
-                                              o.framesGiven ? o.frames : "(all)");
     cli::ProgressBar bar("inverting");
-    options.progress = [&](double fraction) { bar.update(fraction); };
-    std::vector<std::vector<double>> values;
-    const auto summary = invertClip(solver, binding, targets, first, last, options, values);
+    job.progress = [&](int done, int total) { bar.update(static_cast<double>(done) / total); };
+    const cli::InvertOutcome outcome = cli::invert(job);
     bar.finish();
 
-    const std::string curves = extension == ".csv" ? curvesCsv(approximation, clip, first, values)
-                                                   : curvesJson(approximation, clip, first, values);
+    const std::string curves = extension == ".csv" ? cli::curvesCsv(outcome) : cli::curvesJson(outcome);
     cli::writeFileAtomically(o.output, curves);
     if (!o.reportJson.empty())
-        cli::writeFileAtomically(o.reportJson, reportJson(o, approximation, clip, targets, summary,
-                                                          fmt::format("{:016x}", fnv1a64(curves))));
-    if (!o.quiet) printReport(o, approximation, clip, targets, summary);
+        cli::writeFileAtomically(o.reportJson, cli::jsonText(cli::invertReport(outcome, o.approximation, o.rig, o.clip,
+                                                                               o.output, cli::fingerprintText(curves)),
+                                                             2) +
+                                                   "\n");
+    const ClipInversionSummary& summary = outcome.summary;
+    if (!o.quiet) printReport(o, *outcome.approximation, outcome.clip, outcome.targets, summary);
     // Measured as wrong: never an exit code of success.
     if (summary.nonFiniteFrames > 0) {
         std::cerr << oneLine(fmt::format("error: the real rig gives a non-finite matrix at {} of {} frames (first: {} at "
                                          "frame {}); the rig cannot follow these curves there",
                                          summary.nonFiniteFrames, summary.frames, summary.firstNonFiniteJoint,
-                                         clip.frameNumbers[summary.firstNonFiniteFrame]))
+                                         outcome.clip.frameNumbers[summary.firstNonFiniteFrame]))
                   << '\n';
         return 3;
     }

@@ -1,15 +1,12 @@
 // rig-learn: learns a rig's approximation (sections 3 and 4 of the talk) and writes it to a file,
 // with a readable report on standard output and, optionally, a JSON one (docs/rig-learn.md).
 #include <cerrno>
-#include <charconv>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
-#include <numbers>
 #include <optional>
 #include <sstream>
 
@@ -19,11 +16,9 @@
 
 #include "graph/error.h"
 #include "inversion/approximation_io.h"
-#include "inversion/learner.h"
-#include "nodes/graph_rig_function.h"
 #include "tools/cli_common.h"
+#include "tools/learn_run.h"
 #include "tools/progress_bar.h"
-#include "tools/value_output.h"
 
 namespace rig {
 namespace {
@@ -102,30 +97,15 @@ void readSpec(Options& options)
     }
 }
 
-double parseEpsilon(const std::string& text)
-{
-    double x = 0.0;
-    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
-    if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !std::isfinite(x))
-        throw Error(fmt::format("--epsilon '{}': not a number; give a positive number of cm per unit of a parameter, "
-                                "e.g. --epsilon 0.001",
-                                text));
-    if (!(x > 0))
-        throw Error(fmt::format("--epsilon '{}': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001", text));
-    return x;
-}
-
-// A parameter's value in user units (degrees for angles).
-double userValue(const RigParameter& p, double internal) { return p.angular ? internal * 180.0 / std::numbers::pi : internal; }
-
 std::string valueText(const RigParameter& p, double internal)
 {
-    return fmt::format("{:.4g}{}", userValue(p, internal), p.angular ? " deg" : "");
+    return fmt::format("{:.4g}{}", cli::parameterUserValue(p, internal), p.angular ? " deg" : "");
 }
 
 std::string rangeText(const RigParameter& p)
 {
-    return fmt::format("{:g}..{:g}{}", userValue(p, p.min), userValue(p, p.max), p.angular ? " deg" : "");
+    return fmt::format("{:g}..{:g}{}", cli::parameterUserValue(p, p.min), cli::parameterUserValue(p, p.max),
+                       p.angular ? " deg" : "");
 }
 
 std::string vectorText(const Eigen::Vector3d& v)
@@ -155,10 +135,11 @@ std::string alignTable(const std::vector<std::vector<std::string>>& rows)
     return out;
 }
 
-std::string readableReport(const Approximation& a, const RigFunction& rig, const Options& options, double loadSeconds)
+std::string readableReport(const Approximation& a, std::size_t rigParameters, std::size_t rigOutputs,
+                           const Options& options, double loadSeconds)
 {
     std::string out = fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n\n",
-                                  options.rig, rig.parameters().size(), rig.outputs().size(), a.epsilon, a.training.orderer);
+                                  options.rig, rigParameters, rigOutputs, a.epsilon, a.training.orderer);
     out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
     std::vector<std::vector<std::string>> rows{{"#", "parameter", "form", "axis", "pivot (cm)", "fit error", "samples", "outputs",
                                                 "range"}};
@@ -220,70 +201,6 @@ std::string readableReport(const Approximation& a, const RigFunction& rig, const
     return out;
 }
 
-std::string jsonReport(const Approximation& a, const RigFunction& rig, const Options& options, double loadSeconds)
-{
-    cli::Json modelled = cli::Json::array(), forms = cli::Json::array(), saturated = cli::Json::array();
-    for (const ModelledParameter& m : a.parameters) {
-        modelled.push_back(m.parameter.name);
-        forms.push_back({{"name", m.parameter.name},
-                         {"form", m.form},
-                         {"fit_error", cli::numberJson(m.fitError)},
-                         {"samples", m.samples},
-                         {"outputs", m.outputs.size()},
-                         {"validation_error", cli::numberJson(m.validationError)}});
-        for (const auto& [from, to] : m.noEffect)
-            saturated.push_back({{"name", m.parameter.name}, {"from", cli::numberJson(from)}, {"to", cli::numberJson(to)}});
-    }
-    cli::Json discarded = cli::Json::array();
-    for (const auto& d : a.discarded) discarded.push_back({{"name", d.parameter.name}, {"reason", d.reason}});
-    cli::Json redundant = cli::Json::array();
-    for (const auto& [i, j] : redundantParameters(a))
-        redundant.push_back(cli::Json::array({a.parameters[static_cast<std::size_t>(i)].parameter.name,
-                                              a.parameters[static_cast<std::size_t>(j)].parameter.name}));
-    cli::Json outputs = cli::Json::array();
-    for (const ApproximationOutput& o : a.outputs)
-        outputs.push_back({{"name", o.name},
-                           {"frame", o.parent >= 0 ? a.outputs[static_cast<std::size_t>(o.parent)].name : std::string("world")},
-                           {"validation_error", cli::numberJson(o.validationError)}});
-    cli::Json dropped = cli::Json::array();
-    for (const DroppedOutput& d : a.droppedOutputs) dropped.push_back({{"name", d.name}, {"reason", d.reason}});
-    const ValidationSummary& v = a.validation;
-    const cli::Json report{
-        {"rig", options.rig},
-        {"approximation", options.output},
-        {"fingerprint", a.rigFingerprint},
-        {"epsilon", cli::numberJson(a.epsilon)},
-        {"orderer", a.training.orderer},
-        {"parameters", rig.parameters().size()},
-        {"outputs", rig.outputs().size()},
-        {"evaluations", a.training.evaluations},
-        {"order_evaluations", a.training.orderEvaluations},
-        {"seconds", cli::numberJson(a.training.seconds)},
-        {"load_seconds", cli::numberJson(loadSeconds)},
-        {"modelled", std::move(modelled)},
-        {"forms", std::move(forms)},
-        {"discarded", std::move(discarded)},
-        {"redundant", std::move(redundant)},
-        {"saturated", std::move(saturated)},
-        {"frames", std::move(outputs)},
-        {"dropped_outputs", std::move(dropped)},
-        {"within_epsilon", v.withinEpsilon},
-        {"written", v.withinEpsilon || options.allowInexact},
-        {"validation",
-         {{"poses", v.poses},
-          {"max_position_error_cm", cli::numberJson(v.maxPositionErrorCm)},
-          {"mean_position_error_cm", cli::numberJson(v.meanPositionErrorCm)},
-          {"max_rotation_error_deg", cli::numberJson(v.maxRotationErrorDeg)},
-          {"mean_rotation_error_deg", cli::numberJson(v.meanRotationErrorDeg)},
-          {"worst_output", v.worstOutput},
-          {"worst_pose", v.worstPose},
-          {"max_relative_error", cli::numberJson(v.maxRelativeError)},
-          {"worst_relative_output", v.worstRelativeOutput},
-          {"worst_parameter", v.worstParameter},
-          {"non_finite_poses", v.nonFinitePoses}}}};
-    return cli::jsonText(report, 2) + "\n";
-}
-
 int run(Options& options)
 {
     if (options.rig.empty()) throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
@@ -295,15 +212,22 @@ int run(Options& options)
     if (options.reportGiven) cli::checkOutputFile(options.reportJson, "report.json", "--report-json");
     const std::vector<cli::NamedFile> outputs{{"-o", options.output}, {"--report-json", options.reportGiven ? options.reportJson : ""}};
     cli::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
-    LearnOptions learn;
-    if (options.epsilonGiven) learn.epsilon = parseEpsilon(options.epsilon);
-    learn.orderer = options.orderer == "talk" ? Orderer::talk : Orderer::structured;
-    learn.relativeFrames = !options.worldSpace;
-
-    const auto loadStart = std::chrono::steady_clock::now();
-    std::optional<GraphRigFunction> loaded;
+    cli::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
+    if (options.epsilonGiven) job.options.epsilon = cli::parseEpsilon(options.epsilon);
+    job.options.orderer = cli::ordererFromName(options.orderer);
+    job.options.relativeFrames = !options.worldSpace;
+    job.rigLoaded = [&](const GraphRigFunction& rig) {
+        std::vector<cli::NamedFile> read;
+        for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
+        cli::checkDistinctFiles(read, outputs);
+    };
+    cli::ProgressBar bar("learning");
+    job.options.progress = [&](std::string_view stage, double fraction) {
+        bar.update(cli::learningFraction(stage, fraction), std::string(stage));
+    };
+    std::optional<cli::LearnOutcome> learned;
     try {
-        loaded.emplace(options.rig, GraphRigOptions{options.params, options.outputs, options.plugins});
+        learned.emplace(cli::learn(job));
     }
     catch (const RigSelectionError& e) {
         // A glob of the spec: say where it is written.
@@ -312,49 +236,28 @@ int run(Options& options)
         throw Error(fmt::format("{}: {} '{}' of the spec does not fit {} ({}); fix or remove it", place->second, e.kind(),
                                 e.name(), options.rig, e.reason()));
     }
-    GraphRigFunction& rig = *loaded;
-    std::vector<cli::NamedFile> read;
-    for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
-    cli::checkDistinctFiles(read, outputs);
-    const double loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
-
-    cli::ProgressBar bar("learning");
-    // Classification is most of the work; ordering and validation share the rest.
-    learn.progress = [&](std::string_view stage, double fraction) {
-        const double start = stage == "classifying" ? 0.0 : stage == "ordering" ? 0.6 : 0.85;
-        const double width = stage == "classifying" ? 0.6 : stage == "ordering" ? 0.25 : 0.15;
-        bar.update(start + width * fraction, std::string(stage));
-    };
-    Approximation approximation;
-    try {
-        approximation = learnApproximation(rig, learn, options.rig);
-    }
-    catch (const Error& e) {
-        // A rig that refuses a sampled value (a node's own limit) or fails to evaluate: say where.
-        throw Error(fmt::format("{}: evaluating the rig while learning: {}", options.rig, e.what()));
-    }
     bar.finish();
+    const Approximation& approximation = learned->approximation;
 
     // What the learner measured as wrong is not written as if it were fine (docs/rig-learn.md: exit 3).
-    const ValidationSummary& v = approximation.validation;
-    const bool write = v.withinEpsilon || options.allowInexact;
+    const std::string failure = cli::validationFailure(approximation);
+    const bool write = failure.empty() || options.allowInexact;
     if (write) cli::writeFileAtomically(options.output, approximationToYaml(approximation));
-    if (options.reportGiven) cli::writeFileAtomically(options.reportJson, jsonReport(approximation, rig, options, loadSeconds));
-    std::cout << readableReport(approximation, rig, options, loadSeconds);
+    if (options.reportGiven)
+        cli::writeFileAtomically(options.reportJson,
+                                 cli::jsonText(cli::learnReport(*learned, options.rig, options.output, write), 2) +
+                                     "\n");
+    std::cout << readableReport(approximation, learned->rigParameters, learned->rigOutputs, options,
+                                learned->loadSeconds);
     if (approximation.parameters.empty())
         std::cerr << "warning: no parameter could be modelled; the approximation is empty (see the discards above)\n";
-    if (v.withinEpsilon) return 0;
-    const std::string what =
-        v.nonFinitePoses > 0
-            ? fmt::format("the rig gave non-finite matrices at {} of {} validation poses", v.nonFinitePoses, v.poses)
-            : fmt::format("the approximation exceeds epsilon {:g}: {:.3g} cm per unit of the parameters moved on {} (moving {} "
-                          "most)",
-                          approximation.epsilon, v.maxRelativeError, v.worstRelativeOutput, v.worstParameter);
+    if (failure.empty()) return 0;
     if (options.allowInexact) {
-        std::cerr << oneLine(fmt::format("warning: {}; written anyway (--allow-inexact)", what)) << '\n';
+        std::cerr << oneLine(fmt::format("warning: {}; written anyway (--allow-inexact)", failure)) << '\n';
         return 0;
     }
-    std::cerr << oneLine(fmt::format("error: {}; {} not written (--allow-inexact writes it anyway)", what, options.output))
+    std::cerr << oneLine(fmt::format("error: {}; {} not written (--allow-inexact writes it anyway)", failure,
+                                     options.output))
               << '\n';
     return 3;
 }

@@ -2,13 +2,12 @@
 
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 
 #include <fmt/format.h>
 
 namespace rig::cli {
 namespace {
-
-double userScale(const Graph& graph, const Plug& plug) { return unitFactor(graph.spec(plug).unit, Unit::None); }
 
 // The value's numbers in user units, with their column suffixes.
 std::vector<std::pair<std::string, double>> flatten(const Graph& graph, const Plug& plug, const Value& value)
@@ -52,6 +51,18 @@ Json matrixJson(const Eigen::Matrix4d& m)
 }
 
 }  // namespace
+
+double userScale(const Graph& graph, const Plug& plug) { return unitFactor(graph.spec(plug).unit, Unit::None); }
+
+double parameterUserValue(const RigParameter& parameter, double internal)
+{
+    return parameter.angular ? internal * 180.0 / std::numbers::pi : internal;
+}
+
+double parameterInternalValue(const RigParameter& parameter, double user)
+{
+    return parameter.angular ? user * std::numbers::pi / 180.0 : user;
+}
 
 Json numberJson(double x)
 {

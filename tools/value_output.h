@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "graph/graph.h"
+#include "inversion/rig_function.h"
 
 namespace rig::cli {
 
@@ -31,6 +32,14 @@ std::string frameJson(double frame, const std::vector<std::pair<std::string, Jso
 
 // JSON of a value of `plug` (null for a non-finite number).
 Json valueToJson(const Graph& graph, const Plug& plug, const Value& value);
+
+// What a plug's numbers are multiplied by to be in user units (degrees for angles; 1 otherwise).
+double userScale(const Graph& graph, const Plug& plug);
+
+// A rig parameter's value in user units (degrees for angles, cm) from internal units (radians), and back:
+// curves files, reports and the Python module's arrays hold user units.
+double parameterUserValue(const RigParameter& parameter, double internal);
+double parameterInternalValue(const RigParameter& parameter, double user);
 
 // CSV column names for `plug` (one per number) and the matching fields of a value.
 std::vector<std::string> csvColumns(const Graph& graph, const Plug& plug, const Value& value);

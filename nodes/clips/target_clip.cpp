@@ -338,4 +338,21 @@ TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& ma
                             file.string()));
 }
 
+TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map)
+{
+    TargetClip out;
+    out.file = clip.file;
+    out.frameNumbers = clip.frameNumbers;
+    const auto kept = applyMap(clip.joints, clip.file, map, out.joints);
+    for (const auto& worlds : clip.worlds) {
+        auto& frame = out.worlds.emplace_back();
+        for (const int j : kept) {
+            Eigen::Matrix4d m = worlds[static_cast<std::size_t>(j)];
+            m.block<3, 1>(0, 3) *= map.scale;
+            frame.push_back(m);
+        }
+    }
+    return out;
+}
+
 }  // namespace rig

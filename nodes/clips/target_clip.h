@@ -48,5 +48,8 @@ struct TargetClip {
 TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map);
 // A .json clip from its text; `fileName` is used in messages.
 TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileName, const TargetMap& map);
+// Targets made in memory (the Python module's arrays), with the map applied as to a file's joints:
+// `clip.joints` and `clip.worlds` are the given names and matrices, `clip.file` names them in messages.
+TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map);
 
 }  // namespace rig

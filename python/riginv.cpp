@@ -1,0 +1,515 @@
+// riginv: the Python module (docs/python.md). Loads and evaluates rig graphs, learns approximations and
+// inverts targets with NumPy arrays, through the same library code as graph-eval, rig-learn and
+// rig-invert (tools/eval_run.h, learn_run.h, invert_run.h): the same values, reports and one-line errors.
+#include <cmath>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <yaml-cpp/yaml.h>
+
+#include "graph/error.h"
+#include "graph/plug_glob.h"
+#include "graph/yaml_loader.h"
+#include "inversion/approximation_io.h"
+#include "tools/cli_common.h"
+#include "tools/eval_run.h"
+#include "tools/invert_run.h"
+#include "tools/learn_run.h"
+
+namespace py = pybind11;
+
+namespace rig::python {
+namespace {
+
+// A report as Python objects, equal to what json.load gives for the file the command line writes
+// (nlohmann writes a number that is not finite as null).
+py::object toPython(const cli::Json& json)
+{
+    switch (json.type()) {
+    case cli::Json::value_t::null: return py::none();
+    case cli::Json::value_t::boolean: return py::bool_(json.get<bool>());
+    case cli::Json::value_t::number_integer: return py::int_(json.get<std::int64_t>());
+    case cli::Json::value_t::number_unsigned: return py::int_(json.get<std::uint64_t>());
+    case cli::Json::value_t::number_float: {
+        const double x = json.get<double>();
+        return std::isfinite(x) ? py::object(py::float_(x)) : py::object(py::none());
+    }
+    case cli::Json::value_t::string: return py::str(json.get_ref<const std::string&>());
+    case cli::Json::value_t::array: {
+        py::list list;
+        for (const auto& item : json) list.append(toPython(item));
+        return list;
+    }
+    case cli::Json::value_t::object: {
+        py::dict dict;
+        for (const auto& [key, value] : json.items()) dict[py::str(key)] = toPython(value);
+        return dict;
+    }
+    default: throw std::logic_error("a report holds no binary JSON");
+    }
+}
+
+// A path argument: str or os.PathLike.
+std::string pathText(const py::handle& path) { return py::str(py::module_::import("os").attr("fspath")(path)); }
+
+std::string typeName(const py::handle& value) { return py::str(py::type::handle_of(value).attr("__name__")); }
+
+// ---------------------------------------------------------------------------------------------------------
+// Graph
+
+// A value of `graph-eval --set`, written as in a rig file: NumPy arrays and scalars as their Python values.
+YAML::Node yamlValue(py::handle value, const std::string& name)
+{
+    py::object v = py::reinterpret_borrow<py::object>(value);
+    if (!py::isinstance<py::str>(v) && py::hasattr(v, "tolist")) v = v.attr("tolist")();
+    if (py::isinstance<py::bool_>(v)) return YAML::Node(v.cast<bool>() ? "true" : "false");
+    if (py::isinstance<py::int_>(v)) return YAML::Node(std::string(py::str(v)));
+    if (py::isinstance<py::float_>(v)) {
+        const double x = v.cast<double>();
+        if (std::isnan(x)) return YAML::Node(".nan");
+        if (std::isinf(x)) return YAML::Node(x > 0 ? ".inf" : "-.inf");
+        return YAML::Node(fmt::format("{}", x));  // the shortest text that reads back the same bits
+    }
+    if (py::isinstance<py::str>(v)) return YAML::Node(v.cast<std::string>());
+    if (py::isinstance<py::sequence>(v)) {
+        YAML::Node list(YAML::NodeType::Sequence);
+        for (const auto& item : v) list.push_back(yamlValue(item, name));
+        return list;
+    }
+    throw Error(fmt::format("--set {}: a {} is not a value; numbers, true/false, names, [x, y, z]", name, typeName(v)));
+}
+
+// One plug's values over the frames as NumPy arrays, in user units as graph-eval prints them: (F,) for
+// numbers (int64 for whole numbers and enums, bool), (F, 3) for vectors, (F, 4, 4) for matrices, (F, N) and
+// (F, N, 4, 4) for arrays whose length does not change (a list of arrays otherwise), a list for strings.
+py::object plugArray(const Graph& graph, const Plug& plug, const std::vector<Value>& values)
+{
+    const double k = cli::userScale(graph, plug);
+    const auto frames = static_cast<py::ssize_t>(values.size());
+    const Value& first = values.front();
+    const auto sameLength = [&]<class T>(const T&) {
+        for (const Value& v : values)
+            if (std::get<T>(v).size() != std::get<T>(first).size()) return false;
+        return true;
+    };
+    if (std::holds_alternative<double>(first)) {
+        py::array_t<double> out(frames);
+        for (py::ssize_t f = 0; f < frames; ++f) out.mutable_at(f) = std::get<double>(values[f]) * k;
+        return out;
+    }
+    if (std::holds_alternative<int>(first)) {
+        py::array_t<std::int64_t> out(frames);
+        for (py::ssize_t f = 0; f < frames; ++f) out.mutable_at(f) = std::get<int>(values[f]);
+        return out;
+    }
+    if (std::holds_alternative<bool>(first)) {
+        py::array_t<bool> out(frames);
+        for (py::ssize_t f = 0; f < frames; ++f) out.mutable_at(f) = std::get<bool>(values[f]);
+        return out;
+    }
+    if (std::holds_alternative<std::string>(first)) {
+        py::list out;
+        for (const Value& v : values) out.append(std::get<std::string>(v));
+        return out;
+    }
+    if (std::holds_alternative<Eigen::Vector3d>(first)) {
+        py::array_t<double> out({frames, py::ssize_t{3}});
+        for (py::ssize_t f = 0; f < frames; ++f)
+            for (py::ssize_t i = 0; i < 3; ++i) out.mutable_at(f, i) = std::get<Eigen::Vector3d>(values[f])[i] * k;
+        return out;
+    }
+    if (std::holds_alternative<Eigen::Matrix4d>(first)) {
+        py::array_t<double> out({frames, py::ssize_t{4}, py::ssize_t{4}});
+        for (py::ssize_t f = 0; f < frames; ++f)
+            for (py::ssize_t r = 0; r < 4; ++r)
+                for (py::ssize_t c = 0; c < 4; ++c)
+                    out.mutable_at(f, r, c) = std::get<Eigen::Matrix4d>(values[f])(r, c);
+        return out;
+    }
+    const auto doubles = [&](const std::vector<double>& xs) {
+        py::array_t<double> out(static_cast<py::ssize_t>(xs.size()));
+        for (std::size_t i = 0; i < xs.size(); ++i) out.mutable_at(static_cast<py::ssize_t>(i)) = xs[i] * k;
+        return out;
+    };
+    const auto matrices = [](const Matrix4Array& ms) {
+        py::array_t<double> out({static_cast<py::ssize_t>(ms.size()), py::ssize_t{4}, py::ssize_t{4}});
+        for (std::size_t i = 0; i < ms.size(); ++i)
+            for (py::ssize_t r = 0; r < 4; ++r)
+                for (py::ssize_t c = 0; c < 4; ++c) out.mutable_at(static_cast<py::ssize_t>(i), r, c) = ms[i](r, c);
+        return out;
+    };
+    const bool doubleArray = std::holds_alternative<std::vector<double>>(first);
+    py::list perFrame;
+    for (const Value& v : values)
+        perFrame.append(doubleArray ? doubles(std::get<std::vector<double>>(v)) : matrices(std::get<Matrix4Array>(v)));
+    const bool stack = doubleArray ? sameLength(std::vector<double>{}) : sameLength(Matrix4Array{});
+    return stack ? py::module_::import("numpy").attr("stack")(perFrame) : py::object(std::move(perFrame));
+}
+
+class PyGraph {
+public:
+    static PyGraph load(const py::object& path, const std::vector<std::string>& plugins)
+    {
+        PyGraph g;
+        g.file_ = pathText(path);
+        g.registry_ = cli::nodeRegistry(plugins);
+        g.graph_ = loadGraphFile(g.file_, g.registry_);
+        return g;
+    }
+
+    py::dict evaluate(const py::object& get, const std::optional<py::dict>& set, const py::object& frames)
+    {
+        Graph& graph = *graph_;
+        if (set)
+            for (const auto& [key, value] : *set) {
+                const std::string name = py::str(key);
+                const Plug plug = cli::settablePlug(graph, name);
+                cli::setPlug(graph, plug, name, yamlValue(value, name));
+            }
+        std::vector<double> numbers{graph.time()};
+        const bool setTime = !frames.is_none();
+        if (py::isinstance<py::str>(frames))
+            numbers = cli::parseFrameRange(frames.cast<std::string>(), "--frames").frames();
+        else if (setTime) {
+            numbers = frames.cast<std::vector<double>>();
+            if (numbers.empty()) throw Error("frames: an empty list; give frame numbers, or 'A:B[:STEP]'");
+        }
+        std::vector<std::string> patterns;
+        if (py::isinstance<py::str>(get)) patterns.push_back(get.cast<std::string>());
+        else if (!get.is_none()) patterns = get.cast<std::vector<std::string>>();
+        const auto plugs =
+            cli::selectPlugs(graph, file_, patterns, setTime ? std::optional(numbers.front()) : std::nullopt);
+        std::vector<std::vector<Value>> columns(plugs.size());
+        for (const double frame : numbers) {
+            auto values = cli::evaluateFrame(graph, file_, frame, setTime, plugs);
+            for (std::size_t i = 0; i < plugs.size(); ++i) columns[i].push_back(std::move(values[i]));
+        }
+        py::dict out;
+        for (std::size_t i = 0; i < plugs.size(); ++i)
+            out[py::str(graph.plugName(plugs[i]))] = plugArray(graph, plugs[i], columns[i]);
+        return out;
+    }
+
+    std::vector<std::string> plugs(const std::string& glob)
+    {
+        std::vector<std::string> names;
+        for (const Plug& p : cli::selectPlugs(*graph_, file_, {glob}, std::nullopt))
+            names.push_back(graph_->plugName(p));
+        return names;
+    }
+
+    std::vector<std::string> nodeTypes() const { return registry_->typeNames(); }
+    const std::string& file() const { return file_; }
+    double time() const { return graph_->time(); }
+
+private:
+    std::string file_;
+    std::shared_ptr<NodeRegistry> registry_;
+    std::shared_ptr<Graph> graph_;
+};
+
+// ---------------------------------------------------------------------------------------------------------
+// Approximation
+
+// Called from the library's threads without the GIL: takes it, lets Ctrl-C stop the work (a Python
+// exception thrown through the library) and calls `progress` when it is not None.
+template <class Done, class Total>
+void reportProgress(const py::object& progress, Done done, Total total)
+{
+    py::gil_scoped_acquire acquire;
+    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+    if (!progress.is_none()) progress(done, total);
+}
+
+class PyApproximation {
+public:
+    static PyApproximation load(const py::object& path)
+    {
+        PyApproximation a;
+        a.file_ = pathText(path);
+        a.approximation_ = std::make_shared<const Approximation>(cli::readApproximation(*a.file_));
+        return a;
+    }
+
+    static PyApproximation learn(const py::object& rig, const std::vector<std::string>& params,
+                                 const std::vector<std::string>& outputs, double epsilon, const std::string& orderer,
+                                 const py::object& progress, const std::vector<std::string>& plugins, bool worldSpace)
+    {
+        if (params.empty()) throw Error("params: give one or more parameter plug globs (rig-learn --params)");
+        cli::LearnJob job{pathText(rig), params, outputs, plugins, {}, {}};
+        job.options.epsilon = cli::parseEpsilon(fmt::format("{}", epsilon));
+        job.options.orderer = cli::ordererFromName(orderer);
+        job.options.relativeFrames = !worldSpace;
+        job.options.progress = [&](std::string_view stage, double fraction) {
+            reportProgress(progress, cli::learningFraction(stage, fraction), 1.0);
+        };
+        std::shared_ptr<cli::LearnOutcome> outcome;
+        {
+            py::gil_scoped_release release;
+            outcome = std::make_shared<cli::LearnOutcome>(cli::learn(job));
+        }
+        PyApproximation a;
+        a.rig_ = job.rig;
+        a.learned_ = outcome;
+        a.approximation_ = std::shared_ptr<const Approximation>(outcome, &outcome->approximation);
+        if (a.approximation_->parameters.empty() &&
+            PyErr_WarnEx(PyExc_RuntimeWarning,
+                         "no parameter could be modelled; the approximation is empty (see report['discarded'])",
+                         1) != 0)
+            throw py::error_already_set();
+        return a;
+    }
+
+    void save(const py::object& path, bool allowInexact)
+    {
+        const std::string file = pathText(path);
+        if (const std::string failure = cli::validationFailure(*approximation_); !failure.empty() && !allowInexact)
+            throw Error(
+                fmt::format("{}; {} not written (save(path, allow_inexact=True) writes it anyway)", failure, file));
+        cli::checkOutputFile(file, "approximation.yaml", "save()");
+        cli::checkDistinctFiles({{"the rig file", approximation_->rigFile}}, {{"save()", file}});
+        cli::writeFileAtomically(file, approximationToYaml(*approximation_));
+        file_ = file;
+    }
+
+    py::object report() const
+    {
+        if (!learned_) return py::none();
+        return toPython(cli::learnReport(*learned_, rig_, file_, file_.has_value()));
+    }
+
+    py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map, int threads,
+                     int restartEvery, int polish, const py::object& progress, const std::vector<std::string>& plugins,
+                     const std::optional<std::string>& frames) const
+    {
+        cli::InvertJob job;
+        job.approximation = approximation_;
+        job.approximationName = name();
+        job.rig = pathText(rig);
+        job.plugins = plugins;
+        if (py::isinstance<py::dict>(targets)) job.targets = targetClip(targets.cast<py::dict>());
+        else if (py::isinstance<py::str>(targets) || py::hasattr(targets, "__fspath__")) job.clip = pathText(targets);
+        else
+            throw py::type_error(fmt::format("targets: expected a dict from joint name to an (F, 4, 4) float64 array, "
+                                             "or a clip path (.bvh or .json); got a {}",
+                                             typeName(targets)));
+        if (!map.is_none()) job.map = pathText(map);
+        job.frames = frames;
+        job.settings.threads = threads;
+        job.settings.restartEvery = restartEvery;
+        job.settings.polish = polish;
+        job.progress = [&](int done, int total) { reportProgress(progress, done, total); };
+        job.warning = [](const std::string& warning) {
+            py::gil_scoped_acquire acquire;
+            if (PyErr_WarnEx(PyExc_RuntimeWarning, warning.c_str(), 1) != 0) throw py::error_already_set();
+        };
+        std::optional<cli::InvertOutcome> outcome;
+        std::string curves;
+        {
+            py::gil_scoped_release release;
+            outcome.emplace(cli::invert(job));
+            curves = cli::curvesJson(*outcome);
+        }
+        const auto values = cli::curveValues(*outcome);
+        const auto& parameters = approximation_->parameters;
+        py::array_t<double> array(
+            {static_cast<py::ssize_t>(values.size()), static_cast<py::ssize_t>(parameters.size())});
+        for (std::size_t f = 0; f < values.size(); ++f)
+            for (std::size_t i = 0; i < parameters.size(); ++i)
+                array.mutable_at(static_cast<py::ssize_t>(f), static_cast<py::ssize_t>(i)) = values[f][i];
+        py::list names;
+        for (const auto& p : parameters) names.append(p.parameter.name);
+        const auto clip = job.targets ? std::nullopt : std::optional(job.clip);
+        const auto report =
+            cli::invertReport(*outcome, file_, job.rig, clip, std::nullopt, cli::fingerprintText(curves));
+        return py::make_tuple(array, names, toPython(report));
+    }
+
+    std::vector<std::string> parameters() const
+    {
+        std::vector<std::string> names;
+        for (const auto& p : approximation_->parameters) names.push_back(p.parameter.name);
+        return names;
+    }
+    std::vector<std::string> outputs() const
+    {
+        std::vector<std::string> names;
+        for (const auto& o : approximation_->outputs) names.push_back(o.name);
+        return names;
+    }
+    const std::string& rigFile() const { return approximation_->rigFile; }
+    const std::optional<std::string>& file() const { return file_; }
+
+    // What names the approximation in messages: its file, or the rig it was learned from.
+    std::string name() const
+    {
+        return file_ ? *file_ : fmt::format("the approximation learned from {}", approximation_->rigFile);
+    }
+
+private:
+    // The targets of a dict: joint name -> (F, 4, 4) float64 array, every joint with the same F. Frames are
+    // numbered 0 to F - 1, the rows of the arrays.
+    static TargetClip targetClip(const py::dict& targets)
+    {
+        if (targets.empty()) throw Error("targets: an empty dict; give joint names with (F, 4, 4) float64 arrays");
+        TargetClip clip;
+        clip.file = "targets";
+        std::vector<py::array_t<double>> arrays;
+        py::ssize_t frames = -1;
+        std::string firstJoint;
+        for (const auto& [key, value] : targets) {
+            if (!py::isinstance<py::str>(key))
+                throw Error(fmt::format("targets: a key is a {}, not a joint name (str)", typeName(key)));
+            const std::string joint = py::str(key);
+            if (!py::isinstance<py::array>(value))
+                throw Error(fmt::format("targets['{}']: expected a NumPy array of shape (F, 4, 4) and dtype float64, "
+                                        "got a {}",
+                                        joint, typeName(value)));
+            const auto array = py::reinterpret_borrow<py::array>(value);
+            std::vector<std::string> shape;
+            for (py::ssize_t d = 0; d < array.ndim(); ++d) shape.push_back(fmt::format("{}", array.shape(d)));
+            const std::string got = fmt::format("({}{})", fmt::join(shape, ", "), shape.size() == 1 ? "," : "");
+            if (array.ndim() != 3 || array.shape(1) != 4 || array.shape(2) != 4)
+                throw Error(
+                    fmt::format("targets['{}']: expected an array of shape (F, 4, 4), got shape {}", joint, got));
+            if (!array.dtype().is(py::dtype::of<double>()))
+                throw Error(fmt::format("targets['{}']: expected dtype float64, got {} (shape {}); convert it with "
+                                        ".astype(numpy.float64)",
+                                        joint, std::string(py::str(array.dtype())), got));
+            if (array.shape(0) == 0)
+                throw Error(fmt::format("targets['{}']: no frames (shape {}); give at least one", joint, got));
+            if (frames >= 0 && array.shape(0) != frames)
+                throw Error(fmt::format("targets['{}']: {} frames where targets['{}'] has {}; every joint needs the "
+                                        "same frames",
+                                        joint, array.shape(0), firstJoint, frames));
+            if (frames < 0) {
+                frames = array.shape(0);
+                firstJoint = joint;
+            }
+            clip.joints.push_back(joint);
+            arrays.push_back(py::reinterpret_borrow<py::array_t<double>>(value));
+        }
+        for (py::ssize_t f = 0; f < frames; ++f) {
+            clip.frameNumbers.push_back(static_cast<double>(f));
+            auto& worlds = clip.worlds.emplace_back();
+            for (const auto& array : arrays) {
+                const auto a = array.unchecked<3>();
+                Eigen::Matrix4d m;
+                for (py::ssize_t r = 0; r < 4; ++r)
+                    for (py::ssize_t c = 0; c < 4; ++c) m(r, c) = a(f, r, c);
+                worlds.push_back(m);
+            }
+        }
+        return clip;
+    }
+
+    std::shared_ptr<const Approximation> approximation_;
+    std::optional<std::string> file_;            // loaded from or saved to
+    std::shared_ptr<cli::LearnOutcome> learned_;  // what learning measured, for the report (none once loaded)
+    std::string rig_;                            // the rig file as given to learn
+};
+
+}  // namespace
+}  // namespace rig::python
+
+PYBIND11_MODULE(riginv, m)
+{
+    using namespace rig::python;
+    m.doc() = "Rig inversion from Python (docs/python.md): load and evaluate rig graphs, learn a rig's approximation "
+              "and invert joint targets to rig parameter curves, with NumPy arrays. The same library code as the "
+              "command lines graph-eval, rig-learn and rig-invert: the same numbers, reports and error messages.";
+
+    static py::exception<rig::Error> error(m, "Error");
+    error.doc() = "A user-facing error: the one-line message the command lines print after 'error: ' (a bad file, "
+                  "glob, value or option).";
+    py::register_exception_translator([](std::exception_ptr p) {
+        try {
+            if (p) std::rethrow_exception(p);
+        }
+        catch (const rig::Error& e) {
+            error(rig::oneLine(e.what()).c_str());
+        }
+    });
+
+    py::class_<PyGraph>(m, "Graph", "A rig graph (a YAML rig file) loaded into its own stateful instance.")
+        .def_static("load", &PyGraph::load, py::arg("path"), py::arg("plugins") = std::vector<std::string>{},
+                    "Loads a rig file (docs/rig-format.md) after the built-in node types and the plugins named "
+                    "(as graph-eval --plugin). Raises riginv.Error with graph-eval's message for a bad file.")
+        .def("evaluate", &PyGraph::evaluate, py::arg("get") = py::none(), py::arg("set") = py::none(),
+             py::arg("frames") = py::none(),
+             "Sets plugs, evaluates and returns {plug name: NumPy array}, as graph-eval --set/--get/--frames.\n\n"
+             "get: plug names or globs ('*.worldMatrix'); None: every output plug.\n"
+             "set: {plug: value}, values as in a rig file (degrees for angles, cm; [x, y, z]; a 4x4 matrix as "
+             "rows; enum names); they stay set on the graph.\n"
+             "frames: None (the current time, one frame), 'A:B[:STEP]', or a list of frame numbers; the scene "
+             "time is set to each.\n"
+             "Arrays are in user units: (F,) for numbers (float64; int64 for whole numbers and enum indices; bool), "
+             "(F, 3) for vectors, (F, 4, 4) for matrices (translation in the last column), (F, N) and (F, N, 4, 4) "
+             "for arrays, a list of F strings for strings.")
+        .def("plugs", &PyGraph::plugs, py::arg("glob") = "*",
+             "Names of the plugs a glob matches (after an evaluation, so array outputs are listed), as graph-eval "
+             "--get sees them. Raises riginv.Error when nothing matches.")
+        .def("node_types", &PyGraph::nodeTypes, "Names of every node type the graph can use (built-ins and plugins).")
+        .def_property_readonly("file", &PyGraph::file, "The rig file, as given to load().")
+        .def_property_readonly("time", &PyGraph::time, "The scene time (frame) last evaluated.")
+        .def("__repr__", [](const PyGraph& g) { return fmt::format("<riginv.Graph {}>", g.file()); });
+
+    py::class_<PyApproximation>(m, "Approximation",
+                                "A rig's learned approximation (docs/rig-learn.md): made by riginv.learn() or "
+                                "Approximation.load(), inverted with invert().")
+        .def_static("load", &PyApproximation::load, py::arg("path"),
+                    "Reads an approximation file written by rig-learn or save() (docs/approximation-format.md).")
+        .def("save", &PyApproximation::save, py::arg("path"), py::arg("allow_inexact") = false,
+             "Writes the approximation file (through a temporary file, as rig-learn -o). An approximation whose "
+             "validation exceeds epsilon is refused with riginv.Error unless allow_inexact (rig-learn "
+             "--allow-inexact).")
+        .def("invert", &PyApproximation::invert, py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(),
+             py::arg("threads") = 1, py::arg("restart_every") = 120, py::arg("polish") = 0,
+             py::arg("progress") = py::none(), py::kw_only(), py::arg("plugins") = std::vector<std::string>{},
+             py::arg("frames") = py::none(),
+             "Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).\n\n"
+             "targets: a dict {joint: (F, 4, 4) float64 array of world matrices, cm}, frames numbered 0 to F - 1, "
+             "or a clip path (.bvh, or .json as graph-eval writes world matrices).\n"
+             "rig: the rig file the approximation was learned from; map: a map file (scale, joint renames, "
+             "ignored joints; docs/rig-invert.md).\n"
+             "threads (0: all cores; the values do not depend on it), restart_every, polish: as rig-invert's "
+             "--threads, --restart-every, --polish. frames: 'A:B' in the clip's numbering (rig-invert --frames).\n"
+             "progress: called as progress(frames done, frames total), with the GIL held.\n"
+             "values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter names; "
+             "report: the dict rig-invert --report-json writes (curves.file is None: nothing is written). The GIL "
+             "is released while solving; Ctrl-C stops it.")
+        .def_property_readonly("report", &PyApproximation::report,
+                               "The dict rig-learn --report-json writes, for an approximation learned by "
+                               "riginv.learn() ('approximation' and 'written' name the file once saved); None for "
+                               "one loaded from a file.")
+        .def_property_readonly("parameters", &PyApproximation::parameters,
+                               "The modelled parameters' names, in composition order: the columns of invert()'s "
+                               "values.")
+        .def_property_readonly("outputs", &PyApproximation::outputs, "The output joints' names: the possible targets.")
+        .def_property_readonly("rig_file", &PyApproximation::rigFile,
+                               "The rig file it was learned from, as given then.")
+        .def_property_readonly("file", &PyApproximation::file, "The file it was loaded from or saved to, or None.")
+        .def("__repr__", [](const PyApproximation& a) {
+            return fmt::format("<riginv.Approximation of {} ({} parameters, {} outputs)>", a.rigFile(),
+                               a.parameters().size(), a.outputs().size());
+        });
+
+    m.def("learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"),
+          py::arg("outputs") = std::vector<std::string>{}, py::arg("epsilon") = 0.001,
+          py::arg("orderer") = "structured",
+          py::arg("progress") = py::none(), py::kw_only(), py::arg("plugins") = std::vector<std::string>{},
+          py::arg("world_space") = false,
+          "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
+          "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
+          "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "
+          "plugins, world_space: rig-learn's --plugin and --world-space.\n"
+          "progress: called as progress(fraction done, 1.0), with the GIL held.\n"
+          "An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses it. "
+          "The GIL is released while learning; Ctrl-C stops it.");
+}

@@ -1,0 +1,100 @@
+"""riginv.Graph against graph-eval: the same values bit for bit, the same errors."""
+
+import json
+
+import numpy as np
+import pytest
+
+import riginv
+from conftest import ARM, BIPED, raises_like, run
+
+
+def graph_eval_json(*args):
+    code, out, err = run("graph-eval", *args)
+    assert code == 0, err
+    return json.loads(out)
+
+
+def assert_same_as_graph_eval(result, frames_json):
+    """Every plug graph-eval printed, frame by frame, equals the module's array row exactly."""
+    assert list(result) == [key for key in frames_json[0] if key != "frame"]
+    for f, frame in enumerate(frames_json):
+        for plug, value in frame.items():
+            if plug == "frame":
+                continue
+            ours = result[plug][f]
+            if isinstance(ours, str):
+                assert ours == value, plug
+                continue
+            if isinstance(value, str):  # an enum: its name in graph-eval, its index here
+                assert np.issubdtype(result[plug].dtype, np.integer), plug
+                continue
+            expected = np.array(value, dtype=float)  # null (not finite) as NaN
+            assert np.array_equal(np.asarray(ours, dtype=float), expected, equal_nan=True), (plug, f, ours, value)
+
+
+def test_every_output_over_frames_equals_graph_eval():
+    result = riginv.Graph.load(ARM).evaluate(frames="1:24")
+    assert_same_as_graph_eval(result, graph_eval_json(ARM, "--frames", "1:24"))
+
+
+def test_shapes_and_units():
+    graph = riginv.Graph.load(ARM)
+    result = graph.evaluate(get=["wrist.worldMatrix", "elbow.rotateZ", "shoulder.rotate", "*.rotateOrder"],
+                            frames=[1, 2, 3])
+    assert result["wrist.worldMatrix"].shape == (3, 4, 4)
+    assert result["wrist.worldMatrix"].dtype == np.float64
+    assert result["elbow.rotateZ"].shape == (3,)
+    assert result["shoulder.rotate"].shape == (3, 3)
+    assert result["wrist.rotateOrder"].dtype == np.int64
+    # Degrees, as graph-eval prints them (docs/graph-eval.md: frames 1 to 3 of the elbow's driven key).
+    assert result["elbow.rotateZ"][1] == pytest.approx(2.794891059353869, abs=0)
+    assert graph.time == 3
+    # No frames: one frame at the current time.
+    assert graph.evaluate(get="elbow.rotateZ")["elbow.rotateZ"].shape == (1,)
+
+
+def test_sets_and_biped_world_matrices_equal_graph_eval():
+    sets = {"spine_ctrl.bendForward": 30, "L_arm_fk_ctrl.rotate": [10, -20.5, 45], "root_ctrl.translateX": 12.25}
+    result = riginv.Graph.load(BIPED).evaluate(get=["*.worldMatrix", "spine_ctrl.bend*"], set=sets)
+    args = [f"--set={plug}={json.dumps(value)}" for plug, value in sets.items()]
+    expected = graph_eval_json(BIPED, *args, "--get", "*.worldMatrix", "--get", "spine_ctrl.bend*")
+    assert_same_as_graph_eval(result, expected)
+    assert result["spine_ctrl.bendForward"][0] == pytest.approx(30, rel=1e-15)  # degrees to radians and back
+
+
+def test_numpy_values_can_be_set():
+    graph = riginv.Graph.load(ARM)
+    via_numpy = graph.evaluate(get="wrist.worldMatrix", set={"wrist.rotate": np.array([10.0, 20.0, 30.0]),
+                                                             "shoulder.rotateZ": np.float32(15)})
+    again = riginv.Graph.load(ARM).evaluate(get="wrist.worldMatrix", set={"wrist.rotate": [10, 20, 30],
+                                                                          "shoulder.rotateZ": 15})
+    assert np.array_equal(via_numpy["wrist.worldMatrix"], again["wrist.worldMatrix"])
+
+
+def test_plugs_and_node_types():
+    graph = riginv.Graph.load(ARM)
+    assert graph.plugs("*.rotateZ") == ["arm_ctrl.rotateZ", "shoulder.rotateZ", "elbow.rotateZ", "wrist.rotateZ"]
+    assert "wrist.worldMatrix" in graph.plugs()
+    code, reference, err = run("graph-eval", "--types")
+    assert code == 0, err
+    types = graph.node_types()
+    assert "joint" in types and "bvhClip" in types
+    for name in types:
+        assert f"## {name}" in reference
+
+
+def test_errors_are_graph_eval_messages():
+    raises_like("graph-eval", ["rigs/no_such_rig.yaml"], lambda: riginv.Graph.load("rigs/no_such_rig.yaml"))
+    graph = riginv.Graph.load(ARM)
+    raises_like("graph-eval", [ARM, "--get", "shoulder.rotatq"], lambda: graph.evaluate(get=["shoulder.rotatq"]))
+    raises_like("graph-eval", [ARM, "--set", "shoulder.rotateZ=abc"],
+                lambda: graph.evaluate(set={"shoulder.rotateZ": "abc"}))
+    raises_like("graph-eval", [ARM, "--set", "wrist_world.outputTranslate=[1, 2, 3]"],
+                lambda: graph.evaluate(set={"wrist_world.outputTranslate": [1, 2, 3]}))
+    raises_like("graph-eval", [ARM, "--frames", "3:1"], lambda: graph.evaluate(frames="3:1"))
+    # graph-eval looks beside its own libraries too: the same message but for that folder.
+    message = (r"^plugin 'no_such_plugin' not found \(looked for .*/lib/no_such_plugin.so\); build it, or add its "
+               r"folder to RIG_PLUGIN_PATH$")
+    with pytest.raises(riginv.Error, match=message):
+        riginv.Graph.load(ARM, plugins=["no_such_plugin"])

@@ -1,0 +1,230 @@
+"""Approximation.invert against rig-invert: the same values bit for bit and the same report, arrays checked,
+the same errors, the GIL released while solving."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+import riginv
+from conftest import (BIPED, CMU_CLIP, CMU_MAP, SOURCE, biped_spec, need_cmu_clip, raises_like, read_json, run,
+                      share_of_time_another_thread_runs)
+
+# Differs from run to run (solver time per frame) or says where the curves were written.
+VOLATILE = ("ms_per_frame", "curves")
+
+
+def rig_invert(approximation, folder, *args):
+    """rig-invert's curves (as rows in the approximation's parameter order) and report."""
+    curves, report = folder / "curves.json", folder / "report.json"
+    code, _, err = run("rig-invert", approximation, "--rig", BIPED, "-o", curves, "--report-json", report, "-q", *args)
+    assert code == 0, err
+    frames = read_json(curves)
+    names = [key for key in frames[0] if key != "frame"]
+    return np.array([[frame[n] for n in names] for frame in frames]), names, read_json(report)
+
+
+def without(report, *keys):
+    return {k: v for k, v in report.items() if k not in keys}
+
+
+def test_a_cmu_clip_equals_rig_invert(learned_biped, tmp_path):
+    need_cmu_clip()
+    file, _ = learned_biped
+    expected, names, report = rig_invert(file, tmp_path, "--clip", CMU_CLIP, "--map", CMU_MAP, "--threads", "1")
+    approx = riginv.Approximation.load(file)
+    values, our_names, our_report = approx.invert(str(CMU_CLIP), rig=BIPED, map=CMU_MAP)
+    assert our_names == names == approx.parameters
+    assert values.dtype == np.float64 and values.shape == (2752, len(names))
+    assert np.array_equal(values, expected)  # bit for bit: JSON numbers read back the same doubles
+    assert without(our_report, *VOLATILE) == without(report, *VOLATILE)
+    # The fingerprint of the curves rig-invert would write: the same text.
+    assert our_report["curves"] == {"file": None, "fnv1a64": report["curves"]["fnv1a64"]}
+    assert our_report["ms_per_frame"] > 0
+
+
+def test_options_equal_rig_invert_flags(learned_biped, tmp_path):
+    need_cmu_clip()
+    file, _ = learned_biped
+    expected, names, report = rig_invert(file, tmp_path, "--clip", CMU_CLIP, "--map", CMU_MAP, "--frames", "100:220",
+                                         "--threads", "2", "--restart-every", "50", "--polish", "1")
+    values, _, ours = riginv.Approximation.load(file).invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, threads=2,
+                                                             restart_every=50, polish=1, frames="100:220")
+    assert np.array_equal(values, expected)
+    assert without(ours, *VOLATILE) == without(report, *VOLATILE)
+    assert ours["lead_in_frames"] == 49 and ours["frames"] == 121  # from the restart at clip index 50 (frame 51)
+
+
+def test_arrays_equal_the_same_targets_as_a_json_clip(learned_biped, tmp_path):
+    need_cmu_clip()
+    file, _ = learned_biped
+    # The clip's own skeleton driven by it (bvh2rig --with-motion): world matrices per joint, as arrays here
+    # and as graph-eval's JSON for rig-invert.
+    rig = tmp_path / "cmu.yaml"
+    code, _, err = run("bvh2rig", CMU_CLIP, "-o", rig, "--with-motion")
+    assert code == 0, err
+    worlds = riginv.Graph.load(rig).evaluate(get="*.worldMatrix", frames="1:90")
+    targets = {plug[: -len(".worldMatrix")]: matrices for plug, matrices in worlds.items()}
+    clip = tmp_path / "clip.json"
+    code, _, err = run("graph-eval", rig, "--get", "*.worldMatrix", "--frames", "1:90", "-o", clip)
+    assert code == 0, err
+    expected, _, report = rig_invert(file, tmp_path, "--clip", clip, "--map", CMU_MAP)
+
+    values, _, ours = riginv.Approximation.load(file).invert(targets, rig=BIPED, map=CMU_MAP)
+    assert np.array_equal(values, expected)
+    # Arrays number their frames from 0, the JSON clip from 1; the curves' text holds the numbers.
+    assert ours["clip"] is None and report["clip"] == str(clip)
+    assert [f["frame"] for f in ours["per_frame"]] == list(range(90))
+    assert ours["worst_frame"] == report["worst_frame"] - 1
+    shifted = [dict(f, frame=f["frame"] - 1) for f in report["per_frame"]]
+    assert ours["per_frame"] == shifted
+    assert without(ours, *VOLATILE, "clip", "per_frame", "worst_frame") == \
+        without(report, *VOLATILE, "clip", "per_frame", "worst_frame")
+
+
+def test_learned_in_python_inverts_as_rig_learn_s_file(learned_biped):
+    need_cmu_clip()
+    file, _ = learned_biped
+    spec = biped_spec()
+    learned = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"])
+    ours, _, _ = learned.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:240")
+    theirs, _, report = riginv.Approximation.load(file).invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:240")
+    assert np.array_equal(ours, theirs)
+    assert report["approximation"] == str(file)
+
+
+def test_progress_and_its_exceptions(learned_biped):
+    need_cmu_clip()
+    approx = riginv.Approximation.load(learned_biped[0])
+    calls = []
+    approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:30", progress=lambda d, t: calls.append((d, t)))
+    assert calls == [(done, 30) for done in range(1, 31)]
+
+    def stop(done, total):
+        if done == 5:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:30", progress=stop)
+
+
+def test_the_gil_is_released_while_solving(learned_biped):
+    need_cmu_clip()
+    approx = riginv.Approximation.load(learned_biped[0])
+    # The whole clip on one thread: about a second.
+    share = share_of_time_another_thread_runs(lambda: approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP))
+    assert share > 0.3
+
+
+def identity_frames(count):
+    return np.repeat(np.eye(4)[None], count, axis=0)
+
+
+@pytest.mark.parametrize("value, message", [
+    (np.zeros((2, 3, 4)), "targets['Hips']: expected an array of shape (F, 4, 4), got shape (2, 3, 4)"),
+    (np.zeros(16), "targets['Hips']: expected an array of shape (F, 4, 4), got shape (16,)"),
+    (np.zeros((2, 16)), "targets['Hips']: expected an array of shape (F, 4, 4), got shape (2, 16)"),
+    (np.zeros((0, 4, 4)), "targets['Hips']: no frames (shape (0, 4, 4)); give at least one"),
+    (identity_frames(2).astype(np.float32),
+     "targets['Hips']: expected dtype float64, got float32 (shape (2, 4, 4)); convert it with .astype(numpy.float64)"),
+    (np.zeros((2, 4, 4), dtype=np.int64),
+     "targets['Hips']: expected dtype float64, got int64 (shape (2, 4, 4)); convert it with .astype(numpy.float64)"),
+    (identity_frames(2).tolist(),
+     "targets['Hips']: expected a NumPy array of shape (F, 4, 4) and dtype float64, got a list"),
+])
+def test_wrong_arrays_are_refused(learned_biped, value, message):
+    approx = riginv.Approximation.load(learned_biped[0])
+    with pytest.raises(riginv.Error) as caught:
+        approx.invert({"Hips": value}, rig=BIPED)
+    assert str(caught.value) == message
+
+
+def test_wrong_dicts_are_refused(learned_biped):
+    approx = riginv.Approximation.load(learned_biped[0])
+    cases = [
+        ({"Hips": identity_frames(3), "Spine": identity_frames(2)},
+         "targets['Spine']: 2 frames where targets['Hips'] has 3; every joint needs the same frames"),
+        ({}, "targets: an empty dict; give joint names with (F, 4, 4) float64 arrays"),
+        ({1: identity_frames(2)}, "targets: a key is a int, not a joint name (str)"),
+    ]
+    for targets, message in cases:
+        with pytest.raises(riginv.Error) as caught:
+            approx.invert(targets, rig=BIPED)
+        assert str(caught.value) == message
+    with pytest.raises(riginv.Error, match="^targets: "):  # no joint is an output of the approximation
+        approx.invert({"nobody": identity_frames(2)}, rig=BIPED)
+    with pytest.raises(TypeError, match="targets: expected a dict"):
+        approx.invert(42, rig=BIPED)
+
+
+def test_errors_are_rig_invert_messages(learned_biped, tmp_path):
+    need_cmu_clip()
+    file, _ = learned_biped
+    approx = riginv.Approximation.load(file)
+    base = [file, "-o", tmp_path / "c.json", "--map", CMU_MAP]
+    raises_like("rig-invert", [*base, "--rig", BIPED, "--clip", "no_such.bvh"],
+                lambda: approx.invert("no_such.bvh", rig=BIPED, map=CMU_MAP))
+    raises_like("rig-invert", [file, "-o", tmp_path / "c.json", "--rig", BIPED, "--clip", CMU_CLIP, "--map",
+                               "no_such_map.yaml"],
+                lambda: approx.invert(CMU_CLIP, rig=BIPED, map="no_such_map.yaml"))
+    raises_like("rig-invert", [*base, "--rig", "rigs/examples/arm.yaml", "--clip", CMU_CLIP],
+                lambda: approx.invert(CMU_CLIP, rig="rigs/examples/arm.yaml", map=CMU_MAP))
+    raises_like("rig-invert", [*base, "--rig", BIPED, "--clip", CMU_CLIP, "--frames", "1:99999"],
+                lambda: approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:99999"))
+    raises_like("rig-invert", [*base, "--rig", BIPED, "--clip", CMU_CLIP, "--restart-every", "0"],
+                lambda: approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, restart_every=0))
+    raises_like("rig-invert", [*base, "--rig", BIPED, "--clip", CMU_CLIP, "--polish", "-1"],
+                lambda: approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, polish=-1))
+    raises_like("rig-invert", [*base, "--rig", BIPED, "--clip", "rigs/biped.yaml"],
+                lambda: approx.invert("rigs/biped.yaml", rig=BIPED, map=CMU_MAP))
+    # A map naming a joint the targets lack names the targets as the command line names the clip.
+    bad_map = tmp_path / "map.yaml"
+    bad_map.write_text("joints:\n  Nobody: Hips\n")
+    with pytest.raises(riginv.Error) as caught:
+        approx.invert({"Hips": identity_frames(2)}, rig=BIPED, map=bad_map)
+    assert str(caught.value) == \
+        f"{bad_map}:2: the map renames 'Nobody', which targets does not have; check the joint name"
+
+
+def test_a_changed_rig_is_a_warning_as_in_rig_invert(learned_biped, tmp_path):
+    need_cmu_clip()
+    file, _ = learned_biped
+    rig = tmp_path / "biped.yaml"
+    shutil.copy(SOURCE / BIPED, rig)
+    with open(rig, "a") as f:
+        f.write("# edited since learning\n")
+    code, _, err = run("rig-invert", file, "--rig", rig, "--clip", CMU_CLIP, "--map", CMU_MAP, "--frames", "1:5",
+                       "-o", tmp_path / "c.json", "-q")
+    assert code == 0 and err.startswith("warning: "), err
+    with pytest.warns(RuntimeWarning) as warned:
+        riginv.Approximation.load(file).invert(CMU_CLIP, rig=rig, map=CMU_MAP, frames="1:5")
+    assert [str(w.message) for w in warned] == [err.strip()[len("warning: "):]]
+
+
+def test_an_unsaved_approximation_is_named_by_its_rig():
+    approx = riginv.learn("rigs/examples/arm.yaml", params=["shoulder.rotate?"])
+    with pytest.raises(riginv.Error) as caught:
+        approx.invert({"shoulder": identity_frames(1)}, rig=BIPED)
+    assert str(caught.value).startswith("the approximation learned from rigs/examples/arm.yaml: ")
+
+
+def test_a_shared_clip_from_another_skeleton(tmp_path):
+    """Mocap from another source (../shared/motion, absent on a fresh clone): its bvh2rig rig learned here and by
+    rig-learn, inverted here and by rig-invert, gives the same curves."""
+    clip = SOURCE.parent / "shared/motion/rotate_hip.bvh"
+    if not clip.exists():
+        pytest.skip(f"{clip} is not here (the shared folder)")
+    rig = tmp_path / "skeleton.yaml"
+    code, _, err = run("bvh2rig", clip, "-o", rig)
+    assert code == 0, err
+    params = ["*.rotate?"]
+    approx_file = tmp_path / "skeleton.approx.yaml"
+    code, _, err = run("rig-learn", rig, "--params", *params, "-o", approx_file)
+    assert code == 0, err
+    learned = riginv.learn(rig, params=params)
+    curves = tmp_path / "curves.json"
+    code, _, err = run("rig-invert", approx_file, "--rig", rig, "--clip", clip, "-o", curves, "-q")
+    assert code == 0, err
+    values, names, _ = learned.invert(clip, rig=rig)
+    assert np.array_equal(values, np.array([[frame[n] for n in names] for frame in json.loads(curves.read_text())]))

@@ -1,0 +1,296 @@
+#include "tools/invert_run.h"
+
+#include <cmath>
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "graph/error.h"
+#include "inversion/approximation_io.h"
+#include "inversion/rig_binding.h"
+#include "inversion/solver.h"
+#include "tools/cli_common.h"
+
+namespace rig::cli {
+namespace {
+
+// --after: the values that the chunk before reported for clip frame `index` (internal units), read from
+// the JSON curves rig-invert wrote for it.
+std::vector<double> valuesReported(const std::string& file, const Approximation& a, const TargetClip& clip, int index,
+                                   const std::string& frames)
+{
+    if (index < 0)
+        throw Error(fmt::format("--after {}: frames {} start at the clip's first chain; there is no frame before them "
+                                "to continue from (leave --after out)",
+                                file, frames));
+    const double number = clip.frameNumbers[static_cast<std::size_t>(index)];
+    std::ifstream in(file);
+    if (!in)
+        throw Error(fmt::format(
+            "--after {}: cannot read it; give the curves (.json) rig-invert wrote for the frames before", file));
+    nlohmann::json curves;
+    try {
+        curves = nlohmann::json::parse(in);
+    }
+    catch (const nlohmann::json::exception& e) {
+        throw Error(fmt::format("--after {}: not JSON curves written by rig-invert ({})", file, e.what()));
+    }
+    if (!curves.is_array())
+        throw Error(fmt::format("--after {}: not JSON curves written by rig-invert (no list of frames)", file));
+    for (const auto& frame : curves) {
+        if (!frame.is_object() || !frame.contains("frame") || !frame["frame"].is_number() ||
+            frame["frame"].get<double>() != number)
+            continue;
+        std::vector<double> values;
+        for (const auto& m : a.parameters) {
+            const RigParameter& p = m.parameter;
+            const auto found = frame.find(p.name);
+            if (found == frame.end() || !found->is_number() || !std::isfinite(found->get<double>()))
+                throw Error(fmt::format("--after {}: frame {} has no finite value of {}; give curves written with this "
+                                        "approximation",
+                                        file, number, p.name));
+            values.push_back(parameterInternalValue(p, found->get<double>()));
+        }
+        return values;
+    }
+    throw Error(fmt::format("--after {}: has no frame {}; frames {} start their chain at frame {}, so the curves "
+                            "before must reach the frame before it",
+                            file, number, frames, clip.frameNumbers[static_cast<std::size_t>(index) + 1]));
+}
+
+// The clip indices of --frames A:B.
+std::pair<int, int> frameIndices(const TargetClip& clip, const std::string& frames)
+{
+    const auto range = parseFrameRange(frames, "--frames");
+    if (range.step != 1.0)
+        throw Error(
+            fmt::format("--frames {}: a step is not supported; frames are solved in a warm-start chain", frames));
+    const auto index = [&](double number) {
+        for (std::size_t i = 0; i < clip.frameNumbers.size(); ++i)
+            if (clip.frameNumbers[i] == number) return static_cast<int>(i);
+        throw Error(fmt::format("--frames {}: {} has no frame {} (its frames are {} to {})", frames, clip.file, number,
+                                clip.frameNumbers.front(), clip.frameNumbers.back()));
+    };
+    return {index(range.first), index(range.last)};
+}
+
+}  // namespace
+
+ClipInversionOptions clipInversionOptions(const InvertSettings& s)
+{
+    ClipInversionOptions options;
+    options.solver.threads = s.threads;
+    options.solver.partition = !s.noPartition;
+    options.solver.coupledBlocks = !s.blockByBlock;
+    if (s.jacobian == "analytic") options.solver.jacobian = JacobianMethod::analytic;
+    else if (s.jacobian == "fd") options.solver.jacobian = JacobianMethod::finiteDifference;
+    else throw Error(fmt::format("--jacobian {}: expected analytic or fd", s.jacobian));
+    if (s.polish < 0)
+        throw Error(fmt::format("--polish {}: give 0 (the approximation only) or more real-rig corrections per frame",
+                                s.polish));
+    if (s.restartEvery < 1)
+        throw Error(fmt::format("--restart-every {}: give 1 or more frames between warm-start restarts (default {})",
+                                s.restartEvery, ClipInversionOptions{}.restartInterval));
+    options.polishCorrections = s.polish;
+    options.restartInterval = s.restartEvery;
+    options.coldStart = !s.restStarts;
+    try {
+        options.validate();
+    }
+    catch (const std::invalid_argument& e) {
+        throw Error(fmt::format("bad option: {}", e.what()));
+    }
+    return options;
+}
+
+Approximation readApproximation(const std::string& file)
+{
+    try {
+        return readApproximationFile(file);
+    }
+    catch (const ApproximationFileError& e) {
+        throw Error(e.what());
+    }
+}
+
+InvertOutcome invert(const InvertJob& job)
+{
+    ClipInversionOptions options = clipInversionOptions(job.settings);
+    InvertOutcome out;
+    out.approximation = job.approximation;
+    if (!out.approximation)
+        out.approximation = std::make_shared<const Approximation>(readApproximation(job.approximationName));
+    const Approximation& approximation = *out.approximation;
+    if (approximation.parameters.empty())
+        throw Error(fmt::format("{}: the approximation models no parameter (all were discarded); learn it again "
+                                "with other --params",
+                                job.approximationName));
+
+    GraphRigOptions rigOptions;
+    for (const auto& p : approximation.parameters) rigOptions.parameterGlobs.push_back(p.parameter.name);
+    for (const auto& o : approximation.outputs) rigOptions.outputGlobs.push_back(o.name);
+    rigOptions.plugins = job.plugins;
+    // The rig must have the approximation's parameters and outputs: an approximation of another rig (or a
+    // name edited by hand) is the approximation's mistake as much as the rig's.
+    const auto learnedFrom = [&] {
+        return fmt::format("the approximation was learned from {}: give that rig with --rig, or learn one for this "
+                           "rig with rig-learn",
+                           approximation.rigFile);
+    };
+    std::optional<GraphRigFunction> loaded;
+    try {
+        loaded.emplace(job.rig, rigOptions);
+    }
+    catch (const RigSelectionError& e) {
+        throw Error(fmt::format("{}: {} '{}' does not fit {} ({}); {}", job.approximationName, e.kind(), e.name(),
+                                job.rig, e.reason(), learnedFrom()));
+    }
+    GraphRigFunction& rig = *loaded;
+    if (job.rigLoaded) job.rigLoaded(rig);
+    try {
+        if (const auto warning = checkFingerprint(approximation, rig.fingerprint(), job.strict);
+            !warning.empty() && job.warning)
+            job.warning(fmt::format("{}: {}", job.approximationName, warning));
+    }
+    catch (const ApproximationFileError& e) {
+        throw Error(fmt::format("{}: {} (--strict)", job.approximationName, e.what()));
+    }
+
+    const TargetMap map = job.map.empty() ? TargetMap{} : readTargetMap(job.map);
+    out.clip = job.targets ? applyTargetMap(*job.targets, map) : readTargetClip(job.clip, map);
+    const TargetClip& clip = out.clip;
+    int last = static_cast<int>(clip.frameNumbers.size()) - 1;
+    if (job.frames) std::tie(out.first, last) = frameIndices(clip, *job.frames);
+
+    try {
+        out.targets = matchTargets(approximation, clip.joints, clip.worlds);
+    }
+    catch (const std::invalid_argument& e) {
+        throw Error(fmt::format("{}: {}", clip.file, e.what()));
+    }
+    const Solver solver(approximation, options.solver);
+    // The rig's parameters are scalar plugs: a name edited into a vector ('wrist.rotate') or into a
+    // plug the rig does not offer does not bind.
+    std::optional<RigBinding> bound;
+    try {
+        bound.emplace(approximation, rig);
+    }
+    catch (const std::invalid_argument& e) {
+        std::string why = e.what();
+        if (why.starts_with("RigBinding: ")) why.erase(0, 12);
+        throw Error(fmt::format("{}: {} ({} does not offer it as a free keyable number); {}", job.approximationName,
+                                why, job.rig, learnedFrom()));
+    }
+    if (!job.after.empty())
+        options.continueFrom = valuesReported(job.after, approximation, clip,
+                                              out.first - out.first % options.restartInterval - 1,
+                                              job.frames ? *job.frames : "(all)");
+    if (job.progress) {
+        const int total = last - out.first + 1;
+        // invertClip gives done / total.
+        options.progress = [&job, total](double fraction) {
+            job.progress(static_cast<int>(std::lround(fraction * total)), total);
+        };
+    }
+    out.summary = invertClip(solver, *bound, out.targets, out.first, last, options, out.values);
+    return out;
+}
+
+std::vector<std::vector<double>> curveValues(const InvertOutcome& outcome)
+{
+    const auto& parameters = outcome.approximation->parameters;
+    std::vector<std::vector<double>> out;
+    for (const auto& frame : outcome.values) {
+        auto& row = out.emplace_back();
+        for (std::size_t i = 0; i < parameters.size(); ++i)
+            row.push_back(parameterUserValue(parameters[i].parameter, frame[i]));
+    }
+    return out;
+}
+
+// graph-eval's layout, so that a graph driven by the curves prints the same file.
+std::string curvesJson(const InvertOutcome& outcome)
+{
+    const auto& parameters = outcome.approximation->parameters;
+    const auto values = curveValues(outcome);
+    std::string out = "[\n";
+    for (std::size_t f = 0; f < values.size(); ++f) {
+        std::vector<std::pair<std::string, Json>> named;
+        for (std::size_t i = 0; i < parameters.size(); ++i)
+            named.emplace_back(parameters[i].parameter.name, numberJson(values[f][i]));
+        out += frameJson(outcome.clip.frameNumbers[static_cast<std::size_t>(outcome.first) + f], named) +
+               (f + 1 < values.size() ? ",\n" : "\n");
+    }
+    return out + "]\n";
+}
+
+std::string curvesCsv(const InvertOutcome& outcome)
+{
+    std::string out = "frame";
+    for (const auto& p : outcome.approximation->parameters) out += "," + p.parameter.name;
+    out += "\n";
+    const auto values = curveValues(outcome);
+    for (std::size_t f = 0; f < values.size(); ++f) {
+        out += fmt::format("{}", outcome.clip.frameNumbers[static_cast<std::size_t>(outcome.first) + f]);
+        for (const double v : values[f]) out += std::isfinite(v) ? fmt::format(",{}", v) : ",";
+        out += "\n";
+    }
+    return out;
+}
+
+Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>& approximation, const std::string& rig,
+                  const std::optional<std::string>& clip, const std::optional<std::string>& curvesFile,
+                  const std::string& curvesFingerprint)
+{
+    const Approximation& a = *outcome.approximation;
+    const ClipInversionSummary& s = outcome.summary;
+    const auto frameNumber = [&](int index) {
+        return numberJson(outcome.clip.frameNumbers[static_cast<std::size_t>(index)]);
+    };
+    const auto nameOrNull = [](const std::optional<std::string>& name) { return name ? Json(*name) : Json(); };
+    Json perFrame = Json::array();
+    for (const auto& f : s.perFrame) {
+        Json missed = Json::array();
+        for (const int k : f.solve.missedOutputs) missed.push_back(a.outputs[static_cast<std::size_t>(k)].name);
+        perFrame.push_back({{"frame", frameNumber(f.frame)},
+                            {"termination", terminationName(f.solve.termination)},
+                            {"missed_joints", std::move(missed)},
+                            {"iterations", f.solve.iterations},
+                            {"position_error_cm", numberJson(f.positionErrorCm)},
+                            {"rotation_error_deg", numberJson(f.rotationErrorDeg)},
+                            {"worst_joint", f.worstJoint},
+                            {"non_finite_joint", f.nonFiniteJoint.empty() ? Json() : Json(f.nonFiniteJoint)}});
+    }
+    Json stuckJoints = Json::object();
+    for (const auto& joint : s.stuckJoints)
+        stuckJoints[joint.name] = {{"frames", joint.frames},
+                                   {"worst_position_error_cm", numberJson(joint.worstErrorCm)}};
+    return Json{{"approximation", nameOrNull(approximation)},
+                {"rig", rig},
+                {"clip", nameOrNull(clip)},
+                {"parameters", a.parameters.size()},
+                {"target_joints", outcome.targets.matchedJoints},
+                {"frames", s.frames},
+                {"converged_frames", s.convergedFrames},
+                {"stuck_frames", s.stuckFrames},
+                {"retried_frames", s.retriedFrames},
+                {"retries_kept", s.retriesKept},
+                {"stuck_joints", std::move(stuckJoints)},
+                {"max_position_error_cm", numberJson(s.maxPositionErrorCm)},
+                {"mean_position_error_cm", numberJson(s.meanPositionErrorCm)},
+                {"max_rotation_error_deg", numberJson(s.maxRotationErrorDeg)},
+                {"mean_rotation_error_deg", numberJson(s.meanRotationErrorDeg)},
+                {"worst_joint", s.worstJoint},
+                {"worst_frame", s.worstFrame >= 0 ? frameNumber(s.worstFrame) : Json()},
+                {"ms_per_frame", numberJson(s.msPerFrame)},
+                {"lead_in_frames", s.leadInFrames},
+                {"non_finite_frames", s.nonFiniteFrames},
+                // Which curves this report belongs to: a run killed between the two writes leaves a pair that
+                // says it does not match.
+                {"curves", {{"file", nameOrNull(curvesFile)}, {"fnv1a64", curvesFingerprint}}},
+                {"per_frame", std::move(perFrame)}};
+}
+
+std::string fingerprintText(const std::string& text) { return fmt::format("{:016x}", fnv1a64(text)); }
+
+}  // namespace rig::cli

@@ -1,0 +1,135 @@
+#include "tools/learn_run.h"
+
+#include <charconv>
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "graph/error.h"
+
+namespace rig::cli {
+
+double parseEpsilon(const std::string& text)
+{
+    double x = 0.0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+    if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !std::isfinite(x))
+        throw Error(fmt::format("--epsilon '{}': not a number; give a positive number of cm per unit of a parameter, "
+                                "e.g. --epsilon 0.001",
+                                text));
+    if (!(x > 0))
+        throw Error(
+            fmt::format("--epsilon '{}': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001", text));
+    return x;
+}
+
+Orderer ordererFromName(const std::string& name)
+{
+    if (name == "structured") return Orderer::structured;
+    if (name == "talk") return Orderer::talk;
+    throw Error(fmt::format("--orderer: {} not in {{talk,structured}}", messageExcerpt(name)));
+}
+
+double learningFraction(std::string_view stage, double fraction)
+{
+    const double start = stage == "classifying" ? 0.0 : stage == "ordering" ? 0.6 : 0.85;
+    const double width = stage == "classifying" ? 0.6 : stage == "ordering" ? 0.25 : 0.15;
+    return start + width * fraction;
+}
+
+LearnOutcome learn(const LearnJob& job)
+{
+    const auto loadStart = std::chrono::steady_clock::now();
+    GraphRigFunction rig(job.rig, GraphRigOptions{job.params, job.outputs, job.plugins});
+    if (job.rigLoaded) job.rigLoaded(rig);
+    LearnOutcome out;
+    out.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
+    out.rigParameters = rig.parameters().size();
+    out.rigOutputs = rig.outputs().size();
+    try {
+        out.approximation = learnApproximation(rig, job.options, job.rig);
+    }
+    catch (const Error& e) {
+        // A rig that refuses a sampled value (a node's own limit) or fails to evaluate: say where.
+        throw Error(fmt::format("{}: evaluating the rig while learning: {}", job.rig, e.what()));
+    }
+    return out;
+}
+
+Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std::optional<std::string>& approximation,
+                 bool written)
+{
+    const Approximation& a = outcome.approximation;
+    Json modelled = Json::array(), forms = Json::array(), saturated = Json::array();
+    for (const ModelledParameter& m : a.parameters) {
+        modelled.push_back(m.parameter.name);
+        forms.push_back({{"name", m.parameter.name},
+                         {"form", m.form},
+                         {"fit_error", numberJson(m.fitError)},
+                         {"samples", m.samples},
+                         {"outputs", m.outputs.size()},
+                         {"validation_error", numberJson(m.validationError)}});
+        for (const auto& [from, to] : m.noEffect)
+            saturated.push_back({{"name", m.parameter.name}, {"from", numberJson(from)}, {"to", numberJson(to)}});
+    }
+    Json discarded = Json::array();
+    for (const auto& d : a.discarded) discarded.push_back({{"name", d.parameter.name}, {"reason", d.reason}});
+    Json redundant = Json::array();
+    for (const auto& [i, j] : redundantParameters(a))
+        redundant.push_back(Json::array({a.parameters[static_cast<std::size_t>(i)].parameter.name,
+                                         a.parameters[static_cast<std::size_t>(j)].parameter.name}));
+    Json outputs = Json::array();
+    for (const ApproximationOutput& o : a.outputs) {
+        const std::string frame = o.parent >= 0 ? a.outputs[static_cast<std::size_t>(o.parent)].name : "world";
+        outputs.push_back({{"name", o.name}, {"frame", frame}, {"validation_error", numberJson(o.validationError)}});
+    }
+    Json dropped = Json::array();
+    for (const DroppedOutput& d : a.droppedOutputs) dropped.push_back({{"name", d.name}, {"reason", d.reason}});
+    const ValidationSummary& v = a.validation;
+    return Json{{"rig", rig},
+                {"approximation", approximation ? Json(*approximation) : Json()},
+                {"fingerprint", a.rigFingerprint},
+                {"epsilon", numberJson(a.epsilon)},
+                {"orderer", a.training.orderer},
+                {"parameters", outcome.rigParameters},
+                {"outputs", outcome.rigOutputs},
+                {"evaluations", a.training.evaluations},
+                {"order_evaluations", a.training.orderEvaluations},
+                {"seconds", numberJson(a.training.seconds)},
+                {"load_seconds", numberJson(outcome.loadSeconds)},
+                {"modelled", std::move(modelled)},
+                {"forms", std::move(forms)},
+                {"discarded", std::move(discarded)},
+                {"redundant", std::move(redundant)},
+                {"saturated", std::move(saturated)},
+                {"frames", std::move(outputs)},
+                {"dropped_outputs", std::move(dropped)},
+                {"within_epsilon", v.withinEpsilon},
+                {"written", written},
+                {"validation",
+                 {{"poses", v.poses},
+                  {"max_position_error_cm", numberJson(v.maxPositionErrorCm)},
+                  {"mean_position_error_cm", numberJson(v.meanPositionErrorCm)},
+                  {"max_rotation_error_deg", numberJson(v.maxRotationErrorDeg)},
+                  {"mean_rotation_error_deg", numberJson(v.meanRotationErrorDeg)},
+                  {"worst_output", v.worstOutput},
+                  {"worst_pose", v.worstPose},
+                  {"max_relative_error", numberJson(v.maxRelativeError)},
+                  {"worst_relative_output", v.worstRelativeOutput},
+                  {"worst_parameter", v.worstParameter},
+                  {"non_finite_poses", v.nonFinitePoses}}}};
+}
+
+std::string validationFailure(const Approximation& approximation)
+{
+    const ValidationSummary& v = approximation.validation;
+    if (v.withinEpsilon) return {};
+    if (v.nonFinitePoses > 0)
+        return fmt::format("the rig gave non-finite matrices at {} of {} validation poses", v.nonFinitePoses, v.poses);
+    return fmt::format("the approximation exceeds epsilon {:g}: {:.3g} cm per unit of the parameters moved on {} "
+                       "(moving {} most)",
+                       approximation.epsilon, v.maxRelativeError, v.worstRelativeOutput, v.worstParameter);
+}
+
+}  // namespace rig::cli

@@ -1,0 +1,58 @@
+#pragma once
+// rig-learn's work from a rig file and globs to an approximation and its JSON report, shared by the
+// command line (tools/rig_learn.cpp) and the Python module (python/riginv.cpp), so that both learn the
+// same approximation and give the same report and one-line errors (docs/rig-learn.md, docs/python.md).
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "inversion/learner.h"
+#include "nodes/graph_rig_function.h"
+#include "tools/value_output.h"
+
+namespace rig::cli {
+
+// --epsilon's text as a number: positive and finite, else rig::Error saying so.
+double parseEpsilon(const std::string& text);
+
+// "structured" or "talk", else rig::Error (the command line's CLI11 check says the same).
+Orderer ordererFromName(const std::string& name);
+
+// Overall fraction done from the learner's stage and the fraction of that stage (classification is most
+// of the work; ordering and validation share the rest).
+double learningFraction(std::string_view stage, double fraction);
+
+struct LearnJob {
+    std::string rig;
+    std::vector<std::string> params;   // parameter plug globs
+    std::vector<std::string> outputs;  // output joint globs; empty: every joint
+    std::vector<std::string> plugins;
+    LearnOptions options;
+    // Called once the rig is loaded, before the work (rig-learn checks its outputs against the rig's files).
+    std::function<void(const GraphRigFunction& rig)> rigLoaded;
+};
+
+struct LearnOutcome {
+    Approximation approximation;
+    std::size_t rigParameters = 0;  // what the globs gave
+    std::size_t rigOutputs = 0;
+    double loadSeconds = 0.0;  // loading the rig
+};
+
+// Loads the rig and learns. Throws rig::Error with rig-learn's one-line messages (RigSelectionError for
+// a glob the rig cannot provide).
+LearnOutcome learn(const LearnJob& job);
+
+// The --report-json report. `approximation` is the file written, or to be written (none: none named);
+// `written` whether it was.
+Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std::optional<std::string>& approximation,
+                 bool written);
+
+// Why an approximation must not be written as if it were fine (over epsilon, or non-finite validation
+// poses), as one line without the file name; "" when it is within epsilon.
+std::string validationFailure(const Approximation& approximation);
+
+}  // namespace rig::cli
