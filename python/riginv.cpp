@@ -1,6 +1,7 @@
 // riginv: the Python module (docs/python.md). Loads and evaluates rig graphs, learns approximations and
 // inverts targets with NumPy arrays, through the same library code as graph-eval, rig-learn and
 // rig-invert (tools/eval_run.h, learn_run.h, invert_run.h): the same values, reports and one-line errors.
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <optional>
@@ -177,8 +178,17 @@ public:
         if (py::isinstance<py::str>(frames))
             numbers = cli::parseFrameRange(frames.cast<std::string>(), "--frames").frames();
         else if (setTime) {
-            numbers = frames.cast<std::vector<double>>();
+            try {
+                numbers = frames.cast<std::vector<double>>();
+            }
+            catch (const py::cast_error&) {
+                throw py::type_error(fmt::format("frames: expected None, 'A:B[:STEP]' or a list of frame numbers; "
+                                                 "got a {}",
+                                                 typeName(frames)));
+            }
             if (numbers.empty()) throw Error("frames: an empty list; give frame numbers, or 'A:B[:STEP]'");
+            for (const double frame : numbers)
+                if (!std::isfinite(frame)) throw Error(fmt::format("frames: {} is not a frame number", frame));
         }
         std::vector<std::string> patterns;
         if (py::isinstance<py::str>(get)) patterns.push_back(get.cast<std::string>());
@@ -217,15 +227,29 @@ private:
 // ---------------------------------------------------------------------------------------------------------
 // Approximation
 
-// Called from the library's threads without the GIL: takes it, lets Ctrl-C stop the work (a Python
-// exception thrown through the library) and calls `progress` when it is not None.
-template <class Done, class Total>
-void reportProgress(const py::object& progress, Done done, Total total)
-{
-    py::gil_scoped_acquire acquire;
-    if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-    if (!progress.is_none()) progress(done, total);
-}
+// The library's progress callback while it works without the GIL: takes the GIL to let Ctrl-C stop the work
+// (a Python exception thrown through the library) and to call `progress`, at every call when there is one,
+// otherwise at most every 0.1 s: taking the GIL while another Python thread runs waits for that thread's
+// switch interval, which every frame would add up to more than the solve.
+class ProgressToPython {
+public:
+    explicit ProgressToPython(const py::object& progress) : progress_(progress) {}
+
+    template <class Done, class Total>
+    void operator()(Done done, Total total)
+    {
+        const auto now = std::chrono::steady_clock::now();
+        if (progress_.is_none() && now - lastCheck_ < std::chrono::milliseconds(100)) return;
+        lastCheck_ = now;
+        py::gil_scoped_acquire acquire;
+        if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+        if (!progress_.is_none()) progress_(done, total);
+    }
+
+private:
+    const py::object& progress_;
+    std::chrono::steady_clock::time_point lastCheck_ = std::chrono::steady_clock::now();
+};
 
 class PyApproximation {
 public:
@@ -246,8 +270,9 @@ public:
         job.options.epsilon = cli::parseEpsilon(fmt::format("{}", epsilon));
         job.options.orderer = cli::ordererFromName(orderer);
         job.options.relativeFrames = !worldSpace;
+        ProgressToPython onProgress(progress);
         job.options.progress = [&](std::string_view stage, double fraction) {
-            reportProgress(progress, cli::learningFraction(stage, fraction), 1.0);
+            onProgress(cli::learningFraction(stage, fraction), 1.0);
         };
         std::shared_ptr<cli::LearnOutcome> outcome;
         {
@@ -304,7 +329,8 @@ public:
         job.settings.threads = threads;
         job.settings.restartEvery = restartEvery;
         job.settings.polish = polish;
-        job.progress = [&](int done, int total) { reportProgress(progress, done, total); };
+        ProgressToPython onProgress(progress);
+        job.progress = [&](int done, int total) { onProgress(done, total); };
         job.warning = [](const std::string& warning) {
             py::gil_scoped_acquire acquire;
             if (PyErr_WarnEx(PyExc_RuntimeWarning, warning.c_str(), 1) != 0) throw py::error_already_set();
@@ -483,7 +509,7 @@ PYBIND11_MODULE(riginv, m)
              "progress: called as progress(frames done, frames total), with the GIL held.\n"
              "values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter names; "
              "report: the dict rig-invert --report-json writes (curves.file is None: nothing is written). The GIL "
-             "is released while solving; Ctrl-C stops it.")
+             "is released while solving; Ctrl-C stops it (between frames, seen every 0.1 s).")
         .def_property_readonly("report", &PyApproximation::report,
                                "The dict rig-learn --report-json writes, for an approximation learned by "
                                "riginv.learn() ('approximation' and 'written' name the file once saved); None for "
@@ -511,5 +537,5 @@ PYBIND11_MODULE(riginv, m)
           "plugins, world_space: rig-learn's --plugin and --world-space.\n"
           "progress: called as progress(fraction done, 1.0), with the GIL held.\n"
           "An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses it. "
-          "The GIL is released while learning; Ctrl-C stops it.");
+          "The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s).");
 }

@@ -88,7 +88,7 @@ class Approximation:
         progress: called as progress(frames done, frames total), with the GIL held.
         values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter
         names; report: the dict rig-invert --report-json writes (curves.file is None: nothing is
-        written). The GIL is released while solving; Ctrl-C stops it."""
+        written). The GIL is released while solving; Ctrl-C stops it (between frames, seen every 0.1 s)."""
     @property
     def report(self) -> Optional[_Report]:
         """The dict rig-learn --report-json writes, for an approximation learned by riginv.learn()
@@ -124,4 +124,4 @@ def learn(
     plugins, world_space: rig-learn's --plugin and --world-space.
     progress: called as progress(fraction done, 1.0), with the GIL held.
     An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses
-    it. The GIL is released while learning; Ctrl-C stops it."""
+    it. The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s)."""

@@ -93,6 +93,12 @@ def test_errors_are_graph_eval_messages():
     raises_like("graph-eval", [ARM, "--set", "wrist_world.outputTranslate=[1, 2, 3]"],
                 lambda: graph.evaluate(set={"wrist_world.outputTranslate": [1, 2, 3]}))
     raises_like("graph-eval", [ARM, "--frames", "3:1"], lambda: graph.evaluate(frames="3:1"))
+    with pytest.raises(riginv.Error, match=r"^frames: nan is not a frame number$"):
+        graph.evaluate(frames=[1, float("nan")])
+    with pytest.raises(riginv.Error, match=r"^frames: an empty list"):
+        graph.evaluate(frames=[])
+    with pytest.raises(TypeError, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers"):
+        graph.evaluate(frames={"a": 1})
     # graph-eval looks beside its own libraries too: the same message but for that folder.
     message = (r"^plugin 'no_such_plugin' not found \(looked for .*/lib/no_such_plugin.so\); build it, or add its "
                r"folder to RIG_PLUGIN_PATH$")

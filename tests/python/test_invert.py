@@ -1,8 +1,12 @@
 """Approximation.invert against rig-invert: the same values bit for bit and the same report, arrays checked,
 the same errors, the GIL released while solving."""
 
+import _thread
 import json
 import shutil
+import signal
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -115,6 +119,28 @@ def test_the_gil_is_released_while_solving(learned_biped):
     # The whole clip on one thread: about a second.
     share = share_of_time_another_thread_runs(lambda: approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP))
     assert share > 0.3
+
+
+def test_ctrl_c_stops_a_solve(learned_biped):
+    need_cmu_clip()
+    approx = riginv.Approximation.load(learned_biped[0])
+
+    class Stop(Exception):
+        pass
+
+    def handler(signum, frame):
+        raise Stop
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        # SIGINT's handler runs in the solving thread within 0.1 s of the signal (no progress callable given).
+        threading.Timer(0.1, _thread.interrupt_main).start()
+        start = time.perf_counter()
+        with pytest.raises(Stop):
+            approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP)  # about a second
+        assert time.perf_counter() - start < 0.6
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def identity_frames(count):
