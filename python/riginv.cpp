@@ -192,7 +192,15 @@ public:
         }
         std::vector<std::string> patterns;
         if (py::isinstance<py::str>(get)) patterns.push_back(get.cast<std::string>());
-        else if (!get.is_none()) patterns = get.cast<std::vector<std::string>>();
+        else if (!get.is_none()) {
+            try {
+                patterns = get.cast<std::vector<std::string>>();
+            }
+            catch (const py::cast_error&) {
+                throw py::type_error(
+                    fmt::format("get: expected None, a plug name or glob, or a list of them; got a {}", typeName(get)));
+            }
+        }
         const auto plugs =
             cli::selectPlugs(graph, file_, patterns, setTime ? std::optional(numbers.front()) : std::nullopt);
         std::vector<std::vector<Value>> columns(plugs.size());

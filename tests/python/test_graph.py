@@ -99,6 +99,8 @@ def test_errors_are_graph_eval_messages():
         graph.evaluate(frames=[])
     with pytest.raises(TypeError, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers"):
         graph.evaluate(frames={"a": 1})
+    with pytest.raises(TypeError, match=r"^get: expected None, a plug name or glob, or a list of them; got a int$"):
+        graph.evaluate(get=3)
     # graph-eval looks beside its own libraries too: the same message but for that folder.
     message = (r"^plugin 'no_such_plugin' not found \(looked for .*/lib/no_such_plugin.so\); build it, or add its "
                r"folder to RIG_PLUGIN_PATH$")
