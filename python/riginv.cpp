@@ -3,6 +3,7 @@
 // rig-invert (tools/eval_run.h, learn_run.h, invert_run.h): the same values, reports and one-line errors.
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -15,7 +16,6 @@
 #include <yaml-cpp/yaml.h>
 
 #include "graph/error.h"
-#include "graph/plug_glob.h"
 #include "graph/yaml_loader.h"
 #include "inversion/approximation_io.h"
 #include "tools/cli_common.h"
