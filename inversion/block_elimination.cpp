@@ -61,24 +61,37 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
                 throw std::invalid_argument("BlockElimination: a parameter moves an output outside its block's chain");
         }
     const int n = structure.columnCount();
-    gather_.resize(blocks);
+    layout_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), -1);
+    base_.resize(blocks);
+    coupledBelow_.resize(blocks);
     for (std::size_t b = 0; b < blocks; ++b)
-        for (const int a : chain_[b]) {
-            std::vector<int>& offsets = gather_[b].emplace_back();
-            for (const int ca : columns_[static_cast<std::size_t>(a)])
-                for (const int cb : columns_[b]) offsets.push_back(std::min(ca, cb) * n + std::max(ca, cb));
+        for (std::size_t i = 0; i < chain_[b].size(); ++i) {
+            const std::size_t a = static_cast<std::size_t>(chain_[b][i]);
+            base_[b].push_back(entryCount_);
+            if (i > 0) coupledBelow_[a].emplace_back(static_cast<int>(b), static_cast<int>(i));
+            // Column-major within the block; J^T J's entry (max, min) of the two structure columns.
+            for (std::size_t la = 0; la < columns_[a].size(); ++la)
+                for (std::size_t lb = 0; lb < columns_[b].size(); ++lb) {
+                    const int ca = columns_[a][la], cb = columns_[b][lb];
+                    const int index = entryCount_ + static_cast<int>(la * columns_[b].size() + lb);
+                    const std::size_t dense = static_cast<std::size_t>(std::min(ca, cb)) * static_cast<std::size_t>(n) +
+                                              static_cast<std::size_t>(std::max(ca, cb));
+                    // A diagonal block keeps its lower triangle (the factor reads no other).
+                    if (i > 0 || lb >= la) layout_[dense] = index;
+                }
+            entryCount_ += static_cast<int>(columns_[a].size() * columns_[b].size());
         }
 }
 
-BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& elimination) : e_(&elimination)
+BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& elimination)
+    : e_(&elimination), entries_(static_cast<std::size_t>(elimination.entryCount_), 0.0)
 {
     const std::size_t blocks = elimination.size_.size();
-    h_.resize(blocks);
+    work_.resize(blocks);
     for (std::size_t b = 0; b < blocks; ++b)
         for (const int a : elimination.chain_[b])
-            h_[b].emplace_back(elimination.size_[b], elimination.size_[static_cast<std::size_t>(a)]);
-    work_ = h_;
-    coupling_ = h_;
+            work_[b].emplace_back(elimination.size_[b], elimination.size_[static_cast<std::size_t>(a)]);
+    coupling_ = work_;
     for (std::size_t b = 0; b < blocks; ++b) {
         factor_.emplace_back(elimination.size_[b], elimination.size_[b]);
         llt_.emplace_back(elimination.size_[b]);
@@ -89,16 +102,57 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
     }
 }
 
-void BlockEliminationWorkspace::form(const Eigen::MatrixXd& h)
+BlockEliminationWorkspace::BlockMap BlockEliminationWorkspace::block(std::size_t b, std::size_t i)
 {
     const BlockElimination& e = *e_;
-    const double* whole = h.data();
-    for (std::size_t b = 0; b < h_.size(); ++b)
-        for (std::size_t i = 0; i < h_[b].size(); ++i) {
-            const std::vector<int>& offsets = e.gather_[b][i];
-            double* block = h_[b][i].data();
-            for (std::size_t k = 0; k < offsets.size(); ++k) block[k] = whole[offsets[k]];
+    return BlockMap(entries_.data() + e.base_[b][i], e.size_[b], e.size_[static_cast<std::size_t>(e.chain_[b][i])]);
+}
+
+BlockEliminationWorkspace::ConstBlockMap BlockEliminationWorkspace::block(std::size_t b, std::size_t i) const
+{
+    const BlockElimination& e = *e_;
+    return ConstBlockMap(entries_.data() + e.base_[b][i], e.size_[b], e.size_[static_cast<std::size_t>(e.chain_[b][i])]);
+}
+
+double BlockEliminationWorkspace::diagonal(int column) const
+{
+    const BlockElimination& e = *e_;
+    const std::size_t b = static_cast<std::size_t>(e.blockOfColumn_[static_cast<std::size_t>(column)]);
+    const Eigen::Index l = e.localOfColumn_[static_cast<std::size_t>(column)];
+    return block(b, 0)(l, l);
+}
+
+void BlockEliminationWorkspace::hold(int column)
+{
+    const BlockElimination& e = *e_;
+    const std::size_t b = static_cast<std::size_t>(e.blockOfColumn_[static_cast<std::size_t>(column)]);
+    const Eigen::Index l = e.localOfColumn_[static_cast<std::size_t>(column)];
+    // Its row against its own block (lower triangle) and its ancestors, its column against descendants.
+    BlockMap own = block(b, 0);
+    own.row(l).head(l).setZero();
+    own.col(l).tail(own.rows() - l - 1).setZero();
+    own(l, l) = 1.0;
+    for (std::size_t i = 1; i < e.chain_[b].size(); ++i) block(b, i).row(l).setZero();
+    for (const auto& [d, i] : e.coupledBelow_[b]) block(static_cast<std::size_t>(d), static_cast<std::size_t>(i)).col(l).setZero();
+}
+
+void BlockEliminationWorkspace::multiply(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out) const
+{
+    const BlockElimination& e = *e_;
+    out.setZero();
+    for (std::size_t b = 0; b < e.size_.size(); ++b) {
+        const auto& columns = e.columns_[b];
+        for (std::size_t i = 0; i < e.chain_[b].size(); ++i) {
+            const ConstBlockMap h = block(b, i);
+            const auto& other = e.columns_[static_cast<std::size_t>(e.chain_[b][i])];
+            for (Eigen::Index j = 0; j < h.cols(); ++j)
+                for (Eigen::Index k = i == 0 ? j : 0; k < h.rows(); ++k) {
+                    const int row = columns[static_cast<std::size_t>(k)], col = other[static_cast<std::size_t>(j)];
+                    out[row] += h(k, j) * v[col];
+                    if (row != col) out[col] += h(k, j) * v[row];
+                }
         }
+    }
 }
 
 bool BlockEliminationWorkspace::factor(std::size_t b)
@@ -146,7 +200,7 @@ bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& g
     const BlockElimination& e = *e_;
     const std::size_t blocks = e.size_.size();
     for (std::size_t b = 0; b < blocks; ++b) {
-        for (std::size_t i = 0; i < h_[b].size(); ++i) work_[b][i] = h_[b][i];
+        for (std::size_t i = 0; i < work_[b].size(); ++i) work_[b][i] = block(b, i);
         work_[b][0].diagonal().array() += mu;
         for (std::size_t l = 0; l < e.columns_[b].size(); ++l)
             rhs_[b][static_cast<Eigen::Index>(l)] = -gradient[e.columns_[b][l]];

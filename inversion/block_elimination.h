@@ -15,6 +15,8 @@
 // only (eigenvalues above 1e-12 of its largest): the minimum-norm step within the block, as the
 // one-block solve takes.
 
+#include <span>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -33,6 +35,10 @@ public:
     BlockElimination(const Partition& partition, const ResidualStructure& structure);
 
     int blocks() const { return static_cast<int>(size_.size()); }
+    // Where J^T J is kept: entry (i, j), i >= j, of the structure's columns at flat index layout()[j * n + i]
+    // of BlockEliminationWorkspace::entries() (ResidualWorkspace::useLayout); -1 where no block holds it.
+    const std::vector<int>& layout() const { return layout_; }
+    int entryCount() const { return entryCount_; }
 
 private:
     friend class BlockEliminationWorkspace;
@@ -41,9 +47,13 @@ private:
     std::vector<std::vector<int>> chain_;     // per block: itself, then its ancestors up to its root
     std::vector<std::vector<int>> columns_;   // per block: its structure columns, in order
     std::vector<int> blockOfColumn_, localOfColumn_;
-    // Per block and chain entry: where each entry of that block of J^T J is in the whole matrix's lower
-    // triangle (column-major offsets, in the block's own column-major order).
-    std::vector<std::vector<std::vector<int>>> gather_;
+    // Per block and chain entry: where that block of J^T J (the block's columns as rows, column-major)
+    // starts in the flat entries.
+    std::vector<std::vector<int>> base_;
+    // Per block: the (block, chain entry) pairs whose columns are its columns (its descendants' couplings).
+    std::vector<std::vector<std::pair<int, int>>> coupledBelow_;
+    std::vector<int> layout_;
+    int entryCount_ = 0;
 };
 
 // Per-solve state: the blocks of J^T J along each chain, the right-hand sides and the blocks' factors.
@@ -52,19 +62,27 @@ class BlockEliminationWorkspace {
 public:
     explicit BlockEliminationWorkspace(const BlockElimination& elimination);
 
-    // The blocks along each chain from J^T J given whole (its lower triangle, structure columns; held
-    // columns already replaced by identity rows and columns).
-    void form(const Eigen::MatrixXd& h);
-    // Solves (J^T J + mu I) delta = -gradient (gradient: zero on fixed columns). False when a block's
+    // J^T J's blocks, in BlockElimination::layout(): what the normal equations fill.
+    std::span<double> entries() { return entries_; }
+    double diagonal(int column) const;
+    // Replaces a column's row and column of J^T J by those of the identity (a parameter held at a limit).
+    void hold(int column);
+    // out = J^T J v.
+    void multiply(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out) const;
+    // Solves (J^T J + mu I) delta = -gradient (gradient: zero on held columns). False when a block's
     // matrix has no finite inverse.
     bool solve(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
 
 private:
+    using BlockMap = Eigen::Map<Eigen::MatrixXd>;
+    using ConstBlockMap = Eigen::Map<const Eigen::MatrixXd>;
+    BlockMap block(std::size_t b, std::size_t i);
+    ConstBlockMap block(std::size_t b, std::size_t i) const;
     bool factor(std::size_t b);  // factor_[b] from work_[b][0]; false when it has no finite inverse
 
     const BlockElimination* e_;
-    std::vector<std::vector<Eigen::MatrixXd>> h_;  // h_[b][i]: block b against its i-th chain entry (0: itself)
-    std::vector<std::vector<Eigen::MatrixXd>> work_;      // copies of h_ that the elimination overwrites
+    std::vector<double> entries_;
+    std::vector<std::vector<Eigen::MatrixXd>> work_;      // copies of the blocks that the elimination overwrites
     std::vector<std::vector<Eigen::MatrixXd>> coupling_;  // coupling_[b][i] = F_b work_[b][i] (i >= 1), eliminated
     std::vector<Eigen::MatrixXd> factor_;  // per block: F^T, F^T F the (pseudo-)inverse of its eliminated matrix
     std::vector<Eigen::LLT<Eigen::MatrixXd>> llt_;

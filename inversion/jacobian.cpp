@@ -322,6 +322,9 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     heldMatrix_.assign(s.nodes_.size(), Affine::Identity());
     nodeMatrix_.assign(s.nodes_.size(), Affine::Identity());
     velocity_.assign(s.nodes_.size(), Affine::Zero());
+    slotOffset_.assign(s.slots_.size(), 0.0);
+    pairTarget_ = s.pairOffset_;
+    quaternion_.assign(s.outputs_.size(), Eigen::Quaterniond::Identity());
     twist_.assign(s.nodes_.size(), Vector6d::Zero());
     load_.assign(s.nodes_.size(), Vector6d::Zero());
     weight_.assign(s.nodes_.size(), Eigen::Matrix<double, 6, 6>::Zero());
@@ -392,6 +395,7 @@ void ResidualWorkspace::evaluateSlots(std::span<const double> x, bool derivative
         const ModelledParameter& m = approx.parameters[static_cast<std::size_t>(slot.parameter)];
         const Operator& op = m.operators[static_cast<std::size_t>(slot.op)];
         const double a = x[static_cast<std::size_t>(slot.column)] - m.parameter.defaultValue;
+        slotOffset_[i] = a;
         slotMatrix_[i] = op.matrix(a);
         if (!derivatives) continue;
         // The two commonest kinds from the matrix just made (Operator::derivative would make the
@@ -453,11 +457,22 @@ void ResidualWorkspace::evaluateTree()
     }
 }
 
-void ResidualWorkspace::residualRows(Eigen::Ref<Eigen::VectorXd> r) const
+void ResidualWorkspace::residualRows(Eigen::Ref<Eigen::VectorXd> r)
 {
-    for (std::size_t o = 0; o < worlds_.size(); ++o)
-        r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o)) =
-            residual6(worlds_[o], targets_[o], structure_->outputRigid_[o]);
+    for (std::size_t o = 0; o < worlds_.size(); ++o) {
+        auto rows = r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o));
+        if (!structure_->outputRigid_[o]) {
+            rows = residual6(worlds_[o], targets_[o]);
+            continue;
+        }
+        // A rigid world is its own rotation: its quaternion is kept for the normal equations' rows.
+        const PreparedTarget& t = targets_[o];
+        rows.head<3>() = t.positionWeight * (worlds_[o].block<3, 1>(0, 3) - t.position);
+        Eigen::Quaterniond& e = quaternion_[o];
+        e = Eigen::Quaterniond(t.rotation.transpose() * worlds_[o].block<3, 3>(0, 0));
+        if (e.w() < 0) e.coeffs() = -e.coeffs();
+        rows.tail<3>() = (2.0 * t.rotationWeight) * e.vec();
+    }
 }
 
 void ResidualWorkspace::residuals(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r)
@@ -549,14 +564,73 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
     }
 }
 
+void ResidualWorkspace::twists()
+{
+    const auto& s = *structure_;
+    const Approximation& approx = *s.approximation_;
+    for (const int n : s.unknownNodes_) {
+        const std::size_t i = static_cast<std::size_t>(n);
+        const auto& node = s.nodes_[i];
+        const std::size_t slotIndex = static_cast<std::size_t>(node.slot);
+        const auto& slot = s.slots_[slotIndex];
+        const Operator& op = approx.parameters[static_cast<std::size_t>(slot.parameter)].operators[static_cast<std::size_t>(slot.op)];
+        const double a = slotOffset_[slotIndex];
+        // The operator's own twist X = dM M^-1, moved to world space by the parent's rigid product P:
+        // (R omega, R v + t x R omega). A rotation about pivot p turns by m'(a) n with v = p x omega, a
+        // translation moves by m'(a) n; sampled rigid operators through dM M^-1 itself.
+        Eigen::Vector3d omega, v;
+        if (op.kind == OperatorKind::rotation) {
+            omega = op.magnitudeDerivative(a) * op.axis;
+            v = op.pivot.cross(omega);
+        } else if (op.kind == OperatorKind::translation) {
+            omega.setZero();
+            v = op.magnitudeDerivative(a) * op.axis;
+        } else {
+            const Eigen::Matrix4d d = op.derivative(a);
+            const Eigen::Matrix4d& m = slotMatrix_[slotIndex];
+            const Eigen::Matrix3d xl = d.block<3, 3>(0, 0) * m.block<3, 3>(0, 0).transpose();
+            omega << 0.5 * (xl(2, 1) - xl(1, 2)), 0.5 * (xl(0, 2) - xl(2, 0)), 0.5 * (xl(1, 0) - xl(0, 1));
+            v = d.block<3, 1>(0, 3) - xl * m.block<3, 1>(0, 3);
+        }
+        if (node.parent >= 0) {
+            const Affine& p = nodeMatrix_[static_cast<std::size_t>(node.parent)];
+            omega = p.leftCols<3>() * omega;
+            v = p.leftCols<3>() * v + p.col(3).cross(omega);
+        }
+        twist_[i] << omega, v;
+    }
+}
+
+void ResidualWorkspace::useLayout(std::span<const int> layout)
+{
+    const auto& s = *structure_;
+    const std::size_t n = static_cast<std::size_t>(s.columnCount());
+    if (!layout.empty() && layout.size() != n * n)
+        throw std::invalid_argument(fmt::format("ResidualWorkspace::useLayout: {} entries for {} columns", layout.size(), n));
+    layout_.assign(layout.begin(), layout.end());
+    pairTarget_ = s.pairOffset_;
+    if (layout_.empty()) return;
+    for (int& target : pairTarget_) {
+        target = layout_[static_cast<std::size_t>(target)];
+        if (target < 0) throw std::invalid_argument("ResidualWorkspace::useLayout: a pair of columns that share an output has no entry");
+    }
+}
+
+void ResidualWorkspace::normalEquationsAtLast(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
+                                              std::span<double> h)
+{
+    if (!structure_->twistForm_)
+        throw std::logic_error("ResidualWorkspace::normalEquationsAtLast: only for structures in twist form");
+    twists();
+    twistNormalEquations(r, g, h);
+}
+
 void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
-                                             Eigen::MatrixXd& h)
+                                             std::span<double> h)
 {
     const auto& s = *structure_;
     for (const int n : s.unknownNodes_) {
         const std::size_t i = static_cast<std::size_t>(n);
-        const Affine& xi = velocity_[i];
-        twist_[i] << 0.5 * (xi(2, 1) - xi(1, 2)), 0.5 * (xi(0, 2) - xi(2, 0)), 0.5 * (xi(1, 0) - xi(0, 1)), xi.col(3);
         weight_[i].setZero();
         load_[i].setZero();
     }
@@ -567,10 +641,12 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
         if (deepest < 0) continue;
         const PreparedTarget& t = targets_[o];
         const Eigen::Matrix3d q = worlds_[o].block<3, 3>(0, 0);
+        const Eigen::Quaterniond& e = quaternion_[o];  // residualRows' (halfAngle)
+        const Eigen::Matrix3d halfRows = e.w() * Eigen::Matrix3d::Identity() + skew(e.vec());
         Eigen::Matrix<double, 6, 6> b;
         b.topLeftCorner<3, 3>() = -t.positionWeight * skew(worlds_[o].block<3, 1>(0, 3));
         b.topRightCorner<3, 3>() = t.positionWeight * Eigen::Matrix3d::Identity();
-        b.bottomLeftCorner<3, 3>().noalias() = t.rotationWeight * halfAngle(q, t).rows * q.transpose();
+        b.bottomLeftCorner<3, 3>().noalias() = t.rotationWeight * halfRows * q.transpose();
         b.bottomRightCorner<3, 3>().setZero();
         const std::size_t d = static_cast<std::size_t>(deepest);
         weight_[d].noalias() += b.transpose() * b;
@@ -585,7 +661,7 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
         load_[static_cast<std::size_t>(up)] += load_[n];
     }
     g.setZero();
-    h.setZero();
+    std::fill(h.begin(), h.end(), 0.0);
     double* entries = h.data();
     for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k) {
         const std::size_t i = static_cast<std::size_t>(s.unknownNodes_[k]);
@@ -594,7 +670,7 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
         // Itself, then every unknown node above: those share exactly the outputs below this one.
         for (int p = s.pairBegin_[k]; p < s.pairBegin_[k + 1]; ++p) {
             const std::size_t q = static_cast<std::size_t>(p);
-            entries[s.pairOffset_[q]] += s.pairFactor_[q] * twist_[static_cast<std::size_t>(s.pairNode_[q])].dot(u);
+            entries[pairTarget_[q]] += s.pairFactor_[q] * twist_[static_cast<std::size_t>(s.pairNode_[q])].dot(u);
         }
     }
 }
@@ -704,21 +780,22 @@ void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod metho
 
 void ResidualWorkspace::normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep,
                                         bool parallel, Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::VectorXd> g,
-                                        Eigen::MatrixXd& h, Eigen::Ref<Eigen::MatrixXd> jacobian)
+                                        std::span<double> h, Eigen::Ref<Eigen::MatrixXd> jacobian)
 {
     const auto& s = *structure_;
     if (method == JacobianMethod::analytic && s.twistForm_) {
-        evaluateSlots(x, true);
-        evaluateTree();
-        residualRows(r);
-        if (velocities()) {
-            twistNormalEquations(r, g, h);
-            return;
-        }
+        residuals(x, r);
+        normalEquationsAtLast(r, g, h);
+        return;
     }
     this->jacobian(x, method, finiteDifferenceStep, parallel, r, jacobian);
     g.setZero();
-    h.setZero();
+    std::fill(h.begin(), h.end(), 0.0);
+    const std::size_t n = static_cast<std::size_t>(s.columnCount());
+    const auto entry = [&](int row, int column) -> double& {
+        const std::size_t dense = static_cast<std::size_t>(column) * n + static_cast<std::size_t>(row);
+        return h[layout_.empty() ? dense : static_cast<std::size_t>(layout_[dense])];
+    };
     for (std::size_t o = 0; o < s.columnsOfOutput_.size(); ++o) {
         const auto& columns = s.columnsOfOutput_[o];
         const Eigen::Index row = static_cast<Eigen::Index>(rowsPerTarget * o);
@@ -726,7 +803,7 @@ void ResidualWorkspace::normalEquations(std::span<const double> x, JacobianMetho
             const auto ji = jacobian.block<rowsPerTarget, 1>(row, columns[i]);
             g[columns[i]] += ji.dot(r.segment<rowsPerTarget>(row));
             for (std::size_t j = 0; j <= i; ++j)  // columns increase: (i, j) is in the lower triangle
-                h(columns[i], columns[j]) += ji.dot(jacobian.block<rowsPerTarget, 1>(row, columns[j]));
+                entry(columns[i], columns[j]) += ji.dot(jacobian.block<rowsPerTarget, 1>(row, columns[j]));
         }
     }
 }
@@ -799,7 +876,8 @@ void JacobianEvaluator::normalEquations(std::span<const double> values, Jacobian
     g.resize(columns());
     h.resize(columns(), columns());
     Eigen::MatrixXd jacobian(rows(), columns());
-    workspace_.normalEquations(values, method, finiteDifferenceStep, true, r, g, h, jacobian);
+    workspace_.normalEquations(values, method, finiteDifferenceStep, true, r, g, {h.data(), static_cast<std::size_t>(h.size())},
+                               jacobian);
 }
 
 void JacobianEvaluator::jacobianFromSuffixes(std::span<const double> values, Eigen::MatrixXd& jacobian, Eigen::VectorXd& r)

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "inversion/approximation.h"
 
@@ -171,16 +172,23 @@ public:
     // step; their columns run in parallel (tbb::parallel_for in the current arena) when `parallel`.
     void jacobian(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
                   Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::MatrixXd> jacobian);
-    // Residuals r, gradient g = J^T r and the lower triangle of H = J^T J at x (g: columnCount();
-    // H: columnCount() square, zeroed here, its strict upper triangle left zero). With the analytic method
-    // on rigid operators and outputs, each unknown's world-space velocity is a twist (omega, v), the
+    // Residuals r, gradient g = J^T r and the lower triangle of H = J^T J at x (g: columnCount(); h: in
+    // useLayout()'s layout, zeroed here; dense: columnCount() square, its strict upper triangle left zero).
+    // With the analytic method on rigid operators and outputs, each unknown's world-space velocity is a twist (omega, v), the
     // output's rows are a 6x6 map B_k of it, and H_ij = twist_i^T (sum of B_k^T B_k below j) twist_j for
     // i above j: the sums are accumulated up the prefix tree once, and J is never formed. Otherwise J is
     // formed in `jacobian` (rows() x columnCount()) and multiplied output by output over the columns that
     // move it. Either way only pairs of columns that share an output cost anything.
     void normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
-                         Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::VectorXd> g, Eigen::MatrixXd& h,
+                         Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::VectorXd> g, std::span<double> h,
                          Eigen::Ref<Eigen::MatrixXd> jacobian);
+    // The same normal equations at the point of the last residuals() call, whose rows `r` gave: a step's
+    // trial point, once accepted, is not evaluated again. Only for structures in twistForm() (analytic).
+    void normalEquationsAtLast(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
+                               std::span<double> h);
+    // Where H goes: entry (i, j), i >= j, at h[layout[j * columnCount() + i]] (BlockElimination::layout()),
+    // or, with an empty layout (the default), h is the dense column-major matrix.
+    void useLayout(std::span<const int> layout);
     // The analytic Jacobian from prefix and suffix products along each output's own product
     // (dW/da_j = prefix_j dM_j suffix_j): what jacobian() falls back to when an operator or a product
     // is singular (no inverse for the velocity form). For tests and benchmarks.
@@ -193,11 +201,12 @@ private:
 
     void evaluateSlots(std::span<const double> x, bool derivatives);
     void evaluateTree();  // node products and worlds from the slot matrices
-    void residualRows(Eigen::Ref<Eigen::VectorXd> r) const;
+    void residualRows(Eigen::Ref<Eigen::VectorXd> r);  // also the rigid outputs' quaternions
     bool velocities();  // Xi per unknown node; false: an operator or product is singular
     void treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);  // from velocities()
+    void twists();      // twist_ per unknown node, straight from the operators (twistForm_ only)
     void twistNormalEquations(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
-                              Eigen::MatrixXd& h);  // from velocities(); twistForm_ only
+                              std::span<double> h);  // from twists(); twistForm_ only
     void holdChains();  // the flat chains' held products, computed when first needed after holdParameters
     // World of output o from the slot matrices, with column `perturbed` (if >= 0) at value `value`.
     Eigen::Matrix4d chainWorld(int o, int perturbed, double value) const;
@@ -217,6 +226,10 @@ private:
     std::vector<PreparedTarget> targets_;      // per output position
     std::vector<Eigen::Matrix4d> slotMatrix_;
     std::vector<Eigen::Matrix4d> slotDerivative_;
+    std::vector<int> layout_;       // useLayout's; empty: dense
+    std::vector<int> pairTarget_;   // per pair of the structure: its entry in h
+    std::vector<double> slotOffset_;                  // per slot: its parameter's offset a at the last evaluation
+    std::vector<Eigen::Quaterniond> quaternion_;      // per rigid output: Q_target^T Q with w >= 0 (residualRows)
     std::vector<Eigen::Matrix4d> worlds_;      // per output position
     std::vector<Eigen::Matrix4d> prefix_;
     std::vector<Eigen::Matrix4d> suffix_;

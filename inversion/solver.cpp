@@ -89,20 +89,36 @@ struct BlockWorkspace {
           step(structure.columnCount()),
           projected(structure.columnCount()),
           J(structure.rows(), structure.columnCount()),
-          H(structure.columnCount(), structure.columnCount()),
-          // The dense factorizations only where the step is not by elimination.
+          // Dense J^T J and its factorizations only where the step is not by elimination.
+          H(coupled ? 0 : structure.columnCount(), coupled ? 0 : structure.columnCount()),
           damped(coupled ? 0 : structure.columnCount(), coupled ? 0 : structure.columnCount()),
           llt(coupled ? 0 : structure.columnCount()),
           eigen(coupled ? 0 : structure.columnCount()),
           fixed(x.size(), 0)
     {
-        if (coupled) elimination = std::make_unique<BlockEliminationWorkspace>(*coupled);
+        if (coupled) {
+            elimination = std::make_unique<BlockEliminationWorkspace>(*coupled);
+            residual.useLayout(coupled->layout());
+        }
+    }
+    // Where the normal equations put J^T J: the blocks of the elimination, or the dense H.
+    std::span<double> entries()
+    {
+        return elimination ? elimination->entries() : std::span<double>(H.data(), static_cast<std::size_t>(H.size()));
+    }
+    double diagonal(Eigen::Index i) const { return elimination ? elimination->diagonal(static_cast<int>(i)) : H(i, i); }
+    void hold(Eigen::Index i)
+    {
+        if (elimination) return elimination->hold(static_cast<int>(i));
+        H.row(i).head(i).setZero();
+        H.col(i).tail(H.rows() - i - 1).setZero();
+        H(i, i) = 1.0;
     }
     ResidualWorkspace residual;
     std::vector<double> x, trial;
     Eigen::VectorXd r, rTrial, hStep, g, gFree, delta, step, projected;
     Eigen::MatrixXd J;  // formed only where the normal equations need it (ResidualWorkspace::normalEquations)
-    Eigen::MatrixXd H;       // J^T J, lower triangle
+    Eigen::MatrixXd H;       // J^T J, lower triangle (dense step only)
     Eigen::MatrixXd damped;  // H + mu I, lower triangle: what the dense step factorizes
     Eigen::LLT<Eigen::MatrixXd> llt;
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
@@ -515,14 +531,18 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
         w.x[c] = clampTo(values[static_cast<std::size_t>(columns[c])], block.lower[c], block.upper[c]);
 
     BlockResult result;
-    // The normal equations at w.x; `fresh` until the first step from them (a rejected step reuses them).
-    bool fresh = false;
-    auto linearize = [&] {
-        w.residual.normalEquations(w.x, o.jacobian, o.finiteDifferenceStep, parallel, w.r, w.g, w.H, w.J);
-        fresh = true;
-        return w.r.allFinite() && w.g.allFinite() && w.H.allFinite();
+    // The normal equations at w.x (a rejected step reuses them). At an accepted trial point the residuals
+    // and products are those of its evaluation (w.r).
+    const bool reuse = o.jacobian == JacobianMethod::analytic && structure.twistForm();
+    auto linearize = [&](bool atTrial) {
+        if (atTrial && reuse)
+            w.residual.normalEquationsAtLast(w.r, w.g, w.entries());
+        else
+            w.residual.normalEquations(w.x, o.jacobian, o.finiteDifferenceStep, parallel, w.r, w.g, w.entries(), w.J);
+        // A non-finite J^T J with finite residuals and gradient shows in the step, which is checked.
+        return w.r.allFinite() && w.g.allFinite();
     };
-    bool finite = linearize();
+    bool finite = linearize(false);
     double cost = 0.5 * w.r.squaredNorm();
     bool gaussNewton = o.gaussNewtonIterations > 0;
     double mu = 0.0, nu = 2.0;
@@ -547,15 +567,11 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
         for (std::size_t c = 0; c < n; ++c) {
             const Eigen::Index i = static_cast<Eigen::Index>(c);
             if (!w.fixed[c]) {
-                largest = std::max(largest, w.H(i, i));
+                largest = std::max(largest, w.diagonal(i));
                 continue;
             }
-            w.H.row(i).head(i).setZero();
-            w.H.col(i).tail(static_cast<Eigen::Index>(n) - i - 1).setZero();
-            w.H(i, i) = 1.0;
+            w.hold(i);
         }
-        if (w.elimination && fresh) w.elimination->form(w.H);
-        fresh = false;
         if (!gaussNewton && mu == 0.0) mu = largest > 0 ? initialDamping * largest : initialDamping;
         const double damping = gaussNewton ? 0.0 : mu;
         if (!(w.elimination ? w.elimination->solve(w.gFree, damping, w.delta) : solveStep(w, damping))) break;
@@ -585,7 +601,10 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
             if (!accept && !smallStep) gaussNewton = false;  // Gauss-Newton failed to descend: damp from now on
         } else {
             // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
-            w.hStep.noalias() = w.H.selfadjointView<Eigen::Lower>() * w.step;
+            if (w.elimination)
+                w.elimination->multiply(w.step, w.hStep);
+            else
+                w.hStep.noalias() = w.H.selfadjointView<Eigen::Lower>() * w.step;
             const double predicted = -(w.g.dot(w.step) + 0.5 * w.step.dot(w.hStep));
             const double actual = cost - trialCost;
             accept = trialFinite && actual > 0 && predicted > 0;
@@ -602,12 +621,13 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
         if (accept) {
             const double decrease = cost - trialCost;
             std::swap(w.x, w.trial);
+            w.r.swap(w.rTrial);
             cost = trialCost;
             if (smallStep || decrease <= o.functionTolerance * (cost + decrease)) {
                 result.converged = true;
                 break;
             }
-            finite = linearize();
+            finite = linearize(true);
             if (gaussNewton && result.gaussNewton >= o.gaussNewtonIterations) gaussNewton = false;
         } else if (smallStep) {
             result.converged = true;  // a negligible step that does not help: nothing left to gain
