@@ -84,21 +84,20 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
 }
 
 BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& elimination)
-    : e_(&elimination), entries_(static_cast<std::size_t>(elimination.entryCount_), 0.0)
+    : e_(&elimination),
+      entries_(static_cast<std::size_t>(elimination.entryCount_), 0.0),
+      work_(entries_.size()),
+      coupling_(entries_.size()),
+      transposed_(entries_.size())
 {
     const std::size_t blocks = elimination.size_.size();
-    work_.resize(blocks);
-    for (std::size_t b = 0; b < blocks; ++b)
-        for (const int a : elimination.chain_[b])
-            work_[b].emplace_back(elimination.size_[b], elimination.size_[static_cast<std::size_t>(a)]);
-    coupling_ = work_;
+    triangular_.assign(blocks, 0);
+    scratch_.assign(static_cast<std::size_t>(*std::max_element(elimination.size_.begin(), elimination.size_.end())), 0.0);
     for (std::size_t b = 0; b < blocks; ++b) {
         factor_.emplace_back(elimination.size_[b], elimination.size_[b]);
         llt_.emplace_back(elimination.size_[b]);
         eigen_.emplace_back(elimination.size_[b]);
         rhs_.emplace_back(elimination.size_[b]);
-        y_.emplace_back(elimination.size_[b]);
-        step_.emplace_back(elimination.size_[b]);
     }
 }
 
@@ -113,6 +112,16 @@ BlockEliminationWorkspace::ConstBlockMap BlockEliminationWorkspace::block(std::s
     const BlockElimination& e = *e_;
     return ConstBlockMap(entries_.data() + e.base_[b][i], e.size_[b], e.size_[static_cast<std::size_t>(e.chain_[b][i])]);
 }
+
+BlockEliminationWorkspace::BlockMap BlockEliminationWorkspace::eliminated(std::size_t b, std::size_t i)
+{
+    const BlockElimination& e = *e_;
+    return BlockMap(work_.data() + e.base_[b][i], e.size_[b], e.size_[static_cast<std::size_t>(e.chain_[b][i])]);
+}
+
+double* BlockEliminationWorkspace::coupling(std::size_t b, std::size_t i) { return coupling_.data() + e_->base_[b][i]; }
+
+double* BlockEliminationWorkspace::transposed(std::size_t b, std::size_t i) { return transposed_.data() + e_->base_[b][i]; }
 
 double BlockEliminationWorkspace::diagonal(int column) const
 {
@@ -157,10 +166,9 @@ void BlockEliminationWorkspace::multiply(const Eigen::Ref<const Eigen::VectorXd>
 
 bool BlockEliminationWorkspace::factor(std::size_t b)
 {
-    // factor_[b] = F^T with F^T F = S^-1 (S^+ where S is singular).
-    const Eigen::MatrixXd& s = work_[b][0];  // symmetric by construction; only its lower triangle is read
+    // S_b^-1 = F^T F with F = L^-1 (S = L L^T), or S^+ = F^T F with F = diag(lambda^-1/2) V^T on the range.
+    const BlockMap s = eliminated(b, 0);  // symmetric by construction; only its lower triangle is read
     const Eigen::Index n = s.rows();
-    Eigen::MatrixXd& f = factor_[b];
     Eigen::LLT<Eigen::MatrixXd>& llt = llt_[b];
     llt.compute(s);
     const double largestDiagonal = s.diagonal().maxCoeff();
@@ -169,29 +177,65 @@ bool BlockEliminationWorkspace::factor(std::size_t b)
     if (wellConditioned)
         for (Eigen::Index i = 0; i < n; ++i)
             if (!(l(i, i) * l(i, i) > rankTolerance * largestDiagonal)) wellConditioned = false;
-    if (wellConditioned) {
-        // F = L^-1 by forward substitution, kept transposed: a block is small, and the blocked triangular
-        // kernels' set-up costs more than the arithmetic.
-        f.setZero();
-        for (Eigen::Index j = 0; j < n; ++j) {
-            f(j, j) = 1.0 / l(j, j);
-            for (Eigen::Index i = j + 1; i < n; ++i) {
-                double sum = 0.0;
-                for (Eigen::Index k = j; k < i; ++k) sum += l(i, k) * f(j, k);
-                f(j, i) = -sum / l(i, i);
-            }
-        }
-    } else {
-        // S+ = V diag(1 / lambda) V^T on the range: F = diag(1 / sqrt(lambda)) V^T, zero rows elsewhere.
-        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>& eigen = eigen_[b];
-        eigen.compute(s);
-        if (eigen.info() != Eigen::Success) return false;
-        const auto& lambda = eigen.eigenvalues();
-        const double largest = lambda.cwiseAbs().maxCoeff();
-        for (Eigen::Index i = 0; i < n; ++i)
-            f.col(i) = (lambda[i] > rankTolerance * largest ? 1.0 / std::sqrt(lambda[i]) : 0.0) * eigen.eigenvectors().col(i);
-    }
+    triangular_[b] = wellConditioned;
+    if (wellConditioned) return l.allFinite();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>& eigen = eigen_[b];
+    eigen.compute(s);
+    if (eigen.info() != Eigen::Success) return false;
+    const auto& lambda = eigen.eigenvalues();
+    const double largest = lambda.cwiseAbs().maxCoeff();
+    Eigen::MatrixXd& f = factor_[b];
+    for (Eigen::Index i = 0; i < n; ++i)
+        f.row(i) = (lambda[i] > rankTolerance * largest ? 1.0 / std::sqrt(lambda[i]) : 0.0) * eigen.eigenvectors().col(i).transpose();
     return f.allFinite();
+}
+
+namespace {
+
+// The blocks are a few to a dozen columns: plain loops over contiguous columns cost less than the
+// general kernels' dispatch, and updates written as x += s y vectorize where dot products would not.
+void axpy(double s, const double* y, double* x, Eigen::Index n)
+{
+    for (Eigen::Index k = 0; k < n; ++k) x[k] += s * y[k];
+}
+
+double dot(const double* x, const double* y, Eigen::Index n)
+{
+    double sum = 0.0;
+    for (Eigen::Index k = 0; k < n; ++k) sum += x[k] * y[k];
+    return sum;
+}
+
+}  // namespace
+
+void BlockEliminationWorkspace::applyF(std::size_t b, double* x)
+{
+    const Eigen::Index n = e_->size_[b];
+    if (triangular_[b]) {  // x <- L^-1 x, column by column of L
+        const Eigen::MatrixXd& l = llt_[b].matrixLLT();
+        for (Eigen::Index k = 0; k < n; ++k) {
+            x[k] /= l(k, k);
+            axpy(-x[k], l.data() + k * n + k + 1, x + k + 1, n - k - 1);
+        }
+        return;
+    }
+    double* product = scratch_.data();
+    std::fill(product, product + n, 0.0);
+    for (Eigen::Index k = 0; k < n; ++k) axpy(x[k], factor_[b].data() + k * n, product, n);
+    std::copy(product, product + n, x);
+}
+
+void BlockEliminationWorkspace::applyFTransposed(std::size_t b, double* x)
+{
+    const Eigen::Index n = e_->size_[b];
+    if (triangular_[b]) {  // x <- L^-T x
+        const Eigen::MatrixXd& l = llt_[b].matrixLLT();
+        for (Eigen::Index k = n; k-- > 0;) x[k] = (x[k] - dot(l.data() + k * n + k + 1, x + k + 1, n - k - 1)) / l(k, k);
+        return;
+    }
+    double* product = scratch_.data();
+    for (Eigen::Index k = 0; k < n; ++k) product[k] = dot(factor_[b].data() + k * n, x, n);
+    std::copy(product, product + n, x);
 }
 
 bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu,
@@ -199,38 +243,63 @@ bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& g
 {
     const BlockElimination& e = *e_;
     const std::size_t blocks = e.size_.size();
+    std::copy(entries_.begin(), entries_.end(), work_.begin());
     for (std::size_t b = 0; b < blocks; ++b) {
-        for (std::size_t i = 0; i < work_[b].size(); ++i) work_[b][i] = block(b, i);
-        work_[b][0].diagonal().array() += mu;
+        eliminated(b, 0).diagonal().array() += mu;
         for (std::size_t l = 0; l < e.columns_[b].size(); ++l)
             rhs_[b][static_cast<Eigen::Index>(l)] = -gradient[e.columns_[b][l]];
     }
     // Leaves first (the partition lists parents before children): with S_b^-1 = F^T F, each block's
-    // couplings become T_i = F H_{b,a_i}, its right-hand side y = F rhs, and its ancestors lose
+    // couplings become T_i = F W_{b,a_i}, its right-hand side y = F rhs, and its ancestors lose
     // T_i^T T_j and T_i^T y (the Schur complement).
     for (std::size_t b = blocks; b-- > 0;) {
-        if (e.size_[b] == 0) continue;
+        const Eigen::Index nb = e.size_[b];
+        if (nb == 0) continue;
         if (!factor(b)) return false;
-        // F^T is kept: F X as (F^T)^T X reads both operands' columns contiguously.
-        const Eigen::MatrixXd& ft = factor_[b];
-        y_[b].noalias() = ft.transpose().lazyProduct(rhs_[b]);
+        double* y = rhs_[b].data();  // becomes y
+        applyF(b, y);
         const auto& chain = e.chain_[b];
-        for (std::size_t i = 1; i < chain.size(); ++i) coupling_[b][i].noalias() = ft.transpose().lazyProduct(work_[b][i]);
+        for (std::size_t i = 1; i < chain.size(); ++i) {
+            const BlockMap w = eliminated(b, i);
+            double* t = coupling(b, i);
+            double* u = transposed(b, i);
+            const Eigen::Index na = w.cols();
+            for (Eigen::Index c = 0; c < na; ++c) {
+                std::copy(w.data() + c * nb, w.data() + (c + 1) * nb, t + c * nb);
+                applyF(b, t + c * nb);
+                for (Eigen::Index k = 0; k < nb; ++k) u[k * na + c] = t[c * nb + k];
+            }
+        }
         for (std::size_t i = 1; i < chain.size(); ++i) {
             const std::size_t a = static_cast<std::size_t>(chain[i]);
-            rhs_[a].noalias() -= coupling_[b][i].transpose().lazyProduct(y_[b]);
-            for (std::size_t j = i; j < chain.size(); ++j)
-                work_[a][j - i].noalias() -= coupling_[b][i].transpose().lazyProduct(coupling_[b][j]);
+            const Eigen::Index na = e.size_[a];
+            const double* ui = transposed(b, i);  // T_i^T: its column k is row k of T_i
+            for (Eigen::Index k = 0; k < nb; ++k) axpy(-y[k], ui + k * na, rhs_[a].data(), na);
+            for (std::size_t j = i; j < chain.size(); ++j) {
+                const double* tj = coupling(b, j);
+                BlockMap target = eliminated(a, j - i);
+                // Column q loses sum_k T_j(k, q) T_i^T(:, k); the ancestor's own block keeps its lower triangle.
+                for (Eigen::Index q = 0; q < target.cols(); ++q) {
+                    const Eigen::Index from = j == i ? q : 0;
+                    for (Eigen::Index k = 0; k < nb; ++k)
+                        axpy(-tj[q * nb + k], ui + k * na + from, target.data() + q * na + from, na - from);
+                }
+            }
         }
     }
     // Roots first: each block's step from its ancestors', F^T (y - sum T_i step_a).
     for (std::size_t b = 0; b < blocks; ++b) {
-        if (e.size_[b] == 0) continue;
-        Eigen::VectorXd& z = y_[b];
+        const Eigen::Index nb = e.size_[b];
+        if (nb == 0) continue;
+        double* z = rhs_[b].data();
         const auto& chain = e.chain_[b];
-        for (std::size_t i = 1; i < chain.size(); ++i) z.noalias() -= coupling_[b][i] * step_[static_cast<std::size_t>(chain[i])];
-        step_[b].noalias() = factor_[b] * z;
-        for (std::size_t l = 0; l < e.columns_[b].size(); ++l) delta[e.columns_[b][l]] = step_[b][static_cast<Eigen::Index>(l)];
+        for (std::size_t i = 1; i < chain.size(); ++i) {
+            const Eigen::VectorXd& above = rhs_[static_cast<std::size_t>(chain[i])];  // its step by now
+            const double* t = coupling(b, i);
+            for (Eigen::Index c = 0; c < above.size(); ++c) axpy(-above[c], t + c * nb, z, nb);
+        }
+        applyFTransposed(b, z);
+        for (std::size_t l = 0; l < e.columns_[b].size(); ++l) delta[e.columns_[b][l]] = z[static_cast<Eigen::Index>(l)];
     }
     return delta.allFinite();
 }

@@ -78,16 +78,26 @@ private:
     using ConstBlockMap = Eigen::Map<const Eigen::MatrixXd>;
     BlockMap block(std::size_t b, std::size_t i);
     ConstBlockMap block(std::size_t b, std::size_t i) const;
-    bool factor(std::size_t b);  // factor_[b] from work_[b][0]; false when it has no finite inverse
+    BlockMap eliminated(std::size_t b, std::size_t i);  // in work_
+    double* coupling(std::size_t b, std::size_t i);     // in coupling_, i >= 1
+    double* transposed(std::size_t b, std::size_t i);   // in transposed_, i >= 1
+    // S_b^-1 (or S_b^+) = F^T F from eliminated(b, 0): L of S_b = L L^T, F = L^-1 (triangular_), else F in
+    // factor_. False when S_b has no finite inverse.
+    bool factor(std::size_t b);
+    void applyF(std::size_t b, double* x);            // x <- F x, in place
+    void applyFTransposed(std::size_t b, double* x);  // x <- F^T x, in place
 
     const BlockElimination* e_;
     std::vector<double> entries_;
-    std::vector<std::vector<Eigen::MatrixXd>> work_;      // copies of the blocks that the elimination overwrites
-    std::vector<std::vector<Eigen::MatrixXd>> coupling_;  // coupling_[b][i] = F_b work_[b][i] (i >= 1), eliminated
-    std::vector<Eigen::MatrixXd> factor_;  // per block: F^T, F^T F the (pseudo-)inverse of its eliminated matrix
+    std::vector<double> work_;      // a copy of entries_ that the elimination overwrites (same layout)
+    std::vector<double> coupling_;    // block (b, i >= 1): T_i = F_b times work's (b, i), in the same layout
+    std::vector<double> transposed_;  // T_i^T, column-major, at the same offsets
+    std::vector<Eigen::MatrixXd> factor_;  // per block: F where S_b is singular
+    std::vector<char> triangular_;         // per block: F = L^-1 (the Cholesky factor in llt_)
     std::vector<Eigen::LLT<Eigen::MatrixXd>> llt_;
     std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen_;
-    std::vector<Eigen::VectorXd> rhs_, y_, step_;
+    std::vector<Eigen::VectorXd> rhs_;  // per block: its right-hand side, then y, then its step
+    std::vector<double> scratch_;
 };
 
 }  // namespace rig
