@@ -5,11 +5,13 @@
 // targets move.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <random>
 
 #include <Eigen/Geometry>
 
 #include "inversion/approximation_io.h"
+#include "inversion/block_elimination.h"
 #include "inversion/clip_inversion.h"
 #include "inversion/solver.h"
 #include "learned_fixtures.h"
@@ -90,6 +92,83 @@ TEST_CASE("coupled blocks: on unreachable targets the partitioned solve reaches 
         MESSAGE("biped, 20 unreachable poses: mean cost coupled " << coupled / 20 << ", whole " << whole / 20
                                                                   << ", block by block " << blockByBlock / 20);
         CHECK(blockByBlock > 1.01 * coupled);
+    }
+}
+
+TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense system's, with held columns and damping")
+{
+    const Approximation a = readApproximationFile(test::bipedApproximation());
+    std::mt19937 rng(5);
+    const std::vector<JointTarget> targets = unreachableTargets(a, rng, 2.0, 8.0);
+    const Partition partition = Solver(a, SolverOptions{}).partition(targets);
+    REQUIRE(partition.blocks.size() > 5);
+    std::vector<int> columns, outputs;
+    for (const PartitionBlock& b : partition.blocks) {
+        columns.insert(columns.end(), b.parameters.begin(), b.parameters.end());
+        outputs.insert(outputs.end(), b.outputs.begin(), b.outputs.end());
+    }
+    std::sort(columns.begin(), columns.end());
+    std::sort(outputs.begin(), outputs.end());
+    const ResidualStructure structure(a, columns, outputs);
+    REQUIRE(structure.twistForm());
+    const BlockElimination elimination(partition, structure);
+    std::vector<PreparedTarget> prepared(targets.size());
+    for (std::size_t k = 0; k < targets.size(); ++k)
+        if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
+    const std::vector<double> values = test::randomValues(a, rng, 0.5);
+    std::vector<double> x;
+    for (const int c : columns) x.push_back(values[static_cast<std::size_t>(c)]);
+
+    const Eigen::Index n = structure.columnCount();
+    ResidualWorkspace dense(structure), blocks(structure);
+    blocks.useLayout(elimination.layout());
+    BlockEliminationWorkspace step(elimination);
+    for (ResidualWorkspace* w : {&dense, &blocks}) {
+        w->holdParameters(values);
+        w->setTargets(prepared);
+    }
+    Eigen::VectorXd r(structure.rows()), g(n), rBlocks(structure.rows()), gBlocks(n);
+    Eigen::MatrixXd h(n, n), j(structure.rows(), n);
+    dense.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, g, {h.data(), static_cast<std::size_t>(h.size())}, j);
+    blocks.normalEquations(x, JacobianMethod::analytic, 1e-6, false, rBlocks, gBlocks, step.entries(), j);
+    CHECK(rBlocks == r);
+    CHECK(gBlocks == g);
+    const Eigen::MatrixXd full = h.selfadjointView<Eigen::Lower>();
+    for (Eigen::Index c = 0; c < n; ++c) CHECK(step.diagonal(static_cast<int>(c)) == h(c, c));
+    const Eigen::VectorXd v = Eigen::VectorXd::Random(n);
+    Eigen::VectorXd product(n);
+    step.multiply(v, product);
+    CHECK((product - full * v).norm() <= 1e-12 * (full * v).norm());
+
+    // At an accepted trial point the solver reuses the trial's evaluation: the same equations, bit for bit.
+    std::vector<double> trial = x;
+    for (double& t : trial) t += 0.01;
+    Eigen::VectorXd rTrial(structure.rows()), gTrial(n), gAgain(n);
+    Eigen::MatrixXd hTrial(n, n), hAgain(n, n);
+    dense.residuals(trial, rTrial);
+    dense.normalEquationsAtLast(rTrial, gTrial, {hTrial.data(), static_cast<std::size_t>(hTrial.size())});
+    dense.normalEquations(trial, JacobianMethod::analytic, 1e-6, false, r, gAgain, {hAgain.data(), static_cast<std::size_t>(hAgain.size())}, j);
+    CHECK(r == rTrial);
+    CHECK(gAgain == gTrial);
+    CHECK(hAgain == hTrial);
+
+    // Columns held at a limit become identity rows and columns; the damped step is the dense one's.
+    Eigen::MatrixXd held = full;
+    Eigen::VectorXd gradient = g;
+    for (const int c : {0, 4, 17, static_cast<int>(n) - 1}) {
+        step.hold(c);
+        held.row(c).setZero();
+        held.col(c).setZero();
+        held(c, c) = 1.0;
+        gradient[c] = 0.0;
+    }
+    for (const double mu : {0.0, 0.3, 50.0}) {
+        CAPTURE(mu);
+        Eigen::VectorXd delta(n);
+        REQUIRE(step.solve(gradient, mu, delta));
+        const Eigen::VectorXd expected = (held + mu * Eigen::MatrixXd::Identity(n, n)).ldlt().solve(-gradient);
+        CHECK((delta - expected).norm() <= 1e-9 * expected.norm());
+        CHECK(delta[4] == 0.0);
     }
 }
 
