@@ -92,7 +92,8 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
 {
     const std::size_t blocks = elimination.size_.size();
     triangular_.assign(blocks, 0);
-    scratch_.assign(static_cast<std::size_t>(*std::max_element(elimination.size_.begin(), elimination.size_.end())), 0.0);
+    const int largest = *std::max_element(elimination.size_.begin(), elimination.size_.end());
+    scratch_.assign(static_cast<std::size_t>(largest), 0.0);
     for (std::size_t b = 0; b < blocks; ++b) {
         factor_.emplace_back(elimination.size_[b], elimination.size_[b]);
         llt_.emplace_back(elimination.size_[b]);
@@ -110,7 +111,8 @@ BlockEliminationWorkspace::BlockMap BlockEliminationWorkspace::block(std::size_t
 BlockEliminationWorkspace::ConstBlockMap BlockEliminationWorkspace::block(std::size_t b, std::size_t i) const
 {
     const BlockElimination& e = *e_;
-    return ConstBlockMap(entries_.data() + e.base_[b][i], e.size_[b], e.size_[static_cast<std::size_t>(e.chain_[b][i])]);
+    return ConstBlockMap(entries_.data() + e.base_[b][i], e.size_[b],
+                         e.size_[static_cast<std::size_t>(e.chain_[b][i])]);
 }
 
 BlockEliminationWorkspace::BlockMap BlockEliminationWorkspace::eliminated(std::size_t b, std::size_t i)
@@ -121,7 +123,10 @@ BlockEliminationWorkspace::BlockMap BlockEliminationWorkspace::eliminated(std::s
 
 double* BlockEliminationWorkspace::coupling(std::size_t b, std::size_t i) { return coupling_.data() + e_->base_[b][i]; }
 
-double* BlockEliminationWorkspace::transposed(std::size_t b, std::size_t i) { return transposed_.data() + e_->base_[b][i]; }
+double* BlockEliminationWorkspace::transposed(std::size_t b, std::size_t i)
+{
+    return transposed_.data() + e_->base_[b][i];
+}
 
 double BlockEliminationWorkspace::diagonal(int column) const
 {
@@ -142,10 +147,12 @@ void BlockEliminationWorkspace::hold(int column)
     own.col(l).tail(own.rows() - l - 1).setZero();
     own(l, l) = 1.0;
     for (std::size_t i = 1; i < e.chain_[b].size(); ++i) block(b, i).row(l).setZero();
-    for (const auto& [d, i] : e.coupledBelow_[b]) block(static_cast<std::size_t>(d), static_cast<std::size_t>(i)).col(l).setZero();
+    for (const auto& [d, i] : e.coupledBelow_[b])
+        block(static_cast<std::size_t>(d), static_cast<std::size_t>(i)).col(l).setZero();
 }
 
-void BlockEliminationWorkspace::multiply(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out) const
+void BlockEliminationWorkspace::multiply(const Eigen::Ref<const Eigen::VectorXd>& v,
+                                         Eigen::Ref<Eigen::VectorXd> out) const
 {
     const BlockElimination& e = *e_;
     out.setZero();
@@ -186,7 +193,8 @@ bool BlockEliminationWorkspace::factor(std::size_t b)
     const double largest = lambda.cwiseAbs().maxCoeff();
     Eigen::MatrixXd& f = factor_[b];
     for (Eigen::Index i = 0; i < n; ++i)
-        f.row(i) = (lambda[i] > rankTolerance * largest ? 1.0 / std::sqrt(lambda[i]) : 0.0) * eigen.eigenvectors().col(i).transpose();
+        f.row(i) = (lambda[i] > rankTolerance * largest ? 1.0 / std::sqrt(lambda[i]) : 0.0) *
+                   eigen.eigenvectors().col(i).transpose();
     return f.allFinite();
 }
 
@@ -230,7 +238,8 @@ void BlockEliminationWorkspace::applyFTransposed(std::size_t b, double* x)
     const Eigen::Index n = e_->size_[b];
     if (triangular_[b]) {  // x <- L^-T x
         const Eigen::MatrixXd& l = llt_[b].matrixLLT();
-        for (Eigen::Index k = n; k-- > 0;) x[k] = (x[k] - dot(l.data() + k * n + k + 1, x + k + 1, n - k - 1)) / l(k, k);
+        for (Eigen::Index k = n; k-- > 0;)
+            x[k] = (x[k] - dot(l.data() + k * n + k + 1, x + k + 1, n - k - 1)) / l(k, k);
         return;
     }
     double* product = scratch_.data();
@@ -299,7 +308,8 @@ bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& g
             for (Eigen::Index c = 0; c < above.size(); ++c) axpy(-above[c], t + c * nb, z, nb);
         }
         applyFTransposed(b, z);
-        for (std::size_t l = 0; l < e.columns_[b].size(); ++l) delta[e.columns_[b][l]] = z[static_cast<Eigen::Index>(l)];
+        for (std::size_t l = 0; l < e.columns_[b].size(); ++l)
+            delta[e.columns_[b][l]] = z[static_cast<Eigen::Index>(l)];
     }
     return delta.allFinite();
 }

@@ -573,7 +573,8 @@ void ResidualWorkspace::twists()
         const auto& node = s.nodes_[i];
         const std::size_t slotIndex = static_cast<std::size_t>(node.slot);
         const auto& slot = s.slots_[slotIndex];
-        const Operator& op = approx.parameters[static_cast<std::size_t>(slot.parameter)].operators[static_cast<std::size_t>(slot.op)];
+        const Operator& op =
+            approx.parameters[static_cast<std::size_t>(slot.parameter)].operators[static_cast<std::size_t>(slot.op)];
         const double a = slotOffset_[slotIndex];
         // The operator's own twist X = dM M^-1, moved to world space by the parent's rigid product P:
         // (R omega, R v + t x R omega). A rotation about pivot p turns by m'(a) n with v = p x omega, a
@@ -606,7 +607,8 @@ void ResidualWorkspace::useLayout(std::span<const int> layout)
     const auto& s = *structure_;
     const std::size_t n = static_cast<std::size_t>(s.columnCount());
     if (!layout.empty() && layout.size() != n * n)
-        throw std::invalid_argument(fmt::format("ResidualWorkspace::useLayout: {} entries for {} columns", layout.size(), n));
+        throw std::invalid_argument(
+            fmt::format("ResidualWorkspace::useLayout: {} entries for {} columns", layout.size(), n));
     layout_.assign(layout.begin(), layout.end());
     pairTarget_ = s.pairOffset_;
     if (layout_.empty()) return;

@@ -129,7 +129,10 @@ TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense s
     }
     Eigen::VectorXd r(structure.rows()), g(n), rBlocks(structure.rows()), gBlocks(n);
     Eigen::MatrixXd h(n, n), j(structure.rows(), n);
-    dense.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, g, {h.data(), static_cast<std::size_t>(h.size())}, j);
+    const auto entries = [](Eigen::MatrixXd& m) {
+        return std::span<double>(m.data(), static_cast<std::size_t>(m.size()));
+    };
+    dense.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, g, entries(h), j);
     blocks.normalEquations(x, JacobianMethod::analytic, 1e-6, false, rBlocks, gBlocks, step.entries(), j);
     CHECK(rBlocks == r);
     CHECK(gBlocks == g);
@@ -146,8 +149,8 @@ TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense s
     Eigen::VectorXd rTrial(structure.rows()), gTrial(n), gAgain(n);
     Eigen::MatrixXd hTrial(n, n), hAgain(n, n);
     dense.residuals(trial, rTrial);
-    dense.normalEquationsAtLast(rTrial, gTrial, {hTrial.data(), static_cast<std::size_t>(hTrial.size())});
-    dense.normalEquations(trial, JacobianMethod::analytic, 1e-6, false, r, gAgain, {hAgain.data(), static_cast<std::size_t>(hAgain.size())}, j);
+    dense.normalEquationsAtLast(rTrial, gTrial, entries(hTrial));
+    dense.normalEquations(trial, JacobianMethod::analytic, 1e-6, false, r, gAgain, entries(hAgain), j);
     CHECK(r == rTrial);
     CHECK(gAgain == gTrial);
     CHECK(hAgain == hTrial);
