@@ -614,7 +614,8 @@ void ResidualWorkspace::useLayout(std::span<const int> layout)
     if (layout_.empty()) return;
     for (int& target : pairTarget_) {
         target = layout_[static_cast<std::size_t>(target)];
-        if (target < 0) throw std::invalid_argument("ResidualWorkspace::useLayout: a pair of columns that share an output has no entry");
+        if (target < 0)
+            throw std::invalid_argument("ResidualWorkspace::useLayout: a pair of columns that share an output has no entry");
     }
 }
 
@@ -878,8 +879,8 @@ void JacobianEvaluator::normalEquations(std::span<const double> values, Jacobian
     g.resize(columns());
     h.resize(columns(), columns());
     Eigen::MatrixXd jacobian(rows(), columns());
-    workspace_.normalEquations(values, method, finiteDifferenceStep, true, r, g, {h.data(), static_cast<std::size_t>(h.size())},
-                               jacobian);
+    const std::span<double> entries(h.data(), static_cast<std::size_t>(h.size()));
+    workspace_.normalEquations(values, method, finiteDifferenceStep, true, r, g, entries, jacobian);
 }
 
 void JacobianEvaluator::jacobianFromSuffixes(std::span<const double> values, Eigen::MatrixXd& jacobian, Eigen::VectorXd& r)
