@@ -615,7 +615,7 @@ void ResidualWorkspace::useLayout(std::span<const int> layout)
     for (int& target : pairTarget_) {
         target = layout_[static_cast<std::size_t>(target)];
         if (target < 0)
-            throw std::invalid_argument("ResidualWorkspace::useLayout: a pair of columns that share an output has no entry");
+            throw std::invalid_argument("ResidualWorkspace::useLayout: columns that share an output have no entry");
     }
 }
 

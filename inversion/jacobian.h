@@ -176,7 +176,8 @@ public:
     // useLayout()'s layout, zeroed here; dense: columnCount() square, its strict upper triangle left zero).
     // With the analytic method on rigid operators and outputs, each unknown's world-space velocity is a
     // twist (omega, v), the output's rows are a 6x6 map B_k of it, and
-    // H_ij = twist_i^T (sum of B_k^T B_k below j) twist_j for i above j: the sums are accumulated up the prefix tree once, and J is never formed. Otherwise J is
+    // H_ij = twist_i^T (sum of B_k^T B_k below j) twist_j for i above j: the sums are accumulated up the
+    // prefix tree once, and J is never formed. Otherwise J is
     // formed in `jacobian` (rows() x columnCount()) and multiplied output by output over the columns that
     // move it. Either way only pairs of columns that share an output cost anything.
     void normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
