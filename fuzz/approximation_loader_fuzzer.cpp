@@ -1,5 +1,5 @@
 // libFuzzer target: approximation files from arbitrary bytes. approximationFromYaml must either return an
-// approximation or throw ApproximationFileError (one line, file:line:col: field: problem); what loads must
+// approximation or throw rig::Error (one line, file:line:col: field: problem); what loads must
 // write back with approximationToYaml and read back to the same text, evaluate at its defaults and limits,
 // and go through a few solver iterations toward one of its own poses. Anything else (another exception,
 // a crash, a sanitizer report, a timeout, memory past the limit) is a bug. scripts/fuzz.sh runs it;
@@ -20,7 +20,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     try {
         approximation = rig::approximationFromYaml(text, "fuzz.yaml");
     }
-    catch (const rig::ApproximationFileError&) {
+    catch (const rig::Error&) {
         return 0;
     }
     // Whatever the loader accepts, the writer writes and the loader reads back bit for bit.

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string_view>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
 

@@ -9,7 +9,7 @@
 #include <optional>
 #include <string_view>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "nodes/clips/target_clip.h"
 
 namespace {

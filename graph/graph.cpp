@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 #include <tbb/info.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/suggest.h"
 
 namespace rig {
@@ -243,11 +243,11 @@ void Graph::checkPlug(const Plug& p) const
 {
     if (p.node < 0 || p.node >= nodeCount() || p.attr < 0
         || static_cast<std::size_t>(p.attr) >= record(p.node).specs->size())
-        throw std::logic_error("Graph: plug does not exist");
+        throw internalError("Graph: plug does not exist");
     const AttributeSpec& s = spec(p);
     if (s.array && p.index < 0)
         throw Error(fmt::format("{} is an array attribute: name an element, e.g. {}[0]", plugName(p), plugName(p)));
-    if (p.child >= 0 && s.type != ValueType::Vector3) throw std::logic_error("Graph: component of a non-vector3 plug");
+    if (p.child >= 0 && s.type != ValueType::Vector3) throw internalError("Graph: component of a non-vector3 plug");
 }
 
 AttrData& Graph::data(const Plug& p) { return record(p.node).data[static_cast<std::size_t>(p.attr)]; }

@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <stdexcept>
 
 #include <dlfcn.h>
 #include <fmt/format.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/suggest.h"
 
 namespace rig {
@@ -16,7 +15,7 @@ void NodeRegistry::add(std::shared_ptr<const NodeType> type)
 {
     const std::string name = type->name();
     if (!types_.emplace(name, std::move(type)).second)
-        throw std::logic_error(fmt::format("node type '{}' is registered twice", name));
+        throw internalError(fmt::format("node type '{}' is registered twice", name));
 }
 
 const NodeType* NodeRegistry::find(std::string_view name) const
@@ -99,7 +98,7 @@ std::filesystem::path NodeRegistry::loadPlugin(std::string_view name, const std:
     try {
         entry(*this);
     }
-    catch (const std::logic_error& e) {
+    catch (const Error& e) {
         throw Error(fmt::format("plugin '{}' ({}) failed to register its node types: {}", name, file.string(), e.what()));
     }
     loadedPlugins_.push_back(file);

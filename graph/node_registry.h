@@ -16,7 +16,7 @@ namespace rig {
 
 class NodeRegistry {
 public:
-    // Throws std::logic_error when the name is taken: two plugins must not fight over a type.
+    // Throws an internal rig::Error when the name is taken: two plugins must not fight over a type.
     void add(std::shared_ptr<const NodeType> type);
     // nullptr when unknown.
     const NodeType* find(std::string_view name) const;

@@ -2,9 +2,10 @@
 
 #include <algorithm>
 #include <set>
-#include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "core/error.h"
 
 namespace rig {
 
@@ -95,7 +96,7 @@ NodeTypeBuilder::NodeTypeBuilder(std::string typeName) { type_.name_ = std::move
 AttributeBuilder NodeTypeBuilder::add(AttrId id, std::string name, ValueType type, bool input)
 {
     if (static_cast<std::size_t>(id) != type_.attributes_.size())
-        throw std::logic_error(fmt::format("node type '{}': attribute '{}' declared with id {} but is number {}",
+        throw internalError(fmt::format("node type '{}': attribute '{}' declared with id {} but is number {}",
                                            type_.name_, name, id, type_.attributes_.size()));
     AttributeSpec spec;
     spec.childNames = {name + "X", name + "Y", name + "Z"};
@@ -171,7 +172,7 @@ std::shared_ptr<const NodeType> NodeTypeBuilder::build()
 {
     const std::string& typeName = type_.name_;
     auto fail = [&](const std::string& what) {
-        throw std::logic_error(fmt::format("node type '{}': {}", typeName, what));
+        throw internalError(fmt::format("node type '{}': {}", typeName, what));
     };
     if (!type_.factory_) fail("no factory");
     std::set<std::string, std::less<>> names;

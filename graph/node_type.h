@@ -113,7 +113,7 @@ public:
         return factory([] { return std::unique_ptr<Node>(std::make_unique<T>()); });
     }
 
-    // Checks the declaration (throws std::logic_error naming the type and attribute) and freezes it.
+    // Checks the declaration (throws an internal rig::Error naming the type and attribute) and freezes it.
     std::shared_ptr<const NodeType> build();
 
 private:

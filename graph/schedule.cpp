@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <exception>
 #include <mutex>
-#include <stdexcept>
 
 #include <tbb/flow_graph.h>
 #include <tbb/info.h>
 #include <tbb/task_arena.h>
+
+#include "core/error.h"
 
 namespace rig {
 
@@ -48,7 +49,7 @@ Schedule::Schedule(int nodeCount, const std::vector<std::pair<int, int>>& edges)
         for (int s : successors[static_cast<std::size_t>(n)])
             if (--indegree[static_cast<std::size_t>(s)] == 0) ready.push_back(s);
     }
-    if (static_cast<int>(order_.size()) != nodeCount) throw std::logic_error("Schedule: the graph has a cycle");
+    if (static_cast<int>(order_.size()) != nodeCount) throw internalError("Schedule: the graph has a cycle");
     rank_.resize(static_cast<std::size_t>(nodeCount));
     for (std::size_t i = 0; i < order_.size(); ++i) rank_[static_cast<std::size_t>(order_[i])] = static_cast<int>(i);
 }

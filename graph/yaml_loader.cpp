@@ -17,7 +17,7 @@
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/suggest.h"
 
 namespace rig {

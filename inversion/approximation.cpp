@@ -1,16 +1,17 @@
 #include "inversion/approximation.h"
 
 #include <algorithm>
-#include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "core/error.h"
 
 namespace rig {
 
 void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) const
 {
     if (values.size() != parameters.size())
-        throw std::invalid_argument("Approximation::evaluate: one value per modelled parameter");
+        throw internalError("Approximation::evaluate: one value per modelled parameter");
     worlds.resize(outputs.size());
     for (std::size_t k = 0; k < outputs.size(); ++k) worlds[k].setIdentity();
     // Walking the parameters outermost first and multiplying on the right composes each output's own
@@ -42,12 +43,12 @@ std::vector<int> Approximation::outputOrder() const
         for (int u = k; u >= 0 && state[static_cast<std::size_t>(u)] == 0; u = outputs[static_cast<std::size_t>(u)].parent) {
             const int p = outputs[static_cast<std::size_t>(u)].parent;
             if (p < -1 || p >= n)
-                throw std::invalid_argument(fmt::format("Approximation: output {} has parent index {} of {}",
+                throw internalError(fmt::format("Approximation: output {} has parent index {} of {}",
                                                         outputs[static_cast<std::size_t>(u)].name, p, n));
             state[static_cast<std::size_t>(u)] = 1;
             walk.push_back(u);
             if (p >= 0 && state[static_cast<std::size_t>(p)] == 1)
-                throw std::invalid_argument(
+                throw internalError(
                     fmt::format("Approximation: the parents of output {} form a cycle", outputs[static_cast<std::size_t>(u)].name));
         }
         for (auto it = walk.rbegin(); it != walk.rend(); ++it) {

@@ -105,7 +105,7 @@ struct Approximation {
     // Per parameter, every output it moves: those it affects directly and the relative outputs below
     // them, increasing.
     std::vector<std::vector<int>> reach() const;
-    // The outputs with parents before children. Throws std::invalid_argument for a parent index out of
+    // The outputs with parents before children. Throws an internal rig::Error for a parent index out of
     // range or a cycle of parents.
     std::vector<int> outputOrder() const;
 };

@@ -15,6 +15,8 @@
 #include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
+#include "core/error.h"
+
 namespace rig {
 namespace {
 
@@ -24,7 +26,7 @@ namespace {
 // back as a number.
 std::string number(double x, std::string_view field)
 {
-    if (!std::isfinite(x)) throw std::invalid_argument(fmt::format("approximationToYaml: {} is {}, not a finite number", field, x));
+    if (!std::isfinite(x)) throw internalError(fmt::format("approximationToYaml: {} is {}, not a finite number", field, x));
     return fmt::format("{}", x);
 }
 
@@ -105,7 +107,7 @@ std::string operatorText(const Operator& op, const std::string& field)
     else {
         const auto& knots = op.kind == OperatorKind::sampledRigid ? op.rigid.knots() : op.affine.knots();
         if (op.held()) out += heldText(op, field);
-        if (knots.empty()) throw std::invalid_argument(fmt::format("approximationToYaml: {} has no knots", field));
+        if (knots.empty()) throw internalError(fmt::format("approximationToYaml: {} has no knots", field));
         out += fmt::format("{}knots: {}\n", indent, list(knots, [&](double x) { return number(x, field + ".knots"); }));
         out += fmt::format("{}values: {}\n", indent,
                            op.kind == OperatorKind::sampledRigid ? splineValues(op.rigid, field + ".values")
@@ -123,8 +125,8 @@ public:
     [[noreturn]] void fail(const YAML::Node& at, std::string_view field, std::string_view what) const
     {
         const YAML::Mark mark = at.Mark();
-        if (mark.line < 0) throw ApproximationFileError(fmt::format("{}: {}: {}", file_, field, what));
-        throw ApproximationFileError(fmt::format("{}:{}:{}: {}: {}", file_, mark.line + 1, mark.column + 1, field, what));
+        if (mark.line < 0) throw Error(fmt::format("{}: {}: {}", file_, field, what));
+        throw Error(fmt::format("{}:{}:{}: {}: {}", file_, mark.line + 1, mark.column + 1, field, what));
     }
 
     // A map with exactly these keys (those in `optional` may be missing).
@@ -351,7 +353,7 @@ std::string approximationToYaml(const Approximation& a)
         out += fmt::format("  - name: {}\n", yamlString(o.name));
         if (o.parent >= 0) {
             if (static_cast<std::size_t>(o.parent) >= a.outputs.size())
-                throw std::invalid_argument(fmt::format("approximationToYaml: outputs[{}].parent: index {} out of range", k, o.parent));
+                throw internalError(fmt::format("approximationToYaml: outputs[{}].parent: index {} out of range", k, o.parent));
             out += fmt::format("    parent: {}\n", yamlString(a.outputs[static_cast<std::size_t>(o.parent)].name));
         }
         out += fmt::format("    validationError: {}\n    rest: [", number(o.validationError, fmt::format("outputs[{}].validationError", k)));
@@ -378,16 +380,16 @@ std::string approximationToYaml(const Approximation& a)
                        return fmt::format("[{}, {}]", number(r.first, field + ".noEffect"), number(r.second, field + ".noEffect"));
                    }) + "\n";
         if (m.outputs.size() != m.operatorOfOutput.size())
-            throw std::invalid_argument(fmt::format("approximationToYaml: {}: {} outputs but {} operator indices", field,
+            throw internalError(fmt::format("approximationToYaml: {}: {} outputs but {} operator indices", field,
                                                     m.outputs.size(), m.operatorOfOutput.size()));
         out += "    outputs: " + list(m.outputs, [&](int k) {
                    if (k < 0 || static_cast<std::size_t>(k) >= a.outputs.size())
-                       throw std::invalid_argument(fmt::format("approximationToYaml: {}.outputs: index {} out of range", field, k));
+                       throw internalError(fmt::format("approximationToYaml: {}.outputs: index {} out of range", field, k));
                    return yamlString(a.outputs[static_cast<std::size_t>(k)].name);
                }) + "\n";
         out += "    operatorOfOutput: " + list(m.operatorOfOutput, [&](int o) {
                    if (o < 0 || static_cast<std::size_t>(o) >= m.operators.size())
-                       throw std::invalid_argument(
+                       throw internalError(
                            fmt::format("approximationToYaml: {}.operatorOfOutput: index {} out of range", field, o));
                    return fmt::format("{}", o);
                }) + "\n";
@@ -427,7 +429,7 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         const bool marker = (line.starts_with("---") || line.starts_with("...")) &&
                             (line.size() == 3 || line[3] == ' ' || line[3] == '\t' || line[3] == '\r');
         if (marker && content)
-            throw ApproximationFileError(fmt::format("{}:{}:1: file: '{}' ends the YAML document; an approximation file is "
+            throw Error(fmt::format("{}:{}:1: file: '{}' ends the YAML document; an approximation file is "
                                                      "one document: remove it and what follows, or re-run rig-learn",
                                                      fileName, lineNumber, line.substr(0, 3)));
         const auto first = line.find_first_not_of(" \t\r");
@@ -438,23 +440,23 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
             return YAML::Load(std::string(text));
         }
         catch (const YAML::DeepRecursion& e) {
-            throw ApproximationFileError(fmt::format("{}:{}:{}: YAML lists and maps nested more than {} levels deep; an "
+            throw Error(fmt::format("{}:{}:{}: YAML lists and maps nested more than {} levels deep; an "
                                                      "approximation file nests a few levels, so the file is damaged",
                                                      fileName, e.mark.line + 1, e.mark.column + 1, e.depth() - 1));
         }
         catch (const YAML::Exception& e) {
-            throw ApproximationFileError(
+            throw Error(
                 fmt::format("{}:{}:{}: YAML syntax error: {}", fileName, e.mark.line + 1, e.mark.column + 1, e.msg));
         }
     }();
     const Reader r(fileName);
     if (!root.IsMap())
-        throw ApproximationFileError(fmt::format("{}: not an approximation file (expected a map with format: {}); rig-learn -o "
+        throw Error(fmt::format("{}: not an approximation file (expected a map with format: {}); rig-learn -o "
                                                  "writes one",
                                                  fileName, approximationFormatName));
     // The format and version first: any other problem in a file of another kind or version says less.
     if (!root["format"])
-        throw ApproximationFileError(fmt::format("{}: not an approximation file (no 'format: {}'); rig-learn -o writes one",
+        throw Error(fmt::format("{}: not an approximation file (no 'format: {}'); rig-learn -o writes one",
                                                  fileName, approximationFormatName));
     const YAML::Node format = root["format"];
     if (!format.IsScalar() || format.Scalar() != approximationFormatName)
@@ -530,7 +532,7 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     try {
         a.outputOrder();
     }
-    catch (const std::invalid_argument&) {
+    catch (const Error&) {
         r.fail(outputs, "outputs", "the outputs' parents form a cycle; an output's parent is an ancestor joint");
     }
 
@@ -608,20 +610,20 @@ Approximation readApproximationFile(const std::filesystem::path& file)
     std::error_code ec;
     const auto status = std::filesystem::status(file, ec);
     if (std::filesystem::is_directory(status))
-        throw ApproximationFileError(
+        throw Error(
             fmt::format("{}: is a folder; give the approximation file (rig-learn -o writes one)", file.string()));
     if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
-        throw ApproximationFileError(fmt::format("{}: is not a regular file (a device or a pipe?); give the approximation "
+        throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the approximation "
                                                  "file (rig-learn -o writes one)",
                                                  file.string()));
     if (std::filesystem::exists(status) && std::filesystem::file_size(file, ec) > approximationMaxFileBytes)
-        throw ApproximationFileError(fmt::format("{}: more than the {} MB an approximation file may have; it is not one, "
+        throw Error(fmt::format("{}: more than the {} MB an approximation file may have; it is not one, "
                                                  "or it is damaged",
                                                  file.string(), approximationMaxFileBytes >> 20));
     std::ifstream in(file, std::ios::binary);
     if (!in) {
         const int error = errno;
-        throw ApproximationFileError(fmt::format("{}: cannot read it ({}); {}", file.string(), std::strerror(error),
+        throw Error(fmt::format("{}: cannot read it ({}); {}", file.string(), std::strerror(error),
                                                  error == ENOENT ? "check the name (rig-learn -o writes one)"
                                                                  : "check its permissions"));
     }
@@ -637,7 +639,7 @@ std::string checkFingerprint(const Approximation& approximation, const std::stri
         fmt::format("the rig changed since the approximation was learned from {} (fingerprint {}, now {}); re-run "
                     "rig-learn",
                     approximation.rigFile, approximation.rigFingerprint, fingerprint);
-    if (strict) throw ApproximationFileError(message);
+    if (strict) throw Error(message);
     return message;
 }
 

@@ -7,20 +7,13 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <stdexcept>
 #include <string>
 #include <string_view>
 
+#include "core/error.h"
 #include "inversion/approximation.h"
 
 namespace rig {
-
-// A file that is not a valid approximation: one line, "file:line:col: field: problem". Tools turn it
-// into their "error: ..." line and exit code 2 (inversion/ does not know rig::Error).
-class ApproximationFileError : public std::runtime_error {
-public:
-    using std::runtime_error::runtime_error;
-};
 
 inline constexpr std::string_view approximationFormatName = "rigInversionApproximation";
 // Version 2 added parent-relative outputs (`parent:`), the relative validation figures and `noEffect`
@@ -29,19 +22,19 @@ inline constexpr int approximationFormatVersion = 2;
 // Largest file readApproximationFile reads (a biped's approximation is under 1 MB).
 inline constexpr std::uintmax_t approximationMaxFileBytes = std::uintmax_t{256} << 20;
 
-// The file's text. Throws std::invalid_argument naming the field when a number is not finite or the
+// The file's text. Throws an internal rig::Error naming the field when a number is not finite or the
 // structure is inconsistent (indices out of range): an approximation like that is a bug, not a file.
 std::string approximationToYaml(const Approximation& approximation);
 
-// Parses a file's text; `fileName` is used in messages. Throws ApproximationFileError.
+// Parses a file's text; `fileName` is used in messages. Throws rig::Error (user input): one line, "file:line:col: field: problem".
 Approximation approximationFromYaml(std::string_view text, const std::string& fileName);
 
-// Reads and parses a file. Throws ApproximationFileError (also when the file cannot be read).
+// Reads and parses a file. Throws rig::Error (also when the file cannot be read).
 Approximation readApproximationFile(const std::filesystem::path& file);
 
 // Compares the fingerprint recorded in the approximation with a rig's current one. Returns "" when they
 // match; otherwise a one-line warning saying the rig changed since learning (re-run rig-learn), or,
-// when `strict`, throws ApproximationFileError with that line.
+// when `strict`, throws rig::Error with that line.
 std::string checkFingerprint(const Approximation& approximation, const std::string& fingerprint, bool strict);
 
 }  // namespace rig

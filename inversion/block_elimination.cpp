@@ -2,11 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
+
+#include "core/error.h"
 
 namespace rig {
 namespace {
@@ -18,7 +19,7 @@ int positionOf(const std::vector<int>& sorted, int value)
 {
     const auto it = std::lower_bound(sorted.begin(), sorted.end(), value);
     if (it == sorted.end() || *it != value)
-        throw std::invalid_argument(fmt::format("BlockElimination: index {} is not in the problem", value));
+        throw internalError(fmt::format("BlockElimination: index {} is not in the problem", value));
     return static_cast<int>(it - sorted.begin());
 }
 
@@ -48,7 +49,7 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
             blockOfOutput[static_cast<std::size_t>(positionOf(structure.outputs(), k))] = static_cast<int>(b);
     }
     if (std::find(blockOfColumn_.begin(), blockOfColumn_.end(), -1) != blockOfColumn_.end())
-        throw std::invalid_argument("BlockElimination: a column of the problem is in no block");
+        throw internalError("BlockElimination: a column of the problem is in no block");
     // Every column a row moves must be in that row's chain: the partition's promise, checked once. Then
     // J^T J has no entry outside the blocks gathered below.
     for (int c = 0; c < structure.columnCount(); ++c)
@@ -58,7 +59,7 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
             if (owner < 0 || std::find(chain_[static_cast<std::size_t>(owner)].begin(),
                                        chain_[static_cast<std::size_t>(owner)].end(),
                                        block) == chain_[static_cast<std::size_t>(owner)].end())
-                throw std::invalid_argument("BlockElimination: a parameter moves an output outside its block's chain");
+                throw internalError("BlockElimination: a parameter moves an output outside its block's chain");
         }
     const int n = structure.columnCount();
     layout_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), -1);

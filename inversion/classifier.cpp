@@ -8,6 +8,8 @@
 #include <Eigen/Dense>
 #include <fmt/format.h>
 
+#include "core/rotation_math.h"
+
 namespace rig {
 
 RigProbe::RigProbe(RigFunction& rig) : rig_(rig)
@@ -155,17 +157,12 @@ std::vector<double> initialOffsets(double lo, double hi, int count, bool angular
 // only gives angles in [-pi, pi]; a driven joint may turn further.
 void unwrapAngles(std::map<double, double>& angles)
 {
-    constexpr double turn = 2.0 * std::numbers::pi;
     double previous = 0.0;
-    for (auto it = angles.lower_bound(0.0); it != angles.end(); ++it) {
-        it->second += turn * std::round((previous - it->second) / turn);
-        previous = it->second;
-    }
+    for (auto it = angles.lower_bound(0.0); it != angles.end(); ++it)
+        previous = it->second = nearestTurn(it->second, previous);
     previous = 0.0;
-    for (auto it = std::make_reverse_iterator(angles.lower_bound(0.0)); it != angles.rend(); ++it) {
-        it->second += turn * std::round((previous - it->second) / turn);
-        previous = it->second;
-    }
+    for (auto it = std::make_reverse_iterator(angles.lower_bound(0.0)); it != angles.rend(); ++it)
+        previous = it->second = nearestTurn(it->second, previous);
 }
 
 Eigen::Matrix3d linearPart(const Eigen::Matrix4d& m) { return m.block<3, 3>(0, 0); }

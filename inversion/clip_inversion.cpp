@@ -4,38 +4,16 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
-#include <stdexcept>
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <fmt/format.h>
 
+#include "core/error.h"
+#include "core/rotation_math.h"
 #include "inversion/continuity.h"
 
 namespace rig {
-namespace {
-
-// The rotation nearest a 3x3 block that may carry scale or shear (a target from any source).
-Eigen::Matrix3d orthonormalPart(const Eigen::Matrix3d& m)
-{
-    Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
-    if (r.determinant() < 0.0) {
-        Eigen::Matrix3d u = svd.matrixU();
-        u.col(2) = -u.col(2);
-        r = u * svd.matrixV().transpose();
-    }
-    return r;
-}
-
-double rotationErrorDeg(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
-{
-    const Eigen::Matrix3d d = orthonormalPart(a.topLeftCorner<3, 3>()).transpose() * orthonormalPart(b.topLeftCorner<3, 3>());
-    return Eigen::AngleAxisd(d).angle() * 180.0 / std::numbers::pi;
-}
-
-}  // namespace
-
 ClipTargets matchTargets(const Approximation& approximation, std::span<const std::string> joints,
                          std::span<const std::vector<Eigen::Matrix4d>> worlds)
 {
@@ -50,7 +28,7 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
         else targets.unmatchedJoints.push_back(joint);
     }
     if (targets.matchedJoints == 0)
-        throw std::invalid_argument(fmt::format(
+        throw Error(fmt::format(
             "no joint of the clip is an output of the approximation (the clip has '{}', ...; the approximation "
             "'{}', ...); rename them with a map file",
             joints.empty() ? std::string() : joints.front(),
@@ -71,9 +49,9 @@ void ClipInversionOptions::validate() const
 {
     solver.validate();
     if (polishCorrections < 0)
-        throw std::invalid_argument(fmt::format("polishCorrections must be >= 0, got {}", polishCorrections));
+        throw Error(fmt::format("polishCorrections must be >= 0, got {}", polishCorrections));
     if (restartInterval <= 0)
-        throw std::invalid_argument(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
+        throw Error(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
 }
 
 std::string ClipInversionSummary::briefReport() const
@@ -116,7 +94,7 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     options.validate();
     const int frameCount = static_cast<int>(targets.frames.size());
     if (first < 0 || last >= frameCount || first > last)
-        throw std::invalid_argument(
+        throw internalError(
             fmt::format("frames {}..{} are not within the clip's 0..{}", first, last, frameCount - 1));
     const Approximation& approximation = solver.approximation();
     const std::vector<double> rest = approximation.defaults();
@@ -132,7 +110,7 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     std::vector<double> reported = options.continueFrom;
     bool continuing = !options.continueFrom.empty();
     if (continuing && options.continueFrom.size() != rest.size())
-        throw std::invalid_argument(fmt::format("continueFrom has {} values for {} parameters",
+        throw Error(fmt::format("continueFrom has {} values for {} parameters",
                                                 options.continueFrom.size(), rest.size()));
     reported.resize(rest.size());
     ChainScratch chainScratch;
@@ -180,7 +158,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
                 continue;
             }
             const double p = (worlds[o].block<3, 1>(0, 3) - frameTargets[o].world.block<3, 1>(0, 3)).norm();
-            const double r = rotationErrorDeg(worlds[o], frameTargets[o].world);
+            const double r = orientationAngle(worlds[o].topLeftCorner<3, 3>(), frameTargets[o].world.topLeftCorner<3, 3>()) *
+                             180.0 / std::numbers::pi;
             if (!std::isfinite(p) || !std::isfinite(r)) continue;
             positionSum += p;
             rotationSum += r;

@@ -36,7 +36,7 @@ struct ClipTargets {
     std::vector<std::string> unmatchedJoints;       // clip joints that are not (not targets)
 };
 
-// Throws std::invalid_argument when no clip joint is an output of the approximation.
+// Throws rig::Error when no clip joint is an output of the approximation.
 ClipTargets matchTargets(const Approximation& approximation, std::span<const std::string> joints,
                          std::span<const std::vector<Eigen::Matrix4d>> worlds);
 
@@ -63,7 +63,7 @@ struct ClipInversionOptions {
     // Called after each reported frame with the fraction done; may be empty.
     std::function<void(double fraction)> progress;
 
-    // Throws std::invalid_argument naming the field (and the solver's fields).
+    // Throws rig::Error naming the field (and the solver's fields).
     void validate() const;
 };
 

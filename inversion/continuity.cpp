@@ -4,9 +4,10 @@
 #include <cmath>
 #include <numbers>
 #include <random>
-#include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "core/error.h"
 
 namespace rig {
 
@@ -111,7 +112,7 @@ ChunkShift noShift(const Equivalences& equivalences)
 ChunkShift continuityShift(const Equivalences& e, std::span<const double> previous, std::span<const double> first)
 {
     if (previous.size() != e.period.size() || first.size() != e.period.size())
-        throw std::invalid_argument(fmt::format("continuityShift: {} and {} values for {} parameters", previous.size(),
+        throw internalError(fmt::format("continuityShift: {} and {} values for {} parameters", previous.size(),
                                                 first.size(), e.period.size()));
     ChunkShift shift = noShift(e);
     const auto turnsToward = [&](std::size_t p, double value) {
@@ -141,7 +142,7 @@ ChunkShift continuityShift(const Equivalences& e, std::span<const double> previo
 void applyShift(const Equivalences& e, const ChunkShift& shift, std::span<const double> in, std::span<double> out)
 {
     if (in.size() != e.period.size() || out.size() != in.size())
-        throw std::invalid_argument(fmt::format("applyShift: {} and {} values for {} parameters", in.size(), out.size(),
+        throw internalError(fmt::format("applyShift: {} and {} values for {} parameters", in.size(), out.size(),
                                                 e.period.size()));
     if (out.data() != in.data()) std::copy(in.begin(), in.end(), out.begin());
     for (std::size_t t = 0; t < e.triples.size(); ++t)

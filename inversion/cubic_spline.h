@@ -3,10 +3,11 @@
 // Magnitude curves (D = 1) and sampled operators (D = 6 or 12) are made of these.
 
 #include <span>
-#include <stdexcept>
 #include <vector>
 
 #include <Eigen/Core>
+
+#include "core/error.h"
 
 namespace rig {
 
@@ -21,9 +22,9 @@ public:
     CubicSpline(std::vector<double> x, std::vector<Vector> y) : x_(std::move(x)), y_(std::move(y))
     {
         const std::size_t n = x_.size();
-        if (n < 2 || y_.size() != n) throw std::invalid_argument("CubicSpline: needs two knots or more, one value each");
+        if (n < 2 || y_.size() != n) throw internalError("CubicSpline: needs two knots or more, one value each");
         for (std::size_t j = 1; j < n; ++j)
-            if (!(x_[j] > x_[j - 1])) throw std::invalid_argument("CubicSpline: knots must increase");
+            if (!(x_[j] > x_[j - 1])) throw internalError("CubicSpline: knots must increase");
         // Second derivatives: natural ends (zero), tridiagonal system solved by the Thomas algorithm.
         m_.assign(n, Vector::Zero());
         std::vector<double> c(n, 0.0);

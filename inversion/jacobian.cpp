@@ -3,13 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <stdexcept>
 #include <tuple>
 
 #include <Eigen/Dense>
 #include <fmt/format.h>
 #include <oneapi/tbb/parallel_for.h>
 
+#include "core/error.h"
+#include "core/rotation_math.h"
 #include "inversion/operators.h"
 
 namespace rig {
@@ -24,24 +25,6 @@ constexpr double orthonormalSlack = 1e-10;
 bool nearlyOrthonormal(const Eigen::Matrix3d& a)
 {
     return ((a.transpose() * a) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < orthonormalSlack;
-}
-
-// A = Q S with Q a rotation (reflections removed) and S symmetric.
-Eigen::Matrix3d polar(const Eigen::Matrix3d& a, Eigen::Matrix3d* symmetric)
-{
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d u = svd.matrixU();
-    if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) = -u.col(2);
-    const Eigen::Matrix3d q = u * svd.matrixV().transpose();
-    if (symmetric) *symmetric = q.transpose() * a;
-    return q;
-}
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v)
-{
-    Eigen::Matrix3d s;
-    s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-    return s;
 }
 
 // The rotation residual: 2 vec(q) for the unit quaternion q = (w, v) of Q_target^T Q, taken with w >= 0,
@@ -76,7 +59,7 @@ Vector6d residual6(const Eigen::Matrix4d& world, const PreparedTarget& t, bool r
     Vector6d r;
     r.head<3>() = t.positionWeight * (world.block<3, 1>(0, 3) - t.position);
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
-    r.tail<3>() = t.rotationWeight * rotationResidual(rigid || nearlyOrthonormal(a) ? a : polar(a, nullptr), t);
+    r.tail<3>() = t.rotationWeight * rotationResidual(rigid || nearlyOrthonormal(a) ? a : polarRotation(a), t);
     return r;
 }
 
@@ -107,8 +90,6 @@ std::string_view jacobianMethodName(JacobianMethod method)
     return method == JacobianMethod::analytic ? "analytic" : "finiteDifference";
 }
 
-Eigen::Matrix3d orthonormalPart(const Eigen::Matrix3d& m) { return polar(m, nullptr); }
-
 bool nearlySingular(const Eigen::Vector3d& sigma) { return !(sigma[0] > 0) || !(sigma[2] > 1e-9 * sigma[0]); }
 
 bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTarget& prepared)
@@ -121,7 +102,7 @@ bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTa
         prepared.rotation = a;
     } else {
         if (nearlySingular(Eigen::JacobiSVD<Eigen::Matrix3d>(a).singularValues())) return false;
-        prepared.rotation = polar(a, nullptr);
+        prepared.rotation = polarRotation(a);
     }
     prepared.position = target.world.block<3, 1>(0, 3);
     prepared.positionWeight = target.positionWeight;
@@ -137,7 +118,7 @@ Eigen::Matrix<double, 6, 1> targetResidual(const Eigen::Matrix4d& world, const P
 TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& target)
 {
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
-    const Eigen::Matrix3d q = nearlyOrthonormal(a) ? a : polar(a, nullptr);
+    const Eigen::Matrix3d q = nearlyOrthonormal(a) ? a : polarRotation(a);
     return {(world.block<3, 1>(0, 3) - target.position).norm(), rotationVector(target.rotation.transpose() * q).norm()};
 }
 
@@ -152,13 +133,13 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
     for (std::size_t c = 0; c < columns_.size(); ++c) {
         const int p = columns_[c];
         if (p < 0 || p >= parameterCount || (c > 0 && p <= columns_[c - 1]))
-            throw std::invalid_argument("ResidualStructure: columns must be increasing parameter indices");
+            throw internalError("ResidualStructure: columns must be increasing parameter indices");
         columnOf[static_cast<std::size_t>(p)] = static_cast<int>(c);
     }
     for (std::size_t o = 0; o < outputs_.size(); ++o) {
         const int k = outputs_[o];
         if (k < 0 || k >= outputCount || (o > 0 && k <= outputs_[o - 1]))
-            throw std::invalid_argument("ResidualStructure: outputs must be increasing output indices");
+            throw internalError("ResidualStructure: outputs must be increasing output indices");
     }
 
     // Each output's own links, outermost first: walking the parameters in composition order. An output's
@@ -171,7 +152,7 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
             const int k = m.outputs[e];
             if (k < 0 || k >= outputCount || e >= m.operatorOfOutput.size() || m.operatorOfOutput[e] < 0 ||
                 m.operatorOfOutput[e] >= static_cast<int>(m.operators.size()))
-                throw std::invalid_argument(
+                throw internalError(
                     fmt::format("ResidualStructure: parameter {} has an inconsistent output or operator index",
                                 m.parameter.name));
             Link link{p, m.operatorOfOutput[e], columnOf[static_cast<std::size_t>(p)], -1};
@@ -194,7 +175,7 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
         std::vector<int> path;
         for (int k = outputs_[o]; k >= 0; k = approximation.outputs[static_cast<std::size_t>(k)].parent) {
             if (path.size() > static_cast<std::size_t>(outputCount))
-                throw std::invalid_argument("ResidualStructure: the outputs' parents form a cycle");
+                throw internalError("ResidualStructure: the outputs' parents form a cycle");
             path.push_back(k);
         }
         for (auto it = path.rbegin(); it != path.rend(); ++it)
@@ -335,7 +316,7 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
     const auto& s = *structure_;
     const Approximation& approx = *s.approximation_;
     if (values.size() != approx.parameters.size())
-        throw std::invalid_argument("ResidualWorkspace::holdParameters: one value per modelled parameter");
+        throw internalError("ResidualWorkspace::holdParameters: one value per modelled parameter");
     // Only the parameters this structure holds: a crowd's blocks must not each copy every value.
     for (std::size_t i = 0; i < s.heldParameters_.size(); ++i) held_[i] = values[static_cast<std::size_t>(s.heldParameters_[i])];
     chainsHeld_ = false;
@@ -540,7 +521,7 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
             q = a;
         } else {
             Eigen::Matrix3d sym;
-            q = polar(a, &sym);
+            q = polarRotation(a, &sym);
             kInverse = (sym.trace() * Eigen::Matrix3d::Identity() - sym).inverse();
         }
         Eigen::Matrix3d rotationRows = t.rotationWeight * halfAngle(q, t).rows;
@@ -607,7 +588,7 @@ void ResidualWorkspace::useLayout(std::span<const int> layout)
     const auto& s = *structure_;
     const std::size_t n = static_cast<std::size_t>(s.columnCount());
     if (!layout.empty() && layout.size() != n * n)
-        throw std::invalid_argument(
+        throw internalError(
             fmt::format("ResidualWorkspace::useLayout: {} entries for {} columns", layout.size(), n));
     layout_.assign(layout.begin(), layout.end());
     pairTarget_ = s.pairOffset_;
@@ -615,7 +596,7 @@ void ResidualWorkspace::useLayout(std::span<const int> layout)
     for (int& target : pairTarget_) {
         target = layout_[static_cast<std::size_t>(target)];
         if (target < 0)
-            throw std::invalid_argument("ResidualWorkspace::useLayout: columns that share an output have no entry");
+            throw internalError("ResidualWorkspace::useLayout: columns that share an output have no entry");
     }
 }
 
@@ -623,7 +604,7 @@ void ResidualWorkspace::normalEquationsAtLast(const Eigen::Ref<const Eigen::Vect
                                               std::span<double> h)
 {
     if (!structure_->twistForm_)
-        throw std::logic_error("ResidualWorkspace::normalEquationsAtLast: only for structures in twist form");
+        throw internalError("ResidualWorkspace::normalEquationsAtLast: only for structures in twist form");
     twists();
     twistNormalEquations(r, g, h);
 }
@@ -713,7 +694,7 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
         kInverse = 0.5 * Eigen::Matrix3d::Identity();
     } else {
         Eigen::Matrix3d sym;
-        q = polar(a, &sym);
+        q = polarRotation(a, &sym);
         kInverse = (sym.trace() * Eigen::Matrix3d::Identity() - sym).inverse();
     }
     const Eigen::Matrix3d rotationRows = t.rotationWeight * halfAngle(q, t).rows * kInverse;
@@ -818,7 +799,7 @@ namespace {
 std::vector<int> activeOutputs(const Approximation& approximation, std::span<const JointTarget> targets)
 {
     if (targets.size() != approximation.outputs.size())
-        throw std::invalid_argument(fmt::format("JacobianEvaluator: {} targets for {} outputs", targets.size(),
+        throw internalError(fmt::format("JacobianEvaluator: {} targets for {} outputs", targets.size(),
                                                 approximation.outputs.size()));
     std::vector<int> outputs;
     for (std::size_t k = 0; k < targets.size(); ++k)
@@ -846,7 +827,7 @@ JacobianEvaluator::JacobianEvaluator(const Approximation& approximation, std::sp
         PreparedTarget prepared;
         const std::size_t k = static_cast<std::size_t>(outputs[o]);
         if (!prepareTarget(targets[k], rotationScaleCm, prepared))
-            throw std::invalid_argument(fmt::format("JacobianEvaluator: the target of {} is not usable",
+            throw Error(fmt::format("JacobianEvaluator: the target of {} is not usable",
                                                     approximation.outputs[k].name));
         workspace_.setTarget(static_cast<int>(o), prepared);
     }
@@ -855,7 +836,7 @@ JacobianEvaluator::JacobianEvaluator(const Approximation& approximation, std::sp
 void JacobianEvaluator::residuals(std::span<const double> values, Eigen::VectorXd& r)
 {
     if (values.size() != static_cast<std::size_t>(columns()))
-        throw std::invalid_argument("JacobianEvaluator: one value per modelled parameter");
+        throw internalError("JacobianEvaluator: one value per modelled parameter");
     r.resize(rows());
     workspace_.residuals(values, r);
 }
@@ -864,7 +845,7 @@ void JacobianEvaluator::jacobian(std::span<const double> values, JacobianMethod 
                                  Eigen::MatrixXd& jacobian, Eigen::VectorXd& r)
 {
     if (values.size() != static_cast<std::size_t>(columns()))
-        throw std::invalid_argument("JacobianEvaluator: one value per modelled parameter");
+        throw internalError("JacobianEvaluator: one value per modelled parameter");
     r.resize(rows());
     jacobian.resize(rows(), columns());
     workspace_.jacobian(values, method, finiteDifferenceStep, true, r, jacobian);
@@ -874,7 +855,7 @@ void JacobianEvaluator::normalEquations(std::span<const double> values, Jacobian
                                         Eigen::VectorXd& g, Eigen::MatrixXd& h, Eigen::VectorXd& r)
 {
     if (values.size() != static_cast<std::size_t>(columns()))
-        throw std::invalid_argument("JacobianEvaluator: one value per modelled parameter");
+        throw internalError("JacobianEvaluator: one value per modelled parameter");
     r.resize(rows());
     g.resize(columns());
     h.resize(columns(), columns());
@@ -886,7 +867,7 @@ void JacobianEvaluator::normalEquations(std::span<const double> values, Jacobian
 void JacobianEvaluator::jacobianFromSuffixes(std::span<const double> values, Eigen::MatrixXd& jacobian, Eigen::VectorXd& r)
 {
     if (values.size() != static_cast<std::size_t>(columns()))
-        throw std::invalid_argument("JacobianEvaluator: one value per modelled parameter");
+        throw internalError("JacobianEvaluator: one value per modelled parameter");
     r.resize(rows());
     jacobian.resize(rows(), columns());
     workspace_.jacobianFromSuffixes(values, r, jacobian);

@@ -51,8 +51,6 @@ struct PreparedTarget {
 // block too close to singular to have an orientation (smallest singular value below 1e-9 of the largest).
 bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTarget& prepared);
 
-// The orthonormal part of a 3x3 block (polar decomposition, reflections removed).
-Eigen::Matrix3d orthonormalPart(const Eigen::Matrix3d& m);
 
 // Whether a 3x3 block is too close to singular to have an orientation or an inverse: its singular values
 // (largest first) are not positive, or the smallest is below 1e-9 of the largest.
@@ -237,8 +235,8 @@ private:
 };
 
 // The whole problem for tests and benchmarks: every approximation parameter a column (those reaching
-// no active target give zero columns), six rows per active target in output order. Throws
-// std::invalid_argument for a wrong number of targets or values, or an active target prepareTarget refuses.
+// no active target give zero columns), six rows per active target in output order. Throws an internal
+// rig::Error for a wrong number of targets or values, a rig::Error for an active target prepareTarget refuses.
 class JacobianEvaluator {
 public:
     JacobianEvaluator(const Approximation& approximation, std::span<const JointTarget> targets, double rotationScaleCm);

@@ -8,11 +8,12 @@
 #include <set>
 #include <numbers>
 #include <random>
-#include <stdexcept>
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 
+#include "core/error.h"
+#include "core/rotation_math.h"
 #include "inversion/classifier.h"
 #include "inversion/jacobian.h"
 #include "inversion/ordering.h"
@@ -24,7 +25,7 @@ std::string_view ordererName(Orderer orderer) { return orderer == Orderer::talk 
 void LearnOptions::validate() const
 {
     auto fail = [](std::string_view field, auto value, std::string_view rule) {
-        throw std::invalid_argument(fmt::format("LearnOptions::{} = {}: {}", field, value, rule));
+        throw Error(fmt::format("LearnOptions::{} = {}: {}", field, value, rule));
     };
     if (!(epsilon > 0) || !std::isfinite(epsilon)) fail("epsilon", epsilon, "must be a positive number");
     if (!(frameRadius > 0) || !std::isfinite(frameRadius)) fail("frameRadius", frameRadius, "must be a positive number");
@@ -71,19 +72,6 @@ std::vector<std::pair<int, int>> redundantParameters(const Approximation& approx
 }
 
 namespace {
-
-// Angle between the orientations of two world matrices (scale removed), degrees.
-double rotationErrorDegrees(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
-{
-    auto orientation = [](const Eigen::Matrix4d& m) {
-        Eigen::Matrix3d r = m.block<3, 3>(0, 0);
-        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
-        return Eigen::Quaterniond(Eigen::Matrix3d(svd.matrixU() * svd.matrixV().transpose()));
-    };
-    // atan2 of the relative rotation's halves stays accurate near zero, where acos does not.
-    const Eigen::Quaterniond relative = orientation(a).conjugate() * orientation(b);
-    return 2.0 * std::atan2(relative.vec().norm(), std::abs(relative.w())) * 180.0 / std::numbers::pi;
-}
 
 // Validation poses, drawn once (a value for every parameter in rig order, whether modelled or not, so
 // that the poses do not depend on the composition order or on the frames), and the rig's worlds
@@ -154,7 +142,8 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
         for (std::size_t k = 0; k < approximated.size(); ++k) {
             const Eigen::Matrix4d& truth = truthWorlds[static_cast<std::size_t>(rigOutput[k])];
             const double position = (truth.block<3, 1>(0, 3) - approximated[k].block<3, 1>(0, 3)).norm();
-            const double rotation = rotationErrorDegrees(truth, approximated[k]);
+            const double rotation =
+                orientationAngle(truth.topLeftCorner<3, 3>(), approximated[k].topLeftCorner<3, 3>()) * 180.0 / std::numbers::pi;
             positionSum += position;
             rotationSum += rotation;
             ++count;
@@ -364,7 +353,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     // Frames: relative to the parent output where there is one (and it is usable).
     probe.parents = options.relativeFrames ? rig.outputParents() : std::vector<int>(rest.size(), -1);
     if (probe.parents.size() != rest.size())
-        throw std::invalid_argument(fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(),
+        throw internalError(fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(),
                                                 rest.size()));
     // An output relative to one that is out of range or unreliable (found history-dependent while
     // sampling) is learned in world space. True when a frame changed.

@@ -49,7 +49,7 @@ struct LearnOptions {
     // Called with a stage name and the fraction done (0..1); may be empty.
     std::function<void(std::string_view stage, double fraction)> progress;
 
-    // Throws std::invalid_argument naming the field and its bad value.
+    // Throws rig::Error naming the field and its bad value.
     void validate() const;
 };
 

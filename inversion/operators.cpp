@@ -6,6 +6,8 @@
 
 #include <Eigen/Geometry>
 
+#include "core/rotation_math.h"
+
 namespace rig {
 namespace {
 
@@ -17,13 +19,6 @@ constexpr std::array<std::pair<OperatorKind, std::string_view>, 6> kindNames{{
     {OperatorKind::sampledRigid, "sampledRigid"},
     {OperatorKind::sampledAffine, "sampledAffine"},
 }};
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v)
-{
-    Eigen::Matrix3d s;
-    s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-    return s;
-}
 
 // [L, p - L p]: a linear map L about the pivot p.
 Eigen::Matrix4d aboutPivot(const Eigen::Matrix3d& linear, const Eigen::Vector3d& pivot)

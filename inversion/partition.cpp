@@ -4,11 +4,11 @@
 #include <cmath>
 #include <numeric>
 #include <random>
-#include <stdexcept>
 
 #include <Eigen/SVD>
 #include <fmt/format.h>
 
+#include "core/error.h"
 #include "inversion/jacobian.h"
 
 namespace rig {
@@ -31,7 +31,7 @@ public:
         for (std::size_t p = 0; p < parameterCount; ++p)
             for (const int k : approximation.parameters[p].outputs)
                 if (k < 0 || static_cast<std::size_t>(k) >= outputCount)
-                    throw std::invalid_argument(fmt::format("partitionProblem: parameter {} names output {} of {}",
+                    throw internalError(fmt::format("partitionProblem: parameter {} names output {} of {}",
                                                             approximation.parameters[p].parameter.name, k, outputCount));
         // A parameter reaches the relative outputs below those it affects directly.
         const std::vector<std::vector<int>> reach = approximation.reach();
@@ -316,7 +316,7 @@ std::string Partition::describe(const Approximation& approximation) const
 Partition partitionProblem(const Approximation& approximation, std::span<const unsigned char> rows, bool split)
 {
     if (rows.size() != approximation.outputs.size())
-        throw std::invalid_argument(
+        throw internalError(
             fmt::format("partitionProblem: {} row flags for {} outputs", rows.size(), approximation.outputs.size()));
     return Partitioner(approximation, rows).run(split);
 }

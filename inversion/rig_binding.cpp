@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "core/error.h"
+#include "core/rotation_math.h"
 
 namespace rig {
 
@@ -16,13 +18,13 @@ RigBinding::RigBinding(const Approximation& approximation, RigFunction& rig) : a
         const auto found = std::find_if(parameters.begin(), parameters.end(),
                                         [&](const RigParameter& p) { return p.name == m.parameter.name; });
         if (found == parameters.end())
-            throw std::invalid_argument(fmt::format("RigBinding: the rig has no parameter {}", m.parameter.name));
+            throw Error(fmt::format("RigBinding: the rig has no parameter {}", m.parameter.name));
         parameterIndex_.push_back(static_cast<int>(found - parameters.begin()));
     }
     const auto& outputs = rig.outputs();
     for (const auto& o : approximation.outputs) {
         const auto found = std::find(outputs.begin(), outputs.end(), o.name);
-        if (found == outputs.end()) throw std::invalid_argument(fmt::format("RigBinding: the rig has no output {}", o.name));
+        if (found == outputs.end()) throw Error(fmt::format("RigBinding: the rig has no output {}", o.name));
         outputIndex_.push_back(static_cast<int>(found - outputs.begin()));
     }
     for (const auto& p : parameters) rigValues_.push_back(p.defaultValue);
@@ -31,7 +33,7 @@ RigBinding::RigBinding(const Approximation& approximation, RigFunction& rig) : a
 void RigBinding::evaluate(std::span<const double> approxValues, std::vector<Eigen::Matrix4d>& worlds)
 {
     if (approxValues.size() != parameterIndex_.size())
-        throw std::invalid_argument(fmt::format("RigBinding::evaluate: {} values for {} parameters", approxValues.size(),
+        throw internalError(fmt::format("RigBinding::evaluate: {} values for {} parameters", approxValues.size(),
                                                 parameterIndex_.size()));
     for (std::size_t p = 0; p < parameterIndex_.size(); ++p)
         rigValues_[static_cast<std::size_t>(parameterIndex_[p])] = approxValues[p];
@@ -79,12 +81,12 @@ PolishSummary polish(const Solver& solver, RigBinding& binding, std::span<const 
 {
     const Approximation& approximation = solver.approximation();
     if (&binding.approximation() != &approximation)
-        throw std::invalid_argument("polish: the binding is for another approximation than the solver's");
+        throw internalError("polish: the binding is for another approximation than the solver's");
     if (targets.size() != approximation.outputs.size() || values.size() != approximation.parameters.size())
-        throw std::invalid_argument(fmt::format("polish: {} targets and {} values for {} outputs and {} parameters",
+        throw internalError(fmt::format("polish: {} targets and {} values for {} outputs and {} parameters",
                                                 targets.size(), values.size(), approximation.outputs.size(),
                                                 approximation.parameters.size()));
-    if (corrections < 0) throw std::invalid_argument(fmt::format("polish: corrections = {}: must not be negative", corrections));
+    if (corrections < 0) throw Error(fmt::format("polish: corrections = {}: must not be negative", corrections));
 
     PolishSummary summary;
     const double scale = solver.options().rotationScaleCm;
@@ -119,8 +121,8 @@ PolishSummary polish(const Solver& solver, RigBinding& binding, std::span<const 
         approximation.evaluate(values, approximated);
         for (std::size_t k = 0; k < targets.size(); ++k) {
             if (!targets[k].active) continue;
-            const Eigen::Matrix3d qa = orthonormalPart(approximated[k].block<3, 3>(0, 0));
-            const Eigen::Matrix3d qr = orthonormalPart(real[k].block<3, 3>(0, 0));
+            const Eigen::Matrix3d qa = polarRotation(approximated[k].block<3, 3>(0, 0));
+            const Eigen::Matrix3d qr = polarRotation(real[k].block<3, 3>(0, 0));
             Eigen::Matrix4d world = Eigen::Matrix4d::Identity();
             world.block<3, 3>(0, 0) = prepared[k].rotation * qr.transpose() * qa;
             world.block<3, 1>(0, 3) =

@@ -18,7 +18,7 @@ namespace rig {
 // is not).
 class RigBinding {
 public:
-    // Throws std::invalid_argument naming the first approximation parameter or output the rig lacks.
+    // Throws rig::Error naming the first approximation parameter or output the rig lacks.
     RigBinding(const Approximation& approximation, RigFunction& rig);
 
     // Evaluates the real rig with the approximation's parameters at `approxValues` (one per

@@ -9,7 +9,6 @@
 #include <mutex>
 #include <numbers>
 #include <optional>
-#include <stdexcept>
 #include <string>
 
 #include <Eigen/Cholesky>
@@ -20,6 +19,7 @@
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "core/error.h"
 #include "inversion/block_elimination.h"
 #include "inversion/continuity.h"
 
@@ -345,7 +345,7 @@ std::string_view terminationName(TerminationType termination)
 void SolverOptions::validate() const
 {
     auto fail = [](std::string_view field, auto value, std::string_view rule) {
-        throw std::invalid_argument(fmt::format("SolverOptions::{} = {}: {}", field, value, rule));
+        throw Error(fmt::format("SolverOptions::{} = {}: {}", field, value, rule));
     };
     auto nonNegative = [&](std::string_view field, double value) {
         if (!(value >= 0) || !std::isfinite(value)) fail(field, value, "must be a finite number, 0 or more");
@@ -431,9 +431,9 @@ Solver::Solver(const Approximation& approximation, SolverOptions options)
     for (const auto& m : approximation.parameters) {
         const RigParameter& p = m.parameter;
         if (std::isnan(p.min) || std::isnan(p.max) || p.min > p.max)
-            throw std::invalid_argument(fmt::format("Solver: parameter {} has limits [{}, {}]", p.name, p.min, p.max));
+            throw internalError(fmt::format("Solver: parameter {} has limits [{}, {}]", p.name, p.min, p.max));
         if (m.outputs.size() != m.operatorOfOutput.size())
-            throw std::invalid_argument(fmt::format("Solver: parameter {} has {} outputs but {} operator indices",
+            throw internalError(fmt::format("Solver: parameter {} has {} outputs but {} operator indices",
                                                     p.name, m.outputs.size(), m.operatorOfOutput.size()));
     }
     approximation.outputOrder();  // throws for parents out of range or in a cycle
@@ -466,7 +466,7 @@ unsigned char countedRows(const JointTarget& t)
 Partition Solver::partition(std::span<const JointTarget> targets) const
 {
     if (targets.size() != impl_->approximation.outputs.size())
-        throw std::invalid_argument(fmt::format("Solver::partition: {} targets for {} outputs", targets.size(),
+        throw internalError(fmt::format("Solver::partition: {} targets for {} outputs", targets.size(),
                                                 impl_->approximation.outputs.size()));
     std::vector<unsigned char> rows(targets.size());
     for (std::size_t k = 0; k < targets.size(); ++k) rows[k] = countedRows(targets[k]);
@@ -670,10 +670,10 @@ bool Solver::Impl::prepare(std::span<const JointTarget> targets, std::span<const
                            std::shared_ptr<const Plan>& plan, TerminationType& termination)
 {
     if (targets.size() != approximation.outputs.size())
-        throw std::invalid_argument(fmt::format("Solver::solve: {} targets for {} outputs", targets.size(),
+        throw internalError(fmt::format("Solver::solve: {} targets for {} outputs", targets.size(),
                                                 approximation.outputs.size()));
     if (values.size() != approximation.parameters.size())
-        throw std::invalid_argument(fmt::format("Solver::solve: {} values for {} parameters", values.size(),
+        throw internalError(fmt::format("Solver::solve: {} values for {} parameters", values.size(),
                                                 approximation.parameters.size()));
     scratch.prepared.resize(targets.size());
     scratch.rows.resize(targets.size());
@@ -688,7 +688,7 @@ bool Solver::Impl::prepare(std::span<const JointTarget> targets, std::span<const
     for (const PartitionBlock& block : plan->partition.blocks)
         for (const int p : block.parameters)
             if (!std::isfinite(values[static_cast<std::size_t>(p)]))
-                throw std::invalid_argument(fmt::format("Solver::solve: the value of {} is {}",
+                throw Error(fmt::format("Solver::solve: the value of {} is {}",
                                                         approximation.parameters[static_cast<std::size_t>(p)].parameter.name,
                                                         values[static_cast<std::size_t>(p)]));
     termination = TerminationType::noTargets;

@@ -70,7 +70,7 @@ struct SolverOptions {
     // N (at most the machine's cores). The values are bit-identical for every count. Many concurrent solves: use 0 or 1.
     int threads = 0;
 
-    // Throws std::invalid_argument "SolverOptions::<field> = <value>: <rule>".
+    // Throws rig::Error "SolverOptions::<field> = <value>: <rule>".
     void validate() const;
 };
 
@@ -100,8 +100,8 @@ struct SolveSummary {
 
 class Solver {
 public:
-    // Keeps a reference to `approximation` (it must outlive the solver). Throws std::invalid_argument when
-    // the options do not validate or a parameter's limits are NaN or reversed.
+    // Keeps a reference to `approximation` (it must outlive the solver). Throws rig::Error when the options
+    // do not validate, an internal one when a parameter's limits are NaN or reversed.
     Solver(const Approximation& approximation, SolverOptions options);
     ~Solver();
     Solver(Solver&&) noexcept;
@@ -111,7 +111,8 @@ public:
     // units): in, the warm start (the previous frame, or defaults()); out, the solution. Parameters that
     // reach no active target keep their values; the others are moved onto their limits first.
     // Const and thread-safe: many threads may solve with one Solver at once.
-    // Throws std::invalid_argument for wrong sizes or a non-finite value of a parameter it would solve.
+    // Throws an internal rig::Error for wrong sizes, a rig::Error for a non-finite value of a parameter it
+    // would solve.
     SolveSummary solve(std::span<const JointTarget> targets, std::span<double> values) const;
     // The same, into `summary`, whose storage is reused: once the solver's scratch and the summary have
     // grown (after the first solves of a set of counted targets), a solve allocates nothing.

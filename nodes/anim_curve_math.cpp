@@ -4,9 +4,10 @@
 #include <array>
 #include <charconv>
 #include <cmath>
-#include <stdexcept>
 #include <string>
 #include <utility>
+
+#include "core/error.h"
 
 namespace rig {
 
@@ -61,15 +62,13 @@ void validate(const std::vector<AnimKey>& keys) {
         const std::string prefix = "key " + std::to_string(i) + ": ";
         for (const auto& [label, value] : {std::pair{"x", keys[i].x}, std::pair{"y", keys[i].y}}) {
             if (!std::isfinite(value)) {
-                throw std::invalid_argument(prefix + label + " " + formatNumber(value) +
-                                            " is not finite (keys must have finite x and y)");
+                throw Error(prefix + label + " " + formatNumber(value) +
+                            " is not finite (keys must have finite x and y)");
             }
         }
         if (i > 0 && !(keys[i].x > keys[i - 1].x)) {
-            throw std::invalid_argument(prefix + "x " + formatNumber(keys[i].x) +
-                                        " is not greater than the previous key's x " +
-                                        formatNumber(keys[i - 1].x) +
-                                        " (keys must be strictly increasing)");
+            throw Error(prefix + "x " + formatNumber(keys[i].x) + " is not greater than the previous key's x " +
+                        formatNumber(keys[i - 1].x) + " (keys must be strictly increasing)");
         }
     }
 }

@@ -88,7 +88,7 @@ public:
     // An empty curve; evaluates to 0 everywhere, same as build({}).
     AnimCurve() = default;
 
-    // Throws std::invalid_argument if a key's x or y is not finite or the keys
+    // Throws rig::Error if a key's x or y is not finite or the keys
     // are not strictly increasing in x; the message names the key index.
     static AnimCurve build(std::vector<AnimKey> keys, Infinity pre = Infinity::constant,
                            Infinity post = Infinity::constant);

@@ -8,11 +8,10 @@
 #include <numbers>
 #include <set>
 #include <sstream>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/plug_glob.h"
 #include "graph/suggest.h"
 #include "graph/yaml_loader.h"
@@ -233,7 +232,7 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
 void GraphRigFunction::evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds)
 {
     if (values.size() != parameters_.size())
-        throw std::invalid_argument(fmt::format("GraphRigFunction::evaluate: {} values for {} parameters", values.size(),
+        throw internalError(fmt::format("GraphRigFunction::evaluate: {} values for {} parameters", values.size(),
                                                 parameters_.size()));
     // Only changed plugs are set: setting one dirties its downstream, and most probes move one or two.
     for (std::size_t i = 0; i < values.size(); ++i)

@@ -12,7 +12,7 @@
 #include <string_view>
 #include <vector>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/graph.h"
 #include "inversion/rig_function.h"
 
@@ -66,7 +66,7 @@ public:
     // outputs; a parentMatrix fed by anything else (a multMatrix, a constraint) ends the walk at -1.
     std::vector<int> outputParents() const override { return outputParents_; }
     // Sets the parameter plugs whose value changed since the last call, evaluates, and reads the
-    // outputs' worldMatrix. Throws std::invalid_argument for a wrong number of values, rig::Error for a
+    // outputs' worldMatrix. Throws an internal rig::Error for a wrong number of values, rig::Error for a
     // value the rig refuses (outside the attribute's limits).
     void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) override;
     std::uint64_t evaluationCount() const override { return evaluations_; }

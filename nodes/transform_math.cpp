@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "core/rotation_math.h"
+
 namespace rig {
 
 namespace {
@@ -25,8 +27,6 @@ constexpr std::array<OrderInfo, 6> orderTable{{
 }};
 
 const OrderInfo& info(RotateOrder order) { return orderTable[static_cast<std::size_t>(order)]; }
-
-constexpr double twoPi = 2.0 * std::numbers::pi;
 
 // Below this, a length is treated as zero (scale collapse, gimbal lock).
 constexpr double tinyLength = 1e-12;
@@ -53,10 +53,6 @@ Eigen::Matrix3d shearMatrix(const Eigen::Vector3d& shear) {
 }
 
 // value shifted by a multiple of 2*pi to lie within pi of reference.
-double nearestWrap(double value, double reference) {
-    return value + twoPi * std::round((reference - value) / twoPi);
-}
-
 }  // namespace
 
 std::optional<RotateOrder> rotateOrderFromName(std::string_view name) {
@@ -124,7 +120,7 @@ Eigen::Vector3d closestEuler(const Eigen::Vector3d& euler, const Eigen::Vector3d
 
     auto wrapped = [&](const Eigen::Vector3d& candidate) {
         Eigen::Vector3d out;
-        for (int axis = 0; axis < 3; ++axis) out[axis] = nearestWrap(candidate[axis], reference[axis]);
+        for (int axis = 0; axis < 3; ++axis) out[axis] = nearestTurn(candidate[axis], reference[axis]);
         return out;
     };
     const Eigen::Vector3d direct = wrapped(euler);

@@ -15,7 +15,7 @@
 #include <pybind11/stl.h>
 #include <yaml-cpp/yaml.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "inversion/approximation_io.h"
 #include "tools/cli_common.h"
@@ -52,7 +52,7 @@ py::object toPython(const cli::Json& json)
         for (const auto& [key, value] : json.items()) dict[py::str(key)] = toPython(value);
         return dict;
     }
-    default: throw std::logic_error("a report holds no binary JSON");
+    default: throw internalError("a report holds no binary JSON");
     }
 }
 
@@ -265,7 +265,7 @@ public:
     {
         PyApproximation a;
         a.file_ = pathText(path);
-        a.approximation_ = std::make_shared<const Approximation>(cli::readApproximation(*a.file_));
+        a.approximation_ = std::make_shared<const Approximation>(readApproximationFile(*a.file_));
         return a;
     }
 
@@ -467,7 +467,11 @@ PYBIND11_MODULE(riginv, m)
             if (p) std::rethrow_exception(p);
         }
         catch (const rig::Error& e) {
-            error(rig::oneLine(e.what()).c_str());
+            // A broken invariant is a bug, not the caller's input: Python's RuntimeError, as the command lines'
+            // "internal error".
+            if (e.kind() == rig::ErrorKind::internal)
+                PyErr_SetString(PyExc_RuntimeError, ("internal error: " + rig::oneLine(e.what())).c_str());
+            else error(rig::oneLine(e.what()).c_str());
         }
     });
 

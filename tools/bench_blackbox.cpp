@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <stdexcept>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
+
+#include "core/error.h"
 
 
 namespace rig::bench {
@@ -26,13 +27,13 @@ void BlackBoxProblem::setTargets(std::span<const JointTarget> targets)
 {
     const auto& outputs = binding_.approximation().outputs;
     if (targets.size() != outputs.size())
-        throw std::invalid_argument(fmt::format("BlackBoxProblem: {} targets for {} outputs", targets.size(), outputs.size()));
+        throw internalError(fmt::format("BlackBoxProblem: {} targets for {} outputs", targets.size(), outputs.size()));
     active_.clear();
     prepared_.assign(targets.size(), PreparedTarget{});
     for (std::size_t k = 0; k < targets.size(); ++k) {
         if (!targets[k].active) continue;
         if (!prepareTarget(targets[k], rotationScaleCm_, prepared_[k]))
-            throw std::invalid_argument(fmt::format("BlackBoxProblem: the target of {} is not usable", outputs[k].name));
+            throw Error(fmt::format("BlackBoxProblem: the target of {} is not usable", outputs[k].name));
         active_.push_back(static_cast<int>(k));
     }
 }

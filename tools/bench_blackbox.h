@@ -20,7 +20,7 @@ public:
     // Unknowns: the approximation's parameters (as the solver's); other rig parameters stay at rest.
     BlackBoxProblem(RigBinding& binding, double rotationScaleCm);
 
-    // One target per Approximation::outputs. Throws std::invalid_argument for an active target that
+    // One target per Approximation::outputs. Throws rig::Error for an active target that
     // prepareTarget refuses.
     void setTargets(std::span<const JointTarget> targets);
     int rows() const { return static_cast<int>(6 * active_.size()); }

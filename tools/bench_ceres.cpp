@@ -2,12 +2,13 @@
 
 #include <algorithm>
 #include <map>
-#include <stdexcept>
 #include <vector>
 
 #include <ceres/ceres.h>
 #include <ceres/version.h>
 #include <fmt/format.h>
+
+#include "core/error.h"
 
 namespace rig::bench {
 
@@ -116,7 +117,7 @@ CeresInverter::CeresInverter(const Approximation& approximation, const SolverOpt
     o.logging_type = ceres::SILENT;
     o.minimizer_progress_to_stdout = false;
     std::string why;
-    if (!o.IsValid(&why)) throw std::invalid_argument(fmt::format("Ceres options: {}", why));
+    if (!o.IsValid(&why)) throw internalError(fmt::format("Ceres options: {}", why));
 }
 
 CeresInverter::~CeresInverter() = default;
@@ -126,13 +127,13 @@ CeresSolve CeresInverter::solve(std::span<const JointTarget> targets, std::span<
     Impl& impl = *impl_;
     const auto& outputs = impl.approximation.outputs;
     if (targets.size() != outputs.size() || values.size() != impl.approximation.parameters.size())
-        throw std::invalid_argument("CeresInverter::solve: one target per output and one value per parameter");
+        throw internalError("CeresInverter::solve: one target per output and one value per parameter");
     std::vector<int> active;
     impl.prepared.assign(targets.size(), PreparedTarget{});
     for (std::size_t k = 0; k < targets.size(); ++k) {
         if (!targets[k].active) continue;
         if (!prepareTarget(targets[k], impl.options.rotationScaleCm, impl.prepared[k]))
-            throw std::invalid_argument(fmt::format("CeresInverter: the target of {} is not usable", outputs[k].name));
+            throw Error(fmt::format("CeresInverter: the target of {} is not usable", outputs[k].name));
         active.push_back(static_cast<int>(k));
     }
     auto& slot = impl.problems[active];

@@ -37,7 +37,7 @@ public:
     CeresInverter& operator=(const CeresInverter&) = delete;
 
     // targets: one per Approximation::outputs; values: in, the warm start; out, the solution.
-    // Throws std::invalid_argument for an unusable active target.
+    // Throws rig::Error for an unusable active target.
     CeresSolve solve(std::span<const JointTarget> targets, std::span<double> values);
 
 private:

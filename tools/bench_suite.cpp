@@ -8,14 +8,13 @@
 #include <memory>
 #include <numbers>
 #include <random>
-#include <stdexcept>
 #include <thread>
 
 #include <fmt/format.h>
 #include <oneapi/tbb/task_arena.h>
 #include <yaml-cpp/yaml.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
 #include "inversion/learner.h"
@@ -292,7 +291,7 @@ public:
         std::vector<PreparedTarget> prepared(targets.size());
         for (std::size_t k = 0; k < targets.size(); ++k)
             if (targets[k].active && !prepareTarget(targets[k], solver.options().rotationScaleCm, prepared[k]))
-                throw std::invalid_argument(fmt::format("the target of {} is not usable", a.outputs[k].name));
+                throw Error(fmt::format("the target of {} is not usable", a.outputs[k].name));
         for (const PartitionBlock& block : solver.partition(targets).blocks) {
             auto& b = *blocks_.emplace_back(std::make_unique<Block>(a, block));
             b.workspace.holdParameters(values);

@@ -4,11 +4,10 @@
 #include <iostream>
 #include <map>
 #include <set>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
 #include "nodes/clips/bvh.h"
@@ -256,7 +255,7 @@ int run(const Options& options)
         loadGraphText(text, options.output, makeBuiltinRegistry());
     }
     catch (const Error& e) {
-        throw std::runtime_error(fmt::format("the generated rig does not load: {}", e.what()));
+        throw internalError(fmt::format("the generated rig does not load: {}", e.what()));
     }
     cli::writeFileAtomically(options.output, text);
     std::cout << fmt::format("wrote {}: {} joints ({} from BVH joints, {} End Sites{}), {} parameters{}\n",

@@ -13,7 +13,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 
 namespace rig::cli {
 
@@ -61,8 +61,13 @@ int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
         return body();
     }
     catch (const Error& e) {
-        std::cerr << "error: " << oneLine(e.what()) << '\n';
-        return 2;
+        switch (e.kind()) {
+        case ErrorKind::userInput: std::cerr << "error: " << oneLine(e.what()) << '\n'; return 2;
+        case ErrorKind::numerical: std::cerr << "error: " << oneLine(e.what()) << '\n'; return 3;
+        case ErrorKind::internal: break;
+        }
+        std::cerr << "internal error: " << oneLine(e.what()) << '\n';
+        return 1;
     }
     catch (const std::bad_alloc&) {
         std::cerr << "error: out of memory; the input is too large for this machine (see docs/robustness.md for "

@@ -1,12 +1,11 @@
 #include "tools/eval_run.h"
 
 #include <set>
-#include <stdexcept>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/plug_glob.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
@@ -77,9 +76,9 @@ std::vector<Value> evaluateFrame(Graph& graph, const std::string& rigName, doubl
         if (!mismatches.empty()) {
             std::string list;
             for (const auto& m : mismatches) list += (list.empty() ? "" : ", ") + m;
-            throw std::runtime_error(fmt::format("checked mode, frame {}: cached values differ from a full "
-                                                 "recompute for {} (a node type's affects table misses an entry)",
-                                                 frame, list));
+            throw internalError(fmt::format("checked mode, frame {}: cached values differ from a full recompute for {} "
+                                            "(a node type's affects table misses an entry)",
+                                            frame, list));
         }
     }
     std::vector<Value> values;

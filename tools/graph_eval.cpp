@@ -8,7 +8,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include "graph/dot_writer.h"
-#include "graph/error.h"
+#include "core/error.h"
+#include "core/table.h"
 #include "graph/type_reference.h"
 #include "graph/yaml_loader.h"
 #include "tools/cli_common.h"
@@ -62,23 +63,6 @@ std::string joinCsv(const std::vector<std::vector<std::string>>& rows)
     std::string out;
     for (const auto& row : rows) {
         for (std::size_t i = 0; i < row.size(); ++i) out += (i ? "," : "") + row[i];
-        out += "\n";
-    }
-    return out;
-}
-
-// Columns padded to their widest cell, numbers right-aligned: a table to read on a terminal.
-std::string alignTable(const std::vector<std::vector<std::string>>& rows)
-{
-    std::vector<std::size_t> widths;
-    for (const auto& row : rows)
-        for (std::size_t i = 0; i < row.size(); ++i) {
-            if (widths.size() <= i) widths.push_back(0);
-            widths[i] = std::max(widths[i], row[i].size());
-        }
-    std::string out;
-    for (const auto& row : rows) {
-        for (std::size_t i = 0; i < row.size(); ++i) out += fmt::format("{}{:>{}}", i ? "  " : "", row[i], widths[i]);
         out += "\n";
     }
     return out;

@@ -6,7 +6,7 @@
 
 #include <fmt/format.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "inversion/approximation_io.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
@@ -98,20 +98,10 @@ ClipInversionOptions clipInversionOptions(const InvertSettings& s)
     try {
         options.validate();
     }
-    catch (const std::invalid_argument& e) {
-        throw Error(fmt::format("bad option: {}", e.what()));
+    catch (const Error& e) {
+        throw e.in("bad option");
     }
     return options;
-}
-
-Approximation readApproximation(const std::string& file)
-{
-    try {
-        return readApproximationFile(file);
-    }
-    catch (const ApproximationFileError& e) {
-        throw Error(e.what());
-    }
 }
 
 InvertOutcome invert(const InvertJob& job)
@@ -120,7 +110,7 @@ InvertOutcome invert(const InvertJob& job)
     InvertOutcome out;
     out.approximation = job.approximation;
     if (!out.approximation)
-        out.approximation = std::make_shared<const Approximation>(readApproximation(job.approximationName));
+        out.approximation = std::make_shared<const Approximation>(readApproximationFile(job.approximationName));
     const Approximation& approximation = *out.approximation;
     if (approximation.parameters.empty())
         throw Error(fmt::format("{}: the approximation models no parameter (all were discarded); learn it again "
@@ -153,7 +143,7 @@ InvertOutcome invert(const InvertJob& job)
             !warning.empty() && job.warning)
             job.warning(fmt::format("{}: {}", job.approximationName, warning));
     }
-    catch (const ApproximationFileError& e) {
+    catch (const Error& e) {
         throw Error(fmt::format("{}: {} (--strict)", job.approximationName, e.what()));
     }
 
@@ -166,8 +156,8 @@ InvertOutcome invert(const InvertJob& job)
     try {
         out.targets = matchTargets(approximation, clip.joints, clip.worlds);
     }
-    catch (const std::invalid_argument& e) {
-        throw Error(fmt::format("{}: {}", clip.file, e.what()));
+    catch (const Error& e) {
+        throw e.in(clip.file);
     }
     const Solver solver(approximation, options.solver);
     // The rig's parameters are scalar plugs: a name edited into a vector ('wrist.rotate') or into a
@@ -176,7 +166,7 @@ InvertOutcome invert(const InvertJob& job)
     try {
         bound.emplace(approximation, rig);
     }
-    catch (const std::invalid_argument& e) {
+    catch (const Error& e) {
         std::string why = e.what();
         if (why.starts_with("RigBinding: ")) why.erase(0, 12);
         throw Error(fmt::format("{}: {} ({} does not offer it as a free keyable number); {}", job.approximationName,

@@ -31,9 +31,6 @@ struct InvertSettings {
 // The options for invertClip. Throws rig::Error naming the flag of a bad value.
 ClipInversionOptions clipInversionOptions(const InvertSettings& settings);
 
-// An approximation file; its errors as rig::Error.
-Approximation readApproximation(const std::string& file);
-
 struct InvertJob {
     // The approximation; null: read from `approximationName`, after the settings are checked.
     std::shared_ptr<const Approximation> approximation;

@@ -14,7 +14,7 @@
 
 #include <fmt/format.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "tools/bench_common.h"
 #include "tools/bench_suite.h"
 #include "tools/cli_common.h"

@@ -6,7 +6,7 @@
 
 #include <fmt/format.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "tools/cli_common.h"
 #include "tools/invert_run.h"
 #include "tools/progress_bar.h"

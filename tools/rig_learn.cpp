@@ -14,7 +14,8 @@
 #include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
-#include "graph/error.h"
+#include "core/error.h"
+#include "core/table.h"
 #include "inversion/approximation_io.h"
 #include "tools/cli_common.h"
 #include "tools/learn_run.h"
@@ -115,26 +116,6 @@ std::string vectorText(const Eigen::Vector3d& v)
     return fmt::format("({:.4g}, {:.4g}, {:.4g})", clean(v.x()), clean(v.y()), clean(v.z()));
 }
 
-// Columns padded to their widest cell, the first right-aligned: a table to read on a terminal.
-std::string alignTable(const std::vector<std::vector<std::string>>& rows)
-{
-    std::vector<std::size_t> widths;
-    for (const auto& row : rows)
-        for (std::size_t i = 0; i < row.size(); ++i) {
-            if (widths.size() <= i) widths.push_back(0);
-            widths[i] = std::max(widths[i], row[i].size());
-        }
-    std::string out;
-    for (const auto& row : rows) {
-        std::string line = " ";
-        for (std::size_t i = 0; i < row.size(); ++i)
-            line += i == 0 ? fmt::format(" {:>{}}", row[i], widths[i]) : fmt::format("  {:<{}}", row[i], widths[i]);
-        while (!line.empty() && line.back() == ' ') line.pop_back();
-        out += line + "\n";
-    }
-    return out;
-}
-
 std::string readableReport(const Approximation& a, std::size_t rigParameters, std::size_t rigOutputs,
                            const Options& options, double loadSeconds)
 {
@@ -154,7 +135,8 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
                         hasPivot ? vectorText(op.pivot) : "-", fmt::format("{:.2g}", m.fitError), fmt::format("{}", m.samples),
                         fmt::format("{}", m.outputs.size()), rangeText(m.parameter)});
     }
-    out += alignTable(rows);
+    out += alignTable(rows, {"  ", {Align::right, Align::left, Align::left, Align::left, Align::left, Align::left,
+                                      Align::left, Align::left, Align::left}});
     const auto redundant = redundantParameters(a);
     if (!redundant.empty())
         out += fmt::format("\nRedundant: {} pairs with the same effect (an inversion must split it)\n", redundant.size());

@@ -3,12 +3,11 @@
 // outputs are unitless, angles and distances.
 #include <cmath>
 #include <optional>
-#include <stdexcept>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "nodes/anim_curve_math.h"
 #include "nodes/builtin_nodes.h"
 
@@ -81,8 +80,8 @@ private:
         try {
             return AnimCurve::build(std::move(keys), static_cast<Infinity>(pre), static_cast<Infinity>(post));
         }
-        catch (const std::invalid_argument& e) {
-            throw Error(fmt::format("node '{}': {}", c.nodeName(), e.what()));
+        catch (const Error& e) {
+            throw e.in(fmt::format("node '{}'", c.nodeName()));
         }
     }
 
@@ -141,7 +140,7 @@ std::vector<std::pair<AttrId, Value>> parseKeys(const YAML::Node& node, const Ya
 std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
 {
     const std::string name(typeName);
-    if (name.size() != 11 || !name.starts_with("animCurve")) throw std::logic_error("not an animCurve type: " + name);
+    if (name.size() != 11 || !name.starts_with("animCurve")) throw internalError("not an animCurve type: " + name);
     const bool timeDriven = name[9] == 'T';
     const Unit outUnit = name[10] == 'A' ? Unit::Angle : name[10] == 'L' ? Unit::Distance : Unit::None;
     const double yScale = unitFactor(Unit::None, outUnit);

@@ -3,11 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <stdexcept>
 
 #include <fmt/format.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/node_type.h"
 #include "nodes/anim_curve_math.h"
 #include "nodes/builtin_nodes.h"
@@ -43,8 +42,8 @@ AnimCurve rampCurve(const ComputeContext& context)
     }
     try {
         return AnimCurve::build(std::move(unique));
-    } catch (const std::invalid_argument& e) {
-        throw Error(fmt::format("{}.value: {}", context.nodeName(), e.what()));
+    } catch (const Error& e) {
+        throw e.in(fmt::format("{}.value", context.nodeName()));
     }
 }
 

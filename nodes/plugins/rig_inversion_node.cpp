@@ -19,7 +19,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/graph.h"
 #include "graph/node_registry.h"
 #include "graph/plug_glob.h"
@@ -76,8 +76,8 @@ Approximation readApproximation(const std::string& path, std::string_view node)
     try {
         return readApproximationFile(path);
     }
-    catch (const ApproximationFileError& e) {
-        throw Error(fmt::format("{}.file: {}", node, e.what()));
+    catch (const Error& e) {
+        throw e.in(fmt::format("{}.file", node));
     }
 }
 
@@ -93,8 +93,8 @@ public:
         try {
             options.validate();
         }
-        catch (const std::invalid_argument& e) {
-            throw Error(fmt::format("{}: {}", node, e.what()));
+        catch (const Error& e) {
+            throw e.in(node);
         }
         const std::string& path = c.getString(file);
         if (!loaded_ || loaded_->path != path) {

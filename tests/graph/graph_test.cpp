@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 #include <random>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/graph.h"
 #include "nodes/builtin_nodes.h"
 

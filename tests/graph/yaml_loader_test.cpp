@@ -3,7 +3,7 @@
 
 #include <numbers>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
 #include "test_support.h"

@@ -239,7 +239,7 @@ std::string errorWith(const std::string& from, const std::string& to)
     try {
         approximationFromYaml(text, "f.yaml");
     }
-    catch (const ApproximationFileError& e) {
+    catch (const Error& e) {
         return e.what();
     }
     return "(no error)";
@@ -292,11 +292,11 @@ TEST_CASE("approximation files: what cannot be written is refused, naming the fi
     Approximation a = everything();
     a.parameters[1].operators[0].pivot.y() = std::nan("");
     CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: parameters[1].operators[0].pivot is nan, not a finite number",
-                         std::invalid_argument);
+                         Error);
     a = everything();
     a.parameters[0].outputs[2] = 3;
     CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: parameters[0].outputs: index 3 out of range",
-                         std::invalid_argument);
+                         Error);
 }
 
 TEST_CASE("approximation files: a damaged file is one line naming file:line:col and the field")
@@ -351,7 +351,7 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
         readApproximationFile("no/such/approximation.yaml");
         FAIL("no error");
     }
-    catch (const ApproximationFileError& e) {
+    catch (const Error& e) {
         CHECK(std::string(e.what())
               == "no/such/approximation.yaml: cannot read it (No such file or directory); check the name (rig-learn -o "
                  "writes one)");
@@ -368,7 +368,7 @@ TEST_CASE("approximation files: a rig that changed since learning is a warning, 
     const std::string message = "the rig changed since the approximation was learned from rigs/biped.yaml (fingerprint "
                                 "0123456789abcdef, now fedcba9876543210); re-run rig-learn";
     CHECK(checkFingerprint(a, "fedcba9876543210", false) == message);
-    CHECK_THROWS_WITH_AS(checkFingerprint(a, "fedcba9876543210", true), message.c_str(), ApproximationFileError);
+    CHECK_THROWS_WITH_AS(checkFingerprint(a, "fedcba9876543210", true), message.c_str(), Error);
 
     // The real thing: a rig file edited after learning.
     const auto dir = test::scratchDir("approximation-fingerprint");
@@ -383,5 +383,5 @@ TEST_CASE("approximation files: a rig that changed since learning is a warning, 
     test::writeFile(dir / "rig.yaml", rigText + "  - {name: l, type: joint, parent: k}\n");
     const std::string now = GraphRigFunction(dir / "rig.yaml", options).fingerprint();
     CHECK(checkFingerprint(learned, now, false).starts_with("the rig changed since the approximation was learned from rig.yaml"));
-    CHECK_THROWS_AS(checkFingerprint(learned, now, true), ApproximationFileError);
+    CHECK_THROWS_AS(checkFingerprint(learned, now, true), Error);
 }

@@ -295,7 +295,7 @@ TEST_CASE("jacobian: columns of parameters that reach no active target are zero,
     }
     targets[2].world(0, 3) = std::nan("");
     CHECK_THROWS_WITH_AS(JacobianEvaluator(a, targets, rotationScale), "JacobianEvaluator: the target of L_elbow is not usable",
-                         std::invalid_argument);
+                         Error);
 }
 
 TEST_CASE("jacobian: analytic equals finite differences on approximations learned from the bundled rigs")

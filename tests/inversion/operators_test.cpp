@@ -82,7 +82,7 @@ TEST_CASE("cubic spline: through the knots, natural ends, linear beyond, derivat
     const CubicSpline<1> line({0.0, 2.0}, {CubicSpline<1>::Vector(1.0), CubicSpline<1>::Vector(5.0)});
     CHECK(line.value(0.5)[0] == doctest::Approx(2.0));
     CHECK_THROWS_AS(CubicSpline<1>({0.0, 0.0}, {CubicSpline<1>::Vector(0.0), CubicSpline<1>::Vector(0.0)}),
-                    std::invalid_argument);
+                    Error);
 }
 
 TEST_CASE("operators: P(0) = I, closed forms, and dP/da against central differences for every kind")

@@ -242,10 +242,10 @@ TEST_CASE("solver: NaN, infinite, negative-weight and singular targets give inva
     CHECK(bitIdentical(values, start));
     // Wrong sizes and a non-finite warm start are the caller's bugs.
     CHECK_THROWS_WITH_AS(solver.solve(std::span(good).first(3), values), "Solver::solve: 3 targets for 9 outputs",
-                         std::invalid_argument);
+                         Error);
     values[5] = std::numeric_limits<double>::infinity();
     CHECK_THROWS_WITH_AS(solver.solve(good, values), "Solver::solve: the value of L_shoulder.rotateY is inf",
-                         std::invalid_argument);
+                         Error);
 }
 
 TEST_CASE("solver: parameters that reach no active target keep their values, bit for bit")
@@ -390,7 +390,7 @@ TEST_CASE("solver: options validate() names the field and the value")
     auto expect = [](auto change, const char* message) {
         SolverOptions options;
         change(options);
-        CHECK_THROWS_WITH_AS(options.validate(), message, std::invalid_argument);
+        CHECK_THROWS_WITH_AS(options.validate(), message, Error);
     };
     CHECK_NOTHROW(SolverOptions{}.validate());
     expect([](SolverOptions& o) { o.gaussNewtonIterations = -1; }, "SolverOptions::gaussNewtonIterations = -1: must not be negative");
@@ -414,7 +414,7 @@ TEST_CASE("solver: options validate() names the field and the value")
     const Approximation a = test::learn(rig, "arm");
     SolverOptions bad;
     bad.maxIterations = 0;
-    CHECK_THROWS_WITH_AS(Solver(a, bad), "SolverOptions::maxIterations = 0: must be at least 1", std::invalid_argument);
+    CHECK_THROWS_WITH_AS(Solver(a, bad), "SolverOptions::maxIterations = 0: must be at least 1", Error);
 }
 
 TEST_CASE("solver: the summary reports termination, iterations, costs and the worst output")
@@ -510,7 +510,7 @@ TEST_CASE("rig binding: evaluates the real rig in the approximation's order and 
     for (std::size_t k = 0; k < bound.size(); ++k) CHECK((bound[k] - approximated[k]).cwiseAbs().maxCoeff() < 1e-9);
 
     auto other = test::fkArm();
-    CHECK_THROWS_WITH_AS(RigBinding(a, other), "RigBinding: the rig has no parameter root.translateY", std::invalid_argument);
+    CHECK_THROWS_WITH_AS(RigBinding(a, other), "RigBinding: the rig has no parameter root.translateY", Error);
     test::LambdaRig noHand(rig.parameters(), {"hips"}, [](std::span<const double>, std::vector<Eigen::Matrix4d>&) {});
-    CHECK_THROWS_WITH_AS(RigBinding(a, noHand), "RigBinding: the rig has no output L_shoulder", std::invalid_argument);
+    CHECK_THROWS_WITH_AS(RigBinding(a, noHand), "RigBinding: the rig has no output L_shoulder", Error);
 }

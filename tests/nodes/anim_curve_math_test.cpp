@@ -5,12 +5,14 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <stdexcept>
 #include <utility>
 #include <vector>
 
+#include "core/error.h"
+
 using rig::AnimCurve;
 using rig::AnimKey;
+using rig::Error;
 using rig::Infinity;
 using rig::TangentType;
 
@@ -110,11 +112,11 @@ TEST_CASE("build rejects keys that are not strictly increasing") {
         AnimCurve::build(keysOf({{0.0, 0.0}, {5.0, 1.0}, {7.5, 2.0}, {10.0, 3.0}, {10.0, 4.0}},
                                 TangentType::linear)),
         "key 4: x 10 is not greater than the previous key's x 10 (keys must be strictly increasing)",
-        std::invalid_argument);
+        Error);
     CHECK_THROWS_WITH_AS(
         AnimCurve::build(keysOf({{0.0, 0.0}, {2.5, 1.0}, {1.0, 2.0}}, TangentType::linear)),
         "key 2: x 1 is not greater than the previous key's x 2.5 (keys must be strictly increasing)",
-        std::invalid_argument);
+        Error);
 }
 
 TEST_CASE("build rejects non-finite keys") {
@@ -122,13 +124,13 @@ TEST_CASE("build rejects non-finite keys") {
     const double inf = std::numeric_limits<double>::infinity();
     CHECK_THROWS_WITH_AS(
         AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, nan}}, TangentType::spline)),
-        "key 1: y nan is not finite (keys must have finite x and y)", std::invalid_argument);
+        "key 1: y nan is not finite (keys must have finite x and y)", Error);
     CHECK_THROWS_WITH_AS(AnimCurve::build(keysOf({{inf, 0.0}}, TangentType::spline)),
                          "key 0: x inf is not finite (keys must have finite x and y)",
-                         std::invalid_argument);
+                         Error);
     CHECK_THROWS_WITH_AS(
         AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, 1.0}, {2.0, -inf}}, TangentType::spline)),
-        "key 2: y -inf is not finite (keys must have finite x and y)", std::invalid_argument);
+        "key 2: y -inf is not finite (keys must have finite x and y)", Error);
 }
 
 TEST_CASE("linear tangents interpolate linearly") {

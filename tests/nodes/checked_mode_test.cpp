@@ -17,7 +17,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"

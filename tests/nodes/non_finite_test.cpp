@@ -12,7 +12,7 @@
 
 #include <fmt/format.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
 #include "test_support.h"

@@ -2,7 +2,7 @@
 // rename and scale, and every mistake in a map or a clip is one line naming the place.
 #include <doctest/doctest.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
 #include "nodes/clips/bvh.h"

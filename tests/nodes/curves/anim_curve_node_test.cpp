@@ -12,7 +12,7 @@
 
 #include <Eigen/Core>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"

@@ -11,7 +11,7 @@
 
 #include <Eigen/Geometry>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "graph/graph.h"
 #include "nodes/builtin_nodes.h"
 

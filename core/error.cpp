@@ -1,4 +1,4 @@
-#include "graph/error.h"
+#include "core/error.h"
 
 #include <fmt/format.h>
 
@@ -15,7 +15,9 @@ std::string withoutNul(std::string message)
 
 }  // namespace
 
-Error::Error(const std::string& message) : std::runtime_error(withoutNul(message)) {}
+Error::Error(const std::string& message, ErrorKind kind) : std::runtime_error(withoutNul(message)), kind_(kind) {}
+
+Error Error::in(std::string_view where) const { return Error(fmt::format("{}: {}", where, what()), kind_); }
 
 std::string formatMark(const SourceMark& mark)
 {

@@ -1,0 +1,52 @@
+// The SO(3) and matrix helpers: closed-form expectations.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Geometry>
+
+#include "core/rotation_math.h"
+
+using namespace rig;
+
+TEST_CASE("rotation math: skew is the cross product")
+{
+    const Eigen::Vector3d v(0.3, -1.2, 2.5), w(-0.7, 0.4, 1.1);
+    CHECK((skew(v) * w - v.cross(w)).norm() < 1e-15);
+    CHECK((skew(v) + skew(v).transpose()).norm() == 0.0);
+}
+
+TEST_CASE("rotation math: the polar decomposition gives the rotation and the symmetric stretch back")
+{
+    const Eigen::Matrix3d q = Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, -1).normalized()).toRotationMatrix();
+    Eigen::Matrix3d s;
+    s << 2.0, 0.3, -0.1, 0.3, 1.5, 0.2, -0.1, 0.2, 0.7;  // symmetric positive definite
+    Eigen::Matrix3d symmetric;
+    const Eigen::Matrix3d found = polarRotation(q * s, &symmetric);
+    CHECK((found - q).norm() < 1e-12);
+    CHECK((symmetric - s).norm() < 1e-12);
+    // A reflection is removed: the nearest proper rotation, determinant +1.
+    const Eigen::Matrix3d mirrored = q * Eigen::Vector3d(1, 1, -1).asDiagonal();
+    CHECK(polarRotation(mirrored).determinant() == doctest::Approx(1.0));
+}
+
+TEST_CASE("rotation math: the angle between orientations ignores scale and is accurate near zero")
+{
+    const Eigen::Vector3d axis = Eigen::Vector3d(0.2, -1, 0.5).normalized();
+    const Eigen::Matrix3d a = Eigen::AngleAxisd(0.4, axis).toRotationMatrix();
+    const Eigen::Matrix3d b = Eigen::AngleAxisd(0.4 + 0.3, axis).toRotationMatrix() * 3.0;
+    CHECK(orientationAngle(a, b) == doctest::Approx(0.3).epsilon(1e-12));
+    const Eigen::Matrix3d tiny = Eigen::AngleAxisd(1e-9, axis).toRotationMatrix();
+    CHECK(orientationAngle(Eigen::Matrix3d::Identity(), tiny) == doctest::Approx(1e-9).epsilon(1e-6));
+    CHECK(orientationAngle(a, a) == 0.0);
+}
+
+TEST_CASE("rotation math: an angle moved by whole turns to the one nearest a reference")
+{
+    constexpr double pi = std::numbers::pi;
+    CHECK(nearestTurn(0.1, 4 * pi) == doctest::Approx(0.1 + 4 * pi));
+    CHECK(nearestTurn(-3.0, 3.0) == doctest::Approx(-3.0 + 2 * pi));
+    CHECK(nearestTurn(250.0, 0.0, 360.0) == doctest::Approx(-110.0));
+    CHECK(nearestTurn(1.0, 1.2) == 1.0);
+}
