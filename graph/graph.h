@@ -1,8 +1,10 @@
 #pragma once
-// A dependency graph instance (Maya's DG): nodes with typed attributes, connections, stored values
-// and caches. Setting a plug marks what it affects dirty (push); reading a plug computes what is
-// dirty upstream of it (pull). One instance is not thread-safe to use from several threads; inside
-// one evaluation, independent nodes may compute in parallel on a tbb::flow::graph (setThreads).
+// A dependency graph instance (Maya's DG): a shared model (nodes with typed attributes, connections and
+// the schedule, graph_model.h) and this instance's state (stored values, dirty bits, caches and the
+// nodes' own state). Setting a plug marks what it affects dirty (push); reading a plug computes what is
+// dirty upstream of it (pull). One instance is not thread-safe to use from several threads, but any
+// number of instances of one model (instance()) evaluate at the same time; inside one evaluation,
+// independent nodes may compute in parallel on a tbb::flow::graph (setThreads).
 
 #include <cstdint>
 #include <memory>
@@ -12,31 +14,36 @@
 #include <unordered_map>
 #include <vector>
 
-#include "graph/node_registry.h"
+#include "graph/graph_model.h"
 #include "graph/plug.h"
-#include "graph/schedule.h"
 
 namespace rig {
 
+class FlowExecutor;
+
 class Graph {
 public:
-    // Array elements are stored densely: a typo like matrixIn[100000000] must not eat the memory.
-    static constexpr int maxArrayIndex = 1 << 16;
-    // Limits that keep a damaged or hostile rig from eating the memory (docs/robustness.md), checked
-    // before allocating: array elements of inputs over the whole graph (stored densely up to the highest
-    // index, about 150 bytes each: 150 MB at most), nodes (a joint holds about 6 KB: 1.3 GB at most,
-    // room for crowds of 500 bipeds), and the length of node and attribute names.
+    // Array elements of inputs over the whole instance (stored densely up to the highest index, about 150
+    // bytes each: 150 MB at most), checked before allocating (docs/robustness.md). The model's limits are
+    // in graph_model.h.
     static constexpr std::size_t maxArrayElements = std::size_t{1} << 20;
-    static constexpr int maxNodes = 200'000;
-    static constexpr std::size_t maxNameLength = 1000;
 
     explicit Graph(std::shared_ptr<NodeRegistry> registry);
     ~Graph();
     Graph(const Graph&) = delete;
     Graph& operator=(const Graph&) = delete;
 
-    NodeRegistry& registry() { return *registry_; }
-    std::shared_ptr<NodeRegistry> sharedRegistry() const { return registry_; }
+    // Another instance of this graph: the same model (shared, not copied: a rig file is parsed once), the
+    // values set on this one's inputs and its scene time, and its own caches and node state, as if
+    // nothing had been computed. Editing either graph's topology afterwards copies its model first.
+    std::unique_ptr<Graph> instance() const;
+    // Forgets what was computed and the state of stateful nodes (history-dependent ones start again), as
+    // a fresh instance would; set values stay.
+    void resetState();
+
+    const GraphModel& model() const { return *model_; }
+    NodeRegistry& registry() { return model_->registry(); }
+    std::shared_ptr<NodeRegistry> sharedRegistry() const { return model_->sharedRegistry(); }
 
     // --- nodes -----------------------------------------------------------------------------------
     // Throws rig::Error for an unknown type, an invalid name or a name already used.
@@ -44,23 +51,23 @@ public:
     // A dynamic attribute on one node (Maya's addAttr): an input that affects nothing on its node
     // and can be set, connected into, and connected from.
     AttrId addAttribute(NodeId node, AttributeSpec spec);
-    int nodeCount() const { return static_cast<int>(nodes_.size()); }
+    int nodeCount() const { return model_->nodeCount(); }
     // -1 when there is no such node.
-    NodeId findNode(std::string_view name) const;
+    NodeId findNode(std::string_view name) const { return model_->findNode(name); }
     // Throws rig::Error naming the closest node when there is no such node.
-    NodeId node(std::string_view name) const;
-    const std::string& nodeName(NodeId node) const;
-    const NodeType& nodeType(NodeId node) const;
-    const std::vector<AttributeSpec>& attributes(NodeId node) const;
+    NodeId node(std::string_view name) const { return model_->node(name); }
+    const std::string& nodeName(NodeId node) const { return model_->topology(node).name; }
+    const NodeType& nodeType(NodeId node) const { return *model_->topology(node).type; }
+    const std::vector<AttributeSpec>& attributes(NodeId node) const { return model_->topology(node).specs(); }
 
     // --- plugs -----------------------------------------------------------------------------------
     // Parses "node.attr", "node.attr[3]", "node.attrX", "node.attr[3].attrX"; throws rig::Error with a
     // suggestion when the node or attribute does not exist.
-    Plug plug(std::string_view path) const;
-    std::string plugName(const Plug& plug) const;
-    const AttributeSpec& spec(const Plug& plug) const;
+    Plug plug(std::string_view path) const { return model_->plug(path); }
+    std::string plugName(const Plug& plug) const { return model_->plugName(plug); }
+    const AttributeSpec& spec(const Plug& plug) const { return model_->spec(plug); }
     // The plug's own data type: Double for a vector3 component.
-    ValueType plugType(const Plug& plug) const;
+    ValueType plugType(const Plug& plug) const { return model_->plugType(plug); }
     // Existing elements of an array attribute (inputs: set or connected; outputs: last computed).
     std::vector<int> elementIndices(NodeId node, AttrId attr) const;
 
@@ -69,9 +76,12 @@ public:
     // connection that would close a cycle (the message lists the whole cycle).
     void connect(const Plug& source, const Plug& destination);
     void disconnect(const Plug& source, const Plug& destination);
-    const std::vector<Connection>& connections() const { return connections_; }
+    const std::vector<Connection>& connections() const { return model_->connections(); }
     // The connection driving `destination` (or a component or parent of it), if any.
-    const Connection* incomingConnection(const Plug& destination) const;
+    const Connection* incomingConnection(const Plug& destination) const
+    {
+        return model_->incomingConnection(destination);
+    }
 
     // --- values (internal units: radians for angles) ----------------------------------------------
     // Sets an unconnected input; checks type, finiteness and the attribute's min/max.
@@ -104,35 +114,33 @@ public:
     std::vector<std::string> checkEvaluation();
 
 private:
-    struct NodeRecord;
+    // One node's part of the state.
+    struct NodeState {
+        std::vector<AttrData> data;
+        std::unique_ptr<Node> impl;
+        std::uint64_t computes = 0;
+    };
 
-    NodeRecord& record(NodeId node);
-    const NodeRecord& record(NodeId node) const;
+    // The model, copied first when other instances share it.
+    GraphModel& editModel();
+    void addNodeState(NodeId node);
     AttrData& data(const Plug& plug);
     Value readStored(const Plug& plug) const;
     Value pulledValue(const Connection& connection) const;
     void writeStored(const Plug& plug, const Value& value);
-    void checkPlug(const Plug& plug) const;
 
     void dirtyInput(NodeId node, AttrId attr);
-    void dirtyOutput(NodeId node, AttrId attr);
-    void dirtyConnectionsFrom(NodeId node, AttrId attr);
     void dirtyAffectedBy(NodeId node, AttrId attr);
 
-    Schedule& schedule();
     void evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots);
     void processNode(NodeId node);
-    void topologyChanged();
-    std::vector<NodeId> cyclePath(NodeId from, NodeId to) const;
 
-    std::shared_ptr<NodeRegistry> registry_;
-    std::vector<std::unique_ptr<NodeRecord>> nodes_;
-    std::unordered_map<std::string, NodeId> nodeIndex_;  // name -> node: loading stays linear in size
-    std::size_t arrayElements_ = 0;                      // input array elements allocated, all nodes
-    std::vector<Connection> connections_;
-    std::unique_ptr<Schedule> schedule_;
+    std::shared_ptr<GraphModel> model_;
+    std::vector<NodeState> nodes_;
+    std::size_t arrayElements_ = 0;  // input array elements allocated, all nodes
     double time_ = 0.0;
     int threads_ = 1;
+    std::unique_ptr<FlowExecutor> flow_;  // built on the first parallel evaluation of a schedule
 };
 
 }  // namespace rig

@@ -470,9 +470,9 @@ private:
             }
             for (const auto& item : value) {
                 if (!item.first.IsScalar() || !YAML::convert<int>::decode(item.first, element.index)
-                    || element.index < 0 || element.index > Graph::maxArrayIndex)
+                    || element.index < 0 || element.index > GraphModel::maxArrayIndex)
                     throw Error(fmt::format("{}: {}: array index {} must be a whole number from 0 to {}", at(item.first),
-                                            graph_.plugName(p), describe(item.first), Graph::maxArrayIndex));
+                                            graph_.plugName(p), describe(item.first), GraphModel::maxArrayIndex));
                 setFromYaml(element, item.second);
             }
             return;

@@ -126,7 +126,7 @@ int run(const Options& options)
     // A bad -o is reported before the clip is read.
     cli::checkOutputFile(options.output, "rig.yaml");
     cli::checkDistinctFiles({{"the clip", options.clip}}, {{"-o", options.output}});
-    // Node names have a length limit (Graph::maxNameLength); BVH names are cut to fit with this prefix.
+    // Node names have a length limit (GraphModel::maxNameLength); BVH names are cut to fit with this prefix.
     if (options.prefix.size() > 100)
         throw Error(fmt::format("--prefix: {} characters is too long (at most 100)", options.prefix.size()));
     for (char c : options.prefix)

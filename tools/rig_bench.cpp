@@ -135,7 +135,7 @@ int run(const Options& o)
     if (!o.chain.empty()) options.chainSizes = o.chain;
     if (o.noCrowd) options.crowdSizes.clear();
     if (o.noChain) options.chainSizes.clear();
-    // Bounded before any work: 512 bipeds of about 290 nodes each stay within Graph::maxNodes (200 000);
+    // Bounded before any work: 512 bipeds of about 290 nodes each stay within GraphModel::maxNodes (200 000);
     // a chain of 2000 joints is a dense 6000 x 6000 solve per iteration.
     for (const int n : options.crowdSizes)
         if (n < 1 || n > maxCrowd)

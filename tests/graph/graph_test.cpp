@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 #include <random>
+#include <thread>
 
 #include "core/error.h"
 #include "graph/graph.h"
@@ -304,4 +305,71 @@ TEST_CASE("plugins register node types through initializePlugin")
     CHECK(std::get<double>(g.getValue(g.plug("d.output"))) == 42.0);
     CHECK(errorOf([&] { registry->loadPlugin("noSuchPlugin", {folder}); })
               .starts_with("plugin 'noSuchPlugin' not found (looked for " + (folder / "noSuchPlugin.so").string()));
+}
+
+TEST_CASE("instances share one model, keep their own values and caches, and evaluate at the same time")
+{
+    std::mt19937 rng(7);
+    auto original = makeWideGraph(rng);
+    original->setValue(original->plug("c0_j0_drv.a"), 12.5);
+    std::vector<Plug> plugs;
+    for (NodeId n = 0; n < original->nodeCount(); ++n)
+        if (original->nodeType(n).name() == "joint") plugs.push_back(original->plug(original->nodeName(n) + ".worldMatrix"));
+
+    std::vector<std::unique_ptr<Graph>> instances;
+    for (int i = 0; i < 3; ++i) instances.push_back(original->instance());
+    CHECK(&instances[0]->model() == &original->model());
+    CHECK(std::get<double>(instances[0]->getValue(instances[0]->plug("c0_j0_drv.a"))) == 12.5);
+    CHECK(instances[0]->computeCount() == 0);
+
+    // Each instance its own pose, evaluated on its own thread (one of them in parallel inside), against the
+    // same poses evaluated one after the other on the original.
+    auto pose = [](Graph& g, int i) {
+        for (int k = 0; k < 8; ++k) g.setValue(g.plug(fmt::format("c{}_j{}_drv.a", k, (k * 7 + i) % 30)), 10.0 * i - k);
+    };
+    instances[2]->setThreads(2);
+    std::vector<std::thread> threads;
+    for (int i = 0; i < 3; ++i)
+        threads.emplace_back([&, i] {
+            pose(*instances[static_cast<std::size_t>(i)], i);
+            instances[static_cast<std::size_t>(i)]->evaluate(plugs);
+        });
+    for (auto& t : threads) t.join();
+    for (int i = 0; i < 3; ++i) {
+        auto reference = original->instance();
+        pose(*reference, i);
+        for (const Plug& p : plugs)
+            REQUIRE(bitEqual(reference->getValue(p), instances[static_cast<std::size_t>(i)]->getValue(p)));
+    }
+    // A value set on one instance is not seen by the others.
+    CHECK(std::get<double>(original->getValue(original->plug("c0_j0_drv.a"))) == 12.5);
+}
+
+TEST_CASE("editing an instance's topology copies the model: the other instances keep theirs")
+{
+    Graph graph(testRegistry());
+    graph.addNode("add", "first");
+    auto other = graph.instance();
+    const NodeId second = other->addNode("add", "second");
+    other->connect(other->plug("first.sum"), other->plug("second.a"));
+    CHECK(&other->model() != &graph.model());
+    CHECK(graph.nodeCount() == 1);
+    CHECK(graph.findNode("second") == -1);
+    CHECK(other->nodeCount() == 2);
+    other->setValue(other->plug("first.a"), 2.0);
+    CHECK(std::get<double>(other->getValue(other->plug("second.sum"))) == 2.0);
+    CHECK(other->nodeName(second) == "second");
+}
+
+TEST_CASE("resetState starts stateful nodes again, as a fresh instance would")
+{
+    Graph graph(testRegistry());
+    graph.addNode("counter", "count");
+    const Plug out = graph.plug("count.output");
+    CHECK(std::get<double>(graph.getValue(out)) == 1.0);
+    graph.dirtyAll();
+    CHECK(std::get<double>(graph.getValue(out)) == 2.0);
+    graph.resetState();
+    CHECK(std::get<double>(graph.getValue(out)) == 1.0);
+    CHECK(std::get<double>(graph.instance()->getValue(out)) == 1.0);
 }
