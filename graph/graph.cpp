@@ -40,9 +40,18 @@ std::unique_ptr<Graph> Graph::instance() const
 
 void Graph::resetState()
 {
-    for (NodeId n = 0; n < nodeCount(); ++n)
-        if (model_->topology(n).type->stateful()) nodes_[static_cast<std::size_t>(n)].impl = nodeType(n).create();
-    dirtyAll();
+    // Only stateful nodes and what they feed compute again: every other cache holds what a fresh instance
+    // would compute (checked mode holds the graph to that).
+    for (NodeId n = 0; n < nodeCount(); ++n) {
+        if (!model_->topology(n).type->stateful()) continue;
+        NodeState& state = nodes_[static_cast<std::size_t>(n)];
+        state.impl = nodeType(n).create();
+        for (std::size_t a = 0; a < state.data.size(); ++a) {
+            if (model_->topology(n).spec(static_cast<AttrId>(a)).input || state.data[a].dirty) continue;
+            state.data[a].dirty = true;
+            dirtyAffectedBy(n, static_cast<AttrId>(a));
+        }
+    }
 }
 
 GraphModel& Graph::editModel()

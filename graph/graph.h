@@ -37,8 +37,9 @@ public:
     // values set on this one's inputs and its scene time, and its own caches and node state, as if
     // nothing had been computed. Editing either graph's topology afterwards copies its model first.
     std::unique_ptr<Graph> instance() const;
-    // Forgets what was computed and the state of stateful nodes (history-dependent ones start again), as
-    // a fresh instance would; set values stay.
+    // Starts stateful nodes again (history-dependent ones forget their past), as in a fresh instance; what
+    // they feed computes again, other caches stay (they hold what a fresh instance would compute), and so
+    // do set values.
     void resetState();
 
     const GraphModel& model() const { return *model_; }

@@ -8,6 +8,7 @@
 #include <Eigen/Dense>
 #include <fmt/format.h>
 
+#include "core/error.h"
 #include "core/rotation_math.h"
 
 namespace rig {
@@ -558,6 +559,36 @@ std::vector<std::pair<double, double>> flatRanges(Context& c, const std::vector<
 
 }  // namespace
 
+void takeFirstSamples(RigFunction& rig, int index, const std::vector<Eigen::Matrix4d>& rest,
+                      const LearnOptions& options, ParameterSamples& samples)
+{
+    const RigParameter& parameter = rig.parameters()[static_cast<std::size_t>(index)];
+    const double lo = parameter.min - parameter.defaultValue;
+    const double hi = parameter.max - parameter.defaultValue;
+    if (!(hi > lo) || (lo == 0.0 && hi == 0.0)) return;
+    std::vector<double> values;
+    for (const auto& p : rig.parameters()) values.push_back(p.defaultValue);
+    std::map<double, std::vector<Eigen::Matrix4d>> all;
+    for (double a : initialOffsets(lo, hi, options.samples, parameter.angular)) {
+        values[static_cast<std::size_t>(index)] = parameter.defaultValue + a;
+        rig.evaluate(values, all[a]);
+    }
+    values[static_cast<std::size_t>(index)] = parameter.defaultValue;
+    rig.evaluate(values, samples.restAfter);
+    samples.taken = true;
+    for (std::size_t k = 0; k < rest.size(); ++k)
+        for (const auto& [a, worlds] : all)
+            if (!(matrixError(worlds[k], rest[k], options.frameRadius) <= options.effectTolerance)) {
+                samples.moved.push_back(static_cast<int>(k));
+                break;
+            }
+    for (const auto& [a, worlds] : all) {
+        std::vector<Eigen::Matrix4d> raw;
+        for (int k : samples.moved) raw.push_back(worlds[static_cast<std::size_t>(k)]);
+        samples.worlds.emplace(a, std::move(raw));
+    }
+}
+
 Classification classifyParameter(RigProbe& probe, int index, RigState& state, ParameterSamples& samples,
                                  const LearnOptions& options)
 {
@@ -575,36 +606,18 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
     }
 
     const std::vector<double> offsets = initialOffsets(lo, hi, options.samples, parameter.angular);
-    if (!samples.taken) {
-        // Sample the parameter alone, then check that the rest pose comes back as it was before.
-        samples.taken = true;
-        std::map<double, std::vector<Eigen::Matrix4d>> all;
-        for (double a : offsets) all[a] = probe.at(index, a);
-        const std::vector<Eigen::Matrix4d> again = probe.at(-1, 0.0);
-        for (std::size_t k = 0; k < rest.size(); ++k) {
-            if (state.unreliable[k]) continue;
-            const double moved = matrixError(again[k], state.lastRest[k], options.frameRadius);
-            if (moved > options.effectTolerance) {
-                // Its value depends on earlier evaluations: no parameter can be modelled on it.
-                state.unreliable[k] = 1;
-                if (samples.historyDependent.empty())
-                    samples.historyDependent =
-                        fmt::format("history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
-                                    "(its outputs depend on earlier evaluations, not on the parameters alone)",
-                                    outputNames[k], moved);
-            }
-        }
-        state.lastRest = again;
-        for (std::size_t k = 0; k < rest.size(); ++k)
-            for (const auto& [a, worlds] : all)
-                if (!(matrixError(worlds[k], rest[k], options.frameRadius) <= options.effectTolerance)) {
-                    samples.moved.push_back(static_cast<int>(k));
-                    break;
-                }
-        for (const auto& [a, worlds] : all) {
-            std::vector<Eigen::Matrix4d> raw;
-            for (int k : samples.moved) raw.push_back(worlds[static_cast<std::size_t>(k)]);
-            samples.worlds.emplace(a, std::move(raw));
+    if (!samples.taken) throw internalError(fmt::format("classifyParameter: {} has no first samples", parameter.name));
+    for (std::size_t k = 0; k < rest.size(); ++k) {
+        if (state.unreliable[k]) continue;
+        const double moved = matrixError(samples.restAfter[k], rest[k], options.frameRadius);
+        if (moved > options.effectTolerance) {
+            // Its value depends on earlier evaluations: no parameter can be modelled on it.
+            state.unreliable[k] = 1;
+            if (samples.historyDependent.empty())
+                samples.historyDependent =
+                    fmt::format("history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
+                                "(its outputs depend on earlier evaluations, not on the parameters alone)",
+                                outputNames[k], moved);
         }
     }
 

@@ -52,6 +52,7 @@ struct ParameterSamples {
     bool taken = false;
     std::vector<int> moved;  // outputs whose raw world moves at a first sample, increasing
     std::map<double, std::vector<Eigen::Matrix4d>> worlds;  // offset -> raw world per `moved` entry
+    std::vector<Eigen::Matrix4d> restAfter;  // every output at rest again, after the first samples
     std::string historyDependent;  // what its first samples showed, if it made an output history-dependent
 
     // Raw world of output k at a sampled offset (its rest world when k does not move).
@@ -71,17 +72,22 @@ struct Classification {
     int reach = 0;                             // outputs whose raw world it moves
 };
 
-// What the learner knows of the rig's state between parameters: the rest pose as last evaluated, and
-// the outputs found to depend on earlier evaluations (a spring) or singular at rest, which no
-// parameter is modelled on.
+// What the learner knows of the rig's state between parameters: the outputs found to depend on earlier
+// evaluations (a spring) or singular at rest, which no parameter is modelled on.
 struct RigState {
-    std::vector<Eigen::Matrix4d> lastRest;
     std::vector<char> unreliable;  // per output
 };
 
-// Classifies one parameter in the probe's frames, sampling the rig only where `samples` has no sample
-// yet. A parameter after whose first samples some outputs do not come back to their rest pose marks
-// them unreliable in `state`; it is modelled on its other outputs, if it moves any.
+// The first samples of parameter `index` alone: at its initial offsets, then at rest again, on `rig` in a
+// fresh state (RigPool), so that they depend on nothing evaluated before. `rest` is every output at the
+// rest values. Nothing is taken for a parameter whose range is empty.
+void takeFirstSamples(RigFunction& rig, int index, const std::vector<Eigen::Matrix4d>& rest,
+                      const LearnOptions& options, ParameterSamples& samples);
+
+// Classifies one parameter in the probe's frames from its first samples (taken: takeFirstSamples),
+// sampling the rig again only where `samples` has no sample yet. A parameter after whose first samples
+// some outputs do not come back to their rest pose marks them unreliable in `state`; it is modelled on
+// its other outputs, if it moves any.
 Classification classifyParameter(RigProbe& probe, int index, RigState& state, ParameterSamples& samples,
                                  const LearnOptions& options);
 

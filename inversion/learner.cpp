@@ -1,6 +1,7 @@
 #include "inversion/learner.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -8,6 +9,7 @@
 #include <set>
 #include <numbers>
 #include <random>
+#include <thread>
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>
@@ -17,6 +19,7 @@
 #include "inversion/classifier.h"
 #include "inversion/jacobian.h"
 #include "inversion/ordering.h"
+#include "inversion/rig_pool.h"
 
 namespace rig {
 
@@ -35,6 +38,7 @@ void LearnOptions::validate() const
         fail("effectTolerance", effectTolerance, "must be a positive number");
     if (validationPoses < 0) fail("validationPoses", validationPoses, "must not be negative");
     if (limitPoses < 0) fail("limitPoses", limitPoses, "must not be negative");
+    if (threads < 0 || threads > 1024) fail("threads", threads, "must be 0 (all cores) to 1024");
 }
 
 double matrixError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double frameRadius)
@@ -337,12 +341,13 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
 {
     options.validate();
     const auto start = std::chrono::steady_clock::now();
+    const std::thread::id caller = std::this_thread::get_id();
     const std::uint64_t evaluationsBefore = rig.evaluationCount();
     RigProbe probe(rig);
     const std::vector<Eigen::Matrix4d>& rest = probe.rest();
     const auto& parameters = rig.parameters();
 
-    RigState state{rest, std::vector<char>(rest.size(), 0)};
+    RigState state{std::vector<char>(rest.size(), 0)};
     std::map<int, std::string> dropped;  // rig output -> why the approximation leaves it out
     for (std::size_t k = 0; k < rest.size(); ++k) {
         std::string why = singularRest(rest[k]);
@@ -368,7 +373,19 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     };
     usableParents();
 
+    // Every parameter's first samples, each on a fresh instance of the rig: the bulk of the evaluations,
+    // and independent of each other.
     std::vector<ParameterSamples> samples(parameters.size());
+    RigPool pool(rig, options.threads == 0 ? static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))
+                                           : options.threads);
+    std::atomic<int> sampled{0};
+    pool.forEach(static_cast<int>(parameters.size()), [&](RigFunction& instance, int i) {
+        takeFirstSamples(instance, i, rest, options, samples[static_cast<std::size_t>(i)]);
+        // Progress from the caller's thread only: callbacks need not be thread-safe.
+        if (options.progress && std::this_thread::get_id() == caller)
+            options.progress("sampling", static_cast<double>(sampled + 1) / static_cast<double>(parameters.size()));
+        ++sampled;
+    });
     ValidationPoses poses = drawPoses(parameters, options);
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
@@ -433,7 +450,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         if (state.unreliable[k] && !dropped.contains(static_cast<int>(k)))
             dropped[static_cast<int>(k)] = "history-dependent: it does not come back to its rest pose after other samples";
     for (const auto& [k, reason] : dropped) result.droppedOutputs.push_back({rig.outputs()[static_cast<std::size_t>(k)], reason});
-    result.training.evaluations = rig.evaluationCount() - evaluationsBefore;
+    result.training.evaluations = rig.evaluationCount() - evaluationsBefore + pool.evaluationCount();
     result.training.orderEvaluations = orderEvaluations;
     result.training.orderer = std::string(ordererName(options.orderer));
     result.training.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

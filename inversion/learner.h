@@ -46,6 +46,9 @@ struct LearnOptions {
     // Poses with every modelled parameter at its min or its max (chosen at random), validated as well.
     int limitPoses = 10;
     std::uint32_t seed = 1;
+    // Rig instances evaluating the black box at the same time (RigFunction::instance; 0: all cores). The
+    // approximation is the same for any count.
+    int threads = 1;
     // Called with a stage name and the fraction done (0..1); may be empty.
     std::function<void(std::string_view stage, double fraction)> progress;
 

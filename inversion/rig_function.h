@@ -1,9 +1,11 @@
 #pragma once
 // The rig as the learner sees it: a black box F(beta) from parameter values to the world matrices of
-// its outputs (the talk's rig function). It may be slow and is not thread-safe: a production rig is a
-// stateful graph. inversion/ never sees how it is computed.
+// its outputs (the talk's rig function). It may be slow and one object is not thread-safe (a production
+// rig is a stateful graph), but a rig may offer independent instances of itself, one per thread.
+// inversion/ never sees how it is computed.
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <string>
 #include <vector>
@@ -40,6 +42,12 @@ public:
     virtual std::uint64_t evaluationCount() const = 0;
     // Identifies the rig (its files' contents), so an approximation can tell it was made for another.
     virtual std::string fingerprint() const = 0;
+    // Another instance of the same rig, with its own state, to evaluate on another thread at the same
+    // time as this one; it starts fresh (resetState) and counts its own evaluations. Null when the rig
+    // cannot make one: work meant for instances then runs on this object, one item after another.
+    virtual std::unique_ptr<RigFunction> instance() const { return nullptr; }
+    // Forgets the evaluation history (history-dependent parts start again), as a fresh instance would.
+    virtual void resetState() {}
 };
 
 }  // namespace rig

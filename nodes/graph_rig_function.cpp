@@ -229,6 +229,21 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
     for (NodeId n : chosen) outputParents_.push_back(parentOutput(g, n, outputOfNode));
 }
 
+GraphRigFunction::GraphRigFunction(const GraphRigFunction& other)
+    : graph_(other.graph_->instance()), parameters_(other.parameters_), parameterPlugs_(other.parameterPlugs_),
+      current_(other.current_), outputNames_(other.outputNames_), outputPlugs_(other.outputPlugs_),
+      outputParents_(other.outputParents_), outputWorlds_(other.outputWorlds_.size()),
+      computesSeen_(other.computesSeen_.size(), notRead), fingerprint_(other.fingerprint_), files_(other.files_)
+{
+}
+
+std::unique_ptr<RigFunction> GraphRigFunction::instance() const
+{
+    return std::unique_ptr<RigFunction>(new GraphRigFunction(*this));
+}
+
+void GraphRigFunction::resetState() { graph_->resetState(); }
+
 void GraphRigFunction::evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds)
 {
     if (values.size() != parameters_.size())

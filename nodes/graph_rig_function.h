@@ -2,7 +2,8 @@
 // The rig as a black box for the learner and the solver: a RigFunction backed by a private graph
 // instance loaded from a rig file. Parameters are free keyable scalar input plugs named by globs
 // ('L_arm_*.rotate?', 'hips.translate?'); outputs are joints (all, or by name globs), read as world
-// matrices. Evaluations are counted and serial: the graph is stateful (docs/rig-learn.md).
+// matrices. Evaluations are counted; one object evaluates serially (the graph is stateful), instances
+// of it in parallel (docs/rig-learn.md).
 
 #include <cstdint>
 #include <filesystem>
@@ -72,6 +73,9 @@ public:
     std::uint64_t evaluationCount() const override { return evaluations_; }
     // FNV-1a 64 (16 hex digits) over the contents of the rig file and every file it includes.
     std::string fingerprint() const override { return fingerprint_; }
+    // Shares the parsed rig (Graph::instance): no file is read again.
+    std::unique_ptr<RigFunction> instance() const override;
+    void resetState() override;
     // The rig file and every file it includes, in reading order.
     const std::vector<std::filesystem::path>& files() const { return files_; }
 
@@ -82,6 +86,8 @@ public:
     const std::vector<Plug>& outputPlugs() const { return outputPlugs_; }
 
 private:
+    GraphRigFunction(const GraphRigFunction& other);
+
     std::unique_ptr<Graph> graph_;
     std::vector<RigParameter> parameters_;
     std::vector<Plug> parameterPlugs_;

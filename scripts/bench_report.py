@@ -224,8 +224,15 @@ def train_block(b):
                      f"{t['modelled']}/{t['parameters']}", t.get("relative_outputs", ""),
                      num(t["validation_max_position_error_cm"]), num(t["validation_max_rotation_error_deg"]),
                      num(t["validation_max_relative_error"]), "yes" if t["within_epsilon"] else "NO"))
-    return table(["orderer", "rig evaluations", "of which ordering", "seconds", "modelled", "relative outputs",
-                  "validation worst cm", "validation worst deg", "worst cm per unit", "within epsilon"], rows)
+    out = table(["orderer", "rig evaluations", "of which ordering", "seconds", "modelled", "relative outputs",
+                 "validation worst cm", "validation worst deg", "worst cm per unit", "within epsilon"], rows)
+    # Training on 1 and 2 rig instances (rig-learn --threads): the biped, and the largest crowd.
+    threads = [("biped", b["train"]["threads"])] + [
+        (f"{r['rig']} {r['count']}", r["train_threads"]) for r in b["scaling"] if r.get("train_threads")]
+    rows = [(name, num(t["seconds_1_threads"]), num(t["seconds_2_threads"]),
+             num(t["seconds_1_threads"] / t["seconds_2_threads"]), "yes" if t["same_approximation"] else "NO")
+            for name, t in threads]
+    return out + "\n\n" + table(["rig", "1 instance s", "2 instances s", "speed-up", "same approximation"], rows)
 
 
 def accuracy_block(b):

@@ -84,12 +84,29 @@ InversionSpec readSpec(const std::filesystem::path& file)
     return spec;
 }
 
-LearnOptions learnOptions(Orderer orderer, bool relativeFrames = true)
+LearnOptions learnOptions(Orderer orderer, bool relativeFrames = true, int threads = 1)
 {
     LearnOptions o;  // rig-learn's defaults
     o.orderer = orderer;
     o.relativeFrames = relativeFrames;
+    o.threads = threads;
     return o;
+}
+
+// Training wall time on 1 and 2 rig instances, and whether both wrote the same approximation (training
+// time aside), as rig-learn --threads promises.
+Json threadsJson(RigFunction& rig, const std::string& rigFile)
+{
+    Json out = Json::object();
+    std::vector<std::string> texts;
+    for (const int threads : {1, 2}) {
+        Approximation a = learnApproximation(rig, learnOptions(Orderer::structured, true, threads), rigFile);
+        out[fmt::format("seconds_{}_threads", threads)] = a.training.seconds;
+        a.training.seconds = 0.0;
+        texts.push_back(approximationToYaml(a));
+    }
+    out["same_approximation"] = texts[0] == texts[1];
+    return out;
 }
 
 Json trainingJson(const Approximation& a, std::size_t rigParameters)
@@ -363,6 +380,8 @@ void runBipedBench(const BenchOptions& o, Json& report)
     train["seconds"] = approximation.training.seconds;
     train["orderer"] = approximation.training.orderer;
     train["orderers"] = std::move(orderers);
+    say(o, "training the biped's approximation on 1 and 2 rig instances");
+    train["threads"] = threadsJson(rig, o.rig.string());
     if (!o.talkOrderer) train["note"] = "the talk's orderer is not run with --quick";
     report["train"] = std::move(train);
     if (approximation.parameters.empty()) throw Error(fmt::format("{}: the approximation models no parameter", o.rig.string()));
@@ -698,6 +717,12 @@ void runScaling(const BenchOptions& o, Json& report)
         say(o, fmt::format("scaling: {} {} ({} parameters): training", kind, count, rig.parameters().size()));
         const Approximation a = learnApproximation(rig, learnOptions(Orderer::structured), r.file.string());
         const double trainingPeakMb = peakResidentMb() - residentBefore;
+        // The largest crowd, the heaviest rig, learned again on 1 and 2 rig instances.
+        Json threads;
+        if (kind == "crowd" && count == o.crowdSizes.back()) {
+            say(o, fmt::format("scaling: {} {}: training on 1 and 2 rig instances", kind, count));
+            threads = threadsJson(rig, r.file.string());
+        }
         RigBinding binding(a, rig);
         // Frame 0, a cold start from rest, is a lead-in: the rows compare steady warm-started frames, which
         // a handful of frames then measures without one outlier dominating.
@@ -747,6 +772,7 @@ void runScaling(const BenchOptions& o, Json& report)
                        {"train_evaluations", a.training.evaluations},
                        {"train_order_evaluations", a.training.orderEvaluations},
                        {"train_seconds", a.training.seconds},
+                       {"train_threads", threads},
                        {"validation_max_relative_error", a.validation.maxRelativeError},
                        {"within_epsilon", a.validation.withinEpsilon},
                        {"frames", run.frames()},

@@ -33,8 +33,8 @@ Orderer ordererFromName(const std::string& name)
 
 double learningFraction(std::string_view stage, double fraction)
 {
-    const double start = stage == "classifying" ? 0.0 : stage == "ordering" ? 0.6 : 0.85;
-    const double width = stage == "classifying" ? 0.6 : stage == "ordering" ? 0.25 : 0.15;
+    const double start = stage == "sampling" ? 0.0 : stage == "classifying" ? 0.45 : stage == "ordering" ? 0.6 : 0.85;
+    const double width = stage == "sampling" ? 0.45 : stage == "classifying" ? 0.15 : stage == "ordering" ? 0.25 : 0.15;
     return start + width * fraction;
 }
 

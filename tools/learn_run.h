@@ -21,8 +21,8 @@ double parseEpsilon(const std::string& text);
 // "structured" or "talk", else rig::Error (the command line's CLI11 check says the same).
 Orderer ordererFromName(const std::string& name);
 
-// Overall fraction done from the learner's stage and the fraction of that stage (classification is most
-// of the work; ordering and validation share the rest).
+// Overall fraction done from the learner's stage and the fraction of that stage (the first samples and
+// the classification are most of the work; ordering and validation share the rest).
 double learningFraction(std::string_view stage, double fraction);
 
 struct LearnJob {

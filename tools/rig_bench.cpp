@@ -66,6 +66,16 @@ void printSummary(const bench::Json& r)
                                  text(cer.at("linear_solver")), figure(cer.at("ours_ms_per_frame"), "ms"));
     std::cout << fmt::format("training    {} evaluations, {}\n", figure(train.at("evaluations"), "", 6),
                              figure(train.at("seconds"), "s"));
+    const auto threadsLine = [](const std::string& what, const bench::Json& t) {
+        std::cout << fmt::format("training    {}: {} on 1 rig instance, {} on 2 ({})\n", what,
+                                 figure(t.at("seconds_1_threads"), "s"), figure(t.at("seconds_2_threads"), "s"),
+                                 t.at("same_approximation").get<bool>() ? "the same approximation"
+                                                                        : "DIFFERENT approximations");
+    };
+    threadsLine("biped", train.at("threads"));
+    for (const auto& row : r.at("scaling"))
+        if (!row.at("train_threads").is_null())
+            threadsLine(fmt::format("{} {}", text(row.at("rig")), figure(row.at("count"), "", 6)), row.at("train_threads"));
     for (const auto& row : r.at("scaling"))
         std::cout << fmt::format("scaling     {} {}: {} parameters, {} per frame, jacobian {}, {} evaluations\n",
                                  text(row.at("rig")), figure(row.at("count"), "", 6), figure(row.at("parameters"), "", 6),

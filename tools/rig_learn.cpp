@@ -39,6 +39,7 @@ struct Options {
     std::map<std::string, std::string> specPlaces;  // glob -> its file:line:col in the spec, for messages
     bool allowInexact = false;
     bool worldSpace = false;
+    int threads = 0;
 };
 
 // A spec file (docs/rig-learn.md): `params:` and optionally `outputs:`, lists of globs, added to the
@@ -198,6 +199,7 @@ int run(Options& options)
     if (options.epsilonGiven) job.options.epsilon = cli::parseEpsilon(options.epsilon);
     job.options.orderer = cli::ordererFromName(options.orderer);
     job.options.relativeFrames = !options.worldSpace;
+    job.options.threads = options.threads;
     job.rigLoaded = [&](const GraphRigFunction& rig) {
         std::vector<cli::NamedFile> read;
         for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
@@ -274,6 +276,10 @@ int main(int argc, char** argv)
                  "Learn every output in world space, as the talk does (default: relative to its parent output where that validates)");
     app.add_flag("--allow-inexact", options.allowInexact,
                  "Write the approximation even when its validation exceeds epsilon (otherwise exit code 3, nothing written)");
+    app.add_option("--threads", options.threads,
+                   "Rig instances evaluating at the same time: 1 serial, N parallel, 0 all cores (default); the "
+                   "approximation is the same for any count")
+        ->check(rig::cli::threadCount());
     app.add_option("--plugin", options.plugins, "Load a node plugin before reading the rig (repeatable)")
         ->allow_extra_args(false);
     return rig::cli::runMain(app, argc, argv, [&] {

@@ -99,6 +99,43 @@ TEST_CASE("rig-learn: discards in the report and the JSON, with their reasons, a
     CHECK(rig::readApproximationFile(out).epsilon == 0.01);
 }
 
+// The approximation file without its training time, which no two runs share.
+std::string withoutSeconds(const std::filesystem::path& file)
+{
+    std::istringstream in(rig::test::readFile(file));
+    std::string out, line;
+    while (std::getline(in, line))
+        if (line.find("seconds:") == std::string::npos) out += line + "\n";
+    return out;
+}
+
+TEST_CASE("rig-learn: --threads N evaluates rig instances in parallel and writes the same approximation for any N")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-threads");
+    // The biped, and the nasty rig with its history-dependent spring, which each item sees from a fresh
+    // instance whatever ran before it on that thread.
+    const std::vector<std::pair<std::string, std::string>> rigs{
+        {"biped", "rigs/biped.yaml --spec rigs/biped_inversion.yaml"},
+        {"nasty", "rigs/nasty.yaml --params nasty_ctrl.coupledTurn nasty_ctrl.coupledBend nasty_ctrl.springy "
+                  "'nasty_ctrl.redundant?' --epsilon 0.01"}};
+    for (const auto& [name, args] : rigs) {
+        CAPTURE(name);
+        std::vector<std::string> files;
+        for (const int threads : {1, 2, 3}) {
+            const auto out = dir / fmt::format("{}_{}.yaml", name, threads);
+            const auto r = run(rigLearn(fmt::format("{} --threads {} -o '{}'", args, threads, out.string())));
+            REQUIRE(r.exitCode == 0);
+            files.push_back(withoutSeconds(out));
+        }
+        CHECK(files[0].find("evaluations:") != std::string::npos);
+        CHECK(files[1] == files[0]);
+        CHECK(files[2] == files[0]);
+    }
+    checkBadInput(fmt::format("{} {} --threads -1 -o '{}'", arm, armParams, (dir / "x.yaml").string()),
+                  "--threads: '-1' is not a thread count; give a whole number from 0 (all cores) to 1024; run "
+                  "'rig-learn --help' for usage");
+}
+
 TEST_CASE("rig-learn: bad input is one error line and exit code 2, and an existing output is left untouched")
 {
     const auto dir = rig::test::scratchDir("rig-learn-errors");
