@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/rotation_math.h"
+#include "core/thread_clock.h"
 #include "inversion/continuity.h"
 
 namespace rig {
@@ -125,25 +126,29 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     for (int frame = first - summary.leadInFrames; frame <= last; ++frame) {
         const auto& frameTargets = targets.frames[frame];
         const auto start = Clock::now();
+        const double cpuStart = threadCpuSeconds();
         const bool restart = frame % options.restartInterval == 0;
         if (restart) {
             current = rest;
             if (options.coldStart) solver.initialGuess(frameTargets, current);
         }
-        solveChainFrame(solver, frameTargets, current, options.retryStuck && !restart ? previousCost : retryNever,
-                        chainScratch, solved);
+        const double previous = options.retryStuck && !restart ? previousCost : retryNever;
+        if (options.frameSolve) options.frameSolve(frameTargets, current, previous, solved);
+        else solveChainFrame(solver, frameTargets, current, previous, chainScratch, solved);
         const SolveSummary& solve = solved.summary;
         const bool retried = solved.retried, kept = solved.kept;
         if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
-        if (options.polishCorrections > 0 && solve.termination != TerminationType::invalidTargets)
+        if (options.polishCorrections > 0 && !options.frameSolve && solve.termination != TerminationType::invalidTargets)
             polish(solver, rig, frameTargets, current, options.polishCorrections);
         if (restart) shift = continuing ? continuityShift(equivalences, reported, current) : noShift(equivalences);
         applyShift(equivalences, shift, current, reported);
         continuing = true;
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+        const double cpuSeconds = threadCpuSeconds() - cpuStart;
         if (frame < first) continue;
 
         summary.solveSeconds += seconds;
+        summary.solveCpuSeconds += cpuSeconds;
         values.push_back(reported);
         FrameInversion result;
         result.frame = frame;

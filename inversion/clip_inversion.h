@@ -40,6 +40,32 @@ struct ClipTargets {
 ClipTargets matchTargets(const Approximation& approximation, std::span<const std::string> joints,
                          std::span<const std::vector<Eigen::Matrix4d>> worlds);
 
+// One frame of a warm-start chain (invertClip and the rigInversion node): solve from `values` (the warm
+// start, out the solution). When it ends stuck at a cost above twice `previousCost` plus
+// 0.5 targetTolerance^2, it is solved again from Solver::initialGuess at the same warm start and the
+// cheaper answer is kept (ClipInversionOptions::retryStuck). `previousCost` = retryNever: no retry
+// (restart frames). `frame` is the result; it and `scratch` keep their storage from frame to frame, so
+// that a chain allocates nothing once they have grown.
+inline constexpr double retryNever = std::numeric_limits<double>::infinity();
+struct ChainFrame {
+    SolveSummary summary;  // of the answer kept; iterations of both solves when the second is kept
+    bool retried = false;
+    bool kept = false;     // the second answer was cheaper
+};
+struct ChainScratch {
+    std::vector<double> start;  // the warm start, for the second solve
+    SolveSummary second;
+};
+void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                     double previousCost, ChainScratch& scratch, ChainFrame& frame);
+
+// How a chain solves one frame: `values` in, the warm start (at a restart frame, the start the options
+// chose), out, the solution; `previousCost` as solveChainFrame takes it; `frame` the result. Empty: the
+// approximation's solver, as rig-invert runs it (solveChainFrame). rig-bench plugs its peers in (Gauss-Newton
+// on the real rig, Ceres), so that every solver runs in the very same chains.
+using FrameSolveStrategy = std::function<void(std::span<const JointTarget> targets, std::vector<double>& values,
+                                              double previousCost, ChainFrame& frame)>;
+
 struct ClipInversionOptions {
     SolverOptions solver;
     // Real-rig polish corrections per frame (inversion/rig_binding.h, polish()); 0: approximation only.
@@ -62,29 +88,12 @@ struct ClipInversionOptions {
     std::vector<double> continueFrom;
     // Called after each reported frame with the fraction done; may be empty.
     std::function<void(double fraction)> progress;
+    // The per-frame solve; empty: the solver's (see FrameSolveStrategy). A strategy gets no polish.
+    FrameSolveStrategy frameSolve;
 
     // Throws rig::Error naming the field (and the solver's fields).
     void validate() const;
 };
-
-// One frame of a warm-start chain (invertClip and the rigInversion node): solve from `values` (the warm
-// start, out the solution). When it ends stuck at a cost above twice `previousCost` plus
-// 0.5 targetTolerance^2, it is solved again from Solver::initialGuess at the same warm start and the
-// cheaper answer is kept (ClipInversionOptions::retryStuck). `previousCost` = retryNever: no retry
-// (restart frames). `frame` is the result; it and `scratch` keep their storage from frame to frame, so
-// that a chain allocates nothing once they have grown.
-inline constexpr double retryNever = std::numeric_limits<double>::infinity();
-struct ChainFrame {
-    SolveSummary summary;  // of the answer kept; iterations of both solves when the second is kept
-    bool retried = false;
-    bool kept = false;     // the second answer was cheaper
-};
-struct ChainScratch {
-    std::vector<double> start;  // the warm start, for the second solve
-    SolveSummary second;
-};
-void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
-                     double previousCost, ChainScratch& scratch, ChainFrame& frame);
 
 struct FrameInversion {
     int frame = 0;                      // index in the clip, 0-based
@@ -116,6 +125,7 @@ struct ClipInversionSummary {
     std::string worstJoint;
     int worstFrame = -1;                // 0-based clip index
     double solveSeconds = 0.0;          // solver and polish time of the reported frames (lead-in and the error measurement excluded)
+    double solveCpuSeconds = 0.0;       // the same span in this thread's CPU time (steadier on a busy machine)
     double msPerFrame = 0.0;            // solveSeconds per reported frame, ms
     int leadInFrames = 0;               // solved before `first` to join the warm-start chain
     // Frames where the real rig gave a non-finite matrix for a joint with a target: misses, not

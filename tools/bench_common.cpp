@@ -30,13 +30,6 @@ double secondsSince(std::chrono::steady_clock::time_point start)
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-double threadCpuSeconds()
-{
-    timespec t{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
-
 namespace {
 
 double median(std::vector<double> v)
@@ -192,35 +185,6 @@ std::optional<double> growthExponent(std::span<const double> x, std::span<const 
     }
     if (!(sxx > 1e-12)) return std::nullopt;
     return sxy / sxx;
-}
-
-// --- errors ---
-
-void ErrorStats::addFrame(std::span<const Eigen::Matrix4d> worlds, std::span<const JointTarget> targets)
-{
-    ++frames;
-    for (std::size_t k = 0; k < targets.size() && k < worlds.size(); ++k) {
-        if (!targets[k].active) continue;
-        PreparedTarget prepared;
-        if (!prepareTarget(targets[k], 1.0, prepared)) continue;  // a target with no orientation: nothing to measure
-        const TargetError e = targetError(worlds[k], prepared);
-        const double degrees = e.rotationRad * 180.0 / std::numbers::pi;
-        if (!std::isfinite(e.positionCm) || !std::isfinite(degrees)) continue;
-        maxPositionCm = std::max(maxPositionCm, e.positionCm);
-        maxRotationDeg = std::max(maxRotationDeg, degrees);
-        sumPositionCm += e.positionCm;
-        sumRotationDeg += degrees;
-        ++joints;
-    }
-}
-
-Json ErrorStats::toJson() const
-{
-    return Json{{"frames", frames},
-                {"max_position_error_cm", maxPositionCm},
-                {"mean_position_error_cm", meanPositionCm()},
-                {"max_rotation_error_deg", maxRotationDeg},
-                {"mean_rotation_error_deg", meanRotationDeg()}};
 }
 
 }  // namespace rig::bench

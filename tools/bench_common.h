@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "core/thread_clock.h"
 #include "inversion/jacobian.h"
 
 namespace rig::bench {
@@ -39,8 +40,6 @@ struct Timing {
 Timing timeRepeated(const std::function<void()>& operation, double budgetSeconds, int minBatches = 5);
 
 double secondsSince(std::chrono::steady_clock::time_point start);
-// CPU seconds the calling thread has used.
-double threadCpuSeconds();
 
 // The machine and build: cores, CPU model, compiler, build type, library versions, load average.
 Json machineDescription();
@@ -58,21 +57,5 @@ bool resetPeakResident();
 // Least-squares slope of log(y) against log(x) over the points with x, y > 0: y ~ x^slope.
 // nullopt with fewer than two such points or a single distinct x.
 std::optional<double> growthExponent(std::span<const double> x, std::span<const double> y);
-
-// Real-rig errors against targets, accumulated over joints and frames.
-struct ErrorStats {
-    double maxPositionCm = 0.0;
-    double maxRotationDeg = 0.0;
-    double sumPositionCm = 0.0;
-    double sumRotationDeg = 0.0;
-    long long joints = 0;  // joint-frames counted
-    int frames = 0;
-
-    // One frame: the real rig's worlds (one per Approximation::outputs) against the active targets.
-    void addFrame(std::span<const Eigen::Matrix4d> worlds, std::span<const JointTarget> targets);
-    double meanPositionCm() const { return joints ? sumPositionCm / static_cast<double>(joints) : 0.0; }
-    double meanRotationDeg() const { return joints ? sumRotationDeg / static_cast<double>(joints) : 0.0; }
-    Json toJson() const;
-};
 
 }  // namespace rig::bench

@@ -57,8 +57,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// rig-invert's default: a warm-start chain restarts from rest every 120 frames (inversion/clip_inversion.h).
-constexpr int restartInterval = 120;
 
 void say(const BenchOptions& o, const std::string& line)
 {
@@ -126,93 +124,60 @@ Json trainingJson(const Approximation& a, std::size_t rigParameters)
                                                                           [](const auto& out) { return out.parent >= 0; }))}};
 }
 
-// Targets per frame, one per approximation output; `joint` maps an output's name to the clip joint
-// that drives it ("" for none).
-struct Targets {
-    std::vector<std::vector<JointTarget>> frames;
-    int matchedJoints = 0;
-};
-
-Targets clipTargets(const Approximation& a, const TargetClip& clip, int frames,
-                    const std::function<std::string(const std::string&)>& joint)
-{
-    Targets t;
-    std::vector<int> jointOf;
-    for (const auto& out : a.outputs) {
-        const auto found = std::find(clip.joints.begin(), clip.joints.end(), joint(out.name));
-        jointOf.push_back(found == clip.joints.end() ? -1 : static_cast<int>(found - clip.joints.begin()));
-        t.matchedJoints += jointOf.back() >= 0;
-    }
-    if (t.matchedJoints == 0) throw Error(fmt::format("{}: no joint of the clip is an output of the approximation", clip.file));
-    for (int f = 0; f < std::min(frames, static_cast<int>(clip.worlds.size())); ++f) {
-        auto& frame = t.frames.emplace_back(a.outputs.size());
-        for (std::size_t k = 0; k < a.outputs.size(); ++k)
-            if (jointOf[k] >= 0) {
-                frame[k].active = true;
-                frame[k].world = clip.worlds[static_cast<std::size_t>(f)][static_cast<std::size_t>(jointOf[k])];
-            }
-    }
-    return t;
-}
-
-// Frames [first, last] solved as rig-invert solves them (inversion/clip_inversion.h): warm-start chains
-// from the previous frame, restarted from rest every `restartInterval` frames, a chunk joining its chain
-// with untimed lead-in frames. Only `solve` is timed (wall clock and this thread's CPU); the real rig
-// is evaluated afterwards for the errors.
-struct ChainRun {
-    int first = 0;
+// A run of frames through the library's clip inversion (invertClip), as rig-invert runs it: warm-start
+// chains restarted every 120 frames from the initial guess, stuck frames retried, a chunk joining its
+// chain with untimed lead-in frames, the real rig measured against the targets at every frame.
+struct ClipRun {
+    ClipInversionSummary summary;
     std::vector<std::vector<double>> values;  // per reported frame
-    double wallSeconds = 0.0;
-    double cpuSeconds = 0.0;
-    int converged = 0;
-    long long iterations = 0;
-    double sumFinalCost = 0.0;
-    std::uint64_t evaluations = 0;  // real-rig evaluations (the black box)
 
-    int frames() const { return static_cast<int>(values.size()); }
-    double msPerFrame() const { return frames() ? 1e3 * wallSeconds / frames() : 0.0; }
-    double cpuMsPerFrame() const { return frames() ? 1e3 * cpuSeconds / frames() : 0.0; }
+    int frames() const { return summary.frames; }
+    double msPerFrame() const { return summary.msPerFrame; }
+    double cpuMsPerFrame() const { return frames() ? 1e3 * summary.solveCpuSeconds / frames() : 0.0; }
+    double meanIterations() const
+    {
+        double sum = 0.0;
+        for (const auto& f : summary.perFrame) sum += f.solve.iterations;
+        return sum / std::max(frames(), 1);
+    }
+    double meanFinalCost() const
+    {
+        double sum = 0.0;
+        for (const auto& f : summary.perFrame) sum += f.solve.finalCost;
+        return sum / std::max(frames(), 1);
+    }
+    // The real rig against the targets, as rig-invert reports it.
+    Json errorsJson() const
+    {
+        return Json{{"frames", frames()},
+                    {"max_position_error_cm", summary.maxPositionErrorCm},
+                    {"mean_position_error_cm", summary.meanPositionErrorCm},
+                    {"max_rotation_error_deg", summary.maxRotationErrorDeg},
+                    {"mean_rotation_error_deg", summary.meanRotationErrorDeg}};
+    }
 };
 
-// solve(targets, values, run): one frame; it adds to run's counters.
-// One frame: its targets, the values (in: the warm start, or rest at a restart frame; out: the
-// solution), the run's counters, and whether it is a restart frame.
-using FrameSolve = std::function<void(const std::vector<JointTarget>&, std::vector<double>&, ChainRun&, bool)>;
-
-ChainRun runChain(const Approximation& approximation, const Targets& targets, int first, int last, const FrameSolve& solve)
+// Frames [first, last] of `targets`, solved by `solver` (polished on the real rig `polishCorrections`
+// times), or by `strategy` in the same chains.
+ClipRun invertFrames(const Solver& solver, RigBinding& binding, const ClipTargets& targets, int first, int last,
+                     int polishCorrections = 0, FrameSolveStrategy strategy = {})
 {
-    ChainRun run;
-    run.first = first;
-    const std::vector<double> rest = approximation.defaults();
-    std::vector<double> current = rest;
-    ChainRun leadIn;  // counters of lead-in frames are dropped
-    for (int f = first - first % restartInterval; f <= last; ++f) {
-        const bool restart = f % restartInterval == 0;
-        if (restart) current = rest;
-        const auto& t = targets.frames[static_cast<std::size_t>(f)];
-        if (f < first) {
-            solve(t, current, leadIn, restart);
-            continue;
-        }
-        const double cpu = threadCpuSeconds();
-        const auto start = Clock::now();
-        solve(t, current, run, restart);
-        run.wallSeconds += secondsSince(start);
-        run.cpuSeconds += threadCpuSeconds() - cpu;
-        run.values.push_back(current);
-    }
+    ClipInversionOptions options;
+    options.polishCorrections = polishCorrections;
+    options.frameSolve = std::move(strategy);
+    ClipRun run;
+    run.summary = invertClip(solver, binding, targets, first, last, options, run.values);
     return run;
 }
 
-ErrorStats realRigErrors(RigBinding& binding, const Targets& targets, const ChainRun& run)
+// A peer's solve as a chain frame: converged or not, its iterations and final cost.
+void peerFrame(bool converged, int iterations, double initialCost, double finalCost, ChainFrame& frame)
 {
-    ErrorStats stats;
-    std::vector<Eigen::Matrix4d> worlds;
-    for (std::size_t f = 0; f < run.values.size(); ++f) {
-        binding.evaluate(run.values[f], worlds);
-        stats.addFrame(worlds, targets.frames[static_cast<std::size_t>(run.first) + f]);
-    }
-    return stats;
+    frame = ChainFrame{};
+    frame.summary.termination = converged ? TerminationType::converged : TerminationType::noConvergence;
+    frame.summary.iterations = iterations;
+    frame.summary.initialCost = initialCost;
+    frame.summary.finalCost = finalCost;
 }
 
 #ifdef RIG_BENCH_HAVE_CERES
@@ -223,40 +188,18 @@ std::optional<double> ratio(std::optional<double> a, std::optional<double> b)
 }
 #endif
 
-// Our solver as rig-invert runs it: one solve per frame, then the optional polish on the real rig.
-FrameSolve oursSolve(const Solver& solver, RigBinding& binding, int polishCorrections)
-{
-    // As invertClip: a restart frame starts from the initial guess, a warm start that ends stuck after a
-    // jump in cost is retried (solveChainFrame).
-    auto previousCost = std::make_shared<double>(retryNever);
-    auto scratch = std::make_shared<ChainScratch>();
-    auto frame = std::make_shared<ChainFrame>();
-    return [&solver, &binding, polishCorrections, previousCost, scratch, frame](const std::vector<JointTarget>& t,
-                                                                              std::vector<double>& values, ChainRun& run,
-                                                                              bool restart) {
-        if (restart) solver.initialGuess(t, values);
-        solveChainFrame(solver, t, values, restart ? retryNever : *previousCost, *scratch, *frame);
-        const SolveSummary& s = frame->summary;
-        if (s.termination != TerminationType::invalidTargets) *previousCost = s.finalCost;
-        if (polishCorrections > 0 && s.termination != TerminationType::invalidTargets)
-            run.evaluations += static_cast<std::uint64_t>(polish(solver, binding, t, values, polishCorrections).evaluations);
-        run.converged += s.converged();
-        run.iterations += s.iterations;
-        run.sumFinalCost += s.finalCost;
-    };
-}
-
 // A solver's figures over a run: timing, convergence and the real rig's errors.
-Json runJson(const ChainRun& run, const ErrorStats& errors, bool singleThread)
+Json runJson(const ClipRun& run, bool singleThread)
 {
-    const int n = std::max(run.frames(), 1);
+    int converged = 0;
+    for (const auto& f : run.summary.perFrame) converged += f.solve.converged();
     return Json{{"frames", run.frames()},
                 {"ms_per_frame", run.msPerFrame()},
                 {"cpu_ms_per_frame", singleThread ? Json(run.cpuMsPerFrame()) : Json()},
-                {"converged_frames", run.converged},
-                {"mean_iterations", static_cast<double>(run.iterations) / n},
-                {"mean_final_cost", run.sumFinalCost / n},
-                {"real_rig", errors.toJson()}};
+                {"converged_frames", converged},
+                {"mean_iterations", run.meanIterations()},
+                {"mean_final_cost", run.meanFinalCost()},
+                {"real_rig", run.errorsJson()}};
 }
 
 struct Variant {
@@ -270,12 +213,11 @@ struct Variant {
 
 struct VariantResult {
     Json json;
-    ChainRun run;
-    ErrorStats errors;
+    ClipRun run;
 };
 
 VariantResult runVariant(const Variant& v, const Approximation& approximation, RigBinding& binding,
-                         const Targets& targets, int frames)
+                         const ClipTargets& targets, int frames)
 {
     SolverOptions options;
     options.threads = v.threads;
@@ -284,15 +226,14 @@ VariantResult runVariant(const Variant& v, const Approximation& approximation, R
     options.coupledBlocks = v.coupledBlocks;
     const Solver solver(approximation, options);
     VariantResult result;
-    result.run = runChain(approximation, targets, 0, frames - 1, oursSolve(solver, binding, v.polish));
-    result.errors = realRigErrors(binding, targets, result.run);
+    result.run = invertFrames(solver, binding, targets, 0, frames - 1, v.polish);
     result.json = Json{{"name", v.name},
                        {"threads", v.threads},
                        {"jacobian", std::string(jacobianMethodName(v.jacobian))},
                        {"partition", v.partition},
                        {"coupled_blocks", v.partition && v.coupledBlocks},
                        {"polish", v.polish}};
-    const Json figures = runJson(result.run, result.errors, v.threads == 1);
+    const Json figures = runJson(result.run, v.threads == 1);
     for (const char* key : {"frames", "ms_per_frame", "cpu_ms_per_frame", "converged_frames", "mean_iterations",
                             "mean_final_cost", "real_rig"})
         result.json[key] = figures.at(key);
@@ -389,8 +330,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
     // --- the clip ---
     const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
     const TargetClip clip = readTargetClip(o.clip, map);
-    const Targets targets = clipTargets(approximation, clip, std::numeric_limits<int>::max(),
-                                        [](const std::string& name) { return name; });
+    const ClipTargets targets = matchTargets(approximation, clip.joints, clip.worlds);
     const int frames = std::min(o.frames, static_cast<int>(targets.frames.size()));
     [[maybe_unused]] const int ceresFrames = std::min(o.ceresFrames, frames);  // without Ceres: unused
     const int blackBoxFrames = std::min(o.blackBoxFrames, frames);
@@ -469,69 +409,78 @@ void runBipedBench(const BenchOptions& o, Json& report)
         {"analytic, 1 thread, polish 1", 1, JacobianMethod::analytic, true, 1},
         {"analytic, 1 thread, block by block", 1, JacobianMethod::analytic, true, 0, false},
     };
+    const auto variant = [&](const std::string& name) -> const Variant& {
+        const auto it = std::find_if(variants.begin(), variants.end(), [&](const Variant& v) { return v.name == name; });
+        if (it == variants.end()) throw internalError(fmt::format("rig-bench: no variant '{}'", name));
+        return *it;
+    };
+    const Variant& partitioned = variant("analytic, 1 thread");
+    const Variant& whole = variant("analytic, whole problem, 1 thread");
+    const Variant& blockByBlock = variant("analytic, 1 thread, block by block");
     Json variantRows = Json::array();
-    std::vector<VariantResult> results;
+    std::map<std::string, VariantResult> results;
     for (const Variant& v : variants) {
         say(o, fmt::format("inverting {} frames ({})", frames, v.name));
-        results.push_back(runVariant(v, approximation, binding, targets, frames));
-        variantRows.push_back(results.back().json);
+        const VariantResult& r = results[v.name] = runVariant(v, approximation, binding, targets, frames);
+        variantRows.push_back(r.json);
     }
-    const VariantResult& headline = results.front();
+    const auto result = [&](const std::string& name) -> const VariantResult& { return results.at(variant(name).name); };
+    const VariantResult& headline = result(partitioned.name);
 
     // --- the talk's baseline: Gauss-Newton on the real graph ---
     say(o, fmt::format("Gauss-Newton on the real graph, {} frames", blackBoxFrames));
-    const ChainRun black = runChain(approximation, targets, 0, blackBoxFrames - 1,
-                                    [&](const std::vector<JointTarget>& t, std::vector<double>& values, ChainRun& run,
-                                        bool) {
-                                        blackBox.setTargets(t);
-                                        const BlackBoxSolve s = gaussNewtonBlackBox(blackBox, values, defaults);
-                                        run.evaluations += s.evaluations;
-                                        run.sumFinalCost += s.finalCost;
-                                        run.converged += s.converged;
-                                        run.iterations += s.iterations;
-                                    });
-    const ErrorStats blackErrors = realRigErrors(binding, targets, black);
+    const Solver headlineSolver(approximation, SolverOptions{});
+    std::uint64_t blackEvaluations = 0;
+    const ClipRun black = invertFrames(
+        headlineSolver, binding, targets, 0, blackBoxFrames - 1, 0,
+        [&](std::span<const JointTarget> t, std::vector<double>& values, double, ChainFrame& frame) {
+            blackBox.setTargets(std::vector<JointTarget>(t.begin(), t.end()));
+            const BlackBoxSolve s = gaussNewtonBlackBox(blackBox, values, defaults);
+            blackEvaluations += s.evaluations;
+            peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
+        });
     // Ours on the same frames: the whole problem, as the black box solves it, and the partitioned one.
-    const VariantResult sameWhole = runVariant(variants[4], approximation, binding, targets, blackBoxFrames);
-    const VariantResult samePartitioned = runVariant(variants[0], approximation, binding, targets, blackBoxFrames);
-    Json blackJson = runJson(black, blackErrors, true);
-    blackJson["evaluations_per_frame"] = static_cast<double>(black.evaluations) / std::max(black.frames(), 1);
+    const VariantResult sameWhole = runVariant(whole, approximation, binding, targets, blackBoxFrames);
+    const VariantResult samePartitioned = runVariant(partitioned, approximation, binding, targets, blackBoxFrames);
+    Json blackJson = runJson(black, true);
+    blackJson["evaluations_per_frame"] = static_cast<double>(blackEvaluations) / std::max(black.frames(), 1);
     blackJson["ours_cpu_ms_per_frame"] = samePartitioned.run.cpuMsPerFrame();
     blackJson["ours_whole_cpu_ms_per_frame"] = sameWhole.run.cpuMsPerFrame();
     blackJson["ours_whole_mean_final_cost"] = sameWhole.json.at("mean_final_cost");
     blackJson["speedup"] = black.cpuMsPerFrame() / samePartitioned.run.cpuMsPerFrame();
     blackJson["speedup_whole"] = black.cpuMsPerFrame() / sameWhole.run.cpuMsPerFrame();
     blackJson["note"] = "Gauss-Newton with forward-difference Jacobians on the real graph (tools/bench_blackbox.h), the "
-                     "solver's tolerances, the same unknowns; the first frames of the clip, the first from rest";
+                     "solver's tolerances, the same unknowns, in the chains of invertClip; the first frames of the "
+                     "clip, the first from the initial guess";
     report["blackbox"] = blackJson;
 
     report["invert"] = Json{{"frames", frames},
                               {"ms_per_frame", headline.run.cpuMsPerFrame()},
                               {"wall_ms_per_frame", headline.run.msPerFrame()},
-                              {"threads2_ms_per_frame", results[1].run.msPerFrame()},
-                              {"fd_ms_per_frame", results[2].run.cpuMsPerFrame()},
-                              {"fd_threads2_ms_per_frame", results[3].run.msPerFrame()},
-                              {"whole_ms_per_frame", results[4].run.cpuMsPerFrame()},
-                              {"polish1_ms_per_frame", results[5].run.cpuMsPerFrame()},
-                              {"block_by_block_ms_per_frame", results[6].run.cpuMsPerFrame()},
-                              {"block_by_block_mean_final_cost", results[6].json.at("mean_final_cost")},
+                              {"threads2_ms_per_frame", result("analytic, 2 threads").run.msPerFrame()},
+                              {"fd_ms_per_frame", result("fd, 1 thread").run.cpuMsPerFrame()},
+                              {"fd_threads2_ms_per_frame", result("fd, 2 threads").run.msPerFrame()},
+                              {"whole_ms_per_frame", result(whole.name).run.cpuMsPerFrame()},
+                              {"polish1_ms_per_frame", result("analytic, 1 thread, polish 1").run.cpuMsPerFrame()},
+                              {"block_by_block_ms_per_frame", result(blockByBlock.name).run.cpuMsPerFrame()},
+                              {"block_by_block_mean_final_cost", result(blockByBlock.name).json.at("mean_final_cost")},
                               {"blackbox_ms_per_frame", black.cpuMsPerFrame()},
                               {"blackbox_frames", black.frames()},
                               {"speedup_vs_blackbox_same_frames", blackJson.at("speedup")},
                               {"variants", std::move(variantRows)},
                               {"note", "1-thread figures are the thread's CPU time per frame, 2-thread ones wall "
-                                          "time; solver only (the real rig is re-evaluated afterwards for the errors); "
-                                          "warm starts from the previous frame, restarts every 120 frames from the "
-                                          "initial guess, stuck frames retried (as rig-invert)"}};
+                                          "time; solver and polish (the real rig's error measure excluded), through "
+                                          "invertClip as rig-invert runs it: warm starts from the previous frame, "
+                                          "restarts every 120 frames from the initial guess, stuck frames retried"}};
 
     // --- a peer: Ceres on the same residuals ---
     Json ceres = Json::object();
     Json accuracy = Json::object();
 #ifdef RIG_BENCH_HAVE_CERES
     {
-        const VariantResult oursPartitioned = runVariant(variants[0], approximation, binding, targets, ceresFrames);
-        const VariantResult oursWhole = runVariant(variants[4], approximation, binding, targets, ceresFrames);
-        const VariantResult oursBlockByBlock = runVariant(variants[6], approximation, binding, targets, ceresFrames);
+        const VariantResult oursPartitioned = runVariant(partitioned, approximation, binding, targets, ceresFrames);
+        const VariantResult oursWhole = runVariant(whole, approximation, binding, targets, ceresFrames);
+        const VariantResult oursBlockByBlock = runVariant(blockByBlock, approximation, binding, targets, ceresFrames);
         Json rows = Json::array();
         std::optional<double> best;
         Json bestRow;
@@ -542,17 +491,15 @@ void runBipedBench(const BenchOptions& o, Json& report)
                 say(o, fmt::format("Ceres ({}, {} tolerances) on {} frames", ceresLinearSolverName(linear), tolerances,
                                    ceresFrames));
                 CeresInverter inverter(approximation, defaults, linear, ceresTolerances);
-                const ChainRun run =
-                    runChain(approximation, targets, 0, ceresFrames - 1,
-                             [&](const std::vector<JointTarget>& t, std::vector<double>& values, ChainRun& r, bool) {
-                                 const CeresSolve s = inverter.solve(t, values);
-                                 r.converged += s.converged;
-                                 r.iterations += s.iterations;
-                                 r.sumFinalCost += s.finalCost;
-                             });
+                const ClipRun run = invertFrames(
+                    headlineSolver, binding, targets, 0, ceresFrames - 1, 0,
+                    [&](std::span<const JointTarget> t, std::vector<double>& values, double, ChainFrame& frame) {
+                        const CeresSolve s = inverter.solve(std::vector<JointTarget>(t.begin(), t.end()), values);
+                        peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
+                    });
                 Json row = Json{{"linear_solver", ceresLinearSolverName(linear)},
                                 {"tolerances", tolerances}};
-                const Json figures = runJson(run, realRigErrors(binding, targets, run), true);
+                const Json figures = runJson(run, true);
                 for (const char* key : {"frames", "ms_per_frame", "cpu_ms_per_frame", "converged_frames",
                                         "mean_iterations", "mean_final_cost", "real_rig"})
                     row[key] = figures.at(key);
@@ -592,23 +539,22 @@ void runBipedBench(const BenchOptions& o, Json& report)
     say(o, "cold starts: random poses of the approximation from rest");
     report["cold_start"] = coldStartJson(approximation, o.coldStartPoses);
 
-    accuracy["approximation"] = headline.errors.toJson();
-    accuracy["approximation_whole"] = results[4].errors.toJson();
-    accuracy["approximation_polish1"] = results[5].errors.toJson();
-    accuracy["approximation_fd"] = results[2].errors.toJson();
+    accuracy["approximation"] = headline.run.errorsJson();
+    accuracy["approximation_whole"] = result(whole.name).run.errorsJson();
+    accuracy["approximation_polish1"] = result("analytic, 1 thread, polish 1").run.errorsJson();
+    accuracy["approximation_fd"] = result("fd, 1 thread").run.errorsJson();
     {
         // Before parent-relative outputs: the world-space approximation, which discards what it cannot order.
         say(o, fmt::format("inverting {} frames with the world-space approximation", frames));
         RigBinding worldBinding(worldSpace, rig);
-        const Targets worldTargets = clipTargets(worldSpace, clip, std::numeric_limits<int>::max(),
-                                                 [](const std::string& name) { return name; });
-        Json before = runVariant(variants[0], worldSpace, worldBinding, worldTargets, frames).errors.toJson();
+        const ClipTargets worldTargets = matchTargets(worldSpace, clip.joints, clip.worlds);
+        Json before = runVariant(partitioned, worldSpace, worldBinding, worldTargets, frames).run.errorsJson();
         before["modelled_parameters"] = static_cast<long long>(worldSpace.parameters.size());
         accuracy["approximation_world_space"] = std::move(before);
     }
-    accuracy["blackbox"] = blackErrors.toJson();
-    accuracy["approximation_on_blackbox_frames"] = samePartitioned.errors.toJson();
-    accuracy["approximation_whole_on_blackbox_frames"] = sameWhole.errors.toJson();
+    accuracy["blackbox"] = black.errorsJson();
+    accuracy["approximation_on_blackbox_frames"] = samePartitioned.run.errorsJson();
+    accuracy["approximation_whole_on_blackbox_frames"] = sameWhole.run.errorsJson();
     accuracy["note"] = "real rig re-evaluated with each method's parameters, against the clip's joints";
     report["accuracy"] = std::move(accuracy);
 }
@@ -650,15 +596,29 @@ ScalingRig makeRig(const BenchOptions& o, const InversionSpec& biped, const std:
 
 // Crowd: every member follows the clip (members are independent problems). Chain: a smooth random
 // motion within a third of each parameter's range, evaluated on the real rig (reachable targets).
-Targets scalingTargets(const ScalingRig& r, const Approximation& a, RigBinding& binding, const TargetClip& clip,
+ClipTargets scalingTargets(const ScalingRig& r, const Approximation& a, RigBinding& binding, const TargetClip& clip,
                        int frames)
 {
-    if (r.kind == "crowd")
-        return clipTargets(a, clip, frames, [](const std::string& name) {
-            const auto colon = name.rfind(':');
-            return colon == std::string::npos ? name : name.substr(colon + 1);
-        });
-    Targets t;
+    if (r.kind == "crowd") {
+        // Every biped of the crowd follows the clip: its joints ("biped3:Hips") take the clip's ("Hips").
+        std::vector<std::string> joints;
+        std::vector<std::size_t> source;
+        for (const auto& out : a.outputs) {
+            const auto colon = out.name.rfind(':');
+            const std::string name = colon == std::string::npos ? out.name : out.name.substr(colon + 1);
+            const auto found = std::find(clip.joints.begin(), clip.joints.end(), name);
+            if (found == clip.joints.end()) continue;
+            joints.push_back(out.name);
+            source.push_back(static_cast<std::size_t>(found - clip.joints.begin()));
+        }
+        std::vector<std::vector<Eigen::Matrix4d>> worlds;
+        for (int f = 0; f < std::min(frames, static_cast<int>(clip.worlds.size())); ++f) {
+            auto& frame = worlds.emplace_back();
+            for (const std::size_t j : source) frame.push_back(clip.worlds[static_cast<std::size_t>(f)][j]);
+        }
+        return matchTargets(a, joints, worlds);
+    }
+    ClipTargets t;
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     std::vector<double> amplitude, phase, frequency;
@@ -727,15 +687,14 @@ void runScaling(const BenchOptions& o, Json& report)
         // Frame 0, a cold start from rest, is a lead-in: the rows compare steady warm-started frames, which
         // a handful of frames then measures without one outlier dominating.
         const int frames = std::min(o.scalingFrames + 1, static_cast<int>(clip.worlds.size()));
-        const Targets targets = scalingTargets(r, a, binding, clip, frames);
+        const ClipTargets targets = scalingTargets(r, a, binding, clip, frames);
         const int first = std::min(1, frames - 1);
 
         say(o, fmt::format("scaling: {} {}: inverting {} frames", kind, count, frames - first));
         SolverOptions options;
         options.threads = 1;
         const Solver solver(a, options);
-        const ChainRun run = runChain(a, targets, first, frames - 1, oursSolve(solver, binding, 0));
-        const ErrorStats errors = realRigErrors(binding, targets, run);
+        const ClipRun run = invertFrames(solver, binding, targets, first, frames - 1);
 
         const auto& firstTargets = targets.frames[static_cast<std::size_t>(first)];
         BlockJacobians blocks(solver, firstTargets, run.values.front());
@@ -776,14 +735,14 @@ void runScaling(const BenchOptions& o, Json& report)
                        {"validation_max_relative_error", a.validation.maxRelativeError},
                        {"within_epsilon", a.validation.withinEpsilon},
                        {"frames", run.frames()},
-                       {"converged_frames", run.converged},
+                       {"converged_frames", run.summary.convergedFrames},
                        {"ms_per_frame", run.cpuMsPerFrame()},
                        {"wall_ms_per_frame", run.msPerFrame()},
-                       {"mean_iterations", static_cast<double>(run.iterations) / std::max(run.frames(), 1)},
+                       {"mean_iterations", run.meanIterations()},
                        {"jacobian_ms", jacobian.cpuMedianMs},
                        {"blackbox_jacobian_ms", orNull(blackMs)},
-                       {"max_position_error_cm", errors.maxPositionCm},
-                       {"max_rotation_error_deg", errors.maxRotationDeg},
+                       {"max_position_error_cm", run.summary.maxPositionErrorCm},
+                       {"max_rotation_error_deg", run.summary.maxRotationErrorDeg},
                        {"memory_mb", memoryMb},
                        {"memory_graph_mb", graphMb},
                        {"memory_training_peak_mb", trainingPeakMb},
