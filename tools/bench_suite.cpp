@@ -12,10 +12,10 @@
 
 #include <fmt/format.h>
 #include <oneapi/tbb/task_arena.h>
-#include <yaml-cpp/yaml.h>
 
 #include "core/error.h"
 #include "inversion/approximation_io.h"
+#include "nodes/inversion_spec.h"
 #include "inversion/clip_inversion.h"
 #include "inversion/learner.h"
 #include "inversion/rig_binding.h"
@@ -63,21 +63,10 @@ void say(const BenchOptions& o, const std::string& line)
     if (o.log) o.log(line);
 }
 
-struct InversionSpec {
-    std::vector<std::string> params, outputs;
-};
-
+// The biped's spec, as rig-learn --spec reads it; it must name the parameters.
 InversionSpec readSpec(const std::filesystem::path& file)
 {
-    InversionSpec spec;
-    try {
-        const YAML::Node root = YAML::LoadFile(file.string());
-        for (const auto& p : root["params"]) spec.params.push_back(p.as<std::string>());
-        for (const auto& o : root["outputs"]) spec.outputs.push_back(o.as<std::string>());
-    }
-    catch (const YAML::Exception& e) {
-        throw Error(fmt::format("{}: {}", file.string(), e.what()));
-    }
+    InversionSpec spec = readInversionSpec(file);
     if (spec.params.empty()) throw Error(fmt::format("{}: no 'params' list of plug globs", file.string()));
     return spec;
 }

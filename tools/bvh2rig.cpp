@@ -1,16 +1,10 @@
-// bvh2rig: writes a forward-kinematics rig (YAML) for a BVH motion file: one joint per BVH joint,
-// End Sites as leaf joints, and with --with-motion a bvhClip node driving the joints. docs/bvh.md.
-#include <filesystem>
+// bvh2rig: writes a forward-kinematics rig (YAML) for a BVH motion file (nodes/clips/bvh_rig.h). docs/bvh.md.
 #include <iostream>
-#include <map>
-#include <set>
 
 #include <fmt/format.h>
 
 #include "core/error.h"
-#include "graph/yaml_loader.h"
-#include "nodes/builtin_nodes.h"
-#include "nodes/clips/bvh.h"
+#include "nodes/clips/bvh_rig.h"
 #include "tools/cli_common.h"
 
 namespace rig {
@@ -19,250 +13,22 @@ namespace {
 struct Options {
     std::string clip;
     std::string output;
-    std::string prefix;
-    bool withMotion = false;
+    BvhRigOptions rig;
 };
-
-bool nameChar(char c)
-{
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == ':';
-}
-
-bool isDigit(char c) { return c >= '0' && c <= '9'; }
-
-// The rig-file name rules: letters, digits, '_' and ':', not starting with a digit. Every other byte
-// becomes '_'; a leading digit gets a '_' in front; an empty name becomes "joint".
-std::string sanitize(const std::string& prefix, const std::string& name)
-{
-    std::string out = prefix;
-    for (char c : name) out += nameChar(c) ? c : '_';
-    if (out.empty()) out = "joint";
-    if (isDigit(out[0])) out.insert(out.begin(), '_');
-    return out;
-}
-
-// Hands out node names, adding _2, _3, ... to a name already taken.
-class Names {
-public:
-    std::string take(const std::string& wanted)
-    {
-        std::string name = wanted;
-        for (int n = 2; used_.count(name); ++n) name = fmt::format("{}_{}", wanted, n);
-        used_.insert(name);
-        return name;
-    }
-
-private:
-    std::set<std::string> used_;
-};
-
-// One rig joint of a BVH joint's chain: its rotation channels (clip columns, file order) and the
-// Maya rotate order that multiplies them in that order.
-struct ChainLink {
-    std::string name;
-    std::vector<int> rotations;
-    std::string order;
-};
-
-// A BVH joint's rotation channels, R = R1 * R2 * ... * Rn in file order, split into runs of distinct
-// axes from the left. One joint applies a run [a1 .. am] exactly with the Maya order am ... a1 (the
-// last channel is applied first) followed by the missing axes, which stay at zero: "Zrotation
-// Xrotation Yrotation" gives yxz, "Zrotation Xrotation" gives xzy. A repeated axis starts a new run,
-// played by a child joint at zero translation.
-std::vector<std::vector<int>> rotationRuns(const BvhJoint& joint)
-{
-    std::vector<std::vector<int>> runs(1);
-    std::set<int> axes;
-    for (std::size_t k = 0; k < joint.channels.size(); ++k) {
-        if (!bvhIsRotation(joint.channels[k])) continue;
-        const int axis = bvhChannelAxis(joint.channels[k]);
-        if (axes.count(axis)) {
-            runs.emplace_back();
-            axes.clear();
-        }
-        axes.insert(axis);
-        runs.back().push_back(joint.firstChannel + static_cast<int>(k));
-    }
-    return runs;
-}
-
-std::string mayaOrder(const BvhJoint& joint, const std::vector<int>& run)
-{
-    std::string order;
-    for (auto it = run.rbegin(); it != run.rend(); ++it)
-        order += "xyz"[bvhChannelAxis(joint.channels[static_cast<std::size_t>(*it - joint.firstChannel)])];
-    for (char axis : std::string("xyz"))
-        if (order.find(axis) == std::string::npos) order += axis;
-    return order;
-}
-
-std::string vec(const Eigen::Vector3d& v) { return fmt::format("[{}, {}, {}]", v.x(), v.y(), v.z()); }
-
-std::string singleQuoted(const std::string& text)
-{
-    std::string out = "'";
-    for (char c : text) out += c == '\'' ? std::string("''") : std::string(1, c);
-    return out + "'";
-}
-
-std::string positionRule(const BvhClip& clip, bool root)
-{
-    bool any = false;
-    bool replace = false;
-    for (const BvhJoint& j : clip.joints) {
-        if ((j.parent < 0) != root) continue;
-        for (BvhChannel c : j.channels)
-            if (!bvhIsRotation(c)) {
-                any = true;
-                replace = j.positionReplacesOffset;
-            }
-    }
-    if (!any) return "none";
-    return replace ? "the whole local translation (replacing OFFSET)" : "offsets added to OFFSET";
-}
 
 int run(const Options& options)
 {
     // A bad -o is reported before the clip is read.
     cli::checkOutputFile(options.output, "rig.yaml");
     cli::checkDistinctFiles({{"the clip", options.clip}}, {{"-o", options.output}});
-    // Node names have a length limit (GraphModel::maxNameLength); BVH names are cut to fit with this prefix.
-    if (options.prefix.size() > 100)
-        throw Error(fmt::format("--prefix: {} characters is too long (at most 100)", options.prefix.size()));
-    for (char c : options.prefix)
-        if (!nameChar(c))
-            throw Error(fmt::format("--prefix '{}': use letters, digits, '_' and ':' (e.g. --prefix mocap:)",
-                                    options.prefix));
-    if (!options.prefix.empty() && isDigit(options.prefix[0]))
-        throw Error(fmt::format("--prefix '{}': a node name cannot start with a digit", options.prefix));
-
     const BvhClip clip = readBvhFile(options.clip);
     for (const auto& w : clip.warnings) std::cerr << "warning: " << oneLine(w) << '\n';
-
-    // Names: the BVH joints first, so that they keep their names when something else would clash.
-    Names names;
-    std::vector<std::string> jointName;
-    std::vector<std::pair<std::string, std::string>> renamed;
-    for (const BvhJoint& j : clip.joints) {
-        jointName.push_back(names.take(sanitize(options.prefix, j.name)));
-        if (jointName.back() != options.prefix + j.name) renamed.emplace_back(j.name, jointName.back());
-    }
-    std::vector<std::vector<ChainLink>> chains(clip.joints.size());
-    std::vector<std::string> endName(clip.joints.size());
-    for (std::size_t j = 0; j < clip.joints.size(); ++j) {
-        const auto runs = rotationRuns(clip.joints[j]);
-        for (std::size_t r = 0; r < runs.size(); ++r) {
-            ChainLink link;
-            link.name = r + 1 == runs.size() ? jointName[j] : names.take(fmt::format("{}_rot{}", jointName[j], r + 1));
-            link.rotations = runs[r];
-            link.order = mayaOrder(clip.joints[j], runs[r]);
-            chains[j].push_back(std::move(link));
-        }
-        if (clip.joints[j].endSite) endName[j] = names.take(jointName[j] + "_end");
-    }
-    const std::string clipName = names.take(options.prefix + "clip");
-
-    // Channel k -> the plug it drives.
-    std::vector<std::string> plugOf(static_cast<std::size_t>(clip.channelCount));
-    for (std::size_t j = 0; j < clip.joints.size(); ++j) {
-        const BvhJoint& joint = clip.joints[j];
-        for (std::size_t k = 0; k < joint.channels.size(); ++k) {
-            const auto column = static_cast<std::size_t>(joint.firstChannel) + k;
-            const char axis = "XYZ"[bvhChannelAxis(joint.channels[k])];
-            if (!bvhIsRotation(joint.channels[k])) {
-                plugOf[column] = fmt::format("{}.translate{}", chains[j].front().name, axis);
-                continue;
-            }
-            for (const ChainLink& link : chains[j])
-                for (int c : link.rotations)
-                    if (static_cast<std::size_t>(c) == column) plugOf[column] = fmt::format("{}.rotate{}", link.name, axis);
-        }
-    }
-
-    int endSites = 0;
-    int helpers = 0;
-    for (std::size_t j = 0; j < clip.joints.size(); ++j) {
-        endSites += clip.joints[j].endSite ? 1 : 0;
-        helpers += static_cast<int>(chains[j].size()) - 1;
-    }
-    // A clip within the reader's limits can still ask for a rig too big to load (every joint with 64
-    // rotation channels repeating one axis): the rig files' size and memory stay bounded.
-    constexpr std::size_t maxRigJoints = 50'000;
-    if (const std::size_t total = clip.joints.size() + static_cast<std::size_t>(endSites + helpers); total > maxRigJoints)
-        throw Error(fmt::format("{}: the rig would have {} joints ({} BVH joints, {} End Sites, {} helpers for rotation "
-                                "channels that repeat an axis), more than {}; this clip is not a skeleton",
-                                options.clip, total, clip.joints.size(), endSites, helpers, maxRigJoints));
-
-    std::string text;
-    text += fmt::format("# Generated by bvh2rig from {} ({} joints, {} End Sites, {} channels, {} frames, frame "
-                        "time {} s).\n",
-                        oneLine(std::filesystem::path(options.clip).filename().string()), clip.joints.size(), endSites,
-                        clip.channelCount, clip.frameCount, clip.frameTime);
-    text += "# A forward-kinematics rig: one joint per BVH joint (translate = OFFSET, rotateOrder from the order of\n"
-            "# its rotation channels), each End Site a leaf joint named <joint>_end. See docs/bvh.md.\n";
-    if (helpers > 0)
-        text += fmt::format("# {} helper joints (<joint>_rotN, zero translation) play rotation channels that repeat an "
-                            "axis.\n",
-                            helpers);
-    text += fmt::format("# Position channels: root: {}; other joints: {}.\n", positionRule(clip, true),
-                        positionRule(clip, false));
-    // A comment is one line: a file name with a newline in it must not end it.
-    for (const auto& w : clip.warnings) text += fmt::format("# Warning: {}\n", oneLine(w));
-    if (!renamed.empty()) {
-        text += "# Renamed to fit the rig-file name rules (letters, digits, _ and :):\n";
-        for (const auto& [from, to] : renamed) text += fmt::format("#   '{}' -> {}\n", from, to);
-    }
-    text += fmt::format("# Parameters ({}): the plugs the clip's channels set, channel k of a motion line -> plug.\n"
-                        "# Rotations in degrees; positions are the whole local translate in cm.\n",
-                        clip.channelCount);
-    for (std::size_t j = 0; j < clip.joints.size(); ++j) {
-        const BvhJoint& joint = clip.joints[j];
-        for (std::size_t k = 0; k < joint.channels.size(); ++k) {
-            const auto column = static_cast<std::size_t>(joint.firstChannel) + k;
-            text += fmt::format("#   [{}] {}.{} -> {}\n", column, joint.name, bvhChannelName(joint.channels[k]),
-                                plugOf[column]);
-        }
-    }
-
-    text += "nodes:\n";
-    for (std::size_t j = 0; j < clip.joints.size(); ++j) {
-        const BvhJoint& joint = clip.joints[j];
-        std::string parent =
-            joint.parent < 0 ? std::string() : jointName[static_cast<std::size_t>(joint.parent)];
-        for (std::size_t r = 0; r < chains[j].size(); ++r) {
-            const ChainLink& link = chains[j][r];
-            std::string line = fmt::format("  - {{name: \"{}\", type: joint", link.name);
-            if (!parent.empty()) line += fmt::format(", parent: \"{}\"", parent);
-            if (r == 0) line += fmt::format(", translate: {}", vec(joint.offset));
-            if (!link.rotations.empty()) line += fmt::format(", rotateOrder: {}", link.order);
-            text += line + "}\n";
-            parent = link.name;
-        }
-        if (joint.endSite)
-            text += fmt::format("  - {{name: \"{}\", type: joint, parent: \"{}\", translate: {}}}\n", endName[j],
-                                jointName[j], vec(*joint.endSite));
-    }
-    if (options.withMotion) {
-        const auto path = std::filesystem::absolute(options.clip).lexically_normal();
-        text += fmt::format("  - {{name: \"{}\", type: bvhClip, file: {}}}\n", clipName, singleQuoted(path.string()));
-        text += "connections:\n";
-        for (std::size_t k = 0; k < plugOf.size(); ++k)
-            text += fmt::format("  - \"{}.channel[{}] -> {}\"\n", clipName, k, plugOf[k]);
-    }
-
-    // The rig must load; anything else is a bug here, not in the user's file.
-    try {
-        loadGraphText(text, options.output, makeBuiltinRegistry());
-    }
-    catch (const Error& e) {
-        throw internalError(fmt::format("the generated rig does not load: {}", e.what()));
-    }
-    cli::writeFileAtomically(options.output, text);
+    const BvhRig rig = bvhRig(clip, options.clip, options.rig);
+    cli::writeFileAtomically(options.output, rig.text);
     std::cout << fmt::format("wrote {}: {} joints ({} from BVH joints, {} End Sites{}), {} parameters{}\n",
-                             options.output, clip.joints.size() + static_cast<std::size_t>(endSites + helpers),
-                             clip.joints.size(), endSites, helpers ? fmt::format(", {} helpers", helpers) : "",
-                             clip.channelCount,
-                             options.withMotion ? fmt::format(", driven by bvhClip '{}'", clipName) : "");
+                             options.output, rig.joints, clip.joints.size(), rig.endSites,
+                             rig.helpers ? fmt::format(", {} helpers", rig.helpers) : "", clip.channelCount,
+                             rig.clipNode.empty() ? "" : fmt::format(", driven by bvhClip '{}'", rig.clipNode));
     return 0;
 }
 
@@ -282,8 +48,8 @@ int main(int argc, char** argv)
                  "bvh2rig"};
     app.add_option("clip", options.clip, "BVH file")->required();
     app.add_option("-o,--output", options.output, "Rig file to write (YAML)")->required();
-    app.add_flag("--with-motion", options.withMotion,
+    app.add_flag("--with-motion", options.rig.withMotion,
                  "Add a bvhClip node reading the clip (by absolute path) and driving the joints");
-    app.add_option("--prefix", options.prefix, "Put this before every node name (e.g. mocap_ or mocap:)");
+    app.add_option("--prefix", options.rig.prefix, "Put this before every node name (e.g. mocap_ or mocap:)");
     return rig::cli::runMain(app, argc, argv, [&] { return rig::run(options); });
 }

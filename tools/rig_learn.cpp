@@ -1,21 +1,16 @@
 // rig-learn: learns a rig's approximation (sections 3 and 4 of the talk) and writes it to a file,
 // with a readable report on standard output and, optionally, a JSON one (docs/rig-learn.md).
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <map>
 #include <optional>
-#include <sstream>
 
 #include <fmt/format.h>
-#include <yaml-cpp/depthguard.h>
-#include <yaml-cpp/yaml.h>
 
 #include "core/error.h"
 #include "core/table.h"
+#include "nodes/inversion_spec.h"
 #include "inversion/approximation_io.h"
 #include "tools/cli_common.h"
 #include "tools/learn_run.h"
@@ -42,61 +37,13 @@ struct Options {
     int threads = 0;
 };
 
-// A spec file (docs/rig-learn.md): `params:` and optionally `outputs:`, lists of globs, added to the
-// command line's. Keeps a rig's inversion choices in one place (rigs/biped_inversion.yaml).
+// A spec file adds its globs to the command line's.
 void readSpec(Options& options)
 {
-    // Checked before reading: a folder reads as a stream error, a FIFO or a device never ends.
-    std::error_code ec;
-    const auto status = std::filesystem::status(options.spec, ec);
-    if (!std::filesystem::exists(status))
-        throw Error(fmt::format("--spec {}: no such file; check the path", options.spec));
-    if (std::filesystem::is_directory(status))
-        throw Error(fmt::format("--spec {}: is a folder; give a spec file ('params:' and 'outputs:', lists of globs)",
-                                options.spec));
-    if (!std::filesystem::is_regular_file(status))
-        throw Error(fmt::format("--spec {}: is not a regular file (a device or a pipe?); give a spec file", options.spec));
-    std::ifstream in(options.spec, std::ios::binary);
-    if (!in)
-        throw Error(fmt::format("--spec {}: cannot read it ({}); check its permissions", options.spec, std::strerror(errno)));
-    std::ostringstream text;
-    text << in.rdbuf();
-    YAML::Node root;
-    try {
-        root = YAML::Load(text.str());
-    }
-    catch (const YAML::DeepRecursion& e) {
-        throw Error(fmt::format("{}: lists and maps nested more than {} levels deep; a spec nests two levels, so the "
-                                "file is damaged",
-                                formatMark({options.spec, e.mark.line + 1, e.mark.column + 1}), e.depth() - 1));
-    }
-    catch (const YAML::ParserException& e) {
-        throw Error(
-            fmt::format("{}: YAML syntax error: {}", formatMark({options.spec, e.mark.line + 1, e.mark.column + 1}), e.msg));
-    }
-    const auto at = [&](const YAML::Node& n) {
-        return formatMark({options.spec, n.Mark().line + 1, n.Mark().column + 1});
-    };
-    if (!root.IsMap())
-        throw Error(fmt::format("{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs", at(root)));
-    for (const auto& entry : root) {
-        if (!entry.first.IsScalar())
-            throw Error(fmt::format("{}: a key of a spec is a list or a map; a spec has 'params:' and 'outputs:'",
-                                    at(entry.first)));
-        const std::string key = entry.first.Scalar();
-        auto* list = key == "params" ? &options.params : key == "outputs" ? &options.outputs : nullptr;
-        if (!list)
-            throw Error(fmt::format("{}: unknown key '{}'; a spec has 'params:' and 'outputs:'", at(entry.first),
-                                    messageExcerpt(key)));
-        if (!entry.second.IsSequence())
-            throw Error(fmt::format("{}: '{}' must be a list of globs", at(entry.second), key));
-        for (const auto& glob : entry.second) {
-            if (!glob.IsScalar() || glob.Scalar().empty())
-                throw Error(fmt::format("{}: '{}' must be a list of globs", at(glob), key));
-            list->push_back(glob.Scalar());
-            options.specPlaces.emplace(glob.Scalar(), at(glob));
-        }
-    }
+    InversionSpec spec = readInversionSpec(options.spec);
+    options.params.insert(options.params.end(), spec.params.begin(), spec.params.end());
+    options.outputs.insert(options.outputs.end(), spec.outputs.begin(), spec.outputs.end());
+    options.specPlaces.merge(spec.places);
 }
 
 std::string valueText(const RigParameter& p, double internal)

@@ -1,0 +1,74 @@
+#include "nodes/inversion_spec.h"
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <yaml-cpp/depthguard.h>
+#include <yaml-cpp/yaml.h>
+
+#include "core/error.h"
+
+namespace rig {
+
+InversionSpec readInversionSpec(const std::filesystem::path& path)
+{
+    const std::string file = path.string();
+    InversionSpec spec;
+    // Checked before reading: a folder reads as a stream error, a FIFO or a device never ends.
+    std::error_code ec;
+    const auto status = std::filesystem::status(file, ec);
+    if (!std::filesystem::exists(status))
+        throw Error(fmt::format("{}: no such spec file; check the path", file));
+    if (std::filesystem::is_directory(status))
+        throw Error(fmt::format("{}: is a folder; give a spec file ('params:' and 'outputs:', lists of globs)",
+                                file));
+    if (!std::filesystem::is_regular_file(status))
+        throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give a spec file", file));
+    std::ifstream in(file, std::ios::binary);
+    if (!in)
+        throw Error(fmt::format("{}: cannot read it ({}); check its permissions", file, std::strerror(errno)));
+    std::ostringstream text;
+    text << in.rdbuf();
+    YAML::Node root;
+    try {
+        root = YAML::Load(text.str());
+    }
+    catch (const YAML::DeepRecursion& e) {
+        throw Error(fmt::format("{}: lists and maps nested more than {} levels deep; a spec nests two levels, so the "
+                                "file is damaged",
+                                formatMark({file, e.mark.line + 1, e.mark.column + 1}), e.depth() - 1));
+    }
+    catch (const YAML::ParserException& e) {
+        throw Error(
+            fmt::format("{}: YAML syntax error: {}", formatMark({file, e.mark.line + 1, e.mark.column + 1}), e.msg));
+    }
+    const auto at = [&](const YAML::Node& n) {
+        return formatMark({file, n.Mark().line + 1, n.Mark().column + 1});
+    };
+    if (!root.IsMap())
+        throw Error(fmt::format("{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs", at(root)));
+    for (const auto& entry : root) {
+        if (!entry.first.IsScalar())
+            throw Error(fmt::format("{}: a key of a spec is a list or a map; a spec has 'params:' and 'outputs:'",
+                                    at(entry.first)));
+        const std::string key = entry.first.Scalar();
+        auto* list = key == "params" ? &spec.params : key == "outputs" ? &spec.outputs : nullptr;
+        if (!list)
+            throw Error(fmt::format("{}: unknown key '{}'; a spec has 'params:' and 'outputs:'", at(entry.first),
+                                    messageExcerpt(key)));
+        if (!entry.second.IsSequence())
+            throw Error(fmt::format("{}: '{}' must be a list of globs", at(entry.second), key));
+        for (const auto& glob : entry.second) {
+            if (!glob.IsScalar() || glob.Scalar().empty())
+                throw Error(fmt::format("{}: '{}' must be a list of globs", at(glob), key));
+            list->push_back(glob.Scalar());
+            spec.places.emplace(glob.Scalar(), at(glob));
+        }
+    }
+    return spec;
+}
+
+}  // namespace rig

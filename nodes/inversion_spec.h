@@ -1,0 +1,22 @@
+#pragma once
+// A rig's inversion choices in one file (docs/rig-learn.md, rigs/biped_inversion.yaml): `params:` and
+// optionally `outputs:`, lists of globs, which rig-learn --spec adds to the command line's and rig-bench
+// learns the biped with.
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace rig {
+
+struct InversionSpec {
+    std::vector<std::string> params;   // parameter plug globs
+    std::vector<std::string> outputs;  // output joint globs
+    std::map<std::string, std::string> places;  // glob -> its file:line:col, for messages about it
+};
+
+// Throws rig::Error, one line naming the file (and line and column) and what to change.
+InversionSpec readInversionSpec(const std::filesystem::path& file);
+
+}  // namespace rig
