@@ -418,6 +418,16 @@ struct Solver::Impl {
     bool prepare(std::span<const JointTarget> targets, std::span<const double> values, SolveScratch& scratch,
                  std::shared_ptr<const Plan>& plan, TerminationType& termination);
     bool solveStep(BlockWorkspace& w, double mu) const;
+    // The loop's parts. holdAtLimits: the projected gradient's norm; below gradientTolerance nothing else is
+    // done, else the columns at a limit whose descent points out are held (w.fixed, w.gFree, J^T J) and
+    // `largestDiagonal` is the free columns' largest entry of J^T J's diagonal.
+    double holdAtLimits(const BlockPlan& block, BlockWorkspace& w, double& largestDiagonal) const;
+    // The damped step from w.x, within the angular trust region and the limits, into w.trial and w.step;
+    // false when the system has no solution. `smallStep`: under parameterTolerance.
+    bool trialStep(const BlockPlan& block, BlockWorkspace& w, double damping, bool& smallStep) const;
+    // Periodic controls and Euler triples of w.x moved to the equivalent values nearest `near` (one value
+    // per parameter) where the block's `cost` says they are the same pose.
+    void keepNear(const BlockPlan& block, BlockWorkspace& w, std::span<const double> near, double cost) const;
     // For a block of rotations only: the position part of its cost at `values` when no parameter of the
     // block moves any of its outputs' positions (all pivots at the outputs), else -1.
     double unmovedPositionCost(const BlockPlan& block, std::span<const PreparedTarget> targets,
@@ -513,6 +523,146 @@ bool Solver::Impl::solveStep(BlockWorkspace& w, double mu) const
     return w.delta.allFinite();
 }
 
+namespace {
+
+// The step strategy of a block's loop, as Ceres splits a minimizer from its strategies: Gauss-Newton while
+// it descends (and for at most gaussNewtonIterations), then Levenberg-Marquardt with Nielsen's damping.
+class StepControl {
+public:
+    explicit StepControl(const SolverOptions& options) : options_(options), gaussNewton_(options.gaussNewtonIterations > 0)
+    {
+    }
+    bool gaussNewton() const { return gaussNewton_; }
+    // The damping of the next step; `largestDiagonal` (of the free columns' J^T J) scales the first one.
+    double damping(double largestDiagonal)
+    {
+        if (gaussNewton_) return 0.0;
+        if (mu_ == 0.0) mu_ = largestDiagonal > 0 ? initialDamping * largestDiagonal : initialDamping;
+        return mu_;
+    }
+    // Whether the trial point is taken; adapts the damping. `predicted` (the model's decrease) is asked for
+    // only in Levenberg-Marquardt.
+    bool accept(double cost, double trialCost, bool smallStep, const std::function<double()>& predicted)
+    {
+        const bool finite = std::isfinite(trialCost);
+        if (gaussNewton_) {
+            const bool taken = finite && (trialCost < cost || (smallStep && trialCost <= cost));
+            if (!taken && !smallStep) gaussNewton_ = false;  // Gauss-Newton failed to descend: damp from now on
+            return taken;
+        }
+        const double model = predicted();
+        const double actual = cost - trialCost;
+        if (finite && actual > 0 && model > 0) {
+            const double rho = actual / model;
+            mu_ *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+            nu_ = 2.0;
+            return true;
+        }
+        if (!smallStep) {
+            mu_ *= nu_;
+            nu_ *= 2.0;
+        }
+        return false;
+    }
+    // Damping that overflowed: no step can be found any more.
+    bool exhausted() const { return !std::isfinite(mu_); }
+    // After an accepted step: Gauss-Newton's iterations are counted against its budget.
+    void accepted(int gaussNewtonSteps)
+    {
+        if (gaussNewton_ && gaussNewtonSteps >= options_.gaussNewtonIterations) gaussNewton_ = false;
+    }
+
+private:
+    const SolverOptions& options_;
+    bool gaussNewton_;
+    double mu_ = 0.0, nu_ = 2.0;
+};
+
+}  // namespace
+
+double Solver::Impl::holdAtLimits(const BlockPlan& block, BlockWorkspace& w, double& largestDiagonal) const
+{
+    const std::size_t n = block.structure.columns().size();
+    double projectedGradient = 0.0;
+    for (std::size_t c = 0; c < n; ++c) {
+        const double gc = w.g[static_cast<Eigen::Index>(c)];
+        projectedGradient =
+            std::max(projectedGradient, std::abs(w.x[c] - clampTo(w.x[c] - gc, block.lower[c], block.upper[c])));
+        // At a limit with the descent direction pointing out: held for this step.
+        w.fixed[c] = (w.x[c] <= block.lower[c] && gc > 0) || (w.x[c] >= block.upper[c] && gc < 0);
+    }
+    if (projectedGradient <= options.gradientTolerance) return projectedGradient;
+    w.gFree = w.g;
+    for (std::size_t c = 0; c < n; ++c)
+        if (w.fixed[c]) w.gFree[static_cast<Eigen::Index>(c)] = 0.0;
+    // Held columns: identity rows and columns (the same set after a rejected step, at the same x and g).
+    largestDiagonal = 0.0;
+    for (std::size_t c = 0; c < n; ++c) {
+        const Eigen::Index i = static_cast<Eigen::Index>(c);
+        if (!w.fixed[c]) {
+            largestDiagonal = std::max(largestDiagonal, w.diagonal(i));
+            continue;
+        }
+        w.hold(i);
+    }
+    return projectedGradient;
+}
+
+bool Solver::Impl::trialStep(const BlockPlan& block, BlockWorkspace& w, double damping, bool& smallStep) const
+{
+    const std::size_t n = block.structure.columns().size();
+    if (!(w.elimination ? w.elimination->solve(w.gFree, damping, w.delta) : solveStep(w, damping))) return false;
+    // The rotation trust region (SolverOptions::maxAngularStep): shorten the whole step, keeping its direction.
+    double largestTurn = 0.0;
+    for (std::size_t c = 0; c < n; ++c)
+        if (block.angular[c]) largestTurn = std::max(largestTurn, std::abs(w.delta[static_cast<Eigen::Index>(c)]));
+    if (largestTurn > options.maxAngularStep) w.delta *= options.maxAngularStep / largestTurn;
+    // Projection onto the limits; the step actually taken is what the model and tolerances see.
+    double stepNorm2 = 0.0, xNorm2 = 0.0;
+    for (std::size_t c = 0; c < n; ++c) {
+        w.trial[c] = clampTo(w.x[c] + w.delta[static_cast<Eigen::Index>(c)], block.lower[c], block.upper[c]);
+        w.step[static_cast<Eigen::Index>(c)] = w.trial[c] - w.x[c];
+        stepNorm2 += w.step[static_cast<Eigen::Index>(c)] * w.step[static_cast<Eigen::Index>(c)];
+        xNorm2 += w.x[c] * w.x[c];
+    }
+    smallStep = std::sqrt(stepNorm2) <= options.parameterTolerance * (std::sqrt(xNorm2) + options.parameterTolerance);
+    return true;
+}
+
+void Solver::Impl::keepNear(const BlockPlan& block, BlockWorkspace& w, std::span<const double> near, double cost) const
+{
+    const auto& columns = block.structure.columns();
+    const std::size_t n = columns.size();
+    // Of the equivalent values of a periodic control, the one nearest the warm start, so that a solve never
+    // adds whole turns (curves stay continuous from frame to frame).
+    const auto at = [&](std::size_t c) { return near[static_cast<std::size_t>(columns[c])]; };
+    const auto wrap = [&](std::size_t c, double x) {
+        const double start = at(c);
+        return block.period[c] > 0.0 && std::isfinite(start) ? start + std::remainder(x - start, block.period[c]) : x;
+    };
+    for (std::size_t c = 0; c < n; ++c) w.x[c] = wrap(c, w.x[c]);
+    // And of the two Euler solutions of one pose, the nearer (no flip near gimbal lock, nor through a
+    // half turn of all three channels): taken when the block's cost says it is the same pose.
+    for (const auto& triple : block.triples) {
+        const auto [a, b, c] = triple;
+        const auto half = [&](int i) { return 0.5 * block.period[static_cast<std::size_t>(i)]; };
+        std::copy(w.x.begin(), w.x.end(), w.trial.begin());
+        const std::size_t ia = static_cast<std::size_t>(a), ib = static_cast<std::size_t>(b),
+                          ic = static_cast<std::size_t>(c);
+        w.trial[ia] = wrap(ia, w.x[ia] + half(a));
+        w.trial[ib] = wrap(ib, 2.0 * block.defaults[ib] + half(b) - w.x[ib]);
+        w.trial[ic] = wrap(ic, w.x[ic] + half(c));
+        double now = 0.0, other = 0.0;
+        for (const std::size_t i : {ia, ib, ic}) {
+            now += (w.x[i] - at(i)) * (w.x[i] - at(i));
+            other += (w.trial[i] - at(i)) * (w.trial[i] - at(i));
+        }
+        if (!(other < now)) continue;
+        w.residual.residuals(w.trial, w.rTrial);
+        if (std::abs(0.5 * w.rTrial.squaredNorm() - cost) <= 1e-9 * cost + 1e-12) std::swap(w.x, w.trial);
+    }
+}
+
 BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets,
                                      std::span<double> values, bool parallel, std::span<const double> reference) const
 {
@@ -544,81 +694,28 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
     };
     bool finite = linearize(false);
     double cost = 0.5 * w.r.squaredNorm();
-    bool gaussNewton = o.gaussNewtonIterations > 0;
-    double mu = 0.0, nu = 2.0;
+    StepControl control(o);
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
-        double projectedGradient = 0.0;
-        for (std::size_t c = 0; c < n; ++c) {
-            const double gc = w.g[static_cast<Eigen::Index>(c)];
-            projectedGradient = std::max(
-                projectedGradient, std::abs(w.x[c] - clampTo(w.x[c] - gc, block.lower[c], block.upper[c])));
-            // At a limit with the descent direction pointing out: held for this step.
-            w.fixed[c] = (w.x[c] <= block.lower[c] && gc > 0) || (w.x[c] >= block.upper[c] && gc < 0);
-        }
-        if (projectedGradient <= o.gradientTolerance) {
+        double largestDiagonal = 0.0;
+        if (holdAtLimits(block, w, largestDiagonal) <= o.gradientTolerance) {
             result.converged = true;
             break;
         }
-        w.gFree = w.g;
-        for (std::size_t c = 0; c < n; ++c)
-            if (w.fixed[c]) w.gFree[static_cast<Eigen::Index>(c)] = 0.0;
-        // Held columns: identity rows and columns (the same set after a rejected step, at the same x and g).
-        double largest = 0.0;  // of the free columns' diagonal of J^T J
-        for (std::size_t c = 0; c < n; ++c) {
-            const Eigen::Index i = static_cast<Eigen::Index>(c);
-            if (!w.fixed[c]) {
-                largest = std::max(largest, w.diagonal(i));
-                continue;
-            }
-            w.hold(i);
-        }
-        if (!gaussNewton && mu == 0.0) mu = largest > 0 ? initialDamping * largest : initialDamping;
-        const double damping = gaussNewton ? 0.0 : mu;
-        if (!(w.elimination ? w.elimination->solve(w.gFree, damping, w.delta) : solveStep(w, damping))) break;
-        // The rotation trust region (SolverOptions::maxAngularStep): shorten the whole step, keeping its direction.
-        double largestTurn = 0.0;
-        for (std::size_t c = 0; c < n; ++c)
-            if (block.angular[c]) largestTurn = std::max(largestTurn, std::abs(w.delta[static_cast<Eigen::Index>(c)]));
-        if (largestTurn > o.maxAngularStep) w.delta *= o.maxAngularStep / largestTurn;
-
-        // Projection onto the limits; the step actually taken is what the model and tolerances see.
-        double stepNorm2 = 0.0, xNorm2 = 0.0;
-        for (std::size_t c = 0; c < n; ++c) {
-            w.trial[c] = clampTo(w.x[c] + w.delta[static_cast<Eigen::Index>(c)], block.lower[c], block.upper[c]);
-            w.step[static_cast<Eigen::Index>(c)] = w.trial[c] - w.x[c];
-            stepNorm2 += w.step[static_cast<Eigen::Index>(c)] * w.step[static_cast<Eigen::Index>(c)];
-            xNorm2 += w.x[c] * w.x[c];
-        }
-        const bool smallStep = std::sqrt(stepNorm2) <= o.parameterTolerance * (std::sqrt(xNorm2) + o.parameterTolerance);
+        const bool gaussNewton = control.gaussNewton();
+        bool smallStep = false;
+        if (!trialStep(block, w, control.damping(largestDiagonal), smallStep)) break;
         w.residual.residuals(w.trial, w.rTrial);
         const double trialCost = 0.5 * w.rTrial.squaredNorm();
-        const bool trialFinite = std::isfinite(trialCost);
         (gaussNewton ? result.gaussNewton : result.levenbergMarquardt) += 1;
-
-        bool accept = false;
-        if (gaussNewton) {
-            accept = trialFinite && (trialCost < cost || (smallStep && trialCost <= cost));
-            if (!accept && !smallStep) gaussNewton = false;  // Gauss-Newton failed to descend: damp from now on
-        } else {
-            // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
+        // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
+        const auto predicted = [&] {
             if (w.elimination)
                 w.elimination->multiply(w.step, w.hStep);
             else
                 w.hStep.noalias() = w.H.selfadjointView<Eigen::Lower>() * w.step;
-            const double predicted = -(w.g.dot(w.step) + 0.5 * w.step.dot(w.hStep));
-            const double actual = cost - trialCost;
-            accept = trialFinite && actual > 0 && predicted > 0;
-            if (accept) {
-                const double rho = actual / predicted;
-                mu *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
-                nu = 2.0;
-            } else if (!smallStep) {
-                mu *= nu;
-                nu *= 2.0;
-                if (!std::isfinite(mu)) break;
-            }
-        }
-        if (accept) {
+            return -(w.g.dot(w.step) + 0.5 * w.step.dot(w.hStep));
+        };
+        if (control.accept(cost, trialCost, smallStep, predicted)) {
             const double decrease = cost - trialCost;
             std::swap(w.x, w.trial);
             w.r.swap(w.rTrial);
@@ -628,39 +725,15 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
                 break;
             }
             finite = linearize(true);
-            if (gaussNewton && result.gaussNewton >= o.gaussNewtonIterations) gaussNewton = false;
+            control.accepted(result.gaussNewton);
         } else if (smallStep) {
             result.converged = true;  // a negligible step that does not help: nothing left to gain
             break;
+        } else if (control.exhausted()) {
+            break;
         }
     }
-    // Continuity: of the equivalent values of a periodic control, the one nearest the warm start, so that
-    // a solve never adds whole turns (curves stay continuous from frame to frame).
-    const auto near = [&](std::size_t c) { return (reference.empty() ? values : reference)[static_cast<std::size_t>(columns[c])]; };
-    const auto wrap = [&](std::size_t c, double x) {
-        const double start = near(c);
-        return block.period[c] > 0.0 && std::isfinite(start) ? start + std::remainder(x - start, block.period[c]) : x;
-    };
-    for (std::size_t c = 0; c < n; ++c) w.x[c] = wrap(c, w.x[c]);
-    // And of the two Euler solutions of one pose, the nearer (no flip near gimbal lock, nor through a
-    // half turn of all three channels): taken when the block's cost says it is the same pose.
-    for (const auto& triple : block.triples) {
-        const auto [a, b, c] = triple;
-        const auto half = [&](int i) { return 0.5 * block.period[static_cast<std::size_t>(i)]; };
-        std::copy(w.x.begin(), w.x.end(), w.trial.begin());
-        const std::size_t ia = static_cast<std::size_t>(a), ib = static_cast<std::size_t>(b), ic = static_cast<std::size_t>(c);
-        w.trial[ia] = wrap(ia, w.x[ia] + half(a));
-        w.trial[ib] = wrap(ib, 2.0 * block.defaults[ib] + half(b) - w.x[ib]);
-        w.trial[ic] = wrap(ic, w.x[ic] + half(c));
-        double now = 0.0, other = 0.0;
-        for (const std::size_t i : {ia, ib, ic}) {
-            now += (w.x[i] - near(i)) * (w.x[i] - near(i));
-            other += (w.trial[i] - near(i)) * (w.trial[i] - near(i));
-        }
-        if (!(other < now)) continue;
-        w.residual.residuals(w.trial, w.rTrial);
-        if (std::abs(0.5 * w.rTrial.squaredNorm() - cost) <= 1e-9 * cost + 1e-12) std::swap(w.x, w.trial);
-    }
+    keepNear(block, w, reference.empty() ? std::span<const double>(values) : reference, cost);
     for (std::size_t c = 0; c < n; ++c) values[static_cast<std::size_t>(columns[c])] = w.x[c];
     result.cost = cost;
     return result;
