@@ -423,12 +423,16 @@ private:
                                                 first->text));
             std::vector<Token> words{*first};
             for (const Token& w : statement(*first)) words.push_back(w);
-            if (words.size() < 4 || words.size() > 7)
-                throw error(*first, fmt::format("a key is 'TIME VALUE IN_TANGENT OUT_TANGENT TANGENT_LOCKED "
-                                                "WEIGHT_LOCKED BREAKDOWN;', got {} words",
-                                                words.size()));
+            const auto count = [&] {
+                return error(*first, fmt::format("a key is 'TIME VALUE IN_TANGENT OUT_TANGENT TANGENT_LOCKED "
+                                                 "WEIGHT_LOCKED BREAKDOWN;', got {} words",
+                                                 words.size()));
+            };
+            if (words.size() < 4) throw count();
+            // The tangents first: a fixed one has more words, and that is what to say.
             RawKey key{number(words[0], "key time"), number(words[1], "key value"), tangent(words[2]),
                        tangent(words[3])};
+            if (words.size() > 7) throw count();
             for (std::size_t i = 4; i < words.size(); ++i)
                 if (words[i].text != "0" && words[i].text != "1")
                     throw error(words[i], fmt::format("'{}': the locks and the breakdown flag are 0 or 1",

@@ -81,14 +81,16 @@ public:
             std::vector<double> values = dense[frame];
             for (std::size_t p = 0; p < parameters.size(); ++p) {
                 const RigParameter& parameter = parameters[p];
-                const double h = parameter.angular ? 1e-3 : 1e-3 * std::max(1.0, parameter.max - parameter.min);
+                double h = parameter.angular ? 1e-3 : 1e-3 * std::max(1.0, parameter.max - parameter.min);
+                // A control at its upper limit is moved down instead.
+                if (parameter.limited && values[p] + h > parameter.max) h = -h;
                 values[p] += h;
                 rig_.evaluate(values, worlds_);
                 ++evaluations;
                 values[p] = dense[frame][p];
                 for (std::size_t o = 0; o < worlds_.size(); ++o) {
-                    const double dp = (worlds_[o].block<3, 1>(0, 3) - positions_[frame][o]).norm() / h;
-                    const double dr = rotationDeg(worlds_[o], rotations_[frame][o]) / h;
+                    const double dp = (worlds_[o].block<3, 1>(0, 3) - positions_[frame][o]).norm() / std::abs(h);
+                    const double dr = rotationDeg(worlds_[o], rotations_[frame][o]) / std::abs(h);
                     const double n = std::max(dp / options_.toleranceCm, dr / options_.toleranceDeg);
                     if (std::isfinite(n)) s[o][p] = std::max(s[o][p], n);
                 }
@@ -406,8 +408,10 @@ KeyedCurves reduceKeys(RigBinding& rig, std::span<const double> frames, const st
     // Last, keys the later ones made unneeded: each inner key taken out where every frame stays within.
     for (std::size_t p = 0; p < parameters; ++p) {
         for (std::size_t k = 1; k + 1 < state.at[p].size();) {
+            const std::size_t before = state.at[p].size();
             state.toggle(p, state.at[p][k]);
-            if (state.changedWithin()) continue;
+            // (Keeping within the limits can put back as many keys as went.)
+            if (state.at[p].size() < before && state.changedWithin()) continue;
             state.undo();
             ++k;
         }
