@@ -67,14 +67,14 @@ void applyAnimFile(Graph& graph, const std::string& file)
             plug = graph.plug(name);
         }
         catch (const Error& e) {
-            throw Error(fmt::format("{}: the curve drives {}: {}; check the file's node and attribute names against "
-                                    "the rig",
+            throw Error(fmt::format("{}: the curve drives {}, which the rig does not have ({}); check the file's node "
+                                    "and attribute names against the rig",
                                     where, name, e.what()));
         }
         const AttributeSpec& spec = graph.spec(plug);
         if (!spec.input || graph.plugType(plug) != ValueType::Double)
-            throw Error(fmt::format("{}: the curve drives {}, which is {}; a curve drives a number input", where, name,
-                                    spec.input ? fmt::format("a {}", valueTypeName(graph.plugType(plug)))
+            throw Error(fmt::format("{}: the curve drives {}, {}; a curve drives a number input", where, name,
+                                    spec.input ? fmt::format("a plug of type {}", valueTypeName(graph.plugType(plug)))
                                                : "an output, computed by its node"));
         if (const Connection* c = graph.incomingConnection(plug))
             throw Error(fmt::format("{}: the curve drives {}, which {} already drives; a plug has one source", where,
