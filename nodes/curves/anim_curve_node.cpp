@@ -244,8 +244,8 @@ std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
     b.input(postInfinity, "postInfinity", ValueType::Enum).enumNames(infinityNames()).doc("After the last key.");
     b.input(animFile, "animFile", ValueType::String)
         .filePath()
-        .doc("A Maya .anim file to take the keys from instead of `keys:` (docs/keys-anim-report.md); in a rig file "
-             "a relative path is read from the rig file's folder.");
+        .doc("A Maya .anim file to take the keys, tangents and infinities from instead of `keys:` "
+             "(docs/keys-anim-report.md); in a rig file a relative path is read from the rig file's folder.");
     b.input(animPlug, "animPlug", ValueType::String)
         .doc("The plug whose curve in animFile this node plays, NODE.ATTRIBUTE as the file's anim lines name it "
              "(e.g. L_arm_fk_ctrl.rotateX).");
