@@ -190,16 +190,16 @@ std::string keysText(const InvertOutcome& outcome, const KeysOutcome& keys)
                        e.maxPositionCm, e.maxRotationDeg,
                        outcome.approximation->outputs[static_cast<std::size_t>(e.worstOutputOverall)].name,
                        frames[static_cast<std::size_t>(e.worstFrame)]);
-    const std::string uniformFewer = percent(
-        keys.denseKeys > 0 ? 1.0 - static_cast<double>(u.keyCount) / static_cast<double>(keys.denseKeys) : 0.0);
     if (u.step == 1)
-        out += fmt::format("uniform keys      no step over 1 frame holds the tolerance: a key every frame, {} keys ({} "
-                           "fewer: the constant curves)\n",
-                           u.keyCount, uniformFewer);
+        out += fmt::format("uniform keys      no step over 1 frame holds the tolerance: a key on every frame ({} "
+                           "keys)\n",
+                           u.keyCount);
     else
         out += fmt::format("uniform keys      every {} frames: {} keys, {} fewer, at the same tolerance (worst {:.4g} "
                            "cm, {:.4g} deg)\n",
-                           u.step, u.keyCount, uniformFewer, u.error.maxPositionCm, u.error.maxRotationDeg);
+                           u.step, u.keyCount,
+                           percent(1.0 - static_cast<double>(u.keyCount) / static_cast<double>(keys.denseKeys)),
+                           u.error.maxPositionCm, u.error.maxRotationDeg);
     // Keys per control, as many to a line as fit.
     std::string line = "keys per control ";
     for (std::size_t p = 0; p < keys.keyed.keys.size(); ++p) {
