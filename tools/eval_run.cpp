@@ -89,8 +89,8 @@ void applyAnimFile(Graph& graph, const std::string& file)
                                     spec.unit == Unit::Angle ? "an angle" : spec.unit == Unit::Distance ? "a distance"
                                                                                                        : "unitless"));
         std::string nodeName = "anim_" + curve.node + "_" + curve.leaf;
-        std::replace_if(nodeName.begin(), nodeName.end(), [](char c) { return !std::isalnum(static_cast<unsigned char>(c)); },
-                        '_');
+        std::replace_if(
+            nodeName.begin(), nodeName.end(), [](char c) { return !std::isalnum(static_cast<unsigned char>(c)); }, '_');
         for (int n = 2; graph.findNode(nodeName) >= 0; ++n) nodeName = fmt::format("{}_{}", nodeName, n);
         const NodeId node = graph.addNode(curve.nodeTypeName(), nodeName);
         const NodeType& type = graph.nodeType(node);

@@ -159,12 +159,12 @@ int run(const Options& o)
     if (keys && (keys->keyed.error.maxPositionCm > o.keys.toleranceCm ||
                  keys->keyed.error.maxRotationDeg > o.keys.toleranceDeg)) {
         const KeyedError& e = keys->keyed.error;
+        const auto& joint = outcome.approximation->outputs[static_cast<std::size_t>(e.worstOutputOverall)].name;
+        const double frame = outcome.clip.frameNumbers[static_cast<std::size_t>(outcome.first + e.worstFrame)];
         std::cerr << oneLine(fmt::format("error: the keyed curves leave the real rig {:.4g} cm and {:.4g} deg from the "
                                          "dense curves ({} at frame {}), over the tolerance of {} cm and {} deg",
-                                         e.maxPositionCm, e.maxRotationDeg,
-                                         outcome.approximation->outputs[static_cast<std::size_t>(e.worstOutputOverall)].name,
-                                         outcome.clip.frameNumbers[static_cast<std::size_t>(outcome.first + e.worstFrame)],
-                                         o.keys.toleranceCm, o.keys.toleranceDeg))
+                                         e.maxPositionCm, e.maxRotationDeg, joint, frame, o.keys.toleranceCm,
+                                         o.keys.toleranceDeg))
                   << '\n';
         return 3;
     }

@@ -308,8 +308,10 @@ std::vector<int> fitCurve(const KeyedState& state, const std::vector<std::vector
     int from = 0, to = n - 1;  // the frames whose miss changed
     while (true) {
         std::vector<AnimKey> keys;
-        for (const int f : at) keys.push_back({frames[static_cast<std::size_t>(f)], dense[static_cast<std::size_t>(f)][p],
-                                               tangent, tangent});
+        for (const int f : at) {
+            const auto i = static_cast<std::size_t>(f);
+            keys.push_back({frames[i], dense[i][p], tangent, tangent});
+        }
         const AnimCurve curve = AnimCurve::build(std::move(keys));
         for (int f = from; f <= to; ++f) {
             const auto i = static_cast<std::size_t>(f);
@@ -397,7 +399,8 @@ KeyedCurves reduceKeys(RigBinding& rig, std::span<const double> frames, const st
             }
         }
         // Every control on its dense value is the dense pose, whose error is none.
-        if (chosen == parameters) throw std::logic_error("reduceKeys: a frame on the dense values is off the tolerance");
+        if (chosen == parameters)
+            throw std::logic_error("reduceKeys: a frame on the dense values is off the tolerance");
         state.toggle(chosen, static_cast<int>(f));
         const auto within = static_cast<std::size_t>(std::count_if(
             state.errors.begin(), state.errors.end(), [](const FrameError& e) { return e.normalized <= 1.0; }));

@@ -101,9 +101,9 @@ TEST_CASE("keys: rig-invert --key-tolerance keys a CMU clip within the tolerance
     for (const auto& joint : YAML::LoadFile((test::sourceDir() / "rigs/biped_inversion.yaml").string())["outputs"])
         gets += fmt::format(" --get {}.worldMatrix", joint.as<std::string>());
     for (const char* name : {"keys", "dense"}) {
-        const auto r = test::run(fmt::format("{} rigs/biped.yaml --anim {} --frames 1:60{} -o {}", test::tool("graph-eval"),
-                                             (dir / fmt::format("{}.anim", name)).string(), gets,
-                                             (dir / fmt::format("{}_joints.json", name)).string()));
+        const auto r = test::run(fmt::format("{} rigs/biped.yaml --anim {} --frames 1:60{} -o {}",
+                                             test::tool("graph-eval"), (dir / fmt::format("{}.anim", name)).string(),
+                                             gets, (dir / fmt::format("{}_joints.json", name)).string()));
         INFO(r.err);
         REQUIRE(r.exitCode == 0);
     }

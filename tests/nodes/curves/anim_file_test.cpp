@@ -212,9 +212,10 @@ TEST_CASE("anim file: an animCurve node plays a file's curve as it plays the sam
         return std::string("no error");
     };
     const std::string file = (dir / "arm.anim").string();
-    CHECK(message("wrongKind.output") == fmt::format("node 'wrongKind': {}:3:1: the curve of shoulder.rotateZ goes from "
-                                                     "time to angular; play it with an animCurveTA, not an animCurveTL",
-                                                     file));
+    CHECK(message("wrongKind.output") ==
+          fmt::format("node 'wrongKind': {}:3:1: the curve of shoulder.rotateZ goes from time to angular; play it "
+                      "with an animCurveTA, not an animCurveTL",
+                      file));
     CHECK(message("missing.output") == fmt::format("node 'missing': {} has no curve for elbow.rotateZ (it has "
                                                    "shoulder.rotateZ); set animPlug to one of its plugs",
                                                    file));

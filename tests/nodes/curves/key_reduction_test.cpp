@@ -46,7 +46,8 @@ Chain chain()
 {
     const auto file = test::writeFile(test::scratchDir("key_reduction") / "chain.yaml", chainRig);
     Chain c;
-    c.rig = std::make_unique<GraphRigFunction>(file, GraphRigOptions{{"root.rotate?", "a.rotateZ", "ctrl.curl"}, {}, {}});
+    const GraphRigOptions options{{"root.rotate?", "a.rotateZ", "ctrl.curl"}, {}, {}};
+    c.rig = std::make_unique<GraphRigFunction>(file, options);
     c.approximation = learnApproximation(*c.rig, LearnOptions{}, file.string());
     return c;
 }
@@ -73,7 +74,8 @@ std::vector<std::vector<double>> denseCurves(const Approximation& a, int frames)
 
 double rotationDeg(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 {
-    const Eigen::Matrix3d d = orthonormalPart(a.topLeftCorner<3, 3>()).transpose() * orthonormalPart(b.topLeftCorner<3, 3>());
+    const Eigen::Matrix3d d =
+        orthonormalPart(a.topLeftCorner<3, 3>()).transpose() * orthonormalPart(b.topLeftCorner<3, 3>());
     return Eigen::AngleAxisd(d).angle() * 180.0 / std::numbers::pi;
 }
 
