@@ -167,7 +167,17 @@ constexpr std::string_view pageTail = R"page(
   var rigJoints = joints(data.rig.joints.length, size * 0.009, 0xffffff);
   var rigBones = bones(data.rig.parents, 0xf0f0f0);
 
-  var azimuth = 0.7, elevation = 0.25, distance = size * 1.3;
+  // Far enough for the clip's whole box to fit the field of view.
+  var azimuth = 0.7, elevation = 0.25, distance = 0.6 * size / Math.tan(camera.fov * Math.PI / 360);
+  // The view follows its box (a window resized, the page laid out again).
+  function fitView() {
+    var w = view.clientWidth, h = view.clientHeight;
+    if (renderer.domElement.width === w && renderer.domElement.height === h) return;
+    renderer.setSize(w, h);
+    camera.aspect = w / h;
+    camera.updateProjectionMatrix();
+  }
+  window.addEventListener('resize', function () { show(current); });
   function placeCamera() {
     camera.position.set(center.x + distance * Math.cos(elevation) * Math.sin(azimuth),
                         center.y + distance * Math.sin(elevation),
@@ -228,16 +238,21 @@ constexpr std::string_view pageTail = R"page(
   function drawTimeline(f) {
     var g = canvas2d('timeline');
     var box = plotBox(g);
-    var hi = scale;
-    if (data.keyed) hi = Math.max(hi, Math.max.apply(null, data.keyed.error_cm));
-    axis(g, 0, hi, 'cm', box);
-    plotLine(g, data.worst, 0, hi, '#ff851b', box);
+    axis(g, 0, scale, 'cm', box);
+    plotLine(g, data.worst, 0, scale, '#ff851b', box);
     g.fillStyle = '#ff851b';
-    g.fillText('worst joint error against the targets, per frame', box.x + 4, 11);
+    g.fillText('worst joint error against the targets, per frame (left scale)', box.x + 4, 11);
     if (data.keyed) {
+      // On its own scale (right), up to the tolerance, drawn dashed.
+      var tolerance = data.keyed.tolerance_cm;
+      var hi = Math.max(tolerance, Math.max.apply(null, data.keyed.error_cm)) * 1.1;
+      g.setLineDash([4, 4]);
+      plotLine(g, data.frames.map(function () { return tolerance; }), 0, hi, '#39cccc', box);
+      g.setLineDash([]);
       plotLine(g, data.keyed.error_cm, 0, hi, '#39cccc', box);
       g.fillStyle = '#39cccc';
-      g.fillText('keyed against dense (tolerance ' + data.keyed.tolerance_cm + ' cm)', box.x + 300, 11);
+      g.fillText('keyed against dense, tolerance ' + tolerance + ' cm dashed (right scale)', box.x + 380, 11);
+      g.fillText(fmt(hi, 3), box.x + box.w + 2 - 40, box.y + 8);
     }
     cursor(g, f, box);
   }
@@ -291,6 +306,7 @@ constexpr std::string_view pageTail = R"page(
     place(targetJoints, targetBones, data.target.positions[f]);
     place(rigJoints, rigBones, data.rig.positions[f]);
     rigJoints.forEach(function (m, j) { errorColor(data.rig.errors[f][j], m.material.color); });
+    fitView();
     placeCamera();
     renderer.render(scene, camera);
     scrub.value = f;
