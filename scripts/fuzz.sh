@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Fuzzes the rig loader, the BVH reader, the approximation loader and the target clip and map reader with
-# libFuzzer (clang, AddressSanitizer, UBSan).
+# Fuzzes the rig loader, the BVH reader, the approximation loader, the target clip and map reader, the Maya .anim
+# reader and the command lines with libFuzzer (clang, AddressSanitizer, UBSan).
 # Usage: scripts/fuzz.sh [SECONDS]   (per target, default 60)
 #   Configures and builds build-fuzz/ (clang++, RIG_FUZZ=ON; $RIG_FUZZ_BUILD_DIR for another folder, $RIG_JOBS
 #   parallel compile jobs, default 1), seeds each fuzzer with the bad-input corpus and good inputs (the
@@ -29,7 +29,7 @@ if [ ! -f "$build/build.ninja" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DRIG_FUZZ=ON >/dev/null
 fi
 if ! cmake --build "$build" --target rig_loader_fuzzer bvh_reader_fuzzer approximation_loader_fuzzer \
-    target_clip_fuzzer command_line_fuzzer rig-learn -- -j"$jobs" >"$build/build.log" 2>&1; then
+    target_clip_fuzzer anim_file_fuzzer command_line_fuzzer rig-learn -- -j"$jobs" >"$build/build.log" 2>&1; then
   grep -E 'error|FAILED' "$build/build.log" | head -20 >&2
   echo "fuzz: the build failed; see $build/build.log" >&2
   exit 2
@@ -49,6 +49,7 @@ if ! "$build/bin/rig-learn" rigs/examples/arm.yaml --params 'shoulder.rotate?' '
 fi
 approximation_seeds=(tests/corpus/approx "$build/fuzz-seeds/approximation")
 clip_seeds=(tests/corpus/clips tests/corpus/maps rigs/maps)
+anim_seeds=(tests/corpus/anim)
 # The command lines: one seed per corpus case of the four tools (TOOL, its arguments, then its text files),
 # {scratch} read as the fuzzer's own folder {dir}; and the README's good runs.
 mkdir -p "$build/fuzz-seeds/command_line"
@@ -94,6 +95,7 @@ run_target rig_loader fuzz/rig.dict 65536 "${rig_seeds[@]}"
 run_target bvh_reader fuzz/bvh.dict 65536 "${bvh_seeds[@]}"
 run_target approximation_loader fuzz/approximation.dict 65536 "${approximation_seeds[@]}"
 run_target target_clip fuzz/target_clip.dict 65536 "${clip_seeds[@]}"
+run_target anim_file fuzz/anim.dict 65536 "${anim_seeds[@]}"
 run_target command_line fuzz/command_line.dict 8192 "$build/fuzz-seeds/command_line"
 
 if ((${#failed[@]})); then

@@ -27,6 +27,12 @@ Plug settablePlug(const Graph& graph, std::string_view name);
 // `name` as the user wrote it, for messages.
 void setPlug(Graph& graph, const Plug& plug, std::string_view name, const YAML::Node& value);
 
+// graph-eval --anim FILE: every curve of the Maya .anim file drives its plug (NODE.LEAF, as the file's anim
+// lines name it) through a new animCurve node of the curve's type, as Maya's import connects them; the nodes
+// are named anim_NODE_LEAF. rig::Error "FILE:LINE:COL: ..." (the curve's anim line) for a plug the rig lacks,
+// one that is not a free number input, or a curve whose kind does not fit it.
+void applyAnimFile(Graph& graph, const std::string& file);
+
 // graph-eval --get PATTERN...: the plugs the patterns match, each once, in their order; no pattern: every
 // output plug (whole values). The graph is evaluated first (at `firstFrame` when given), since array
 // outputs have elements only once computed. `rigName` names the rig in errors.

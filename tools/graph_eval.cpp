@@ -29,6 +29,7 @@ struct Options {
     std::string output;
     bool outputGiven = false;  // -o given, possibly with an empty name
     std::vector<std::string> plugins;
+    std::string anim;  // a Maya .anim file whose curves drive the rig's plugs
     bool dot = false;
     bool types = false;
     int threads = 1;
@@ -130,7 +131,7 @@ int run(const Options& options)
     // A bad -o is reported before any work.
     if (options.outputGiven) {
         cli::checkOutputFile(options.output);
-        cli::checkDistinctFiles({{"the rig file", options.rig}}, {{"-o", options.output}});
+        cli::checkDistinctFiles({{"the rig file", options.rig}, {"--anim", options.anim}}, {{"-o", options.output}});
     }
     const auto registry = cli::nodeRegistry(options.plugins);
     // The files the rig includes are inputs too: -o must not be one of them.
@@ -149,6 +150,7 @@ int run(const Options& options)
     else {
         auto graph = load();
         graph->setThreads(options.threads);
+        if (!options.anim.empty()) cli::applyAnimFile(*graph, options.anim);
         for (const auto& s : options.sets) applySet(*graph, s);
         std::optional<cli::FrameRange> range;
         if (options.framesGiven) range = cli::parseFrameRange(options.frames, "--frames");
@@ -199,6 +201,8 @@ int main(int argc, char** argv)
     app.add_option("--frames", options.frames, "Frame range A:B[:STEP], inclusive (default: the current time, 0)");
     app.add_option("--format", options.format, "Output format: json (default), csv, or table (aligned, 6 digits)")->check(CLI::IsMember({"json", "csv", "table"}));
     app.add_option("-o,--output", options.output, "Write to this file instead of standard output");
+    app.add_option("--anim", options.anim,
+                   "A Maya .anim file: its curves drive the rig's plugs they name (docs/keys-anim-report.md)");
     app.add_option("--plugin", options.plugins, "Load a node plugin before reading the rig (repeatable)")
         ->allow_extra_args(false);
     app.add_flag("--types", options.types, "Print the reference of every node type (Markdown) and exit");

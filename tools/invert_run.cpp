@@ -128,15 +128,14 @@ InvertOutcome invert(const InvertJob& job)
                            "rig with rig-learn",
                            approximation.rigFile);
     };
-    std::optional<GraphRigFunction> loaded;
     try {
-        loaded.emplace(job.rig, rigOptions);
+        out.rig = std::make_shared<GraphRigFunction>(job.rig, rigOptions);
     }
     catch (const RigSelectionError& e) {
         throw Error(fmt::format("{}: {} '{}' does not fit {} ({}); {}", job.approximationName, e.kind(), e.name(),
                                 job.rig, e.reason(), learnedFrom()));
     }
-    GraphRigFunction& rig = *loaded;
+    GraphRigFunction& rig = *out.rig;
     if (job.rigLoaded) job.rigLoaded(rig);
     try {
         if (const auto warning = checkFingerprint(approximation, rig.fingerprint(), job.strict);

@@ -56,6 +56,7 @@ struct InvertJob {
 
 struct InvertOutcome {
     std::shared_ptr<const Approximation> approximation;
+    std::shared_ptr<GraphRigFunction> rig;  // the real rig, for measuring more (keys, the HTML report)
     TargetClip clip;       // after the map
     ClipTargets targets;
     int first = 0;         // the first reported frame, an index into clip.frameNumbers

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 
 #include <fmt/format.h>
 
 #include "core/error.h"
 #include "tools/cli_common.h"
+#include "tools/html_report.h"
 #include "tools/invert_run.h"
+#include "tools/keys_run.h"
 #include "tools/progress_bar.h"
 
 namespace rig {
@@ -34,11 +37,17 @@ struct Options {
     bool restStarts = false;
     std::string after;  // curves of the chunk before (--after)
     bool quiet = false;
+    cli::KeySettings keys;
+    bool keysGiven = false;  // --key-tolerance or --key-tolerance-deg: keys instead of a value per frame
+    std::string html;
 };
 
-void printReport(const Options& o, const Approximation& a, const TargetClip& clip, const ClipTargets& targets,
-                 const ClipInversionSummary& s)
+void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli::KeysOutcome* keys)
 {
+    const Approximation& a = *outcome.approximation;
+    const TargetClip& clip = outcome.clip;
+    const ClipTargets& targets = outcome.targets;
+    const ClipInversionSummary& s = outcome.summary;
     std::cout << fmt::format("rig-invert: {} on {} with {} ({} parameters, {} target joints)\n", o.clip, o.rig,
                              o.approximation, a.parameters.size(), targets.matchedJoints);
     if (!targets.unmatchedJoints.empty())
@@ -73,7 +82,9 @@ void printReport(const Options& o, const Approximation& a, const TargetClip& cli
                              s.meanRotationErrorDeg);
     std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
                              s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
+    if (keys) std::cout << cli::keysText(outcome, *keys);
     std::cout << fmt::format("curves            {}\n", o.output);
+    if (!o.html.empty()) std::cout << fmt::format("report page       {}\n", o.html);
 }
 
 int run(const Options& o)
@@ -81,12 +92,18 @@ int run(const Options& o)
     // Everything that can be checked before the work is.
     cli::checkOutputFile(o.output, "curves.json");
     const auto extension = std::filesystem::path(o.output).extension();
-    if (extension != ".json" && extension != ".csv")
-        throw Error(fmt::format("-o {}: the curves are written as .json or .csv; give one of those", o.output));
+    if (extension != ".json" && extension != ".csv" && extension != ".anim")
+        throw Error(fmt::format("-o {}: the curves are written as .json, .csv or .anim (Maya); give one of those",
+                                o.output));
     if (!o.reportJson.empty()) cli::checkOutputFile(o.reportJson, "report.json", "--report-json");
+    if (!o.html.empty()) cli::checkOutputFile(o.html, "report.html", "--html");
+    const TangentType tangent = cli::keyTangent(o.keys.tangent);
+    if (o.keysGiven) cli::checkKeySettings(o.keys);
+    const std::string threeJs = o.html.empty() ? std::string() : cli::readThreeJs();
+    const std::vector<cli::NamedFile> outputs{{"-o", o.output}, {"--report-json", o.reportJson}, {"--html", o.html}};
     cli::checkDistinctFiles({{"the approximation", o.approximation}, {"the rig file", o.rig}, {"the clip", o.clip},
                              {"the map", o.map}, {"--after", o.after}},
-                            {{"-o", o.output}, {"--report-json", o.reportJson}});
+                            outputs);
     cli::InvertJob job;
     job.approximationName = o.approximation;
     job.rig = o.rig;
@@ -101,28 +118,53 @@ int run(const Options& o)
     job.rigLoaded = [&](const GraphRigFunction& rig) {
         std::vector<cli::NamedFile> read;
         for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
-        cli::checkDistinctFiles(read, {{"-o", o.output}, {"--report-json", o.reportJson}});
+        cli::checkDistinctFiles(read, outputs);
     };
     cli::ProgressBar bar("inverting");
     job.progress = [&](int done, int total) { bar.update(static_cast<double>(done) / total); };
     const cli::InvertOutcome outcome = cli::invert(job);
     bar.finish();
+    std::optional<cli::KeysOutcome> keys;
+    if (o.keysGiven) {
+        cli::ProgressBar keying("keying");
+        keys = cli::keyCurves(outcome, o.keys, [&](double fraction) { keying.update(fraction); });
+    }
+    const cli::KeysOutcome* keyed = keys ? &*keys : nullptr;
 
-    const std::string curves = extension == ".csv" ? cli::curvesCsv(outcome) : cli::curvesJson(outcome);
+    std::string curves;
+    if (extension == ".anim") curves = cli::curvesAnim(outcome, keyed, tangent);
+    else if (extension == ".csv") curves = keys ? cli::keyedCurvesCsv(outcome, *keys) : cli::curvesCsv(outcome);
+    else curves = keys ? cli::keyedCurvesJson(outcome, *keys) : cli::curvesJson(outcome);
+    const std::string page =
+        o.html.empty() ? std::string() : cli::htmlReport(outcome, keyed, {o.clip, o.rig, o.approximation}, threeJs);
     cli::writeFileAtomically(o.output, curves);
-    if (!o.reportJson.empty())
-        cli::writeFileAtomically(o.reportJson, cli::jsonText(cli::invertReport(outcome, o.approximation, o.rig, o.clip,
-                                                                               o.output, cli::fingerprintText(curves)),
-                                                             2) +
-                                                   "\n");
+    if (!o.html.empty()) cli::writeFileAtomically(o.html, page);
+    if (!o.reportJson.empty()) {
+        cli::Json report =
+            cli::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, cli::fingerprintText(curves));
+        if (keys) report["keys"] = cli::keysReport(outcome, *keys);
+        cli::writeFileAtomically(o.reportJson, cli::jsonText(report, 2) + "\n");
+    }
     const ClipInversionSummary& summary = outcome.summary;
-    if (!o.quiet) printReport(o, *outcome.approximation, outcome.clip, outcome.targets, summary);
+    if (!o.quiet) printReport(o, outcome, keyed);
     // Measured as wrong: never an exit code of success.
     if (summary.nonFiniteFrames > 0) {
         std::cerr << oneLine(fmt::format("error: the real rig gives a non-finite matrix at {} of {} frames (first: {} at "
                                          "frame {}); the rig cannot follow these curves there",
                                          summary.nonFiniteFrames, summary.frames, summary.firstNonFiniteJoint,
                                          outcome.clip.frameNumbers[summary.firstNonFiniteFrame]))
+                  << '\n';
+        return 3;
+    }
+    if (keys && (keys->keyed.error.maxPositionCm > o.keys.toleranceCm ||
+                 keys->keyed.error.maxRotationDeg > o.keys.toleranceDeg)) {
+        const KeyedError& e = keys->keyed.error;
+        const auto& joint = outcome.approximation->outputs[static_cast<std::size_t>(e.worstOutputOverall)].name;
+        const double frame = outcome.clip.frameNumbers[static_cast<std::size_t>(outcome.first + e.worstFrame)];
+        std::cerr << oneLine(fmt::format("error: the keyed curves leave the real rig {:.4g} cm and {:.4g} deg from the "
+                                         "dense curves ({} at frame {}), over the tolerance of {} cm and {} deg",
+                                         e.maxPositionCm, e.maxRotationDeg, joint, frame, o.keys.toleranceCm,
+                                         o.keys.toleranceDeg))
                   << '\n';
         return 3;
     }
@@ -144,7 +186,9 @@ int main(int argc, char** argv)
         ->required();
     app.add_option("--map", options.map, "Map file: scale of the clip and target-to-rig joint names");
     app.add_option("--frames", options.frames, "Frames A:B of the clip, inclusive, in the clip's numbering");
-    app.add_option("-o,--output", options.output, "Curves to write: .json or .csv, angles in degrees")->required();
+    app.add_option("-o,--output", options.output,
+                   "Curves to write: .json, .csv or .anim (Maya's animImportExport), angles in degrees")
+        ->required();
     app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
     app.add_option("--threads", options.threads, "Threads for the solver (0: all cores); results do not depend on it")
         ->check(rig::cli::threadCount());
@@ -163,9 +207,19 @@ int main(int argc, char** argv)
                  "Restart frames start from the rest values instead of the approximation's initial guess");
     app.add_flag("--strict", options.strict, "Refuse an approximation learned from another version of the rig");
     app.add_option("--plugin", options.plugins, "Load a plugin before reading the rig");
+    app.add_option("--key-tolerance", options.keys.toleranceCm,
+                   "Write keys instead of a value per frame, the real rig's joints within this many cm of the dense "
+                   "curves' (default 0.1 with --key-tolerance-deg)");
+    app.add_option("--key-tolerance-deg", options.keys.toleranceDeg,
+                   "The same for the joints' rotations, in degrees (default 0.5 with --key-tolerance)");
+    app.add_option("--key-tangent", options.keys.tangent,
+                   "Tangent type of the keys: auto (default), spline, clamped, plateau, linear, flat, step, stepnext");
+    app.add_option("--html", options.html,
+                   "Write a self-contained page that plays the clip with the rig overlaid, its errors and curves");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors and warnings");
     return rig::cli::runMain(app, argc, argv, [&] {
         options.framesGiven = app.count("--frames") > 0;
+        options.keysGiven = app.count("--key-tolerance") + app.count("--key-tolerance-deg") > 0;
         return rig::run(options);
     });
 }

@@ -121,6 +121,24 @@ std::vector<int> applyMap(const std::vector<std::string>& fileJoints, const std:
     return kept;
 }
 
+// Each kept joint's nearest ancestor among the kept ones (an index into `kept`), -1 for none; `parents`: the
+// file's joints' parents (-1 for a root), or empty when the file does not say.
+std::vector<int> keptParents(const std::vector<int>& parents, const std::vector<int>& kept)
+{
+    const auto parentOf = [&](int joint) {
+        return static_cast<std::size_t>(joint) < parents.size() ? parents[static_cast<std::size_t>(joint)] : -1;
+    };
+    std::vector<int> out;
+    for (const int j : kept) {
+        int parent = parentOf(j);
+        auto found = kept.end();
+        while (parent >= 0 && (found = std::find(kept.begin(), kept.end(), parent)) == kept.end())
+            parent = parentOf(parent);
+        out.push_back(parent >= 0 ? static_cast<int>(found - kept.begin()) : -1);
+    }
+    return out;
+}
+
 TargetClip readBvhTargets(const std::filesystem::path& file, const TargetMap& map)
 {
     const BvhClip bvh = readBvhFile(file);
@@ -129,6 +147,10 @@ TargetClip readBvhTargets(const std::filesystem::path& file, const TargetMap& ma
     TargetClip clip;
     clip.file = file.string();
     const auto kept = applyMap(fileJoints, clip.file, map, clip.joints);
+    clip.frameTime = bvh.frameTime;
+    std::vector<int> parents;
+    for (const auto& joint : bvh.joints) parents.push_back(joint.parent);
+    clip.parents = keptParents(parents, kept);
     for (int f = 0; f < bvh.frameCount; ++f) {
         const auto worlds = bvhWorldMatrices(bvh, f);
         auto& frame = clip.worlds.emplace_back();
@@ -243,6 +265,7 @@ TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileNam
     if (fileJoints.empty())
         throw Error(fmt::format("{}: the first frame has no NODE.worldMatrix entries", where(clip.file, root[0])));
     const auto kept = applyMap(fileJoints, clip.file, map, clip.joints);
+    clip.parents = keptParents({}, kept);
     for (const auto& frameNode : root) {
         if (!frameNode.IsMap())
             throw Error(fmt::format("{}: a frame must be a map with \"frame\" and the joints' world matrices",
@@ -343,7 +366,9 @@ TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map)
     TargetClip out;
     out.file = clip.file;
     out.frameNumbers = clip.frameNumbers;
+    out.frameTime = clip.frameTime;
     const auto kept = applyMap(clip.joints, clip.file, map, out.joints);
+    out.parents = keptParents(clip.parents, kept);
     for (const auto& worlds : clip.worlds) {
         auto& frame = out.worlds.emplace_back();
         for (const int j : kept) {

@@ -42,6 +42,10 @@ struct TargetClip {
     std::vector<std::string> joints;                // rig joint names (after the map), file order
     std::vector<double> frameNumbers;               // as the file numbers its frames (BVH: 1 = first line)
     std::vector<std::vector<Eigen::Matrix4d>> worlds;  // [frame][joint], world matrices, cm
+    // Per joint its parent (its nearest ancestor the map kept), -1 for a root or when the file does not say
+    // (JSON clips): for drawing the skeleton (rig-invert --html).
+    std::vector<int> parents;
+    double frameTime = 0.0;  // seconds per frame (a BVH file's Frame Time), 0 when the file does not say
 };
 
 // Reads a .bvh or .json target clip and applies the map.

@@ -1,6 +1,7 @@
 // animCurveTU/TA/TL/UU/UA/UL: Maya's animation curves and set-driven keys. T curves are driven by
 // time (in frames; the scene time when `input` is unconnected), U curves by any number; U, A and L
-// outputs are unitless, angles and distances.
+// outputs are unitless, angles and distances. Keys come from `keys:` in a rig file, or from a curve of a
+// Maya .anim file (animFile and animPlug; nodes/curves/anim_file.h).
 #include <cmath>
 #include <optional>
 
@@ -10,11 +11,24 @@
 #include "core/error.h"
 #include "nodes/anim_curve_math.h"
 #include "nodes/builtin_nodes.h"
+#include "nodes/curves/anim_file.h"
 
 namespace rig {
 namespace {
 
-enum Attr : AttrId { input, keyTime, keyValue, keyInTangent, keyOutTangent, tangents, preInfinity, postInfinity, output };
+enum Attr : AttrId {
+    input,
+    keyTime,
+    keyValue,
+    keyInTangent,
+    keyOutTangent,
+    tangents,
+    preInfinity,
+    postInfinity,
+    animFile,
+    animPlug,
+    output
+};
 
 constexpr int tangentTypeCount = 8;
 constexpr int infinityCount = 5;
@@ -35,8 +49,29 @@ std::vector<std::string> infinityNames()
 
 class AnimCurveNode : public Node {
 public:
+    AnimCurveNode(std::string typeName, double yScale) : typeName_(std::move(typeName)), yScale_(yScale) {}
+
     void compute(ComputeContext& c) override
     {
+        const std::string& file = c.getString(animFile);
+        const std::string& plug = c.getString(animPlug);
+        if (!file.empty() || !plug.empty()) {
+            if (!c.getDoubleArray(keyTime).empty())
+                throw Error(fmt::format("node '{}': has keys and animFile; give one of them", c.nodeName()));
+            // The file is read again only when it or the plug changes.
+            if (file != file_ || plug != plug_ || !fromFile_) {
+                curve_ = fileCurve(c, file, plug);
+                file_ = file;
+                plug_ = plug;
+                fromFile_ = true;
+            }
+            c.setOutput(output, curve_.evaluate(c.getDouble(input)));
+            return;
+        }
+        if (fromFile_) {
+            fromFile_ = false;
+            fallback_ = -1;  // rebuilt from the keys below
+        }
         const auto& times = c.getDoubleArray(keyTime);
         const auto& values = c.getDoubleArray(keyValue);
         const auto& ins = c.getDoubleArray(keyInTangent);
@@ -60,6 +95,46 @@ public:
     }
 
 private:
+    // The curve of `plug` in the .anim file `file`, its values in this node's internal units.
+    AnimCurve fileCurve(const ComputeContext& c, const std::string& file, const std::string& plug) const
+    {
+        if (file.empty())
+            throw Error(fmt::format("node '{}': animPlug is set but animFile is empty; give the .anim file",
+                                    c.nodeName()));
+        if (plug.empty())
+            throw Error(fmt::format("node '{}': animFile {} needs animPlug, the plug whose curve to play "
+                                    "(NODE.ATTRIBUTE as the file's anim lines name it)",
+                                    c.nodeName(), file));
+        AnimFile anim;
+        try {
+            anim = readAnimFile(file);
+        }
+        catch (const Error& e) {
+            throw Error(fmt::format("node '{}': {}", c.nodeName(), e.what()));
+        }
+        const AnimFileCurve* curve = anim.find(plug);
+        if (!curve) {
+            std::string names;
+            for (std::size_t i = 0; i < anim.curves.size() && i < 4; ++i)
+                names += fmt::format("{}{}", i ? ", " : "", anim.curves[i].plugName());
+            if (anim.curves.size() > 4) names += fmt::format(" and {} more", anim.curves.size() - 4);
+            throw Error(fmt::format("node '{}': {} has no curve for {} (it has {}); set animPlug to one of its plugs",
+                                    c.nodeName(), file, plug, names.empty() ? "none" : names));
+        }
+        if (curve->nodeTypeName() != typeName_)
+            throw Error(fmt::format("node '{}': {}: the curve of {} goes from {} to {}; play it with an {}, not an {}",
+                                    c.nodeName(), formatMark(curve->mark), plug, animQuantityName(curve->input),
+                                    animQuantityName(curve->output), curve->nodeTypeName(), typeName_));
+        std::vector<AnimKey> keys = curve->keys;
+        for (AnimKey& k : keys) k.y *= yScale_;
+        try {
+            return AnimCurve::build(std::move(keys), curve->pre, curve->post);
+        }
+        catch (const std::invalid_argument& e) {
+            throw Error(fmt::format("node '{}': {}: {}", c.nodeName(), formatMark(curve->mark), e.what()));
+        }
+    }
+
     static AnimCurve build(const ComputeContext& c, const std::vector<double>& times, const std::vector<double>& values,
                            const std::vector<double>& ins, const std::vector<double>& outs, int fallback, int pre,
                            int post)
@@ -85,9 +160,13 @@ private:
         }
     }
 
+    std::string typeName_;
+    double yScale_ = 1.0;  // file units (degrees) to internal ones
     AnimCurve curve_;
     std::vector<double> times_, values_, ins_, outs_;
     int fallback_ = -1, pre_ = -1, post_ = -1;
+    std::string file_, plug_;
+    bool fromFile_ = false;  // curve_ holds the file's curve
 };
 
 // A YAML value as messages show it: 'text' for a scalar, else what it is (a list, a map, nothing).
@@ -162,12 +241,20 @@ std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
         .doc("Tangent type of keys that do not name one.");
     b.input(preInfinity, "preInfinity", ValueType::Enum).enumNames(infinityNames()).doc("Before the first key.");
     b.input(postInfinity, "postInfinity", ValueType::Enum).enumNames(infinityNames()).doc("After the last key.");
+    b.input(animFile, "animFile", ValueType::String)
+        .filePath()
+        .doc("A Maya .anim file to take the keys, tangents and infinities from instead of `keys:` "
+             "(docs/keys-anim-report.md); in a rig file a relative path is read from the rig file's folder.");
+    b.input(animPlug, "animPlug", ValueType::String)
+        .doc("The plug whose curve in animFile this node plays, NODE.ATTRIBUTE as the file's anim lines name it "
+             "(e.g. L_arm_fk_ctrl.rotateX).");
     b.output(output, "output", ValueType::Double).unit(outUnit).doc("The curve's value at input.");
     b.affectsAll();
     b.yamlField("keys", [yScale](const YAML::Node& node, const YamlFieldContext& context) {
         return parseKeys(node, context, yScale);
     });
-    return b.factory<AnimCurveNode>().build();
+    return b.factory([name, yScale] { return std::unique_ptr<Node>(std::make_unique<AnimCurveNode>(name, yScale)); })
+        .build();
 }
 
 }  // namespace rig

@@ -1,0 +1,76 @@
+#pragma once
+// Sparse keys for dense curves (one value per frame, as rig-invert solves them), chosen so that the real rig
+// driven by the keyed curves stays within a tolerance of the rig driven by the dense values, on every joint
+// of every frame (docs/keys-anim-report.md).
+//
+// The keys of each curve start from a fit of its values alone, each curve allowed the whole tolerance
+// through its own sensitivity (the joints' motion per unit of the control, measured on the rig). Then the
+// real rig is evaluated at every frame with the keyed values: while a frame is over the tolerance, the worst
+// one gets a key on the control that moves its worst joint most there (sensitivity times the curve's miss),
+// and the frames that key changes are evaluated again. A frame with every control keyed is the dense pose,
+// so the loop ends; the result is within the tolerance by measurement, not by estimate.
+
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "inversion/rig_binding.h"
+#include "nodes/anim_curve_math.h"
+
+namespace rig {
+
+struct KeyReductionOptions {
+    double toleranceCm = 0.1;   // joint positions
+    double toleranceDeg = 0.5;  // joint rotations
+    TangentType tangent = TangentType::auto_;
+    // Called with the fraction done; may be empty.
+    std::function<void(double fraction)> progress;
+
+    // Throws std::invalid_argument naming the field.
+    void validate() const;
+};
+
+// The real rig under keyed values against the dense ones, per frame: the worst joint's errors.
+struct KeyedError {
+    std::vector<double> positionCm;   // [frame]
+    std::vector<double> rotationDeg;  // [frame]
+    std::vector<int> worstOutput;     // [frame], an index into Approximation::outputs (by position error)
+    double maxPositionCm = 0.0;
+    double maxRotationDeg = 0.0;
+    int worstFrame = 0;               // of the position error
+    int worstOutputOverall = 0;
+};
+
+struct KeyedCurves {
+    std::vector<std::vector<AnimKey>> keys;   // [parameter]: x the frame number, y internal units
+    std::vector<std::vector<double>> values;  // [frame][parameter]: the keyed curves at each frame
+    KeyedError error;
+    long long rigEvaluations = 0;
+
+    std::size_t keyCount() const;
+};
+
+// Keys at a uniform step (every `step` frames from the first, and the last frame), for comparison.
+struct UniformKeys {
+    int step = 1;
+    std::size_t keyCount = 0;
+    KeyedError error;
+};
+
+// `frames`: the frame numbers of the rows of `dense` ([frame][parameter], one value per
+// Approximation::parameters entry, internal units), increasing. Throws std::invalid_argument for sizes
+// that do not match or fewer than one frame.
+KeyedCurves reduceKeys(RigBinding& rig, std::span<const double> frames, const std::vector<std::vector<double>>& dense,
+                       const KeyReductionOptions& options);
+
+// The largest uniform step whose keys keep the real rig within the tolerance (found by doubling, then
+// bisection), with its keys and errors.
+UniformKeys uniformKeys(RigBinding& rig, std::span<const double> frames, const std::vector<std::vector<double>>& dense,
+                        const KeyReductionOptions& options);
+
+// The keys of a curve at every frame: one per row of `dense`.
+std::vector<std::vector<AnimKey>> denseKeys(std::span<const double> frames,
+                                            const std::vector<std::vector<double>>& dense, TangentType tangent);
+
+}  // namespace rig
