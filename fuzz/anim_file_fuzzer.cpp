@@ -8,7 +8,7 @@
 #include <limits>
 #include <string_view>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "nodes/curves/anim_file.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)

@@ -10,7 +10,7 @@
 
 #include <fmt/format.h>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "inversion/rig_binding.h"
 
 namespace rig::cli {

@@ -130,8 +130,8 @@ private:
         try {
             return AnimCurve::build(std::move(keys), curve->pre, curve->post);
         }
-        catch (const std::invalid_argument& e) {
-            throw Error(fmt::format("node '{}': {}: {}", c.nodeName(), formatMark(curve->mark), e.what()));
+        catch (const Error& e) {
+            throw e.in(fmt::format("node '{}': {}", c.nodeName(), formatMark(curve->mark)));
         }
     }
 

@@ -35,7 +35,7 @@
 #include <string_view>
 #include <vector>
 
-#include "graph/error.h"
+#include "core/error.h"
 #include "nodes/anim_curve_math.h"
 
 namespace rig {

@@ -4,11 +4,12 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
-#include <stdexcept>
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 
+#include "core/error.h"
+#include "core/rotation_math.h"
 #include "inversion/jacobian.h"
 
 namespace rig {
@@ -38,7 +39,7 @@ public:
             auto& rotations = rotations_.emplace_back();
             for (const auto& w : worlds_) {
                 positions.push_back(w.block<3, 1>(0, 3));
-                rotations.push_back(orthonormalPart(w.topLeftCorner<3, 3>()));
+                rotations.push_back(polarRotation(w.topLeftCorner<3, 3>()));
             }
         }
     }
@@ -111,8 +112,7 @@ private:
 
     static double rotationDeg(const Eigen::Matrix4d& world, const Eigen::Matrix3d& rotation)
     {
-        const Eigen::Matrix3d d = orthonormalPart(world.topLeftCorner<3, 3>()).transpose() * rotation;
-        return Eigen::AngleAxisd(d).angle() * 180.0 / std::numbers::pi;
+        return orientationAngle(world.topLeftCorner<3, 3>(), rotation) * 180.0 / std::numbers::pi;
     }
 
     RigBinding& rig_;
@@ -125,14 +125,14 @@ private:
 void checkInputs(std::span<const double> frames, const std::vector<std::vector<double>>& dense, const RigBinding& rig)
 {
     if (frames.empty() || frames.size() != dense.size())
-        throw std::invalid_argument(fmt::format("reduceKeys: {} frame numbers for {} rows of values", frames.size(),
+        throw internalError(fmt::format("reduceKeys: {} frame numbers for {} rows of values", frames.size(),
                                                 dense.size()));
     for (std::size_t f = 0; f < frames.size(); ++f) {
         if (dense[f].size() != rig.approximation().parameters.size())
-            throw std::invalid_argument(fmt::format("reduceKeys: frame {} has {} values for {} parameters", f,
+            throw internalError(fmt::format("reduceKeys: frame {} has {} values for {} parameters", f,
                                                     dense[f].size(), rig.approximation().parameters.size()));
         if (f > 0 && !(frames[f] > frames[f - 1]))
-            throw std::invalid_argument("reduceKeys: frame numbers must increase");
+            throw internalError("reduceKeys: frame numbers must increase");
     }
 }
 
@@ -338,9 +338,9 @@ bool allWithin(const std::vector<FrameError>& errors)
 void KeyReductionOptions::validate() const
 {
     if (!(toleranceCm > 0.0) || !std::isfinite(toleranceCm))
-        throw std::invalid_argument(fmt::format("toleranceCm must be a positive number, got {}", toleranceCm));
+        throw Error(fmt::format("toleranceCm must be a positive number, got {}", toleranceCm));
     if (!(toleranceDeg > 0.0) || !std::isfinite(toleranceDeg))
-        throw std::invalid_argument(fmt::format("toleranceDeg must be a positive number, got {}", toleranceDeg));
+        throw Error(fmt::format("toleranceDeg must be a positive number, got {}", toleranceDeg));
 }
 
 std::size_t KeyedCurves::keyCount() const
@@ -400,7 +400,7 @@ KeyedCurves reduceKeys(RigBinding& rig, std::span<const double> frames, const st
         }
         // Every control on its dense value is the dense pose, whose error is none.
         if (chosen == parameters)
-            throw std::logic_error("reduceKeys: a frame on the dense values is off the tolerance");
+            throw internalError("reduceKeys: a frame on the dense values is off the tolerance");
         state.toggle(chosen, static_cast<int>(f));
         const auto within = static_cast<std::size_t>(std::count_if(
             state.errors.begin(), state.errors.end(), [](const FrameError& e) { return e.normalized <= 1.0; }));

@@ -27,7 +27,7 @@ struct KeyReductionOptions {
     // Called with the fraction done; may be empty.
     std::function<void(double fraction)> progress;
 
-    // Throws std::invalid_argument naming the field.
+    // Throws rig::Error naming the field.
     void validate() const;
 };
 
@@ -59,7 +59,7 @@ struct UniformKeys {
 };
 
 // `frames`: the frame numbers of the rows of `dense` ([frame][parameter], one value per
-// Approximation::parameters entry, internal units), increasing. Throws std::invalid_argument for sizes
+// Approximation::parameters entry, internal units), increasing. Throws an internal rig::Error for sizes
 // that do not match or fewer than one frame.
 KeyedCurves reduceKeys(RigBinding& rig, std::span<const double> frames, const std::vector<std::vector<double>>& dense,
                        const KeyReductionOptions& options);

@@ -15,6 +15,7 @@
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
 #include "inversion/rig_binding.h"
+#include "core/rotation_math.h"
 #include "nodes/curves/key_reduction.h"
 #include "nodes/graph_rig_function.h"
 #include "test_support.h"
@@ -74,9 +75,7 @@ std::vector<std::vector<double>> denseCurves(const Approximation& a, int frames)
 
 double rotationDeg(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 {
-    const Eigen::Matrix3d d =
-        orthonormalPart(a.topLeftCorner<3, 3>()).transpose() * orthonormalPart(b.topLeftCorner<3, 3>());
-    return Eigen::AngleAxisd(d).angle() * 180.0 / std::numbers::pi;
+    return orientationAngle(a.topLeftCorner<3, 3>(), b.topLeftCorner<3, 3>()) * 180.0 / std::numbers::pi;
 }
 
 }  // namespace
@@ -166,8 +165,8 @@ TEST_CASE("key reduction: dense keys are one per frame, and bad inputs are refus
     CHECK(keys[0][1].inTangent == TangentType::linear);
     KeyReductionOptions options;
     options.toleranceCm = 0.0;
-    CHECK_THROWS_AS(options.validate(), std::invalid_argument);
+    CHECK_THROWS_AS(options.validate(), rig::Error);
     Chain c = chain();
     RigBinding binding(c.approximation, *c.rig);
-    CHECK_THROWS_AS(reduceKeys(binding, frames, dense, KeyReductionOptions{}), std::invalid_argument);
+    CHECK_THROWS_AS(reduceKeys(binding, frames, dense, KeyReductionOptions{}), rig::Error);
 }
