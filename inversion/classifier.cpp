@@ -589,24 +589,16 @@ void takeFirstSamples(RigFunction& rig, int index, const std::vector<Eigen::Matr
     }
 }
 
-Classification classifyParameter(RigProbe& probe, int index, RigState& state, ParameterSamples& samples,
-                                 const LearnOptions& options)
+namespace {
+
+// Phase 1 of classifying a parameter, from its first samples: the outputs they show history-dependent
+// (marked in `state`), then its reach and largest raw effect. False, with the reason, when the rig gives
+// a non-finite matrix.
+bool measureEffect(RigProbe& probe, const RigParameter& parameter, const std::vector<double>& offsets,
+                   RigState& state, ParameterSamples& samples, const LearnOptions& options, Classification& result)
 {
-    const RigParameter& parameter = probe.rig().parameters()[static_cast<std::size_t>(index)];
     const auto& outputNames = probe.rig().outputs();
     const auto& rest = probe.rest();
-    Classification result;
-    result.index = index;
-    result.model.parameter = parameter;
-    const double lo = parameter.min - parameter.defaultValue;
-    const double hi = parameter.max - parameter.defaultValue;
-    if (!(hi > lo) || (lo == 0.0 && hi == 0.0)) {
-        result.reason = "its range is empty (min = max = its rest value)";
-        return result;
-    }
-
-    const std::vector<double> offsets = initialOffsets(lo, hi, options.samples, parameter.angular);
-    if (!samples.taken) throw internalError(fmt::format("classifyParameter: {} has no first samples", parameter.name));
     for (std::size_t k = 0; k < rest.size(); ++k) {
         if (state.unreliable[k]) continue;
         const double moved = matrixError(samples.restAfter[k], rest[k], options.frameRadius);
@@ -621,7 +613,6 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
         }
     }
 
-    Context c{probe, index, options, samples, {}, {}, {}, {}, offsets};
     for (std::size_t k = 0; k < rest.size(); ++k) {
         const int kk = static_cast<int>(k);
         if (!std::binary_search(samples.moved.begin(), samples.moved.end(), kk)) continue;
@@ -634,13 +625,24 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
                                             parameter.angular ? (parameter.defaultValue + a) * 180.0 / std::numbers::pi
                                                               : parameter.defaultValue + a,
                                             parameter.angular ? " degrees" : "");
-                return result;
+                return false;
             }
             raw = std::max(raw, matrixError(samples.world(kk, a, rest), rest[k], options.frameRadius));
         }
         result.effect = std::max(result.effect, raw);
         ++result.reach;
     }
+    return true;
+}
+
+// Phase 2: the outputs it moves in their frames (into `c`), the sample that the order tests use, and the
+// ranges where it stops acting (the operators are held there). False, with the reason, when it moves none.
+bool frameOutputs(RigProbe& probe, Context& c, double lo, double hi, const RigState& state,
+                  const ParameterSamples& samples, const LearnOptions& options, Classification& result)
+{
+    const RigParameter& parameter = result.model.parameter;
+    const auto& rest = probe.rest();
+    const std::vector<double>& offsets = c.initial;
     // The affected outputs in their frames: a relative output moves when its parent-relative transform does.
     for (std::size_t k = 0; k < rest.size(); ++k) {
         const int kk = static_cast<int>(k);
@@ -662,7 +664,7 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
         result.reason = !samples.historyDependent.empty()
                             ? samples.historyDependent
                             : "no effect: no output moves when it alone changes (the others at their rest values)";
-        return result;
+        return false;
     }
     result.orderOffset = largestOffset(c);
     result.orderWorlds = c.sample(result.orderOffset);
@@ -681,7 +683,15 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
         from += parameter.defaultValue;
         to += parameter.defaultValue;
     }
+    return true;
+}
 
+// Phase 3: the simplest operators that validate: one analytic operator for every output, else one per
+// output (analytic where one fits, sampled otherwise). Sets `result` either way.
+void fitOperators(Context& c, const std::vector<std::string>& outputNames, const LearnOptions& options,
+                  Classification& result)
+{
+    const RigParameter parameter = result.model.parameter;
     std::vector<std::size_t> everyOutput(c.outputs.size());
     for (std::size_t e = 0; e < everyOutput.size(); ++e) everyOutput[e] = e;
     Candidate best;
@@ -694,7 +704,7 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
         result.model.operatorOfOutput = candidate.operatorOfOutput;
         result.model.form = std::move(how);
         result.model.samples = c.sampleCount();
-        return result;
+        return;
     };
 
     // 1. One analytic operator for every affected output.
@@ -703,7 +713,8 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
         double error = std::numeric_limits<double>::infinity();
         if (tryAnalytic(c, kind, everyOutput, candidate, error, form)) {
             result.model.fitError = error;
-            return accept(candidate, form);
+            accept(candidate, form);
+            return;
         }
         if (error < bestError) bestError = error;
     }
@@ -750,7 +761,7 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
                 result.failedOutput = c.outputs[e];
                 result.model = ModelledParameter{};
                 result.model.parameter = parameter;
-                return result;
+                return;
             }
             found = candidate;
             error = candidateError;
@@ -764,7 +775,31 @@ Classification classifyParameter(RigProbe& probe, int index, RigState& state, Pa
     std::string description = "per output:";
     for (const auto& [how, count] : forms) description += fmt::format(" {} {}", count, how);
     result.model.fitError = worst;
-    return accept(perOutput, description);
+    accept(perOutput, description);
+}
+
+}  // namespace
+
+Classification classifyParameter(RigProbe& probe, int index, RigState& state, ParameterSamples& samples,
+                                 const LearnOptions& options)
+{
+    const RigParameter& parameter = probe.rig().parameters()[static_cast<std::size_t>(index)];
+    Classification result;
+    result.index = index;
+    result.model.parameter = parameter;
+    const double lo = parameter.min - parameter.defaultValue;
+    const double hi = parameter.max - parameter.defaultValue;
+    if (!(hi > lo) || (lo == 0.0 && hi == 0.0)) {
+        result.reason = "its range is empty (min = max = its rest value)";
+        return result;
+    }
+    if (!samples.taken) throw internalError(fmt::format("classifyParameter: {} has no first samples", parameter.name));
+    const std::vector<double> offsets = initialOffsets(lo, hi, options.samples, parameter.angular);
+    if (!measureEffect(probe, parameter, offsets, state, samples, options, result)) return result;
+    Context c{probe, index, options, samples, {}, {}, {}, {}, offsets};
+    if (!frameOutputs(probe, c, lo, hi, state, samples, options, result)) return result;
+    fitOperators(c, probe.rig().outputs(), options, result);
+    return result;
 }
 
 }  // namespace rig

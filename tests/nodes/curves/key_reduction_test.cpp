@@ -43,9 +43,10 @@ struct Chain {
     Approximation approximation;
 };
 
-Chain chain()
+// `name`: a scratch folder of the test case's own (CTest runs the cases of this file in parallel processes).
+Chain chain(const std::string& name)
 {
-    const auto file = test::writeFile(test::scratchDir("key_reduction") / "chain.yaml", chainRig);
+    const auto file = test::writeFile(test::scratchDir("key_reduction_" + name) / "chain.yaml", chainRig);
     Chain c;
     const GraphRigOptions options{{"root.rotate?", "a.rotateZ", "ctrl.curl"}, {}, {}};
     c.rig = std::make_unique<GraphRigFunction>(file, options);
@@ -82,7 +83,7 @@ double rotationDeg(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 
 TEST_CASE("key reduction: the keys alone keep the real rig within the tolerance of the dense pose, with few keys")
 {
-    Chain c = chain();
+    Chain c = chain("1");
     REQUIRE(c.approximation.parameters.size() == 5);
     RigBinding binding(c.approximation, *c.rig);
     const int n = 60;
@@ -134,7 +135,7 @@ TEST_CASE("key reduction: the keys alone keep the real rig within the tolerance 
 
 TEST_CASE("key reduction: spline keys keep a limited control inside its limits")
 {
-    Chain c = chain();
+    Chain c = chain("2");
     RigBinding binding(c.approximation, *c.rig);
     const int n = 50;
     const auto dense = denseCurves(c.approximation, n);
@@ -166,7 +167,7 @@ TEST_CASE("key reduction: dense keys are one per frame, and bad inputs are refus
     KeyReductionOptions options;
     options.toleranceCm = 0.0;
     CHECK_THROWS_AS(options.validate(), rig::Error);
-    Chain c = chain();
+    Chain c = chain("3");
     RigBinding binding(c.approximation, *c.rig);
     CHECK_THROWS_AS(reduceKeys(binding, frames, dense, KeyReductionOptions{}), rig::Error);
 }
