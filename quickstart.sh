@@ -23,7 +23,8 @@ echo "== rigs/examples/biped_mocap.yaml: $clip frames $frames -> rigInversion ->
 # rig-invert solves the same frames outside the graph and measures the real rig: its curves must be the graph's.
 build/bin/rig-invert "$approx" --rig rigs/biped.yaml --clip "$clip" --map rigs/maps/cmu_to_biped.yaml \
   --frames "$frames" -o build/biped_invert_curves.json --report-json build/biped_invert_report.json -q
-gets=$(python3 -c 'import json,sys; print(" ".join("--get " + k for k in json.load(open(sys.argv[1]))[0] if k != "frame"))' \
+gets=$(python3 -c 'import json,sys
+print(" ".join("--get " + k for k in json.load(open(sys.argv[1]))[0] if k != "frame"))' \
   build/biped_invert_curves.json)
 # shellcheck disable=SC2086
 build/bin/graph-eval rigs/examples/biped_mocap.yaml --frames "$frames" $gets --stats \

@@ -73,7 +73,8 @@ def machine_block(b):
         ("build", f"{m.get('build_type')} ({m.get('cxx_flags', '').strip()})"),
         ("Eigen / oneTBB / Ceres", f"{m.get('eigen')} / {m.get('tbb')} / {get(b, 'ceres.version') or 'not built'}"),
         ("run", f"{b.get('mode')}, {num(b.get('seconds'))} s, {m.get('date')}"),
-        ("load average (1/5/15 min)", f"start {load(m.get('load_average_at_start'))}, end {load(b.get('load_average_at_end'))}"),
+        ("load average (1/5/15 min)",
+         f"start {load(m.get('load_average_at_start'))}, end {load(b.get('load_average_at_end'))}"),
     ]
     return table(["", "this run"], [(k, v) for k, v in rows])
 
@@ -90,7 +91,8 @@ def headline_block(b):
                  f"{num(jac['speedup_fd'])}x", status(jac["speedup_fd"] >= TALK_JACOBIAN_SPEEDUP)))
     ms = inv["ms_per_frame"]
     bbb = inv.get("block_by_block_ms_per_frame")
-    rows.append(("inversion per frame, biped, 1 thread", f"{TALK_MS_PER_FRAME} ms (talk); < {GOAL_MS_PER_FRAME} ms (goal)",
+    rows.append(("inversion per frame, biped, 1 thread",
+                 f"{TALK_MS_PER_FRAME} ms (talk); < {GOAL_MS_PER_FRAME} ms (goal)",
                  f"{num(ms)} ms coupled blocks (block by block {num(bbb)} ms, whole problem "
                  f"{num(inv.get('whole_ms_per_frame'))} ms)",
                  f"talk: {status(ms <= TALK_MS_PER_FRAME)}; goal: {status(ms < GOAL_MS_PER_FRAME)}"))
@@ -134,7 +136,8 @@ def jacobian_block(b):
          num(j["approx_fd_serial_ms"] / j["blackbox_fd_ms"])),
         ("approximation: analytic", num(j["approx_analytic_ms"]), num(j["approx_analytic_ms"] / j["blackbox_fd_ms"])),
     ]
-    text = table(["Jacobian (%d x %d, at rest, first frame's targets)" % (j["rows"], j["columns"]), "ms", "x black box"], rows)
+    text = table(["Jacobian (%d x %d, at rest, first frame's targets)" % (j["rows"], j["columns"]), "ms",
+                  "x black box"], rows)
     text += (f"\n\nBlack box: {num(j['blackbox_evaluations_per_jacobian'])} real-rig evaluations per Jacobian, "
              f"{num(j['blackbox_fd_ms'] / j['blackbox_evaluations_per_jacobian'] * 1000)} us each. "
              f"Largest difference between the real rig's Jacobian and the analytic one, relative to its largest "
@@ -173,7 +176,9 @@ def invert_block(b):
                   "worst deg", "mean deg"], rows)
     text += (f"\n\nOur variants over {inv['frames']} frames; the black box over the first {bb['frames']} frames "
              f"({num(bb['evaluations_per_frame'])} real-rig evaluations per frame), where ours takes "
-             f"{num(bb['ours_cpu_ms_per_frame'])} ms per frame: {num(bb['speedup'])}x faster (the whole problem, as the black box solves it: {num(bb['ours_whole_cpu_ms_per_frame'])} ms, {num(bb['speedup_whole'])}x). Iterations: "
+             f"{num(bb['ours_cpu_ms_per_frame'])} ms per frame: {num(bb['speedup'])}x faster (the whole problem, as "
+             f"the black box solves it: {num(bb['ours_whole_cpu_ms_per_frame'])} ms, {num(bb['speedup_whole'])}x). "
+             "Iterations: "
              f"the coupled solve's own (its blocks step together); block by block, summed over the partition's "
              f"blocks. Converged: to the targets (the other frames end stuck, stationary with a residual, or not "
              f"converged).")
@@ -187,7 +192,8 @@ def ceres_block(b):
     rows = []
     for v in c["variants"]:
         r = v["real_rig"]
-        rows.append((f"Ceres {c['version']}, {v['linear_solver']}, {v['tolerances']} tolerances", num(v["cpu_ms_per_frame"]),
+        rows.append((f"Ceres {c['version']}, {v['linear_solver']}, {v['tolerances']} tolerances",
+                     num(v["cpu_ms_per_frame"]),
                      f"{v['converged_frames']}/{v['frames']}", num(v["mean_iterations"]), num(v["mean_final_cost"], 4),
                      num(r["max_position_error_cm"]), num(r["mean_position_error_cm"])))
     rows.append(("ours, coupled blocks, analytic, 1 thread", num(c["ours_ms_per_frame"]), "", "",
@@ -242,7 +248,8 @@ def accuracy_block(b):
         "approximation_block_by_block": "ours (block by block, analytic)",
         "approximation_whole": "ours (whole problem, analytic)",
         "approximation_fd": "ours (finite differences)",
-        "approximation_world_space": "ours, world-space approximation (the talk's frames; it discards what it cannot order)",
+        "approximation_world_space":
+            "ours, world-space approximation (the talk's frames; it discards what it cannot order)",
         "approximation_polish1": "ours + 1 real-rig polish",
         "ceres": "Ceres (headline variant)",
         "blackbox": "Gauss-Newton on the real rig",
@@ -280,7 +287,8 @@ def growth_block(b):
     g = b.get("growth") or {}
     keys = [("ms_per_frame", "time per frame"), ("jacobian_ms", "Jacobian (analytic, blocks)"),
             ("blackbox_jacobian_ms", "black-box Jacobian"), ("train_evaluations", "training evaluations"),
-            ("train_seconds", "training time"), ("memory_mb", "peak memory"), ("approximation_kb", "approximation size")]
+            ("train_seconds", "training time"), ("memory_mb", "peak memory"),
+            ("approximation_kb", "approximation size")]
     kinds = [k for k in ("crowd", "chain") if k in g]
     rows = [(label, *[num(g[k].get(key)) for k in kinds]) for key, label in keys]
     return table(["cost ~ parameters^k", *[f"k, {k}" for k in kinds]], rows)

@@ -26,7 +26,8 @@ if ! command -v clang++ >/dev/null || ! dpkg -s libclang-rt-14-dev python3-yaml 
     python3-yaml >/dev/null
 fi
 if [ ! -f "$build/build.ninja" ]; then
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DRIG_FUZZ=ON >/dev/null
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DRIG_FUZZ=ON \
+    >/dev/null
 fi
 if ! cmake --build "$build" --target rig_loader_fuzzer bvh_reader_fuzzer approximation_loader_fuzzer \
     target_clip_fuzzer anim_file_fuzzer command_line_fuzzer rig-learn -- -j"$jobs" >"$build/build.log" 2>&1; then

@@ -19,7 +19,8 @@ def stuck_joints(report, shown=4):
     """The joints stuck frames left short of their targets, the largest real-rig error first:
     'A (1.4 cm, 239 frames), B (...) and N more'."""
     joints = sorted(report["stuck_joints"].items(), key=lambda item: -item[1]["worst_position_error_cm"])
-    text = ", ".join(f"{name} ({j['worst_position_error_cm']:.3g} cm, {j['frames']} frame{'' if j['frames'] == 1 else 's'})"
+    text = ", ".join(f"{name} ({j['worst_position_error_cm']:.3g} cm, "
+                     f"{j['frames']} frame{'' if j['frames'] == 1 else 's'})"
                      for name, j in joints[:shown])
     if len(joints) > shown:
         text += f" and {len(joints) - shown} more"
@@ -41,11 +42,13 @@ def main(graph_curves, invert_curves, invert_report, graph_stats):
             worst = max(worst, abs(g[name] - value))
     per_frame = re.search(r"([0-9.e+-]+) ms per frame", stats)
     frames, converged, stuck = report["frames"], report["converged_frames"], report["stuck_frames"]
-    print(f"frames            {frames}: {converged} converged to the targets, {stuck} stuck (stationary with a residual),"
+    print(f"frames            {frames}: {converged} converged to the targets, {stuck} stuck "
+          "(stationary with a residual),"
           f" {frames - converged - stuck} not converged")
     if report["stuck_joints"]:
         print(f"stuck joints      {stuck_joints(report)}")
-    print(f"real-rig error    worst {report['max_position_error_cm']:.3g} cm, {report['max_rotation_error_deg']:.3g} deg"
+    print(f"real-rig error    worst {report['max_position_error_cm']:.3g} cm, "
+          f"{report['max_rotation_error_deg']:.3g} deg"
           f" ({report['worst_joint']} at frame {report['worst_frame']});"
           f" mean {report['mean_position_error_cm']:.3g} cm, {report['mean_rotation_error_deg']:.3g} deg")
     print(f"time per frame    {per_frame.group(1) if per_frame else '?'} ms through the graph (clip, solve and rig);"

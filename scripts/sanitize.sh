@@ -24,7 +24,8 @@ built=$(date +%s)
 
 # Reports go to standard error, where the tests' exact-message checks see them; a leak or an error ends
 # the process with a failure.
-export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1:detect_stack_use_after_return=1}
+asan_defaults=detect_leaks=1:abort_on_error=0:strict_string_checks=1:detect_stack_use_after_return=1
+export ASAN_OPTIONS=${ASAN_OPTIONS:-$asan_defaults}
 # scripts/ubsan.supp: reports inside Debian's oneTBB headers, not in this project's code.
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1:suppressions=$PWD/scripts/ubsan.supp}
 status=0

@@ -25,7 +25,8 @@ fi
 
 build_type=${1:-Release}
 build_dir=${RIG_BUILD_DIR:-build}
-if [ ! -f "$build_dir/build.ninja" ] || ! grep -q "CMAKE_BUILD_TYPE:STRING=$build_type" "$build_dir/CMakeCache.txt" 2>/dev/null; then
+if [ ! -f "$build_dir/build.ninja" ] ||
+   ! grep -q "CMAKE_BUILD_TYPE:STRING=$build_type" "$build_dir/CMakeCache.txt" 2>/dev/null; then
   cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE="$build_type" >/dev/null
 fi
 cmake --build "$build_dir" -- -j"$(nproc)" | grep -v -e '^\[' -e '^ninja: no work to do' || true
