@@ -1,0 +1,332 @@
+#include "tools/batch_manifest.h"
+
+#include <bit>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+
+#include <fmt/format.h>
+
+#include "graph/error.h"
+#include "nodes/graph_rig_function.h"
+#include "tools/cli_common.h"
+
+namespace rig::cli {
+namespace {
+
+constexpr std::string_view manifestFormat = "rig-batch manifest 1";
+constexpr std::string_view shardFormat = "rig-batch shard 1";
+
+std::string checksumText(std::string_view bytes) { return fmt::format("{:016x}", fnv1a64(bytes)); }
+
+Json settingsJson(const InvertSettings& s)
+{
+    return Json{{"threads", s.threads},          {"no_partition", s.noPartition}, {"block_by_block", s.blockByBlock},
+                {"jacobian", s.jacobian},        {"polish", s.polish},            {"restart_every", s.restartEvery},
+                {"rest_starts", s.restStarts}};
+}
+
+// A manifest's field; a missing or mistyped one is the file's mistake.
+template <class T>
+T field(const Json& object, const char* name, const std::string& file)
+{
+    const auto found = object.find(name);
+    if (found == object.end())
+        throw Error(fmt::format("{}: not a rig-batch manifest (no '{}'); remove it and run rig-batch again", file,
+                                name));
+    try {
+        return found->get<T>();
+    }
+    catch (const Json::exception&) {
+        throw Error(fmt::format("{}: not a rig-batch manifest ('{}' is not what rig-batch writes); remove it and run "
+                                "rig-batch again",
+                                file, name));
+    }
+}
+
+std::vector<std::uint8_t> doubleBytes(const std::vector<double>& values)
+{
+    std::vector<std::uint8_t> out(values.size() * sizeof(double));
+    if (!values.empty()) std::memcpy(out.data(), values.data(), out.size());
+    return out;
+}
+
+std::vector<double> bytesDoubles(const Json::binary_t& bytes)
+{
+    std::vector<double> out(bytes.size() / sizeof(double));
+    if (!out.empty()) std::memcpy(out.data(), bytes.data(), out.size() * sizeof(double));
+    return out;
+}
+
+}  // namespace
+
+std::string fileChecksum(const std::filesystem::path& file, const std::string& role)
+{
+    const auto unreadable = [&] {
+        return Error(fmt::format("{}: cannot read {}; check that it exists and is a readable file", file.string(),
+                                 role));
+    };
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec)) throw unreadable();
+    std::ifstream in(file, std::ios::binary);
+    std::string bytes;
+    try {
+        bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    catch (const std::ios_base::failure&) {
+        throw unreadable();
+    }
+    if (!in.is_open() || in.bad()) throw unreadable();
+    return checksumText(bytes);
+}
+
+std::vector<std::pair<int, int>> shardRanges(int frames, int shardFrames, int restartEvery)
+{
+    const int size = (shardFrames + restartEvery - 1) / restartEvery * restartEvery;
+    std::vector<std::pair<int, int>> out;
+    for (int first = 0; first < frames; first += size) out.emplace_back(first, std::min(first + size, frames) - 1);
+    return out;
+}
+
+std::vector<BatchShard> planShards(const BatchInputs& inputs, const std::vector<BatchClip>& clips,
+                                   const std::vector<std::vector<double>>& frameNumbers)
+{
+    // The thread count changes no value (docs/rig-invert.md), so it is not part of a shard's key.
+    Json settings = settingsJson(inputs.settings);
+    settings.erase("threads");
+    const std::string shared = jsonText(Json{{"format", shardFormat},
+                                             {"approximation", inputs.approximationChecksum},
+                                             {"rig", inputs.rigFingerprint},
+                                             {"map", inputs.mapChecksum},
+                                             {"plugins", inputs.plugins},
+                                             {"settings", settings}});
+    std::vector<BatchShard> out;
+    for (std::size_t c = 0; c < clips.size(); ++c)
+        for (const auto& [first, last] :
+             shardRanges(clips[c].frames, inputs.shardFrames, inputs.settings.restartEvery)) {
+            BatchShard shard;
+            shard.clip = static_cast<int>(c);
+            shard.first = first;
+            shard.last = last;
+            shard.firstFrame = frameNumbers[c][static_cast<std::size_t>(first)];
+            shard.lastFrame = frameNumbers[c][static_cast<std::size_t>(last)];
+            shard.key = checksumText(fmt::format("{}\n{}\n{}:{}", shared, clips[c].checksum, first, last));
+            out.push_back(std::move(shard));
+        }
+    return out;
+}
+
+Json manifestJson(const BatchManifest& m)
+{
+    const BatchInputs& in = m.inputs;
+    Json clips = Json::array();
+    for (const BatchClip& c : m.clips)
+        clips.push_back({{"name", c.name}, {"file", c.file}, {"fnv1a64", c.checksum}, {"frames", c.frames}});
+    Json shards = Json::array();
+    for (const BatchShard& s : m.shards)
+        shards.push_back({{"clip", s.clip},
+                          {"first", s.first},
+                          {"last", s.last},
+                          {"first_frame", numberJson(s.firstFrame)},
+                          {"last_frame", numberJson(s.lastFrame)},
+                          {"key", s.key},
+                          {"output", s.output().string()},
+                          {"fnv1a64", s.checksum.empty() ? Json() : Json(s.checksum)}});
+    return Json{{"format", manifestFormat},
+                {"approximation", in.approximation},
+                {"approximation_fnv1a64", in.approximationChecksum},
+                {"rig", in.rig},
+                {"rig_fingerprint", in.rigFingerprint},
+                {"map", in.map.empty() ? Json() : Json(in.map)},
+                {"map_fnv1a64", in.mapChecksum.empty() ? Json() : Json(in.mapChecksum)},
+                {"plugins", in.plugins},
+                {"strict", in.strict},
+                {"settings", settingsJson(in.settings)},
+                {"shard_frames", in.shardFrames},
+                {"clips", std::move(clips)},
+                {"shards", std::move(shards)}};
+}
+
+BatchManifest readManifest(const std::filesystem::path& folder)
+{
+    const std::string file = (folder / "manifest.json").string();
+    std::ifstream in(file);
+    if (!in)
+        throw Error(fmt::format("{}: cannot read it; run rig-batch with the library's inputs to plan the batch",
+                                file));
+    Json j;
+    try {
+        j = Json::parse(in);
+    }
+    catch (const Json::exception& e) {
+        throw Error(fmt::format("{}: not a rig-batch manifest ({}); remove it and run rig-batch again", file,
+                                e.what()));
+    }
+    if (!j.is_object() || j.value("format", "") != manifestFormat)
+        throw Error(fmt::format("{}: not a rig-batch manifest (format '{}' expected); remove it and run rig-batch "
+                                "again",
+                                file, manifestFormat));
+    BatchManifest m;
+    BatchInputs& inputs = m.inputs;
+    inputs.approximation = field<std::string>(j, "approximation", file);
+    inputs.approximationChecksum = field<std::string>(j, "approximation_fnv1a64", file);
+    inputs.rig = field<std::string>(j, "rig", file);
+    inputs.rigFingerprint = field<std::string>(j, "rig_fingerprint", file);
+    const Json map = field<Json>(j, "map", file);
+    inputs.map = map.is_string() ? map.get<std::string>() : "";
+    const Json mapChecksum = field<Json>(j, "map_fnv1a64", file);
+    inputs.mapChecksum = mapChecksum.is_string() ? mapChecksum.get<std::string>() : "";
+    inputs.plugins = field<std::vector<std::string>>(j, "plugins", file);
+    inputs.strict = field<bool>(j, "strict", file);
+    const Json settings = field<Json>(j, "settings", file);
+    InvertSettings& s = inputs.settings;
+    s.threads = field<int>(settings, "threads", file);
+    s.noPartition = field<bool>(settings, "no_partition", file);
+    s.blockByBlock = field<bool>(settings, "block_by_block", file);
+    s.jacobian = field<std::string>(settings, "jacobian", file);
+    s.polish = field<int>(settings, "polish", file);
+    s.restartEvery = field<int>(settings, "restart_every", file);
+    s.restStarts = field<bool>(settings, "rest_starts", file);
+    inputs.shardFrames = field<int>(j, "shard_frames", file);
+    for (const Json& c : field<Json>(j, "clips", file))
+        m.clips.push_back({field<std::string>(c, "name", file), field<std::string>(c, "file", file),
+                           field<std::string>(c, "fnv1a64", file), field<int>(c, "frames", file)});
+    for (const Json& s : field<Json>(j, "shards", file)) {
+        BatchShard shard;
+        shard.clip = field<int>(s, "clip", file);
+        shard.first = field<int>(s, "first", file);
+        shard.last = field<int>(s, "last", file);
+        shard.firstFrame = field<double>(s, "first_frame", file);
+        shard.lastFrame = field<double>(s, "last_frame", file);
+        shard.key = field<std::string>(s, "key", file);
+        const Json checksum = field<Json>(s, "fnv1a64", file);
+        shard.checksum = checksum.is_string() ? checksum.get<std::string>() : "";
+        if (shard.clip < 0 || static_cast<std::size_t>(shard.clip) >= m.clips.size() || shard.first < 0 ||
+            shard.first > shard.last || shard.last >= m.clips[static_cast<std::size_t>(shard.clip)].frames ||
+            shard.key.size() != 16 || shard.key.find_first_not_of("0123456789abcdef") != std::string::npos)
+            throw Error(fmt::format("{}: not a rig-batch manifest (shard {} is out of its clip); remove it and run "
+                                    "rig-batch again",
+                                    file, m.shards.size()));
+        m.shards.push_back(std::move(shard));
+    }
+    return m;
+}
+
+void writeManifest(const std::filesystem::path& folder, const BatchManifest& manifest)
+{
+    writeFileAtomically(folder / "manifest.json", jsonText(manifestJson(manifest), 2) + "\n");
+}
+
+void writeShardStatus(const std::filesystem::path& file, const ShardStatus& s)
+{
+    const Json j{{"key", s.key},
+                 {"ok", s.ok},
+                 {"fnv1a64", s.ok ? Json(s.checksum) : Json()},
+                 {"error", s.ok ? Json() : Json(s.error)},
+                 {"seconds", s.seconds},
+                 {"host", s.host}};
+    writeFileAtomically(file, jsonText(j, 2) + "\n");
+}
+
+bool readShardStatus(const std::filesystem::path& file, ShardStatus& status)
+{
+    std::ifstream in(file);
+    if (!in) return false;
+    try {
+        const Json j = Json::parse(in);
+        status.key = j.at("key").get<std::string>();
+        status.ok = j.at("ok").get<bool>();
+        status.checksum = status.ok ? j.at("fnv1a64").get<std::string>() : "";
+        status.error = status.ok ? "" : j.at("error").get<std::string>();
+        status.seconds = j.at("seconds").get<double>();
+        status.host = j.at("host").get<std::string>();
+        return true;
+    }
+    catch (const Json::exception&) {
+        return false;
+    }
+}
+
+std::string shardOutputBytes(const ShardOutput& o)
+{
+    std::vector<double> solved;
+    for (const auto& row : o.solved) solved.insert(solved.end(), row.begin(), row.end());
+    const ClipInversionSummary& s = o.summary;
+    Json stuck = Json::array();
+    for (const auto& joint : s.stuckJoints) stuck.push_back({joint.name, joint.frames, joint.worstErrorCm});
+    const Json j{{"format", shardFormat},
+                 {"byte_order", std::endian::native == std::endian::little ? "little" : "big"},
+                 {"key", o.key},
+                 {"first", o.first},
+                 {"last", o.last},
+                 {"frame_numbers", Json::binary(doubleBytes(o.frameNumbers))},
+                 {"solved", Json::binary(doubleBytes(solved))},
+                 {"curves_frames", o.curvesFrames},
+                 {"frames", s.frames},
+                 {"converged_frames", s.convergedFrames},
+                 {"stuck_frames", s.stuckFrames},
+                 {"retried_frames", s.retriedFrames},
+                 {"retries_kept", s.retriesKept},
+                 {"stuck_joints", std::move(stuck)},
+                 {"max_position_error_cm", s.maxPositionErrorCm},
+                 {"max_rotation_error_deg", s.maxRotationErrorDeg},
+                 {"worst_joint", s.worstJoint},
+                 {"worst_frame", s.worstFrame},
+                 {"solve_seconds", s.solveSeconds},
+                 {"non_finite_frames", s.nonFiniteFrames},
+                 {"first_non_finite_joint", s.firstNonFiniteJoint},
+                 {"first_non_finite_frame", s.firstNonFiniteFrame},
+                 {"task_seconds", o.taskSeconds}};
+    const std::vector<std::uint8_t> bytes = Json::to_cbor(j);
+    return std::string(bytes.begin(), bytes.end());
+}
+
+ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, std::size_t parameters)
+{
+    const auto bad = [&](std::string_view why) {
+        return Error(fmt::format("{}: not a rig-batch shard output ({}); remove it and run rig-batch again", file,
+                                 why));
+    };
+    ShardOutput o;
+    try {
+        const Json j = Json::from_cbor(bytes);
+        if (j.value("format", "") != shardFormat) throw bad(fmt::format("format '{}' expected", shardFormat));
+        if (j.at("byte_order") != (std::endian::native == std::endian::little ? "little" : "big"))
+            throw bad("written on a machine of the other byte order");
+        o.key = j.at("key").get<std::string>();
+        o.first = j.at("first").get<int>();
+        o.last = j.at("last").get<int>();
+        o.frameNumbers = bytesDoubles(j.at("frame_numbers").get_binary());
+        const std::vector<double> solved = bytesDoubles(j.at("solved").get_binary());
+        const std::size_t frames = static_cast<std::size_t>(o.last - o.first + 1);
+        if (o.last < o.first || o.frameNumbers.size() != frames || solved.size() != frames * parameters)
+            throw bad(fmt::format("its values are not {} frames of {} parameters", frames, parameters));
+        for (std::size_t f = 0; f < frames; ++f)
+            o.solved.emplace_back(solved.begin() + static_cast<std::ptrdiff_t>(f * parameters),
+                                  solved.begin() + static_cast<std::ptrdiff_t>((f + 1) * parameters));
+        o.curvesFrames = j.at("curves_frames").get<std::string>();
+        ClipInversionSummary& s = o.summary;
+        s.frames = j.at("frames").get<int>();
+        s.convergedFrames = j.at("converged_frames").get<int>();
+        s.stuckFrames = j.at("stuck_frames").get<int>();
+        s.retriedFrames = j.at("retried_frames").get<int>();
+        s.retriesKept = j.at("retries_kept").get<int>();
+        for (const Json& joint : j.at("stuck_joints"))
+            s.stuckJoints.push_back({joint.at(0).get<std::string>(), joint.at(1).get<int>(), joint.at(2).get<double>()});
+        s.maxPositionErrorCm = j.at("max_position_error_cm").get<double>();
+        s.maxRotationErrorDeg = j.at("max_rotation_error_deg").get<double>();
+        s.worstJoint = j.at("worst_joint").get<std::string>();
+        s.worstFrame = j.at("worst_frame").get<int>();
+        s.solveSeconds = j.at("solve_seconds").get<double>();
+        s.nonFiniteFrames = j.at("non_finite_frames").get<int>();
+        s.firstNonFiniteJoint = j.at("first_non_finite_joint").get<std::string>();
+        s.firstNonFiniteFrame = j.at("first_non_finite_frame").get<int>();
+        o.taskSeconds = j.at("task_seconds").get<double>();
+    }
+    catch (const Json::exception& e) {
+        throw bad(e.what());
+    }
+    return o;
+}
+
+}  // namespace rig::cli
