@@ -111,7 +111,8 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
 
 ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first,
                                 int last, const ClipInversionOptions& options,
-                                std::vector<std::vector<double>>& values, std::vector<std::vector<double>>* solvedValues)
+                                std::vector<std::vector<double>>& values,
+                                std::vector<std::vector<double>>* solvedValues)
 {
     options.validate();
     const int frameCount = static_cast<int>(targets.frames.size());

@@ -312,7 +312,8 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         s.retriedFrames = j.at("retried_frames").get<int>();
         s.retriesKept = j.at("retries_kept").get<int>();
         for (const Json& joint : j.at("stuck_joints"))
-            s.stuckJoints.push_back({joint.at(0).get<std::string>(), joint.at(1).get<int>(), joint.at(2).get<double>()});
+            s.stuckJoints.push_back(
+                {joint.at(0).get<std::string>(), joint.at(1).get<int>(), joint.at(2).get<double>()});
         s.maxPositionErrorCm = j.at("max_position_error_cm").get<double>();
         s.maxRotationErrorDeg = j.at("max_rotation_error_deg").get<double>();
         s.worstJoint = j.at("worst_joint").get<std::string>();

@@ -104,7 +104,8 @@ void checkOutputsAreNotInputs(const std::vector<std::pair<std::string, fs::path>
     std::map<std::pair<dev_t, ino_t>, std::pair<std::string, fs::path>> ids;
     for (const auto& [role, file] : inputs) {
         struct stat st {};
-        if (!file.empty() && ::stat(file.c_str(), &st) == 0) ids.emplace(std::pair(st.st_dev, st.st_ino), std::pair(role, file));
+        if (!file.empty() && ::stat(file.c_str(), &st) == 0)
+            ids.emplace(std::pair(st.st_dev, st.st_ino), std::pair(role, file));
     }
     for (const fs::path& out : outputs) {
         struct stat st {};
@@ -121,7 +122,8 @@ void lockFolder(const fs::path& folder)
 {
     const fs::path file = folder / ".rig-batch.lock";
     const int fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (fd < 0) throw Error(fmt::format("--out {}: cannot write into it; give a folder you may write", folder.string()));
+    if (fd < 0)
+        throw Error(fmt::format("--out {}: cannot write into it; give a folder you may write", folder.string()));
     if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
         ::close(fd);
         throw Error(fmt::format("--out {}: another rig-batch is running on this folder; wait for it to end, or give "
@@ -236,7 +238,10 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
 {
     Json j{{"name", clip.name}, {"file", clip.file}, {"frames", clip.frames}, {"shards", shards},
            {"complete", merged != nullptr}};
-    if (!merged) return j;
+    if (!merged) {
+        j["curves"] = nullptr;
+        return j;
+    }
     const ClipInversionSummary& s = merged->summary;
     const auto frameNumber = [&](int index) {
         return index >= 0 ? numberJson(merged->frameNumbers[static_cast<std::size_t>(index)]) : Json();
@@ -409,7 +414,9 @@ BatchOutcome runBatch(const BatchJob& job)
                    : job.backend == "slurm" ? static_cast<int>(pending.size())
                                             : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
         run.round = round;
-        run.reported = [&](int i) { return fs::exists(folder / manifest.shards[static_cast<std::size_t>(i)].status(), ec); };
+        run.reported = [&](int i) {
+            return fs::exists(folder / manifest.shards[static_cast<std::size_t>(i)].status(), ec);
+        };
         if (job.progress)
             run.poll = [&] {
                 int ended = 0;

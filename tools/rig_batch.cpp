@@ -135,7 +135,8 @@ int main(int argc, char** argv)
     app.add_option("--plugin", job.plugins, "Load a plugin before reading the rig");
     app.add_option("--slurm-mem", job.slurmMemory, "Memory per Slurm task (sbatch --mem, e.g. 2G)");
     app.add_option("--slurm-time", job.slurmTime, "Time limit per Slurm task (sbatch --time, e.g. 30 or 1:00:00)");
-    app.add_option("--slurm-arg", job.slurmArgs, "More sbatch options, one per flag (e.g. --slurm-arg=--partition=cpu)");
+    app.add_option("--slurm-arg", job.slurmArgs,
+                   "More sbatch options, one per flag (e.g. --slurm-arg=--partition=cpu)");
     app.add_option("--task", options.task, "Run shard K of --out's manifest (what each backend task runs)");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors and warnings");
     return rig::cli::runMain(app, argc, argv, [&] {
