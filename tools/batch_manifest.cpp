@@ -1,9 +1,9 @@
 #include "tools/batch_manifest.h"
 
+#include <array>
 #include <bit>
 #include <cstring>
 #include <fstream>
-#include <iterator>
 
 #include <fmt/format.h>
 
@@ -16,8 +16,6 @@ namespace {
 
 constexpr std::string_view manifestFormat = "rig-batch manifest 1";
 constexpr std::string_view shardFormat = "rig-batch shard 1";
-
-std::string checksumText(std::string_view bytes) { return fmt::format("{:016x}", fnv1a64(bytes)); }
 
 Json settingsJson(const InvertSettings& s)
 {
@@ -44,39 +42,29 @@ T field(const Json& object, const char* name, const std::string& file)
     }
 }
 
-std::vector<std::uint8_t> doubleBytes(const std::vector<double>& values)
-{
-    std::vector<std::uint8_t> out(values.size() * sizeof(double));
-    if (!values.empty()) std::memcpy(out.data(), values.data(), out.size());
-    return out;
-}
-
-std::vector<double> bytesDoubles(const Json::binary_t& bytes)
-{
-    std::vector<double> out(bytes.size() / sizeof(double));
-    if (!out.empty()) std::memcpy(out.data(), bytes.data(), out.size() * sizeof(double));
-    return out;
-}
+const char* byteOrder() { return std::endian::native == std::endian::little ? "little" : "big"; }
 
 }  // namespace
 
+bool readFileBytes(const std::filesystem::path& file, std::string& bytes)
+{
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(file, ec);
+    if (ec || !std::filesystem::is_regular_file(file, ec)) return false;
+    std::ifstream in(file, std::ios::binary);
+    bytes.resize(size);
+    // One read of the whole file: shard outputs are tens of megabytes.
+    return in.read(bytes.data(), static_cast<std::streamsize>(size)) && in.peek() == std::ifstream::traits_type::eof();
+}
+
+std::string checksumText(std::string_view bytes) { return fmt::format("{:016x}", fnv1a64(bytes)); }
+
 std::string fileChecksum(const std::filesystem::path& file, const std::string& role)
 {
-    const auto unreadable = [&] {
-        return Error(fmt::format("{}: cannot read {}; check that it exists and is a readable file", file.string(),
-                                 role));
-    };
-    std::error_code ec;
-    if (!std::filesystem::is_regular_file(file, ec)) throw unreadable();
-    std::ifstream in(file, std::ios::binary);
     std::string bytes;
-    try {
-        bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    }
-    catch (const std::ios_base::failure&) {
-        throw unreadable();
-    }
-    if (!in.is_open() || in.bad()) throw unreadable();
+    if (!readFileBytes(file, bytes))
+        throw Error(fmt::format("{}: cannot read {}; check that it exists and is a readable file", file.string(),
+                                role));
     return checksumText(bytes);
 }
 
@@ -110,7 +98,9 @@ std::vector<BatchShard> planShards(const BatchInputs& inputs, const std::vector<
             shard.last = last;
             shard.firstFrame = frameNumbers[c][static_cast<std::size_t>(first)];
             shard.lastFrame = frameNumbers[c][static_cast<std::size_t>(last)];
-            shard.key = checksumText(fmt::format("{}\n{}\n{}:{}", shared, clips[c].checksum, first, last));
+            // The clip's name too: two clips of the same bytes are two shards, each with its own files.
+            shard.key = checksumText(
+                fmt::format("{}\n{}\n{}\n{}:{}", shared, clips[c].name, clips[c].checksum, first, last));
             out.push_back(std::move(shard));
         }
     return out;
@@ -254,31 +244,32 @@ std::string shardOutputBytes(const ShardOutput& o)
     const ClipInversionSummary& s = o.summary;
     Json stuck = Json::array();
     for (const auto& joint : s.stuckJoints) stuck.push_back({joint.name, joint.frames, joint.worstErrorCm});
-    const Json j{{"format", shardFormat},
-                 {"byte_order", std::endian::native == std::endian::little ? "little" : "big"},
-                 {"key", o.key},
-                 {"first", o.first},
-                 {"last", o.last},
-                 {"frame_numbers", Json::binary(doubleBytes(o.frameNumbers))},
-                 {"solved", Json::binary(doubleBytes(solved))},
-                 {"curves_frames", o.curvesFrames},
-                 {"frames", s.frames},
-                 {"converged_frames", s.convergedFrames},
-                 {"stuck_frames", s.stuckFrames},
-                 {"retried_frames", s.retriedFrames},
-                 {"retries_kept", s.retriesKept},
-                 {"stuck_joints", std::move(stuck)},
-                 {"max_position_error_cm", s.maxPositionErrorCm},
-                 {"max_rotation_error_deg", s.maxRotationErrorDeg},
-                 {"worst_joint", s.worstJoint},
-                 {"worst_frame", s.worstFrame},
-                 {"solve_seconds", s.solveSeconds},
-                 {"non_finite_frames", s.nonFiniteFrames},
-                 {"first_non_finite_joint", s.firstNonFiniteJoint},
-                 {"first_non_finite_frame", s.firstNonFiniteFrame},
-                 {"task_seconds", o.taskSeconds}};
-    const std::vector<std::uint8_t> bytes = Json::to_cbor(j);
-    return std::string(bytes.begin(), bytes.end());
+    const std::string_view numbers(reinterpret_cast<const char*>(o.frameNumbers.data()),
+                                   o.frameNumbers.size() * sizeof(double));
+    const std::string_view values(reinterpret_cast<const char*>(solved.data()), solved.size() * sizeof(double));
+    // Errors may be NaN or infinite, which JSON cannot hold: as raw doubles too.
+    const std::array<double, 4> figures{s.maxPositionErrorCm, s.maxRotationErrorDeg, s.solveSeconds, o.taskSeconds};
+    const std::string_view figureBytes(reinterpret_cast<const char*>(figures.data()), sizeof(figures));
+    const Json header{{"format", shardFormat},
+                      {"byte_order", byteOrder()},
+                      {"key", o.key},
+                      {"first", o.first},
+                      {"last", o.last},
+                      {"frames", s.frames},
+                      {"converged_frames", s.convergedFrames},
+                      {"stuck_frames", s.stuckFrames},
+                      {"retried_frames", s.retriedFrames},
+                      {"retries_kept", s.retriesKept},
+                      {"stuck_joints", std::move(stuck)},
+                      {"worst_joint", s.worstJoint},
+                      {"worst_frame", s.worstFrame},
+                      {"non_finite_frames", s.nonFiniteFrames},
+                      {"first_non_finite_joint", s.firstNonFiniteJoint},
+                      {"first_non_finite_frame", s.firstNonFiniteFrame},
+                      {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
+    std::string out = header.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";
+    out.reserve(out.size() + figureBytes.size() + numbers.size() + values.size() + o.curvesFrames.size());
+    return out.append(figureBytes).append(numbers).append(values).append(o.curvesFrames);
 }
 
 ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, std::size_t parameters)
@@ -287,25 +278,39 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         return Error(fmt::format("{}: not a rig-batch shard output ({}); remove it and run rig-batch again", file,
                                  why));
     };
+    const std::size_t newline = bytes.find('\n');
+    if (newline == std::string::npos) throw bad("no header line");
     ShardOutput o;
     try {
-        const Json j = Json::from_cbor(bytes);
+        const Json j = Json::parse(std::string_view(bytes).substr(0, newline));
         if (j.value("format", "") != shardFormat) throw bad(fmt::format("format '{}' expected", shardFormat));
-        if (j.at("byte_order") != (std::endian::native == std::endian::little ? "little" : "big"))
-            throw bad("written on a machine of the other byte order");
+        if (j.at("byte_order") != byteOrder()) throw bad("written on a machine of the other byte order");
         o.key = j.at("key").get<std::string>();
         o.first = j.at("first").get<int>();
         o.last = j.at("last").get<int>();
-        o.frameNumbers = bytesDoubles(j.at("frame_numbers").get_binary());
-        const std::vector<double> solved = bytesDoubles(j.at("solved").get_binary());
-        const std::size_t frames = static_cast<std::size_t>(o.last - o.first + 1);
-        if (o.last < o.first || o.frameNumbers.size() != frames || solved.size() != frames * parameters)
-            throw bad(fmt::format("its values are not {} frames of {} parameters", frames, parameters));
-        for (std::size_t f = 0; f < frames; ++f)
-            o.solved.emplace_back(solved.begin() + static_cast<std::ptrdiff_t>(f * parameters),
-                                  solved.begin() + static_cast<std::ptrdiff_t>((f + 1) * parameters));
-        o.curvesFrames = j.at("curves_frames").get<std::string>();
+        const auto sizes = j.at("bytes").get<std::array<std::size_t, 4>>();
+        const std::size_t frames = o.last >= o.first ? static_cast<std::size_t>(o.last - o.first + 1) : 0;
+        if (frames == 0 || sizes[0] != 4 * sizeof(double) || sizes[1] != frames * sizeof(double) ||
+            sizes[2] != frames * parameters * sizeof(double) ||
+            newline + 1 + sizes[0] + sizes[1] + sizes[2] + sizes[3] != bytes.size())
+            throw bad(fmt::format("its sizes are not those of {} frames of {} parameters", frames, parameters));
+        const char* at = bytes.data() + newline + 1;
+        std::array<double, 4> figures{};
+        std::memcpy(figures.data(), at, sizes[0]);
+        at += sizes[0];
+        o.frameNumbers.resize(frames);
+        std::memcpy(o.frameNumbers.data(), at, sizes[1]);
+        at += sizes[1];
+        for (std::size_t f = 0; f < frames; ++f, at += parameters * sizeof(double)) {
+            std::vector<double>& row = o.solved.emplace_back(parameters);
+            std::memcpy(row.data(), at, parameters * sizeof(double));
+        }
+        o.curvesFrames.assign(at, sizes[3]);
         ClipInversionSummary& s = o.summary;
+        s.maxPositionErrorCm = figures[0];
+        s.maxRotationErrorDeg = figures[1];
+        s.solveSeconds = figures[2];
+        o.taskSeconds = figures[3];
         s.frames = j.at("frames").get<int>();
         s.convergedFrames = j.at("converged_frames").get<int>();
         s.stuckFrames = j.at("stuck_frames").get<int>();
@@ -314,15 +319,11 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         for (const Json& joint : j.at("stuck_joints"))
             s.stuckJoints.push_back(
                 {joint.at(0).get<std::string>(), joint.at(1).get<int>(), joint.at(2).get<double>()});
-        s.maxPositionErrorCm = j.at("max_position_error_cm").get<double>();
-        s.maxRotationErrorDeg = j.at("max_rotation_error_deg").get<double>();
         s.worstJoint = j.at("worst_joint").get<std::string>();
         s.worstFrame = j.at("worst_frame").get<int>();
-        s.solveSeconds = j.at("solve_seconds").get<double>();
         s.nonFiniteFrames = j.at("non_finite_frames").get<int>();
         s.firstNonFiniteJoint = j.at("first_non_finite_joint").get<std::string>();
         s.firstNonFiniteFrame = j.at("first_non_finite_frame").get<int>();
-        o.taskSeconds = j.at("task_seconds").get<double>();
     }
     catch (const Json::exception& e) {
         throw bad(e.what());

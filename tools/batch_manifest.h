@@ -6,10 +6,10 @@
 // whole number of restart intervals (the clip's last shard may hold fewer), so that its warm-start chains
 // are whole and it solves no lead-in frame. A shard is identified by its key, a checksum of everything its
 // output depends on (the approximation's, the map's and the clip's bytes, the rig's fingerprint, the solve
-// settings, the frames); its files are shards/KEY.cbor (the output) and shards/KEY.status.json (written by
-// the task after the output: the output's checksum, or the task's error line). The manifest records, per
-// shard, the checksum of its output once a run has seen its status: a shard is done when its output exists
-// and matches that checksum.
+// settings but the thread count, the clip's name and frames); its files are shards/KEY.shard (the output) and
+// shards/KEY.status.json (written by the task after the output: the output's checksum, or the task's error
+// line). The manifest records, per shard, the checksum of its output once a run has seen its status: a shard
+// is done when its output exists and matches that checksum.
 
 #include <filesystem>
 #include <string>
@@ -52,7 +52,7 @@ struct BatchShard {
     std::string key;
     std::string checksum;  // of its output, once a run saw it done; "" until then
 
-    std::filesystem::path output() const { return std::filesystem::path("shards") / (key + ".cbor"); }
+    std::filesystem::path output() const { return std::filesystem::path("shards") / (key + ".shard"); }
     std::filesystem::path status() const { return std::filesystem::path("shards") / (key + ".status.json"); }
     std::filesystem::path log() const { return std::filesystem::path("logs") / (key + ".log"); }
 };
@@ -63,7 +63,11 @@ struct BatchManifest {
     std::vector<BatchShard> shards;
 };
 
-// FNV-1a 64 of a file's bytes as 16 hex digits. Throws rig::Error naming `role` when it cannot be read.
+// A regular file's bytes; false when it cannot be read.
+bool readFileBytes(const std::filesystem::path& file, std::string& bytes);
+// FNV-1a 64 of bytes as 16 hex digits, as the manifest records checksums.
+std::string checksumText(std::string_view bytes);
+// The same of a file's bytes. Throws rig::Error naming `role` when it cannot be read.
 std::string fileChecksum(const std::filesystem::path& file, const std::string& role);
 
 // The frame ranges [first, last] of a clip of `frames` frames: ceil(shardFrames / restartEvery) restart
@@ -105,7 +109,9 @@ struct ShardOutput {
     ClipInversionSummary summary;            // perFrame left empty; frame indices are the clip's
     double taskSeconds = 0.0;                // the task's wall time up to the output
 };
-// CBOR bytes (doubles as raw host-order bytes: exact and quick to read back).
+// The file: one line of JSON (the summary, and the sizes of what follows), then the frame numbers and the
+// solved values as raw doubles in this machine's byte order (exact, and read back with one copy), then the
+// curves' frames as text.
 std::string shardOutputBytes(const ShardOutput& output);
 // Throws rig::Error naming `file` when the bytes are not a shard output for `parameters` parameters.
 ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, std::size_t parameters);

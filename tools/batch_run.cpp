@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <fstream>
-#include <iterator>
 #include <map>
 #include <optional>
 #include <set>
@@ -15,6 +14,7 @@
 #include <unistd.h>
 
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include "graph/error.h"
 #include "inversion/continuity.h"
@@ -36,23 +36,6 @@ std::string hostName()
     char name[256] = {};
     return ::gethostname(name, sizeof(name) - 1) == 0 ? std::string(name) : std::string();
 }
-
-// The file's bytes; false when it cannot be read.
-bool readBytes(const fs::path& file, std::string& bytes)
-{
-    std::error_code ec;
-    if (!fs::is_regular_file(file, ec)) return false;
-    std::ifstream in(file, std::ios::binary);
-    try {
-        bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    }
-    catch (const std::ios_base::failure&) {
-        return false;
-    }
-    return in.is_open() && !in.bad();
-}
-
-std::string checksumOf(std::string_view bytes) { return fmt::format("{:016x}", fnv1a64(bytes)); }
 
 bool isClip(const fs::path& file) { return file.extension() == ".bvh" || file.extension() == ".json"; }
 
@@ -132,7 +115,7 @@ void lockFolder(const fs::path& folder)
     }
 }
 
-// Shard files of keys no longer planned (inputs changed since): shards/KEY.cbor, KEY.status.json, logs/KEY.log.
+// Shard files of keys no longer planned (inputs changed since): shards/KEY.shard, KEY.status.json, logs/KEY.log.
 void removeUnplanned(const fs::path& folder, const std::set<std::string>& keys)
 {
     for (const char* sub : {"shards", "logs"}) {
@@ -151,6 +134,7 @@ std::string framesText(const BatchShard& s) { return fmt::format("{}:{}", s.firs
 // One clip's merged curves and figures; `error` set when a shard's output cannot be used.
 struct MergedClip {
     std::string curves;
+    std::string curvesChecksum;
     ClipInversionSummary summary;
     double taskSeconds = 0.0;
     std::vector<double> frameNumbers;  // of the clip's frames, for the report
@@ -173,10 +157,10 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
         const fs::path file = folder / shard.output();
         std::string bytes;
         ShardOutput out;
+        // Its checksum was checked earlier in this run (found done, or just written): read, not hashed again.
         try {
-            if (!readBytes(file, bytes) || checksumOf(bytes) != shard.checksum)
-                throw Error(fmt::format("{}: changed or removed since its shard was done; run rig-batch again to "
-                                        "solve it again",
+            if (!readFileBytes(file, bytes))
+                throw Error(fmt::format("{}: removed since its shard was done; run rig-batch again to solve it again",
                                         file.string()));
             out = parseShardOutput(bytes, file.string(), approximation.parameters.size());
         }
@@ -265,7 +249,7 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
                                                   : Json();
     j["ms_per_frame"] = numberJson(s.msPerFrame);
     j["task_seconds"] = numberJson(merged->taskSeconds);
-    j["curves"] = {{"file", curves.string()}, {"fnv1a64", checksumOf(merged->curves)}};
+    j["curves"] = {{"file", curves.string()}, {"fnv1a64", merged->curvesChecksum}};
     return j;
 }
 
@@ -273,6 +257,7 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
 
 BatchOutcome runBatch(const BatchJob& job)
 {
+    const auto start = Clock::now();
     // Everything that can be checked before the work is, and nothing is written before that.
     if (job.backend != "local" && job.backend != "slurm")
         throw Error(fmt::format("--backend {}: expected local (processes on this machine) or slurm (sbatch array "
@@ -333,15 +318,29 @@ BatchOutcome runBatch(const BatchJob& job)
             throw Error(fmt::format("--clips: {} and {} would both write {}.json; rename one, or run them as two "
                                     "batches",
                                     it->second.string(), file.string(), name));
-        InvertJob one = base;
-        one.clip = file.string();
-        const TargetClip clip = readTargets(one);
-        matchClipTargets(approximation, clip);
-        manifest.clips.push_back(
-            {name, file.string(), fileChecksum(file, "the clip"), static_cast<int>(clip.frameNumbers.size())});
-        frameNumbers.push_back(clip.frameNumbers);
+        manifest.clips.push_back({name, file.string(), "", 0});
         inputFiles.emplace_back("a clip", file);
     }
+    // Every clip read and matched as rig-invert would, clips in parallel (a library has thousands); the first
+    // clip in order with an error is the one reported.
+    frameNumbers.resize(files.size());
+    std::vector<std::string> clipErrors(files.size());
+    tbb::parallel_for(std::size_t{0}, files.size(), [&](std::size_t c) {
+        try {
+            InvertJob one = base;
+            one.clip = files[c].string();
+            const TargetClip clip = readTargets(one);
+            matchClipTargets(approximation, clip);
+            manifest.clips[c].checksum = fileChecksum(files[c], "the clip");
+            manifest.clips[c].frames = static_cast<int>(clip.frameNumbers.size());
+            frameNumbers[c] = clip.frameNumbers;
+        }
+        catch (const Error& e) {
+            clipErrors[c] = e.what();
+        }
+    });
+    for (const std::string& error : clipErrors)
+        if (!error.empty()) throw Error(error);
     manifest.shards = planShards(inputs, manifest.clips, frameNumbers);
     std::vector<fs::path> outputs{folder / "manifest.json", folder / "report.json"};
     for (const BatchClip& clip : manifest.clips) outputs.push_back(folder / (clip.name + ".json"));
@@ -376,20 +375,24 @@ BatchOutcome runBatch(const BatchJob& job)
             // An earlier manifest that cannot be read records nothing: its shards are solved again.
         }
     std::set<std::string> keys;
-    std::vector<int> pending;
-    for (std::size_t i = 0; i < manifest.shards.size(); ++i) {
-        BatchShard& shard = manifest.shards[i];
+    for (BatchShard& shard : manifest.shards) {
         keys.insert(shard.key);
         ShardStatus status;
         if (readShardStatus(folder / shard.status(), status) && status.key == shard.key && status.ok)
             recorded[shard.key] = status.checksum;
-        std::string bytes;
-        if (const auto found = recorded.find(shard.key);
-            found != recorded.end() && readBytes(folder / shard.output(), bytes) && checksumOf(bytes) == found->second)
-            shard.checksum = found->second;
-        else
-            pending.push_back(static_cast<int>(i));
+        if (const auto found = recorded.find(shard.key); found != recorded.end()) shard.checksum = found->second;
     }
+    // Outputs hashed in parallel: a library's shards hold about 4 kB a frame.
+    tbb::parallel_for(std::size_t{0}, manifest.shards.size(), [&](std::size_t i) {
+        BatchShard& shard = manifest.shards[i];
+        std::string bytes;
+        if (!shard.checksum.empty() &&
+            !(readFileBytes(folder / shard.output(), bytes) && checksumText(bytes) == shard.checksum))
+            shard.checksum.clear();
+    });
+    std::vector<int> pending;
+    for (std::size_t i = 0; i < manifest.shards.size(); ++i)
+        if (manifest.shards[i].checksum.empty()) pending.push_back(static_cast<int>(i));
     writeManifest(folder, manifest);
     removeUnplanned(folder, keys);
 
@@ -400,6 +403,7 @@ BatchOutcome runBatch(const BatchJob& job)
     long long framesRun = 0;
     std::map<int, std::string> errors;
     const auto runStart = Clock::now();
+    const double planSeconds = secondsSince(start);
     double taskSeconds = 0.0;
     for (int round = 0; round <= job.retries && !pending.empty(); ++round) {
         std::vector<std::string> pendingKeys;
@@ -431,8 +435,8 @@ BatchOutcome runBatch(const BatchJob& job)
             ShardStatus status;
             std::string bytes;
             const bool reported = readShardStatus(folder / shard.status(), status) && status.key == shard.key;
-            if (reported && status.ok && readBytes(folder / shard.output(), bytes) &&
-                checksumOf(bytes) == status.checksum) {
+            if (reported && status.ok && readFileBytes(folder / shard.output(), bytes) &&
+                checksumText(bytes) == status.checksum) {
                 shard.checksum = status.checksum;
                 taskSeconds += status.seconds;
                 framesRun += shard.last - shard.first + 1;
@@ -456,45 +460,61 @@ BatchOutcome runBatch(const BatchJob& job)
     const double runSeconds = toRun > 0 ? secondsSince(runStart) : 0.0;
     if (job.progress) job.progress(toRun, toRun);
 
-    // Merge each clip whose shards are all done.
+    // Merge each clip whose shards are all done. Clips in parallel: the merge reads every shard's output again
+    // and writes every curves file, the most data a batch moves on one machine.
     const auto mergeStart = Clock::now();
     const Equivalences equivalences(approximation);
+    struct ClipMerge {
+        std::size_t first = 0, end = 0;  // its shards
+        std::optional<MergedClip> merged;
+    };
+    std::vector<ClipMerge> merges;
+    for (std::size_t first = 0; first < manifest.shards.size();) {
+        std::size_t end = first;
+        while (end < manifest.shards.size() && manifest.shards[end].clip == manifest.shards[first].clip) ++end;
+        merges.push_back({first, end, std::nullopt});
+        first = end;
+    }
+    tbb::parallel_for(std::size_t{0}, merges.size(), [&](std::size_t c) {
+        ClipMerge& m = merges[c];
+        const fs::path curves =
+            folder / (manifest.clips[static_cast<std::size_t>(manifest.shards[m.first].clip)].name + ".json");
+        bool ready = true;
+        for (std::size_t i = m.first; i < m.end; ++i) ready = ready && !manifest.shards[i].checksum.empty();
+        if (ready)
+            m.merged = mergeClip(folder, manifest, static_cast<int>(m.first), static_cast<int>(m.end), approximation,
+                                 equivalences);
+        if (m.merged && m.merged->failedShard < 0) {
+            writeFileAtomically(curves, m.merged->curves);
+            m.merged->curvesChecksum = checksumText(m.merged->curves);
+            std::string().swap(m.merged->curves);
+        }
+        else {
+            // No curves for a clip with a shard missing: an earlier run's file would not be this run's.
+            std::error_code removed;
+            fs::remove(curves, removed);
+        }
+    });
     BatchOutcome outcome;
     Json clips = Json::array();
     long long totalFrames = 0;
     double solveSeconds = 0.0;
     int complete = 0;
-    for (std::size_t first = 0; first < manifest.shards.size();) {
-        const int clipIndex = manifest.shards[first].clip;
-        std::size_t end = first;
-        while (end < manifest.shards.size() && manifest.shards[end].clip == clipIndex) ++end;
-        const BatchClip& clip = manifest.clips[static_cast<std::size_t>(clipIndex)];
-        const fs::path curves = folder / (clip.name + ".json");
+    for (ClipMerge& m : merges) {
+        const BatchClip& clip = manifest.clips[static_cast<std::size_t>(manifest.shards[m.first].clip)];
         totalFrames += clip.frames;
-        bool ready = true;
-        for (std::size_t i = first; i < end; ++i) ready = ready && !manifest.shards[i].checksum.empty();
-        std::optional<MergedClip> merged;
-        if (ready) {
-            merged = mergeClip(folder, manifest, static_cast<int>(first), static_cast<int>(end), approximation,
-                               equivalences);
-            if (merged->failedShard >= 0) {
-                errors[merged->failedShard] = merged->error;
-                manifest.shards[static_cast<std::size_t>(merged->failedShard)].checksum.clear();
-                merged.reset();
-            }
+        if (m.merged && m.merged->failedShard >= 0) {
+            errors[m.merged->failedShard] = m.merged->error;
+            manifest.shards[static_cast<std::size_t>(m.merged->failedShard)].checksum.clear();
+            m.merged.reset();
         }
-        if (merged) {
-            writeFileAtomically(curves, merged->curves);
+        if (m.merged) {
             ++complete;
-            solveSeconds += merged->summary.solveSeconds;
-            if (merged->summary.nonFiniteFrames > 0) ++outcome.nonFiniteClips;
+            solveSeconds += m.merged->summary.solveSeconds;
+            if (m.merged->summary.nonFiniteFrames > 0) ++outcome.nonFiniteClips;
         }
-        else {
-            // No curves for a clip with a shard missing: an earlier run's file would not be this run's.
-            fs::remove(curves, ec);
-        }
-        clips.push_back(clipReport(clip, static_cast<int>(end - first), merged ? &*merged : nullptr, curves));
-        first = end;
+        clips.push_back(clipReport(clip, static_cast<int>(m.end - m.first), m.merged ? &*m.merged : nullptr,
+                                   folder / (clip.name + ".json")));
     }
     writeManifest(folder, manifest);
     const double mergeSeconds = secondsSince(mergeStart);
@@ -526,6 +546,7 @@ BatchOutcome runBatch(const BatchJob& job)
           {"shards_run", done},
           {"shards_failed", errors.size()},
           {"frames_run", framesRun},
+          {"plan_seconds", numberJson(planSeconds)},
           {"run_seconds", numberJson(runSeconds)},
           {"frames_per_second", framesRun > 0 ? numberJson(static_cast<double>(framesRun) / runSeconds) : Json()},
           {"task_seconds", numberJson(taskSeconds)},
@@ -587,7 +608,7 @@ void runShard(const std::filesystem::path& folder, int index)
         const std::string bytes = shardOutputBytes(out);
         writeFileAtomically(folder / shard.output(), bytes);
         status.ok = true;
-        status.checksum = checksumOf(bytes);
+        status.checksum = checksumText(bytes);
         status.seconds = secondsSince(start);
         writeShardStatus(folder / shard.status(), status);
     }

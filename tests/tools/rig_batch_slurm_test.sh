@@ -78,8 +78,8 @@ cmp "$scratch/walk.json" "$scratch/out/walk.json" || fail "walk: the second run'
 # fails again: exit code 3, the report lists it with the task's error line, its clip has no curves.
 key=$(python3 -c 'import json, sys
 print(json.load(open(sys.argv[1] + "/manifest.json"))["shards"][4]["key"])' "$scratch/out")
-rm "$scratch/out/shards/$key.cbor"
-mkdir "$scratch/out/shards/$key.cbor"
+rm "$scratch/out/shards/$key.shard"
+mkdir "$scratch/out/shards/$key.shard"
 code=0
 batch "$scratch/out" 2>"$scratch/failed.err" || code=$?
 [ $code -eq 3 ] || fail "a failed shard gave exit code $code, not 3"
@@ -92,7 +92,7 @@ f = r["failed_shards"]
 assert len(f) == 1 and f[0]["shard"] == 4 and "is a folder" in f[0]["error"], f
 assert [c["complete"] for c in r["clips"]] == [True, False], r["clips"]' "$scratch/out"
 [ ! -e "$scratch/out/walk.json" ] || fail "walk.json left in place for a clip with a failed shard"
-rmdir "$scratch/out/shards/$key.cbor"
+rmdir "$scratch/out/shards/$key.shard"
 batch "$scratch/out" || fail "the run after the failure exited with $?"
 [ "$(totals "$scratch/out" shards_reused shards_run)" = "5 1" ] || fail "the rerun did not solve the one shard left"
 cmp "$scratch/walk.json" "$scratch/out/walk.json" || fail "walk: the resumed curves differ from rig-invert's"

@@ -173,7 +173,7 @@ TEST_CASE("rig-batch: a second run skips finished shards, solves a corrupted one
     const Json manifest = readJson(out / "manifest.json");
     const std::string key = manifest["shards"][7]["key"];
     CHECK(manifest["shards"][7]["fnv1a64"].is_string());
-    const fs::path shard = out / "shards" / (key + ".cbor");
+    const fs::path shard = out / "shards" / (key + ".shard");
     {
         std::fstream f(shard, std::ios::in | std::ios::out | std::ios::binary);
         f.seekp(200);
@@ -213,7 +213,7 @@ TEST_CASE("rig-batch: a shard that fails is listed with its error line, exit cod
     REQUIRE(rigBatch(args).exitCode == 0);
     // Shard 4 (walk, frames 241 to 480) cannot write its output: a folder is in its place.
     const std::string key = readJson(out / "manifest.json")["shards"][4]["key"];
-    const fs::path shard = out / "shards" / (key + ".cbor");
+    const fs::path shard = out / "shards" / (key + ".shard");
     fs::remove(shard);
     fs::create_directory(shard);
     auto r = rigBatch(args);
