@@ -59,7 +59,8 @@ clips = local1["clips"]
 local_task = slots * (small["run_seconds"] - local2["run_seconds"]) / (small["shards"] - local2["shards"])
 figures = {
     "machine": {"cpus": os.cpu_count(), "system": platform.platform(),
-                "compiler": subprocess.run(["c++", "--version"], capture_output=True, text=True).stdout.splitlines()[0]},
+                "compiler": subprocess.run(["c++", "--version"], capture_output=True,
+                                           text=True).stdout.splitlines()[0]},
     "library": {"clips": clips, "frames": frames, "copies": copies},
     "local": {
         "frames_per_second_1_process": local1["frames_per_second"],
@@ -100,17 +101,21 @@ json.dump(figures, open(out, "w"), indent=2)
 l = figures["local"]
 print(f"| local, 1 process | {l['frames_per_second_1_process']:.0f} frames/s |")
 print(f"| local, 2 processes | {l['frames_per_second_2_processes']:.0f} frames/s |")
-print(f"| a task beyond its frames (process, approximation and rig loaded) | {l['seconds_per_task_beyond_its_frames']:.3f} s |")
+print("| a task beyond its frames (process, approximation and rig loaded) | "
+      f"{l['seconds_per_task_beyond_its_frames']:.3f} s |")
 print(f"| planning (every clip read and checked), per clip | {l['plan_seconds_per_clip'] * 1000:.1f} ms |")
 print(f"| merging, per frame | {l['merge_seconds_per_frame'] * 1e6:.2f} us |")
 if "slurm" in figures:
     s, p = figures["slurm"], figures["projection"]
     print(f"| Slurm, 2 tasks at once | {s['frames_per_second_2_tasks']:.0f} frames/s |")
     print(f"| Slurm's overhead per task | {s['overhead_seconds_per_task']:.2f} s |")
+    minutes = {k: p[k] / 60 for k in ("total_seconds", "solve_seconds", "slurm_overhead_seconds", "plan_seconds",
+                                      "merge_seconds")}
     print(f"| projection: {p['clips']} clips ({p['frames'] / 1e6:.1f} M frames, {p['tasks']:.0f} tasks) on "
-          f"{p['nodes']} nodes ({p['cores']} cores) | {p['total_seconds'] / 60:.1f} min (solve {p['solve_seconds'] / 60:.1f}, "
-          f"Slurm {p['slurm_overhead_seconds'] / 60:.1f}, plan {p['plan_seconds'] / 60:.1f}, merge "
-          f"{p['merge_seconds'] / 60:.1f}); one core: {p['one_core_seconds'] / 3600:.1f} h |")
+          f"{p['nodes']} nodes ({p['cores']} cores) | {minutes['total_seconds']:.1f} min (solve "
+          f"{minutes['solve_seconds']:.1f}, Slurm {minutes['slurm_overhead_seconds']:.1f}, plan "
+          f"{minutes['plan_seconds']:.1f}, merge {minutes['merge_seconds']:.1f}); one core: "
+          f"{p['one_core_seconds'] / 3600:.1f} h |")
 else:
     print("| Slurm | not measured: the private cluster did not start (root needed) |")
 EOF

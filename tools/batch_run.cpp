@@ -39,15 +39,15 @@ std::string hostName()
 
 bool isClip(const fs::path& file) { return file.extension() == ".bvh" || file.extension() == ".json"; }
 
-// --clips: files as given, folders as their .bvh and .json files in name order; each file once.
+// --clips: files as given, folders as their .bvh and .json files in name order; each path once (a file named
+// twice, by itself and in its folder), while links of other names are clips of those names.
 std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs::path& out)
 {
     std::vector<fs::path> files;
     std::set<fs::path> seen;
     const auto add = [&](const fs::path& file) {
-        std::error_code ec;
-        const fs::path canonical = fs::weakly_canonical(file, ec);
-        if (seen.insert(ec ? fs::absolute(file) : canonical).second) files.push_back(fs::absolute(file));
+        const fs::path path = fs::absolute(file).lexically_normal();
+        if (seen.insert(path).second) files.push_back(path);
     };
     for (const std::string& g : given) {
         const fs::path p(g);
@@ -131,6 +131,25 @@ void removeUnplanned(const fs::path& folder, const std::set<std::string>& keys)
 
 std::string framesText(const BatchShard& s) { return fmt::format("{}:{}", s.firstFrame, s.lastFrame); }
 
+bool wholeClip(const BatchManifest& manifest, const BatchShard& shard)
+{
+    return shard.first == 0 && shard.last == manifest.clips[static_cast<std::size_t>(shard.clip)].frames - 1;
+}
+
+// Whether a shard is done: its output matches `checksum`, and for a whole clip, the curves file its task
+// wrote matches the checksum its output holds.
+bool shardDone(const fs::path& folder, const BatchManifest& manifest, const BatchShard& shard,
+               const std::string& checksum)
+{
+    std::string bytes;
+    if (checksum.empty() || !readFileBytes(folder / shard.output(), bytes) || checksumText(bytes) != checksum)
+        return false;
+    if (!wholeClip(manifest, shard)) return true;
+    const std::string curvesChecksum = shardCurvesChecksum(bytes);
+    const fs::path curves = folder / (manifest.clips[static_cast<std::size_t>(shard.clip)].name + ".json");
+    return !curvesChecksum.empty() && readFileBytes(curves, bytes) && checksumText(bytes) == curvesChecksum;
+}
+
 // One clip's merged curves and figures; `error` set when a shard's output cannot be used.
 struct MergedClip {
     std::string curves;
@@ -169,18 +188,25 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
             merged.error = "error: " + oneLine(e.what());
             return merged;
         }
-        // The shard's first chain meets the frame before it, as rig-invert --after would shift it.
-        std::vector<std::vector<double>> shifted;
-        bool moved = false;
-        for (std::size_t f = 0; f < out.solved.size(); ++f) {
-            const int frame = shard.first + static_cast<int>(f);
-            const std::span<const double> reported = continuity.next(out.solved[f], frame % restartEvery == 0);
-            if (f == 0) moved = continuity.shifted();
-            if (moved) shifted.emplace_back(reported.begin(), reported.end());
+        if (!out.curvesChecksum.empty()) {
+            // A whole clip: its task wrote the curves.
+            merged.curvesChecksum = out.curvesChecksum;
+            merged.frameNumbers = out.frameNumbers;
         }
-        if (!frames.empty()) frames += ",\n";
-        frames += moved ? curvesJsonFrames(approximation, out.frameNumbers, shifted) : out.curvesFrames;
-        merged.frameNumbers.insert(merged.frameNumbers.end(), out.frameNumbers.begin(), out.frameNumbers.end());
+        else {
+            // The shard's first chain meets the frame before it, as rig-invert --after would shift it.
+            std::vector<std::vector<double>> shifted;
+            bool moved = false;
+            for (std::size_t f = 0; f < out.solved.size(); ++f) {
+                const int frame = shard.first + static_cast<int>(f);
+                const std::span<const double> reported = continuity.next(out.solved[f], frame % restartEvery == 0);
+                if (f == 0) moved = continuity.shifted();
+                if (moved) shifted.emplace_back(reported.begin(), reported.end());
+            }
+            if (!frames.empty()) frames += ",\n";
+            frames += moved ? curvesJsonFrames(approximation, out.frameNumbers, shifted) : out.curvesFrames;
+            merged.frameNumbers.insert(merged.frameNumbers.end(), out.frameNumbers.begin(), out.frameNumbers.end());
+        }
 
         // The figures as invertClip gathers them over a whole clip: sums, maxima (the first frame on a tie).
         const ClipInversionSummary& s = out.summary;
@@ -214,7 +240,7 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
     std::stable_sort(m.stuckJoints.begin(), m.stuckJoints.end(),
                      [](const auto& a, const auto& b) { return a.worstErrorCm > b.worstErrorCm; });
     m.msPerFrame = m.frames > 0 ? 1000.0 * m.solveSeconds / m.frames : 0.0;
-    merged.curves = curvesJsonFile(frames);
+    if (merged.curvesChecksum.empty()) merged.curves = curvesJsonFile(frames);
     return merged;
 }
 
@@ -249,7 +275,7 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
                                                   : Json();
     j["ms_per_frame"] = numberJson(s.msPerFrame);
     j["task_seconds"] = numberJson(merged->taskSeconds);
-    j["curves"] = {{"file", curves.string()}, {"fnv1a64", merged->curvesChecksum}};
+    j["curves"] = {{"file", curves.string()}, {"checksum", merged->curvesChecksum}};
     return j;
 }
 
@@ -382,13 +408,10 @@ BatchOutcome runBatch(const BatchJob& job)
             recorded[shard.key] = status.checksum;
         if (const auto found = recorded.find(shard.key); found != recorded.end()) shard.checksum = found->second;
     }
-    // Outputs hashed in parallel: a library's shards hold about 4 kB a frame.
+    // Outputs checked in parallel: a library's shards and curves hold about 4 kB a frame.
     tbb::parallel_for(std::size_t{0}, manifest.shards.size(), [&](std::size_t i) {
         BatchShard& shard = manifest.shards[i];
-        std::string bytes;
-        if (!shard.checksum.empty() &&
-            !(readFileBytes(folder / shard.output(), bytes) && checksumText(bytes) == shard.checksum))
-            shard.checksum.clear();
+        if (!shardDone(folder, manifest, shard, shard.checksum)) shard.checksum.clear();
     });
     std::vector<int> pending;
     for (std::size_t i = 0; i < manifest.shards.size(); ++i)
@@ -433,10 +456,8 @@ BatchOutcome runBatch(const BatchJob& job)
         for (const int i : pending) {
             BatchShard& shard = manifest.shards[static_cast<std::size_t>(i)];
             ShardStatus status;
-            std::string bytes;
             const bool reported = readShardStatus(folder / shard.status(), status) && status.key == shard.key;
-            if (reported && status.ok && readFileBytes(folder / shard.output(), bytes) &&
-                checksumText(bytes) == status.checksum) {
+            if (reported && status.ok && shardDone(folder, manifest, shard, status.checksum)) {
                 shard.checksum = status.checksum;
                 taskSeconds += status.seconds;
                 framesRun += shard.last - shard.first + 1;
@@ -444,12 +465,13 @@ BatchOutcome runBatch(const BatchJob& job)
                 continue;
             }
             const auto note = notes.find(i);
-            errors[i] = reported && !status.ok ? status.error
-                        : reported             ? fmt::format("error: {}: does not match the checksum its task recorded "
-                                                             "(written over since?)",
-                                                             (folder / shard.output()).string())
-                        : note != notes.end()  ? "error: the task " + note->second
-                                               : "error: the task ended without a status";
+            if (reported && !status.ok) errors[i] = status.error;
+            else if (reported)
+                errors[i] = fmt::format("error: {} (or its clip's curves): does not match the checksums its task "
+                                        "recorded; written over since? run rig-batch again",
+                                        (folder / shard.output()).string());
+            else if (note != notes.end()) errors[i] = "error: the task " + note->second;
+            else errors[i] = "error: the task ended without a status";
             failed.push_back(i);
         }
         for (const int i : pending)
@@ -485,9 +507,11 @@ BatchOutcome runBatch(const BatchJob& job)
             m.merged = mergeClip(folder, manifest, static_cast<int>(m.first), static_cast<int>(m.end), approximation,
                                  equivalences);
         if (m.merged && m.merged->failedShard < 0) {
-            writeFileAtomically(curves, m.merged->curves);
-            m.merged->curvesChecksum = checksumText(m.merged->curves);
-            std::string().swap(m.merged->curves);
+            if (m.merged->curvesChecksum.empty()) {
+                writeFileAtomically(curves, m.merged->curves);
+                m.merged->curvesChecksum = checksumText(m.merged->curves);
+                std::string().swap(m.merged->curves);
+            }
         }
         else {
             // No curves for a clip with a shard missing: an earlier run's file would not be this run's.
@@ -601,7 +625,15 @@ void runShard(const std::filesystem::path& folder, int index)
                                           static_cast<std::size_t>(shard.last - shard.first + 1));
         out.frameNumbers.assign(numbers.begin(), numbers.end());
         out.solved = outcome.solved;
-        out.curvesFrames = curvesJsonFrames(*outcome.approximation, numbers, outcome.values);
+        if (wholeClip(manifest, shard)) {
+            // Nothing to merge: the curves file as rig-invert writes it, written here rather than by the merge.
+            const std::string curves =
+                curvesJsonFile(curvesJsonFrames(*outcome.approximation, numbers, outcome.values));
+            writeFileAtomically(folder / (clip.name + ".json"), curves);
+            out.curvesChecksum = checksumText(curves);
+        }
+        else
+            out.curvesFrames = curvesJsonFrames(*outcome.approximation, numbers, outcome.values);
         out.summary = outcome.summary;
         out.summary.perFrame.clear();
         out.taskSeconds = secondsSince(start);

@@ -81,7 +81,8 @@ Json readJson(const fs::path& file) { return Json::parse(test::readFile(file)); 
 
 }  // namespace
 
-TEST_CASE("rig-batch: a library on 1 and 2 local processes gives rig-invert's curves byte for byte and its figures")
+TEST_CASE("rig-batch: a library on 1 and 2 local processes gives rig-invert's curves byte for byte and its figures, "
+          "merged or written by a shard of a whole clip")
 {
     if (!clipsInstalled()) return;
     const auto dir = test::scratchDir("rig_batch_local");
@@ -122,12 +123,26 @@ TEST_CASE("rig-batch: a library on 1 and 2 local processes gives rig-invert's cu
             CHECK(clip["ms_per_frame"].get<double>() > 0.0);
         }
     }
-    // turn's last shard (frames 481 to 720) alone is whole turns away from one run: the merge shifted it.
-    const auto r = test::run(fmt::format("{} {} --clip {} --frames 481:720 -o {} -q", test::tool("rig-invert"),
-                                         inputs(), (clips / "turn.bvh").string(), (dir / "alone.json").string()));
+    // One shard per clip (the default size): each task writes its clip's curves, nothing is merged. A curves
+    // file removed since is a shard to solve again.
+    const auto out = dir / "whole";
+    const std::string whole = fmt::format("{} --clips {} --out {} -q", inputs(), clips.string(), out.string());
+    auto r = rigBatch(whole);
+    INFO(r.err);
     REQUIRE(r.exitCode == 0);
-    const Json alone = readJson(dir / "alone.json"), whole = readJson(dir / "turn.json");
-    CHECK(alone != Json(whole.begin() + 480, whole.end()));
+    CHECK(readJson(out / "report.json")["totals"]["shards"] == 2);
+    fs::remove(out / "walk.json");
+    r = rigBatch(whole);
+    REQUIRE(r.exitCode == 0);
+    CHECK(readJson(out / "report.json")["totals"]["shards_run"] == 1);
+    for (const char* name : {"walk.json", "turn.json"}) CHECK(test::readFile(out / name) == test::readFile(dir / name));
+
+    // turn's last shard (frames 481 to 720) alone is whole turns away from one run: the merge shifted it.
+    r = test::run(fmt::format("{} {} --clip {} --frames 481:720 -o {} -q", test::tool("rig-invert"), inputs(),
+                              (clips / "turn.bvh").string(), (dir / "alone.json").string()));
+    REQUIRE(r.exitCode == 0);
+    const Json alone = readJson(dir / "alone.json"), oneRun = readJson(dir / "turn.json");
+    CHECK(alone != Json(oneRun.begin() + 480, oneRun.end()));
 }
 
 TEST_CASE("rig-batch: a second run skips finished shards, solves a corrupted one again, and loses nothing to an "
@@ -172,7 +187,7 @@ TEST_CASE("rig-batch: a second run skips finished shards, solves a corrupted one
     // A shard's output changed after it was done: its checksum no longer matches the manifest's.
     const Json manifest = readJson(out / "manifest.json");
     const std::string key = manifest["shards"][7]["key"];
-    CHECK(manifest["shards"][7]["fnv1a64"].is_string());
+    CHECK(manifest["shards"][7]["checksum"].is_string());
     const fs::path shard = out / "shards" / (key + ".shard");
     {
         std::fstream f(shard, std::ios::in | std::ios::out | std::ios::binary);
