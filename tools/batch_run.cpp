@@ -421,6 +421,10 @@ BatchOutcome runBatch(const BatchJob& job)
 
     // Run what is not done; failed shards again, up to --retries times.
     const int reused = static_cast<int>(manifest.shards.size() - pending.size());
+    // --jobs by default: the cores (local), every task at once (Slurm: 0 here, the shards to run).
+    const int jobs = job.jobs > 0             ? job.jobs
+                     : job.backend == "local" ? static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))
+                                              : 0;
     const int toRun = static_cast<int>(pending.size());
     int done = 0;
     long long framesRun = 0;
@@ -437,9 +441,7 @@ BatchOutcome runBatch(const BatchJob& job)
         }
         run.shards = pending;
         run.keys = pendingKeys;
-        run.jobs = job.jobs > 0                ? job.jobs
-                   : job.backend == "slurm" ? static_cast<int>(pending.size())
-                                            : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+        run.jobs = jobs > 0 ? jobs : static_cast<int>(pending.size());
         run.round = round;
         run.reported = [&](int i) {
             return fs::exists(folder / manifest.shards[static_cast<std::size_t>(i)].status(), ec);
@@ -556,7 +558,7 @@ BatchOutcome runBatch(const BatchJob& job)
         {"rig", inputs.rig},
         {"map", inputs.map.empty() ? Json() : Json(inputs.map)},
         {"backend", job.backend},
-        {"jobs", job.jobs},
+        {"jobs", jobs > 0 ? Json(jobs) : Json("all")},
         {"shard_frames", job.shardFrames},
         {"restart_every", job.settings.restartEvery},
         {"clips", std::move(clips)},
