@@ -51,8 +51,11 @@ start() {
   if ((${#missing[@]})); then
     command -v apt-get >/dev/null || skip "${missing[*]} missing and no apt-get to install them"
     echo "slurm_localhost: installing ${missing[*]}" >&2
-    if ! { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
-             "${missing[@]}"; } >"$folder/apt.log" 2>&1; then
+    # Bounded, so that a test never hangs on a mirror.
+    if ! { timeout 180 apt-get update -qq &&
+           DEBIAN_FRONTEND=noninteractive timeout 240 apt-get install -y -qq --no-install-recommends \
+             -o DPkg::Lock::Timeout=120 "${missing[@]}"
+         } >"$folder/apt.log" 2>&1; then
       skip "cannot install ${missing[*]} (apt-get failed: $(tail -1 "$folder/apt.log"))"
     fi
     rm -f "$folder/apt.log"
