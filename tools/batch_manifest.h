@@ -54,7 +54,6 @@ struct BatchShard {
 
     std::filesystem::path output() const { return std::filesystem::path("shards") / (key + ".shard"); }
     std::filesystem::path status() const { return std::filesystem::path("shards") / (key + ".status.json"); }
-    std::filesystem::path log() const { return std::filesystem::path("logs") / (key + ".log"); }
 };
 
 struct BatchManifest {

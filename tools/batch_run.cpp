@@ -182,6 +182,10 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
                 throw Error(fmt::format("{}: removed since its shard was done; run rig-batch again to solve it again",
                                         file.string()));
             out = parseShardOutput(bytes, file.string(), approximation.parameters.size());
+            if (out.key != shard.key || out.first != shard.first || out.last != shard.last)
+                throw Error(fmt::format("{}: is not the output of shard {} (frames {}); run rig-batch again to solve "
+                                        "it again",
+                                        file.string(), i, framesText(shard)));
         }
         catch (const Error& e) {
             merged.failedShard = i;
