@@ -90,7 +90,8 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
 
 ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first,
                                 int last, const ClipInversionOptions& options,
-                                std::vector<std::vector<double>>& values)
+                                std::vector<std::vector<double>>& values,
+                                std::vector<std::vector<double>>* solvedValues)
 {
     options.validate();
     const int frameCount = static_cast<int>(targets.frames.size());
@@ -103,17 +104,11 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     ClipInversionSummary summary;
     summary.leadInFrames = first % options.restartInterval;
     values.clear();
+    if (solvedValues) solvedValues->clear();
     std::vector<double> current = rest;
     // Each chunk shifted by equivalences to meet the frame before it (continuity.h); the chain itself,
     // `current`, is what was solved.
-    const Equivalences& equivalences = solver.equivalences();
-    ChunkShift shift = noShift(equivalences);
-    std::vector<double> reported = options.continueFrom;
-    bool continuing = !options.continueFrom.empty();
-    if (continuing && options.continueFrom.size() != rest.size())
-        throw Error(fmt::format("continueFrom has {} values for {} parameters",
-                                                options.continueFrom.size(), rest.size()));
-    reported.resize(rest.size());
+    ChainContinuity continuity(solver.equivalences(), options.continueFrom);
     ChainScratch chainScratch;
     ChainFrame solved;
     double previousCost = 0.0;
@@ -140,16 +135,15 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
         if (options.polishCorrections > 0 && !options.frameSolve && solve.termination != TerminationType::invalidTargets)
             polish(solver, rig, frameTargets, current, options.polishCorrections);
-        if (restart) shift = continuing ? continuityShift(equivalences, reported, current) : noShift(equivalences);
-        applyShift(equivalences, shift, current, reported);
-        continuing = true;
+        const std::span<const double> reported = continuity.next(current, restart);
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
         const double cpuSeconds = threadCpuSeconds() - cpuStart;
         if (frame < first) continue;
 
         summary.solveSeconds += seconds;
         summary.solveCpuSeconds += cpuSeconds;
-        values.push_back(reported);
+        values.emplace_back(reported.begin(), reported.end());
+        if (solvedValues) solvedValues->push_back(current);
         FrameInversion result;
         result.frame = frame;
         result.solve = solve;

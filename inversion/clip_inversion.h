@@ -139,8 +139,11 @@ struct ClipInversionSummary {
 
 // Inverts frames [first, last] (0-based, inclusive) of `targets`. `values` receives one row per reported
 // frame, one value per Approximation::parameters entry (internal units). `rig` evaluates the real rig.
+// `solvedValues`, when given, receives the same rows as solved, before each chain's shift (ChainContinuity):
+// rig-batch solves a clip's chains apart and replays the shifts over them.
 ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first,
                                 int last, const ClipInversionOptions& options,
-                                std::vector<std::vector<double>>& values);
+                                std::vector<std::vector<double>>& values,
+                                std::vector<std::vector<double>>* solvedValues = nullptr);
 
 }  // namespace rig

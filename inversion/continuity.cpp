@@ -151,4 +151,30 @@ void applyShift(const Equivalences& e, const ChunkShift& shift, std::span<const 
         if (shift.turns[p] != 0.0) out[p] += shift.turns[p] * e.period[p];
 }
 
+ChainContinuity::ChainContinuity(const Equivalences& equivalences, std::span<const double> before)
+    : equivalences_(equivalences),
+      shift_(noShift(equivalences)),
+      reported_(before.begin(), before.end()),
+      continuing_(!before.empty())
+{
+    if (continuing_ && before.size() != equivalences.period.size())
+        throw Error(fmt::format("the frame before has {} values for {} parameters", before.size(),
+                                                equivalences.period.size()));
+    reported_.resize(equivalences.period.size());
+}
+
+std::span<const double> ChainContinuity::next(std::span<const double> solved, bool restart)
+{
+    if (restart) shift_ = continuing_ ? continuityShift(equivalences_, reported_, solved) : noShift(equivalences_);
+    applyShift(equivalences_, shift_, solved, reported_);
+    continuing_ = true;
+    return reported_;
+}
+
+bool ChainContinuity::shifted() const
+{
+    return std::any_of(shift_.otherSolution.begin(), shift_.otherSolution.end(), [](char c) { return c != 0; }) ||
+           std::any_of(shift_.turns.begin(), shift_.turns.end(), [](double t) { return t != 0.0; });
+}
+
 }  // namespace rig

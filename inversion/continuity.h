@@ -61,4 +61,27 @@ ChunkShift continuityShift(const Equivalences& equivalences, std::span<const dou
 void applyShift(const Equivalences& equivalences, const ChunkShift& shift, std::span<const double> in,
                 std::span<double> out);
 
+// The values reported along a clip's warm-start chains: each chain, from its restart frame on, shifted as a
+// whole to meet the values reported for the frame before it. invertClip reports through it, and rig-batch
+// replays it over the chains its shards solved apart, which is why its curves equal one run's.
+class ChainContinuity {
+public:
+    // `before`: the values reported for the frame before the first one given (the chunk before); empty:
+    // none, the first chain is reported as solved. Throws rig::Error when its size is not the
+    // parameters'. `equivalences` must outlive this object.
+    ChainContinuity(const Equivalences& equivalences, std::span<const double> before);
+
+    // The values to report for the next frame of the clip, from its values as solved; `restart`: that frame
+    // starts a chain. Valid until the next call.
+    std::span<const double> next(std::span<const double> solved, bool restart);
+    // Whether the chain of the last frame given is shifted (its reported values are not its solved ones).
+    bool shifted() const;
+
+private:
+    const Equivalences& equivalences_;
+    ChunkShift shift_;
+    std::vector<double> reported_;
+    bool continuing_ = false;
+};
+
 }  // namespace rig

@@ -59,6 +59,13 @@ std::vector<double> valuesReported(const std::string& file, const Approximation&
                             file, number, frames, clip.frameNumbers[static_cast<std::size_t>(index) + 1]));
 }
 
+std::string learnedFrom(const Approximation& approximation)
+{
+    return fmt::format("the approximation was learned from {}: give that rig with --rig, or learn one for this rig "
+                       "with rig-learn",
+                       approximation.rigFile);
+}
+
 // The clip indices of --frames A:B.
 std::pair<int, int> frameIndices(const TargetClip& clip, const std::string& frames)
 {
@@ -104,10 +111,9 @@ ClipInversionOptions clipInversionOptions(const InvertSettings& s)
     return options;
 }
 
-InvertOutcome invert(const InvertJob& job)
+LoadedRig loadRig(const InvertJob& job)
 {
-    ClipInversionOptions options = clipInversionOptions(job.settings);
-    InvertOutcome out;
+    LoadedRig out;
     out.approximation = job.approximation;
     if (!out.approximation)
         out.approximation = std::make_shared<const Approximation>(readApproximationFile(job.approximationName));
@@ -123,54 +129,76 @@ InvertOutcome invert(const InvertJob& job)
     rigOptions.plugins = job.plugins;
     // The rig must have the approximation's parameters and outputs: an approximation of another rig (or a
     // name edited by hand) is the approximation's mistake as much as the rig's.
-    const auto learnedFrom = [&] {
-        return fmt::format("the approximation was learned from {}: give that rig with --rig, or learn one for this "
-                           "rig with rig-learn",
-                           approximation.rigFile);
-    };
     try {
         out.rig = std::make_shared<GraphRigFunction>(job.rig, rigOptions);
     }
     catch (const RigSelectionError& e) {
         throw Error(fmt::format("{}: {} '{}' does not fit {} ({}); {}", job.approximationName, e.kind(), e.name(),
-                                job.rig, e.reason(), learnedFrom()));
+                                job.rig, e.reason(), learnedFrom(approximation)));
     }
-    GraphRigFunction& rig = *out.rig;
-    if (job.rigLoaded) job.rigLoaded(rig);
+    if (job.rigLoaded) job.rigLoaded(*out.rig);
     try {
-        if (const auto warning = checkFingerprint(approximation, rig.fingerprint(), job.strict);
+        if (const auto warning = checkFingerprint(approximation, out.rig->fingerprint(), job.strict);
             !warning.empty() && job.warning)
             job.warning(fmt::format("{}: {}", job.approximationName, warning));
     }
     catch (const Error& e) {
         throw Error(fmt::format("{}: {} (--strict)", job.approximationName, e.what()));
     }
+    return out;
+}
 
-    const TargetMap map = job.map.empty() ? TargetMap{} : readTargetMap(job.map);
-    out.clip = job.targets ? applyTargetMap(*job.targets, map) : readTargetClip(job.clip, map);
-    const TargetClip& clip = out.clip;
-    int last = static_cast<int>(clip.frameNumbers.size()) - 1;
-    if (job.frames) std::tie(out.first, last) = frameIndices(clip, *job.frames);
-
-    try {
-        out.targets = matchTargets(approximation, clip.joints, clip.worlds);
-    }
-    catch (const Error& e) {
-        throw e.in(clip.file);
-    }
-    const Solver solver(approximation, options.solver);
+RigBinding bindRig(const InvertJob& job, const Approximation& approximation, GraphRigFunction& rig)
+{
     // The rig's parameters are scalar plugs: a name edited into a vector ('wrist.rotate') or into a
     // plug the rig does not offer does not bind.
-    std::optional<RigBinding> bound;
     try {
-        bound.emplace(approximation, rig);
+        return RigBinding(approximation, rig);
     }
     catch (const Error& e) {
         std::string why = e.what();
         if (why.starts_with("RigBinding: ")) why.erase(0, 12);
         throw Error(fmt::format("{}: {} ({} does not offer it as a free keyable number); {}", job.approximationName,
-                                why, job.rig, learnedFrom()));
+                                why, job.rig, learnedFrom(approximation)));
     }
+}
+
+TargetClip readTargets(const InvertJob& job)
+{
+    const TargetMap map = job.map.empty() ? TargetMap{} : readTargetMap(job.map);
+    return job.targets ? applyTargetMap(*job.targets, map) : readTargetClip(job.clip, map);
+}
+
+ClipTargets matchClipTargets(const Approximation& approximation, const TargetClip& clip)
+{
+    try {
+        return matchTargets(approximation, clip.joints, clip.worlds);
+    }
+    catch (const Error& e) {
+        throw e.in(clip.file);
+    }
+}
+
+InvertOutcome invert(const InvertJob& job)
+{
+    ClipInversionOptions options = clipInversionOptions(job.settings);
+    LoadedRig loaded = loadRig(job);
+    InvertOutcome out;
+    out.approximation = loaded.approximation;
+    const Approximation& approximation = *out.approximation;
+    out.clip = readTargets(job);
+    const TargetClip& clip = out.clip;
+    int last = static_cast<int>(clip.frameNumbers.size()) - 1;
+    if (job.frames) std::tie(out.first, last) = frameIndices(clip, *job.frames);
+    if (job.frameIndices) {
+        std::tie(out.first, last) = *job.frameIndices;
+        if (out.first < 0 || out.first > last || last >= static_cast<int>(clip.frameNumbers.size()))
+            throw Error(fmt::format("{}: has no frames {} to {} (0-based; it has {} frames)", clip.file, out.first,
+                                    last, clip.frameNumbers.size()));
+    }
+    out.targets = matchClipTargets(approximation, clip);
+    const Solver solver(approximation, options.solver);
+    RigBinding bound = bindRig(job, approximation, *loaded.rig);
     if (!job.after.empty())
         options.continueFrom = valuesReported(job.after, approximation, clip,
                                               out.first - out.first % options.restartInterval - 1,
@@ -182,15 +210,17 @@ InvertOutcome invert(const InvertJob& job)
             job.progress(static_cast<int>(std::lround(fraction * total)), total);
         };
     }
-    out.summary = invertClip(solver, *bound, out.targets, out.first, last, options, out.values);
+    out.summary = invertClip(solver, bound, out.targets, out.first, last, options, out.values, &out.solved);
+    out.rig = std::move(loaded.rig);
     return out;
 }
 
-std::vector<std::vector<double>> curveValues(const InvertOutcome& outcome)
+std::vector<std::vector<double>> curveValues(const Approximation& approximation,
+                                             const std::vector<std::vector<double>>& values)
 {
-    const auto& parameters = outcome.approximation->parameters;
+    const auto& parameters = approximation.parameters;
     std::vector<std::vector<double>> out;
-    for (const auto& frame : outcome.values) {
+    for (const auto& frame : values) {
         auto& row = out.emplace_back();
         for (std::size_t i = 0; i < parameters.size(); ++i)
             row.push_back(parameterUserValue(parameters[i].parameter, frame[i]));
@@ -198,20 +228,37 @@ std::vector<std::vector<double>> curveValues(const InvertOutcome& outcome)
     return out;
 }
 
-// graph-eval's layout, so that a graph driven by the curves prints the same file.
-std::string curvesJson(const InvertOutcome& outcome)
+std::vector<std::vector<double>> curveValues(const InvertOutcome& outcome)
 {
-    const auto& parameters = outcome.approximation->parameters;
-    const auto values = curveValues(outcome);
-    std::string out = "[\n";
-    for (std::size_t f = 0; f < values.size(); ++f) {
+    return curveValues(*outcome.approximation, outcome.values);
+}
+
+std::string curvesJsonFrames(const Approximation& approximation, std::span<const double> frameNumbers,
+                             const std::vector<std::vector<double>>& values)
+{
+    const auto& parameters = approximation.parameters;
+    const auto user = curveValues(approximation, values);
+    std::string out;
+    for (std::size_t f = 0; f < user.size(); ++f) {
         std::vector<std::pair<std::string, Json>> named;
         for (std::size_t i = 0; i < parameters.size(); ++i)
-            named.emplace_back(parameters[i].parameter.name, numberJson(values[f][i]));
-        out += frameJson(outcome.clip.frameNumbers[static_cast<std::size_t>(outcome.first) + f], named) +
-               (f + 1 < values.size() ? ",\n" : "\n");
+            named.emplace_back(parameters[i].parameter.name, numberJson(user[f][i]));
+        out += (f ? ",\n" : "") + frameJson(frameNumbers[f], named);
     }
-    return out + "]\n";
+    return out;
+}
+
+// graph-eval's layout, so that a graph driven by the curves prints the same file.
+std::string curvesJsonFile(std::string_view frames)
+{
+    return fmt::format("[\n{}{}]\n", frames, frames.empty() ? "" : "\n");
+}
+
+std::string curvesJson(const InvertOutcome& outcome)
+{
+    return curvesJsonFile(curvesJsonFrames(
+        *outcome.approximation, std::span(outcome.clip.frameNumbers).subspan(static_cast<std::size_t>(outcome.first)),
+        outcome.values));
 }
 
 std::string curvesCsv(const InvertOutcome& outcome)

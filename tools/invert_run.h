@@ -6,11 +6,14 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "inversion/approximation.h"
 #include "inversion/clip_inversion.h"
+#include "inversion/rig_binding.h"
 #include "nodes/clips/target_clip.h"
 #include "nodes/graph_rig_function.h"
 #include "tools/value_output.h"
@@ -44,6 +47,8 @@ struct InvertJob {
     std::optional<TargetClip> targets;
     std::string map;
     std::optional<std::string> frames;  // A:B in the clip's numbering; none: the whole clip
+    // Or the frames as clip indices (0-based), first and last: rig-batch's shards.
+    std::optional<std::pair<int, int>> frameIndices;
     std::string after;                  // the curves of the chunk before (rig-invert --after), "" for none
     InvertSettings settings;
     // Called after each reported frame with the frames done and the frames to report; may be empty.
@@ -62,11 +67,30 @@ struct InvertOutcome {
     int first = 0;         // the first reported frame, an index into clip.frameNumbers
     ClipInversionSummary summary;
     std::vector<std::vector<double>> values;  // [reported frame][parameter], internal units
+    // The same as solved, before each warm-start chain's continuity shift (rig-batch replays the shifts).
+    std::vector<std::vector<double>> solved;
 };
 
 // Checks the settings, reads what the job names, binds the approximation to the rig and inverts the
 // frames. Throws rig::Error with rig-invert's one-line messages.
 InvertOutcome invert(const InvertJob& job);
+
+// invert's steps, for rig-batch, which checks every clip of a library before any work. Each throws
+// rig::Error with rig-invert's one-line messages.
+// The approximation (job.approximation, or read from job.approximationName) and the rig it names, loaded
+// with the approximation's parameters and outputs; job.rigLoaded is called, then job.warning when the rig
+// changed since learning (an error with job.strict).
+struct LoadedRig {
+    std::shared_ptr<const Approximation> approximation;
+    std::shared_ptr<GraphRigFunction> rig;
+};
+LoadedRig loadRig(const InvertJob& job);
+// The approximation bound to the rig by names.
+RigBinding bindRig(const InvertJob& job, const Approximation& approximation, GraphRigFunction& rig);
+// The job's targets (job.targets or the clip file), the map applied.
+TargetClip readTargets(const InvertJob& job);
+// The clip's joints matched to the approximation's outputs; none matching is an error.
+ClipTargets matchClipTargets(const Approximation& approximation, const TargetClip& clip);
 
 // A parameter's curve values in user units (degrees for angles, cm), as the curves files hold them:
 // [reported frame][parameter].
@@ -74,6 +98,11 @@ std::vector<std::vector<double>> curveValues(const InvertOutcome& outcome);
 
 // The curves as rig-invert writes them: graph-eval's JSON layout, or CSV.
 std::string curvesJson(const InvertOutcome& outcome);
+// The JSON curves in two steps, for rig-batch, which joins its shards' frames: the frames (values per frame
+// in internal units, each frame's number in the clip) joined by ",\n", then the file around them.
+std::string curvesJsonFrames(const Approximation& approximation, std::span<const double> frameNumbers,
+                             const std::vector<std::vector<double>>& values);
+std::string curvesJsonFile(std::string_view frames);
 std::string curvesCsv(const InvertOutcome& outcome);
 
 // The --report-json report. `clip` names the targets (none for targets given in memory), `curvesFile` the

@@ -1,0 +1,326 @@
+// rig-batch end to end on the local backend (the Slurm backend: tests/tools/rig_batch_slurm_test.sh): the
+// merged curves equal rig-invert's on the whole clip byte for byte with 1 and 2 processes, shards shifted
+// in the merge included; a second run skips finished shards and solves a corrupted one again; an
+// interrupted batch loses nothing finished; a failing shard is reported with its error line and exit code 3;
+// bad input is one line, exit code 2 and nothing written.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "learned_fixtures.h"
+#include "test_support.h"
+
+using namespace rig;
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+namespace {
+
+const fs::path cmuTurn = "/usr/share/assimp/models/BVH/01_03.bvh";
+
+bool clipsInstalled()
+{
+    if (fs::exists(test::cmuClip) && fs::exists(cmuTurn)) return true;
+    MESSAGE("[skipped] " << test::cmuClip << " and " << cmuTurn
+                         << " are not installed (Debian package assimp-testmodels)");
+    return false;
+}
+
+// `source` with only its first `frames` motion lines.
+void cutBvh(const fs::path& source, int frames, const fs::path& out)
+{
+    std::ifstream in(source);
+    std::ofstream o(out);
+    std::string line;
+    bool motion = false;
+    int written = 0;
+    while (std::getline(in, line)) {
+        if (line.starts_with("Frames:")) line = fmt::format("Frames: {}", frames);
+        else if (motion && written++ >= frames) continue;
+        motion = motion || line.starts_with("Frame Time:");
+        o << line << "\n";
+    }
+}
+
+// Two clips in `folder`: 01_01's first 600 frames (a walk) and 01_03's first 720 (it turns round: shards
+// from frame 481 on are shifted by whole turns in the merge).
+fs::path libraryFolder(const fs::path& folder)
+{
+    fs::create_directories(folder);
+    cutBvh(test::cmuClip, 600, folder / "walk.bvh");
+    cutBvh(cmuTurn, 720, folder / "turn.bvh");
+    return folder;
+}
+
+std::string inputs()
+{
+    return fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml",
+                       test::bipedApproximation().string());
+}
+
+test::CommandResult rigBatch(const std::string& args) { return test::run(test::tool("rig-batch") + " " + args); }
+
+// rig-invert on the whole clip, curves and report into `folder`.
+void invertWhole(const fs::path& clip, const fs::path& folder)
+{
+    const auto r = test::run(fmt::format("{} {} --clip {} -o {} --report-json {} -q", test::tool("rig-invert"),
+                                         inputs(), clip.string(), (folder / (clip.stem().string() + ".json")).string(),
+                                         (folder / (clip.stem().string() + ".report.json")).string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+}
+
+Json readJson(const fs::path& file) { return Json::parse(test::readFile(file)); }
+
+}  // namespace
+
+TEST_CASE("rig-batch: a library on 1 and 2 local processes gives rig-invert's curves byte for byte and its figures, "
+          "merged or written by a shard of a whole clip")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_local");
+    const auto clips = libraryFolder(dir / "clips");
+    for (const auto* name : {"walk.bvh", "turn.bvh"}) invertWhole(clips / name, dir);
+    for (const int jobs : {1, 2}) {
+        CAPTURE(jobs);
+        const auto out = dir / fmt::format("out{}", jobs);
+        const auto r = rigBatch(fmt::format("{} --clips {} --out {} --jobs {} --shard-frames 240", inputs(),
+                                            clips.string(), out.string(), jobs));
+        INFO(r.err);
+        REQUIRE(r.exitCode == 0);
+        CHECK(r.err.empty());
+        CHECK(r.out.find("rig-batch: 2 clips, 6 shards (0 done before, 6 run on local, 0 failed)") !=
+              std::string::npos);
+        const Json report = readJson(out / "report.json");
+        CHECK(report["totals"]["shards_run"] == 6);
+        CHECK(report["totals"]["frames_run"] == 1320);
+        CHECK(report["totals"]["frames_per_second"].get<double>() > 0.0);
+        CHECK(report["failed_shards"].empty());
+        REQUIRE(report["clips"].size() == 2);
+        for (const Json& clip : report["clips"]) {
+            const std::string name = clip["name"];
+            CAPTURE(name);
+            CHECK(test::readFile(out / (name + ".json")) == test::readFile(dir / (name + ".json")));
+            CHECK(clip["curves"]["file"] == (out / (name + ".json")).string());
+            // Counts as one run makes them; errors measured by each shard on its own values (the same poses
+            // where the merge shifted a shard: equal up to rounding).
+            const Json whole = readJson(dir / (name + ".report.json"));
+            for (const char* key : {"frames", "converged_frames", "stuck_frames", "retried_frames", "retries_kept",
+                                    "worst_joint", "worst_frame", "non_finite_frames"})
+                CHECK(clip[key] == whole[key]);
+            CHECK(clip["max_position_error_cm"].get<double>() ==
+                  doctest::Approx(whole["max_position_error_cm"].get<double>()).epsilon(1e-9));
+            CHECK(clip["max_rotation_error_deg"].get<double>() ==
+                  doctest::Approx(whole["max_rotation_error_deg"].get<double>()).epsilon(1e-9));
+            CHECK(clip["stuck_joints"].size() == whole["stuck_joints"].size());
+            CHECK(clip["ms_per_frame"].get<double>() > 0.0);
+        }
+    }
+    // One shard per clip (the default size): each task writes its clip's curves, nothing is merged. A curves
+    // file removed since is a shard to solve again.
+    const auto out = dir / "whole";
+    const std::string whole = fmt::format("{} --clips {} --out {} -q", inputs(), clips.string(), out.string());
+    auto r = rigBatch(whole);
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK(readJson(out / "report.json")["totals"]["shards"] == 2);
+    fs::remove(out / "walk.json");
+    r = rigBatch(whole);
+    REQUIRE(r.exitCode == 0);
+    CHECK(readJson(out / "report.json")["totals"]["shards_run"] == 1);
+    for (const char* name : {"walk.json", "turn.json"}) CHECK(test::readFile(out / name) == test::readFile(dir / name));
+
+    // turn's last shard (frames 481 to 720) alone is whole turns away from one run: the merge shifted it.
+    r = test::run(fmt::format("{} {} --clip {} --frames 481:720 -o {} -q", test::tool("rig-invert"), inputs(),
+                              (clips / "turn.bvh").string(), (dir / "alone.json").string()));
+    REQUIRE(r.exitCode == 0);
+    const Json alone = readJson(dir / "alone.json"), oneRun = readJson(dir / "turn.json");
+    CHECK(alone != Json(oneRun.begin() + 480, oneRun.end()));
+}
+
+TEST_CASE("rig-batch: a second run skips finished shards, solves a corrupted one again, and loses nothing to an "
+          "interrupted run")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_resume");
+    const auto clips = libraryFolder(dir / "clips");
+    for (const auto* name : {"walk.bvh", "turn.bvh"}) invertWhole(clips / name, dir);
+    const auto out = dir / "out";
+    const std::string library = fmt::format("{} --clips {} --out {} -q", inputs(), clips.string(), out.string());
+    const std::string args = library + " --shard-frames 120";
+    const auto totals = [&] { return readJson(out / "report.json")["totals"]; };
+    const auto sameCurves = [&] {
+        for (const char* name : {"walk.json", "turn.json"})
+            CHECK(test::readFile(out / name) == test::readFile(dir / name));
+    };
+
+    // Interrupted (the driver and its workers killed, as by Ctrl-C; a background job of sh ignores SIGINT, so
+    // SIGTERM) once the first shard is done.
+    const auto killed = test::run(fmt::format(
+        "setsid {} {} --jobs 1 & p=$!; for i in $(seq 600); do ls {}/*.status.json >/dev/null 2>&1 && break; "
+        "sleep 0.05; done; kill -TERM -$p; wait $p; echo $?",
+        test::tool("rig-batch"), args, (out / "shards").string()));
+    CHECK(killed.out == "143\n");
+    CHECK_FALSE(fs::exists(out / "walk.json"));
+    CHECK_FALSE(fs::exists(out / "report.json"));
+    auto r = rigBatch(args);
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK(totals()["shards_reused"].get<int>() >= 1);
+    CHECK(totals()["shards_reused"].get<int>() + totals()["shards_run"].get<int>() == 11);
+    sameCurves();
+
+    // Everything done: nothing is solved again.
+    r = rigBatch(args);
+    REQUIRE(r.exitCode == 0);
+    CHECK(totals()["shards_reused"] == 11);
+    CHECK(totals()["shards_run"] == 0);
+    sameCurves();
+
+    // A shard's output changed after it was done: its checksum no longer matches the manifest's.
+    const Json manifest = readJson(out / "manifest.json");
+    const std::string key = manifest["shards"][7]["key"];
+    CHECK(manifest["shards"][7]["checksum"].is_string());
+    const fs::path shard = out / "shards" / (key + ".shard");
+    {
+        std::fstream f(shard, std::ios::in | std::ios::out | std::ios::binary);
+        f.seekp(200);
+        f.put('#');
+    }
+    r = rigBatch(args);
+    REQUIRE(r.exitCode == 0);
+    CHECK(totals()["shards_reused"] == 10);
+    CHECK(totals()["shards_run"] == 1);
+    sameCurves();
+
+    // Without the manifest's record (a driver killed before it wrote one), the tasks' status records keep
+    // what finished.
+    fs::remove(out / "manifest.json");
+    r = rigBatch(args);
+    REQUIRE(r.exitCode == 0);
+    CHECK(totals()["shards_reused"] == 11);
+
+    // Longer shards: the old files go, and only walk's last shard (frames 481 to 600 either way) is kept.
+    r = rigBatch(library + " --shard-frames 240");
+    REQUIRE(r.exitCode == 0);
+    CHECK(totals()["shards_reused"] == 1);
+    CHECK(totals()["shards_run"] == 5);
+    CHECK_FALSE(fs::exists(shard));
+    sameCurves();
+}
+
+TEST_CASE("rig-batch: a shard that fails is listed with its error line, exit code 3, and solved by the next run")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_failing");
+    const auto clips = libraryFolder(dir / "clips");
+    invertWhole(clips / "walk.bvh", dir);
+    const auto out = dir / "out";
+    const std::string args = fmt::format("{} --clips {} --out {} --shard-frames 240 --jobs 2 --retries 0 -q",
+                                         inputs(), clips.string(), out.string());
+    REQUIRE(rigBatch(args).exitCode == 0);
+    // Shard 4 (walk, frames 241 to 480) cannot write its output: a folder is in its place.
+    const std::string key = readJson(out / "manifest.json")["shards"][4]["key"];
+    const fs::path shard = out / "shards" / (key + ".shard");
+    fs::remove(shard);
+    fs::create_directory(shard);
+    auto r = rigBatch(args);
+    CHECK(r.exitCode == 3);
+    CHECK(r.out.empty());
+    CHECK(r.err == fmt::format("error: 1 of 6 shards failed (shard 4 (walk frames 241:480): error: {}: is a folder; "
+                               "give a file name, e.g. -o {}/out.json); their clips have no curves; run rig-batch "
+                               "again to retry them (finished shards are kept)\n",
+                               shard.string(), shard.string()));
+    const Json report = readJson(out / "report.json");
+    REQUIRE(report["failed_shards"].size() == 1);
+    CHECK(report["failed_shards"][0]["shard"] == 4);
+    CHECK(report["failed_shards"][0]["clip"] == "walk");
+    CHECK(report["failed_shards"][0]["frames"] == "241:480");
+    CHECK(report["failed_shards"][0]["error"].get<std::string>().starts_with("error: " + shard.string()));
+    CHECK(report["totals"]["shards_failed"] == 1);
+    // The failing clip has no curves; the other one is whole.
+    CHECK(report["clips"][1]["name"] == "walk");
+    CHECK(report["clips"][1]["complete"] == false);
+    CHECK(report["clips"][1]["curves"].is_null());
+    CHECK_FALSE(fs::exists(out / "walk.json"));
+    CHECK(report["clips"][0]["complete"] == true);
+    CHECK(fs::exists(out / "turn.json"));
+    // The task's own output names the error too.
+    CHECK(test::readFile(out / "logs" / (key + ".log")).starts_with("error: " + shard.string()));
+
+    fs::remove(shard);
+    r = rigBatch(args);
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK(readJson(out / "report.json")["totals"]["shards_run"] == 1);
+    CHECK(test::readFile(out / "walk.json") == test::readFile(dir / "walk.json"));
+}
+
+TEST_CASE("rig-batch: bad input is one error line and exit code 2, and writes nothing")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_bad_input");
+    const auto clips = libraryFolder(dir / "clips");
+    const auto out = dir / "out";
+    fs::create_directories(dir / "empty");
+    fs::create_directories(dir / "named");
+    fs::copy_file(clips / "walk.bvh", dir / "named" / "report.bvh");
+    fs::create_directories(dir / "other");
+    fs::copy_file(clips / "walk.bvh", dir / "other" / "turn.bvh");
+    test::writeFile(dir / "file", "not a folder\n");
+    const std::string library = fmt::format("{} --clips {}", inputs(), clips.string());
+    const struct {
+        std::string args;
+        std::string error;  // the start of the line
+    } cases[] = {
+        {fmt::format("{} --clips {}/missing.bvh --out {}", inputs(), dir.string(), out.string()),
+         fmt::format("error: --clips {}/missing.bvh: no such file or folder", dir.string())},
+        {fmt::format("{} --out {} --backend pbs", library, out.string()),
+         "error: --backend pbs: expected local (processes on this machine) or slurm"},
+        {fmt::format("{} --out {} --jobs 0", library, out.string()), "error: --jobs 0: give 1 or more processes"},
+        {fmt::format("{} --out {} --jobs -2", library, out.string()), "error: --jobs -2: give 1 or more processes"},
+        {fmt::format("{} --out {} --jobs many", library, out.string()),
+         "error: --jobs: 'many' is not a whole number in range"},
+        {fmt::format("{} --out {} --shard-frames 0", library, out.string()),
+         "error: --shard-frames 0: give 1 or more frames per shard"},
+        {fmt::format("{} --out {} --retries -1", library, out.string()), "error: --retries -1: give 0 or more"},
+        {fmt::format("{} --out {} --restart-every 0", library, out.string()), "error: --restart-every 0: give 1 or"},
+        {fmt::format("{} --clips {}/empty --out {}", inputs(), dir.string(), out.string()),
+         fmt::format("error: --clips {}/empty: the folder holds no .bvh or .json clip", dir.string())},
+        {fmt::format("{} --clips {}/file --out {}", inputs(), dir.string(), out.string()),
+         fmt::format("error: --clips {}/file: not a clip", dir.string())},
+        {fmt::format("{} --clips {}/named --out {}", inputs(), dir.string(), out.string()),
+         fmt::format("error: --clips {}/named/report.bvh: its curves would be report.json", dir.string())},
+        {fmt::format("{} {}/other --out {}", library, dir.string(), out.string()),
+         fmt::format("error: --clips: {}/turn.bvh and {}/other/turn.bvh would both write turn.json",
+                     clips.string(), dir.string())},
+        {fmt::format("{} --out {}/file", library, dir.string()),
+         fmt::format("error: --out {}/file: is a file; give a folder", dir.string())},
+        {fmt::format("{} --rig rigs/biped.yaml --clips {} --out {}", (dir / "missing.yaml").string(), clips.string(),
+                     out.string()),
+         fmt::format("error: {}/missing.yaml", dir.string())},
+        {fmt::format("{} --rig rigs/biped.yaml --out {}", test::bipedApproximation().string(), out.string()),
+         "error: --clips: give clip files"},
+        {fmt::format("PATH=/nonexistent {} {} --out {} --backend slurm", test::tool("rig-batch"), library,
+                     out.string()),
+         "error: --backend slurm: sbatch is not on PATH"},
+        {fmt::format("--out {} --task 3", out.string()),
+         fmt::format("error: {}/manifest.json: cannot read it", out.string())},
+    };
+    for (const auto& c : cases) {
+        CAPTURE(c.args);
+        const auto r = c.args.starts_with("PATH=") ? test::run(c.args) : rigBatch(c.args);
+        CHECK(r.exitCode == 2);
+        CHECK(r.out.empty());
+        CHECK(r.err.starts_with(c.error));
+        CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+        CHECK_FALSE(fs::exists(out));
+    }
+}

@@ -1,0 +1,356 @@
+#include "tools/batch_manifest.h"
+
+#include <array>
+#include <bit>
+#include <cstring>
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "tools/cli_common.h"
+
+namespace rig::cli {
+namespace {
+
+constexpr std::string_view manifestFormat = "rig-batch manifest 1";
+constexpr std::string_view shardFormat = "rig-batch shard 1";
+
+Json settingsJson(const InvertSettings& s)
+{
+    return Json{{"threads", s.threads},          {"no_partition", s.noPartition}, {"block_by_block", s.blockByBlock},
+                {"jacobian", s.jacobian},        {"polish", s.polish},            {"restart_every", s.restartEvery},
+                {"rest_starts", s.restStarts}};
+}
+
+// A manifest's field; a missing or mistyped one is the file's mistake.
+template <class T>
+T field(const Json& object, const char* name, const std::string& file)
+{
+    const auto found = object.find(name);
+    if (found == object.end())
+        throw Error(fmt::format("{}: not a rig-batch manifest (no '{}'); remove it and run rig-batch again", file,
+                                name));
+    try {
+        return found->get<T>();
+    }
+    catch (const Json::exception&) {
+        throw Error(fmt::format("{}: not a rig-batch manifest ('{}' is not what rig-batch writes); remove it and run "
+                                "rig-batch again",
+                                file, name));
+    }
+}
+
+const char* byteOrder() { return std::endian::native == std::endian::little ? "little" : "big"; }
+
+}  // namespace
+
+bool readFileBytes(const std::filesystem::path& file, std::string& bytes)
+{
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(file, ec);
+    if (ec || !std::filesystem::is_regular_file(file, ec)) return false;
+    std::ifstream in(file, std::ios::binary);
+    bytes.resize(size);
+    // One read of the whole file: shard outputs are tens of megabytes.
+    return in.read(bytes.data(), static_cast<std::streamsize>(size)) && in.peek() == std::ifstream::traits_type::eof();
+}
+
+std::string checksumText(std::string_view bytes)
+{
+    constexpr std::uint64_t prime = 0x100000001b3ull;
+    std::uint64_t hash = 0xcbf29ce484222325ull;
+    std::size_t i = 0;
+    for (std::uint64_t word = 0; i + sizeof(word) <= bytes.size(); i += sizeof(word)) {
+        std::memcpy(&word, bytes.data() + i, sizeof(word));
+        hash = (hash ^ word) * prime;
+    }
+    for (; i < bytes.size(); ++i) hash = (hash ^ static_cast<unsigned char>(bytes[i])) * prime;
+    return fmt::format("{:016x}", hash);
+}
+
+std::string fileChecksum(const std::filesystem::path& file, const std::string& role)
+{
+    std::string bytes;
+    if (!readFileBytes(file, bytes))
+        throw Error(fmt::format("{}: cannot read {}; check that it exists and is a readable file", file.string(),
+                                role));
+    return checksumText(bytes);
+}
+
+std::vector<std::pair<int, int>> shardRanges(int frames, int shardFrames, int restartEvery)
+{
+    const int size = (shardFrames + restartEvery - 1) / restartEvery * restartEvery;
+    std::vector<std::pair<int, int>> out;
+    for (int first = 0; first < frames; first += size) out.emplace_back(first, std::min(first + size, frames) - 1);
+    return out;
+}
+
+std::vector<BatchShard> planShards(const BatchInputs& inputs, const std::vector<BatchClip>& clips,
+                                   const std::vector<std::vector<double>>& frameNumbers)
+{
+    // The thread count changes no value (docs/rig-invert.md), so it is not part of a shard's key.
+    Json settings = settingsJson(inputs.settings);
+    settings.erase("threads");
+    const std::string shared = jsonText(Json{{"format", shardFormat},
+                                             {"approximation", inputs.approximationChecksum},
+                                             {"rig", inputs.rigFingerprint},
+                                             {"map", inputs.mapChecksum},
+                                             {"plugins", inputs.plugins},
+                                             {"settings", settings}});
+    std::vector<BatchShard> out;
+    for (std::size_t c = 0; c < clips.size(); ++c)
+        for (const auto& [first, last] :
+             shardRanges(clips[c].frames, inputs.shardFrames, inputs.settings.restartEvery)) {
+            BatchShard shard;
+            shard.clip = static_cast<int>(c);
+            shard.first = first;
+            shard.last = last;
+            shard.firstFrame = frameNumbers[c][static_cast<std::size_t>(first)];
+            shard.lastFrame = frameNumbers[c][static_cast<std::size_t>(last)];
+            // The clip's name too: two clips of the same bytes are two shards, each with its own files.
+            shard.key = checksumText(
+                fmt::format("{}\n{}\n{}\n{}:{}", shared, clips[c].name, clips[c].checksum, first, last));
+            out.push_back(std::move(shard));
+        }
+    return out;
+}
+
+Json manifestJson(const BatchManifest& m)
+{
+    const BatchInputs& in = m.inputs;
+    Json clips = Json::array();
+    for (const BatchClip& c : m.clips)
+        clips.push_back({{"name", c.name}, {"file", c.file}, {"checksum", c.checksum}, {"frames", c.frames}});
+    Json shards = Json::array();
+    for (const BatchShard& s : m.shards)
+        shards.push_back({{"clip", s.clip},
+                          {"first", s.first},
+                          {"last", s.last},
+                          {"first_frame", numberJson(s.firstFrame)},
+                          {"last_frame", numberJson(s.lastFrame)},
+                          {"key", s.key},
+                          {"output", s.output().string()},
+                          {"checksum", s.checksum.empty() ? Json() : Json(s.checksum)}});
+    return Json{{"format", manifestFormat},
+                {"approximation", in.approximation},
+                {"approximation_checksum", in.approximationChecksum},
+                {"rig", in.rig},
+                {"rig_fingerprint", in.rigFingerprint},
+                {"map", in.map.empty() ? Json() : Json(in.map)},
+                {"map_checksum", in.mapChecksum.empty() ? Json() : Json(in.mapChecksum)},
+                {"plugins", in.plugins},
+                {"strict", in.strict},
+                {"settings", settingsJson(in.settings)},
+                {"shard_frames", in.shardFrames},
+                {"clips", std::move(clips)},
+                {"shards", std::move(shards)}};
+}
+
+BatchManifest readManifest(const std::filesystem::path& folder)
+{
+    const std::string file = (folder / "manifest.json").string();
+    std::ifstream in(file);
+    if (!in)
+        throw Error(fmt::format("{}: cannot read it; run rig-batch with the library's inputs to plan the batch",
+                                file));
+    Json j;
+    try {
+        j = Json::parse(in);
+    }
+    catch (const Json::exception& e) {
+        throw Error(fmt::format("{}: not a rig-batch manifest ({}); remove it and run rig-batch again", file,
+                                e.what()));
+    }
+    if (!j.is_object() || j.value("format", "") != manifestFormat)
+        throw Error(fmt::format("{}: not a rig-batch manifest (format '{}' expected); remove it and run rig-batch "
+                                "again",
+                                file, manifestFormat));
+    BatchManifest m;
+    BatchInputs& inputs = m.inputs;
+    inputs.approximation = field<std::string>(j, "approximation", file);
+    inputs.approximationChecksum = field<std::string>(j, "approximation_checksum", file);
+    inputs.rig = field<std::string>(j, "rig", file);
+    inputs.rigFingerprint = field<std::string>(j, "rig_fingerprint", file);
+    const Json map = field<Json>(j, "map", file);
+    inputs.map = map.is_string() ? map.get<std::string>() : "";
+    const Json mapChecksum = field<Json>(j, "map_checksum", file);
+    inputs.mapChecksum = mapChecksum.is_string() ? mapChecksum.get<std::string>() : "";
+    inputs.plugins = field<std::vector<std::string>>(j, "plugins", file);
+    inputs.strict = field<bool>(j, "strict", file);
+    const Json settings = field<Json>(j, "settings", file);
+    InvertSettings& s = inputs.settings;
+    s.threads = field<int>(settings, "threads", file);
+    s.noPartition = field<bool>(settings, "no_partition", file);
+    s.blockByBlock = field<bool>(settings, "block_by_block", file);
+    s.jacobian = field<std::string>(settings, "jacobian", file);
+    s.polish = field<int>(settings, "polish", file);
+    s.restartEvery = field<int>(settings, "restart_every", file);
+    s.restStarts = field<bool>(settings, "rest_starts", file);
+    inputs.shardFrames = field<int>(j, "shard_frames", file);
+    for (const Json& c : field<Json>(j, "clips", file))
+        m.clips.push_back({field<std::string>(c, "name", file), field<std::string>(c, "file", file),
+                           field<std::string>(c, "checksum", file), field<int>(c, "frames", file)});
+    for (const Json& s : field<Json>(j, "shards", file)) {
+        BatchShard shard;
+        shard.clip = field<int>(s, "clip", file);
+        shard.first = field<int>(s, "first", file);
+        shard.last = field<int>(s, "last", file);
+        shard.firstFrame = field<double>(s, "first_frame", file);
+        shard.lastFrame = field<double>(s, "last_frame", file);
+        shard.key = field<std::string>(s, "key", file);
+        const Json checksum = field<Json>(s, "checksum", file);
+        shard.checksum = checksum.is_string() ? checksum.get<std::string>() : "";
+        if (shard.clip < 0 || static_cast<std::size_t>(shard.clip) >= m.clips.size() || shard.first < 0 ||
+            shard.first > shard.last || shard.last >= m.clips[static_cast<std::size_t>(shard.clip)].frames ||
+            shard.key.size() != 16 || shard.key.find_first_not_of("0123456789abcdef") != std::string::npos)
+            throw Error(fmt::format("{}: not a rig-batch manifest (shard {} is out of its clip); remove it and run "
+                                    "rig-batch again",
+                                    file, m.shards.size()));
+        m.shards.push_back(std::move(shard));
+    }
+    return m;
+}
+
+void writeManifest(const std::filesystem::path& folder, const BatchManifest& manifest)
+{
+    writeFileAtomically(folder / "manifest.json", jsonText(manifestJson(manifest), 2) + "\n");
+}
+
+void writeShardStatus(const std::filesystem::path& file, const ShardStatus& s)
+{
+    const Json j{{"key", s.key},
+                 {"ok", s.ok},
+                 {"checksum", s.ok ? Json(s.checksum) : Json()},
+                 {"error", s.ok ? Json() : Json(s.error)},
+                 {"seconds", s.seconds},
+                 {"host", s.host}};
+    writeFileAtomically(file, jsonText(j, 2) + "\n");
+}
+
+bool readShardStatus(const std::filesystem::path& file, ShardStatus& status)
+{
+    std::ifstream in(file);
+    if (!in) return false;
+    try {
+        const Json j = Json::parse(in);
+        status.key = j.at("key").get<std::string>();
+        status.ok = j.at("ok").get<bool>();
+        status.checksum = status.ok ? j.at("checksum").get<std::string>() : "";
+        status.error = status.ok ? "" : j.at("error").get<std::string>();
+        status.seconds = j.at("seconds").get<double>();
+        status.host = j.at("host").get<std::string>();
+        return true;
+    }
+    catch (const Json::exception&) {
+        return false;
+    }
+}
+
+std::string shardOutputBytes(const ShardOutput& o)
+{
+    std::vector<double> solved;
+    for (const auto& row : o.solved) solved.insert(solved.end(), row.begin(), row.end());
+    const ClipInversionSummary& s = o.summary;
+    Json stuck = Json::array();
+    for (const auto& joint : s.stuckJoints) stuck.push_back({joint.name, joint.frames, joint.worstErrorCm});
+    const std::string_view numbers(reinterpret_cast<const char*>(o.frameNumbers.data()),
+                                   o.frameNumbers.size() * sizeof(double));
+    const std::string_view values(reinterpret_cast<const char*>(solved.data()), solved.size() * sizeof(double));
+    // Errors may be NaN or infinite, which JSON cannot hold: as raw doubles too.
+    const std::array<double, 4> figures{s.maxPositionErrorCm, s.maxRotationErrorDeg, s.solveSeconds, o.taskSeconds};
+    const std::string_view figureBytes(reinterpret_cast<const char*>(figures.data()), sizeof(figures));
+    const Json header{{"format", shardFormat},
+                      {"byte_order", byteOrder()},
+                      {"key", o.key},
+                      {"first", o.first},
+                      {"last", o.last},
+                      {"frames", s.frames},
+                      {"converged_frames", s.convergedFrames},
+                      {"stuck_frames", s.stuckFrames},
+                      {"retried_frames", s.retriedFrames},
+                      {"retries_kept", s.retriesKept},
+                      {"stuck_joints", std::move(stuck)},
+                      {"worst_joint", s.worstJoint},
+                      {"worst_frame", s.worstFrame},
+                      {"non_finite_frames", s.nonFiniteFrames},
+                      {"first_non_finite_joint", s.firstNonFiniteJoint},
+                      {"first_non_finite_frame", s.firstNonFiniteFrame},
+                      {"curves_file_checksum", o.curvesChecksum},
+                      {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
+    std::string out = header.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";
+    out.reserve(out.size() + figureBytes.size() + numbers.size() + values.size() + o.curvesFrames.size());
+    return out.append(figureBytes).append(numbers).append(values).append(o.curvesFrames);
+}
+
+ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, std::size_t parameters)
+{
+    const auto bad = [&](std::string_view why) {
+        return Error(fmt::format("{}: not a rig-batch shard output ({}); remove it and run rig-batch again", file,
+                                 why));
+    };
+    const std::size_t newline = bytes.find('\n');
+    if (newline == std::string::npos) throw bad("no header line");
+    ShardOutput o;
+    try {
+        const Json j = Json::parse(std::string_view(bytes).substr(0, newline));
+        if (j.value("format", "") != shardFormat) throw bad(fmt::format("format '{}' expected", shardFormat));
+        if (j.at("byte_order") != byteOrder()) throw bad("written on a machine of the other byte order");
+        o.key = j.at("key").get<std::string>();
+        o.first = j.at("first").get<int>();
+        o.last = j.at("last").get<int>();
+        const auto sizes = j.at("bytes").get<std::array<std::size_t, 4>>();
+        const std::size_t frames = o.last >= o.first ? static_cast<std::size_t>(o.last - o.first + 1) : 0;
+        if (frames == 0 || sizes[0] != 4 * sizeof(double) || sizes[1] != frames * sizeof(double) ||
+            sizes[2] != frames * parameters * sizeof(double) ||
+            newline + 1 + sizes[0] + sizes[1] + sizes[2] + sizes[3] != bytes.size())
+            throw bad(fmt::format("its sizes are not those of {} frames of {} parameters", frames, parameters));
+        const char* at = bytes.data() + newline + 1;
+        std::array<double, 4> figures{};
+        std::memcpy(figures.data(), at, sizes[0]);
+        at += sizes[0];
+        o.frameNumbers.resize(frames);
+        std::memcpy(o.frameNumbers.data(), at, sizes[1]);
+        at += sizes[1];
+        for (std::size_t f = 0; f < frames; ++f, at += parameters * sizeof(double)) {
+            std::vector<double>& row = o.solved.emplace_back(parameters);
+            std::memcpy(row.data(), at, parameters * sizeof(double));
+        }
+        o.curvesFrames.assign(at, sizes[3]);
+        o.curvesChecksum = j.at("curves_file_checksum").get<std::string>();
+        ClipInversionSummary& s = o.summary;
+        s.maxPositionErrorCm = figures[0];
+        s.maxRotationErrorDeg = figures[1];
+        s.solveSeconds = figures[2];
+        o.taskSeconds = figures[3];
+        s.frames = j.at("frames").get<int>();
+        s.convergedFrames = j.at("converged_frames").get<int>();
+        s.stuckFrames = j.at("stuck_frames").get<int>();
+        s.retriedFrames = j.at("retried_frames").get<int>();
+        s.retriesKept = j.at("retries_kept").get<int>();
+        for (const Json& joint : j.at("stuck_joints"))
+            s.stuckJoints.push_back(
+                {joint.at(0).get<std::string>(), joint.at(1).get<int>(), joint.at(2).get<double>()});
+        s.worstJoint = j.at("worst_joint").get<std::string>();
+        s.worstFrame = j.at("worst_frame").get<int>();
+        s.nonFiniteFrames = j.at("non_finite_frames").get<int>();
+        s.firstNonFiniteJoint = j.at("first_non_finite_joint").get<std::string>();
+        s.firstNonFiniteFrame = j.at("first_non_finite_frame").get<int>();
+    }
+    catch (const Json::exception& e) {
+        throw bad(e.what());
+    }
+    return o;
+}
+
+std::string shardCurvesChecksum(const std::string& bytes)
+{
+    const std::size_t newline = bytes.find('\n');
+    if (newline == std::string::npos) return "";
+    const Json j = Json::parse(std::string_view(bytes).substr(0, newline), nullptr, false);
+    return j.is_object() && j.value("curves_file_checksum", Json()).is_string()
+               ? j["curves_file_checksum"].get<std::string>()
+               : "";
+}
+
+}  // namespace rig::cli

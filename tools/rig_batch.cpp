@@ -1,0 +1,147 @@
+// rig-batch: inverts a motion library as shards on this machine or on a Slurm cluster, then merges them into
+// one curves file per clip (rig-invert's, byte for byte) and a library report (docs/cluster.md).
+#include <filesystem>
+#include <iostream>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "tools/batch_run.h"
+#include "tools/cli_common.h"
+#include "tools/progress_bar.h"
+
+namespace rig {
+namespace {
+
+struct Options {
+    cli::BatchJob job;
+    int task = 0;
+    bool taskGiven = false;
+    bool jobsGiven = false;  // --jobs 0 is an error, not the default
+    bool quiet = false;
+};
+
+void printSummary(const cli::BatchJob& job, const cli::Json& report)
+{
+    const cli::Json& totals = report["totals"];
+    std::cout << fmt::format("rig-batch: {} clips, {} shards ({} done before, {} run on {}, {} failed)\n\n",
+                             totals["clips"].get<int>(), totals["shards"].get<int>(),
+                             totals["shards_reused"].get<int>(), totals["shards_run"].get<int>(), job.backend,
+                             totals["shards_failed"].get<int>());
+    std::cout << fmt::format("{:<16} {:>7} {:>9} {:>7} {:>10} {:>10} {:>9}  {}\n", "clip", "frames", "converged",
+                             "stuck", "worst cm", "worst deg", "ms/frame", "curves");
+    for (const cli::Json& c : report["clips"]) {
+        if (!c["complete"].get<bool>()) {
+            std::cout << fmt::format("{:<16} {:>7}  no curves: a shard failed\n", c["name"].get<std::string>(),
+                                     c["frames"].get<int>());
+            continue;
+        }
+        std::cout << fmt::format("{:<16} {:>7} {:>9} {:>7} {:>10.4g} {:>10.4g} {:>9.4g}  {}\n",
+                                 c["name"].get<std::string>(), c["frames"].get<int>(),
+                                 c["converged_frames"].get<int>(), c["stuck_frames"].get<int>(),
+                                 c["max_position_error_cm"].get<double>(), c["max_rotation_error_deg"].get<double>(),
+                                 c["ms_per_frame"].get<double>(), c["curves"]["file"].get<std::string>());
+    }
+    const cli::Json& fps = totals["frames_per_second"];
+    std::cout << fmt::format("\ntime              {:.3g} s running {} shards{}, {:.3g} s merging\n",
+                             totals["run_seconds"].get<double>(), totals["shards_run"].get<int>(),
+                             fps.is_null() ? "" : fmt::format(" ({:.4g} frames per second)", fps.get<double>()),
+                             totals["merge_seconds"].get<double>());
+    std::cout << fmt::format("report            {}\n",
+                             (std::filesystem::absolute(job.out) / "report.json").string());
+}
+
+int run(Options& o)
+{
+    if (o.taskGiven) {
+        if (!o.job.approximation.empty() || !o.job.rig.empty() || !o.job.clips.empty())
+            throw Error(fmt::format("--task {}: runs one shard of the batch in --out with the inputs its manifest "
+                                    "names; give only --out with it",
+                                    o.task));
+        if (o.job.out.empty()) throw Error(fmt::format("--task {}: give the batch's folder with --out", o.task));
+        cli::runShard(o.job.out, o.task);
+        return 0;
+    }
+    if (o.jobsGiven && o.job.jobs < 1)
+        throw Error(fmt::format("--jobs {}: give 1 or more processes (local) or tasks running at once (slurm)",
+                                o.job.jobs));
+    if (o.job.approximation.empty())
+        throw Error("no approximation given; give the approximation file rig-learn wrote as the first argument");
+    if (o.job.rig.empty()) throw Error("--rig: give the rig file the approximation was learned from");
+    if (o.job.clips.empty()) throw Error("--clips: give clip files (.bvh, .json) or folders of them");
+    if (o.job.out.empty()) throw Error("--out: give the folder for the curves and the report");
+    std::error_code ec;
+    o.job.program = std::filesystem::read_symlink("/proc/self/exe", ec);
+    if (ec) throw Error(fmt::format("cannot find rig-batch's own program to start per shard ({})", ec.message()));
+    o.job.warning = [](const std::string& warning) { std::cerr << "warning: " << warning << "\n"; };
+    cli::ProgressBar bar("inverting");
+    o.job.progress = [&](int done, int total) {
+        bar.update(total > 0 ? static_cast<double>(done) / total : 1.0, fmt::format("{}/{} shards", done, total));
+    };
+    const cli::BatchOutcome outcome = cli::runBatch(o.job);
+    bar.finish();
+    if (!o.quiet) printSummary(o.job, outcome.report);
+    // Measured failures: never an exit code of success.
+    if (!outcome.failures.empty()) {
+        std::cerr << oneLine(fmt::format("error: {} of {} shards failed ({}{}); their clips have no curves; run "
+                                         "rig-batch again to retry them (finished shards are kept)",
+                                         outcome.failures.size(), outcome.report["totals"]["shards"].get<int>(),
+                                         outcome.failures.front(),
+                                         outcome.failures.size() > 1 ? "; see report.json for the others" : ""))
+                  << '\n';
+        return 3;
+    }
+    if (outcome.nonFiniteClips > 0) {
+        std::cerr << fmt::format("error: the real rig gives non-finite matrices on {} clips (non_finite_frames in "
+                                 "report.json); the rig cannot follow these curves there\n",
+                                 outcome.nonFiniteClips);
+        return 3;
+    }
+    return 0;
+}
+
+}  // namespace
+}  // namespace rig
+
+int main(int argc, char** argv)
+{
+    rig::Options options;
+    rig::cli::BatchJob& job = options.job;
+    CLI::App app("Inverts a motion library as shards on this machine or a Slurm cluster and merges them into "
+                 "rig-invert's curves, one file per clip (docs/cluster.md).",
+                 "rig-batch");
+    app.add_option("approximation", job.approximation, "Approximation file written by rig-learn");
+    app.add_option("--rig", job.rig, "The rig file the approximation was learned from");
+    app.add_option("--map", job.map, "Map file: scale of the clips and target-to-rig joint names");
+    app.add_option("--clips", job.clips, "Clips (.bvh, .json) and folders of them")->expected(1, -1);
+    app.add_option("--out", job.out, "Folder for the curves (NAME.json per clip), report.json and the batch's files");
+    app.add_option("--backend", job.backend, "local (processes on this machine, default) or slurm (sbatch arrays)");
+    app.add_option("--jobs", job.jobs,
+                   "Shards at once: processes (local; default: the cores) or array tasks running (slurm; default: "
+                   "all)");
+    app.add_option("--shard-frames", job.shardFrames,
+                   "Frames per shard, rounded up to whole --restart-every intervals (default 4800)");
+    app.add_option("--retries", job.retries, "New attempts of failed shards (default 1)");
+    app.add_option("--threads", job.settings.threads, "Solver threads per shard (default 1; 0: all cores)")
+        ->check(rig::cli::threadCount());
+    app.add_option("--restart-every", job.settings.restartEvery, "Frames between warm-start restarts (rig-invert's)");
+    app.add_option("--jacobian", job.settings.jacobian, "analytic (default) or fd (finite differences)");
+    app.add_flag("--no-partition", job.settings.noPartition, "Solve all parameters as one dense problem");
+    app.add_flag("--block-by-block", job.settings.blockByBlock, "Solve the partition's blocks one after another");
+    app.add_option("--polish", job.settings.polish, "Real-rig corrections per frame (0: approximation only)");
+    app.add_flag("--rest-starts", job.settings.restStarts,
+                 "Restart frames start from the rest values instead of the initial guess");
+    app.add_flag("--strict", job.strict, "Refuse an approximation learned from another version of the rig");
+    app.add_option("--plugin", job.plugins, "Load a plugin before reading the rig");
+    app.add_option("--slurm-mem", job.slurmMemory, "Memory per Slurm task (sbatch --mem, e.g. 2G)");
+    app.add_option("--slurm-time", job.slurmTime, "Time limit per Slurm task (sbatch --time, e.g. 30 or 1:00:00)");
+    app.add_option("--slurm-arg", job.slurmArgs,
+                   "More sbatch options, one per flag (e.g. --slurm-arg=--partition=cpu)");
+    app.add_option("--task", options.task, "Run shard K of --out's manifest (what each backend task runs)");
+    app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors and warnings");
+    return rig::cli::runMain(app, argc, argv, [&] {
+        options.taskGiven = app.count("--task") > 0;
+        options.jobsGiven = app.count("--jobs") > 0;
+        return rig::run(options);
+    });
+}
