@@ -25,8 +25,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (clip.frameCount < 1 || clip.channelCount < 1) __builtin_trap();
     (void)rig::bvhWorldMatrices(clip, 0);
     (void)rig::bvhWorldMatrices(clip, clip.frameCount - 1);
-    for (const double time : {1.5, static_cast<double>(clip.frameCount) + 0.25, -1e300, 1e300,
-                              std::numeric_limits<double>::quiet_NaN()}) {
+    for (const double time :
+         {1.5, static_cast<double>(clip.frameCount) + 0.25, -1e300, 1e300, std::numeric_limits<double>::quiet_NaN()}) {
         const auto values = rig::bvhSample(clip, time);
         (void)rig::bvhWorldMatrices(clip, values);
         (void)rig::bvhRigChannels(clip, values);

@@ -15,18 +15,18 @@ using AttrId = int;
 struct AttributeSpec {
     std::string name;
     ValueType type = ValueType::Double;
-    bool input = true;         // false: an output, written only by the node's compute
-    Value defaultValue;        // in internal units (radians for angles)
+    bool input = true;   // false: an output, written only by the node's compute
+    Value defaultValue;  // in internal units (radians for angles)
     Unit unit = Unit::None;
-    bool keyable = false;      // an animator control (Maya's keyable flag)
-    bool array = false;        // a multi attribute: elements name[0], name[1], ...
+    bool keyable = false;       // an animator control (Maya's keyable flag)
+    bool array = false;         // a multi attribute: elements name[0], name[1], ...
     std::optional<double> min;  // inclusive limits on numbers (each component of a vector3)
     std::optional<double> max;
     std::vector<std::string> enumNames;     // Enum: names of values 0, 1, ...
     std::array<std::string, 3> childNames;  // Vector3: plugs of the components, e.g. rotateX
-    bool sceneTime = false;    // when unconnected, follows the graph's time (Maya's animCurveT* input)
-    bool filePath = false;     // a String naming a file: a relative one in a rig file is read from that file's folder
-    bool dynamic = false;      // added to one node by the rig file (Maya's addAttr), not by its type
+    bool sceneTime = false;                 // when unconnected, follows the graph's time (Maya's animCurveT* input)
+    bool filePath = false;  // a String naming a file: a relative one in a rig file is read from that file's folder
+    bool dynamic = false;   // added to one node by the rig file (Maya's addAttr), not by its type
     std::string description;
 };
 

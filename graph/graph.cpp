@@ -101,7 +101,10 @@ std::vector<int> Graph::elementIndices(NodeId node, AttrId attr) const
     return indices;
 }
 
-AttrData& Graph::data(const Plug& p) { return nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)]; }
+AttrData& Graph::data(const Plug& p)
+{
+    return nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)];
+}
 
 Value Graph::readStored(const Plug& p) const
 {
@@ -128,9 +131,10 @@ void Graph::writeStored(const Plug& p, const Value& value)
         if (i >= d.elements.size()) {
             const std::size_t growth = i + 1 - d.elements.size();
             if (arrayElements_ + growth > maxArrayElements)
-                throw Error(fmt::format("{}: the rig's array attributes would hold more than {} elements in all; "
-                                        "elements are stored up to the highest index, so number them from 0",
-                                        plugName(p), maxArrayElements));
+                throw Error(
+                    fmt::format("{}: the rig's array attributes would hold more than {} elements in all; "
+                                "elements are stored up to the highest index, so number them from 0",
+                                plugName(p), maxArrayElements));
             arrayElements_ += growth;
             d.elements.resize(i + 1, top.spec(p.attr).defaultValue);
             d.present.resize(i + 1, false);
@@ -223,7 +227,8 @@ void Graph::setValue(const Plug& p, const Value& value)
     if (type == ValueType::Enum) {
         const int v = std::get<int>(value);
         if (v < 0 || static_cast<std::size_t>(v) >= s.enumNames.size())
-            throw Error(fmt::format("cannot set {}: enum index {} out of range 0..{}", name, v, s.enumNames.size() - 1));
+            throw Error(
+                fmt::format("cannot set {}: enum index {} out of range 0..{}", name, v, s.enumNames.size() - 1));
     }
     auto checkRange = [&](double x) {
         const double k = userScale(s);
@@ -347,22 +352,24 @@ Value Graph::pulledValue(const Connection& c) const
         const double x = std::round(toDouble(source) * factor);
         const AttributeSpec& s = spec(c.destination);
         if (to == ValueType::Enum && !(x >= 0 && x < static_cast<double>(s.enumNames.size())))
-            throw Error(fmt::format("{} receives {} from {}, not one of its enum indices 0..{}; clamp or remap the "
-                                    "source",
-                                    plugName(c.destination), numberText(toDouble(source) * factor), plugName(c.source),
-                                    s.enumNames.size() - 1));
+            throw Error(
+                fmt::format("{} receives {} from {}, not one of its enum indices 0..{}; clamp or remap the "
+                            "source",
+                            plugName(c.destination), numberText(toDouble(source) * factor), plugName(c.source),
+                            s.enumNames.size() - 1));
         if (!(std::abs(x) <= 2147483647.0))
-            throw Error(fmt::format("{} receives {} from {}, which is not a whole number an int attribute holds; "
-                                    "clamp the source",
-                                    plugName(c.destination), numberText(toDouble(source) * factor), plugName(c.source)));
+            throw Error(
+                fmt::format("{} receives {} from {}, which is not a whole number an int attribute holds; "
+                            "clamp the source",
+                            plugName(c.destination), numberText(toDouble(source) * factor), plugName(c.source)));
     }
     if (to == ValueType::Enum && (from == ValueType::Int || from == ValueType::Enum)) {
         const int v = std::get<int>(source);
         if (v < 0 || static_cast<std::size_t>(v) >= spec(c.destination).enumNames.size())
-            throw Error(fmt::format("{} receives {} from {}, not one of its enum indices 0..{}; clamp or remap the "
-                                    "source",
-                                    plugName(c.destination), v, plugName(c.source),
-                                    spec(c.destination).enumNames.size() - 1));
+            throw Error(
+                fmt::format("{} receives {} from {}, not one of its enum indices 0..{}; clamp or remap the "
+                            "source",
+                            plugName(c.destination), v, plugName(c.source), spec(c.destination).enumNames.size() - 1));
     }
     return convertValue(source, from, to, factor);
 }

@@ -18,9 +18,8 @@ namespace {
 bool validNodeName(std::string_view name)
 {
     if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0]))) return false;
-    return std::all_of(name.begin(), name.end(), [](char c) {
-        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == ':';
-    });
+    return std::all_of(name.begin(), name.end(),
+                       [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == ':'; });
 }
 
 std::string typeDescription(const AttributeSpec& spec, int child)
@@ -49,15 +48,16 @@ NodeId GraphModel::addNode(std::string_view typeName, std::string_view name)
     if (name.size() > maxNameLength)
         throw Error(fmt::format("a node name of {} characters is too long (at most {})", name.size(), maxNameLength));
     if (!validNodeName(name))
-        throw Error(fmt::format("invalid node name '{}': use letters, digits, '_' and ':', not starting with a digit",
-                                name));
+        throw Error(
+            fmt::format("invalid node name '{}': use letters, digits, '_' and ':', not starting with a digit", name));
     if (const NodeId existing = findNode(name); existing >= 0)
         throw Error(fmt::format("duplicate node name '{}' (already a {}); node names must be unique", name,
                                 topology(existing).type->name()));
     if (nodeCount() >= maxNodes)
-        throw Error(fmt::format("more than {} nodes; this is not a rig (check includes that multiply, e.g. a file "
-                                "included twice at every level)",
-                                maxNodes));
+        throw Error(
+            fmt::format("more than {} nodes; this is not a rig (check includes that multiply, e.g. a file "
+                        "included twice at every level)",
+                        maxNodes));
     NodeTopology rec;
     rec.name = std::string(name);
     rec.type = type;
@@ -78,7 +78,8 @@ AttrId GraphModel::addAttribute(NodeId node, AttributeSpec spec)
         throw Error(fmt::format("node '{}': invalid attribute name '{}'", rec.name, spec.name));
     for (const AttributeSpec& existing : rec.specs())
         if (existing.name == spec.name || childIndex(existing, spec.name) >= 0)
-            throw Error(fmt::format("node '{}' ({}) already has an attribute '{}'", rec.name, rec.type->name(), spec.name));
+            throw Error(
+                fmt::format("node '{}' ({}) already has an attribute '{}'", rec.name, rec.type->name(), spec.name));
     spec.input = true;
     spec.dynamic = true;
     spec.childNames = {spec.name + "X", spec.name + "Y", spec.name + "Z"};
@@ -123,14 +124,14 @@ Plug GraphModel::plug(std::string_view path) const
         const std::string_view digits = rest.substr(1, close == std::string_view::npos ? 0 : close - 1);
         int index = -1;
         const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), index);
-        if (close != std::string_view::npos && ec == std::errc::result_out_of_range && end == digits.data() + digits.size()
-            && digits.front() != '-')
+        if (close != std::string_view::npos && ec == std::errc::result_out_of_range &&
+            end == digits.data() + digits.size() && digits.front() != '-')
             throw Error(fmt::format("'{}': array index {} is above the limit {}", messageExcerpt(path),
                                     messageExcerpt(digits), maxArrayIndex));
-        if (close == std::string_view::npos || digits.empty() || ec != std::errc() || end != digits.data() + digits.size()
-            || index < 0)
-            throw Error(fmt::format("'{}': bad array index; expected attribute[N] with N = 0, 1, ...",
-                                    messageExcerpt(path)));
+        if (close == std::string_view::npos || digits.empty() || ec != std::errc() ||
+            end != digits.data() + digits.size() || index < 0)
+            throw Error(
+                fmt::format("'{}': bad array index; expected attribute[N] with N = 0, 1, ...", messageExcerpt(path)));
         if (index > maxArrayIndex)
             throw Error(
                 fmt::format("'{}': array index {} is above the limit {}", messageExcerpt(path), index, maxArrayIndex));
@@ -157,7 +158,8 @@ Plug GraphModel::plug(std::string_view path) const
         std::vector<std::string> names;
         for (const AttributeSpec& spec : rec.specs()) {
             names.push_back(spec.name);
-            if (spec.type == ValueType::Vector3) names.insert(names.end(), spec.childNames.begin(), spec.childNames.end());
+            if (spec.type == ValueType::Vector3)
+                names.insert(names.end(), spec.childNames.begin(), spec.childNames.end());
         }
         throw Error(fmt::format("node '{}' ({}) has no attribute '{}'{}", rec.name, rec.type->name(), attrName,
                                 didYouMean(attrName, names)));
@@ -190,13 +192,14 @@ std::string GraphModel::plugName(const Plug& p) const
 
 void GraphModel::checkPlug(const Plug& p) const
 {
-    if (p.node < 0 || p.node >= nodeCount() || p.attr < 0
-        || static_cast<std::size_t>(p.attr) >= topology(p.node).specs().size())
+    if (p.node < 0 || p.node >= nodeCount() || p.attr < 0 ||
+        static_cast<std::size_t>(p.attr) >= topology(p.node).specs().size())
         throw internalError("GraphModel: plug does not exist");
     const AttributeSpec& s = spec(p);
     if (s.array && p.index < 0)
         throw Error(fmt::format("{} is an array attribute: name an element, e.g. {}[0]", plugName(p), plugName(p)));
-    if (p.child >= 0 && s.type != ValueType::Vector3) throw internalError("GraphModel: component of a non-vector3 plug");
+    if (p.child >= 0 && s.type != ValueType::Vector3)
+        throw internalError("GraphModel: component of a non-vector3 plug");
 }
 
 // --- connections ------------------------------------------------------------------------------------
@@ -248,16 +251,18 @@ void GraphModel::connect(const Plug& src, const Plug& dst)
     const std::string dstName = plugName(dst);
     const AttributeSpec& dstSpec = spec(dst);
     if (!dstSpec.input)
-        throw Error(fmt::format("cannot connect {} -> {}: {} is an output, written by its node's compute; "
-                                "connect into an input",
-                                srcName, dstName, dstName));
+        throw Error(
+            fmt::format("cannot connect {} -> {}: {} is an output, written by its node's compute; "
+                        "connect into an input",
+                        srcName, dstName, dstName));
     if (!canConvert(plugType(src), plugType(dst)))
         throw Error(fmt::format("cannot connect {} ({}) -> {} ({}): the types do not match", srcName,
                                 typeDescription(spec(src), src.child), dstName, typeDescription(dstSpec, dst.child)));
     if (const Connection* existing = incomingConnection(dst))
-        throw Error(fmt::format("cannot connect {} -> {}: {} is already driven by {}; an input takes one source, "
-                                "disconnect it first",
-                                srcName, dstName, plugName(existing->destination), plugName(existing->source)));
+        throw Error(
+            fmt::format("cannot connect {} -> {}: {} is already driven by {}; an input takes one source, "
+                        "disconnect it first",
+                        srcName, dstName, plugName(existing->destination), plugName(existing->source)));
     std::vector<int> path = src.node == dst.node ? std::vector<int>{} : cyclePath(dst.node, src.node);
     if (src.node == dst.node || !path.empty()) {
         std::string cycle;
@@ -265,9 +270,10 @@ void GraphModel::connect(const Plug& src, const Plug& dst)
             const Connection& c = connections_[static_cast<std::size_t>(ci)];
             cycle += fmt::format("{} -> {}, ", plugName(c.source), plugName(c.destination));
         }
-        throw Error(fmt::format("cannot connect {} -> {}: it would close a cycle ({}{} -> {}); the graph must stay "
-                                "acyclic at node level, so feed {} from nodes that do not depend on {}",
-                                srcName, dstName, cycle, srcName, dstName, topology(dst.node).name, topology(dst.node).name));
+        throw Error(
+            fmt::format("cannot connect {} -> {}: it would close a cycle ({}{} -> {}); the graph must stay "
+                        "acyclic at node level, so feed {} from nodes that do not depend on {}",
+                        srcName, dstName, cycle, srcName, dstName, topology(dst.node).name, topology(dst.node).name));
     }
     connections_.push_back({src, dst});
     const int ci = static_cast<int>(connections_.size() - 1);
@@ -278,9 +284,8 @@ void GraphModel::connect(const Plug& src, const Plug& dst)
 
 void GraphModel::disconnect(const Plug& src, const Plug& dst)
 {
-    const auto it = std::find_if(connections_.begin(), connections_.end(), [&](const Connection& c) {
-        return c.source == src && c.destination == dst;
-    });
+    const auto it = std::find_if(connections_.begin(), connections_.end(),
+                                 [&](const Connection& c) { return c.source == src && c.destination == dst; });
     if (it == connections_.end())
         throw Error(fmt::format("cannot disconnect {} -> {}: they are not connected", plugName(src), plugName(dst)));
     connections_.erase(it);

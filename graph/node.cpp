@@ -1,6 +1,5 @@
 #include "graph/node.h"
 
-
 #include <fmt/format.h>
 
 #include "core/error.h"
@@ -19,8 +18,8 @@ const AttrData& ComputeContext::input(AttrId a) const
 {
     // Maya's rule: compute reads only its own node's inputs.
     if (a < 0 || static_cast<std::size_t>(a) >= specs_.size() || !specs_[static_cast<std::size_t>(a)].input)
-        throw internalError(fmt::format("node '{}': compute read attribute {} which is not one of its inputs",
-                                           nodeName_, a));
+        throw internalError(
+            fmt::format("node '{}': compute read attribute {} which is not one of its inputs", nodeName_, a));
     return data_[static_cast<std::size_t>(a)];
 }
 
@@ -28,8 +27,8 @@ void ComputeContext::setOutput(AttrId a, Value value)
 {
     const auto i = static_cast<std::size_t>(a);
     if (a < 0 || i >= specs_.size() || specs_[i].input || specs_[i].array)
-        throw internalError(fmt::format("node '{}': compute wrote attribute {} which is not a plain output",
-                                           nodeName_, a));
+        throw internalError(
+            fmt::format("node '{}': compute wrote attribute {} which is not a plain output", nodeName_, a));
     data_[i].value = std::move(value);
 }
 
@@ -37,8 +36,8 @@ void ComputeContext::setOutputElements(AttrId a, std::vector<Value> elements)
 {
     const auto i = static_cast<std::size_t>(a);
     if (a < 0 || i >= specs_.size() || specs_[i].input || !specs_[i].array)
-        throw internalError(fmt::format("node '{}': compute wrote attribute {} which is not an array output",
-                                           nodeName_, a));
+        throw internalError(
+            fmt::format("node '{}': compute wrote attribute {} which is not an array output", nodeName_, a));
     data_[i].present.assign(elements.size(), true);
     data_[i].elements = std::move(elements);
 }

@@ -22,8 +22,7 @@ struct AttrData {
 
 class ComputeContext {
 public:
-    ComputeContext(std::string_view nodeName, const std::vector<AttributeSpec>& specs,
-                   std::vector<AttrData>& data)
+    ComputeContext(std::string_view nodeName, const std::vector<AttributeSpec>& specs, std::vector<AttrData>& data)
         : nodeName_(nodeName), specs_(specs), data_(data)
     {
     }
@@ -37,10 +36,7 @@ public:
     const std::string& getString(AttrId a) const { return std::get<std::string>(input(a).value); }
     const Eigen::Vector3d& getVector3(AttrId a) const { return std::get<Eigen::Vector3d>(input(a).value); }
     const Eigen::Matrix4d& getMatrix(AttrId a) const { return std::get<Eigen::Matrix4d>(input(a).value); }
-    const std::vector<double>& getDoubleArray(AttrId a) const
-    {
-        return std::get<std::vector<double>>(input(a).value);
-    }
+    const std::vector<double>& getDoubleArray(AttrId a) const { return std::get<std::vector<double>>(input(a).value); }
     const Matrix4Array& getMatrixArray(AttrId a) const { return std::get<Matrix4Array>(input(a).value); }
 
     // Array inputs: calls f(logicalIndex, value) for each existing element, in index order.

@@ -49,7 +49,8 @@ std::filesystem::path ownLibraryFolder()
     return std::filesystem::path(info.dli_fname).parent_path();
 }
 
-std::vector<std::filesystem::path> candidates(std::string_view name, const std::vector<std::filesystem::path>& searchPath)
+std::vector<std::filesystem::path> candidates(std::string_view name,
+                                              const std::vector<std::filesystem::path>& searchPath)
 {
     const std::string text(name);
     if (text.find('/') != std::string::npos || text.ends_with(".so")) return {std::filesystem::path(text)};
@@ -71,7 +72,8 @@ std::vector<std::filesystem::path> candidates(std::string_view name, const std::
 
 }  // namespace
 
-std::filesystem::path NodeRegistry::loadPlugin(std::string_view name, const std::vector<std::filesystem::path>& searchPath)
+std::filesystem::path NodeRegistry::loadPlugin(std::string_view name,
+                                               const std::vector<std::filesystem::path>& searchPath)
 {
     if (name.empty()) throw Error("a plugin name is empty; give a name (myNodes) or a path (./myNodes.so)");
     const auto files = candidates(name, searchPath);
@@ -92,14 +94,16 @@ std::filesystem::path NodeRegistry::loadPlugin(std::string_view name, const std:
     using Entry = void (*)(NodeRegistry&);
     auto entry = reinterpret_cast<Entry>(dlsym(handle, "initializePlugin"));
     if (entry == nullptr)
-        throw Error(fmt::format("plugin '{}' ({}) has no initializePlugin entry point; export "
-                                "extern \"C\" void initializePlugin(rig::NodeRegistry&)",
-                                name, file.string()));
+        throw Error(
+            fmt::format("plugin '{}' ({}) has no initializePlugin entry point; export "
+                        "extern \"C\" void initializePlugin(rig::NodeRegistry&)",
+                        name, file.string()));
     try {
         entry(*this);
     }
     catch (const Error& e) {
-        throw Error(fmt::format("plugin '{}' ({}) failed to register its node types: {}", name, file.string(), e.what()));
+        throw Error(
+            fmt::format("plugin '{}' ({}) failed to register its node types: {}", name, file.string(), e.what()));
     }
     loadedPlugins_.push_back(file);
     return file;

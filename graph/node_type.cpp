@@ -97,7 +97,7 @@ AttributeBuilder NodeTypeBuilder::add(AttrId id, std::string name, ValueType typ
 {
     if (static_cast<std::size_t>(id) != type_.attributes_.size())
         throw internalError(fmt::format("node type '{}': attribute '{}' declared with id {} but is number {}",
-                                           type_.name_, name, id, type_.attributes_.size()));
+                                        type_.name_, name, id, type_.attributes_.size()));
     AttributeSpec spec;
     spec.childNames = {name + "X", name + "Y", name + "Z"};
     spec.name = std::move(name);
@@ -181,7 +181,8 @@ std::shared_ptr<const NodeType> NodeTypeBuilder::build()
         if (!names.insert(a.name).second) fail(fmt::format("attribute '{}' declared twice", a.name));
         if (type_.yamlFields_.count(a.name) || type_.yamlConnectors_.count(a.name))
             fail(fmt::format("'{}' is both an attribute and a YAML field", a.name));
-        if (zeroValue(a.type).index() != a.defaultValue.index()) fail(fmt::format("attribute '{}': default is not a {}", a.name, valueTypeName(a.type)));
+        if (zeroValue(a.type).index() != a.defaultValue.index())
+            fail(fmt::format("attribute '{}': default is not a {}", a.name, valueTypeName(a.type)));
         if (a.type == ValueType::Enum && a.enumNames.empty()) fail(fmt::format("enum '{}' has no names", a.name));
         if (a.min && a.max && *a.min > *a.max) fail(fmt::format("attribute '{}': min > max", a.name));
         if (!a.input && !type_.affects_[i].empty()) fail(fmt::format("output '{}' cannot affect anything", a.name));

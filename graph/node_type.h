@@ -28,8 +28,8 @@ class Graph;
 struct YamlFieldContext {
     std::function<std::string(const YAML::Node&)> where;
 };
-using YamlFieldParser = std::function<std::vector<std::pair<AttrId, Value>>(
-    const YAML::Node& value, const YamlFieldContext& context)>;
+using YamlFieldParser =
+    std::function<std::vector<std::pair<AttrId, Value>>(const YAML::Node& value, const YamlFieldContext& context)>;
 // A rig-file field that wires its node into the graph (rigInversion's `connect: {targets: clip}`): it runs
 // once every node, value and connection of the file and of its includes exists, in file order, and may
 // read plugs and connect them. It throws rig::Error.

@@ -49,7 +49,8 @@ std::vector<Plug> matchPlugs(const Graph& graph, std::string_view pattern)
     for (const Plug& p : allPlugs(graph))
         if (fnmatch(glob.c_str(), graph.plugName(p).c_str(), 0) == 0) matches.push_back(p);
     if (matches.empty())
-        throw Error(fmt::format("no plug matches '{}'; patterns look like '*.worldMatrix' or 'L_arm_*.rotate?'", pattern));
+        throw Error(
+            fmt::format("no plug matches '{}'; patterns look like '*.worldMatrix' or 'L_arm_*.rotate?'", pattern));
     return matches;
 }
 

@@ -6,8 +6,7 @@
 
 namespace rig {
 
-Schedule::Schedule(int nodeCount, const std::vector<std::pair<int, int>>& edges)
-    : nodeCount_(nodeCount), edges_(edges)
+Schedule::Schedule(int nodeCount, const std::vector<std::pair<int, int>>& edges) : nodeCount_(nodeCount), edges_(edges)
 {
     // Kahn's algorithm, taking ready nodes in increasing number so the order is deterministic.
     std::vector<std::vector<int>> successors(static_cast<std::size_t>(nodeCount));

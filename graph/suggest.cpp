@@ -49,7 +49,8 @@ std::string closestName(std::string_view name, const std::vector<std::string>& c
     std::size_t bestDistance = allowed + 1;
     for (const std::string& candidate : candidates) {
         // The distance is at least the difference of the lengths: skip what cannot be close.
-        const std::size_t gap = candidate.size() > name.size() ? candidate.size() - name.size() : name.size() - candidate.size();
+        const std::size_t gap =
+            candidate.size() > name.size() ? candidate.size() - name.size() : name.size() - candidate.size();
         if (gap > allowed) continue;
         const std::size_t d = editDistance(name, candidate);
         if (d >= name.size()) continue;

@@ -12,18 +12,25 @@ std::string defaultText(const AttributeSpec& spec)
     const Value& v = spec.defaultValue;
     if (spec.array) return "";
     switch (spec.type) {
-    case ValueType::Double: return fmt::format("{:g}", std::get<double>(v) * k);
-    case ValueType::Int: return fmt::format("{}", std::get<int>(v));
-    case ValueType::Bool: return std::get<bool>(v) ? "true" : "false";
-    case ValueType::Enum: return spec.enumNames.at(static_cast<std::size_t>(std::get<int>(v)));
-    case ValueType::String: return fmt::format("\"{}\"", std::get<std::string>(v));
-    case ValueType::Vector3: {
-        const auto& x = std::get<Eigen::Vector3d>(v);
-        return fmt::format("[{:g}, {:g}, {:g}]", x[0] * k, x[1] * k, x[2] * k);
-    }
-    case ValueType::Matrix4: return "identity";
-    case ValueType::DoubleArray:
-    case ValueType::Matrix4Array: return "[]";
+        case ValueType::Double:
+            return fmt::format("{:g}", std::get<double>(v) * k);
+        case ValueType::Int:
+            return fmt::format("{}", std::get<int>(v));
+        case ValueType::Bool:
+            return std::get<bool>(v) ? "true" : "false";
+        case ValueType::Enum:
+            return spec.enumNames.at(static_cast<std::size_t>(std::get<int>(v)));
+        case ValueType::String:
+            return fmt::format("\"{}\"", std::get<std::string>(v));
+        case ValueType::Vector3: {
+            const auto& x = std::get<Eigen::Vector3d>(v);
+            return fmt::format("[{:g}, {:g}, {:g}]", x[0] * k, x[1] * k, x[2] * k);
+        }
+        case ValueType::Matrix4:
+            return "identity";
+        case ValueType::DoubleArray:
+        case ValueType::Matrix4Array:
+            return "[]";
     }
     return "";
 }
@@ -45,10 +52,14 @@ std::string typeText(const AttributeSpec& spec)
 std::string unitText(const AttributeSpec& spec)
 {
     switch (spec.unit) {
-    case Unit::Angle: return "degrees";
-    case Unit::Distance: return "cm";
-    case Unit::Time: return "frames";
-    case Unit::None: break;
+        case Unit::Angle:
+            return "degrees";
+        case Unit::Distance:
+            return "cm";
+        case Unit::Time:
+            return "frames";
+        case Unit::None:
+            break;
     }
     return "";
 }

@@ -9,15 +9,24 @@ namespace rig {
 std::string_view valueTypeName(ValueType type)
 {
     switch (type) {
-    case ValueType::Double: return "double";
-    case ValueType::Int: return "int";
-    case ValueType::Bool: return "bool";
-    case ValueType::Enum: return "enum";
-    case ValueType::String: return "string";
-    case ValueType::Vector3: return "vector3";
-    case ValueType::Matrix4: return "matrix4";
-    case ValueType::DoubleArray: return "doubleArray";
-    case ValueType::Matrix4Array: return "matrix4Array";
+        case ValueType::Double:
+            return "double";
+        case ValueType::Int:
+            return "int";
+        case ValueType::Bool:
+            return "bool";
+        case ValueType::Enum:
+            return "enum";
+        case ValueType::String:
+            return "string";
+        case ValueType::Vector3:
+            return "vector3";
+        case ValueType::Matrix4:
+            return "matrix4";
+        case ValueType::DoubleArray:
+            return "doubleArray";
+        case ValueType::Matrix4Array:
+            return "matrix4Array";
     }
     return "?";
 }
@@ -25,10 +34,14 @@ std::string_view valueTypeName(ValueType type)
 std::string_view unitName(Unit unit)
 {
     switch (unit) {
-    case Unit::None: return "none";
-    case Unit::Angle: return "angle";
-    case Unit::Distance: return "distance";
-    case Unit::Time: return "time";
+        case Unit::None:
+            return "none";
+        case Unit::Angle:
+            return "angle";
+        case Unit::Distance:
+            return "distance";
+        case Unit::Time:
+            return "time";
     }
     return "?";
 }
@@ -36,29 +49,33 @@ std::string_view unitName(Unit unit)
 Value zeroValue(ValueType type)
 {
     switch (type) {
-    case ValueType::Double: return 0.0;
-    case ValueType::Int:
-    case ValueType::Enum: return 0;
-    case ValueType::Bool: return false;
-    case ValueType::String: return std::string();
-    case ValueType::Vector3: return Eigen::Vector3d::Zero().eval();
-    case ValueType::Matrix4: return Eigen::Matrix4d::Identity().eval();
-    case ValueType::DoubleArray: return std::vector<double>();
-    case ValueType::Matrix4Array: return Matrix4Array();
+        case ValueType::Double:
+            return 0.0;
+        case ValueType::Int:
+        case ValueType::Enum:
+            return 0;
+        case ValueType::Bool:
+            return false;
+        case ValueType::String:
+            return std::string();
+        case ValueType::Vector3:
+            return Eigen::Vector3d::Zero().eval();
+        case ValueType::Matrix4:
+            return Eigen::Matrix4d::Identity().eval();
+        case ValueType::DoubleArray:
+            return std::vector<double>();
+        case ValueType::Matrix4Array:
+            return Matrix4Array();
     }
     return 0.0;
 }
 
 bool isNumeric(ValueType type)
 {
-    return type == ValueType::Double || type == ValueType::Int || type == ValueType::Bool
-           || type == ValueType::Enum;
+    return type == ValueType::Double || type == ValueType::Int || type == ValueType::Bool || type == ValueType::Enum;
 }
 
-bool canConvert(ValueType from, ValueType to)
-{
-    return from == to || (isNumeric(from) && isNumeric(to));
-}
+bool canConvert(ValueType from, ValueType to) { return from == to || (isNumeric(from) && isNumeric(to)); }
 
 double unitFactor(Unit from, Unit to)
 {
@@ -81,9 +98,12 @@ Value convertValue(const Value& value, ValueType from, ValueType to, double fact
     if (isNumeric(from) && isNumeric(to)) {
         const double x = toDouble(value) * factor;
         switch (to) {
-        case ValueType::Double: return x;
-        case ValueType::Bool: return x != 0.0;
-        default: return static_cast<int>(std::lround(x));
+            case ValueType::Double:
+                return x;
+            case ValueType::Bool:
+                return x != 0.0;
+            default:
+                return static_cast<int>(std::lround(x));
         }
     }
     if (factor == 1.0) return value;
@@ -108,13 +128,11 @@ bool isFinite(const Value& value)
                 for (double x : v)
                     if (!std::isfinite(x)) return false;
                 return true;
-            }
-            else if constexpr (std::is_same_v<T, Matrix4Array>) {
+            } else if constexpr (std::is_same_v<T, Matrix4Array>) {
                 for (const auto& m : v)
                     if (!m.allFinite()) return false;
                 return true;
-            }
-            else return true;
+            } else return true;
         },
         value);
 }
@@ -146,8 +164,7 @@ bool bitEqual(const Value& a, const Value& b)
                 for (std::size_t i = 0; i < x.size(); ++i)
                     if (!sameBits(x[i].data(), y[i].data(), 16)) return false;
                 return true;
-            }
-            else return x == y;
+            } else return x == y;
         },
         a);
 }

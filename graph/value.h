@@ -19,8 +19,8 @@ enum class ValueType { Double, Int, Bool, Enum, String, Vector3, Matrix4, Double
 enum class Unit { None, Angle, Distance, Time };
 
 using Matrix4Array = std::vector<Eigen::Matrix4d>;
-using Value = std::variant<double, int, bool, std::string, Eigen::Vector3d, Eigen::Matrix4d,
-                           std::vector<double>, Matrix4Array>;
+using Value =
+    std::variant<double, int, bool, std::string, Eigen::Vector3d, Eigen::Matrix4d, std::vector<double>, Matrix4Array>;
 
 std::string_view valueTypeName(ValueType type);
 std::string_view unitName(Unit unit);

@@ -49,7 +49,10 @@ public:
     void OnDocumentEnd() override {}
     void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
     void OnAlias(const YAML::Mark&, YAML::anchor_t) override { content = true; }
-    void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override { content = true; }
+    void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override
+    {
+        content = true;
+    }
     void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override
     {
         content = true;
@@ -83,8 +86,7 @@ double parseNumber(const YAML::Node& node, const std::string& where)
         if (text.empty() || end != text.c_str() + text.size() || errno != ERANGE)
             throw Error(fmt::format("{}: expected a number, got {}", where, describe(node)));
         if (std::isfinite(y)) return y;
-        throw Error(
-            fmt::format("{}: {} is not a finite number (too large for a double)", where, messageExcerpt(text)));
+        throw Error(fmt::format("{}: {} is not a finite number (too large for a double)", where, messageExcerpt(text)));
     }
     if (!std::isfinite(x))
         throw Error(fmt::format("{}: {} is not a finite number", where, messageExcerpt(node.Scalar())));
@@ -102,69 +104,74 @@ Value parseOne(const YAML::Node& node, ValueType type, const AttributeSpec& spec
         return xs;
     };
     switch (type) {
-    case ValueType::Double: return parseNumber(node, where) * scale;
-    case ValueType::Int: {
-        const double x = parseNumber(node, where);
-        if (x != std::floor(x) || std::abs(x) > 2e9)
-            throw Error(fmt::format("{}: expected a whole number, got {}", where, messageExcerpt(node.Scalar())));
-        return static_cast<int>(x);
-    }
-    case ValueType::Bool: {
-        bool b = false;
-        if (!node.IsScalar() || !YAML::convert<bool>::decode(node, b))
-            throw Error(fmt::format("{}: expected true or false, got {}", where, describe(node)));
-        return b;
-    }
-    case ValueType::Enum: {
-        if (!node.IsScalar()) throw Error(fmt::format("{}: expected an enum name, got {}", where, describe(node)));
-        for (std::size_t i = 0; i < spec.enumNames.size(); ++i)
-            if (spec.enumNames[i] == node.Scalar()) return static_cast<int>(i);
-        int index = -1;
-        if (YAML::convert<int>::decode(node, index) && index >= 0 && static_cast<std::size_t>(index) < spec.enumNames.size())
-            return index;
-        std::string names;
-        for (const auto& n : spec.enumNames) names += (names.empty() ? "" : ", ") + n;
-        throw Error(fmt::format("{}: '{}' is not one of {}{}", where, messageExcerpt(node.Scalar()), names,
-                                didYouMean(node.Scalar(), spec.enumNames)));
-    }
-    case ValueType::String:
-        if (!node.IsScalar()) throw Error(fmt::format("{}: expected a string, got {}", where, describe(node)));
-        return node.Scalar();
-    case ValueType::Vector3: {
-        const auto xs = numbers(3, "[x, y, z]");
-        return Eigen::Vector3d(xs[0] * scale, xs[1] * scale, xs[2] * scale);
-    }
-    case ValueType::Matrix4: {
-        Eigen::Matrix4d m;
-        if (node.IsSequence() && node.size() == 16) {
-            const auto xs = numbers(16, "16 numbers");
-            for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = xs[static_cast<std::size_t>(i)];
+        case ValueType::Double:
+            return parseNumber(node, where) * scale;
+        case ValueType::Int: {
+            const double x = parseNumber(node, where);
+            if (x != std::floor(x) || std::abs(x) > 2e9)
+                throw Error(fmt::format("{}: expected a whole number, got {}", where, messageExcerpt(node.Scalar())));
+            return static_cast<int>(x);
+        }
+        case ValueType::Bool: {
+            bool b = false;
+            if (!node.IsScalar() || !YAML::convert<bool>::decode(node, b))
+                throw Error(fmt::format("{}: expected true or false, got {}", where, describe(node)));
+            return b;
+        }
+        case ValueType::Enum: {
+            if (!node.IsScalar()) throw Error(fmt::format("{}: expected an enum name, got {}", where, describe(node)));
+            for (std::size_t i = 0; i < spec.enumNames.size(); ++i)
+                if (spec.enumNames[i] == node.Scalar()) return static_cast<int>(i);
+            int index = -1;
+            if (YAML::convert<int>::decode(node, index) && index >= 0 &&
+                static_cast<std::size_t>(index) < spec.enumNames.size())
+                return index;
+            std::string names;
+            for (const auto& n : spec.enumNames) names += (names.empty() ? "" : ", ") + n;
+            throw Error(fmt::format("{}: '{}' is not one of {}{}", where, messageExcerpt(node.Scalar()), names,
+                                    didYouMean(node.Scalar(), spec.enumNames)));
+        }
+        case ValueType::String:
+            if (!node.IsScalar()) throw Error(fmt::format("{}: expected a string, got {}", where, describe(node)));
+            return node.Scalar();
+        case ValueType::Vector3: {
+            const auto xs = numbers(3, "[x, y, z]");
+            return Eigen::Vector3d(xs[0] * scale, xs[1] * scale, xs[2] * scale);
+        }
+        case ValueType::Matrix4: {
+            Eigen::Matrix4d m;
+            if (node.IsSequence() && node.size() == 16) {
+                const auto xs = numbers(16, "16 numbers");
+                for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = xs[static_cast<std::size_t>(i)];
+                return m;
+            }
+            if (!node.IsSequence() || node.size() != 4)
+                throw Error(fmt::format("{}: expected a matrix as four rows [[...], [...], [...], [...]], got {}",
+                                        where, describe(node)));
+            for (int r = 0; r < 4; ++r) {
+                const auto row = parseOne(node[static_cast<std::size_t>(r)], ValueType::DoubleArray, spec, where);
+                const auto& xs = std::get<std::vector<double>>(row);
+                if (xs.size() != 4)
+                    throw Error(fmt::format("{}: matrix row {} has {} numbers, expected 4", where, r + 1, xs.size()));
+                for (int c = 0; c < 4; ++c) m(r, c) = xs[static_cast<std::size_t>(c)];
+            }
             return m;
         }
-        if (!node.IsSequence() || node.size() != 4)
-            throw Error(fmt::format("{}: expected a matrix as four rows [[...], [...], [...], [...]], got {}", where,
-                                    describe(node)));
-        for (int r = 0; r < 4; ++r) {
-            const auto row = parseOne(node[static_cast<std::size_t>(r)], ValueType::DoubleArray, spec, where);
-            const auto& xs = std::get<std::vector<double>>(row);
-            if (xs.size() != 4)
-                throw Error(fmt::format("{}: matrix row {} has {} numbers, expected 4", where, r + 1, xs.size()));
-            for (int c = 0; c < 4; ++c) m(r, c) = xs[static_cast<std::size_t>(c)];
+        case ValueType::DoubleArray: {
+            if (!node.IsSequence())
+                throw Error(fmt::format("{}: expected a list of numbers, got {}", where, describe(node)));
+            std::vector<double> xs;
+            for (const auto& item : node) xs.push_back(parseNumber(item, where) * scale);
+            return xs;
         }
-        return m;
-    }
-    case ValueType::DoubleArray: {
-        if (!node.IsSequence()) throw Error(fmt::format("{}: expected a list of numbers, got {}", where, describe(node)));
-        std::vector<double> xs;
-        for (const auto& item : node) xs.push_back(parseNumber(item, where) * scale);
-        return xs;
-    }
-    case ValueType::Matrix4Array: {
-        if (!node.IsSequence()) throw Error(fmt::format("{}: expected a list of matrices, got {}", where, describe(node)));
-        Matrix4Array ms;
-        for (const auto& item : node) ms.push_back(std::get<Eigen::Matrix4d>(parseOne(item, ValueType::Matrix4, spec, where)));
-        return ms;
-    }
+        case ValueType::Matrix4Array: {
+            if (!node.IsSequence())
+                throw Error(fmt::format("{}: expected a list of matrices, got {}", where, describe(node)));
+            Matrix4Array ms;
+            for (const auto& item : node)
+                ms.push_back(std::get<Eigen::Matrix4d>(parseOne(item, ValueType::Matrix4, spec, where)));
+            return ms;
+        }
     }
     return zeroValue(type);
 }
@@ -194,11 +201,11 @@ std::string readText(const std::filesystem::path& file, const std::string& what)
 
 // What the loaders of one graph share across included files.
 struct LoadState {
-    std::map<Plug, std::string> valueMarks;  // where each plug was given a value, for conflicts
+    std::map<Plug, std::string> valueMarks;           // where each plug was given a value, for conflicts
     std::vector<std::filesystem::path> includeStack;  // files being loaded (canonical), to refuse include cycles
     std::vector<std::filesystem::path>* filesRead = nullptr;  // every file read, when asked for
-    int includedFiles = 0;                   // every file included so far, nested ones too
-    std::uintmax_t bytesRead = 0;            // rig text parsed so far, every include counted
+    int includedFiles = 0;                                    // every file included so far, nested ones too
+    std::uintmax_t bytesRead = 0;                             // rig text parsed so far, every include counted
     // Connector fields (NodeType::yamlConnectors), run once everything is loaded.
     struct Deferred {
         NodeId node;
@@ -228,18 +235,20 @@ public:
             second = secondYamlDocument(copy);
         }
         catch (const YAML::DeepRecursion& e) {
-            throw Error(fmt::format("{}: YAML lists and maps nested more than {} levels deep; a rig file nests a few "
-                                    "levels, so the file is damaged or not a rig file",
-                                    markText(file_, e.mark), e.depth() - 1));
+            throw Error(
+                fmt::format("{}: YAML lists and maps nested more than {} levels deep; a rig file nests a few "
+                            "levels, so the file is damaged or not a rig file",
+                            markText(file_, e.mark), e.depth() - 1));
         }
         catch (const YAML::ParserException& e) {
             throw Error(fmt::format("{}: YAML syntax error: {}", markText(file_, e.mark), e.msg));
         }
         // Only the first document would be read: a second one ('---' then more) is a mistake.
         if (second)
-            throw Error(fmt::format("{}: '---' starts a second YAML document; a rig file is one document: remove "
-                                    "this line, or make the second part a file of its own and include it",
-                                    formatMark({file_, second->first + 1, second->second + 1})));
+            throw Error(
+                fmt::format("{}: '---' starts a second YAML document; a rig file is one document: remove "
+                            "this line, or make the second part a file of its own and include it",
+                            formatMark({file_, second->first + 1, second->second + 1})));
         if (root.IsNull()) {
             // Empty, or only comments; but yaml-cpp also reads nothing from some garbage (",a st").
             int number = 0;
@@ -252,9 +261,10 @@ public:
                 if (first == std::string_view::npos) continue;
                 line.remove_prefix(first);
                 if (line.starts_with('#') || line.starts_with("---") || line.starts_with("...")) continue;
-                throw Error(fmt::format("{}: expected a map with 'nodes:' (and 'plugins:', 'connections:'), got "
-                                        "nothing YAML can read; is this a rig file?",
-                                        formatMark({file_, number, static_cast<int>(first) + 1})));
+                throw Error(
+                    fmt::format("{}: expected a map with 'nodes:' (and 'plugins:', 'connections:'), got "
+                                "nothing YAML can read; is this a rig file?",
+                                formatMark({file_, number, static_cast<int>(first) + 1})));
             }
             throw Error(fmt::format("{}: the file is empty; a rig file has a 'nodes:' list", file_));
         }
@@ -267,7 +277,8 @@ public:
         const auto nodes = root["nodes"];
         if (!nodes && root["include"]) return;
         if (!nodes) throw Error(fmt::format("{}: no 'nodes:' list; a rig file needs at least one node", at(root)));
-        if (!nodes.IsSequence()) throw Error(fmt::format("{}: 'nodes' must be a list, got {}", at(nodes), describe(nodes)));
+        if (!nodes.IsSequence())
+            throw Error(fmt::format("{}: 'nodes' must be a list, got {}", at(nodes), describe(nodes)));
         for (const auto& n : nodes) createNode(n);
         for (const auto& n : nodes) fillNode(n);
         // Parents and connections come after every value, so a plug given both is reported as such.
@@ -275,7 +286,8 @@ public:
             if (const auto parent = n["parent"]) setParent(graph_.findNode(prefix_ + n["name"].Scalar()), parent);
         if (const auto connections = root["connections"]; connections && !connections.IsNull()) {
             if (!connections.IsSequence())
-                throw Error(fmt::format("{}: 'connections' must be a list, got {}", at(connections), describe(connections)));
+                throw Error(
+                    fmt::format("{}: 'connections' must be a list, got {}", at(connections), describe(connections)));
             for (const auto& c : connections) addConnection(c);
         }
     }
@@ -304,7 +316,8 @@ private:
             if (!seen.insert(key).second)
                 throw Error(fmt::format("{}: '{}' appears twice in {}", at(entry.first), key, what));
             if (std::find(allowed.begin(), allowed.end(), key) == allowed.end())
-                throw Error(fmt::format("{}: unknown key '{}' at {}{}", at(entry.first), key, what, didYouMean(key, allowed)));
+                throw Error(
+                    fmt::format("{}: unknown key '{}' at {}{}", at(entry.first), key, what, didYouMean(key, allowed)));
         }
     }
 
@@ -318,11 +331,12 @@ private:
     void loadIncludes(const YAML::Node& includes)
     {
         if (!includes.IsSequence())
-            throw Error(fmt::format("{}: 'include' is a list of {{file: rig.yaml, namespace: name}}, got {}", at(includes),
-                                    describe(includes)));
+            throw Error(fmt::format("{}: 'include' is a list of {{file: rig.yaml, namespace: name}}, got {}",
+                                    at(includes), describe(includes)));
         for (const auto& entry : includes) {
             if (!entry.IsMap())
-                throw Error(fmt::format("{}: an include is {{file: rig.yaml, namespace: name}}, got {}", at(entry), describe(entry)));
+                throw Error(fmt::format("{}: an include is {{file: rig.yaml, namespace: name}}, got {}", at(entry),
+                                        describe(entry)));
             checkKeys(entry, {"file", "namespace"}, "include");
             const std::string file = requireString(entry, "file");
             std::string ns;
@@ -340,19 +354,22 @@ private:
                     throw Error(fmt::format("{}: include cycle: {} is already being loaded; remove this include",
                                             at(entry["file"]), name));
             if (state_.includeStack.size() > maxIncludeDepth)
-                throw Error(fmt::format("{}: includes nested more than {} files deep; check for a chain of files "
-                                        "including each other",
-                                        at(entry["file"]), maxIncludeDepth));
+                throw Error(
+                    fmt::format("{}: includes nested more than {} files deep; check for a chain of files "
+                                "including each other",
+                                at(entry["file"]), maxIncludeDepth));
             if (++state_.includedFiles > maxIncludedFiles)
-                throw Error(fmt::format("{}: more than {} included files in all; check for files that include the "
-                                        "same file several times at every level",
-                                        at(entry["file"]), maxIncludedFiles));
+                throw Error(
+                    fmt::format("{}: more than {} included files in all; check for files that include the "
+                                "same file several times at every level",
+                                at(entry["file"]), maxIncludedFiles));
             std::error_code sizeError;
             const std::uintmax_t size = std::filesystem::file_size(path, sizeError);
             if (!sizeError && state_.bytesRead + size > maxTotalRigBytes)
-                throw Error(fmt::format("{}: the included files add up to more than {} MB of rig text ({} files so far); "
-                                        "check for files that include the same file several times at every level",
-                                        at(entry["file"]), maxTotalRigBytes >> 20, state_.includedFiles));
+                throw Error(
+                    fmt::format("{}: the included files add up to more than {} MB of rig text ({} files so far); "
+                                "check for files that include the same file several times at every level",
+                                at(entry["file"]), maxTotalRigBytes >> 20, state_.includedFiles));
             const std::string text = located(entry["file"], [&] { return readText(path, "included rig file"); });
             state_.bytesRead += text.size();
             if (state_.filesRead) state_.filesRead->push_back(path);
@@ -374,7 +391,8 @@ private:
     void loadPlugins(const YAML::Node& plugins)
     {
         if (!plugins.IsSequence())
-            throw Error(fmt::format("{}: 'plugins' must be a list of plugin names, got {}", at(plugins), describe(plugins)));
+            throw Error(
+                fmt::format("{}: 'plugins' must be a list of plugin names, got {}", at(plugins), describe(plugins)));
         const auto folder = std::filesystem::path(file_).parent_path();
         for (const auto& p : plugins) {
             if (!p.IsScalar()) throw Error(fmt::format("{}: a plugin name is a string, got {}", at(p), describe(p)));
@@ -394,7 +412,8 @@ private:
     void createNode(const YAML::Node& n)
     {
         if (!n.IsMap())
-            throw Error(fmt::format("{}: a node is a map like {{name: elbow, type: joint}}, got {}", at(n), describe(n)));
+            throw Error(
+                fmt::format("{}: a node is a map like {{name: elbow, type: joint}}, got {}", at(n), describe(n)));
         const std::string name = prefix_ + requireString(n, "name");
         const std::string type = requireString(n, "type");
         located(n["type"], [&] { return graph_.registry().get(type); });
@@ -428,10 +447,10 @@ private:
                 continue;
             }
             if (const auto connector = type.yamlConnectors().find(key); connector != type.yamlConnectors().end()) {
-                state_.deferred.push_back({id, &connector->second, entry.second,
-                                           [file = file_, who](const YAML::Node& y) {
-                                               return fmt::format("{}: {}", markText(file, y.Mark()), who);
-                                           }});
+                state_.deferred.push_back(
+                    {id, &connector->second, entry.second, [file = file_, who](const YAML::Node& y) {
+                         return fmt::format("{}: {}", markText(file, y.Mark()), who);
+                     }});
                 continue;
             }
             Plug p;
@@ -442,11 +461,13 @@ private:
                 std::vector<std::string> names{"name", "type", "parent", "addAttr"};
                 for (const auto& a : graph_.attributes(id)) {
                     names.push_back(a.name);
-                    if (a.type == ValueType::Vector3) names.insert(names.end(), a.childNames.begin(), a.childNames.end());
+                    if (a.type == ValueType::Vector3)
+                        names.insert(names.end(), a.childNames.begin(), a.childNames.end());
                 }
                 for (const auto& f : type.yamlFields()) names.push_back(f.first);
                 for (const auto& f : type.yamlConnectors()) names.push_back(f.first);
-                throw Error(fmt::format("{}: {} has no attribute '{}'{}", at(entry.first), who, key, didYouMean(key, names)));
+                throw Error(
+                    fmt::format("{}: {} has no attribute '{}'{}", at(entry.first), who, key, didYouMean(key, names)));
             }
             setFromYaml(p, entry.second);
         }
@@ -459,7 +480,8 @@ private:
         if (spec.array && p.index < 0) {
             // A list sets elements 0, 1, ...; a map {index: value} sets the elements it names.
             if (!value.IsSequence() && !value.IsMap())
-                throw Error(fmt::format("{} is an array attribute: give a list of values or a map {{index: value}}", where));
+                throw Error(
+                    fmt::format("{} is an array attribute: give a list of values or a map {{index: value}}", where));
             Plug element = p;
             if (value.IsSequence()) {
                 for (std::size_t i = 0; i < value.size(); ++i) {
@@ -469,10 +491,11 @@ private:
                 return;
             }
             for (const auto& item : value) {
-                if (!item.first.IsScalar() || !YAML::convert<int>::decode(item.first, element.index)
-                    || element.index < 0 || element.index > GraphModel::maxArrayIndex)
-                    throw Error(fmt::format("{}: {}: array index {} must be a whole number from 0 to {}", at(item.first),
-                                            graph_.plugName(p), describe(item.first), GraphModel::maxArrayIndex));
+                if (!item.first.IsScalar() || !YAML::convert<int>::decode(item.first, element.index) ||
+                    element.index < 0 || element.index > GraphModel::maxArrayIndex)
+                    throw Error(fmt::format("{}: {}: array index {} must be a whole number from 0 to {}",
+                                            at(item.first), graph_.plugName(p), describe(item.first),
+                                            GraphModel::maxArrayIndex));
                 setFromYaml(element, item.second);
             }
             return;
@@ -492,21 +515,26 @@ private:
     {
         const auto [it, added] = state_.valueMarks.emplace(p, at(where));
         if (!added)
-            throw Error(fmt::format("{}: {} is given a value twice (first at {}); keep one", at(where), graph_.plugName(p),
-                                    it->second));
+            throw Error(fmt::format("{}: {} is given a value twice (first at {}); keep one", at(where),
+                                    graph_.plugName(p), it->second));
     }
 
     void addAttributes(NodeId id, const YAML::Node& list, const std::string& who)
     {
         if (!list.IsSequence())
             throw Error(fmt::format("{}: {}: 'addAttr' is a list of {{name: ..., type: double, ...}}", at(list), who));
-        static const std::map<std::string, ValueType> types{
-            {"double", ValueType::Double}, {"int", ValueType::Int}, {"bool", ValueType::Bool},
-            {"enum", ValueType::Enum}, {"string", ValueType::String}, {"vector3", ValueType::Vector3},
-            {"matrix4", ValueType::Matrix4}, {"doubleArray", ValueType::DoubleArray},
-            {"matrix4Array", ValueType::Matrix4Array}};
+        static const std::map<std::string, ValueType> types{{"double", ValueType::Double},
+                                                            {"int", ValueType::Int},
+                                                            {"bool", ValueType::Bool},
+                                                            {"enum", ValueType::Enum},
+                                                            {"string", ValueType::String},
+                                                            {"vector3", ValueType::Vector3},
+                                                            {"matrix4", ValueType::Matrix4},
+                                                            {"doubleArray", ValueType::DoubleArray},
+                                                            {"matrix4Array", ValueType::Matrix4Array}};
         for (const auto& a : list) {
-            if (!a.IsMap()) throw Error(fmt::format("{}: {}: an added attribute is a map, got {}", at(a), who, describe(a)));
+            if (!a.IsMap())
+                throw Error(fmt::format("{}: {}: an added attribute is a map, got {}", at(a), who, describe(a)));
             checkKeys(a, {"name", "type", "default", "min", "max", "keyable", "unit", "enum", "array"}, "addAttr");
             AttributeSpec spec;
             spec.name = requireString(a, "name");
@@ -523,13 +551,15 @@ private:
                 if (u.Scalar() == "angle") spec.unit = Unit::Angle;
                 else if (u.Scalar() == "distance") spec.unit = Unit::Distance;
                 else if (u.Scalar() != "none")
-                    throw Error(fmt::format("{}: {}: unit '{}' is not one of none, angle, distance", at(u), who, u.Scalar()));
+                    throw Error(
+                        fmt::format("{}: {}: unit '{}' is not one of none, angle, distance", at(u), who, u.Scalar()));
             }
             if (const auto e = a["enum"]) {
                 if (!e.IsSequence()) throw Error(fmt::format("{}: {}: 'enum' is a list of names", at(e), who));
                 for (const auto& name : e) {
                     if (!name.IsScalar())
-                        throw Error(fmt::format("{}: {}: an enum name is a plain name, got {}", at(name), who, describe(name)));
+                        throw Error(
+                            fmt::format("{}: {}: an enum name is a plain name, got {}", at(name), who, describe(name)));
                     spec.enumNames.push_back(name.Scalar());
                 }
             }
@@ -546,8 +576,8 @@ private:
             if (spec.type == ValueType::Int)
                 for (const char* key : {"min", "max"})
                     if (const auto v = a[key]; v && std::floor(limit(v, key)) != limit(v, key))
-                        throw Error(fmt::format("{}: {}: {} of '{}' is {}; an int attribute's limits are whole numbers", at(v),
-                                                who, key, spec.name, v.Scalar()));
+                        throw Error(fmt::format("{}: {}: {} of '{}' is {}; an int attribute's limits are whole numbers",
+                                                at(v), who, key, spec.name, v.Scalar()));
             if (const auto v = a["keyable"]) spec.keyable = std::get<bool>(parseOne(v, ValueType::Bool, spec, at(v)));
             if (const auto v = a["array"]) spec.array = std::get<bool>(parseOne(v, ValueType::Bool, spec, at(v)));
             spec.defaultValue = zeroValue(spec.type);
@@ -572,7 +602,8 @@ private:
 
     void setParent(NodeId child, const YAML::Node& value)
     {
-        if (!value.IsScalar()) throw Error(fmt::format("{}: 'parent' is a node name, got {}", at(value), describe(value)));
+        if (!value.IsScalar())
+            throw Error(fmt::format("{}: 'parent' is a node name, got {}", at(value), describe(value)));
         const auto [parent, world, parentMatrix] = located(value, [&] {
             const NodeId p = graph_.node(prefix_ + value.Scalar());
             return std::tuple(p, graph_.plug(graph_.nodeName(p) + ".worldMatrix"),
@@ -598,7 +629,8 @@ private:
     {
         static constexpr std::string_view arrow = "->";
         if (!c.IsScalar() || c.Scalar().find(arrow) == std::string::npos)
-            throw Error(fmt::format("{}: a connection is written 'node.attr -> node.attr', got {}", at(c), describe(c)));
+            throw Error(
+                fmt::format("{}: a connection is written 'node.attr -> node.attr', got {}", at(c), describe(c)));
         const std::string& text = c.Scalar();
         const auto pos = text.find(arrow);
         auto trim = [](std::string s) {
@@ -641,8 +673,8 @@ Value parseYamlValue(const YAML::Node& node, const Graph& graph, const Plug& plu
 
 namespace {
 
-std::unique_ptr<Graph> loadGraph(std::string_view text, const std::string& fileName, std::shared_ptr<NodeRegistry> registry,
-                                 std::vector<std::filesystem::path>* filesRead)
+std::unique_ptr<Graph> loadGraph(std::string_view text, const std::string& fileName,
+                                 std::shared_ptr<NodeRegistry> registry, std::vector<std::filesystem::path>* filesRead)
 {
     auto graph = std::make_unique<Graph>(std::move(registry));
     std::error_code ec;
@@ -654,7 +686,8 @@ std::unique_ptr<Graph> loadGraph(std::string_view text, const std::string& fileN
 
 }  // namespace
 
-std::unique_ptr<Graph> loadGraphText(std::string_view text, const std::string& fileName, std::shared_ptr<NodeRegistry> registry)
+std::unique_ptr<Graph> loadGraphText(std::string_view text, const std::string& fileName,
+                                     std::shared_ptr<NodeRegistry> registry)
 {
     return loadGraph(text, fileName, std::move(registry), nullptr);
 }

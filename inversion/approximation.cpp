@@ -28,7 +28,9 @@ void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::
     }
     for (const int k : outputOrder()) {
         const int p = outputs[static_cast<std::size_t>(k)].parent;
-        if (p >= 0) worlds[static_cast<std::size_t>(k)] = worlds[static_cast<std::size_t>(p)] * worlds[static_cast<std::size_t>(k)];
+        if (p >= 0)
+            worlds[static_cast<std::size_t>(k)] =
+                worlds[static_cast<std::size_t>(p)] * worlds[static_cast<std::size_t>(k)];
     }
     for (std::size_t k = 0; k < outputs.size(); ++k) worlds[k] *= outputs[k].rest;
 }
@@ -40,16 +42,17 @@ std::vector<int> Approximation::outputOrder() const
     std::vector<char> state(outputs.size(), 0);  // 0 new, 1 on the current walk, 2 placed
     std::vector<int> walk;
     for (int k = 0; k < n; ++k) {
-        for (int u = k; u >= 0 && state[static_cast<std::size_t>(u)] == 0; u = outputs[static_cast<std::size_t>(u)].parent) {
+        for (int u = k; u >= 0 && state[static_cast<std::size_t>(u)] == 0;
+             u = outputs[static_cast<std::size_t>(u)].parent) {
             const int p = outputs[static_cast<std::size_t>(u)].parent;
             if (p < -1 || p >= n)
                 throw internalError(fmt::format("Approximation: output {} has parent index {} of {}",
-                                                        outputs[static_cast<std::size_t>(u)].name, p, n));
+                                                outputs[static_cast<std::size_t>(u)].name, p, n));
             state[static_cast<std::size_t>(u)] = 1;
             walk.push_back(u);
             if (p >= 0 && state[static_cast<std::size_t>(p)] == 1)
-                throw internalError(
-                    fmt::format("Approximation: the parents of output {} form a cycle", outputs[static_cast<std::size_t>(u)].name));
+                throw internalError(fmt::format("Approximation: the parents of output {} form a cycle",
+                                                outputs[static_cast<std::size_t>(u)].name));
         }
         for (auto it = walk.rbegin(); it != walk.rend(); ++it) {
             state[static_cast<std::size_t>(*it)] = 2;
@@ -64,7 +67,8 @@ std::vector<std::vector<int>> Approximation::reach() const
 {
     std::vector<std::vector<int>> children(outputs.size());
     for (std::size_t k = 0; k < outputs.size(); ++k)
-        if (outputs[k].parent >= 0) children[static_cast<std::size_t>(outputs[k].parent)].push_back(static_cast<int>(k));
+        if (outputs[k].parent >= 0)
+            children[static_cast<std::size_t>(outputs[k].parent)].push_back(static_cast<int>(k));
     std::vector<std::vector<int>> result;
     result.reserve(parameters.size());
     std::vector<char> seen(outputs.size(), 0);

@@ -28,7 +28,7 @@
 namespace rig {
 
 struct ApproximationOutput {
-    std::string name;                                // the rig's joint
+    std::string name;                                    // the rig's joint
     Eigen::Matrix4d rest = Eigen::Matrix4d::Identity();  // F_k(0): world matrix at the rest values
     int parent = -1;  // the output it is learned relative to (index into Approximation::outputs); -1: world space
     double validationError = 0.0;  // its worst relative validation error (ValidationSummary), cm per unit
@@ -83,7 +83,7 @@ struct TrainingSummary {
     std::uint64_t evaluations = 0;       // rig evaluations, all steps
     std::uint64_t orderEvaluations = 0;  // of which for the composition order
     double seconds = 0.0;
-    std::string orderer;                 // "talk" or "structured"
+    std::string orderer;  // "talk" or "structured"
 };
 
 struct Approximation {

@@ -1,8 +1,8 @@
 #include "inversion/approximation_io.h"
 
 #include <algorithm>
-#include <charconv>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -26,7 +26,8 @@ namespace {
 // back as a number.
 std::string number(double x, std::string_view field)
 {
-    if (!std::isfinite(x)) throw internalError(fmt::format("approximationToYaml: {} is {}, not a finite number", field, x));
+    if (!std::isfinite(x))
+        throw internalError(fmt::format("approximationToYaml: {} is {}, not a finite number", field, x));
     return fmt::format("{}", x);
 }
 
@@ -103,15 +104,14 @@ std::string operatorText(const Operator& op, const std::string& field)
             out += fmt::format("{0}curve:\n{0}  knots: {1}\n{0}  values: {2}\n", indent,
                                list(op.curve.knots(), [&](double x) { return number(x, field + ".curve.knots"); }),
                                splineValues(op.curve, field + ".curve.values"));
-    }
-    else {
+    } else {
         const auto& knots = op.kind == OperatorKind::sampledRigid ? op.rigid.knots() : op.affine.knots();
         if (op.held()) out += heldText(op, field);
         if (knots.empty()) throw internalError(fmt::format("approximationToYaml: {} has no knots", field));
         out += fmt::format("{}knots: {}\n", indent, list(knots, [&](double x) { return number(x, field + ".knots"); }));
         out += fmt::format("{}values: {}\n", indent,
                            op.kind == OperatorKind::sampledRigid ? splineValues(op.rigid, field + ".values")
-                                                                  : splineValues(op.affine, field + ".values"));
+                                                                 : splineValues(op.affine, field + ".values"));
     }
     return out;
 }
@@ -139,8 +139,8 @@ public:
         for (auto k : optional) known += fmt::format("{}{}", known.empty() ? "" : ", ", k);
         for (const auto& kv : map) {
             const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string();
-            const bool ok = std::find(required.begin(), required.end(), key) != required.end()
-                            || std::find(optional.begin(), optional.end(), key) != optional.end();
+            const bool ok = std::find(required.begin(), required.end(), key) != required.end() ||
+                            std::find(optional.begin(), optional.end(), key) != optional.end();
             if (!ok) fail(kv.first, field, fmt::format("unknown field '{}'; the fields are {}", key, known));
         }
         // At the top of the file, a missing field is most often a file cut short or edited by hand.
@@ -148,7 +148,9 @@ public:
             if (!map[std::string(k)])
                 fail(map, field,
                      fmt::format("the field '{}' is missing{}", k,
-                                 field == "file" ? "; the file is incomplete (cut short?) or was edited: re-run rig-learn" : ""));
+                                 field == "file"
+                                     ? "; the file is incomplete (cut short?) or was edited: re-run rig-learn"
+                                     : ""));
     }
 
     YAML::Node child(const YAML::Node& map, std::string_view key) const { return map[std::string(key)]; }
@@ -182,8 +184,9 @@ public:
         Int x = 0;
         const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
         if (ec == std::errc::result_out_of_range && end == text.data() + text.size())
-            fail(n, field, fmt::format("{} is out of range ({} to {})", text, std::numeric_limits<Int>::min(),
-                                       std::numeric_limits<Int>::max()));
+            fail(n, field,
+                 fmt::format("{} is out of range ({} to {})", text, std::numeric_limits<Int>::min(),
+                             std::numeric_limits<Int>::max()));
         if (text.empty() || ec != std::errc() || end != text.data() + text.size())
             fail(n, field, fmt::format("'{}' is not a whole number", text));
         return x;
@@ -294,11 +297,13 @@ public:
             };
             op.low = end(ends[0], -std::numeric_limits<double>::infinity());
             op.high = end(ends[1], std::numeric_limits<double>::infinity());
-            if (!(op.low <= 0.0 && 0.0 <= op.high)) fail(held, field + ".held", "expected [low, high] with low <= 0 <= high");
+            if (!(op.low <= 0.0 && 0.0 <= op.high))
+                fail(held, field + ".held", "expected [low, high] with low <= 0 <= high");
         }
         if (op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine) {
             checkKeys(n, field, {"kind", "knots", "values"}, {"held"});
-            if (op.kind == OperatorKind::sampledRigid) op.rigid = spline<6>(child(n, "knots"), child(n, "values"), field);
+            if (op.kind == OperatorKind::sampledRigid)
+                op.rigid = spline<6>(child(n, "knots"), child(n, "values"), field);
             else op.affine = spline<12>(child(n, "knots"), child(n, "values"), field);
             return op;
         }
@@ -329,22 +334,24 @@ std::string approximationToYaml(const Approximation& a)
     out += "# A learned rig approximation (docs/approximation-format.md), written by rig-learn.\n";
     out += "# Internal units: radians for angles, centimetres for distances. Numbers read back bit for bit.\n";
     out += fmt::format("format: {}\nversion: {}\n", approximationFormatName, approximationFormatVersion);
-    out += fmt::format("rigFile: {}\nrigFingerprint: {}\nepsilon: {}\n", yamlString(a.rigFile), yamlString(a.rigFingerprint),
-                       number(a.epsilon, "epsilon"));
+    out += fmt::format("rigFile: {}\nrigFingerprint: {}\nepsilon: {}\n", yamlString(a.rigFile),
+                       yamlString(a.rigFingerprint), number(a.epsilon, "epsilon"));
     const TrainingSummary& t = a.training;
-    out += fmt::format("training:\n  evaluations: {}\n  orderEvaluations: {}\n  seconds: {}\n  orderer: {}\n", t.evaluations,
-                       t.orderEvaluations, number(t.seconds, "training.seconds"), yamlString(t.orderer));
+    out += fmt::format("training:\n  evaluations: {}\n  orderEvaluations: {}\n  seconds: {}\n  orderer: {}\n",
+                       t.evaluations, t.orderEvaluations, number(t.seconds, "training.seconds"), yamlString(t.orderer));
     const ValidationSummary& v = a.validation;
-    out += fmt::format("validation:\n  poses: {}\n  maxPositionErrorCm: {}\n  meanPositionErrorCm: {}\n"
-                       "  maxRotationErrorDeg: {}\n  meanRotationErrorDeg: {}\n  worstOutput: {}\n  worstPose: {}\n",
-                       v.poses, number(v.maxPositionErrorCm, "validation.maxPositionErrorCm"),
-                       number(v.meanPositionErrorCm, "validation.meanPositionErrorCm"),
-                       number(v.maxRotationErrorDeg, "validation.maxRotationErrorDeg"),
-                       number(v.meanRotationErrorDeg, "validation.meanRotationErrorDeg"), yamlString(v.worstOutput), v.worstPose);
-    out += fmt::format("  maxRelativeError: {}\n  worstRelativeOutput: {}\n  worstParameter: {}\n  nonFinitePoses: {}\n"
-                       "  withinEpsilon: {}\n",
-                       number(v.maxRelativeError, "validation.maxRelativeError"), yamlString(v.worstRelativeOutput),
-                       yamlString(v.worstParameter), v.nonFinitePoses, v.withinEpsilon);
+    out += fmt::format(
+        "validation:\n  poses: {}\n  maxPositionErrorCm: {}\n  meanPositionErrorCm: {}\n"
+        "  maxRotationErrorDeg: {}\n  meanRotationErrorDeg: {}\n  worstOutput: {}\n  worstPose: {}\n",
+        v.poses, number(v.maxPositionErrorCm, "validation.maxPositionErrorCm"),
+        number(v.meanPositionErrorCm, "validation.meanPositionErrorCm"),
+        number(v.maxRotationErrorDeg, "validation.maxRotationErrorDeg"),
+        number(v.meanRotationErrorDeg, "validation.meanRotationErrorDeg"), yamlString(v.worstOutput), v.worstPose);
+    out += fmt::format(
+        "  maxRelativeError: {}\n  worstRelativeOutput: {}\n  worstParameter: {}\n  nonFinitePoses: {}\n"
+        "  withinEpsilon: {}\n",
+        number(v.maxRelativeError, "validation.maxRelativeError"), yamlString(v.worstRelativeOutput),
+        yamlString(v.worstParameter), v.nonFinitePoses, v.withinEpsilon);
 
     out += a.outputs.empty() ? "outputs: []\n" : "outputs:\n";
     for (std::size_t k = 0; k < a.outputs.size(); ++k) {
@@ -353,10 +360,12 @@ std::string approximationToYaml(const Approximation& a)
         out += fmt::format("  - name: {}\n", yamlString(o.name));
         if (o.parent >= 0) {
             if (static_cast<std::size_t>(o.parent) >= a.outputs.size())
-                throw internalError(fmt::format("approximationToYaml: outputs[{}].parent: index {} out of range", k, o.parent));
+                throw internalError(
+                    fmt::format("approximationToYaml: outputs[{}].parent: index {} out of range", k, o.parent));
             out += fmt::format("    parent: {}\n", yamlString(a.outputs[static_cast<std::size_t>(o.parent)].name));
         }
-        out += fmt::format("    validationError: {}\n    rest: [", number(o.validationError, fmt::format("outputs[{}].validationError", k)));
+        out += fmt::format("    validationError: {}\n    rest: [",
+                           number(o.validationError, fmt::format("outputs[{}].validationError", k)));
         for (int r = 0; r < 4; ++r) {
             Eigen::Vector4d row = a.outputs[k].rest.row(r).transpose();
             out += fmt::format("{}[{}, {}, {}, {}]", r ? ", " : "", number(row[0], field), number(row[1], field),
@@ -372,27 +381,38 @@ std::string approximationToYaml(const Approximation& a)
         std::string fields = parameterFields(m.parameter, field, "    ");
         fields.replace(0, 4, "  - ");
         out += fields;
-        out += fmt::format("    form: {}\n    fitError: {}\n    samples: {}\n    validationError: {}\n", yamlString(m.form),
-                           number(m.fitError, field + ".fitError"), m.samples,
+        out += fmt::format("    form: {}\n    fitError: {}\n    samples: {}\n    validationError: {}\n",
+                           yamlString(m.form), number(m.fitError, field + ".fitError"), m.samples,
                            number(m.validationError, field + ".validationError"));
         if (!m.noEffect.empty())
-            out += "    noEffect: " + list(m.noEffect, [&](const std::pair<double, double>& r) {
-                       return fmt::format("[{}, {}]", number(r.first, field + ".noEffect"), number(r.second, field + ".noEffect"));
-                   }) + "\n";
+            out += "    noEffect: " +
+                   list(m.noEffect,
+                        [&](const std::pair<double, double>& r) {
+                            return fmt::format("[{}, {}]", number(r.first, field + ".noEffect"),
+                                               number(r.second, field + ".noEffect"));
+                        }) +
+                   "\n";
         if (m.outputs.size() != m.operatorOfOutput.size())
             throw internalError(fmt::format("approximationToYaml: {}: {} outputs but {} operator indices", field,
-                                                    m.outputs.size(), m.operatorOfOutput.size()));
-        out += "    outputs: " + list(m.outputs, [&](int k) {
-                   if (k < 0 || static_cast<std::size_t>(k) >= a.outputs.size())
-                       throw internalError(fmt::format("approximationToYaml: {}.outputs: index {} out of range", field, k));
-                   return yamlString(a.outputs[static_cast<std::size_t>(k)].name);
-               }) + "\n";
-        out += "    operatorOfOutput: " + list(m.operatorOfOutput, [&](int o) {
-                   if (o < 0 || static_cast<std::size_t>(o) >= m.operators.size())
-                       throw internalError(
-                           fmt::format("approximationToYaml: {}.operatorOfOutput: index {} out of range", field, o));
-                   return fmt::format("{}", o);
-               }) + "\n";
+                                            m.outputs.size(), m.operatorOfOutput.size()));
+        out += "    outputs: " +
+               list(m.outputs,
+                    [&](int k) {
+                        if (k < 0 || static_cast<std::size_t>(k) >= a.outputs.size())
+                            throw internalError(
+                                fmt::format("approximationToYaml: {}.outputs: index {} out of range", field, k));
+                        return yamlString(a.outputs[static_cast<std::size_t>(k)].name);
+                    }) +
+               "\n";
+        out += "    operatorOfOutput: " +
+               list(m.operatorOfOutput,
+                    [&](int o) {
+                        if (o < 0 || static_cast<std::size_t>(o) >= m.operators.size())
+                            throw internalError(fmt::format(
+                                "approximationToYaml: {}.operatorOfOutput: index {} out of range", field, o));
+                        return fmt::format("{}", o);
+                    }) +
+               "\n";
         out += "    operators:\n";
         for (std::size_t o = 0; o < m.operators.size(); ++o)
             out += operatorText(m.operators[o], fmt::format("{}.operators[{}]", field, o));
@@ -429,9 +449,10 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         const bool marker = (line.starts_with("---") || line.starts_with("...")) &&
                             (line.size() == 3 || line[3] == ' ' || line[3] == '\t' || line[3] == '\r');
         if (marker && content)
-            throw Error(fmt::format("{}:{}:1: file: '{}' ends the YAML document; an approximation file is "
-                                                     "one document: remove it and what follows, or re-run rig-learn",
-                                                     fileName, lineNumber, line.substr(0, 3)));
+            throw Error(
+                fmt::format("{}:{}:1: file: '{}' ends the YAML document; an approximation file is "
+                            "one document: remove it and what follows, or re-run rig-learn",
+                            fileName, lineNumber, line.substr(0, 3)));
         const auto first = line.find_first_not_of(" \t\r");
         content = content || (!marker && first != std::string_view::npos && line[first] != '#');
     }
@@ -440,9 +461,10 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
             return YAML::Load(std::string(text));
         }
         catch (const YAML::DeepRecursion& e) {
-            throw Error(fmt::format("{}:{}:{}: YAML lists and maps nested more than {} levels deep; an "
-                                                     "approximation file nests a few levels, so the file is damaged",
-                                                     fileName, e.mark.line + 1, e.mark.column + 1, e.depth() - 1));
+            throw Error(
+                fmt::format("{}:{}:{}: YAML lists and maps nested more than {} levels deep; an "
+                            "approximation file nests a few levels, so the file is damaged",
+                            fileName, e.mark.line + 1, e.mark.column + 1, e.depth() - 1));
         }
         catch (const YAML::Exception& e) {
             throw Error(
@@ -451,24 +473,26 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     }();
     const Reader r(fileName);
     if (!root.IsMap())
-        throw Error(fmt::format("{}: not an approximation file (expected a map with format: {}); rig-learn -o "
-                                                 "writes one",
-                                                 fileName, approximationFormatName));
+        throw Error(
+            fmt::format("{}: not an approximation file (expected a map with format: {}); rig-learn -o "
+                        "writes one",
+                        fileName, approximationFormatName));
     // The format and version first: any other problem in a file of another kind or version says less.
     if (!root["format"])
-        throw Error(fmt::format("{}: not an approximation file (no 'format: {}'); rig-learn -o writes one",
-                                                 fileName, approximationFormatName));
+        throw Error(fmt::format("{}: not an approximation file (no 'format: {}'); rig-learn -o writes one", fileName,
+                                approximationFormatName));
     const YAML::Node format = root["format"];
     if (!format.IsScalar() || format.Scalar() != approximationFormatName)
-        r.fail(format, "format", fmt::format("not an approximation file (expected format: {})", approximationFormatName));
+        r.fail(format, "format",
+               fmt::format("not an approximation file (expected format: {})", approximationFormatName));
     const int version = r.integer<int>(r.need(root, "version", "file"), "version");
     if (version < 1 || version > approximationFormatVersion)
         r.fail(root["version"], "version",
-               fmt::format("version {} is not supported; this program reads versions 1 to {} (re-run rig-learn)", version,
-                           approximationFormatVersion));
+               fmt::format("version {} is not supported; this program reads versions 1 to {} (re-run rig-learn)",
+                           version, approximationFormatVersion));
     r.checkKeys(root, "file",
-                {"format", "version", "rigFile", "rigFingerprint", "epsilon", "training", "validation", "outputs", "parameters",
-                 "discarded"},
+                {"format", "version", "rigFile", "rigFingerprint", "epsilon", "training", "validation", "outputs",
+                 "parameters", "discarded"},
                 {"droppedOutputs"});
 
     Approximation a;
@@ -491,17 +515,24 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
                 {"maxRelativeError", "worstRelativeOutput", "worstParameter", "nonFinitePoses", "withinEpsilon"});
     a.validation.poses = r.count<int>(validation["poses"], "validation.poses");
     a.validation.maxPositionErrorCm = r.nonNegative(validation["maxPositionErrorCm"], "validation.maxPositionErrorCm");
-    a.validation.meanPositionErrorCm = r.nonNegative(validation["meanPositionErrorCm"], "validation.meanPositionErrorCm");
-    a.validation.maxRotationErrorDeg = r.nonNegative(validation["maxRotationErrorDeg"], "validation.maxRotationErrorDeg");
-    a.validation.meanRotationErrorDeg = r.nonNegative(validation["meanRotationErrorDeg"], "validation.meanRotationErrorDeg");
+    a.validation.meanPositionErrorCm =
+        r.nonNegative(validation["meanPositionErrorCm"], "validation.meanPositionErrorCm");
+    a.validation.maxRotationErrorDeg =
+        r.nonNegative(validation["maxRotationErrorDeg"], "validation.maxRotationErrorDeg");
+    a.validation.meanRotationErrorDeg =
+        r.nonNegative(validation["meanRotationErrorDeg"], "validation.meanRotationErrorDeg");
     a.validation.worstOutput = r.text(validation["worstOutput"], "validation.worstOutput");
     a.validation.worstPose = r.count<int>(validation["worstPose"], "validation.worstPose", -1);
-    if (const YAML::Node n = validation["maxRelativeError"]) a.validation.maxRelativeError = r.nonNegative(n, "validation.maxRelativeError");
+    if (const YAML::Node n = validation["maxRelativeError"])
+        a.validation.maxRelativeError = r.nonNegative(n, "validation.maxRelativeError");
     if (const YAML::Node n = validation["worstRelativeOutput"])
         a.validation.worstRelativeOutput = r.text(n, "validation.worstRelativeOutput");
-    if (const YAML::Node n = validation["worstParameter"]) a.validation.worstParameter = r.text(n, "validation.worstParameter");
-    if (const YAML::Node n = validation["nonFinitePoses"]) a.validation.nonFinitePoses = r.count<int>(n, "validation.nonFinitePoses");
-    if (const YAML::Node n = validation["withinEpsilon"]) a.validation.withinEpsilon = r.boolean(n, "validation.withinEpsilon");
+    if (const YAML::Node n = validation["worstParameter"])
+        a.validation.worstParameter = r.text(n, "validation.worstParameter");
+    if (const YAML::Node n = validation["nonFinitePoses"])
+        a.validation.nonFinitePoses = r.count<int>(n, "validation.nonFinitePoses");
+    if (const YAML::Node n = validation["withinEpsilon"])
+        a.validation.withinEpsilon = r.boolean(n, "validation.withinEpsilon");
 
     std::map<std::string, int> outputIndex;
     const YAML::Node outputs = r.sequence(root["outputs"], "outputs");
@@ -517,7 +548,8 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
             const auto v = r.reals(rows[static_cast<std::size_t>(row)], field + ".rest", 4);
             for (int c = 0; c < 4; ++c) out.rest(row, c) = v[static_cast<std::size_t>(c)];
         }
-        if (const YAML::Node n = outputs[k]["validationError"]) out.validationError = r.nonNegative(n, field + ".validationError");
+        if (const YAML::Node n = outputs[k]["validationError"])
+            out.validationError = r.nonNegative(n, field + ".validationError");
         a.outputs.push_back(std::move(out));
     }
     for (std::size_t k = 0; k < outputs.size(); ++k) {
@@ -562,14 +594,17 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         for (const auto& o : r.sequence(n["outputs"], field + ".outputs")) {
             const std::string name = r.text(o, field + ".outputs");
             const auto it = outputIndex.find(name);
-            if (it == outputIndex.end()) r.fail(o, field + ".outputs", fmt::format("'{}' is not one of the outputs", name));
+            if (it == outputIndex.end())
+                r.fail(o, field + ".outputs", fmt::format("'{}' is not one of the outputs", name));
             if (!m.outputs.empty() && it->second <= m.outputs.back())
                 r.fail(o, field + ".outputs", "the outputs must be listed once each, in the order of the outputs list");
             m.outputs.push_back(it->second);
         }
-        if (m.outputs.empty()) r.fail(n["outputs"], field + ".outputs", "a modelled parameter affects at least one output");
+        if (m.outputs.empty())
+            r.fail(n["outputs"], field + ".outputs", "a modelled parameter affects at least one output");
         const YAML::Node operators = r.sequence(n["operators"], field + ".operators");
-        if (operators.size() == 0) r.fail(operators, field + ".operators", "a modelled parameter has at least one operator");
+        if (operators.size() == 0)
+            r.fail(operators, field + ".operators", "a modelled parameter has at least one operator");
         for (std::size_t o = 0; o < operators.size(); ++o)
             m.operators.push_back(r.op(operators[o], fmt::format("{}.operators[{}]", field, o)));
         const YAML::Node which = r.sequence(n["operatorOfOutput"], field + ".operatorOfOutput", m.outputs.size());
@@ -597,7 +632,8 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         DiscardedParameter x;
         x.parameter = r.parameter(discarded[d], field);
         if (!names.insert(x.parameter.name).second)
-            r.fail(discarded[d]["name"], field + ".name", fmt::format("the parameter '{}' is listed twice", x.parameter.name));
+            r.fail(discarded[d]["name"], field + ".name",
+                   fmt::format("the parameter '{}' is listed twice", x.parameter.name));
         x.reason = r.text(discarded[d]["reason"], field + ".reason");
         a.discarded.push_back(std::move(x));
     }
@@ -613,19 +649,21 @@ Approximation readApproximationFile(const std::filesystem::path& file)
         throw Error(
             fmt::format("{}: is a folder; give the approximation file (rig-learn -o writes one)", file.string()));
     if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
-        throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the approximation "
-                                                 "file (rig-learn -o writes one)",
-                                                 file.string()));
+        throw Error(
+            fmt::format("{}: is not a regular file (a device or a pipe?); give the approximation "
+                        "file (rig-learn -o writes one)",
+                        file.string()));
     if (std::filesystem::exists(status) && std::filesystem::file_size(file, ec) > approximationMaxFileBytes)
-        throw Error(fmt::format("{}: more than the {} MB an approximation file may have; it is not one, "
-                                                 "or it is damaged",
-                                                 file.string(), approximationMaxFileBytes >> 20));
+        throw Error(
+            fmt::format("{}: more than the {} MB an approximation file may have; it is not one, "
+                        "or it is damaged",
+                        file.string(), approximationMaxFileBytes >> 20));
     std::ifstream in(file, std::ios::binary);
     if (!in) {
         const int error = errno;
-        throw Error(fmt::format("{}: cannot read it ({}); {}", file.string(), std::strerror(error),
-                                                 error == ENOENT ? "check the name (rig-learn -o writes one)"
-                                                                 : "check its permissions"));
+        throw Error(
+            fmt::format("{}: cannot read it ({}); {}", file.string(), std::strerror(error),
+                        error == ENOENT ? "check the name (rig-learn -o writes one)" : "check its permissions"));
     }
     std::ostringstream s;
     s << in.rdbuf();
@@ -635,10 +673,10 @@ Approximation readApproximationFile(const std::filesystem::path& file)
 std::string checkFingerprint(const Approximation& approximation, const std::string& fingerprint, bool strict)
 {
     if (approximation.rigFingerprint == fingerprint) return {};
-    const std::string message =
-        fmt::format("the rig changed since the approximation was learned from {} (fingerprint {}, now {}); re-run "
-                    "rig-learn",
-                    approximation.rigFile, approximation.rigFingerprint, fingerprint);
+    const std::string message = fmt::format(
+        "the rig changed since the approximation was learned from {} (fingerprint {}, now {}); re-run "
+        "rig-learn",
+        approximation.rigFile, approximation.rigFingerprint, fingerprint);
     if (strict) throw Error(message);
     return message;
 }

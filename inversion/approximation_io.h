@@ -26,7 +26,8 @@ inline constexpr std::uintmax_t approximationMaxFileBytes = std::uintmax_t{256} 
 // structure is inconsistent (indices out of range): an approximation like that is a bug, not a file.
 std::string approximationToYaml(const Approximation& approximation);
 
-// Parses a file's text; `fileName` is used in messages. Throws rig::Error (user input): one line, "file:line:col: field: problem".
+// Parses a file's text; `fileName` is used in messages. Throws rig::Error (user input): one line, "file:line:col:
+// field: problem".
 Approximation approximationFromYaml(std::string_view text, const std::string& fileName);
 
 // Reads and parses a file. Throws rig::Error (also when the file cannot be read).

@@ -43,9 +43,9 @@ public:
 private:
     friend class BlockEliminationWorkspace;
 
-    std::vector<int> size_;                   // per block: its columns
-    std::vector<std::vector<int>> chain_;     // per block: itself, then its ancestors up to its root
-    std::vector<std::vector<int>> columns_;   // per block: its structure columns, in order
+    std::vector<int> size_;                  // per block: its columns
+    std::vector<std::vector<int>> chain_;    // per block: itself, then its ancestors up to its root
+    std::vector<std::vector<int>> columns_;  // per block: its structure columns, in order
     std::vector<int> blockOfColumn_, localOfColumn_;
     // Per block and chain entry: where that block of J^T J (the block's columns as rows, column-major)
     // starts in the flat entries.
@@ -89,9 +89,9 @@ private:
 
     const BlockElimination* e_;
     std::vector<double> entries_;
-    std::vector<double> work_;      // a copy of entries_ that the elimination overwrites (same layout)
-    std::vector<double> coupling_;    // block (b, i >= 1): T_i = F_b times work's (b, i), in the same layout
-    std::vector<double> transposed_;  // T_i^T, column-major, at the same offsets
+    std::vector<double> work_;             // a copy of entries_ that the elimination overwrites (same layout)
+    std::vector<double> coupling_;         // block (b, i >= 1): T_i = F_b times work's (b, i), in the same layout
+    std::vector<double> transposed_;       // T_i^T, column-major, at the same offsets
     std::vector<Eigen::MatrixXd> factor_;  // per block: F where S_b is singular
     std::vector<char> triangular_;         // per block: F = L^-1 (the Cholesky factor in llt_)
     std::vector<Eigen::LLT<Eigen::MatrixXd>> llt_;

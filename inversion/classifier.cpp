@@ -5,8 +5,8 @@
 #include <map>
 #include <numbers>
 
-#include <Eigen/Dense>
 #include <fmt/format.h>
+#include <Eigen/Dense>
 
 #include "core/error.h"
 #include "core/rotation_math.h"
@@ -76,8 +76,8 @@ struct Context {
     int index;
     const LearnOptions& options;
     ParameterSamples& store;
-    std::vector<int> outputs;                   // affected outputs (in their frames)
-    std::vector<Eigen::Matrix4d> rest;          // their rest matrices
+    std::vector<int> outputs;           // affected outputs (in their frames)
+    std::vector<Eigen::Matrix4d> rest;  // their rest matrices
     std::vector<Eigen::Matrix4d> restInverse;
     std::map<double, std::vector<Eigen::Matrix4d>> framed;  // offset -> affected outputs in their frames
     std::vector<double> initial;  // the first, evenly spread offsets: every curve's first knots
@@ -115,7 +115,8 @@ struct Context {
         std::vector<Eigen::Matrix4d> mine;
         for (int k : outputs) {
             const int p = probe.parentOf(k);
-            mine.push_back(probe.inFrame(k, store.world(k, a, rigRest), p < 0 ? rigRest[0] : store.world(p, a, rigRest)));
+            mine.push_back(
+                probe.inFrame(k, store.world(k, a, rigRest), p < 0 ? rigRest[0] : store.world(p, a, rigRest)));
             nonFinite = nonFinite || !mine.back().allFinite();
         }
         return framed.emplace(a, std::move(mine)).first->second;
@@ -137,15 +138,16 @@ struct Context {
 std::vector<double> initialOffsets(double lo, double hi, int count, bool angular)
 {
     const double step = std::numbers::pi / 2;
-    auto atLeast = [&](int n, double span) { return angular ? std::max(n, static_cast<int>(std::ceil(std::abs(span) / step))) : n; };
+    auto atLeast = [&](int n, double span) {
+        return angular ? std::max(n, static_cast<int>(std::ceil(std::abs(span) / step))) : n;
+    };
     std::vector<double> offsets;
     if (lo < 0 && hi > 0) {
         const int negative = atLeast(std::max(1, count / 2), lo);
         const int positive = atLeast(std::max(1, count - count / 2), hi);
         for (int j = negative; j >= 1; --j) offsets.push_back(lo * j / negative);
         for (int j = 1; j <= positive; ++j) offsets.push_back(hi * j / positive);
-    }
-    else {
+    } else {
         const double end = hi > 0 ? hi : lo;
         const int n = atLeast(count, end);
         for (int j = 1; j <= n; ++j) offsets.push_back(end * j / n);
@@ -176,7 +178,8 @@ std::vector<OperatorKind> plausibleKinds(Context& c, const std::vector<std::size
         for (std::size_t e : entries) {
             const Eigen::Matrix3d l = linearPart(worlds[e] * c.restInverse[e]);
             identity = identity && (l - Eigen::Matrix3d::Identity()).norm() < structureTolerance;
-            rigid = rigid && (l.transpose() * l - Eigen::Matrix3d::Identity()).norm() < structureTolerance && l.determinant() > 0;
+            rigid = rigid && (l.transpose() * l - Eigen::Matrix3d::Identity()).norm() < structureTolerance &&
+                    l.determinant() > 0;
             symmetric = symmetric && (l - l.transpose()).norm() < structureTolerance;
         }
     if (identity) return {OperatorKind::translation};
@@ -234,78 +237,81 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
     std::vector<Eigen::Matrix3d> rows;
     std::vector<Eigen::Vector3d> rhs;
     switch (kind) {
-    case OperatorKind::translation: {
-        const Eigen::Vector3d t = dWide.block<3, 1>(0, 3);
-        if (t.norm() < 1e-12) return false;
-        op.axis = t.normalized() * (widest < 0 ? -1.0 : 1.0);
-        for (const auto& entry : c.all()) magnitudes[entry.first] = c.delta(entry.first, e0).block<3, 1>(0, 3).dot(op.axis);
-        return true;
-    }
-    case OperatorKind::rotation: {
-        // The axis from the sample of largest angle short of half a turn, where the rotation vector's
-        // direction is unambiguous (at half a turn its sign is arbitrary); its magnitude has the sign of
-        // its offset.
-        double reference = 0.0, referenceAngle = -1.0;
-        Eigen::Vector3d r = Eigen::Vector3d::Zero();
-        for (const auto& entry : c.all()) {
-            const Eigen::Vector3d v = rotationVector(linearPart(c.delta(entry.first, e0)));
-            const double angle = v.norm();
-            const bool better = angle <= 0.9 * std::numbers::pi ? (referenceAngle > 0.9 * std::numbers::pi || angle > referenceAngle)
-                                                                 : referenceAngle < 0.0;
-            if (better) {
-                reference = entry.first;
-                referenceAngle = angle;
-                r = v;
-            }
+        case OperatorKind::translation: {
+            const Eigen::Vector3d t = dWide.block<3, 1>(0, 3);
+            if (t.norm() < 1e-12) return false;
+            op.axis = t.normalized() * (widest < 0 ? -1.0 : 1.0);
+            for (const auto& entry : c.all())
+                magnitudes[entry.first] = c.delta(entry.first, e0).block<3, 1>(0, 3).dot(op.axis);
+            return true;
         }
-        if (r.norm() < 1e-12) return false;
-        op.axis = r.normalized() * (reference < 0 ? -1.0 : 1.0);
-        for (const auto& entry : c.all()) {
-            const Eigen::Matrix4d d = c.delta(entry.first, e0);
-            magnitudes[entry.first] = rotationVector(linearPart(d)).dot(op.axis);
-            for (std::size_t e : entries) {
-                const Eigen::Matrix4d de = c.delta(entry.first, e);
-                rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
-                rhs.push_back(de.block<3, 1>(0, 3));
+        case OperatorKind::rotation: {
+            // The axis from the sample of largest angle short of half a turn, where the rotation vector's
+            // direction is unambiguous (at half a turn its sign is arbitrary); its magnitude has the sign of
+            // its offset.
+            double reference = 0.0, referenceAngle = -1.0;
+            Eigen::Vector3d r = Eigen::Vector3d::Zero();
+            for (const auto& entry : c.all()) {
+                const Eigen::Vector3d v = rotationVector(linearPart(c.delta(entry.first, e0)));
+                const double angle = v.norm();
+                const bool better = angle <= 0.9 * std::numbers::pi
+                                        ? (referenceAngle > 0.9 * std::numbers::pi || angle > referenceAngle)
+                                        : referenceAngle < 0.0;
+                if (better) {
+                    reference = entry.first;
+                    referenceAngle = angle;
+                    r = v;
+                }
             }
-        }
-        unwrapAngles(magnitudes);
-        op.pivot = solvePivot(rows, rhs, near);
-        return true;
-    }
-    case OperatorKind::axisScale: {
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(linearPart(dWide) - Eigen::Matrix3d::Identity());
-        int k = 0;
-        eig.eigenvalues().cwiseAbs().maxCoeff(&k);
-        if (std::abs(eig.eigenvalues()[k]) < 1e-12) return false;
-        op.axis = eig.eigenvectors().col(k).normalized();
-        for (const auto& entry : c.all()) {
-            const Eigen::Matrix4d d = c.delta(entry.first, e0);
-            magnitudes[entry.first] = op.axis.dot((linearPart(d) - Eigen::Matrix3d::Identity()) * op.axis);
-            for (std::size_t e : entries) {
-                const Eigen::Matrix4d de = c.delta(entry.first, e);
-                rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
-                rhs.push_back(de.block<3, 1>(0, 3));
+            if (r.norm() < 1e-12) return false;
+            op.axis = r.normalized() * (reference < 0 ? -1.0 : 1.0);
+            for (const auto& entry : c.all()) {
+                const Eigen::Matrix4d d = c.delta(entry.first, e0);
+                magnitudes[entry.first] = rotationVector(linearPart(d)).dot(op.axis);
+                for (std::size_t e : entries) {
+                    const Eigen::Matrix4d de = c.delta(entry.first, e);
+                    rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
+                    rhs.push_back(de.block<3, 1>(0, 3));
+                }
             }
+            unwrapAngles(magnitudes);
+            op.pivot = solvePivot(rows, rhs, near);
+            return true;
         }
-        op.pivot = solvePivot(rows, rhs, near);
-        return true;
-    }
-    case OperatorKind::uniformScale: {
-        for (const auto& entry : c.all()) {
-            const Eigen::Matrix4d d = c.delta(entry.first, e0);
-            magnitudes[entry.first] = linearPart(d).trace() / 3.0 - 1.0;
-            for (std::size_t e : entries) {
-                const Eigen::Matrix4d de = c.delta(entry.first, e);
-                rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
-                rhs.push_back(de.block<3, 1>(0, 3));
+        case OperatorKind::axisScale: {
+            const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(linearPart(dWide) - Eigen::Matrix3d::Identity());
+            int k = 0;
+            eig.eigenvalues().cwiseAbs().maxCoeff(&k);
+            if (std::abs(eig.eigenvalues()[k]) < 1e-12) return false;
+            op.axis = eig.eigenvectors().col(k).normalized();
+            for (const auto& entry : c.all()) {
+                const Eigen::Matrix4d d = c.delta(entry.first, e0);
+                magnitudes[entry.first] = op.axis.dot((linearPart(d) - Eigen::Matrix3d::Identity()) * op.axis);
+                for (std::size_t e : entries) {
+                    const Eigen::Matrix4d de = c.delta(entry.first, e);
+                    rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
+                    rhs.push_back(de.block<3, 1>(0, 3));
+                }
             }
+            op.pivot = solvePivot(rows, rhs, near);
+            return true;
         }
-        if (std::abs(magnitudes[widest]) < 1e-12) return false;
-        op.pivot = solvePivot(rows, rhs, near);
-        return true;
-    }
-    default: return false;
+        case OperatorKind::uniformScale: {
+            for (const auto& entry : c.all()) {
+                const Eigen::Matrix4d d = c.delta(entry.first, e0);
+                magnitudes[entry.first] = linearPart(d).trace() / 3.0 - 1.0;
+                for (std::size_t e : entries) {
+                    const Eigen::Matrix4d de = c.delta(entry.first, e);
+                    rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
+                    rhs.push_back(de.block<3, 1>(0, 3));
+                }
+            }
+            if (std::abs(magnitudes[widest]) < 1e-12) return false;
+            op.pivot = solvePivot(rows, rhs, near);
+            return true;
+        }
+        default:
+            return false;
     }
 }
 
@@ -488,8 +494,7 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
             for (auto i = zero - 1; i >= 0; --i)
                 ys[static_cast<std::size_t>(i)] = value(i, ys[static_cast<std::size_t>(i + 1)].head<3>());
             op.rigid = CubicSpline<6>(xs, ys);
-        }
-        else {
+        } else {
             std::vector<CubicSpline<12>::Vector> ys;
             for (double a : xs) {
                 CubicSpline<12>::Vector v = CubicSpline<12>::Vector::Zero();
@@ -515,7 +520,9 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
 std::vector<std::pair<double, double>> flatRanges(Context& c, const std::vector<Eigen::Matrix4d>& restFramed)
 {
     // References stay valid: the samples are kept in a std::map, which never moves its elements.
-    auto worldsAt = [&](double a) -> const std::vector<Eigen::Matrix4d>& { return a == 0.0 ? restFramed : c.sample(a); };
+    auto worldsAt = [&](double a) -> const std::vector<Eigen::Matrix4d>& {
+        return a == 0.0 ? restFramed : c.sample(a);
+    };
     auto same = [&](double a, double b) {
         const auto& wa = worldsAt(a);
         const auto& wb = worldsAt(b);
@@ -594,8 +601,8 @@ namespace {
 // Phase 1 of classifying a parameter, from its first samples: the outputs they show history-dependent
 // (marked in `state`), then its reach and largest raw effect. False, with the reason, when the rig gives
 // a non-finite matrix.
-bool measureEffect(RigProbe& probe, const RigParameter& parameter, const std::vector<double>& offsets,
-                   RigState& state, ParameterSamples& samples, const LearnOptions& options, Classification& result)
+bool measureEffect(RigProbe& probe, const RigParameter& parameter, const std::vector<double>& offsets, RigState& state,
+                   ParameterSamples& samples, const LearnOptions& options, Classification& result)
 {
     const auto& outputNames = probe.rig().outputs();
     const auto& rest = probe.rest();
@@ -606,10 +613,10 @@ bool measureEffect(RigProbe& probe, const RigParameter& parameter, const std::ve
             // Its value depends on earlier evaluations: no parameter can be modelled on it.
             state.unreliable[k] = 1;
             if (samples.historyDependent.empty())
-                samples.historyDependent =
-                    fmt::format("history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
-                                "(its outputs depend on earlier evaluations, not on the parameters alone)",
-                                outputNames[k], moved);
+                samples.historyDependent = fmt::format(
+                    "history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
+                    "(its outputs depend on earlier evaluations, not on the parameters alone)",
+                    outputNames[k], moved);
         }
     }
 
@@ -619,12 +626,13 @@ bool measureEffect(RigProbe& probe, const RigParameter& parameter, const std::ve
         double raw = 0.0;
         for (double a : offsets) {
             if (!samples.world(kk, a, rest).allFinite()) {
-                result.reason = fmt::format("the rig gives a non-finite matrix for {} at {} = {:g}{} (a zero scale or a "
-                                            "singular matrix?); give it a range where the rig is defined",
-                                            outputNames[k], parameter.name,
-                                            parameter.angular ? (parameter.defaultValue + a) * 180.0 / std::numbers::pi
-                                                              : parameter.defaultValue + a,
-                                            parameter.angular ? " degrees" : "");
+                result.reason = fmt::format(
+                    "the rig gives a non-finite matrix for {} at {} = {:g}{} (a zero scale or a "
+                    "singular matrix?); give it a range where the rig is defined",
+                    outputNames[k], parameter.name,
+                    parameter.angular ? (parameter.defaultValue + a) * 180.0 / std::numbers::pi
+                                      : parameter.defaultValue + a,
+                    parameter.angular ? " degrees" : "");
                 return false;
             }
             raw = std::max(raw, matrixError(samples.world(kk, a, rest), rest[k], options.frameRadius));
@@ -742,22 +750,23 @@ void fitOperators(Context& c, const std::vector<std::string>& outputNames, const
         }
         if (!ok) {
             const auto kinds = plausibleKinds(c, one);
-            const bool rigid = std::find(kinds.begin(), kinds.end(), OperatorKind::rotation) != kinds.end()
-                               || std::find(kinds.begin(), kinds.end(), OperatorKind::translation) != kinds.end();
+            const bool rigid = std::find(kinds.begin(), kinds.end(), OperatorKind::rotation) != kinds.end() ||
+                               std::find(kinds.begin(), kinds.end(), OperatorKind::translation) != kinds.end();
             Candidate candidate;
             double candidateError = std::numeric_limits<double>::infinity();
-            ok = (rigid && trySampled(c, e, true, candidate, candidateError))
-                 || trySampled(c, e, false, candidate, candidateError);
+            ok = (rigid && trySampled(c, e, true, candidate, candidateError)) ||
+                 trySampled(c, e, false, candidate, candidateError);
             if (!ok) {
                 const std::string& output = outputNames[static_cast<std::size_t>(c.outputs[e])];
-                result.reason = c.nonFinite
-                                    ? fmt::format("the rig gives a non-finite matrix for {} within its range (a zero scale "
-                                                  "or a singular matrix?); give it a range where the rig is defined",
-                                                  output)
-                                    : fmt::format("no operator fits within epsilon {:g}: the best error is {:.3g} cm per "
-                                                  "unit on {} after {} samples",
-                                                  options.epsilon, std::min(bestError, candidateError), output,
-                                                  c.sampleCount());
+                result.reason =
+                    c.nonFinite ? fmt::format(
+                                      "the rig gives a non-finite matrix for {} within its range (a zero scale "
+                                      "or a singular matrix?); give it a range where the rig is defined",
+                                      output)
+                                : fmt::format(
+                                      "no operator fits within epsilon {:g}: the best error is {:.3g} cm per "
+                                      "unit on {} after {} samples",
+                                      options.epsilon, std::min(bestError, candidateError), output, c.sampleCount());
                 result.failedOutput = c.outputs[e];
                 result.model = ModelledParameter{};
                 result.model.parameter = parameter;

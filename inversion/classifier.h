@@ -52,7 +52,7 @@ struct ParameterSamples {
     bool taken = false;
     std::vector<int> moved;  // outputs whose raw world moves at a first sample, increasing
     std::map<double, std::vector<Eigen::Matrix4d>> worlds;  // offset -> raw world per `moved` entry
-    std::vector<Eigen::Matrix4d> restAfter;  // every output at rest again, after the first samples
+    std::vector<Eigen::Matrix4d> restAfter;                 // every output at rest again, after the first samples
     std::string historyDependent;  // what its first samples showed, if it made an output history-dependent
 
     // Raw world of output k at a sampled offset (its rest world when k does not move).

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <numbers>
 
+#include <fmt/format.h>
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
-#include <fmt/format.h>
 
 #include "core/error.h"
 #include "core/rotation_math.h"
@@ -22,9 +22,8 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
     for (const auto& joint : joints) {
         const auto it = std::find_if(approximation.outputs.begin(), approximation.outputs.end(),
                                      [&](const ApproximationOutput& o) { return o.name == joint; });
-        targets.outputOfJoint.push_back(it == approximation.outputs.end()
-                                            ? -1
-                                            : static_cast<int>(it - approximation.outputs.begin()));
+        targets.outputOfJoint.push_back(
+            it == approximation.outputs.end() ? -1 : static_cast<int>(it - approximation.outputs.begin()));
         if (targets.outputOfJoint.back() >= 0) ++targets.matchedJoints;
         else targets.unmatchedJoints.push_back(joint);
     }
@@ -49,18 +48,17 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
 void ClipInversionOptions::validate() const
 {
     solver.validate();
-    if (polishCorrections < 0)
-        throw Error(fmt::format("polishCorrections must be >= 0, got {}", polishCorrections));
-    if (restartInterval <= 0)
-        throw Error(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
+    if (polishCorrections < 0) throw Error(fmt::format("polishCorrections must be >= 0, got {}", polishCorrections));
+    if (restartInterval <= 0) throw Error(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
 }
 
 std::string ClipInversionSummary::briefReport() const
 {
-    return fmt::format("{} frames, {} converged, {} stuck; real rig: worst {:.3g} cm and {:.3g} deg ({}, frame index {}), "
-                       "mean {:.3g} cm and {:.3g} deg; {:.3g} ms per frame",
-                       frames, convergedFrames, stuckFrames, maxPositionErrorCm, maxRotationErrorDeg, worstJoint, worstFrame,
-                       meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
+    return fmt::format(
+        "{} frames, {} converged, {} stuck; real rig: worst {:.3g} cm and {:.3g} deg ({}, frame index {}), "
+        "mean {:.3g} cm and {:.3g} deg; {:.3g} ms per frame",
+        frames, convergedFrames, stuckFrames, maxPositionErrorCm, maxRotationErrorDeg, worstJoint, worstFrame,
+        meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
 }
 
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
@@ -88,16 +86,14 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     values.swap(scratch.start);
 }
 
-ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first,
-                                int last, const ClipInversionOptions& options,
-                                std::vector<std::vector<double>>& values,
+ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first, int last,
+                                const ClipInversionOptions& options, std::vector<std::vector<double>>& values,
                                 std::vector<std::vector<double>>* solvedValues)
 {
     options.validate();
     const int frameCount = static_cast<int>(targets.frames.size());
     if (first < 0 || last >= frameCount || first > last)
-        throw internalError(
-            fmt::format("frames {}..{} are not within the clip's 0..{}", first, last, frameCount - 1));
+        throw internalError(fmt::format("frames {}..{} are not within the clip's 0..{}", first, last, frameCount - 1));
     const Approximation& approximation = solver.approximation();
     const std::vector<double> rest = approximation.defaults();
 
@@ -133,7 +129,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         const SolveSummary& solve = solved.summary;
         const bool retried = solved.retried, kept = solved.kept;
         if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
-        if (options.polishCorrections > 0 && !options.frameSolve && solve.termination != TerminationType::invalidTargets)
+        if (options.polishCorrections > 0 && !options.frameSolve &&
+            solve.termination != TerminationType::invalidTargets)
             polish(solver, rig, frameTargets, current, options.polishCorrections);
         const std::span<const double> reported = continuity.next(current, restart);
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
@@ -157,8 +154,9 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
                 continue;
             }
             const double p = (worlds[o].block<3, 1>(0, 3) - frameTargets[o].world.block<3, 1>(0, 3)).norm();
-            const double r = orientationAngle(worlds[o].topLeftCorner<3, 3>(), frameTargets[o].world.topLeftCorner<3, 3>()) *
-                             180.0 / std::numbers::pi;
+            const double r =
+                orientationAngle(worlds[o].topLeftCorner<3, 3>(), frameTargets[o].world.topLeftCorner<3, 3>()) * 180.0 /
+                std::numbers::pi;
             if (!std::isfinite(p) || !std::isfinite(r)) continue;
             positionSum += p;
             rotationSum += r;
@@ -200,7 +198,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         summary.meanRotationErrorDeg = rotationSum / static_cast<double>(jointFrames);
     }
     for (std::size_t k = 0; k < stuckCount.size(); ++k)
-        if (stuckCount[k] > 0) summary.stuckJoints.push_back({approximation.outputs[k].name, stuckCount[k], stuckError[k]});
+        if (stuckCount[k] > 0)
+            summary.stuckJoints.push_back({approximation.outputs[k].name, stuckCount[k], stuckError[k]});
     std::stable_sort(summary.stuckJoints.begin(), summary.stuckJoints.end(),
                      [](const auto& a, const auto& b) { return a.worstErrorCm > b.worstErrorCm; });
     summary.msPerFrame = summary.frames > 0 ? 1000.0 * summary.solveSeconds / summary.frames : 0.0;

@@ -4,14 +4,14 @@
 //
 // Warm-start chains and chunks. Frame i (0-based in the clip) is warm-started from frame i - 1's
 // solution, except at restart frames (i a multiple of `restartInterval`), which start again from the
-// rest values, or from Solver::initialGuess on the frame's targets (`coldStart`, the default). A run over frames [first, last] therefore begins its chain at the restart frame at or before
-// `first` and solves the lead-in frames without reporting them. Angular parameters move continuously
-// inside a chain (the solver keeps a periodic control at the equivalent value nearest its warm start,
-// never whole turns away); a restart starts again from its targets, so the values reported for each
-// chain after the first are shifted as a whole by equivalences (whole turns, the other Euler solution:
-// inversion/continuity.h) to meet the frame before it. The chain is unchanged, so chunks give, bit for
-// bit, the values and per-frame errors of one run over the whole clip, provided each chunk after the
-// first continues from the values reported for the frame before its lead-in (`continueFrom`).
+// rest values, or from Solver::initialGuess on the frame's targets (`coldStart`, the default). A run over frames
+// [first, last] therefore begins its chain at the restart frame at or before `first` and solves the lead-in frames
+// without reporting them. Angular parameters move continuously inside a chain (the solver keeps a periodic control at
+// the equivalent value nearest its warm start, never whole turns away); a restart starts again from its targets, so the
+// values reported for each chain after the first are shifted as a whole by equivalences (whole turns, the other Euler
+// solution: inversion/continuity.h) to meet the frame before it. The chain is unchanged, so chunks give, bit for bit,
+// the values and per-frame errors of one run over the whole clip, provided each chunk after the first continues from
+// the values reported for the frame before its lead-in (`continueFrom`).
 
 #include <functional>
 #include <limits>
@@ -30,10 +30,10 @@ namespace rig {
 
 // Targets of a clip, matched to the approximation's outputs by name.
 struct ClipTargets {
-    std::vector<int> outputOfJoint;                 // per clip joint: its approximation output, -1 for none
-    std::vector<std::vector<JointTarget>> frames;   // [frame][output]
-    int matchedJoints = 0;                          // clip joints that are outputs
-    std::vector<std::string> unmatchedJoints;       // clip joints that are not (not targets)
+    std::vector<int> outputOfJoint;                // per clip joint: its approximation output, -1 for none
+    std::vector<std::vector<JointTarget>> frames;  // [frame][output]
+    int matchedJoints = 0;                         // clip joints that are outputs
+    std::vector<std::string> unmatchedJoints;      // clip joints that are not (not targets)
 };
 
 // Throws rig::Error when no clip joint is an output of the approximation.
@@ -50,7 +50,7 @@ inline constexpr double retryNever = std::numeric_limits<double>::infinity();
 struct ChainFrame {
     SolveSummary summary;  // of the answer kept; iterations of both solves when the second is kept
     bool retried = false;
-    bool kept = false;     // the second answer was cheaper
+    bool kept = false;  // the second answer was cheaper
 };
 struct ChainScratch {
     std::vector<double> start;  // the warm start, for the second solve
@@ -96,12 +96,12 @@ struct ClipInversionOptions {
 };
 
 struct FrameInversion {
-    int frame = 0;                      // index in the clip, 0-based
-    SolveSummary solve;                 // on the approximation
-    double positionErrorCm = 0.0;       // real rig against the targets, worst active joint
+    int frame = 0;                 // index in the clip, 0-based
+    SolveSummary solve;            // on the approximation
+    double positionErrorCm = 0.0;  // real rig against the targets, worst active joint
     double rotationErrorDeg = 0.0;
-    std::string worstJoint;             // where the position error is worst
-    std::string nonFiniteJoint;         // a joint the real rig gave a non-finite matrix for (a miss), or ""
+    std::string worstJoint;      // where the position error is worst
+    std::string nonFiniteJoint;  // a joint the real rig gave a non-finite matrix for (a miss), or ""
 };
 
 struct ClipInversionSummary {
@@ -118,16 +118,17 @@ struct ClipInversionSummary {
         double worstErrorCm = 0.0;
     };
     std::vector<StuckJoint> stuckJoints;
-    double maxPositionErrorCm = 0.0;    // real rig, over every active joint of every frame
-    double meanPositionErrorCm = 0.0;   // mean over joints and frames
+    double maxPositionErrorCm = 0.0;   // real rig, over every active joint of every frame
+    double meanPositionErrorCm = 0.0;  // mean over joints and frames
     double maxRotationErrorDeg = 0.0;
     double meanRotationErrorDeg = 0.0;
     std::string worstJoint;
-    int worstFrame = -1;                // 0-based clip index
-    double solveSeconds = 0.0;          // solver and polish time of the reported frames (lead-in and the error measurement excluded)
-    double solveCpuSeconds = 0.0;       // the same span in this thread's CPU time (steadier on a busy machine)
-    double msPerFrame = 0.0;            // solveSeconds per reported frame, ms
-    int leadInFrames = 0;               // solved before `first` to join the warm-start chain
+    int worstFrame = -1;  // 0-based clip index
+    double solveSeconds =
+        0.0;  // solver and polish time of the reported frames (lead-in and the error measurement excluded)
+    double solveCpuSeconds = 0.0;  // the same span in this thread's CPU time (steadier on a busy machine)
+    double msPerFrame = 0.0;       // solveSeconds per reported frame, ms
+    int leadInFrames = 0;          // solved before `first` to join the warm-start chain
     // Frames where the real rig gave a non-finite matrix for a joint with a target: misses, not
     // measured as errors; the first such joint and frame.
     int nonFiniteFrames = 0;
@@ -141,9 +142,8 @@ struct ClipInversionSummary {
 // frame, one value per Approximation::parameters entry (internal units). `rig` evaluates the real rig.
 // `solvedValues`, when given, receives the same rows as solved, before each chain's shift (ChainContinuity):
 // rig-batch solves a clip's chains apart and replays the shifts over them.
-ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first,
-                                int last, const ClipInversionOptions& options,
-                                std::vector<std::vector<double>>& values,
+ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first, int last,
+                                const ClipInversionOptions& options, std::vector<std::vector<double>>& values,
                                 std::vector<std::vector<double>>* solvedValues = nullptr);
 
 }  // namespace rig

@@ -113,7 +113,7 @@ ChunkShift continuityShift(const Equivalences& e, std::span<const double> previo
 {
     if (previous.size() != e.period.size() || first.size() != e.period.size())
         throw internalError(fmt::format("continuityShift: {} and {} values for {} parameters", previous.size(),
-                                                first.size(), e.period.size()));
+                                        first.size(), e.period.size()));
     ChunkShift shift = noShift(e);
     const auto turnsToward = [&](std::size_t p, double value) {
         return e.period[p] > 0 ? std::round((previous[p] - value) / e.period[p]) : 0.0;
@@ -142,8 +142,8 @@ ChunkShift continuityShift(const Equivalences& e, std::span<const double> previo
 void applyShift(const Equivalences& e, const ChunkShift& shift, std::span<const double> in, std::span<double> out)
 {
     if (in.size() != e.period.size() || out.size() != in.size())
-        throw internalError(fmt::format("applyShift: {} and {} values for {} parameters", in.size(), out.size(),
-                                                e.period.size()));
+        throw internalError(
+            fmt::format("applyShift: {} and {} values for {} parameters", in.size(), out.size(), e.period.size()));
     if (out.data() != in.data()) std::copy(in.begin(), in.end(), out.begin());
     for (std::size_t t = 0; t < e.triples.size(); ++t)
         if (shift.otherSolution[t]) otherSolution(e, e.triples[t], out);
@@ -158,8 +158,8 @@ ChainContinuity::ChainContinuity(const Equivalences& equivalences, std::span<con
       continuing_(!before.empty())
 {
     if (continuing_ && before.size() != equivalences.period.size())
-        throw Error(fmt::format("the frame before has {} values for {} parameters", before.size(),
-                                                equivalences.period.size()));
+        throw Error(
+            fmt::format("the frame before has {} values for {} parameters", before.size(), equivalences.period.size()));
     reported_.resize(equivalences.period.size());
 }
 

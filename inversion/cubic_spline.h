@@ -62,7 +62,8 @@ public:
         const double h = x_[j + 1] - x_[j];
         const double a = (x_[j + 1] - clamped) / h;
         const double b = 1.0 - a;
-        return (y_[j + 1] - y_[j]) / h - (3.0 * a * a - 1.0) / 6.0 * h * m_[j] + (3.0 * b * b - 1.0) / 6.0 * h * m_[j + 1];
+        return (y_[j + 1] - y_[j]) / h - (3.0 * a * a - 1.0) / 6.0 * h * m_[j] +
+               (3.0 * b * b - 1.0) / 6.0 * h * m_[j + 1];
     }
 
 private:

@@ -5,9 +5,9 @@
 #include <map>
 #include <tuple>
 
-#include <Eigen/Dense>
 #include <fmt/format.h>
 #include <oneapi/tbb/parallel_for.h>
+#include <Eigen/Dense>
 
 #include "core/error.h"
 #include "core/rotation_math.h"
@@ -124,7 +124,8 @@ TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& targ
 
 // --- ResidualStructure ---
 
-ResidualStructure::ResidualStructure(const Approximation& approximation, std::vector<int> columns, std::vector<int> outputs)
+ResidualStructure::ResidualStructure(const Approximation& approximation, std::vector<int> columns,
+                                     std::vector<int> outputs)
     : approximation_(&approximation), columns_(std::move(columns)), outputs_(std::move(outputs))
 {
     const int parameterCount = static_cast<int>(approximation.parameters.size());
@@ -152,9 +153,8 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
             const int k = m.outputs[e];
             if (k < 0 || k >= outputCount || e >= m.operatorOfOutput.size() || m.operatorOfOutput[e] < 0 ||
                 m.operatorOfOutput[e] >= static_cast<int>(m.operators.size()))
-                throw internalError(
-                    fmt::format("ResidualStructure: parameter {} has an inconsistent output or operator index",
-                                m.parameter.name));
+                throw internalError(fmt::format(
+                    "ResidualStructure: parameter {} has an inconsistent output or operator index", m.parameter.name));
             Link link{p, m.operatorOfOutput[e], columnOf[static_cast<std::size_t>(p)], -1};
             if (link.column >= 0) {
                 auto& known = slotOfColumnOp[static_cast<std::size_t>(link.column)];
@@ -162,8 +162,8 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
                     if (op == link.op) link.slot = slot;
                 if (link.slot < 0) {
                     link.slot = static_cast<int>(slots_.size());
-                    slots_.push_back({link.column, p, link.op,
-                                      rigidKind(m.operators[static_cast<std::size_t>(link.op)].kind)});
+                    slots_.push_back(
+                        {link.column, p, link.op, rigidKind(m.operators[static_cast<std::size_t>(link.op)].kind)});
                     known.emplace_back(link.op, link.slot);
                 }
             }
@@ -179,7 +179,8 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
             path.push_back(k);
         }
         for (auto it = path.rbegin(); it != path.rend(); ++it)
-            links[o].insert(links[o].end(), own[static_cast<std::size_t>(*it)].begin(), own[static_cast<std::size_t>(*it)].end());
+            links[o].insert(links[o].end(), own[static_cast<std::size_t>(*it)].begin(),
+                            own[static_cast<std::size_t>(*it)].end());
     }
 
     outputsOfColumn_.assign(columns_.size(), {});
@@ -190,7 +191,8 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
         chain.gaps.emplace_back();
         for (Link link : links[o]) {
             if (link.column < 0) {
-                const auto [it, added] = heldIndex.try_emplace(link.parameter, static_cast<int>(heldParameters_.size()));
+                const auto [it, added] =
+                    heldIndex.try_emplace(link.parameter, static_cast<int>(heldParameters_.size()));
                 if (added) heldParameters_.push_back(link.parameter);
                 link.held = it->second;
                 chain.gaps.back().push_back(link);
@@ -212,7 +214,8 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
     auto child = [&](int parent, const Link& link) {
         const int parameter = link.column >= 0 ? -1 : link.parameter;
         const int op = link.column >= 0 ? -1 : link.op;
-        const auto [it, added] = nodeOf.try_emplace({parent, link.slot, parameter, op}, static_cast<int>(nodes_.size()));
+        const auto [it, added] =
+            nodeOf.try_emplace({parent, link.slot, parameter, op}, static_cast<int>(nodes_.size()));
         if (added) {
             Node node;
             node.parent = parent;
@@ -220,9 +223,10 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
             node.parameter = parameter;
             node.op = op;
             const Node* up = parent < 0 ? nullptr : &nodes_[static_cast<std::size_t>(parent)];
-            node.rigid = (!up || up->rigid) && rigidKind(approximation.parameters[static_cast<std::size_t>(link.parameter)]
-                                                             .operators[static_cast<std::size_t>(link.op)]
-                                                             .kind);
+            node.rigid =
+                (!up || up->rigid) && rigidKind(approximation.parameters[static_cast<std::size_t>(link.parameter)]
+                                                    .operators[static_cast<std::size_t>(link.op)]
+                                                    .kind);
             node.constant = (!up || up->constant) && link.column < 0;
             nodes_.push_back(node);
         }
@@ -239,13 +243,14 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
         }
         outputNode_[o] = node;
         const Eigen::Matrix4d& rest = approximation.outputs[static_cast<std::size_t>(outputs_[o])].rest;
-        outputRigid_[o] = (node < 0 || nodes_[static_cast<std::size_t>(node)].rigid) &&
-                          nearlyOrthonormal(rest.block<3, 3>(0, 0));
+        outputRigid_[o] =
+            (node < 0 || nodes_[static_cast<std::size_t>(node)].rigid) && nearlyOrthonormal(rest.block<3, 3>(0, 0));
     }
 
     columnsOfOutput_.assign(outputs_.size(), {});
     for (std::size_t c = 0; c < outputsOfColumn_.size(); ++c)
-        for (const int o : outputsOfColumn_[c]) columnsOfOutput_[static_cast<std::size_t>(o)].push_back(static_cast<int>(c));
+        for (const int o : outputsOfColumn_[c])
+            columnsOfOutput_[static_cast<std::size_t>(o)].push_back(static_cast<int>(c));
     unknownUp_.assign(nodes_.size(), -1);
     twistForm_ = true;
     for (std::size_t n = 0; n < nodes_.size(); ++n) {
@@ -259,7 +264,9 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
         twistForm_ = twistForm_ && node.rigid;
     }
     const int n = columnCount();
-    const auto columnOfNode = [&](int node) { return slots_[static_cast<std::size_t>(nodes_[static_cast<std::size_t>(node)].slot)].column; };
+    const auto columnOfNode = [&](int node) {
+        return slots_[static_cast<std::size_t>(nodes_[static_cast<std::size_t>(node)].slot)].column;
+    };
     for (const int node : unknownNodes_) {
         const int c = columnOfNode(node);
         unknownColumn_.push_back(c);
@@ -318,7 +325,8 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
     if (values.size() != approx.parameters.size())
         throw internalError("ResidualWorkspace::holdParameters: one value per modelled parameter");
     // Only the parameters this structure holds: a crowd's blocks must not each copy every value.
-    for (std::size_t i = 0; i < s.heldParameters_.size(); ++i) held_[i] = values[static_cast<std::size_t>(s.heldParameters_[i])];
+    for (std::size_t i = 0; i < s.heldParameters_.size(); ++i)
+        held_[i] = values[static_cast<std::size_t>(s.heldParameters_[i])];
     chainsHeld_ = false;
     for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
         const auto& node = s.nodes_[n];
@@ -328,7 +336,9 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
                              .matrix(values[static_cast<std::size_t>(node.parameter)] - m.parameter.defaultValue)
                              .topRows<3>();
         if (node.constant)
-            nodeMatrix_[n] = node.parent < 0 ? heldMatrix_[n] : compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], heldMatrix_[n]);
+            nodeMatrix_[n] = node.parent < 0
+                                 ? heldMatrix_[n]
+                                 : compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], heldMatrix_[n]);
     }
 }
 
@@ -422,8 +432,8 @@ void ResidualWorkspace::evaluateTree()
     for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
         const auto& node = s.nodes_[n];
         if (node.constant) continue;
-        const Affine item = node.slot >= 0 ? Affine(slotMatrix_[static_cast<std::size_t>(node.slot)].topRows<3>())
-                                           : heldMatrix_[n];
+        const Affine item =
+            node.slot >= 0 ? Affine(slotMatrix_[static_cast<std::size_t>(node.slot)].topRows<3>()) : heldMatrix_[n];
         nodeMatrix_[n] = node.parent < 0 ? item : compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], item);
     }
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
@@ -529,7 +539,8 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
         const Eigen::Index row = static_cast<Eigen::Index>(rowsPerTarget * o);
         for (const int n : vars) {
             const Affine& xi = velocity_[static_cast<std::size_t>(n)];
-            const Eigen::Index column = s.slots_[static_cast<std::size_t>(s.nodes_[static_cast<std::size_t>(n)].slot)].column;
+            const Eigen::Index column =
+                s.slots_[static_cast<std::size_t>(s.nodes_[static_cast<std::size_t>(n)].slot)].column;
             // += : a control spread over relative outputs has one node per output on the path.
             jacobian.block<3, 1>(row, column) += t.positionWeight * (xi.leftCols<3>() * position + xi.col(3));
             if (rigid) {
@@ -588,15 +599,13 @@ void ResidualWorkspace::useLayout(std::span<const int> layout)
     const auto& s = *structure_;
     const std::size_t n = static_cast<std::size_t>(s.columnCount());
     if (!layout.empty() && layout.size() != n * n)
-        throw internalError(
-            fmt::format("ResidualWorkspace::useLayout: {} entries for {} columns", layout.size(), n));
+        throw internalError(fmt::format("ResidualWorkspace::useLayout: {} entries for {} columns", layout.size(), n));
     layout_.assign(layout.begin(), layout.end());
     pairTarget_ = s.pairOffset_;
     if (layout_.empty()) return;
     for (int& target : pairTarget_) {
         target = layout_[static_cast<std::size_t>(target)];
-        if (target < 0)
-            throw internalError("ResidualWorkspace::useLayout: columns that share an output have no entry");
+        if (target < 0) throw internalError("ResidualWorkspace::useLayout: columns that share an output have no entry");
     }
 }
 
@@ -799,8 +808,8 @@ namespace {
 std::vector<int> activeOutputs(const Approximation& approximation, std::span<const JointTarget> targets)
 {
     if (targets.size() != approximation.outputs.size())
-        throw internalError(fmt::format("JacobianEvaluator: {} targets for {} outputs", targets.size(),
-                                                approximation.outputs.size()));
+        throw internalError(
+            fmt::format("JacobianEvaluator: {} targets for {} outputs", targets.size(), approximation.outputs.size()));
     std::vector<int> outputs;
     for (std::size_t k = 0; k < targets.size(); ++k)
         if (targets[k].active) outputs.push_back(static_cast<int>(k));
@@ -827,8 +836,8 @@ JacobianEvaluator::JacobianEvaluator(const Approximation& approximation, std::sp
         PreparedTarget prepared;
         const std::size_t k = static_cast<std::size_t>(outputs[o]);
         if (!prepareTarget(targets[k], rotationScaleCm, prepared))
-            throw Error(fmt::format("JacobianEvaluator: the target of {} is not usable",
-                                                    approximation.outputs[k].name));
+            throw Error(
+                fmt::format("JacobianEvaluator: the target of {} is not usable", approximation.outputs[k].name));
         workspace_.setTarget(static_cast<int>(o), prepared);
     }
 }
@@ -851,8 +860,9 @@ void JacobianEvaluator::jacobian(std::span<const double> values, JacobianMethod 
     workspace_.jacobian(values, method, finiteDifferenceStep, true, r, jacobian);
 }
 
-void JacobianEvaluator::normalEquations(std::span<const double> values, JacobianMethod method, double finiteDifferenceStep,
-                                        Eigen::VectorXd& g, Eigen::MatrixXd& h, Eigen::VectorXd& r)
+void JacobianEvaluator::normalEquations(std::span<const double> values, JacobianMethod method,
+                                        double finiteDifferenceStep, Eigen::VectorXd& g, Eigen::MatrixXd& h,
+                                        Eigen::VectorXd& r)
 {
     if (values.size() != static_cast<std::size_t>(columns()))
         throw internalError("JacobianEvaluator: one value per modelled parameter");
@@ -864,7 +874,8 @@ void JacobianEvaluator::normalEquations(std::span<const double> values, Jacobian
     workspace_.normalEquations(values, method, finiteDifferenceStep, true, r, g, entries, jacobian);
 }
 
-void JacobianEvaluator::jacobianFromSuffixes(std::span<const double> values, Eigen::MatrixXd& jacobian, Eigen::VectorXd& r)
+void JacobianEvaluator::jacobianFromSuffixes(std::span<const double> values, Eigen::MatrixXd& jacobian,
+                                             Eigen::VectorXd& r)
 {
     if (values.size() != static_cast<std::size_t>(columns()))
         throw internalError("JacobianEvaluator: one value per modelled parameter");

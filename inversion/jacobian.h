@@ -9,8 +9,8 @@
 // shear in a target or in the approximation's output (a stretch operator) never count as rotation. The Jacobian is
 // analytic, from the operator product F~_k = P_s1 ... P_sm F_k(0) (dF~_k/da_j = prefix_j * P_j'(a_j) *
 // suffix_j: the outputs' products share their prefixes as a tree, and prefix/suffix products are kept
-// as the fallback for singular operators; ResidualWorkspace says how), or central finite differences on the approximation
-// with its columns in parallel (oneTBB, in the caller's task arena).
+// as the fallback for singular operators; ResidualWorkspace says how), or central finite differences on the
+// approximation with its columns in parallel (oneTBB, in the caller's task arena).
 
 #include <span>
 #include <string_view>
@@ -51,7 +51,6 @@ struct PreparedTarget {
 // block too close to singular to have an orientation (smallest singular value below 1e-9 of the largest).
 bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTarget& prepared);
 
-
 // Whether a 3x3 block is too close to singular to have an orientation or an inverse: its singular values
 // (largest first) are not positive, or the smallest is below 1e-9 of the largest.
 bool nearlySingular(const Eigen::Vector3d& singularValues);
@@ -73,9 +72,9 @@ TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& targ
 //
 // Outputs' operator products share their beginnings (a hand's product starts as the wrist's), so they
 // are kept as a tree of prefixes: each node multiplies its parent's product by one operator, every
-// product is computed once per evaluation, and those of held operators alone once per holdParameters. The analytic Jacobian
-// then needs one world-space velocity per unknown node, Xi = P dM M^-1 P^-1 (P its parent's product),
-// and dW/da = Xi W for every output below it.
+// product is computed once per evaluation, and those of held operators alone once per holdParameters. The analytic
+// Jacobian then needs one world-space velocity per unknown node, Xi = P dM M^-1 P^-1 (P its parent's product), and
+// dW/da = Xi W for every output below it.
 class ResidualStructure {
 public:
     // `columns`: indices into approximation.parameters; `outputs`: indices into approximation.outputs.
@@ -89,7 +88,8 @@ public:
     int columnCount() const { return static_cast<int>(columns_.size()); }
     // Positions in outputs() of the outputs column c moves.
     const std::vector<int>& outputsOfColumn(int c) const { return outputsOfColumn_[static_cast<std::size_t>(c)]; }
-    // Whether the analytic normal equations come from twists, without the Jacobian (ResidualWorkspace::normalEquations).
+    // Whether the analytic normal equations come from twists, without the Jacobian
+    // (ResidualWorkspace::normalEquations).
     bool twistForm() const { return twistForm_; }
 
 private:
@@ -191,19 +191,21 @@ public:
     // The analytic Jacobian from prefix and suffix products along each output's own product
     // (dW/da_j = prefix_j dM_j suffix_j): what jacobian() falls back to when an operator or a product
     // is singular (no inverse for the velocity form). For tests and benchmarks.
-    void jacobianFromSuffixes(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::MatrixXd> jacobian);
+    void jacobianFromSuffixes(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r,
+                              Eigen::Ref<Eigen::MatrixXd> jacobian);
     // World matrix of output position o (in structure().outputs()) at the last evaluation.
     const Eigen::Matrix4d& world(int o) const { return worlds_[static_cast<std::size_t>(o)]; }
 
 private:
-    using Affine = Eigen::Matrix<double, 3, 4>;  // the top rows of a 4x4 whose last row is 0 0 0 1 (or 0 for a derivative)
+    using Affine =
+        Eigen::Matrix<double, 3, 4>;  // the top rows of a 4x4 whose last row is 0 0 0 1 (or 0 for a derivative)
 
     void evaluateSlots(std::span<const double> x, bool derivatives);
-    void evaluateTree();  // node products and worlds from the slot matrices
+    void evaluateTree();                               // node products and worlds from the slot matrices
     void residualRows(Eigen::Ref<Eigen::VectorXd> r);  // also the rigid outputs' quaternions
-    bool velocities();  // Xi per unknown node; false: an operator or product is singular
+    bool velocities();                                 // Xi per unknown node; false: an operator or product is singular
     void treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);  // from velocities()
-    void twists();      // twist_ per unknown node, straight from the operators (twistForm_ only)
+    void twists();  // twist_ per unknown node, straight from the operators (twistForm_ only)
     void twistNormalEquations(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
                               std::span<double> h);  // from twists(); twistForm_ only
     void holdChains();  // the flat chains' held products, computed when first needed after holdParameters
@@ -212,24 +214,24 @@ private:
     void outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobian);
 
     const ResidualStructure* structure_;
-    std::vector<double> held_;                 // per heldParameters_ entry: its value given to holdParameters
+    std::vector<double> held_;  // per heldParameters_ entry: its value given to holdParameters
     bool chainsHeld_ = false;
-    std::vector<Affine> heldMatrix_;           // per held node: its operator's matrix
-    std::vector<Affine> nodeMatrix_;           // per node: its product from the root
-    std::vector<Affine> velocity_;             // per unknown node: Xi
+    std::vector<Affine> heldMatrix_;                         // per held node: its operator's matrix
+    std::vector<Affine> nodeMatrix_;                         // per node: its product from the root
+    std::vector<Affine> velocity_;                           // per unknown node: Xi
     std::vector<Eigen::Matrix<double, 6, 1>> twist_, load_;  // per unknown node: (omega, v); sum of B_k^T r_k below
     std::vector<Eigen::Matrix<double, 6, 6>> weight_;        // per unknown node: sum of B_k^T B_k below
-    std::vector<Eigen::Matrix4d> constants_;   // per chain, C_0 .. C_v
-    std::vector<char> identity_;               // per constant: it is I (skip the product)
-    std::vector<int> constantOffset_;          // per chain
-    std::vector<PreparedTarget> targets_;      // per output position
+    std::vector<Eigen::Matrix4d> constants_;                 // per chain, C_0 .. C_v
+    std::vector<char> identity_;                             // per constant: it is I (skip the product)
+    std::vector<int> constantOffset_;                        // per chain
+    std::vector<PreparedTarget> targets_;                    // per output position
     std::vector<Eigen::Matrix4d> slotMatrix_;
     std::vector<Eigen::Matrix4d> slotDerivative_;
-    std::vector<int> layout_;       // useLayout's; empty: dense
-    std::vector<int> pairTarget_;   // per pair of the structure: its entry in h
-    std::vector<double> slotOffset_;                  // per slot: its parameter's offset a at the last evaluation
-    std::vector<Eigen::Quaterniond> quaternion_;      // per rigid output: Q_target^T Q with w >= 0 (residualRows)
-    std::vector<Eigen::Matrix4d> worlds_;      // per output position
+    std::vector<int> layout_;                     // useLayout's; empty: dense
+    std::vector<int> pairTarget_;                 // per pair of the structure: its entry in h
+    std::vector<double> slotOffset_;              // per slot: its parameter's offset a at the last evaluation
+    std::vector<Eigen::Quaterniond> quaternion_;  // per rigid output: Q_target^T Q with w >= 0 (residualRows)
+    std::vector<Eigen::Matrix4d> worlds_;         // per output position
     std::vector<Eigen::Matrix4d> prefix_;
     std::vector<Eigen::Matrix4d> suffix_;
 };

@@ -6,13 +6,13 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <set>
 #include <numbers>
 #include <random>
+#include <set>
 #include <thread>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
+#include <Eigen/Geometry>
 
 #include "core/error.h"
 #include "core/rotation_math.h"
@@ -31,7 +31,8 @@ void LearnOptions::validate() const
         throw Error(fmt::format("LearnOptions::{} = {}: {}", field, value, rule));
     };
     if (!(epsilon > 0) || !std::isfinite(epsilon)) fail("epsilon", epsilon, "must be a positive number");
-    if (!(frameRadius > 0) || !std::isfinite(frameRadius)) fail("frameRadius", frameRadius, "must be a positive number");
+    if (!(frameRadius > 0) || !std::isfinite(frameRadius))
+        fail("frameRadius", frameRadius, "must be a positive number");
     if (samples < 2) fail("samples", samples, "must be at least 2");
     if (maxSamples < samples) fail("maxSamples", maxSamples, "must be at least `samples`");
     if (!(effectTolerance > 0) || !std::isfinite(effectTolerance))
@@ -50,21 +51,25 @@ double matrixError(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b, double fr
     return worst;
 }
 
-std::vector<std::pair<int, int>> redundantParameters(const Approximation& approximation, double tolerance, double frameRadius)
+std::vector<std::pair<int, int>> redundantParameters(const Approximation& approximation, double tolerance,
+                                                     double frameRadius)
 {
     std::vector<std::pair<int, int>> pairs;
     const auto& ps = approximation.parameters;
     for (std::size_t i = 0; i < ps.size(); ++i)
         for (std::size_t j = i + 1; j < ps.size(); ++j) {
             if (ps[i].outputs != ps[j].outputs) continue;
-            const double lo = std::max(ps[i].parameter.min - ps[i].parameter.defaultValue, ps[j].parameter.min - ps[j].parameter.defaultValue);
-            const double hi = std::min(ps[i].parameter.max - ps[i].parameter.defaultValue, ps[j].parameter.max - ps[j].parameter.defaultValue);
+            const double lo = std::max(ps[i].parameter.min - ps[i].parameter.defaultValue,
+                                       ps[j].parameter.min - ps[j].parameter.defaultValue);
+            const double hi = std::min(ps[i].parameter.max - ps[i].parameter.defaultValue,
+                                       ps[j].parameter.max - ps[j].parameter.defaultValue);
             if (!(hi > lo)) continue;
             bool same = true;
             for (int s = 0; s <= 4 && same; ++s) {
                 const double a = lo + (hi - lo) * s / 4.0;
                 for (std::size_t e = 0; e < ps[i].outputs.size() && same; ++e) {
-                    const Eigen::Matrix4d& rest = approximation.outputs[static_cast<std::size_t>(ps[i].outputs[e])].rest;
+                    const Eigen::Matrix4d& rest =
+                        approximation.outputs[static_cast<std::size_t>(ps[i].outputs[e])].rest;
                     const Operator& u = ps[i].operators[static_cast<std::size_t>(ps[i].operatorOfOutput[e])];
                     const Operator& v = ps[j].operators[static_cast<std::size_t>(ps[j].operatorOfOutput[e])];
                     same = matrixError(u.matrix(a) * rest, v.matrix(a) * rest, frameRadius) <= tolerance;
@@ -147,7 +152,8 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
             const Eigen::Matrix4d& truth = truthWorlds[static_cast<std::size_t>(rigOutput[k])];
             const double position = (truth.block<3, 1>(0, 3) - approximated[k].block<3, 1>(0, 3)).norm();
             const double rotation =
-                orientationAngle(truth.topLeftCorner<3, 3>(), approximated[k].topLeftCorner<3, 3>()) * 180.0 / std::numbers::pi;
+                orientationAngle(truth.topLeftCorner<3, 3>(), approximated[k].topLeftCorner<3, 3>()) * 180.0 /
+                std::numbers::pi;
             positionSum += position;
             rotationSum += rotation;
             ++count;
@@ -164,10 +170,13 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
             int furthest = -1;  // the parameter moved furthest through its range
             for (const int p : reachedBy[k]) {
                 moved += offsets[static_cast<std::size_t>(p)];
-                if (furthest < 0 || shares[static_cast<std::size_t>(p)] > shares[static_cast<std::size_t>(furthest)]) furthest = p;
+                if (furthest < 0 || shares[static_cast<std::size_t>(p)] > shares[static_cast<std::size_t>(furthest)])
+                    furthest = p;
             }
             const double error = matrixError(truth, approximated[k], options.frameRadius);
-            const double relative = error <= 1e-12 ? 0.0 : moved > 0.0 ? error / moved : std::numeric_limits<double>::max();
+            const double relative = error <= 1e-12 ? 0.0
+                                    : moved > 0.0  ? error / moved
+                                                   : std::numeric_limits<double>::max();
             approximation.outputs[k].validationError = std::max(approximation.outputs[k].validationError, relative);
             for (const int p : reachedBy[k]) {
                 auto& v = approximation.parameters[static_cast<std::size_t>(p)].validationError;
@@ -177,10 +186,12 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
                 summary.maxRelativeError = relative;
                 summary.worstRelativeOutput = approximation.outputs[k].name;
                 summary.worstParameter =
-                    furthest < 0 ? std::string() : approximation.parameters[static_cast<std::size_t>(furthest)].parameter.name;
+                    furthest < 0 ? std::string()
+                                 : approximation.parameters[static_cast<std::size_t>(furthest)].parameter.name;
             }
         }
-        if (options.progress) options.progress("validating", static_cast<double>(pose + 1) / static_cast<double>(poses.drawn.size()));
+        if (options.progress)
+            options.progress("validating", static_cast<double>(pose + 1) / static_cast<double>(poses.drawn.size()));
     }
     if (count > 0) {
         summary.meanPositionErrorCm = positionSum / static_cast<double>(count);
@@ -192,26 +203,30 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
 
 // A parameter with no effect on its own may still change what others do (the axis of a bend that
 // turns with it): move it at a few random poses of the modelled parameters and look.
-std::string couplingReason(RigProbe& probe, const RigParameter& parameter, int index, const Approximation& approximation,
-                           const std::vector<int>& indices, const std::vector<int>& rigOutput, const LearnOptions& options)
+std::string couplingReason(RigProbe& probe, const RigParameter& parameter, int index,
+                           const Approximation& approximation, const std::vector<int>& indices,
+                           const std::vector<int>& rigOutput, const LearnOptions& options)
 {
     std::mt19937 rng(options.seed + 7919u * static_cast<std::uint32_t>(index));
     for (int pose = 0; pose < 3; ++pose) {
         std::vector<double> values = probe.defaults();
         for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
             const RigParameter& param = approximation.parameters[p].parameter;
-            values[static_cast<std::size_t>(indices[p])] = std::uniform_real_distribution<double>(param.min, param.max)(rng);
+            values[static_cast<std::size_t>(indices[p])] =
+                std::uniform_real_distribution<double>(param.min, param.max)(rng);
         }
         const std::vector<Eigen::Matrix4d> held = probe.atValues(values);
-        values[static_cast<std::size_t>(index)] = parameter.max != parameter.defaultValue ? parameter.max : parameter.min;
+        values[static_cast<std::size_t>(index)] =
+            parameter.max != parameter.defaultValue ? parameter.max : parameter.min;
         const std::vector<Eigen::Matrix4d>& moved = probe.atValues(values);
         for (std::size_t o = 0; o < rigOutput.size(); ++o) {
             const auto k = static_cast<std::size_t>(rigOutput[o]);
             const double change = matrixError(held[k], moved[k], options.frameRadius);
             if (change > options.effectTolerance)
-                return fmt::format("no effect on its own, but it changes what other parameters do (coupled: {} moved by "
-                                   "{:.3g} cm at a random pose); it is held at its rest value",
-                                   approximation.outputs[o].name, change);
+                return fmt::format(
+                    "no effect on its own, but it changes what other parameters do (coupled: {} moved by "
+                    "{:.3g} cm at a random pose); it is held at its rest value",
+                    approximation.outputs[o].name, change);
         }
     }
     return {};
@@ -260,8 +275,8 @@ std::string singularRest(const Eigen::Matrix4d& rest)
     const Eigen::Matrix3d linear = rest.block<3, 3>(0, 0);
     const Eigen::Vector3d sigma = Eigen::JacobiSVD<Eigen::Matrix3d>(linear).singularValues();
     if (nearlySingular(sigma))
-        return fmt::format("its rest world matrix is singular (singular values {:.3g}, {:.3g}, {:.3g}: a zero scale?)", sigma[0],
-                           sigma[1], sigma[2]);
+        return fmt::format("its rest world matrix is singular (singular values {:.3g}, {:.3g}, {:.3g}: a zero scale?)",
+                           sigma[0], sigma[1], sigma[2]);
     return {};
 }
 
@@ -299,7 +314,8 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
         raised.maxSamples = budgets[i];
         const LearnOptions& own = budgets[i] == options.maxSamples ? options : raised;
         pass.classes.push_back(classifyParameter(probe, static_cast<int>(i), state, samples[i], own));
-        if (options.progress) options.progress("classifying", static_cast<double>(i + 1) / static_cast<double>(parameters.size()));
+        if (options.progress)
+            options.progress("classifying", static_cast<double>(i + 1) / static_cast<double>(parameters.size()));
     }
     // Outputs found history-dependent are dropped from what was learned before they were found.
     std::vector<int> modelled;
@@ -358,14 +374,15 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     // Frames: relative to the parent output where there is one (and it is usable).
     probe.parents = options.relativeFrames ? rig.outputParents() : std::vector<int>(rest.size(), -1);
     if (probe.parents.size() != rest.size())
-        throw internalError(fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(),
-                                                rest.size()));
+        throw internalError(
+            fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(), rest.size()));
     // An output relative to one that is out of range or unreliable (found history-dependent while
     // sampling) is learned in world space. True when a frame changed.
     auto usableParents = [&] {
         bool changed = false;
         for (int& p : probe.parents)
-            if (p >= 0 && (static_cast<std::size_t>(p) >= rest.size() || state.unreliable[static_cast<std::size_t>(p)])) {
+            if (p >= 0 &&
+                (static_cast<std::size_t>(p) >= rest.size() || state.unreliable[static_cast<std::size_t>(p)])) {
                 p = -1;
                 changed = true;
             }
@@ -439,17 +456,20 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     for (const auto& c : pass.classes)
         if (!c.modelled) {
             const bool noEffect = c.reason.starts_with("no effect");
-            const std::string coupled = noEffect ? couplingReason(probe, c.model.parameter, c.index, result, pass.indices,
-                                                                  pass.rigOutput, options)
+            const std::string coupled = noEffect ? couplingReason(probe, c.model.parameter, c.index, result,
+                                                                  pass.indices, pass.rigOutput, options)
                                                  : std::string();
             reasons[c.index] = coupled.empty() ? c.reason : coupled;
         }
     for (const auto& [p, reason] : pass.order.discards) reasons[p] = reason;
-    for (const auto& [p, reason] : reasons) result.discarded.push_back({parameters[static_cast<std::size_t>(p)], reason});
+    for (const auto& [p, reason] : reasons)
+        result.discarded.push_back({parameters[static_cast<std::size_t>(p)], reason});
     for (std::size_t k = 0; k < rest.size(); ++k)
         if (state.unreliable[k] && !dropped.contains(static_cast<int>(k)))
-            dropped[static_cast<int>(k)] = "history-dependent: it does not come back to its rest pose after other samples";
-    for (const auto& [k, reason] : dropped) result.droppedOutputs.push_back({rig.outputs()[static_cast<std::size_t>(k)], reason});
+            dropped[static_cast<int>(k)] =
+                "history-dependent: it does not come back to its rest pose after other samples";
+    for (const auto& [k, reason] : dropped)
+        result.droppedOutputs.push_back({rig.outputs()[static_cast<std::size_t>(k)], reason});
     result.training.evaluations = rig.evaluationCount() - evaluationsBefore + pool.evaluationCount();
     result.training.orderEvaluations = orderEvaluations;
     result.training.orderer = std::string(ordererName(options.orderer));

@@ -92,29 +92,31 @@ Eigen::Matrix4d Operator::matrix(double a) const
 {
     a = std::clamp(a, low, high);
     switch (kind) {
-    case OperatorKind::translation: {
-        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-        m.block<3, 1>(0, 3) = magnitude(a) * axis;
-        return m;
-    }
-    case OperatorKind::rotation: return aboutPivot(Eigen::AngleAxisd(magnitude(a), axis).toRotationMatrix(), pivot);
-    case OperatorKind::axisScale:
-        return aboutPivot(Eigen::Matrix3d::Identity() + magnitude(a) * axis * axis.transpose(), pivot);
-    case OperatorKind::uniformScale: return aboutPivot((1.0 + magnitude(a)) * Eigen::Matrix3d::Identity(), pivot);
-    case OperatorKind::sampledRigid: {
-        const auto v = rigid.value(a);
-        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-        m.block<3, 3>(0, 0) = rotationFromVector(v.head<3>());
-        m.block<3, 1>(0, 3) = v.tail<3>();
-        return m;
-    }
-    case OperatorKind::sampledAffine: {
-        const auto v = affine.value(a);
-        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 4; ++c) m(r, c) += v[4 * r + c];
-        return m;
-    }
+        case OperatorKind::translation: {
+            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+            m.block<3, 1>(0, 3) = magnitude(a) * axis;
+            return m;
+        }
+        case OperatorKind::rotation:
+            return aboutPivot(Eigen::AngleAxisd(magnitude(a), axis).toRotationMatrix(), pivot);
+        case OperatorKind::axisScale:
+            return aboutPivot(Eigen::Matrix3d::Identity() + magnitude(a) * axis * axis.transpose(), pivot);
+        case OperatorKind::uniformScale:
+            return aboutPivot((1.0 + magnitude(a)) * Eigen::Matrix3d::Identity(), pivot);
+        case OperatorKind::sampledRigid: {
+            const auto v = rigid.value(a);
+            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+            m.block<3, 3>(0, 0) = rotationFromVector(v.head<3>());
+            m.block<3, 1>(0, 3) = v.tail<3>();
+            return m;
+        }
+        case OperatorKind::sampledAffine: {
+            const auto v = affine.value(a);
+            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+            for (int r = 0; r < 3; ++r)
+                for (int c = 0; c < 4; ++c) m(r, c) += v[4 * r + c];
+            return m;
+        }
     }
     return Eigen::Matrix4d::Identity();
 }
@@ -123,35 +125,35 @@ Eigen::Matrix4d Operator::derivative(double a) const
 {
     if (!acts(a)) return Eigen::Matrix4d::Zero();
     switch (kind) {
-    case OperatorKind::translation: {
-        Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
-        m.block<3, 1>(0, 3) = magnitudeDerivative(a) * axis;
-        return m;
-    }
-    case OperatorKind::rotation: {
-        const Eigen::Matrix3d r = Eigen::AngleAxisd(magnitude(a), axis).toRotationMatrix();
-        return aboutPivotDerivative(magnitudeDerivative(a) * skew(axis) * r, pivot);
-    }
-    case OperatorKind::axisScale:
-        return aboutPivotDerivative(magnitudeDerivative(a) * axis * axis.transpose(), pivot);
-    case OperatorKind::uniformScale:
-        return aboutPivotDerivative(magnitudeDerivative(a) * Eigen::Matrix3d::Identity(), pivot);
-    case OperatorKind::sampledRigid: {
-        const auto v = rigid.value(a);
-        const auto dv = rigid.derivative(a);
-        const Eigen::Vector3d omega = leftJacobian(v.head<3>()) * dv.head<3>();
-        Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
-        m.block<3, 3>(0, 0) = skew(omega) * rotationFromVector(v.head<3>());
-        m.block<3, 1>(0, 3) = dv.tail<3>();
-        return m;
-    }
-    case OperatorKind::sampledAffine: {
-        const auto dv = affine.derivative(a);
-        Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 4; ++c) m(r, c) = dv[4 * r + c];
-        return m;
-    }
+        case OperatorKind::translation: {
+            Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+            m.block<3, 1>(0, 3) = magnitudeDerivative(a) * axis;
+            return m;
+        }
+        case OperatorKind::rotation: {
+            const Eigen::Matrix3d r = Eigen::AngleAxisd(magnitude(a), axis).toRotationMatrix();
+            return aboutPivotDerivative(magnitudeDerivative(a) * skew(axis) * r, pivot);
+        }
+        case OperatorKind::axisScale:
+            return aboutPivotDerivative(magnitudeDerivative(a) * axis * axis.transpose(), pivot);
+        case OperatorKind::uniformScale:
+            return aboutPivotDerivative(magnitudeDerivative(a) * Eigen::Matrix3d::Identity(), pivot);
+        case OperatorKind::sampledRigid: {
+            const auto v = rigid.value(a);
+            const auto dv = rigid.derivative(a);
+            const Eigen::Vector3d omega = leftJacobian(v.head<3>()) * dv.head<3>();
+            Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+            m.block<3, 3>(0, 0) = skew(omega) * rotationFromVector(v.head<3>());
+            m.block<3, 1>(0, 3) = dv.tail<3>();
+            return m;
+        }
+        case OperatorKind::sampledAffine: {
+            const auto dv = affine.derivative(a);
+            Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+            for (int r = 0; r < 3; ++r)
+                for (int c = 0; c < 4; ++c) m(r, c) = dv[4 * r + c];
+            return m;
+        }
     }
     return Eigen::Matrix4d::Zero();
 }

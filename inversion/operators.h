@@ -12,8 +12,8 @@
 // The magnitude m(a) is linear (m = slope * a) or a natural cubic spline through fitted samples
 // (driven keys, aim constraints). A saturated control (a clamp) holds its operator beyond `low` and
 // `high`: P(a) = P(clamp(a, low, high)), with dP/da = 0 outside, so the fit covers only the range where
-// the control acts and no spline has to bend round a kink. Sampled operators interpolate samples of the rig's own world delta:
-// exact at the samples, and exact in between wherever the delta is itself smooth and well sampled.
+// the control acts and no spline has to bend round a kink. Sampled operators interpolate samples of the rig's own world
+// delta: exact at the samples, and exact in between wherever the delta is itself smooth and well sampled.
 
 #include <cmath>
 #include <limits>
@@ -33,13 +33,13 @@ std::optional<OperatorKind> operatorKindFromName(std::string_view name);
 
 struct Operator {
     OperatorKind kind = OperatorKind::translation;
-    Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  // unit; translation, rotation, axisScale
-    Eigen::Vector3d pivot = Eigen::Vector3d::Zero();  // rotation and the scales, world space, cm
-    double slope = 0.0;                               // linear magnitude, when `curve` is empty
-    CubicSpline<1> curve;                             // magnitude through (0, 0) and the samples
-    CubicSpline<6> rigid;                             // sampledRigid: rotation vector, translation
-    CubicSpline<12> affine;                           // sampledAffine: the 3x4 block of P - I, row by row
-    double low = -std::numeric_limits<double>::infinity();   // offsets beyond which P is held (saturation)
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitX();        // unit; translation, rotation, axisScale
+    Eigen::Vector3d pivot = Eigen::Vector3d::Zero();        // rotation and the scales, world space, cm
+    double slope = 0.0;                                     // linear magnitude, when `curve` is empty
+    CubicSpline<1> curve;                                   // magnitude through (0, 0) and the samples
+    CubicSpline<6> rigid;                                   // sampledRigid: rotation vector, translation
+    CubicSpline<12> affine;                                 // sampledAffine: the 3x4 block of P - I, row by row
+    double low = -std::numeric_limits<double>::infinity();  // offsets beyond which P is held (saturation)
     double high = std::numeric_limits<double>::infinity();
 
     bool held() const { return std::isfinite(low) || std::isfinite(high); }

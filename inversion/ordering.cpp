@@ -6,8 +6,8 @@
 #include <set>
 #include <tuple>
 
-#include <Eigen/LU>
 #include <fmt/format.h>
+#include <Eigen/LU>
 
 namespace rig {
 namespace {
@@ -16,8 +16,8 @@ enum class Relation { none, firstOuter, secondOuter, conflict };
 
 struct Verdict {
     Relation relation = Relation::none;
-    std::string detail;                // for a conflict: which outputs said what
-    std::vector<int> neitherOutputs;   // rig outputs where neither order holds
+    std::string detail;               // for a conflict: which outputs said what
+    std::vector<int> neitherOutputs;  // rig outputs where neither order holds
 };
 
 // Position of output k among a classification's affected outputs (ascending), or -1.
@@ -112,7 +112,8 @@ public:
             const Eigen::Matrix4d& fb = cq.orderWorlds[static_cast<std::size_t>(eq)];
             const Eigen::Matrix4d restInverse = rest[static_cast<std::size_t>(k)].inverse();
             const int parent = probe_.parentOf(k);
-            const Eigen::Matrix4d fab = probe_.inFrame(k, sample.worlds.at(k), parent < 0 ? rest[0] : sample.worlds.at(parent));
+            const Eigen::Matrix4d fab =
+                probe_.inFrame(k, sample.worlds.at(k), parent < 0 ? rest[0] : sample.worlds.at(parent));
             const double one = matrixError(fab, fa * restInverse * fb, options_.frameRadius);
             const double two = matrixError(fab, fb * restInverse * fa, options_.frameRadius);
             const bool ok1 = one <= tolerance, ok2 = two <= tolerance;
@@ -129,8 +130,8 @@ public:
         }
         if (!neitherAt.empty()) {
             verdict.relation = Relation::conflict;
-            verdict.detail = fmt::format("neither order holds on {} (errors {:.3g} and {:.3g} cm, tolerance {:.3g})", neitherAt,
-                                         worstOne, worstTwo, tolerance);
+            verdict.detail = fmt::format("neither order holds on {} (errors {:.3g} and {:.3g} cm, tolerance {:.3g})",
+                                         neitherAt, worstOne, worstTwo, tolerance);
         } else if (!firstAt.empty() && !secondAt.empty()) {
             verdict.relation = Relation::conflict;
             verdict.detail = fmt::format("the outputs disagree ({} needs one order, {} the other)", firstAt, secondAt);
@@ -166,8 +167,8 @@ int smaller(const std::vector<Classification>& classes, int p, int q)
 
 // The pairs to test: every pair (talk), or the pairs that share an affected output (structured; the
 // operator test then decides whether the rig is evaluated).
-std::vector<std::pair<int, int>> candidatePairs(const std::vector<Classification>& classes, const std::vector<int>& modelled,
-                                                bool everyPair)
+std::vector<std::pair<int, int>> candidatePairs(const std::vector<Classification>& classes,
+                                                const std::vector<int>& modelled, bool everyPair)
 {
     std::vector<std::pair<int, int>> pairs;
     if (everyPair) {
@@ -190,8 +191,9 @@ std::vector<std::pair<int, int>> candidatePairs(const std::vector<Classification
 
 }  // namespace
 
-OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes, const std::vector<int>& modelled,
-                            const LearnOptions& options, PairSamples& samples, const std::set<int>& distrusted)
+OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes,
+                            const std::vector<int>& modelled, const LearnOptions& options, PairSamples& samples,
+                            const std::set<int>& distrusted)
 {
     const bool everyPair = options.orderer == Orderer::talk;
     PairTests tests(probe, classes, options, distrusted, samples);
@@ -201,7 +203,8 @@ OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& 
     const auto pairs = candidatePairs(classes, modelled, everyPair);
     std::size_t done = 0;
     for (const auto& [p, q] : pairs) {
-        if (options.progress) options.progress("ordering", static_cast<double>(++done) / static_cast<double>(pairs.size()));
+        if (options.progress)
+            options.progress("ordering", static_cast<double>(++done) / static_cast<double>(pairs.size()));
         if (!alive.contains(p) || !alive.contains(q)) continue;
         const Verdict v = tests.test(p, q, everyPair);
         if (v.relation == Relation::firstOuter) next[p].insert(q);
@@ -209,8 +212,9 @@ OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& 
         if (v.relation != Relation::conflict) continue;
         const int drop = smaller(classes, p, q), keep = drop == p ? q : p;
         result.discards.emplace_back(
-            drop, fmt::format("cannot be ordered with {}: {}; the one with the smaller effect was discarded, {} was kept",
-                              nameOf(classes, keep), v.detail, nameOf(classes, keep)));
+            drop,
+            fmt::format("cannot be ordered with {}: {}; the one with the smaller effect was discarded, {} was kept",
+                        nameOf(classes, keep), v.detail, nameOf(classes, keep)));
         result.conflictOutputs.insert(result.conflictOutputs.end(), v.neitherOutputs.begin(), v.neitherOutputs.end());
         alive.erase(drop);
     }
@@ -264,9 +268,10 @@ OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& 
         std::string chain;
         for (auto it = cycle.rbegin(); it != cycle.rend(); ++it) chain += nameOf(classes, *it) + " before ";
         chain += nameOf(classes, cycle.back());
-        result.discards.emplace_back(drop, fmt::format("its order tests form a cycle ({}); the one with the smallest effect "
-                                                       "was discarded",
-                                                       chain));
+        result.discards.emplace_back(drop,
+                                     fmt::format("its order tests form a cycle ({}); the one with the smallest effect "
+                                                 "was discarded",
+                                                 chain));
         alive.erase(drop);
     }
     result.evaluations = tests.evaluations();

@@ -43,7 +43,8 @@ struct PairSamples {
 //   structured: only pairs that share an output where their learned operators do not commute (decided
 //               from the operators, without a rig evaluation), and every pair sharing an output of
 //               `distrusted` (rig outputs where that decision failed the validation: the rig decides there).
-OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes, const std::vector<int>& modelled,
-                            const LearnOptions& options, PairSamples& samples, const std::set<int>& distrusted = {});
+OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes,
+                            const std::vector<int>& modelled, const LearnOptions& options, PairSamples& samples,
+                            const std::set<int>& distrusted = {});
 
 }  // namespace rig

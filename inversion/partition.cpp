@@ -5,8 +5,8 @@
 #include <numeric>
 #include <random>
 
-#include <Eigen/SVD>
 #include <fmt/format.h>
+#include <Eigen/SVD>
 
 #include "core/error.h"
 #include "inversion/jacobian.h"
@@ -32,7 +32,7 @@ public:
             for (const int k : approximation.parameters[p].outputs)
                 if (k < 0 || static_cast<std::size_t>(k) >= outputCount)
                     throw internalError(fmt::format("partitionProblem: parameter {} names output {} of {}",
-                                                            approximation.parameters[p].parameter.name, k, outputCount));
+                                                    approximation.parameters[p].parameter.name, k, outputCount));
         // A parameter reaches the relative outputs below those it affects directly.
         const std::vector<std::vector<int>> reach = approximation.reach();
         for (std::size_t p = 0; p < parameterCount; ++p)
@@ -55,17 +55,13 @@ public:
         Partition partition;
         Group all;
         for (std::size_t p = 0; p < outputsOf_.size(); ++p) {
-            if (outputsOf_[p].empty())
-                partition.unreached.push_back(static_cast<int>(p));
-            else
-                all.parameters.push_back(static_cast<int>(p));
+            if (outputsOf_[p].empty()) partition.unreached.push_back(static_cast<int>(p));
+            else all.parameters.push_back(static_cast<int>(p));
         }
         for (std::size_t k = 0; k < parametersOf_.size(); ++k) {
             if (rows_[k] == noRows) continue;
-            if (parametersOf_[k].empty())
-                partition.fixedOutputs.push_back(static_cast<int>(k));
-            else
-                all.outputs.push_back(static_cast<int>(k));
+            if (parametersOf_[k].empty()) partition.fixedOutputs.push_back(static_cast<int>(k));
+            else all.outputs.push_back(static_cast<int>(k));
         }
         partition_ = &partition;
         if (!all.parameters.empty()) {
@@ -309,7 +305,8 @@ std::string Partition::describe(const Approximation& approximation) const
 {
     std::string out;
     for (const int root : roots) describeBlock(*this, approximation, root, 0, out);
-    if (!unreached.empty()) out += fmt::format("{} parameter(s) reach no target and are not solved\n", unreached.size());
+    if (!unreached.empty())
+        out += fmt::format("{} parameter(s) reach no target and are not solved\n", unreached.size());
     return out;
 }
 

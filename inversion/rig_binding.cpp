@@ -34,12 +34,13 @@ void RigBinding::evaluate(std::span<const double> approxValues, std::vector<Eige
 {
     if (approxValues.size() != parameterIndex_.size())
         throw internalError(fmt::format("RigBinding::evaluate: {} values for {} parameters", approxValues.size(),
-                                                parameterIndex_.size()));
+                                        parameterIndex_.size()));
     for (std::size_t p = 0; p < parameterIndex_.size(); ++p)
         rigValues_[static_cast<std::size_t>(parameterIndex_[p])] = approxValues[p];
     rig_.evaluate(rigValues_, rigWorlds_);
     worlds.resize(outputIndex_.size());
-    for (std::size_t k = 0; k < outputIndex_.size(); ++k) worlds[k] = rigWorlds_[static_cast<std::size_t>(outputIndex_[k])];
+    for (std::size_t k = 0; k < outputIndex_.size(); ++k)
+        worlds[k] = rigWorlds_[static_cast<std::size_t>(outputIndex_[k])];
 }
 
 namespace {
@@ -52,7 +53,8 @@ struct RealError {
 };
 
 RealError measure(const Approximation& approximation, const std::vector<Eigen::Matrix4d>& worlds,
-                  std::span<const JointTarget> targets, const std::vector<PreparedTarget>& prepared, double rotationScaleCm)
+                  std::span<const JointTarget> targets, const std::vector<PreparedTarget>& prepared,
+                  double rotationScaleCm)
 {
     RealError error;
     double worst = -1.0;
@@ -84,8 +86,8 @@ PolishSummary polish(const Solver& solver, RigBinding& binding, std::span<const 
         throw internalError("polish: the binding is for another approximation than the solver's");
     if (targets.size() != approximation.outputs.size() || values.size() != approximation.parameters.size())
         throw internalError(fmt::format("polish: {} targets and {} values for {} outputs and {} parameters",
-                                                targets.size(), values.size(), approximation.outputs.size(),
-                                                approximation.parameters.size()));
+                                        targets.size(), values.size(), approximation.outputs.size(),
+                                        approximation.parameters.size()));
     if (corrections < 0) throw Error(fmt::format("polish: corrections = {}: must not be negative", corrections));
 
     PolishSummary summary;

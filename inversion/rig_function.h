@@ -19,7 +19,7 @@ struct RigParameter {
     double defaultValue = 0.0;  // the rest value, internal units (radians for angles, cm)
     double min = 0.0;           // the range sampled while learning (and validated on)
     double max = 0.0;
-    bool angular = false;       // radians inside, degrees in files and reports
+    bool angular = false;  // radians inside, degrees in files and reports
     // True: min and max are the control's own limits, which the solver keeps. False: the control has
     // none (a free rotation or translation) and min..max is only a range to learn from: the solver
     // may go past it, as an animator may.

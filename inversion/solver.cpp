@@ -11,13 +11,13 @@
 #include <optional>
 #include <string>
 
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 #include <fmt/format.h>
 #include <oneapi/tbb/flow_graph.h>
 #include <oneapi/tbb/info.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include "core/error.h"
 #include "inversion/block_elimination.h"
@@ -117,7 +117,7 @@ struct BlockWorkspace {
     ResidualWorkspace residual;
     std::vector<double> x, trial;
     Eigen::VectorXd r, rTrial, hStep, g, gFree, delta, step, projected;
-    Eigen::MatrixXd J;  // formed only where the normal equations need it (ResidualWorkspace::normalEquations)
+    Eigen::MatrixXd J;       // formed only where the normal equations need it (ResidualWorkspace::normalEquations)
     Eigen::MatrixXd H;       // J^T J, lower triangle (dense step only)
     Eigen::MatrixXd damped;  // H + mu I, lower triangle: what the dense step factorizes
     Eigen::LLT<Eigen::MatrixXd> llt;
@@ -147,7 +147,8 @@ struct BlockPlan {
             return it != block.parameters.end() && *it == p ? static_cast<int>(it - block.parameters.begin()) : -1;
         };
         for (const auto& [a, b, c] : equivalences.triples)
-            if (column(a) >= 0 && column(b) >= 0 && column(c) >= 0) triples.push_back({column(a), column(b), column(c)});
+            if (column(a) >= 0 && column(b) >= 0 && column(c) >= 0)
+                triples.push_back({column(a), column(b), column(c)});
     }
     ResidualStructure structure;
     std::vector<double> lower, upper;
@@ -155,7 +156,7 @@ struct BlockPlan {
     std::vector<double> period;  // > 0: the values x and x + period give the same pose (Equivalences::period)
     std::vector<double> defaults;
     std::vector<std::array<int, 3>> triples;  // columns that are Euler angles of one rotation (Equivalences::triples)
-    bool rotationsOnly = true;  // every operator of every parameter is a rotation about a pivot
+    bool rotationsOnly = true;                // every operator of every parameter is a rotation about a pivot
     // Set for a partition's coupled solve: the blocks' step by elimination instead of one dense system.
     std::unique_ptr<BlockElimination> elimination;
     mutable Pool<BlockWorkspace> pool;
@@ -185,9 +186,8 @@ public:
     explicit BlockGraph(const Partition& partition) : start_(graph_)
     {
         for (std::size_t b = 0; b < partition.blocks.size(); ++b)
-            nodes_.push_back(std::make_unique<Node>(graph_, [this, b](const tbb::flow::continue_msg&) {
-                (*body_)(static_cast<int>(b));
-            }));
+            nodes_.push_back(std::make_unique<Node>(
+                graph_, [this, b](const tbb::flow::continue_msg&) { (*body_)(static_cast<int>(b)); }));
         for (const int root : partition.roots) tbb::flow::make_edge(start_, *nodes_[static_cast<std::size_t>(root)]);
         for (std::size_t b = 0; b < partition.blocks.size(); ++b)
             for (const int child : partition.blocks[b].children)
@@ -228,7 +228,8 @@ struct Plan {
         // One coupled system per independent tree: trees share nothing (a crowd's members), and one
         // system over all of them would only multiply the Jacobian's zeros.
         std::vector<int> treeOf(partition.blocks.size(), -1);
-        for (std::size_t t = 0; t < partition.roots.size(); ++t) treeOf[static_cast<std::size_t>(partition.roots[t])] = static_cast<int>(t);
+        for (std::size_t t = 0; t < partition.roots.size(); ++t)
+            treeOf[static_cast<std::size_t>(partition.roots[t])] = static_cast<int>(t);
         for (std::size_t b = 0; b < partition.blocks.size(); ++b)  // parents come first
             if (treeOf[b] < 0) treeOf[b] = treeOf[static_cast<std::size_t>(partition.blocks[b].parent)];
         for (std::size_t t = 0; t < partition.roots.size(); ++t) {
@@ -283,7 +284,8 @@ struct Plan {
                         step.parameters.push_back(static_cast<int>(p));
                         assigned[p] = 1;
                     }
-                if (!step.parameters.empty()) guess.push_back(std::make_unique<GuessStep>(approximation, equivalences, step));
+                if (!step.parameters.empty())
+                    guess.push_back(std::make_unique<GuessStep>(approximation, equivalences, step));
             }
         });
         return guess;
@@ -333,11 +335,16 @@ double clampTo(double v, double lo, double hi) { return std::min(std::max(v, lo)
 std::string_view terminationName(TerminationType termination)
 {
     switch (termination) {
-    case TerminationType::converged: return "converged";
-    case TerminationType::stuck: return "stuck";
-    case TerminationType::noConvergence: return "noConvergence";
-    case TerminationType::invalidTargets: return "invalidTargets";
-    case TerminationType::noTargets: return "noTargets";
+        case TerminationType::converged:
+            return "converged";
+        case TerminationType::stuck:
+            return "stuck";
+        case TerminationType::noConvergence:
+            return "noConvergence";
+        case TerminationType::invalidTargets:
+            return "invalidTargets";
+        case TerminationType::noTargets:
+            return "noTargets";
     }
     return "?";
 }
@@ -403,8 +410,8 @@ struct Solver::Impl {
         for (std::size_t k = 0; k < rows.size(); ++k)
             if (rows[k] != noRows) counted.push_back(static_cast<int>(k));
         auto made = std::make_shared<const Plan>(approximation, *equivalences,
-                                                 partitionProblem(approximation, rows, options.partition), std::move(counted),
-                                                 options.coupledBlocks);
+                                                 partitionProblem(approximation, rows, options.partition),
+                                                 std::move(counted), options.coupledBlocks);
         std::lock_guard lock(plansMutex);
         if (plans.size() >= maxCachedPlans) return made;
         return plans.emplace(key, std::move(made)).first->second;  // another thread's, if it was first
@@ -443,8 +450,8 @@ Solver::Solver(const Approximation& approximation, SolverOptions options)
         if (std::isnan(p.min) || std::isnan(p.max) || p.min > p.max)
             throw internalError(fmt::format("Solver: parameter {} has limits [{}, {}]", p.name, p.min, p.max));
         if (m.outputs.size() != m.operatorOfOutput.size())
-            throw internalError(fmt::format("Solver: parameter {} has {} outputs but {} operator indices",
-                                                    p.name, m.outputs.size(), m.operatorOfOutput.size()));
+            throw internalError(fmt::format("Solver: parameter {} has {} outputs but {} operator indices", p.name,
+                                            m.outputs.size(), m.operatorOfOutput.size()));
     }
     approximation.outputOrder();  // throws for parents out of range or in a cycle
     impl_->equivalences.emplace(approximation);
@@ -477,7 +484,7 @@ Partition Solver::partition(std::span<const JointTarget> targets) const
 {
     if (targets.size() != impl_->approximation.outputs.size())
         throw internalError(fmt::format("Solver::partition: {} targets for {} outputs", targets.size(),
-                                                impl_->approximation.outputs.size()));
+                                        impl_->approximation.outputs.size()));
     std::vector<unsigned char> rows(targets.size());
     for (std::size_t k = 0; k < targets.size(); ++k) rows[k] = countedRows(targets[k]);
     std::string key;
@@ -529,7 +536,8 @@ namespace {
 // it descends (and for at most gaussNewtonIterations), then Levenberg-Marquardt with Nielsen's damping.
 class StepControl {
 public:
-    explicit StepControl(const SolverOptions& options) : options_(options), gaussNewton_(options.gaussNewtonIterations > 0)
+    explicit StepControl(const SolverOptions& options)
+        : options_(options), gaussNewton_(options.gaussNewtonIterations > 0)
     {
     }
     bool gaussNewton() const { return gaussNewton_; }
@@ -667,8 +675,8 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
                                      std::span<double> values, bool parallel, std::span<const double> reference) const
 {
     const ResidualStructure& structure = block.structure;
-    Borrowed<BlockWorkspace> borrowed(block.pool,
-                                      [&] { return std::make_unique<BlockWorkspace>(structure, block.elimination.get()); });
+    Borrowed<BlockWorkspace> borrowed(
+        block.pool, [&] { return std::make_unique<BlockWorkspace>(structure, block.elimination.get()); });
     BlockWorkspace& w = *borrowed;
     const auto& columns = structure.columns();
     const std::size_t n = columns.size();
@@ -685,10 +693,8 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
     // and products are those of its evaluation (w.r).
     const bool reuse = o.jacobian == JacobianMethod::analytic && structure.twistForm();
     auto linearize = [&](bool atTrial) {
-        if (atTrial && reuse)
-            w.residual.normalEquationsAtLast(w.r, w.g, w.entries());
-        else
-            w.residual.normalEquations(w.x, o.jacobian, o.finiteDifferenceStep, parallel, w.r, w.g, w.entries(), w.J);
+        if (atTrial && reuse) w.residual.normalEquationsAtLast(w.r, w.g, w.entries());
+        else w.residual.normalEquations(w.x, o.jacobian, o.finiteDifferenceStep, parallel, w.r, w.g, w.entries(), w.J);
         // A non-finite J^T J with finite residuals and gradient shows in the step, which is checked.
         return w.r.allFinite() && w.g.allFinite();
     };
@@ -709,10 +715,8 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
         (gaussNewton ? result.gaussNewton : result.levenbergMarquardt) += 1;
         // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
         const auto predicted = [&] {
-            if (w.elimination)
-                w.elimination->multiply(w.step, w.hStep);
-            else
-                w.hStep.noalias() = w.H.selfadjointView<Eigen::Lower>() * w.step;
+            if (w.elimination) w.elimination->multiply(w.step, w.hStep);
+            else w.hStep.noalias() = w.H.selfadjointView<Eigen::Lower>() * w.step;
             return -(w.g.dot(w.step) + 0.5 * w.step.dot(w.hStep));
         };
         if (control.accept(cost, trialCost, smallStep, predicted)) {
@@ -743,11 +747,11 @@ bool Solver::Impl::prepare(std::span<const JointTarget> targets, std::span<const
                            std::shared_ptr<const Plan>& plan, TerminationType& termination)
 {
     if (targets.size() != approximation.outputs.size())
-        throw internalError(fmt::format("Solver::solve: {} targets for {} outputs", targets.size(),
-                                                approximation.outputs.size()));
+        throw internalError(
+            fmt::format("Solver::solve: {} targets for {} outputs", targets.size(), approximation.outputs.size()));
     if (values.size() != approximation.parameters.size())
-        throw internalError(fmt::format("Solver::solve: {} values for {} parameters", values.size(),
-                                                approximation.parameters.size()));
+        throw internalError(
+            fmt::format("Solver::solve: {} values for {} parameters", values.size(), approximation.parameters.size()));
     scratch.prepared.resize(targets.size());
     scratch.rows.resize(targets.size());
     for (std::size_t k = 0; k < targets.size(); ++k) {
@@ -762,8 +766,8 @@ bool Solver::Impl::prepare(std::span<const JointTarget> targets, std::span<const
         for (const int p : block.parameters)
             if (!std::isfinite(values[static_cast<std::size_t>(p)]))
                 throw Error(fmt::format("Solver::solve: the value of {} is {}",
-                                                        approximation.parameters[static_cast<std::size_t>(p)].parameter.name,
-                                                        values[static_cast<std::size_t>(p)]));
+                                        approximation.parameters[static_cast<std::size_t>(p)].parameter.name,
+                                        values[static_cast<std::size_t>(p)]));
     termination = TerminationType::noTargets;
     return !plan->whole.outputs().empty() && !plan->partition.blocks.empty();
 }
@@ -772,8 +776,8 @@ double Solver::Impl::unmovedPositionCost(const BlockPlan& block, std::span<const
                                          std::span<const double> values) const
 {
     const ResidualStructure& structure = block.structure;
-    Borrowed<BlockWorkspace> borrowed(block.pool,
-                                      [&] { return std::make_unique<BlockWorkspace>(structure, block.elimination.get()); });
+    Borrowed<BlockWorkspace> borrowed(
+        block.pool, [&] { return std::make_unique<BlockWorkspace>(structure, block.elimination.get()); });
     BlockWorkspace& w = *borrowed;
     w.residual.holdParameters(values);
     w.residual.setTargets(targets);
@@ -816,7 +820,8 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
         // Rotations that cannot move the output's position (every pivot at the joint, as a joint's own
         // rotate channels): its position cost is the same from every start, and a start that reaches the
         // target's rotation is as good as any.
-        const double floorCost = block.rotationsOnly ? impl.unmovedPositionCost(block, scratch->prepared, values) : -1.0;
+        const double floorCost =
+            block.rotationsOnly ? impl.unmovedPositionCost(block, scratch->prepared, values) : -1.0;
         varied.clear();
         for (std::size_t c = 0; c < columns.size() && varied.size() < maxVaried; ++c) {
             const std::size_t i = static_cast<std::size_t>(columns[c]);
@@ -961,10 +966,8 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
             Borrowed<BlockGraph> graph(plan->graphs, [&] { return std::make_unique<BlockGraph>(partition); });
             graph->run(std::function<void(int)>(solveOne));
         };
-        if (impl.arena)
-            impl.arena->execute(runAll);  // the graph is made in, and runs on, the solver's arena
-        else
-            runAll();
+        if (impl.arena) impl.arena->execute(runAll);  // the graph is made in, and runs on, the solver's arena
+        else runAll();
     }
 
     bool converged = true;
@@ -977,7 +980,6 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     measure(true);
     if (!converged) summary.termination = TerminationType::noConvergence;
     else summary.termination = summary.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
-
 }
 
 }  // namespace rig

@@ -17,10 +17,10 @@
 namespace rig {
 
 enum class TerminationType {
-    converged,       // converged to the targets: a tolerance was met in every block, every target within targetTolerance
-    stuck,           // stationary with a residual: a tolerance was met, but some target is further than targetTolerance
-                     // (out of the rig's reach, or a local minimum: SolveSummary::missedOutputs says where)
-    noConvergence,   // some block used its maxIterations (or its Jacobian stopped being finite)
+    converged,      // converged to the targets: a tolerance was met in every block, every target within targetTolerance
+    stuck,          // stationary with a residual: a tolerance was met, but some target is further than targetTolerance
+                    // (out of the rig's reach, or a local minimum: SolveSummary::missedOutputs says where)
+    noConvergence,  // some block used its maxIterations (or its Jacobian stopped being finite)
     invalidTargets,  // an active target is not usable (non-finite, negative weight, singular): values left unchanged
     noTargets,       // no active target, or no parameter reaches one: values left unchanged
 };
@@ -67,7 +67,8 @@ struct SolverOptions {
     bool coupledBlocks = true;
     // Threads for one solve: 0 uses the caller's task arena (all cores by default, and nested in a
     // caller's own tbb parallel loops), 1 runs serially without TBB, N > 1 uses the solver's own arena of
-    // N (at most the machine's cores). The values are bit-identical for every count. Many concurrent solves: use 0 or 1.
+    // N (at most the machine's cores). The values are bit-identical for every count. Many concurrent solves: use 0
+    // or 1.
     int threads = 0;
 
     // Throws rig::Error "SolverOptions::<field> = <value>: <rule>".

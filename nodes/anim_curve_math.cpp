@@ -33,8 +33,8 @@ constexpr std::array<std::pair<Infinity, std::string_view>, 5> infinityNames{{
 }};
 
 template <typename Table>
-auto lookupByName(const Table& table, std::string_view name)
-    -> std::optional<typename Table::value_type::first_type> {
+auto lookupByName(const Table& table, std::string_view name) -> std::optional<typename Table::value_type::first_type>
+{
     for (const auto& [value, entryName] : table) {
         if (entryName == name) return value;
     }
@@ -42,7 +42,8 @@ auto lookupByName(const Table& table, std::string_view name)
 }
 
 template <typename Table>
-std::string_view lookupName(const Table& table, typename Table::value_type::first_type value) {
+std::string_view lookupName(const Table& table, typename Table::value_type::first_type value)
+{
     for (const auto& [entryValue, name] : table) {
         if (entryValue == value) return name;
     }
@@ -51,13 +52,15 @@ std::string_view lookupName(const Table& table, typename Table::value_type::firs
 
 // Shortest round-trip form, so messages show "10" rather than "10.000000" and
 // never print two different values identically.
-std::string formatNumber(double value) {
+std::string formatNumber(double value)
+{
     std::array<char, 32> buffer{};
     const auto result = std::to_chars(buffer.data(), buffer.data() + buffer.size(), value);
     return std::string(buffer.data(), result.ptr);
 }
 
-void validate(const std::vector<AnimKey>& keys) {
+void validate(const std::vector<AnimKey>& keys)
+{
     for (std::size_t i = 0; i < keys.size(); ++i) {
         const std::string prefix = "key " + std::to_string(i) + ": ";
         for (const auto& [label, value] : {std::pair{"x", keys[i].x}, std::pair{"y", keys[i].y}}) {
@@ -78,7 +81,8 @@ enum class Side { in, out };
 double secant(const AnimKey& a, const AnimKey& b) { return (b.y - a.y) / (b.x - a.x); }
 
 // The slope rules documented in the header, for one side of key i.
-double resolveSlope(const std::vector<AnimKey>& keys, std::size_t i, Side side) {
+double resolveSlope(const std::vector<AnimKey>& keys, std::size_t i, Side side)
+{
     const std::size_t n = keys.size();
     if (n < 2) return 0.0;
 
@@ -89,8 +93,7 @@ double resolveSlope(const std::vector<AnimKey>& keys, std::size_t i, Side side) 
     const double after = last ? 0.0 : secant(keys[i], keys[i + 1]);
     const double towardNeighbour = first ? after : before;
     const double splineSlope =
-        end ? towardNeighbour
-            : (keys[i + 1].y - keys[i - 1].y) / (keys[i + 1].x - keys[i - 1].x);
+        end ? towardNeighbour : (keys[i + 1].y - keys[i - 1].y) / (keys[i + 1].x - keys[i - 1].x);
     // Sign tests rather than before * after, which can underflow to 0.
     const bool monotone = !end && ((before > 0.0 && after > 0.0) || (before < 0.0 && after < 0.0));
     // Keeps both Bezier control points of each adjacent segment inside its value range.
@@ -119,19 +122,16 @@ double resolveSlope(const std::vector<AnimKey>& keys, std::size_t i, Side side) 
 
 }  // namespace
 
-std::optional<TangentType> tangentTypeFromName(std::string_view name) {
-    return lookupByName(tangentNames, name);
-}
+std::optional<TangentType> tangentTypeFromName(std::string_view name) { return lookupByName(tangentNames, name); }
 
 std::string_view tangentTypeName(TangentType type) { return lookupName(tangentNames, type); }
 
-std::optional<Infinity> infinityFromName(std::string_view name) {
-    return lookupByName(infinityNames, name);
-}
+std::optional<Infinity> infinityFromName(std::string_view name) { return lookupByName(infinityNames, name); }
 
 std::string_view infinityName(Infinity mode) { return lookupName(infinityNames, mode); }
 
-AnimCurve AnimCurve::build(std::vector<AnimKey> keys, Infinity pre, Infinity post) {
+AnimCurve AnimCurve::build(std::vector<AnimKey> keys, Infinity pre, Infinity post)
+{
     validate(keys);
 
     AnimCurve curve;
@@ -161,8 +161,7 @@ AnimCurve AnimCurve::build(std::vector<AnimKey> keys, Infinity pre, Infinity pos
             const double rise = right.y - left.y;
             const double m0 = curve.outSlopes_[i] * width;
             const double m1 = curve.inSlopes_[i + 1] * width;
-            curve.segments_.push_back(
-                {width, left.y, m0, 3.0 * rise - 2.0 * m0 - m1, -2.0 * rise + m0 + m1});
+            curve.segments_.push_back({width, left.y, m0, 3.0 * rise - 2.0 * m0 - m1, -2.0 * rise + m0 + m1});
         }
     }
 
@@ -170,7 +169,8 @@ AnimCurve AnimCurve::build(std::vector<AnimKey> keys, Infinity pre, Infinity pos
     return curve;
 }
 
-double AnimCurve::evaluate(double x) const {
+double AnimCurve::evaluate(double x) const
+{
     if (keys_.empty()) return 0.0;
     const AnimKey& first = keys_.front();
     const AnimKey& last = keys_.back();
@@ -188,7 +188,8 @@ double AnimCurve::evaluate(double x) const {
     return evaluateInRange(wrapped.x) + wrapped.offset;
 }
 
-double AnimCurve::derivative(double x) const {
+double AnimCurve::derivative(double x) const
+{
     if (keys_.size() < 2) return 0.0;
     if (x >= keys_.front().x && x <= keys_.back().x) return derivativeInRange(x);
 
@@ -201,14 +202,14 @@ double AnimCurve::derivative(double x) const {
     return wrapped.mirrored ? -slope : slope;
 }
 
-AnimCurve::Wrapped AnimCurve::wrap(double x, Infinity mode, bool before) const {
+AnimCurve::Wrapped AnimCurve::wrap(double x, Infinity mode, bool before) const
+{
     const AnimKey& first = keys_.front();
     const AnimKey& last = keys_.back();
     const double period = last.x - first.x;
     // Whole periods to shift by: pre-infinity lands in (first, last], post in
     // [first, last), matching Maya at exact multiples of the period.
-    const double cycles =
-        before ? std::ceil((x - last.x) / period) : std::floor((x - first.x) / period);
+    const double cycles = before ? std::ceil((x - last.x) / period) : std::floor((x - first.x) / period);
     // Rounding in the shift can leave the result a hair outside the range.
     const double local = std::clamp(x - cycles * period, first.x, last.x);
 
@@ -222,13 +223,15 @@ AnimCurve::Wrapped AnimCurve::wrap(double x, Infinity mode, bool before) const {
     return wrapped;
 }
 
-std::size_t AnimCurve::keyIndexAtOrBefore(double x) const {
+std::size_t AnimCurve::keyIndexAtOrBefore(double x) const
+{
     const auto isBefore = [](double value, const AnimKey& key) { return value < key.x; };
     const auto after = std::upper_bound(keys_.begin(), keys_.end(), x, isBefore);
     return after == keys_.begin() ? 0 : static_cast<std::size_t>(after - keys_.begin()) - 1;
 }
 
-double AnimCurve::evaluateInRange(double x) const {
+double AnimCurve::evaluateInRange(double x) const
+{
     const std::size_t index = keyIndexAtOrBefore(x);
     // Exact key values, free of cubic rounding, and y[i] at a stepNext key.
     if (keys_[index].x == x) return keys_[index].y;
@@ -238,7 +241,8 @@ double AnimCurve::evaluateInRange(double x) const {
     return segment.c0 + t * (segment.c1 + t * (segment.c2 + t * segment.c3));
 }
 
-double AnimCurve::derivativeInRange(double x) const {
+double AnimCurve::derivativeInRange(double x) const
+{
     const std::size_t s = std::min(keyIndexAtOrBefore(x), segments_.size() - 1);
     const Segment& segment = segments_[s];
     const double t = (x - keys_[s].x) / segment.width;

@@ -30,14 +30,18 @@ std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t hash)
 
 namespace {
 
-bool globMatches(const std::string& glob, const std::string& name) { return fnmatch(glob.c_str(), name.c_str(), 0) == 0; }
+bool globMatches(const std::string& glob, const std::string& name)
+{
+    return fnmatch(glob.c_str(), name.c_str(), 0) == 0;
+}
 
 // Why a scalar plug cannot be a parameter, or "" when it can.
 std::string whyNotParameter(const Graph& g, const Plug& p)
 {
     const AttributeSpec& s = g.spec(p);
     if (!s.input) return "an output, computed by its node";
-    if (g.plugType(p) != ValueType::Double) return fmt::format("a {} value, not a number", valueTypeName(g.plugType(p)));
+    if (g.plugType(p) != ValueType::Double)
+        return fmt::format("a {} value, not a number", valueTypeName(g.plugType(p)));
     if (!s.keyable) return "not keyable (not an animator control)";
     if (const Connection* c = g.incomingConnection(p)) return fmt::format("driven by {}", g.plugName(c->source));
     return {};
@@ -72,11 +76,13 @@ std::string noPlugHint(const Graph& g, const std::string& glob)
         }
     const std::vector<std::string> candidates(attributes.begin(), attributes.end());
     const std::string suggestion = closestName(attrPart, candidates);
-    const std::string where = nodes.size() == 1 ? fmt::format("node '{}' has no keyable attribute", g.nodeName(nodes.front()))
-                                                : fmt::format("{} nodes match '{}', but none has a keyable attribute",
-                                                              nodes.size(), nodePart);
-    return fmt::format("{} matching '{}'{}", where, attrPart,
-                       suggestion.empty() ? std::string() : fmt::format("; did you mean '{}.{}'?", nodePart, suggestion));
+    const std::string where =
+        nodes.size() == 1
+            ? fmt::format("node '{}' has no keyable attribute", g.nodeName(nodes.front()))
+            : fmt::format("{} nodes match '{}', but none has a keyable attribute", nodes.size(), nodePart);
+    return fmt::format(
+        "{} matching '{}'{}", where, attrPart,
+        suggestion.empty() ? std::string() : fmt::format("; did you mean '{}.{}'?", nodePart, suggestion));
 }
 
 std::string readBytes(const std::filesystem::path& file)
@@ -124,7 +130,8 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
     const std::string rigName = rigFile.string();
 
     if (options.parameterGlobs.empty())
-        throw Error(fmt::format("{}: no parameters given; name them with plug globs such as 'L_arm_*.rotate?'", rigName));
+        throw Error(
+            fmt::format("{}: no parameters given; name them with plug globs such as 'L_arm_*.rotate?'", rigName));
     std::set<Plug> seen;
     for (const std::string& glob : options.parameterGlobs) {
         std::vector<Plug> matched;
@@ -133,11 +140,10 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                 matched.push_back(g.plug(glob));
             }
             catch (const Error& e) {
-                throw RigSelectionError(fmt::format("{}: parameter '{}': {}", rigName, glob, e.what()), "parameter", glob,
-                                        e.what());
+                throw RigSelectionError(fmt::format("{}: parameter '{}': {}", rigName, glob, e.what()), "parameter",
+                                        glob, e.what());
             }
-        }
-        else
+        } else
             for (const Plug& p : allPlugs(g))
                 if (globMatches(glob, g.plugName(p))) matched.push_back(p);
         if (matched.empty()) {
@@ -164,13 +170,17 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                 param.name = g.plugName(p);
                 param.defaultValue = toDouble(g.getValue(p));
                 param.angular = s.unit == Unit::Angle;
-                const double half = param.angular ? defaultAngleRangeDegrees * std::numbers::pi / 180.0
+                const double half = param.angular              ? defaultAngleRangeDegrees * std::numbers::pi / 180.0
                                     : s.unit == Unit::Distance ? defaultDistanceRangeCm
                                                                : defaultUnitlessRange;
                 // A scale through 0 is singular: every world matrix below it has no inverse.
                 const bool scale = s.unit == Unit::None && s.name.starts_with("scale") && param.defaultValue > 0;
-                param.min = s.min ? *s.min : scale ? param.defaultValue / defaultScaleFactor : param.defaultValue - half;
-                param.max = s.max ? *s.max : scale ? param.defaultValue * defaultScaleFactor : param.defaultValue + half;
+                param.min = s.min   ? *s.min
+                            : scale ? param.defaultValue / defaultScaleFactor
+                                    : param.defaultValue - half;
+                param.max = s.max   ? *s.max
+                            : scale ? param.defaultValue * defaultScaleFactor
+                                    : param.defaultValue + half;
                 // A declared limit binds the solver; a default range is only where learning samples.
                 param.limited = s.min.has_value() || s.max.has_value();
                 parameters_.push_back(param);
@@ -178,12 +188,14 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                 current_.push_back(param.defaultValue);
             }
         if (usable == 0 && !isGlobPattern(glob))
-            throw RigSelectionError(fmt::format("{}: parameter '{}' is {}; parameters are animator controls that nothing "
-                                                "drives",
-                                                rigName, refusedPlug, refusedWhy),
-                                    "parameter", refusedPlug, fmt::format("it is {}", refusedWhy));
+            throw RigSelectionError(
+                fmt::format("{}: parameter '{}' is {}; parameters are animator controls that nothing "
+                            "drives",
+                            rigName, refusedPlug, refusedWhy),
+                "parameter", refusedPlug, fmt::format("it is {}", refusedWhy));
         if (usable == 0) {
-            const std::string reason = fmt::format("matches no free keyable number ({} is {})", refusedPlug, refusedWhy);
+            const std::string reason =
+                fmt::format("matches no free keyable number ({} is {})", refusedPlug, refusedWhy);
             throw RigSelectionError(fmt::format("{}: parameter glob '{}' {}; parameters are animator controls that "
                                                 "nothing drives",
                                                 rigName, glob, reason),
@@ -211,8 +223,8 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
         const NodeId other = isGlobPattern(glob) ? -1 : g.findNode(glob);
         if (other >= 0) {
             const std::string reason = fmt::format("it is a {}, not a joint", g.nodeType(other).name());
-            throw RigSelectionError(fmt::format("{}: output '{}' is a {}, not a joint; outputs are joints", rigName, glob,
-                                                g.nodeType(other).name()),
+            throw RigSelectionError(fmt::format("{}: output '{}' is a {}, not a joint; outputs are joints", rigName,
+                                                glob, g.nodeType(other).name()),
                                     "output", glob, reason);
         }
         const std::string reason =
@@ -230,10 +242,17 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
 }
 
 GraphRigFunction::GraphRigFunction(const GraphRigFunction& other)
-    : graph_(other.graph_->instance()), parameters_(other.parameters_), parameterPlugs_(other.parameterPlugs_),
-      current_(other.current_), outputNames_(other.outputNames_), outputPlugs_(other.outputPlugs_),
-      outputParents_(other.outputParents_), outputWorlds_(other.outputWorlds_.size()),
-      computesSeen_(other.computesSeen_.size(), notRead), fingerprint_(other.fingerprint_), files_(other.files_)
+    : graph_(other.graph_->instance()),
+      parameters_(other.parameters_),
+      parameterPlugs_(other.parameterPlugs_),
+      current_(other.current_),
+      outputNames_(other.outputNames_),
+      outputPlugs_(other.outputPlugs_),
+      outputParents_(other.outputParents_),
+      outputWorlds_(other.outputWorlds_.size()),
+      computesSeen_(other.computesSeen_.size(), notRead),
+      fingerprint_(other.fingerprint_),
+      files_(other.files_)
 {
 }
 
@@ -247,8 +266,8 @@ void GraphRigFunction::resetState() { graph_->resetState(); }
 void GraphRigFunction::evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds)
 {
     if (values.size() != parameters_.size())
-        throw internalError(fmt::format("GraphRigFunction::evaluate: {} values for {} parameters", values.size(),
-                                                parameters_.size()));
+        throw internalError(
+            fmt::format("GraphRigFunction::evaluate: {} values for {} parameters", values.size(), parameters_.size()));
     // Only changed plugs are set: setting one dirties its downstream, and most probes move one or two.
     for (std::size_t i = 0; i < values.size(); ++i)
         if (!(values[i] == current_[i])) {

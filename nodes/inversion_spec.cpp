@@ -20,16 +20,13 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
     // Checked before reading: a folder reads as a stream error, a FIFO or a device never ends.
     std::error_code ec;
     const auto status = std::filesystem::status(file, ec);
-    if (!std::filesystem::exists(status))
-        throw Error(fmt::format("{}: no such spec file; check the path", file));
+    if (!std::filesystem::exists(status)) throw Error(fmt::format("{}: no such spec file; check the path", file));
     if (std::filesystem::is_directory(status))
-        throw Error(fmt::format("{}: is a folder; give a spec file ('params:' and 'outputs:', lists of globs)",
-                                file));
+        throw Error(fmt::format("{}: is a folder; give a spec file ('params:' and 'outputs:', lists of globs)", file));
     if (!std::filesystem::is_regular_file(status))
         throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give a spec file", file));
     std::ifstream in(file, std::ios::binary);
-    if (!in)
-        throw Error(fmt::format("{}: cannot read it ({}); check its permissions", file, std::strerror(errno)));
+    if (!in) throw Error(fmt::format("{}: cannot read it ({}); check its permissions", file, std::strerror(errno)));
     std::ostringstream text;
     text << in.rdbuf();
     YAML::Node root;
@@ -37,17 +34,16 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
         root = YAML::Load(text.str());
     }
     catch (const YAML::DeepRecursion& e) {
-        throw Error(fmt::format("{}: lists and maps nested more than {} levels deep; a spec nests two levels, so the "
-                                "file is damaged",
-                                formatMark({file, e.mark.line + 1, e.mark.column + 1}), e.depth() - 1));
+        throw Error(
+            fmt::format("{}: lists and maps nested more than {} levels deep; a spec nests two levels, so the "
+                        "file is damaged",
+                        formatMark({file, e.mark.line + 1, e.mark.column + 1}), e.depth() - 1));
     }
     catch (const YAML::ParserException& e) {
         throw Error(
             fmt::format("{}: YAML syntax error: {}", formatMark({file, e.mark.line + 1, e.mark.column + 1}), e.msg));
     }
-    const auto at = [&](const YAML::Node& n) {
-        return formatMark({file, n.Mark().line + 1, n.Mark().column + 1});
-    };
+    const auto at = [&](const YAML::Node& n) { return formatMark({file, n.Mark().line + 1, n.Mark().column + 1}); };
     if (!root.IsMap())
         throw Error(fmt::format("{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs", at(root)));
     for (const auto& entry : root) {

@@ -11,8 +11,8 @@
 namespace rig {
 
 struct InversionSpec {
-    std::vector<std::string> params;   // parameter plug globs
-    std::vector<std::string> outputs;  // output joint globs
+    std::vector<std::string> params;            // parameter plug globs
+    std::vector<std::string> outputs;           // output joint globs
     std::map<std::string, std::string> places;  // glob -> its file:line:col, for messages about it
 };
 

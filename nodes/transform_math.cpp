@@ -31,20 +31,23 @@ const OrderInfo& info(RotateOrder order) { return orderTable[static_cast<std::si
 // Below this, a length is treated as zero (scale collapse, gimbal lock).
 constexpr double tinyLength = 1e-12;
 
-Eigen::Matrix4d translation(const Eigen::Vector3d& offset) {
+Eigen::Matrix4d translation(const Eigen::Vector3d& offset)
+{
     Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
     m.topRightCorner<3, 1>() = offset;
     return m;
 }
 
-Eigen::Matrix4d embed(const Eigen::Matrix3d& linear) {
+Eigen::Matrix4d embed(const Eigen::Matrix3d& linear)
+{
     Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
     m.topLeftCorner<3, 3>() = linear;
     return m;
 }
 
 // Column-vector form of Maya's shear (transpose of its row-vector matrix).
-Eigen::Matrix3d shearMatrix(const Eigen::Vector3d& shear) {
+Eigen::Matrix3d shearMatrix(const Eigen::Vector3d& shear)
+{
     Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
     m(0, 1) = shear.x();
     m(0, 2) = shear.y();
@@ -55,7 +58,8 @@ Eigen::Matrix3d shearMatrix(const Eigen::Vector3d& shear) {
 // value shifted by a multiple of 2*pi to lie within pi of reference.
 }  // namespace
 
-std::optional<RotateOrder> rotateOrderFromName(std::string_view name) {
+std::optional<RotateOrder> rotateOrderFromName(std::string_view name)
+{
     if (name.size() != 3) return std::nullopt;
     std::array<char, 3> lower{};
     for (std::size_t i = 0; i < 3; ++i) {
@@ -68,14 +72,16 @@ std::optional<RotateOrder> rotateOrderFromName(std::string_view name) {
     return std::nullopt;
 }
 
-std::optional<RotateOrder> rotateOrderFromIndex(int index) {
+std::optional<RotateOrder> rotateOrderFromIndex(int index)
+{
     if (index < 0 || index >= static_cast<int>(orderTable.size())) return std::nullopt;
     return static_cast<RotateOrder>(index);
 }
 
 std::string_view rotateOrderName(RotateOrder order) { return info(order).name; }
 
-Eigen::Matrix3d eulerToMatrix(const Eigen::Vector3d& radians, RotateOrder order) {
+Eigen::Matrix3d eulerToMatrix(const Eigen::Vector3d& radians, RotateOrder order)
+{
     const auto& axes = info(order).axes;
     Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
     // Left-multiply so the first axis of the order acts first on column vectors.
@@ -84,7 +90,8 @@ Eigen::Matrix3d eulerToMatrix(const Eigen::Vector3d& radians, RotateOrder order)
     return m;
 }
 
-Eigen::Vector3d matrixToEuler(const Eigen::Matrix3d& rotation, RotateOrder order) {
+Eigen::Vector3d matrixToEuler(const Eigen::Matrix3d& rotation, RotateOrder order)
+{
     const auto& axes = info(order).axes;
     const double parity = info(order).parity;
     // Permuting the axes to x, y, z turns any order into xyz, with angles
@@ -108,8 +115,8 @@ Eigen::Vector3d matrixToEuler(const Eigen::Matrix3d& rotation, RotateOrder order
     return result;
 }
 
-Eigen::Vector3d closestEuler(const Eigen::Vector3d& euler, const Eigen::Vector3d& reference,
-                             RotateOrder order) {
+Eigen::Vector3d closestEuler(const Eigen::Vector3d& euler, const Eigen::Vector3d& reference, RotateOrder order)
+{
     const auto& axes = info(order).axes;
     constexpr double pi = std::numbers::pi;
 
@@ -126,21 +133,21 @@ Eigen::Vector3d closestEuler(const Eigen::Vector3d& euler, const Eigen::Vector3d
     const Eigen::Vector3d direct = wrapped(euler);
     const Eigen::Vector3d alternate = wrapped(flipped);
     // Ties keep the direct solution so results do not flicker.
-    return (alternate - reference).squaredNorm() < (direct - reference).squaredNorm() ? alternate
-                                                                                       : direct;
+    return (alternate - reference).squaredNorm() < (direct - reference).squaredNorm() ? alternate : direct;
 }
 
-Eigen::Matrix4d transformMatrix(const TransformInputs& in) {
+Eigen::Matrix4d transformMatrix(const TransformInputs& in)
+{
     const Eigen::Matrix3d rotation =
         eulerToMatrix(in.rotate, in.rotateOrder) * eulerToMatrix(in.rotateAxis, RotateOrder::xyz);
     const Eigen::Matrix3d shearScale = shearMatrix(in.shear) * in.scale.asDiagonal();
-    return translation(in.translate) * translation(in.rotatePivotTranslate) *
-           translation(in.rotatePivot) * embed(rotation) * translation(-in.rotatePivot) *
-           translation(in.scalePivotTranslate) * translation(in.scalePivot) * embed(shearScale) *
-           translation(-in.scalePivot);
+    return translation(in.translate) * translation(in.rotatePivotTranslate) * translation(in.rotatePivot) *
+           embed(rotation) * translation(-in.rotatePivot) * translation(in.scalePivotTranslate) *
+           translation(in.scalePivot) * embed(shearScale) * translation(-in.scalePivot);
 }
 
-Eigen::Matrix4d jointMatrix(const JointInputs& in) {
+Eigen::Matrix4d jointMatrix(const JointInputs& in)
+{
     Eigen::Vector3d compensation = Eigen::Vector3d::Ones();
     if (in.segmentScaleCompensate) {
         for (int axis = 0; axis < 3; ++axis) {
@@ -148,26 +155,24 @@ Eigen::Matrix4d jointMatrix(const JointInputs& in) {
             if (parentScale != 0.0) compensation[axis] = 1.0 / parentScale;
         }
     }
-    const Eigen::Matrix3d linear = compensation.asDiagonal() *
-                                   eulerToMatrix(in.jointOrient, RotateOrder::xyz) *
+    const Eigen::Matrix3d linear = compensation.asDiagonal() * eulerToMatrix(in.jointOrient, RotateOrder::xyz) *
                                    eulerToMatrix(in.rotate, in.rotateOrder) *
-                                   eulerToMatrix(in.rotateAxis, RotateOrder::xyz) *
-                                   in.scale.asDiagonal();
+                                   eulerToMatrix(in.rotateAxis, RotateOrder::xyz) * in.scale.asDiagonal();
     Eigen::Matrix4d m = embed(linear);
     m.topRightCorner<3, 1>() = in.translate;
     return m;
 }
 
-Eigen::Matrix4d composeTRS(const Eigen::Vector3d& translate, const Eigen::Vector3d& rotateRadians,
-                           RotateOrder order, const Eigen::Vector3d& scale,
-                           const Eigen::Vector3d& shear) {
-    Eigen::Matrix4d m =
-        embed(eulerToMatrix(rotateRadians, order) * shearMatrix(shear) * scale.asDiagonal());
+Eigen::Matrix4d composeTRS(const Eigen::Vector3d& translate, const Eigen::Vector3d& rotateRadians, RotateOrder order,
+                           const Eigen::Vector3d& scale, const Eigen::Vector3d& shear)
+{
+    Eigen::Matrix4d m = embed(eulerToMatrix(rotateRadians, order) * shearMatrix(shear) * scale.asDiagonal());
     m.topRightCorner<3, 1>() = translate;
     return m;
 }
 
-DecomposedMatrix decomposeMatrix(const Eigen::Matrix4d& matrix, RotateOrder order) {
+DecomposedMatrix decomposeMatrix(const Eigen::Matrix4d& matrix, RotateOrder order)
+{
     const Eigen::Matrix3d linear = matrix.topLeftCorner<3, 3>();
 
     // Gram-Schmidt on the columns gives linear = rotation * upper, where the
@@ -195,8 +200,7 @@ DecomposedMatrix decomposeMatrix(const Eigen::Matrix4d& matrix, RotateOrder orde
         rotation.col((known + 2) % 3) = rotation.col(known).cross(rotation.col(next));
     } else if (foundCount == 2) {
         const int missing = !found[0] ? 0 : (!found[1] ? 1 : 2);
-        rotation.col(missing) =
-            rotation.col((missing + 1) % 3).cross(rotation.col((missing + 2) % 3));
+        rotation.col(missing) = rotation.col((missing + 1) % 3).cross(rotation.col((missing + 2) % 3));
     }
     if (rotation.determinant() < 0.0) rotation.col(0) = -rotation.col(0);
 

@@ -32,8 +32,7 @@ Eigen::Vector3d matrixToEuler(const Eigen::Matrix3d& rotation, RotateOrder order
 // Among the rotation-equivalent triples of `euler` (2*pi multiples per axis and
 // the flipped (a + pi, pi - b, c + pi) solution in application order), the one
 // nearest to `reference`; keeps animation curves continuous.
-Eigen::Vector3d closestEuler(const Eigen::Vector3d& euler, const Eigen::Vector3d& reference,
-                             RotateOrder order);
+Eigen::Vector3d closestEuler(const Eigen::Vector3d& euler, const Eigen::Vector3d& reference, RotateOrder order);
 
 // Inputs of Maya's transform node.
 struct TransformInputs {
@@ -74,9 +73,8 @@ Eigen::Matrix4d jointMatrix(const JointInputs& inputs);
 
 // Maya's composeMatrix node: M = T * R * SH * S, shear = (xy, xz, yz) with
 // SH = [[1, xy, xz], [0, 1, yz], [0, 0, 1]] in column-vector form.
-Eigen::Matrix4d composeTRS(const Eigen::Vector3d& translate, const Eigen::Vector3d& rotateRadians,
-                           RotateOrder order, const Eigen::Vector3d& scale,
-                           const Eigen::Vector3d& shear);
+Eigen::Matrix4d composeTRS(const Eigen::Vector3d& translate, const Eigen::Vector3d& rotateRadians, RotateOrder order,
+                           const Eigen::Vector3d& scale, const Eigen::Vector3d& shear);
 
 struct DecomposedMatrix {
     Eigen::Vector3d translate = Eigen::Vector3d::Zero();

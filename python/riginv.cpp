@@ -33,26 +33,32 @@ namespace {
 py::object toPython(const cli::Json& json)
 {
     switch (json.type()) {
-    case cli::Json::value_t::null: return py::none();
-    case cli::Json::value_t::boolean: return py::bool_(json.get<bool>());
-    case cli::Json::value_t::number_integer: return py::int_(json.get<std::int64_t>());
-    case cli::Json::value_t::number_unsigned: return py::int_(json.get<std::uint64_t>());
-    case cli::Json::value_t::number_float: {
-        const double x = json.get<double>();
-        return std::isfinite(x) ? py::object(py::float_(x)) : py::object(py::none());
-    }
-    case cli::Json::value_t::string: return py::str(json.get_ref<const std::string&>());
-    case cli::Json::value_t::array: {
-        py::list list;
-        for (const auto& item : json) list.append(toPython(item));
-        return list;
-    }
-    case cli::Json::value_t::object: {
-        py::dict dict;
-        for (const auto& [key, value] : json.items()) dict[py::str(key)] = toPython(value);
-        return dict;
-    }
-    default: throw internalError("a report holds no binary JSON");
+        case cli::Json::value_t::null:
+            return py::none();
+        case cli::Json::value_t::boolean:
+            return py::bool_(json.get<bool>());
+        case cli::Json::value_t::number_integer:
+            return py::int_(json.get<std::int64_t>());
+        case cli::Json::value_t::number_unsigned:
+            return py::int_(json.get<std::uint64_t>());
+        case cli::Json::value_t::number_float: {
+            const double x = json.get<double>();
+            return std::isfinite(x) ? py::object(py::float_(x)) : py::object(py::none());
+        }
+        case cli::Json::value_t::string:
+            return py::str(json.get_ref<const std::string&>());
+        case cli::Json::value_t::array: {
+            py::list list;
+            for (const auto& item : json) list.append(toPython(item));
+            return list;
+        }
+        case cli::Json::value_t::object: {
+            py::dict dict;
+            for (const auto& [key, value] : json.items()) dict[py::str(key)] = toPython(value);
+            return dict;
+        }
+        default:
+            throw internalError("a report holds no binary JSON");
     }
 }
 
@@ -182,9 +188,10 @@ public:
                 numbers = frames.cast<std::vector<double>>();
             }
             catch (const py::cast_error&) {
-                throw py::type_error(fmt::format("frames: expected None, 'A:B[:STEP]' or a list of frame numbers; "
-                                                 "got a {}",
-                                                 typeName(frames)));
+                throw py::type_error(
+                    fmt::format("frames: expected None, 'A:B[:STEP]' or a list of frame numbers; "
+                                "got a {}",
+                                typeName(frames)));
             }
             if (numbers.empty()) throw Error("frames: an empty list; give frame numbers, or 'A:B[:STEP]'");
             for (const double frame : numbers)
@@ -329,9 +336,10 @@ public:
         if (py::isinstance<py::dict>(targets)) job.targets = targetClip(targets.cast<py::dict>());
         else if (py::isinstance<py::str>(targets) || py::hasattr(targets, "__fspath__")) job.clip = pathText(targets);
         else
-            throw py::type_error(fmt::format("targets: expected a dict from joint name to an (F, 4, 4) float64 array, "
-                                             "or a clip path (.bvh or .json); got a {}",
-                                             typeName(targets)));
+            throw py::type_error(
+                fmt::format("targets: expected a dict from joint name to an (F, 4, 4) float64 array, "
+                            "or a clip path (.bvh or .json); got a {}",
+                            typeName(targets)));
         if (!map.is_none()) job.map = pathText(map);
         job.frames = frames;
         job.settings.threads = threads;
@@ -402,9 +410,10 @@ private:
                 throw Error(fmt::format("targets: a key is a {}, not a joint name (str)", typeName(key)));
             const std::string joint = py::str(key);
             if (!py::isinstance<py::array>(value))
-                throw Error(fmt::format("targets['{}']: expected a NumPy array of shape (F, 4, 4) and dtype float64, "
-                                        "got a {}",
-                                        joint, typeName(value)));
+                throw Error(
+                    fmt::format("targets['{}']: expected a NumPy array of shape (F, 4, 4) and dtype float64, "
+                                "got a {}",
+                                joint, typeName(value)));
             const auto array = py::reinterpret_borrow<py::array>(value);
             std::vector<std::string> shape;
             for (py::ssize_t d = 0; d < array.ndim(); ++d) shape.push_back(fmt::format("{}", array.shape(d)));
@@ -413,15 +422,17 @@ private:
                 throw Error(
                     fmt::format("targets['{}']: expected an array of shape (F, 4, 4), got shape {}", joint, got));
             if (!array.dtype().is(py::dtype::of<double>()))
-                throw Error(fmt::format("targets['{}']: expected dtype float64, got {} (shape {}); convert it with "
-                                        ".astype(numpy.float64)",
-                                        joint, std::string(py::str(array.dtype())), got));
+                throw Error(
+                    fmt::format("targets['{}']: expected dtype float64, got {} (shape {}); convert it with "
+                                ".astype(numpy.float64)",
+                                joint, std::string(py::str(array.dtype())), got));
             if (array.shape(0) == 0)
                 throw Error(fmt::format("targets['{}']: no frames (shape {}); give at least one", joint, got));
             if (frames >= 0 && array.shape(0) != frames)
-                throw Error(fmt::format("targets['{}']: {} frames where targets['{}'] has {}; every joint needs the "
-                                        "same frames",
-                                        joint, array.shape(0), firstJoint, frames));
+                throw Error(
+                    fmt::format("targets['{}']: {} frames where targets['{}'] has {}; every joint needs the "
+                                "same frames",
+                                joint, array.shape(0), firstJoint, frames));
             if (frames < 0) {
                 frames = array.shape(0);
                 firstJoint = joint;
@@ -444,9 +455,9 @@ private:
     }
 
     std::shared_ptr<const Approximation> approximation_;
-    std::optional<std::string> file_;            // loaded from or saved to
+    std::optional<std::string> file_;             // loaded from or saved to
     std::shared_ptr<cli::LearnOutcome> learned_;  // what learning measured, for the report (none once loaded)
-    std::string rig_;                            // the rig file as given to learn
+    std::string rig_;                             // the rig file as given to learn
 };
 
 }  // namespace
@@ -455,13 +466,15 @@ private:
 PYBIND11_MODULE(riginv, m)
 {
     using namespace rig::python;
-    m.doc() = "Rig inversion from Python (docs/python.md): load and evaluate rig graphs, learn a rig's approximation "
-              "and invert joint targets to rig parameter curves, with NumPy arrays. The same library code as the "
-              "command lines graph-eval, rig-learn and rig-invert: the same numbers, reports and error messages.";
+    m.doc() =
+        "Rig inversion from Python (docs/python.md): load and evaluate rig graphs, learn a rig's approximation "
+        "and invert joint targets to rig parameter curves, with NumPy arrays. The same library code as the "
+        "command lines graph-eval, rig-learn and rig-invert: the same numbers, reports and error messages.";
 
     static py::exception<rig::Error> error(m, "Error");
-    error.doc() = "A user-facing error: the one-line message the command lines print after 'error: ' (a bad file, "
-                  "glob, value or option).";
+    error.doc() =
+        "A user-facing error: the one-line message the command lines print after 'error: ' (a bad file, "
+        "glob, value or option).";
     py::register_exception_translator([](std::exception_ptr p) {
         try {
             if (p) std::rethrow_exception(p);
@@ -540,9 +553,8 @@ PYBIND11_MODULE(riginv, m)
 
     m.def("learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"),
           py::arg("outputs") = std::vector<std::string>{}, py::arg("epsilon") = 0.001,
-          py::arg("orderer") = "structured",
-          py::arg("progress") = py::none(), py::kw_only(), py::arg("plugins") = std::vector<std::string>{},
-          py::arg("world_space") = false,
+          py::arg("orderer") = "structured", py::arg("progress") = py::none(), py::kw_only(),
+          py::arg("plugins") = std::vector<std::string>{}, py::arg("world_space") = false,
           "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
           "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
           "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "

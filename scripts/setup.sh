@@ -7,10 +7,10 @@ cd "$(dirname "$0")/.."
 # libceres-dev is rig-bench's peer solver only (the project builds without it; docs/performance.md). pybind11 and
 # NumPy build the Python module for Debian's /usr/bin/python3; pytest and PyYAML run its tests (docs/python.md).
 # libjs-three is the three.js rig-invert --html embeds; chromium runs that page in the tests, libpng-dev reads
-# their screenshots (docs/keys-anim-report.md).
+# their screenshots (docs/keys-anim-report.md). clang-format checks the house style (scripts/check_format.sh).
 packages=(cmake ninja-build g++ python3 libeigen3-dev libtbb-dev libyaml-cpp-dev libfmt-dev doctest-dev libcli11-dev
           nlohmann-json3-dev libceres-dev assimp-testmodels pybind11-dev python3-pybind11 python3-numpy python3-pytest
-          python3-yaml libjs-three chromium libpng-dev)
+          python3-yaml libjs-three chromium libpng-dev clang-format)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

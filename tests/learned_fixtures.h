@@ -48,7 +48,8 @@ inline const CmuSetup& cmuSetup()
         for (const auto& j : s.clip.joints) {
             outputs.push_back(j.name);
             for (const auto channel : j.channels)
-                if (bvhIsRotation(channel)) params.push_back(fmt::format("{}.rotate{}", j.name, "XYZ"[bvhChannelAxis(channel)]));
+                if (bvhIsRotation(channel))
+                    params.push_back(fmt::format("{}.rotate{}", j.name, "XYZ"[bvhChannelAxis(channel)]));
         }
         const auto r = run(fmt::format("{} {} --params{} --outputs{} -o {}", tool("rig-learn"), s.rig.string(),
                                        shellWords(params), shellWords(outputs), s.approximation.string()));

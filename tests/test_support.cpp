@@ -1,10 +1,10 @@
 #include "test_support.h"
 
+#include <sys/wait.h>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
-#include <sys/wait.h>
 
 #include <fmt/format.h>
 #include <unistd.h>

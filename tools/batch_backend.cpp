@@ -41,8 +41,8 @@ pid_t spawn(const std::vector<std::string>& args, const std::filesystem::path& l
                            : posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&actions);
     if (err != 0)
-        throw Error(fmt::format("cannot start {}: {}; check that it is installed and runnable", args[0],
-                                std::strerror(err)));
+        throw Error(
+            fmt::format("cannot start {}: {}; check that it is installed and runnable", args[0], std::strerror(err)));
     return pid;
 }
 
@@ -91,9 +91,9 @@ ProcessNotes runLocal(const BackendRun& run)
     while (next < run.shards.size() || !running.empty()) {
         while (next < run.shards.size() && running.size() < jobs) {
             const auto log = run.folder / "logs" / (run.keys[next] + ".log");
-            running[spawn({run.program.string(), "--out", run.folder.string(), "--task",
-                           std::to_string(run.shards[next])},
-                          log)] = next;
+            running[spawn(
+                {run.program.string(), "--out", run.folder.string(), "--task", std::to_string(run.shards[next])},
+                log)] = next;
             ++next;
         }
         int status = 0;
@@ -142,9 +142,10 @@ void checkSlurm(const BackendRun& run)
     for (std::string line; std::getline(lines, line);)
         if (!line.empty()) last = line;
     if (status != 0)
-        throw Error(fmt::format("--backend slurm: sbatch would not take the shards' tasks ({}); check the cluster "
-                                "(sinfo) and the --slurm-* options",
-                                last.empty() ? "no reason given" : last));
+        throw Error(
+            fmt::format("--backend slurm: sbatch would not take the shards' tasks ({}); check the cluster "
+                        "(sinfo) and the --slurm-* options",
+                        last.empty() ? "no reason given" : last));
 }
 
 ProcessNotes runSlurm(const BackendRun& run)
@@ -214,9 +215,10 @@ ProcessNotes runSlurm(const BackendRun& run)
             if (!word.empty() && word.find_first_not_of("0123456789") == std::string::npos) job = word;
         }
         if (job.empty())
-            throw Error(fmt::format("sbatch did not take the job ({}); check the cluster (sinfo) and the options "
-                                    "given with --slurm-arg, then run rig-batch again: finished shards are kept",
-                                    lastLine(s.log)));
+            throw Error(
+                fmt::format("sbatch did not take the job ({}); check the cluster (sinfo) and the options "
+                            "given with --slurm-arg, then run rig-batch again: finished shards are kept",
+                            lastLine(s.log)));
         for (std::size_t i = s.begin; i < s.end; ++i)
             notes[run.shards[i]] = fmt::format(
                 "the Slurm task (job {}, array index {}) ended without a status: killed, out of memory or over its "

@@ -18,8 +18,12 @@ constexpr std::string_view shardFormat = "rig-batch shard 1";
 
 Json settingsJson(const InvertSettings& s)
 {
-    return Json{{"threads", s.threads},          {"no_partition", s.noPartition}, {"block_by_block", s.blockByBlock},
-                {"jacobian", s.jacobian},        {"polish", s.polish},            {"restart_every", s.restartEvery},
+    return Json{{"threads", s.threads},
+                {"no_partition", s.noPartition},
+                {"block_by_block", s.blockByBlock},
+                {"jacobian", s.jacobian},
+                {"polish", s.polish},
+                {"restart_every", s.restartEvery},
                 {"rest_starts", s.restStarts}};
 }
 
@@ -29,15 +33,16 @@ T field(const Json& object, const char* name, const std::string& file)
 {
     const auto found = object.find(name);
     if (found == object.end())
-        throw Error(fmt::format("{}: not a rig-batch manifest (no '{}'); remove it and run rig-batch again", file,
-                                name));
+        throw Error(
+            fmt::format("{}: not a rig-batch manifest (no '{}'); remove it and run rig-batch again", file, name));
     try {
         return found->get<T>();
     }
     catch (const Json::exception&) {
-        throw Error(fmt::format("{}: not a rig-batch manifest ('{}' is not what rig-batch writes); remove it and run "
-                                "rig-batch again",
-                                file, name));
+        throw Error(
+            fmt::format("{}: not a rig-batch manifest ('{}' is not what rig-batch writes); remove it and run "
+                        "rig-batch again",
+                        file, name));
     }
 }
 
@@ -73,8 +78,8 @@ std::string fileChecksum(const std::filesystem::path& file, const std::string& r
 {
     std::string bytes;
     if (!readFileBytes(file, bytes))
-        throw Error(fmt::format("{}: cannot read {}; check that it exists and is a readable file", file.string(),
-                                role));
+        throw Error(
+            fmt::format("{}: cannot read {}; check that it exists and is a readable file", file.string(), role));
     return checksumText(bytes);
 }
 
@@ -109,8 +114,8 @@ std::vector<BatchShard> planShards(const BatchInputs& inputs, const std::vector<
             shard.firstFrame = frameNumbers[c][static_cast<std::size_t>(first)];
             shard.lastFrame = frameNumbers[c][static_cast<std::size_t>(last)];
             // The clip's name too: two clips of the same bytes are two shards, each with its own files.
-            shard.key = checksumText(
-                fmt::format("{}\n{}\n{}\n{}:{}", shared, clips[c].name, clips[c].checksum, first, last));
+            shard.key =
+                checksumText(fmt::format("{}\n{}\n{}\n{}:{}", shared, clips[c].name, clips[c].checksum, first, last));
             out.push_back(std::move(shard));
         }
     return out;
@@ -152,20 +157,20 @@ BatchManifest readManifest(const std::filesystem::path& folder)
     const std::string file = (folder / "manifest.json").string();
     std::ifstream in(file);
     if (!in)
-        throw Error(fmt::format("{}: cannot read it; run rig-batch with the library's inputs to plan the batch",
-                                file));
+        throw Error(fmt::format("{}: cannot read it; run rig-batch with the library's inputs to plan the batch", file));
     Json j;
     try {
         j = Json::parse(in);
     }
     catch (const Json::exception& e) {
-        throw Error(fmt::format("{}: not a rig-batch manifest ({}); remove it and run rig-batch again", file,
-                                e.what()));
+        throw Error(
+            fmt::format("{}: not a rig-batch manifest ({}); remove it and run rig-batch again", file, e.what()));
     }
     if (!j.is_object() || j.value("format", "") != manifestFormat)
-        throw Error(fmt::format("{}: not a rig-batch manifest (format '{}' expected); remove it and run rig-batch "
-                                "again",
-                                file, manifestFormat));
+        throw Error(
+            fmt::format("{}: not a rig-batch manifest (format '{}' expected); remove it and run rig-batch "
+                        "again",
+                        file, manifestFormat));
     BatchManifest m;
     BatchInputs& inputs = m.inputs;
     inputs.approximation = field<std::string>(j, "approximation", file);
@@ -204,9 +209,10 @@ BatchManifest readManifest(const std::filesystem::path& folder)
         if (shard.clip < 0 || static_cast<std::size_t>(shard.clip) >= m.clips.size() || shard.first < 0 ||
             shard.first > shard.last || shard.last >= m.clips[static_cast<std::size_t>(shard.clip)].frames ||
             shard.key.size() != 16 || shard.key.find_first_not_of("0123456789abcdef") != std::string::npos)
-            throw Error(fmt::format("{}: not a rig-batch manifest (shard {} is out of its clip); remove it and run "
-                                    "rig-batch again",
-                                    file, m.shards.size()));
+            throw Error(
+                fmt::format("{}: not a rig-batch manifest (shard {} is out of its clip); remove it and run "
+                            "rig-batch again",
+                            file, m.shards.size()));
         m.shards.push_back(std::move(shard));
     }
     return m;
@@ -286,8 +292,8 @@ std::string shardOutputBytes(const ShardOutput& o)
 ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, std::size_t parameters)
 {
     const auto bad = [&](std::string_view why) {
-        return Error(fmt::format("{}: not a rig-batch shard output ({}); remove it and run rig-batch again", file,
-                                 why));
+        return Error(
+            fmt::format("{}: not a rig-batch shard output ({}); remove it and run rig-batch again", file, why));
     };
     const std::size_t newline = bytes.find('\n');
     if (newline == std::string::npos) throw bad("no header line");

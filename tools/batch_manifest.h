@@ -44,8 +44,8 @@ struct BatchClip {
 };
 
 struct BatchShard {
-    int clip = 0;          // index into BatchManifest::clips
-    int first = 0;         // clip frame indices (0-based, inclusive)
+    int clip = 0;   // index into BatchManifest::clips
+    int first = 0;  // clip frame indices (0-based, inclusive)
     int last = 0;
     double firstFrame = 0.0;  // the clip's numbers for them, for messages
     double lastFrame = 0.0;
@@ -107,12 +107,12 @@ struct ShardOutput {
     std::string key;
     int first = 0;
     int last = 0;
-    std::vector<double> frameNumbers;        // per frame
-    std::vector<std::vector<double>> solved; // [frame][parameter], internal units
-    std::string curvesFrames;                // empty for a whole clip
-    std::string curvesChecksum;              // a whole clip's curves file; empty otherwise
-    ClipInversionSummary summary;            // perFrame left empty; frame indices are the clip's
-    double taskSeconds = 0.0;                // the task's wall time up to the output
+    std::vector<double> frameNumbers;         // per frame
+    std::vector<std::vector<double>> solved;  // [frame][parameter], internal units
+    std::string curvesFrames;                 // empty for a whole clip
+    std::string curvesChecksum;               // a whole clip's curves file; empty otherwise
+    ClipInversionSummary summary;             // perFrame left empty; frame indices are the clip's
+    double taskSeconds = 0.0;                 // the task's wall time up to the output
 };
 // The file: one line of JSON (the summary, and the sizes of what follows), then the frame numbers and the
 // solved values as raw doubles in this machine's byte order (exact, and read back with one copy), then the

@@ -54,9 +54,10 @@ std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs:
         std::error_code ec;
         const fs::file_status status = fs::status(p, ec);
         if (!fs::exists(status))
-            throw Error(fmt::format("--clips {}: no such file or folder; give clip files (.bvh, .json) or folders of "
-                                    "them",
-                                    g));
+            throw Error(
+                fmt::format("--clips {}: no such file or folder; give clip files (.bvh, .json) or folders of "
+                            "them",
+                            g));
         if (!fs::is_directory(status)) {
             if (!isClip(p))
                 throw Error(fmt::format("--clips {}: not a clip; give .bvh or .json files, or folders of them", g));
@@ -70,9 +71,10 @@ std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs:
             if (entry.is_regular_file() && isClip(entry.path())) found.push_back(entry.path());
         if (ec) throw Error(fmt::format("--clips {}: cannot list the folder ({})", g, ec.message()));
         if (found.empty())
-            throw Error(fmt::format("--clips {}: the folder holds no .bvh or .json clip; give clip files or folders "
-                                    "of them",
-                                    g));
+            throw Error(
+                fmt::format("--clips {}: the folder holds no .bvh or .json clip; give clip files or folders "
+                            "of them",
+                            g));
         std::sort(found.begin(), found.end());
         for (const auto& file : found) add(file);
     }
@@ -94,9 +96,10 @@ void checkOutputsAreNotInputs(const std::vector<std::pair<std::string, fs::path>
         struct stat st {};
         if (::stat(out.c_str(), &st) != 0) continue;
         if (const auto found = ids.find({st.st_dev, st.st_ino}); found != ids.end())
-            throw Error(fmt::format("--out: {} is {} ({}); writing it would destroy an input, choose another output "
-                                    "folder",
-                                    out.string(), found->second.first, found->second.second.string()));
+            throw Error(
+                fmt::format("--out: {} is {} ({}); writing it would destroy an input, choose another output "
+                            "folder",
+                            out.string(), found->second.first, found->second.second.string()));
     }
 }
 
@@ -109,9 +112,10 @@ void lockFolder(const fs::path& folder)
         throw Error(fmt::format("--out {}: cannot write into it; give a folder you may write", folder.string()));
     if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
         ::close(fd);
-        throw Error(fmt::format("--out {}: another rig-batch is running on this folder; wait for it to end, or give "
-                                "another folder",
-                                folder.string()));
+        throw Error(
+            fmt::format("--out {}: another rig-batch is running on this folder; wait for it to end, or give "
+                        "another folder",
+                        folder.string()));
     }
 }
 
@@ -183,9 +187,10 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
                                         file.string()));
             out = parseShardOutput(bytes, file.string(), approximation.parameters.size());
             if (out.key != shard.key || out.first != shard.first || out.last != shard.last)
-                throw Error(fmt::format("{}: is not the output of shard {} (frames {}); run rig-batch again to solve "
-                                        "it again",
-                                        file.string(), i, framesText(shard)));
+                throw Error(
+                    fmt::format("{}: is not the output of shard {} (frames {}); run rig-batch again to solve "
+                                "it again",
+                                file.string(), i, framesText(shard)));
         }
         catch (const Error& e) {
             merged.failedShard = i;
@@ -196,8 +201,7 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
             // A whole clip: its task wrote the curves.
             merged.curvesChecksum = out.curvesChecksum;
             merged.frameNumbers = out.frameNumbers;
-        }
-        else {
+        } else {
             // The shard's first chain meets the frame before it, as rig-invert --after would shift it.
             std::vector<std::vector<double>> shifted;
             bool moved = false;
@@ -250,7 +254,10 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
 
 Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, const fs::path& curves)
 {
-    Json j{{"name", clip.name}, {"file", clip.file}, {"frames", clip.frames}, {"shards", shards},
+    Json j{{"name", clip.name},
+           {"file", clip.file},
+           {"frames", clip.frames},
+           {"shards", shards},
            {"complete", merged != nullptr}};
     if (!merged) {
         j["curves"] = nullptr;
@@ -274,9 +281,9 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
     j["worst_joint"] = s.worstJoint;
     j["worst_frame"] = frameNumber(s.worstFrame);
     j["non_finite_frames"] = s.nonFiniteFrames;
-    j["first_non_finite"] = s.nonFiniteFrames > 0 ? Json{{"joint", s.firstNonFiniteJoint},
-                                                         {"frame", frameNumber(s.firstNonFiniteFrame)}}
-                                                  : Json();
+    j["first_non_finite"] = s.nonFiniteFrames > 0
+                                ? Json{{"joint", s.firstNonFiniteJoint}, {"frame", frameNumber(s.firstNonFiniteFrame)}}
+                                : Json();
     j["ms_per_frame"] = numberJson(s.msPerFrame);
     j["task_seconds"] = numberJson(merged->taskSeconds);
     j["curves"] = {{"file", curves.string()}, {"checksum", merged->curvesChecksum}};
@@ -290,19 +297,21 @@ BatchOutcome runBatch(const BatchJob& job)
     const auto start = Clock::now();
     // Everything that can be checked before the work is, and nothing is written before that.
     if (job.backend != "local" && job.backend != "slurm")
-        throw Error(fmt::format("--backend {}: expected local (processes on this machine) or slurm (sbatch array "
-                                "jobs)",
-                                job.backend));
+        throw Error(
+            fmt::format("--backend {}: expected local (processes on this machine) or slurm (sbatch array "
+                        "jobs)",
+                        job.backend));
     if (job.jobs < 0)
-        throw Error(fmt::format("--jobs {}: give 1 or more processes (local) or tasks running at once (slurm)",
-                                job.jobs));
+        throw Error(
+            fmt::format("--jobs {}: give 1 or more processes (local) or tasks running at once (slurm)", job.jobs));
     if (job.shardFrames < 1)
         throw Error(fmt::format("--shard-frames {}: give 1 or more frames per shard", job.shardFrames));
     if (job.retries < 0) throw Error(fmt::format("--retries {}: give 0 or more new attempts", job.retries));
     clipInversionOptions(job.settings);
     if (job.backend == "slurm" && !onPath("sbatch"))
-        throw Error("--backend slurm: sbatch is not on PATH; install Slurm's client (Debian: slurm-client) and "
-                    "configure it for the cluster, or use --backend local");
+        throw Error(
+            "--backend slurm: sbatch is not on PATH; install Slurm's client (Debian: slurm-client) and "
+            "configure it for the cluster, or use --backend local");
     if (job.out.empty()) throw Error("--out: give the output folder");
     const fs::path folder = fs::absolute(job.out);
     if (std::error_code ec; fs::exists(folder, ec) && !fs::is_directory(folder, ec))
@@ -335,19 +344,21 @@ BatchOutcome runBatch(const BatchJob& job)
     inputs.mapChecksum = inputs.map.empty() ? "" : fileChecksum(inputs.map, "the map");
     std::vector<std::vector<double>> frameNumbers;
     std::map<std::string, fs::path> names;
-    std::vector<std::pair<std::string, fs::path>> inputFiles{
-        {"the approximation", inputs.approximation}, {"the map", inputs.map}};
+    std::vector<std::pair<std::string, fs::path>> inputFiles{{"the approximation", inputs.approximation},
+                                                             {"the map", inputs.map}};
     for (const auto& file : loaded.rig->files()) inputFiles.emplace_back("a file the rig reads", file);
     for (const fs::path& file : files) {
         const std::string name = file.stem().string();
         if (name == "report" || name == "manifest")
-            throw Error(fmt::format("--clips {}: its curves would be {}.json, which rig-batch writes for the batch; "
-                                    "rename the clip",
-                                    file.string(), name));
+            throw Error(
+                fmt::format("--clips {}: its curves would be {}.json, which rig-batch writes for the batch; "
+                            "rename the clip",
+                            file.string(), name));
         if (const auto [it, added] = names.emplace(name, file); !added)
-            throw Error(fmt::format("--clips: {} and {} would both write {}.json; rename one, or run them as two "
-                                    "batches",
-                                    it->second.string(), file.string(), name));
+            throw Error(
+                fmt::format("--clips: {} and {} would both write {}.json; rename one, or run them as two "
+                            "batches",
+                            it->second.string(), file.string(), name));
         manifest.clips.push_back({name, file.string(), "", 0});
         inputFiles.emplace_back("a clip", file);
     }
@@ -389,8 +400,7 @@ BatchOutcome runBatch(const BatchJob& job)
     std::error_code ec;
     for (const char* sub : {"shards", "logs"}) fs::create_directories(folder / sub, ec);
     if (ec)
-        throw Error(fmt::format("--out {}: cannot create it ({}); give a folder you may write", job.out,
-                                ec.message()));
+        throw Error(fmt::format("--out {}: cannot create it ({}); give a folder you may write", job.out, ec.message()));
     lockFolder(folder);
     for (const fs::path& out : outputs) checkOutputFile(out, "out", "--out");
 
@@ -473,9 +483,10 @@ BatchOutcome runBatch(const BatchJob& job)
             const auto note = notes.find(i);
             if (reported && !status.ok) errors[i] = status.error;
             else if (reported)
-                errors[i] = fmt::format("error: {} (or its clip's curves): does not match the checksums its task "
-                                        "recorded; written over since? run rig-batch again",
-                                        (folder / shard.output()).string());
+                errors[i] = fmt::format(
+                    "error: {} (or its clip's curves): does not match the checksums its task "
+                    "recorded; written over since? run rig-batch again",
+                    (folder / shard.output()).string());
             else if (note != notes.end()) errors[i] = "error: the task " + note->second;
             else errors[i] = "error: the task ended without a status";
             failed.push_back(i);
@@ -518,8 +529,7 @@ BatchOutcome runBatch(const BatchJob& job)
                 m.merged->curvesChecksum = checksumText(m.merged->curves);
                 std::string().swap(m.merged->curves);
             }
-        }
-        else {
+        } else {
             // No curves for a clip with a shard missing: an earlier run's file would not be this run's.
             std::error_code removed;
             fs::remove(curves, removed);
@@ -556,32 +566,32 @@ BatchOutcome runBatch(const BatchJob& job)
         failedShards.push_back({{"shard", i}, {"clip", clip}, {"frames", framesText(shard)}, {"error", error}});
         outcome.failures.push_back(fmt::format("shard {} ({} frames {}): {}", i, clip, framesText(shard), error));
     }
-    outcome.report = Json{
-        {"format", "rig-batch report 1"},
-        {"approximation", inputs.approximation},
-        {"rig", inputs.rig},
-        {"map", inputs.map.empty() ? Json() : Json(inputs.map)},
-        {"backend", job.backend},
-        {"jobs", jobs > 0 ? Json(jobs) : Json("all")},
-        {"shard_frames", job.shardFrames},
-        {"restart_every", job.settings.restartEvery},
-        {"clips", std::move(clips)},
-        {"failed_shards", std::move(failedShards)},
-        {"totals",
-         {{"clips", manifest.clips.size()},
-          {"clips_complete", complete},
-          {"frames", totalFrames},
-          {"shards", manifest.shards.size()},
-          {"shards_reused", reused},
-          {"shards_run", done},
-          {"shards_failed", errors.size()},
-          {"frames_run", framesRun},
-          {"plan_seconds", numberJson(planSeconds)},
-          {"run_seconds", numberJson(runSeconds)},
-          {"frames_per_second", framesRun > 0 ? numberJson(static_cast<double>(framesRun) / runSeconds) : Json()},
-          {"task_seconds", numberJson(taskSeconds)},
-          {"solve_seconds", numberJson(solveSeconds)},
-          {"merge_seconds", numberJson(mergeSeconds)}}}};
+    outcome.report =
+        Json{{"format", "rig-batch report 1"},
+             {"approximation", inputs.approximation},
+             {"rig", inputs.rig},
+             {"map", inputs.map.empty() ? Json() : Json(inputs.map)},
+             {"backend", job.backend},
+             {"jobs", jobs > 0 ? Json(jobs) : Json("all")},
+             {"shard_frames", job.shardFrames},
+             {"restart_every", job.settings.restartEvery},
+             {"clips", std::move(clips)},
+             {"failed_shards", std::move(failedShards)},
+             {"totals",
+              {{"clips", manifest.clips.size()},
+               {"clips_complete", complete},
+               {"frames", totalFrames},
+               {"shards", manifest.shards.size()},
+               {"shards_reused", reused},
+               {"shards_run", done},
+               {"shards_failed", errors.size()},
+               {"frames_run", framesRun},
+               {"plan_seconds", numberJson(planSeconds)},
+               {"run_seconds", numberJson(runSeconds)},
+               {"frames_per_second", framesRun > 0 ? numberJson(static_cast<double>(framesRun) / runSeconds) : Json()},
+               {"task_seconds", numberJson(taskSeconds)},
+               {"solve_seconds", numberJson(solveSeconds)},
+               {"merge_seconds", numberJson(mergeSeconds)}}}};
     writeFileAtomically(folder / "report.json", jsonText(outcome.report, 2) + "\n");
     return outcome;
 }
@@ -601,9 +611,10 @@ void runShard(const std::filesystem::path& folder, int index)
     status.host = hostName();
     try {
         const auto changed = [](const std::string& file, const std::string& what) {
-            return Error(fmt::format("{}: {} changed since the batch was planned; run rig-batch again to plan with "
-                                     "it",
-                                     file, what));
+            return Error(
+                fmt::format("{}: {} changed since the batch was planned; run rig-batch again to plan with "
+                            "it",
+                            file, what));
         };
         if (fileChecksum(in.approximation, "the approximation") != in.approximationChecksum)
             throw changed(in.approximation, "the approximation");
@@ -626,9 +637,9 @@ void runShard(const std::filesystem::path& folder, int index)
         out.key = shard.key;
         out.first = shard.first;
         out.last = shard.last;
-        const auto numbers = std::span(outcome.clip.frameNumbers)
-                                 .subspan(static_cast<std::size_t>(shard.first),
-                                          static_cast<std::size_t>(shard.last - shard.first + 1));
+        const auto numbers =
+            std::span(outcome.clip.frameNumbers)
+                .subspan(static_cast<std::size_t>(shard.first), static_cast<std::size_t>(shard.last - shard.first + 1));
         out.frameNumbers.assign(numbers.begin(), numbers.end());
         out.solved = outcome.solved;
         if (wholeClip(manifest, shard)) {
@@ -637,9 +648,7 @@ void runShard(const std::filesystem::path& folder, int index)
                 curvesJsonFile(curvesJsonFrames(*outcome.approximation, numbers, outcome.values));
             writeFileAtomically(folder / (clip.name + ".json"), curves);
             out.curvesChecksum = checksumText(curves);
-        }
-        else
-            out.curvesFrames = curvesJsonFrames(*outcome.approximation, numbers, outcome.values);
+        } else out.curvesFrames = curvesJsonFrames(*outcome.approximation, numbers, outcome.values);
         out.summary = outcome.summary;
         out.summary.perFrame.clear();
         out.taskSeconds = secondsSince(start);
@@ -653,8 +662,8 @@ void runShard(const std::filesystem::path& folder, int index)
     catch (const std::exception& e) {
         // The status says why, for the report; the error goes on to the task's own output and exit code.
         status.ok = false;
-        status.error = oneLine(fmt::format("{}: {}", dynamic_cast<const Error*>(&e) ? "error" : "internal error",
-                                           e.what()));
+        status.error =
+            oneLine(fmt::format("{}: {}", dynamic_cast<const Error*>(&e) ? "error" : "internal error", e.what()));
         status.seconds = secondsSince(start);
         try {
             writeShardStatus(folder / shard.status(), status);

@@ -4,12 +4,11 @@
 #include <cmath>
 #include <limits>
 
+#include <fmt/format.h>
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
-#include <fmt/format.h>
 
 #include "core/error.h"
-
 
 namespace rig::bench {
 
@@ -102,7 +101,8 @@ BlackBoxSolve gaussNewtonBlackBox(BlackBoxProblem& problem, std::span<double> va
         double projectedGradient = 0.0;
         for (int c = 0; c < n; ++c) {
             const auto i = static_cast<std::size_t>(c);
-            projectedGradient = std::max(projectedGradient, std::abs(x[i] - std::clamp(x[i] - g[c], lower[i], upper[i])));
+            projectedGradient =
+                std::max(projectedGradient, std::abs(x[i] - std::clamp(x[i] - g[c], lower[i], upper[i])));
             fixed[i] = (x[i] <= lower[i] && g[c] > 0) || (x[i] >= upper[i] && g[c] < 0);
         }
         if (projectedGradient <= options.gradientTolerance) {
@@ -144,8 +144,8 @@ BlackBoxSolve gaussNewtonBlackBox(BlackBoxProblem& problem, std::span<double> va
                 stepNorm2 += (trial[i] - x[i]) * (trial[i] - x[i]);
                 xNorm2 += x[i] * x[i];
             }
-            smallStep = std::sqrt(stepNorm2) <=
-                        options.parameterTolerance * (std::sqrt(xNorm2) + options.parameterTolerance);
+            smallStep =
+                std::sqrt(stepNorm2) <= options.parameterTolerance * (std::sqrt(xNorm2) + options.parameterTolerance);
             trialCost = problem.residuals(trial, rTrial);
             if (std::isfinite(trialCost) && (trialCost < cost || (smallStep && trialCost <= cost))) {
                 accepted = true;

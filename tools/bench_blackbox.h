@@ -32,9 +32,10 @@ public:
     // Residuals at `values` (one real-rig evaluation); returns the cost 1/2 |r|^2.
     double residuals(std::span<const double> values, Eigen::VectorXd& r);
     // Residuals at `values` and the Jacobian by finite differences with step h: forward (columns + 1
-    // evaluations) or central (2 columns + 1; one-sided at a limit). Serial: the graph is stateful. `jacobian` may be null
-    // (the columns are computed and dropped: timing a problem whose dense Jacobian would not fit).
-    void jacobian(std::span<const double> values, double h, bool central, Eigen::MatrixXd* jacobian, Eigen::VectorXd& r);
+    // evaluations) or central (2 columns + 1; one-sided at a limit). Serial: the graph is stateful. `jacobian` may be
+    // null (the columns are computed and dropped: timing a problem whose dense Jacobian would not fit).
+    void jacobian(std::span<const double> values, double h, bool central, Eigen::MatrixXd* jacobian,
+                  Eigen::VectorXd& r);
 
     std::uint64_t evaluations() const { return evaluations_; }
 

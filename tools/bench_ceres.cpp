@@ -46,7 +46,8 @@ public:
         workspace_.jacobian(x, JacobianMethod::analytic, 1e-6, false, r_, jacobian_);
         r = r_;
         // Ceres wants the Jacobian row-major.
-        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], m, n) = jacobian_;
+        Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], m, n) =
+            jacobian_;
         return r_.allFinite() && jacobian_.allFinite();
     }
 
@@ -59,8 +60,10 @@ private:
 // The problem for one set of active outputs, built once and solved frame after frame.
 struct CeresProblem {
     CeresProblem(const Approximation& approximation, std::vector<int> outputs)
-        : structure(approximation, allColumns(approximation), std::move(outputs)), workspace(structure),
-          cost(workspace), x(approximation.parameters.size())
+        : structure(approximation, allColumns(approximation), std::move(outputs)),
+          workspace(structure),
+          cost(workspace),
+          x(approximation.parameters.size())
     {
         workspace.holdParameters(approximation.defaults());  // every parameter is a column: only F_k(0) is held
         ceres::Problem::Options options;
@@ -105,8 +108,7 @@ CeresInverter::CeresInverter(const Approximation& approximation, const SolverOpt
     ceres::Solver::Options& o = impl_->ceresOptions;
     o.minimizer_type = ceres::TRUST_REGION;
     o.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-    o.linear_solver_type =
-        linearSolver == CeresLinearSolver::denseQr ? ceres::DENSE_QR : ceres::DENSE_NORMAL_CHOLESKY;
+    o.linear_solver_type = linearSolver == CeresLinearSolver::denseQr ? ceres::DENSE_QR : ceres::DENSE_NORMAL_CHOLESKY;
     o.max_num_iterations = options.maxIterations;
     if (!ceresTolerances) {
         o.function_tolerance = options.functionTolerance;

@@ -15,7 +15,8 @@ Json coldStartJson(const Approximation& approximation, int poses)
     const double scale = solver.options().rotationScaleCm;
     constexpr double recovered = 1e-4;  // cm
     const auto reached = [&](const SolveSummary& s) {
-        return s.maxPositionErrorCm <= recovered && scale * s.maxRotationErrorDeg * std::numbers::pi / 180.0 <= recovered;
+        return s.maxPositionErrorCm <= recovered &&
+               scale * s.maxRotationErrorDeg * std::numbers::pi / 180.0 <= recovered;
     };
     std::mt19937 rng(20261125);
     int fromGuess = 0, fromRest = 0;
@@ -48,8 +49,9 @@ Json coldStartJson(const Approximation& approximation, int poses)
                 {"rate_from_rest", fromRest / n},
                 {"guess_ms", 1000.0 * guessSeconds / n},
                 {"solve_after_guess_ms", 1000.0 * solveSeconds / n},
-                {"note", "random poses within the limits, targets on every output at the approximation's worlds; "
-                         "recovered: every joint within 1e-4 cm; 1 thread, CPU time"}};
+                {"note",
+                 "random poses within the limits, targets on every output at the approximation's worlds; "
+                 "recovered: every joint within 1e-4 cm; 1 thread, CPU time"}};
 }
 
 }  // namespace rig::bench

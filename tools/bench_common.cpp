@@ -10,9 +10,9 @@
 #include <sstream>
 #include <thread>
 
-#include <Eigen/Core>
 #include <fmt/format.h>
 #include <oneapi/tbb/version.h>
+#include <Eigen/Core>
 
 #ifndef RIG_BENCH_BUILD_TYPE
 #define RIG_BENCH_BUILD_TYPE "unknown"

@@ -15,13 +15,13 @@
 
 #include "core/error.h"
 #include "inversion/approximation_io.h"
-#include "nodes/inversion_spec.h"
 #include "inversion/clip_inversion.h"
 #include "inversion/learner.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
 #include "nodes/clips/target_clip.h"
 #include "nodes/graph_rig_function.h"
+#include "nodes/inversion_spec.h"
 #include "tools/bench_blackbox.h"
 #include "tools/bench_cold_start.h"
 #ifdef RIG_BENCH_HAVE_CERES
@@ -56,7 +56,6 @@ BenchOptions fullOptions()
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
 
 void say(const BenchOptions& o, const std::string& line)
 {
@@ -98,19 +97,20 @@ Json threadsJson(RigFunction& rig, const std::string& rigFile)
 
 Json trainingJson(const Approximation& a, std::size_t rigParameters)
 {
-    return Json{{"evaluations", a.training.evaluations},
-                {"order_evaluations", a.training.orderEvaluations},
-                {"seconds", a.training.seconds},
-                {"orderer", a.training.orderer},
-                {"parameters", static_cast<long long>(rigParameters)},
-                {"modelled", static_cast<long long>(a.parameters.size())},
-                {"discarded", static_cast<long long>(a.discarded.size())},
-                {"validation_max_position_error_cm", a.validation.maxPositionErrorCm},
-                {"validation_max_rotation_error_deg", a.validation.maxRotationErrorDeg},
-                {"validation_max_relative_error", a.validation.maxRelativeError},
-                {"within_epsilon", a.validation.withinEpsilon},
-                {"relative_outputs", static_cast<long long>(std::count_if(a.outputs.begin(), a.outputs.end(),
-                                                                          [](const auto& out) { return out.parent >= 0; }))}};
+    return Json{
+        {"evaluations", a.training.evaluations},
+        {"order_evaluations", a.training.orderEvaluations},
+        {"seconds", a.training.seconds},
+        {"orderer", a.training.orderer},
+        {"parameters", static_cast<long long>(rigParameters)},
+        {"modelled", static_cast<long long>(a.parameters.size())},
+        {"discarded", static_cast<long long>(a.discarded.size())},
+        {"validation_max_position_error_cm", a.validation.maxPositionErrorCm},
+        {"validation_max_rotation_error_deg", a.validation.maxRotationErrorDeg},
+        {"validation_max_relative_error", a.validation.maxRelativeError},
+        {"within_epsilon", a.validation.withinEpsilon},
+        {"relative_outputs", static_cast<long long>(std::count_if(a.outputs.begin(), a.outputs.end(),
+                                                                  [](const auto& out) { return out.parent >= 0; }))}};
 }
 
 // A run of frames through the library's clip inversion (invertClip), as rig-invert runs it: warm-start
@@ -255,7 +255,9 @@ public:
 private:
     struct Block {
         Block(const Approximation& a, const PartitionBlock& block)
-            : structure(a, block.parameters, block.outputs), workspace(structure), r(structure.rows()),
+            : structure(a, block.parameters, block.outputs),
+              workspace(structure),
+              r(structure.rows()),
               J(structure.rows(), structure.columnCount())
         {
         }
@@ -314,7 +316,8 @@ void runBipedBench(const BenchOptions& o, Json& report)
     train["threads"] = threadsJson(rig, o.rig.string());
     if (!o.talkOrderer) train["note"] = "the talk's orderer is not run with --quick";
     report["train"] = std::move(train);
-    if (approximation.parameters.empty()) throw Error(fmt::format("{}: the approximation models no parameter", o.rig.string()));
+    if (approximation.parameters.empty())
+        throw Error(fmt::format("{}: the approximation models no parameter", o.rig.string()));
 
     // --- the clip ---
     const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
@@ -324,13 +327,13 @@ void runBipedBench(const BenchOptions& o, Json& report)
     [[maybe_unused]] const int ceresFrames = std::min(o.ceresFrames, frames);  // without Ceres: unused
     const int blackBoxFrames = std::min(o.blackBoxFrames, frames);
     report["biped"] = Json{{"rig", o.rig.string()},
-                             {"parameters", static_cast<long long>(rig.parameters().size())},
-                             {"modelled_parameters", static_cast<long long>(approximation.parameters.size())},
-                             {"outputs", static_cast<long long>(approximation.outputs.size())},
-                             {"clip", o.clip.string()},
-                             {"clip_frames", static_cast<long long>(targets.frames.size())},
-                             {"target_joints", targets.matchedJoints},
-                             {"load_seconds", loadSeconds}};
+                           {"parameters", static_cast<long long>(rig.parameters().size())},
+                           {"modelled_parameters", static_cast<long long>(approximation.parameters.size())},
+                           {"outputs", static_cast<long long>(approximation.outputs.size())},
+                           {"clip", o.clip.string()},
+                           {"clip_frames", static_cast<long long>(targets.frames.size())},
+                           {"target_joints", targets.matchedJoints},
+                           {"load_seconds", loadSeconds}};
     RigBinding binding(approximation, rig);
     const SolverOptions defaults;
     const double h = defaults.finiteDifferenceStep;
@@ -344,49 +347,52 @@ void runBipedBench(const BenchOptions& o, Json& report)
     Eigen::VectorXd rApprox, rBlack;
     const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
     tbb::task_arena allCores(cores), oneCore(1);
-    const Timing analytic = timeRepeated(
-        [&] { evaluator.jacobian(rest, JacobianMethod::analytic, h, jApprox, rApprox); }, o.timingBudget);
+    const Timing analytic =
+        timeRepeated([&] { evaluator.jacobian(rest, JacobianMethod::analytic, h, jApprox, rApprox); }, o.timingBudget);
     Timing fdParallel, fdSerial;
     allCores.execute([&] {
-        fdParallel = timeRepeated([&] { evaluator.jacobian(rest, JacobianMethod::finiteDifference, h, jApprox, rApprox); },
-                                  o.timingBudget);
+        fdParallel = timeRepeated(
+            [&] { evaluator.jacobian(rest, JacobianMethod::finiteDifference, h, jApprox, rApprox); }, o.timingBudget);
     });
     oneCore.execute([&] {
-        fdSerial = timeRepeated([&] { evaluator.jacobian(rest, JacobianMethod::finiteDifference, h, jApprox, rApprox); },
-                                o.timingBudget);
+        fdSerial = timeRepeated(
+            [&] { evaluator.jacobian(rest, JacobianMethod::finiteDifference, h, jApprox, rApprox); }, o.timingBudget);
     });
     BlackBoxProblem blackBox(binding, defaults.rotationScaleCm);
     blackBox.setTargets(firstTargets);
     const std::uint64_t evaluationsBefore = blackBox.evaluations();
     const Timing blackForward =
         timeRepeated([&] { blackBox.jacobian(rest, h, false, &jBlack, rBlack); }, o.timingBudget, 3);
-    const double evaluationsPerJacobian = static_cast<double>(blackBox.evaluations() - evaluationsBefore) /
-                                          static_cast<double>(blackForward.calls + 1);
-    const Timing blackCentral = timeRepeated([&] { blackBox.jacobian(rest, h, true, &jBlack, rBlack); }, o.timingBudget, 3);
+    const double evaluationsPerJacobian =
+        static_cast<double>(blackBox.evaluations() - evaluationsBefore) / static_cast<double>(blackForward.calls + 1);
+    const Timing blackCentral =
+        timeRepeated([&] { blackBox.jacobian(rest, h, true, &jBlack, rBlack); }, o.timingBudget, 3);
     // Where the approximation is exact, the real rig's Jacobian is the approximation's.
     evaluator.jacobian(rest, JacobianMethod::analytic, h, jApprox, rApprox);
     blackBox.jacobian(rest, h, true, &jBlack, rBlack);
     const double scale = std::max(jApprox.cwiseAbs().maxCoeff(), 1e-300);
-    report["jacobian"] = Json{{"rows", evaluator.rows()},
-                    {"columns", evaluator.columns()},
-                    {"blackbox_fd_ms", blackForward.cpuMedianMs},
-                    {"blackbox_central_fd_ms", blackCentral.cpuMedianMs},
-                    {"blackbox_evaluations_per_jacobian", evaluationsPerJacobian},
-                    {"approx_fd_ms", fdParallel.medianMs},
-                    {"approx_fd_threads", cores},
-                    {"approx_fd_serial_ms", fdSerial.cpuMedianMs},
-                    {"approx_analytic_ms", analytic.cpuMedianMs},
-                    {"speedup_analytic", blackForward.cpuMedianMs / analytic.cpuMedianMs},
-                    {"speedup_fd", blackForward.cpuMedianMs / fdParallel.medianMs},
-                    {"analytic_vs_blackbox_relative_difference", (jApprox - jBlack).cwiseAbs().maxCoeff() / scale},
-                    {"timings", Json{{"blackbox_fd", timingJson(blackForward, true)},
-                                     {"blackbox_central_fd", timingJson(blackCentral, true)},
-                                     {"approx_fd", timingJson(fdParallel, cores == 1)},
-                                     {"approx_fd_serial", timingJson(fdSerial, true)},
-                                     {"approx_analytic", timingJson(analytic, true)}}},
-                    {"note", "single-threaded figures are the thread's CPU time (median of ~1 ms batches), the "
-                                "parallel one wall time; black box: forward differences on the real graph; "
-                                "approximation: central differences (the solver's), and analytic"}};
+    report["jacobian"] =
+        Json{{"rows", evaluator.rows()},
+             {"columns", evaluator.columns()},
+             {"blackbox_fd_ms", blackForward.cpuMedianMs},
+             {"blackbox_central_fd_ms", blackCentral.cpuMedianMs},
+             {"blackbox_evaluations_per_jacobian", evaluationsPerJacobian},
+             {"approx_fd_ms", fdParallel.medianMs},
+             {"approx_fd_threads", cores},
+             {"approx_fd_serial_ms", fdSerial.cpuMedianMs},
+             {"approx_analytic_ms", analytic.cpuMedianMs},
+             {"speedup_analytic", blackForward.cpuMedianMs / analytic.cpuMedianMs},
+             {"speedup_fd", blackForward.cpuMedianMs / fdParallel.medianMs},
+             {"analytic_vs_blackbox_relative_difference", (jApprox - jBlack).cwiseAbs().maxCoeff() / scale},
+             {"timings", Json{{"blackbox_fd", timingJson(blackForward, true)},
+                              {"blackbox_central_fd", timingJson(blackCentral, true)},
+                              {"approx_fd", timingJson(fdParallel, cores == 1)},
+                              {"approx_fd_serial", timingJson(fdSerial, true)},
+                              {"approx_analytic", timingJson(analytic, true)}}},
+             {"note",
+              "single-threaded figures are the thread's CPU time (median of ~1 ms batches), the "
+              "parallel one wall time; black box: forward differences on the real graph; "
+              "approximation: central differences (the solver's), and analytic"}};
 
     // --- inversion of the clip on the approximation ---
     const std::vector<Variant> variants{
@@ -399,7 +405,8 @@ void runBipedBench(const BenchOptions& o, Json& report)
         {"analytic, 1 thread, block by block", 1, JacobianMethod::analytic, true, 0, false},
     };
     const auto variant = [&](const std::string& name) -> const Variant& {
-        const auto it = std::find_if(variants.begin(), variants.end(), [&](const Variant& v) { return v.name == name; });
+        const auto it =
+            std::find_if(variants.begin(), variants.end(), [&](const Variant& v) { return v.name == name; });
         if (it == variants.end()) throw internalError(fmt::format("rig-bench: no variant '{}'", name));
         return *it;
     };
@@ -420,14 +427,14 @@ void runBipedBench(const BenchOptions& o, Json& report)
     say(o, fmt::format("Gauss-Newton on the real graph, {} frames", blackBoxFrames));
     const Solver headlineSolver(approximation, SolverOptions{});
     std::uint64_t blackEvaluations = 0;
-    const ClipRun black = invertFrames(
-        headlineSolver, binding, targets, 0, blackBoxFrames - 1, 0,
-        [&](std::span<const JointTarget> t, std::vector<double>& values, double, ChainFrame& frame) {
-            blackBox.setTargets(std::vector<JointTarget>(t.begin(), t.end()));
-            const BlackBoxSolve s = gaussNewtonBlackBox(blackBox, values, defaults);
-            blackEvaluations += s.evaluations;
-            peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
-        });
+    const ClipRun black =
+        invertFrames(headlineSolver, binding, targets, 0, blackBoxFrames - 1, 0,
+                     [&](std::span<const JointTarget> t, std::vector<double>& values, double, ChainFrame& frame) {
+                         blackBox.setTargets(std::vector<JointTarget>(t.begin(), t.end()));
+                         const BlackBoxSolve s = gaussNewtonBlackBox(blackBox, values, defaults);
+                         blackEvaluations += s.evaluations;
+                         peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
+                     });
     // Ours on the same frames: the whole problem, as the black box solves it, and the partitioned one.
     const VariantResult sameWhole = runVariant(whole, approximation, binding, targets, blackBoxFrames);
     const VariantResult samePartitioned = runVariant(partitioned, approximation, binding, targets, blackBoxFrames);
@@ -438,29 +445,31 @@ void runBipedBench(const BenchOptions& o, Json& report)
     blackJson["ours_whole_mean_final_cost"] = sameWhole.json.at("mean_final_cost");
     blackJson["speedup"] = black.cpuMsPerFrame() / samePartitioned.run.cpuMsPerFrame();
     blackJson["speedup_whole"] = black.cpuMsPerFrame() / sameWhole.run.cpuMsPerFrame();
-    blackJson["note"] = "Gauss-Newton with forward-difference Jacobians on the real graph (tools/bench_blackbox.h), the "
-                     "solver's tolerances, the same unknowns, in the chains of invertClip; the first frames of the "
-                     "clip, the first from the initial guess";
+    blackJson["note"] =
+        "Gauss-Newton with forward-difference Jacobians on the real graph (tools/bench_blackbox.h), the "
+        "solver's tolerances, the same unknowns, in the chains of invertClip; the first frames of the "
+        "clip, the first from the initial guess";
     report["blackbox"] = blackJson;
 
     report["invert"] = Json{{"frames", frames},
-                              {"ms_per_frame", headline.run.cpuMsPerFrame()},
-                              {"wall_ms_per_frame", headline.run.msPerFrame()},
-                              {"threads2_ms_per_frame", result("analytic, 2 threads").run.msPerFrame()},
-                              {"fd_ms_per_frame", result("fd, 1 thread").run.cpuMsPerFrame()},
-                              {"fd_threads2_ms_per_frame", result("fd, 2 threads").run.msPerFrame()},
-                              {"whole_ms_per_frame", result(whole.name).run.cpuMsPerFrame()},
-                              {"polish1_ms_per_frame", result("analytic, 1 thread, polish 1").run.cpuMsPerFrame()},
-                              {"block_by_block_ms_per_frame", result(blockByBlock.name).run.cpuMsPerFrame()},
-                              {"block_by_block_mean_final_cost", result(blockByBlock.name).json.at("mean_final_cost")},
-                              {"blackbox_ms_per_frame", black.cpuMsPerFrame()},
-                              {"blackbox_frames", black.frames()},
-                              {"speedup_vs_blackbox_same_frames", blackJson.at("speedup")},
-                              {"variants", std::move(variantRows)},
-                              {"note", "1-thread figures are the thread's CPU time per frame, 2-thread ones wall "
-                                          "time; solver and polish (the real rig's error measure excluded), through "
-                                          "invertClip as rig-invert runs it: warm starts from the previous frame, "
-                                          "restarts every 120 frames from the initial guess, stuck frames retried"}};
+                            {"ms_per_frame", headline.run.cpuMsPerFrame()},
+                            {"wall_ms_per_frame", headline.run.msPerFrame()},
+                            {"threads2_ms_per_frame", result("analytic, 2 threads").run.msPerFrame()},
+                            {"fd_ms_per_frame", result("fd, 1 thread").run.cpuMsPerFrame()},
+                            {"fd_threads2_ms_per_frame", result("fd, 2 threads").run.msPerFrame()},
+                            {"whole_ms_per_frame", result(whole.name).run.cpuMsPerFrame()},
+                            {"polish1_ms_per_frame", result("analytic, 1 thread, polish 1").run.cpuMsPerFrame()},
+                            {"block_by_block_ms_per_frame", result(blockByBlock.name).run.cpuMsPerFrame()},
+                            {"block_by_block_mean_final_cost", result(blockByBlock.name).json.at("mean_final_cost")},
+                            {"blackbox_ms_per_frame", black.cpuMsPerFrame()},
+                            {"blackbox_frames", black.frames()},
+                            {"speedup_vs_blackbox_same_frames", blackJson.at("speedup")},
+                            {"variants", std::move(variantRows)},
+                            {"note",
+                             "1-thread figures are the thread's CPU time per frame, 2-thread ones wall "
+                             "time; solver and polish (the real rig's error measure excluded), through "
+                             "invertClip as rig-invert runs it: warm starts from the previous frame, "
+                             "restarts every 120 frames from the initial guess, stuck frames retried"}};
 
     // --- a peer: Ceres on the same residuals ---
     Json ceres = Json::object();
@@ -475,7 +484,8 @@ void runBipedBench(const BenchOptions& o, Json& report)
         Json bestRow;
         // Both dense solvers, with our tolerances (equal stopping rules: the headline) and with Ceres' own.
         for (const bool ceresTolerances : {false, true})
-            for (const CeresLinearSolver linear : {CeresLinearSolver::denseQr, CeresLinearSolver::denseNormalCholesky}) {
+            for (const CeresLinearSolver linear :
+                 {CeresLinearSolver::denseQr, CeresLinearSolver::denseNormalCholesky}) {
                 const std::string tolerances = ceresTolerances ? "ceres defaults" : "ours";
                 say(o, fmt::format("Ceres ({}, {} tolerances) on {} frames", ceresLinearSolverName(linear), tolerances,
                                    ceresFrames));
@@ -486,8 +496,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
                         const CeresSolve s = inverter.solve(std::vector<JointTarget>(t.begin(), t.end()), values);
                         peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
                     });
-                Json row = Json{{"linear_solver", ceresLinearSolverName(linear)},
-                                {"tolerances", tolerances}};
+                Json row = Json{{"linear_solver", ceresLinearSolverName(linear)}, {"tolerances", tolerances}};
                 const Json figures = runJson(run, true);
                 for (const char* key : {"frames", "ms_per_frame", "cpu_ms_per_frame", "converged_frames",
                                         "mean_iterations", "mean_final_cost", "real_rig"})
@@ -513,9 +522,10 @@ void runBipedBench(const BenchOptions& o, Json& report)
         ceres["speedup_ours"] = orNull(ratio(best, oursPartitioned.run.cpuMsPerFrame()));
         ceres["speedup_ours_whole"] = orNull(ratio(best, oursWhole.run.cpuMsPerFrame()));
         ceres["variants"] = std::move(rows);
-        ceres["note"] = "Levenberg-Marquardt, 1 thread, our residuals and analytic Jacobian as one dense residual "
-                         "block over all parameters, bounds on limited controls; CPU time per frame; the headline is "
-                         "the faster dense solver with our tolerances";
+        ceres["note"] =
+            "Levenberg-Marquardt, 1 thread, our residuals and analytic Jacobian as one dense residual "
+            "block over all parameters, bounds on limited controls; CPU time per frame; the headline is "
+            "the faster dense solver with our tolerances";
         accuracy["ceres"] = bestRow.at("real_rig");
     }
 #else
@@ -586,7 +596,7 @@ ScalingRig makeRig(const BenchOptions& o, const InversionSpec& biped, const std:
 // Crowd: every member follows the clip (members are independent problems). Chain: a smooth random
 // motion within a third of each parameter's range, evaluated on the real rig (reachable targets).
 ClipTargets scalingTargets(const ScalingRig& r, const Approximation& a, RigBinding& binding, const TargetClip& clip,
-                       int frames)
+                           int frames)
 {
     if (r.kind == "crowd") {
         // Every biped of the crowd follows the clip: its joints ("biped3:Hips") take the clip's ("Hips").
@@ -693,9 +703,11 @@ void runScaling(const BenchOptions& o, Json& report)
             BlackBoxProblem black(binding, defaults.rotationScaleCm);
             black.setTargets(firstTargets);
             Eigen::VectorXd rb;
-            blackMs = timeRepeated([&] { black.jacobian(run.values.front(), defaults.finiteDifferenceStep, false, nullptr, rb); },
-                                   0.0, 1)
-                          .cpuMedianMs;
+            blackMs =
+                timeRepeated(
+                    [&] { black.jacobian(run.values.front(), defaults.finiteDifferenceStep, false, nullptr, rb); }, 0.0,
+                    1)
+                    .cpuMedianMs;
         }
         const double memoryMb = peakResidentMb() - residentBefore;
         const double approxKb = static_cast<double>(approximationToYaml(a).size()) / 1024.0;
@@ -711,45 +723,42 @@ void runScaling(const BenchOptions& o, Json& report)
         ser.memoryMb.push_back(memoryMb);
         ser.approxKb.push_back(approxKb);
         rows.push_back(Json{{"rig", kind},
-                       {"count", count},
-                       {"parameters", static_cast<long long>(rig.parameters().size())},
-                       {"modelled", static_cast<long long>(a.parameters.size())},
-                       {"outputs", static_cast<long long>(a.outputs.size())},
-                       {"blocks", blocks.blocks()},
-                       {"load_seconds", loadSeconds},
-                       {"train_evaluations", a.training.evaluations},
-                       {"train_order_evaluations", a.training.orderEvaluations},
-                       {"train_seconds", a.training.seconds},
-                       {"train_threads", threads},
-                       {"validation_max_relative_error", a.validation.maxRelativeError},
-                       {"within_epsilon", a.validation.withinEpsilon},
-                       {"frames", run.frames()},
-                       {"converged_frames", run.summary.convergedFrames},
-                       {"ms_per_frame", run.cpuMsPerFrame()},
-                       {"wall_ms_per_frame", run.msPerFrame()},
-                       {"mean_iterations", run.meanIterations()},
-                       {"jacobian_ms", jacobian.cpuMedianMs},
-                       {"blackbox_jacobian_ms", orNull(blackMs)},
-                       {"max_position_error_cm", run.summary.maxPositionErrorCm},
-                       {"max_rotation_error_deg", run.summary.maxRotationErrorDeg},
-                       {"memory_mb", memoryMb},
-                       {"memory_graph_mb", graphMb},
-                       {"memory_training_peak_mb", trainingPeakMb},
-                       {"memory_peak_reset", peakReset},
-                       {"approximation_kb", approxKb}});
+                            {"count", count},
+                            {"parameters", static_cast<long long>(rig.parameters().size())},
+                            {"modelled", static_cast<long long>(a.parameters.size())},
+                            {"outputs", static_cast<long long>(a.outputs.size())},
+                            {"blocks", blocks.blocks()},
+                            {"load_seconds", loadSeconds},
+                            {"train_evaluations", a.training.evaluations},
+                            {"train_order_evaluations", a.training.orderEvaluations},
+                            {"train_seconds", a.training.seconds},
+                            {"train_threads", threads},
+                            {"validation_max_relative_error", a.validation.maxRelativeError},
+                            {"within_epsilon", a.validation.withinEpsilon},
+                            {"frames", run.frames()},
+                            {"converged_frames", run.summary.convergedFrames},
+                            {"ms_per_frame", run.cpuMsPerFrame()},
+                            {"wall_ms_per_frame", run.msPerFrame()},
+                            {"mean_iterations", run.meanIterations()},
+                            {"jacobian_ms", jacobian.cpuMedianMs},
+                            {"blackbox_jacobian_ms", orNull(blackMs)},
+                            {"max_position_error_cm", run.summary.maxPositionErrorCm},
+                            {"max_rotation_error_deg", run.summary.maxRotationErrorDeg},
+                            {"memory_mb", memoryMb},
+                            {"memory_graph_mb", graphMb},
+                            {"memory_training_peak_mb", trainingPeakMb},
+                            {"memory_peak_reset", peakReset},
+                            {"approximation_kb", approxKb}});
     }
     report["scaling"] = std::move(rows);
 
     Json growth = Json::object();
     for (const auto& [kind, ser] : series) {
         auto fit = [&](const std::vector<double>& y) { return orNull(growthExponent(ser.params, y)); };
-        growth[kind] = Json{{"ms_per_frame", fit(ser.msPerFrame)},
-                              {"jacobian_ms", fit(ser.jacobianMs)},
-                              {"blackbox_jacobian_ms", fit(ser.blackBoxMs)},
-                              {"train_evaluations", fit(ser.evaluations)},
-                              {"train_seconds", fit(ser.trainSeconds)},
-                              {"memory_mb", fit(ser.memoryMb)},
-                              {"approximation_kb", fit(ser.approxKb)}};
+        growth[kind] = Json{{"ms_per_frame", fit(ser.msPerFrame)},         {"jacobian_ms", fit(ser.jacobianMs)},
+                            {"blackbox_jacobian_ms", fit(ser.blackBoxMs)}, {"train_evaluations", fit(ser.evaluations)},
+                            {"train_seconds", fit(ser.trainSeconds)},      {"memory_mb", fit(ser.memoryMb)},
+                            {"approximation_kb", fit(ser.approxKb)}};
     }
     growth["note"] = "least-squares slope of log(figure) against log(parameters): cost ~ parameters^slope";
     report["growth"] = std::move(growth);

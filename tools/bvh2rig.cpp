@@ -38,14 +38,15 @@ int run(const Options& options)
 int main(int argc, char** argv)
 {
     rig::Options options;
-    CLI::App app{"bvh2rig: write a forward-kinematics rig (YAML) for a BVH motion file.\n\n"
-                 "Example:\n"
-                 "  bvh2rig walk.bvh -o walk.yaml --with-motion\n"
-                 "  graph-eval walk.yaml --frames 1:100 --get '*.worldMatrix'\n\n"
-                 "One joint per BVH joint (translate = OFFSET, rotateOrder from the channel order), End Sites as\n"
-                 "leaf joints <joint>_end. The rig's parameters are the rotate (and, for position channels,\n"
-                 "translate) plugs the channels set; the file's header comment lists them. See docs/bvh.md.",
-                 "bvh2rig"};
+    CLI::App app{
+        "bvh2rig: write a forward-kinematics rig (YAML) for a BVH motion file.\n\n"
+        "Example:\n"
+        "  bvh2rig walk.bvh -o walk.yaml --with-motion\n"
+        "  graph-eval walk.yaml --frames 1:100 --get '*.worldMatrix'\n\n"
+        "One joint per BVH joint (translate = OFFSET, rotateOrder from the channel order), End Sites as\n"
+        "leaf joints <joint>_end. The rig's parameters are the rotate (and, for position channels,\n"
+        "translate) plugs the channels set; the file's header comment lists them. See docs/bvh.md.",
+        "bvh2rig"};
     app.add_option("clip", options.clip, "BVH file")->required();
     app.add_option("-o,--output", options.output, "Rig file to write (YAML)")->required();
     app.add_flag("--with-motion", options.rig.withMotion,

@@ -8,8 +8,8 @@
 #include <fstream>
 #include <iostream>
 
-#include <fmt/format.h>
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -62,9 +62,14 @@ int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& bo
     }
     catch (const Error& e) {
         switch (e.kind()) {
-        case ErrorKind::userInput: std::cerr << "error: " << oneLine(e.what()) << '\n'; return 2;
-        case ErrorKind::numerical: std::cerr << "error: " << oneLine(e.what()) << '\n'; return 3;
-        case ErrorKind::internal: break;
+            case ErrorKind::userInput:
+                std::cerr << "error: " << oneLine(e.what()) << '\n';
+                return 2;
+            case ErrorKind::numerical:
+                std::cerr << "error: " << oneLine(e.what()) << '\n';
+                return 3;
+            case ErrorKind::internal:
+                break;
         }
         std::cerr << "internal error: " << oneLine(e.what()) << '\n';
         return 1;
@@ -227,8 +232,9 @@ void checkDistinctFiles(const std::vector<NamedFile>& inputs, const std::vector<
         if (device) continue;
         for (const NamedFile& in : inputs)
             if (!in.path.empty() && id.same(FileIdentity(in.path)))
-                throw Error(fmt::format("{} {}: is {} ({}); writing it would destroy an input, choose another output file",
-                                        out.role, out.path.string(), in.role, in.path.string()));
+                throw Error(
+                    fmt::format("{} {}: is {} ({}); writing it would destroy an input, choose another output file",
+                                out.role, out.path.string(), in.role, in.path.string()));
         for (std::size_t o = 0; o < outputIds.size(); ++o)
             if (id.same(outputIds[o]))
                 throw Error(fmt::format("{} {}: is also {} ({}); give each output a file of its own", out.role,
@@ -249,8 +255,8 @@ std::vector<std::filesystem::path> staleTemporaryFiles(const std::filesystem::pa
         const std::string_view rest = std::string_view(name).substr(prefix.size());
         long long pid = 0;
         const auto [end, err] = std::from_chars(rest.data(), rest.data() + rest.size(), pid);
-        if (err != std::errc() || pid <= 0 || pid > 0x7fffffff || rest.size() != static_cast<std::size_t>(end - rest.data()) + 11
-            || *end != '.')
+        if (err != std::errc() || pid <= 0 || pid > 0x7fffffff ||
+            rest.size() != static_cast<std::size_t>(end - rest.data()) + 11 || *end != '.')
             continue;
         if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) stale.push_back(entry.path());
     }
@@ -295,10 +301,12 @@ void writeFileAtomically(const std::filesystem::path& file, std::string_view con
         std::error_code ec;
         std::filesystem::remove(old, ec);
     }
-    std::string tmpl = (folderOf(target) / fmt::format("{}{}.XXXXXX.tmp", temporaryPrefix(target), ::getpid())).string();
+    std::string tmpl =
+        (folderOf(target) / fmt::format("{}{}.XXXXXX.tmp", temporaryPrefix(target), ::getpid())).string();
     const int fd = mkstemps(tmpl.data(), 4);
-    if (fd < 0) throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable",
-                                        file.string(), std::strerror(errno)));
+    if (fd < 0)
+        throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable", file.string(),
+                                std::strerror(errno)));
     bool ok = writeAll(fd, content);
     int error = ok ? 0 : errno;
     if (::fsync(fd) != 0 && ok) {

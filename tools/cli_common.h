@@ -33,7 +33,8 @@ FrameRange parseFrameRange(std::string_view text, std::string_view flag);
 // process may write into. A symbolic link is judged by the file it names. Throws rig::Error with what to do.
 // `example` is the file name the message suggests when `file` is a folder; `flag` the option that names
 // the file, for the messages.
-void checkOutputFile(const std::filesystem::path& file, std::string_view example = "out.json", std::string_view flag = "-o");
+void checkOutputFile(const std::filesystem::path& file, std::string_view example = "out.json",
+                     std::string_view flag = "-o");
 
 // Writes through a temporary file in the same folder and renames it, so a failing or interrupted run
 // never leaves a truncated file or damages an existing one; an existing file keeps its mode. A

@@ -58,17 +58,19 @@ void applyAnimFile(Graph& graph, const std::string& file)
         const std::string where = formatMark(curve.mark);
         const std::string name = curve.plugName();
         if (curve.input != AnimQuantity::time)
-            throw Error(fmt::format("{}: the curve of {} is driven by a {} value (a set-driven key), and a .anim file "
-                                    "does not say by what; play it with an {} node in a rig file (animFile, animPlug)",
-                                    where, name, animQuantityName(curve.input), curve.nodeTypeName()));
+            throw Error(
+                fmt::format("{}: the curve of {} is driven by a {} value (a set-driven key), and a .anim file "
+                            "does not say by what; play it with an {} node in a rig file (animFile, animPlug)",
+                            where, name, animQuantityName(curve.input), curve.nodeTypeName()));
         Plug plug;
         try {
             plug = graph.plug(name);
         }
         catch (const Error& e) {
-            throw Error(fmt::format("{}: the curve drives {}, which the rig does not have ({}); check the file's node "
-                                    "and attribute names against the rig",
-                                    where, name, e.what()));
+            throw Error(
+                fmt::format("{}: the curve drives {}, which the rig does not have ({}); check the file's node "
+                            "and attribute names against the rig",
+                            where, name, e.what()));
         }
         const AttributeSpec& spec = graph.spec(plug);
         if (!spec.input || graph.plugType(plug) != ValueType::Double)
@@ -82,11 +84,13 @@ void applyAnimFile(Graph& graph, const std::string& file)
                           : curve.output == AnimQuantity::linear ? Unit::Distance
                                                                  : Unit::None;
         if (spec.unit != unit)
-            throw Error(fmt::format("{}: the curve of {} is {} but the plug is {}; export the curve from a plug of the "
-                                    "same kind",
-                                    where, name, animQuantityName(curve.output),
-                                    spec.unit == Unit::Angle ? "an angle" : spec.unit == Unit::Distance ? "a distance"
-                                                                                                       : "unitless"));
+            throw Error(
+                fmt::format("{}: the curve of {} is {} but the plug is {}; export the curve from a plug of the "
+                            "same kind",
+                            where, name, animQuantityName(curve.output),
+                            spec.unit == Unit::Angle      ? "an angle"
+                            : spec.unit == Unit::Distance ? "a distance"
+                                                          : "unitless"));
         std::string nodeName = "anim_" + curve.node + "_" + curve.leaf;
         std::replace_if(
             nodeName.begin(), nodeName.end(), [](char c) { return !std::isalnum(static_cast<unsigned char>(c)); }, '_');
@@ -142,9 +146,10 @@ std::vector<Value> evaluateFrame(Graph& graph, const std::string& rigName, doubl
         if (!mismatches.empty()) {
             std::string list;
             for (const auto& m : mismatches) list += (list.empty() ? "" : ", ") + m;
-            throw internalError(fmt::format("checked mode, frame {}: cached values differ from a full recompute for {} "
-                                            "(a node type's affects table misses an entry)",
-                                            frame, list));
+            throw internalError(
+                fmt::format("checked mode, frame {}: cached values differ from a full recompute for {} "
+                            "(a node type's affects table misses an entry)",
+                            frame, list));
         }
     }
     std::vector<Value> values;

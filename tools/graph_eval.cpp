@@ -7,9 +7,9 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include "graph/dot_writer.h"
 #include "core/error.h"
 #include "core/table.h"
+#include "graph/dot_writer.h"
 #include "graph/type_reference.h"
 #include "graph/yaml_loader.h"
 #include "tools/cli_common.h"
@@ -86,10 +86,10 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
         const double estimate = framesDone == 1 ? static_cast<double>(bytes) * static_cast<double>(frames.size())
                                                 : static_cast<double>(bytes);
         if (estimate > static_cast<double>(maxOutputBytes))
-            throw Error(fmt::format("the output would be about {} MB ({} frames of {} plugs), more than the limit of {} "
-                                    "MB; ask for fewer frames (--frames) or plugs (--get)",
-                                    static_cast<long long>(estimate / 1e6), frames.size(), plugs.size(),
-                                    maxOutputBytes >> 20));
+            throw Error(
+                fmt::format("the output would be about {} MB ({} frames of {} plugs), more than the limit of {} "
+                            "MB; ask for fewer frames (--frames) or plugs (--get)",
+                            static_cast<long long>(estimate / 1e6), frames.size(), plugs.size(), maxOutputBytes >> 20));
     };
     std::size_t framesDone = 0;
     for (double frame : frames) {
@@ -99,8 +99,7 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
             for (std::size_t i = 0; i < plugs.size(); ++i)
                 named.emplace_back(graph.plugName(plugs[i]), cli::valueToJson(graph, plugs[i], values[i]));
             out += (firstRow ? "[\n" : ",\n") + cli::frameJson(frame, named);
-        }
-        else {
+        } else {
             if (firstRow) {
                 std::vector<std::string> header{"frame"};
                 for (std::size_t i = 0; i < plugs.size(); ++i)
@@ -154,24 +153,26 @@ int run(const Options& options)
         for (const auto& s : options.sets) applySet(*graph, s);
         std::optional<cli::FrameRange> range;
         if (options.framesGiven) range = cli::parseFrameRange(options.frames, "--frames");
-        std::vector<Plug> plugs = cli::selectPlugs(*graph, options.rig, options.gets,
-                                                   range ? std::optional(range->first) : std::nullopt);
+        std::vector<Plug> plugs =
+            cli::selectPlugs(*graph, options.rig, options.gets, range ? std::optional(range->first) : std::nullopt);
         const std::set<Plug> seen(plugs.begin(), plugs.end());
         // CSV and table columns of a vector are its components: a component also selected whole
         // ('--get node.rotate*' matches rotate and rotateX) would be a second column of the same name.
         if (options.format != "json")
-            std::erase_if(plugs,
-                          [&](const Plug& p) { return p.child >= 0 && seen.contains({p.node, p.attr, p.index, -1}); });
+            std::erase_if(plugs, [&](const Plug& p) {
+                return p.child >= 0 && seen.contains({p.node, p.attr, p.index, -1});
+            });
         const auto computesBefore = graph->computeCount();
         const auto start = std::chrono::steady_clock::now();
         const std::vector<double> frames = range ? range->frames() : std::vector<double>{graph->time()};
         text = render(*graph, plugs, frames, range.has_value(), options);
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (options.stats)
-            std::cerr << fmt::format("stats: {} nodes, {} connections, {} threads, {} frames, {} node computations, "
-                                     "{:.3f} ms per frame\n",
-                                     graph->nodeCount(), graph->connections().size(), graph->threads(), frames.size(),
-                                     graph->computeCount() - computesBefore, 1e3 * seconds / static_cast<double>(frames.size()));
+            std::cerr << fmt::format(
+                "stats: {} nodes, {} connections, {} threads, {} frames, {} node computations, "
+                "{:.3f} ms per frame\n",
+                graph->nodeCount(), graph->connections().size(), graph->threads(), frames.size(),
+                graph->computeCount() - computesBefore, 1e3 * seconds / static_cast<double>(frames.size()));
     }
     if (!options.outputGiven) std::cout << text;
     else cli::writeFileAtomically(options.output, text);
@@ -184,14 +185,16 @@ int run(const Options& options)
 int main(int argc, char** argv)
 {
     rig::Options options;
-    CLI::App app{"graph-eval: evaluate a rig graph (YAML) and print plug values.\n\n"
-                 "Example:\n"
-                 "  graph-eval rigs/examples/arm.yaml --frames 1:24 --get 'wrist.worldMatrix' --get '*.rotateZ'\n"
-                 "  graph-eval rigs/examples/arm.yaml --set shoulder.rotateZ=30 --get wrist_world.outputTranslate --format csv\n\n"
-                 "Angles are degrees, distances centimetres, times frames. JSON output is a list with one object\n"
-                 "per frame: {\"frame\": F, \"node.attr\": value, ...}; matrices are four rows (translation in\n"
-                 "the last column). See docs/graph-eval.md.",
-                 "graph-eval"};
+    CLI::App app{
+        "graph-eval: evaluate a rig graph (YAML) and print plug values.\n\n"
+        "Example:\n"
+        "  graph-eval rigs/examples/arm.yaml --frames 1:24 --get 'wrist.worldMatrix' --get '*.rotateZ'\n"
+        "  graph-eval rigs/examples/arm.yaml --set shoulder.rotateZ=30 --get wrist_world.outputTranslate --format "
+        "csv\n\n"
+        "Angles are degrees, distances centimetres, times frames. JSON output is a list with one object\n"
+        "per frame: {\"frame\": F, \"node.attr\": value, ...}; matrices are four rows (translation in\n"
+        "the last column). See docs/graph-eval.md.",
+        "graph-eval"};
     app.add_option("rig", options.rig, "Rig graph file (YAML)");
     // Repeatable flags take one value each: '--get a.b rig.yaml' must not read the rig as a second --get.
     app.add_option("--set", options.sets, "Set a plug before evaluating: node.attr=VALUE (repeatable)")
@@ -199,7 +202,8 @@ int main(int argc, char** argv)
     app.add_option("--get", options.gets, "Plugs to print, by name or glob (repeatable; default: every output)")
         ->allow_extra_args(false);
     app.add_option("--frames", options.frames, "Frame range A:B[:STEP], inclusive (default: the current time, 0)");
-    app.add_option("--format", options.format, "Output format: json (default), csv, or table (aligned, 6 digits)")->check(CLI::IsMember({"json", "csv", "table"}));
+    app.add_option("--format", options.format, "Output format: json (default), csv, or table (aligned, 6 digits)")
+        ->check(CLI::IsMember({"json", "csv", "table"}));
     app.add_option("-o,--output", options.output, "Write to this file instead of standard output");
     app.add_option("--anim", options.anim,
                    "A Maya .anim file: its curves drive the rig's plugs they name (docs/keys-anim-report.md)");

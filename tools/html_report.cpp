@@ -431,8 +431,8 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
     // Each output's clip joint, when it has a target.
     std::vector<int> jointOfOutput(a.outputs.size(), -1);
     for (std::size_t j = 0; j < outcome.targets.outputOfJoint.size(); ++j)
-        if (const int o = outcome.targets.outputOfJoint[j]; o >= 0) jointOfOutput[static_cast<std::size_t>(o)] =
-                                                                        static_cast<int>(j);
+        if (const int o = outcome.targets.outputOfJoint[j]; o >= 0)
+            jointOfOutput[static_cast<std::size_t>(o)] = static_cast<int>(j);
 
     RigBinding binding(a, *outcome.rig);
     std::vector<Eigen::Matrix4d> worlds;
@@ -490,17 +490,17 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
     Json frameNumbers = Json::array();
     for (std::size_t f = 0; f < frames; ++f)
         frameNumbers.push_back(numberJson(clip.frameNumbers[static_cast<std::size_t>(outcome.first) + f]));
-    return Json{{"clip_name", names.clip},
-                {"rig_name", names.rig},
-                {"approximation_name", names.approximation},
-                {"fps", numberJson(clip.frameTime > 0.0 ? 1.0 / clip.frameTime : 30.0)},
-                {"frames", std::move(frameNumbers)},
-                {"target", {{"joints", clip.joints}, {"parents", clip.parents}, {"positions", targetPositions}}},
-                {"rig", {{"joints", rigJoints}, {"parents", rigParents}, {"positions", rigPositions},
-                         {"errors", errors}}},
-                {"worst", std::move(worst)},
-                {"keyed", std::move(keyed)},
-                {"controls", std::move(controls)}};
+    return Json{
+        {"clip_name", names.clip},
+        {"rig_name", names.rig},
+        {"approximation_name", names.approximation},
+        {"fps", numberJson(clip.frameTime > 0.0 ? 1.0 / clip.frameTime : 30.0)},
+        {"frames", std::move(frameNumbers)},
+        {"target", {{"joints", clip.joints}, {"parents", clip.parents}, {"positions", targetPositions}}},
+        {"rig", {{"joints", rigJoints}, {"parents", rigParents}, {"positions", rigPositions}, {"errors", errors}}},
+        {"worst", std::move(worst)},
+        {"keyed", std::move(keyed)},
+        {"controls", std::move(controls)}};
 }
 
 }  // namespace
@@ -511,9 +511,10 @@ std::string readThreeJs(const std::filesystem::path& file)
     std::ostringstream text;
     if (in) text << in.rdbuf();
     if (!in || in.bad() || text.str().empty())
-        throw Error(fmt::format("--html: cannot read three.js at {} ({}); install Debian's libjs-three "
-                                "(scripts/setup.sh does)",
-                                file.string(), in ? "empty" : std::strerror(errno)));
+        throw Error(
+            fmt::format("--html: cannot read three.js at {} ({}); install Debian's libjs-three "
+                        "(scripts/setup.sh does)",
+                        file.string(), in ? "empty" : std::strerror(errno)));
     return text.str();
 }
 

@@ -21,9 +21,10 @@ std::vector<double> valuesReported(const std::string& file, const Approximation&
                                    const std::string& frames)
 {
     if (index < 0)
-        throw Error(fmt::format("--after {}: frames {} start at the clip's first chain; there is no frame before them "
-                                "to continue from (leave --after out)",
-                                file, frames));
+        throw Error(
+            fmt::format("--after {}: frames {} start at the clip's first chain; there is no frame before them "
+                        "to continue from (leave --after out)",
+                        file, frames));
     const double number = clip.frameNumbers[static_cast<std::size_t>(index)];
     std::ifstream in(file);
     if (!in)
@@ -47,23 +48,26 @@ std::vector<double> valuesReported(const std::string& file, const Approximation&
             const RigParameter& p = m.parameter;
             const auto found = frame.find(p.name);
             if (found == frame.end() || !found->is_number() || !std::isfinite(found->get<double>()))
-                throw Error(fmt::format("--after {}: frame {} has no finite value of {}; give curves written with this "
-                                        "approximation",
-                                        file, number, p.name));
+                throw Error(
+                    fmt::format("--after {}: frame {} has no finite value of {}; give curves written with this "
+                                "approximation",
+                                file, number, p.name));
             values.push_back(parameterInternalValue(p, found->get<double>()));
         }
         return values;
     }
-    throw Error(fmt::format("--after {}: has no frame {}; frames {} start their chain at frame {}, so the curves "
-                            "before must reach the frame before it",
-                            file, number, frames, clip.frameNumbers[static_cast<std::size_t>(index) + 1]));
+    throw Error(
+        fmt::format("--after {}: has no frame {}; frames {} start their chain at frame {}, so the curves "
+                    "before must reach the frame before it",
+                    file, number, frames, clip.frameNumbers[static_cast<std::size_t>(index) + 1]));
 }
 
 std::string learnedFrom(const Approximation& approximation)
 {
-    return fmt::format("the approximation was learned from {}: give that rig with --rig, or learn one for this rig "
-                       "with rig-learn",
-                       approximation.rigFile);
+    return fmt::format(
+        "the approximation was learned from {}: give that rig with --rig, or learn one for this rig "
+        "with rig-learn",
+        approximation.rigFile);
 }
 
 // The clip indices of --frames A:B.
@@ -119,9 +123,10 @@ LoadedRig loadRig(const InvertJob& job)
         out.approximation = std::make_shared<const Approximation>(readApproximationFile(job.approximationName));
     const Approximation& approximation = *out.approximation;
     if (approximation.parameters.empty())
-        throw Error(fmt::format("{}: the approximation models no parameter (all were discarded); learn it again "
-                                "with other --params",
-                                job.approximationName));
+        throw Error(
+            fmt::format("{}: the approximation models no parameter (all were discarded); learn it again "
+                        "with other --params",
+                        job.approximationName));
 
     GraphRigOptions rigOptions;
     for (const auto& p : approximation.parameters) rigOptions.parameterGlobs.push_back(p.parameter.name);
@@ -200,9 +205,9 @@ InvertOutcome invert(const InvertJob& job)
     const Solver solver(approximation, options.solver);
     RigBinding bound = bindRig(job, approximation, *loaded.rig);
     if (!job.after.empty())
-        options.continueFrom = valuesReported(job.after, approximation, clip,
-                                              out.first - out.first % options.restartInterval - 1,
-                                              job.frames ? *job.frames : "(all)");
+        options.continueFrom =
+            valuesReported(job.after, approximation, clip, out.first - out.first % options.restartInterval - 1,
+                           job.frames ? *job.frames : "(all)");
     if (job.progress) {
         const int total = last - out.first + 1;
         // invertClip gives done / total.

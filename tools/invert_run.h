@@ -49,7 +49,7 @@ struct InvertJob {
     std::optional<std::string> frames;  // A:B in the clip's numbering; none: the whole clip
     // Or the frames as clip indices (0-based), first and last: rig-batch's shards.
     std::optional<std::pair<int, int>> frameIndices;
-    std::string after;                  // the curves of the chunk before (rig-invert --after), "" for none
+    std::string after;  // the curves of the chunk before (rig-invert --after), "" for none
     InvertSettings settings;
     // Called after each reported frame with the frames done and the frames to report; may be empty.
     std::function<void(int done, int total)> progress;
@@ -62,9 +62,9 @@ struct InvertJob {
 struct InvertOutcome {
     std::shared_ptr<const Approximation> approximation;
     std::shared_ptr<GraphRigFunction> rig;  // the real rig, for measuring more (keys, the HTML report)
-    TargetClip clip;       // after the map
+    TargetClip clip;                        // after the map
     ClipTargets targets;
-    int first = 0;         // the first reported frame, an index into clip.frameNumbers
+    int first = 0;  // the first reported frame, an index into clip.frameNumbers
     ClipInversionSummary summary;
     std::vector<std::vector<double>> values;  // [reported frame][parameter], internal units
     // The same as solved, before each warm-start chain's continuity shift (rig-batch replays the shifts).
@@ -107,9 +107,9 @@ std::string curvesCsv(const InvertOutcome& outcome);
 
 // The --report-json report. `clip` names the targets (none for targets given in memory), `curvesFile` the
 // curves written (none when nothing was), `curvesFingerprint` the FNV-1a 64 of the curves' JSON text.
-Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>& approximation,
-                  const std::string& rig, const std::optional<std::string>& clip,
-                  const std::optional<std::string>& curvesFile, const std::string& curvesFingerprint);
+Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>& approximation, const std::string& rig,
+                  const std::optional<std::string>& clip, const std::optional<std::string>& curvesFile,
+                  const std::string& curvesFingerprint);
 
 // 16 hex digits, as the report writes a fingerprint.
 std::string fingerprintText(const std::string& text);

@@ -58,9 +58,10 @@ std::string percent(double fraction) { return fmt::format("{:.1f}%", 100.0 * fra
 TangentType keyTangent(const std::string& name)
 {
     if (const auto type = tangentTypeFromName(name)) return *type;
-    throw Error(fmt::format("--key-tangent {}: not a tangent type; use one of auto, spline, clamped, plateau, linear, "
-                            "flat, step, stepnext",
-                            messageExcerpt(name)));
+    throw Error(
+        fmt::format("--key-tangent {}: not a tangent type; use one of auto, spline, clamped, plateau, linear, "
+                    "flat, step, stepnext",
+                    messageExcerpt(name)));
 }
 
 void checkKeySettings(const KeySettings& settings)
@@ -68,8 +69,8 @@ void checkKeySettings(const KeySettings& settings)
     if (!(settings.toleranceCm > 0.0) || !std::isfinite(settings.toleranceCm))
         throw Error(fmt::format("--key-tolerance {}: give a positive distance in cm (e.g. 0.1)", settings.toleranceCm));
     if (!(settings.toleranceDeg > 0.0) || !std::isfinite(settings.toleranceDeg))
-        throw Error(fmt::format("--key-tolerance-deg {}: give a positive angle in degrees (e.g. 0.5)",
-                                settings.toleranceDeg));
+        throw Error(
+            fmt::format("--key-tolerance-deg {}: give a positive angle in degrees (e.g. 0.5)", settings.toleranceDeg));
     keyTangent(settings.tangent);
 }
 
@@ -102,14 +103,14 @@ KeysOutcome keyCurves(const InvertOutcome& outcome, const KeySettings& settings,
 std::string keyedCurvesJson(const InvertOutcome& outcome, const KeysOutcome& keys)
 {
     const auto frames = reportedFrames(outcome);
-    std::string out = fmt::format("{{\n  \"tangent\": \"{}\",\n  \"frames\": [{}, {}],\n  \"curves\": {{\n",
-                                  keys.settings.tangent, jsonText(numberJson(frames.front())),
-                                  jsonText(numberJson(frames.back())));
+    std::string out =
+        fmt::format("{{\n  \"tangent\": \"{}\",\n  \"frames\": [{}, {}],\n  \"curves\": {{\n", keys.settings.tangent,
+                    jsonText(numberJson(frames.front())), jsonText(numberJson(frames.back())));
     for (std::size_t p = 0; p < keys.keyed.keys.size(); ++p) {
         Json list = Json::array();
         for (const AnimKey& k : userKeys(parameter(outcome, p), keys.keyed.keys[p]))
-            list.push_back({numberJson(k.x), numberJson(k.y), tangentTypeName(k.inTangent),
-                            tangentTypeName(k.outTangent)});
+            list.push_back(
+                {numberJson(k.x), numberJson(k.y), tangentTypeName(k.inTangent), tangentTypeName(k.outTangent)});
         out += fmt::format("    {}: {}{}\n", jsonText(Json(parameter(outcome, p).name)), jsonText(list),
                            p + 1 < keys.keyed.keys.size() ? "," : "");
     }
@@ -185,21 +186,23 @@ std::string keysText(const InvertOutcome& outcome, const KeysOutcome& keys)
         "keys              {} for {} controls against {} dense keys: {} fewer ({} tangents, tolerance {} cm, {} deg)\n",
         keys.keyed.keyCount(), keys.keyed.keys.size(), keys.denseKeys, percent(keys.reduction()), keys.settings.tangent,
         keys.settings.toleranceCm, keys.settings.toleranceDeg);
-    out += fmt::format("keyed error       worst {:.4g} cm, {:.4g} deg on the real rig against the dense curves ({} at "
-                       "frame {})\n",
-                       e.maxPositionCm, e.maxRotationDeg,
-                       outcome.approximation->outputs[static_cast<std::size_t>(e.worstOutputOverall)].name,
-                       frames[static_cast<std::size_t>(e.worstFrame)]);
+    out += fmt::format(
+        "keyed error       worst {:.4g} cm, {:.4g} deg on the real rig against the dense curves ({} at "
+        "frame {})\n",
+        e.maxPositionCm, e.maxRotationDeg,
+        outcome.approximation->outputs[static_cast<std::size_t>(e.worstOutputOverall)].name,
+        frames[static_cast<std::size_t>(e.worstFrame)]);
     if (u.step == 1)
-        out += fmt::format("uniform keys      no step over 1 frame holds the tolerance: a key on every frame ({} "
-                           "keys)\n",
-                           u.keyCount);
+        out += fmt::format(
+            "uniform keys      no step over 1 frame holds the tolerance: a key on every frame ({} "
+            "keys)\n",
+            u.keyCount);
     else
-        out += fmt::format("uniform keys      every {} frames: {} keys, {} fewer, at the same tolerance (worst {:.4g} "
-                           "cm, {:.4g} deg)\n",
-                           u.step, u.keyCount,
-                           percent(1.0 - static_cast<double>(u.keyCount) / static_cast<double>(keys.denseKeys)),
-                           u.error.maxPositionCm, u.error.maxRotationDeg);
+        out += fmt::format(
+            "uniform keys      every {} frames: {} keys, {} fewer, at the same tolerance (worst {:.4g} "
+            "cm, {:.4g} deg)\n",
+            u.step, u.keyCount, percent(1.0 - static_cast<double>(u.keyCount) / static_cast<double>(keys.denseKeys)),
+            u.error.maxPositionCm, u.error.maxRotationDeg);
     // Keys per control, as many to a line as fit.
     std::string line = "keys per control ";
     for (std::size_t p = 0; p < keys.keyed.keys.size(); ++p) {

@@ -15,9 +15,10 @@ double parseEpsilon(const std::string& text)
     double x = 0.0;
     const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
     if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !std::isfinite(x))
-        throw Error(fmt::format("--epsilon '{}': not a number; give a positive number of cm per unit of a parameter, "
-                                "e.g. --epsilon 0.001",
-                                text));
+        throw Error(
+            fmt::format("--epsilon '{}': not a number; give a positive number of cm per unit of a parameter, "
+                        "e.g. --epsilon 0.001",
+                        text));
     if (!(x > 0))
         throw Error(
             fmt::format("--epsilon '{}': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001", text));
@@ -127,9 +128,10 @@ std::string validationFailure(const Approximation& approximation)
     if (v.withinEpsilon) return {};
     if (v.nonFinitePoses > 0)
         return fmt::format("the rig gave non-finite matrices at {} of {} validation poses", v.nonFinitePoses, v.poses);
-    return fmt::format("the approximation exceeds epsilon {:g}: {:.3g} cm per unit of the parameters moved on {} "
-                       "(moving {} most)",
-                       approximation.epsilon, v.maxRelativeError, v.worstRelativeOutput, v.worstParameter);
+    return fmt::format(
+        "the approximation exceeds epsilon {:g}: {:.3g} cm per unit of the parameters moved on {} "
+        "(moving {} most)",
+        approximation.epsilon, v.maxRelativeError, v.worstRelativeOutput, v.worstParameter);
 }
 
 }  // namespace rig::cli

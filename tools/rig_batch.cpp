@@ -37,34 +37,34 @@ void printSummary(const cli::BatchJob& job, const cli::Json& report)
             continue;
         }
         std::cout << fmt::format("{:<16} {:>7} {:>9} {:>7} {:>10.4g} {:>10.4g} {:>9.4g}  {}\n",
-                                 c["name"].get<std::string>(), c["frames"].get<int>(),
-                                 c["converged_frames"].get<int>(), c["stuck_frames"].get<int>(),
-                                 c["max_position_error_cm"].get<double>(), c["max_rotation_error_deg"].get<double>(),
-                                 c["ms_per_frame"].get<double>(), c["curves"]["file"].get<std::string>());
+                                 c["name"].get<std::string>(), c["frames"].get<int>(), c["converged_frames"].get<int>(),
+                                 c["stuck_frames"].get<int>(), c["max_position_error_cm"].get<double>(),
+                                 c["max_rotation_error_deg"].get<double>(), c["ms_per_frame"].get<double>(),
+                                 c["curves"]["file"].get<std::string>());
     }
     const cli::Json& fps = totals["frames_per_second"];
     std::cout << fmt::format("\ntime              {:.3g} s running {} shards{}, {:.3g} s merging\n",
                              totals["run_seconds"].get<double>(), totals["shards_run"].get<int>(),
                              fps.is_null() ? "" : fmt::format(" ({:.4g} frames per second)", fps.get<double>()),
                              totals["merge_seconds"].get<double>());
-    std::cout << fmt::format("report            {}\n",
-                             (std::filesystem::absolute(job.out) / "report.json").string());
+    std::cout << fmt::format("report            {}\n", (std::filesystem::absolute(job.out) / "report.json").string());
 }
 
 int run(Options& o)
 {
     if (o.taskGiven) {
         if (!o.job.approximation.empty() || !o.job.rig.empty() || !o.job.clips.empty())
-            throw Error(fmt::format("--task {}: runs one shard of the batch in --out with the inputs its manifest "
-                                    "names; give only --out with it",
-                                    o.task));
+            throw Error(
+                fmt::format("--task {}: runs one shard of the batch in --out with the inputs its manifest "
+                            "names; give only --out with it",
+                            o.task));
         if (o.job.out.empty()) throw Error(fmt::format("--task {}: give the batch's folder with --out", o.task));
         cli::runShard(o.job.out, o.task);
         return 0;
     }
     if (o.jobsGiven && o.job.jobs < 1)
-        throw Error(fmt::format("--jobs {}: give 1 or more processes (local) or tasks running at once (slurm)",
-                                o.job.jobs));
+        throw Error(
+            fmt::format("--jobs {}: give 1 or more processes (local) or tasks running at once (slurm)", o.job.jobs));
     if (o.job.approximation.empty())
         throw Error("no approximation given; give the approximation file rig-learn wrote as the first argument");
     if (o.job.rig.empty()) throw Error("--rig: give the rig file the approximation was learned from");
@@ -92,9 +92,10 @@ int run(Options& o)
         return 3;
     }
     if (outcome.nonFiniteClips > 0) {
-        std::cerr << fmt::format("error: the real rig gives non-finite matrices on {} clips (non_finite_frames in "
-                                 "report.json); the rig cannot follow these curves there\n",
-                                 outcome.nonFiniteClips);
+        std::cerr << fmt::format(
+            "error: the real rig gives non-finite matrices on {} clips (non_finite_frames in "
+            "report.json); the rig cannot follow these curves there\n",
+            outcome.nonFiniteClips);
         return 3;
     }
     return 0;
@@ -107,9 +108,10 @@ int main(int argc, char** argv)
 {
     rig::Options options;
     rig::cli::BatchJob& job = options.job;
-    CLI::App app("Inverts a motion library as shards on this machine or a Slurm cluster and merges them into "
-                 "rig-invert's curves, one file per clip (docs/cluster.md).",
-                 "rig-batch");
+    CLI::App app(
+        "Inverts a motion library as shards on this machine or a Slurm cluster and merges them into "
+        "rig-invert's curves, one file per clip (docs/cluster.md).",
+        "rig-batch");
     app.add_option("approximation", job.approximation, "Approximation file written by rig-learn");
     app.add_option("--rig", job.rig, "The rig file the approximation was learned from");
     app.add_option("--map", job.map, "Map file: scale of the clips and target-to-rig joint names");

@@ -51,36 +51,37 @@ void printSummary(const bench::Json& r)
     const auto& cer = r.at("ceres");
     const auto& train = r.at("train");
     const auto& machine = r.at("machine");
-    std::cout << fmt::format("machine     {} cores, {}, {} build\n", figure(machine.at("cores")), text(machine.at("compiler")),
-                             text(machine.at("build_type")));
+    std::cout << fmt::format("machine     {} cores, {}, {} build\n", figure(machine.at("cores")),
+                             text(machine.at("compiler")), text(machine.at("build_type")));
     std::cout << fmt::format("jacobian    real graph (fd) {}, approximation fd {}, analytic {} ({}x the real graph)\n",
                              figure(jac.at("blackbox_fd_ms"), "ms"), figure(jac.at("approx_fd_ms"), "ms"),
                              figure(jac.at("approx_analytic_ms"), "ms"), figure(jac.at("speedup_analytic"), "", 4));
     std::cout << fmt::format("inversion   {} per frame (1 thread), {} (2 threads); Gauss-Newton on the real graph {}\n",
                              figure(inv.at("ms_per_frame"), "ms"), figure(inv.at("threads2_ms_per_frame"), "ms"),
                              figure(inv.at("blackbox_ms_per_frame"), "ms"));
-    if (cer.at("ms_per_frame").is_null())
-        std::cout << fmt::format("ceres       - ({})\n", text(cer.at("note")));
+    if (cer.at("ms_per_frame").is_null()) std::cout << fmt::format("ceres       - ({})\n", text(cer.at("note")));
     else
-        std::cout << fmt::format("ceres       {} per frame ({}), ours {} on the same frames\n", figure(cer.at("ms_per_frame"), "ms"),
-                                 text(cer.at("linear_solver")), figure(cer.at("ours_ms_per_frame"), "ms"));
+        std::cout << fmt::format("ceres       {} per frame ({}), ours {} on the same frames\n",
+                                 figure(cer.at("ms_per_frame"), "ms"), text(cer.at("linear_solver")),
+                                 figure(cer.at("ours_ms_per_frame"), "ms"));
     std::cout << fmt::format("training    {} evaluations, {}\n", figure(train.at("evaluations"), "", 6),
                              figure(train.at("seconds"), "s"));
     const auto threadsLine = [](const std::string& what, const bench::Json& t) {
-        std::cout << fmt::format("training    {}: {} on 1 rig instance, {} on 2 ({})\n", what,
-                                 figure(t.at("seconds_1_threads"), "s"), figure(t.at("seconds_2_threads"), "s"),
-                                 t.at("same_approximation").get<bool>() ? "the same approximation"
-                                                                        : "DIFFERENT approximations");
+        std::cout << fmt::format(
+            "training    {}: {} on 1 rig instance, {} on 2 ({})\n", what, figure(t.at("seconds_1_threads"), "s"),
+            figure(t.at("seconds_2_threads"), "s"),
+            t.at("same_approximation").get<bool>() ? "the same approximation" : "DIFFERENT approximations");
     };
     threadsLine("biped", train.at("threads"));
     for (const auto& row : r.at("scaling"))
         if (!row.at("train_threads").is_null())
-            threadsLine(fmt::format("{} {}", text(row.at("rig")), figure(row.at("count"), "", 6)), row.at("train_threads"));
+            threadsLine(fmt::format("{} {}", text(row.at("rig")), figure(row.at("count"), "", 6)),
+                        row.at("train_threads"));
     for (const auto& row : r.at("scaling"))
         std::cout << fmt::format("scaling     {} {}: {} parameters, {} per frame, jacobian {}, {} evaluations\n",
-                                 text(row.at("rig")), figure(row.at("count"), "", 6), figure(row.at("parameters"), "", 6),
-                                 figure(row.at("ms_per_frame"), "ms"), figure(row.at("jacobian_ms"), "ms"),
-                                 figure(row.at("train_evaluations"), "", 7));
+                                 text(row.at("rig")), figure(row.at("count"), "", 6),
+                                 figure(row.at("parameters"), "", 6), figure(row.at("ms_per_frame"), "ms"),
+                                 figure(row.at("jacobian_ms"), "ms"), figure(row.at("train_evaluations"), "", 7));
 }
 
 constexpr int maxCrowd = 512;
@@ -125,7 +126,10 @@ int run(const Options& o)
 {
     if (o.jsonGiven) {
         cli::checkOutputFile(o.json, "bench.json", "--json");
-        cli::checkDistinctFiles({{"the rig file", o.rig}, {"the spec", o.spec}, {"the clip", o.clip}, {"the map", o.map},
+        cli::checkDistinctFiles({{"the rig file", o.rig},
+                                 {"the spec", o.spec},
+                                 {"the clip", o.clip},
+                                 {"the map", o.map},
                                  {"the rig generator", o.makeRigs}},
                                 {{"--json", o.json}});
     }
@@ -148,12 +152,14 @@ int run(const Options& o)
     // Bounded before any work: 512 bipeds of about 290 nodes each stay within GraphModel::maxNodes (200 000);
     // a chain of 2000 joints is a dense 6000 x 6000 solve per iteration.
     for (const int n : options.crowdSizes)
-        if (n < 1 || n > maxCrowd)
-            throw Error(fmt::format("--crowd {}: a crowd has 1 to {} bipeds", n, maxCrowd));
+        if (n < 1 || n > maxCrowd) throw Error(fmt::format("--crowd {}: a crowd has 1 to {} bipeds", n, maxCrowd));
     for (const int n : options.chainSizes)
         if (n < 1 || n > maxChain) throw Error(fmt::format("--chain {}: a chain has 1 to {} joints", n, maxChain));
-    for (const auto& [file, flag] : {std::pair{options.rig, "--rig"}, {options.spec, "--spec"}, {options.clip, "--clip"},
-                                     {options.map, "--map"}, {options.makeRigs, "--make-rigs"}})
+    for (const auto& [file, flag] : {std::pair{options.rig, "--rig"},
+                                     {options.spec, "--spec"},
+                                     {options.clip, "--clip"},
+                                     {options.map, "--map"},
+                                     {options.makeRigs, "--make-rigs"}})
         if (!std::filesystem::exists(file))
             throw Error(fmt::format("{} {}: no such file{}; check the path", flag, file.string(),
                                     std::string_view(flag) == "--clip" ? " (Debian package assimp-testmodels)" : ""));
@@ -192,10 +198,11 @@ int run(const Options& o)
 int main(int argc, char** argv)
 {
     rig::Options options;
-    CLI::App app("Measures the talk's figures side by side in one run: Jacobians (black box against the "
-                 "approximation), inversion per frame (ours, Ceres, Gauss-Newton on the real rig), training, real-rig "
-                 "accuracy, and their growth on generated rigs (docs/performance.md). Run it from the source folder.",
-                 "rig-bench");
+    CLI::App app(
+        "Measures the talk's figures side by side in one run: Jacobians (black box against the "
+        "approximation), inversion per frame (ours, Ceres, Gauss-Newton on the real rig), training, real-rig "
+        "accuracy, and their growth on generated rigs (docs/performance.md). Run it from the source folder.",
+        "rig-bench");
     app.add_flag("--quick", options.quick, "A smoke run: under a minute, fewer frames and small generated rigs");
     app.add_option("--json", options.json, "Write every figure as JSON to this file");
     app.add_option("--rig", options.rig, "The biped rig (default rigs/biped.yaml)");

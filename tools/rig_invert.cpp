@@ -53,15 +53,16 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
     if (!targets.unmatchedJoints.empty())
         std::cout << fmt::format("  {} clip joints are not outputs of the approximation and were not targets\n",
                                  targets.unmatchedJoints.size());
-    std::cout << fmt::format("\n{:>8}  {:<14} {:>5}  {:>12}  {:>12}  {}\n", "frame", "termination", "iter",
-                             "error cm", "error deg", "worst joint");
+    std::cout << fmt::format("\n{:>8}  {:<14} {:>5}  {:>12}  {:>12}  {}\n", "frame", "termination", "iter", "error cm",
+                             "error deg", "worst joint");
     for (const auto& f : s.perFrame)
         std::cout << fmt::format("{:>8}  {:<14} {:>5}  {:>12.4g}  {:>12.4g}  {}\n", clip.frameNumbers[f.frame],
                                  terminationName(f.solve.termination), f.solve.iterations, f.positionErrorCm,
                                  f.rotationErrorDeg, f.worstJoint);
-    std::cout << fmt::format("\nframes            {} ({} converged to the targets, {} stuck: stationary with a "
-                             "residual, {} not converged)\n",
-                             s.frames, s.convergedFrames, s.stuckFrames, s.frames - s.convergedFrames - s.stuckFrames);
+    std::cout << fmt::format(
+        "\nframes            {} ({} converged to the targets, {} stuck: stationary with a "
+        "residual, {} not converged)\n",
+        s.frames, s.convergedFrames, s.stuckFrames, s.frames - s.convergedFrames - s.stuckFrames);
     if (!s.stuckJoints.empty()) {
         // The joints stuck frames left short of their targets, the largest real-rig error first.
         std::string joints;
@@ -73,13 +74,13 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
         std::cout << fmt::format("stuck joints      {}\n", joints);
     }
     if (s.nonFiniteFrames > 0)
-        std::cout << fmt::format("real rig          NOT FINITE at {} frames (first: {} at frame {})\n", s.nonFiniteFrames,
-                                 s.firstNonFiniteJoint, clip.frameNumbers[s.firstNonFiniteFrame]);
-    std::cout << fmt::format("real-rig error    worst {:.4g} cm, {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
-                             "{:.4g} deg\n",
-                             s.maxPositionErrorCm, s.maxRotationErrorDeg, s.worstJoint,
-                             s.worstFrame >= 0 ? clip.frameNumbers[s.worstFrame] : 0.0, s.meanPositionErrorCm,
-                             s.meanRotationErrorDeg);
+        std::cout << fmt::format("real rig          NOT FINITE at {} frames (first: {} at frame {})\n",
+                                 s.nonFiniteFrames, s.firstNonFiniteJoint, clip.frameNumbers[s.firstNonFiniteFrame]);
+    std::cout << fmt::format(
+        "real-rig error    worst {:.4g} cm, {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
+        "{:.4g} deg\n",
+        s.maxPositionErrorCm, s.maxRotationErrorDeg, s.worstJoint,
+        s.worstFrame >= 0 ? clip.frameNumbers[s.worstFrame] : 0.0, s.meanPositionErrorCm, s.meanRotationErrorDeg);
     std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
                              s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
     if (keys) std::cout << cli::keysText(outcome, *keys);
@@ -93,16 +94,19 @@ int run(const Options& o)
     cli::checkOutputFile(o.output, "curves.json");
     const auto extension = std::filesystem::path(o.output).extension();
     if (extension != ".json" && extension != ".csv" && extension != ".anim")
-        throw Error(fmt::format("-o {}: the curves are written as .json, .csv or .anim (Maya); give one of those",
-                                o.output));
+        throw Error(
+            fmt::format("-o {}: the curves are written as .json, .csv or .anim (Maya); give one of those", o.output));
     if (!o.reportJson.empty()) cli::checkOutputFile(o.reportJson, "report.json", "--report-json");
     if (!o.html.empty()) cli::checkOutputFile(o.html, "report.html", "--html");
     const TangentType tangent = cli::keyTangent(o.keys.tangent);
     if (o.keysGiven) cli::checkKeySettings(o.keys);
     const std::string threeJs = o.html.empty() ? std::string() : cli::readThreeJs();
     const std::vector<cli::NamedFile> outputs{{"-o", o.output}, {"--report-json", o.reportJson}, {"--html", o.html}};
-    cli::checkDistinctFiles({{"the approximation", o.approximation}, {"the rig file", o.rig}, {"the clip", o.clip},
-                             {"the map", o.map}, {"--after", o.after}},
+    cli::checkDistinctFiles({{"the approximation", o.approximation},
+                             {"the rig file", o.rig},
+                             {"the clip", o.clip},
+                             {"the map", o.map},
+                             {"--after", o.after}},
                             outputs);
     cli::InvertJob job;
     job.approximationName = o.approximation;
@@ -149,10 +153,11 @@ int run(const Options& o)
     if (!o.quiet) printReport(o, outcome, keyed);
     // Measured as wrong: never an exit code of success.
     if (summary.nonFiniteFrames > 0) {
-        std::cerr << oneLine(fmt::format("error: the real rig gives a non-finite matrix at {} of {} frames (first: {} at "
-                                         "frame {}); the rig cannot follow these curves there",
-                                         summary.nonFiniteFrames, summary.frames, summary.firstNonFiniteJoint,
-                                         outcome.clip.frameNumbers[summary.firstNonFiniteFrame]))
+        std::cerr << oneLine(
+                         fmt::format("error: the real rig gives a non-finite matrix at {} of {} frames (first: {} at "
+                                     "frame {}); the rig cannot follow these curves there",
+                                     summary.nonFiniteFrames, summary.frames, summary.firstNonFiniteJoint,
+                                     outcome.clip.frameNumbers[summary.firstNonFiniteFrame]))
                   << '\n';
         return 3;
     }
@@ -177,9 +182,10 @@ int run(const Options& o)
 int main(int argc, char** argv)
 {
     rig::Options options;
-    CLI::App app("Inverts a clip of target joints to rig parameter curves with a learned approximation "
-                 "(docs/rig-invert.md).",
-                 "rig-invert");
+    CLI::App app(
+        "Inverts a clip of target joints to rig parameter curves with a learned approximation "
+        "(docs/rig-invert.md).",
+        "rig-invert");
     app.add_option("approximation", options.approximation, "Approximation file written by rig-learn")->required();
     app.add_option("--rig", options.rig, "The rig file the approximation was learned from")->required();
     app.add_option("--clip", options.clip, "Targets: a .bvh file, or a .json file of world matrices (graph-eval)")

@@ -10,8 +10,8 @@
 
 #include "core/error.h"
 #include "core/table.h"
-#include "nodes/inversion_spec.h"
 #include "inversion/approximation_io.h"
+#include "nodes/inversion_spec.h"
 #include "tools/cli_common.h"
 #include "tools/learn_run.h"
 #include "tools/progress_bar.h"
@@ -70,8 +70,8 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
     std::string out = fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n\n",
                                   options.rig, rigParameters, rigOutputs, a.epsilon, a.training.orderer);
     out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
-    std::vector<std::vector<std::string>> rows{{"#", "parameter", "form", "axis", "pivot (cm)", "fit error", "samples", "outputs",
-                                                "range"}};
+    std::vector<std::vector<std::string>> rows{
+        {"#", "parameter", "form", "axis", "pivot (cm)", "fit error", "samples", "outputs", "range"}};
     for (std::size_t p = 0; p < a.parameters.size(); ++p) {
         const ModelledParameter& m = a.parameters[p];
         const Operator& op = m.operators.front();
@@ -80,14 +80,16 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
         const bool hasAxis = one && analytic && op.kind != OperatorKind::uniformScale;
         const bool hasPivot = one && analytic && op.kind != OperatorKind::translation;
         rows.push_back({fmt::format("{}", p + 1), m.parameter.name, m.form, hasAxis ? vectorText(op.axis) : "-",
-                        hasPivot ? vectorText(op.pivot) : "-", fmt::format("{:.2g}", m.fitError), fmt::format("{}", m.samples),
-                        fmt::format("{}", m.outputs.size()), rangeText(m.parameter)});
+                        hasPivot ? vectorText(op.pivot) : "-", fmt::format("{:.2g}", m.fitError),
+                        fmt::format("{}", m.samples), fmt::format("{}", m.outputs.size()), rangeText(m.parameter)});
     }
-    out += alignTable(rows, {"  ", {Align::right, Align::left, Align::left, Align::left, Align::left, Align::left,
-                                      Align::left, Align::left, Align::left}});
+    out += alignTable(rows, {"  ",
+                             {Align::right, Align::left, Align::left, Align::left, Align::left, Align::left,
+                              Align::left, Align::left, Align::left}});
     const auto redundant = redundantParameters(a);
     if (!redundant.empty())
-        out += fmt::format("\nRedundant: {} pairs with the same effect (an inversion must split it)\n", redundant.size());
+        out +=
+            fmt::format("\nRedundant: {} pairs with the same effect (an inversion must split it)\n", redundant.size());
     for (const auto& [i, j] : redundant)
         out += fmt::format("  {} and {}\n", a.parameters[static_cast<std::size_t>(i)].parameter.name,
                            a.parameters[static_cast<std::size_t>(j)].parameter.name);
@@ -96,7 +98,9 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
         for (const auto& [from, to] : m.noEffect)
             saturated += fmt::format("  {}: no effect from {} to {}\n", m.parameter.name, valueText(m.parameter, from),
                                      valueText(m.parameter, to));
-    if (!saturated.empty()) out += "\nSaturated: ranges where a control moves nothing (an inversion cannot tell values there apart)\n" + saturated;
+    if (!saturated.empty())
+        out += "\nSaturated: ranges where a control moves nothing (an inversion cannot tell values there apart)\n" +
+               saturated;
     out += fmt::format("\nDiscarded: {} parameters\n", a.discarded.size());
     for (const auto& d : a.discarded) out += fmt::format("  {}: {}\n", d.parameter.name, d.reason);
     std::vector<std::string> world;
@@ -105,23 +109,26 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
         if (o.parent >= 0) ++relative;
         else world.push_back(o.name);
     }
-    out += fmt::format("\nFrames: {} outputs learned relative to their parent output, {} in world space{}{}\n", relative,
-                       world.size(), world.empty() ? "" : ": ", fmt::join(world, ", "));
+    out += fmt::format("\nFrames: {} outputs learned relative to their parent output, {} in world space{}{}\n",
+                       relative, world.size(), world.empty() ? "" : ": ", fmt::join(world, ", "));
     for (const DroppedOutput& d : a.droppedOutputs) out += fmt::format("  left out: {}: {}\n", d.name, d.reason);
-    out += fmt::format("\nTraining: {} rig evaluations ({} for the composition order), {:.2f} s learning, {:.2f} s loading "
-                       "the rig\n",
-                       a.training.evaluations, a.training.orderEvaluations, a.training.seconds, loadSeconds);
+    out += fmt::format(
+        "\nTraining: {} rig evaluations ({} for the composition order), {:.2f} s learning, {:.2f} s loading "
+        "the rig\n",
+        a.training.evaluations, a.training.orderEvaluations, a.training.seconds, loadSeconds);
     const ValidationSummary& v = a.validation;
-    out += fmt::format("Validation on {} random poses within the limits of the modelled parameters, real rig against "
-                       "approximation:\n",
-                       v.poses);
+    out += fmt::format(
+        "Validation on {} random poses within the limits of the modelled parameters, real rig against "
+        "approximation:\n",
+        v.poses);
     if (v.poses == 0 || a.parameters.empty()) out += "  not run (no poses or nothing modelled)\n";
     else {
         out += fmt::format("  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm\n", v.maxPositionErrorCm,
                            v.worstOutput, v.worstPose, v.meanPositionErrorCm);
-        out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg, v.meanRotationErrorDeg);
-        out += fmt::format("  per unit of the parameters moved: worst {:.3g} cm ({}), epsilon {:g}: {}\n", v.maxRelativeError,
-                           v.worstRelativeOutput.empty() ? "-" : v.worstRelativeOutput, a.epsilon,
+        out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg,
+                           v.meanRotationErrorDeg);
+        out += fmt::format("  per unit of the parameters moved: worst {:.3g} cm ({}), epsilon {:g}: {}\n",
+                           v.maxRelativeError, v.worstRelativeOutput.empty() ? "-" : v.worstRelativeOutput, a.epsilon,
                            v.withinEpsilon ? "within" : "EXCEEDED");
         if (v.nonFinitePoses > 0)
             out += fmt::format("  {} poses not measured: the rig gave a non-finite matrix there\n", v.nonFinitePoses);
@@ -133,14 +140,15 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
 
 int run(Options& options)
 {
-    if (options.rig.empty()) throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
+    if (options.rig.empty())
+        throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
     if (!options.spec.empty()) readSpec(options);
-    if (options.params.empty())
-        throw Error("--params is required; run 'rig-learn --help' for usage");
+    if (options.params.empty()) throw Error("--params is required; run 'rig-learn --help' for usage");
     // Bad outputs and flags are reported before any work.
     cli::checkOutputFile(options.output, "approximation.yaml");
     if (options.reportGiven) cli::checkOutputFile(options.reportJson, "report.json", "--report-json");
-    const std::vector<cli::NamedFile> outputs{{"-o", options.output}, {"--report-json", options.reportGiven ? options.reportJson : ""}};
+    const std::vector<cli::NamedFile> outputs{{"-o", options.output},
+                                              {"--report-json", options.reportGiven ? options.reportJson : ""}};
     cli::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
     cli::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
     if (options.epsilonGiven) job.options.epsilon = cli::parseEpsilon(options.epsilon);
@@ -164,8 +172,8 @@ int run(Options& options)
         // A glob of the spec: say where it is written.
         const auto place = options.specPlaces.find(e.name());
         if (place == options.specPlaces.end()) throw;
-        throw Error(fmt::format("{}: {} '{}' of the spec does not fit {} ({}); fix or remove it", place->second, e.kind(),
-                                e.name(), options.rig, e.reason()));
+        throw Error(fmt::format("{}: {} '{}' of the spec does not fit {} ({}); fix or remove it", place->second,
+                                e.kind(), e.name(), options.rig, e.reason()));
     }
     bar.finish();
     const Approximation& approximation = learned->approximation;
@@ -175,9 +183,9 @@ int run(Options& options)
     const bool write = failure.empty() || options.allowInexact;
     if (write) cli::writeFileAtomically(options.output, approximationToYaml(approximation));
     if (options.reportGiven)
-        cli::writeFileAtomically(options.reportJson,
-                                 cli::jsonText(cli::learnReport(*learned, options.rig, options.output, write), 2) +
-                                     "\n");
+        cli::writeFileAtomically(
+            options.reportJson,
+            cli::jsonText(cli::learnReport(*learned, options.rig, options.output, write), 2) + "\n");
     std::cout << readableReport(approximation, learned->rigParameters, learned->rigOutputs, options,
                                 learned->loadSeconds);
     if (approximation.parameters.empty())
@@ -199,12 +207,13 @@ int run(Options& options)
 int main(int argc, char** argv)
 {
     rig::Options options;
-    CLI::App app{"rig-learn: learn a rig's approximation (operators and composition order) for inversion.\n\n"
-                 "Example:\n"
-                 "  rig-learn rigs/examples/arm.yaml --params 'shoulder.rotate?' 'wrist.rotate?' -o arm_approx.yaml\n\n"
-                 "Parameters are free keyable plugs named by globs; outputs are joints (default: all). Angles are\n"
-                 "degrees in the report, radians in the file. See docs/rig-learn.md.",
-                 "rig-learn"};
+    CLI::App app{
+        "rig-learn: learn a rig's approximation (operators and composition order) for inversion.\n\n"
+        "Example:\n"
+        "  rig-learn rigs/examples/arm.yaml --params 'shoulder.rotate?' 'wrist.rotate?' -o arm_approx.yaml\n\n"
+        "Parameters are free keyable plugs named by globs; outputs are joints (default: all). Angles are\n"
+        "degrees in the report, radians in the file. See docs/rig-learn.md.",
+        "rig-learn"};
     app.add_option("rig", options.rig, "Rig graph file (YAML)");
     app.add_option("--params", options.params,
                    "Parameter plug globs, e.g. 'L_arm_*.rotate?' 'hips.translate?' (one or more; repeatable)");
@@ -220,9 +229,11 @@ int main(int argc, char** argv)
         ->check(CLI::IsMember({"talk", "structured"}));
     app.add_option("--report-json", options.reportJson, "Also write the report as JSON to this file");
     app.add_flag("--world-space", options.worldSpace,
-                 "Learn every output in world space, as the talk does (default: relative to its parent output where that validates)");
-    app.add_flag("--allow-inexact", options.allowInexact,
-                 "Write the approximation even when its validation exceeds epsilon (otherwise exit code 3, nothing written)");
+                 "Learn every output in world space, as the talk does (default: relative to its parent output where "
+                 "that validates)");
+    app.add_flag(
+        "--allow-inexact", options.allowInexact,
+        "Write the approximation even when its validation exceeds epsilon (otherwise exit code 3, nothing written)");
     app.add_option("--threads", options.threads,
                    "Rig instances evaluating at the same time: 1 serial, N parallel, 0 all cores (default); the "
                    "approximation is the same for any count")

@@ -21,22 +21,17 @@ std::vector<std::pair<std::string, double>> flatten(const Graph& graph, const Pl
             if constexpr (std::is_same_v<T, Eigen::Vector3d>) {
                 for (int i = 0; i < 3; ++i)
                     out.emplace_back("." + spec.childNames[static_cast<std::size_t>(i)], v[i] * k);
-            }
-            else if constexpr (std::is_same_v<T, Eigen::Matrix4d>) {
+            } else if constexpr (std::is_same_v<T, Eigen::Matrix4d>) {
                 for (int r = 0; r < 4; ++r)
                     for (int c = 0; c < 4; ++c) out.emplace_back(fmt::format("[{}][{}]", r, c), v(r, c));
-            }
-            else if constexpr (std::is_same_v<T, std::vector<double>>) {
+            } else if constexpr (std::is_same_v<T, std::vector<double>>) {
                 for (std::size_t i = 0; i < v.size(); ++i) out.emplace_back(fmt::format("[{}]", i), v[i] * k);
-            }
-            else if constexpr (std::is_same_v<T, Matrix4Array>) {
+            } else if constexpr (std::is_same_v<T, Matrix4Array>) {
                 for (std::size_t i = 0; i < v.size(); ++i)
                     for (int r = 0; r < 4; ++r)
                         for (int c = 0; c < 4; ++c) out.emplace_back(fmt::format("[{}][{}][{}]", i, r, c), v[i](r, c));
-            }
-            else if constexpr (std::is_same_v<T, std::string>) {
-            }
-            else out.emplace_back("", toDouble(v) * k);
+            } else if constexpr (std::is_same_v<T, std::string>) {
+            } else out.emplace_back("", toDouble(v) * k);
         },
         value);
     return out;
@@ -46,7 +41,8 @@ Json matrixJson(const Eigen::Matrix4d& m)
 {
     Json rows = Json::array();
     for (int r = 0; r < 4; ++r)
-        rows.push_back(Json::array({numberJson(m(r, 0)), numberJson(m(r, 1)), numberJson(m(r, 2)), numberJson(m(r, 3))}));
+        rows.push_back(
+            Json::array({numberJson(m(r, 0)), numberJson(m(r, 1)), numberJson(m(r, 2)), numberJson(m(r, 3))}));
     return rows;
 }
 
@@ -102,20 +98,17 @@ Json valueToJson(const Graph& graph, const Plug& plug, const Value& value)
                 Json out = Json::array();
                 for (const double x : v) out.push_back(numberJson(x * k));
                 return out;
-            }
-            else if constexpr (std::is_same_v<T, Matrix4Array>) {
+            } else if constexpr (std::is_same_v<T, Matrix4Array>) {
                 Json out = Json::array();
                 for (const auto& m : v) out.push_back(matrixJson(m));
                 return out;
-            }
-            else if constexpr (std::is_same_v<T, std::string> || std::is_same_v<T, bool>) return v;
+            } else if constexpr (std::is_same_v<T, std::string> || std::is_same_v<T, bool>) return v;
             else if constexpr (std::is_same_v<T, int>) {
-                if (plug.child < 0 && spec.type == ValueType::Enum && v >= 0
-                    && static_cast<std::size_t>(v) < spec.enumNames.size())
+                if (plug.child < 0 && spec.type == ValueType::Enum && v >= 0 &&
+                    static_cast<std::size_t>(v) < spec.enumNames.size())
                     return spec.enumNames[static_cast<std::size_t>(v)];
                 return v;
-            }
-            else return numberJson(v * k);
+            } else return numberJson(v * k);
         },
         value);
 }

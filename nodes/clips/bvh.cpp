@@ -153,9 +153,10 @@ private:
     std::string truncated(int joint) const
     {
         const BvhJoint& j = clip_.joints[static_cast<std::size_t>(joint)];
-        return fmt::format("the file ends inside joint '{}' ({} '{{' still open); the file is truncated or a '}}' is "
-                           "missing",
-                           j.name, j.depth + 1);
+        return fmt::format(
+            "the file ends inside joint '{}' ({} '{{' still open); the file is truncated or a '}}' is "
+            "missing",
+            j.name, j.depth + 1);
     }
 
     Eigen::Vector3d readOffset(int joint, std::string_view where)
@@ -165,8 +166,7 @@ private:
             const int l = line();
             const std::string_view t = takeOrFail(truncated(joint));
             const auto x = parseNumber(t);
-            if (!x)
-                fail(l, fmt::format("OFFSET of {} needs three numbers, found '{}'; write OFFSET X Y Z", where, t));
+            if (!x) fail(l, fmt::format("OFFSET of {} needs three numbers, found '{}'; write OFFSET X Y Z", where, t));
             v[k] = *x;
         }
         return v;
@@ -193,9 +193,10 @@ private:
                                      "names as the count says",
                                      *count, name, k, t));
             if (!c)
-                fail(at, fmt::format("unknown channel '{}' in joint '{}'; channels are Xposition, Yposition, Zposition, "
-                                     "Xrotation, Yrotation, Zrotation",
-                                     t, name));
+                fail(at,
+                     fmt::format("unknown channel '{}' in joint '{}'; channels are Xposition, Yposition, Zposition, "
+                                 "Xrotation, Yrotation, Zrotation",
+                                 t, name));
             if (!bvhIsRotation(*c)) {
                 auto& seen = position[static_cast<std::size_t>(bvhChannelAxis(*c))];
                 if (seen)
@@ -216,8 +217,10 @@ private:
         const std::size_t siteLine = lineIndex_;
         const std::string_view site = takeOrFail(truncated(joint));
         if (!iequals(site, "Site"))
-            fail(endLine, fmt::format("expected 'Site' after 'End' in joint '{}', found '{}'; write End Site", name, site));
-        if (j.endSite) fail(endLine, fmt::format("joint '{}' has a second End Site; a joint ends in at most one", name));
+            fail(endLine,
+                 fmt::format("expected 'Site' after 'End' in joint '{}', found '{}'; write End Site", name, site));
+        if (j.endSite)
+            fail(endLine, fmt::format("joint '{}' has a second End Site; a joint ends in at most one", name));
         while (!atEnd() && lineIndex_ == siteLine && peek() != "{") advance();  // "End Site name": the name is dropped
         const int l1 = line();
         if (const auto t = takeOrFail(truncated(joint)); t != "{")
@@ -240,8 +243,8 @@ private:
     void parseJoint(int parent, int depth, std::string_view keyword, int keywordLine)
     {
         if (clip_.joints.size() >= static_cast<std::size_t>(bvhMaxJoints))
-            fail(keywordLine, fmt::format("more than {} joints; this is not a skeleton (or the file is damaged)",
-                                          bvhMaxJoints));
+            fail(keywordLine,
+                 fmt::format("more than {} joints; this is not a skeleton (or the file is damaged)", bvhMaxJoints));
         if (depth >= bvhMaxDepth)
             fail(keywordLine, fmt::format("joints nested more than {} levels deep; real skeletons stay far below "
                                           "that, check the braces",
@@ -279,10 +282,10 @@ private:
             if (iequals(t, "OFFSET")) {
                 // (A joint's children need its OFFSET first, so an OFFSET after them is a second one.)
                 if (hasOffset) fail(l, fmt::format("joint '{}' has a second OFFSET; give one OFFSET per joint", name));
-                clip_.joints[static_cast<std::size_t>(joint)].offset = readOffset(joint, fmt::format("joint '{}'", name));
+                clip_.joints[static_cast<std::size_t>(joint)].offset =
+                    readOffset(joint, fmt::format("joint '{}'", name));
                 hasOffset = true;
-            }
-            else if (iequals(t, "CHANNELS")) {
+            } else if (iequals(t, "CHANNELS")) {
                 if (hasChannels)
                     fail(l, fmt::format("joint '{}' has a second CHANNELS line; list all its channels once", name));
                 if (hasChildren)
@@ -291,8 +294,7 @@ private:
                                         name));
                 readChannels(joint);
                 hasChannels = true;
-            }
-            else if (iequals(t, "JOINT") || iequals(t, "End")) {
+            } else if (iequals(t, "JOINT") || iequals(t, "End")) {
                 if (!hasOffset)
                     fail(l, fmt::format("joint '{}' has no OFFSET before its children; add OFFSET X Y Z after its "
                                         "'{{'",
@@ -300,17 +302,14 @@ private:
                 hasChildren = true;
                 if (iequals(t, "End")) parseEndSite(joint);
                 else parseJoint(joint, depth + 1, "JOINT", l);
-            }
-            else if (t == "}") {
+            } else if (t == "}") {
                 if (!hasOffset) fail(l, fmt::format("joint '{}' has no OFFSET; add OFFSET X Y Z after its '{{'", name));
                 return;
-            }
-            else if (iequals(t, "MOTION") || iequals(t, "ROOT")) {
+            } else if (iequals(t, "MOTION") || iequals(t, "ROOT")) {
                 fail(l, fmt::format("{} inside joint '{}' ({} '{{' still open); the braces do not match: a '}}' is "
                                     "missing above",
                                     t, name, depth + 1));
-            }
-            else {
+            } else {
                 fail(l, fmt::format("unexpected '{}' in joint '{}'; expected OFFSET, CHANNELS, JOINT, End Site or '}}'",
                                     t, name));
             }
@@ -326,10 +325,12 @@ private:
         while (true) {
             if (atEnd()) {
                 if (clip_.joints.empty())
-                    fail(lastLine_, "the file ends after HIERARCHY; the skeleton (ROOT NAME {...}) is missing, the "
-                                    "file is truncated");
-                fail(lastLine_, "the file ends after the hierarchy without a MOTION section; the file is truncated, "
-                                "export it again");
+                    fail(lastLine_,
+                         "the file ends after HIERARCHY; the skeleton (ROOT NAME {...}) is missing, the "
+                         "file is truncated");
+                fail(lastLine_,
+                     "the file ends after the hierarchy without a MOTION section; the file is truncated, "
+                     "export it again");
             }
             const int l = line();
             const std::string_view t = take();
@@ -337,8 +338,7 @@ private:
             else if (iequals(t, "MOTION") && !clip_.joints.empty()) {
                 motionLine_ = l;
                 break;
-            }
-            else if (clip_.joints.empty())
+            } else if (clip_.joints.empty())
                 fail(l, fmt::format("expected ROOT, found '{}'; the hierarchy starts with ROOT NAME", t));
             else if (t == "}")
                 fail(l, "'}' closes nothing (the braces do not match); remove it or add the missing '{'");
@@ -367,8 +367,8 @@ private:
         std::string rest = istartsWith(joined, key) ? joined.substr(key.size()) : std::string("?");
         if (!rest.empty() && rest[0] != ' ' && rest[0] != ':')
             fail(number, fmt::format("expected '{}', found '{}'; the MOTION header is 'Frames: N' then 'Frame Time: "
-                                       "SECONDS'",
-                                       expected, excerpt(joined)));
+                                     "SECONDS'",
+                                     expected, excerpt(joined)));
         if (rest.starts_with(' ')) rest.erase(0, 1);
         if (rest.starts_with(':')) rest.erase(0, 1);
         if (rest.starts_with(' ')) rest.erase(0, 1);
@@ -379,15 +379,18 @@ private:
     {
         if (!atEnd() && ti_ > 0)
             fail(motionLine_, fmt::format("unexpected '{}' after MOTION; 'Frames: N' goes on the next line", peek()));
-        const std::string noFrames = "the file ends after MOTION; 'Frames: N', 'Frame Time: SECONDS' and the motion "
-                                     "data are missing, the file is truncated";
+        const std::string noFrames =
+            "the file ends after MOTION; 'Frames: N', 'Frame Time: SECONDS' and the motion "
+            "data are missing, the file is truncated";
         int framesLine = 0;
         const std::string framesText = headerLine("Frames", "Frames: N", noFrames, framesLine);
         const auto declared = parseWhole(framesText);
         if (!declared || *declared < 0)
-            fail(framesLine, fmt::format("'Frames: {}' is not a frame count; write a whole number of frames", framesText));
+            fail(framesLine,
+                 fmt::format("'Frames: {}' is not a frame count; write a whole number of frames", framesText));
 
-        const std::string noTime = "the file ends before 'Frame Time: SECONDS' and the motion data; the file is truncated";
+        const std::string noTime =
+            "the file ends before 'Frame Time: SECONDS' and the motion data; the file is truncated";
         int timeLine = 0;
         const std::string timeText = headerLine("Frame Time", "Frame Time: SECONDS", noTime, timeLine);
         const auto frameTime = parseNumber(timeText);
@@ -412,9 +415,10 @@ private:
         for (; !atEnd(); nextLine()) {
             ++frame;
             if (tokens_.size() != perLine)
-                fail(lineNumber_, fmt::format("motion line {} has {} values but the hierarchy has {} channels; the line "
-                                              "is truncated or does not belong to this hierarchy",
-                                              frame, tokens_.size(), perLine));
+                fail(lineNumber_,
+                     fmt::format("motion line {} has {} values but the hierarchy has {} channels; the line "
+                                 "is truncated or does not belong to this hierarchy",
+                                 frame, tokens_.size(), perLine));
             for (std::size_t k = 0; k < perLine; ++k) {
                 const auto x = parseNumber(tokens_[k]);
                 if (!x)
@@ -426,9 +430,10 @@ private:
         }
         clip_.frameCount = frame;
         if (*declared != frame)
-            clip_.warnings.push_back(fmt::format("{}:{}: 'Frames: {}' but the file has {} motion lines; using the {} "
-                                                 "lines",
-                                                 file_, framesLine, *declared, frame, frame));
+            clip_.warnings.push_back(
+                fmt::format("{}:{}: 'Frames: {}' but the file has {} motion lines; using the {} "
+                            "lines",
+                            file_, framesLine, *declared, frame, frame));
     }
 
     // The rule documented in bvh.h: each root alone, all non-root joints together.
@@ -462,12 +467,12 @@ private:
 
     std::string file_;
     std::string_view text_;
-    std::size_t pos_ = 0;                    // start of the next line to read
-    int nextNumber_ = 1;                     // its number
-    std::vector<std::string_view> tokens_;   // the current line's tokens (empty at the end of the text)
-    std::size_t ti_ = 0;                     // the next token of the current line
-    int lineNumber_ = 0;                     // the current line's number
-    std::size_t lineIndex_ = 0;              // counts the non-blank lines read, to tell lines apart
+    std::size_t pos_ = 0;                   // start of the next line to read
+    int nextNumber_ = 1;                    // its number
+    std::vector<std::string_view> tokens_;  // the current line's tokens (empty at the end of the text)
+    std::size_t ti_ = 0;                    // the next token of the current line
+    int lineNumber_ = 0;                    // the current line's number
+    std::size_t lineIndex_ = 0;             // counts the non-blank lines read, to tell lines apart
     int lastLine_ = 1;
     int motionLine_ = 1;
     BvhClip clip_;
@@ -480,21 +485,9 @@ Eigen::Matrix4d rotation(int axis, double degrees)
     const double c = std::cos(a);
     const double s = std::sin(a);
     Eigen::Matrix4d m;
-    if (axis == 0)
-        m << 1, 0, 0, 0,
-             0, c, -s, 0,
-             0, s, c, 0,
-             0, 0, 0, 1;
-    else if (axis == 1)
-        m << c, 0, s, 0,
-             0, 1, 0, 0,
-             -s, 0, c, 0,
-             0, 0, 0, 1;
-    else
-        m << c, -s, 0, 0,
-             s, c, 0, 0,
-             0, 0, 1, 0,
-             0, 0, 0, 1;
+    if (axis == 0) m << 1, 0, 0, 0, 0, c, -s, 0, 0, s, c, 0, 0, 0, 0, 1;
+    else if (axis == 1) m << c, 0, s, 0, 0, 1, 0, 0, -s, 0, c, 0, 0, 0, 0, 1;
+    else m << c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1;
     return m;
 }
 
@@ -525,16 +518,18 @@ BvhClip readBvhFile(const std::filesystem::path& file)
         throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the path of a .bvh file",
                                 file.string()));
     if (const auto size = std::filesystem::file_size(file, ec); !ec && size > bvhMaxFileBytes)
-        throw Error(fmt::format("{}: {} MB is more than the {} MB a BVH file may have; cut the clip into shorter "
-                                "ones",
-                                file.string(), size >> 20, bvhMaxFileBytes >> 20));
+        throw Error(
+            fmt::format("{}: {} MB is more than the {} MB a BVH file may have; cut the clip into shorter "
+                        "ones",
+                        file.string(), size >> 20, bvhMaxFileBytes >> 20));
     std::ifstream in(file, std::ios::binary);
     if (!in && errno == EACCES)
         throw Error(fmt::format("{}: cannot open ({}); check its permissions", file.string(), std::strerror(errno)));
     if (!in)
-        throw Error(fmt::format("{}: cannot open ({}); check the path (a relative path is read from the current "
-                                "folder)",
-                                file.string(), std::strerror(errno)));
+        throw Error(
+            fmt::format("{}: cannot open ({}); check the path (a relative path is read from the current "
+                        "folder)",
+                        file.string(), std::strerror(errno)));
     std::ostringstream text;
     text << in.rdbuf();
     if (in.bad()) throw Error(fmt::format("{}: cannot be read (a read error); check the file", file.string()));

@@ -48,9 +48,9 @@ int bvhChannelAxis(BvhChannel channel);
 bool bvhIsRotation(BvhChannel channel);
 
 struct BvhJoint {
-    std::string name;                        // as in the file (colons and spaces kept)
-    int parent = -1;                         // index in BvhClip::joints, -1 for a root
-    int depth = 0;                           // 0 for a root
+    std::string name;  // as in the file (colons and spaces kept)
+    int parent = -1;   // index in BvhClip::joints, -1 for a root
+    int depth = 0;     // 0 for a root
     Eigen::Vector3d offset = Eigen::Vector3d::Zero();
     std::vector<BvhChannel> channels;        // file order
     int firstChannel = 0;                    // column of channels[0] in a motion line
@@ -60,12 +60,12 @@ struct BvhJoint {
 };
 
 struct BvhClip {
-    std::string file;                // as given to the reader, for messages
-    std::vector<BvhJoint> joints;    // file order: a parent comes before its children
-    int channelCount = 0;            // values per motion line
-    int frameCount = 0;              // motion lines read (not necessarily the "Frames:" count)
-    double frameTime = 0.0;          // seconds per frame, > 0
-    std::vector<double> values;      // frameCount x channelCount, row by row
+    std::string file;                   // as given to the reader, for messages
+    std::vector<BvhJoint> joints;       // file order: a parent comes before its children
+    int channelCount = 0;               // values per motion line
+    int frameCount = 0;                 // motion lines read (not necessarily the "Frames:" count)
+    double frameTime = 0.0;             // seconds per frame, > 0
+    std::vector<double> values;         // frameCount x channelCount, row by row
     std::vector<std::string> warnings;  // "FILE:LINE: ..." for oddities that did not stop the reader
 
     // Motion line `index` (0-based: index 0 is the first line after "Frame Time").

@@ -31,7 +31,8 @@ public:
         // The parsed file is cached: it is read again only when `file` names another file. A failed
         // read leaves the cache as it was, so the next evaluation tries again.
         if (!loaded_ || path != loadedPath_) {
-            clip_ = path.empty() ? std::make_shared<const BvhClip>() : std::make_shared<const BvhClip>(readBvhFile(path));
+            clip_ =
+                path.empty() ? std::make_shared<const BvhClip>() : std::make_shared<const BvhClip>(readBvhFile(path));
             loadedPath_ = path;
             loaded_ = true;
         }
@@ -72,20 +73,26 @@ private:
 std::shared_ptr<const NodeType> makeBvhClipType()
 {
     NodeTypeBuilder b("bvhClip");
-    b.description("Plays a BVH motion file (docs/bvh.md): worldMatrix[j] is joint j's world matrix by forward "
-                  "kinematics and channel[k] channel k's value, both in file order. Frame 1 is the first motion "
-                  "line; times outside 1..frameCount hold the end frames, and between frames every channel is "
-                  "interpolated linearly (rotations the shorter way round), worldMatrix being the kinematics of "
-                  "those channels. The file is read once and cached until `file` changes.");
+    b.description(
+        "Plays a BVH motion file (docs/bvh.md): worldMatrix[j] is joint j's world matrix by forward "
+        "kinematics and channel[k] channel k's value, both in file order. Frame 1 is the first motion "
+        "line; times outside 1..frameCount hold the end frames, and between frames every channel is "
+        "interpolated linearly (rotations the shorter way round), worldMatrix being the kinematics of "
+        "those channels. The file is read once and cached until `file` changes.");
     b.input(file, "file", ValueType::String)
         .filePath()
-        .doc("Path of the .bvh file; in a rig file a relative path is read from the rig file's folder. Empty: no joints.");
+        .doc(
+            "Path of the .bvh file; in a rig file a relative path is read from the rig file's folder. Empty: no "
+            "joints.");
     b.input(time, "time", ValueType::Double).unit(Unit::Time).sceneTime().doc("Frame to play (1 = first motion line).");
-    b.output(worldMatrix, "worldMatrix", ValueType::Matrix4).array()
+    b.output(worldMatrix, "worldMatrix", ValueType::Matrix4)
+        .array()
         .doc("World matrix of each joint, file order (End Sites excluded).");
-    b.output(channel, "channel", ValueType::Double).array()
-        .doc("Each channel, file order: rotations in degrees as unitless numbers (connected to an angle they "
-             "become radians), positions as the joint's whole local translation in cm (OFFSET included).");
+    b.output(channel, "channel", ValueType::Double)
+        .array()
+        .doc(
+            "Each channel, file order: rotations in degrees as unitless numbers (connected to an angle they "
+            "become radians), positions as the joint's whole local translation in cm (OFFSET included).");
     b.output(jointNames, "jointNames", ValueType::String).doc("Joint names, file order, one per line.");
     b.output(channelNames, "channelNames", ValueType::String)
         .doc("Channel names as JOINT.Xrotation, file order, one per line.");

@@ -8,9 +8,9 @@
 #include <sstream>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
+#include <nlohmann/json.hpp>
 
 #include "core/error.h"
 #include "nodes/clips/bvh.h"
@@ -35,7 +35,8 @@ std::string readText(const std::filesystem::path& file, std::string_view what)
         throw Error(fmt::format("{}: is a folder, not a {}", file.string(), what));
     // A device or a pipe never ends (or has no size): refuse it before reading.
     if (!std::filesystem::is_regular_file(status))
-        throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the path of a {}", file.string(), what));
+        throw Error(
+            fmt::format("{}: is not a regular file (a device or a pipe?); give the path of a {}", file.string(), what));
     if (std::filesystem::file_size(file, ec) > bvhMaxFileBytes)
         throw Error(fmt::format("{}: more than the {} MB a {} may have; cut it into shorter files", file.string(),
                                 bvhMaxFileBytes >> 20, what));
@@ -54,13 +55,14 @@ YAML::Node parseYaml(const std::string& text, const std::string& file, std::stri
         return YAML::Load(text);
     }
     catch (const YAML::DeepRecursion& e) {
-        throw Error(fmt::format("{}: lists and maps nested more than {} levels deep; a {} nests a few levels, so the "
-                                "file is damaged",
-                                formatMark({file, e.mark.line + 1, e.mark.column + 1}), e.depth() - 1, what));
+        throw Error(
+            fmt::format("{}: lists and maps nested more than {} levels deep; a {} nests a few levels, so the "
+                        "file is damaged",
+                        formatMark({file, e.mark.line + 1, e.mark.column + 1}), e.depth() - 1, what));
     }
     catch (const YAML::ParserException& e) {
-        throw Error(fmt::format("{}: {} syntax error: {}", formatMark({file, e.mark.line + 1, e.mark.column + 1}), syntax,
-                                e.msg));
+        throw Error(fmt::format("{}: {} syntax error: {}", formatMark({file, e.mark.line + 1, e.mark.column + 1}),
+                                syntax, e.msg));
     }
 }
 
@@ -78,8 +80,7 @@ double finiteNumber(const YAML::Node& node, const std::string& file, std::string
     if (!node.IsScalar() || !YAML::convert<double>::decode(node, value))
         throw Error(fmt::format("{}: {} must be a number, got '{}'", where(file, node), what,
                                 node.IsScalar() ? messageExcerpt(node.Scalar()) : std::string("a list or map")));
-    if (!std::isfinite(value))
-        throw Error(fmt::format("{}: {} is not a finite number", where(file, node), what));
+    if (!std::isfinite(value)) throw Error(fmt::format("{}: {} is not a finite number", where(file, node), what));
     return value;
 }
 
@@ -90,8 +91,8 @@ std::string rigName(const std::string& joint, const TargetMap& map)
 }
 
 // Keeps the joints the map does not ignore, renamed; checks that every name the map gives is in the clip.
-std::vector<int> applyMap(const std::vector<std::string>& fileJoints, const std::string& clipFile,
-                          const TargetMap& map, std::vector<std::string>& names)
+std::vector<int> applyMap(const std::vector<std::string>& fileJoints, const std::string& clipFile, const TargetMap& map,
+                          std::vector<std::string>& names)
 {
     const std::set<std::string> present(fileJoints.begin(), fileJoints.end());
     // file:line of an entry of the map (a map made in code has no lines).
@@ -171,12 +172,13 @@ Eigen::Matrix4d readMatrix(const YAML::Node& node, const std::string& file, cons
     Eigen::Matrix4d m;
     for (int r = 0; r < 4; ++r) {
         if (!node[r].IsSequence() || node[r].size() != 4)
-            throw Error(fmt::format("{}: {} must be a matrix as four rows of four numbers", where(file, node[r]), what));
+            throw Error(
+                fmt::format("{}: {} must be a matrix as four rows of four numbers", where(file, node[r]), what));
         for (int c = 0; c < 4; ++c)
             // null is how graph-eval writes a number that is not finite: a target the solver reports
             // as invalid for that frame, not a broken file.
-            m(r, c) = node[r][c].IsNull() ? std::numeric_limits<double>::quiet_NaN()
-                                          : finiteNumber(node[r][c], file, what);
+            m(r, c) =
+                node[r][c].IsNull() ? std::numeric_limits<double>::quiet_NaN() : finiteNumber(node[r][c], file, what);
     }
     return m;
 }
@@ -211,7 +213,8 @@ void checkStrictJson(std::string_view text, const std::string& file)
     if (nlohmann::json::sax_parse(text, &checker)) return;
     // nlohmann's message: "[json.exception.parse_error.101] parse error at line L, column C: WHAT".
     std::string what = checker.message;
-    if (const auto colon = what.find(": ", what.find("parse error")); colon != std::string::npos) what.erase(0, colon + 2);
+    if (const auto colon = what.find(": ", what.find("parse error")); colon != std::string::npos)
+        what.erase(0, colon + 2);
     int line = 1, column = 1;
     for (std::size_t i = 0; i + 1 < checker.errorAt && i < text.size(); ++i) {
         if (text[i] == '\n') {
@@ -244,9 +247,10 @@ TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileNam
     checkStrictJson(text, clip.file);
     const YAML::Node root = parseYaml(std::string(text), clip.file, "JSON", "JSON clip");
     if (!root.IsSequence() || root.size() == 0)
-        throw Error(fmt::format("{}: expected a list of frames as graph-eval writes them ([{{\"frame\": 1, "
-                                "\"hips.worldMatrix\": [[...], ...]}}, ...])",
-                                where(clip.file, root)));
+        throw Error(
+            fmt::format("{}: expected a list of frames as graph-eval writes them ([{{\"frame\": 1, "
+                        "\"hips.worldMatrix\": [[...], ...]}}, ...])",
+                        where(clip.file, root)));
     static constexpr std::string_view suffix = ".worldMatrix";
     // (Iterating a list as if it were a map throws yaml-cpp's own exception.)
     if (!root[0].IsMap())
@@ -257,9 +261,10 @@ TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileNam
         const auto key = keyText(entry.first, clip.file, "a frame");
         if (key == "frame") continue;
         if (!key.ends_with(suffix))
-            throw Error(fmt::format("{}: '{}' is not a joint's world matrix (NODE.worldMatrix); ask graph-eval for "
-                                    "--get '*.worldMatrix' only",
-                                    where(clip.file, entry.first), key));
+            throw Error(
+                fmt::format("{}: '{}' is not a joint's world matrix (NODE.worldMatrix); ask graph-eval for "
+                            "--get '*.worldMatrix' only",
+                            where(clip.file, entry.first), key));
         fileJoints.push_back(key.substr(0, key.size() - suffix.size()));
     }
     if (fileJoints.empty())
@@ -312,10 +317,9 @@ TargetMap parseTargetMap(std::string_view text, const std::string& fileName)
         if (key == "scale") {
             map.scale = finiteNumber(value, map.file, "scale");
             if (map.scale <= 0.0)
-                throw Error(fmt::format("{}: scale must be positive (target units to cm), got {}", where(map.file, value),
-                                        map.scale));
-        }
-        else if (key == "joints") {
+                throw Error(fmt::format("{}: scale must be positive (target units to cm), got {}",
+                                        where(map.file, value), map.scale));
+        } else if (key == "joints") {
             if (!value.IsMap())
                 throw Error(fmt::format("{}: 'joints' must map target joints to rig joints (Hips: pelvis)",
                                         where(map.file, value)));
@@ -329,18 +333,17 @@ TargetMap parseTargetMap(std::string_view text, const std::string& fileName)
                 map.rename[from] = rename.second.Scalar();
                 map.renameLines[from] = rename.first.Mark().line + 1;
             }
-        }
-        else if (key == "ignore") {
+        } else if (key == "ignore") {
             if (!value.IsSequence())
                 throw Error(fmt::format("{}: 'ignore' must be a list of target joints", where(map.file, value)));
             for (const auto& joint : value) {
                 if (!joint.IsScalar() || joint.Scalar().empty())
-                    throw Error(fmt::format("{}: 'ignore' must be a list of target joints' names", where(map.file, joint)));
+                    throw Error(
+                        fmt::format("{}: 'ignore' must be a list of target joints' names", where(map.file, joint)));
                 map.ignore.push_back(joint.Scalar());
                 map.ignoreLines[joint.Scalar()] = joint.Mark().line + 1;
             }
-        }
-        else {
+        } else {
             throw Error(fmt::format("{}: unknown key '{}'; a map file has 'scale:', 'joints:' and 'ignore:'",
                                     where(map.file, entry.first), messageExcerpt(key)));
         }
@@ -356,9 +359,10 @@ TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& ma
     const auto extension = file.extension().string();
     if (extension == ".bvh" || extension == ".BVH") return readBvhTargets(file, map);
     if (extension == ".json") return parseJsonTargetClip(readText(file, "JSON clip"), file.string(), map);
-    throw Error(fmt::format("{}: a clip is a .bvh file or a .json file of world matrices (graph-eval's JSON); "
-                            "rename it or convert it",
-                            file.string()));
+    throw Error(
+        fmt::format("{}: a clip is a .bvh file or a .json file of world matrices (graph-eval's JSON); "
+                    "rename it or convert it",
+                    file.string()));
 }
 
 TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map)

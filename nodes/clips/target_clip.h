@@ -25,12 +25,12 @@
 namespace rig {
 
 struct TargetMap {
-    std::string file;                                // the map file, for messages ("" for none)
-    double scale = 1.0;                              // multiplies translations: target units -> cm
-    std::map<std::string, std::string> rename;       // target joint -> rig joint
-    std::map<std::string, int> renameLines;          // the line of each entry, for messages
-    std::vector<std::string> ignore;                 // target joints left out
-    std::map<std::string, int> ignoreLines;          // the line of each, for messages
+    std::string file;                           // the map file, for messages ("" for none)
+    double scale = 1.0;                         // multiplies translations: target units -> cm
+    std::map<std::string, std::string> rename;  // target joint -> rig joint
+    std::map<std::string, int> renameLines;     // the line of each entry, for messages
+    std::vector<std::string> ignore;            // target joints left out
+    std::map<std::string, int> ignoreLines;     // the line of each, for messages
 };
 
 TargetMap readTargetMap(const std::filesystem::path& file);
@@ -38,9 +38,9 @@ TargetMap readTargetMap(const std::filesystem::path& file);
 TargetMap parseTargetMap(std::string_view text, const std::string& fileName);
 
 struct TargetClip {
-    std::string file;                               // as given, for messages
-    std::vector<std::string> joints;                // rig joint names (after the map), file order
-    std::vector<double> frameNumbers;               // as the file numbers its frames (BVH: 1 = first line)
+    std::string file;                                  // as given, for messages
+    std::vector<std::string> joints;                   // rig joint names (after the map), file order
+    std::vector<double> frameNumbers;                  // as the file numbers its frames (BVH: 1 = first line)
     std::vector<std::vector<Eigen::Matrix4d>> worlds;  // [frame][joint], world matrices, cm
     // Per joint its parent (its nearest ancestor the map kept), -1 for a root or when the file does not say
     // (JSON clips): for drawing the skeleton (rig-invert --html).

@@ -10,8 +10,20 @@ namespace rig {
 namespace {
 
 enum Attr : AttrId {
-    TargetMatrix, TargetWeight, AimVector, UpVector, WorldUpType, WorldUpVector, WorldUpMatrix, ConstraintTranslate,
-    Offset, ConstraintRotateOrder, ConstraintJointOrient, RestRotate, ConstraintParentInverseMatrix, ConstraintRotate
+    TargetMatrix,
+    TargetWeight,
+    AimVector,
+    UpVector,
+    WorldUpType,
+    WorldUpVector,
+    WorldUpMatrix,
+    ConstraintTranslate,
+    Offset,
+    ConstraintRotateOrder,
+    ConstraintJointOrient,
+    RestRotate,
+    ConstraintParentInverseMatrix,
+    ConstraintRotate
 };
 
 enum UpType { Scene = 0, Object = 1, ObjectRotation = 2, Vector = 3, None = 4 };
@@ -45,11 +57,20 @@ public:
         Eigen::Vector3d worldUp = Eigen::Vector3d::Zero();
         const Eigen::Matrix4d& upMatrix = c.getMatrix(WorldUpMatrix);
         switch (c.getEnum(WorldUpType)) {
-        case Scene: worldUp = Eigen::Vector3d::UnitY(); break;
-        case Object: worldUp = upMatrix.topRightCorner<3, 1>() - object; break;
-        case ObjectRotation: worldUp = upMatrix.topLeftCorner<3, 3>() * c.getVector3(WorldUpVector); break;
-        case Vector: worldUp = c.getVector3(WorldUpVector); break;
-        default: break;  // none
+            case Scene:
+                worldUp = Eigen::Vector3d::UnitY();
+                break;
+            case Object:
+                worldUp = upMatrix.topRightCorner<3, 1>() - object;
+                break;
+            case ObjectRotation:
+                worldUp = upMatrix.topLeftCorner<3, 3>() * c.getVector3(WorldUpVector);
+                break;
+            case Vector:
+                worldUp = c.getVector3(WorldUpVector);
+                break;
+            default:
+                break;  // none
         }
         const Eigen::Vector3d& up = c.getVector3(UpVector);
         const Eigen::Vector3d u = up - up.dot(a) * a;
@@ -89,48 +110,76 @@ std::shared_ptr<const NodeType> makeAimConstraintType()
         "Degenerate cases never give NaN: no usable up (worldUpType none, up parallel to aim, zero up) turns "
         "the object's rest frame by the smallest rotation taking the aim vector onto A; every weight zero, no "
         "target, a target on the object (within 1e-9 relative) or a zero aimVector give restRotate.");
-    b.input(TargetMatrix, "targetMatrix", ValueType::Matrix4).array()
-        .doc("World matrix of target i (connect from target.worldMatrix); its translation is the point aimed "
-             "at. A target exists where this element exists.");
-    b.input(TargetWeight, "targetWeight", ValueType::Double).array().defaultValue(1.0).min(0.0).keyable()
+    b.input(TargetMatrix, "targetMatrix", ValueType::Matrix4)
+        .array()
+        .doc(
+            "World matrix of target i (connect from target.worldMatrix); its translation is the point aimed "
+            "at. A target exists where this element exists.");
+    b.input(TargetWeight, "targetWeight", ValueType::Double)
+        .array()
+        .defaultValue(1.0)
+        .min(0.0)
+        .keyable()
         .doc("Weight of target i (1 when the element is absent); weights are normalized by their sum.");
-    b.input(AimVector, "aimVector", ValueType::Vector3).defaultValue(Eigen::Vector3d(1, 0, 0)).keyable()
+    b.input(AimVector, "aimVector", ValueType::Vector3)
+        .defaultValue(Eigen::Vector3d(1, 0, 0))
+        .keyable()
         .doc("The object's local axis that points at the target (any length).");
-    b.input(UpVector, "upVector", ValueType::Vector3).defaultValue(Eigen::Vector3d(0, 1, 0)).keyable()
-        .doc("The object's local axis that leans toward the world up direction (its part orthogonal to "
-             "aimVector is used).");
+    b.input(UpVector, "upVector", ValueType::Vector3)
+        .defaultValue(Eigen::Vector3d(0, 1, 0))
+        .keyable()
+        .doc(
+            "The object's local axis that leans toward the world up direction (its part orthogonal to "
+            "aimVector is used).");
     b.input(WorldUpType, "worldUpType", ValueType::Enum)
         .enumNames({"scene", "object", "objectRotation", "vector", "none"})
         .defaultValue(static_cast<int>(Vector))
-        .doc("Where the world up direction comes from (Maya's set): scene = +Y; object = from the object "
-             "toward the translation of worldUpMatrix; objectRotation = worldUpVector in worldUpMatrix's axes "
-             "(its 3x3 part times worldUpVector); vector = worldUpVector in world space (the default); none = "
-             "no up: the smallest turn from the rest frame.");
-    b.input(WorldUpVector, "worldUpVector", ValueType::Vector3).defaultValue(Eigen::Vector3d(0, 1, 0)).keyable()
-        .doc("The world up direction for worldUpType vector; for objectRotation, expressed in worldUpMatrix's "
-             "axes.");
+        .doc(
+            "Where the world up direction comes from (Maya's set): scene = +Y; object = from the object "
+            "toward the translation of worldUpMatrix; objectRotation = worldUpVector in worldUpMatrix's axes "
+            "(its 3x3 part times worldUpVector); vector = worldUpVector in world space (the default); none = "
+            "no up: the smallest turn from the rest frame.");
+    b.input(WorldUpVector, "worldUpVector", ValueType::Vector3)
+        .defaultValue(Eigen::Vector3d(0, 1, 0))
+        .keyable()
+        .doc(
+            "The world up direction for worldUpType vector; for objectRotation, expressed in worldUpMatrix's "
+            "axes.");
     b.input(WorldUpMatrix, "worldUpMatrix", ValueType::Matrix4)
-        .doc("World matrix of the up object for worldUpType object and objectRotation (connect from "
-             "upObject.worldMatrix).");
-    b.input(ConstraintTranslate, "constraintTranslate", ValueType::Vector3).unit(Unit::Distance)
-        .doc("The constrained object's translate, cm: set the same constant, or connect the source that drives "
-             "the object's translate (not the object itself: that closes a cycle).");
-    b.input(Offset, "offset", ValueType::Vector3).unit(Unit::Angle).keyable()
+        .doc(
+            "World matrix of the up object for worldUpType object and objectRotation (connect from "
+            "upObject.worldMatrix).");
+    b.input(ConstraintTranslate, "constraintTranslate", ValueType::Vector3)
+        .unit(Unit::Distance)
+        .doc(
+            "The constrained object's translate, cm: set the same constant, or connect the source that drives "
+            "the object's translate (not the object itself: that closes a cycle).");
+    b.input(Offset, "offset", ValueType::Vector3)
+        .unit(Unit::Angle)
+        .keyable()
         .doc("Rotation (xyz order) applied after aiming, in the object's own axes (Maya's offset).");
-    b.input(ConstraintRotateOrder, "constraintRotateOrder", ValueType::Enum).enumNames(rotateOrderEnumNames())
+    b.input(ConstraintRotateOrder, "constraintRotateOrder", ValueType::Enum)
+        .enumNames(rotateOrderEnumNames())
         .doc("The constrained object's rotateOrder (set the same value; connecting it would close a cycle).");
-    b.input(ConstraintJointOrient, "constraintJointOrient", ValueType::Vector3).unit(Unit::Angle)
-        .doc("The constrained joint's jointOrient (xyz), removed from the result so that it is the joint's "
-             "rotate; zero for a transform. Set the same value as the joint's.");
-    b.input(RestRotate, "restRotate", ValueType::Vector3).unit(Unit::Angle)
-        .doc("The output when there is nothing to aim at: every weight zero, no target, the target on the "
-             "object, or a zero aimVector (Maya's rest position).");
+    b.input(ConstraintJointOrient, "constraintJointOrient", ValueType::Vector3)
+        .unit(Unit::Angle)
+        .doc(
+            "The constrained joint's jointOrient (xyz), removed from the result so that it is the joint's "
+            "rotate; zero for a transform. Set the same value as the joint's.");
+    b.input(RestRotate, "restRotate", ValueType::Vector3)
+        .unit(Unit::Angle)
+        .doc(
+            "The output when there is nothing to aim at: every weight zero, no target, the target on the "
+            "object, or a zero aimVector (Maya's rest position).");
     b.input(ConstraintParentInverseMatrix, "constraintParentInverseMatrix", ValueType::Matrix4)
-        .doc("World inverse matrix of the constrained object's parent (connect from parent.worldInverseMatrix; "
-             "identity at the root).");
-    b.output(ConstraintRotate, "constraintRotate", ValueType::Vector3).unit(Unit::Angle)
-        .doc("Rotate for the constrained object in constraintRotateOrder (connect to its rotate); of the "
-             "equivalent Euler triples, the one nearest to zero.");
+        .doc(
+            "World inverse matrix of the constrained object's parent (connect from parent.worldInverseMatrix; "
+            "identity at the root).");
+    b.output(ConstraintRotate, "constraintRotate", ValueType::Vector3)
+        .unit(Unit::Angle)
+        .doc(
+            "Rotate for the constrained object in constraintRotateOrder (connect to its rotate); of the "
+            "equivalent Euler triples, the one nearest to zero.");
     for (AttrId in = TargetMatrix; in < ConstraintRotate; ++in) b.affects(in, {ConstraintRotate});
     return b.factory<AimConstraintNode>().build();
 }

@@ -22,7 +22,7 @@ namespace rig::constraint {
 inline constexpr double minTotalWeight = 1e-12;
 
 struct Target {
-    int index = 0;                                        // logical index in targetMatrix
+    int index = 0;                                         // logical index in targetMatrix
     Eigen::Matrix4d matrix = Eigen::Matrix4d::Identity();  // world matrix of the target
     double weight = 1.0;
 };

@@ -7,8 +7,14 @@ namespace rig {
 namespace {
 
 enum Attr : AttrId {
-    TargetMatrix, TargetWeight, Offset, RestTranslate, PivotSpace, ConstraintRotatePivot,
-    ConstraintParentInverseMatrix, ConstraintTranslate
+    TargetMatrix,
+    TargetWeight,
+    Offset,
+    RestTranslate,
+    PivotSpace,
+    ConstraintRotatePivot,
+    ConstraintParentInverseMatrix,
+    ConstraintTranslate
 };
 
 class PoleVectorConstraintNode final : public Node {
@@ -20,7 +26,8 @@ public:
             c.setOutput(ConstraintTranslate, c.getVector3(RestTranslate));
             return;
         }
-        const Eigen::Vector3d start = (c.getMatrix(PivotSpace) * c.getVector3(ConstraintRotatePivot).homogeneous()).head<3>();
+        const Eigen::Vector3d start =
+            (c.getMatrix(PivotSpace) * c.getVector3(ConstraintRotatePivot).homogeneous()).head<3>();
         const Eigen::Vector3d pole =
             c.getMatrix(ConstraintParentInverseMatrix).topLeftCorner<3, 3>() * (*target - start) + c.getVector3(Offset);
         c.setOutput(ConstraintTranslate, pole);
@@ -39,26 +46,40 @@ std::shared_ptr<const NodeType> makePoleVectorConstraintType()
         "position, L the 3x3 part of constraintParentInverseMatrix (identity by default: a world-space "
         "direction from the start joint, the pole vector the ikHandle takes). With every weight zero (or no "
         "target) it outputs restTranslate. Wiring: docs/constraints.md.");
-    b.input(TargetMatrix, "targetMatrix", ValueType::Matrix4).array()
-        .doc("World matrix of target i, the pole control (connect from target.worldMatrix); its translation is "
-             "the target's position. A target exists where this element exists.");
-    b.input(TargetWeight, "targetWeight", ValueType::Double).array().defaultValue(1.0).min(0.0).keyable()
+    b.input(TargetMatrix, "targetMatrix", ValueType::Matrix4)
+        .array()
+        .doc(
+            "World matrix of target i, the pole control (connect from target.worldMatrix); its translation is "
+            "the target's position. A target exists where this element exists.");
+    b.input(TargetWeight, "targetWeight", ValueType::Double)
+        .array()
+        .defaultValue(1.0)
+        .min(0.0)
+        .keyable()
         .doc("Weight of target i (1 when the element is absent); weights are normalized by their sum.");
-    b.input(Offset, "offset", ValueType::Vector3).unit(Unit::Distance).keyable()
+    b.input(Offset, "offset", ValueType::Vector3)
+        .unit(Unit::Distance)
+        .keyable()
         .doc("Added to the pole vector, cm (Maya's offset, inherited from pointConstraint).");
-    b.input(RestTranslate, "restTranslate", ValueType::Vector3).unit(Unit::Distance)
+    b.input(RestTranslate, "restTranslate", ValueType::Vector3)
+        .unit(Unit::Distance)
         .doc("The output when every weight is zero or there is no target: set the handle's rest pole vector.");
     b.input(PivotSpace, "pivotSpace", ValueType::Matrix4)
-        .doc("World matrix of the ik chain's start joint's PARENT (connect from parent.worldMatrix; Maya "
-             "connects startJoint.parentMatrix).");
-    b.input(ConstraintRotatePivot, "constraintRotatePivot", ValueType::Vector3).unit(Unit::Distance)
-        .doc("The start joint's translate, cm (set the same constant; connecting the start joint itself would "
-             "close a cycle through the ikHandle). Start joint world position = pivotSpace * this.");
+        .doc(
+            "World matrix of the ik chain's start joint's PARENT (connect from parent.worldMatrix; Maya "
+            "connects startJoint.parentMatrix).");
+    b.input(ConstraintRotatePivot, "constraintRotatePivot", ValueType::Vector3)
+        .unit(Unit::Distance)
+        .doc(
+            "The start joint's translate, cm (set the same constant; connecting the start joint itself would "
+            "close a cycle through the ikHandle). Start joint world position = pivotSpace * this.");
     b.input(ConstraintParentInverseMatrix, "constraintParentInverseMatrix", ValueType::Matrix4)
-        .doc("Frame the pole vector is expressed in (only its 3x3 part is used): leave identity for a world-space "
-             "pole vector; connect the ikHandle's parent's worldInverseMatrix for a handle that takes it in its "
-             "parent's space (Maya connects handle.parentInverseMatrix).");
-    b.output(ConstraintTranslate, "constraintTranslate", ValueType::Vector3).unit(Unit::Distance)
+        .doc(
+            "Frame the pole vector is expressed in (only its 3x3 part is used): leave identity for a world-space "
+            "pole vector; connect the ikHandle's parent's worldInverseMatrix for a handle that takes it in its "
+            "parent's space (Maya connects handle.parentInverseMatrix).");
+    b.output(ConstraintTranslate, "constraintTranslate", ValueType::Vector3)
+        .unit(Unit::Distance)
         .doc("The pole vector, cm: from the start joint toward the target (connect to ikHandle.poleVector).");
     for (AttrId in = TargetMatrix; in < ConstraintTranslate; ++in) b.affects(in, {ConstraintTranslate});
     return b.factory<PoleVectorConstraintNode>().build();

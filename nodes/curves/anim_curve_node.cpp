@@ -80,8 +80,8 @@ public:
         const int pre = c.getEnum(preInfinity);
         const int post = c.getEnum(postInfinity);
         // Rebuilding the curve costs more than comparing its keys, and the input changes every frame.
-        if (times != times_ || values != values_ || ins != ins_ || outs != outs_ || fallback != fallback_ || pre != pre_
-            || post != post_) {
+        if (times != times_ || values != values_ || ins != ins_ || outs != outs_ || fallback != fallback_ ||
+            pre != pre_ || post != post_) {
             curve_ = build(c, times, values, ins, outs, fallback, pre, post);
             times_ = times;
             values_ = values;
@@ -99,12 +99,13 @@ private:
     AnimCurve fileCurve(const ComputeContext& c, const std::string& file, const std::string& plug) const
     {
         if (file.empty())
-            throw Error(fmt::format("node '{}': animPlug is set but animFile is empty; give the .anim file",
-                                    c.nodeName()));
+            throw Error(
+                fmt::format("node '{}': animPlug is set but animFile is empty; give the .anim file", c.nodeName()));
         if (plug.empty())
-            throw Error(fmt::format("node '{}': animFile {} needs animPlug, the plug whose curve to play "
-                                    "(NODE.ATTRIBUTE as the file's anim lines name it)",
-                                    c.nodeName(), file));
+            throw Error(
+                fmt::format("node '{}': animFile {} needs animPlug, the plug whose curve to play "
+                            "(NODE.ATTRIBUTE as the file's anim lines name it)",
+                            c.nodeName(), file));
         AnimFile anim;
         try {
             anim = readAnimFile(file);
@@ -146,7 +147,8 @@ private:
             const double t = i < types.size() ? types[i] : -1.0;
             if (t == -1.0) return static_cast<TangentType>(fallback);
             if (t != std::floor(t) || t < 0 || t >= tangentTypeCount)
-                throw Error(fmt::format("node '{}': {}[{}] = {} is not a tangent type index", c.nodeName(), what, i, t));
+                throw Error(
+                    fmt::format("node '{}': {}[{}] = {} is not a tangent type index", c.nodeName(), what, i, t));
             return static_cast<TangentType>(static_cast<int>(t));
         };
         std::vector<AnimKey> keys;
@@ -182,7 +184,8 @@ std::string describe(const YAML::Node& node)
 std::vector<std::pair<AttrId, Value>> parseKeys(const YAML::Node& node, const YamlFieldContext& context, double yScale)
 {
     if (!node.IsSequence())
-        throw Error(fmt::format("{}: 'keys' is a list of [x, y] or [x, y, tangent] or [x, y, in, out]", context.where(node)));
+        throw Error(
+            fmt::format("{}: 'keys' is a list of [x, y] or [x, y, tangent] or [x, y, in, out]", context.where(node)));
     std::vector<double> xs, ys, ins, outs;
     for (const auto& key : node) {
         if (!key.IsSequence() || key.size() < 2 || key.size() > 4)
@@ -194,15 +197,17 @@ std::vector<std::pair<AttrId, Value>> parseKeys(const YAML::Node& node, const Ya
                 throw Error(fmt::format("{}: key {} must be a finite number, got {}", context.where(key[i]),
                                         i == 0 ? "x" : "y", describe(key[i])));
         if (!xs.empty() && xy[0] <= xs.back())
-            throw Error(fmt::format("{}: key x {} is not greater than the previous key's x {} (keys must be strictly "
-                                    "increasing)",
-                                    context.where(key[0]), xy[0], xs.back()));
+            throw Error(
+                fmt::format("{}: key x {} is not greater than the previous key's x {} (keys must be strictly "
+                            "increasing)",
+                            context.where(key[0]), xy[0], xs.back()));
         auto tangent = [&](const YAML::Node& t) {
             const auto type = t.IsScalar() ? tangentTypeFromName(t.Scalar()) : std::nullopt;
             if (!type) {
                 std::string names;
                 for (const auto& n : tangentNames()) names += (names.empty() ? "" : ", ") + n;
-                throw Error(fmt::format("{}: unknown tangent type {}; use one of {}", context.where(t), describe(t), names));
+                throw Error(
+                    fmt::format("{}: unknown tangent type {}; use one of {}", context.where(t), describe(t), names));
             }
             return static_cast<double>(*type);
         };
@@ -225,10 +230,14 @@ std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
     const double yScale = unitFactor(Unit::None, outUnit);
 
     NodeTypeBuilder b(name);
-    b.description(fmt::format("An animation curve as Maya's {}: output = curve(input), keys with Maya's tangent "
-                              "types (docs/nodes.md gives each rule). Driven by {}; output is {}.",
-                              name, timeDriven ? "time in frames (the scene time unless input is connected)" : "any number (a set-driven key)",
-                              outUnit == Unit::Angle ? "an angle (keys in degrees)" : outUnit == Unit::Distance ? "a distance (cm)" : "unitless"));
+    b.description(fmt::format(
+        "An animation curve as Maya's {}: output = curve(input), keys with Maya's tangent "
+        "types (docs/nodes.md gives each rule). Driven by {}; output is {}.",
+        name,
+        timeDriven ? "time in frames (the scene time unless input is connected)" : "any number (a set-driven key)",
+        outUnit == Unit::Angle      ? "an angle (keys in degrees)"
+        : outUnit == Unit::Distance ? "a distance (cm)"
+                                    : "unitless"));
     auto in = b.input(input, "input", ValueType::Double).doc(timeDriven ? "Time, frames." : "The driver's value.");
     if (timeDriven) in.unit(Unit::Time).sceneTime();
     b.input(keyTime, "keyTime", ValueType::DoubleArray).doc("Key x values, strictly increasing (set with `keys:`).");
@@ -237,17 +246,21 @@ std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
         .doc("Per-key in-tangent type index, -1 for `tangents` (set with `keys:`).");
     b.input(keyOutTangent, "keyOutTangent", ValueType::DoubleArray)
         .doc("Per-key out-tangent type index, -1 for `tangents` (set with `keys:`).");
-    b.input(tangents, "tangents", ValueType::Enum).enumNames(tangentNames()).defaultValue(static_cast<int>(TangentType::auto_))
+    b.input(tangents, "tangents", ValueType::Enum)
+        .enumNames(tangentNames())
+        .defaultValue(static_cast<int>(TangentType::auto_))
         .doc("Tangent type of keys that do not name one.");
     b.input(preInfinity, "preInfinity", ValueType::Enum).enumNames(infinityNames()).doc("Before the first key.");
     b.input(postInfinity, "postInfinity", ValueType::Enum).enumNames(infinityNames()).doc("After the last key.");
     b.input(animFile, "animFile", ValueType::String)
         .filePath()
-        .doc("A Maya .anim file to take the keys, tangents and infinities from instead of `keys:` "
-             "(docs/keys-anim-report.md); in a rig file a relative path is read from the rig file's folder.");
+        .doc(
+            "A Maya .anim file to take the keys, tangents and infinities from instead of `keys:` "
+            "(docs/keys-anim-report.md); in a rig file a relative path is read from the rig file's folder.");
     b.input(animPlug, "animPlug", ValueType::String)
-        .doc("The plug whose curve in animFile this node plays, NODE.ATTRIBUTE as the file's anim lines name it "
-             "(e.g. L_arm_fk_ctrl.rotateX).");
+        .doc(
+            "The plug whose curve in animFile this node plays, NODE.ATTRIBUTE as the file's anim lines name it "
+            "(e.g. L_arm_fk_ctrl.rotateX).");
     b.output(output, "output", ValueType::Double).unit(outUnit).doc("The curve's value at input.");
     b.affectsAll();
     b.yamlField("keys", [yScale](const YAML::Node& node, const YamlFieldContext& context) {

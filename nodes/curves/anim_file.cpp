@@ -24,18 +24,34 @@ constexpr std::array<std::pair<AnimQuantity, std::string_view>, 4> quantityNames
 
 // Lengths in cm, angles in degrees: what each of Maya's unit names is worth.
 constexpr std::array<std::pair<std::string_view, double>, 8> linearUnits{{
-    {"mm", 0.1}, {"cm", 1.0}, {"m", 100.0}, {"km", 1e5}, {"in", 2.54}, {"ft", 30.48}, {"yd", 91.44},
+    {"mm", 0.1},
+    {"cm", 1.0},
+    {"m", 100.0},
+    {"km", 1e5},
+    {"in", 2.54},
+    {"ft", 30.48},
+    {"yd", 91.44},
     {"mi", 160934.4},
 }};
 constexpr std::array<std::pair<std::string_view, double>, 4> angularUnits{{
-    {"rad", 180.0 / std::numbers::pi}, {"deg", 1.0}, {"min", 1.0 / 60.0}, {"sec", 1.0 / 3600.0},
+    {"rad", 180.0 / std::numbers::pi},
+    {"deg", 1.0},
+    {"min", 1.0 / 60.0},
+    {"sec", 1.0 / 3600.0},
 }};
 constexpr std::array<std::pair<std::string_view, double>, 7> namedFrameRates{{
-    {"game", 15.0}, {"film", 24.0}, {"pal", 25.0}, {"ntsc", 30.0}, {"show", 48.0}, {"palf", 50.0}, {"ntscf", 60.0},
+    {"game", 15.0},
+    {"film", 24.0},
+    {"pal", 25.0},
+    {"ntsc", 30.0},
+    {"show", 48.0},
+    {"palf", 50.0},
+    {"ntscf", 60.0},
 }};
 // The other rates Maya names "Nfps".
-constexpr std::array<double, 31> fpsRates{2, 3, 4, 5, 6, 8, 10, 12, 16, 20, 40, 75, 80, 100, 120, 125, 150, 200, 240,
-                                          250, 300, 375, 400, 500, 600, 750, 1200, 1500, 2000, 3000, 6000};
+constexpr std::array<double, 31> fpsRates{2,   3,   4,   5,   6,    8,    10,   12,   16,  20,  40,
+                                          75,  80,  100, 120, 125,  150,  200,  240,  250, 300, 375,
+                                          400, 500, 600, 750, 1200, 1500, 2000, 3000, 6000};
 constexpr std::array<std::string_view, 4> clockUnits{"hour", "min", "sec", "millisec"};
 
 template <typename Table>
@@ -117,8 +133,7 @@ private:
         if (text_[at_] == '\n') {
             ++line_;
             column_ = 1;
-        }
-        else ++column_;
+        } else ++column_;
         ++at_;
     }
 
@@ -148,10 +163,7 @@ struct RawKey {
 
 class Parser {
 public:
-    Parser(std::string_view text, const std::string& file) : lexer_(text), file_(file)
-    {
-        result_.file = file;
-    }
+    Parser(std::string_view text, const std::string& file) : lexer_(text), file_(file) { result_.file = file; }
 
     AnimFile parse()
     {
@@ -168,29 +180,26 @@ public:
             if (word == "anim") {
                 inHeader = false;
                 pending = animLine(*token);
-            }
-            else if (word == "animData") {
+            } else if (word == "animData") {
                 if (!pending)
-                    throw error(*token, "animData without an anim line naming its plug before it; write "
-                                        "'anim ATTRIBUTE LEAF NODE ...;' first");
+                    throw error(*token,
+                                "animData without an anim line naming its plug before it; write "
+                                "'anim ATTRIBUTE LEAF NODE ...;' first");
                 animData(*token, std::move(*pending));
                 pending.reset();
-            }
-            else if (isHeaderKeyword(word)) {
+            } else if (isHeaderKeyword(word)) {
                 if (!inHeader)
                     throw error(*token, fmt::format("'{}' after the first anim line; header lines come before the "
                                                     "curves",
                                                     word));
                 header(*token);
-            }
-            else
+            } else
                 throw error(*token, fmt::format("'{}' is not a .anim keyword; expected anim, animData or a header line "
                                                 "(animVersion, mayaVersion, timeUnit, linearUnit, angularUnit, "
                                                 "startTime, endTime)",
                                                 messageExcerpt(word)));
         }
-        if (first)
-            throw error(lexer_.end(), "the file is empty; a .anim file starts with its animVersion line");
+        if (first) throw error(lexer_.end(), "the file is empty; a .anim file starts with its animVersion line");
         return std::move(result_);
     }
 
@@ -255,12 +264,10 @@ private:
             if (value.text != "1.0" && value.text != "1.1")
                 throw error(value, fmt::format("animVersion {}: this reader knows versions 1.0 and 1.1 of the format",
                                                messageExcerpt(value.text)));
-        }
-        else if (word == "timeUnit") {
+        } else if (word == "timeUnit") {
             timeUnit(value);
             result_.timeUnit = std::string(value.text);
-        }
-        else if (word == "linearUnit") linearFactor_ = unitFactor(value, linearUnits, "linearUnit");
+        } else if (word == "linearUnit") linearFactor_ = unitFactor(value, linearUnits, "linearUnit");
         else if (word == "angularUnit") angularFactor_ = unitFactor(value, angularUnits, "angularUnit");
         else if (word == "startTime") result_.startTime = number(value, "startTime");
         else if (word == "endTime") result_.endTime = number(value, "endTime");
@@ -334,17 +341,16 @@ private:
                 if (keysSeen) throw error(*token, "a second keys block in one animData; keep one");
                 keysSeen = true;
                 keys = keyBlock(*token, curve);
-            }
-            else if (word == "input") curve.input = quantity(single(*token), "input");
+            } else if (word == "input") curve.input = quantity(single(*token), "input");
             else if (word == "output") output = quantity(single(*token), "output");
             else if (word == "weighted") {
                 const Token value = single(*token);
                 if (value.text == "1")
-                    throw error(value, "weighted tangents are not read; make the curve's tangents non-weighted in "
-                                       "Maya and export again");
+                    throw error(value,
+                                "weighted tangents are not read; make the curve's tangents non-weighted in "
+                                "Maya and export again");
                 if (value.text != "0") throw error(value, "weighted is 0 or 1");
-            }
-            else if (word == "inputUnit") inputUnit = single(*token);
+            } else if (word == "inputUnit") inputUnit = single(*token);
             else if (word == "outputUnit") outputUnit = single(*token);
             else if (word == "tangentAngleUnit") unitFactor(single(*token), angularUnits, "tangentAngleUnit");
             else if (word == "preInfinity") curve.pre = infinity(single(*token));
@@ -397,19 +403,19 @@ private:
     TangentType tangent(const Token& value) const
     {
         if (value.text == "fixed")
-            throw error(value, "tangent type 'fixed' (explicit angles) is not read; give these keys another tangent "
-                               "type in Maya (auto, spline, ...) and export again");
+            throw error(value,
+                        "tangent type 'fixed' (explicit angles) is not read; give these keys another tangent "
+                        "type in Maya (auto, spline, ...) and export again");
         if (const auto type = tangentTypeFromName(value.text)) return *type;
-        throw error(value, fmt::format("unknown tangent type '{}'; use one of {}", messageExcerpt(value.text),
-                                       tangentNames()));
+        throw error(
+            value, fmt::format("unknown tangent type '{}'; use one of {}", messageExcerpt(value.text), tangentNames()));
     }
 
     // keys { TIME VALUE IN OUT [TANGENT_LOCKED WEIGHT_LOCKED [BREAKDOWN]]; ... }
     std::vector<RawKey> keyBlock(const Token& keyword, const AnimFileCurve& curve)
     {
         const auto open = lexer_.next();
-        if (!open || open->text != "{")
-            throw error(open ? *open : lexer_.end(), "keys is followed by '{'");
+        if (!open || open->text != "{") throw error(open ? *open : lexer_.end(), "keys is followed by '{'");
         std::vector<RawKey> keys;
         while (true) {
             const auto first = lexer_.next();
@@ -419,8 +425,8 @@ private:
                                                       curve.plugName(), keyword.line));
             if (first->text == "}") return keys;
             if (first->text == ";" || first->text == "{")
-                throw error(*first, fmt::format("'{}' where a key starts; a key is 'TIME VALUE IN OUT 1 1 0;'",
-                                                first->text));
+                throw error(*first,
+                            fmt::format("'{}' where a key starts; a key is 'TIME VALUE IN OUT 1 1 0;'", first->text));
             std::vector<Token> words{*first};
             for (const Token& w : statement(*first)) words.push_back(w);
             const auto count = [&] {
@@ -448,7 +454,7 @@ private:
     Lexer lexer_;
     std::string file_;
     AnimFile result_;
-    double linearFactor_ = 1.0;   // the header's units (Maya's defaults: cm and degrees)
+    double linearFactor_ = 1.0;  // the header's units (Maya's defaults: cm and degrees)
     double angularFactor_ = 1.0;
 };
 
@@ -489,14 +495,14 @@ AnimFile readAnimFile(const std::filesystem::path& file)
         throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the path of a .anim file",
                                 file.string()));
     if (const auto size = std::filesystem::file_size(file, ec); !ec && size > animMaxFileBytes)
-        throw Error(fmt::format("{}: {} MB is more than the {} MB a .anim file may have; export fewer curves or "
-                                "frames",
-                                file.string(), size >> 20, animMaxFileBytes >> 20));
+        throw Error(
+            fmt::format("{}: {} MB is more than the {} MB a .anim file may have; export fewer curves or "
+                        "frames",
+                        file.string(), size >> 20, animMaxFileBytes >> 20));
     std::ifstream in(file, std::ios::binary);
     if (!in && errno == EACCES)
         throw Error(fmt::format("{}: cannot open ({}); check its permissions", file.string(), std::strerror(errno)));
-    if (!in)
-        throw Error(fmt::format("{}: cannot open ({}); check the path", file.string(), std::strerror(errno)));
+    if (!in) throw Error(fmt::format("{}: cannot open ({}); check the path", file.string(), std::strerror(errno)));
     std::ostringstream text;
     text << in.rdbuf();
     if (in.bad()) throw Error(fmt::format("{}: cannot be read (a read error); check the file", file.string()));
@@ -506,9 +512,10 @@ AnimFile readAnimFile(const std::filesystem::path& file)
 std::string formatAnimFile(const AnimFile& file)
 {
     // The animImportExport plugin does not check mayaVersion; the version of the format is animVersion's.
-    std::string out = fmt::format("animVersion 1.1;\nmayaVersion 2024;\ntimeUnit {};\nlinearUnit cm;\nangularUnit "
-                                  "deg;\n",
-                                  file.timeUnit);
+    std::string out = fmt::format(
+        "animVersion 1.1;\nmayaVersion 2024;\ntimeUnit {};\nlinearUnit cm;\nangularUnit "
+        "deg;\n",
+        file.timeUnit);
     if (file.startTime) out += fmt::format("startTime {};\n", *file.startTime);
     if (file.endTime) out += fmt::format("endTime {};\n", *file.endTime);
     std::string node;
@@ -516,10 +523,11 @@ std::string formatAnimFile(const AnimFile& file)
     for (const auto& c : file.curves) {
         index = c.node == node ? index + 1 : 0;
         node = c.node;
-        out += fmt::format("anim {} {} {} 0 0 {};\nanimData {{\n  input {};\n  output {};\n  weighted 0;\n"
-                           "  preInfinity {};\n  postInfinity {};\n  keys {{\n",
-                           c.attribute, c.leaf, c.node, index, quantityWord(c.input), quantityWord(c.output),
-                           infinityName(c.pre), infinityName(c.post));
+        out += fmt::format(
+            "anim {} {} {} 0 0 {};\nanimData {{\n  input {};\n  output {};\n  weighted 0;\n"
+            "  preInfinity {};\n  postInfinity {};\n  keys {{\n",
+            c.attribute, c.leaf, c.node, index, quantityWord(c.input), quantityWord(c.output), infinityName(c.pre),
+            infinityName(c.post));
         for (const auto& k : c.keys)
             out += fmt::format("    {} {} {} {} 1 1 0;\n", k.x, k.y, tangentTypeName(k.inTangent),
                                tangentTypeName(k.outTangent));

@@ -54,7 +54,7 @@ struct AnimFileCurve {
     std::vector<AnimKey> keys;
     Infinity pre = Infinity::constant;
     Infinity post = Infinity::constant;
-    SourceMark mark;        // its anim line
+    SourceMark mark;  // its anim line
 
     // "node.leaf", the plug as rig files and graph-eval name it.
     std::string plugName() const { return node + "." + leaf; }
@@ -63,9 +63,9 @@ struct AnimFileCurve {
 };
 
 struct AnimFile {
-    std::string file;                  // for messages
-    std::string timeUnit = "film";     // Maya's name of the frame rate the key times count
-    std::optional<double> startTime;   // the header's range, when it gives one
+    std::string file;                 // for messages
+    std::string timeUnit = "film";    // Maya's name of the frame rate the key times count
+    std::optional<double> startTime;  // the header's range, when it gives one
     std::optional<double> endTime;
     std::vector<AnimFileCurve> curves;
 

@@ -5,8 +5,8 @@
 #include <limits>
 #include <numbers>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
+#include <Eigen/Geometry>
 
 #include "core/error.h"
 #include "core/rotation_math.h"
@@ -125,14 +125,13 @@ private:
 void checkInputs(std::span<const double> frames, const std::vector<std::vector<double>>& dense, const RigBinding& rig)
 {
     if (frames.empty() || frames.size() != dense.size())
-        throw internalError(fmt::format("reduceKeys: {} frame numbers for {} rows of values", frames.size(),
-                                                dense.size()));
+        throw internalError(
+            fmt::format("reduceKeys: {} frame numbers for {} rows of values", frames.size(), dense.size()));
     for (std::size_t f = 0; f < frames.size(); ++f) {
         if (dense[f].size() != rig.approximation().parameters.size())
-            throw internalError(fmt::format("reduceKeys: frame {} has {} values for {} parameters", f,
-                                                    dense[f].size(), rig.approximation().parameters.size()));
-        if (f > 0 && !(frames[f] > frames[f - 1]))
-            throw internalError("reduceKeys: frame numbers must increase");
+            throw internalError(fmt::format("reduceKeys: frame {} has {} values for {} parameters", f, dense[f].size(),
+                                            rig.approximation().parameters.size()));
+        if (f > 0 && !(frames[f] > frames[f - 1])) throw internalError("reduceKeys: frame numbers must increase");
     }
 }
 
@@ -222,9 +221,8 @@ public:
     // Whether the frames the last toggle changed are within the tolerance.
     bool changedWithin() const
     {
-        return std::all_of(undoFrames_.begin(), undoFrames_.end(), [&](std::size_t f) {
-            return errors[f].normalized <= 1.0;
-        });
+        return std::all_of(undoFrames_.begin(), undoFrames_.end(),
+                           [&](std::size_t f) { return errors[f].normalized <= 1.0; });
     }
 
     AnimCurve curve(std::size_t p) const { return curve_(p); }
@@ -378,10 +376,9 @@ KeyedCurves reduceKeys(RigBinding& rig, std::span<const double> frames, const st
     const std::size_t total = frames.size();
     std::size_t best = 0;
     while (true) {
-        const auto worst = std::max_element(state.errors.begin(), state.errors.end(),
-                                            [](const FrameError& a, const FrameError& b) {
-                                                return a.normalized < b.normalized;
-                                            });
+        const auto worst =
+            std::max_element(state.errors.begin(), state.errors.end(),
+                             [](const FrameError& a, const FrameError& b) { return a.normalized < b.normalized; });
         if (worst->normalized <= 1.0) break;
         const auto f = static_cast<std::size_t>(worst - state.errors.begin());
         const auto& weights = sensitivity[static_cast<std::size_t>(worst->worstNormalized)];
@@ -399,8 +396,7 @@ KeyedCurves reduceKeys(RigBinding& rig, std::span<const double> frames, const st
             }
         }
         // Every control on its dense value is the dense pose, whose error is none.
-        if (chosen == parameters)
-            throw internalError("reduceKeys: a frame on the dense values is off the tolerance");
+        if (chosen == parameters) throw internalError("reduceKeys: a frame on the dense values is off the tolerance");
         state.toggle(chosen, static_cast<int>(f));
         const auto within = static_cast<std::size_t>(std::count_if(
             state.errors.begin(), state.errors.end(), [](const FrameError& e) { return e.normalized <= 1.0; }));

@@ -38,7 +38,7 @@ struct KeyedError {
     std::vector<int> worstOutput;     // [frame], an index into Approximation::outputs (by position error)
     double maxPositionCm = 0.0;
     double maxRotationDeg = 0.0;
-    int worstFrame = 0;               // of the position error
+    int worstFrame = 0;  // of the position error
     int worstOutputOverall = 0;
 };
 

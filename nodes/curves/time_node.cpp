@@ -16,8 +16,9 @@ public:
 std::shared_ptr<const NodeType> makeTimeType()
 {
     NodeTypeBuilder b("time");
-    b.description("The scene time in frames, as Maya's time node: outTime follows the graph's time "
-                  "(graph-eval --frames) unless `time` is connected.");
+    b.description(
+        "The scene time in frames, as Maya's time node: outTime follows the graph's time "
+        "(graph-eval --frames) unless `time` is connected.");
     b.input(time, "time", ValueType::Double).unit(Unit::Time).sceneTime().doc("Current frame.");
     b.output(outTime, "outTime", ValueType::Double).unit(Unit::Time).doc("Current frame.");
     b.affects(time, {outTime});

@@ -8,8 +8,18 @@ namespace rig {
 namespace {
 
 enum Attr : AttrId {
-    translate, rotate, rotateOrder, jointOrient, rotateAxis, scale, inverseScale, segmentScaleCompensate,
-    parentMatrix, matrix, worldMatrix, worldInverseMatrix
+    translate,
+    rotate,
+    rotateOrder,
+    jointOrient,
+    rotateAxis,
+    scale,
+    inverseScale,
+    segmentScaleCompensate,
+    parentMatrix,
+    matrix,
+    worldMatrix,
+    worldInverseMatrix
 };
 
 class JointNode : public Node {
@@ -38,21 +48,30 @@ public:
 std::shared_ptr<const NodeType> makeJointType()
 {
     NodeTypeBuilder b("joint");
-    b.description("A skeleton joint, as Maya's joint node: local matrix T * IS * JO * R * RA * S (column "
-                  "vectors; IS the inverse of the parent's scale when segmentScaleCompensate), "
-                  "world = parentMatrix * local.");
-    b.input(translate, "translate", ValueType::Vector3).unit(Unit::Distance).keyable().doc("Offset from the parent, cm.");
+    b.description(
+        "A skeleton joint, as Maya's joint node: local matrix T * IS * JO * R * RA * S (column "
+        "vectors; IS the inverse of the parent's scale when segmentScaleCompensate), "
+        "world = parentMatrix * local.");
+    b.input(translate, "translate", ValueType::Vector3)
+        .unit(Unit::Distance)
+        .keyable()
+        .doc("Offset from the parent, cm.");
     b.input(rotate, "rotate", ValueType::Vector3).unit(Unit::Angle).keyable().doc("Euler angles, degrees in files.");
-    b.input(rotateOrder, "rotateOrder", ValueType::Enum).enumNames(rotateOrderEnumNames())
+    b.input(rotateOrder, "rotateOrder", ValueType::Enum)
+        .enumNames(rotateOrderEnumNames())
         .doc("Order in which the rotate angles apply: xyz applies X first.");
-    b.input(jointOrient, "jointOrient", ValueType::Vector3).unit(Unit::Angle)
+    b.input(jointOrient, "jointOrient", ValueType::Vector3)
+        .unit(Unit::Angle)
         .doc("Rest orientation (xyz order), applied after rotate.");
-    b.input(rotateAxis, "rotateAxis", ValueType::Vector3).unit(Unit::Angle)
+    b.input(rotateAxis, "rotateAxis", ValueType::Vector3)
+        .unit(Unit::Angle)
         .doc("Orientation of the rotation axes (xyz order), applied before rotate.");
     b.input(scale, "scale", ValueType::Vector3).defaultValue(Eigen::Vector3d(1, 1, 1)).keyable().doc("Scale factors.");
-    b.input(inverseScale, "inverseScale", ValueType::Vector3).defaultValue(Eigen::Vector3d(1, 1, 1))
+    b.input(inverseScale, "inverseScale", ValueType::Vector3)
+        .defaultValue(Eigen::Vector3d(1, 1, 1))
         .doc("The parent joint's scale (connected by `parent:`), undone when segmentScaleCompensate is on.");
-    b.input(segmentScaleCompensate, "segmentScaleCompensate", ValueType::Bool).defaultValue(true)
+    b.input(segmentScaleCompensate, "segmentScaleCompensate", ValueType::Bool)
+        .defaultValue(true)
         .doc("Keep the parent's scale from reaching this joint.");
     b.input(parentMatrix, "parentMatrix", ValueType::Matrix4).doc("World matrix of the parent (identity at the root).");
     b.output(matrix, "matrix", ValueType::Matrix4).doc("Local matrix.");

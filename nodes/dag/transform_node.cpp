@@ -7,8 +7,20 @@ namespace rig {
 namespace {
 
 enum Attr : AttrId {
-    translate, rotate, rotateOrder, scale, shear, rotatePivot, rotatePivotTranslate, scalePivot,
-    scalePivotTranslate, rotateAxis, parentMatrix, matrix, worldMatrix, worldInverseMatrix
+    translate,
+    rotate,
+    rotateOrder,
+    scale,
+    shear,
+    rotatePivot,
+    rotatePivotTranslate,
+    scalePivot,
+    scalePivotTranslate,
+    rotateAxis,
+    parentMatrix,
+    matrix,
+    worldMatrix,
+    worldInverseMatrix
 };
 
 class TransformNode : public Node {
@@ -39,22 +51,27 @@ public:
 std::shared_ptr<const NodeType> makeTransformType()
 {
     NodeTypeBuilder b("transform");
-    b.description("A DAG transform, as Maya's transform node: local matrix "
-                  "T * RT * RP * R * RA * RP^-1 * ST * SP * SH * S * SP^-1 (column vectors), "
-                  "world = parentMatrix * local.");
+    b.description(
+        "A DAG transform, as Maya's transform node: local matrix "
+        "T * RT * RP * R * RA * RP^-1 * ST * SP * SH * S * SP^-1 (column vectors), "
+        "world = parentMatrix * local.");
     b.input(translate, "translate", ValueType::Vector3).unit(Unit::Distance).keyable().doc("Translation, cm.");
     b.input(rotate, "rotate", ValueType::Vector3).unit(Unit::Angle).keyable().doc("Euler angles, degrees in files.");
-    b.input(rotateOrder, "rotateOrder", ValueType::Enum).enumNames(rotateOrderEnumNames())
+    b.input(rotateOrder, "rotateOrder", ValueType::Enum)
+        .enumNames(rotateOrderEnumNames())
         .doc("Order in which the rotate angles apply: xyz applies X first.");
     b.input(scale, "scale", ValueType::Vector3).defaultValue(Eigen::Vector3d(1, 1, 1)).keyable().doc("Scale factors.");
     b.input(shear, "shear", ValueType::Vector3).children("shearXY", "shearXZ", "shearYZ").doc("Shear xy, xz, yz.");
     b.input(rotatePivot, "rotatePivot", ValueType::Vector3).unit(Unit::Distance).doc("Pivot of rotation, cm, local.");
-    b.input(rotatePivotTranslate, "rotatePivotTranslate", ValueType::Vector3).unit(Unit::Distance)
+    b.input(rotatePivotTranslate, "rotatePivotTranslate", ValueType::Vector3)
+        .unit(Unit::Distance)
         .doc("Offset keeping the object in place when the rotate pivot moves, cm.");
     b.input(scalePivot, "scalePivot", ValueType::Vector3).unit(Unit::Distance).doc("Pivot of scale and shear, cm.");
-    b.input(scalePivotTranslate, "scalePivotTranslate", ValueType::Vector3).unit(Unit::Distance)
+    b.input(scalePivotTranslate, "scalePivotTranslate", ValueType::Vector3)
+        .unit(Unit::Distance)
         .doc("Offset keeping the object in place when the scale pivot moves, cm.");
-    b.input(rotateAxis, "rotateAxis", ValueType::Vector3).unit(Unit::Angle)
+    b.input(rotateAxis, "rotateAxis", ValueType::Vector3)
+        .unit(Unit::Angle)
         .doc("Orientation of the rotation axes (xyz order), applied before rotate.");
     b.input(parentMatrix, "parentMatrix", ValueType::Matrix4).doc("World matrix of the parent (identity at the root).");
     b.output(matrix, "matrix", ValueType::Matrix4).doc("Local matrix.");

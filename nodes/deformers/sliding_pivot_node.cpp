@@ -55,8 +55,9 @@ std::shared_ptr<const NodeType> makeSlidingPivotType()
     b.input(SlideAxis, "slideAxis", ValueType::Enum)
         .enumNames({"x", "y", "z"})
         .defaultValue(1)
-        .doc("The direction the pivot travels along, in the lower joint's translate space (the upper bone's "
-             "frame).");
+        .doc(
+            "The direction the pivot travels along, in the lower joint's translate space (the upper bone's "
+            "frame).");
     b.input(RestTranslate, "restTranslate", ValueType::Vector3)
         .unit(Unit::Distance)
         .doc("The lower joint's translate at angle 0 (constant, cm).");

@@ -56,8 +56,9 @@ std::shared_ptr<const NodeType> makeSquashStretchType()
     b.input(RestLength, "restLength", ValueType::Double)
         .unit(Unit::Distance)
         .min(0.0)
-        .doc("The bone's rest length; when > 0 the stretch factor is multiplied by length / restLength. "
-             "0 (the default) ignores length.");
+        .doc(
+            "The bone's rest length; when > 0 the stretch factor is multiplied by length / restLength. "
+            "0 (the default) ignores length.");
     b.input(Axis, "axis", ValueType::Enum)
         .enumNames({"x", "y", "z"})
         .doc("The bone's axis: the component of outScale that stretches.");
@@ -65,10 +66,12 @@ std::shared_ptr<const NodeType> makeSquashStretchType()
         .defaultValue(1.0)
         .range(0.0, 10.0)
         .keyable()
-        .doc("Volume preservation: 0 = none (the cross axes stay 1), 1 = full (product of scales 1); above 1 "
-             "(up to 10) exaggerates the squash.");
+        .doc(
+            "Volume preservation: 0 = none (the cross axes stay 1), 1 = full (product of scales 1); above 1 "
+            "(up to 10) exaggerates the squash.");
     b.output(OutScale, "outScale", ValueType::Vector3).doc("s along axis, s^(-volume / 2) on the two others.");
-    b.output(OutStretch, "outStretch", ValueType::Double).doc("The stretch factor s used (after the length ratio and the floor).");
+    b.output(OutStretch, "outStretch", ValueType::Double)
+        .doc("The stretch factor s used (after the length ratio and the floor).");
     b.affects(Stretch, {OutScale, OutStretch}).affects(Length, {OutScale, OutStretch});
     b.affects(RestLength, {OutScale, OutStretch}).affects(Axis, {OutScale}).affects(Volume, {OutScale});
     b.factory<SquashStretchNode>();

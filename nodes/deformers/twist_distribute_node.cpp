@@ -69,8 +69,9 @@ std::shared_ptr<const NodeType> makeTwistDistributeType()
     b.input(Rotate, "rotate", ValueType::Vector3)
         .unit(Unit::Angle)
         .keyable()
-        .doc("The driver's rotation as Euler angles (connect the driver joint's rotate; its jointOrient is "
-             "not part of the twist).");
+        .doc(
+            "The driver's rotation as Euler angles (connect the driver joint's rotate; its jointOrient is "
+            "not part of the twist).");
     b.input(RotateOrderAttr, "rotateOrder", ValueType::Enum)
         .enumNames(rotateOrderEnumNames())
         .doc("Order of the rotate angles (the driver joint's rotateOrder).");

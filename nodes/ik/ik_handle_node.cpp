@@ -103,7 +103,7 @@ Solution solve(const Inputs& in)
 
     const Eigen::Matrix3d startOrient = eulerToMatrix(in.startOrient, RotateOrder::xyz);
     const Eigen::Matrix3d midOrient = eulerToMatrix(in.midOrient, RotateOrder::xyz);
-    const Eigen::Vector3d& u = in.midTranslate;                // start -> mid, start joint frame
+    const Eigen::Vector3d& u = in.midTranslate;                 // start -> mid, start joint frame
     const Eigen::Vector3d restB = midOrient * in.endTranslate;  // mid -> end, start joint frame, at rest
     const double l1 = u.norm();
     const double l2 = in.endTranslate.norm();  // = |restB|, but free of midJointOrient's rounding
@@ -116,10 +116,8 @@ Solution solve(const Inputs& in)
     // chain falls back on the mid joint's Z axis (then Y, then X) made perpendicular to the chain.
     const Eigen::Vector3d chainDirection = (l1 > tiny ? u : restB).normalized();
     Eigen::Vector3d n = u.cross(restB);
-    if (twoBones && n.norm() > parallelTolerance * l1 * l2)
-        n.normalize();
-    else
-        n = perpendicularFrom(chainDirection, {midOrient.col(2), midOrient.col(1), midOrient.col(0)});
+    if (twoBones && n.norm() > parallelTolerance * l1 * l2) n.normalize();
+    else n = perpendicularFrom(chainDirection, {midOrient.col(2), midOrient.col(1), midOrient.col(0)});
 
     // Reach: soft IK eases the distance in over the last `softness` cm; stretch scales both bones.
     const double distance = goal.stableNorm();  // no overflow for far goals
@@ -157,12 +155,11 @@ Solution solve(const Inputs& in)
     Eigen::Vector3d x2 = startOrient * (restEnd.norm() > tiny ? restEnd.normalized() : chainDirection);
     if (distance > tiny) x2 = goal / distance;
     const double poleLength = pole.stableNorm();
-    const Eigen::Vector3d poleDirection = poleLength > 0.0 && std::isfinite(poleLength) ? Eigen::Vector3d(pole / poleLength)
-                                                                                        : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d poleDirection =
+        poleLength > 0.0 && std::isfinite(poleLength) ? Eigen::Vector3d(pole / poleLength) : Eigen::Vector3d::Zero();
     const Eigen::Vector3d polePerpendicular = poleDirection - poleDirection.dot(x2) * x2;
     Eigen::Vector3d y2;
-    if (polePerpendicular.norm() > parallelTolerance)
-        y2 = polePerpendicular.normalized();
+    if (polePerpendicular.norm() > parallelTolerance) y2 = polePerpendicular.normalized();
     else  // no usable pole: keep the rest plane, whose normal is startOrient * n
         y2 = perpendicularFrom(x2, {x2.cross(startOrient * n), startOrient * chainDirection});
     const Eigen::Vector3d y2Twisted = std::cos(in.twist) * y2 + std::sin(in.twist) * x2.cross(y2);
@@ -237,8 +234,9 @@ std::shared_ptr<const NodeType> makeIkHandleType()
         .doc("World matrix of the start joint's parent (connect its worldMatrix; identity for a root joint).");
     b.input(StartInverseScale, "startInverseScale", ValueType::Vector3)
         .defaultValue(Eigen::Vector3d(1, 1, 1))
-        .doc("What the start joint's inverseScale receives (connect from the parent's scale) when the start "
-             "joint has segmentScaleCompensate on; (1, 1, 1) otherwise. Zero components are ignored.");
+        .doc(
+            "What the start joint's inverseScale receives (connect from the parent's scale) when the start "
+            "joint has segmentScaleCompensate on; (1, 1, 1) otherwise. Zero components are ignored.");
     b.input(StartTranslate, "startTranslate", ValueType::Vector3)
         .unit(Unit::Distance)
         .doc("The start joint's translate (constant, cm, in its parent's frame).");
@@ -265,43 +263,51 @@ std::shared_ptr<const NodeType> makeIkHandleType()
     b.input(PoleVector, "poleVector", ValueType::Vector3)
         .unit(Unit::Distance)
         .keyable()
-        .doc("World-space direction from the start joint towards the side the mid joint bends to (Maya's "
-             "poleVector): the mid joint lies in the plane through the start joint, the goal and start + "
-             "poleVector, on the poleVector's side of the start->goal line; only its direction matters. For a pole control, "
-             "connect a poleVectorConstraint's constraintTranslate (pole control world position - start joint "
-             "world position). Zero, or parallel to start->goal: "
-             "the rest chain plane is kept.");
+        .doc(
+            "World-space direction from the start joint towards the side the mid joint bends to (Maya's "
+            "poleVector): the mid joint lies in the plane through the start joint, the goal and start + "
+            "poleVector, on the poleVector's side of the start->goal line; only its direction matters. For a pole "
+            "control, "
+            "connect a poleVectorConstraint's constraintTranslate (pole control world position - start joint "
+            "world position). Zero, or parallel to start->goal: "
+            "the rest chain plane is kept.");
     b.input(Twist, "twist", ValueType::Double)
         .unit(Unit::Angle)
         .keyable()
         .doc("Rotation of the chain plane about the start->goal axis (right-handed), after the pole vector.");
     b.input(Stretch, "stretch", ValueType::Bool)
         .keyable()
-        .doc("When the goal is farther than the (soft) reach, scale both bones by distance / reach so the "
-             "end reaches it; outMidTranslate and outEndTranslate carry the scaled bones.");
+        .doc(
+            "When the goal is farther than the (soft) reach, scale both bones by distance / reach so the "
+            "end reaches it; outMidTranslate and outEndTranslate carry the scaled bones.");
     b.input(Softness, "softness", ValueType::Double)
         .unit(Unit::Distance)
         .min(0.0)
         .keyable()
-        .doc("Soft IK distance s (cm in the start joint's frame; 0 = off, clamped to the chain length L): past "
-             "L - s the reach eases in as (L - s) + s * (1 - exp(-(d - (L - s)) / s)) and reaches L only at "
-             "infinity, so the knee never snaps straight.");
+        .doc(
+            "Soft IK distance s (cm in the start joint's frame; 0 = off, clamped to the chain length L): past "
+            "L - s the reach eases in as (L - s) + s * (1 - exp(-(d - (L - s)) / s)) and reaches L only at "
+            "infinity, so the knee never snaps straight.");
     b.output(StartRotate, "startRotate", ValueType::Vector3)
         .unit(Unit::Angle)
-        .doc("The start joint's rotate, in startRotateOrder, such that JO * R is the solved orientation (the "
-             "Euler triple nearest to zero). Connect to the start joint's rotate.");
+        .doc(
+            "The start joint's rotate, in startRotateOrder, such that JO * R is the solved orientation (the "
+            "Euler triple nearest to zero). Connect to the start joint's rotate.");
     b.output(MidRotate, "midRotate", ValueType::Vector3)
         .unit(Unit::Angle)
-        .doc("The mid joint's rotate, in midRotateOrder: a single rotation about the bend axis expressed in "
-             "the mid joint's frame (about Z for a chain bent in its XY plane). Connect to the mid joint's rotate.");
+        .doc(
+            "The mid joint's rotate, in midRotateOrder: a single rotation about the bend axis expressed in "
+            "the mid joint's frame (about Z for a chain bent in its XY plane). Connect to the mid joint's rotate.");
     b.output(OutMidTranslate, "outMidTranslate", ValueType::Vector3)
         .unit(Unit::Distance)
-        .doc("midTranslate scaled by the stretch factor (equal to midTranslate when not stretching). Connect "
-             "to the mid joint's translate.");
+        .doc(
+            "midTranslate scaled by the stretch factor (equal to midTranslate when not stretching). Connect "
+            "to the mid joint's translate.");
     b.output(OutEndTranslate, "outEndTranslate", ValueType::Vector3)
         .unit(Unit::Distance)
-        .doc("endTranslate scaled by the stretch factor (equal to endTranslate when not stretching). Connect "
-             "to the end joint's translate.");
+        .doc(
+            "endTranslate scaled by the stretch factor (equal to endTranslate when not stretching). Connect "
+            "to the end joint's translate.");
     // Rotations depend on everything; the stretch factor on the distances only.
     for (AttrId in = StartParentMatrix; in <= Softness; ++in) b.affects(in, {StartRotate, MidRotate});
     for (AttrId in : {StartParentMatrix, StartInverseScale, StartTranslate, MidTranslate, EndTranslate, GoalMatrix,

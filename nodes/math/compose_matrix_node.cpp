@@ -63,16 +63,18 @@ std::shared_ptr<const NodeType> makeComposeMatrixType()
     b.input(InputRotate, "inputRotate", ValueType::Vector3)
         .unit(Unit::Angle)
         .keyable()
-        .doc("Euler rotation, applied in inputRotateOrder (inputRotateX, inputRotateY, inputRotateZ); used when "
-             "useEulerRotation is on.");
+        .doc(
+            "Euler rotation, applied in inputRotateOrder (inputRotateX, inputRotateY, inputRotateZ); used when "
+            "useEulerRotation is on.");
     b.input(InputScale, "inputScale", ValueType::Vector3)
         .defaultValue(Eigen::Vector3d(1.0, 1.0, 1.0))
         .keyable()
         .doc("Scale along the local axes (inputScaleX, inputScaleY, inputScaleZ).");
     b.input(InputShear, "inputShear", ValueType::Vector3)
         .keyable()
-        .doc("Shear (inputShearX = xy, inputShearY = xz, inputShearZ = yz), applied after scale as Maya's "
-             "transform shear.");
+        .doc(
+            "Shear (inputShearX = xy, inputShearY = xz, inputShearZ = yz), applied after scale as Maya's "
+            "transform shear.");
     b.input(InputRotateOrder, "inputRotateOrder", ValueType::Enum)
         .enumNames(rotateOrderEnumNames())
         .doc("The order the inputRotate axes are applied in; xyz applies X first.");
@@ -85,8 +87,9 @@ std::shared_ptr<const NodeType> makeComposeMatrixType()
     b.input(InputQuatW, "inputQuatW", ValueType::Double)
         .defaultValue(1.0)
         .keyable()
-        .doc("Quaternion rotation, w (real) part. The quaternion is normalized before use; all four zero gives "
-             "no rotation. Used when useEulerRotation is off.");
+        .doc(
+            "Quaternion rotation, w (real) part. The quaternion is normalized before use; all four zero gives "
+            "no rotation. Used when useEulerRotation is off.");
     b.output(OutputMatrix, "outputMatrix", ValueType::Matrix4).doc("T * R * SH * S (column vectors).");
     for (AttrId in : {InputTranslate, InputRotate, InputScale, InputShear, InputRotateOrder, UseEulerRotation,
                       InputQuatX, InputQuatY, InputQuatZ, InputQuatW})

@@ -12,12 +12,18 @@ enum Op { Equal, NotEqual, GreaterThan, GreaterOrEqual, LessThan, LessOrEqual };
 bool test(int op, double a, double b)
 {
     switch (op) {
-    case Equal: return a == b;
-    case NotEqual: return a != b;
-    case GreaterThan: return a > b;
-    case GreaterOrEqual: return a >= b;
-    case LessThan: return a < b;
-    default: return a <= b;
+        case Equal:
+            return a == b;
+        case NotEqual:
+            return a != b;
+        case GreaterThan:
+            return a > b;
+        case GreaterOrEqual:
+            return a >= b;
+        case LessThan:
+            return a < b;
+        default:
+            return a <= b;
     }
 }
 
@@ -41,8 +47,9 @@ std::shared_ptr<const NodeType> makeConditionType()
     b.input(Operation, "operation", ValueType::Enum)
         .enumNames({"equal", "notEqual", "greaterThan", "greaterOrEqual", "lessThan", "lessOrEqual"})
         .keyable()
-        .doc("The comparison: firstTerm == (equal), != (notEqual), > (greaterThan), >= (greaterOrEqual), "
-             "< (lessThan) or <= (lessOrEqual) secondTerm.");
+        .doc(
+            "The comparison: firstTerm == (equal), != (notEqual), > (greaterThan), >= (greaterOrEqual), "
+            "< (lessThan) or <= (lessOrEqual) secondTerm.");
     b.input(FirstTerm, "firstTerm", ValueType::Double).keyable().doc("The left side of the comparison.");
     b.input(SecondTerm, "secondTerm", ValueType::Double).keyable().doc("The right side of the comparison.");
     b.input(ColorIfTrue, "colorIfTrue", ValueType::Vector3)

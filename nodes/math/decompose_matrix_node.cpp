@@ -58,8 +58,9 @@ std::shared_ptr<const NodeType> makeDecomposeMatrixType()
         .doc("Translation, the matrix's last column (outputTranslateX, outputTranslateY, outputTranslateZ).");
     b.output(OutputRotate, "outputRotate", ValueType::Vector3)
         .unit(Unit::Angle)
-        .doc("Euler rotation in inputRotateOrder (outputRotateX, outputRotateY, outputRotateZ); the middle "
-             "angle lies in [-90, 90] degrees, the others in [-180, 180].");
+        .doc(
+            "Euler rotation in inputRotateOrder (outputRotateX, outputRotateY, outputRotateZ); the middle "
+            "angle lies in [-90, 90] degrees, the others in [-180, 180].");
     b.output(OutputScale, "outputScale", ValueType::Vector3)
         .doc("Scale (outputScaleX, outputScaleY, outputScaleZ); a reflection makes outputScaleX negative.");
     b.output(OutputShear, "outputShear", ValueType::Vector3)

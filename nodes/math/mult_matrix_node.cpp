@@ -14,9 +14,8 @@ public:
     {
         // Column vectors: each later matrix multiplies from the left, so matrixIn[0] acts first.
         Eigen::Matrix4d sum = Eigen::Matrix4d::Identity();
-        context.forEachElement(MatrixIn, [&](int, const Value& value) {
-            sum = std::get<Eigen::Matrix4d>(value) * sum;
-        });
+        context.forEachElement(MatrixIn,
+                               [&](int, const Value& value) { sum = std::get<Eigen::Matrix4d>(value) * sum; });
         context.setOutput(MatrixSum, sum);
     }
 };
@@ -36,8 +35,9 @@ std::shared_ptr<const NodeType> makeMultMatrixType()
         .array()
         .doc("The matrices, matrixIn[0] applied first (innermost), then matrixIn[1], and so on.");
     b.output(MatrixSum, "matrixSum", ValueType::Matrix4)
-        .doc("matrixIn[n-1] * ... * matrixIn[0] in column-vector form (Maya's row-form "
-             "matrixIn[0] * ... * matrixIn[n-1]).");
+        .doc(
+            "matrixIn[n-1] * ... * matrixIn[0] in column-vector form (Maya's row-form "
+            "matrixIn[0] * ... * matrixIn[n-1]).");
     b.affects(MatrixIn, {MatrixSum});
     b.factory<MultMatrixNode>();
     return b.build();

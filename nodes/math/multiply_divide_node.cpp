@@ -14,10 +14,14 @@ enum Op { NoOperation, Multiply, Divide, Power };
 double apply(int op, double a, double b)
 {
     switch (op) {
-    case Multiply: return a * b;
-    case Divide: return a / b;
-    case Power: return std::pow(a, b);
-    default: return a;
+        case Multiply:
+            return a * b;
+        case Divide:
+            return a / b;
+        case Power:
+            return std::pow(a, b);
+        default:
+            return a;
     }
 }
 
@@ -50,14 +54,16 @@ std::shared_ptr<const NodeType> makeMultiplyDivideType()
         .enumNames({"noOperation", "multiply", "divide", "power"})
         .defaultValue(static_cast<int>(Multiply))
         .keyable()
-        .doc("noOperation: output = input1; multiply: input1 * input2; divide: input1 / input2; "
-             "power: input1 ^ input2 (each component separately).");
+        .doc(
+            "noOperation: output = input1; multiply: input1 * input2; divide: input1 / input2; "
+            "power: input1 ^ input2 (each component separately).");
     b.input(Input1, "input1", ValueType::Vector3).keyable().doc("The first operand (input1X, input1Y, input1Z).");
     b.input(Input2, "input2", ValueType::Vector3)
         .defaultValue(Eigen::Vector3d(1.0, 1.0, 1.0))
         .keyable()
-        .doc("The second operand: multiplier, divisor or exponent (input2X, input2Y, input2Z). A zero divisor "
-             "gives 0 in that output component.");
+        .doc(
+            "The second operand: multiplier, divisor or exponent (input2X, input2Y, input2Z). A zero divisor "
+            "gives 0 in that output component.");
     b.output(Output, "output", ValueType::Vector3)
         .doc("The result (outputX, outputY, outputZ); a component that would be inf or NaN is 0.");
     b.affects(Operation, {Output}).affects(Input1, {Output}).affects(Input2, {Output});

@@ -50,8 +50,9 @@ std::shared_ptr<const NodeType> makePlusMinusAverageType()
         .enumNames({"noOperation", "sum", "subtract", "average"})
         .defaultValue(static_cast<int>(Sum))
         .keyable()
-        .doc("noOperation: the first existing element; sum: all elements added; subtract: the first element "
-             "minus all the others; average: the sum divided by the number of existing elements.");
+        .doc(
+            "noOperation: the first existing element; sum: all elements added; subtract: the first element "
+            "minus all the others; average: the sum divided by the number of existing elements.");
     b.input(Input1D, "input1D", ValueType::Double)
         .array()
         .keyable()
@@ -60,8 +61,9 @@ std::shared_ptr<const NodeType> makePlusMinusAverageType()
         .array()
         .children("input3Dx", "input3Dy", "input3Dz")
         .keyable()
-        .doc("The vector3 operands, input3D[i] with components input3D[i].input3Dx, .input3Dy, .input3Dz "
-             "(indices may have gaps).");
+        .doc(
+            "The vector3 operands, input3D[i] with components input3D[i].input3Dx, .input3Dy, .input3Dz "
+            "(indices may have gaps).");
     b.output(Output1D, "output1D", ValueType::Double).doc("The result over input1D.");
     b.output(Output3D, "output3D", ValueType::Vector3)
         .children("output3Dx", "output3Dy", "output3Dz")

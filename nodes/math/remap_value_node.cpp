@@ -24,9 +24,10 @@ AnimCurve rampCurve(const ComputeContext& context)
     std::vector<double> flat = context.getDoubleArray(RampValue);
     if (flat.empty()) flat = {0.0, 0.0, 1.0, 1.0};  // Maya's default ramp
     if (flat.size() % 2 != 0)
-        throw Error(fmt::format("{}.value: the ramp has {} numbers; it must be (position, value) pairs, "
-                                "an even count",
-                                context.nodeName(), flat.size()));
+        throw Error(
+            fmt::format("{}.value: the ramp has {} numbers; it must be (position, value) pairs, "
+                        "an even count",
+                        context.nodeName(), flat.size()));
     static constexpr TangentType tangents[] = {TangentType::step, TangentType::linear, TangentType::flat,
                                                TangentType::spline};
     const int interp = context.getEnum(Interp);  // a connection can bring any int: others act as linear
@@ -42,7 +43,8 @@ AnimCurve rampCurve(const ComputeContext& context)
     }
     try {
         return AnimCurve::build(std::move(unique));
-    } catch (const Error& e) {
+    }
+    catch (const Error& e) {
         throw e.in(fmt::format("{}.value", context.nodeName()));
     }
 }
@@ -87,16 +89,18 @@ std::shared_ptr<const NodeType> makeRemapValueType()
         .keyable()
         .doc("The outValue for a ramp value of 1.");
     b.input(RampValue, "value", ValueType::DoubleArray)
-        .doc("The ramp, flattened as (position, value) pairs: [position0, value0, position1, value1, ...] "
-             "(Maya's value[i].value_Position and value[i].value_FloatValue). Entries may come in any order; "
-             "of two at the same position the later one wins; an odd count is an error. Empty means Maya's "
-             "default ramp [0, 0, 1, 1] (outValue follows inputValue linearly).");
+        .doc(
+            "The ramp, flattened as (position, value) pairs: [position0, value0, position1, value1, ...] "
+            "(Maya's value[i].value_Position and value[i].value_FloatValue). Entries may come in any order; "
+            "of two at the same position the later one wins; an odd count is an error. Empty means Maya's "
+            "default ramp [0, 0, 1, 1] (outValue follows inputValue linearly).");
     b.input(Interp, "interp", ValueType::Enum)
         .enumNames({"none", "linear", "smooth", "spline"})
         .defaultValue(static_cast<int>(Linear))
-        .doc("Interpolation between ramp entries, for the whole ramp (Maya's value[i].value_Interp, one per "
-             "entry there): none holds each entry's value up to the next, linear, smooth eases in and out of "
-             "each entry (zero slope at entries), spline is a Catmull-Rom curve through the entries.");
+        .doc(
+            "Interpolation between ramp entries, for the whole ramp (Maya's value[i].value_Interp, one per "
+            "entry there): none holds each entry's value up to the next, linear, smooth eases in and out of "
+            "each entry (zero slope at entries), spline is a Catmull-Rom curve through the entries.");
     b.output(OutValue, "outValue", ValueType::Double).doc("The remapped value.");
     for (AttrId in : {InputValue, InputMin, InputMax, OutputMin, OutputMax, RampValue, Interp})
         b.affects(in, {OutValue});

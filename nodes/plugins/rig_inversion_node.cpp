@@ -71,8 +71,7 @@ std::string joinLines(const std::vector<std::string>& lines)
 
 Approximation readApproximation(const std::string& path, std::string_view node)
 {
-    if (path.empty())
-        throw Error(fmt::format("{}.file is empty; give the approximation file rig-learn wrote", node));
+    if (path.empty()) throw Error(fmt::format("{}.file is empty; give the approximation file rig-learn wrote", node));
     try {
         return readApproximationFile(path);
     }
@@ -133,8 +132,8 @@ public:
         const double t = c.getDouble(sceneTime);
         const int interval = std::max(1, c.getInt(restartInterval));
         const double sinceStart = t - c.getDouble(startFrame);
-        const bool restartFrame = sinceStart == std::floor(sinceStart) &&
-                                  std::fmod(sinceStart, static_cast<double>(interval)) == 0.0;
+        const bool restartFrame =
+            sinceStart == std::floor(sinceStart) && std::fmod(sinceStart, static_cast<double>(interval)) == 0.0;
         // What was reported for the frame before this one, when played in order (continuity shifts).
         const bool advanced = !solution_.empty() && t == previousTime_ + 1.0;
         if (advanced) before_ = reported_;
@@ -218,8 +217,7 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
     const std::string node = graph.nodeName(id);
     if (!field.IsMap())
         throw Error(fmt::format("{}: 'connect' is a map {{targets: NODE, parameters: true}}", context.where(field)));
-    const Approximation a =
-        readApproximation(std::get<std::string>(graph.getValue(graph.plug(node + ".file"))), node);
+    const Approximation a = readApproximation(std::get<std::string>(graph.getValue(graph.plug(node + ".file"))), node);
     const std::string mapPath = std::get<std::string>(graph.getValue(graph.plug(node + ".map")));
     const TargetMap targetMap = mapPath.empty() ? TargetMap{} : readTargetMap(mapPath);
     auto outputIndex = [&](const std::string& joint) {
@@ -250,8 +248,7 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
                                       graph.plug(fmt::format("{}.target[{}]", node, k)));
                         ++connected;
                     }
-            }
-            else {
+            } else {
                 std::vector<Plug> sources;
                 try {
                     sources = matchPlugs(graph, v.Scalar() + ".worldMatrix");
@@ -266,11 +263,11 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
                     }
             }
             if (connected == 0)
-                throw Error(fmt::format("{}: no joint of '{}' is an output of the approximation ({}, ...); give a map "
-                                        "file that renames them",
-                                        context.where(v), v.Scalar(), a.outputs.empty() ? "" : a.outputs[0].name));
-        }
-        else if (key == "parameters") {
+                throw Error(
+                    fmt::format("{}: no joint of '{}' is an output of the approximation ({}, ...); give a map "
+                                "file that renames them",
+                                context.where(v), v.Scalar(), a.outputs.empty() ? "" : a.outputs[0].name));
+        } else if (key == "parameters") {
             if (!v.IsScalar() || (v.Scalar() != "true" && v.Scalar() != "false"))
                 throw Error(fmt::format("{}: 'parameters' is true or false", context.where(v)));
             if (v.Scalar() == "false") continue;
@@ -281,14 +278,14 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
                     destination = graph.plug(name);
                 }
                 catch (const Error&) {
-                    throw Error(fmt::format("{}: the approximation drives '{}', which this graph does not have: it "
-                                            "was learned from another rig ({}); include that rig or learn this one",
-                                            context.where(v), name, a.rigFile));
+                    throw Error(
+                        fmt::format("{}: the approximation drives '{}', which this graph does not have: it "
+                                    "was learned from another rig ({}); include that rig or learn this one",
+                                    context.where(v), name, a.rigFile));
                 }
                 graph.connect(graph.plug(fmt::format("{}.value[{}]", node, i)), destination);
             }
-        }
-        else {
+        } else {
             throw Error(fmt::format("{}: unknown key '{}' in 'connect'; it has 'targets' and 'parameters'",
                                     context.where(entry.first), key));
         }
@@ -302,36 +299,50 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
 {
     using namespace rig;
     NodeTypeBuilder b("rigInversion");
-    b.description("Drives a rig's parameters from target joints with an approximation learned by rig-learn "
-                  "(docs/inversion-tutorial.md). target[k] is the target of the approximation's output k; "
-                  "value[i] its parameter i, angles in degrees. Warm-starts from the previous frame when time "
-                  "moves on by one frame. The rig-file field `connect: {targets: NODE_OR_GLOB, parameters: true}` "
-                  "wires it by the names stored in the approximation.");
+    b.description(
+        "Drives a rig's parameters from target joints with an approximation learned by rig-learn "
+        "(docs/inversion-tutorial.md). target[k] is the target of the approximation's output k; "
+        "value[i] its parameter i, angles in degrees. Warm-starts from the previous frame when time "
+        "moves on by one frame. The rig-file field `connect: {targets: NODE_OR_GLOB, parameters: true}` "
+        "wires it by the names stored in the approximation.");
     b.input(file, "file", ValueType::String)
         .filePath()
         .doc("Approximation file (rig-learn -o), relative to the rig file that names it; read again when it changes.");
     b.input(map, "map", ValueType::String)
         .filePath()
-        .doc("Map file (docs/rig-invert.md), relative to the rig file that names it: the targets' scale to cm and their "
-             "joint names for `connect`.");
+        .doc(
+            "Map file (docs/rig-invert.md), relative to the rig file that names it: the targets' scale to cm and their "
+            "joint names for `connect`.");
     b.input(target, "target", ValueType::Matrix4).array().doc("Target world matrix of each approximation output.");
     b.input(targetWeight, "targetWeight", ValueType::Double).array().doc("Position weight of each target (default 1).");
-    b.input(rotationWeight, "rotationWeight", ValueType::Double).defaultValue(1.0).min(0.0)
+    b.input(rotationWeight, "rotationWeight", ValueType::Double)
+        .defaultValue(1.0)
+        .min(0.0)
         .doc("Weight of the rotation residuals against the positions.");
-    b.input(maxIterations, "maxIterations", ValueType::Int).defaultValue(SolverOptions{}.maxIterations).min(1)
+    b.input(maxIterations, "maxIterations", ValueType::Int)
+        .defaultValue(SolverOptions{}.maxIterations)
+        .min(1)
         .doc("Most solver iterations per evaluation.");
-    b.input(threads, "threads", ValueType::Int).defaultValue(0).min(0)
+    b.input(threads, "threads", ValueType::Int)
+        .defaultValue(0)
+        .min(0)
         .doc("Solver threads (0: all cores); the values do not depend on it.");
-    b.input(partition, "partition", ValueType::Bool).defaultValue(true)
+    b.input(partition, "partition", ValueType::Bool)
+        .defaultValue(true)
         .doc("Solve independent limbs as separate problems.");
-    b.input(restartInterval, "restartInterval", ValueType::Int).defaultValue(120).min(1)
+    b.input(restartInterval, "restartInterval", ValueType::Int)
+        .defaultValue(120)
+        .min(1)
         .doc("Frames between warm-start restarts, as rig-invert --restart-every.");
-    b.input(coldStart, "coldStart", ValueType::Bool).defaultValue(true)
-        .doc("A restart starts from the approximation's initial guess for the targets, not from rest (rig-invert "
-             "--rest-starts turns it off).");
+    b.input(coldStart, "coldStart", ValueType::Bool)
+        .defaultValue(true)
+        .doc(
+            "A restart starts from the approximation's initial guess for the targets, not from rest (rig-invert "
+            "--rest-starts turns it off).");
     b.input(startFrame, "startFrame", ValueType::Double).defaultValue(1.0).doc("The clip's first frame.");
     b.input(sceneTime, "time", ValueType::Double).unit(Unit::Time).sceneTime().doc("The frame being solved.");
-    b.output(value, "value", ValueType::Double).array()
+    b.output(value, "value", ValueType::Double)
+        .array()
         .doc("Each parameter of the approximation, angles in degrees (unitless).");
     b.output(converged, "converged", ValueType::Bool).doc("The solve converged to the targets (within 1e-3 cm).");
     b.output(stuck, "stuck", ValueType::Bool)

@@ -81,12 +81,16 @@ TEST_CASE("plugs parse node.attribute, components, array elements, and name what
     CHECK(rz.child == 2);
     CHECK(g.plugType(rz) == ValueType::Double);
     CHECK(g.plugName(g.plug("mm.matrixIn[3]")) == "mm.matrixIn[3]");
-    CHECK(errorOf([&] { g.plug("elbow.rotat"); }) == "node 'elbow' (joint) has no attribute 'rotat'; did you mean 'rotate'?");
+    CHECK(errorOf([&] { g.plug("elbow.rotat"); }) ==
+          "node 'elbow' (joint) has no attribute 'rotat'; did you mean 'rotate'?");
     CHECK(errorOf([&] { g.plug("elbo.rotate"); }) == "no node named 'elbo'; did you mean 'elbow'?");
     CHECK(errorOf([&] { g.plug("elbow"); }) == "'elbow' is not a plug: expected node.attribute, e.g. elbow.rotateZ");
-    CHECK(errorOf([&] { g.plug("elbow.rotate[2]"); }) == "'elbow.rotate[2]': rotate is not an array attribute; drop the [index]");
-    CHECK(errorOf([&] { g.plug("mm.matrixIn[x]"); }) == "'mm.matrixIn[x]': bad array index; expected attribute[N] with N = 0, 1, ...");
-    CHECK(errorOf([&] { g.getValue(g.plug("mm.matrixIn")); }) == "mm.matrixIn is an array attribute: name an element, e.g. mm.matrixIn[0]");
+    CHECK(errorOf([&] { g.plug("elbow.rotate[2]"); }) ==
+          "'elbow.rotate[2]': rotate is not an array attribute; drop the [index]");
+    CHECK(errorOf([&] { g.plug("mm.matrixIn[x]"); }) ==
+          "'mm.matrixIn[x]': bad array index; expected attribute[N] with N = 0, 1, ...");
+    CHECK(errorOf([&] { g.getValue(g.plug("mm.matrixIn")); }) ==
+          "mm.matrixIn is an array attribute: name an element, e.g. mm.matrixIn[0]");
 }
 
 TEST_CASE("nodes: unknown types, bad and duplicate names")
@@ -94,9 +98,10 @@ TEST_CASE("nodes: unknown types, bad and duplicate names")
     Graph g(testRegistry());
     g.addNode("joint", "hips");
     CHECK(errorOf([&] { g.addNode("jiont", "x"); }) == "unknown node type 'jiont'; did you mean 'joint'?");
-    CHECK(errorOf([&] { g.addNode("joint", "hips"); }) == "duplicate node name 'hips' (already a joint); node names must be unique");
-    CHECK(errorOf([&] { g.addNode("joint", "a.b"); })
-          == "invalid node name 'a.b': use letters, digits, '_' and ':', not starting with a digit");
+    CHECK(errorOf([&] { g.addNode("joint", "hips"); }) ==
+          "duplicate node name 'hips' (already a joint); node names must be unique");
+    CHECK(errorOf([&] { g.addNode("joint", "a.b"); }) ==
+          "invalid node name 'a.b': use letters, digits, '_' and ':', not starting with a digit");
     CHECK(g.addNode("joint", "mixamorig:Hips") == 1);
 }
 
@@ -107,23 +112,29 @@ TEST_CASE("connections are type-checked, single-source and acyclic, with the who
     g.addNode("joint", "j");
     g.connect(g.plug("a.sum"), g.plug("b.a"));
     g.connect(g.plug("b.sum"), g.plug("c.a"));
-    CHECK(errorOf([&] { g.connect(g.plug("c.sum"), g.plug("a.a")); })
-          == "cannot connect c.sum -> a.a: it would close a cycle (a.sum -> b.a, b.sum -> c.a, c.sum -> a.a); the graph "
-             "must stay acyclic at node level, so feed a from nodes that do not depend on a");
-    CHECK(errorOf([&] { g.connect(g.plug("a.sum"), g.plug("a.b")); }).starts_with("cannot connect a.sum -> a.b: it would close a cycle"));
-    CHECK(errorOf([&] { g.connect(g.plug("j.worldMatrix"), g.plug("c.b")); })
-          == "cannot connect j.worldMatrix (matrix4) -> c.b (double): the types do not match");
-    CHECK(errorOf([&] { g.connect(g.plug("a.sum"), g.plug("c.a")); })
-          == "cannot connect a.sum -> c.a: c.a is already driven by b.sum; an input takes one source, disconnect it first");
-    CHECK(errorOf([&] { g.connect(g.plug("a.a"), g.plug("c.sum")); })
-          == "cannot connect a.a -> c.sum: c.sum is an output, written by its node's compute; connect into an input");
-    CHECK(errorOf([&] { g.setValue(g.plug("b.a"), 1.0); }) == "cannot set b.a: it is driven by a.sum; disconnect it first");
+    CHECK(errorOf([&] { g.connect(g.plug("c.sum"), g.plug("a.a")); }) ==
+          "cannot connect c.sum -> a.a: it would close a cycle (a.sum -> b.a, b.sum -> c.a, c.sum -> a.a); the graph "
+          "must stay acyclic at node level, so feed a from nodes that do not depend on a");
+    CHECK(errorOf([&] {
+              g.connect(g.plug("a.sum"), g.plug("a.b"));
+          }).starts_with("cannot connect a.sum -> a.b: it would close a cycle"));
+    CHECK(errorOf([&] { g.connect(g.plug("j.worldMatrix"), g.plug("c.b")); }) ==
+          "cannot connect j.worldMatrix (matrix4) -> c.b (double): the types do not match");
+    CHECK(
+        errorOf([&] { g.connect(g.plug("a.sum"), g.plug("c.a")); }) ==
+        "cannot connect a.sum -> c.a: c.a is already driven by b.sum; an input takes one source, disconnect it first");
+    CHECK(errorOf([&] { g.connect(g.plug("a.a"), g.plug("c.sum")); }) ==
+          "cannot connect a.a -> c.sum: c.sum is an output, written by its node's compute; connect into an input");
+    CHECK(errorOf([&] { g.setValue(g.plug("b.a"), 1.0); }) ==
+          "cannot set b.a: it is driven by a.sum; disconnect it first");
     // A component and its parent are one input.
     g.connect(g.plug("a.sum"), g.plug("j.rotateX"));
-    CHECK(errorOf([&] { g.connect(g.plug("j.translate"), g.plug("j.rotate")); }).find("already driven by a.sum") != std::string::npos);
+    CHECK(errorOf([&] { g.connect(g.plug("j.translate"), g.plug("j.rotate")); }).find("already driven by a.sum") !=
+          std::string::npos);
     g.disconnect(g.plug("b.sum"), g.plug("c.a"));
     g.connect(g.plug("c.sum"), g.plug("a.a"));  // no longer a cycle
-    CHECK(errorOf([&] { g.disconnect(g.plug("b.sum"), g.plug("c.a")); }) == "cannot disconnect b.sum -> c.a: they are not connected");
+    CHECK(errorOf([&] { g.disconnect(g.plug("b.sum"), g.plug("c.a")); }) ==
+          "cannot disconnect b.sum -> c.a: they are not connected");
 }
 
 TEST_CASE("values are checked: type, finiteness, limits in user units")
@@ -134,8 +145,10 @@ TEST_CASE("values are checked: type, finiteness, limits in user units")
     CHECK(errorOf([&] { g.setValue(g.plug("n.b"), 101.0); }) == "cannot set n.b: 101 is above its maximum 100");
     CHECK(errorOf([&] { g.setValue(g.plug("n.b"), std::nan("")); }) == "cannot set n.b: value is not a finite number");
     CHECK(errorOf([&] { g.setValue(g.plug("n.b"), std::string("x")); }) == "cannot set n.b: expected a double value");
-    CHECK(errorOf([&] { g.setValue(g.plug("j.rotateOrder"), 6); }) == "cannot set j.rotateOrder: enum index 6 out of range 0..5");
-    CHECK(errorOf([&] { g.setValue(g.plug("n.sum"), 1.0); }) == "cannot set n.sum: it is an output, computed by its node");
+    CHECK(errorOf([&] { g.setValue(g.plug("j.rotateOrder"), 6); }) ==
+          "cannot set j.rotateOrder: enum index 6 out of range 0..5");
+    CHECK(errorOf([&] { g.setValue(g.plug("n.sum"), 1.0); }) ==
+          "cannot set n.sum: it is an output, computed by its node");
 }
 
 TEST_CASE("pull evaluation computes on demand and caches: setting one input recomputes only its downstream")
@@ -195,7 +208,8 @@ TEST_CASE("dynamic attributes can be set, connected from and connected into")
     CHECK(std::get<double>(g.getValue(g.plug("n.sum"))) == 4.0);
     g.setValue(g.plug("ctrl.bend"), 7.0);
     CHECK(std::get<double>(g.getValue(g.plug("n.sum"))) == 7.0);
-    CHECK(errorOf([&] { g.setValue(g.plug("ctrl.bend"), 11.0); }) == "cannot set ctrl.bend: 11 is above its maximum 10");
+    CHECK(errorOf([&] { g.setValue(g.plug("ctrl.bend"), 11.0); }) ==
+          "cannot set ctrl.bend: 11 is above its maximum 10");
     CHECK(errorOf([&] { g.addAttribute(ctrl, bend); }) == "node 'ctrl' (transform) already has an attribute 'bend'");
 }
 
@@ -257,7 +271,8 @@ TEST_CASE("serial and parallel evaluation are bit-identical on a 480-node graph"
         }
         std::vector<Plug> plugs;
         for (NodeId n = 0; n < serial->nodeCount(); ++n)
-            if (serial->nodeType(n).name() == "joint") plugs.push_back(serial->plug(serial->nodeName(n) + ".worldMatrix"));
+            if (serial->nodeType(n).name() == "joint")
+                plugs.push_back(serial->plug(serial->nodeName(n) + ".worldMatrix"));
         serial->evaluate(plugs);
         parallel->evaluate(plugs);
         CHECK(serial->computeCount() == parallel->computeCount());
@@ -273,7 +288,8 @@ TEST_CASE("an exception in a compute on the flow graph reaches the caller")
     g.setValue(g.plug("a.keyTime"), std::vector<double>{0, 1});
     g.setValue(g.plug("b.keyTime"), std::vector<double>{0, 1});
     g.setThreads(2);
-    CHECK(errorOf([&] { g.evaluateAll(); }) == "node 'a': keyTime has 2 values but keyValue has 0; give one value per key");
+    CHECK(errorOf([&] { g.evaluateAll(); }) ==
+          "node 'a': keyTime has 2 values but keyValue has 0; give one value per key");
 }
 
 TEST_CASE("checked mode catches a missing affects entry and ignores stateful nodes")
@@ -303,8 +319,9 @@ TEST_CASE("plugins register node types through initializePlugin")
     g.addNode("testDoubler", "d");
     g.setValue(g.plug("d.input"), 21.0);
     CHECK(std::get<double>(g.getValue(g.plug("d.output"))) == 42.0);
-    CHECK(errorOf([&] { registry->loadPlugin("noSuchPlugin", {folder}); })
-              .starts_with("plugin 'noSuchPlugin' not found (looked for " + (folder / "noSuchPlugin.so").string()));
+    CHECK(errorOf([&] {
+              registry->loadPlugin("noSuchPlugin", {folder});
+          }).starts_with("plugin 'noSuchPlugin' not found (looked for " + (folder / "noSuchPlugin.so").string()));
 }
 
 TEST_CASE("instances share one model, keep their own values and caches, and evaluate at the same time")
@@ -314,7 +331,8 @@ TEST_CASE("instances share one model, keep their own values and caches, and eval
     original->setValue(original->plug("c0_j0_drv.a"), 12.5);
     std::vector<Plug> plugs;
     for (NodeId n = 0; n < original->nodeCount(); ++n)
-        if (original->nodeType(n).name() == "joint") plugs.push_back(original->plug(original->nodeName(n) + ".worldMatrix"));
+        if (original->nodeType(n).name() == "joint")
+            plugs.push_back(original->plug(original->nodeName(n) + ".worldMatrix"));
 
     std::vector<std::unique_ptr<Graph>> instances;
     for (int i = 0; i < 3; ++i) instances.push_back(original->instance());

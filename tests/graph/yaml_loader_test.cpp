@@ -63,40 +63,47 @@ connections:
 TEST_CASE("rig file errors name file:line:col, the node and attribute, and a fix")
 {
     CHECK(errorOf("") == "rig.yaml: the file is empty; a rig file has a 'nodes:' list");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint\n  - {name: b}\n") == "rig.yaml:3:5: YAML syntax error: end of map flow not found");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint\n  - {name: b}\n") ==
+          "rig.yaml:3:5: YAML syntax error: end of map flow not found");
     CHECK(errorOf("nodez: []") == "rig.yaml:1:1: unknown key 'nodez' at top level; did you mean 'nodes'?");
-    CHECK(errorOf("nodes:\n  - {name: a, type: jiont}") == "rig.yaml:2:21: unknown node type 'jiont'; did you mean 'joint'?");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint, rotat: [0, 0, 0]}")
-          == "rig.yaml:2:28: node 'a' (joint) has no attribute 'rotat'; did you mean 'rotate'?");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint}\n  - {name: a, type: transform}")
-          == "rig.yaml:3:12: duplicate node name 'a' (already a joint); node names must be unique");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint, translate: [1, 2]}")
-          == "rig.yaml:2:39: a.translate: expected [x, y, z], got a list of 2");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint, translateX: abc}")
-          == "rig.yaml:2:40: a.translateX: expected a number, got 'abc'");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint, translateX: .nan}")
-          == "rig.yaml:2:40: a.translateX: .nan is not a finite number");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint, rotateOrder: xzz}")
-          == "rig.yaml:2:41: a.rotateOrder: 'xzz' is not one of xyz, yzx, zxy, xzy, yxz, zyx; did you mean 'xyz'?");
+    CHECK(errorOf("nodes:\n  - {name: a, type: jiont}") ==
+          "rig.yaml:2:21: unknown node type 'jiont'; did you mean 'joint'?");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint, rotat: [0, 0, 0]}") ==
+          "rig.yaml:2:28: node 'a' (joint) has no attribute 'rotat'; did you mean 'rotate'?");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint}\n  - {name: a, type: transform}") ==
+          "rig.yaml:3:12: duplicate node name 'a' (already a joint); node names must be unique");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint, translate: [1, 2]}") ==
+          "rig.yaml:2:39: a.translate: expected [x, y, z], got a list of 2");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint, translateX: abc}") ==
+          "rig.yaml:2:40: a.translateX: expected a number, got 'abc'");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint, translateX: .nan}") ==
+          "rig.yaml:2:40: a.translateX: .nan is not a finite number");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint, rotateOrder: xzz}") ==
+          "rig.yaml:2:41: a.rotateOrder: 'xzz' is not one of xyz, yzx, zxy, xzy, yxz, zyx; did you mean 'xyz'?");
     CHECK(errorOf("nodes:\n  - {name: a, type: joint, parent: b}") == "rig.yaml:2:36: no node named 'b'");
     CHECK(errorOf("nodes:\n  - {name: a, type: joint}\nconnections:\n  - a.worldMatrix -> a.parentMatrix")
-          .starts_with("rig.yaml:4:5: cannot connect a.worldMatrix -> a.parentMatrix: it would close a cycle"));
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint}\n  - {name: b, type: joint}\nconnections:\n  - a.worldMatrix -> b.rotateX")
-          == "rig.yaml:5:5: cannot connect a.worldMatrix (matrix4) -> b.rotateX (double): the types do not match");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint}\nconnections:\n  - a.worldMatrix b.parentMatrix")
-          == "rig.yaml:4:5: a connection is written 'node.attr -> node.attr', got 'a.worldMatrix b.parentMatrix'");
-    CHECK(errorOf("nodes:\n  - {name: c, type: transform, addAttr: [{name: bend, max: 10}], bend: 12}")
-          == "rig.yaml:2:72: cannot set c.bend: 12 is above its maximum 10");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint}\n  - {name: b, type: joint, parent: a, parentMatrix: [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}")
-          == "rig.yaml:3:36: b.parentMatrix is given a value at rig.yaml:3:53 and a connection; remove one of them");
-    CHECK(errorOf("nodes:\n  - {name: s, type: animCurveUU, keys: [[0, 0], [0, 1]]}")
-          == "rig.yaml:2:50: node 's' (animCurveUU): key x 0 is not greater than the previous key's x 0 (keys must be strictly increasing)");
-    CHECK(errorOf("nodes:\n  - {name: s, type: animCurveUU, keys: [[0, 0, bouncy]]}")
-          == "rig.yaml:2:48: node 's' (animCurveUU): unknown tangent type 'bouncy'; use one of linear, flat, step, stepnext, spline, clamped, plateau, auto");
-    CHECK(errorOf("nodes:\n  - {name: a, type: joint, name: b}") == "rig.yaml:2:28: node 'a' (joint): 'name' appears twice");
+              .starts_with("rig.yaml:4:5: cannot connect a.worldMatrix -> a.parentMatrix: it would close a cycle"));
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint}\n  - {name: b, type: joint}\nconnections:\n  - a.worldMatrix -> "
+                  "b.rotateX") ==
+          "rig.yaml:5:5: cannot connect a.worldMatrix (matrix4) -> b.rotateX (double): the types do not match");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint}\nconnections:\n  - a.worldMatrix b.parentMatrix") ==
+          "rig.yaml:4:5: a connection is written 'node.attr -> node.attr', got 'a.worldMatrix b.parentMatrix'");
+    CHECK(errorOf("nodes:\n  - {name: c, type: transform, addAttr: [{name: bend, max: 10}], bend: 12}") ==
+          "rig.yaml:2:72: cannot set c.bend: 12 is above its maximum 10");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint}\n  - {name: b, type: joint, parent: a, parentMatrix: "
+                  "[[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}") ==
+          "rig.yaml:3:36: b.parentMatrix is given a value at rig.yaml:3:53 and a connection; remove one of them");
+    CHECK(errorOf("nodes:\n  - {name: s, type: animCurveUU, keys: [[0, 0], [0, 1]]}") ==
+          "rig.yaml:2:50: node 's' (animCurveUU): key x 0 is not greater than the previous key's x 0 (keys must be "
+          "strictly increasing)");
+    CHECK(errorOf("nodes:\n  - {name: s, type: animCurveUU, keys: [[0, 0, bouncy]]}") ==
+          "rig.yaml:2:48: node 's' (animCurveUU): unknown tangent type 'bouncy'; use one of linear, flat, step, "
+          "stepnext, spline, clamped, plateau, auto");
+    CHECK(errorOf("nodes:\n  - {name: a, type: joint, name: b}") ==
+          "rig.yaml:2:28: node 'a' (joint): 'name' appears twice");
     CHECK(errorOf("nodes:\n  - {type: joint}") == "rig.yaml:2:5: node without 'name:'");
-    CHECK(errorOf("nodes:\n  - {name: c, type: animCurveUU, keys: [[0, 0]], keyTime: [1]}")
-          == "rig.yaml:2:59: c.keyTime is given a value twice (first at rig.yaml:2:40); keep one");
+    CHECK(errorOf("nodes:\n  - {name: c, type: animCurveUU, keys: [[0, 0]], keyTime: [1]}") ==
+          "rig.yaml:2:59: c.keyTime is given a value twice (first at rig.yaml:2:40); keep one");
     CHECK(errorOf("plugins: [noSuchPlugin]\nnodes: []").starts_with("rig.yaml:1:11: plugin 'noSuchPlugin' not found"));
 }
 
@@ -147,7 +154,8 @@ connections:
     }
     catch (const Error& e) {
         const std::string path = (dir / "loop.yaml").string();
-        CHECK(std::string(e.what()) == fmt::format("{}:2:12: include cycle: {} is already being loaded; remove this include", path, path));
+        CHECK(std::string(e.what()) ==
+              fmt::format("{}:2:12: include cycle: {} is already being loaded; remove this include", path, path));
     }
     rig::test::writeFile(dir / "missing.yaml", "include:\n  - {file: nowhere.yaml, namespace: x}\n");
     try {
@@ -155,7 +163,8 @@ connections:
         FAIL("expected an error");
     }
     catch (const Error& e) {
-        CHECK(std::string(e.what()) == fmt::format("{}:2:12: {}: no such included rig file", (dir / "missing.yaml").string(), (dir / "nowhere.yaml").string()));
+        CHECK(std::string(e.what()) == fmt::format("{}:2:12: {}: no such included rig file",
+                                                   (dir / "missing.yaml").string(), (dir / "nowhere.yaml").string()));
     }
 }
 
@@ -190,13 +199,14 @@ std::shared_ptr<NodeRegistry> registryWithLinks()
 TEST_CASE("a connector field wires its node once the whole file is loaded, and its errors name the place")
 {
     // `b` is declared after `a` links to it, and `a`'s input is only set later in the file.
-    const auto graph = loadGraphText("nodes:\n"
-                                     "  - {name: a, type: testLink, linkTo: b}\n"
-                                     "  - {name: b, type: testLink}\n"
-                                     "  - {name: c, type: testLink}\n"
-                                     "connections:\n"
-                                     "  - c.output -> a.input\n",
-                                     "rig.yaml", registryWithLinks());
+    const auto graph = loadGraphText(
+        "nodes:\n"
+        "  - {name: a, type: testLink, linkTo: b}\n"
+        "  - {name: b, type: testLink}\n"
+        "  - {name: c, type: testLink}\n"
+        "connections:\n"
+        "  - c.output -> a.input\n",
+        "rig.yaml", registryWithLinks());
     REQUIRE(graph->connections().size() == 2);
     graph->setValue(graph->plug("c.input"), 2.5);
     CHECK(std::get<double>(graph->getValue(graph->plug("b.output"))) == 2.5);

@@ -52,7 +52,8 @@ void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::f
 
 using namespace rig;
 
-TEST_CASE("allocation: a warm-start chain on the biped allocates nothing per frame, restart frames and retries included")
+TEST_CASE(
+    "allocation: a warm-start chain on the biped allocates nothing per frame, restart frames and retries included")
 {
     const Approximation a = readApproximationFile(test::bipedApproximation());
     // A smooth motion of every control, its targets moved a few centimetres off (unreachable: every frame

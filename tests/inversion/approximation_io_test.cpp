@@ -119,8 +119,8 @@ void checkSame(const Approximation& a, const Approximation& b)
 }
 
 // Doubles that a careless writer loses: a third, -0, the smallest subnormal, the largest double, pi.
-const std::vector<double> awkward{0.1 + 0.2, -0.0, 5e-324, std::numeric_limits<double>::max(), std::numbers::pi, 1e-300,
-                                  -123456.78901234567};
+const std::vector<double> awkward{
+    0.1 + 0.2, -0.0, 5e-324, std::numeric_limits<double>::max(), std::numbers::pi, 1e-300, -123456.78901234567};
 
 double pick(std::size_t& i) { return awkward[i++ % awkward.size()]; }
 
@@ -143,7 +143,15 @@ Approximation everything()
         return RigParameter{name, -0.0, -std::numbers::pi / 2, 1.0 / 3.0, angular, limited};
     };
     using V1 = CubicSpline<1>::Vector;
-    ModelledParameter translation{parameter("root_ctrl.translateX", false, false), {0, 1, 2}, {}, {0, 0, 0}, "translation", 1e-17, 6, 2e-5, {{-1.5, -0.5}, {0.25, 1.0 / 3.0}}};
+    ModelledParameter translation{parameter("root_ctrl.translateX", false, false),
+                                  {0, 1, 2},
+                                  {},
+                                  {0, 0, 0},
+                                  "translation",
+                                  1e-17,
+                                  6,
+                                  2e-5,
+                                  {{-1.5, -0.5}, {0.25, 1.0 / 3.0}}};
     Operator t;
     t.kind = OperatorKind::translation;
     t.axis = Eigen::Vector3d(0.6, -0.0, 0.8);
@@ -151,7 +159,15 @@ Approximation everything()
     translation.operators.push_back(t);
     a.parameters.push_back(translation);
 
-    ModelledParameter rotation{parameter("elbow.rotateZ", true, true), {1, 2}, {}, {0, 1}, "per output: 1 rotation (curve) 1 axisScale", 3e-4, 17, 0.0, {}};
+    ModelledParameter rotation{parameter("elbow.rotateZ", true, true),
+                               {1, 2},
+                               {},
+                               {0, 1},
+                               "per output: 1 rotation (curve) 1 axisScale",
+                               3e-4,
+                               17,
+                               0.0,
+                               {}};
     Operator r;
     r.kind = OperatorKind::rotation;
     r.axis = Eigen::Vector3d(0, std::sqrt(0.5), -std::sqrt(0.5));
@@ -165,7 +181,15 @@ Approximation everything()
     rotation.operators = {r, s};
     a.parameters.push_back(rotation);
 
-    ModelledParameter sampled{parameter("spine_ctrl.bend", true, false), {0, 1, 2}, {}, {0, 1, 2}, "per output: 1 sampledRigid 1 sampledAffine 1 uniformScale", 0.0, 64, 5e-324, {}};
+    ModelledParameter sampled{parameter("spine_ctrl.bend", true, false),
+                              {0, 1, 2},
+                              {},
+                              {0, 1, 2},
+                              "per output: 1 sampledRigid 1 sampledAffine 1 uniformScale",
+                              0.0,
+                              64,
+                              5e-324,
+                              {}};
     Operator rigid;
     rigid.kind = OperatorKind::sampledRigid;
     std::vector<CubicSpline<6>::Vector> six;
@@ -191,8 +215,10 @@ Approximation everything()
     sampled.operators = {rigid, affine, uniform};
     a.parameters.push_back(sampled);
 
-    a.discarded.push_back({parameter("nasty_ctrl.springy", false, true), "history-dependent: \"quoted\"\nsecond line\tand a tab"});
-    a.discarded.push_back({parameter("nasty_ctrl.coupledTurn", true, true), "coupled: it changes what others do; ünïcode"});
+    a.discarded.push_back(
+        {parameter("nasty_ctrl.springy", false, true), "history-dependent: \"quoted\"\nsecond line\tand a tab"});
+    a.discarded.push_back(
+        {parameter("nasty_ctrl.coupledTurn", true, true), "coupled: it changes what others do; ünïcode"});
     a.validation = {50, 1e-13, 0.1 + 0.2, 180.0, -0.0, "tip", 49, 7e-4, "mid: #x", "elbow.rotateZ", 2, false};
     a.outputs[1].parent = 0;  // relative outputs, a parent listed after its child
     a.outputs[0].parent = 2;
@@ -209,7 +235,8 @@ rigFile: "r.yaml"
 rigFingerprint: "00"
 epsilon: 0.001
 training: {evaluations: 1, orderEvaluations: 0, seconds: 0.5, orderer: "talk"}
-validation: {poses: 0, maxPositionErrorCm: 0, meanPositionErrorCm: 0, maxRotationErrorDeg: 0, meanRotationErrorDeg: 0, worstOutput: "", worstPose: -1}
+validation: {poses: 0, maxPositionErrorCm: 0, meanPositionErrorCm: 0, maxRotationErrorDeg: 0, )"
+                            R"(meanRotationErrorDeg: 0, worstOutput: "", worstPose: -1}
 outputs:
   - {name: "a", rest: [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}
 parameters:
@@ -280,7 +307,8 @@ TEST_CASE("approximation files: a learned approximation evaluates identically af
     std::vector<Eigen::Matrix4d> wa, wb;
     for (int pose = 0; pose < 20; ++pose) {
         std::vector<double> values;
-        for (const auto& p : a.parameters) values.push_back(std::uniform_real_distribution<double>(p.parameter.min, p.parameter.max)(rng));
+        for (const auto& p : a.parameters)
+            values.push_back(std::uniform_real_distribution<double>(p.parameter.min, p.parameter.max)(rng));
         a.evaluate(values, wa);
         b.evaluate(values, wb);
         for (std::size_t k = 0; k < wa.size(); ++k) CHECK(sameMatrix(wa[k], wb[k]));
@@ -291,8 +319,8 @@ TEST_CASE("approximation files: what cannot be written is refused, naming the fi
 {
     Approximation a = everything();
     a.parameters[1].operators[0].pivot.y() = std::nan("");
-    CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: parameters[1].operators[0].pivot is nan, not a finite number",
-                         Error);
+    CHECK_THROWS_WITH_AS(approximationToYaml(a),
+                         "approximationToYaml: parameters[1].operators[0].pivot is nan, not a finite number", Error);
     a = everything();
     a.parameters[0].outputs[2] = 3;
     CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: parameters[0].outputs: index 3 out of range",
@@ -302,59 +330,69 @@ TEST_CASE("approximation files: what cannot be written is refused, naming the fi
 TEST_CASE("approximation files: a damaged file is one line naming file:line:col and the field")
 {
     CHECK(errorWith("", "") == "(no error)");
-    CHECK(errorWith("format: rigInversionApproximation", "format: rig")
-          == "f.yaml:1:9: format: not an approximation file (expected format: rigInversionApproximation)");
-    CHECK(errorWith("version: 1", "version: 3")
-          == "f.yaml:2:10: version: version 3 is not supported; this program reads versions 1 to 2 (re-run rig-learn)");
-    CHECK(errorWith("rigFile:", "rigFiles:")
-          == "f.yaml:3:1: file: unknown field 'rigFiles'; the fields are format, version, rigFile, rigFingerprint, "
-             "epsilon, training, validation, outputs, parameters, discarded, droppedOutputs");
+    CHECK(errorWith("format: rigInversionApproximation", "format: rig") ==
+          "f.yaml:1:9: format: not an approximation file (expected format: rigInversionApproximation)");
+    CHECK(errorWith("version: 1", "version: 3") ==
+          "f.yaml:2:10: version: version 3 is not supported; this program reads versions 1 to 2 (re-run rig-learn)");
+    CHECK(errorWith("rigFile:", "rigFiles:") ==
+          "f.yaml:3:1: file: unknown field 'rigFiles'; the fields are format, version, rigFile, rigFingerprint, "
+          "epsilon, training, validation, outputs, parameters, discarded, droppedOutputs");
     CHECK(errorWith("    samples: 6\n", "") == "f.yaml:11:5: parameters[0]: the field 'samples' is missing");
     CHECK(errorWith("min: -1", "min: abc") == "f.yaml:13:10: parameters[0].min: 'abc' is not a number");
     CHECK(errorWith("max: 1", "max: inf") == "f.yaml:14:10: parameters[0].max: 'inf' is not a finite number");
-    CHECK(errorWith("default: 0", "default: 5") == "f.yaml:11:5: parameters[0]: the default 5 is not within min -1 and max 1");
+    CHECK(errorWith("default: 0", "default: 5") ==
+          "f.yaml:11:5: parameters[0]: the default 5 is not within min -1 and max 1");
     CHECK(errorWith("limited: true", "limited: 1") == "f.yaml:15:14: parameters[0].limited: expected true or false");
-    CHECK(errorWith("outputs: [\"a\"]", "outputs: [\"b\"]") == "f.yaml:20:15: parameters[0].outputs: 'b' is not one of the outputs");
-    CHECK(errorWith("operatorOfOutput: [0]", "operatorOfOutput: [3]")
-          == "f.yaml:21:24: parameters[0].operatorOfOutput: 3 is not an operator index (0..0)");
-    CHECK(errorWith("operatorOfOutput: [0]", "operatorOfOutput: [0, 0]")
-          == "f.yaml:21:23: parameters[0].operatorOfOutput: expected 1 entries, found 2");
-    CHECK(errorWith("axis: [0, 0, 1]", "axis: [0, 0, 2]") == "f.yaml:23:32: parameters[0].operators[0].axis: not a unit vector");
-    CHECK(errorWith("kind: rotation", "kind: twist")
-          == "f.yaml:23:16: parameters[0].operators[0].kind: unknown operator 'twist'; the operators are translation, "
-             "rotation, axisScale, uniformScale, sampledRigid, sampledAffine");
-    CHECK(errorWith("slope: 1", "curve: {knots: [0, 0], values: [0, 0]}")
-          == "f.yaml:23:76: parameters[0].operators[0].curve.knots: the knots must increase");
-    CHECK(errorWith("slope: 1", "slope: 1, curve: {knots: [0, 1], values: [0, 1]}")
-          == "f.yaml:23:9: parameters[0].operators[0]: give either slope (linear) or curve, not both");
+    CHECK(errorWith("outputs: [\"a\"]", "outputs: [\"b\"]") ==
+          "f.yaml:20:15: parameters[0].outputs: 'b' is not one of the outputs");
+    CHECK(errorWith("operatorOfOutput: [0]", "operatorOfOutput: [3]") ==
+          "f.yaml:21:24: parameters[0].operatorOfOutput: 3 is not an operator index (0..0)");
+    CHECK(errorWith("operatorOfOutput: [0]", "operatorOfOutput: [0, 0]") ==
+          "f.yaml:21:23: parameters[0].operatorOfOutput: expected 1 entries, found 2");
+    CHECK(errorWith("axis: [0, 0, 1]", "axis: [0, 0, 2]") ==
+          "f.yaml:23:32: parameters[0].operators[0].axis: not a unit vector");
+    CHECK(errorWith("kind: rotation", "kind: twist") ==
+          "f.yaml:23:16: parameters[0].operators[0].kind: unknown operator 'twist'; the operators are translation, "
+          "rotation, axisScale, uniformScale, sampledRigid, sampledAffine");
+    CHECK(errorWith("slope: 1", "curve: {knots: [0, 0], values: [0, 0]}") ==
+          "f.yaml:23:76: parameters[0].operators[0].curve.knots: the knots must increase");
+    CHECK(errorWith("slope: 1", "slope: 1, curve: {knots: [0, 1], values: [0, 1]}") ==
+          "f.yaml:23:9: parameters[0].operators[0]: give either slope (linear) or curve, not both");
     CHECK(errorWith("rest: [[1, 0, 0, 0], ", "rest: [") == "f.yaml:9:23: outputs[0].rest: expected 4 entries, found 3");
-    CHECK(errorWith("discarded: []", "discarded: [") == "f.yaml:25:1: YAML syntax error: end of sequence flow not found");
+    CHECK(errorWith("discarded: []", "discarded: [") ==
+          "f.yaml:25:1: YAML syntax error: end of sequence flow not found");
     // Strict: one document, nothing negative that counts or measures, whole numbers in their range.
-    CHECK(errorWith("discarded: []\n", "discarded: []\n---\nformat: other\n")
-          == "f.yaml:25:1: file: '---' ends the YAML document; an approximation file is one document: remove it and "
-             "what follows, or re-run rig-learn");
+    CHECK(errorWith("discarded: []\n", "discarded: []\n---\nformat: other\n") ==
+          "f.yaml:25:1: file: '---' ends the YAML document; an approximation file is one document: remove it and "
+          "what follows, or re-run rig-learn");
     CHECK(errorWith("discarded: []\n", "discarded: []\n...\n") ==
           "f.yaml:25:1: file: '...' ends the YAML document; an approximation file is one document: remove it and what "
           "follows, or re-run rig-learn");
-    CHECK(errorWith("seconds: 0.5", "seconds: -0.5") == "f.yaml:6:58: training.seconds: -0.5 is negative; errors and times are not");
-    CHECK(errorWith("poses: 0", "poses: -3") == "f.yaml:7:21: validation.poses: -3 is below 0; a count is not negative");
-    CHECK(errorWith("maxPositionErrorCm: 0", "maxPositionErrorCm: -1")
-          == "f.yaml:7:44: validation.maxPositionErrorCm: -1 is negative; errors and times are not");
-    CHECK(errorWith("worstPose: -1", "worstPose: -2") == "f.yaml:7:148: validation.worstPose: -2 is below -1; a count is not negative");
-    CHECK(errorWith("samples: 6", "samples: -6") == "f.yaml:19:14: parameters[0].samples: -6 is below 0; a count is not negative");
-    CHECK(errorWith("fitError: 0", "fitError: -1e-9") == "f.yaml:18:15: parameters[0].fitError: -1e-09 is negative; errors and times are not");
-    CHECK(errorWith("evaluations: 1,", "evaluations: 99999999999999999999,")
-          == "f.yaml:6:25: training.evaluations: 99999999999999999999 is out of range (0 to 18446744073709551615)");
-    CHECK(errorWith("evaluations: 1,", "evaluations: -1,") == "f.yaml:6:25: training.evaluations: '-1' is not a whole number");
+    CHECK(errorWith("seconds: 0.5", "seconds: -0.5") ==
+          "f.yaml:6:58: training.seconds: -0.5 is negative; errors and times are not");
+    CHECK(errorWith("poses: 0", "poses: -3") ==
+          "f.yaml:7:21: validation.poses: -3 is below 0; a count is not negative");
+    CHECK(errorWith("maxPositionErrorCm: 0", "maxPositionErrorCm: -1") ==
+          "f.yaml:7:44: validation.maxPositionErrorCm: -1 is negative; errors and times are not");
+    CHECK(errorWith("worstPose: -1", "worstPose: -2") ==
+          "f.yaml:7:148: validation.worstPose: -2 is below -1; a count is not negative");
+    CHECK(errorWith("samples: 6", "samples: -6") ==
+          "f.yaml:19:14: parameters[0].samples: -6 is below 0; a count is not negative");
+    CHECK(errorWith("fitError: 0", "fitError: -1e-9") ==
+          "f.yaml:18:15: parameters[0].fitError: -1e-09 is negative; errors and times are not");
+    CHECK(errorWith("evaluations: 1,", "evaluations: 99999999999999999999,") ==
+          "f.yaml:6:25: training.evaluations: 99999999999999999999 is out of range (0 to 18446744073709551615)");
+    CHECK(errorWith("evaluations: 1,", "evaluations: -1,") ==
+          "f.yaml:6:25: training.evaluations: '-1' is not a whole number");
 
     try {
         readApproximationFile("no/such/approximation.yaml");
         FAIL("no error");
     }
     catch (const Error& e) {
-        CHECK(std::string(e.what())
-              == "no/such/approximation.yaml: cannot read it (No such file or directory); check the name (rig-learn -o "
-                 "writes one)");
+        CHECK(std::string(e.what()) ==
+              "no/such/approximation.yaml: cannot read it (No such file or directory); check the name (rig-learn -o "
+              "writes one)");
     }
 }
 
@@ -365,14 +403,16 @@ TEST_CASE("approximation files: a rig that changed since learning is a warning, 
     a.rigFingerprint = "0123456789abcdef";
     CHECK(checkFingerprint(a, "0123456789abcdef", false).empty());
     CHECK(checkFingerprint(a, "0123456789abcdef", true).empty());
-    const std::string message = "the rig changed since the approximation was learned from rigs/biped.yaml (fingerprint "
-                                "0123456789abcdef, now fedcba9876543210); re-run rig-learn";
+    const std::string message =
+        "the rig changed since the approximation was learned from rigs/biped.yaml (fingerprint "
+        "0123456789abcdef, now fedcba9876543210); re-run rig-learn";
     CHECK(checkFingerprint(a, "fedcba9876543210", false) == message);
     CHECK_THROWS_WITH_AS(checkFingerprint(a, "fedcba9876543210", true), message.c_str(), Error);
 
     // The real thing: a rig file edited after learning.
     const auto dir = test::scratchDir("approximation-fingerprint");
-    const std::string rigText = "nodes:\n  - {name: j, type: joint}\n  - {name: k, type: joint, parent: j, translate: [5, 0, 0]}\n";
+    const std::string rigText =
+        "nodes:\n  - {name: j, type: joint}\n  - {name: k, type: joint, parent: j, translate: [5, 0, 0]}\n";
     test::writeFile(dir / "rig.yaml", rigText);
     const GraphRigOptions options{{"j.rotateZ"}, {}, {}};
     GraphRigFunction before(dir / "rig.yaml", options);
@@ -382,6 +422,7 @@ TEST_CASE("approximation files: a rig that changed since learning is a warning, 
     CHECK(checkFingerprint(learned, GraphRigFunction(dir / "rig.yaml", options).fingerprint(), true).empty());
     test::writeFile(dir / "rig.yaml", rigText + "  - {name: l, type: joint, parent: k}\n");
     const std::string now = GraphRigFunction(dir / "rig.yaml", options).fingerprint();
-    CHECK(checkFingerprint(learned, now, false).starts_with("the rig changed since the approximation was learned from rig.yaml"));
+    CHECK(checkFingerprint(learned, now, false)
+              .starts_with("the rig changed since the approximation was learned from rig.yaml"));
     CHECK_THROWS_AS(checkFingerprint(learned, now, true), Error);
 }

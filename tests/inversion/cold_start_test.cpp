@@ -76,17 +76,19 @@ std::string curlHandRig()
     const char* names[] = {"Index", "Middle", "Ring"};
     for (int f = 0; f < 3; ++f) {
         const std::string n = names[f];
-        fingers += fmt::format("  - {{name: {0}1, type: joint, parent: wrist, translate: [8, 0, {1}]}}\n"
-                               "  - {{name: {0}2, type: joint, parent: {0}1, translate: [3, 0, 0]}}\n"
-                               "  - {{name: {0}3, type: joint, parent: {0}2, translate: [2.5, 0, 0]}}\n"
-                               "  - {{name: {0}4, type: joint, parent: {0}3, translate: [2, 0, 0]}}\n"
-                               "  - {{name: curl{0}, type: multiplyDivide, input2: [1, 1, 1]}}\n",
-                               n, 2 - 2 * f);
+        fingers += fmt::format(
+            "  - {{name: {0}1, type: joint, parent: wrist, translate: [8, 0, {1}]}}\n"
+            "  - {{name: {0}2, type: joint, parent: {0}1, translate: [3, 0, 0]}}\n"
+            "  - {{name: {0}3, type: joint, parent: {0}2, translate: [2.5, 0, 0]}}\n"
+            "  - {{name: {0}4, type: joint, parent: {0}3, translate: [2, 0, 0]}}\n"
+            "  - {{name: curl{0}, type: multiplyDivide, input2: [1, 1, 1]}}\n",
+            n, 2 - 2 * f);
         for (const char axis : {'X', 'Y', 'Z'})
             connections += fmt::format("  - hand_ctrl.curl{0} -> curl{0}.input1{1}\n", n, axis);
-        connections += fmt::format("  - curl{0}.outputX -> {0}1.rotateZ\n  - curl{0}.outputY -> {0}2.rotateZ\n"
-                                   "  - curl{0}.outputZ -> {0}3.rotateZ\n",
-                                   n);
+        connections += fmt::format(
+            "  - curl{0}.outputX -> {0}1.rotateZ\n  - curl{0}.outputY -> {0}2.rotateZ\n"
+            "  - curl{0}.outputZ -> {0}3.rotateZ\n",
+            n);
     }
     std::string rig = curlHand;
     rig.replace(rig.find("{fingers}"), 9, fingers);
@@ -109,8 +111,8 @@ TEST_CASE("cold starts: random in-range poses of random FK rigs are recovered fr
         REQUIRE(a.discarded.empty());
         recover(a, 25, rng, recovery);
     }
-    MESSAGE(fmt::format("random FK rigs: {} of {} poses recovered from the initial guess, {} from rest", recovery.fromGuess,
-                        recovery.poses, recovery.fromRest));
+    MESSAGE(fmt::format("random FK rigs: {} of {} poses recovered from the initial guess, {} from rest",
+                        recovery.fromGuess, recovery.poses, recovery.fromRest));
     CHECK(recovery.poses == 1000);
     CHECK(recovery.fromGuess >= 999);  // 99.9%
 }

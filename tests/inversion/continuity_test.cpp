@@ -24,17 +24,16 @@ RigParameter freeAngle(const std::string& name)
 // turns freely about Y, an elbow and a hand below.
 test::LambdaRig turningShoulder()
 {
-    return test::LambdaRig({freeAngle("root.rotateY"), freeAngle("shoulder.rotateX"), freeAngle("shoulder.rotateY"),
-                            freeAngle("shoulder.rotateZ")},
-                           {"root", "shoulder", "elbow", "hand"},
-                           [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-                               w[0] = test::rotation(Eigen::Vector3d::UnitY(), v[0]);
-                               w[1] = w[0] * test::translation(0, 100, 0) * test::rotation(Eigen::Vector3d::UnitX(), v[1]) *
-                                      test::rotation(Eigen::Vector3d::UnitY(), v[2]) *
-                                      test::rotation(Eigen::Vector3d::UnitZ(), v[3]);
-                               w[2] = w[1] * test::translation(10, 0, 0);
-                               w[3] = w[2] * test::translation(10, 2, 1);
-                           });
+    return test::LambdaRig(
+        {freeAngle("root.rotateY"), freeAngle("shoulder.rotateX"), freeAngle("shoulder.rotateY"),
+         freeAngle("shoulder.rotateZ")},
+        {"root", "shoulder", "elbow", "hand"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+            w[0] = test::rotation(Eigen::Vector3d::UnitY(), v[0]);
+            w[1] = w[0] * test::translation(0, 100, 0) * test::rotation(Eigen::Vector3d::UnitX(), v[1]) *
+                   test::rotation(Eigen::Vector3d::UnitY(), v[2]) * test::rotation(Eigen::Vector3d::UnitZ(), v[3]);
+            w[2] = w[1] * test::translation(10, 0, 0);
+            w[3] = w[2] * test::translation(10, 2, 1);
+        });
 }
 
 // The root turns two whole turns; the shoulder passes through gimbal lock (Y = 90 degrees) and back.
@@ -47,11 +46,15 @@ ClipTargets turningClip(const Approximation& a, int frames, double& largestTarge
         std::vector<double> pose = a.defaults();
         const double t = static_cast<double>(f) / (frames - 1);
         pose[static_cast<std::size_t>(test::parameterIndex(a, "root.rotateY"))] = 4 * std::numbers::pi * t;
-        pose[static_cast<std::size_t>(test::parameterIndex(a, "shoulder.rotateX"))] = 20 * test::degree * std::sin(6 * std::numbers::pi * t);
-        pose[static_cast<std::size_t>(test::parameterIndex(a, "shoulder.rotateY"))] = (90 - 30 * std::cos(6 * std::numbers::pi * t)) * test::degree;
-        pose[static_cast<std::size_t>(test::parameterIndex(a, "shoulder.rotateZ"))] = 30 * test::degree * std::cos(2 * std::numbers::pi * t);
+        pose[static_cast<std::size_t>(test::parameterIndex(a, "shoulder.rotateX"))] =
+            20 * test::degree * std::sin(6 * std::numbers::pi * t);
+        pose[static_cast<std::size_t>(test::parameterIndex(a, "shoulder.rotateY"))] =
+            (90 - 30 * std::cos(6 * std::numbers::pi * t)) * test::degree;
+        pose[static_cast<std::size_t>(test::parameterIndex(a, "shoulder.rotateZ"))] =
+            30 * test::degree * std::cos(2 * std::numbers::pi * t);
         if (!previous.empty())
-            for (std::size_t p = 0; p < pose.size(); ++p) largestTargetStep = std::max(largestTargetStep, std::abs(pose[p] - previous[p]));
+            for (std::size_t p = 0; p < pose.size(); ++p)
+                largestTargetStep = std::max(largestTargetStep, std::abs(pose[p] - previous[p]));
         previous = pose;
         clip.frames.push_back(test::targetsAt(a, pose));
     }
@@ -62,7 +65,8 @@ double largestStep(const std::vector<std::vector<double>>& values)
 {
     double largest = 0.0;
     for (std::size_t f = 1; f < values.size(); ++f)
-        for (std::size_t p = 0; p < values[f].size(); ++p) largest = std::max(largest, std::abs(values[f][p] - values[f - 1][p]));
+        for (std::size_t p = 0; p < values[f].size(); ++p)
+            largest = std::max(largest, std::abs(values[f][p] - values[f - 1][p]));
     return largest;
 }
 
@@ -75,7 +79,8 @@ TEST_CASE("continuity: the equivalences of a skeleton are its free channels' tur
     const Equivalences e(a);
     for (std::size_t p = 0; p < a.parameters.size(); ++p) CHECK(e.period[p] == doctest::Approx(2 * std::numbers::pi));
     REQUIRE(e.triples.size() == 1);
-    const std::array<int, 3> shoulder{test::parameterIndex(a, "shoulder.rotateX"), test::parameterIndex(a, "shoulder.rotateY"),
+    const std::array<int, 3> shoulder{test::parameterIndex(a, "shoulder.rotateX"),
+                                      test::parameterIndex(a, "shoulder.rotateY"),
                                       test::parameterIndex(a, "shoulder.rotateZ")};
     CHECK(e.triples[0] == shoulder);
     // Limited channels repeat nothing (a limit is not periodic), and the root alone is no triple.
@@ -92,14 +97,16 @@ TEST_CASE("continuity: the equivalences of a skeleton are its free channels' tur
         std::vector<double> previous = first;
         for (double& v : previous) v += 2 * std::numbers::pi * static_cast<double>(trial % 3);
         previous[static_cast<std::size_t>(shoulder[0])] += std::numbers::pi;
-        previous[static_cast<std::size_t>(shoulder[1])] = std::numbers::pi - previous[static_cast<std::size_t>(shoulder[1])] +
+        previous[static_cast<std::size_t>(shoulder[1])] = std::numbers::pi -
+                                                          previous[static_cast<std::size_t>(shoulder[1])] +
                                                           2 * std::numbers::pi * static_cast<double>(trial % 3);
         previous[static_cast<std::size_t>(shoulder[2])] += std::numbers::pi;
         const ChunkShift shift = continuityShift(e, previous, first);
         std::vector<double> shifted(first.size());
         applyShift(e, shift, first, shifted);
         CHECK(shift.otherSolution[0] == 1);
-        for (std::size_t p = 0; p < shifted.size(); ++p) CHECK(shifted[p] == doctest::Approx(previous[p]).epsilon(1e-12));
+        for (std::size_t p = 0; p < shifted.size(); ++p)
+            CHECK(shifted[p] == doctest::Approx(previous[p]).epsilon(1e-12));
         std::vector<Eigen::Matrix4d> before, after;
         a.evaluate(first, before);
         a.evaluate(shifted, after);
@@ -107,7 +114,9 @@ TEST_CASE("continuity: the equivalences of a skeleton are its free channels' tur
     }
 }
 
-TEST_CASE("continuity: restarts do not jump: a root turning twice and a shoulder through gimbal lock, restarted every 50 frames")
+TEST_CASE(
+    "continuity: restarts do not jump: a root turning twice and a shoulder through gimbal lock, restarted every 50 "
+    "frames")
 {
     auto rig = turningShoulder();
     const Approximation a = test::learn(rig, "turning shoulder");

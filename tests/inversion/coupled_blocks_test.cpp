@@ -30,8 +30,8 @@ std::vector<JointTarget> unreachableTargets(const Approximation& a, std::mt19937
     for (auto& t : targets) {
         t.world.block<3, 1>(0, 3) += cm * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
         const Eigen::Vector3d axis = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
-        t.world.block<3, 3>(0, 0) = Eigen::AngleAxisd(degrees * test::degree * unit(rng), axis).toRotationMatrix() *
-                                    t.world.block<3, 3>(0, 0);
+        t.world.block<3, 3>(0, 0) =
+            Eigen::AngleAxisd(degrees * test::degree * unit(rng), axis).toRotationMatrix() * t.world.block<3, 3>(0, 0);
     }
     return targets;
 }
@@ -46,7 +46,8 @@ Costs solveThreeWays(const Approximation& a, const std::vector<JointTarget>& tar
     whole.partition = false;
     sequential.coupledBlocks = false;
     Costs costs;
-    for (auto [options, cost] : {std::pair{coupled, &costs.coupled}, {whole, &costs.whole}, {sequential, &costs.blockByBlock}}) {
+    for (auto [options, cost] :
+         {std::pair{coupled, &costs.coupled}, {whole, &costs.whole}, {sequential, &costs.blockByBlock}}) {
         std::vector<double> values = a.defaults();
         const SolveSummary s = Solver(a, options).solve(targets, values);
         CAPTURE(s.briefReport());
@@ -182,12 +183,14 @@ TEST_CASE("continuity: a clip through gimbal lock is followed without a control 
                          test::angle("shoulder.rotateZ", -3.2, 3.2)},
                         {"shoulder", "elbow", "hand"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
                             w[0] = test::translation(0, 100, 0) * test::rotation(Eigen::Vector3d::UnitX(), v[0]) *
-                                   test::rotation(Eigen::Vector3d::UnitY(), v[1]) * test::rotation(Eigen::Vector3d::UnitZ(), v[2]);
+                                   test::rotation(Eigen::Vector3d::UnitY(), v[1]) *
+                                   test::rotation(Eigen::Vector3d::UnitZ(), v[2]);
                             w[1] = w[0] * test::translation(10, 0, 0);
                             w[2] = w[1] * test::translation(10, 2, 1);
                         });
     const Approximation a = test::learn(rig, "shoulder");
-    const int shoulderX = test::parameterIndex(a, "shoulder.rotateX"), shoulderY = test::parameterIndex(a, "shoulder.rotateY"),
+    const int shoulderX = test::parameterIndex(a, "shoulder.rotateX"),
+              shoulderY = test::parameterIndex(a, "shoulder.rotateY"),
               shoulderZ = test::parameterIndex(a, "shoulder.rotateZ");
     REQUIRE(shoulderY >= 0);
     // R = Rx Ry Rz with Y from 60 to 120 degrees: through gimbal lock at 90, where X and Z turn about
@@ -203,7 +206,8 @@ TEST_CASE("continuity: a clip through gimbal lock is followed without a control 
         pose[static_cast<std::size_t>(shoulderY)] = (60 + 60 * t) * test::degree;
         pose[static_cast<std::size_t>(shoulderZ)] = 30 * test::degree * std::cos(2 * std::numbers::pi * t);
         if (!previous.empty())
-            for (std::size_t p = 0; p < pose.size(); ++p) largestTargetStep = std::max(largestTargetStep, std::abs(pose[p] - previous[p]));
+            for (std::size_t p = 0; p < pose.size(); ++p)
+                largestTargetStep = std::max(largestTargetStep, std::abs(pose[p] - previous[p]));
         previous = pose;
         clip.frames.push_back(test::targetsAt(a, pose));
     }
@@ -213,13 +217,15 @@ TEST_CASE("continuity: a clip through gimbal lock is followed without a control 
         ClipInversionOptions options;
         options.restartInterval = restart;
         std::vector<std::vector<double>> values;
-        const ClipInversionSummary s = invertClip(Solver(a, options.solver), binding, clip, 0, frames - 1, options, values);
+        const ClipInversionSummary s =
+            invertClip(Solver(a, options.solver), binding, clip, 0, frames - 1, options, values);
         CHECK(s.convergedFrames == frames);
         CHECK(s.maxPositionErrorCm < 1e-6);
         double largestStep = 0.0;
         for (int f = 1; f < frames; ++f)
             for (std::size_t p = 0; p < values[0].size(); ++p)
-                largestStep = std::max(largestStep, std::abs(values[static_cast<std::size_t>(f)][p] - values[static_cast<std::size_t>(f - 1)][p]));
+                largestStep = std::max(largestStep, std::abs(values[static_cast<std::size_t>(f)][p] -
+                                                             values[static_cast<std::size_t>(f - 1)][p]));
         MESSAGE("restart every " << restart << ": largest control step " << largestStep / test::degree
                                  << " deg per frame; the pose's largest " << largestTargetStep / test::degree);
         // In one warm-start chain the curves follow the pose; a restart in gimbal lock (frame 100 is at

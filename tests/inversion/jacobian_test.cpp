@@ -6,8 +6,8 @@
 #include <numbers>
 #include <random>
 
-#include <Eigen/Dense>
 #include <oneapi/tbb/task_arena.h>
+#include <Eigen/Dense>
 
 #include "inversion/jacobian.h"
 #include "solver_rigs.h"
@@ -73,12 +73,14 @@ std::vector<JointTarget> randomTargets(const Approximation& a, std::span<const d
     for (std::size_t k = 0; k < targets.size(); ++k) {
         targets[k].positionWeight = weight(rng);
         targets[k].rotationWeight = weight(rng);
-        const Eigen::AngleAxisd aa(Eigen::Matrix3d(targets[k].world.block<3, 3>(0, 0).transpose() * worlds[k].block<3, 3>(0, 0)));
+        const Eigen::AngleAxisd aa(
+            Eigen::Matrix3d(targets[k].world.block<3, 3>(0, 0).transpose() * worlds[k].block<3, 3>(0, 0)));
         if (aa.angle() > 2.8) targets[k].active = false;
         if (k % 3 == 1) {
             Eigen::Matrix3d shear = Eigen::Matrix3d::Identity();
             shear(0, 1) = 0.3;
-            targets[k].world.block<3, 3>(0, 0) = targets[k].world.block<3, 3>(0, 0) * shear * Eigen::Vector3d(1.5, 0.7, 1.1).asDiagonal();
+            targets[k].world.block<3, 3>(0, 0) =
+                targets[k].world.block<3, 3>(0, 0) * shear * Eigen::Vector3d(1.5, 0.7, 1.1).asDiagonal();
         }
     }
     return targets;
@@ -118,8 +120,9 @@ void checkJacobians(const Approximation& a, int poses, std::uint32_t seed, doubl
         if (vsFinite > tolerance || vsReference > tolerance) {
             Eigen::Index row, column;
             (analytic - referenceJ).cwiseAbs().maxCoeff(&row, &column);
-            MESSAGE("worst entry: row " << row << ", parameter " << a.parameters[static_cast<std::size_t>(column)].parameter.name
-                                        << " (" << a.parameters[static_cast<std::size_t>(column)].form << "): analytic "
+            MESSAGE("worst entry: row " << row << ", parameter "
+                                        << a.parameters[static_cast<std::size_t>(column)].parameter.name << " ("
+                                        << a.parameters[static_cast<std::size_t>(column)].form << "): analytic "
                                         << analytic(row, column) << ", finite differences " << referenceJ(row, column));
         }
         CHECK(vsFinite < tolerance);
@@ -174,7 +177,7 @@ Approximation everyOperatorKind()
     rotate.axis = Eigen::Vector3d(0.2, 1, 0.1).normalized();
     rotate.pivot = Eigen::Vector3d(1, 2, 3);
     rotate.curve = CubicSpline<1>({-1.1, 0.0, 0.5, 1.1}, {CubicSpline<1>::Vector(-0.9), CubicSpline<1>::Vector(0.0),
-                                                       CubicSpline<1>::Vector(0.7), CubicSpline<1>::Vector(1.0)});
+                                                          CubicSpline<1>::Vector(0.7), CubicSpline<1>::Vector(1.0)});
     add("rotateCurve", rotate, {1, 2, 3});
     Operator scale;
     scale.kind = OperatorKind::axisScale;
@@ -266,11 +269,13 @@ TEST_CASE("jacobian: finite-difference columns in parallel equal them computed o
     Eigen::VectorXd r;
     {
         JacobianEvaluator evaluator(a, targets, rotationScale);
-        tbb::task_arena(2).execute([&] { evaluator.jacobian(values, JacobianMethod::finiteDifference, 1e-6, parallel, r); });
+        tbb::task_arena(2).execute(
+            [&] { evaluator.jacobian(values, JacobianMethod::finiteDifference, 1e-6, parallel, r); });
     }
     {
         JacobianEvaluator evaluator(a, targets, rotationScale);
-        tbb::task_arena(1).execute([&] { evaluator.jacobian(values, JacobianMethod::finiteDifference, 1e-6, serial, r); });
+        tbb::task_arena(1).execute(
+            [&] { evaluator.jacobian(values, JacobianMethod::finiteDifference, 1e-6, serial, r); });
     }
     CHECK(parallel.cwiseAbs().maxCoeff() > 1.0);
     CHECK(parallel == serial);
@@ -294,8 +299,8 @@ TEST_CASE("jacobian: columns of parameters that reach no active target are zero,
         CHECK((j.col(static_cast<Eigen::Index>(p)).cwiseAbs().maxCoeff() == 0.0) == right);
     }
     targets[2].world(0, 3) = std::nan("");
-    CHECK_THROWS_WITH_AS(JacobianEvaluator(a, targets, rotationScale), "JacobianEvaluator: the target of L_elbow is not usable",
-                         Error);
+    CHECK_THROWS_WITH_AS(JacobianEvaluator(a, targets, rotationScale),
+                         "JacobianEvaluator: the target of L_elbow is not usable", Error);
 }
 
 TEST_CASE("jacobian: analytic equals finite differences on approximations learned from the bundled rigs")

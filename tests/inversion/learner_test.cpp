@@ -44,7 +44,8 @@ TEST_CASE("learner: an FK arm is modelled exactly, axes and pivots to 1e-9, in c
         CHECK(find(a, "root.translateX").form == "translation");
         CHECK((find(a, "root.translateX").operators[0].axis - Eigen::Vector3d::UnitX()).norm() < 1e-9);
         CHECK(find(a, "root.translateX").operators[0].slope == doctest::Approx(1.0));
-        for (const char* name : {"shoulder.rotateX", "shoulder.rotateY", "shoulder.rotateZ", "elbow.rotateZ", "wrist.rotateX"})
+        for (const char* name :
+             {"shoulder.rotateX", "shoulder.rotateY", "shoulder.rotateZ", "elbow.rotateZ", "wrist.rotateX"})
             CHECK(find(a, name).form == "rotation");
         const Operator& elbow = find(a, "elbow.rotateZ").operators[0];
         // The elbow's axis at rest: Z turned 20 degrees about Y; its pivot on that axis through (10, 100, 0).
@@ -60,8 +61,8 @@ TEST_CASE("learner: an FK arm is modelled exactly, axes and pivots to 1e-9, in c
         CHECK(position(a, "elbow.rotateZ") < position(a, "wrist.rotateX"));
         CHECK(a.validation.maxPositionErrorCm < 1e-6);
         CHECK(a.validation.maxRotationErrorDeg < 1e-6);
-        MESSAGE(ordererName(orderer) << ": " << a.training.evaluations << " evaluations, " << a.training.orderEvaluations
-                                     << " for the order");
+        MESSAGE(ordererName(orderer) << ": " << a.training.evaluations << " evaluations, "
+                                     << a.training.orderEvaluations << " for the order");
     }
 }
 
@@ -85,7 +86,8 @@ TEST_CASE("learner: rotations past half a turn are unwrapped along the samples")
     const ModelledParameter& curl = find(a, "curl");
     CHECK(curl.form == "rotation (curve)");
     const double end = 300 * degree;
-    CHECK(curl.operators[0].axis.z() * curl.operators[0].magnitude(end) == doctest::Approx(end + 0.1 * end * end).epsilon(1e-9));
+    CHECK(curl.operators[0].axis.z() * curl.operators[0].magnitude(end) ==
+          doctest::Approx(end + 0.1 * end * end).epsilon(1e-9));
     // Exact at the samples, a cubic spline in between.
     CHECK(a.validation.maxPositionErrorCm < 0.05);
 }
@@ -96,14 +98,15 @@ TEST_CASE("learner: a pair that cannot be ordered loses only one of its paramete
     // joint the bend is outer, on the second neither order holds. A third parameter elsewhere commutes.
     for (Orderer orderer : {Orderer::talk, Orderer::structured}) {
         CAPTURE(ordererName(orderer));
-        test::LambdaRig rig({test::angle("bend", -1, 1), test::angle("side", -0.5, 0.5), test::angle("other")},
-                            {"lower", "upper", "elsewhere"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-                                const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), z = Eigen::Vector3d::UnitZ();
-                                const Eigen::Matrix4d share = test::rotation(x, 0.5 * v[0]) * test::rotation(z, 0.5 * v[1]);
-                                w[0] = test::translation(0, 100, 0) * share;
-                                w[1] = w[0] * test::translation(0, 20, 0) * share;
-                                w[2] = test::translation(50, 0, 0) * test::rotation(z, v[2]);
-                            });
+        test::LambdaRig rig(
+            {test::angle("bend", -1, 1), test::angle("side", -0.5, 0.5), test::angle("other")},
+            {"lower", "upper", "elsewhere"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), z = Eigen::Vector3d::UnitZ();
+                const Eigen::Matrix4d share = test::rotation(x, 0.5 * v[0]) * test::rotation(z, 0.5 * v[1]);
+                w[0] = test::translation(0, 100, 0) * share;
+                w[1] = w[0] * test::translation(0, 20, 0) * share;
+                w[2] = test::translation(50, 0, 0) * test::rotation(z, v[2]);
+            });
         LearnOptions options;
         options.orderer = orderer;
         const Approximation a = learnApproximation(rig, options, "spine");
@@ -149,13 +152,15 @@ TEST_CASE("learner: a parameter spends at most maxSamples rig samples, however m
     constexpr int joints = 40;
     std::vector<std::string> names;
     for (int j = 0; j < joints; ++j) names.push_back(fmt::format("j{}", j));
-    test::LambdaRig rig({test::angle("bend", -1.5, 1.5)}, names, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-        for (int j = 0; j < joints; ++j) {
-            m = m * test::translation(0, 3, 0) * test::rotation(Eigen::Vector3d(1, 0.1 * j, 0), v[0] * (0.02 + 0.001 * j * j));
-            w[static_cast<std::size_t>(j)] = m;
-        }
-    });
+    test::LambdaRig rig({test::angle("bend", -1.5, 1.5)}, names,
+                        [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+                            for (int j = 0; j < joints; ++j) {
+                                m = m * test::translation(0, 3, 0) *
+                                    test::rotation(Eigen::Vector3d(1, 0.1 * j, 0), v[0] * (0.02 + 0.001 * j * j));
+                                w[static_cast<std::size_t>(j)] = m;
+                            }
+                        });
     LearnOptions options;
     options.validationPoses = 0;
     options.limitPoses = 0;
@@ -166,19 +171,22 @@ TEST_CASE("learner: a parameter spends at most maxSamples rig samples, however m
     CHECK(a.training.evaluations <= static_cast<std::uint64_t>(options.maxSamples) + 2);
 }
 
-TEST_CASE("learner: a rig that gives a non-finite matrix within a parameter's range discards it with the value, never a NaN")
+TEST_CASE(
+    "learner: a rig that gives a non-finite matrix within a parameter's range discards it with the value, never a NaN")
 {
     // past 1.2 the joint's matrix is NaN (a rig dividing by zero); `fine` moves another joint.
-    test::LambdaRig rig({test::angle("broken"), test::angle("fine")}, {"a", "b"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-        w[0] = test::rotation(Eigen::Vector3d::UnitZ(), v[0]);
-        if (v[0] > 1.2) w[0](0, 3) = std::numeric_limits<double>::quiet_NaN();
-        w[1] = test::translation(10, 0, 0) * test::rotation(Eigen::Vector3d::UnitX(), v[1]);
-    });
+    test::LambdaRig rig({test::angle("broken"), test::angle("fine")}, {"a", "b"},
+                        [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                            w[0] = test::rotation(Eigen::Vector3d::UnitZ(), v[0]);
+                            if (v[0] > 1.2) w[0](0, 3) = std::numeric_limits<double>::quiet_NaN();
+                            w[1] = test::translation(10, 0, 0) * test::rotation(Eigen::Vector3d::UnitX(), v[1]);
+                        });
     const Approximation a = learnApproximation(rig, LearnOptions{}, "broken");
     REQUIRE(a.discarded.size() == 1);
     CHECK(a.discarded[0].parameter.name == "broken");
-    CHECK(a.discarded[0].reason == "the rig gives a non-finite matrix for a at broken = 85.9437 degrees (a zero scale or a singular matrix?); "
-                                   "give it a range where the rig is defined");
+    CHECK(a.discarded[0].reason ==
+          "the rig gives a non-finite matrix for a at broken = 85.9437 degrees (a zero scale or a singular matrix?); "
+          "give it a range where the rig is defined");
     REQUIRE(a.parameters.size() == 1);
     CHECK(a.validation.withinEpsilon);
     CHECK(std::isfinite(a.validation.maxRelativeError));
@@ -188,9 +196,11 @@ TEST_CASE("learner: a curve over epsilon between its samples gets more samples u
 {
     // A driven rotation whose angle wiggles: a curve magnitude, exact at its samples; with a budget of 8
     // samples it misses between them, and the repair doubles the budget (to at most 8 x 8).
-    test::LambdaRig rig({test::angle("wiggle", -1.5, 1.5)}, {"a"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-        w[0] = test::translation(0, 10, 0) * test::rotation(Eigen::Vector3d::UnitZ(), v[0] + 0.05 * std::sin(4.0 * v[0]));
-    });
+    test::LambdaRig rig({test::angle("wiggle", -1.5, 1.5)}, {"a"},
+                        [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                            w[0] = test::translation(0, 10, 0) *
+                                   test::rotation(Eigen::Vector3d::UnitZ(), v[0] + 0.05 * std::sin(4.0 * v[0]));
+                        });
     LearnOptions options;
     options.maxSamples = 8;
     options.epsilon = 0.01;
@@ -212,7 +222,8 @@ TEST_CASE("learner: where operators that commute alone do not compose, the valid
         CAPTURE(ordererName(orderer));
         test::LambdaRig rig({test::angle("a", -1, 1), test::angle("b", -0.5, 0.5)}, {"joint"},
                             [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-                                w[0] = test::translation(0, 10, 0) * test::rotation(Eigen::Vector3d::UnitZ(), v[0] + v[1]) *
+                                w[0] = test::translation(0, 10, 0) *
+                                       test::rotation(Eigen::Vector3d::UnitZ(), v[0] + v[1]) *
                                        test::rotation(Eigen::Vector3d::UnitX(), v[0] * v[1]);
                             });
         LearnOptions options;

@@ -81,8 +81,7 @@ TEST_CASE("cubic spline: through the knots, natural ends, linear beyond, derivat
     // Two knots: a straight line.
     const CubicSpline<1> line({0.0, 2.0}, {CubicSpline<1>::Vector(1.0), CubicSpline<1>::Vector(5.0)});
     CHECK(line.value(0.5)[0] == doctest::Approx(2.0));
-    CHECK_THROWS_AS(CubicSpline<1>({0.0, 0.0}, {CubicSpline<1>::Vector(0.0), CubicSpline<1>::Vector(0.0)}),
-                    Error);
+    CHECK_THROWS_AS(CubicSpline<1>({0.0, 0.0}, {CubicSpline<1>::Vector(0.0), CubicSpline<1>::Vector(0.0)}), Error);
 }
 
 TEST_CASE("operators: P(0) = I, closed forms, and dP/da against central differences for every kind")

@@ -31,7 +31,8 @@ std::set<std::string> outputNames(const Approximation& a, const PartitionBlock& 
 std::vector<unsigned char> rowsWhere(const Approximation& a, auto predicate, unsigned char rows = allRows)
 {
     std::vector<unsigned char> r(a.outputs.size());
-    for (std::size_t k = 0; k < r.size(); ++k) r[k] = predicate(a.outputs[k].name) ? rows : static_cast<unsigned char>(noRows);
+    for (std::size_t k = 0; k < r.size(); ++k)
+        r[k] = predicate(a.outputs[k].name) ? rows : static_cast<unsigned char>(noRows);
     return r;
 }
 
@@ -72,8 +73,8 @@ void checkStructure(const Approximation& a, const Partition& partition, std::spa
     }
     for (std::size_t k = 0; k < rows.size(); ++k) {
         if (rows[k] == noRows) continue;
-        const bool fixed = std::find(partition.fixedOutputs.begin(), partition.fixedOutputs.end(), static_cast<int>(k)) !=
-                           partition.fixedOutputs.end();
+        const bool fixed = std::find(partition.fixedOutputs.begin(), partition.fixedOutputs.end(),
+                                     static_cast<int>(k)) != partition.fixedOutputs.end();
         CHECK((outputBlock[k] >= 0) != fixed);
     }
 }
@@ -123,9 +124,10 @@ TEST_CASE("partition: two arms split into the root, then the left and the right 
     CHECK(p.unreached.empty());
     CHECK(p.fixedOutputs.empty());
     checkStructure(a, p, rows);
-    CHECK(p.describe(a) == "block 0: 4 parameters -> hips\n"
-                           "  block 1: 5 parameters -> L_shoulder, L_elbow, L_wrist, L_hand\n"
-                           "  block 2: 5 parameters -> R_shoulder, R_elbow, R_wrist, R_hand\n");
+    CHECK(p.describe(a) ==
+          "block 0: 4 parameters -> hips\n"
+          "  block 1: 5 parameters -> L_shoulder, L_elbow, L_wrist, L_hand\n"
+          "  block 2: 5 parameters -> R_shoulder, R_elbow, R_wrist, R_hand\n");
     // The whole solve when asked.
     const Partition whole = partitionProblem(a, rows, false);
     REQUIRE(whole.blocks.size() == 1);
@@ -146,7 +148,8 @@ TEST_CASE("partition: the root stays with the arms when its own outputs do not d
         CHECK(p.blocks[0].parameters.size() == 14);
         checkStructure(a, p, rows);
     }
-    SUBCASE("the hips' rotation only: the root's translation is not determined by it (nor by one arm: no lopsided split)")
+    SUBCASE(
+        "the hips' rotation only: the root's translation is not determined by it (nor by one arm: no lopsided split)")
     {
         auto rows = rowsWhere(a, [](const std::string&) { return true; });
         rows[static_cast<std::size_t>(test::outputIndex(a, "hips"))] = rotationRows;
@@ -169,7 +172,8 @@ TEST_CASE("partition: the root stays with the arms when its own outputs do not d
         REQUIRE(p.blocks.size() == 1);
         CHECK(p.blocks[0].parameters.size() == 9);
         CHECK(p.unreached.size() == 5);
-        for (const int u : p.unreached) CHECK(a.parameters[static_cast<std::size_t>(u)].parameter.name.starts_with("R_"));
+        for (const int u : p.unreached)
+            CHECK(a.parameters[static_cast<std::size_t>(u)].parameter.name.starts_with("R_"));
         checkStructure(a, p, rows);
     }
     SUBCASE("no targets")

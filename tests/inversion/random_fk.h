@@ -8,8 +8,8 @@
 #include <span>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
+#include <Eigen/Geometry>
 
 #include "test_rigs.h"
 
@@ -32,7 +32,8 @@ struct RandomFk {
 
     void evaluate(std::span<const double> v, std::vector<Eigen::Matrix4d>& w) const
     {
-        std::vector<Eigen::Vector3d> t(parent.size(), Eigen::Vector3d::Zero()), r(parent.size(), Eigen::Vector3d::Zero());
+        std::vector<Eigen::Vector3d> t(parent.size(), Eigen::Vector3d::Zero()),
+            r(parent.size(), Eigen::Vector3d::Zero());
         for (std::size_t c = 0; c < channels.size(); ++c)
             (channels[c].translate ? t : r)[static_cast<std::size_t>(channels[c].joint)][channels[c].axis] = v[c];
         for (std::size_t j = 0; j < parent.size(); ++j) {
@@ -59,8 +60,9 @@ inline RandomFk randomFk(std::mt19937& rng)
         const Eigen::Vector3d offset = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)) * 20.0;
         fk.offset.push_back(j == 0 && rootAtOrigin ? Eigen::Vector3d::Zero() : offset);
         const Eigen::Vector3d o(unit(rng), unit(rng), unit(rng));
-        fk.orient.push_back(std::bernoulli_distribution(0.5)(rng) ? Eigen::Matrix3d::Identity()
-                                                                   : Eigen::AngleAxisd(o.norm(), o.normalized()).toRotationMatrix());
+        fk.orient.push_back(std::bernoulli_distribution(0.5)(rng)
+                                ? Eigen::Matrix3d::Identity()
+                                : Eigen::AngleAxisd(o.norm(), o.normalized()).toRotationMatrix());
         fk.order.push_back(orders[static_cast<std::size_t>(std::uniform_int_distribution<int>(0, 5)(rng))]);
         // The root always translates and rotates (a motion-capture root); inner joints sometimes translate.
         for (int axis = 0; axis < 3; ++axis) {
@@ -81,7 +83,8 @@ inline LambdaRig lambdaRig(const RandomFk& fk, bool parents)
     }
     std::vector<std::string> outputs;
     for (std::size_t j = 0; j < fk.parent.size(); ++j) outputs.push_back(fmt::format("j{}", j));
-    LambdaRig rig(parameters, outputs, [fk](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) { fk.evaluate(v, w); });
+    LambdaRig rig(parameters, outputs,
+                  [fk](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) { fk.evaluate(v, w); });
     if (parents) rig.setParents(fk.parent);
     return rig;
 }

@@ -19,7 +19,9 @@ using rig::test::lambdaRig;
 using rig::test::randomFk;
 using rig::test::RandomFk;
 
-TEST_CASE("random FK hierarchies are learned exactly in parent-relative frames and in world space, whatever the parameter order")
+TEST_CASE(
+    "random FK hierarchies are learned exactly in parent-relative frames and in world space, whatever the parameter "
+    "order")
 {
     std::mt19937 rng(20261124);
     int rigs = 0;

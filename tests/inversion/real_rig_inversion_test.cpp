@@ -58,7 +58,9 @@ bool exact(const ModelledParameter& m) { return m.fitError < 1e-9 && m.form.find
 
 }  // namespace
 
-TEST_CASE("inversion on the real biped: random poses of the exactly modelled parameters are recovered to 1e-4 cm and 1e-3 degrees")
+TEST_CASE(
+    "inversion on the real biped: random poses of the exactly modelled parameters are recovered to 1e-4 cm and 1e-3 "
+    "degrees")
 {
     test::GraphRig rig("rigs/biped.yaml", test::bipedInversionGlobs(), test::bipedCmuJoints());
     const Approximation a = test::learn(rig, "biped");
@@ -94,7 +96,8 @@ TEST_CASE("inversion on the real biped: random poses of the exactly modelled par
     }
 }
 
-TEST_CASE("inversion on the real nasty rig: the modelled parameters invert, the rest are reported with their real-rig error")
+TEST_CASE(
+    "inversion on the real nasty rig: the modelled parameters invert, the rest are reported with their real-rig error")
 {
     test::GraphRig rig("rigs/nasty.yaml", test::nastyGlobs());
     const Approximation a = learnApproximation(rig, LearnOptions{}, "nasty");  // validated on 50 poses
@@ -120,8 +123,8 @@ TEST_CASE("inversion on the real nasty rig: the modelled parameters invert, the 
             CAPTURE(pose);
             std::vector<double> known = test::randomValues(a, rng, 0.6);
             // Past its threshold the saturated control does nothing: keep it where it still acts.
-            known[static_cast<std::size_t>(saturated)] = std::clamp(known[static_cast<std::size_t>(saturated)],
-                                                                    -25 * test::degree, 25 * test::degree);
+            known[static_cast<std::size_t>(saturated)] =
+                std::clamp(known[static_cast<std::size_t>(saturated)], -25 * test::degree, 25 * test::degree);
             const std::vector<JointTarget> targets = realTargets(binding, known);
             std::vector<double> values = a.defaults();
             const SolveSummary s = solver.solve(targets, values);
@@ -155,8 +158,10 @@ TEST_CASE("inversion on the real nasty rig: the modelled parameters invert, the 
         test::GraphRig posed("rigs/nasty.yaml", {"nasty_ctrl.coupledTurn", "nasty_ctrl.coupledBend"});
         std::vector<double> pose = {0.0, 0.0};
         const auto& ps = posed.parameters();
-        const auto turn = std::find_if(ps.begin(), ps.end(), [](const RigParameter& p) { return p.name == "nasty_ctrl.coupledTurn"; });
-        const auto bend = std::find_if(ps.begin(), ps.end(), [](const RigParameter& p) { return p.name == "nasty_ctrl.coupledBend"; });
+        const auto turn = std::find_if(ps.begin(), ps.end(),
+                                       [](const RigParameter& p) { return p.name == "nasty_ctrl.coupledTurn"; });
+        const auto bend = std::find_if(ps.begin(), ps.end(),
+                                       [](const RigParameter& p) { return p.name == "nasty_ctrl.coupledBend"; });
         REQUIRE(turn != ps.end());
         REQUIRE(bend != ps.end());
         pose[static_cast<std::size_t>(turn - ps.begin())] = 60 * test::degree;

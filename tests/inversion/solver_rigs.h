@@ -31,27 +31,29 @@ inline LambdaRig twoArms()
     std::vector<RigParameter> parameters{distance("root.translateX"), distance("root.translateY"),
                                          distance("root.translateZ"), angle("root.rotateY", -2.5, 2.5)};
     for (const char* side : {"L", "R"})
-        for (const std::string name : {"shoulder.rotateX", "shoulder.rotateY", "shoulder.rotateZ", "elbow.rotateZ", "wrist.rotateX"}) {
+        for (const std::string name :
+             {"shoulder.rotateX", "shoulder.rotateY", "shoulder.rotateZ", "elbow.rotateZ", "wrist.rotateX"}) {
             const bool elbow = name == "elbow.rotateZ";
             parameters.push_back(angle(std::string(side) + "_" + name, elbow ? 0.0 : -1.5, elbow ? 2.5 : 1.5));
         }
-    return LambdaRig(std::move(parameters),
-                     {"hips", "L_shoulder", "L_elbow", "L_wrist", "L_hand", "R_shoulder", "R_elbow", "R_wrist", "R_hand"},
-                     [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-                         const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(),
-                                               z = Eigen::Vector3d::UnitZ();
-                         w[0] = translation(v[0], 100 + v[1], v[2]) * rotation(y, v[3]);
-                         for (int side = 0; side < 2; ++side) {
-                             const double s = side == 0 ? 1.0 : -1.0;
-                             const std::size_t p = 4 + 5 * static_cast<std::size_t>(side);
-                             const std::size_t o = 1 + 4 * static_cast<std::size_t>(side);
-                             w[o] = w[0] * translation(s * 15, 40, 0) * rotation(x, v[p]) * rotation(y, v[p + 1]) *
-                                    rotation(z, v[p + 2]);
-                             w[o + 1] = w[o] * translation(s * 25, 0, 0) * rotation(y, 20 * degree) * rotation(z, v[p + 3]);
-                             w[o + 2] = w[o + 1] * translation(s * 25, 0, 0) * rotation(x, v[p + 4]);
-                             w[o + 3] = w[o + 2] * translation(s * 10, 0, 0);
-                         }
-                     });
+    return LambdaRig(
+        std::move(parameters),
+        {"hips", "L_shoulder", "L_elbow", "L_wrist", "L_hand", "R_shoulder", "R_elbow", "R_wrist", "R_hand"},
+        [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+            const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(),
+                                  z = Eigen::Vector3d::UnitZ();
+            w[0] = translation(v[0], 100 + v[1], v[2]) * rotation(y, v[3]);
+            for (int side = 0; side < 2; ++side) {
+                const double s = side == 0 ? 1.0 : -1.0;
+                const std::size_t p = 4 + 5 * static_cast<std::size_t>(side);
+                const std::size_t o = 1 + 4 * static_cast<std::size_t>(side);
+                w[o] = w[0] * translation(s * 15, 40, 0) * rotation(x, v[p]) * rotation(y, v[p + 1]) *
+                       rotation(z, v[p + 2]);
+                w[o + 1] = w[o] * translation(s * 25, 0, 0) * rotation(y, 20 * degree) * rotation(z, v[p + 3]);
+                w[o + 2] = w[o + 1] * translation(s * 25, 0, 0) * rotation(x, v[p + 4]);
+                w[o + 3] = w[o + 2] * translation(s * 10, 0, 0);
+            }
+        });
 }
 
 // Two controls summed into one rotation (redundant), a rotation that saturates past +-0.5 rad
@@ -60,13 +62,13 @@ inline LambdaRig redundantRig()
 {
     return LambdaRig({angle("redundantA", -1.0, 1.0), angle("redundantB", -1.0, 1.0), angle("tip.rotateX"),
                       angle("saturated", -1.5, 1.5)},
-                     {"joint", "tip", "end", "sat"},
-                     [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                     {"joint", "tip", "end", "sat"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
                          const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), z = Eigen::Vector3d::UnitZ();
                          w[0] = translation(0, 10, 0) * rotation(z, v[0] + v[1]);
                          w[1] = w[0] * translation(20, 0, 0) * rotation(x, v[2]);
                          w[2] = w[1] * translation(0, 0, 15);
-                         w[3] = translation(0, -10, 0) * rotation(z, std::clamp(v[3], -0.5, 0.5)) * translation(20, 0, 0);
+                         w[3] =
+                             translation(0, -10, 0) * rotation(z, std::clamp(v[3], -0.5, 0.5)) * translation(20, 0, 0);
                      });
 }
 
@@ -75,8 +77,7 @@ inline LambdaRig redundantRig()
 inline LambdaRig slidingKnee()
 {
     return LambdaRig({angle("hip.rotateX", -1.0, 1.0), angle("hip.rotateZ", -1.0, 1.0), angle("knee.bend", 0.0, 2.0)},
-                     {"hip", "knee", "ankle", "toe"},
-                     [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                     {"hip", "knee", "ankle", "toe"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
                          const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), z = Eigen::Vector3d::UnitZ();
                          w[0] = translation(10, 90, 0) * rotation(x, v[0]) * rotation(z, v[1]);
                          const double slide = 0.8 * v[2] * v[2];
@@ -144,30 +145,65 @@ private:
 // The inversion parameters of rigs/biped.yaml (docs/rigs.md).
 inline std::vector<std::string> bipedInversionGlobs()
 {
-    return {"root_ctrl.translate?",      "root_ctrl.rotate?",        "[LR]_hip_ctrl.rotate?", "[LR]_upLeg_fk_ctrl.rotate?",
-            "[LR]_knee_fk_ctrl.rotateX", "[LR]_foot_fk_ctrl.rotate?", "[LR]_toe_ctrl.rotate?", "spine_ctrl.bend*",
-            "spine_ctrl.twist",          "lowerBack_ctrl.rotate?",   "chest_ctrl.rotate?",    "neck_ctrl.rotate?",
-            "head_ctrl.rotate?",         "[LR]_clavicle_ctrl.rotate?", "[LR]_arm_fk_ctrl.rotate?", "[LR]_elbow_ctrl.rotate?",
-            "[LR]_wrist_ctrl.rotate?",   "[LR]_hand_ctrl.fist",      "[LR]_thumb_ctrl.rotate?"};
+    return {"root_ctrl.translate?",       "root_ctrl.rotate?",          "[LR]_hip_ctrl.rotate?",
+            "[LR]_upLeg_fk_ctrl.rotate?", "[LR]_knee_fk_ctrl.rotateX",  "[LR]_foot_fk_ctrl.rotate?",
+            "[LR]_toe_ctrl.rotate?",      "spine_ctrl.bend*",           "spine_ctrl.twist",
+            "lowerBack_ctrl.rotate?",     "chest_ctrl.rotate?",         "neck_ctrl.rotate?",
+            "head_ctrl.rotate?",          "[LR]_clavicle_ctrl.rotate?", "[LR]_arm_fk_ctrl.rotate?",
+            "[LR]_elbow_ctrl.rotate?",    "[LR]_wrist_ctrl.rotate?",    "[LR]_hand_ctrl.fist",
+            "[LR]_thumb_ctrl.rotate?"};
 }
 
 // The joints of rigs/biped.yaml that a CMU clip has (docs/rigs.md): no eyes (aimed at a world-space
 // control), jaw, twist or finger joints.
 inline std::vector<std::string> bipedCmuJoints()
 {
-    return {"Hips", "LHipJoint", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "LeftToeBase_end", "RHipJoint",
-            "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase", "RightToeBase_end", "LowerBack", "Spine", "Spine1",
-            "Neck", "Neck1", "Head", "Head_end", "LeftShoulder", "LeftArm", "LeftForeArm", "LeftHand", "LeftFingerBase",
-            "LFingers", "LFingers_end", "LThumb", "LThumb_end", "RightShoulder", "RightArm", "RightForeArm", "RightHand",
-            "RightFingerBase", "RFingers", "RFingers_end", "RThumb", "RThumb_end"};
+    return {"Hips",
+            "LHipJoint",
+            "LeftUpLeg",
+            "LeftLeg",
+            "LeftFoot",
+            "LeftToeBase",
+            "LeftToeBase_end",
+            "RHipJoint",
+            "RightUpLeg",
+            "RightLeg",
+            "RightFoot",
+            "RightToeBase",
+            "RightToeBase_end",
+            "LowerBack",
+            "Spine",
+            "Spine1",
+            "Neck",
+            "Neck1",
+            "Head",
+            "Head_end",
+            "LeftShoulder",
+            "LeftArm",
+            "LeftForeArm",
+            "LeftHand",
+            "LeftFingerBase",
+            "LFingers",
+            "LFingers_end",
+            "LThumb",
+            "LThumb_end",
+            "RightShoulder",
+            "RightArm",
+            "RightForeArm",
+            "RightHand",
+            "RightFingerBase",
+            "RFingers",
+            "RFingers_end",
+            "RThumb",
+            "RThumb_end"};
 }
 
 // Every animator parameter of rigs/nasty.yaml that docs/rigs.md lists.
 inline std::vector<std::string> nastyGlobs()
 {
     std::vector<std::string> globs{"root_ctrl.translate?", "arm_ctrl.rotate?"};
-    for (const char* name : {"elbowBend", "kneeBend", "wristTwist", "spineBend", "coupledBend", "coupledTurn", "saturated",
-                             "redundantA", "redundantB", "springy", "stretch"})
+    for (const char* name : {"elbowBend", "kneeBend", "wristTwist", "spineBend", "coupledBend", "coupledTurn",
+                             "saturated", "redundantA", "redundantB", "springy", "stretch"})
         globs.push_back(std::string("nasty_ctrl.") + name);
     return globs;
 }

@@ -46,7 +46,8 @@ std::vector<double> nearby(const Approximation& a, std::vector<double> values, d
 {
     for (std::size_t p = 0; p < values.size(); ++p) {
         const RigParameter& param = a.parameters[p].parameter;
-        values[p] = std::clamp(values[p] + std::uniform_real_distribution<double>(-amount, amount)(rng), param.min, param.max);
+        values[p] =
+            std::clamp(values[p] + std::uniform_real_distribution<double>(-amount, amount)(rng), param.min, param.max);
     }
     return values;
 }
@@ -127,7 +128,7 @@ TEST_CASE("solver: limits are respected, and a target past a limit ends on it")
     const int shoulderY = test::parameterIndex(a, "shoulder.rotateY");
     REQUIRE(elbow >= 0);
     std::vector<double> known = a.defaults();
-    known[static_cast<std::size_t>(elbow)] = -0.6;      // below its minimum 0
+    known[static_cast<std::size_t>(elbow)] = -0.6;     // below its minimum 0
     known[static_cast<std::size_t>(shoulderY)] = 1.8;  // above its maximum 1.5
     const std::vector<JointTarget> targets = test::targetsAt(a, known);
     for (int gaussNewton : {30, 0}) {
@@ -158,7 +159,9 @@ TEST_CASE("solver: limits are respected, and a target past a limit ends on it")
     CHECK(values[static_cast<std::size_t>(elbow)] == 0.0);
 }
 
-TEST_CASE("solver: a redundant pair splits the change evenly, closest to the warm start, and a saturated control stays finite")
+TEST_CASE(
+    "solver: a redundant pair splits the change evenly, closest to the warm start, and a saturated control stays "
+    "finite")
 {
     auto rig = test::redundantRig();
     const Approximation a = test::learn(rig, "redundant");
@@ -204,7 +207,8 @@ TEST_CASE("solver: a redundant pair splits the change evenly, closest to the war
     }
 }
 
-TEST_CASE("solver: NaN, infinite, negative-weight and singular targets give invalidTargets and leave the values untouched")
+TEST_CASE(
+    "solver: NaN, infinite, negative-weight and singular targets give invalidTargets and leave the values untouched")
 {
     auto rig = test::twoArms();
     const Approximation a = test::learn(rig, "two arms");
@@ -244,8 +248,7 @@ TEST_CASE("solver: NaN, infinite, negative-weight and singular targets give inva
     CHECK_THROWS_WITH_AS(solver.solve(std::span(good).first(3), values), "Solver::solve: 3 targets for 9 outputs",
                          Error);
     values[5] = std::numeric_limits<double>::infinity();
-    CHECK_THROWS_WITH_AS(solver.solve(good, values), "Solver::solve: the value of L_shoulder.rotateY is inf",
-                         Error);
+    CHECK_THROWS_WITH_AS(solver.solve(good, values), "Solver::solve: the value of L_shoulder.rotateY is inf", Error);
 }
 
 TEST_CASE("solver: parameters that reach no active target keep their values, bit for bit")
@@ -274,10 +277,10 @@ TEST_CASE("solver: parameters that reach no active target keep their values, bit
 TEST_CASE("solver: rotation parameters stay continuous from the warm start past half a turn")
 {
     test::LambdaRig spinner({test::angle("spin", -10.0, 10.0)}, {"arm", "hand"},
-                      [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-                          w[0] = test::rotation(Eigen::Vector3d::UnitY(), v[0]);
-                          w[1] = w[0] * test::translation(10, 0, 0);
-                      });
+                            [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                                w[0] = test::rotation(Eigen::Vector3d::UnitY(), v[0]);
+                                w[1] = w[0] * test::translation(10, 0, 0);
+                            });
     const Approximation a = test::learn(spinner, "spinner");
     REQUIRE(a.parameters.size() == 1);
     const Solver solver(a, SolverOptions{});
@@ -304,7 +307,8 @@ TEST_CASE("solver: thread counts 0, 1, 2 and 8 give bit-identical values on the 
         // Not exactly reachable: targets from the approximation at another pose, rotated and moved.
         std::vector<JointTarget> targets = test::targetsAt(a, test::randomValues(a, rng, 0.5));
         for (std::size_t k = 0; k < targets.size(); ++k)
-            targets[k].world = test::rotation(Eigen::Vector3d(1, 0, 1), 0.05 * static_cast<double>(k % 5)) * targets[k].world;
+            targets[k].world =
+                test::rotation(Eigen::Vector3d(1, 0, 1), 0.05 * static_cast<double>(k % 5)) * targets[k].world;
         for (int threads : {1, 2, 8, 0}) {
             SolverOptions options;
             options.threads = threads;
@@ -382,7 +386,8 @@ TEST_CASE("solver: one solver used by many threads at once gives what it gives a
             }
         });
     for (auto& t : threads) t.join();
-    for (int i = 0; i < cases; ++i) CHECK(bitIdentical(alone[static_cast<std::size_t>(i)], together[static_cast<std::size_t>(i)]));
+    for (int i = 0; i < cases; ++i)
+        CHECK(bitIdentical(alone[static_cast<std::size_t>(i)], together[static_cast<std::size_t>(i)]));
 }
 
 TEST_CASE("solver: options validate() names the field and the value")
@@ -393,9 +398,11 @@ TEST_CASE("solver: options validate() names the field and the value")
         CHECK_THROWS_WITH_AS(options.validate(), message, Error);
     };
     CHECK_NOTHROW(SolverOptions{}.validate());
-    expect([](SolverOptions& o) { o.gaussNewtonIterations = -1; }, "SolverOptions::gaussNewtonIterations = -1: must not be negative");
+    expect([](SolverOptions& o) { o.gaussNewtonIterations = -1; },
+           "SolverOptions::gaussNewtonIterations = -1: must not be negative");
     expect([](SolverOptions& o) { o.maxIterations = 0; }, "SolverOptions::maxIterations = 0: must be at least 1");
-    expect([](SolverOptions& o) { o.rotationScaleCm = 0; }, "SolverOptions::rotationScaleCm = 0: must be a positive number");
+    expect([](SolverOptions& o) { o.rotationScaleCm = 0; },
+           "SolverOptions::rotationScaleCm = 0: must be a positive number");
     expect([](SolverOptions& o) { o.rotationScaleCm = std::numeric_limits<double>::infinity(); },
            "SolverOptions::rotationScaleCm = inf: must be a positive number");
     expect([](SolverOptions& o) { o.functionTolerance = -1e-3; },
@@ -408,7 +415,8 @@ TEST_CASE("solver: options validate() names the field and the value")
            "SolverOptions::jacobian = 7: must be analytic or finiteDifference");
     expect([](SolverOptions& o) { o.finiteDifferenceStep = 0; },
            "SolverOptions::finiteDifferenceStep = 0: must be a positive number");
-    expect([](SolverOptions& o) { o.threads = -2; }, "SolverOptions::threads = -2: must not be negative (0: all cores)");
+    expect([](SolverOptions& o) { o.threads = -2; },
+           "SolverOptions::threads = -2: must not be negative (0: all cores)");
     // The constructor validates too.
     auto rig = test::fkArm();
     const Approximation a = test::learn(rig, "arm");

@@ -76,9 +76,9 @@ inline LambdaRig fkArm()
     return LambdaRig(
         {distance("root.translateX"), angle("shoulder.rotateX"), angle("shoulder.rotateY"), angle("shoulder.rotateZ"),
          angle("elbow.rotateZ", 0.0, 2.5), angle("wrist.rotateX")},
-        {"shoulder", "elbow", "wrist", "hand"},
-        [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-            const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(), z = Eigen::Vector3d::UnitZ();
+        {"shoulder", "elbow", "wrist", "hand"}, [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+            const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(),
+                                  z = Eigen::Vector3d::UnitZ();
             w[0] = translation(v[0], 100, 0) * rotation(x, v[1]) * rotation(y, v[2]) * rotation(z, v[3]);
             w[1] = w[0] * translation(10, 0, 0) * rotation(y, 20 * std::numbers::pi / 180) * rotation(z, v[4]);
             w[2] = w[1] * translation(10, 0, 0) * rotation(x, v[5]);

@@ -22,8 +22,8 @@ namespace {
 constexpr double tolerance = 1e-12;
 
 // Keys at the given points, all with the same in and out tangent type.
-std::vector<AnimKey> keysOf(const std::vector<std::pair<double, double>>& points,
-                            TangentType type) {
+std::vector<AnimKey> keysOf(const std::vector<std::pair<double, double>>& points, TangentType type)
+{
     std::vector<AnimKey> keys;
     for (const auto& [x, y] : points) keys.push_back({x, y, type, type});
     return keys;
@@ -34,11 +34,12 @@ constexpr TangentType allTangentTypes[] = {
     TangentType::spline, TangentType::clamped, TangentType::plateau, TangentType::auto_,
 };
 
-constexpr Infinity allInfinities[] = {Infinity::constant, Infinity::linear, Infinity::cycle,
-                                      Infinity::cycleRelative, Infinity::oscillate};
+constexpr Infinity allInfinities[] = {Infinity::constant, Infinity::linear, Infinity::cycle, Infinity::cycleRelative,
+                                      Infinity::oscillate};
 
 // Smallest and largest value over [from, to] sampled every 1e-3.
-std::pair<double, double> sampledRange(const AnimCurve& curve, double from, double to) {
+std::pair<double, double> sampledRange(const AnimCurve& curve, double from, double to)
+{
     double lowest = curve.evaluate(from);
     double highest = lowest;
     for (double x = from; x <= to; x += 1e-3) {
@@ -50,7 +51,8 @@ std::pair<double, double> sampledRange(const AnimCurve& curve, double from, doub
 
 }  // namespace
 
-TEST_CASE("tangent type names round-trip with Maya's spelling") {
+TEST_CASE("tangent type names round-trip with Maya's spelling")
+{
     for (TangentType type : allTangentTypes) {
         CHECK(rig::tangentTypeFromName(rig::tangentTypeName(type)) == type);
     }
@@ -62,7 +64,8 @@ TEST_CASE("tangent type names round-trip with Maya's spelling") {
     CHECK_FALSE(rig::tangentTypeFromName("").has_value());
 }
 
-TEST_CASE("infinity names round-trip with Maya's spelling") {
+TEST_CASE("infinity names round-trip with Maya's spelling")
+{
     for (Infinity mode : allInfinities) {
         CHECK(rig::infinityFromName(rig::infinityName(mode)) == mode);
     }
@@ -72,7 +75,8 @@ TEST_CASE("infinity names round-trip with Maya's spelling") {
     CHECK_FALSE(rig::infinityFromName("none").has_value());
 }
 
-TEST_CASE("a curve without keys evaluates to 0") {
+TEST_CASE("a curve without keys evaluates to 0")
+{
     for (Infinity mode : allInfinities) {
         const AnimCurve curve = AnimCurve::build({}, mode, mode);
         for (double x : {-100.0, 0.0, 3.5}) {
@@ -85,7 +89,8 @@ TEST_CASE("a curve without keys evaluates to 0") {
     CHECK(defaulted.keys().empty());
 }
 
-TEST_CASE("a one-key curve is constant under every infinity mode") {
+TEST_CASE("a one-key curve is constant under every infinity mode")
+{
     for (TangentType type : allTangentTypes) {
         for (Infinity mode : allInfinities) {
             const AnimCurve curve = AnimCurve::build(keysOf({{2.0, 7.5}}, type), mode, mode);
@@ -97,9 +102,10 @@ TEST_CASE("a one-key curve is constant under every infinity mode") {
     }
 }
 
-TEST_CASE("build keeps the keys and infinity modes") {
-    const AnimCurve curve = AnimCurve::build(keysOf({{0.0, 1.0}, {1.0, 2.0}}, TangentType::flat),
-                                             Infinity::cycle, Infinity::oscillate);
+TEST_CASE("build keeps the keys and infinity modes")
+{
+    const AnimCurve curve =
+        AnimCurve::build(keysOf({{0.0, 1.0}, {1.0, 2.0}}, TangentType::flat), Infinity::cycle, Infinity::oscillate);
     REQUIRE(curve.keys().size() == 2);
     CHECK(curve.keys()[1].x == 1.0);
     CHECK(curve.keys()[1].y == 2.0);
@@ -107,35 +113,31 @@ TEST_CASE("build keeps the keys and infinity modes") {
     CHECK(curve.postInfinity() == Infinity::oscillate);
 }
 
-TEST_CASE("build rejects keys that are not strictly increasing") {
+TEST_CASE("build rejects keys that are not strictly increasing")
+{
     CHECK_THROWS_WITH_AS(
-        AnimCurve::build(keysOf({{0.0, 0.0}, {5.0, 1.0}, {7.5, 2.0}, {10.0, 3.0}, {10.0, 4.0}},
-                                TangentType::linear)),
-        "key 4: x 10 is not greater than the previous key's x 10 (keys must be strictly increasing)",
-        Error);
-    CHECK_THROWS_WITH_AS(
-        AnimCurve::build(keysOf({{0.0, 0.0}, {2.5, 1.0}, {1.0, 2.0}}, TangentType::linear)),
-        "key 2: x 1 is not greater than the previous key's x 2.5 (keys must be strictly increasing)",
-        Error);
+        AnimCurve::build(keysOf({{0.0, 0.0}, {5.0, 1.0}, {7.5, 2.0}, {10.0, 3.0}, {10.0, 4.0}}, TangentType::linear)),
+        "key 4: x 10 is not greater than the previous key's x 10 (keys must be strictly increasing)", Error);
+    CHECK_THROWS_WITH_AS(AnimCurve::build(keysOf({{0.0, 0.0}, {2.5, 1.0}, {1.0, 2.0}}, TangentType::linear)),
+                         "key 2: x 1 is not greater than the previous key's x 2.5 (keys must be strictly increasing)",
+                         Error);
 }
 
-TEST_CASE("build rejects non-finite keys") {
+TEST_CASE("build rejects non-finite keys")
+{
     const double nan = std::numeric_limits<double>::quiet_NaN();
     const double inf = std::numeric_limits<double>::infinity();
-    CHECK_THROWS_WITH_AS(
-        AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, nan}}, TangentType::spline)),
-        "key 1: y nan is not finite (keys must have finite x and y)", Error);
+    CHECK_THROWS_WITH_AS(AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, nan}}, TangentType::spline)),
+                         "key 1: y nan is not finite (keys must have finite x and y)", Error);
     CHECK_THROWS_WITH_AS(AnimCurve::build(keysOf({{inf, 0.0}}, TangentType::spline)),
-                         "key 0: x inf is not finite (keys must have finite x and y)",
-                         Error);
-    CHECK_THROWS_WITH_AS(
-        AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, 1.0}, {2.0, -inf}}, TangentType::spline)),
-        "key 2: y -inf is not finite (keys must have finite x and y)", Error);
+                         "key 0: x inf is not finite (keys must have finite x and y)", Error);
+    CHECK_THROWS_WITH_AS(AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, 1.0}, {2.0, -inf}}, TangentType::spline)),
+                         "key 2: y -inf is not finite (keys must have finite x and y)", Error);
 }
 
-TEST_CASE("linear tangents interpolate linearly") {
-    const AnimCurve curve =
-        AnimCurve::build(keysOf({{0.0, 1.0}, {2.0, 5.0}, {3.0, 2.0}}, TangentType::linear));
+TEST_CASE("linear tangents interpolate linearly")
+{
+    const AnimCurve curve = AnimCurve::build(keysOf({{0.0, 1.0}, {2.0, 5.0}, {3.0, 2.0}}, TangentType::linear));
     for (double x = 0.0; x < 2.0; x += 0.125) {
         CHECK(curve.evaluate(x) == doctest::Approx(1.0 + 2.0 * x).epsilon(1e-14));
         CHECK(curve.derivative(x) == doctest::Approx(2.0).epsilon(1e-14));
@@ -149,9 +151,9 @@ TEST_CASE("linear tangents interpolate linearly") {
     CHECK(curve.outSlope(2) == doctest::Approx(-3.0));
 }
 
-TEST_CASE("flat tangents give the smoothstep shape") {
-    const AnimCurve curve =
-        AnimCurve::build(keysOf({{10.0, 2.0}, {14.0, 10.0}}, TangentType::flat));
+TEST_CASE("flat tangents give the smoothstep shape")
+{
+    const AnimCurve curve = AnimCurve::build(keysOf({{10.0, 2.0}, {14.0, 10.0}}, TangentType::flat));
     // 3t^2 - 2t^3 is 0.15625 at t = 0.25 and 0.5 at t = 0.5.
     CHECK(curve.evaluate(11.0) == doctest::Approx(2.0 + 8.0 * 0.15625).epsilon(1e-14));
     CHECK(curve.evaluate(12.0) == doctest::Approx(6.0).epsilon(1e-14));
@@ -162,9 +164,9 @@ TEST_CASE("flat tangents give the smoothstep shape") {
     CHECK(curve.derivative(12.0) == doctest::Approx(3.0).epsilon(1e-14));
 }
 
-TEST_CASE("step holds the left key's value until the next key") {
-    const AnimCurve curve =
-        AnimCurve::build(keysOf({{0.0, 1.0}, {1.0, 5.0}, {2.0, 3.0}}, TangentType::step));
+TEST_CASE("step holds the left key's value until the next key")
+{
+    const AnimCurve curve = AnimCurve::build(keysOf({{0.0, 1.0}, {1.0, 5.0}, {2.0, 3.0}}, TangentType::step));
     CHECK(curve.evaluate(0.0) == 1.0);
     CHECK(curve.evaluate(0.5) == 1.0);
     CHECK(curve.evaluate(0.999) == 1.0);
@@ -175,17 +177,17 @@ TEST_CASE("step holds the left key's value until the next key") {
     CHECK(curve.derivative(1.5) == 0.0);
 }
 
-TEST_CASE("the left key's out-tangent alone decides a step segment") {
-    const AnimCurve curve =
-        AnimCurve::build({{0.0, 1.0, TangentType::spline, TangentType::step},
-                          {1.0, 5.0, TangentType::spline, TangentType::spline}});
+TEST_CASE("the left key's out-tangent alone decides a step segment")
+{
+    const AnimCurve curve = AnimCurve::build(
+        {{0.0, 1.0, TangentType::spline, TangentType::step}, {1.0, 5.0, TangentType::spline, TangentType::spline}});
     CHECK(curve.evaluate(0.5) == 1.0);
     CHECK(curve.evaluate(1.0) == 5.0);
 }
 
-TEST_CASE("stepNext takes the next key's value right after a key") {
-    const AnimCurve curve =
-        AnimCurve::build(keysOf({{0.0, 1.0}, {1.0, 5.0}, {2.0, 3.0}}, TangentType::stepNext));
+TEST_CASE("stepNext takes the next key's value right after a key")
+{
+    const AnimCurve curve = AnimCurve::build(keysOf({{0.0, 1.0}, {1.0, 5.0}, {2.0, 3.0}}, TangentType::stepNext));
     CHECK(curve.evaluate(0.0) == 1.0);
     CHECK(curve.evaluate(0.001) == 5.0);
     CHECK(curve.evaluate(1.0) == 5.0);
@@ -194,9 +196,9 @@ TEST_CASE("stepNext takes the next key's value right after a key") {
     CHECK(curve.derivative(0.5) == 0.0);
 }
 
-TEST_CASE("spline through three keys matches the hand-computed Hermite cubic") {
-    const AnimCurve curve =
-        AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, 1.0}, {3.0, 4.0}}, TangentType::spline));
+TEST_CASE("spline through three keys matches the hand-computed Hermite cubic")
+{
+    const AnimCurve curve = AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, 1.0}, {3.0, 4.0}}, TangentType::spline));
     // Slopes: end keys face their neighbour (1 and 1.5), the middle key is
     // Catmull-Rom (4 - 0) / (3 - 0).
     CHECK(curve.outSlope(0) == doctest::Approx(1.0));
@@ -212,19 +214,19 @@ TEST_CASE("spline through three keys matches the hand-computed Hermite cubic") {
     for (const AnimKey& key : curve.keys()) CHECK(curve.evaluate(key.x) == key.y);
 }
 
-TEST_CASE("two spline keys make a straight line") {
-    const AnimCurve curve =
-        AnimCurve::build(keysOf({{0.0, 1.0}, {4.0, 3.0}}, TangentType::spline));
+TEST_CASE("two spline keys make a straight line")
+{
+    const AnimCurve curve = AnimCurve::build(keysOf({{0.0, 1.0}, {4.0, 3.0}}, TangentType::spline));
     CHECK(curve.evaluate(1.0) == doctest::Approx(1.5).epsilon(1e-14));
     CHECK(curve.evaluate(3.0) == doctest::Approx(2.5).epsilon(1e-14));
 }
 
-TEST_CASE("clamped, plateau and auto do not overshoot an extremum key") {
+TEST_CASE("clamped, plateau and auto do not overshoot an extremum key")
+{
     const auto points = std::vector<std::pair<double, double>>{{0.0, 0.0}, {1.0, 10.0}, {2.0, 8.0}};
 
     // Spline overshoots here, which is what the other types prevent.
-    CHECK(sampledRange(AnimCurve::build(keysOf(points, TangentType::spline)), 0.0, 2.0).second >
-          10.1);
+    CHECK(sampledRange(AnimCurve::build(keysOf(points, TangentType::spline)), 0.0, 2.0).second > 10.1);
 
     for (TangentType type : {TangentType::clamped, TangentType::plateau, TangentType::auto_}) {
         CAPTURE(rig::tangentTypeName(type));
@@ -238,9 +240,10 @@ TEST_CASE("clamped, plateau and auto do not overshoot an extremum key") {
     }
 }
 
-TEST_CASE("clamped is flat where a key equals its neighbour") {
-    const AnimCurve curve = AnimCurve::build(
-        keysOf({{0.0, 0.0}, {1.0, 4.0}, {2.0, 4.0}, {3.0, 8.0}}, TangentType::clamped));
+TEST_CASE("clamped is flat where a key equals its neighbour")
+{
+    const AnimCurve curve =
+        AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, 4.0}, {2.0, 4.0}, {3.0, 8.0}}, TangentType::clamped));
     CHECK(curve.outSlope(1) == 0.0);
     CHECK(curve.inSlope(2) == 0.0);
     CHECK(curve.evaluate(1.5) == doctest::Approx(4.0).epsilon(1e-14));
@@ -248,10 +251,10 @@ TEST_CASE("clamped is flat where a key equals its neighbour") {
     CHECK(curve.outSlope(0) == doctest::Approx(4.0));
 }
 
-TEST_CASE("slope rules at a monotone key beside a much gentler segment") {
+TEST_CASE("slope rules at a monotone key beside a much gentler segment")
+{
     // Key 1: secants 9 before and 1 after, Catmull-Rom slope 5, limit 3 * 1.
-    const auto points =
-        std::vector<std::pair<double, double>>{{0.0, 0.0}, {1.0, 9.0}, {2.0, 10.0}, {3.0, 0.0}};
+    const auto points = std::vector<std::pair<double, double>>{{0.0, 0.0}, {1.0, 9.0}, {2.0, 10.0}, {3.0, 0.0}};
     const auto slopeAtKey1 = [&](TangentType type) {
         const AnimCurve curve = AnimCurve::build(keysOf(points, type));
         CHECK(curve.inSlope(1) == curve.outSlope(1));
@@ -274,16 +277,14 @@ TEST_CASE("slope rules at a monotone key beside a much gentler segment") {
     }
 }
 
-TEST_CASE("derivative matches central finite differences") {
+TEST_CASE("derivative matches central finite differences")
+{
     // Integer key x values and period, so sampling at odd multiples of 0.05
     // keeps every sample and its wrapped image away from keys.
     const std::vector<AnimKey> keys = {
-        {0.0, 0.0, TangentType::spline, TangentType::spline},
-        {1.0, 3.0, TangentType::clamped, TangentType::plateau},
-        {2.0, 2.0, TangentType::auto_, TangentType::step},
-        {4.0, 6.0, TangentType::flat, TangentType::linear},
-        {5.0, 1.0, TangentType::linear, TangentType::auto_},
-        {7.0, 2.0, TangentType::spline, TangentType::stepNext},
+        {0.0, 0.0, TangentType::spline, TangentType::spline},    {1.0, 3.0, TangentType::clamped, TangentType::plateau},
+        {2.0, 2.0, TangentType::auto_, TangentType::step},       {4.0, 6.0, TangentType::flat, TangentType::linear},
+        {5.0, 1.0, TangentType::linear, TangentType::auto_},     {7.0, 2.0, TangentType::spline, TangentType::stepNext},
         {8.0, -1.0, TangentType::plateau, TangentType::clamped},
     };
     const double h = 1e-5;
@@ -299,30 +300,33 @@ TEST_CASE("derivative matches central finite differences") {
     }
 }
 
-TEST_CASE("derivative at a key is the slope on its right") {
-    const AnimCurve curve =
-        AnimCurve::build({{0.0, 0.0, TangentType::linear, TangentType::linear},
-                          {1.0, 1.0, TangentType::linear, TangentType::flat},
-                          {2.0, 3.0, TangentType::linear, TangentType::linear}});
+TEST_CASE("derivative at a key is the slope on its right")
+{
+    const AnimCurve curve = AnimCurve::build({{0.0, 0.0, TangentType::linear, TangentType::linear},
+                                              {1.0, 1.0, TangentType::linear, TangentType::flat},
+                                              {2.0, 3.0, TangentType::linear, TangentType::linear}});
     CHECK(curve.derivative(1.0) == 0.0);
     CHECK(curve.derivative(2.0) == doctest::Approx(2.0));
 }
 
-TEST_CASE("infinity modes beyond both ends") {
+TEST_CASE("infinity modes beyond both ends")
+{
     // Linear keys (0, 0) (1, 2) (2, 1): period 2, value change 1.
     const auto points = std::vector<std::pair<double, double>>{{0.0, 0.0}, {1.0, 2.0}, {2.0, 1.0}};
     const auto curveWith = [&](Infinity mode) {
         return AnimCurve::build(keysOf(points, TangentType::linear), mode, mode);
     };
 
-    SUBCASE("constant holds the end values") {
+    SUBCASE("constant holds the end values")
+    {
         const AnimCurve curve = curveWith(Infinity::constant);
         CHECK(curve.evaluate(-3.0) == 0.0);
         CHECK(curve.evaluate(7.0) == 1.0);
         CHECK(curve.derivative(-3.0) == 0.0);
         CHECK(curve.derivative(7.0) == 0.0);
     }
-    SUBCASE("linear extrapolates the end tangents") {
+    SUBCASE("linear extrapolates the end tangents")
+    {
         const AnimCurve curve = curveWith(Infinity::linear);
         CHECK(curve.evaluate(-1.0) == doctest::Approx(-2.0));
         CHECK(curve.evaluate(-3.0) == doctest::Approx(-6.0));
@@ -331,7 +335,8 @@ TEST_CASE("infinity modes beyond both ends") {
         CHECK(curve.derivative(-3.0) == doctest::Approx(2.0));
         CHECK(curve.derivative(5.0) == doctest::Approx(-1.0));
     }
-    SUBCASE("cycle repeats the keyed range") {
+    SUBCASE("cycle repeats the keyed range")
+    {
         const AnimCurve curve = curveWith(Infinity::cycle);
         CHECK(curve.evaluate(2.5) == doctest::Approx(1.0));
         CHECK(curve.evaluate(3.0) == doctest::Approx(2.0));
@@ -344,7 +349,8 @@ TEST_CASE("infinity modes beyond both ends") {
         CHECK(curve.evaluate(-2.0) == 1.0);
         CHECK(curve.derivative(2.5) == doctest::Approx(2.0));
     }
-    SUBCASE("cycleRelative offsets each period by the value change") {
+    SUBCASE("cycleRelative offsets each period by the value change")
+    {
         const AnimCurve curve = curveWith(Infinity::cycleRelative);
         CHECK(curve.evaluate(2.5) == doctest::Approx(2.0));
         CHECK(curve.evaluate(3.0) == doctest::Approx(3.0));
@@ -355,7 +361,8 @@ TEST_CASE("infinity modes beyond both ends") {
         CHECK(curve.evaluate(-3.0) == doctest::Approx(0.0));
         CHECK(curve.derivative(3.5) == doctest::Approx(-1.0));
     }
-    SUBCASE("oscillate mirrors back and forth") {
+    SUBCASE("oscillate mirrors back and forth")
+    {
         const AnimCurve curve = curveWith(Infinity::oscillate);
         CHECK(curve.evaluate(2.5) == doctest::Approx(1.5));
         CHECK(curve.evaluate(3.0) == doctest::Approx(2.0));
@@ -371,9 +378,10 @@ TEST_CASE("infinity modes beyond both ends") {
     }
 }
 
-TEST_CASE("linear infinity follows flat end tangents") {
-    const AnimCurve curve = AnimCurve::build(keysOf({{0.0, 1.0}, {1.0, 4.0}}, TangentType::auto_),
-                                             Infinity::linear, Infinity::linear);
+TEST_CASE("linear infinity follows flat end tangents")
+{
+    const AnimCurve curve =
+        AnimCurve::build(keysOf({{0.0, 1.0}, {1.0, 4.0}}, TangentType::auto_), Infinity::linear, Infinity::linear);
     CHECK(curve.evaluate(-10.0) == 1.0);
     CHECK(curve.evaluate(10.0) == 4.0);
 }

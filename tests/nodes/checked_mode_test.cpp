@@ -13,9 +13,9 @@
 #include <utility>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <Eigen/Geometry>
 
 #include "core/error.h"
 #include "graph/graph.h"
@@ -48,46 +48,49 @@ rig::Value testValue(const rig::AttributeSpec& spec, int pass, int attr)
 {
     const double k = std::array{1.0, -1.5, 2.0}[static_cast<std::size_t>(pass)] * (1.0 + 0.125 * (attr % 4));
     switch (spec.type) {
-    case rig::ValueType::Double:
-        return shifted(spec, rig::toDouble(spec.defaultValue), spec.unit == rig::Unit::Angle ? 0.4 * k : 0.375 * k, pass);
-    case rig::ValueType::Int: {
-        const int base = std::get<int>(spec.defaultValue);
-        for (int step : {1 + pass, -1 - pass})
-            if (inRange(spec, base + step)) return base + step;
-        FAIL("no valid int near the default");
-        return base;
-    }
-    case rig::ValueType::Vector3: {
-        const Eigen::Vector3d base = std::get<Eigen::Vector3d>(spec.defaultValue);
-        // Angles: (17, -11.5, 29) degrees times k, other units the same numbers; components rotate
-        // with the attribute.
-        const std::array<double, 3> c{0.3, -0.2, 0.5};
-        const Eigen::Vector3d offset =
-            Eigen::Vector3d(c[static_cast<std::size_t>(attr % 3)], c[static_cast<std::size_t>((attr + 1) % 3)],
-                            c[static_cast<std::size_t>((attr + 2) % 3)]) * k;
-        Eigen::Vector3d v;
-        for (int i = 0; i < 3; ++i) v[i] = shifted(spec, base[i], offset[i], pass);
-        return v;
-    }
-    case rig::ValueType::Matrix4: {
-        // A rotation and a translation.
-        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-        m.topLeftCorner<3, 3>() =
-            Eigen::AngleAxisd(0.3 * k, Eigen::Vector3d(1, 2, -0.5 * pass).normalized()).toRotationMatrix();
-        m.col(3) << 1.5 * k, -2.0, 0.25 * pass, 1.0;
-        return m;
-    }
-    case rig::ValueType::DoubleArray:
-        // remapValue's ramp: (position, value) pairs, an even count.
-        return std::vector<double>{0.0, 0.1, 0.4, 0.8 + 0.1 * pass, 1.0, 0.3};
-    case rig::ValueType::Matrix4Array: {
-        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-        m.col(3) << k, 0, -k, 1;
-        return rig::Matrix4Array{m, m.transpose()};
-    }
-    case rig::ValueType::Bool:
-    case rig::ValueType::Enum:
-    case rig::ValueType::String: break;  // handled by the caller
+        case rig::ValueType::Double:
+            return shifted(spec, rig::toDouble(spec.defaultValue), spec.unit == rig::Unit::Angle ? 0.4 * k : 0.375 * k,
+                           pass);
+        case rig::ValueType::Int: {
+            const int base = std::get<int>(spec.defaultValue);
+            for (int step : {1 + pass, -1 - pass})
+                if (inRange(spec, base + step)) return base + step;
+            FAIL("no valid int near the default");
+            return base;
+        }
+        case rig::ValueType::Vector3: {
+            const Eigen::Vector3d base = std::get<Eigen::Vector3d>(spec.defaultValue);
+            // Angles: (17, -11.5, 29) degrees times k, other units the same numbers; components rotate
+            // with the attribute.
+            const std::array<double, 3> c{0.3, -0.2, 0.5};
+            const Eigen::Vector3d offset =
+                Eigen::Vector3d(c[static_cast<std::size_t>(attr % 3)], c[static_cast<std::size_t>((attr + 1) % 3)],
+                                c[static_cast<std::size_t>((attr + 2) % 3)]) *
+                k;
+            Eigen::Vector3d v;
+            for (int i = 0; i < 3; ++i) v[i] = shifted(spec, base[i], offset[i], pass);
+            return v;
+        }
+        case rig::ValueType::Matrix4: {
+            // A rotation and a translation.
+            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+            m.topLeftCorner<3, 3>() =
+                Eigen::AngleAxisd(0.3 * k, Eigen::Vector3d(1, 2, -0.5 * pass).normalized()).toRotationMatrix();
+            m.col(3) << 1.5 * k, -2.0, 0.25 * pass, 1.0;
+            return m;
+        }
+        case rig::ValueType::DoubleArray:
+            // remapValue's ramp: (position, value) pairs, an even count.
+            return std::vector<double>{0.0, 0.1, 0.4, 0.8 + 0.1 * pass, 1.0, 0.3};
+        case rig::ValueType::Matrix4Array: {
+            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+            m.col(3) << k, 0, -k, 1;
+            return rig::Matrix4Array{m, m.transpose()};
+        }
+        case rig::ValueType::Bool:
+        case rig::ValueType::Enum:
+        case rig::ValueType::String:
+            break;  // handled by the caller
     }
     FAIL("no test value for an attribute of type " << rig::valueTypeName(spec.type));
     return spec.defaultValue;
@@ -95,9 +98,9 @@ rig::Value testValue(const rig::AttributeSpec& spec, int pass, int attr)
 
 // The types whose every input this test's values are known to make matter.
 const std::vector<std::string> knownTypes{
-    "transform",   "joint",          "time",         "animCurveTU", "animCurveTA", "animCurveTL",     "animCurveUU",
-    "animCurveUA", "animCurveUL",    "multiplyDivide", "plusMinusAverage", "blendTwoAttr", "clamp",   "reverse",
-    "remapValue",  "condition",      "multMatrix",   "composeMatrix", "decomposeMatrix"};
+    "transform",   "joint",       "time",           "animCurveTU",      "animCurveTA",    "animCurveTL", "animCurveUU",
+    "animCurveUA", "animCurveUL", "multiplyDivide", "plusMinusAverage", "blendTwoAttr",   "clamp",       "reverse",
+    "remapValue",  "condition",   "multMatrix",     "composeMatrix",    "decomposeMatrix"};
 
 bool isAnimCurve(const std::string& type) { return type.starts_with("animCurve"); }
 
@@ -147,7 +150,8 @@ TEST_CASE("checked mode: every input of every built-in type is in its affects ta
                 const auto attr = static_cast<rig::AttrId>(o);
                 if (!specs[o].array) values.push_back(graph.getValue({node, attr, -1, -1}));
                 else
-                    for (int i : graph.elementIndices(node, attr)) values.push_back(graph.getValue({node, attr, i, -1}));
+                    for (int i : graph.elementIndices(node, attr))
+                        values.push_back(graph.getValue({node, attr, i, -1}));
             }
             return values;
         };
@@ -162,7 +166,8 @@ TEST_CASE("checked mode: every input of every built-in type is in its affects ta
                 CHECK(check(graph) == "");
                 const std::vector<rig::Value> after = outputs();
                 bool changed = before.size() != after.size();
-                for (std::size_t i = 0; !changed && i < after.size(); ++i) changed = !rig::bitEqual(before[i], after[i]);
+                for (std::size_t i = 0; !changed && i < after.size(); ++i)
+                    changed = !rig::bitEqual(before[i], after[i]);
                 mattered[static_cast<std::size_t>(plug.attr)] |= changed;
             }
             catch (const std::exception& e) {

@@ -47,8 +47,9 @@ TEST_CASE("GraphRigFunction: parameters are free keyable numbers, vectors stand 
 {
     // shoulder.rotateY is driven by an animation curve: not a parameter, and the glob passes it by.
     GraphRigFunction f(arm, {{"shoulder.rotate?", "arm_ctrl.translate", "arm_ctrl.rotateX"}, {}, {}});
-    CHECK(names(f.parameters()) == std::vector<std::string>{"shoulder.rotateX", "shoulder.rotateZ", "arm_ctrl.translateX",
-                                                            "arm_ctrl.translateY", "arm_ctrl.translateZ", "arm_ctrl.rotateX"});
+    CHECK(names(f.parameters()) == std::vector<std::string>{"shoulder.rotateX", "shoulder.rotateZ",
+                                                            "arm_ctrl.translateX", "arm_ctrl.translateY",
+                                                            "arm_ctrl.translateZ", "arm_ctrl.rotateX"});
     const RigParameter& angle = f.parameters()[0];
     CHECK(angle.angular);
     CHECK(!angle.limited);  // no declared limits: +-90 degrees is only where learning samples
@@ -144,22 +145,29 @@ TEST_CASE("GraphRigFunction: the fingerprint covers the rig file and every file 
 
 TEST_CASE("GraphRigFunction: globs that match nothing usable are one-line errors with a suggestion")
 {
-    CHECK(errorOf(arm, {{"shoulder.rotatq?"}, {}, {}})
-          == arm + ": parameter glob 'shoulder.rotatq?' matches no plug: node 'shoulder' has no keyable attribute matching "
-                   "'rotatq?'; did you mean 'shoulder.rotateX'?");
-    CHECK(errorOf(arm, {{"sholder*.rotateX"}, {}, {}})
-          == arm + ": parameter glob 'sholder*.rotateX' matches no plug: no node matches 'sholder*'; did you mean 'shoulder'?");
-    CHECK(errorOf(arm, {{"elbo.rotateZ"}, {}, {}}) == arm + ": parameter 'elbo.rotateZ': no node named 'elbo'; did you mean 'elbow'?");
-    CHECK(errorOf(arm, {{"elbow.rotateZ"}, {}, {}})
-          == arm + ": parameter 'elbow.rotateZ' is driven by elbow_bend_sdk.output; parameters are animator controls that "
-                   "nothing drives");
-    CHECK(errorOf(arm, {{"*.worldMatrix"}, {}, {}})
-          == arm + ": parameter glob '*.worldMatrix' matches no free keyable number (arm_ctrl.worldMatrix is an output, "
-                   "computed by its node); parameters are animator controls that nothing drives");
-    CHECK(errorOf(arm, {{}, {}, {}}) == arm + ": no parameters given; name them with plug globs such as 'L_arm_*.rotate?'");
-    CHECK(errorOf(arm, {{"wrist.rotateX"}, {"wrsit"}, {}}) == arm + ": output glob 'wrsit' matches no joint; did you mean 'wrist'?");
-    CHECK(errorOf(arm, {{"wrist.rotateX"}, {"arm_ctrl"}, {}})
-          == arm + ": output 'arm_ctrl' is a transform, not a joint; outputs are joints");
+    CHECK(errorOf(arm, {{"shoulder.rotatq?"}, {}, {}}) ==
+          arm +
+              ": parameter glob 'shoulder.rotatq?' matches no plug: node 'shoulder' has no keyable attribute matching "
+              "'rotatq?'; did you mean 'shoulder.rotateX'?");
+    CHECK(errorOf(arm, {{"sholder*.rotateX"}, {}, {}}) == arm +
+                                                              ": parameter glob 'sholder*.rotateX' matches no plug: no "
+                                                              "node matches 'sholder*'; did you mean 'shoulder'?");
+    CHECK(errorOf(arm, {{"elbo.rotateZ"}, {}, {}}) ==
+          arm + ": parameter 'elbo.rotateZ': no node named 'elbo'; did you mean 'elbow'?");
+    CHECK(errorOf(arm, {{"elbow.rotateZ"}, {}, {}}) ==
+          arm +
+              ": parameter 'elbow.rotateZ' is driven by elbow_bend_sdk.output; parameters are animator controls that "
+              "nothing drives");
+    CHECK(errorOf(arm, {{"*.worldMatrix"}, {}, {}}) ==
+          arm +
+              ": parameter glob '*.worldMatrix' matches no free keyable number (arm_ctrl.worldMatrix is an output, "
+              "computed by its node); parameters are animator controls that nothing drives");
+    CHECK(errorOf(arm, {{}, {}, {}}) ==
+          arm + ": no parameters given; name them with plug globs such as 'L_arm_*.rotate?'");
+    CHECK(errorOf(arm, {{"wrist.rotateX"}, {"wrsit"}, {}}) ==
+          arm + ": output glob 'wrsit' matches no joint; did you mean 'wrist'?");
+    CHECK(errorOf(arm, {{"wrist.rotateX"}, {"arm_ctrl"}, {}}) ==
+          arm + ": output 'arm_ctrl' is a transform, not a joint; outputs are joints");
     CHECK(errorOf(arm, {{"wrist.rotateX"}, {"x*"}, {}}) == arm + ": output glob 'x*' matches no joint");
     CHECK(errorOf("no/such/rig.yaml", {{"a.b"}, {}, {}}) == "no/such/rig.yaml: no such rig file");
 }

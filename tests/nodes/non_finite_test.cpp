@@ -79,21 +79,29 @@ TEST_CASE("non-finite numbers into every input of every built-in node type: no c
                 const std::string plug = fmt::format("n.{}{}", spec.name, spec.array ? "[1]" : "");
                 std::string from;
                 switch (spec.type) {
-                case ValueType::Double:
-                case ValueType::Int:
-                case ValueType::Bool:
-                case ValueType::Enum: from = source.number; break;
-                case ValueType::Vector3: from = source.vector; break;
-                case ValueType::Matrix4: from = source.matrix; break;
-                default: continue;  // strings and arrays of numbers: no computed source to connect
+                    case ValueType::Double:
+                    case ValueType::Int:
+                    case ValueType::Bool:
+                    case ValueType::Enum:
+                        from = source.number;
+                        break;
+                    case ValueType::Vector3:
+                        from = source.vector;
+                        break;
+                    case ValueType::Matrix4:
+                        from = source.matrix;
+                        break;
+                    default:
+                        continue;  // strings and arrays of numbers: no computed source to connect
                 }
                 CAPTURE(typeName);
                 CAPTURE(plug);
                 CAPTURE(source.name);
                 // A bvhClip needs a clip to play; everything else starts from its defaults.
                 const std::string extra = typeName == "bvhClip" ? fmt::format(", file: '{}'", clip) : "";
-                const std::string text = fmt::format("nodes:{}  - {{name: n, type: {}{}}}\nconnections:{}  - {} -> {}\n",
-                                                     sources, typeName, extra, sourceConnections, from, plug);
+                const std::string text =
+                    fmt::format("nodes:{}  - {{name: n, type: {}{}}}\nconnections:{}  - {} -> {}\n", sources, typeName,
+                                extra, sourceConnections, from, plug);
                 std::unique_ptr<Graph> g;
                 try {
                     g = loadGraphText(text, "feed.yaml", registry);
@@ -113,8 +121,8 @@ TEST_CASE("non-finite numbers into every input of every built-in node type: no c
                     }
                     catch (const Error& e) {
                         // Numbers that are not a valid int or enum value are refused, naming the plug.
-                        const bool integral = spec.type == ValueType::Int || spec.type == ValueType::Enum
-                                              || spec.type == ValueType::Bool;
+                        const bool integral =
+                            spec.type == ValueType::Int || spec.type == ValueType::Enum || spec.type == ValueType::Bool;
                         CHECK(integral);
                         CHECK(std::string(e.what()).find(plug) == 0);
                         refused = true;

@@ -3,11 +3,11 @@
 #include <doctest/doctest.h>
 
 #include <numbers>
-#include <set>
 #include <random>
+#include <set>
 
-#include <Eigen/LU>
 #include <fmt/format.h>
+#include <Eigen/LU>
 
 #include "graph/plug_glob.h"
 #include "graph/yaml_loader.h"
@@ -82,16 +82,29 @@ TEST_CASE("biped: 60+ joints, the 150 animator parameters of docs/rigs.md, 79 of
     CHECK(joints == 86);
 
     const std::vector<std::string> inversion{
-        "root_ctrl.translate?", "root_ctrl.rotate?", "[LR]_hip_ctrl.rotate?", "[LR]_upLeg_fk_ctrl.rotate?",
-        "[LR]_knee_fk_ctrl.rotateX", "[LR]_foot_fk_ctrl.rotate?", "[LR]_toe_ctrl.rotate?", "spine_ctrl.bend*",
-        "spine_ctrl.twist", "lowerBack_ctrl.rotate?", "chest_ctrl.rotate?", "neck_ctrl.rotate?", "head_ctrl.rotate?",
-        "[LR]_clavicle_ctrl.rotate?", "[LR]_arm_fk_ctrl.rotate?", "[LR]_elbow_ctrl.rotate?", "[LR]_wrist_ctrl.rotate?",
-        "[LR]_hand_ctrl.fist", "[LR]_thumb_ctrl.rotate?"};
-    const std::vector<std::string> others{
-        "world_ctrl.translate?", "world_ctrl.rotate?", "world_ctrl.scale?", "[LR]_leg_ik_ctrl.translate?",
-        "[LR]_leg_pole_ctrl.translate?", "[LR]_leg_settings.ikFk", "*_ctrl.stretch", "*_ctrl.squash", "[LR]_hand_ctrl.spread",
-        "[LR]_hand_ctrl.*Curl", "[LR]_index_ctrl.rotate?", "[LR]_middle_ctrl.rotate?", "[LR]_ring_ctrl.rotate?",
-        "[LR]_pinky_ctrl.rotate?", "jaw_ctrl.open", "eyes_ctrl.translate?"};
+        "root_ctrl.translate?",       "root_ctrl.rotate?",          "[LR]_hip_ctrl.rotate?",
+        "[LR]_upLeg_fk_ctrl.rotate?", "[LR]_knee_fk_ctrl.rotateX",  "[LR]_foot_fk_ctrl.rotate?",
+        "[LR]_toe_ctrl.rotate?",      "spine_ctrl.bend*",           "spine_ctrl.twist",
+        "lowerBack_ctrl.rotate?",     "chest_ctrl.rotate?",         "neck_ctrl.rotate?",
+        "head_ctrl.rotate?",          "[LR]_clavicle_ctrl.rotate?", "[LR]_arm_fk_ctrl.rotate?",
+        "[LR]_elbow_ctrl.rotate?",    "[LR]_wrist_ctrl.rotate?",    "[LR]_hand_ctrl.fist",
+        "[LR]_thumb_ctrl.rotate?"};
+    const std::vector<std::string> others{"world_ctrl.translate?",
+                                          "world_ctrl.rotate?",
+                                          "world_ctrl.scale?",
+                                          "[LR]_leg_ik_ctrl.translate?",
+                                          "[LR]_leg_pole_ctrl.translate?",
+                                          "[LR]_leg_settings.ikFk",
+                                          "*_ctrl.stretch",
+                                          "*_ctrl.squash",
+                                          "[LR]_hand_ctrl.spread",
+                                          "[LR]_hand_ctrl.*Curl",
+                                          "[LR]_index_ctrl.rotate?",
+                                          "[LR]_middle_ctrl.rotate?",
+                                          "[LR]_ring_ctrl.rotate?",
+                                          "[LR]_pinky_ctrl.rotate?",
+                                          "jaw_ctrl.open",
+                                          "eyes_ctrl.translate?"};
     auto count = [&](const std::vector<std::string>& globs) {
         std::set<Plug> plugs;
         for (const auto& glob : globs)
@@ -226,9 +239,10 @@ TEST_CASE("generated rigs: a crowd includes the biped once per member, a chain h
 {
     const auto dir = test::scratchDir("generated-rigs");
     const auto script = test::sourceDir() / "scripts" / "make_rigs.py";
-    const auto result = test::run(fmt::format("python3 '{}' crowd 3 --rig '{}' -o '{}' && python3 '{}' chain 50 -o '{}'",
-                                              script.string(), (test::sourceDir() / "rigs" / "biped.yaml").string(),
-                                              (dir / "crowd.yaml").string(), script.string(), (dir / "chain.yaml").string()));
+    const auto result =
+        test::run(fmt::format("python3 '{}' crowd 3 --rig '{}' -o '{}' && python3 '{}' chain 50 -o '{}'",
+                              script.string(), (test::sourceDir() / "rigs" / "biped.yaml").string(),
+                              (dir / "crowd.yaml").string(), script.string(), (dir / "chain.yaml").string()));
     REQUIRE(result.exitCode == 0);
     const auto biped = loadRig("rigs/biped.yaml");
     const auto crowd = loadGraphFile(dir / "crowd.yaml", makeBuiltinRegistry());
@@ -242,7 +256,8 @@ TEST_CASE("generated rigs: a crowd includes the biped once per member, a chain h
 TEST_CASE("rigs/biped.yaml is what scripts/make_rigs.py generates")
 {
     const auto dir = test::scratchDir("biped-generated");
-    const auto result = test::run(fmt::format("python3 scripts/make_rigs.py biped -o '{}' && cmp -s '{}' rigs/biped.yaml",
-                                              (dir / "biped.yaml").string(), (dir / "biped.yaml").string()));
+    const auto result =
+        test::run(fmt::format("python3 scripts/make_rigs.py biped -o '{}' && cmp -s '{}' rigs/biped.yaml",
+                              (dir / "biped.yaml").string(), (dir / "biped.yaml").string()));
     CHECK(result.exitCode == 0);
 }

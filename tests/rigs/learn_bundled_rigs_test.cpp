@@ -7,8 +7,8 @@
 #include <filesystem>
 #include <numbers>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
+#include <Eigen/Geometry>
 
 #include "inversion/learner.h"
 #include "nodes/clips/bvh.h"
@@ -60,7 +60,8 @@ const Operator& operatorOn(const Approximation& a, const ModelledParameter& m, c
 }
 
 // A rotation operator about `axis` (either sign, with a slope of that sign) through `pivot`, to 1e-9.
-void checkRotation(const ModelledParameter& m, const Eigen::Vector3d& axis, const Eigen::Vector3d& pivot, double slope = 1.0)
+void checkRotation(const ModelledParameter& m, const Eigen::Vector3d& axis, const Eigen::Vector3d& pivot,
+                   double slope = 1.0)
 {
     CAPTURE(m.parameter.name);
     REQUIRE(m.operators.size() == 1);
@@ -73,7 +74,10 @@ void checkRotation(const ModelledParameter& m, const Eigen::Vector3d& axis, cons
     CHECK((op.pivot - pivot).norm() < 1e-9);
 }
 
-Eigen::Vector3d rotateY(double angle, const Eigen::Vector3d& v) { return Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY()) * v; }
+Eigen::Vector3d rotateY(double angle, const Eigen::Vector3d& v)
+{
+    return Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY()) * v;
+}
 
 }  // namespace
 
@@ -83,7 +87,8 @@ TEST_CASE("learning rigs/examples/arm.yaml: every rotation exact, with the rig's
     // the elbow's joint orient turns it -10 degrees more about Y. The free channels are parameters.
     for (Orderer orderer : {Orderer::talk, Orderer::structured}) {
         CAPTURE(ordererName(orderer));
-        GraphRigFunction rig(test::sourceDir() / "rigs/examples/arm.yaml", {{"shoulder.rotate?", "elbow.rotate?", "wrist.rotate?"}, {}, {}});
+        GraphRigFunction rig(test::sourceDir() / "rigs/examples/arm.yaml",
+                             {{"shoulder.rotate?", "elbow.rotate?", "wrist.rotate?"}, {}, {}});
         LearnOptions options;
         options.orderer = orderer;
         const Approximation a = learnApproximation(rig, options, "rigs/examples/arm.yaml");
@@ -122,7 +127,8 @@ TEST_CASE("learning a bvh2rig rig of a CMU clip: every rotation exact against th
     }
     const auto dir = test::scratchDir("learn-cmu");
     const auto rigFile = dir / "cmu.yaml";
-    const auto made = test::run(fmt::format("{} '{}' -o '{}'", test::tool("bvh2rig"), clipFile.string(), rigFile.string()));
+    const auto made =
+        test::run(fmt::format("{} '{}' -o '{}'", test::tool("bvh2rig"), clipFile.string(), rigFile.string()));
     REQUIRE(made.exitCode == 0);
 
     // The true axes and pivots from the BVH reader's independent forward kinematics at the rest pose.
@@ -143,10 +149,12 @@ TEST_CASE("learning a bvh2rig rig of a CMU clip: every rotation exact against th
         for (int c = 0; c < 3; ++c)
             checkRotation(modelled(a, clip.joints[j].name + ".rotate" + "XYZ"[c]), frame.col(c), pivot);
     }
-    for (const char* t : {"Hips.translateX", "Hips.translateY", "Hips.translateZ"}) CHECK(modelled(a, t).form == "translation");
-    MESSAGE(fmt::format("01_01.bvh rig: {} parameters, {} rig evaluations ({} for the order), validation {:.3g} cm, {:.3g} deg",
-                        a.parameters.size(), a.training.evaluations, a.training.orderEvaluations,
-                        a.validation.maxPositionErrorCm, a.validation.maxRotationErrorDeg));
+    for (const char* t : {"Hips.translateX", "Hips.translateY", "Hips.translateZ"})
+        CHECK(modelled(a, t).form == "translation");
+    MESSAGE(fmt::format(
+        "01_01.bvh rig: {} parameters, {} rig evaluations ({} for the order), validation {:.3g} cm, {:.3g} deg",
+        a.parameters.size(), a.training.evaluations, a.training.orderEvaluations, a.validation.maxPositionErrorCm,
+        a.validation.maxRotationErrorDeg));
     CHECK(a.validation.maxPositionErrorCm < 1e-6);
     CHECK(a.validation.maxRotationErrorDeg < 1e-6);
 }
@@ -154,9 +162,9 @@ TEST_CASE("learning a bvh2rig rig of a CMU clip: every rotation exact against th
 TEST_CASE("learning rigs/nasty.yaml: every parameter concludes what docs/rigs.md's table says")
 {
     const std::vector<std::string> parameters{
-        "root_ctrl.translate?", "arm_ctrl.rotate?", "nasty_ctrl.elbowBend", "nasty_ctrl.wristTwist", "nasty_ctrl.kneeBend",
-        "nasty_ctrl.spineBend", "nasty_ctrl.coupledTurn", "nasty_ctrl.coupledBend", "nasty_ctrl.saturated",
-        "nasty_ctrl.redundant?", "nasty_ctrl.springy", "nasty_ctrl.stretch"};
+        "root_ctrl.translate?", "arm_ctrl.rotate?",      "nasty_ctrl.elbowBend",   "nasty_ctrl.wristTwist",
+        "nasty_ctrl.kneeBend",  "nasty_ctrl.spineBend",  "nasty_ctrl.coupledTurn", "nasty_ctrl.coupledBend",
+        "nasty_ctrl.saturated", "nasty_ctrl.redundant?", "nasty_ctrl.springy",     "nasty_ctrl.stretch"};
     GraphRigFunction rig(test::sourceDir() / "rigs/nasty.yaml", {parameters, {}, {}});
     LearnOptions options;
     options.validationPoses = 10;
@@ -190,18 +198,22 @@ TEST_CASE("learning rigs/nasty.yaml: every parameter concludes what docs/rigs.md
         // The key at 60 degrees: the elbow at 45 (a sample of the curve).
         CHECK(std::abs(op.axis.z() * op.magnitude(60 * degree)) == doctest::Approx(45 * degree).epsilon(1e-3));
     }
-    SUBCASE("exact per output: the wrist's roll, 1 on the wrist, 0.33 and 0.66 on the roll joints; the hand follows the wrist")
+    SUBCASE(
+        "exact per output: the wrist's roll, 1 on the wrist, 0.33 and 0.66 on the roll joints; the hand follows the "
+        "wrist")
     {
         const ModelledParameter& m = modelled(a, "nasty_ctrl.wristTwist");
         CHECK(m.form == "per output: 3 rotation");
         // The hand is learned relative to the wrist: the roll moves it through its parent.
-        const auto hand = std::find_if(a.outputs.begin(), a.outputs.end(), [](const auto& o) { return o.name == "hand"; });
+        const auto hand =
+            std::find_if(a.outputs.begin(), a.outputs.end(), [](const auto& o) { return o.name == "hand"; });
         REQUIRE(hand != a.outputs.end());
         REQUIRE(hand->parent >= 0);
         CHECK(a.outputs[static_cast<std::size_t>(hand->parent)].name == "wrist");
         const auto reach = a.reach()[static_cast<std::size_t>(position(a, "nasty_ctrl.wristTwist"))];
         CHECK(std::count(reach.begin(), reach.end(), static_cast<int>(hand - a.outputs.begin())) == 1);
-        const std::vector<std::pair<std::string, double>> shares{{"wrist", 1.0}, {"forearm_roll1", 0.33}, {"forearm_roll2", 0.66}};
+        const std::vector<std::pair<std::string, double>> shares{
+            {"wrist", 1.0}, {"forearm_roll1", 0.33}, {"forearm_roll2", 0.66}};
         for (const auto& [output, share] : shares) {
             CAPTURE(output);
             const Operator& op = operatorOn(a, m, output);
@@ -227,7 +239,8 @@ TEST_CASE("learning rigs/nasty.yaml: every parameter concludes what docs/rigs.md
         // was sampled); in each joint's parent-relative frame it is the joint's own rotation.
         const ModelledParameter& m = modelled(a, "nasty_ctrl.spineBend");
         CHECK(m.form == "per output: 3 rotation");
-        for (const char* output : {"spine1", "spine2", "spine3"}) CHECK(operatorOn(a, m, output).kind == OperatorKind::rotation);
+        for (const char* output : {"spine1", "spine2", "spine3"})
+            CHECK(operatorOn(a, m, output).kind == OperatorKind::rotation);
         CHECK(m.validationError <= options.epsilon);
     }
     SUBCASE("coupled: coupledTurn is discarded as coupled, coupledBend is an exact rotation about X")
@@ -266,7 +279,8 @@ TEST_CASE("learning rigs/nasty.yaml: every parameter concludes what docs/rigs.md
         checkRotation(rb, x, Eigen::Vector3d(-20, 90, 0));
         CHECK(ra.outputs == rb.outputs);
         // Reported as a redundant pair, and the only one.
-        const std::vector<std::pair<int, int>> pairs{std::minmax(position(a, "nasty_ctrl.redundantA"), position(a, "nasty_ctrl.redundantB"))};
+        const std::vector<std::pair<int, int>> pairs{
+            std::minmax(position(a, "nasty_ctrl.redundantA"), position(a, "nasty_ctrl.redundantB"))};
         CHECK(redundantParameters(a) == pairs);
     }
     SUBCASE("history-dependent: springy cannot be modelled")
@@ -293,13 +307,16 @@ TEST_CASE("learning rigs/biped.yaml: the 79 inversion parameters within the talk
 {
     // Globs of docs/rigs.md: the inversion parameters, and the CMU joints as outputs.
     const std::vector<std::string> parameters{
-        "root_ctrl.translate?", "root_ctrl.rotate?", "[LR]_hip_ctrl.rotate?", "[LR]_upLeg_fk_ctrl.rotate?",
-        "[LR]_knee_fk_ctrl.rotateX", "[LR]_foot_fk_ctrl.rotate?", "[LR]_toe_ctrl.rotate?", "spine_ctrl.bend*",
-        "spine_ctrl.twist", "lowerBack_ctrl.rotate?", "chest_ctrl.rotate?", "neck_ctrl.rotate?", "head_ctrl.rotate?",
-        "[LR]_clavicle_ctrl.rotate?", "[LR]_arm_fk_ctrl.rotate?", "[LR]_elbow_ctrl.rotate?", "[LR]_wrist_ctrl.rotate?",
-        "[LR]_hand_ctrl.fist", "[LR]_thumb_ctrl.rotate?"};
-    const std::vector<std::string> outputs{"Hips", "[LR]HipJoint", "*Leg", "*Foot", "*ToeBase", "LowerBack", "Spine*", "Neck*",
-                                           "Head", "*Shoulder", "*Arm", "*Hand", "*FingerBase", "[LR]Fingers", "[LR]Thumb"};
+        "root_ctrl.translate?",       "root_ctrl.rotate?",          "[LR]_hip_ctrl.rotate?",
+        "[LR]_upLeg_fk_ctrl.rotate?", "[LR]_knee_fk_ctrl.rotateX",  "[LR]_foot_fk_ctrl.rotate?",
+        "[LR]_toe_ctrl.rotate?",      "spine_ctrl.bend*",           "spine_ctrl.twist",
+        "lowerBack_ctrl.rotate?",     "chest_ctrl.rotate?",         "neck_ctrl.rotate?",
+        "head_ctrl.rotate?",          "[LR]_clavicle_ctrl.rotate?", "[LR]_arm_fk_ctrl.rotate?",
+        "[LR]_elbow_ctrl.rotate?",    "[LR]_wrist_ctrl.rotate?",    "[LR]_hand_ctrl.fist",
+        "[LR]_thumb_ctrl.rotate?"};
+    const std::vector<std::string> outputs{"Hips",      "[LR]HipJoint", "*Leg",        "*Foot",       "*ToeBase",
+                                           "LowerBack", "Spine*",       "Neck*",       "Head",        "*Shoulder",
+                                           "*Arm",      "*Hand",        "*FingerBase", "[LR]Fingers", "[LR]Thumb"};
     Approximation learned[2];
     for (Orderer orderer : {Orderer::talk, Orderer::structured}) {
         CAPTURE(ordererName(orderer));
@@ -309,12 +326,13 @@ TEST_CASE("learning rigs/biped.yaml: the 79 inversion parameters within the talk
         LearnOptions options;
         options.orderer = orderer;
         const Approximation a = learnApproximation(rig, options, "rigs/biped.yaml");
-        MESSAGE(fmt::format("biped, {} orderer: {} modelled, {} discarded, {} rig evaluations ({} for the order), {:.2f} s; "
-                            "validation on {} poses: position worst {:.3g} cm ({}, pose {}), mean {:.3g} cm; rotation worst {:.3g} deg",
-                            ordererName(orderer), a.parameters.size(), a.discarded.size(), a.training.evaluations,
-                            a.training.orderEvaluations, a.training.seconds, a.validation.poses, a.validation.maxPositionErrorCm,
-                            a.validation.worstOutput, a.validation.worstPose, a.validation.meanPositionErrorCm,
-                            a.validation.maxRotationErrorDeg));
+        MESSAGE(fmt::format(
+            "biped, {} orderer: {} modelled, {} discarded, {} rig evaluations ({} for the order), {:.2f} s; "
+            "validation on {} poses: position worst {:.3g} cm ({}, pose {}), mean {:.3g} cm; rotation worst {:.3g} deg",
+            ordererName(orderer), a.parameters.size(), a.discarded.size(), a.training.evaluations,
+            a.training.orderEvaluations, a.training.seconds, a.validation.poses, a.validation.maxPositionErrorCm,
+            a.validation.worstOutput, a.validation.worstPose, a.validation.meanPositionErrorCm,
+            a.validation.maxRotationErrorDeg));
         // The talk's orderer tests every pair on the rig; the structured one only pairs sharing an output
         // whose operators do not commute, within the goal of 1 000 evaluations for the whole training.
         if (orderer == Orderer::talk) CHECK(a.training.orderEvaluations == 79 * 78 / 2);
@@ -326,12 +344,14 @@ TEST_CASE("learning rigs/biped.yaml: the 79 inversion parameters within the talk
         CHECK(a.validation.maxRotationErrorDeg < 0.05);
         // The spine, chest and neck controls spread over several joints are exact in their joints'
         // parent-relative frames (they were discarded in world space).
-        for (const char* name : {"spine_ctrl.bendForward", "spine_ctrl.twist", "chest_ctrl.rotateX", "neck_ctrl.rotateZ"})
+        for (const char* name :
+             {"spine_ctrl.bendForward", "spine_ctrl.twist", "chest_ctrl.rotateX", "neck_ctrl.rotateZ"})
             CHECK(findModelled(a, name) != nullptr);
         learned[orderer == Orderer::structured] = a;
     }
     // The structured orderer reaches the same approximation with fewer evaluations.
     CHECK(learned[1].training.orderEvaluations < learned[0].training.orderEvaluations);
     CHECK(learned[1].parameters.size() == learned[0].parameters.size());
-    CHECK(learned[1].validation.maxPositionErrorCm == doctest::Approx(learned[0].validation.maxPositionErrorCm).epsilon(1e-6));
+    CHECK(learned[1].validation.maxPositionErrorCm ==
+          doctest::Approx(learned[0].validation.maxPositionErrorCm).epsilon(1e-6));
 }

@@ -24,7 +24,8 @@ void learnSkeleton(const fs::path& clipFile, const std::string& tag)
     CAPTURE(clipFile.string());
     const auto dir = test::scratchDir("learn-skeleton-" + tag);
     const auto rigFile = dir / "skeleton.yaml";
-    const auto made = test::run(fmt::format("{} '{}' -o '{}'", test::tool("bvh2rig"), clipFile.string(), rigFile.string()));
+    const auto made =
+        test::run(fmt::format("{} '{}' -o '{}'", test::tool("bvh2rig"), clipFile.string(), rigFile.string()));
     REQUIRE(made.exitCode == 0);
     const BvhClip clip = readBvhFile(clipFile);
     REQUIRE(!clip.joints.empty());
@@ -35,11 +36,12 @@ void learnSkeleton(const fs::path& clipFile, const std::string& tag)
         LearnOptions options;
         options.relativeFrames = relative;
         const Approximation a = learnApproximation(rig, options, rigFile.string());
-        MESSAGE(fmt::format("{} ({}): {} parameters, {} outputs, {} rig evaluations ({} for the order), validation {:.3g} cm, "
-                            "{:.3g} deg",
-                            clipFile.filename().string(), relative ? "relative" : "world", a.parameters.size(),
-                            a.outputs.size(), a.training.evaluations, a.training.orderEvaluations,
-                            a.validation.maxPositionErrorCm, a.validation.maxRotationErrorDeg));
+        MESSAGE(fmt::format(
+            "{} ({}): {} parameters, {} outputs, {} rig evaluations ({} for the order), validation {:.3g} cm, "
+            "{:.3g} deg",
+            clipFile.filename().string(), relative ? "relative" : "world", a.parameters.size(), a.outputs.size(),
+            a.training.evaluations, a.training.orderEvaluations, a.validation.maxPositionErrorCm,
+            a.validation.maxRotationErrorDeg));
         CHECK(a.discarded.empty());
         CHECK(a.parameters.size() == rig.parameters().size());
         CHECK(a.validation.maxPositionErrorCm < 1e-9);

@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <fmt/format.h>
+#include <Eigen/Core>
 
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
@@ -37,7 +37,10 @@ const fs::path cmuClip = "/usr/share/assimp/models/BVH/01_01.bvh";
 
 fs::path sharedMotion() { return test::sourceDir() / ".." / "shared" / "motion"; }
 
-test::CommandResult bvh2rig(const std::string& args) { return test::run(fmt::format("{} {}", test::tool("bvh2rig"), args)); }
+test::CommandResult bvh2rig(const std::string& args)
+{
+    return test::run(fmt::format("{} {}", test::tool("bvh2rig"), args));
+}
 
 // Which rig node stands for BVH joint j, and for its End Site.
 struct RigNames {
@@ -80,7 +83,8 @@ struct Errors {
 void accumulate(Errors& e, const Eigen::Matrix4d& rig, const Eigen::Matrix4d& reference)
 {
     e.position = std::max(e.position, (rig.col(3).head<3>() - reference.col(3).head<3>()).cwiseAbs().maxCoeff());
-    e.rotation = std::max(e.rotation, (rig.topLeftCorner<3, 3>() - reference.topLeftCorner<3, 3>()).cwiseAbs().maxCoeff());
+    e.rotation =
+        std::max(e.rotation, (rig.topLeftCorner<3, 3>() - reference.topLeftCorner<3, 3>()).cwiseAbs().maxCoeff());
     ++e.matrices;
 }
 
@@ -320,7 +324,8 @@ TEST_CASE("bvh2rig: without --with-motion the rig is the rest pose, and --prefix
     auto graph = loadGraphFile(dir / "rig.yaml", makeBuiltinRegistry());
     CHECK(graph->nodeCount() == 18);
     // Rest pose: OFFSETs only.
-    const Eigen::Matrix4d neck = std::get<Eigen::Matrix4d>(graph->getValue(graph->plug("mocap:mixamorig:Neck.worldMatrix")));
+    const Eigen::Matrix4d neck =
+        std::get<Eigen::Matrix4d>(graph->getValue(graph->plug("mocap:mixamorig:Neck.worldMatrix")));
     CHECK((neck.col(3).head<3>() - Eigen::Vector3d(3, 131, -1)).cwiseAbs().maxCoeff() < 1e-12);
     CHECK(graph->findNode("mocap:Fixed_end_2") >= 0);
 }
@@ -354,12 +359,13 @@ TEST_CASE("bvh2rig: errors are one line and exit code 2")
     CHECK(r.err.starts_with(fmt::format("error: {}: cannot write here", (dir / "no" / "rig.yaml").string())));
     CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
     // A wrong Frames count is a warning on standard error, and in the rig's header.
-    const auto odd = test::writeFile(dir / "odd.bvh", "HIERARCHY\nROOT A\n{\n OFFSET 0 0 0\n CHANNELS 1 Zrotation\n}\n"
-                                                      "MOTION\nFrames: 3\nFrame Time: 0.1\n1\n2\n");
+    const auto odd = test::writeFile(dir / "odd.bvh",
+                                     "HIERARCHY\nROOT A\n{\n OFFSET 0 0 0\n CHANNELS 1 Zrotation\n}\n"
+                                     "MOTION\nFrames: 3\nFrame Time: 0.1\n1\n2\n");
     r = bvh2rig(fmt::format("'{}' -o '{}'", odd.string(), (dir / "odd.yaml").string()));
     CHECK(r.exitCode == 0);
-    CHECK(r.err == fmt::format("warning: {}:8: 'Frames: 3' but the file has 2 motion lines; using the 2 lines\n",
-                               odd.string()));
+    CHECK(r.err ==
+          fmt::format("warning: {}:8: 'Frames: 3' but the file has 2 motion lines; using the 2 lines\n", odd.string()));
     CHECK(test::readFile(dir / "odd.yaml").find("# Warning: ") != std::string::npos);
 }
 
@@ -372,9 +378,10 @@ TEST_CASE("bvh2rig round trip: CMU clip 01_01 (assimp-testmodels), every frame")
     const auto start = std::chrono::steady_clock::now();
     const Errors e = roundTrip(cmuClip, "cmu", 1 << 30);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    MESSAGE(fmt::format("01_01.bvh: {} frames, {} matrices, max position error {:.3g} cm, max rotation error {:.3g}, "
-                        "{:.2f} s",
-                        e.frames, e.matrices, e.position, e.rotation, seconds));
+    MESSAGE(
+        fmt::format("01_01.bvh: {} frames, {} matrices, max position error {:.3g} cm, max rotation error {:.3g}, "
+                    "{:.2f} s",
+                    e.frames, e.matrices, e.position, e.rotation, seconds));
     CHECK(e.frames == 2752);
     CHECK(e.position < positionTolerance);
     CHECK(e.rotation < rotationTolerance);
@@ -396,9 +403,10 @@ TEST_CASE("bvh2rig round trip: the odd files of ../shared/motion, every frame")
         const auto start = std::chrono::steady_clock::now();
         const Errors e = roundTrip(file, "shared-" + file.stem().string(), 1 << 30);
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        MESSAGE(fmt::format("{}: {} frames, {} matrices, max position error {:.3g} cm, max rotation error {:.3g}, "
-                            "{:.2f} s",
-                            file.filename().string(), e.frames, e.matrices, e.position, e.rotation, seconds));
+        MESSAGE(
+            fmt::format("{}: {} frames, {} matrices, max position error {:.3g} cm, max rotation error {:.3g}, "
+                        "{:.2f} s",
+                        file.filename().string(), e.frames, e.matrices, e.position, e.rotation, seconds));
         CHECK(e.frames == readBvhFile(file).frameCount);
         CHECK(e.position < positionTolerance);
         CHECK(e.rotation < rotationTolerance);
@@ -415,8 +423,9 @@ TEST_CASE("bvh2rig round trip through graph-eval: CMU clip 01_01, every frame")
     auto r = bvh2rig(fmt::format("'{}' -o '{}' --with-motion", cmuClip.string(), (dir / "rig.yaml").string()));
     REQUIRE(r.exitCode == 0);
     const BvhClip clip = readBvhFile(cmuClip);
-    r = test::run(fmt::format("{} '{}' --frames 1:{} --get '*.worldMatrix' --format csv -o '{}'", test::tool("graph-eval"),
-                              (dir / "rig.yaml").string(), clip.frameCount, (dir / "out.csv").string()));
+    r = test::run(fmt::format("{} '{}' --frames 1:{} --get '*.worldMatrix' --format csv -o '{}'",
+                              test::tool("graph-eval"), (dir / "rig.yaml").string(), clip.frameCount,
+                              (dir / "out.csv").string()));
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
 

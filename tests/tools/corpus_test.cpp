@@ -48,7 +48,8 @@ std::map<std::string, std::string> snapshot(const fs::path& dir)
         if (it->is_symlink() || (!it->is_regular_file() && !it->is_directory())) files[rel] = "<special>";
         else if (it->is_directory()) files[rel] = "<folder>";
         else if (it->file_size() > (1 << 20) || ::access(it->path().c_str(), R_OK) != 0)
-            files[rel] = fmt::format("<{} bytes, {}>", it->file_size(), it->last_write_time().time_since_epoch().count());
+            files[rel] =
+                fmt::format("<{} bytes, {}>", it->file_size(), it->last_write_time().time_since_epoch().count());
         else files[rel] = rig::test::readFile(it->path());
     }
     return files;
@@ -69,20 +70,18 @@ void generate(const YAML::Node& spec, const fs::path& dir)
             }
         }
         if (const auto size = spec["size"]) fs::resize_file(file, size.as<std::uintmax_t>());
-    }
-    else if (kind == "bytes") {
+    } else if (kind == "bytes") {
         std::mt19937 random(spec["seed"].as<unsigned>(1));
         std::string bytes(spec["size"].as<std::size_t>(), '\0');
         for (char& c : bytes) c = static_cast<char>(random() & 0xff);
         rig::test::writeFile(file, bytes);
-    }
-    else if (kind == "include-chain") {
+    } else if (kind == "include-chain") {
         const int count = spec["count"].as<int>();
         for (int i = 0; i + 1 < count; ++i)
-            rig::test::writeFile(dir / fmt::format("c{}.yaml", i), fmt::format("include:\n  - {{file: c{}.yaml}}\n", i + 1));
+            rig::test::writeFile(dir / fmt::format("c{}.yaml", i),
+                                 fmt::format("include:\n  - {{file: c{}.yaml}}\n", i + 1));
         rig::test::writeFile(dir / fmt::format("c{}.yaml", count - 1), "nodes:\n  - {name: a, type: joint}\n");
-    }
-    else if (kind == "include-fanout") {
+    } else if (kind == "include-fanout") {
         const int depth = spec["depth"].as<int>();
         const int width = spec["width"].as<int>();
         for (int i = 0; i < depth; ++i) {
@@ -92,17 +91,16 @@ void generate(const YAML::Node& spec, const fs::path& dir)
         }
         const int padding = spec["leafComment"] ? spec["leafComment"].as<int>() : 0;
         rig::test::writeFile(dir / fmt::format("f{}.yaml", depth),
-                             "nodes:\n  - {name: a, type: joint}\n" + (padding ? "# " + std::string(static_cast<std::size_t>(padding), 'x') + "\n" : ""));
-    }
-    else if (kind == "learn") {
+                             "nodes:\n  - {name: a, type: joint}\n" +
+                                 (padding ? "# " + std::string(static_cast<std::size_t>(padding), 'x') + "\n" : ""));
+    } else if (kind == "learn") {
         // An approximation learned now from the rig as it is (its fingerprint matches).
         std::string command = rig::test::tool("rig-learn");
         for (const auto& a : spec["args"].as<std::vector<std::string>>()) command += " " + shellQuote(a);
         const auto r = rig::test::run(command + " -o " + shellQuote(file.string()));
         INFO(r.err);
         REQUIRE(r.exitCode == 0);
-    }
-    else if (kind == "folder") fs::create_directories(file);
+    } else if (kind == "folder") fs::create_directories(file);
     else if (kind == "fifo") REQUIRE(::mkfifo(file.c_str(), 0644) == 0);
     else FAIL("unknown generator kind '" << kind << "'");
     if (const auto mode = spec["mode"])
@@ -243,8 +241,8 @@ TEST_CASE("corpus: the manifest is well formed and names every corpus file")
         CAPTURE(k.name);
         CHECK(names.insert(k.name).second);
         CHECK(k.name.find(';') == std::string::npos);
-        CHECK((k.tool == "graph-eval" || k.tool == "bvh2rig" || k.tool == "rig-learn" || k.tool == "rig-invert"
-               || k.tool == "rig-bench"));
+        CHECK((k.tool == "graph-eval" || k.tool == "bvh2rig" || k.tool == "rig-learn" || k.tool == "rig-invert" ||
+               k.tool == "rig-bench"));
         CHECK(k.expectExit == 2);
         CHECK(k.expectStderr.starts_with("error: "));
         CHECK(k.expectStderr.find('\n') == std::string::npos);
@@ -253,7 +251,8 @@ TEST_CASE("corpus: the manifest is well formed and names every corpus file")
     // the corpus (includes).
     std::string referenced = rig::test::readFile(rig::test::sourceDir() / "tests/corpus/cases.yaml");
     for (const auto& entry : fs::recursive_directory_iterator(rig::test::sourceDir() / "tests/corpus"))
-        if (entry.is_regular_file() && entry.path().extension() == ".yaml") referenced += rig::test::readFile(entry.path());
+        if (entry.is_regular_file() && entry.path().extension() == ".yaml")
+            referenced += rig::test::readFile(entry.path());
     for (const auto& entry : fs::recursive_directory_iterator(rig::test::sourceDir() / "tests/corpus")) {
         if (!entry.is_regular_file() || entry.path().filename() == "cases.yaml") continue;
         CAPTURE(entry.path().string());

@@ -81,13 +81,15 @@ std::string manyChainsRig(int chains, int length)
     std::string text = "nodes:\n  - {name: time1, type: time}\n";
     std::string connections = "connections:\n";
     for (int c = 0; c < chains; ++c) {
-        text += fmt::format("  - {{name: c{}_anim, type: animCurveTA, keys: [[1, {}], [{}, {}], [24, {}]], tangents: "
-                            "{}}}\n",
-                            c, -5 * c, 6 + c, 40 + 3 * c, -10 + c, c % 2 ? "spline" : "clamped");
+        text += fmt::format(
+            "  - {{name: c{}_anim, type: animCurveTA, keys: [[1, {}], [{}, {}], [24, {}]], tangents: "
+            "{}}}\n",
+            c, -5 * c, 6 + c, 40 + 3 * c, -10 + c, c % 2 ? "spline" : "clamped");
         connections += fmt::format("  - time1.outTime -> c{}_anim.input\n", c);
         for (int j = 0; j < length; ++j) {
-            text += fmt::format("  - {{name: c{}_j{}, type: joint, translate: [{}, {}, 0]{}}}\n", c, j,
-                                j == 0 ? 10 * c : 5, j == 0 ? 0 : 1, j == 0 ? "" : fmt::format(", parent: c{}_j{}", c, j - 1));
+            text +=
+                fmt::format("  - {{name: c{}_j{}, type: joint, translate: [{}, {}, 0]{}}}\n", c, j, j == 0 ? 10 * c : 5,
+                            j == 0 ? 0 : 1, j == 0 ? "" : fmt::format(", parent: c{}_j{}", c, j - 1));
             connections += fmt::format("  - c{}_anim.output -> c{}_j{}.rotateZ\n", c, c, j);
             if (j % 3 == 1) connections += fmt::format("  - c{}_anim.output -> c{}_j{}.rotateX\n", c, c, j);
         }
@@ -106,8 +108,10 @@ std::string twoControlsRig(int lengthA, int lengthB, bool animateB)
     std::string connections = fmt::format("connections:\n  - time1.outTime -> anim.input\n  - anim.output -> {}.bend\n",
                                           animateB ? "ctrlB" : "ctrlA");
     for (const auto& [name, length] : {std::pair{std::string("A"), lengthA}, std::pair{std::string("B"), lengthB}}) {
-        text += fmt::format("  - {{name: ctrl{}, type: transform, addAttr: [{{name: bend, min: 0, max: 10}}]}}\n", name);
-        text += fmt::format("  - {{name: sdk{}, type: animCurveUA, keys: [[0, 0], [10, 90]], tangents: linear}}\n", name);
+        text +=
+            fmt::format("  - {{name: ctrl{}, type: transform, addAttr: [{{name: bend, min: 0, max: 10}}]}}\n", name);
+        text +=
+            fmt::format("  - {{name: sdk{}, type: animCurveUA, keys: [[0, 0], [10, 90]], tangents: linear}}\n", name);
         connections += fmt::format("  - ctrl{0}.bend -> sdk{0}.input\n  - sdk{0}.output -> {0}0.rotateZ\n", name);
         for (int j = 0; j < length; ++j)
             text += fmt::format("  - {{name: {}{}, type: joint, translate: [10, 0, 0]{}}}\n", name, j,
@@ -126,8 +130,8 @@ TEST_CASE("graph-eval --help exits 0, shows examples, and the examples run")
     CHECK(r.out.find("Example:") != std::string::npos);
     CHECK(r.out.find("graph-eval rigs/examples/arm.yaml --frames 1:24") != std::string::npos);
     CHECK(r.out.find("docs/graph-eval.md") != std::string::npos);
-    for (const char* flag : {"--set", "--get", "--frames", "--format", "--output", "--plugin", "--dot", "--threads",
-                             "--stats", "--check"})
+    for (const char* flag :
+         {"--set", "--get", "--frames", "--format", "--output", "--plugin", "--dot", "--threads", "--stats", "--check"})
         CHECK(r.out.find(flag) != std::string::npos);
     int examples = 0;
     for (const auto& line : lines(r.out)) {
@@ -145,11 +149,13 @@ TEST_CASE("graph-eval --help exits 0, shows examples, and the examples run")
 
 TEST_CASE("graph-eval JSON for the arm over frames: the driven key, the swing, matrix layout")
 {
-    const auto r = run(graphEval(arm + " --frames 1:24 --get elbow.rotateZ --get arm_ctrl.bend --get shoulder.rotateY"));
+    const auto r =
+        run(graphEval(arm + " --frames 1:24 --get elbow.rotateZ --get arm_ctrl.bend --get shoulder.rotateY"));
     REQUIRE(r.exitCode == 0);
     CHECK(r.err.empty());
-    CHECK(r.out.starts_with("[\n  {\"frame\": 1,\n   \"elbow.rotateZ\": 0,\n   \"arm_ctrl.bend\": 0,\n"
-                            "   \"shoulder.rotateY\": -20},\n  {\"frame\": 2,\n"));
+    CHECK(
+        r.out.starts_with("[\n  {\"frame\": 1,\n   \"elbow.rotateZ\": 0,\n   \"arm_ctrl.bend\": 0,\n"
+                          "   \"shoulder.rotateY\": -20},\n  {\"frame\": 2,\n"));
     CHECK(r.out.ends_with("   \"shoulder.rotateY\": 20}\n]\n"));
     const YAML::Node rows = parseJson(r.out);
     REQUIRE(rows.IsSequence());
@@ -165,7 +171,8 @@ TEST_CASE("graph-eval JSON for the arm over frames: the driven key, the swing, m
         // The set-driven key is linear 0..10 -> 0..120 degrees: the elbow turns 12 degrees per unit of bend.
         CHECK(row["elbow.rotateZ"].as<double>() == doctest::Approx(12.0 * bend).epsilon(1e-12));
         // Two spline keys (1, -20) and (24, 20) make a straight line.
-        CHECK(row["shoulder.rotateY"].as<double>() == doctest::Approx(-20.0 + 40.0 * static_cast<double>(i) / 23.0).epsilon(1e-9));
+        CHECK(row["shoulder.rotateY"].as<double>() ==
+              doctest::Approx(-20.0 + 40.0 * static_cast<double>(i) / 23.0).epsilon(1e-9));
     }
     CHECK(rows[0]["shoulder.rotateY"].as<double>() == -20.0);
     CHECK(rows[23]["shoulder.rotateY"].as<double>() == 20.0);
@@ -223,7 +230,8 @@ TEST_CASE("graph-eval without --get prints every output plug, and non-finite num
 
 TEST_CASE("graph-eval --format csv: a header naming components and matrix cells, one row per frame")
 {
-    const auto r = run(graphEval(arm + " --frames 1:24 --get elbow.rotate --get wrist.worldMatrix --get shoulder.rotateOrder --format csv"));
+    const auto r = run(graphEval(
+        arm + " --frames 1:24 --get elbow.rotate --get wrist.worldMatrix --get shoulder.rotateOrder --format csv"));
     REQUIRE(r.exitCode == 0);
     CHECK(r.err.empty());
     const auto rows = lines(r.out);
@@ -242,8 +250,9 @@ TEST_CASE("graph-eval --format csv: a header naming components and matrix cells,
         CHECK(fields[19] == "1");
         CHECK(fields[20] == "3");  // CSV has numbers only: the enum's index (xzy)
     }
-    CHECK(rows[1] == "1,0,0,0,0.8660254037844387,0,-0.5,69.84141371818822,0,1,0,150,0.5,0,0.8660254037844387,"
-                     "22.760604299770062,0,0,0,1,3");
+    CHECK(rows[1] ==
+          "1,0,0,0,0.8660254037844387,0,-0.5,69.84141371818822,0,1,0,150,0.5,0,0.8660254037844387,"
+          "22.760604299770062,0,0,0,1,3");
 
     // A fractional step.
     const auto half = run(graphEval(arm + " --frames 0:2:0.5 --get shoulder.rotateY --format csv"));
@@ -257,10 +266,11 @@ TEST_CASE("graph-eval --format table: aligned columns, six significant digits")
     const auto r = run(graphEval(arm + " --frames 1:3 --get elbow.rotateZ --get shoulder.rotateY --format table"));
     CHECK(r.exitCode == 0);
     CHECK(r.err.empty());
-    CHECK(r.out == "frame  elbow.rotateZ  shoulder.rotateY\n"
-                   "    1              0               -20\n"
-                   "    2        2.79489          -18.2609\n"
-                   "    3        10.4583          -16.5217\n");
+    CHECK(r.out ==
+          "frame  elbow.rotateZ  shoulder.rotateY\n"
+          "    1              0               -20\n"
+          "    2        2.79489          -18.2609\n"
+          "    3        10.4583          -16.5217\n");
 }
 
 TEST_CASE("graph-eval --get globs and names")
@@ -272,24 +282,26 @@ TEST_CASE("graph-eval --get globs and names")
         k.erase(k.begin());  // "frame"
         return k;
     };
-    CHECK(keys("--get '*.rotateZ'")
-          == std::vector<std::string>{"arm_ctrl.rotateZ", "shoulder.rotateZ", "elbow.rotateZ", "wrist.rotateZ"});
+    CHECK(keys("--get '*.rotateZ'") ==
+          std::vector<std::string>{"arm_ctrl.rotateZ", "shoulder.rotateZ", "elbow.rotateZ", "wrist.rotateZ"});
     CHECK(keys("--get 'elbow.rotate?'") == std::vector<std::string>{"elbow.rotateX", "elbow.rotateY", "elbow.rotateZ"});
-    CHECK(keys("--get '*.worldMatrix'")
-          == std::vector<std::string>{"arm_ctrl.worldMatrix", "shoulder.worldMatrix", "elbow.worldMatrix", "wrist.worldMatrix"});
-    CHECK(keys("--get 'wrist_world.outputTranslate[XZ]'")
-          == std::vector<std::string>{"wrist_world.outputTranslateX", "wrist_world.outputTranslateZ"});
+    CHECK(keys("--get '*.worldMatrix'") == std::vector<std::string>{"arm_ctrl.worldMatrix", "shoulder.worldMatrix",
+                                                                    "elbow.worldMatrix", "wrist.worldMatrix"});
+    CHECK(keys("--get 'wrist_world.outputTranslate[XZ]'") ==
+          std::vector<std::string>{"wrist_world.outputTranslateX", "wrist_world.outputTranslateZ"});
     // Patterns in the order given; a plug matched twice is printed once.
-    CHECK(keys("--get elbow.rotateZ --get 'elbow.rotate?' --get elbow.rotate")
-          == std::vector<std::string>{"elbow.rotateZ", "elbow.rotateX", "elbow.rotateY", "elbow.rotate"});
+    CHECK(keys("--get elbow.rotateZ --get 'elbow.rotate?' --get elbow.rotate") ==
+          std::vector<std::string>{"elbow.rotateZ", "elbow.rotateX", "elbow.rotateY", "elbow.rotate"});
     // CSV names vector components like their plugs; a component selected with its vector is one column.
     const auto csv = run(graphEval(arm + " --get 'wrist.rotate*' --format csv"));
     CHECK(csv.exitCode == 0);
-    CHECK(csv.out == "frame,wrist.rotateX,wrist.rotateY,wrist.rotateZ,wrist.rotateOrder,wrist.rotateAxisX,"
-                     "wrist.rotateAxisY,wrist.rotateAxisZ\n0,0,0,0,0,0,0,0\n");
-    CHECK(keys("--get 'wrist.rotate*'")
-          == std::vector<std::string>{"wrist.rotate", "wrist.rotateX", "wrist.rotateY", "wrist.rotateZ", "wrist.rotateOrder",
-                                      "wrist.rotateAxis", "wrist.rotateAxisX", "wrist.rotateAxisY", "wrist.rotateAxisZ"});
+    CHECK(csv.out ==
+          "frame,wrist.rotateX,wrist.rotateY,wrist.rotateZ,wrist.rotateOrder,wrist.rotateAxisX,"
+          "wrist.rotateAxisY,wrist.rotateAxisZ\n0,0,0,0,0,0,0,0\n");
+    CHECK(keys("--get 'wrist.rotate*'") == std::vector<std::string>{"wrist.rotate", "wrist.rotateX", "wrist.rotateY",
+                                                                    "wrist.rotateZ", "wrist.rotateOrder",
+                                                                    "wrist.rotateAxis", "wrist.rotateAxisX",
+                                                                    "wrist.rotateAxisY", "wrist.rotateAxisZ"});
     // The rig may come after the flags: each --get takes one value.
     const auto after = run(graphEval("--get 'elbow.rotate?' --get shoulder.rotateY " + arm + " --format csv"));
     CHECK(after.exitCode == 0);
@@ -324,8 +336,9 @@ TEST_CASE("graph-eval --set takes degrees: a scalar, a vector and an enum by nam
     const auto r = run(graphEval(rig + " --set 'j1.rotate=[0, 0, 90]' --set j1.rotateOrder=zyx --set ctrl.bend=10"
                                        " --get j1.rotate --get j1.rotateOrder --get ctrl.bend"));
     CHECK(r.exitCode == 0);
-    CHECK(r.out == "[\n  {\"frame\": 0,\n   \"j1.rotate\": [0, 0, 90],\n   \"j1.rotateOrder\": \"zyx\",\n"
-                   "   \"ctrl.bend\": 10}\n]\n");
+    CHECK(r.out ==
+          "[\n  {\"frame\": 0,\n   \"j1.rotate\": [0, 0, 90],\n   \"j1.rotateOrder\": \"zyx\",\n"
+          "   \"ctrl.bend\": 10}\n]\n");
 }
 
 TEST_CASE("graph-eval -o writes the file and prints nothing, and a failing run leaves files alone")
@@ -357,12 +370,14 @@ TEST_CASE("graph-eval -o writes the file and prints nothing, and a failing run l
                   "exists and is writable");
     CHECK(!std::filesystem::exists("/nonexistent"));
     const auto missing = dir / "missing" / "out.json";
-    checkBadInput(arm + " -o " + quote(missing),
-                  fmt::format("{}: cannot write here (No such file or directory); check the folder exists and is writable",
-                              missing.string()));
+    checkBadInput(
+        arm + " -o " + quote(missing),
+        fmt::format("{}: cannot write here (No such file or directory); check the folder exists and is writable",
+                    missing.string()));
     CHECK(!std::filesystem::exists(dir / "missing"));
     std::vector<std::string> names;
-    for (const auto& entry : std::filesystem::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+    for (const auto& entry : std::filesystem::directory_iterator(dir))
+        names.push_back(entry.path().filename().string());
     std::sort(names.begin(), names.end());
     CHECK(names == std::vector<std::string>{"out.csv", "out.json"});
 }
@@ -392,8 +407,9 @@ TEST_CASE("graph-eval --dot prints a digraph with every node and connection")
     CHECK(a.out.starts_with("digraph rig {\n"));
     CHECK(a.out.ends_with("}\n"));
     const auto all = lines(a.out);
-    CHECK(std::count_if(all.begin(), all.end(), [](const std::string& l) { return l.find("[label=\"") != std::string::npos && l.find(" -> n") != std::string::npos; })
-          == 11);
+    CHECK(std::count_if(all.begin(), all.end(), [](const std::string& l) {
+              return l.find("[label=\"") != std::string::npos && l.find(" -> n") != std::string::npos;
+          }) == 11);
     CHECK(a.out.find("  n6 -> n1 [label=\"output -> bend\", fontsize=9];\n") != std::string::npos);
     CHECK(a.out.find("  n5 -> n3 [label=\"output -> rotateZ\", fontsize=9];\n") != std::string::npos);
     CHECK(a.out.find("  n5 [label=\"elbow_bend_sdk\\n(animCurveUA)\"];\n") != std::string::npos);
@@ -426,9 +442,9 @@ TEST_CASE("graph-eval --threads 1, 2 and 8 print byte-identical results on a 200
             // "frame", time1.outTime, every joint's three matrices and every curve's output.
             CHECK(rows[0].size() == 2 + 3 * chains * length + chains);
             // The chains moved: c3's tip is not where it was at frame 1.
-            CHECK(rows[0]["c3_j16.worldMatrix"][0][3].as<double>() != rows[10]["c3_j16.worldMatrix"][0][3].as<double>());
-        }
-        else CHECK(r.out == reference);
+            CHECK(rows[0]["c3_j16.worldMatrix"][0][3].as<double>() !=
+                  rows[10]["c3_j16.worldMatrix"][0][3].as<double>());
+        } else CHECK(r.out == reference);
 
         const auto csv = run(graphEval(fmt::format("{} --threads {}", csvArgs, threads)));
         REQUIRE(csv.exitCode == 0);
@@ -451,17 +467,17 @@ TEST_CASE("graph-eval --stats prints counts to stderr: animating one control rec
         return r.err.substr(0, r.err.rfind(", ") + 2);
     };
     // Nodes: time1, anim, 2 controls, 2 sdks, 2 + 8 joints = 16; connections: 2 + 2 * 2 + 2 per parented joint.
-    CHECK(stats("a.yaml", 2, 8, false, "--frames 1:5 --stats")
-          == "stats: 16 nodes, 22 connections, 1 threads, 5 frames, 25 node computations, ");
-    CHECK(stats("b.yaml", 2, 8, true, "--frames 1:5 --stats")
-          == "stats: 16 nodes, 22 connections, 1 threads, 5 frames, 55 node computations, ");
-    CHECK(stats("b.yaml", 2, 8, true, "--frames 1:5 --stats --threads 2")
-          == "stats: 16 nodes, 22 connections, 2 threads, 5 frames, 55 node computations, ");
+    CHECK(stats("a.yaml", 2, 8, false, "--frames 1:5 --stats") ==
+          "stats: 16 nodes, 22 connections, 1 threads, 5 frames, 25 node computations, ");
+    CHECK(stats("b.yaml", 2, 8, true, "--frames 1:5 --stats") ==
+          "stats: 16 nodes, 22 connections, 1 threads, 5 frames, 55 node computations, ");
+    CHECK(stats("b.yaml", 2, 8, true, "--frames 1:5 --stats --threads 2") ==
+          "stats: 16 nodes, 22 connections, 2 threads, 5 frames, 55 node computations, ");
     // Only what is asked for is pulled: the unanimated chain's tip costs nothing per frame.
-    CHECK(stats("a.yaml", 2, 8, false, "--frames 1:5 --stats --get B7.worldMatrix")
-          == "stats: 16 nodes, 22 connections, 1 threads, 5 frames, 0 node computations, ");
-    CHECK(stats("a.yaml", 2, 8, false, "--frames 1:5 --stats --get A1.worldMatrix")
-          == "stats: 16 nodes, 22 connections, 1 threads, 5 frames, 25 node computations, ");
+    CHECK(stats("a.yaml", 2, 8, false, "--frames 1:5 --stats --get B7.worldMatrix") ==
+          "stats: 16 nodes, 22 connections, 1 threads, 5 frames, 0 node computations, ");
+    CHECK(stats("a.yaml", 2, 8, false, "--frames 1:5 --stats --get A1.worldMatrix") ==
+          "stats: 16 nodes, 22 connections, 1 threads, 5 frames, 25 node computations, ");
     // Without --stats nothing goes to stderr.
     const auto quiet = run(graphEval(quote(dir / "a.yaml") + " --frames 1:5"));
     CHECK(quiet.exitCode == 0);
@@ -496,15 +512,18 @@ connections:
     const auto r = run(graphEval(fmt::format("{} --plugin {} --get '*.output' --get j.translate", quote(rig), plugin)));
     CHECK(r.exitCode == 0);
     CHECK(r.err.empty());
-    CHECK(r.out == "[\n  {\"frame\": 0,\n   \"d.output\": 42,\n   \"d2.output\": 84,\n   \"j.translate\": [0, 84, 0]}\n]\n");
-    const auto set = run(graphEval(fmt::format("--plugin {} {} --set d.input=-1.5 --get d2.output --format csv", plugin, quote(rig))));
+    CHECK(r.out ==
+          "[\n  {\"frame\": 0,\n   \"d.output\": 42,\n   \"d2.output\": 84,\n   \"j.translate\": [0, 84, 0]}\n]\n");
+    const auto set = run(
+        graphEval(fmt::format("--plugin {} {} --set d.input=-1.5 --get d2.output --format csv", plugin, quote(rig))));
     CHECK(set.exitCode == 0);
     CHECK(set.out == "frame,d2.output\n0,-6\n");
 
     checkBadInput(quote(rig), fmt::format("{}:2:21: unknown node type 'testDoubler'", rig.string()));
-    checkBadInput(arm + " --plugin /no/such/plugin.so",
-                  "plugin '/no/such/plugin.so' not found (looked for /no/such/plugin.so); build it, or add its folder to "
-                  "RIG_PLUGIN_PATH");
+    checkBadInput(
+        arm + " --plugin /no/such/plugin.so",
+        "plugin '/no/such/plugin.so' not found (looked for /no/such/plugin.so); build it, or add its folder to "
+        "RIG_PLUGIN_PATH");
 }
 
 TEST_CASE("graph-eval bad input: exit 2, one error line, nothing on stdout")
@@ -512,10 +531,12 @@ TEST_CASE("graph-eval bad input: exit 2, one error line, nothing on stdout")
     const std::string frames = "expected A:B[:STEP], e.g. 1:240 or 1:240:2";
     checkBadInput("no/such/rig.yaml", "no/such/rig.yaml: no such rig file");
     checkBadInput("", "no rig file given; usage: graph-eval RIG.yaml [options], or --help");
-    checkBadInput(arm + " --bogus", "The following argument was not expected: --bogus; run 'graph-eval --help' for usage");
+    checkBadInput(arm + " --bogus",
+                  "The following argument was not expected: --bogus; run 'graph-eval --help' for usage");
     checkBadInput(arm + " --format xml", "--format: xml not in {json,csv,table}; run 'graph-eval --help' for usage");
-    checkBadInput(arm + " --threads -1", "--threads: '-1' is not a thread count; give a whole number from 0 (all cores) "
-                                        "to 1024; run 'graph-eval --help' for usage");
+    checkBadInput(arm + " --threads -1",
+                  "--threads: '-1' is not a thread count; give a whole number from 0 (all cores) "
+                  "to 1024; run 'graph-eval --help' for usage");
     checkBadInput(arm + " --frames 1:x", "--frames '1:x': 'x' is not a number; " + frames);
     checkBadInput(arm + " --frames 5:1", "--frames '5:1': the last frame is before the first; " + frames);
     checkBadInput(arm + " --frames 1:10:0", "--frames '1:10:0': the step must be positive; " + frames);
@@ -523,12 +544,16 @@ TEST_CASE("graph-eval bad input: exit 2, one error line, nothing on stdout")
     checkBadInput(arm + " --frames 1:2:3:4", "--frames '1:2:3:4': give two or three numbers; " + frames);
     checkBadInput(arm + " --frames :5", "--frames ':5': '' is not a number; " + frames);
 
-    checkBadInput(arm + " --set elbow.rotateZ", "--set 'elbow.rotateZ': expected node.attr=VALUE, e.g. --set elbow.rotateZ=45");
-    checkBadInput(arm + " --set elbow.jointOrent=5", "node 'elbow' (joint) has no attribute 'jointOrent'; did you mean 'jointOrient'?");
+    checkBadInput(arm + " --set elbow.rotateZ",
+                  "--set 'elbow.rotateZ': expected node.attr=VALUE, e.g. --set elbow.rotateZ=45");
+    checkBadInput(arm + " --set elbow.jointOrent=5",
+                  "node 'elbow' (joint) has no attribute 'jointOrent'; did you mean 'jointOrient'?");
     checkBadInput(arm + " --set elbo.rotateX=5", "no node named 'elbo'; did you mean 'elbow'?");
-    checkBadInput(arm + " --set elbow.rotateZ=5", "cannot set elbow.rotateZ: it is driven by elbow_bend_sdk.output; disconnect it first");
+    checkBadInput(arm + " --set elbow.rotateZ=5",
+                  "cannot set elbow.rotateZ: it is driven by elbow_bend_sdk.output; disconnect it first");
     checkBadInput(arm + " --set elbow.rotateX=abc", "--set elbow.rotateX: expected a number, got 'abc'");
-    checkBadInput(arm + " --set 'elbow.rotate=[1, 2'", "--set elbow.rotate: '[1, 2' is not a value; numbers, true/false, names, [x, y, z]");
+    checkBadInput(arm + " --set 'elbow.rotate=[1, 2'",
+                  "--set elbow.rotate: '[1, 2' is not a value; numbers, true/false, names, [x, y, z]");
     checkBadInput(arm + " --set shoulder.rotateOrder=xyy",
                   "--set shoulder.rotateOrder: 'xyy' is not one of xyz, yzx, zxy, xzy, yxz, zyx; did you mean 'xyz'?");
 
@@ -538,7 +563,8 @@ TEST_CASE("graph-eval bad input: exit 2, one error line, nothing on stdout")
     checkBadInput(two + " --set ctrl.bend=-1", "cannot set ctrl.bend: -1 is below its minimum 0");
     checkBadInput(two + " --set j1.rotateX=.inf", "--set j1.rotateX: .inf is not a finite number");
 
-    checkBadInput(arm + " --get 'nothing*'", "no plug matches 'nothing*'; patterns look like '*.worldMatrix' or 'L_arm_*.rotate?'");
+    checkBadInput(arm + " --get 'nothing*'",
+                  "no plug matches 'nothing*'; patterns look like '*.worldMatrix' or 'L_arm_*.rotate?'");
     checkBadInput(arm + " --get '*.rotateZ' --get '*.rotateW'",
                   "no plug matches '*.rotateW'; patterns look like '*.worldMatrix' or 'L_arm_*.rotate?'");
     checkBadInput(arm + " --get elbow.rotat", "node 'elbow' (joint) has no attribute 'rotat'; did you mean 'rotate'?");
@@ -553,13 +579,15 @@ TEST_CASE("graph-eval bad input: exit 2, one error line, nothing on stdout")
 connections:
   - b.worldMatrix -> a.parentMatrix
 )");
-    checkBadInput(quote(cycle),
-                  fmt::format("{}:5:5: cannot connect b.worldMatrix -> a.parentMatrix: it would close a cycle "
-                              "(a.scale -> b.inverseScale, b.worldMatrix -> a.parentMatrix); the graph must stay acyclic "
-                              "at node level, so feed a from nodes that do not depend on a",
-                              cycle.string()));
+    checkBadInput(
+        quote(cycle),
+        fmt::format("{}:5:5: cannot connect b.worldMatrix -> a.parentMatrix: it would close a cycle "
+                    "(a.scale -> b.inverseScale, b.worldMatrix -> a.parentMatrix); the graph must stay acyclic "
+                    "at node level, so feed a from nodes that do not depend on a",
+                    cycle.string()));
     // Bad input is reported even with --dot or -o, and before anything is written.
-    checkBadInput(quote(type) + " --dot", fmt::format("{}:2:21: unknown node type 'jiont'; did you mean 'joint'?", type.string()));
+    checkBadInput(quote(type) + " --dot",
+                  fmt::format("{}:2:21: unknown node type 'jiont'; did you mean 'joint'?", type.string()));
     checkBadInput(quote(type) + " -o " + quote(dir / "out.json"),
                   fmt::format("{}:2:21: unknown node type 'jiont'; did you mean 'joint'?", type.string()));
     CHECK(!std::filesystem::exists(dir / "out.json"));

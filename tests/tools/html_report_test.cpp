@@ -26,9 +26,10 @@ namespace {
 // WebGL without a GPU.
 std::string chromium(const fs::path& profile, const std::string& flags, const fs::path& page)
 {
-    return fmt::format("timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader "
-                       "--no-first-run --user-data-dir={} {} file://{}",
-                       profile.string(), flags, fs::absolute(page).string());
+    return fmt::format(
+        "timeout 120 chromium --headless --no-sandbox --disable-gpu --enable-unsafe-swiftshader "
+        "--no-first-run --user-data-dir={} {} file://{}",
+        profile.string(), flags, fs::absolute(page).string());
 }
 
 struct Image {

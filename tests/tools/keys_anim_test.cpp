@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
+#include <Eigen/Geometry>
 
 #include "learned_fixtures.h"
 #include "test_support.h"
@@ -47,8 +47,9 @@ double angleDeg(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 
 }  // namespace
 
-TEST_CASE("keys: rig-invert --key-tolerance keys a CMU clip within the tolerance, and .anim plays it back in "
-          "graph-eval")
+TEST_CASE(
+    "keys: rig-invert --key-tolerance keys a CMU clip within the tolerance, and .anim plays it back in "
+    "graph-eval")
 {
     if (!fs::exists(test::cmuClip)) {
         MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
@@ -144,10 +145,11 @@ TEST_CASE("keys: the new flags' bad values are one line and exit code 2")
     };
     expectError("--key-tolerance 0", "--key-tolerance 0: give a positive distance in cm (e.g. 0.1)");
     expectError("--key-tolerance-deg -1", "--key-tolerance-deg -1: give a positive angle in degrees (e.g. 0.5)");
-    expectError("--key-tangent bouncy", "--key-tangent bouncy: not a tangent type; use one of auto, spline, clamped, "
-                                        "plateau, linear, flat, step, stepnext");
-    expectError("--html " + dir.string(), fmt::format("{}: is a folder; give a file name, e.g. --html {}",
-                                                      dir.string(), (dir / "report.html").string()));
+    expectError("--key-tangent bouncy",
+                "--key-tangent bouncy: not a tangent type; use one of auto, spline, clamped, "
+                "plateau, linear, flat, step, stepnext");
+    expectError("--html " + dir.string(), fmt::format("{}: is a folder; give a file name, e.g. --html {}", dir.string(),
+                                                      (dir / "report.html").string()));
     expectError("--html " + (dir / "out.anim").string(),
                 fmt::format("--html {}: is also -o ({}); give each output a file of its own",
                             (dir / "out.anim").string(), (dir / "out.anim").string()));

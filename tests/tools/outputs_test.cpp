@@ -69,7 +69,8 @@ TEST_CASE("outputs: a device and a FIFO are written through, never replaced by a
     CHECK(typeOf(null) == fs::file_type::character);
 }
 
-TEST_CASE("outputs: a symbolic link's file is replaced and the link kept, a read-only file is refused, the mode is kept")
+TEST_CASE(
+    "outputs: a symbolic link's file is replaced and the link kept, a read-only file is refused, the mode is kept")
 {
     const auto dir = rig::test::scratchDir("outputs-files");
     const std::string expected = armTable();
@@ -83,8 +84,9 @@ TEST_CASE("outputs: a symbolic link's file is replaced and the link kept, a read
     ::chmod(target.c_str(), 0444);
     r = run(graphEval(fmt::format("{} -o '{}'", arm, target.string())));
     CHECK(r.exitCode == 2);
-    CHECK(r.err == fmt::format("error: {}: is read-only; it is not replaced (make it writable, or choose another file)\n",
-                               target.string()));
+    CHECK(r.err ==
+          fmt::format("error: {}: is read-only; it is not replaced (make it writable, or choose another file)\n",
+                      target.string()));
     CHECK(rig::test::readFile(target) == expected);
 
     ::chmod(target.c_str(), 0640);
@@ -103,8 +105,8 @@ TEST_CASE("outputs: an output that is an input or another output is refused befo
     const std::string rigText = rig::test::readFile(rigFile);
     fs::create_symlink("r.yaml", dir / "alias.yaml");
 
-    auto r = run(fmt::format("{} '{}' --params 'shoulder.rotate?' -o '{}'", rig::test::tool("rig-learn"), rigFile.string(),
-                             (dir / "alias.yaml").string()));
+    auto r = run(fmt::format("{} '{}' --params 'shoulder.rotate?' -o '{}'", rig::test::tool("rig-learn"),
+                             rigFile.string(), (dir / "alias.yaml").string()));
     CHECK(r.exitCode == 2);
     CHECK(r.err == fmt::format("error: -o {}: is the rig file ({}); writing it would destroy an input, choose another "
                                "output file\n",
@@ -123,8 +125,10 @@ TEST_CASE("outputs: an output that is an input or another output is refused befo
     CHECK(rig::test::readFile(rigFile) == rigText);
 
     const fs::path clip = dir / "c.bvh";
-    rig::test::writeFile(clip, "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n End Site\n"
-                               " {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.0333\n0 0 0\n");
+    rig::test::writeFile(
+        clip,
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n End Site\n"
+        " {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.0333\n0 0 0\n");
     const std::string clipText = rig::test::readFile(clip);
     r = run(fmt::format("{} '{}' -o '{}/./c.bvh'", rig::test::tool("bvh2rig"), clip.string(), dir.string()));
     CHECK(r.exitCode == 2);
@@ -132,11 +136,12 @@ TEST_CASE("outputs: an output that is an input or another output is refused befo
     CHECK(rig::test::readFile(clip) == clipText);
 
     // Two outputs on one file (one of them not there yet).
-    r = run(fmt::format("{} '{}' --params 'shoulder.rotate?' -o '{}' --report-json '{}/./a.yaml'", rig::test::tool("rig-learn"),
-                        rigFile.string(), (dir / "a.yaml").string(), dir.string()));
+    r = run(fmt::format("{} '{}' --params 'shoulder.rotate?' -o '{}' --report-json '{}/./a.yaml'",
+                        rig::test::tool("rig-learn"), rigFile.string(), (dir / "a.yaml").string(), dir.string()));
     CHECK(r.exitCode == 2);
-    CHECK(r.err == fmt::format("error: --report-json {}/./a.yaml: is also -o ({}); give each output a file of its own\n",
-                               dir.string(), (dir / "a.yaml").string()));
+    CHECK(r.err ==
+          fmt::format("error: --report-json {}/./a.yaml: is also -o ({}); give each output a file of its own\n",
+                      dir.string(), (dir / "a.yaml").string()));
     CHECK_FALSE(fs::exists(dir / "a.yaml"));
 }
 
@@ -144,8 +149,8 @@ TEST_CASE("rig-invert: the report names the curves it belongs to, and a real rig
 {
     const auto dir = rig::test::scratchDir("outputs-invert");
     const fs::path approx = dir / "arm.approx.yaml";
-    REQUIRE(run(fmt::format("{} {} --params 'shoulder.rotate?' 'wrist.rotate?' -o '{}'", rig::test::tool("rig-learn"), arm,
-                            approx.string()))
+    REQUIRE(run(fmt::format("{} {} --params 'shoulder.rotate?' 'wrist.rotate?' -o '{}'", rig::test::tool("rig-learn"),
+                            arm, approx.string()))
                 .exitCode == 0);
     const fs::path curves = dir / "curves.json", report = dir / "report.json";
     auto r = run(fmt::format("{} '{}' --rig {} --clip tests/corpus/clips/arm.json -o '{}' --report-json '{}' -q",
@@ -168,10 +173,12 @@ TEST_CASE("rig-invert: the report names the curves it belongs to, and a real rig
     replace("parent: shoulder, translate: [30, 0, 0]", "parent: shoulder, translate: [1e308, 0, 0]");
     const fs::path broken = rig::test::writeFile(dir / "broken.yaml", text);
     r = run(fmt::format("{} '{}' --rig '{}' --clip tests/corpus/clips/arm.json -o '{}' --report-json '{}' -q",
-                        rig::test::tool("rig-invert"), approx.string(), broken.string(), curves.string(), report.string()));
+                        rig::test::tool("rig-invert"), approx.string(), broken.string(), curves.string(),
+                        report.string()));
     CHECK(r.exitCode == 3);
-    CHECK(r.err.ends_with("error: the real rig gives a non-finite matrix at 2 of 2 frames (first: elbow at frame 1); the rig "
-                          "cannot follow these curves there\n"));
+    CHECK(r.err.ends_with(
+        "error: the real rig gives a non-finite matrix at 2 of 2 frames (first: elbow at frame 1); the rig "
+        "cannot follow these curves there\n"));
     json = nlohmann::json::parse(rig::test::readFile(report));
     CHECK(json["non_finite_frames"] == 2);
     CHECK(json["per_frame"][0]["non_finite_joint"] == "elbow");
@@ -181,18 +188,19 @@ TEST_CASE("rig-invert: a parameter edited into a plug the rig does not offer is 
 {
     const auto dir = rig::test::scratchDir("outputs-renamed");
     const fs::path approx = dir / "arm.approx.yaml";
-    REQUIRE(run(fmt::format("{} {} --params 'shoulder.rotate?' 'wrist.rotate?' -o '{}'", rig::test::tool("rig-learn"), arm,
-                            approx.string()))
+    REQUIRE(run(fmt::format("{} {} --params 'shoulder.rotate?' 'wrist.rotate?' -o '{}'", rig::test::tool("rig-learn"),
+                            arm, approx.string()))
                 .exitCode == 0);
     std::string text = rig::test::readFile(approx);
     const auto at = text.find("name: \"wrist.rotateX\"");
     REQUIRE(at != std::string::npos);
     text.replace(at, std::string("name: \"wrist.rotateX\"").size(), "name: \"wrist.rotate\"");
     rig::test::writeFile(approx, text);
-    const auto r = run(fmt::format("{} '{}' --rig {} --clip tests/corpus/clips/arm.json -o '{}'", rig::test::tool("rig-invert"),
-                                   approx.string(), arm, (dir / "c.json").string()));
+    const auto r = run(fmt::format("{} '{}' --rig {} --clip tests/corpus/clips/arm.json -o '{}'",
+                                   rig::test::tool("rig-invert"), approx.string(), arm, (dir / "c.json").string()));
     CHECK(r.exitCode == 2);
-    CHECK(r.err.find("error: " + approx.string() + ": the rig has no parameter wrist.rotate (rigs/examples/arm.yaml does not "
+    CHECK(r.err.find("error: " + approx.string() +
+                     ": the rig has no parameter wrist.rotate (rigs/examples/arm.yaml does not "
                      "offer it as a free keyable number)") != std::string::npos);
     CHECK(r.err.find("internal error") == std::string::npos);
 }
@@ -202,8 +210,9 @@ TEST_CASE("bvh2rig: a warning about a clip in a folder whose name has a newline 
     const auto dir = rig::test::scratchDir("outputs-newline") / "a\nb";
     fs::create_directories(dir);
     const fs::path clip = rig::test::writeFile(
-        dir / "c.bvh", "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n End Site\n"
-                       " {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.0333\n0 0 0\n");
+        dir / "c.bvh",
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n End Site\n"
+        " {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 2\nFrame Time: 0.0333\n0 0 0\n");
     const auto out = dir / "rig.yaml";
     const auto r = run(fmt::format("{} '{}' -o '{}'", rig::test::tool("bvh2rig"), clip.string(), out.string()));
     CHECK(r.exitCode == 0);

@@ -16,11 +16,12 @@ TEST_CASE("paths: a bvhClip's file in a rig file is read from the rig file's fol
 {
     const auto dir = rig::test::scratchDir("paths-clip");
     fs::create_directories(dir / "rigs" / "clips");
-    rig::test::writeFile(dir / "rigs" / "clips" / "c.bvh",
-                         "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n End Site\n"
-                         " {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.0333\n30 0 0\n");
-    const auto rigFile =
-        rig::test::writeFile(dir / "rigs" / "play.yaml", "nodes:\n  - {name: clip, type: bvhClip, file: clips/c.bvh}\n");
+    rig::test::writeFile(
+        dir / "rigs" / "clips" / "c.bvh",
+        "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Zrotation Xrotation Yrotation\n End Site\n"
+        " {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.0333\n30 0 0\n");
+    const auto rigFile = rig::test::writeFile(dir / "rigs" / "play.yaml",
+                                              "nodes:\n  - {name: clip, type: bvhClip, file: clips/c.bvh}\n");
     // From the source folder and from the scratch folder: the same clip.
     for (const std::string& from : {std::string("."), dir.string()}) {
         CAPTURE(from);
@@ -52,9 +53,10 @@ TEST_CASE("paths: the bundled biped_mocap example, verbatim in a tree of its own
     fs::create_directories(dir / "build");
     fs::copy_file(rig::test::bipedApproximation(), dir / "build" / "biped.approx.yaml");
     fs::create_directories(dir / "elsewhere");
-    const auto r = run(fmt::format("cd '{}' && {} ../rigs/examples/biped_mocap.yaml --frames 1:2 --get 'inverter.converged' "
-                                   "--get inverter.stuck --format csv",
-                                   (dir / "elsewhere").string(), rig::test::tool("graph-eval")));
+    const auto r =
+        run(fmt::format("cd '{}' && {} ../rigs/examples/biped_mocap.yaml --frames 1:2 --get 'inverter.converged' "
+                        "--get inverter.stuck --format csv",
+                        (dir / "elsewhere").string(), rig::test::tool("graph-eval")));
     CHECK(r.exitCode == 0);
     CHECK(r.err.empty());
     // Frame 1 is the clip's calibration pose, which the rig reaches; from frame 2 on the motion is out

@@ -81,8 +81,9 @@ Json readJson(const fs::path& file) { return Json::parse(test::readFile(file)); 
 
 }  // namespace
 
-TEST_CASE("rig-batch: a library on 1 and 2 local processes gives rig-invert's curves byte for byte and its figures, "
-          "merged or written by a shard of a whole clip")
+TEST_CASE(
+    "rig-batch: a library on 1 and 2 local processes gives rig-invert's curves byte for byte and its figures, "
+    "merged or written by a shard of a whole clip")
 {
     if (!clipsInstalled()) return;
     const auto dir = test::scratchDir("rig_batch_local");
@@ -145,8 +146,9 @@ TEST_CASE("rig-batch: a library on 1 and 2 local processes gives rig-invert's cu
     CHECK(alone != Json(oneRun.begin() + 480, oneRun.end()));
 }
 
-TEST_CASE("rig-batch: a second run skips finished shards, solves a corrupted one again, and loses nothing to an "
-          "interrupted run")
+TEST_CASE(
+    "rig-batch: a second run skips finished shards, solves a corrupted one again, and loses nothing to an "
+    "interrupted run")
 {
     if (!clipsInstalled()) return;
     const auto dir = test::scratchDir("rig_batch_resume");
@@ -223,8 +225,8 @@ TEST_CASE("rig-batch: a shard that fails is listed with its error line, exit cod
     const auto clips = libraryFolder(dir / "clips");
     invertWhole(clips / "walk.bvh", dir);
     const auto out = dir / "out";
-    const std::string args = fmt::format("{} --clips {} --out {} --shard-frames 240 --jobs 2 --retries 0 -q",
-                                         inputs(), clips.string(), out.string());
+    const std::string args = fmt::format("{} --clips {} --out {} --shard-frames 240 --jobs 2 --retries 0 -q", inputs(),
+                                         clips.string(), out.string());
     REQUIRE(rigBatch(args).exitCode == 0);
     // Shard 4 (walk, frames 241 to 480) cannot write its output: a folder is in its place.
     const std::string key = readJson(out / "manifest.json")["shards"][4]["key"];
@@ -299,8 +301,8 @@ TEST_CASE("rig-batch: bad input is one error line and exit code 2, and writes no
         {fmt::format("{} --clips {}/named --out {}", inputs(), dir.string(), out.string()),
          fmt::format("error: --clips {}/named/report.bvh: its curves would be report.json", dir.string())},
         {fmt::format("{} {}/other --out {}", library, dir.string(), out.string()),
-         fmt::format("error: --clips: {}/turn.bvh and {}/other/turn.bvh would both write turn.json",
-                     clips.string(), dir.string())},
+         fmt::format("error: --clips: {}/turn.bvh and {}/other/turn.bvh would both write turn.json", clips.string(),
+                     dir.string())},
         {fmt::format("{} --out {}/file", library, dir.string()),
          fmt::format("error: --out {}/file: is a file; give a folder", dir.string())},
         {fmt::format("{} --rig rigs/biped.yaml --clips {} --out {}", (dir / "missing.yaml").string(), clips.string(),

@@ -156,8 +156,9 @@ TEST_CASE("rig-bench --quick: every figure of issue 7, finite, with the machine 
     CHECK(evaluations == std::floor(evaluations));
     positive(train, "seconds");
     CHECK(figure(train["orderers"]["structured"], "evaluations") == evaluations);
-    for (const char* method : {"approximation", "approximation_whole", "approximation_polish1", "approximation_fd",
-                               "blackbox", "approximation_on_blackbox_frames", "approximation_whole_on_blackbox_frames"})
+    for (const char* method :
+         {"approximation", "approximation_whole", "approximation_polish1", "approximation_fd", "blackbox",
+          "approximation_on_blackbox_frames", "approximation_whole_on_blackbox_frames"})
         checkErrors(b["accuracy"][method], method);
 
     // Scaling: crowds and chains, parameters growing, every figure measured, exponents fitted.
@@ -198,13 +199,14 @@ TEST_CASE("rig-bench --quick: every figure of issue 7, finite, with the machine 
     // docs/performance.md is written from this JSON: every block filled, the prose kept.
     const auto page = dir / "performance.md";
     fs::copy_file(test::sourceDir() / "docs/performance.md", page);
-    const auto report = test::run(fmt::format("python3 {} {} --doc {} --no-plots",
-                                              (test::sourceDir() / "scripts/bench_report.py").string(), json.string(),
-                                              page.string()));
+    const auto report =
+        test::run(fmt::format("python3 {} {} --doc {} --no-plots",
+                              (test::sourceDir() / "scripts/bench_report.py").string(), json.string(), page.string()));
     INFO(report.err);
     REQUIRE(report.exitCode == 0);
     const std::string text = test::readFile(page);
-    for (const char* block : {"machine", "headline", "jacobian", "invert", "ceres", "train", "accuracy", "scaling", "growth"}) {
+    for (const char* block :
+         {"machine", "headline", "jacobian", "invert", "ceres", "train", "accuracy", "scaling", "growth"}) {
         INFO(block);
         const auto begin = text.find(fmt::format("<!-- bench:{} -->\n", block));
         const auto end = text.find(fmt::format("<!-- /bench:{} -->", block));
@@ -237,10 +239,11 @@ TEST_CASE("rig-bench: interrupted by SIGINT or SIGTERM, it removes its temporary
         CAPTURE(signal);
         // A temporary folder of our own (TMPDIR) to look into.
         const auto tmp = rig::test::scratchDir(fmt::format("rig-bench-signal-{}", signal));
-        const auto r = rig::test::run(fmt::format("TMPDIR='{}' {} --quick -q & pid=$!; "
-                                                  "for i in $(seq 100); do ls '{}' | grep -q rig-bench && break; sleep 0.1; done; "
-                                                  "kill -{} $pid; wait $pid; echo exit $?",
-                                                  tmp.string(), rig::test::tool("rig-bench"), tmp.string(), signal));
+        const auto r =
+            rig::test::run(fmt::format("TMPDIR='{}' {} --quick -q & pid=$!; "
+                                       "for i in $(seq 100); do ls '{}' | grep -q rig-bench && break; sleep 0.1; done; "
+                                       "kill -{} $pid; wait $pid; echo exit $?",
+                                       tmp.string(), rig::test::tool("rig-bench"), tmp.string(), signal));
         CHECK(r.out == fmt::format("exit {}\n", 128 + signal));
         CHECK(std::filesystem::is_empty(tmp));
     }

@@ -16,10 +16,10 @@
 
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
+#include "learned_fixtures.h"
 #include "nodes/builtin_nodes.h"
 #include "nodes/clips/bvh.h"
 #include "nodes/transform_math.h"
-#include "learned_fixtures.h"
 #include "test_support.h"
 
 using namespace rig;
@@ -75,7 +75,8 @@ TEST_CASE("rig-invert: a CMU clip on its bvh2rig rig converges on every frame an
             }
             if (!rotates) continue;
             const auto order = *rotateOrderFromIndex(std::get<int>(rig->getValue(rig->plug(j.name + ".rotateOrder"))));
-            worst = std::max(worst, (eulerToMatrix(fromClip, order) - eulerToMatrix(fromCurves, order)).cwiseAbs().maxCoeff());
+            worst = std::max(worst,
+                             (eulerToMatrix(fromClip, order) - eulerToMatrix(fromCurves, order)).cwiseAbs().maxCoeff());
         }
     }
     CHECK(worst < 1e-6);
@@ -90,10 +91,10 @@ TEST_CASE("rig-invert: chunks of a clip give the curves of one run, and threads 
     const auto dir = test::scratchDir("rig_invert_chunks");
     const auto approximation = test::bipedApproximation();
     const auto invert = [&](const std::string& frames, const std::string& out, int threads) {
-        const auto r = rigInvert(fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} "
-                                             "--frames {} --restart-every 40 --threads {} -o {} -q",
-                                             approximation.string(), test::cmuClip.string(), frames, threads,
-                                             (dir / out).string()));
+        const auto r = rigInvert(
+            fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} "
+                        "--frames {} --restart-every 40 --threads {} -o {} -q",
+                        approximation.string(), test::cmuClip.string(), frames, threads, (dir / out).string()));
         INFO(r.err);
         REQUIRE(r.exitCode == 0);
         return YAML::LoadFile((dir / out).string());
@@ -114,9 +115,10 @@ TEST_CASE("rig-invert: chunks of a clip give the curves of one run, and threads 
     CHECK(test::readFile(dir / "two.json") == one);
     CHECK(test::readFile(dir / "eight.json") == one);
     // CSV holds the same numbers.
-    const auto r = rigInvert(fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames "
-                                         "1:2 -o {} -q",
-                                         approximation.string(), test::cmuClip.string(), (dir / "curves.csv").string()));
+    const auto r =
+        rigInvert(fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames "
+                              "1:2 -o {} -q",
+                              approximation.string(), test::cmuClip.string(), (dir / "curves.csv").string()));
     REQUIRE(r.exitCode == 0);
     const std::string csv = test::readFile(dir / "curves.csv");
     CHECK(csv.starts_with("frame,root_ctrl.translateX,"));
@@ -130,17 +132,18 @@ TEST_CASE("rig-invert: the CMU clip on the biped leaves a finite residual that i
         return;
     }
     const auto dir = test::scratchDir("rig_invert_biped_run");
-    const auto r = rigInvert(fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames "
-                                         "1:240 -o {} --report-json {}",
-                                         test::bipedApproximation().string(), test::cmuClip.string(), (dir / "curves.json").string(),
-                                         (dir / "report.json").string()));
+    const auto r =
+        rigInvert(fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames "
+                              "1:240 -o {} --report-json {}",
+                              test::bipedApproximation().string(), test::cmuClip.string(),
+                              (dir / "curves.json").string(), (dir / "report.json").string()));
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
     CHECK(r.out.find("frames            240 (") != std::string::npos);
     const auto rep = report(dir / "report.json");
-    MESSAGE("biped residual on 01_01 frames 1-240: worst " << rep["max_position_error_cm"].as<double>() << " cm, "
-                                                           << rep["max_rotation_error_deg"].as<double>() << " deg, mean "
-                                                           << rep["mean_position_error_cm"].as<double>() << " cm");
+    MESSAGE("biped residual on 01_01 frames 1-240: worst "
+            << rep["max_position_error_cm"].as<double>() << " cm, " << rep["max_rotation_error_deg"].as<double>()
+            << " deg, mean " << rep["mean_position_error_cm"].as<double>() << " cm");
     // Out of the rig's exact reach after the calibration pose: stationary with a residual, every frame
     // accounted for, and the joints left short named.
     CHECK(rep["converged_frames"].as<int>() + rep["stuck_frames"].as<int>() == 240);
@@ -208,16 +211,18 @@ TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs
                             (dir / "none.yaml").string()));
     expectError(base + " --map " + (dir / "none.yaml").string() + " -o " + out,
                 fmt::format("{}: no such map file; check the path", (dir / "none.yaml").string()));
-    expectError(base + " --threads -1 -o " + out, "--threads: '-1' is not a thread count; give a whole number from 0 (all cores) "
-                                                  "to 1024; run 'rig-invert --help' for usage");
+    expectError(base + " --threads -1 -o " + out,
+                "--threads: '-1' is not a thread count; give a whole number from 0 (all cores) "
+                "to 1024; run 'rig-invert --help' for usage");
     expectError(base + " --restart-every 0 -o " + out,
                 "--restart-every 0: give 1 or more frames between warm-start restarts (default 120)");
     expectError(base + " --jacobian exact -o " + out, "--jacobian exact: expected analytic or fd");
     // --after: the curves of the frames before a chunk's chain.
     test::writeFile(dir / "before.json", "[{\"frame\": 1, \"shoulder.rotateX\": 1}]\n");
-    expectError(base + " --frames 2:3 --restart-every 1 --after " + (dir / "none.json").string() + " -o " + out,
-                fmt::format("--after {}: cannot read it; give the curves (.json) rig-invert wrote for the frames before",
-                            (dir / "none.json").string()));
+    expectError(
+        base + " --frames 2:3 --restart-every 1 --after " + (dir / "none.json").string() + " -o " + out,
+        fmt::format("--after {}: cannot read it; give the curves (.json) rig-invert wrote for the frames before",
+                    (dir / "none.json").string()));
     expectError(base + " --frames 1:3 --after " + (dir / "before.json").string() + " -o " + out,
                 fmt::format("--after {}: frames 1:3 start at the clip's first chain; there is no frame before them to "
                             "continue from (leave --after out)",
@@ -226,29 +231,32 @@ TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs
                 fmt::format("--after {}: has no frame 2; frames 3:3 start their chain at frame 3, so the curves before "
                             "must reach the frame before it",
                             (dir / "before.json").string()));
-    expectError(base + " --frames 2:3 --restart-every 1 --after " + (dir / "before.json").string() + " -o " + out,
-                fmt::format("--after {}: frame 1 has no finite value of shoulder.rotateZ; give curves written with this "
-                            "approximation",
-                            (dir / "before.json").string()));
-    const auto overwrite = rigInvert(base + " --frames 2:3 --restart-every 1 --after " + (dir / "before.json").string() +
-                                     " -o " + (dir / "before.json").string());
+    expectError(
+        base + " --frames 2:3 --restart-every 1 --after " + (dir / "before.json").string() + " -o " + out,
+        fmt::format("--after {}: frame 1 has no finite value of shoulder.rotateZ; give curves written with this "
+                    "approximation",
+                    (dir / "before.json").string()));
+    const auto overwrite = rigInvert(base + " --frames 2:3 --restart-every 1 --after " +
+                                     (dir / "before.json").string() + " -o " + (dir / "before.json").string());
     CHECK(overwrite.exitCode == 2);
     CHECK(overwrite.err == fmt::format("error: -o {0}: is --after ({0}); writing it would destroy an input, choose "
                                        "another output file\n",
                                        (dir / "before.json").string()));
 
     // A clip with no joint of the approximation asks for a map.
-    test::writeFile(dir / "other.json", "[{\"frame\": 1, \"x.worldMatrix\": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], "
-                                        "[0, 0, 0, 1]]}]\n");
+    test::writeFile(dir / "other.json",
+                    "[{\"frame\": 1, \"x.worldMatrix\": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], "
+                    "[0, 0, 0, 1]]}]\n");
     const auto r = rigInvert(fmt::format("{} --rig rigs/examples/arm.yaml --clip {} -o {}", arm.string(),
                                          (dir / "other.json").string(), out));
     CHECK(r.exitCode == 2);
     CHECK(r.err.find("no joint of the clip is an output of the approximation") != std::string::npos);
 
     // Another rig: a warning, and an error with --strict.
-    test::writeFile(dir / "arm_edited.yaml", test::readFile(test::sourceDir() / "rigs/examples/arm.yaml") + "# edited\n");
-    const std::string edited = fmt::format("{} --rig {} --clip {} -o {}", arm.string(), (dir / "arm_edited.yaml").string(),
-                                           clip.string(), out);
+    test::writeFile(dir / "arm_edited.yaml",
+                    test::readFile(test::sourceDir() / "rigs/examples/arm.yaml") + "# edited\n");
+    const std::string edited = fmt::format("{} --rig {} --clip {} -o {}", arm.string(),
+                                           (dir / "arm_edited.yaml").string(), clip.string(), out);
     const auto warned = rigInvert(edited + " -q");
     CHECK(warned.exitCode == 0);
     CHECK(warned.err.starts_with("warning: "));
@@ -276,8 +284,9 @@ TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keep
     text.replace(elbow, text.find(',', elbow) - elbow, "null");
     test::writeFile(clip, text);
 
-    const auto r = rigInvert(fmt::format("{} --rig rigs/examples/arm.yaml --clip {} -o {} --report-json {}", arm.string(),
-                                         clip.string(), (dir / "curves.json").string(), (dir / "report.json").string()));
+    const auto r =
+        rigInvert(fmt::format("{} --rig rigs/examples/arm.yaml --clip {} -o {} --report-json {}", arm.string(),
+                              clip.string(), (dir / "curves.json").string(), (dir / "report.json").string()));
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
     const auto rep = YAML::LoadFile((dir / "report.json").string());

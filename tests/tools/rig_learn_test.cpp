@@ -37,12 +37,14 @@ TEST_CASE("rig-learn: the arm end to end, report, JSON report and approximation 
 {
     const auto dir = rig::test::scratchDir("rig-learn-arm");
     const auto out = dir / "arm_approx.yaml", json = dir / "report.json";
-    const auto r = run(rigLearn(fmt::format("{} {} -o '{}' --report-json '{}'", arm, armParams, out.string(), json.string())));
+    const auto r =
+        run(rigLearn(fmt::format("{} {} -o '{}' --report-json '{}'", arm, armParams, out.string(), json.string())));
     REQUIRE(r.exitCode == 0);
     CHECK(r.err.empty());  // no progress bar when standard error is not a terminal
     // The readable report: the table in composition order, discards, training, validation.
-    CHECK(r.out.starts_with("rig-learn rigs/examples/arm.yaml: 7 parameters, 3 outputs, epsilon 0.001 cm per unit, orderer "
-                            "structured\n"));
+    CHECK(r.out.starts_with(
+        "rig-learn rigs/examples/arm.yaml: 7 parameters, 3 outputs, epsilon 0.001 cm per unit, orderer "
+        "structured\n"));
     CHECK(r.out.find("Modelled: 7 parameters, in composition order (outermost first)\n") != std::string::npos);
     CHECK(r.out.find("  #  parameter         form      axis") != std::string::npos);
     CHECK(r.out.find("  1  shoulder.rotateZ  rotation  (-0.342, 0, 0.9397)  (20, 150, ") != std::string::npos);
@@ -55,7 +57,8 @@ TEST_CASE("rig-learn: the arm end to end, report, JSON report and approximation 
 
     // The JSON report (JSON is YAML): the keys of docs/rig-learn.md.
     const YAML::Node report = YAML::Load(rig::test::readFile(json));
-    for (const char* key : {"evaluations", "seconds", "modelled", "discarded", "validation", "order_evaluations", "orderer"})
+    for (const char* key :
+         {"evaluations", "seconds", "modelled", "discarded", "validation", "order_evaluations", "orderer"})
         CHECK_MESSAGE(report[key], key);
     CHECK(report["modelled"].size() == 7);
     CHECK(report["modelled"][0].as<std::string>() == "shoulder.rotateZ");
@@ -78,15 +81,15 @@ TEST_CASE("rig-learn: discards in the report and the JSON, with their reasons, a
 {
     const auto dir = rig::test::scratchDir("rig-learn-nasty");
     const auto out = dir / "nasty.yaml", json = dir / "nasty.json";
-    const auto r = run(rigLearn(fmt::format("rigs/nasty.yaml --params nasty_ctrl.coupledTurn nasty_ctrl.coupledBend "
-                                            "nasty_ctrl.springy 'nasty_ctrl.redundant?' --orderer talk --epsilon 0.01 -o '{}' "
-                                            "--report-json '{}'",
-                                            out.string(), json.string())));
+    const auto r =
+        run(rigLearn(fmt::format("rigs/nasty.yaml --params nasty_ctrl.coupledTurn nasty_ctrl.coupledBend "
+                                 "nasty_ctrl.springy 'nasty_ctrl.redundant?' --orderer talk --epsilon 0.01 -o '{}' "
+                                 "--report-json '{}'",
+                                 out.string(), json.string())));
     REQUIRE(r.exitCode == 0);
     CHECK(r.out.find("epsilon 0.01 cm per unit, orderer talk") != std::string::npos);
     CHECK(r.out.find("\nRedundant: 1 pairs with the same effect (an inversion must split it)\n"
-                     "  nasty_ctrl.redundantA and nasty_ctrl.redundantB\n")
-          != std::string::npos);
+                     "  nasty_ctrl.redundantA and nasty_ctrl.redundantB\n") != std::string::npos);
     CHECK(r.out.find("\nDiscarded: 2 parameters\n  nasty_ctrl.coupledTurn: no effect on its own") != std::string::npos);
     CHECK(r.out.find("\n  nasty_ctrl.springy: history-dependent:") != std::string::npos);
     const YAML::Node report = YAML::Load(rig::test::readFile(json));
@@ -116,8 +119,9 @@ TEST_CASE("rig-learn: --threads N evaluates rig instances in parallel and writes
     // instance whatever ran before it on that thread.
     const std::vector<std::pair<std::string, std::string>> rigs{
         {"biped", "rigs/biped.yaml --spec rigs/biped_inversion.yaml"},
-        {"nasty", "rigs/nasty.yaml --params nasty_ctrl.coupledTurn nasty_ctrl.coupledBend nasty_ctrl.springy "
-                  "'nasty_ctrl.redundant?' --epsilon 0.01"}};
+        {"nasty",
+         "rigs/nasty.yaml --params nasty_ctrl.coupledTurn nasty_ctrl.coupledBend nasty_ctrl.springy "
+         "'nasty_ctrl.redundant?' --epsilon 0.01"}};
     for (const auto& [name, args] : rigs) {
         CAPTURE(name);
         std::vector<std::string> files;
@@ -146,14 +150,16 @@ TEST_CASE("rig-learn: bad input is one error line and exit code 2, and an existi
     checkBadInput(fmt::format("{} --params 'shoulder.rotatq?' {}", arm, o),
                   "rigs/examples/arm.yaml: parameter glob 'shoulder.rotatq?' matches no plug: node 'shoulder' has no "
                   "keyable attribute matching 'rotatq?'; did you mean 'shoulder.rotateX'?");
-    checkBadInput(fmt::format("{} --params 'elbow.rotateZ' {}", arm, o),
-                  "rigs/examples/arm.yaml: parameter 'elbow.rotateZ' is driven by elbow_bend_sdk.output; parameters are "
-                  "animator controls that nothing drives");
+    checkBadInput(
+        fmt::format("{} --params 'elbow.rotateZ' {}", arm, o),
+        "rigs/examples/arm.yaml: parameter 'elbow.rotateZ' is driven by elbow_bend_sdk.output; parameters are "
+        "animator controls that nothing drives");
     checkBadInput(fmt::format("{} {} --outputs wrsit {}", arm, armParams, o),
                   "rigs/examples/arm.yaml: output glob 'wrsit' matches no joint; did you mean 'wrist'?");
     checkBadInput(fmt::format("rigs/no_such_rig.yaml {} {}", armParams, o), "rigs/no_such_rig.yaml: no such rig file");
-    checkBadInput(fmt::format("{} {} --epsilon abc {}", arm, armParams, o),
-                  "--epsilon 'abc': not a number; give a positive number of cm per unit of a parameter, e.g. --epsilon 0.001");
+    checkBadInput(
+        fmt::format("{} {} --epsilon abc {}", arm, armParams, o),
+        "--epsilon 'abc': not a number; give a positive number of cm per unit of a parameter, e.g. --epsilon 0.001");
     checkBadInput(fmt::format("{} {} --epsilon 0 {}", arm, armParams, o),
                   "--epsilon '0': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001");
     checkBadInput(fmt::format("{} {} --epsilon=-1e-3 {}", arm, armParams, o),
@@ -162,9 +168,10 @@ TEST_CASE("rig-learn: bad input is one error line and exit code 2, and an existi
                   "--orderer: fast not in {talk,structured}; run 'rig-learn --help' for usage");
     checkBadInput(fmt::format("{} {}", arm, o), "--params is required; run 'rig-learn --help' for usage");
     checkBadInput(fmt::format("{} {}", arm, armParams), "--output is required; run 'rig-learn --help' for usage");
-    checkBadInput(fmt::format("{} {} {} --report-json '{}'", arm, armParams, o, (dir / "no" / "r.json").string()),
-                  fmt::format("{}: cannot write here (No such file or directory); check the folder exists and is writable",
-                              (dir / "no" / "r.json").string()));
+    checkBadInput(
+        fmt::format("{} {} {} --report-json '{}'", arm, armParams, o, (dir / "no" / "r.json").string()),
+        fmt::format("{}: cannot write here (No such file or directory); check the folder exists and is writable",
+                    (dir / "no" / "r.json").string()));
     CHECK(rig::test::readFile(out) == "precious\n");
     // Nothing left behind but the file itself.
     int files = 0;
@@ -188,8 +195,8 @@ TEST_CASE("rig-learn --spec: the biped's inversion spec learns what its globs sp
     CHECK(YAML::LoadFile((dir / "a.yaml").string())["outputs"].size() == 31);
 
     const auto spec = rig::test::writeFile(dir / "spec.yaml", "params: ['shoulder.rotate?']\nouptuts: [wrist]\n");
-    const auto bad = run(rigLearn(fmt::format("rigs/examples/arm.yaml --spec {} -o {}", spec.string(),
-                                              (dir / "b.yaml").string())));
+    const auto bad =
+        run(rigLearn(fmt::format("rigs/examples/arm.yaml --spec {} -o {}", spec.string(), (dir / "b.yaml").string())));
     CHECK(bad.exitCode == 2);
     CHECK(bad.err == "error: " + spec.string() + ":2:1: unknown key 'ouptuts'; a spec has 'params:' and 'outputs:'\n");
     CHECK(!std::filesystem::exists(dir / "b.yaml"));
@@ -201,12 +208,14 @@ TEST_CASE("rig-learn: an approximation its own validation measures over epsilon 
     // between them, which the validation poses find; more samples (up to 8 x 64) do not reach 1e-5.
     const auto dir = rig::test::scratchDir("rig-learn-inexact");
     const auto out = dir / "knee.yaml", json = dir / "knee.json";
-    const std::string args = fmt::format("rigs/nasty.yaml --params nasty_ctrl.kneeBend --epsilon 0.00001 -o '{}' --report-json '{}'",
-                                         out.string(), json.string());
+    const std::string args =
+        fmt::format("rigs/nasty.yaml --params nasty_ctrl.kneeBend --epsilon 0.00001 -o '{}' --report-json '{}'",
+                    out.string(), json.string());
     const auto r = run(rigLearn(args));
     CHECK(r.exitCode == 3);
     CHECK(r.err.starts_with("error: the approximation exceeds epsilon 1e-05: "));
-    CHECK(r.err.find(" cm per unit of the parameters moved on knee (moving nasty_ctrl.kneeBend most); ") != std::string::npos);
+    CHECK(r.err.find(" cm per unit of the parameters moved on knee (moving nasty_ctrl.kneeBend most); ") !=
+          std::string::npos);
     CHECK(r.err.ends_with(fmt::format("{} not written (--allow-inexact writes it anyway)\n", out.string())));
     CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
     CHECK(r.out.find("EXCEEDED") != std::string::npos);
@@ -226,7 +235,8 @@ TEST_CASE("rig-learn: an approximation its own validation measures over epsilon 
     CHECK(a.validation.worstRelativeOutput == "knee");
 }
 
-TEST_CASE("rig-learn: a joint scaled to zero is left out with its reason, and a scale control's default range avoids zero")
+TEST_CASE(
+    "rig-learn: a joint scaled to zero is left out with its reason, and a scale control's default range avoids zero")
 {
     const auto dir = rig::test::scratchDir("rig-learn-zero-scale");
     const auto rigFile = rig::test::writeFile(dir / "flat.yaml", R"(nodes:
@@ -236,11 +246,12 @@ TEST_CASE("rig-learn: a joint scaled to zero is left out with its reason, and a 
   - {name: other, type: joint, parent: root, translate: [0, 5, 0]}
 )");
     const auto out = dir / "flat.approx.yaml";
-    const auto r = run(rigLearn(fmt::format("'{}' --params 'root.rotate?' 'root.scale?' 'other.scaleX' -o '{}'", rigFile.string(),
-                                            out.string())));
+    const auto r = run(rigLearn(fmt::format("'{}' --params 'root.rotate?' 'root.scale?' 'other.scaleX' -o '{}'",
+                                            rigFile.string(), out.string())));
     CHECK(r.exitCode == 0);
     CHECK(r.err.empty());
-    CHECK(r.out.find("left out: flat: its rest world matrix is singular (singular values 1, 1, 0: a zero scale?)") != std::string::npos);
+    CHECK(r.out.find("left out: flat: its rest world matrix is singular (singular values 1, 1, 0: a zero scale?)") !=
+          std::string::npos);
     CHECK(r.out.find("root.scaleX ") != std::string::npos);
     CHECK(r.out.find("0.5..2") != std::string::npos);  // half to twice the rest scale of 1
     const rig::Approximation a = rig::readApproximationFile(out);

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <fmt/format.h>
+#include <Eigen/Core>
 
 #include "core/error.h"
 #include "graph/graph.h"
@@ -31,10 +31,7 @@ Eigen::Matrix4d rx(double degrees)
 {
     const double c = std::cos(degrees * pi / 180), s = std::sin(degrees * pi / 180);
     Eigen::Matrix4d m;
-    m << 1, 0, 0, 0,
-         0, c, -s, 0,
-         0, s, c, 0,
-         0, 0, 0, 1;
+    m << 1, 0, 0, 0, 0, c, -s, 0, 0, s, c, 0, 0, 0, 0, 1;
     return m;
 }
 
@@ -42,10 +39,7 @@ Eigen::Matrix4d ry(double degrees)
 {
     const double c = std::cos(degrees * pi / 180), s = std::sin(degrees * pi / 180);
     Eigen::Matrix4d m;
-    m << c, 0, s, 0,
-         0, 1, 0, 0,
-         -s, 0, c, 0,
-         0, 0, 0, 1;
+    m << c, 0, s, 0, 0, 1, 0, 0, -s, 0, c, 0, 0, 0, 0, 1;
     return m;
 }
 
@@ -53,10 +47,7 @@ Eigen::Matrix4d rz(double degrees)
 {
     const double c = std::cos(degrees * pi / 180), s = std::sin(degrees * pi / 180);
     Eigen::Matrix4d m;
-    m << c, -s, 0, 0,
-         s, c, 0, 0,
-         0, 0, 1, 0,
-         0, 0, 0, 1;
+    m << c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1;
     return m;
 }
 
@@ -121,9 +112,10 @@ std::string errorOf(const std::string& text)
 
 std::string rootClip(const std::string& channels, const std::string& values)
 {
-    return fmt::format("HIERARCHY\nROOT R\n{{\n OFFSET 1 2 3\n CHANNELS {}\n End Site\n {{\n  OFFSET 0 0 1\n }}\n}}\n"
-                       "MOTION\nFrames: 1\nFrame Time: 0.1\n{}\n",
-                       channels, values);
+    return fmt::format(
+        "HIERARCHY\nROOT R\n{{\n OFFSET 1 2 3\n CHANNELS {}\n End Site\n {{\n  OFFSET 0 0 1\n }}\n}}\n"
+        "MOTION\nFrames: 1\nFrame Time: 0.1\n{}\n",
+        channels, values);
 }
 
 }  // namespace
@@ -163,11 +155,16 @@ TEST_CASE("bvh reader: every rotation channel order, partial and repeated axes, 
         std::vector<char> axes;
     };
     const std::vector<Case> cases{
-        {"3 Xrotation Yrotation Zrotation", {'x', 'y', 'z'}}, {"3 Xrotation Zrotation Yrotation", {'x', 'z', 'y'}},
-        {"3 Yrotation Xrotation Zrotation", {'y', 'x', 'z'}}, {"3 Yrotation Zrotation Xrotation", {'y', 'z', 'x'}},
-        {"3 Zrotation Xrotation Yrotation", {'z', 'x', 'y'}}, {"3 Zrotation Yrotation Xrotation", {'z', 'y', 'x'}},
-        {"2 Zrotation Xrotation", {'z', 'x'}},                {"1 Yrotation", {'y'}},
-        {"3 Zrotation Xrotation Zrotation", {'z', 'x', 'z'}}, {"4 Xrotation Xrotation Yrotation Xrotation", {'x', 'x', 'y', 'x'}},
+        {"3 Xrotation Yrotation Zrotation", {'x', 'y', 'z'}},
+        {"3 Xrotation Zrotation Yrotation", {'x', 'z', 'y'}},
+        {"3 Yrotation Xrotation Zrotation", {'y', 'x', 'z'}},
+        {"3 Yrotation Zrotation Xrotation", {'y', 'z', 'x'}},
+        {"3 Zrotation Xrotation Yrotation", {'z', 'x', 'y'}},
+        {"3 Zrotation Yrotation Xrotation", {'z', 'y', 'x'}},
+        {"2 Zrotation Xrotation", {'z', 'x'}},
+        {"1 Yrotation", {'y'}},
+        {"3 Zrotation Xrotation Zrotation", {'z', 'x', 'z'}},
+        {"4 Xrotation Xrotation Yrotation Xrotation", {'x', 'x', 'y', 'x'}},
         {"0", {}},
     };
     const std::vector<double> angles{23, -71, 142, 9};
@@ -240,8 +237,10 @@ TEST_CASE("bvh reader: six-channel joints, position channels as offsets or as th
     const std::string six = replaced(base, "CHANNELS 3 Zrotation Xrotation Yrotation",
                                      "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation");
     const std::string motion = "0 0 0 0 0 0 0 0 0\n1 2 3 10 20 30 40 50 60\n";
-    const BvhClip added = parseBvh(replaced(six, motion, "0 0 0 0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0.5 0.5 0 0 0 0\n"), "t.bvh");
-    const BvhClip whole = parseBvh(replaced(six, motion, "0 0 0 0 0 0 0 10 0 0 0 0\n0 0 0 0 0 0 0.5 10.5 0 0 0 0\n"), "t.bvh");
+    const BvhClip added =
+        parseBvh(replaced(six, motion, "0 0 0 0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0.5 0.5 0 0 0 0\n"), "t.bvh");
+    const BvhClip whole =
+        parseBvh(replaced(six, motion, "0 0 0 0 0 0 0 10 0 0 0 0\n0 0 0 0 0 0 0.5 10.5 0 0 0 0\n"), "t.bvh");
     CHECK_FALSE(added.joints[1].positionReplacesOffset);
     CHECK(whole.joints[1].positionReplacesOffset);
     for (const BvhClip* clip : {&added, &whole}) {
@@ -274,7 +273,8 @@ TEST_CASE("bvh reader: six-channel joints, position channels as offsets or as th
 
 TEST_CASE("bvh reader: names with colons and spaces, CRLF, CR, tabs, a byte-order mark, blank lines")
 {
-    std::string text = replaced(replaced(base, "ROOT Hips", "ROOT mixamorig:Hips"), "JOINT Chest\n  {", "JOINT Left Hand {");
+    std::string text =
+        replaced(replaced(base, "ROOT Hips", "ROOT mixamorig:Hips"), "JOINT Chest\n  {", "JOINT Left Hand {");
     const BvhClip lf = parseBvh(text, "t.bvh");
     CHECK(lf.joints[0].name == "mixamorig:Hips");
     CHECK(lf.joints[1].name == "Left Hand");
@@ -285,8 +285,10 @@ TEST_CASE("bvh reader: names with colons and spaces, CRLF, CR, tabs, a byte-orde
     for (char c : text) cr += c == '\n' ? '\r' : c;
     std::string tabs;
     for (char c : text) tabs += c == ' ' ? '\t' : c;
-    const std::string blank = "\xEF\xBB\xBF\n" + replaced(replaced(text, "MOTION\n", "\nMOTION\n\n"), "0 0 0 0 0 0 0 0 0\n",
-                                                            "0 0 0 0 0 0 0 0 0\n   \n") + "\n\n";
+    const std::string blank =
+        "\xEF\xBB\xBF\n" +
+        replaced(replaced(text, "MOTION\n", "\nMOTION\n\n"), "0 0 0 0 0 0 0 0 0\n", "0 0 0 0 0 0 0 0 0\n   \n") +
+        "\n\n";
     for (const std::string* variant : std::vector<const std::string*>{&crlf, &cr, &tabs, &blank}) {
         const BvhClip clip = parseBvh(*variant, "t.bvh");
         CHECK(clip.joints[0].name == "mixamorig:Hips");
@@ -301,7 +303,8 @@ TEST_CASE("bvh reader: names with colons and spaces, CRLF, CR, tabs, a byte-orde
     CHECK(errorOf(replaced(cr, "Frame Time: 0.04", "Frame Time: 0")) ==
           "t.bvh:17: 'Frame Time: 0' must be a positive number of seconds per frame (e.g. 0.0333333 for 30 fps)");
     // Header spellings: "Frames:3", "Frame Time :" and "Frame   Time:" read the same.
-    const BvhClip spaced = parseBvh(replaced(replaced(base, "Frames: 2", "Frames:2"), "Frame Time: 0.04", "Frame\tTime :  .04"), "t.bvh");
+    const BvhClip spaced =
+        parseBvh(replaced(replaced(base, "Frames: 2", "Frames:2"), "Frame Time: 0.04", "Frame\tTime :  .04"), "t.bvh");
     CHECK(spaced.frameTime == 0.04);
     CHECK(spaced.warnings.empty());
 }
@@ -310,10 +313,12 @@ TEST_CASE("bvh reader: a Frames count that disagrees with the data is a warning,
 {
     const BvhClip more = parseBvh(replaced(base, "Frames: 2", "Frames: 3"), "t.bvh");
     CHECK(more.frameCount == 2);
-    CHECK(more.warnings == std::vector<std::string>{"t.bvh:17: 'Frames: 3' but the file has 2 motion lines; using the 2 lines"});
+    CHECK(more.warnings ==
+          std::vector<std::string>{"t.bvh:17: 'Frames: 3' but the file has 2 motion lines; using the 2 lines"});
     const BvhClip fewer = parseBvh(replaced(base, "Frames: 2", "Frames: 1"), "t.bvh");
     CHECK(fewer.frameCount == 2);
-    CHECK(fewer.warnings == std::vector<std::string>{"t.bvh:17: 'Frames: 1' but the file has 2 motion lines; using the 2 lines"});
+    CHECK(fewer.warnings ==
+          std::vector<std::string>{"t.bvh:17: 'Frames: 1' but the file has 2 motion lines; using the 2 lines"});
 }
 
 TEST_CASE("bvh reader: every malformed file has its exact one-line message")
@@ -326,13 +331,15 @@ TEST_CASE("bvh reader: every malformed file has its exact one-line message")
           "t.bvh:1: expected HIERARCHY, found 'HIERARCHIE'; a BVH file starts with HIERARCHY");
     CHECK(errorOf("HIERARCHY\n") ==
           "t.bvh:1: the file ends after HIERARCHY; the skeleton (ROOT NAME {...}) is missing, the file is truncated");
-    CHECK(errorOf("HIERARCHY\nJOINT A\n") == "t.bvh:2: expected ROOT, found 'JOINT'; the hierarchy starts with ROOT NAME");
+    CHECK(errorOf("HIERARCHY\nJOINT A\n") ==
+          "t.bvh:2: expected ROOT, found 'JOINT'; the hierarchy starts with ROOT NAME");
     CHECK(errorOf(firstLines(base, 9)) ==
           "t.bvh:9: the file ends inside joint 'Chest' (2 '{' still open); the file is truncated or a '}' is missing");
     CHECK(errorOf(firstLines(base, 11)) ==
           "t.bvh:11: the file ends inside joint 'Chest' (2 '{' still open); the file is truncated or a '}' is missing");
-    CHECK(errorOf(firstLines(base, 15)) ==
-          "t.bvh:15: the file ends after the hierarchy without a MOTION section; the file is truncated, export it again");
+    CHECK(
+        errorOf(firstLines(base, 15)) ==
+        "t.bvh:15: the file ends after the hierarchy without a MOTION section; the file is truncated, export it again");
     // Missing MOTION.
     CHECK(errorOf(replaced(base, "MOTION", "MOTON")) ==
           "t.bvh:16: expected MOTION after the hierarchy, found 'MOTON'; add a MOTION line before 'Frames:'");
@@ -376,7 +383,8 @@ TEST_CASE("bvh reader: every malformed file has its exact one-line message")
           "belong to this hierarchy");
     for (const char* bad : {"abc", "nan", "1.5.2", "1,5", "0x10", "--1"})
         CHECK(errorOf(replaced(base, "1 2 3 10 20", fmt::format("1 2 3 10 {}", bad))) ==
-              fmt::format("t.bvh:20: value 5 of motion line 2 is '{}', not a number; motion lines hold only numbers", bad));
+              fmt::format("t.bvh:20: value 5 of motion line 2 is '{}', not a number; motion lines hold only numbers",
+                          bad));
     // Numbers as exporters write them.
     CHECK(errorOf(replaced(base, "1 2 3 10 20 30 40 50 60", "+1 -2 .5 -.5 1e2 1E-2 00 -0 7.")) == "(no error)");
     // Braces that do not match.
@@ -397,7 +405,10 @@ TEST_CASE("bvh reader: every malformed file has its exact one-line message")
     CHECK(errorOf(replaced(base, "JOINT Chest", "JOINT {")) == "t.bvh:6: JOINT without a name; write JOINT NAME");
     CHECK(errorOf(replaced(base, "    OFFSET 0 10 0\n", "")) ==
           "t.bvh:9: joint 'Chest' has no OFFSET before its children; add OFFSET X Y Z after its '{'");
-    CHECK(errorOf(replaced(base, "  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n  JOINT Chest\n  {\n    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n    {\n      OFFSET 0 5 0\n    }\n  }\n",
+    CHECK(errorOf(replaced(base,
+                           "  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n "
+                           " JOINT Chest\n  {\n    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    "
+                           "End Site\n    {\n      OFFSET 0 5 0\n    }\n  }\n",
                            "")) == "t.bvh:4: joint 'Hips' has no OFFSET; add OFFSET X Y Z after its '{'");
     CHECK(errorOf(replaced(base, "OFFSET 0 10 0", "OFFSET 0 10")) ==
           "t.bvh:9: OFFSET of joint 'Chest' needs three numbers, found 'CHANNELS'; write OFFSET X Y Z");
@@ -407,7 +418,8 @@ TEST_CASE("bvh reader: every malformed file has its exact one-line message")
           "t.bvh:13: OFFSET of the End Site of joint 'Chest' needs three numbers, found '}'; write OFFSET X Y Z");
     CHECK(errorOf(replaced(base, "OFFSET 0 10 0", "OFFSET 0 10 0\n    OFFSET 0 10 0")) ==
           "t.bvh:9: joint 'Chest' has a second OFFSET; give one OFFSET per joint");
-    CHECK(errorOf(replaced(base, "CHANNELS 3 Zrotation Xrotation Yrotation", "CHANNELS 3 Zrotation Xrotation Yrotation\n    CHANNELS 0")) ==
+    CHECK(errorOf(replaced(base, "CHANNELS 3 Zrotation Xrotation Yrotation",
+                           "CHANNELS 3 Zrotation Xrotation Yrotation\n    CHANNELS 0")) ==
           "t.bvh:10: joint 'Chest' has a second CHANNELS line; list all its channels once");
     CHECK(errorOf(replaced(replaced(base, "    CHANNELS 3 Zrotation Xrotation Yrotation\n", ""), "  }\n}\n",
                            "    CHANNELS 3 Zrotation Xrotation Yrotation\n  }\n}\n")) ==
@@ -425,7 +437,8 @@ TEST_CASE("bvh reader: every malformed file has its exact one-line message")
               fmt::format("t.bvh:9: CHANNELS of joint 'Chest' needs a count from 0 to 64, found '{}'; write CHANNELS N "
                           "followed by N channel names",
                           bad));
-    CHECK(errorOf(replaced(base, "CHANNELS 3 Zrotation Xrotation Yrotation", "CHANNELS 3 Xposition Zrotation Xposition")) ==
+    CHECK(errorOf(
+              replaced(base, "CHANNELS 3 Zrotation Xrotation Yrotation", "CHANNELS 3 Xposition Zrotation Xposition")) ==
           "t.bvh:9: joint 'Chest' lists Xposition twice; a position channel may appear once per joint");
     CHECK(errorOf(replaced(base, "    End Site", "    Scale 2\n    End Site")) ==
           "t.bvh:10: unexpected 'Scale' in joint 'Chest'; expected OFFSET, CHANNELS, JOINT, End Site or '}'");
@@ -438,8 +451,9 @@ TEST_CASE("bvh reader: every malformed file has its exact one-line message")
     CHECK(errorOf(replaced(base, "      OFFSET 0 5 0\n", "      OFFSET 0 5 0\n      JOINT X\n")) ==
           "t.bvh:13: expected '}' closing the End Site of joint 'Chest', found 'JOINT'; an End Site holds only an "
           "OFFSET");
-    CHECK(errorOf(replaced(replaced(base, "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation", "CHANNELS 0"),
-                           "CHANNELS 3 Zrotation Xrotation Yrotation", "CHANNELS 0")) ==
+    CHECK(errorOf(replaced(
+              replaced(base, "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation", "CHANNELS 0"),
+              "CHANNELS 3 Zrotation Xrotation Yrotation", "CHANNELS 0")) ==
           "t.bvh:16: the hierarchy has no channels (every CHANNELS count is 0); there is no motion to read");
 }
 
@@ -471,21 +485,23 @@ TEST_CASE("bvh reader: files that cannot be read")
                                      (dir / "missing.bvh").string())
                              .c_str(),
                          Error);
-    CHECK_THROWS_WITH_AS(readBvhFile(dir),
-                         fmt::format("{}: is a folder, not a BVH file; give the path of a .bvh file", dir.string()).c_str(),
-                         Error);
+    CHECK_THROWS_WITH_AS(
+        readBvhFile(dir),
+        fmt::format("{}: is a folder, not a BVH file; give the path of a .bvh file", dir.string()).c_str(), Error);
     test::writeFile(dir / "bad.bvh", firstLines(base, 9));
-    CHECK_THROWS_WITH_AS(readBvhFile(dir / "bad.bvh"),
-                         fmt::format("{}:9: the file ends inside joint 'Chest' (2 '{{' still open); the file is truncated "
-                                     "or a '}}' is missing",
-                                     (dir / "bad.bvh").string())
-                             .c_str(),
-                         Error);
+    CHECK_THROWS_WITH_AS(
+        readBvhFile(dir / "bad.bvh"),
+        fmt::format("{}:9: the file ends inside joint 'Chest' (2 '{{' still open); the file is truncated "
+                    "or a '}}' is missing",
+                    (dir / "bad.bvh").string())
+            .c_str(),
+        Error);
 }
 
 TEST_CASE("bvh sampling: frame 1 is the first line, ends clamp, fractions interpolate the shorter way round")
 {
-    const BvhClip clip = parseBvh(replaced(base, "1 2 3 10 20 30 40 50 60", "1 2 3 10 20 30 179 -170 360\n2 4 6 -179 -150 0 0 0 0"), "t.bvh");
+    const BvhClip clip = parseBvh(
+        replaced(base, "1 2 3 10 20 30 40 50 60", "1 2 3 10 20 30 179 -170 360\n2 4 6 -179 -150 0 0 0 0"), "t.bvh");
     REQUIRE(clip.frameCount == 3);
     auto at = [&](double t) { return bvhSample(clip, t); };
     const auto line = [&](int i) {
@@ -522,8 +538,9 @@ TEST_CASE("bvhClip node: outputs, units, names, time, caching, errors and checke
     const std::string six = replaced(base, "CHANNELS 3 Zrotation Xrotation Yrotation",
                                      "CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation");
     const auto first = test::writeFile(
-        dir / "a.bvh", replaced(six, "0 0 0 0 0 0 0 0 0\n1 2 3 10 20 30 40 50 60\n",
-                                "0 0 0 0 0 0 0 0 0 0 0 0\n1 2 3 10 20 30 0.5 0.5 0 40 50 60\n2 4 6 20 40 60 1 1 0 80 100 120\n"));
+        dir / "a.bvh",
+        replaced(six, "0 0 0 0 0 0 0 0 0\n1 2 3 10 20 30 40 50 60\n",
+                 "0 0 0 0 0 0 0 0 0 0 0 0\n1 2 3 10 20 30 0.5 0.5 0 40 50 60\n2 4 6 20 40 60 1 1 0 80 100 120\n"));
     const auto second = test::writeFile(dir / "b.bvh", replaced(base, "ROOT Hips", "ROOT mixamorig:Hips"));
     auto graph = loadGraphText(fmt::format(R"(
 nodes:
@@ -567,7 +584,8 @@ connections:
     graph->setTime(2.5);
     CHECK(std::get<double>(get("clip.channel[3]")) == 15);
     CHECK(std::get<double>(get("clip.channel[7]")) == 10.75);
-    CHECK(maxDiff(std::get<Eigen::Matrix4d>(get("clip.worldMatrix[1]")), bvhWorldMatrices(clip, bvhSample(clip, 2.5))[1]) == 0);
+    CHECK(maxDiff(std::get<Eigen::Matrix4d>(get("clip.worldMatrix[1]")),
+                  bvhWorldMatrices(clip, bvhSample(clip, 2.5))[1]) == 0);
     CHECK(graph->checkEvaluation().empty());
 
     // The parsed file is cached: changing the file on disk changes nothing until `file` changes.
@@ -623,7 +641,8 @@ TEST_CASE("bvhClip node: a relative path is read from the current folder")
     std::filesystem::current_path(dir);
     int frames = -1;
     try {
-        auto graph = loadGraphText("nodes:\n  - {name: clip, type: bvhClip, file: r.bvh}\n", "t.yaml", makeBuiltinRegistry());
+        auto graph =
+            loadGraphText("nodes:\n  - {name: clip, type: bvhClip, file: r.bvh}\n", "t.yaml", makeBuiltinRegistry());
         frames = std::get<int>(graph->getValue(graph->plug("clip.frameCount")));
     }
     catch (...) {

@@ -13,11 +13,12 @@ using namespace rig;
 
 namespace {
 
-const char* const twoJointBvh = "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n"
-                                "  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
-                                "  JOINT Chest\n  {\n    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
-                                "    End Site\n    {\n      OFFSET 0 5 0\n    }\n  }\n}\nMOTION\nFrames: 2\n"
-                                "Frame Time: 0.04\n0 0 0 0 0 0 0 0 0\n1 2 3 10 20 30 40 50 60\n";
+const char* const twoJointBvh =
+    "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n"
+    "  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+    "  JOINT Chest\n  {\n    OFFSET 0 10 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+    "    End Site\n    {\n      OFFSET 0 5 0\n    }\n  }\n}\nMOTION\nFrames: 2\n"
+    "Frame Time: 0.04\n0 0 0 0 0 0 0 0 0\n1 2 3 10 20 30 40 50 60\n";
 
 std::string errorOf(const std::function<void()>& f)
 {
@@ -58,8 +59,8 @@ TEST_CASE("target clip from graph-eval JSON equals the rig's joints")
 {
     const auto dir = test::scratchDir("target_clip_json");
     const auto json = dir / "arm.json";
-    const auto r = test::run(test::tool("graph-eval") + " rigs/examples/arm.yaml --frames 1:3 --get '*.worldMatrix' -o " +
-                             json.string());
+    const auto r = test::run(test::tool("graph-eval") +
+                             " rigs/examples/arm.yaml --frames 1:3 --get '*.worldMatrix' -o " + json.string());
     REQUIRE(r.exitCode == 0);
     const TargetClip clip = readTargetClip(json, TargetMap{});
     CHECK(clip.frameNumbers == std::vector<double>{1, 2, 3});
@@ -92,8 +93,8 @@ TEST_CASE("target clip and map mistakes are one line with the place and what to 
           m + ":2: the map renames 'Chset', which " + bvh.string() + " does not have; check the joint name");
     CHECK(errorOf([&] { readTargetClip(bvh, map("joints: {Chest: Hips}\n")); }) ==
           bvh.string() + ": two target joints become 'Hips'; rename or ignore one of them in the map");
-    CHECK(errorOf([&] { readTargetMap(dir / "none.yaml"); }) == (dir / "none.yaml").string() +
-                                                                  ": no such map file; check the path");
+    CHECK(errorOf([&] { readTargetMap(dir / "none.yaml"); }) ==
+          (dir / "none.yaml").string() + ": no such map file; check the path");
     CHECK(errorOf([&] { readTargetClip(dir / "clip.fbx", TargetMap{}); }) ==
           (dir / "clip.fbx").string() +
               ": a clip is a .bvh file or a .json file of world matrices (graph-eval's JSON); rename it or convert it");
@@ -112,14 +113,15 @@ TEST_CASE("target clip and map mistakes are one line with the place and what to 
           }) == j + ":1:32: a.worldMatrix must be a matrix as four rows of four numbers");
     const std::string id = "[[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]";
     CHECK(errorOf([&] {
-              readTargetClip(json("[{\"frame\": 2, \"a.worldMatrix\": " + id + "},\n {\"frame\": 1, \"a.worldMatrix\": " +
-                                  id + "}]"),
+              readTargetClip(json("[{\"frame\": 2, \"a.worldMatrix\": " + id +
+                                  "},\n {\"frame\": 1, \"a.worldMatrix\": " + id + "}]"),
                              TargetMap{});
           }) == j + ":2:12: frame 1 comes after frame 2; frames must increase");
     CHECK(errorOf([&] {
               readTargetClip(json("[{\"frame\": 1, \"a.worldMatrix\": [[1, 0, 0, .nan], [0, 1, 0, 0], [0, 0, 1, 0], "
                                   "[0, 0, 0, 1]]}]"),
                              TargetMap{});
-          }) == j + ":1:43: JSON syntax error: syntax error while parsing value - invalid literal; last read: '0, .'; a JSON clip "
+          }) == j + ":1:43: JSON syntax error: syntax error while parsing value - invalid literal; last read: '0, .'; "
+                    "a JSON clip "
                     "is one list of frames, as graph-eval writes it");  // .nan is YAML, not JSON
 }

@@ -14,9 +14,9 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <Eigen/Geometry>
 
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
@@ -88,8 +88,14 @@ struct Rig {
     void add(const std::string& type, const std::string& name) { graph->addNode(type, name); }
     void set(const std::string& path, const rig::Value& value) { graph->setValue(graph->plug(path), value); }
     void connect(const std::string& from, const std::string& to) { graph->connect(graph->plug(from), graph->plug(to)); }
-    Eigen::Vector3d vec(const std::string& path) { return std::get<Eigen::Vector3d>(graph->getValue(graph->plug(path))); }
-    Eigen::Matrix4d mat(const std::string& path) { return std::get<Eigen::Matrix4d>(graph->getValue(graph->plug(path))); }
+    Eigen::Vector3d vec(const std::string& path)
+    {
+        return std::get<Eigen::Vector3d>(graph->getValue(graph->plug(path)));
+    }
+    Eigen::Matrix4d mat(const std::string& path)
+    {
+        return std::get<Eigen::Matrix4d>(graph->getValue(graph->plug(path)));
+    }
     std::string check() { return fmt::format("{}", fmt::join(graph->checkEvaluation(), ", ")); }
 };
 
@@ -415,9 +421,7 @@ TEST_CASE("aimConstraint: closed forms at the root")
     // Up toward +X instead: X -> Y, Y -> X, so Z -> -Z: a half turn about the diagonal (1, 1, 0).
     r.set("ac.worldUpVector", v3(1, 0, 0));
     Eigen::Matrix3d expected;
-    expected << 0, 1, 0,
-                1, 0, 0,
-                0, 0, -1;
+    expected << 0, 1, 0, 1, 0, 0, 0, 0, -1;
     const Eigen::Vector3d angles = r.vec("ac.constraintRotate");
     CHECK(near(rig::eulerToMatrix(angles, rig::RotateOrder::xyz), expected));
 
@@ -528,7 +532,7 @@ TEST_CASE("poleVectorConstraint: the docs' arm puts the elbow in the pole's plan
         const Eigen::Vector3d elbow = position("elbow") - start;
         const Eigen::Vector3d side = toPole - toPole.dot(goal.normalized()) * goal.normalized();
         CHECK(std::abs(elbow.dot(goal.cross(side).normalized())) <= 1e-9);  // in the plane
-        CHECK(elbow.dot(side) > 0.0);                                         // on the pole's side
+        CHECK(elbow.dot(side) > 0.0);                                       // on the pole's side
     }
     CHECK(r.check() == "");
 }
@@ -586,15 +590,19 @@ rig::Value nonDefault(const rig::AttributeSpec& spec, int k)
 {
     const double d = 0.375 + 0.25 * k;
     switch (spec.type) {
-    case rig::ValueType::Double: return rig::toDouble(spec.defaultValue) + d;
-    case rig::ValueType::Bool: return !std::get<bool>(spec.defaultValue);
-    case rig::ValueType::Vector3: return Eigen::Vector3d(std::get<Eigen::Vector3d>(spec.defaultValue) + v3(d, -2 * d, 3 * d));
-    case rig::ValueType::Matrix4: {
-        Eigen::Matrix4d m = trs(v3(3 * d, -2 * d, d), rot(k % 3, 20 + 15 * d));
-        m.topLeftCorner<3, 3>() *= Eigen::Vector3d(1 + d, 1, 0.5).asDiagonal();
-        return m;
-    }
-    default: return spec.defaultValue;
+        case rig::ValueType::Double:
+            return rig::toDouble(spec.defaultValue) + d;
+        case rig::ValueType::Bool:
+            return !std::get<bool>(spec.defaultValue);
+        case rig::ValueType::Vector3:
+            return Eigen::Vector3d(std::get<Eigen::Vector3d>(spec.defaultValue) + v3(d, -2 * d, 3 * d));
+        case rig::ValueType::Matrix4: {
+            Eigen::Matrix4d m = trs(v3(3 * d, -2 * d, d), rot(k % 3, 20 + 15 * d));
+            m.topLeftCorner<3, 3>() *= Eigen::Vector3d(1 + d, 1, 0.5).asDiagonal();
+            return m;
+        }
+        default:
+            return spec.defaultValue;
     }
 }
 

@@ -69,10 +69,7 @@ Eigen::Matrix4d rz(double a)
 {
     const double c = std::cos(a), s = std::sin(a);
     Eigen::Matrix4d m;
-    m << c, -s, 0, 0,
-         s, c, 0, 0,
-         0, 0, 1, 0,
-         0, 0, 0, 1;
+    m << c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1;
     return m;
 }
 
@@ -136,8 +133,8 @@ connections:
     g->setTime(2.0);
     CHECK(num(*g, "c.output") == doctest::Approx(0.2).epsilon(1e-14));
     // A connected input is not set by setTime and cannot be set by hand.
-    CHECK(errorOf([&] { set(*g, "c.input", 1.0); })
-          == "cannot set c.input: it is driven by time1.outTime; disconnect it first");
+    CHECK(errorOf([&] { set(*g, "c.input", 1.0); }) ==
+          "cannot set c.input: it is driven by time1.outTime; disconnect it first");
 }
 
 TEST_CASE("anim curve nodes: animCurveUA keys are degrees in the file and radians inside")
@@ -174,7 +171,8 @@ TEST_CASE("anim curve nodes: per-key tangents from keys: [[0, 0, linear], [10, 1
 {
     auto g = load(R"(
 nodes:
-  - {name: c, type: animCurveUU, keys: [[0, 0, linear], [10, 1, flat, spline]], preInfinity: linear, postInfinity: linear}
+  - {name: c, type: animCurveUU, keys: [[0, 0, linear], [10, 1, flat, spline]], preInfinity: linear,
+     postInfinity: linear}
   - {name: d, type: animCurveUU, keys: [[0, 0, step], [10, 1], [20, 0]], tangents: linear}
 )");
     // [x, y, t] sets both tangents; [x, y, in, out] each; [x, y] leaves -1 (the `tangents` type).
@@ -221,7 +219,8 @@ TEST_CASE("anim curve nodes: pre and post infinity by name")
     auto g = load(R"(
 nodes:
   - {name: c, type: animCurveUU, keys: [[0, 0], [10, 1]], tangents: linear, preInfinity: cycle, postInfinity: oscillate}
-  - {name: d, type: animCurveUU, keys: [[0, 0], [10, 1]], tangents: linear, preInfinity: cycleRelative, postInfinity: linear}
+  - {name: d, type: animCurveUU, keys: [[0, 0], [10, 1]], tangents: linear, preInfinity: cycleRelative,
+     postInfinity: linear}
   - {name: e, type: animCurveUU, keys: [[0, 0], [10, 1]], tangents: linear, preInfinity: constant, postInfinity: 3}
 )");
     CHECK(std::get<int>(g->getValue(g->plug("c.preInfinity"))) == 2);
@@ -250,9 +249,9 @@ nodes:
     CHECK(at("e", 12.5) == doctest::Approx(1.25).epsilon(1e-14));
     CHECK(at("e", 27.5) == doctest::Approx(2.75).epsilon(1e-14));
 
-    CHECK(loadError("nodes:\n  - {name: s, type: animCurveUU, preInfinity: cycel}")
-          == "t.yaml:2:47: s.preInfinity: 'cycel' is not one of constant, linear, cycle, cycleRelative, oscillate; "
-             "did you mean 'cycle'?");
+    CHECK(loadError("nodes:\n  - {name: s, type: animCurveUU, preInfinity: cycel}") ==
+          "t.yaml:2:47: s.preInfinity: 'cycel' is not one of constant, linear, cycle, cycleRelative, oscillate; "
+          "did you mean 'cycle'?");
 }
 
 TEST_CASE("anim curve nodes: keys: sugar errors")
@@ -260,30 +259,37 @@ TEST_CASE("anim curve nodes: keys: sugar errors")
     const std::string head = "nodes:\n  - {name: s, type: animCurveUU, keys: ";
     const std::string who = "node 's' (animCurveUU)";
     // Columns count from the line's start; head's second line is 39 characters long.
-    CHECK(loadError(head + "[[10, 0], [5, 1]]}")
-          == "t.yaml:2:51: " + who + ": key x 5 is not greater than the previous key's x 10 (keys must be strictly increasing)");
-    CHECK(loadError(head + "[[0, 0], [0, 1]]}")
-          == "t.yaml:2:50: " + who + ": key x 0 is not greater than the previous key's x 0 (keys must be strictly increasing)");
-    CHECK(loadError(head + "[[0, zero], [5, 1]]}") == "t.yaml:2:45: " + who + ": key y must be a finite number, got 'zero'");
-    CHECK(loadError(head + "[[0, 0], [abc, 1]]}") == "t.yaml:2:50: " + who + ": key x must be a finite number, got 'abc'");
+    CHECK(loadError(head + "[[10, 0], [5, 1]]}") ==
+          "t.yaml:2:51: " + who +
+              ": key x 5 is not greater than the previous key's x 10 (keys must be strictly increasing)");
+    CHECK(loadError(head + "[[0, 0], [0, 1]]}") ==
+          "t.yaml:2:50: " + who +
+              ": key x 0 is not greater than the previous key's x 0 (keys must be strictly increasing)");
+    CHECK(loadError(head + "[[0, zero], [5, 1]]}") ==
+          "t.yaml:2:45: " + who + ": key y must be a finite number, got 'zero'");
+    CHECK(loadError(head + "[[0, 0], [abc, 1]]}") ==
+          "t.yaml:2:50: " + who + ": key x must be a finite number, got 'abc'");
     CHECK(loadError(head + "[[.inf, 0]]}") == "t.yaml:2:42: " + who + ": key x must be a finite number, got '.inf'");
     CHECK(loadError(head + "[[0, ~]]}") == "t.yaml:2:45: " + who + ": key y must be a finite number, got nothing");
-    CHECK(loadError(head + "[[0, [1]]]}") == "t.yaml:2:45: " + who + ": key y must be a finite number, got a list of 1");
-    CHECK(loadError(head + "[[0, 0, linear], [10, 1, flat, splin]]}")
-          == "t.yaml:2:71: " + who
-                 + ": unknown tangent type 'splin'; use one of linear, flat, step, stepnext, spline, clamped, plateau, auto");
-    CHECK(loadError(head + "[[0, 0, Linear]]}")
-          == "t.yaml:2:48: " + who
-                 + ": unknown tangent type 'Linear'; use one of linear, flat, step, stepnext, spline, clamped, plateau, auto");
-    CHECK(loadError(head + "[[0, 0, [flat]]]}")
-          == "t.yaml:2:48: " + who
-                 + ": unknown tangent type a list of 1; use one of linear, flat, step, stepnext, spline, clamped, plateau, auto");
+    CHECK(loadError(head + "[[0, [1]]]}") ==
+          "t.yaml:2:45: " + who + ": key y must be a finite number, got a list of 1");
+    CHECK(
+        loadError(head + "[[0, 0, linear], [10, 1, flat, splin]]}") ==
+        "t.yaml:2:71: " + who +
+            ": unknown tangent type 'splin'; use one of linear, flat, step, stepnext, spline, clamped, plateau, auto");
+    CHECK(
+        loadError(head + "[[0, 0, Linear]]}") ==
+        "t.yaml:2:48: " + who +
+            ": unknown tangent type 'Linear'; use one of linear, flat, step, stepnext, spline, clamped, plateau, auto");
+    CHECK(loadError(head + "[[0, 0, [flat]]]}") == "t.yaml:2:48: " + who +
+                                                       ": unknown tangent type a list of 1; use one of linear, flat, "
+                                                       "step, stepnext, spline, clamped, plateau, auto");
     const std::string shape = ": a key is [x, y], [x, y, tangent] or [x, y, inTangent, outTangent]";
     CHECK(loadError(head + "[[0, 0], [10]]}") == "t.yaml:2:49: " + who + shape);
     CHECK(loadError(head + "[[0, 0, flat, flat, flat]]}") == "t.yaml:2:41: " + who + shape);
     CHECK(loadError(head + "[0, 10]}") == "t.yaml:2:41: " + who + shape);
-    CHECK(loadError(head + "{0: 1}}")
-          == "t.yaml:2:40: " + who + ": 'keys' is a list of [x, y] or [x, y, tangent] or [x, y, in, out]");
+    CHECK(loadError(head + "{0: 1}}") ==
+          "t.yaml:2:40: " + who + ": 'keys' is a list of [x, y] or [x, y, tangent] or [x, y, in, out]");
     // An empty list is a curve without keys: 0 everywhere.
     auto g = load(head + "[]}");
     CHECK(num(*g, "s.output") == 0.0);
@@ -295,16 +301,18 @@ TEST_CASE("anim curve nodes: keys set directly are checked at evaluation")
     g.addNode("animCurveUU", "c");
     set(g, "c.keyTime", std::vector<double>{0, 1, 2});
     set(g, "c.keyValue", std::vector<double>{0, 1});
-    CHECK(errorOf([&] { num(g, "c.output"); }) == "node 'c': keyTime has 3 values but keyValue has 2; give one value per key");
+    CHECK(errorOf([&] { num(g, "c.output"); }) ==
+          "node 'c': keyTime has 3 values but keyValue has 2; give one value per key");
     // Still wrong when asked again, and right once fixed.
-    CHECK(errorOf([&] { num(g, "c.output"); }) == "node 'c': keyTime has 3 values but keyValue has 2; give one value per key");
+    CHECK(errorOf([&] { num(g, "c.output"); }) ==
+          "node 'c': keyTime has 3 values but keyValue has 2; give one value per key");
     set(g, "c.keyValue", std::vector<double>{0, 1, 4});
     set(g, "c.input", 1.0);
     CHECK(num(g, "c.output") == 1.0);
 
     set(g, "c.keyTime", std::vector<double>{0, 2, 1});
-    CHECK(errorOf([&] { num(g, "c.output"); })
-          == "node 'c': key 2: x 1 is not greater than the previous key's x 2 (keys must be strictly increasing)");
+    CHECK(errorOf([&] { num(g, "c.output"); }) ==
+          "node 'c': key 2: x 1 is not greater than the previous key's x 2 (keys must be strictly increasing)");
     set(g, "c.keyTime", std::vector<double>{0, 1, 2});
     set(g, "c.keyInTangent", std::vector<double>{0, 8});
     CHECK(errorOf([&] { num(g, "c.output"); }) == "node 'c': keyInTangent[1] = 8 is not a tangent type index");
@@ -338,13 +346,15 @@ connections:
 )");
     set(*g, "ctrl.bend", 5.0);
     // elbow at (30, 150, 0) turned 45 degrees; the wrist 25 along that direction.
-    CHECK(near(std::get<Eigen::Matrix4d>(g->getValue(g->plug("elbow.worldMatrix"))), translation(30, 150, 0) * rz(pi / 4)));
+    CHECK(near(std::get<Eigen::Matrix4d>(g->getValue(g->plug("elbow.worldMatrix"))),
+               translation(30, 150, 0) * rz(pi / 4)));
     const double h = 25 * std::sqrt(0.5);
     CHECK(near(std::get<Eigen::Matrix4d>(g->getValue(g->plug("wrist.worldMatrix"))),
                translation(30 + h, 150 + h, 0) * rz(pi / 4)));
 
     set(*g, "ctrl.bend", 10.0);
-    CHECK(near(std::get<Eigen::Matrix4d>(g->getValue(g->plug("wrist.worldMatrix"))), translation(30, 175, 0) * rz(pi / 2)));
+    CHECK(near(std::get<Eigen::Matrix4d>(g->getValue(g->plug("wrist.worldMatrix"))),
+               translation(30, 175, 0) * rz(pi / 2)));
 
     // An angle driver reaches a U curve in degrees: rotateX 30 -> input 30 -> -45 degrees at the shoulder.
     set(*g, "ctrl.rotateX", deg(30));

@@ -141,14 +141,18 @@ TEST_CASE("anim file: bad files give one line with file:line:col and what to do"
 {
     const std::string curve = "anim rotate.rotateX rotateX a 0 0 0;\nanimData {\n  output angular;\n  keys {\n";
     CHECK(errorOf("") == "t.anim:1:1: the file is empty; a .anim file starts with its animVersion line");
-    CHECK(errorOf("hello;") == "t.anim:1:1: 'hello': a .anim file starts with its animVersion line; this is not a "
-                               "Maya .anim file (export one with the animImportExport plugin)");
-    CHECK(errorOf("animVersion 3.0;") == "t.anim:1:13: animVersion 3.0: this reader knows versions 1.0 and 1.1 of the "
-                                         "format");
-    CHECK(errorOf(header("timeUnit sec;\n")) == "t.anim:3:10: timeUnit sec: key times in clock units are not read; "
-                                                "export with a frame rate (film, ntsc, 120fps, ...)");
-    CHECK(errorOf(header("linearUnit furlong;\n")) == "t.anim:3:12: unknown linearUnit 'furlong'; use one of mm, cm, "
-                                                      "m, km, in, ft, yd, mi");
+    CHECK(errorOf("hello;") ==
+          "t.anim:1:1: 'hello': a .anim file starts with its animVersion line; this is not a "
+          "Maya .anim file (export one with the animImportExport plugin)");
+    CHECK(errorOf("animVersion 3.0;") ==
+          "t.anim:1:13: animVersion 3.0: this reader knows versions 1.0 and 1.1 of the "
+          "format");
+    CHECK(errorOf(header("timeUnit sec;\n")) ==
+          "t.anim:3:10: timeUnit sec: key times in clock units are not read; "
+          "export with a frame rate (film, ntsc, 120fps, ...)");
+    CHECK(errorOf(header("linearUnit furlong;\n")) ==
+          "t.anim:3:12: unknown linearUnit 'furlong'; use one of mm, cm, "
+          "m, km, in, ft, yd, mi");
     CHECK(errorOf(header(curve + "    1 0 bouncy auto 1 1 0;\n  }\n}\n")) ==
           "t.anim:7:9: unknown tangent type 'bouncy'; use one of spline, linear, flat, step, stepnext, clamped, "
           "plateau, auto");
@@ -177,8 +181,9 @@ TEST_CASE("anim file: bad files give one line with file:line:col and what to do"
           "t.anim:3:1: animData without an anim line naming its plug before it; write 'anim ATTRIBUTE LEAF NODE "
           "...;' first");
     const std::string keyed = curve + "    1 0 auto auto 1 1 0;\n  }\n}\n";
-    CHECK(errorOf(header(keyed + keyed)) == "t.anim:10:1: a second curve for a.rotateX (the first is at line 3); keep "
-                                             "one");
+    CHECK(errorOf(header(keyed + keyed)) ==
+          "t.anim:10:1: a second curve for a.rotateX (the first is at line 3); keep "
+          "one");
 }
 
 TEST_CASE("anim file: an animCurve node plays a file's curve as it plays the same keys")
@@ -188,14 +193,14 @@ TEST_CASE("anim file: an animCurve node plays a file's curve as it plays the sam
                                              "  output angular;\n  postInfinity linear;\n  keys {\n"
                                              "    1 -20 spline spline 1 1 0;\n    8 35 auto linear 1 1 0;\n"
                                              "    24 10 clamped clamped 1 1 0;\n  }\n}\n"));
-    const auto rig = test::writeFile(
-        dir / "rig.yaml",
-        "nodes:\n"
-        "  - {name: fromFile, type: animCurveTA, animFile: arm.anim, animPlug: shoulder.rotateZ}\n"
-        "  - {name: fromKeys, type: animCurveTA, postInfinity: linear,\n"
-        "     keys: [[1, -20, spline], [8, 35, auto, linear], [24, 10, clamped]]}\n"
-        "  - {name: wrongKind, type: animCurveTL, animFile: arm.anim, animPlug: shoulder.rotateZ}\n"
-        "  - {name: missing, type: animCurveTA, animFile: arm.anim, animPlug: elbow.rotateZ}\n");
+    const auto rig =
+        test::writeFile(dir / "rig.yaml",
+                        "nodes:\n"
+                        "  - {name: fromFile, type: animCurveTA, animFile: arm.anim, animPlug: shoulder.rotateZ}\n"
+                        "  - {name: fromKeys, type: animCurveTA, postInfinity: linear,\n"
+                        "     keys: [[1, -20, spline], [8, 35, auto, linear], [24, 10, clamped]]}\n"
+                        "  - {name: wrongKind, type: animCurveTL, animFile: arm.anim, animPlug: shoulder.rotateZ}\n"
+                        "  - {name: missing, type: animCurveTA, animFile: arm.anim, animPlug: elbow.rotateZ}\n");
     auto graph = loadGraphFile(rig, makeBuiltinRegistry());
     for (const double frame : {0.0, 1.0, 3.5, 8.0, 13.25, 24.0, 30.0}) {
         graph->setTime(frame);

@@ -12,10 +12,10 @@
 
 #include <Eigen/Geometry>
 
+#include "core/rotation_math.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
 #include "inversion/rig_binding.h"
-#include "core/rotation_math.h"
 #include "nodes/curves/key_reduction.h"
 #include "nodes/graph_rig_function.h"
 #include "test_support.h"

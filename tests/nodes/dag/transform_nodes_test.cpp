@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <fmt/format.h>
+#include <Eigen/Core>
 
 #include "core/error.h"
 #include "graph/graph.h"
@@ -52,10 +52,7 @@ Eigen::Matrix4d rx(double a)
 {
     const double c = std::cos(a), s = std::sin(a);
     Eigen::Matrix4d m;
-    m << 1, 0, 0, 0,
-         0, c, -s, 0,
-         0, s, c, 0,
-         0, 0, 0, 1;
+    m << 1, 0, 0, 0, 0, c, -s, 0, 0, s, c, 0, 0, 0, 0, 1;
     return m;
 }
 
@@ -63,10 +60,7 @@ Eigen::Matrix4d ry(double a)
 {
     const double c = std::cos(a), s = std::sin(a);
     Eigen::Matrix4d m;
-    m << c, 0, s, 0,
-         0, 1, 0, 0,
-         -s, 0, c, 0,
-         0, 0, 0, 1;
+    m << c, 0, s, 0, 0, 1, 0, 0, -s, 0, c, 0, 0, 0, 0, 1;
     return m;
 }
 
@@ -74,10 +68,7 @@ Eigen::Matrix4d rz(double a)
 {
     const double c = std::cos(a), s = std::sin(a);
     Eigen::Matrix4d m;
-    m << c, -s, 0, 0,
-         s, c, 0, 0,
-         0, 0, 1, 0,
-         0, 0, 0, 1;
+    m << c, -s, 0, 0, s, c, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1;
     return m;
 }
 
@@ -175,15 +166,14 @@ nodes:
     CHECK(near(mat(*g, "j.worldMatrix"), translation(1, 2, 3) * rz(pi / 2) * rx(pi / 2)));
 
     // jointOrient is always xyz: JO = Rz(30) Ry(20) Rx(10); rotate in yzx: R = Rx(30) Rz(60) Ry(45).
-    const Eigen::Matrix4d expected = translation(-1, 0.5, 2) * rz(deg(30)) * ry(deg(20)) * rx(deg(10)) * rx(deg(30))
-                                     * rz(deg(60)) * ry(deg(45));
+    const Eigen::Matrix4d expected =
+        translation(-1, 0.5, 2) * rz(deg(30)) * ry(deg(20)) * rx(deg(10)) * rx(deg(30)) * rz(deg(60)) * ry(deg(45));
     CHECK(near(mat(*g, "k.worldMatrix"), expected));
 
     // rotateAxis sits between rotate and scale: M = T * JO * R * RA * S.
     g->setValue(g->plug("k.rotateAxis"), Eigen::Vector3d(deg(5), deg(-15), deg(25)));
     g->setValue(g->plug("k.scale"), Eigen::Vector3d(2, 0.5, 1.5));
-    const Eigen::Matrix4d withAxis =
-        expected * rz(deg(25)) * ry(deg(-15)) * rx(deg(5)) * scaling(2, 0.5, 1.5);
+    const Eigen::Matrix4d withAxis = expected * rz(deg(25)) * ry(deg(-15)) * rx(deg(5)) * scaling(2, 0.5, 1.5);
     CHECK(near(mat(*g, "k.worldMatrix"), withAxis));
 }
 
@@ -273,10 +263,7 @@ nodes:
     CHECK(near(mat(*g, "mid.worldMatrix").col(3), point(0, 14, 0)));
     CHECK(near(mat(*g, "tip.worldMatrix").col(3), point(-3, 14, 2)));
     Eigen::Matrix4d midWorld;
-    midWorld << -1, 0, 0, 0,
-                0, 0, 1, 14,
-                0, 1, 0, 0,
-                0, 0, 0, 1;
+    midWorld << -1, 0, 0, 0, 0, 0, 1, 14, 0, 1, 0, 0, 0, 0, 0, 1;
     CHECK(near(mat(*g, "mid.worldMatrix"), midWorld));
     CHECK(near(mat(*g, "tip.worldMatrix").topLeftCorner<3, 3>(), midWorld.topLeftCorner<3, 3>()));
     // A local matrix does not include the parent.
@@ -293,9 +280,11 @@ TEST_CASE("transform nodes: worldInverseMatrix * worldMatrix = identity")
 {
     auto g = load(R"(
 nodes:
-  - {name: root, type: transform, translate: [1, 2, 3], rotate: [10, -20, 30], scale: [2, 0.5, 3], shear: [0.2, 0, -0.1],
+  - {name: root, type: transform, translate: [1, 2, 3], rotate: [10, -20, 30], scale: [2, 0.5, 3],
+     shear: [0.2, 0, -0.1],
      rotatePivot: [0.5, 0, 1], scalePivot: [0, 1, 0], rotateOrder: zxy}
-  - {name: a, type: joint, parent: root, translate: [4, 0, 0], rotate: [30, 45, 60], jointOrient: [0, 90, 0], scale: [1, 2, 1]}
+  - {name: a, type: joint, parent: root, translate: [4, 0, 0], rotate: [30, 45, 60], jointOrient: [0, 90, 0],
+     scale: [1, 2, 1]}
   - {name: b, type: joint, parent: a, translate: [0, 5, 0], rotate: [-70, 10, 5], rotateOrder: yxz}
 )");
     for (const char* n : {"root", "a", "b"}) {

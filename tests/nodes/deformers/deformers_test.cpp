@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
+#include <Eigen/Geometry>
 
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
@@ -75,8 +75,8 @@ struct Fixture {
     Eigen::Vector3d worldPosition(const std::string& node) { return mat(node + ".worldMatrix").topRightCorner<3, 1>(); }
 };
 
-const std::vector<std::string> deformerTypes{"ikHandle", "blendColors", "twistDistribute", "slidingPivot",
-                                             "squashStretch", "coupledBend", "saturate", "spring"};
+const std::vector<std::string> deformerTypes{"ikHandle",      "blendColors", "twistDistribute", "slidingPivot",
+                                             "squashStretch", "coupledBend", "saturate",        "spring"};
 
 }  // namespace
 
@@ -180,11 +180,13 @@ TEST_CASE("deformers: twistDistribute on the doc's forearm extracts the twist un
     struct Pose {
         double twist, swing, swingAxisAngle;
     };
-    for (const Pose& pose : {Pose{50, 40, 0}, Pose{-70, 65, 30}, Pose{120, 80, 110}, Pose{15, 25, -60}, Pose{-160, 10, 200}}) {
+    for (const Pose& pose :
+         {Pose{50, 40, 0}, Pose{-70, 65, 30}, Pose{120, 80, 110}, Pose{15, 25, -60}, Pose{-160, 10, 200}}) {
         CAPTURE(pose.twist);
         CAPTURE(pose.swing);
         const Eigen::Vector3d swingAxis(0, std::cos(deg(pose.swingAxisAngle)), std::sin(deg(pose.swingAxisAngle)));
-        const Eigen::Matrix3d r = rotation(deg(pose.swing), swingAxis) * rotation(deg(pose.twist), Eigen::Vector3d::UnitX());
+        const Eigen::Matrix3d r =
+            rotation(deg(pose.swing), swingAxis) * rotation(deg(pose.twist), Eigen::Vector3d::UnitX());
         const Eigen::Vector3d euler = rig::matrixToEuler(r, rig::RotateOrder::yzx);  // the wrist's order
         f.set("hand_ctrl.rotate", euler);
         CHECK(near(f.worldRotation("wrist"), r));
@@ -224,7 +226,8 @@ connections:
         CHECK(near(f.vec("knee_pivot.outTranslate"), v3(45, travel, 0)));
         // Orientation: exactly the hinge rotation.
         CHECK(near(f.worldRotation("shin"), f.worldRotation("thigh") * rotation(a, Eigen::Vector3d::UnitZ())));
-        CHECK(near(f.worldPosition("shin"), f.mat("thigh.worldMatrix").topLeftCorner<3, 3>() * v3(45, travel, 0) + v3(0, 90, 0)));
+        CHECK(near(f.worldPosition("shin"),
+                   f.mat("thigh.worldMatrix").topLeftCorner<3, 3>() * v3(45, travel, 0) + v3(0, 90, 0)));
     }
     // The centre of the rotation taking the shin from angle 0 to angle a: fixed for a hinge, moving here.
     auto pivot = [&](double a) {
@@ -308,7 +311,8 @@ connections:
     const double t = deg(60);
     // The node's formula: bend about Rz(turn) * X.
     CHECK(near(world(b, t), rotation(b, v3(std::cos(t), std::sin(t), 0))));
-    CHECK(near(world(b, t), rotation(t, Eigen::Vector3d::UnitZ()) * rotation(b, Eigen::Vector3d::UnitX()) * rotation(-t, Eigen::Vector3d::UnitZ())));
+    CHECK(near(world(b, t), rotation(t, Eigen::Vector3d::UnitZ()) * rotation(b, Eigen::Vector3d::UnitX()) *
+                                rotation(-t, Eigen::Vector3d::UnitZ())));
 
     const Eigen::Matrix3d rest = world(0, 0);
     // World deltas of each parameter, measured from rest.
@@ -341,7 +345,8 @@ TEST_CASE("deformers: saturate")
 {
     Fixture f;
     f.add("saturate", "s");
-    const std::vector<std::pair<double, double>> cases{{-5, -1}, {-1, -1}, {-0.5, -0.5}, {0, 0}, {0.3, 0.3}, {1, 1}, {3, 1}};
+    const std::vector<std::pair<double, double>> cases{{-5, -1},   {-1, -1}, {-0.5, -0.5}, {0, 0},
+                                                       {0.3, 0.3}, {1, 1},   {3, 1}};
     for (const auto& [in, out] : cases) {
         CAPTURE(in);
         f.set("s.input", in);
@@ -436,36 +441,40 @@ TEST_CASE("deformers: checked mode finds no missing affects entries")
                     return *spec.min + (*spec.max - *spec.min) * (0.2 + 0.3 * pass);
                 };
                 switch (spec.type) {
-                case rig::ValueType::Enum: {
-                    const int n = static_cast<int>(spec.enumNames.size());
-                    for (int i = 1; i <= n + 1; ++i) {
-                        graph.setValue(plug, (std::get<int>(spec.defaultValue) + i) % n);
-                        CHECK(graph.checkEvaluation().empty());
+                    case rig::ValueType::Enum: {
+                        const int n = static_cast<int>(spec.enumNames.size());
+                        for (int i = 1; i <= n + 1; ++i) {
+                            graph.setValue(plug, (std::get<int>(spec.defaultValue) + i) % n);
+                            CHECK(graph.checkEvaluation().empty());
+                        }
+                        continue;
                     }
-                    continue;
-                }
-                case rig::ValueType::Bool: graph.setValue(plug, !std::get<bool>(graph.getValue(plug))); break;
-                case rig::ValueType::Double:
-                    graph.setValue(plug, shifted(std::get<double>(graph.getValue(plug)), 0.4 * k));
-                    break;
-                case rig::ValueType::Vector3: {
-                    Eigen::Vector3d v = std::get<Eigen::Vector3d>(graph.getValue(plug));
-                    const Eigen::Vector3d offset = v3(0.3, -0.2, 0.5) * k;
-                    for (int i = 0; i < 3; ++i) v[i] = shifted(v[i], offset[i] * (spec.unit == rig::Unit::Distance ? 10 : 1));
-                    graph.setValue(plug, v);
-                    break;
-                }
-                case rig::ValueType::Matrix4: {
-                    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-                    m.topLeftCorner<3, 3>() = rotation(0.3 * k, v3(1, 2, -0.5 * pass));
-                    m.col(3) << 15.0 * k, -20.0, 2.5 * pass, 1.0;
-                    graph.setValue(plug, m);
-                    break;
-                }
-                case rig::ValueType::DoubleArray:
-                    graph.setValue(plug, std::vector<double>{0.25 * k, 0.5, 0.75 + 0.1 * pass});
-                    break;
-                default: FAIL("unexpected attribute type");
+                    case rig::ValueType::Bool:
+                        graph.setValue(plug, !std::get<bool>(graph.getValue(plug)));
+                        break;
+                    case rig::ValueType::Double:
+                        graph.setValue(plug, shifted(std::get<double>(graph.getValue(plug)), 0.4 * k));
+                        break;
+                    case rig::ValueType::Vector3: {
+                        Eigen::Vector3d v = std::get<Eigen::Vector3d>(graph.getValue(plug));
+                        const Eigen::Vector3d offset = v3(0.3, -0.2, 0.5) * k;
+                        for (int i = 0; i < 3; ++i)
+                            v[i] = shifted(v[i], offset[i] * (spec.unit == rig::Unit::Distance ? 10 : 1));
+                        graph.setValue(plug, v);
+                        break;
+                    }
+                    case rig::ValueType::Matrix4: {
+                        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+                        m.topLeftCorner<3, 3>() = rotation(0.3 * k, v3(1, 2, -0.5 * pass));
+                        m.col(3) << 15.0 * k, -20.0, 2.5 * pass, 1.0;
+                        graph.setValue(plug, m);
+                        break;
+                    }
+                    case rig::ValueType::DoubleArray:
+                        graph.setValue(plug, std::vector<double>{0.25 * k, 0.5, 0.75 + 0.1 * pass});
+                        break;
+                    default:
+                        FAIL("unexpected attribute type");
                 }
                 CHECK(graph.checkEvaluation().empty());
             }

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Geometry>
 #include <fmt/format.h>
+#include <Eigen/Geometry>
 
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
@@ -55,8 +55,14 @@ struct Rig {
     {
     }
     void set(const std::string& path, const rig::Value& value) { graph->setValue(graph->plug(path), value); }
-    Eigen::Vector3d vec(const std::string& path) { return std::get<Eigen::Vector3d>(graph->getValue(graph->plug(path))); }
-    Eigen::Matrix4d mat(const std::string& path) { return std::get<Eigen::Matrix4d>(graph->getValue(graph->plug(path))); }
+    Eigen::Vector3d vec(const std::string& path)
+    {
+        return std::get<Eigen::Vector3d>(graph->getValue(graph->plug(path)));
+    }
+    Eigen::Matrix4d mat(const std::string& path)
+    {
+        return std::get<Eigen::Matrix4d>(graph->getValue(graph->plug(path)));
+    }
     Eigen::Vector3d position(const std::string& node) { return mat(node + ".worldMatrix").topRightCorner<3, 1>(); }
     std::string check()
     {
@@ -131,7 +137,8 @@ TEST_CASE("ikHandle: random reachable goals are reached, the elbow in the pole v
         for (int i = 0; i < count; ++i) {
             CAPTURE(i);
             const Eigen::Vector3d aim = direction();
-            std::uniform_real_distribution<double> reach(scale * (upperArm - lowerArm + 0.01), scale * (upperArm + lowerArm - 0.01));
+            std::uniform_real_distribution<double> reach(scale * (upperArm - lowerArm + 0.01),
+                                                         scale * (upperArm + lowerArm - 0.01));
             const Eigen::Vector3d goal = start + reach(random) * aim;
             Eigen::Vector3d pole = direction() * (1.0 + 50.0 * (unit(random) + 1.0));
             if (perpendicular(pole.normalized(), aim).norm() < 0.05) pole = aim.unitOrthogonal() * 10.0;
@@ -229,7 +236,9 @@ TEST_CASE("ikHandle: soft IK follows its formula")
     const double chain = upperArm + lowerArm;
     const double s = 5.0;
     r.set("arm_ik.softness", s);
-    auto soft = [&](double d) { return d <= chain - s ? d : (chain - s) + s * (1.0 - std::exp(-(d - (chain - s)) / s)); };
+    auto soft = [&](double d) {
+        return d <= chain - s ? d : (chain - s) + s * (1.0 - std::exp(-(d - (chain - s)) / s));
+    };
     for (double distance : {30.0, chain - s, chain - 2.0, chain, chain + 4.0, 2.0 * chain}) {
         CAPTURE(distance);
         const Eigen::Vector3d goal = start + distance * aim;
@@ -263,7 +272,8 @@ TEST_CASE("ikHandle: degenerate inputs follow the documented rules and stay fini
     Rig r("arm-ik");
     const Eigen::Vector3d start = r.position("shoulder");
     auto allFinite = [&] {
-        for (const char* plug : {"arm_ik.startRotate", "arm_ik.midRotate", "arm_ik.outMidTranslate", "arm_ik.outEndTranslate"})
+        for (const char* plug :
+             {"arm_ik.startRotate", "arm_ik.midRotate", "arm_ik.outMidTranslate", "arm_ik.outEndTranslate"})
             if (!finite(r.vec(plug))) return false;
         return finite(r.position("wrist")) && finite(r.position("elbow"));
     };
@@ -290,7 +300,8 @@ TEST_CASE("ikHandle: degenerate inputs follow the documented rules and stay fini
     {
         const Eigen::Vector3d goal = v3(45, 100, 0);  // in the rest plane z = 0
         r.set("arm_ik_ctrl.translate", goal);
-        for (const Eigen::Vector3d& pole : {v3(0, 0, 0), Eigen::Vector3d(goal - start), Eigen::Vector3d(start - goal)}) {
+        for (const Eigen::Vector3d& pole :
+             {v3(0, 0, 0), Eigen::Vector3d(goal - start), Eigen::Vector3d(start - goal)}) {
             r.set("arm_ik.poleVector", pole);
             CHECK(allFinite());
             CHECK((r.position("wrist") - goal).norm() < tolerance);
@@ -360,10 +371,10 @@ TEST_CASE("ikHandle: the doc's leg with pole control, soft stretch and IK/FK swi
         CHECK(std::abs(knee.dot(aim.cross(pole - start).normalized())) < tolerance);
         CHECK(knee.dot(perpendicular(pole - start, aim)) > 0.0);  // the knee points at the pole control
     };
-    checkIk(v3(12, 14, 6));            // within the hard reach (87 - 2)
+    checkIk(v3(12, 14, 6));  // within the hard reach (87 - 2)
     CHECK(std::abs((r.position("knee") - start).norm() - 45.0) < tolerance);
-    checkIk(v3(15, 9, 8));              // the soft zone, stretched by d / reach
-    checkIk(v3(30, -20, 10));           // far beyond: stretched
+    checkIk(v3(15, 9, 8));     // the soft zone, stretched by d / reach
+    checkIk(v3(30, -20, 10));  // far beyond: stretched
     CHECK((r.position("knee") - start).norm() > 45.0);
     r.set("leg_pole_ctrl.translate", v3(-30, 40, 20));
     checkIk(v3(0, 30, 20));
@@ -416,22 +427,30 @@ TEST_CASE("ikHandle: rotate orders and checked mode over every input")
             const rig::Plug plug{node, static_cast<rig::AttrId>(a), -1, -1};
             const double k = 1.0 + pass;
             switch (spec.type) {
-            case rig::ValueType::Enum: graph.setValue(plug, (pass * 2 + 1) % 6); break;
-            case rig::ValueType::Bool: graph.setValue(plug, pass != 1); break;
-            case rig::ValueType::Double: graph.setValue(plug, 0.7 * k); break;
-            case rig::ValueType::Vector3: {
-                Eigen::Vector3d v = std::get<Eigen::Vector3d>(graph.getValue(plug)) + v3(0.3, -0.2, 0.5) * k;
-                graph.setValue(plug, v);
-                break;
-            }
-            case rig::ValueType::Matrix4: {
-                Eigen::Matrix4d m = std::get<Eigen::Matrix4d>(graph.getValue(plug));
-                m.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.3 * k, v3(1, 2, -0.5).normalized()).toRotationMatrix();
-                m(0, 3) += 2.0 * k;
-                graph.setValue(plug, m);
-                break;
-            }
-            default: FAIL("unexpected attribute type");
+                case rig::ValueType::Enum:
+                    graph.setValue(plug, (pass * 2 + 1) % 6);
+                    break;
+                case rig::ValueType::Bool:
+                    graph.setValue(plug, pass != 1);
+                    break;
+                case rig::ValueType::Double:
+                    graph.setValue(plug, 0.7 * k);
+                    break;
+                case rig::ValueType::Vector3: {
+                    Eigen::Vector3d v = std::get<Eigen::Vector3d>(graph.getValue(plug)) + v3(0.3, -0.2, 0.5) * k;
+                    graph.setValue(plug, v);
+                    break;
+                }
+                case rig::ValueType::Matrix4: {
+                    Eigen::Matrix4d m = std::get<Eigen::Matrix4d>(graph.getValue(plug));
+                    m.topLeftCorner<3, 3>() =
+                        Eigen::AngleAxisd(0.3 * k, v3(1, 2, -0.5).normalized()).toRotationMatrix();
+                    m(0, 3) += 2.0 * k;
+                    graph.setValue(plug, m);
+                    break;
+                }
+                default:
+                    FAIL("unexpected attribute type");
             }
             CHECK(graph.checkEvaluation().empty());
         }

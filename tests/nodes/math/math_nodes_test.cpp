@@ -46,8 +46,8 @@ Eigen::Matrix3d rotAxis(int axis, double radians)
 
 // The ten types of this file.
 const std::vector<std::string> mathTypes{"multiplyDivide", "plusMinusAverage", "blendTwoAttr", "clamp",
-                                         "reverse", "remapValue", "condition", "multMatrix",
-                                         "composeMatrix", "decomposeMatrix"};
+                                         "reverse",        "remapValue",       "condition",    "multMatrix",
+                                         "composeMatrix",  "decomposeMatrix"};
 
 }  // namespace
 
@@ -196,7 +196,7 @@ TEST_CASE("math nodes: remapValue")
     f.set("rv.value", std::vector<double>{1.0, 0.0, 0.0, 0.0, 0.5, 1.0});
     f.set("rv.inputValue", 0.25);
     CHECK(f.num("rv.outValue") == doctest::Approx(0.5));  // linear (default)
-    f.set("rv.interp", 0);                                 // none: holds the entry at or before
+    f.set("rv.interp", 0);                                // none: holds the entry at or before
     CHECK(f.num("rv.outValue") == doctest::Approx(0.0));
     f.set("rv.inputValue", 0.75);
     CHECK(f.num("rv.outValue") == doctest::Approx(1.0));
@@ -238,7 +238,7 @@ TEST_CASE("math nodes: condition operations")
     f.set("cd.colorIfFalse", v3(4, 5, 6));
     f.set("cd.secondTerm", 3.0);
     // Expected results for firstTerm = 2, 3, 4 against 3, per operation.
-    const bool expected[6][3] = {{false, true, false}, {true, false, true}, {false, false, true},
+    const bool expected[6][3] = {{false, true, false}, {true, false, true},  {false, false, true},
                                  {false, true, true},  {true, false, false}, {true, true, false}};
     for (int op = 0; op < 6; ++op) {
         f.set("cd.operation", op);
@@ -261,27 +261,18 @@ TEST_CASE("math nodes: multMatrix applies matrixIn[0] first")
     Eigen::Matrix4d translate = Eigen::Matrix4d::Identity();
     translate.col(3) << 1, 2, 3, 1;
     Eigen::Matrix4d rotate;  // 90 degrees about Z
-    rotate << 0, -1, 0, 0,
-              1, 0, 0, 0,
-              0, 0, 1, 0,
-              0, 0, 0, 1;
+    rotate << 0, -1, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1;
     f.set("mm.matrixIn[0]", translate);
     f.set("mm.matrixIn[2]", rotate);  // a gap at [1]
     // Translate first, then rotate: the origin goes to (1, 2, 3), then to (-2, 1, 3).
     Eigen::Matrix4d expected;
-    expected << 0, -1, 0, -2,
-                1, 0, 0, 1,
-                0, 0, 1, 3,
-                0, 0, 0, 1;
+    expected << 0, -1, 0, -2, 1, 0, 0, 1, 0, 0, 1, 3, 0, 0, 0, 1;
     CHECK(near(f.mat("mm.matrixSum"), expected));
 
     f.set("mm.matrixIn[0]", rotate);
     f.set("mm.matrixIn[2]", translate);
     Eigen::Matrix4d swapped;
-    swapped << 0, -1, 0, 1,
-               1, 0, 0, 2,
-               0, 0, 1, 3,
-               0, 0, 0, 1;
+    swapped << 0, -1, 0, 1, 1, 0, 0, 2, 0, 0, 1, 3, 0, 0, 0, 1;
     CHECK(near(f.mat("mm.matrixSum"), swapped));
 }
 
@@ -300,9 +291,7 @@ TEST_CASE("math nodes: composeMatrix matches T * R * SH * S and decomposeMatrix 
     f.set("cm.inputRotateOrder", 2);  // zxy: Z applied first, then X, then Y
 
     Eigen::Matrix3d shear;
-    shear << 1, sh.x(), sh.y(),
-             0, 1, sh.z(),
-             0, 0, 1;
+    shear << 1, sh.x(), sh.y(), 0, 1, sh.z(), 0, 0, 1;
     Eigen::Matrix4d expected = Eigen::Matrix4d::Identity();
     expected.topLeftCorner<3, 3>() = rotAxis(1, r.y()) * rotAxis(0, r.x()) * rotAxis(2, r.z()) * shear * s.asDiagonal();
     expected.topRightCorner<3, 1>() = t;
@@ -348,10 +337,7 @@ TEST_CASE("math nodes: composeMatrix from a quaternion")
     f.set("cm.inputScale", v3(2, 1, 1));
     f.set("cm.inputTranslate", v3(5, 0, 0));
     Eigen::Matrix4d expected;
-    expected << 0, -1, 0, 5,
-                2, 0, 0, 0,
-                0, 0, 1, 0,
-                0, 0, 0, 1;
+    expected << 0, -1, 0, 5, 2, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1;
     CHECK(near(f.mat("cm.outputMatrix"), expected));
     f.set("cm.inputQuatZ", 0.0);
     f.set("cm.inputQuatW", 0.0);  // a zero quaternion: no rotation
@@ -391,18 +377,24 @@ rig::Value nonDefault(const rig::AttributeSpec& spec, int k)
 {
     const double d = 0.375 + 0.25 * k;
     switch (spec.type) {
-    case rig::ValueType::Double: return rig::toDouble(spec.defaultValue) + d;
-    case rig::ValueType::Int: return std::get<int>(spec.defaultValue) + 1 + k;
-    case rig::ValueType::Bool: return !std::get<bool>(spec.defaultValue);
-    case rig::ValueType::Vector3: return Eigen::Vector3d(std::get<Eigen::Vector3d>(spec.defaultValue) + v3(d, -2 * d, 3 * d));
-    case rig::ValueType::Matrix4: {
-        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-        m.topLeftCorner<3, 3>() = rotAxis(k % 3, 0.3 + d) * Eigen::Vector3d(1 + d, 2, 0.5).asDiagonal();
-        m.col(3) << d, 2 * d, -d, 1;
-        return m;
-    }
-    case rig::ValueType::DoubleArray: return std::vector<double>{0.0, 0.1, 0.4, 0.8 + d, 1.0, 0.3};
-    default: return spec.defaultValue;
+        case rig::ValueType::Double:
+            return rig::toDouble(spec.defaultValue) + d;
+        case rig::ValueType::Int:
+            return std::get<int>(spec.defaultValue) + 1 + k;
+        case rig::ValueType::Bool:
+            return !std::get<bool>(spec.defaultValue);
+        case rig::ValueType::Vector3:
+            return Eigen::Vector3d(std::get<Eigen::Vector3d>(spec.defaultValue) + v3(d, -2 * d, 3 * d));
+        case rig::ValueType::Matrix4: {
+            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+            m.topLeftCorner<3, 3>() = rotAxis(k % 3, 0.3 + d) * Eigen::Vector3d(1 + d, 2, 0.5).asDiagonal();
+            m.col(3) << d, 2 * d, -d, 1;
+            return m;
+        }
+        case rig::ValueType::DoubleArray:
+            return std::vector<double>{0.0, 0.1, 0.4, 0.8 + d, 1.0, 0.3};
+        default:
+            return spec.defaultValue;
     }
 }
 

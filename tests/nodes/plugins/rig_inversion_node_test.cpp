@@ -36,11 +36,12 @@ int parameterCount(const fs::path& approximation)
 std::string graphFile(const fs::path& rig, const fs::path& approximation, const std::string& map,
                       const std::string& connect = "{targets: clip, parameters: true}")
 {
-    return fmt::format("plugins: [rigInversion]\ninclude:\n  - {{file: {}}}\nnodes:\n"
-                       "  - {{name: clip, type: bvhClip, file: {}}}\n"
-                       "  - name: inverter\n    type: rigInversion\n    file: {}\n{}    connect: {}\n",
-                       fs::absolute(rig).string(), test::cmuClip.string(), approximation.string(),
-                       map.empty() ? "" : "    map: " + map + "\n", connect);
+    return fmt::format(
+        "plugins: [rigInversion]\ninclude:\n  - {{file: {}}}\nnodes:\n"
+        "  - {{name: clip, type: bvhClip, file: {}}}\n"
+        "  - name: inverter\n    type: rigInversion\n    file: {}\n{}    connect: {}\n",
+        fs::absolute(rig).string(), test::cmuClip.string(), approximation.string(),
+        map.empty() ? "" : "    map: " + map + "\n", connect);
 }
 
 }  // namespace
@@ -58,8 +59,8 @@ TEST_CASE("rigInversion: a bvhClip -> rigInversion -> rig graph reproduces the C
     const auto graph = test::writeFile(dir / "mocap.yaml", graphFile(s.rig, s.approximation, ""));
     std::string gets;
     for (const auto& j : s.clip.joints) gets += fmt::format(" --get '{}.worldMatrix'", j.name);
-    const auto r = test::run(fmt::format("{} {} --frames 1:60{} --get inverter.converged -o {}", test::tool("graph-eval"),
-                                         graph.string(), gets, (dir / "out.json").string()));
+    const auto r = test::run(fmt::format("{} {} --frames 1:60{} --get inverter.converged -o {}",
+                                         test::tool("graph-eval"), graph.string(), gets, (dir / "out.json").string()));
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
     const YAML::Node frames = YAML::LoadFile((dir / "out.json").string());
@@ -85,18 +86,18 @@ TEST_CASE("rigInversion: the node's values equal rig-invert's curves on the bipe
     }
     const auto approximation = test::bipedApproximation();
     const auto dir = test::scratchDir("rig_inversion_node_biped");
-    const auto graph = test::writeFile(
-        dir / "biped_mocap.yaml", graphFile(test::sourceDir() / "rigs/biped.yaml", approximation,
-                                            (test::sourceDir() / "rigs/maps/cmu_to_biped.yaml").string()));
+    const auto graph = test::writeFile(dir / "biped_mocap.yaml",
+                                       graphFile(test::sourceDir() / "rigs/biped.yaml", approximation,
+                                                 (test::sourceDir() / "rigs/maps/cmu_to_biped.yaml").string()));
     const int count = parameterCount(approximation);
     const auto node = test::run(fmt::format("{} {} --frames 1:80{} -o {}", test::tool("graph-eval"), graph.string(),
                                             valueGets(count), (dir / "node.json").string()));
     INFO(node.err);
     REQUIRE(node.exitCode == 0);
-    const auto invert = test::run(fmt::format("{} {} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} "
-                                              "--frames 1:80 -o {} -q",
-                                              test::tool("rig-invert"), approximation.string(), test::cmuClip.string(),
-                                              (dir / "curves.json").string()));
+    const auto invert = test::run(fmt::format(
+        "{} {} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} "
+        "--frames 1:80 -o {} -q",
+        test::tool("rig-invert"), approximation.string(), test::cmuClip.string(), (dir / "curves.json").string()));
     REQUIRE(invert.exitCode == 0);
     const YAML::Node a = YAML::LoadFile((dir / "node.json").string());
     const YAML::Node b = YAML::LoadFile((dir / "curves.json").string());
@@ -126,7 +127,8 @@ TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are 
                 .exitCode == 0);
     const auto evaluate = [&](const std::string& name, const std::string& text) {
         const auto file = test::writeFile(dir / name, text);
-        const auto r = test::run(fmt::format("{} {} --get 'shoulder.worldMatrix'", test::tool("graph-eval"), file.string()));
+        const auto r =
+            test::run(fmt::format("{} {} --get 'shoulder.worldMatrix'", test::tool("graph-eval"), file.string()));
         CHECK(r.exitCode == 2);
         CHECK(r.out.empty());
         return r.err;
@@ -144,26 +146,30 @@ TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are 
 
     // The arm's approximation in a graph without the arm.
     const std::string biped = (test::sourceDir() / "rigs/biped.yaml").string();
-    const std::string other = evaluate(
-        "other.yaml", fmt::format("plugins: [rigInversion]\ninclude:\n  - {{file: {}}}\nnodes:\n"
-                                  "  - {{name: inverter, type: rigInversion, file: {}, connect: {{parameters: true}}}}\n",
-                                  biped, arm.string()));
+    const std::string other =
+        evaluate("other.yaml",
+                 fmt::format("plugins: [rigInversion]\ninclude:\n  - {{file: {}}}\nnodes:\n"
+                             "  - {{name: inverter, type: rigInversion, file: {}, connect: {{parameters: true}}}}\n",
+                             biped, arm.string()));
     CHECK(other.find("the approximation drives 'shoulder.rotateZ', which this graph does not have: it was learned from "
-                     "another rig (rigs/examples/arm.yaml); include that rig or learn this one\n") != std::string::npos);
+                     "another rig (rigs/examples/arm.yaml); include that rig or learn this one\n") !=
+          std::string::npos);
 
     const auto map = test::writeFile(dir / "map.yaml", "scale: -1\n");
-    const std::string badMap = evaluate(
-        "badmap.yaml", header + fmt::format("  - {{name: clip, type: bvhClip}}\n  - {{name: inverter, type: rigInversion, "
-                                            "file: {}, map: {}, connect: {{targets: 'shoulder', parameters: true}}}}\n",
-                                            arm.string(), map.string()));
+    const std::string badMap =
+        evaluate("badmap.yaml",
+                 header + fmt::format("  - {{name: clip, type: bvhClip}}\n  - {{name: inverter, type: rigInversion, "
+                                      "file: {}, map: {}, connect: {{targets: 'shoulder', parameters: true}}}}\n",
+                                      arm.string(), map.string()));
     CHECK(badMap.starts_with("error: " + (dir / "badmap.yaml").string() + ":6:"));
     CHECK(badMap.ends_with(map.string() + ":1:8: scale must be positive (target units to cm), got -1\n"));
 
     // Targets from the very rig the node drives: the engine's cycle message, with the path.
     const std::string cycle = evaluate(
-        "cycle.yaml", header + fmt::format("  - {{name: inverter, type: rigInversion, file: {}, connect: {{targets: 'wrist', "
-                                           "parameters: true}}}}\n",
-                                           arm.string()));
+        "cycle.yaml",
+        header + fmt::format("  - {{name: inverter, type: rigInversion, file: {}, connect: {{targets: 'wrist', "
+                             "parameters: true}}}}\n",
+                             arm.string()));
     CHECK(cycle.find("it would close a cycle (") != std::string::npos);
     CHECK(cycle.find("wrist.worldMatrix -> inverter.target[") != std::string::npos);
     CHECK(std::count(cycle.begin(), cycle.end(), '\n') == 1);
