@@ -3,17 +3,14 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstring>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "core/input_file.h"
 
 namespace rig {
 namespace {
@@ -509,31 +506,9 @@ BvhClip parseBvh(std::string_view text, const std::string& fileName) { return Pa
 
 BvhClip readBvhFile(const std::filesystem::path& file)
 {
-    std::error_code ec;
-    const auto status = std::filesystem::status(file, ec);
-    if (std::filesystem::is_directory(status))
-        throw Error(fmt::format("{}: is a folder, not a BVH file; give the path of a .bvh file", file.string()));
-    // A device or a pipe (/dev/zero, a FIFO) could be endless or block forever.
-    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
-        throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the path of a .bvh file",
-                                file.string()));
-    if (const auto size = std::filesystem::file_size(file, ec); !ec && size > bvhMaxFileBytes)
-        throw Error(
-            fmt::format("{}: {} MB is more than the {} MB a BVH file may have; cut the clip into shorter "
-                        "ones",
-                        file.string(), size >> 20, bvhMaxFileBytes >> 20));
-    std::ifstream in(file, std::ios::binary);
-    if (!in && errno == EACCES)
-        throw Error(fmt::format("{}: cannot open ({}); check its permissions", file.string(), std::strerror(errno)));
-    if (!in)
-        throw Error(
-            fmt::format("{}: cannot open ({}); check the path (a relative path is read from the current "
-                        "folder)",
-                        file.string(), std::strerror(errno)));
-    std::ostringstream text;
-    text << in.rdbuf();
-    if (in.bad()) throw Error(fmt::format("{}: cannot be read (a read error); check the file", file.string()));
-    return parseBvh(text.str(), file.string());
+    return parseBvh(
+        readInputFile(file, {"a BVH file", "a .bvh file", bvhMaxFileBytes, "cut the clip into shorter ones"}),
+        file.string());
 }
 
 Eigen::Vector3d bvhTranslation(const BvhClip& clip, int joint, std::span<const double> frame)

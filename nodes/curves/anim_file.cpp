@@ -1,16 +1,15 @@
 #include "nodes/curves/anim_file.h"
 
 #include <array>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
-#include <cstring>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 #include <utility>
 
 #include <fmt/format.h>
+
+#include "core/error.h"
+#include "core/input_file.h"
 
 namespace rig {
 namespace {
@@ -486,27 +485,9 @@ AnimFile parseAnimFile(std::string_view text, const std::string& fileName) { ret
 
 AnimFile readAnimFile(const std::filesystem::path& file)
 {
-    std::error_code ec;
-    const auto status = std::filesystem::status(file, ec);
-    if (std::filesystem::is_directory(status))
-        throw Error(fmt::format("{}: is a folder, not a .anim file; give the path of a .anim file", file.string()));
-    // A device or a pipe could be endless or block forever.
-    if (std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
-        throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give the path of a .anim file",
-                                file.string()));
-    if (const auto size = std::filesystem::file_size(file, ec); !ec && size > animMaxFileBytes)
-        throw Error(
-            fmt::format("{}: {} MB is more than the {} MB a .anim file may have; export fewer curves or "
-                        "frames",
-                        file.string(), size >> 20, animMaxFileBytes >> 20));
-    std::ifstream in(file, std::ios::binary);
-    if (!in && errno == EACCES)
-        throw Error(fmt::format("{}: cannot open ({}); check its permissions", file.string(), std::strerror(errno)));
-    if (!in) throw Error(fmt::format("{}: cannot open ({}); check the path", file.string(), std::strerror(errno)));
-    std::ostringstream text;
-    text << in.rdbuf();
-    if (in.bad()) throw Error(fmt::format("{}: cannot be read (a read error); check the file", file.string()));
-    return parseAnimFile(text.str(), file.string());
+    return parseAnimFile(
+        readInputFile(file, {"a .anim file", "a .anim file", animMaxFileBytes, "export fewer curves or frames"}),
+        file.string());
 }
 
 std::string formatAnimFile(const AnimFile& file)
