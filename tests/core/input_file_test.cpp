@@ -7,7 +7,7 @@
 
 using namespace rig;
 
-TEST_CASE("input file: the bytes of a file; a folder, a device, a missing or too big file refused by name")
+TEST_CASE("input file: the bytes of a file, and a folder, a device, a missing or too big file refused by name")
 {
     const auto dir = test::scratchDir("input-file");
     const InputFileKind kind{"a clip file", "a .clip file", 16, "cut it"};
