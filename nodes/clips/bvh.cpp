@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "core/input_file.h"
+#include "core/parse_number.h"
 
 namespace rig {
 namespace {
@@ -28,16 +29,6 @@ bool iequals(std::string_view a, std::string_view b)
 bool istartsWith(std::string_view text, std::string_view prefix)
 {
     return text.size() >= prefix.size() && iequals(text.substr(0, prefix.size()), prefix);
-}
-
-// A finite number written in C locale style ("1.5", "-.25", "1e-3", "+2").
-std::optional<double> parseNumber(std::string_view s)
-{
-    if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
-    double x = 0.0;
-    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
-    if (s.empty() || ec != std::errc() || end != s.data() + s.size() || !std::isfinite(x)) return std::nullopt;
-    return x;
 }
 
 std::optional<long long> parseWhole(std::string_view s)
@@ -162,7 +153,7 @@ private:
         for (int k = 0; k < 3; ++k) {
             const int l = line();
             const std::string_view t = takeOrFail(truncated(joint));
-            const auto x = parseNumber(t);
+            const auto x = parseFiniteNumber(t);
             if (!x) fail(l, fmt::format("OFFSET of {} needs three numbers, found '{}'; write OFFSET X Y Z", where, t));
             v[k] = *x;
         }
@@ -390,7 +381,7 @@ private:
             "the file ends before 'Frame Time: SECONDS' and the motion data; the file is truncated";
         int timeLine = 0;
         const std::string timeText = headerLine("Frame Time", "Frame Time: SECONDS", noTime, timeLine);
-        const auto frameTime = parseNumber(timeText);
+        const auto frameTime = parseFiniteNumber(timeText);
         if (!frameTime || *frameTime <= 0.0)
             fail(timeLine, fmt::format("'Frame Time: {}' must be a positive number of seconds per frame (e.g. "
                                        "0.0333333 for 30 fps)",
@@ -417,7 +408,7 @@ private:
                                  "is truncated or does not belong to this hierarchy",
                                  frame, tokens_.size(), perLine));
             for (std::size_t k = 0; k < perLine; ++k) {
-                const auto x = parseNumber(tokens_[k]);
+                const auto x = parseFiniteNumber(tokens_[k]);
                 if (!x)
                     fail(lineNumber_, fmt::format("value {} of motion line {} is '{}', not a number; motion lines hold "
                                                   "only numbers",

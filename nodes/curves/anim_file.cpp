@@ -1,7 +1,6 @@
 #include "nodes/curves/anim_file.h"
 
 #include <array>
-#include <charconv>
 #include <cmath>
 #include <numbers>
 #include <utility>
@@ -10,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/input_file.h"
+#include "core/parse_number.h"
 
 namespace rig {
 namespace {
@@ -78,21 +78,12 @@ std::string tangentNames()
     return out;
 }
 
-std::optional<double> parseNumber(std::string_view s)
-{
-    if (s.size() > 1 && s[0] == '+' && s[1] != '-') s.remove_prefix(1);
-    double x = 0.0;
-    const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), x);
-    if (s.empty() || ec != std::errc() || end != s.data() + s.size() || !std::isfinite(x)) return std::nullopt;
-    return x;
-}
-
 // A frame-rate time unit ("film", "120fps"): key times count its frames.
 bool isFrameRate(std::string_view name)
 {
     if (factorOf(namedFrameRates, name)) return true;
     if (!name.ends_with("fps")) return false;
-    const auto rate = parseNumber(name.substr(0, name.size() - 3));
+    const auto rate = parseFiniteNumber(name.substr(0, name.size() - 3));
     return rate && *rate > 0.0;
 }
 
@@ -238,7 +229,7 @@ private:
 
     double number(const Token& token, std::string_view what) const
     {
-        const auto x = parseNumber(token.text);
+        const auto x = parseFiniteNumber(token.text);
         if (!x) throw error(token, fmt::format("{} '{}' is not a finite number", what, messageExcerpt(token.text)));
         return *x;
     }
