@@ -189,6 +189,19 @@ int run(const Options& o)
 
     if (o.jsonGiven) cli::writeFileAtomically(o.json, report.dump(2) + "\n");
     if (!o.quiet) printSummary(report);
+    // rig-learn --threads promises the same approximation for any count: a difference is a measured failure.
+    std::vector<std::string> differing;
+    if (!report.at("train").at("threads").at("same_approximation").get<bool>()) differing.push_back("the biped");
+    for (const auto& row : report.at("scaling"))
+        if (!row.at("train_threads").is_null() && !row.at("train_threads").at("same_approximation").get<bool>())
+            differing.push_back(fmt::format("{} {}", row.at("rig").get<std::string>(), row.at("count").get<int>()));
+    if (!differing.empty()) {
+        std::string list;
+        for (const auto& name : differing) list += (list.empty() ? "" : ", ") + name;
+        std::cerr << fmt::format("error: training on 1 and 2 rig instances gave different approximations for {}\n",
+                                 list);
+        return 3;
+    }
     return 0;
 }
 
