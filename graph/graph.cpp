@@ -27,6 +27,7 @@ std::unique_ptr<Graph> Graph::instance() const
 {
     auto other = std::make_unique<Graph>(sharedRegistry());
     other->model_ = model_;
+    other->schedule_ = schedule_;
     other->arrayElements_ = arrayElements_;
     other->time_ = time_;
     other->nodes_.resize(nodes_.size());
@@ -58,6 +59,7 @@ GraphModel& Graph::editModel()
 {
     // Shared with other instances: this one takes its own copy, theirs stays as it is.
     if (model_.use_count() > 1) model_ = std::make_shared<GraphModel>(*model_);
+    schedule_.reset();  // the topology is about to change
     return *model_;
 }
 
@@ -315,7 +317,10 @@ void Graph::evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots)
             list.push_back(c.source.node);
         }
     }
-    const std::shared_ptr<const Schedule> s = model_->schedule();
+    // Held by the instance: a shared model is read-only, so only this instance's edits change its schedule,
+    // and evaluations on other threads do not meet at the model's lock.
+    if (!schedule_) schedule_ = model_->schedule();
+    const std::shared_ptr<const Schedule>& s = schedule_;
     if (threads_ > 1 && list.size() > 1) {
         if (!flow_ || flow_->schedule() != s.get() || flow_->threads() != threads_)
             flow_ = std::make_unique<FlowExecutor>(s, threads_);

@@ -141,7 +141,8 @@ private:
     std::size_t arrayElements_ = 0;  // input array elements allocated, all nodes
     double time_ = 0.0;
     int threads_ = 1;
-    std::unique_ptr<FlowExecutor> flow_;  // built on the first parallel evaluation of a schedule
+    std::shared_ptr<const Schedule> schedule_;  // the model's, taken at the first evaluation after an edit
+    std::unique_ptr<FlowExecutor> flow_;        // built on the first parallel evaluation of a schedule
 };
 
 }  // namespace rig
