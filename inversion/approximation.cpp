@@ -89,6 +89,11 @@ std::vector<std::vector<int>> Approximation::reach() const
     return result;
 }
 
+bool Approximation::hasUnmodelledOutputs() const
+{
+    return std::any_of(outputs.begin(), outputs.end(), [](const ApproximationOutput& o) { return !o.modelled; });
+}
+
 std::vector<double> Approximation::defaults() const
 {
     std::vector<double> values;

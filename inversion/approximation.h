@@ -32,6 +32,11 @@ struct ApproximationOutput {
     Eigen::Matrix4d rest = Eigen::Matrix4d::Identity();  // F_k(0): world matrix at the rest values
     int parent = -1;  // the output it is learned relative to (index into Approximation::outputs); -1: world space
     double validationError = 0.0;  // its worst relative validation error (ValidationSummary), cm per unit
+    // False: non-compositional. Some parameter moves it in a way no product of operators reproduces (a thigh
+    // under an IK goal and a moving root): no operator acts on it, evaluate() does not predict it (its world
+    // there is not meaningful), the solver does not count its target, and a hybrid solve (real_rig_solve.h)
+    // fits it on the real rig. Always in world space (parent -1), and no output is relative to it.
+    bool modelled = true;
 };
 
 struct ModelledParameter {
@@ -48,6 +53,10 @@ struct ModelledParameter {
     // Ranges of its value (absolute, internal units) over which it moves nothing: a saturated control
     // (a clamp, a remap that flattens). An inversion cannot tell values inside one apart.
     std::vector<std::pair<double, double>> noEffect;
+    // Outputs it moves where it is not modelled (non-compositional outputs, ApproximationOutput::modelled),
+    // increasing. A parameter with no `outputs` but some of these is effective on the real rig only (an IK
+    // goal, a pole vector): its operators are empty and only a hybrid solve moves it.
+    std::vector<int> unmodelledOutputs;
 };
 
 struct DiscardedParameter {
@@ -103,8 +112,10 @@ struct Approximation {
     // The rest values of `parameters`.
     std::vector<double> defaults() const;
     // Per parameter, every output it moves: those it affects directly and the relative outputs below
-    // them, increasing.
+    // them, increasing (its unmodelled outputs are not listed).
     std::vector<std::vector<int>> reach() const;
+    // Whether some output is not modelled (a hybrid solve is needed to fit every target).
+    bool hasUnmodelledOutputs() const;
     // The outputs with parents before children. Throws an internal rig::Error for a parent index out of
     // range or a cycle of parents.
     std::vector<int> outputOrder() const;

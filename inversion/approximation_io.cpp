@@ -364,6 +364,7 @@ std::string approximationToYaml(const Approximation& a)
                     fmt::format("approximationToYaml: outputs[{}].parent: index {} out of range", k, o.parent));
             out += fmt::format("    parent: {}\n", yamlString(a.outputs[static_cast<std::size_t>(o.parent)].name));
         }
+        if (!o.modelled) out += "    modelled: false  # non-compositional: fitted on the real rig only\n";
         out += fmt::format("    validationError: {}\n    rest: [",
                            number(o.validationError, fmt::format("outputs[{}].validationError", k)));
         for (int r = 0; r < 4; ++r) {
@@ -395,15 +396,17 @@ std::string approximationToYaml(const Approximation& a)
         if (m.outputs.size() != m.operatorOfOutput.size())
             throw internalError(fmt::format("approximationToYaml: {}: {} outputs but {} operator indices", field,
                                             m.outputs.size(), m.operatorOfOutput.size()));
-        out += "    outputs: " +
-               list(m.outputs,
-                    [&](int k) {
-                        if (k < 0 || static_cast<std::size_t>(k) >= a.outputs.size())
-                            throw internalError(
-                                fmt::format("approximationToYaml: {}.outputs: index {} out of range", field, k));
-                        return yamlString(a.outputs[static_cast<std::size_t>(k)].name);
-                    }) +
-               "\n";
+        const auto outputNames = [&](const std::vector<int>& outputs, const std::string& which) {
+            return list(outputs, [&](int k) {
+                if (k < 0 || static_cast<std::size_t>(k) >= a.outputs.size())
+                    throw internalError(
+                        fmt::format("approximationToYaml: {}.{}: index {} out of range", field, which, k));
+                return yamlString(a.outputs[static_cast<std::size_t>(k)].name);
+            });
+        };
+        out += "    outputs: " + outputNames(m.outputs, "outputs") + "\n";
+        if (!m.unmodelledOutputs.empty())
+            out += "    unmodelledOutputs: " + outputNames(m.unmodelledOutputs, "unmodelledOutputs") + "\n";
         out += "    operatorOfOutput: " +
                list(m.operatorOfOutput,
                     [&](int o) {
@@ -413,7 +416,7 @@ std::string approximationToYaml(const Approximation& a)
                         return fmt::format("{}", o);
                     }) +
                "\n";
-        out += "    operators:\n";
+        out += m.operators.empty() ? "    operators: []\n" : "    operators:\n";
         for (std::size_t o = 0; o < m.operators.size(); ++o)
             out += operatorText(m.operators[o], fmt::format("{}.operators[{}]", field, o));
     }
@@ -538,7 +541,7 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     const YAML::Node outputs = r.sequence(root["outputs"], "outputs");
     for (std::size_t k = 0; k < outputs.size(); ++k) {
         const std::string field = fmt::format("outputs[{}]", k);
-        r.checkKeys(outputs[k], field, {"name", "rest"}, {"parent", "validationError"});
+        r.checkKeys(outputs[k], field, {"name", "rest"}, {"parent", "validationError", "modelled"});
         ApproximationOutput out;
         out.name = r.text(outputs[k]["name"], field + ".name");
         if (!outputIndex.emplace(out.name, static_cast<int>(k)).second)
@@ -550,6 +553,7 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         }
         if (const YAML::Node n = outputs[k]["validationError"])
             out.validationError = r.nonNegative(n, field + ".validationError");
+        if (const YAML::Node n = outputs[k]["modelled"]) out.modelled = r.boolean(n, field + ".modelled");
         a.outputs.push_back(std::move(out));
     }
     for (std::size_t k = 0; k < outputs.size(); ++k) {
@@ -559,6 +563,8 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         const std::string name = r.text(n, field);
         const auto it = outputIndex.find(name);
         if (it == outputIndex.end()) r.fail(n, field, fmt::format("'{}' is not one of the outputs", name));
+        if (!a.outputs[k].modelled || !a.outputs[static_cast<std::size_t>(it->second)].modelled)
+            r.fail(n, field, "a non-compositional output (modelled: false) is in world space: no parent, no children");
         a.outputs[k].parent = it->second;
     }
     try {
@@ -576,7 +582,7 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         r.checkKeys(n, field,
                     {"name", "default", "min", "max", "limited", "angular", "form", "fitError", "samples", "outputs",
                      "operatorOfOutput", "operators"},
-                    {"validationError", "noEffect"});
+                    {"validationError", "noEffect", "unmodelledOutputs"});
         ModelledParameter m;
         m.parameter = r.parameter(n, field);
         if (!names.insert(m.parameter.name).second)
@@ -591,19 +597,32 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
                 if (!(ends[0] <= ends[1])) r.fail(range, field + ".noEffect", "a range is [low, high]");
                 m.noEffect.emplace_back(ends[0], ends[1]);
             }
-        for (const auto& o : r.sequence(n["outputs"], field + ".outputs")) {
-            const std::string name = r.text(o, field + ".outputs");
-            const auto it = outputIndex.find(name);
-            if (it == outputIndex.end())
-                r.fail(o, field + ".outputs", fmt::format("'{}' is not one of the outputs", name));
-            if (!m.outputs.empty() && it->second <= m.outputs.back())
-                r.fail(o, field + ".outputs", "the outputs must be listed once each, in the order of the outputs list");
-            m.outputs.push_back(it->second);
-        }
-        if (m.outputs.empty())
-            r.fail(n["outputs"], field + ".outputs", "a modelled parameter affects at least one output");
+        const auto readOutputs = [&](const YAML::Node& list, const std::string& which, bool modelled) {
+            std::vector<int> indices;
+            for (const auto& o : r.sequence(list, field + "." + which)) {
+                const std::string name = r.text(o, field + "." + which);
+                const auto it = outputIndex.find(name);
+                if (it == outputIndex.end())
+                    r.fail(o, field + "." + which, fmt::format("'{}' is not one of the outputs", name));
+                if (!indices.empty() && it->second <= indices.back())
+                    r.fail(o, field + "." + which,
+                           "the outputs must be listed once each, in the order of the outputs list");
+                if (a.outputs[static_cast<std::size_t>(it->second)].modelled != modelled)
+                    r.fail(
+                        o, field + "." + which,
+                        fmt::format("'{}' is {}modelled (its outputs entry says modelled: {}); list it under {}", name,
+                                    modelled ? "not " : "", !modelled, modelled ? "unmodelledOutputs" : "outputs"));
+                indices.push_back(it->second);
+            }
+            return indices;
+        };
+        m.outputs = readOutputs(n["outputs"], "outputs", true);
+        if (const YAML::Node v = n["unmodelledOutputs"])
+            m.unmodelledOutputs = readOutputs(v, "unmodelledOutputs", false);
+        if (m.outputs.empty() && m.unmodelledOutputs.empty())
+            r.fail(n["outputs"], field + ".outputs", "a parameter affects at least one output");
         const YAML::Node operators = r.sequence(n["operators"], field + ".operators");
-        if (operators.size() == 0)
+        if (operators.size() == 0 && !m.outputs.empty())
             r.fail(operators, field + ".operators", "a modelled parameter has at least one operator");
         for (std::size_t o = 0; o < operators.size(); ++o)
             m.operators.push_back(r.op(operators[o], fmt::format("{}.operators[{}]", field, o)));

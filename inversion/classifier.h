@@ -73,9 +73,11 @@ struct Classification {
 };
 
 // What the learner knows of the rig's state between parameters: the outputs found to depend on earlier
-// evaluations (a spring) or singular at rest, which no parameter is modelled on.
+// evaluations (a spring) or singular at rest, which no parameter is modelled on, and the outputs found
+// non-compositional (LearnOptions::perOutput), which stay in the approximation without operators.
 struct RigState {
-    std::vector<char> unreliable;  // per output
+    std::vector<char> unreliable;        // per output
+    std::vector<char> nonCompositional;  // per output
 };
 
 // The first samples of parameter `index` alone: at its initial offsets, then at rest again, on `rig` in a

@@ -66,6 +66,7 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
 {
     scratch.start.assign(values.begin(), values.end());  // the warm start
     frame.retried = frame.kept = false;
+    frame.realRigEvaluations = 0;
     solver.solve(targets, values, frame.summary);
     const double tolerance = solver.options().targetTolerance;
     const double floor = 0.5 * tolerance * tolerance;
@@ -144,6 +145,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         FrameInversion result;
         result.frame = frame;
         result.solve = solve;
+        result.realRigEvaluations = solved.realRigEvaluations;
+        summary.realRigEvaluations += solved.realRigEvaluations;
         rig.evaluate(reported, worlds);
         for (std::size_t o = 0; o < frameTargets.size(); ++o) {
             if (!frameTargets[o].active) continue;

@@ -50,7 +50,8 @@ inline constexpr double retryNever = std::numeric_limits<double>::infinity();
 struct ChainFrame {
     SolveSummary summary;  // of the answer kept; iterations of both solves when the second is kept
     bool retried = false;
-    bool kept = false;  // the second answer was cheaper
+    bool kept = false;           // the second answer was cheaper
+    int realRigEvaluations = 0;  // of a hybrid solve (hybrid_solve.h); 0 on the approximation alone
 };
 struct ChainScratch {
     std::vector<double> start;  // the warm start, for the second solve
@@ -102,6 +103,7 @@ struct FrameInversion {
     double rotationErrorDeg = 0.0;
     std::string worstJoint;      // where the position error is worst
     std::string nonFiniteJoint;  // a joint the real rig gave a non-finite matrix for (a miss), or ""
+    int realRigEvaluations = 0;  // by the solve (a hybrid solve's second stage), not by this measurement
 };
 
 struct ClipInversionSummary {
@@ -126,9 +128,10 @@ struct ClipInversionSummary {
     int worstFrame = -1;  // 0-based clip index
     double solveSeconds =
         0.0;  // solver and polish time of the reported frames (lead-in and the error measurement excluded)
-    double solveCpuSeconds = 0.0;  // the same span in this thread's CPU time (steadier on a busy machine)
-    double msPerFrame = 0.0;       // solveSeconds per reported frame, ms
-    int leadInFrames = 0;          // solved before `first` to join the warm-start chain
+    double solveCpuSeconds = 0.0;      // the same span in this thread's CPU time (steadier on a busy machine)
+    double msPerFrame = 0.0;           // solveSeconds per reported frame, ms
+    int leadInFrames = 0;              // solved before `first` to join the warm-start chain
+    long long realRigEvaluations = 0;  // by the solves of the reported frames (a hybrid solve's); 0 otherwise
     // Frames where the real rig gave a non-finite matrix for a joint with a target: misses, not
     // measured as errors; the first such joint and frame.
     int nonFiniteFrames = 0;

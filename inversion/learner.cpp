@@ -58,7 +58,7 @@ std::vector<std::pair<int, int>> redundantParameters(const Approximation& approx
     const auto& ps = approximation.parameters;
     for (std::size_t i = 0; i < ps.size(); ++i)
         for (std::size_t j = i + 1; j < ps.size(); ++j) {
-            if (ps[i].outputs != ps[j].outputs) continue;
+            if (ps[i].outputs.empty() || ps[i].outputs != ps[j].outputs) continue;
             const double lo = std::max(ps[i].parameter.min - ps[i].parameter.defaultValue,
                                        ps[j].parameter.min - ps[j].parameter.defaultValue);
             const double hi = std::min(ps[i].parameter.max - ps[i].parameter.defaultValue,
@@ -149,6 +149,7 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
             continue;
         }
         for (std::size_t k = 0; k < approximated.size(); ++k) {
+            if (!approximation.outputs[k].modelled) continue;  // not predicted: nothing to validate
             const Eigen::Matrix4d& truth = truthWorlds[static_cast<std::size_t>(rigOutput[k])];
             const double position = (truth.block<3, 1>(0, 3) - approximated[k].block<3, 1>(0, 3)).norm();
             const double rotation =
@@ -232,25 +233,23 @@ std::string couplingReason(RigProbe& probe, const RigParameter& parameter, int i
     return {};
 }
 
-// Removes the unreliable outputs from a classification (with their operators when no output is left
-// using them); a parameter left with no output is no longer modelled.
-void dropOutputs(Classification& c, const std::vector<char>& unreliable)
+// Removes the outputs flagged in `remove` from a classification (with their operators when no output is left
+// using them), and returns them.
+std::vector<int> removeOutputs(Classification& c, const std::vector<char>& remove)
 {
     ModelledParameter& m = c.model;
-    std::vector<int> outputs, operatorOfOutput;
+    std::vector<int> outputs, operatorOfOutput, removed;
     std::vector<Eigen::Matrix4d> orderWorlds;
     for (std::size_t e = 0; e < m.outputs.size(); ++e) {
-        if (unreliable[static_cast<std::size_t>(m.outputs[e])]) continue;
+        if (remove[static_cast<std::size_t>(m.outputs[e])]) {
+            removed.push_back(m.outputs[e]);
+            continue;
+        }
         outputs.push_back(m.outputs[e]);
         operatorOfOutput.push_back(m.operatorOfOutput[e]);
         orderWorlds.push_back(c.orderWorlds[e]);
     }
-    if (outputs.size() == m.outputs.size()) return;
-    if (outputs.empty()) {
-        c.modelled = false;
-        c.reason = "its only effect is on outputs found history-dependent (they do not come back to their rest pose)";
-        return;
-    }
+    if (removed.empty()) return removed;
     // Keep only the operators still used, renumbered.
     std::vector<int> renumber(m.operators.size(), -1);
     std::vector<Operator> operators;
@@ -266,6 +265,22 @@ void dropOutputs(Classification& c, const std::vector<char>& unreliable)
     m.operatorOfOutput = std::move(operatorOfOutput);
     m.operators = std::move(operators);
     c.orderWorlds = std::move(orderWorlds);
+    return removed;
+}
+
+// Drops the unreliable outputs from a classification; a parameter left with no output is no longer modelled.
+// Its non-compositional outputs move to model.unmodelledOutputs (rig indices here): a parameter left with
+// those only stays, without operators.
+void classifyOutputs(Classification& c, const RigState& state)
+{
+    if (!removeOutputs(c, state.unreliable).empty() && c.model.outputs.empty()) {
+        c.modelled = false;
+        c.reason = "its only effect is on outputs found history-dependent (they do not come back to their rest pose)";
+        return;
+    }
+    c.model.unmodelledOutputs = removeOutputs(c, state.nonCompositional);
+    if (c.model.outputs.empty() && !c.model.unmodelledOutputs.empty())
+        c.model.form = "non-compositional (real rig only)";
 }
 
 // An output whose rest world has no inverse (a zero scale) or is not finite: no delta can be taken on it.
@@ -317,13 +332,15 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
         if (options.progress)
             options.progress("classifying", static_cast<double>(i + 1) / static_cast<double>(parameters.size()));
     }
-    // Outputs found history-dependent are dropped from what was learned before they were found.
-    std::vector<int> modelled;
+    // Outputs found history-dependent are dropped from what was learned before they were found; those found
+    // non-compositional are set apart. Parameters modelled on no output are not ordered: they come last.
+    std::vector<int> modelled, realRigOnly;
     for (Classification& c : pass.classes) {
-        if (c.modelled) dropOutputs(c, state.unreliable);
-        if (c.modelled) modelled.push_back(c.index);
+        if (c.modelled) classifyOutputs(c, state);
+        if (c.modelled) (c.model.outputs.empty() ? realRigOnly : modelled).push_back(c.index);
     }
     pass.order = orderParameters(probe, pass.classes, modelled, options, pairs, distrusted);
+    pass.order.order.insert(pass.order.order.end(), realRigOnly.begin(), realRigOnly.end());
 
     // The approximation's outputs are the reliable ones; `rigOutput` maps them back to the rig's.
     Approximation& result = pass.approximation;
@@ -336,6 +353,7 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
             outputIndex[k] = static_cast<int>(pass.rigOutput.size());
             pass.rigOutput.push_back(static_cast<int>(k));
             result.outputs.push_back({rig.outputs()[k], rest[k]});
+            result.outputs.back().modelled = !state.nonCompositional[k];
         }
     for (std::size_t o = 0; o < result.outputs.size(); ++o) {
         const int p = probe.parentOf(pass.rigOutput[o]);
@@ -344,6 +362,7 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
     for (int p : pass.order.order) {
         ModelledParameter m = pass.classes[static_cast<std::size_t>(p)].model;
         for (int& k : m.outputs) k = outputIndex[static_cast<std::size_t>(k)];
+        for (int& k : m.unmodelledOutputs) k = outputIndex[static_cast<std::size_t>(k)];
         result.parameters.push_back(std::move(m));
         pass.indices.push_back(p);
     }
@@ -363,7 +382,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     const std::vector<Eigen::Matrix4d>& rest = probe.rest();
     const auto& parameters = rig.parameters();
 
-    RigState state{std::vector<char>(rest.size(), 0)};
+    RigState state{std::vector<char>(rest.size(), 0), std::vector<char>(rest.size(), 0)};
     std::map<int, std::string> dropped;  // rig output -> why the approximation leaves it out
     for (std::size_t k = 0; k < rest.size(); ++k) {
         std::string why = singularRest(rest[k]);
@@ -376,13 +395,14 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     if (probe.parents.size() != rest.size())
         throw internalError(
             fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(), rest.size()));
-    // An output relative to one that is out of range or unreliable (found history-dependent while
-    // sampling) is learned in world space. True when a frame changed.
+    // An output relative to one that is out of range, unreliable (found history-dependent while sampling) or
+    // non-compositional is learned in world space. True when a frame changed.
     auto usableParents = [&] {
         bool changed = false;
         for (int& p : probe.parents)
             if (p >= 0 &&
-                (static_cast<std::size_t>(p) >= rest.size() || state.unreliable[static_cast<std::size_t>(p)])) {
+                (static_cast<std::size_t>(p) >= rest.size() || state.unreliable[static_cast<std::size_t>(p)] ||
+                 state.nonCompositional[static_cast<std::size_t>(p)])) {
                 p = -1;
                 changed = true;
             }
@@ -411,6 +431,8 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     // orderer took some for commuting from their operators, which a non-compositional output belies).
     // Then a parameter fitted by a curve or sampled operator that reaches an output still over epsilon
     // gets twice its sample budget, up to 8 x maxSamples (its fit was exact at the samples, not between).
+    // With perOutput (and relative frames), an output where a pair has neither order even in world space is
+    // non-compositional: it is set apart and the rest learned again.
     std::vector<int> budgets(parameters.size(), options.maxSamples);
     std::set<int> distrusted;
     PairSamples pairs;
@@ -429,6 +451,19 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
             if (!(pass.approximation.outputs[o].validationError <= options.epsilon)) implicate(pass.rigOutput[o]);
         for (const int k : failing) probe.parents[static_cast<std::size_t>(k)] = -1;
         if (!failing.empty()) continue;
+        auto setApart = [&](int k) {
+            if (!options.perOutput || !options.relativeFrames || state.nonCompositional[static_cast<std::size_t>(k)])
+                return false;
+            state.nonCompositional[static_cast<std::size_t>(k)] = 1;
+            probe.parents[static_cast<std::size_t>(k)] = -1;
+            return true;
+        };
+        bool setApartAny = false;
+        for (const int k : pass.order.conflictOutputs) setApartAny = setApart(k) || setApartAny;
+        if (setApartAny) {
+            usableParents();
+            continue;
+        }
         const Approximation& a = pass.approximation;
         bool newlyDistrusted = false;
         if (options.orderer == Orderer::structured)

@@ -41,6 +41,12 @@ struct LearnOptions {
     // True: outputs with a parent output are learned relative to it where that validates (DESIGN:
     // frames). False: every output in world space, as in the talk.
     bool relativeFrames = true;
+    // True (with relativeFrames): an output where a pair of parameters has neither order even once it is
+    // learned in world space (a thigh under an IK goal and a moving root: the rig says so, not a fit) is marked
+    // non-compositional (ApproximationOutput::modelled false), and its parameters stay modelled on their other
+    // outputs. False, or in world space (the talk's learning): the talk's behaviour, one parameter of such a
+    // pair is discarded.
+    bool perOutput = true;
     // Random poses within the limits of the modelled parameters for the final validation.
     int validationPoses = 50;
     // Poses with every modelled parameter at its min or its max (chosen at random), validated as well.
@@ -63,7 +69,8 @@ struct LearnOptions {
 //
 // Frames: every output with a parent output (RigFunction::outputParents) is first learned relative to
 // it; an output where that fails (no operator fits, a pair has neither order there, or its validation
-// exceeds epsilon) is learned again in world space, from the samples already taken.
+// exceeds epsilon) is learned again in world space, from the samples already taken. Where world space
+// fails too, the output is non-compositional (LearnOptions::perOutput).
 Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile);
 
 // Pairs of modelled parameters (indices into approximation.parameters, first < second) with the same

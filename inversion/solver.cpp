@@ -469,9 +469,10 @@ const Equivalences& Solver::equivalences() const { return *impl_->equivalences; 
 
 namespace {
 
-unsigned char countedRows(const JointTarget& t)
+// A non-compositional output's target is not counted: the approximation does not predict it.
+unsigned char countedRows(const ApproximationOutput& output, const JointTarget& t)
 {
-    if (!t.active) return noRows;
+    if (!t.active || !output.modelled) return noRows;
     unsigned char rows = noRows;
     if (t.positionWeight > 0) rows |= positionRows;
     if (t.rotationWeight > 0) rows |= rotationRows;
@@ -486,7 +487,7 @@ Partition Solver::partition(std::span<const JointTarget> targets) const
         throw internalError(fmt::format("Solver::partition: {} targets for {} outputs", targets.size(),
                                         impl_->approximation.outputs.size()));
     std::vector<unsigned char> rows(targets.size());
-    for (std::size_t k = 0; k < targets.size(); ++k) rows[k] = countedRows(targets[k]);
+    for (std::size_t k = 0; k < targets.size(); ++k) rows[k] = countedRows(impl_->approximation.outputs[k], targets[k]);
     std::string key;
     return impl_->plan(rows, key)->partition;
 }
@@ -755,7 +756,7 @@ bool Solver::Impl::prepare(std::span<const JointTarget> targets, std::span<const
     scratch.prepared.resize(targets.size());
     scratch.rows.resize(targets.size());
     for (std::size_t k = 0; k < targets.size(); ++k) {
-        scratch.rows[k] = countedRows(targets[k]);
+        scratch.rows[k] = countedRows(approximation.outputs[k], targets[k]);
         if (targets[k].active && !prepareTarget(targets[k], options.rotationScaleCm, scratch.prepared[k])) {
             termination = TerminationType::invalidTargets;
             return false;

@@ -277,8 +277,12 @@ def build_leg(rig, joints, pos, side, long_side, sign):
     knee_pos = pos[knee]
     ctrl(rig, f"{side}_leg_pole_ctrl", translate=(knee_pos[0], knee_pos[1], knee_pos[2] + 50))
     ctrl(rig, f"{side}_leg_settings", attrs=[number_attr("ikFk", 0, 1)])
+    # The CMU leg is straight at rest, which gives the chain no bend plane of its own: the foot's rest translate
+    # is set 0.01 cm back, a knee pre-bent toward the pole (Maya's preferred angle), so that IK at rest is the
+    # FK rest pose, not the pose turned about the leg onto the pole's plane.
+    foot_rest = (joints[foot][0], joints[foot][1], joints[foot][2] - 0.01)
     ik = rig.node(f"{side}_leg_ik", "ikHandle", startTranslate=joints[up], startRotateOrder=ROTATE_ORDERS[up],
-                  midTranslate=joints[knee], endTranslate=joints[foot])
+                  midTranslate=joints[knee], endTranslate=foot_rest)
     pv = rig.node(f"{side}_leg_pv", "poleVectorConstraint", constraintRotatePivot=joints[up])
     rig.connect(f"{hip}.worldMatrix", f"{ik}.startParentMatrix")
     rig.connect(f"{hip}.scale", f"{ik}.startInverseScale")

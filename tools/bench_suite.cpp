@@ -17,12 +17,12 @@
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
 #include "inversion/learner.h"
+#include "inversion/real_rig_solve.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
 #include "nodes/clips/target_clip.h"
 #include "nodes/graph_rig_function.h"
 #include "nodes/inversion_spec.h"
-#include "tools/bench_blackbox.h"
 #include "tools/bench_cold_start.h"
 #ifdef RIG_BENCH_HAVE_CERES
 #include "tools/bench_ceres.h"
@@ -387,7 +387,7 @@ void timeJacobians(BipedBench& b, Json& report)
         fdSerial = timeRepeated(
             [&] { evaluator.jacobian(rest, JacobianMethod::finiteDifference, h, jApprox, rApprox); }, o.timingBudget);
     });
-    BlackBoxProblem blackBox(*b.binding, defaults.rotationScaleCm);
+    RealRigProblem blackBox(*b.binding, defaults.rotationScaleCm);
     blackBox.setTargets(firstTargets);
     const std::uint64_t evaluationsBefore = blackBox.evaluations();
     const Timing blackForward =
@@ -445,7 +445,7 @@ void compareBlackBox(BipedBench& b, Json& report)
     const ClipTargets& targets = b.targets;
     const int blackBoxFrames = b.blackBoxFrames;
     const SolverOptions defaults;
-    BlackBoxProblem blackBox(binding, defaults.rotationScaleCm);
+    RealRigProblem blackBox(binding, defaults.rotationScaleCm);
     say(o, fmt::format("Gauss-Newton on the real graph, {} frames", blackBoxFrames));
     const Solver solver(approximation, SolverOptions{});
     std::uint64_t blackEvaluations = 0;
@@ -453,7 +453,7 @@ void compareBlackBox(BipedBench& b, Json& report)
         invertFrames(solver, binding, targets, 0, blackBoxFrames - 1, 0,
                      [&](std::span<const JointTarget> t, std::vector<double>& values, double, ChainFrame& frame) {
                          blackBox.setTargets(std::vector<JointTarget>(t.begin(), t.end()));
-                         const BlackBoxSolve s = gaussNewtonBlackBox(blackBox, values, defaults);
+                         const RealRigSolve s = solveOnRealRig(blackBox, values, defaults);
                          blackEvaluations += s.evaluations;
                          peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
                      });
@@ -469,7 +469,7 @@ void compareBlackBox(BipedBench& b, Json& report)
     blackJson["speedup"] = black.cpuMsPerFrame() / samePartitioned.run.cpuMsPerFrame();
     blackJson["speedup_whole"] = black.cpuMsPerFrame() / sameWhole.run.cpuMsPerFrame();
     blackJson["note"] =
-        "Gauss-Newton with forward-difference Jacobians on the real graph (tools/bench_blackbox.h), the "
+        "Gauss-Newton with forward-difference Jacobians on the real graph, serial (inversion/real_rig_solve.h), the "
         "solver's tolerances, the same unknowns, in the chains of invertClip; the first frames of the "
         "clip, the first from the initial guess";
     report["blackbox"] = blackJson;
@@ -780,7 +780,7 @@ void runScaling(const BenchOptions& o, Json& report)
         const Timing jacobian = timeRepeated([&] { blocks.evaluate(); }, o.timingBudget / 2, 3);
         std::optional<double> blackMs;
         if (o.scalingBlackBox) {
-            BlackBoxProblem black(binding, defaults.rotationScaleCm);
+            RealRigProblem black(binding, defaults.rotationScaleCm);
             black.setTargets(firstTargets);
             Eigen::VectorXd rb;
             blackMs =

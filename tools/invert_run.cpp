@@ -2,12 +2,14 @@
 
 #include <cmath>
 #include <fstream>
+#include <thread>
 #include <tuple>
 
 #include <fmt/format.h>
 
 #include "core/error.h"
 #include "inversion/approximation_io.h"
+#include "inversion/hybrid_solve.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
 #include "tools/cli_common.h"
@@ -103,6 +105,11 @@ ClipInversionOptions clipInversionOptions(const InvertSettings& s)
     if (s.restartEvery < 1)
         throw Error(fmt::format("--restart-every {}: give 1 or more frames between warm-start restarts (default {})",
                                 s.restartEvery, ClipInversionOptions{}.restartInterval));
+    if (s.hybrid && s.polish > 0)
+        throw Error(
+            fmt::format("--hybrid with --polish {}: choose one; the hybrid solve fits what the approximation "
+                        "does not model on the real rig itself",
+                        s.polish));
     options.polishCorrections = s.polish;
     options.restartInterval = s.restartEvery;
     options.coldStart = !s.restStarts;
@@ -208,6 +215,20 @@ InvertOutcome invert(const InvertJob& job)
         options.continueFrom =
             valuesReported(job.after, approximation, clip, out.first - out.first % options.restartInterval - 1,
                            job.frames ? *job.frames : "(all)");
+    std::unique_ptr<HybridSolver> hybrid;
+    ChainScratch hybridScratch;
+    if (job.settings.hybrid) {
+        const int threads = job.settings.threads > 0
+                                ? job.settings.threads
+                                : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+        hybrid = std::make_unique<HybridSolver>(solver, bound, threads);
+        out.hybridBlocks = hybrid->describe();
+        if (!hybrid->blocks().empty())
+            options.frameSolve = [&](std::span<const JointTarget> t, std::vector<double>& values, double previousCost,
+                                     ChainFrame& frame) {
+                hybrid->solveFrame(t, values, previousCost, hybridScratch, frame);
+            };
+    }
     if (job.progress) {
         const int total = last - out.first + 1;
         // invertClip gives done / total.
@@ -280,6 +301,14 @@ std::string curvesCsv(const InvertOutcome& outcome)
     return out;
 }
 
+std::vector<std::string> unmodelledOutputs(const Approximation& approximation)
+{
+    std::vector<std::string> names;
+    for (const auto& o : approximation.outputs)
+        if (!o.modelled) names.push_back(o.name);
+    return names;
+}
+
 Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>& approximation, const std::string& rig,
                   const std::optional<std::string>& clip, const std::optional<std::string>& curvesFile,
                   const std::string& curvesFingerprint)
@@ -298,6 +327,7 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
                             {"termination", terminationName(f.solve.termination)},
                             {"missed_joints", std::move(missed)},
                             {"iterations", f.solve.iterations},
+                            {"real_rig_evaluations", f.realRigEvaluations},
                             {"position_error_cm", numberJson(f.positionErrorCm)},
                             {"rotation_error_deg", numberJson(f.rotationErrorDeg)},
                             {"worst_joint", f.worstJoint},
@@ -307,30 +337,38 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
     for (const auto& joint : s.stuckJoints)
         stuckJoints[joint.name] = {{"frames", joint.frames},
                                    {"worst_position_error_cm", numberJson(joint.worstErrorCm)}};
-    return Json{{"approximation", nameOrNull(approximation)},
-                {"rig", rig},
-                {"clip", nameOrNull(clip)},
-                {"parameters", a.parameters.size()},
-                {"target_joints", outcome.targets.matchedJoints},
-                {"frames", s.frames},
-                {"converged_frames", s.convergedFrames},
-                {"stuck_frames", s.stuckFrames},
-                {"retried_frames", s.retriedFrames},
-                {"retries_kept", s.retriesKept},
-                {"stuck_joints", std::move(stuckJoints)},
-                {"max_position_error_cm", numberJson(s.maxPositionErrorCm)},
-                {"mean_position_error_cm", numberJson(s.meanPositionErrorCm)},
-                {"max_rotation_error_deg", numberJson(s.maxRotationErrorDeg)},
-                {"mean_rotation_error_deg", numberJson(s.meanRotationErrorDeg)},
-                {"worst_joint", s.worstJoint},
-                {"worst_frame", s.worstFrame >= 0 ? frameNumber(s.worstFrame) : Json()},
-                {"ms_per_frame", numberJson(s.msPerFrame)},
-                {"lead_in_frames", s.leadInFrames},
-                {"non_finite_frames", s.nonFiniteFrames},
-                // Which curves this report belongs to: a run killed between the two writes leaves a pair that
-                // says it does not match.
-                {"curves", {{"file", nameOrNull(curvesFile)}, {"fnv1a64", curvesFingerprint}}},
-                {"per_frame", std::move(perFrame)}};
+    return Json{
+        {"approximation", nameOrNull(approximation)},
+        {"rig", rig},
+        {"clip", nameOrNull(clip)},
+        {"parameters", a.parameters.size()},
+        {"target_joints", outcome.targets.matchedJoints},
+        {"frames", s.frames},
+        {"converged_frames", s.convergedFrames},
+        {"stuck_frames", s.stuckFrames},
+        {"retried_frames", s.retriedFrames},
+        {"retries_kept", s.retriesKept},
+        {"stuck_joints", std::move(stuckJoints)},
+        {"max_position_error_cm", numberJson(s.maxPositionErrorCm)},
+        {"mean_position_error_cm", numberJson(s.meanPositionErrorCm)},
+        {"max_rotation_error_deg", numberJson(s.maxRotationErrorDeg)},
+        {"mean_rotation_error_deg", numberJson(s.meanRotationErrorDeg)},
+        {"worst_joint", s.worstJoint},
+        {"worst_frame", s.worstFrame >= 0 ? frameNumber(s.worstFrame) : Json()},
+        {"ms_per_frame", numberJson(s.msPerFrame)},
+        {"lead_in_frames", s.leadInFrames},
+        {"non_finite_frames", s.nonFiniteFrames},
+        {"unmodelled_outputs", unmodelledOutputs(a)},
+        {"hybrid", outcome.hybridBlocks.empty()
+                       ? Json()
+                       : Json{{"blocks", outcome.hybridBlocks},
+                              {"real_rig_evaluations", s.realRigEvaluations},
+                              {"real_rig_evaluations_per_frame",
+                               numberJson(s.frames > 0 ? static_cast<double>(s.realRigEvaluations) / s.frames : 0.0)}}},
+        // Which curves this report belongs to: a run killed between the two writes leaves a pair that
+        // says it does not match.
+        {"curves", {{"file", nameOrNull(curvesFile)}, {"fnv1a64", curvesFingerprint}}},
+        {"per_frame", std::move(perFrame)}};
 }
 
 std::string fingerprintText(const std::string& text) { return fmt::format("{:016x}", fnv1a64(text)); }

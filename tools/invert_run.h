@@ -29,6 +29,8 @@ struct InvertSettings {
     int polish = 0;
     int restartEvery = ClipInversionOptions{}.restartInterval;
     bool restStarts = false;
+    // Fit the outputs the approximation does not model on the real rig (inversion/hybrid_solve.h).
+    bool hybrid = false;
 };
 
 // The options for invertClip. Throws rig::Error naming the flag of a bad value.
@@ -69,6 +71,8 @@ struct InvertOutcome {
     std::vector<std::vector<double>> values;  // [reported frame][parameter], internal units
     // The same as solved, before each warm-start chain's continuity shift (rig-batch replays the shifts).
     std::vector<std::vector<double>> solved;
+    // With settings.hybrid: the blocks solved on the real rig (HybridSolver::describe), one per line.
+    std::string hybridBlocks;
 };
 
 // Checks the settings, reads what the job names, binds the approximation to the rig and inverts the
@@ -104,6 +108,9 @@ std::string curvesJsonFrames(const Approximation& approximation, std::span<const
                              const std::vector<std::vector<double>>& values);
 std::string curvesJsonFile(std::string_view frames);
 std::string curvesCsv(const InvertOutcome& outcome);
+
+// The outputs the approximation does not model (non-compositional), in its order.
+std::vector<std::string> unmodelledOutputs(const Approximation& approximation);
 
 // The --report-json report. `clip` names the targets (none for targets given in memory), `curvesFile` the
 // curves written (none when nothing was), `curvesFingerprint` the FNV-1a 64 of the curves' JSON text.

@@ -35,6 +35,7 @@ struct Options {
     int polish = 0;
     int restartEvery = ClipInversionOptions{}.restartInterval;
     bool restStarts = false;
+    bool hybrid = false;
     std::string after;  // curves of the chunk before (--after)
     bool quiet = false;
     cli::KeySettings keys;
@@ -81,6 +82,15 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
         "{:.4g} deg\n",
         s.maxPositionErrorCm, s.maxRotationErrorDeg, s.worstJoint,
         s.worstFrame >= 0 ? clip.frameNumbers[s.worstFrame] : 0.0, s.meanPositionErrorCm, s.meanRotationErrorDeg);
+    const std::vector<std::string> unmodelled = cli::unmodelledOutputs(a);
+    if (!outcome.hybridBlocks.empty())
+        std::cout << fmt::format("hybrid            {}\n                  {:.4g} real-rig evaluations per frame\n",
+                                 outcome.hybridBlocks, s.frames > 0 ? double(s.realRigEvaluations) / s.frames : 0.0);
+    else if (!unmodelled.empty())
+        std::cout << fmt::format(
+            "not modelled      {} (non-compositional: their targets were not fitted; --hybrid "
+            "fits them on the real rig)\n",
+            fmt::join(unmodelled, ", "));
     std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
                              s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
     if (keys) std::cout << cli::keysText(outcome, *keys);
@@ -117,7 +127,8 @@ int run(const Options& o)
     job.map = o.map;
     if (o.framesGiven) job.frames = o.frames;
     job.after = o.after;
-    job.settings = {o.threads, o.noPartition, o.blockByBlock, o.jacobian, o.polish, o.restartEvery, o.restStarts};
+    job.settings = {o.threads, o.noPartition,  o.blockByBlock, o.jacobian,
+                    o.polish,  o.restartEvery, o.restStarts,   o.hybrid};
     job.warning = [](const std::string& warning) { std::cerr << "warning: " << warning << "\n"; };
     job.rigLoaded = [&](const GraphRigFunction& rig) {
         std::vector<cli::NamedFile> read;
@@ -211,6 +222,9 @@ int main(int argc, char** argv)
                    "of chunks then equal one run's)");
     app.add_flag("--rest-starts", options.restStarts,
                  "Restart frames start from the rest values instead of the approximation's initial guess");
+    app.add_flag("--hybrid", options.hybrid,
+                 "Fit the outputs the approximation does not model (an IK leg) by Gauss-Newton on the real rig, "
+                 "after the approximation's solve");
     app.add_flag("--strict", options.strict, "Refuse an approximation learned from another version of the rig");
     app.add_option("--plugin", options.plugins, "Load a plugin before reading the rig");
     app.add_option("--key-tolerance", options.keys.toleranceCm,

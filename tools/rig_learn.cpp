@@ -34,6 +34,7 @@ struct Options {
     std::map<std::string, std::string> specPlaces;  // glob -> its file:line:col in the spec, for messages
     bool allowInexact = false;
     bool worldSpace = false;
+    bool noPerOutput = false;
     int threads = 0;
 };
 
@@ -64,6 +65,33 @@ std::string vectorText(const Eigen::Vector3d& v)
     return fmt::format("({:.4g}, {:.4g}, {:.4g})", clean(v.x()), clean(v.y()), clean(v.z()));
 }
 
+// Per-output modelling: the non-compositional outputs, and per parameter that moves one, where it is modelled
+// and where not.
+std::string unmodelledText(const Approximation& a)
+{
+    std::vector<std::string> unmodelled;
+    for (const ApproximationOutput& o : a.outputs)
+        if (!o.modelled) unmodelled.push_back(o.name);
+    if (unmodelled.empty()) return {};
+    const auto names = [&](const std::vector<int>& outputs) {
+        std::vector<std::string> list;
+        for (const int k : outputs) list.push_back(a.outputs[static_cast<std::size_t>(k)].name);
+        return fmt::format("{}", fmt::join(list, ", "));
+    };
+    std::string out = fmt::format(
+        "\nNot modelled: {} outputs are non-compositional (no product of operators reproduces them; rig-invert "
+        "--hybrid fits them on the real rig): {}\n",
+        unmodelled.size(), fmt::join(unmodelled, ", "));
+    for (const ModelledParameter& m : a.parameters) {
+        if (m.unmodelledOutputs.empty()) continue;
+        out += m.outputs.empty()
+                   ? fmt::format("  {}: real rig only, on {}\n", m.parameter.name, names(m.unmodelledOutputs))
+                   : fmt::format("  {}: modelled on {}; not on {}\n", m.parameter.name, names(m.outputs),
+                                 names(m.unmodelledOutputs));
+    }
+    return out;
+}
+
 std::string readableReport(const Approximation& a, std::size_t rigParameters, std::size_t rigOutputs,
                            const Options& options, double loadSeconds)
 {
@@ -74,14 +102,17 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
         {"#", "parameter", "form", "axis", "pivot (cm)", "fit error", "samples", "outputs", "range"}};
     for (std::size_t p = 0; p < a.parameters.size(); ++p) {
         const ModelledParameter& m = a.parameters[p];
-        const Operator& op = m.operators.front();
         const bool one = m.operators.size() == 1;
-        const bool analytic = op.kind != OperatorKind::sampledRigid && op.kind != OperatorKind::sampledAffine;
-        const bool hasAxis = one && analytic && op.kind != OperatorKind::uniformScale;
-        const bool hasPivot = one && analytic && op.kind != OperatorKind::translation;
-        rows.push_back({fmt::format("{}", p + 1), m.parameter.name, m.form, hasAxis ? vectorText(op.axis) : "-",
-                        hasPivot ? vectorText(op.pivot) : "-", fmt::format("{:.2g}", m.fitError),
-                        fmt::format("{}", m.samples), fmt::format("{}", m.outputs.size()), rangeText(m.parameter)});
+        const Operator* op = one ? &m.operators.front() : nullptr;
+        const bool analytic = op && op->kind != OperatorKind::sampledRigid && op->kind != OperatorKind::sampledAffine;
+        const bool hasAxis = analytic && op->kind != OperatorKind::uniformScale;
+        const bool hasPivot = analytic && op->kind != OperatorKind::translation;
+        const std::string outputs = m.unmodelledOutputs.empty()
+                                        ? fmt::format("{}", m.outputs.size())
+                                        : fmt::format("{} (+{} not)", m.outputs.size(), m.unmodelledOutputs.size());
+        rows.push_back({fmt::format("{}", p + 1), m.parameter.name, m.form, hasAxis ? vectorText(op->axis) : "-",
+                        hasPivot ? vectorText(op->pivot) : "-", fmt::format("{:.2g}", m.fitError),
+                        fmt::format("{}", m.samples), outputs, rangeText(m.parameter)});
     }
     out += alignTable(rows, {"  ",
                              {Align::right, Align::left, Align::left, Align::left, Align::left, Align::left,
@@ -101,6 +132,7 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
     if (!saturated.empty())
         out += "\nSaturated: ranges where a control moves nothing (an inversion cannot tell values there apart)\n" +
                saturated;
+    out += unmodelledText(a);
     out += fmt::format("\nDiscarded: {} parameters\n", a.discarded.size());
     for (const auto& d : a.discarded) out += fmt::format("  {}: {}\n", d.parameter.name, d.reason);
     std::vector<std::string> world;
@@ -154,6 +186,7 @@ int run(Options& options)
     if (options.epsilonGiven) job.options.epsilon = cli::parseEpsilon(options.epsilon);
     job.options.orderer = cli::ordererFromName(options.orderer);
     job.options.relativeFrames = !options.worldSpace;
+    job.options.perOutput = !options.noPerOutput;
     job.options.threads = options.threads;
     job.rigLoaded = [&](const GraphRigFunction& rig) {
         std::vector<cli::NamedFile> read;
@@ -228,6 +261,9 @@ int main(int argc, char** argv)
                    "operators do not commute) or talk (tests every pair on the rig)")
         ->check(CLI::IsMember({"talk", "structured"}));
     app.add_option("--report-json", options.reportJson, "Also write the report as JSON to this file");
+    app.add_flag("--no-per-output", options.noPerOutput,
+                 "The talk's behaviour: discard one parameter of a pair that cannot be ordered, instead of leaving "
+                 "the output where parameters do not compose unmodelled (fitted by rig-invert --hybrid)");
     app.add_flag("--world-space", options.worldSpace,
                  "Learn every output in world space, as the talk does (default: relative to its parent output where "
                  "that validates)");

@@ -61,6 +61,7 @@ void checkSame(const Approximation& a, const Approximation& b)
         CHECK(sameMatrix(a.outputs[k].rest, b.outputs[k].rest));
         CHECK(a.outputs[k].parent == b.outputs[k].parent);
         CHECK(same(a.outputs[k].validationError, b.outputs[k].validationError));
+        CHECK(a.outputs[k].modelled == b.outputs[k].modelled);
     }
     REQUIRE(a.parameters.size() == b.parameters.size());
     for (std::size_t p = 0; p < a.parameters.size(); ++p) {
@@ -68,6 +69,7 @@ void checkSame(const Approximation& a, const Approximation& b)
         CAPTURE(x.parameter.name);
         checkSameParameter(x.parameter, y.parameter);
         CHECK(x.outputs == y.outputs);
+        CHECK(x.unmodelledOutputs == y.unmodelledOutputs);
         CHECK(x.operatorOfOutput == y.operatorOfOutput);
         CHECK(x.form == y.form);
         CHECK(same(x.fitError, y.fitError));
@@ -133,12 +135,13 @@ Approximation everything()
     a.rigFile = "rigs/odd \"name\": #1 \\ é.yaml";
     a.rigFingerprint = "00ff00ff00ff00ff";
     a.epsilon = 1e-3;
-    for (const char* name : {"root", "mid: #x", "tip"}) {
+    for (const char* name : {"root", "mid: #x", "tip", "ikThigh"}) {
         ApproximationOutput out{name, Eigen::Matrix4d::Identity()};
         for (int r = 0; r < 3; ++r)
             for (int c = 0; c < 4; ++c) out.rest(r, c) = pick(i);
         a.outputs.push_back(out);
     }
+    a.outputs[3].modelled = false;  // non-compositional
     auto parameter = [&](const std::string& name, bool angular, bool limited) {
         return RigParameter{name, -0.0, -std::numbers::pi / 2, 1.0 / 3.0, angular, limited};
     };
@@ -151,7 +154,8 @@ Approximation everything()
                                   1e-17,
                                   6,
                                   2e-5,
-                                  {{-1.5, -0.5}, {0.25, 1.0 / 3.0}}};
+                                  {{-1.5, -0.5}, {0.25, 1.0 / 3.0}},
+                                  {3}};
     Operator t;
     t.kind = OperatorKind::translation;
     t.axis = Eigen::Vector3d(0.6, -0.0, 0.8);
@@ -167,6 +171,7 @@ Approximation everything()
                                3e-4,
                                17,
                                0.0,
+                               {},
                                {}};
     Operator r;
     r.kind = OperatorKind::rotation;
@@ -189,6 +194,7 @@ Approximation everything()
                               0.0,
                               64,
                               5e-324,
+                              {},
                               {}};
     Operator rigid;
     rigid.kind = OperatorKind::sampledRigid;
@@ -214,6 +220,18 @@ Approximation everything()
     uniform.slope = 5e-324;
     sampled.operators = {rigid, affine, uniform};
     a.parameters.push_back(sampled);
+    // Effective on a non-compositional output only: no operator.
+    ModelledParameter realRigOnly{parameter("leg_pole.translateZ", false, false),
+                                  {},
+                                  {},
+                                  {},
+                                  "non-compositional (real rig only)",
+                                  0.0,
+                                  6,
+                                  0.0,
+                                  {},
+                                  {3}};
+    a.parameters.push_back(realRigOnly);
 
     a.discarded.push_back(
         {parameter("nasty_ctrl.springy", false, true), "history-dependent: \"quoted\"\nsecond line\tand a tab"});
@@ -322,8 +340,8 @@ TEST_CASE("approximation files: what cannot be written is refused, naming the fi
     CHECK_THROWS_WITH_AS(approximationToYaml(a),
                          "approximationToYaml: parameters[1].operators[0].pivot is nan, not a finite number", Error);
     a = everything();
-    a.parameters[0].outputs[2] = 3;
-    CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: parameters[0].outputs: index 3 out of range",
+    a.parameters[0].outputs[2] = 4;
+    CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: parameters[0].outputs: index 4 out of range",
                          Error);
 }
 
@@ -345,6 +363,14 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
     CHECK(errorWith("limited: true", "limited: 1") == "f.yaml:15:14: parameters[0].limited: expected true or false");
     CHECK(errorWith("outputs: [\"a\"]", "outputs: [\"b\"]") ==
           "f.yaml:20:15: parameters[0].outputs: 'b' is not one of the outputs");
+    CHECK(errorWith("{name: \"a\", ", "{name: \"a\", modelled: false, ") ==
+          "f.yaml:20:15: parameters[0].outputs: 'a' is not modelled (its outputs entry says modelled: false); list it "
+          "under unmodelledOutputs");
+    CHECK(errorWith("outputs: [\"a\"]", "outputs: []\n    unmodelledOutputs: [\"a\"]") ==
+          "f.yaml:21:25: parameters[0].unmodelledOutputs: 'a' is modelled (its outputs entry says modelled: true); "
+          "list it under outputs");
+    CHECK(errorWith("outputs: [\"a\"]", "outputs: []") ==
+          "f.yaml:20:14: parameters[0].outputs: a parameter affects at least one output");
     CHECK(errorWith("operatorOfOutput: [0]", "operatorOfOutput: [3]") ==
           "f.yaml:21:24: parameters[0].operatorOfOutput: 3 is not an operator index (0..0)");
     CHECK(errorWith("operatorOfOutput: [0]", "operatorOfOutput: [0, 0]") ==
