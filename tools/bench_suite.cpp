@@ -561,6 +561,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
     GraphRigOptions rigOptions;
     rigOptions.parameterGlobs = spec.params;
     rigOptions.outputGlobs = spec.outputs;
+    rigOptions.held = spec.set;  // the spec's state: learned in it, and every real-rig figure measured in it
     auto start = Clock::now();
     GraphRigFunction rig(o.rig, rigOptions);
     const double loadSeconds = secondsSince(start);
