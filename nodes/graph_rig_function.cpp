@@ -276,6 +276,8 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
         if (const Connection* c = g.incomingConnection(p))
             refuse(fmt::format("it is driven by {}", g.plugName(c->source)),
                    "a held plug is an input that nothing drives (hold what drives it instead)");
+        if (g.spec(p).array && p.index < 0)
+            refuse("it is an array attribute", fmt::format("hold one element, e.g. {}[0]", g.plugName(p)));
         if (g.plugType(p) == ValueType::Vector3)
             refuse("it is a vector3 value, not a number",
                    fmt::format("hold its components one by one ({}, ...)", g.plugName(scalars(g, p).front())));

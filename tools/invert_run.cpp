@@ -306,6 +306,7 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
                                    {"worst_position_error_cm", numberJson(joint.worstErrorCm)}};
     return Json{{"approximation", nameOrNull(approximation)},
                 {"rig", rig},
+                {"held", heldJson(a.held)},
                 {"clip", nameOrNull(clip)},
                 {"parameters", a.parameters.size()},
                 {"target_joints", outcome.targets.matchedJoints},

@@ -103,8 +103,6 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
         const std::string frame = o.parent >= 0 ? a.outputs[static_cast<std::size_t>(o.parent)].name : "world";
         outputs.push_back({{"name", o.name}, {"frame", frame}, {"validation_error", numberJson(o.validationError)}});
     }
-    Json held = Json::array();
-    for (const HeldPlug& h : a.held) held.push_back({{"plug", h.plug}, {"value", numberJson(h.value)}});
     Json dropped = Json::array();
     for (const DroppedOutput& d : a.droppedOutputs) dropped.push_back({{"name", d.name}, {"reason", d.reason}});
     const ValidationSummary& v = a.validation;
@@ -115,7 +113,7 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                 {"orderer", a.training.orderer},
                 {"parameters", outcome.rigParameters},
                 {"outputs", outcome.rigOutputs},
-                {"held", std::move(held)},
+                {"held", heldJson(a.held)},
                 {"evaluations", a.training.evaluations},
                 {"order_evaluations", a.training.orderEvaluations},
                 {"seconds", numberJson(a.training.seconds)},

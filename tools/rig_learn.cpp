@@ -81,9 +81,7 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
 {
     std::string out = fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n",
                                   options.rig, rigParameters, rigOutputs, a.epsilon, a.training.orderer);
-    std::vector<std::string> held;
-    for (const HeldPlug& h : a.held) held.push_back(fmt::format("{} = {}", h.plug, h.value));
-    if (!held.empty()) out += fmt::format("Held (not inverted): {}\n", fmt::join(held, ", "));
+    if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", cli::heldText(a.held));
     out += "\n";
     out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
     std::vector<std::vector<std::string>> rows{
@@ -167,7 +165,8 @@ int run(Options& options)
     const std::vector<cli::NamedFile> outputs{{"-o", options.output},
                                               {"--report-json", options.reportGiven ? options.reportJson : ""}};
     cli::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
-    cli::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}, options.held};
+    cli::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
+    job.held = options.held;
     if (options.epsilonGiven) job.options.epsilon = cli::parseEpsilon(options.epsilon);
     job.options.orderer = cli::ordererFromName(options.orderer);
     job.options.relativeFrames = !options.worldSpace;

@@ -189,6 +189,7 @@ const std::string settingsRig = R"(nodes:
   - {name: root, type: joint}
   - {name: tip, type: joint, parent: root, translate: [10, 0, 0]}
   - {name: driver, type: transform, addAttr: [{name: out}]}
+  - {name: blend, type: blendTwoAttr}
 connections:
   - ctrl.bend -> tip.rotateZ
   - driver.out -> ctrl.mode
@@ -274,6 +275,8 @@ TEST_CASE("GraphRigFunction: a plug that cannot be held is one line naming it an
           rig +
               ": held plug 'tip.rotateZ': it is driven by ctrl.bend; a held plug is an input that nothing drives "
               "(hold what drives it instead)");
+    CHECK(heldError("blend.input", 1) ==
+          rig + ": held plug 'blend.input': it is an array attribute; hold one element, e.g. blend.input[0]");
     CHECK(heldError("root.translate", 1) ==
           rig +
               ": held plug 'root.translate': it is a vector3 value, not a number; hold its components one by one "

@@ -355,7 +355,11 @@ TEST_CASE("rig-invert on an approximation learned with --set evaluates the real 
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
     CHECK(r.err.empty());  // the fingerprint with the held plugs matches
-    CHECK(YAML::LoadFile((dir / "report.json").string())["max_position_error_cm"].as<double>() < 1e-3);
+    CHECK(r.out.find("\n  the rig is held as the approximation was learned: L_leg_settings.ikFk = 1, "
+                     "R_leg_settings.ikFk = 1\n") != std::string::npos);
+    const YAML::Node report = YAML::LoadFile((dir / "report.json").string());
+    CHECK(report["held"].size() == 2);
+    CHECK(report["max_position_error_cm"].as<double>() < 1e-3);
 
     // The same approximation without its held section: the real rig stays in FK mode, the hips' drop moves
     // the whole legs, and the fingerprint says the rig is not the one learned.
