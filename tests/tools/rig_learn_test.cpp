@@ -330,7 +330,7 @@ TEST_CASE("rig-learn --set: the biped's legs learned in IK mode are another mode
     CHECK(names(a) != names(b));
 }
 
-TEST_CASE("rig-invert on an approximation learned with --set evaluates the real rig in the held state")
+TEST_CASE("rig-invert and rig-batch on an approximation learned with --set evaluate the real rig in the held state")
 {
     const auto dir = rig::test::scratchDir("rig-invert-held");
     const auto ik = dir / "ik.yaml";
@@ -360,6 +360,18 @@ TEST_CASE("rig-invert on an approximation learned with --set evaluates the real 
     const YAML::Node report = YAML::LoadFile((dir / "report.json").string());
     CHECK(report["held"].size() == 2);
     CHECK(report["max_position_error_cm"].as<double>() < 1e-3);
+
+    // rig-batch holds them on every shard's rig as well: rig-invert's curves and real-rig errors.
+    const auto batch =
+        run(fmt::format("{} '{}' --rig rigs/biped.yaml --clips '{}' --out '{}' --jobs 1 -q",
+                        rig::test::tool("rig-batch"), ik.string(), targets.string(), (dir / "batch").string()));
+    INFO(batch.err);
+    REQUIRE(batch.exitCode == 0);
+    const YAML::Node batchReport = YAML::LoadFile((dir / "batch" / "report.json").string());
+    CHECK(batchReport["held"].size() == 2);
+    CHECK(batchReport["clips"][0]["max_position_error_cm"].as<double>() ==
+          report["max_position_error_cm"].as<double>());
+    CHECK(rig::test::readFile(dir / "batch" / "targets.json") == rig::test::readFile(dir / "curves.json"));
 
     // The same approximation without its held section: the real rig stays in FK mode, the hips' drop moves
     // the whole legs, and the fingerprint says the rig is not the one learned.
