@@ -32,12 +32,12 @@ void readSet(InversionSpec& spec, const YAML::Node& set, const At& at)
             throw Error(
                 fmt::format("{}: 'set' holds {} at {}, not a number; give a finite number in the rig file's "
                             "units (degrees for angles)",
-                            at(v), plug,
+                            at(v.IsNull() ? entry.first : v), messageExcerpt(plug),
                             v.IsScalar() ? "'" + messageExcerpt(v.Scalar()) + "'"
                             : v.IsNull() ? std::string("nothing")
                                          : std::string("a list or a map")));
         if (!spec.setPlaces.emplace(plug, at(entry.first)).second)
-            throw Error(fmt::format("{}: 'set' names {} twice; give it once", at(entry.first), plug));
+            throw Error(fmt::format("{}: 'set' names {} twice; give it once", at(entry.first), messageExcerpt(plug)));
         spec.set.push_back({plug, *value});
     }
 }
