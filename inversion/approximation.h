@@ -95,9 +95,17 @@ struct TrainingSummary {
     std::string orderer;  // "talk" or "structured"
 };
 
+// A plug that was not inverted but held at a value while learning (a mode switch such as ikFk, a space
+// switch, a rig setting): the rig is in that state wherever the approximation is used.
+struct HeldPlug {
+    std::string plug;    // the rig's plug, as the rig names it
+    double value = 0.0;  // in the rig file's units (degrees for angles), as the user gives it
+};
+
 struct Approximation {
     std::string rigFile;         // as given when learning
     std::string rigFingerprint;  // RigFunction::fingerprint() of the rig it was learned from
+    std::vector<HeldPlug> held;  // by plug name; the fingerprint covers them
     double epsilon = 0.0;        // the validation threshold used (cm per unit of a parameter)
     std::vector<ApproximationOutput> outputs;
     std::vector<ModelledParameter> parameters;  // composition order: outermost first

@@ -336,6 +336,10 @@ std::string approximationToYaml(const Approximation& a)
     out += fmt::format("format: {}\nversion: {}\n", approximationFormatName, approximationFormatVersion);
     out += fmt::format("rigFile: {}\nrigFingerprint: {}\nepsilon: {}\n", yamlString(a.rigFile),
                        yamlString(a.rigFingerprint), number(a.epsilon, "epsilon"));
+    if (!a.held.empty()) out += "held:  # plugs held at a value while learning, in the rig file's units\n";
+    for (std::size_t h = 0; h < a.held.size(); ++h)
+        out += fmt::format("  - plug: {}\n    value: {}\n", yamlString(a.held[h].plug),
+                           number(a.held[h].value, fmt::format("held[{}].value", h)));
     const TrainingSummary& t = a.training;
     out += fmt::format("training:\n  evaluations: {}\n  orderEvaluations: {}\n  seconds: {}\n  orderer: {}\n",
                        t.evaluations, t.orderEvaluations, number(t.seconds, "training.seconds"), yamlString(t.orderer));
@@ -496,7 +500,7 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     r.checkKeys(root, "file",
                 {"format", "version", "rigFile", "rigFingerprint", "epsilon", "training", "validation", "outputs",
                  "parameters", "discarded"},
-                {"droppedOutputs"});
+                {"droppedOutputs", "held"});
 
     Approximation a;
     a.rigFile = r.text(root["rigFile"], "rigFile");
@@ -656,6 +660,23 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         x.reason = r.text(discarded[d]["reason"], field + ".reason");
         a.discarded.push_back(std::move(x));
     }
+
+    if (const YAML::Node held = root["held"])
+        for (std::size_t h = 0; h < r.sequence(held, "held").size(); ++h) {
+            const std::string field = fmt::format("held[{}]", h);
+            r.checkKeys(held[h], field, {"plug", "value"});
+            const YAML::Node plug = held[h]["plug"];
+            HeldPlug x{r.text(plug, field + ".plug"), r.real(held[h]["value"], field + ".value")};
+            if (x.plug.empty()) r.fail(plug, field + ".plug", "a held plug needs a name");
+            if (names.count(x.plug))
+                r.fail(plug, field + ".plug",
+                       fmt::format("'{}' is also a parameter; a plug is inverted or held, not both: re-run rig-learn",
+                                   x.plug));
+            for (const HeldPlug& before : a.held)
+                if (before.plug == x.plug)
+                    r.fail(plug, field + ".plug", fmt::format("the plug '{}' is held twice", x.plug));
+            a.held.push_back(std::move(x));
+        }
     return a;
 }
 

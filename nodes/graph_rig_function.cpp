@@ -3,6 +3,7 @@
 #include <fnmatch.h>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <map>
 #include <numbers>
@@ -114,7 +115,54 @@ int parentOutput(const Graph& g, NodeId node, const std::map<NodeId, int>& outpu
     }
 }
 
+// A held plug's value as the graph stores it (internal units, the plug's own type). `refuse(reason,
+// advice)` throws for a value the plug cannot hold.
+template <class Refuse>
+Value heldValue(const Graph& g, const Plug& p, double value, const Refuse& refuse)
+{
+    const AttributeSpec& s = g.spec(p);
+    const ValueType type = g.plugType(p);
+    if (!std::isfinite(value))
+        refuse(fmt::format("{} is not a finite number", value),
+               "give a number in the rig file's units (degrees for angles)");
+    if (type == ValueType::Int && (value != std::floor(value) || std::abs(value) > 2e9))
+        refuse(fmt::format("{} is not a whole number from -2e9 to 2e9 (an int attribute)", value),
+               "give a whole number");
+    if (type == ValueType::Bool && value != 0.0 && value != 1.0)
+        refuse(fmt::format("{} is not 0 or 1 (a bool attribute)", value), "give 0 (false) or 1 (true)");
+    if (type == ValueType::Enum &&
+        (value != std::floor(value) || value < 0 || value >= static_cast<double>(s.enumNames.size()))) {
+        std::string names;
+        for (std::size_t i = 0; i < s.enumNames.size(); ++i)
+            names += fmt::format("{}{} ({})", i ? ", " : "", i, s.enumNames[i]);
+        refuse(fmt::format("{} is not one of its enum values", value),
+               fmt::format("give the index of one of its names: {}", names));
+    }
+    // As a rig file's value is read: degrees to radians for an angle, other units as they are.
+    const double scale = unitFactor(s.unit == Unit::Angle ? Unit::None : s.unit, s.unit);
+    const double x = value * scale;
+    if ((s.min && x < *s.min) || (s.max && x > *s.max)) {
+        const std::string range = s.min && s.max ? fmt::format("from {:g} to {:g}", *s.min / scale, *s.max / scale)
+                                  : s.min        ? fmt::format("of {:g} or more", *s.min / scale)
+                                                 : fmt::format("of {:g} or less", *s.max / scale);
+        refuse(s.min && x < *s.min ? fmt::format("{} is below its minimum {:g}", value, *s.min / scale)
+                                   : fmt::format("{} is above its maximum {:g}", value, *s.max / scale),
+               "give a value " + range);
+    }
+    return convertValue(x, ValueType::Double, type, 1.0);
+}
+
 }  // namespace
+
+GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<std::string> plugins)
+{
+    GraphRigOptions options;
+    for (const auto& p : approximation.parameters) options.parameterGlobs.push_back(p.parameter.name);
+    for (const auto& o : approximation.outputs) options.outputGlobs.push_back(o.name);
+    options.plugins = std::move(plugins);
+    options.held = approximation.held;
+    return options;
+}
 
 GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const GraphRigOptions& options)
 {
@@ -124,7 +172,6 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
     graph_ = loadGraphFile(rigFile, registry, &filesRead);
     std::uint64_t hash = fnv1a64({});
     for (const auto& file : filesRead) hash = fnv1a64(readBytes(file), hash);
-    fingerprint_ = fmt::format("{:016x}", hash);
     files_ = filesRead;
     Graph& g = *graph_;
     const std::string rigName = rigFile.string();
@@ -132,7 +179,7 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
     if (options.parameterGlobs.empty())
         throw Error(
             fmt::format("{}: no parameters given; name them with plug globs such as 'L_arm_*.rotate?'", rigName));
-    std::set<Plug> seen;
+    std::map<Plug, std::string> seen;  // each parameter plug, and the glob that named it first
     for (const std::string& glob : options.parameterGlobs) {
         std::vector<Plug> matched;
         if (!isGlobPattern(glob)) {
@@ -164,7 +211,7 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                     continue;
                 }
                 ++usable;
-                if (!seen.insert(p).second) continue;
+                if (!seen.emplace(p, glob).second) continue;
                 const AttributeSpec& s = g.spec(p);
                 RigParameter param;
                 param.name = g.plugName(p);
@@ -202,6 +249,58 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                                     "parameter", glob, reason);
         }
     }
+
+    // Held plugs: all checked, then set; each once, by the name the rig gives it.
+    struct Held {
+        Plug plug;
+        Value stored;  // internal units
+        double value;  // as given
+    };
+    std::map<std::string, Held> held;
+    for (const HeldPlug& h : options.held) {
+        const auto refuse = [&](const std::string& reason, const std::string& advice) {
+            throw RigSelectionError(
+                fmt::format("{}: held plug '{}': {}{}{}", rigName, h.plug, reason, advice.empty() ? "" : "; ", advice),
+                "held plug", h.plug, reason);
+        };
+        if (isGlobPattern(h.plug)) refuse("it is a glob", "name each held plug in full");
+        Plug p;
+        try {
+            p = g.plug(h.plug);
+        }
+        catch (const Error& e) {
+            refuse(e.what(), "");
+        }
+        if (!g.spec(p).input)
+            refuse("it is an output, computed by its node", "a held plug is an input that nothing drives");
+        if (const Connection* c = g.incomingConnection(p))
+            refuse(fmt::format("it is driven by {}", g.plugName(c->source)),
+                   "a held plug is an input that nothing drives (hold what drives it instead)");
+        if (g.spec(p).array && p.index < 0)
+            refuse("it is an array attribute", fmt::format("hold one element, e.g. {}[0]", g.plugName(p)));
+        if (g.plugType(p) == ValueType::Vector3)
+            refuse("it is a vector3 value, not a number",
+                   fmt::format("hold its components one by one ({}, ...)", g.plugName(scalars(g, p).front())));
+        if (!isNumeric(g.plugType(p)))
+            refuse(fmt::format("it is a {} value, not a number", valueTypeName(g.plugType(p))),
+                   "a held plug is one number (a switch or a setting)");
+        if (const auto parameter = seen.find(p); parameter != seen.end())
+            refuse(fmt::format("it is also a parameter{}", parameter->second == g.plugName(p)
+                                                               ? std::string()
+                                                               : fmt::format(" (glob '{}')", parameter->second)),
+                   "a plug is inverted or held, not both: take it out of one");
+        const double value = h.value + 0.0;  // -0 is 0: one state, one fingerprint
+        const Value stored = heldValue(g, p, value, refuse);
+        const auto [at, added] = held.emplace(g.plugName(p), Held{p, stored, value});
+        if (!added && at->second.value != value)
+            refuse(fmt::format("it is held at {} and at {}", at->second.value, value), "give one value");
+    }
+    for (const auto& [name, h] : held) {
+        g.setValue(h.plug, h.stored);
+        held_.push_back({name, h.value});
+        hash = fnv1a64(fmt::format("\nheld {}={}", name, h.value), hash);
+    }
+    fingerprint_ = fmt::format("{:016x}", hash);
 
     std::vector<std::string> jointNames;
     std::vector<NodeId> joints;
@@ -252,7 +351,8 @@ GraphRigFunction::GraphRigFunction(const GraphRigFunction& other)
       outputWorlds_(other.outputWorlds_.size()),
       computesSeen_(other.computesSeen_.size(), notRead),
       fingerprint_(other.fingerprint_),
-      files_(other.files_)
+      files_(other.files_),
+      held_(other.held_)
 {
 }
 

@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "graph/graph.h"
+#include "inversion/approximation.h"
 #include "inversion/rig_function.h"
 
 namespace rig {
@@ -27,12 +28,21 @@ struct GraphRigOptions {
     std::vector<std::string> outputGlobs;
     // Plugins to load before reading the rig (as graph-eval --plugin).
     std::vector<std::string> plugins;
+    // Plugs held at a value, not inverted (rig-learn --set: a mode or space switch, a rig setting): each one
+    // number input that nothing drives and that is not a parameter, by its name (not a glob), the value in
+    // the rig file's units (degrees for angles) within the attribute's limits. Set once when the rig loads,
+    // so every instance() has them and resetState() keeps them.
+    std::vector<HeldPlug> held{};
 };
 
-// A parameter or output glob the rig cannot provide (no such plug or joint, a driven plug, not a joint).
-// what() is the whole line ("RIG: parameter 'GLOB': REASON", ...); a caller that chose the names itself
-// (rig-invert, from an approximation file) can say more from kind() ("parameter" or "output"), name()
-// (the glob or plug) and reason().
+// The options that load the rig of an approximation in the state it was learned in: its parameters, its
+// outputs and its held plugs.
+GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<std::string> plugins = {});
+
+// A parameter or output glob, or a held plug, the rig cannot provide (no such plug or joint, a driven plug,
+// not a joint, a value outside the attribute's limits). what() is the whole line ("RIG: parameter 'GLOB':
+// REASON", ...); a caller that chose the names itself (rig-invert, from an approximation file) can say more
+// from kind() ("parameter", "output" or "held plug"), name() (the glob or plug) and reason().
 class RigSelectionError : public Error {
 public:
     RigSelectionError(const std::string& message, std::string kind, std::string name, std::string reason)
@@ -71,8 +81,11 @@ public:
     // value the rig refuses (outside the attribute's limits).
     void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) override;
     std::uint64_t evaluationCount() const override { return evaluations_; }
-    // FNV-1a 64 (16 hex digits) over the contents of the rig file and every file it includes.
+    // FNV-1a 64 (16 hex digits) over the contents of the rig file and every file it includes, then the held
+    // plugs' names and values when there are any (without, the rig files' alone, as before held plugs).
     std::string fingerprint() const override { return fingerprint_; }
+    // The held plugs as set: each once, named as the rig names it, sorted by name, in the rig file's units.
+    const std::vector<HeldPlug>& held() const { return held_; }
     // Shares the parsed rig (Graph::instance): no file is read again.
     std::unique_ptr<RigFunction> instance() const override;
     void resetState() override;
@@ -102,6 +115,7 @@ private:
     std::uint64_t evaluations_ = 0;
     std::string fingerprint_;
     std::vector<std::filesystem::path> files_;
+    std::vector<HeldPlug> held_;
 };
 
 // FNV-1a 64 of bytes, continuing from `hash` (start: the FNV offset basis).

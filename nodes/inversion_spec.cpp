@@ -10,8 +10,39 @@
 #include <yaml-cpp/yaml.h>
 
 #include "core/error.h"
+#include "core/parse_number.h"
 
 namespace rig {
+namespace {
+
+// set: {PLUG: VALUE, ...}: plugs held at a value while learning.
+template <class At>
+void readSet(InversionSpec& spec, const YAML::Node& set, const At& at)
+{
+    if (!set.IsMap())
+        throw Error(
+            fmt::format("{}: 'set' must be a map of plugs to numbers, e.g. set: {{L_leg_settings.ikFk: 1}}", at(set)));
+    for (const auto& entry : set) {
+        if (!entry.first.IsScalar() || entry.first.Scalar().empty())
+            throw Error(fmt::format("{}: a key of 'set' is a plug name (node.attribute)", at(entry.first)));
+        const std::string plug = entry.first.Scalar();
+        const YAML::Node& v = entry.second;
+        const auto value = v.IsScalar() ? parseFiniteNumber(v.Scalar()) : std::nullopt;
+        if (!value)
+            throw Error(
+                fmt::format("{}: 'set' holds {} at {}, not a number; give a finite number in the rig file's "
+                            "units (degrees for angles)",
+                            at(v.IsNull() ? entry.first : v), messageExcerpt(plug),
+                            v.IsScalar() ? "'" + messageExcerpt(v.Scalar()) + "'"
+                            : v.IsNull() ? std::string("nothing")
+                                         : std::string("a list or a map")));
+        if (!spec.setPlaces.emplace(plug, at(entry.first)).second)
+            throw Error(fmt::format("{}: 'set' names {} twice; give it once", at(entry.first), messageExcerpt(plug)));
+        spec.set.push_back({plug, *value});
+    }
+}
+
+}  // namespace
 
 InversionSpec readInversionSpec(const std::filesystem::path& path)
 {
@@ -22,7 +53,8 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
     const auto status = std::filesystem::status(file, ec);
     if (!std::filesystem::exists(status)) throw Error(fmt::format("{}: no such spec file; check the path", file));
     if (std::filesystem::is_directory(status))
-        throw Error(fmt::format("{}: is a folder; give a spec file ('params:' and 'outputs:', lists of globs)", file));
+        throw Error(fmt::format(
+            "{}: is a folder; give a spec file ('params:' and 'outputs:', lists of globs, and 'set:', a map)", file));
     if (!std::filesystem::is_regular_file(status))
         throw Error(fmt::format("{}: is not a regular file (a device or a pipe?); give a spec file", file));
     std::ifstream in(file, std::ios::binary);
@@ -45,16 +77,22 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
     }
     const auto at = [&](const YAML::Node& n) { return formatMark({file, n.Mark().line + 1, n.Mark().column + 1}); };
     if (!root.IsMap())
-        throw Error(fmt::format("{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs", at(root)));
+        throw Error(fmt::format(
+            "{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs (and 'set:', a map)", at(root)));
     for (const auto& entry : root) {
         if (!entry.first.IsScalar())
-            throw Error(fmt::format("{}: a key of a spec is a list or a map; a spec has 'params:' and 'outputs:'",
-                                    at(entry.first)));
+            throw Error(
+                fmt::format("{}: a key of a spec is a list or a map; a spec has 'params:', 'outputs:' and 'set:'",
+                            at(entry.first)));
         const std::string key = entry.first.Scalar();
+        if (key == "set") {
+            readSet(spec, entry.second, at);
+            continue;
+        }
         auto* list = key == "params" ? &spec.params : key == "outputs" ? &spec.outputs : nullptr;
         if (!list)
-            throw Error(fmt::format("{}: unknown key '{}'; a spec has 'params:' and 'outputs:'", at(entry.first),
-                                    messageExcerpt(key)));
+            throw Error(fmt::format("{}: unknown key '{}'; a spec has 'params:', 'outputs:' and 'set:'",
+                                    at(entry.first), messageExcerpt(key)));
         if (!entry.second.IsSequence())
             throw Error(fmt::format("{}: '{}' must be a list of globs", at(entry.second), key));
         for (const auto& glob : entry.second) {

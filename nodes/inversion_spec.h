@@ -1,19 +1,23 @@
 #pragma once
 // A rig's inversion choices in one file (docs/rig-learn.md, rigs/biped_inversion.yaml): `params:` and
-// optionally `outputs:`, lists of globs, which rig-learn --spec adds to the command line's and rig-bench
-// learns the biped with.
+// optionally `outputs:`, lists of globs, and `set:`, a map of plugs held at a value while learning, which
+// rig-learn --spec adds to the command line's and rig-bench learns the biped with.
 
 #include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
 
+#include "inversion/approximation.h"
+
 namespace rig {
 
 struct InversionSpec {
-    std::vector<std::string> params;            // parameter plug globs
-    std::vector<std::string> outputs;           // output joint globs
-    std::map<std::string, std::string> places;  // glob -> its file:line:col, for messages about it
+    std::vector<std::string> params;               // parameter plug globs
+    std::vector<std::string> outputs;              // output joint globs
+    std::vector<HeldPlug> set;                     // held plugs, in the file's order, values in the rig file's units
+    std::map<std::string, std::string> places;     // glob -> its file:line:col, for messages about it
+    std::map<std::string, std::string> setPlaces;  // held plug -> its file:line:col
 };
 
 // Throws rig::Error, one line naming the file (and line and column) and what to change.

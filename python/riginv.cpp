@@ -278,10 +278,22 @@ public:
 
     static PyApproximation learn(const py::object& rig, const std::vector<std::string>& params,
                                  const std::vector<std::string>& outputs, double epsilon, const std::string& orderer,
-                                 const py::object& progress, const std::vector<std::string>& plugins, bool worldSpace)
+                                 const py::object& progress, const std::vector<std::string>& plugins, bool worldSpace,
+                                 const std::optional<py::dict>& set)
     {
         if (params.empty()) throw Error("params: give one or more parameter plug globs (rig-learn --params)");
         cli::LearnJob job{pathText(rig), params, outputs, plugins, {}, {}};
+        if (set)
+            for (const auto& [key, value] : *set) {
+                if (!py::isinstance<py::str>(key))
+                    throw Error(fmt::format("set: a key is a {}, not a plug name (str)", typeName(key)));
+                const std::string plug = py::str(key);
+                if (py::isinstance<py::bool_>(value) ||
+                    !(py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value)))
+                    throw Error(fmt::format("set['{}']: expected a number (the rig file's units), got a {}", plug,
+                                            typeName(value)));
+                job.held.push_back({plug, value.cast<double>()});
+            }
         job.options.epsilon = cli::parseEpsilon(fmt::format("{}", epsilon));
         job.options.orderer = cli::ordererFromName(orderer);
         job.options.relativeFrames = !worldSpace;
@@ -386,6 +398,12 @@ public:
         return names;
     }
     const std::string& rigFile() const { return approximation_->rigFile; }
+    py::dict held() const
+    {
+        py::dict out;
+        for (const HeldPlug& h : approximation_->held) out[py::str(h.plug)] = h.value;
+        return out;
+    }
     const std::optional<std::string>& file() const { return file_; }
 
     // What names the approximation in messages: its file, or the rig it was learned from.
@@ -543,6 +561,8 @@ PYBIND11_MODULE(riginv, m)
                                "The modelled parameters' names, in composition order: the columns of invert()'s "
                                "values.")
         .def_property_readonly("outputs", &PyApproximation::outputs, "The output joints' names: the possible targets.")
+        .def_property_readonly("held", &PyApproximation::held,
+                               "The plugs held at a value while learning (rig-learn --set), in the rig file's units.")
         .def_property_readonly("rig_file", &PyApproximation::rigFile,
                                "The rig file it was learned from, as given then.")
         .def_property_readonly("file", &PyApproximation::file, "The file it was loaded from or saved to, or None.")
@@ -554,11 +574,12 @@ PYBIND11_MODULE(riginv, m)
     m.def("learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"),
           py::arg("outputs") = std::vector<std::string>{}, py::arg("epsilon") = 0.001,
           py::arg("orderer") = "structured", py::arg("progress") = py::none(), py::kw_only(),
-          py::arg("plugins") = std::vector<std::string>{}, py::arg("world_space") = false,
+          py::arg("plugins") = std::vector<std::string>{}, py::arg("world_space") = false, py::arg("set") = py::none(),
           "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
           "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
           "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "
-          "plugins, world_space: rig-learn's --plugin and --world-space.\n"
+          "plugins, world_space: rig-learn's --plugin and --world-space; set: {plug: value}, plugs held at a "
+          "value while learning, in the rig file's units (rig-learn --set).\n"
           "progress: called as progress(fraction done, 1.0), with the GIL held.\n"
           "An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses it. "
           "The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s).");

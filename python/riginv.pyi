@@ -100,6 +100,9 @@ class Approximation:
     def outputs(self) -> list[str]:
         """The output joints' names: the possible targets."""
     @property
+    def held(self) -> dict[str, float]:
+        """The plugs held at a value while learning (rig-learn --set), in the rig file's units."""
+    @property
     def rig_file(self) -> str:
         """The rig file it was learned from, as given then."""
     @property
@@ -116,12 +119,14 @@ def learn(
     *,
     plugins: Sequence[str] = [],
     world_space: bool = False,
+    set: Optional[Mapping[str, float]] = None,
 ) -> Approximation:
     """Learns a rig's approximation, as rig-learn, and returns an Approximation.
 
     params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).
     epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk';
-    plugins, world_space: rig-learn's --plugin and --world-space.
+    plugins, world_space: rig-learn's --plugin and --world-space; set: {plug: value}, plugs held at a
+    value while learning, in the rig file's units (rig-learn --set).
     progress: called as progress(fraction done, 1.0), with the GIL held.
     An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses
     it. The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s)."""

@@ -570,6 +570,7 @@ BatchOutcome runBatch(const BatchJob& job)
         Json{{"format", "rig-batch report 1"},
              {"approximation", inputs.approximation},
              {"rig", inputs.rig},
+             {"held", heldJson(approximation.held)},
              {"map", inputs.map.empty() ? Json() : Json(inputs.map)},
              {"backend", job.backend},
              {"jobs", jobs > 0 ? Json(jobs) : Json("all")},

@@ -561,6 +561,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
     GraphRigOptions rigOptions;
     rigOptions.parameterGlobs = spec.params;
     rigOptions.outputGlobs = spec.outputs;
+    rigOptions.held = spec.set;  // the spec's state: learned in it, and every real-rig figure measured in it
     auto start = Clock::now();
     GraphRigFunction rig(o.rig, rigOptions);
     const double loadSeconds = secondsSince(start);
@@ -647,6 +648,7 @@ struct ScalingRig {
     int count;
     std::filesystem::path file;
     std::vector<std::string> params, outputs;
+    std::vector<HeldPlug> held{};  // the biped's held plugs for every member of a crowd (biped0001:, ...)
 };
 
 std::string shellQuote(const std::string& s)
@@ -666,6 +668,8 @@ ScalingRig makeRig(const BenchOptions& o, const InversionSpec& biped, const std:
         // Each member under its namespace: the biped's globs with any member's prefix.
         for (const auto& p : biped.params) r.params.push_back("biped*:" + p);
         for (const auto& p : biped.outputs) r.outputs.push_back("biped*:" + p);
+        for (int member = 1; member <= count; ++member)
+            for (const auto& h : biped.set) r.held.push_back({fmt::format("biped{:04d}:{}", member, h.plug), h.value});
     } else {
         r.params = {"chain*.rotate?"};
     }
@@ -750,6 +754,7 @@ void runScaling(const BenchOptions& o, Json& report)
         GraphRigOptions rigOptions;
         rigOptions.parameterGlobs = r.params;
         rigOptions.outputGlobs = r.outputs;
+        rigOptions.held = r.held;
         GraphRigFunction rig(r.file, rigOptions);
         const double loadSeconds = secondsSince(start);
         const double graphMb = residentMb() - residentBefore;

@@ -135,14 +135,11 @@ LoadedRig loadRig(const InvertJob& job)
                         "with other --params",
                         job.approximationName));
 
-    GraphRigOptions rigOptions;
-    for (const auto& p : approximation.parameters) rigOptions.parameterGlobs.push_back(p.parameter.name);
-    for (const auto& o : approximation.outputs) rigOptions.outputGlobs.push_back(o.name);
-    rigOptions.plugins = job.plugins;
-    // The rig must have the approximation's parameters and outputs: an approximation of another rig (or a
-    // name edited by hand) is the approximation's mistake as much as the rig's.
+    // The rig must have the approximation's parameters, outputs and held plugs: an approximation of another
+    // rig (or a name edited by hand) is the approximation's mistake as much as the rig's. The held plugs put
+    // the real rig (polish, keys, reports) in the state the approximation was learned in.
     try {
-        out.rig = std::make_shared<GraphRigFunction>(job.rig, rigOptions);
+        out.rig = std::make_shared<GraphRigFunction>(job.rig, rigOptionsFor(approximation, job.plugins));
     }
     catch (const RigSelectionError& e) {
         throw Error(fmt::format("{}: {} '{}' does not fit {} ({}); {}", job.approximationName, e.kind(), e.name(),
@@ -340,6 +337,7 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
     return Json{
         {"approximation", nameOrNull(approximation)},
         {"rig", rig},
+        {"held", heldJson(a.held)},
         {"clip", nameOrNull(clip)},
         {"parameters", a.parameters.size()},
         {"target_joints", outcome.targets.matchedJoints},

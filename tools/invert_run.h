@@ -82,8 +82,8 @@ InvertOutcome invert(const InvertJob& job);
 // invert's steps, for rig-batch, which checks every clip of a library before any work. Each throws
 // rig::Error with rig-invert's one-line messages.
 // The approximation (job.approximation, or read from job.approximationName) and the rig it names, loaded
-// with the approximation's parameters and outputs; job.rigLoaded is called, then job.warning when the rig
-// changed since learning (an error with job.strict).
+// with the approximation's parameters, outputs and held plugs (rigOptionsFor); job.rigLoaded is called,
+// then job.warning when the rig changed since learning (an error with job.strict).
 struct LoadedRig {
     std::shared_ptr<const Approximation> approximation;
     std::shared_ptr<GraphRigFunction> rig;

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "core/parse_number.h"
 
 namespace rig::cli {
 
@@ -23,6 +24,22 @@ double parseEpsilon(const std::string& text)
         throw Error(
             fmt::format("--epsilon '{}': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001", text));
     return x;
+}
+
+HeldPlug parseHeldPlug(const std::string& assignment)
+{
+    const auto eq = assignment.find('=');
+    if (eq == std::string::npos || eq == 0)
+        throw Error(fmt::format("--set '{}': expected PLUG=VALUE, e.g. --set L_leg_settings.ikFk=1",
+                                messageExcerpt(assignment)));
+    const std::string plug = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+    const auto value = parseFiniteNumber(text);
+    if (!value)
+        throw Error(
+            fmt::format("--set {}: '{}' is not a number; give a finite number in the rig file's units "
+                        "(degrees for angles), e.g. --set {}=1",
+                        messageExcerpt(plug), messageExcerpt(text), messageExcerpt(plug)));
+    return {plug, *value};
 }
 
 Orderer ordererFromName(const std::string& name)
@@ -42,7 +59,7 @@ double learningFraction(std::string_view stage, double fraction)
 LearnOutcome learn(const LearnJob& job)
 {
     const auto loadStart = std::chrono::steady_clock::now();
-    GraphRigFunction rig(job.rig, GraphRigOptions{job.params, job.outputs, job.plugins});
+    GraphRigFunction rig(job.rig, GraphRigOptions{job.params, job.outputs, job.plugins, job.held});
     if (job.rigLoaded) job.rigLoaded(rig);
     LearnOutcome out;
     out.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
@@ -55,6 +72,7 @@ LearnOutcome learn(const LearnJob& job)
         // A rig that refuses a sampled value (a node's own limit) or fails to evaluate: say where.
         throw Error(fmt::format("{}: evaluating the rig while learning: {}", job.rig, e.what()));
     }
+    out.approximation.held = rig.held();
     return out;
 }
 
@@ -95,6 +113,7 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                 {"orderer", a.training.orderer},
                 {"parameters", outcome.rigParameters},
                 {"outputs", outcome.rigOutputs},
+                {"held", heldJson(a.held)},
                 {"evaluations", a.training.evaluations},
                 {"order_evaluations", a.training.orderEvaluations},
                 {"seconds", numberJson(a.training.seconds)},

@@ -21,6 +21,10 @@ double parseEpsilon(const std::string& text);
 // "structured" or "talk", else rig::Error (the command line's CLI11 check says the same).
 Orderer ordererFromName(const std::string& name);
 
+// --set PLUG=VALUE: a plug held at a finite number (the rig file's units) while learning, else rig::Error
+// saying what the flag expects.
+HeldPlug parseHeldPlug(const std::string& assignment);
+
 // Overall fraction done from the learner's stage and the fraction of that stage (the first samples and
 // the classification are most of the work; ordering and validation share the rest).
 double learningFraction(std::string_view stage, double fraction);
@@ -33,6 +37,8 @@ struct LearnJob {
     LearnOptions options;
     // Called once the rig is loaded, before the work (rig-learn checks its outputs against the rig's files).
     std::function<void(const GraphRigFunction& rig)> rigLoaded;
+    std::vector<HeldPlug>
+        held{};  // plugs held at a value, not inverted (rig-learn --set); recorded in the approximation
 };
 
 struct LearnOutcome {

@@ -219,7 +219,9 @@ int main(int argc, char** argv)
     app.add_flag("--quick", options.quick, "A smoke run: under a minute, fewer frames and small generated rigs");
     app.add_option("--json", options.json, "Write every figure as JSON to this file");
     app.add_option("--rig", options.rig, "The biped rig (default rigs/biped.yaml)");
-    app.add_option("--spec", options.spec, "Its inversion parameters and outputs (default rigs/biped_inversion.yaml)");
+    app.add_option("--spec", options.spec,
+                   "Its inversion parameters and outputs, and the plugs held while learning (default "
+                   "rigs/biped_inversion.yaml)");
     app.add_option("--clip", options.clip, "Target clip (default /usr/share/assimp/models/BVH/01_01.bvh)");
     app.add_option("--map", options.map, "Map file of the clip (default rigs/maps/cmu_to_biped.yaml)");
     app.add_option("--make-rigs", options.makeRigs, "The rig generator (default scripts/make_rigs.py)");

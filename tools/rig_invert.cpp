@@ -51,6 +51,8 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
     const ClipInversionSummary& s = outcome.summary;
     std::cout << fmt::format("rig-invert: {} on {} with {} ({} parameters, {} target joints)\n", o.clip, o.rig,
                              o.approximation, a.parameters.size(), targets.matchedJoints);
+    if (!a.held.empty())
+        std::cout << fmt::format("  the rig is held as the approximation was learned: {}\n", cli::heldText(a.held));
     if (!targets.unmatchedJoints.empty())
         std::cout << fmt::format("  {} clip joints are not outputs of the approximation and were not targets\n",
                                  targets.unmatchedJoints.size());

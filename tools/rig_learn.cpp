@@ -1,5 +1,6 @@
 // rig-learn: learns a rig's approximation (sections 3 and 4 of the talk) and writes it to a file,
 // with a readable report on standard output and, optionally, a JSON one (docs/rig-learn.md).
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -30,21 +31,32 @@ struct Options {
     std::string reportJson;
     bool reportGiven = false;
     std::vector<std::string> plugins;
+    std::vector<std::string> sets;  // --set PLUG=VALUE
+    std::vector<HeldPlug> held;     // --set's, then the spec's for other plugs
     std::string spec;
-    std::map<std::string, std::string> specPlaces;  // glob -> its file:line:col in the spec, for messages
+    std::map<std::string, std::string> specPlaces;     // glob -> its file:line:col in the spec, for messages
+    std::map<std::string, std::string> specSetPlaces;  // held plug of the spec -> its file:line:col
     bool allowInexact = false;
     bool worldSpace = false;
     bool noPerOutput = false;
     int threads = 0;
 };
 
-// A spec file adds its globs to the command line's.
+// A spec file adds its globs to the command line's, and its held plugs but those --set names: the command
+// line's value wins, as a flag overrides a configuration file.
 void readSpec(Options& options)
 {
     InversionSpec spec = readInversionSpec(options.spec);
     options.params.insert(options.params.end(), spec.params.begin(), spec.params.end());
     options.outputs.insert(options.outputs.end(), spec.outputs.begin(), spec.outputs.end());
     options.specPlaces.merge(spec.places);
+    for (const HeldPlug& h : spec.set) {
+        const bool overridden = std::any_of(options.held.begin(), options.held.end(),
+                                            [&](const HeldPlug& given) { return given.plug == h.plug; });
+        if (overridden) continue;
+        options.held.push_back(h);
+        options.specSetPlaces[h.plug] = spec.setPlaces.at(h.plug);
+    }
 }
 
 std::string valueText(const RigParameter& p, double internal)
@@ -95,8 +107,10 @@ std::string unmodelledText(const Approximation& a)
 std::string readableReport(const Approximation& a, std::size_t rigParameters, std::size_t rigOutputs,
                            const Options& options, double loadSeconds)
 {
-    std::string out = fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n\n",
+    std::string out = fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n",
                                   options.rig, rigParameters, rigOutputs, a.epsilon, a.training.orderer);
+    if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", cli::heldText(a.held));
+    out += "\n";
     out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
     std::vector<std::vector<std::string>> rows{
         {"#", "parameter", "form", "axis", "pivot (cm)", "fit error", "samples", "outputs", "range"}};
@@ -174,6 +188,7 @@ int run(Options& options)
 {
     if (options.rig.empty())
         throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
+    for (const std::string& assignment : options.sets) options.held.push_back(cli::parseHeldPlug(assignment));
     if (!options.spec.empty()) readSpec(options);
     if (options.params.empty()) throw Error("--params is required; run 'rig-learn --help' for usage");
     // Bad outputs and flags are reported before any work.
@@ -183,6 +198,7 @@ int run(Options& options)
                                               {"--report-json", options.reportGiven ? options.reportJson : ""}};
     cli::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
     cli::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
+    job.held = options.held;
     if (options.epsilonGiven) job.options.epsilon = cli::parseEpsilon(options.epsilon);
     job.options.orderer = cli::ordererFromName(options.orderer);
     job.options.relativeFrames = !options.worldSpace;
@@ -202,9 +218,10 @@ int run(Options& options)
         learned.emplace(cli::learn(job));
     }
     catch (const RigSelectionError& e) {
-        // A glob of the spec: say where it is written.
-        const auto place = options.specPlaces.find(e.name());
-        if (place == options.specPlaces.end()) throw;
+        // A glob or a held plug of the spec: say where it is written.
+        const auto& places = e.kind() == "held plug" ? options.specSetPlaces : options.specPlaces;
+        const auto place = places.find(e.name());
+        if (place == places.end()) throw;
         throw Error(fmt::format("{}: {} '{}' of the spec does not fit {} ({}); fix or remove it", place->second,
                                 e.kind(), e.name(), options.rig, e.reason()));
     }
@@ -251,8 +268,13 @@ int main(int argc, char** argv)
     app.add_option("--params", options.params,
                    "Parameter plug globs, e.g. 'L_arm_*.rotate?' 'hips.translate?' (one or more; repeatable)");
     app.add_option("--spec", options.spec,
-                   "YAML file with 'params:' and 'outputs:' lists of globs, added to --params and --outputs");
+                   "YAML file with 'params:' and 'outputs:' lists of globs, added to --params and --outputs, and a "
+                   "'set:' map of held plugs, added to --set");
     app.add_option("--outputs", options.outputs, "Output joint-name globs (default: every joint of the rig)");
+    app.add_option("--set", options.sets,
+                   "Hold a plug at a value while learning, not inverted: PLUG=VALUE in the rig file's units, e.g. "
+                   "L_leg_settings.ikFk=1 (repeatable; wins over the spec's 'set:')")
+        ->allow_extra_args(false);
     app.add_option("-o,--output", options.output, "Approximation file to write (YAML)")->required();
     app.add_option("--epsilon", options.epsilon,
                    "Validation threshold, cm of frame-point error per unit of a parameter (default 0.001)");

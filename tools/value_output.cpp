@@ -60,6 +60,20 @@ double parameterInternalValue(const RigParameter& parameter, double user)
     return parameter.angular ? user * std::numbers::pi / 180.0 : user;
 }
 
+std::string heldText(const std::vector<HeldPlug>& held)
+{
+    std::string out;
+    for (const HeldPlug& h : held) out += fmt::format("{}{} = {}", out.empty() ? "" : ", ", h.plug, h.value);
+    return out;
+}
+
+Json heldJson(const std::vector<HeldPlug>& held)
+{
+    Json out = Json::array();
+    for (const HeldPlug& h : held) out.push_back({{"plug", h.plug}, {"value", numberJson(h.value)}});
+    return out;
+}
+
 Json numberJson(double x)
 {
     // Below 1e16 every whole double is an exact int64. -0 stays a double: as an integer it would read

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "graph/graph.h"
+#include "inversion/approximation.h"
 #include "inversion/rig_function.h"
 
 namespace rig::cli {
@@ -40,6 +41,11 @@ double userScale(const Graph& graph, const Plug& plug);
 // curves files, reports and the Python module's arrays hold user units.
 double parameterUserValue(const RigParameter& parameter, double internal);
 double parameterInternalValue(const RigParameter& parameter, double user);
+
+// Held plugs (rig-learn --set) as reports show them: "PLUG = VALUE, ..." in the rig file's units, and a JSON
+// list of {plug, value}.
+std::string heldText(const std::vector<HeldPlug>& held);
+Json heldJson(const std::vector<HeldPlug>& held);
 
 // CSV column names for `plug` (one per number) and the matching fields of a value.
 std::vector<std::string> csvColumns(const Graph& graph, const Plug& plug, const Value& value);

@@ -1,7 +1,9 @@
 // rigInversion (a plugin): drives a rig's parameters from target joints with a learned approximation
 // (docs/inversion-tutorial.md). target[k] is the target of the approximation's output k; value[i] is
 // parameter i (the approximation's composition order), angles in degrees as unitless numbers, so that a
-// connection to an angle plug turns them into radians as any unitless source does.
+// connection to an angle plug turns them into radians as any unitless source does. heldValue[j] is the
+// approximation's held plug j at the value it was learned with (the rig file's units, so degrees too):
+// wired to the rig like the parameters, it keeps the rig in the state its approximation describes.
 //
 // Warm start (a stateful node, as production solvers are): an evaluation at time t starts from the
 // solution at t - 1 when the previous evaluation was at t - 1, from the same start again when it was at t,
@@ -52,6 +54,8 @@ enum Attr : AttrId {
     worstErrorCm,
     parameterNames,
     outputNames,
+    heldValue,
+    heldNames,
 };
 
 // An approximation and the solver built on it, shared by every evaluation until `file` changes.
@@ -175,6 +179,14 @@ public:
         names.clear();
         for (const auto& o : a.outputs) names.push_back(o.name);
         c.setOutput(outputNames, joinLines(names));
+        values.clear();
+        names.clear();
+        for (const HeldPlug& h : a.held) {
+            values.emplace_back(h.value);
+            names.push_back(h.plug);
+        }
+        c.setOutputElements(heldValue, std::move(values));
+        c.setOutput(heldNames, joinLines(names));
     }
 
 private:
@@ -196,7 +208,8 @@ private:
 // connect: {targets: NODE_OR_GLOB, parameters: true}
 //   targets: a bvhClip node (its worldMatrix[j] by jointNames), or a glob of nodes with a worldMatrix
 //   (the joints of another rig); each target joint, renamed by the node's map file, that is an output of
-//   the approximation is connected to target[k]. parameters: value[i] -> the rig's parameter plug i.
+//   the approximation is connected to target[k]. parameters: value[i] -> the rig's parameter plug i, and
+//   heldValue[j] -> the rig's held plug j.
 void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const YamlFieldContext& context);
 
 // Errors of the engine (a cycle, a plug already driven) and of the files get the place of `connect:`.
@@ -285,6 +298,27 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
                 }
                 graph.connect(graph.plug(fmt::format("{}.value[{}]", node, i)), destination);
             }
+            // The held plugs too: the rig must be in the state the approximation was learned in.
+            for (std::size_t j = 0; j < a.held.size(); ++j) {
+                const HeldPlug& h = a.held[j];
+                Plug destination;
+                try {
+                    destination = graph.plug(h.plug);
+                }
+                catch (const Error&) {
+                    throw Error(fmt::format(
+                        "{}: the approximation was learned with '{}' held at {}, which this graph does "
+                        "not have: it was learned from another rig ({}); include that rig or learn this one",
+                        context.where(v), h.plug, h.value, a.rigFile));
+                }
+                if (const Connection* c = graph.incomingConnection(destination))
+                    throw Error(
+                        fmt::format("{}: the approximation was learned with {} held at {}, but {} drives it here; "
+                                    "the node holds it at that value: disconnect it, or learn the rig in another "
+                                    "state (rig-learn --set)",
+                                    context.where(v), h.plug, h.value, graph.plugName(c->source)));
+                graph.connect(graph.plug(fmt::format("{}.heldValue[{}]", node, j)), destination);
+            }
         } else {
             throw Error(fmt::format("{}: unknown key '{}' in 'connect'; it has 'targets' and 'parameters'",
                                     context.where(entry.first), key));
@@ -304,7 +338,7 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
         "(docs/inversion-tutorial.md). target[k] is the target of the approximation's output k; "
         "value[i] its parameter i, angles in degrees. Warm-starts from the previous frame when time "
         "moves on by one frame. The rig-file field `connect: {targets: NODE_OR_GLOB, parameters: true}` "
-        "wires it by the names stored in the approximation.");
+        "wires it by the names stored in the approximation, the held plugs (heldValue[j]) with the parameters.");
     b.input(file, "file", ValueType::String)
         .filePath()
         .doc("Approximation file (rig-learn -o), relative to the rig file that names it; read again when it changes.");
@@ -352,6 +386,12 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
         .doc("Worst target position error on the approximation, cm.");
     b.output(parameterNames, "parameterNames", ValueType::String).doc("The parameters, one per line.");
     b.output(outputNames, "outputNames", ValueType::String).doc("The outputs (target joints), one per line.");
+    b.output(heldValue, "heldValue", ValueType::Double)
+        .array()
+        .doc(
+            "Each plug the approximation was learned with held, at its held value (the rig file's units, angles in "
+            "degrees, unitless); `connect: {parameters: true}` wires them to the rig.");
+    b.output(heldNames, "heldNames", ValueType::String).doc("The held plugs, one per line.");
     b.affectsAll();
     b.stateful();
     b.yamlConnector("connect", connectField);

@@ -54,6 +54,11 @@ void checkSame(const Approximation& a, const Approximation& b)
 {
     CHECK(a.rigFile == b.rigFile);
     CHECK(a.rigFingerprint == b.rigFingerprint);
+    REQUIRE(a.held.size() == b.held.size());
+    for (std::size_t h = 0; h < a.held.size(); ++h) {
+        CHECK(a.held[h].plug == b.held[h].plug);
+        CHECK(same(a.held[h].value, b.held[h].value));
+    }
     CHECK(same(a.epsilon, b.epsilon));
     REQUIRE(a.outputs.size() == b.outputs.size());
     for (std::size_t k = 0; k < a.outputs.size(); ++k) {
@@ -134,6 +139,7 @@ Approximation everything()
     Approximation a;
     a.rigFile = "rigs/odd \"name\": #1 \\ é.yaml";
     a.rigFingerprint = "00ff00ff00ff00ff";
+    a.held = {{"L_leg_settings.ikFk", 1.0}, {"ctrl.\"odd\": #", 0.1 + 0.2}, {"hips.rotateX", -0.0}};
     a.epsilon = 1e-3;
     for (const char* name : {"root", "mid: #x", "tip", "ikThigh"}) {
         ApproximationOutput out{name, Eigen::Matrix4d::Identity()};
@@ -354,7 +360,7 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
           "f.yaml:2:10: version: version 3 is not supported; this program reads versions 1 to 2 (re-run rig-learn)");
     CHECK(errorWith("rigFile:", "rigFiles:") ==
           "f.yaml:3:1: file: unknown field 'rigFiles'; the fields are format, version, rigFile, rigFingerprint, "
-          "epsilon, training, validation, outputs, parameters, discarded, droppedOutputs");
+          "epsilon, training, validation, outputs, parameters, discarded, droppedOutputs, held");
     CHECK(errorWith("    samples: 6\n", "") == "f.yaml:11:5: parameters[0]: the field 'samples' is missing");
     CHECK(errorWith("min: -1", "min: abc") == "f.yaml:13:10: parameters[0].min: 'abc' is not a number");
     CHECK(errorWith("max: 1", "max: inf") == "f.yaml:14:10: parameters[0].max: 'inf' is not a finite number");
@@ -410,6 +416,28 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
           "f.yaml:6:25: training.evaluations: 99999999999999999999 is out of range (0 to 18446744073709551615)");
     CHECK(errorWith("evaluations: 1,", "evaluations: -1,") ==
           "f.yaml:6:25: training.evaluations: '-1' is not a whole number");
+
+    // Held plugs: a list of {plug, value}, each plug once and not also a parameter, values finite numbers.
+    const std::string held = "held:\n  - {plug: \"s.ikFk\", value: 1}\n";
+    CHECK(errorWith("discarded: []\n", "discarded: []\n" + held) == "(no error)");
+    CHECK(errorWith("discarded: []\n", "discarded: []\nheld: {s.ikFk: 1}\n") == "f.yaml:25:7: held: expected a list");
+    CHECK(errorWith("discarded: []\n", "discarded: []\nheld:\n  - {plug: \"s.ikFk\"}\n") ==
+          "f.yaml:26:5: held[0]: the field 'value' is missing");
+    CHECK(errorWith("discarded: []\n", "discarded: []\nheld:\n  - {plug: \"s.ikFk\", value: 1, unit: deg}\n") ==
+          "f.yaml:26:32: held[0]: unknown field 'unit'; the fields are plug, value");
+    CHECK(errorWith("discarded: []\n", "discarded: []\nheld:\n  - {plug: \"s.ikFk\", value: .nan}\n") ==
+          "f.yaml:26:29: held[0].value: '.nan' is not a number");
+    CHECK(errorWith("discarded: []\n", "discarded: []\nheld:\n  - {plug: \"s.ikFk\", value: 1e999}\n") ==
+          "f.yaml:26:29: held[0].value: '1e999' is not a number");
+    CHECK(errorWith("discarded: []\n", "discarded: []\nheld:\n  - {plug: \"\", value: 1}\n") ==
+          "f.yaml:26:12: held[0].plug: a held plug needs a name");
+    CHECK(errorWith("discarded: []\n", "discarded: []\nheld:\n  - {plug: [a], value: 1}\n") ==
+          "f.yaml:26:12: held[0].plug: expected a string");
+    CHECK(errorWith("discarded: []\n", "discarded: []\n" + held + "  - {plug: \"s.ikFk\", value: 0}\n") ==
+          "f.yaml:27:12: held[1].plug: the plug 's.ikFk' is held twice");
+    CHECK(errorWith("discarded: []\n", "discarded: []\nheld:\n  - {plug: \"p\", value: 0}\n") ==
+          "f.yaml:26:12: held[0].plug: 'p' is also a parameter; a plug is inverted or held, not both: re-run "
+          "rig-learn");
 
     try {
         readApproximationFile("no/such/approximation.yaml");

@@ -58,6 +58,24 @@ def test_arm_with_options_equals_rig_learn(tmp_path):
     assert approximation_file(tmp_path / "ours.yaml") == approximation_file(out)
 
 
+def test_set_holds_plugs_as_rig_learn_does(tmp_path):
+    out = tmp_path / "ik.yaml"
+    params, outputs = ["root_ctrl.translate?", "L_foot_fk_ctrl.rotate?"], ["Hips", "LeftFoot"]
+    code, _, err = run("rig-learn", BIPED, "--params", *params, "--outputs", *outputs, "--set",
+                       "L_leg_settings.ikFk=1", "-o", out)
+    assert code == 0, err
+    approx = riginv.learn(BIPED, params=params, outputs=outputs, set={"L_leg_settings.ikFk": 1})
+    assert approx.held == {"L_leg_settings.ikFk": 1.0}
+    approx.save(tmp_path / "ours.yaml")
+    assert approximation_file(tmp_path / "ours.yaml") == approximation_file(out)
+    assert riginv.Approximation.load(out).held == approx.held
+    raises_like("rig-learn", [BIPED, "--params", *params, "--set", "L_leg_settings.ikFk=2", "-o", out],
+                lambda: riginv.learn(BIPED, params=params, set={"L_leg_settings.ikFk": 2}))
+    with pytest.raises(riginv.Error) as caught:
+        riginv.learn(BIPED, params=params, set={"L_leg_settings.ikFk": "on"})
+    assert str(caught.value) == "set['L_leg_settings.ikFk']: expected a number (the rig file's units), got a str"
+
+
 def test_progress_is_called_with_the_fraction_done():
     calls = []
     riginv.learn(ARM, params=ARM_PARAMS, progress=lambda done, total: calls.append((done, total)))

@@ -2,6 +2,7 @@
 // one-line errors with exit code 2, and outputs that a failing run leaves untouched.
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -198,7 +199,8 @@ TEST_CASE("rig-learn --spec: the biped's inversion spec learns what its globs sp
     const auto bad =
         run(rigLearn(fmt::format("rigs/examples/arm.yaml --spec {} -o {}", spec.string(), (dir / "b.yaml").string())));
     CHECK(bad.exitCode == 2);
-    CHECK(bad.err == "error: " + spec.string() + ":2:1: unknown key 'ouptuts'; a spec has 'params:' and 'outputs:'\n");
+    CHECK(bad.err ==
+          "error: " + spec.string() + ":2:1: unknown key 'ouptuts'; a spec has 'params:', 'outputs:' and 'set:'\n");
     CHECK(!std::filesystem::exists(dir / "b.yaml"));
 }
 
@@ -260,4 +262,183 @@ TEST_CASE(
     CHECK(a.droppedOutputs[0].name == "flat");
     CHECK(a.droppedOutputs[1].name == "tip");
     CHECK(a.discarded.empty());
+}
+
+namespace {
+
+// The biped's legs (rigs/biped.yaml): the IK and FK controls of both, on the leg joints and the hips.
+const std::string bipedLegs =
+    "rigs/biped.yaml --params 'root_ctrl.translate?' 'root_ctrl.rotate?' '[LR]_leg_ik_ctrl.translate?' "
+    "'[LR]_leg_pole_ctrl.translate?' '[LR]_foot_fk_ctrl.rotate?' '[LR]_toe_ctrl.rotate?' --outputs Hips "
+    "LHipJoint LeftUpLeg LeftLeg LeftFoot LeftToeBase RHipJoint RightUpLeg RightLeg RightFoot RightToeBase";
+const std::string ikMode = "--set L_leg_settings.ikFk=1 --set R_leg_settings.ikFk=1";
+
+std::vector<std::string> names(const rig::Approximation& a)
+{
+    std::vector<std::string> out;
+    for (const auto& m : a.parameters) out.push_back(m.parameter.name);
+    return out;
+}
+
+// The discarded parameters whose reason starts with `reason`.
+std::vector<std::string> discardedFor(const rig::Approximation& a, const std::string& reason)
+{
+    std::vector<std::string> out;
+    for (const auto& d : a.discarded)
+        if (d.reason.starts_with(reason)) out.push_back(d.parameter.name);
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE("rig-learn --set: the biped's legs learned in IK mode are another model than in FK mode")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-set-ik");
+    const auto fk = dir / "fk.yaml", ik = dir / "ik.yaml", json = dir / "ik.json";
+    REQUIRE(run(rigLearn(fmt::format("{} -o '{}'", bipedLegs, fk.string()))).exitCode == 0);
+    const auto r =
+        run(rigLearn(fmt::format("{} {} -o '{}' --report-json '{}'", bipedLegs, ikMode, ik.string(), json.string())));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    // The report says the state it learned in, under its first line.
+    CHECK(
+        r.out.starts_with("rig-learn rigs/biped.yaml: 30 parameters, 11 outputs, epsilon 0.001 cm per unit, "
+                          "orderer structured\nHeld (not inverted): L_leg_settings.ikFk = 1, R_leg_settings.ikFk "
+                          "= 1\n\nModelled: "));
+    const YAML::Node report = YAML::LoadFile(json.string());
+    REQUIRE(report["held"].size() == 2);
+    CHECK(report["held"][0]["plug"].as<std::string>() == "L_leg_settings.ikFk");
+    CHECK(report["held"][0]["value"].as<double>() == 1.0);
+
+    const rig::Approximation a = rig::readApproximationFile(fk), b = rig::readApproximationFile(ik);
+    CHECK(a.held.empty());
+    CHECK(rig::test::readFile(fk).find("held:") == std::string::npos);
+    REQUIRE(b.held.size() == 2);
+    CHECK(b.held[1].plug == "R_leg_settings.ikFk");
+    CHECK(b.held[1].value == 1.0);
+    CHECK(report["fingerprint"].as<std::string>() == b.rigFingerprint);
+    CHECK(a.rigFingerprint != b.rigFingerprint);
+    // In FK mode (the rig's default) the IK controls move nothing; in IK mode they move the legs, and the
+    // model is another one.
+    const std::vector<std::string> ikControls{
+        "L_leg_ik_ctrl.translateX",   "L_leg_ik_ctrl.translateY",   "L_leg_ik_ctrl.translateZ",
+        "R_leg_ik_ctrl.translateX",   "R_leg_ik_ctrl.translateY",   "R_leg_ik_ctrl.translateZ",
+        "L_leg_pole_ctrl.translateX", "L_leg_pole_ctrl.translateY", "L_leg_pole_ctrl.translateZ",
+        "R_leg_pole_ctrl.translateX", "R_leg_pole_ctrl.translateY", "R_leg_pole_ctrl.translateZ"};
+    CHECK(discardedFor(a, "no effect") == ikControls);
+    CHECK(discardedFor(b, "no effect").empty());
+    CHECK(names(a) != names(b));
+}
+
+TEST_CASE("rig-invert and rig-batch on an approximation learned with --set evaluate the real rig in the held state")
+{
+    const auto dir = rig::test::scratchDir("rig-invert-held");
+    const auto ik = dir / "ik.yaml";
+    REQUIRE(run(rigLearn(fmt::format("{} {} -o '{}'", bipedLegs, ikMode, ik.string()))).exitCode == 0);
+    const rig::Approximation a = rig::readApproximationFile(ik);
+    const auto modelled = names(a);
+    REQUIRE(std::find(modelled.begin(), modelled.end(), "root_ctrl.translateY") != modelled.end());
+
+    // Targets: the rig in IK mode, its hips lowered: the knees bend, the feet stay planted.
+    std::string get;
+    for (const auto& o : a.outputs) get += fmt::format(" --get {}.worldMatrix", o.name);
+    const auto targets = dir / "targets.json";
+    REQUIRE(run(fmt::format("{} rigs/biped.yaml {} --set root_ctrl.translateY=-8 --frames 1:3{} -o '{}'",
+                            rig::test::tool("graph-eval"), ikMode, get, targets.string()))
+                .exitCode == 0);
+    const auto invert = [&](const std::filesystem::path& approximation) {
+        return run(fmt::format("{} '{}' --rig rigs/biped.yaml --clip '{}' -o '{}' --report-json '{}'",
+                               rig::test::tool("rig-invert"), approximation.string(), targets.string(),
+                               (dir / "curves.json").string(), (dir / "report.json").string()));
+    };
+    const auto r = invert(ik);
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK(r.err.empty());  // the fingerprint with the held plugs matches
+    CHECK(r.out.find("\n  the rig is held as the approximation was learned: L_leg_settings.ikFk = 1, "
+                     "R_leg_settings.ikFk = 1\n") != std::string::npos);
+    const YAML::Node report = YAML::LoadFile((dir / "report.json").string());
+    CHECK(report["held"].size() == 2);
+    CHECK(report["max_position_error_cm"].as<double>() < 1e-3);
+
+    // rig-batch holds them on every shard's rig as well: rig-invert's curves and real-rig errors.
+    const auto batch =
+        run(fmt::format("{} '{}' --rig rigs/biped.yaml --clips '{}' --out '{}' --jobs 1 -q",
+                        rig::test::tool("rig-batch"), ik.string(), targets.string(), (dir / "batch").string()));
+    INFO(batch.err);
+    REQUIRE(batch.exitCode == 0);
+    const YAML::Node batchReport = YAML::LoadFile((dir / "batch" / "report.json").string());
+    CHECK(batchReport["held"].size() == 2);
+    CHECK(batchReport["clips"][0]["max_position_error_cm"].as<double>() ==
+          report["max_position_error_cm"].as<double>());
+    CHECK(rig::test::readFile(dir / "batch" / "targets.json") == rig::test::readFile(dir / "curves.json"));
+
+    // The same approximation without its held section: the real rig stays in FK mode, the hips' drop moves
+    // the whole legs, and the fingerprint says the rig is not the one learned.
+    std::string text = rig::test::readFile(ik);
+    const auto from = text.find("held:"), to = text.find("training:");
+    REQUIRE(from < to);
+    text.erase(from, to - from);
+    const auto unheld = rig::test::writeFile(dir / "unheld.yaml", text);
+    const auto u = invert(unheld);
+    REQUIRE(u.exitCode == 0);
+    CHECK(u.err.find("the rig changed since the approximation was learned from rigs/biped.yaml") != std::string::npos);
+    CHECK(YAML::LoadFile((dir / "report.json").string())["max_position_error_cm"].as<double>() > 1.0);
+}
+
+TEST_CASE("rig-learn --set and the spec's set: bad input is one line naming the plug, the command line wins")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-set-errors");
+    const std::string o = fmt::format("-o '{}'", (dir / "a.yaml").string());
+    const std::string wrist = "--params 'wrist.rotateX'";
+    checkBadInput(fmt::format("{} {} --set arm_ctrl.bend {}", arm, wrist, o),
+                  "--set 'arm_ctrl.bend': expected PLUG=VALUE, e.g. --set L_leg_settings.ikFk=1");
+    checkBadInput(fmt::format("{} {} --set =1 {}", arm, wrist, o),
+                  "--set '=1': expected PLUG=VALUE, e.g. --set L_leg_settings.ikFk=1");
+    checkBadInput(fmt::format("{} {} --set shoulder.rotateX=on {}", arm, wrist, o),
+                  "--set shoulder.rotateX: 'on' is not a number; give a finite number in the rig file's units "
+                  "(degrees for angles), e.g. --set shoulder.rotateX=1");
+    checkBadInput(fmt::format("{} {} --set shoulder.rotateX=nan {}", arm, wrist, o),
+                  "--set shoulder.rotateX: 'nan' is not a number; give a finite number in the rig file's units "
+                  "(degrees for angles), e.g. --set shoulder.rotateX=1");
+    checkBadInput(fmt::format("{} {} --set sholder.rotateX=10 {}", arm, wrist, o),
+                  "rigs/examples/arm.yaml: held plug 'sholder.rotateX': no node named 'sholder'; did you mean "
+                  "'shoulder'?");
+    checkBadInput(fmt::format("{} {} --set elbow.rotateZ=10 {}", arm, wrist, o),
+                  "rigs/examples/arm.yaml: held plug 'elbow.rotateZ': it is driven by elbow_bend_sdk.output; a held "
+                  "plug is an input that nothing drives (hold what drives it instead)");
+    checkBadInput(fmt::format("{} {} --set shoulder.rotateX=10 {}", arm, armParams, o),
+                  "rigs/examples/arm.yaml: held plug 'shoulder.rotateX': it is also a parameter (glob "
+                  "'shoulder.rotate?'); a plug is inverted or held, not both: take it out of one");
+    checkBadInput(fmt::format("{} {} --set shoulder.rotateX=1 --set shoulder.rotateX=2 {}", arm, wrist, o),
+                  "rigs/examples/arm.yaml: held plug 'shoulder.rotateX': it is held at 1 and at 2; give one value");
+    checkBadInput(fmt::format("rigs/biped.yaml --params 'root_ctrl.translate?' --set L_leg_settings.ikFk=2 {}", o),
+                  "rigs/biped.yaml: held plug 'L_leg_settings.ikFk': 2 is above its maximum 1; give a value from 0 "
+                  "to 1");
+
+    // The spec's `set:`: its errors name their place; the command line's value wins over the spec's.
+    const auto spec = rig::test::writeFile(
+        dir / "spec.yaml", "params: ['root_ctrl.translate?']\nset: {L_leg_settings.ikFk: 2, R_leg_settings.ikFk: 1}\n");
+    checkBadInput(fmt::format("rigs/biped.yaml --spec '{}' {}", spec.string(), o),
+                  fmt::format("{}:2:7: held plug 'L_leg_settings.ikFk' of the spec does not fit rigs/biped.yaml (2 is "
+                              "above its maximum 1); fix or remove it",
+                              spec.string()));
+    const auto r = run(rigLearn(
+        fmt::format("rigs/biped.yaml --spec '{}' --set L_leg_settings.ikFk=1 --outputs Hips {}", spec.string(), o)));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    const rig::Approximation a = rig::readApproximationFile(dir / "a.yaml");
+    REQUIRE(a.held.size() == 2);
+    CHECK(a.held[0].plug == "L_leg_settings.ikFk");
+    CHECK(a.held[0].value == 1.0);
+    CHECK(a.held[1].value == 1.0);
+    const auto notMap = rig::test::writeFile(dir / "not_map.yaml", "params: ['root_ctrl.translate?']\nset: [a]\n");
+    checkBadInput(fmt::format("rigs/biped.yaml --spec '{}' {}", notMap.string(), o),
+                  fmt::format("{}:2:6: 'set' must be a map of plugs to numbers, e.g. set: {{L_leg_settings.ikFk: 1}}",
+                              notMap.string()));
+    const auto word = rig::test::writeFile(dir / "word.yaml", "params: ['root_ctrl.translate?']\nset: {a.b: on}\n");
+    checkBadInput(fmt::format("rigs/biped.yaml --spec '{}' {}", word.string(), o),
+                  fmt::format("{}:2:12: 'set' holds a.b at 'on', not a number; give a finite number in the rig "
+                              "file's units (degrees for angles)",
+                              word.string()));
 }

@@ -174,3 +174,65 @@ TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are 
     CHECK(cycle.find("wrist.worldMatrix -> inverter.target[") != std::string::npos);
     CHECK(std::count(cycle.begin(), cycle.end(), '\n') == 1);
 }
+
+TEST_CASE("rigInversion: an approximation learned with held plugs holds them on the rig it drives")
+{
+    // The biped's legs learned in IK mode (rig-learn --set), driven from a second biped in IK mode.
+    const auto dir = test::scratchDir("rig_inversion_node_held");
+    const auto ik = dir / "ik.yaml";
+    const std::vector<std::string> joints{"Hips",     "LHipJoint",   "LeftUpLeg",   "LeftLeg",
+                                          "LeftFoot", "LeftToeBase", "RHipJoint",   "RightUpLeg",
+                                          "RightLeg", "RightFoot",   "RightToeBase"};
+    std::string outputs, renames;
+    for (const auto& j : joints) {
+        outputs += " " + j;
+        renames += fmt::format("  'mocap:{0}': {0}\n", j);
+    }
+    const auto learned = test::run(fmt::format(
+        "{} rigs/biped.yaml --params 'root_ctrl.translate?' 'root_ctrl.rotate?' '[LR]_leg_ik_ctrl.translate?' "
+        "'[LR]_leg_pole_ctrl.translate?' '[LR]_foot_fk_ctrl.rotate?' '[LR]_toe_ctrl.rotate?' --outputs{} --set "
+        "L_leg_settings.ikFk=1 --set R_leg_settings.ikFk=1 -o {}",
+        test::tool("rig-learn"), outputs, ik.string()));
+    INFO(learned.err);
+    REQUIRE(learned.exitCode == 0);
+    const auto map = test::writeFile(dir / "map.yaml", "joints:\n" + renames);
+    const std::string biped = (test::sourceDir() / "rigs/biped.yaml").string();
+    const std::string graph = fmt::format(
+        "plugins: [rigInversion]\ninclude:\n  - {{file: {0}}}\n  - {{file: {0}, namespace: mocap}}\nnodes:\n"
+        "  - {{name: inverter, type: rigInversion, file: {1}, map: {2}, connect: {{targets: 'mocap:*', "
+        "parameters: true}}}}\n",
+        biped, ik.string(), map.string());
+    const auto file = test::writeFile(dir / "held.yaml", graph);
+    const auto r = test::run(fmt::format(
+        "{} {} --set mocap:L_leg_settings.ikFk=1 --set mocap:R_leg_settings.ikFk=1 --set mocap:root_ctrl.translateY=-8 "
+        "--get L_leg_settings.ikFk --get R_leg_settings.ikFk --get inverter.heldNames --get 'inverter.heldValue[0]' "
+        "--get 'inverter.heldValue[1]' "
+        "--get LeftLeg.worldMatrix --get mocap:LeftLeg.worldMatrix -o {}",
+        test::tool("graph-eval"), file.string(), (dir / "out.json").string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    const YAML::Node frame = YAML::LoadFile((dir / "out.json").string())[0];
+    CHECK(frame["L_leg_settings.ikFk"].as<double>() == 1.0);
+    CHECK(frame["R_leg_settings.ikFk"].as<double>() == 1.0);
+    CHECK(frame["inverter.heldNames"].as<std::string>() == "L_leg_settings.ikFk\nR_leg_settings.ikFk");
+    CHECK(frame["inverter.heldValue[0]"].as<double>() == 1.0);
+    CHECK(frame["inverter.heldValue[1]"].as<double>() == 1.0);
+    // The knee bent by the IK as in the target rig: the driven rig is in the learned state.
+    for (int row = 0; row < 3; ++row)
+        CHECK(frame["LeftLeg.worldMatrix"][row][3].as<double>() ==
+              doctest::Approx(frame["mocap:LeftLeg.worldMatrix"][row][3].as<double>()).epsilon(1e-6));
+
+    // A held plug that something else drives in the graph cannot be held by the node.
+    const auto driven = test::writeFile(dir / "driven.yaml",
+                                        graph +
+                                            "  - {name: switch, type: transform, addAttr: [{name: v}]}\nconnections:\n"
+                                            "  - switch.v -> L_leg_settings.ikFk\n");
+    const auto bad =
+        test::run(fmt::format("{} {} --get L_leg_settings.ikFk", test::tool("graph-eval"), driven.string()));
+    CHECK(bad.exitCode == 2);
+    const auto column = graph.find("true}}") - graph.find("  - {name: inverter") + 1;  // of `parameters: true`
+    CHECK(bad.err == fmt::format("error: {}:6:{}: node 'inverter' (rigInversion): the approximation was learned with "
+                                 "L_leg_settings.ikFk held at 1, but switch.v drives it here; the node holds it at "
+                                 "that value: disconnect it, or learn the rig in another state (rig-learn --set)\n",
+                                 driven.string(), column));
+}
