@@ -158,13 +158,6 @@ private:
     std::vector<float> columns_;
 };
 
-// The largest error, in tolerances, of six rows (position, rotation) of a joint.
-double jointError(const double* rows)
-{
-    return std::sqrt(std::max(rows[0] * rows[0] + rows[1] * rows[1] + rows[2] * rows[2],
-                              rows[3] * rows[3] + rows[4] * rows[4] + rows[5] * rows[5]));
-}
-
 bool isConstant(const std::vector<std::vector<double>>& dense, std::size_t p)
 {
     return std::all_of(dense.begin(), dense.end(), [&](const auto& row) { return row[p] == dense[0][p]; });
@@ -268,20 +261,36 @@ KeyFit::Proposal KeyFit::propose(const Edit& edit, double bound) const
     const std::size_t frameCount = frameIndex(keyAt(static_cast<std::ptrdiff_t>(hi) + 2)) - out.firstFrame + 1;
     const std::size_t freeCount = hi - lo + 1;
 
-    // Per frame: control p's rows, and the joints' errors without it.
+    // Per joint and frame, the error without control p (a) and its rows (g): the error's position and rotation
+    // norms are quadratics in the control's offset d, |a + g d|^2 = aa + 2 ag d + gg d^2.
     const auto& reach = linear_.reach(p);
-    const std::size_t joints = reach.size(), rows = rowsPerTarget * joints;
-    Eigen::MatrixXd column(rows, frameCount), others(rows, frameCount);
+    const std::size_t joints = reach.size();
+    const auto size = [](std::size_t n) { return static_cast<Eigen::Index>(n); };
+    std::array<Eigen::ArrayXXd, 2> aa, ag, gg;  // [position, rotation](joint, frame)
+    for (std::size_t kind = 0; kind < 2; ++kind) {
+        aa[kind].resize(size(joints), size(frameCount));
+        ag[kind].resizeLike(aa[kind]);
+        gg[kind].resizeLike(aa[kind]);
+    }
     for (std::size_t i = 0; i < frameCount; ++i) {
         const std::size_t f = out.firstFrame + i;
-        const auto g = linear_.column(f, p);
-        for (std::size_t o = 0; o < joints; ++o)
-            for (std::size_t r = 0; r < rowsPerTarget; ++r) {
-                const std::size_t row = rowsPerTarget * o + r;
-                column(row, i) = g[row];
-                others(row, i) =
-                    errors_[f][rowsPerTarget * static_cast<std::size_t>(reach[o]) + r] - g[row] * delta_[p][f];
+        const auto column = linear_.column(f, p);
+        for (std::size_t o = 0; o < joints; ++o) {
+            const double* error = errors_[f].data() + rowsPerTarget * static_cast<std::size_t>(reach[o]);
+            const float* g = column.data() + rowsPerTarget * o;
+            for (std::size_t kind = 0; kind < 2; ++kind) {
+                double sumAA = 0.0, sumAG = 0.0, sumGG = 0.0;
+                for (std::size_t r = 3 * kind; r < 3 * kind + 3; ++r) {
+                    const double without = error[r] - g[r] * delta_[p][f];
+                    sumAA += without * without;
+                    sumAG += without * g[r];
+                    sumGG += double(g[r]) * g[r];
+                }
+                aa[kind](size(o), size(i)) = sumAA;
+                ag[kind](size(o), size(i)) = sumAG;
+                gg[kind](size(o), size(i)) = sumGG;
             }
+        }
     }
     const RigParameter& parameter = parameters_[p];
     const auto offsets = [&](const std::vector<AnimKey>& curveKeys, Eigen::VectorXd& delta) {
@@ -291,21 +300,19 @@ KeyFit::Proposal KeyFit::propose(const Edit& edit, double bound) const
             delta[i] = curve.evaluate(frames_[out.firstFrame + i]) - dense_[out.firstFrame + i][p];
     };
     // The joints' errors per frame, and the worst, or infinite out of the control's limits.
-    Eigen::MatrixXd jointErrors(joints, frameCount);
+    Eigen::ArrayXXd jointErrors(size(joints), size(frameCount));
     const auto worst = [&](const Eigen::VectorXd& delta) {
-        double w = 0.0;
         for (std::size_t i = 0; i < frameCount; ++i) {
-            const double v = dense_[out.firstFrame + i][p] + delta[i];
+            const double d = delta[size(i)];
+            const double v = dense_[out.firstFrame + i][p] + d;
             if (parameter.limited && (v < parameter.min || v > parameter.max)) return infinite;
-            for (std::size_t o = 0; o < joints; ++o) {
-                std::array<double, rowsPerTarget> e;
-                for (std::size_t r = 0; r < rowsPerTarget; ++r)
-                    e[r] = others(rowsPerTarget * o + r, i) + column(rowsPerTarget * o + r, i) * delta[i];
-                jointErrors(o, i) = jointError(e.data());
-                w = std::max(w, jointErrors(o, i));
-            }
+            const auto at = [&](std::size_t kind) {
+                return aa[kind].col(size(i)) + d * (2.0 * ag[kind].col(size(i)) + d * gg[kind].col(size(i)));
+            };
+            // (Rounding can take a square a hair below zero.)
+            jointErrors.col(size(i)) = at(0).max(at(1)).max(0.0).sqrt();
         }
-        return w;
+        return joints == 0 ? 0.0 : jointErrors.maxCoeff();
     };
     Eigen::VectorXd current(frameCount);
     for (std::size_t i = 0; i < frameCount; ++i) current[i] = delta_[p][out.firstFrame + i];
@@ -328,26 +335,15 @@ KeyFit::Proposal KeyFit::propose(const Edit& edit, double bound) const
         offsets(moved, delta);
         basis.col(static_cast<Eigen::Index>(j)) = (delta - placed) / h;
     }
-    // Per joint and frame, |g|^2 and g . (the others' error): the least squares' data.
-    Eigen::MatrixXd squares(joints, frameCount), products(joints, frameCount);
-    for (std::size_t i = 0; i < frameCount; ++i)
-        for (std::size_t o = 0; o < joints; ++o) {
-            const auto at = static_cast<Eigen::Index>(rowsPerTarget * o);
-            const auto g = column.col(static_cast<Eigen::Index>(i)).segment(at, rowsPerTarget);
-            squares(o, i) = g.squaredNorm();
-            products(o, i) = g.dot(others.col(static_cast<Eigen::Index>(i)).segment(at, rowsPerTarget));
-        }
-    Eigen::MatrixXd weights = Eigen::MatrixXd::Ones(joints, frameCount);
+    // The least squares' data per joint and frame: |g|^2 and g . a over the six rows.
+    const Eigen::ArrayXXd squares = gg[0] + gg[1], products = ag[0] + ag[1];
+    Eigen::ArrayXXd weights = Eigen::ArrayXXd::Ones(size(joints), size(frameCount));
     double bestFit = infinite;
     for (int iteration = 0; iteration < iterations; ++iteration) {
-        Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(freeCount, freeCount);
-        Eigen::VectorXd rhs = Eigen::VectorXd::Zero(freeCount);
-        for (std::size_t i = 0; i < frameCount; ++i) {
-            const double q = weights.col(i).dot(squares.col(i));
-            const double s = weights.col(i).dot(products.col(i));
-            normal.noalias() += q * basis.row(i).transpose() * basis.row(i);
-            rhs.noalias() -= (s + q * placed[i]) * basis.row(i).transpose();
-        }
+        const Eigen::VectorXd q = (weights * squares).colwise().sum().transpose().matrix();
+        const Eigen::VectorXd s = (weights * products).colwise().sum().transpose().matrix();
+        Eigen::MatrixXd normal = basis.transpose() * q.asDiagonal() * basis;
+        const Eigen::VectorXd rhs = -basis.transpose() * (s + q.cwiseProduct(placed));
         // (A control that moves no joint has nothing to fit.)
         const double scale = normal.diagonal().maxCoeff();
         if (!(scale > 0.0)) break;
@@ -370,8 +366,10 @@ KeyFit::Proposal KeyFit::propose(const Edit& edit, double bound) const
         }
         if (bestFit <= bound || trialWorst > 2.0 * bound) break;
         // Lawson's weights: the least squares leans towards the joints furthest out, towards the smallest worst.
-        weights = weights.cwiseProduct(jointErrors);
-        weights /= weights.maxCoeff();
+        weights *= jointErrors;
+        const double largest = weights.maxCoeff();
+        if (!(largest > 0.0)) break;
+        weights /= largest;
     }
     return out;
 }
@@ -680,6 +678,9 @@ UniformKeys uniformKeys(RigBinding& rig, std::span<const double> frames, const s
         };
         std::size_t left = 0;
         for (const double bound : bounds) fit.takeOut(bound, offStep);
+        // Once the others have gone, a key that had to stay may go too.
+        while (fit.takeOut(bounds.back(), offStep) > 0) {
+        }
         for (std::size_t p = 0; p < fit.keys.size(); ++p)
             for (const AnimKey& key : fit.keys[p]) left += offStep(p, key.x) ? 1 : 0;
         if (left > 0) return false;
