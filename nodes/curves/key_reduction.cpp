@@ -175,11 +175,10 @@ public:
         : linear_(linear), frames_(frames), dense_(dense), parameters_(parameters)
     {
         keys.resize(parameters.size());
-        for (std::size_t p = 0; p < parameters.size(); ++p)
-            for (std::size_t f = 0; f < frames.size(); ++f) {
-                keys[p].push_back({frames[f], dense[f][p], tangent, tangent});
-                if (isConstant(dense, p)) break;
-            }
+        for (std::size_t p = 0; p < parameters.size(); ++p) {
+            const std::size_t count = isConstant(dense, p) ? 1 : frames.size();
+            for (std::size_t f = 0; f < count; ++f) keys[p].push_back({frames[f], dense[f][p], tangent, tangent});
+        }
         delta_.assign(parameters.size(), std::vector<double>(frames.size(), 0.0));
         errors_.assign(frames.size(), std::vector<double>(rowsPerTarget * linear.outputs(), 0.0));
     }
