@@ -3,12 +3,15 @@
 // driven by the keyed curves stays within a tolerance of the rig driven by the dense values, on every joint
 // of every frame (docs/keys-anim-report.md).
 //
-// The keys of each curve start from a fit of its values alone, each curve allowed the whole tolerance
-// through its own sensitivity (the joints' motion per unit of the control, measured on the rig). Then the
-// real rig is evaluated at every frame with the keyed values: while a frame is over the tolerance, the worst
-// one gets a key on the control that moves its worst joint most there (sensitivity times the curve's miss),
-// and the frames that key changes are evaluated again. A frame with every control keyed is the dense pose,
-// so the loop ends; the result is within the tolerance by measurement, not by estimate.
+// Key values are fitted, not placed on the dense values: a curve through jittery values keeps to their middle.
+// The joints' errors are predicted by the approximation's Jacobian at every frame (linear in the controls'
+// offsets, and each curve linear in its key values), starting from a key on every frame; keys are taken out
+// one at a time, the values of the keys around each fitted by reweighted least squares to the joints (the
+// other curves as they are), while every joint stays within the tolerance, then moved by a frame or two where
+// that lets more go. Then the real rig is evaluated at every frame with the keyed values: while a frame is over
+// the tolerance, the control that moves its worst joint most goes back to its dense value there. A frame with
+// every control on its dense value is the dense pose, so the loop ends; the result is within the tolerance by
+// measurement, not by the prediction.
 
 #include <functional>
 #include <span>
@@ -51,7 +54,8 @@ struct KeyedCurves {
     std::size_t keyCount() const;
 };
 
-// Keys at a uniform step (every `step` frames from the first, and the last frame), for comparison.
+// Keys at a uniform step (every `step` frames from the first, and the last frame; one for a constant curve),
+// their values fitted as reduceKeys fits its own, for comparison.
 struct UniformKeys {
     int step = 1;
     std::size_t keyCount = 0;
@@ -64,7 +68,7 @@ struct UniformKeys {
 KeyedCurves reduceKeys(RigBinding& rig, std::span<const double> frames, const std::vector<std::vector<double>>& dense,
                        const KeyReductionOptions& options);
 
-// The largest uniform step whose keys keep the real rig within the tolerance (found by doubling, then
+// The largest uniform step whose fitted keys keep the real rig within the tolerance (found by doubling, then
 // bisection), with its keys and errors.
 UniformKeys uniformKeys(RigBinding& rig, std::span<const double> frames, const std::vector<std::vector<double>>& dense,
                         const KeyReductionOptions& options);

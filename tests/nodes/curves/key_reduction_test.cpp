@@ -2,12 +2,16 @@
 // tip through a set-driven key): the keyed curves keep every joint within the tolerance of the dense pose,
 // measured here again from the keys alone; far fewer keys than frames; a constant curve keeps one key; a
 // spline that would overshoot a control's limit gets the keys that keep it inside; the uniform step holds
-// the tolerance too.
+// the tolerance too. Key values are fitted: a line under alternating noise is two keys on the line, jittery
+// curves are keyed near the motion beneath (where keys on the values at the same frames are out of the
+// tolerance), and where the prediction misses (a rig changed since it was learned) the real rig decides.
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -77,6 +81,53 @@ std::vector<std::vector<double>> denseCurves(const Approximation& a, int frames)
 double rotationDeg(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b)
 {
     return orientationAngle(a.topLeftCorner<3, 3>(), b.topLeftCorner<3, 3>()) * 180.0 / std::numbers::pi;
+}
+
+// The real rig driven by curves with these keys against it driven by the dense values: the worst joint.
+struct RealError {
+    double cm = 0.0;
+    double deg = 0.0;
+};
+RealError realError(RigBinding& binding, const std::vector<double>& frames,
+                    const std::vector<std::vector<double>>& dense, const std::vector<std::vector<AnimKey>>& keys)
+{
+    std::vector<AnimCurve> curves;
+    for (const auto& k : keys) curves.push_back(AnimCurve::build(k));
+    std::vector<Eigen::Matrix4d> denseWorlds, keyedWorlds;
+    RealError e;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+        std::vector<double> values;
+        for (const auto& curve : curves) values.push_back(curve.evaluate(frames[f]));
+        binding.evaluate(dense[f], denseWorlds);
+        binding.evaluate(values, keyedWorlds);
+        for (std::size_t o = 0; o < denseWorlds.size(); ++o) {
+            e.cm = std::max(e.cm, (denseWorlds[o].block<3, 1>(0, 3) - keyedWorlds[o].block<3, 1>(0, 3)).norm());
+            e.deg = std::max(e.deg, rotationDeg(denseWorlds[o], keyedWorlds[o]));
+        }
+    }
+    return e;
+}
+
+// The same key frames with values placed on the dense curves.
+std::vector<std::vector<AnimKey>> placedOnDense(const std::vector<std::vector<AnimKey>>& keys,
+                                                const std::vector<double>& frames,
+                                                const std::vector<std::vector<double>>& dense)
+{
+    auto placed = keys;
+    for (std::size_t p = 0; p < placed.size(); ++p)
+        for (AnimKey& k : placed[p]) {
+            const auto f =
+                static_cast<std::size_t>(std::lower_bound(frames.begin(), frames.end(), k.x) - frames.begin());
+            k.y = dense[f][p];
+        }
+    return placed;
+}
+
+std::size_t parameterIndex(const Approximation& a, const std::string& name)
+{
+    std::size_t p = 0;
+    while (a.parameters[p].parameter.name != name) ++p;
+    return p;
 }
 
 }  // namespace
@@ -170,4 +221,119 @@ TEST_CASE("key reduction: dense keys are one per frame, and bad inputs are refus
     Chain c = chain("3");
     RigBinding binding(c.approximation, *c.rig);
     CHECK_THROWS_AS(reduceKeys(binding, frames, dense, KeyReductionOptions{}), rig::Error);
+}
+
+TEST_CASE("key reduction: a straight line under alternating noise within the tolerance is two keys on the line")
+{
+    Chain c = chain("4");
+    RigBinding binding(c.approximation, *c.rig);
+    // The tip is about 70 cm from root.rotateY's axis: noise of 0.001 rad moves it 0.07 cm, within 0.1 cm,
+    // but keys placed on two noisy values miss by twice that.
+    const int n = 61;
+    const double noise = 0.001, slope = 0.005;
+    std::vector<double> frames;
+    std::vector<std::vector<double>> dense;
+    for (int f = 0; f < n; ++f) {
+        frames.push_back(f);
+        auto& row = dense.emplace_back();
+        for (const auto& m : c.approximation.parameters) {
+            const std::string& name = m.parameter.name;
+            if (name == "root.rotateY") row.push_back(0.2 + slope * f + (f % 2 == 0 ? noise : -noise));
+            else if (name == "ctrl.curl") row.push_back(0.5);
+            else row.push_back(0.25);
+        }
+    }
+    KeyReductionOptions options;
+    options.tangent = TangentType::linear;
+    const KeyedCurves keyed = reduceKeys(binding, frames, dense, options);
+    CHECK(keyed.keyCount() == 2 + 4);  // the other curves are constant: a key each
+    const auto& line = keyed.keys[parameterIndex(c.approximation, "root.rotateY")];
+    REQUIRE(line.size() == 2);
+    // On the line the noise is drawn around, not on the noisy ends.
+    CHECK(std::abs(line[0].y - 0.2) < 0.25 * noise);
+    CHECK(std::abs(line[1].y - (0.2 + slope * (n - 1))) < 0.25 * noise);
+    const RealError fitted = realError(binding, frames, dense, keyed.keys);
+    CHECK(fitted.cm <= options.toleranceCm);
+    CHECK(fitted.deg <= options.toleranceDeg);
+    CHECK(fitted.cm == doctest::Approx(keyed.error.maxPositionCm));
+    CHECK(realError(binding, frames, dense, placedOnDense(keyed.keys, frames, dense)).cm > options.toleranceCm);
+}
+
+TEST_CASE("key reduction: fitted keys keep to the middle of jittery curves, where keys on the values cannot")
+{
+    Chain c = chain("5");
+    RigBinding binding(c.approximation, *c.rig);
+    // Two turns, still at both ends, with jitter of random sign that moves the tip by up to 0.05 cm, half the
+    // tolerance.
+    const int n = 120;
+    const double jitter = 0.0005;
+    unsigned seed = 12345;
+    const auto randomSign = [&] {
+        seed = seed * 1103515245u + 12345u;
+        return (seed >> 16) % 2 == 0 ? 1.0 : -1.0;
+    };
+    std::vector<double> frames;
+    std::vector<std::vector<double>> smooth, jittery;
+    for (int f = 0; f < n; ++f) {
+        frames.push_back(1.0 + f);
+        auto& row = smooth.emplace_back();
+        auto& noisy = jittery.emplace_back();
+        const double t = std::numbers::pi * f / (n - 1);
+        for (const auto& m : c.approximation.parameters) {
+            const std::string& name = m.parameter.name;
+            const bool turning = name == "root.rotateY" || name == "a.rotateZ";
+            if (name == "root.rotateY") row.push_back(0.2 * (1.0 - std::cos(2.0 * t)));
+            else if (name == "a.rotateZ") row.push_back(0.3 * std::cos(t));
+            else if (name == "ctrl.curl") row.push_back(0.5);
+            else row.push_back(0.25);
+            noisy.push_back(row.back() + (turning ? jitter * randomSign() : 0.0));
+        }
+    }
+    KeyReductionOptions options;
+    const KeyedCurves clean = reduceKeys(binding, frames, smooth, options);
+    const KeyedCurves keyed = reduceKeys(binding, frames, jittery, options);
+    const RealError fitted = realError(binding, frames, jittery, keyed.keys);
+    CHECK(fitted.cm <= options.toleranceCm);
+    CHECK(fitted.deg <= options.toleranceDeg);
+    // The keyed curves run nearer the motion than the values they were fitted to (all a jitter away from it).
+    for (const char* name : {"root.rotateY", "a.rotateZ"}) {
+        const std::size_t p = parameterIndex(c.approximation, name);
+        double mean = 0.0;
+        for (std::size_t f = 0; f < frames.size(); ++f) mean += std::abs(keyed.values[f][p] - smooth[f][p]) / n;
+        CHECK(mean < 0.75 * jitter);
+    }
+    // Jitter within the tolerance costs few keys more than none.
+    CHECK(keyed.keyCount() <= clean.keyCount() + clean.keyCount() / 2);
+    // The same frames keyed on the jittery values are out of the tolerance.
+    CHECK(realError(binding, frames, jittery, placedOnDense(keyed.keys, frames, jittery)).cm > options.toleranceCm);
+    // Uniform keys are fitted too, and need more.
+    const UniformKeys uniform = uniformKeys(binding, frames, jittery, options);
+    CHECK(uniform.step > 1);
+    CHECK(uniform.error.maxPositionCm <= options.toleranceCm);
+    CHECK(uniform.keyCount > keyed.keyCount());
+}
+
+TEST_CASE("key reduction: where the prediction misses, the real rig decides")
+{
+    Chain c = chain("6");
+    // The real rig is no longer the one the approximation was learned on: its middle bone is longer, so the
+    // approximation's Jacobian understates how far the tip moves.
+    std::string longer = chainRig;
+    const std::string bone = "{name: b, type: joint, parent: a, translate: [30, 0, 0]}";
+    longer.replace(longer.find(bone), bone.size(), "{name: b, type: joint, parent: a, translate: [45, 0, 0]}");
+    const auto file = test::writeFile(test::scratchDir("key_reduction_6") / "longer.yaml", longer);
+    GraphRigFunction real(file, GraphRigOptions{{"root.rotate?", "a.rotateZ", "ctrl.curl"}, {}, {}});
+    RigBinding binding(c.approximation, real);
+    const int n = 60;
+    const auto dense = denseCurves(c.approximation, n);
+    std::vector<double> frames;
+    for (int f = 0; f < n; ++f) frames.push_back(f);
+    KeyReductionOptions options;
+    const KeyedCurves keyed = reduceKeys(binding, frames, dense, options);
+    // More than the dense pose and one pass over the keyed frames: frames measured again after keys were put back.
+    CHECK(keyed.rigEvaluations > 2 * n);
+    const RealError e = realError(binding, frames, dense, keyed.keys);
+    CHECK(e.cm <= options.toleranceCm);
+    CHECK(e.deg <= options.toleranceDeg);
+    CHECK(keyed.keyCount() < static_cast<std::size_t>(n * 5) / 2);
 }
