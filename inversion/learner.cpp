@@ -391,7 +391,8 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         dropped[static_cast<int>(k)] = std::move(why);
     }
     // Frames: relative to the parent output where there is one (and it is usable).
-    probe.parents = options.relativeFrames ? rig.outputParents() : std::vector<int>(rest.size(), -1);
+    const std::vector<int> hierarchy = options.relativeFrames ? rig.outputParents() : std::vector<int>(rest.size(), -1);
+    probe.parents = hierarchy;
     if (probe.parents.size() != rest.size())
         throw internalError(
             fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(), rest.size()));
@@ -431,8 +432,8 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     // orderer took some for commuting from their operators, which a non-compositional output belies).
     // Then a parameter fitted by a curve or sampled operator that reaches an output still over epsilon
     // gets twice its sample budget, up to 8 x maxSamples (its fit was exact at the samples, not between).
-    // With perOutput (and relative frames), an output where a pair has neither order even in world space is
-    // non-compositional: it is set apart and the rest learned again.
+    // With perOutput, an output with a parent output where a pair has neither order, relative or in world space,
+    // is non-compositional: it is set apart and the rest learned again.
     std::vector<int> budgets(parameters.size(), options.maxSamples);
     std::set<int> distrusted;
     PairSamples pairs;
@@ -452,8 +453,8 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         for (const int k : failing) probe.parents[static_cast<std::size_t>(k)] = -1;
         if (!failing.empty()) continue;
         auto setApart = [&](int k) {
-            if (!options.perOutput || !options.relativeFrames || state.nonCompositional[static_cast<std::size_t>(k)])
-                return false;
+            const auto o = static_cast<std::size_t>(k);
+            if (!options.perOutput || hierarchy[o] < 0 || state.nonCompositional[o]) return false;
             state.nonCompositional[static_cast<std::size_t>(k)] = 1;
             probe.parents[static_cast<std::size_t>(k)] = -1;
             return true;

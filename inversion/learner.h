@@ -41,11 +41,11 @@ struct LearnOptions {
     // True: outputs with a parent output are learned relative to it where that validates (DESIGN:
     // frames). False: every output in world space, as in the talk.
     bool relativeFrames = true;
-    // True (with relativeFrames): an output where a pair of parameters has neither order even once it is
-    // learned in world space (a thigh under an IK goal and a moving root: the rig says so, not a fit) is marked
-    // non-compositional (ApproximationOutput::modelled false), and its parameters stay modelled on their other
-    // outputs. False, or in world space (the talk's learning): the talk's behaviour, one parameter of such a
-    // pair is discarded.
+    // True: an output with a parent output (RigFunction::outputParents, relativeFrames) where a pair of parameters
+    // has neither order, relative to its parent and in world space alike (a thigh under an IK goal and a moving
+    // root: the rig says so, not a fit), is marked non-compositional (ApproximationOutput::modelled false), and
+    // its parameters stay modelled on their other outputs. False, for an output without a parent, or in world
+    // space (the talk's learning): the talk's behaviour, one parameter of such a pair is discarded.
     bool perOutput = true;
     // Random poses within the limits of the modelled parameters for the final validation.
     int validationPoses = 50;
