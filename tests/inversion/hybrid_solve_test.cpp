@@ -1,0 +1,209 @@
+// Per-output modelling and the hybrid solve (docs/solver.md) on IK rigs: an IK arm with a pole control, and the
+// biped's legs in IK mode (rigs/biped_inversion_ik.yaml). The learner leaves the IK joints unmodelled and keeps
+// the root modelled where it composes; the hybrid solve recovers random reachable poses of the IK goal and pole
+// from rest on the real rig; a goal out of reach is a miss, not converged.
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/rotation_math.h"
+#include "inversion/approximation_io.h"
+#include "inversion/hybrid_solve.h"
+#include "inversion/learner.h"
+#include "nodes/graph_rig_function.h"
+#include "nodes/inversion_spec.h"
+#include "test_support.h"
+
+namespace rig {
+namespace {
+
+// A two-bone IK arm under a translating root: the goal and the pole control in world space, the rest chain
+// pre-bent 0.01 cm toward the pole (a bend plane of its own), the rest goal within reach.
+const std::string ikArm = R"(nodes:
+  - {name: root_ctrl, type: transform, translate: [0, 140, 0]}
+  - {name: clavicle, type: joint, parent: root_ctrl, translate: [5, 0, 0]}
+  - {name: shoulder, type: joint, parent: clavicle, translate: [15, 0, 0]}
+  - {name: elbow, type: joint, parent: shoulder}
+  - {name: wrist, type: joint, parent: elbow}
+  - {name: arm_ik_ctrl, type: transform, translate: [65, 130, 0]}
+  - {name: arm_pole_ctrl, type: transform, translate: [45, 140, -40]}
+  - {name: arm_ik, type: ikHandle, startTranslate: [15, 0, 0], midTranslate: [30, 0, 0], endTranslate: [28, 0, -0.01]}
+  - {name: arm_pv, type: poleVectorConstraint, constraintRotatePivot: [15, 0, 0]}
+connections:
+  - clavicle.worldMatrix -> arm_ik.startParentMatrix
+  - clavicle.scale -> arm_ik.startInverseScale
+  - arm_ik_ctrl.worldMatrix -> arm_ik.goalMatrix
+  - arm_pole_ctrl.worldMatrix -> arm_pv.targetMatrix[0]
+  - clavicle.worldMatrix -> arm_pv.pivotSpace
+  - arm_pv.constraintTranslate -> arm_ik.poleVector
+  - arm_ik.startRotate -> shoulder.rotate
+  - arm_ik.midRotate -> elbow.rotate
+  - arm_ik.outMidTranslate -> elbow.translate
+  - arm_ik.outEndTranslate -> wrist.translate
+)";
+
+GraphRigOptions armOptions()
+{
+    return {{"root_ctrl.translate?", "arm_ik_ctrl.translate?", "arm_pole_ctrl.translate?"},
+            {"clavicle", "shoulder", "elbow", "wrist"},
+            {},
+            {}};
+}
+
+const ModelledParameter& parameter(const Approximation& a, const std::string& name)
+{
+    const auto it = std::find_if(a.parameters.begin(), a.parameters.end(),
+                                 [&](const ModelledParameter& m) { return m.parameter.name == name; });
+    REQUIRE_MESSAGE(it != a.parameters.end(), name << " is not modelled");
+    return *it;
+}
+
+int output(const Approximation& a, const std::string& name)
+{
+    for (std::size_t k = 0; k < a.outputs.size(); ++k)
+        if (a.outputs[k].name == name) return static_cast<int>(k);
+    FAIL("no output " << name);
+    return -1;
+}
+
+bool has(const std::vector<int>& list, int k) { return std::find(list.begin(), list.end(), k) != list.end(); }
+
+std::vector<JointTarget> targetsFrom(const std::vector<Eigen::Matrix4d>& worlds)
+{
+    std::vector<JointTarget> targets(worlds.size());
+    for (std::size_t k = 0; k < worlds.size(); ++k) {
+        targets[k].active = true;
+        targets[k].world = worlds[k];
+    }
+    return targets;
+}
+
+// Random poses of `moved` (offsets up to `range` cm from rest) solved from rest by the hybrid solve: every joint
+// back on its target.
+void recoverPoses(const Approximation& a, RigFunction& rig, const std::vector<std::string>& moved, double range)
+{
+    RigBinding binding(a, rig);
+    const Solver solver(a, SolverOptions{});
+    HybridSolver hybrid(solver, binding, 2);
+    REQUIRE(hybrid.blocks().size() >= 1);
+    std::mt19937 rng(5);
+    std::vector<Eigen::Matrix4d> worlds;
+    for (int pose = 0; pose < 6; ++pose) {
+        CAPTURE(pose);
+        std::vector<double> truth = a.defaults();
+        for (std::size_t p = 0; p < a.parameters.size(); ++p)
+            for (const std::string& prefix : moved)
+                if (a.parameters[p].parameter.name.starts_with(prefix))
+                    truth[p] += std::uniform_real_distribution<double>(-range, range)(rng);
+        binding.evaluate(truth, worlds);
+        const std::vector<JointTarget> targets = targetsFrom(worlds);
+        std::vector<double> values = a.defaults();
+        ChainScratch scratch;
+        ChainFrame frame;
+        hybrid.solveFrame(targets, values, retryNever, scratch, frame);
+        CHECK(frame.realRigEvaluations > 0);
+        CHECK(frame.summary.termination == TerminationType::converged);
+        binding.evaluate(values, worlds);
+        for (std::size_t k = 0; k < worlds.size(); ++k) {
+            CAPTURE(a.outputs[k].name);
+            CHECK((worlds[k].block<3, 1>(0, 3) - targets[k].world.block<3, 1>(0, 3)).norm() < 1e-4);
+            CHECK(orientationAngle(worlds[k].topLeftCorner<3, 3>(), targets[k].world.topLeftCorner<3, 3>()) * 180.0 /
+                      std::numbers::pi <
+                  1e-3);
+        }
+    }
+}
+
+}  // namespace
+
+TEST_CASE("per-output modelling: an IK arm's joints are left unmodelled, the root stays modelled where it composes")
+{
+    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm") / "arm.yaml", ikArm);
+    GraphRigFunction rig(file, armOptions());
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "arm.yaml");
+    CHECK(a.validation.withinEpsilon);
+    CHECK(a.discarded.empty());
+    CHECK(a.outputs[static_cast<std::size_t>(output(a, "clavicle"))].modelled);
+    for (const char* joint : {"shoulder", "elbow", "wrist"}) {
+        CAPTURE(joint);
+        CHECK_FALSE(a.outputs[static_cast<std::size_t>(output(a, joint))].modelled);
+    }
+    const ModelledParameter& root = parameter(a, "root_ctrl.translateX");
+    CHECK(root.outputs == std::vector<int>{output(a, "clavicle")});
+    CHECK(has(root.unmodelledOutputs, output(a, "elbow")));
+    const ModelledParameter& goal = parameter(a, "arm_ik_ctrl.translateY");
+    CHECK(goal.outputs.empty());
+    CHECK(goal.operators.empty());
+    CHECK(has(goal.unmodelledOutputs, output(a, "wrist")));
+    // Through a file and back.
+    const Approximation b = approximationFromYaml(approximationToYaml(a), "arm.approx.yaml");
+    CHECK(b.outputs[static_cast<std::size_t>(output(b, "wrist"))].modelled == false);
+    CHECK(parameter(b, "root_ctrl.translateX").unmodelledOutputs == root.unmodelledOutputs);
+
+    // The talk's behaviour on request: parameters discarded, every output modelled.
+    LearnOptions talk;
+    talk.perOutput = false;
+    const Approximation c = learnApproximation(rig, talk, "arm.yaml");
+    CHECK_FALSE(c.discarded.empty());
+    CHECK_FALSE(c.hasUnmodelledOutputs());
+}
+
+TEST_CASE("hybrid solve: an IK arm recovers random reachable poses of its root, goal and pole from rest")
+{
+    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm-poses") / "arm.yaml", ikArm);
+    GraphRigFunction rig(file, armOptions());
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "arm.yaml");
+    recoverPoses(a, rig, {"root_ctrl", "arm_ik_ctrl", "arm_pole_ctrl"}, 5.0);
+}
+
+TEST_CASE("hybrid solve: a goal out of the IK arm's reach is a miss, not converged")
+{
+    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm-reach") / "arm.yaml", ikArm);
+    GraphRigFunction rig(file, armOptions());
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "arm.yaml");
+    RigBinding binding(a, rig);
+    const Solver solver(a, SolverOptions{});
+    HybridSolver hybrid(solver, binding, 1);
+    std::vector<Eigen::Matrix4d> worlds;
+    binding.evaluate(a.defaults(), worlds);
+    std::vector<JointTarget> targets = targetsFrom(worlds);
+    // The wrist 40 cm past the arm's 58 cm reach, along it.
+    const int wrist = output(a, "wrist");
+    targets[static_cast<std::size_t>(wrist)].world(0, 3) += 40.0;
+    std::vector<double> values = a.defaults();
+    ChainScratch scratch;
+    ChainFrame frame;
+    hybrid.solveFrame(targets, values, retryNever, scratch, frame);
+    CHECK(frame.summary.termination == TerminationType::stuck);
+    CHECK(has(frame.summary.missedOutputs, wrist));
+    CHECK(frame.summary.maxPositionErrorCm > 1.0);
+}
+
+TEST_CASE("hybrid solve: the biped's IK legs (rigs/biped_inversion_ik.yaml) recover random poses from rest")
+{
+    const InversionSpec spec = readInversionSpec(test::sourceDir() / "rigs" / "biped_inversion_ik.yaml");
+    GraphRigOptions options{spec.params, spec.outputs, {}, spec.set};
+    GraphRigFunction rig(test::sourceDir() / "rigs" / "biped.yaml", options);
+    LearnOptions learn;
+    learn.validationPoses = 5;
+    const Approximation a = learnApproximation(rig, learn, "rigs/biped.yaml");
+    CHECK(a.validation.withinEpsilon);
+    CHECK(a.discarded.empty());
+    // The root composes on the hips and the spine, not on the IK legs.
+    const ModelledParameter& root = parameter(a, "root_ctrl.translateY");
+    CHECK(has(root.outputs, output(a, "Hips")));
+    CHECK(has(a.reach()[static_cast<std::size_t>(&root - a.parameters.data())], output(a, "Spine")));
+    for (const char* joint : {"LeftUpLeg", "LeftLeg", "RightFoot"}) {
+        CAPTURE(joint);
+        CHECK(has(root.unmodelledOutputs, output(a, joint)));
+    }
+    CHECK(parameter(a, "L_leg_pole_ctrl.translateX").outputs.empty());
+    recoverPoses(a, rig, {"root_ctrl.translate", "L_leg_ik_ctrl", "R_leg_ik_ctrl", "L_leg_pole", "R_leg_pole"}, 4.0);
+}
+
+}  // namespace rig
