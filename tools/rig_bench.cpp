@@ -64,6 +64,13 @@ void printSummary(const bench::Json& r)
         std::cout << fmt::format("ceres       {} per frame ({}), ours {} on the same frames\n",
                                  figure(cer.at("ms_per_frame"), "ms"), text(cer.at("linear_solver")),
                                  figure(cer.at("ours_ms_per_frame"), "ms"));
+    if (const auto ik = r.find("ik_legs"); ik != r.end() && !ik->is_null())
+        std::cout << fmt::format(
+            "ik legs     {} per frame (hybrid, 1 thread), {} real-rig evaluations per frame, worst {}; leg joints "
+            "{} from FK's at worst\n",
+            figure(ik->at("cpu_ms_per_frame"), "ms"), figure(ik->at("real_rig_evaluations_per_frame"), "", 4),
+            figure(ik->at("real_rig").at("max_position_error_cm"), "cm"),
+            figure(ik->at("leg_joints_vs_fk_max_cm"), "cm"));
     std::cout << fmt::format("training    {} evaluations, {}\n", figure(train.at("evaluations"), "", 6),
                              figure(train.at("seconds"), "s"));
     const auto threadsLine = [](const std::string& what, const bench::Json& t) {
