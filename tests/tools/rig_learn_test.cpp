@@ -442,3 +442,50 @@ TEST_CASE("rig-learn --set and the spec's set: bad input is one line naming the 
                               "file's units (degrees for angles)",
                               word.string()));
 }
+
+TEST_CASE("rig-invert --hybrid: the biped with IK legs (rigs/biped_inversion_ik.yaml) fits its legs on the real rig")
+{
+    const auto dir = rig::test::scratchDir("rig-invert-hybrid");
+    const auto ik = dir / "ik.yaml";
+    REQUIRE(run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml -o '{}'", ik.string())))
+                .exitCode == 0);
+    const rig::Approximation a = rig::readApproximationFile(ik);
+    REQUIRE(a.hasUnmodelledOutputs());
+
+    // Targets: the rig in the spec's state, the hips lowered and the left foot control moved: IK legs bend.
+    std::string get;
+    for (const auto& o : a.outputs) get += fmt::format(" --get {}.worldMatrix", o.name);
+    const auto targets = dir / "targets.json";
+    REQUIRE(run(fmt::format("{} rigs/biped.yaml --set L_leg_settings.ikFk=1 --set R_leg_settings.ikFk=1 --set "
+                            "L_leg_ik.stretch=true --set R_leg_ik.stretch=true --set root_ctrl.translateY=-8 --set "
+                            "L_leg_ik_ctrl.translateZ=12 --frames 1:3{} -o '{}'",
+                            rig::test::tool("graph-eval"), get, targets.string()))
+                .exitCode == 0);
+    const auto invert = [&](const std::string& flags) {
+        return run(fmt::format("{} '{}' --rig rigs/biped.yaml --clip '{}' -o '{}' --report-json '{}' {}",
+                               rig::test::tool("rig-invert"), ik.string(), targets.string(),
+                               (dir / "curves.json").string(), (dir / "report.json").string(), flags));
+    };
+    const auto plain = invert("");
+    REQUIRE(plain.exitCode == 0);
+    CHECK(plain.out.find("\nnot modelled      LeftUpLeg, LeftLeg, LeftFoot, LeftToeBase, RightUpLeg, RightLeg, "
+                         "RightFoot, RightToeBase (non-compositional") != std::string::npos);
+    CHECK(YAML::LoadFile((dir / "report.json").string())["max_position_error_cm"].as<double>() > 1.0);
+
+    const auto hybrid = invert("--hybrid");
+    INFO(hybrid.err);
+    REQUIRE(hybrid.exitCode == 0);
+    CHECK(hybrid.out.find("\nhybrid            block 1: ") != std::string::npos);
+    const YAML::Node report = YAML::LoadFile((dir / "report.json").string());
+    CHECK(report["converged_frames"].as<int>() == 3);
+    CHECK(report["max_position_error_cm"].as<double>() < 1e-3);
+    CHECK(report["hybrid"]["real_rig_evaluations"].as<long long>() > 0);
+    CHECK(report["unmodelled_outputs"].size() == 8);
+    CHECK(report["per_frame"][0]["real_rig_evaluations"].as<int>() > 0);
+
+    const auto both = invert("--hybrid --polish 1");
+    CHECK(both.exitCode == 2);
+    CHECK(both.err ==
+          "error: --hybrid with --polish 1: choose one; the hybrid solve fits what the "
+          "approximation does not model on the real rig itself\n");
+}
