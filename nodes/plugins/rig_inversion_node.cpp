@@ -17,6 +17,7 @@
 #include <memory>
 #include <numbers>
 #include <string>
+#include <thread>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -28,8 +29,10 @@
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
 #include "inversion/continuity.h"
+#include "inversion/hybrid_solve.h"
 #include "inversion/solver.h"
 #include "nodes/clips/target_clip.h"
+#include "nodes/graph_rig_function.h"
 
 namespace rig {
 namespace {
@@ -56,6 +59,9 @@ enum Attr : AttrId {
     outputNames,
     heldValue,
     heldNames,
+    hybrid,
+    rigFile,
+    realRigEvaluations,
 };
 
 // An approximation and the solver built on it, shared by every evaluation until `file` changes.
@@ -101,6 +107,7 @@ public:
         }
         const std::string& path = c.getString(file);
         if (!loaded_ || loaded_->path != path) {
+            dropHybrid();
             auto fresh = std::make_unique<Loaded>();
             fresh->path = path;
             fresh->approximation = std::make_unique<Approximation>(readApproximation(path, node));
@@ -109,6 +116,7 @@ public:
         }
         if (!loaded_->solver || loaded_->options.maxIterations != options.maxIterations ||
             loaded_->options.threads != options.threads || loaded_->options.partition != options.partition) {
+            dropHybrid();
             loaded_->solver = std::make_unique<Solver>(*loaded_->approximation, options);
             loaded_->options = options;
         }
@@ -152,7 +160,8 @@ public:
             startCost_ = solutionCost_;
         }
         solution_ = start_;
-        solveChainFrame(*loaded_->solver, targets, solution_, startCost_, scratch_, frame_);
+        if (HybridSolver* h = hybridSolver(c, node)) h->solveFrame(targets, solution_, startCost_, scratch_, frame_);
+        else solveChainFrame(*loaded_->solver, targets, solution_, startCost_, scratch_, frame_);
         const SolveSummary& summary = frame_.summary;
         solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
         previousTime_ = t;
@@ -173,6 +182,7 @@ public:
         c.setOutput(stuck, summary.termination == TerminationType::stuck);
         c.setOutput(iterations, summary.iterations);
         c.setOutput(worstErrorCm, summary.maxPositionErrorCm);
+        c.setOutput(realRigEvaluations, frame_.realRigEvaluations);
         std::vector<std::string> names;
         for (const auto& p : a.parameters) names.push_back(p.parameter.name);
         c.setOutput(parameterNames, joinLines(names));
@@ -190,7 +200,52 @@ public:
     }
 
 private:
+    // With `hybrid` on and an approximation that leaves outputs unmodelled: the hybrid solve on the node's own
+    // instance of the rig file `rig` (in the approximation's held state), made again when the rig file, the
+    // approximation or the solver changes. Null otherwise.
+    HybridSolver* hybridSolver(ComputeContext& c, const std::string& node)
+    {
+        const Approximation& a = *loaded_->approximation;
+        if (!c.getBool(hybrid) || !a.hasUnmodelledOutputs()) return nullptr;
+        const std::string& path = c.getString(rigFile);
+        if (hybrid_ && path == hybridRigPath_) return hybrid_.get();
+        dropHybrid();
+        if (path.empty())
+            throw Error(
+                fmt::format("{}.rig is empty; the hybrid solve evaluates the rig the approximation was learned "
+                            "from ({}): give its file",
+                            node, a.rigFile));
+        GraphRigOptions options;
+        for (const auto& m : a.parameters) options.parameterGlobs.push_back(m.parameter.name);
+        for (const auto& o : a.outputs) options.outputGlobs.push_back(o.name);
+        options.held = a.held;
+        try {
+            realRig_ = std::make_unique<GraphRigFunction>(path, options);
+            binding_ = std::make_unique<RigBinding>(a, *realRig_);
+        }
+        catch (const Error& e) {
+            throw e.in(fmt::format("{}.rig", node));
+        }
+        const int threads = loaded_->options.threads > 0
+                                ? loaded_->options.threads
+                                : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+        hybrid_ = std::make_unique<HybridSolver>(*loaded_->solver, *binding_, threads);
+        hybridRigPath_ = path;
+        return hybrid_.get();
+    }
+    // Before the approximation or the solver it refers to goes.
+    void dropHybrid()
+    {
+        hybrid_.reset();
+        binding_.reset();
+        realRig_.reset();
+    }
+
     std::unique_ptr<Loaded> loaded_;
+    std::unique_ptr<GraphRigFunction> realRig_;  // the hybrid solve's rig, its binding, and the solve
+    std::unique_ptr<RigBinding> binding_;
+    std::unique_ptr<HybridSolver> hybrid_;
+    std::string hybridRigPath_;
     std::string mapPath_;
     double scale_ = 1.0;
     double previousTime_ = 0.0;
@@ -392,6 +447,18 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
             "Each plug the approximation was learned with held, at its held value (the rig file's units, angles in "
             "degrees, unitless); `connect: {parameters: true}` wires them to the rig.");
     b.output(heldNames, "heldNames", ValueType::String).doc("The held plugs, one per line.");
+    b.input(hybrid, "hybrid", ValueType::Bool)
+        .defaultValue(false)
+        .doc(
+            "Fit the outputs the approximation does not model (an IK leg) by Gauss-Newton on the real rig after the "
+            "approximation's solve, as rig-invert --hybrid (docs/solver.md); needs `rig`.");
+    b.input(rigFile, "rig", ValueType::String)
+        .filePath()
+        .doc(
+            "The rig file the approximation was learned from, relative to the rig file that names it: the hybrid "
+            "solve evaluates its own instance of it, in the approximation's held state.");
+    b.output(realRigEvaluations, "realRigEvaluations", ValueType::Int)
+        .doc("Real-rig evaluations of this evaluation's hybrid solve (0 without it).");
     b.affectsAll();
     b.stateful();
     b.yamlConnector("connect", connectField);

@@ -236,3 +236,57 @@ TEST_CASE("rigInversion: an approximation learned with held plugs holds them on 
                                  "that value: disconnect it, or learn the rig in another state (rig-learn --set)\n",
                                  driven.string(), column));
 }
+
+TEST_CASE("rigInversion: with hybrid on, the biped's IK legs give rig-invert --hybrid's curves, frame for frame")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto dir = test::scratchDir("rig_inversion_node_hybrid");
+    const auto approximation = dir / "ik.approx.yaml";
+    const auto learn = test::run(fmt::format("{} rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml -o {}",
+                                             test::tool("rig-learn"), approximation.string()));
+    REQUIRE(learn.exitCode == 0);
+    const std::string map = (test::sourceDir() / "rigs/maps/cmu_to_biped.yaml").string();
+    const std::string rigPath = (test::sourceDir() / "rigs/biped.yaml").string();
+    const auto graph =
+        test::writeFile(dir / "biped_ik_mocap.yaml", graphFile(rigPath, approximation, map) +
+                                                         fmt::format("    hybrid: true\n    rig: {}\n", rigPath));
+    const int count = parameterCount(approximation);
+    const auto node =
+        test::run(fmt::format("{} {} --frames 1:12{} --get inverter.realRigEvaluations -o {}", test::tool("graph-eval"),
+                              graph.string(), valueGets(count), (dir / "node.json").string()));
+    INFO(node.err);
+    REQUIRE(node.exitCode == 0);
+    const auto invert = test::run(fmt::format(
+        "{} {} --rig rigs/biped.yaml --map {} --clip {} --hybrid --frames 1:12 "
+        "-o {} -q",
+        test::tool("rig-invert"), approximation.string(), map, test::cmuClip.string(), (dir / "curves.json").string()));
+    REQUIRE(invert.exitCode == 0);
+    const YAML::Node a = YAML::LoadFile((dir / "node.json").string());
+    const YAML::Node b = YAML::LoadFile((dir / "curves.json").string());
+    REQUIRE(a.size() == 12);
+    REQUIRE(b.size() == 12);
+    int compared = 0, equal = 0;
+    for (std::size_t f = 0; f < 12; ++f) {
+        CHECK(a[f]["inverter.realRigEvaluations"].as<int>() > 0);
+        int i = 0;
+        for (const auto& entry : b[f]) {
+            if (entry.first.as<std::string>() == "frame") continue;
+            equal += a[f][fmt::format("inverter.value[{}]", i)].Scalar() == entry.second.Scalar();
+            ++compared;
+            ++i;
+        }
+    }
+    CHECK(equal == compared);
+
+    // Without a rig file, one line naming the attribute.
+    const auto noRig =
+        test::writeFile(dir / "no_rig.yaml", graphFile(rigPath, approximation, map) + "    hybrid: true\n");
+    const auto r =
+        test::run(fmt::format("{} {} --frames 1:1{}", test::tool("graph-eval"), noRig.string(), valueGets(1)));
+    CHECK(r.exitCode == 2);
+    CHECK(r.err.find("inverter.rig is empty; the hybrid solve evaluates the rig the approximation was learned from "
+                     "(rigs/biped.yaml): give its file") != std::string::npos);
+}
