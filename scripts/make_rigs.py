@@ -275,7 +275,9 @@ def build_leg(rig, joints, pos, side, long_side, sign):
     # IK with a pole vector, and the IK/FK switch (0 = FK, the default).
     ctrl(rig, f"{side}_leg_ik_ctrl", translate=pos[foot])
     knee_pos = pos[knee]
-    ctrl(rig, f"{side}_leg_pole_ctrl", translate=(knee_pos[0], knee_pos[1], knee_pos[2] + 50))
+    # The pole follows the root (a pole left in world space as the character walks off ends up along the leg,
+    # where it no longer turns the knee).
+    ctrl(rig, f"{side}_leg_pole_ctrl", translate=(knee_pos[0], knee_pos[1], knee_pos[2] + 50), parent="root_ctrl")
     ctrl(rig, f"{side}_leg_settings", attrs=[number_attr("ikFk", 0, 1)])
     # The CMU leg is straight at rest, which gives the chain no bend plane of its own: the foot's rest translate
     # is set 0.01 cm back, a knee pre-bent toward the pole (Maya's preferred angle), so that IK at rest is the
