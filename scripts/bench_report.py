@@ -96,6 +96,16 @@ def headline_block(b):
                  f"{num(ms)} ms coupled blocks (block by block {num(bbb)} ms, whole problem "
                  f"{num(inv.get('whole_ms_per_frame'))} ms)",
                  f"talk: {status(ms <= TALK_MS_PER_FRAME)}; goal: {status(ms < GOAL_MS_PER_FRAME)}"))
+    ik = b.get("ik_legs")
+    if ik:
+        rows.append(("IK legs, hybrid solve (rigs/biped_inversion_ik.yaml), 1 thread", "2 ms (talk); leg joints "
+                     "within 0.1 cm of FK's (goal)",
+                     f"{num(ik['cpu_ms_per_frame'])} ms, {num(ik['real_rig_evaluations_per_frame'])} real-rig "
+                     f"evaluations per frame, real rig worst {num(ik['real_rig']['max_position_error_cm'])} cm; leg "
+                     f"joints {num(ik['leg_joints_vs_fk_max_cm'])} cm from FK's at worst, "
+                     f"{num(ik['leg_joints_vs_fk_mean_cm'])} cm mean (the FK knee slides, the IK knee does not)",
+                     f"talk: {status(ik['cpu_ms_per_frame'] <= 2.0)}; goal: "
+                     f"{status(ik['leg_joints_vs_fk_max_cm'] <= 0.1)}"))
     rows.append(("inversion vs Gauss-Newton on the real rig (same frames)", "-",
                  f"{num(inv['speedup_vs_blackbox_same_frames'])}x faster", "-"))
     if ceres.get("ms_per_frame") is not None:
