@@ -132,8 +132,10 @@ void HybridSolver::solveFrame(std::span<const JointTarget> targets, std::vector<
     const double floor = 0.5 * options.targetTolerance * options.targetTolerance;
     bool converged = summary.termination != TerminationType::noConvergence;
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
-        problems_[b]->setTargets(targets);
-        if (problems_[b]->rows() == 0) continue;  // no target in this block
+        const auto& outputs = blocks_[b].outputs;
+        if (std::none_of(outputs.begin(), outputs.end(),
+                         [&](int k) { return targets[static_cast<std::size_t>(k)].active; }))
+            continue;  // no target in this block
         start_ = values;
         RealRigSolve s = solveBlock(b, targets, values);
         frame.realRigEvaluations += static_cast<int>(s.evaluations);
