@@ -44,6 +44,28 @@ std::string graphFile(const fs::path& rig, const fs::path& approximation, const 
         map.empty() ? "" : "    map: " + map + "\n", connect);
 }
 
+// The node's values (graph-eval's JSON, `inverter.value[i]`) against rig-invert's curves, frame for frame: the
+// same text, since both print the shortest form of the same double.
+void checkSameCurves(const fs::path& node, const fs::path& curves, std::size_t frames, int count)
+{
+    const YAML::Node a = YAML::LoadFile(node.string());
+    const YAML::Node b = YAML::LoadFile(curves.string());
+    REQUIRE(a.size() == frames);
+    REQUIRE(b.size() == frames);
+    int compared = 0, equal = 0;
+    for (std::size_t f = 0; f < frames; ++f) {
+        int i = 0;
+        for (const auto& entry : b[f]) {
+            if (entry.first.as<std::string>() == "frame") continue;
+            equal += a[f][fmt::format("inverter.value[{}]", i)].Scalar() == entry.second.Scalar();
+            ++compared;
+            ++i;
+        }
+        CHECK(i == count);
+    }
+    CHECK(equal == compared);
+}
+
 }  // namespace
 
 TEST_CASE("rigInversion: a bvhClip -> rigInversion -> rig graph reproduces the CMU clip's joints")
@@ -99,23 +121,7 @@ TEST_CASE("rigInversion: the node's values equal rig-invert's curves on the bipe
         "--frames 1:80 -o {} -q",
         test::tool("rig-invert"), approximation.string(), test::cmuClip.string(), (dir / "curves.json").string()));
     REQUIRE(invert.exitCode == 0);
-    const YAML::Node a = YAML::LoadFile((dir / "node.json").string());
-    const YAML::Node b = YAML::LoadFile((dir / "curves.json").string());
-    REQUIRE(a.size() == 80);
-    REQUIRE(b.size() == 80);
-    int compared = 0, equal = 0;
-    for (std::size_t f = 0; f < 80; ++f) {
-        int i = 0;
-        for (const auto& entry : b[f]) {
-            if (entry.first.as<std::string>() == "frame") continue;
-            // The same text: both print the shortest form of the same double.
-            equal += a[f][fmt::format("inverter.value[{}]", i)].Scalar() == entry.second.Scalar();
-            ++compared;
-            ++i;
-        }
-        CHECK(i == count);
-    }
-    CHECK(equal == compared);
+    checkSameCurves(dir / "node.json", dir / "curves.json", 80, count);
 }
 
 TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are one-line errors")
@@ -264,22 +270,9 @@ TEST_CASE("rigInversion: with hybrid on, the biped's IK legs give rig-invert --h
         "-o {} -q",
         test::tool("rig-invert"), approximation.string(), map, test::cmuClip.string(), (dir / "curves.json").string()));
     REQUIRE(invert.exitCode == 0);
+    checkSameCurves(dir / "node.json", dir / "curves.json", 12, count);
     const YAML::Node a = YAML::LoadFile((dir / "node.json").string());
-    const YAML::Node b = YAML::LoadFile((dir / "curves.json").string());
-    REQUIRE(a.size() == 12);
-    REQUIRE(b.size() == 12);
-    int compared = 0, equal = 0;
-    for (std::size_t f = 0; f < 12; ++f) {
-        CHECK(a[f]["inverter.realRigEvaluations"].as<int>() > 0);
-        int i = 0;
-        for (const auto& entry : b[f]) {
-            if (entry.first.as<std::string>() == "frame") continue;
-            equal += a[f][fmt::format("inverter.value[{}]", i)].Scalar() == entry.second.Scalar();
-            ++compared;
-            ++i;
-        }
-    }
-    CHECK(equal == compared);
+    for (std::size_t f = 0; f < 12; ++f) CHECK(a[f]["inverter.realRigEvaluations"].as<int>() > 0);
 
     // Without a rig file, one line naming the attribute.
     const auto noRig =
