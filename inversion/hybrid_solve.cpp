@@ -85,6 +85,24 @@ RealRigSolve HybridSolver::solveBlock(std::size_t b, std::span<const JointTarget
     return s;
 }
 
+bool HybridSolver::keepWarmStart(std::size_t b, std::span<const JointTarget> targets, std::span<const double> values,
+                                 int& evaluations)
+{
+    RealRigProblem& problem = *problems_[b];
+    problem.setTargets(targets);
+    problem.setHeld(values);
+    const std::vector<int>& columns = blocks_[b].parameters;
+    const auto cost = [&](std::span<const double> from) {
+        x_.resize(columns.size());
+        for (std::size_t c = 0; c < columns.size(); ++c) x_[c] = from[static_cast<std::size_t>(columns[c])];
+        return problem.residuals(x_, residual_);
+    };
+    const double approximationStart = cost(values);
+    const double warmStart = cost(warm_);
+    evaluations += 2;
+    return warmStart < approximationStart;
+}
+
 RealRigSolve HybridSolver::continuation(std::size_t b, std::span<const JointTarget> targets,
                                         std::vector<double>& values, int& evaluations)
 {
@@ -124,6 +142,7 @@ RealRigSolve HybridSolver::continuation(std::size_t b, std::span<const JointTarg
 void HybridSolver::solveFrame(std::span<const JointTarget> targets, std::vector<double>& values, double previousCost,
                               ChainScratch& scratch, ChainFrame& frame)
 {
+    warm_ = values;  // the previous frame's answer, in a warm-started chain
     solveChainFrame(solver_, targets, values, previousCost, scratch, frame);
     frame.realRigEvaluations = 0;
     SolveSummary& summary = frame.summary;
@@ -136,6 +155,11 @@ void HybridSolver::solveFrame(std::span<const JointTarget> targets, std::vector<
         if (std::none_of(outputs.begin(), outputs.end(),
                          [&](int k) { return targets[static_cast<std::size_t>(k)].active; }))
             continue;  // no target in this block
+        // The approximation's answer fits the modelled outputs alone: it may move the root where the legs' goals,
+        // held in world space, stretch them. The block's previous answer is kept as its start when it is cheaper.
+        if (previousCost < retryNever && keepWarmStart(b, targets, values, frame.realRigEvaluations))
+            for (const int p : blocks_[b].parameters)
+                values[static_cast<std::size_t>(p)] = warm_[static_cast<std::size_t>(p)];
         start_ = values;
         RealRigSolve s = solveBlock(b, targets, values);
         frame.realRigEvaluations += static_cast<int>(s.evaluations);

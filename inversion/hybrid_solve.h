@@ -52,6 +52,10 @@ public:
 private:
     // Block b on the real rig from `values` (out: the solution).
     RealRigSolve solveBlock(std::size_t b, std::span<const JointTarget> targets, std::vector<double>& values);
+    // Whether block b starts cheaper from the previous frame's answer (warm_) than from `values`, the
+    // approximation's (two real-rig evaluations, added to `evaluations`).
+    bool keepWarmStart(std::size_t b, std::span<const JointTarget> targets, std::span<const double> values,
+                       int& evaluations);
     // Block b from its parameters' rest values, its targets moved from where the real rig puts its outputs there
     // to `targets` in continuationSteps steps (positions along a line, rotations along the shortest arc).
     RealRigSolve continuation(std::size_t b, std::span<const JointTarget> targets, std::vector<double>& values,
@@ -62,7 +66,8 @@ private:
     RigBinding& binding_;
     std::vector<HybridBlock> blocks_;
     std::vector<std::unique_ptr<RealRigProblem>> problems_;  // one per block
-    std::vector<double> x_, start_;
+    std::vector<double> x_, start_, warm_;
+    Eigen::VectorXd residual_;
     std::vector<Eigen::Matrix4d> worlds_;
     std::vector<JointTarget> blended_;
 };

@@ -195,25 +195,38 @@ RealRigSolve solveOnRealRig(RealRigProblem& problem, std::span<double> values, c
             delta = -(eigen.eigenvectors() * projected);
         }
         ++solve.iterations;
-        // Backtracking: halve the step until the real rig's cost goes down.
         bool accepted = false, smallStep = false;
         double trialCost = cost;
-        for (double scale = 1.0; scale > 1e-3; scale *= 0.5) {
+        // Tries x + step (clamped to the limits): accepted when the real rig's cost goes down.
+        const auto tryStep = [&](const Eigen::VectorXd& step) {
             double stepNorm2 = 0.0, xNorm2 = 0.0;
             for (int c = 0; c < n; ++c) {
                 const auto i = static_cast<std::size_t>(c);
-                trial[i] = std::clamp(x[i] + scale * delta[c], lower[i], upper[i]);
+                trial[i] = std::clamp(x[i] + step[c], lower[i], upper[i]);
                 stepNorm2 += (trial[i] - x[i]) * (trial[i] - x[i]);
                 xNorm2 += x[i] * x[i];
             }
             smallStep =
                 std::sqrt(stepNorm2) <= options.parameterTolerance * (std::sqrt(xNorm2) + options.parameterTolerance);
             trialCost = problem.residuals(trial, rTrial);
-            if (std::isfinite(trialCost) && (trialCost < cost || (smallStep && trialCost <= cost))) {
-                accepted = true;
-                break;
+            accepted = std::isfinite(trialCost) && (trialCost < cost || (smallStep && trialCost <= cost));
+            return accepted || smallStep;
+        };
+        // Backtracking: halve the step until the real rig's cost goes down.
+        for (double scale = 1.0; scale > 1e-3; scale *= 0.5)
+            if (tryStep(scale * delta)) break;
+        // Then Levenberg-Marquardt: where the Gauss-Newton direction is poor (a kink, as an IK chain's knee at
+        // full extension, where the bend grows as the square root of the goal's approach), damped steps turn
+        // toward the gradient, which descends for small enough steps.
+        if (!accepted && !smallStep) {
+            const double top = std::max(H.diagonal().maxCoeff(), std::numeric_limits<double>::min());
+            for (double lambda = 1e-4 * top; !accepted && !smallStep && lambda <= 1e8 * top; lambda *= 10.0) {
+                Eigen::MatrixXd damped = H;
+                damped.diagonal().array() += lambda;
+                delta = damped.llt().solve(-g);
+                if (!delta.allFinite()) continue;
+                tryStep(delta);
             }
-            if (smallStep) break;
         }
         if (!accepted) {
             solve.converged = smallStep;  // nowhere left to go along a descent direction

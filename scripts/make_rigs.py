@@ -279,12 +279,12 @@ def build_leg(rig, joints, pos, side, long_side, sign):
     # where it no longer turns the knee).
     ctrl(rig, f"{side}_leg_pole_ctrl", translate=(knee_pos[0], knee_pos[1], knee_pos[2] + 50), parent="root_ctrl")
     ctrl(rig, f"{side}_leg_settings", attrs=[number_attr("ikFk", 0, 1)])
-    # The CMU leg is straight at rest, which gives the chain no bend plane of its own: the foot's rest translate
-    # is set 0.01 cm back, a knee pre-bent toward the pole (Maya's preferred angle), so that IK at rest is the
-    # FK rest pose, not the pose turned about the leg onto the pole's plane.
-    foot_rest = (joints[foot][0], joints[foot][1], joints[foot][2] - 0.01)
+    # The IK knee is the FK knee: a hinge about X (not a rest plane's normal: the CMU leg is straight at rest and
+    # oblique) whose pivot slides as the slidingPivot's does, so the two modes reach the same poses, and IK at
+    # rest is the FK rest pose (the hinge axis, not the pole, decides which way a straight leg bends).
     ik = rig.node(f"{side}_leg_ik", "ikHandle", startTranslate=joints[up], startRotateOrder=ROTATE_ORDERS[up],
-                  midTranslate=joints[knee], endTranslate=foot_rest)
+                  midTranslate=joints[knee], endTranslate=joints[foot], bendAxis=(1, 0, 0), midSlide=0.8,
+                  midSlideAxis="y")
     pv = rig.node(f"{side}_leg_pv", "poleVectorConstraint", constraintRotatePivot=joints[up])
     rig.connect(f"{hip}.worldMatrix", f"{ik}.startParentMatrix")
     rig.connect(f"{hip}.scale", f"{ik}.startInverseScale")

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
+#include <utility>
 
 #include <Eigen/Geometry>
 
@@ -30,6 +32,10 @@ enum Attr : AttrId {
     Twist,
     Stretch,
     Softness,
+    BendAxis,
+    MidSlide,
+    MidSlideQuadratic,
+    MidSlideAxis,
     StartRotate,
     MidRotate,
     OutMidTranslate,
@@ -73,6 +79,66 @@ struct Inputs {
     Eigen::Vector3d goal;
     double twist, softness;
     bool stretch;
+    Eigen::Vector3d bendAxis;  // mid joint rotate space; zero = the rest plane's normal
+    double slide, slideQuadratic;
+    int slideAxis;
+};
+
+// A hinge about a given axis whose mid joint slides along the upper bone's frame as it bends (slidingPivot's
+// knee), in the start joint's frame before stretch. Positive angles about the axis bend the chain.
+struct HingeChain {
+    Eigen::Vector3d upper, restLower, axis, slideDirection;
+    double slide, slideQuadratic;
+
+    Eigen::Vector3d mid(double angle) const
+    {
+        return upper + (slide * angle + slideQuadratic * angle * angle) * slideDirection;
+    }
+    Eigen::Vector3d lower(double angle) const { return Eigen::AngleAxisd(angle, axis) * restLower; }
+    double distance(double angle) const { return (mid(angle) + lower(angle)).norm(); }
+
+    // |start -> end|^2 - reach^2 and its derivative in the angle.
+    std::pair<double, double> residual(double angle, double reach) const
+    {
+        const Eigen::Vector3d l = lower(angle);
+        const Eigen::Vector3d end = mid(angle) + l;
+        const Eigen::Vector3d velocity = (slide + 2.0 * slideQuadratic * angle) * slideDirection + axis.cross(l);
+        return {end.squaredNorm() - reach * reach, 2.0 * end.dot(velocity)};
+    }
+
+    // upper . lower(angle) = p + m cos(angle - phi) for the rigid hinge: phi is where it is straightest.
+    double straightest() const
+    {
+        const Eigen::Vector3d across = restLower - restLower.dot(axis) * axis;
+        return std::atan2(upper.dot(axis.cross(across)), upper.dot(across));
+    }
+
+    // The angle on the bending branch, phi to phi + pi, that puts the end `reach` from the start: Newton from
+    // the rigid hinge's closed form, kept inside a shrinking bracket (the distance falls along the branch); a
+    // reach beyond the branch's ends clamps to them.
+    double angle(double phi, double reach) const
+    {
+        double lo = phi, hi = phi + std::numbers::pi;
+        if (!(residual(lo, reach).first > 0.0)) return lo;
+        if (!(residual(hi, reach).first < 0.0)) return hi;
+        const Eigen::Vector3d along = restLower.dot(axis) * axis;
+        const Eigen::Vector3d across = restLower - along;
+        const double m = std::hypot(upper.dot(across), upper.dot(axis.cross(across)));
+        const double c =
+            (reach * reach - upper.squaredNorm() - restLower.squaredNorm() - 2.0 * upper.dot(along)) / (2.0 * m);
+        double x = m > 0.0 ? phi + std::acos(std::clamp(c, -1.0, 1.0)) : 0.5 * (lo + hi);
+        for (int iteration = 0; iteration < 100; ++iteration) {
+            const auto [f, df] = residual(x, reach);
+            if (f == 0.0) break;
+            (f > 0.0 ? lo : hi) = x;
+            const double newton = x - f / df;
+            const double next = df < 0.0 && newton > lo && newton < hi ? newton : 0.5 * (lo + hi);
+            const bool done = std::abs(next - x) <= 1e-15 * (1.0 + std::abs(x));
+            x = next;
+            if (done) break;
+        }
+        return x;
+    }
 };
 
 // The rest pose: zero rotations, rest translates.
@@ -119,18 +185,29 @@ Solution solve(const Inputs& in)
     if (twoBones && n.norm() > parallelTolerance * l1 * l2) n.normalize();
     else n = perpendicularFrom(chainDirection, {midOrient.col(2), midOrient.col(1), midOrient.col(0)});
 
+    // A given hinge axis, or a mid joint that slides as it bends: the hinge chain's angle by Newton (the rigid
+    // rest-plane hinge keeps its closed form below). Its longest reach is where it is straightest.
+    const bool hinge = twoBones && (in.bendAxis.squaredNorm() > 0.0 || in.slide != 0.0 || in.slideQuadratic != 0.0);
+    const Eigen::Vector3d localAxis =
+        in.bendAxis.squaredNorm() > 0.0 ? in.bendAxis.normalized() : Eigen::Vector3d(midOrient.transpose() * n);
+    const HingeChain hingeChain{
+        u, restB, midOrient * localAxis, Eigen::Vector3d::Unit(in.slideAxis), in.slide, in.slideQuadratic};
+    const double phi = hinge ? hingeChain.straightest() : 0.0;
+    const double longest = hinge ? hingeChain.distance(phi) : chain;
+
     // Reach: soft IK eases the distance in over the last `softness` cm; stretch scales both bones.
     const double distance = goal.stableNorm();  // no overflow for far goals
-    const double soft = std::clamp(in.softness, 0.0, chain);
-    double reach = std::min(distance, chain);
-    if (soft > 0.0 && distance > chain - soft)
-        reach = (chain - soft) + soft * (1.0 - std::exp(-(distance - (chain - soft)) / soft));
+    const double soft = std::clamp(in.softness, 0.0, longest);
+    double reach = std::min(distance, longest);
+    if (soft > 0.0 && distance > longest - soft)
+        reach = (longest - soft) + soft * (1.0 - std::exp(-(distance - (longest - soft)) / soft));
     const double k = in.stretch && distance > reach && reach > 0.0 ? distance / reach : 1.0;
 
     // Mid joint: rotate about n so that |start -> end| = k * reach. theta is the angle from the upper
     // bone to the lower one about n (0 = straight), theta0 its rest value.
     double delta = 0.0;
-    if (twoBones) {
+    if (hinge) delta = hingeChain.angle(phi, reach);
+    else if (twoBones) {
         // Law of cosines, reach^2 = l1^2 + l2^2 + 2 l1 l2 cos(theta), in its half-angle form
         // sin^2(theta / 2) = (L - reach)(L + reach) / (4 l1 l2): exact at full extension, well
         // conditioned near it, and scale-free (the unscaled lengths cannot overflow).
@@ -139,14 +216,23 @@ Solution solve(const Inputs& in)
         const double theta0 = std::atan2(u.cross(restB).dot(n), u.dot(restB));
         delta = theta - theta0;
     }
-    const Eigen::AngleAxisd bend(delta, n);
-    const Eigen::Vector3d upper = k * u;
-    const Eigen::Vector3d lower = bend * (k * restB);
+    const Eigen::Vector3d upper = k * (hinge ? hingeChain.mid(delta) : u);
+    const Eigen::Vector3d lower = hinge ? Eigen::Vector3d(k * hingeChain.lower(delta))
+                                        : Eigen::Vector3d(Eigen::AngleAxisd(delta, n) * (k * restB));
+    // The plane's normal: the rest plane's, or the bent hinge chain's (on a straight one, the hinge axis made
+    // perpendicular to the chain, its limit as the chain starts to bend).
+    Eigen::Vector3d normal = n;
+    if (hinge) {
+        normal = upper.cross(lower);
+        const double size = normal.norm();
+        if (size > parallelTolerance * upper.norm() * lower.norm()) normal /= size;
+        else normal = perpendicularFrom((upper + lower).normalized(), {hingeChain.axis, n});
+    }
     const Eigen::Vector3d end = upper + lower;
 
-    // Chain frame (start joint frame): x1 towards the end, y1 towards the mid joint's side, z1 = -n.
-    const Eigen::Vector3d x1 = end.norm() > tiny ? end.normalized() : perpendicularFrom(n, {chainDirection});
-    const Eigen::Vector3d y1 = perpendicularFrom(x1, {x1.cross(n), chainDirection});
+    // Chain frame (start joint frame): x1 towards the end, y1 towards the mid joint's side, z1 = -normal.
+    const Eigen::Vector3d x1 = end.norm() > tiny ? end.normalized() : perpendicularFrom(normal, {chainDirection});
+    const Eigen::Vector3d y1 = perpendicularFrom(x1, {x1.cross(normal), chainDirection});
     Eigen::Matrix3d b1;
     b1 << x1, y1, x1.cross(y1);
 
@@ -170,9 +256,9 @@ Solution solve(const Inputs& in)
     const Eigen::Matrix3d q = b2 * b1.transpose();
     Solution s;
     s.startRotate = eulerNearZero(startOrient.transpose() * q, in.startOrder);
-    // Mid joint: JO_mid * R_mid = bend * JO_mid, so R_mid is the bend about JO_mid^T * n.
-    s.midRotate = eulerNearZero(Eigen::AngleAxisd(delta, midOrient.transpose() * n).toRotationMatrix(), in.midOrder);
-    s.midTranslate = k * in.midTranslate;
+    // Mid joint: JO_mid * R_mid = bend * JO_mid, so R_mid is the bend about JO_mid^T * n (or the given axis).
+    s.midRotate = eulerNearZero(Eigen::AngleAxisd(delta, localAxis).toRotationMatrix(), in.midOrder);
+    s.midTranslate = k * (hinge ? hingeChain.mid(delta) : in.midTranslate);
     s.endTranslate = k * in.endTranslate;
     // Overflowing inputs (1e200 cm) must not give NaN: each group falls back on its rest value.
     if (!(s.startRotate.allFinite() && s.midRotate.allFinite())) s.startRotate = s.midRotate = Eigen::Vector3d::Zero();
@@ -202,6 +288,11 @@ public:
         in.twist = c.getDouble(Twist);
         in.stretch = c.getBool(Stretch);
         in.softness = c.getDouble(Softness);
+        in.bendAxis = c.getVector3(BendAxis);
+        in.slide = c.getDouble(MidSlide);
+        in.slideQuadratic = c.getDouble(MidSlideQuadratic);
+        const int slideAxis = c.getEnum(MidSlideAxis);
+        in.slideAxis = slideAxis >= 0 && slideAxis < 3 ? slideAxis : 1;
         const Solution s = solve(in);
         c.setOutput(StartRotate, s.startRotate);
         c.setOutput(MidRotate, s.midRotate);
@@ -224,7 +315,8 @@ std::shared_ptr<const NodeType> makeIkHandleType()
         "chain plane's normal n = midTranslate x (midJointOrient * endTranslate) until |start->end| = reach; "
         "the start joint then aims the end at the goal and turns the chain plane about the start->goal axis "
         "until the mid joint lies on the pole vector's side, then by `twist`. Reach = min(d, L) with d = "
-        "|goal - start| and L = |midTranslate| + |endTranslate|; with softness s > 0 and d > L - s, reach = "
+        "|goal - start| and L = |midTranslate| + |endTranslate| (with bendAxis or midSlide, the hinge chain's "
+        "distance where it is straightest); with softness s > 0 and d > L - s, reach = "
         "(L - s) + s * (1 - exp(-(d - (L - s)) / s)). With stretch and d > reach both bones scale by d / "
         "reach so the end reaches the goal. Degenerate cases: a goal at the start aims along the rest chain; "
         "a zero pole vector or one parallel to start->goal keeps the rest plane (normal JO * n); a straight "
@@ -288,6 +380,26 @@ std::shared_ptr<const NodeType> makeIkHandleType()
             "Soft IK distance s (cm in the start joint's frame; 0 = off, clamped to the chain length L): past "
             "L - s the reach eases in as (L - s) + s * (1 - exp(-(d - (L - s)) / s)) and reaches L only at "
             "infinity, so the knee never snaps straight.");
+    b.input(BendAxis, "bendAxis", ValueType::Vector3)
+        .doc(
+            "The mid joint's hinge axis, in its rotate space (after midJointOrient); positive angles about it bend "
+            "the chain. Zero (the default): the rest chain plane's normal n, Maya's rotate-plane solver. A given "
+            "axis makes the IK bend the mid joint as an FK hinge about that axis does (the knee of a leg whose FK "
+            "control turns about X), with the angle found by Newton's method on the branch from the straightest "
+            "chain to the fully folded one.");
+    b.input(MidSlide, "midSlide", ValueType::Double)
+        .unit(Unit::Distance)
+        .doc(
+            "A mid joint that slides as it bends (slidingPivot's knee): its translate moves along midSlideAxis "
+            "by midSlide * angle + midSlideQuadratic * angle^2 cm (angle: the bend from rest, in radians), and "
+            "the IK accounts for it, so the end still reaches the goal. 0 = a fixed pivot.");
+    b.input(MidSlideQuadratic, "midSlideQuadratic", ValueType::Double)
+        .unit(Unit::Distance)
+        .doc("The slide's quadratic term, cm per radian squared (as slidingPivot's slideQuadratic).");
+    b.input(MidSlideAxis, "midSlideAxis", ValueType::Enum)
+        .enumNames({"x", "y", "z"})
+        .defaultValue(1)
+        .doc("The direction the mid joint slides along, in its translate space (the start joint's frame).");
     b.output(StartRotate, "startRotate", ValueType::Vector3)
         .unit(Unit::Angle)
         .doc(
@@ -301,17 +413,18 @@ std::shared_ptr<const NodeType> makeIkHandleType()
     b.output(OutMidTranslate, "outMidTranslate", ValueType::Vector3)
         .unit(Unit::Distance)
         .doc(
-            "midTranslate scaled by the stretch factor (equal to midTranslate when not stretching). Connect "
-            "to the mid joint's translate.");
+            "midTranslate, moved by the slide (midSlide), scaled by the stretch factor (equal to midTranslate "
+            "for a fixed pivot, not stretching). Connect to the mid joint's translate.");
     b.output(OutEndTranslate, "outEndTranslate", ValueType::Vector3)
         .unit(Unit::Distance)
         .doc(
             "endTranslate scaled by the stretch factor (equal to endTranslate when not stretching). Connect "
             "to the end joint's translate.");
-    // Rotations depend on everything; the stretch factor on the distances only.
-    for (AttrId in = StartParentMatrix; in <= Softness; ++in) b.affects(in, {StartRotate, MidRotate});
-    for (AttrId in : {StartParentMatrix, StartInverseScale, StartTranslate, MidTranslate, EndTranslate, GoalMatrix,
-                      Stretch, Softness})
+    // Rotations depend on everything; the translates on the stretch factor and the slide, which depend on the
+    // distances and the bend.
+    for (AttrId in = StartParentMatrix; in <= MidSlideAxis; ++in) b.affects(in, {StartRotate, MidRotate});
+    for (AttrId in : {StartParentMatrix, StartInverseScale, StartTranslate, MidTranslate, MidJointOrient, EndTranslate,
+                      GoalMatrix, Stretch, Softness, BendAxis, MidSlide, MidSlideQuadratic, MidSlideAxis})
         b.affects(in, {OutMidTranslate, OutEndTranslate});
     b.factory<IkHandleNode>();
     return b.build();

@@ -392,6 +392,51 @@ TEST_CASE("ikHandle: the doc's leg with pole control, soft stretch and IK/FK swi
     CHECK(r.check() == "");
 }
 
+TEST_CASE("ikHandle: a hinge knee that slides (bendAxis, midSlide) reaches every pose its FK knee reaches")
+{
+    // Random FK poses of the doc's sliding knee (the hips turned, the thigh in any direction, the knee bent 2 to
+    // 150 degrees); the IK with its goal on the FK ankle and its pole on the FK knee gives the FK joints back.
+    Rig r("leg-sliding-knee");
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> angle(-60.0, 60.0), bend(2.0, 150.0);
+    for (int pose = 0; pose < 200; ++pose) {
+        CAPTURE(pose);
+        r.set("hips.rotate", v3(deg(angle(rng)), deg(angle(rng)), deg(angle(rng))));
+        r.set("hips.translate", v3(angle(rng) / 6.0, 100.0, angle(rng) / 6.0));
+        r.set("thigh_fk_ctrl.rotate", v3(deg(angle(rng)), deg(angle(rng)), deg(angle(rng))));
+        r.set("knee_fk_ctrl.rotateX", deg(bend(rng)));
+        r.set("leg_settings.ikFk", 0.0);
+        std::vector<Eigen::Matrix4d> fk;
+        for (const char* joint : {"thigh", "knee", "ankle"}) fk.push_back(r.mat(std::string(joint) + ".worldMatrix"));
+        r.set("leg_settings.ikFk", 1.0);
+        r.set("leg_ik_ctrl.translate", Eigen::Vector3d(fk[2].topRightCorner<3, 1>()));
+        r.set("leg_pole_ctrl.translate", Eigen::Vector3d(fk[1].topRightCorner<3, 1>()));
+        int k = 0;
+        for (const char* joint : {"thigh", "knee", "ankle"}) {
+            CAPTURE(joint);
+            CHECK(near(r.mat(std::string(joint) + ".worldMatrix"), fk[static_cast<std::size_t>(k++)], 1e-8));
+        }
+    }
+    // The rest goal and pole give the rest pose; past the longest reach the chain is as straight as the hinge
+    // makes it, pointing at the goal, and stretch reaches the goal.
+    r.set("hips.rotate", v3(0, 0, 0));
+    r.set("hips.translate", v3(0, 100, 0));
+    r.set("leg_ik_ctrl.translate", v3(36, 14, 4));
+    r.set("leg_pole_ctrl.translate", v3(22, 52, 54));
+    CHECK(near(r.vec("thigh.rotate"), v3(0, 0, 0)));
+    CHECK(near(r.vec("knee.rotate"), v3(0, 0, 0)));
+    CHECK(near(r.vec("knee.translate"), v3(14, -38, 0)));
+    const Eigen::Vector3d start = r.position("thigh");
+    const Eigen::Vector3d far = start + 100.0 * (v3(36, 14, 4) - start).normalized();
+    r.set("leg_ik_ctrl.translate", far);
+    const double longest = v3(28, -76, 0).norm();
+    CHECK(std::abs((r.position("ankle") - start).norm() - longest) < 1e-9);
+    CHECK((r.position("ankle") - start).normalized().dot((far - start).normalized()) > 1.0 - 1e-12);
+    r.set("leg_ik.stretch", true);
+    CHECK((r.position("ankle") - far).norm() < 1e-9);
+    CHECK(r.check() == "");
+}
+
 TEST_CASE("ikHandle: rotate orders and checked mode over every input")
 {
     // Any start rotate order gives the same pose.
@@ -427,8 +472,8 @@ TEST_CASE("ikHandle: rotate orders and checked mode over every input")
             const rig::Plug plug{node, static_cast<rig::AttrId>(a), -1, -1};
             const double k = 1.0 + pass;
             switch (spec.type) {
-                case rig::ValueType::Enum:
-                    graph.setValue(plug, (pass * 2 + 1) % 6);
+                case rig::ValueType::Enum:  // rotate orders have 6 values, midSlideAxis 3
+                    graph.setValue(plug, (pass * 2 + 1) % (spec.name == "midSlideAxis" ? 3 : 6));
                     break;
                 case rig::ValueType::Bool:
                     graph.setValue(plug, pass != 1);
