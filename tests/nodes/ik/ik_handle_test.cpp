@@ -434,6 +434,15 @@ TEST_CASE("ikHandle: a hinge knee that slides (bendAxis, midSlide) reaches every
     CHECK((r.position("ankle") - start).normalized().dot((far - start).normalized()) > 1.0 - 1e-12);
     r.set("leg_ik.stretch", true);
     CHECK((r.position("ankle") - far).norm() < 1e-9);
+    // Equal bones folded onto each other (the goal at the start, then just off it): finite, folded as far as the
+    // hinge goes.
+    for (const Eigen::Vector3d& goal : {start, Eigen::Vector3d(start + v3(0.01, 0, 0))}) {
+        r.set("leg_ik_ctrl.translate", goal);
+        for (const char* joint : {"thigh", "knee", "ankle"}) {
+            CAPTURE(joint);
+            CHECK(r.mat(std::string(joint) + ".worldMatrix").allFinite());
+        }
+    }
     CHECK(r.check() == "");
 }
 
