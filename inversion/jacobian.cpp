@@ -627,23 +627,32 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
         weight_[i].setZero();
         load_[i].setZero();
     }
-    // An output's rows for a twist (omega, v) of a node above it: w_p (omega x p + v) and
-    // w_r (w_q I + [v_q]x) Q^T omega (treeJacobian's rigid rows).
+    // An output's rows for a twist (omega, v) of a node above it: B = [[-w_p [p]x, w_p I], [w_r H Q^T, 0]]
+    // (w_p (omega x p + v) and w_r H Q^T omega, treeJacobian's rigid rows) with H = w_q I + [v_q]x. For a unit
+    // quaternion H^T H = I - v_q v_q^T, so B^T B = [[w_p^2 (|p|^2 I - p p^T) + w_r^2 (I - u u^T), w_p^2 [p]x],
+    // [-w_p^2 [p]x, w_p^2 I]] with u = Q v_q, and B^T r = (w_p p x r_p + w_r Q H^T r_q, w_p r_p).
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
         const int deepest = s.outputDeepest_[o];
         if (deepest < 0) continue;
         const PreparedTarget& t = targets_[o];
         const Eigen::Matrix3d q = worlds_[o].block<3, 3>(0, 0);
+        const Eigen::Vector3d p = worlds_[o].block<3, 1>(0, 3);
         const Eigen::Quaterniond& e = quaternion_[o];  // residualRows' (halfAngle)
-        const Eigen::Matrix3d halfRows = e.w() * Eigen::Matrix3d::Identity() + skew(e.vec());
-        Eigen::Matrix<double, 6, 6> b;
-        b.topLeftCorner<3, 3>() = -t.positionWeight * skew(worlds_[o].block<3, 1>(0, 3));
-        b.topRightCorner<3, 3>() = t.positionWeight * Eigen::Matrix3d::Identity();
-        b.bottomLeftCorner<3, 3>().noalias() = t.rotationWeight * halfRows * q.transpose();
-        b.bottomRightCorner<3, 3>().setZero();
+        const Eigen::Vector3d u = q * e.vec();
+        const double wp = t.positionWeight, wr = t.rotationWeight;
+        const double wp2 = wp * wp, wr2 = wr * wr;
         const std::size_t d = static_cast<std::size_t>(deepest);
-        weight_[d].noalias() += b.transpose() * b;
-        load_[d].noalias() += b.transpose() * r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o));
+        Eigen::Matrix<double, 6, 6>& w = weight_[d];
+        w.topLeftCorner<3, 3>().noalias() += (wp2 * p.squaredNorm() + wr2) * Eigen::Matrix3d::Identity() -
+                                             wp2 * p * p.transpose() - wr2 * u * u.transpose();
+        const Eigen::Matrix3d coupling = wp2 * skew(p);
+        w.topRightCorner<3, 3>() += coupling;
+        w.bottomLeftCorner<3, 3>() -= coupling;
+        w.bottomRightCorner<3, 3>().diagonal().array() += wp2;
+        const auto rows = r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o));
+        const Eigen::Vector3d rp = rows.head<3>(), rq = rows.tail<3>();
+        load_[d].head<3>() += wp * p.cross(rp) + wr * (q * (e.w() * rq - e.vec().cross(rq)));
+        load_[d].tail<3>() += wp * rp;
     }
     // Children after parents: summed leaves first, each node's sums cover every output below it.
     for (auto it = s.unknownNodes_.rbegin(); it != s.unknownNodes_.rend(); ++it) {
