@@ -258,11 +258,19 @@ struct Plan {
             plan->elimination = std::make_unique<BlockElimination>(tree, plan->structure);
             trees.push_back(std::move(plan));
         }
+        if (trees.size() == 1) {
+            const BlockPlan* tree =
+                trees[0] ? trees[0].get() : blocks[static_cast<std::size_t>(partition.roots[0])].get();
+            if (tree->structure.outputs() == whole.outputs()) system = tree;
+        }
     }
     // With SolverOptions::coupledBlocks, per root of the partition: its tree's blocks solved at once,
     // the step by block elimination; null for a tree of one block (blocks[root] solves it). Empty when
     // the blocks are solved one after another.
     std::vector<std::unique_ptr<BlockPlan>> trees;
+    // The coupled solve's one system when it has every counted output as its rows: its first evaluation is
+    // then the whole's (the same products in the same order), null otherwise.
+    const BlockPlan* system = nullptr;
     // The steps of initialGuess, made when first needed: parents first, each counted output with the
     // solved parameters that reach it and no output before it.
     const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation,
@@ -303,7 +311,8 @@ struct BlockResult {
     int gaussNewton = 0;
     int levenbergMarquardt = 0;
     bool converged = false;
-    double cost = 0.0;  // 1/2 |r|^2 over the block's rows at the values returned
+    double cost = 0.0;         // 1/2 |r|^2 over the block's rows at the values returned
+    double initialCost = 0.0;  // the same at the values given, clamped to the limits
 };
 
 // An angular unknown of Solver::initialGuess and its three starts.
@@ -701,6 +710,7 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
     };
     bool finite = linearize(false);
     double cost = 0.5 * w.r.squaredNorm();
+    result.initialCost = cost;
     StepControl control(o);
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
         double largestDiagonal = 0.0;
@@ -928,7 +938,16 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
         }
     };
     if (plan->whole.outputs().empty()) return;  // noTargets
-    measure(false);
+    // The initial cost is the one system's own first cost when that evaluation is the whole's, bit for bit:
+    // residuals straight from the tree of products (analytic, twist form) at values within the limits.
+    const BlockPlan* system = plan->system;
+    bool initialFromSolve =
+        system && impl.options.jacobian == JacobianMethod::analytic && system->structure.twistForm();
+    for (std::size_t c = 0; initialFromSolve && c < system->lower.size(); ++c) {
+        const double v = values[static_cast<std::size_t>(system->structure.columns()[c])];
+        initialFromSolve = v >= system->lower[c] && v <= system->upper[c];
+    }
+    if (!initialFromSolve) measure(false);
     summary.blocks = static_cast<int>(partition.blocks.size());
     if (partition.blocks.empty()) {
         measure(true);
@@ -978,6 +997,7 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
         converged = converged && r.converged;
     }
     summary.iterations = summary.gaussNewtonIterations + summary.levenbergMarquardtIterations;
+    if (initialFromSolve) summary.initialCost = results[0].initialCost;
     measure(true);
     if (!converged) summary.termination = TerminationType::noConvergence;
     else summary.termination = summary.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
