@@ -221,6 +221,7 @@ private:
     std::vector<Affine> velocity_;                           // per unknown node: Xi
     std::vector<Eigen::Matrix<double, 6, 1>> twist_, load_;  // per unknown node: (omega, v); sum of B_k^T r_k below
     std::vector<Eigen::Matrix<double, 6, 6>> weight_;        // per unknown node: sum of B_k^T B_k below
+    std::vector<char> fresh_;                                // per unknown node: its sums not yet begun
     std::vector<Eigen::Matrix4d> constants_;                 // per chain, C_0 .. C_v
     std::vector<char> identity_;                             // per constant: it is I (skip the product)
     std::vector<int> constantOffset_;                        // per chain
