@@ -333,9 +333,8 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
         const auto& node = s.nodes_[n];
         if (node.slot >= 0) continue;
         const ModelledParameter& m = approx.parameters[static_cast<std::size_t>(node.parameter)];
-        heldMatrix_[n] = m.operators[static_cast<std::size_t>(node.op)]
-                             .matrix(values[static_cast<std::size_t>(node.parameter)] - m.parameter.defaultValue)
-                             .topRows<3>();
+        heldMatrix_[n] = m.operators[static_cast<std::size_t>(node.op)].affineRows(
+            values[static_cast<std::size_t>(node.parameter)] - m.parameter.defaultValue);
         if (node.constant)
             nodeMatrix_[n] = node.parent < 0
                                  ? heldMatrix_[n]
@@ -388,7 +387,7 @@ void ResidualWorkspace::evaluateSlots(std::span<const double> x, bool derivative
         const Operator& op = m.operators[static_cast<std::size_t>(slot.op)];
         const double a = x[static_cast<std::size_t>(slot.column)] - m.parameter.defaultValue;
         slotOffset_[i] = a;
-        slotMatrix_[i] = op.matrix(a);
+        slotMatrix_[i].topRows<3>() = op.affineRows(a);  // the last row stays 0 0 0 1
         if (!derivatives) continue;
         // The two commonest kinds from the matrix just made (Operator::derivative would make the
         // rotation again): dR/da = m'(a) [n]x R about the pivot.
