@@ -466,6 +466,15 @@ void ResidualWorkspace::residualRows(Eigen::Ref<Eigen::VectorXd> r)
     }
 }
 
+TargetError ResidualWorkspace::error(int o) const
+{
+    const std::size_t i = static_cast<std::size_t>(o);
+    if (!structure_->outputRigid_[i]) return targetError(worlds_[i], targets_[i]);
+    // residualRows' quaternion of Q_target^T Q (w >= 0): its angle, as targetError's AngleAxis takes it.
+    const Eigen::Quaterniond& e = quaternion_[i];
+    return {(worlds_[i].block<3, 1>(0, 3) - targets_[i].position).norm(), 2.0 * std::atan2(e.vec().norm(), e.w())};
+}
+
 void ResidualWorkspace::residuals(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r)
 {
     evaluateSlots(x, false);

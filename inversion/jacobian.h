@@ -195,6 +195,8 @@ public:
                               Eigen::Ref<Eigen::MatrixXd> jacobian);
     // World matrix of output position o (in structure().outputs()) at the last evaluation.
     const Eigen::Matrix4d& world(int o) const { return worlds_[static_cast<std::size_t>(o)]; }
+    // targetError of output position o at the last evaluation (a rigid output's from its residual's quaternion).
+    TargetError error(int o) const;
 
 private:
     using Affine =
