@@ -667,9 +667,10 @@ bool Solver::Impl::keepNear(const BlockPlan& block, BlockWorkspace& w, std::span
     const auto wrap = [&](std::size_t c, double x) {
         const double start = at(c);
         if (!(block.period[c] > 0.0) || !std::isfinite(start)) return x;
-        // Within half a period of the start a value is kept as it is: only whole periods are taken off.
-        const double d = x - start, r = std::remainder(d, block.period[c]);
-        return r == d ? x : start + r;
+        // Within half a period of the start (where the remainder is x - start itself) a value is kept as it
+        // is: only whole periods are taken off.
+        const double d = x - start;
+        return std::abs(d) <= 0.5 * block.period[c] ? x : start + std::remainder(d, block.period[c]);
     };
     for (std::size_t c = 0; c < n; ++c) {
         const double wrapped = wrap(c, w.x[c]);
