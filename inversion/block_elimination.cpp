@@ -4,7 +4,6 @@
 #include <cmath>
 
 #include <fmt/format.h>
-#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
 #include "core/error.h"
@@ -209,17 +208,30 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
     // S_b^-1 = F^T F with F = L^-1 (S = L L^T), or S^+ = F^T F with F = diag(lambda^-1/2) V^T on the range.
     // S is symmetric by construction; only its lower triangle is read.
     const Eigen::Index n = e_->size_[b];
-    BlockMap l(squares_.data() + e_->square_[b], n, n);
-    std::copy(s, s + n * n, l.data());
-    l.diagonal().array() += mu;
-    const double largestDiagonal = l.diagonal().maxCoeff();
-    const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(l);  // in place: L over the damped copy
-    bool wellConditioned = llt.info() == Eigen::Success && largestDiagonal > 0;
-    if (wellConditioned)
-        for (Eigen::Index i = 0; i < n; ++i)
-            if (!(l(i, i) * l(i, i) > rankTolerance * largestDiagonal)) wellConditioned = false;
+    double* l = squares_.data() + e_->square_[b];
+    std::copy(s, s + n * n, l);
+    double largestDiagonal = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) largestDiagonal = std::max(largestDiagonal, l[i * n + i] += mu);
+    // Cholesky in place, a column at a time: column j loses its products with the columns before it, then
+    // is divided by its pivot's root. A pivot at or below the rank tolerance leaves it to the range.
+    bool wellConditioned = largestDiagonal > 0;
+    for (Eigen::Index j = 0; wellConditioned && j < n; ++j) {
+        double* column = l + j * n;
+        subtractMany(l + j, n, l + j, n, j, column + j, n - j);
+        if (!(column[j] > rankTolerance * largestDiagonal)) {
+            wellConditioned = false;
+            break;
+        }
+        column[j] = std::sqrt(column[j]);
+        for (Eigen::Index i = j + 1; i < n; ++i) column[i] /= column[j];
+    }
     triangular_[b] = wellConditioned;
-    if (wellConditioned) return l.allFinite();
+    if (wellConditioned) {
+        for (Eigen::Index j = 0; j < n; ++j)
+            for (Eigen::Index i = j; i < n; ++i)
+                if (!std::isfinite(l[j * n + i])) return false;
+        return true;
+    }
     Eigen::MatrixXd& f = factor_[b];
     f = ConstBlockMap(s, n, n);
     f.diagonal().array() += mu;
