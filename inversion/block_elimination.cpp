@@ -194,11 +194,17 @@ void subtractMany(const double* s, Eigen::Index sStride, const double* y, Eigen:
     }
 }
 
+// Two partial sums, which the compiler can pair in one register (one running sum it could not).
 double dot(const double* x, const double* y, Eigen::Index n)
 {
-    double sum = 0.0;
-    for (Eigen::Index k = 0; k < n; ++k) sum += x[k] * y[k];
-    return sum;
+    double even = 0.0, odd = 0.0;
+    Eigen::Index k = 0;
+    for (; k + 1 < n; k += 2) {
+        even += x[k] * y[k];
+        odd += x[k + 1] * y[k + 1];
+    }
+    if (k < n) even += x[k] * y[k];
+    return even + odd;
 }
 
 }  // namespace
@@ -213,7 +219,8 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
     double largestDiagonal = 0.0;
     for (Eigen::Index i = 0; i < n; ++i) largestDiagonal = std::max(largestDiagonal, l[i * n + i] += mu);
     // Cholesky in place, a column at a time: column j loses its products with the columns before it, then
-    // is divided by its pivot's root. A pivot at or below the rank tolerance leaves it to the range.
+    // is divided by its pivot's root. A pivot at or below the rank tolerance leaves it to the range. The
+    // diagonal keeps 1 / L(j, j): the triangular solves multiply by it.
     bool wellConditioned = largestDiagonal > 0;
     for (Eigen::Index j = 0; wellConditioned && j < n; ++j) {
         double* column = l + j * n;
@@ -222,8 +229,8 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
             wellConditioned = false;
             break;
         }
-        column[j] = std::sqrt(column[j]);
-        for (Eigen::Index i = j + 1; i < n; ++i) column[i] /= column[j];
+        column[j] = 1.0 / std::sqrt(column[j]);
+        for (Eigen::Index i = j + 1; i < n; ++i) column[i] *= column[j];
     }
     triangular_[b] = wellConditioned;
     if (wellConditioned) {
@@ -252,7 +259,7 @@ void BlockEliminationWorkspace::applyF(std::size_t b, double* x)
     if (triangular_[b]) {  // x <- L^-1 x, column by column of L
         const double* l = squares_.data() + e_->square_[b];
         for (Eigen::Index k = 0; k < n; ++k) {
-            x[k] /= l[k * n + k];
+            x[k] *= l[k * n + k];
             axpy(-x[k], l + k * n + k + 1, x + k + 1, n - k - 1);
         }
         return;
@@ -268,7 +275,7 @@ void BlockEliminationWorkspace::applyFTransposed(std::size_t b, double* x)
     const Eigen::Index n = e_->size_[b];
     if (triangular_[b]) {  // x <- L^-T x
         const double* l = squares_.data() + e_->square_[b];
-        for (Eigen::Index k = n; k-- > 0;) x[k] = (x[k] - dot(l + k * n + k + 1, x + k + 1, n - k - 1)) / l[k * n + k];
+        for (Eigen::Index k = n; k-- > 0;) x[k] = (x[k] - dot(l + k * n + k + 1, x + k + 1, n - k - 1)) * l[k * n + k];
         return;
     }
     double* product = scratch_.data();
@@ -285,7 +292,7 @@ void BlockEliminationWorkspace::couplingRows(std::size_t b, const double* w, dou
             double* row = rows + k * m;
             for (Eigen::Index c = 0; c < m; ++c) row[c] = w[c * n + k];
             subtractMany(l + k, n, rows, m, k, row, m);
-            for (Eigen::Index c = 0; c < m; ++c) row[c] /= l[k * n + k];
+            for (Eigen::Index c = 0; c < m; ++c) row[c] *= l[k * n + k];
         }
         return;
     }

@@ -94,7 +94,7 @@ private:
     std::vector<double> entries_;
     std::vector<double> work_;       // the panels of blocks with children, copied from entries_ and damped: the
                                      // elimination's Schur complements land there (same layout); leaves read entries_
-    std::vector<double> squares_;    // per block: L of the damped S_b, column-major
+    std::vector<double> squares_;    // per block: L of the damped S_b, column-major, 1 / L(j, j) on its diagonal
     std::vector<double> couplings_;  // per block: T = F (its coupling columns), row-major, a row per block column
     std::vector<Eigen::MatrixXd> factor_;  // per block: F where S_b is singular
     std::vector<char> triangular_;         // per block: F = L^-1 (L in squares_)
