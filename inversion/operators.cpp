@@ -89,12 +89,11 @@ Eigen::Matrix4d Operator::matrix(double a) const
 Eigen::Matrix<double, 3, 4> Operator::affineRows(double a) const
 {
     a = std::clamp(a, low, high);
-    Eigen::Matrix<double, 3, 4> m;
+    Eigen::Matrix<double, 3, 4> m;  // one named result, built in place
     // [L, p - L p]: a linear map L about the pivot p.
     const auto aboutPivot = [&](const Eigen::Matrix3d& linear) {
         m.leftCols<3>() = linear;
         m.col(3) = pivot - linear * pivot;
-        return m;
     };
     switch (kind) {
         case OperatorKind::translation:
@@ -102,11 +101,14 @@ Eigen::Matrix<double, 3, 4> Operator::affineRows(double a) const
             m.col(3) = magnitude(a) * axis;
             return m;
         case OperatorKind::rotation:
-            return aboutPivot(Eigen::AngleAxisd(magnitude(a), axis).toRotationMatrix());
+            aboutPivot(Eigen::AngleAxisd(magnitude(a), axis).toRotationMatrix());
+            return m;
         case OperatorKind::axisScale:
-            return aboutPivot(Eigen::Matrix3d::Identity() + magnitude(a) * axis * axis.transpose());
+            aboutPivot(Eigen::Matrix3d::Identity() + magnitude(a) * axis * axis.transpose());
+            return m;
         case OperatorKind::uniformScale:
-            return aboutPivot((1.0 + magnitude(a)) * Eigen::Matrix3d::Identity());
+            aboutPivot((1.0 + magnitude(a)) * Eigen::Matrix3d::Identity());
+            return m;
         case OperatorKind::sampledRigid: {
             const auto v = rigid.value(a);
             m.leftCols<3>() = rotationFromVector(v.head<3>());
