@@ -65,11 +65,13 @@ Vector6d residual6(const Eigen::Matrix4d& world, const PreparedTarget& t, bool r
 
 using Affine = Eigen::Matrix<double, 3, 4>;
 
-// a * b for 4x4 matrices whose last rows are 0 0 0 1, kept as their top three rows.
-[[gnu::always_inline]] inline Affine compose(const Affine& a, const Affine& b)
+// a * b for 4x4 matrices whose last rows are 0 0 0 1, kept as their top three rows (b: any 3x4, such as a
+// 4x4's top rows, read in place).
+template <class B>
+[[gnu::always_inline]] inline Affine compose(const Affine& a, const Eigen::MatrixBase<B>& b)
 {
     Affine r;
-    r.leftCols<3>().noalias() = a.leftCols<3>() * b.leftCols<3>();
+    r.leftCols<3>().noalias() = a.leftCols<3>() * b.template leftCols<3>();
     r.col(3).noalias() = a.leftCols<3>() * b.col(3);
     r.col(3) += a.col(3);
     return r;
@@ -432,9 +434,15 @@ void ResidualWorkspace::evaluateTree()
     for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
         const auto& node = s.nodes_[n];
         if (node.constant) continue;
-        const Affine item =
-            node.slot >= 0 ? Affine(slotMatrix_[static_cast<std::size_t>(node.slot)].topRows<3>()) : heldMatrix_[n];
-        nodeMatrix_[n] = node.parent < 0 ? item : compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], item);
+        Affine& product = nodeMatrix_[n];
+        if (node.slot >= 0) {
+            const auto item = slotMatrix_[static_cast<std::size_t>(node.slot)].topRows<3>();
+            if (node.parent < 0) product = item;
+            else product = compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], item);
+        } else {
+            if (node.parent < 0) product = heldMatrix_[n];
+            else product = compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], heldMatrix_[n]);
+        }
     }
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
         const Eigen::Matrix4d& rest = s.approximation_->outputs[static_cast<std::size_t>(s.outputs_[o])].rest;
