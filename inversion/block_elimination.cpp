@@ -176,7 +176,7 @@ void axpy(double s, const double* y, double* x, Eigen::Index n)
 }
 
 // x -= s_0 y_0 + s_1 y_1 + ... (s_i = s[i * sStride], y_i = y + i * yStride), term by term in that order as
-// successive axpy calls would, but four terms per pass: x is loaded and stored a quarter as often.
+// successive axpy calls would, but up to four terms per pass: x is loaded and stored a quarter as often.
 void subtractMany(const double* s, Eigen::Index sStride, const double* y, Eigen::Index yStride, Eigen::Index count,
                   double* x, Eigen::Index n)
 {
@@ -187,7 +187,13 @@ void subtractMany(const double* s, Eigen::Index sStride, const double* y, Eigen:
         const double *y0 = y + i * yStride, *y1 = y0 + yStride, *y2 = y1 + yStride, *y3 = y2 + yStride;
         for (Eigen::Index k = 0; k < n; ++k) x[k] = (((x[k] - s0 * y0[k]) - s1 * y1[k]) - s2 * y2[k]) - s3 * y3[k];
     }
-    for (; i < count; ++i) {
+    if (i + 2 <= count) {
+        const double s0 = s[i * sStride], s1 = s[(i + 1) * sStride];
+        const double *y0 = y + i * yStride, *y1 = y0 + yStride;
+        for (Eigen::Index k = 0; k < n; ++k) x[k] = (x[k] - s0 * y0[k]) - s1 * y1[k];
+        i += 2;
+    }
+    if (i < count) {
         const double si = s[i * sStride];
         const double* yi = y + i * yStride;
         for (Eigen::Index k = 0; k < n; ++k) x[k] -= si * yi[k];
