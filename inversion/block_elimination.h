@@ -19,7 +19,6 @@
 #include <utility>
 #include <vector>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 
@@ -48,12 +47,17 @@ private:
     std::vector<std::vector<int>> columns_;  // per block: its structure columns, in order
     std::vector<int> blockOfColumn_, localOfColumn_;
     // Per block and chain entry: where that block of J^T J (the block's columns as rows, column-major)
-    // starts in the flat entries.
+    // starts in the flat entries. A block's entries along its chain are contiguous: its panel, its rows
+    // against its own columns and then its ancestors' (ancestors_ of them), column-major.
     std::vector<std::vector<int>> base_;
     // Per block: the (block, chain entry) pairs whose columns are its columns (its descendants' couplings).
     std::vector<std::vector<std::pair<int, int>>> coupledBelow_;
+    std::vector<int> ancestors_;  // per block: its ancestors' columns, summed
+    std::vector<int> square_;     // per block: where its factor starts in the workspace's factors (size squared)
+    std::vector<int> coupling_;   // per block: where its rows of T start in the workspace's couplings
     std::vector<int> layout_;
     int entryCount_ = 0;
+    int squareCount_ = 0, couplingCount_ = 0;
 };
 
 // Per-solve state: the blocks of J^T J along each chain, the right-hand sides and the blocks' factors.
@@ -78,23 +82,22 @@ private:
     using ConstBlockMap = Eigen::Map<const Eigen::MatrixXd>;
     BlockMap block(std::size_t b, std::size_t i);
     ConstBlockMap block(std::size_t b, std::size_t i) const;
-    BlockMap eliminated(std::size_t b, std::size_t i);  // in work_
-    double* coupling(std::size_t b, std::size_t i);     // in coupling_, i >= 1
-    double* transposed(std::size_t b, std::size_t i);   // in transposed_, i >= 1
-    // S_b^-1 (or S_b^+) = F^T F from eliminated(b, 0): L of S_b = L L^T, F = L^-1 (triangular_), else F in
-    // factor_. False when S_b has no finite inverse.
-    bool factor(std::size_t b);
+    // S_b^-1 (or S_b^+) = F^T F for S_b (s: its panel's first columns) plus mu I: S_b = L L^T, F = L^-1 (L in
+    // squares_), else F in factor_. False when S_b has no finite inverse.
+    bool factor(std::size_t b, const double* s, double mu);
     void applyF(std::size_t b, double* x);            // x <- F x, in place
     void applyFTransposed(std::size_t b, double* x);  // x <- F^T x, in place
+    // T = F W into rows, row-major (W: the panel's columns after S_b, column-major; a row of T per block column).
+    void couplingRows(std::size_t b, const double* w, double* rows);
 
     const BlockElimination* e_;
     std::vector<double> entries_;
-    std::vector<double> work_;             // a copy of entries_ that the elimination overwrites (same layout)
-    std::vector<double> coupling_;         // block (b, i >= 1): T_i = F_b times work's (b, i), in the same layout
-    std::vector<double> transposed_;       // T_i^T, column-major, at the same offsets
+    std::vector<double> work_;       // the panels of blocks with children, copied from entries_ and damped: the
+                                     // elimination's Schur complements land there (same layout); leaves read entries_
+    std::vector<double> squares_;    // per block: L of the damped S_b, column-major, 1 / L(j, j) on its diagonal
+    std::vector<double> couplings_;  // per block: T = F (its coupling columns), row-major, a row per block column
     std::vector<Eigen::MatrixXd> factor_;  // per block: F where S_b is singular
-    std::vector<char> triangular_;         // per block: F = L^-1 (the Cholesky factor in llt_)
-    std::vector<Eigen::LLT<Eigen::MatrixXd>> llt_;
+    std::vector<char> triangular_;         // per block: F = L^-1 (L in squares_)
     std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen_;
     std::vector<Eigen::VectorXd> rhs_;  // per block: its right-hand side, then y, then its step
     std::vector<double> scratch_;

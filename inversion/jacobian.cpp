@@ -65,11 +65,13 @@ Vector6d residual6(const Eigen::Matrix4d& world, const PreparedTarget& t, bool r
 
 using Affine = Eigen::Matrix<double, 3, 4>;
 
-// a * b for 4x4 matrices whose last rows are 0 0 0 1, kept as their top three rows.
-[[gnu::always_inline]] inline Affine compose(const Affine& a, const Affine& b)
+// a * b for 4x4 matrices whose last rows are 0 0 0 1, kept as their top three rows (b: any 3x4, such as a
+// 4x4's top rows, read in place).
+template <class B>
+[[gnu::always_inline]] inline Affine compose(const Affine& a, const Eigen::MatrixBase<B>& b)
 {
     Affine r;
-    r.leftCols<3>().noalias() = a.leftCols<3>() * b.leftCols<3>();
+    r.leftCols<3>().noalias() = a.leftCols<3>() * b.template leftCols<3>();
     r.col(3).noalias() = a.leftCols<3>() * b.col(3);
     r.col(3) += a.col(3);
     return r;
@@ -316,6 +318,7 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     twist_.assign(s.nodes_.size(), Vector6d::Zero());
     load_.assign(s.nodes_.size(), Vector6d::Zero());
     weight_.assign(s.nodes_.size(), Eigen::Matrix<double, 6, 6>::Zero());
+    fresh_.assign(s.nodes_.size(), 0);
 }
 
 void ResidualWorkspace::holdParameters(std::span<const double> values)
@@ -332,9 +335,8 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
         const auto& node = s.nodes_[n];
         if (node.slot >= 0) continue;
         const ModelledParameter& m = approx.parameters[static_cast<std::size_t>(node.parameter)];
-        heldMatrix_[n] = m.operators[static_cast<std::size_t>(node.op)]
-                             .matrix(values[static_cast<std::size_t>(node.parameter)] - m.parameter.defaultValue)
-                             .topRows<3>();
+        heldMatrix_[n] = m.operators[static_cast<std::size_t>(node.op)].affineRows(
+            values[static_cast<std::size_t>(node.parameter)] - m.parameter.defaultValue);
         if (node.constant)
             nodeMatrix_[n] = node.parent < 0
                                  ? heldMatrix_[n]
@@ -387,7 +389,7 @@ void ResidualWorkspace::evaluateSlots(std::span<const double> x, bool derivative
         const Operator& op = m.operators[static_cast<std::size_t>(slot.op)];
         const double a = x[static_cast<std::size_t>(slot.column)] - m.parameter.defaultValue;
         slotOffset_[i] = a;
-        slotMatrix_[i] = op.matrix(a);
+        slotMatrix_[i].topRows<3>() = op.affineRows(a);  // the last row stays 0 0 0 1
         if (!derivatives) continue;
         // The two commonest kinds from the matrix just made (Operator::derivative would make the
         // rotation again): dR/da = m'(a) [n]x R about the pivot.
@@ -432,9 +434,15 @@ void ResidualWorkspace::evaluateTree()
     for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
         const auto& node = s.nodes_[n];
         if (node.constant) continue;
-        const Affine item =
-            node.slot >= 0 ? Affine(slotMatrix_[static_cast<std::size_t>(node.slot)].topRows<3>()) : heldMatrix_[n];
-        nodeMatrix_[n] = node.parent < 0 ? item : compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], item);
+        Affine& product = nodeMatrix_[n];
+        if (node.slot >= 0) {
+            const auto item = slotMatrix_[static_cast<std::size_t>(node.slot)].topRows<3>();
+            if (node.parent < 0) product = item;
+            else product = compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], item);
+        } else {
+            if (node.parent < 0) product = heldMatrix_[n];
+            else product = compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], heldMatrix_[n]);
+        }
     }
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
         const Eigen::Matrix4d& rest = s.approximation_->outputs[static_cast<std::size_t>(s.outputs_[o])].rest;
@@ -464,6 +472,15 @@ void ResidualWorkspace::residualRows(Eigen::Ref<Eigen::VectorXd> r)
         if (e.w() < 0) e.coeffs() = -e.coeffs();
         rows.tail<3>() = (2.0 * t.rotationWeight) * e.vec();
     }
+}
+
+TargetError ResidualWorkspace::error(int o) const
+{
+    const std::size_t i = static_cast<std::size_t>(o);
+    if (!structure_->outputRigid_[i]) return targetError(worlds_[i], targets_[i]);
+    // residualRows' quaternion of Q_target^T Q (w >= 0): its angle, as targetError's AngleAxis takes it.
+    const Eigen::Quaterniond& e = quaternion_[i];
+    return {(worlds_[i].block<3, 1>(0, 3) - targets_[i].position).norm(), 2.0 * std::atan2(e.vec().norm(), e.w())};
 }
 
 void ResidualWorkspace::residuals(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r)
@@ -622,36 +639,50 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
                                              std::span<double> h)
 {
     const auto& s = *structure_;
-    for (const int n : s.unknownNodes_) {
-        const std::size_t i = static_cast<std::size_t>(n);
-        weight_[i].setZero();
-        load_[i].setZero();
-    }
-    // An output's rows for a twist (omega, v) of a node above it: w_p (omega x p + v) and
-    // w_r (w_q I + [v_q]x) Q^T omega (treeJacobian's rigid rows).
+    // A node's sums are set by their first term rather than zeroed first: two hundred small memsets cost
+    // more than the sums. Every unknown node has an output below it.
+    for (const int n : s.unknownNodes_) fresh_[static_cast<std::size_t>(n)] = 1;
+    const auto add = [&](std::size_t n, const Eigen::Matrix<double, 6, 6>& weight, const Vector6d& load) {
+        if (fresh_[n]) {
+            weight_[n] = weight;
+            load_[n] = load;
+            fresh_[n] = 0;
+            return;
+        }
+        weight_[n] += weight;
+        load_[n] += load;
+    };
+    // An output's rows for a twist (omega, v) of a node above it: B = [[-w_p [p]x, w_p I], [w_r H Q^T, 0]]
+    // (w_p (omega x p + v) and w_r H Q^T omega, treeJacobian's rigid rows) with H = w_q I + [v_q]x. For a unit
+    // quaternion H^T H = I - v_q v_q^T, so B^T B = [[w_p^2 (|p|^2 I - p p^T) + w_r^2 (I - u u^T), w_p^2 [p]x],
+    // [-w_p^2 [p]x, w_p^2 I]] with u = Q v_q, and B^T r = (w_p p x r_p + w_r Q H^T r_q, w_p r_p).
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
         const int deepest = s.outputDeepest_[o];
         if (deepest < 0) continue;
         const PreparedTarget& t = targets_[o];
         const Eigen::Matrix3d q = worlds_[o].block<3, 3>(0, 0);
+        const Eigen::Vector3d p = worlds_[o].block<3, 1>(0, 3);
         const Eigen::Quaterniond& e = quaternion_[o];  // residualRows' (halfAngle)
-        const Eigen::Matrix3d halfRows = e.w() * Eigen::Matrix3d::Identity() + skew(e.vec());
-        Eigen::Matrix<double, 6, 6> b;
-        b.topLeftCorner<3, 3>() = -t.positionWeight * skew(worlds_[o].block<3, 1>(0, 3));
-        b.topRightCorner<3, 3>() = t.positionWeight * Eigen::Matrix3d::Identity();
-        b.bottomLeftCorner<3, 3>().noalias() = t.rotationWeight * halfRows * q.transpose();
-        b.bottomRightCorner<3, 3>().setZero();
-        const std::size_t d = static_cast<std::size_t>(deepest);
-        weight_[d].noalias() += b.transpose() * b;
-        load_[d].noalias() += b.transpose() * r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o));
+        const Eigen::Vector3d u = q * e.vec();
+        const double wp = t.positionWeight, wr = t.rotationWeight;
+        const double wp2 = wp * wp, wr2 = wr * wr;
+        Eigen::Matrix<double, 6, 6> w;
+        w.topLeftCorner<3, 3>().noalias() = (wp2 * p.squaredNorm() + wr2) * Eigen::Matrix3d::Identity() -
+                                            wp2 * p * p.transpose() - wr2 * u * u.transpose();
+        w.topRightCorner<3, 3>() = wp2 * skew(p);
+        w.bottomLeftCorner<3, 3>() = -w.topRightCorner<3, 3>();
+        w.bottomRightCorner<3, 3>() = wp2 * Eigen::Matrix3d::Identity();
+        const auto rows = r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o));
+        const Eigen::Vector3d rp = rows.head<3>(), rq = rows.tail<3>();
+        Vector6d load;
+        load << wp * p.cross(rp) + wr * (q * (e.w() * rq - e.vec().cross(rq))), wp * rp;
+        add(static_cast<std::size_t>(deepest), w, load);
     }
     // Children after parents: summed leaves first, each node's sums cover every output below it.
     for (auto it = s.unknownNodes_.rbegin(); it != s.unknownNodes_.rend(); ++it) {
         const std::size_t n = static_cast<std::size_t>(*it);
         const int up = s.unknownUp_[n];
-        if (up < 0) continue;
-        weight_[static_cast<std::size_t>(up)] += weight_[n];
-        load_[static_cast<std::size_t>(up)] += load_[n];
+        if (up >= 0) add(static_cast<std::size_t>(up), weight_[n], load_[n]);
     }
     g.setZero();
     std::fill(h.begin(), h.end(), 0.0);

@@ -195,6 +195,8 @@ public:
                               Eigen::Ref<Eigen::MatrixXd> jacobian);
     // World matrix of output position o (in structure().outputs()) at the last evaluation.
     const Eigen::Matrix4d& world(int o) const { return worlds_[static_cast<std::size_t>(o)]; }
+    // targetError of output position o at the last evaluation (a rigid output's from its residual's quaternion).
+    TargetError error(int o) const;
 
 private:
     using Affine =
@@ -221,6 +223,7 @@ private:
     std::vector<Affine> velocity_;                           // per unknown node: Xi
     std::vector<Eigen::Matrix<double, 6, 1>> twist_, load_;  // per unknown node: (omega, v); sum of B_k^T r_k below
     std::vector<Eigen::Matrix<double, 6, 6>> weight_;        // per unknown node: sum of B_k^T B_k below
+    std::vector<char> fresh_;                                // per unknown node: its sums not yet begun
     std::vector<Eigen::Matrix4d> constants_;                 // per chain, C_0 .. C_v
     std::vector<char> identity_;                             // per constant: it is I (skip the product)
     std::vector<int> constantOffset_;                        // per chain

@@ -20,15 +20,6 @@ constexpr std::array<std::pair<OperatorKind, std::string_view>, 6> kindNames{{
     {OperatorKind::sampledAffine, "sampledAffine"},
 }};
 
-// [L, p - L p]: a linear map L about the pivot p.
-Eigen::Matrix4d aboutPivot(const Eigen::Matrix3d& linear, const Eigen::Vector3d& pivot)
-{
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    m.block<3, 3>(0, 0) = linear;
-    m.block<3, 1>(0, 3) = pivot - linear * pivot;
-    return m;
-}
-
 // The derivative of aboutPivot for a derivative dL of the linear map.
 Eigen::Matrix4d aboutPivotDerivative(const Eigen::Matrix3d& dLinear, const Eigen::Vector3d& pivot)
 {
@@ -90,35 +81,49 @@ double Operator::magnitudeDerivative(double a) const
 
 Eigen::Matrix4d Operator::matrix(double a) const
 {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topRows<3>() = affineRows(a);
+    return m;
+}
+
+Eigen::Matrix<double, 3, 4> Operator::affineRows(double a) const
+{
     a = std::clamp(a, low, high);
+    Eigen::Matrix<double, 3, 4> m;  // one named result, built in place
+    // [L, p - L p]: a linear map L about the pivot p.
+    const auto aboutPivot = [&](const Eigen::Matrix3d& linear) {
+        m.leftCols<3>() = linear;
+        m.col(3) = pivot - linear * pivot;
+    };
     switch (kind) {
-        case OperatorKind::translation: {
-            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-            m.block<3, 1>(0, 3) = magnitude(a) * axis;
+        case OperatorKind::translation:
+            m.leftCols<3>().setIdentity();
+            m.col(3) = magnitude(a) * axis;
             return m;
-        }
         case OperatorKind::rotation:
-            return aboutPivot(Eigen::AngleAxisd(magnitude(a), axis).toRotationMatrix(), pivot);
+            aboutPivot(Eigen::AngleAxisd(magnitude(a), axis).toRotationMatrix());
+            return m;
         case OperatorKind::axisScale:
-            return aboutPivot(Eigen::Matrix3d::Identity() + magnitude(a) * axis * axis.transpose(), pivot);
+            aboutPivot(Eigen::Matrix3d::Identity() + magnitude(a) * axis * axis.transpose());
+            return m;
         case OperatorKind::uniformScale:
-            return aboutPivot((1.0 + magnitude(a)) * Eigen::Matrix3d::Identity(), pivot);
+            aboutPivot((1.0 + magnitude(a)) * Eigen::Matrix3d::Identity());
+            return m;
         case OperatorKind::sampledRigid: {
             const auto v = rigid.value(a);
-            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-            m.block<3, 3>(0, 0) = rotationFromVector(v.head<3>());
-            m.block<3, 1>(0, 3) = v.tail<3>();
+            m.leftCols<3>() = rotationFromVector(v.head<3>());
+            m.col(3) = v.tail<3>();
             return m;
         }
         case OperatorKind::sampledAffine: {
             const auto v = affine.value(a);
-            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
             for (int r = 0; r < 3; ++r)
-                for (int c = 0; c < 4; ++c) m(r, c) += v[4 * r + c];
+                for (int c = 0; c < 4; ++c) m(r, c) = (r == c ? 1.0 : 0.0) + v[4 * r + c];
             return m;
         }
     }
-    return Eigen::Matrix4d::Identity();
+    m.setIdentity();
+    return m;
 }
 
 Eigen::Matrix4d Operator::derivative(double a) const

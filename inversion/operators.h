@@ -50,6 +50,8 @@ struct Operator {
     double magnitude(double a) const;
     double magnitudeDerivative(double a) const;
     Eigen::Matrix4d matrix(double a) const;
+    // matrix(a)'s top three rows (its last row is 0 0 0 1), without making the 4x4.
+    Eigen::Matrix<double, 3, 4> affineRows(double a) const;
     // dP/da, analytic.
     Eigen::Matrix4d derivative(double a) const;
 };

@@ -258,11 +258,22 @@ struct Plan {
             plan->elimination = std::make_unique<BlockElimination>(tree, plan->structure);
             trees.push_back(std::move(plan));
         }
+        if (trees.size() == 1) {
+            const BlockPlan* tree =
+                trees[0] ? trees[0].get() : blocks[static_cast<std::size_t>(partition.roots[0])].get();
+            if (tree->structure.outputs() == whole.outputs()) system = tree;
+            // The whole's workspace made now: solves that take both costs from the system never make it,
+            // and a later one that needs it (values off the limits) must allocate nothing.
+            if (system) wholePool.release(std::make_unique<WholeWorkspace>(whole));
+        }
     }
     // With SolverOptions::coupledBlocks, per root of the partition: its tree's blocks solved at once,
     // the step by block elimination; null for a tree of one block (blocks[root] solves it). Empty when
     // the blocks are solved one after another.
     std::vector<std::unique_ptr<BlockPlan>> trees;
+    // The coupled solve's one system when it has every counted output as its rows: its first evaluation is
+    // then the whole's (the same products in the same order), null otherwise.
+    const BlockPlan* system = nullptr;
     // The steps of initialGuess, made when first needed: parents first, each counted output with the
     // solved parameters that reach it and no output before it.
     const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation,
@@ -303,7 +314,9 @@ struct BlockResult {
     int gaussNewton = 0;
     int levenbergMarquardt = 0;
     bool converged = false;
-    double cost = 0.0;  // 1/2 |r|^2 over the block's rows at the values returned
+    double cost = 0.0;            // 1/2 |r|^2 over the block's rows at the values returned
+    double initialCost = 0.0;     // the same at the values given, clamped to the limits
+    bool evaluatedAtEnd = false;  // the workspace's last evaluation (worlds, w.r) is at the values returned
 };
 
 // An angular unknown of Solver::initialGuess and its three starts.
@@ -421,6 +434,9 @@ struct Solver::Impl {
     // triples are kept nearest to.
     BlockResult solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets, std::span<double> values,
                            bool parallel, std::span<const double> reference = {}) const;
+    // The same in a workspace of block.pool that the caller borrowed, and can read after.
+    BlockResult solveBlock(const BlockPlan& block, BlockWorkspace& w, std::span<const PreparedTarget> targets,
+                           std::span<double> values, bool parallel, std::span<const double> reference = {}) const;
     // Prepares the targets and finds their plan; false (with the termination) when there is nothing to solve.
     bool prepare(std::span<const JointTarget> targets, std::span<const double> values, SolveScratch& scratch,
                  std::shared_ptr<const Plan>& plan, TerminationType& termination);
@@ -433,8 +449,10 @@ struct Solver::Impl {
     // false when the system has no solution. `smallStep`: under parameterTolerance.
     bool trialStep(const BlockPlan& block, BlockWorkspace& w, double damping, bool& smallStep) const;
     // Periodic controls and Euler triples of w.x moved to the equivalent values nearest `near` (one value
-    // per parameter) where the block's `cost` says they are the same pose.
-    void keepNear(const BlockPlan& block, BlockWorkspace& w, std::span<const double> near, double cost) const;
+    // per parameter) where the block's `cost` says they are the same pose. `evaluatedAtX`: whether the
+    // workspace's last evaluation is at w.x; returns whether it still is.
+    bool keepNear(const BlockPlan& block, BlockWorkspace& w, std::span<const double> near, double cost,
+                  bool evaluatedAtX) const;
     // For a block of rotations only: the position part of its cost at `values` when no parameter of the
     // block moves any of its outputs' positions (all pivots at the outputs), else -1.
     double unmovedPositionCost(const BlockPlan& block, std::span<const PreparedTarget> targets,
@@ -638,7 +656,8 @@ bool Solver::Impl::trialStep(const BlockPlan& block, BlockWorkspace& w, double d
     return true;
 }
 
-void Solver::Impl::keepNear(const BlockPlan& block, BlockWorkspace& w, std::span<const double> near, double cost) const
+bool Solver::Impl::keepNear(const BlockPlan& block, BlockWorkspace& w, std::span<const double> near, double cost,
+                            bool evaluatedAtX) const
 {
     const auto& columns = block.structure.columns();
     const std::size_t n = columns.size();
@@ -647,9 +666,17 @@ void Solver::Impl::keepNear(const BlockPlan& block, BlockWorkspace& w, std::span
     const auto at = [&](std::size_t c) { return near[static_cast<std::size_t>(columns[c])]; };
     const auto wrap = [&](std::size_t c, double x) {
         const double start = at(c);
-        return block.period[c] > 0.0 && std::isfinite(start) ? start + std::remainder(x - start, block.period[c]) : x;
+        if (!(block.period[c] > 0.0) || !std::isfinite(start)) return x;
+        // Within half a period of the start (where the remainder is x - start itself) a value is kept as it
+        // is: only whole periods are taken off.
+        const double d = x - start;
+        return std::abs(d) <= 0.5 * block.period[c] ? x : start + std::remainder(d, block.period[c]);
     };
-    for (std::size_t c = 0; c < n; ++c) w.x[c] = wrap(c, w.x[c]);
+    for (std::size_t c = 0; c < n; ++c) {
+        const double wrapped = wrap(c, w.x[c]);
+        evaluatedAtX = evaluatedAtX && wrapped == w.x[c];
+        w.x[c] = wrapped;
+    }
     // And of the two Euler solutions of one pose, the nearer (no flip near gimbal lock, nor through a
     // half turn of all three channels): taken when the block's cost says it is the same pose.
     for (const auto& triple : block.triples) {
@@ -668,17 +695,27 @@ void Solver::Impl::keepNear(const BlockPlan& block, BlockWorkspace& w, std::span
         }
         if (!(other < now)) continue;
         w.residual.residuals(w.trial, w.rTrial);
-        if (std::abs(0.5 * w.rTrial.squaredNorm() - cost) <= 1e-9 * cost + 1e-12) std::swap(w.x, w.trial);
+        evaluatedAtX = std::abs(0.5 * w.rTrial.squaredNorm() - cost) <= 1e-9 * cost + 1e-12;
+        if (evaluatedAtX) {
+            std::swap(w.x, w.trial);
+            w.r.swap(w.rTrial);
+        }
     }
+    return evaluatedAtX;
 }
 
 BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets,
                                      std::span<double> values, bool parallel, std::span<const double> reference) const
 {
-    const ResidualStructure& structure = block.structure;
     Borrowed<BlockWorkspace> borrowed(
-        block.pool, [&] { return std::make_unique<BlockWorkspace>(structure, block.elimination.get()); });
-    BlockWorkspace& w = *borrowed;
+        block.pool, [&] { return std::make_unique<BlockWorkspace>(block.structure, block.elimination.get()); });
+    return solveBlock(block, *borrowed, targets, values, parallel, reference);
+}
+
+BlockResult Solver::Impl::solveBlock(const BlockPlan& block, BlockWorkspace& w, std::span<const PreparedTarget> targets,
+                                     std::span<double> values, bool parallel, std::span<const double> reference) const
+{
+    const ResidualStructure& structure = block.structure;
     const auto& columns = structure.columns();
     const std::size_t n = columns.size();
     const SolverOptions& o = options;
@@ -701,6 +738,8 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
     };
     bool finite = linearize(false);
     double cost = 0.5 * w.r.squaredNorm();
+    result.initialCost = cost;
+    bool evaluatedAtX = true;
     StepControl control(o);
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
         double largestDiagonal = 0.0;
@@ -712,6 +751,7 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
         bool smallStep = false;
         if (!trialStep(block, w, control.damping(largestDiagonal), smallStep)) break;
         w.residual.residuals(w.trial, w.rTrial);
+        evaluatedAtX = false;
         const double trialCost = 0.5 * w.rTrial.squaredNorm();
         (gaussNewton ? result.gaussNewton : result.levenbergMarquardt) += 1;
         // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
@@ -724,6 +764,7 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
             const double decrease = cost - trialCost;
             std::swap(w.x, w.trial);
             w.r.swap(w.rTrial);
+            evaluatedAtX = true;
             cost = trialCost;
             if (smallStep || decrease <= o.functionTolerance * (cost + decrease)) {
                 result.converged = true;
@@ -738,7 +779,8 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const Pre
             break;
         }
     }
-    keepNear(block, w, reference.empty() ? std::span<const double>(values) : reference, cost);
+    result.evaluatedAtEnd =
+        keepNear(block, w, reference.empty() ? std::span<const double>(values) : reference, cost, evaluatedAtX);
     for (std::size_t c = 0; c < n; ++c) values[static_cast<std::size_t>(columns[c])] = w.x[c];
     result.cost = cost;
     return result;
@@ -898,23 +940,15 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     if (summary.termination == TerminationType::invalidTargets) return;
     const Partition& partition = plan->partition;
 
-    // Costs and errors over every counted output, the outputs no parameter reaches included.
-    auto measure = [&](bool final) {
-        const ResidualStructure& whole = plan->whole;
-        Borrowed<WholeWorkspace> w(plan->wholePool, [&] { return std::make_unique<WholeWorkspace>(whole); });
-        w->residual.holdParameters(values);
-        w->residual.setTargets(scratch->prepared);
-        w->residual.residuals({}, w->r);
-        const double cost = 0.5 * w->r.squaredNorm();
-        if (!final) {
-            summary.initialCost = cost;
-            return;
-        }
-        summary.finalCost = cost;
+    // The final cost and errors from an evaluation of every counted output (rows in plan->whole's order).
+    const auto finalErrors = [&](const ResidualWorkspace& residual, const Eigen::VectorXd& r) {
+        const auto& outputs = plan->whole.outputs();
+        summary.finalCost = 0.5 * r.squaredNorm();
         double worst = -1.0;
-        for (std::size_t o = 0; o < whole.outputs().size(); ++o) {
-            const std::size_t k = static_cast<std::size_t>(whole.outputs()[o]);
-            const TargetError e = targetError(w->residual.world(static_cast<int>(o)), scratch->prepared[k]);
+        std::size_t worstOutput = 0;
+        for (std::size_t o = 0; o < outputs.size(); ++o) {
+            const std::size_t k = static_cast<std::size_t>(outputs[o]);
+            const TargetError e = residual.error(static_cast<int>(o));
             const double position = targets[k].positionWeight > 0 ? e.positionCm : 0.0;
             const double rotation = targets[k].rotationWeight > 0 ? e.rotationRad : 0.0;
             summary.maxPositionErrorCm = std::max(summary.maxPositionErrorCm, position);
@@ -923,12 +957,34 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
             if (!(combined <= impl.options.targetTolerance)) summary.missedOutputs.push_back(static_cast<int>(k));
             if (combined > worst) {
                 worst = combined;
-                summary.worstOutput = approximation.outputs[k].name;
+                worstOutput = k;
             }
         }
+        if (worst >= 0.0) summary.worstOutput = approximation.outputs[worstOutput].name;
+    };
+    // Costs and errors over every counted output, the outputs no parameter reaches included.
+    auto measure = [&](bool final) {
+        const ResidualStructure& whole = plan->whole;
+        Borrowed<WholeWorkspace> w(plan->wholePool, [&] { return std::make_unique<WholeWorkspace>(whole); });
+        w->residual.holdParameters(values);
+        w->residual.setTargets(scratch->prepared);
+        w->residual.residuals({}, w->r);
+        if (final) finalErrors(w->residual, w->r);
+        else summary.initialCost = 0.5 * w->r.squaredNorm();
     };
     if (plan->whole.outputs().empty()) return;  // noTargets
-    measure(false);
+    // The one system's evaluations are the whole's, bit for bit, when its residuals come straight from the
+    // tree of products (analytic, twist form): its first one gives the initial cost at values within the
+    // limits, and its last one the final errors when it is at the values returned.
+    const BlockPlan* system = plan->system;
+    if (system && (impl.options.jacobian != JacobianMethod::analytic || !system->structure.twistForm()))
+        system = nullptr;
+    bool initialFromSolve = system != nullptr;
+    for (std::size_t c = 0; initialFromSolve && c < system->lower.size(); ++c) {
+        const double v = values[static_cast<std::size_t>(system->structure.columns()[c])];
+        initialFromSolve = v >= system->lower[c] && v <= system->upper[c];
+    }
+    if (!initialFromSolve) measure(false);
     summary.blocks = static_cast<int>(partition.blocks.size());
     if (partition.blocks.empty()) {
         measure(true);
@@ -936,6 +992,7 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     }
 
     auto& results = scratch->results;
+    std::optional<Borrowed<BlockWorkspace>> systemWorkspace;  // the one system's, read for the final errors
     const bool parallel = impl.options.threads != 1;
     const bool coupled = !plan->trees.empty();
     results.assign(coupled ? plan->trees.size() : partition.blocks.size(), BlockResult{});
@@ -951,7 +1008,12 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
             results[t] = impl.solveBlock(*tree, scratch->prepared, values, parallel);
         };
         const std::size_t trees = plan->trees.size();
-        if (!parallel || trees == 1) {
+        if (system) {
+            systemWorkspace.emplace(system->pool, [&] {
+                return std::make_unique<BlockWorkspace>(system->structure, system->elimination.get());
+            });
+            results[0] = impl.solveBlock(*system, **systemWorkspace, scratch->prepared, values, parallel);
+        } else if (!parallel || trees == 1) {
             for (std::size_t t = 0; t < trees; ++t) solveTree(t);
         } else {
             auto runAll = [&] { tbb::parallel_for(std::size_t{0}, trees, solveTree); };
@@ -978,7 +1040,9 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
         converged = converged && r.converged;
     }
     summary.iterations = summary.gaussNewtonIterations + summary.levenbergMarquardtIterations;
-    measure(true);
+    if (initialFromSolve) summary.initialCost = results[0].initialCost;
+    if (systemWorkspace && results[0].evaluatedAtEnd) finalErrors((*systemWorkspace)->residual, (*systemWorkspace)->r);
+    else measure(true);
     if (!converged) summary.termination = TerminationType::noConvergence;
     else summary.termination = summary.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
 }
