@@ -262,10 +262,24 @@ struct Plan {
             const BlockPlan* tree =
                 trees[0] ? trees[0].get() : blocks[static_cast<std::size_t>(partition.roots[0])].get();
             if (tree->structure.outputs() == whole.outputs()) system = tree;
-            // The whole's workspace made now: solves that take both costs from the system never make it,
-            // and a later one that needs it (values off the limits) must allocate nothing.
-            if (system) wholePool.release(std::make_unique<WholeWorkspace>(whole));
+        } else if (trees.size() > 1) {
+            std::size_t outputs = 0;
+            treesCover = true;
+            for (std::size_t t = 0; t < trees.size(); ++t) {
+                const ResidualStructure& s = tree(t).structure;
+                outputs += s.outputs().size();
+                treesCover = treesCover && s.twistForm();
+            }
+            treesCover = treesCover && outputs == whole.outputs().size();
         }
+        // The whole's workspace made now: solves that take both costs from the system (or the trees) never make
+        // it, and a later one that needs it (values off the limits) must allocate nothing.
+        if (system || treesCover) wholePool.release(std::make_unique<WholeWorkspace>(whole));
+    }
+    // Tree t's plan: its system, or its one block's.
+    const BlockPlan& tree(std::size_t t) const
+    {
+        return trees[t] ? *trees[t] : *blocks[static_cast<std::size_t>(partition.roots[t])];
     }
     // With SolverOptions::coupledBlocks, per root of the partition: its tree's blocks solved at once,
     // the step by block elimination; null for a tree of one block (blocks[root] solves it). Empty when
@@ -274,6 +288,9 @@ struct Plan {
     // The coupled solve's one system when it has every counted output as its rows: its first evaluation is
     // then the whole's (the same products in the same order), null otherwise.
     const BlockPlan* system = nullptr;
+    // With several trees: whether they have every counted output as their rows between them, in twist form.
+    // Their evaluations then give the whole's costs and errors (crowds), summed tree by tree.
+    bool treesCover = false;
     // The steps of initialGuess, made when first needed: parents first, each counted output with the
     // solved parameters that reach it and no output before it.
     const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation,
@@ -319,6 +336,15 @@ struct BlockResult {
     bool evaluatedAtEnd = false;  // the workspace's last evaluation (worlds, w.r) is at the values returned
 };
 
+// One tree's share of the final cost and errors, from its last evaluation (Plan::treesCover).
+struct TreeErrors {
+    bool valid = false;  // its last evaluation was at the values returned
+    double cost = 0.0;
+    double maxPositionCm = 0.0, maxRotationDeg = 0.0;
+    double worst = -1.0;  // the largest combined error, at output worstOutput (the first such)
+    int worstOutput = -1;
+};
+
 // An angular unknown of Solver::initialGuess and its three starts.
 struct Varied {
     std::size_t parameter;
@@ -331,7 +357,9 @@ struct SolveScratch {
     std::vector<unsigned char> rows;
     std::string key;  // rows as the plan cache's key (a std::string: no allocation once it has grown)
     std::vector<BlockResult> results;
-    std::vector<double> trial, best;  // initialGuess: the start being solved, the best answer so far
+    std::vector<TreeErrors> treeErrors;  // per tree, when the trees give the whole's errors
+    std::vector<char> missed;            // per output: further than targetTolerance (set by treeErrors)
+    std::vector<double> trial, best;     // initialGuess: the start being solved, the best answer so far
     std::vector<Varied> varied;
 };
 
@@ -962,6 +990,48 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
         }
         if (worst >= 0.0) summary.worstOutput = approximation.outputs[worstOutput].name;
     };
+    // One tree's share of finalErrors (its rows: `outputs`, increasing), its misses marked in scratch->missed.
+    const auto treeErrors = [&](const std::vector<int>& outputs, const ResidualWorkspace& residual,
+                                const Eigen::VectorXd& r, TreeErrors& tree) {
+        tree.cost = 0.5 * r.squaredNorm();
+        for (std::size_t o = 0; o < outputs.size(); ++o) {
+            const std::size_t k = static_cast<std::size_t>(outputs[o]);
+            const TargetError e = residual.error(static_cast<int>(o));
+            const double position = targets[k].positionWeight > 0 ? e.positionCm : 0.0;
+            const double rotation = targets[k].rotationWeight > 0 ? e.rotationRad : 0.0;
+            tree.maxPositionCm = std::max(tree.maxPositionCm, position);
+            tree.maxRotationDeg = std::max(tree.maxRotationDeg, rotation * 180.0 / std::numbers::pi);
+            const double combined = std::max(position, impl.options.rotationScaleCm * rotation);
+            scratch->missed[k] = !(combined <= impl.options.targetTolerance);
+            if (combined > tree.worst) {
+                tree.worst = combined;
+                tree.worstOutput = static_cast<int>(k);
+            }
+        }
+        tree.valid = true;
+    };
+    // The trees' shares as finalErrors gives them over the whole: misses in increasing order, the worst the
+    // first (lowest output) of the largest.
+    const auto mergeTreeErrors = [&] {
+        summary.finalCost = 0.0;
+        double worst = -1.0;
+        int worstOutput = -1;
+        for (const TreeErrors& tree : scratch->treeErrors) {
+            summary.finalCost += tree.cost;
+            summary.maxPositionErrorCm = std::max(summary.maxPositionErrorCm, tree.maxPositionCm);
+            summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, tree.maxRotationDeg);
+            if (tree.worst > worst || (tree.worst == worst && tree.worstOutput < worstOutput)) {
+                worst = tree.worst;
+                worstOutput = tree.worstOutput;
+            }
+        }
+        for (const int k : plan->whole.outputs()) {
+            char& missed = scratch->missed[static_cast<std::size_t>(k)];
+            if (missed) summary.missedOutputs.push_back(k);
+            missed = 0;
+        }
+        if (worstOutput >= 0) summary.worstOutput = approximation.outputs[static_cast<std::size_t>(worstOutput)].name;
+    };
     // Costs and errors over every counted output, the outputs no parameter reaches included.
     auto measure = [&](bool final) {
         const ResidualStructure& whole = plan->whole;
@@ -979,11 +1049,19 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     const BlockPlan* system = plan->system;
     if (system && (impl.options.jacobian != JacobianMethod::analytic || !system->structure.twistForm()))
         system = nullptr;
-    bool initialFromSolve = system != nullptr;
-    for (std::size_t c = 0; initialFromSolve && c < system->lower.size(); ++c) {
-        const double v = values[static_cast<std::size_t>(system->structure.columns()[c])];
-        initialFromSolve = v >= system->lower[c] && v <= system->upper[c];
-    }
+    // The same with several trees (a crowd) that have every counted output between them: their costs summed.
+    const bool byTrees = plan->treesCover && impl.options.jacobian == JacobianMethod::analytic;
+    bool initialFromSolve = system != nullptr || byTrees;
+    const auto withinLimits = [&](const BlockPlan& block) {
+        for (std::size_t c = 0; c < block.lower.size(); ++c) {
+            const double v = values[static_cast<std::size_t>(block.structure.columns()[c])];
+            if (!(v >= block.lower[c] && v <= block.upper[c])) return false;
+        }
+        return true;
+    };
+    if (system) initialFromSolve = withinLimits(*system);
+    for (std::size_t t = 0; byTrees && initialFromSolve && t < plan->trees.size(); ++t)
+        initialFromSolve = withinLimits(plan->tree(t));
     if (!initialFromSolve) measure(false);
     summary.blocks = static_cast<int>(partition.blocks.size());
     if (partition.blocks.empty()) {
@@ -1002,10 +1080,21 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     };
     if (coupled) {
         // Independent trees touch disjoint parameters and outputs: in parallel they give the serial values.
+        if (byTrees) {
+            scratch->treeErrors.assign(plan->trees.size(), TreeErrors{});
+            scratch->missed.resize(approximation.outputs.size(), 0);
+        }
         const auto solveTree = [&](std::size_t t) {
-            const BlockPlan* tree = plan->trees[t].get();
-            if (!tree) tree = plan->blocks[static_cast<std::size_t>(partition.roots[t])].get();
-            results[t] = impl.solveBlock(*tree, scratch->prepared, values, parallel);
+            const BlockPlan& tree = plan->tree(t);
+            if (!byTrees) {
+                results[t] = impl.solveBlock(tree, scratch->prepared, values, parallel);
+                return;
+            }
+            Borrowed<BlockWorkspace> w(
+                tree.pool, [&] { return std::make_unique<BlockWorkspace>(tree.structure, tree.elimination.get()); });
+            results[t] = impl.solveBlock(tree, *w, scratch->prepared, values, parallel);
+            if (results[t].evaluatedAtEnd)
+                treeErrors(tree.structure.outputs(), w->residual, w->r, scratch->treeErrors[t]);
         };
         const std::size_t trees = plan->trees.size();
         if (system) {
@@ -1040,9 +1129,20 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
         converged = converged && r.converged;
     }
     summary.iterations = summary.gaussNewtonIterations + summary.levenbergMarquardtIterations;
-    if (initialFromSolve) summary.initialCost = results[0].initialCost;
+    if (initialFromSolve && system) summary.initialCost = results[0].initialCost;
+    else if (initialFromSolve) {
+        summary.initialCost = 0.0;
+        for (const BlockResult& r : results) summary.initialCost += r.initialCost;
+    }
     if (systemWorkspace && results[0].evaluatedAtEnd) finalErrors((*systemWorkspace)->residual, (*systemWorkspace)->r);
-    else measure(true);
+    else if (byTrees && std::all_of(scratch->treeErrors.begin(), scratch->treeErrors.end(),
+                                    [](const TreeErrors& e) { return e.valid; }))
+        mergeTreeErrors();
+    else {
+        if (byTrees)
+            for (const int k : plan->whole.outputs()) scratch->missed[static_cast<std::size_t>(k)] = 0;
+        measure(true);
+    }
     if (!converged) summary.termination = TerminationType::noConvergence;
     else summary.termination = summary.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
 }
