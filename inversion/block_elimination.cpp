@@ -24,7 +24,7 @@ int positionOf(const std::vector<int>& sorted, int value)
 
 }  // namespace
 
-BlockElimination::BlockElimination(const Partition& partition, const ResidualStructure& structure)
+BlockElimination::BlockElimination(const Partition& partition, const ResidualStructure& structure, bool twists)
 {
     const std::size_t blocks = partition.blocks.size();
     size_.resize(blocks);
@@ -60,12 +60,13 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
                                        block) == chain_[static_cast<std::size_t>(owner)].end())
                 throw internalError("BlockElimination: a parameter moves an output outside its block's chain");
         }
+    folded_ = twists && structure.twistForm() && planFold(partition, structure);
     const int n = structure.columnCount();
     layout_.assign(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), -1);
     base_.resize(blocks);
     coupledBelow_.resize(blocks);
     for (std::size_t b = 0; b < blocks; ++b)
-        for (std::size_t i = 0; i < chain_[b].size(); ++i) {
+        for (std::size_t i = 0; i < (folded_ ? 1 : chain_[b].size()); ++i) {
             const std::size_t a = static_cast<std::size_t>(chain_[b][i]);
             base_[b].push_back(entryCount_);
             if (i > 0) coupledBelow_[a].emplace_back(static_cast<int>(b), static_cast<int>(i));
@@ -88,11 +89,82 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
         square_.push_back(squareCount_);
         coupling_.push_back(couplingCount_);
         squareCount_ += size_[b] * size_[b];
-        couplingCount_ += size_[b] * ancestors_[b];
+        couplingCount_ += size_[b] * (folded_ ? 6 : ancestors_[b]);
     }
+    if (!folded_) return;
+    heldBase_ = entryCount_;
+    entryCount_ += n;
+    for (int& entry : pairEntry_) entry = layout_[static_cast<std::size_t>(entry)];
 }
 
-BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& elimination)
+bool BlockElimination::planFold(const Partition& partition, const ResidualStructure& s)
+{
+    const std::size_t blocks = size_.size();
+    const auto& unknown = s.unknownNodes_;
+    std::vector<int> position(s.nodes_.size(), -1);  // node id -> its index in unknown
+    for (std::size_t k = 0; k < unknown.size(); ++k)
+        position[static_cast<std::size_t>(unknown[k])] = static_cast<int>(k);
+    const auto blockOfNode = [&](int node) {
+        return blockOfColumn_[static_cast<std::size_t>(s.unknownColumn_[static_cast<std::size_t>(node)])];
+    };
+    std::vector<std::vector<int>> ofBlock(blocks);  // per block: its unknown nodes' indices, parents first
+    for (std::size_t k = 0; k < unknown.size(); ++k)
+        ofBlock[static_cast<std::size_t>(blockOfNode(static_cast<int>(k)))].push_back(static_cast<int>(k));
+    std::vector<int> flatOf(unknown.size(), -1);
+    nodeBegin_.assign(1, 0);
+    for (std::size_t b = 0; b < blocks; ++b) {
+        if (ofBlock[b].empty()) return false;
+        for (const int k : ofBlock[b]) {
+            flatOf[static_cast<std::size_t>(k)] = static_cast<int>(nodeId_.size());
+            nodeId_.push_back(unknown[static_cast<std::size_t>(k)]);
+            nodeColumn_.push_back(s.unknownColumn_[static_cast<std::size_t>(k)]);
+        }
+        nodeBegin_.push_back(static_cast<int>(nodeId_.size()));
+    }
+    // Each block's nodes leave it (going up) at one node, of its parent's; a root's at none.
+    attach_.assign(blocks, -2);
+    children_.assign(blocks, {});
+    nodeUp_.assign(nodeId_.size(), -1);
+    for (std::size_t b = 0; b < blocks; ++b) {
+        for (int i = nodeBegin_[b]; i < nodeBegin_[b + 1]; ++i) {
+            const int up = s.unknownUp_[static_cast<std::size_t>(nodeId_[static_cast<std::size_t>(i)])];
+            const int k = up < 0 ? -1 : position[static_cast<std::size_t>(up)];
+            nodeUp_[static_cast<std::size_t>(i)] = k < 0 ? -1 : flatOf[static_cast<std::size_t>(k)];
+            if (k >= 0 && blockOfNode(k) == static_cast<int>(b)) continue;
+            if (attach_[b] == -2) attach_[b] = nodeUp_[static_cast<std::size_t>(i)];
+            else if (attach_[b] != nodeUp_[static_cast<std::size_t>(i)]) return false;
+        }
+        const int parent = partition.blocks[b].parent;
+        if (parent < 0) {
+            if (attach_[b] != -1) return false;
+            continue;
+        }
+        if (attach_[b] < 0 ||
+            blockOfColumn_[static_cast<std::size_t>(nodeColumn_[static_cast<std::size_t>(attach_[b])])] != parent)
+            return false;
+        children_[static_cast<std::size_t>(parent)].push_back(static_cast<int>(b));
+    }
+    // Each node's pairs within its block: the first of the structure's (itself, then up).
+    pairBegin_.clear();
+    for (std::size_t b = 0; b < blocks; ++b)
+        for (int i = nodeBegin_[b]; i < nodeBegin_[b + 1]; ++i) {
+            pairBegin_.push_back(static_cast<int>(pairOther_.size()));
+            const std::size_t k =
+                static_cast<std::size_t>(position[static_cast<std::size_t>(nodeId_[static_cast<std::size_t>(i)])]);
+            for (int p = s.pairBegin_[k]; p < s.pairBegin_[k + 1]; ++p) {
+                const int other = position[static_cast<std::size_t>(s.pairNode_[static_cast<std::size_t>(p)])];
+                if (blockOfNode(other) != static_cast<int>(b)) break;
+                pairOther_.push_back(flatOf[static_cast<std::size_t>(other)]);
+                pairEntry_.push_back(s.pairOffset_[static_cast<std::size_t>(p)]);  // the layout's entry, later
+                pairFactor_.push_back(s.pairFactor_[static_cast<std::size_t>(p)]);
+            }
+        }
+    pairBegin_.push_back(static_cast<int>(pairOther_.size()));
+    return true;
+}
+
+BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& elimination,
+                                                     const ResidualWorkspace* twists)
     : e_(&elimination),
       entries_(static_cast<std::size_t>(elimination.entryCount_), 0.0),
       work_(entries_.size()),
@@ -108,6 +180,19 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
         eigen_.emplace_back(elimination.size_[b]);
         rhs_.emplace_back(elimination.size_[b]);
     }
+    if (!elimination.folded_) return;
+    if (!twists) throw internalError("BlockEliminationWorkspace: a folded elimination reads a ResidualWorkspace");
+    twists_ = twists;
+    const std::size_t nodes = elimination.nodeId_.size();
+    foldWeight_.assign(nodes, Matrix6::Zero());
+    foldLoad_.assign(nodes, Vector6::Zero());
+    foldProduct_.assign(nodes, Vector6::Zero());
+    motion_.assign(nodes, Vector6::Zero());
+    force_.assign(nodes, Vector6::Zero());
+    folded_.assign(nodes, 0);
+    blockWeight_.assign(blocks, Matrix6::Zero());
+    blockLoad_.assign(blocks, Vector6::Zero());
+    foldCoupling_.assign(static_cast<std::size_t>(6 * largest), 0.0);
 }
 
 BlockEliminationWorkspace::BlockMap BlockEliminationWorkspace::block(std::size_t b, std::size_t i)
@@ -141,6 +226,10 @@ void BlockEliminationWorkspace::hold(int column)
     own.row(l).head(l).setZero();
     own.col(l).tail(own.rows() - l - 1).setZero();
     own(l, l) = 1.0;
+    if (e.folded_) {  // its couplings are formed in the solve, which reads the marker
+        entries_[static_cast<std::size_t>(e.heldBase_ + column)] = 1.0;
+        return;
+    }
     for (std::size_t i = 1; i < e.chain_[b].size(); ++i) block(b, i).row(l).setZero();
     for (const auto& [d, i] : e.coupledBelow_[b])
         block(static_cast<std::size_t>(d), static_cast<std::size_t>(i)).col(l).setZero();
@@ -153,7 +242,7 @@ void BlockEliminationWorkspace::multiply(const Eigen::Ref<const Eigen::VectorXd>
     out.setZero();
     for (std::size_t b = 0; b < e.size_.size(); ++b) {
         const auto& columns = e.columns_[b];
-        for (std::size_t i = 0; i < e.chain_[b].size(); ++i) {
+        for (std::size_t i = 0; i < e.base_[b].size(); ++i) {
             const ConstBlockMap h = block(b, i);
             const auto& other = e.columns_[static_cast<std::size_t>(e.chain_[b][i])];
             for (Eigen::Index j = 0; j < h.cols(); ++j)
@@ -162,6 +251,46 @@ void BlockEliminationWorkspace::multiply(const Eigen::Ref<const Eigen::VectorXd>
                     out[row] += h(k, j) * v[col];
                     if (row != col) out[col] += h(k, j) * v[row];
                 }
+        }
+    }
+    if (e.folded_) multiplyFolded(v, out);
+}
+
+void BlockEliminationWorkspace::multiplyFolded(const Eigen::Ref<const Eigen::VectorXd>& v,
+                                               Eigen::Ref<Eigen::VectorXd> out) const
+{
+    // The couplings between blocks: a block's columns against its ancestors' move the outputs below its
+    // attach node by that node's motion (sum of t v above it); they push back on the ancestors' nodes above
+    // with W t v (the force, summed up the tree).
+    const BlockElimination& e = *e_;
+    const ResidualWorkspace& rw = *twists_;
+    const std::size_t blocks = e.size_.size();
+    for (std::size_t b = 0; b < blocks; ++b)
+        for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) {
+            const std::size_t f = static_cast<std::size_t>(i);
+            const int up = e.nodeUp_[f], column = e.nodeColumn_[f];
+            if (up >= 0) motion_[f] = motion_[static_cast<std::size_t>(up)];
+            else motion_[f].setZero();
+            if (!held(column)) motion_[f] += rw.twist(e.nodeId_[f]) * v[column];
+            force_[f].setZero();
+        }
+    for (std::size_t b = blocks; b-- > 0;) {
+        for (int i = e.nodeBegin_[b + 1]; i-- > e.nodeBegin_[b];) {
+            const std::size_t f = static_cast<std::size_t>(i);
+            const int up = e.nodeUp_[f], column = e.nodeColumn_[f];
+            if (!held(column)) out[column] += rw.twist(e.nodeId_[f]).dot(force_[f]);
+            if (up >= 0) force_[static_cast<std::size_t>(up)] += force_[f];
+        }
+        const int attach = e.attach_[b];
+        if (attach < 0) continue;
+        const std::size_t a = static_cast<std::size_t>(attach);
+        for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) {
+            const std::size_t f = static_cast<std::size_t>(i);
+            const int column = e.nodeColumn_[f];
+            if (held(column)) continue;
+            const Vector6& u = rw.weighted(e.nodeId_[f]);
+            out[column] += u.dot(motion_[a]);
+            force_[a] += u * v[column];
         }
     }
 }
@@ -289,9 +418,9 @@ void BlockEliminationWorkspace::applyFTransposed(std::size_t b, double* x)
     std::copy(product, product + n, x);
 }
 
-void BlockEliminationWorkspace::couplingRows(std::size_t b, const double* w, double* rows)
+void BlockEliminationWorkspace::couplingRows(std::size_t b, const double* w, Eigen::Index m, double* rows)
 {
-    const Eigen::Index n = e_->size_[b], m = e_->ancestors_[b];
+    const Eigen::Index n = e_->size_[b];
     if (triangular_[b]) {  // forward substitution on whole rows: row k = (w_k - sum_j L(k, j) row j) / L(k, k)
         const double* l = squares_.data() + e_->square_[b];
         for (Eigen::Index k = 0; k < n; ++k) {
@@ -314,6 +443,7 @@ void BlockEliminationWorkspace::couplingRows(std::size_t b, const double* w, dou
 bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu,
                                       Eigen::Ref<Eigen::VectorXd> delta)
 {
+    if (e_->folded_) return solveFolded(gradient, mu, delta);
     const BlockElimination& e = *e_;
     const std::size_t blocks = e.size_.size();
     // Only a parent's panel changes (its children's Schur complements): that copy is damped at once, a
@@ -342,7 +472,7 @@ bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& g
         const Eigen::Index m = e.ancestors_[b];
         if (m == 0) continue;
         double* rows = couplings_.data() + e.coupling_[b];
-        couplingRows(b, panel + nb * nb, rows);
+        couplingRows(b, panel + nb * nb, m, rows);
         const auto& chain = e.chain_[b];
         Eigen::Index offset = 0;  // the ancestor's first column in T
         for (std::size_t i = 1; i < chain.size(); ++i) {
@@ -375,6 +505,139 @@ bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& g
         }
         applyFTransposed(b, z);
         for (Eigen::Index l = 0; l < nb; ++l) delta[e.columns_[b][static_cast<std::size_t>(l)]] = z[l];
+    }
+    return delta.allFinite();
+}
+
+bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu,
+                                            Eigen::Ref<Eigen::VectorXd> delta)
+{
+    const BlockElimination& e = *e_;
+    const ResidualWorkspace& rw = *twists_;
+    const std::size_t blocks = e.size_.size();
+    for (std::size_t b = 0; b < blocks; ++b)
+        for (Eigen::Index l = 0; l < e.size_[b]; ++l)
+            rhs_[b][l] = -gradient[e.columns_[b][static_cast<std::size_t>(l)]];
+    // Leaves first. A block's children have left, at their attach nodes (its nodes), what eliminating them
+    // takes off J^T J and the right-hand side in twist space: K = W^T S^-1 W (6x6) and W^T S^-1 rhs (W: the
+    // child's couplings with the attach node's motion), and theirs below. Summed up its nodes (Fold), they
+    // change its own pairs by t_i^T Fold_j t_j, its right-hand side by t^T (Fold's load) and its couplings
+    // with its own attach node by Fold t. Its S_b^-1 = F^T F, T = F W^T and y = F rhs then leave
+    // T^T T and T^T y (plus its children's) at its attach node.
+    for (std::size_t b = blocks; b-- > 0;) {
+        const Eigen::Index nb = e.size_[b];
+        const int begin = e.nodeBegin_[b], end = e.nodeBegin_[b + 1];
+        const int base = e.base_[b][0];
+        const double* panel = entries_.data() + base;
+        double* y = rhs_[b].data();
+        for (int i = begin; i < end; ++i) folded_[static_cast<std::size_t>(i)] = 0;
+        if (!e.children_[b].empty()) {
+            for (const int c : e.children_[b]) {
+                const std::size_t i = static_cast<std::size_t>(e.attach_[static_cast<std::size_t>(c)]);
+                if (folded_[i]) {
+                    foldWeight_[i] += blockWeight_[static_cast<std::size_t>(c)];
+                    foldLoad_[i] += blockLoad_[static_cast<std::size_t>(c)];
+                } else {
+                    foldWeight_[i] = blockWeight_[static_cast<std::size_t>(c)];
+                    foldLoad_[i] = blockLoad_[static_cast<std::size_t>(c)];
+                    folded_[i] = 1;
+                }
+            }
+            for (int i = end; i-- > begin;) {
+                const std::size_t f = static_cast<std::size_t>(i);
+                const int up = e.nodeUp_[f];
+                if (!folded_[f] || up < begin) continue;  // up < begin: none, or the attach node
+                const std::size_t u = static_cast<std::size_t>(up);
+                if (folded_[u]) {
+                    foldWeight_[u] += foldWeight_[f];
+                    foldLoad_[u] += foldLoad_[f];
+                } else {
+                    foldWeight_[u] = foldWeight_[f];
+                    foldLoad_[u] = foldLoad_[f];
+                    folded_[u] = 1;
+                }
+            }
+            double* s = work_.data() + base;
+            std::copy(panel, panel + nb * nb, s);
+            for (int i = begin; i < end; ++i) {
+                const std::size_t f = static_cast<std::size_t>(i);
+                if (!folded_[f]) continue;
+                const Vector6& t = rw.twist(e.nodeId_[f]);
+                foldProduct_[f].noalias() = foldWeight_[f] * t;
+                y[e.localOfColumn_[static_cast<std::size_t>(e.nodeColumn_[f])]] -= t.dot(foldLoad_[f]);
+                for (int p = e.pairBegin_[f]; p < e.pairBegin_[f + 1]; ++p) {
+                    const std::size_t q = static_cast<std::size_t>(p);
+                    s[e.pairEntry_[q] - base] -=
+                        e.pairFactor_[q] *
+                        rw.twist(e.nodeId_[static_cast<std::size_t>(e.pairOther_[q])]).dot(foldProduct_[f]);
+                }
+            }
+            // Held columns stay identity rows and columns with no right-hand side.
+            for (Eigen::Index l = 0; l < nb; ++l) {
+                if (!held(e.columns_[b][static_cast<std::size_t>(l)])) continue;
+                for (Eigen::Index j = 0; j < l; ++j) s[j * nb + l] = 0.0;
+                for (Eigen::Index i = l + 1; i < nb; ++i) s[l * nb + i] = 0.0;
+                s[l * nb + l] = 1.0;
+                y[l] = 0.0;
+            }
+            panel = s;
+        }
+        if (!factor(b, panel, mu)) return false;
+        applyF(b, y);
+        if (e.attach_[b] < 0) continue;
+        // W^T: a row per block column, a column per component of the attach node's motion.
+        double* w = foldCoupling_.data();
+        std::fill(w, w + 6 * nb, 0.0);
+        for (int i = begin; i < end; ++i) {
+            const std::size_t f = static_cast<std::size_t>(i);
+            const int column = e.nodeColumn_[f];
+            if (held(column)) continue;
+            Vector6 c = rw.weighted(e.nodeId_[f]);
+            if (folded_[f]) c -= foldProduct_[f];
+            const Eigen::Index l = e.localOfColumn_[static_cast<std::size_t>(column)];
+            for (Eigen::Index q = 0; q < 6; ++q) w[q * nb + l] += c[q];
+        }
+        double* rows = couplings_.data() + e.coupling_[b];
+        couplingRows(b, w, 6, rows);
+        Matrix6& k = blockWeight_[b];
+        Vector6& load = blockLoad_[b];
+        k.setZero();
+        load.setZero();
+        for (Eigen::Index r = 0; r < nb; ++r) {
+            const Eigen::Map<const Vector6> row(rows + 6 * r);
+            for (Eigen::Index q = 0; q < 6; ++q)
+                for (Eigen::Index p = q; p < 6; ++p) k(p, q) += row[p] * row[q];
+            load += y[r] * row;
+        }
+        for (Eigen::Index q = 0; q < 6; ++q)
+            for (Eigen::Index p = q + 1; p < 6; ++p) k(q, p) = k(p, q);
+        for (const int c : e.children_[b]) {
+            k += blockWeight_[static_cast<std::size_t>(c)];
+            load += blockLoad_[static_cast<std::size_t>(c)];
+        }
+    }
+    // Roots first: each block's step F^T (y - T V), V its attach node's motion (the steps above it), and
+    // its nodes' motions for its children.
+    for (std::size_t b = 0; b < blocks; ++b) {
+        const Eigen::Index nb = e.size_[b];
+        double* z = rhs_[b].data();
+        const int attach = e.attach_[b];
+        if (attach >= 0) {
+            const Vector6& v = motion_[static_cast<std::size_t>(attach)];
+            const double* rows = couplings_.data() + e.coupling_[b];
+            for (Eigen::Index k = 0; k < nb; ++k) z[k] -= Eigen::Map<const Vector6>(rows + 6 * k).dot(v);
+        }
+        applyFTransposed(b, z);
+        for (Eigen::Index l = 0; l < nb; ++l) delta[e.columns_[b][static_cast<std::size_t>(l)]] = z[l];
+        if (e.children_[b].empty()) continue;
+        for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) {
+            const std::size_t f = static_cast<std::size_t>(i);
+            const int up = e.nodeUp_[f], column = e.nodeColumn_[f];
+            if (up >= 0) motion_[f] = motion_[static_cast<std::size_t>(up)];
+            else motion_[f].setZero();
+            if (!held(column))
+                motion_[f] += rw.twist(e.nodeId_[f]) * z[e.localOfColumn_[static_cast<std::size_t>(column)]];
+        }
     }
     return delta.allFinite();
 }

@@ -11,6 +11,14 @@
 // solve reaches the whole problem's optimum where the block-by-block order (an outer block fitted first,
 // then held) stops at a worse one on unreachable targets.
 //
+// Folded (the twist form, analytic): where every block hangs below one node of its parent's (its attach
+// node: each of its unknown nodes' first unknown ancestor outside the block is that node; a root's are none),
+// the couplings between a block and its ancestors are t_a^T (W_m t_m) (t: twists, W: the sums of B^T B below
+// a node m of the block), of rank 6 at most through the attach node's motion. Eliminating a block then
+// takes a 6x6 (and a 6-vector of the right-hand side) folded into the W (and loads) of its attach node,
+// as the articulated-body algorithm does, and J^T J is kept only within the blocks. Elsewhere (a parameter
+// of a block below a node of a block under it) the couplings are kept and eliminated as above.
+//
 // A block's own matrix that is singular (redundant controls, a straight limb) is inverted on its range
 // only (eigenvalues above 1e-12 of its largest): the minimum-norm step within the block, as the
 // one-block solve takes.
@@ -31,9 +39,14 @@ namespace rig {
 class BlockElimination {
 public:
     // `structure`: the whole problem (every block's parameters as columns, every block's outputs as rows).
-    BlockElimination(const Partition& partition, const ResidualStructure& structure);
+    // `twists`: the normal equations come from twists (analytic, structure.twistForm()): the fold is taken
+    // where the blocks hang as it needs.
+    BlockElimination(const Partition& partition, const ResidualStructure& structure, bool twists = false);
 
     int blocks() const { return static_cast<int>(size_.size()); }
+    // Whether the couplings between blocks are folded in twist space (then the workspace reads the twists of
+    // a ResidualWorkspace, and layout() holds each block's rows against its own columns only).
+    bool folded() const { return folded_; }
     // Where J^T J is kept: entry (i, j), i >= j, of the structure's columns at flat index layout()[j * n + i]
     // of BlockEliminationWorkspace::entries() (ResidualWorkspace::useLayout); -1 where no block holds it.
     const std::vector<int>& layout() const { return layout_; }
@@ -58,13 +71,29 @@ private:
     std::vector<int> layout_;
     int entryCount_ = 0;
     int squareCount_ = 0, couplingCount_ = 0;
+
+    // The fold's plan. Per block, its unknown nodes (parents first) at flat indices [nodeBegin_[b],
+    // nodeBegin_[b + 1]); per flat node: its node id, its block column, the flat index of its unknown parent
+    // (in its block, or its block's attach node; -1: none) and its pairs with the nodes of its block above
+    // it (itself first) in [pairBegin_[i], pairBegin_[i + 1]): the other flat node, the entry, the factor.
+    // Held markers: entries from heldBase_, one per column (1: held; the normal equations zero them).
+    bool folded_ = false;
+    std::vector<int> nodeBegin_, nodeId_, nodeColumn_, nodeUp_, attach_;  // attach_: per block, a flat index or -1
+    std::vector<int> pairBegin_, pairOther_, pairEntry_;
+    std::vector<double> pairFactor_;
+    std::vector<std::vector<int>> children_;
+    int heldBase_ = 0;
+
+    bool planFold(const Partition& partition, const ResidualStructure& structure);
 };
 
 // Per-solve state: the blocks of J^T J along each chain, the right-hand sides and the blocks' factors.
 // Sized once; allocates nothing per step.
 class BlockEliminationWorkspace {
 public:
-    explicit BlockEliminationWorkspace(const BlockElimination& elimination);
+    // `twists`: for a folded elimination, the workspace whose normal equations fill entries() (read at each
+    // solve and multiply for the twists).
+    explicit BlockEliminationWorkspace(const BlockElimination& elimination, const ResidualWorkspace* twists = nullptr);
 
     // J^T J's blocks, in BlockElimination::layout(): what the normal equations fill.
     std::span<double> entries() { return entries_; }
@@ -87,8 +116,14 @@ private:
     bool factor(std::size_t b, const double* s, double mu);
     void applyF(std::size_t b, double* x);            // x <- F x, in place
     void applyFTransposed(std::size_t b, double* x);  // x <- F^T x, in place
-    // T = F W into rows, row-major (W: the panel's columns after S_b, column-major; a row of T per block column).
-    void couplingRows(std::size_t b, const double* w, double* rows);
+    // T = F W into rows, row-major (W: m columns after S_b, column-major; a row of T per block column).
+    void couplingRows(std::size_t b, const double* w, Eigen::Index m, double* rows);
+    bool held(int column) const
+    {
+        return e_->folded_ && entries_[static_cast<std::size_t>(e_->heldBase_ + column)] != 0;
+    }
+    bool solveFolded(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
+    void multiplyFolded(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out) const;
 
     const BlockElimination* e_;
     std::vector<double> entries_;
@@ -101,6 +136,16 @@ private:
     std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen_;
     std::vector<Eigen::VectorXd> rhs_;  // per block: its right-hand side, then y, then its step
     std::vector<double> scratch_;
+    // The fold's: per flat node, the folds below it (6x6 and load) and F t-products; per block, what its
+    // elimination folds into its attach node; per flat node, the motion of the step (or of multiply's v).
+    using Matrix6 = Eigen::Matrix<double, 6, 6>;
+    using Vector6 = Eigen::Matrix<double, 6, 1>;
+    const ResidualWorkspace* twists_ = nullptr;
+    std::vector<Matrix6> foldWeight_, blockWeight_;
+    std::vector<Vector6> foldLoad_, foldProduct_, blockLoad_;
+    mutable std::vector<Vector6> motion_, force_;
+    std::vector<char> folded_;
+    std::vector<double> foldCoupling_;  // a block's W^T: its columns against the attach node's motion
 };
 
 }  // namespace rig

@@ -318,6 +318,8 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     twist_.assign(s.nodes_.size(), Vector6d::Zero());
     load_.assign(s.nodes_.size(), Vector6d::Zero());
     weight_.assign(s.nodes_.size(), Eigen::Matrix<double, 6, 6>::Zero());
+    weighted_.assign(s.nodes_.size(), Vector6d::Zero());
+    pairEnd_.assign(s.pairBegin_.begin() + 1, s.pairBegin_.end());
     fresh_.assign(s.nodes_.size(), 0);
 }
 
@@ -619,10 +621,23 @@ void ResidualWorkspace::useLayout(std::span<const int> layout)
         throw internalError(fmt::format("ResidualWorkspace::useLayout: {} entries for {} columns", layout.size(), n));
     layout_.assign(layout.begin(), layout.end());
     pairTarget_ = s.pairOffset_;
+    pairEnd_.assign(s.pairBegin_.begin() + 1, s.pairBegin_.end());
     if (layout_.empty()) return;
-    for (int& target : pairTarget_) {
-        target = layout_[static_cast<std::size_t>(target)];
-        if (target < 0) throw internalError("ResidualWorkspace::useLayout: columns that share an output have no entry");
+    for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k) {
+        // A node's pairs run from itself up: those left out must be the last ones.
+        bool left = false;
+        for (int p = s.pairBegin_[k]; p < s.pairBegin_[k + 1]; ++p) {
+            int& target = pairTarget_[static_cast<std::size_t>(p)];
+            target = layout_[static_cast<std::size_t>(target)];
+            if (target >= 0 && left)
+                throw internalError("ResidualWorkspace::useLayout: columns that share an output have no entry");
+            if (target < 0 && !left) {
+                if (!s.twistForm_)
+                    throw internalError("ResidualWorkspace::useLayout: columns that share an output have no entry");
+                left = true;
+                pairEnd_[k] = p;
+            }
+        }
     }
 }
 
@@ -690,9 +705,9 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
     for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k) {
         const std::size_t i = static_cast<std::size_t>(s.unknownNodes_[k]);
         g[s.unknownColumn_[k]] += twist_[i].dot(load_[i]);
-        const Vector6d u = weight_[i] * twist_[i];
+        const Vector6d& u = weighted_[i] = weight_[i] * twist_[i];
         // Itself, then every unknown node above: those share exactly the outputs below this one.
-        for (int p = s.pairBegin_[k]; p < s.pairBegin_[k + 1]; ++p) {
+        for (int p = s.pairBegin_[k]; p < pairEnd_[k]; ++p) {
             const std::size_t q = static_cast<std::size_t>(p);
             entries[pairTarget_[q]] += s.pairFactor_[q] * twist_[static_cast<std::size_t>(s.pairNode_[q])].dot(u);
         }
@@ -818,7 +833,10 @@ void ResidualWorkspace::normalEquations(std::span<const double> x, JacobianMetho
     const std::size_t n = static_cast<std::size_t>(s.columnCount());
     const auto entry = [&](int row, int column) -> double& {
         const std::size_t dense = static_cast<std::size_t>(column) * n + static_cast<std::size_t>(row);
-        return h[layout_.empty() ? dense : static_cast<std::size_t>(layout_[dense])];
+        if (layout_.empty()) return h[dense];
+        if (layout_[dense] < 0)  // a folded layout's: only the twists' normal equations leave entries out
+            throw internalError("ResidualWorkspace::normalEquations: the layout leaves out a pair of columns");
+        return h[static_cast<std::size_t>(layout_[dense])];
     };
     for (std::size_t o = 0; o < s.columnsOfOutput_.size(); ++o) {
         const auto& columns = s.columnsOfOutput_[o];

@@ -94,6 +94,7 @@ public:
 
 private:
     friend class ResidualWorkspace;
+    friend class BlockElimination;  // its plan of the twist-space fold reads the unknown nodes and their pairs
 
     struct Link {  // one operator in an output's product
         int parameter = 0;
@@ -186,13 +187,20 @@ public:
     void normalEquationsAtLast(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
                                std::span<double> h);
     // Where H goes: entry (i, j), i >= j, at h[layout[j * columnCount() + i]] (BlockElimination::layout()),
-    // or, with an empty layout (the default), h is the dense column-major matrix.
+    // or, with an empty layout (the default), h is the dense column-major matrix. A layout may leave out
+    // each unknown node's pairs with the nodes above some point (-1 from there up; twist form only): the
+    // couplings a folded BlockElimination forms itself from twist() and weighted().
     void useLayout(std::span<const int> layout);
     // The analytic Jacobian from prefix and suffix products along each output's own product
     // (dW/da_j = prefix_j dM_j suffix_j): what jacobian() falls back to when an operator or a product
     // is singular (no inverse for the velocity form). For tests and benchmarks.
     void jacobianFromSuffixes(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r,
                               Eigen::Ref<Eigen::MatrixXd> jacobian);
+    // Per unknown node (a node id of the structure's tree) at the last normal equations from twists: its twist
+    // (omega, v), and W t with W the sum of B_k^T B_k over the outputs below it. What a folded
+    // BlockEliminationWorkspace reads.
+    const Eigen::Matrix<double, 6, 1>& twist(int node) const { return twist_[static_cast<std::size_t>(node)]; }
+    const Eigen::Matrix<double, 6, 1>& weighted(int node) const { return weighted_[static_cast<std::size_t>(node)]; }
     // World matrix of output position o (in structure().outputs()) at the last evaluation.
     const Eigen::Matrix4d& world(int o) const { return worlds_[static_cast<std::size_t>(o)]; }
     // targetError of output position o at the last evaluation (a rigid output's from its residual's quaternion).
@@ -223,6 +231,7 @@ private:
     std::vector<Affine> velocity_;                           // per unknown node: Xi
     std::vector<Eigen::Matrix<double, 6, 1>> twist_, load_;  // per unknown node: (omega, v); sum of B_k^T r_k below
     std::vector<Eigen::Matrix<double, 6, 6>> weight_;        // per unknown node: sum of B_k^T B_k below
+    std::vector<Eigen::Matrix<double, 6, 1>> weighted_;      // per unknown node: weight_ times twist_
     std::vector<char> fresh_;                                // per unknown node: its sums not yet begun
     std::vector<Eigen::Matrix4d> constants_;                 // per chain, C_0 .. C_v
     std::vector<char> identity_;                             // per constant: it is I (skip the product)
@@ -232,6 +241,7 @@ private:
     std::vector<Eigen::Matrix4d> slotDerivative_;
     std::vector<int> layout_;                     // useLayout's; empty: dense
     std::vector<int> pairTarget_;                 // per pair of the structure: its entry in h
+    std::vector<int> pairEnd_;                    // per unknown node: the end of its pairs that have an entry
     std::vector<double> slotOffset_;              // per slot: its parameter's offset a at the last evaluation
     std::vector<Eigen::Quaterniond> quaternion_;  // per rigid output: Q_target^T Q with w >= 0 (residualRows)
     std::vector<Eigen::Matrix4d> worlds_;         // per output position

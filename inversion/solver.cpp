@@ -97,7 +97,7 @@ struct BlockWorkspace {
           fixed(x.size(), 0)
     {
         if (coupled) {
-            elimination = std::make_unique<BlockEliminationWorkspace>(*coupled);
+            elimination = std::make_unique<BlockEliminationWorkspace>(*coupled, &residual);
             residual.useLayout(coupled->layout());
         }
     }
@@ -218,8 +218,9 @@ private:
 
 // The partition for one set of counted rows, with what its blocks need.
 struct Plan {
+    // `twists`: the analytic Jacobian (the coupled systems' normal equations from twists where in twist form).
     Plan(const Approximation& approximation, const Equivalences& equivalences, Partition p, std::vector<int> counted,
-         bool coupledBlocks)
+         bool coupledBlocks, bool twists)
         : partition(std::move(p)), whole(approximation, {}, std::move(counted))
     {
         for (const PartitionBlock& block : partition.blocks)
@@ -255,7 +256,7 @@ struct Plan {
             std::sort(all.parameters.begin(), all.parameters.end());
             std::sort(all.outputs.begin(), all.outputs.end());
             auto plan = std::make_unique<BlockPlan>(approximation, equivalences, all);
-            plan->elimination = std::make_unique<BlockElimination>(tree, plan->structure);
+            plan->elimination = std::make_unique<BlockElimination>(tree, plan->structure, twists);
             trees.push_back(std::move(plan));
         }
         if (trees.size() == 1) {
@@ -450,9 +451,9 @@ struct Solver::Impl {
         std::vector<int> counted;
         for (std::size_t k = 0; k < rows.size(); ++k)
             if (rows[k] != noRows) counted.push_back(static_cast<int>(k));
-        auto made = std::make_shared<const Plan>(approximation, *equivalences,
-                                                 partitionProblem(approximation, rows, options.partition),
-                                                 std::move(counted), options.coupledBlocks);
+        auto made = std::make_shared<const Plan>(
+            approximation, *equivalences, partitionProblem(approximation, rows, options.partition), std::move(counted),
+            options.coupledBlocks, options.jacobian == JacobianMethod::analytic);
         std::lock_guard lock(plansMutex);
         if (plans.size() >= maxCachedPlans) return made;
         return plans.emplace(key, std::move(made)).first->second;  // another thread's, if it was first

@@ -14,8 +14,10 @@
 #include "inversion/approximation_io.h"
 #include "inversion/block_elimination.h"
 #include "inversion/clip_inversion.h"
+#include "inversion/learner.h"
 #include "inversion/solver.h"
 #include "learned_fixtures.h"
+#include "random_fk.h"
 #include "solver_rigs.h"
 
 using namespace rig;
@@ -256,6 +258,179 @@ TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense s
         CHECK((delta - expected).norm() <= 1e-9 * expected.norm());
         CHECK(delta[4] == 0.0);
     }
+}
+
+namespace {
+
+// An elimination of `partition` (folded in twist space where it can be, with `twists`) against the dense
+// system: J^T J v, and the damped step with held columns. Returns whether it folded; `steps` gets its steps.
+bool eliminationMatchesDense(const Approximation& a, const Partition& partition,
+                             const std::vector<JointTarget>& targets, const std::vector<double>& values, bool twists,
+                             std::vector<Eigen::VectorXd>& steps)
+{
+    std::vector<int> columns, outputs;
+    for (const PartitionBlock& b : partition.blocks) {
+        columns.insert(columns.end(), b.parameters.begin(), b.parameters.end());
+        outputs.insert(outputs.end(), b.outputs.begin(), b.outputs.end());
+    }
+    std::sort(columns.begin(), columns.end());
+    std::sort(outputs.begin(), outputs.end());
+    const ResidualStructure structure(a, columns, outputs);
+    const BlockElimination elimination(partition, structure, twists);
+    std::vector<PreparedTarget> prepared(targets.size());
+    for (std::size_t k = 0; k < targets.size(); ++k)
+        if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
+    std::vector<double> x;
+    for (const int c : columns) x.push_back(values[static_cast<std::size_t>(c)]);
+
+    const Eigen::Index n = structure.columnCount();
+    ResidualWorkspace dense(structure), blocks(structure);
+    blocks.useLayout(elimination.layout());
+    BlockEliminationWorkspace step(elimination, &blocks);
+    for (ResidualWorkspace* w : {&dense, &blocks}) {
+        w->holdParameters(values);
+        w->setTargets(prepared);
+    }
+    Eigen::VectorXd r(structure.rows()), g(n), rBlocks(structure.rows()), gBlocks(n);
+    Eigen::MatrixXd h(n, n), j(structure.rows(), n);
+    dense.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, g, std::span<double>(h.data(), h.size()), j);
+    blocks.normalEquations(x, JacobianMethod::analytic, 1e-6, false, rBlocks, gBlocks, step.entries(), j);
+    CHECK(gBlocks == g);
+    const Eigen::MatrixXd full = h.selfadjointView<Eigen::Lower>();
+    for (Eigen::Index c = 0; c < n; ++c) CHECK(step.diagonal(static_cast<int>(c)) == h(c, c));
+    Eigen::VectorXd v = Eigen::VectorXd::Random(n), product(n);
+    step.multiply(v, product);
+    CHECK((product - full * v).norm() <= 1e-10 * (full * v).norm());
+
+    Eigen::MatrixXd held = full;
+    Eigen::VectorXd gradient = g;
+    std::vector<int> holds{0, static_cast<int>(n) / 2, static_cast<int>(n) - 1};
+    holds.erase(std::unique(holds.begin(), holds.end()), holds.end());
+    for (const int c : holds) {
+        step.hold(c);
+        held.row(c).setZero();
+        held.col(c).setZero();
+        held(c, c) = 1.0;
+        gradient[c] = 0.0;
+    }
+    step.multiply(v, product);
+    CHECK((product - held * v).norm() <= 1e-10 * (held * v).norm());
+    steps.clear();
+    for (const double mu : {0.0, 0.3, 50.0}) {
+        CAPTURE(mu);
+        Eigen::VectorXd delta(n);
+        REQUIRE(step.solve(gradient, mu, delta));
+        const Eigen::VectorXd expected = (held + mu * Eigen::MatrixXd::Identity(n, n)).ldlt().solve(-gradient);
+        CHECK((delta - expected).norm() <= 1e-9 * expected.norm());
+        for (const int c : holds) CHECK(std::abs(delta[c]) <= 1e-12 * delta.norm());
+        steps.push_back(delta);
+    }
+    return elimination.folded();
+}
+
+void checkFoldedAgainstUnfolded(const Approximation& a, const Partition& partition,
+                                const std::vector<JointTarget>& targets, const std::vector<double>& values,
+                                bool expectFolded)
+{
+    std::vector<Eigen::VectorXd> folded, unfolded;
+    CHECK(eliminationMatchesDense(a, partition, targets, values, true, folded) == expectFolded);
+    CHECK_FALSE(eliminationMatchesDense(a, partition, targets, values, false, unfolded));
+    for (std::size_t s = 0; s < folded.size(); ++s)
+        CHECK((folded[s] - unfolded[s]).norm() <= 1e-10 * unfolded[s].norm());
+}
+
+}  // namespace
+
+TEST_CASE(
+    "block elimination folded in twist space: the step and J^T J v of the dense system and of the unfolded "
+    "elimination")
+{
+    SUBCASE("the biped")
+    {
+        const Approximation a = readApproximationFile(test::bipedApproximation());
+        std::mt19937 rng(17);
+        for (int pose = 0; pose < 5; ++pose) {
+            CAPTURE(pose);
+            const std::vector<JointTarget> targets = unreachableTargets(a, rng, 2.0, 8.0);
+            const Partition partition = Solver(a, SolverOptions{}).partition(targets);
+            REQUIRE(partition.blocks.size() > 5);
+            checkFoldedAgainstUnfolded(a, partition, targets, test::randomValues(a, rng, 0.5), true);
+        }
+    }
+    SUBCASE("random FK trees")
+    {
+        std::mt19937 rng(20261126);
+        int folded = 0, coupled = 0;
+        for (int trial = 0; trial < 40; ++trial) {
+            CAPTURE(trial);
+            const test::RandomFk fk = test::randomFk(rng);
+            for (const bool relative : {true, false}) {
+                CAPTURE(relative);
+                test::LambdaRig rig = test::lambdaRig(fk, true);
+                LearnOptions options;
+                options.relativeFrames = relative;
+                options.validationPoses = 5;
+                const Approximation a = learnApproximation(rig, options, "random");
+                const std::vector<JointTarget> targets = unreachableTargets(a, rng, 3.0, 10.0);
+                const Partition partition = Solver(a, SolverOptions{}).partition(targets);
+                if (partition.blocks.size() < 2 || partition.roots.size() != 1) continue;
+                ++coupled;
+                std::vector<Eigen::VectorXd> steps;
+                const std::vector<double> values = test::randomValues(a, rng, 0.5);
+                folded += eliminationMatchesDense(a, partition, targets, values, true, steps);
+            }
+        }
+        MESSAGE(coupled << " random partitions of several blocks, " << folded << " folded");
+        CHECK(coupled >= 10);
+        CHECK(folded >= 5);
+    }
+}
+
+TEST_CASE("block elimination: the fold falls back where a block's nodes do not hang below one node of its parent")
+{
+    // The biped's hip alone as a child of everything else: the knee (the parent's) hangs below it.
+    const Approximation a = readApproximationFile(test::bipedApproximation());
+    std::mt19937 rng(23);
+    const std::vector<JointTarget> targets = unreachableTargets(a, rng, 2.0, 8.0);
+    const Partition solved = Solver(a, SolverOptions{}).partition(targets);
+    PartitionBlock all;
+    for (const PartitionBlock& b : solved.blocks) {
+        all.parameters.insert(all.parameters.end(), b.parameters.begin(), b.parameters.end());
+        all.outputs.insert(all.outputs.end(), b.outputs.begin(), b.outputs.end());
+    }
+    std::sort(all.parameters.begin(), all.parameters.end());
+    std::sort(all.outputs.begin(), all.outputs.end());
+    const ResidualStructure structure(a, all.parameters, all.outputs);
+    // A leg block's column that moves the most outputs: its hip.
+    const PartitionBlock* leg = nullptr;
+    for (const PartitionBlock& b : solved.blocks)
+        if (b.parent >= 0 && b.children.empty() && (!leg || b.parameters.size() > leg->parameters.size())) leg = &b;
+    REQUIRE(leg);
+    int hip = -1;
+    std::size_t most = 0;
+    for (const int p : leg->parameters) {
+        const int c = static_cast<int>(std::lower_bound(all.parameters.begin(), all.parameters.end(), p) -
+                                       all.parameters.begin());
+        if (structure.outputsOfColumn(c).size() > most) {
+            most = structure.outputsOfColumn(c).size();
+            hip = c;
+        }
+    }
+    REQUIRE(hip >= 0);
+    Partition partition;
+    PartitionBlock outer, inner;
+    inner.parameters = {all.parameters[static_cast<std::size_t>(hip)]};
+    for (const int o : structure.outputsOfColumn(hip))
+        inner.outputs.push_back(all.outputs[static_cast<std::size_t>(o)]);
+    for (const int p : all.parameters)
+        if (p != inner.parameters[0]) outer.parameters.push_back(p);
+    for (const int k : all.outputs)
+        if (!std::binary_search(inner.outputs.begin(), inner.outputs.end(), k)) outer.outputs.push_back(k);
+    outer.children = {1};
+    inner.parent = 0;
+    partition.blocks = {outer, inner};
+    partition.roots = {0};
+    checkFoldedAgainstUnfolded(a, partition, targets, test::randomValues(a, rng, 0.5), false);
 }
 
 TEST_CASE("continuity: a clip through gimbal lock is followed without a control jumping")
