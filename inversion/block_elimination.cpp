@@ -603,14 +603,11 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
         Vector6& load = blockLoad_[b];
         k.setZero();
         load.setZero();
-        for (Eigen::Index r = 0; r < nb; ++r) {
+        for (Eigen::Index r = 0; r < nb; ++r) {  // whole outer products: they vectorize, a triangle would not
             const Eigen::Map<const Vector6> row(rows + 6 * r);
-            for (Eigen::Index q = 0; q < 6; ++q)
-                for (Eigen::Index p = q; p < 6; ++p) k(p, q) += row[p] * row[q];
+            k.noalias() += row * row.transpose();
             load += y[r] * row;
         }
-        for (Eigen::Index q = 0; q < 6; ++q)
-            for (Eigen::Index p = q + 1; p < 6; ++p) k(q, p) = k(p, q);
         for (const int c : e.children_[b]) {
             k += blockWeight_[static_cast<std::size_t>(c)];
             load += blockLoad_[static_cast<std::size_t>(c)];

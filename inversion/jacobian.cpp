@@ -705,7 +705,8 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
     for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k) {
         const std::size_t i = static_cast<std::size_t>(s.unknownNodes_[k]);
         g[s.unknownColumn_[k]] += twist_[i].dot(load_[i]);
-        const Vector6d& u = weighted_[i] = weight_[i] * twist_[i];
+        const Vector6d u = weight_[i] * twist_[i];
+        weighted_[i] = u;
         // Itself, then every unknown node above: those share exactly the outputs below this one.
         for (int p = s.pairBegin_[k]; p < pairEnd_[k]; ++p) {
             const std::size_t q = static_cast<std::size_t>(p);
