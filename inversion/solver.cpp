@@ -337,9 +337,9 @@ struct BlockResult {
     bool evaluatedAtEnd = false;  // the workspace's last evaluation (worlds, w.r) is at the values returned
 };
 
-// One tree's share of the final cost and errors, from its last evaluation (Plan::treesCover).
+// The final cost and errors of some outputs' evaluation: the whole's, or one tree's share (Plan::treesCover).
 struct TreeErrors {
-    bool valid = false;  // its last evaluation was at the values returned
+    bool valid = false;  // set from an evaluation at the values returned
     double cost = 0.0;
     double maxPositionCm = 0.0, maxRotationDeg = 0.0;
     double worst = -1.0;  // the largest combined error, at output worstOutput (the first such)
@@ -359,7 +359,7 @@ struct SolveScratch {
     std::string key;  // rows as the plan cache's key (a std::string: no allocation once it has grown)
     std::vector<BlockResult> results;
     std::vector<TreeErrors> treeErrors;  // per tree, when the trees give the whole's errors
-    std::vector<char> missed;            // per output: further than targetTolerance (set by treeErrors)
+    std::vector<char> missed;            // per output: further than targetTolerance (Solver::solve's errors)
     std::vector<double> trial, best;     // initialGuess: the start being solved, the best answer so far
     std::vector<Varied> varied;
 };
@@ -826,6 +826,7 @@ bool Solver::Impl::prepare(std::span<const JointTarget> targets, std::span<const
             fmt::format("Solver::solve: {} values for {} parameters", values.size(), approximation.parameters.size()));
     scratch.prepared.resize(targets.size());
     scratch.rows.resize(targets.size());
+    scratch.missed.resize(targets.size(), 0);
     for (std::size_t k = 0; k < targets.size(); ++k) {
         scratch.rows[k] = countedRows(approximation.outputs[k], targets[k]);
         if (targets[k].active && !prepareTarget(targets[k], options.rotationScaleCm, scratch.prepared[k])) {
@@ -969,61 +970,39 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     if (summary.termination == TerminationType::invalidTargets) return;
     const Partition& partition = plan->partition;
 
-    // The final cost and errors from an evaluation of every counted output (rows in plan->whole's order).
-    const auto finalErrors = [&](const ResidualWorkspace& residual, const Eigen::VectorXd& r) {
-        const auto& outputs = plan->whole.outputs();
-        summary.finalCost = 0.5 * r.squaredNorm();
-        double worst = -1.0;
-        std::size_t worstOutput = 0;
+    // The final cost and errors of an evaluation's rows (`outputs`, increasing) into `part`, the misses marked
+    // in scratch->missed; then the parts' sum into the summary, as one evaluation of every counted output gives
+    // it (misses in increasing order, the worst the first of the largest).
+    const auto errorsOf = [&](const std::vector<int>& outputs, const ResidualWorkspace& residual,
+                              const Eigen::VectorXd& r, TreeErrors& part) {
+        part.cost = 0.5 * r.squaredNorm();
         for (std::size_t o = 0; o < outputs.size(); ++o) {
             const std::size_t k = static_cast<std::size_t>(outputs[o]);
             const TargetError e = residual.error(static_cast<int>(o));
             const double position = targets[k].positionWeight > 0 ? e.positionCm : 0.0;
             const double rotation = targets[k].rotationWeight > 0 ? e.rotationRad : 0.0;
-            summary.maxPositionErrorCm = std::max(summary.maxPositionErrorCm, position);
-            summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, rotation * 180.0 / std::numbers::pi);
-            const double combined = std::max(position, impl.options.rotationScaleCm * rotation);
-            if (!(combined <= impl.options.targetTolerance)) summary.missedOutputs.push_back(static_cast<int>(k));
-            if (combined > worst) {
-                worst = combined;
-                worstOutput = k;
-            }
-        }
-        if (worst >= 0.0) summary.worstOutput = approximation.outputs[worstOutput].name;
-    };
-    // One tree's share of finalErrors (its rows: `outputs`, increasing), its misses marked in scratch->missed.
-    const auto treeErrors = [&](const std::vector<int>& outputs, const ResidualWorkspace& residual,
-                                const Eigen::VectorXd& r, TreeErrors& tree) {
-        tree.cost = 0.5 * r.squaredNorm();
-        for (std::size_t o = 0; o < outputs.size(); ++o) {
-            const std::size_t k = static_cast<std::size_t>(outputs[o]);
-            const TargetError e = residual.error(static_cast<int>(o));
-            const double position = targets[k].positionWeight > 0 ? e.positionCm : 0.0;
-            const double rotation = targets[k].rotationWeight > 0 ? e.rotationRad : 0.0;
-            tree.maxPositionCm = std::max(tree.maxPositionCm, position);
-            tree.maxRotationDeg = std::max(tree.maxRotationDeg, rotation * 180.0 / std::numbers::pi);
+            part.maxPositionCm = std::max(part.maxPositionCm, position);
+            part.maxRotationDeg = std::max(part.maxRotationDeg, rotation * 180.0 / std::numbers::pi);
             const double combined = std::max(position, impl.options.rotationScaleCm * rotation);
             scratch->missed[k] = !(combined <= impl.options.targetTolerance);
-            if (combined > tree.worst) {
-                tree.worst = combined;
-                tree.worstOutput = static_cast<int>(k);
+            if (combined > part.worst) {
+                part.worst = combined;
+                part.worstOutput = static_cast<int>(k);
             }
         }
-        tree.valid = true;
+        part.valid = true;
     };
-    // The trees' shares as finalErrors gives them over the whole: misses in increasing order, the worst the
-    // first (lowest output) of the largest.
-    const auto mergeTreeErrors = [&] {
+    const auto reportErrors = [&](std::span<const TreeErrors> parts) {
         summary.finalCost = 0.0;
         double worst = -1.0;
         int worstOutput = -1;
-        for (const TreeErrors& tree : scratch->treeErrors) {
-            summary.finalCost += tree.cost;
-            summary.maxPositionErrorCm = std::max(summary.maxPositionErrorCm, tree.maxPositionCm);
-            summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, tree.maxRotationDeg);
-            if (tree.worst > worst || (tree.worst == worst && tree.worstOutput < worstOutput)) {
-                worst = tree.worst;
-                worstOutput = tree.worstOutput;
+        for (const TreeErrors& part : parts) {
+            summary.finalCost += part.cost;
+            summary.maxPositionErrorCm = std::max(summary.maxPositionErrorCm, part.maxPositionCm);
+            summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, part.maxRotationDeg);
+            if (part.worst > worst || (part.worst == worst && part.worstOutput < worstOutput)) {
+                worst = part.worst;
+                worstOutput = part.worstOutput;
             }
         }
         for (const int k : plan->whole.outputs()) {
@@ -1032,6 +1011,12 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
             missed = 0;
         }
         if (worstOutput >= 0) summary.worstOutput = approximation.outputs[static_cast<std::size_t>(worstOutput)].name;
+    };
+    // From one evaluation of every counted output (rows in plan->whole's order).
+    const auto finalErrors = [&](const ResidualWorkspace& residual, const Eigen::VectorXd& r) {
+        TreeErrors whole;
+        errorsOf(plan->whole.outputs(), residual, r, whole);
+        reportErrors({&whole, 1});
     };
     // Costs and errors over every counted output, the outputs no parameter reaches included.
     auto measure = [&](bool final) {
@@ -1081,10 +1066,7 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     };
     if (coupled) {
         // Independent trees touch disjoint parameters and outputs: in parallel they give the serial values.
-        if (byTrees) {
-            scratch->treeErrors.assign(plan->trees.size(), TreeErrors{});
-            scratch->missed.resize(approximation.outputs.size(), 0);
-        }
+        if (byTrees) scratch->treeErrors.assign(plan->trees.size(), TreeErrors{});
         const auto solveTree = [&](std::size_t t) {
             const BlockPlan& tree = plan->tree(t);
             if (!byTrees) {
@@ -1095,7 +1077,7 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
                 tree.pool, [&] { return std::make_unique<BlockWorkspace>(tree.structure, tree.elimination.get()); });
             results[t] = impl.solveBlock(tree, *w, scratch->prepared, values, parallel);
             if (results[t].evaluatedAtEnd)
-                treeErrors(tree.structure.outputs(), w->residual, w->r, scratch->treeErrors[t]);
+                errorsOf(tree.structure.outputs(), w->residual, w->r, scratch->treeErrors[t]);
         };
         const std::size_t trees = plan->trees.size();
         if (system) {
@@ -1138,12 +1120,8 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     if (systemWorkspace && results[0].evaluatedAtEnd) finalErrors((*systemWorkspace)->residual, (*systemWorkspace)->r);
     else if (byTrees && std::all_of(scratch->treeErrors.begin(), scratch->treeErrors.end(),
                                     [](const TreeErrors& e) { return e.valid; }))
-        mergeTreeErrors();
-    else {
-        if (byTrees)
-            for (const int k : plan->whole.outputs()) scratch->missed[static_cast<std::size_t>(k)] = 0;
-        measure(true);
-    }
+        reportErrors(scratch->treeErrors);
+    else measure(true);  // marks every counted output's miss anew
     if (!converged) summary.termination = TerminationType::noConvergence;
     else summary.termination = summary.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
 }

@@ -39,6 +39,19 @@ std::vector<JointTarget> unreachableTargets(const Approximation& a, std::mt19937
     return targets;
 }
 
+// Every block's parameters as columns and outputs as rows: the coupled system of the partition.
+ResidualStructure wholeStructure(const Approximation& a, const Partition& partition)
+{
+    std::vector<int> columns, outputs;
+    for (const PartitionBlock& b : partition.blocks) {
+        columns.insert(columns.end(), b.parameters.begin(), b.parameters.end());
+        outputs.insert(outputs.end(), b.outputs.begin(), b.outputs.end());
+    }
+    std::sort(columns.begin(), columns.end());
+    std::sort(outputs.begin(), outputs.end());
+    return ResidualStructure(a, columns, outputs);
+}
+
 struct Costs {
     double coupled = 0.0, whole = 0.0, blockByBlock = 0.0;
 };
@@ -187,14 +200,7 @@ TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense s
     const std::vector<JointTarget> targets = unreachableTargets(a, rng, 2.0, 8.0);
     const Partition partition = Solver(a, SolverOptions{}).partition(targets);
     REQUIRE(partition.blocks.size() > 5);
-    std::vector<int> columns, outputs;
-    for (const PartitionBlock& b : partition.blocks) {
-        columns.insert(columns.end(), b.parameters.begin(), b.parameters.end());
-        outputs.insert(outputs.end(), b.outputs.begin(), b.outputs.end());
-    }
-    std::sort(columns.begin(), columns.end());
-    std::sort(outputs.begin(), outputs.end());
-    const ResidualStructure structure(a, columns, outputs);
+    const ResidualStructure structure = wholeStructure(a, partition);
     REQUIRE(structure.twistForm());
     const BlockElimination elimination(partition, structure);
     std::vector<PreparedTarget> prepared(targets.size());
@@ -202,7 +208,7 @@ TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense s
         if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
     const std::vector<double> values = test::randomValues(a, rng, 0.5);
     std::vector<double> x;
-    for (const int c : columns) x.push_back(values[static_cast<std::size_t>(c)]);
+    for (const int c : structure.columns()) x.push_back(values[static_cast<std::size_t>(c)]);
 
     const Eigen::Index n = structure.columnCount();
     ResidualWorkspace dense(structure), blocks(structure);
@@ -268,20 +274,13 @@ bool eliminationMatchesDense(const Approximation& a, const Partition& partition,
                              const std::vector<JointTarget>& targets, const std::vector<double>& values, bool twists,
                              std::vector<Eigen::VectorXd>& steps)
 {
-    std::vector<int> columns, outputs;
-    for (const PartitionBlock& b : partition.blocks) {
-        columns.insert(columns.end(), b.parameters.begin(), b.parameters.end());
-        outputs.insert(outputs.end(), b.outputs.begin(), b.outputs.end());
-    }
-    std::sort(columns.begin(), columns.end());
-    std::sort(outputs.begin(), outputs.end());
-    const ResidualStructure structure(a, columns, outputs);
+    const ResidualStructure structure = wholeStructure(a, partition);
     const BlockElimination elimination(partition, structure, twists);
     std::vector<PreparedTarget> prepared(targets.size());
     for (std::size_t k = 0; k < targets.size(); ++k)
         if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
     std::vector<double> x;
-    for (const int c : columns) x.push_back(values[static_cast<std::size_t>(c)]);
+    for (const int c : structure.columns()) x.push_back(values[static_cast<std::size_t>(c)]);
 
     const Eigen::Index n = structure.columnCount();
     ResidualWorkspace dense(structure), blocks(structure);

@@ -122,6 +122,20 @@ void recoverPoses(const Approximation& a, RigFunction& rig, const std::vector<st
     }
 }
 
+// The biped with IK legs, learned as rigs/biped_inversion_ik.yaml says (5 validation poses: quick).
+struct IkBiped {
+    static LearnOptions quick()
+    {
+        LearnOptions learn;
+        learn.validationPoses = 5;
+        return learn;
+    }
+    InversionSpec spec = readInversionSpec(test::sourceDir() / "rigs" / "biped_inversion_ik.yaml");
+    GraphRigFunction rig{test::sourceDir() / "rigs" / "biped.yaml",
+                         GraphRigOptions{spec.params, spec.outputs, {}, spec.set}};
+    Approximation a = learnApproximation(rig, quick(), "rigs/biped.yaml");
+};
+
 }  // namespace
 
 TEST_CASE("per-output modelling: an IK arm's joints are left unmodelled, the root stays modelled where it composes")
@@ -189,12 +203,9 @@ TEST_CASE("hybrid solve: a goal out of the IK arm's reach is a miss, not converg
 
 TEST_CASE("hybrid solve: the biped's IK legs (rigs/biped_inversion_ik.yaml) recover random poses from rest")
 {
-    const InversionSpec spec = readInversionSpec(test::sourceDir() / "rigs" / "biped_inversion_ik.yaml");
-    GraphRigOptions options{spec.params, spec.outputs, {}, spec.set};
-    GraphRigFunction rig(test::sourceDir() / "rigs" / "biped.yaml", options);
-    LearnOptions learn;
-    learn.validationPoses = 5;
-    const Approximation a = learnApproximation(rig, learn, "rigs/biped.yaml");
+    IkBiped biped;
+    const Approximation& a = biped.a;
+    GraphRigFunction& rig = biped.rig;
     CHECK(a.validation.withinEpsilon);
     CHECK(a.discarded.empty());
     // The root composes on the hips and the spine, not on the IK legs.
@@ -211,12 +222,9 @@ TEST_CASE("hybrid solve: the biped's IK legs (rigs/biped_inversion_ik.yaml) reco
 
 TEST_CASE("hybrid solve: the biped's straight IK legs, from rest and along a warm-started walk")
 {
-    const InversionSpec spec = readInversionSpec(test::sourceDir() / "rigs" / "biped_inversion_ik.yaml");
-    GraphRigOptions options{spec.params, spec.outputs, {}, spec.set};
-    GraphRigFunction rig(test::sourceDir() / "rigs" / "biped.yaml", options);
-    LearnOptions learn;
-    learn.validationPoses = 5;
-    const Approximation a = learnApproximation(rig, learn, "rigs/biped.yaml");
+    IkBiped biped;
+    const Approximation& a = biped.a;
+    GraphRigFunction& rig = biped.rig;
     RigBinding binding(a, rig);
     const Solver solver(a, SolverOptions{});
     HybridSolver hybrid(solver, binding, 2);
