@@ -151,7 +151,7 @@ RealRigSolve solveOnRealRig(RealRigProblem& problem, std::span<double> values, c
         const auto i = static_cast<std::size_t>(c);
         x[i] = std::clamp(x[i], lower[i], upper[i]);
     }
-    Eigen::MatrixXd J, H;
+    Eigen::MatrixXd J, H, damped;
     Eigen::VectorXd r, rTrial, g, delta;
     std::vector<char> fixed(x.size());
     RealRigSolve solve;
@@ -197,12 +197,12 @@ RealRigSolve solveOnRealRig(RealRigProblem& problem, std::span<double> values, c
         ++solve.iterations;
         bool accepted = false, smallStep = false;
         double trialCost = cost;
-        // Tries x + step (clamped to the limits): accepted when the real rig's cost goes down.
-        const auto tryStep = [&](const Eigen::VectorXd& step) {
+        // Tries x + scale * delta (clamped to the limits): accepted when the real rig's cost goes down.
+        const auto tryStep = [&](double scale) {
             double stepNorm2 = 0.0, xNorm2 = 0.0;
             for (int c = 0; c < n; ++c) {
                 const auto i = static_cast<std::size_t>(c);
-                trial[i] = std::clamp(x[i] + step[c], lower[i], upper[i]);
+                trial[i] = std::clamp(x[i] + scale * delta[c], lower[i], upper[i]);
                 stepNorm2 += (trial[i] - x[i]) * (trial[i] - x[i]);
                 xNorm2 += x[i] * x[i];
             }
@@ -214,18 +214,17 @@ RealRigSolve solveOnRealRig(RealRigProblem& problem, std::span<double> values, c
         };
         // Backtracking: halve the step until the real rig's cost goes down.
         for (double scale = 1.0; scale > 1e-3; scale *= 0.5)
-            if (tryStep(scale * delta)) break;
+            if (tryStep(scale)) break;
         // Then Levenberg-Marquardt: where the Gauss-Newton direction is poor (a kink, as an IK chain's knee at
         // full extension, where the bend grows as the square root of the goal's approach), damped steps turn
         // toward the gradient, which descends for small enough steps.
         if (!accepted && !smallStep) {
             const double top = std::max(H.diagonal().maxCoeff(), std::numeric_limits<double>::min());
             for (double lambda = 1e-4 * top; !accepted && !smallStep && lambda <= 1e8 * top; lambda *= 10.0) {
-                Eigen::MatrixXd damped = H;
+                damped = H;
                 damped.diagonal().array() += lambda;
                 delta = damped.llt().solve(-g);
-                if (!delta.allFinite()) continue;
-                tryStep(delta);
+                if (delta.allFinite()) tryStep(1.0);
             }
         }
         if (!accepted) {
