@@ -20,7 +20,7 @@ constexpr std::array<std::pair<OperatorKind, std::string_view>, 6> kindNames{{
     {OperatorKind::sampledAffine, "sampledAffine"},
 }};
 
-// The derivative of aboutPivot for a derivative dL of the linear map.
+// The derivative of [L, p - L p] (a linear map L about the pivot p) for a derivative dL of the linear map.
 Eigen::Matrix4d aboutPivotDerivative(const Eigen::Matrix3d& dLinear, const Eigen::Vector3d& pivot)
 {
     Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
