@@ -317,7 +317,7 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     quaternion_.assign(s.outputs_.size(), Eigen::Quaterniond::Identity());
     twist_.assign(s.nodes_.size(), Vector6d::Zero());
     load_.assign(s.nodes_.size(), Vector6d::Zero());
-    weight_.assign(s.nodes_.size(), Eigen::Matrix<double, 6, 6>::Zero());
+    weight_.assign(s.nodes_.size(), TwistWeight{Eigen::Matrix3d::Zero(), Eigen::Vector3d::Zero(), 0.0});
     weighted_.assign(s.nodes_.size(), Vector6d::Zero());
     pairEnd_.assign(s.pairBegin_.begin() + 1, s.pairBegin_.end());
     fresh_.assign(s.nodes_.size(), 0);
@@ -657,7 +657,7 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
     // A node's sums are set by their first term rather than zeroed first: two hundred small memsets cost
     // more than the sums. Every unknown node has an output below it.
     for (const int n : s.unknownNodes_) fresh_[static_cast<std::size_t>(n)] = 1;
-    const auto add = [&](std::size_t n, const Eigen::Matrix<double, 6, 6>& weight, const Vector6d& load) {
+    const auto add = [&](std::size_t n, const TwistWeight& weight, const Vector6d& load) {
         if (fresh_[n]) {
             weight_[n] = weight;
             load_[n] = load;
@@ -681,12 +681,11 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
         const Eigen::Vector3d u = q * e.vec();
         const double wp = t.positionWeight, wr = t.rotationWeight;
         const double wp2 = wp * wp, wr2 = wr * wr;
-        Eigen::Matrix<double, 6, 6> w;
-        w.topLeftCorner<3, 3>().noalias() = (wp2 * p.squaredNorm() + wr2) * Eigen::Matrix3d::Identity() -
-                                            wp2 * p * p.transpose() - wr2 * u * u.transpose();
-        w.topRightCorner<3, 3>() = wp2 * skew(p);
-        w.bottomLeftCorner<3, 3>() = -w.topRightCorner<3, 3>();
-        w.bottomRightCorner<3, 3>() = wp2 * Eigen::Matrix3d::Identity();
+        TwistWeight w;
+        w.a.noalias() = (wp2 * p.squaredNorm() + wr2) * Eigen::Matrix3d::Identity() - wp2 * p * p.transpose() -
+                        wr2 * u * u.transpose();
+        w.m = wp2 * p;
+        w.s = wp2;
         const auto rows = r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o));
         const Eigen::Vector3d rp = rows.head<3>(), rq = rows.tail<3>();
         Vector6d load;
@@ -705,7 +704,11 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
     for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k) {
         const std::size_t i = static_cast<std::size_t>(s.unknownNodes_[k]);
         g[s.unknownColumn_[k]] += twist_[i].dot(load_[i]);
-        const Vector6d u = weight_[i] * twist_[i];
+        // W t = (A omega + m x v, s v - m x omega).
+        const TwistWeight& w = weight_[i];
+        const auto omega = twist_[i].head<3>(), v = twist_[i].tail<3>();
+        Vector6d u;
+        u << w.a * omega + w.m.cross(v), w.s * v - w.m.cross(omega);
         weighted_[i] = u;
         // Itself, then every unknown node above: those share exactly the outputs below this one.
         for (int p = s.pairBegin_[k]; p < pairEnd_[k]; ++p) {

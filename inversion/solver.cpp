@@ -476,7 +476,7 @@ struct Solver::Impl {
     double holdAtLimits(const BlockPlan& block, BlockWorkspace& w, double& largestDiagonal) const;
     // The damped step from w.x, within the angular trust region and the limits, into w.trial and w.step;
     // false when the system has no solution. `smallStep`: under parameterTolerance.
-    bool trialStep(const BlockPlan& block, BlockWorkspace& w, double damping, bool& smallStep) const;
+    bool trialStep(const BlockPlan& block, BlockWorkspace& w, double damping, bool& smallStep, bool& wholeStep) const;
     // Periodic controls and Euler triples of w.x moved to the equivalent values nearest `near` (one value
     // per parameter) where the block's `cost` says they are the same pose. `evaluatedAtX`: whether the
     // workspace's last evaluation is at w.x; returns whether it still is.
@@ -664,7 +664,8 @@ double Solver::Impl::holdAtLimits(const BlockPlan& block, BlockWorkspace& w, dou
     return projectedGradient;
 }
 
-bool Solver::Impl::trialStep(const BlockPlan& block, BlockWorkspace& w, double damping, bool& smallStep) const
+bool Solver::Impl::trialStep(const BlockPlan& block, BlockWorkspace& w, double damping, bool& smallStep,
+                             bool& wholeStep) const
 {
     const std::size_t n = block.structure.columns().size();
     if (!(w.elimination ? w.elimination->solve(w.gFree, damping, w.delta) : solveStep(w, damping))) return false;
@@ -672,12 +673,14 @@ bool Solver::Impl::trialStep(const BlockPlan& block, BlockWorkspace& w, double d
     double largestTurn = 0.0;
     for (std::size_t c = 0; c < n; ++c)
         if (block.angular[c]) largestTurn = std::max(largestTurn, std::abs(w.delta[static_cast<Eigen::Index>(c)]));
-    if (largestTurn > options.maxAngularStep) w.delta *= options.maxAngularStep / largestTurn;
+    wholeStep = largestTurn <= options.maxAngularStep;
+    if (!wholeStep) w.delta *= options.maxAngularStep / largestTurn;
     // Projection onto the limits; the step actually taken is what the model and tolerances see.
     double stepNorm2 = 0.0, xNorm2 = 0.0;
     for (std::size_t c = 0; c < n; ++c) {
         w.trial[c] = clampTo(w.x[c] + w.delta[static_cast<Eigen::Index>(c)], block.lower[c], block.upper[c]);
         w.step[static_cast<Eigen::Index>(c)] = w.trial[c] - w.x[c];
+        wholeStep = wholeStep && w.trial[c] == w.x[c] + w.delta[static_cast<Eigen::Index>(c)];
         stepNorm2 += w.step[static_cast<Eigen::Index>(c)] * w.step[static_cast<Eigen::Index>(c)];
         xNorm2 += w.x[c] * w.x[c];
     }
@@ -777,18 +780,28 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, BlockWorkspace& w, 
             break;
         }
         const bool gaussNewton = control.gaussNewton();
-        bool smallStep = false;
-        if (!trialStep(block, w, control.damping(largestDiagonal), smallStep)) break;
-        w.residual.residuals(w.trial, w.rTrial);
-        evaluatedAtX = false;
-        const double trialCost = 0.5 * w.rTrial.squaredNorm();
-        (gaussNewton ? result.gaussNewton : result.levenbergMarquardt) += 1;
+        bool smallStep = false, wholeStep = false;
+        if (!trialStep(block, w, control.damping(largestDiagonal), smallStep, wholeStep)) break;
         // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
         const auto predicted = [&] {
             if (w.elimination) w.elimination->multiply(w.step, w.hStep);
             else w.hStep.noalias() = w.H.selfadjointView<Eigen::Lower>() * w.step;
             return -(w.g.dot(w.step) + 0.5 * w.step.dot(w.hStep));
         };
+        (gaussNewton ? result.gaussNewton : result.levenbergMarquardt) += 1;
+        // The undamped step whole, the model's minimum: J^T J s = -g makes its decrease -g.s / 2 (half the squared
+        // Newton decrement). When that is within the function tolerance, so is any step's, and evaluating it
+        // is not worth a residual pass.
+        if (gaussNewton && wholeStep && !smallStep) {
+            const double model = -0.5 * w.g.dot(w.step);
+            if (model >= 0.0 && model <= o.functionTolerance * cost) {
+                result.converged = true;
+                break;
+            }
+        }
+        w.residual.residuals(w.trial, w.rTrial);
+        evaluatedAtX = false;
+        const double trialCost = 0.5 * w.rTrial.squaredNorm();
         if (control.accept(cost, trialCost, smallStep, predicted)) {
             const double decrease = cost - trialCost;
             std::swap(w.x, w.trial);
@@ -884,7 +897,10 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
     std::vector<double>& trial = scratch->trial;
     std::vector<double>& best = scratch->best;
     std::vector<Varied>& varied = scratch->varied;
+    // Outside the step's columns, trial is values throughout: a start resets only the step's columns (a
+    // crowd's guess stays linear in its size).
     trial.assign(values.begin(), values.end());
+    best.resize(values.size());
     // An output is reached when its cost is this far within targetTolerance: no start can do better.
     const double reachedCost = 0.5 * std::pow(1e-3 * impl.options.targetTolerance, 2);
     for (const auto& step : plan->guessSteps(impl.approximation, *impl.equivalences)) {
@@ -915,7 +931,7 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
         // controls reach equally well), the nearest the values given.
         double bestCost = std::numeric_limits<double>::infinity(), bestDistance = 0.0;
         for (int start = 0; start < starts; ++start) {
-            std::copy(values.begin(), values.end(), trial.begin());
+            for (const int p : columns) trial[static_cast<std::size_t>(p)] = values[static_cast<std::size_t>(p)];
             int code = start;
             for (const Varied& v : varied) {
                 trial[v.parameter] = v.starts[static_cast<std::size_t>(code % 3)];
@@ -933,14 +949,19 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
             if (cheaper || asCheapAndNearer) {
                 bestCost = std::min(r.cost, bestCost);
                 bestDistance = distance;
-                best.assign(trial.begin(), trial.end());
+                for (const int p : columns) best[static_cast<std::size_t>(p)] = trial[static_cast<std::size_t>(p)];
             }
             // The earliest start that reaches it: the nearest the values given.
             if (bestCost <= reachedCost || (floorCost >= 0.0 && bestCost <= floorCost + reachedCost)) break;
         }
-        if (!std::isfinite(bestCost)) continue;  // no start gave a finite cost: leave these parameters alone
-        // solveBlock kept each result nearest the values given (whole turns, Euler triples).
-        for (const int p : columns) values[static_cast<std::size_t>(p)] = best[static_cast<std::size_t>(p)];
+        // No start gave a finite cost: these parameters are left alone. Else the best, which solveBlock kept
+        // nearest the values given (whole turns, Euler triples).
+        const bool found = std::isfinite(bestCost);
+        for (const int p : columns) {
+            const std::size_t i = static_cast<std::size_t>(p);
+            if (found) values[i] = best[i];
+            trial[i] = values[i];
+        }
     }
     return TerminationType::converged;
 }

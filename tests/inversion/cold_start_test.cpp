@@ -147,6 +147,36 @@ TEST_CASE("cold starts: a hand whose fingers curl up to 270 degrees is recovered
     CHECK(s.maxPositionErrorCm < recovered);
 }
 
+TEST_CASE("cold starts: a crowd's guess is each member's own guess, bit for bit")
+{
+    // Three characters sharing nothing: the guess of the whole crowd must be, member by member, the guess made
+    // with only that member's targets active (the others' parameters then keep their values), and recover
+    // every member's pose.
+    test::LambdaRig crowd = test::crowdOf(test::twoArms(), 3, 60.0);
+    const Approximation a = test::learn(crowd, "crowd");
+    const Solver solver(a, SolverOptions{});
+    // The member of a parameter or an output, from its prefix ("c1_...").
+    const auto member = [](const std::string& name) { return static_cast<std::size_t>(name[1] - '0'); };
+    std::mt19937 rng(17);
+    for (int pose = 0; pose < 5; ++pose) {
+        CAPTURE(pose);
+        const std::vector<JointTarget> targets = test::targetsAt(a, test::randomValues(a, rng));
+        std::vector<double> all = a.defaults();
+        REQUIRE(solver.initialGuess(targets, all) == TerminationType::converged);
+        for (std::size_t c = 0; c < 3; ++c) {
+            CAPTURE(c);
+            std::vector<JointTarget> alone = targets;
+            for (std::size_t k = 0; k < alone.size(); ++k) alone[k].active = member(a.outputs[k].name) == c;
+            std::vector<double> values = a.defaults();
+            REQUIRE(solver.initialGuess(alone, values) == TerminationType::converged);
+            for (std::size_t p = 0; p < values.size(); ++p)
+                CHECK(values[p] == (member(a.parameters[p].parameter.name) == c ? all[p] : a.defaults()[p]));
+        }
+        const SolveSummary s = solver.solve(targets, all);
+        CHECK(reached(s, solver.options().rotationScaleCm));
+    }
+}
+
 TEST_CASE("cold starts: random poses of the biped's modelled parameters are recovered from rest")
 {
     const Approximation a = readApproximationFile(test::bipedApproximation());

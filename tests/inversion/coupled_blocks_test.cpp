@@ -118,26 +118,8 @@ TEST_CASE("coupled blocks: a crowd's summary from its trees equals the approxima
     // errors. Checked against the approximation evaluated at the values given and returned: costs, worst errors,
     // the worst output and the missed ones, from within the limits and from outside them (clamped first).
     const test::LambdaRig one = test::twoArms();
-    std::vector<RigParameter> parameters;
-    std::vector<std::string> outputs;
-    for (int c = 0; c < 3; ++c) {
-        for (RigParameter p : one.parameters()) {
-            p.name = fmt::format("c{}_{}", c, p.name);
-            parameters.push_back(p);
-        }
-        for (const std::string& o : one.outputs()) outputs.push_back(fmt::format("c{}_{}", c, o));
-    }
-    const std::size_t n = one.parameters().size(), m = one.outputs().size();
-    test::LambdaRig crowdRig(
-        parameters, outputs, [one, n, m](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
-            test::LambdaRig copy = one;
-            std::vector<Eigen::Matrix4d> member;
-            for (std::size_t c = 0; c < 3; ++c) {
-                copy.evaluate(v.subspan(c * n, n), member);
-                for (std::size_t k = 0; k < m; ++k)
-                    w[c * m + k] = test::translation(60.0 * static_cast<double>(c), 0, 0) * member[k];
-            }
-        });
+    const std::size_t n = one.parameters().size();
+    test::LambdaRig crowdRig = test::crowdOf(one, 3, 60.0);
     const Approximation a = test::learn(crowdRig, "crowd");
     REQUIRE(a.parameters.size() == 3 * n);
     std::mt19937 rng(21);

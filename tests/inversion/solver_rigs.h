@@ -8,6 +8,7 @@
 #include <numbers>
 #include <random>
 
+#include <fmt/format.h>
 #include <Eigen/Geometry>
 
 #include "graph/plug_glob.h"
@@ -54,6 +55,32 @@ inline LambdaRig twoArms()
                 w[o + 3] = w[o + 2] * translation(s * 10, 0, 0);
             }
         });
+}
+
+// `count` copies of `one`, `spacing` cm apart along X and sharing nothing: a crowd of independent
+// characters, whose parameters and outputs are one's prefixed "c0_", "c1_", ...
+inline LambdaRig crowdOf(const LambdaRig& one, int count, double spacing)
+{
+    std::vector<RigParameter> parameters;
+    std::vector<std::string> outputs;
+    for (int c = 0; c < count; ++c) {
+        for (RigParameter p : one.parameters()) {
+            p.name = fmt::format("c{}_{}", c, p.name);
+            parameters.push_back(p);
+        }
+        for (const std::string& o : one.outputs()) outputs.push_back(fmt::format("c{}_{}", c, o));
+    }
+    const std::size_t n = one.parameters().size(), m = one.outputs().size();
+    return LambdaRig(parameters, outputs,
+                     [one, n, m, count, spacing](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                         LambdaRig copy = one;
+                         std::vector<Eigen::Matrix4d> member;
+                         for (std::size_t c = 0; c < static_cast<std::size_t>(count); ++c) {
+                             copy.evaluate(v.subspan(c * n, n), member);
+                             for (std::size_t k = 0; k < m; ++k)
+                                 w[c * m + k] = translation(spacing * static_cast<double>(c), 0, 0) * member[k];
+                         }
+                     });
 }
 
 // Two controls summed into one rotation (redundant), a rotation that saturates past +-0.5 rad

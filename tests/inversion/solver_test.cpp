@@ -459,6 +459,39 @@ TEST_CASE("solver: the summary reports termination, iterations, costs and the wo
     CHECK(short_.iterations == 1);
 }
 
+TEST_CASE("solver: near the optimum the step's model decrease stops the solve, and the step is not evaluated")
+{
+    // An out-of-reach hand: a stationary point with a residual, which Gauss-Newton approaches linearly. From
+    // near it, the first step's model decrease (-g.s / 2, half the squared Newton decrement) is a few 1e-9 of
+    // the cost: within a function tolerance of 1e-6 the solve ends there, its values and cost bit for bit those
+    // it started from; with none, the step is evaluated and taken.
+    auto rig = test::fkArm();
+    const Approximation a = test::learn(rig, "arm");
+    std::vector<double> known = a.defaults();
+    known[1] = 0.4;
+    known[4] = 1.0;
+    std::vector<JointTarget> targets = test::targetsAt(a, known);
+    targets[3].world(0, 3) += 50;
+    std::vector<double> values = a.defaults();
+    REQUIRE(Solver(a, SolverOptions{}).solve(targets, values).termination == TerminationType::stuck);
+    const std::vector<double> near = values;
+    SolverOptions loose;
+    loose.functionTolerance = 1e-6;
+    const SolveSummary stopped = Solver(a, loose).solve(targets, values);
+    CHECK(stopped.termination == TerminationType::stuck);
+    CHECK(stopped.iterations == 1);
+    CHECK(stopped.gaussNewtonIterations == 1);
+    CHECK(stopped.finalCost == stopped.initialCost);
+    CHECK(values == near);
+    SolverOptions exact;
+    exact.functionTolerance = 0.0;
+    const SolveSummary evaluated = Solver(a, exact).solve(targets, values);
+    CHECK(evaluated.iterations >= 1);
+    CHECK(evaluated.finalCost < evaluated.initialCost);
+    CHECK(evaluated.initialCost - evaluated.finalCost < 1e-6 * evaluated.initialCost);
+    CHECK(values != near);
+}
+
 TEST_CASE("polish: corrections on the real rig take a rotation-like knee's error towards zero")
 {
     auto rig = test::slidingKnee();
