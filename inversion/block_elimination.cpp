@@ -82,6 +82,11 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
                 }
             entryCount_ += static_cast<int>(columns_[a].size() * columns_[b].size());
         }
+    diagonal_.resize(blockOfColumn_.size());
+    for (std::size_t c = 0; c < diagonal_.size(); ++c) {
+        const std::size_t b = static_cast<std::size_t>(blockOfColumn_[c]);
+        diagonal_[c] = base_[b][0] + localOfColumn_[c] * (size_[b] + 1);
+    }
     ancestors_.assign(blocks, 0);
     for (std::size_t b = 0; b < blocks; ++b) {
         for (std::size_t i = 1; i < chain_[b].size(); ++i)
@@ -186,6 +191,8 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
     const std::size_t nodes = elimination.nodeId_.size();
     foldWeight_.assign(nodes, Matrix6::Zero());
     foldLoad_.assign(nodes, Vector6::Zero());
+    foldWeightOf_.assign(nodes, nullptr);
+    foldLoadOf_.assign(nodes, nullptr);
     foldProduct_.assign(nodes, Vector6::Zero());
     motion_.assign(nodes, Vector6::Zero());
     force_.assign(nodes, Vector6::Zero());
@@ -210,10 +217,7 @@ BlockEliminationWorkspace::ConstBlockMap BlockEliminationWorkspace::block(std::s
 
 double BlockEliminationWorkspace::diagonal(int column) const
 {
-    const BlockElimination& e = *e_;
-    const std::size_t b = static_cast<std::size_t>(e.blockOfColumn_[static_cast<std::size_t>(column)]);
-    const Eigen::Index l = e.localOfColumn_[static_cast<std::size_t>(column)];
-    return block(b, 0)(l, l);
+    return entries_[static_cast<std::size_t>(e_->diagonal_[static_cast<std::size_t>(column)])];
 }
 
 void BlockEliminationWorkspace::hold(int column)
@@ -532,30 +536,32 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
         double* y = rhs_[b].data();
         for (int i = begin; i < end; ++i) folded_[static_cast<std::size_t>(i)] = 0;
         if (!e.children_[b].empty()) {
+            // A node's fold is its one source's (a child's, or the node's below) until a second one adds to it:
+            // along a chain the 6x6 is pointed at, not copied node after node.
+            const auto fold = [&](std::size_t i, const Matrix6* weight, const Vector6* load) {
+                if (!folded_[i]) {
+                    foldWeightOf_[i] = weight;
+                    foldLoadOf_[i] = load;
+                    folded_[i] = 1;
+                } else if (foldWeightOf_[i] == &foldWeight_[i]) {
+                    foldWeight_[i] += *weight;
+                    foldLoad_[i] += *load;
+                } else {
+                    foldWeight_[i] = *foldWeightOf_[i] + *weight;
+                    foldLoad_[i] = *foldLoadOf_[i] + *load;
+                    foldWeightOf_[i] = &foldWeight_[i];
+                    foldLoadOf_[i] = &foldLoad_[i];
+                }
+            };
             for (const int c : e.children_[b]) {
                 const std::size_t i = static_cast<std::size_t>(e.attach_[static_cast<std::size_t>(c)]);
-                if (folded_[i]) {
-                    foldWeight_[i] += blockWeight_[static_cast<std::size_t>(c)];
-                    foldLoad_[i] += blockLoad_[static_cast<std::size_t>(c)];
-                } else {
-                    foldWeight_[i] = blockWeight_[static_cast<std::size_t>(c)];
-                    foldLoad_[i] = blockLoad_[static_cast<std::size_t>(c)];
-                    folded_[i] = 1;
-                }
+                fold(i, &blockWeight_[static_cast<std::size_t>(c)], &blockLoad_[static_cast<std::size_t>(c)]);
             }
             for (int i = end; i-- > begin;) {
                 const std::size_t f = static_cast<std::size_t>(i);
                 const int up = e.nodeUp_[f];
                 if (!folded_[f] || up < begin) continue;  // up < begin: none, or the attach node
-                const std::size_t u = static_cast<std::size_t>(up);
-                if (folded_[u]) {
-                    foldWeight_[u] += foldWeight_[f];
-                    foldLoad_[u] += foldLoad_[f];
-                } else {
-                    foldWeight_[u] = foldWeight_[f];
-                    foldLoad_[u] = foldLoad_[f];
-                    folded_[u] = 1;
-                }
+                fold(static_cast<std::size_t>(up), foldWeightOf_[f], foldLoadOf_[f]);
             }
             double* s = work_.data() + base;
             std::copy(panel, panel + nb * nb, s);
@@ -563,8 +569,8 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
                 const std::size_t f = static_cast<std::size_t>(i);
                 if (!folded_[f]) continue;
                 const Vector6& t = rw.twist(e.nodeId_[f]);
-                foldProduct_[f].noalias() = foldWeight_[f] * t;
-                y[e.localOfColumn_[static_cast<std::size_t>(e.nodeColumn_[f])]] -= t.dot(foldLoad_[f]);
+                foldProduct_[f].noalias() = *foldWeightOf_[f] * t;
+                y[e.localOfColumn_[static_cast<std::size_t>(e.nodeColumn_[f])]] -= t.dot(*foldLoadOf_[f]);
                 for (int p = e.pairBegin_[f]; p < e.pairBegin_[f + 1]; ++p) {
                     const std::size_t q = static_cast<std::size_t>(p);
                     s[e.pairEntry_[q] - base] -=

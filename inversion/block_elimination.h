@@ -59,6 +59,7 @@ private:
     std::vector<std::vector<int>> chain_;    // per block: itself, then its ancestors up to its root
     std::vector<std::vector<int>> columns_;  // per block: its structure columns, in order
     std::vector<int> blockOfColumn_, localOfColumn_;
+    std::vector<int> diagonal_;  // per column: where its diagonal entry of J^T J is in the flat entries
     // Per block and chain entry: where that block of J^T J (the block's columns as rows, column-major)
     // starts in the flat entries. A block's entries along its chain are contiguous: its panel, its rows
     // against its own columns and then its ancestors' (ancestors_ of them), column-major.
@@ -143,6 +144,8 @@ private:
     const ResidualWorkspace* twists_ = nullptr;
     std::vector<Matrix6> foldWeight_, blockWeight_;
     std::vector<Vector6> foldLoad_, foldProduct_, blockLoad_;
+    std::vector<const Matrix6*> foldWeightOf_;  // per flat node: its fold (its own foldWeight_ or its one source's)
+    std::vector<const Vector6*> foldLoadOf_;
     mutable std::vector<Vector6> motion_, force_;
     std::vector<char> folded_;
     std::vector<double> foldCoupling_;  // a block's W^T: its columns against the attach node's motion

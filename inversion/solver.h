@@ -38,7 +38,9 @@ struct SolverOptions {
     // cm per radian in the rotation residual: a rotation error of 1 degree weighs as much as a
     // position error of rotationScaleCm * pi / 180 cm (with unit weights). The learner's frame radius.
     double rotationScaleCm = 10.0;
-    // Converged when an accepted step lowers the cost by no more than this fraction of it.
+    // Converged when an accepted step lowers the cost by no more than this fraction of it, or when the
+    // whole Gauss-Newton step's model decrease (half the squared Newton decrement) is no more than that:
+    // that step is then not evaluated nor taken.
     double functionTolerance = 1e-8;
     // Converged when a step is no longer than parameterTolerance * (|x| + parameterTolerance)
     // (2-norms over the block's parameters, internal units). Gauss-Newton still takes such a step if it
