@@ -951,8 +951,12 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
                 bestDistance = distance;
                 for (const int p : columns) best[static_cast<std::size_t>(p)] = trial[static_cast<std::size_t>(p)];
             }
-            // The earliest start that reaches it: the nearest the values given.
-            if (bestCost <= reachedCost || (floorCost >= 0.0 && bestCost <= floorCost + reachedCost)) break;
+            // The earliest start that reaches it: the nearest the values given. The floor is reached within
+            // what the solve converges to: its stop tests leave up to functionTolerance of the cost.
+            if (bestCost <= reachedCost ||
+                (floorCost >= 0.0 &&
+                 bestCost <= floorCost * (1.0 + impl.options.functionTolerance) + reachedCost))
+                break;
         }
         // No start gave a finite cost: these parameters are left alone. Else the best, which solveBlock kept
         // nearest the values given (whole turns, Euler triples).
