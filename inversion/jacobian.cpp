@@ -164,8 +164,9 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
                     if (op == link.op) link.slot = slot;
                 if (link.slot < 0) {
                     link.slot = static_cast<int>(slots_.size());
+                    const Operator& operation = m.operators[static_cast<std::size_t>(link.op)];
                     slots_.push_back(
-                        {link.column, p, link.op, rigidKind(m.operators[static_cast<std::size_t>(link.op)].kind)});
+                        {link.column, p, link.op, rigidKind(operation.kind), &operation, m.parameter.defaultValue});
                     known.emplace_back(link.op, link.slot);
                 }
             }
@@ -313,13 +314,12 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     nodeMatrix_.assign(s.nodes_.size(), Affine::Identity());
     velocity_.assign(s.nodes_.size(), Affine::Zero());
     slotOffset_.assign(s.slots_.size(), 0.0);
-    pairTarget_ = s.pairOffset_;
     quaternion_.assign(s.outputs_.size(), Eigen::Quaterniond::Identity());
     twist_.assign(s.nodes_.size(), Vector6d::Zero());
     load_.assign(s.nodes_.size(), Vector6d::Zero());
     weight_.assign(s.nodes_.size(), TwistWeight{Eigen::Matrix3d::Zero(), Eigen::Vector3d::Zero(), 0.0});
     weighted_.assign(s.nodes_.size(), Vector6d::Zero());
-    pairEnd_.assign(s.pairBegin_.begin() + 1, s.pairBegin_.end());
+    useLayout({});
     fresh_.assign(s.nodes_.size(), 0);
 }
 
@@ -384,12 +384,10 @@ void ResidualWorkspace::setTarget(int position, const PreparedTarget& target)
 void ResidualWorkspace::evaluateSlots(std::span<const double> x, bool derivatives)
 {
     const auto& s = *structure_;
-    const Approximation& approx = *s.approximation_;
     for (std::size_t i = 0; i < s.slots_.size(); ++i) {
         const auto& slot = s.slots_[i];
-        const ModelledParameter& m = approx.parameters[static_cast<std::size_t>(slot.parameter)];
-        const Operator& op = m.operators[static_cast<std::size_t>(slot.op)];
-        const double a = x[static_cast<std::size_t>(slot.column)] - m.parameter.defaultValue;
+        const Operator& op = *slot.operation;
+        const double a = x[static_cast<std::size_t>(slot.column)] - slot.defaultValue;
         slotOffset_[i] = a;
         slotMatrix_[i].topRows<3>() = op.affineRows(a);  // the last row stays 0 0 0 1
         if (!derivatives) continue;
@@ -578,14 +576,11 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
 void ResidualWorkspace::twists()
 {
     const auto& s = *structure_;
-    const Approximation& approx = *s.approximation_;
     for (const int n : s.unknownNodes_) {
         const std::size_t i = static_cast<std::size_t>(n);
         const auto& node = s.nodes_[i];
         const std::size_t slotIndex = static_cast<std::size_t>(node.slot);
-        const auto& slot = s.slots_[slotIndex];
-        const Operator& op =
-            approx.parameters[static_cast<std::size_t>(slot.parameter)].operators[static_cast<std::size_t>(slot.op)];
+        const Operator& op = *s.slots_[slotIndex].operation;
         const double a = slotOffset_[slotIndex];
         // The operator's own twist X = dM M^-1, moved to world space by the parent's rigid product P:
         // (R omega, R v + t x R omega). A rotation about pivot p turns by m'(a) n with v = p x omega, a
@@ -620,24 +615,29 @@ void ResidualWorkspace::useLayout(std::span<const int> layout)
     if (!layout.empty() && layout.size() != n * n)
         throw internalError(fmt::format("ResidualWorkspace::useLayout: {} entries for {} columns", layout.size(), n));
     layout_.assign(layout.begin(), layout.end());
-    pairTarget_ = s.pairOffset_;
-    pairEnd_.assign(s.pairBegin_.begin() + 1, s.pairBegin_.end());
-    if (layout_.empty()) return;
+    pairBegin_.assign(1, 0);
+    pairNode_.clear();
+    pairTarget_.clear();
+    pairFactor_.clear();
     for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k) {
         // A node's pairs run from itself up: those left out must be the last ones.
         bool left = false;
         for (int p = s.pairBegin_[k]; p < s.pairBegin_[k + 1]; ++p) {
-            int& target = pairTarget_[static_cast<std::size_t>(p)];
-            target = layout_[static_cast<std::size_t>(target)];
+            const std::size_t q = static_cast<std::size_t>(p);
+            const int target = layout_.empty() ? s.pairOffset_[q] : layout_[static_cast<std::size_t>(s.pairOffset_[q])];
             if (target >= 0 && left)
                 throw internalError("ResidualWorkspace::useLayout: columns that share an output have no entry");
-            if (target < 0 && !left) {
+            if (target < 0) {
                 if (!s.twistForm_)
                     throw internalError("ResidualWorkspace::useLayout: columns that share an output have no entry");
                 left = true;
-                pairEnd_[k] = p;
+                continue;
             }
+            pairNode_.push_back(s.pairNode_[q]);
+            pairTarget_.push_back(target);
+            pairFactor_.push_back(s.pairFactor_[q]);
         }
+        pairBegin_.push_back(static_cast<int>(pairNode_.size()));
     }
 }
 
@@ -711,9 +711,9 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
         u << w.a * omega + w.m.cross(v), w.s * v - w.m.cross(omega);
         weighted_[i] = u;
         // Itself, then every unknown node above: those share exactly the outputs below this one.
-        for (int p = s.pairBegin_[k]; p < pairEnd_[k]; ++p) {
+        for (int p = pairBegin_[k]; p < pairBegin_[k + 1]; ++p) {
             const std::size_t q = static_cast<std::size_t>(p);
-            entries[pairTarget_[q]] += s.pairFactor_[q] * twist_[static_cast<std::size_t>(s.pairNode_[q])].dot(u);
+            entries[pairTarget_[q]] += pairFactor_[q] * twist_[static_cast<std::size_t>(pairNode_[q])].dot(u);
         }
     }
 }

@@ -108,6 +108,9 @@ private:
         int parameter = 0;
         int op = 0;
         bool rigid = false;  // its matrix is a rotation and a translation
+        // The operator and its parameter's default, read at every evaluation without the parameter's record.
+        const Operator* operation = nullptr;
+        double defaultValue = 0.0;
     };
     struct Node {            // product = parent's product * one operator's matrix
         int parent = -1;     // -1: the identity
@@ -253,9 +256,12 @@ private:
     std::vector<PreparedTarget> targets_;                // per output position
     std::vector<Eigen::Matrix4d> slotMatrix_;
     std::vector<Eigen::Matrix4d> slotDerivative_;
-    std::vector<int> layout_;                     // useLayout's; empty: dense
-    std::vector<int> pairTarget_;                 // per pair of the structure: its entry in h
-    std::vector<int> pairEnd_;                    // per unknown node: the end of its pairs that have an entry
+    std::vector<int> layout_;  // useLayout's; empty: dense
+    // The structure's pairs that have an entry in h, contiguous (a folded layout leaves most out: a
+    // crowd's tree reads only these from memory): per unknown node k, [pairBegin_[k], pairBegin_[k + 1]) of
+    // the other node, the factor and the entry.
+    std::vector<int> pairBegin_, pairNode_, pairTarget_;
+    std::vector<double> pairFactor_;
     std::vector<double> slotOffset_;              // per slot: its parameter's offset a at the last evaluation
     std::vector<Eigen::Quaterniond> quaternion_;  // per rigid output: Q_target^T Q with w >= 0 (residualRows)
     std::vector<Eigen::Matrix4d> worlds_;         // per output position

@@ -954,8 +954,7 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
             // The earliest start that reaches it: the nearest the values given. The floor is reached within
             // what the solve converges to: its stop tests leave up to functionTolerance of the cost.
             if (bestCost <= reachedCost ||
-                (floorCost >= 0.0 &&
-                 bestCost <= floorCost * (1.0 + impl.options.functionTolerance) + reachedCost))
+                (floorCost >= 0.0 && bestCost <= floorCost * (1.0 + impl.options.functionTolerance) + reachedCost))
                 break;
         }
         // No start gave a finite cost: these parameters are left alone. Else the best, which solveBlock kept
