@@ -7,6 +7,7 @@
 #include <Eigen/Eigenvalues>
 
 #include "core/error.h"
+#include "core/prefetch.h"
 
 namespace rig {
 namespace {
@@ -442,6 +443,26 @@ void BlockEliminationWorkspace::couplingRows(std::size_t b, const double* w, Eig
         for (Eigen::Index k = 0; k < n; ++k)
             for (Eigen::Index c = 0; c < m; ++c) row[c] += f(r, k) * w[c * n + k];
     }
+}
+
+void BlockEliminationWorkspace::prefetch() const
+{
+    rig::prefetch(entries_);
+    rig::prefetch(work_);
+    for (const Eigen::VectorXd& v : rhs_) prefetchBytes(v.data(), static_cast<std::size_t>(v.size()) * sizeof(double));
+    rig::prefetch(squares_);
+    rig::prefetch(couplings_);
+    rig::prefetch(foldLoad_);
+    rig::prefetch(foldProduct_);
+    rig::prefetch(motion_);
+    rig::prefetch(blockWeight_);
+    rig::prefetch(blockLoad_);
+    rig::prefetch(e_->nodeId_);
+    rig::prefetch(e_->nodeColumn_);
+    rig::prefetch(e_->nodeUp_);
+    rig::prefetch(e_->pairOther_);
+    rig::prefetch(e_->pairEntry_);
+    rig::prefetch(e_->pairFactor_);
 }
 
 bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu,

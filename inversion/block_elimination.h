@@ -106,6 +106,8 @@ public:
     // Solves (J^T J + mu I) delta = -gradient (gradient: zero on held columns). False when a block's
     // matrix has no finite inverse.
     bool solve(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
+    // Hints the cache to fetch what a solve touches (core/prefetch.h).
+    void prefetch() const;
 
 private:
     using BlockMap = Eigen::Map<Eigen::MatrixXd>;

@@ -1,5 +1,7 @@
 #include "inversion/jacobian.h"
 
+#include "core/prefetch.h"
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -606,6 +608,35 @@ void ResidualWorkspace::twists()
         }
         twist_[i] << omega, v;
     }
+}
+
+void ResidualWorkspace::prefetch() const
+{
+    const auto& s = *structure_;
+    rig::prefetch(s.slots_);
+    rig::prefetch(s.nodes_);
+    rig::prefetch(s.unknownNodes_);
+    rig::prefetch(s.unknownUp_);
+    rig::prefetch(s.unknownColumn_);
+    rig::prefetch(s.outputDeepest_);
+    rig::prefetch(s.outputNode_);
+    for (const auto& slot : s.slots_) prefetchBytes(slot.operation, sizeof(Operator));
+    rig::prefetch(s.outputs_);
+    rig::prefetch(s.outputRigid_);
+    rig::prefetch(slotMatrix_);
+    rig::prefetch(slotOffset_);
+    rig::prefetch(nodeMatrix_);
+    rig::prefetch(twist_);
+    rig::prefetch(load_);
+    rig::prefetch(weight_);
+    rig::prefetch(weighted_);
+    rig::prefetch(worlds_);
+    rig::prefetch(quaternion_);
+    rig::prefetch(targets_);
+    rig::prefetch(pairBegin_);
+    rig::prefetch(pairNode_);
+    rig::prefetch(pairTarget_);
+    rig::prefetch(pairFactor_);
 }
 
 void ResidualWorkspace::useLayout(std::span<const int> layout)

@@ -194,6 +194,8 @@ public:
     // each unknown node's pairs with the nodes above some point (-1 from there up; twist form only): the
     // couplings a folded BlockElimination forms itself from twist() and weighted().
     void useLayout(std::span<const int> layout);
+    // Hints the cache to fetch what an evaluation and the twists' normal equations touch (core/prefetch.h).
+    void prefetch() const;
     // The analytic Jacobian from prefix and suffix products along each output's own product
     // (dW/da_j = prefix_j dM_j suffix_j): what jacobian() falls back to when an operator or a product
     // is singular (no inverse for the velocity form). For tests and benchmarks.

@@ -1,5 +1,7 @@
 #include "inversion/solver.h"
 
+#include "core/prefetch.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -124,6 +126,16 @@ struct BlockWorkspace {
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
     std::vector<char> fixed;
     std::unique_ptr<BlockEliminationWorkspace> elimination;  // a coupled plan's step (inversion/block_elimination.h)
+
+    void prefetch() const
+    {
+        residual.prefetch();
+        if (elimination) elimination->prefetch();
+        rig::prefetch(x);
+        rig::prefetch(trial);
+        for (const Eigen::VectorXd* v : {&r, &rTrial, &hStep, &g, &gFree, &delta, &step})
+            prefetchBytes(v->data(), static_cast<std::size_t>(v->size()) * sizeof(double));
+    }
 };
 
 struct BlockPlan {
@@ -217,6 +229,19 @@ private:
 };
 
 // The partition for one set of counted rows, with what its blocks need.
+// Hints the cache to fetch what solving `tree` in `w` touches: the workspace's arrays, the tree's limits and
+// its outputs' prepared targets.
+void prefetchTree(const BlockPlan& tree, const BlockWorkspace& w, std::span<const PreparedTarget> prepared)
+{
+    w.prefetch();
+    prefetch(tree.lower);
+    prefetch(tree.upper);
+    prefetch(tree.period);
+    prefetch(tree.defaults);
+    for (const int o : tree.structure.outputs())
+        prefetchBytes(&prepared[static_cast<std::size_t>(o)], sizeof(PreparedTarget));
+}
+
 struct Plan {
     // `twists`: the analytic Jacobian (the coupled systems' normal equations from twists where in twist form).
     Plan(const Approximation& approximation, const Equivalences& equivalences, Partition p, std::vector<int> counted,
@@ -1091,17 +1116,16 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     if (coupled) {
         // Independent trees touch disjoint parameters and outputs: in parallel they give the serial values.
         if (byTrees) scratch->treeErrors.assign(plan->trees.size(), TreeErrors{});
-        const auto solveTree = [&](std::size_t t) {
+        const auto borrow = [&](std::optional<Borrowed<BlockWorkspace>>& slot, std::size_t t) -> BlockWorkspace& {
             const BlockPlan& tree = plan->tree(t);
-            if (!byTrees) {
-                results[t] = impl.solveBlock(tree, scratch->prepared, values, parallel);
-                return;
-            }
-            Borrowed<BlockWorkspace> w(
+            return *slot.emplace(
                 tree.pool, [&] { return std::make_unique<BlockWorkspace>(tree.structure, tree.elimination.get()); });
-            results[t] = impl.solveBlock(tree, *w, scratch->prepared, values, parallel);
-            if (results[t].evaluatedAtEnd)
-                errorsOf(tree.structure.outputs(), w->residual, w->r, scratch->treeErrors[t]);
+        };
+        const auto solveIn = [&](std::size_t t, BlockWorkspace& w) {
+            const BlockPlan& tree = plan->tree(t);
+            results[t] = impl.solveBlock(tree, w, scratch->prepared, values, parallel);
+            if (byTrees && results[t].evaluatedAtEnd)
+                errorsOf(tree.structure.outputs(), w.residual, w.r, scratch->treeErrors[t]);
         };
         const std::size_t trees = plan->trees.size();
         if (system) {
@@ -1110,9 +1134,24 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
             });
             results[0] = impl.solveBlock(*system, **systemWorkspace, scratch->prepared, values, parallel);
         } else if (!parallel || trees == 1) {
-            for (std::size_t t = 0; t < trees; ++t) solveTree(t);
+            // One tree after another, the next one's workspace and data fetched into the cache while this one
+            // is solved: a crowd's trees do not fit in the cache together, and each is otherwise missed anew
+            // at every frame (docs/performance.md, crowds).
+            std::optional<Borrowed<BlockWorkspace>> workspaces[2];
+            borrow(workspaces[0], 0);
+            for (std::size_t t = 0; t < trees; ++t) {
+                if (t + 1 < trees)
+                    prefetchTree(plan->tree(t + 1), borrow(workspaces[(t + 1) % 2], t + 1), scratch->prepared);
+                solveIn(t, **workspaces[t % 2]);
+                workspaces[t % 2].reset();
+            }
         } else {
-            auto runAll = [&] { tbb::parallel_for(std::size_t{0}, trees, solveTree); };
+            auto runAll = [&] {
+                tbb::parallel_for(std::size_t{0}, trees, [&](std::size_t t) {
+                    std::optional<Borrowed<BlockWorkspace>> w;
+                    solveIn(t, borrow(w, t));
+                });
+            };
             if (impl.arena) impl.arena->execute(runAll);
             else runAll();
         }

@@ -1,0 +1,23 @@
+#pragma once
+// Hints that memory is about to be read or written: the next of many independent problems solved one after
+// another (a crowd's trees) is fetched into the cache while the current one is solved.
+
+#include <cstddef>
+#include <vector>
+
+namespace rig {
+
+// Every cache line of [data, data + bytes).
+inline void prefetchBytes(const void* data, std::size_t bytes)
+{
+    const char* p = static_cast<const char*>(data);
+    for (std::size_t i = 0; i < bytes; i += 64) __builtin_prefetch(p + i, 1, 3);
+}
+
+template <class T>
+void prefetch(const std::vector<T>& v)
+{
+    prefetchBytes(v.data(), v.size() * sizeof(T));
+}
+
+}  // namespace rig
