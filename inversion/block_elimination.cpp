@@ -457,6 +457,17 @@ void BlockEliminationWorkspace::prefetch() const
     rig::prefetch(motion_);
     rig::prefetch(blockWeight_);
     rig::prefetch(blockLoad_);
+    rig::prefetch(folded_);
+    rig::prefetch(foldWeightOf_);
+    rig::prefetch(foldLoadOf_);
+    rig::prefetch(foldCoupling_);
+    rig::prefetch(e_->nodeBegin_);
+    rig::prefetch(e_->attach_);
+    rig::prefetch(e_->localOfColumn_);
+    rig::prefetch(e_->diagonal_);
+    for (const auto& columns : e_->columns_) rig::prefetch(columns);
+    for (const auto& base : e_->base_) rig::prefetch(base);
+    for (const auto& children : e_->children_) rig::prefetch(children);
     rig::prefetch(e_->nodeId_);
     rig::prefetch(e_->nodeColumn_);
     rig::prefetch(e_->nodeUp_);

@@ -630,6 +630,7 @@ void ResidualWorkspace::prefetch() const
     rig::prefetch(load_);
     rig::prefetch(weight_);
     rig::prefetch(weighted_);
+    rig::prefetch(fresh_);
     rig::prefetch(worlds_);
     rig::prefetch(quaternion_);
     rig::prefetch(targets_);

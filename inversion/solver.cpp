@@ -133,6 +133,7 @@ struct BlockWorkspace {
         if (elimination) elimination->prefetch();
         rig::prefetch(x);
         rig::prefetch(trial);
+        rig::prefetch(fixed);
         for (const Eigen::VectorXd* v : {&r, &rTrial, &hStep, &g, &gFree, &delta, &step})
             prefetchBytes(v->data(), static_cast<std::size_t>(v->size()) * sizeof(double));
     }
