@@ -175,6 +175,34 @@ TEST_CASE("coupled blocks: a crowd's summary from its trees equals the approxima
     }
 }
 
+TEST_CASE("coupled blocks: a crowd's trees one after another (the next one prefetched) give the parallel values")
+{
+    // On one thread the trees are solved in turn, each with the next tree's workspace borrowed and fetched into
+    // the cache meanwhile; on several, in parallel. Values and summaries must be the same, bit for bit, along a
+    // warm-started chain of frames.
+    test::LambdaRig crowdRig = test::crowdOf(test::twoArms(), 4, 60.0);
+    const Approximation a = test::learn(crowdRig, "crowd");
+    SolverOptions serialOptions;
+    serialOptions.threads = 1;
+    SolverOptions parallelOptions;
+    parallelOptions.threads = 2;
+    const Solver serial(a, serialOptions), parallel(a, parallelOptions);
+    std::mt19937 rng(8);
+    REQUIRE(serial.partition(unreachableTargets(a, rng, 3.0, 20.0)).roots.size() == 4);
+    std::vector<double> one = a.defaults(), two = a.defaults();
+    for (int frame = 0; frame < 6; ++frame) {
+        CAPTURE(frame);
+        const std::vector<JointTarget> targets = unreachableTargets(a, rng, frame % 2 ? 0.0 : 3.0, 10.0);
+        const SolveSummary s1 = serial.solve(targets, one);
+        const SolveSummary s2 = parallel.solve(targets, two);
+        CHECK(one == two);
+        CHECK(s1.termination == s2.termination);
+        CHECK(s1.iterations == s2.iterations);
+        CHECK(s1.finalCost == s2.finalCost);
+        CHECK(s1.missedOutputs == s2.missedOutputs);
+    }
+}
+
 TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense system's, with held columns and damping")
 {
     const Approximation a = readApproximationFile(test::bipedApproximation());
