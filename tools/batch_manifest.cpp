@@ -14,7 +14,8 @@ namespace rig::cli {
 namespace {
 
 constexpr std::string_view manifestFormat = "rig-batch manifest 1";
-constexpr std::string_view shardFormat = "rig-batch shard 1";
+constexpr std::string_view shardFormat = "rig-batch shard 2";
+constexpr std::size_t shardFigures = 8;  // the summary's figures held as raw doubles (shardOutputBytes)
 
 Json settingsJson(const InvertSettings& s)
 {
@@ -258,30 +259,37 @@ std::string shardOutputBytes(const ShardOutput& o)
     std::vector<double> solved;
     for (const auto& row : o.solved) solved.insert(solved.end(), row.begin(), row.end());
     const ClipInversionSummary& s = o.summary;
-    Json stuck = Json::array();
-    for (const auto& joint : s.stuckJoints) stuck.push_back({joint.name, joint.frames, joint.worstErrorCm});
+    // Residual errors may be NaN or infinite, which JSON cannot hold: as text that strtod reads back exactly.
+    Json residual = Json::array();
+    for (const auto& joint : s.residualJoints)
+        residual.push_back({joint.name, joint.frames, fmt::format("{}", joint.worstErrorCm)});
     const std::string_view numbers(reinterpret_cast<const char*>(o.frameNumbers.data()),
                                    o.frameNumbers.size() * sizeof(double));
     const std::string_view values(reinterpret_cast<const char*>(solved.data()), solved.size() * sizeof(double));
     // Errors may be NaN or infinite, which JSON cannot hold: as raw doubles too.
-    const std::array<double, 4> figures{s.maxPositionErrorCm, s.maxRotationErrorDeg, s.solveSeconds, o.taskSeconds};
+    const std::array<double, shardFigures> figures{s.maxPositionErrorCm,   s.maxRotationErrorDeg, s.solveSeconds,
+                                                   o.taskSeconds,          s.meanPositionErrorCm, s.meanRotationErrorDeg,
+                                                   s.maxModelGapCm,        s.solveCpuSeconds};
     const std::string_view figureBytes(reinterpret_cast<const char*>(figures.data()), sizeof(figures));
+    Json statuses = Json::array();
+    for (const int n : s.statusFrames) statuses.push_back(n);
     const Json header{{"format", shardFormat},
                       {"byte_order", byteOrder()},
                       {"key", o.key},
                       {"first", o.first},
                       {"last", o.last},
                       {"frames", s.frames},
-                      {"converged_frames", s.convergedFrames},
-                      {"stuck_frames", s.stuckFrames},
+                      {"status_frames", std::move(statuses)},
+                      {"first_failure", {s.firstFailedFrame, static_cast<int>(s.firstFailedStatus), s.firstFailedJoint}},
                       {"retried_frames", s.retriedFrames},
                       {"retries_kept", s.retriesKept},
-                      {"stuck_joints", std::move(stuck)},
+                      {"residual_joints", std::move(residual)},
                       {"worst_joint", s.worstJoint},
                       {"worst_frame", s.worstFrame},
-                      {"non_finite_frames", s.nonFiniteFrames},
-                      {"first_non_finite_joint", s.firstNonFiniteJoint},
-                      {"first_non_finite_frame", s.firstNonFiniteFrame},
+                      {"worst_rotation_joint", s.worstRotationJoint},
+                      {"worst_rotation_frame", s.worstRotationFrame},
+                      {"joint_frames", s.jointFrames},
+                      {"real_rig_evaluations", s.realRigEvaluations},
                       {"curves_file_checksum", o.curvesChecksum},
                       {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
     std::string out = header.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";
@@ -307,12 +315,12 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         o.last = j.at("last").get<int>();
         const auto sizes = j.at("bytes").get<std::array<std::size_t, 4>>();
         const std::size_t frames = o.last >= o.first ? static_cast<std::size_t>(o.last - o.first + 1) : 0;
-        if (frames == 0 || sizes[0] != 4 * sizeof(double) || sizes[1] != frames * sizeof(double) ||
+        if (frames == 0 || sizes[0] != shardFigures * sizeof(double) || sizes[1] != frames * sizeof(double) ||
             sizes[2] != frames * parameters * sizeof(double) ||
             newline + 1 + sizes[0] + sizes[1] + sizes[2] + sizes[3] != bytes.size())
             throw bad(fmt::format("its sizes are not those of {} frames of {} parameters", frames, parameters));
         const char* at = bytes.data() + newline + 1;
-        std::array<double, 4> figures{};
+        std::array<double, shardFigures> figures{};
         std::memcpy(figures.data(), at, sizes[0]);
         at += sizes[0];
         o.frameNumbers.resize(frames);
@@ -329,19 +337,29 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         s.maxRotationErrorDeg = figures[1];
         s.solveSeconds = figures[2];
         o.taskSeconds = figures[3];
+        s.meanPositionErrorCm = figures[4];
+        s.meanRotationErrorDeg = figures[5];
+        s.maxModelGapCm = figures[6];
+        s.solveCpuSeconds = figures[7];
         s.frames = j.at("frames").get<int>();
-        s.convergedFrames = j.at("converged_frames").get<int>();
-        s.stuckFrames = j.at("stuck_frames").get<int>();
+        s.statusFrames = j.at("status_frames").get<std::array<int, frameStatusCount>>();
+        const Json& failure = j.at("first_failure");
+        s.firstFailedFrame = failure.at(0).get<int>();
+        const int status = failure.at(1).get<int>();
+        if (status < 0 || status >= frameStatusCount) throw bad(fmt::format("no frame status {}", status));
+        s.firstFailedStatus = static_cast<FrameStatus>(status);
+        s.firstFailedJoint = failure.at(2).get<std::string>();
         s.retriedFrames = j.at("retried_frames").get<int>();
         s.retriesKept = j.at("retries_kept").get<int>();
-        for (const Json& joint : j.at("stuck_joints"))
-            s.stuckJoints.push_back(
-                {joint.at(0).get<std::string>(), joint.at(1).get<int>(), joint.at(2).get<double>()});
+        for (const Json& joint : j.at("residual_joints"))
+            s.residualJoints.push_back({joint.at(0).get<std::string>(), joint.at(1).get<int>(),
+                                        std::strtod(joint.at(2).get<std::string>().c_str(), nullptr)});
         s.worstJoint = j.at("worst_joint").get<std::string>();
         s.worstFrame = j.at("worst_frame").get<int>();
-        s.nonFiniteFrames = j.at("non_finite_frames").get<int>();
-        s.firstNonFiniteJoint = j.at("first_non_finite_joint").get<std::string>();
-        s.firstNonFiniteFrame = j.at("first_non_finite_frame").get<int>();
+        s.worstRotationJoint = j.at("worst_rotation_joint").get<std::string>();
+        s.worstRotationFrame = j.at("worst_rotation_frame").get<int>();
+        s.jointFrames = j.at("joint_frames").get<long long>();
+        s.realRigEvaluations = j.at("real_rig_evaluations").get<long long>();
     }
     catch (const Json::exception& e) {
         throw bad(e.what());

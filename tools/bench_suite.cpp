@@ -25,6 +25,7 @@
 #include "nodes/graph_rig_function.h"
 #include "nodes/inversion_spec.h"
 #include "tools/bench_cold_start.h"
+#include "tools/invert_run.h"
 #ifdef RIG_BENCH_HAVE_CERES
 #include "tools/bench_ceres.h"
 #endif
@@ -140,6 +141,7 @@ struct ClipRun {
     Json errorsJson() const
     {
         return Json{{"frames", frames()},
+                    {"status_frames", cli::statusCountsJson(summary)},
                     {"max_position_error_cm", summary.maxPositionErrorCm},
                     {"mean_position_error_cm", summary.meanPositionErrorCm},
                     {"max_rotation_error_deg", summary.maxRotationErrorDeg},
@@ -150,11 +152,12 @@ struct ClipRun {
 // Frames [first, last] of `targets`, solved by `solver` (polished on the real rig `polishCorrections`
 // times), or by `strategy` in the same chains.
 ClipRun invertFrames(const Solver& solver, RigBinding& binding, const ClipTargets& targets, int first, int last,
-                     int polishCorrections = 0, FrameSolveStrategy strategy = {})
+                     int polishCorrections = 0, FrameSolveStrategy strategy = {}, RealRigFit fit = RealRigFit::none)
 {
     ClipInversionOptions options;
     options.polishCorrections = polishCorrections;
     options.frameSolve = std::move(strategy);
+    options.realRigFit = fit;
     ClipRun run;
     run.summary = invertClip(solver, binding, targets, first, last, options, run.values);
     return run;
@@ -457,7 +460,8 @@ void compareBlackBox(BipedBench& b, Json& report)
                          const RealRigSolve s = solveOnRealRig(blackBox, values, defaults);
                          blackEvaluations += s.evaluations;
                          peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
-                     });
+                     },
+                     RealRigFit::everyOutput);
     // Ours on the same frames: the whole problem, as the black box solves it, and the partitioned one.
     const VariantResult sameWhole = runVariant(variant(wholeVariant), approximation, binding, targets, blackBoxFrames);
     const VariantResult samePartitioned =
@@ -577,7 +581,8 @@ Json ikLegsBench(BipedBench& b)
     const ClipRun run =
         invertFrames(solver, binding, targets, 0, frames - 1, 0,
                      [&](std::span<const JointTarget> t, std::vector<double>& values, double previousCost,
-                         ChainFrame& frame) { hybrid.solveFrame(t, values, previousCost, scratch, frame); });
+                         ChainFrame& frame) { hybrid.solveFrame(t, values, previousCost, scratch, frame); },
+                     RealRigFit::unmodelledOutputs);
     // Leg joints against the FK approximation's answer on the same frames.
     const ClipRun& fk = b.result(partitionedVariant).run;
     std::vector<std::pair<int, int>> legs;  // (FK output, IK output)
@@ -886,7 +891,7 @@ void runScaling(const BenchOptions& o, Json& report)
                             {"validation_max_relative_error", a.validation.maxRelativeError},
                             {"within_epsilon", a.validation.withinEpsilon},
                             {"frames", run.frames()},
-                            {"converged_frames", run.summary.convergedFrames},
+                            {"status_frames", cli::statusCountsJson(run.summary)},
                             {"ms_per_frame", run.cpuMsPerFrame()},
                             {"wall_ms_per_frame", run.msPerFrame()},
                             {"mean_iterations", run.meanIterations()},
