@@ -268,11 +268,13 @@ bool measureFrame(const Approximation& a, const SolverOptions& o, RealRigFit fit
         const auto [gp, gr] = distance(modelled[k], real[k]);
         const double gap = worse(gp, o.rotationScaleCm * gr) ? gp : o.rotationScaleCm * gr;
         if (worse(gap, f.modelGapCm)) f.modelGapCm = gap;
+        // The approximation's word on this output holds where its gap is small beside the error it leaves.
+        if (!(gap <= std::max(o.targetTolerance, modelAgreement * error))) f.disagrees = true;
     }
     return unfitted;
 }
 
-FrameStatus frameStatus(const FrameInversion& f, bool unfittedMiss, double tolerance)
+FrameStatus frameStatus(const FrameInversion& f, bool unfittedMiss)
 {
     const TerminationType t = f.solve.termination;
     if (t == TerminationType::invalidTargets || t == TerminationType::noTargets) return FrameStatus::invalidTargets;
@@ -280,7 +282,7 @@ FrameStatus frameStatus(const FrameInversion& f, bool unfittedMiss, double toler
         return FrameStatus::nonFinite;
     if (f.missed.empty()) return FrameStatus::reached;
     if (t == TerminationType::noConvergence) return FrameStatus::notConverged;
-    if (unfittedMiss || !(f.modelGapCm <= tolerance)) return FrameStatus::modelMismatch;
+    if (unfittedMiss || f.disagrees) return FrameStatus::modelMismatch;
     return FrameStatus::bestFit;
 }
 
@@ -291,7 +293,7 @@ void judgeFrame(const Approximation& approximation, const SolverOptions& options
                 std::span<const Eigen::Matrix4d> modelled, FrameInversion& frame)
 {
     const bool unfitted = measureFrame(approximation, options, fit, targets, real, modelled, frame);
-    frame.status = frameStatus(frame, unfitted, options.targetTolerance);
+    frame.status = frameStatus(frame, unfitted);
 }
 
 ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first, int last,

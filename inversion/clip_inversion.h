@@ -103,12 +103,19 @@ struct ClipInversionOptions {
     void validate() const;
 };
 
+// How far the approximation and the real rig may disagree on an output, at a frame's answer, for that answer to be
+// the real rig's best fit: a fraction of the error the real rig leaves there (or targetTolerance, if larger). An
+// approximation is exact within its validation epsilon on the poses it was learned for; past them (a sampled
+// operator extrapolated: the biped's sliding knees beyond 90 degrees) its gap grows, and a gap this small beside
+// the residual moves the best fit by no more than this fraction of it.
+inline constexpr double modelAgreement = 0.1;
+
 // What a frame's answer is, judged on the real rig at the values reported for it (docs/rig-invert.md, Frame
 // statuses). Only reached and bestFit are answers a run may exit 0 with.
 enum class FrameStatus {
     reached,        // every counted target within targetTolerance on the real rig
-    bestFit,        // stationary with a residual, where the approximation and the real rig agree (the rig cannot
-                    // take the pose: the closest it can)
+    bestFit,        // stationary with a residual, where the approximation and the real rig agree (each output's gap
+                    // within modelAgreement of its error): the rig cannot take the pose, this is the closest it can
     modelMismatch,  // a target missed on the real rig where the approximation and the real rig disagree beyond
                     // targetTolerance, or an output the approximation does not model and no solve fitted
     notConverged,   // the solve used its iterations
@@ -139,6 +146,9 @@ struct FrameInversion {
     // Largest disagreement of the approximation with the real rig at the reported values over the counted
     // outputs it models (cm, a rotation as rotationScaleCm * radians); 0 for outputs fitted on the real rig.
     double modelGapCm = 0.0;
+    // Some counted output's gap is over max(targetTolerance, modelAgreement * its real-rig error): the
+    // approximation's answer cannot be taken as the real rig's best fit there.
+    bool disagrees = false;
     // Outputs further than targetTolerance on the real rig, increasing, each with its error there (cm, the larger
     // of the position error and rotationScaleCm * the rotation error in radians).
     struct Missed {

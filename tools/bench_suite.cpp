@@ -566,7 +566,7 @@ Json ikLegsBench(BipedBench& b)
     const auto specFile = o.spec.parent_path() / "biped_inversion_ik.yaml";
     if (!std::filesystem::exists(specFile)) return Json();
     const InversionSpec spec = readSpec(specFile);
-    GraphRigFunction rig(o.rig, GraphRigOptions{spec.params, spec.outputs, {}, spec.set});
+    GraphRigFunction rig(o.rig, GraphRigOptions{spec.params, spec.outputs, {}, spec.set, spec.ranges});
     say(o, "learning the biped with IK legs");
     auto start = Clock::now();
     const Approximation approximation = learnApproximation(rig, LearnOptions{}, o.rig.string());
@@ -631,6 +631,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
     rigOptions.parameterGlobs = spec.params;
     rigOptions.outputGlobs = spec.outputs;
     rigOptions.held = spec.set;  // the spec's state: learned in it, and every real-rig figure measured in it
+    rigOptions.ranges = spec.ranges;
     auto start = Clock::now();
     GraphRigFunction rig(o.rig, rigOptions);
     const double loadSeconds = secondsSince(start);

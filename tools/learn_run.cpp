@@ -59,7 +59,7 @@ double learningFraction(std::string_view stage, double fraction)
 LearnOutcome learn(const LearnJob& job)
 {
     const auto loadStart = std::chrono::steady_clock::now();
-    GraphRigFunction rig(job.rig, GraphRigOptions{job.params, job.outputs, job.plugins, job.held});
+    GraphRigFunction rig(job.rig, GraphRigOptions{job.params, job.outputs, job.plugins, job.held, job.ranges});
     if (job.rigLoaded) job.rigLoaded(rig);
     LearnOutcome out;
     out.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();

@@ -39,6 +39,7 @@ struct LearnJob {
     std::function<void(const GraphRigFunction& rig)> rigLoaded;
     std::vector<HeldPlug>
         held{};  // plugs held at a value, not inverted (rig-learn --set); recorded in the approximation
+    std::vector<GraphRigOptions::LearnRange> ranges{};  // the spec's `ranges:` (GraphRigOptions::ranges)
 };
 
 struct LearnOutcome {

@@ -33,6 +33,7 @@ struct Options {
     std::vector<std::string> plugins;
     std::vector<std::string> sets;  // --set PLUG=VALUE
     std::vector<HeldPlug> held;     // --set's, then the spec's for other plugs
+    std::vector<GraphRigOptions::LearnRange> ranges;  // the spec's
     std::string spec;
     std::map<std::string, std::string> specPlaces;     // glob -> its file:line:col in the spec, for messages
     std::map<std::string, std::string> specSetPlaces;  // held plug of the spec -> its file:line:col
@@ -50,6 +51,7 @@ void readSpec(Options& options)
     options.params.insert(options.params.end(), spec.params.begin(), spec.params.end());
     options.outputs.insert(options.outputs.end(), spec.outputs.begin(), spec.outputs.end());
     options.specPlaces.merge(spec.places);
+    options.ranges = spec.ranges;
     for (const HeldPlug& h : spec.set) {
         const bool overridden = std::any_of(options.held.begin(), options.held.end(),
                                             [&](const HeldPlug& given) { return given.plug == h.plug; });
@@ -199,6 +201,7 @@ int run(Options& options)
     cli::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
     cli::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
     job.held = options.held;
+    job.ranges = options.ranges;
     if (options.epsilonGiven) job.options.epsilon = cli::parseEpsilon(options.epsilon);
     job.options.orderer = cli::ordererFromName(options.orderer);
     job.options.relativeFrames = !options.worldSpace;
