@@ -101,7 +101,8 @@ void ClipInversionSummary::add(const FrameInversion& f, const std::vector<Approx
     if (frameStatusFails(f.status) && firstFailedFrame < 0) {
         firstFailedFrame = f.frame;
         firstFailedStatus = f.status;
-        firstFailedJoint = !f.nonFiniteJoint.empty() ? f.nonFiniteJoint
+        firstFailedJoint = f.status == FrameStatus::invalidTargets && !f.invalidJoint.empty() ? f.invalidJoint
+                           : !f.nonFiniteJoint.empty()                                      ? f.nonFiniteJoint
                            : !f.missed.empty()       ? outputs[static_cast<std::size_t>(f.missed.front().output)].name
                                                      : f.worstJoint;
     }
@@ -233,8 +234,12 @@ bool measureFrame(const Approximation& a, const SolverOptions& o, RealRigFit fit
     bool unfitted = false;
     for (std::size_t k = 0; k < targets.size(); ++k) {
         const JointTarget& t = targets[k];
+        if (!t.active) continue;
         // An unusable target has no error to measure: the solve says invalidTargets.
-        if (!t.active || !t.world.topRows<3>().allFinite()) continue;
+        if (!t.world.topRows<3>().allFinite()) {
+            if (f.invalidJoint.empty()) f.invalidJoint = a.outputs[k].name;
+            continue;
+        }
         if (!real[k].topRows<3>().allFinite()) {
             if (f.nonFiniteJoint.empty()) f.nonFiniteJoint = a.outputs[k].name;
             continue;

@@ -161,6 +161,7 @@ struct FrameInversion {
     double rotationErrorSumDeg = 0.0;
     int countedJoints = 0;
     std::string nonFiniteJoint;      // a joint the real rig gave a non-finite matrix for, or ""
+    std::string invalidJoint;        // a joint whose target is not finite (not measured), or ""
     int realRigEvaluations = 0;      // by the solve (a hybrid solve's second stage), not by this measurement
 };
 

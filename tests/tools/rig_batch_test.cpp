@@ -113,14 +113,17 @@ TEST_CASE(
             // Counts as one run makes them; errors measured by each shard on its own values (the same poses
             // where the merge shifted a shard: equal up to rounding).
             const Json whole = readJson(dir / (name + ".report.json"));
-            for (const char* key : {"frames", "converged_frames", "stuck_frames", "retried_frames", "retries_kept",
-                                    "worst_joint", "worst_frame", "non_finite_frames"})
+            for (const char* key : {"frames", "status_frames", "failed_frames", "first_failure", "retried_frames",
+                                    "retries_kept", "worst_joint", "worst_frame", "worst_rotation_joint",
+                                    "worst_rotation_frame"})
                 CHECK(clip[key] == whole[key]);
+            CHECK(clip["mean_position_error_cm"].get<double>() ==
+                  doctest::Approx(whole["mean_position_error_cm"].get<double>()).epsilon(1e-9));
             CHECK(clip["max_position_error_cm"].get<double>() ==
                   doctest::Approx(whole["max_position_error_cm"].get<double>()).epsilon(1e-9));
             CHECK(clip["max_rotation_error_deg"].get<double>() ==
                   doctest::Approx(whole["max_rotation_error_deg"].get<double>()).epsilon(1e-9));
-            CHECK(clip["stuck_joints"].size() == whole["stuck_joints"].size());
+            CHECK(clip["residual_joints"].size() == whole["residual_joints"].size());
             CHECK(clip["ms_per_frame"].get<double>() > 0.0);
         }
     }
