@@ -107,7 +107,7 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
     for (const auto& entry : root) {
         if (!entry.first.IsScalar())
             throw Error(
-                fmt::format("{}: a key of a spec is a list or a map; a spec has 'params:', 'outputs:' and 'set:'",
+                fmt::format("{}: a key of a spec is a list or a map; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'",
                             at(entry.first)));
         const std::string key = entry.first.Scalar();
         if (key == "set") {
