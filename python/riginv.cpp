@@ -279,7 +279,7 @@ public:
     static PyApproximation learn(const py::object& rig, const std::vector<std::string>& params,
                                  const std::vector<std::string>& outputs, double epsilon, const std::string& orderer,
                                  const py::object& progress, const std::vector<std::string>& plugins, bool worldSpace,
-                                 const std::optional<py::dict>& set)
+                                 const std::optional<py::dict>& set, const std::optional<py::dict>& ranges)
     {
         if (params.empty()) throw Error("params: give one or more parameter plug globs (rig-learn --params)");
         cli::LearnJob job{pathText(rig), params, outputs, plugins, {}, {}};
@@ -293,6 +293,22 @@ public:
                     throw Error(fmt::format("set['{}']: expected a number (the rig file's units), got a {}", plug,
                                             typeName(value)));
                 job.held.push_back({plug, value.cast<double>()});
+            }
+        if (ranges)
+            for (const auto& [key, value] : *ranges) {
+                const std::string glob = py::isinstance<py::str>(key) ? std::string(py::str(key)) : std::string();
+                std::vector<double> range;
+                try {
+                    range = value.cast<std::vector<double>>();
+                }
+                catch (const py::cast_error&) {
+                }
+                if (glob.empty() || range.size() != 2 || !std::isfinite(range[0]) || !std::isfinite(range[1]) ||
+                    !(range[0] < range[1]))
+                    throw Error(fmt::format("ranges: give {{parameter glob: [min, max]}} with finite min < max in the "
+                                            "rig file's units (a spec's ranges:), got a {} for '{}'",
+                                            typeName(value), glob));
+                job.ranges.push_back({glob, range[0], range[1]});
             }
         job.options.epsilon = cli::parseEpsilon(fmt::format("{}", epsilon));
         job.options.orderer = cli::ordererFromName(orderer);
@@ -575,11 +591,13 @@ PYBIND11_MODULE(riginv, m)
           py::arg("outputs") = std::vector<std::string>{}, py::arg("epsilon") = 0.001,
           py::arg("orderer") = "structured", py::arg("progress") = py::none(), py::kw_only(),
           py::arg("plugins") = std::vector<std::string>{}, py::arg("world_space") = false, py::arg("set") = py::none(),
+          py::arg("ranges") = py::none(),
           "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
           "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
           "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "
           "plugins, world_space: rig-learn's --plugin and --world-space; set: {plug: value}, plugs held at a "
-          "value while learning, in the rig file's units (rig-learn --set).\n"
+          "value while learning, in the rig file's units (rig-learn --set); ranges: {parameter glob: [min, max]}, where "
+          "controls without declared limits are learned (a spec's ranges:).\n"
           "progress: called as progress(fraction done, 1.0), with the GIL held.\n"
           "An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses it. "
           "The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s).");

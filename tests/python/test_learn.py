@@ -27,7 +27,7 @@ def approximation_file(path):
 def test_biped_report_equals_rig_learn(learned_biped, tmp_path):
     cli_file, cli_report = learned_biped
     spec = biped_spec()
-    approx = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"])
+    approx = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"], ranges=spec["ranges"])
     report = approx.report
     assert report["approximation"] is None and report["written"] is False
     named = ("approximation", "written")
