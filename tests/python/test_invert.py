@@ -91,7 +91,7 @@ def test_learned_in_python_inverts_as_rig_learn_s_file(learned_biped):
     need_cmu_clip()
     file, _ = learned_biped
     spec = biped_spec()
-    learned = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"])
+    learned = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"], ranges=spec["ranges"])
     ours, _, _ = learned.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:240")
     theirs, _, report = riginv.Approximation.load(file).invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:240")
     assert np.array_equal(ours, theirs)
