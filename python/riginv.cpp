@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -66,6 +67,54 @@ py::object toPython(const cli::Json& json)
 std::string pathText(const py::handle& path) { return py::str(py::module_::import("os").attr("fspath")(path)); }
 
 std::string typeName(const py::handle& value) { return py::str(py::type::handle_of(value).attr("__name__")); }
+
+// A NumPy scalar (numpy.int64(3), numpy.float32(0.5), numpy.bool_(True)) as the Python scalar it holds, so that
+// it is taken wherever a Python number is; anything else as it is.
+py::object plainScalar(const py::handle& value)
+{
+    const py::object numpy = py::module_::import("numpy");
+    if (py::isinstance(value, numpy.attr("generic"))) return value.attr("item")();
+    return py::reinterpret_borrow<py::object>(value);
+}
+
+// A number argument (an int, a float or a NumPy scalar of either; not a bool) as a double: an int too large
+// for a double is infinite, for the caller's check of finite values to refuse. Empty when it is no number.
+std::optional<double> numberOf(const py::handle& value)
+{
+    const py::object v = plainScalar(value);
+    if (py::isinstance<py::bool_>(v)) return std::nullopt;
+    if (py::isinstance<py::float_>(v)) return v.cast<double>();
+    if (!py::isinstance<py::int_>(v)) return std::nullopt;
+    const double x = PyLong_AsDouble(v.ptr());
+    if (x == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();  // OverflowError: past the largest double
+        return v > py::int_(0) ? HUGE_VAL : -HUGE_VAL;
+    }
+    return x;
+}
+
+// A number argument named `what`, refused with riginv.Error when it is something else.
+double numberArgument(const py::handle& value, std::string_view what)
+{
+    if (const auto x = numberOf(value)) return *x;
+    throw Error(fmt::format("{}: expected a number, got a {}", what, typeName(value)));
+}
+
+// A whole-number argument named `what` (an int or a NumPy integer), refused when it is something else or
+// past what an int holds.
+int intArgument(const py::handle& value, std::string_view what)
+{
+    const py::object v = plainScalar(value);
+    if (py::isinstance<py::bool_>(v) || !py::isinstance<py::int_>(v))
+        throw Error(fmt::format("{}: expected a whole number, got a {}", what, typeName(value)));
+    int overflow = 0;
+    const long long x = PyLong_AsLongLongAndOverflow(v.ptr(), &overflow);
+    if (overflow != 0 || x < std::numeric_limits<int>::min() || x > std::numeric_limits<int>::max())
+        throw Error(fmt::format("{}: {} is out of range; give a whole number from {} to {}", what,
+                                messageExcerpt(std::string(py::str(v))), std::numeric_limits<int>::min(),
+                                std::numeric_limits<int>::max()));
+    return static_cast<int>(x);
+}
 
 // ---------------------------------------------------------------------------------------------------------
 // Graph
@@ -183,20 +232,7 @@ public:
         const bool setTime = !frames.is_none();
         if (py::isinstance<py::str>(frames))
             numbers = cli::parseFrameRange(frames.cast<std::string>(), "--frames").frames();
-        else if (setTime) {
-            try {
-                numbers = frames.cast<std::vector<double>>();
-            }
-            catch (const py::cast_error&) {
-                throw py::type_error(
-                    fmt::format("frames: expected None, 'A:B[:STEP]' or a list of frame numbers; "
-                                "got a {}",
-                                typeName(frames)));
-            }
-            if (numbers.empty()) throw Error("frames: an empty list; give frame numbers, or 'A:B[:STEP]'");
-            for (const double frame : numbers)
-                if (!std::isfinite(frame)) throw Error(fmt::format("frames: {} is not a frame number", frame));
-        }
+        else if (setTime) numbers = frameNumbers(frames);
         std::vector<std::string> patterns;
         if (py::isinstance<py::str>(get)) patterns.push_back(get.cast<std::string>());
         else if (!get.is_none()) {
@@ -213,12 +249,43 @@ public:
         std::vector<std::vector<Value>> columns(plugs.size());
         for (const double frame : numbers) {
             auto values = cli::evaluateFrame(graph, file_, frame, setTime, plugs);
+            // graph-eval's limit, measured as graph-eval measures it: its JSON for as many frames as the first.
+            if (columns.empty() || columns.front().empty())
+                cli::checkOutputSize(cli::jsonOutputEstimate(graph, plugs, frame, values, numbers.size()),
+                                     numbers.size(), plugs.size());
             for (std::size_t i = 0; i < plugs.size(); ++i) columns[i].push_back(std::move(values[i]));
         }
         py::dict out;
         for (std::size_t i = 0; i < plugs.size(); ++i)
             out[py::str(graph.plugName(plugs[i]))] = plugArray(graph, plugs[i], columns[i]);
         return out;
+    }
+
+    // A list (or array) of frame numbers: Python or NumPy numbers, finite.
+    static std::vector<double> frameNumbers(const py::object& frames)
+    {
+        const auto wrongType = [&](const std::string& got) {
+            return py::type_error(
+                fmt::format("frames: expected None, 'A:B[:STEP]' or a list of frame numbers; got {}", got));
+        };
+        std::vector<py::object> items;
+        try {
+            items = frames.cast<std::vector<py::object>>();
+        }
+        catch (const py::cast_error&) {
+            throw wrongType("a " + typeName(frames));
+        }
+        if (items.empty()) throw Error("frames: an empty list; give frame numbers, or 'A:B[:STEP]'");
+        std::vector<double> numbers;
+        for (const py::object& item : items) {
+            const auto frame = numberOf(item);
+            if (!frame) throw wrongType(fmt::format("a {} holding a {}", typeName(frames), typeName(item)));
+            if (!std::isfinite(*frame))
+                throw Error(
+                    fmt::format("frames: {} is not a frame number", messageExcerpt(std::string(py::str(item)))));
+            numbers.push_back(*frame);
+        }
+        return numbers;
     }
 
     std::vector<std::string> plugs(const std::string& glob)
@@ -277,8 +344,9 @@ public:
     }
 
     static PyApproximation learn(const py::object& rig, const std::vector<std::string>& params,
-                                 const std::vector<std::string>& outputs, double epsilon, const std::string& orderer,
-                                 const py::object& progress, const std::vector<std::string>& plugins, bool worldSpace,
+                                 const std::vector<std::string>& outputs, const py::object& epsilon,
+                                 const std::string& orderer, const py::object& progress,
+                                 const std::vector<std::string>& plugins, bool worldSpace,
                                  const std::optional<py::dict>& set)
     {
         if (params.empty()) throw Error("params: give one or more parameter plug globs (rig-learn --params)");
@@ -288,13 +356,18 @@ public:
                 if (!py::isinstance<py::str>(key))
                     throw Error(fmt::format("set: a key is a {}, not a plug name (str)", typeName(key)));
                 const std::string plug = py::str(key);
-                if (py::isinstance<py::bool_>(value) ||
-                    !(py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value)))
+                const auto x = numberOf(value);
+                if (!x)
                     throw Error(fmt::format("set['{}']: expected a number (the rig file's units), got a {}", plug,
                                             typeName(value)));
-                job.held.push_back({plug, value.cast<double>()});
+                if (!std::isfinite(*x))
+                    throw Error(
+                        fmt::format("set['{}']: {} is not a finite number; give a finite number in the rig "
+                                    "file's units (degrees for angles)",
+                                    plug, messageExcerpt(std::string(py::str(value)))));
+                job.held.push_back({plug, *x});
             }
-        job.options.epsilon = cli::parseEpsilon(fmt::format("{}", epsilon));
+        job.options.epsilon = cli::parseEpsilon(fmt::format("{}", numberArgument(epsilon, "epsilon")));
         job.options.orderer = cli::ordererFromName(orderer);
         job.options.relativeFrames = !worldSpace;
         ProgressToPython onProgress(progress);
@@ -336,9 +409,9 @@ public:
         return toPython(cli::learnReport(*learned_, rig_, file_, file_.has_value()));
     }
 
-    py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map, int threads,
-                     int restartEvery, int polish, const py::object& progress, const std::vector<std::string>& plugins,
-                     const std::optional<std::string>& frames) const
+    py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map, const py::object& threads,
+                     const py::object& restartEvery, const py::object& polish, const py::object& progress,
+                     const std::vector<std::string>& plugins, const std::optional<std::string>& frames) const
     {
         cli::InvertJob job;
         job.approximation = approximation_;
@@ -354,9 +427,9 @@ public:
                             typeName(targets)));
         if (!map.is_none()) job.map = pathText(map);
         job.frames = frames;
-        job.settings.threads = threads;
-        job.settings.restartEvery = restartEvery;
-        job.settings.polish = polish;
+        job.settings.threads = intArgument(threads, "threads");
+        job.settings.restartEvery = intArgument(restartEvery, "restart_every");
+        job.settings.polish = intArgument(polish, "polish");
         ProgressToPython onProgress(progress);
         job.progress = [&](int done, int total) { onProgress(done, total); };
         job.warning = [](const std::string& warning) {

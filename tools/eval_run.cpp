@@ -12,6 +12,7 @@
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
 #include "nodes/curves/anim_file.h"
+#include "tools/value_output.h"
 
 namespace rig::cli {
 namespace {
@@ -180,6 +181,25 @@ std::vector<Value> evaluateFrame(Graph& graph, const std::string& rigName, doubl
         for (const Plug& p : plugs) values.push_back(graph.getValue(p));
     });
     return values;
+}
+
+void checkOutputSize(double bytes, std::size_t frames, std::size_t plugs)
+{
+    if (bytes > static_cast<double>(maxOutputBytes))
+        throw Error(
+            fmt::format("the output would be about {} MB ({} frames of {} plugs), more than the limit of {} "
+                        "MB; ask for fewer frames (--frames) or plugs (--get)",
+                        static_cast<long long>(bytes / 1e6), frames, plugs, maxOutputBytes >> 20));
+}
+
+double jsonOutputEstimate(const Graph& graph, std::span<const Plug> plugs, double frame,
+                          const std::vector<Value>& values, std::size_t frames)
+{
+    std::vector<std::pair<std::string, Json>> named;
+    for (std::size_t i = 0; i < plugs.size(); ++i)
+        named.emplace_back(graph.plugName(plugs[i]), valueToJson(graph, plugs[i], values[i]));
+    // Each frame comes after "[\n" or ",\n", as graph-eval writes it.
+    return static_cast<double>(frameJson(frame, named).size() + 2) * static_cast<double>(frames);
 }
 
 }  // namespace rig::cli

@@ -581,8 +581,7 @@ void KeyReductionOptions::validate() const
     if (!(toleranceCm >= minToleranceCm) || !std::isfinite(toleranceCm))
         throw Error(fmt::format("toleranceCm must be a number of at least {}, got {}", minToleranceCm, toleranceCm));
     if (!(toleranceDeg >= minToleranceDeg) || !std::isfinite(toleranceDeg))
-        throw Error(
-            fmt::format("toleranceDeg must be a number of at least {}, got {}", minToleranceDeg, toleranceDeg));
+        throw Error(fmt::format("toleranceDeg must be a number of at least {}, got {}", minToleranceDeg, toleranceDeg));
 }
 
 std::size_t KeyedCurves::keyCount() const

@@ -106,3 +106,28 @@ def test_errors_are_graph_eval_messages():
                r"folder to RIG_PLUGIN_PATH$")
     with pytest.raises(riginv.Error, match=message):
         riginv.Graph.load(ARM, plugins=["no_such_plugin"])
+
+
+def test_output_past_graph_eval_limit_is_refused_up_front():
+    # 10 million frames of the biped's 131 world matrices: 150 GB of JSON for graph-eval, 24 GB of arrays here,
+    # refused after one frame with graph-eval's own line.
+    graph = riginv.Graph.load(BIPED)
+    raises_like("graph-eval", [BIPED, "--get", "*.worldMatrix", "--frames", "1:10000000"],
+                lambda: graph.evaluate(get="*.worldMatrix", frames="1:10000000"))
+    assert graph.evaluate(get="Hips.worldMatrix", frames="1:3")["Hips.worldMatrix"].shape == (3, 4, 4)
+
+
+def test_numpy_numbers_are_numbers_and_huge_ones_are_errors():
+    graph = riginv.Graph.load(ARM)
+    plain = graph.evaluate(get="wrist.worldMatrix", set={"shoulder.rotateZ": 30}, frames=[1, 2])
+    numpy = graph.evaluate(get="wrist.worldMatrix", set={"shoulder.rotateZ": np.int64(30)},
+                           frames=[np.int64(1), np.float32(2)])
+    assert np.array_equal(plain["wrist.worldMatrix"], numpy["wrist.worldMatrix"])
+    assert np.array_equal(plain["wrist.worldMatrix"],
+                          graph.evaluate(get="wrist.worldMatrix", frames=np.array([1, 2]))["wrist.worldMatrix"])
+    with pytest.raises(riginv.Error) as caught:
+        graph.evaluate(frames=[1, 10**400])
+    assert str(caught.value) == f"frames: {str(10**400)[:80]}... (401 characters) is not a frame number"
+    with pytest.raises(TypeError, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers; got a "
+                                        r"list holding a str$"):
+        graph.evaluate(frames=[1, "2"])
