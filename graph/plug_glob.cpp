@@ -2,6 +2,8 @@
 
 #include <fnmatch.h>
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 #include "core/error.h"
@@ -28,6 +30,53 @@ std::vector<Plug> allPlugs(const Graph& graph)
     return plugs;
 }
 
+namespace {
+
+// The fnmatch pattern of a plug glob: `[*]` becomes "any element index", `[N]` the index N as plug names
+// write it (no leading zeros), and every other bracket stays a set. A plug name holds at most one index,
+// its only ']', so the '*' in "\[[0-9]*\]" cannot run past it.
+std::string fnmatchPattern(std::string_view pattern)
+{
+    std::string out;
+    for (std::size_t at = 0; at < pattern.size(); ++at) {
+        const char c = pattern[at];
+        if (c == '\\' && at + 1 < pattern.size()) {
+            out += pattern.substr(at, 2);
+            ++at;
+            continue;
+        }
+        if (c != '[') {
+            out += c;
+            continue;
+        }
+        const auto close = pattern.find(']', at + 1);
+        const auto inside =
+            close == std::string_view::npos ? std::string_view() : pattern.substr(at + 1, close - at - 1);
+        if (inside == "*") out += "\\[[0-9]*\\]";
+        else if (!inside.empty() && inside.find_first_not_of("0123456789") == std::string_view::npos) {
+            const auto first = std::min(inside.find_first_not_of('0'), inside.size() - 1);
+            out += fmt::format("\\[{}\\]", inside.substr(first));
+        } else {
+            // A set, copied whole: a ']' right after '[', '[!' or '[^' belongs to it, as fnmatch reads it.
+            std::size_t end = at + 1;
+            if (end < pattern.size() && (pattern[end] == '!' || pattern[end] == '^')) ++end;
+            if (end < pattern.size() && pattern[end] == ']') ++end;
+            end = pattern.find(']', end);
+            if (end == std::string_view::npos) {
+                out += c;  // no closing bracket: a plain '[', as fnmatch reads it
+                continue;
+            }
+            out += pattern.substr(at, end - at + 1);
+            at = end;
+            continue;
+        }
+        at = close;
+    }
+    return out;
+}
+
+}  // namespace
+
 bool isGlobPattern(std::string_view pattern)
 {
     if (pattern.find_first_of("*?") != std::string_view::npos) return true;
@@ -44,7 +93,7 @@ bool isGlobPattern(std::string_view pattern)
 std::vector<Plug> matchPlugs(const Graph& graph, std::string_view pattern)
 {
     if (!isGlobPattern(pattern)) return {graph.plug(pattern)};
-    const std::string glob(pattern);
+    const std::string glob = fnmatchPattern(pattern);
     std::vector<Plug> matches;
     for (const Plug& p : allPlugs(graph))
         if (fnmatch(glob.c_str(), graph.plugName(p).c_str(), 0) == 0) matches.push_back(p);

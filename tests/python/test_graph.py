@@ -131,3 +131,11 @@ def test_numpy_numbers_are_numbers_and_huge_ones_are_errors():
     with pytest.raises(TypeError, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers; got a "
                                         r"list holding a str$"):
         graph.evaluate(frames=[1, "2"])
+
+
+def test_array_elements_by_index_glob():
+    graph = riginv.Graph.load(BIPED)
+    assert graph.plugs("L_thumb2_curl_sum.input1D[*]") == ["L_thumb2_curl_sum.input1D[0]",
+                                                          "L_thumb2_curl_sum.input1D[1]"]
+    assert graph.plugs("[LR]_thumb2_curl_sum.input1D[1]") == ["L_thumb2_curl_sum.input1D[1]",
+                                                             "R_thumb2_curl_sum.input1D[1]"]
