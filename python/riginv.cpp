@@ -63,10 +63,43 @@ py::object toPython(const cli::Json& json)
     }
 }
 
-// A path argument: str or os.PathLike.
-std::string pathText(const py::handle& path) { return py::str(py::module_::import("os").attr("fspath")(path)); }
-
 std::string typeName(const py::handle& value) { return py::str(py::type::handle_of(value).attr("__name__")); }
+
+// Arguments are taken as Python objects and converted here, so that a value of the wrong type is a one-line
+// riginv.Error naming the argument, not pybind11's TypeError listing the signature over several lines.
+
+// A path argument `what`: str or os.PathLike.
+std::string pathText(const py::handle& path, std::string_view what)
+{
+    if (!py::isinstance<py::str>(path) && !py::hasattr(path, "__fspath__"))
+        throw Error(fmt::format("{}: expected a path (str or os.PathLike), got a {}", what, typeName(path)));
+    return py::str(py::module_::import("os").attr("fspath")(path));
+}
+
+std::string textArgument(const py::handle& value, std::string_view what)
+{
+    if (!py::isinstance<py::str>(value))
+        throw Error(fmt::format("{}: expected a str, got a {}", what, typeName(value)));
+    return value.cast<std::string>();
+}
+
+// A list (or tuple) of str; a str alone is refused, since it would be read as its letters.
+std::vector<std::string> textList(const py::handle& value, std::string_view what)
+{
+    if (py::isinstance<py::str>(value))
+        throw Error(fmt::format("{}: expected a list of str, got a str; put it in a list: ['{}']", what,
+                                messageExcerpt(value.cast<std::string>())));
+    if (!py::isinstance<py::list>(value) && !py::isinstance<py::tuple>(value))
+        throw Error(fmt::format("{}: expected a list of str, got a {}", what, typeName(value)));
+    std::vector<std::string> out;
+    for (const auto& item : value) {
+        if (!py::isinstance<py::str>(item))
+            throw Error(fmt::format("{}: expected a list of str, got a {} holding a {}", what, typeName(value),
+                                    typeName(item)));
+        out.push_back(item.cast<std::string>());
+    }
+    return out;
+}
 
 // A NumPy scalar (numpy.int64(3), numpy.float32(0.5), numpy.bool_(True)) as the Python scalar it holds, so that
 // it is taken wherever a Python number is; anything else as it is.
@@ -91,6 +124,31 @@ std::optional<double> numberOf(const py::handle& value)
         return v > py::int_(0) ? HUGE_VAL : -HUGE_VAL;
     }
     return x;
+}
+
+// True or False (a Python or NumPy bool).
+bool flagArgument(const py::handle& value, std::string_view what)
+{
+    const py::object v = plainScalar(value);
+    if (!py::isinstance<py::bool_>(v))
+        throw Error(fmt::format("{}: expected True or False, got a {}", what, typeName(value)));
+    return v.cast<bool>();
+}
+
+// None or a dict.
+std::optional<py::dict> dictArgument(const py::handle& value, std::string_view what)
+{
+    if (value.is_none()) return std::nullopt;
+    if (!py::isinstance<py::dict>(value))
+        throw Error(fmt::format("{}: expected None or a dict {{plug: value}}, got a {}", what, typeName(value)));
+    return py::reinterpret_borrow<py::dict>(value);
+}
+
+// None or a callable, called with the GIL held.
+void checkProgress(const py::handle& progress)
+{
+    if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
+        throw Error(fmt::format("progress: expected None or a callable, got a {}", typeName(progress)));
 }
 
 // A number argument named `what`, refused with riginv.Error when it is something else.
@@ -210,18 +268,19 @@ py::object plugArray(const Graph& graph, const Plug& plug, const std::vector<Val
 
 class PyGraph {
 public:
-    static PyGraph load(const py::object& path, const std::vector<std::string>& plugins)
+    static PyGraph load(const py::object& path, const py::object& plugins)
     {
         PyGraph g;
-        g.file_ = pathText(path);
-        g.registry_ = cli::nodeRegistry(plugins);
+        g.file_ = pathText(path, "path");
+        g.registry_ = cli::nodeRegistry(textList(plugins, "plugins"));
         g.graph_ = loadGraphFile(g.file_, g.registry_);
         return g;
     }
 
-    py::dict evaluate(const py::object& get, const std::optional<py::dict>& set, const py::object& frames)
+    py::dict evaluate(const py::object& get, const py::object& setArgument, const py::object& frames)
     {
         Graph& graph = *graph_;
+        const auto set = dictArgument(setArgument, "set");
         if (set)
             for (const auto& [key, value] : *set) {
                 const std::string name = py::str(key);
@@ -240,7 +299,7 @@ public:
                 patterns = get.cast<std::vector<std::string>>();
             }
             catch (const py::cast_error&) {
-                throw py::type_error(
+                throw Error(
                     fmt::format("get: expected None, a plug name or glob, or a list of them; got a {}", typeName(get)));
             }
         }
@@ -265,8 +324,7 @@ public:
     static std::vector<double> frameNumbers(const py::object& frames)
     {
         const auto wrongType = [&](const std::string& got) {
-            return py::type_error(
-                fmt::format("frames: expected None, 'A:B[:STEP]' or a list of frame numbers; got {}", got));
+            return Error(fmt::format("frames: expected None, 'A:B[:STEP]' or a list of frame numbers; got {}", got));
         };
         std::vector<py::object> items;
         try {
@@ -288,10 +346,10 @@ public:
         return numbers;
     }
 
-    std::vector<std::string> plugs(const std::string& glob)
+    std::vector<std::string> plugs(const py::object& glob)
     {
         std::vector<std::string> names;
-        for (const Plug& p : cli::selectPlugs(*graph_, file_, {glob}, std::nullopt))
+        for (const Plug& p : cli::selectPlugs(*graph_, file_, {textArgument(glob, "glob")}, std::nullopt))
             names.push_back(graph_->plugName(p));
         return names;
     }
@@ -338,19 +396,24 @@ public:
     static PyApproximation load(const py::object& path)
     {
         PyApproximation a;
-        a.file_ = pathText(path);
+        a.file_ = pathText(path, "path");
         a.approximation_ = std::make_shared<const Approximation>(readApproximationFile(*a.file_));
         return a;
     }
 
-    static PyApproximation learn(const py::object& rig, const std::vector<std::string>& params,
-                                 const std::vector<std::string>& outputs, const py::object& epsilon,
-                                 const std::string& orderer, const py::object& progress,
-                                 const std::vector<std::string>& plugins, bool worldSpace,
-                                 const std::optional<py::dict>& set)
+    static PyApproximation learn(const py::object& rig, const py::object& params, const py::object& outputs,
+                                 const py::object& epsilon, const py::object& orderer, const py::object& progress,
+                                 const py::object& plugins, const py::object& worldSpace, const py::object& setArgument)
     {
-        if (params.empty()) throw Error("params: give one or more parameter plug globs (rig-learn --params)");
-        cli::LearnJob job{pathText(rig), params, outputs, plugins, {}, {}};
+        cli::LearnJob job{pathText(rig, "rig_path"),
+                          textList(params, "params"),
+                          textList(outputs, "outputs"),
+                          textList(plugins, "plugins"),
+                          {},
+                          {}};
+        if (job.params.empty()) throw Error("params: give one or more parameter plug globs (rig-learn --params)");
+        checkProgress(progress);
+        const auto set = dictArgument(setArgument, "set");
         if (set)
             for (const auto& [key, value] : *set) {
                 if (!py::isinstance<py::str>(key))
@@ -368,8 +431,8 @@ public:
                 job.held.push_back({plug, *x});
             }
         job.options.epsilon = cli::parseEpsilon(fmt::format("{}", numberArgument(epsilon, "epsilon")));
-        job.options.orderer = cli::ordererFromName(orderer);
-        job.options.relativeFrames = !worldSpace;
+        job.options.orderer = cli::ordererFromName(textArgument(orderer, "orderer"));
+        job.options.relativeFrames = !flagArgument(worldSpace, "world_space");
         ProgressToPython onProgress(progress);
         job.options.progress = [&](std::string_view stage, double fraction) {
             onProgress(cli::learningFraction(stage, fraction), 1.0);
@@ -391,9 +454,10 @@ public:
         return a;
     }
 
-    void save(const py::object& path, bool allowInexact)
+    void save(const py::object& path, const py::object& allowInexactArgument)
     {
-        const std::string file = pathText(path);
+        const std::string file = pathText(path, "path");
+        const bool allowInexact = flagArgument(allowInexactArgument, "allow_inexact");
         if (const std::string failure = cli::validationFailure(*approximation_); !failure.empty() && !allowInexact)
             throw Error(
                 fmt::format("{}; {} not written (save(path, allow_inexact=True) writes it anyway)", failure, file));
@@ -411,22 +475,24 @@ public:
 
     py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map, const py::object& threads,
                      const py::object& restartEvery, const py::object& polish, const py::object& progress,
-                     const std::vector<std::string>& plugins, const std::optional<std::string>& frames) const
+                     const py::object& plugins, const py::object& frames) const
     {
         cli::InvertJob job;
         job.approximation = approximation_;
         job.approximationName = name();
-        job.rig = pathText(rig);
-        job.plugins = plugins;
+        job.rig = pathText(rig, "rig");
+        job.plugins = textList(plugins, "plugins");
         if (py::isinstance<py::dict>(targets)) job.targets = targetClip(targets.cast<py::dict>());
-        else if (py::isinstance<py::str>(targets) || py::hasattr(targets, "__fspath__")) job.clip = pathText(targets);
+        else if (py::isinstance<py::str>(targets) || py::hasattr(targets, "__fspath__"))
+            job.clip = pathText(targets, "targets");
         else
-            throw py::type_error(
+            throw Error(
                 fmt::format("targets: expected a dict from joint name to an (F, 4, 4) float64 array, "
                             "or a clip path (.bvh or .json); got a {}",
                             typeName(targets)));
-        if (!map.is_none()) job.map = pathText(map);
-        job.frames = frames;
+        if (!map.is_none()) job.map = pathText(map, "map");
+        if (!frames.is_none()) job.frames = textArgument(frames, "frames");
+        checkProgress(progress);
         job.settings.threads = intArgument(threads, "threads");
         job.settings.restartEvery = intArgument(restartEvery, "restart_every");
         job.settings.polish = intArgument(polish, "polish");
@@ -580,7 +646,7 @@ PYBIND11_MODULE(riginv, m)
     });
 
     py::class_<PyGraph>(m, "Graph", "A rig graph (a YAML rig file) loaded into its own stateful instance.")
-        .def_static("load", &PyGraph::load, py::arg("path"), py::arg("plugins") = std::vector<std::string>{},
+        .def_static("load", &PyGraph::load, py::arg("path"), py::arg("plugins") = py::list(),
                     "Loads a rig file (docs/rig-format.md) after the built-in node types and the plugins named "
                     "(as graph-eval --plugin). Raises riginv.Error with graph-eval's message for a bad file.")
         .def("evaluate", &PyGraph::evaluate, py::arg("get") = py::none(), py::arg("set") = py::none(),
@@ -613,7 +679,7 @@ PYBIND11_MODULE(riginv, m)
              "--allow-inexact).")
         .def("invert", &PyApproximation::invert, py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(),
              py::arg("threads") = 1, py::arg("restart_every") = 120, py::arg("polish") = 0,
-             py::arg("progress") = py::none(), py::kw_only(), py::arg("plugins") = std::vector<std::string>{},
+             py::arg("progress") = py::none(), py::kw_only(), py::arg("plugins") = py::list(),
              py::arg("frames") = py::none(),
              "Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).\n\n"
              "targets: a dict {joint: (F, 4, 4) float64 array of world matrices, cm}, frames numbered 0 to F - 1, "
@@ -644,10 +710,9 @@ PYBIND11_MODULE(riginv, m)
                                a.parameters().size(), a.outputs().size());
         });
 
-    m.def("learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"),
-          py::arg("outputs") = std::vector<std::string>{}, py::arg("epsilon") = 0.001,
-          py::arg("orderer") = "structured", py::arg("progress") = py::none(), py::kw_only(),
-          py::arg("plugins") = std::vector<std::string>{}, py::arg("world_space") = false, py::arg("set") = py::none(),
+    m.def("learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"), py::arg("outputs") = py::list(),
+          py::arg("epsilon") = 0.001, py::arg("orderer") = "structured", py::arg("progress") = py::none(),
+          py::kw_only(), py::arg("plugins") = py::list(), py::arg("world_space") = false, py::arg("set") = py::none(),
           "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
           "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
           "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "

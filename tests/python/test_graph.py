@@ -97,9 +97,9 @@ def test_errors_are_graph_eval_messages():
         graph.evaluate(frames=[1, float("nan")])
     with pytest.raises(riginv.Error, match=r"^frames: an empty list"):
         graph.evaluate(frames=[])
-    with pytest.raises(TypeError, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers"):
+    with pytest.raises(riginv.Error, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers"):
         graph.evaluate(frames={"a": 1})
-    with pytest.raises(TypeError, match=r"^get: expected None, a plug name or glob, or a list of them; got a int$"):
+    with pytest.raises(riginv.Error, match=r"^get: expected None, a plug name or glob, or a list of them; got a int$"):
         graph.evaluate(get=3)
     # graph-eval looks beside its own libraries too: the same message but for that folder.
     message = (r"^plugin 'no_such_plugin' not found \(looked for .*/lib/no_such_plugin.so\); build it, or add its "
@@ -128,9 +128,26 @@ def test_numpy_numbers_are_numbers_and_huge_ones_are_errors():
     with pytest.raises(riginv.Error) as caught:
         graph.evaluate(frames=[1, 10**400])
     assert str(caught.value) == f"frames: {str(10**400)[:80]}... (401 characters) is not a frame number"
-    with pytest.raises(TypeError, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers; got a "
-                                        r"list holding a str$"):
+    with pytest.raises(riginv.Error, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers; "
+                                           r"got a list holding a str$"):
         graph.evaluate(frames=[1, "2"])
+
+
+def test_arguments_of_the_wrong_type_are_one_line_errors():
+    graph = riginv.Graph.load(ARM)
+    cases = [
+        (lambda: riginv.Graph.load(3), "path: expected a path (str or os.PathLike), got a int"),
+        (lambda: riginv.Graph.load(ARM, plugins="p"), "plugins: expected a list of str, got a str; put it in a list: "
+                                                      "['p']"),
+        (lambda: riginv.Graph.load(ARM, plugins=[1]), "plugins: expected a list of str, got a list holding a int"),
+        (lambda: graph.evaluate(set=[("shoulder.rotateZ", 1)]), "set: expected None or a dict {plug: value}, got a "
+                                                                 "list"),
+        (lambda: graph.plugs(3), "glob: expected a str, got a int"),
+    ]
+    for call, message in cases:
+        with pytest.raises(riginv.Error) as caught:
+            call()
+        assert str(caught.value) == message
 
 
 def test_array_elements_by_index_glob():

@@ -180,7 +180,7 @@ def test_wrong_dicts_are_refused(learned_biped):
         assert str(caught.value) == message
     with pytest.raises(riginv.Error, match="^targets: "):  # no joint is an output of the approximation
         approx.invert({"nobody": identity_frames(2)}, rig=BIPED)
-    with pytest.raises(TypeError, match="targets: expected a dict"):
+    with pytest.raises(riginv.Error, match="^targets: expected a dict"):
         approx.invert(42, rig=BIPED)
 
 
@@ -271,6 +271,10 @@ def test_whole_number_options_take_numpy_integers_and_refuse_the_rest(learned_bi
         ({"polish": np.float64(1)}, "polish: expected a whole number, got a float64"),
         ({"restart_every": "10"}, "restart_every: expected a whole number, got a str"),
         ({"restart_every": True}, "restart_every: expected a whole number, got a bool"),
+        ({"frames": 3}, "frames: expected a str, got a int"),
+        ({"plugins": "p"}, "plugins: expected a list of str, got a str; put it in a list: ['p']"),
+        ({"progress": 3}, "progress: expected None or a callable, got a int"),
+        ({"map": 3}, "map: expected a path (str or os.PathLike), got a int"),
     ]
     for arguments, message in cases:
         with pytest.raises(riginv.Error) as caught:
