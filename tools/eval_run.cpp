@@ -30,36 +30,13 @@ void evaluating(const std::string& rigName, double frame, F&& f)
     }
 }
 
+// The unit of the plug a curve may drive: what its output is.
 Unit animUnit(const AnimFileCurve& curve)
 {
     return curve.output == AnimQuantity::angular  ? Unit::Angle
            : curve.output == AnimQuantity::linear ? Unit::Distance
                                                   : Unit::None;
 }
-
-}  // namespace
-
-std::shared_ptr<NodeRegistry> nodeRegistry(const std::vector<std::string>& plugins)
-{
-    auto registry = makeBuiltinRegistry();
-    for (const auto& plugin : plugins) registry->loadPlugin(plugin);
-    return registry;
-}
-
-Plug settablePlug(const Graph& graph, std::string_view name)
-{
-    const Plug plug = graph.plug(name);
-    if (!graph.spec(plug).input)
-        throw Error(fmt::format("cannot set {}: it is an output, computed by its node", graph.plugName(plug)));
-    return plug;
-}
-
-void setPlug(Graph& graph, const Plug& plug, std::string_view name, const YAML::Node& value)
-{
-    graph.setValue(plug, parseYamlValue(value, graph, plug, fmt::format("--set {}", name)));
-}
-
-namespace {
 
 // The plug `curve` drives, refused (with the curve's anim line) when the rig lacks it or it is not a free
 // number input of the curve's kind.
@@ -131,6 +108,26 @@ void connectCurve(Graph& graph, const AnimFileCurve& curve, const Plug& plug)
 }
 
 }  // namespace
+
+std::shared_ptr<NodeRegistry> nodeRegistry(const std::vector<std::string>& plugins)
+{
+    auto registry = makeBuiltinRegistry();
+    for (const auto& plugin : plugins) registry->loadPlugin(plugin);
+    return registry;
+}
+
+Plug settablePlug(const Graph& graph, std::string_view name)
+{
+    const Plug plug = graph.plug(name);
+    if (!graph.spec(plug).input)
+        throw Error(fmt::format("cannot set {}: it is an output, computed by its node", graph.plugName(plug)));
+    return plug;
+}
+
+void setPlug(Graph& graph, const Plug& plug, std::string_view name, const YAML::Node& value)
+{
+    graph.setValue(plug, parseYamlValue(value, graph, plug, fmt::format("--set {}", name)));
+}
 
 void applyAnimFile(Graph& graph, const std::string& file)
 {
