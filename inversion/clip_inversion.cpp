@@ -102,13 +102,14 @@ void ClipInversionSummary::add(const FrameInversion& f, const std::vector<Approx
         firstFailedFrame = f.frame;
         firstFailedStatus = f.status;
         firstFailedJoint = f.status == FrameStatus::invalidTargets && !f.invalidJoint.empty() ? f.invalidJoint
-                           : !f.nonFiniteJoint.empty()                                      ? f.nonFiniteJoint
-                           : !f.missed.empty()       ? outputs[static_cast<std::size_t>(f.missed.front().output)].name
-                                                     : f.worstJoint;
+                           : !f.nonFiniteJoint.empty()                                        ? f.nonFiniteJoint
+                           : !f.missed.empty() ? outputs[static_cast<std::size_t>(f.missed.front().output)].name
+                                               : f.worstJoint;
     }
     for (const auto& m : f.missed) {
         const std::string& name = outputs[static_cast<std::size_t>(m.output)].name;
-        auto it = std::find_if(residualJoints.begin(), residualJoints.end(), [&](const auto& r) { return r.name == name; });
+        auto it =
+            std::find_if(residualJoints.begin(), residualJoints.end(), [&](const auto& r) { return r.name == name; });
         if (it == residualJoints.end()) it = residualJoints.insert(residualJoints.end(), {name, 0, 0.0});
         ++it->frames;
         if (worse(m.errorCm, it->worstErrorCm)) it->worstErrorCm = m.errorCm;
@@ -264,7 +265,8 @@ bool measureFrame(const Approximation& a, const SolverOptions& o, RealRigFit fit
             f.worstRotationJoint = name;
         }
         const double error = worse(p, o.rotationScaleCm * r) ? p : o.rotationScaleCm * r;
-        const bool onRealRig = fit == RealRigFit::everyOutput || (fit == RealRigFit::unmodelledOutputs && !a.outputs[k].modelled);
+        const bool onRealRig =
+            fit == RealRigFit::everyOutput || (fit == RealRigFit::unmodelledOutputs && !a.outputs[k].modelled);
         if (!(error <= o.targetTolerance)) {
             f.missed.push_back({static_cast<int>(k), error});
             unfitted = unfitted || (!a.outputs[k].modelled && !onRealRig);

@@ -113,13 +113,13 @@ inline constexpr double modelAgreement = 0.1;
 // What a frame's answer is, judged on the real rig at the values reported for it (docs/rig-invert.md, Frame
 // statuses). Only reached and bestFit are answers a run may exit 0 with.
 enum class FrameStatus {
-    reached,        // every counted target within targetTolerance on the real rig
-    bestFit,        // stationary with a residual, where the approximation and the real rig agree (each output's gap
-                    // within modelAgreement of its error): the rig cannot take the pose, this is the closest it can
-    modelMismatch,  // a target missed on the real rig where the approximation and the real rig disagree beyond
-                    // targetTolerance, or an output the approximation does not model and no solve fitted
-    notConverged,   // the solve used its iterations
-    nonFinite,      // the real rig gave a non-finite matrix, or an error is not finite
+    reached,         // every counted target within targetTolerance on the real rig
+    bestFit,         // stationary with a residual, where the approximation and the real rig agree (each output's gap
+                     // within modelAgreement of its error): the rig cannot take the pose, this is the closest it can
+    modelMismatch,   // a target missed on the real rig where the approximation and the real rig disagree beyond
+                     // targetTolerance, or an output the approximation does not model and no solve fitted
+    notConverged,    // the solve used its iterations
+    nonFinite,       // the real rig gave a non-finite matrix, or an error is not finite
     invalidTargets,  // a target cannot be used (not finite, singular) or none is active: no answer
 };
 inline constexpr int frameStatusCount = 6;
@@ -133,9 +133,9 @@ inline bool frameStatusFails(FrameStatus status)
 }
 
 struct FrameInversion {
-    int frame = 0;                 // index in the clip, 0-based
+    int frame = 0;  // index in the clip, 0-based
     FrameStatus status = FrameStatus::reached;
-    SolveSummary solve;            // on the approximation (a hybrid solve's: on the real rig)
+    SolveSummary solve;  // on the approximation (a hybrid solve's: on the real rig)
     // Real rig against the targets, over the counted halves of the active targets: the worst position error and
     // its joint, the worst rotation error and its joint (each their own). A non-finite error is kept as it is
     // (never dropped, never 0) and makes the frame nonFinite.
@@ -160,16 +160,16 @@ struct FrameInversion {
     double positionErrorSumCm = 0.0;
     double rotationErrorSumDeg = 0.0;
     int countedJoints = 0;
-    std::string nonFiniteJoint;      // a joint the real rig gave a non-finite matrix for, or ""
-    std::string invalidJoint;        // a joint whose target is not finite (not measured), or ""
-    int realRigEvaluations = 0;      // by the solve (a hybrid solve's second stage), not by this measurement
+    std::string nonFiniteJoint;  // a joint the real rig gave a non-finite matrix for, or ""
+    std::string invalidJoint;    // a joint whose target is not finite (not measured), or ""
+    int realRigEvaluations = 0;  // by the solve (a hybrid solve's second stage), not by this measurement
 };
 
 struct ClipInversionSummary {
     int frames = 0;
     std::array<int, frameStatusCount> statusFrames{};  // frames per FrameStatus
-    int retriedFrames = 0;  // solved again from the initial guess (retryStuck)
-    int retriesKept = 0;    // of which the second answer was cheaper and kept
+    int retriedFrames = 0;                             // solved again from the initial guess (retryStuck)
+    int retriesKept = 0;                               // of which the second answer was cheaper and kept
     // The first frame whose status fails (frameStatusFails), its status and the joint that shows it; -1: none.
     int firstFailedFrame = -1;
     FrameStatus firstFailedStatus = FrameStatus::reached;

@@ -221,7 +221,8 @@ ChainContinuity::ChainContinuity(const Equivalences& equivalences, std::span<con
 std::span<const double> ChainContinuity::next(std::span<const double> solved, bool restart)
 {
     if (restart)
-        shift_ = continuing_ ? checkedContinuityShift(equivalences_, reported_, solved, check_) : noShift(equivalences_);
+        shift_ =
+            continuing_ ? checkedContinuityShift(equivalences_, reported_, solved, check_) : noShift(equivalences_);
     applyShift(equivalences_, shift_, solved, reported_);
     continuing_ = true;
     return reported_;

@@ -49,7 +49,8 @@ void readRanges(InversionSpec& spec, const YAML::Node& ranges, const At& at)
 {
     const std::string example = "e.g. ranges: {'[LR]_knee_ctrl.rotateX': [-90, 160]}";
     if (!ranges.IsMap())
-        throw Error(fmt::format("{}: 'ranges' must be a map of parameter globs to [min, max], {}", at(ranges), example));
+        throw Error(
+            fmt::format("{}: 'ranges' must be a map of parameter globs to [min, max], {}", at(ranges), example));
     for (const auto& entry : ranges) {
         if (!entry.first.IsScalar() || entry.first.Scalar().empty())
             throw Error(fmt::format("{}: a key of 'ranges' is a parameter glob, {}", at(entry.first), example));
@@ -60,9 +61,10 @@ void readRanges(InversionSpec& spec, const YAML::Node& ranges, const At& at)
             high = parseFiniteNumber(v[1].Scalar());
         }
         if (!low || !high || !(*low < *high))
-            throw Error(fmt::format("{}: 'ranges' gives {} no [min, max] of two finite numbers with min < max "
-                                    "(the rig file's units, degrees for angles), {}",
-                                    at(v.IsNull() ? entry.first : v), messageExcerpt(entry.first.Scalar()), example));
+            throw Error(
+                fmt::format("{}: 'ranges' gives {} no [min, max] of two finite numbers with min < max "
+                            "(the rig file's units, degrees for angles), {}",
+                            at(v.IsNull() ? entry.first : v), messageExcerpt(entry.first.Scalar()), example));
         spec.ranges.push_back({entry.first.Scalar(), *low, *high});
     }
 }
@@ -106,9 +108,9 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
             "{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs (and 'set:', a map)", at(root)));
     for (const auto& entry : root) {
         if (!entry.first.IsScalar())
-            throw Error(
-                fmt::format("{}: a key of a spec is a list or a map; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'",
-                            at(entry.first)));
+            throw Error(fmt::format(
+                "{}: a key of a spec is a list or a map; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'",
+                at(entry.first)));
         const std::string key = entry.first.Scalar();
         if (key == "set") {
             readSet(spec, entry.second, at);

@@ -15,9 +15,9 @@
 namespace rig {
 
 struct InversionSpec {
-    std::vector<std::string> params;               // parameter plug globs
-    std::vector<std::string> outputs;              // output joint globs
-    std::vector<HeldPlug> set;                     // held plugs, in the file's order, values in the rig file's units
+    std::vector<std::string> params;   // parameter plug globs
+    std::vector<std::string> outputs;  // output joint globs
+    std::vector<HeldPlug> set;         // held plugs, in the file's order, values in the rig file's units
     // `ranges:`, a map of parameter glob -> [min, max] (the rig file's units): where a control without declared
     // limits is learned (GraphRigOptions::ranges), in the file's order.
     std::vector<GraphRigOptions::LearnRange> ranges;

@@ -440,9 +440,10 @@ public:
                     high = numberOf(value[py::int_(1)]);
                 }
                 if (glob.empty() || !low || !high || !std::isfinite(*low) || !std::isfinite(*high) || !(*low < *high))
-                    throw Error(fmt::format("ranges: give {{parameter glob: [min, max]}} with finite min < max in the "
-                                            "rig file's units (a spec's ranges:), got a {} for '{}'",
-                                            typeName(value), messageExcerpt(glob)));
+                    throw Error(
+                        fmt::format("ranges: give {{parameter glob: [min, max]}} with finite min < max in the "
+                                    "rig file's units (a spec's ranges:), got a {} for '{}'",
+                                    typeName(value), messageExcerpt(glob)));
                 job.ranges.push_back({glob, *low, *high});
             }
         job.options.epsilon = cli::parseEpsilon(fmt::format("{}", numberArgument(epsilon, "epsilon")));
@@ -725,17 +726,18 @@ PYBIND11_MODULE(riginv, m)
                                a.parameters().size(), a.outputs().size());
         });
 
-    m.def("learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"), py::arg("outputs") = py::list(),
-          py::arg("epsilon") = 0.001, py::arg("orderer") = "structured", py::arg("progress") = py::none(),
-          py::kw_only(), py::arg("plugins") = py::list(), py::arg("world_space") = false, py::arg("set") = py::none(),
-          py::arg("ranges") = py::none(),
-          "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
-          "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
-          "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "
-          "plugins, world_space: rig-learn's --plugin and --world-space; set: {plug: value}, plugs held at a "
-          "value while learning, in the rig file's units (rig-learn --set); ranges: {parameter glob: [min, max]}, where "
-          "controls without declared limits are learned (a spec's ranges:).\n"
-          "progress: called as progress(fraction done, 1.0), with the GIL held.\n"
-          "An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses it. "
-          "The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s).");
+    m.def(
+        "learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"), py::arg("outputs") = py::list(),
+        py::arg("epsilon") = 0.001, py::arg("orderer") = "structured", py::arg("progress") = py::none(), py::kw_only(),
+        py::arg("plugins") = py::list(), py::arg("world_space") = false, py::arg("set") = py::none(),
+        py::arg("ranges") = py::none(),
+        "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
+        "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
+        "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "
+        "plugins, world_space: rig-learn's --plugin and --world-space; set: {plug: value}, plugs held at a "
+        "value while learning, in the rig file's units (rig-learn --set); ranges: {parameter glob: [min, max]}, where "
+        "controls without declared limits are learned (a spec's ranges:).\n"
+        "progress: called as progress(fraction done, 1.0), with the GIL held.\n"
+        "An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses it. "
+        "The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s).");
 }

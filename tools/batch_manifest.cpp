@@ -267,31 +267,32 @@ std::string shardOutputBytes(const ShardOutput& o)
                                    o.frameNumbers.size() * sizeof(double));
     const std::string_view values(reinterpret_cast<const char*>(solved.data()), solved.size() * sizeof(double));
     // Errors may be NaN or infinite, which JSON cannot hold: as raw doubles too.
-    const std::array<double, shardFigures> figures{s.maxPositionErrorCm,   s.maxRotationErrorDeg, s.solveSeconds,
-                                                   o.taskSeconds,          s.meanPositionErrorCm, s.meanRotationErrorDeg,
-                                                   s.maxModelGapCm,        s.solveCpuSeconds};
+    const std::array<double, shardFigures> figures{s.maxPositionErrorCm, s.maxRotationErrorDeg, s.solveSeconds,
+                                                   o.taskSeconds,        s.meanPositionErrorCm, s.meanRotationErrorDeg,
+                                                   s.maxModelGapCm,      s.solveCpuSeconds};
     const std::string_view figureBytes(reinterpret_cast<const char*>(figures.data()), sizeof(figures));
     Json statuses = Json::array();
     for (const int n : s.statusFrames) statuses.push_back(n);
-    const Json header{{"format", shardFormat},
-                      {"byte_order", byteOrder()},
-                      {"key", o.key},
-                      {"first", o.first},
-                      {"last", o.last},
-                      {"frames", s.frames},
-                      {"status_frames", std::move(statuses)},
-                      {"first_failure", {s.firstFailedFrame, static_cast<int>(s.firstFailedStatus), s.firstFailedJoint}},
-                      {"retried_frames", s.retriedFrames},
-                      {"retries_kept", s.retriesKept},
-                      {"residual_joints", std::move(residual)},
-                      {"worst_joint", s.worstJoint},
-                      {"worst_frame", s.worstFrame},
-                      {"worst_rotation_joint", s.worstRotationJoint},
-                      {"worst_rotation_frame", s.worstRotationFrame},
-                      {"joint_frames", s.jointFrames},
-                      {"real_rig_evaluations", s.realRigEvaluations},
-                      {"curves_file_checksum", o.curvesChecksum},
-                      {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
+    const Json header{
+        {"format", shardFormat},
+        {"byte_order", byteOrder()},
+        {"key", o.key},
+        {"first", o.first},
+        {"last", o.last},
+        {"frames", s.frames},
+        {"status_frames", std::move(statuses)},
+        {"first_failure", {s.firstFailedFrame, static_cast<int>(s.firstFailedStatus), s.firstFailedJoint}},
+        {"retried_frames", s.retriedFrames},
+        {"retries_kept", s.retriesKept},
+        {"residual_joints", std::move(residual)},
+        {"worst_joint", s.worstJoint},
+        {"worst_frame", s.worstFrame},
+        {"worst_rotation_joint", s.worstRotationJoint},
+        {"worst_rotation_frame", s.worstRotationFrame},
+        {"joint_frames", s.jointFrames},
+        {"real_rig_evaluations", s.realRigEvaluations},
+        {"curves_file_checksum", o.curvesChecksum},
+        {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
     std::string out = header.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";
     out.reserve(out.size() + figureBytes.size() + numbers.size() + values.size() + o.curvesFrames.size());
     return out.append(figureBytes).append(numbers).append(values).append(o.curvesFrames);

@@ -528,9 +528,11 @@ BatchOutcome runBatch(const BatchJob& job)
             solveSeconds += m.merged->summary.solveSeconds;
             if (m.merged->summary.failedFrames() > 0) {
                 if (outcome.failedClips++ == 0)
-                    outcome.firstFailedFrames = fmt::format("{}: {}", clip.name, failedFramesLine(m.merged->summary,
-                                                  m.merged->frameNumbers[static_cast<std::size_t>(
-                                                      m.merged->summary.firstFailedFrame)]));
+                    outcome.firstFailedFrames = fmt::format(
+                        "{}: {}", clip.name,
+                        failedFramesLine(
+                            m.merged->summary,
+                            m.merged->frameNumbers[static_cast<std::size_t>(m.merged->summary.firstFailedFrame)]));
             }
         }
         clips.push_back(clipReport(clip, static_cast<int>(m.end - m.first), m.merged ? &*m.merged : nullptr,

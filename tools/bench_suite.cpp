@@ -453,15 +453,15 @@ void compareBlackBox(BipedBench& b, Json& report)
     say(o, fmt::format("Gauss-Newton on the real graph, {} frames", blackBoxFrames));
     const Solver solver(approximation, SolverOptions{});
     std::uint64_t blackEvaluations = 0;
-    const ClipRun black =
-        invertFrames(solver, binding, targets, 0, blackBoxFrames - 1, 0,
-                     [&](std::span<const JointTarget> t, std::vector<double>& values, double, ChainFrame& frame) {
-                         blackBox.setTargets(std::vector<JointTarget>(t.begin(), t.end()));
-                         const RealRigSolve s = solveOnRealRig(blackBox, values, defaults);
-                         blackEvaluations += s.evaluations;
-                         peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
-                     },
-                     RealRigFit::everyOutput);
+    const ClipRun black = invertFrames(
+        solver, binding, targets, 0, blackBoxFrames - 1, 0,
+        [&](std::span<const JointTarget> t, std::vector<double>& values, double, ChainFrame& frame) {
+            blackBox.setTargets(std::vector<JointTarget>(t.begin(), t.end()));
+            const RealRigSolve s = solveOnRealRig(blackBox, values, defaults);
+            blackEvaluations += s.evaluations;
+            peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
+        },
+        RealRigFit::everyOutput);
     // Ours on the same frames: the whole problem, as the black box solves it, and the partitioned one.
     const VariantResult sameWhole = runVariant(variant(wholeVariant), approximation, binding, targets, blackBoxFrames);
     const VariantResult samePartitioned =
@@ -578,11 +578,12 @@ Json ikLegsBench(BipedBench& b)
     HybridSolver hybrid(solver, binding, 1);
     ChainScratch scratch;
     say(o, fmt::format("inverting {} frames with IK legs (hybrid solve)", frames));
-    const ClipRun run =
-        invertFrames(solver, binding, targets, 0, frames - 1, 0,
-                     [&](std::span<const JointTarget> t, std::vector<double>& values, double previousCost,
-                         ChainFrame& frame) { hybrid.solveFrame(t, values, previousCost, scratch, frame); },
-                     RealRigFit::unmodelledOutputs);
+    const ClipRun run = invertFrames(
+        solver, binding, targets, 0, frames - 1, 0,
+        [&](std::span<const JointTarget> t, std::vector<double>& values, double previousCost, ChainFrame& frame) {
+            hybrid.solveFrame(t, values, previousCost, scratch, frame);
+        },
+        RealRigFit::unmodelledOutputs);
     // Leg joints against the FK approximation's answer on the same frames.
     const ClipRun& fk = b.result(partitionedVariant).run;
     std::vector<std::pair<int, int>> legs;  // (FK output, IK output)

@@ -41,12 +41,11 @@ void printSummary(const cli::BatchJob& job, const cli::Json& report)
                                      c["frames"].get<int>());
             continue;
         }
-        std::cout << fmt::format("{:<16} {:>7} {:>7} {:>8} {:>6} {:>10.4g} {:>10.4g} {:>9.4g}  {}\n",
-                                 c["name"].get<std::string>(), c["frames"].get<int>(),
-                                 c["status_frames"]["reached"].get<int>(), c["status_frames"]["best_fit"].get<int>(),
-                                 c["failed_frames"].get<int>(), number(c["max_position_error_cm"]),
-                                 number(c["max_rotation_error_deg"]), number(c["ms_per_frame"]),
-                                 c["curves"]["file"].get<std::string>());
+        std::cout << fmt::format(
+            "{:<16} {:>7} {:>7} {:>8} {:>6} {:>10.4g} {:>10.4g} {:>9.4g}  {}\n", c["name"].get<std::string>(),
+            c["frames"].get<int>(), c["status_frames"]["reached"].get<int>(), c["status_frames"]["best_fit"].get<int>(),
+            c["failed_frames"].get<int>(), number(c["max_position_error_cm"]), number(c["max_rotation_error_deg"]),
+            number(c["ms_per_frame"]), c["curves"]["file"].get<std::string>());
     }
     const cli::Json& fps = totals["frames_per_second"];
     std::cout << fmt::format("\ntime              {:.3g} s running {} shards{}, {:.3g} s merging\n",

@@ -79,9 +79,10 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
         "{:.4g} deg\n",
         s.maxPositionErrorCm, s.worstJoint, frameNumber(s.worstFrame), s.maxRotationErrorDeg, s.worstRotationJoint,
         frameNumber(s.worstRotationFrame), s.meanPositionErrorCm, s.meanRotationErrorDeg);
-    std::cout << fmt::format("model gap         {:.3g} cm at worst (the approximation against the real rig at the "
-                             "answers)\n",
-                             s.maxModelGapCm);
+    std::cout << fmt::format(
+        "model gap         {:.3g} cm at worst (the approximation against the real rig at the "
+        "answers)\n",
+        s.maxModelGapCm);
     const std::vector<std::string> unmodelled = cli::unmodelledOutputs(a);
     if (!outcome.hybridBlocks.empty())
         std::cout << fmt::format("hybrid            {}\n                  {:.4g} real-rig evaluations per frame\n",
@@ -164,7 +165,8 @@ int run(const Options& o)
     if (!o.quiet) printReport(o, outcome, keyed);
     // Measured as wrong: never an exit code of success.
     if (summary.failedFrames() > 0) {
-        std::cerr << "error: " << oneLine(cli::failedFramesLine(
+        std::cerr << "error: "
+                  << oneLine(cli::failedFramesLine(
                          summary, outcome.clip.frameNumbers[static_cast<std::size_t>(summary.firstFailedFrame)]))
                   << '\n';
         return 3;

@@ -31,8 +31,8 @@ struct Options {
     std::string reportJson;
     bool reportGiven = false;
     std::vector<std::string> plugins;
-    std::vector<std::string> sets;  // --set PLUG=VALUE
-    std::vector<HeldPlug> held;     // --set's, then the spec's for other plugs
+    std::vector<std::string> sets;                    // --set PLUG=VALUE
+    std::vector<HeldPlug> held;                       // --set's, then the spec's for other plugs
     std::vector<GraphRigOptions::LearnRange> ranges;  // the spec's
     std::string spec;
     std::map<std::string, std::string> specPlaces;     // glob -> its file:line:col in the spec, for messages

@@ -186,7 +186,8 @@ TEST_CASE("creature: the spine bend is shared by four joints, spine4 adds the ch
     CHECK((head(30, 50, 20) - head(150, 230, 200)).block<3, 1>(0, 3).norm() > 1.0);
 }
 
-TEST_CASE("learning the creature's FK spec: all 85 parameters within epsilon, and random poses invert onto the real rig")
+TEST_CASE(
+    "learning the creature's FK spec: all 85 parameters within epsilon, and random poses invert onto the real rig")
 {
     GraphRigFunction rig = creatureRig(spec("creature_inversion.yaml"));
     REQUIRE(rig.parameters().size() == 85);

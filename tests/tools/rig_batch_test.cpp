@@ -113,9 +113,9 @@ TEST_CASE(
             // Counts as one run makes them; errors measured by each shard on its own values (the same poses
             // where the merge shifted a shard: equal up to rounding).
             const Json whole = readJson(dir / (name + ".report.json"));
-            for (const char* key : {"frames", "status_frames", "failed_frames", "first_failure", "retried_frames",
-                                    "retries_kept", "worst_joint", "worst_frame", "worst_rotation_joint",
-                                    "worst_rotation_frame"})
+            for (const char* key :
+                 {"frames", "status_frames", "failed_frames", "first_failure", "retried_frames", "retries_kept",
+                  "worst_joint", "worst_frame", "worst_rotation_joint", "worst_rotation_frame"})
                 CHECK(clip[key] == whole[key]);
             CHECK(clip["mean_position_error_cm"].get<double>() ==
                   doctest::Approx(whole["mean_position_error_cm"].get<double>()).epsilon(1e-9));

@@ -297,8 +297,9 @@ TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keep
     INFO(r.err);
     // A frame with no answer is never a success: exit code 3, the frame named.
     REQUIRE(r.exitCode == 3);
-    CHECK(r.err == "error: 1 of 3 frames are not an answer on the real rig (first: frame 2, invalid targets, "
-                   "elbow): a target there is not finite or is singular\n");
+    CHECK(r.err ==
+          "error: 1 of 3 frames are not an answer on the real rig (first: frame 2, invalid targets, "
+          "elbow): a target there is not finite or is singular\n");
     const auto rep = YAML::LoadFile((dir / "report.json").string());
     CHECK(rep["frames"].as<int>() == 3);
     // Frame 3's elbow is bent by the arm's animation (arm_ctrl.bend, not a parameter here): out of reach,

@@ -201,8 +201,8 @@ TEST_CASE("rig-learn --spec: the biped's inversion spec learns what its globs sp
     const auto bad =
         run(rigLearn(fmt::format("rigs/examples/arm.yaml --spec {} -o {}", spec.string(), (dir / "b.yaml").string())));
     CHECK(bad.exitCode == 2);
-    CHECK(bad.err ==
-          "error: " + spec.string() + ":2:1: unknown key 'ouptuts'; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'\n");
+    CHECK(bad.err == "error: " + spec.string() +
+                         ":2:1: unknown key 'ouptuts'; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'\n");
     CHECK(!std::filesystem::exists(dir / "b.yaml"));
 }
 
@@ -386,7 +386,8 @@ TEST_CASE("rig-invert and rig-batch on an approximation learned with --set evalu
     const auto u = invert(unheld);
     REQUIRE(u.exitCode == 3);
     CHECK(u.err.find("the rig changed since the approximation was learned from rigs/biped.yaml") != std::string::npos);
-    CHECK(u.err.find("frames are not an answer on the real rig (first: frame 1, model mismatch, ") != std::string::npos);
+    CHECK(u.err.find("frames are not an answer on the real rig (first: frame 1, model mismatch, ") !=
+          std::string::npos);
     CHECK(YAML::LoadFile((dir / "report.json").string())["max_position_error_cm"].as<double>() > 1.0);
 }
 
@@ -573,9 +574,10 @@ TEST_CASE("rig-invert --hybrid: the biped with IK legs (rigs/biped_inversion_ik.
     // (exit code 3, the first leg joint named), never "converged".
     const auto plain = invert("");
     REQUIRE(plain.exitCode == 3);
-    CHECK(plain.err == "error: 3 of 3 frames are not an answer on the real rig (first: frame 1, model mismatch, "
-                       "LeftUpLeg): the approximation and the real rig disagree there, or a target it does not model "
-                       "was not fitted (--hybrid fits those; learn the rig again where it disagrees)\n");
+    CHECK(plain.err ==
+          "error: 3 of 3 frames are not an answer on the real rig (first: frame 1, model mismatch, "
+          "LeftUpLeg): the approximation and the real rig disagree there, or a target it does not model "
+          "was not fitted (--hybrid fits those; learn the rig again where it disagrees)\n");
     CHECK(plain.out.find("\nnot modelled      LeftUpLeg, LeftLeg, LeftFoot, LeftToeBase, RightUpLeg, RightLeg, "
                          "RightFoot, RightToeBase (non-compositional") != std::string::npos);
     const YAML::Node plainReport = YAML::LoadFile((dir / "report.json").string());
