@@ -81,8 +81,8 @@ TEST_CASE("rigInversion: a bvhClip -> rigInversion -> rig graph reproduces the C
     const auto graph = test::writeFile(dir / "mocap.yaml", graphFile(s.rig, s.approximation, ""));
     std::string gets;
     for (const auto& j : s.clip.joints) gets += fmt::format(" --get '{}.worldMatrix'", j.name);
-    const auto r = test::run(fmt::format("{} {} --frames 1:60{} --get inverter.status -o {}",
-                                         test::tool("graph-eval"), graph.string(), gets, (dir / "out.json").string()));
+    const auto r = test::run(fmt::format("{} {} --frames 1:60{} --get inverter.status -o {}", test::tool("graph-eval"),
+                                         graph.string(), gets, (dir / "out.json").string()));
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
     const YAML::Node frames = YAML::LoadFile((dir / "out.json").string());
