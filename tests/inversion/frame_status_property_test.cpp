@@ -18,6 +18,8 @@
 #include "inversion/continuity.h"
 #include "inversion/learner.h"
 #include "inversion/rig_binding.h"
+#include "nodes/graph_rig_function.h"
+#include "nodes/inversion_spec.h"
 #include "solver_rigs.h"
 
 using namespace rig;
@@ -220,9 +222,9 @@ struct Tally {
     int shifted = 0;  // frames reported with values other than those solved (a continuity shift)
 };
 
-// `poses` random poses of `rig` (every control within its range: the chest's up to 170 degrees), inverted as one
-// clip restarting at every frame and each alone; the properties checked frame by frame.
-void checkPoses(test::LambdaRig& rig, const Approximation& a, int poses, std::mt19937& rng, Tally& tally)
+// `poses` random poses of `rig` (every control within its range: the chest's up to 170 degrees on the random rigs),
+// inverted as one clip restarting at every frame and each alone; the properties checked frame by frame.
+void checkPoses(RigFunction& rig, const Approximation& a, int poses, std::mt19937& rng, Tally& tally)
 {
     RigBinding binding(a, rig);
     ClipInversionOptions options;
@@ -289,4 +291,26 @@ TEST_CASE("frame statuses: random FK rigs with a shared spine and a chest contro
     // Not vacuous: nearly every random pose is reached, and continuity shifted many of them.
     CHECK(tally.reachedAlone >= 190);
     CHECK(tally.shifted >= 20);
+}
+
+TEST_CASE("frame statuses: the creature graph rig's FK controls, every frame a restart")
+{
+    // rigs/creature.yaml through the graph engine: its spine bend shared by four joints under the chest control,
+    // every FK control but the claws' grip and the jaw (spline driven keys: fitted curves, not exact FK).
+    const InversionSpec spec = readInversionSpec(test::sourceDir() / "rigs/creature_inversion.yaml");
+    std::vector<std::string> params;
+    for (const std::string& glob : spec.params)
+        if (glob != "[LR]_wrist_ctrl.grip" && glob != "jaw_ctrl.open") params.push_back(glob);
+    REQUIRE(params.size() + 2 == spec.params.size());
+    GraphRigFunction rig(test::sourceDir() / "rigs/creature.yaml", {params, spec.outputs, {}, spec.set});
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "rigs/creature.yaml");
+    REQUIRE(a.discarded.empty());
+    REQUIRE(a.validation.withinEpsilon);
+    std::mt19937 rng(20260312);
+    Tally tally;
+    checkPoses(rig, a, 20, rng, tally);
+    MESSAGE(fmt::format("creature: {} frames, {} reached in the chain, {} alone, {} reported shifted", tally.frames,
+                        tally.reached, tally.reachedAlone, tally.shifted));
+    CHECK(tally.reachedAlone >= 19);
+    CHECK(tally.shifted >= 5);
 }
