@@ -286,7 +286,7 @@ def test_whole_number_options_take_numpy_integers_and_refuse_the_rest(learned_bi
 @pytest.mark.parametrize("shift", [1e160, 1e300])
 def test_targets_too_far_for_the_cost_fail_every_frame_with_their_error(shift):
     """The arm's world matrices with every translation 1e160 (residuals finite, their squares not) or 1e300 cm
-    away: every frame not converged, counted as failed, the error reported as it is, as rig-invert does
+    away: every frame non-finite (its cost overflows), counted as failed, the error reported as it is, as rig-invert does
     (tests/tools/far_targets_test.cpp)."""
     worlds = riginv.Graph.load(ARM).evaluate(get="*.worldMatrix", frames="1:4")
     targets = {plug[: -len(".worldMatrix")]: matrices.copy() for plug, matrices in worlds.items()}
@@ -296,8 +296,8 @@ def test_targets_too_far_for_the_cost_fail_every_frame_with_their_error(shift):
     values, _, report = approx.invert(targets, rig=ARM)
     assert values.shape[0] == 4
     assert report["failed_frames"] == 4
-    assert report["status_frames"]["not_converged"] == 4 and report["status_frames"]["best_fit"] == 0
-    assert report["first_failure"] == {"frame": 0, "status": "not converged", "joint": "shoulder"}
+    assert report["status_frames"]["non_finite"] == 4 and report["status_frames"]["best_fit"] == 0
+    assert report["first_failure"] == {"frame": 0, "status": "non-finite", "joint": "shoulder"}
     # sqrt(3) * shift: a shift on each axis, measured without overflow.
     assert 1.7 * shift <= report["max_position_error_cm"] <= 1.8 * shift
     assert all(f["termination"] == "noConvergence" for f in report["per_frame"])
