@@ -286,8 +286,8 @@ def test_whole_number_options_take_numpy_integers_and_refuse_the_rest(learned_bi
 @pytest.mark.parametrize("shift", [1e160, 1e300])
 def test_targets_too_far_for_the_cost_fail_every_frame_with_their_error(shift):
     """The arm's world matrices with every translation 1e160 (residuals finite, their squares not) or 1e300 cm
-    away: every frame non-finite (its cost overflows), counted as failed, the error reported as it is, as rig-invert does
-    (tests/tools/far_targets_test.cpp)."""
+    away: every frame non-finite (its cost overflows), counted as failed, the error reported as it is, as
+    rig-invert does (tests/tools/far_targets_test.cpp)."""
     worlds = riginv.Graph.load(ARM).evaluate(get="*.worldMatrix", frames="1:4")
     targets = {plug[: -len(".worldMatrix")]: matrices.copy() for plug, matrices in worlds.items()}
     for matrices in targets.values():
