@@ -85,9 +85,12 @@ std::string fileChecksum(const std::filesystem::path& file, const std::string& r
 
 std::vector<std::pair<int, int>> shardRanges(int frames, int shardFrames, int restartEvery)
 {
-    const int size = (shardFrames + restartEvery - 1) / restartEvery * restartEvery;
+    // In 64 bits: both flags may be near INT_MAX, and their rounded sum and the next shard's start beyond it.
+    const long long interval = restartEvery;
+    const long long size = (shardFrames + interval - 1) / interval * interval;
     std::vector<std::pair<int, int>> out;
-    for (int first = 0; first < frames; first += size) out.emplace_back(first, std::min(first + size, frames) - 1);
+    for (long long first = 0; first < frames; first += size)
+        out.emplace_back(static_cast<int>(first), static_cast<int>(std::min<long long>(first + size, frames) - 1));
     return out;
 }
 

@@ -326,3 +326,32 @@ TEST_CASE("rig-batch: bad input is one error line and exit code 2, and writes no
         CHECK_FALSE(fs::exists(out));
     }
 }
+
+TEST_CASE("rig-batch: shard sizes and restart intervals near INT_MAX make whole shards, rig-invert's curves")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_int_max");
+    fs::create_directories(dir / "clips");
+    cutBvh(test::cmuClip, 60, dir / "clips" / "walk.bvh");
+    // Each once rounded a shard's size past INT_MAX: a crash, or shards without end until memory ran out.
+    for (const std::string flags :
+         {"--shard-frames 2147483529", "--restart-every 2147478849", "--restart-every 2147483647",
+          "--shard-frames 2147483647 --restart-every 2147483646"}) {
+        CAPTURE(flags);
+        const auto out = dir / "out";
+        fs::remove_all(out);
+        const auto r = rigBatch(fmt::format("{} --clips {} --out {} -q {}", inputs(), (dir / "clips").string(),
+                                            out.string(), flags));
+        INFO(r.err);
+        REQUIRE(r.exitCode == 0);
+        CHECK(readJson(out / "report.json")["totals"]["shards"] == 1);
+        const std::string restart = flags.substr(flags.find("--restart-every") == std::string::npos
+                                                     ? flags.size()
+                                                     : flags.find("--restart-every"));
+        const auto whole = test::run(fmt::format("{} {} --clip {} -o {} -q {}", test::tool("rig-invert"), inputs(),
+                                                 (dir / "clips" / "walk.bvh").string(),
+                                                 (dir / "walk.json").string(), restart));
+        REQUIRE(whole.exitCode == 0);
+        CHECK(test::readFile(out / "walk.json") == test::readFile(dir / "walk.json"));
+    }
+}
