@@ -39,6 +39,44 @@ std::string hostName()
 
 bool isClip(const fs::path& file) { return file.extension() == ".bvh" || file.extension() == ".json"; }
 
+// A clip path's status. A link loop, a link into a folder this user may not search, or any other error
+// of the file system is the user's to fix, named by its path (never an exception of std::filesystem).
+fs::file_status clipStatus(const fs::path& path, const std::string& shown)
+{
+    std::error_code ec;
+    const fs::file_status status = fs::status(path, ec);
+    if (ec && ec != std::errc::no_such_file_or_directory)
+        throw Error(fmt::format("--clips {}: cannot read it ({}); fix or remove it, or give the clips without it",
+                                shown, ec.message()));
+    return status;
+}
+
+// A folder's .bvh and .json files, in name order. A clip's name that is a broken link is an error, not a clip
+// silently left out of the library.
+std::vector<fs::path> folderClips(const fs::path& folder, const std::string& shown)
+{
+    std::vector<fs::path> found;
+    std::error_code ec;
+    fs::directory_iterator it(folder, ec);
+    for (; !ec && it != fs::directory_iterator(); it.increment(ec)) {
+        const fs::path& file = it->path();
+        if (!isClip(file)) continue;
+        const fs::file_status status = clipStatus(file, file.string());
+        if (!fs::exists(status))
+            throw Error(fmt::format("--clips {}: a link to nothing; fix or remove it, or give the clips without it",
+                                    file.string()));
+        if (fs::is_regular_file(status)) found.push_back(file);
+    }
+    if (ec)
+        throw Error(
+            fmt::format("--clips {}: cannot list the folder ({}); give a folder you may read", shown, ec.message()));
+    if (found.empty())
+        throw Error(fmt::format(
+            "--clips {}: the folder holds no .bvh or .json clip; give clip files or folders of them", shown));
+    std::sort(found.begin(), found.end());
+    return found;
+}
+
 // --clips: files as given, folders as their .bvh and .json files in name order; each path once (a file named
 // twice, by itself and in its folder), while links of other names are clips of those names.
 std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs::path& out)
@@ -51,8 +89,7 @@ std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs:
     };
     for (const std::string& g : given) {
         const fs::path p(g);
-        std::error_code ec;
-        const fs::file_status status = fs::status(p, ec);
+        const fs::file_status status = clipStatus(p, g);
         if (!fs::exists(status))
             throw Error(
                 fmt::format("--clips {}: no such file or folder; give clip files (.bvh, .json) or folders of "
@@ -64,19 +101,9 @@ std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs:
             add(p);
             continue;
         }
-        if (fs::equivalent(p, out, ec))
+        if (std::error_code ec; fs::equivalent(p, out, ec))
             throw Error(fmt::format("--clips {}: is the output folder (--out); give the folder of the clips", g));
-        std::vector<fs::path> found;
-        for (const auto& entry : fs::directory_iterator(p, ec))
-            if (entry.is_regular_file() && isClip(entry.path())) found.push_back(entry.path());
-        if (ec) throw Error(fmt::format("--clips {}: cannot list the folder ({})", g, ec.message()));
-        if (found.empty())
-            throw Error(
-                fmt::format("--clips {}: the folder holds no .bvh or .json clip; give clip files or folders "
-                            "of them",
-                            g));
-        std::sort(found.begin(), found.end());
-        for (const auto& file : found) add(file);
+        for (const auto& file : folderClips(p, g)) add(file);
     }
     if (files.empty()) throw Error("--clips: no clip given; give clip files (.bvh, .json) or folders of them");
     return files;

@@ -144,6 +144,14 @@ int main(int argc, char** argv)
     return rig::cli::runMain(app, argc, argv, [&] {
         options.taskGiven = app.count("--task") > 0;
         options.jobsGiven = app.count("--jobs") > 0;
-        return rig::run(options);
+        // What the file system refuses (a link loop, a folder this user may not read) is the user's to fix.
+        try {
+            return rig::run(options);
+        }
+        catch (const std::filesystem::filesystem_error& e) {
+            throw rig::Error(fmt::format("{}: {}; check the path and its permissions",
+                                         e.path1().empty() ? "a file of the batch" : e.path1().string(),
+                                         e.code().message()));
+        }
     });
 }

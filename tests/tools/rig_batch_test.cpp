@@ -11,6 +11,8 @@
 #include <sstream>
 #include <string>
 
+#include <unistd.h>
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -334,24 +336,83 @@ TEST_CASE("rig-batch: shard sizes and restart intervals near INT_MAX make whole 
     fs::create_directories(dir / "clips");
     cutBvh(test::cmuClip, 60, dir / "clips" / "walk.bvh");
     // Each once rounded a shard's size past INT_MAX: a crash, or shards without end until memory ran out.
-    for (const std::string flags :
-         {"--shard-frames 2147483529", "--restart-every 2147478849", "--restart-every 2147483647",
-          "--shard-frames 2147483647 --restart-every 2147483646"}) {
-        CAPTURE(flags);
+    const struct {
+        std::string flags;
+        std::string restart;  // rig-invert's, for the same curves
+    } cases[] = {{"--shard-frames 2147483529", ""},
+                 {"--restart-every 2147478849", "--restart-every 2147478849"},
+                 {"--restart-every 2147483647", "--restart-every 2147483647"},
+                 {"--shard-frames 2147483647 --restart-every 2147483646", "--restart-every 2147483646"}};
+    for (const auto& c : cases) {
+        CAPTURE(c.flags);
         const auto out = dir / "out";
         fs::remove_all(out);
-        const auto r = rigBatch(fmt::format("{} --clips {} --out {} -q {}", inputs(), (dir / "clips").string(),
-                                            out.string(), flags));
+        const auto r = rigBatch(
+            fmt::format("{} --clips {} --out {} -q {}", inputs(), (dir / "clips").string(), out.string(), c.flags));
         INFO(r.err);
         REQUIRE(r.exitCode == 0);
         CHECK(readJson(out / "report.json")["totals"]["shards"] == 1);
-        const std::string restart = flags.substr(flags.find("--restart-every") == std::string::npos
-                                                     ? flags.size()
-                                                     : flags.find("--restart-every"));
-        const auto whole = test::run(fmt::format("{} {} --clip {} -o {} -q {}", test::tool("rig-invert"), inputs(),
-                                                 (dir / "clips" / "walk.bvh").string(),
-                                                 (dir / "walk.json").string(), restart));
+        const auto whole =
+            test::run(fmt::format("{} {} --clip {} -o {} -q {}", test::tool("rig-invert"), inputs(),
+                                  (dir / "clips" / "walk.bvh").string(), (dir / "walk.json").string(), c.restart));
         REQUIRE(whole.exitCode == 0);
         CHECK(test::readFile(out / "walk.json") == test::readFile(dir / "walk.json"));
     }
+}
+
+TEST_CASE("rig-batch: a link loop, a link to nothing or into a folder it may not read in --clips is one line naming it")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_links");
+    fs::create_directories(dir / "clips");
+    cutBvh(test::cmuClip, 60, dir / "clips" / "walk.bvh");
+    const auto out = dir / "out";
+    const auto expectError = [&](const std::string& prefix, const fs::path& clips, const std::string& error) {
+        const auto r = test::run(fmt::format("{}{} {} --clips {} --out {}", prefix, test::tool("rig-batch"), inputs(),
+                                             clips.string(), out.string()));
+        CHECK(r.exitCode == 2);
+        CHECK(r.out.empty());
+        CHECK(r.err == error + "\n");
+        CHECK_FALSE(fs::exists(out));
+    };
+    const fs::path loop = dir / "clips" / "loop.bvh";
+    fs::create_symlink("loop.bvh", loop);
+    const std::string loopError = fmt::format(
+        "error: --clips {}: cannot read it (Too many levels of symbolic links); fix or remove it, or give the "
+        "clips without it",
+        loop.string());
+    expectError("", dir / "clips", loopError);
+    expectError("", loop, loopError);
+    fs::remove(loop);
+    const fs::path dangling = dir / "clips" / "gone.bvh";
+    fs::create_symlink("missing.bvh", dangling);
+    expectError("", dir / "clips",
+                fmt::format("error: --clips {}: a link to nothing; fix or remove it, or give the clips without it",
+                            dangling.string()));
+    fs::remove(dangling);
+
+    // Permissions bind root only through setpriv: as root, run as user nobody.
+    std::string prefix;
+    if (::geteuid() == 0) {
+        if (test::run("command -v setpriv").exitCode != 0) {
+            MESSAGE("[skipped] the unreadable-folder cases: root without setpriv");
+            return;
+        }
+        prefix = "setpriv --reuid=65534 --regid=65534 --clear-groups ";
+    }
+    fs::create_directories(dir / "locked");
+    fs::copy_file(dir / "clips" / "walk.bvh", dir / "locked" / "run.bvh");
+    fs::permissions(dir / "locked", fs::perms::none);
+    const fs::path inside = dir / "clips" / "run.bvh";
+    fs::create_symlink(dir / "locked" / "run.bvh", inside);
+    expectError(prefix, dir / "clips",
+                fmt::format("error: --clips {}: cannot read it (Permission denied); fix or remove it, or give the "
+                            "clips without it",
+                            inside.string()));
+    fs::remove(inside);
+    fs::create_symlink(dir / "locked", dir / "linked");
+    expectError(prefix, dir / "linked",
+                fmt::format("error: --clips {}: cannot list the folder (Permission denied); give a folder you may read",
+                            (dir / "linked").string()));
+    fs::permissions(dir / "locked", fs::perms::owner_all);
 }
