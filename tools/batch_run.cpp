@@ -130,8 +130,9 @@ void checkOutputsAreNotInputs(const std::vector<std::pair<std::string, fs::path>
     }
 }
 
-// One rig-batch at a time in an output folder: an advisory lock, released when the process ends.
-void lockFolder(const fs::path& folder)
+// One rig-batch at a time in an output folder: an advisory lock, released when the process and the local
+// tasks it started, which inherit the descriptor (runLocal), have all ended. Returns the descriptor.
+int lockFolder(const fs::path& folder)
 {
     const fs::path file = folder / ".rig-batch.lock";
     const int fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
@@ -144,6 +145,7 @@ void lockFolder(const fs::path& folder)
                         "another folder",
                         folder.string()));
     }
+    return fd;
 }
 
 // Shard files of keys no longer planned (inputs changed since): shards/KEY.shard, KEY.status.json, logs/KEY.log.
@@ -422,13 +424,15 @@ BatchOutcome runBatch(const BatchJob& job)
     run.memory = job.slurmMemory;
     run.time = job.slurmTime;
     run.sbatchArgs = job.slurmArgs;
+    // The folder's own name for its jobs: what rig-batch cancels when it is stopped (and squeue shows).
+    run.jobName = "rig-batch-" + checksumText(folder.string()).substr(0, 8);
     if (job.backend == "slurm") checkSlurm(run);
 
     std::error_code ec;
     for (const char* sub : {"shards", "logs"}) fs::create_directories(folder / sub, ec);
     if (ec)
         throw Error(fmt::format("--out {}: cannot create it ({}); give a folder you may write", job.out, ec.message()));
-    lockFolder(folder);
+    run.lockFd = lockFolder(folder);
     for (const fs::path& out : outputs) checkOutputFile(out, "out", "--out");
 
     // Resume: a shard is done when its output matches the checksum recorded for it, in its status record

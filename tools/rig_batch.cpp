@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "tools/batch_backend.h"
 #include "tools/batch_run.h"
 #include "tools/cli_common.h"
 #include "tools/progress_bar.h"
@@ -59,6 +60,7 @@ int run(Options& o)
                             "names; give only --out with it",
                             o.task));
         if (o.job.out.empty()) throw Error(fmt::format("--task {}: give the batch's folder with --out", o.task));
+        cli::dieWithDriver();
         cli::runShard(o.job.out, o.task);
         return 0;
     }
@@ -73,6 +75,7 @@ int run(Options& o)
     std::error_code ec;
     o.job.program = std::filesystem::read_symlink("/proc/self/exe", ec);
     if (ec) throw Error(fmt::format("cannot find rig-batch's own program to start per shard ({})", ec.message()));
+    cli::stopTasksOnSignals();
     o.job.warning = [](const std::string& warning) { std::cerr << "warning: " << warning << "\n"; };
     cli::ProgressBar bar("inverting");
     o.job.progress = [&](int done, int total) {

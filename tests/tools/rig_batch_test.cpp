@@ -6,10 +6,12 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include <unistd.h>
 
@@ -415,4 +417,83 @@ TEST_CASE("rig-batch: a link loop, a link to nothing or into a folder it may not
                 fmt::format("error: --clips {}: cannot list the folder (Permission denied); give a folder you may read",
                             (dir / "linked").string()));
     fs::permissions(dir / "locked", fs::perms::owner_all);
+}
+
+TEST_CASE(
+    "rig-batch: stopped by SIGTERM or killed by SIGKILL, its local tasks die with it and hold the folder's lock until "
+    "they are gone; no orphan writes over the next run")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_stopped");
+    const auto clips = dir / "clips";
+    fs::create_directories(clips);
+    cutBvh(test::cmuClip, 600, clips / "walk.bvh");
+    cutBvh(cmuTurn, 600, clips / "turn.bvh");
+    for (const auto* name : {"walk.bvh", "turn.bvh"}) invertWhole(clips / name, dir);
+    const auto out = dir / "out";
+    const std::string library = fmt::format("{} --clips {} --out {} -q", inputs(), clips.string(), out.string());
+    // The tasks' processes (--tas[k]: not the shell that runs the pattern). Scripts in ( ): test::run's
+    // redirections apply to the whole of them.
+    const std::string tasks = fmt::format("pgrep -f -- '--out {} --tas[k]'", out.string());
+    for (const std::string signal : {"TERM", "KILL"}) {
+        CAPTURE(signal);
+        fs::remove_all(out);
+        // Slow tasks (finite differences, polished on the real rig: seconds each), stopped while they run: the
+        // script prints whether the first task holds the lock file open, rig-batch's exit code, and "gone" once
+        // no task is left (within 2 s).
+        const auto r = test::run(
+            fmt::format("({} {} --jacobian fd --polish 5 --shard-frames 600 --jobs 2 & p=$!; "
+                        "for i in $(seq 600); do t=$({} | head -1); [ -n \"$t\" ] && break; sleep 0.05; done; "
+                        "ls -l /proc/$t/fd | grep -c -- '-> {}/.rig-batch.lock$'; kill -{} $p; wait $p; echo $?; "
+                        "for i in $(seq 40); do {} >/dev/null || break; sleep 0.05; done; {} || echo gone)",
+                        test::tool("rig-batch"), library, tasks, out.string(), signal, tasks, tasks));
+        CHECK(r.out == fmt::format("1\n{}\ngone\n", signal == "TERM" ? 143 : 137));
+        // The next run, with other settings (the old tasks' curves would differ): its curves stay its own.
+        const auto next = rigBatch(library);
+        INFO(next.err);
+        REQUIRE(next.exitCode == 0);
+        std::this_thread::sleep_for(std::chrono::seconds(3));  // longer than an old task had left to run
+        CHECK(test::run(tasks).out.empty());
+        for (const char* name : {"walk.json", "turn.json"})
+            CHECK(test::readFile(out / name) == test::readFile(dir / name));
+    }
+}
+
+TEST_CASE("rig-batch: stopped by SIGTERM while Slurm runs its tasks, it cancels its jobs with scancel")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_scancel");
+    fs::create_directories(dir / "clips");
+    cutBvh(test::cmuClip, 60, dir / "clips" / "walk.bvh");
+    // A stand-in for Slurm's client: sbatch takes the job (its id, then waiting as sbatch --wait does) and
+    // records its arguments; scancel records its arguments.
+    const auto bin = dir / "bin";
+    fs::create_directories(bin);
+    test::writeFile(bin / "sbatch", fmt::format("#!/bin/sh\n"
+                                                "case \"$*\" in *--test-only*) exit 0;; esac\n"
+                                                "echo \"$*\" >{0}/sbatch.args\n"
+                                                "echo $$ >{0}/sbatch.pid\n"
+                                                "echo 4242\n"
+                                                "exec sleep 600\n",
+                                                dir.string()));
+    test::writeFile(bin / "scancel", fmt::format("#!/bin/sh\necho \"$*\" >>{}/scancel.args\n", dir.string()));
+    fs::permissions(bin / "sbatch", fs::perms::owner_all);
+    fs::permissions(bin / "scancel", fs::perms::owner_all);
+    const auto out = dir / "out";
+    const auto r = test::run(
+        fmt::format("(PATH={}:$PATH {} {} --clips {} --out {} --backend slurm -q & p=$!; "
+                    "for i in $(seq 600); do grep -qs 4242 {}/slurm/round-0-0.sbatch.log && break; sleep 0.05; done; "
+                    "kill -TERM $p; wait $p; echo $?; s=$(cat {}/sbatch.pid); "
+                    "for i in $(seq 40); do kill -0 $s 2>/dev/null || break; sleep 0.05; done; "
+                    "kill -0 $s 2>/dev/null || echo stopped)",
+                    bin.string(), test::tool("rig-batch"), inputs(), (dir / "clips").string(), out.string(),
+                    out.string(), dir.string()));
+    CHECK(r.out == "143\nstopped\n");
+    const std::string submitted = test::readFile(dir / "sbatch.args");
+    const auto name = submitted.find("--job-name=rig-batch-");
+    REQUIRE(name != std::string::npos);
+    const std::string job = submitted.substr(name + 11, 18);  // rig-batch- and 8 hex digits
+    CHECK(job.find_first_not_of("0123456789abcdef", 10) == std::string::npos);
+    const std::string user = test::run("id -un").out;  // with its newline
+    CHECK(test::readFile(dir / "scancel.args") == fmt::format("--name={} --user={}", job, user));
 }
