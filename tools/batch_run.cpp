@@ -215,7 +215,8 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
                 throw Error(fmt::format("{}: removed since its shard was done; run rig-batch again to solve it again",
                                         file.string()));
             out = parseShardOutput(bytes, file.string(), approximation.parameters.size());
-            if (out.key != shard.key || out.first != shard.first || out.last != shard.last)
+            if (out.key != shard.key || out.first != shard.first || out.last != shard.last ||
+                out.curvesChecksum.empty() == wholeClip(manifest, shard))
                 throw Error(
                     fmt::format("{}: is not the output of shard {} (frames {}); run rig-batch again to solve "
                                 "it again",
@@ -376,13 +377,31 @@ BatchOutcome runBatch(const BatchJob& job)
     std::vector<std::pair<std::string, fs::path>> inputFiles{{"the approximation", inputs.approximation},
                                                              {"the map", inputs.map}};
     for (const auto& file : loaded.rig->files()) inputFiles.emplace_back("a file the rig reads", file);
+    // The manifest (JSON) holds these paths: bytes that are not UTF-8 would be read back as other names.
+    for (const auto& [flag, path] : {std::pair<std::string, std::string>{"approximation", inputs.approximation},
+                                     {"--rig", inputs.rig},
+                                     {"--map", inputs.map}})
+        if (!isUtf8(path))
+            throw Error(
+                fmt::format("{} {}: its path is not UTF-8, which the batch's manifest (JSON) cannot hold; "
+                            "rename it",
+                            flag, path));
+    for (const std::string& plugin : job.plugins)
+        if (!isUtf8(plugin))
+            throw Error(
+                fmt::format("--plugin {}: is not UTF-8, which the batch's manifest (JSON) cannot hold; "
+                            "rename it",
+                            plugin));
     for (const fs::path& file : files) {
         const std::string name = file.stem().string();
-        if (name == "report" || name == "manifest")
+        if (!isUtf8(file.string()))
             throw Error(
-                fmt::format("--clips {}: its curves would be {}.json, which rig-batch writes for the batch; "
-                            "rename the clip",
-                            file.string(), name));
+                fmt::format("--clips {}: its path is not UTF-8, which the batch's manifest (JSON) cannot "
+                            "hold; rename it",
+                            file.string()));
+        if (const std::string problem = clipNameProblem(name); !problem.empty())
+            throw Error(fmt::format("--clips {}: its curves would be {}.json, {}; rename the clip", file.string(), name,
+                                    problem));
         if (const auto [it, added] = names.emplace(name, file); !added)
             throw Error(
                 fmt::format("--clips: {} and {} would both write {}.json; rename one, or run them as two "
@@ -537,12 +556,13 @@ BatchOutcome runBatch(const BatchJob& job)
     struct ClipMerge {
         std::size_t first = 0, end = 0;  // its shards
         std::optional<MergedClip> merged;
+        std::string unwritten;  // why its curves could not be written (a full disk)
     };
     std::vector<ClipMerge> merges;
     for (std::size_t first = 0; first < manifest.shards.size();) {
         std::size_t end = first;
         while (end < manifest.shards.size() && manifest.shards[end].clip == manifest.shards[first].clip) ++end;
-        merges.push_back({first, end, std::nullopt});
+        merges.push_back({first, end, std::nullopt, ""});
         first = end;
     }
     tbb::parallel_for(std::size_t{0}, merges.size(), [&](std::size_t c) {
@@ -555,17 +575,35 @@ BatchOutcome runBatch(const BatchJob& job)
             m.merged = mergeClip(folder, manifest, static_cast<int>(m.first), static_cast<int>(m.end), approximation,
                                  equivalences);
         if (m.merged && m.merged->failedShard < 0) {
-            if (m.merged->curvesChecksum.empty()) {
-                writeFileAtomically(curves, m.merged->curves);
-                m.merged->curvesChecksum = checksumText(m.merged->curves);
-                std::string().swap(m.merged->curves);
-            }
+            if (m.merged->curvesChecksum.empty()) try {
+                    writeFileAtomically(curves, m.merged->curves);
+                    m.merged->curvesChecksum = checksumText(m.merged->curves);
+                    std::string().swap(m.merged->curves);
+                }
+                catch (const Error& e) {
+                    m.unwritten = e.what();
+                }
         } else {
             // No curves for a clip with a shard missing: an earlier run's file would not be this run's.
             std::error_code removed;
             fs::remove(curves, removed);
         }
     });
+    // Curves that could not be written: the shards stay done (the manifest records them), the clips are named.
+    std::vector<std::string> unwritten;
+    for (const ClipMerge& m : merges)
+        if (!m.unwritten.empty())
+            unwritten.push_back(fmt::format(
+                "{} (shards {} to {}, frames {}:{}): {}",
+                manifest.clips[static_cast<std::size_t>(manifest.shards[m.first].clip)].name, m.first, m.end - 1,
+                manifest.shards[m.first].firstFrame, manifest.shards[m.end - 1].lastFrame, m.unwritten));
+    if (!unwritten.empty()) {
+        fs::remove(folder / "report.json", ec);  // an earlier run's would name curves that are not there
+        throw Error(fmt::format(
+            "the merge could not write the curves of {} of {} clips: {}{}; their shards are done "
+            "and kept: run rig-batch again to merge them",
+            unwritten.size(), merges.size(), unwritten.front(), unwritten.size() > 1 ? " (and the others')" : ""));
+    }
     BatchOutcome outcome;
     Json clips = Json::array();
     long long totalFrames = 0;

@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -496,4 +498,150 @@ TEST_CASE("rig-batch: stopped by SIGTERM while Slurm runs its tasks, it cancels 
     CHECK(job.find_first_not_of("0123456789abcdef", 10) == std::string::npos);
     const std::string user = test::run("id -un").out;  // with its newline
     CHECK(test::readFile(dir / "scancel.args") == fmt::format("--name={} --user={}", job, user));
+}
+
+namespace {
+
+// batch_manifest.h's checksumText: FNV-1a 64 over 8-byte words, then the bytes left one by one.
+std::string checksumText(const std::string& bytes)
+{
+    std::uint64_t hash = 0xcbf29ce484222325ull;
+    std::size_t i = 0;
+    for (std::uint64_t word = 0; i + sizeof(word) <= bytes.size(); i += sizeof(word)) {
+        std::memcpy(&word, bytes.data() + i, sizeof(word));
+        hash = (hash ^ word) * 0x100000001b3ull;
+    }
+    for (; i < bytes.size(); ++i) hash = (hash ^ static_cast<unsigned char>(bytes[i])) * 0x100000001b3ull;
+    return fmt::format("{:016x}", hash);
+}
+
+}  // namespace
+
+TEST_CASE("rig-batch: clip names that cannot round-trip or name a file are refused when planning, and 240 bytes work")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_names");
+    const auto out = dir / "out";
+    const auto refused = [&](const fs::path& clips, const std::string& error) {
+        const auto r = rigBatch(fmt::format("{} --clips {} --out {}", inputs(), clips.string(), out.string()));
+        CHECK(r.exitCode == 2);
+        CHECK(r.err == error + "\n");
+        CHECK_FALSE(fs::exists(out));
+    };
+    // Bytes that are not UTF-8: the manifest (JSON) would hold U+FFFD instead, and every task would fail.
+    fs::create_directories(dir / "latin1");
+    cutBvh(test::cmuClip, 60, dir / "latin1" / "caf\xe9.bvh");
+    refused(dir / "latin1",
+            fmt::format("error: --clips {}/latin1/caf\\xe9.bvh: its path is not UTF-8, which the batch's manifest "
+                        "(JSON) cannot hold; rename it",
+                        dir.string()));
+    // 251 bytes and .json: over the 255 a file name may have.
+    fs::create_directories(dir / "long");
+    const std::string tooLong(251, 'w');
+    cutBvh(test::cmuClip, 60, dir / "long" / (tooLong + ".bvh"));
+    refused(dir / "long" / (tooLong + ".bvh"),
+            fmt::format("error: --clips {}/long/{}.bvh: its curves would be {}.json, a name of 256 bytes, longer than "
+                        "the 255 file systems take; rename the clip",
+                        dir.string(), tooLong, tooLong));
+    // 240 bytes: a legal name whose temporary file (".NAME.json.PID.XXXXXX.tmp") is not, cut to fit, in
+    // rig-batch's task and in rig-invert -o alike.
+    const std::string stem(240, 'w');
+    const fs::path clip = dir / "long" / (stem + ".bvh");
+    cutBvh(test::cmuClip, 60, clip);
+    auto r = rigBatch(fmt::format("{} --clips {} --out {} -q", inputs(), clip.string(), out.string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    r = test::run(fmt::format("{} {} --clip {} -o {} -q", test::tool("rig-invert"), inputs(), clip.string(),
+                              (dir / (stem + ".json")).string()));
+    REQUIRE(r.exitCode == 0);
+    CHECK(test::readFile(out / (stem + ".json")) == test::readFile(dir / (stem + ".json")));
+    for (const auto& entry : fs::directory_iterator(dir)) CHECK_FALSE(entry.path().extension() == ".tmp");
+
+    // A manifest edited to name a clip ../x: its task would write x.json beside --out.
+    Json manifest = readJson(out / "manifest.json");
+    manifest["clips"][0]["name"] = "../x";
+    test::writeFile(out / "manifest.json", manifest.dump(2));
+    r = rigBatch(fmt::format("--out {} --task 0", out.string()));
+    CHECK(r.exitCode == 2);
+    CHECK(r.err == fmt::format("error: {}/manifest.json: not a rig-batch manifest (clip 0's curves would be ../x.json, "
+                               "which is not a file name in the output folder); remove it and run rig-batch again\n",
+                               out.string()));
+    CHECK_FALSE(fs::exists(dir / "x.json"));
+}
+
+TEST_CASE(
+    "rig-batch: the merge checks every shard header field before it trusts it, and names the clip and shards "
+    "whose curves a full disk refused")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_headers");
+    fs::create_directories(dir / "clips");
+    cutBvh(test::cmuClip, 240, dir / "clips" / "walk.bvh");
+    const auto out = dir / "out";
+    const std::string args =
+        fmt::format("{} --clips {} --out {} --shard-frames 120 -q", inputs(), (dir / "clips").string(), out.string());
+    REQUIRE(rigBatch(args).exitCode == 0);
+    const std::string curves = test::readFile(out / "walk.json");
+    const Json manifest = readJson(out / "manifest.json");
+    const std::string key = manifest["shards"][1]["key"];
+    const fs::path shard = out / "shards" / (key + ".shard");
+    const std::string original = test::readFile(shard);
+    const std::size_t newline = original.find('\n');
+    const Json header = Json::parse(original.substr(0, newline));
+
+    // Each edit with the checksums recomputed (in the manifest and the status record), as a tool would: the
+    // merge refuses the shard (exit code 3, its error line), where some edits used to crash it.
+    const struct {
+        const char* field;
+        Json value;
+        std::string why;
+    } edits[] = {
+        {"worst_frame", 100000, "a frame index outside 120 to 239"},
+        {"first_non_finite_frame", -7, "a frame index outside 120 to 239"},
+        {"frames", 1, "1 frames counted in frames 120 to 239"},
+        {"converged_frames", 1000, "a count of frames outside 0 to 120"},
+        {"stuck_joints", Json::array({Json::array({"Hips", -1, 0.5})}), "joint Hips stuck on -1 of 120 frames"},
+        {"bytes", Json::array({32, 960, header["bytes"][2], 18446744073709551615ull}),
+         "its sizes are not those of 120 frames of 79 parameters"},
+        {"first", -5, "frames -5 to 239"},
+    };
+    for (const auto& edit : edits) {
+        CAPTURE(edit.field);
+        Json edited = header;
+        edited[edit.field] = edit.value;
+        const std::string bytes = edited.dump() + original.substr(newline);
+        test::writeFile(shard, bytes);
+        Json m = manifest;
+        m["shards"][1]["checksum"] = checksumText(bytes);
+        test::writeFile(out / "manifest.json", m.dump(2));
+        Json status = readJson(out / "shards" / (key + ".status.json"));
+        status["checksum"] = checksumText(bytes);
+        test::writeFile(out / "shards" / (key + ".status.json"), status.dump(2));
+        const auto r = rigBatch(args);
+        CHECK(r.exitCode == 3);
+        CHECK(r.err == fmt::format("error: 1 of 2 shards failed (shard 1 (walk frames 121:240): error: {}: not a "
+                                   "rig-batch shard output ({}); remove it and run rig-batch again); their clips have "
+                                   "no curves; run rig-batch again to retry them (finished shards are kept)\n",
+                                   shard.string(), edit.why));
+        CHECK_FALSE(fs::exists(out / "walk.json"));
+    }
+    fs::remove(shard);
+    REQUIRE(rigBatch(args).exitCode == 0);
+    CHECK(test::readFile(out / "walk.json") == curves);
+
+    // A full disk (a file size limit here: writes fail as they would) while the merge writes the curves: one
+    // line naming the clip and its shards, which stay done for the next run.
+    fs::remove(out / "walk.json");
+    const auto r = test::run(fmt::format("(trap '' XFSZ; ulimit -f 100; {} {})", test::tool("rig-batch"), args));
+    CHECK(r.exitCode == 2);
+    CHECK(r.err == fmt::format("error: the merge could not write the curves of 1 of 1 clips: walk (shards 0 to 1, "
+                               "frames 1:240): {}/walk.json: writing failed (File too large); check the free space "
+                               "and the folder's permissions; their shards are done and kept: run rig-batch again "
+                               "to merge them\n",
+                               out.string()));
+    CHECK_FALSE(fs::exists(out / "report.json"));
+    const auto again = rigBatch(args);
+    REQUIRE(again.exitCode == 0);
+    CHECK(readJson(out / "report.json")["totals"]["shards_reused"] == 2);
+    CHECK(test::readFile(out / "walk.json") == curves);
 }
