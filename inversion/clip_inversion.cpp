@@ -52,13 +52,149 @@ void ClipInversionOptions::validate() const
     if (restartInterval <= 0) throw Error(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
 }
 
+std::string_view frameStatusName(FrameStatus status)
+{
+    switch (status) {
+        case FrameStatus::reached:
+            return "reached";
+        case FrameStatus::bestFit:
+            return "best fit";
+        case FrameStatus::modelMismatch:
+            return "model mismatch";
+        case FrameStatus::notConverged:
+            return "not converged";
+        case FrameStatus::nonFinite:
+            return "non-finite";
+        case FrameStatus::invalidTargets:
+            return "invalid targets";
+    }
+    return "?";
+}
+
+std::string frameStatusKey(FrameStatus status)
+{
+    std::string key(frameStatusName(status));
+    std::replace(key.begin(), key.end(), ' ', '_');
+    std::replace(key.begin(), key.end(), '-', '_');
+    return key;
+}
+
+namespace {
+
+// Whether error a is worse than b: a NaN is worse than any number, so that no maximum drops one.
+bool worse(double a, double b) { return std::isnan(a) ? !std::isnan(b) : !std::isnan(b) && a > b; }
+
+}  // namespace
+
+int ClipInversionSummary::failedFrames() const
+{
+    int failed = 0;
+    for (int k = 0; k < frameStatusCount; ++k)
+        if (frameStatusFails(static_cast<FrameStatus>(k))) failed += statusFrames[static_cast<std::size_t>(k)];
+    return failed;
+}
+
+void ClipInversionSummary::add(const FrameInversion& f, const std::vector<ApproximationOutput>& outputs)
+{
+    ++frames;
+    ++statusFrames[static_cast<std::size_t>(f.status)];
+    if (frameStatusFails(f.status) && firstFailedFrame < 0) {
+        firstFailedFrame = f.frame;
+        firstFailedStatus = f.status;
+        firstFailedJoint = f.status == FrameStatus::invalidTargets && !f.invalidJoint.empty() ? f.invalidJoint
+                           : !f.nonFiniteJoint.empty()                                        ? f.nonFiniteJoint
+                           : !f.missed.empty() ? outputs[static_cast<std::size_t>(f.missed.front().output)].name
+                                               : f.worstJoint;
+    }
+    for (const auto& m : f.missed) {
+        const std::string& name = outputs[static_cast<std::size_t>(m.output)].name;
+        auto it =
+            std::find_if(residualJoints.begin(), residualJoints.end(), [&](const auto& r) { return r.name == name; });
+        if (it == residualJoints.end()) it = residualJoints.insert(residualJoints.end(), {name, 0, 0.0});
+        ++it->frames;
+        if (worse(m.errorCm, it->worstErrorCm)) it->worstErrorCm = m.errorCm;
+    }
+    if (worse(f.positionErrorCm, maxPositionErrorCm) || worstFrame < 0) {
+        maxPositionErrorCm = f.positionErrorCm;
+        worstJoint = f.worstJoint;
+        worstFrame = f.frame;
+    }
+    if (worse(f.rotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0) {
+        maxRotationErrorDeg = f.rotationErrorDeg;
+        worstRotationJoint = f.worstRotationJoint;
+        worstRotationFrame = f.frame;
+    }
+    if (worse(f.modelGapCm, maxModelGapCm)) maxModelGapCm = f.modelGapCm;
+    const double n = static_cast<double>(jointFrames), k = f.countedJoints;
+    if (f.countedJoints > 0) {
+        meanPositionErrorCm = (meanPositionErrorCm * n + f.positionErrorSumCm) / (n + k);
+        meanRotationErrorDeg = (meanRotationErrorDeg * n + f.rotationErrorSumDeg) / (n + k);
+    }
+    jointFrames += f.countedJoints;
+    realRigEvaluations += f.realRigEvaluations;
+}
+
+void ClipInversionSummary::merge(const ClipInversionSummary& later)
+{
+    if (later.firstFailedFrame >= 0 && firstFailedFrame < 0) {
+        firstFailedFrame = later.firstFailedFrame;
+        firstFailedStatus = later.firstFailedStatus;
+        firstFailedJoint = later.firstFailedJoint;
+    }
+    for (int k = 0; k < frameStatusCount; ++k)
+        statusFrames[static_cast<std::size_t>(k)] += later.statusFrames[static_cast<std::size_t>(k)];
+    for (const auto& joint : later.residualJoints) {
+        auto it = std::find_if(residualJoints.begin(), residualJoints.end(),
+                               [&](const auto& r) { return r.name == joint.name; });
+        if (it == residualJoints.end()) it = residualJoints.insert(residualJoints.end(), {joint.name, 0, 0.0});
+        it->frames += joint.frames;
+        if (worse(joint.worstErrorCm, it->worstErrorCm)) it->worstErrorCm = joint.worstErrorCm;
+    }
+    sortResidualJoints();
+    if (later.frames > 0 && (worse(later.maxPositionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
+        maxPositionErrorCm = later.maxPositionErrorCm;
+        worstJoint = later.worstJoint;
+        worstFrame = later.worstFrame;
+    }
+    if (later.frames > 0 && (worse(later.maxRotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0)) {
+        maxRotationErrorDeg = later.maxRotationErrorDeg;
+        worstRotationJoint = later.worstRotationJoint;
+        worstRotationFrame = later.worstRotationFrame;
+    }
+    if (worse(later.maxModelGapCm, maxModelGapCm)) maxModelGapCm = later.maxModelGapCm;
+    const double n = static_cast<double>(jointFrames), k = static_cast<double>(later.jointFrames);
+    if (later.jointFrames > 0) {
+        meanPositionErrorCm = (meanPositionErrorCm * n + later.meanPositionErrorCm * k) / (n + k);
+        meanRotationErrorDeg = (meanRotationErrorDeg * n + later.meanRotationErrorDeg * k) / (n + k);
+    }
+    jointFrames += later.jointFrames;
+    frames += later.frames;
+    retriedFrames += later.retriedFrames;
+    retriesKept += later.retriesKept;
+    solveSeconds += later.solveSeconds;
+    solveCpuSeconds += later.solveCpuSeconds;
+    realRigEvaluations += later.realRigEvaluations;
+    msPerFrame = frames > 0 ? 1000.0 * solveSeconds / frames : 0.0;
+}
+
+void ClipInversionSummary::sortResidualJoints()
+{
+    std::stable_sort(residualJoints.begin(), residualJoints.end(),
+                     [](const auto& a, const auto& b) { return worse(a.worstErrorCm, b.worstErrorCm); });
+}
+
 std::string ClipInversionSummary::briefReport() const
 {
+    std::string counts;
+    for (int k = 0; k < frameStatusCount; ++k)
+        if (statusFrames[static_cast<std::size_t>(k)] > 0 || k == 0)
+            counts += fmt::format("{}{} {}", counts.empty() ? "" : ", ", statusFrames[static_cast<std::size_t>(k)],
+                                  frameStatusName(static_cast<FrameStatus>(k)));
     return fmt::format(
-        "{} frames, {} converged, {} stuck; real rig: worst {:.3g} cm and {:.3g} deg ({}, frame index {}), "
+        "{} frames: {}; real rig: worst {:.3g} cm ({}, frame index {}) and {:.3g} deg ({}, frame index {}), "
         "mean {:.3g} cm and {:.3g} deg; {:.3g} ms per frame",
-        frames, convergedFrames, stuckFrames, maxPositionErrorCm, maxRotationErrorDeg, worstJoint, worstFrame,
-        meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
+        frames, counts, maxPositionErrorCm, worstJoint, worstFrame, maxRotationErrorDeg, worstRotationJoint,
+        worstRotationFrame, meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
 }
 
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
@@ -87,6 +223,86 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     values.swap(scratch.start);
 }
 
+namespace {
+
+// The real rig (`real`) and the approximation (`modelled`) at a frame's reported values against its targets: the
+// errors, the missed outputs and the model's gap, into `f`; returns whether a missed output is one the
+// approximation does not model and no solve fitted on the real rig.
+bool measureFrame(const Approximation& a, const SolverOptions& o, RealRigFit fit, std::span<const JointTarget> targets,
+                  std::span<const Eigen::Matrix4d> real, std::span<const Eigen::Matrix4d> modelled, FrameInversion& f)
+{
+    constexpr double degrees = 180.0 / std::numbers::pi;
+    bool unfitted = false;
+    for (std::size_t k = 0; k < targets.size(); ++k) {
+        const JointTarget& t = targets[k];
+        if (!t.active) continue;
+        // An unusable target has no error to measure: the solve says invalidTargets.
+        if (!t.world.topRows<3>().allFinite()) {
+            if (f.invalidJoint.empty()) f.invalidJoint = a.outputs[k].name;
+            continue;
+        }
+        if (!real[k].topRows<3>().allFinite()) {
+            if (f.nonFiniteJoint.empty()) f.nonFiniteJoint = a.outputs[k].name;
+            continue;
+        }
+        const bool position = t.positionWeight > 0, rotation = t.rotationWeight > 0;
+        const auto distance = [&](const Eigen::Matrix4d& m, const Eigen::Matrix4d& n) {
+            const double p = position ? (m.block<3, 1>(0, 3) - n.block<3, 1>(0, 3)).stableNorm() : 0.0;
+            const double r = rotation ? orientationAngle(m.topLeftCorner<3, 3>(), n.topLeftCorner<3, 3>()) : 0.0;
+            return std::pair{p, r};
+        };
+        const auto [p, r] = distance(real[k], t.world);
+        const std::string& name = a.outputs[k].name;
+        f.positionErrorSumCm += p;
+        f.rotationErrorSumDeg += r * degrees;
+        ++f.countedJoints;
+        if (worse(p, f.positionErrorCm) || f.worstJoint.empty()) {
+            f.positionErrorCm = p;
+            f.worstJoint = name;
+        }
+        if (worse(r * degrees, f.rotationErrorDeg) || f.worstRotationJoint.empty()) {
+            f.rotationErrorDeg = r * degrees;
+            f.worstRotationJoint = name;
+        }
+        const double error = worse(p, o.rotationScaleCm * r) ? p : o.rotationScaleCm * r;
+        const bool onRealRig =
+            fit == RealRigFit::everyOutput || (fit == RealRigFit::unmodelledOutputs && !a.outputs[k].modelled);
+        if (!(error <= o.targetTolerance)) {
+            f.missed.push_back({static_cast<int>(k), error});
+            unfitted = unfitted || (!a.outputs[k].modelled && !onRealRig);
+        }
+        if (onRealRig || !a.outputs[k].modelled) continue;
+        const auto [gp, gr] = distance(modelled[k], real[k]);
+        const double gap = worse(gp, o.rotationScaleCm * gr) ? gp : o.rotationScaleCm * gr;
+        if (worse(gap, f.modelGapCm)) f.modelGapCm = gap;
+        // The approximation's word on this output holds where its gap is small beside the error it leaves.
+        if (!(gap <= std::max(o.targetTolerance, modelAgreement * error))) f.disagrees = true;
+    }
+    return unfitted;
+}
+
+FrameStatus frameStatus(const FrameInversion& f, bool unfittedMiss)
+{
+    const TerminationType t = f.solve.termination;
+    if (t == TerminationType::invalidTargets || t == TerminationType::noTargets) return FrameStatus::invalidTargets;
+    if (!f.nonFiniteJoint.empty() || !std::isfinite(f.positionErrorCm) || !std::isfinite(f.rotationErrorDeg))
+        return FrameStatus::nonFinite;
+    if (f.missed.empty()) return FrameStatus::reached;
+    if (t == TerminationType::noConvergence) return FrameStatus::notConverged;
+    if (unfittedMiss || f.disagrees) return FrameStatus::modelMismatch;
+    return FrameStatus::bestFit;
+}
+
+}  // namespace
+
+void judgeFrame(const Approximation& approximation, const SolverOptions& options, RealRigFit fit,
+                std::span<const JointTarget> targets, std::span<const Eigen::Matrix4d> real,
+                std::span<const Eigen::Matrix4d> modelled, FrameInversion& frame)
+{
+    const bool unfitted = measureFrame(approximation, options, fit, targets, real, modelled, frame);
+    frame.status = frameStatus(frame, unfitted);
+}
+
 ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first, int last,
                                 const ClipInversionOptions& options, std::vector<std::vector<double>>& values,
                                 std::vector<std::vector<double>>* solvedValues)
@@ -103,17 +319,14 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     values.clear();
     if (solvedValues) solvedValues->clear();
     std::vector<double> current = rest;
-    // Each chunk shifted by equivalences to meet the frame before it (continuity.h); the chain itself,
-    // `current`, is what was solved.
-    ChainContinuity continuity(solver.equivalences(), options.continueFrom);
+    // Each chunk shifted by equivalences to meet the frame before it (continuity.h), where the approximation and
+    // the real rig find the same pose; the chain itself, `current`, is what was solved.
+    PoseCheck samePose(approximation, &rig);
+    ChainContinuity continuity(solver.equivalences(), options.continueFrom, &samePose);
     ChainScratch chainScratch;
     ChainFrame solved;
     double previousCost = 0.0;
-    std::vector<Eigen::Matrix4d> worlds;
-    std::vector<int> stuckCount(approximation.outputs.size(), 0);
-    std::vector<double> stuckError(approximation.outputs.size(), 0.0);
-    double positionSum = 0.0, rotationSum = 0.0;
-    long long jointFrames = 0;
+    std::vector<Eigen::Matrix4d> worlds, modelled;
     using Clock = std::chrono::steady_clock;
     for (int frame = first - summary.leadInFrames; frame <= last; ++frame) {
         const auto& frameTargets = targets.frames[frame];
@@ -128,14 +341,13 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         if (options.frameSolve) options.frameSolve(frameTargets, current, previous, solved);
         else solveChainFrame(solver, frameTargets, current, previous, chainScratch, solved);
         const SolveSummary& solve = solved.summary;
-        const bool retried = solved.retried, kept = solved.kept;
         if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
         if (options.polishCorrections > 0 && !options.frameSolve &&
             solve.termination != TerminationType::invalidTargets)
             polish(solver, rig, frameTargets, current, options.polishCorrections);
-        const std::span<const double> reported = continuity.next(current, restart);
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
         const double cpuSeconds = threadCpuSeconds() - cpuStart;
+        const std::span<const double> reported = continuity.next(current, restart);
         if (frame < first) continue;
 
         summary.solveSeconds += seconds;
@@ -146,65 +358,16 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         result.frame = frame;
         result.solve = solve;
         result.realRigEvaluations = solved.realRigEvaluations;
-        summary.realRigEvaluations += solved.realRigEvaluations;
         rig.evaluate(reported, worlds);
-        for (std::size_t o = 0; o < frameTargets.size(); ++o) {
-            if (!frameTargets[o].active) continue;
-            // A NaN target (reported by the solver) has no error to measure; a NaN rig is a miss.
-            if (!frameTargets[o].world.topRows<3>().allFinite()) continue;
-            if (!worlds[o].topRows<3>().allFinite()) {
-                if (result.nonFiniteJoint.empty()) result.nonFiniteJoint = approximation.outputs[o].name;
-                continue;
-            }
-            const double p = (worlds[o].block<3, 1>(0, 3) - frameTargets[o].world.block<3, 1>(0, 3)).norm();
-            const double r =
-                orientationAngle(worlds[o].topLeftCorner<3, 3>(), frameTargets[o].world.topLeftCorner<3, 3>()) * 180.0 /
-                std::numbers::pi;
-            if (!std::isfinite(p) || !std::isfinite(r)) continue;
-            positionSum += p;
-            rotationSum += r;
-            ++jointFrames;
-            if (p > result.positionErrorCm || result.worstJoint.empty()) {
-                result.positionErrorCm = std::max(result.positionErrorCm, p);
-                result.worstJoint = approximation.outputs[o].name;
-            }
-            result.rotationErrorDeg = std::max(result.rotationErrorDeg, r);
-        }
-        ++summary.frames;
-        summary.retriedFrames += retried;
-        summary.retriesKept += kept;
-        if (solve.converged()) ++summary.convergedFrames;
-        if (solve.termination == TerminationType::stuck) {
-            ++summary.stuckFrames;
-            for (const int k : solve.missedOutputs) {
-                const std::size_t o = static_cast<std::size_t>(k);
-                ++stuckCount[o];
-                const double e = (worlds[o].block<3, 1>(0, 3) - frameTargets[o].world.block<3, 1>(0, 3)).norm();
-                if (std::isfinite(e)) stuckError[o] = std::max(stuckError[o], e);
-            }
-        }
-        if (!result.nonFiniteJoint.empty() && summary.nonFiniteFrames++ == 0) {
-            summary.firstNonFiniteJoint = result.nonFiniteJoint;
-            summary.firstNonFiniteFrame = frame;
-        }
-        if (result.positionErrorCm > summary.maxPositionErrorCm || summary.worstFrame < 0) {
-            summary.maxPositionErrorCm = result.positionErrorCm;
-            summary.worstJoint = result.worstJoint;
-            summary.worstFrame = frame;
-        }
-        summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, result.rotationErrorDeg);
+        approximation.evaluate(reported, modelled);
+        judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
+        summary.retriedFrames += solved.retried;
+        summary.retriesKept += solved.kept;
+        summary.add(result, approximation.outputs);
         summary.perFrame.push_back(std::move(result));
         if (options.progress) options.progress(static_cast<double>(frame - first + 1) / (last - first + 1));
     }
-    if (jointFrames > 0) {
-        summary.meanPositionErrorCm = positionSum / static_cast<double>(jointFrames);
-        summary.meanRotationErrorDeg = rotationSum / static_cast<double>(jointFrames);
-    }
-    for (std::size_t k = 0; k < stuckCount.size(); ++k)
-        if (stuckCount[k] > 0)
-            summary.stuckJoints.push_back({approximation.outputs[k].name, stuckCount[k], stuckError[k]});
-    std::stable_sort(summary.stuckJoints.begin(), summary.stuckJoints.end(),
-                     [](const auto& a, const auto& b) { return a.worstErrorCm > b.worstErrorCm; });
+    summary.sortResidualJoints();
     summary.msPerFrame = summary.frames > 0 ? 1000.0 * summary.solveSeconds / summary.frames : 0.0;
     return summary;
 }

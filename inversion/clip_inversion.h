@@ -13,6 +13,7 @@
 // the values and per-frame errors of one run over the whole clip, provided each chunk after the first continues from
 // the values reported for the frame before its lead-in (`continueFrom`).
 
+#include <array>
 #include <functional>
 #include <limits>
 #include <span>
@@ -67,8 +68,14 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
 using FrameSolveStrategy = std::function<void(std::span<const JointTarget> targets, std::vector<double>& values,
                                               double previousCost, ChainFrame& frame)>;
 
+// Which outputs the per-frame solve fits on the real rig itself (a hybrid solve: those the approximation does
+// not model; a peer such as Gauss-Newton on the real rig: every output). A frame left with a residual there is a
+// best fit without the approximation's agreement, which the other outputs need (FrameStatus).
+enum class RealRigFit { none, unmodelledOutputs, everyOutput };
+
 struct ClipInversionOptions {
     SolverOptions solver;
+    RealRigFit realRigFit = RealRigFit::none;
     // Real-rig polish corrections per frame (inversion/rig_binding.h, polish()); 0: approximation only.
     int polishCorrections = 0;
     // Frames between warm-start restarts (see above), > 0. 120 frames: one second of a 120 fps clip,
@@ -96,50 +103,125 @@ struct ClipInversionOptions {
     void validate() const;
 };
 
+// How far the approximation and the real rig may disagree on an output, at a frame's answer, for that answer to be
+// the real rig's best fit: a fraction of the error the real rig leaves there (or targetTolerance, if larger). An
+// approximation is exact within its validation epsilon on the poses it was learned for; past them (a sampled
+// operator extrapolated: the biped's sliding knees beyond 90 degrees) its gap grows, and a gap this small beside
+// the residual moves the best fit by no more than this fraction of it.
+inline constexpr double modelAgreement = 0.1;
+
+// What a frame's answer is, judged on the real rig at the values reported for it (docs/rig-invert.md, Frame
+// statuses). Only reached and bestFit are answers a run may exit 0 with.
+enum class FrameStatus {
+    reached,         // every counted target within targetTolerance on the real rig
+    bestFit,         // stationary with a residual, where the approximation and the real rig agree (each output's gap
+                     // within modelAgreement of its error): the rig cannot take the pose, this is the closest it can
+    modelMismatch,   // a target missed on the real rig where the approximation and the real rig disagree beyond
+                     // targetTolerance, or an output the approximation does not model and no solve fitted
+    notConverged,    // the solve used its iterations
+    nonFinite,       // the real rig gave a non-finite matrix, or an error is not finite
+    invalidTargets,  // a target cannot be used (not finite, singular) or none is active: no answer
+};
+inline constexpr int frameStatusCount = 6;
+// "reached", "best fit", "model mismatch", "not converged", "non-finite", "invalid targets".
+std::string_view frameStatusName(FrameStatus status);
+// The JSON key of its count: "reached", "best_fit", "model_mismatch", ...
+std::string frameStatusKey(FrameStatus status);
+inline bool frameStatusFails(FrameStatus status)
+{
+    return status != FrameStatus::reached && status != FrameStatus::bestFit;
+}
+
 struct FrameInversion {
-    int frame = 0;                 // index in the clip, 0-based
-    SolveSummary solve;            // on the approximation
-    double positionErrorCm = 0.0;  // real rig against the targets, worst active joint
+    int frame = 0;  // index in the clip, 0-based
+    FrameStatus status = FrameStatus::reached;
+    SolveSummary solve;  // on the approximation (a hybrid solve's: on the real rig)
+    // Real rig against the targets, over the counted halves of the active targets: the worst position error and
+    // its joint, the worst rotation error and its joint (each their own). A non-finite error is kept as it is
+    // (never dropped, never 0) and makes the frame nonFinite.
+    double positionErrorCm = 0.0;
+    std::string worstJoint;
     double rotationErrorDeg = 0.0;
-    std::string worstJoint;      // where the position error is worst
-    std::string nonFiniteJoint;  // a joint the real rig gave a non-finite matrix for (a miss), or ""
+    std::string worstRotationJoint;
+    // Largest disagreement of the approximation with the real rig at the reported values over the counted
+    // outputs it models (cm, a rotation as rotationScaleCm * radians); 0 for outputs fitted on the real rig.
+    double modelGapCm = 0.0;
+    // Some counted output's gap is over max(targetTolerance, modelAgreement * its real-rig error): the
+    // approximation's answer cannot be taken as the real rig's best fit there.
+    bool disagrees = false;
+    // Outputs further than targetTolerance on the real rig, increasing, each with its error there (cm, the larger
+    // of the position error and rotationScaleCm * the rotation error in radians).
+    struct Missed {
+        int output = -1;
+        double errorCm = 0.0;
+    };
+    std::vector<Missed> missed;
+    // Sums over the counted halves of the active targets, for the clip's means.
+    double positionErrorSumCm = 0.0;
+    double rotationErrorSumDeg = 0.0;
+    int countedJoints = 0;
+    std::string nonFiniteJoint;  // a joint the real rig gave a non-finite matrix for, or ""
+    std::string invalidJoint;    // a joint whose target is not finite (not measured), or ""
     int realRigEvaluations = 0;  // by the solve (a hybrid solve's second stage), not by this measurement
 };
 
 struct ClipInversionSummary {
     int frames = 0;
-    int convergedFrames = 0;  // converged to the targets on the approximation
-    int stuckFrames = 0;      // stationary with a residual (TerminationType::stuck)
-    int retriedFrames = 0;    // solved again from the initial guess (retryStuck)
-    int retriesKept = 0;      // of which the second answer was cheaper and kept
-    // The outputs a stuck frame left further than targetTolerance, with how many stuck frames did and the
-    // real rig's worst position error there (cm), the largest error first: where the residual sits.
-    struct StuckJoint {
+    std::array<int, frameStatusCount> statusFrames{};  // frames per FrameStatus
+    int retriedFrames = 0;                             // solved again from the initial guess (retryStuck)
+    int retriesKept = 0;                               // of which the second answer was cheaper and kept
+    // The first frame whose status fails (frameStatusFails), its status and the joint that shows it; -1: none.
+    int firstFailedFrame = -1;
+    FrameStatus firstFailedStatus = FrameStatus::reached;
+    std::string firstFailedJoint;
+    // The outputs frames left further than targetTolerance on the real rig, with how many frames did and the
+    // worst position error there (cm), the largest error first: the joints that carry the residual.
+    struct ResidualJoint {
         std::string name;
         int frames = 0;
         double worstErrorCm = 0.0;
     };
-    std::vector<StuckJoint> stuckJoints;
-    double maxPositionErrorCm = 0.0;   // real rig, over every active joint of every frame
+    std::vector<ResidualJoint> residualJoints;
+    // Real rig, over every counted half of every active target of every frame. Maxima and means keep a NaN or
+    // an infinity (no figure hides one).
+    double maxPositionErrorCm = 0.0;
     double meanPositionErrorCm = 0.0;  // mean over joints and frames
     double maxRotationErrorDeg = 0.0;
     double meanRotationErrorDeg = 0.0;
-    std::string worstJoint;
-    int worstFrame = -1;  // 0-based clip index
+    std::string worstJoint;  // of the worst position error
+    int worstFrame = -1;     // 0-based clip index
+    std::string worstRotationJoint;
+    int worstRotationFrame = -1;
+    double maxModelGapCm = 0.0;  // FrameInversion::modelGapCm, worst over frames
     double solveSeconds =
         0.0;  // solver and polish time of the reported frames (lead-in and the error measurement excluded)
     double solveCpuSeconds = 0.0;      // the same span in this thread's CPU time (steadier on a busy machine)
     double msPerFrame = 0.0;           // solveSeconds per reported frame, ms
     int leadInFrames = 0;              // solved before `first` to join the warm-start chain
     long long realRigEvaluations = 0;  // by the solves of the reported frames (a hybrid solve's); 0 otherwise
-    // Frames where the real rig gave a non-finite matrix for a joint with a target: misses, not
-    // measured as errors; the first such joint and frame.
-    int nonFiniteFrames = 0;
-    std::string firstNonFiniteJoint;
-    int firstNonFiniteFrame = -1;
+    long long jointFrames = 0;         // the (joint, frame) pairs the means are over
     std::vector<FrameInversion> perFrame;
+
+    int count(FrameStatus status) const { return statusFrames[static_cast<std::size_t>(status)]; }
+    int failedFrames() const;
+    // Adds one frame's figures (its status, errors, residual joints, first failure), as invertClip gathers them
+    // frame after frame (perFrame is not touched); `outputs` names the approximation's outputs. rig-batch joins
+    // its shards' summaries with merge().
+    void add(const FrameInversion& frame, const std::vector<ApproximationOutput>& outputs);
+    // Adds another summary of later frames (sums, maxima with the first frame on a tie, the first failure).
+    void merge(const ClipInversionSummary& later);
+    // residualJoints, the largest error first (a NaN first of all).
+    void sortResidualJoints();
     std::string briefReport() const;
 };
+
+// Judges one frame at the values reported for it: `real`, the real rig's output matrices there, and `modelled`, the
+// approximation's, against `targets`; fills `frame`'s errors, missed outputs, model gap and status (frame.solve must
+// hold its solve's summary). Without a real rig (the rigInversion node without `rig`), `real` may be the
+// approximation's matrices: the status is then the approximation's word, and an output it does not model is a miss.
+void judgeFrame(const Approximation& approximation, const SolverOptions& options, RealRigFit fit,
+                std::span<const JointTarget> targets, std::span<const Eigen::Matrix4d> real,
+                std::span<const Eigen::Matrix4d> modelled, FrameInversion& frame);
 
 // Inverts frames [first, last] (0-based, inclusive) of `targets`. `values` receives one row per reported
 // frame, one value per Approximation::parameters entry (internal units). `rig` evaluates the real rig.

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "inversion/rig_binding.h"
 
 namespace rig {
 
@@ -68,12 +69,17 @@ Equivalences::Equivalences(const Approximation& approximation) : defaults(approx
     for (const ModelledParameter& m : parameters) period.push_back(m.parameter.limited ? 0.0 : rotationPeriod(m));
     // Two generic poses (fixed, so that the result does not vary from run to run): an identity of the
     // three angles that holds at both holds everywhere; one that does not compose in a row fails there.
+    // Every parameter moves, not only the periodic ones: a control that shares the triple's joint (a spine
+    // bend under a chest control) can sit between its angles in the composition, and at rest it would hide that.
     std::mt19937 rng(7);
-    std::uniform_real_distribution<double> angle(-2.0, 2.0);
+    std::uniform_real_distribution<double> angle(-2.0, 2.0), unit(0.0, 1.0);
     std::vector<std::vector<double>> poses(2, defaults);
     for (auto& pose : poses)
-        for (std::size_t p = 0; p < pose.size(); ++p)
+        for (std::size_t p = 0; p < pose.size(); ++p) {
+            const RigParameter& r = parameters[p].parameter;
             if (period[p] > 0) pose[p] += angle(rng) * period[p] / (2.0 * std::numbers::pi);
+            else if (r.max > r.min) pose[p] = r.min + unit(rng) * (r.max - r.min);
+        }
     std::vector<std::vector<Eigen::Matrix4d>> worlds(poses.size());
     for (std::size_t i = 0; i < poses.size(); ++i) approximation.evaluate(poses[i], worlds[i]);
     std::vector<char> used(parameters.size(), 0);
@@ -109,7 +115,10 @@ ChunkShift noShift(const Equivalences& equivalences)
     return shift;
 }
 
-ChunkShift continuityShift(const Equivalences& e, std::span<const double> previous, std::span<const double> first)
+namespace {
+
+ChunkShift shiftToward(const Equivalences& e, std::span<const double> previous, std::span<const double> first,
+                       bool eulerSolutions)
 {
     if (previous.size() != e.period.size() || first.size() != e.period.size())
         throw internalError(fmt::format("continuityShift: {} and {} values for {} parameters", previous.size(),
@@ -131,12 +140,57 @@ ChunkShift continuityShift(const Equivalences& e, std::span<const double> previo
             now += gap(i, first[i]);
             alternative += gap(i, other[i]);
         }
-        shift.otherSolution[t] = alternative < now;
+        shift.otherSolution[t] = eulerSolutions && alternative < now;
     }
     std::vector<double> carried(first.begin(), first.end());
     applyShift(e, shift, carried, carried);  // the Euler solutions chosen, no turns yet
     for (std::size_t p = 0; p < carried.size(); ++p) shift.turns[p] = turnsToward(p, carried[p]);
     return shift;
+}
+
+bool isIdentity(const ChunkShift& shift)
+{
+    return std::all_of(shift.otherSolution.begin(), shift.otherSolution.end(), [](char c) { return c == 0; }) &&
+           std::all_of(shift.turns.begin(), shift.turns.end(), [](double t) { return t == 0.0; });
+}
+
+}  // namespace
+
+ChunkShift continuityShift(const Equivalences& e, std::span<const double> previous, std::span<const double> first)
+{
+    return shiftToward(e, previous, first, true);
+}
+
+PoseCheck::PoseCheck(const Approximation& approximation, RigBinding* rig) : approximation_(approximation), rig_(rig) {}
+
+bool PoseCheck::operator()(std::span<const double> a, std::span<const double> b)
+{
+    const auto& parameters = approximation_.parameters;
+    for (std::size_t p = 0; p < parameters.size() && !rig_; ++p)
+        if (a[p] != b[p] && !parameters[p].unmodelledOutputs.empty()) return false;
+    approximation_.evaluate(a, first_);
+    approximation_.evaluate(b, second_);
+    for (std::size_t k = 0; k < first_.size(); ++k)
+        if (!approximation_.outputs[k].modelled) first_[k] = second_[k];  // its matrix there is not meaningful
+    if (!samePose(first_, second_)) return false;
+    if (!rig_) return true;
+    rig_->evaluate(a, first_);
+    rig_->evaluate(b, second_);
+    return samePose(first_, second_);
+}
+
+ChunkShift checkedContinuityShift(const Equivalences& e, std::span<const double> previous,
+                                  std::span<const double> first, PoseCheck* check)
+{
+    ChunkShift shift = continuityShift(e, previous, first);
+    if (!check || isIdentity(shift)) return shift;
+    std::vector<double> shifted(first.size());
+    for (const bool eulerSolutions : {true, false}) {
+        if (!eulerSolutions) shift = shiftToward(e, previous, first, false);
+        applyShift(e, shift, first, shifted);
+        if ((*check)(first, shifted)) return shift;
+    }
+    return noShift(e);
 }
 
 void applyShift(const Equivalences& e, const ChunkShift& shift, std::span<const double> in, std::span<double> out)
@@ -151,8 +205,9 @@ void applyShift(const Equivalences& e, const ChunkShift& shift, std::span<const 
         if (shift.turns[p] != 0.0) out[p] += shift.turns[p] * e.period[p];
 }
 
-ChainContinuity::ChainContinuity(const Equivalences& equivalences, std::span<const double> before)
+ChainContinuity::ChainContinuity(const Equivalences& equivalences, std::span<const double> before, PoseCheck* check)
     : equivalences_(equivalences),
+      check_(check),
       shift_(noShift(equivalences)),
       reported_(before.begin(), before.end()),
       continuing_(!before.empty())
@@ -165,16 +220,14 @@ ChainContinuity::ChainContinuity(const Equivalences& equivalences, std::span<con
 
 std::span<const double> ChainContinuity::next(std::span<const double> solved, bool restart)
 {
-    if (restart) shift_ = continuing_ ? continuityShift(equivalences_, reported_, solved) : noShift(equivalences_);
+    if (restart)
+        shift_ =
+            continuing_ ? checkedContinuityShift(equivalences_, reported_, solved, check_) : noShift(equivalences_);
     applyShift(equivalences_, shift_, solved, reported_);
     continuing_ = true;
     return reported_;
 }
 
-bool ChainContinuity::shifted() const
-{
-    return std::any_of(shift_.otherSolution.begin(), shift_.otherSolution.end(), [](char c) { return c != 0; }) ||
-           std::any_of(shift_.turns.begin(), shift_.turns.end(), [](double t) { return t != 0.0; });
-}
+bool ChainContinuity::shifted() const { return !isIdentity(shift_); }
 
 }  // namespace rig

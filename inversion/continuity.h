@@ -18,6 +18,8 @@
 
 namespace rig {
 
+class RigBinding;
+
 // The period of a control whose every operator is a rotation with a linear magnitude of the same size
 // (a rotate channel, possibly read with another sign): 2 pi / |slope|. 0 when it has none (a curve
 // magnitude, a translation, a sampled operator).
@@ -61,6 +63,27 @@ ChunkShift continuityShift(const Equivalences& equivalences, std::span<const dou
 void applyShift(const Equivalences& equivalences, const ChunkShift& shift, std::span<const double> in,
                 std::span<double> out);
 
+// Whether two sets of values give one pose: every modelled output's matrix on the approximation equal to 1e-9 of
+// its size, and every output's on the real rig too when one is given. Without a real rig, values that differ in
+// a parameter moving an output the approximation does not model are not vouched for (false). A continuity shift
+// is kept only where this holds at the chain's restart frame (docs/solver.md, Curves without flips).
+class PoseCheck {
+public:
+    // Keeps references to both (they must outlive it); `rig` may be null.
+    explicit PoseCheck(const Approximation& approximation, RigBinding* rig = nullptr);
+    bool operator()(std::span<const double> a, std::span<const double> b);
+
+private:
+    const Approximation& approximation_;
+    RigBinding* rig_;
+    std::vector<Eigen::Matrix4d> first_, second_;
+};
+
+// continuityShift, kept only where `check` (may be null: no check) finds the shifted values the same pose as
+// `first`: else the shift in whole turns alone, if that holds, else none (a jump in the curve, never in the pose).
+ChunkShift checkedContinuityShift(const Equivalences& equivalences, std::span<const double> previous,
+                                  std::span<const double> first, PoseCheck* check);
+
 // The values reported along a clip's warm-start chains: each chain, from its restart frame on, shifted as a
 // whole to meet the values reported for the frame before it. invertClip reports through it, and rig-batch
 // replays it over the chains its shards solved apart, which is why its curves equal one run's.
@@ -68,8 +91,9 @@ class ChainContinuity {
 public:
     // `before`: the values reported for the frame before the first one given (the chunk before); empty:
     // none, the first chain is reported as solved. Throws rig::Error when its size is not the
-    // parameters'. `equivalences` must outlive this object.
-    ChainContinuity(const Equivalences& equivalences, std::span<const double> before);
+    // parameters'. `equivalences` and `check` (may be null) must outlive this object; each chain's shift is
+    // checkedContinuityShift's.
+    ChainContinuity(const Equivalences& equivalences, std::span<const double> before, PoseCheck* check = nullptr);
 
     // The values to report for the next frame of the clip, from its values as solved; `restart`: that frame
     // starts a chain. Valid until the next call.
@@ -79,6 +103,7 @@ public:
 
 private:
     const Equivalences& equivalences_;
+    PoseCheck* check_;
     ChunkShift shift_;
     std::vector<double> reported_;
     bool continuing_ = false;

@@ -370,9 +370,55 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
     return pass;
 }
 
+// Why outputs left their parent output's frame, and why those were then set apart as non-compositional, for
+// the report (UnmodelledOutput). The first reason of each output is kept: an output never goes back.
+struct FrameHistory {
+    std::map<int, std::string> relative;  // rig output -> what failed relative to its parent output
+    std::map<int, std::string> world;     // rig output -> what failed in world space: the pair with neither order
+
+    // The non-compositional outputs of `a` (rig indices `rigOutput`), in its order, with their reasons.
+    std::vector<UnmodelledOutput> unmodelled(const Approximation& a, const std::vector<int>& rigOutput) const
+    {
+        std::vector<UnmodelledOutput> out;
+        for (std::size_t o = 0; o < a.outputs.size(); ++o) {
+            if (a.outputs[o].modelled) continue;
+            const auto before = relative.find(rigOutput[o]), after = world.find(rigOutput[o]);
+            std::string reason = before == relative.end() ? "" : before->second + "; ";
+            if (after != world.end()) reason += "in world space, " + after->second;
+            out.push_back({a.outputs[o].name, std::move(reason)});
+        }
+        return out;
+    }
+};
+
+// The outputs learned relative to a parent output where this pass failed (a parameter fits no operator there, a
+// pair has neither order there, or the validation exceeds epsilon), each with why in `history`.
+std::set<int> failingRelativeOutputs(const Pass& pass, RigProbe& probe, const LearnOptions& options,
+                                     FrameHistory& history)
+{
+    std::set<int> failing;
+    auto implicate = [&](int k, const std::string& why) {
+        if (k < 0 || probe.parentOf(k) < 0) return;
+        failing.insert(k);
+        const std::string& parent = probe.rig().outputs()[static_cast<std::size_t>(probe.parentOf(k))];
+        history.relative.try_emplace(k, fmt::format("relative to its parent output {}, {}", parent, why));
+    };
+    for (const Classification& c : pass.classes)
+        if (c.failedOutput >= 0) implicate(c.failedOutput, fmt::format("for {}, {}", c.model.parameter.name, c.reason));
+    for (const auto& [k, why] : pass.order.conflictOutputs) implicate(k, why);
+    for (std::size_t o = 0; o < pass.approximation.outputs.size(); ++o) {
+        const double error = pass.approximation.outputs[o].validationError;
+        if (!(error <= options.epsilon))
+            implicate(pass.rigOutput[o], fmt::format("its validation error {:.3g} cm per unit exceeds epsilon {:g}",
+                                                     error, options.epsilon));
+    }
+    return failing;
+}
+
 }  // namespace
 
-Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile)
+Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile,
+                                 std::vector<UnmodelledOutput>* unmodelled)
 {
     options.validate();
     const auto start = std::chrono::steady_clock::now();
@@ -398,15 +444,22 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
             fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(), rest.size()));
     // An output relative to one that is out of range, unreliable (found history-dependent while sampling) or
     // non-compositional is learned in world space. True when a frame changed.
+    FrameHistory history;
     auto usableParents = [&] {
         bool changed = false;
-        for (int& p : probe.parents)
-            if (p >= 0 &&
-                (static_cast<std::size_t>(p) >= rest.size() || state.unreliable[static_cast<std::size_t>(p)] ||
-                 state.nonCompositional[static_cast<std::size_t>(p)])) {
-                p = -1;
-                changed = true;
-            }
+        for (std::size_t k = 0; k < probe.parents.size(); ++k) {
+            int& p = probe.parents[k];
+            if (p < 0) continue;
+            const auto parent = static_cast<std::size_t>(p);
+            if (parent < rest.size() && !state.unreliable[parent] && !state.nonCompositional[parent]) continue;
+            if (parent < rest.size())
+                history.relative.try_emplace(
+                    static_cast<int>(k),
+                    fmt::format("its parent output {} is {}", rig.outputs()[parent],
+                                state.unreliable[parent] ? "left out (a dropped output)" : "not modelled"));
+            p = -1;
+            changed = true;
+        }
         return changed;
     };
     usableParents();
@@ -442,25 +495,19 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         pass = learnPass(probe, state, samples, poses, options, budgets, distrusted, pairs, rigFile);
         orderEvaluations += pass.order.evaluations;
         if (usableParents()) continue;  // learned relative to an output now dropped: learn those again
-        std::set<int> failing;
-        auto implicate = [&](int k) {
-            if (k >= 0 && probe.parentOf(k) >= 0) failing.insert(k);
-        };
-        for (const Classification& c : pass.classes) implicate(c.failedOutput);
-        for (const int k : pass.order.conflictOutputs) implicate(k);
-        for (std::size_t o = 0; o < pass.approximation.outputs.size(); ++o)
-            if (!(pass.approximation.outputs[o].validationError <= options.epsilon)) implicate(pass.rigOutput[o]);
+        const std::set<int> failing = failingRelativeOutputs(pass, probe, options, history);
         for (const int k : failing) probe.parents[static_cast<std::size_t>(k)] = -1;
         if (!failing.empty()) continue;
-        auto setApart = [&](int k) {
+        auto setApart = [&](int k, const std::string& why) {
             const auto o = static_cast<std::size_t>(k);
             if (!options.perOutput || hierarchy[o] < 0 || state.nonCompositional[o]) return false;
             state.nonCompositional[static_cast<std::size_t>(k)] = 1;
             probe.parents[static_cast<std::size_t>(k)] = -1;
+            history.world.try_emplace(k, why);
             return true;
         };
         bool setApartAny = false;
-        for (const int k : pass.order.conflictOutputs) setApartAny = setApart(k) || setApartAny;
+        for (const auto& [k, why] : pass.order.conflictOutputs) setApartAny = setApart(k, why) || setApartAny;
         if (setApartAny) {
             usableParents();
             continue;
@@ -488,6 +535,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     }
 
     Approximation result = std::move(pass.approximation);
+    if (unmodelled) *unmodelled = history.unmodelled(result, pass.rigOutput);
     std::map<int, std::string> reasons;
     for (const auto& c : pass.classes)
         if (!c.modelled) {

@@ -62,6 +62,15 @@ struct LearnOptions {
     void validate() const;
 };
 
+// Why the learner left an output non-compositional (ApproximationOutput::modelled false): what failed
+// relative to its parent output (a pair of parameters with neither order there, no operator fitting, a
+// validation over epsilon, or its parent not modelled) and the pair with neither order in world space.
+// For reports only: the approximation file does not hold it.
+struct UnmodelledOutput {
+    std::string name;
+    std::string reason;
+};
+
 // Learns the approximation of `rig` (its parameters all at their rest values but the one sampled).
 // `rigFile` is recorded in the approximation. Numerical outcomes (a parameter that fits nothing, a
 // pair that cannot be ordered, a validation over epsilon) are recorded in the approximation
@@ -70,8 +79,10 @@ struct LearnOptions {
 // Frames: every output with a parent output (RigFunction::outputParents) is first learned relative to
 // it; an output where that fails (no operator fits, a pair has neither order there, or its validation
 // exceeds epsilon) is learned again in world space, from the samples already taken. Where world space
-// fails too, the output is non-compositional (LearnOptions::perOutput).
-Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile);
+// fails too, the output is non-compositional (LearnOptions::perOutput); `unmodelled`, when given, is set
+// to those outputs with their reasons, in the order of the approximation's outputs.
+Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile,
+                                 std::vector<UnmodelledOutput>* unmodelled = nullptr);
 
 // Pairs of modelled parameters (indices into approximation.parameters, first < second) with the same
 // effect: the same outputs, moved alike at offsets across the range both share (within `tolerance` cm

@@ -16,8 +16,10 @@ enum class Relation { none, firstOuter, secondOuter, conflict };
 
 struct Verdict {
     Relation relation = Relation::none;
-    std::string detail;               // for a conflict: which outputs said what
-    std::vector<int> neitherOutputs;  // rig outputs where neither order holds
+    std::string detail;  // for a conflict: which outputs said what
+    // Rig outputs where neither order holds, with the rig's distance from each product there (cm).
+    std::vector<std::tuple<int, double, double>> neitherOutputs;
+    double tolerance = 0.0;
 };
 
 // Position of output k among a classification's affected outputs (ascending), or -1.
@@ -123,11 +125,12 @@ public:
             if (ok2 && secondAt.empty()) secondAt = name;
             if (!ok1 && !ok2) {
                 if (neitherAt.empty()) neitherAt = name;
-                verdict.neitherOutputs.push_back(k);
+                verdict.neitherOutputs.emplace_back(k, one, two);
                 worstOne = std::max(worstOne, one);
                 worstTwo = std::max(worstTwo, two);
             }
         }
+        verdict.tolerance = tolerance;
         if (!neitherAt.empty()) {
             verdict.relation = Relation::conflict;
             verdict.detail = fmt::format("neither order holds on {} (errors {:.3g} and {:.3g} cm, tolerance {:.3g})",
@@ -215,7 +218,11 @@ OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& 
             drop,
             fmt::format("cannot be ordered with {}: {}; the one with the smaller effect was discarded, {} was kept",
                         nameOf(classes, keep), v.detail, nameOf(classes, keep)));
-        result.conflictOutputs.insert(result.conflictOutputs.end(), v.neitherOutputs.begin(), v.neitherOutputs.end());
+        for (const auto& [k, one, two] : v.neitherOutputs)
+            result.conflictOutputs.try_emplace(
+                k, fmt::format("{} and {} have neither order (the rig with both moved is {:.3g} and {:.3g} cm from "
+                               "the two products of their operators, tolerance {:.3g} cm)",
+                               nameOf(classes, p), nameOf(classes, q), one, two, v.tolerance));
         alive.erase(drop);
     }
 

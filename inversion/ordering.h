@@ -23,8 +23,10 @@ namespace rig {
 struct OrderResult {
     std::vector<int> order;                             // indices into the classifications, outermost first
     std::vector<std::pair<int, std::string>> discards;  // classification index, reason
-    std::vector<int> conflictOutputs;                   // rig outputs where a pair had neither order
-    std::uint64_t evaluations = 0;                      // pairs the rig was evaluated for
+    // Rig outputs where a pair had neither order, each with the first such pair and its errors (for the
+    // reason an output is set apart, learner.h's UnmodelledOutput).
+    std::map<int, std::string> conflictOutputs;
+    std::uint64_t evaluations = 0;  // pairs the rig was evaluated for
 };
 
 // Raw rig worlds of pairs of parameters moved together at their order offsets, kept across learning

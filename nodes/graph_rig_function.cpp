@@ -228,8 +228,16 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                 param.max = s.max   ? *s.max
                             : scale ? param.defaultValue * defaultScaleFactor
                                     : param.defaultValue + half;
-                // A declared limit binds the solver; a default range is only where learning samples.
+                // A declared limit binds the solver; a default range, or one the spec gives, is only where learning
+                // samples.
                 param.limited = s.min.has_value() || s.max.has_value();
+                const auto range = std::find_if(options.ranges.begin(), options.ranges.end(),
+                                                [&](const auto& r) { return globMatches(r.glob, param.name); });
+                if (!param.limited && range != options.ranges.end()) {
+                    const double unit = param.angular ? std::numbers::pi / 180.0 : 1.0;
+                    param.min = range->min * unit;
+                    param.max = range->max * unit;
+                }
                 parameters_.push_back(param);
                 parameterPlugs_.push_back(p);
                 current_.push_back(param.defaultValue);

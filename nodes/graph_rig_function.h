@@ -33,6 +33,15 @@ struct GraphRigOptions {
     // the rig file's units (degrees for angles) within the attribute's limits. Set once when the rig loads,
     // so every instance() has them and resetState() keeps them.
     std::vector<HeldPlug> held{};
+    // Ranges to learn over (rig-learn's spec `ranges:`) for parameters whose attribute declares no limit: the first
+    // glob that matches a parameter gives its min and max in the rig file's units (degrees for angles), instead of
+    // the default range around its value. Still no limit: the solver may go past it.
+    struct LearnRange {
+        std::string glob;
+        double min = 0.0;
+        double max = 0.0;
+    };
+    std::vector<LearnRange> ranges{};
 };
 
 // The options that load the rig of an approximation in the state it was learned in: its parameters, its

@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -39,6 +40,32 @@ void readSet(InversionSpec& spec, const YAML::Node& set, const At& at)
         if (!spec.setPlaces.emplace(plug, at(entry.first)).second)
             throw Error(fmt::format("{}: 'set' names {} twice; give it once", at(entry.first), messageExcerpt(plug)));
         spec.set.push_back({plug, *value});
+    }
+}
+
+// ranges: {GLOB: [MIN, MAX], ...}: where controls without declared limits are learned.
+template <class At>
+void readRanges(InversionSpec& spec, const YAML::Node& ranges, const At& at)
+{
+    const std::string example = "e.g. ranges: {'[LR]_knee_ctrl.rotateX': [-90, 160]}";
+    if (!ranges.IsMap())
+        throw Error(
+            fmt::format("{}: 'ranges' must be a map of parameter globs to [min, max], {}", at(ranges), example));
+    for (const auto& entry : ranges) {
+        if (!entry.first.IsScalar() || entry.first.Scalar().empty())
+            throw Error(fmt::format("{}: a key of 'ranges' is a parameter glob, {}", at(entry.first), example));
+        const YAML::Node& v = entry.second;
+        std::optional<double> low, high;
+        if (v.IsSequence() && v.size() == 2 && v[0].IsScalar() && v[1].IsScalar()) {
+            low = parseFiniteNumber(v[0].Scalar());
+            high = parseFiniteNumber(v[1].Scalar());
+        }
+        if (!low || !high || !(*low < *high))
+            throw Error(
+                fmt::format("{}: 'ranges' gives {} no [min, max] of two finite numbers with min < max "
+                            "(the rig file's units, degrees for angles), {}",
+                            at(v.IsNull() ? entry.first : v), messageExcerpt(entry.first.Scalar()), example));
+        spec.ranges.push_back({entry.first.Scalar(), *low, *high});
     }
 }
 
@@ -89,9 +116,13 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
             readSet(spec, entry.second, at);
             continue;
         }
+        if (key == "ranges") {
+            readRanges(spec, entry.second, at);
+            continue;
+        }
         auto* list = key == "params" ? &spec.params : key == "outputs" ? &spec.outputs : nullptr;
         if (!list)
-            throw Error(fmt::format("{}: unknown key '{}'; a spec has 'params:', 'outputs:' and 'set:'",
+            throw Error(fmt::format("{}: unknown key '{}'; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'",
                                     at(entry.first), messageExcerpt(key)));
         if (!entry.second.IsSequence())
             throw Error(fmt::format("{}: '{}' must be a list of globs", at(entry.second), key));

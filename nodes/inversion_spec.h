@@ -1,7 +1,8 @@
 #pragma once
 // A rig's inversion choices in one file (docs/rig-learn.md, rigs/biped_inversion.yaml): `params:` and
-// optionally `outputs:`, lists of globs, and `set:`, a map of plugs held at a value while learning, which
-// rig-learn --spec adds to the command line's and rig-bench learns the biped with.
+// optionally `outputs:`, lists of globs, `set:`, a map of plugs held at a value while learning, and `ranges:`, a
+// map of parameter globs to the range each is learned over, which rig-learn --spec adds to the command line's and
+// rig-bench learns the biped with.
 
 #include <filesystem>
 #include <map>
@@ -9,13 +10,17 @@
 #include <vector>
 
 #include "inversion/approximation.h"
+#include "nodes/graph_rig_function.h"
 
 namespace rig {
 
 struct InversionSpec {
-    std::vector<std::string> params;               // parameter plug globs
-    std::vector<std::string> outputs;              // output joint globs
-    std::vector<HeldPlug> set;                     // held plugs, in the file's order, values in the rig file's units
+    std::vector<std::string> params;   // parameter plug globs
+    std::vector<std::string> outputs;  // output joint globs
+    std::vector<HeldPlug> set;         // held plugs, in the file's order, values in the rig file's units
+    // `ranges:`, a map of parameter glob -> [min, max] (the rig file's units): where a control without declared
+    // limits is learned (GraphRigOptions::ranges), in the file's order.
+    std::vector<GraphRigOptions::LearnRange> ranges;
     std::map<std::string, std::string> places;     // glob -> its file:line:col, for messages about it
     std::map<std::string, std::string> setPlaces;  // held plug -> its file:line:col
 };

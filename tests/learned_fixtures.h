@@ -65,12 +65,8 @@ inline std::filesystem::path bipedApproximation()
 {
     static const std::filesystem::path file = [] {
         const auto out = scratchDir(fmt::format("learned_biped.{}", ::getpid())) / "biped.approx.yaml";
-        const YAML::Node spec = YAML::LoadFile((sourceDir() / "rigs/biped_inversion.yaml").string());
-        std::vector<std::string> params, outputs;
-        for (const auto& p : spec["params"]) params.push_back(p.as<std::string>());
-        for (const auto& o : spec["outputs"]) outputs.push_back(o.as<std::string>());
-        const auto r = run(fmt::format("{} rigs/biped.yaml --params{} --outputs{} -o {}", tool("rig-learn"),
-                                       shellWords(params), shellWords(outputs), out.string()));
+        const auto r = run(
+            fmt::format("{} rigs/biped.yaml --spec rigs/biped_inversion.yaml -o {}", tool("rig-learn"), out.string()));
         INFO(r.err);
         REQUIRE(r.exitCode == 0);
         return out;

@@ -15,7 +15,8 @@ namespace rig::cli {
 namespace {
 
 constexpr std::string_view manifestFormat = "rig-batch manifest 1";
-constexpr std::string_view shardFormat = "rig-batch shard 1";
+constexpr std::string_view shardFormat = "rig-batch shard 2";
+constexpr std::size_t shardFigures = 8;  // the summary's figures held as raw doubles (shardOutputBytes)
 
 Json settingsJson(const InvertSettings& s)
 {
@@ -58,14 +59,20 @@ std::string summaryProblem(const ShardOutput& o)
     const auto count = [&](int n) { return n >= 0 && n <= frames; };
     const auto frame = [&](int index) { return index == -1 || (index >= o.first && index <= o.last); };
     if (s.frames != frames) return fmt::format("{} frames counted in frames {} to {}", s.frames, o.first, o.last);
-    if (!count(s.convergedFrames) || !count(s.stuckFrames) || !count(s.convergedFrames + s.stuckFrames) ||
-        !count(s.retriedFrames) || !count(s.retriesKept) || !count(s.nonFiniteFrames))
+    long long statuses = 0;
+    for (const int n : s.statusFrames) {
+        if (!count(n)) return fmt::format("a count of frames outside 0 to {}", frames);
+        statuses += n;
+    }
+    if (statuses != frames) return fmt::format("frame statuses for {} of {} frames", statuses, frames);
+    if (!count(s.retriedFrames) || !count(s.retriesKept))
         return fmt::format("a count of frames outside 0 to {}", frames);
-    for (const auto& joint : s.stuckJoints)
+    for (const auto& joint : s.residualJoints)
         if (!count(joint.frames))
-            return fmt::format("joint {} stuck on {} of {} frames", joint.name, joint.frames, frames);
-    if (!frame(s.worstFrame) || !frame(s.firstNonFiniteFrame))
+            return fmt::format("joint {} missed on {} of {} frames", joint.name, joint.frames, frames);
+    if (!frame(s.worstFrame) || !frame(s.worstRotationFrame) || !frame(s.firstFailedFrame))
         return fmt::format("a frame index outside {} to {}", o.first, o.last);
+    if (s.jointFrames < 0 || s.realRigEvaluations < 0) return "a negative count";
     if (!o.curvesChecksum.empty() &&
         (o.curvesChecksum.size() != 16 || o.curvesChecksum.find_first_not_of("0123456789abcdef") != std::string::npos))
         return "its curves file's checksum is not 16 hex digits";
@@ -316,32 +323,40 @@ std::string shardOutputBytes(const ShardOutput& o)
     std::vector<double> solved;
     for (const auto& row : o.solved) solved.insert(solved.end(), row.begin(), row.end());
     const ClipInversionSummary& s = o.summary;
-    Json stuck = Json::array();
-    for (const auto& joint : s.stuckJoints) stuck.push_back({joint.name, joint.frames, joint.worstErrorCm});
+    // Residual errors may be NaN or infinite, which JSON cannot hold: as text that strtod reads back exactly.
+    Json residual = Json::array();
+    for (const auto& joint : s.residualJoints)
+        residual.push_back({joint.name, joint.frames, fmt::format("{}", joint.worstErrorCm)});
     const std::string_view numbers(reinterpret_cast<const char*>(o.frameNumbers.data()),
                                    o.frameNumbers.size() * sizeof(double));
     const std::string_view values(reinterpret_cast<const char*>(solved.data()), solved.size() * sizeof(double));
     // Errors may be NaN or infinite, which JSON cannot hold: as raw doubles too.
-    const std::array<double, 4> figures{s.maxPositionErrorCm, s.maxRotationErrorDeg, s.solveSeconds, o.taskSeconds};
+    const std::array<double, shardFigures> figures{s.maxPositionErrorCm, s.maxRotationErrorDeg, s.solveSeconds,
+                                                   o.taskSeconds,        s.meanPositionErrorCm, s.meanRotationErrorDeg,
+                                                   s.maxModelGapCm,      s.solveCpuSeconds};
     const std::string_view figureBytes(reinterpret_cast<const char*>(figures.data()), sizeof(figures));
-    const Json header{{"format", shardFormat},
-                      {"byte_order", byteOrder()},
-                      {"key", o.key},
-                      {"first", o.first},
-                      {"last", o.last},
-                      {"frames", s.frames},
-                      {"converged_frames", s.convergedFrames},
-                      {"stuck_frames", s.stuckFrames},
-                      {"retried_frames", s.retriedFrames},
-                      {"retries_kept", s.retriesKept},
-                      {"stuck_joints", std::move(stuck)},
-                      {"worst_joint", s.worstJoint},
-                      {"worst_frame", s.worstFrame},
-                      {"non_finite_frames", s.nonFiniteFrames},
-                      {"first_non_finite_joint", s.firstNonFiniteJoint},
-                      {"first_non_finite_frame", s.firstNonFiniteFrame},
-                      {"curves_file_checksum", o.curvesChecksum},
-                      {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
+    Json statuses = Json::array();
+    for (const int n : s.statusFrames) statuses.push_back(n);
+    const Json header{
+        {"format", shardFormat},
+        {"byte_order", byteOrder()},
+        {"key", o.key},
+        {"first", o.first},
+        {"last", o.last},
+        {"frames", s.frames},
+        {"status_frames", std::move(statuses)},
+        {"first_failure", {s.firstFailedFrame, static_cast<int>(s.firstFailedStatus), s.firstFailedJoint}},
+        {"retried_frames", s.retriedFrames},
+        {"retries_kept", s.retriesKept},
+        {"residual_joints", std::move(residual)},
+        {"worst_joint", s.worstJoint},
+        {"worst_frame", s.worstFrame},
+        {"worst_rotation_joint", s.worstRotationJoint},
+        {"worst_rotation_frame", s.worstRotationFrame},
+        {"joint_frames", s.jointFrames},
+        {"real_rig_evaluations", s.realRigEvaluations},
+        {"curves_file_checksum", o.curvesChecksum},
+        {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
     std::string out = header.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";
     out.reserve(out.size() + figureBytes.size() + numbers.size() + values.size() + o.curvesFrames.size());
     return out.append(figureBytes).append(numbers).append(values).append(o.curvesFrames);
@@ -370,11 +385,11 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         const std::size_t rest = bytes.size() - newline - 1;
         if (frames > rest / sizeof(double) || (parameters > 0 && frames > rest / sizeof(double) / parameters) ||
             std::any_of(sizes.begin(), sizes.end(), [&](std::size_t size) { return size > rest; }) ||
-            sizes[0] != 4 * sizeof(double) || sizes[1] != frames * sizeof(double) ||
+            sizes[0] != shardFigures * sizeof(double) || sizes[1] != frames * sizeof(double) ||
             sizes[2] != frames * parameters * sizeof(double) || sizes[0] + sizes[1] + sizes[2] + sizes[3] != rest)
             throw bad(fmt::format("its sizes are not those of {} frames of {} parameters", frames, parameters));
         const char* at = bytes.data() + newline + 1;
-        std::array<double, 4> figures{};
+        std::array<double, shardFigures> figures{};
         std::memcpy(figures.data(), at, sizes[0]);
         at += sizes[0];
         o.frameNumbers.resize(frames);
@@ -391,19 +406,29 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         s.maxRotationErrorDeg = figures[1];
         s.solveSeconds = figures[2];
         o.taskSeconds = figures[3];
+        s.meanPositionErrorCm = figures[4];
+        s.meanRotationErrorDeg = figures[5];
+        s.maxModelGapCm = figures[6];
+        s.solveCpuSeconds = figures[7];
         s.frames = j.at("frames").get<int>();
-        s.convergedFrames = j.at("converged_frames").get<int>();
-        s.stuckFrames = j.at("stuck_frames").get<int>();
+        s.statusFrames = j.at("status_frames").get<std::array<int, frameStatusCount>>();
+        const Json& failure = j.at("first_failure");
+        s.firstFailedFrame = failure.at(0).get<int>();
+        const int status = failure.at(1).get<int>();
+        if (status < 0 || status >= frameStatusCount) throw bad(fmt::format("no frame status {}", status));
+        s.firstFailedStatus = static_cast<FrameStatus>(status);
+        s.firstFailedJoint = failure.at(2).get<std::string>();
         s.retriedFrames = j.at("retried_frames").get<int>();
         s.retriesKept = j.at("retries_kept").get<int>();
-        for (const Json& joint : j.at("stuck_joints"))
-            s.stuckJoints.push_back(
-                {joint.at(0).get<std::string>(), joint.at(1).get<int>(), joint.at(2).get<double>()});
+        for (const Json& joint : j.at("residual_joints"))
+            s.residualJoints.push_back({joint.at(0).get<std::string>(), joint.at(1).get<int>(),
+                                        std::strtod(joint.at(2).get<std::string>().c_str(), nullptr)});
         s.worstJoint = j.at("worst_joint").get<std::string>();
         s.worstFrame = j.at("worst_frame").get<int>();
-        s.nonFiniteFrames = j.at("non_finite_frames").get<int>();
-        s.firstNonFiniteJoint = j.at("first_non_finite_joint").get<std::string>();
-        s.firstNonFiniteFrame = j.at("first_non_finite_frame").get<int>();
+        s.worstRotationJoint = j.at("worst_rotation_joint").get<std::string>();
+        s.worstRotationFrame = j.at("worst_rotation_frame").get<int>();
+        s.jointFrames = j.at("joint_frames").get<long long>();
+        s.realRigEvaluations = j.at("real_rig_evaluations").get<long long>();
     }
     catch (const Json::exception& e) {
         throw bad(e.what());

@@ -195,14 +195,16 @@ struct MergedClip {
 };
 
 MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int firstShard, int endShard,
-                     const Approximation& approximation, const Equivalences& equivalences)
+                     const Approximation& approximation, const Equivalences& equivalences, const RigFunction& rig)
 {
     MergedClip merged;
     ClipInversionSummary& m = merged.summary;
     const int restartEvery = manifest.inputs.settings.restartEvery;
-    std::vector<int> stuckFrames(approximation.outputs.size(), 0);
-    std::vector<double> stuckError(approximation.outputs.size(), 0.0);
-    ChainContinuity continuity(equivalences, {});
+    // The shifts rig-invert makes, checked on the real rig as it checks them (an instance: clips merge in parallel).
+    const std::unique_ptr<RigFunction> instance = rig.instance();
+    RigBinding binding(approximation, *instance);
+    PoseCheck samePose(approximation, &binding);
+    ChainContinuity continuity(equivalences, {}, &samePose);
     std::string frames;
     for (int i = firstShard; i < endShard; ++i) {
         const BatchShard& shard = manifest.shards[static_cast<std::size_t>(i)];
@@ -247,37 +249,9 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
         }
 
         // The figures as invertClip gathers them over a whole clip: sums, maxima (the first frame on a tie).
-        const ClipInversionSummary& s = out.summary;
-        m.frames += s.frames;
-        m.convergedFrames += s.convergedFrames;
-        m.stuckFrames += s.stuckFrames;
-        m.retriedFrames += s.retriedFrames;
-        m.retriesKept += s.retriesKept;
-        m.solveSeconds += s.solveSeconds;
+        m.merge(out.summary);
         merged.taskSeconds += out.taskSeconds;
-        for (const auto& joint : s.stuckJoints)
-            for (std::size_t o = 0; o < approximation.outputs.size(); ++o)
-                if (approximation.outputs[o].name == joint.name) {
-                    stuckFrames[o] += joint.frames;
-                    stuckError[o] = std::max(stuckError[o], joint.worstErrorCm);
-                }
-        if (s.frames > 0 && (s.maxPositionErrorCm > m.maxPositionErrorCm || m.worstFrame < 0)) {
-            m.maxPositionErrorCm = s.maxPositionErrorCm;
-            m.worstJoint = s.worstJoint;
-            m.worstFrame = s.worstFrame;
-        }
-        m.maxRotationErrorDeg = std::max(m.maxRotationErrorDeg, s.maxRotationErrorDeg);
-        if (s.nonFiniteFrames > 0 && m.nonFiniteFrames == 0) {
-            m.firstNonFiniteJoint = s.firstNonFiniteJoint;
-            m.firstNonFiniteFrame = s.firstNonFiniteFrame;
-        }
-        m.nonFiniteFrames += s.nonFiniteFrames;
     }
-    for (std::size_t o = 0; o < stuckFrames.size(); ++o)
-        if (stuckFrames[o] > 0) m.stuckJoints.push_back({approximation.outputs[o].name, stuckFrames[o], stuckError[o]});
-    std::stable_sort(m.stuckJoints.begin(), m.stuckJoints.end(),
-                     [](const auto& a, const auto& b) { return a.worstErrorCm > b.worstErrorCm; });
-    m.msPerFrame = m.frames > 0 ? 1000.0 * m.solveSeconds / m.frames : 0.0;
     if (merged.curvesChecksum.empty()) merged.curves = curvesJsonFile(frames);
     return merged;
 }
@@ -297,23 +271,24 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
     const auto frameNumber = [&](int index) {
         return index >= 0 ? numberJson(merged->frameNumbers[static_cast<std::size_t>(index)]) : Json();
     };
-    Json stuck = Json::object();
-    for (const auto& joint : s.stuckJoints)
-        stuck[joint.name] = {{"frames", joint.frames}, {"worst_position_error_cm", numberJson(joint.worstErrorCm)}};
-    j["converged_frames"] = s.convergedFrames;
-    j["stuck_frames"] = s.stuckFrames;
-    j["not_converged_frames"] = s.frames - s.convergedFrames - s.stuckFrames;
+    j["status_frames"] = statusCountsJson(s);
+    j["failed_frames"] = s.failedFrames();
+    j["first_failure"] = s.firstFailedFrame >= 0 ? Json{{"frame", frameNumber(s.firstFailedFrame)},
+                                                        {"status", frameStatusName(s.firstFailedStatus)},
+                                                        {"joint", s.firstFailedJoint}}
+                                                 : Json();
     j["retried_frames"] = s.retriedFrames;
     j["retries_kept"] = s.retriesKept;
-    j["stuck_joints"] = std::move(stuck);
+    j["residual_joints"] = residualJointsJson(s);
     j["max_position_error_cm"] = numberJson(s.maxPositionErrorCm);
-    j["max_rotation_error_deg"] = numberJson(s.maxRotationErrorDeg);
     j["worst_joint"] = s.worstJoint;
     j["worst_frame"] = frameNumber(s.worstFrame);
-    j["non_finite_frames"] = s.nonFiniteFrames;
-    j["first_non_finite"] = s.nonFiniteFrames > 0
-                                ? Json{{"joint", s.firstNonFiniteJoint}, {"frame", frameNumber(s.firstNonFiniteFrame)}}
-                                : Json();
+    j["mean_position_error_cm"] = numberJson(s.meanPositionErrorCm);
+    j["max_rotation_error_deg"] = numberJson(s.maxRotationErrorDeg);
+    j["worst_rotation_joint"] = s.worstRotationJoint;
+    j["worst_rotation_frame"] = frameNumber(s.worstRotationFrame);
+    j["mean_rotation_error_deg"] = numberJson(s.meanRotationErrorDeg);
+    j["max_model_gap_cm"] = numberJson(s.maxModelGapCm);
     j["ms_per_frame"] = numberJson(s.msPerFrame);
     j["task_seconds"] = numberJson(merged->taskSeconds);
     j["curves"] = {{"file", curves.string()}, {"checksum", merged->curvesChecksum}};
@@ -573,7 +548,7 @@ BatchOutcome runBatch(const BatchJob& job)
         for (std::size_t i = m.first; i < m.end; ++i) ready = ready && !manifest.shards[i].checksum.empty();
         if (ready)
             m.merged = mergeClip(folder, manifest, static_cast<int>(m.first), static_cast<int>(m.end), approximation,
-                                 equivalences);
+                                 equivalences, *loaded.rig);
         if (m.merged && m.merged->failedShard < 0) {
             if (m.merged->curvesChecksum.empty()) try {
                     writeFileAtomically(curves, m.merged->curves);
@@ -620,7 +595,14 @@ BatchOutcome runBatch(const BatchJob& job)
         if (m.merged) {
             ++complete;
             solveSeconds += m.merged->summary.solveSeconds;
-            if (m.merged->summary.nonFiniteFrames > 0) ++outcome.nonFiniteClips;
+            if (m.merged->summary.failedFrames() > 0) {
+                if (outcome.failedClips++ == 0)
+                    outcome.firstFailedFrames = fmt::format(
+                        "{}: {}", clip.name,
+                        failedFramesLine(
+                            m.merged->summary,
+                            m.merged->frameNumbers[static_cast<std::size_t>(m.merged->summary.firstFailedFrame)]));
+            }
         }
         clips.push_back(clipReport(clip, static_cast<int>(m.end - m.first), m.merged ? &*m.merged : nullptr,
                                    folder / (clip.name + ".json")));

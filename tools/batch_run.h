@@ -45,7 +45,9 @@ struct BatchJob {
 struct BatchOutcome {
     Json report;                        // as written to OUT/report.json
     std::vector<std::string> failures;  // one line per failed shard
-    int nonFiniteClips = 0;             // clips where the real rig gave non-finite matrices
+    // Clips with a frame that is not an answer on the real rig (frameStatusFails), and the first one's line.
+    int failedClips = 0;
+    std::string firstFailedFrames;
 };
 
 // Checks everything (every clip read and matched against the approximation) before writing anything,

@@ -25,6 +25,7 @@
 #include "nodes/graph_rig_function.h"
 #include "nodes/inversion_spec.h"
 #include "tools/bench_cold_start.h"
+#include "tools/invert_run.h"
 #ifdef RIG_BENCH_HAVE_CERES
 #include "tools/bench_ceres.h"
 #endif
@@ -140,6 +141,7 @@ struct ClipRun {
     Json errorsJson() const
     {
         return Json{{"frames", frames()},
+                    {"status_frames", cli::statusCountsJson(summary)},
                     {"max_position_error_cm", summary.maxPositionErrorCm},
                     {"mean_position_error_cm", summary.meanPositionErrorCm},
                     {"max_rotation_error_deg", summary.maxRotationErrorDeg},
@@ -150,11 +152,12 @@ struct ClipRun {
 // Frames [first, last] of `targets`, solved by `solver` (polished on the real rig `polishCorrections`
 // times), or by `strategy` in the same chains.
 ClipRun invertFrames(const Solver& solver, RigBinding& binding, const ClipTargets& targets, int first, int last,
-                     int polishCorrections = 0, FrameSolveStrategy strategy = {})
+                     int polishCorrections = 0, FrameSolveStrategy strategy = {}, RealRigFit fit = RealRigFit::none)
 {
     ClipInversionOptions options;
     options.polishCorrections = polishCorrections;
     options.frameSolve = std::move(strategy);
+    options.realRigFit = fit;
     ClipRun run;
     run.summary = invertClip(solver, binding, targets, first, last, options, run.values);
     return run;
@@ -450,14 +453,15 @@ void compareBlackBox(BipedBench& b, Json& report)
     say(o, fmt::format("Gauss-Newton on the real graph, {} frames", blackBoxFrames));
     const Solver solver(approximation, SolverOptions{});
     std::uint64_t blackEvaluations = 0;
-    const ClipRun black =
-        invertFrames(solver, binding, targets, 0, blackBoxFrames - 1, 0,
-                     [&](std::span<const JointTarget> t, std::vector<double>& values, double, ChainFrame& frame) {
-                         blackBox.setTargets(std::vector<JointTarget>(t.begin(), t.end()));
-                         const RealRigSolve s = solveOnRealRig(blackBox, values, defaults);
-                         blackEvaluations += s.evaluations;
-                         peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
-                     });
+    const ClipRun black = invertFrames(
+        solver, binding, targets, 0, blackBoxFrames - 1, 0,
+        [&](std::span<const JointTarget> t, std::vector<double>& values, double, ChainFrame& frame) {
+            blackBox.setTargets(std::vector<JointTarget>(t.begin(), t.end()));
+            const RealRigSolve s = solveOnRealRig(blackBox, values, defaults);
+            blackEvaluations += s.evaluations;
+            peerFrame(s.converged, s.iterations, s.initialCost, s.finalCost, frame);
+        },
+        RealRigFit::everyOutput);
     // Ours on the same frames: the whole problem, as the black box solves it, and the partitioned one.
     const VariantResult sameWhole = runVariant(variant(wholeVariant), approximation, binding, targets, blackBoxFrames);
     const VariantResult samePartitioned =
@@ -562,7 +566,7 @@ Json ikLegsBench(BipedBench& b)
     const auto specFile = o.spec.parent_path() / "biped_inversion_ik.yaml";
     if (!std::filesystem::exists(specFile)) return Json();
     const InversionSpec spec = readSpec(specFile);
-    GraphRigFunction rig(o.rig, GraphRigOptions{spec.params, spec.outputs, {}, spec.set});
+    GraphRigFunction rig(o.rig, GraphRigOptions{spec.params, spec.outputs, {}, spec.set, spec.ranges});
     say(o, "learning the biped with IK legs");
     auto start = Clock::now();
     const Approximation approximation = learnApproximation(rig, LearnOptions{}, o.rig.string());
@@ -574,10 +578,12 @@ Json ikLegsBench(BipedBench& b)
     HybridSolver hybrid(solver, binding, 1);
     ChainScratch scratch;
     say(o, fmt::format("inverting {} frames with IK legs (hybrid solve)", frames));
-    const ClipRun run =
-        invertFrames(solver, binding, targets, 0, frames - 1, 0,
-                     [&](std::span<const JointTarget> t, std::vector<double>& values, double previousCost,
-                         ChainFrame& frame) { hybrid.solveFrame(t, values, previousCost, scratch, frame); });
+    const ClipRun run = invertFrames(
+        solver, binding, targets, 0, frames - 1, 0,
+        [&](std::span<const JointTarget> t, std::vector<double>& values, double previousCost, ChainFrame& frame) {
+            hybrid.solveFrame(t, values, previousCost, scratch, frame);
+        },
+        RealRigFit::unmodelledOutputs);
     // Leg joints against the FK approximation's answer on the same frames.
     const ClipRun& fk = b.result(partitionedVariant).run;
     std::vector<std::pair<int, int>> legs;  // (FK output, IK output)
@@ -626,6 +632,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
     rigOptions.parameterGlobs = spec.params;
     rigOptions.outputGlobs = spec.outputs;
     rigOptions.held = spec.set;  // the spec's state: learned in it, and every real-rig figure measured in it
+    rigOptions.ranges = spec.ranges;
     auto start = Clock::now();
     GraphRigFunction rig(o.rig, rigOptions);
     const double loadSeconds = secondsSince(start);
@@ -886,7 +893,7 @@ void runScaling(const BenchOptions& o, Json& report)
                             {"validation_max_relative_error", a.validation.maxRelativeError},
                             {"within_epsilon", a.validation.withinEpsilon},
                             {"frames", run.frames()},
-                            {"converged_frames", run.summary.convergedFrames},
+                            {"status_frames", cli::statusCountsJson(run.summary)},
                             {"ms_per_frame", run.cpuMsPerFrame()},
                             {"wall_ms_per_frame", run.msPerFrame()},
                             {"mean_iterations", run.meanIterations()},

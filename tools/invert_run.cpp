@@ -220,6 +220,7 @@ InvertOutcome invert(const InvertJob& job)
                                 : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
         hybrid = std::make_unique<HybridSolver>(solver, bound, threads);
         out.hybridBlocks = hybrid->describe();
+        if (!hybrid->blocks().empty()) options.realRigFit = RealRigFit::unmodelledOutputs;
         if (!hybrid->blocks().empty())
             options.frameSolve = [&](std::span<const JointTarget> t, std::vector<double>& values, double previousCost,
                                      ChainFrame& frame) {
@@ -306,6 +307,44 @@ std::vector<std::string> unmodelledOutputs(const Approximation& approximation)
     return names;
 }
 
+Json statusCountsJson(const ClipInversionSummary& s)
+{
+    Json counts = Json::object();
+    for (int k = 0; k < frameStatusCount; ++k)
+        counts[frameStatusKey(static_cast<FrameStatus>(k))] = s.statusFrames[static_cast<std::size_t>(k)];
+    return counts;
+}
+
+Json residualJointsJson(const ClipInversionSummary& s)
+{
+    Json joints = Json::object();
+    for (const auto& joint : s.residualJoints)
+        joints[joint.name] = {{"frames", joint.frames}, {"worst_error_cm", numberJson(joint.worstErrorCm)}};
+    return joints;
+}
+
+std::string statusCountsText(const ClipInversionSummary& s)
+{
+    std::string text;
+    for (int k = 0; k < frameStatusCount; ++k)
+        if (const int n = s.statusFrames[static_cast<std::size_t>(k)]; n > 0)
+            text += fmt::format("{}{} {}", text.empty() ? "" : ", ", n, frameStatusName(static_cast<FrameStatus>(k)));
+    return text.empty() ? "none" : text;
+}
+
+std::string failedFramesLine(const ClipInversionSummary& s, double frameNumber)
+{
+    const FrameStatus status = s.firstFailedStatus;
+    const char* why = status == FrameStatus::modelMismatch
+                          ? "the approximation and the real rig disagree there, or a target it does not model was "
+                            "not fitted (--hybrid fits those; learn the rig again where it disagrees)"
+                      : status == FrameStatus::notConverged ? "the solve used its iterations"
+                      : status == FrameStatus::nonFinite    ? "the real rig gives a non-finite matrix or error there"
+                                                            : "a target there is not finite or is singular";
+    return fmt::format("{} of {} frames are not an answer on the real rig (first: frame {}, {}, {}): {}",
+                       s.failedFrames(), s.frames, frameNumber, frameStatusName(status), s.firstFailedJoint, why);
+}
+
 Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>& approximation, const std::string& rig,
                   const std::optional<std::string>& clip, const std::optional<std::string>& curvesFile,
                   const std::string& curvesFingerprint)
@@ -313,27 +352,26 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
     const Approximation& a = *outcome.approximation;
     const ClipInversionSummary& s = outcome.summary;
     const auto frameNumber = [&](int index) {
-        return numberJson(outcome.clip.frameNumbers[static_cast<std::size_t>(index)]);
+        return index >= 0 ? numberJson(outcome.clip.frameNumbers[static_cast<std::size_t>(index)]) : Json();
     };
     const auto nameOrNull = [](const std::optional<std::string>& name) { return name ? Json(*name) : Json(); };
     Json perFrame = Json::array();
     for (const auto& f : s.perFrame) {
         Json missed = Json::array();
-        for (const int k : f.solve.missedOutputs) missed.push_back(a.outputs[static_cast<std::size_t>(k)].name);
+        for (const auto& m : f.missed) missed.push_back(a.outputs[static_cast<std::size_t>(m.output)].name);
         perFrame.push_back({{"frame", frameNumber(f.frame)},
+                            {"status", frameStatusName(f.status)},
                             {"termination", terminationName(f.solve.termination)},
                             {"missed_joints", std::move(missed)},
                             {"iterations", f.solve.iterations},
                             {"real_rig_evaluations", f.realRigEvaluations},
                             {"position_error_cm", numberJson(f.positionErrorCm)},
-                            {"rotation_error_deg", numberJson(f.rotationErrorDeg)},
                             {"worst_joint", f.worstJoint},
+                            {"rotation_error_deg", numberJson(f.rotationErrorDeg)},
+                            {"worst_rotation_joint", f.worstRotationJoint},
+                            {"model_gap_cm", numberJson(f.modelGapCm)},
                             {"non_finite_joint", f.nonFiniteJoint.empty() ? Json() : Json(f.nonFiniteJoint)}});
     }
-    Json stuckJoints = Json::object();
-    for (const auto& joint : s.stuckJoints)
-        stuckJoints[joint.name] = {{"frames", joint.frames},
-                                   {"worst_position_error_cm", numberJson(joint.worstErrorCm)}};
     return Json{
         {"approximation", nameOrNull(approximation)},
         {"rig", rig},
@@ -342,20 +380,26 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
         {"parameters", a.parameters.size()},
         {"target_joints", outcome.targets.matchedJoints},
         {"frames", s.frames},
-        {"converged_frames", s.convergedFrames},
-        {"stuck_frames", s.stuckFrames},
+        {"status_frames", statusCountsJson(s)},
+        {"failed_frames", s.failedFrames()},
+        {"first_failure", s.firstFailedFrame >= 0 ? Json{{"frame", frameNumber(s.firstFailedFrame)},
+                                                         {"status", frameStatusName(s.firstFailedStatus)},
+                                                         {"joint", s.firstFailedJoint}}
+                                                  : Json()},
         {"retried_frames", s.retriedFrames},
         {"retries_kept", s.retriesKept},
-        {"stuck_joints", std::move(stuckJoints)},
+        {"residual_joints", residualJointsJson(s)},
         {"max_position_error_cm", numberJson(s.maxPositionErrorCm)},
+        {"worst_joint", s.worstJoint},
+        {"worst_frame", frameNumber(s.worstFrame)},
         {"mean_position_error_cm", numberJson(s.meanPositionErrorCm)},
         {"max_rotation_error_deg", numberJson(s.maxRotationErrorDeg)},
+        {"worst_rotation_joint", s.worstRotationJoint},
+        {"worst_rotation_frame", frameNumber(s.worstRotationFrame)},
         {"mean_rotation_error_deg", numberJson(s.meanRotationErrorDeg)},
-        {"worst_joint", s.worstJoint},
-        {"worst_frame", s.worstFrame >= 0 ? frameNumber(s.worstFrame) : Json()},
+        {"max_model_gap_cm", numberJson(s.maxModelGapCm)},
         {"ms_per_frame", numberJson(s.msPerFrame)},
         {"lead_in_frames", s.leadInFrames},
-        {"non_finite_frames", s.nonFiniteFrames},
         {"unmodelled_outputs", unmodelledOutputs(a)},
         {"hybrid", outcome.hybridBlocks.empty()
                        ? Json()

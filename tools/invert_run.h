@@ -112,6 +112,16 @@ std::string curvesCsv(const InvertOutcome& outcome);
 // The outputs the approximation does not model (non-compositional), in its order.
 std::vector<std::string> unmodelledOutputs(const Approximation& approximation);
 
+// A summary's frames per status ({"reached": N, "best_fit": N, ...}), and its residual joints
+// ({joint: {frames, worst_error_cm}}), as the reports of rig-invert and rig-batch give them.
+Json statusCountsJson(const ClipInversionSummary& summary);
+Json residualJointsJson(const ClipInversionSummary& summary);
+// The words of the summary's status counts, for a text report: "1 reached, 239 best fit" (zero counts left out).
+std::string statusCountsText(const ClipInversionSummary& summary);
+// What a run that measured a failed frame says before exiting with code 3 (after "error: "): the count, the
+// first one (`frameNumber`: its number in the clip), its status and joint, and what it means.
+std::string failedFramesLine(const ClipInversionSummary& summary, double frameNumber);
+
 // The --report-json report. `clip` names the targets (none for targets given in memory), `curvesFile` the
 // curves written (none when nothing was), `curvesFingerprint` the FNV-1a 64 of the curves' JSON text.
 Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>& approximation, const std::string& rig,

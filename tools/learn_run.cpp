@@ -1,8 +1,10 @@
 #include "tools/learn_run.h"
 
+#include <algorithm>
 #include <charconv>
 #include <chrono>
 #include <cmath>
+#include <map>
 
 #include <fmt/format.h>
 
@@ -59,20 +61,42 @@ double learningFraction(std::string_view stage, double fraction)
 LearnOutcome learn(const LearnJob& job)
 {
     const auto loadStart = std::chrono::steady_clock::now();
-    GraphRigFunction rig(job.rig, GraphRigOptions{job.params, job.outputs, job.plugins, job.held});
+    GraphRigFunction rig(job.rig, GraphRigOptions{job.params, job.outputs, job.plugins, job.held, job.ranges});
     if (job.rigLoaded) job.rigLoaded(rig);
     LearnOutcome out;
     out.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
     out.rigParameters = rig.parameters().size();
     out.rigOutputs = rig.outputs().size();
     try {
-        out.approximation = learnApproximation(rig, job.options, job.rig);
+        out.approximation = learnApproximation(rig, job.options, job.rig, &out.unmodelled);
     }
     catch (const Error& e) {
         // A rig that refuses a sampled value (a node's own limit) or fails to evaluate: say where.
         throw Error(fmt::format("{}: evaluating the rig while learning: {}", job.rig, e.what()));
     }
     out.approximation.held = rig.held();
+    return out;
+}
+
+int validatedOutputs(const Approximation& a)
+{
+    if (a.validation.poses == 0 || a.parameters.empty()) return 0;
+    return static_cast<int>(
+        std::count_if(a.outputs.begin(), a.outputs.end(), [](const ApproximationOutput& o) { return o.modelled; }));
+}
+
+std::string storedForm(const ModelledParameter& m)
+{
+    const auto name = [](const Operator& op) {
+        return op.linear() ? std::string(operatorKindName(op.kind))
+                           : fmt::format("{} (curve)", operatorKindName(op.kind));
+    };
+    if (m.operators.empty()) return "none (real rig only)";
+    if (m.operators.size() == 1) return name(m.operators.front());
+    std::map<std::string, int> counts;
+    for (const Operator& op : m.operators) ++counts[name(op)];
+    std::string out = "per output:";
+    for (const auto& [form, count] : counts) out += fmt::format(" {} {}", count, form);
     return out;
 }
 
@@ -83,12 +107,13 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
     Json modelled = Json::array(), forms = Json::array(), saturated = Json::array();
     for (const ModelledParameter& m : a.parameters) {
         modelled.push_back(m.parameter.name);
+        // A parameter on the real rig only was never validated: no error, rather than an error of 0.
         forms.push_back({{"name", m.parameter.name},
-                         {"form", m.form},
+                         {"form", storedForm(m)},
                          {"fit_error", numberJson(m.fitError)},
                          {"samples", m.samples},
                          {"outputs", m.outputs.size()},
-                         {"validation_error", numberJson(m.validationError)}});
+                         {"validation_error", m.outputs.empty() ? Json() : numberJson(m.validationError)}});
         for (const auto& [from, to] : m.noEffect)
             saturated.push_back({{"name", m.parameter.name}, {"from", numberJson(from)}, {"to", numberJson(to)}});
     }
@@ -101,8 +126,12 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
     Json outputs = Json::array();
     for (const ApproximationOutput& o : a.outputs) {
         const std::string frame = o.parent >= 0 ? a.outputs[static_cast<std::size_t>(o.parent)].name : "world";
-        outputs.push_back({{"name", o.name}, {"frame", frame}, {"validation_error", numberJson(o.validationError)}});
+        outputs.push_back({{"name", o.name},
+                           {"frame", frame},
+                           {"validation_error", o.modelled ? numberJson(o.validationError) : Json()}});
     }
+    Json unmodelled = Json::array();
+    for (const UnmodelledOutput& u : outcome.unmodelled) unmodelled.push_back({{"name", u.name}, {"reason", u.reason}});
     Json dropped = Json::array();
     for (const DroppedOutput& d : a.droppedOutputs) dropped.push_back({{"name", d.name}, {"reason", d.reason}});
     const ValidationSummary& v = a.validation;
@@ -125,10 +154,12 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                 {"saturated", std::move(saturated)},
                 {"frames", std::move(outputs)},
                 {"dropped_outputs", std::move(dropped)},
+                {"unmodelled_outputs", std::move(unmodelled)},
                 {"within_epsilon", v.withinEpsilon},
                 {"written", written},
                 {"validation",
                  {{"poses", v.poses},
+                  {"validated_outputs", validatedOutputs(a)},
                   {"max_position_error_cm", numberJson(v.maxPositionErrorCm)},
                   {"mean_position_error_cm", numberJson(v.meanPositionErrorCm)},
                   {"max_rotation_error_deg", numberJson(v.maxRotationErrorDeg)},

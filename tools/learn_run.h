@@ -39,6 +39,7 @@ struct LearnJob {
     std::function<void(const GraphRigFunction& rig)> rigLoaded;
     std::vector<HeldPlug>
         held{};  // plugs held at a value, not inverted (rig-learn --set); recorded in the approximation
+    std::vector<GraphRigOptions::LearnRange> ranges{};  // the spec's `ranges:` (GraphRigOptions::ranges)
 };
 
 struct LearnOutcome {
@@ -46,11 +47,23 @@ struct LearnOutcome {
     std::size_t rigParameters = 0;  // what the globs gave
     std::size_t rigOutputs = 0;
     double loadSeconds = 0.0;  // loading the rig
+    // The non-compositional outputs with why (what the learner measured; the approximation file does not hold it).
+    std::vector<UnmodelledOutput> unmodelled;
 };
+
+// A parameter's form as the approximation holds it, from its operators (the learner's classification, `form`,
+// may name operators of outputs later found non-compositional): "rotation", "rotation (curve)", "sampledRigid"
+// for one operator shared by its outputs, "per output: 2 rotation 1 sampledRigid" for one per output, "none
+// (real rig only)" without operators.
+std::string storedForm(const ModelledParameter& m);
 
 // Loads the rig and learns. Throws rig::Error with rig-learn's one-line messages (RigSelectionError for
 // a glob the rig cannot provide).
 LearnOutcome learn(const LearnJob& job);
+
+// The outputs the validation measured: the modelled ones (non-compositional outputs are not predicted), none when
+// it did not run (no poses, or nothing modelled).
+int validatedOutputs(const Approximation& approximation);
 
 // The --report-json report. `approximation` is the file written, or to be written (none: none named);
 // `written` whether it was.

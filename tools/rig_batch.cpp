@@ -94,11 +94,11 @@ int run(Options& o)
                   << '\n';
         return 3;
     }
-    if (outcome.nonFiniteClips > 0) {
-        std::cerr << fmt::format(
-            "error: the real rig gives non-finite matrices on {} clips (non_finite_frames in "
-            "report.json); the rig cannot follow these curves there\n",
-            outcome.nonFiniteClips);
+    if (outcome.failedClips > 0) {
+        std::cerr << oneLine(fmt::format("error: {} clips have frames that are not an answer on the real rig "
+                                         "(failed_frames in report.json); the first: {}",
+                                         outcome.failedClips, outcome.firstFailedFrames))
+                  << '\n';
         return 3;
     }
     return 0;

@@ -56,42 +56,41 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
     if (!targets.unmatchedJoints.empty())
         std::cout << fmt::format("  {} clip joints are not outputs of the approximation and were not targets\n",
                                  targets.unmatchedJoints.size());
-    std::cout << fmt::format("\n{:>8}  {:<14} {:>5}  {:>12}  {:>12}  {}\n", "frame", "termination", "iter", "error cm",
-                             "error deg", "worst joint");
+    std::cout << fmt::format("\n{:>8}  {:<15} {:>5}  {:>12}  {:<14} {:>12}  {}\n", "frame", "status", "iter",
+                             "error cm", "joint", "error deg", "joint");
     for (const auto& f : s.perFrame)
-        std::cout << fmt::format("{:>8}  {:<14} {:>5}  {:>12.4g}  {:>12.4g}  {}\n", clip.frameNumbers[f.frame],
-                                 terminationName(f.solve.termination), f.solve.iterations, f.positionErrorCm,
-                                 f.rotationErrorDeg, f.worstJoint);
-    std::cout << fmt::format(
-        "\nframes            {} ({} converged to the targets, {} stuck: stationary with a "
-        "residual, {} not converged)\n",
-        s.frames, s.convergedFrames, s.stuckFrames, s.frames - s.convergedFrames - s.stuckFrames);
-    if (!s.stuckJoints.empty()) {
-        // The joints stuck frames left short of their targets, the largest real-rig error first.
+        std::cout << fmt::format("{:>8}  {:<15} {:>5}  {:>12.4g}  {:<14} {:>12.4g}  {}\n", clip.frameNumbers[f.frame],
+                                 frameStatusName(f.status), f.solve.iterations, f.positionErrorCm, f.worstJoint,
+                                 f.rotationErrorDeg, f.worstRotationJoint);
+    const auto frameNumber = [&](int index) { return index >= 0 ? clip.frameNumbers[index] : 0.0; };
+    std::cout << fmt::format("\nframes            {}: {}\n", s.frames, cli::statusCountsText(s));
+    if (!s.residualJoints.empty()) {
+        // The joints left off their targets on the real rig, the largest error first.
         std::string joints;
-        const std::size_t shown = std::min<std::size_t>(s.stuckJoints.size(), 6);
+        const std::size_t shown = std::min<std::size_t>(s.residualJoints.size(), 6);
         for (std::size_t i = 0; i < shown; ++i)
-            joints += fmt::format("{}{} ({:.3g} cm, {} frames)", i ? ", " : "", s.stuckJoints[i].name,
-                                  s.stuckJoints[i].worstErrorCm, s.stuckJoints[i].frames);
-        if (shown < s.stuckJoints.size()) joints += fmt::format(" and {} more", s.stuckJoints.size() - shown);
-        std::cout << fmt::format("stuck joints      {}\n", joints);
+            joints += fmt::format("{}{} ({:.3g} cm, {} frames)", i ? ", " : "", s.residualJoints[i].name,
+                                  s.residualJoints[i].worstErrorCm, s.residualJoints[i].frames);
+        if (shown < s.residualJoints.size()) joints += fmt::format(" and {} more", s.residualJoints.size() - shown);
+        std::cout << fmt::format("residual joints   {}\n", joints);
     }
-    if (s.nonFiniteFrames > 0)
-        std::cout << fmt::format("real rig          NOT FINITE at {} frames (first: {} at frame {})\n",
-                                 s.nonFiniteFrames, s.firstNonFiniteJoint, clip.frameNumbers[s.firstNonFiniteFrame]);
     std::cout << fmt::format(
-        "real-rig error    worst {:.4g} cm, {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
+        "real-rig error    worst {:.4g} cm ({} at frame {}), {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
         "{:.4g} deg\n",
-        s.maxPositionErrorCm, s.maxRotationErrorDeg, s.worstJoint,
-        s.worstFrame >= 0 ? clip.frameNumbers[s.worstFrame] : 0.0, s.meanPositionErrorCm, s.meanRotationErrorDeg);
+        s.maxPositionErrorCm, s.worstJoint, frameNumber(s.worstFrame), s.maxRotationErrorDeg, s.worstRotationJoint,
+        frameNumber(s.worstRotationFrame), s.meanPositionErrorCm, s.meanRotationErrorDeg);
+    std::cout << fmt::format(
+        "model gap         {:.3g} cm at worst (the approximation against the real rig at the "
+        "answers)\n",
+        s.maxModelGapCm);
     const std::vector<std::string> unmodelled = cli::unmodelledOutputs(a);
     if (!outcome.hybridBlocks.empty())
         std::cout << fmt::format("hybrid            {}\n                  {:.4g} real-rig evaluations per frame\n",
                                  outcome.hybridBlocks, s.frames > 0 ? double(s.realRigEvaluations) / s.frames : 0.0);
     else if (!unmodelled.empty())
         std::cout << fmt::format(
-            "not modelled      {} (non-compositional: their targets were not fitted; --hybrid "
-            "fits them on the real rig)\n",
+            "not modelled      {} (non-compositional: their targets were not fitted, so frames that miss them "
+            "are model mismatches; --hybrid fits them on the real rig)\n",
             fmt::join(unmodelled, ", "));
     std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
                              s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
@@ -165,12 +164,10 @@ int run(const Options& o)
     const ClipInversionSummary& summary = outcome.summary;
     if (!o.quiet) printReport(o, outcome, keyed);
     // Measured as wrong: never an exit code of success.
-    if (summary.nonFiniteFrames > 0) {
-        std::cerr << oneLine(
-                         fmt::format("error: the real rig gives a non-finite matrix at {} of {} frames (first: {} at "
-                                     "frame {}); the rig cannot follow these curves there",
-                                     summary.nonFiniteFrames, summary.frames, summary.firstNonFiniteJoint,
-                                     outcome.clip.frameNumbers[summary.firstNonFiniteFrame]))
+    if (summary.failedFrames() > 0) {
+        std::cerr << "error: "
+                  << oneLine(cli::failedFramesLine(
+                         summary, outcome.clip.frameNumbers[static_cast<std::size_t>(summary.firstFailedFrame)]))
                   << '\n';
         return 3;
     }

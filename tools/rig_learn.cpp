@@ -31,8 +31,9 @@ struct Options {
     std::string reportJson;
     bool reportGiven = false;
     std::vector<std::string> plugins;
-    std::vector<std::string> sets;  // --set PLUG=VALUE
-    std::vector<HeldPlug> held;     // --set's, then the spec's for other plugs
+    std::vector<std::string> sets;                    // --set PLUG=VALUE
+    std::vector<HeldPlug> held;                       // --set's, then the spec's for other plugs
+    std::vector<GraphRigOptions::LearnRange> ranges;  // the spec's
     std::string spec;
     std::map<std::string, std::string> specPlaces;     // glob -> its file:line:col in the spec, for messages
     std::map<std::string, std::string> specSetPlaces;  // held plug of the spec -> its file:line:col
@@ -50,6 +51,7 @@ void readSpec(Options& options)
     options.params.insert(options.params.end(), spec.params.begin(), spec.params.end());
     options.outputs.insert(options.outputs.end(), spec.outputs.begin(), spec.outputs.end());
     options.specPlaces.merge(spec.places);
+    options.ranges = spec.ranges;
     for (const HeldPlug& h : spec.set) {
         const bool overridden = std::any_of(options.held.begin(), options.held.end(),
                                             [&](const HeldPlug& given) { return given.plug == h.plug; });
@@ -77,14 +79,12 @@ std::string vectorText(const Eigen::Vector3d& v)
     return fmt::format("({:.4g}, {:.4g}, {:.4g})", clean(v.x()), clean(v.y()), clean(v.z()));
 }
 
-// Per-output modelling: the non-compositional outputs, and per parameter that moves one, where it is modelled
-// and where not.
-std::string unmodelledText(const Approximation& a)
+// Per-output modelling: the non-compositional outputs with why, and per parameter that moves one, where it is
+// modelled and where not.
+std::string unmodelledText(const cli::LearnOutcome& learned)
 {
-    std::vector<std::string> unmodelled;
-    for (const ApproximationOutput& o : a.outputs)
-        if (!o.modelled) unmodelled.push_back(o.name);
-    if (unmodelled.empty()) return {};
+    const Approximation& a = learned.approximation;
+    if (learned.unmodelled.empty()) return {};
     const auto names = [&](const std::vector<int>& outputs) {
         std::vector<std::string> list;
         for (const int k : outputs) list.push_back(a.outputs[static_cast<std::size_t>(k)].name);
@@ -92,8 +92,10 @@ std::string unmodelledText(const Approximation& a)
     };
     std::string out = fmt::format(
         "\nNot modelled: {} outputs are non-compositional (no product of operators reproduces them; rig-invert "
-        "--hybrid fits them on the real rig): {}\n",
-        unmodelled.size(), fmt::join(unmodelled, ", "));
+        "--hybrid fits them on the real rig)\n",
+        learned.unmodelled.size());
+    for (const UnmodelledOutput& u : learned.unmodelled) out += fmt::format("  {}: {}\n", u.name, u.reason);
+    out += "Where the parameters that move them are modelled:\n";
     for (const ModelledParameter& m : a.parameters) {
         if (m.unmodelledOutputs.empty()) continue;
         out += m.outputs.empty()
@@ -104,11 +106,40 @@ std::string unmodelledText(const Approximation& a)
     return out;
 }
 
-std::string readableReport(const Approximation& a, std::size_t rigParameters, std::size_t rigOutputs,
-                           const Options& options, double loadSeconds)
+// The validation's figures, and how many outputs they cover: the non-compositional ones are not predicted, the
+// dropped ones not learned.
+std::string validationText(const Approximation& a)
 {
-    std::string out = fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n",
-                                  options.rig, rigParameters, rigOutputs, a.epsilon, a.training.orderer);
+    const ValidationSummary& v = a.validation;
+    std::string out = fmt::format(
+        "Validation on {} random poses within the limits of the modelled parameters, real rig against "
+        "approximation:\n",
+        v.poses);
+    if (v.poses == 0 || a.parameters.empty()) return out + "  not run (no poses or nothing modelled)\n";
+    const int validated = cli::validatedOutputs(a);
+    const auto unmodelled = a.outputs.size() - static_cast<std::size_t>(validated);
+    out += fmt::format("  validated {} of {} outputs", validated, a.outputs.size() + a.droppedOutputs.size());
+    if (unmodelled > 0) out += fmt::format("; {} not modelled (listed above)", unmodelled);
+    if (!a.droppedOutputs.empty()) out += fmt::format("; {} left out (listed above)", a.droppedOutputs.size());
+    out += "\n";
+    out += fmt::format("  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm\n", v.maxPositionErrorCm,
+                       v.worstOutput, v.worstPose, v.meanPositionErrorCm);
+    out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg,
+                       v.meanRotationErrorDeg);
+    out += fmt::format("  per unit of the parameters moved: worst {:.3g} cm ({}), epsilon {:g}: {}\n",
+                       v.maxRelativeError, v.worstRelativeOutput.empty() ? "-" : v.worstRelativeOutput, a.epsilon,
+                       v.withinEpsilon ? "within" : "EXCEEDED");
+    if (v.nonFinitePoses > 0)
+        out += fmt::format("  {} poses not measured: the rig gave a non-finite matrix there\n", v.nonFinitePoses);
+    return out;
+}
+
+std::string readableReport(const cli::LearnOutcome& learned, const Options& options)
+{
+    const Approximation& a = learned.approximation;
+    std::string out =
+        fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n", options.rig,
+                    learned.rigParameters, learned.rigOutputs, a.epsilon, a.training.orderer);
     if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", cli::heldText(a.held));
     out += "\n";
     out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
@@ -124,9 +155,10 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
         const std::string outputs = m.unmodelledOutputs.empty()
                                         ? fmt::format("{}", m.outputs.size())
                                         : fmt::format("{} (+{} not)", m.outputs.size(), m.unmodelledOutputs.size());
-        rows.push_back({fmt::format("{}", p + 1), m.parameter.name, m.form, hasAxis ? vectorText(op->axis) : "-",
-                        hasPivot ? vectorText(op->pivot) : "-", fmt::format("{:.2g}", m.fitError),
-                        fmt::format("{}", m.samples), outputs, rangeText(m.parameter)});
+        rows.push_back({fmt::format("{}", p + 1), m.parameter.name, cli::storedForm(m),
+                        hasAxis ? vectorText(op->axis) : "-", hasPivot ? vectorText(op->pivot) : "-",
+                        fmt::format("{:.2g}", m.fitError), fmt::format("{}", m.samples), outputs,
+                        rangeText(m.parameter)});
     }
     out += alignTable(rows, {"  ",
                              {Align::right, Align::left, Align::left, Align::left, Align::left, Align::left,
@@ -146,7 +178,7 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
     if (!saturated.empty())
         out += "\nSaturated: ranges where a control moves nothing (an inversion cannot tell values there apart)\n" +
                saturated;
-    out += unmodelledText(a);
+    out += unmodelledText(learned);
     out += fmt::format("\nDiscarded: {} parameters\n", a.discarded.size());
     for (const auto& d : a.discarded) out += fmt::format("  {}: {}\n", d.parameter.name, d.reason);
     std::vector<std::string> world;
@@ -161,24 +193,8 @@ std::string readableReport(const Approximation& a, std::size_t rigParameters, st
     out += fmt::format(
         "\nTraining: {} rig evaluations ({} for the composition order), {:.2f} s learning, {:.2f} s loading "
         "the rig\n",
-        a.training.evaluations, a.training.orderEvaluations, a.training.seconds, loadSeconds);
-    const ValidationSummary& v = a.validation;
-    out += fmt::format(
-        "Validation on {} random poses within the limits of the modelled parameters, real rig against "
-        "approximation:\n",
-        v.poses);
-    if (v.poses == 0 || a.parameters.empty()) out += "  not run (no poses or nothing modelled)\n";
-    else {
-        out += fmt::format("  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm\n", v.maxPositionErrorCm,
-                           v.worstOutput, v.worstPose, v.meanPositionErrorCm);
-        out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg,
-                           v.meanRotationErrorDeg);
-        out += fmt::format("  per unit of the parameters moved: worst {:.3g} cm ({}), epsilon {:g}: {}\n",
-                           v.maxRelativeError, v.worstRelativeOutput.empty() ? "-" : v.worstRelativeOutput, a.epsilon,
-                           v.withinEpsilon ? "within" : "EXCEEDED");
-        if (v.nonFinitePoses > 0)
-            out += fmt::format("  {} poses not measured: the rig gave a non-finite matrix there\n", v.nonFinitePoses);
-    }
+        a.training.evaluations, a.training.orderEvaluations, a.training.seconds, learned.loadSeconds);
+    out += validationText(a);
     if (a.validation.withinEpsilon || options.allowInexact) out += fmt::format("\nWrote {}\n", options.output);
     else out += fmt::format("\nNot written: {} (over epsilon; --allow-inexact writes it anyway)\n", options.output);
     return out;
@@ -199,6 +215,7 @@ int run(Options& options)
     cli::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
     cli::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
     job.held = options.held;
+    job.ranges = options.ranges;
     if (options.epsilonGiven) job.options.epsilon = cli::parseEpsilon(options.epsilon);
     job.options.orderer = cli::ordererFromName(options.orderer);
     job.options.relativeFrames = !options.worldSpace;
@@ -236,8 +253,7 @@ int run(Options& options)
         cli::writeFileAtomically(
             options.reportJson,
             cli::jsonText(cli::learnReport(*learned, options.rig, options.output, write), 2) + "\n");
-    std::cout << readableReport(approximation, learned->rigParameters, learned->rigOutputs, options,
-                                learned->loadSeconds);
+    std::cout << readableReport(*learned, options);
     if (approximation.parameters.empty())
         std::cerr << "warning: no parameter could be modelled; the approximation is empty (see the discards above)\n";
     if (failure.empty()) return 0;

@@ -51,8 +51,7 @@ enum Attr : AttrId {
     startFrame,
     sceneTime,
     value,
-    converged,
-    stuck,
+    status,
     iterations,
     worstErrorCm,
     parameterNames,
@@ -166,11 +165,15 @@ public:
         solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
         previousTime_ = t;
         // A chain after a restart frame played in order meets the frame before it, as rig-invert reports it.
+        // The shift is checked on the real rig where the node has one (`hybrid`), on the approximation otherwise.
         const Equivalences& equivalences = loaded_->solver->equivalences();
+        PoseCheck samePose(a, binding_.get());
         if (chainStart)
-            shift_ = before_.empty() ? noShift(equivalences) : continuityShift(equivalences, before_, solution_);
+            shift_ = before_.empty() ? noShift(equivalences)
+                                     : checkedContinuityShift(equivalences, before_, solution_, &samePose);
         reported_.resize(solution_.size());
         applyShift(equivalences, shift_, solution_, reported_);
+        c.setOutput(status, static_cast<int>(judge(targets)));
 
         std::vector<Value> values;
         for (std::size_t i = 0; i < a.parameters.size(); ++i) {
@@ -178,8 +181,6 @@ public:
             values.emplace_back(p.angular ? reported_[i] * 180.0 / std::numbers::pi : reported_[i]);
         }
         c.setOutputElements(value, std::move(values));
-        c.setOutput(converged, summary.converged());
-        c.setOutput(stuck, summary.termination == TerminationType::stuck);
         c.setOutput(iterations, summary.iterations);
         c.setOutput(worstErrorCm, summary.maxPositionErrorCm);
         c.setOutput(realRigEvaluations, frame_.realRigEvaluations);
@@ -200,6 +201,20 @@ public:
     }
 
 private:
+    // The frame's status at reported_ (clip_inversion.h, judgeFrame): on the real rig with the hybrid solve's, as
+    // rig-invert --hybrid judges it; otherwise on the approximation, where an output it does not model is a miss.
+    FrameStatus judge(std::span<const JointTarget> targets)
+    {
+        const Approximation& a = *loaded_->approximation;
+        FrameInversion judged;
+        judged.solve = frame_.summary;
+        a.evaluate(reported_, modelled_);
+        if (binding_) binding_->evaluate(reported_, real_);
+        judgeFrame(a, loaded_->options, binding_ ? RealRigFit::unmodelledOutputs : RealRigFit::none, targets,
+                   binding_ ? real_ : modelled_, modelled_, judged);
+        return judged.status;
+    }
+
     // With `hybrid` on and an approximation that leaves outputs unmodelled: the hybrid solve on the node's own
     // instance of the rig file `rig` (in the approximation's held state), made again when the rig file, the
     // approximation or the solver changes. Null otherwise.
@@ -258,6 +273,7 @@ private:
     ChunkShift shift_;              // of the current chain (inversion/continuity.h)
     std::vector<double> reported_;  // solution_ shifted: the values output
     std::vector<double> before_;    // reported_ of the frame before, when played in order; empty otherwise
+    std::vector<Eigen::Matrix4d> modelled_, real_;  // the approximation's and the real rig's outputs at reported_
 };
 
 // connect: {targets: NODE_OR_GLOB, parameters: true}
@@ -433,9 +449,13 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
     b.output(value, "value", ValueType::Double)
         .array()
         .doc("Each parameter of the approximation, angles in degrees (unitless).");
-    b.output(converged, "converged", ValueType::Bool).doc("The solve converged to the targets (within 1e-3 cm).");
-    b.output(stuck, "stuck", ValueType::Bool)
-        .doc("The solve stopped at a stationary point with a residual: a target is out of reach, or a local minimum.");
+    b.output(status, "status", ValueType::Enum)
+        .enumNames({"reached", "bestFit", "modelMismatch", "notConverged", "nonFinite", "invalidTargets"})
+        .doc(
+            "The frame's status as rig-invert names it (docs/rig-invert.md): reached (every target within 1e-3 cm), "
+            "bestFit (stationary with a residual the rig cannot avoid), modelMismatch, notConverged, nonFinite, "
+            "invalidTargets. Judged on the real rig with `hybrid` (the node's `rig`), on the approximation otherwise, "
+            "where a target the approximation does not model is a miss.");
     b.output(iterations, "iterations", ValueType::Int).doc("Solver iterations of this evaluation.");
     b.output(worstErrorCm, "worstErrorCm", ValueType::Double)
         .doc("Worst target position error on the approximation, cm.");

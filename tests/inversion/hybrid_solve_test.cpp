@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/rotation_math.h"
+#include "ik_arm.h"
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
 #include "inversion/hybrid_solve.h"
@@ -24,39 +25,6 @@
 
 namespace rig {
 namespace {
-
-// A two-bone IK arm under a translating root: the goal and the pole control in world space, the rest chain
-// pre-bent 0.01 cm toward the pole (a bend plane of its own), the rest goal within reach.
-const std::string ikArm = R"(nodes:
-  - {name: root_ctrl, type: transform, translate: [0, 140, 0]}
-  - {name: clavicle, type: joint, parent: root_ctrl, translate: [5, 0, 0]}
-  - {name: shoulder, type: joint, parent: clavicle, translate: [15, 0, 0]}
-  - {name: elbow, type: joint, parent: shoulder}
-  - {name: wrist, type: joint, parent: elbow}
-  - {name: arm_ik_ctrl, type: transform, translate: [65, 130, 0]}
-  - {name: arm_pole_ctrl, type: transform, translate: [45, 140, -40]}
-  - {name: arm_ik, type: ikHandle, startTranslate: [15, 0, 0], midTranslate: [30, 0, 0], endTranslate: [28, 0, -0.01]}
-  - {name: arm_pv, type: poleVectorConstraint, constraintRotatePivot: [15, 0, 0]}
-connections:
-  - clavicle.worldMatrix -> arm_ik.startParentMatrix
-  - clavicle.scale -> arm_ik.startInverseScale
-  - arm_ik_ctrl.worldMatrix -> arm_ik.goalMatrix
-  - arm_pole_ctrl.worldMatrix -> arm_pv.targetMatrix[0]
-  - clavicle.worldMatrix -> arm_pv.pivotSpace
-  - arm_pv.constraintTranslate -> arm_ik.poleVector
-  - arm_ik.startRotate -> shoulder.rotate
-  - arm_ik.midRotate -> elbow.rotate
-  - arm_ik.outMidTranslate -> elbow.translate
-  - arm_ik.outEndTranslate -> wrist.translate
-)";
-
-GraphRigOptions armOptions()
-{
-    return {{"root_ctrl.translate?", "arm_ik_ctrl.translate?", "arm_pole_ctrl.translate?"},
-            {"clavicle", "shoulder", "elbow", "wrist"},
-            {},
-            {}};
-}
 
 const ModelledParameter& parameter(const Approximation& a, const std::string& name)
 {
@@ -140,8 +108,8 @@ struct IkBiped {
 
 TEST_CASE("per-output modelling: an IK arm's joints are left unmodelled, the root stays modelled where it composes")
 {
-    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm") / "arm.yaml", ikArm);
-    GraphRigFunction rig(file, armOptions());
+    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm") / "arm.yaml", test::ikArm);
+    GraphRigFunction rig(file, test::ikArmOptions());
     const Approximation a = learnApproximation(rig, LearnOptions{}, "arm.yaml");
     CHECK(a.validation.withinEpsilon);
     CHECK(a.discarded.empty());
@@ -172,16 +140,16 @@ TEST_CASE("per-output modelling: an IK arm's joints are left unmodelled, the roo
 
 TEST_CASE("hybrid solve: an IK arm recovers random reachable poses of its root, goal and pole from rest")
 {
-    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm-poses") / "arm.yaml", ikArm);
-    GraphRigFunction rig(file, armOptions());
+    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm-poses") / "arm.yaml", test::ikArm);
+    GraphRigFunction rig(file, test::ikArmOptions());
     const Approximation a = learnApproximation(rig, LearnOptions{}, "arm.yaml");
     recoverPoses(a, rig, {"root_ctrl", "arm_ik_ctrl", "arm_pole_ctrl"}, 5.0);
 }
 
 TEST_CASE("hybrid solve: a goal out of the IK arm's reach is a miss, not converged")
 {
-    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm-reach") / "arm.yaml", ikArm);
-    GraphRigFunction rig(file, armOptions());
+    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm-reach") / "arm.yaml", test::ikArm);
+    GraphRigFunction rig(file, test::ikArmOptions());
     const Approximation a = learnApproximation(rig, LearnOptions{}, "arm.yaml");
     RigBinding binding(a, rig);
     const Solver solver(a, SolverOptions{});

@@ -7,8 +7,11 @@
 
 #include <fmt/format.h>
 
+#include "ik_arm.h"
+#include "inversion/approximation_io.h"
 #include "inversion/learner.h"
 #include "test_rigs.h"
+#include "test_support.h"
 
 using namespace rig;
 
@@ -234,4 +237,44 @@ TEST_CASE("learner: where operators that commute alone do not compose, the valid
         CHECK(a.discarded[0].reason.starts_with("cannot be ordered with a: neither order holds on joint"));
         CHECK(a.validation.withinEpsilon);
     }
+}
+
+TEST_CASE("learner: an IK arm's non-compositional outputs, each with its parent output and the pair with neither order")
+{
+    const auto file = test::writeFile(test::scratchDir("learner-ik-arm") / "arm.yaml", test::ikArm);
+    GraphRigFunction rig(file, test::ikArmOptions());
+    std::vector<UnmodelledOutput> unmodelled{{"stale", "from before"}};
+    Approximation a = learnApproximation(rig, LearnOptions{}, "arm.yaml", &unmodelled);
+    // The outputs the approximation leaves unmodelled, in its order, and no others.
+    std::vector<std::string> names, expected;
+    for (const UnmodelledOutput& u : unmodelled) names.push_back(u.name);
+    for (const ApproximationOutput& o : a.outputs)
+        if (!o.modelled) expected.push_back(o.name);
+    CHECK(names == expected);
+    REQUIRE(names == std::vector<std::string>{"shoulder", "elbow", "wrist"});
+    // The thigh of the arm: the root's X and Y translations compose neither way, relative to the clavicle or in
+    // world space (the IK goal stays put in world space while the root moves the shoulder).
+    const std::string pair =
+        "root_ctrl.translateX and root_ctrl.translateY have neither order (the rig with both moved is ";
+    CHECK(unmodelled[0].reason.starts_with("relative to its parent output clavicle, " + pair));
+    CHECK(unmodelled[0].reason.find(" cm from the two products of their operators, tolerance 0.1 cm); in world "
+                                    "space, " +
+                                    pair) != std::string::npos);
+    // Below it, relative to an unmodelled parent the validation failed first.
+    CHECK(unmodelled[1].reason.starts_with("relative to its parent output shoulder, its validation error "));
+    CHECK(unmodelled[2].reason.starts_with("relative to its parent output elbow, its validation error "));
+    for (std::size_t k = 1; k < unmodelled.size(); ++k) {
+        CAPTURE(unmodelled[k].name);
+        CHECK(unmodelled[k].reason.find(" exceeds epsilon 0.001; in world space, " + pair) != std::string::npos);
+    }
+
+    // Asking for the reasons changes nothing learned.
+    Approximation b = learnApproximation(rig, LearnOptions{}, "arm.yaml");
+    a.training.seconds = b.training.seconds = 0.0;
+    CHECK(approximationToYaml(a) == approximationToYaml(b));
+    // The talk's behaviour: a parameter discarded instead, no output unmodelled, no reasons.
+    LearnOptions talk;
+    talk.perOutput = false;
+    learnApproximation(rig, talk, "arm.yaml", &unmodelled);
+    CHECK(unmodelled.empty());
 }

@@ -159,7 +159,8 @@ TEST_CASE("rig-invert: the report names the curves it belongs to, and a real rig
     auto json = nlohmann::json::parse(rig::test::readFile(report));
     CHECK(json["curves"]["file"] == curves.string());
     CHECK(json["curves"]["fnv1a64"] == fmt::format("{:016x}", rig::fnv1a64(rig::test::readFile(curves))));
-    CHECK(json["non_finite_frames"] == 0);
+    CHECK(json["status_frames"]["non_finite"] == 0);
+    CHECK(json["failed_frames"] == 0);
 
     // The same arm with an elbow 1e308 cm out under a scaled shoulder: its world matrices overflow to
     // inf and NaN, which must not read as a perfect fit.
@@ -176,11 +177,12 @@ TEST_CASE("rig-invert: the report names the curves it belongs to, and a real rig
                         rig::test::tool("rig-invert"), approx.string(), broken.string(), curves.string(),
                         report.string()));
     CHECK(r.exitCode == 3);
-    CHECK(r.err.ends_with(
-        "error: the real rig gives a non-finite matrix at 2 of 2 frames (first: elbow at frame 1); the rig "
-        "cannot follow these curves there\n"));
+    CHECK(
+        r.err.ends_with("error: 2 of 2 frames are not an answer on the real rig (first: frame 1, non-finite, elbow): "
+                        "the real rig gives a non-finite matrix or error there\n"));
     json = nlohmann::json::parse(rig::test::readFile(report));
-    CHECK(json["non_finite_frames"] == 2);
+    CHECK(json["status_frames"]["non_finite"] == 2);
+    CHECK(json["first_failure"]["status"] == "non-finite");
     CHECK(json["per_frame"][0]["non_finite_joint"] == "elbow");
 }
 

@@ -119,14 +119,17 @@ TEST_CASE(
             // Counts as one run makes them; errors measured by each shard on its own values (the same poses
             // where the merge shifted a shard: equal up to rounding).
             const Json whole = readJson(dir / (name + ".report.json"));
-            for (const char* key : {"frames", "converged_frames", "stuck_frames", "retried_frames", "retries_kept",
-                                    "worst_joint", "worst_frame", "non_finite_frames"})
+            for (const char* key :
+                 {"frames", "status_frames", "failed_frames", "first_failure", "retried_frames", "retries_kept",
+                  "worst_joint", "worst_frame", "worst_rotation_joint", "worst_rotation_frame"})
                 CHECK(clip[key] == whole[key]);
+            CHECK(clip["mean_position_error_cm"].get<double>() ==
+                  doctest::Approx(whole["mean_position_error_cm"].get<double>()).epsilon(1e-9));
             CHECK(clip["max_position_error_cm"].get<double>() ==
                   doctest::Approx(whole["max_position_error_cm"].get<double>()).epsilon(1e-9));
             CHECK(clip["max_rotation_error_deg"].get<double>() ==
                   doctest::Approx(whole["max_rotation_error_deg"].get<double>()).epsilon(1e-9));
-            CHECK(clip["stuck_joints"].size() == whole["stuck_joints"].size());
+            CHECK(clip["residual_joints"].size() == whole["residual_joints"].size());
             CHECK(clip["ms_per_frame"].get<double>() > 0.0);
         }
     }
@@ -597,11 +600,13 @@ TEST_CASE(
         std::string why;
     } edits[] = {
         {"worst_frame", 100000, "a frame index outside 120 to 239"},
-        {"first_non_finite_frame", -7, "a frame index outside 120 to 239"},
+        {"worst_rotation_frame", -7, "a frame index outside 120 to 239"},
+        {"first_failure", Json::array({100000, 2, "Hips"}), "a frame index outside 120 to 239"},
         {"frames", 1, "1 frames counted in frames 120 to 239"},
-        {"converged_frames", 1000, "a count of frames outside 0 to 120"},
-        {"stuck_joints", Json::array({Json::array({"Hips", -1, 0.5})}), "joint Hips stuck on -1 of 120 frames"},
-        {"bytes", Json::array({32, 960, header["bytes"][2], 18446744073709551615ull}),
+        {"status_frames", Json::array({1000, 0, 0, 0, 0, 0}), "a count of frames outside 0 to 120"},
+        {"status_frames", Json::array({1, 0, 0, 0, 0, 0}), "frame statuses for 1 of 120 frames"},
+        {"residual_joints", Json::array({Json::array({"Hips", -1, "0.5"})}), "joint Hips missed on -1 of 120 frames"},
+        {"bytes", Json::array({header["bytes"][0], header["bytes"][1], header["bytes"][2], 18446744073709551615ull}),
          "its sizes are not those of 120 frames of 79 parameters"},
         {"first", -5, "frames -5 to 239"},
     };

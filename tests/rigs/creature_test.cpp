@@ -1,0 +1,329 @@
+// rigs/creature.yaml, the hand-written creature (docs/rigs.md): it loads, evaluates at random control values
+// in checked mode, its switches, reverse feet and shared spine behave as the file says, its FK spec learns
+// within epsilon and random poses invert back onto the real rig; its IK spec learns with the IK limbs
+// reported, and scripts/random_poses.py makes a clip rig-invert inverts.
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <set>
+
+#include <fmt/format.h>
+#include <Eigen/Geometry>
+
+#include "graph/plug_glob.h"
+#include "graph/yaml_loader.h"
+#include "inversion/continuity.h"
+#include "inversion/learner.h"
+#include "inversion/rig_binding.h"
+#include "inversion/solver.h"
+#include "nodes/builtin_nodes.h"
+#include "nodes/graph_rig_function.h"
+#include "nodes/inversion_spec.h"
+#include "test_support.h"
+
+using namespace rig;
+
+namespace {
+
+const double degree = std::numbers::pi / 180;
+
+std::unique_ptr<Graph> loadCreature()
+{
+    return loadGraphFile(test::sourceDir() / "rigs/creature.yaml", makeBuiltinRegistry());
+}
+
+Eigen::Matrix4d world(Graph& g, const std::string& joint)
+{
+    return std::get<Eigen::Matrix4d>(g.getValue(g.plug(joint + ".worldMatrix")));
+}
+
+Eigen::Vector3d position(Graph& g, const std::string& joint) { return world(g, joint).block<3, 1>(0, 3); }
+
+void set(Graph& g, const std::string& plug, double userValue)
+{
+    const Plug p = g.plug(plug);
+    g.setValue(p, userValue * unitFactor(Unit::None, g.spec(p).unit));
+}
+
+double degrees(Graph& g, const std::string& plug) { return std::get<double>(g.getValue(g.plug(plug))) / degree; }
+
+std::vector<std::string> joints(const Graph& g)
+{
+    std::vector<std::string> names;
+    for (NodeId n = 0; n < g.nodeCount(); ++n)
+        if (g.nodeType(n).name() == "joint") names.push_back(g.nodeName(n));
+    return names;
+}
+
+// Every free keyable number input of every control (*_ctrl) at a random value within its limits, or
+// +-60 degrees, +-20 cm about its rest value: the ikFk switches too, so both modes and their blends are seen.
+void randomPose(Graph& g, std::mt19937& rng)
+{
+    for (const Plug& p : allPlugs(g)) {
+        const AttributeSpec& spec = g.spec(p);
+        if (!spec.input || !spec.keyable || !g.nodeName(p.node).ends_with("_ctrl")) continue;
+        if (g.incomingConnection(p) != nullptr || g.plugType(p) != ValueType::Double) continue;
+        const double rest = std::get<double>(g.getValue(p));
+        const double reach = spec.unit == Unit::Angle ? 60 * degree : 20.0;
+        const double lo = spec.min ? *spec.min : rest - reach;
+        const double hi = spec.max ? *spec.max : rest + reach;
+        g.setValue(p, std::uniform_real_distribution<double>(lo, hi)(rng));
+    }
+}
+
+InversionSpec spec(const char* file) { return readInversionSpec(test::sourceDir() / "rigs" / file); }
+
+GraphRigFunction creatureRig(const InversionSpec& s)
+{
+    return GraphRigFunction(test::sourceDir() / "rigs/creature.yaml", {s.params, s.outputs, {}, s.set});
+}
+
+const ModelledParameter& modelled(const Approximation& a, const std::string& name)
+{
+    const auto found = std::find_if(a.parameters.begin(), a.parameters.end(),
+                                    [&](const ModelledParameter& m) { return m.parameter.name == name; });
+    REQUIRE_MESSAGE(found != a.parameters.end(), "not modelled: " << name);
+    return *found;
+}
+
+int indexOf(const Approximation& a, const std::string& name)
+{
+    for (std::size_t i = 0; i < a.parameters.size(); ++i)
+        if (a.parameters[i].parameter.name == name) return static_cast<int>(i);
+    return -1;
+}
+
+}  // namespace
+
+TEST_CASE("creature: 47 joints, every control a free keyable plug on a *_ctrl, checked mode at random values")
+{
+    auto g = loadCreature();
+    CHECK(joints(*g).size() == 47);
+    // Both specs' parameters are animator controls: free keyable scalar plugs of *_ctrl transforms.
+    for (const char* file : {"creature_inversion.yaml", "creature_inversion_ik.yaml"}) {
+        std::set<Plug> plugs;
+        for (const auto& glob : spec(file).params)
+            for (const Plug& p : matchPlugs(*g, glob)) {
+                const std::string name = g->plugName(p);
+                CAPTURE(name);
+                CHECK(g->nodeName(p.node).ends_with("_ctrl"));
+                CHECK(g->nodeType(p.node).name() == "transform");
+                CHECK(g->incomingConnection(p) == nullptr);
+                CHECK((g->spec(p).keyable || p.child >= 0));
+                plugs.insert(p);
+            }
+        CAPTURE(file);
+        CHECK(plugs.size() == 85);
+    }
+    std::mt19937 rng(5);
+    for (int round = 0; round < 4; ++round) {
+        randomPose(*g, rng);
+        CHECK(g->checkEvaluation().empty());
+        for (const std::string& joint : joints(*g)) REQUIRE(world(*g, joint).allFinite());
+    }
+}
+
+TEST_CASE("creature: IK at rest is the FK rest pose, the goals are reached, the reverse foot rolls on its pivots")
+{
+    auto g = loadCreature();
+    std::vector<Eigen::Matrix4d> rest;
+    for (const std::string& joint : joints(*g)) rest.push_back(world(*g, joint));
+    for (const char* limb : {"L_arm", "R_arm", "L_leg", "R_leg"})
+        set(*g, fmt::format("{}_settings_ctrl.ikFk", limb), 1);
+    const std::vector<std::string> names = joints(*g);
+    for (std::size_t j = 0; j < names.size(); ++j) {
+        CAPTURE(names[j]);
+        CHECK((world(*g, names[j]) - rest[j]).norm() < 1e-9);
+    }
+
+    g->setValue(g->plug("L_arm_ik_ctrl.translate"), Eigen::Vector3d(38, 120, 25));
+    CHECK((position(*g, "L_hand") - Eigen::Vector3d(38, 120, 25)).norm() < 1e-9);
+
+    // roll 0..5 lifts the heel about the ball: the ball and the toes stay planted, the ankle rises.
+    const Eigen::Vector3d ankle = position(*g, "L_ankle"), ball = position(*g, "L_ball"),
+                          toe = position(*g, "L_toe_end");
+    set(*g, "L_foot_ik_ctrl.roll", 5);
+    CHECK((position(*g, "L_ball") - ball).norm() < 1e-9);
+    CHECK((position(*g, "L_toe_end") - toe).norm() < 1e-9);
+    CHECK(position(*g, "L_ankle").y() > ankle.y() + 3);
+    // 5..10 rolls onto the toe tip: only the toes stay planted.
+    set(*g, "L_foot_ik_ctrl.roll", 10);
+    CHECK((position(*g, "L_toe_end") - toe).norm() < 1e-9);
+    CHECK(position(*g, "L_ball").y() > ball.y() + 3);
+    // Below 0 the foot rocks back on its heel: the toes rise.
+    set(*g, "L_foot_ik_ctrl.roll", -10);
+    CHECK(position(*g, "L_toe_end").y() > toe.y() + 5);
+    // In FK the reverse foot does nothing.
+    set(*g, "L_leg_settings_ctrl.ikFk", 0);
+    CHECK((position(*g, "L_toe_end") - toe).norm() < 1e-9);
+}
+
+TEST_CASE("creature: the spine bend is shared by four joints, spine4 adds the chest control to its share")
+{
+    auto g = loadCreature();
+    set(*g, "spine_ctrl.bendForward", 40);
+    CHECK(degrees(*g, "spine1.rotateX") == doctest::Approx(8));
+    CHECK(degrees(*g, "spine2.rotateX") == doctest::Approx(10));
+    CHECK(degrees(*g, "spine3.rotateX") == doctest::Approx(10));
+    CHECK(degrees(*g, "spine4.rotateX") == doctest::Approx(12));
+    set(*g, "chest_ctrl.rotateX", 30);
+    CHECK(degrees(*g, "spine4.rotateX") == doctest::Approx(42));
+
+    // The chest's rotate order is zxy, R = Ry Rx Rz: (x, y, z) and (180 - x, y + 180, z + 180) are one
+    // rotation. Alone on spine4 the two are one pose; with the bend's share added first they are not.
+    const auto head = [&](double x, double y, double z) {
+        set(*g, "chest_ctrl.rotateX", x);
+        set(*g, "chest_ctrl.rotateY", y);
+        set(*g, "chest_ctrl.rotateZ", z);
+        return world(*g, "head");
+    };
+    set(*g, "spine_ctrl.bendForward", 0);
+    CHECK((head(30, 50, 20) - head(150, 230, 200)).norm() < 1e-9);
+    set(*g, "spine_ctrl.bendForward", 40);
+    CHECK((head(30, 50, 20) - head(150, 230, 200)).block<3, 1>(0, 3).norm() > 1.0);
+}
+
+TEST_CASE(
+    "learning the creature's FK spec: all 85 parameters within epsilon, and random poses invert onto the real rig")
+{
+    GraphRigFunction rig = creatureRig(spec("creature_inversion.yaml"));
+    REQUIRE(rig.parameters().size() == 85);
+    REQUIRE(rig.outputs().size() == 43);
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "rigs/creature.yaml");
+    MESSAGE(
+        fmt::format("creature: {} modelled, {} rig evaluations ({} for the order); validation {:.3g} cm, {:.3g} deg",
+                    a.parameters.size(), a.training.evaluations, a.training.orderEvaluations,
+                    a.validation.maxPositionErrorCm, a.validation.maxRotationErrorDeg));
+    CHECK(a.discarded.empty());
+    REQUIRE(a.parameters.size() == 85);
+    CHECK_FALSE(a.hasUnmodelledOutputs());
+    CHECK(a.validation.withinEpsilon);
+    CHECK(a.validation.maxPositionErrorCm < 1e-6);
+    // Shared controls are exact on each joint, relative to its parent; the limited knee keeps its limits.
+    for (const char* shared : {"spine_ctrl.bendForward", "spine_ctrl.bendSide", "spine_ctrl.twist"})
+        CHECK(modelled(a, shared).form == "per output: 4 rotation");
+    for (const char* shared : {"tail_ctrl.curl", "tail_ctrl.swish"})
+        CHECK(modelled(a, shared).form == "per output: 6 rotation");
+    const ModelledParameter& knee = modelled(a, "L_knee_fk_ctrl.bend");
+    CHECK(knee.form == "rotation");
+    CHECK(knee.parameter.min == doctest::Approx(-10 * degree));
+    CHECK(knee.parameter.max == doctest::Approx(150 * degree));
+
+    // The chest's channels compose between the spine bend's (they share spine4), so they are not an Euler
+    // triple whose other solution is the same pose: continuity must never swap it. The head's are one.
+    const Equivalences equivalences(a);
+    const auto triple = [&](const char* control) {
+        std::array<int, 3> t{};
+        for (int c = 0; c < 3; ++c)
+            t[static_cast<std::size_t>(c)] = indexOf(a, fmt::format("{}.rotate{}", control, "XYZ"[c]));
+        std::sort(t.begin(), t.end());
+        return std::any_of(equivalences.triples.begin(), equivalences.triples.end(), [&](std::array<int, 3> u) {
+            std::sort(u.begin(), u.end());
+            return u == t;
+        });
+    };
+    CHECK_FALSE(triple("chest_ctrl"));
+    CHECK(triple("head_ctrl"));
+
+    RigBinding binding(a, rig);
+    const Solver solver(a, SolverOptions{});
+    std::mt19937 rng(17);
+    for (int pose = 0; pose < 6; ++pose) {
+        CAPTURE(pose);
+        // Every control within 90% of its range, the chest far from rest.
+        std::vector<double> known;
+        for (const auto& m : a.parameters) {
+            const RigParameter& p = m.parameter;
+            known.push_back(std::uniform_real_distribution<double>(
+                p.defaultValue + 0.9 * (p.min - p.defaultValue), p.defaultValue + 0.9 * (p.max - p.defaultValue))(rng));
+        }
+        std::vector<Eigen::Matrix4d> worlds;
+        binding.evaluate(known, worlds);
+        std::vector<JointTarget> targets(worlds.size());
+        for (std::size_t k = 0; k < worlds.size(); ++k) {
+            targets[k].active = true;
+            targets[k].world = worlds[k];
+        }
+        // A cold start, as a clip's restart frame: the guess from the approximation's structure, then the solve.
+        std::vector<double> values = a.defaults();
+        CHECK(solver.initialGuess(targets, values) == TerminationType::converged);
+        const SolveSummary s = solver.solve(targets, values);
+        CAPTURE(s.briefReport());
+        CHECK(s.converged());
+        std::vector<Eigen::Matrix4d> solved;
+        binding.evaluate(values, solved);
+        double positionCm = 0.0, rotationDeg = 0.0;
+        for (std::size_t k = 0; k < worlds.size(); ++k) {
+            positionCm = std::max(positionCm, (solved[k].block<3, 1>(0, 3) - worlds[k].block<3, 1>(0, 3)).norm());
+            const Eigen::AngleAxisd d(
+                Eigen::Matrix3d(solved[k].block<3, 3>(0, 0).transpose() * worlds[k].block<3, 3>(0, 0)));
+            rotationDeg = std::max(rotationDeg, std::abs(d.angle()) / degree);
+        }
+        CHECK(positionCm < 1e-3);
+        CHECK(rotationDeg < 0.02);  // the claw tips' spline driven key is a fitted curve (docs/rigs.md)
+        // The spine's bend and the chest are recovered, not another split of spine4's rotation.
+        for (const char* name : {"spine_ctrl.bendForward", "spine_ctrl.twist", "chest_ctrl.rotateX",
+                                 "chest_ctrl.rotateY", "chest_ctrl.rotateZ"}) {
+            CAPTURE(name);
+            const auto i = static_cast<std::size_t>(indexOf(a, name));
+            CHECK(std::abs(values[i] - known[i]) < 1e-5);
+        }
+    }
+}
+
+TEST_CASE("learning the creature's IK spec: the IK limbs unmodelled, the leg poles' in-plane channels coupled")
+{
+    const InversionSpec s = spec("creature_inversion_ik.yaml");
+    CHECK(s.set.size() == 8);
+    GraphRigFunction rig = creatureRig(s);
+    REQUIRE(rig.parameters().size() == 85);
+    LearnOptions options;
+    options.validationPoses = 10;
+    const Approximation a = learnApproximation(rig, options, "rigs/creature.yaml");
+    CHECK(a.validation.withinEpsilon);
+    CHECK(a.parameters.size() == 81);
+    std::vector<std::string> discarded;
+    for (const auto& d : a.discarded) {
+        CAPTURE(d.reason);
+        CHECK(d.reason.starts_with("no effect on its own, but it changes what other parameters do (coupled"));
+        discarded.push_back(d.parameter.name);
+    }
+    std::sort(discarded.begin(), discarded.end());
+    CHECK(discarded == std::vector<std::string>{"L_leg_pole_ctrl.translateY", "L_leg_pole_ctrl.translateZ",
+                                                "R_leg_pole_ctrl.translateY", "R_leg_pole_ctrl.translateZ"});
+    std::vector<std::string> unmodelled;
+    for (const auto& o : a.outputs)
+        if (!o.modelled) unmodelled.push_back(o.name);
+    CHECK(unmodelled.size() == 18);  // the IK arms (7 joints each) and the thighs and knees
+    for (const char* joint : {"L_upperArm", "R_claw2_tip", "L_thigh", "R_knee"})
+        CHECK(std::find(unmodelled.begin(), unmodelled.end(), joint) != unmodelled.end());
+    for (const char* joint : {"spine4", "head", "tail_end", "L_ankle", "R_toe_end"})
+        CHECK(std::find(unmodelled.begin(), unmodelled.end(), joint) == unmodelled.end());
+}
+
+TEST_CASE("creature: scripts/random_poses.py makes a JSON clip that rig-invert inverts onto the real rig")
+{
+    const auto dir = test::scratchDir("creature-random-poses");
+    const auto approx = dir / "creature.approx.yaml", clip = dir / "clip.json", curves = dir / "curves.json";
+    const auto learned = test::run(fmt::format("{} rigs/creature.yaml --spec rigs/creature_inversion.yaml -o '{}'",
+                                               test::tool("rig-learn"), approx.string()));
+    INFO(learned.err);
+    REQUIRE(learned.exitCode == 0);
+    const auto made =
+        test::run(fmt::format("python3 scripts/random_poses.py '{}' --rig rigs/creature.yaml --poses 4 "
+                              "--graph-eval {} -o '{}'",
+                              approx.string(), test::tool("graph-eval"), clip.string()));
+    INFO(made.err);
+    REQUIRE(made.exitCode == 0);
+    // Independent poses: each frame a restart; the polish takes the claw tips' fitted curve onto the real rig.
+    const auto inverted =
+        test::run(fmt::format("{} '{}' --rig rigs/creature.yaml --clip '{}' --restart-every 1 "
+                              "--polish 2 -o '{}'",
+                              test::tool("rig-invert"), approx.string(), clip.string(), curves.string()));
+    INFO(inverted.out << inverted.err);
+    CHECK(inverted.exitCode == 0);
+    CHECK(inverted.out.find("frames            4 (4 converged to the targets, 0 stuck") != std::string::npos);
+}
