@@ -1,6 +1,7 @@
 #include "inversion/hybrid_solve.h"
 
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 #include <numeric>
 
@@ -9,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/rotation_math.h"
+#include "inversion/continuity.h"
 
 namespace rig {
 
@@ -147,6 +149,8 @@ void HybridSolver::solveFrame(std::span<const JointTarget> targets, std::vector<
     frame.realRigEvaluations = 0;
     SolveSummary& summary = frame.summary;
     if (summary.termination == TerminationType::invalidTargets) return;
+    // Continuity: along a chain, near the frame before; from a restart, near the approximation's answer (the guess).
+    reference_ = previousCost < retryNever ? warm_ : values;
     const SolverOptions& options = solver_.options();
     const double floor = 0.5 * options.targetTolerance * options.targetTolerance;
     bool converged = summary.termination != TerminationType::noConvergence;
@@ -181,6 +185,7 @@ void HybridSolver::solveFrame(std::span<const JointTarget> targets, std::vector<
         summary.gaussNewtonIterations += s.iterations;
         converged = converged && s.converged;
     }
+    keepNearReference(values, frame.realRigEvaluations);
     // The result as the real rig gives it, over every active target.
     binding_.evaluate(values, worlds_);
     ++frame.realRigEvaluations;
@@ -209,6 +214,40 @@ void HybridSolver::solveFrame(std::span<const JointTarget> targets, std::vector<
     if (worst < 0) summary.termination = TerminationType::noTargets;
     else if (!converged) summary.termination = TerminationType::noConvergence;
     else summary.termination = summary.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
+}
+
+bool keepNearReference(const Equivalences& equivalences, std::span<const int> parameters,
+                       std::span<const double> reference, std::vector<double>& values, PoseCheck& samePose)
+{
+    std::vector<double> shifted = values;
+    bool moved = false;
+    for (const int k : parameters) {
+        const auto p = static_cast<std::size_t>(k);
+        const double period = equivalences.period[p];
+        if (!(period > 0)) continue;
+        const double turns = std::round((values[p] - reference[p]) / period);
+        if (turns == 0.0) continue;
+        shifted[p] -= turns * period;
+        moved = true;
+    }
+    if (!moved || !samePose(values, shifted)) return false;
+    values.swap(shifted);
+    return true;
+}
+
+void HybridSolver::keepNearReference(std::vector<double>& values, int& evaluations)
+{
+    PoseCheck samePose(solver_.approximation(), &binding_);
+    for (const HybridBlock& block : blocks_) {
+        const Equivalences& e = solver_.equivalences();
+        const bool wound = std::any_of(block.parameters.begin(), block.parameters.end(), [&](int k) {
+            const auto p = static_cast<std::size_t>(k);
+            return e.period[p] > 0 && std::abs(values[p] - reference_[p]) > 0.5 * e.period[p];
+        });
+        if (!wound) continue;
+        evaluations += 2;
+        rig::keepNearReference(e, block.parameters, reference_, values, samePose);
+    }
 }
 
 std::string HybridSolver::describe() const

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "inversion/clip_inversion.h"
+#include "inversion/continuity.h"
 #include "inversion/real_rig_solve.h"
 
 namespace rig {
@@ -25,6 +26,13 @@ struct HybridBlock {
 // The blocks of an approximation: the parameters with unmodelled outputs, grouped where they move a common
 // output. Empty when every output is modelled.
 std::vector<HybridBlock> hybridBlocks(const Approximation& approximation);
+
+// Takes back the whole turns (Equivalences::period) that put a periodic one of `parameters` more than half a turn
+// from `reference`, where `samePose` finds the pose unchanged (else `values` stay); returns whether it did. The
+// real-rig stage of a hybrid solve has no trust region on angles: a control it winds onto an equivalent pose comes
+// back within half a turn of the frame before, or of the approximation's answer at a restart.
+bool keepNearReference(const Equivalences& equivalences, std::span<const int> parameters,
+                       std::span<const double> reference, std::vector<double>& values, PoseCheck& samePose);
 
 class HybridSolver {
 public:
@@ -42,7 +50,8 @@ public:
     // costs, worst errors, missed outputs; converged when every target is within targetTolerance there, stuck
     // when a tolerance was met with a target further (out of reach: a saturated IK), noConvergence when the
     // approximation's solve or a block used its iterations. frame.realRigEvaluations counts this frame's
-    // real-rig evaluations (the final measurement included).
+    // real-rig evaluations (the final measurement included). Whole turns the real-rig stage wound a periodic control
+    // by are taken back (keepNearReference).
     void solveFrame(std::span<const JointTarget> targets, std::vector<double>& values, double previousCost,
                     ChainScratch& scratch, ChainFrame& frame);
 
@@ -61,12 +70,15 @@ private:
     RealRigSolve continuation(std::size_t b, std::span<const JointTarget> targets, std::vector<double>& values,
                               int& evaluations);
     static constexpr int continuationSteps = 4;
+    // rig::keepNearReference for each block toward reference_, on the real rig and the approximation (two
+    // real-rig evaluations per block wound past half a turn, added to `evaluations`).
+    void keepNearReference(std::vector<double>& values, int& evaluations);
 
     const Solver& solver_;
     RigBinding& binding_;
     std::vector<HybridBlock> blocks_;
     std::vector<std::unique_ptr<RealRigProblem>> problems_;  // one per block
-    std::vector<double> x_, start_, warm_;
+    std::vector<double> x_, start_, warm_, reference_;
     Eigen::VectorXd residual_;
     std::vector<Eigen::Matrix4d> worlds_;
     std::vector<JointTarget> blended_;

@@ -6,6 +6,9 @@
 #include <cmath>
 #include <string>
 #include <utility>
+#include <variant>
+
+#include <fmt/format.h>
 
 #include "core/error.h"
 
@@ -59,22 +62,23 @@ std::string formatNumber(double value)
     return std::string(buffer.data(), result.ptr);
 }
 
-void validate(const std::vector<AnimKey>& keys)
+std::optional<AnimKeyProblem> validate(const std::vector<AnimKey>& keys)
 {
     for (std::size_t i = 0; i < keys.size(); ++i) {
-        const std::string prefix = "key " + std::to_string(i) + ": ";
         for (const auto& [label, value] : {std::pair{"x", keys[i].x}, std::pair{"y", keys[i].y}}) {
-            if (!std::isfinite(value)) {
-                throw Error(prefix + label + " " + formatNumber(value) +
-                            " is not finite (keys must have finite x and y)");
-            }
+            if (!std::isfinite(value))
+                return AnimKeyProblem{
+                    i, fmt::format("{} {} is not finite (keys must have finite x and y)", label, formatNumber(value))};
         }
         if (i > 0 && !(keys[i].x > keys[i - 1].x)) {
-            throw Error(prefix + "x " + formatNumber(keys[i].x) + " is not greater than the previous key's x " +
-                        formatNumber(keys[i - 1].x) + " (keys must be strictly increasing)");
+            return AnimKeyProblem{i, "x " + formatNumber(keys[i].x) + " is not greater than the previous key's x " +
+                                         formatNumber(keys[i - 1].x) + " (keys must be strictly increasing)"};
         }
     }
+    return std::nullopt;
 }
+
+bool isCyclic(Infinity mode) { return mode != Infinity::constant && mode != Infinity::linear; }
 
 enum class Side { in, out };
 
@@ -132,7 +136,15 @@ std::string_view infinityName(Infinity mode) { return lookupName(infinityNames, 
 
 AnimCurve AnimCurve::build(std::vector<AnimKey> keys, Infinity pre, Infinity post)
 {
-    validate(keys);
+    auto built = tryBuild(std::move(keys), pre, post);
+    if (const auto* problem = std::get_if<AnimKeyProblem>(&built))
+        throw Error("key " + std::to_string(problem->key) + ": " + problem->what);
+    return std::get<AnimCurve>(std::move(built));
+}
+
+std::variant<AnimCurve, AnimKeyProblem> AnimCurve::tryBuild(std::vector<AnimKey> keys, Infinity pre, Infinity post)
+{
+    if (auto problem = validate(keys)) return *std::move(problem);
 
     AnimCurve curve;
     curve.pre_ = pre;
@@ -166,7 +178,33 @@ AnimCurve AnimCurve::build(std::vector<AnimKey> keys, Infinity pre, Infinity pos
     }
 
     curve.keys_ = std::move(keys);
+    if (auto problem = curve.overflow()) return *std::move(problem);
     return curve;
+}
+
+// Finite keys can still be too far apart for doubles: +-1.7e308 a frame apart have an infinite slope, and a
+// cubic with an infinite coefficient evaluates to NaN between them.
+std::optional<AnimKeyProblem> AnimCurve::overflow() const
+{
+    const auto problem = [&](std::size_t i, const char* what) {
+        return AnimKeyProblem{i, "the curve overflows at this key (x " + formatNumber(keys_[i].x) + ", y " +
+                                     formatNumber(keys_[i].y) + "): " + what +
+                                     " is not a finite number; bring the keys' values nearer each other or the keys "
+                                     "further apart"};
+    };
+    for (std::size_t i = 0; i < keys_.size(); ++i) {
+        if (!std::isfinite(inSlopes_[i]) || !std::isfinite(outSlopes_[i])) return problem(i, "a tangent's slope");
+        if (i >= segments_.size()) continue;
+        const Segment& s = segments_[i];
+        if (!std::isfinite(s.width) || !std::isfinite(s.c1) || !std::isfinite(s.c2) || !std::isfinite(s.c3))
+            return problem(i, "the cubic to the next key");
+    }
+    if (keys_.size() < 2 || !(isCyclic(pre_) || isCyclic(post_))) return std::nullopt;
+    const AnimKey& first = keys_.front();
+    const AnimKey& last = keys_.back();
+    if (!std::isfinite(last.x - first.x) || !std::isfinite(last.y - first.y))
+        return problem(keys_.size() - 1, "the keyed range, which a cyclic infinity repeats,");
+    return std::nullopt;
 }
 
 double AnimCurve::evaluate(double x) const

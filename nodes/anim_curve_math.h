@@ -57,7 +57,9 @@
 #include <cstddef>
 #include <optional>
 #include <span>
+#include <string>
 #include <string_view>
+#include <variant>
 #include <vector>
 
 namespace rig {
@@ -83,15 +85,27 @@ struct AnimKey {
     TangentType outTangent;
 };
 
+// Why keys make no curve: the first key at fault (its index) and what is wrong with it.
+struct AnimKeyProblem {
+    std::size_t key = 0;
+    std::string what;
+};
+
 class AnimCurve {
 public:
     // An empty curve; evaluates to 0 everywhere, same as build({}).
     AnimCurve() = default;
 
-    // Throws rig::Error if a key's x or y is not finite or the keys
-    // are not strictly increasing in x; the message names the key index.
+    // Throws rig::Error "key I: what" for tryBuild's problem.
     static AnimCurve build(std::vector<AnimKey> keys, Infinity pre = Infinity::constant,
                            Infinity post = Infinity::constant);
+    // The curve, or the first key it cannot be built from: a key's x or y not finite, x not strictly
+    // increasing, or keys so far apart that a tangent's slope, the cubic to the next key or the range a
+    // cyclic infinity repeats overflows a double (the curve would play NaN). Readers that know where each key
+    // is written (.anim files) report the problem there.
+    static std::variant<AnimCurve, AnimKeyProblem> tryBuild(std::vector<AnimKey> keys,
+                                                            Infinity pre = Infinity::constant,
+                                                            Infinity post = Infinity::constant);
 
     double evaluate(double x) const;
 
@@ -126,6 +140,7 @@ private:
     std::size_t keyIndexAtOrBefore(double x) const;
     double evaluateInRange(double x) const;
     double derivativeInRange(double x) const;
+    std::optional<AnimKeyProblem> overflow() const;
 
     std::vector<AnimKey> keys_;
     std::vector<double> inSlopes_;

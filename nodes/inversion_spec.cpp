@@ -108,9 +108,9 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
             "{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs (and 'set:', a map)", at(root)));
     for (const auto& entry : root) {
         if (!entry.first.IsScalar())
-            throw Error(
-                fmt::format("{}: a key of a spec is a list or a map; a spec has 'params:', 'outputs:' and 'set:'",
-                            at(entry.first)));
+            throw Error(fmt::format(
+                "{}: a key of a spec is a list or a map; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'",
+                at(entry.first)));
         const std::string key = entry.first.Scalar();
         if (key == "set") {
             readSet(spec, entry.second, at);

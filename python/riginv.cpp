@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -62,10 +63,116 @@ py::object toPython(const cli::Json& json)
     }
 }
 
-// A path argument: str or os.PathLike.
-std::string pathText(const py::handle& path) { return py::str(py::module_::import("os").attr("fspath")(path)); }
-
 std::string typeName(const py::handle& value) { return py::str(py::type::handle_of(value).attr("__name__")); }
+
+// Arguments are taken as Python objects and converted here, so that a value of the wrong type is a one-line
+// riginv.Error naming the argument, not pybind11's TypeError listing the signature over several lines.
+
+// A path argument `what`: str or os.PathLike.
+std::string pathText(const py::handle& path, std::string_view what)
+{
+    if (!py::isinstance<py::str>(path) && !py::hasattr(path, "__fspath__"))
+        throw Error(fmt::format("{}: expected a path (str or os.PathLike), got a {}", what, typeName(path)));
+    return py::str(py::module_::import("os").attr("fspath")(path));
+}
+
+std::string textArgument(const py::handle& value, std::string_view what)
+{
+    if (!py::isinstance<py::str>(value))
+        throw Error(fmt::format("{}: expected a str, got a {}", what, typeName(value)));
+    return value.cast<std::string>();
+}
+
+// A list (or tuple) of str; a str alone is refused, since it would be read as its letters.
+std::vector<std::string> textList(const py::handle& value, std::string_view what)
+{
+    if (py::isinstance<py::str>(value))
+        throw Error(fmt::format("{}: expected a list of str, got a str; put it in a list: ['{}']", what,
+                                messageExcerpt(value.cast<std::string>())));
+    if (!py::isinstance<py::list>(value) && !py::isinstance<py::tuple>(value))
+        throw Error(fmt::format("{}: expected a list of str, got a {}", what, typeName(value)));
+    std::vector<std::string> out;
+    for (const auto& item : value) {
+        if (!py::isinstance<py::str>(item))
+            throw Error(fmt::format("{}: expected a list of str, got a {} holding a {}", what, typeName(value),
+                                    typeName(item)));
+        out.push_back(item.cast<std::string>());
+    }
+    return out;
+}
+
+// A NumPy scalar (numpy.int64(3), numpy.float32(0.5), numpy.bool_(True)) as the Python scalar it holds, so that
+// it is taken wherever a Python number is; anything else as it is.
+py::object plainScalar(const py::handle& value)
+{
+    const py::object numpy = py::module_::import("numpy");
+    if (py::isinstance(value, numpy.attr("generic"))) return value.attr("item")();
+    return py::reinterpret_borrow<py::object>(value);
+}
+
+// A number argument (an int, a float or a NumPy scalar of either; not a bool) as a double: an int too large
+// for a double is infinite, for the caller's check of finite values to refuse. Empty when it is no number.
+std::optional<double> numberOf(const py::handle& value)
+{
+    const py::object v = plainScalar(value);
+    if (py::isinstance<py::bool_>(v)) return std::nullopt;
+    if (py::isinstance<py::float_>(v)) return v.cast<double>();
+    if (!py::isinstance<py::int_>(v)) return std::nullopt;
+    const double x = PyLong_AsDouble(v.ptr());
+    if (x == -1.0 && PyErr_Occurred()) {
+        PyErr_Clear();  // OverflowError: past the largest double
+        return v > py::int_(0) ? HUGE_VAL : -HUGE_VAL;
+    }
+    return x;
+}
+
+// True or False (a Python or NumPy bool).
+bool flagArgument(const py::handle& value, std::string_view what)
+{
+    const py::object v = plainScalar(value);
+    if (!py::isinstance<py::bool_>(v))
+        throw Error(fmt::format("{}: expected True or False, got a {}", what, typeName(value)));
+    return v.cast<bool>();
+}
+
+// None or a dict.
+std::optional<py::dict> dictArgument(const py::handle& value, std::string_view what)
+{
+    if (value.is_none()) return std::nullopt;
+    if (!py::isinstance<py::dict>(value))
+        throw Error(fmt::format("{}: expected None or a dict {{plug: value}}, got a {}", what, typeName(value)));
+    return py::reinterpret_borrow<py::dict>(value);
+}
+
+// None or a callable, called with the GIL held.
+void checkProgress(const py::handle& progress)
+{
+    if (!progress.is_none() && !PyCallable_Check(progress.ptr()))
+        throw Error(fmt::format("progress: expected None or a callable, got a {}", typeName(progress)));
+}
+
+// A number argument named `what`, refused with riginv.Error when it is something else.
+double numberArgument(const py::handle& value, std::string_view what)
+{
+    if (const auto x = numberOf(value)) return *x;
+    throw Error(fmt::format("{}: expected a number, got a {}", what, typeName(value)));
+}
+
+// A whole-number argument named `what` (an int or a NumPy integer), refused when it is something else or
+// past what an int holds.
+int intArgument(const py::handle& value, std::string_view what)
+{
+    const py::object v = plainScalar(value);
+    if (py::isinstance<py::bool_>(v) || !py::isinstance<py::int_>(v))
+        throw Error(fmt::format("{}: expected a whole number, got a {}", what, typeName(value)));
+    int overflow = 0;
+    const long long x = PyLong_AsLongLongAndOverflow(v.ptr(), &overflow);
+    if (overflow != 0 || x < std::numeric_limits<int>::min() || x > std::numeric_limits<int>::max())
+        throw Error(fmt::format("{}: {} is out of range; give a whole number from {} to {}", what,
+                                messageExcerpt(std::string(py::str(v))), std::numeric_limits<int>::min(),
+                                std::numeric_limits<int>::max()));
+    return static_cast<int>(x);
+}
 
 // ---------------------------------------------------------------------------------------------------------
 // Graph
@@ -161,18 +268,19 @@ py::object plugArray(const Graph& graph, const Plug& plug, const std::vector<Val
 
 class PyGraph {
 public:
-    static PyGraph load(const py::object& path, const std::vector<std::string>& plugins)
+    static PyGraph load(const py::object& path, const py::object& plugins)
     {
         PyGraph g;
-        g.file_ = pathText(path);
-        g.registry_ = cli::nodeRegistry(plugins);
+        g.file_ = pathText(path, "path");
+        g.registry_ = cli::nodeRegistry(textList(plugins, "plugins"));
         g.graph_ = loadGraphFile(g.file_, g.registry_);
         return g;
     }
 
-    py::dict evaluate(const py::object& get, const std::optional<py::dict>& set, const py::object& frames)
+    py::dict evaluate(const py::object& get, const py::object& setArgument, const py::object& frames)
     {
         Graph& graph = *graph_;
+        const auto set = dictArgument(setArgument, "set");
         if (set)
             for (const auto& [key, value] : *set) {
                 const std::string name = py::str(key);
@@ -183,20 +291,7 @@ public:
         const bool setTime = !frames.is_none();
         if (py::isinstance<py::str>(frames))
             numbers = cli::parseFrameRange(frames.cast<std::string>(), "--frames").frames();
-        else if (setTime) {
-            try {
-                numbers = frames.cast<std::vector<double>>();
-            }
-            catch (const py::cast_error&) {
-                throw py::type_error(
-                    fmt::format("frames: expected None, 'A:B[:STEP]' or a list of frame numbers; "
-                                "got a {}",
-                                typeName(frames)));
-            }
-            if (numbers.empty()) throw Error("frames: an empty list; give frame numbers, or 'A:B[:STEP]'");
-            for (const double frame : numbers)
-                if (!std::isfinite(frame)) throw Error(fmt::format("frames: {} is not a frame number", frame));
-        }
+        else if (setTime) numbers = frameNumbers(frames);
         std::vector<std::string> patterns;
         if (py::isinstance<py::str>(get)) patterns.push_back(get.cast<std::string>());
         else if (!get.is_none()) {
@@ -204,7 +299,7 @@ public:
                 patterns = get.cast<std::vector<std::string>>();
             }
             catch (const py::cast_error&) {
-                throw py::type_error(
+                throw Error(
                     fmt::format("get: expected None, a plug name or glob, or a list of them; got a {}", typeName(get)));
             }
         }
@@ -213,6 +308,10 @@ public:
         std::vector<std::vector<Value>> columns(plugs.size());
         for (const double frame : numbers) {
             auto values = cli::evaluateFrame(graph, file_, frame, setTime, plugs);
+            // graph-eval's limit, measured as graph-eval measures it: its JSON for as many frames as the first.
+            if (columns.empty() || columns.front().empty())
+                cli::checkOutputSize(cli::jsonOutputEstimate(graph, plugs, frame, values, numbers.size()),
+                                     numbers.size(), plugs.size());
             for (std::size_t i = 0; i < plugs.size(); ++i) columns[i].push_back(std::move(values[i]));
         }
         py::dict out;
@@ -221,10 +320,36 @@ public:
         return out;
     }
 
-    std::vector<std::string> plugs(const std::string& glob)
+    // A list (or array) of frame numbers: Python or NumPy numbers, finite.
+    static std::vector<double> frameNumbers(const py::object& frames)
+    {
+        const auto wrongType = [&](const std::string& got) {
+            return Error(fmt::format("frames: expected None, 'A:B[:STEP]' or a list of frame numbers; got {}", got));
+        };
+        std::vector<py::object> items;
+        try {
+            items = frames.cast<std::vector<py::object>>();
+        }
+        catch (const py::cast_error&) {
+            throw wrongType("a " + typeName(frames));
+        }
+        if (items.empty()) throw Error("frames: an empty list; give frame numbers, or 'A:B[:STEP]'");
+        std::vector<double> numbers;
+        for (const py::object& item : items) {
+            const auto frame = numberOf(item);
+            if (!frame) throw wrongType(fmt::format("a {} holding a {}", typeName(frames), typeName(item)));
+            if (!std::isfinite(*frame))
+                throw Error(
+                    fmt::format("frames: {} is not a frame number", messageExcerpt(std::string(py::str(item)))));
+            numbers.push_back(*frame);
+        }
+        return numbers;
+    }
+
+    std::vector<std::string> plugs(const py::object& glob)
     {
         std::vector<std::string> names;
-        for (const Plug& p : cli::selectPlugs(*graph_, file_, {glob}, std::nullopt))
+        for (const Plug& p : cli::selectPlugs(*graph_, file_, {textArgument(glob, "glob")}, std::nullopt))
             names.push_back(graph_->plugName(p));
         return names;
     }
@@ -271,32 +396,59 @@ public:
     static PyApproximation load(const py::object& path)
     {
         PyApproximation a;
-        a.file_ = pathText(path);
+        a.file_ = pathText(path, "path");
         a.approximation_ = std::make_shared<const Approximation>(readApproximationFile(*a.file_));
         return a;
     }
 
-    static PyApproximation learn(const py::object& rig, const std::vector<std::string>& params,
-                                 const std::vector<std::string>& outputs, double epsilon, const std::string& orderer,
-                                 const py::object& progress, const std::vector<std::string>& plugins, bool worldSpace,
-                                 const std::optional<py::dict>& set)
+    static PyApproximation learn(const py::object& rig, const py::object& params, const py::object& outputs,
+                                 const py::object& epsilon, const py::object& orderer, const py::object& progress,
+                                 const py::object& plugins, const py::object& worldSpace, const py::object& setArgument,
+                                 const py::object& rangesArgument)
     {
-        if (params.empty()) throw Error("params: give one or more parameter plug globs (rig-learn --params)");
-        cli::LearnJob job{pathText(rig), params, outputs, plugins, {}, {}};
+        cli::LearnJob job{pathText(rig, "rig_path"),
+                          textList(params, "params"),
+                          textList(outputs, "outputs"),
+                          textList(plugins, "plugins"),
+                          {},
+                          {}};
+        if (job.params.empty()) throw Error("params: give one or more parameter plug globs (rig-learn --params)");
+        checkProgress(progress);
+        const auto set = dictArgument(setArgument, "set");
         if (set)
             for (const auto& [key, value] : *set) {
                 if (!py::isinstance<py::str>(key))
                     throw Error(fmt::format("set: a key is a {}, not a plug name (str)", typeName(key)));
                 const std::string plug = py::str(key);
-                if (py::isinstance<py::bool_>(value) ||
-                    !(py::isinstance<py::float_>(value) || py::isinstance<py::int_>(value)))
+                const auto x = numberOf(value);
+                if (!x)
                     throw Error(fmt::format("set['{}']: expected a number (the rig file's units), got a {}", plug,
                                             typeName(value)));
-                job.held.push_back({plug, value.cast<double>()});
+                if (!std::isfinite(*x))
+                    throw Error(
+                        fmt::format("set['{}']: {} is not a finite number; give a finite number in the rig "
+                                    "file's units (degrees for angles)",
+                                    plug, messageExcerpt(std::string(py::str(value)))));
+                job.held.push_back({plug, *x});
             }
-        job.options.epsilon = cli::parseEpsilon(fmt::format("{}", epsilon));
-        job.options.orderer = cli::ordererFromName(orderer);
-        job.options.relativeFrames = !worldSpace;
+        if (const auto ranges = dictArgument(rangesArgument, "ranges"))
+            for (const auto& [key, value] : *ranges) {
+                const std::string glob = py::isinstance<py::str>(key) ? std::string(py::str(key)) : std::string();
+                std::optional<double> low, high;
+                if (py::isinstance<py::sequence>(value) && !py::isinstance<py::str>(value) && py::len(value) == 2) {
+                    low = numberOf(value[py::int_(0)]);
+                    high = numberOf(value[py::int_(1)]);
+                }
+                if (glob.empty() || !low || !high || !std::isfinite(*low) || !std::isfinite(*high) || !(*low < *high))
+                    throw Error(
+                        fmt::format("ranges: give {{parameter glob: [min, max]}} with finite min < max in the "
+                                    "rig file's units (a spec's ranges:), got a {} for '{}'",
+                                    typeName(value), messageExcerpt(glob)));
+                job.ranges.push_back({glob, *low, *high});
+            }
+        job.options.epsilon = cli::parseEpsilon(fmt::format("{}", numberArgument(epsilon, "epsilon")));
+        job.options.orderer = cli::ordererFromName(textArgument(orderer, "orderer"));
+        job.options.relativeFrames = !flagArgument(worldSpace, "world_space");
         ProgressToPython onProgress(progress);
         job.options.progress = [&](std::string_view stage, double fraction) {
             onProgress(cli::learningFraction(stage, fraction), 1.0);
@@ -318,9 +470,10 @@ public:
         return a;
     }
 
-    void save(const py::object& path, bool allowInexact)
+    void save(const py::object& path, const py::object& allowInexactArgument)
     {
-        const std::string file = pathText(path);
+        const std::string file = pathText(path, "path");
+        const bool allowInexact = flagArgument(allowInexactArgument, "allow_inexact");
         if (const std::string failure = cli::validationFailure(*approximation_); !failure.empty() && !allowInexact)
             throw Error(
                 fmt::format("{}; {} not written (save(path, allow_inexact=True) writes it anyway)", failure, file));
@@ -336,27 +489,29 @@ public:
         return toPython(cli::learnReport(*learned_, rig_, file_, file_.has_value()));
     }
 
-    py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map, int threads,
-                     int restartEvery, int polish, const py::object& progress, const std::vector<std::string>& plugins,
-                     const std::optional<std::string>& frames) const
+    py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map, const py::object& threads,
+                     const py::object& restartEvery, const py::object& polish, const py::object& progress,
+                     const py::object& plugins, const py::object& frames) const
     {
         cli::InvertJob job;
         job.approximation = approximation_;
         job.approximationName = name();
-        job.rig = pathText(rig);
-        job.plugins = plugins;
+        job.rig = pathText(rig, "rig");
+        job.plugins = textList(plugins, "plugins");
         if (py::isinstance<py::dict>(targets)) job.targets = targetClip(targets.cast<py::dict>());
-        else if (py::isinstance<py::str>(targets) || py::hasattr(targets, "__fspath__")) job.clip = pathText(targets);
+        else if (py::isinstance<py::str>(targets) || py::hasattr(targets, "__fspath__"))
+            job.clip = pathText(targets, "targets");
         else
-            throw py::type_error(
+            throw Error(
                 fmt::format("targets: expected a dict from joint name to an (F, 4, 4) float64 array, "
                             "or a clip path (.bvh or .json); got a {}",
                             typeName(targets)));
-        if (!map.is_none()) job.map = pathText(map);
-        job.frames = frames;
-        job.settings.threads = threads;
-        job.settings.restartEvery = restartEvery;
-        job.settings.polish = polish;
+        if (!map.is_none()) job.map = pathText(map, "map");
+        if (!frames.is_none()) job.frames = textArgument(frames, "frames");
+        checkProgress(progress);
+        job.settings.threads = intArgument(threads, "threads");
+        job.settings.restartEvery = intArgument(restartEvery, "restart_every");
+        job.settings.polish = intArgument(polish, "polish");
         ProgressToPython onProgress(progress);
         job.progress = [&](int done, int total) { onProgress(done, total); };
         job.warning = [](const std::string& warning) {
@@ -507,7 +662,7 @@ PYBIND11_MODULE(riginv, m)
     });
 
     py::class_<PyGraph>(m, "Graph", "A rig graph (a YAML rig file) loaded into its own stateful instance.")
-        .def_static("load", &PyGraph::load, py::arg("path"), py::arg("plugins") = std::vector<std::string>{},
+        .def_static("load", &PyGraph::load, py::arg("path"), py::arg("plugins") = py::list(),
                     "Loads a rig file (docs/rig-format.md) after the built-in node types and the plugins named "
                     "(as graph-eval --plugin). Raises riginv.Error with graph-eval's message for a bad file.")
         .def("evaluate", &PyGraph::evaluate, py::arg("get") = py::none(), py::arg("set") = py::none(),
@@ -540,7 +695,7 @@ PYBIND11_MODULE(riginv, m)
              "--allow-inexact).")
         .def("invert", &PyApproximation::invert, py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(),
              py::arg("threads") = 1, py::arg("restart_every") = 120, py::arg("polish") = 0,
-             py::arg("progress") = py::none(), py::kw_only(), py::arg("plugins") = std::vector<std::string>{},
+             py::arg("progress") = py::none(), py::kw_only(), py::arg("plugins") = py::list(),
              py::arg("frames") = py::none(),
              "Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).\n\n"
              "targets: a dict {joint: (F, 4, 4) float64 array of world matrices, cm}, frames numbered 0 to F - 1, "
@@ -571,16 +726,18 @@ PYBIND11_MODULE(riginv, m)
                                a.parameters().size(), a.outputs().size());
         });
 
-    m.def("learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"),
-          py::arg("outputs") = std::vector<std::string>{}, py::arg("epsilon") = 0.001,
-          py::arg("orderer") = "structured", py::arg("progress") = py::none(), py::kw_only(),
-          py::arg("plugins") = std::vector<std::string>{}, py::arg("world_space") = false, py::arg("set") = py::none(),
-          "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
-          "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
-          "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "
-          "plugins, world_space: rig-learn's --plugin and --world-space; set: {plug: value}, plugs held at a "
-          "value while learning, in the rig file's units (rig-learn --set).\n"
-          "progress: called as progress(fraction done, 1.0), with the GIL held.\n"
-          "An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses it. "
-          "The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s).");
+    m.def(
+        "learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"), py::arg("outputs") = py::list(),
+        py::arg("epsilon") = 0.001, py::arg("orderer") = "structured", py::arg("progress") = py::none(), py::kw_only(),
+        py::arg("plugins") = py::list(), py::arg("world_space") = false, py::arg("set") = py::none(),
+        py::arg("ranges") = py::none(),
+        "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
+        "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
+        "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "
+        "plugins, world_space: rig-learn's --plugin and --world-space; set: {plug: value}, plugs held at a "
+        "value while learning, in the rig file's units (rig-learn --set); ranges: {parameter glob: [min, max]}, where "
+        "controls without declared limits are learned (a spec's ranges:).\n"
+        "progress: called as progress(fraction done, 1.0), with the GIL held.\n"
+        "An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses it. "
+        "The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s).");
 }

@@ -120,6 +120,7 @@ def learn(
     plugins: Sequence[str] = [],
     world_space: bool = False,
     set: Optional[Mapping[str, float]] = None,
+    ranges: Optional[Mapping[str, Sequence[float]]] = None,
 ) -> Approximation:
     """Learns a rig's approximation, as rig-learn, and returns an Approximation.
 

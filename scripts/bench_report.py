@@ -290,10 +290,11 @@ def scaling_block(b):
     rows = []
     for r in b["scaling"]:
         rows.append((f"{r['rig']} {r['count']}", r["parameters"], r["modelled"], r["blocks"], num(r["ms_per_frame"]),
-                     f"{r['converged_frames']}/{r['frames']}", num(r["jacobian_ms"]), num(r["blackbox_jacobian_ms"]),
+                     f"{r['status_frames']['reached']}/{r['frames']}", num(r["jacobian_ms"]),
+                     num(r["blackbox_jacobian_ms"]),
                      num(r["train_evaluations"]), num(r["train_seconds"]), num(r["memory_mb"]),
                      num(r["approximation_kb"]), num(r["max_position_error_cm"])))
-    return table(["rig", "parameters", "modelled", "blocks", "ms/frame", "converged", "Jacobian ms", "black-box "
+    return table(["rig", "parameters", "modelled", "blocks", "ms/frame", "reached", "Jacobian ms", "black-box "
                   "Jacobian ms", "training evaluations", "training s", "peak memory MB", "approximation KB",
                   "worst cm"], rows)
 

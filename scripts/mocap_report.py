@@ -15,11 +15,15 @@ import re
 import sys
 
 
-def stuck_joints(report, shown=4):
-    """The joints stuck frames left short of their targets, the largest real-rig error first:
+STATUS_WORDS = {"reached": "reached", "best_fit": "best fit", "model_mismatch": "model mismatch",
+                "not_converged": "not converged", "non_finite": "non-finite", "invalid_targets": "invalid targets"}
+
+
+def residual_joints(report, shown=4):
+    """The joints the real rig leaves off their targets, the largest error first:
     'A (1.4 cm, 239 frames), B (...) and N more'."""
-    joints = sorted(report["stuck_joints"].items(), key=lambda item: -item[1]["worst_position_error_cm"])
-    text = ", ".join(f"{name} ({j['worst_position_error_cm']:.3g} cm, "
+    joints = sorted(report["residual_joints"].items(), key=lambda item: -(item[1]["worst_error_cm"] or 0))
+    text = ", ".join(f"{name} ({j['worst_error_cm']:.3g} cm, "
                      f"{j['frames']} frame{'' if j['frames'] == 1 else 's'})"
                      for name, j in joints[:shown])
     if len(joints) > shown:
@@ -41,16 +45,15 @@ def main(graph_curves, invert_curves, invert_report, graph_stats):
                 continue
             worst = max(worst, abs(g[name] - value))
     per_frame = re.search(r"([0-9.e+-]+) ms per frame", stats)
-    frames, converged, stuck = report["frames"], report["converged_frames"], report["stuck_frames"]
-    print(f"frames            {frames}: {converged} converged to the targets, {stuck} stuck "
-          "(stationary with a residual),"
-          f" {frames - converged - stuck} not converged")
-    if report["stuck_joints"]:
-        print(f"stuck joints      {stuck_joints(report)}")
-    print(f"real-rig error    worst {report['max_position_error_cm']:.3g} cm, "
-          f"{report['max_rotation_error_deg']:.3g} deg"
-          f" ({report['worst_joint']} at frame {report['worst_frame']});"
-          f" mean {report['mean_position_error_cm']:.3g} cm, {report['mean_rotation_error_deg']:.3g} deg")
+    counts = ", ".join(f"{n} {STATUS_WORDS[key]}" for key, n in report["status_frames"].items() if n)
+    print(f"frames            {report['frames']}: {counts} (judged on the real rig: reached, every target within "
+          "1e-3 cm; best fit, the closest the rig can take the pose, where the approximation agrees with it)")
+    if report["residual_joints"]:
+        print(f"residual joints   {residual_joints(report)}")
+    print(f"real-rig error    worst {report['max_position_error_cm']:.3g} cm ({report['worst_joint']} at frame "
+          f"{report['worst_frame']}), {report['max_rotation_error_deg']:.3g} deg ({report['worst_rotation_joint']} "
+          f"at frame {report['worst_rotation_frame']}); mean {report['mean_position_error_cm']:.3g} cm, "
+          f"{report['mean_rotation_error_deg']:.3g} deg")
     print(f"time per frame    {per_frame.group(1) if per_frame else '?'} ms through the graph (clip, solve and rig);"
           f" {report['ms_per_frame']:.3g} ms solving (rig-invert)")
     print(f"graph = rig-invert  {'yes' if worst <= 1e-9 else 'NO'} (largest difference {worst:.2g})")

@@ -45,4 +45,17 @@ std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const st
 std::vector<Value> evaluateFrame(Graph& graph, const std::string& rigName, double frame, bool setTime,
                                  std::span<const Plug> plugs, bool check = false);
 
+// graph-eval's output and the Python module's arrays are built in memory: past this size the request is
+// refused rather than exhausting the memory. A CSV of every joint matrix of the biped over 10000 frames is
+// about 300 MB.
+inline constexpr std::size_t maxOutputBytes = std::size_t{1} << 30;
+
+// rig::Error when `bytes` (an output's size, or its estimate) is over maxOutputBytes, naming the request.
+void checkOutputSize(double bytes, std::size_t frames, std::size_t plugs);
+
+// The size of graph-eval's JSON output for `frames` frames like this first one (`values` of `plugs` at
+// `frame`): what Graph.evaluate checks, so that it refuses what graph-eval refuses.
+double jsonOutputEstimate(const Graph& graph, std::span<const Plug> plugs, double frame,
+                          const std::vector<Value>& values, std::size_t frames);
+
 }  // namespace rig::cli

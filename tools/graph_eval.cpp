@@ -69,11 +69,6 @@ std::string joinCsv(const std::vector<std::vector<std::string>>& rows)
     return out;
 }
 
-// The output is built in memory (and written atomically): past this size the run stops with an error
-// instead of exhausting the memory. A CSV of every joint matrix of the biped over 10000 frames is
-// about 300 MB.
-constexpr std::size_t maxOutputBytes = std::size_t{1} << 30;
-
 std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vector<double>& frames, bool useTime,
                    const Options& options)
 {
@@ -85,11 +80,7 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
         // After the first frame, the size of the whole output is estimated; later the real size is checked.
         const double estimate = framesDone == 1 ? static_cast<double>(bytes) * static_cast<double>(frames.size())
                                                 : static_cast<double>(bytes);
-        if (estimate > static_cast<double>(maxOutputBytes))
-            throw Error(
-                fmt::format("the output would be about {} MB ({} frames of {} plugs), more than the limit of {} "
-                            "MB; ask for fewer frames (--frames) or plugs (--get)",
-                            static_cast<long long>(estimate / 1e6), frames.size(), plugs.size(), maxOutputBytes >> 20));
+        cli::checkOutputSize(estimate, frames.size(), plugs.size());
     };
     std::size_t framesDone = 0;
     for (double frame : frames) {

@@ -71,6 +71,17 @@ void checkKeySettings(const KeySettings& settings)
     if (!(settings.toleranceDeg > 0.0) || !std::isfinite(settings.toleranceDeg))
         throw Error(
             fmt::format("--key-tolerance-deg {}: give a positive angle in degrees (e.g. 0.5)", settings.toleranceDeg));
+    // Below the floors the round-off of the rig's own evaluation is over the tolerance, even on the dense pose.
+    if (settings.toleranceCm < KeyReductionOptions::minToleranceCm)
+        throw Error(fmt::format(
+            "--key-tolerance {}: below {} cm, joint positions differ by their round-off; give "
+            "a distance of at least {} cm (e.g. 0.1)",
+            settings.toleranceCm, KeyReductionOptions::minToleranceCm, KeyReductionOptions::minToleranceCm));
+    if (settings.toleranceDeg < KeyReductionOptions::minToleranceDeg)
+        throw Error(fmt::format(
+            "--key-tolerance-deg {}: below {} degrees, joint rotations differ by their "
+            "round-off; give an angle of at least {} degrees (e.g. 0.5)",
+            settings.toleranceDeg, KeyReductionOptions::minToleranceDeg, KeyReductionOptions::minToleranceDeg));
     keyTangent(settings.tangent);
 }
 

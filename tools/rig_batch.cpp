@@ -2,6 +2,7 @@
 // one curves file per clip (rig-invert's, byte for byte) and a library report (docs/cluster.md).
 #include <filesystem>
 #include <iostream>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -29,19 +30,23 @@ void printSummary(const cli::BatchJob& job, const cli::Json& report)
                              totals["clips"].get<int>(), totals["shards"].get<int>(),
                              totals["shards_reused"].get<int>(), totals["shards_run"].get<int>(), job.backend,
                              totals["shards_failed"].get<int>());
-    std::cout << fmt::format("{:<16} {:>7} {:>9} {:>7} {:>10} {:>10} {:>9}  {}\n", "clip", "frames", "converged",
-                             "stuck", "worst cm", "worst deg", "ms/frame", "curves");
+    std::cout << fmt::format("{:<16} {:>7} {:>7} {:>8} {:>6} {:>10} {:>10} {:>9}  {}\n", "clip", "frames", "reached",
+                             "best fit", "failed", "worst cm", "worst deg", "ms/frame", "curves");
+    // A non-finite figure is null in JSON: shown as nan, never as a number.
+    const auto number = [](const cli::Json& x) {
+        return x.is_number() ? x.get<double>() : std::numeric_limits<double>::quiet_NaN();
+    };
     for (const cli::Json& c : report["clips"]) {
         if (!c["complete"].get<bool>()) {
             std::cout << fmt::format("{:<16} {:>7}  no curves: a shard failed\n", c["name"].get<std::string>(),
                                      c["frames"].get<int>());
             continue;
         }
-        std::cout << fmt::format("{:<16} {:>7} {:>9} {:>7} {:>10.4g} {:>10.4g} {:>9.4g}  {}\n",
-                                 c["name"].get<std::string>(), c["frames"].get<int>(), c["converged_frames"].get<int>(),
-                                 c["stuck_frames"].get<int>(), c["max_position_error_cm"].get<double>(),
-                                 c["max_rotation_error_deg"].get<double>(), c["ms_per_frame"].get<double>(),
-                                 c["curves"]["file"].get<std::string>());
+        std::cout << fmt::format(
+            "{:<16} {:>7} {:>7} {:>8} {:>6} {:>10.4g} {:>10.4g} {:>9.4g}  {}\n", c["name"].get<std::string>(),
+            c["frames"].get<int>(), c["status_frames"]["reached"].get<int>(), c["status_frames"]["best_fit"].get<int>(),
+            c["failed_frames"].get<int>(), number(c["max_position_error_cm"]), number(c["max_rotation_error_deg"]),
+            number(c["ms_per_frame"]), c["curves"]["file"].get<std::string>());
     }
     const cli::Json& fps = totals["frames_per_second"];
     std::cout << fmt::format("\ntime              {:.3g} s running {} shards{}, {:.3g} s merging\n",

@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <unordered_map>
 #include <utility>
 
 #include <fmt/format.h>
@@ -143,17 +144,30 @@ private:
     int column_ = 1;
 };
 
-// A key as read: numbers in the file's units, converted once the block's units are known.
+// A key as read: numbers in the file's units, converted once the block's units are known, and where they are.
 struct RawKey {
     double x = 0.0;
     double y = 0.0;
     TangentType in = TangentType::auto_;
     TangentType out = TangentType::auto_;
+    Token time;
+    Token value;
+};
+
+// A unit as a curve's block or the header gives it: what a number is multiplied by, and the name of what it
+// is then in.
+struct UnitScale {
+    double factor = 1.0;
+    std::string_view internal;  // "cm", "degrees", "frames" or "unitless numbers"
 };
 
 class Parser {
 public:
-    Parser(std::string_view text, const std::string& file) : lexer_(text), file_(file) { result_.file = file; }
+    Parser(std::string_view text, const std::string& file, const AnimCurveCheck& check)
+        : lexer_(text), file_(file), check_(check)
+    {
+        result_.file = file;
+    }
 
     AnimFile parse()
     {
@@ -301,10 +315,11 @@ private:
         curve.leaf = std::string(words[1].text);
         curve.node = std::string(words[2].text);
         curve.mark = {file_, keyword.line, keyword.column};
-        for (const auto& c : result_.curves)
-            if (c.plugName() == curve.plugName())
-                throw error(keyword, fmt::format("a second curve for {} (the first is at line {}); keep one",
-                                                 curve.plugName(), c.mark.line));
+        // A hash, not a search of the curves read: files of many thousand curves are read in linear time.
+        const auto [first, added] = curveLines_.try_emplace(curve.plugName(), keyword.line);
+        if (!added)
+            throw error(keyword, fmt::format("a second curve for {} (the first is at line {}); keep one",
+                                             curve.plugName(), first->second));
         return curve;
     }
 
@@ -357,21 +372,40 @@ private:
                                              curve.plugName()));
         if (!keysSeen || keys.empty())
             throw error(keyword, fmt::format("the animData of {} has no key", curve.plugName()));
-        const double inputFactor = quantityFactor(curve.input, inputUnit);
-        const double outputFactor = quantityFactor(curve.output, outputUnit);
-        for (const RawKey& k : keys) curve.keys.push_back({k.x * inputFactor, k.y * outputFactor, k.in, k.out});
+        convertKeys(curve, keys, quantityScale(curve.input, inputUnit), quantityScale(curve.output, outputUnit));
+        if (check_) check_(curve);
         result_.curves.push_back(std::move(curve));
     }
 
+    // The keys in cm and degrees, refused where a unit's factor overflows a number or where the curve through
+    // them would (keys at +-1.7e308 have infinite slopes and play NaN).
+    void convertKeys(AnimFileCurve& curve, const std::vector<RawKey>& keys, UnitScale input, UnitScale output) const
+    {
+        const auto converted = [&](const Token& at, double raw, UnitScale unit, const char* what) {
+            const double x = raw * unit.factor;
+            if (!std::isfinite(x))
+                throw error(at, fmt::format("key {} '{}' overflows in {} (the file's unit makes it more than a "
+                                            "double holds, about 1.8e308); check the value and the unit",
+                                            what, messageExcerpt(at.text), unit.internal));
+            return x;
+        };
+        for (const RawKey& k : keys)
+            curve.keys.push_back(
+                {converted(k.time, k.x, input, "time"), converted(k.value, k.y, output, "value"), k.in, k.out});
+        const auto built = AnimCurve::tryBuild(curve.keys, curve.pre, curve.post);
+        if (const auto* problem = std::get_if<AnimKeyProblem>(&built))
+            throw error(keys[problem->key].time, fmt::format("{}: {}", curve.plugName(), problem->what));
+    }
+
     // What a number of `quantity` is multiplied by to be in cm or degrees: the block's unit, else the header's.
-    double quantityFactor(AnimQuantity quantity, const std::optional<Token>& unit) const
+    UnitScale quantityScale(AnimQuantity quantity, const std::optional<Token>& unit) const
     {
         if (quantity == AnimQuantity::linear)
-            return unit ? unitFactor(*unit, linearUnits, "linear unit") : linearFactor_;
+            return {unit ? unitFactor(*unit, linearUnits, "linear unit") : linearFactor_, "cm"};
         if (quantity == AnimQuantity::angular)
-            return unit ? unitFactor(*unit, angularUnits, "angular unit") : angularFactor_;
+            return {unit ? unitFactor(*unit, angularUnits, "angular unit") : angularFactor_, "degrees"};
         if (quantity == AnimQuantity::time && unit) timeUnit(*unit);
-        return 1.0;
+        return {1.0, quantity == AnimQuantity::time ? "frames" : "unitless numbers"};
     }
 
     AnimQuantity quantity(const Token& value, std::string_view keyword) const
@@ -426,8 +460,12 @@ private:
             };
             if (words.size() < 4) throw count();
             // The tangents first: a fixed one has more words, and that is what to say.
-            RawKey key{number(words[0], "key time"), number(words[1], "key value"), tangent(words[2]),
-                       tangent(words[3])};
+            RawKey key{number(words[0], "key time"),
+                       number(words[1], "key value"),
+                       tangent(words[2]),
+                       tangent(words[3]),
+                       words[0],
+                       words[1]};
             if (words.size() > 7) throw count();
             for (std::size_t i = 4; i < words.size(); ++i)
                 if (words[i].text != "0" && words[i].text != "1")
@@ -443,8 +481,10 @@ private:
 
     Lexer lexer_;
     std::string file_;
+    const AnimCurveCheck& check_;
     AnimFile result_;
-    double linearFactor_ = 1.0;  // the header's units (Maya's defaults: cm and degrees)
+    std::unordered_map<std::string, int> curveLines_;  // plug name to the line of its anim line
+    double linearFactor_ = 1.0;                        // the header's units (Maya's defaults: cm and degrees)
     double angularFactor_ = 1.0;
 };
 
@@ -472,13 +512,16 @@ const AnimFileCurve* AnimFile::find(std::string_view plug) const
     return nullptr;
 }
 
-AnimFile parseAnimFile(std::string_view text, const std::string& fileName) { return Parser(text, fileName).parse(); }
+AnimFile parseAnimFile(std::string_view text, const std::string& fileName, const AnimCurveCheck& check)
+{
+    return Parser(text, fileName, check).parse();
+}
 
-AnimFile readAnimFile(const std::filesystem::path& file)
+AnimFile readAnimFile(const std::filesystem::path& file, const AnimCurveCheck& check)
 {
     return parseAnimFile(
         readInputFile(file, {"a .anim file", "a .anim file", animMaxFileBytes, "export fewer curves or frames"}),
-        file.string());
+        file.string(), check);
 }
 
 std::string formatAnimFile(const AnimFile& file)

@@ -30,6 +30,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -76,9 +77,15 @@ struct AnimFile {
 // Past this a file is refused before it is read.
 inline constexpr std::uintmax_t animMaxFileBytes = std::uintmax_t{256} << 20;
 
-// Throws rig::Error naming `fileName`, the line and the column.
-AnimFile parseAnimFile(std::string_view text, const std::string& fileName);
-AnimFile readAnimFile(const std::filesystem::path& file);
+// Called on each curve as soon as it is read (its keys in cm and degrees), to refuse it by throwing before the
+// rest of the file is read: a caller that applies the curves reports the first wrong one at once.
+using AnimCurveCheck = std::function<void(const AnimFileCurve&)>;
+
+// Throws rig::Error naming `fileName`, the line and the column, at the first error: keys that are not finite
+// numbers, that overflow in cm or degrees, or whose curve overflows (anim_curve_math.h: AnimCurve::tryBuild),
+// a second curve for one plug; or the error `check` throws. Linear in the file's size.
+AnimFile parseAnimFile(std::string_view text, const std::string& fileName, const AnimCurveCheck& check = {});
+AnimFile readAnimFile(const std::filesystem::path& file, const AnimCurveCheck& check = {});
 
 // The text of `file`, lengths in cm and angles in degrees, numbers that read back to the same bits.
 std::string formatAnimFile(const AnimFile& file);

@@ -578,10 +578,10 @@ bool allWithin(const std::vector<FrameError>& errors)
 
 void KeyReductionOptions::validate() const
 {
-    if (!(toleranceCm > 0.0) || !std::isfinite(toleranceCm))
-        throw Error(fmt::format("toleranceCm must be a positive number, got {}", toleranceCm));
-    if (!(toleranceDeg > 0.0) || !std::isfinite(toleranceDeg))
-        throw Error(fmt::format("toleranceDeg must be a positive number, got {}", toleranceDeg));
+    if (!(toleranceCm >= minToleranceCm) || !std::isfinite(toleranceCm))
+        throw Error(fmt::format("toleranceCm must be a number of at least {}, got {}", minToleranceCm, toleranceCm));
+    if (!(toleranceDeg >= minToleranceDeg) || !std::isfinite(toleranceDeg))
+        throw Error(fmt::format("toleranceDeg must be a number of at least {}, got {}", minToleranceDeg, toleranceDeg));
 }
 
 std::size_t KeyedCurves::keyCount() const

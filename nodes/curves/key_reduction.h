@@ -24,6 +24,11 @@
 namespace rig {
 
 struct KeyReductionOptions {
+    // The smallest tolerances: far above the round-off of joint positions in cm and of rotations in degrees,
+    // below which the dense pose itself would measure over the tolerance (docs/keys-anim-report.md).
+    static constexpr double minToleranceCm = 1e-9;
+    static constexpr double minToleranceDeg = 1e-9;
+
     double toleranceCm = 0.1;   // joint positions
     double toleranceDeg = 0.5;  // joint rotations
     TangentType tangent = TangentType::auto_;

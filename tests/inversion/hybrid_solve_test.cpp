@@ -301,4 +301,45 @@ TEST_CASE("hybrid solve: the biped's IK legs follow CMU 01_01 where its FK legs 
     }
 }
 
+TEST_CASE("hybrid solve: whole turns of a periodic control come back within half a turn where the pose is the same")
+{
+    const auto file = test::writeFile(test::scratchDir("hybrid-ik-arm-turns") / "arm.yaml", test::ikArm);
+    GraphRigOptions options = test::ikArmOptions();
+    options.parameterGlobs.push_back("root_ctrl.rotateY");
+    GraphRigFunction rig(file, options);
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "arm.yaml");
+    RigBinding binding(a, rig);
+    const Solver solver(a, SolverOptions{});
+    const auto turn = static_cast<std::size_t>(&parameter(a, "root_ctrl.rotateY") - a.parameters.data());
+    const auto goal = static_cast<std::size_t>(&parameter(a, "arm_ik_ctrl.translateX") - a.parameters.data());
+    const Equivalences& e = solver.equivalences();
+    REQUIRE(e.period[turn] == doctest::Approx(2.0 * std::numbers::pi));
+    const auto blocks = hybridBlocks(a);
+    const auto block = std::find_if(blocks.begin(), blocks.end(),
+                                    [&](const HybridBlock& b) { return has(b.parameters, static_cast<int>(turn)); });
+    REQUIRE(block != blocks.end());  // the root's turn moves the IK arm, which is not modelled
+
+    std::vector<double> reference = a.defaults();
+    reference[turn] += 0.4;
+    reference[goal] += 3.0;
+    std::vector<double> values = reference;
+    values[turn] += 3.0 * e.period[turn];  // wound three turns onto the same pose
+    values[goal] += 0.5;                   // and a translation, which has no period
+    std::vector<Eigen::Matrix4d> before, after;
+    binding.evaluate(values, before);
+    PoseCheck samePose(a, &binding);
+    CHECK(keepNearReference(e, block->parameters, reference, values, samePose));
+    CHECK(values[turn] == doctest::Approx(reference[turn]).epsilon(1e-12));
+    CHECK(values[goal] == reference[goal] + 0.5);
+    binding.evaluate(values, after);
+    for (std::size_t k = 0; k < after.size(); ++k) CHECK((after[k] - before[k]).cwiseAbs().maxCoeff() < 1e-9);
+    // Within half a turn already: nothing to take back.
+    const std::vector<double> kept = values;
+    values[turn] += 0.45 * e.period[turn];
+    const double within = values[turn];
+    CHECK_FALSE(keepNearReference(e, block->parameters, reference, values, samePose));
+    CHECK(values[turn] == within);
+    CHECK(kept[turn] != within);
+}
+
 }  // namespace rig

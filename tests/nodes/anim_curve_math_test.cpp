@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "core/error.h"
@@ -133,6 +135,45 @@ TEST_CASE("build rejects non-finite keys")
                          "key 0: x inf is not finite (keys must have finite x and y)", Error);
     CHECK_THROWS_WITH_AS(AnimCurve::build(keysOf({{0.0, 0.0}, {1.0, 1.0}, {2.0, -inf}}, TangentType::spline)),
                          "key 2: y -inf is not finite (keys must have finite x and y)", Error);
+}
+
+TEST_CASE("build rejects finite keys whose tangents or cubics overflow, and keeps huge keys that do not")
+{
+    const double big = 1.7e308;
+    const std::string advice =
+        " is not a finite number; bring the keys' values nearer each other or the keys "
+        "further apart";
+    // A frame apart, their slope is -3.4e308: infinite.
+    CHECK_THROWS_WITH_AS(
+        AnimCurve::build(keysOf({{0.0, big}, {1.0, -big}}, TangentType::linear)),
+        ("key 0: the curve overflows at this key (x 0, y 1.7e+308): a tangent's slope" + advice).c_str(), Error);
+    // Flat tangents keep the slopes at 0, but the cubic's coefficients are 3 times the rise.
+    CHECK_THROWS_WITH_AS(
+        AnimCurve::build(keysOf({{0.0, big}, {1.0, -big}}, TangentType::flat)),
+        ("key 0: the curve overflows at this key (x 0, y 1.7e+308): the cubic to the next key" + advice).c_str(),
+        Error);
+    // Times too far apart: the segment's width is infinite.
+    CHECK_THROWS_WITH_AS(
+        AnimCurve::build(keysOf({{-big, 0.0}, {big, 1.0}}, TangentType::spline)),
+        ("key 0: the curve overflows at this key (x -1.7e+308, y 0): the cubic to the next key" + advice).c_str(),
+        Error);
+    // Step keys play their values as they are, until a cyclic infinity repeats a range it cannot hold.
+    const auto steps = keysOf({{0.0, big}, {1.0, -big}}, TangentType::step);
+    CHECK(AnimCurve::build(steps).evaluate(0.5) == big);
+    CHECK_THROWS_WITH_AS(AnimCurve::build(steps, Infinity::constant, Infinity::cycleRelative),
+                         ("key 1: the curve overflows at this key (x 1, y -1.7e+308): the keyed range, which a "
+                          "cyclic infinity repeats," +
+                          advice)
+                             .c_str(),
+                         Error);
+    const auto problem =
+        AnimCurve::tryBuild(keysOf({{0.0, 0.0}, {1.0, 1.0}, {2.0, big}, {3.0, -big}}, TangentType::linear));
+    REQUIRE(std::holds_alternative<rig::AnimKeyProblem>(problem));
+    CHECK(std::get<rig::AnimKeyProblem>(problem).key == 1);
+    // Equal huge values are a flat curve.
+    const AnimCurve flat = AnimCurve::build(keysOf({{0.0, big}, {1.0, big}, {2.0, big}}, TangentType::spline));
+    CHECK(flat.evaluate(0.5) == big);
+    CHECK(flat.evaluate(1.5) == big);
 }
 
 TEST_CASE("linear tangents interpolate linearly")

@@ -97,12 +97,62 @@ def test_errors_are_graph_eval_messages():
         graph.evaluate(frames=[1, float("nan")])
     with pytest.raises(riginv.Error, match=r"^frames: an empty list"):
         graph.evaluate(frames=[])
-    with pytest.raises(TypeError, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers"):
+    with pytest.raises(riginv.Error, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers"):
         graph.evaluate(frames={"a": 1})
-    with pytest.raises(TypeError, match=r"^get: expected None, a plug name or glob, or a list of them; got a int$"):
+    with pytest.raises(riginv.Error, match=r"^get: expected None, a plug name or glob, or a list of them; got a int$"):
         graph.evaluate(get=3)
     # graph-eval looks beside its own libraries too: the same message but for that folder.
     message = (r"^plugin 'no_such_plugin' not found \(looked for .*/lib/no_such_plugin.so\); build it, or add its "
                r"folder to RIG_PLUGIN_PATH$")
     with pytest.raises(riginv.Error, match=message):
         riginv.Graph.load(ARM, plugins=["no_such_plugin"])
+
+
+def test_output_past_graph_eval_limit_is_refused_up_front():
+    # 10 million frames of the biped's 131 world matrices: 150 GB of JSON for graph-eval, 24 GB of arrays here,
+    # refused after one frame with graph-eval's own line.
+    graph = riginv.Graph.load(BIPED)
+    raises_like("graph-eval", [BIPED, "--get", "*.worldMatrix", "--frames", "1:10000000"],
+                lambda: graph.evaluate(get="*.worldMatrix", frames="1:10000000"))
+    assert graph.evaluate(get="Hips.worldMatrix", frames="1:3")["Hips.worldMatrix"].shape == (3, 4, 4)
+
+
+def test_numpy_numbers_are_numbers_and_huge_ones_are_errors():
+    graph = riginv.Graph.load(ARM)
+    plain = graph.evaluate(get="wrist.worldMatrix", set={"shoulder.rotateZ": 30}, frames=[1, 2])
+    numpy = graph.evaluate(get="wrist.worldMatrix", set={"shoulder.rotateZ": np.int64(30)},
+                           frames=[np.int64(1), np.float32(2)])
+    assert np.array_equal(plain["wrist.worldMatrix"], numpy["wrist.worldMatrix"])
+    assert np.array_equal(plain["wrist.worldMatrix"],
+                          graph.evaluate(get="wrist.worldMatrix", frames=np.array([1, 2]))["wrist.worldMatrix"])
+    with pytest.raises(riginv.Error) as caught:
+        graph.evaluate(frames=[1, 10**400])
+    assert str(caught.value) == f"frames: {str(10**400)[:80]}... (401 characters) is not a frame number"
+    with pytest.raises(riginv.Error, match=r"^frames: expected None, 'A:B\[:STEP\]' or a list of frame numbers; "
+                                           r"got a list holding a str$"):
+        graph.evaluate(frames=[1, "2"])
+
+
+def test_arguments_of_the_wrong_type_are_one_line_errors():
+    graph = riginv.Graph.load(ARM)
+    cases = [
+        (lambda: riginv.Graph.load(3), "path: expected a path (str or os.PathLike), got a int"),
+        (lambda: riginv.Graph.load(ARM, plugins="p"), "plugins: expected a list of str, got a str; put it in a list: "
+                                                      "['p']"),
+        (lambda: riginv.Graph.load(ARM, plugins=[1]), "plugins: expected a list of str, got a list holding a int"),
+        (lambda: graph.evaluate(set=[("shoulder.rotateZ", 1)]), "set: expected None or a dict {plug: value}, got a "
+                                                                 "list"),
+        (lambda: graph.plugs(3), "glob: expected a str, got a int"),
+    ]
+    for call, message in cases:
+        with pytest.raises(riginv.Error) as caught:
+            call()
+        assert str(caught.value) == message
+
+
+def test_array_elements_by_index_glob():
+    graph = riginv.Graph.load(BIPED)
+    assert graph.plugs("L_thumb2_curl_sum.input1D[*]") == ["L_thumb2_curl_sum.input1D[0]",
+                                                          "L_thumb2_curl_sum.input1D[1]"]
+    assert graph.plugs("[LR]_thumb2_curl_sum.input1D[1]") == ["L_thumb2_curl_sum.input1D[1]",
+                                                             "R_thumb2_curl_sum.input1D[1]"]

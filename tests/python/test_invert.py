@@ -81,17 +81,18 @@ def test_arrays_equal_the_same_targets_as_a_json_clip(learned_biped, tmp_path):
     assert ours["clip"] is None and report["clip"] == str(clip)
     assert [f["frame"] for f in ours["per_frame"]] == list(range(90))
     assert ours["worst_frame"] == report["worst_frame"] - 1
+    assert ours["worst_rotation_frame"] == report["worst_rotation_frame"] - 1
     shifted = [dict(f, frame=f["frame"] - 1) for f in report["per_frame"]]
     assert ours["per_frame"] == shifted
-    assert without(ours, *VOLATILE, "clip", "per_frame", "worst_frame") == \
-        without(report, *VOLATILE, "clip", "per_frame", "worst_frame")
+    frames = ("clip", "per_frame", "worst_frame", "worst_rotation_frame")
+    assert without(ours, *VOLATILE, *frames) == without(report, *VOLATILE, *frames)
 
 
 def test_learned_in_python_inverts_as_rig_learn_s_file(learned_biped):
     need_cmu_clip()
     file, _ = learned_biped
     spec = biped_spec()
-    learned = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"])
+    learned = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"], ranges=spec["ranges"])
     ours, _, _ = learned.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:240")
     theirs, _, report = riginv.Approximation.load(file).invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:240")
     assert np.array_equal(ours, theirs)
@@ -180,7 +181,7 @@ def test_wrong_dicts_are_refused(learned_biped):
         assert str(caught.value) == message
     with pytest.raises(riginv.Error, match="^targets: "):  # no joint is an output of the approximation
         approx.invert({"nobody": identity_frames(2)}, rig=BIPED)
-    with pytest.raises(TypeError, match="targets: expected a dict"):
+    with pytest.raises(riginv.Error, match="^targets: expected a dict"):
         approx.invert(42, rig=BIPED)
 
 
@@ -254,3 +255,29 @@ def test_a_shared_clip_from_another_skeleton(tmp_path):
     assert code == 0, err
     values, names, _ = learned.invert(clip, rig=rig)
     assert np.array_equal(values, np.array([[frame[n] for n in names] for frame in json.loads(curves.read_text())]))
+
+
+def test_whole_number_options_take_numpy_integers_and_refuse_the_rest(learned_biped):
+    approx = riginv.Approximation.load(learned_biped[0])
+    targets = {"Hips": identity_frames(2)}
+    plain, _, _ = approx.invert(targets, rig=BIPED, threads=1, restart_every=120, polish=0)
+    numpy, _, _ = approx.invert(targets, rig=BIPED, threads=np.int64(1), restart_every=np.int32(120),
+                                polish=np.uint8(0))
+    assert np.array_equal(plain, numpy)
+    cases = [
+        ({"threads": 10**400},
+         f"threads: {str(10**400)[:80]}... (401 characters) is out of range; give a whole number from -2147483648 "
+         "to 2147483647"),
+        ({"threads": 1.5}, "threads: expected a whole number, got a float"),
+        ({"polish": np.float64(1)}, "polish: expected a whole number, got a float64"),
+        ({"restart_every": "10"}, "restart_every: expected a whole number, got a str"),
+        ({"restart_every": True}, "restart_every: expected a whole number, got a bool"),
+        ({"frames": 3}, "frames: expected a str, got a int"),
+        ({"plugins": "p"}, "plugins: expected a list of str, got a str; put it in a list: ['p']"),
+        ({"progress": 3}, "progress: expected None or a callable, got a int"),
+        ({"map": 3}, "map: expected a path (str or os.PathLike), got a int"),
+    ]
+    for arguments, message in cases:
+        with pytest.raises(riginv.Error) as caught:
+            approx.invert(targets, rig=BIPED, **arguments)
+        assert str(caught.value) == message

@@ -2,6 +2,7 @@
 
 import shutil
 
+import numpy as np
 import pytest
 import yaml
 
@@ -27,7 +28,7 @@ def approximation_file(path):
 def test_biped_report_equals_rig_learn(learned_biped, tmp_path):
     cli_file, cli_report = learned_biped
     spec = biped_spec()
-    approx = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"])
+    approx = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"], ranges=spec["ranges"])
     report = approx.report
     assert report["approximation"] is None and report["written"] is False
     named = ("approximation", "written")
@@ -151,3 +152,41 @@ def test_the_gil_is_released_while_learning():
     # beside the switch interval (the result is over epsilon: docs/rig-learn.md, the trap).
     params = biped_spec()["params"]
     assert share_of_time_another_thread_runs(lambda: riginv.learn(BIPED, params=params, orderer="talk")) > 0.3
+
+
+def test_numpy_numbers_are_numbers_and_bad_arguments_are_one_line_errors(tmp_path):
+    params = ["root_ctrl.translate?"]
+    for value in (np.int64(1), np.float32(1.0), np.float64(1.0)):
+        approx = riginv.learn(BIPED, params=params, outputs=["Hips"], epsilon=np.float64(0.001),
+                              set={"L_leg_settings.ikFk": value})
+        assert approx.held == {"L_leg_settings.ikFk": 1.0}
+    with pytest.raises(riginv.Error) as caught:
+        approx.save(tmp_path / "a.yaml", allow_inexact="yes")
+    assert str(caught.value) == "allow_inexact: expected True or False, got a str"
+    approx.save(tmp_path / "a.yaml", allow_inexact=np.bool_(False))
+    assert (tmp_path / "a.yaml").exists()
+    cases = [
+        ({"set": {"L_leg_settings.ikFk": 10**400}},
+         f"set['L_leg_settings.ikFk']: {str(10**400)[:80]}... (401 characters) is not a finite number; give a finite "
+         "number in the rig file's units (degrees for angles)"),
+        ({"set": {"L_leg_settings.ikFk": float("inf")}},
+         "set['L_leg_settings.ikFk']: inf is not a finite number; give a finite number in the rig file's units "
+         "(degrees for angles)"),
+        ({"set": {"L_leg_settings.ikFk": np.bool_(True)}},
+         "set['L_leg_settings.ikFk']: expected a number (the rig file's units), got a bool_"),
+        ({"epsilon": "small"}, "epsilon: expected a number, got a str"),
+        ({"params": "root_ctrl.translate?"},
+         "params: expected a list of str, got a str; put it in a list: ['root_ctrl.translate?']"),
+        ({"params": params, "outputs": [1]}, "outputs: expected a list of str, got a list holding a int"),
+        ({"orderer": 1}, "orderer: expected a str, got a int"),
+        ({"world_space": 1}, "world_space: expected True or False, got a int"),
+        ({"set": [1]}, "set: expected None or a dict {plug: value}, got a list"),
+        ({"progress": "yes"}, "progress: expected None or a callable, got a str"),
+    ]
+    for arguments, message in cases:
+        with pytest.raises(riginv.Error) as caught:
+            riginv.learn(BIPED, **{"params": params, **arguments})
+        assert str(caught.value) == message
+    # An int past the largest double is infinite, refused as rig-learn refuses --epsilon inf.
+    raises_like("rig-learn", [BIPED, "--params", *params, "--epsilon", "inf", "-o", "/dev/null"],
+                lambda: riginv.learn(BIPED, params=params, epsilon=10**400))

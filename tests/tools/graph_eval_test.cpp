@@ -308,6 +308,30 @@ TEST_CASE("graph-eval --get globs and names")
     CHECK(after.out == "frame,elbow.rotateX,elbow.rotateY,elbow.rotateZ,shoulder.rotateY\n0,0,0,0,-20\n");
 }
 
+TEST_CASE("graph-eval --get: [*] and [N] select array elements, other brackets are sets")
+{
+    const auto columns = [](const std::string& gets) {
+        const auto r = run(graphEval("rigs/biped.yaml " + gets + " --format csv"));
+        REQUIRE(r.exitCode == 0);
+        return split(lines(r.out).front(), ',');
+    };
+    // [*] was read as the set {'*'} and matched nothing.
+    CHECK(columns("--get 'L_thumb2_curl_sum.input1D[*]'") ==
+          std::vector<std::string>{"frame", "L_thumb2_curl_sum.input1D[0]", "L_thumb2_curl_sum.input1D[1]"});
+    // A set in the node name beside an index; an index as plug names write it, leading zeros or not.
+    CHECK(columns("--get '[LR]_thumb2_curl_sum.input1D[1]' --get '*_index2_curl_sum.input1D[001]'") ==
+          std::vector<std::string>{"frame", "L_thumb2_curl_sum.input1D[1]", "R_thumb2_curl_sum.input1D[1]",
+                                   "L_index2_curl_sum.input1D[1]", "R_index2_curl_sum.input1D[1]"});
+    // [*] stands for an index only, not for what follows it, and a plug without elements has none.
+    const auto none = run(graphEval("rigs/biped.yaml --get 'L_thumb2_curl_sum.input1D[*]x'"));
+    CHECK(none.exitCode == 2);
+    CHECK(none.err ==
+          "error: no plug matches 'L_thumb2_curl_sum.input1D[*]x'; patterns look like '*.worldMatrix' or "
+          "'L_arm_*.rotate?'\n");
+    const auto noIndex = run(graphEval("rigs/biped.yaml --get 'L_thumb2_curl_sum.output1D[*]'"));
+    CHECK(noIndex.exitCode == 2);
+}
+
 TEST_CASE("graph-eval --set takes degrees: a scalar, a vector and an enum by name or index")
 {
     const auto dir = rig::test::scratchDir("graph-eval-set");

@@ -186,6 +186,74 @@ TEST_CASE("anim file: bad files give one line with file:line:col and what to do"
           "one");
 }
 
+TEST_CASE("anim file: keys that overflow in cm or degrees, or whose curve overflows, are refused where they are")
+{
+    const auto curve = [](const char* output, const std::string& keys) {
+        return fmt::format("anim rotate.rotateX rotateX a 0 0 0;\nanimData {{\n  output {};\n  keys {{\n{}  }}\n}}\n",
+                           output, keys);
+    };
+    const std::string units = "angularUnit rad;\nlinearUnit km;\n";
+    // Radians to degrees and km to cm multiply past the largest double.
+    CHECK(errorOf(header(units + curve("angular", "    1 1e307 auto auto 1 1 0;\n"))) ==
+          "t.anim:9:7: key value '1e307' overflows in degrees (the file's unit makes it more than a double holds, "
+          "about 1.8e308); check the value and the unit");
+    CHECK(errorOf(header(units + curve("linear", "    1 0 auto auto;\n    2 -1e305 auto auto;\n"))) ==
+          "t.anim:10:7: key value '-1e305' overflows in cm (the file's unit makes it more than a double holds, about "
+          "1.8e308); check the value and the unit");
+    // Finite keys a frame apart whose slope or cubic is infinite: the curve would play NaN.
+    CHECK(errorOf(header(curve("angular",
+                               "    0 0 step step;\n    2 1.7e308 linear linear;\n    3 -1.7e308 "
+                               "linear linear;\n"))) ==
+          "t.anim:8:5: a.rotateX: the curve overflows at this key (x 2, y 1.7e+308): a tangent's slope is not a "
+          "finite number; bring the keys' values nearer each other or the keys further apart");
+    CHECK(errorOf(header(curve("unitless", "    -1.7e308 0 flat flat;\n    1.7e308 1 flat flat;\n"))) ==
+          "t.anim:7:5: a.rotateX: the curve overflows at this key (x -1.7e+308, y 0): the cubic to the next key is "
+          "not a finite number; bring the keys' values nearer each other or the keys further apart");
+    CHECK(errorOf(header(curve("unitless", "    1 1.7e400 auto auto;\n"))) ==
+          "t.anim:7:7: key value '1.7e400' is not a finite number");
+    // Huge keys that make a finite curve are read as they are.
+    const AnimFile huge = parseAnimFile(header(curve("unitless",
+                                                     "    1 1.7e308 step step;\n    2 -1.7e308 step "
+                                                     "step;\n")),
+                                        "t.anim");
+    REQUIRE(huge.curves.size() == 1);
+    CHECK(huge.curves[0].keys[1].y == -1.7e308);
+}
+
+TEST_CASE("anim file: 80,000 curves are read in linear time, and a check stops the reading at the first curve")
+{
+    // 7 MB, as an exported crowd gives: the duplicate check searched the curves read for each new one (113 s).
+    constexpr int count = 80000;
+    std::string text = header("timeUnit film;\n");
+    for (int i = 0; i < count; ++i)
+        text += fmt::format(
+            "anim rotate.rotateX rotateX joint{} 0 0 0;\nanimData {{\n  output angular;\n  keys {{\n"
+            "    1 {} auto auto 1 1 0;\n    24 0 auto auto 1 1 0;\n  }}\n}}\n",
+            i, i % 360);
+    const AnimFile file = parseAnimFile(text, "crowd.anim");
+    REQUIRE(file.curves.size() == count);
+    CHECK(file.curves.back().plugName() == "joint79999.rotateX");
+    CHECK(file.curves.back().keys[0].y == 79999 % 360);
+    CHECK(file.curves.back().mark.line == 4 + 8 * (count - 1));
+    // A second curve for a plug is still found, with the first one's line.
+    CHECK(errorOf(text + "anim rotate.rotateX rotateX joint40000 0 0 0;\n") ==
+          fmt::format("t.anim:{}:1: a second curve for joint40000.rotateX (the first is at line {}); keep one",
+                      4 + 8 * count, 4 + 8 * 40000));
+    // A caller's check throws on the first curve, before the rest (here a broken end) is read.
+    int checked = 0;
+    try {
+        parseAnimFile(text + "garbage", "crowd.anim", [&](const AnimFileCurve& c) {
+            ++checked;
+            throw Error(fmt::format("{}: no plug {}", formatMark(c.mark), c.plugName()));
+        });
+        FAIL("no error");
+    }
+    catch (const Error& e) {
+        CHECK(std::string(e.what()) == "crowd.anim:4:1: no plug joint0.rotateX");
+    }
+    CHECK(checked == 1);
+}
+
 TEST_CASE("anim file: an animCurve node plays a file's curve as it plays the same keys")
 {
     const auto dir = test::scratchDir("anim_file_node");

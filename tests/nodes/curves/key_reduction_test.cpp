@@ -218,6 +218,12 @@ TEST_CASE("key reduction: dense keys are one per frame, and bad inputs are refus
     KeyReductionOptions options;
     options.toleranceCm = 0.0;
     CHECK_THROWS_AS(options.validate(), rig::Error);
+    // Under the floor the dense pose's own round-off (1.8e-12 degrees on the biped) could be over the tolerance.
+    options.toleranceCm = KeyReductionOptions::minToleranceCm;
+    options.toleranceDeg = 1e-20;
+    CHECK_THROWS_WITH_AS(options.validate(), "toleranceDeg must be a number of at least 1e-09, got 1e-20", rig::Error);
+    options.toleranceDeg = KeyReductionOptions::minToleranceDeg;
+    CHECK_NOTHROW(options.validate());
     Chain c = chain("3");
     RigBinding binding(c.approximation, *c.rig);
     CHECK_THROWS_AS(reduceKeys(binding, frames, dense, KeyReductionOptions{}), rig::Error);
