@@ -285,7 +285,9 @@ FrameStatus frameStatus(const FrameInversion& f, bool unfittedMiss)
 {
     const TerminationType t = f.solve.termination;
     if (t == TerminationType::invalidTargets || t == TerminationType::noTargets) return FrameStatus::invalidTargets;
-    if (!f.nonFiniteJoint.empty() || !std::isfinite(f.positionErrorCm) || !std::isfinite(f.rotationErrorDeg))
+    // A solve whose cost overflowed (a target 1e160 cm away: its square is past a double's range) measured nothing.
+    if (!f.nonFiniteJoint.empty() || !std::isfinite(f.positionErrorCm) || !std::isfinite(f.rotationErrorDeg) ||
+        !std::isfinite(f.solve.finalCost))
         return FrameStatus::nonFinite;
     if (f.missed.empty()) return FrameStatus::reached;
     if (t == TerminationType::noConvergence) return FrameStatus::notConverged;

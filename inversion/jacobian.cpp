@@ -123,7 +123,9 @@ TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& targ
 {
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
     const Eigen::Matrix3d q = nearlyOrthonormal(a) ? a : polarRotation(a);
-    return {(world.block<3, 1>(0, 3) - target.position).norm(), rotationVector(target.rotation.transpose() * q).norm()};
+    // stableNorm: a target 1e160 cm away is 1e160 cm away, not an overflow to infinity.
+    return {(world.block<3, 1>(0, 3) - target.position).stableNorm(),
+            rotationVector(target.rotation.transpose() * q).norm()};
 }
 
 // --- ResidualStructure ---

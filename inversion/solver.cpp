@@ -796,6 +796,10 @@ BlockResult Solver::Impl::solveBlock(const BlockPlan& block, BlockWorkspace& w, 
     };
     bool finite = linearize(false);
     double cost = 0.5 * w.r.squaredNorm();
+    // A cost that overflows (targets 1e160 cm away: finite residuals, an infinite square) compares no step with
+    // another: left to run, the damping grows until the steps are negligible and the stop reads as a stationary
+    // point (stuck, a best fit). It is a solve that cannot proceed (noConvergence), as non-finite residuals are.
+    finite = finite && std::isfinite(cost);
     result.initialCost = cost;
     bool evaluatedAtX = true;
     StepControl control(o);

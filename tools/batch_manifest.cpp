@@ -14,7 +14,7 @@
 namespace rig::cli {
 namespace {
 
-constexpr std::string_view manifestFormat = "rig-batch manifest 1";
+constexpr std::string_view manifestFormat = "rig-batch manifest 2";
 constexpr std::string_view shardFormat = "rig-batch shard 2";
 constexpr std::size_t shardFigures = 8;  // the summary's figures held as raw doubles (shardOutputBytes)
 
@@ -26,7 +26,8 @@ Json settingsJson(const InvertSettings& s)
                 {"jacobian", s.jacobian},
                 {"polish", s.polish},
                 {"restart_every", s.restartEvery},
-                {"rest_starts", s.restStarts}};
+                {"rest_starts", s.restStarts},
+                {"hybrid", s.hybrid}};
 }
 
 // A manifest's field; a missing or mistyped one is the file's mistake.
@@ -250,6 +251,7 @@ BatchManifest readManifest(const std::filesystem::path& folder)
     s.polish = field<int>(settings, "polish", file);
     s.restartEvery = field<int>(settings, "restart_every", file);
     s.restStarts = field<bool>(settings, "rest_starts", file);
+    s.hybrid = field<bool>(settings, "hybrid", file);
     inputs.shardFrames = field<int>(j, "shard_frames", file);
     for (const Json& c : field<Json>(j, "clips", file)) {
         m.clips.push_back({field<std::string>(c, "name", file), field<std::string>(c, "file", file),

@@ -339,8 +339,8 @@ std::string failedFramesLine(const ClipInversionSummary& s, double frameNumber)
                           ? "the approximation and the real rig disagree there, or a target it does not model was "
                             "not fitted (--hybrid fits those; learn the rig again where it disagrees)"
                       : status == FrameStatus::notConverged ? "the solve used its iterations"
-                      : status == FrameStatus::nonFinite    ? "the real rig gives a non-finite matrix or error there"
-                                                            : "a target there is not finite or is singular";
+                      : status == FrameStatus::nonFinite ? "the real rig gives a non-finite matrix, error or cost there"
+                                                         : "a target there is not finite or is singular";
     return fmt::format("{} of {} frames are not an answer on the real rig (first: frame {}, {}, {}): {}",
                        s.failedFrames(), s.frames, frameNumber, frameStatusName(status), s.firstFailedJoint, why);
 }

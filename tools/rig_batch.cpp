@@ -11,6 +11,7 @@
 #include "tools/batch_run.h"
 #include "tools/cli_common.h"
 #include "tools/progress_bar.h"
+#include "tools/solve_flags.h"
 
 namespace rig {
 namespace {
@@ -132,15 +133,7 @@ int main(int argc, char** argv)
     app.add_option("--shard-frames", job.shardFrames,
                    "Frames per shard, rounded up to whole --restart-every intervals (default 4800)");
     app.add_option("--retries", job.retries, "New attempts of failed shards (default 1)");
-    app.add_option("--threads", job.settings.threads, "Solver threads per shard (default 1; 0: all cores)")
-        ->check(rig::cli::threadCount());
-    app.add_option("--restart-every", job.settings.restartEvery, "Frames between warm-start restarts (rig-invert's)");
-    app.add_option("--jacobian", job.settings.jacobian, "analytic (default) or fd (finite differences)");
-    app.add_flag("--no-partition", job.settings.noPartition, "Solve all parameters as one dense problem");
-    app.add_flag("--block-by-block", job.settings.blockByBlock, "Solve the partition's blocks one after another");
-    app.add_option("--polish", job.settings.polish, "Real-rig corrections per frame (0: approximation only)");
-    app.add_flag("--rest-starts", job.settings.restStarts,
-                 "Restart frames start from the rest values instead of the initial guess");
+    rig::cli::addSolveFlags(app, job.settings, "Solver threads per shard (default 1; 0: all cores)");
     app.add_flag("--strict", job.strict, "Refuse an approximation learned from another version of the rig");
     app.add_option("--plugin", job.plugins, "Load a plugin before reading the rig");
     app.add_option("--slurm-mem", job.slurmMemory, "Memory per Slurm task (sbatch --mem, e.g. 2G)");

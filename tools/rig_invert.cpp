@@ -13,6 +13,7 @@
 #include "tools/invert_run.h"
 #include "tools/keys_run.h"
 #include "tools/progress_bar.h"
+#include "tools/solve_flags.h"
 
 namespace rig {
 namespace {
@@ -27,15 +28,8 @@ struct Options {
     std::string output;
     std::string reportJson;
     std::vector<std::string> plugins;
-    int threads = 0;
     bool strict = false;
-    bool noPartition = false;
-    bool blockByBlock = false;
-    std::string jacobian = "analytic";
-    int polish = 0;
-    int restartEvery = ClipInversionOptions{}.restartInterval;
-    bool restStarts = false;
-    bool hybrid = false;
+    cli::InvertSettings settings;
     std::string after;  // curves of the chunk before (--after)
     bool quiet = false;
     cli::KeySettings keys;
@@ -128,8 +122,7 @@ int run(const Options& o)
     job.map = o.map;
     if (o.framesGiven) job.frames = o.frames;
     job.after = o.after;
-    job.settings = {o.threads, o.noPartition,  o.blockByBlock, o.jacobian,
-                    o.polish,  o.restartEvery, o.restStarts,   o.hybrid};
+    job.settings = o.settings;
     job.warning = [](const std::string& warning) { std::cerr << "warning: " << warning << "\n"; };
     job.rigLoaded = [&](const GraphRigFunction& rig) {
         std::vector<cli::NamedFile> read;
@@ -206,24 +199,10 @@ int main(int argc, char** argv)
                    "Curves to write: .json, .csv or .anim (Maya's animImportExport), angles in degrees")
         ->required();
     app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
-    app.add_option("--threads", options.threads, "Threads for the solver (0: all cores); results do not depend on it")
-        ->check(rig::cli::threadCount());
-    app.add_option("--jacobian", options.jacobian, "analytic (default) or fd (finite differences, in parallel)");
-    app.add_flag("--no-partition", options.noPartition, "Solve all parameters as one dense problem");
-    app.add_flag("--block-by-block", options.blockByBlock,
-                 "Solve the partition's blocks one after another, each outer block held (faster, a worse optimum "
-                 "on unreachable targets)");
-    app.add_option("--polish", options.polish, "Real-rig corrections per frame (0: approximation only)");
-    app.add_option("--restart-every", options.restartEvery,
-                   "Frames between warm-start restarts (chunks of a clip then match one run)");
+    rig::cli::addSolveFlags(app, options.settings, "Threads for the solver (0: all cores)");
     app.add_option("--after", options.after,
                    "JSON curves rig-invert wrote for the frames before these: this run continues them (the curves "
                    "of chunks then equal one run's)");
-    app.add_flag("--rest-starts", options.restStarts,
-                 "Restart frames start from the rest values instead of the approximation's initial guess");
-    app.add_flag("--hybrid", options.hybrid,
-                 "Fit the outputs the approximation does not model (an IK leg) by Gauss-Newton on the real rig, "
-                 "after the approximation's solve");
     app.add_flag("--strict", options.strict, "Refuse an approximation learned from another version of the rig");
     app.add_option("--plugin", options.plugins, "Load a plugin before reading the rig");
     app.add_option("--key-tolerance", options.keys.toleranceCm,

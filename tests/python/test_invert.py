@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import riginv
-from conftest import (BIPED, CMU_CLIP, CMU_MAP, SOURCE, biped_spec, need_cmu_clip, raises_like, read_json, run,
+from conftest import (ARM, BIPED, CMU_CLIP, CMU_MAP, SOURCE, biped_spec, need_cmu_clip, raises_like, read_json, run,
                       share_of_time_another_thread_runs)
 
 # Differs from run to run (solver time per frame) or says where the curves were written.
@@ -281,3 +281,23 @@ def test_whole_number_options_take_numpy_integers_and_refuse_the_rest(learned_bi
         with pytest.raises(riginv.Error) as caught:
             approx.invert(targets, rig=BIPED, **arguments)
         assert str(caught.value) == message
+
+
+@pytest.mark.parametrize("shift", [1e160, 1e300])
+def test_targets_too_far_for_the_cost_fail_every_frame_with_their_error(shift):
+    """The arm's world matrices with every translation 1e160 (residuals finite, their squares not) or 1e300 cm
+    away: every frame non-finite (its cost overflows), counted as failed, the error reported as it is, as rig-invert does
+    (tests/tools/far_targets_test.cpp)."""
+    worlds = riginv.Graph.load(ARM).evaluate(get="*.worldMatrix", frames="1:4")
+    targets = {plug[: -len(".worldMatrix")]: matrices.copy() for plug, matrices in worlds.items()}
+    for matrices in targets.values():
+        matrices[:, :3, 3] += shift
+    approx = riginv.learn(ARM, params=["shoulder.rotate?", "wrist.rotate?"])
+    values, _, report = approx.invert(targets, rig=ARM)
+    assert values.shape[0] == 4
+    assert report["failed_frames"] == 4
+    assert report["status_frames"]["non_finite"] == 4 and report["status_frames"]["best_fit"] == 0
+    assert report["first_failure"] == {"frame": 0, "status": "non-finite", "joint": "shoulder"}
+    # sqrt(3) * shift: a shift on each axis, measured without overflow.
+    assert 1.7 * shift <= report["max_position_error_cm"] <= 1.8 * shift
+    assert all(f["termination"] == "noConvergence" for f in report["per_frame"])

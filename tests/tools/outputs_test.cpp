@@ -179,7 +179,7 @@ TEST_CASE("rig-invert: the report names the curves it belongs to, and a real rig
     CHECK(r.exitCode == 3);
     CHECK(
         r.err.ends_with("error: 2 of 2 frames are not an answer on the real rig (first: frame 1, non-finite, elbow): "
-                        "the real rig gives a non-finite matrix or error there\n"));
+                        "the real rig gives a non-finite matrix, error or cost there\n"));
     json = nlohmann::json::parse(rig::test::readFile(report));
     CHECK(json["status_frames"]["non_finite"] == 2);
     CHECK(json["first_failure"]["status"] == "non-finite");

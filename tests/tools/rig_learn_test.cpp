@@ -596,6 +596,24 @@ TEST_CASE("rig-invert --hybrid: the biped with IK legs (rigs/biped_inversion_ik.
     CHECK(report["unmodelled_outputs"].size() == 8);
     CHECK(report["per_frame"][0]["real_rig_evaluations"].as<int>() > 0);
 
+    // rig-batch takes every solve flag rig-invert takes (one declaration): --hybrid gives rig-invert's curves.
+    const std::string hybridCurves = rig::test::readFile(dir / "curves.json");
+    const auto batch =
+        run(fmt::format("{} '{}' --rig rigs/biped.yaml --clips '{}' --out '{}' --jobs 1 --hybrid -q",
+                        rig::test::tool("rig-batch"), ik.string(), targets.string(), (dir / "batch").string()));
+    INFO(batch.err);
+    CHECK(batch.exitCode == 0);
+    CHECK(rig::test::readFile(dir / "batch" / (targets.stem().string() + ".json")) == hybridCurves);
+    const YAML::Node batchReport = YAML::LoadFile((dir / "batch" / "report.json").string());
+    CHECK(batchReport["clips"][0]["status_frames"]["reached"].as<int>() == 3);
+    // Without it, rig-batch too says the legs were not fitted: exit 3, the clip's frames failed.
+    const auto plainBatch =
+        run(fmt::format("{} '{}' --rig rigs/biped.yaml --clips '{}' --out '{}' --jobs 1 -q",
+                        rig::test::tool("rig-batch"), ik.string(), targets.string(), (dir / "plain").string()));
+    CHECK(plainBatch.exitCode == 3);
+    CHECK(plainBatch.err.find("error: 1 clips have frames that are not an answer on the real rig") == 0);
+    CHECK(YAML::LoadFile((dir / "plain" / "report.json").string())["clips"][0]["failed_frames"].as<int>() == 3);
+
     const auto both = invert("--hybrid --polish 1");
     CHECK(both.exitCode == 2);
     CHECK(both.err ==
