@@ -19,6 +19,11 @@ struct BackendRun {
     std::vector<std::string> keys;  // per entry of `shards`: its key (names its log)
     int jobs = 1;                   // processes at once (local); array tasks running at once (Slurm: %M)
     int round = 0;                  // 0, then 1, 2, ... for retries: names the Slurm files
+    // Local only: the folder's lock (an open descriptor holding flock), which every task inherits open, so
+    // that the lock is held until the last task of this run is gone (-1: none).
+    int lockFd = -1;
+    // Slurm only: the jobs' name (sbatch --job-name), by which they are cancelled when rig-batch is stopped.
+    std::string jobName = "rig-batch";
     // Slurm only: per task resources (sbatch --cpus-per-task, --mem, --time; "" leaves Slurm's default) and
     // more sbatch options as given (--partition=..., --account=...).
     int cpusPerTask = 1;
@@ -39,6 +44,19 @@ struct BackendRun {
 using ProcessNotes = std::map<int, std::string>;
 ProcessNotes runLocal(const BackendRun& run);
 ProcessNotes runSlurm(const BackendRun& run);
+
+// rig-batch's tasks end with it. Called by the driver before any other thread starts: SIGINT, SIGTERM and
+// SIGHUP are then blocked in every thread and taken by a thread of their own, which stops the backends' work
+// and exits with 128 + the signal. The local tasks run in a process group of their own, which is sent
+// SIGTERM; the exit waits until runLocal has seen the last of them end (SIGKILL after 10 s). The Slurm jobs
+// are cancelled (scancel --name). Tasks started by runLocal also die when rig-batch is killed outright
+// (SIGKILL, or a crash): see dieWithDriver.
+void stopTasksOnSignals();
+
+// Called first by a task (`rig-batch --task K`): a task started by runLocal asks the kernel for SIGKILL when
+// the rig-batch that started it dies (PR_SET_PDEATHSIG), and ends at once if it already has. Nothing for a
+// task started otherwise (by Slurm, or by hand).
+void dieWithDriver();
 
 // Asks sbatch whether it would take a task of `run` (sbatch --test-only: the controller answers, nothing is
 // submitted). Throws rig::Error with sbatch's reason when it would not.

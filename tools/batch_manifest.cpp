@@ -1,5 +1,6 @@
 #include "tools/batch_manifest.h"
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cstring>
@@ -50,7 +51,60 @@ T field(const Json& object, const char* name, const std::string& file)
 
 const char* byteOrder() { return std::endian::native == std::endian::little ? "little" : "big"; }
 
+// What in a shard output's summary is not what its task could have written for its frames ("" when nothing
+// is): the merge adds the counts and reads the clip's frames at the indices, so none is taken on trust.
+std::string summaryProblem(const ShardOutput& o)
+{
+    const ClipInversionSummary& s = o.summary;
+    const int frames = o.last - o.first + 1;
+    const auto count = [&](int n) { return n >= 0 && n <= frames; };
+    const auto frame = [&](int index) { return index == -1 || (index >= o.first && index <= o.last); };
+    if (s.frames != frames) return fmt::format("{} frames counted in frames {} to {}", s.frames, o.first, o.last);
+    long long statuses = 0;
+    for (const int n : s.statusFrames) {
+        if (!count(n)) return fmt::format("a count of frames outside 0 to {}", frames);
+        statuses += n;
+    }
+    if (statuses != frames) return fmt::format("frame statuses for {} of {} frames", statuses, frames);
+    if (!count(s.retriedFrames) || !count(s.retriesKept))
+        return fmt::format("a count of frames outside 0 to {}", frames);
+    for (const auto& joint : s.residualJoints)
+        if (!count(joint.frames))
+            return fmt::format("joint {} missed on {} of {} frames", joint.name, joint.frames, frames);
+    if (!frame(s.worstFrame) || !frame(s.worstRotationFrame) || !frame(s.firstFailedFrame))
+        return fmt::format("a frame index outside {} to {}", o.first, o.last);
+    if (s.jointFrames < 0 || s.realRigEvaluations < 0) return "a negative count";
+    if (!o.curvesChecksum.empty() &&
+        (o.curvesChecksum.size() != 16 || o.curvesChecksum.find_first_not_of("0123456789abcdef") != std::string::npos))
+        return "its curves file's checksum is not 16 hex digits";
+    return "";
+}
+
 }  // namespace
+
+bool isUtf8(std::string_view text)
+{
+    try {
+        (void)Json(text).dump();  // nlohmann checks UTF-8 as it writes a string
+        return true;
+    }
+    catch (const Json::type_error&) {
+        return false;
+    }
+}
+
+std::string clipNameProblem(const std::string& name)
+{
+    // Linux's file systems take names of 255 bytes (NAME_MAX); ".json" follows the clip's name.
+    constexpr std::size_t longest = 255 - 5;
+    if (name.empty() || name == "." || name == ".." || name.find_first_of(std::string("/\0", 2)) != std::string::npos)
+        return "which is not a file name in the output folder";
+    if (name == "report" || name == "manifest") return "which rig-batch writes for the batch";
+    if (!isUtf8(name)) return "which is not UTF-8 (the manifest, JSON, cannot hold it)";
+    if (name.size() > longest)
+        return fmt::format("a name of {} bytes, longer than the 255 file systems take", name.size() + 5);
+    return "";
+}
 
 bool readFileBytes(const std::filesystem::path& file, std::string& bytes)
 {
@@ -87,9 +141,12 @@ std::string fileChecksum(const std::filesystem::path& file, const std::string& r
 
 std::vector<std::pair<int, int>> shardRanges(int frames, int shardFrames, int restartEvery)
 {
-    const int size = (shardFrames + restartEvery - 1) / restartEvery * restartEvery;
+    // In 64 bits: both flags may be near INT_MAX, and their rounded sum and the next shard's start beyond it.
+    const long long interval = restartEvery;
+    const long long size = (shardFrames + interval - 1) / interval * interval;
     std::vector<std::pair<int, int>> out;
-    for (int first = 0; first < frames; first += size) out.emplace_back(first, std::min(first + size, frames) - 1);
+    for (long long first = 0; first < frames; first += size)
+        out.emplace_back(static_cast<int>(first), static_cast<int>(std::min<long long>(first + size, frames) - 1));
     return out;
 }
 
@@ -196,9 +253,16 @@ BatchManifest readManifest(const std::filesystem::path& folder)
     s.restStarts = field<bool>(settings, "rest_starts", file);
     s.hybrid = field<bool>(settings, "hybrid", file);
     inputs.shardFrames = field<int>(j, "shard_frames", file);
-    for (const Json& c : field<Json>(j, "clips", file))
+    for (const Json& c : field<Json>(j, "clips", file)) {
         m.clips.push_back({field<std::string>(c, "name", file), field<std::string>(c, "file", file),
                            field<std::string>(c, "checksum", file), field<int>(c, "frames", file)});
+        // A task writes NAME.json: a name such as ../x would write outside the output folder.
+        if (const std::string problem = clipNameProblem(m.clips.back().name); !problem.empty())
+            throw Error(
+                fmt::format("{}: not a rig-batch manifest (clip {}'s curves would be {}.json, {}); remove it and "
+                            "run rig-batch again",
+                            file, m.clips.size() - 1, m.clips.back().name, problem));
+    }
     for (const Json& s : field<Json>(j, "shards", file)) {
         BatchShard shard;
         shard.clip = field<int>(s, "clip", file);
@@ -316,11 +380,15 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         o.key = j.at("key").get<std::string>();
         o.first = j.at("first").get<int>();
         o.last = j.at("last").get<int>();
+        if (o.first < 0 || o.last < o.first) throw bad(fmt::format("frames {} to {}", o.first, o.last));
         const auto sizes = j.at("bytes").get<std::array<std::size_t, 4>>();
-        const std::size_t frames = o.last >= o.first ? static_cast<std::size_t>(o.last - o.first + 1) : 0;
-        if (frames == 0 || sizes[0] != shardFigures * sizeof(double) || sizes[1] != frames * sizeof(double) ||
-            sizes[2] != frames * parameters * sizeof(double) ||
-            newline + 1 + sizes[0] + sizes[1] + sizes[2] + sizes[3] != bytes.size())
+        // Sizes and counts in 64 bits, each within the file before they are added: no sum wraps round.
+        const std::size_t frames = static_cast<std::size_t>(o.last) - static_cast<std::size_t>(o.first) + 1;
+        const std::size_t rest = bytes.size() - newline - 1;
+        if (frames > rest / sizeof(double) || (parameters > 0 && frames > rest / sizeof(double) / parameters) ||
+            std::any_of(sizes.begin(), sizes.end(), [&](std::size_t size) { return size > rest; }) ||
+            sizes[0] != shardFigures * sizeof(double) || sizes[1] != frames * sizeof(double) ||
+            sizes[2] != frames * parameters * sizeof(double) || sizes[0] + sizes[1] + sizes[2] + sizes[3] != rest)
             throw bad(fmt::format("its sizes are not those of {} frames of {} parameters", frames, parameters));
         const char* at = bytes.data() + newline + 1;
         std::array<double, shardFigures> figures{};
@@ -367,6 +435,7 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
     catch (const Json::exception& e) {
         throw bad(e.what());
     }
+    if (const std::string problem = summaryProblem(o); !problem.empty()) throw bad(problem);
     return o;
 }
 

@@ -62,6 +62,13 @@ struct BatchManifest {
     std::vector<BatchShard> shards;
 };
 
+// Whether `text` is valid UTF-8, which JSON (the manifest) can hold as it is.
+bool isUtf8(std::string_view text);
+// What keeps `name` from naming a clip's curves file, NAME.json in the output folder, as a clause ("which
+// rig-batch writes for the batch"); "" when nothing does. Checked when planning and when a manifest is read,
+// so that no task writes outside the output folder or over the batch's own files.
+std::string clipNameProblem(const std::string& name);
+
 // A regular file's bytes; false when it cannot be read.
 bool readFileBytes(const std::filesystem::path& file, std::string& bytes);
 // A checksum of bytes as 16 hex digits, as the manifest records them: FNV-1a 64 over 8-byte words (the bytes

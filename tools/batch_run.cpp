@@ -39,6 +39,44 @@ std::string hostName()
 
 bool isClip(const fs::path& file) { return file.extension() == ".bvh" || file.extension() == ".json"; }
 
+// A clip path's status. A link loop, a link into a folder this user may not search, or any other error
+// of the file system is the user's to fix, named by its path (never an exception of std::filesystem).
+fs::file_status clipStatus(const fs::path& path, const std::string& shown)
+{
+    std::error_code ec;
+    const fs::file_status status = fs::status(path, ec);
+    if (ec && ec != std::errc::no_such_file_or_directory)
+        throw Error(fmt::format("--clips {}: cannot read it ({}); fix or remove it, or give the clips without it",
+                                shown, ec.message()));
+    return status;
+}
+
+// A folder's .bvh and .json files, in name order. A clip's name that is a broken link is an error, not a clip
+// silently left out of the library.
+std::vector<fs::path> folderClips(const fs::path& folder, const std::string& shown)
+{
+    std::vector<fs::path> found;
+    std::error_code ec;
+    fs::directory_iterator it(folder, ec);
+    for (; !ec && it != fs::directory_iterator(); it.increment(ec)) {
+        const fs::path& file = it->path();
+        if (!isClip(file)) continue;
+        const fs::file_status status = clipStatus(file, file.string());
+        if (!fs::exists(status))
+            throw Error(fmt::format("--clips {}: a link to nothing; fix or remove it, or give the clips without it",
+                                    file.string()));
+        if (fs::is_regular_file(status)) found.push_back(file);
+    }
+    if (ec)
+        throw Error(
+            fmt::format("--clips {}: cannot list the folder ({}); give a folder you may read", shown, ec.message()));
+    if (found.empty())
+        throw Error(fmt::format(
+            "--clips {}: the folder holds no .bvh or .json clip; give clip files or folders of them", shown));
+    std::sort(found.begin(), found.end());
+    return found;
+}
+
 // --clips: files as given, folders as their .bvh and .json files in name order; each path once (a file named
 // twice, by itself and in its folder), while links of other names are clips of those names.
 std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs::path& out)
@@ -51,8 +89,7 @@ std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs:
     };
     for (const std::string& g : given) {
         const fs::path p(g);
-        std::error_code ec;
-        const fs::file_status status = fs::status(p, ec);
+        const fs::file_status status = clipStatus(p, g);
         if (!fs::exists(status))
             throw Error(
                 fmt::format("--clips {}: no such file or folder; give clip files (.bvh, .json) or folders of "
@@ -64,19 +101,9 @@ std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs:
             add(p);
             continue;
         }
-        if (fs::equivalent(p, out, ec))
+        if (std::error_code ec; fs::equivalent(p, out, ec))
             throw Error(fmt::format("--clips {}: is the output folder (--out); give the folder of the clips", g));
-        std::vector<fs::path> found;
-        for (const auto& entry : fs::directory_iterator(p, ec))
-            if (entry.is_regular_file() && isClip(entry.path())) found.push_back(entry.path());
-        if (ec) throw Error(fmt::format("--clips {}: cannot list the folder ({})", g, ec.message()));
-        if (found.empty())
-            throw Error(
-                fmt::format("--clips {}: the folder holds no .bvh or .json clip; give clip files or folders "
-                            "of them",
-                            g));
-        std::sort(found.begin(), found.end());
-        for (const auto& file : found) add(file);
+        for (const auto& file : folderClips(p, g)) add(file);
     }
     if (files.empty()) throw Error("--clips: no clip given; give clip files (.bvh, .json) or folders of them");
     return files;
@@ -103,8 +130,9 @@ void checkOutputsAreNotInputs(const std::vector<std::pair<std::string, fs::path>
     }
 }
 
-// One rig-batch at a time in an output folder: an advisory lock, released when the process ends.
-void lockFolder(const fs::path& folder)
+// One rig-batch at a time in an output folder: an advisory lock, released when the process and the local
+// tasks it started, which inherit the descriptor (runLocal), have all ended. Returns the descriptor.
+int lockFolder(const fs::path& folder)
 {
     const fs::path file = folder / ".rig-batch.lock";
     const int fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
@@ -117,6 +145,7 @@ void lockFolder(const fs::path& folder)
                         "another folder",
                         folder.string()));
     }
+    return fd;
 }
 
 // Shard files of keys no longer planned (inputs changed since): shards/KEY.shard, KEY.status.json, logs/KEY.log.
@@ -188,7 +217,8 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
                 throw Error(fmt::format("{}: removed since its shard was done; run rig-batch again to solve it again",
                                         file.string()));
             out = parseShardOutput(bytes, file.string(), approximation.parameters.size());
-            if (out.key != shard.key || out.first != shard.first || out.last != shard.last)
+            if (out.key != shard.key || out.first != shard.first || out.last != shard.last ||
+                out.curvesChecksum.empty() == wholeClip(manifest, shard))
                 throw Error(
                     fmt::format("{}: is not the output of shard {} (frames {}); run rig-batch again to solve "
                                 "it again",
@@ -322,13 +352,31 @@ BatchOutcome runBatch(const BatchJob& job)
     std::vector<std::pair<std::string, fs::path>> inputFiles{{"the approximation", inputs.approximation},
                                                              {"the map", inputs.map}};
     for (const auto& file : loaded.rig->files()) inputFiles.emplace_back("a file the rig reads", file);
+    // The manifest (JSON) holds these paths: bytes that are not UTF-8 would be read back as other names.
+    for (const auto& [flag, path] : {std::pair<std::string, std::string>{"approximation", inputs.approximation},
+                                     {"--rig", inputs.rig},
+                                     {"--map", inputs.map}})
+        if (!isUtf8(path))
+            throw Error(
+                fmt::format("{} {}: its path is not UTF-8, which the batch's manifest (JSON) cannot hold; "
+                            "rename it",
+                            flag, path));
+    for (const std::string& plugin : job.plugins)
+        if (!isUtf8(plugin))
+            throw Error(
+                fmt::format("--plugin {}: is not UTF-8, which the batch's manifest (JSON) cannot hold; "
+                            "rename it",
+                            plugin));
     for (const fs::path& file : files) {
         const std::string name = file.stem().string();
-        if (name == "report" || name == "manifest")
+        if (!isUtf8(file.string()))
             throw Error(
-                fmt::format("--clips {}: its curves would be {}.json, which rig-batch writes for the batch; "
-                            "rename the clip",
-                            file.string(), name));
+                fmt::format("--clips {}: its path is not UTF-8, which the batch's manifest (JSON) cannot "
+                            "hold; rename it",
+                            file.string()));
+        if (const std::string problem = clipNameProblem(name); !problem.empty())
+            throw Error(fmt::format("--clips {}: its curves would be {}.json, {}; rename the clip", file.string(), name,
+                                    problem));
         if (const auto [it, added] = names.emplace(name, file); !added)
             throw Error(
                 fmt::format("--clips: {} and {} would both write {}.json; rename one, or run them as two "
@@ -370,13 +418,15 @@ BatchOutcome runBatch(const BatchJob& job)
     run.memory = job.slurmMemory;
     run.time = job.slurmTime;
     run.sbatchArgs = job.slurmArgs;
+    // The folder's own name for its jobs: what rig-batch cancels when it is stopped (and squeue shows).
+    run.jobName = "rig-batch-" + checksumText(folder.string()).substr(0, 8);
     if (job.backend == "slurm") checkSlurm(run);
 
     std::error_code ec;
     for (const char* sub : {"shards", "logs"}) fs::create_directories(folder / sub, ec);
     if (ec)
         throw Error(fmt::format("--out {}: cannot create it ({}); give a folder you may write", job.out, ec.message()));
-    lockFolder(folder);
+    run.lockFd = lockFolder(folder);
     for (const fs::path& out : outputs) checkOutputFile(out, "out", "--out");
 
     // Resume: a shard is done when its output matches the checksum recorded for it, in its status record
@@ -481,12 +531,13 @@ BatchOutcome runBatch(const BatchJob& job)
     struct ClipMerge {
         std::size_t first = 0, end = 0;  // its shards
         std::optional<MergedClip> merged;
+        std::string unwritten;  // why its curves could not be written (a full disk)
     };
     std::vector<ClipMerge> merges;
     for (std::size_t first = 0; first < manifest.shards.size();) {
         std::size_t end = first;
         while (end < manifest.shards.size() && manifest.shards[end].clip == manifest.shards[first].clip) ++end;
-        merges.push_back({first, end, std::nullopt});
+        merges.push_back({first, end, std::nullopt, ""});
         first = end;
     }
     tbb::parallel_for(std::size_t{0}, merges.size(), [&](std::size_t c) {
@@ -499,17 +550,35 @@ BatchOutcome runBatch(const BatchJob& job)
             m.merged = mergeClip(folder, manifest, static_cast<int>(m.first), static_cast<int>(m.end), approximation,
                                  equivalences, *loaded.rig);
         if (m.merged && m.merged->failedShard < 0) {
-            if (m.merged->curvesChecksum.empty()) {
-                writeFileAtomically(curves, m.merged->curves);
-                m.merged->curvesChecksum = checksumText(m.merged->curves);
-                std::string().swap(m.merged->curves);
-            }
+            if (m.merged->curvesChecksum.empty()) try {
+                    writeFileAtomically(curves, m.merged->curves);
+                    m.merged->curvesChecksum = checksumText(m.merged->curves);
+                    std::string().swap(m.merged->curves);
+                }
+                catch (const Error& e) {
+                    m.unwritten = e.what();
+                }
         } else {
             // No curves for a clip with a shard missing: an earlier run's file would not be this run's.
             std::error_code removed;
             fs::remove(curves, removed);
         }
     });
+    // Curves that could not be written: the shards stay done (the manifest records them), the clips are named.
+    std::vector<std::string> unwritten;
+    for (const ClipMerge& m : merges)
+        if (!m.unwritten.empty())
+            unwritten.push_back(fmt::format(
+                "{} (shards {} to {}, frames {}:{}): {}",
+                manifest.clips[static_cast<std::size_t>(manifest.shards[m.first].clip)].name, m.first, m.end - 1,
+                manifest.shards[m.first].firstFrame, manifest.shards[m.end - 1].lastFrame, m.unwritten));
+    if (!unwritten.empty()) {
+        fs::remove(folder / "report.json", ec);  // an earlier run's would name curves that are not there
+        throw Error(fmt::format(
+            "the merge could not write the curves of {} of {} clips: {}{}; their shards are done "
+            "and kept: run rig-batch again to merge them",
+            unwritten.size(), merges.size(), unwritten.front(), unwritten.size() > 1 ? " (and the others')" : ""));
+    }
     BatchOutcome outcome;
     Json clips = Json::array();
     long long totalFrames = 0;

@@ -3,6 +3,7 @@
 #include <charconv>
 #include <cmath>
 #include <csignal>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -139,11 +140,32 @@ FrameRange parseFrameRange(std::string_view text, std::string_view flag)
 
 namespace {
 
-std::string temporaryPrefix(const std::filesystem::path& file) { return "." + file.filename().string() + "."; }
-
 std::filesystem::path folderOf(const std::filesystem::path& file)
 {
     return file.has_parent_path() ? file.parent_path() : std::filesystem::path(".");
+}
+
+// The longest file name `folder` takes (255 bytes on Linux's file systems).
+std::size_t longestName(const std::filesystem::path& folder)
+{
+    const long longest = ::pathconf(folder.c_str(), _PC_NAME_MAX);
+    return longest > 0 ? static_cast<std::size_t>(longest) : 255;
+}
+
+// The start of `file`'s temporary names: ".NAME.", then "PID.XXXXXX.tmp". Where that would be longer than the
+// folder allows (an output name of 235 bytes or more), NAME is cut and a checksum of the whole name follows
+// it, so that any legal output name has legal temporary names, distinct from other outputs' in the folder.
+std::string temporaryPrefix(const std::filesystem::path& file)
+{
+    const std::string name = file.filename().string();
+    constexpr std::size_t rest = 2 + 10 + 1 + 6 + 4;  // the dots around NAME, PID (10 digits at most), .XXXXXX.tmp
+    const std::size_t longest = longestName(folderOf(file));
+    if (name.size() + rest <= longest) return "." + name + ".";
+    std::uint32_t hash = 0x811c9dc5u;  // FNV-1a 32
+    for (const char c : name) hash = (hash ^ static_cast<unsigned char>(c)) * 0x01000193u;
+    const std::string tag = fmt::format("~{:08x}", hash);
+    const std::size_t keep = longest > rest + tag.size() ? longest - rest - tag.size() : 0;
+    return "." + name.substr(0, keep) + tag + ".";
 }
 
 }  // namespace
@@ -184,6 +206,11 @@ void checkOutputFile(const std::filesystem::path& file, std::string_view example
     if (!std::filesystem::is_directory(folder, ec))
         throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable", file.string(),
                                 std::filesystem::exists(folder, ec) ? "Not a directory" : "No such file or directory"));
+    if (const std::size_t length = target.filename().string().size(), longest = longestName(folder); length > longest)
+        throw Error(
+            fmt::format("{}: the file name is {} bytes long, over the {} its folder's file system allows; "
+                        "give a shorter name",
+                        file.string(), length, longest));
     // A read-only folder is found now, not after the work (learning a rig can take minutes).
     if (::access(folder.c_str(), W_OK | X_OK) != 0)
         throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable", file.string(),

@@ -28,11 +28,11 @@ struct FrameRange {
 // Throws rig::Error naming the flag when the text is not a valid range.
 FrameRange parseFrameRange(std::string_view text, std::string_view flag);
 
-// Checks, before any work, that `file` can be an output: a non-empty name, not a folder, not a socket,
-// not a read-only file (by its mode bits, which bind root too), in a folder that exists and this
-// process may write into. A symbolic link is judged by the file it names. Throws rig::Error with what to do.
-// `example` is the file name the message suggests when `file` is a folder; `flag` the option that names
-// the file, for the messages.
+// Checks, before any work, that `file` can be an output: a non-empty name no longer than its folder's file
+// system allows, not a folder, not a socket, not a read-only file (by its mode bits, which bind root too), in
+// a folder that exists and this process may write into. A symbolic link is judged by the file it names. Throws
+// rig::Error with what to do. `example` is the file name the message suggests when `file` is a folder; `flag` the
+// option that names the file, for the messages.
 void checkOutputFile(const std::filesystem::path& file, std::string_view example = "out.json",
                      std::string_view flag = "-o");
 
@@ -40,8 +40,9 @@ void checkOutputFile(const std::filesystem::path& file, std::string_view example
 // never leaves a truncated file or damages an existing one; an existing file keeps its mode. A
 // symbolic link is followed (the file it names is replaced, the link kept); a FIFO or a device is
 // written through, never replaced. Throws rig::Error when it cannot.
-// The temporary file is ".NAME.PID.XXXXXX.tmp" (PID: the writing process). A process killed while
-// writing leaves it behind; the next write of NAME removes those whose process is gone.
+// The temporary file is ".NAME.PID.XXXXXX.tmp" (PID: the writing process; NAME cut and followed by a
+// checksum of itself where that would be longer than the folder allows). A process killed while writing
+// leaves it behind; the next write of NAME removes those whose process is gone.
 void writeFileAtomically(const std::filesystem::path& file, std::string_view content);
 
 // The file an output name leads to: a symbolic link (or a chain of them) followed, anything else as is.

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "tools/batch_backend.h"
 #include "tools/batch_run.h"
 #include "tools/cli_common.h"
 #include "tools/progress_bar.h"
@@ -65,6 +66,7 @@ int run(Options& o)
                             "names; give only --out with it",
                             o.task));
         if (o.job.out.empty()) throw Error(fmt::format("--task {}: give the batch's folder with --out", o.task));
+        cli::dieWithDriver();
         cli::runShard(o.job.out, o.task);
         return 0;
     }
@@ -79,6 +81,7 @@ int run(Options& o)
     std::error_code ec;
     o.job.program = std::filesystem::read_symlink("/proc/self/exe", ec);
     if (ec) throw Error(fmt::format("cannot find rig-batch's own program to start per shard ({})", ec.message()));
+    cli::stopTasksOnSignals();
     o.job.warning = [](const std::string& warning) { std::cerr << "warning: " << warning << "\n"; };
     cli::ProgressBar bar("inverting");
     o.job.progress = [&](int done, int total) {
@@ -142,6 +145,14 @@ int main(int argc, char** argv)
     return rig::cli::runMain(app, argc, argv, [&] {
         options.taskGiven = app.count("--task") > 0;
         options.jobsGiven = app.count("--jobs") > 0;
-        return rig::run(options);
+        // What the file system refuses (a link loop, a folder this user may not read) is the user's to fix.
+        try {
+            return rig::run(options);
+        }
+        catch (const std::filesystem::filesystem_error& e) {
+            throw rig::Error(fmt::format("{}: {}; check the path and its permissions",
+                                         e.path1().empty() ? "a file of the batch" : e.path1().string(),
+                                         e.code().message()));
+        }
     });
 }

@@ -223,3 +223,24 @@ TEST_CASE("bvh2rig: a warning about a clip in a folder whose name has a newline 
     CHECK(r.err.find("a\\nb/c.bvh:12: 'Frames: 2' but the file has 1 motion lines") != std::string::npos);
     CHECK(run(graphEval(fmt::format("'{}' --get 'Hips.rotateX'", out.string()))).exitCode == 0);
 }
+
+TEST_CASE("outputs: a legal long name is written (its temporary name cut to fit), one too long is refused first")
+{
+    const auto dir = rig::test::scratchDir("outputs-long-names");
+    const std::string expected = armTable();
+    // 245 bytes: ".NAME.PID.XXXXXX.tmp" would be over 255.
+    const fs::path legal = dir / (std::string(240, 'n') + ".json");
+    auto r = run(graphEval(fmt::format("{} --get '*.rotateZ' --format csv -o '{}'", arm, legal.string())));
+    INFO(r.err);
+    CHECK(r.exitCode == 0);
+    CHECK(rig::test::readFile(legal) == expected);
+    CHECK(std::distance(fs::directory_iterator(dir), fs::directory_iterator()) == 1);
+    // 256 bytes: refused with one line before the work, nothing written.
+    const fs::path tooLong = dir / (std::string(251, 'n') + ".json");
+    r = run(graphEval(fmt::format("{} --get '*.rotateZ' --format csv -o '{}'", arm, tooLong.string())));
+    CHECK(r.exitCode == 2);
+    CHECK(r.err == fmt::format("error: {}: the file name is 256 bytes long, over the 255 its folder's file system "
+                               "allows; give a shorter name\n",
+                               tooLong.string()));
+    CHECK(std::distance(fs::directory_iterator(dir), fs::directory_iterator()) == 1);
+}
