@@ -426,7 +426,7 @@ TEST_CASE("rig-batch: a link loop, a link to nothing or into a folder it may not
 
 TEST_CASE(
     "rig-batch: stopped by SIGTERM or killed by SIGKILL, its local tasks die with it and hold the folder's lock until "
-    "they are gone; no orphan writes over the next run")
+    "they are gone, and no orphan writes over the next run")
 {
     if (!clipsInstalled()) return;
     const auto dir = test::scratchDir("rig_batch_stopped");
