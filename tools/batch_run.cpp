@@ -622,6 +622,8 @@ BatchOutcome runBatch(const BatchJob& job)
              {"approximation", inputs.approximation},
              {"rig", inputs.rig},
              {"held", heldJson(approximation.held)},
+             {"unmodelled_outputs", unmodelledOutputs(approximation)},
+             {"hybrid", job.settings.hybrid},
              {"map", inputs.map.empty() ? Json() : Json(inputs.map)},
              {"backend", job.backend},
              {"jobs", jobs > 0 ? Json(jobs) : Json("all")},

@@ -49,6 +49,13 @@ void printSummary(const cli::BatchJob& job, const cli::Json& report)
             c["failed_frames"].get<int>(), number(c["max_position_error_cm"]), number(c["max_rotation_error_deg"]),
             number(c["ms_per_frame"]), c["curves"]["file"].get<std::string>());
     }
+    if (!report["unmodelled_outputs"].empty())
+        std::cout << fmt::format("\nnot modelled      {} (non-compositional: {})\n",
+                                 fmt::join(report["unmodelled_outputs"].get<std::vector<std::string>>(), ", "),
+                                 report["hybrid"].get<bool>()
+                                     ? "fitted on the real rig by --hybrid"
+                                     : "their targets were not fitted, so frames that miss them are model "
+                                       "mismatches; --hybrid fits them on the real rig");
     const cli::Json& fps = totals["frames_per_second"];
     std::cout << fmt::format("\ntime              {:.3g} s running {} shards{}, {:.3g} s merging\n",
                              totals["run_seconds"].get<double>(), totals["shards_run"].get<int>(),

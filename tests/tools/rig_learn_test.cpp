@@ -612,7 +612,10 @@ TEST_CASE("rig-invert --hybrid: the biped with IK legs (rigs/biped_inversion_ik.
                         rig::test::tool("rig-batch"), ik.string(), targets.string(), (dir / "plain").string()));
     CHECK(plainBatch.exitCode == 3);
     CHECK(plainBatch.err.find("error: 1 clips have frames that are not an answer on the real rig") == 0);
-    CHECK(YAML::LoadFile((dir / "plain" / "report.json").string())["clips"][0]["failed_frames"].as<int>() == 3);
+    const YAML::Node plainBatchReport = YAML::LoadFile((dir / "plain" / "report.json").string());
+    CHECK(plainBatchReport["clips"][0]["failed_frames"].as<int>() == 3);
+    CHECK(plainBatchReport["unmodelled_outputs"].size() == 8);
+    CHECK(plainBatchReport["hybrid"].as<bool>() == false);
 
     const auto both = invert("--hybrid --polish 1");
     CHECK(both.exitCode == 2);
