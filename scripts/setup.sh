@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs what is missing (Debian 12 packages), configures and builds. Quick when nothing changed.
-# Usage: scripts/setup.sh [Release|Debug]   (build folder: build/, or $RIG_BUILD_DIR)
+# Usage: scripts/setup.sh [Release|Debug [TARGET...]]   (build folder: build/, or $RIG_BUILD_DIR)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -29,5 +29,8 @@ if [ ! -f "$build_dir/build.ninja" ] ||
    ! grep -q "CMAKE_BUILD_TYPE:STRING=$build_type" "$build_dir/CMakeCache.txt" 2>/dev/null; then
   cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE="$build_type" >/dev/null
 fi
-cmake --build "$build_dir" -- -j"$(nproc)" | grep -v -e '^\[' -e '^ninja: no work to do' || true
+# Targets after the build type build only those (the quick start builds what the main job runs); none: everything.
+targets=("${@:2}")
+cmake --build "$build_dir" ${targets[@]+--target "${targets[@]}"} -- -j"$(nproc)" |
+  grep -v -e '^\[' -e '^ninja: no work to do' || true
 test "${PIPESTATUS[0]}" -eq 0
