@@ -20,6 +20,7 @@
 #include "inversion/rig_binding.h"
 #include "nodes/graph_rig_function.h"
 #include "nodes/inversion_spec.h"
+#include "random_fk.h"
 #include "solver_rigs.h"
 
 using namespace rig;
@@ -51,15 +52,7 @@ struct SharedRig {
         for (std::size_t p = 0; p < drives.size(); ++p)
             for (const Drive& d : drives[p])
                 (d.translate ? t : r)[static_cast<std::size_t>(d.joint)][d.axis] += d.weight * v[p];
-        for (std::size_t j = 0; j < joints.size(); ++j) {
-            Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-            for (const int axis : order[j])
-                rotation = Eigen::AngleAxisd(r[j][axis], Eigen::Vector3d::Unit(axis)).toRotationMatrix() * rotation;
-            Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
-            local.block<3, 3>(0, 0) = orient[j] * rotation;
-            local.block<3, 1>(0, 3) = offset[j] + t[j];
-            w[j] = parent[j] < 0 ? local : w[static_cast<std::size_t>(parent[j])] * local;
-        }
+        test::fkWorlds(parent, offset, orient, order, t, r, w);
     }
 };
 

@@ -21,6 +21,25 @@ struct Channel {
     int axis = 0;  // 0 x, 1 y, 2 z
 };
 
+// World matrices `w` of an FK tree whose joint j hangs from parent[j] (-1: none; parents first) at offset[j] plus
+// its translate channels t[j], turned by its joint orient after its rotate channels r[j] in its rotate order
+// (order[j]: the axes in the order applied, first innermost).
+inline void fkWorlds(const std::vector<int>& parent, const std::vector<Eigen::Vector3d>& offset,
+                     const std::vector<Eigen::Matrix3d>& orient, const std::vector<std::array<int, 3>>& order,
+                     const std::vector<Eigen::Vector3d>& t, const std::vector<Eigen::Vector3d>& r,
+                     std::vector<Eigen::Matrix4d>& w)
+{
+    for (std::size_t j = 0; j < parent.size(); ++j) {
+        Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+        for (const int axis : order[j])
+            rotation = Eigen::AngleAxisd(r[j][axis], Eigen::Vector3d::Unit(axis)).toRotationMatrix() * rotation;
+        Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
+        local.block<3, 3>(0, 0) = orient[j] * rotation;
+        local.block<3, 1>(0, 3) = offset[j] + t[j];
+        w[j] = parent[j] < 0 ? local : w[static_cast<std::size_t>(parent[j])] * local;
+    }
+}
+
 // A random FK rig: joint j hangs from parent[j] (j > 0) at offset[j], with a joint orient, a rotate
 // order and some of its channels as parameters.
 struct RandomFk {
@@ -36,15 +55,7 @@ struct RandomFk {
             r(parent.size(), Eigen::Vector3d::Zero());
         for (std::size_t c = 0; c < channels.size(); ++c)
             (channels[c].translate ? t : r)[static_cast<std::size_t>(channels[c].joint)][channels[c].axis] = v[c];
-        for (std::size_t j = 0; j < parent.size(); ++j) {
-            Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
-            for (const int axis : order[j])
-                rotation = Eigen::AngleAxisd(r[j][axis], Eigen::Vector3d::Unit(axis)).toRotationMatrix() * rotation;
-            Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
-            local.block<3, 3>(0, 0) = orient[j] * rotation;
-            local.block<3, 1>(0, 3) = offset[j] + t[j];
-            w[j] = parent[j] < 0 ? local : w[static_cast<std::size_t>(parent[j])] * local;
-        }
+        fkWorlds(parent, offset, orient, order, t, r, w);
     }
 };
 
