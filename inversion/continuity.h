@@ -72,10 +72,13 @@ public:
     // Keeps references to both (they must outlive it); `rig` may be null.
     explicit PoseCheck(const Approximation& approximation, RigBinding* rig = nullptr);
     bool operator()(std::span<const double> a, std::span<const double> b);
+    // Real-rig evaluations made so far (two per check that reached the real rig).
+    int realRigEvaluations() const { return realRigEvaluations_; }
 
 private:
     const Approximation& approximation_;
     RigBinding* rig_;
+    int realRigEvaluations_ = 0;
     std::vector<Eigen::Matrix4d> first_, second_;
 };
 

@@ -216,38 +216,12 @@ void HybridSolver::solveFrame(std::span<const JointTarget> targets, std::vector<
     else summary.termination = summary.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
 }
 
-bool keepNearReference(const Equivalences& equivalences, std::span<const int> parameters,
-                       std::span<const double> reference, std::vector<double>& values, PoseCheck& samePose)
-{
-    std::vector<double> shifted = values;
-    bool moved = false;
-    for (const int k : parameters) {
-        const auto p = static_cast<std::size_t>(k);
-        const double period = equivalences.period[p];
-        if (!(period > 0)) continue;
-        const double turns = std::round((values[p] - reference[p]) / period);
-        if (turns == 0.0) continue;
-        shifted[p] -= turns * period;
-        moved = true;
-    }
-    if (!moved || !samePose(values, shifted)) return false;
-    values.swap(shifted);
-    return true;
-}
-
 void HybridSolver::keepNearReference(std::vector<double>& values, int& evaluations)
 {
     PoseCheck samePose(solver_.approximation(), &binding_);
-    for (const HybridBlock& block : blocks_) {
-        const Equivalences& e = solver_.equivalences();
-        const bool wound = std::any_of(block.parameters.begin(), block.parameters.end(), [&](int k) {
-            const auto p = static_cast<std::size_t>(k);
-            return e.period[p] > 0 && std::abs(values[p] - reference_[p]) > 0.5 * e.period[p];
-        });
-        if (!wound) continue;
-        evaluations += 2;
-        rig::keepNearReference(e, block.parameters, reference_, values, samePose);
-    }
+    const Equivalences& e = solver_.equivalences();
+    applyShift(e, checkedContinuityShift(e, reference_, values, &samePose), values, values);
+    evaluations += samePose.realRigEvaluations();
 }
 
 std::string HybridSolver::describe() const

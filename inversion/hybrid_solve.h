@@ -27,13 +27,6 @@ struct HybridBlock {
 // output. Empty when every output is modelled.
 std::vector<HybridBlock> hybridBlocks(const Approximation& approximation);
 
-// Takes back the whole turns (Equivalences::period) that put a periodic one of `parameters` more than half a turn
-// from `reference`, where `samePose` finds the pose unchanged (else `values` stay); returns whether it did. The
-// real-rig stage of a hybrid solve has no trust region on angles: a control it winds onto an equivalent pose comes
-// back within half a turn of the frame before, or of the approximation's answer at a restart.
-bool keepNearReference(const Equivalences& equivalences, std::span<const int> parameters,
-                       std::span<const double> reference, std::vector<double>& values, PoseCheck& samePose);
-
 class HybridSolver {
 public:
     // Keeps references to `solver` and `binding` (the real rig, for the approximation's parameters), which
@@ -50,8 +43,8 @@ public:
     // costs, worst errors, missed outputs; converged when every target is within targetTolerance there, stuck
     // when a tolerance was met with a target further (out of reach: a saturated IK), noConvergence when the
     // approximation's solve or a block used its iterations. frame.realRigEvaluations counts this frame's
-    // real-rig evaluations (the final measurement included). Whole turns the real-rig stage wound a periodic control
-    // by are taken back (keepNearReference).
+    // real-rig evaluations (the final measurement included). Whole turns and Euler flips the real-rig stage made are
+    // taken back (keepNearReference).
     void solveFrame(std::span<const JointTarget> targets, std::vector<double>& values, double previousCost,
                     ChainScratch& scratch, ChainFrame& frame);
 
@@ -70,8 +63,11 @@ private:
     RealRigSolve continuation(std::size_t b, std::span<const JointTarget> targets, std::vector<double>& values,
                               int& evaluations);
     static constexpr int continuationSteps = 4;
-    // rig::keepNearReference for each block toward reference_, on the real rig and the approximation (two
-    // real-rig evaluations per block wound past half a turn, added to `evaluations`).
+    // The real-rig stage has no trust region on angles: near a singular pose a step can wind a control by whole
+    // turns, or turn a joint's three channels to their other Euler solution, onto the same pose. The values are
+    // carried back toward reference_ (the frame before, or the approximation's answer at a restart) by
+    // checkedContinuityShift, where the real rig and the approximation find the pose unchanged; its real-rig
+    // evaluations are added to `evaluations`.
     void keepNearReference(std::vector<double>& values, int& evaluations);
 
     const Solver& solver_;
