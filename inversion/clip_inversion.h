@@ -115,7 +115,7 @@ inline constexpr double modelAgreement = 0.1;
 enum class FrameStatus {
     reached,         // every counted target within targetTolerance on the real rig
     bestFit,         // stationary with a residual, where the approximation and the real rig agree (each output's gap
-                     // within modelAgreement of its error): the rig cannot take the pose, this is the closest it can
+                     // within modelAgreement of its error): the pose is out of the rig's reach, or a local minimum
     modelMismatch,   // a target missed on the real rig where the approximation and the real rig disagree beyond
                      // targetTolerance, or an output the approximation does not model and no solve fitted
     notConverged,    // the solve used its iterations

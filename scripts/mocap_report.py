@@ -47,7 +47,7 @@ def main(graph_curves, invert_curves, invert_report, graph_stats):
     per_frame = re.search(r"([0-9.e+-]+) ms per frame", stats)
     counts = ", ".join(f"{n} {STATUS_WORDS[key]}" for key, n in report["status_frames"].items() if n)
     print(f"frames            {report['frames']}: {counts} (judged on the real rig: reached, every target within "
-          "1e-3 cm; best fit, the closest the rig can take the pose, where the approximation agrees with it)")
+          "1e-3 cm; best fit, a least-squares optimum with a residual, where the approximation agrees with it)")
     if report["residual_joints"]:
         print(f"residual joints   {residual_joints(report)}")
     print(f"real-rig error    worst {report['max_position_error_cm']:.3g} cm ({report['worst_joint']} at frame "

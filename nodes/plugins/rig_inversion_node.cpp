@@ -453,7 +453,8 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
         .enumNames({"reached", "bestFit", "modelMismatch", "notConverged", "nonFinite", "invalidTargets"})
         .doc(
             "The frame's status as rig-invert names it (docs/rig-invert.md): reached (every target within 1e-3 cm), "
-            "bestFit (stationary with a residual the rig cannot avoid), modelMismatch, notConverged, nonFinite, "
+            "bestFit (stationary with a residual: out of the rig's reach, or a local minimum), modelMismatch, "
+            "notConverged, nonFinite, "
             "invalidTargets. Judged on the real rig with `hybrid` (the node's `rig`), on the approximation otherwise, "
             "where a target the approximation does not model is a miss.");
     b.output(iterations, "iterations", ValueType::Int).doc("Solver iterations of this evaluation.");
