@@ -107,12 +107,7 @@ void ClipInversionSummary::add(const FrameInversion& f, const std::vector<Approx
                                                : f.worstJoint;
     }
     for (const auto& m : f.missed) {
-        const std::string& name = outputs[static_cast<std::size_t>(m.output)].name;
-        auto it =
-            std::find_if(residualJoints.begin(), residualJoints.end(), [&](const auto& r) { return r.name == name; });
-        if (it == residualJoints.end()) it = residualJoints.insert(residualJoints.end(), {name, 0, 0.0});
-        ++it->frames;
-        if (worse(m.errorCm, it->worstErrorCm)) it->worstErrorCm = m.errorCm;
+        addResidual(outputs[static_cast<std::size_t>(m.output)].name, 1, m.errorCm);
     }
     if (worse(f.positionErrorCm, maxPositionErrorCm) || worstFrame < 0) {
         maxPositionErrorCm = f.positionErrorCm;
@@ -143,13 +138,7 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
     }
     for (int k = 0; k < frameStatusCount; ++k)
         statusFrames[static_cast<std::size_t>(k)] += later.statusFrames[static_cast<std::size_t>(k)];
-    for (const auto& joint : later.residualJoints) {
-        auto it = std::find_if(residualJoints.begin(), residualJoints.end(),
-                               [&](const auto& r) { return r.name == joint.name; });
-        if (it == residualJoints.end()) it = residualJoints.insert(residualJoints.end(), {joint.name, 0, 0.0});
-        it->frames += joint.frames;
-        if (worse(joint.worstErrorCm, it->worstErrorCm)) it->worstErrorCm = joint.worstErrorCm;
-    }
+    for (const auto& joint : later.residualJoints) addResidual(joint.name, joint.frames, joint.worstErrorCm);
     sortResidualJoints();
     if (later.frames > 0 && (worse(later.maxPositionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
         maxPositionErrorCm = later.maxPositionErrorCm;
@@ -175,6 +164,14 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
     solveCpuSeconds += later.solveCpuSeconds;
     realRigEvaluations += later.realRigEvaluations;
     msPerFrame = frames > 0 ? 1000.0 * solveSeconds / frames : 0.0;
+}
+
+void ClipInversionSummary::addResidual(const std::string& name, int frames, double errorCm)
+{
+    auto it = std::find_if(residualJoints.begin(), residualJoints.end(), [&](const auto& r) { return r.name == name; });
+    if (it == residualJoints.end()) it = residualJoints.insert(residualJoints.end(), {name, 0, 0.0});
+    it->frames += frames;
+    if (worse(errorCm, it->worstErrorCm)) it->worstErrorCm = errorCm;
 }
 
 void ClipInversionSummary::sortResidualJoints()

@@ -212,6 +212,8 @@ struct ClipInversionSummary {
     void merge(const ClipInversionSummary& later);
     // residualJoints, the largest error first (a NaN first of all).
     void sortResidualJoints();
+    // `frames` more frames that left joint `name` off its target, the worst by errorCm (cm).
+    void addResidual(const std::string& name, int frames, double errorCm);
     std::string briefReport() const;
 };
 
