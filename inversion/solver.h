@@ -139,8 +139,9 @@ public:
     // The partition a solve with these targets uses (built once per set of counted rows, then cached).
     Partition partition(std::span<const JointTarget> targets) const;
 
+    struct Impl;  // the solver's state and plans (inversion/solver_impl.h, internal)
+
 private:
-    struct Impl;
     std::unique_ptr<Impl> impl_;
 };
 
