@@ -3,9 +3,9 @@
 
 #include <fmt/format.h>
 
+#include "app/output_file.h"
 #include "core/error.h"
 #include "nodes/clips/bvh_rig.h"
-#include "tools/cli_common.h"
 
 namespace rig {
 namespace {
@@ -19,12 +19,12 @@ struct Options {
 int run(const Options& options)
 {
     // A bad -o is reported before the clip is read.
-    cli::checkOutputFile(options.output, "rig.yaml");
-    cli::checkDistinctFiles({{"the clip", options.clip}}, {{"-o", options.output}});
+    app::checkOutputFile(options.output, "rig.yaml");
+    app::checkDistinctFiles({{"the clip", options.clip}}, {{"-o", options.output}});
     const BvhClip clip = readBvhFile(options.clip);
     for (const auto& w : clip.warnings) std::cerr << "warning: " << oneLine(w) << '\n';
     const BvhRig rig = bvhRig(clip, options.clip, options.rig);
-    cli::writeFileAtomically(options.output, rig.text);
+    app::writeFileAtomically(options.output, rig.text);
     std::cout << fmt::format("wrote {}: {} joints ({} from BVH joints, {} End Sites{}), {} parameters{}\n",
                              options.output, rig.joints, clip.joints.size(), rig.endSites,
                              rig.helpers ? fmt::format(", {} helpers", rig.helpers) : "", clip.channelCount,
@@ -52,5 +52,5 @@ int main(int argc, char** argv)
     app.add_flag("--with-motion", options.rig.withMotion,
                  "Add a bvhClip node reading the clip (by absolute path) and driving the joints");
     app.add_option("--prefix", options.rig.prefix, "Put this before every node name (e.g. mocap_ or mocap:)");
-    return rig::cli::runMain(app, argc, argv, [&] { return rig::run(options); });
+    return rig::app::runMain(app, argc, argv, [&] { return rig::run(options); });
 }

@@ -1,4 +1,4 @@
-#include "tools/learn_run.h"
+#include "app/learn_run.h"
 
 #include <algorithm>
 #include <charconv>
@@ -11,7 +11,7 @@
 #include "core/error.h"
 #include "core/parse_number.h"
 
-namespace rig::cli {
+namespace rig::app {
 
 double parseEpsilon(const std::string& text)
 {
@@ -184,4 +184,4 @@ std::string validationFailure(const Approximation& approximation)
         approximation.epsilon, v.maxRelativeError, v.worstRelativeOutput, v.worstParameter);
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app

@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "tools/bench_common.h"
+#include "bench/bench_common.h"
 
 namespace rig::bench {
 

@@ -16,7 +16,7 @@ namespace YAML {
 class Node;
 }
 
-namespace rig::cli {
+namespace rig::app {
 
 // The built-in node types and those of `plugins` (graph-eval --plugin), loaded before any rig is read.
 std::shared_ptr<NodeRegistry> nodeRegistry(const std::vector<std::string>& plugins);
@@ -58,4 +58,4 @@ void checkOutputSize(double bytes, std::size_t frames, std::size_t plugs);
 double jsonOutputEstimate(const Graph& graph, std::span<const Plug> plugs, double frame,
                           const std::vector<Value>& values, std::size_t frames);
 
-}  // namespace rig::cli
+}  // namespace rig::app

@@ -13,7 +13,7 @@
 #include "inversion/approximation.h"
 #include "inversion/rig_function.h"
 
-namespace rig::cli {
+namespace rig::app {
 
 // Keys stay in insertion order: a report reads in the order its docs list the keys.
 using Json = nlohmann::ordered_json;
@@ -52,4 +52,4 @@ std::vector<std::string> csvColumns(const Graph& graph, const Plug& plug, const 
 // `digits` > 0 rounds to that many significant digits (for tables meant to be read).
 std::vector<std::string> csvFields(const Graph& graph, const Plug& plug, const Value& value, int digits = 0);
 
-}  // namespace rig::cli
+}  // namespace rig::app

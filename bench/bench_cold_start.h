@@ -2,8 +2,8 @@
 // rig-bench's cold-start row: random in-range poses of an approximation, each solved from the rest values
 // with Solver::initialGuess and without, as rig-invert's restart frames are (docs/solver.md, Cold starts).
 
+#include "bench/bench_common.h"
 #include "inversion/approximation.h"
-#include "tools/bench_common.h"
 
 namespace rig::bench {
 

@@ -1,4 +1,4 @@
-#include "tools/bench_suite.h"
+#include "bench/bench_suite.h"
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +13,8 @@
 #include <fmt/format.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "app/invert_run.h"
+#include "bench/bench_cold_start.h"
 #include "core/error.h"
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
@@ -24,10 +26,8 @@
 #include "nodes/clips/target_clip.h"
 #include "nodes/graph_rig_function.h"
 #include "nodes/inversion_spec.h"
-#include "tools/bench_cold_start.h"
-#include "tools/invert_run.h"
 #ifdef RIG_BENCH_HAVE_CERES
-#include "tools/bench_ceres.h"
+#include "bench/bench_ceres.h"
 #endif
 
 namespace rig::bench {
@@ -141,7 +141,7 @@ struct ClipRun {
     Json errorsJson() const
     {
         return Json{{"frames", frames()},
-                    {"status_frames", cli::statusCountsJson(summary)},
+                    {"status_frames", app::statusCountsJson(summary)},
                     {"max_position_error_cm", summary.maxPositionErrorCm},
                     {"mean_position_error_cm", summary.meanPositionErrorCm},
                     {"max_rotation_error_deg", summary.maxRotationErrorDeg},
@@ -893,7 +893,7 @@ void runScaling(const BenchOptions& o, Json& report)
                             {"validation_max_relative_error", a.validation.maxRelativeError},
                             {"within_epsilon", a.validation.withinEpsilon},
                             {"frames", run.frames()},
-                            {"status_frames", cli::statusCountsJson(run.summary)},
+                            {"status_frames", app::statusCountsJson(run.summary)},
                             {"ms_per_frame", run.cpuMsPerFrame()},
                             {"wall_ms_per_frame", run.msPerFrame()},
                             {"mean_iterations", run.meanIterations()},

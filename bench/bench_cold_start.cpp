@@ -1,4 +1,4 @@
-#include "tools/bench_cold_start.h"
+#include "bench/bench_cold_start.h"
 
 #include <cmath>
 #include <numbers>

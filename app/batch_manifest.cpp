@@ -1,4 +1,4 @@
-#include "tools/batch_manifest.h"
+#include "app/batch_manifest.h"
 
 #include <algorithm>
 #include <array>
@@ -8,10 +8,10 @@
 
 #include <fmt/format.h>
 
+#include "app/output_file.h"
 #include "core/error.h"
-#include "tools/cli_common.h"
 
-namespace rig::cli {
+namespace rig::app {
 namespace {
 
 constexpr std::string_view manifestFormat = "rig-batch manifest 2";
@@ -449,4 +449,4 @@ std::string shardCurvesChecksum(const std::string& bytes)
                : "";
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app

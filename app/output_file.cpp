@@ -1,4 +1,4 @@
-#include "tools/cli_common.h"
+#include "app/output_file.h"
 
 #include <charconv>
 #include <cmath>
@@ -16,7 +16,7 @@
 
 #include "core/error.h"
 
-namespace rig::cli {
+namespace rig::app {
 
 namespace {
 
@@ -367,4 +367,4 @@ void writeFileAtomically(const std::filesystem::path& file, std::string_view con
     }
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app

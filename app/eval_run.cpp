@@ -1,4 +1,4 @@
-#include "tools/eval_run.h"
+#include "app/eval_run.h"
 
 #include <algorithm>
 #include <cctype>
@@ -7,14 +7,14 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "app/value_output.h"
 #include "core/error.h"
 #include "graph/plug_glob.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
 #include "nodes/curves/anim_file.h"
-#include "tools/value_output.h"
 
-namespace rig::cli {
+namespace rig::app {
 namespace {
 
 // Runs an evaluation, naming the rig and the frame in front of an error a node met (a malformed clip,
@@ -199,4 +199,4 @@ double jsonOutputEstimate(const Graph& graph, std::span<const Plug> plugs, doubl
     return static_cast<double>(frameJson(frame, named).size() + 2) * static_cast<double>(frames);
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app

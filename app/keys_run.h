@@ -9,12 +9,12 @@
 #include <string>
 #include <vector>
 
+#include "app/invert_run.h"
+#include "app/value_output.h"
 #include "nodes/curves/anim_file.h"
 #include "nodes/curves/key_reduction.h"
-#include "tools/invert_run.h"
-#include "tools/value_output.h"
 
-namespace rig::cli {
+namespace rig::app {
 
 struct KeySettings {
     double toleranceCm = KeyReductionOptions{}.toleranceCm;
@@ -55,4 +55,4 @@ Json keysReport(const InvertOutcome& outcome, const KeysOutcome& keys);
 // The report's lines on standard output.
 std::string keysText(const InvertOutcome& outcome, const KeysOutcome& keys);
 
-}  // namespace rig::cli
+}  // namespace rig::app

@@ -1,4 +1,4 @@
-#include "tools/invert_run.h"
+#include "app/invert_run.h"
 
 #include <cmath>
 #include <fstream>
@@ -7,14 +7,14 @@
 
 #include <fmt/format.h>
 
+#include "app/output_file.h"
 #include "core/error.h"
 #include "inversion/approximation_io.h"
 #include "inversion/hybrid_solve.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
-#include "tools/cli_common.h"
 
-namespace rig::cli {
+namespace rig::app {
 namespace {
 
 // --after: the values that the chunk before reported for clip frame `index` (internal units), read from
@@ -415,4 +415,4 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
 
 std::string fingerprintText(const std::string& text) { return fmt::format("{:016x}", fnv1a64(text)); }
 
-}  // namespace rig::cli
+}  // namespace rig::app

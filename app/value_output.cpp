@@ -1,4 +1,4 @@
-#include "tools/value_output.h"
+#include "app/value_output.h"
 
 #include <cmath>
 #include <cstdint>
@@ -6,7 +6,7 @@
 
 #include <fmt/format.h>
 
-namespace rig::cli {
+namespace rig::app {
 namespace {
 
 // The value's numbers in user units, with their column suffixes.
@@ -153,4 +153,4 @@ std::vector<std::string> csvFields(const Graph& graph, const Plug& plug, const V
     return fields;
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app

@@ -1,4 +1,4 @@
-#include "tools/html_report.h"
+#include "app/html_report.h"
 
 #include <algorithm>
 #include <cctype>
@@ -13,7 +13,7 @@
 #include "core/error.h"
 #include "inversion/rig_binding.h"
 
-namespace rig::cli {
+namespace rig::app {
 namespace {
 
 // The page around its three parts: the title, three.js and the data.
@@ -527,4 +527,4 @@ std::string htmlReport(const InvertOutcome& outcome, const KeysOutcome* keys, co
            jsonInScript(jsonText(reportData(outcome, keys, names))) + std::string(pageTail);
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app

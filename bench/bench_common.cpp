@@ -1,4 +1,4 @@
-#include "tools/bench_common.h"
+#include "bench/bench_common.h"
 
 #include <malloc.h>
 

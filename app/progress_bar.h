@@ -5,7 +5,7 @@
 #include <chrono>
 #include <string>
 
-namespace rig::cli {
+namespace rig::app {
 
 class ProgressBar {
 public:
@@ -28,4 +28,4 @@ private:
     std::chrono::steady_clock::time_point last_;
 };
 
-}  // namespace rig::cli
+}  // namespace rig::app

@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
-#include "tools/invert_run.h"
-#include "tools/value_output.h"
+#include "app/invert_run.h"
+#include "app/value_output.h"
 
-namespace rig::cli {
+namespace rig::app {
 
 struct BatchJob {
     std::string approximation;
@@ -59,4 +59,4 @@ BatchOutcome runBatch(const BatchJob& job);
 // output and status record. Throws rig::Error with one line (after writing it as the status).
 void runShard(const std::filesystem::path& folder, int index);
 
-}  // namespace rig::cli
+}  // namespace rig::app

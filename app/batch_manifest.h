@@ -15,11 +15,11 @@
 #include <string>
 #include <vector>
 
+#include "app/invert_run.h"
+#include "app/value_output.h"
 #include "inversion/clip_inversion.h"
-#include "tools/invert_run.h"
-#include "tools/value_output.h"
 
-namespace rig::cli {
+namespace rig::app {
 
 // What every shard of a batch shares: inputs (absolute file names) and the solve's settings.
 struct BatchInputs {
@@ -131,4 +131,4 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
 // of part of a clip, or bytes that are not a shard output.
 std::string shardCurvesChecksum(const std::string& bytes);
 
-}  // namespace rig::cli
+}  // namespace rig::app

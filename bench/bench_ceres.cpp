@@ -1,4 +1,4 @@
-#include "tools/bench_ceres.h"
+#include "bench/bench_ceres.h"
 
 #include <algorithm>
 #include <map>

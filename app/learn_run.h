@@ -9,11 +9,11 @@
 #include <string_view>
 #include <vector>
 
+#include "app/value_output.h"
 #include "inversion/learner.h"
 #include "nodes/graph_rig_function.h"
-#include "tools/value_output.h"
 
-namespace rig::cli {
+namespace rig::app {
 
 // --epsilon's text as a number: positive and finite, else rig::Error saying so.
 double parseEpsilon(const std::string& text);
@@ -74,4 +74,4 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
 // poses), as one line without the file name; "" when it is within epsilon.
 std::string validationFailure(const Approximation& approximation);
 
-}  // namespace rig::cli
+}  // namespace rig::app

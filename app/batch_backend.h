@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace rig::cli {
+namespace rig::app {
 
 struct BackendRun {
     std::filesystem::path program;  // rig-batch, absolute
@@ -71,4 +71,4 @@ std::string shellQuote(const std::string& word);
 // Slurm's default MaxArraySize is 1001: array indices 0 to 1000. Larger batches are several arrays.
 inline constexpr int slurmArrayTasks = 1000;
 
-}  // namespace rig::cli
+}  // namespace rig::app

@@ -11,14 +11,14 @@
 #include <string_view>
 #include <vector>
 
+#include "app/value_output.h"
 #include "inversion/approximation.h"
 #include "inversion/clip_inversion.h"
 #include "inversion/rig_binding.h"
 #include "nodes/clips/target_clip.h"
 #include "nodes/graph_rig_function.h"
-#include "tools/value_output.h"
 
-namespace rig::cli {
+namespace rig::app {
 
 // rig-invert's flags that shape the solve.
 struct InvertSettings {
@@ -131,4 +131,4 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
 // 16 hex digits, as the report writes a fingerprint.
 std::string fingerprintText(const std::string& text);
 
-}  // namespace rig::cli
+}  // namespace rig::app

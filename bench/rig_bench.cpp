@@ -14,10 +14,10 @@
 
 #include <fmt/format.h>
 
+#include "app/output_file.h"
+#include "bench/bench_common.h"
+#include "bench/bench_suite.h"
 #include "core/error.h"
-#include "tools/bench_common.h"
-#include "tools/bench_suite.h"
-#include "tools/cli_common.h"
 
 namespace rig {
 namespace {
@@ -132,8 +132,8 @@ private:
 int run(const Options& o)
 {
     if (o.jsonGiven) {
-        cli::checkOutputFile(o.json, "bench.json", "--json");
-        cli::checkDistinctFiles({{"the rig file", o.rig},
+        app::checkOutputFile(o.json, "bench.json", "--json");
+        app::checkDistinctFiles({{"the rig file", o.rig},
                                  {"the spec", o.spec},
                                  {"the clip", o.clip},
                                  {"the map", o.map},
@@ -194,7 +194,7 @@ int run(const Options& o)
     report["load_average_at_end"] = std::move(load);
     report["seconds"] = bench::secondsSince(start);
 
-    if (o.jsonGiven) cli::writeFileAtomically(o.json, report.dump(2) + "\n");
+    if (o.jsonGiven) app::writeFileAtomically(o.json, report.dump(2) + "\n");
     if (!o.quiet) printSummary(report);
     // rig-learn --threads promises the same approximation for any count: a difference is a measured failure.
     std::vector<std::string> differing;
@@ -240,7 +240,7 @@ int main(int argc, char** argv)
     app.add_flag("--no-chain", options.noChain, "No chain rows");
     app.add_flag("--no-scaling", options.noScaling, "Measure the biped only");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors");
-    return rig::cli::runMain(app, argc, argv, [&] {
+    return rig::app::runMain(app, argc, argv, [&] {
         options.jsonGiven = app.count("--json") > 0;
         return rig::run(options);
     });

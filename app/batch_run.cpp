@@ -1,4 +1,4 @@
-#include "tools/batch_run.h"
+#include "app/batch_run.h"
 
 #include <algorithm>
 #include <chrono>
@@ -16,14 +16,14 @@
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
+#include "app/batch_backend.h"
+#include "app/batch_manifest.h"
+#include "app/output_file.h"
 #include "core/error.h"
 #include "inversion/continuity.h"
 #include "nodes/graph_rig_function.h"
-#include "tools/batch_backend.h"
-#include "tools/batch_manifest.h"
-#include "tools/cli_common.h"
 
-namespace rig::cli {
+namespace rig::app {
 namespace {
 
 namespace fs = std::filesystem;
@@ -729,4 +729,4 @@ void runShard(const std::filesystem::path& folder, int index)
     }
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app

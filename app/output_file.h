@@ -10,7 +10,7 @@
 
 #include <CLI/CLI.hpp>
 
-namespace rig::cli {
+namespace rig::app {
 
 // Parses the command line into `app` and runs `body`, turning errors into messages and exit codes.
 int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& body);
@@ -63,4 +63,4 @@ void checkDistinctFiles(const std::vector<NamedFile>& inputs, const std::vector<
 // match ".NAME.PID.XXXXXX.tmp" and no process PID is running. Exposed for tests.
 std::vector<std::filesystem::path> staleTemporaryFiles(const std::filesystem::path& file);
 
-}  // namespace rig::cli
+}  // namespace rig::app

@@ -1,4 +1,4 @@
-#include "tools/keys_run.h"
+#include "app/keys_run.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include "core/error.h"
 
-namespace rig::cli {
+namespace rig::app {
 namespace {
 
 // The frame numbers of the reported frames.
@@ -227,4 +227,4 @@ std::string keysText(const InvertOutcome& outcome, const KeysOutcome& keys)
     return out + line + "\n";
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app

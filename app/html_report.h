@@ -12,10 +12,10 @@
 #include <filesystem>
 #include <string>
 
-#include "tools/invert_run.h"
-#include "tools/keys_run.h"
+#include "app/invert_run.h"
+#include "app/keys_run.h"
 
-namespace rig::cli {
+namespace rig::app {
 
 // Where Debian's libjs-three puts three.js.
 inline const std::filesystem::path threeJsFile = "/usr/share/javascript/three/three.min.js";
@@ -35,4 +35,4 @@ struct HtmlReportNames {
 std::string htmlReport(const InvertOutcome& outcome, const KeysOutcome* keys, const HtmlReportNames& names,
                        const std::string& threeJs);
 
-}  // namespace rig::cli
+}  // namespace rig::app

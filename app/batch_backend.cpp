@@ -1,4 +1,4 @@
-#include "tools/batch_backend.h"
+#include "app/batch_backend.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -20,12 +20,12 @@
 
 #include <fmt/format.h>
 
+#include "app/output_file.h"
 #include "core/error.h"
-#include "tools/cli_common.h"
 
 extern "C" char** environ;
 
-namespace rig::cli {
+namespace rig::app {
 namespace {
 
 // The variable of the local tasks' environment that holds the driver's process id (dieWithDriver).
@@ -377,4 +377,4 @@ ProcessNotes runSlurm(const BackendRun& run)
     return notes;
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app

@@ -1,4 +1,4 @@
-#include "tools/progress_bar.h"
+#include "app/progress_bar.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -6,7 +6,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
-namespace rig::cli {
+namespace rig::app {
 
 ProgressBar::ProgressBar(std::string label)
     : label_(std::move(label)), enabled_(::isatty(STDERR_FILENO) == 1), start_(std::chrono::steady_clock::now())
@@ -41,4 +41,4 @@ void ProgressBar::finish()
     drawn_ = false;
 }
 
-}  // namespace rig::cli
+}  // namespace rig::app
