@@ -13,7 +13,8 @@ mapfile -t sources < <(find core graph inversion nodes app tools bench python te
                          \( -name '*.cpp' -o -name '*.h' \) | sort)
 [ "${1:-}" = "--fix" ] && "$clang_format" -i "${sources[@]}"
 status=0
-"$clang_format" --dry-run --Werror "${sources[@]}" 2>&1 | grep -E '^[^ ].*(warning|error):' && status=1
+# clang-format exits non-zero on a violation; under pipefail that would hide grep's verdict, so it is ignored here.
+{ "$clang_format" --dry-run --Werror "${sources[@]}" 2>&1 || true; } | grep -E '^[^ ].*(warning|error):' && status=1
 mapfile -t texts < <(find core graph inversion nodes app tools bench python tests fuzz scripts \
   \( -name '*.cpp' -o -name '*.h' -o -name '*.py' -o -name '*.sh' -o -name 'CMakeLists.txt' \) | sort)
 texts+=(CMakeLists.txt quickstart.sh test.sh)
