@@ -7,7 +7,7 @@
 
 #include <fmt/format.h>
 
-#include "app/output_file.h"
+#include "app/frame_range.h"
 #include "core/error.h"
 #include "inversion/approximation_io.h"
 #include "inversion/hybrid_solve.h"

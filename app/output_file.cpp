@@ -1,13 +1,11 @@
 #include "app/output_file.h"
 
 #include <charconv>
-#include <cmath>
 #include <csignal>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <iostream>
 
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -17,126 +15,6 @@
 #include "core/error.h"
 
 namespace rig::app {
-
-namespace {
-
-// CLI11 says "Could not convert: --frames = abc" when a value is not of its option's type; say what the
-// option takes instead (every typed option of the tools is a number or a list of numbers).
-std::string conversionMessage(const CLI::App& app, const std::string& what)
-{
-    constexpr std::string_view prefix = "Could not convert: ";
-    const auto equals = what.find(" = ");
-    if (!what.starts_with(prefix) || equals == std::string::npos) return what;
-    const std::string name = what.substr(prefix.size(), equals - prefix.size());
-    const std::string value = what.substr(equals + 3);
-    const CLI::Option* option = app.get_option_no_throw(name);
-    const std::string type = option ? option->get_type_name() : std::string();
-    const std::string_view kind = type.find("FLOAT") != std::string::npos ? "a number"
-                                  : type.find("INT") != std::string::npos ? "a whole number in range"
-                                                                          : "a value this option takes";
-    return fmt::format("{}: '{}' is not {}", name, messageExcerpt(value), kind);
-}
-
-}  // namespace
-
-int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& body)
-{
-    try {
-        app.parse(argc, argv);
-    }
-    catch (const CLI::CallForHelp& e) {
-        return app.exit(e);
-    }
-    catch (const CLI::ConversionError& e) {
-        std::cerr << fmt::format("error: {}; run '{} --help' for usage\n", oneLine(conversionMessage(app, e.what())),
-                                 app.get_name());
-        return 2;
-    }
-    catch (const CLI::ParseError& e) {
-        std::cerr << fmt::format("error: {}; run '{} --help' for usage\n", oneLine(e.what()), app.get_name());
-        return 2;
-    }
-    // Messages quote what the user wrote (a name with a newline in it, a 10 MB line): oneLine keeps
-    // them one printable line of bounded length.
-    try {
-        return body();
-    }
-    catch (const Error& e) {
-        switch (e.kind()) {
-            case ErrorKind::userInput:
-                std::cerr << "error: " << oneLine(e.what()) << '\n';
-                return 2;
-            case ErrorKind::numerical:
-                std::cerr << "error: " << oneLine(e.what()) << '\n';
-                return 3;
-            case ErrorKind::internal:
-                break;
-        }
-        std::cerr << "internal error: " << oneLine(e.what()) << '\n';
-        return 1;
-    }
-    catch (const std::bad_alloc&) {
-        std::cerr << "error: out of memory; the input is too large for this machine (see docs/robustness.md for "
-                     "the limits)\n";
-        return 2;
-    }
-    catch (const std::exception& e) {
-        std::cerr << "internal error: " << oneLine(e.what()) << '\n';
-        return 1;
-    }
-}
-
-CLI::Validator threadCount()
-{
-    return CLI::Validator(
-        [](std::string& text) {
-            int n = -1;
-            const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n);
-            if (ec != std::errc() || end != text.data() + text.size() || n < 0 || n > 1024)
-                return fmt::format("'{}' is not a thread count; give a whole number from 0 (all cores) to 1024", text);
-            return std::string();
-        },
-        "0..1024");
-}
-
-std::vector<double> FrameRange::frames() const
-{
-    std::vector<double> out;
-    const auto count = static_cast<long long>(std::floor((last - first) / step + 1e-9));
-    // Rounded to 1e-9 frames so 1:2:0.1 gives 1.7, not 1.7000000000000002.
-    for (long long i = 0; i <= count; ++i) {
-        const double frame = first + static_cast<double>(i) * step;
-        // (Far from 0 the rounding would overflow, and a double has no 1e-9 digits there anyway.)
-        out.push_back(std::abs(frame) < 1e6 ? std::round(frame * 1e9) / 1e9 : frame);
-    }
-    return out;
-}
-
-FrameRange parseFrameRange(std::string_view text, std::string_view flag)
-{
-    auto bad = [&](std::string_view why) {
-        return Error(fmt::format("{} '{}': {}; expected A:B[:STEP], e.g. 1:240 or 1:240:2", flag, text, why));
-    };
-    std::vector<double> parts;
-    std::string_view rest = text;
-    while (true) {
-        const auto colon = rest.find(':');
-        const std::string_view piece = rest.substr(0, colon);
-        double x = 0.0;
-        const auto [end, ec] = std::from_chars(piece.data(), piece.data() + piece.size(), x);
-        if (piece.empty() || ec != std::errc() || end != piece.data() + piece.size() || !std::isfinite(x))
-            throw bad(fmt::format("'{}' is not a number", piece));
-        parts.push_back(x);
-        if (colon == std::string_view::npos) break;
-        rest.remove_prefix(colon + 1);
-    }
-    if (parts.size() < 2 || parts.size() > 3) throw bad("give two or three numbers");
-    FrameRange range{parts[0], parts[1], parts.size() == 3 ? parts[2] : 1.0};
-    if (range.step <= 0) throw bad("the step must be positive");
-    if (range.last < range.first) throw bad("the last frame is before the first");
-    if ((range.last - range.first) / range.step > 1e7) throw bad("more than ten million frames");
-    return range;
-}
 
 namespace {
 
@@ -165,7 +43,8 @@ std::string temporaryPrefix(const std::filesystem::path& file)
     for (const char c : name) hash = (hash ^ static_cast<unsigned char>(c)) * 0x01000193u;
     const std::string tag = fmt::format("~{:08x}", hash);
     const std::size_t keep = longest > rest + tag.size() ? longest - rest - tag.size() : 0;
-    return "." + name.substr(0, keep) + tag + ".";
+    // (fmt rather than "." + substr(): GCC 12 warns falsely on that concatenation, -Wrestrict, GCC bug 105329.)
+    return fmt::format(".{}{}.", std::string_view(name).substr(0, keep), tag);
 }
 
 }  // namespace

@@ -1,32 +1,13 @@
 #pragma once
-// What every command line shares: one style of flags, help and errors, and exit codes
-// (0 success, 2 bad input with one "error: ..." line, 1 internal failure).
+// Output files as every command line and the Python module write them: checked before the work, written
+// atomically, never an input overwritten.
 
 #include <filesystem>
-#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
 namespace rig::app {
-
-// Parses the command line into `app` and runs `body`, turning errors into messages and exit codes.
-int runMain(CLI::App& app, int argc, char** argv, const std::function<int()>& body);
-
-// The check of a --threads option: a whole number from 0 (all cores) to 1024, else one line that says so.
-CLI::Validator threadCount();
-
-// Frames A:B[:STEP], inclusive, step > 0 (e.g. 1:240, 0:10:0.5).
-struct FrameRange {
-    double first = 0.0;
-    double last = 0.0;
-    double step = 1.0;
-    std::vector<double> frames() const;
-};
-// Throws rig::Error naming the flag when the text is not a valid range.
-FrameRange parseFrameRange(std::string_view text, std::string_view flag);
 
 // Checks, before any work, that `file` can be an output: a non-empty name no longer than its folder's file
 // system allows, not a folder, not a socket, not a read-only file (by its mode bits, which bind root too), in

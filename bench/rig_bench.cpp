@@ -18,6 +18,7 @@
 #include "bench/bench_common.h"
 #include "bench/bench_suite.h"
 #include "core/error.h"
+#include "tools/cli_common.h"
 
 namespace rig {
 namespace {
@@ -240,7 +241,7 @@ int main(int argc, char** argv)
     app.add_flag("--no-chain", options.noChain, "No chain rows");
     app.add_flag("--no-scaling", options.noScaling, "Measure the biped only");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors");
-    return rig::app::runMain(app, argc, argv, [&] {
+    return rig::cli::runMain(app, argc, argv, [&] {
         options.jsonGiven = app.count("--json") > 0;
         return rig::run(options);
     });

@@ -17,6 +17,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "app/eval_run.h"
+#include "app/frame_range.h"
 #include "app/invert_run.h"
 #include "app/learn_run.h"
 #include "app/output_file.h"

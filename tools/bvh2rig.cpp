@@ -6,6 +6,7 @@
 #include "app/output_file.h"
 #include "core/error.h"
 #include "nodes/clips/bvh_rig.h"
+#include "tools/cli_common.h"
 
 namespace rig {
 namespace {
@@ -52,5 +53,5 @@ int main(int argc, char** argv)
     app.add_flag("--with-motion", options.rig.withMotion,
                  "Add a bvhClip node reading the clip (by absolute path) and driving the joints");
     app.add_option("--prefix", options.rig.prefix, "Put this before every node name (e.g. mocap_ or mocap:)");
-    return rig::app::runMain(app, argc, argv, [&] { return rig::run(options); });
+    return rig::cli::runMain(app, argc, argv, [&] { return rig::run(options); });
 }

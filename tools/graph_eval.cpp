@@ -8,6 +8,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "app/eval_run.h"
+#include "app/frame_range.h"
 #include "app/output_file.h"
 #include "app/value_output.h"
 #include "core/error.h"
@@ -15,6 +16,7 @@
 #include "graph/dot_writer.h"
 #include "graph/type_reference.h"
 #include "graph/yaml_loader.h"
+#include "tools/cli_common.h"
 
 namespace rig {
 namespace {
@@ -203,11 +205,11 @@ int main(int argc, char** argv)
     app.add_flag("--types", options.types, "Print the reference of every node type (Markdown) and exit");
     app.add_flag("--dot", options.dot, "Print the graph in Graphviz dot format instead of evaluating");
     app.add_option("--threads", options.threads, "Evaluation threads: 1 serial, N parallel, 0 all cores")
-        ->check(rig::app::threadCount());
+        ->check(rig::cli::threadCount());
     app.add_flag("--stats", options.stats, "Print node, connection and computation counts and timing to stderr");
     app.add_flag("--check", options.check,
                  "Checked mode: after each frame recompute everything from scratch and fail on any difference");
-    return rig::app::runMain(app, argc, argv, [&] {
+    return rig::cli::runMain(app, argc, argv, [&] {
         options.outputGiven = app.count("--output") > 0;
         options.framesGiven = app.count("--frames") > 0;
         return rig::run(options);

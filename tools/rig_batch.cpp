@@ -8,9 +8,9 @@
 
 #include "app/batch_backend.h"
 #include "app/batch_run.h"
-#include "app/output_file.h"
 #include "app/progress_bar.h"
 #include "core/error.h"
+#include "tools/cli_common.h"
 #include "tools/solve_flags.h"
 
 namespace rig {
@@ -149,7 +149,7 @@ int main(int argc, char** argv)
                    "More sbatch options, one per flag (e.g. --slurm-arg=--partition=cpu)");
     app.add_option("--task", options.task, "Run shard K of --out's manifest (what each backend task runs)");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors and warnings");
-    return rig::app::runMain(app, argc, argv, [&] {
+    return rig::cli::runMain(app, argc, argv, [&] {
         options.taskGiven = app.count("--task") > 0;
         options.jobsGiven = app.count("--jobs") > 0;
         // What the file system refuses (a link loop, a folder this user may not read) is the user's to fix.

@@ -13,6 +13,7 @@
 #include "app/output_file.h"
 #include "app/progress_bar.h"
 #include "core/error.h"
+#include "tools/cli_common.h"
 #include "tools/solve_flags.h"
 
 namespace rig {
@@ -215,7 +216,7 @@ int main(int argc, char** argv)
     app.add_option("--html", options.html,
                    "Write a self-contained page that plays the clip with the rig overlaid, its errors and curves");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors and warnings");
-    return rig::app::runMain(app, argc, argv, [&] {
+    return rig::cli::runMain(app, argc, argv, [&] {
         options.framesGiven = app.count("--frames") > 0;
         options.keysGiven = app.count("--key-tolerance") + app.count("--key-tolerance-deg") > 0;
         return rig::run(options);

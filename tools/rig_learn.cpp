@@ -16,6 +16,7 @@
 #include "core/table.h"
 #include "inversion/approximation_io.h"
 #include "nodes/inversion_spec.h"
+#include "tools/cli_common.h"
 
 namespace rig {
 namespace {
@@ -311,10 +312,10 @@ int main(int argc, char** argv)
     app.add_option("--threads", options.threads,
                    "Rig instances evaluating at the same time: 1 serial, N parallel, 0 all cores (default); the "
                    "approximation is the same for any count")
-        ->check(rig::app::threadCount());
+        ->check(rig::cli::threadCount());
     app.add_option("--plugin", options.plugins, "Load a node plugin before reading the rig (repeatable)")
         ->allow_extra_args(false);
-    return rig::app::runMain(app, argc, argv, [&] {
+    return rig::cli::runMain(app, argc, argv, [&] {
         options.epsilonGiven = app.count("--epsilon") > 0;
         options.reportGiven = app.count("--report-json") > 0;
         return rig::run(options);

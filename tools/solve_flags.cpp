@@ -1,12 +1,12 @@
 #include "tools/solve_flags.h"
 
-#include "app/output_file.h"
+#include "tools/cli_common.h"
 
 namespace rig::cli {
 
 void addSolveFlags(CLI::App& app, app::InvertSettings& s, const std::string& threadsHelp)
 {
-    app.add_option("--threads", s.threads, threadsHelp + "; results do not depend on it")->check(app::threadCount());
+    app.add_option("--threads", s.threads, threadsHelp + "; results do not depend on it")->check(threadCount());
     app.add_option("--jacobian", s.jacobian, "analytic (default) or fd (finite differences, in parallel)");
     app.add_flag("--no-partition", s.noPartition, "Solve all parameters as one dense problem");
     app.add_flag("--block-by-block", s.blockByBlock,
