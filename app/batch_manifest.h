@@ -21,15 +21,10 @@
 
 namespace rig::app {
 
-// What every shard of a batch shares: inputs (absolute file names) and the solve's settings.
-struct BatchInputs {
-    std::string approximation;
-    std::string rig;
-    std::string map;  // "" for none
-    std::vector<std::string> plugins;
-    bool strict = false;
-    InvertSettings settings;  // threads: per shard
-    int shardFrames = 0;      // as asked; shards hold ceil(shardFrames / restartEvery) restart intervals
+// What every shard of a batch shares: the inversion's inputs (absolute file names; settings.threads: per shard),
+// the shard size and the inputs' checksums.
+struct BatchInputs : InversionInputs {
+    int shardFrames = 0;  // as asked; shards hold ceil(shardFrames / restartEvery) restart intervals
     // Checksums of the inputs when the batch was planned: a task refuses inputs that changed since.
     std::string approximationChecksum;
     std::string rigFingerprint;

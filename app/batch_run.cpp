@@ -324,12 +324,10 @@ BatchOutcome runBatch(const BatchJob& job)
     const std::vector<fs::path> files = clipFiles(job.clips, folder);
 
     InvertJob base;
-    base.approximationName = fs::absolute(job.approximation).string();
+    static_cast<InversionInputs&>(base) = job;
+    base.approximation = fs::absolute(job.approximation).string();
     base.rig = fs::absolute(job.rig).string();
     base.map = job.map.empty() ? "" : fs::absolute(job.map).string();
-    base.plugins = job.plugins;
-    base.strict = job.strict;
-    base.settings = job.settings;
     base.warning = job.warning;
     LoadedRig loaded = loadRig(base);
     const Approximation& approximation = *loaded.approximation;
@@ -337,12 +335,7 @@ BatchOutcome runBatch(const BatchJob& job)
 
     BatchManifest manifest;
     BatchInputs& inputs = manifest.inputs;
-    inputs.approximation = base.approximationName;
-    inputs.rig = base.rig;
-    inputs.map = base.map;
-    inputs.plugins = job.plugins;
-    inputs.strict = job.strict;
-    inputs.settings = job.settings;
+    static_cast<InversionInputs&>(inputs) = base;
     inputs.shardFrames = job.shardFrames;
     inputs.approximationChecksum = fileChecksum(inputs.approximation, "the approximation");
     inputs.rigFingerprint = loaded.rig->fingerprint();
@@ -675,14 +668,9 @@ void runShard(const std::filesystem::path& folder, int index)
         if (!in.map.empty() && fileChecksum(in.map, "the map") != in.mapChecksum) throw changed(in.map, "the map");
         if (fileChecksum(clip.file, "the clip") != clip.checksum) throw changed(clip.file, "the clip");
         InvertJob job;
-        job.approximationName = in.approximation;
-        job.rig = in.rig;
-        job.map = in.map;
-        job.plugins = in.plugins;
-        job.strict = in.strict;
+        static_cast<InversionInputs&>(job) = in;
         job.clip = clip.file;
         job.frameIndices = std::pair(shard.first, shard.last);
-        job.settings = in.settings;
         job.rigLoaded = [&](const GraphRigFunction& rig) {
             if (rig.fingerprint() != in.rigFingerprint) throw changed(in.rig, "the rig (or a file it includes)");
         };

@@ -18,19 +18,15 @@
 
 namespace rig::app {
 
-struct BatchJob {
-    std::string approximation;
-    std::string rig;
-    std::string map;  // "" for none
-    std::vector<std::string> plugins;
-    bool strict = false;
+// A batch: the inversion's inputs (settings.threads: per shard, one unless set), the clips and where they run.
+struct BatchJob : InversionInputs {
+    BatchJob() { settings.threads = 1; }
     std::vector<std::string> clips;  // clip files (.bvh, .json) and folders of them
     std::string out;                 // the output folder
     std::string backend = "local";   // or "slurm"
     int jobs = 0;                    // processes (local) or tasks running at once (slurm); 0: the default
     int shardFrames = 4800;
-    int retries = 1;                        // new attempts of failed shards
-    InvertSettings settings{.threads = 1};  // threads: per shard
+    int retries = 1;  // new attempts of failed shards
     // Slurm's per-task resources and options (sbatch --mem, --time, and more as given).
     std::string slurmMemory;
     std::string slurmTime;

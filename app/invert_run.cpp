@@ -125,15 +125,15 @@ ClipInversionOptions clipInversionOptions(const InvertSettings& s)
 LoadedRig loadRig(const InvertJob& job)
 {
     LoadedRig out;
-    out.approximation = job.approximation;
+    out.approximation = job.loadedApproximation;
     if (!out.approximation)
-        out.approximation = std::make_shared<const Approximation>(readApproximationFile(job.approximationName));
+        out.approximation = std::make_shared<const Approximation>(readApproximationFile(job.approximation));
     const Approximation& approximation = *out.approximation;
     if (approximation.parameters.empty())
         throw Error(
             fmt::format("{}: the approximation models no parameter (all were discarded); learn it again "
                         "with other --params",
-                        job.approximationName));
+                        job.approximation));
 
     // The rig must have the approximation's parameters, outputs and held plugs: an approximation of another
     // rig (or a name edited by hand) is the approximation's mistake as much as the rig's. The held plugs put
@@ -142,17 +142,17 @@ LoadedRig loadRig(const InvertJob& job)
         out.rig = std::make_shared<GraphRigFunction>(job.rig, rigOptionsFor(approximation, job.plugins));
     }
     catch (const RigSelectionError& e) {
-        throw Error(fmt::format("{}: {} '{}' does not fit {} ({}); {}", job.approximationName, e.kind(), e.name(),
-                                job.rig, e.reason(), learnedFrom(approximation)));
+        throw Error(fmt::format("{}: {} '{}' does not fit {} ({}); {}", job.approximation, e.kind(), e.name(), job.rig,
+                                e.reason(), learnedFrom(approximation)));
     }
     if (job.rigLoaded) job.rigLoaded(*out.rig);
     try {
         if (const auto warning = checkFingerprint(approximation, out.rig->fingerprint(), job.strict);
             !warning.empty() && job.warning)
-            job.warning(fmt::format("{}: {}", job.approximationName, warning));
+            job.warning(fmt::format("{}: {}", job.approximation, warning));
     }
     catch (const Error& e) {
-        throw Error(fmt::format("{}: {} (--strict)", job.approximationName, e.what()));
+        throw Error(fmt::format("{}: {} (--strict)", job.approximation, e.what()));
     }
     return out;
 }
@@ -167,8 +167,8 @@ RigBinding bindRig(const InvertJob& job, const Approximation& approximation, Gra
     catch (const Error& e) {
         std::string why = e.what();
         if (why.starts_with("RigBinding: ")) why.erase(0, 12);
-        throw Error(fmt::format("{}: {} ({} does not offer it as a free keyable number); {}", job.approximationName,
-                                why, job.rig, learnedFrom(approximation)));
+        throw Error(fmt::format("{}: {} ({} does not offer it as a free keyable number); {}", job.approximation, why,
+                                job.rig, learnedFrom(approximation)));
     }
 }
 

@@ -36,23 +36,29 @@ struct InvertSettings {
 // The options for invertClip. Throws rig::Error naming the flag of a bad value.
 ClipInversionOptions clipInversionOptions(const InvertSettings& settings);
 
-struct InvertJob {
-    // The approximation; null: read from `approximationName`, after the settings are checked.
-    std::shared_ptr<const Approximation> approximation;
-    std::string approximationName;  // its file, or what names it in messages
+// The inputs of an inversion, however it starts (rig-invert's flags, rig-batch's flags and manifest, Python's
+// Approximation.invert): the files it reads and the solve's settings, declared once so that they agree.
+struct InversionInputs {
+    std::string approximation;  // its file, or what names it in messages (one given in memory)
     std::string rig;
+    std::string map;  // renames and scales the targets; "" for none
     std::vector<std::string> plugins;
     bool strict = false;  // refuse an approximation learned from another version of the rig
+    InvertSettings settings;
+};
+
+// One inversion: its inputs, and the targets and frames to invert.
+struct InvertJob : InversionInputs {
+    // The approximation when already in memory; null: read from `approximation`, after the settings are checked.
+    std::shared_ptr<const Approximation> loadedApproximation;
     // The targets: the clip file `clip`, or `targets` when set (joints and worlds as given, `file` naming
     // them in messages); either way renamed and scaled by the map file `map` ("" for none).
     std::string clip;
     std::optional<TargetClip> targets;
-    std::string map;
     std::optional<std::string> frames;  // A:B in the clip's numbering; none: the whole clip
     // Or the frames as clip indices (0-based), first and last: rig-batch's shards.
     std::optional<std::pair<int, int>> frameIndices;
     std::string after;  // the curves of the chunk before (rig-invert --after), "" for none
-    InvertSettings settings;
     // Called after each reported frame with the frames done and the frames to report; may be empty.
     std::function<void(int done, int total)> progress;
     // Called with a warning line (the rig changed since learning); may be empty.
@@ -81,7 +87,7 @@ InvertOutcome invert(const InvertJob& job);
 
 // invert's steps, for rig-batch, which checks every clip of a library before any work. Each throws
 // rig::Error with rig-invert's one-line messages.
-// The approximation (job.approximation, or read from job.approximationName) and the rig it names, loaded
+// The approximation (job.loadedApproximation, or read from job.approximation) and the rig it names, loaded
 // with the approximation's parameters, outputs and held plugs (rigOptionsFor); job.rigLoaded is called,
 // then job.warning when the rig changed since learning (an error with job.strict).
 struct LoadedRig {

@@ -495,8 +495,8 @@ public:
                      const py::object& plugins, const py::object& frames) const
     {
         app::InvertJob job;
-        job.approximation = approximation_;
-        job.approximationName = name();
+        job.loadedApproximation = approximation_;
+        job.approximation = name();
         job.rig = pathText(rig, "rig");
         job.plugins = textList(plugins, "plugins");
         if (py::isinstance<py::dict>(targets)) job.targets = targetClip(targets.cast<py::dict>());

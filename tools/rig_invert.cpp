@@ -19,18 +19,13 @@
 namespace rig {
 namespace {
 
-struct Options {
-    std::string approximation;
-    std::string rig;
+// The inversion's inputs and rig-invert's own options.
+struct Options : app::InversionInputs {
     std::string clip;
-    std::string map;
     std::string frames;
     bool framesGiven = false;  // --frames '' is an error, not the whole clip
     std::string output;
     std::string reportJson;
-    std::vector<std::string> plugins;
-    bool strict = false;
-    app::InvertSettings settings;
     std::string after;  // curves of the chunk before (--after)
     bool quiet = false;
     app::KeySettings keys;
@@ -115,15 +110,10 @@ int run(const Options& o)
                              {"--after", o.after}},
                             outputs);
     app::InvertJob job;
-    job.approximationName = o.approximation;
-    job.rig = o.rig;
-    job.plugins = o.plugins;
-    job.strict = o.strict;
+    static_cast<app::InversionInputs&>(job) = o;
     job.clip = o.clip;
-    job.map = o.map;
     if (o.framesGiven) job.frames = o.frames;
     job.after = o.after;
-    job.settings = o.settings;
     job.warning = [](const std::string& warning) { std::cerr << "warning: " << warning << "\n"; };
     job.rigLoaded = [&](const GraphRigFunction& rig) {
         std::vector<app::NamedFile> read;
