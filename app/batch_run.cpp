@@ -295,12 +295,9 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
     return j;
 }
 
-}  // namespace
-
-BatchOutcome runBatch(const BatchJob& job)
+// rig-batch's flags and what needs no file, checked first.
+void checkBatchFlags(const BatchJob& job)
 {
-    const auto start = Clock::now();
-    // Everything that can be checked before the work is, and nothing is written before that.
     if (job.backend != "local" && job.backend != "slurm")
         throw Error(
             fmt::format("--backend {}: expected local (processes on this machine) or slurm (sbatch array "
@@ -318,34 +315,11 @@ BatchOutcome runBatch(const BatchJob& job)
             "--backend slurm: sbatch is not on PATH; install Slurm's client (Debian: slurm-client) and "
             "configure it for the cluster, or use --backend local");
     if (job.out.empty()) throw Error("--out: give the output folder");
-    const fs::path folder = fs::absolute(job.out);
-    if (std::error_code ec; fs::exists(folder, ec) && !fs::is_directory(folder, ec))
-        throw Error(fmt::format("--out {}: is a file; give a folder (it is created when missing)", job.out));
-    const std::vector<fs::path> files = clipFiles(job.clips, folder);
+}
 
-    InvertJob base;
-    static_cast<InversionInputs&>(base) = job;
-    base.approximation = fs::absolute(job.approximation).string();
-    base.rig = fs::absolute(job.rig).string();
-    base.map = job.map.empty() ? "" : fs::absolute(job.map).string();
-    base.warning = job.warning;
-    LoadedRig loaded = loadRig(base);
-    const Approximation& approximation = *loaded.approximation;
-    bindRig(base, approximation, *loaded.rig);
-
-    BatchManifest manifest;
-    BatchInputs& inputs = manifest.inputs;
-    static_cast<InversionInputs&>(inputs) = base;
-    inputs.shardFrames = job.shardFrames;
-    inputs.approximationChecksum = fileChecksum(inputs.approximation, "the approximation");
-    inputs.rigFingerprint = loaded.rig->fingerprint();
-    inputs.mapChecksum = inputs.map.empty() ? "" : fileChecksum(inputs.map, "the map");
-    std::vector<std::vector<double>> frameNumbers;
-    std::map<std::string, fs::path> names;
-    std::vector<std::pair<std::string, fs::path>> inputFiles{{"the approximation", inputs.approximation},
-                                                             {"the map", inputs.map}};
-    for (const auto& file : loaded.rig->files()) inputFiles.emplace_back("a file the rig reads", file);
-    // The manifest (JSON) holds these paths: bytes that are not UTF-8 would be read back as other names.
+// The manifest (JSON) holds these paths: bytes that are not UTF-8 would be read back as other names.
+void checkManifestPaths(const BatchInputs& inputs)
+{
     for (const auto& [flag, path] : {std::pair<std::string, std::string>{"approximation", inputs.approximation},
                                      {"--rig", inputs.rig},
                                      {"--map", inputs.map}})
@@ -354,12 +328,19 @@ BatchOutcome runBatch(const BatchJob& job)
                 fmt::format("{} {}: its path is not UTF-8, which the batch's manifest (JSON) cannot hold; "
                             "rename it",
                             flag, path));
-    for (const std::string& plugin : job.plugins)
+    for (const std::string& plugin : inputs.plugins)
         if (!isUtf8(plugin))
             throw Error(
                 fmt::format("--plugin {}: is not UTF-8, which the batch's manifest (JSON) cannot hold; "
                             "rename it",
                             plugin));
+}
+
+// The clips into the manifest (and `inputFiles`), each path UTF-8 and each name a curves file of its own.
+void addClips(const std::vector<fs::path>& files, BatchManifest& manifest,
+              std::vector<std::pair<std::string, fs::path>>& inputFiles)
+{
+    std::map<std::string, fs::path> names;
     for (const fs::path& file : files) {
         const std::string name = file.stem().string();
         if (!isUtf8(file.string()))
@@ -378,9 +359,15 @@ BatchOutcome runBatch(const BatchJob& job)
         manifest.clips.push_back({name, file.string(), "", 0});
         inputFiles.emplace_back("a clip", file);
     }
-    // Every clip read and matched as rig-invert would, clips in parallel (a library has thousands); the first
-    // clip in order with an error is the one reported.
-    frameNumbers.resize(files.size());
+}
+
+// Every clip read and matched as rig-invert would, clips in parallel (a library has thousands); the first
+// clip in order with an error is the one reported. Records each clip's checksum and frame count; returns the
+// clips' frame numbers.
+std::vector<std::vector<double>> readClips(const InvertJob& base, const Approximation& approximation,
+                                           const std::vector<fs::path>& files, BatchManifest& manifest)
+{
+    std::vector<std::vector<double>> frameNumbers(files.size());
     std::vector<std::string> clipErrors(files.size());
     tbb::parallel_for(std::size_t{0}, files.size(), [&](std::size_t c) {
         try {
@@ -398,12 +385,58 @@ BatchOutcome runBatch(const BatchJob& job)
     });
     for (const std::string& error : clipErrors)
         if (!error.empty()) throw Error(error);
-    manifest.shards = planShards(inputs, manifest.clips, frameNumbers);
-    std::vector<fs::path> outputs{folder / "manifest.json", folder / "report.json"};
-    for (const BatchClip& clip : manifest.clips) outputs.push_back(folder / (clip.name + ".json"));
-    checkOutputsAreNotInputs(inputFiles, outputs);
+    return frameNumbers;
+}
 
-    // The backend's settings; Slurm is asked whether it would take such tasks before anything is written.
+// The batch as planned: every input read and checked, the shards, and the files the batch writes.
+struct BatchPlan {
+    fs::path folder;
+    LoadedRig loaded;
+    BatchManifest manifest;
+    std::vector<fs::path> outputs;  // the manifest, the report, each clip's curves
+};
+
+// Plans the batch: nothing is written, and everything that can be refused before the work is.
+BatchPlan planBatch(const BatchJob& job)
+{
+    BatchPlan plan;
+    plan.folder = fs::absolute(job.out);
+    if (std::error_code ec; fs::exists(plan.folder, ec) && !fs::is_directory(plan.folder, ec))
+        throw Error(fmt::format("--out {}: is a file; give a folder (it is created when missing)", job.out));
+    const std::vector<fs::path> files = clipFiles(job.clips, plan.folder);
+
+    InvertJob base;
+    static_cast<InversionInputs&>(base) = job;
+    base.approximation = fs::absolute(job.approximation).string();
+    base.rig = fs::absolute(job.rig).string();
+    base.map = job.map.empty() ? "" : fs::absolute(job.map).string();
+    base.warning = job.warning;
+    plan.loaded = loadRig(base);
+    const Approximation& approximation = *plan.loaded.approximation;
+    bindRig(base, approximation, *plan.loaded.rig);
+
+    BatchInputs& inputs = plan.manifest.inputs;
+    static_cast<InversionInputs&>(inputs) = base;
+    inputs.shardFrames = job.shardFrames;
+    inputs.approximationChecksum = fileChecksum(inputs.approximation, "the approximation");
+    inputs.rigFingerprint = plan.loaded.rig->fingerprint();
+    inputs.mapChecksum = inputs.map.empty() ? "" : fileChecksum(inputs.map, "the map");
+    std::vector<std::pair<std::string, fs::path>> inputFiles{{"the approximation", inputs.approximation},
+                                                             {"the map", inputs.map}};
+    for (const auto& file : plan.loaded.rig->files()) inputFiles.emplace_back("a file the rig reads", file);
+    checkManifestPaths(inputs);
+    addClips(files, plan.manifest, inputFiles);
+    const auto frameNumbers = readClips(base, approximation, files, plan.manifest);
+    plan.manifest.shards = planShards(inputs, plan.manifest.clips, frameNumbers);
+    plan.outputs = {plan.folder / "manifest.json", plan.folder / "report.json"};
+    for (const BatchClip& clip : plan.manifest.clips) plan.outputs.push_back(plan.folder / (clip.name + ".json"));
+    checkOutputsAreNotInputs(inputFiles, plan.outputs);
+    return plan;
+}
+
+// The backend's settings; Slurm is asked whether it would take such tasks before anything is written.
+BackendRun backendRun(const BatchJob& job, const fs::path& folder)
+{
     BackendRun run;
     run.program = job.program;
     run.folder = folder;
@@ -414,16 +447,14 @@ BatchOutcome runBatch(const BatchJob& job)
     // The folder's own name for its jobs: what rig-batch cancels when it is stopped (and squeue shows).
     run.jobName = "rig-batch-" + checksumText(folder.string()).substr(0, 8);
     if (job.backend == "slurm") checkSlurm(run);
+    return run;
+}
 
-    std::error_code ec;
-    for (const char* sub : {"shards", "logs"}) fs::create_directories(folder / sub, ec);
-    if (ec)
-        throw Error(fmt::format("--out {}: cannot create it ({}); give a folder you may write", job.out, ec.message()));
-    run.lockFd = lockFolder(folder);
-    for (const fs::path& out : outputs) checkOutputFile(out, "out", "--out");
-
-    // Resume: a shard is done when its output matches the checksum recorded for it, in its status record
-    // (newer: written after the output) or in the manifest of an earlier run.
+// Resume: a shard is done when its output matches the checksum recorded for it, in its status record
+// (newer: written after the output) or in the manifest of an earlier run. Writes the manifest, removes the
+// shard files this plan does not hold, and returns the shards to run.
+std::vector<int> resumeBatch(const fs::path& folder, BatchManifest& manifest)
+{
     std::map<std::string, std::string> recorded;
     if (fs::exists(folder / "manifest.json")) try {
             for (const BatchShard& s : readManifest(folder).shards)
@@ -450,20 +481,62 @@ BatchOutcome runBatch(const BatchJob& job)
         if (manifest.shards[i].checksum.empty()) pending.push_back(static_cast<int>(i));
     writeManifest(folder, manifest);
     removeUnplanned(folder, keys);
+    return pending;
+}
 
-    // Run what is not done; failed shards again, up to --retries times.
-    const int reused = static_cast<int>(manifest.shards.size() - pending.size());
-    // --jobs by default: the cores (local), every task at once (Slurm: 0 here, the shards to run).
-    const int jobs = job.jobs > 0             ? job.jobs
-                     : job.backend == "local" ? static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))
-                                              : 0;
-    const int toRun = static_cast<int>(pending.size());
+// The figures of a batch, as its report gives them.
+struct BatchFigures {
+    int reused = 0;  // shards an earlier run had done
+    int jobs = 0;    // processes or tasks at once; 0: every task at once (Slurm)
+    int toRun = 0;
     int done = 0;
     long long framesRun = 0;
-    std::map<int, std::string> errors;
+    std::map<int, std::string> errors;  // failed shards' error lines
+    double planSeconds = 0.0, runSeconds = 0.0, taskSeconds = 0.0, solveSeconds = 0.0, mergeSeconds = 0.0;
+    long long totalFrames = 0;
+    int complete = 0;  // clips merged
+};
+
+// One round's shards, as their tasks left them: the done ones counted, the others' error lines kept. Returns
+// the shards that failed.
+std::vector<int> collectRound(const fs::path& folder, BatchManifest& manifest, const std::vector<int>& pending,
+                              const ProcessNotes& notes, BatchFigures& figures)
+{
+    std::vector<int> failed;
+    for (const int i : pending) {
+        BatchShard& shard = manifest.shards[static_cast<std::size_t>(i)];
+        ShardStatus status;
+        const bool reported = readShardStatus(folder / shard.status(), status) && status.key == shard.key;
+        if (reported && status.ok && shardDone(folder, manifest, shard, status.checksum)) {
+            shard.checksum = status.checksum;
+            figures.taskSeconds += status.seconds;
+            figures.framesRun += shard.last - shard.first + 1;
+            ++figures.done;
+            continue;
+        }
+        const auto note = notes.find(i);
+        if (reported && !status.ok) figures.errors[i] = status.error;
+        else if (reported)
+            figures.errors[i] = fmt::format(
+                "error: {} (or its clip's curves): does not match the checksums its task "
+                "recorded; written over since? run rig-batch again",
+                (folder / shard.output()).string());
+        else if (note != notes.end()) figures.errors[i] = "error: the task " + note->second;
+        else figures.errors[i] = "error: the task ended without a status";
+        failed.push_back(i);
+    }
+    for (const int i : pending)
+        if (!std::count(failed.begin(), failed.end(), i)) figures.errors.erase(i);
+    return failed;
+}
+
+// Runs the shards not done; failed shards again, up to --retries times. The manifest records each round.
+void runShards(const BatchJob& job, BackendRun& run, const fs::path& folder, BatchManifest& manifest,
+               std::vector<int> pending, BatchFigures& figures)
+{
+    std::error_code ec;
+    figures.toRun = static_cast<int>(pending.size());
     const auto runStart = Clock::now();
-    const double planSeconds = secondsSince(start);
-    double taskSeconds = 0.0;
     for (int round = 0; round <= job.retries && !pending.empty(); ++round) {
         std::vector<std::string> pendingKeys;
         for (const int i : pending) {
@@ -473,7 +546,7 @@ BatchOutcome runBatch(const BatchJob& job)
         }
         run.shards = pending;
         run.keys = pendingKeys;
-        run.jobs = jobs > 0 ? jobs : static_cast<int>(pending.size());
+        run.jobs = figures.jobs > 0 ? figures.jobs : static_cast<int>(pending.size());
         run.round = round;
         run.reported = [&](int i) {
             return fs::exists(folder / manifest.shards[static_cast<std::size_t>(i)].status(), ec);
@@ -483,49 +556,32 @@ BatchOutcome runBatch(const BatchJob& job)
                 int ended = 0;
                 for (const int i : pending)
                     ended += fs::exists(folder / manifest.shards[static_cast<std::size_t>(i)].status(), ec);
-                job.progress(done + ended, toRun);
+                job.progress(figures.done + ended, figures.toRun);
             };
         const ProcessNotes notes = job.backend == "slurm" ? runSlurm(run) : runLocal(run);
-        std::vector<int> failed;
-        for (const int i : pending) {
-            BatchShard& shard = manifest.shards[static_cast<std::size_t>(i)];
-            ShardStatus status;
-            const bool reported = readShardStatus(folder / shard.status(), status) && status.key == shard.key;
-            if (reported && status.ok && shardDone(folder, manifest, shard, status.checksum)) {
-                shard.checksum = status.checksum;
-                taskSeconds += status.seconds;
-                framesRun += shard.last - shard.first + 1;
-                ++done;
-                continue;
-            }
-            const auto note = notes.find(i);
-            if (reported && !status.ok) errors[i] = status.error;
-            else if (reported)
-                errors[i] = fmt::format(
-                    "error: {} (or its clip's curves): does not match the checksums its task "
-                    "recorded; written over since? run rig-batch again",
-                    (folder / shard.output()).string());
-            else if (note != notes.end()) errors[i] = "error: the task " + note->second;
-            else errors[i] = "error: the task ended without a status";
-            failed.push_back(i);
-        }
-        for (const int i : pending)
-            if (!std::count(failed.begin(), failed.end(), i)) errors.erase(i);
-        pending = failed;
+        pending = collectRound(folder, manifest, pending, notes, figures);
         writeManifest(folder, manifest);
     }
-    const double runSeconds = toRun > 0 ? secondsSince(runStart) : 0.0;
-    if (job.progress) job.progress(toRun, toRun);
+    figures.runSeconds = figures.toRun > 0 ? secondsSince(runStart) : 0.0;
+    if (job.progress) job.progress(figures.toRun, figures.toRun);
+}
 
-    // Merge each clip whose shards are all done. Clips in parallel: the merge reads every shard's output again
-    // and writes every curves file, the most data a batch moves on one machine.
-    const auto mergeStart = Clock::now();
+// One clip's merge: its shards [first, end) and what the merge gave.
+struct ClipMerge {
+    std::size_t first = 0, end = 0;
+    std::optional<MergedClip> merged;
+    std::string unwritten;  // why its curves could not be written (a full disk)
+};
+
+// Merges each clip whose shards are all done and writes its curves; a clip with a shard missing loses an
+// earlier run's curves. Clips in parallel: the merge reads every shard's output again and writes every curves
+// file, the most data a batch moves on one machine.
+std::vector<ClipMerge> mergeClips(const BatchPlan& plan)
+{
+    const fs::path& folder = plan.folder;
+    const BatchManifest& manifest = plan.manifest;
+    const Approximation& approximation = *plan.loaded.approximation;
     const Equivalences equivalences(approximation);
-    struct ClipMerge {
-        std::size_t first = 0, end = 0;  // its shards
-        std::optional<MergedClip> merged;
-        std::string unwritten;  // why its curves could not be written (a full disk)
-    };
     std::vector<ClipMerge> merges;
     for (std::size_t first = 0; first < manifest.shards.size();) {
         std::size_t end = first;
@@ -541,7 +597,7 @@ BatchOutcome runBatch(const BatchJob& job)
         for (std::size_t i = m.first; i < m.end; ++i) ready = ready && !manifest.shards[i].checksum.empty();
         if (ready)
             m.merged = mergeClip(folder, manifest, static_cast<int>(m.first), static_cast<int>(m.end), approximation,
-                                 equivalences, *loaded.rig);
+                                 equivalences, *plan.loaded.rig);
         if (m.merged && m.merged->failedShard < 0) {
             if (m.merged->curvesChecksum.empty()) try {
                     writeFileAtomically(curves, m.merged->curves);
@@ -557,7 +613,12 @@ BatchOutcome runBatch(const BatchJob& job)
             fs::remove(curves, removed);
         }
     });
-    // Curves that could not be written: the shards stay done (the manifest records them), the clips are named.
+    return merges;
+}
+
+// Curves that could not be written: the shards stay done (the manifest records them), the clips are named.
+void checkCurvesWritten(const fs::path& folder, const BatchManifest& manifest, const std::vector<ClipMerge>& merges)
+{
     std::vector<std::string> unwritten;
     for (const ClipMerge& m : merges)
         if (!m.unwritten.empty())
@@ -565,29 +626,32 @@ BatchOutcome runBatch(const BatchJob& job)
                 "{} (shards {} to {}, frames {}:{}): {}",
                 manifest.clips[static_cast<std::size_t>(manifest.shards[m.first].clip)].name, m.first, m.end - 1,
                 manifest.shards[m.first].firstFrame, manifest.shards[m.end - 1].lastFrame, m.unwritten));
-    if (!unwritten.empty()) {
-        fs::remove(folder / "report.json", ec);  // an earlier run's would name curves that are not there
-        throw Error(fmt::format(
-            "the merge could not write the curves of {} of {} clips: {}{}; their shards are done "
-            "and kept: run rig-batch again to merge them",
-            unwritten.size(), merges.size(), unwritten.front(), unwritten.size() > 1 ? " (and the others')" : ""));
-    }
-    BatchOutcome outcome;
+    if (unwritten.empty()) return;
+    std::error_code ec;
+    fs::remove(folder / "report.json", ec);  // an earlier run's would name curves that are not there
+    throw Error(fmt::format(
+        "the merge could not write the curves of {} of {} clips: {}{}; their shards are done "
+        "and kept: run rig-batch again to merge them",
+        unwritten.size(), merges.size(), unwritten.front(), unwritten.size() > 1 ? " (and the others')" : ""));
+}
+
+// The clips' part of the report. A clip whose merge found a shard's output unusable is not merged: that shard
+// is failed (its checksum cleared for the manifest). Counts the outcome's failed clips and the figures' totals.
+Json clipsReport(BatchManifest& manifest, std::vector<ClipMerge>& merges, const fs::path& folder, BatchOutcome& outcome,
+                 BatchFigures& figures)
+{
     Json clips = Json::array();
-    long long totalFrames = 0;
-    double solveSeconds = 0.0;
-    int complete = 0;
     for (ClipMerge& m : merges) {
         const BatchClip& clip = manifest.clips[static_cast<std::size_t>(manifest.shards[m.first].clip)];
-        totalFrames += clip.frames;
+        figures.totalFrames += clip.frames;
         if (m.merged && m.merged->failedShard >= 0) {
-            errors[m.merged->failedShard] = m.merged->error;
+            figures.errors[m.merged->failedShard] = m.merged->error;
             manifest.shards[static_cast<std::size_t>(m.merged->failedShard)].checksum.clear();
             m.merged.reset();
         }
         if (m.merged) {
-            ++complete;
-            solveSeconds += m.merged->summary.solveSeconds;
+            ++figures.complete;
+            figures.solveSeconds += m.merged->summary.solveSeconds;
             if (m.merged->summary.failedFrames() > 0) {
                 if (outcome.failedClips++ == 0)
                     outcome.firstFailedFrames = fmt::format(
@@ -600,45 +664,90 @@ BatchOutcome runBatch(const BatchJob& job)
         clips.push_back(clipReport(clip, static_cast<int>(m.end - m.first), m.merged ? &*m.merged : nullptr,
                                    folder / (clip.name + ".json")));
     }
-    writeManifest(folder, manifest);
-    const double mergeSeconds = secondsSince(mergeStart);
+    return clips;
+}
 
+// OUT/report.json's object; the failed shards' lines into `outcome`.
+Json batchReport(const BatchJob& job, const BatchPlan& plan, Json clips, const BatchFigures& figures,
+                 BatchOutcome& outcome)
+{
+    const BatchManifest& manifest = plan.manifest;
+    const BatchInputs& inputs = manifest.inputs;
+    const Approximation& approximation = *plan.loaded.approximation;
     Json failedShards = Json::array();
-    for (const auto& [i, error] : errors) {
+    for (const auto& [i, error] : figures.errors) {
         const BatchShard& shard = manifest.shards[static_cast<std::size_t>(i)];
         const std::string& clip = manifest.clips[static_cast<std::size_t>(shard.clip)].name;
         failedShards.push_back({{"shard", i}, {"clip", clip}, {"frames", framesText(shard)}, {"error", error}});
         outcome.failures.push_back(fmt::format("shard {} ({} frames {}): {}", i, clip, framesText(shard), error));
     }
-    outcome.report =
-        Json{{"format", "rig-batch report 1"},
-             {"approximation", inputs.approximation},
-             {"rig", inputs.rig},
-             {"held", heldJson(approximation.held)},
-             {"unmodelled_outputs", unmodelledOutputs(approximation)},
-             {"hybrid", job.settings.hybrid},
-             {"map", inputs.map.empty() ? Json() : Json(inputs.map)},
-             {"backend", job.backend},
-             {"jobs", jobs > 0 ? Json(jobs) : Json("all")},
-             {"shard_frames", job.shardFrames},
-             {"restart_every", job.settings.restartEvery},
-             {"clips", std::move(clips)},
-             {"failed_shards", std::move(failedShards)},
-             {"totals",
-              {{"clips", manifest.clips.size()},
-               {"clips_complete", complete},
-               {"frames", totalFrames},
-               {"shards", manifest.shards.size()},
-               {"shards_reused", reused},
-               {"shards_run", done},
-               {"shards_failed", errors.size()},
-               {"frames_run", framesRun},
-               {"plan_seconds", numberJson(planSeconds)},
-               {"run_seconds", numberJson(runSeconds)},
-               {"frames_per_second", framesRun > 0 ? numberJson(static_cast<double>(framesRun) / runSeconds) : Json()},
-               {"task_seconds", numberJson(taskSeconds)},
-               {"solve_seconds", numberJson(solveSeconds)},
-               {"merge_seconds", numberJson(mergeSeconds)}}}};
+    const double framesRun = static_cast<double>(figures.framesRun);
+    return Json{{"format", "rig-batch report 1"},
+                {"approximation", inputs.approximation},
+                {"rig", inputs.rig},
+                {"held", heldJson(approximation.held)},
+                {"unmodelled_outputs", unmodelledOutputs(approximation)},
+                {"hybrid", job.settings.hybrid},
+                {"map", inputs.map.empty() ? Json() : Json(inputs.map)},
+                {"backend", job.backend},
+                {"jobs", figures.jobs > 0 ? Json(figures.jobs) : Json("all")},
+                {"shard_frames", job.shardFrames},
+                {"restart_every", job.settings.restartEvery},
+                {"clips", std::move(clips)},
+                {"failed_shards", std::move(failedShards)},
+                {"totals",
+                 {{"clips", manifest.clips.size()},
+                  {"clips_complete", figures.complete},
+                  {"frames", figures.totalFrames},
+                  {"shards", manifest.shards.size()},
+                  {"shards_reused", figures.reused},
+                  {"shards_run", figures.done},
+                  {"shards_failed", figures.errors.size()},
+                  {"frames_run", figures.framesRun},
+                  {"plan_seconds", numberJson(figures.planSeconds)},
+                  {"run_seconds", numberJson(figures.runSeconds)},
+                  {"frames_per_second", framesRun > 0 ? numberJson(framesRun / figures.runSeconds) : Json()},
+                  {"task_seconds", numberJson(figures.taskSeconds)},
+                  {"solve_seconds", numberJson(figures.solveSeconds)},
+                  {"merge_seconds", numberJson(figures.mergeSeconds)}}}};
+}
+
+}  // namespace
+
+BatchOutcome runBatch(const BatchJob& job)
+{
+    const auto start = Clock::now();
+    // Everything that can be checked before the work is, and nothing is written before that.
+    checkBatchFlags(job);
+    BatchPlan plan = planBatch(job);
+    const fs::path& folder = plan.folder;
+    BackendRun run = backendRun(job, folder);
+
+    std::error_code ec;
+    for (const char* sub : {"shards", "logs"}) fs::create_directories(folder / sub, ec);
+    if (ec)
+        throw Error(fmt::format("--out {}: cannot create it ({}); give a folder you may write", job.out, ec.message()));
+    run.lockFd = lockFolder(folder);
+    for (const fs::path& out : plan.outputs) checkOutputFile(out, "out", "--out");
+    std::vector<int> pending = resumeBatch(folder, plan.manifest);
+
+    BatchFigures figures;
+    figures.reused = static_cast<int>(plan.manifest.shards.size() - pending.size());
+    // --jobs by default: the cores (local), every task at once (Slurm: 0 here, the shards to run).
+    figures.jobs = job.jobs > 0             ? job.jobs
+                   : job.backend == "local" ? static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))
+                                            : 0;
+    figures.planSeconds = secondsSince(start);
+    runShards(job, run, folder, plan.manifest, std::move(pending), figures);
+
+    const auto mergeStart = Clock::now();
+    std::vector<ClipMerge> merges = mergeClips(plan);
+    checkCurvesWritten(folder, plan.manifest, merges);
+    BatchOutcome outcome;
+    Json clips = clipsReport(plan.manifest, merges, folder, outcome, figures);
+    writeManifest(folder, plan.manifest);
+    figures.mergeSeconds = secondsSince(mergeStart);
+    outcome.report = batchReport(job, plan, std::move(clips), figures, outcome);
     writeFileAtomically(folder / "report.json", jsonText(outcome.report, 2) + "\n");
     return outcome;
 }
