@@ -4,7 +4,7 @@
 
 namespace rig::cli {
 
-void addSolveFlags(CLI::App& app, InvertSettings& s, const std::string& threadsHelp)
+void addSolveFlags(CLI::App& app, app::InvertSettings& s, const std::string& threadsHelp)
 {
     app.add_option("--threads", s.threads, threadsHelp + "; results do not depend on it")->check(threadCount());
     app.add_option("--jacobian", s.jacobian, "analytic (default) or fd (finite differences, in parallel)");

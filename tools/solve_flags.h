@@ -6,13 +6,13 @@
 
 #include <CLI/CLI.hpp>
 
-#include "tools/invert_run.h"
+#include "app/invert_run.h"
 
 namespace rig::cli {
 
 // Adds --threads, --jacobian, --no-partition, --block-by-block, --polish, --restart-every, --rest-starts and
 // --hybrid to `app`, each into its field of `settings` (whose values are the defaults shown). `threadsHelp` says
 // what --threads counts (rig-invert: the solve's threads; rig-batch: each shard's).
-void addSolveFlags(CLI::App& app, InvertSettings& settings, const std::string& threadsHelp);
+void addSolveFlags(CLI::App& app, app::InvertSettings& settings, const std::string& threadsHelp);
 
 }  // namespace rig::cli
