@@ -265,7 +265,10 @@ std::vector<std::string> taskOptions(const BackendRun& run)
 void checkSlurm(const BackendRun& run)
 {
     std::string command = "sbatch --test-only";
-    for (const auto& option : taskOptions(run)) command += " " + shellQuote(option);
+    for (const auto& option : taskOptions(run)) {
+        command += ' ';
+        command += shellQuote(option);
+    }
     command += " --wrap=true 2>&1";
     FILE* pipe = ::popen(command.c_str(), "r");
     if (!pipe) throw Error(fmt::format("--backend slurm: cannot run sbatch ({})", std::strerror(errno)));
