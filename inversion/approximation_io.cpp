@@ -94,8 +94,7 @@ std::string operatorText(const Operator& op, const std::string& field)
 {
     constexpr std::string_view indent = "        ";
     std::string out = fmt::format("      - kind: {}\n", operatorKindName(op.kind));
-    const bool sampled = op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine;
-    if (!sampled) {
+    if (!op.traits().sampled) {
         out += fmt::format("{}axis: {}\n{}pivot: {}\n", indent, vector3(op.axis, field + ".axis"), indent,
                            vector3(op.pivot, field + ".pivot"));
         if (op.held()) out += heldText(op, field);
@@ -300,7 +299,7 @@ public:
             if (!(op.low <= 0.0 && 0.0 <= op.high))
                 fail(held, field + ".held", "expected [low, high] with low <= 0 <= high");
         }
-        if (op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine) {
+        if (op.traits().sampled) {
             checkKeys(n, field, {"kind", "knots", "values"}, {"held"});
             if (op.kind == OperatorKind::sampledRigid)
                 op.rigid = spline<6>(child(n, "knots"), child(n, "values"), field);

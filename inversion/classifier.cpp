@@ -750,8 +750,8 @@ void fitOperators(Context& c, const std::vector<std::string>& outputNames, const
         }
         if (!ok) {
             const auto kinds = plausibleKinds(c, one);
-            const bool rigid = std::find(kinds.begin(), kinds.end(), OperatorKind::rotation) != kinds.end() ||
-                               std::find(kinds.begin(), kinds.end(), OperatorKind::translation) != kinds.end();
+            const bool rigid =
+                std::any_of(kinds.begin(), kinds.end(), [](OperatorKind k) { return operatorTraits(k).rigid; });
             Candidate candidate;
             double candidateError = std::numeric_limits<double>::infinity();
             ok = (rigid && trySampled(c, e, true, candidate, candidateError)) ||

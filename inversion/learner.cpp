@@ -299,9 +299,8 @@ std::string singularRest(const Eigen::Matrix4d& rest)
 // can make it better between them.
 bool interpolated(const ModelledParameter& m)
 {
-    return std::any_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
-        return !op.linear() || op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine;
-    });
+    return std::any_of(m.operators.begin(), m.operators.end(),
+                       [](const Operator& op) { return !op.linear() || op.traits().sampled; });
 }
 
 // One learning pass in the probe's frames: classify (from stored samples where possible), order,
