@@ -50,9 +50,7 @@ struct OperatorKindTraits {
 // (Operator::affineRows and Operator::derivative, operators.cpp), and its fit in the learner (classifier.cpp:
 // plausibleKinds and fitStructure for an analytic kind, trySampled for a sampled one). Files, fit forms and the
 // learner's choices follow from the row; a sampled kind also needs its spline in Operator and its knots and values
-// written and read (approximation_io.cpp). Three other places still name kinds and must agree with the row:
-// jacobian.cpp's rigidKind (`rigid`), solver.cpp's rotationsOnly (`angular`) and rig-learn's report
-// columns (tools/rig_learn.cpp: `hasAxis`, `hasPivot`).
+// written and read (approximation_io.cpp).
 inline constexpr std::array<OperatorKindTraits, 6> operatorKindTraits{{
     // kind, name, sampled, rigid, hasAxis, hasPivot, angular, valuesPerKnot
     {OperatorKind::translation, "translation", false, true, true, false, false, 1},

@@ -150,9 +150,8 @@ std::string readableReport(const app::LearnOutcome& learned, const Options& opti
         const ModelledParameter& m = a.parameters[p];
         const bool one = m.operators.size() == 1;
         const Operator* op = one ? &m.operators.front() : nullptr;
-        const bool analytic = op && op->kind != OperatorKind::sampledRigid && op->kind != OperatorKind::sampledAffine;
-        const bool hasAxis = analytic && op->kind != OperatorKind::uniformScale;
-        const bool hasPivot = analytic && op->kind != OperatorKind::translation;
+        const bool hasAxis = op && op->traits().hasAxis;
+        const bool hasPivot = op && op->traits().hasPivot;
         const std::string outputs = m.unmodelledOutputs.empty()
                                         ? fmt::format("{}", m.outputs.size())
                                         : fmt::format("{} (+{} not)", m.outputs.size(), m.unmodelledOutputs.size());
