@@ -28,8 +28,8 @@ struct BatchInputs {
     std::string map;  // "" for none
     std::vector<std::string> plugins;
     bool strict = false;
-    InvertSettings settings;  // threads: per shard
-    int shardFrames = 0;      // as asked; shards hold ceil(shardFrames / restartEvery) restart intervals
+    SolveSettings settings;  // threads: per shard
+    int shardFrames = 0;     // as asked; shards hold ceil(shardFrames / restartEvery) restart intervals
     // Checksums of the inputs when the batch was planned: a task refuses inputs that changed since.
     std::string approximationChecksum;
     std::string rigFingerprint;

@@ -29,8 +29,8 @@ struct BatchJob {
     std::string backend = "local";   // or "slurm"
     int jobs = 0;                    // processes (local) or tasks running at once (slurm); 0: the default
     int shardFrames = 4800;
-    int retries = 1;                        // new attempts of failed shards
-    InvertSettings settings{.threads = 1};  // threads: per shard
+    int retries = 1;                                     // new attempts of failed shards
+    SolveSettings settings = concurrentSolveDefaults();  // threads: per shard
     // Slurm's per-task resources and options (sbatch --mem, --time, and more as given).
     std::string slurmMemory;
     std::string slurmTime;

@@ -16,25 +16,14 @@
 #include "inversion/rig_binding.h"
 #include "nodes/clips/target_clip.h"
 #include "nodes/graph_rig_function.h"
+#include "tools/solve_settings.h"
 #include "tools/value_output.h"
 
 namespace rig::cli {
 
-// rig-invert's flags that shape the solve.
-struct InvertSettings {
-    int threads = 0;  // 0: all cores
-    bool noPartition = false;
-    bool blockByBlock = false;
-    std::string jacobian = "analytic";  // or "fd"
-    int polish = 0;
-    int restartEvery = ClipInversionOptions{}.restartInterval;
-    bool restStarts = false;
-    // Fit the outputs the approximation does not model on the real rig (inversion/hybrid_solve.h).
-    bool hybrid = false;
-};
-
-// The options for invertClip. Throws rig::Error naming the flag of a bad value.
-ClipInversionOptions clipInversionOptions(const InvertSettings& settings);
+// The options for invertClip. Throws rig::Error naming the flag of a bad value (settings made in code: the command
+// lines, the manifest and Python check theirs with the names they give them).
+ClipInversionOptions clipInversionOptions(const SolveSettings& settings);
 
 struct InvertJob {
     // The approximation; null: read from `approximationName`, after the settings are checked.
@@ -52,7 +41,7 @@ struct InvertJob {
     // Or the frames as clip indices (0-based), first and last: rig-batch's shards.
     std::optional<std::pair<int, int>> frameIndices;
     std::string after;  // the curves of the chunk before (rig-invert --after), "" for none
-    InvertSettings settings;
+    SolveSettings settings;
     // Called after each reported frame with the frames done and the frames to report; may be empty.
     std::function<void(int done, int total)> progress;
     // Called with a warning line (the rig changed since learning); may be empty.

@@ -29,7 +29,7 @@ struct Options {
     std::string reportJson;
     std::vector<std::string> plugins;
     bool strict = false;
-    cli::InvertSettings settings;
+    cli::SolveSettings settings;
     std::string after;  // curves of the chunk before (--after)
     bool quiet = false;
     cli::KeySettings keys;
@@ -199,7 +199,7 @@ int main(int argc, char** argv)
                    "Curves to write: .json, .csv or .anim (Maya's animImportExport), angles in degrees")
         ->required();
     app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
-    rig::cli::addSolveFlags(app, options.settings, "Threads for the solver (0: all cores)");
+    const rig::cli::SolveFlags solveFlags(app, rig::cli::SolveSettings{});
     app.add_option("--after", options.after,
                    "JSON curves rig-invert wrote for the frames before these: this run continues them (the curves "
                    "of chunks then equal one run's)");
@@ -218,6 +218,7 @@ int main(int argc, char** argv)
     return rig::cli::runMain(app, argc, argv, [&] {
         options.framesGiven = app.count("--frames") > 0;
         options.keysGiven = app.count("--key-tolerance") + app.count("--key-tolerance-deg") > 0;
+        options.settings = solveFlags.settings();
         return rig::run(options);
     });
 }
