@@ -67,16 +67,17 @@ std::array<SolveSetting, solveSettingCount> makeTable()
         "jacobian", SettingKind::choice,
         "How the solver forms the Jacobian: analytic, or fd (finite differences, in parallel)");
     jacobian.words = {"analytic", "fd"};  // JacobianMethod::analytic, finiteDifference
+    // In the order the manifest has always held them: its settings are part of every shard's key.
     return {
         count<&SolverOptions::threads>("threads", "Threads for the solver (0: all cores); results do not depend on it",
                                        0, 1024, "not a thread count; give a whole number from 0 (all cores) to 1024"),
-        jacobian,
         row<&SolverOptions::partition, true>("no-partition", SettingKind::flag,
                                              "Solve all parameters as one dense problem"),
         row<&SolverOptions::coupledBlocks, true>(
             "block-by-block", SettingKind::flag,
             "Solve the partition's blocks one after another, each outer block held (faster, a worse optimum on "
             "unreachable targets)"),
+        jacobian,
         count<&ClipInversionOptions::polishCorrections>(
             "polish", "Real-rig corrections per frame (0: approximation only)", 0, many,
             "give 0 (the approximation only) or more real-rig corrections per frame"),

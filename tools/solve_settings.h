@@ -51,7 +51,7 @@ struct SolveSetting {
 };
 
 inline constexpr std::size_t solveSettingCount = 8;
-// The table, in the order the flags, fields and keywords are listed.
+// The table, in the order the flags, fields and keywords are listed (the manifest's order, which shard keys hash).
 const std::array<SolveSetting, solveSettingCount>& solveSettings();
 
 // How a consumer spells a setting: as a flag ("--restart-every") or as a key (the manifest's field and Python's
