@@ -66,7 +66,7 @@ std::array<SolveSetting, solveSettingCount> makeTable()
     SolveSetting jacobian = row<&SolverOptions::jacobian>(
         "jacobian", SettingKind::choice,
         "How the solver forms the Jacobian: analytic, or fd (finite differences, in parallel)");
-    jacobian.words = {"analytic", "fd"};  // JacobianMethod::analytic, finiteDifference
+    jacobian.words = {"analytic", "fd"};  // JacobianMethod::analytic, finiteDifference (a choice has two words)
     // In the order the manifest has always held them: its settings are part of every shard's key.
     return {
         count<&SolverOptions::threads>("threads", "Threads for the solver (0: all cores); results do not depend on it",
@@ -151,10 +151,11 @@ int parseSetting(const SolveSetting& setting, std::string_view text, Spelling sp
         if (word == setting.words.end()) throw badValue(setting, text, spelling);
         return static_cast<int>(word - setting.words.begin());
     }
+    if (setting.kind == SettingKind::flag)
+        throw internalError(fmt::format("parseSetting: {} is a flag, which takes no text", setting.name));
     int value = 0;
     const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
-    if (setting.kind != SettingKind::count || ec != std::errc() || end != text.data() + text.size() ||
-        value < setting.least || value > setting.most)
+    if (ec != std::errc() || end != text.data() + text.size() || value < setting.least || value > setting.most)
         throw badValue(setting, text, spelling);
     return value;
 }

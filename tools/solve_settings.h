@@ -42,7 +42,7 @@ struct SolveSetting {
     int least = 0;
     int most = 0;
     std::string_view rule;
-    // choice: the words, in the order of the enum's values.
+    // choice: the words, in the order of the enum's values (two: a bad value is told "expected A or B").
     std::array<std::string_view, 2> words{};
     // Where it lands, its value as an int (a count; a flag as 0 or 1; a choice as its word's index): an accessor
     // made from a member pointer into SolverOptions, ClipInversionOptions or SolveSettings (solve_settings.cpp).
@@ -61,7 +61,8 @@ std::string settingName(const SolveSetting& setting, Spelling spelling);
 
 // A value as text: a count in decimal, a flag as true or false, a choice as its word.
 std::string settingText(const SolveSetting& setting, int value);
-// A count or choice from its text ("12", "fd"); throws rig::Error "NAME TEXT: RULE" (the table's one line).
+// A count or choice from its text ("12", "fd"); throws rig::Error "NAME TEXT: RULE" (the table's one line), an
+// internal one for a flag.
 int parseSetting(const SolveSetting& setting, std::string_view text, Spelling spelling);
 // Every row's value in range, and the combinations the solve refuses (--hybrid with --polish); throws rig::Error
 // with the table's one line, naming the setting as `spelling` spells it.
