@@ -16,14 +16,15 @@
 #include <pybind11/stl.h>
 #include <yaml-cpp/yaml.h>
 
+#include "app/eval_run.h"
+#include "app/frame_range.h"
+#include "app/invert_run.h"
+#include "app/learn_run.h"
+#include "app/output_file.h"
+#include "app/solve_settings.h"
 #include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "inversion/approximation_io.h"
-#include "tools/cli_common.h"
-#include "tools/eval_run.h"
-#include "tools/invert_run.h"
-#include "tools/learn_run.h"
-#include "tools/solve_settings.h"
 
 namespace py = pybind11;
 
@@ -32,29 +33,29 @@ namespace {
 
 // A report as Python objects, equal to what json.load gives for the file the command line writes
 // (nlohmann writes a number that is not finite as null).
-py::object toPython(const cli::Json& json)
+py::object toPython(const app::Json& json)
 {
     switch (json.type()) {
-        case cli::Json::value_t::null:
+        case app::Json::value_t::null:
             return py::none();
-        case cli::Json::value_t::boolean:
+        case app::Json::value_t::boolean:
             return py::bool_(json.get<bool>());
-        case cli::Json::value_t::number_integer:
+        case app::Json::value_t::number_integer:
             return py::int_(json.get<std::int64_t>());
-        case cli::Json::value_t::number_unsigned:
+        case app::Json::value_t::number_unsigned:
             return py::int_(json.get<std::uint64_t>());
-        case cli::Json::value_t::number_float: {
+        case app::Json::value_t::number_float: {
             const double x = json.get<double>();
             return std::isfinite(x) ? py::object(py::float_(x)) : py::object(py::none());
         }
-        case cli::Json::value_t::string:
+        case app::Json::value_t::string:
             return py::str(json.get_ref<const std::string&>());
-        case cli::Json::value_t::array: {
+        case app::Json::value_t::array: {
             py::list list;
             for (const auto& item : json) list.append(toPython(item));
             return list;
         }
-        case cli::Json::value_t::object: {
+        case app::Json::value_t::object: {
             py::dict dict;
             for (const auto& [key, value] : json.items()) dict[py::str(key)] = toPython(value);
             return dict;
@@ -175,31 +176,31 @@ int intArgument(const py::handle& value, std::string_view what)
     return static_cast<int>(x);
 }
 
-// The solve settings' keyword arguments (tools/solve_settings.h), one per row of the table: converted as their kind
+// The solve settings' keyword arguments (app/solve_settings.h), one per row of the table: converted as their kind
 // is, then checked by the table, so that a bad value is the table's one line naming the keyword.
-using SettingArguments = std::array<py::object, cli::solveSettingCount>;
-cli::SolveSettings settingsArgument(const SettingArguments& values)
+using SettingArguments = std::array<py::object, app::solveSettingCount>;
+app::SolveSettings settingsArgument(const SettingArguments& values)
 {
-    cli::SolveSettings out = cli::concurrentSolveDefaults();
-    const auto& table = cli::solveSettings();
+    app::SolveSettings out = app::concurrentSolveDefaults();
+    const auto& table = app::solveSettings();
     for (std::size_t i = 0; i < table.size(); ++i) {
-        const cli::SolveSetting& s = table[i];
-        const std::string key = cli::settingName(s, cli::Spelling::key);
-        if (s.kind == cli::SettingKind::count) s.set(out, intArgument(values[i], key));
-        else if (s.kind == cli::SettingKind::flag) s.set(out, flagArgument(values[i], key));
-        else s.set(out, cli::parseSetting(s, textArgument(values[i], key), cli::Spelling::key));
+        const app::SolveSetting& s = table[i];
+        const std::string key = app::settingName(s, app::Spelling::key);
+        if (s.kind == app::SettingKind::count) s.set(out, intArgument(values[i], key));
+        else if (s.kind == app::SettingKind::flag) s.set(out, flagArgument(values[i], key));
+        else s.set(out, app::parseSetting(s, textArgument(values[i], key), app::Spelling::key));
     }
-    cli::checkSettings(out, cli::Spelling::key);
+    app::checkSettings(out, app::Spelling::key);
     return out;
 }
 
 // A setting's default keyword value: what the table's default is in Python (an int, a bool, a word).
-py::object settingDefault(const cli::SolveSetting& s)
+py::object settingDefault(const app::SolveSetting& s)
 {
-    const int value = s.get(cli::concurrentSolveDefaults());
-    if (s.kind == cli::SettingKind::count) return py::int_(value);
-    if (s.kind == cli::SettingKind::flag) return py::bool_(value != 0);
-    return py::str(cli::settingText(s, value));
+    const int value = s.get(app::concurrentSolveDefaults());
+    if (s.kind == app::SettingKind::count) return py::int_(value);
+    if (s.kind == app::SettingKind::flag) return py::bool_(value != 0);
+    return py::str(app::settingText(s, value));
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -232,7 +233,7 @@ YAML::Node yamlValue(py::handle value, const std::string& name)
 // (F, N, 4, 4) for arrays whose length does not change (a list of arrays otherwise), a list for strings.
 py::object plugArray(const Graph& graph, const Plug& plug, const std::vector<Value>& values)
 {
-    const double k = cli::userScale(graph, plug);
+    const double k = app::userScale(graph, plug);
     const auto frames = static_cast<py::ssize_t>(values.size());
     const Value& first = values.front();
     const auto sameLength = [&]<class T>(const T&) {
@@ -300,7 +301,7 @@ public:
     {
         PyGraph g;
         g.file_ = pathText(path, "path");
-        g.registry_ = cli::nodeRegistry(textList(plugins, "plugins"));
+        g.registry_ = app::nodeRegistry(textList(plugins, "plugins"));
         g.graph_ = loadGraphFile(g.file_, g.registry_);
         return g;
     }
@@ -312,13 +313,13 @@ public:
         if (set)
             for (const auto& [key, value] : *set) {
                 const std::string name = py::str(key);
-                const Plug plug = cli::settablePlug(graph, name);
-                cli::setPlug(graph, plug, name, yamlValue(value, name));
+                const Plug plug = app::settablePlug(graph, name);
+                app::setPlug(graph, plug, name, yamlValue(value, name));
             }
         std::vector<double> numbers{graph.time()};
         const bool setTime = !frames.is_none();
         if (py::isinstance<py::str>(frames))
-            numbers = cli::parseFrameRange(frames.cast<std::string>(), "--frames").frames();
+            numbers = app::parseFrameRange(frames.cast<std::string>(), "--frames").frames();
         else if (setTime) numbers = frameNumbers(frames);
         std::vector<std::string> patterns;
         if (py::isinstance<py::str>(get)) patterns.push_back(get.cast<std::string>());
@@ -332,13 +333,13 @@ public:
             }
         }
         const auto plugs =
-            cli::selectPlugs(graph, file_, patterns, setTime ? std::optional(numbers.front()) : std::nullopt);
+            app::selectPlugs(graph, file_, patterns, setTime ? std::optional(numbers.front()) : std::nullopt);
         std::vector<std::vector<Value>> columns(plugs.size());
         for (const double frame : numbers) {
-            auto values = cli::evaluateFrame(graph, file_, frame, setTime, plugs);
+            auto values = app::evaluateFrame(graph, file_, frame, setTime, plugs);
             // graph-eval's limit, measured as graph-eval measures it: its JSON for as many frames as the first.
             if (columns.empty() || columns.front().empty())
-                cli::checkOutputSize(cli::jsonOutputEstimate(graph, plugs, frame, values, numbers.size()),
+                app::checkOutputSize(app::jsonOutputEstimate(graph, plugs, frame, values, numbers.size()),
                                      numbers.size(), plugs.size());
             for (std::size_t i = 0; i < plugs.size(); ++i) columns[i].push_back(std::move(values[i]));
         }
@@ -377,7 +378,7 @@ public:
     std::vector<std::string> plugs(const py::object& glob)
     {
         std::vector<std::string> names;
-        for (const Plug& p : cli::selectPlugs(*graph_, file_, {textArgument(glob, "glob")}, std::nullopt))
+        for (const Plug& p : app::selectPlugs(*graph_, file_, {textArgument(glob, "glob")}, std::nullopt))
             names.push_back(graph_->plugName(p));
         return names;
     }
@@ -434,7 +435,7 @@ public:
                                  const py::object& plugins, const py::object& worldSpace, const py::object& setArgument,
                                  const py::object& rangesArgument)
     {
-        cli::LearnJob job{pathText(rig, "rig_path"),
+        app::LearnJob job{pathText(rig, "rig_path"),
                           textList(params, "params"),
                           textList(outputs, "outputs"),
                           textList(plugins, "plugins"),
@@ -474,17 +475,17 @@ public:
                                     typeName(value), messageExcerpt(glob)));
                 job.ranges.push_back({glob, *low, *high});
             }
-        job.options.epsilon = cli::parseEpsilon(fmt::format("{}", numberArgument(epsilon, "epsilon")));
-        job.options.orderer = cli::ordererFromName(textArgument(orderer, "orderer"));
+        job.options.epsilon = app::parseEpsilon(fmt::format("{}", numberArgument(epsilon, "epsilon")));
+        job.options.orderer = app::ordererFromName(textArgument(orderer, "orderer"));
         job.options.relativeFrames = !flagArgument(worldSpace, "world_space");
         ProgressToPython onProgress(progress);
         job.options.progress = [&](std::string_view stage, double fraction) {
-            onProgress(cli::learningFraction(stage, fraction), 1.0);
+            onProgress(app::learningFraction(stage, fraction), 1.0);
         };
-        std::shared_ptr<cli::LearnOutcome> outcome;
+        std::shared_ptr<app::LearnOutcome> outcome;
         {
             py::gil_scoped_release release;
-            outcome = std::make_shared<cli::LearnOutcome>(cli::learn(job));
+            outcome = std::make_shared<app::LearnOutcome>(app::learn(job));
         }
         PyApproximation a;
         a.rig_ = job.rig;
@@ -502,28 +503,28 @@ public:
     {
         const std::string file = pathText(path, "path");
         const bool allowInexact = flagArgument(allowInexactArgument, "allow_inexact");
-        if (const std::string failure = cli::validationFailure(*approximation_); !failure.empty() && !allowInexact)
+        if (const std::string failure = app::validationFailure(*approximation_); !failure.empty() && !allowInexact)
             throw Error(
                 fmt::format("{}; {} not written (save(path, allow_inexact=True) writes it anyway)", failure, file));
-        cli::checkOutputFile(file, "approximation.yaml", "save()");
-        cli::checkDistinctFiles({{"the rig file", approximation_->rigFile}}, {{"save()", file}});
-        cli::writeFileAtomically(file, approximationToYaml(*approximation_));
+        app::checkOutputFile(file, "approximation.yaml", "save()");
+        app::checkDistinctFiles({{"the rig file", approximation_->rigFile}}, {{"save()", file}});
+        app::writeFileAtomically(file, approximationToYaml(*approximation_));
         file_ = file;
     }
 
     py::object report() const
     {
         if (!learned_) return py::none();
-        return toPython(cli::learnReport(*learned_, rig_, file_, file_.has_value()));
+        return toPython(app::learnReport(*learned_, rig_, file_, file_.has_value()));
     }
 
     py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map,
                      const py::object& progress, const py::object& plugins, const py::object& frames,
                      const SettingArguments& settings) const
     {
-        cli::InvertJob job;
-        job.approximation = approximation_;
-        job.approximationName = name();
+        app::InvertJob job;
+        job.loadedApproximation = approximation_;
+        job.approximation = name();
         job.rig = pathText(rig, "rig");
         job.plugins = textList(plugins, "plugins");
         if (py::isinstance<py::dict>(targets)) job.targets = targetClip(targets.cast<py::dict>());
@@ -544,14 +545,14 @@ public:
             py::gil_scoped_acquire acquire;
             if (PyErr_WarnEx(PyExc_RuntimeWarning, warning.c_str(), 1) != 0) throw py::error_already_set();
         };
-        std::optional<cli::InvertOutcome> outcome;
+        std::optional<app::InvertOutcome> outcome;
         std::string curves;
         {
             py::gil_scoped_release release;
-            outcome.emplace(cli::invert(job));
-            curves = cli::curvesJson(*outcome);
+            outcome.emplace(app::invert(job));
+            curves = app::curvesJson(*outcome);
         }
-        const auto values = cli::curveValues(*outcome);
+        const auto values = app::curveValues(*outcome);
         const auto& parameters = approximation_->parameters;
         py::array_t<double> array(
             {static_cast<py::ssize_t>(values.size()), static_cast<py::ssize_t>(parameters.size())});
@@ -562,7 +563,7 @@ public:
         for (const auto& p : parameters) names.append(p.parameter.name);
         const auto clip = job.targets ? std::nullopt : std::optional(job.clip);
         const auto report =
-            cli::invertReport(*outcome, file_, job.rig, clip, std::nullopt, cli::fingerprintText(curves));
+            app::invertReport(*outcome, file_, job.rig, clip, std::nullopt, app::fingerprintText(curves));
         return py::make_tuple(array, names, toPython(report));
     }
 
@@ -655,7 +656,7 @@ private:
 
     std::shared_ptr<const Approximation> approximation_;
     std::optional<std::string> file_;             // loaded from or saved to
-    std::shared_ptr<cli::LearnOutcome> learned_;  // what learning measured, for the report (none once loaded)
+    std::shared_ptr<app::LearnOutcome> learned_;  // what learning measured, for the report (none once loaded)
     std::string rig_;                             // the rig file as given to learn
 };
 
@@ -666,8 +667,8 @@ using Object = py::object;
 template <std::size_t... I>
 void defInvert(py::class_<PyApproximation>& approximation, std::index_sequence<I...>)
 {
-    const auto& table = cli::solveSettings();
-    std::vector<std::string> keys{cli::settingName(table[I], cli::Spelling::key)...};
+    const auto& table = app::solveSettings();
+    std::vector<std::string> keys{app::settingName(table[I], app::Spelling::key)...};
     // pybind11 copies the names and the text.
     const std::string doc = fmt::format(
         "Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).\n\n"
@@ -749,7 +750,7 @@ PYBIND11_MODULE(riginv, m)
     py::class_<PyApproximation> approximation(m, "Approximation",
                                               "A rig's learned approximation (docs/rig-learn.md): made by "
                                               "riginv.learn() or Approximation.load(), inverted with invert().");
-    defInvert(approximation, std::make_index_sequence<rig::cli::solveSettingCount>());
+    defInvert(approximation, std::make_index_sequence<rig::app::solveSettingCount>());
     approximation
         .def_static("load", &PyApproximation::load, py::arg("path"),
                     "Reads an approximation file written by rig-learn or save() (docs/approximation-format.md).")

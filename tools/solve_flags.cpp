@@ -4,6 +4,8 @@
 
 namespace rig::cli {
 
+using namespace rig::app;  // the table's names (a constructor's `app` is CLI11's)
+
 SolveFlags::SolveFlags(CLI::App& app, const SolveSettings& defaults, const std::string& threadsHelp)
     : defaults_(defaults)
 {

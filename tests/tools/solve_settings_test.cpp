@@ -1,4 +1,4 @@
-// The solve settings' table (tools/solve_settings.h) against everything made from it: every row is a rig-invert flag,
+// The solve settings' table (app/solve_settings.h) against everything made from it: every row is a rig-invert flag,
 // a rig-batch flag, a manifest field and a Python keyword (the module's signature and riginv.pyi), each with the
 // table's default; non-default settings round-trip through the manifest; a bad value of each kind is the table's one
 // line with exit code 2 in both command lines and in a manifest.
@@ -11,14 +11,14 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "app/batch_manifest.h"
+#include "app/solve_settings.h"
 #include "test_support.h"
-#include "tools/batch_manifest.h"
-#include "tools/solve_settings.h"
 
 using namespace rig;
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
-using cli::SettingKind;
+using app::SettingKind;
 
 namespace {
 
@@ -60,42 +60,42 @@ std::string helpLine(const std::string& help, const std::string& flag)
 
 // What a command line's --help shows of a row: a count or a choice ends its help with its default in `defaults`;
 // a flag, off by default, shows none.
-void checkHelp(const std::string& tool, const cli::SolveSettings& defaults)
+void checkHelp(const std::string& tool, const app::SolveSettings& defaults)
 {
     const auto r = test::run(test::tool(tool) + " --help");
     REQUIRE(r.exitCode == 0);
-    for (const cli::SolveSetting& s : cli::solveSettings()) {
-        const std::string line = helpLine(r.out, cli::settingName(s, cli::Spelling::flag));
+    for (const app::SolveSetting& s : app::solveSettings()) {
+        const std::string line = helpLine(r.out, app::settingName(s, app::Spelling::flag));
         CAPTURE(tool);
         CAPTURE(s.name);
         REQUIRE_FALSE(line.empty());
         if (s.kind == SettingKind::flag) CHECK(line.find("(default") == std::string::npos);
-        else CHECK(line.ends_with(fmt::format("(default {})", cli::settingText(s, s.get(defaults)))));
+        else CHECK(line.ends_with(fmt::format("(default {})", app::settingText(s, s.get(defaults)))));
     }
 }
 
 // A value of a row as the manifest holds it.
-Json manifestValue(const cli::SolveSetting& s, int value)
+Json manifestValue(const app::SolveSetting& s, int value)
 {
     if (s.kind == SettingKind::count) return value;
     if (s.kind == SettingKind::flag) return value != 0;
-    return cli::settingText(s, value);
+    return app::settingText(s, value);
 }
 
 // A value of a row as Python writes it: 1, False, 'analytic' (repr), or "analytic" in the stub.
-std::string pythonValue(const cli::SolveSetting& s, int value, char quote)
+std::string pythonValue(const app::SolveSetting& s, int value, char quote)
 {
     if (s.kind == SettingKind::count) return std::to_string(value);
     if (s.kind == SettingKind::flag) return value ? "True" : "False";
-    return fmt::format("{}{}{}", quote, cli::settingText(s, value), quote);
+    return fmt::format("{}{}{}", quote, app::settingText(s, value), quote);
 }
 
 // Every row set to a value other than its default in `defaults` (--hybrid with --polish is refused: the hybrid
 // switch is left off).
-cli::SolveSettings nonDefault(const cli::SolveSettings& defaults)
+app::SolveSettings nonDefault(const app::SolveSettings& defaults)
 {
-    cli::SolveSettings out = defaults;
-    for (const cli::SolveSetting& s : cli::solveSettings()) {
+    app::SolveSettings out = defaults;
+    for (const app::SolveSetting& s : app::solveSettings()) {
         const int value = s.get(defaults);
         if (s.name == "hybrid") continue;
         s.set(out, s.kind == SettingKind::count ? value + 2 : value == 0 ? 1 : 0);
@@ -103,13 +103,13 @@ cli::SolveSettings nonDefault(const cli::SolveSettings& defaults)
     return out;
 }
 
-std::string flagsOf(const cli::SolveSettings& settings)
+std::string flagsOf(const app::SolveSettings& settings)
 {
     std::string out;
-    for (const cli::SolveSetting& s : cli::solveSettings()) {
+    for (const app::SolveSetting& s : app::solveSettings()) {
         const int value = s.get(settings);
-        const std::string flag = cli::settingName(s, cli::Spelling::flag);
-        if (s.kind != SettingKind::flag) out += fmt::format(" {} {}", flag, cli::settingText(s, value));
+        const std::string flag = app::settingName(s, app::Spelling::flag);
+        if (s.kind != SettingKind::flag) out += fmt::format(" {} {}", flag, app::settingText(s, value));
         else if (value) out += fmt::format(" {}", flag);
     }
     return out;
@@ -119,14 +119,14 @@ std::string flagsOf(const cli::SolveSettings& settings)
 
 TEST_CASE("solve settings: every row is a flag of rig-invert and rig-batch, with the table's default in its help")
 {
-    CHECK(cli::solveSettings().size() == 8);
-    for (const cli::SolveSetting& s : cli::solveSettings()) {
+    CHECK(app::solveSettings().size() == 8);
+    for (const app::SolveSetting& s : app::solveSettings()) {
         CAPTURE(s.name);
         // A flag turns something on: off by default, wherever it lands.
-        if (s.kind == SettingKind::flag) CHECK(s.get(cli::SolveSettings{}) == 0);
+        if (s.kind == SettingKind::flag) CHECK(s.get(app::SolveSettings{}) == 0);
     }
-    checkHelp("rig-invert", cli::SolveSettings{});
-    checkHelp("rig-batch", cli::concurrentSolveDefaults());
+    checkHelp("rig-invert", app::SolveSettings{});
+    checkHelp("rig-batch", app::concurrentSolveDefaults());
 }
 
 TEST_CASE("solve settings: every row is a field of rig-batch's manifest, written with the defaults and read back")
@@ -135,44 +135,44 @@ TEST_CASE("solve settings: every row is a field of rig-batch's manifest, written
     test::run(batchInputs(out));  // the arm's frames may miss (exit code 3): the manifest is written first
     const Json manifest = Json::parse(test::readFile(out / "manifest.json"));
     const Json& settings = manifest.at("settings");
-    const cli::SolveSettings defaults = cli::concurrentSolveDefaults();
-    CHECK(settings.size() == cli::solveSettingCount);
-    for (const cli::SolveSetting& s : cli::solveSettings()) {
+    const app::SolveSettings defaults = app::concurrentSolveDefaults();
+    CHECK(settings.size() == app::solveSettingCount);
+    for (const app::SolveSetting& s : app::solveSettings()) {
         CAPTURE(s.name);
-        CHECK(settings.at(cli::settingName(s, cli::Spelling::key)) == manifestValue(s, s.get(defaults)));
+        CHECK(settings.at(app::settingName(s, app::Spelling::key)) == manifestValue(s, s.get(defaults)));
     }
 }
 
 TEST_CASE("solve settings: non-default settings round-trip through the manifest, from rig-batch's flags and in code")
 {
-    const cli::SolveSettings defaults = cli::concurrentSolveDefaults();
-    const cli::SolveSettings changed = nonDefault(defaults);
-    cli::SolveSettings hybrid = defaults;
+    const app::SolveSettings defaults = app::concurrentSolveDefaults();
+    const app::SolveSettings changed = nonDefault(defaults);
+    app::SolveSettings hybrid = defaults;
     hybrid.hybrid = true;
-    for (const cli::SolveSettings& settings : {changed, hybrid}) {
+    for (const app::SolveSettings& settings : {changed, hybrid}) {
         const std::string flags = flagsOf(settings);
         CAPTURE(flags);
         // In code: written and read back.
         const fs::path folder = test::scratchDir("solve_settings_round_trip");
-        cli::BatchManifest written;
+        app::BatchManifest written;
         written.inputs.settings = settings;
-        cli::writeManifest(folder, written);
-        const cli::SolveSettings read = cli::readManifest(folder).inputs.settings;
+        app::writeManifest(folder, written);
+        const app::SolveSettings read = app::readManifest(folder).inputs.settings;
         // Through rig-batch: its flags into the manifest.
         const fs::path out = folder / "out";
         test::run(batchInputs(out) + flags);
         const Json fields = Json::parse(test::readFile(out / "manifest.json")).at("settings");
-        for (const cli::SolveSetting& s : cli::solveSettings()) {
+        for (const app::SolveSetting& s : app::solveSettings()) {
             CAPTURE(s.name);
             CHECK(s.get(read) == s.get(settings));
-            CHECK(fields.at(cli::settingName(s, cli::Spelling::key)) == manifestValue(s, s.get(settings)));
+            CHECK(fields.at(app::settingName(s, app::Spelling::key)) == manifestValue(s, s.get(settings)));
         }
     }
 }
 
 TEST_CASE("solve settings: every row is a keyword of Approximation.invert and of riginv.pyi with the table's default")
 {
-    const cli::SolveSettings defaults = cli::concurrentSolveDefaults();
+    const app::SolveSettings defaults = app::concurrentSolveDefaults();
     const std::string stub = test::readFile(test::sourceDir() / "python/riginv.pyi");
     const std::string invert = stub.substr(stub.find("def invert("), stub.find("-> Tuple[") - stub.find("def invert("));
     const fs::path module = test::binaryDir() / "python";
@@ -183,8 +183,8 @@ TEST_CASE("solve settings: every row is a keyword of Approximation.invert and of
         module.string()));
     if (built) REQUIRE(signature.exitCode == 0);
     else MESSAGE("the Python module is not built (RIG_PYTHON=OFF): only riginv.pyi is checked");
-    for (const cli::SolveSetting& s : cli::solveSettings()) {
-        const std::string key = cli::settingName(s, cli::Spelling::key);
+    for (const app::SolveSetting& s : app::solveSettings()) {
+        const std::string key = app::settingName(s, app::Spelling::key);
         const int value = s.get(defaults);
         const std::string_view type = s.kind == SettingKind::count  ? "int"
                                       : s.kind == SettingKind::flag ? "bool"
