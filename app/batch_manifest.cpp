@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "app/output_file.h"
+#include "app/solve_settings.h"
 #include "core/error.h"
 
 namespace rig::app {
@@ -18,16 +19,18 @@ constexpr std::string_view manifestFormat = "rig-batch manifest 2";
 constexpr std::string_view shardFormat = "rig-batch shard 2";
 constexpr std::size_t shardFigures = 8;  // the summary's figures held as raw doubles (shardOutputBytes)
 
-Json settingsJson(const InvertSettings& s)
+// The settings' table (app/solve_settings.h) as fields: a count as a number, a flag as a bool, a choice as its word.
+Json settingsJson(const SolveSettings& settings)
 {
-    return Json{{"threads", s.threads},
-                {"no_partition", s.noPartition},
-                {"block_by_block", s.blockByBlock},
-                {"jacobian", s.jacobian},
-                {"polish", s.polish},
-                {"restart_every", s.restartEvery},
-                {"rest_starts", s.restStarts},
-                {"hybrid", s.hybrid}};
+    Json out = Json::object();
+    for (const SolveSetting& s : solveSettings()) {
+        const int value = s.get(settings);
+        const std::string key = settingName(s, Spelling::key);
+        if (s.kind == SettingKind::count) out[key] = value;
+        else if (s.kind == SettingKind::flag) out[key] = value != 0;
+        else out[key] = settingText(s, value);
+    }
+    return out;
 }
 
 // A manifest's field; a missing or mistyped one is the file's mistake.
@@ -47,6 +50,37 @@ T field(const Json& object, const char* name, const std::string& file)
                         "rig-batch again",
                         file, name));
     }
+}
+
+// settingsJson read back, every field checked by the table (a value rig-batch would not write: the file's mistake).
+SolveSettings readSettings(const Json& settings, const std::string& file)
+{
+    const auto bad = [&](const Error& e) {
+        return Error(fmt::format("{}: not a rig-batch manifest (settings: {}); remove it and run rig-batch again", file,
+                                 e.what()));
+    };
+    SolveSettings out;
+    for (const SolveSetting& s : solveSettings()) {
+        const std::string key = settingName(s, Spelling::key);
+        if (s.kind == SettingKind::count) s.set(out, field<int>(settings, key.c_str(), file));
+        else if (s.kind == SettingKind::flag) s.set(out, field<bool>(settings, key.c_str(), file));
+        else {
+            const std::string word = field<std::string>(settings, key.c_str(), file);
+            try {
+                s.set(out, parseSetting(s, word, Spelling::key));
+            }
+            catch (const Error& e) {
+                throw bad(e);
+            }
+        }
+    }
+    try {
+        checkSettings(out, Spelling::key);
+    }
+    catch (const Error& e) {
+        throw bad(e);
+    }
+    return out;
 }
 
 const char* byteOrder() { return std::endian::native == std::endian::little ? "little" : "big"; }
@@ -165,7 +199,7 @@ std::vector<BatchShard> planShards(const BatchInputs& inputs, const std::vector<
     std::vector<BatchShard> out;
     for (std::size_t c = 0; c < clips.size(); ++c)
         for (const auto& [first, last] :
-             shardRanges(clips[c].frames, inputs.shardFrames, inputs.settings.restartEvery)) {
+             shardRanges(clips[c].frames, inputs.shardFrames, inputs.settings.clip.restartInterval)) {
             BatchShard shard;
             shard.clip = static_cast<int>(c);
             shard.first = first;
@@ -242,16 +276,7 @@ BatchManifest readManifest(const std::filesystem::path& folder)
     inputs.mapChecksum = mapChecksum.is_string() ? mapChecksum.get<std::string>() : "";
     inputs.plugins = field<std::vector<std::string>>(j, "plugins", file);
     inputs.strict = field<bool>(j, "strict", file);
-    const Json settings = field<Json>(j, "settings", file);
-    InvertSettings& s = inputs.settings;
-    s.threads = field<int>(settings, "threads", file);
-    s.noPartition = field<bool>(settings, "no_partition", file);
-    s.blockByBlock = field<bool>(settings, "block_by_block", file);
-    s.jacobian = field<std::string>(settings, "jacobian", file);
-    s.polish = field<int>(settings, "polish", file);
-    s.restartEvery = field<int>(settings, "restart_every", file);
-    s.restStarts = field<bool>(settings, "rest_starts", file);
-    s.hybrid = field<bool>(settings, "hybrid", file);
+    inputs.settings = readSettings(field<Json>(j, "settings", file), file);
     inputs.shardFrames = field<int>(j, "shard_frames", file);
     for (const Json& c : field<Json>(j, "clips", file)) {
         m.clips.push_back({field<std::string>(c, "name", file), field<std::string>(c, "file", file),

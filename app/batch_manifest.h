@@ -21,8 +21,8 @@
 
 namespace rig::app {
 
-// What every shard of a batch shares: the inversion's inputs (absolute file names; settings.threads: per shard),
-// the shard size and the inputs' checksums.
+// What every shard of a batch shares: the inversion's inputs (absolute file names; settings.clip.solver.threads: per
+// shard), the shard size and the inputs' checksums.
 struct BatchInputs : InversionInputs {
     int shardFrames = 0;  // as asked; shards hold ceil(shardFrames / restartEvery) restart intervals
     // Checksums of the inputs when the batch was planned: a task refuses inputs that changed since.

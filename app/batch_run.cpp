@@ -199,7 +199,7 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
 {
     MergedClip merged;
     ClipInversionSummary& m = merged.summary;
-    const int restartEvery = manifest.inputs.settings.restartEvery;
+    const int restartEvery = manifest.inputs.settings.clip.restartInterval;
     // The shifts rig-invert makes, checked on the real rig as it checks them (an instance: clips merge in parallel).
     const std::unique_ptr<RigFunction> instance = rig.instance();
     RigBinding binding(approximation, *instance);
@@ -440,7 +440,7 @@ BackendRun backendRun(const BatchJob& job, const fs::path& folder)
     BackendRun run;
     run.program = job.program;
     run.folder = folder;
-    run.cpusPerTask = std::max(1, job.settings.threads);
+    run.cpusPerTask = std::max(1, job.settings.clip.solver.threads);
     run.memory = job.slurmMemory;
     run.time = job.slurmTime;
     run.sbatchArgs = job.slurmArgs;
@@ -692,7 +692,7 @@ Json batchReport(const BatchJob& job, const BatchPlan& plan, Json clips, const B
                 {"backend", job.backend},
                 {"jobs", figures.jobs > 0 ? Json(figures.jobs) : Json("all")},
                 {"shard_frames", job.shardFrames},
-                {"restart_every", job.settings.restartEvery},
+                {"restart_every", job.settings.clip.restartInterval},
                 {"clips", std::move(clips)},
                 {"failed_shards", std::move(failedShards)},
                 {"totals",

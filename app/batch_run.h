@@ -18,9 +18,10 @@
 
 namespace rig::app {
 
-// A batch: the inversion's inputs (settings.threads: per shard, one unless set), the clips and where they run.
+// A batch: the inversion's inputs (settings.clip.solver.threads: per shard, one unless set), the clips and where they
+// run.
 struct BatchJob : InversionInputs {
-    BatchJob() { settings.threads = 1; }
+    BatchJob() { settings = concurrentSolveDefaults(); }
     std::vector<std::string> clips;  // clip files (.bvh, .json) and folders of them
     std::string out;                 // the output folder
     std::string backend = "local";   // or "slurm"

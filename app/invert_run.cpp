@@ -90,29 +90,10 @@ std::pair<int, int> frameIndices(const TargetClip& clip, const std::string& fram
 
 }  // namespace
 
-ClipInversionOptions clipInversionOptions(const InvertSettings& s)
+ClipInversionOptions clipInversionOptions(const SolveSettings& s)
 {
-    ClipInversionOptions options;
-    options.solver.threads = s.threads;
-    options.solver.partition = !s.noPartition;
-    options.solver.coupledBlocks = !s.blockByBlock;
-    if (s.jacobian == "analytic") options.solver.jacobian = JacobianMethod::analytic;
-    else if (s.jacobian == "fd") options.solver.jacobian = JacobianMethod::finiteDifference;
-    else throw Error(fmt::format("--jacobian {}: expected analytic or fd", s.jacobian));
-    if (s.polish < 0)
-        throw Error(fmt::format("--polish {}: give 0 (the approximation only) or more real-rig corrections per frame",
-                                s.polish));
-    if (s.restartEvery < 1)
-        throw Error(fmt::format("--restart-every {}: give 1 or more frames between warm-start restarts (default {})",
-                                s.restartEvery, ClipInversionOptions{}.restartInterval));
-    if (s.hybrid && s.polish > 0)
-        throw Error(
-            fmt::format("--hybrid with --polish {}: choose one; the hybrid solve fits what the approximation "
-                        "does not model on the real rig itself",
-                        s.polish));
-    options.polishCorrections = s.polish;
-    options.restartInterval = s.restartEvery;
-    options.coldStart = !s.restStarts;
+    checkSettings(s, Spelling::flag);
+    ClipInversionOptions options = s.clip;
     try {
         options.validate();
     }
@@ -215,8 +196,8 @@ InvertOutcome invert(const InvertJob& job)
     std::unique_ptr<HybridSolver> hybrid;
     ChainScratch hybridScratch;
     if (job.settings.hybrid) {
-        const int threads = job.settings.threads > 0
-                                ? job.settings.threads
+        const int threads = job.settings.clip.solver.threads > 0
+                                ? job.settings.clip.solver.threads
                                 : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
         hybrid = std::make_unique<HybridSolver>(solver, bound, threads);
         out.hybridBlocks = hybrid->describe();

@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "app/solve_settings.h"
 #include "app/value_output.h"
 #include "inversion/approximation.h"
 #include "inversion/clip_inversion.h"
@@ -20,21 +21,9 @@
 
 namespace rig::app {
 
-// rig-invert's flags that shape the solve.
-struct InvertSettings {
-    int threads = 0;  // 0: all cores
-    bool noPartition = false;
-    bool blockByBlock = false;
-    std::string jacobian = "analytic";  // or "fd"
-    int polish = 0;
-    int restartEvery = ClipInversionOptions{}.restartInterval;
-    bool restStarts = false;
-    // Fit the outputs the approximation does not model on the real rig (inversion/hybrid_solve.h).
-    bool hybrid = false;
-};
-
-// The options for invertClip. Throws rig::Error naming the flag of a bad value.
-ClipInversionOptions clipInversionOptions(const InvertSettings& settings);
+// The options for invertClip. Throws rig::Error naming the flag of a bad value (settings made in code: the command
+// lines, the manifest and Python check theirs with the names they give them).
+ClipInversionOptions clipInversionOptions(const SolveSettings& settings);
 
 // The inputs of an inversion, however it starts (rig-invert's flags, rig-batch's flags and manifest, Python's
 // Approximation.invert): the files it reads and the solve's settings, declared once so that they agree.
@@ -44,7 +33,7 @@ struct InversionInputs {
     std::string map;  // renames and scales the targets; "" for none
     std::vector<std::string> plugins;
     bool strict = false;  // refuse an approximation learned from another version of the rig
-    InvertSettings settings;
+    SolveSettings settings;
 };
 
 // One inversion: its inputs, and the targets and frames to invert.

@@ -21,6 +21,7 @@
 #include "app/invert_run.h"
 #include "app/learn_run.h"
 #include "app/output_file.h"
+#include "app/solve_settings.h"
 #include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "inversion/approximation_io.h"
@@ -173,6 +174,33 @@ int intArgument(const py::handle& value, std::string_view what)
                                 messageExcerpt(std::string(py::str(v))), std::numeric_limits<int>::min(),
                                 std::numeric_limits<int>::max()));
     return static_cast<int>(x);
+}
+
+// The solve settings' keyword arguments (app/solve_settings.h), one per row of the table: converted as their kind
+// is, then checked by the table, so that a bad value is the table's one line naming the keyword.
+using SettingArguments = std::array<py::object, app::solveSettingCount>;
+app::SolveSettings settingsArgument(const SettingArguments& values)
+{
+    app::SolveSettings out = app::concurrentSolveDefaults();
+    const auto& table = app::solveSettings();
+    for (std::size_t i = 0; i < table.size(); ++i) {
+        const app::SolveSetting& s = table[i];
+        const std::string key = app::settingName(s, app::Spelling::key);
+        if (s.kind == app::SettingKind::count) s.set(out, intArgument(values[i], key));
+        else if (s.kind == app::SettingKind::flag) s.set(out, flagArgument(values[i], key));
+        else s.set(out, app::parseSetting(s, textArgument(values[i], key), app::Spelling::key));
+    }
+    app::checkSettings(out, app::Spelling::key);
+    return out;
+}
+
+// A setting's default keyword value: what the table's default is in Python (an int, a bool, a word).
+py::object settingDefault(const app::SolveSetting& s)
+{
+    const int value = s.get(app::concurrentSolveDefaults());
+    if (s.kind == app::SettingKind::count) return py::int_(value);
+    if (s.kind == app::SettingKind::flag) return py::bool_(value != 0);
+    return py::str(app::settingText(s, value));
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -490,9 +518,9 @@ public:
         return toPython(app::learnReport(*learned_, rig_, file_, file_.has_value()));
     }
 
-    py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map, const py::object& threads,
-                     const py::object& restartEvery, const py::object& polish, const py::object& progress,
-                     const py::object& plugins, const py::object& frames) const
+    py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map,
+                     const py::object& progress, const py::object& plugins, const py::object& frames,
+                     const SettingArguments& settings) const
     {
         app::InvertJob job;
         job.loadedApproximation = approximation_;
@@ -510,9 +538,7 @@ public:
         if (!map.is_none()) job.map = pathText(map, "map");
         if (!frames.is_none()) job.frames = textArgument(frames, "frames");
         checkProgress(progress);
-        job.settings.threads = intArgument(threads, "threads");
-        job.settings.restartEvery = intArgument(restartEvery, "restart_every");
-        job.settings.polish = intArgument(polish, "polish");
+        job.settings = settingsArgument(settings);
         ProgressToPython onProgress(progress);
         job.progress = [&](int done, int total) { onProgress(done, total); };
         job.warning = [](const std::string& warning) {
@@ -634,6 +660,42 @@ private:
     std::string rig_;                             // the rig file as given to learn
 };
 
+template <std::size_t>
+using Object = py::object;
+
+// Approximation.invert, with a keyword argument per row of the solve settings' table, its default the table's.
+template <std::size_t... I>
+void defInvert(py::class_<PyApproximation>& approximation, std::index_sequence<I...>)
+{
+    const auto& table = app::solveSettings();
+    std::vector<std::string> keys{app::settingName(table[I], app::Spelling::key)...};
+    // pybind11 copies the names and the text.
+    const std::string doc = fmt::format(
+        "Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).\n\n"
+        "targets: a dict {{joint: (F, 4, 4) float64 array of world matrices, cm}}, frames numbered 0 to F - 1, or a "
+        "clip path (.bvh, or .json as graph-eval writes world matrices).\n"
+        "rig: the rig file the approximation was learned from; map: a map file (scale, joint renames, ignored "
+        "joints; docs/rig-invert.md).\n"
+        "progress: called as progress(frames done, frames total), with the GIL held.\n"
+        "plugins, frames: as rig-invert's --plugin and --frames ('A:B' in the clip's numbering).\n"
+        "{}: the solve settings, as rig-invert's flags of those names ('-' for '_'; a flag's keyword is True or "
+        "False); threads counts the solver's threads (0: all cores; the values do not depend on it).\n"
+        "values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter names; report: "
+        "the dict rig-invert --report-json writes (curves.file is None: nothing is written). The GIL is released "
+        "while solving; Ctrl-C stops it (between frames, seen every 0.1 s).",
+        fmt::join(keys, ", "));
+    approximation.def(
+        "invert",
+        [](const PyApproximation& self, const py::object& targets, const py::object& rig, const py::object& map,
+           const py::object& progress, const py::object& plugins, const py::object& frames,
+           const Object<I>&... settings) {
+            return self.invert(targets, rig, map, progress, plugins, frames, SettingArguments{settings...});
+        },
+        py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(), py::arg("progress") = py::none(),
+        py::kw_only(), py::arg("plugins") = py::list(), py::arg("frames") = py::none(),
+        (py::arg(keys[I].c_str()) = settingDefault(table[I]))..., doc.c_str());
+}
+
 }  // namespace
 }  // namespace rig::python
 
@@ -685,30 +747,17 @@ PYBIND11_MODULE(riginv, m)
         .def_property_readonly("time", &PyGraph::time, "The scene time (frame) last evaluated.")
         .def("__repr__", [](const PyGraph& g) { return fmt::format("<riginv.Graph {}>", g.file()); });
 
-    py::class_<PyApproximation>(m, "Approximation",
-                                "A rig's learned approximation (docs/rig-learn.md): made by riginv.learn() or "
-                                "Approximation.load(), inverted with invert().")
+    py::class_<PyApproximation> approximation(m, "Approximation",
+                                              "A rig's learned approximation (docs/rig-learn.md): made by "
+                                              "riginv.learn() or Approximation.load(), inverted with invert().");
+    defInvert(approximation, std::make_index_sequence<rig::app::solveSettingCount>());
+    approximation
         .def_static("load", &PyApproximation::load, py::arg("path"),
                     "Reads an approximation file written by rig-learn or save() (docs/approximation-format.md).")
         .def("save", &PyApproximation::save, py::arg("path"), py::arg("allow_inexact") = false,
              "Writes the approximation file (through a temporary file, as rig-learn -o). An approximation whose "
              "validation exceeds epsilon is refused with riginv.Error unless allow_inexact (rig-learn "
              "--allow-inexact).")
-        .def("invert", &PyApproximation::invert, py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(),
-             py::arg("threads") = 1, py::arg("restart_every") = 120, py::arg("polish") = 0,
-             py::arg("progress") = py::none(), py::kw_only(), py::arg("plugins") = py::list(),
-             py::arg("frames") = py::none(),
-             "Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).\n\n"
-             "targets: a dict {joint: (F, 4, 4) float64 array of world matrices, cm}, frames numbered 0 to F - 1, "
-             "or a clip path (.bvh, or .json as graph-eval writes world matrices).\n"
-             "rig: the rig file the approximation was learned from; map: a map file (scale, joint renames, "
-             "ignored joints; docs/rig-invert.md).\n"
-             "threads (0: all cores; the values do not depend on it), restart_every, polish: as rig-invert's "
-             "--threads, --restart-every, --polish. frames: 'A:B' in the clip's numbering (rig-invert --frames).\n"
-             "progress: called as progress(frames done, frames total), with the GIL held.\n"
-             "values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter names; "
-             "report: the dict rig-invert --report-json writes (curves.file is None: nothing is written). The GIL "
-             "is released while solving; Ctrl-C stops it (between frames, seen every 0.1 s).")
         .def_property_readonly("report", &PyApproximation::report,
                                "The dict rig-learn --report-json writes, for an approximation learned by "
                                "riginv.learn() ('approximation' and 'written' name the file once saved); None for "

@@ -140,7 +140,8 @@ int main(int argc, char** argv)
     app.add_option("--shard-frames", job.shardFrames,
                    "Frames per shard, rounded up to whole --restart-every intervals (default 4800)");
     app.add_option("--retries", job.retries, "New attempts of failed shards (default 1)");
-    rig::cli::addSolveFlags(app, job.settings, "Solver threads per shard (default 1; 0: all cores)");
+    const rig::cli::SolveFlags solveFlags(app, rig::app::concurrentSolveDefaults(),
+                                          "Solver threads per shard (0: all cores); results do not depend on it");
     app.add_flag("--strict", job.strict, "Refuse an approximation learned from another version of the rig");
     app.add_option("--plugin", job.plugins, "Load a plugin before reading the rig");
     app.add_option("--slurm-mem", job.slurmMemory, "Memory per Slurm task (sbatch --mem, e.g. 2G)");
@@ -152,6 +153,7 @@ int main(int argc, char** argv)
     return rig::cli::runMain(app, argc, argv, [&] {
         options.taskGiven = app.count("--task") > 0;
         options.jobsGiven = app.count("--jobs") > 0;
+        job.settings = solveFlags.settings();
         // What the file system refuses (a link loop, a folder this user may not read) is the user's to fix.
         try {
             return rig::run(options);

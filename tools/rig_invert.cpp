@@ -190,7 +190,7 @@ int main(int argc, char** argv)
                    "Curves to write: .json, .csv or .anim (Maya's animImportExport), angles in degrees")
         ->required();
     app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
-    rig::cli::addSolveFlags(app, options.settings, "Threads for the solver (0: all cores)");
+    const rig::cli::SolveFlags solveFlags(app, rig::app::SolveSettings{});
     app.add_option("--after", options.after,
                    "JSON curves rig-invert wrote for the frames before these: this run continues them (the curves "
                    "of chunks then equal one run's)");
@@ -209,6 +209,7 @@ int main(int argc, char** argv)
     return rig::cli::runMain(app, argc, argv, [&] {
         options.framesGiven = app.count("--frames") > 0;
         options.keysGiven = app.count("--key-tolerance") + app.count("--key-tolerance-deg") > 0;
+        options.settings = solveFlags.settings();
         return rig::run(options);
     });
 }
