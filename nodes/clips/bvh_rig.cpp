@@ -116,7 +116,7 @@ std::string positionRule(const BvhClip& clip, bool root)
 struct RigLayout {
     std::vector<std::string> jointName;
     std::vector<std::pair<std::string, std::string>> renamed;  // BVH name -> node name, where they differ
-    std::vector<std::vector<ChainLink>> chains;                // per BVH joint, its chain's last link its own
+    std::vector<std::vector<ChainLink>> chains;                // per BVH joint: helpers first, the joint last
     std::vector<std::string> endName;                          // per BVH joint, its End Site's ("" for none)
     std::string clipName;
     std::vector<std::string> plugOf;  // channel k -> the plug it drives
@@ -136,6 +136,7 @@ void checkPrefix(const std::string& prefix)
         throw Error(fmt::format("--prefix '{}': a node name cannot start with a digit", prefix));
 }
 
+// Names taken in the order above, a name already taken getting _2, _3, ...: the BVH joints keep theirs.
 void nameNodes(const BvhClip& clip, const std::string& prefix, RigLayout& layout)
 {
     Names names;
