@@ -260,6 +260,96 @@ std::vector<std::string> taskOptions(const BackendRun& run)
     return args;
 }
 
+// One sbatch --wait call: an array of up to slurmArrayTasks shards.
+struct Submission {
+    std::size_t begin = 0, end = 0;  // entries of run.shards
+    std::filesystem::path log;       // sbatch's output: the job id, or its error
+    pid_t pid = 0;
+    bool done = false;
+};
+
+// Writes the task list and script of the array of shards from `begin`, and starts sbatch on them.
+Submission submitArray(const BackendRun& run, std::size_t begin, const std::string& name)
+{
+    const auto slurm = run.folder / "slurm";
+    Submission s;
+    s.begin = begin;
+    s.end = std::min(begin + slurmArrayTasks, run.shards.size());
+    // Array task i runs the shard on line i + 1 of the task list.
+    std::string tasks;
+    for (std::size_t i = s.begin; i < s.end; ++i) tasks += std::to_string(run.shards[i]) + "\n";
+    const auto taskList = slurm / (name + ".tasks");
+    writeFileAtomically(taskList, tasks);
+    const auto script = slurm / (name + ".sh");
+    writeFileAtomically(script, fmt::format("#!/bin/sh\n"
+                                            "# rig-batch: array task i runs the shard on line i + 1 of {}\n"
+                                            "shard=$(sed -n \"$((SLURM_ARRAY_TASK_ID + 1))p\" {})\n"
+                                            "exec {} --out {} --task \"$shard\"\n",
+                                            taskList.filename().string(), shellQuote(taskList.string()),
+                                            shellQuote(run.program.string()), shellQuote(run.folder.string())));
+    const int count = static_cast<int>(s.end - s.begin);
+    std::vector<std::string> args{"sbatch",
+                                  "--parsable",
+                                  "--wait",
+                                  fmt::format("--array=0-{}%{}", count - 1, std::clamp(run.jobs, 1, count)),
+                                  "--chdir=" + run.folder.string(),
+                                  "--output=" + (run.folder / "logs" / "slurm-%A_%a.out").string()};
+    for (auto& option : taskOptions(run)) args.push_back(std::move(option));
+    args.push_back(script.string());
+    s.log = slurm / (name + ".sbatch.log");
+    // Submitted and recorded under the lock: the signal thread cancels every job submitted, or none is.
+    Stopping& stop = stopping();
+    std::lock_guard lock(stop.mutex);
+    if (stop.signal != 0) std::_Exit(128 + stop.signal);
+    s.pid = spawn(args, s.log, {.search = true});
+    stop.slurmJobs = run.jobName;
+    stop.sbatch.push_back(s.pid);
+    return s;
+}
+
+// Waits for every sbatch --wait, which returns when every task of its array has ended; one whose shards have
+// all reported is stopped instead.
+void waitForArrays(const BackendRun& run, std::vector<Submission>& submissions)
+{
+    for (std::size_t waiting = submissions.size(); waiting > 0;) {
+        for (Submission& s : submissions) {
+            if (s.done) continue;
+            bool all = static_cast<bool>(run.reported);
+            for (std::size_t i = s.begin; i < s.end && all; ++i) all = run.reported(run.shards[i]);
+            if (all) ::kill(s.pid, SIGTERM);
+            int status = 0;
+            if (::waitpid(s.pid, &status, all ? 0 : WNOHANG) == s.pid) {
+                s.done = true;
+                --waiting;
+            }
+        }
+        if (run.poll) run.poll();
+        if (waiting > 0) std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    }
+    Stopping& stop = stopping();
+    std::lock_guard lock(stop.mutex);
+    stop.slurmJobs.clear();
+    stop.sbatch.clear();
+}
+
+// The job id in sbatch's log; --parsable writes it alone on its line (";cluster" after it on a federation),
+// warnings may come first.
+std::string jobIdOf(const Submission& s)
+{
+    std::ifstream in(s.log);
+    std::string line, job;
+    while (job.empty() && std::getline(in, line)) {
+        const std::string word = line.substr(0, line.find(';'));
+        if (!word.empty() && word.find_first_not_of("0123456789") == std::string::npos) job = word;
+    }
+    if (job.empty())
+        throw Error(
+            fmt::format("sbatch did not take the job ({}); check the cluster (sinfo) and the options "
+                        "given with --slurm-arg, then run rig-batch again: finished shards are kept",
+                        lastLine(s.log)));
+    return job;
+}
+
 }  // namespace
 
 void checkSlurm(const BackendRun& run)
@@ -288,89 +378,15 @@ void checkSlurm(const BackendRun& run)
 
 ProcessNotes runSlurm(const BackendRun& run)
 {
-    const auto slurm = run.folder / "slurm";
-    std::filesystem::create_directories(slurm);
-    struct Submission {
-        std::size_t begin = 0, end = 0;  // entries of run.shards
-        std::filesystem::path log;       // sbatch's output: the job id, or its error
-        pid_t pid = 0;
-        bool done = false;
-    };
+    std::filesystem::create_directories(run.folder / "slurm");
     std::vector<Submission> submissions;
-    for (std::size_t begin = 0; begin < run.shards.size(); begin += slurmArrayTasks) {
-        Submission s;
-        s.begin = begin;
-        s.end = std::min(begin + slurmArrayTasks, run.shards.size());
-        const std::string name = fmt::format("round-{}-{}", run.round, submissions.size());
-        // Array task i runs the shard on line i + 1 of the task list.
-        std::string tasks;
-        for (std::size_t i = s.begin; i < s.end; ++i) tasks += std::to_string(run.shards[i]) + "\n";
-        const auto taskList = slurm / (name + ".tasks");
-        writeFileAtomically(taskList, tasks);
-        const auto script = slurm / (name + ".sh");
-        writeFileAtomically(script, fmt::format("#!/bin/sh\n"
-                                                "# rig-batch: array task i runs the shard on line i + 1 of {}\n"
-                                                "shard=$(sed -n \"$((SLURM_ARRAY_TASK_ID + 1))p\" {})\n"
-                                                "exec {} --out {} --task \"$shard\"\n",
-                                                taskList.filename().string(), shellQuote(taskList.string()),
-                                                shellQuote(run.program.string()), shellQuote(run.folder.string())));
-        const int count = static_cast<int>(s.end - s.begin);
-        std::vector<std::string> args{"sbatch",
-                                      "--parsable",
-                                      "--wait",
-                                      fmt::format("--array=0-{}%{}", count - 1, std::clamp(run.jobs, 1, count)),
-                                      "--chdir=" + run.folder.string(),
-                                      "--output=" + (run.folder / "logs" / "slurm-%A_%a.out").string()};
-        for (auto& option : taskOptions(run)) args.push_back(std::move(option));
-        args.push_back(script.string());
-        s.log = slurm / (name + ".sbatch.log");
-        {
-            // Submitted and recorded under the lock: the signal thread cancels every job submitted, or none is.
-            Stopping& stop = stopping();
-            std::lock_guard lock(stop.mutex);
-            if (stop.signal != 0) std::_Exit(128 + stop.signal);
-            s.pid = spawn(args, s.log, {.search = true});
-            stop.slurmJobs = run.jobName;
-            stop.sbatch.push_back(s.pid);
-        }
-        submissions.push_back(std::move(s));
-    }
-    // sbatch --wait returns when every task of its array has ended.
-    for (std::size_t waiting = submissions.size(); waiting > 0;) {
-        for (Submission& s : submissions) {
-            if (s.done) continue;
-            bool all = static_cast<bool>(run.reported);
-            for (std::size_t i = s.begin; i < s.end && all; ++i) all = run.reported(run.shards[i]);
-            if (all) ::kill(s.pid, SIGTERM);
-            int status = 0;
-            if (::waitpid(s.pid, &status, all ? 0 : WNOHANG) == s.pid) {
-                s.done = true;
-                --waiting;
-            }
-        }
-        if (run.poll) run.poll();
-        if (waiting > 0) std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    }
-    {
-        Stopping& stop = stopping();
-        std::lock_guard lock(stop.mutex);
-        stop.slurmJobs.clear();
-        stop.sbatch.clear();
-    }
+    for (std::size_t begin = 0; begin < run.shards.size(); begin += slurmArrayTasks)
+        submissions.push_back(submitArray(run, begin, fmt::format("round-{}-{}", run.round, submissions.size())));
+    waitForArrays(run, submissions);
+    // What a shard's note says when its task ends without a status.
     ProcessNotes notes;
     for (const Submission& s : submissions) {
-        // --parsable: the job id alone on its line (";cluster" after it on a federation); warnings may come first.
-        std::ifstream in(s.log);
-        std::string line, job;
-        while (job.empty() && std::getline(in, line)) {
-            const std::string word = line.substr(0, line.find(';'));
-            if (!word.empty() && word.find_first_not_of("0123456789") == std::string::npos) job = word;
-        }
-        if (job.empty())
-            throw Error(
-                fmt::format("sbatch did not take the job ({}); check the cluster (sinfo) and the options "
-                            "given with --slurm-arg, then run rig-batch again: finished shards are kept",
-                            lastLine(s.log)));
+        const std::string job = jobIdOf(s);
         for (std::size_t i = s.begin; i < s.end; ++i)
             notes[run.shards[i]] = fmt::format(
                 "the Slurm task (job {}, array index {}) ended without a status: killed, out of memory or over its "

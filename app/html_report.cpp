@@ -406,15 +406,11 @@ Json positions(const std::vector<Eigen::Matrix4d>& worlds)
     return out;
 }
 
-Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const HtmlReportNames& names)
+// The rig's joints are the approximation's outputs; their bones, the rig's parent outputs.
+Json rigSkeleton(const InvertOutcome& outcome)
 {
     const Approximation& a = *outcome.approximation;
-    const TargetClip& clip = outcome.clip;
-    const std::size_t frames = outcome.values.size();
-    const auto& shown = keys ? keys->keyed.values : outcome.values;
-
-    // The rig's joints are the approximation's outputs; their bones, the rig's parent outputs.
-    Json rigJoints = Json::array(), rigParents = Json::array();
+    Json joints = Json::array(), parents = Json::array();
     const auto& rigOutputs = outcome.rig->outputs();
     const auto rigParentOf = outcome.rig->outputParents();
     const auto outputIndex = [&](const std::string& name) {
@@ -423,11 +419,23 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
         return -1;
     };
     for (const auto& o : a.outputs) {
-        rigJoints.push_back(o.name);
+        joints.push_back(o.name);
         const auto at = std::find(rigOutputs.begin(), rigOutputs.end(), o.name) - rigOutputs.begin();
         const int parent = rigParentOf[static_cast<std::size_t>(at)];
-        rigParents.push_back(parent >= 0 ? outputIndex(rigOutputs[static_cast<std::size_t>(parent)]) : -1);
+        parents.push_back(parent >= 0 ? outputIndex(rigOutputs[static_cast<std::size_t>(parent)]) : -1);
     }
+    return Json{{"joints", std::move(joints)}, {"parents", std::move(parents)}};
+}
+
+// Per frame: the targets' and the rig's joint positions, each rig joint's distance from its target (null
+// without one) and the frame's worst.
+struct FramePositions {
+    Json target = Json::array(), rig = Json::array(), errors = Json::array(), worst = Json::array();
+};
+
+FramePositions framePositions(const InvertOutcome& outcome, const std::vector<std::vector<double>>& shown)
+{
+    const Approximation& a = *outcome.approximation;
     // Each output's clip joint, when it has a target.
     std::vector<int> jointOfOutput(a.outputs.size(), -1);
     for (std::size_t j = 0; j < outcome.targets.outputOfJoint.size(); ++j)
@@ -436,12 +444,12 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
 
     RigBinding binding(a, *outcome.rig);
     std::vector<Eigen::Matrix4d> worlds;
-    Json targetPositions = Json::array(), rigPositions = Json::array(), errors = Json::array(), worst = Json::array();
-    for (std::size_t f = 0; f < frames; ++f) {
-        const auto& targets = clip.worlds[static_cast<std::size_t>(outcome.first) + f];
-        targetPositions.push_back(positions(targets));
+    FramePositions out;
+    for (std::size_t f = 0; f < outcome.values.size(); ++f) {
+        const auto& targets = outcome.clip.worlds[static_cast<std::size_t>(outcome.first) + f];
+        out.target.push_back(positions(targets));
         binding.evaluate(shown[f], worlds);
-        rigPositions.push_back(positions(worlds));
+        out.rig.push_back(positions(worlds));
         Json frameErrors = Json::array();
         double frameWorst = 0.0;
         for (std::size_t o = 0; o < worlds.size(); ++o) {
@@ -455,15 +463,22 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
             frameErrors.push_back(rounded(e));
             if (std::isfinite(e)) frameWorst = std::max(frameWorst, e);
         }
-        errors.push_back(std::move(frameErrors));
-        worst.push_back(rounded(frameWorst));
+        out.errors.push_back(std::move(frameErrors));
+        out.worst.push_back(rounded(frameWorst));
     }
+    return out;
+}
 
+// Each control's curve in the user's units: its value at every frame, and with keys the keyed curve's
+// values and its keys.
+Json controlCurves(const InvertOutcome& outcome, const KeysOutcome* keys)
+{
+    const Approximation& a = *outcome.approximation;
     Json controls = Json::array();
     for (std::size_t p = 0; p < a.parameters.size(); ++p) {
         const RigParameter& parameter = a.parameters[p].parameter;
         Json dense = Json::array(), keyed = Json::array(), keyList = Json::array();
-        for (std::size_t f = 0; f < frames; ++f) {
+        for (std::size_t f = 0; f < outcome.values.size(); ++f) {
             dense.push_back(rounded(parameterUserValue(parameter, outcome.values[f][p])));
             if (keys) keyed.push_back(rounded(parameterUserValue(parameter, keys->keyed.values[f][p])));
         }
@@ -476,19 +491,32 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
                             {"keyed", keys ? std::move(keyed) : Json()},
                             {"keys", keys ? std::move(keyList) : Json()}});
     }
-    Json keyed;
-    if (keys) {
-        Json errorCm = Json::array();
-        for (const double e : keys->keyed.error.positionCm) errorCm.push_back(rounded(e));
-        keyed = {{"keys", keys->keyed.keyCount()},
-                 {"dense_keys", keys->denseKeys},
-                 {"reduction", numberJson(keys->reduction())},
-                 {"tolerance_cm", numberJson(keys->settings.toleranceCm)},
-                 {"tolerance_deg", numberJson(keys->settings.toleranceDeg)},
-                 {"error_cm", std::move(errorCm)}};
-    }
+    return controls;
+}
+
+// The key reduction's figures (null without keys).
+Json keyedSummary(const KeysOutcome* keys)
+{
+    if (!keys) return Json();
+    Json errorCm = Json::array();
+    for (const double e : keys->keyed.error.positionCm) errorCm.push_back(rounded(e));
+    return {{"keys", keys->keyed.keyCount()},
+            {"dense_keys", keys->denseKeys},
+            {"reduction", numberJson(keys->reduction())},
+            {"tolerance_cm", numberJson(keys->settings.toleranceCm)},
+            {"tolerance_deg", numberJson(keys->settings.toleranceDeg)},
+            {"error_cm", std::move(errorCm)}};
+}
+
+Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const HtmlReportNames& names)
+{
+    const TargetClip& clip = outcome.clip;
+    Json rig = rigSkeleton(outcome);
+    FramePositions frames = framePositions(outcome, keys ? keys->keyed.values : outcome.values);
+    rig["positions"] = std::move(frames.rig);
+    rig["errors"] = std::move(frames.errors);
     Json frameNumbers = Json::array();
-    for (std::size_t f = 0; f < frames; ++f)
+    for (std::size_t f = 0; f < outcome.values.size(); ++f)
         frameNumbers.push_back(numberJson(clip.frameNumbers[static_cast<std::size_t>(outcome.first) + f]));
     return Json{
         {"clip_name", names.clip},
@@ -496,11 +524,11 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
         {"approximation_name", names.approximation},
         {"fps", numberJson(clip.frameTime > 0.0 ? 1.0 / clip.frameTime : 30.0)},
         {"frames", std::move(frameNumbers)},
-        {"target", {{"joints", clip.joints}, {"parents", clip.parents}, {"positions", targetPositions}}},
-        {"rig", {{"joints", rigJoints}, {"parents", rigParents}, {"positions", rigPositions}, {"errors", errors}}},
-        {"worst", std::move(worst)},
-        {"keyed", std::move(keyed)},
-        {"controls", std::move(controls)}};
+        {"target", {{"joints", clip.joints}, {"parents", clip.parents}, {"positions", std::move(frames.target)}}},
+        {"rig", std::move(rig)},
+        {"worst", std::move(frames.worst)},
+        {"keyed", keyedSummary(keys)},
+        {"controls", controlCurves(outcome, keys)}};
 }
 
 }  // namespace

@@ -623,6 +623,77 @@ Json ikLegsBench(BipedBench& b)
     return json;
 }
 
+// The clip's targets for the biped, and the frame counts of the sections.
+void readBipedClip(BipedBench& b, double loadSeconds, Json& report)
+{
+    const BenchOptions& o = b.o;
+    const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
+    b.clip = readTargetClip(o.clip, map);
+    b.targets = matchTargets(b.approximation, b.clip.joints, b.clip.worlds);
+    b.frames = std::min(o.frames, static_cast<int>(b.targets.frames.size()));
+    b.ceresFrames = std::min(o.ceresFrames, b.frames);
+    b.blackBoxFrames = std::min(o.blackBoxFrames, b.frames);
+    report["biped"] = Json{{"rig", o.rig.string()},
+                           {"parameters", static_cast<long long>(b.rig.parameters().size())},
+                           {"modelled_parameters", static_cast<long long>(b.approximation.parameters.size())},
+                           {"outputs", static_cast<long long>(b.approximation.outputs.size())},
+                           {"clip", o.clip.string()},
+                           {"clip_frames", static_cast<long long>(b.targets.frames.size())},
+                           {"target_joints", b.targets.matchedJoints},
+                           {"load_seconds", loadSeconds}};
+}
+
+// The inversion's headline figures: the variants' per frame and the black box's on its frames.
+Json invertSummary(const BipedBench& b, Json variantRows, const Json& blackJson)
+{
+    const VariantResult& headline = b.result(partitionedVariant);
+    const auto result = [&](const std::string& name) -> const VariantResult& { return b.result(name); };
+    const std::string& whole = wholeVariant;
+    const std::string& blockByBlock = blockByBlockVariant;
+    return Json{{"frames", b.frames},
+                {"ms_per_frame", headline.run.cpuMsPerFrame()},
+                {"wall_ms_per_frame", headline.run.msPerFrame()},
+                {"threads2_ms_per_frame", result("analytic, 2 threads").run.msPerFrame()},
+                {"fd_ms_per_frame", result("fd, 1 thread").run.cpuMsPerFrame()},
+                {"fd_threads2_ms_per_frame", result("fd, 2 threads").run.msPerFrame()},
+                {"whole_ms_per_frame", result(whole).run.cpuMsPerFrame()},
+                {"polish1_ms_per_frame", result("analytic, 1 thread, polish 1").run.cpuMsPerFrame()},
+                {"block_by_block_ms_per_frame", result(blockByBlock).run.cpuMsPerFrame()},
+                {"block_by_block_mean_final_cost", result(blockByBlock).json.at("mean_final_cost")},
+                {"blackbox_ms_per_frame", blackJson.at("cpu_ms_per_frame")},
+                {"blackbox_frames", blackJson.at("frames")},
+                {"speedup_vs_blackbox_same_frames", blackJson.at("speedup")},
+                {"variants", std::move(variantRows)},
+                {"note",
+                 "1-thread figures are the thread's CPU time per frame, 2-thread ones wall "
+                 "time; solver and polish (the real rig's error measure excluded), through "
+                 "invertClip as rig-invert runs it: warm starts from the previous frame, "
+                 "restarts every 120 frames from the initial guess, stuck frames retried"}};
+}
+
+// The real rig against the clip with each method's parameters: the figures gathered along the way, the
+// variants', and the world-space approximation's.
+Json accuracyJson(BipedBench& b)
+{
+    Json& accuracy = b.accuracy;
+    accuracy["approximation"] = b.result(partitionedVariant).run.errorsJson();
+    accuracy["approximation_whole"] = b.result(wholeVariant).run.errorsJson();
+    accuracy["approximation_polish1"] = b.result("analytic, 1 thread, polish 1").run.errorsJson();
+    accuracy["approximation_fd"] = b.result("fd, 1 thread").run.errorsJson();
+    {
+        // Before parent-relative outputs: the world-space approximation, which discards what it cannot order.
+        say(b.o, fmt::format("inverting {} frames with the world-space approximation", b.frames));
+        RigBinding worldBinding(b.worldSpace, b.rig);
+        const ClipTargets worldTargets = matchTargets(b.worldSpace, b.clip.joints, b.clip.worlds);
+        Json before = runVariant(variant(partitionedVariant), b.worldSpace, worldBinding, worldTargets, b.frames)
+                          .run.errorsJson();
+        before["modelled_parameters"] = static_cast<long long>(b.worldSpace.parameters.size());
+        accuracy["approximation_world_space"] = std::move(before);
+    }
+    accuracy["note"] = "real rig re-evaluated with each method's parameters, against the clip's joints";
+    return std::move(accuracy);
+}
+
 }  // namespace
 
 void runBipedBench(const BenchOptions& o, Json& report)
@@ -638,77 +709,19 @@ void runBipedBench(const BenchOptions& o, Json& report)
     const double loadSeconds = secondsSince(start);
     BipedBench b(o, rig);
     trainBiped(b, report);
-    const Approximation& approximation = b.approximation;
-
-    // The clip.
-    const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
-    b.clip = readTargetClip(o.clip, map);
-    b.targets = matchTargets(approximation, b.clip.joints, b.clip.worlds);
-    b.frames = std::min(o.frames, static_cast<int>(b.targets.frames.size()));
-    b.ceresFrames = std::min(o.ceresFrames, b.frames);
-    b.blackBoxFrames = std::min(o.blackBoxFrames, b.frames);
-    report["biped"] = Json{{"rig", o.rig.string()},
-                           {"parameters", static_cast<long long>(rig.parameters().size())},
-                           {"modelled_parameters", static_cast<long long>(approximation.parameters.size())},
-                           {"outputs", static_cast<long long>(approximation.outputs.size())},
-                           {"clip", o.clip.string()},
-                           {"clip_frames", static_cast<long long>(b.targets.frames.size())},
-                           {"target_joints", b.targets.matchedJoints},
-                           {"load_seconds", loadSeconds}};
-    b.binding.emplace(approximation, rig);
+    readBipedClip(b, loadSeconds, report);
+    b.binding.emplace(b.approximation, rig);
 
     timeJacobians(b, report);
     Json variantRows = invertVariants(b);
     compareBlackBox(b, report);
-    const VariantResult& headline = b.result(partitionedVariant);
-    const Json& blackJson = report["blackbox"];
-    const int frames = b.frames;
-    const auto result = [&](const std::string& name) -> const VariantResult& { return b.result(name); };
-    const std::string& whole = wholeVariant;
-    const std::string& blockByBlock = blockByBlockVariant;
-    report["invert"] = Json{{"frames", frames},
-                            {"ms_per_frame", headline.run.cpuMsPerFrame()},
-                            {"wall_ms_per_frame", headline.run.msPerFrame()},
-                            {"threads2_ms_per_frame", result("analytic, 2 threads").run.msPerFrame()},
-                            {"fd_ms_per_frame", result("fd, 1 thread").run.cpuMsPerFrame()},
-                            {"fd_threads2_ms_per_frame", result("fd, 2 threads").run.msPerFrame()},
-                            {"whole_ms_per_frame", result(whole).run.cpuMsPerFrame()},
-                            {"polish1_ms_per_frame", result("analytic, 1 thread, polish 1").run.cpuMsPerFrame()},
-                            {"block_by_block_ms_per_frame", result(blockByBlock).run.cpuMsPerFrame()},
-                            {"block_by_block_mean_final_cost", result(blockByBlock).json.at("mean_final_cost")},
-                            {"blackbox_ms_per_frame", blackJson.at("cpu_ms_per_frame")},
-                            {"blackbox_frames", blackJson.at("frames")},
-                            {"speedup_vs_blackbox_same_frames", blackJson.at("speedup")},
-                            {"variants", std::move(variantRows)},
-                            {"note",
-                             "1-thread figures are the thread's CPU time per frame, 2-thread ones wall "
-                             "time; solver and polish (the real rig's error measure excluded), through "
-                             "invertClip as rig-invert runs it: warm starts from the previous frame, "
-                             "restarts every 120 frames from the initial guess, stuck frames retried"}};
-
+    report["invert"] = invertSummary(b, std::move(variantRows), report.at("blackbox"));
     compareCeres(b, report);
     report["ik_legs"] = ikLegsBench(b);
 
     say(o, "cold starts: random poses of the approximation from rest");
-    report["cold_start"] = coldStartJson(approximation, o.coldStartPoses);
-
-    Json& accuracy = b.accuracy;
-    accuracy["approximation"] = headline.run.errorsJson();
-    accuracy["approximation_whole"] = result(whole).run.errorsJson();
-    accuracy["approximation_polish1"] = result("analytic, 1 thread, polish 1").run.errorsJson();
-    accuracy["approximation_fd"] = result("fd, 1 thread").run.errorsJson();
-    {
-        // Before parent-relative outputs: the world-space approximation, which discards what it cannot order.
-        say(o, fmt::format("inverting {} frames with the world-space approximation", frames));
-        RigBinding worldBinding(b.worldSpace, rig);
-        const ClipTargets worldTargets = matchTargets(b.worldSpace, b.clip.joints, b.clip.worlds);
-        Json before =
-            runVariant(variant(partitionedVariant), b.worldSpace, worldBinding, worldTargets, frames).run.errorsJson();
-        before["modelled_parameters"] = static_cast<long long>(b.worldSpace.parameters.size());
-        accuracy["approximation_world_space"] = std::move(before);
-    }
-    accuracy["note"] = "real rig re-evaluated with each method's parameters, against the clip's joints";
-    report["accuracy"] = std::move(accuracy);
+    report["cold_start"] = coldStartJson(b.approximation, o.coldStartPoses);
+    report["accuracy"] = accuracyJson(b);
 }
 
 // --- scaling ---
@@ -800,115 +813,141 @@ ClipTargets scalingTargets(const ScalingRig& r, const Approximation& a, RigBindi
     return t;
 }
 
-}  // namespace
+// A scaling rig inverted over the scaling frames, and its Jacobian's cost: the partition's blocks, and
+// the black box's forward differences on the real graph (BenchOptions::scalingBlackBox).
+struct ScalingSolve {
+    ClipRun run;
+    int blocks = 0;
+    Timing jacobian;
+    std::optional<double> blackMs;
+};
 
-void runScaling(const BenchOptions& o, Json& report)
+ScalingSolve invertScalingRig(const BenchOptions& o, const ScalingRig& r, const Approximation& a, RigBinding& binding,
+                              const TargetClip& clip)
 {
-    const InversionSpec biped = readSpec(o.spec);
-    const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
-    const TargetClip clip = readTargetClip(o.clip, map);
-    std::filesystem::create_directories(o.workDir);
-    Json rows = Json::array();
-    struct Series {
-        std::vector<double> params, msPerFrame, jacobianMs, blackBoxMs, evaluations, trainSeconds, memoryMb, approxKb;
-    };
-    std::map<std::string, Series> series;
-    std::vector<std::pair<std::string, int>> rigs;
-    for (const int n : o.crowdSizes) rigs.emplace_back("crowd", n);
-    for (const int n : o.chainSizes) rigs.emplace_back("chain", n);
-    const SolverOptions defaults;
-    for (const auto& [kind, count] : rigs) {
-        const ScalingRig r = makeRig(o, biped, kind, count);
-        const bool peakReset = resetPeakResident();
-        const double residentBefore = residentMb();
+    // Frame 0, a cold start from rest, is a lead-in: the rows compare steady warm-started frames, which
+    // a handful of frames then measures without one outlier dominating.
+    const int frames = std::min(o.scalingFrames + 1, static_cast<int>(clip.worlds.size()));
+    const ClipTargets targets = scalingTargets(r, a, binding, clip, frames);
+    const int first = std::min(1, frames - 1);
 
-        auto start = Clock::now();
-        GraphRigOptions rigOptions;
-        rigOptions.parameterGlobs = r.params;
-        rigOptions.outputGlobs = r.outputs;
-        rigOptions.held = r.held;
-        GraphRigFunction rig(r.file, rigOptions);
-        const double loadSeconds = secondsSince(start);
-        const double graphMb = residentMb() - residentBefore;
-        say(o, fmt::format("scaling: {} {} ({} parameters): training", kind, count, rig.parameters().size()));
-        const Approximation a = learnApproximation(rig, learnOptions(Orderer::structured), r.file.string());
-        const double trainingPeakMb = peakResidentMb() - residentBefore;
-        // The largest crowd, the heaviest rig, learned again on 1 and 2 rig instances.
-        Json threads;
-        if (kind == "crowd" && count == o.crowdSizes.back()) {
-            say(o, fmt::format("scaling: {} {}: training on 1 and 2 rig instances", kind, count));
-            threads = threadsJson(rig, r.file.string());
-        }
-        RigBinding binding(a, rig);
-        // Frame 0, a cold start from rest, is a lead-in: the rows compare steady warm-started frames, which
-        // a handful of frames then measures without one outlier dominating.
-        const int frames = std::min(o.scalingFrames + 1, static_cast<int>(clip.worlds.size()));
-        const ClipTargets targets = scalingTargets(r, a, binding, clip, frames);
-        const int first = std::min(1, frames - 1);
+    say(o, fmt::format("scaling: {} {}: inverting {} frames", r.kind, r.count, frames - first));
+    SolverOptions options;
+    options.threads = 1;
+    const Solver solver(a, options);
+    ScalingSolve s;
+    s.run = invertFrames(solver, binding, targets, first, frames - 1);
 
-        say(o, fmt::format("scaling: {} {}: inverting {} frames", kind, count, frames - first));
-        SolverOptions options;
-        options.threads = 1;
-        const Solver solver(a, options);
-        const ClipRun run = invertFrames(solver, binding, targets, first, frames - 1);
-
-        const auto& firstTargets = targets.frames[static_cast<std::size_t>(first)];
-        BlockJacobians blocks(solver, firstTargets, run.values.front());
-        const Timing jacobian = timeRepeated([&] { blocks.evaluate(); }, o.timingBudget / 2, 3);
-        std::optional<double> blackMs;
-        if (o.scalingBlackBox) {
-            RealRigProblem black(binding, defaults.rotationScaleCm);
-            black.setTargets(firstTargets);
-            Eigen::VectorXd rb;
-            blackMs =
-                timeRepeated(
-                    [&] { black.jacobian(run.values.front(), defaults.finiteDifferenceStep, false, nullptr, rb); }, 0.0,
-                    1)
-                    .cpuMedianMs;
-        }
-        const double memoryMb = peakResidentMb() - residentBefore;
-        const double approxKb = static_cast<double>(approximationToYaml(a).size()) / 1024.0;
-
-        Series& ser = series[kind];
-        const auto params = static_cast<double>(rig.parameters().size());
-        ser.params.push_back(params);
-        ser.msPerFrame.push_back(run.cpuMsPerFrame());
-        ser.jacobianMs.push_back(jacobian.cpuMedianMs);
-        ser.blackBoxMs.push_back(blackMs.value_or(0.0));
-        ser.evaluations.push_back(static_cast<double>(a.training.evaluations));
-        ser.trainSeconds.push_back(a.training.seconds);
-        ser.memoryMb.push_back(memoryMb);
-        ser.approxKb.push_back(approxKb);
-        rows.push_back(Json{{"rig", kind},
-                            {"count", count},
-                            {"parameters", static_cast<long long>(rig.parameters().size())},
-                            {"modelled", static_cast<long long>(a.parameters.size())},
-                            {"outputs", static_cast<long long>(a.outputs.size())},
-                            {"blocks", blocks.blocks()},
-                            {"load_seconds", loadSeconds},
-                            {"train_evaluations", a.training.evaluations},
-                            {"train_order_evaluations", a.training.orderEvaluations},
-                            {"train_seconds", a.training.seconds},
-                            {"train_threads", threads},
-                            {"validation_max_relative_error", a.validation.maxRelativeError},
-                            {"within_epsilon", a.validation.withinEpsilon},
-                            {"frames", run.frames()},
-                            {"status_frames", app::statusCountsJson(run.summary)},
-                            {"ms_per_frame", run.cpuMsPerFrame()},
-                            {"wall_ms_per_frame", run.msPerFrame()},
-                            {"mean_iterations", run.meanIterations()},
-                            {"jacobian_ms", jacobian.cpuMedianMs},
-                            {"blackbox_jacobian_ms", orNull(blackMs)},
-                            {"max_position_error_cm", run.summary.maxPositionErrorCm},
-                            {"max_rotation_error_deg", run.summary.maxRotationErrorDeg},
-                            {"memory_mb", memoryMb},
-                            {"memory_graph_mb", graphMb},
-                            {"memory_training_peak_mb", trainingPeakMb},
-                            {"memory_peak_reset", peakReset},
-                            {"approximation_kb", approxKb}});
+    const auto& firstTargets = targets.frames[static_cast<std::size_t>(first)];
+    BlockJacobians blocks(solver, firstTargets, s.run.values.front());
+    s.blocks = blocks.blocks();
+    s.jacobian = timeRepeated([&] { blocks.evaluate(); }, o.timingBudget / 2, 3);
+    if (o.scalingBlackBox) {
+        const SolverOptions defaults;
+        RealRigProblem black(binding, defaults.rotationScaleCm);
+        black.setTargets(firstTargets);
+        Eigen::VectorXd rb;
+        s.blackMs =
+            timeRepeated(
+                [&] { black.jacobian(s.run.values.front(), defaults.finiteDifferenceStep, false, nullptr, rb); }, 0.0,
+                1)
+                .cpuMedianMs;
     }
-    report["scaling"] = std::move(rows);
+    return s;
+}
 
+// What a scaling rig's learning and solve cost in memory (MB above the resident size before it) and time.
+struct ScalingCosts {
+    bool peakReset = false;
+    double loadSeconds = 0.0, graphMb = 0.0, trainingPeakMb = 0.0, memoryMb = 0.0, approxKb = 0.0;
+    Json threads;  // training on 1 and 2 rig instances (the largest crowd), else null
+};
+
+// The figures whose growth with the parameter count is fitted, one entry per rig of a kind.
+struct Series {
+    std::vector<double> params, msPerFrame, jacobianMs, blackBoxMs, evaluations, trainSeconds, memoryMb, approxKb;
+
+    void add(double parameters, const Approximation& a, const ScalingSolve& s, const ScalingCosts& costs)
+    {
+        params.push_back(parameters);
+        msPerFrame.push_back(s.run.cpuMsPerFrame());
+        jacobianMs.push_back(s.jacobian.cpuMedianMs);
+        blackBoxMs.push_back(s.blackMs.value_or(0.0));
+        evaluations.push_back(static_cast<double>(a.training.evaluations));
+        trainSeconds.push_back(a.training.seconds);
+        memoryMb.push_back(costs.memoryMb);
+        approxKb.push_back(costs.approxKb);
+    }
+};
+
+Json scalingRowJson(const ScalingRig& r, std::size_t parameters, const Approximation& a, const ScalingSolve& s,
+                    const ScalingCosts& costs)
+{
+    return Json{{"rig", r.kind},
+                {"count", r.count},
+                {"parameters", static_cast<long long>(parameters)},
+                {"modelled", static_cast<long long>(a.parameters.size())},
+                {"outputs", static_cast<long long>(a.outputs.size())},
+                {"blocks", s.blocks},
+                {"load_seconds", costs.loadSeconds},
+                {"train_evaluations", a.training.evaluations},
+                {"train_order_evaluations", a.training.orderEvaluations},
+                {"train_seconds", a.training.seconds},
+                {"train_threads", costs.threads},
+                {"validation_max_relative_error", a.validation.maxRelativeError},
+                {"within_epsilon", a.validation.withinEpsilon},
+                {"frames", s.run.frames()},
+                {"status_frames", app::statusCountsJson(s.run.summary)},
+                {"ms_per_frame", s.run.cpuMsPerFrame()},
+                {"wall_ms_per_frame", s.run.msPerFrame()},
+                {"mean_iterations", s.run.meanIterations()},
+                {"jacobian_ms", s.jacobian.cpuMedianMs},
+                {"blackbox_jacobian_ms", orNull(s.blackMs)},
+                {"max_position_error_cm", s.run.summary.maxPositionErrorCm},
+                {"max_rotation_error_deg", s.run.summary.maxRotationErrorDeg},
+                {"memory_mb", costs.memoryMb},
+                {"memory_graph_mb", costs.graphMb},
+                {"memory_training_peak_mb", costs.trainingPeakMb},
+                {"memory_peak_reset", costs.peakReset},
+                {"approximation_kb", costs.approxKb}};
+}
+
+// One scaling row: a generated rig of `kind` and `count`, loaded, learned, inverted and measured.
+Json scalingRow(const BenchOptions& o, const InversionSpec& biped, const TargetClip& clip, const std::string& kind,
+                int count, Series& series)
+{
+    const ScalingRig r = makeRig(o, biped, kind, count);
+    ScalingCosts costs;
+    costs.peakReset = resetPeakResident();
+    const double residentBefore = residentMb();
+
+    auto start = Clock::now();
+    GraphRigOptions rigOptions;
+    rigOptions.parameterGlobs = r.params;
+    rigOptions.outputGlobs = r.outputs;
+    rigOptions.held = r.held;
+    GraphRigFunction rig(r.file, rigOptions);
+    costs.loadSeconds = secondsSince(start);
+    costs.graphMb = residentMb() - residentBefore;
+    say(o, fmt::format("scaling: {} {} ({} parameters): training", kind, count, rig.parameters().size()));
+    const Approximation a = learnApproximation(rig, learnOptions(Orderer::structured), r.file.string());
+    costs.trainingPeakMb = peakResidentMb() - residentBefore;
+    // The largest crowd, the heaviest rig, learned again on 1 and 2 rig instances.
+    if (kind == "crowd" && count == o.crowdSizes.back()) {
+        say(o, fmt::format("scaling: {} {}: training on 1 and 2 rig instances", kind, count));
+        costs.threads = threadsJson(rig, r.file.string());
+    }
+    RigBinding binding(a, rig);
+    const ScalingSolve s = invertScalingRig(o, r, a, binding, clip);
+    costs.memoryMb = peakResidentMb() - residentBefore;
+    costs.approxKb = static_cast<double>(approximationToYaml(a).size()) / 1024.0;
+
+    series.add(static_cast<double>(rig.parameters().size()), a, s, costs);
+    return scalingRowJson(r, rig.parameters().size(), a, s, costs);
+}
+
+Json growthJson(const std::map<std::string, Series>& series)
+{
     Json growth = Json::object();
     for (const auto& [kind, ser] : series) {
         auto fit = [&](const std::vector<double>& y) { return orNull(growthExponent(ser.params, y)); };
@@ -918,7 +957,25 @@ void runScaling(const BenchOptions& o, Json& report)
                             {"approximation_kb", fit(ser.approxKb)}};
     }
     growth["note"] = "least-squares slope of log(figure) against log(parameters): cost ~ parameters^slope";
-    report["growth"] = std::move(growth);
+    return growth;
+}
+
+}  // namespace
+
+void runScaling(const BenchOptions& o, Json& report)
+{
+    const InversionSpec biped = readSpec(o.spec);
+    const TargetMap map = o.map.empty() ? TargetMap{} : readTargetMap(o.map);
+    const TargetClip clip = readTargetClip(o.clip, map);
+    std::filesystem::create_directories(o.workDir);
+    std::vector<std::pair<std::string, int>> rigs;
+    for (const int n : o.crowdSizes) rigs.emplace_back("crowd", n);
+    for (const int n : o.chainSizes) rigs.emplace_back("chain", n);
+    Json rows = Json::array();
+    std::map<std::string, Series> series;
+    for (const auto& [kind, count] : rigs) rows.push_back(scalingRow(o, biped, clip, kind, count, series[kind]));
+    report["scaling"] = std::move(rows);
+    report["growth"] = growthJson(series);
 }
 
 }  // namespace rig::bench

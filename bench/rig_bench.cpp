@@ -130,17 +130,10 @@ private:
     std::thread watcher_;
 };
 
-int run(const Options& o)
+// The measurement's options: --quick's or the full run's, with the flags' files and sizes, checked before any
+// work.
+bench::BenchOptions benchOptions(const Options& o)
 {
-    if (o.jsonGiven) {
-        app::checkOutputFile(o.json, "bench.json", "--json");
-        app::checkDistinctFiles({{"the rig file", o.rig},
-                                 {"the spec", o.spec},
-                                 {"the clip", o.clip},
-                                 {"the map", o.map},
-                                 {"the rig generator", o.makeRigs}},
-                                {{"--json", o.json}});
-    }
     bench::BenchOptions options = o.quick ? bench::quickOptions() : bench::fullOptions();
     if (!o.rig.empty()) options.rig = o.rig;
     if (!o.spec.empty()) options.spec = o.spec;
@@ -172,13 +165,12 @@ int run(const Options& o)
             throw Error(fmt::format("{} {}: no such file{}; check the path", flag, file.string(),
                                     std::string_view(flag) == "--clip" ? " (Debian package assimp-testmodels)" : ""));
     if (!o.quiet) options.log = [](std::string_view line) { std::cerr << "rig-bench: " << line << "\n"; };
+    return options;
+}
 
-    // Generated rigs go to a fresh folder, removed at the end.
-    std::string pattern = (std::filesystem::temp_directory_path() / "rig-bench.XXXXXX").string();
-    if (!mkdtemp(pattern.data())) throw Error(fmt::format("cannot make a temporary folder {}", pattern));
-    options.workDir = pattern;
-    const TemporaryFolder cleanup(options.workDir);
-
+// Every figure: the biped's, then the scaling rows' (generated rigs in options.workDir).
+bench::Json measure(const Options& o, const bench::BenchOptions& options)
+{
     const auto start = std::chrono::steady_clock::now();
     bench::Json report = bench::Json::object();
     report["machine"] = bench::machineDescription();
@@ -194,23 +186,48 @@ int run(const Options& o)
     for (const double l : bench::loadAverage()) load.push_back(l);
     report["load_average_at_end"] = std::move(load);
     report["seconds"] = bench::secondsSince(start);
+    return report;
+}
 
-    if (o.jsonGiven) app::writeFileAtomically(o.json, report.dump(2) + "\n");
-    if (!o.quiet) printSummary(report);
-    // rig-learn --threads promises the same approximation for any count: a difference is a measured failure.
+// rig-learn --threads promises the same approximation for any count: a difference is a measured failure
+// (exit code 3).
+int checkSameApproximations(const bench::Json& report)
+{
     std::vector<std::string> differing;
     if (!report.at("train").at("threads").at("same_approximation").get<bool>()) differing.push_back("the biped");
     for (const auto& row : report.at("scaling"))
         if (!row.at("train_threads").is_null() && !row.at("train_threads").at("same_approximation").get<bool>())
             differing.push_back(fmt::format("{} {}", row.at("rig").get<std::string>(), row.at("count").get<int>()));
-    if (!differing.empty()) {
-        std::string list;
-        for (const auto& name : differing) list += (list.empty() ? "" : ", ") + name;
-        std::cerr << fmt::format("error: training on 1 and 2 rig instances gave different approximations for {}\n",
-                                 list);
-        return 3;
+    if (differing.empty()) return 0;
+    std::string list;
+    for (const auto& name : differing) list += (list.empty() ? "" : ", ") + name;
+    std::cerr << fmt::format("error: training on 1 and 2 rig instances gave different approximations for {}\n", list);
+    return 3;
+}
+
+int run(const Options& o)
+{
+    if (o.jsonGiven) {
+        app::checkOutputFile(o.json, "bench.json", "--json");
+        app::checkDistinctFiles({{"the rig file", o.rig},
+                                 {"the spec", o.spec},
+                                 {"the clip", o.clip},
+                                 {"the map", o.map},
+                                 {"the rig generator", o.makeRigs}},
+                                {{"--json", o.json}});
     }
-    return 0;
+    bench::BenchOptions options = benchOptions(o);
+
+    // Generated rigs go to a fresh folder, removed at the end.
+    std::string pattern = (std::filesystem::temp_directory_path() / "rig-bench.XXXXXX").string();
+    if (!mkdtemp(pattern.data())) throw Error(fmt::format("cannot make a temporary folder {}", pattern));
+    options.workDir = pattern;
+    const TemporaryFolder cleanup(options.workDir);
+
+    const bench::Json report = measure(o, options);
+    if (o.jsonGiven) app::writeFileAtomically(o.json, report.dump(2) + "\n");
+    if (!o.quiet) printSummary(report);
+    return checkSameApproximations(report);
 }
 
 }  // namespace

@@ -93,83 +93,107 @@ double parseNumber(const YAML::Node& node, const std::string& where)
     return x;
 }
 
+// `count` numbers, as a list.
+std::vector<double> parseNumbers(const YAML::Node& node, std::size_t count, const char* what, const std::string& where)
+{
+    if (!node.IsSequence() || node.size() != count)
+        throw Error(fmt::format("{}: expected {}, got {}", where, what, describe(node)));
+    std::vector<double> xs;
+    for (std::size_t i = 0; i < count; ++i) xs.push_back(parseNumber(node[i], where));
+    return xs;
+}
+
+int parseInt(const YAML::Node& node, const std::string& where)
+{
+    const double x = parseNumber(node, where);
+    if (x != std::floor(x) || std::abs(x) > 2e9)
+        throw Error(fmt::format("{}: expected a whole number, got {}", where, messageExcerpt(node.Scalar())));
+    return static_cast<int>(x);
+}
+
+// An enum by name, or by index.
+int parseEnum(const YAML::Node& node, const AttributeSpec& spec, const std::string& where)
+{
+    if (!node.IsScalar()) throw Error(fmt::format("{}: expected an enum name, got {}", where, describe(node)));
+    for (std::size_t i = 0; i < spec.enumNames.size(); ++i)
+        if (spec.enumNames[i] == node.Scalar()) return static_cast<int>(i);
+    int index = -1;
+    if (YAML::convert<int>::decode(node, index) && index >= 0 &&
+        static_cast<std::size_t>(index) < spec.enumNames.size())
+        return index;
+    std::string names;
+    for (const auto& n : spec.enumNames) names += (names.empty() ? "" : ", ") + n;
+    throw Error(fmt::format("{}: '{}' is not one of {}{}", where, messageExcerpt(node.Scalar()), names,
+                            didYouMean(node.Scalar(), spec.enumNames)));
+}
+
+// The factor from a number in a file to the stored value: files give angles in degrees, stored in radians.
+double fileScale(const AttributeSpec& spec)
+{
+    return unitFactor(spec.unit == Unit::Angle ? Unit::None : spec.unit, spec.unit);
+}
+
+std::vector<double> parseDoubleArray(const YAML::Node& node, double scale, const std::string& where)
+{
+    if (!node.IsSequence()) throw Error(fmt::format("{}: expected a list of numbers, got {}", where, describe(node)));
+    std::vector<double> xs;
+    for (const auto& item : node) xs.push_back(parseNumber(item, where) * scale);
+    return xs;
+}
+
+// A matrix as 16 numbers, row by row, or as four rows of four.
+Eigen::Matrix4d parseMatrix(const YAML::Node& node, const AttributeSpec& spec, const std::string& where)
+{
+    Eigen::Matrix4d m;
+    if (node.IsSequence() && node.size() == 16) {
+        const auto xs = parseNumbers(node, 16, "16 numbers", where);
+        for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = xs[static_cast<std::size_t>(i)];
+        return m;
+    }
+    if (!node.IsSequence() || node.size() != 4)
+        throw Error(fmt::format("{}: expected a matrix as four rows [[...], [...], [...], [...]], got {}", where,
+                                describe(node)));
+    for (int r = 0; r < 4; ++r) {
+        const auto xs = parseDoubleArray(node[static_cast<std::size_t>(r)], fileScale(spec), where);
+        if (xs.size() != 4)
+            throw Error(fmt::format("{}: matrix row {} has {} numbers, expected 4", where, r + 1, xs.size()));
+        for (int c = 0; c < 4; ++c) m(r, c) = xs[static_cast<std::size_t>(c)];
+    }
+    return m;
+}
+
 Value parseOne(const YAML::Node& node, ValueType type, const AttributeSpec& spec, const std::string& where)
 {
-    const double scale = unitFactor(spec.unit == Unit::Angle ? Unit::None : spec.unit, spec.unit);
-    auto numbers = [&](std::size_t count, const char* what) {
-        if (!node.IsSequence() || node.size() != count)
-            throw Error(fmt::format("{}: expected {}, got {}", where, what, describe(node)));
-        std::vector<double> xs;
-        for (std::size_t i = 0; i < count; ++i) xs.push_back(parseNumber(node[i], where));
-        return xs;
-    };
+    const double scale = fileScale(spec);
     switch (type) {
         case ValueType::Double:
             return parseNumber(node, where) * scale;
-        case ValueType::Int: {
-            const double x = parseNumber(node, where);
-            if (x != std::floor(x) || std::abs(x) > 2e9)
-                throw Error(fmt::format("{}: expected a whole number, got {}", where, messageExcerpt(node.Scalar())));
-            return static_cast<int>(x);
-        }
+        case ValueType::Int:
+            return parseInt(node, where);
         case ValueType::Bool: {
             bool b = false;
             if (!node.IsScalar() || !YAML::convert<bool>::decode(node, b))
                 throw Error(fmt::format("{}: expected true or false, got {}", where, describe(node)));
             return b;
         }
-        case ValueType::Enum: {
-            if (!node.IsScalar()) throw Error(fmt::format("{}: expected an enum name, got {}", where, describe(node)));
-            for (std::size_t i = 0; i < spec.enumNames.size(); ++i)
-                if (spec.enumNames[i] == node.Scalar()) return static_cast<int>(i);
-            int index = -1;
-            if (YAML::convert<int>::decode(node, index) && index >= 0 &&
-                static_cast<std::size_t>(index) < spec.enumNames.size())
-                return index;
-            std::string names;
-            for (const auto& n : spec.enumNames) names += (names.empty() ? "" : ", ") + n;
-            throw Error(fmt::format("{}: '{}' is not one of {}{}", where, messageExcerpt(node.Scalar()), names,
-                                    didYouMean(node.Scalar(), spec.enumNames)));
-        }
+        case ValueType::Enum:
+            return parseEnum(node, spec, where);
         case ValueType::String:
             if (!node.IsScalar()) throw Error(fmt::format("{}: expected a string, got {}", where, describe(node)));
             return node.Scalar();
         case ValueType::Vector3: {
-            const auto xs = numbers(3, "[x, y, z]");
+            const auto xs = parseNumbers(node, 3, "[x, y, z]", where);
             return Eigen::Vector3d(xs[0] * scale, xs[1] * scale, xs[2] * scale);
         }
-        case ValueType::Matrix4: {
-            Eigen::Matrix4d m;
-            if (node.IsSequence() && node.size() == 16) {
-                const auto xs = numbers(16, "16 numbers");
-                for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = xs[static_cast<std::size_t>(i)];
-                return m;
-            }
-            if (!node.IsSequence() || node.size() != 4)
-                throw Error(fmt::format("{}: expected a matrix as four rows [[...], [...], [...], [...]], got {}",
-                                        where, describe(node)));
-            for (int r = 0; r < 4; ++r) {
-                const auto row = parseOne(node[static_cast<std::size_t>(r)], ValueType::DoubleArray, spec, where);
-                const auto& xs = std::get<std::vector<double>>(row);
-                if (xs.size() != 4)
-                    throw Error(fmt::format("{}: matrix row {} has {} numbers, expected 4", where, r + 1, xs.size()));
-                for (int c = 0; c < 4; ++c) m(r, c) = xs[static_cast<std::size_t>(c)];
-            }
-            return m;
-        }
-        case ValueType::DoubleArray: {
-            if (!node.IsSequence())
-                throw Error(fmt::format("{}: expected a list of numbers, got {}", where, describe(node)));
-            std::vector<double> xs;
-            for (const auto& item : node) xs.push_back(parseNumber(item, where) * scale);
-            return xs;
-        }
+        case ValueType::Matrix4:
+            return parseMatrix(node, spec, where);
+        case ValueType::DoubleArray:
+            return parseDoubleArray(node, scale, where);
         case ValueType::Matrix4Array: {
             if (!node.IsSequence())
                 throw Error(fmt::format("{}: expected a list of matrices, got {}", where, describe(node)));
             Matrix4Array ms;
-            for (const auto& item : node)
-                ms.push_back(std::get<Eigen::Matrix4d>(parseOne(item, ValueType::Matrix4, spec, where)));
+            for (const auto& item : node) ms.push_back(parseMatrix(item, spec, where));
             return ms;
         }
     }

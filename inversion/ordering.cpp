@@ -69,8 +69,22 @@ public:
     {
         const Classification& cp = classes_[static_cast<std::size_t>(p)];
         const Classification& cq = classes_[static_cast<std::size_t>(q)];
+        const std::vector<Vote> voting = votingOutputs(cp, cq, everyPair);
+        if (voting.empty() && !everyPair) return {};
+        return verdictOf(cp, cq, voting, movedTogether(cp, cq, voting));
+    }
+
+    std::uint64_t evaluations() const { return evaluations_; }
+
+private:
+    using Vote = std::tuple<int, int, int>;  // output, entry in p, entry in q
+
+    // The outputs both affect that vote: all of them with `everyPair`, else those where the operators do not
+    // commute or the rig decides (distrusted outputs).
+    std::vector<Vote> votingOutputs(const Classification& cp, const Classification& cq, bool everyPair) const
+    {
         const auto& rest = probe_.rest();
-        std::vector<std::tuple<int, int, int>> voting;  // output, entry in p, entry in q
+        std::vector<Vote> voting;
         for (const int k : cp.model.outputs) {
             const int eq = entryOf(cq, k);
             if (eq < 0) continue;
@@ -79,10 +93,15 @@ public:
                 !operatorsCommute(cp, ep, cq, eq, rest[static_cast<std::size_t>(k)], options_))
                 voting.emplace_back(k, ep, eq);
         }
-        if (voting.empty() && !everyPair) return {};
-        // The raw worlds of the pair moved together: from an earlier pass when it read these outputs
-        // (and their parents) at the same offsets, else one rig evaluation.
-        // (The talk's orderer evaluates every pair once, whether or not it reads an output.)
+        return voting;
+    }
+
+    // The raw worlds of the pair moved together: from an earlier pass when it read these outputs
+    // (and their parents) at the same offsets, else one rig evaluation.
+    // (The talk's orderer evaluates every pair once, whether or not it reads an output.)
+    const PairSamples::Pair& movedTogether(const Classification& cp, const Classification& cq,
+                                           const std::vector<Vote>& voting)
+    {
         const auto [entry, fresh] = samples_.worlds.try_emplace({cp.index, cq.index});
         auto& sample = entry->second;
         if (fresh || sample.offsets != std::pair(cp.orderOffset, cq.orderOffset))
@@ -92,18 +111,25 @@ public:
             const auto [k, parent] = needed(std::get<0>(v));
             return sample.worlds.contains(k) && (parent < 0 || sample.worlds.contains(parent));
         });
-        if (!known) {
-            ++evaluations_;
-            std::vector<double> values = probe_.defaults();
-            values[static_cast<std::size_t>(cp.index)] += cp.orderOffset;
-            values[static_cast<std::size_t>(cq.index)] += cq.orderOffset;
-            const std::vector<Eigen::Matrix4d>& all = probe_.atValues(values);
-            for (const auto& v : voting) {
-                const auto [k, parent] = needed(std::get<0>(v));
-                sample.worlds[k] = all[static_cast<std::size_t>(k)];
-                if (parent >= 0) sample.worlds[parent] = all[static_cast<std::size_t>(parent)];
-            }
+        if (known) return sample;
+        ++evaluations_;
+        std::vector<double> values = probe_.defaults();
+        values[static_cast<std::size_t>(cp.index)] += cp.orderOffset;
+        values[static_cast<std::size_t>(cq.index)] += cq.orderOffset;
+        const std::vector<Eigen::Matrix4d>& all = probe_.atValues(values);
+        for (const auto& v : voting) {
+            const auto [k, parent] = needed(std::get<0>(v));
+            sample.worlds[k] = all[static_cast<std::size_t>(k)];
+            if (parent >= 0) sample.worlds[parent] = all[static_cast<std::size_t>(parent)];
         }
+        return sample;
+    }
+
+    // Each voting output's vote: the pair moved together against the two products of their operators.
+    Verdict verdictOf(const Classification& cp, const Classification& cq, const std::vector<Vote>& voting,
+                      const PairSamples::Pair& sample) const
+    {
+        const auto& rest = probe_.rest();
         const double tolerance = options_.epsilon * (std::abs(cp.orderOffset) + std::abs(cq.orderOffset));
         const auto& names = probe_.rig().outputs();
         Verdict verdict;
@@ -146,9 +172,6 @@ public:
         return verdict;
     }
 
-    std::uint64_t evaluations() const { return evaluations_; }
-
-private:
     RigProbe& probe_;
     const std::vector<Classification>& classes_;
     const LearnOptions& options_;
@@ -192,26 +215,28 @@ std::vector<std::pair<int, int>> candidatePairs(const std::vector<Classification
     return {unique.begin(), unique.end()};
 }
 
-}  // namespace
+// The parameters the pair tests leave and the order they found: next[p] holds the parameters p is outside of.
+struct PairOrder {
+    std::set<int> alive;
+    std::map<int, std::set<int>> next;  // outer -> inner
+};
 
-OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes,
-                            const std::vector<int>& modelled, const LearnOptions& options, PairSamples& samples,
-                            const std::set<int>& distrusted)
+// Every candidate pair tested; a pair that cannot be ordered costs the one with the smaller effect, noted in
+// `result` with the outputs where neither order holds.
+PairOrder testPairs(PairTests& tests, const std::vector<Classification>& classes, const std::vector<int>& modelled,
+                    const LearnOptions& options, OrderResult& result)
 {
     const bool everyPair = options.orderer == Orderer::talk;
-    PairTests tests(probe, classes, options, distrusted, samples);
-    OrderResult result;
-    std::set<int> alive(modelled.begin(), modelled.end());
-    std::map<int, std::set<int>> next;  // outer -> inner
+    PairOrder order{{modelled.begin(), modelled.end()}, {}};
     const auto pairs = candidatePairs(classes, modelled, everyPair);
     std::size_t done = 0;
     for (const auto& [p, q] : pairs) {
         if (options.progress)
             options.progress("ordering", static_cast<double>(++done) / static_cast<double>(pairs.size()));
-        if (!alive.contains(p) || !alive.contains(q)) continue;
+        if (!order.alive.contains(p) || !order.alive.contains(q)) continue;
         const Verdict v = tests.test(p, q, everyPair);
-        if (v.relation == Relation::firstOuter) next[p].insert(q);
-        if (v.relation == Relation::secondOuter) next[q].insert(p);
+        if (v.relation == Relation::firstOuter) order.next[p].insert(q);
+        if (v.relation == Relation::secondOuter) order.next[q].insert(p);
         if (v.relation != Relation::conflict) continue;
         const int drop = smaller(classes, p, q), keep = drop == p ? q : p;
         result.discards.emplace_back(
@@ -223,63 +248,95 @@ OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& 
                 k, fmt::format("{} and {} have neither order (the rig with both moved is {:.3g} and {:.3g} cm from "
                                "the two products of their operators, tolerance {:.3g} cm)",
                                nameOf(classes, p), nameOf(classes, q), one, two, v.tolerance));
-        alive.erase(drop);
+        order.alive.erase(drop);
     }
+    return order;
+}
 
-    // Topological order (Kahn), ties by the widest reach first, then by name: the order does not depend
-    // on how the parameters were listed. A cycle costs its member with the smallest effect.
+// Topological order (Kahn) of the parameters alive, ties by the widest reach first, then by name: the order
+// does not depend on how the parameters were listed. Returns each parameter's predecessors left unplaced:
+// all zero when the order is complete, otherwise the parameters left all lie on or after a cycle.
+std::map<int, int> topologicalOrder(const PairOrder& order, const std::vector<Classification>& classes,
+                                    std::vector<int>& sorted)
+{
     auto key = [&](int p) {
         const Classification& c = classes[static_cast<std::size_t>(p)];
         return std::tuple(-c.reach, c.model.parameter.name, p);
     };
-    while (true) {
-        std::map<int, int> indegree;
-        for (const int p : alive) indegree[p] = 0;
-        for (const auto& [from, tos] : next)
-            if (alive.contains(from))
-                for (const int to : tos)
-                    if (alive.contains(to)) ++indegree[to];
-        std::set<std::tuple<int, std::string, int>> ready;
-        for (const auto& [p, d] : indegree)
-            if (d == 0) ready.insert(key(p));
-        result.order.clear();
-        while (!ready.empty()) {
-            const int p = std::get<2>(*ready.begin());
-            ready.erase(ready.begin());
-            result.order.push_back(p);
-            for (const int q : next[p])
-                if (alive.contains(q) && --indegree[q] == 0) ready.insert(key(q));
+    std::map<int, int> indegree;
+    for (const int p : order.alive) indegree[p] = 0;
+    for (const auto& [from, tos] : order.next)
+        if (order.alive.contains(from))
+            for (const int to : tos)
+                if (order.alive.contains(to)) ++indegree[to];
+    std::set<std::tuple<int, std::string, int>> ready;
+    for (const auto& [p, d] : indegree)
+        if (d == 0) ready.insert(key(p));
+    sorted.clear();
+    while (!ready.empty()) {
+        const int p = std::get<2>(*ready.begin());
+        ready.erase(ready.begin());
+        sorted.push_back(p);
+        if (const auto inner = order.next.find(p); inner != order.next.end())
+            for (const int q : inner->second)
+                if (order.alive.contains(q) && --indegree[q] == 0) ready.insert(key(q));
+    }
+    return indegree;
+}
+
+// A cycle among the parameters left unplaced, outermost last: every one of them has a predecessor left, so
+// walking back along them closes one.
+std::vector<int> cycleLeft(const PairOrder& order, const std::map<int, int>& indegree)
+{
+    std::vector<int> walk;
+    std::map<int, std::size_t> seenAt;
+    int p = -1;
+    for (const auto& [q, d] : indegree)
+        if (d > 0) {
+            p = q;
+            break;
         }
-        if (result.order.size() == alive.size()) break;
-        // Every parameter left has a predecessor left: walking back along them closes a cycle.
-        std::vector<int> walk;
-        std::map<int, std::size_t> seenAt;
-        int p = -1;
-        for (const auto& [q, d] : indegree)
-            if (d > 0) {
-                p = q;
+    while (!seenAt.contains(p)) {
+        seenAt[p] = walk.size();
+        walk.push_back(p);
+        for (const auto& [from, tos] : order.next)
+            if (order.alive.contains(from) && indegree.at(from) > 0 && tos.contains(p)) {
+                p = from;
                 break;
             }
-        while (!seenAt.contains(p)) {
-            seenAt[p] = walk.size();
-            walk.push_back(p);
-            for (const auto& [from, tos] : next)
-                if (alive.contains(from) && indegree[from] > 0 && tos.contains(p)) {
-                    p = from;
-                    break;
-                }
-        }
-        const std::vector<int> cycle(walk.begin() + static_cast<std::ptrdiff_t>(seenAt[p]), walk.end());
-        int drop = cycle.front();
-        for (const int q : cycle) drop = smaller(classes, drop, q);
-        std::string chain;
-        for (auto it = cycle.rbegin(); it != cycle.rend(); ++it) chain += nameOf(classes, *it) + " before ";
-        chain += nameOf(classes, cycle.back());
-        result.discards.emplace_back(drop,
-                                     fmt::format("its order tests form a cycle ({}); the one with the smallest effect "
-                                                 "was discarded",
-                                                 chain));
-        alive.erase(drop);
+    }
+    return {walk.begin() + static_cast<std::ptrdiff_t>(seenAt[p]), walk.end()};
+}
+
+// A cycle costs its member with the smallest effect.
+void discardFromCycle(const std::vector<int>& cycle, const std::vector<Classification>& classes, PairOrder& order,
+                      OrderResult& result)
+{
+    int drop = cycle.front();
+    for (const int q : cycle) drop = smaller(classes, drop, q);
+    std::string chain;
+    for (auto it = cycle.rbegin(); it != cycle.rend(); ++it) chain += nameOf(classes, *it) + " before ";
+    chain += nameOf(classes, cycle.back());
+    result.discards.emplace_back(drop,
+                                 fmt::format("its order tests form a cycle ({}); the one with the smallest effect "
+                                             "was discarded",
+                                             chain));
+    order.alive.erase(drop);
+}
+
+}  // namespace
+
+OrderResult orderParameters(RigProbe& probe, const std::vector<Classification>& classes,
+                            const std::vector<int>& modelled, const LearnOptions& options, PairSamples& samples,
+                            const std::set<int>& distrusted)
+{
+    PairTests tests(probe, classes, options, distrusted, samples);
+    OrderResult result;
+    PairOrder order = testPairs(tests, classes, modelled, options, result);
+    while (true) {
+        const std::map<int, int> indegree = topologicalOrder(order, classes, result.order);
+        if (result.order.size() == order.alive.size()) break;
+        discardFromCycle(cycleLeft(order, indegree), classes, order, result);
     }
     result.evaluations = tests.evaluations();
     return result;

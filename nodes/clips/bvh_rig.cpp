@@ -111,118 +111,144 @@ std::string positionRule(const BvhClip& clip, bool root)
     return replace ? "the whole local translation (replacing OFFSET)" : "offsets added to OFFSET";
 }
 
-}  // namespace
-
-BvhRig bvhRig(const BvhClip& clip, const std::string& clipFile, const BvhRigOptions& options)
-{
-    // Node names have a length limit (GraphModel::maxNameLength); BVH names are cut to fit with this prefix.
-    if (options.prefix.size() > 100)
-        throw Error(fmt::format("--prefix: {} characters is too long (at most 100)", options.prefix.size()));
-    for (char c : options.prefix)
-        if (!nameChar(c))
-            throw Error(
-                fmt::format("--prefix '{}': use letters, digits, '_' and ':' (e.g. --prefix mocap:)", options.prefix));
-    if (!options.prefix.empty() && isDigit(options.prefix[0]))
-        throw Error(fmt::format("--prefix '{}': a node name cannot start with a digit", options.prefix));
-
-    // Names: the BVH joints first, so that they keep their names when something else would clash.
-    Names names;
+// What the rig's nodes are called and what the clip's channels drive: the BVH joints first, so that they
+// keep their names when something else would clash, then their helper joints, End Sites and the clip node.
+struct RigLayout {
     std::vector<std::string> jointName;
-    std::vector<std::pair<std::string, std::string>> renamed;
+    std::vector<std::pair<std::string, std::string>> renamed;  // BVH name -> node name, where they differ
+    std::vector<std::vector<ChainLink>> chains;                // per BVH joint: helpers first, the joint last
+    std::vector<std::string> endName;                          // per BVH joint, its End Site's ("" for none)
+    std::string clipName;
+    std::vector<std::string> plugOf;  // channel k -> the plug it drives
+    int endSites = 0;
+    int helpers = 0;
+};
+
+// Node names have a length limit (GraphModel::maxNameLength); BVH names are cut to fit with this prefix.
+void checkPrefix(const std::string& prefix)
+{
+    if (prefix.size() > 100)
+        throw Error(fmt::format("--prefix: {} characters is too long (at most 100)", prefix.size()));
+    for (char c : prefix)
+        if (!nameChar(c))
+            throw Error(fmt::format("--prefix '{}': use letters, digits, '_' and ':' (e.g. --prefix mocap:)", prefix));
+    if (!prefix.empty() && isDigit(prefix[0]))
+        throw Error(fmt::format("--prefix '{}': a node name cannot start with a digit", prefix));
+}
+
+// Names taken in the order above, a name already taken getting _2, _3, ...: the BVH joints keep theirs.
+void nameNodes(const BvhClip& clip, const std::string& prefix, RigLayout& layout)
+{
+    Names names;
     for (const BvhJoint& j : clip.joints) {
-        jointName.push_back(names.take(sanitize(options.prefix, j.name)));
-        if (jointName.back() != options.prefix + j.name) renamed.emplace_back(j.name, jointName.back());
+        layout.jointName.push_back(names.take(sanitize(prefix, j.name)));
+        if (layout.jointName.back() != prefix + j.name) layout.renamed.emplace_back(j.name, layout.jointName.back());
     }
-    std::vector<std::vector<ChainLink>> chains(clip.joints.size());
-    std::vector<std::string> endName(clip.joints.size());
+    layout.chains.resize(clip.joints.size());
+    layout.endName.resize(clip.joints.size());
     for (std::size_t j = 0; j < clip.joints.size(); ++j) {
         const auto runs = rotationRuns(clip.joints[j]);
+        const std::string& name = layout.jointName[j];
         for (std::size_t r = 0; r < runs.size(); ++r) {
             ChainLink link;
-            link.name = r + 1 == runs.size() ? jointName[j] : names.take(fmt::format("{}_rot{}", jointName[j], r + 1));
+            link.name = r + 1 == runs.size() ? name : names.take(fmt::format("{}_rot{}", name, r + 1));
             link.rotations = runs[r];
             link.order = mayaOrder(clip.joints[j], runs[r]);
-            chains[j].push_back(std::move(link));
+            layout.chains[j].push_back(std::move(link));
         }
-        if (clip.joints[j].endSite) endName[j] = names.take(jointName[j] + "_end");
+        if (clip.joints[j].endSite) layout.endName[j] = names.take(name + "_end");
     }
-    const std::string clipName = names.take(options.prefix + "clip");
+    layout.clipName = names.take(prefix + "clip");
+}
 
-    // Channel k -> the plug it drives.
-    std::vector<std::string> plugOf(static_cast<std::size_t>(clip.channelCount));
+// Channel k -> the plug it drives: a position channel the chain's first joint's translate, a rotation
+// channel the rotate of the link that plays it.
+void connectChannels(const BvhClip& clip, RigLayout& layout)
+{
+    layout.plugOf.assign(static_cast<std::size_t>(clip.channelCount), std::string());
     for (std::size_t j = 0; j < clip.joints.size(); ++j) {
         const BvhJoint& joint = clip.joints[j];
+        const auto& chain = layout.chains[j];
         for (std::size_t k = 0; k < joint.channels.size(); ++k) {
             const auto column = static_cast<std::size_t>(joint.firstChannel) + k;
             const char axis = "XYZ"[bvhChannelAxis(joint.channels[k])];
             if (!bvhIsRotation(joint.channels[k])) {
-                plugOf[column] = fmt::format("{}.translate{}", chains[j].front().name, axis);
+                layout.plugOf[column] = fmt::format("{}.translate{}", chain.front().name, axis);
                 continue;
             }
-            for (const ChainLink& link : chains[j])
+            for (const ChainLink& link : chain)
                 for (int c : link.rotations)
                     if (static_cast<std::size_t>(c) == column)
-                        plugOf[column] = fmt::format("{}.rotate{}", link.name, axis);
+                        layout.plugOf[column] = fmt::format("{}.rotate{}", link.name, axis);
         }
     }
+}
 
-    int endSites = 0;
-    int helpers = 0;
+// A clip within the reader's limits can still ask for a rig too big to load (every joint with 64
+// rotation channels repeating one axis): the rig files' size and memory stay bounded.
+void countJoints(const BvhClip& clip, const std::string& clipFile, RigLayout& layout)
+{
     for (std::size_t j = 0; j < clip.joints.size(); ++j) {
-        endSites += clip.joints[j].endSite ? 1 : 0;
-        helpers += static_cast<int>(chains[j].size()) - 1;
+        layout.endSites += clip.joints[j].endSite ? 1 : 0;
+        layout.helpers += static_cast<int>(layout.chains[j].size()) - 1;
     }
-    // A clip within the reader's limits can still ask for a rig too big to load (every joint with 64
-    // rotation channels repeating one axis): the rig files' size and memory stay bounded.
     constexpr std::size_t maxRigJoints = 50'000;
-    if (const std::size_t total = clip.joints.size() + static_cast<std::size_t>(endSites + helpers);
+    if (const std::size_t total = clip.joints.size() + static_cast<std::size_t>(layout.endSites + layout.helpers);
         total > maxRigJoints)
         throw Error(
             fmt::format("{}: the rig would have {} joints ({} BVH joints, {} End Sites, {} helpers for rotation "
                         "channels that repeat an axis), more than {}; this clip is not a skeleton",
-                        clipFile, total, clip.joints.size(), endSites, helpers, maxRigJoints));
+                        clipFile, total, clip.joints.size(), layout.endSites, layout.helpers, maxRigJoints));
+}
 
+// The file's header comment: where the rig comes from, its rules, renames and the channels' plugs.
+std::string headerComment(const BvhClip& clip, const std::string& clipFile, const RigLayout& layout)
+{
     std::string text;
     text += fmt::format(
         "# Generated by bvh2rig from {} ({} joints, {} End Sites, {} channels, {} frames, frame "
         "time {} s).\n",
-        oneLine(std::filesystem::path(clipFile).filename().string()), clip.joints.size(), endSites, clip.channelCount,
-        clip.frameCount, clip.frameTime);
+        oneLine(std::filesystem::path(clipFile).filename().string()), clip.joints.size(), layout.endSites,
+        clip.channelCount, clip.frameCount, clip.frameTime);
     text +=
         "# A forward-kinematics rig: one joint per BVH joint (translate = OFFSET, rotateOrder from the order of\n"
         "# its rotation channels), each End Site a leaf joint named <joint>_end. See docs/bvh.md.\n";
-    if (helpers > 0)
+    if (layout.helpers > 0)
         text += fmt::format(
             "# {} helper joints (<joint>_rotN, zero translation) play rotation channels that repeat an "
             "axis.\n",
-            helpers);
+            layout.helpers);
     text += fmt::format("# Position channels: root: {}; other joints: {}.\n", positionRule(clip, true),
                         positionRule(clip, false));
     // A comment is one line: a file name with a newline in it must not end it.
     for (const auto& w : clip.warnings) text += fmt::format("# Warning: {}\n", oneLine(w));
-    if (!renamed.empty()) {
+    if (!layout.renamed.empty()) {
         text += "# Renamed to fit the rig-file name rules (letters, digits, _ and :):\n";
-        for (const auto& [from, to] : renamed) text += fmt::format("#   '{}' -> {}\n", from, to);
+        for (const auto& [from, to] : layout.renamed) text += fmt::format("#   '{}' -> {}\n", from, to);
     }
     text += fmt::format(
         "# Parameters ({}): the plugs the clip's channels set, channel k of a motion line -> plug.\n"
         "# Rotations in degrees; positions are the whole local translate in cm.\n",
         clip.channelCount);
-    for (std::size_t j = 0; j < clip.joints.size(); ++j) {
-        const BvhJoint& joint = clip.joints[j];
+    for (const BvhJoint& joint : clip.joints)
         for (std::size_t k = 0; k < joint.channels.size(); ++k) {
             const auto column = static_cast<std::size_t>(joint.firstChannel) + k;
             text += fmt::format("#   [{}] {}.{} -> {}\n", column, joint.name, bvhChannelName(joint.channels[k]),
-                                plugOf[column]);
+                                layout.plugOf[column]);
         }
-    }
+    return text;
+}
 
-    text += "nodes:\n";
+// The joints: each BVH joint's chain under its parent, then its End Site.
+std::string jointNodes(const BvhClip& clip, const RigLayout& layout)
+{
+    std::string text;
     for (std::size_t j = 0; j < clip.joints.size(); ++j) {
         const BvhJoint& joint = clip.joints[j];
-        std::string parent = joint.parent < 0 ? std::string() : jointName[static_cast<std::size_t>(joint.parent)];
-        for (std::size_t r = 0; r < chains[j].size(); ++r) {
-            const ChainLink& link = chains[j][r];
+        std::string parent =
+            joint.parent < 0 ? std::string() : layout.jointName[static_cast<std::size_t>(joint.parent)];
+        for (std::size_t r = 0; r < layout.chains[j].size(); ++r) {
+            const ChainLink& link = layout.chains[j][r];
             std::string line = fmt::format("  - {{name: \"{}\", type: joint", link.name);
             if (!parent.empty()) line += fmt::format(", parent: \"{}\"", parent);
             if (r == 0) line += fmt::format(", translate: {}", vec(joint.offset));
@@ -231,16 +257,35 @@ BvhRig bvhRig(const BvhClip& clip, const std::string& clipFile, const BvhRigOpti
             parent = link.name;
         }
         if (joint.endSite)
-            text += fmt::format("  - {{name: \"{}\", type: joint, parent: \"{}\", translate: {}}}\n", endName[j],
-                                jointName[j], vec(*joint.endSite));
+            text += fmt::format("  - {{name: \"{}\", type: joint, parent: \"{}\", translate: {}}}\n", layout.endName[j],
+                                layout.jointName[j], vec(*joint.endSite));
     }
-    if (options.withMotion) {
-        const auto path = std::filesystem::absolute(clipFile).lexically_normal();
-        text += fmt::format("  - {{name: \"{}\", type: bvhClip, file: {}}}\n", clipName, singleQuoted(path.string()));
-        text += "connections:\n";
-        for (std::size_t k = 0; k < plugOf.size(); ++k)
-            text += fmt::format("  - \"{}.channel[{}] -> {}\"\n", clipName, k, plugOf[k]);
-    }
+    return text;
+}
+
+// --with-motion: a bvhClip node reading the clip by absolute path, its channels connected to their plugs.
+std::string motionNodes(const std::string& clipFile, const RigLayout& layout)
+{
+    const auto path = std::filesystem::absolute(clipFile).lexically_normal();
+    std::string text =
+        fmt::format("  - {{name: \"{}\", type: bvhClip, file: {}}}\n", layout.clipName, singleQuoted(path.string()));
+    text += "connections:\n";
+    for (std::size_t k = 0; k < layout.plugOf.size(); ++k)
+        text += fmt::format("  - \"{}.channel[{}] -> {}\"\n", layout.clipName, k, layout.plugOf[k]);
+    return text;
+}
+
+}  // namespace
+
+BvhRig bvhRig(const BvhClip& clip, const std::string& clipFile, const BvhRigOptions& options)
+{
+    checkPrefix(options.prefix);
+    RigLayout layout;
+    nameNodes(clip, options.prefix, layout);
+    connectChannels(clip, layout);
+    countJoints(clip, clipFile, layout);
+    std::string text = headerComment(clip, clipFile, layout) + "nodes:\n" + jointNodes(clip, layout);
+    if (options.withMotion) text += motionNodes(clipFile, layout);
 
     // The rig must load; anything else is a bug here, not in the user's file.
     try {
@@ -251,10 +296,10 @@ BvhRig bvhRig(const BvhClip& clip, const std::string& clipFile, const BvhRigOpti
     }
     BvhRig rig;
     rig.text = std::move(text);
-    rig.joints = static_cast<int>(clip.joints.size()) + endSites + helpers;
-    rig.endSites = endSites;
-    rig.helpers = helpers;
-    if (options.withMotion) rig.clipNode = clipName;
+    rig.joints = static_cast<int>(clip.joints.size()) + layout.endSites + layout.helpers;
+    rig.endSites = layout.endSites;
+    rig.helpers = layout.helpers;
+    if (options.withMotion) rig.clipNode = layout.clipName;
     return rig;
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <utility>
 
 #include <Eigen/Geometry>
@@ -63,6 +64,15 @@ Eigen::Vector3d perpendicularFrom(const Eigen::Vector3d& direction, std::initial
         if (p.norm() > 1e-6 * c.norm()) return p.normalized();
     }
     return direction.unitOrthogonal();
+}
+
+// |v| without overflow for far goals. Eigen's stableNorm sums the elements before the first 16-byte aligned one
+// apart, so its last bit depends on where v lies in memory: taken on an aligned copy, it is the same wherever the
+// caller keeps v (the solution does not change when a refactoring moves a vector into a struct).
+double stableNorm(const Eigen::Vector3d& v)
+{
+    alignas(16) const Eigen::Vector3d copy = v;
+    return copy.stableNorm();
 }
 
 struct Solution {
@@ -150,115 +160,190 @@ Solution rest(const Inputs& in)
     return s;
 }
 
-Solution solve(const Inputs& in)
+// Solve space A: the start joint's frame before its jointOrient and rotate, A = parent * T * IS
+// (IS undoes the parent's scale as the joint does with segmentScaleCompensate). In A the start
+// joint sits at the origin and its orientation JO * R is a rotation; any affine parent maps the
+// solution back exactly (goal reached, plane kept).
+struct SolveSpace {
+    Eigen::Vector3d goal, pole;  // in A
+};
+
+// Empty for a singular parent.
+std::optional<SolveSpace> solveSpace(const Inputs& in)
 {
-    // Solve space A: the start joint's frame before its jointOrient and rotate, A = parent * T * IS
-    // (IS undoes the parent's scale as the joint does with segmentScaleCompensate). In A the start
-    // joint sits at the origin and its orientation JO * R is a rotation; any affine parent maps the
-    // solution back exactly (goal reached, plane kept).
     JointInputs frame;
     frame.translate = in.startTranslate;
     frame.inverseScale = in.inverseScale;
     const Eigen::Matrix4d a = in.parent * jointMatrix(frame);
     const Eigen::Matrix3d aLinear = a.topLeftCorner<3, 3>();
     const double columnProduct = aLinear.col(0).norm() * aLinear.col(1).norm() * aLinear.col(2).norm();
-    if (!(std::abs(aLinear.determinant()) > 1e-12 * columnProduct)) return rest(in);  // singular parent
+    if (!(std::abs(aLinear.determinant()) > 1e-12 * columnProduct)) return std::nullopt;
     const Eigen::Matrix3d aInverse = aLinear.inverse();
-    const Eigen::Vector3d goal = aInverse * (in.goal - a.topRightCorner<3, 1>());
-    const Eigen::Vector3d pole = aInverse * in.pole;
+    return SolveSpace{aInverse * (in.goal - a.topRightCorner<3, 1>()), aInverse * in.pole};
+}
 
-    const Eigen::Matrix3d startOrient = eulerToMatrix(in.startOrient, RotateOrder::xyz);
-    const Eigen::Matrix3d midOrient = eulerToMatrix(in.midOrient, RotateOrder::xyz);
-    const Eigen::Vector3d& u = in.midTranslate;                 // start -> mid, start joint frame
-    const Eigen::Vector3d restB = midOrient * in.endTranslate;  // mid -> end, start joint frame, at rest
-    const double l1 = u.norm();
-    const double l2 = in.endTranslate.norm();  // = |restB|, but free of midJointOrient's rounding
-    const double chain = l1 + l2;
-    if (!(chain > 0.0)) return rest(in);
-    const double tiny = 1e-12 * std::max(1.0, chain);
-    const bool twoBones = l1 > tiny && l2 > tiny;
+// The chain at rest, in the start joint's frame, and the axis n it bends about.
+struct RestChain {
+    Eigen::Matrix3d startOrient, midOrient;
+    Eigen::Vector3d u;      // start -> mid
+    Eigen::Vector3d restB;  // mid -> end, at rest
+    double l1, l2, length, tiny;
+    bool twoBones;
+    Eigen::Vector3d direction;  // along the chain
+    Eigen::Vector3d n;
+};
+
+// Empty for a chain of zero length.
+std::optional<RestChain> restChain(const Inputs& in)
+{
+    RestChain c;
+    c.startOrient = eulerToMatrix(in.startOrient, RotateOrder::xyz);
+    c.midOrient = eulerToMatrix(in.midOrient, RotateOrder::xyz);
+    c.u = in.midTranslate;
+    c.restB = c.midOrient * in.endTranslate;
+    c.l1 = c.u.norm();
+    c.l2 = in.endTranslate.norm();  // = |restB|, but free of midJointOrient's rounding
+    c.length = c.l1 + c.l2;
+    if (!(c.length > 0.0)) return std::nullopt;
+    c.tiny = 1e-12 * std::max(1.0, c.length);
+    c.twoBones = c.l1 > c.tiny && c.l2 > c.tiny;
 
     // Bend axis n (start joint frame): the normal of the rest chain plane, u x restB. A straight rest
     // chain falls back on the mid joint's Z axis (then Y, then X) made perpendicular to the chain.
-    const Eigen::Vector3d chainDirection = (l1 > tiny ? u : restB).normalized();
-    Eigen::Vector3d n = u.cross(restB);
-    if (twoBones && n.norm() > parallelTolerance * l1 * l2) n.normalize();
-    else n = perpendicularFrom(chainDirection, {midOrient.col(2), midOrient.col(1), midOrient.col(0)});
+    c.direction = (c.l1 > c.tiny ? c.u : c.restB).normalized();
+    c.n = c.u.cross(c.restB);
+    if (c.twoBones && c.n.norm() > parallelTolerance * c.l1 * c.l2) c.n.normalize();
+    else c.n = perpendicularFrom(c.direction, {c.midOrient.col(2), c.midOrient.col(1), c.midOrient.col(0)});
+    return c;
+}
 
-    // A given hinge axis, or a mid joint that slides as it bends: the hinge chain's angle by Newton (the rigid
-    // rest-plane hinge keeps its closed form below). Its longest reach is where it is straightest.
-    const bool hinge = twoBones && (in.bendAxis.squaredNorm() > 0.0 || in.slide != 0.0 || in.slideQuadratic != 0.0);
+// How the mid joint bends: about n by the closed form (Maya's rotate-plane solver), or, with a given
+// hinge axis or a mid joint that slides as it bends, as a hinge chain whose angle Newton finds. Its
+// longest reach is where it is straightest.
+struct Bend {
+    bool hinge;
+    Eigen::Vector3d localAxis;  // in the mid joint's rotate space
+    HingeChain chain;
+    double phi;      // the hinge chain's straightest angle
+    double longest;  // the chain's longest reach
+};
+
+Bend bendOf(const Inputs& in, const RestChain& c)
+{
+    const bool hinge = c.twoBones && (in.bendAxis.squaredNorm() > 0.0 || in.slide != 0.0 || in.slideQuadratic != 0.0);
     const Eigen::Vector3d localAxis =
-        in.bendAxis.squaredNorm() > 0.0 ? in.bendAxis.normalized() : Eigen::Vector3d(midOrient.transpose() * n);
-    const HingeChain hingeChain{
-        u, restB, midOrient * localAxis, Eigen::Vector3d::Unit(in.slideAxis), in.slide, in.slideQuadratic};
-    const double phi = hinge ? hingeChain.straightest() : 0.0;
-    const double longest = hinge ? hingeChain.distance(phi) : chain;
+        in.bendAxis.squaredNorm() > 0.0 ? in.bendAxis.normalized() : Eigen::Vector3d(c.midOrient.transpose() * c.n);
+    const HingeChain chain{c.u,      c.restB,          c.midOrient * localAxis, Eigen::Vector3d::Unit(in.slideAxis),
+                           in.slide, in.slideQuadratic};
+    const double phi = hinge ? chain.straightest() : 0.0;
+    return Bend{hinge, localAxis, chain, phi, hinge ? chain.distance(phi) : c.length};
+}
 
-    // Reach: soft IK eases the distance in over the last `softness` cm; stretch scales both bones.
-    const double distance = goal.stableNorm();  // no overflow for far goals
+// Reach: soft IK eases the distance in over the last `softness` cm; stretch scales both bones by k.
+struct Reach {
+    double distance, reach, k;
+};
+
+Reach reachOf(const Inputs& in, const Eigen::Vector3d& goal, double longest)
+{
+    const double distance = stableNorm(goal);
     const double soft = std::clamp(in.softness, 0.0, longest);
     double reach = std::min(distance, longest);
     if (soft > 0.0 && distance > longest - soft)
         reach = (longest - soft) + soft * (1.0 - std::exp(-(distance - (longest - soft)) / soft));
     const double k = in.stretch && distance > reach && reach > 0.0 ? distance / reach : 1.0;
+    return {distance, reach, k};
+}
 
-    // Mid joint: rotate about n so that |start -> end| = k * reach. theta is the angle from the upper
-    // bone to the lower one about n (0 = straight), theta0 its rest value.
-    double delta = 0.0;
-    if (hinge) delta = hingeChain.angle(phi, reach);
-    else if (twoBones) {
-        // Law of cosines, reach^2 = l1^2 + l2^2 + 2 l1 l2 cos(theta), in its half-angle form
-        // sin^2(theta / 2) = (L - reach)(L + reach) / (4 l1 l2): exact at full extension, well
-        // conditioned near it, and scale-free (the unscaled lengths cannot overflow).
-        const double half = std::sqrt(std::clamp((chain - reach) * (chain + reach) / (4.0 * l1 * l2), 0.0, 1.0));
-        const double theta = 2.0 * std::asin(half);
-        const double theta0 = std::atan2(u.cross(restB).dot(n), u.dot(restB));
-        delta = theta - theta0;
-    }
-    const Eigen::Vector3d upper = k * (hinge ? hingeChain.mid(delta) : u);
-    const Eigen::Vector3d lower = hinge ? Eigen::Vector3d(k * hingeChain.lower(delta))
-                                        : Eigen::Vector3d(Eigen::AngleAxisd(delta, n) * (k * restB));
+// The mid joint's rotation about n that puts the end `reach` from the start. theta is the angle from the
+// upper bone to the lower one about n (0 = straight), theta0 its rest value.
+double bendAngle(const RestChain& c, const Bend& bend, double reach)
+{
+    if (bend.hinge) return bend.chain.angle(bend.phi, reach);
+    if (!c.twoBones) return 0.0;
+    // Law of cosines, reach^2 = l1^2 + l2^2 + 2 l1 l2 cos(theta), in its half-angle form
+    // sin^2(theta / 2) = (L - reach)(L + reach) / (4 l1 l2): exact at full extension, well
+    // conditioned near it, and scale-free (the unscaled lengths cannot overflow).
+    const double half = std::sqrt(std::clamp((c.length - reach) * (c.length + reach) / (4.0 * c.l1 * c.l2), 0.0, 1.0));
+    const double theta = 2.0 * std::asin(half);
+    const double theta0 = std::atan2(c.u.cross(c.restB).dot(c.n), c.u.dot(c.restB));
+    return theta - theta0;
+}
+
+// The chain bent by `delta` and scaled by k (start joint frame), and its plane's normal.
+struct BentChain {
+    Eigen::Vector3d upper, lower, normal;
+};
+
+BentChain bentChain(const RestChain& c, const Bend& bend, double delta, double k)
+{
+    BentChain b;
+    b.upper = k * (bend.hinge ? bend.chain.mid(delta) : c.u);
+    b.lower = bend.hinge ? Eigen::Vector3d(k * bend.chain.lower(delta))
+                         : Eigen::Vector3d(Eigen::AngleAxisd(delta, c.n) * (k * c.restB));
     // The plane's normal: the rest plane's, or the bent hinge chain's (on a straight one, the hinge axis made
     // perpendicular to the chain, its limit as the chain starts to bend).
-    Eigen::Vector3d normal = n;
-    if (hinge) {
-        normal = upper.cross(lower);
-        const double size = normal.norm();
-        if (size > parallelTolerance * upper.norm() * lower.norm()) normal /= size;
-        else normal = perpendicularFrom((upper + lower).normalized(), {hingeChain.axis, n});
+    b.normal = c.n;
+    if (bend.hinge) {
+        b.normal = b.upper.cross(b.lower);
+        const double size = b.normal.norm();
+        if (size > parallelTolerance * b.upper.norm() * b.lower.norm()) b.normal /= size;
+        else b.normal = perpendicularFrom((b.upper + b.lower).normalized(), {bend.chain.axis, c.n});
     }
-    const Eigen::Vector3d end = upper + lower;
+    return b;
+}
 
-    // Chain frame (start joint frame): x1 towards the end, y1 towards the mid joint's side, z1 = -normal.
-    const Eigen::Vector3d x1 = end.norm() > tiny ? end.normalized() : perpendicularFrom(normal, {chainDirection});
-    const Eigen::Vector3d y1 = perpendicularFrom(x1, {x1.cross(normal), chainDirection});
+// Chain frame (start joint frame): x1 towards the end, y1 towards the mid joint's side, z1 = -normal.
+Eigen::Matrix3d chainFrame(const RestChain& c, const BentChain& b)
+{
+    const Eigen::Vector3d end = b.upper + b.lower;
+    const Eigen::Vector3d x1 = end.norm() > c.tiny ? end.normalized() : perpendicularFrom(b.normal, {c.direction});
+    const Eigen::Vector3d y1 = perpendicularFrom(x1, {x1.cross(b.normal), c.direction});
     Eigen::Matrix3d b1;
     b1 << x1, y1, x1.cross(y1);
+    return b1;
+}
 
-    // Goal frame (space A): x2 towards the goal, y2 towards the pole vector, then twisted about x2.
-    const Eigen::Vector3d restEnd = u + restB;
-    Eigen::Vector3d x2 = startOrient * (restEnd.norm() > tiny ? restEnd.normalized() : chainDirection);
-    if (distance > tiny) x2 = goal / distance;
-    const double poleLength = pole.stableNorm();
-    const Eigen::Vector3d poleDirection =
-        poleLength > 0.0 && std::isfinite(poleLength) ? Eigen::Vector3d(pole / poleLength) : Eigen::Vector3d::Zero();
+// Goal frame (space A): x2 towards the goal, y2 towards the pole vector, then twisted about x2.
+Eigen::Matrix3d goalFrame(const Inputs& in, const RestChain& c, const SolveSpace& space, double distance)
+{
+    const Eigen::Vector3d restEnd = c.u + c.restB;
+    Eigen::Vector3d x2 = c.startOrient * (restEnd.norm() > c.tiny ? restEnd.normalized() : c.direction);
+    if (distance > c.tiny) x2 = space.goal / distance;
+    const double poleLength = stableNorm(space.pole);
+    const Eigen::Vector3d poleDirection = poleLength > 0.0 && std::isfinite(poleLength)
+                                              ? Eigen::Vector3d(space.pole / poleLength)
+                                              : Eigen::Vector3d::Zero();
     const Eigen::Vector3d polePerpendicular = poleDirection - poleDirection.dot(x2) * x2;
     Eigen::Vector3d y2;
     if (polePerpendicular.norm() > parallelTolerance) y2 = polePerpendicular.normalized();
     else  // no usable pole: keep the rest plane, whose normal is startOrient * n
-        y2 = perpendicularFrom(x2, {x2.cross(startOrient * n), startOrient * chainDirection});
+        y2 = perpendicularFrom(x2, {x2.cross(c.startOrient * c.n), c.startOrient * c.direction});
     const Eigen::Vector3d y2Twisted = std::cos(in.twist) * y2 + std::sin(in.twist) * x2.cross(y2);
     Eigen::Matrix3d b2;
     b2 << x2, y2Twisted, x2.cross(y2Twisted);
+    return b2;
+}
+
+Solution solve(const Inputs& in)
+{
+    const std::optional<SolveSpace> space = solveSpace(in);
+    if (!space) return rest(in);
+    const std::optional<RestChain> c = restChain(in);
+    if (!c) return rest(in);
+    const Bend bend = bendOf(in, *c);
+    const Reach reach = reachOf(in, space->goal, bend.longest);
+    const double delta = bendAngle(*c, bend, reach.reach);
+    const double k = reach.k;
 
     // Start joint orientation in A: Q = B2 * B1^T = JO * R.
-    const Eigen::Matrix3d q = b2 * b1.transpose();
+    const Eigen::Matrix3d q =
+        goalFrame(in, *c, *space, reach.distance) * chainFrame(*c, bentChain(*c, bend, delta, k)).transpose();
     Solution s;
-    s.startRotate = eulerNearZero(startOrient.transpose() * q, in.startOrder);
+    s.startRotate = eulerNearZero(c->startOrient.transpose() * q, in.startOrder);
     // Mid joint: JO_mid * R_mid = bend * JO_mid, so R_mid is the bend about JO_mid^T * n (or the given axis).
-    s.midRotate = eulerNearZero(Eigen::AngleAxisd(delta, localAxis).toRotationMatrix(), in.midOrder);
-    s.midTranslate = k * (hinge ? hingeChain.mid(delta) : in.midTranslate);
+    s.midRotate = eulerNearZero(Eigen::AngleAxisd(delta, bend.localAxis).toRotationMatrix(), in.midOrder);
+    s.midTranslate = k * (bend.hinge ? bend.chain.mid(delta) : in.midTranslate);
     s.endTranslate = k * in.endTranslate;
     // Overflowing inputs (1e200 cm) must not give NaN: each group falls back on its rest value.
     if (!(s.startRotate.allFinite() && s.midRotate.allFinite())) s.startRotate = s.midRotate = Eigen::Vector3d::Zero();
