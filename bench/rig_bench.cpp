@@ -95,17 +95,24 @@ void printSummary(const bench::Json& r)
 constexpr int maxCrowd = 512;
 constexpr int maxChain = 2000;
 
-// Removes the temporary folder when the run is interrupted (SIGINT, SIGTERM): the signals are blocked
-// in every thread and taken by a thread of their own with sigwait, so the removal runs as ordinary
-// code, not in a signal handler. Destroyed at the end of a normal run, which removes the folder too.
+// A fresh folder (mkdtemp's `pattern`), removed when the run is interrupted (SIGINT, SIGTERM): the signals
+// are blocked in every thread and taken by a thread of their own with sigwait, so the removal runs as ordinary
+// code, not in a signal handler. They are blocked before the folder exists: a signal in between stays pending
+// for the watcher, instead of killing the process with the folder left behind. Destroyed at the end of a
+// normal run, which removes the folder too.
 class TemporaryFolder {
 public:
-    explicit TemporaryFolder(std::filesystem::path dir) : dir_(std::move(dir))
+    explicit TemporaryFolder(std::string pattern)
     {
-        sigset_t signals;
+        sigset_t signals, previous;
         sigemptyset(&signals);
         for (const int s : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&signals, s);
-        pthread_sigmask(SIG_BLOCK, &signals, nullptr);  // before any worker thread starts: they inherit it
+        pthread_sigmask(SIG_BLOCK, &signals, &previous);  // before any worker thread starts: they inherit it
+        if (!mkdtemp(pattern.data())) {
+            pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+            throw Error(fmt::format("cannot make a temporary folder {}", pattern));
+        }
+        dir_ = pattern;
         watcher_ = std::thread([this, signals] {
             int received = 0;
             sigwait(&signals, &received);
@@ -124,6 +131,7 @@ public:
     }
     TemporaryFolder(const TemporaryFolder&) = delete;
     TemporaryFolder& operator=(const TemporaryFolder&) = delete;
+    const std::filesystem::path& path() const { return dir_; }
 
 private:
     std::filesystem::path dir_;
@@ -219,10 +227,8 @@ int run(const Options& o)
     bench::BenchOptions options = benchOptions(o);
 
     // Generated rigs go to a fresh folder, removed at the end.
-    std::string pattern = (std::filesystem::temp_directory_path() / "rig-bench.XXXXXX").string();
-    if (!mkdtemp(pattern.data())) throw Error(fmt::format("cannot make a temporary folder {}", pattern));
-    options.workDir = pattern;
-    const TemporaryFolder cleanup(options.workDir);
+    const TemporaryFolder folder((std::filesystem::temp_directory_path() / "rig-bench.XXXXXX").string());
+    options.workDir = folder.path();
 
     const bench::Json report = measure(o, options);
     if (o.jsonGiven) app::writeFileAtomically(o.json, report.dump(2) + "\n");
