@@ -194,8 +194,8 @@ std::vector<std::vector<ResidualStructure::Link>> ResidualStructure::ownLinks(co
     return own;
 }
 
-std::vector<std::vector<ResidualStructure::Link>>
-ResidualStructure::outputLinks(const std::vector<std::vector<Link>>& own) const
+std::vector<std::vector<ResidualStructure::Link>> ResidualStructure::outputLinks(
+    const std::vector<std::vector<Link>>& own) const
 {
     // An output's chain is its ancestors' own links (relative outputs), root first, then its own.
     const std::size_t outputCount = approximation_->outputs.size();
@@ -329,8 +329,8 @@ void ResidualStructure::makePairs()
 void ResidualStructure::attachTerms(std::span<const ResidualTerm* const> terms)
 {
     if (!terms.empty() && terms.size() != approximation_->outputs.size())
-        throw internalError(fmt::format("ResidualStructure: {} terms for {} outputs", terms.size(),
-                                        approximation_->outputs.size()));
+        throw internalError(
+            fmt::format("ResidualStructure: {} terms for {} outputs", terms.size(), approximation_->outputs.size()));
     const ResidualTerm* joint = &jointTargetTerm();
     rowOffset_.assign(1, 0);
     for (const int k : outputs_) {

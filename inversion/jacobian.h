@@ -143,7 +143,7 @@ private:
     };
 
     // The constructor's phases, in order.
-    std::vector<int> checkIndices() const;  // per parameter: its column, or -1
+    std::vector<int> checkIndices() const;                                      // per parameter: its column, or -1
     std::vector<std::vector<Link>> ownLinks(const std::vector<int>& columnOf);  // per output; makes the slots
     std::vector<std::vector<Link>> outputLinks(const std::vector<std::vector<Link>>& own) const;
     void makeChains(const std::vector<std::vector<Link>>& links);
@@ -250,7 +250,7 @@ private:
     void evaluateTree();                               // node products and worlds from the slot matrices
     void residualRows(Eigen::Ref<Eigen::VectorXd> r);  // also the rigid outputs' quaternions
     bool velocities();                                 // Xi per unknown node; false: an operator or product is singular
-    void treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);  // from velocities()
+    void treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);                     // from velocities()
     void termTreeJacobian(std::size_t o, Eigen::Ref<Eigen::MatrixXd> jacobian);  // an output of another term
     void twists();  // twist_ per unknown node, straight from the operators (twistForm_ only)
     void twistNormalEquations(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
@@ -286,9 +286,9 @@ private:
             return *this;
         }
     };
-    std::vector<TwistWeight> weight_;                    // per unknown node: sum of B_k^T B_k below
     using Matrix6 = Eigen::Matrix<double, 6, 6>;
-    std::vector<Matrix6> fullWeight_;  // the same where a term is not the joint target (empty otherwise)
+    std::vector<TwistWeight> weight_;                    // per unknown node: sum of B_k^T B_k below
+    std::vector<Matrix6> fullWeight_;                    // the same where some term is not a joint target
     std::vector<Eigen::Matrix<double, 6, 1>> weighted_;  // per unknown node: weight_ times twist_
     std::vector<char> fresh_;                            // per unknown node: its sums not yet begun
     std::vector<Eigen::Matrix4d> constants_;             // per chain, C_0 .. C_v

@@ -40,10 +40,7 @@ Eigen::Matrix3d halfAngleRows(const Eigen::Matrix3d& q, const PreparedTarget& t)
     return e.w() * Eigen::Matrix3d::Identity() + skew(e.vec());
 }
 
-Eigen::Vector3d skewPart(const Eigen::Matrix3d& x)
-{
-    return {x(2, 1) - x(1, 2), x(0, 2) - x(2, 0), x(1, 0) - x(0, 1)};
-}
+Eigen::Vector3d skewPart(const Eigen::Matrix3d& x) { return {x(2, 1) - x(1, 2), x(0, 2) - x(2, 0), x(1, 0) - x(0, 1)}; }
 
 // The weighted position rows shared by both kinds: w_p (p - p_target), moved by omega x p + v.
 void positionTwistRows(const Eigen::Matrix4d& world, double weight, TermTwistRows& jacobian)
@@ -144,7 +141,8 @@ namespace {
 
 ResidualTermRegistry& registry()
 {
-    static ResidualTermRegistry* made = new ResidualTermRegistry;  // never destroyed: a term may be used from other statics' destructors
+    // Never destroyed: a term may be used from other statics' destructors.
+    static ResidualTermRegistry* made = new ResidualTermRegistry;
     return *made;
 }
 
@@ -188,8 +186,8 @@ const ResidualTerm& residualTerm(std::string_view name)
         for (const auto& kind : r.kinds)
             if (kind->name() == name) return *kind;
     }
-    throw Error(fmt::format("unknown residual term '{}': use one of {}", oneLine(name),
-                            fmt::join(residualTermNames(), ", ")));
+    throw Error(
+        fmt::format("unknown residual term '{}': use one of {}", oneLine(name), fmt::join(residualTermNames(), ", ")));
 }
 
 const ResidualTerm& termOf(const JointTarget& target) { return target.term ? *target.term : jointTargetTerm(); }

@@ -388,7 +388,8 @@ void KeyFit::apply(const Proposal& proposal)
         delta_[p][f] = proposal.delta[static_cast<Eigen::Index>(i)];
         for (std::size_t o = 0; o < reach.size(); ++o)
             for (std::size_t r = 0; r < jointTargetRows; ++r)
-                errors_[f][jointTargetRows * static_cast<std::size_t>(reach[o]) + r] += g[jointTargetRows * o + r] * change;
+                errors_[f][jointTargetRows * static_cast<std::size_t>(reach[o]) + r] +=
+                    g[jointTargetRows * o + r] * change;
     }
 }
 

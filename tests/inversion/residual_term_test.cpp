@@ -35,10 +35,10 @@ public:
     }
     void twistJacobian(const Eigen::Matrix4d& world, const PreparedTarget& t, TermTwistRows& jacobian) const override
     {
-        // y of omega x p + v.
+        // y of omega x p + v: omega_z p_x - omega_x p_z + v_y.
         const Eigen::Vector3d p = world.block<3, 1>(0, 3);
         jacobian.resize(1, 6);
-        jacobian << t.positionWeight * p.z(), 0.0, -t.positionWeight * p.x(), 0.0, t.positionWeight, 0.0;
+        jacobian << -t.positionWeight * p.z(), 0.0, t.positionWeight * p.x(), 0.0, t.positionWeight, 0.0;
     }
     void change(const Eigen::Matrix4d&, const PreparedTarget& t, const Eigen::Matrix<double, 3, 4>& dWorld,
                 TermRows& rows) const override
@@ -73,9 +73,8 @@ Eigen::Matrix4d randomWorld(std::mt19937& rng, bool rigid)
     Eigen::Matrix4d w = Eigen::Matrix4d::Identity();
     w.block<3, 3>(0, 0) = randomRotation(rng);
     if (!rigid) {  // a stretch: scale and shear, as a non-rigid operator's output has
-        Eigen::Matrix3d stretch = Eigen::Matrix3d::Identity() + 0.3 * Eigen::Matrix3d::NullaryExpr([&] {
-                                      return unit(rng);
-                                  });
+        Eigen::Matrix3d stretch =
+            Eigen::Matrix3d::Identity() + 0.3 * Eigen::Matrix3d::NullaryExpr([&] { return unit(rng); });
         w.block<3, 3>(0, 0) = w.block<3, 3>(0, 0) * stretch;
     }
     w.block<3, 1>(0, 3) = 30.0 * Eigen::Vector3d(unit(rng), unit(rng), unit(rng));
@@ -104,7 +103,8 @@ Eigen::Matrix4d twisted(const Eigen::Matrix4d& world, const Eigen::Matrix<double
 {
     Eigen::Matrix4d motion = Eigen::Matrix4d::Identity();
     const Eigen::Vector3d omega = eps * twist.head<3>();
-    if (omega.norm() > 0) motion.block<3, 3>(0, 0) = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
+    if (omega.norm() > 0)
+        motion.block<3, 3>(0, 0) = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
     motion.block<3, 1>(0, 3) = eps * twist.tail<3>();
     return motion * world;
 }
@@ -207,7 +207,8 @@ TEST_CASE("residual terms: kinds by name; an unknown name is refused naming the 
     try {
         residualTerm("aim");
         FAIL("no error");
-    } catch (const Error& e) {
+    }
+    catch (const Error& e) {
         CHECK(e.kind() == ErrorKind::userInput);
         CHECK(std::string(e.what()).starts_with("unknown residual term 'aim': use one of jointTarget, position"));
     }
@@ -245,11 +246,12 @@ TEST_CASE("residual terms: position and height terms through ResidualWorkspace o
         }
         REQUIRE(evaluator.rows() == rows);
         Eigen::MatrixXd analytic, finite, suffixes;
-        Eigen::VectorXd r, rFinite;
+        Eigen::VectorXd r, rFinite, rSuffixes;
         evaluator.jacobian(values, JacobianMethod::analytic, 1e-6, analytic, r);
         evaluator.jacobian(values, JacobianMethod::finiteDifference, 1e-6, finite, rFinite);
-        evaluator.jacobianFromSuffixes(values, suffixes, rFinite);
+        evaluator.jacobianFromSuffixes(values, suffixes, rSuffixes);
         CHECK(r == rFinite);
+        CHECK(relativeDifference(rSuffixes, r) < 1e-12);
         CHECK(relativeDifference(analytic, finite) < 1e-6);
         CHECK(relativeDifference(suffixes, analytic) < 1e-9);
         // The normal equations from twists (B^T B of each term) against J^T J and J^T r.
@@ -276,7 +278,8 @@ TEST_CASE("residual terms: position-only targets on the biped reach reachable po
     for (int pose = 0; pose < 4; ++pose) {
         CAPTURE(pose);
         const std::vector<double> known = test::randomValues(a, rng, 0.5);
-        const std::vector<JointTarget> positionOnly = termTargets(a, known, [](std::size_t) { return &positionTerm(); });
+        const std::vector<JointTarget> positionOnly =
+            termTargets(a, known, [](std::size_t) { return &positionTerm(); });
         std::vector<JointTarget> noRotation = test::targetsAt(a, known);
         for (JointTarget& t : noRotation) t.rotationWeight = 0.0;
         const JacobianEvaluator three(a, positionOnly, 10.0), six(a, noRotation, 10.0);
@@ -285,8 +288,8 @@ TEST_CASE("residual terms: position-only targets on the biped reach reachable po
         std::vector<double> start = known;
         for (std::size_t p = 0; p < start.size(); ++p) {
             const RigParameter& param = a.parameters[p].parameter;
-            start[p] = std::clamp(start[p] + std::uniform_real_distribution<double>(-0.15, 0.15)(rng), param.min,
-                                  param.max);
+            start[p] =
+                std::clamp(start[p] + std::uniform_real_distribution<double>(-0.15, 0.15)(rng), param.min, param.max);
         }
         std::vector<double> v3 = start, v6 = start;
         const SolveSummary s3 = solver.solve(positionOnly, v3);
