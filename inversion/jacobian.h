@@ -208,9 +208,9 @@ public:
     // Residuals r, gradient g = J^T r and the lower triangle of H = J^T J at x (g: columnCount(); h: in
     // useLayout()'s layout, zeroed here; dense: columnCount() square, its strict upper triangle left zero).
     // With the analytic method on rigid operators and outputs, each unknown's world-space velocity is a
-    // twist (omega, v), the output's rows are a 6x6 map B_k of it, and
-    // H_ij = twist_i^T (sum of B_k^T B_k below j) twist_j for i above j: the sums are accumulated up the
-    // prefix tree once, and J is never formed. Otherwise J is
+    // twist (omega, v), the output's rows are a map B_k of it (its term's rows x 6; B_k^T B_k is 6x6 for any
+    // term), and H_ij = twist_i^T (sum of B_k^T B_k below j) twist_j for i above j: the sums are accumulated up
+    // the prefix tree once, and J is never formed. Otherwise J is
     // formed in `jacobian` (rows() x columnCount()) and multiplied output by output over the columns that
     // move it. Either way only pairs of columns that share an output cost anything.
     void normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
