@@ -94,8 +94,7 @@ std::string operatorText(const Operator& op, const std::string& field)
 {
     constexpr std::string_view indent = "        ";
     std::string out = fmt::format("      - kind: {}\n", operatorKindName(op.kind));
-    const bool sampled = op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine;
-    if (!sampled) {
+    if (!op.traits().sampled) {
         out += fmt::format("{}axis: {}\n{}pivot: {}\n", indent, vector3(op.axis, field + ".axis"), indent,
                            vector3(op.pivot, field + ".pivot"));
         if (op.held()) out += heldText(op, field);
@@ -112,6 +111,127 @@ std::string operatorText(const Operator& op, const std::string& field)
         out += fmt::format("{}values: {}\n", indent,
                            op.kind == OperatorKind::sampledRigid ? splineValues(op.rigid, field + ".values")
                                                                  : splineValues(op.affine, field + ".values"));
+    }
+    return out;
+}
+
+// The comment lines, the rig, epsilon, the held plugs and the training and validation figures.
+std::string headerText(const Approximation& a)
+{
+    std::string out = "# A learned rig approximation (docs/approximation-format.md), written by rig-learn.\n";
+    out += "# Internal units: radians for angles, centimetres for distances. Numbers read back bit for bit.\n";
+    out += fmt::format("format: {}\nversion: {}\n", approximationFormatName, approximationFormatVersion);
+    out += fmt::format("rigFile: {}\nrigFingerprint: {}\nepsilon: {}\n", yamlString(a.rigFile),
+                       yamlString(a.rigFingerprint), number(a.epsilon, "epsilon"));
+    if (!a.held.empty()) out += "held:  # plugs held at a value while learning, in the rig file's units\n";
+    for (std::size_t h = 0; h < a.held.size(); ++h)
+        out += fmt::format("  - plug: {}\n    value: {}\n", yamlString(a.held[h].plug),
+                           number(a.held[h].value, fmt::format("held[{}].value", h)));
+    const TrainingSummary& t = a.training;
+    out += fmt::format("training:\n  evaluations: {}\n  orderEvaluations: {}\n  seconds: {}\n  orderer: {}\n",
+                       t.evaluations, t.orderEvaluations, number(t.seconds, "training.seconds"), yamlString(t.orderer));
+    const ValidationSummary& v = a.validation;
+    out += fmt::format(
+        "validation:\n  poses: {}\n  maxPositionErrorCm: {}\n  meanPositionErrorCm: {}\n"
+        "  maxRotationErrorDeg: {}\n  meanRotationErrorDeg: {}\n  worstOutput: {}\n  worstPose: {}\n",
+        v.poses, number(v.maxPositionErrorCm, "validation.maxPositionErrorCm"),
+        number(v.meanPositionErrorCm, "validation.meanPositionErrorCm"),
+        number(v.maxRotationErrorDeg, "validation.maxRotationErrorDeg"),
+        number(v.meanRotationErrorDeg, "validation.meanRotationErrorDeg"), yamlString(v.worstOutput), v.worstPose);
+    out += fmt::format(
+        "  maxRelativeError: {}\n  worstRelativeOutput: {}\n  worstParameter: {}\n  nonFinitePoses: {}\n"
+        "  withinEpsilon: {}\n",
+        number(v.maxRelativeError, "validation.maxRelativeError"), yamlString(v.worstRelativeOutput),
+        yamlString(v.worstParameter), v.nonFinitePoses, v.withinEpsilon);
+    return out;
+}
+
+std::string outputsText(const Approximation& a)
+{
+    std::string out = a.outputs.empty() ? "outputs: []\n" : "outputs:\n";
+    for (std::size_t k = 0; k < a.outputs.size(); ++k) {
+        const std::string field = fmt::format("outputs[{}].rest", k);
+        const ApproximationOutput& o = a.outputs[k];
+        out += fmt::format("  - name: {}\n", yamlString(o.name));
+        if (o.parent >= 0) {
+            if (static_cast<std::size_t>(o.parent) >= a.outputs.size())
+                throw internalError(
+                    fmt::format("approximationToYaml: outputs[{}].parent: index {} out of range", k, o.parent));
+            out += fmt::format("    parent: {}\n", yamlString(a.outputs[static_cast<std::size_t>(o.parent)].name));
+        }
+        if (!o.modelled) out += "    modelled: false  # non-compositional: fitted on the real rig only\n";
+        out += fmt::format("    validationError: {}\n    rest: [",
+                           number(o.validationError, fmt::format("outputs[{}].validationError", k)));
+        for (int r = 0; r < 4; ++r) {
+            Eigen::Vector4d row = a.outputs[k].rest.row(r).transpose();
+            out += fmt::format("{}[{}, {}, {}, {}]", r ? ", " : "", number(row[0], field), number(row[1], field),
+                               number(row[2], field), number(row[3], field));
+        }
+        out += "]\n";
+    }
+    return out;
+}
+
+// Parameter p with its operators.
+std::string parameterText(const Approximation& a, std::size_t p)
+{
+    const ModelledParameter& m = a.parameters[p];
+    const std::string field = fmt::format("parameters[{}]", p);
+    std::string out = parameterFields(m.parameter, field, "    ");
+    out.replace(0, 4, "  - ");
+    out += fmt::format("    form: {}\n    fitError: {}\n    samples: {}\n    validationError: {}\n", yamlString(m.form),
+                       number(m.fitError, field + ".fitError"), m.samples,
+                       number(m.validationError, field + ".validationError"));
+    if (!m.noEffect.empty())
+        out += "    noEffect: " +
+               list(m.noEffect,
+                    [&](const std::pair<double, double>& r) {
+                        return fmt::format("[{}, {}]", number(r.first, field + ".noEffect"),
+                                           number(r.second, field + ".noEffect"));
+                    }) +
+               "\n";
+    if (m.outputs.size() != m.operatorOfOutput.size())
+        throw internalError(fmt::format("approximationToYaml: {}: {} outputs but {} operator indices", field,
+                                        m.outputs.size(), m.operatorOfOutput.size()));
+    const auto outputNames = [&](const std::vector<int>& outputs, const std::string& which) {
+        return list(outputs, [&](int k) {
+            if (k < 0 || static_cast<std::size_t>(k) >= a.outputs.size())
+                throw internalError(fmt::format("approximationToYaml: {}.{}: index {} out of range", field, which, k));
+            return yamlString(a.outputs[static_cast<std::size_t>(k)].name);
+        });
+    };
+    out += "    outputs: " + outputNames(m.outputs, "outputs") + "\n";
+    if (!m.unmodelledOutputs.empty())
+        out += "    unmodelledOutputs: " + outputNames(m.unmodelledOutputs, "unmodelledOutputs") + "\n";
+    out += "    operatorOfOutput: " +
+           list(m.operatorOfOutput,
+                [&](int o) {
+                    if (o < 0 || static_cast<std::size_t>(o) >= m.operators.size())
+                        throw internalError(
+                            fmt::format("approximationToYaml: {}.operatorOfOutput: index {} out of range", field, o));
+                    return fmt::format("{}", o);
+                }) +
+           "\n";
+    out += m.operators.empty() ? "    operators: []\n" : "    operators:\n";
+    for (std::size_t o = 0; o < m.operators.size(); ++o)
+        out += operatorText(m.operators[o], fmt::format("{}.operators[{}]", field, o));
+    return out;
+}
+
+// What the learner left out: dropped outputs and discarded parameters.
+std::string setAsideText(const Approximation& a)
+{
+    std::string out;
+    if (!a.droppedOutputs.empty()) {
+        out += "droppedOutputs:\n";
+        for (const DroppedOutput& d : a.droppedOutputs)
+            out += fmt::format("  - name: {}\n    reason: {}\n", yamlString(d.name), yamlString(d.reason));
+    }
+    out += a.discarded.empty() ? "discarded: []\n" : "discarded:\n";
+    for (std::size_t d = 0; d < a.discarded.size(); ++d) {
+        std::string fields = parameterFields(a.discarded[d].parameter, fmt::format("discarded[{}]", d), "    ");
+        fields.replace(0, 4, "  - ");
+        out += fields + fmt::format("    reason: {}\n", yamlString(a.discarded[d].reason));
     }
     return out;
 }
@@ -283,11 +403,13 @@ public:
     {
         const std::string kindName = text(need(n, "kind", field), field + ".kind");
         const auto kind = operatorKindFromName(kindName);
-        if (!kind)
+        if (!kind) {
+            std::string names;
+            for (const OperatorKindTraits& t : operatorKindTraits)
+                names += fmt::format("{}{}", names.empty() ? "" : ", ", t.name);
             fail(need(n, "kind", field), field + ".kind",
-                 fmt::format("unknown operator '{}'; the operators are translation, rotation, axisScale, uniformScale, "
-                             "sampledRigid, sampledAffine",
-                             kindName));
+                 fmt::format("unknown operator '{}'; the operators are {}", kindName, names));
+        }
         Operator op;
         op.kind = *kind;
         if (const YAML::Node held = child(n, "held")) {
@@ -300,7 +422,7 @@ public:
             if (!(op.low <= 0.0 && 0.0 <= op.high))
                 fail(held, field + ".held", "expected [low, high] with low <= 0 <= high");
         }
-        if (op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine) {
+        if (op.traits().sampled) {
             checkKeys(n, field, {"kind", "knots", "values"}, {"held"});
             if (op.kind == OperatorKind::sampledRigid)
                 op.rigid = spline<6>(child(n, "knots"), child(n, "values"), field);
@@ -326,126 +448,12 @@ private:
     std::string file_;
 };
 
-}  // namespace
-
-std::string approximationToYaml(const Approximation& a)
+// One document: a marker line ('---' or '...' at column 0, which ends a document wherever it stands) after the
+// first content line would start another, which YAML::Load would silently drop. Found by reading lines, not by
+// YAML::LoadAll: yaml-cpp 0.7 returns empty documents without end on some damaged text until the memory runs out
+// (found by fuzz/approximation_loader_fuzzer).
+void checkOneDocument(std::string_view text, const std::string& fileName)
 {
-    std::string out;
-    out += "# A learned rig approximation (docs/approximation-format.md), written by rig-learn.\n";
-    out += "# Internal units: radians for angles, centimetres for distances. Numbers read back bit for bit.\n";
-    out += fmt::format("format: {}\nversion: {}\n", approximationFormatName, approximationFormatVersion);
-    out += fmt::format("rigFile: {}\nrigFingerprint: {}\nepsilon: {}\n", yamlString(a.rigFile),
-                       yamlString(a.rigFingerprint), number(a.epsilon, "epsilon"));
-    if (!a.held.empty()) out += "held:  # plugs held at a value while learning, in the rig file's units\n";
-    for (std::size_t h = 0; h < a.held.size(); ++h)
-        out += fmt::format("  - plug: {}\n    value: {}\n", yamlString(a.held[h].plug),
-                           number(a.held[h].value, fmt::format("held[{}].value", h)));
-    const TrainingSummary& t = a.training;
-    out += fmt::format("training:\n  evaluations: {}\n  orderEvaluations: {}\n  seconds: {}\n  orderer: {}\n",
-                       t.evaluations, t.orderEvaluations, number(t.seconds, "training.seconds"), yamlString(t.orderer));
-    const ValidationSummary& v = a.validation;
-    out += fmt::format(
-        "validation:\n  poses: {}\n  maxPositionErrorCm: {}\n  meanPositionErrorCm: {}\n"
-        "  maxRotationErrorDeg: {}\n  meanRotationErrorDeg: {}\n  worstOutput: {}\n  worstPose: {}\n",
-        v.poses, number(v.maxPositionErrorCm, "validation.maxPositionErrorCm"),
-        number(v.meanPositionErrorCm, "validation.meanPositionErrorCm"),
-        number(v.maxRotationErrorDeg, "validation.maxRotationErrorDeg"),
-        number(v.meanRotationErrorDeg, "validation.meanRotationErrorDeg"), yamlString(v.worstOutput), v.worstPose);
-    out += fmt::format(
-        "  maxRelativeError: {}\n  worstRelativeOutput: {}\n  worstParameter: {}\n  nonFinitePoses: {}\n"
-        "  withinEpsilon: {}\n",
-        number(v.maxRelativeError, "validation.maxRelativeError"), yamlString(v.worstRelativeOutput),
-        yamlString(v.worstParameter), v.nonFinitePoses, v.withinEpsilon);
-
-    out += a.outputs.empty() ? "outputs: []\n" : "outputs:\n";
-    for (std::size_t k = 0; k < a.outputs.size(); ++k) {
-        const std::string field = fmt::format("outputs[{}].rest", k);
-        const ApproximationOutput& o = a.outputs[k];
-        out += fmt::format("  - name: {}\n", yamlString(o.name));
-        if (o.parent >= 0) {
-            if (static_cast<std::size_t>(o.parent) >= a.outputs.size())
-                throw internalError(
-                    fmt::format("approximationToYaml: outputs[{}].parent: index {} out of range", k, o.parent));
-            out += fmt::format("    parent: {}\n", yamlString(a.outputs[static_cast<std::size_t>(o.parent)].name));
-        }
-        if (!o.modelled) out += "    modelled: false  # non-compositional: fitted on the real rig only\n";
-        out += fmt::format("    validationError: {}\n    rest: [",
-                           number(o.validationError, fmt::format("outputs[{}].validationError", k)));
-        for (int r = 0; r < 4; ++r) {
-            Eigen::Vector4d row = a.outputs[k].rest.row(r).transpose();
-            out += fmt::format("{}[{}, {}, {}, {}]", r ? ", " : "", number(row[0], field), number(row[1], field),
-                               number(row[2], field), number(row[3], field));
-        }
-        out += "]\n";
-    }
-
-    out += a.parameters.empty() ? "parameters: []\n" : "parameters:  # composition order, outermost first\n";
-    for (std::size_t p = 0; p < a.parameters.size(); ++p) {
-        const ModelledParameter& m = a.parameters[p];
-        const std::string field = fmt::format("parameters[{}]", p);
-        std::string fields = parameterFields(m.parameter, field, "    ");
-        fields.replace(0, 4, "  - ");
-        out += fields;
-        out += fmt::format("    form: {}\n    fitError: {}\n    samples: {}\n    validationError: {}\n",
-                           yamlString(m.form), number(m.fitError, field + ".fitError"), m.samples,
-                           number(m.validationError, field + ".validationError"));
-        if (!m.noEffect.empty())
-            out += "    noEffect: " +
-                   list(m.noEffect,
-                        [&](const std::pair<double, double>& r) {
-                            return fmt::format("[{}, {}]", number(r.first, field + ".noEffect"),
-                                               number(r.second, field + ".noEffect"));
-                        }) +
-                   "\n";
-        if (m.outputs.size() != m.operatorOfOutput.size())
-            throw internalError(fmt::format("approximationToYaml: {}: {} outputs but {} operator indices", field,
-                                            m.outputs.size(), m.operatorOfOutput.size()));
-        const auto outputNames = [&](const std::vector<int>& outputs, const std::string& which) {
-            return list(outputs, [&](int k) {
-                if (k < 0 || static_cast<std::size_t>(k) >= a.outputs.size())
-                    throw internalError(
-                        fmt::format("approximationToYaml: {}.{}: index {} out of range", field, which, k));
-                return yamlString(a.outputs[static_cast<std::size_t>(k)].name);
-            });
-        };
-        out += "    outputs: " + outputNames(m.outputs, "outputs") + "\n";
-        if (!m.unmodelledOutputs.empty())
-            out += "    unmodelledOutputs: " + outputNames(m.unmodelledOutputs, "unmodelledOutputs") + "\n";
-        out += "    operatorOfOutput: " +
-               list(m.operatorOfOutput,
-                    [&](int o) {
-                        if (o < 0 || static_cast<std::size_t>(o) >= m.operators.size())
-                            throw internalError(fmt::format(
-                                "approximationToYaml: {}.operatorOfOutput: index {} out of range", field, o));
-                        return fmt::format("{}", o);
-                    }) +
-               "\n";
-        out += m.operators.empty() ? "    operators: []\n" : "    operators:\n";
-        for (std::size_t o = 0; o < m.operators.size(); ++o)
-            out += operatorText(m.operators[o], fmt::format("{}.operators[{}]", field, o));
-    }
-
-    if (!a.droppedOutputs.empty()) {
-        out += "droppedOutputs:\n";
-        for (const DroppedOutput& d : a.droppedOutputs)
-            out += fmt::format("  - name: {}\n    reason: {}\n", yamlString(d.name), yamlString(d.reason));
-    }
-    out += a.discarded.empty() ? "discarded: []\n" : "discarded:\n";
-    for (std::size_t d = 0; d < a.discarded.size(); ++d) {
-        std::string fields = parameterFields(a.discarded[d].parameter, fmt::format("discarded[{}]", d), "    ");
-        fields.replace(0, 4, "  - ");
-        out += fields + fmt::format("    reason: {}\n", yamlString(a.discarded[d].reason));
-    }
-    return out;
-}
-
-Approximation approximationFromYaml(std::string_view text, const std::string& fileName)
-{
-    // Read through a const node: operator[] on a mutable one would add the keys it looks for.
-    // One document: a marker line ('---' or '...' at column 0, which ends a document wherever it stands)
-    // after the first content line would start another, which YAML::Load would silently drop. Found by
-    // reading lines, not by YAML::LoadAll: yaml-cpp 0.7 returns empty documents without end on some
-    // damaged text until the memory runs out (found by fuzz/approximation_loader_fuzzer).
     bool content = false;
     int lineNumber = 0;
     for (std::size_t start = 0; start < text.size();) {
@@ -463,28 +471,33 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         const auto first = line.find_first_not_of(" \t\r");
         content = content || (!marker && first != std::string_view::npos && line[first] != '#');
     }
-    const YAML::Node root = [&] {
-        try {
-            return YAML::Load(std::string(text));
-        }
-        catch (const YAML::DeepRecursion& e) {
-            throw Error(
-                fmt::format("{}:{}:{}: YAML lists and maps nested more than {} levels deep; an "
-                            "approximation file nests a few levels, so the file is damaged",
-                            fileName, e.mark.line + 1, e.mark.column + 1, e.depth() - 1));
-        }
-        catch (const YAML::Exception& e) {
-            throw Error(
-                fmt::format("{}:{}:{}: YAML syntax error: {}", fileName, e.mark.line + 1, e.mark.column + 1, e.msg));
-        }
-    }();
-    const Reader r(fileName);
+}
+
+YAML::Node parseDocument(std::string_view text, const std::string& fileName)
+{
+    try {
+        return YAML::Load(std::string(text));
+    }
+    catch (const YAML::DeepRecursion& e) {
+        throw Error(
+            fmt::format("{}:{}:{}: YAML lists and maps nested more than {} levels deep; an "
+                        "approximation file nests a few levels, so the file is damaged",
+                        fileName, e.mark.line + 1, e.mark.column + 1, e.depth() - 1));
+    }
+    catch (const YAML::Exception& e) {
+        throw Error(
+            fmt::format("{}:{}:{}: YAML syntax error: {}", fileName, e.mark.line + 1, e.mark.column + 1, e.msg));
+    }
+}
+
+// The format and version first: any other problem in a file of another kind or version says less.
+void checkFormat(const Reader& r, const YAML::Node& root, const std::string& fileName)
+{
     if (!root.IsMap())
         throw Error(
             fmt::format("{}: not an approximation file (expected a map with format: {}); rig-learn -o "
                         "writes one",
                         fileName, approximationFormatName));
-    // The format and version first: any other problem in a file of another kind or version says less.
     if (!root["format"])
         throw Error(fmt::format("{}: not an approximation file (no 'format: {}'); rig-learn -o writes one", fileName,
                                 approximationFormatName));
@@ -501,46 +514,47 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
                 {"format", "version", "rigFile", "rigFingerprint", "epsilon", "training", "validation", "outputs",
                  "parameters", "discarded"},
                 {"droppedOutputs", "held"});
+}
 
-    Approximation a;
-    a.rigFile = r.text(root["rigFile"], "rigFile");
-    a.rigFingerprint = r.text(root["rigFingerprint"], "rigFingerprint");
-    a.epsilon = r.real(root["epsilon"], "epsilon");
-    if (!(a.epsilon > 0)) r.fail(root["epsilon"], "epsilon", "must be positive");
-
-    const YAML::Node training = root["training"];
+TrainingSummary readTraining(const Reader& r, const YAML::Node& training)
+{
     r.checkKeys(training, "training", {"evaluations", "orderEvaluations", "seconds", "orderer"});
-    a.training.evaluations = r.integer<std::uint64_t>(training["evaluations"], "training.evaluations");
-    a.training.orderEvaluations = r.integer<std::uint64_t>(training["orderEvaluations"], "training.orderEvaluations");
-    a.training.seconds = r.nonNegative(training["seconds"], "training.seconds");
-    a.training.orderer = r.text(training["orderer"], "training.orderer");
+    TrainingSummary t;
+    t.evaluations = r.integer<std::uint64_t>(training["evaluations"], "training.evaluations");
+    t.orderEvaluations = r.integer<std::uint64_t>(training["orderEvaluations"], "training.orderEvaluations");
+    t.seconds = r.nonNegative(training["seconds"], "training.seconds");
+    t.orderer = r.text(training["orderer"], "training.orderer");
+    return t;
+}
 
-    const YAML::Node validation = root["validation"];
+ValidationSummary readValidation(const Reader& r, const YAML::Node& validation)
+{
     r.checkKeys(validation, "validation",
                 {"poses", "maxPositionErrorCm", "meanPositionErrorCm", "maxRotationErrorDeg", "meanRotationErrorDeg",
                  "worstOutput", "worstPose"},
                 {"maxRelativeError", "worstRelativeOutput", "worstParameter", "nonFinitePoses", "withinEpsilon"});
-    a.validation.poses = r.count<int>(validation["poses"], "validation.poses");
-    a.validation.maxPositionErrorCm = r.nonNegative(validation["maxPositionErrorCm"], "validation.maxPositionErrorCm");
-    a.validation.meanPositionErrorCm =
-        r.nonNegative(validation["meanPositionErrorCm"], "validation.meanPositionErrorCm");
-    a.validation.maxRotationErrorDeg =
-        r.nonNegative(validation["maxRotationErrorDeg"], "validation.maxRotationErrorDeg");
-    a.validation.meanRotationErrorDeg =
-        r.nonNegative(validation["meanRotationErrorDeg"], "validation.meanRotationErrorDeg");
-    a.validation.worstOutput = r.text(validation["worstOutput"], "validation.worstOutput");
-    a.validation.worstPose = r.count<int>(validation["worstPose"], "validation.worstPose", -1);
+    ValidationSummary v;
+    v.poses = r.count<int>(validation["poses"], "validation.poses");
+    v.maxPositionErrorCm = r.nonNegative(validation["maxPositionErrorCm"], "validation.maxPositionErrorCm");
+    v.meanPositionErrorCm = r.nonNegative(validation["meanPositionErrorCm"], "validation.meanPositionErrorCm");
+    v.maxRotationErrorDeg = r.nonNegative(validation["maxRotationErrorDeg"], "validation.maxRotationErrorDeg");
+    v.meanRotationErrorDeg = r.nonNegative(validation["meanRotationErrorDeg"], "validation.meanRotationErrorDeg");
+    v.worstOutput = r.text(validation["worstOutput"], "validation.worstOutput");
+    v.worstPose = r.count<int>(validation["worstPose"], "validation.worstPose", -1);
     if (const YAML::Node n = validation["maxRelativeError"])
-        a.validation.maxRelativeError = r.nonNegative(n, "validation.maxRelativeError");
+        v.maxRelativeError = r.nonNegative(n, "validation.maxRelativeError");
     if (const YAML::Node n = validation["worstRelativeOutput"])
-        a.validation.worstRelativeOutput = r.text(n, "validation.worstRelativeOutput");
-    if (const YAML::Node n = validation["worstParameter"])
-        a.validation.worstParameter = r.text(n, "validation.worstParameter");
+        v.worstRelativeOutput = r.text(n, "validation.worstRelativeOutput");
+    if (const YAML::Node n = validation["worstParameter"]) v.worstParameter = r.text(n, "validation.worstParameter");
     if (const YAML::Node n = validation["nonFinitePoses"])
-        a.validation.nonFinitePoses = r.count<int>(n, "validation.nonFinitePoses");
-    if (const YAML::Node n = validation["withinEpsilon"])
-        a.validation.withinEpsilon = r.boolean(n, "validation.withinEpsilon");
+        v.nonFinitePoses = r.count<int>(n, "validation.nonFinitePoses");
+    if (const YAML::Node n = validation["withinEpsilon"]) v.withinEpsilon = r.boolean(n, "validation.withinEpsilon");
+    return v;
+}
 
+// The outputs with their parents (by name), into a.outputs; returns each output's index by name.
+std::map<std::string, int> readOutputs(const Reader& r, const YAML::Node& root, Approximation& a)
+{
     std::map<std::string, int> outputIndex;
     const YAML::Node outputs = r.sequence(root["outputs"], "outputs");
     for (std::size_t k = 0; k < outputs.size(); ++k) {
@@ -577,70 +591,72 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     catch (const Error&) {
         r.fail(outputs, "outputs", "the outputs' parents form a cycle; an output's parent is an ancestor joint");
     }
+    return outputIndex;
+}
 
-    std::set<std::string> names;
-    const YAML::Node parameters = r.sequence(root["parameters"], "parameters");
-    for (std::size_t p = 0; p < parameters.size(); ++p) {
-        const YAML::Node n = parameters[p];
-        const std::string field = fmt::format("parameters[{}]", p);
-        r.checkKeys(n, field,
-                    {"name", "default", "min", "max", "limited", "angular", "form", "fitError", "samples", "outputs",
-                     "operatorOfOutput", "operators"},
-                    {"validationError", "noEffect", "unmodelledOutputs"});
-        ModelledParameter m;
-        m.parameter = r.parameter(n, field);
-        if (!names.insert(m.parameter.name).second)
-            r.fail(n["name"], field + ".name", fmt::format("the parameter '{}' is listed twice", m.parameter.name));
-        m.form = r.text(n["form"], field + ".form");
-        m.fitError = r.nonNegative(n["fitError"], field + ".fitError");
-        m.samples = r.count<int>(n["samples"], field + ".samples");
-        if (const YAML::Node v = n["validationError"]) m.validationError = r.nonNegative(v, field + ".validationError");
-        if (const YAML::Node v = n["noEffect"])
-            for (const auto& range : r.sequence(v, field + ".noEffect")) {
-                const auto ends = r.reals(range, field + ".noEffect", 2);
-                if (!(ends[0] <= ends[1])) r.fail(range, field + ".noEffect", "a range is [low, high]");
-                m.noEffect.emplace_back(ends[0], ends[1]);
-            }
-        const auto readOutputs = [&](const YAML::Node& list, const std::string& which, bool modelled) {
-            std::vector<int> indices;
-            for (const auto& o : r.sequence(list, field + "." + which)) {
-                const std::string name = r.text(o, field + "." + which);
-                const auto it = outputIndex.find(name);
-                if (it == outputIndex.end())
-                    r.fail(o, field + "." + which, fmt::format("'{}' is not one of the outputs", name));
-                if (!indices.empty() && it->second <= indices.back())
-                    r.fail(o, field + "." + which,
-                           "the outputs must be listed once each, in the order of the outputs list");
-                if (a.outputs[static_cast<std::size_t>(it->second)].modelled != modelled)
-                    r.fail(
-                        o, field + "." + which,
-                        fmt::format("'{}' is {}modelled (its outputs entry says modelled: {}); list it under {}", name,
-                                    modelled ? "not " : "", !modelled, modelled ? "unmodelledOutputs" : "outputs"));
-                indices.push_back(it->second);
-            }
-            return indices;
-        };
-        m.outputs = readOutputs(n["outputs"], "outputs", true);
-        if (const YAML::Node v = n["unmodelledOutputs"])
-            m.unmodelledOutputs = readOutputs(v, "unmodelledOutputs", false);
-        if (m.outputs.empty() && m.unmodelledOutputs.empty())
-            r.fail(n["outputs"], field + ".outputs", "a parameter affects at least one output");
-        const YAML::Node operators = r.sequence(n["operators"], field + ".operators");
-        if (operators.size() == 0 && !m.outputs.empty())
-            r.fail(operators, field + ".operators", "a modelled parameter has at least one operator");
-        for (std::size_t o = 0; o < operators.size(); ++o)
-            m.operators.push_back(r.op(operators[o], fmt::format("{}.operators[{}]", field, o)));
-        const YAML::Node which = r.sequence(n["operatorOfOutput"], field + ".operatorOfOutput", m.outputs.size());
-        for (const auto& o : which) {
-            const int index = r.integer<int>(o, field + ".operatorOfOutput");
-            if (index < 0 || static_cast<std::size_t>(index) >= m.operators.size())
-                r.fail(o, field + ".operatorOfOutput",
-                       fmt::format("{} is not an operator index (0..{})", index, m.operators.size() - 1));
-            m.operatorOfOutput.push_back(index);
+// One modelled parameter; `names` holds the parameters' names read so far (a name is listed once).
+ModelledParameter readParameter(const Reader& r, const YAML::Node& n, const std::string& field, const Approximation& a,
+                                const std::map<std::string, int>& outputIndex, std::set<std::string>& names)
+{
+    r.checkKeys(n, field,
+                {"name", "default", "min", "max", "limited", "angular", "form", "fitError", "samples", "outputs",
+                 "operatorOfOutput", "operators"},
+                {"validationError", "noEffect", "unmodelledOutputs"});
+    ModelledParameter m;
+    m.parameter = r.parameter(n, field);
+    if (!names.insert(m.parameter.name).second)
+        r.fail(n["name"], field + ".name", fmt::format("the parameter '{}' is listed twice", m.parameter.name));
+    m.form = r.text(n["form"], field + ".form");
+    m.fitError = r.nonNegative(n["fitError"], field + ".fitError");
+    m.samples = r.count<int>(n["samples"], field + ".samples");
+    if (const YAML::Node v = n["validationError"]) m.validationError = r.nonNegative(v, field + ".validationError");
+    if (const YAML::Node v = n["noEffect"])
+        for (const auto& range : r.sequence(v, field + ".noEffect")) {
+            const auto ends = r.reals(range, field + ".noEffect", 2);
+            if (!(ends[0] <= ends[1])) r.fail(range, field + ".noEffect", "a range is [low, high]");
+            m.noEffect.emplace_back(ends[0], ends[1]);
         }
-        a.parameters.push_back(std::move(m));
+    const auto outputList = [&](const YAML::Node& list, const std::string& which, bool modelled) {
+        std::vector<int> indices;
+        for (const auto& o : r.sequence(list, field + "." + which)) {
+            const std::string name = r.text(o, field + "." + which);
+            const auto it = outputIndex.find(name);
+            if (it == outputIndex.end())
+                r.fail(o, field + "." + which, fmt::format("'{}' is not one of the outputs", name));
+            if (!indices.empty() && it->second <= indices.back())
+                r.fail(o, field + "." + which,
+                       "the outputs must be listed once each, in the order of the outputs list");
+            if (a.outputs[static_cast<std::size_t>(it->second)].modelled != modelled)
+                r.fail(o, field + "." + which,
+                       fmt::format("'{}' is {}modelled (its outputs entry says modelled: {}); list it under {}", name,
+                                   modelled ? "not " : "", !modelled, modelled ? "unmodelledOutputs" : "outputs"));
+            indices.push_back(it->second);
+        }
+        return indices;
+    };
+    m.outputs = outputList(n["outputs"], "outputs", true);
+    if (const YAML::Node v = n["unmodelledOutputs"]) m.unmodelledOutputs = outputList(v, "unmodelledOutputs", false);
+    if (m.outputs.empty() && m.unmodelledOutputs.empty())
+        r.fail(n["outputs"], field + ".outputs", "a parameter affects at least one output");
+    const YAML::Node operators = r.sequence(n["operators"], field + ".operators");
+    if (operators.size() == 0 && !m.outputs.empty())
+        r.fail(operators, field + ".operators", "a modelled parameter has at least one operator");
+    for (std::size_t o = 0; o < operators.size(); ++o)
+        m.operators.push_back(r.op(operators[o], fmt::format("{}.operators[{}]", field, o)));
+    const YAML::Node which = r.sequence(n["operatorOfOutput"], field + ".operatorOfOutput", m.outputs.size());
+    for (const auto& o : which) {
+        const int index = r.integer<int>(o, field + ".operatorOfOutput");
+        if (index < 0 || static_cast<std::size_t>(index) >= m.operators.size())
+            r.fail(o, field + ".operatorOfOutput",
+                   fmt::format("{} is not an operator index (0..{})", index, m.operators.size() - 1));
+        m.operatorOfOutput.push_back(index);
     }
+    return m;
+}
 
+// droppedOutputs and discarded (`names`: the modelled parameters' names, which a discarded one may not repeat).
+void readSetAside(const Reader& r, const YAML::Node& root, std::set<std::string>& names, Approximation& a)
+{
     if (const YAML::Node droppedOutputs = root["droppedOutputs"])
         for (std::size_t d = 0; d < r.sequence(droppedOutputs, "droppedOutputs").size(); ++d) {
             const std::string field = fmt::format("droppedOutputs[{}]", d);
@@ -660,7 +676,11 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
         x.reason = r.text(discarded[d]["reason"], field + ".reason");
         a.discarded.push_back(std::move(x));
     }
+}
 
+// The plugs held while learning; none of them is a parameter (`names`).
+void readHeld(const Reader& r, const YAML::Node& root, const std::set<std::string>& names, Approximation& a)
+{
     if (const YAML::Node held = root["held"])
         for (std::size_t h = 0; h < r.sequence(held, "held").size(); ++h) {
             const std::string field = fmt::format("held[{}]", h);
@@ -677,6 +697,42 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
                     r.fail(plug, field + ".plug", fmt::format("the plug '{}' is held twice", x.plug));
             a.held.push_back(std::move(x));
         }
+}
+
+}  // namespace
+
+std::string approximationToYaml(const Approximation& a)
+{
+    std::string out = headerText(a) + outputsText(a);
+    out += a.parameters.empty() ? "parameters: []\n" : "parameters:  # composition order, outermost first\n";
+    for (std::size_t p = 0; p < a.parameters.size(); ++p) out += parameterText(a, p);
+    return out + setAsideText(a);
+}
+
+Approximation approximationFromYaml(std::string_view text, const std::string& fileName)
+{
+    checkOneDocument(text, fileName);
+    // Read through a const node: operator[] on a mutable one would add the keys it looks for.
+    const YAML::Node root = parseDocument(text, fileName);
+    const Reader r(fileName);
+    checkFormat(r, root, fileName);
+
+    Approximation a;
+    a.rigFile = r.text(root["rigFile"], "rigFile");
+    a.rigFingerprint = r.text(root["rigFingerprint"], "rigFingerprint");
+    a.epsilon = r.real(root["epsilon"], "epsilon");
+    if (!(a.epsilon > 0)) r.fail(root["epsilon"], "epsilon", "must be positive");
+
+    a.training = readTraining(r, root["training"]);
+    a.validation = readValidation(r, root["validation"]);
+    const std::map<std::string, int> outputIndex = readOutputs(r, root, a);
+    std::set<std::string> names;
+    const YAML::Node parameters = r.sequence(root["parameters"], "parameters");
+    for (std::size_t p = 0; p < parameters.size(); ++p)
+        a.parameters.push_back(
+            readParameter(r, parameters[p], fmt::format("parameters[{}]", p), a, outputIndex, names));
+    readSetAside(r, root, names, a);
+    readHeld(r, root, names, a);
     return a;
 }
 

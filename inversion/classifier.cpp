@@ -223,6 +223,90 @@ Eigen::Vector3d solvePivot(const std::vector<Eigen::Matrix3d>& a, const std::vec
     return p0 + shift;
 }
 
+// The pivot a linear map L about it leaves fixed, from every sample of these outputs: the least-squares solution
+// of (I - L_j) p = t_j, moved along what the rows leave free toward `near`.
+Eigen::Vector3d fitPivot(Context& c, const std::vector<std::size_t>& entries, const Eigen::Vector3d& near)
+{
+    std::vector<Eigen::Matrix3d> rows;
+    std::vector<Eigen::Vector3d> rhs;
+    for (const auto& entry : c.all())
+        for (std::size_t e : entries) {
+            const Eigen::Matrix4d de = c.delta(entry.first, e);
+            rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
+            rhs.push_back(de.block<3, 1>(0, 3));
+        }
+    return solvePivot(rows, rhs, near);
+}
+
+// A translation's axis from the widest sample of output e0, and its magnitudes along it.
+bool fitTranslation(Context& c, std::size_t e0, double widest, Operator& op, std::map<double, double>& magnitudes)
+{
+    const Eigen::Vector3d t = c.delta(widest, e0).block<3, 1>(0, 3);
+    if (t.norm() < 1e-12) return false;
+    op.axis = t.normalized() * (widest < 0 ? -1.0 : 1.0);
+    for (const auto& entry : c.all()) magnitudes[entry.first] = c.delta(entry.first, e0).block<3, 1>(0, 3).dot(op.axis);
+    return true;
+}
+
+// A rotation's axis from the sample of largest angle short of half a turn, where the rotation vector's direction
+// is unambiguous (at half a turn its sign is arbitrary); its magnitude has the sign of its offset. Angles
+// unwrapped; the pivot from every output.
+bool fitRotation(Context& c, const std::vector<std::size_t>& entries, const Eigen::Vector3d& near, Operator& op,
+                 std::map<double, double>& magnitudes)
+{
+    const std::size_t e0 = entries.front();
+    double reference = 0.0, referenceAngle = -1.0;
+    Eigen::Vector3d r = Eigen::Vector3d::Zero();
+    for (const auto& entry : c.all()) {
+        const Eigen::Vector3d v = rotationVector(linearPart(c.delta(entry.first, e0)));
+        const double angle = v.norm();
+        const bool better = angle <= 0.9 * std::numbers::pi
+                                ? (referenceAngle > 0.9 * std::numbers::pi || angle > referenceAngle)
+                                : referenceAngle < 0.0;
+        if (better) {
+            reference = entry.first;
+            referenceAngle = angle;
+            r = v;
+        }
+    }
+    if (r.norm() < 1e-12) return false;
+    op.axis = r.normalized() * (reference < 0 ? -1.0 : 1.0);
+    for (const auto& entry : c.all())
+        magnitudes[entry.first] = rotationVector(linearPart(c.delta(entry.first, e0))).dot(op.axis);
+    unwrapAngles(magnitudes);
+    op.pivot = fitPivot(c, entries, near);
+    return true;
+}
+
+// An axis scale's axis: the eigenvector of the widest sample's largest stretch; the pivot from every output.
+bool fitAxisScale(Context& c, const std::vector<std::size_t>& entries, double widest, const Eigen::Vector3d& near,
+                  Operator& op, std::map<double, double>& magnitudes)
+{
+    const std::size_t e0 = entries.front();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(linearPart(c.delta(widest, e0)) -
+                                                             Eigen::Matrix3d::Identity());
+    int k = 0;
+    eig.eigenvalues().cwiseAbs().maxCoeff(&k);
+    if (std::abs(eig.eigenvalues()[k]) < 1e-12) return false;
+    op.axis = eig.eigenvectors().col(k).normalized();
+    for (const auto& entry : c.all())
+        magnitudes[entry.first] =
+            op.axis.dot((linearPart(c.delta(entry.first, e0)) - Eigen::Matrix3d::Identity()) * op.axis);
+    op.pivot = fitPivot(c, entries, near);
+    return true;
+}
+
+// A uniform scale's magnitude from the trace; the pivot from every output.
+bool fitUniformScale(Context& c, const std::vector<std::size_t>& entries, double widest, const Eigen::Vector3d& near,
+                     Operator& op, std::map<double, double>& magnitudes)
+{
+    for (const auto& entry : c.all())
+        magnitudes[entry.first] = linearPart(c.delta(entry.first, entries.front())).trace() / 3.0 - 1.0;
+    if (std::abs(magnitudes[widest]) < 1e-12) return false;
+    op.pivot = fitPivot(c, entries, near);
+    return true;
+}
+
 // Structure (axis, pivot) of an analytic kind from all samples of these outputs, and the magnitude
 // at each offset. Returns false when the data do not determine it.
 bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>& entries, Operator& op,
@@ -231,85 +315,16 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
     op = Operator{};
     op.kind = kind;
     const double widest = largestOffset(c);
-    const std::size_t e0 = entries.front();
-    const Eigen::Matrix4d dWide = c.delta(widest, e0);
-    const Eigen::Vector3d near = c.rest[e0].block<3, 1>(0, 3);
-    std::vector<Eigen::Matrix3d> rows;
-    std::vector<Eigen::Vector3d> rhs;
+    const Eigen::Vector3d near = c.rest[entries.front()].block<3, 1>(0, 3);
     switch (kind) {
-        case OperatorKind::translation: {
-            const Eigen::Vector3d t = dWide.block<3, 1>(0, 3);
-            if (t.norm() < 1e-12) return false;
-            op.axis = t.normalized() * (widest < 0 ? -1.0 : 1.0);
-            for (const auto& entry : c.all())
-                magnitudes[entry.first] = c.delta(entry.first, e0).block<3, 1>(0, 3).dot(op.axis);
-            return true;
-        }
-        case OperatorKind::rotation: {
-            // The axis from the sample of largest angle short of half a turn, where the rotation vector's
-            // direction is unambiguous (at half a turn its sign is arbitrary); its magnitude has the sign of
-            // its offset.
-            double reference = 0.0, referenceAngle = -1.0;
-            Eigen::Vector3d r = Eigen::Vector3d::Zero();
-            for (const auto& entry : c.all()) {
-                const Eigen::Vector3d v = rotationVector(linearPart(c.delta(entry.first, e0)));
-                const double angle = v.norm();
-                const bool better = angle <= 0.9 * std::numbers::pi
-                                        ? (referenceAngle > 0.9 * std::numbers::pi || angle > referenceAngle)
-                                        : referenceAngle < 0.0;
-                if (better) {
-                    reference = entry.first;
-                    referenceAngle = angle;
-                    r = v;
-                }
-            }
-            if (r.norm() < 1e-12) return false;
-            op.axis = r.normalized() * (reference < 0 ? -1.0 : 1.0);
-            for (const auto& entry : c.all()) {
-                const Eigen::Matrix4d d = c.delta(entry.first, e0);
-                magnitudes[entry.first] = rotationVector(linearPart(d)).dot(op.axis);
-                for (std::size_t e : entries) {
-                    const Eigen::Matrix4d de = c.delta(entry.first, e);
-                    rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
-                    rhs.push_back(de.block<3, 1>(0, 3));
-                }
-            }
-            unwrapAngles(magnitudes);
-            op.pivot = solvePivot(rows, rhs, near);
-            return true;
-        }
-        case OperatorKind::axisScale: {
-            const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(linearPart(dWide) - Eigen::Matrix3d::Identity());
-            int k = 0;
-            eig.eigenvalues().cwiseAbs().maxCoeff(&k);
-            if (std::abs(eig.eigenvalues()[k]) < 1e-12) return false;
-            op.axis = eig.eigenvectors().col(k).normalized();
-            for (const auto& entry : c.all()) {
-                const Eigen::Matrix4d d = c.delta(entry.first, e0);
-                magnitudes[entry.first] = op.axis.dot((linearPart(d) - Eigen::Matrix3d::Identity()) * op.axis);
-                for (std::size_t e : entries) {
-                    const Eigen::Matrix4d de = c.delta(entry.first, e);
-                    rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
-                    rhs.push_back(de.block<3, 1>(0, 3));
-                }
-            }
-            op.pivot = solvePivot(rows, rhs, near);
-            return true;
-        }
-        case OperatorKind::uniformScale: {
-            for (const auto& entry : c.all()) {
-                const Eigen::Matrix4d d = c.delta(entry.first, e0);
-                magnitudes[entry.first] = linearPart(d).trace() / 3.0 - 1.0;
-                for (std::size_t e : entries) {
-                    const Eigen::Matrix4d de = c.delta(entry.first, e);
-                    rows.push_back(Eigen::Matrix3d::Identity() - linearPart(de));
-                    rhs.push_back(de.block<3, 1>(0, 3));
-                }
-            }
-            if (std::abs(magnitudes[widest]) < 1e-12) return false;
-            op.pivot = solvePivot(rows, rhs, near);
-            return true;
-        }
+        case OperatorKind::translation:
+            return fitTranslation(c, entries.front(), widest, op, magnitudes);
+        case OperatorKind::rotation:
+            return fitRotation(c, entries, near, op, magnitudes);
+        case OperatorKind::axisScale:
+            return fitAxisScale(c, entries, widest, near, op, magnitudes);
+        case OperatorKind::uniformScale:
+            return fitUniformScale(c, entries, widest, near, op, magnitudes);
         default:
             return false;
     }
@@ -694,6 +709,34 @@ bool frameOutputs(RigProbe& probe, Context& c, double lo, double hi, const RigSt
     return true;
 }
 
+// One operator for output e alone: the first analytic kind that fits, else a sampled one (rigid where the deltas
+// are). False when none fits, with `error` the sampled fit's best.
+bool fitOneOutput(Context& c, std::size_t e, Candidate& found, double& error, std::string& how)
+{
+    const std::vector<std::size_t> one{e};
+    for (OperatorKind kind : plausibleKinds(c, one)) {
+        Candidate candidate;
+        double candidateError = std::numeric_limits<double>::infinity();
+        if (tryAnalytic(c, kind, one, candidate, candidateError, how)) {
+            found = candidate;
+            error = candidateError;
+            return true;
+        }
+    }
+    // Asked again: the analytic fits may have taken more samples.
+    const std::vector<OperatorKind> kinds = plausibleKinds(c, one);
+    const bool rigid = std::any_of(kinds.begin(), kinds.end(), [](OperatorKind k) { return operatorTraits(k).rigid; });
+    Candidate candidate;
+    double candidateError = std::numeric_limits<double>::infinity();
+    const bool ok = (rigid && trySampled(c, e, true, candidate, candidateError)) ||
+                    trySampled(c, e, false, candidate, candidateError);
+    error = candidateError;
+    if (!ok) return false;
+    found = candidate;
+    how = std::string(operatorKindName(candidate.operators.front().kind));
+    return true;
+}
+
 // Phase 3: the simplest operators that validate: one analytic operator for every output, else one per
 // output (analytic where one fits, sampled otherwise). Sets `result` either way.
 void fitOperators(Context& c, const std::vector<std::string>& outputNames, const LearnOptions& options,
@@ -712,7 +755,6 @@ void fitOperators(Context& c, const std::vector<std::string>& outputNames, const
         result.model.operatorOfOutput = candidate.operatorOfOutput;
         result.model.form = std::move(how);
         result.model.samples = c.sampleCount();
-        return;
     };
 
     // 1. One analytic operator for every affected output.
@@ -733,48 +775,23 @@ void fitOperators(Context& c, const std::vector<std::string>& outputNames, const
     std::map<std::string, int> forms;
     double worst = 0.0;
     for (std::size_t e = 0; e < c.outputs.size(); ++e) {
-        const std::vector<std::size_t> one{e};
         Candidate found;
         double error = std::numeric_limits<double>::infinity();
         std::string how;
-        bool ok = false;
-        for (OperatorKind kind : plausibleKinds(c, one)) {
-            Candidate candidate;
-            double candidateError = std::numeric_limits<double>::infinity();
-            if (tryAnalytic(c, kind, one, candidate, candidateError, how)) {
-                found = candidate;
-                error = candidateError;
-                ok = true;
-                break;
-            }
-        }
-        if (!ok) {
-            const auto kinds = plausibleKinds(c, one);
-            const bool rigid = std::find(kinds.begin(), kinds.end(), OperatorKind::rotation) != kinds.end() ||
-                               std::find(kinds.begin(), kinds.end(), OperatorKind::translation) != kinds.end();
-            Candidate candidate;
-            double candidateError = std::numeric_limits<double>::infinity();
-            ok = (rigid && trySampled(c, e, true, candidate, candidateError)) ||
-                 trySampled(c, e, false, candidate, candidateError);
-            if (!ok) {
-                const std::string& output = outputNames[static_cast<std::size_t>(c.outputs[e])];
-                result.reason =
-                    c.nonFinite ? fmt::format(
-                                      "the rig gives a non-finite matrix for {} within its range (a zero scale "
-                                      "or a singular matrix?); give it a range where the rig is defined",
-                                      output)
-                                : fmt::format(
-                                      "no operator fits within epsilon {:g}: the best error is {:.3g} cm per "
-                                      "unit on {} after {} samples",
-                                      options.epsilon, std::min(bestError, candidateError), output, c.sampleCount());
-                result.failedOutput = c.outputs[e];
-                result.model = ModelledParameter{};
-                result.model.parameter = parameter;
-                return;
-            }
-            found = candidate;
-            error = candidateError;
-            how = std::string(operatorKindName(candidate.operators.front().kind));
+        if (!fitOneOutput(c, e, found, error, how)) {
+            const std::string& output = outputNames[static_cast<std::size_t>(c.outputs[e])];
+            result.reason = c.nonFinite ? fmt::format(
+                                              "the rig gives a non-finite matrix for {} within its range (a zero scale "
+                                              "or a singular matrix?); give it a range where the rig is defined",
+                                              output)
+                                        : fmt::format(
+                                              "no operator fits within epsilon {:g}: the best error is {:.3g} cm per "
+                                              "unit on {} after {} samples",
+                                              options.epsilon, std::min(bestError, error), output, c.sampleCount());
+            result.failedOutput = c.outputs[e];
+            result.model = ModelledParameter{};
+            result.model.parameter = parameter;
+            return;
         }
         perOutput.operatorOfOutput[e] = static_cast<int>(perOutput.operators.size());
         perOutput.operators.push_back(found.operators.front());

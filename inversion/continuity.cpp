@@ -16,7 +16,7 @@ double rotationPeriod(const ModelledParameter& m)
 {
     double slope = 0.0;
     for (const Operator& op : m.operators) {
-        if (op.kind != OperatorKind::rotation || !op.linear() || op.slope == 0.0) return 0.0;
+        if (!op.traits().angular || !op.linear() || op.slope == 0.0) return 0.0;
         if (slope != 0.0 && std::abs(op.slope) != slope) return 0.0;
         slope = std::abs(op.slope);
     }

@@ -82,7 +82,7 @@ RealRigSolve HybridSolver::solveBlock(std::size_t b, std::span<const JointTarget
     const std::vector<int>& columns = blocks_[b].parameters;
     x_.resize(columns.size());
     for (std::size_t c = 0; c < columns.size(); ++c) x_[c] = values[static_cast<std::size_t>(columns[c])];
-    const RealRigSolve s = solveOnRealRig(problem, x_, solver_.options());
+    const RealRigSolve s = solveOnRealRig(problem, x_, solver_.options(), &solver_.equivalences());
     for (std::size_t c = 0; c < columns.size(); ++c) values[static_cast<std::size_t>(columns[c])] = x_[c];
     return s;
 }

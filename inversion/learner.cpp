@@ -106,6 +106,44 @@ ValidationPoses drawPoses(const std::vector<RigParameter>& parameters, const Lea
     return poses;
 }
 
+// A validation pose's values: every rig parameter (the others at their defaults), the modelled ones in composition
+// order, and per modelled parameter its offset from its default and the share of its range that is.
+struct PoseValues {
+    std::vector<double> rig, modelled, offsets, shares;
+};
+
+PoseValues poseValues(std::vector<double> defaults, const std::vector<double>& drawn,
+                      const Approximation& approximation, const std::vector<int>& indices)
+{
+    PoseValues v{std::move(defaults), {}, {}, {}};
+    for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
+        const auto i = static_cast<std::size_t>(indices[p]);
+        const RigParameter& param = approximation.parameters[p].parameter;
+        v.rig[i] = drawn[i];
+        v.modelled.push_back(drawn[i]);
+        v.offsets.push_back(std::abs(drawn[i] - param.defaultValue));
+        v.shares.push_back(v.offsets.back() / std::max(param.max - param.min, 1e-300));
+    }
+    return v;
+}
+
+// An output's error relative to what moved it (the modelled parameters `reachedBy` it): epsilon bounds the error
+// per unit of the parameters moved. With the parameter moved furthest through its range, or -1.
+std::pair<double, int> relativeError(const Eigen::Matrix4d& truth, const Eigen::Matrix4d& approximated,
+                                     const std::vector<int>& reachedBy, const PoseValues& v, double frameRadius)
+{
+    double moved = 0.0;
+    int furthest = -1;
+    for (const int p : reachedBy) {
+        moved += v.offsets[static_cast<std::size_t>(p)];
+        if (furthest < 0 || v.shares[static_cast<std::size_t>(p)] > v.shares[static_cast<std::size_t>(furthest)])
+            furthest = p;
+    }
+    const double error = matrixError(truth, approximated, frameRadius);
+    const double relative = error <= 1e-12 ? 0.0 : moved > 0.0 ? error / moved : std::numeric_limits<double>::max();
+    return {relative, furthest};
+}
+
 // The approximation against the real rig on the poses, with only the modelled parameters moved.
 ValidationSummary validate(RigProbe& probe, Approximation& approximation, const std::vector<int>& indices,
                            const std::vector<int>& rigOutput, ValidationPoses& poses, const LearnOptions& options)
@@ -128,20 +166,10 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
     poses.worlds.resize(poses.drawn.size());
     poses.movedSet = movedSet;
     for (std::size_t pose = 0; pose < poses.drawn.size(); ++pose) {
-        const std::vector<double>& drawn = poses.drawn[pose];
-        std::vector<double> values = probe.defaults();
-        std::vector<double> modelled, offsets, shares;
-        for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
-            const auto i = static_cast<std::size_t>(indices[p]);
-            const RigParameter& param = approximation.parameters[p].parameter;
-            values[i] = drawn[i];
-            modelled.push_back(drawn[i]);
-            offsets.push_back(std::abs(drawn[i] - param.defaultValue));
-            shares.push_back(offsets.back() / std::max(param.max - param.min, 1e-300));
-        }
+        const PoseValues drawn = poseValues(probe.defaults(), poses.drawn[pose], approximation, indices);
         auto& truthWorlds = poses.worlds[pose];
-        if (evaluate) truthWorlds = probe.atValues(values);
-        approximation.evaluate(modelled, approximated);
+        if (evaluate) truthWorlds = probe.atValues(drawn.rig);
+        approximation.evaluate(drawn.modelled, approximated);
         bool finite = true;
         for (const int k : rigOutput) finite = finite && truthWorlds[static_cast<std::size_t>(k)].allFinite();
         if (!finite) {
@@ -166,18 +194,8 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
                 }
             }
             summary.maxRotationErrorDeg = std::max(summary.maxRotationErrorDeg, rotation);
-            // Relative to what moved it: epsilon bounds the error per unit of the parameters moved.
-            double moved = 0.0;
-            int furthest = -1;  // the parameter moved furthest through its range
-            for (const int p : reachedBy[k]) {
-                moved += offsets[static_cast<std::size_t>(p)];
-                if (furthest < 0 || shares[static_cast<std::size_t>(p)] > shares[static_cast<std::size_t>(furthest)])
-                    furthest = p;
-            }
-            const double error = matrixError(truth, approximated[k], options.frameRadius);
-            const double relative = error <= 1e-12 ? 0.0
-                                    : moved > 0.0  ? error / moved
-                                                   : std::numeric_limits<double>::max();
+            const auto [relative, furthest] =
+                relativeError(truth, approximated[k], reachedBy[k], drawn, options.frameRadius);
             approximation.outputs[k].validationError = std::max(approximation.outputs[k].validationError, relative);
             for (const int p : reachedBy[k]) {
                 auto& v = approximation.parameters[static_cast<std::size_t>(p)].validationError;
@@ -299,9 +317,8 @@ std::string singularRest(const Eigen::Matrix4d& rest)
 // can make it better between them.
 bool interpolated(const ModelledParameter& m)
 {
-    return std::any_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
-        return !op.linear() || op.kind == OperatorKind::sampledRigid || op.kind == OperatorKind::sampledAffine;
-    });
+    return std::any_of(m.operators.begin(), m.operators.end(),
+                       [](const Operator& op) { return !op.linear() || op.traits().sampled; });
 }
 
 // One learning pass in the probe's frames: classify (from stored samples where possible), order,
@@ -415,127 +432,114 @@ std::set<int> failingRelativeOutputs(const Pass& pass, RigProbe& probe, const Le
     return failing;
 }
 
-}  // namespace
-
-Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile,
-                                 std::vector<UnmodelledOutput>* unmodelled)
+// Outputs whose rest world matrix is singular, with why: the approximation leaves them out from the start.
+std::map<int, std::string> singularOutputs(const std::vector<Eigen::Matrix4d>& rest, RigState& state)
 {
-    options.validate();
-    const auto start = std::chrono::steady_clock::now();
-    const std::thread::id caller = std::this_thread::get_id();
-    const std::uint64_t evaluationsBefore = rig.evaluationCount();
-    RigProbe probe(rig);
-    const std::vector<Eigen::Matrix4d>& rest = probe.rest();
-    const auto& parameters = rig.parameters();
-
-    RigState state{std::vector<char>(rest.size(), 0), std::vector<char>(rest.size(), 0)};
-    std::map<int, std::string> dropped;  // rig output -> why the approximation leaves it out
+    std::map<int, std::string> dropped;
     for (std::size_t k = 0; k < rest.size(); ++k) {
         std::string why = singularRest(rest[k]);
         if (why.empty()) continue;
         state.unreliable[k] = 1;
         dropped[static_cast<int>(k)] = std::move(why);
     }
-    // Frames: relative to the parent output where there is one (and it is usable).
-    const std::vector<int> hierarchy = options.relativeFrames ? rig.outputParents() : std::vector<int>(rest.size(), -1);
-    probe.parents = hierarchy;
-    if (probe.parents.size() != rest.size())
-        throw internalError(
-            fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(), rest.size()));
-    // An output relative to one that is out of range, unreliable (found history-dependent while sampling) or
-    // non-compositional is learned in world space. True when a frame changed.
-    FrameHistory history;
-    auto usableParents = [&] {
-        bool changed = false;
-        for (std::size_t k = 0; k < probe.parents.size(); ++k) {
-            int& p = probe.parents[k];
-            if (p < 0) continue;
-            const auto parent = static_cast<std::size_t>(p);
-            if (parent < rest.size() && !state.unreliable[parent] && !state.nonCompositional[parent]) continue;
-            if (parent < rest.size())
-                history.relative.try_emplace(
-                    static_cast<int>(k),
-                    fmt::format("its parent output {} is {}", rig.outputs()[parent],
-                                state.unreliable[parent] ? "left out (a dropped output)" : "not modelled"));
-            p = -1;
-            changed = true;
-        }
-        return changed;
-    };
-    usableParents();
+    return dropped;
+}
 
-    // Every parameter's first samples, each on a fresh instance of the rig: the bulk of the evaluations,
-    // and independent of each other.
-    std::vector<ParameterSamples> samples(parameters.size());
-    RigPool pool(rig, options.threads == 0 ? static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))
-                                           : options.threads);
+// An output relative to one that is out of range, unreliable (found history-dependent while sampling) or
+// non-compositional is learned in world space. True when a frame changed.
+bool worldWhereParentUnusable(RigProbe& probe, const RigState& state, FrameHistory& history)
+{
+    const std::size_t outputs = probe.rest().size();
+    bool changed = false;
+    for (std::size_t k = 0; k < probe.parents.size(); ++k) {
+        int& p = probe.parents[k];
+        if (p < 0) continue;
+        const auto parent = static_cast<std::size_t>(p);
+        if (parent < outputs && !state.unreliable[parent] && !state.nonCompositional[parent]) continue;
+        if (parent < outputs)
+            history.relative.try_emplace(
+                static_cast<int>(k),
+                fmt::format("its parent output {} is {}", probe.rig().outputs()[parent],
+                            state.unreliable[parent] ? "left out (a dropped output)" : "not modelled"));
+        p = -1;
+        changed = true;
+    }
+    return changed;
+}
+
+// Every parameter's first samples, each on a fresh instance of the rig: the bulk of the evaluations, and
+// independent of each other.
+std::vector<ParameterSamples> firstSamples(RigPool& pool, std::size_t count, const std::vector<Eigen::Matrix4d>& rest,
+                                           const LearnOptions& options)
+{
+    const std::thread::id caller = std::this_thread::get_id();
+    std::vector<ParameterSamples> samples(count);
     std::atomic<int> sampled{0};
-    pool.forEach(static_cast<int>(parameters.size()), [&](RigFunction& instance, int i) {
+    pool.forEach(static_cast<int>(count), [&](RigFunction& instance, int i) {
         takeFirstSamples(instance, i, rest, options, samples[static_cast<std::size_t>(i)]);
         // Progress from the caller's thread only: callbacks need not be thread-safe.
         if (options.progress && std::this_thread::get_id() == caller)
-            options.progress("sampling", static_cast<double>(sampled + 1) / static_cast<double>(parameters.size()));
+            options.progress("sampling", static_cast<double>(sampled + 1) / static_cast<double>(count));
         ++sampled;
     });
-    ValidationPoses poses = drawPoses(parameters, options);
-    Pass pass;
-    // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
-    // First, a relative output where learning failed moves to world space (an output never goes back).
-    // Then, on an output still over epsilon, the rig decides the order of every pair (the structured
-    // orderer took some for commuting from their operators, which a non-compositional output belies).
-    // Then a parameter fitted by a curve or sampled operator that reaches an output still over epsilon
-    // gets twice its sample budget, up to 8 x maxSamples (its fit was exact at the samples, not between).
-    // With perOutput, an output with a parent output where a pair has neither order, relative or in world space,
-    // is non-compositional: it is set apart and the rest learned again.
-    std::vector<int> budgets(parameters.size(), options.maxSamples);
-    std::set<int> distrusted;
-    PairSamples pairs;
-    std::uint64_t orderEvaluations = 0;  // over every pass
-    while (true) {
-        pass = learnPass(probe, state, samples, poses, options, budgets, distrusted, pairs, rigFile);
-        orderEvaluations += pass.order.evaluations;
-        if (usableParents()) continue;  // learned relative to an output now dropped: learn those again
-        const std::set<int> failing = failingRelativeOutputs(pass, probe, options, history);
-        for (const int k : failing) probe.parents[static_cast<std::size_t>(k)] = -1;
-        if (!failing.empty()) continue;
-        auto setApart = [&](int k, const std::string& why) {
-            const auto o = static_cast<std::size_t>(k);
-            if (!options.perOutput || hierarchy[o] < 0 || state.nonCompositional[o]) return false;
-            state.nonCompositional[static_cast<std::size_t>(k)] = 1;
-            probe.parents[static_cast<std::size_t>(k)] = -1;
-            history.world.try_emplace(k, why);
-            return true;
-        };
-        bool setApartAny = false;
-        for (const auto& [k, why] : pass.order.conflictOutputs) setApartAny = setApart(k, why) || setApartAny;
-        if (setApartAny) {
-            usableParents();
-            continue;
-        }
-        const Approximation& a = pass.approximation;
-        bool newlyDistrusted = false;
-        if (options.orderer == Orderer::structured)
-            for (std::size_t o = 0; o < a.outputs.size(); ++o)
-                if (!(a.outputs[o].validationError <= options.epsilon))
-                    newlyDistrusted = distrusted.insert(pass.rigOutput[o]).second || newlyDistrusted;
-        if (newlyDistrusted) continue;
-        const std::vector<std::vector<int>> reach = a.reach();
-        bool raised = false;
-        for (std::size_t p = 0; p < a.parameters.size(); ++p) {
-            int& budget = budgets[static_cast<std::size_t>(pass.indices[p])];
-            if (!interpolated(a.parameters[p]) || budget >= 8 * options.maxSamples) continue;
-            const bool over = std::any_of(reach[p].begin(), reach[p].end(), [&](int k) {
-                return !(a.outputs[static_cast<std::size_t>(k)].validationError <= options.epsilon);
-            });
-            if (!over) continue;
-            budget *= 2;
-            raised = true;
-        }
-        if (!raised) break;
-    }
+    return samples;
+}
 
-    Approximation result = std::move(pass.approximation);
-    if (unmodelled) *unmodelled = history.unmodelled(result, pass.rigOutput);
+// With perOutput, an output with a parent output (`hierarchy`) where a pair has neither order, relative or in
+// world space, is non-compositional: it is set apart, in world space. True when one was.
+bool setApartConflicts(const Pass& pass, const LearnOptions& options, const std::vector<int>& hierarchy,
+                       RigState& state, RigProbe& probe, FrameHistory& history)
+{
+    auto setApart = [&](int k, const std::string& why) {
+        const auto o = static_cast<std::size_t>(k);
+        if (!options.perOutput || hierarchy[o] < 0 || state.nonCompositional[o]) return false;
+        state.nonCompositional[o] = 1;
+        probe.parents[o] = -1;
+        history.world.try_emplace(k, why);
+        return true;
+    };
+    bool any = false;
+    for (const auto& [k, why] : pass.order.conflictOutputs) any = setApart(k, why) || any;
+    return any;
+}
+
+// The structured orderer took some pairs for commuting from their operators, which an output over epsilon
+// belies: the rig decides every pair there. True when an output is newly distrusted.
+bool distrustOverEpsilon(const Pass& pass, const LearnOptions& options, std::set<int>& distrusted)
+{
+    const Approximation& a = pass.approximation;
+    bool newly = false;
+    if (options.orderer == Orderer::structured)
+        for (std::size_t o = 0; o < a.outputs.size(); ++o)
+            if (!(a.outputs[o].validationError <= options.epsilon))
+                newly = distrusted.insert(pass.rigOutput[o]).second || newly;
+    return newly;
+}
+
+// A parameter fitted by a curve or sampled operator that reaches an output over epsilon gets twice its sample
+// budget, up to 8 x maxSamples (its fit was exact at the samples, not between). True when one was raised.
+bool raiseBudgets(const Pass& pass, const LearnOptions& options, std::vector<int>& budgets)
+{
+    const Approximation& a = pass.approximation;
+    const std::vector<std::vector<int>> reach = a.reach();
+    bool raised = false;
+    for (std::size_t p = 0; p < a.parameters.size(); ++p) {
+        int& budget = budgets[static_cast<std::size_t>(pass.indices[p])];
+        if (!interpolated(a.parameters[p]) || budget >= 8 * options.maxSamples) continue;
+        const bool over = std::any_of(reach[p].begin(), reach[p].end(), [&](int k) {
+            return !(a.outputs[static_cast<std::size_t>(k)].validationError <= options.epsilon);
+        });
+        if (!over) continue;
+        budget *= 2;
+        raised = true;
+    }
+    return raised;
+}
+
+// The parameters the last pass left out, each with why (a parameter with no effect on its own that changes
+// what others do says so), into result.discarded in rig order.
+void recordDiscards(const Pass& pass, RigProbe& probe, const LearnOptions& options, Approximation& result)
+{
     std::map<int, std::string> reasons;
     for (const auto& c : pass.classes)
         if (!c.modelled) {
@@ -547,7 +551,65 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         }
     for (const auto& [p, reason] : pass.order.discards) reasons[p] = reason;
     for (const auto& [p, reason] : reasons)
-        result.discarded.push_back({parameters[static_cast<std::size_t>(p)], reason});
+        result.discarded.push_back({probe.rig().parameters()[static_cast<std::size_t>(p)], reason});
+}
+
+}  // namespace
+
+Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile,
+                                 std::vector<UnmodelledOutput>* unmodelled)
+{
+    options.validate();
+    const auto start = std::chrono::steady_clock::now();
+    const std::uint64_t evaluationsBefore = rig.evaluationCount();
+    RigProbe probe(rig);
+    const std::vector<Eigen::Matrix4d>& rest = probe.rest();
+    const auto& parameters = rig.parameters();
+
+    RigState state{std::vector<char>(rest.size(), 0), std::vector<char>(rest.size(), 0)};
+    std::map<int, std::string> dropped = singularOutputs(rest, state);  // rig output -> why it is left out
+    // Frames: relative to the parent output where there is one (and it is usable).
+    const std::vector<int> hierarchy = options.relativeFrames ? rig.outputParents() : std::vector<int>(rest.size(), -1);
+    probe.parents = hierarchy;
+    if (probe.parents.size() != rest.size())
+        throw internalError(
+            fmt::format("learnApproximation: {} output parents for {} outputs", probe.parents.size(), rest.size()));
+    FrameHistory history;
+    worldWhereParentUnusable(probe, state, history);
+
+    RigPool pool(rig, options.threads == 0 ? static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))
+                                           : options.threads);
+    std::vector<ParameterSamples> samples = firstSamples(pool, parameters.size(), rest, options);
+    ValidationPoses poses = drawPoses(parameters, options);
+    Pass pass;
+    // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
+    // First, a relative output where learning failed moves to world space (an output never goes back).
+    // Then outputs where a pair has neither order are set apart (setApartConflicts), then the rig decides
+    // the order of every pair on an output still over epsilon (distrustOverEpsilon), then interpolated fits
+    // reaching one get more samples (raiseBudgets).
+    std::vector<int> budgets(parameters.size(), options.maxSamples);
+    std::set<int> distrusted;
+    PairSamples pairs;
+    std::uint64_t orderEvaluations = 0;  // over every pass
+    while (true) {
+        pass = learnPass(probe, state, samples, poses, options, budgets, distrusted, pairs, rigFile);
+        orderEvaluations += pass.order.evaluations;
+        // Learned relative to an output now dropped: learn those again.
+        if (worldWhereParentUnusable(probe, state, history)) continue;
+        const std::set<int> failing = failingRelativeOutputs(pass, probe, options, history);
+        for (const int k : failing) probe.parents[static_cast<std::size_t>(k)] = -1;
+        if (!failing.empty()) continue;
+        if (setApartConflicts(pass, options, hierarchy, state, probe, history)) {
+            worldWhereParentUnusable(probe, state, history);
+            continue;
+        }
+        if (distrustOverEpsilon(pass, options, distrusted)) continue;
+        if (!raiseBudgets(pass, options, budgets)) break;
+    }
+
+    Approximation result = std::move(pass.approximation);
+    if (unmodelled) *unmodelled = history.unmodelled(result, pass.rigOutput);
+    recordDiscards(pass, probe, options, result);
     for (std::size_t k = 0; k < rest.size(); ++k)
         if (state.unreliable[k] && !dropped.contains(static_cast<int>(k)))
             dropped[static_cast<int>(k)] =

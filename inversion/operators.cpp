@@ -11,15 +11,6 @@
 namespace rig {
 namespace {
 
-constexpr std::array<std::pair<OperatorKind, std::string_view>, 6> kindNames{{
-    {OperatorKind::translation, "translation"},
-    {OperatorKind::rotation, "rotation"},
-    {OperatorKind::axisScale, "axisScale"},
-    {OperatorKind::uniformScale, "uniformScale"},
-    {OperatorKind::sampledRigid, "sampledRigid"},
-    {OperatorKind::sampledAffine, "sampledAffine"},
-}};
-
 // The derivative of [L, p - L p] (a linear map L about the pivot p) for a derivative dL of the linear map.
 Eigen::Matrix4d aboutPivotDerivative(const Eigen::Matrix3d& dLinear, const Eigen::Vector3d& pivot)
 {
@@ -33,15 +24,14 @@ Eigen::Matrix4d aboutPivotDerivative(const Eigen::Matrix3d& dLinear, const Eigen
 
 std::string_view operatorKindName(OperatorKind kind)
 {
-    for (const auto& [k, name] : kindNames)
-        if (k == kind) return name;
-    return "?";
+    const auto k = static_cast<std::size_t>(kind);
+    return k < operatorKindTraits.size() ? operatorKindTraits[k].name : "?";
 }
 
 std::optional<OperatorKind> operatorKindFromName(std::string_view name)
 {
-    for (const auto& [k, n] : kindNames)
-        if (n == name) return k;
+    for (const OperatorKindTraits& t : operatorKindTraits)
+        if (t.name == name) return t.kind;
     return std::nullopt;
 }
 

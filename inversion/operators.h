@@ -15,7 +15,9 @@
 // the control acts and no spline has to bend round a kink. Sampled operators interpolate samples of the rig's own world
 // delta: exact at the samples, and exact in between wherever the delta is itself smooth and well sampled.
 
+#include <array>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <optional>
 #include <string_view>
@@ -28,20 +30,65 @@ namespace rig {
 
 enum class OperatorKind { translation, rotation, axisScale, uniformScale, sampledRigid, sampledAffine };
 
+// What the code that stores, fits, differentiates and reports operators asks of a kind, one row per kind
+// (Pinocchio's per-joint-kind traits), so that no caller lists kinds by hand.
+struct OperatorKindTraits {
+    OperatorKind kind;
+    std::string_view name;  // in approximation files, reports and fit forms
+    // Interpolates the rig's own world deltas (a spline through knots); an analytic kind is instead an axis, a
+    // pivot and a magnitude m(a) (a slope or a curve), the fields every analytic kind stores in files.
+    bool sampled;
+    bool rigid;         // P is a rigid motion (its 3x3 part a rotation): a twist in the Jacobian
+    bool hasAxis;       // `axis` changes P
+    bool hasPivot;      // `pivot` changes P
+    bool angular;       // the magnitude is an angle: P comes back after every whole turn of it
+    int valuesPerKnot;  // of its spline: the magnitude (1), or the sampled kind's rotation vector and translation
+                        // (6) or 3x4 block (12)
+};
+
+// Adding a kind is: its enum value above, its row here (in enum order, checked below), its matrix and derivative
+// (Operator::affineRows and Operator::derivative, operators.cpp), and its fit in the learner (classifier.cpp:
+// plausibleKinds and fitStructure for an analytic kind, trySampled for a sampled one). Files, fit forms and the
+// learner's choices follow from the row; a sampled kind also needs its spline in Operator and its knots and values
+// written and read (approximation_io.cpp).
+inline constexpr std::array<OperatorKindTraits, 6> operatorKindTraits{{
+    // kind, name, sampled, rigid, hasAxis, hasPivot, angular, valuesPerKnot
+    {OperatorKind::translation, "translation", false, true, true, false, false, 1},
+    {OperatorKind::rotation, "rotation", false, true, true, true, true, 1},
+    {OperatorKind::axisScale, "axisScale", false, false, true, true, false, 1},
+    {OperatorKind::uniformScale, "uniformScale", false, false, false, true, false, 1},
+    {OperatorKind::sampledRigid, "sampledRigid", true, true, false, false, false, 6},
+    {OperatorKind::sampledAffine, "sampledAffine", true, false, false, false, false, 12},
+}};
+
+constexpr const OperatorKindTraits& operatorTraits(OperatorKind kind)
+{
+    return operatorKindTraits[static_cast<std::size_t>(kind)];
+}
+
+static_assert(
+    [] {
+        for (std::size_t k = 0; k < operatorKindTraits.size(); ++k)
+            if (static_cast<std::size_t>(operatorKindTraits[k].kind) != k) return false;
+        return true;
+    }(),
+    "operatorKindTraits: one row per OperatorKind, in enum order");
+
 std::string_view operatorKindName(OperatorKind kind);
 std::optional<OperatorKind> operatorKindFromName(std::string_view name);
 
 struct Operator {
     OperatorKind kind = OperatorKind::translation;
-    Eigen::Vector3d axis = Eigen::Vector3d::UnitX();        // unit; translation, rotation, axisScale
-    Eigen::Vector3d pivot = Eigen::Vector3d::Zero();        // rotation and the scales, world space, cm
-    double slope = 0.0;                                     // linear magnitude, when `curve` is empty
-    CubicSpline<1> curve;                                   // magnitude through (0, 0) and the samples
-    CubicSpline<6> rigid;                                   // sampledRigid: rotation vector, translation
-    CubicSpline<12> affine;                                 // sampledAffine: the 3x4 block of P - I, row by row
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  // unit; translation, rotation, axisScale
+    Eigen::Vector3d pivot = Eigen::Vector3d::Zero();  // rotation and the scales, world space, cm
+    double slope = 0.0;                               // linear magnitude, when `curve` is empty
+    CubicSpline<1> curve;                             // magnitude through (0, 0) and the samples
+    CubicSpline<operatorTraits(OperatorKind::sampledRigid).valuesPerKnot> rigid;    // rotation vector, translation
+    CubicSpline<operatorTraits(OperatorKind::sampledAffine).valuesPerKnot> affine;  // 3x4 block of P - I, by rows
     double low = -std::numeric_limits<double>::infinity();  // offsets beyond which P is held (saturation)
     double high = std::numeric_limits<double>::infinity();
 
+    const OperatorKindTraits& traits() const { return operatorTraits(kind); }
     bool held() const { return std::isfinite(low) || std::isfinite(high); }
     // Whether P changes at a (false beyond the held ends).
     bool acts(double a) const { return a >= low && a <= high; }

@@ -6,10 +6,10 @@
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
-#include <Eigen/Cholesky>
-#include <Eigen/Eigenvalues>
 
 #include "core/error.h"
+#include "inversion/minimizer.h"
+#include "inversion/step_strategy.h"
 
 namespace rig {
 
@@ -110,9 +110,9 @@ double RealRigProblem::residuals(std::span<const double> x, Eigen::VectorXd& r)
 }
 
 void RealRigProblem::jacobian(std::span<const double> x, double h, bool central, Eigen::MatrixXd* jacobian,
-                              Eigen::VectorXd& r)
+                              Eigen::VectorXd& r, bool residualsKnown)
 {
-    residuals(x, r);
+    if (!residualsKnown) residuals(x, r);
     if (jacobian) jacobian->resize(rows(), columns());
     const auto evaluators = evaluators_.size();
     // Column c on evaluator c mod T: each column depends only on x, so any T gives the same matrix.
@@ -144,110 +144,67 @@ void RealRigProblem::jacobian(std::span<const double> x, double h, bool central,
     evaluations_ += after - before;
 }
 
-RealRigSolve solveOnRealRig(RealRigProblem& problem, std::span<double> values, const SolverOptions& options)
+namespace {
+
+// The real rig as the minimizer's problem: forward-difference Jacobians (the cheapest black box), J^T J dense.
+class RealRigMinimizerProblem final : public MinimizerProblem {
+public:
+    RealRigMinimizerProblem(RealRigProblem& problem, double step)
+        : problem_(problem), step_(step), dense_(problem.columns())
+    {
+    }
+    bool linearize(std::span<const double> x, bool atTrial, Eigen::VectorXd& r, Eigen::VectorXd& g) override
+    {
+        // An accepted trial point's residuals are the base of its forward differences: one evaluation saved.
+        problem_.jacobian(x, step_, false, &J_, r, atTrial);
+        dense_.matrix().triangularView<Eigen::Lower>() = J_.transpose() * J_;
+        g.noalias() = J_.transpose() * r;
+        return r.allFinite() && g.allFinite();
+    }
+    void residuals(std::span<const double> x, Eigen::VectorXd& r) override { problem_.residuals(x, r); }
+    double diagonal(Eigen::Index i) const override { return dense_.diagonal(i); }
+    void hold(Eigen::Index i) override { dense_.hold(i); }
+    bool solveStep(const Eigen::VectorXd& gradient, double damping, std::span<const char> fixed,
+                   Eigen::VectorXd& delta) override
+    {
+        return dense_.solve(gradient, damping, fixed, delta);
+    }
+    void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) override { dense_.multiply(v, out); }
+
+private:
+    RealRigProblem& problem_;
+    double step_;
+    DenseSystem dense_;
+    Eigen::MatrixXd J_;
+};
+
+}  // namespace
+
+RealRigSolve solveOnRealRig(RealRigProblem& problem, std::span<double> values, const SolverOptions& options,
+                            const Equivalences* equivalences)
 {
     const std::uint64_t before = problem.evaluations();
-    const int n = problem.columns();
-    if (values.size() != static_cast<std::size_t>(n))
+    const std::size_t n = static_cast<std::size_t>(problem.columns());
+    if (values.size() != n)
         throw internalError(fmt::format("solveOnRealRig: {} values for {} unknowns", values.size(), n));
-    const auto& lower = problem.lower();
-    const auto& upper = problem.upper();
-    std::vector<double> x(values.begin(), values.end()), trial(x.size());
-    for (int c = 0; c < n; ++c) {
-        const auto i = static_cast<std::size_t>(c);
-        x[i] = std::clamp(x[i], lower[i], upper[i]);
+    const Unknowns unknowns(problem.approximation(), equivalences, problem.columnParameters());
+    // What whole turns and Euler flips are kept near: the start, every other parameter held.
+    std::vector<double> reference = problem.held();
+    MinimizerState state(problem.rows(), static_cast<Eigen::Index>(n));
+    for (std::size_t c = 0; c < n; ++c) {
+        reference[static_cast<std::size_t>(unknowns.columns[c])] = values[c];
+        state.x[c] = std::clamp(values[c], unknowns.lower[c], unknowns.upper[c]);
     }
-    Eigen::MatrixXd J, H, damped;
-    Eigen::VectorXd r, rTrial, g, delta;
-    std::vector<char> fixed(x.size());
+    RealRigMinimizerProblem minimizerProblem(problem, options.finiteDifferenceStep);
+    SolverOptions realRig = options;
+    realRig.maxAngularStep = options.realRigMaxAngularStep;
+    const MinimizerResult result = minimize(minimizerProblem, unknowns, realRig, state, reference);
+    std::copy(state.x.begin(), state.x.end(), values.begin());
     RealRigSolve solve;
-    problem.jacobian(x, options.finiteDifferenceStep, false, &J, r);
-    double cost = 0.5 * r.squaredNorm();
-    solve.initialCost = cost;
-    while (solve.iterations < options.maxIterations) {
-        g = J.transpose() * r;
-        double projectedGradient = 0.0;
-        for (int c = 0; c < n; ++c) {
-            const auto i = static_cast<std::size_t>(c);
-            projectedGradient =
-                std::max(projectedGradient, std::abs(x[i] - std::clamp(x[i] - g[c], lower[i], upper[i])));
-            fixed[i] = (x[i] <= lower[i] && g[c] > 0) || (x[i] >= upper[i] && g[c] < 0);
-        }
-        if (projectedGradient <= options.gradientTolerance) {
-            solve.converged = true;
-            break;
-        }
-        H = J.transpose() * J;
-        for (int c = 0; c < n; ++c)
-            if (fixed[static_cast<std::size_t>(c)]) {
-                H.row(c).setZero();
-                H.col(c).setZero();
-                H(c, c) = 1.0;
-                g[c] = 0.0;
-            }
-        // Cholesky when it is well conditioned, else the minimum-norm step (as the solver does).
-        Eigen::LLT<Eigen::MatrixXd> llt(H);
-        const double largest = H.diagonal().maxCoeff();
-        bool ok = llt.info() == Eigen::Success && largest > 0;
-        for (int c = 0; ok && c < n; ++c) ok = llt.matrixL()(c, c) * llt.matrixL()(c, c) > 1e-12 * largest;
-        if (ok) {
-            delta = llt.solve(-g);
-        } else {
-            Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(H);
-            Eigen::VectorXd projected = eigen.eigenvectors().transpose() * g;
-            const double top = eigen.eigenvalues().cwiseAbs().maxCoeff();
-            for (int c = 0; c < n; ++c)
-                projected[c] = eigen.eigenvalues()[c] > 1e-12 * top ? projected[c] / eigen.eigenvalues()[c] : 0.0;
-            delta = -(eigen.eigenvectors() * projected);
-        }
-        ++solve.iterations;
-        bool accepted = false, smallStep = false;
-        double trialCost = cost;
-        // Tries x + scale * delta (clamped to the limits): accepted when the real rig's cost goes down.
-        const auto tryStep = [&](double scale) {
-            double stepNorm2 = 0.0, xNorm2 = 0.0;
-            for (int c = 0; c < n; ++c) {
-                const auto i = static_cast<std::size_t>(c);
-                trial[i] = std::clamp(x[i] + scale * delta[c], lower[i], upper[i]);
-                stepNorm2 += (trial[i] - x[i]) * (trial[i] - x[i]);
-                xNorm2 += x[i] * x[i];
-            }
-            smallStep =
-                std::sqrt(stepNorm2) <= options.parameterTolerance * (std::sqrt(xNorm2) + options.parameterTolerance);
-            trialCost = problem.residuals(trial, rTrial);
-            accepted = std::isfinite(trialCost) && (trialCost < cost || (smallStep && trialCost <= cost));
-            return accepted || smallStep;
-        };
-        // Backtracking: halve the step until the real rig's cost goes down.
-        for (double scale = 1.0; scale > 1e-3; scale *= 0.5)
-            if (tryStep(scale)) break;
-        // Then Levenberg-Marquardt: where the Gauss-Newton direction is poor (a kink, as an IK chain's knee at
-        // full extension, where the bend grows as the square root of the goal's approach), damped steps turn
-        // toward the gradient, which descends for small enough steps.
-        if (!accepted && !smallStep) {
-            const double top = std::max(H.diagonal().maxCoeff(), std::numeric_limits<double>::min());
-            for (double lambda = 1e-4 * top; !accepted && !smallStep && lambda <= 1e8 * top; lambda *= 10.0) {
-                damped = H;
-                damped.diagonal().array() += lambda;
-                delta = damped.llt().solve(-g);
-                if (delta.allFinite()) tryStep(1.0);
-            }
-        }
-        if (!accepted) {
-            solve.converged = smallStep;  // nowhere left to go along a descent direction
-            break;
-        }
-        const double decrease = cost - trialCost;
-        std::swap(x, trial);
-        cost = trialCost;
-        if (smallStep || decrease <= options.functionTolerance * (cost + decrease)) {
-            solve.converged = true;
-            break;
-        }
-        problem.jacobian(x, options.finiteDifferenceStep, false, &J, r);
-    }
-    std::copy(x.begin(), x.end(), values.begin());
-    solve.finalCost = cost;
+    solve.iterations = result.gaussNewton + result.levenbergMarquardt;
+    solve.converged = result.converged;
+    solve.initialCost = result.initialCost;
+    solve.finalCost = result.cost;
     solve.evaluations = problem.evaluations() - before;
     return solve;
 }

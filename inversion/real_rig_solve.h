@@ -38,6 +38,9 @@ public:
     int rows() const { return rowOffset_.back(); }
     int columns() const { return static_cast<int>(columns_.size()); }
     const std::vector<int>& columnParameters() const { return columns_; }
+    const Approximation& approximation() const { return binding_.approximation(); }
+    // Every approximation parameter's value as last given to setHeld (the defaults before).
+    const std::vector<double>& held() const { return held_; }
     // The solver's limits per unknown: a control's own limits, unbounded for a free one.
     const std::vector<double>& lower() const { return lower_; }
     const std::vector<double>& upper() const { return upper_; }
@@ -46,8 +49,10 @@ public:
     double residuals(std::span<const double> x, Eigen::VectorXd& r);
     // Residuals at `x` and the Jacobian by finite differences with step h: forward (columns + 1 evaluations)
     // or central (2 columns + 1; one-sided at a limit). `jacobian` may be null (the columns are computed and
-    // dropped: timing a problem whose dense Jacobian would not fit).
-    void jacobian(std::span<const double> x, double h, bool central, Eigen::MatrixXd* jacobian, Eigen::VectorXd& r);
+    // dropped: timing a problem whose dense Jacobian would not fit). `residualsKnown`: r already holds the
+    // residuals at x (the last residuals() call's), which are not evaluated again.
+    void jacobian(std::span<const double> x, double h, bool central, Eigen::MatrixXd* jacobian, Eigen::VectorXd& r,
+                  bool residualsKnown = false);
 
     std::uint64_t evaluations() const { return evaluations_; }
 
@@ -79,12 +84,15 @@ struct RealRigSolve {
     std::uint64_t evaluations = 0;  // real-rig evaluations of this solve
 };
 
-// Gauss-Newton on the real rig from `x` (the unknowns' start; out: the solution): forward-difference
-// Jacobians (the cheapest black box), steps projected on the limits, backtracking when a step does not lower
-// the cost, minimum-norm steps on rank-deficient systems (an under-determined control, such as a pole vector's
-// three channels for one swivel angle, takes the smallest change from its start). Stops on the solver's
-// tolerances (SolverOptions: functionTolerance, parameterTolerance, gradientTolerance, maxIterations,
-// finiteDifferenceStep).
-RealRigSolve solveOnRealRig(RealRigProblem& problem, std::span<double> x, const SolverOptions& options);
+// The solver's minimizer (minimizer.h) on the real rig from `x` (the unknowns' start; out: the solution), with
+// forward-difference Jacobians (the cheapest black box): Gauss-Newton, then Levenberg-Marquardt where a step
+// does not lower the real rig's cost (a kink, as an IK chain's knee at full extension); steps projected on
+// the limits and within the angular trust region (SolverOptions::maxAngularStep); minimum-norm steps on
+// rank-deficient systems (an under-determined control, such as a pole vector's three channels for one swivel
+// angle, takes the smallest change from its start). Stops on the solver's tolerances (SolverOptions:
+// functionTolerance, parameterTolerance, gradientTolerance, maxIterations, finiteDifferenceStep). With the
+// approximation's `equivalences` (Solver::equivalences()), whole turns and Euler flips are kept near the start.
+RealRigSolve solveOnRealRig(RealRigProblem& problem, std::span<double> x, const SolverOptions& options,
+                            const Equivalences* equivalences = nullptr);
 
 }  // namespace rig

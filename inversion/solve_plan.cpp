@@ -72,7 +72,7 @@ BlockPlan::BlockPlan(const Approximation& approximation, const Equivalences& equ
 {
     for (const int p : block.parameters)
         for (const Operator& op : approximation.parameters[static_cast<std::size_t>(p)].operators)
-            rotationsOnly = rotationsOnly && op.kind == OperatorKind::rotation;
+            rotationsOnly = rotationsOnly && op.traits().angular;
 }
 
 BlockGraph::BlockGraph(const Partition& partition) : start_(graph_)

@@ -60,7 +60,7 @@ struct BlockPlan {
               std::span<const ResidualTerm* const> terms);
     ResidualStructure structure;
     Unknowns unknowns;
-    bool rotationsOnly = true;  // every operator of every parameter is a rotation about a pivot
+    bool rotationsOnly = true;  // every operator of every parameter is a rotation about a pivot (an angular kind)
     // Set for a partition's coupled solve: the blocks' step by elimination instead of one dense system.
     std::unique_ptr<BlockElimination> elimination;
     mutable Pool<BlockWorkspace> pool;

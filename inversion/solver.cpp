@@ -71,6 +71,7 @@ void SolverOptions::validate() const
         fail("jacobian", static_cast<int>(jacobian), "must be analytic or finiteDifference");
     positive("finiteDifferenceStep", finiteDifferenceStep);
     positive("maxAngularStep", maxAngularStep);
+    positive("realRigMaxAngularStep", realRigMaxAngularStep);
     if (threads < 0) fail("threads", threads, "must not be negative (0: all cores)");
 }
 

@@ -58,6 +58,11 @@ struct SolverOptions {
     // fraction of a turn; without the cap, a near-singular pose (a straight elbow) lets a step swing
     // a control by whole turns onto an equivalent pose, which breaks continuity between frames.
     double maxAngularStep = 0.5;
+    // The same on the real rig (real_rig_solve.h: the hybrid solve's second stage), radians. Larger: that stage
+    // starts from the approximation's answer, which at a restart can be far from the real rig's (an IK goal left
+    // at rest); half a radian led the biped's IK legs into a local minimum from 1 of 6 random poses, while whole
+    // turns are taken back by the continuity there (HybridSolver::keepNearReference) in any case.
+    double realRigMaxAngularStep = 1.0;
     // Central finite-difference step, in each parameter's internal unit (JacobianMethod::finiteDifference).
     double finiteDifferenceStep = 1e-6;
     // Split the problem into blocks (inversion/partition.h); false solves every parameter together.

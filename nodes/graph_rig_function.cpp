@@ -152,55 +152,75 @@ Value heldValue(const Graph& g, const Plug& p, double value, const Refuse& refus
     return convertValue(x, ValueType::Double, type, 1.0);
 }
 
-}  // namespace
-
-GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<std::string> plugins)
+// Parameter plug p as a parameter: its default, and its range (declared limits, else `ranges`' first match, else
+// a default range around the default, a scale's from half to twice it).
+RigParameter parameterOf(Graph& g, const Plug& p, const std::vector<GraphRigOptions::LearnRange>& ranges)
 {
-    GraphRigOptions options;
-    for (const auto& p : approximation.parameters) options.parameterGlobs.push_back(p.parameter.name);
-    for (const auto& o : approximation.outputs) options.outputGlobs.push_back(o.name);
-    options.plugins = std::move(plugins);
-    options.held = approximation.held;
-    return options;
+    const AttributeSpec& s = g.spec(p);
+    RigParameter param;
+    param.name = g.plugName(p);
+    param.defaultValue = toDouble(g.getValue(p));
+    param.angular = s.unit == Unit::Angle;
+    const double half = param.angular              ? defaultAngleRangeDegrees * std::numbers::pi / 180.0
+                        : s.unit == Unit::Distance ? defaultDistanceRangeCm
+                                                   : defaultUnitlessRange;
+    // A scale through 0 is singular: every world matrix below it has no inverse.
+    const bool scale = s.unit == Unit::None && s.name.starts_with("scale") && param.defaultValue > 0;
+    param.min = s.min ? *s.min : scale ? param.defaultValue / defaultScaleFactor : param.defaultValue - half;
+    param.max = s.max ? *s.max : scale ? param.defaultValue * defaultScaleFactor : param.defaultValue + half;
+    // A declared limit binds the solver; a default range, or one the spec gives, is only where learning
+    // samples.
+    param.limited = s.min.has_value() || s.max.has_value();
+    const auto range =
+        std::find_if(ranges.begin(), ranges.end(), [&](const auto& r) { return globMatches(r.glob, param.name); });
+    if (!param.limited && range != ranges.end()) {
+        const double unit = param.angular ? std::numbers::pi / 180.0 : 1.0;
+        param.min = range->min * unit;
+        param.max = range->max * unit;
+    }
+    return param;
 }
 
-GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const GraphRigOptions& options)
+// The plugs a parameter glob (or plug name) matches, vectors as they are; none is an error.
+std::vector<Plug> matchParameterGlob(const Graph& g, const std::string& glob, const std::string& rigName)
 {
-    auto registry = makeBuiltinRegistry();
-    for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
-    std::vector<std::filesystem::path> filesRead;
-    graph_ = loadGraphFile(rigFile, registry, &filesRead);
-    std::uint64_t hash = fnv1a64({});
-    for (const auto& file : filesRead) hash = fnv1a64(readBytes(file), hash);
-    files_ = filesRead;
-    Graph& g = *graph_;
-    const std::string rigName = rigFile.string();
+    std::vector<Plug> matched;
+    if (!isGlobPattern(glob)) {
+        try {
+            matched.push_back(g.plug(glob));
+        }
+        catch (const Error& e) {
+            throw RigSelectionError(fmt::format("{}: parameter '{}': {}", rigName, glob, e.what()), "parameter", glob,
+                                    e.what());
+        }
+    } else
+        for (const Plug& p : allPlugs(g))
+            if (globMatches(glob, g.plugName(p))) matched.push_back(p);
+    if (matched.empty()) {
+        const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, glob));
+        throw RigSelectionError(fmt::format("{}: parameter glob '{}' {}", rigName, glob, reason), "parameter", glob,
+                                reason);
+    }
+    return matched;
+}
 
+// The parameters the globs name, each plug once (in `seen`, with the glob that named it first), in glob order.
+struct SelectedParameters {
+    std::vector<RigParameter> parameters;
+    std::vector<Plug> plugs;
+    std::map<Plug, std::string> seen;
+};
+
+SelectedParameters selectParameters(Graph& g, const GraphRigOptions& options, const std::string& rigName)
+{
     if (options.parameterGlobs.empty())
         throw Error(
             fmt::format("{}: no parameters given; name them with plug globs such as 'L_arm_*.rotate?'", rigName));
-    std::map<Plug, std::string> seen;  // each parameter plug, and the glob that named it first
+    SelectedParameters selected;
     for (const std::string& glob : options.parameterGlobs) {
-        std::vector<Plug> matched;
-        if (!isGlobPattern(glob)) {
-            try {
-                matched.push_back(g.plug(glob));
-            }
-            catch (const Error& e) {
-                throw RigSelectionError(fmt::format("{}: parameter '{}': {}", rigName, glob, e.what()), "parameter",
-                                        glob, e.what());
-            }
-        } else
-            for (const Plug& p : allPlugs(g))
-                if (globMatches(glob, g.plugName(p))) matched.push_back(p);
-        if (matched.empty()) {
-            const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, glob));
-            throw RigSelectionError(fmt::format("{}: parameter glob '{}' {}", rigName, glob, reason), "parameter", glob,
-                                    reason);
-        }
         std::size_t usable = 0;
         std::string refusedPlug, refusedWhy;  // the first plug matched that cannot be a parameter
-        for (const Plug& whole : matched)
+        for (const Plug& whole : matchParameterGlob(g, glob, rigName))
             for (const Plug& p : scalars(g, whole)) {
                 const std::string why = whyNotParameter(g, p);
                 if (!why.empty()) {
@@ -211,36 +231,9 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                     continue;
                 }
                 ++usable;
-                if (!seen.emplace(p, glob).second) continue;
-                const AttributeSpec& s = g.spec(p);
-                RigParameter param;
-                param.name = g.plugName(p);
-                param.defaultValue = toDouble(g.getValue(p));
-                param.angular = s.unit == Unit::Angle;
-                const double half = param.angular              ? defaultAngleRangeDegrees * std::numbers::pi / 180.0
-                                    : s.unit == Unit::Distance ? defaultDistanceRangeCm
-                                                               : defaultUnitlessRange;
-                // A scale through 0 is singular: every world matrix below it has no inverse.
-                const bool scale = s.unit == Unit::None && s.name.starts_with("scale") && param.defaultValue > 0;
-                param.min = s.min   ? *s.min
-                            : scale ? param.defaultValue / defaultScaleFactor
-                                    : param.defaultValue - half;
-                param.max = s.max   ? *s.max
-                            : scale ? param.defaultValue * defaultScaleFactor
-                                    : param.defaultValue + half;
-                // A declared limit binds the solver; a default range, or one the spec gives, is only where learning
-                // samples.
-                param.limited = s.min.has_value() || s.max.has_value();
-                const auto range = std::find_if(options.ranges.begin(), options.ranges.end(),
-                                                [&](const auto& r) { return globMatches(r.glob, param.name); });
-                if (!param.limited && range != options.ranges.end()) {
-                    const double unit = param.angular ? std::numbers::pi / 180.0 : 1.0;
-                    param.min = range->min * unit;
-                    param.max = range->max * unit;
-                }
-                parameters_.push_back(param);
-                parameterPlugs_.push_back(p);
-                current_.push_back(param.defaultValue);
+                if (!selected.seen.emplace(p, glob).second) continue;
+                selected.parameters.push_back(parameterOf(g, p, options.ranges));
+                selected.plugs.push_back(p);
             }
         if (usable == 0 && !isGlobPattern(glob))
             throw RigSelectionError(
@@ -257,15 +250,21 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                                     "parameter", glob, reason);
         }
     }
+    return selected;
+}
 
-    // Held plugs: all checked, then set; each once, by the name the rig gives it.
-    struct Held {
-        Plug plug;
-        Value stored;  // internal units
-        double value;  // as given
-    };
+// Held plugs, all checked before any is set: each once, by the name the rig gives it; none a parameter (`seen`).
+struct Held {
+    Plug plug;
+    Value stored;  // internal units
+    double value;  // as given
+};
+
+std::map<std::string, Held> checkHeldPlugs(const Graph& g, const std::vector<HeldPlug>& plugs,
+                                           const std::map<Plug, std::string>& seen, const std::string& rigName)
+{
     std::map<std::string, Held> held;
-    for (const HeldPlug& h : options.held) {
+    for (const HeldPlug& h : plugs) {
         const auto refuse = [&](const std::string& reason, const std::string& advice) {
             throw RigSelectionError(
                 fmt::format("{}: held plug '{}': {}{}{}", rigName, h.plug, reason, advice.empty() ? "" : "; ", advice),
@@ -303,13 +302,12 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
         if (!added && at->second.value != value)
             refuse(fmt::format("it is held at {} and at {}", at->second.value, value), "give one value");
     }
-    for (const auto& [name, h] : held) {
-        g.setValue(h.plug, h.stored);
-        held_.push_back({name, h.value});
-        hash = fnv1a64(fmt::format("\nheld {}={}", name, h.value), hash);
-    }
-    fingerprint_ = fmt::format("{:016x}", hash);
+    return held;
+}
 
+// The output joints the globs name (every joint without globs), in node order.
+std::set<NodeId> chooseOutputs(const Graph& g, const std::vector<std::string>& globs, const std::string& rigName)
+{
     std::vector<std::string> jointNames;
     std::vector<NodeId> joints;
     for (NodeId n = 0; n < g.nodeCount(); ++n)
@@ -318,8 +316,8 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
             jointNames.push_back(g.nodeName(n));
         }
     std::set<NodeId> chosen;
-    if (options.outputGlobs.empty()) chosen.insert(joints.begin(), joints.end());
-    for (const std::string& glob : options.outputGlobs) {
+    if (globs.empty()) chosen.insert(joints.begin(), joints.end());
+    for (const std::string& glob : globs) {
         std::size_t found = 0;
         for (std::size_t j = 0; j < joints.size(); ++j)
             if (globMatches(glob, jointNames[j])) {
@@ -339,6 +337,45 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
         throw RigSelectionError(fmt::format("{}: output glob '{}' {}", rigName, glob, reason), "output", glob, reason);
     }
     if (chosen.empty()) throw Error(fmt::format("{}: the rig has no joints to use as outputs", rigName));
+    return chosen;
+}
+
+}  // namespace
+
+GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<std::string> plugins)
+{
+    GraphRigOptions options;
+    for (const auto& p : approximation.parameters) options.parameterGlobs.push_back(p.parameter.name);
+    for (const auto& o : approximation.outputs) options.outputGlobs.push_back(o.name);
+    options.plugins = std::move(plugins);
+    options.held = approximation.held;
+    return options;
+}
+
+GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const GraphRigOptions& options)
+{
+    auto registry = makeBuiltinRegistry();
+    for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
+    std::vector<std::filesystem::path> filesRead;
+    graph_ = loadGraphFile(rigFile, registry, &filesRead);
+    std::uint64_t hash = fnv1a64({});
+    for (const auto& file : filesRead) hash = fnv1a64(readBytes(file), hash);
+    files_ = filesRead;
+    Graph& g = *graph_;
+    const std::string rigName = rigFile.string();
+
+    SelectedParameters selected = selectParameters(g, options, rigName);
+    parameters_ = std::move(selected.parameters);
+    parameterPlugs_ = std::move(selected.plugs);
+    for (const RigParameter& param : parameters_) current_.push_back(param.defaultValue);
+    for (const auto& [name, h] : checkHeldPlugs(g, options.held, selected.seen, rigName)) {
+        g.setValue(h.plug, h.stored);
+        held_.push_back({name, h.value});
+        hash = fnv1a64(fmt::format("\nheld {}={}", name, h.value), hash);
+    }
+    fingerprint_ = fmt::format("{:016x}", hash);
+
+    const std::set<NodeId> chosen = chooseOutputs(g, options.outputGlobs, rigName);
     std::map<NodeId, int> outputOfNode;
     for (NodeId n : chosen) {
         outputOfNode[n] = static_cast<int>(outputNames_.size());

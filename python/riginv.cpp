@@ -16,13 +16,15 @@
 #include <pybind11/stl.h>
 #include <yaml-cpp/yaml.h>
 
+#include "app/eval_run.h"
+#include "app/frame_range.h"
+#include "app/invert_run.h"
+#include "app/learn_run.h"
+#include "app/output_file.h"
+#include "app/solve_settings.h"
 #include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "inversion/approximation_io.h"
-#include "tools/cli_common.h"
-#include "tools/eval_run.h"
-#include "tools/invert_run.h"
-#include "tools/learn_run.h"
 
 namespace py = pybind11;
 
@@ -31,29 +33,29 @@ namespace {
 
 // A report as Python objects, equal to what json.load gives for the file the command line writes
 // (nlohmann writes a number that is not finite as null).
-py::object toPython(const cli::Json& json)
+py::object toPython(const app::Json& json)
 {
     switch (json.type()) {
-        case cli::Json::value_t::null:
+        case app::Json::value_t::null:
             return py::none();
-        case cli::Json::value_t::boolean:
+        case app::Json::value_t::boolean:
             return py::bool_(json.get<bool>());
-        case cli::Json::value_t::number_integer:
+        case app::Json::value_t::number_integer:
             return py::int_(json.get<std::int64_t>());
-        case cli::Json::value_t::number_unsigned:
+        case app::Json::value_t::number_unsigned:
             return py::int_(json.get<std::uint64_t>());
-        case cli::Json::value_t::number_float: {
+        case app::Json::value_t::number_float: {
             const double x = json.get<double>();
             return std::isfinite(x) ? py::object(py::float_(x)) : py::object(py::none());
         }
-        case cli::Json::value_t::string:
+        case app::Json::value_t::string:
             return py::str(json.get_ref<const std::string&>());
-        case cli::Json::value_t::array: {
+        case app::Json::value_t::array: {
             py::list list;
             for (const auto& item : json) list.append(toPython(item));
             return list;
         }
-        case cli::Json::value_t::object: {
+        case app::Json::value_t::object: {
             py::dict dict;
             for (const auto& [key, value] : json.items()) dict[py::str(key)] = toPython(value);
             return dict;
@@ -174,6 +176,33 @@ int intArgument(const py::handle& value, std::string_view what)
     return static_cast<int>(x);
 }
 
+// The solve settings' keyword arguments (app/solve_settings.h), one per row of the table: converted as their kind
+// is, then checked by the table, so that a bad value is the table's one line naming the keyword.
+using SettingArguments = std::array<py::object, app::solveSettingCount>;
+app::SolveSettings settingsArgument(const SettingArguments& values)
+{
+    app::SolveSettings out = app::concurrentSolveDefaults();
+    const auto& table = app::solveSettings();
+    for (std::size_t i = 0; i < table.size(); ++i) {
+        const app::SolveSetting& s = table[i];
+        const std::string key = app::settingName(s, app::Spelling::key);
+        if (s.kind == app::SettingKind::count) s.set(out, intArgument(values[i], key));
+        else if (s.kind == app::SettingKind::flag) s.set(out, flagArgument(values[i], key));
+        else s.set(out, app::parseSetting(s, textArgument(values[i], key), app::Spelling::key));
+    }
+    app::checkSettings(out, app::Spelling::key);
+    return out;
+}
+
+// A setting's default keyword value: what the table's default is in Python (an int, a bool, a word).
+py::object settingDefault(const app::SolveSetting& s)
+{
+    const int value = s.get(app::concurrentSolveDefaults());
+    if (s.kind == app::SettingKind::count) return py::int_(value);
+    if (s.kind == app::SettingKind::flag) return py::bool_(value != 0);
+    return py::str(app::settingText(s, value));
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Graph
 
@@ -204,7 +233,7 @@ YAML::Node yamlValue(py::handle value, const std::string& name)
 // (F, N, 4, 4) for arrays whose length does not change (a list of arrays otherwise), a list for strings.
 py::object plugArray(const Graph& graph, const Plug& plug, const std::vector<Value>& values)
 {
-    const double k = cli::userScale(graph, plug);
+    const double k = app::userScale(graph, plug);
     const auto frames = static_cast<py::ssize_t>(values.size());
     const Value& first = values.front();
     const auto sameLength = [&]<class T>(const T&) {
@@ -272,7 +301,7 @@ public:
     {
         PyGraph g;
         g.file_ = pathText(path, "path");
-        g.registry_ = cli::nodeRegistry(textList(plugins, "plugins"));
+        g.registry_ = app::nodeRegistry(textList(plugins, "plugins"));
         g.graph_ = loadGraphFile(g.file_, g.registry_);
         return g;
     }
@@ -284,13 +313,13 @@ public:
         if (set)
             for (const auto& [key, value] : *set) {
                 const std::string name = py::str(key);
-                const Plug plug = cli::settablePlug(graph, name);
-                cli::setPlug(graph, plug, name, yamlValue(value, name));
+                const Plug plug = app::settablePlug(graph, name);
+                app::setPlug(graph, plug, name, yamlValue(value, name));
             }
         std::vector<double> numbers{graph.time()};
         const bool setTime = !frames.is_none();
         if (py::isinstance<py::str>(frames))
-            numbers = cli::parseFrameRange(frames.cast<std::string>(), "--frames").frames();
+            numbers = app::parseFrameRange(frames.cast<std::string>(), "--frames").frames();
         else if (setTime) numbers = frameNumbers(frames);
         std::vector<std::string> patterns;
         if (py::isinstance<py::str>(get)) patterns.push_back(get.cast<std::string>());
@@ -304,13 +333,13 @@ public:
             }
         }
         const auto plugs =
-            cli::selectPlugs(graph, file_, patterns, setTime ? std::optional(numbers.front()) : std::nullopt);
+            app::selectPlugs(graph, file_, patterns, setTime ? std::optional(numbers.front()) : std::nullopt);
         std::vector<std::vector<Value>> columns(plugs.size());
         for (const double frame : numbers) {
-            auto values = cli::evaluateFrame(graph, file_, frame, setTime, plugs);
+            auto values = app::evaluateFrame(graph, file_, frame, setTime, plugs);
             // graph-eval's limit, measured as graph-eval measures it: its JSON for as many frames as the first.
             if (columns.empty() || columns.front().empty())
-                cli::checkOutputSize(cli::jsonOutputEstimate(graph, plugs, frame, values, numbers.size()),
+                app::checkOutputSize(app::jsonOutputEstimate(graph, plugs, frame, values, numbers.size()),
                                      numbers.size(), plugs.size());
             for (std::size_t i = 0; i < plugs.size(); ++i) columns[i].push_back(std::move(values[i]));
         }
@@ -349,7 +378,7 @@ public:
     std::vector<std::string> plugs(const py::object& glob)
     {
         std::vector<std::string> names;
-        for (const Plug& p : cli::selectPlugs(*graph_, file_, {textArgument(glob, "glob")}, std::nullopt))
+        for (const Plug& p : app::selectPlugs(*graph_, file_, {textArgument(glob, "glob")}, std::nullopt))
             names.push_back(graph_->plugName(p));
         return names;
     }
@@ -406,7 +435,7 @@ public:
                                  const py::object& plugins, const py::object& worldSpace, const py::object& setArgument,
                                  const py::object& rangesArgument)
     {
-        cli::LearnJob job{pathText(rig, "rig_path"),
+        app::LearnJob job{pathText(rig, "rig_path"),
                           textList(params, "params"),
                           textList(outputs, "outputs"),
                           textList(plugins, "plugins"),
@@ -446,17 +475,17 @@ public:
                                     typeName(value), messageExcerpt(glob)));
                 job.ranges.push_back({glob, *low, *high});
             }
-        job.options.epsilon = cli::parseEpsilon(fmt::format("{}", numberArgument(epsilon, "epsilon")));
-        job.options.orderer = cli::ordererFromName(textArgument(orderer, "orderer"));
+        job.options.epsilon = app::parseEpsilon(fmt::format("{}", numberArgument(epsilon, "epsilon")));
+        job.options.orderer = app::ordererFromName(textArgument(orderer, "orderer"));
         job.options.relativeFrames = !flagArgument(worldSpace, "world_space");
         ProgressToPython onProgress(progress);
         job.options.progress = [&](std::string_view stage, double fraction) {
-            onProgress(cli::learningFraction(stage, fraction), 1.0);
+            onProgress(app::learningFraction(stage, fraction), 1.0);
         };
-        std::shared_ptr<cli::LearnOutcome> outcome;
+        std::shared_ptr<app::LearnOutcome> outcome;
         {
             py::gil_scoped_release release;
-            outcome = std::make_shared<cli::LearnOutcome>(cli::learn(job));
+            outcome = std::make_shared<app::LearnOutcome>(app::learn(job));
         }
         PyApproximation a;
         a.rig_ = job.rig;
@@ -474,28 +503,28 @@ public:
     {
         const std::string file = pathText(path, "path");
         const bool allowInexact = flagArgument(allowInexactArgument, "allow_inexact");
-        if (const std::string failure = cli::validationFailure(*approximation_); !failure.empty() && !allowInexact)
+        if (const std::string failure = app::validationFailure(*approximation_); !failure.empty() && !allowInexact)
             throw Error(
                 fmt::format("{}; {} not written (save(path, allow_inexact=True) writes it anyway)", failure, file));
-        cli::checkOutputFile(file, "approximation.yaml", "save()");
-        cli::checkDistinctFiles({{"the rig file", approximation_->rigFile}}, {{"save()", file}});
-        cli::writeFileAtomically(file, approximationToYaml(*approximation_));
+        app::checkOutputFile(file, "approximation.yaml", "save()");
+        app::checkDistinctFiles({{"the rig file", approximation_->rigFile}}, {{"save()", file}});
+        app::writeFileAtomically(file, approximationToYaml(*approximation_));
         file_ = file;
     }
 
     py::object report() const
     {
         if (!learned_) return py::none();
-        return toPython(cli::learnReport(*learned_, rig_, file_, file_.has_value()));
+        return toPython(app::learnReport(*learned_, rig_, file_, file_.has_value()));
     }
 
-    py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map, const py::object& threads,
-                     const py::object& restartEvery, const py::object& polish, const py::object& progress,
-                     const py::object& plugins, const py::object& frames) const
+    py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map,
+                     const py::object& progress, const py::object& plugins, const py::object& frames,
+                     const SettingArguments& settings) const
     {
-        cli::InvertJob job;
-        job.approximation = approximation_;
-        job.approximationName = name();
+        app::InvertJob job;
+        job.loadedApproximation = approximation_;
+        job.approximation = name();
         job.rig = pathText(rig, "rig");
         job.plugins = textList(plugins, "plugins");
         if (py::isinstance<py::dict>(targets)) job.targets = targetClip(targets.cast<py::dict>());
@@ -509,23 +538,21 @@ public:
         if (!map.is_none()) job.map = pathText(map, "map");
         if (!frames.is_none()) job.frames = textArgument(frames, "frames");
         checkProgress(progress);
-        job.settings.threads = intArgument(threads, "threads");
-        job.settings.restartEvery = intArgument(restartEvery, "restart_every");
-        job.settings.polish = intArgument(polish, "polish");
+        job.settings = settingsArgument(settings);
         ProgressToPython onProgress(progress);
         job.progress = [&](int done, int total) { onProgress(done, total); };
         job.warning = [](const std::string& warning) {
             py::gil_scoped_acquire acquire;
             if (PyErr_WarnEx(PyExc_RuntimeWarning, warning.c_str(), 1) != 0) throw py::error_already_set();
         };
-        std::optional<cli::InvertOutcome> outcome;
+        std::optional<app::InvertOutcome> outcome;
         std::string curves;
         {
             py::gil_scoped_release release;
-            outcome.emplace(cli::invert(job));
-            curves = cli::curvesJson(*outcome);
+            outcome.emplace(app::invert(job));
+            curves = app::curvesJson(*outcome);
         }
-        const auto values = cli::curveValues(*outcome);
+        const auto values = app::curveValues(*outcome);
         const auto& parameters = approximation_->parameters;
         py::array_t<double> array(
             {static_cast<py::ssize_t>(values.size()), static_cast<py::ssize_t>(parameters.size())});
@@ -536,7 +563,7 @@ public:
         for (const auto& p : parameters) names.append(p.parameter.name);
         const auto clip = job.targets ? std::nullopt : std::optional(job.clip);
         const auto report =
-            cli::invertReport(*outcome, file_, job.rig, clip, std::nullopt, cli::fingerprintText(curves));
+            app::invertReport(*outcome, file_, job.rig, clip, std::nullopt, app::fingerprintText(curves));
         return py::make_tuple(array, names, toPython(report));
     }
 
@@ -629,9 +656,45 @@ private:
 
     std::shared_ptr<const Approximation> approximation_;
     std::optional<std::string> file_;             // loaded from or saved to
-    std::shared_ptr<cli::LearnOutcome> learned_;  // what learning measured, for the report (none once loaded)
+    std::shared_ptr<app::LearnOutcome> learned_;  // what learning measured, for the report (none once loaded)
     std::string rig_;                             // the rig file as given to learn
 };
+
+template <std::size_t>
+using Object = py::object;
+
+// Approximation.invert, with a keyword argument per row of the solve settings' table, its default the table's.
+template <std::size_t... I>
+void defInvert(py::class_<PyApproximation>& approximation, std::index_sequence<I...>)
+{
+    const auto& table = app::solveSettings();
+    std::vector<std::string> keys{app::settingName(table[I], app::Spelling::key)...};
+    // pybind11 copies the names and the text.
+    const std::string doc = fmt::format(
+        "Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).\n\n"
+        "targets: a dict {{joint: (F, 4, 4) float64 array of world matrices, cm}}, frames numbered 0 to F - 1, or a "
+        "clip path (.bvh, or .json as graph-eval writes world matrices).\n"
+        "rig: the rig file the approximation was learned from; map: a map file (scale, joint renames, ignored "
+        "joints; docs/rig-invert.md).\n"
+        "progress: called as progress(frames done, frames total), with the GIL held.\n"
+        "plugins, frames: as rig-invert's --plugin and --frames ('A:B' in the clip's numbering).\n"
+        "{}: the solve settings, as rig-invert's flags of those names ('-' for '_'; a flag's keyword is True or "
+        "False); threads counts the solver's threads (0: all cores; the values do not depend on it).\n"
+        "values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter names; report: "
+        "the dict rig-invert --report-json writes (curves.file is None: nothing is written). The GIL is released "
+        "while solving; Ctrl-C stops it (between frames, seen every 0.1 s).",
+        fmt::join(keys, ", "));
+    approximation.def(
+        "invert",
+        [](const PyApproximation& self, const py::object& targets, const py::object& rig, const py::object& map,
+           const py::object& progress, const py::object& plugins, const py::object& frames,
+           const Object<I>&... settings) {
+            return self.invert(targets, rig, map, progress, plugins, frames, SettingArguments{settings...});
+        },
+        py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(), py::arg("progress") = py::none(),
+        py::kw_only(), py::arg("plugins") = py::list(), py::arg("frames") = py::none(),
+        (py::arg(keys[I].c_str()) = settingDefault(table[I]))..., doc.c_str());
+}
 
 }  // namespace
 }  // namespace rig::python
@@ -684,30 +747,17 @@ PYBIND11_MODULE(riginv, m)
         .def_property_readonly("time", &PyGraph::time, "The scene time (frame) last evaluated.")
         .def("__repr__", [](const PyGraph& g) { return fmt::format("<riginv.Graph {}>", g.file()); });
 
-    py::class_<PyApproximation>(m, "Approximation",
-                                "A rig's learned approximation (docs/rig-learn.md): made by riginv.learn() or "
-                                "Approximation.load(), inverted with invert().")
+    py::class_<PyApproximation> approximation(m, "Approximation",
+                                              "A rig's learned approximation (docs/rig-learn.md): made by "
+                                              "riginv.learn() or Approximation.load(), inverted with invert().");
+    defInvert(approximation, std::make_index_sequence<rig::app::solveSettingCount>());
+    approximation
         .def_static("load", &PyApproximation::load, py::arg("path"),
                     "Reads an approximation file written by rig-learn or save() (docs/approximation-format.md).")
         .def("save", &PyApproximation::save, py::arg("path"), py::arg("allow_inexact") = false,
              "Writes the approximation file (through a temporary file, as rig-learn -o). An approximation whose "
              "validation exceeds epsilon is refused with riginv.Error unless allow_inexact (rig-learn "
              "--allow-inexact).")
-        .def("invert", &PyApproximation::invert, py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(),
-             py::arg("threads") = 1, py::arg("restart_every") = 120, py::arg("polish") = 0,
-             py::arg("progress") = py::none(), py::kw_only(), py::arg("plugins") = py::list(),
-             py::arg("frames") = py::none(),
-             "Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).\n\n"
-             "targets: a dict {joint: (F, 4, 4) float64 array of world matrices, cm}, frames numbered 0 to F - 1, "
-             "or a clip path (.bvh, or .json as graph-eval writes world matrices).\n"
-             "rig: the rig file the approximation was learned from; map: a map file (scale, joint renames, "
-             "ignored joints; docs/rig-invert.md).\n"
-             "threads (0: all cores; the values do not depend on it), restart_every, polish: as rig-invert's "
-             "--threads, --restart-every, --polish. frames: 'A:B' in the clip's numbering (rig-invert --frames).\n"
-             "progress: called as progress(frames done, frames total), with the GIL held.\n"
-             "values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter names; "
-             "report: the dict rig-invert --report-json writes (curves.file is None: nothing is written). The GIL "
-             "is released while solving; Ctrl-C stops it (between frames, seen every 0.1 s).")
         .def_property_readonly("report", &PyApproximation::report,
                                "The dict rig-learn --report-json writes, for an approximation learned by "
                                "riginv.learn() ('approximation' and 'written' name the file once saved); None for "

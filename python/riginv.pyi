@@ -69,13 +69,18 @@ class Approximation:
         targets: Union[Mapping[str, numpy.typing.NDArray[numpy.float64]], _Path],
         rig: _Path,
         map: Optional[_Path] = None,
-        threads: int = 1,
-        restart_every: int = 120,
-        polish: int = 0,
         progress: Optional[Callable[[int, int], Any]] = None,
         *,
         plugins: Sequence[str] = [],
         frames: Optional[str] = None,
+        threads: int = 1,
+        no_partition: bool = False,
+        block_by_block: bool = False,
+        jacobian: str = "analytic",
+        polish: int = 0,
+        restart_every: int = 120,
+        rest_starts: bool = False,
+        hybrid: bool = False,
     ) -> Tuple[numpy.typing.NDArray[numpy.float64], list[str], _Report]:
         """Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).
 
@@ -83,9 +88,11 @@ class Approximation:
         F - 1, or a clip path (.bvh, or .json as graph-eval writes world matrices).
         rig: the rig file the approximation was learned from; map: a map file (scale, joint renames,
         ignored joints; docs/rig-invert.md).
-        threads (0: all cores; the values do not depend on it), restart_every, polish: as rig-invert's
-        --threads, --restart-every, --polish. frames: 'A:B' in the clip's numbering (rig-invert --frames).
         progress: called as progress(frames done, frames total), with the GIL held.
+        plugins, frames: as rig-invert's --plugin and --frames ('A:B' in the clip's numbering).
+        threads, no_partition, block_by_block, jacobian, polish, restart_every, rest_starts, hybrid: the solve
+        settings, as rig-invert's flags of those names ('-' for '_'; a flag's keyword is True or False);
+        threads counts the solver's threads (0: all cores; the values do not depend on it).
         values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter
         names; report: the dict rig-invert --report-json writes (curves.file is None: nothing is
         written). The GIL is released while solving; Ctrl-C stops it (between frames, seen every 0.1 s)."""

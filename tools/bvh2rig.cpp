@@ -3,6 +3,7 @@
 
 #include <fmt/format.h>
 
+#include "app/output_file.h"
 #include "core/error.h"
 #include "nodes/clips/bvh_rig.h"
 #include "tools/cli_common.h"
@@ -19,12 +20,12 @@ struct Options {
 int run(const Options& options)
 {
     // A bad -o is reported before the clip is read.
-    cli::checkOutputFile(options.output, "rig.yaml");
-    cli::checkDistinctFiles({{"the clip", options.clip}}, {{"-o", options.output}});
+    app::checkOutputFile(options.output, "rig.yaml");
+    app::checkDistinctFiles({{"the clip", options.clip}}, {{"-o", options.output}});
     const BvhClip clip = readBvhFile(options.clip);
     for (const auto& w : clip.warnings) std::cerr << "warning: " << oneLine(w) << '\n';
     const BvhRig rig = bvhRig(clip, options.clip, options.rig);
-    cli::writeFileAtomically(options.output, rig.text);
+    app::writeFileAtomically(options.output, rig.text);
     std::cout << fmt::format("wrote {}: {} joints ({} from BVH joints, {} End Sites{}), {} parameters{}\n",
                              options.output, rig.joints, clip.joints.size(), rig.endSites,
                              rig.helpers ? fmt::format(", {} helpers", rig.helpers) : "", clip.channelCount,

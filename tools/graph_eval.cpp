@@ -7,14 +7,16 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "app/eval_run.h"
+#include "app/frame_range.h"
+#include "app/output_file.h"
+#include "app/value_output.h"
 #include "core/error.h"
 #include "core/table.h"
 #include "graph/dot_writer.h"
 #include "graph/type_reference.h"
 #include "graph/yaml_loader.h"
 #include "tools/cli_common.h"
-#include "tools/eval_run.h"
-#include "tools/value_output.h"
 
 namespace rig {
 namespace {
@@ -43,7 +45,7 @@ void applySet(Graph& graph, const std::string& assignment)
     if (eq == std::string::npos)
         throw Error(fmt::format("--set '{}': expected node.attr=VALUE, e.g. --set elbow.rotateZ=45", assignment));
     const std::string name = assignment.substr(0, eq);
-    const Plug plug = cli::settablePlug(graph, name);
+    const Plug plug = app::settablePlug(graph, name);
     YAML::Node value;
     bool valid = true;
     try {
@@ -56,7 +58,7 @@ void applySet(Graph& graph, const std::string& assignment)
     if (!valid)
         throw Error(fmt::format("--set {}: '{}' is not a value; numbers, true/false, names, [x, y, z]", name,
                                 assignment.substr(eq + 1)));
-    cli::setPlug(graph, plug, name, value);
+    app::setPlug(graph, plug, name, value);
 }
 
 std::string joinCsv(const std::vector<std::vector<std::string>>& rows)
@@ -80,27 +82,27 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
         // After the first frame, the size of the whole output is estimated; later the real size is checked.
         const double estimate = framesDone == 1 ? static_cast<double>(bytes) * static_cast<double>(frames.size())
                                                 : static_cast<double>(bytes);
-        cli::checkOutputSize(estimate, frames.size(), plugs.size());
+        app::checkOutputSize(estimate, frames.size(), plugs.size());
     };
     std::size_t framesDone = 0;
     for (double frame : frames) {
-        const std::vector<Value> values = cli::evaluateFrame(graph, options.rig, frame, useTime, plugs, options.check);
+        const std::vector<Value> values = app::evaluateFrame(graph, options.rig, frame, useTime, plugs, options.check);
         if (options.format == "json") {
-            std::vector<std::pair<std::string, cli::Json>> named;
+            std::vector<std::pair<std::string, app::Json>> named;
             for (std::size_t i = 0; i < plugs.size(); ++i)
-                named.emplace_back(graph.plugName(plugs[i]), cli::valueToJson(graph, plugs[i], values[i]));
-            out += (firstRow ? "[\n" : ",\n") + cli::frameJson(frame, named);
+                named.emplace_back(graph.plugName(plugs[i]), app::valueToJson(graph, plugs[i], values[i]));
+            out += (firstRow ? "[\n" : ",\n") + app::frameJson(frame, named);
         } else {
             if (firstRow) {
                 std::vector<std::string> header{"frame"};
                 for (std::size_t i = 0; i < plugs.size(); ++i)
-                    for (const auto& column : cli::csvColumns(graph, plugs[i], values[i])) header.push_back(column);
+                    for (const auto& column : app::csvColumns(graph, plugs[i], values[i])) header.push_back(column);
                 table.push_back(header);
             }
             std::vector<std::string> row{fmt::format("{}", frame)};
             const int digits = options.format == "table" ? 6 : 0;
             for (std::size_t i = 0; i < plugs.size(); ++i)
-                for (const auto& field : cli::csvFields(graph, plugs[i], values[i], digits)) row.push_back(field);
+                for (const auto& field : app::csvFields(graph, plugs[i], values[i], digits)) row.push_back(field);
             table.push_back(row);
             for (const auto& cell : row) tableBytes += cell.size() + 2;
             // CSV rows are joined as they come; only the table needs every row to align its columns.
@@ -120,17 +122,17 @@ int run(const Options& options)
 {
     // A bad -o is reported before any work.
     if (options.outputGiven) {
-        cli::checkOutputFile(options.output);
-        cli::checkDistinctFiles({{"the rig file", options.rig}, {"--anim", options.anim}}, {{"-o", options.output}});
+        app::checkOutputFile(options.output);
+        app::checkDistinctFiles({{"the rig file", options.rig}, {"--anim", options.anim}}, {{"-o", options.output}});
     }
-    const auto registry = cli::nodeRegistry(options.plugins);
+    const auto registry = app::nodeRegistry(options.plugins);
     // The files the rig includes are inputs too: -o must not be one of them.
     auto load = [&] {
         std::vector<std::filesystem::path> read;
         auto graph = loadGraphFile(options.rig, registry, &read);
-        std::vector<cli::NamedFile> inputs;
+        std::vector<app::NamedFile> inputs;
         for (const auto& file : read) inputs.push_back({"a file the rig reads", file});
-        if (options.outputGiven) cli::checkDistinctFiles(inputs, {{"-o", options.output}});
+        if (options.outputGiven) app::checkDistinctFiles(inputs, {{"-o", options.output}});
         return graph;
     };
     std::string text;
@@ -140,12 +142,12 @@ int run(const Options& options)
     else {
         auto graph = load();
         graph->setThreads(options.threads);
-        if (!options.anim.empty()) cli::applyAnimFile(*graph, options.anim);
+        if (!options.anim.empty()) app::applyAnimFile(*graph, options.anim);
         for (const auto& s : options.sets) applySet(*graph, s);
-        std::optional<cli::FrameRange> range;
-        if (options.framesGiven) range = cli::parseFrameRange(options.frames, "--frames");
+        std::optional<app::FrameRange> range;
+        if (options.framesGiven) range = app::parseFrameRange(options.frames, "--frames");
         std::vector<Plug> plugs =
-            cli::selectPlugs(*graph, options.rig, options.gets, range ? std::optional(range->first) : std::nullopt);
+            app::selectPlugs(*graph, options.rig, options.gets, range ? std::optional(range->first) : std::nullopt);
         const std::set<Plug> seen(plugs.begin(), plugs.end());
         // CSV and table columns of a vector are its components: a component also selected whole
         // ('--get node.rotate*' matches rotate and rotateX) would be a second column of the same name.
@@ -166,7 +168,7 @@ int run(const Options& options)
                 graph->computeCount() - computesBefore, 1e3 * seconds / static_cast<double>(frames.size()));
     }
     if (!options.outputGiven) std::cout << text;
-    else cli::writeFileAtomically(options.output, text);
+    else app::writeFileAtomically(options.output, text);
     return 0;
 }
 

@@ -6,27 +6,27 @@
 
 #include <fmt/format.h>
 
+#include "app/batch_backend.h"
+#include "app/batch_run.h"
+#include "app/progress_bar.h"
 #include "core/error.h"
-#include "tools/batch_backend.h"
-#include "tools/batch_run.h"
 #include "tools/cli_common.h"
-#include "tools/progress_bar.h"
 #include "tools/solve_flags.h"
 
 namespace rig {
 namespace {
 
 struct Options {
-    cli::BatchJob job;
+    app::BatchJob job;
     int task = 0;
     bool taskGiven = false;
     bool jobsGiven = false;  // --jobs 0 is an error, not the default
     bool quiet = false;
 };
 
-void printSummary(const cli::BatchJob& job, const cli::Json& report)
+void printSummary(const app::BatchJob& job, const app::Json& report)
 {
-    const cli::Json& totals = report["totals"];
+    const app::Json& totals = report["totals"];
     std::cout << fmt::format("rig-batch: {} clips, {} shards ({} done before, {} run on {}, {} failed)\n\n",
                              totals["clips"].get<int>(), totals["shards"].get<int>(),
                              totals["shards_reused"].get<int>(), totals["shards_run"].get<int>(), job.backend,
@@ -34,10 +34,10 @@ void printSummary(const cli::BatchJob& job, const cli::Json& report)
     std::cout << fmt::format("{:<16} {:>7} {:>7} {:>8} {:>6} {:>10} {:>10} {:>9}  {}\n", "clip", "frames", "reached",
                              "best fit", "failed", "worst cm", "worst deg", "ms/frame", "curves");
     // A non-finite figure is null in JSON: shown as nan, never as a number.
-    const auto number = [](const cli::Json& x) {
+    const auto number = [](const app::Json& x) {
         return x.is_number() ? x.get<double>() : std::numeric_limits<double>::quiet_NaN();
     };
-    for (const cli::Json& c : report["clips"]) {
+    for (const app::Json& c : report["clips"]) {
         if (!c["complete"].get<bool>()) {
             std::cout << fmt::format("{:<16} {:>7}  no curves: a shard failed\n", c["name"].get<std::string>(),
                                      c["frames"].get<int>());
@@ -56,7 +56,7 @@ void printSummary(const cli::BatchJob& job, const cli::Json& report)
                                      ? "fitted on the real rig by --hybrid"
                                      : "their targets were not fitted, so frames that miss them are model "
                                        "mismatches; --hybrid fits them on the real rig");
-    const cli::Json& fps = totals["frames_per_second"];
+    const app::Json& fps = totals["frames_per_second"];
     std::cout << fmt::format("\ntime              {:.3g} s running {} shards{}, {:.3g} s merging\n",
                              totals["run_seconds"].get<double>(), totals["shards_run"].get<int>(),
                              fps.is_null() ? "" : fmt::format(" ({:.4g} frames per second)", fps.get<double>()),
@@ -73,8 +73,8 @@ int run(Options& o)
                             "names; give only --out with it",
                             o.task));
         if (o.job.out.empty()) throw Error(fmt::format("--task {}: give the batch's folder with --out", o.task));
-        cli::dieWithDriver();
-        cli::runShard(o.job.out, o.task);
+        app::dieWithDriver();
+        app::runShard(o.job.out, o.task);
         return 0;
     }
     if (o.jobsGiven && o.job.jobs < 1)
@@ -88,13 +88,13 @@ int run(Options& o)
     std::error_code ec;
     o.job.program = std::filesystem::read_symlink("/proc/self/exe", ec);
     if (ec) throw Error(fmt::format("cannot find rig-batch's own program to start per shard ({})", ec.message()));
-    cli::stopTasksOnSignals();
+    app::stopTasksOnSignals();
     o.job.warning = [](const std::string& warning) { std::cerr << "warning: " << warning << "\n"; };
-    cli::ProgressBar bar("inverting");
+    app::ProgressBar bar("inverting");
     o.job.progress = [&](int done, int total) {
         bar.update(total > 0 ? static_cast<double>(done) / total : 1.0, fmt::format("{}/{} shards", done, total));
     };
-    const cli::BatchOutcome outcome = cli::runBatch(o.job);
+    const app::BatchOutcome outcome = app::runBatch(o.job);
     bar.finish();
     if (!o.quiet) printSummary(o.job, outcome.report);
     // Measured failures: never an exit code of success.
@@ -123,7 +123,7 @@ int run(Options& o)
 int main(int argc, char** argv)
 {
     rig::Options options;
-    rig::cli::BatchJob& job = options.job;
+    rig::app::BatchJob& job = options.job;
     CLI::App app(
         "Inverts a motion library as shards on this machine or a Slurm cluster and merges them into "
         "rig-invert's curves, one file per clip (docs/cluster.md).",
@@ -140,7 +140,8 @@ int main(int argc, char** argv)
     app.add_option("--shard-frames", job.shardFrames,
                    "Frames per shard, rounded up to whole --restart-every intervals (default 4800)");
     app.add_option("--retries", job.retries, "New attempts of failed shards (default 1)");
-    rig::cli::addSolveFlags(app, job.settings, "Solver threads per shard (default 1; 0: all cores)");
+    const rig::cli::SolveFlags solveFlags(app, rig::app::concurrentSolveDefaults(),
+                                          "Solver threads per shard (0: all cores); results do not depend on it");
     app.add_flag("--strict", job.strict, "Refuse an approximation learned from another version of the rig");
     app.add_option("--plugin", job.plugins, "Load a plugin before reading the rig");
     app.add_option("--slurm-mem", job.slurmMemory, "Memory per Slurm task (sbatch --mem, e.g. 2G)");
@@ -152,6 +153,7 @@ int main(int argc, char** argv)
     return rig::cli::runMain(app, argc, argv, [&] {
         options.taskGiven = app.count("--task") > 0;
         options.jobsGiven = app.count("--jobs") > 0;
+        job.settings = solveFlags.settings();
         // What the file system refuses (a link loop, a folder this user may not read) is the user's to fix.
         try {
             return rig::run(options);

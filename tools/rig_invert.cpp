@@ -7,37 +7,33 @@
 
 #include <fmt/format.h>
 
+#include "app/html_report.h"
+#include "app/invert_run.h"
+#include "app/keys_run.h"
+#include "app/output_file.h"
+#include "app/progress_bar.h"
 #include "core/error.h"
 #include "tools/cli_common.h"
-#include "tools/html_report.h"
-#include "tools/invert_run.h"
-#include "tools/keys_run.h"
-#include "tools/progress_bar.h"
 #include "tools/solve_flags.h"
 
 namespace rig {
 namespace {
 
-struct Options {
-    std::string approximation;
-    std::string rig;
+// The inversion's inputs and rig-invert's own options.
+struct Options : app::InversionInputs {
     std::string clip;
-    std::string map;
     std::string frames;
     bool framesGiven = false;  // --frames '' is an error, not the whole clip
     std::string output;
     std::string reportJson;
-    std::vector<std::string> plugins;
-    bool strict = false;
-    cli::InvertSettings settings;
     std::string after;  // curves of the chunk before (--after)
     bool quiet = false;
-    cli::KeySettings keys;
+    app::KeySettings keys;
     bool keysGiven = false;  // --key-tolerance or --key-tolerance-deg: keys instead of a value per frame
     std::string html;
 };
 
-void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli::KeysOutcome* keys)
+void printReport(const Options& o, const app::InvertOutcome& outcome, const app::KeysOutcome* keys)
 {
     const Approximation& a = *outcome.approximation;
     const TargetClip& clip = outcome.clip;
@@ -46,7 +42,7 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
     std::cout << fmt::format("rig-invert: {} on {} with {} ({} parameters, {} target joints)\n", o.clip, o.rig,
                              o.approximation, a.parameters.size(), targets.matchedJoints);
     if (!a.held.empty())
-        std::cout << fmt::format("  the rig is held as the approximation was learned: {}\n", cli::heldText(a.held));
+        std::cout << fmt::format("  the rig is held as the approximation was learned: {}\n", app::heldText(a.held));
     if (!targets.unmatchedJoints.empty())
         std::cout << fmt::format("  {} clip joints are not outputs of the approximation and were not targets\n",
                                  targets.unmatchedJoints.size());
@@ -57,7 +53,7 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
                                  frameStatusName(f.status), f.solve.iterations, f.positionErrorCm, f.worstJoint,
                                  f.rotationErrorDeg, f.worstRotationJoint);
     const auto frameNumber = [&](int index) { return index >= 0 ? clip.frameNumbers[index] : 0.0; };
-    std::cout << fmt::format("\nframes            {}: {}\n", s.frames, cli::statusCountsText(s));
+    std::cout << fmt::format("\nframes            {}: {}\n", s.frames, app::statusCountsText(s));
     if (!s.residualJoints.empty()) {
         // The joints left off their targets on the real rig, the largest error first.
         std::string joints;
@@ -77,7 +73,7 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
         "model gap         {:.3g} cm at worst (the approximation against the real rig at the "
         "answers)\n",
         s.maxModelGapCm);
-    const std::vector<std::string> unmodelled = cli::unmodelledOutputs(a);
+    const std::vector<std::string> unmodelled = app::unmodelledOutputs(a);
     if (!outcome.hybridBlocks.empty())
         std::cout << fmt::format("hybrid            {}\n                  {:.4g} real-rig evaluations per frame\n",
                                  outcome.hybridBlocks, s.frames > 0 ? double(s.realRigEvaluations) / s.frames : 0.0);
@@ -88,7 +84,7 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
             fmt::join(unmodelled, ", "));
     std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
                              s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
-    if (keys) std::cout << cli::keysText(outcome, *keys);
+    if (keys) std::cout << app::keysText(outcome, *keys);
     std::cout << fmt::format("curves            {}\n", o.output);
     if (!o.html.empty()) std::cout << fmt::format("report page       {}\n", o.html);
 }
@@ -96,70 +92,65 @@ void printReport(const Options& o, const cli::InvertOutcome& outcome, const cli:
 int run(const Options& o)
 {
     // Everything that can be checked before the work is.
-    cli::checkOutputFile(o.output, "curves.json");
+    app::checkOutputFile(o.output, "curves.json");
     const auto extension = std::filesystem::path(o.output).extension();
     if (extension != ".json" && extension != ".csv" && extension != ".anim")
         throw Error(
             fmt::format("-o {}: the curves are written as .json, .csv or .anim (Maya); give one of those", o.output));
-    if (!o.reportJson.empty()) cli::checkOutputFile(o.reportJson, "report.json", "--report-json");
-    if (!o.html.empty()) cli::checkOutputFile(o.html, "report.html", "--html");
-    const TangentType tangent = cli::keyTangent(o.keys.tangent);
-    if (o.keysGiven) cli::checkKeySettings(o.keys);
-    const std::string threeJs = o.html.empty() ? std::string() : cli::readThreeJs();
-    const std::vector<cli::NamedFile> outputs{{"-o", o.output}, {"--report-json", o.reportJson}, {"--html", o.html}};
-    cli::checkDistinctFiles({{"the approximation", o.approximation},
+    if (!o.reportJson.empty()) app::checkOutputFile(o.reportJson, "report.json", "--report-json");
+    if (!o.html.empty()) app::checkOutputFile(o.html, "report.html", "--html");
+    const TangentType tangent = app::keyTangent(o.keys.tangent);
+    if (o.keysGiven) app::checkKeySettings(o.keys);
+    const std::string threeJs = o.html.empty() ? std::string() : app::readThreeJs();
+    const std::vector<app::NamedFile> outputs{{"-o", o.output}, {"--report-json", o.reportJson}, {"--html", o.html}};
+    app::checkDistinctFiles({{"the approximation", o.approximation},
                              {"the rig file", o.rig},
                              {"the clip", o.clip},
                              {"the map", o.map},
                              {"--after", o.after}},
                             outputs);
-    cli::InvertJob job;
-    job.approximationName = o.approximation;
-    job.rig = o.rig;
-    job.plugins = o.plugins;
-    job.strict = o.strict;
+    app::InvertJob job;
+    static_cast<app::InversionInputs&>(job) = o;
     job.clip = o.clip;
-    job.map = o.map;
     if (o.framesGiven) job.frames = o.frames;
     job.after = o.after;
-    job.settings = o.settings;
     job.warning = [](const std::string& warning) { std::cerr << "warning: " << warning << "\n"; };
     job.rigLoaded = [&](const GraphRigFunction& rig) {
-        std::vector<cli::NamedFile> read;
+        std::vector<app::NamedFile> read;
         for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
-        cli::checkDistinctFiles(read, outputs);
+        app::checkDistinctFiles(read, outputs);
     };
-    cli::ProgressBar bar("inverting");
+    app::ProgressBar bar("inverting");
     job.progress = [&](int done, int total) { bar.update(static_cast<double>(done) / total); };
-    const cli::InvertOutcome outcome = cli::invert(job);
+    const app::InvertOutcome outcome = app::invert(job);
     bar.finish();
-    std::optional<cli::KeysOutcome> keys;
+    std::optional<app::KeysOutcome> keys;
     if (o.keysGiven) {
-        cli::ProgressBar keying("keying");
-        keys = cli::keyCurves(outcome, o.keys, [&](double fraction) { keying.update(fraction); });
+        app::ProgressBar keying("keying");
+        keys = app::keyCurves(outcome, o.keys, [&](double fraction) { keying.update(fraction); });
     }
-    const cli::KeysOutcome* keyed = keys ? &*keys : nullptr;
+    const app::KeysOutcome* keyed = keys ? &*keys : nullptr;
 
     std::string curves;
-    if (extension == ".anim") curves = cli::curvesAnim(outcome, keyed, tangent);
-    else if (extension == ".csv") curves = keys ? cli::keyedCurvesCsv(outcome, *keys) : cli::curvesCsv(outcome);
-    else curves = keys ? cli::keyedCurvesJson(outcome, *keys) : cli::curvesJson(outcome);
+    if (extension == ".anim") curves = app::curvesAnim(outcome, keyed, tangent);
+    else if (extension == ".csv") curves = keys ? app::keyedCurvesCsv(outcome, *keys) : app::curvesCsv(outcome);
+    else curves = keys ? app::keyedCurvesJson(outcome, *keys) : app::curvesJson(outcome);
     const std::string page =
-        o.html.empty() ? std::string() : cli::htmlReport(outcome, keyed, {o.clip, o.rig, o.approximation}, threeJs);
-    cli::writeFileAtomically(o.output, curves);
-    if (!o.html.empty()) cli::writeFileAtomically(o.html, page);
+        o.html.empty() ? std::string() : app::htmlReport(outcome, keyed, {o.clip, o.rig, o.approximation}, threeJs);
+    app::writeFileAtomically(o.output, curves);
+    if (!o.html.empty()) app::writeFileAtomically(o.html, page);
     if (!o.reportJson.empty()) {
-        cli::Json report =
-            cli::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, cli::fingerprintText(curves));
-        if (keys) report["keys"] = cli::keysReport(outcome, *keys);
-        cli::writeFileAtomically(o.reportJson, cli::jsonText(report, 2) + "\n");
+        app::Json report =
+            app::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, app::fingerprintText(curves));
+        if (keys) report["keys"] = app::keysReport(outcome, *keys);
+        app::writeFileAtomically(o.reportJson, app::jsonText(report, 2) + "\n");
     }
     const ClipInversionSummary& summary = outcome.summary;
     if (!o.quiet) printReport(o, outcome, keyed);
     // Measured as wrong: never an exit code of success.
     if (summary.failedFrames() > 0) {
         std::cerr << "error: "
-                  << oneLine(cli::failedFramesLine(
+                  << oneLine(app::failedFramesLine(
                          summary, outcome.clip.frameNumbers[static_cast<std::size_t>(summary.firstFailedFrame)]))
                   << '\n';
         return 3;
@@ -199,7 +190,7 @@ int main(int argc, char** argv)
                    "Curves to write: .json, .csv or .anim (Maya's animImportExport), angles in degrees")
         ->required();
     app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
-    rig::cli::addSolveFlags(app, options.settings, "Threads for the solver (0: all cores)");
+    const rig::cli::SolveFlags solveFlags(app, rig::app::SolveSettings{});
     app.add_option("--after", options.after,
                    "JSON curves rig-invert wrote for the frames before these: this run continues them (the curves "
                    "of chunks then equal one run's)");
@@ -218,6 +209,7 @@ int main(int argc, char** argv)
     return rig::cli::runMain(app, argc, argv, [&] {
         options.framesGiven = app.count("--frames") > 0;
         options.keysGiven = app.count("--key-tolerance") + app.count("--key-tolerance-deg") > 0;
+        options.settings = solveFlags.settings();
         return rig::run(options);
     });
 }

@@ -9,13 +9,14 @@
 
 #include <fmt/format.h>
 
+#include "app/learn_run.h"
+#include "app/output_file.h"
+#include "app/progress_bar.h"
 #include "core/error.h"
 #include "core/table.h"
 #include "inversion/approximation_io.h"
 #include "nodes/inversion_spec.h"
 #include "tools/cli_common.h"
-#include "tools/learn_run.h"
-#include "tools/progress_bar.h"
 
 namespace rig {
 namespace {
@@ -63,12 +64,12 @@ void readSpec(Options& options)
 
 std::string valueText(const RigParameter& p, double internal)
 {
-    return fmt::format("{:.4g}{}", cli::parameterUserValue(p, internal), p.angular ? " deg" : "");
+    return fmt::format("{:.4g}{}", app::parameterUserValue(p, internal), p.angular ? " deg" : "");
 }
 
 std::string rangeText(const RigParameter& p)
 {
-    return fmt::format("{:g}..{:g}{}", cli::parameterUserValue(p, p.min), cli::parameterUserValue(p, p.max),
+    return fmt::format("{:g}..{:g}{}", app::parameterUserValue(p, p.min), app::parameterUserValue(p, p.max),
                        p.angular ? " deg" : "");
 }
 
@@ -81,7 +82,7 @@ std::string vectorText(const Eigen::Vector3d& v)
 
 // Per-output modelling: the non-compositional outputs with why, and per parameter that moves one, where it is
 // modelled and where not.
-std::string unmodelledText(const cli::LearnOutcome& learned)
+std::string unmodelledText(const app::LearnOutcome& learned)
 {
     const Approximation& a = learned.approximation;
     if (learned.unmodelled.empty()) return {};
@@ -116,7 +117,7 @@ std::string validationText(const Approximation& a)
         "approximation:\n",
         v.poses);
     if (v.poses == 0 || a.parameters.empty()) return out + "  not run (no poses or nothing modelled)\n";
-    const int validated = cli::validatedOutputs(a);
+    const int validated = app::validatedOutputs(a);
     const auto unmodelled = a.outputs.size() - static_cast<std::size_t>(validated);
     out += fmt::format("  validated {} of {} outputs", validated, a.outputs.size() + a.droppedOutputs.size());
     if (unmodelled > 0) out += fmt::format("; {} not modelled (listed above)", unmodelled);
@@ -134,13 +135,13 @@ std::string validationText(const Approximation& a)
     return out;
 }
 
-std::string readableReport(const cli::LearnOutcome& learned, const Options& options)
+std::string readableReport(const app::LearnOutcome& learned, const Options& options)
 {
     const Approximation& a = learned.approximation;
     std::string out =
         fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n", options.rig,
                     learned.rigParameters, learned.rigOutputs, a.epsilon, a.training.orderer);
-    if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", cli::heldText(a.held));
+    if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", app::heldText(a.held));
     out += "\n";
     out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
     std::vector<std::vector<std::string>> rows{
@@ -149,13 +150,12 @@ std::string readableReport(const cli::LearnOutcome& learned, const Options& opti
         const ModelledParameter& m = a.parameters[p];
         const bool one = m.operators.size() == 1;
         const Operator* op = one ? &m.operators.front() : nullptr;
-        const bool analytic = op && op->kind != OperatorKind::sampledRigid && op->kind != OperatorKind::sampledAffine;
-        const bool hasAxis = analytic && op->kind != OperatorKind::uniformScale;
-        const bool hasPivot = analytic && op->kind != OperatorKind::translation;
+        const bool hasAxis = op && op->traits().hasAxis;
+        const bool hasPivot = op && op->traits().hasPivot;
         const std::string outputs = m.unmodelledOutputs.empty()
                                         ? fmt::format("{}", m.outputs.size())
                                         : fmt::format("{} (+{} not)", m.outputs.size(), m.unmodelledOutputs.size());
-        rows.push_back({fmt::format("{}", p + 1), m.parameter.name, cli::storedForm(m),
+        rows.push_back({fmt::format("{}", p + 1), m.parameter.name, app::storedForm(m),
                         hasAxis ? vectorText(op->axis) : "-", hasPivot ? vectorText(op->pivot) : "-",
                         fmt::format("{:.2g}", m.fitError), fmt::format("{}", m.samples), outputs,
                         rangeText(m.parameter)});
@@ -204,35 +204,35 @@ int run(Options& options)
 {
     if (options.rig.empty())
         throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
-    for (const std::string& assignment : options.sets) options.held.push_back(cli::parseHeldPlug(assignment));
+    for (const std::string& assignment : options.sets) options.held.push_back(app::parseHeldPlug(assignment));
     if (!options.spec.empty()) readSpec(options);
     if (options.params.empty()) throw Error("--params is required; run 'rig-learn --help' for usage");
     // Bad outputs and flags are reported before any work.
-    cli::checkOutputFile(options.output, "approximation.yaml");
-    if (options.reportGiven) cli::checkOutputFile(options.reportJson, "report.json", "--report-json");
-    const std::vector<cli::NamedFile> outputs{{"-o", options.output},
+    app::checkOutputFile(options.output, "approximation.yaml");
+    if (options.reportGiven) app::checkOutputFile(options.reportJson, "report.json", "--report-json");
+    const std::vector<app::NamedFile> outputs{{"-o", options.output},
                                               {"--report-json", options.reportGiven ? options.reportJson : ""}};
-    cli::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
-    cli::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
+    app::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
+    app::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
     job.held = options.held;
     job.ranges = options.ranges;
-    if (options.epsilonGiven) job.options.epsilon = cli::parseEpsilon(options.epsilon);
-    job.options.orderer = cli::ordererFromName(options.orderer);
+    if (options.epsilonGiven) job.options.epsilon = app::parseEpsilon(options.epsilon);
+    job.options.orderer = app::ordererFromName(options.orderer);
     job.options.relativeFrames = !options.worldSpace;
     job.options.perOutput = !options.noPerOutput;
     job.options.threads = options.threads;
     job.rigLoaded = [&](const GraphRigFunction& rig) {
-        std::vector<cli::NamedFile> read;
+        std::vector<app::NamedFile> read;
         for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
-        cli::checkDistinctFiles(read, outputs);
+        app::checkDistinctFiles(read, outputs);
     };
-    cli::ProgressBar bar("learning");
+    app::ProgressBar bar("learning");
     job.options.progress = [&](std::string_view stage, double fraction) {
-        bar.update(cli::learningFraction(stage, fraction), std::string(stage));
+        bar.update(app::learningFraction(stage, fraction), std::string(stage));
     };
-    std::optional<cli::LearnOutcome> learned;
+    std::optional<app::LearnOutcome> learned;
     try {
-        learned.emplace(cli::learn(job));
+        learned.emplace(app::learn(job));
     }
     catch (const RigSelectionError& e) {
         // A glob or a held plug of the spec: say where it is written.
@@ -246,13 +246,13 @@ int run(Options& options)
     const Approximation& approximation = learned->approximation;
 
     // What the learner measured as wrong is not written as if it were fine (docs/rig-learn.md: exit 3).
-    const std::string failure = cli::validationFailure(approximation);
+    const std::string failure = app::validationFailure(approximation);
     const bool write = failure.empty() || options.allowInexact;
-    if (write) cli::writeFileAtomically(options.output, approximationToYaml(approximation));
+    if (write) app::writeFileAtomically(options.output, approximationToYaml(approximation));
     if (options.reportGiven)
-        cli::writeFileAtomically(
+        app::writeFileAtomically(
             options.reportJson,
-            cli::jsonText(cli::learnReport(*learned, options.rig, options.output, write), 2) + "\n");
+            app::jsonText(app::learnReport(*learned, options.rig, options.output, write), 2) + "\n");
     std::cout << readableReport(*learned, options);
     if (approximation.parameters.empty())
         std::cerr << "warning: no parameter could be modelled; the approximation is empty (see the discards above)\n";

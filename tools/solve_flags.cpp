@@ -1,25 +1,41 @@
 #include "tools/solve_flags.h"
 
-#include "tools/cli_common.h"
+#include <fmt/format.h>
 
 namespace rig::cli {
 
-void addSolveFlags(CLI::App& app, InvertSettings& s, const std::string& threadsHelp)
+using namespace rig::app;  // the table's names (a constructor's `app` is CLI11's)
+
+SolveFlags::SolveFlags(CLI::App& app, const SolveSettings& defaults, const std::string& threadsHelp)
+    : defaults_(defaults)
 {
-    app.add_option("--threads", s.threads, threadsHelp + "; results do not depend on it")->check(threadCount());
-    app.add_option("--jacobian", s.jacobian, "analytic (default) or fd (finite differences, in parallel)");
-    app.add_flag("--no-partition", s.noPartition, "Solve all parameters as one dense problem");
-    app.add_flag("--block-by-block", s.blockByBlock,
-                 "Solve the partition's blocks one after another, each outer block held (faster, a worse optimum "
-                 "on unreachable targets)");
-    app.add_option("--polish", s.polish, "Real-rig corrections per frame (0: approximation only)");
-    app.add_option("--restart-every", s.restartEvery,
-                   "Frames between warm-start restarts (chunks of a clip then match one run)");
-    app.add_flag("--rest-starts", s.restStarts,
-                 "Restart frames start from the rest values instead of the approximation's initial guess");
-    app.add_flag("--hybrid", s.hybrid,
-                 "Fit the outputs the approximation does not model (an IK leg) by Gauss-Newton on the real rig, "
-                 "after the approximation's solve");
+    const auto& table = solveSettings();
+    for (std::size_t i = 0; i < table.size(); ++i) {
+        const SolveSetting& s = table[i];
+        const std::string name = settingName(s, Spelling::flag);
+        if (s.kind == SettingKind::flag) {
+            options_[i] = app.add_flag(name)->description(std::string(s.help));
+            continue;
+        }
+        const std::string help = s.name == "threads" && !threadsHelp.empty() ? threadsHelp : std::string(s.help);
+        // Taken as text and read by the table (settings()), so that every bad value is the table's one line.
+        options_[i] =
+            app.add_option(name, texts_[i], fmt::format("{} (default {})", help, settingText(s, s.get(defaults))))
+                ->type_name(s.kind == SettingKind::count ? "INT" : "WORD");
+    }
+}
+
+SolveSettings SolveFlags::settings() const
+{
+    SolveSettings out = defaults_;
+    const auto& table = solveSettings();
+    for (std::size_t i = 0; i < table.size(); ++i) {
+        if (options_[i]->count() == 0) continue;
+        const SolveSetting& s = table[i];
+        s.set(out, s.kind == SettingKind::flag ? 1 : parseSetting(s, texts_[i], Spelling::flag));
+    }
+    checkSettings(out, Spelling::flag);
+    return out;
 }
 
 }  // namespace rig::cli

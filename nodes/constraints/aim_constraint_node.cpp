@@ -3,8 +3,8 @@
 #include <algorithm>
 
 #include "nodes/builtin_nodes.h"
+#include "nodes/constraints/constraint_attributes.h"
 #include "nodes/constraints/constraint_math.h"
-#include "nodes/enum_names.h"
 
 namespace rig {
 namespace {
@@ -25,6 +25,8 @@ enum Attr : AttrId {
     ConstraintParentInverseMatrix,
     ConstraintRotate
 };
+
+constexpr constraint::RotateFrame rotateFrame{ConstraintRotateOrder, ConstraintJointOrient};
 
 enum UpType { Scene = 0, Object = 1, ObjectRotation = 2, Vector = 3, None = 4 };
 
@@ -90,8 +92,7 @@ public:
             aimed = rest * Eigen::Quaterniond::FromTwoVectors(a, rest.transpose() * A).toRotationMatrix();
         }
         const Eigen::Matrix3d world = aimed * eulerToMatrix(c.getVector3(Offset), RotateOrder::xyz);
-        const auto order = rotateOrderFromIndex(c.getEnum(ConstraintRotateOrder)).value_or(RotateOrder::xyz);
-        c.setOutput(ConstraintRotate, constraint::rotateFromWorld(parentInverse, world, jointOrient, order));
+        c.setOutput(ConstraintRotate, constraint::rotateFor(c, rotateFrame, parentInverse, world));
     }
 };
 
@@ -110,17 +111,9 @@ std::shared_ptr<const NodeType> makeAimConstraintType()
         "Degenerate cases never give NaN: no usable up (worldUpType none, up parallel to aim, zero up) turns "
         "the object's rest frame by the smallest rotation taking the aim vector onto A; every weight zero, no "
         "target, a target on the object (within 1e-9 relative) or a zero aimVector give restRotate.");
-    b.input(TargetMatrix, "targetMatrix", ValueType::Matrix4)
-        .array()
-        .doc(
-            "World matrix of target i (connect from target.worldMatrix); its translation is the point aimed "
-            "at. A target exists where this element exists.");
-    b.input(TargetWeight, "targetWeight", ValueType::Double)
-        .array()
-        .defaultValue(1.0)
-        .min(0.0)
-        .keyable()
-        .doc("Weight of target i (1 when the element is absent); weights are normalized by their sum.");
+    constraint::addTargets(b, TargetMatrix, TargetWeight,
+                           "World matrix of target i (connect from target.worldMatrix); its translation is the "
+                           "point aimed at. A target exists where this element exists.");
     b.input(AimVector, "aimVector", ValueType::Vector3)
         .defaultValue(Eigen::Vector3d(1, 0, 0))
         .keyable()
@@ -154,32 +147,15 @@ std::shared_ptr<const NodeType> makeAimConstraintType()
         .doc(
             "The constrained object's translate, cm: set the same constant, or connect the source that drives "
             "the object's translate (not the object itself: that closes a cycle).");
-    b.input(Offset, "offset", ValueType::Vector3)
-        .unit(Unit::Angle)
-        .keyable()
+    constraint::addOffset(b, Offset, Unit::Angle)
         .doc("Rotation (xyz order) applied after aiming, in the object's own axes (Maya's offset).");
-    b.input(ConstraintRotateOrder, "constraintRotateOrder", ValueType::Enum)
-        .enumNames(rotateOrderEnumNames())
-        .doc("The constrained object's rotateOrder (set the same value; connecting it would close a cycle).");
-    b.input(ConstraintJointOrient, "constraintJointOrient", ValueType::Vector3)
-        .unit(Unit::Angle)
-        .doc(
-            "The constrained joint's jointOrient (xyz), removed from the result so that it is the joint's "
-            "rotate; zero for a transform. Set the same value as the joint's.");
-    b.input(RestRotate, "restRotate", ValueType::Vector3)
-        .unit(Unit::Angle)
+    constraint::addRotateFrame(b, rotateFrame);
+    constraint::addRestRotate(b, RestRotate)
         .doc(
             "The output when there is nothing to aim at: every weight zero, no target, the target on the "
             "object, or a zero aimVector (Maya's rest position).");
-    b.input(ConstraintParentInverseMatrix, "constraintParentInverseMatrix", ValueType::Matrix4)
-        .doc(
-            "World inverse matrix of the constrained object's parent (connect from parent.worldInverseMatrix; "
-            "identity at the root).");
-    b.output(ConstraintRotate, "constraintRotate", ValueType::Vector3)
-        .unit(Unit::Angle)
-        .doc(
-            "Rotate for the constrained object in constraintRotateOrder (connect to its rotate); of the "
-            "equivalent Euler triples, the one nearest to zero.");
+    constraint::addParentInverse(b, ConstraintParentInverseMatrix);
+    constraint::addRotateOutput(b, ConstraintRotate);
     for (AttrId in = TargetMatrix; in < ConstraintRotate; ++in) b.affects(in, {ConstraintRotate});
     return b.factory<AimConstraintNode>().build();
 }

@@ -1,8 +1,8 @@
 // parentConstraint: Maya's parentConstraint, the object follows its targets as if it were their child
 // (docs/constraints.md).
 #include "nodes/builtin_nodes.h"
+#include "nodes/constraints/constraint_attributes.h"
 #include "nodes/constraints/constraint_math.h"
-#include "nodes/enum_names.h"
 
 namespace rig {
 namespace {
@@ -22,6 +22,8 @@ enum Attr : AttrId {
     ConstraintTranslate,
     ConstraintRotate
 };
+
+constexpr constraint::RotateFrame rotateFrame{ConstraintRotateOrder, ConstraintJointOrient};
 
 class ParentConstraintNode final : public Node {
 public:
@@ -48,9 +50,8 @@ public:
             c.setOutput(ConstraintRotate, c.getVector3(RestRotate));
             return;
         }
-        const auto order = rotateOrderFromIndex(c.getEnum(ConstraintRotateOrder)).value_or(RotateOrder::xyz);
-        c.setOutput(ConstraintRotate, constraint::rotateFromWorld(parentInverse, average->toRotationMatrix(),
-                                                                  c.getVector3(ConstraintJointOrient), order));
+        c.setOutput(ConstraintRotate,
+                    constraint::rotateFor(c, rotateFrame, parentInverse, average->toRotationMatrix()));
     }
 };
 
@@ -68,17 +69,9 @@ std::shared_ptr<const NodeType> makeParentConstraintType()
         "constraintTranslate = constraintParentInverseMatrix * position, constraintRotate = Euler angles in "
         "constraintRotateOrder of JO^-1 * P^-1 * orientation. With every weight zero (or no target) it "
         "outputs restTranslate and restRotate. Wiring: docs/constraints.md.");
-    b.input(TargetMatrix, "targetMatrix", ValueType::Matrix4)
-        .array()
-        .doc(
-            "World matrix of target i (connect from target.worldMatrix). A target exists where this element "
-            "exists.");
-    b.input(TargetWeight, "targetWeight", ValueType::Double)
-        .array()
-        .defaultValue(1.0)
-        .min(0.0)
-        .keyable()
-        .doc("Weight of target i (1 when the element is absent); weights are normalized by their sum.");
+    constraint::addTargets(
+        b, TargetMatrix, TargetWeight,
+        "World matrix of target i (connect from target.worldMatrix). A target exists where this element exists.");
     b.input(TargetOffset, "targetOffset", ValueType::Matrix4)
         .array()
         .doc(
@@ -98,32 +91,14 @@ std::shared_ptr<const NodeType> makeParentConstraintType()
         .doc(
             "World matrix of target i in the rest pose (a constant; identity when absent or singular), used "
             "by maintainOffset.");
-    b.input(ConstraintRotateOrder, "constraintRotateOrder", ValueType::Enum)
-        .enumNames(rotateOrderEnumNames())
-        .doc("The constrained object's rotateOrder (set the same value; connecting it would close a cycle).");
-    b.input(ConstraintJointOrient, "constraintJointOrient", ValueType::Vector3)
-        .unit(Unit::Angle)
-        .doc(
-            "The constrained joint's jointOrient (xyz), removed from the result so that it is the joint's "
-            "rotate; zero for a transform. Set the same value as the joint's.");
-    b.input(RestTranslate, "restTranslate", ValueType::Vector3)
-        .unit(Unit::Distance)
+    constraint::addRotateFrame(b, rotateFrame);
+    constraint::addRestTranslate(b, RestTranslate)
         .doc("constraintTranslate when every weight is zero or there is no target (Maya's rest position), cm.");
-    b.input(RestRotate, "restRotate", ValueType::Vector3)
-        .unit(Unit::Angle)
+    constraint::addRestRotate(b, RestRotate)
         .doc("constraintRotate when every weight is zero or there is no target (Maya's rest position).");
-    b.input(ConstraintParentInverseMatrix, "constraintParentInverseMatrix", ValueType::Matrix4)
-        .doc(
-            "World inverse matrix of the constrained object's parent (connect from parent.worldInverseMatrix; "
-            "identity at the root).");
-    b.output(ConstraintTranslate, "constraintTranslate", ValueType::Vector3)
-        .unit(Unit::Distance)
-        .doc("Translate for the constrained object, cm (connect to its translate).");
-    b.output(ConstraintRotate, "constraintRotate", ValueType::Vector3)
-        .unit(Unit::Angle)
-        .doc(
-            "Rotate for the constrained object in constraintRotateOrder (connect to its rotate); of the "
-            "equivalent Euler triples, the one nearest to zero.");
+    constraint::addParentInverse(b, ConstraintParentInverseMatrix);
+    constraint::addTranslateOutput(b, ConstraintTranslate);
+    constraint::addRotateOutput(b, ConstraintRotate);
     for (AttrId in : {TargetMatrix, TargetWeight, TargetOffset, MaintainOffset, RestMatrix, TargetRestMatrix,
                       ConstraintParentInverseMatrix})
         b.affects(in, {ConstraintTranslate, ConstraintRotate});

@@ -1,6 +1,7 @@
 // pointConstraint: Maya's pointConstraint, the weighted mean of target positions in the constrained
 // object's parent space (docs/constraints.md).
 #include "nodes/builtin_nodes.h"
+#include "nodes/constraints/constraint_attributes.h"
 #include "nodes/constraints/constraint_math.h"
 
 namespace rig {
@@ -40,34 +41,19 @@ std::shared_ptr<const NodeType> makePointConstraintType()
         "translation of targetMatrix[i]. With every weight zero (or no target) it outputs restTranslate. "
         "Wire it as docs/constraints.md shows: targets' worldMatrix in, the constrained object's parent's "
         "worldInverseMatrix in, constraintTranslate to the object's translate.");
-    b.input(TargetMatrix, "targetMatrix", ValueType::Matrix4)
-        .array()
-        .doc(
-            "World matrix of target i (connect from target.worldMatrix); its translation is the target's "
-            "position (Maya uses the target's rotate pivot, the same point when its pivots are zero). A target "
-            "exists where this element exists.");
-    b.input(TargetWeight, "targetWeight", ValueType::Double)
-        .array()
-        .defaultValue(1.0)
-        .min(0.0)
-        .keyable()
-        .doc("Weight of target i (1 when the element is absent); weights are normalized by their sum.");
-    b.input(Offset, "offset", ValueType::Vector3)
-        .unit(Unit::Distance)
-        .keyable()
+    constraint::addTargets(
+        b, TargetMatrix, TargetWeight,
+        "World matrix of target i (connect from target.worldMatrix); its translation is the target's position "
+        "(Maya uses the target's rotate pivot, the same point when its pivots are zero). A target exists where "
+        "this element exists.");
+    constraint::addOffset(b, Offset, Unit::Distance)
         .doc(
             "Added to the result in the parent's space, cm (Maya's offset; maintain offset = the object's "
             "translate minus the constrained result at bind time).");
-    b.input(RestTranslate, "restTranslate", ValueType::Vector3)
-        .unit(Unit::Distance)
+    constraint::addRestTranslate(b, RestTranslate)
         .doc("The output when every weight is zero or there is no target (Maya's rest position), cm.");
-    b.input(ConstraintParentInverseMatrix, "constraintParentInverseMatrix", ValueType::Matrix4)
-        .doc(
-            "World inverse matrix of the constrained object's parent (connect from parent.worldInverseMatrix; "
-            "identity at the root).");
-    b.output(ConstraintTranslate, "constraintTranslate", ValueType::Vector3)
-        .unit(Unit::Distance)
-        .doc("Translate for the constrained object, cm (connect to its translate).");
+    constraint::addParentInverse(b, ConstraintParentInverseMatrix);
+    constraint::addTranslateOutput(b, ConstraintTranslate);
     for (AttrId in = TargetMatrix; in < ConstraintTranslate; ++in) b.affects(in, {ConstraintTranslate});
     return b.factory<PointConstraintNode>().build();
 }

@@ -1,6 +1,7 @@
 // poleVectorConstraint: Maya's poleVectorConstraint, the pole vector of a rotate-plane ikHandle from
 // the start joint toward the weighted mean of its targets (docs/constraints.md).
 #include "nodes/builtin_nodes.h"
+#include "nodes/constraints/constraint_attributes.h"
 #include "nodes/constraints/constraint_math.h"
 
 namespace rig {
@@ -46,23 +47,12 @@ std::shared_ptr<const NodeType> makePoleVectorConstraintType()
         "position, L the 3x3 part of constraintParentInverseMatrix (identity by default: a world-space "
         "direction from the start joint, the pole vector the ikHandle takes). With every weight zero (or no "
         "target) it outputs restTranslate. Wiring: docs/constraints.md.");
-    b.input(TargetMatrix, "targetMatrix", ValueType::Matrix4)
-        .array()
-        .doc(
-            "World matrix of target i, the pole control (connect from target.worldMatrix); its translation is "
-            "the target's position. A target exists where this element exists.");
-    b.input(TargetWeight, "targetWeight", ValueType::Double)
-        .array()
-        .defaultValue(1.0)
-        .min(0.0)
-        .keyable()
-        .doc("Weight of target i (1 when the element is absent); weights are normalized by their sum.");
-    b.input(Offset, "offset", ValueType::Vector3)
-        .unit(Unit::Distance)
-        .keyable()
+    constraint::addTargets(b, TargetMatrix, TargetWeight,
+                           "World matrix of target i, the pole control (connect from target.worldMatrix); its "
+                           "translation is the target's position. A target exists where this element exists.");
+    constraint::addOffset(b, Offset, Unit::Distance)
         .doc("Added to the pole vector, cm (Maya's offset, inherited from pointConstraint).");
-    b.input(RestTranslate, "restTranslate", ValueType::Vector3)
-        .unit(Unit::Distance)
+    constraint::addRestTranslate(b, RestTranslate)
         .doc("The output when every weight is zero or there is no target: set the handle's rest pole vector.");
     b.input(PivotSpace, "pivotSpace", ValueType::Matrix4)
         .doc(
@@ -73,13 +63,12 @@ std::shared_ptr<const NodeType> makePoleVectorConstraintType()
         .doc(
             "The start joint's translate, cm (set the same constant; connecting the start joint itself would "
             "close a cycle through the ikHandle). Start joint world position = pivotSpace * this.");
-    b.input(ConstraintParentInverseMatrix, "constraintParentInverseMatrix", ValueType::Matrix4)
+    constraint::addParentInverse(b, ConstraintParentInverseMatrix)
         .doc(
             "Frame the pole vector is expressed in (only its 3x3 part is used): leave identity for a world-space "
             "pole vector; connect the ikHandle's parent's worldInverseMatrix for a handle that takes it in its "
             "parent's space (Maya connects handle.parentInverseMatrix).");
-    b.output(ConstraintTranslate, "constraintTranslate", ValueType::Vector3)
-        .unit(Unit::Distance)
+    constraint::addTranslateOutput(b, ConstraintTranslate)
         .doc("The pole vector, cm: from the start joint toward the target (connect to ikHandle.poleVector).");
     for (AttrId in = TargetMatrix; in < ConstraintTranslate; ++in) b.affects(in, {ConstraintTranslate});
     return b.factory<PoleVectorConstraintNode>().build();

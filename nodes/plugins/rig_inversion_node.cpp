@@ -106,6 +106,19 @@ public:
     void compute(ComputeContext& c) override
     {
         const std::string node(c.nodeName());
+        load(c, node);
+        const Approximation& a = *loaded_->approximation;
+        const std::vector<JointTarget> targets = targetsOf(c, a);
+        solve(c, node, targets);
+        c.setOutput(status, static_cast<int>(judge(targets)));
+        writeOutputs(c, a);
+    }
+
+private:
+    // The approximation and its solver, read and made again only when `file` or the solver's settings change,
+    // and the map's scale.
+    void load(ComputeContext& c, const std::string& node)
+    {
         SolverOptions options;
         options.maxIterations = c.getInt(maxIterations);
         options.threads = c.getInt(threads);
@@ -136,14 +149,17 @@ public:
             scale_ = mapPath.empty() ? 1.0 : readTargetMap(mapPath).scale;
             mapPath_ = mapPath;
         }
-        const Approximation& a = *loaded_->approximation;
+    }
 
+    // The connected targets, scaled to cm, with their weights; those past the outputs reach nothing.
+    std::vector<JointTarget> targetsOf(ComputeContext& c, const Approximation& a) const
+    {
         std::vector<JointTarget> targets(a.outputs.size());
         const ResidualTerm& term = targetTerm(c.getString(residualTermName), node);
         // A term that counts no rotation has none to weigh: what measures by weights (the hybrid stage) agrees.
         const double rotation = (term.counted(JointTarget{}) & rotationRows) ? c.getDouble(rotationWeight) : 0.0;
         c.forEachElement(target, [&](int k, const Value& v) {
-            if (k >= static_cast<int>(targets.size())) return;  // past the outputs: nothing to reach
+            if (k >= static_cast<int>(targets.size())) return;
             targets[k].active = true;
             targets[k].world = std::get<Eigen::Matrix4d>(v);
             targets[k].world.block<3, 1>(0, 3) *= scale_;
@@ -153,8 +169,14 @@ public:
         c.forEachElement(targetWeight, [&](int k, const Value& v) {
             if (k < static_cast<int>(targets.size())) targets[k].positionWeight = std::get<double>(v);
         });
+        return targets;
+    }
 
-        // The warm-start rule (top of the file).
+    // The frame solved from where the warm-start rule (top of the file) starts it, into solution_, and shifted as
+    // rig-invert reports it into reported_.
+    void solve(ComputeContext& c, const std::string& node, const std::vector<JointTarget>& targets)
+    {
+        const Approximation& a = *loaded_->approximation;
         const double t = c.getDouble(sceneTime);
         const int interval = std::max(1, c.getInt(restartInterval));
         const double sinceStart = t - c.getDouble(startFrame);
@@ -188,8 +210,12 @@ public:
                                      : checkedContinuityShift(equivalences, before_, solution_, &samePose);
         reported_.resize(solution_.size());
         applyShift(equivalences, shift_, solution_, reported_);
-        c.setOutput(status, static_cast<int>(judge(targets)));
+    }
 
+    // The values as reported, the solve's figures, and the names and held values of the approximation.
+    void writeOutputs(ComputeContext& c, const Approximation& a)
+    {
+        const SolveSummary& summary = frame_.summary;
         std::vector<Value> values;
         for (std::size_t i = 0; i < a.parameters.size(); ++i) {
             const auto& p = a.parameters[i].parameter;
@@ -215,7 +241,6 @@ public:
         c.setOutput(heldNames, joinLines(names));
     }
 
-private:
     // The frame's status at reported_ (clip_inversion.h, judgeFrame): on the real rig with the hybrid solve's, as
     // rig-invert --hybrid judges it; otherwise on the approximation, where an output it does not model is a miss.
     FrameStatus judge(std::span<const JointTarget> targets)
@@ -311,6 +336,98 @@ void connectField(Graph& graph, NodeId id, const YAML::Node& field, const YamlFi
     }
 }
 
+// The approximation's output that a target joint is (renamed by the map), or -1.
+int outputOfJoint(const Approximation& a, const TargetMap& targetMap, const std::string& joint)
+{
+    const auto renamed = targetMap.rename.count(joint) ? targetMap.rename.at(joint) : joint;
+    if (std::find(targetMap.ignore.begin(), targetMap.ignore.end(), joint) != targetMap.ignore.end()) return -1;
+    for (std::size_t k = 0; k < a.outputs.size(); ++k)
+        if (a.outputs[k].name == renamed) return static_cast<int>(k);
+    return -1;
+}
+
+// `targets: v`: each joint of the bvhClip or glob v that is an output, to its target[k].
+void connectTargets(Graph& graph, const std::string& node, const YAML::Node& v, const Approximation& a,
+                    const TargetMap& targetMap, const YamlFieldContext& context)
+{
+    int connected = 0;
+    const NodeId clip = graph.findNode(v.Scalar());
+    if (clip >= 0 && graph.nodeType(clip).name() == "bvhClip") {
+        const auto names = std::get<std::string>(graph.getValue(graph.plug(v.Scalar() + ".jointNames")));
+        std::vector<std::string> joints;
+        for (std::size_t s = 0; s <= names.size();) {
+            const auto e = std::min(names.find('\n', s), names.size());
+            if (e > s) joints.push_back(names.substr(s, e - s));
+            s = e + 1;
+        }
+        for (std::size_t j = 0; j < joints.size(); ++j)
+            if (const int k = outputOfJoint(a, targetMap, joints[j]); k >= 0) {
+                graph.connect(graph.plug(fmt::format("{}.worldMatrix[{}]", v.Scalar(), j)),
+                              graph.plug(fmt::format("{}.target[{}]", node, k)));
+                ++connected;
+            }
+    } else {
+        std::vector<Plug> sources;
+        try {
+            sources = matchPlugs(graph, v.Scalar() + ".worldMatrix");
+        }
+        catch (const Error& e) {
+            throw Error(fmt::format("{}: targets: {}", context.where(v), e.what()));
+        }
+        for (const Plug& source : sources)
+            if (const int k = outputOfJoint(a, targetMap, graph.nodeName(source.node)); k >= 0) {
+                graph.connect(source, graph.plug(fmt::format("{}.target[{}]", node, k)));
+                ++connected;
+            }
+    }
+    if (connected == 0)
+        throw Error(
+            fmt::format("{}: no joint of '{}' is an output of the approximation ({}, ...); give a map "
+                        "file that renames them",
+                        context.where(v), v.Scalar(), a.outputs.empty() ? "" : a.outputs[0].name));
+}
+
+// `parameters: true`: value[i] to the rig's parameter plug i, and heldValue[j] to its held plug j.
+void connectParameters(Graph& graph, const std::string& node, const YAML::Node& v, const Approximation& a,
+                       const YamlFieldContext& context)
+{
+    for (std::size_t i = 0; i < a.parameters.size(); ++i) {
+        const auto& name = a.parameters[i].parameter.name;
+        Plug destination;
+        try {
+            destination = graph.plug(name);
+        }
+        catch (const Error&) {
+            throw Error(
+                fmt::format("{}: the approximation drives '{}', which this graph does not have: it "
+                            "was learned from another rig ({}); include that rig or learn this one",
+                            context.where(v), name, a.rigFile));
+        }
+        graph.connect(graph.plug(fmt::format("{}.value[{}]", node, i)), destination);
+    }
+    // The held plugs too: the rig must be in the state the approximation was learned in.
+    for (std::size_t j = 0; j < a.held.size(); ++j) {
+        const HeldPlug& h = a.held[j];
+        Plug destination;
+        try {
+            destination = graph.plug(h.plug);
+        }
+        catch (const Error&) {
+            throw Error(
+                fmt::format("{}: the approximation was learned with '{}' held at {}, which this graph does "
+                            "not have: it was learned from another rig ({}); include that rig or learn this one",
+                            context.where(v), h.plug, h.value, a.rigFile));
+        }
+        if (const Connection* c = graph.incomingConnection(destination))
+            throw Error(
+                fmt::format("{}: the approximation was learned with {} held at {}, but {} drives it here; "
+                            "the node holds it at that value: disconnect it, or learn the rig in another "
+                            "state (rig-learn --set)",
+                            context.where(v), h.plug, h.value, graph.plugName(c->source)));
+        graph.connect(graph.plug(fmt::format("{}.heldValue[{}]", node, j)), destination);
+    }
+}
+
 void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const YamlFieldContext& context)
 {
     const std::string node = graph.nodeName(id);
@@ -319,92 +436,16 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
     const Approximation a = readApproximation(std::get<std::string>(graph.getValue(graph.plug(node + ".file"))), node);
     const std::string mapPath = std::get<std::string>(graph.getValue(graph.plug(node + ".map")));
     const TargetMap targetMap = mapPath.empty() ? TargetMap{} : readTargetMap(mapPath);
-    auto outputIndex = [&](const std::string& joint) {
-        const auto renamed = targetMap.rename.count(joint) ? targetMap.rename.at(joint) : joint;
-        if (std::find(targetMap.ignore.begin(), targetMap.ignore.end(), joint) != targetMap.ignore.end()) return -1;
-        for (std::size_t k = 0; k < a.outputs.size(); ++k)
-            if (a.outputs[k].name == renamed) return static_cast<int>(k);
-        return -1;
-    };
     for (const auto& entry : field) {
         const std::string key = entry.first.Scalar();
         const YAML::Node& v = entry.second;
         if (key == "targets") {
             if (!v.IsScalar()) throw Error(fmt::format("{}: 'targets' is a node name or a glob", context.where(v)));
-            int connected = 0;
-            const NodeId clip = graph.findNode(v.Scalar());
-            if (clip >= 0 && graph.nodeType(clip).name() == "bvhClip") {
-                const auto names = std::get<std::string>(graph.getValue(graph.plug(v.Scalar() + ".jointNames")));
-                std::vector<std::string> joints;
-                for (std::size_t s = 0; s <= names.size();) {
-                    const auto e = std::min(names.find('\n', s), names.size());
-                    if (e > s) joints.push_back(names.substr(s, e - s));
-                    s = e + 1;
-                }
-                for (std::size_t j = 0; j < joints.size(); ++j)
-                    if (const int k = outputIndex(joints[j]); k >= 0) {
-                        graph.connect(graph.plug(fmt::format("{}.worldMatrix[{}]", v.Scalar(), j)),
-                                      graph.plug(fmt::format("{}.target[{}]", node, k)));
-                        ++connected;
-                    }
-            } else {
-                std::vector<Plug> sources;
-                try {
-                    sources = matchPlugs(graph, v.Scalar() + ".worldMatrix");
-                }
-                catch (const Error& e) {
-                    throw Error(fmt::format("{}: targets: {}", context.where(v), e.what()));
-                }
-                for (const Plug& source : sources)
-                    if (const int k = outputIndex(graph.nodeName(source.node)); k >= 0) {
-                        graph.connect(source, graph.plug(fmt::format("{}.target[{}]", node, k)));
-                        ++connected;
-                    }
-            }
-            if (connected == 0)
-                throw Error(
-                    fmt::format("{}: no joint of '{}' is an output of the approximation ({}, ...); give a map "
-                                "file that renames them",
-                                context.where(v), v.Scalar(), a.outputs.empty() ? "" : a.outputs[0].name));
+            connectTargets(graph, node, v, a, targetMap, context);
         } else if (key == "parameters") {
             if (!v.IsScalar() || (v.Scalar() != "true" && v.Scalar() != "false"))
                 throw Error(fmt::format("{}: 'parameters' is true or false", context.where(v)));
-            if (v.Scalar() == "false") continue;
-            for (std::size_t i = 0; i < a.parameters.size(); ++i) {
-                const auto& name = a.parameters[i].parameter.name;
-                Plug destination;
-                try {
-                    destination = graph.plug(name);
-                }
-                catch (const Error&) {
-                    throw Error(
-                        fmt::format("{}: the approximation drives '{}', which this graph does not have: it "
-                                    "was learned from another rig ({}); include that rig or learn this one",
-                                    context.where(v), name, a.rigFile));
-                }
-                graph.connect(graph.plug(fmt::format("{}.value[{}]", node, i)), destination);
-            }
-            // The held plugs too: the rig must be in the state the approximation was learned in.
-            for (std::size_t j = 0; j < a.held.size(); ++j) {
-                const HeldPlug& h = a.held[j];
-                Plug destination;
-                try {
-                    destination = graph.plug(h.plug);
-                }
-                catch (const Error&) {
-                    throw Error(fmt::format(
-                        "{}: the approximation was learned with '{}' held at {}, which this graph does "
-                        "not have: it was learned from another rig ({}); include that rig or learn this one",
-                        context.where(v), h.plug, h.value, a.rigFile));
-                }
-                if (const Connection* c = graph.incomingConnection(destination))
-                    throw Error(
-                        fmt::format("{}: the approximation was learned with {} held at {}, but {} drives it here; "
-                                    "the node holds it at that value: disconnect it, or learn the rig in another "
-                                    "state (rig-learn --set)",
-                                    context.where(v), h.plug, h.value, graph.plugName(c->source)));
-                graph.connect(graph.plug(fmt::format("{}.heldValue[{}]", node, j)), destination);
-            }
+            if (v.Scalar() == "true") connectParameters(graph, node, v, a, context);
         } else {
             throw Error(fmt::format("{}: unknown key '{}' in 'connect'; it has 'targets' and 'parameters'",
                                     context.where(entry.first), key));

@@ -112,6 +112,57 @@ TEST_CASE("operators: P(0) = I, closed forms, and dP/da against central differen
     CHECK(!operatorKindFromName("twirl"));
 }
 
+namespace {
+
+bool rigidMotion(const Eigen::Matrix4d& m)
+{
+    const Eigen::Matrix3d l = m.block<3, 3>(0, 0);
+    return (l.transpose() * l - Eigen::Matrix3d::Identity()).norm() < 1e-9 && l.determinant() > 0;
+}
+
+// Whether P differs anywhere on a few offsets between two operators.
+bool differs(const Operator& a, const Operator& b)
+{
+    for (double x : {-1.1, -0.4, 0.3, 0.9, 1.3})
+        if ((a.matrix(x) - b.matrix(x)).norm() > 1e-9) return true;
+    return false;
+}
+
+}  // namespace
+
+TEST_CASE("operator kind traits: one row per kind, in enum order, each flag true to the kind's matrices")
+{
+    const auto ops = everyKind();
+    REQUIRE(ops.size() == operatorKindTraits.size());
+    for (std::size_t k = 0; k < ops.size(); ++k) {
+        const Operator& op = ops[k];
+        const OperatorKindTraits& t = op.traits();
+        CAPTURE(t.name);
+        CHECK(static_cast<std::size_t>(op.kind) == k);
+        CHECK(t.kind == op.kind);
+        CHECK(operatorKindName(op.kind) == t.name);
+        CHECK(operatorKindFromName(t.name) == op.kind);
+        CHECK(t.valuesPerKnot == (t.sampled ? (t.rigid ? 6 : 12) : 1));
+        bool rigid = true;
+        for (double a = -1.3; a <= 1.6; a += 0.13) rigid = rigid && rigidMotion(op.matrix(a));
+        CHECK(rigid == t.rigid);
+        Operator turned = op;
+        turned.axis = Eigen::Vector3d(0.6, 0.0, -0.8);
+        CHECK(differs(op, turned) == t.hasAxis);
+        Operator moved = op;
+        moved.pivot += Eigen::Vector3d(3, -1, 2);
+        CHECK(differs(op, moved) == t.hasPivot);
+        // A sampled kind has no magnitude: neither slope nor curve changes it.
+        Operator sloped = op;
+        sloped.curve = CubicSpline<1>();
+        sloped.slope = 0.7;
+        CHECK(differs(op, sloped) == !t.sampled);
+        // Angular: a whole turn of a linear magnitude gives P again.
+        const double turn = 2.0 * std::numbers::pi / sloped.slope;
+        CHECK(((sloped.matrix(0.4 + turn) - sloped.matrix(0.4)).norm() < 1e-9) == t.angular);
+    }
+}
+
 TEST_CASE("rotation vectors: exp, log and the left Jacobian")
 {
     const Eigen::Vector3d r(0.3, -1.1, 0.7);

@@ -2,7 +2,9 @@
 the same errors, the GIL released while solving."""
 
 import _thread
+import ast
 import json
+import re
 import shutil
 import signal
 import threading
@@ -12,8 +14,8 @@ import numpy as np
 import pytest
 
 import riginv
-from conftest import (ARM, BIPED, CMU_CLIP, CMU_MAP, SOURCE, biped_spec, need_cmu_clip, raises_like, read_json, run,
-                      share_of_time_another_thread_runs)
+from conftest import (ARM, BIPED, CMU_CLIP, CMU_MAP, SOURCE, biped_spec, error_line, need_cmu_clip, raises_like,
+                      read_json, run, share_of_time_another_thread_runs)
 
 # Differs from run to run (solver time per frame) or says where the curves were written.
 VOLATILE = ("ms_per_frame", "curves")
@@ -199,10 +201,6 @@ def test_errors_are_rig_invert_messages(learned_biped, tmp_path):
                 lambda: approx.invert(CMU_CLIP, rig="rigs/examples/arm.yaml", map=CMU_MAP))
     raises_like("rig-invert", [*base, "--rig", BIPED, "--clip", CMU_CLIP, "--frames", "1:99999"],
                 lambda: approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:99999"))
-    raises_like("rig-invert", [*base, "--rig", BIPED, "--clip", CMU_CLIP, "--restart-every", "0"],
-                lambda: approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, restart_every=0))
-    raises_like("rig-invert", [*base, "--rig", BIPED, "--clip", CMU_CLIP, "--polish", "-1"],
-                lambda: approx.invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, polish=-1))
     raises_like("rig-invert", [*base, "--rig", BIPED, "--clip", "rigs/biped.yaml"],
                 lambda: approx.invert("rigs/biped.yaml", rig=BIPED, map=CMU_MAP))
     # A map naming a joint the targets lack names the targets as the command line names the clip.
@@ -212,6 +210,68 @@ def test_errors_are_rig_invert_messages(learned_biped, tmp_path):
         approx.invert({"Hips": identity_frames(2)}, rig=BIPED, map=bad_map)
     assert str(caught.value) == \
         f"{bad_map}:2: the map renames 'Nobody', which targets does not have; check the joint name"
+
+
+# The solve settings (app/solve_settings.h): each keyword and rig-invert's flag of the same name ('_' for '-').
+SETTINGS = [
+    (["--threads", "3"], {"threads": 3}),
+    (["--no-partition"], {"no_partition": True}),
+    (["--block-by-block"], {"block_by_block": True}),
+    (["--jacobian", "fd"], {"jacobian": "fd"}),
+    (["--polish", "1"], {"polish": 1}),
+    (["--restart-every", "7"], {"restart_every": 7}),
+    (["--rest-starts"], {"rest_starts": True}),
+    (["--hybrid"], {"hybrid": True}),
+]
+
+
+@pytest.mark.parametrize("flags, keywords", SETTINGS, ids=[flags[0] for flags, _ in SETTINGS])
+def test_each_setting_keyword_equals_rig_invert_s_flag(learned_biped, tmp_path, flags, keywords):
+    need_cmu_clip()
+    file, _ = learned_biped
+    expected, _, report = rig_invert(file, tmp_path, "--clip", CMU_CLIP, "--map", CMU_MAP, "--frames", "1:20", *flags)
+    values, _, ours = riginv.Approximation.load(file).invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:20",
+                                                             **keywords)
+    assert np.array_equal(values, expected)
+    assert without(ours, *VOLATILE) == without(report, *VOLATILE)
+
+
+def keyword_message(line):
+    """rig-invert's message with each flag spelled as its keyword: '--restart-every 0' as 'restart_every 0'."""
+    return re.sub(r"--([a-z-]+)", lambda flag: flag.group(1).replace("-", "_"), line)
+
+
+BAD_SETTINGS = [
+    (["--threads", "2000"], {"threads": 2000}),
+    (["--polish", "-1"], {"polish": -1}),
+    (["--restart-every", "0"], {"restart_every": 0}),
+    (["--jacobian", "exact"], {"jacobian": "exact"}),
+    (["--hybrid", "--polish", "2"], {"hybrid": True, "polish": 2}),
+]
+
+
+@pytest.mark.parametrize("flags, keywords", BAD_SETTINGS, ids=[" ".join(flags) for flags, _ in BAD_SETTINGS])
+def test_a_bad_setting_is_rig_invert_s_message_naming_the_keyword(learned_biped, tmp_path, flags, keywords):
+    file, _ = learned_biped
+    expected = error_line("rig-invert", file, "--rig", BIPED, "--clip", "no_such.bvh", "-o", tmp_path / "c.json",
+                          *flags)
+    with pytest.raises(riginv.Error) as caught:
+        riginv.Approximation.load(file).invert({"Hips": identity_frames(2)}, rig=BIPED, **keywords)
+    assert str(caught.value) == keyword_message(expected)
+
+
+def test_the_stub_has_the_module_s_keywords_and_defaults():
+    """riginv.pyi's invert() against the module's own signature (pybind11's first docstring line)."""
+    stub = ast.parse((SOURCE / "python/riginv.pyi").read_text())
+    approximation = next(node for node in stub.body if isinstance(node, ast.ClassDef) and node.name == "Approximation")
+    invert = next(node for node in approximation.body if isinstance(node, ast.FunctionDef) and node.name == "invert")
+    positional = [(a.arg, ast.literal_eval(d)) for a, d in
+                  zip(invert.args.args[-len(invert.args.defaults):], invert.args.defaults)]
+    keywords = [(a.arg, ast.literal_eval(d)) for a, d in zip(invert.args.kwonlyargs, invert.args.kw_defaults)]
+    signature = riginv.Approximation.invert.__doc__.splitlines()[0]
+    module = [(name, ast.literal_eval(value)) for name, value in re.findall(r"(\w+): object = ([^,)]+)", signature)]
+    assert positional + keywords == module
+    assert "*, plugins" in signature
 
 
 def test_a_changed_rig_is_a_warning_as_in_rig_invert(learned_biped, tmp_path):

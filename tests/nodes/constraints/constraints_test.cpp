@@ -8,8 +8,10 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <memory>
 #include <numbers>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -117,6 +119,40 @@ TEST_CASE("constraints: every type and attribute is documented")
                 CHECK(spec.array);
                 CHECK(std::get<double>(spec.defaultValue) == 1.0);
             }
+        }
+    }
+}
+
+TEST_CASE("constraints: an attribute the types share is declared alike in each (constraint_attributes.h)")
+{
+    const auto registry = rig::makeBuiltinRegistry();
+    // Shared attributes whose description is the same in every type that has them; the others (targetMatrix,
+    // offset, the rest values, constraintParentInverseMatrix, constraintTranslate) may say how a type reads them.
+    const std::set<std::string> sameDescription{"targetWeight", "constraintRotateOrder", "constraintJointOrient",
+                                                "constraintRotate"};
+    std::map<std::string, std::vector<const rig::AttributeSpec*>> shared;
+    for (const std::string& name : constraintTypes)
+        for (const rig::AttributeSpec& spec : registry->find(name)->attributes()) shared[spec.name].push_back(&spec);
+    for (const char* everywhere : {"targetMatrix", "targetWeight", "constraintParentInverseMatrix"})
+        CHECK(shared[everywhere].size() == constraintTypes.size());
+    CHECK(shared["constraintRotate"].size() == 3);
+    CHECK(shared["offset"].size() == 4);
+    for (const auto& [name, specs] : shared) {
+        CAPTURE(name);
+        const rig::AttributeSpec& first = *specs.front();
+        for (const rig::AttributeSpec* spec : specs) {
+            // aimConstraint's constraintTranslate is an input (the object's translate), the others' an output.
+            if (name == "constraintTranslate" && spec->input != first.input) continue;
+            CHECK(spec->type == first.type);
+            CHECK(spec->input == first.input);
+            CHECK(spec->keyable == first.keyable);
+            CHECK(spec->array == first.array);
+            CHECK(spec->min == first.min);
+            CHECK(spec->max == first.max);
+            CHECK(spec->enumNames == first.enumNames);
+            // offset is a translation (cm) in point and poleVector, a rotation in orient and aim.
+            if (name != "offset") CHECK(spec->unit == first.unit);
+            if (sameDescription.contains(name)) CHECK(spec->description == first.description);
         }
     }
 }

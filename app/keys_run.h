@@ -1,0 +1,58 @@
+#pragma once
+// rig-invert's keys and Maya .anim output (docs/keys-anim-report.md): the dense curves of an inversion made
+// sparse on its real rig (--key-tolerance, nodes/curves/key_reduction.h), the same clip keyed at a uniform
+// step for comparison, and the curves as keyed JSON, keyed CSV or a .anim file.
+
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "app/invert_run.h"
+#include "app/value_output.h"
+#include "nodes/curves/anim_file.h"
+#include "nodes/curves/key_reduction.h"
+
+namespace rig::app {
+
+struct KeySettings {
+    double toleranceCm = KeyReductionOptions{}.toleranceCm;
+    double toleranceDeg = KeyReductionOptions{}.toleranceDeg;
+    std::string tangent = "auto";  // Maya's name of the keys' tangent type
+};
+
+// The tangent type of --key-tangent; rig::Error naming the flag.
+TangentType keyTangent(const std::string& name);
+// Checks the tolerances and the tangent (rig::Error naming the flag).
+void checkKeySettings(const KeySettings& settings);
+
+struct KeysOutcome {
+    KeySettings settings;
+    KeyedCurves keyed;
+    UniformKeys uniform;
+    std::size_t denseKeys = 0;  // one per frame and control: what the curves had
+
+    double reduction() const;  // the fraction of the dense keys left out
+};
+
+// Keys the outcome's dense curves on its real rig, then finds the uniform step at the same tolerance.
+// `progress(fraction)` may be empty.
+KeysOutcome keyCurves(const InvertOutcome& outcome, const KeySettings& settings,
+                      const std::function<void(double)>& progress);
+
+// The keyed curves, values in user units: JSON {"tangent", "frames": [first, last], "curves": {plug: [[frame,
+// value, in, out], ...]}}, or CSV with one row per key (plug,frame,value,in_tangent,out_tangent).
+std::string keyedCurvesJson(const InvertOutcome& outcome, const KeysOutcome& keys);
+std::string keyedCurvesCsv(const InvertOutcome& outcome, const KeysOutcome& keys);
+
+// The curves as a Maya .anim file: the keys when given, else a key at every frame with `tangent`.
+std::string curvesAnim(const InvertOutcome& outcome, const KeysOutcome* keys, TangentType tangent);
+
+// The "keys" object of the --report-json report.
+Json keysReport(const InvertOutcome& outcome, const KeysOutcome& keys);
+
+// The report's lines on standard output.
+std::string keysText(const InvertOutcome& outcome, const KeysOutcome& keys);
+
+}  // namespace rig::app

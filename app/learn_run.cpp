@@ -1,0 +1,187 @@
+#include "app/learn_run.h"
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "core/parse_number.h"
+
+namespace rig::app {
+
+double parseEpsilon(const std::string& text)
+{
+    double x = 0.0;
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), x);
+    if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !std::isfinite(x))
+        throw Error(
+            fmt::format("--epsilon '{}': not a number; give a positive number of cm per unit of a parameter, "
+                        "e.g. --epsilon 0.001",
+                        text));
+    if (!(x > 0))
+        throw Error(
+            fmt::format("--epsilon '{}': must be positive (cm per unit of a parameter), e.g. --epsilon 0.001", text));
+    return x;
+}
+
+HeldPlug parseHeldPlug(const std::string& assignment)
+{
+    const auto eq = assignment.find('=');
+    if (eq == std::string::npos || eq == 0)
+        throw Error(fmt::format("--set '{}': expected PLUG=VALUE, e.g. --set L_leg_settings.ikFk=1",
+                                messageExcerpt(assignment)));
+    const std::string plug = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+    const auto value = parseFiniteNumber(text);
+    if (!value)
+        throw Error(
+            fmt::format("--set {}: '{}' is not a number; give a finite number in the rig file's units "
+                        "(degrees for angles), e.g. --set {}=1",
+                        messageExcerpt(plug), messageExcerpt(text), messageExcerpt(plug)));
+    return {plug, *value};
+}
+
+Orderer ordererFromName(const std::string& name)
+{
+    if (name == "structured") return Orderer::structured;
+    if (name == "talk") return Orderer::talk;
+    throw Error(fmt::format("--orderer: {} not in {{talk,structured}}", messageExcerpt(name)));
+}
+
+double learningFraction(std::string_view stage, double fraction)
+{
+    const double start = stage == "sampling" ? 0.0 : stage == "classifying" ? 0.45 : stage == "ordering" ? 0.6 : 0.85;
+    const double width = stage == "sampling" ? 0.45 : stage == "classifying" ? 0.15 : stage == "ordering" ? 0.25 : 0.15;
+    return start + width * fraction;
+}
+
+LearnOutcome learn(const LearnJob& job)
+{
+    const auto loadStart = std::chrono::steady_clock::now();
+    GraphRigFunction rig(job.rig, GraphRigOptions{job.params, job.outputs, job.plugins, job.held, job.ranges});
+    if (job.rigLoaded) job.rigLoaded(rig);
+    LearnOutcome out;
+    out.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
+    out.rigParameters = rig.parameters().size();
+    out.rigOutputs = rig.outputs().size();
+    try {
+        out.approximation = learnApproximation(rig, job.options, job.rig, &out.unmodelled);
+    }
+    catch (const Error& e) {
+        // A rig that refuses a sampled value (a node's own limit) or fails to evaluate: say where.
+        throw Error(fmt::format("{}: evaluating the rig while learning: {}", job.rig, e.what()));
+    }
+    out.approximation.held = rig.held();
+    return out;
+}
+
+int validatedOutputs(const Approximation& a)
+{
+    if (a.validation.poses == 0 || a.parameters.empty()) return 0;
+    return static_cast<int>(
+        std::count_if(a.outputs.begin(), a.outputs.end(), [](const ApproximationOutput& o) { return o.modelled; }));
+}
+
+std::string storedForm(const ModelledParameter& m)
+{
+    const auto name = [](const Operator& op) {
+        return op.linear() ? std::string(operatorKindName(op.kind))
+                           : fmt::format("{} (curve)", operatorKindName(op.kind));
+    };
+    if (m.operators.empty()) return "none (real rig only)";
+    if (m.operators.size() == 1) return name(m.operators.front());
+    std::map<std::string, int> counts;
+    for (const Operator& op : m.operators) ++counts[name(op)];
+    std::string out = "per output:";
+    for (const auto& [form, count] : counts) out += fmt::format(" {} {}", count, form);
+    return out;
+}
+
+Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std::optional<std::string>& approximation,
+                 bool written)
+{
+    const Approximation& a = outcome.approximation;
+    Json modelled = Json::array(), forms = Json::array(), saturated = Json::array();
+    for (const ModelledParameter& m : a.parameters) {
+        modelled.push_back(m.parameter.name);
+        // A parameter on the real rig only was never validated: no error, rather than an error of 0.
+        forms.push_back({{"name", m.parameter.name},
+                         {"form", storedForm(m)},
+                         {"fit_error", numberJson(m.fitError)},
+                         {"samples", m.samples},
+                         {"outputs", m.outputs.size()},
+                         {"validation_error", m.outputs.empty() ? Json() : numberJson(m.validationError)}});
+        for (const auto& [from, to] : m.noEffect)
+            saturated.push_back({{"name", m.parameter.name}, {"from", numberJson(from)}, {"to", numberJson(to)}});
+    }
+    Json discarded = Json::array();
+    for (const auto& d : a.discarded) discarded.push_back({{"name", d.parameter.name}, {"reason", d.reason}});
+    Json redundant = Json::array();
+    for (const auto& [i, j] : redundantParameters(a))
+        redundant.push_back(Json::array({a.parameters[static_cast<std::size_t>(i)].parameter.name,
+                                         a.parameters[static_cast<std::size_t>(j)].parameter.name}));
+    Json outputs = Json::array();
+    for (const ApproximationOutput& o : a.outputs) {
+        const std::string frame = o.parent >= 0 ? a.outputs[static_cast<std::size_t>(o.parent)].name : "world";
+        outputs.push_back({{"name", o.name},
+                           {"frame", frame},
+                           {"validation_error", o.modelled ? numberJson(o.validationError) : Json()}});
+    }
+    Json unmodelled = Json::array();
+    for (const UnmodelledOutput& u : outcome.unmodelled) unmodelled.push_back({{"name", u.name}, {"reason", u.reason}});
+    Json dropped = Json::array();
+    for (const DroppedOutput& d : a.droppedOutputs) dropped.push_back({{"name", d.name}, {"reason", d.reason}});
+    const ValidationSummary& v = a.validation;
+    return Json{{"rig", rig},
+                {"approximation", approximation ? Json(*approximation) : Json()},
+                {"fingerprint", a.rigFingerprint},
+                {"epsilon", numberJson(a.epsilon)},
+                {"orderer", a.training.orderer},
+                {"parameters", outcome.rigParameters},
+                {"outputs", outcome.rigOutputs},
+                {"held", heldJson(a.held)},
+                {"evaluations", a.training.evaluations},
+                {"order_evaluations", a.training.orderEvaluations},
+                {"seconds", numberJson(a.training.seconds)},
+                {"load_seconds", numberJson(outcome.loadSeconds)},
+                {"modelled", std::move(modelled)},
+                {"forms", std::move(forms)},
+                {"discarded", std::move(discarded)},
+                {"redundant", std::move(redundant)},
+                {"saturated", std::move(saturated)},
+                {"frames", std::move(outputs)},
+                {"dropped_outputs", std::move(dropped)},
+                {"unmodelled_outputs", std::move(unmodelled)},
+                {"within_epsilon", v.withinEpsilon},
+                {"written", written},
+                {"validation",
+                 {{"poses", v.poses},
+                  {"validated_outputs", validatedOutputs(a)},
+                  {"max_position_error_cm", numberJson(v.maxPositionErrorCm)},
+                  {"mean_position_error_cm", numberJson(v.meanPositionErrorCm)},
+                  {"max_rotation_error_deg", numberJson(v.maxRotationErrorDeg)},
+                  {"mean_rotation_error_deg", numberJson(v.meanRotationErrorDeg)},
+                  {"worst_output", v.worstOutput},
+                  {"worst_pose", v.worstPose},
+                  {"max_relative_error", numberJson(v.maxRelativeError)},
+                  {"worst_relative_output", v.worstRelativeOutput},
+                  {"worst_parameter", v.worstParameter},
+                  {"non_finite_poses", v.nonFinitePoses}}}};
+}
+
+std::string validationFailure(const Approximation& approximation)
+{
+    const ValidationSummary& v = approximation.validation;
+    if (v.withinEpsilon) return {};
+    if (v.nonFinitePoses > 0)
+        return fmt::format("the rig gave non-finite matrices at {} of {} validation poses", v.nonFinitePoses, v.poses);
+    return fmt::format(
+        "the approximation exceeds epsilon {:g}: {:.3g} cm per unit of the parameters moved on {} "
+        "(moving {} most)",
+        approximation.epsilon, v.maxRelativeError, v.worstRelativeOutput, v.worstParameter);
+}
+
+}  // namespace rig::app
