@@ -155,7 +155,7 @@ private:
     std::vector<JointTarget> targetsOf(ComputeContext& c, const Approximation& a) const
     {
         std::vector<JointTarget> targets(a.outputs.size());
-        const ResidualTerm& term = targetTerm(c.getString(residualTermName), node);
+        const ResidualTerm& term = targetTerm(c.getString(residualTermName), c.nodeName());
         // A term that counts no rotation has none to weigh: what measures by weights (the hybrid stage) agrees.
         const double rotation = (term.counted(JointTarget{}) & rotationRows) ? c.getDouble(rotationWeight) : 0.0;
         c.forEachElement(target, [&](int k, const Value& v) {
