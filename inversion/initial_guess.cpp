@@ -42,6 +42,10 @@ double Solver::Impl::unmovedPositionCost(const BlockPlan& block, std::span<const
                                          std::span<const double> values) const
 {
     const ResidualStructure& structure = block.structure;
+    // Only the built-in terms are known to start with three position rows: any other kind counts as moved.
+    const int outputs = static_cast<int>(structure.outputs().size());
+    for (int o = 0; o < outputs; ++o)
+        if (&structure.term(o) != &jointTargetTerm() && &structure.term(o) != &positionTerm()) return -1.0;
     Borrowed<BlockWorkspace> borrowed(block.pool, [&] { return block.makeWorkspace(); });
     BlockWorkspace& w = *borrowed;
     std::vector<double>& x = w.state.x;
@@ -52,13 +56,16 @@ double Solver::Impl::unmovedPositionCost(const BlockPlan& block, std::span<const
     w.residual.jacobian(x, JacobianMethod::analytic, options.finiteDifferenceStep, false, r, w.J);
     // A rotation about pivot c moves a point p by omega x (p - c): zero for every rotation of the product
     // (at any pose) exactly when every pivot is at p. Rounding aside, which this scale bounds.
+    // (The joint target's last three rows are its rotation's.)
     double scale = 1.0;
-    for (Eigen::Index o = 0; o < r.size(); o += rowsPerTarget)
-        scale = std::max(scale, w.J.middleRows<3>(o + 3).cwiseAbs().maxCoeff());
+    for (int o = 0; o < outputs; ++o)
+        if (&structure.term(o) == &jointTargetTerm())
+            scale = std::max(scale, w.J.middleRows<3>(structure.rowOffset(o) + 3).cwiseAbs().maxCoeff());
     double position = 0.0;
-    for (Eigen::Index o = 0; o < r.size(); o += rowsPerTarget) {
-        if (w.J.middleRows<3>(o).cwiseAbs().maxCoeff() > 1e-9 * scale) return -1.0;
-        position += 0.5 * r.segment<3>(o).squaredNorm();
+    for (int o = 0; o < outputs; ++o) {
+        const Eigen::Index row = structure.rowOffset(o);
+        if (w.J.middleRows<3>(row).cwiseAbs().maxCoeff() > 1e-9 * scale) return -1.0;
+        position += 0.5 * r.segment<3>(row).squaredNorm();
     }
     return position;
 }

@@ -24,11 +24,6 @@ using Vector6d = Eigen::Matrix<double, 6, 1>;
 // decomposition (an SVD) is skipped: the error it would remove is far below any tolerance.
 constexpr double orthonormalSlack = 1e-10;
 
-bool nearlyOrthonormal(const Eigen::Matrix3d& a)
-{
-    return ((a.transpose() * a) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < orthonormalSlack;
-}
-
 // The rotation residual: 2 vec(q) for the unit quaternion q = (w, v) of Q_target^T Q, taken with w >= 0,
 // so |r| = 2 sin(theta / 2). Its cost 2 sin^2(theta / 2) = 1 - cos(theta) is smooth everywhere and stationary
 // only at theta = 0 (the minimum) and at half a turn (its maximum). The logarithm's cost theta^2 / 2 has
@@ -96,6 +91,11 @@ std::string_view jacobianMethodName(JacobianMethod method)
 
 bool nearlySingular(const Eigen::Vector3d& sigma) { return !(sigma[0] > 0) || !(sigma[2] > 1e-9 * sigma[0]); }
 
+bool nearlyOrthonormal(const Eigen::Matrix3d& a)
+{
+    return ((a.transpose() * a) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < orthonormalSlack;
+}
+
 bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTarget& prepared)
 {
     if (!target.world.topRows<3>().allFinite()) return false;
@@ -131,11 +131,20 @@ TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& targ
 // --- ResidualStructure ---
 
 ResidualStructure::ResidualStructure(const Approximation& approximation, std::vector<int> columns,
-                                     std::vector<int> outputs)
+                                     std::vector<int> outputs, std::span<const ResidualTerm* const> terms)
     : approximation_(&approximation), columns_(std::move(columns)), outputs_(std::move(outputs))
 {
-    const int parameterCount = static_cast<int>(approximation.parameters.size());
-    const int outputCount = static_cast<int>(approximation.outputs.size());
+    const std::vector<std::vector<Link>> links = outputLinks(ownLinks(checkIndices()));
+    makeChains(links);
+    makeTree(links);
+    makePairs();
+    attachTerms(terms);
+}
+
+std::vector<int> ResidualStructure::checkIndices() const
+{
+    const int parameterCount = static_cast<int>(approximation_->parameters.size());
+    const int outputCount = static_cast<int>(approximation_->outputs.size());
     std::vector<int> columnOf(static_cast<std::size_t>(parameterCount), -1);
     for (std::size_t c = 0; c < columns_.size(); ++c) {
         const int p = columns_[c];
@@ -148,12 +157,17 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
         if (k < 0 || k >= outputCount || (o > 0 && k <= outputs_[o - 1]))
             throw internalError("ResidualStructure: outputs must be increasing output indices");
     }
+    return columnOf;
+}
 
-    // Each output's own links, outermost first: walking the parameters in composition order. An output's
-    // chain is its ancestors' own links (relative outputs), root first, then its own.
+std::vector<std::vector<ResidualStructure::Link>> ResidualStructure::ownLinks(const std::vector<int>& columnOf)
+{
+    // Each output's own links, outermost first: walking the parameters in composition order.
+    const Approximation& approximation = *approximation_;
+    const int outputCount = static_cast<int>(approximation.outputs.size());
     std::vector<std::vector<Link>> own(static_cast<std::size_t>(outputCount));
     std::vector<std::vector<std::pair<int, int>>> slotOfColumnOp(columns_.size());  // (op, slot)
-    for (int p = 0; p < parameterCount; ++p) {
+    for (int p = 0; p < static_cast<int>(approximation.parameters.size()); ++p) {
         const ModelledParameter& m = approximation.parameters[static_cast<std::size_t>(p)];
         for (std::size_t e = 0; e < m.outputs.size(); ++e) {
             const int k = m.outputs[e];
@@ -177,19 +191,30 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
             own[static_cast<std::size_t>(k)].push_back(link);
         }
     }
+    return own;
+}
+
+std::vector<std::vector<ResidualStructure::Link>> ResidualStructure::outputLinks(
+    const std::vector<std::vector<Link>>& own) const
+{
+    // An output's chain is its ancestors' own links (relative outputs), root first, then its own.
+    const std::size_t outputCount = approximation_->outputs.size();
     std::vector<std::vector<Link>> links(outputs_.size());
     for (std::size_t o = 0; o < outputs_.size(); ++o) {
         std::vector<int> path;
-        for (int k = outputs_[o]; k >= 0; k = approximation.outputs[static_cast<std::size_t>(k)].parent) {
-            if (path.size() > static_cast<std::size_t>(outputCount))
-                throw internalError("ResidualStructure: the outputs' parents form a cycle");
+        for (int k = outputs_[o]; k >= 0; k = approximation_->outputs[static_cast<std::size_t>(k)].parent) {
+            if (path.size() > outputCount) throw internalError("ResidualStructure: the outputs' parents form a cycle");
             path.push_back(k);
         }
         for (auto it = path.rbegin(); it != path.rend(); ++it)
             links[o].insert(links[o].end(), own[static_cast<std::size_t>(*it)].begin(),
                             own[static_cast<std::size_t>(*it)].end());
     }
+    return links;
+}
 
+void ResidualStructure::makeChains(const std::vector<std::vector<Link>>& links)
+{
     outputsOfColumn_.assign(columns_.size(), {});
     chains_.resize(outputs_.size());
     std::map<int, int> heldIndex;  // parameter -> index into heldParameters_
@@ -215,8 +240,16 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
         maxVars_ = std::max(maxVars_, static_cast<int>(chain.varSlots.size()));
         constantCount_ += static_cast<int>(chain.gaps.size());
     }
+    columnsOfOutput_.assign(outputs_.size(), {});
+    for (std::size_t c = 0; c < outputsOfColumn_.size(); ++c)
+        for (const int o : outputsOfColumn_[c])
+            columnsOfOutput_[static_cast<std::size_t>(o)].push_back(static_cast<int>(c));
+}
 
+void ResidualStructure::makeTree(const std::vector<std::vector<Link>>& links)
+{
     // The prefix tree: an output's path is its links; equal beginnings share nodes.
+    const Approximation& approximation = *approximation_;
     std::map<std::tuple<int, int, int, int>, int> nodeOf;  // parent, slot, parameter, op
     auto child = [&](int parent, const Link& link) {
         const int parameter = link.column >= 0 ? -1 : link.parameter;
@@ -253,11 +286,10 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
         outputRigid_[o] =
             (node < 0 || nodes_[static_cast<std::size_t>(node)].rigid) && nearlyOrthonormal(rest.block<3, 3>(0, 0));
     }
+}
 
-    columnsOfOutput_.assign(outputs_.size(), {});
-    for (std::size_t c = 0; c < outputsOfColumn_.size(); ++c)
-        for (const int o : outputsOfColumn_[c])
-            columnsOfOutput_[static_cast<std::size_t>(o)].push_back(static_cast<int>(c));
+void ResidualStructure::makePairs()
+{
     unknownUp_.assign(nodes_.size(), -1);
     twistForm_ = true;
     for (std::size_t n = 0; n < nodes_.size(); ++n) {
@@ -294,6 +326,23 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
     }
 }
 
+void ResidualStructure::attachTerms(std::span<const ResidualTerm* const> terms)
+{
+    if (!terms.empty() && terms.size() != approximation_->outputs.size())
+        throw internalError(
+            fmt::format("ResidualStructure: {} terms for {} outputs", terms.size(), approximation_->outputs.size()));
+    const ResidualTerm* joint = &jointTargetTerm();
+    rowOffset_.assign(1, 0);
+    for (const int k : outputs_) {
+        const ResidualTerm* term = terms.empty() ? nullptr : terms[static_cast<std::size_t>(k)];
+        if (!term) term = joint;
+        terms_.push_back(term);
+        jointTargetsOnly_ = jointTargetsOnly_ && term == joint;
+        jointTarget_.push_back(term == joint);
+        rowOffset_.push_back(rowOffset_.back() + term->rows());
+    }
+}
+
 // --- ResidualWorkspace ---
 
 ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : structure_(&structure)
@@ -323,6 +372,7 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     load_.assign(s.nodes_.size(), Vector6d::Zero());
     weight_.assign(s.nodes_.size(), TwistWeight{Eigen::Matrix3d::Zero(), Eigen::Vector3d::Zero(), 0.0});
     weighted_.assign(s.nodes_.size(), Vector6d::Zero());
+    if (!s.jointTargetsOnly_) fullWeight_.assign(s.nodes_.size(), Matrix6::Zero());
     useLayout({});
     fresh_.assign(s.nodes_.size(), 0);
 }
@@ -462,9 +512,16 @@ void ResidualWorkspace::evaluateTree()
 
 void ResidualWorkspace::residualRows(Eigen::Ref<Eigen::VectorXd> r)
 {
+    const auto& s = *structure_;
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
-        auto rows = r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o));
-        if (!structure_->outputRigid_[o]) {
+        if (!s.jointTarget(o)) {
+            TermRows rows;
+            s.terms_[o]->residual(worlds_[o], targets_[o], rows);
+            r.segment(s.rowOffset_[o], rows.size()) = rows;
+            continue;
+        }
+        auto rows = r.segment<jointTargetRows>(s.rowOffset_[o]);
+        if (!s.outputRigid_[o]) {
             rows = residual6(worlds_[o], targets_[o]);
             continue;
         }
@@ -481,6 +538,7 @@ void ResidualWorkspace::residualRows(Eigen::Ref<Eigen::VectorXd> r)
 TargetError ResidualWorkspace::error(int o) const
 {
     const std::size_t i = static_cast<std::size_t>(o);
+    if (!structure_->jointTarget(i)) return structure_->terms_[i]->error(worlds_[i], targets_[i]);
     if (!structure_->outputRigid_[i]) return targetError(worlds_[i], targets_[i]);
     // residualRows' quaternion of Q_target^T Q (w >= 0): its angle, as targetError's AngleAxis takes it.
     const Eigen::Quaterniond& e = quaternion_[i];
@@ -541,6 +599,10 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
         const auto& vars = s.outputVars_[o];
         if (vars.empty()) continue;
+        if (!s.jointTarget(o)) {
+            termTreeJacobian(o, jacobian);
+            continue;
+        }
         const PreparedTarget& t = targets_[o];
         const Eigen::Matrix3d a = worlds_[o].block<3, 3>(0, 0);
         const Eigen::Vector3d position = worlds_[o].block<3, 1>(0, 3);
@@ -557,7 +619,7 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
         }
         Eigen::Matrix3d rotationRows = t.rotationWeight * halfAngle(q, t).rows;
         if (!rigid) rotationRows = rotationRows * kInverse;
-        const Eigen::Index row = static_cast<Eigen::Index>(rowsPerTarget * o);
+        const Eigen::Index row = s.rowOffset_[o];
         for (const int n : vars) {
             const Affine& xi = velocity_[static_cast<std::size_t>(n)];
             const Eigen::Index column =
@@ -574,6 +636,24 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
                 jacobian.block<3, 1>(row + 3, column) += rotationRows * skewPart;
             }
         }
+    }
+}
+
+void ResidualWorkspace::termTreeJacobian(std::size_t o, Eigen::Ref<Eigen::MatrixXd> jacobian)
+{
+    // A velocity Xi moves the world by dW = Xi W: a twist when rigid, any change of a stretch's.
+    const auto& s = *structure_;
+    const Eigen::Matrix4d& world = worlds_[o];
+    TermRows rows;
+    for (const int n : s.outputVars_[o]) {
+        const Affine& xi = velocity_[static_cast<std::size_t>(n)];
+        Affine change;
+        change.leftCols<3>().noalias() = xi.leftCols<3>() * world.block<3, 3>(0, 0);
+        change.col(3) = xi.leftCols<3>() * world.block<3, 1>(0, 3) + xi.col(3);
+        s.terms_[o]->change(world, targets_[o], change, rows);
+        const Eigen::Index column =
+            s.slots_[static_cast<std::size_t>(s.nodes_[static_cast<std::size_t>(n)].slot)].column;
+        jacobian.block(s.rowOffset_[o], column, rows.size(), 1) += rows;
     }
 }
 
@@ -688,26 +768,23 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
                                              std::span<double> h)
 {
     const auto& s = *structure_;
-    // A node's sums are set by their first term rather than zeroed first: two hundred small memsets cost
-    // more than the sums. Every unknown node has an output below it.
-    for (const int n : s.unknownNodes_) fresh_[static_cast<std::size_t>(n)] = 1;
-    const auto add = [&](std::size_t n, const TwistWeight& weight, const Vector6d& load) {
-        if (fresh_[n]) {
-            weight_[n] = weight;
-            load_[n] = load;
-            fresh_[n] = 0;
-            return;
-        }
-        weight_[n] += weight;
-        load_[n] += load;
-    };
+    if (!s.jointTargetsOnly_) {
+        // Any term: B from the term itself, its B^T B a full 6x6.
+        const auto contribution = [&](std::size_t o, Matrix6& weight, Vector6d& load) {
+            TermTwistRows b;
+            s.terms_[o]->twistJacobian(worlds_[o], targets_[o], b);
+            weight.noalias() = b.transpose() * b;
+            load.noalias() = b.transpose() * r.segment(s.rowOffset_[o], b.rows());
+        };
+        const auto times = [](const Matrix6& weight, const Vector6d& twist) -> Vector6d { return weight * twist; };
+        foldTwists(fullWeight_, contribution, times, g, h);
+        return;
+    }
     // An output's rows for a twist (omega, v) of a node above it: B = [[-w_p [p]x, w_p I], [w_r H Q^T, 0]]
     // (w_p (omega x p + v) and w_r H Q^T omega, treeJacobian's rigid rows) with H = w_q I + [v_q]x. For a unit
     // quaternion H^T H = I - v_q v_q^T, so B^T B = [[w_p^2 (|p|^2 I - p p^T) + w_r^2 (I - u u^T), w_p^2 [p]x],
     // [-w_p^2 [p]x, w_p^2 I]] with u = Q v_q, and B^T r = (w_p p x r_p + w_r Q H^T r_q, w_p r_p).
-    for (std::size_t o = 0; o < worlds_.size(); ++o) {
-        const int deepest = s.outputDeepest_[o];
-        if (deepest < 0) continue;
+    const auto contribution = [&](std::size_t o, TwistWeight& w, Vector6d& load) {
         const PreparedTarget& t = targets_[o];
         const Eigen::Matrix3d q = worlds_[o].block<3, 3>(0, 0);
         const Eigen::Vector3d p = worlds_[o].block<3, 1>(0, 3);
@@ -715,22 +792,55 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
         const Eigen::Vector3d u = q * e.vec();
         const double wp = t.positionWeight, wr = t.rotationWeight;
         const double wp2 = wp * wp, wr2 = wr * wr;
-        TwistWeight w;
         w.a.noalias() = (wp2 * p.squaredNorm() + wr2) * Eigen::Matrix3d::Identity() - wp2 * p * p.transpose() -
                         wr2 * u * u.transpose();
         w.m = wp2 * p;
         w.s = wp2;
-        const auto rows = r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o));
+        const auto rows = r.segment<jointTargetRows>(s.rowOffset_[o]);
         const Eigen::Vector3d rp = rows.head<3>(), rq = rows.tail<3>();
-        Vector6d load;
         load << wp * p.cross(rp) + wr * (q * (e.w() * rq - e.vec().cross(rq))), wp * rp;
+    };
+    // W t = (A omega + m x v, s v - m x omega).
+    const auto times = [](const TwistWeight& w, const Vector6d& twist) -> Vector6d {
+        const auto omega = twist.head<3>(), v = twist.tail<3>();
+        Vector6d u;
+        u << w.a * omega + w.m.cross(v), w.s * v - w.m.cross(omega);
+        return u;
+    };
+    foldTwists(weight_, contribution, times, g, h);
+}
+
+template <class Weight, class Contribution, class Times>
+void ResidualWorkspace::foldTwists(std::vector<Weight>& weights, const Contribution& contribution, const Times& times,
+                                   Eigen::Ref<Eigen::VectorXd> g, std::span<double> h)
+{
+    const auto& s = *structure_;
+    // A node's sums are set by their first term rather than zeroed first: two hundred small memsets cost
+    // more than the sums. Every unknown node has an output below it.
+    for (const int n : s.unknownNodes_) fresh_[static_cast<std::size_t>(n)] = 1;
+    const auto add = [&](std::size_t n, const Weight& weight, const Vector6d& load) {
+        if (fresh_[n]) {
+            weights[n] = weight;
+            load_[n] = load;
+            fresh_[n] = 0;
+            return;
+        }
+        weights[n] += weight;
+        load_[n] += load;
+    };
+    for (std::size_t o = 0; o < worlds_.size(); ++o) {
+        const int deepest = s.outputDeepest_[o];
+        if (deepest < 0) continue;
+        Weight w;
+        Vector6d load;
+        contribution(o, w, load);
         add(static_cast<std::size_t>(deepest), w, load);
     }
     // Children after parents: summed leaves first, each node's sums cover every output below it.
     for (auto it = s.unknownNodes_.rbegin(); it != s.unknownNodes_.rend(); ++it) {
         const std::size_t n = static_cast<std::size_t>(*it);
         const int up = s.unknownUp_[n];
-        if (up >= 0) add(static_cast<std::size_t>(up), weight_[n], load_[n]);
+        if (up >= 0) add(static_cast<std::size_t>(up), weights[n], load_[n]);
     }
     g.setZero();
     std::fill(h.begin(), h.end(), 0.0);
@@ -738,11 +848,7 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
     for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k) {
         const std::size_t i = static_cast<std::size_t>(s.unknownNodes_[k]);
         g[s.unknownColumn_[k]] += twist_[i].dot(load_[i]);
-        // W t = (A omega + m x v, s v - m x omega).
-        const TwistWeight& w = weight_[i];
-        const auto omega = twist_[i].head<3>(), v = twist_[i].tail<3>();
-        Vector6d u;
-        u << w.a * omega + w.m.cross(v), w.s * v - w.m.cross(omega);
+        const Vector6d u = times(weights[i], twist_[i]);
         weighted_[i] = u;
         // Itself, then every unknown node above: those share exactly the outputs below this one.
         for (int p = pairBegin_[k]; p < pairBegin_[k + 1]; ++p) {
@@ -768,7 +874,7 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
     }
     const Eigen::Matrix4d& world = prefix_[v];
     worlds_[static_cast<std::size_t>(o)] = world;
-    const Eigen::Index row = static_cast<Eigen::Index>(rowsPerTarget * o);
+    const Eigen::Index row = s.rowOffset_[static_cast<std::size_t>(o)];
     if (v == 0) return;
 
     // suffix_[j] = C_{j+1} V_{j+1} ... V_{v-1} C_v: everything after V_j.
@@ -776,6 +882,20 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
     for (std::size_t j = v - 1; j-- > 0;) {
         suffix_[j].noalias() = slotMatrix_[static_cast<std::size_t>(chain.varSlots[j + 1])] * suffix_[j + 1];
         if (!identity_[base + j + 1]) suffix_[j] = constants_[base + j + 1] * suffix_[j];
+    }
+    // Only the top three rows of dW = prefix_j V_j' suffix_j are needed.
+    const auto change = [&](std::size_t j) -> Eigen::Matrix<double, 3, 4> {
+        const Eigen::Matrix<double, 3, 4> left =
+            prefix_[j].topRows<3>() * slotDerivative_[static_cast<std::size_t>(chain.varSlots[j])];
+        return left * suffix_[j];
+    };
+    if (!s.jointTarget(static_cast<std::size_t>(o))) {
+        TermRows rows;
+        for (std::size_t j = 0; j < v; ++j) {
+            s.terms_[static_cast<std::size_t>(o)]->change(world, t, change(j), rows);
+            jacobian.block(row, chain.varColumns[j], rows.size(), 1) += rows;
+        }
+        return;
     }
 
     // Rotation rows: with A = Q S (polar), dQ = Q [w]x where (tr(S) I - S) w = vee(Q^T dA - dA^T Q);
@@ -794,10 +914,7 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
     const Eigen::Matrix3d qt = q.transpose();
 
     for (std::size_t j = 0; j < v; ++j) {
-        // Only the top three rows of dW = prefix_j V_j' suffix_j are needed.
-        const Eigen::Matrix<double, 3, 4> left =
-            prefix_[j].topRows<3>() * slotDerivative_[static_cast<std::size_t>(chain.varSlots[j])];
-        const Eigen::Matrix<double, 3, 4> d = left * suffix_[j];
+        const Eigen::Matrix<double, 3, 4> d = change(j);
         const Eigen::Index column = chain.varColumns[j];
         jacobian.block<3, 1>(row, column) += t.positionWeight * d.col(3);
         const Eigen::Matrix3d x = qt * d.leftCols<3>();
@@ -812,9 +929,16 @@ void ResidualWorkspace::jacobianFromSuffixes(std::span<const double> x, Eigen::R
     holdChains();
     evaluateSlots(x, true);
     jacobian.setZero();
+    const auto& s = *structure_;
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
         outputJacobian(static_cast<int>(o), jacobian);
-        r.segment<rowsPerTarget>(static_cast<Eigen::Index>(rowsPerTarget * o)) = residual6(worlds_[o], targets_[o]);
+        if (s.jointTarget(o)) {
+            r.segment<jointTargetRows>(s.rowOffset_[o]) = residual6(worlds_[o], targets_[o]);
+            continue;
+        }
+        TermRows rows;
+        s.terms_[o]->residual(worlds_[o], targets_[o], rows);
+        r.segment(s.rowOffset_[o], rows.size()) = rows;
     }
 }
 
@@ -843,9 +967,17 @@ void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod metho
     auto column = [&](int c) {
         const double value = x[static_cast<std::size_t>(c)];
         for (const int o : s.outputsOfColumn(c)) {
-            const Vector6d plus = residual6(chainWorld(o, c, value + h), targets_[static_cast<std::size_t>(o)]);
-            const Vector6d minus = residual6(chainWorld(o, c, value - h), targets_[static_cast<std::size_t>(o)]);
-            jacobian.block<rowsPerTarget, 1>(rowsPerTarget * o, c) = (plus - minus) / (2.0 * h);
+            const std::size_t i = static_cast<std::size_t>(o);
+            if (s.jointTarget(i)) {
+                const Vector6d plus = residual6(chainWorld(o, c, value + h), targets_[i]);
+                const Vector6d minus = residual6(chainWorld(o, c, value - h), targets_[i]);
+                jacobian.block<jointTargetRows, 1>(s.rowOffset_[i], c) = (plus - minus) / (2.0 * h);
+                continue;
+            }
+            TermRows plus, minus;
+            s.terms_[i]->residual(chainWorld(o, c, value + h), targets_[i], plus);
+            s.terms_[i]->residual(chainWorld(o, c, value - h), targets_[i], minus);
+            jacobian.block(s.rowOffset_[i], c, plus.size(), 1) = (plus - minus) / (2.0 * h);
         }
     };
     if (parallel) {
@@ -876,15 +1008,20 @@ void ResidualWorkspace::normalEquations(std::span<const double> x, JacobianMetho
             throw internalError("ResidualWorkspace::normalEquations: the layout leaves out a pair of columns");
         return h[static_cast<std::size_t>(layout_[dense])];
     };
-    for (std::size_t o = 0; o < s.columnsOfOutput_.size(); ++o) {
+    // An output's rows against the columns that move it: fixed-size for the joint target's six.
+    const auto products = [&]<int Rows>(std::size_t o, Eigen::Index count) {
         const auto& columns = s.columnsOfOutput_[o];
-        const Eigen::Index row = static_cast<Eigen::Index>(rowsPerTarget * o);
+        const Eigen::Index row = s.rowOffset_[o];
         for (std::size_t i = 0; i < columns.size(); ++i) {
-            const auto ji = jacobian.block<rowsPerTarget, 1>(row, columns[i]);
-            g[columns[i]] += ji.dot(r.segment<rowsPerTarget>(row));
+            const auto ji = jacobian.block<Rows, 1>(row, columns[i], count, 1);
+            g[columns[i]] += ji.dot(r.segment<Rows>(row, count));
             for (std::size_t j = 0; j <= i; ++j)  // columns increase: (i, j) is in the lower triangle
-                entry(columns[i], columns[j]) += ji.dot(jacobian.block<rowsPerTarget, 1>(row, columns[j]));
+                entry(columns[i], columns[j]) += ji.dot(jacobian.block<Rows, 1>(row, columns[j], count, 1));
         }
+    };
+    for (std::size_t o = 0; o < s.columnsOfOutput_.size(); ++o) {
+        if (s.jointTarget(o)) products.template operator()<jointTargetRows>(o, jointTargetRows);
+        else products.template operator()<Eigen::Dynamic>(o, s.terms_[o]->rows());
     }
 }
 
@@ -903,6 +1040,15 @@ std::vector<int> activeOutputs(const Approximation& approximation, std::span<con
     return outputs;
 }
 
+// Each target's term, or none when every one is a joint target.
+std::vector<const ResidualTerm*> targetTerms(std::span<const JointTarget> targets)
+{
+    std::vector<const ResidualTerm*> terms;
+    for (const JointTarget& t : targets) terms.push_back(t.term);
+    if (std::all_of(terms.begin(), terms.end(), [](const ResidualTerm* t) { return !t; })) terms.clear();
+    return terms;
+}
+
 std::vector<int> allColumns(const Approximation& approximation)
 {
     std::vector<int> columns(approximation.parameters.size());
@@ -914,7 +1060,7 @@ std::vector<int> allColumns(const Approximation& approximation)
 
 JacobianEvaluator::JacobianEvaluator(const Approximation& approximation, std::span<const JointTarget> targets,
                                      double rotationScaleCm)
-    : structure_(approximation, allColumns(approximation), activeOutputs(approximation, targets)),
+    : structure_(approximation, allColumns(approximation), activeOutputs(approximation, targets), targetTerms(targets)),
       workspace_(structure_)
 {
     workspace_.holdParameters(approximation.defaults());  // every parameter is a column: only F_k(0) is held

@@ -1,7 +1,8 @@
 #pragma once
-// Residuals of joint targets on the approximation, and their Jacobian (docs/solver.md).
+// Residuals of targets on the approximation, and their Jacobian (docs/solver.md).
 //
-// Per active target joint k, six rows in this order:
+// Each counted output's rows come from its residual term (inversion/residual_term.h), at an offset of the
+// structure's table (ResidualStructure::rowOffset). The joint target, the default term, has six rows in this order:
 //   position  w_p * (t_k(beta) - t_target)                                     cm
 //   rotation  w_r * s * 2 vec(q),  q = quaternion of Q_target^T Q_k(beta), w_q >= 0   |.| = s * 2 sin(theta / 2)
 // (cost per joint s^2 (1 - cos theta): smooth, stationary only at the target and half a turn away, unlike
@@ -20,6 +21,7 @@
 #include <Eigen/Geometry>
 
 #include "inversion/approximation.h"
+#include "inversion/residual_term.h"
 
 namespace rig {
 
@@ -35,9 +37,12 @@ struct JointTarget {
     Eigen::Matrix4d world = Eigen::Matrix4d::Identity();
     double positionWeight = 1.0;  // per cm of position error; 0 ignores the position
     double rotationWeight = 1.0;  // multiplies the rotation residual (radians x rotationScaleCm); 0 ignores it
+    // Its residual term (residualTerm(name) finds one by name); null: the joint target's six rows. A term reads
+    // the weights of the halves it measures (the position term: positionWeight alone).
+    const ResidualTerm* term = nullptr;
 };
 
-inline constexpr int rowsPerTarget = 6;  // position x, y, z, then rotation x, y, z
+inline constexpr int jointTargetRows = 6;  // the joint target's rows: position x, y, z, then rotation x, y, z
 
 // A target ready for the residual: orthonormal rotation, rotation scale folded into its weight.
 struct PreparedTarget {
@@ -54,6 +59,10 @@ bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTa
 // Whether a 3x3 block is too close to singular to have an orientation or an inverse: its singular values
 // (largest first) are not positive, or the smallest is below 1e-9 of the largest.
 bool nearlySingular(const Eigen::Vector3d& singularValues);
+
+// Whether a 3x3 block is a rotation up to rounding (products of rigid operators drift by rounding only): its
+// polar decomposition would change it by less than any tolerance.
+bool nearlyOrthonormal(const Eigen::Matrix3d& a);
 
 // The six weighted residual rows of one target (the file's comment says which) for a world matrix: what a
 // black-box problem on the real rig measures, so that its cost is the solver's.
@@ -78,13 +87,20 @@ TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& targ
 class ResidualStructure {
 public:
     // `columns`: indices into approximation.parameters; `outputs`: indices into approximation.outputs.
-    // Both increasing. Keeps a reference to the approximation.
-    ResidualStructure(const Approximation& approximation, std::vector<int> columns, std::vector<int> outputs);
+    // Both increasing. `terms`: one per Approximation::outputs entry (null: the joint target), or empty: every
+    // output a joint target. Keeps a reference to the approximation and to the terms.
+    ResidualStructure(const Approximation& approximation, std::vector<int> columns, std::vector<int> outputs,
+                      std::span<const ResidualTerm* const> terms = {});
 
     const Approximation& approximation() const { return *approximation_; }
     const std::vector<int>& columns() const { return columns_; }
     const std::vector<int>& outputs() const { return outputs_; }
-    int rows() const { return rowsPerTarget * static_cast<int>(outputs_.size()); }
+    int rows() const { return rowOffset_.back(); }
+    // Where output position o's rows begin (its term's rows() of them): a table, terms of several sizes meet.
+    int rowOffset(int o) const { return rowOffset_[static_cast<std::size_t>(o)]; }
+    const ResidualTerm& term(int o) const { return *terms_[static_cast<std::size_t>(o)]; }
+    // Every output's term is the joint target: its own fast paths throughout.
+    bool jointTargetsOnly() const { return jointTargetsOnly_; }
     int columnCount() const { return static_cast<int>(columns_.size()); }
     // Positions in outputs() of the outputs column c moves.
     const std::vector<int>& outputsOfColumn(int c) const { return outputsOfColumn_[static_cast<std::size_t>(c)]; }
@@ -126,9 +142,24 @@ private:
         std::vector<std::vector<Link>> gaps;  // fixed links of C_0 .. C_v
     };
 
+    // The constructor's phases, in order.
+    std::vector<int> checkIndices() const;                                      // per parameter: its column, or -1
+    std::vector<std::vector<Link>> ownLinks(const std::vector<int>& columnOf);  // per output; makes the slots
+    std::vector<std::vector<Link>> outputLinks(const std::vector<std::vector<Link>>& own) const;
+    void makeChains(const std::vector<std::vector<Link>>& links);
+    void makeTree(const std::vector<std::vector<Link>>& links);
+    void makePairs();
+    void attachTerms(std::span<const ResidualTerm* const> terms);
+
     const Approximation* approximation_;
     std::vector<int> columns_;
     std::vector<int> outputs_;
+    std::vector<const ResidualTerm*> terms_;  // per output position
+    std::vector<int> rowOffset_;              // per output position, and the row count last
+    std::vector<char> jointTarget_;           // per output position: its term is the joint target
+    bool jointTargetsOnly_ = true;
+    // Whether output position o takes the joint target's own paths (else its term's virtual ones).
+    bool jointTarget(std::size_t o) const { return jointTargetsOnly_ || jointTarget_[o]; }
     std::vector<Slot> slots_;
     std::vector<Node> nodes_;                   // parents before children
     std::vector<int> outputNode_;               // per output: the node whose product it ends with (-1: none)
@@ -177,9 +208,9 @@ public:
     // Residuals r, gradient g = J^T r and the lower triangle of H = J^T J at x (g: columnCount(); h: in
     // useLayout()'s layout, zeroed here; dense: columnCount() square, its strict upper triangle left zero).
     // With the analytic method on rigid operators and outputs, each unknown's world-space velocity is a
-    // twist (omega, v), the output's rows are a 6x6 map B_k of it, and
-    // H_ij = twist_i^T (sum of B_k^T B_k below j) twist_j for i above j: the sums are accumulated up the
-    // prefix tree once, and J is never formed. Otherwise J is
+    // twist (omega, v), the output's rows are a map B_k of it (its term's rows x 6; B_k^T B_k is 6x6 for any
+    // term), and H_ij = twist_i^T (sum of B_k^T B_k below j) twist_j for i above j: the sums are accumulated up
+    // the prefix tree once, and J is never formed. Otherwise J is
     // formed in `jacobian` (rows() x columnCount()) and multiplied output by output over the columns that
     // move it. Either way only pairs of columns that share an output cost anything.
     void normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
@@ -219,10 +250,16 @@ private:
     void evaluateTree();                               // node products and worlds from the slot matrices
     void residualRows(Eigen::Ref<Eigen::VectorXd> r);  // also the rigid outputs' quaternions
     bool velocities();                                 // Xi per unknown node; false: an operator or product is singular
-    void treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);  // from velocities()
+    void treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);                     // from velocities()
+    void termTreeJacobian(std::size_t o, Eigen::Ref<Eigen::MatrixXd> jacobian);  // an output of another term
     void twists();  // twist_ per unknown node, straight from the operators (twistForm_ only)
     void twistNormalEquations(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
                               std::span<double> h);  // from twists(); twistForm_ only
+    // Its sums up the tree, g and h, from each output's B^T B and B^T r (`contribution`) and a sum's product
+    // with a twist (`times`): the joint targets' 13 numbers, or any term's full 6x6.
+    template <class Weight, class Contribution, class Times>
+    void foldTwists(std::vector<Weight>& weights, const Contribution& contribution, const Times& times,
+                    Eigen::Ref<Eigen::VectorXd> g, std::span<double> h);
     void holdChains();  // the flat chains' held products, computed when first needed after holdParameters
     // World of output o from the slot matrices, with column `perturbed` (if >= 0) at value `value`.
     Eigen::Matrix4d chainWorld(int o, int perturbed, double value) const;
@@ -249,7 +286,9 @@ private:
             return *this;
         }
     };
+    using Matrix6 = Eigen::Matrix<double, 6, 6>;
     std::vector<TwistWeight> weight_;                    // per unknown node: sum of B_k^T B_k below
+    std::vector<Matrix6> fullWeight_;                    // the same where some term is not a joint target
     std::vector<Eigen::Matrix<double, 6, 1>> weighted_;  // per unknown node: weight_ times twist_
     std::vector<char> fresh_;                            // per unknown node: its sums not yet begun
     std::vector<Eigen::Matrix4d> constants_;             // per chain, C_0 .. C_v
@@ -272,7 +311,7 @@ private:
 };
 
 // The whole problem for tests and benchmarks: every approximation parameter a column (those reaching
-// no active target give zero columns), six rows per active target in output order. Throws an internal
+// no active target give zero columns), each active target's term's rows in output order. Throws an internal
 // rig::Error for a wrong number of targets or values, a rig::Error for an active target prepareTarget refuses.
 class JacobianEvaluator {
 public:

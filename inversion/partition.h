@@ -43,7 +43,8 @@ struct Partition {
     std::string describe(const Approximation& approximation) const;
 };
 
-// `rows`: one entry per Approximation::outputs (TargetRows flags; 0 for outputs without a target).
+// `rows`: one entry per Approximation::outputs (TargetRows flags; 0 for outputs without a target; bits above
+// the flags, a residual term's kind as termRowsKey puts it, are not read).
 // `split` false gives one block holding every reached parameter and counted output (the whole solve).
 // Deterministic: the same approximation and rows give the same partition.
 Partition partitionProblem(const Approximation& approximation, std::span<const unsigned char> rows, bool split);

@@ -62,6 +62,8 @@ void RealRigProblem::setTargets(std::span<const JointTarget> targets)
     if (targets.size() != outputs.size())
         throw internalError(fmt::format("RealRigProblem: {} targets for {} outputs", targets.size(), outputs.size()));
     active_.clear();
+    terms_.clear();
+    rowOffset_.assign(1, 0);
     prepared_.assign(targets.size(), PreparedTarget{});
     for (const int k : outputs_) {
         const auto o = static_cast<std::size_t>(k);
@@ -69,6 +71,8 @@ void RealRigProblem::setTargets(std::span<const JointTarget> targets)
         if (!prepareTarget(targets[o], rotationScaleCm_, prepared_[o]))
             throw Error(fmt::format("RealRigProblem: the target of {} is not usable", outputs[o].name));
         active_.push_back(k);
+        terms_.push_back(&termOf(targets[o]));
+        rowOffset_.push_back(rowOffset_.back() + terms_.back()->rows());
     }
 }
 
@@ -87,9 +91,11 @@ void RealRigProblem::evaluate(Evaluator& e, std::span<const double> x, int colum
     e.binding->evaluate(e.values, e.worlds);
     ++e.evaluations;
     r.resize(rows());
+    TermRows rows;
     for (std::size_t o = 0; o < active_.size(); ++o) {
         const auto k = static_cast<std::size_t>(active_[o]);
-        r.segment<6>(static_cast<Eigen::Index>(6 * o)) = targetResidual(e.worlds[k], prepared_[k]);
+        terms_[o]->residual(e.worlds[k], prepared_[k], rows);
+        r.segment(rowOffset_[o], rows.size()) = rows;
     }
 }
 

@@ -35,7 +35,7 @@ public:
     // Values of every approximation parameter (internal units): the unknowns' are overwritten by each call
     // below, the others held.
     void setHeld(std::span<const double> values);
-    int rows() const { return static_cast<int>(6 * active_.size()); }
+    int rows() const { return rowOffset_.back(); }
     int columns() const { return static_cast<int>(columns_.size()); }
     const std::vector<int>& columnParameters() const { return columns_; }
     const Approximation& approximation() const { return binding_.approximation(); }
@@ -67,6 +67,8 @@ private:
     std::vector<int> outputs_;  // the outputs residuals may count
     std::vector<int> active_;   // of those, the ones with an active target
     std::vector<PreparedTarget> prepared_;
+    std::vector<const ResidualTerm*> terms_;  // per active target: its term
+    std::vector<int> rowOffset_{0};           // per active target: where its rows begin, and the row count last
     std::vector<double> lower_, upper_;
     std::vector<double> held_;
     std::vector<std::unique_ptr<Evaluator>> evaluators_;  // [0] evaluates on binding_

@@ -65,8 +65,9 @@ void BlockWorkspace::prefetch() const
     state.prefetch();
 }
 
-BlockPlan::BlockPlan(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& block)
-    : structure(approximation, block.parameters, block.outputs),
+BlockPlan::BlockPlan(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& block,
+                     std::span<const ResidualTerm* const> terms)
+    : structure(approximation, block.parameters, block.outputs, terms),
       unknowns(approximation, &equivalences, block.parameters)
 {
     for (const int p : block.parameters)
@@ -110,11 +111,11 @@ void prefetchTree(const BlockPlan& tree, const BlockWorkspace& w, std::span<cons
 }
 
 Plan::Plan(const Approximation& approximation, const Equivalences& equivalences, Partition p, std::vector<int> counted,
-           bool coupledBlocks, bool twists)
-    : partition(std::move(p)), whole(approximation, {}, std::move(counted))
+           std::vector<const ResidualTerm*> terms, bool coupledBlocks, bool twists)
+    : partition(std::move(p)), terms(std::move(terms)), whole(approximation, {}, std::move(counted), this->terms)
 {
     for (const PartitionBlock& block : partition.blocks)
-        blocks.push_back(std::make_unique<BlockPlan>(approximation, equivalences, block));
+        blocks.push_back(std::make_unique<BlockPlan>(approximation, equivalences, block, this->terms));
     if (!coupledBlocks) return;
     planTrees(approximation, equivalences, twists);
     if (trees.size() == 1) {
@@ -152,7 +153,7 @@ void Plan::planTrees(const Approximation& approximation, const Equivalences& equ
             trees.push_back(nullptr);  // one block: its own plan
             continue;
         }
-        auto plan = std::make_unique<BlockPlan>(approximation, equivalences, all);
+        auto plan = std::make_unique<BlockPlan>(approximation, equivalences, all, terms);
         plan->elimination = std::make_unique<BlockElimination>(tree, plan->structure, twists);
         trees.push_back(std::move(plan));
     }
@@ -197,7 +198,7 @@ const std::vector<std::unique_ptr<GuessStep>>& Plan::guessSteps(const Approximat
                     assigned[p] = 1;
                 }
             if (!step.parameters.empty())
-                guess.push_back(std::make_unique<GuessStep>(approximation, equivalences, step));
+                guess.push_back(std::make_unique<GuessStep>(approximation, equivalences, step, terms));
         }
     });
     return guess;

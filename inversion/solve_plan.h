@@ -55,7 +55,9 @@ private:
 };
 
 struct BlockPlan {
-    BlockPlan(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& block);
+    // `terms`: per output, its residual term (empty: every one a joint target; ResidualStructure).
+    BlockPlan(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& block,
+              std::span<const ResidualTerm* const> terms);
     ResidualStructure structure;
     Unknowns unknowns;
     bool rotationsOnly = true;  // every operator of every parameter is a rotation about a pivot (an angular kind)
@@ -70,8 +72,9 @@ struct BlockPlan {
 
 // One step of Solver::initialGuess: the parameters that the output's target fixes, solved on it alone.
 struct GuessStep {
-    GuessStep(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& b)
-        : block(b), plan(approximation, equivalences, b)
+    GuessStep(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& b,
+              std::span<const ResidualTerm* const> terms)
+        : block(b), plan(approximation, equivalences, b, terms)
     {
     }
     PartitionBlock block;
@@ -108,8 +111,9 @@ void prefetchTree(const BlockPlan& tree, const BlockWorkspace& w, std::span<cons
 // The partition for one set of counted rows, with what its blocks need.
 struct Plan {
     // `twists`: the analytic Jacobian (the coupled systems' normal equations from twists where in twist form).
+    // `terms`: per output, its residual term (empty: every one a joint target).
     Plan(const Approximation& approximation, const Equivalences& equivalences, Partition p, std::vector<int> counted,
-         bool coupledBlocks, bool twists);
+         std::vector<const ResidualTerm*> terms, bool coupledBlocks, bool twists);
     // Tree t's plan: its system, or its one block's.
     const BlockPlan& tree(std::size_t t) const
     {
@@ -121,6 +125,7 @@ struct Plan {
                                                               const Equivalences& equivalences) const;
 
     Partition partition;
+    std::vector<const ResidualTerm*> terms;
     std::vector<std::unique_ptr<BlockPlan>> blocks;
     // With SolverOptions::coupledBlocks, per root of the partition: its tree's blocks solved at once,
     // the step by block elimination; null for a tree of one block (blocks[root] solves it). Empty when

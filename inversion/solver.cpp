@@ -22,14 +22,12 @@ constexpr std::size_t maxCachedPlans = 256;
 
 double clampTo(double v, double lo, double hi) { return std::min(std::max(v, lo), hi); }
 
-// A non-compositional output's target is not counted: the approximation does not predict it.
+// A non-compositional output's target is not counted: the approximation does not predict it. The rows a
+// target's term counts, and its kind (termRowsKey): plans differ by both.
 unsigned char countedRows(const ApproximationOutput& output, const JointTarget& t)
 {
     if (!t.active || !output.modelled) return noRows;
-    unsigned char rows = noRows;
-    if (t.positionWeight > 0) rows |= positionRows;
-    if (t.rotationWeight > 0) rows |= rotationRows;
-    return rows;
+    return termRowsKey(t);
 }
 
 }  // namespace
@@ -99,11 +97,15 @@ std::shared_ptr<const Plan> Solver::Impl::plan(const std::vector<unsigned char>&
         if (found != plans.end()) return found->second;
     }
     std::vector<int> counted;
-    for (std::size_t k = 0; k < rows.size(); ++k)
+    std::vector<const ResidualTerm*> terms;  // termRowsKey's kinds, when some target is not a joint target
+    for (std::size_t k = 0; k < rows.size(); ++k) {
         if (rows[k] != noRows) counted.push_back(static_cast<int>(k));
+        if (rows[k] >> 2 && terms.empty()) terms.assign(rows.size(), nullptr);
+        if (!terms.empty()) terms[k] = rows[k] == noRows ? nullptr : &termOfKey(rows[k]);
+    }
     auto made = std::make_shared<const Plan>(
         approximation, *equivalences, partitionProblem(approximation, rows, options.partition), std::move(counted),
-        options.coupledBlocks, options.jacobian == JacobianMethod::analytic);
+        std::move(terms), options.coupledBlocks, options.jacobian == JacobianMethod::analytic);
     std::lock_guard lock(plansMutex);
     if (plans.size() >= maxCachedPlans) return made;
     return plans.emplace(key, std::move(made)).first->second;  // another thread's, if it was first

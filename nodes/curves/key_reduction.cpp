@@ -97,7 +97,7 @@ public:
     {
         for (const auto& outputs : reach_) {
             offset_.push_back(stride_);
-            stride_ += rowsPerTarget * outputs.size();
+            stride_ += jointTargetRows * outputs.size();
         }
         columns_.resize(stride_ * dense.size());
         std::vector<int> parameters(approximation.parameters.size()), outputs(approximation.outputs.size());
@@ -123,8 +123,8 @@ public:
             float* out = columns_.data() + f * stride_;
             for (std::size_t p = 0; p < reach_.size(); ++p)
                 for (const int o : reach_[p])
-                    for (int i = 0; i < rowsPerTarget; ++i)
-                        *out++ = static_cast<float>(jacobian(rowsPerTarget * o + i, static_cast<int>(p)));
+                    for (int i = 0; i < jointTargetRows; ++i)
+                        *out++ = static_cast<float>(jacobian(structure.rowOffset(o) + i, static_cast<int>(p)));
         }
     }
 
@@ -134,7 +134,7 @@ public:
     // Its column at frame f: six rows per output of reach(p).
     std::span<const float> column(std::size_t f, std::size_t p) const
     {
-        return {columns_.data() + f * stride_ + offset_[p], rowsPerTarget * reach_[p].size()};
+        return {columns_.data() + f * stride_ + offset_[p], jointTargetRows * reach_[p].size()};
     }
     // How far output o moves (in tolerances) per unit of control p at frame f.
     double effect(std::size_t f, std::size_t p, int o) const
@@ -142,7 +142,7 @@ public:
         const auto& outputs = reach_[p];
         const auto at = std::lower_bound(outputs.begin(), outputs.end(), o);
         if (at == outputs.end() || *at != o) return 0.0;
-        const auto rows = column(f, p).subspan(rowsPerTarget * static_cast<std::size_t>(at - outputs.begin()), 6);
+        const auto rows = column(f, p).subspan(jointTargetRows * static_cast<std::size_t>(at - outputs.begin()), 6);
         const auto norm = [&](std::size_t i) {
             return std::sqrt(double(rows[i]) * rows[i] + double(rows[i + 1]) * rows[i + 1] +
                              double(rows[i + 2]) * rows[i + 2]);
@@ -180,7 +180,7 @@ public:
             for (std::size_t f = 0; f < count; ++f) keys[p].push_back({frames[f], dense[f][p], tangent, tangent});
         }
         delta_.assign(parameters.size(), std::vector<double>(frames.size(), 0.0));
-        errors_.assign(frames.size(), std::vector<double>(rowsPerTarget * linear.outputs(), 0.0));
+        errors_.assign(frames.size(), std::vector<double>(jointTargetRows * linear.outputs(), 0.0));
     }
 
     // One pass over every inner key of every curve that `removable(p, x)` allows (all when empty): each taken
@@ -275,8 +275,8 @@ KeyFit::Proposal KeyFit::propose(const Edit& edit, double bound) const
         const std::size_t f = out.firstFrame + i;
         const auto column = linear_.column(f, p);
         for (std::size_t o = 0; o < joints; ++o) {
-            const double* error = errors_[f].data() + rowsPerTarget * static_cast<std::size_t>(reach[o]);
-            const float* g = column.data() + rowsPerTarget * o;
+            const double* error = errors_[f].data() + jointTargetRows * static_cast<std::size_t>(reach[o]);
+            const float* g = column.data() + jointTargetRows * o;
             for (std::size_t kind = 0; kind < 2; ++kind) {
                 double sumAA = 0.0, sumAG = 0.0, sumGG = 0.0;
                 for (std::size_t r = 3 * kind; r < 3 * kind + 3; ++r) {
@@ -387,8 +387,9 @@ void KeyFit::apply(const Proposal& proposal)
         const double change = proposal.delta[static_cast<Eigen::Index>(i)] - delta_[p][f];
         delta_[p][f] = proposal.delta[static_cast<Eigen::Index>(i)];
         for (std::size_t o = 0; o < reach.size(); ++o)
-            for (std::size_t r = 0; r < rowsPerTarget; ++r)
-                errors_[f][rowsPerTarget * static_cast<std::size_t>(reach[o]) + r] += g[rowsPerTarget * o + r] * change;
+            for (std::size_t r = 0; r < jointTargetRows; ++r)
+                errors_[f][jointTargetRows * static_cast<std::size_t>(reach[o]) + r] +=
+                    g[jointTargetRows * o + r] * change;
     }
 }
 

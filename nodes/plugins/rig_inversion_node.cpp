@@ -30,6 +30,7 @@
 #include "inversion/clip_inversion.h"
 #include "inversion/continuity.h"
 #include "inversion/hybrid_solve.h"
+#include "inversion/residual_term.h"
 #include "inversion/solver.h"
 #include "nodes/clips/target_clip.h"
 #include "nodes/graph_rig_function.h"
@@ -61,6 +62,7 @@ enum Attr : AttrId {
     hybrid,
     rigFile,
     realRigEvaluations,
+    residualTermName,
 };
 
 // An approximation and the solver built on it, shared by every evaluation until `file` changes.
@@ -86,6 +88,16 @@ Approximation readApproximation(const std::string& path, std::string_view node)
     }
     catch (const Error& e) {
         throw e.in(fmt::format("{}.file", node));
+    }
+}
+
+const ResidualTerm& targetTerm(const std::string& name, std::string_view node)
+{
+    try {
+        return residualTerm(name);
+    }
+    catch (const Error& e) {
+        throw e.in(fmt::format("{}.term", node));
     }
 }
 
@@ -143,13 +155,16 @@ private:
     std::vector<JointTarget> targetsOf(ComputeContext& c, const Approximation& a) const
     {
         std::vector<JointTarget> targets(a.outputs.size());
-        const double rotation = c.getDouble(rotationWeight);
+        const ResidualTerm& term = targetTerm(c.getString(residualTermName), c.nodeName());
+        // A term that counts no rotation has none to weigh: what measures by weights (the hybrid stage) agrees.
+        const double rotation = (term.counted(JointTarget{}) & rotationRows) ? c.getDouble(rotationWeight) : 0.0;
         c.forEachElement(target, [&](int k, const Value& v) {
             if (k >= static_cast<int>(targets.size())) return;
             targets[k].active = true;
             targets[k].world = std::get<Eigen::Matrix4d>(v);
             targets[k].world.block<3, 1>(0, 3) *= scale_;
             targets[k].rotationWeight = rotation;
+            targets[k].term = &term;
         });
         c.forEachElement(targetWeight, [&](int k, const Value& v) {
             if (k < static_cast<int>(targets.size())) targets[k].positionWeight = std::get<double>(v);
@@ -521,6 +536,11 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
             "solve evaluates its own instance of it, in the approximation's held state.");
     b.output(realRigEvaluations, "realRigEvaluations", ValueType::Int)
         .doc("Real-rig evaluations of this evaluation's hybrid solve (0 without it).");
+    b.input(residualTermName, "term", ValueType::String)
+        .defaultValue(std::string("jointTarget"))
+        .doc(
+            "The residual term of every target (docs/solver.md): jointTarget (position and rotation) or position "
+            "(the position alone, three rows; rotationWeight is not used).");
     b.affectsAll();
     b.stateful();
     b.yamlConnector("connect", connectField);

@@ -288,7 +288,7 @@ TEST_CASE("jacobian: columns of parameters that reach no active target are zero,
     std::vector<JointTarget> targets = test::targetsAt(a, a.defaults());
     for (std::size_t k = 0; k < targets.size(); ++k) targets[k].active = a.outputs[k].name.starts_with("L_");
     JacobianEvaluator evaluator(a, targets, rotationScale);
-    CHECK(evaluator.rows() == 4 * rowsPerTarget);
+    CHECK(evaluator.rows() == 4 * jointTargetRows);
     Eigen::MatrixXd j;
     Eigen::VectorXd r;
     std::mt19937 rng(9);

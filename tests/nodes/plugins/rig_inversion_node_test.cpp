@@ -100,6 +100,40 @@ TEST_CASE("rigInversion: a bvhClip -> rigInversion -> rig graph reproduces the C
     CHECK(worst < 1e-3);
 }
 
+TEST_CASE("rigInversion: with term position, the biped reaches the CMU clip's joint positions")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto& s = test::cmuSetup();
+    const auto dir = test::scratchDir("rig_inversion_node_position_term");
+    const auto graph =
+        test::writeFile(dir / "mocap.yaml",
+                        graphFile(s.rig, s.approximation, "", "{targets: clip, parameters: true}\n    term: position"));
+    std::string gets;
+    for (const auto& j : s.clip.joints) gets += fmt::format(" --get '{}.worldMatrix'", j.name);
+    const auto r =
+        test::run(fmt::format("{} {} --frames 1:30{} --get inverter.status --get inverter.worstErrorCm -o {}",
+                              test::tool("graph-eval"), graph.string(), gets, (dir / "out.json").string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    const YAML::Node frames = YAML::LoadFile((dir / "out.json").string());
+    REQUIRE(frames.size() == 30);
+    double worst = 0.0;
+    for (int f = 0; f < 30; ++f) {
+        CHECK(frames[f]["inverter.status"].as<std::string>() == "reached");
+        CHECK(frames[f]["inverter.worstErrorCm"].as<double>() < 1e-3);
+        const auto expected = bvhWorldMatrices(s.clip, f);
+        for (std::size_t j = 0; j < s.clip.joints.size(); ++j) {
+            const YAML::Node m = frames[f][s.clip.joints[j].name + ".worldMatrix"];
+            for (int row = 0; row < 3; ++row)
+                worst = std::max(worst, std::abs(m[row][3].as<double>() - expected[j](row, 3)));
+        }
+    }
+    CHECK(worst < 1e-3);
+}
+
 TEST_CASE("rigInversion: the node's values equal rig-invert's curves on the biped, frame for frame")
 {
     if (!fs::exists(test::cmuClip)) {
@@ -179,6 +213,15 @@ TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are 
     CHECK(cycle.find("it would close a cycle (") != std::string::npos);
     CHECK(cycle.find("wrist.worldMatrix -> inverter.target[") != std::string::npos);
     CHECK(std::count(cycle.begin(), cycle.end(), '\n') == 1);
+
+    // A residual term the registry does not know, named with the node's attribute.
+    const std::string term = evaluate(
+        "term.yaml", header + fmt::format("  - {{name: inverter, type: rigInversion, file: {}, term: aim, connect: "
+                                          "{{parameters: true}}}}\n",
+                                          arm.string()));
+    CHECK(term == "error: " + (dir / "term.yaml").string() +
+                      ": evaluating frame 0: inverter.term: unknown residual term 'aim': use one of jointTarget, "
+                      "position\n");
 }
 
 TEST_CASE("rigInversion: an approximation learned with held plugs holds them on the rig it drives")
