@@ -74,10 +74,7 @@ template <class B>
     return r;
 }
 
-bool rigidKind(OperatorKind kind)
-{
-    return kind == OperatorKind::translation || kind == OperatorKind::rotation || kind == OperatorKind::sampledRigid;
-}
+bool rigidKind(OperatorKind kind) { return operatorTraits(kind).rigid; }
 
 // Below this determinant a linear part is taken as singular: its inverse would be meaningless.
 constexpr double singularDeterminant = 1e-12;

@@ -191,7 +191,7 @@ TEST_CASE("residual terms: the position term is the joint target's position rows
     }
 }
 
-TEST_CASE("residual terms: kinds by name; an unknown name is refused naming the known ones")
+TEST_CASE("residual terms: kinds by name, and an unknown name refused naming the known ones")
 {
     CHECK(&residualTerm("jointTarget") == &jointTargetTerm());
     CHECK(&residualTerm("position") == &positionTerm());
