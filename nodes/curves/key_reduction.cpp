@@ -23,6 +23,8 @@ constexpr double infinite = std::numeric_limits<double>::infinity();
 const std::vector<double> bounds{0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.99};
 constexpr int maxMoveRounds = 8;
 
+Eigen::Index eigenIndex(std::size_t n) { return static_cast<Eigen::Index>(n); }
+
 // One frame of the real rig under keyed values against the dense pose.
 struct FrameError {
     double positionCm = 0.0;
@@ -214,8 +216,28 @@ private:
         double worst = infinite;     // the worst joint there after the edit (infinite out of the limits)
         double worstBefore = 0.0;    // and before
     };
+    // What a proposal fits over: the free keys [lo, hi] (indices into the keys after the edit), the keys from
+    // firstKey and the frames from firstFrame that they change, and per joint and frame there the quadratics of
+    // the joint's errors in curve p's offset.
+    struct Window {
+        std::size_t p = 0, lo = 0, hi = 0, firstKey = 0, firstFrame = 0, frameCount = 0;
+        std::array<Eigen::ArrayXXd, 2> aa, ag, gg;  // [position, rotation](joint, frame)
+    };
     // The fit stops once within `bound`.
     Proposal propose(const Edit& edit, double bound) const;
+    // The window of an edit (without its quadratics), and the keys from its firstKey after the edit into `local`.
+    Window window(const Edit& edit, std::vector<AnimKey>& local) const;
+    void fillQuadratics(Window& w) const;
+    // The curve through `curveKeys` (the window's keys) minus the dense values over the window's frames.
+    void offsets(const Window& w, const std::vector<AnimKey>& curveKeys, Eigen::VectorXd& delta) const;
+    // The worst joint under the offsets `delta` (infinite out of the control's limits), its errors per frame in
+    // `jointErrors`.
+    double worst(const Window& w, const Eigen::VectorXd& delta, Eigen::ArrayXXd& jointErrors) const;
+    // The offsets' derivatives in the free keys' values (a column per free key) about the `edited` keys.
+    Eigen::MatrixXd basis(const Window& w, const std::vector<AnimKey>& edited, const Eigen::VectorXd& placed) const;
+    // Fits the free keys' values into `out` where they lower its worst joint.
+    void refit(const Window& w, const std::vector<AnimKey>& edited, const Eigen::VectorXd& placed, double bound,
+               Eigen::ArrayXXd& jointErrors, Proposal& out) const;
     void apply(const Proposal& proposal);
 
     std::size_t frameIndex(double x) const
@@ -231,112 +253,118 @@ private:
     std::vector<std::vector<double>> errors_;  // [frame]: the joints' predicted errors, six rows per output
 };
 
-KeyFit::Proposal KeyFit::propose(const Edit& edit, double bound) const
+KeyFit::Window KeyFit::window(const Edit& edit, std::vector<AnimKey>& local) const
 {
-    // Free keys either side of the edited one, and reweighted least squares towards the smallest worst joint:
-    // enough, on CMU clips, that more of either makes no fewer keys.
+    // Free keys either side of the edited one: enough, on CMU clips, that more makes no fewer keys.
     constexpr std::ptrdiff_t radius = 2;
-    constexpr int iterations = 6;
-    const std::size_t p = edit.p;
-    Proposal out;
-    out.edit = edit;
-    const std::vector<AnimKey>& before = keys[p];
+    Window w;
+    w.p = edit.p;
+    const std::vector<AnimKey>& before = keys[edit.p];
     // Indices are into the keys after the edit (m of them).
     const auto k = static_cast<std::ptrdiff_t>(edit.k);
     const auto m = static_cast<std::ptrdiff_t>(before.size()) - (edit.takeOut ? 1 : 0);
     const auto index = [&](std::ptrdiff_t j) {
         return static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(j, 0, m - 1));
     };
-    const std::size_t lo = index(k - radius), hi = index(k + radius - (edit.takeOut ? 1 : 0));
+    w.lo = index(k - radius);
+    w.hi = index(k + radius - (edit.takeOut ? 1 : 0));
     // A key's value moves its own slope and its neighbours': the curve changes from two keys before the free
     // ones to two after, and the slopes there depend on one key further out.
-    out.firstKey = index(static_cast<std::ptrdiff_t>(lo) - 3);
-    const std::size_t lastKey = index(static_cast<std::ptrdiff_t>(hi) + 3);
-    for (std::size_t j = out.firstKey; j <= lastKey; ++j)
-        out.local.push_back(before[edit.takeOut && j >= edit.k ? j + 1 : j]);
-    if (!edit.takeOut) out.local[edit.k - out.firstKey].x = edit.x;
-    const auto keyAt = [&](std::ptrdiff_t j) { return out.local[index(j) - out.firstKey].x; };
-    out.firstFrame = frameIndex(keyAt(static_cast<std::ptrdiff_t>(lo) - 2));
-    const std::size_t frameCount = frameIndex(keyAt(static_cast<std::ptrdiff_t>(hi) + 2)) - out.firstFrame + 1;
-    const std::size_t freeCount = hi - lo + 1;
+    w.firstKey = index(static_cast<std::ptrdiff_t>(w.lo) - 3);
+    const std::size_t lastKey = index(static_cast<std::ptrdiff_t>(w.hi) + 3);
+    for (std::size_t j = w.firstKey; j <= lastKey; ++j)
+        local.push_back(before[edit.takeOut && j >= edit.k ? j + 1 : j]);
+    if (!edit.takeOut) local[edit.k - w.firstKey].x = edit.x;
+    const auto keyAt = [&](std::ptrdiff_t j) { return local[index(j) - w.firstKey].x; };
+    w.firstFrame = frameIndex(keyAt(static_cast<std::ptrdiff_t>(w.lo) - 2));
+    w.frameCount = frameIndex(keyAt(static_cast<std::ptrdiff_t>(w.hi) + 2)) - w.firstFrame + 1;
+    return w;
+}
 
+void KeyFit::fillQuadratics(Window& w) const
+{
     // Per joint and frame, the error without control p (a) and its rows (g): the error's position and rotation
     // norms are quadratics in the control's offset d, |a + g d|^2 = aa + 2 ag d + gg d^2.
-    const auto& reach = linear_.reach(p);
-    const std::size_t joints = reach.size();
-    const auto size = [](std::size_t n) { return static_cast<Eigen::Index>(n); };
-    std::array<Eigen::ArrayXXd, 2> aa, ag, gg;  // [position, rotation](joint, frame)
+    const auto& reach = linear_.reach(w.p);
     for (std::size_t kind = 0; kind < 2; ++kind) {
-        aa[kind].resize(size(joints), size(frameCount));
-        ag[kind].resizeLike(aa[kind]);
-        gg[kind].resizeLike(aa[kind]);
+        w.aa[kind].resize(eigenIndex(reach.size()), eigenIndex(w.frameCount));
+        w.ag[kind].resizeLike(w.aa[kind]);
+        w.gg[kind].resizeLike(w.aa[kind]);
     }
-    for (std::size_t i = 0; i < frameCount; ++i) {
-        const std::size_t f = out.firstFrame + i;
-        const auto column = linear_.column(f, p);
-        for (std::size_t o = 0; o < joints; ++o) {
+    for (std::size_t i = 0; i < w.frameCount; ++i) {
+        const std::size_t f = w.firstFrame + i;
+        const auto column = linear_.column(f, w.p);
+        for (std::size_t o = 0; o < reach.size(); ++o) {
             const double* error = errors_[f].data() + jointTargetRows * static_cast<std::size_t>(reach[o]);
             const float* g = column.data() + jointTargetRows * o;
             for (std::size_t kind = 0; kind < 2; ++kind) {
                 double sumAA = 0.0, sumAG = 0.0, sumGG = 0.0;
                 for (std::size_t r = 3 * kind; r < 3 * kind + 3; ++r) {
-                    const double without = error[r] - g[r] * delta_[p][f];
+                    const double without = error[r] - g[r] * delta_[w.p][f];
                     sumAA += without * without;
                     sumAG += without * g[r];
                     sumGG += double(g[r]) * g[r];
                 }
-                aa[kind](size(o), size(i)) = sumAA;
-                ag[kind](size(o), size(i)) = sumAG;
-                gg[kind](size(o), size(i)) = sumGG;
+                w.aa[kind](eigenIndex(o), eigenIndex(i)) = sumAA;
+                w.ag[kind](eigenIndex(o), eigenIndex(i)) = sumAG;
+                w.gg[kind](eigenIndex(o), eigenIndex(i)) = sumGG;
             }
         }
     }
-    const RigParameter& parameter = parameters_[p];
-    const auto offsets = [&](const std::vector<AnimKey>& curveKeys, Eigen::VectorXd& delta) {
-        const AnimCurve curve = AnimCurve::build(curveKeys);
-        delta.resize(static_cast<Eigen::Index>(frameCount));
-        for (std::size_t i = 0; i < frameCount; ++i)
-            delta[i] = curve.evaluate(frames_[out.firstFrame + i]) - dense_[out.firstFrame + i][p];
-    };
-    // The joints' errors per frame, and the worst, or infinite out of the control's limits.
-    Eigen::ArrayXXd jointErrors(size(joints), size(frameCount));
-    const auto worst = [&](const Eigen::VectorXd& delta) {
-        for (std::size_t i = 0; i < frameCount; ++i) {
-            const double d = delta[size(i)];
-            const double v = dense_[out.firstFrame + i][p] + d;
-            if (parameter.limited && (v < parameter.min || v > parameter.max)) return infinite;
-            const auto at = [&](std::size_t kind) {
-                return aa[kind].col(size(i)) + d * (2.0 * ag[kind].col(size(i)) + d * gg[kind].col(size(i)));
-            };
-            // (Rounding can take a square a hair below zero.)
-            jointErrors.col(size(i)) = at(0).max(at(1)).max(0.0).sqrt();
-        }
-        return joints == 0 ? 0.0 : jointErrors.maxCoeff();
-    };
-    Eigen::VectorXd current(frameCount);
-    for (std::size_t i = 0; i < frameCount; ++i) current[i] = delta_[p][out.firstFrame + i];
-    out.worstBefore = worst(current);
+}
 
-    // The edited keys as they are, then fitted: the curve is linear in the free values (piecewise so for the
-    // tangent types that flatten at extrema), so least squares on the joints' rows is a small linear system.
-    const std::vector<AnimKey> edited = out.local;
-    Eigen::VectorXd placed;
-    offsets(edited, placed);
-    out.delta = placed;
-    out.worst = worst(placed);
-    Eigen::MatrixXd basis(frameCount, freeCount);
+void KeyFit::offsets(const Window& w, const std::vector<AnimKey>& curveKeys, Eigen::VectorXd& delta) const
+{
+    const AnimCurve curve = AnimCurve::build(curveKeys);
+    delta.resize(static_cast<Eigen::Index>(w.frameCount));
+    for (std::size_t i = 0; i < w.frameCount; ++i)
+        delta[i] = curve.evaluate(frames_[w.firstFrame + i]) - dense_[w.firstFrame + i][w.p];
+}
+
+double KeyFit::worst(const Window& w, const Eigen::VectorXd& delta, Eigen::ArrayXXd& jointErrors) const
+{
+    const RigParameter& parameter = parameters_[w.p];
+    for (std::size_t i = 0; i < w.frameCount; ++i) {
+        const double d = delta[eigenIndex(i)];
+        const double v = dense_[w.firstFrame + i][w.p] + d;
+        if (parameter.limited && (v < parameter.min || v > parameter.max)) return infinite;
+        const auto at = [&](std::size_t kind) {
+            return w.aa[kind].col(eigenIndex(i)) +
+                   d * (2.0 * w.ag[kind].col(eigenIndex(i)) + d * w.gg[kind].col(eigenIndex(i)));
+        };
+        // (Rounding can take a square a hair below zero.)
+        jointErrors.col(eigenIndex(i)) = at(0).max(at(1)).max(0.0).sqrt();
+    }
+    return jointErrors.rows() == 0 ? 0.0 : jointErrors.maxCoeff();
+}
+
+Eigen::MatrixXd KeyFit::basis(const Window& w, const std::vector<AnimKey>& edited, const Eigen::VectorXd& placed) const
+{
+    const std::size_t freeCount = w.hi - w.lo + 1;
+    Eigen::MatrixXd basis(w.frameCount, freeCount);
     for (std::size_t j = 0; j < freeCount; ++j) {
         std::vector<AnimKey> moved = edited;
-        AnimKey& key = moved[lo + j - out.firstKey];
+        AnimKey& key = moved[w.lo + j - w.firstKey];
         const double h = 1e-6 * std::max(1.0, std::abs(key.y));
         key.y += h;
         Eigen::VectorXd delta;
-        offsets(moved, delta);
+        offsets(w, moved, delta);
         basis.col(static_cast<Eigen::Index>(j)) = (delta - placed) / h;
     }
+    return basis;
+}
+
+void KeyFit::refit(const Window& w, const std::vector<AnimKey>& edited, const Eigen::VectorXd& placed, double bound,
+                   Eigen::ArrayXXd& jointErrors, Proposal& out) const
+{
+    // Reweighted least squares towards the smallest worst joint: enough, on CMU clips, that more iterations make
+    // no fewer keys.
+    constexpr int iterations = 6;
+    const RigParameter& parameter = parameters_[w.p];
+    const Eigen::MatrixXd basis = this->basis(w, edited, placed);
     // The least squares' data per joint and frame: |g|^2 and g . a over the six rows.
-    const Eigen::ArrayXXd squares = gg[0] + gg[1], products = ag[0] + ag[1];
-    Eigen::ArrayXXd weights = Eigen::ArrayXXd::Ones(size(joints), size(frameCount));
+    const Eigen::ArrayXXd squares = w.gg[0] + w.gg[1], products = w.ag[0] + w.ag[1];
+    Eigen::ArrayXXd weights = Eigen::ArrayXXd::Ones(squares.rows(), squares.cols());
     double bestFit = infinite;
     for (int iteration = 0; iteration < iterations; ++iteration) {
         const Eigen::VectorXd q = (weights * squares).colwise().sum().transpose().matrix();
@@ -349,14 +377,14 @@ KeyFit::Proposal KeyFit::propose(const Edit& edit, double bound) const
         normal.diagonal().array() += 1e-12 * scale;
         const Eigen::VectorXd step = normal.ldlt().solve(rhs);
         std::vector<AnimKey> trial = edited;
-        for (std::size_t j = 0; j < freeCount; ++j) {
-            AnimKey& key = trial[lo + j - out.firstKey];
-            key.y += step[static_cast<Eigen::Index>(j)];
+        for (Eigen::Index j = 0; j < step.size(); ++j) {
+            AnimKey& key = trial[w.lo + static_cast<std::size_t>(j) - w.firstKey];
+            key.y += step[j];
             if (parameter.limited) key.y = std::clamp(key.y, parameter.min, parameter.max);
         }
         Eigen::VectorXd trialDelta;
-        offsets(trial, trialDelta);
-        const double trialWorst = worst(trialDelta);
+        offsets(w, trial, trialDelta);
+        const double trialWorst = worst(w, trialDelta, jointErrors);
         bestFit = std::min(bestFit, trialWorst);
         if (trialWorst < out.worst) {
             out.local = std::move(trial);
@@ -370,6 +398,30 @@ KeyFit::Proposal KeyFit::propose(const Edit& edit, double bound) const
         if (!(largest > 0.0)) break;
         weights /= largest;
     }
+}
+
+KeyFit::Proposal KeyFit::propose(const Edit& edit, double bound) const
+{
+    Proposal out;
+    out.edit = edit;
+    Window w = window(edit, out.local);
+    out.firstKey = w.firstKey;
+    out.firstFrame = w.firstFrame;
+    fillQuadratics(w);
+    // The joints' errors per frame (worst()'s, read by refit()'s weights).
+    Eigen::ArrayXXd jointErrors(w.aa[0].rows(), eigenIndex(w.frameCount));
+    Eigen::VectorXd current(w.frameCount);
+    for (std::size_t i = 0; i < w.frameCount; ++i) current[i] = delta_[w.p][w.firstFrame + i];
+    out.worstBefore = worst(w, current, jointErrors);
+
+    // The edited keys as they are, then fitted: the curve is linear in the free values (piecewise so for the
+    // tangent types that flatten at extrema), so least squares on the joints' rows is a small linear system.
+    const std::vector<AnimKey> edited = out.local;
+    Eigen::VectorXd placed;
+    offsets(w, edited, placed);
+    out.delta = placed;
+    out.worst = worst(w, placed, jointErrors);
+    refit(w, edited, placed, bound, jointErrors, out);
     return out;
 }
 
