@@ -549,7 +549,6 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
                                             Eigen::Ref<Eigen::VectorXd> delta)
 {
     const BlockElimination& e = *e_;
-    const ResidualWorkspace& rw = *twists_;
     const std::size_t blocks = e.size_.size();
     for (std::size_t b = 0; b < blocks; ++b)
         for (Eigen::Index l = 0; l < e.size_[b]; ++l)
@@ -561,120 +560,145 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
     // with its own attach node by Fold t. Its S_b^-1 = F^T F, T = F W^T and y = F rhs then leave
     // T^T T and T^T y (plus its children's) at its attach node.
     for (std::size_t b = blocks; b-- > 0;) {
-        const Eigen::Index nb = e.size_[b];
-        const int begin = e.nodeBegin_[b], end = e.nodeBegin_[b + 1];
-        const int base = e.base_[b][0];
-        const double* panel = entries_.data() + base;
         double* y = rhs_[b].data();
-        for (int i = begin; i < end; ++i) folded_[static_cast<std::size_t>(i)] = 0;
+        for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) folded_[static_cast<std::size_t>(i)] = 0;
+        const double* panel = entries_.data() + e.base_[b][0];
         if (!e.children_[b].empty()) {
-            // A node's fold is its one source's (a child's, or the node's below) until a second one adds to it:
-            // along a chain the 6x6 is pointed at, not copied node after node.
-            const auto fold = [&](std::size_t i, const Matrix6* weight, const Vector6* load) {
-                if (!folded_[i]) {
-                    foldWeightOf_[i] = weight;
-                    foldLoadOf_[i] = load;
-                    folded_[i] = 1;
-                } else if (foldWeightOf_[i] == &foldWeight_[i]) {
-                    foldWeight_[i] += *weight;
-                    foldLoad_[i] += *load;
-                } else {
-                    foldWeight_[i] = *foldWeightOf_[i] + *weight;
-                    foldLoad_[i] = *foldLoadOf_[i] + *load;
-                    foldWeightOf_[i] = &foldWeight_[i];
-                    foldLoadOf_[i] = &foldLoad_[i];
-                }
-            };
-            for (const int c : e.children_[b]) {
-                const std::size_t i = static_cast<std::size_t>(e.attach_[static_cast<std::size_t>(c)]);
-                fold(i, &blockWeight_[static_cast<std::size_t>(c)], &blockLoad_[static_cast<std::size_t>(c)]);
-            }
-            for (int i = end; i-- > begin;) {
-                const std::size_t f = static_cast<std::size_t>(i);
-                const int up = e.nodeUp_[f];
-                if (!folded_[f] || up < begin) continue;  // up < begin: none, or the attach node
-                fold(static_cast<std::size_t>(up), foldWeightOf_[f], foldLoadOf_[f]);
-            }
-            double* s = work_.data() + base;
-            std::copy(panel, panel + nb * nb, s);
-            for (int i = begin; i < end; ++i) {
-                const std::size_t f = static_cast<std::size_t>(i);
-                if (!folded_[f]) continue;
-                const Vector6& t = rw.twist(e.nodeId_[f]);
-                foldProduct_[f].noalias() = *foldWeightOf_[f] * t;
-                y[e.localOfColumn_[static_cast<std::size_t>(e.nodeColumn_[f])]] -= t.dot(*foldLoadOf_[f]);
-                for (int p = e.pairBegin_[f]; p < e.pairBegin_[f + 1]; ++p) {
-                    const std::size_t q = static_cast<std::size_t>(p);
-                    s[e.pairEntry_[q] - base] -=
-                        e.pairFactor_[q] *
-                        rw.twist(e.nodeId_[static_cast<std::size_t>(e.pairOther_[q])]).dot(foldProduct_[f]);
-                }
-            }
-            // Held columns stay identity rows and columns with no right-hand side.
-            for (Eigen::Index l = 0; l < nb; ++l) {
-                if (!held(e.columns_[b][static_cast<std::size_t>(l)])) continue;
-                for (Eigen::Index j = 0; j < l; ++j) s[j * nb + l] = 0.0;
-                for (Eigen::Index i = l + 1; i < nb; ++i) s[l * nb + i] = 0.0;
-                s[l * nb + l] = 1.0;
-                y[l] = 0.0;
-            }
-            panel = s;
+            gatherFolds(b);
+            panel = foldedPanel(b, y);
         }
         if (!factor(b, panel, mu)) return false;
         applyF(b, y);
-        if (e.attach_[b] < 0) continue;
-        // W^T: a row per block column, a column per component of the attach node's motion.
-        double* w = foldCoupling_.data();
-        std::fill(w, w + 6 * nb, 0.0);
-        for (int i = begin; i < end; ++i) {
-            const std::size_t f = static_cast<std::size_t>(i);
-            const int column = e.nodeColumn_[f];
-            if (held(column)) continue;
-            Vector6 c = rw.weighted(e.nodeId_[f]);
-            if (folded_[f]) c -= foldProduct_[f];
-            const Eigen::Index l = e.localOfColumn_[static_cast<std::size_t>(column)];
-            for (Eigen::Index q = 0; q < 6; ++q) w[q * nb + l] += c[q];
-        }
-        double* rows = couplings_.data() + e.coupling_[b];
-        couplingRows(b, w, 6, rows);
-        Matrix6& k = blockWeight_[b];
-        Vector6& load = blockLoad_[b];
-        k.setZero();
-        load.setZero();
-        for (Eigen::Index r = 0; r < nb; ++r) {  // whole outer products: they vectorize, a triangle would not
-            const Eigen::Map<const Vector6> row(rows + 6 * r);
-            k.noalias() += row * row.transpose();
-            load += y[r] * row;
-        }
-        for (const int c : e.children_[b]) {
-            k += blockWeight_[static_cast<std::size_t>(c)];
-            load += blockLoad_[static_cast<std::size_t>(c)];
-        }
+        if (e.attach_[b] >= 0) foldIntoAttach(b, y);
     }
     // Roots first: each block's step F^T (y - T V), V its attach node's motion (the steps above it), and
     // its nodes' motions for its children.
-    for (std::size_t b = 0; b < blocks; ++b) {
-        const Eigen::Index nb = e.size_[b];
-        double* z = rhs_[b].data();
-        const int attach = e.attach_[b];
-        if (attach >= 0) {
-            const Vector6& v = motion_[static_cast<std::size_t>(attach)];
-            const double* rows = couplings_.data() + e.coupling_[b];
-            for (Eigen::Index k = 0; k < nb; ++k) z[k] -= Eigen::Map<const Vector6>(rows + 6 * k).dot(v);
-        }
-        applyFTransposed(b, z);
-        for (Eigen::Index l = 0; l < nb; ++l) delta[e.columns_[b][static_cast<std::size_t>(l)]] = z[l];
-        if (e.children_[b].empty()) continue;
-        for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) {
-            const std::size_t f = static_cast<std::size_t>(i);
-            const int up = e.nodeUp_[f], column = e.nodeColumn_[f];
-            if (up >= 0) motion_[f] = motion_[static_cast<std::size_t>(up)];
-            else motion_[f].setZero();
-            if (!held(column))
-                motion_[f] += rw.twist(e.nodeId_[f]) * z[e.localOfColumn_[static_cast<std::size_t>(column)]];
+    for (std::size_t b = 0; b < blocks; ++b) substituteFolded(b, delta);
+    return delta.allFinite();
+}
+
+void BlockEliminationWorkspace::addFold(std::size_t i, const Matrix6* weight, const Vector6* load)
+{
+    // A node's fold is its one source's (a child's, or the node's below) until a second one adds to it: along a
+    // chain the 6x6 is pointed at, not copied node after node.
+    if (!folded_[i]) {
+        foldWeightOf_[i] = weight;
+        foldLoadOf_[i] = load;
+        folded_[i] = 1;
+    } else if (foldWeightOf_[i] == &foldWeight_[i]) {
+        foldWeight_[i] += *weight;
+        foldLoad_[i] += *load;
+    } else {
+        foldWeight_[i] = *foldWeightOf_[i] + *weight;
+        foldLoad_[i] = *foldLoadOf_[i] + *load;
+        foldWeightOf_[i] = &foldWeight_[i];
+        foldLoadOf_[i] = &foldLoad_[i];
+    }
+}
+
+void BlockEliminationWorkspace::gatherFolds(std::size_t b)
+{
+    const BlockElimination& e = *e_;
+    const int begin = e.nodeBegin_[b], end = e.nodeBegin_[b + 1];
+    for (const int c : e.children_[b]) {
+        const std::size_t i = static_cast<std::size_t>(e.attach_[static_cast<std::size_t>(c)]);
+        addFold(i, &blockWeight_[static_cast<std::size_t>(c)], &blockLoad_[static_cast<std::size_t>(c)]);
+    }
+    for (int i = end; i-- > begin;) {
+        const std::size_t f = static_cast<std::size_t>(i);
+        const int up = e.nodeUp_[f];
+        if (!folded_[f] || up < begin) continue;  // up < begin: none, or the attach node
+        addFold(static_cast<std::size_t>(up), foldWeightOf_[f], foldLoadOf_[f]);
+    }
+}
+
+const double* BlockEliminationWorkspace::foldedPanel(std::size_t b, double* y)
+{
+    const BlockElimination& e = *e_;
+    const ResidualWorkspace& rw = *twists_;
+    const Eigen::Index nb = e.size_[b];
+    const int base = e.base_[b][0];
+    double* s = work_.data() + base;
+    std::copy(entries_.data() + base, entries_.data() + base + nb * nb, s);
+    for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) {
+        const std::size_t f = static_cast<std::size_t>(i);
+        if (!folded_[f]) continue;
+        const Vector6& t = rw.twist(e.nodeId_[f]);
+        foldProduct_[f].noalias() = *foldWeightOf_[f] * t;
+        y[e.localOfColumn_[static_cast<std::size_t>(e.nodeColumn_[f])]] -= t.dot(*foldLoadOf_[f]);
+        for (int p = e.pairBegin_[f]; p < e.pairBegin_[f + 1]; ++p) {
+            const std::size_t q = static_cast<std::size_t>(p);
+            s[e.pairEntry_[q] - base] -=
+                e.pairFactor_[q] * rw.twist(e.nodeId_[static_cast<std::size_t>(e.pairOther_[q])]).dot(foldProduct_[f]);
         }
     }
-    return delta.allFinite();
+    // Held columns stay identity rows and columns with no right-hand side.
+    for (Eigen::Index l = 0; l < nb; ++l) {
+        if (!held(e.columns_[b][static_cast<std::size_t>(l)])) continue;
+        for (Eigen::Index j = 0; j < l; ++j) s[j * nb + l] = 0.0;
+        for (Eigen::Index i = l + 1; i < nb; ++i) s[l * nb + i] = 0.0;
+        s[l * nb + l] = 1.0;
+        y[l] = 0.0;
+    }
+    return s;
+}
+
+void BlockEliminationWorkspace::foldIntoAttach(std::size_t b, const double* y)
+{
+    const BlockElimination& e = *e_;
+    const ResidualWorkspace& rw = *twists_;
+    const Eigen::Index nb = e.size_[b];
+    // W^T: a row per block column, a column per component of the attach node's motion.
+    double* w = foldCoupling_.data();
+    std::fill(w, w + 6 * nb, 0.0);
+    for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) {
+        const std::size_t f = static_cast<std::size_t>(i);
+        const int column = e.nodeColumn_[f];
+        if (held(column)) continue;
+        Vector6 c = rw.weighted(e.nodeId_[f]);
+        if (folded_[f]) c -= foldProduct_[f];
+        const Eigen::Index l = e.localOfColumn_[static_cast<std::size_t>(column)];
+        for (Eigen::Index q = 0; q < 6; ++q) w[q * nb + l] += c[q];
+    }
+    double* rows = couplings_.data() + e.coupling_[b];
+    couplingRows(b, w, 6, rows);
+    Matrix6& k = blockWeight_[b];
+    Vector6& load = blockLoad_[b];
+    k.setZero();
+    load.setZero();
+    for (Eigen::Index r = 0; r < nb; ++r) {  // whole outer products: they vectorize, a triangle would not
+        const Eigen::Map<const Vector6> row(rows + 6 * r);
+        k.noalias() += row * row.transpose();
+        load += y[r] * row;
+    }
+    for (const int c : e.children_[b]) {
+        k += blockWeight_[static_cast<std::size_t>(c)];
+        load += blockLoad_[static_cast<std::size_t>(c)];
+    }
+}
+
+void BlockEliminationWorkspace::substituteFolded(std::size_t b, Eigen::Ref<Eigen::VectorXd>& delta)
+{
+    const BlockElimination& e = *e_;
+    const Eigen::Index nb = e.size_[b];
+    double* z = rhs_[b].data();
+    const int attach = e.attach_[b];
+    if (attach >= 0) {
+        const Vector6& v = motion_[static_cast<std::size_t>(attach)];
+        const double* rows = couplings_.data() + e.coupling_[b];
+        for (Eigen::Index k = 0; k < nb; ++k) z[k] -= Eigen::Map<const Vector6>(rows + 6 * k).dot(v);
+    }
+    applyFTransposed(b, z);
+    for (Eigen::Index l = 0; l < nb; ++l) delta[e.columns_[b][static_cast<std::size_t>(l)]] = z[l];
+    if (e.children_[b].empty()) return;
+    const ResidualWorkspace& rw = *twists_;
+    for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) {
+        const std::size_t f = static_cast<std::size_t>(i);
+        const int up = e.nodeUp_[f], column = e.nodeColumn_[f];
+        if (up >= 0) motion_[f] = motion_[static_cast<std::size_t>(up)];
+        else motion_[f].setZero();
+        if (!held(column)) motion_[f] += rw.twist(e.nodeId_[f]) * z[e.localOfColumn_[static_cast<std::size_t>(column)]];
+    }
 }
 
 }  // namespace rig

@@ -112,6 +112,8 @@ public:
 private:
     using BlockMap = Eigen::Map<Eigen::MatrixXd>;
     using ConstBlockMap = Eigen::Map<const Eigen::MatrixXd>;
+    using Matrix6 = Eigen::Matrix<double, 6, 6>;
+    using Vector6 = Eigen::Matrix<double, 6, 1>;
     BlockMap block(std::size_t b, std::size_t i);
     ConstBlockMap block(std::size_t b, std::size_t i) const;
     // S_b^-1 (or S_b^+) = F^T F for S_b (s: its panel's first columns) plus mu I: S_b = L L^T, F = L^-1 (L in
@@ -126,6 +128,16 @@ private:
         return e_->folded_ && entries_[static_cast<std::size_t>(e_->heldBase_ + column)] != 0;
     }
     bool solveFolded(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
+    // solveFolded's phases. A node's folds (the 6x6 and the load of what is eliminated below it): one more added.
+    void addFold(std::size_t i, const Matrix6* weight, const Vector6* load);
+    // Block b's children's folds, at their attach nodes and summed up b's nodes towards its attach node.
+    void gatherFolds(std::size_t b);
+    // S_b with the folds taken off its pairs (in work_) and off y; held columns made identity.
+    const double* foldedPanel(std::size_t b, double* y);
+    // What eliminating block b (factored, y = F rhs) leaves at its attach node: its T and K, load (children's too).
+    void foldIntoAttach(std::size_t b, const double* y);
+    // Block b's step into delta, and its nodes' motions for its children.
+    void substituteFolded(std::size_t b, Eigen::Ref<Eigen::VectorXd>& delta);
     void multiplyFolded(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out) const;
 
     const BlockElimination* e_;
@@ -141,8 +153,6 @@ private:
     std::vector<double> scratch_;
     // The fold's: per flat node, the folds below it (6x6 and load) and F t-products; per block, what its
     // elimination folds into its attach node; per flat node, the motion of the step (or of multiply's v).
-    using Matrix6 = Eigen::Matrix<double, 6, 6>;
-    using Vector6 = Eigen::Matrix<double, 6, 1>;
     const ResidualWorkspace* twists_ = nullptr;
     std::vector<Matrix6> foldWeight_, blockWeight_;
     std::vector<Vector6> foldLoad_, foldProduct_, blockLoad_;
