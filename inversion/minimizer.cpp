@@ -5,7 +5,6 @@
 #include <limits>
 
 #include "core/prefetch.h"
-#include "inversion/step_strategy.h"
 
 namespace rig {
 namespace {
@@ -44,20 +43,22 @@ double holdAtLimits(MinimizerProblem& problem, const Unknowns& u, const SolverOp
     return projectedGradient;
 }
 
-// The damped step from state.x, within the angular trust region and the limits, into state.trial and
-// state.step; false when the system has no solution. `smallStep`: under parameterTolerance. `wholeStep`:
-// neither shortened nor projected.
+// The damped step from state.x, times `scale`, within the angular trust region and the limits, into state.trial
+// and state.step; false when the system has no solution. `smallStep`: under parameterTolerance. `wholeStep`:
+// neither scaled, shortened nor projected.
 bool trialStep(MinimizerProblem& problem, const Unknowns& u, const SolverOptions& options, MinimizerState& s,
-               double damping, bool& smallStep, bool& wholeStep)
+               double damping, double scale, bool& smallStep, bool& wholeStep)
 {
     const std::size_t n = u.size();
     if (!problem.solveStep(s.gFree, damping, s.fixed, s.delta)) return false;
+    if (scale != 1.0) s.delta *= scale;  // a Gauss-Newton step backtracked (StepPolicy::backtracks)
     // The rotation trust region (SolverOptions::maxAngularStep): shorten the whole step, keeping its direction.
     double largestTurn = 0.0;
     for (std::size_t c = 0; c < n; ++c)
         if (u.angular[c]) largestTurn = std::max(largestTurn, std::abs(s.delta[static_cast<Eigen::Index>(c)]));
     wholeStep = largestTurn <= options.maxAngularStep;
     if (!wholeStep) s.delta *= options.maxAngularStep / largestTurn;
+    wholeStep = wholeStep && scale == 1.0;
     // Projection onto the limits; the step actually taken is what the model and tolerances see.
     double stepNorm2 = 0.0, xNorm2 = 0.0;
     for (std::size_t c = 0; c < n; ++c) {
@@ -170,7 +171,7 @@ void MinimizerState::prefetch() const
 }
 
 MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const SolverOptions& o, MinimizerState& s,
-                         std::span<const double> near)
+                         std::span<const double> near, StepPolicy policy)
 {
     MinimizerResult result;
     bool finite = problem.linearize(s.x, false, s.r, s.g);
@@ -181,7 +182,7 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
     finite = finite && std::isfinite(cost);
     result.initialCost = cost;
     bool evaluatedAtX = true;
-    StepControl control(o);
+    StepControl control(o, policy);
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
         double largestDiagonal = 0.0;
         if (holdAtLimits(problem, u, o, s, largestDiagonal) <= o.gradientTolerance) {
@@ -190,7 +191,8 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
         }
         const bool gaussNewton = control.gaussNewton();
         bool smallStep = false, wholeStep = false;
-        if (!trialStep(problem, u, o, s, control.damping(largestDiagonal), smallStep, wholeStep)) break;
+        if (!trialStep(problem, u, o, s, control.damping(largestDiagonal), control.scale(), smallStep, wholeStep))
+            break;
         // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
         const auto predicted = [&] {
             problem.multiply(s.step, s.hStep);

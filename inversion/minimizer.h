@@ -14,6 +14,7 @@
 #include "inversion/approximation.h"
 #include "inversion/continuity.h"
 #include "inversion/solver.h"
+#include "inversion/step_strategy.h"
 
 namespace rig {
 
@@ -73,11 +74,12 @@ struct MinimizerResult {
 };
 
 // Minimizes 1/2 |r(x)|^2 from state.x (within the limits) within the unknowns' limits: Gauss-Newton then
-// Levenberg-Marquardt steps (StepControl), the columns at a limit whose descent points out held, every step
-// shortened whole so that no angle moves more than options.maxAngularStep. Stops on options' tolerances
-// and maxIterations. At the end, periodic unknowns and Euler triples are moved to the equivalent values
-// nearest `near` (indexed by Unknowns::columns; an Euler flip only where the cost says it is the same pose).
+// Levenberg-Marquardt steps (StepControl, as `policy` says), the columns at a limit whose descent points out held,
+// every step shortened whole so that no angle moves more than options.maxAngularStep. Stops on options' tolerances and
+// maxIterations. At the end, periodic unknowns and Euler triples are moved to the equivalent values nearest `near`
+// (indexed by Unknowns::columns; an Euler flip only where the cost says it is the same pose).
 MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& unknowns, const SolverOptions& options,
-                         MinimizerState& state, std::span<const double> near);
+                         MinimizerState& state, std::span<const double> near,
+                         StepPolicy policy = StepPolicy::approximation());
 
 }  // namespace rig

@@ -198,7 +198,8 @@ RealRigSolve solveOnRealRig(RealRigProblem& problem, std::span<double> values, c
     RealRigMinimizerProblem minimizerProblem(problem, options.finiteDifferenceStep);
     SolverOptions realRig = options;
     realRig.maxAngularStep = options.realRigMaxAngularStep;
-    const MinimizerResult result = minimize(minimizerProblem, unknowns, realRig, state, reference);
+    const MinimizerResult result =
+        minimize(minimizerProblem, unknowns, realRig, state, reference, StepPolicy::realRig());
     std::copy(state.x.begin(), state.x.end(), values.begin());
     RealRigSolve solve;
     solve.iterations = result.gaussNewton + result.levenbergMarquardt;

@@ -5,15 +5,19 @@
 
 namespace rig {
 
-StepControl::StepControl(const SolverOptions& options)
-    : options_(options), gaussNewton_(options.gaussNewtonIterations > 0)
+StepControl::StepControl(const SolverOptions& options, StepPolicy policy)
+    : options_(options), policy_(policy), gaussNewton_(options.gaussNewtonIterations > 0)
 {
 }
 
 double StepControl::damping(double largestDiagonal)
 {
     if (gaussNewton_) return 0.0;
-    if (mu_ == 0.0) mu_ = largestDiagonal > 0 ? initialDamping * largestDiagonal : initialDamping;
+    if (mu_ == 0.0) {
+        const double scale = largestDiagonal > 0 ? largestDiagonal : 1.0;
+        mu_ = initialDamping * scale;
+        ceiling_ = policy_.maxDamping * scale;
+    }
     return mu_;
 }
 
@@ -22,8 +26,18 @@ bool StepControl::accept(double cost, double trialCost, bool smallStep, const st
     const bool finite = std::isfinite(trialCost);
     if (gaussNewton_) {
         const bool taken = finite && (trialCost < cost || (smallStep && trialCost <= cost));
-        if (!taken && !smallStep) gaussNewton_ = false;  // Gauss-Newton failed to descend: damp from now on
-        return taken;
+        if (taken || smallStep) {
+            scale_ = 1.0;
+            return taken;
+        }
+        // Gauss-Newton failed to descend: shorter along its step, as the policy allows, else damp.
+        if (scale_ > std::ldexp(1.0, -policy_.backtracks)) {
+            scale_ *= 0.5;
+            return false;
+        }
+        scale_ = 1.0;
+        gaussNewton_ = false;
+        return false;
     }
     const double model = predicted();
     const double actual = cost - trialCost;
@@ -40,11 +54,18 @@ bool StepControl::accept(double cost, double trialCost, bool smallStep, const st
     return false;
 }
 
-bool StepControl::exhausted() const { return !std::isfinite(mu_); }
+bool StepControl::exhausted() const { return !std::isfinite(mu_) || mu_ > ceiling_; }
 
 void StepControl::accepted(int gaussNewtonSteps)
 {
-    if (gaussNewton_ && gaussNewtonSteps >= options_.gaussNewtonIterations) gaussNewton_ = false;
+    if (!gaussNewton_ && !policy_.persistentDamping) {
+        gaussNewton_ = true;  // the next step Gauss-Newton again, damped afresh if it must be
+        mu_ = 0.0;
+        nu_ = 2.0;
+    }
+    // Gauss-Newton's budget ends it for good only where damping persists (the real rig's steps return to it).
+    if (policy_.persistentDamping && gaussNewton_ && gaussNewtonSteps >= options_.gaussNewtonIterations)
+        gaussNewton_ = false;
 }
 
 DenseSystem::DenseSystem(Eigen::Index columns)

@@ -5,6 +5,7 @@
 // A partition's coupled solve steps by block elimination instead (block_elimination.h).
 
 #include <functional>
+#include <limits>
 #include <span>
 
 #include <Eigen/Cholesky>
@@ -20,10 +21,31 @@ inline constexpr double initialDamping = 1e-4;
 // Directions whose curvature is below this fraction of the largest are left alone: the minimum-norm step.
 inline constexpr double rankTolerance = 1e-12;
 
+// How a problem's steps are chosen beyond SolverOptions: what suits a cheap, smooth model (the approximation)
+// and what suits a black box whose forward differences misjudge a kink (the real rig).
+struct StepPolicy {
+    // A Gauss-Newton step that does not lower the cost is halved up to this many times before damping is tried.
+    int backtracks = 0;
+    // Damping, once started, stays for the rest of the solve (Levenberg-Marquardt from then on); false: after a
+    // damped step is taken, the next one is Gauss-Newton again (undamped, then backtracked, then damped afresh).
+    bool persistentDamping = true;
+    // No step is found once the damping passes this multiple of J^T J's largest free diagonal entry.
+    double maxDamping = std::numeric_limits<double>::infinity();
+
+    // The approximation's: Gauss-Newton while it descends, then Levenberg-Marquardt to the end.
+    static StepPolicy approximation() { return {}; }
+    // The real rig's: each step Gauss-Newton first, halved up to 10 times, then damped from 1e-4 to 1e8 of the
+    // largest diagonal entry (an IK knee at full extension, where the bend grows as the square root of the goal's
+    // approach: Gauss-Newton's direction is poor there but short steps along it descend).
+    static StepPolicy realRig() { return {10, false, 1e8}; }
+};
+
 class StepControl {
 public:
-    explicit StepControl(const SolverOptions& options);
+    StepControl(const SolverOptions& options, StepPolicy policy = StepPolicy::approximation());
     bool gaussNewton() const { return gaussNewton_; }
+    // The length of the next trial along the step solved, 1 unless a Gauss-Newton step is being backtracked.
+    double scale() const { return scale_; }
     // The damping of the next step; `largestDiagonal` (of the free columns' J^T J) scales the first one.
     double damping(double largestDiagonal);
     // Whether the trial point is taken; adapts the damping. `predicted` (the model's decrease) is asked for
@@ -36,8 +58,11 @@ public:
 
 private:
     const SolverOptions& options_;
+    StepPolicy policy_;
     bool gaussNewton_;
     double mu_ = 0.0, nu_ = 2.0;
+    double scale_ = 1.0;
+    double ceiling_ = std::numeric_limits<double>::infinity();  // the damping past which no step is found
 };
 
 // J^T J as a dense lower triangle, and the damped step from it.
