@@ -165,3 +165,43 @@ TEST_CASE("minimizer on the real rig: the trust region, the limits and the answe
         CHECK(s.finalCost > 1.0);
     }
 }
+
+TEST_CASE("step policies: the approximation's damps after a failed Gauss-Newton step, the real rig's halves it first")
+{
+    const SolverOptions options;
+    const auto never = [] { return 1.0; };
+    StepControl approximation(options, StepPolicy::approximation());
+    CHECK(approximation.gaussNewton());
+    CHECK_FALSE(approximation.accept(1.0, 2.0, false, never));
+    CHECK_FALSE(approximation.gaussNewton());
+    CHECK(approximation.damping(10.0) == doctest::Approx(initialDamping * 10.0));
+
+    StepControl realRig(options, StepPolicy::realRig());
+    for (int halving = 1; halving <= 10; ++halving) {
+        CAPTURE(halving);
+        CHECK_FALSE(realRig.accept(1.0, 2.0, false, never));
+        CHECK(realRig.gaussNewton());
+        CHECK(realRig.scale() == std::ldexp(1.0, -halving));
+    }
+    CHECK_FALSE(realRig.accept(1.0, 2.0, false, never));  // the 11th failure: damping from now on
+    CHECK_FALSE(realRig.gaussNewton());
+    CHECK(realRig.scale() == 1.0);
+    CHECK(realRig.damping(10.0) == doctest::Approx(initialDamping * 10.0));
+    // A damped step taken: the next one is Gauss-Newton again, undamped.
+    CHECK(realRig.accept(1.0, 0.5, false, [] { return 0.5; }));
+    realRig.accepted(0);
+    CHECK(realRig.gaussNewton());
+    CHECK(realRig.damping(10.0) == 0.0);
+    // Rejected damped steps raise the damping until it passes 1e8 of the diagonal: exhausted.
+    CHECK_FALSE(realRig.accept(1.0, 2.0, false, never));
+    for (int i = 0; i < 10; ++i) realRig.accept(1.0, 2.0, false, never);
+    CHECK_FALSE(realRig.gaussNewton());
+    realRig.damping(10.0);
+    int rejections = 0;
+    while (!realRig.exhausted() && rejections < 100) {
+        realRig.accept(1.0, 2.0, false, never);
+        ++rejections;
+    }
+    CHECK(realRig.exhausted());
+    CHECK(rejections < 20);
+}
