@@ -474,9 +474,9 @@ void compareBlackBox(BipedBench& b, Json& report)
     blackJson["speedup"] = black.cpuMsPerFrame() / samePartitioned.run.cpuMsPerFrame();
     blackJson["speedup_whole"] = black.cpuMsPerFrame() / sameWhole.run.cpuMsPerFrame();
     blackJson["note"] =
-        "Gauss-Newton with forward-difference Jacobians on the real graph, serial (inversion/real_rig_solve.h), the "
-        "solver's tolerances, the same unknowns, in the chains of invertClip; the first frames of the "
-        "clip, the first from the initial guess";
+        "The solver's minimizer on the real graph with forward-difference Jacobians, serial, the real rig's step "
+        "policy (Gauss-Newton, backtracked, then damped: inversion/real_rig_solve.h), the solver's tolerances, the "
+        "same unknowns, in the chains of invertClip; the first frames of the clip, the first from the initial guess";
     report["blackbox"] = blackJson;
     b.accuracy["blackbox"] = black.errorsJson();
     b.accuracy["approximation_on_blackbox_frames"] = samePartitioned.run.errorsJson();
