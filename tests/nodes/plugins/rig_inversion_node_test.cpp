@@ -66,6 +66,22 @@ void checkSameCurves(const fs::path& node, const fs::path& curves, std::size_t f
     CHECK(equal == compared);
 }
 
+// The largest distance, over `frames` (graph-eval's JSON with each clip joint's worldMatrix), between a joint's
+// position and the clip's.
+double worstJointPositionCm(const YAML::Node& frames, const BvhClip& clip)
+{
+    double worst = 0.0;
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+        const auto expected = bvhWorldMatrices(clip, static_cast<int>(f));
+        for (std::size_t j = 0; j < clip.joints.size(); ++j) {
+            const YAML::Node m = frames[f][clip.joints[j].name + ".worldMatrix"];
+            for (int row = 0; row < 3; ++row)
+                worst = std::max(worst, std::abs(m[row][3].as<double>() - expected[j](row, 3)));
+        }
+    }
+    return worst;
+}
+
 }  // namespace
 
 TEST_CASE("rigInversion: a bvhClip -> rigInversion -> rig graph reproduces the CMU clip's joints")
@@ -87,17 +103,8 @@ TEST_CASE("rigInversion: a bvhClip -> rigInversion -> rig graph reproduces the C
     REQUIRE(r.exitCode == 0);
     const YAML::Node frames = YAML::LoadFile((dir / "out.json").string());
     REQUIRE(frames.size() == 60);
-    double worst = 0.0;
-    for (int f = 0; f < 60; ++f) {
-        CHECK(frames[f]["inverter.status"].as<std::string>() == "reached");
-        const auto expected = bvhWorldMatrices(s.clip, f);
-        for (std::size_t j = 0; j < s.clip.joints.size(); ++j) {
-            const YAML::Node m = frames[f][s.clip.joints[j].name + ".worldMatrix"];
-            for (int row = 0; row < 3; ++row)
-                worst = std::max(worst, std::abs(m[row][3].as<double>() - expected[j](row, 3)));
-        }
-    }
-    CHECK(worst < 1e-3);
+    for (int f = 0; f < 60; ++f) CHECK(frames[f]["inverter.status"].as<std::string>() == "reached");
+    CHECK(worstJointPositionCm(frames, s.clip) < 1e-3);
 }
 
 TEST_CASE("rigInversion: with term position, the biped reaches the CMU clip's joint positions")
@@ -120,18 +127,11 @@ TEST_CASE("rigInversion: with term position, the biped reaches the CMU clip's jo
     REQUIRE(r.exitCode == 0);
     const YAML::Node frames = YAML::LoadFile((dir / "out.json").string());
     REQUIRE(frames.size() == 30);
-    double worst = 0.0;
     for (int f = 0; f < 30; ++f) {
         CHECK(frames[f]["inverter.status"].as<std::string>() == "reached");
         CHECK(frames[f]["inverter.worstErrorCm"].as<double>() < 1e-3);
-        const auto expected = bvhWorldMatrices(s.clip, f);
-        for (std::size_t j = 0; j < s.clip.joints.size(); ++j) {
-            const YAML::Node m = frames[f][s.clip.joints[j].name + ".worldMatrix"];
-            for (int row = 0; row < 3; ++row)
-                worst = std::max(worst, std::abs(m[row][3].as<double>() - expected[j](row, 3)));
-        }
     }
-    CHECK(worst < 1e-3);
+    CHECK(worstJointPositionCm(frames, s.clip) < 1e-3);
 }
 
 TEST_CASE("rigInversion: the node's values equal rig-invert's curves on the biped, frame for frame")
