@@ -15,7 +15,7 @@
 namespace rig::app {
 namespace {
 
-constexpr std::string_view manifestFormat = "rig-batch manifest 2";
+constexpr std::string_view manifestFormat = "rig-batch manifest 3";
 constexpr std::string_view shardFormat = "rig-batch shard 2";
 constexpr std::size_t shardFigures = 8;  // the summary's figures held as raw doubles (shardOutputBytes)
 

@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "inversion/approximation_io.h"
 #include "inversion/hybrid_solve.h"
+#include "inversion/residual_term.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
 
@@ -169,6 +170,20 @@ ClipTargets matchClipTargets(const Approximation& approximation, const TargetCli
     }
 }
 
+namespace {
+
+// Every target of the clip given the settings' residual term (a target without one is a joint target).
+void applyTerm(ClipTargets& targets, TargetTerm term)
+{
+    if (term == TargetTerm::jointTarget) return;
+    const ResidualTerm& kind = positionTerm();
+    for (auto& frame : targets.frames)
+        for (JointTarget& target : frame)
+            if (target.active) setTerm(target, kind);
+}
+
+}  // namespace
+
 InvertOutcome invert(const InvertJob& job)
 {
     ClipInversionOptions options = clipInversionOptions(job.settings);
@@ -187,6 +202,7 @@ InvertOutcome invert(const InvertJob& job)
                                     last, clip.frameNumbers.size()));
     }
     out.targets = matchClipTargets(approximation, clip);
+    applyTerm(out.targets, job.settings.term);
     const Solver solver(approximation, options.solver);
     RigBinding bound = bindRig(job, approximation, *loaded.rig);
     if (!job.after.empty())

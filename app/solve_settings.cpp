@@ -67,6 +67,10 @@ std::array<SolveSetting, solveSettingCount> makeTable()
         "jacobian", SettingKind::choice,
         "How the solver forms the Jacobian: analytic, or fd (finite differences, in parallel)");
     jacobian.words = {"analytic", "fd"};  // JacobianMethod::analytic, finiteDifference (a choice has two words)
+    SolveSetting term = row<&SolveSettings::term>(
+        "term", SettingKind::choice,
+        "The residual of every target: jointTarget (its position and rotation) or position (its position alone)");
+    term.words = {"jointTarget", "position"};  // TargetTerm's values, the kinds' names in the registry
     // In the order the manifest has always held them: its settings are part of every shard's key.
     return {
         count<&SolverOptions::threads>("threads", "Threads for the solver (0: all cores); results do not depend on it",
@@ -90,6 +94,7 @@ std::array<SolveSetting, solveSettingCount> makeTable()
         row<&SolveSettings::hybrid>("hybrid", SettingKind::flag,
                                     "Fit the outputs the approximation does not model (an IK leg) by Gauss-Newton on "
                                     "the real rig, after the approximation's solve"),
+        term,
     };
 }
 

@@ -16,9 +16,13 @@ namespace rig::app {
 
 // What the table's settings land in: the options of invertClip (the solver's inside) and the hybrid solve's switch
 // (inversion/hybrid_solve.h, which app/invert_run.cpp sets up from it).
+// The residual term of every target (inversion/residual_term.h): the built-in kinds, as the registry names them.
+enum class TargetTerm { jointTarget, position };
+
 struct SolveSettings {
     ClipInversionOptions clip;
     bool hybrid = false;
+    TargetTerm term = TargetTerm::jointTarget;
 };
 
 // The defaults where many solves run at once (rig-batch's shards, processes side by side; Python's callers, who
@@ -50,7 +54,7 @@ struct SolveSetting {
     void (*set)(SolveSettings& settings, int value) = nullptr;
 };
 
-inline constexpr std::size_t solveSettingCount = 8;
+inline constexpr std::size_t solveSettingCount = 9;
 // The table, in the order the flags, fields and keywords are listed (the manifest's order, which shard keys hash).
 const std::array<SolveSetting, solveSettingCount>& solveSettings();
 

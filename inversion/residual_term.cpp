@@ -192,6 +192,13 @@ const ResidualTerm& residualTerm(std::string_view name)
 
 const ResidualTerm& termOf(const JointTarget& target) { return target.term ? *target.term : jointTargetTerm(); }
 
+void setTerm(JointTarget& target, const ResidualTerm& term)
+{
+    target.term = &term;
+    // Asked of a target that weighs both halves: whether the kind can count a rotation at all.
+    if (!(term.counted(JointTarget{}) & rotationRows)) target.rotationWeight = 0.0;
+}
+
 unsigned char termRowsKey(const JointTarget& target)
 {
     const ResidualTerm& term = termOf(target);

@@ -79,6 +79,9 @@ std::vector<std::string> residualTermNames();
 
 // A target's term: its own, or the joint target when it names none.
 const ResidualTerm& termOf(const JointTarget& target);
+// Gives `target` the kind `term`. A kind that counts no rotation gets the target's rotation weight 0 too, so that
+// what measures by weights (frame judging, polish, the hybrid stage) counts what the term counts.
+void setTerm(JointTarget& target, const ResidualTerm& term);
 // The rows a target counts (ResidualTerm::counted) with its kind's index above them (bits 2 to 7): one byte
 // per output that says both which rows count and how many there are.
 unsigned char termRowsKey(const JointTarget& target);

@@ -81,6 +81,7 @@ class Approximation:
         restart_every: int = 120,
         rest_starts: bool = False,
         hybrid: bool = False,
+        term: str = "jointTarget",
     ) -> Tuple[numpy.typing.NDArray[numpy.float64], list[str], _Report]:
         """Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).
 
@@ -90,8 +91,8 @@ class Approximation:
         ignored joints; docs/rig-invert.md).
         progress: called as progress(frames done, frames total), with the GIL held.
         plugins, frames: as rig-invert's --plugin and --frames ('A:B' in the clip's numbering).
-        threads, no_partition, block_by_block, jacobian, polish, restart_every, rest_starts, hybrid: the solve
-        settings, as rig-invert's flags of those names ('-' for '_'; a flag's keyword is True or False);
+        threads, no_partition, block_by_block, jacobian, polish, restart_every, rest_starts, hybrid, term: the
+        solve settings, as rig-invert's flags of those names ('-' for '_'; a flag's keyword is True or False);
         threads counts the solver's threads (0: all cores; the values do not depend on it).
         values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter
         names; report: the dict rig-invert --report-json writes (curves.file is None: nothing is

@@ -156,15 +156,14 @@ private:
     {
         std::vector<JointTarget> targets(a.outputs.size());
         const ResidualTerm& term = targetTerm(c.getString(residualTermName), c.nodeName());
-        // A term that counts no rotation has none to weigh: what measures by weights (the hybrid stage) agrees.
-        const double rotation = (term.counted(JointTarget{}) & rotationRows) ? c.getDouble(rotationWeight) : 0.0;
+        const double rotation = c.getDouble(rotationWeight);
         c.forEachElement(target, [&](int k, const Value& v) {
             if (k >= static_cast<int>(targets.size())) return;
             targets[k].active = true;
             targets[k].world = std::get<Eigen::Matrix4d>(v);
             targets[k].world.block<3, 1>(0, 3) *= scale_;
             targets[k].rotationWeight = rotation;
-            targets[k].term = &term;
+            setTerm(targets[k], term);
         });
         c.forEachElement(targetWeight, [&](int k, const Value& v) {
             if (k < static_cast<int>(targets.size())) targets[k].positionWeight = std::get<double>(v);

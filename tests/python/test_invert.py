@@ -222,6 +222,7 @@ SETTINGS = [
     (["--restart-every", "7"], {"restart_every": 7}),
     (["--rest-starts"], {"rest_starts": True}),
     (["--hybrid"], {"hybrid": True}),
+    (["--term", "position"], {"term": "position"}),
 ]
 
 
@@ -246,6 +247,7 @@ BAD_SETTINGS = [
     (["--polish", "-1"], {"polish": -1}),
     (["--restart-every", "0"], {"restart_every": 0}),
     (["--jacobian", "exact"], {"jacobian": "exact"}),
+    (["--term", "aim"], {"term": "aim"}),
     (["--hybrid", "--polish", "2"], {"hybrid": True, "polish": 2}),
 ]
 

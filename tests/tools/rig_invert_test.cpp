@@ -186,6 +186,32 @@ TEST_CASE("rig-invert: the CMU clip on the biped leaves a finite residual that i
     CHECK(largestStep < 45.0);
 }
 
+TEST_CASE("rig-invert: --term position fits the joints' positions alone, closer than joint targets do")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto dir = test::scratchDir("rig_invert_term_position");
+    const auto run = [&](const std::string& name, const std::string& flags) {
+        const auto r = rigInvert(
+            fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames 1:60 {} -o {} "
+                        "--report-json {} -q",
+                        test::bipedApproximation().string(), test::cmuClip.string(), flags,
+                        (dir / (name + ".json")).string(), (dir / (name + ".report.json")).string()));
+        INFO(r.err);
+        REQUIRE(r.exitCode == 0);
+        return report(dir / (name + ".report.json"));
+    };
+    const auto joint = run("joint", "");
+    const auto position = run("position", "--term position");
+    // Judged on the real rig over what the term counts: positions, every frame reached or a best fit.
+    CHECK(position["failed_frames"].as<int>() == 0);
+    CHECK(position["max_rotation_error_deg"].as<double>() == 0.0);
+    CHECK(position["max_position_error_cm"].as<double>() < 0.5 * joint["max_position_error_cm"].as<double>());
+    CHECK(position["mean_position_error_cm"].as<double>() < 0.5 * joint["mean_position_error_cm"].as<double>());
+}
+
 TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs alone")
 {
     const auto dir = test::scratchDir("rig_invert_errors");

@@ -119,7 +119,7 @@ std::string flagsOf(const app::SolveSettings& settings)
 
 TEST_CASE("solve settings: every row is a flag of rig-invert and rig-batch, with the table's default in its help")
 {
-    CHECK(app::solveSettings().size() == 8);
+    CHECK(app::solveSettings().size() == 9);
     for (const app::SolveSetting& s : app::solveSettings()) {
         CAPTURE(s.name);
         // A flag turns something on: off by default, wherever it lands.
