@@ -10,8 +10,6 @@
 namespace rig {
 namespace {
 
-double clampTo(double v, double lo, double hi) { return std::min(std::max(v, lo), hi); }
-
 // Each angular unknown starts at its value and a third of a turn either way: of three starts a third of a
 // turn apart, one lies within a sixth of a turn of any answer, where the cost (1 - cos) is convex enough for
 // Gauss-Newton. A limited one starts at the middles of the thirds of its range instead.

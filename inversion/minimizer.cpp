@@ -9,8 +9,6 @@
 namespace rig {
 namespace {
 
-double clampTo(double v, double lo, double hi) { return std::min(std::max(v, lo), hi); }
-
 // The projected gradient's norm; below gradientTolerance nothing else is done, else the columns at a limit
 // whose descent points out are held (state.fixed, state.gFree, J^T J) and `largestDiagonal` is the free
 // columns' largest entry of J^T J's diagonal.

@@ -5,6 +5,7 @@
 // real rig's by finite differences (real_rig_solve.h). Both get the same limits, the same angular trust
 // region, the same stop tests and the same continuity (whole turns and Euler flips kept near a reference).
 
+#include <algorithm>
 #include <array>
 #include <span>
 #include <vector>
@@ -17,6 +18,9 @@
 #include "inversion/step_strategy.h"
 
 namespace rig {
+
+// `v` within [lo, hi], the limits of an unknown (infinite for a free one).
+inline double clampTo(double v, double lo, double hi) { return std::min(std::max(v, lo), hi); }
 
 // The unknowns of a problem: their limits, which are angles, and their equivalent values.
 struct Unknowns {

@@ -20,8 +20,6 @@ namespace {
 
 constexpr std::size_t maxCachedPlans = 256;
 
-double clampTo(double v, double lo, double hi) { return std::min(std::max(v, lo), hi); }
-
 // A non-compositional output's target is not counted: the approximation does not predict it. The rows a
 // target's term counts, and its kind (termRowsKey): plans differ by both.
 unsigned char countedRows(const ApproximationOutput& output, const JointTarget& t)
