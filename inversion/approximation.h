@@ -37,6 +37,9 @@ struct ApproximationOutput {
     // there is not meaningful), the solver does not count its target, and a hybrid solve (real_rig_solve.h)
     // fits it on the real rig. Always in world space (parent -1), and no output is relative to it.
     bool modelled = true;
+    // A helper frame (RigFunction::helperOutputs): learned like a joint, read by constraint operators, never a
+    // target (a clip's joint of the same name is not matched to it).
+    bool helper = false;
 };
 
 struct ModelledParameter {

@@ -36,6 +36,11 @@ public:
     // itself an output, or -1 (none, or a rig without a hierarchy). The learner may model an output
     // relative to it (docs/rig-learn.md).
     virtual std::vector<int> outputParents() const { return std::vector<int>(outputs().size(), -1); }
+    // For each output, whether it is a helper frame: a transform that is not a joint to invert (an IK goal, a pole
+    // object, an aim target, a space-switch parent) but that outputs which do not compose are functions of. The
+    // learner learns helpers like joints and reads them in constraint operators; a helper is never a target.
+    // Helpers come after the joints in outputs().
+    virtual std::vector<char> helperOutputs() const { return std::vector<char>(outputs().size(), 0); }
     // World matrices of every output for these values of every parameter (internal units).
     virtual void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) = 0;
     // Rig evaluations so far: the training cost the talk counts.
