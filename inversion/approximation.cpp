@@ -15,8 +15,8 @@ void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::
     worlds.resize(outputs.size());
     for (std::size_t k = 0; k < outputs.size(); ++k) worlds[k].setIdentity();
     // Walking the parameters outermost first and multiplying on the right composes each output's own
-    // operators in order (M_k); then each output's product is its parent's followed by M_k, and the
-    // rest matrix goes last.
+    // operators in order (M_k); then each output's product is its parent's followed by M_k (or its base's), and
+    // the rest matrix goes last.
     std::vector<Eigen::Matrix4d> matrices;
     for (std::size_t p = 0; p < parameters.size(); ++p) {
         const ModelledParameter& m = parameters[p];
@@ -26,49 +26,78 @@ void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::
         for (std::size_t e = 0; e < m.outputs.size(); ++e)
             worlds[static_cast<std::size_t>(m.outputs[e])] *= matrices[static_cast<std::size_t>(m.operatorOfOutput[e])];
     }
+    const auto world = [&](int i) -> Eigen::Matrix4d {
+        return worlds[static_cast<std::size_t>(i)] * outputs[static_cast<std::size_t>(i)].rest;
+    };
     for (const int k : outputOrder()) {
-        const int p = outputs[static_cast<std::size_t>(k)].parent;
-        if (p >= 0)
-            worlds[static_cast<std::size_t>(k)] =
-                worlds[static_cast<std::size_t>(p)] * worlds[static_cast<std::size_t>(k)];
+        const ApproximationOutput& output = outputs[static_cast<std::size_t>(k)];
+        Eigen::Matrix4d& product = worlds[static_cast<std::size_t>(k)];
+        if (output.constraint >= 0) {
+            const ConstraintBase& base = constraints[static_cast<std::size_t>(output.constraint)];
+            const Eigen::Matrix4d anchor =
+                base.anchor < 0 ? Eigen::Matrix4d::Identity() : worlds[static_cast<std::size_t>(base.anchor)];
+            const Eigen::Matrix4d pole = base.pole < 0 ? Eigen::Matrix4d::Identity() : world(base.pole);
+            product = constraintBase(base, chainPoints(base, anchor, world(base.goal), pole)) * product;
+        } else if (output.parent >= 0) {
+            product = worlds[static_cast<std::size_t>(output.parent)] * product;
+        }
     }
     for (std::size_t k = 0; k < outputs.size(); ++k) worlds[k] *= outputs[k].rest;
 }
 
+std::vector<int> Approximation::frameInputs(int k) const
+{
+    const ApproximationOutput& output = outputs[static_cast<std::size_t>(k)];
+    if (output.constraint < 0) return output.parent < 0 ? std::vector<int>{} : std::vector<int>{output.parent};
+    if (output.constraint >= static_cast<int>(constraints.size()))
+        throw internalError(
+            fmt::format("Approximation: output {} has constraint index {} of {}", output.name, output.constraint,
+                        constraints.size()));
+    const ConstraintBase& base = constraints[static_cast<std::size_t>(output.constraint)];
+    std::vector<int> inputs;
+    for (const int i : {base.anchor, base.goal, base.pole})
+        if (i >= 0) inputs.push_back(i);
+    return inputs;
+}
+
+std::vector<std::vector<int>> Approximation::dependents() const
+{
+    std::vector<std::vector<int>> result(outputs.size());
+    for (std::size_t k = 0; k < outputs.size(); ++k)
+        for (const int i : frameInputs(static_cast<int>(k)))
+            if (i >= 0 && static_cast<std::size_t>(i) < outputs.size())
+                result[static_cast<std::size_t>(i)].push_back(static_cast<int>(k));
+    return result;
+}
+
 std::vector<int> Approximation::outputOrder() const
 {
+    // Depth first over what each output's frame reads, each output placed after its inputs.
     const int n = static_cast<int>(outputs.size());
     std::vector<int> order;
     std::vector<char> state(outputs.size(), 0);  // 0 new, 1 on the current walk, 2 placed
-    std::vector<int> walk;
-    for (int k = 0; k < n; ++k) {
-        for (int u = k; u >= 0 && state[static_cast<std::size_t>(u)] == 0;
-             u = outputs[static_cast<std::size_t>(u)].parent) {
-            const int p = outputs[static_cast<std::size_t>(u)].parent;
-            if (p < -1 || p >= n)
-                throw internalError(fmt::format("Approximation: output {} has parent index {} of {}",
-                                                outputs[static_cast<std::size_t>(u)].name, p, n));
-            state[static_cast<std::size_t>(u)] = 1;
-            walk.push_back(u);
-            if (p >= 0 && state[static_cast<std::size_t>(p)] == 1)
-                throw internalError(fmt::format("Approximation: the parents of output {} form a cycle",
+    const auto visit = [&](const auto& self, int u) -> void {
+        state[static_cast<std::size_t>(u)] = 1;
+        for (const int i : frameInputs(u)) {
+            if (i < 0 || i >= n)
+                throw internalError(fmt::format("Approximation: output {} reads output index {} of {}",
+                                                outputs[static_cast<std::size_t>(u)].name, i, n));
+            if (state[static_cast<std::size_t>(i)] == 1)
+                throw internalError(fmt::format("Approximation: the frames of output {} form a cycle",
                                                 outputs[static_cast<std::size_t>(u)].name));
+            if (state[static_cast<std::size_t>(i)] == 0) self(self, i);
         }
-        for (auto it = walk.rbegin(); it != walk.rend(); ++it) {
-            state[static_cast<std::size_t>(*it)] = 2;
-            order.push_back(*it);
-        }
-        walk.clear();
-    }
+        state[static_cast<std::size_t>(u)] = 2;
+        order.push_back(u);
+    };
+    for (int k = 0; k < n; ++k)
+        if (state[static_cast<std::size_t>(k)] == 0) visit(visit, k);
     return order;
 }
 
 std::vector<std::vector<int>> Approximation::reach() const
 {
-    std::vector<std::vector<int>> children(outputs.size());
-    for (std::size_t k = 0; k < outputs.size(); ++k)
-        if (outputs[k].parent >= 0)
-            children[static_cast<std::size_t>(outputs[k].parent)].push_back(static_cast<int>(k));
+    const std::vector<std::vector<int>> children = dependents();
     std::vector<std::vector<int>> result;
     result.reserve(parameters.size());
     std::vector<char> seen(outputs.size(), 0);

@@ -22,6 +22,7 @@
 
 #include <Eigen/Core>
 
+#include "inversion/constraint.h"
 #include "inversion/operators.h"
 #include "inversion/rig_function.h"
 
@@ -40,6 +41,9 @@ struct ApproximationOutput {
     // A helper frame (RigFunction::helperOutputs): learned like a joint, read by constraint operators, never a
     // target (a clip's joint of the same name is not matched to it).
     bool helper = false;
+    // Learned with a constraint operator (an index into Approximation::constraints): F~_k = B_k M_k F_k(0), its
+    // base B_k read from other outputs instead of a parent's motion (parent -1). -1: none.
+    int constraint = -1;
 };
 
 struct ModelledParameter {
@@ -112,6 +116,7 @@ struct Approximation {
     double epsilon = 0.0;        // the validation threshold used (cm per unit of a parameter)
     std::vector<ApproximationOutput> outputs;
     std::vector<ModelledParameter> parameters;  // composition order: outermost first
+    std::vector<ConstraintBase> constraints;    // the outputs' constraint operators (ApproximationOutput::constraint)
     std::vector<DiscardedParameter> discarded;
     std::vector<DroppedOutput> droppedOutputs;
     ValidationSummary validation;
@@ -127,9 +132,14 @@ struct Approximation {
     std::vector<std::vector<int>> reach() const;
     // Whether some output is not modelled (a hybrid solve is needed to fit every target).
     bool hasUnmodelledOutputs() const;
-    // The outputs with parents before children. Throws an internal rig::Error for a parent index out of
-    // range or a cycle of parents.
+    // The outputs with parents before children and a constraint's inputs before its output. Throws an internal
+    // rig::Error for an index out of range or a cycle.
     std::vector<int> outputOrder() const;
+    // What output k's frame reads: its parent, or its constraint's inputs (none: world space).
+    std::vector<int> frameInputs(int k) const;
+    // The outputs that move when output k does (its children, and the outputs whose constraint reads it),
+    // per output.
+    std::vector<std::vector<int>> dependents() const;
 };
 
 }  // namespace rig

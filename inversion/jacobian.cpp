@@ -79,6 +79,10 @@ bool rigidKind(OperatorKind kind) { return operatorTraits(kind).rigid; }
 // Below this determinant a linear part is taken as singular: its inverse would be meaningless.
 constexpr double singularDeterminant = 1e-12;
 
+// The step of the whole-evaluation differences that stand in for the suffix products where a product begins with
+// a base (ResidualWorkspace::jacobianFromSuffixes).
+constexpr double wholeDifferenceStep = 1e-6;
+
 }  // namespace
 
 std::string_view jacobianMethodName(JacobianMethod method)
@@ -131,9 +135,12 @@ ResidualStructure::ResidualStructure(const Approximation& approximation, std::ve
                                      std::vector<int> outputs, std::span<const ResidualTerm* const> terms)
     : approximation_(&approximation), columns_(std::move(columns)), outputs_(std::move(outputs))
 {
-    const std::vector<std::vector<Link>> links = outputLinks(ownLinks(checkIndices()));
-    makeChains(links);
-    makeTree(links);
+    const std::vector<std::vector<Link>> own = ownLinks(checkIndices());
+    std::vector<Path> paths;
+    for (const int k : outputs_) paths.push_back(pathOf(k, own));
+    makeChains(paths);
+    makeTree(paths, own);
+    addBaseColumns();
     makePairs();
     attachTerms(terms);
 }
@@ -191,34 +198,40 @@ std::vector<std::vector<ResidualStructure::Link>> ResidualStructure::ownLinks(co
     return own;
 }
 
-std::vector<std::vector<ResidualStructure::Link>> ResidualStructure::outputLinks(
-    const std::vector<std::vector<Link>>& own) const
+ResidualStructure::Path ResidualStructure::pathOf(int k, const std::vector<std::vector<Link>>& own) const
 {
-    // An output's chain is its ancestors' own links (relative outputs), root first, then its own.
+    // An output's product is its ancestors' own links (relative outputs), root first, then its own; a constraint
+    // output's begins with its base instead of its parent's.
     const std::size_t outputCount = approximation_->outputs.size();
-    std::vector<std::vector<Link>> links(outputs_.size());
-    for (std::size_t o = 0; o < outputs_.size(); ++o) {
-        std::vector<int> path;
-        for (int k = outputs_[o]; k >= 0; k = approximation_->outputs[static_cast<std::size_t>(k)].parent) {
-            if (path.size() > outputCount) throw internalError("ResidualStructure: the outputs' parents form a cycle");
-            path.push_back(k);
+    std::vector<int> up;
+    Path path;
+    for (int u = k; u >= 0;) {
+        if (up.size() > outputCount) throw internalError("ResidualStructure: the outputs' parents form a cycle");
+        up.push_back(u);
+        const ApproximationOutput& output = approximation_->outputs[static_cast<std::size_t>(u)];
+        if (output.constraint >= 0) {
+            path.base = u;
+            break;
         }
-        for (auto it = path.rbegin(); it != path.rend(); ++it)
-            links[o].insert(links[o].end(), own[static_cast<std::size_t>(*it)].begin(),
-                            own[static_cast<std::size_t>(*it)].end());
+        u = output.parent;
     }
-    return links;
+    for (auto it = up.rbegin(); it != up.rend(); ++it)
+        path.links.insert(path.links.end(), own[static_cast<std::size_t>(*it)].begin(),
+                          own[static_cast<std::size_t>(*it)].end());
+    return path;
 }
 
-void ResidualStructure::makeChains(const std::vector<std::vector<Link>>& links)
+void ResidualStructure::makeChains(const std::vector<Path>& paths)
 {
+    // Flat chains serve finite differences and the suffix fallback; a product that begins with a base is
+    // differenced whole instead (ResidualWorkspace::wholeDifferences), its chain holds its own links only.
     outputsOfColumn_.assign(columns_.size(), {});
     chains_.resize(outputs_.size());
     std::map<int, int> heldIndex;  // parameter -> index into heldParameters_
     for (std::size_t o = 0; o < outputs_.size(); ++o) {
         Chain& chain = chains_[o];
         chain.gaps.emplace_back();
-        for (Link link : links[o]) {
+        for (Link link : paths[o].links) {
             if (link.column < 0) {
                 const auto [it, added] =
                     heldIndex.try_emplace(link.parameter, static_cast<int>(heldParameters_.size()));
@@ -243,9 +256,10 @@ void ResidualStructure::makeChains(const std::vector<std::vector<Link>>& links)
             columnsOfOutput_[static_cast<std::size_t>(o)].push_back(static_cast<int>(c));
 }
 
-void ResidualStructure::makeTree(const std::vector<std::vector<Link>>& links)
+void ResidualStructure::makeTree(const std::vector<Path>& paths, const std::vector<std::vector<Link>>& own)
 {
-    // The prefix tree: an output's path is its links; equal beginnings share nodes.
+    // The prefix tree: an output's path is its links; equal beginnings share nodes. A constraint's base is a root
+    // node, made once, after the nodes of its inputs' paths.
     const Approximation& approximation = *approximation_;
     std::map<std::tuple<int, int, int, int>, int> nodeOf;  // parent, slot, parameter, op
     auto child = [&](int parent, const Link& link) {
@@ -269,12 +283,52 @@ void ResidualStructure::makeTree(const std::vector<std::vector<Link>>& links)
         }
         return it->second;
     };
+    const auto baseNode = [&](const auto& self, int output) -> int {
+        if (const auto known = baseOfOutput_.find(output); known != baseOfOutput_.end())
+            return bases_[static_cast<std::size_t>(known->second)].node;
+        const int constraint = approximation.outputs[static_cast<std::size_t>(output)].constraint;
+        const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(constraint)];
+        std::array<int, 3> inputNodes{-1, -1, -1};
+        const std::array<int, 3> inputs{c.anchor, c.goal, c.pole};
+        for (std::size_t i = 0; i < inputs.size(); ++i) {
+            if (inputs[i] < 0) continue;
+            const Path path = pathOf(inputs[i], own);
+            int node = path.base >= 0 ? self(self, path.base) : -1;
+            for (const Link& link : path.links) node = child(node, link);
+            inputNodes[i] = node;
+        }
+        const auto restOrigin = [&](int k) -> Eigen::Vector3d {
+            if (k < 0) return Eigen::Vector3d::Zero();
+            return approximation.outputs[static_cast<std::size_t>(k)].rest.block<3, 1>(0, 3);
+        };
+        Base base;
+        base.constraint = constraint;
+        base.anchorNode = inputNodes[0];
+        base.goalNode = inputNodes[1];
+        base.poleNode = inputNodes[2];
+        base.goalRest = restOrigin(c.goal);
+        base.poleRest = restOrigin(c.pole);
+        base.node = static_cast<int>(nodes_.size());
+        Node node;
+        node.base = static_cast<int>(bases_.size());
+        node.rigid = true;  // a rigid frame times a sampled rigid motion
+        nodes_.push_back(node);
+        baseTerms(base, inputNodes);
+        baseOfOutput_[output] = static_cast<int>(bases_.size());
+        bases_.push_back(std::move(base));
+        return bases_.back().node;
+    };
     outputNode_.assign(outputs_.size(), -1);
     outputRigid_.assign(outputs_.size(), 0);
     outputVars_.assign(outputs_.size(), {});
+    outputBase_.assign(outputs_.size(), -1);
     for (std::size_t o = 0; o < outputs_.size(); ++o) {
         int node = -1;
-        for (const Link& link : links[o]) {
+        if (paths[o].base >= 0) {
+            node = baseNode(baseNode, paths[o].base);
+            outputBase_[o] = nodes_[static_cast<std::size_t>(node)].base;
+        }
+        for (const Link& link : paths[o].links) {
             node = child(node, link);
             if (link.column >= 0) outputVars_[o].push_back(node);
         }
@@ -282,6 +336,53 @@ void ResidualStructure::makeTree(const std::vector<std::vector<Link>>& links)
         const Eigen::Matrix4d& rest = approximation.outputs[static_cast<std::size_t>(outputs_[o])].rest;
         outputRigid_[o] =
             (node < 0 || nodes_[static_cast<std::size_t>(node)].rigid) && nearlyOrthonormal(rest.block<3, 3>(0, 0));
+    }
+}
+
+void ResidualStructure::baseTerms(Base& base, const std::array<int, 3>& inputNodes)
+{
+    // Every velocity that moves an input, by column: the unknown nodes up its path, and the base its path
+    // begins with (whose columns' velocities come before this one's).
+    std::vector<std::pair<int, InputTerm>> found;  // (column, term)
+    for (std::size_t i = 0; i < inputNodes.size(); ++i)
+        for (int m = inputNodes[i]; m >= 0; m = nodes_[static_cast<std::size_t>(m)].parent) {
+            const Node& node = nodes_[static_cast<std::size_t>(m)];
+            const int input = static_cast<int>(i);
+            if (node.slot >= 0)
+                found.push_back({slots_[static_cast<std::size_t>(node.slot)].column, InputTerm{input, m, -1}});
+            if (node.base < 0) continue;
+            const Base& up = bases_[static_cast<std::size_t>(node.base)];
+            for (std::size_t j = 0; j < up.columns.size(); ++j)
+                found.push_back({up.columns[j], InputTerm{input, -1, up.velocityOffset + static_cast<int>(j)}});
+        }
+    std::stable_sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    base.velocityOffset = baseVelocities_;
+    for (const auto& [column, term] : found) {
+        if (base.columns.empty() || base.columns.back() != column) {
+            base.columns.push_back(column);
+            base.termBegin.push_back(static_cast<int>(inputTerms_.size()));
+        }
+        inputTerms_.push_back(term);
+    }
+    base.termBegin.push_back(static_cast<int>(inputTerms_.size()));
+    baseVelocities_ += static_cast<int>(base.columns.size());
+}
+
+void ResidualStructure::addBaseColumns()
+{
+    // A product that begins with a base moves with every column that moves the base's inputs.
+    if (bases_.empty()) return;
+    for (std::size_t o = 0; o < outputs_.size(); ++o) {
+        if (outputBase_[o] < 0) continue;
+        for (const int c : bases_[static_cast<std::size_t>(outputBase_[o])].columns)
+            outputsOfColumn_[static_cast<std::size_t>(c)].push_back(static_cast<int>(o));
+    }
+    columnsOfOutput_.assign(outputs_.size(), {});
+    for (std::size_t c = 0; c < outputsOfColumn_.size(); ++c) {
+        auto& moved = outputsOfColumn_[c];
+        std::sort(moved.begin(), moved.end());
+        moved.erase(std::unique(moved.begin(), moved.end()), moved.end());
+        for (const int o : moved) columnsOfOutput_[static_cast<std::size_t>(o)].push_back(static_cast<int>(c));
     }
 }
 
@@ -315,6 +416,8 @@ void ResidualStructure::makePairs()
         }
     }
     pairBegin_.push_back(static_cast<int>(pairNode_.size()));
+    // A base's velocity is not a twist of one operator: its products' normal equations come from the Jacobian.
+    twistForm_ = twistForm_ && bases_.empty();
     outputDeepest_.assign(outputs_.size(), -1);
     for (std::size_t o = 0; o < outputs_.size(); ++o) {
         if (outputVars_[o].empty()) continue;
@@ -363,6 +466,8 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     heldMatrix_.assign(s.nodes_.size(), Affine::Identity());
     nodeMatrix_.assign(s.nodes_.size(), Affine::Identity());
     velocity_.assign(s.nodes_.size(), Affine::Zero());
+    baseVelocity_.assign(static_cast<std::size_t>(s.baseVelocities_), Affine::Zero());
+    basePoints_.resize(s.bases_.size());
     slotOffset_.assign(s.slots_.size(), 0.0);
     quaternion_.assign(s.outputs_.size(), Eigen::Quaterniond::Identity());
     twist_.assign(s.nodes_.size(), Vector6d::Zero());
@@ -386,7 +491,7 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
     chainsHeld_ = false;
     for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
         const auto& node = s.nodes_[n];
-        if (node.slot >= 0) continue;
+        if (node.slot >= 0 || node.base >= 0) continue;
         const ModelledParameter& m = approx.parameters[static_cast<std::size_t>(node.parameter)];
         heldMatrix_[n] = m.operators[static_cast<std::size_t>(node.op)].affineRows(
             values[static_cast<std::size_t>(node.parameter)] - m.parameter.defaultValue);
@@ -486,7 +591,9 @@ void ResidualWorkspace::evaluateTree()
         const auto& node = s.nodes_[n];
         if (node.constant) continue;
         Affine& product = nodeMatrix_[n];
-        if (node.slot >= 0) {
+        if (node.base >= 0) {
+            product = evaluateBase(static_cast<std::size_t>(node.base));
+        } else if (node.slot >= 0) {
             const auto item = slotMatrix_[static_cast<std::size_t>(node.slot)].topRows<3>();
             if (node.parent < 0) product = item;
             else product = compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], item);
@@ -503,6 +610,50 @@ void ResidualWorkspace::evaluateTree()
         } else {
             worlds_[o].topRows<3>() = compose(nodeMatrix_[static_cast<std::size_t>(node)], rest.topRows<3>());
             worlds_[o].row(3) = rest.row(3);
+        }
+    }
+}
+
+ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
+{
+    const auto& s = *structure_;
+    const ResidualStructure::Base& base = s.bases_[b];
+    const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
+    // An input's product is its node's (the identity without one): points move with it.
+    const auto moved = [&](int node, const Eigen::Vector3d& p) -> Eigen::Vector3d {
+        if (node < 0) return p;
+        const Affine& m = nodeMatrix_[static_cast<std::size_t>(node)];
+        return m.leftCols<3>() * p + m.col(3);
+    };
+    ChainPoints& points = basePoints_[b];
+    points.root = moved(base.anchorNode, c.root);
+    points.goal = moved(base.goalNode, base.goalRest);
+    points.pole = c.pole >= 0 ? moved(base.poleNode, base.poleRest) : moved(base.anchorNode, c.restPole);
+    return constraintBase(c, points).topRows<3>();
+}
+
+void ResidualWorkspace::baseVelocities()
+{
+    // Per base and column: each input's velocity (the sum of what moves it), its points' rates, then the base's.
+    const auto& s = *structure_;
+    for (std::size_t b = 0; b < s.bases_.size(); ++b) {
+        const ResidualStructure::Base& base = s.bases_[b];
+        const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
+        const ChainPoints& points = basePoints_[b];
+        for (std::size_t j = 0; j < base.columns.size(); ++j) {
+            std::array<Affine, 3> x{Affine::Zero(), Affine::Zero(), Affine::Zero()};
+            for (int t = base.termBegin[j]; t < base.termBegin[j + 1]; ++t) {
+                const ResidualStructure::InputTerm& term = s.inputTerms_[static_cast<std::size_t>(t)];
+                x[static_cast<std::size_t>(term.input)] += term.node >= 0
+                                                               ? velocity_[static_cast<std::size_t>(term.node)]
+                                                               : baseVelocity_[static_cast<std::size_t>(term.baseVelocity)];
+            }
+            const auto rate = [](const Affine& v, const Eigen::Vector3d& p) -> Eigen::Vector3d {
+                return v.leftCols<3>() * p + v.col(3);
+            };
+            const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal),
+                                    rate(c.pole >= 0 ? x[2] : x[0], points.pole)};
+            baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] = baseVelocity(c, points, rates);
         }
     }
 }
@@ -587,6 +738,7 @@ bool ResidualWorkspace::velocities()
         xi.leftCols<3>() = p.leftCols<3>() * xl * pInverse;
         xi.col(3) = p.leftCols<3>() * xt - xi.leftCols<3>() * p.col(3);
     }
+    baseVelocities();
     return true;
 }
 
@@ -595,7 +747,7 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
     const auto& s = *structure_;
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
         const auto& vars = s.outputVars_[o];
-        if (vars.empty()) continue;
+        if (vars.empty() && s.outputBase_[o] < 0) continue;
         if (!s.jointTarget(o)) {
             termTreeJacobian(o, jacobian);
             continue;
@@ -606,7 +758,7 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
         // Rotation rows: with A = Q S (polar), dQ = Q [w]x where (tr(S) I - S) w = vee(Q^T dA - dA^T Q);
         // then d(2 vec q) = (w_q I + [v_q]x) w (halfAngle). For a rotation A, w = Q^T (the skew part of Xi's 3x3).
         const bool rigid = s.outputRigid_[o] || nearlyOrthonormal(a);
-        Eigen::Matrix3d q, kInverse;
+        Eigen::Matrix3d q, kInverse = Eigen::Matrix3d::Zero();  // kInverse: read only when not rigid
         if (rigid) {
             q = a;
         } else {
@@ -617,10 +769,7 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
         Eigen::Matrix3d rotationRows = t.rotationWeight * halfAngle(q, t).rows;
         if (!rigid) rotationRows = rotationRows * kInverse;
         const Eigen::Index row = s.rowOffset_[o];
-        for (const int n : vars) {
-            const Affine& xi = velocity_[static_cast<std::size_t>(n)];
-            const Eigen::Index column =
-                s.slots_[static_cast<std::size_t>(s.nodes_[static_cast<std::size_t>(n)].slot)].column;
+        forEachVelocity(o, [&](const Affine& xi, Eigen::Index column) {
             // += : a control spread over relative outputs has one node per output on the path.
             jacobian.block<3, 1>(row, column) += t.positionWeight * (xi.leftCols<3>() * position + xi.col(3));
             if (rigid) {
@@ -632,8 +781,22 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
                 const Eigen::Vector3d skewPart(x(2, 1) - x(1, 2), x(0, 2) - x(2, 0), x(1, 0) - x(0, 1));
                 jacobian.block<3, 1>(row + 3, column) += rotationRows * skewPart;
             }
-        }
+        });
     }
+}
+
+template <class Body>
+void ResidualWorkspace::forEachVelocity(std::size_t o, const Body& body) const
+{
+    // The unknown nodes on the output's product, then the columns that move the base it begins with.
+    const auto& s = *structure_;
+    for (const int n : s.outputVars_[o])
+        body(velocity_[static_cast<std::size_t>(n)],
+             s.slots_[static_cast<std::size_t>(s.nodes_[static_cast<std::size_t>(n)].slot)].column);
+    if (s.outputBase_[o] < 0) return;
+    const ResidualStructure::Base& base = s.bases_[static_cast<std::size_t>(s.outputBase_[o])];
+    for (std::size_t j = 0; j < base.columns.size(); ++j)
+        body(baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j], base.columns[j]);
 }
 
 void ResidualWorkspace::termTreeJacobian(std::size_t o, Eigen::Ref<Eigen::MatrixXd> jacobian)
@@ -642,16 +805,13 @@ void ResidualWorkspace::termTreeJacobian(std::size_t o, Eigen::Ref<Eigen::Matrix
     const auto& s = *structure_;
     const Eigen::Matrix4d& world = worlds_[o];
     TermRows rows;
-    for (const int n : s.outputVars_[o]) {
-        const Affine& xi = velocity_[static_cast<std::size_t>(n)];
+    forEachVelocity(o, [&](const Affine& xi, Eigen::Index column) {
         Affine change;
         change.leftCols<3>().noalias() = xi.leftCols<3>() * world.block<3, 3>(0, 0);
         change.col(3) = xi.leftCols<3>() * world.block<3, 1>(0, 3) + xi.col(3);
         s.terms_[o]->change(world, targets_[o], change, rows);
-        const Eigen::Index column =
-            s.slots_[static_cast<std::size_t>(s.nodes_[static_cast<std::size_t>(n)].slot)].column;
         jacobian.block(s.rowOffset_[o], column, rows.size(), 1) += rows;
-    }
+    });
 }
 
 void ResidualWorkspace::twists()
@@ -923,6 +1083,10 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
 void ResidualWorkspace::jacobianFromSuffixes(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r,
                                              Eigen::Ref<Eigen::MatrixXd> jacobian)
 {
+    if (structure_->hasBases()) {  // no flat chain holds a base: whole evaluations instead
+        wholeDifferences(x, wholeDifferenceStep, r, jacobian);
+        return;
+    }
     holdChains();
     evaluateSlots(x, true);
     jacobian.setZero();
@@ -956,6 +1120,10 @@ void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod metho
         jacobianFromSuffixes(x, r, jacobian);
         return;
     }
+    if (s.hasBases()) {
+        wholeDifferences(x, finiteDifferenceStep, r, jacobian);
+        return;
+    }
     holdChains();
     residuals(x, r);  // also leaves the slot matrices at x for the columns below
     const double h = finiteDifferenceStep;
@@ -982,6 +1150,26 @@ void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod metho
     } else {
         for (int c = 0; c < s.columnCount(); ++c) column(c);
     }
+}
+
+void ResidualWorkspace::wholeDifferences(std::span<const double> x, double step, Eigen::Ref<Eigen::VectorXd> r,
+                                         Eigen::Ref<Eigen::MatrixXd> jacobian)
+{
+    // One column at a time on this workspace (its products are shared state): serial, and the same for any thread
+    // count.
+    jacobian.setZero();
+    trial_.assign(x.begin(), x.end());
+    Eigen::VectorXd plus(r.size()), minus(r.size());
+    for (int c = 0; c < structure_->columnCount(); ++c) {
+        const std::size_t i = static_cast<std::size_t>(c);
+        trial_[i] = x[i] + step;
+        residuals(trial_, plus);
+        trial_[i] = x[i] - step;
+        residuals(trial_, minus);
+        trial_[i] = x[i];
+        jacobian.col(c) = (plus - minus) / (2.0 * step);
+    }
+    residuals(x, r);
 }
 
 void ResidualWorkspace::normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep,

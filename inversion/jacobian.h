@@ -13,6 +13,8 @@
 // as the fallback for singular operators; ResidualWorkspace says how), or central finite differences on the
 // approximation with its columns in parallel (oneTBB, in the caller's task arena).
 
+#include <array>
+#include <map>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -107,6 +109,8 @@ public:
     // Whether the analytic normal equations come from twists, without the Jacobian
     // (ResidualWorkspace::normalEquations).
     bool twistForm() const { return twistForm_; }
+    // Whether some output's product begins with a constraint's base (inversion/constraint.h).
+    bool hasBases() const { return !bases_.empty(); }
 
 private:
     friend class ResidualWorkspace;
@@ -133,8 +137,31 @@ private:
         int slot = -1;       // an unknown's operator; -1: a held one
         int parameter = -1;  // the held operator
         int op = -1;
+        int base = -1;  // a constraint's base B (index into bases_): the root of the products below it
         bool rigid = false;     // the whole product from the root is rigid
         bool constant = false;  // only held operators from the root: computed once per holdParameters
+    };
+    // A constraint output's base, B(inputs): a root node of the tree, evaluated from its inputs' products (nodes
+    // made before it). Its velocity per column is its inputs' velocities through baseVelocity().
+    struct Base {
+        int constraint = -1;  // index into approximation.constraints
+        int node = -1;
+        int anchorNode = -1, goalNode = -1, poleNode = -1;  // the inputs' product nodes (-1: the identity)
+        Eigen::Vector3d goalRest, poleRest;                  // the goal's and pole's rest origins
+        std::vector<int> columns;                            // the columns that move it, increasing
+        // Per column, [termBegin[j], termBegin[j + 1]) of terms_: what moves its inputs.
+        std::vector<int> termBegin;
+        int velocityOffset = 0;  // its columns' velocities in ResidualWorkspace::baseVelocity_
+    };
+    struct InputTerm {  // one velocity moving an input: an unknown node's, or an upstream base's for a column
+        int input = 0;  // 0 anchor, 1 goal, 2 pole
+        int node = -1;  // an unknown node on the input's path, or -1
+        int baseVelocity = -1;  // else an index into ResidualWorkspace::baseVelocity_
+    };
+    // Output k's product: the base it begins with (a constraint output, or -1) and its operators after it.
+    struct Path {
+        int base = -1;
+        std::vector<Link> links;
     };
     struct Chain {                            // output k: C_0 V_0 C_1 V_1 ... V_{v-1} C_v, C_v ending with F_k(0)
         std::vector<int> varSlots;            // slot of V_j
@@ -145,9 +172,11 @@ private:
     // The constructor's phases, in order.
     std::vector<int> checkIndices() const;                                      // per parameter: its column, or -1
     std::vector<std::vector<Link>> ownLinks(const std::vector<int>& columnOf);  // per output; makes the slots
-    std::vector<std::vector<Link>> outputLinks(const std::vector<std::vector<Link>>& own) const;
-    void makeChains(const std::vector<std::vector<Link>>& links);
-    void makeTree(const std::vector<std::vector<Link>>& links);
+    Path pathOf(int k, const std::vector<std::vector<Link>>& own) const;  // approximation output k's
+    void makeChains(const std::vector<Path>& paths);
+    void makeTree(const std::vector<Path>& paths, const std::vector<std::vector<Link>>& own);
+    void baseTerms(Base& base, const std::array<int, 3>& inputNodes);  // its columns and what moves its inputs
+    void addBaseColumns();
     void makePairs();
     void attachTerms(std::span<const ResidualTerm* const> terms);
 
@@ -161,7 +190,12 @@ private:
     // Whether output position o takes the joint target's own paths (else its term's virtual ones).
     bool jointTarget(std::size_t o) const { return jointTargetsOnly_ || jointTarget_[o]; }
     std::vector<Slot> slots_;
-    std::vector<Node> nodes_;                   // parents before children
+    std::vector<Node> nodes_;                   // parents before children, a base's inputs before it
+    std::vector<Base> bases_;
+    std::vector<InputTerm> inputTerms_;
+    std::map<int, int> baseOfOutput_;  // constraint output -> index into bases_
+    std::vector<int> outputBase_;      // per output position: the base its product begins with (-1: none)
+    int baseVelocities_ = 0;
     std::vector<int> outputNode_;               // per output: the node whose product it ends with (-1: none)
     std::vector<char> outputRigid_;             // per output: product and rest rigid (no polar decomposition)
     std::vector<std::vector<int>> outputVars_;  // per output: the unknown nodes on its path
@@ -248,10 +282,18 @@ private:
 
     void evaluateSlots(std::span<const double> x, bool derivatives);
     void evaluateTree();                               // node products and worlds from the slot matrices
+    Affine evaluateBase(std::size_t b);                // base b's product, from its inputs' (basePoints_ too)
+    void baseVelocities();                             // baseVelocity_ from velocity_, bases in order
+    // Central differences of every column through whole evaluations (products that begin with a base).
+    void wholeDifferences(std::span<const double> x, double step, Eigen::Ref<Eigen::VectorXd> r,
+                          Eigen::Ref<Eigen::MatrixXd> jacobian);
     void residualRows(Eigen::Ref<Eigen::VectorXd> r);  // also the rigid outputs' quaternions
     bool velocities();                                 // Xi per unknown node; false: an operator or product is singular
     void treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);                     // from velocities()
     void termTreeJacobian(std::size_t o, Eigen::Ref<Eigen::MatrixXd> jacobian);  // an output of another term
+    // body(velocity, column) for every velocity that moves output position o: its unknown nodes' and its base's.
+    template <class Body>
+    void forEachVelocity(std::size_t o, const Body& body) const;
     void twists();  // twist_ per unknown node, straight from the operators (twistForm_ only)
     void twistNormalEquations(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
                               std::span<double> h);  // from twists(); twistForm_ only
@@ -271,6 +313,9 @@ private:
     std::vector<Affine> heldMatrix_;                         // per held node: its operator's matrix
     std::vector<Affine> nodeMatrix_;                         // per node: its product from the root
     std::vector<Affine> velocity_;                           // per unknown node: Xi
+    std::vector<Affine> baseVelocity_;                       // per base and column: dB/da B^-1
+    std::vector<ChainPoints> basePoints_;                    // per base: its chain's points at the last evaluation
+    std::vector<double> trial_;                              // wholeDifferences' shifted values
     std::vector<Eigen::Matrix<double, 6, 1>> twist_, load_;  // per unknown node: (omega, v); sum of B_k^T r_k below
     // Sum of B_k^T B_k over outputs: [[A, [m]x], [-[m]x, s I]], as each output's is (twistNormalEquations),
     // kept in its 13 numbers rather than 36: the sums up the tree move a third of the memory.

@@ -1,0 +1,109 @@
+#include "inversion/constraint.h"
+
+#include <cmath>
+#include <limits>
+
+
+namespace rig {
+namespace {
+
+// Below this a direction is taken as undefined: the goal on the root, or the pole on the chain's line.
+constexpr double degenerateLength = 1e-9;
+
+using Affine = Eigen::Matrix<double, 3, 4>;
+
+Eigen::Matrix4d rigidInverse(const Eigen::Matrix4d& m)
+{
+    Eigen::Matrix4d inverse = Eigen::Matrix4d::Identity();
+    inverse.block<3, 3>(0, 0) = m.block<3, 3>(0, 0).transpose();
+    inverse.block<3, 1>(0, 3) = -inverse.block<3, 3>(0, 0) * m.block<3, 1>(0, 3);
+    return inverse;
+}
+
+}  // namespace
+
+std::string_view constraintKindName(ConstraintKind) { return "planarChain"; }
+
+bool chainFrame(const ChainPoints& points, Eigen::Matrix4d& frame)
+{
+    const Eigen::Vector3d u = points.goal - points.root;
+    const double reach = u.norm();
+    if (!(reach > degenerateLength)) return false;
+    const Eigen::Vector3d x = u / reach;
+    const Eigen::Vector3d p = points.pole - points.root;
+    const Eigen::Vector3d w = p - p.dot(x) * x;
+    const double across = w.norm();
+    if (!(across > degenerateLength * std::max(1.0, p.norm()))) return false;
+    const Eigen::Vector3d y = w / across;
+    frame.setIdentity();
+    frame.block<3, 1>(0, 0) = x;
+    frame.block<3, 1>(0, 1) = y;
+    frame.block<3, 1>(0, 2) = x.cross(y);
+    frame.block<3, 1>(0, 3) = points.root;
+    return true;
+}
+
+bool ConstraintBase::prepare(const Eigen::Vector3d& restGoal)
+{
+    Eigen::Matrix4d frame;
+    if (!chainFrame({root, restGoal, restPole}, frame)) return false;
+    restFrame = frame;
+    restFrameInverse = rigidInverse(frame);
+    restReach = (restGoal - root).norm();
+    return true;
+}
+
+ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
+                        const Eigen::Matrix4d& goalWorld, const Eigen::Matrix4d& poleWorld)
+{
+    const auto carried = [&](const Eigen::Vector3d& p) -> Eigen::Vector3d {
+        return anchorMotion.block<3, 3>(0, 0) * p + anchorMotion.block<3, 1>(0, 3);
+    };
+    return {carried(base.root), goalWorld.block<3, 1>(0, 3),
+            base.pole >= 0 ? Eigen::Vector3d(poleWorld.block<3, 1>(0, 3)) : carried(base.restPole)};
+}
+
+Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& points)
+{
+    Eigen::Matrix4d frame;
+    if (!chainFrame(points, frame))
+        return Eigen::Matrix4d::Constant(std::numeric_limits<double>::quiet_NaN());
+    const double reach = (points.goal - points.root).norm();
+    return frame * base.shape.matrix(reach - base.restReach) * base.restFrameInverse;
+}
+
+Affine baseVelocity(const ConstraintBase& base, const ChainPoints& points, const ChainPoints& rate)
+{
+    // dB B^-1 = dC C^-1 + C (dG G^-1) C^-1 (C0 is constant). The frame's columns change as unit vectors do:
+    // d(u / |u|) = (I - x x^T) du / |u|.
+    const Eigen::Vector3d u = points.goal - points.root, du = rate.goal - rate.root;
+    const double reach = u.norm();
+    const Eigen::Vector3d x = u / reach;
+    const Eigen::Vector3d dx = (du - x * x.dot(du)) / reach;
+    const Eigen::Vector3d p = points.pole - points.root, dp = rate.pole - rate.root;
+    const Eigen::Vector3d w = p - p.dot(x) * x;
+    const Eigen::Vector3d dw = dp - (dp.dot(x) + p.dot(dx)) * x - p.dot(x) * dx;
+    const double across = w.norm();
+    const Eigen::Vector3d y = w / across;
+    const Eigen::Vector3d dy = (dw - y * y.dot(dw)) / across;
+    Eigen::Matrix3d r, dr;
+    r << x, y, x.cross(y);
+    dr << dx, dy, dx.cross(y) + x.cross(dy);
+    const Eigen::Matrix3d omegaFrame = dr * r.transpose();
+    Affine v;
+    v.leftCols<3>() = omegaFrame;
+    v.col(3) = rate.root - omegaFrame * points.root;
+
+    // The shape's own motion, dG G^-1 with G rigid, turned into world space by C.
+    const double a = reach - base.restReach;
+    const Eigen::Matrix4d g = base.shape.matrix(a);
+    const Eigen::Matrix4d dg = base.shape.derivative(a) * x.dot(du);
+    const Eigen::Matrix3d omegaShape = dg.block<3, 3>(0, 0) * g.block<3, 3>(0, 0).transpose();
+    const Eigen::Vector3d vShape = dg.block<3, 1>(0, 3) - omegaShape * g.block<3, 1>(0, 3);
+    const Eigen::Matrix3d omegaWorld = r * omegaShape * r.transpose();
+    v.leftCols<3>() += omegaWorld;
+    v.col(3) += r * vShape - omegaWorld * points.root;
+    return v;
+}
+
+}  // namespace rig
