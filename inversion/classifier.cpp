@@ -48,9 +48,33 @@ Eigen::Matrix4d RigProbe::inFrame(int k, const Eigen::Matrix4d& world, const Eig
 
 Eigen::Matrix4d RigProbe::inFrame(int k, const std::vector<Eigen::Matrix4d>& worlds) const
 {
+    return inFrame(k, [&](int j) -> const Eigen::Matrix4d& { return worlds[static_cast<std::size_t>(j)]; });
+}
+
+std::vector<int> RigProbe::frameInputs(int k) const
+{
+    if (const auto c = constraints.find(k); c != constraints.end()) {
+        std::vector<int> inputs;
+        for (const int i : {c->second.anchor, c->second.goal, c->second.pole})
+            if (i >= 0) inputs.push_back(i);
+        return inputs;
+    }
     const int p = parentOf(k);
-    return p < 0 ? worlds[static_cast<std::size_t>(k)]
-                 : inFrame(k, worlds[static_cast<std::size_t>(k)], worlds[static_cast<std::size_t>(p)]);
+    return p < 0 ? std::vector<int>{} : std::vector<int>{p};
+}
+
+Eigen::Matrix4d RigProbe::inConstraintFrame(const ConstraintBase& base, const Eigen::Matrix4d& world,
+                                            const Eigen::Matrix4d& anchorWorld, const Eigen::Matrix4d& goalWorld,
+                                            const Eigen::Matrix4d& poleWorld) const
+{
+    const Eigen::Matrix4d motion =
+        base.anchor < 0 ? Eigen::Matrix4d::Identity()
+                        : Eigen::Matrix4d(anchorWorld * rest_[static_cast<std::size_t>(base.anchor)].inverse());
+    const Eigen::Matrix4d b = constraintBase(base, chainPoints(base, motion, goalWorld, poleWorld));
+    Eigen::Matrix4d inverse = Eigen::Matrix4d::Identity();  // b is rigid (or not finite: the sample says so)
+    inverse.block<3, 3>(0, 0) = b.block<3, 3>(0, 0).transpose();
+    inverse.block<3, 1>(0, 3) = -inverse.block<3, 3>(0, 0) * b.block<3, 1>(0, 3);
+    return inverse * world;
 }
 
 const Eigen::Matrix4d& ParameterSamples::world(int k, double a, const std::vector<Eigen::Matrix4d>& rest) const
@@ -114,9 +138,8 @@ struct Context {
         const auto& rigRest = probe.rest();
         std::vector<Eigen::Matrix4d> mine;
         for (int k : outputs) {
-            const int p = probe.parentOf(k);
-            mine.push_back(
-                probe.inFrame(k, store.world(k, a, rigRest), p < 0 ? rigRest[0] : store.world(p, a, rigRest)));
+            mine.push_back(probe.inFrame(
+                k, [&](int j) -> const Eigen::Matrix4d& { return store.world(j, a, rigRest); }));
             nonFinite = nonFinite || !mine.back().allFinite();
         }
         return framed.emplace(a, std::move(mine)).first->second;
@@ -669,12 +692,11 @@ bool frameOutputs(RigProbe& probe, Context& c, double lo, double hi, const RigSt
     // The affected outputs in their frames: a relative output moves when its parent-relative transform does.
     for (std::size_t k = 0; k < rest.size(); ++k) {
         const int kk = static_cast<int>(k);
-        if (state.unreliable[k]) continue;
-        const int p = probe.parentOf(kk);
+        if (state.unreliable[k] || state.idle[k]) continue;
         double moved = 0.0;
         for (double a : offsets) {
             const Eigen::Matrix4d framed =
-                probe.inFrame(kk, samples.world(kk, a, rest), p < 0 ? rest[0] : samples.world(p, a, rest));
+                probe.inFrame(kk, [&](int j) -> const Eigen::Matrix4d& { return samples.world(j, a, rest); });
             moved = std::max(moved, matrixError(framed, rest[k], options.frameRadius));
         }
         if (moved > options.effectTolerance) {

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include "inversion/approximation.h"
+#include "inversion/constraint.h"
 #include "inversion/learner.h"
 #include "inversion/rig_function.h"
 
@@ -34,9 +35,31 @@ public:
     // Per output, the output its frame is relative to; -1: world space. Empty: every output in world space.
     std::vector<int> parents;
     int parentOf(int k) const { return parents.empty() ? -1 : parents[static_cast<std::size_t>(k)]; }
+    // Outputs learned with a constraint operator (inversion/constraint.h; its inputs are rig outputs): their frame
+    // is the base's, B^-1 W_k, whatever `parents` says.
+    std::map<int, ConstraintBase> constraints;
+    // The outputs output k's frame reads: its constraint's inputs, or its parent (none in world space).
+    std::vector<int> frameInputs(int k) const;
     // Output k in its frame, from its raw world and its parent's.
     Eigen::Matrix4d inFrame(int k, const Eigen::Matrix4d& world, const Eigen::Matrix4d& parentWorld) const;
     Eigen::Matrix4d inFrame(int k, const std::vector<Eigen::Matrix4d>& worlds) const;
+    // Output k in its frame, reading raw worlds through worldOf(j) (k's and its frameInputs').
+    template <class WorldOf>
+    Eigen::Matrix4d inFrame(int k, const WorldOf& worldOf) const
+    {
+        if (const auto c = constraints.find(k); c != constraints.end()) {
+            const ConstraintBase& b = c->second;
+            const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+            return inConstraintFrame(b, worldOf(k), b.anchor < 0 ? identity : worldOf(b.anchor), worldOf(b.goal),
+                                     b.pole < 0 ? identity : worldOf(b.pole));
+        }
+        const int p = parentOf(k);
+        return p < 0 ? Eigen::Matrix4d(worldOf(k)) : inFrame(k, worldOf(k), worldOf(p));
+    }
+    // B^-1 W for a constraint's base at its inputs' raw worlds (the anchor's motion from its rest world).
+    Eigen::Matrix4d inConstraintFrame(const ConstraintBase& base, const Eigen::Matrix4d& world,
+                                      const Eigen::Matrix4d& anchorWorld, const Eigen::Matrix4d& goalWorld,
+                                      const Eigen::Matrix4d& poleWorld) const;
 
 private:
     RigFunction& rig_;
@@ -78,6 +101,8 @@ struct Classification {
 struct RigState {
     std::vector<char> unreliable;        // per output
     std::vector<char> nonCompositional;  // per output
+    // Per output: a helper frame no constraint reads (yet): left out of classification and of the approximation.
+    std::vector<char> idle;
 };
 
 // The first samples of parameter `index` alone: at its initial offsets, then at rest again, on `rig` in a

@@ -21,7 +21,7 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
     ClipTargets targets;
     for (const auto& joint : joints) {
         const auto it = std::find_if(approximation.outputs.begin(), approximation.outputs.end(),
-                                     [&](const ApproximationOutput& o) { return o.name == joint; });
+                                     [&](const ApproximationOutput& o) { return !o.helper && o.name == joint; });
         targets.outputOfJoint.push_back(
             it == approximation.outputs.end() ? -1 : static_cast<int>(it - approximation.outputs.begin()));
         if (targets.outputOfJoint.back() >= 0) ++targets.matchedJoints;

@@ -17,6 +17,7 @@
 #include "core/error.h"
 #include "core/rotation_math.h"
 #include "inversion/classifier.h"
+#include "inversion/constraint_fit.h"
 #include "inversion/jacobian.h"
 #include "inversion/ordering.h"
 #include "inversion/rig_pool.h"
@@ -321,6 +322,30 @@ bool interpolated(const ModelledParameter& m)
                        [](const Operator& op) { return !op.linear() || op.traits().sampled; });
 }
 
+// The probe's constraint operators into the approximation, their inputs as its output indices. An output whose
+// constraint reads an output left out (found history-dependent since) is not modelled.
+void addConstraints(const RigProbe& probe, const std::vector<int>& outputIndex, const std::vector<int>& rigOutput,
+                    Approximation& result)
+{
+    for (std::size_t o = 0; o < result.outputs.size(); ++o) {
+        const auto c = probe.constraints.find(rigOutput[o]);
+        if (c == probe.constraints.end() || !result.outputs[o].modelled) continue;
+        ConstraintBase base = c->second;
+        const auto map = [&](int& k) {
+            if (k < 0) return true;
+            k = outputIndex[static_cast<std::size_t>(k)];
+            return k >= 0;
+        };
+        if (!map(base.anchor) || !map(base.goal) || !map(base.pole)) {
+            result.outputs[o].modelled = false;
+            continue;
+        }
+        result.outputs[o].parent = -1;
+        result.outputs[o].constraint = static_cast<int>(result.constraints.size());
+        result.constraints.push_back(std::move(base));
+    }
+}
+
 // One learning pass in the probe's frames: classify (from stored samples where possible), order,
 // assemble and validate.
 struct Pass {
@@ -365,17 +390,20 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
     result.rigFingerprint = rig.fingerprint();
     result.epsilon = options.epsilon;
     std::vector<int> outputIndex(rest.size(), -1);
+    const std::vector<char> helper = rig.helperOutputs();
     for (std::size_t k = 0; k < rest.size(); ++k)
-        if (!state.unreliable[k]) {
+        if (!state.unreliable[k] && !state.idle[k]) {
             outputIndex[k] = static_cast<int>(pass.rigOutput.size());
             pass.rigOutput.push_back(static_cast<int>(k));
             result.outputs.push_back({rig.outputs()[k], rest[k]});
             result.outputs.back().modelled = !state.nonCompositional[k];
+            result.outputs.back().helper = helper[k] != 0;
         }
     for (std::size_t o = 0; o < result.outputs.size(); ++o) {
         const int p = probe.parentOf(pass.rigOutput[o]);
         result.outputs[o].parent = p < 0 ? -1 : outputIndex[static_cast<std::size_t>(p)];
     }
+    addConstraints(probe, outputIndex, pass.rigOutput, result);
     for (int p : pass.order.order) {
         ModelledParameter m = pass.classes[static_cast<std::size_t>(p)].model;
         for (int& k : m.outputs) k = outputIndex[static_cast<std::size_t>(k)];
@@ -392,6 +420,8 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
 struct FrameHistory {
     std::map<int, std::string> relative;  // rig output -> what failed relative to its parent output
     std::map<int, std::string> world;     // rig output -> what failed in world space: the pair with neither order
+    std::map<int, std::string> constraint;  // rig output -> why no constraint operator fits it
+    std::set<int> parentUnusable;           // rig outputs that left their parent's frame only for the parent's sake
 
     // The non-compositional outputs of `a` (rig indices `rigOutput`), in its order, with their reasons.
     std::vector<UnmodelledOutput> unmodelled(const Approximation& a, const std::vector<int>& rigOutput) const
@@ -402,6 +432,7 @@ struct FrameHistory {
             const auto before = relative.find(rigOutput[o]), after = world.find(rigOutput[o]);
             std::string reason = before == relative.end() ? "" : before->second + "; ";
             if (after != world.end()) reason += "in world space, " + after->second;
+            if (const auto fit = constraint.find(rigOutput[o]); fit != constraint.end()) reason += "; " + fit->second;
             out.push_back({a.outputs[o].name, std::move(reason)});
         }
         return out;
@@ -456,6 +487,7 @@ bool worldWhereParentUnusable(RigProbe& probe, const RigState& state, FrameHisto
         if (p < 0) continue;
         const auto parent = static_cast<std::size_t>(p);
         if (parent < outputs && !state.unreliable[parent] && !state.nonCompositional[parent]) continue;
+        if (parent < outputs) history.parentUnusable.insert(static_cast<int>(k));
         if (parent < outputs)
             history.relative.try_emplace(
                 static_cast<int>(k),
@@ -554,6 +586,51 @@ void recordDiscards(const Pass& pass, RigProbe& probe, const LearnOptions& optio
         result.discarded.push_back({probe.rig().parameters()[static_cast<std::size_t>(p)], reason});
 }
 
+// Constraint operators for the non-compositional outputs, parents before children (constraint_fit.h). An output
+// that left its parent's frame only because its parent was not modelled goes back to that frame once the parent
+// is (a toe under an IK foot); the others are fitted once. True when a frame changed.
+bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hierarchy, ConstraintFitter& fitter,
+                    FrameHistory& history, std::set<int>& tried)
+{
+    std::vector<int> order(hierarchy.size());
+    std::vector<int> depth(hierarchy.size(), 0);
+    for (std::size_t k = 0; k < hierarchy.size(); ++k) {
+        order[k] = static_cast<int>(k);
+        for (int p = hierarchy[k]; p >= 0 && depth[k] <= static_cast<int>(hierarchy.size()); p = hierarchy[static_cast<std::size_t>(p)])
+            ++depth[k];
+    }
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return depth[static_cast<std::size_t>(a)] < depth[static_cast<std::size_t>(b)]; });
+    bool changed = false;
+    for (const int k : order) {
+        const auto i = static_cast<std::size_t>(k);
+        if (!state.nonCompositional[i] || tried.contains(k)) continue;
+        const int p = hierarchy[i];
+        const bool parentModelled = p >= 0 && !state.nonCompositional[static_cast<std::size_t>(p)] &&
+                                    !state.unreliable[static_cast<std::size_t>(p)];
+        if (p >= 0 && !parentModelled && !tried.contains(p)) continue;  // its parent first
+        if (parentModelled && history.parentUnusable.erase(k) > 0) {
+            state.nonCompositional[i] = 0;
+            probe.parents[i] = p;
+            changed = true;
+            continue;
+        }
+        tried.insert(k);
+        std::string why;
+        const std::optional<ConstraintBase> base = fitter.fit(k, state, why);
+        if (!base) {
+            history.constraint[k] = why;
+            continue;
+        }
+        for (const int input : {base->anchor, base->goal, base->pole})
+            if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
+        probe.constraints[k] = *base;
+        probe.parents[i] = -1;
+        state.nonCompositional[i] = 0;
+        changed = true;
+    }
+    return changed;
+}
+
 }  // namespace
 
 Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile,
@@ -566,7 +643,8 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     const std::vector<Eigen::Matrix4d>& rest = probe.rest();
     const auto& parameters = rig.parameters();
 
-    RigState state{std::vector<char>(rest.size(), 0), std::vector<char>(rest.size(), 0)};
+    const std::vector<char> helper = rig.helperOutputs();
+    RigState state{std::vector<char>(rest.size(), 0), std::vector<char>(rest.size(), 0), helper};
     std::map<int, std::string> dropped = singularOutputs(rest, state);  // rig output -> why it is left out
     // Frames: relative to the parent output where there is one (and it is usable).
     const std::vector<int> hierarchy = options.relativeFrames ? rig.outputParents() : std::vector<int>(rest.size(), -1);
@@ -580,6 +658,8 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     RigPool pool(rig, options.threads == 0 ? static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))
                                            : options.threads);
     std::vector<ParameterSamples> samples = firstSamples(pool, parameters.size(), rest, options);
+    ConstraintFitter fitter(probe, samples, rig.outputParents(), helper, options);
+    std::set<int> fitted;  // outputs a constraint was tried on
     ValidationPoses poses = drawPoses(parameters, options);
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
@@ -603,6 +683,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
             worldWhereParentUnusable(probe, state, history);
             continue;
         }
+        if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted)) continue;
         if (distrustOverEpsilon(pass, options, distrusted)) continue;
         if (!raiseBudgets(pass, options, budgets)) break;
     }

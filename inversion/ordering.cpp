@@ -106,10 +106,11 @@ private:
         auto& sample = entry->second;
         if (fresh || sample.offsets != std::pair(cp.orderOffset, cq.orderOffset))
             sample = {{cp.orderOffset, cq.orderOffset}, {}};
-        auto needed = [&](int k) { return std::pair(k, probe_.parentOf(k)); };
         const bool known = !fresh && std::all_of(voting.begin(), voting.end(), [&](const auto& v) {
-            const auto [k, parent] = needed(std::get<0>(v));
-            return sample.worlds.contains(k) && (parent < 0 || sample.worlds.contains(parent));
+            const int k = std::get<0>(v);
+            const std::vector<int> inputs = probe_.frameInputs(k);
+            return sample.worlds.contains(k) &&
+                   std::all_of(inputs.begin(), inputs.end(), [&](int i) { return sample.worlds.contains(i); });
         });
         if (known) return sample;
         ++evaluations_;
@@ -118,9 +119,9 @@ private:
         values[static_cast<std::size_t>(cq.index)] += cq.orderOffset;
         const std::vector<Eigen::Matrix4d>& all = probe_.atValues(values);
         for (const auto& v : voting) {
-            const auto [k, parent] = needed(std::get<0>(v));
+            const int k = std::get<0>(v);
             sample.worlds[k] = all[static_cast<std::size_t>(k)];
-            if (parent >= 0) sample.worlds[parent] = all[static_cast<std::size_t>(parent)];
+            for (const int i : probe_.frameInputs(k)) sample.worlds[i] = all[static_cast<std::size_t>(i)];
         }
         return sample;
     }
@@ -139,9 +140,8 @@ private:
             const Eigen::Matrix4d& fa = cp.orderWorlds[static_cast<std::size_t>(ep)];
             const Eigen::Matrix4d& fb = cq.orderWorlds[static_cast<std::size_t>(eq)];
             const Eigen::Matrix4d restInverse = rest[static_cast<std::size_t>(k)].inverse();
-            const int parent = probe_.parentOf(k);
             const Eigen::Matrix4d fab =
-                probe_.inFrame(k, sample.worlds.at(k), parent < 0 ? rest[0] : sample.worlds.at(parent));
+                probe_.inFrame(k, [&](int j) -> const Eigen::Matrix4d& { return sample.worlds.at(j); });
             const double one = matrixError(fab, fa * restInverse * fb, options_.frameRadius);
             const double two = matrixError(fab, fb * restInverse * fa, options_.frameRadius);
             const bool ok1 = one <= tolerance, ok2 = two <= tolerance;

@@ -1,0 +1,321 @@
+#include "inversion/constraint_fit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <random>
+
+#include <fmt/format.h>
+#include <Eigen/Dense>
+
+namespace rig {
+namespace {
+
+// A shape's knots: at most this many, refined until every midpoint is within this share of epsilon per unit moved
+// (moving the goal by less than a centimetre counts as a centimetre). A chain's reach has a kink where it straightens,
+// which the refinement resolves with knots close around it.
+constexpr int maxShapeKnots = 256;
+constexpr double midpointShare = 0.5;
+
+// Poses that check a candidate: the same for every candidate and sample count, apart from those it was fitted on.
+constexpr int checkPoses = 8;
+
+// A point off the chain's line at rest, carried by the anchor: the plane of a chain without a pole object. Any
+// such point will do, since the shape absorbs the constant turn from this plane to the chain's.
+Eigen::Vector3d fixedPole(const Eigen::Vector3d& root, const Eigen::Vector3d& goal)
+{
+    const Eigen::Vector3d x = (goal - root).normalized();
+    Eigen::Index axis = 0;
+    x.cwiseAbs().minCoeff(&axis);
+    const Eigen::Vector3d e = Eigen::Vector3d::Unit(axis);
+    return root + std::max(1.0, (goal - root).norm()) * (e - e.dot(x) * x).normalized();
+}
+
+// The base's shape through knots (t -> reach offset, G), rotation vectors unwrapped outward from the rest knot so
+// that the curve does not jump at half a turn. False when the reach does not grow with t or a value is not finite.
+bool setShape(const std::map<double, std::pair<double, Eigen::Matrix4d>>& knots, ConstraintBase& base)
+{
+    std::vector<double> xs;
+    std::vector<std::pair<double, Eigen::Matrix4d>> ordered;
+    for (const auto& [t, knot] : knots) ordered.push_back(knot);
+    for (std::size_t i = 1; i < ordered.size(); ++i)
+        if (!(ordered[i].first > ordered[i - 1].first)) return false;
+    const auto z = std::find_if(ordered.begin(), ordered.end(), [](const auto& k) { return k.first == 0.0; }) -
+                   ordered.begin();
+    const auto value = [](const Eigen::Matrix4d& g, const Eigen::Vector3d& previous) {
+        CubicSpline<6>::Vector v;
+        Eigen::Vector3d r = rotationVector(g.block<3, 3>(0, 0));
+        if (r.norm() > 1e-12) {
+            const Eigen::Vector3d other = r - 2.0 * std::numbers::pi * r.normalized();
+            if ((other - previous).norm() < (r - previous).norm()) r = other;
+        }
+        v << r, g.block<3, 1>(0, 3);
+        return v;
+    };
+    std::vector<CubicSpline<6>::Vector> ys(ordered.size(), CubicSpline<6>::Vector::Zero());
+    for (auto i = z + 1; i < static_cast<std::ptrdiff_t>(ordered.size()); ++i)
+        ys[static_cast<std::size_t>(i)] =
+            value(ordered[static_cast<std::size_t>(i)].second, ys[static_cast<std::size_t>(i - 1)].head<3>());
+    for (auto i = z - 1; i >= 0; --i)
+        ys[static_cast<std::size_t>(i)] =
+            value(ordered[static_cast<std::size_t>(i)].second, ys[static_cast<std::size_t>(i + 1)].head<3>());
+    for (const auto& k : ordered) xs.push_back(k.first);
+    if (xs.size() < 2 || !std::all_of(ys.begin(), ys.end(), [](const auto& y) { return y.allFinite(); }))
+        return false;
+    base.shape = Operator{};
+    base.shape.kind = OperatorKind::sampledRigid;
+    base.shape.rigid = CubicSpline<6>(std::move(xs), std::move(ys));
+    return true;
+}
+
+}  // namespace
+
+ConstraintFitter::ConstraintFitter(RigProbe& probe, const std::vector<ParameterSamples>& samples,
+                                   std::vector<int> hierarchy, std::vector<char> helper, const LearnOptions& options)
+    : probe_(probe), samples_(samples), hierarchy_(std::move(hierarchy)), helper_(std::move(helper)),
+      options_(options)
+{
+}
+
+bool ConstraintFitter::usableAnchor(int a, const RigState& state) const
+{
+    const auto i = static_cast<std::size_t>(a);
+    return !state.nonCompositional[i] && !state.unreliable[i] && !probe_.constraints.contains(a);
+}
+
+std::vector<int> ConstraintFitter::moversOf(int k) const
+{
+    std::vector<int> movers;
+    for (std::size_t i = 0; i < samples_.size(); ++i)
+        if (std::binary_search(samples_[i].moved.begin(), samples_[i].moved.end(), k))
+            movers.push_back(static_cast<int>(i));
+    return movers;
+}
+
+const std::vector<ConstraintFitter::Pose>& ConstraintFitter::poses(const std::vector<int>& varied, int set, int count)
+{
+    std::vector<Pose>& poses = poses_[{varied, set}];
+    const auto& parameters = probe_.rig().parameters();
+    while (static_cast<int>(poses.size()) < count) {
+        std::mt19937 rng(options_.seed * 7919u + static_cast<std::uint32_t>(set) * 104729u +
+                         static_cast<std::uint32_t>(poses.size()));
+        Pose pose;
+        std::vector<double> values = probe_.defaults();
+        for (const int i : varied) {
+            const RigParameter& p = parameters[static_cast<std::size_t>(i)];
+            const double value = std::uniform_real_distribution<double>(p.min, p.max)(rng);
+            pose.offsets.push_back(value - p.defaultValue);
+            values[static_cast<std::size_t>(i)] = value;
+        }
+        pose.worlds = probe_.atValues(values);
+        ++evaluations_;
+        poses.push_back(std::move(pose));
+    }
+    return poses;
+}
+
+Eigen::Matrix4d ConstraintFitter::predicted(int k, const ConstraintBase& base,
+                                            const std::vector<Eigen::Matrix4d>& worlds) const
+{
+    const auto& rest = probe_.rest();
+    const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+    const Eigen::Matrix4d motion =
+        base.anchor < 0 ? identity
+                        : Eigen::Matrix4d(worlds[static_cast<std::size_t>(base.anchor)] *
+                                          rest[static_cast<std::size_t>(base.anchor)].inverse());
+    const ChainPoints points = chainPoints(base, motion, worlds[static_cast<std::size_t>(base.goal)],
+                                           base.pole < 0 ? identity : worlds[static_cast<std::size_t>(base.pole)]);
+    return constraintBase(base, points) * rest[static_cast<std::size_t>(k)];
+}
+
+bool ConstraintFitter::shapeAt(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds,
+                               double& x, Eigen::Matrix4d& g) const
+{
+    const auto& rest = probe_.rest();
+    const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+    const Eigen::Matrix4d motion =
+        base.anchor < 0 ? identity
+                        : Eigen::Matrix4d(worlds[static_cast<std::size_t>(base.anchor)] *
+                                          rest[static_cast<std::size_t>(base.anchor)].inverse());
+    const ChainPoints points = chainPoints(base, motion, worlds[static_cast<std::size_t>(base.goal)],
+                                           base.pole < 0 ? identity : worlds[static_cast<std::size_t>(base.pole)]);
+    Eigen::Matrix4d frame;
+    if (!chainFrame(points, frame) || !worlds[static_cast<std::size_t>(k)].allFinite()) return false;
+    x = (points.goal - points.root).norm() - base.restReach;
+    g = frame.inverse() * worlds[static_cast<std::size_t>(k)] * rest[static_cast<std::size_t>(k)].inverse() *
+        base.restFrame;
+    return true;
+}
+
+bool ConstraintFitter::sweepFor(const ConstraintBase& base, const std::vector<int>& varied, int anchorOrPole,
+                                Sweep*& sweep)
+{
+    const auto found = sweeps_.find({base.goal, anchorOrPole});
+    if (found != sweeps_.end()) {
+        sweep = &found->second;
+        return !sweep->parameters.empty();
+    }
+    Sweep& made = sweeps_[{base.goal, anchorOrPole}];
+    sweep = &made;
+    // Each parameter's first-order effect on the goal, from its smallest first sample.
+    const auto& rest = probe_.rest();
+    const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(base.goal)].block<3, 1>(0, 3);
+    std::vector<Eigen::Vector3d> columns;
+    for (const int i : varied) {
+        const ParameterSamples& sample = samples_[static_cast<std::size_t>(i)];
+        if (!std::binary_search(sample.moved.begin(), sample.moved.end(), base.goal)) continue;
+        if (base.anchor >= 0 && std::binary_search(sample.moved.begin(), sample.moved.end(), base.anchor)) continue;
+        double smallest = 0.0;
+        for (const auto& [a, worlds] : sample.worlds)
+            if (a != 0.0 && (smallest == 0.0 || std::abs(a) < std::abs(smallest))) smallest = a;
+        if (smallest == 0.0) continue;
+        made.parameters.push_back(i);
+        columns.push_back((sample.world(base.goal, smallest, rest).block<3, 1>(0, 3) - restGoal) / smallest);
+    }
+    if (made.parameters.empty()) return false;
+    Eigen::MatrixXd j(3, static_cast<Eigen::Index>(columns.size()));
+    for (std::size_t c = 0; c < columns.size(); ++c) j.col(static_cast<Eigen::Index>(c)) = columns[c];
+    const Eigen::Vector3d along = (restGoal - base.root).normalized();
+    made.direction = j.completeOrthogonalDecomposition().solve(along);
+    if (!((j * made.direction - along).norm() < 1e-6)) made.parameters.clear();
+    return !made.parameters.empty();
+}
+
+const std::vector<Eigen::Matrix4d>& ConstraintFitter::sweepAt(Sweep& sweep, double t)
+{
+    const auto found = sweep.worlds.find(t);
+    if (found != sweep.worlds.end()) return found->second;
+    std::vector<double> values = probe_.defaults();
+    for (std::size_t p = 0; p < sweep.parameters.size(); ++p)
+        values[static_cast<std::size_t>(sweep.parameters[p])] += t * sweep.direction[static_cast<Eigen::Index>(p)];
+    ++evaluations_;
+    return sweep.worlds.emplace(t, probe_.atValues(values)).first->second;
+}
+
+bool ConstraintFitter::makeBase(int k, Sweep& sweep, double lo, double hi, ConstraintBase& base)
+{
+    std::map<double, std::pair<double, Eigen::Matrix4d>> knots{{0.0, {0.0, Eigen::Matrix4d::Identity()}}};
+    const auto add = [&](double t) {
+        if (knots.contains(t)) return true;
+        std::pair<double, Eigen::Matrix4d> knot;
+        if (!shapeAt(k, base, sweepAt(sweep, t), knot.first, knot.second)) return false;
+        knots.emplace(t, knot);
+        return true;
+    };
+    constexpr int firstKnots = 9;
+    for (int i = 0; i < firstKnots; ++i)
+        if (!add(lo + (hi - lo) * i / (firstKnots - 1))) return false;
+    // Halve every interval whose midpoint the spline misses by more than a tenth of epsilon per unit moved.
+    while (true) {
+        if (!setShape(knots, base)) return false;
+        std::vector<double> missed;
+        for (auto a = knots.begin(), b = std::next(a); b != knots.end(); ++a, ++b) {
+            const double t = 0.5 * (a->first + b->first);
+            const std::vector<Eigen::Matrix4d>& worlds = sweepAt(sweep, t);
+            const double e = matrixError(predicted(k, base, worlds), worlds[static_cast<std::size_t>(k)],
+                                         options_.frameRadius);
+            const double moved = std::max(std::abs(t), 1.0) * sweep.direction.lpNorm<1>();
+            if (!(e <= midpointShare * options_.epsilon * moved)) missed.push_back(t);
+        }
+        if (missed.empty() || static_cast<int>(knots.size() + missed.size()) > maxShapeKnots) return true;
+        for (const double t : missed)
+            if (!add(t)) return false;
+    }
+}
+
+double ConstraintFitter::error(int k, const ConstraintBase& base, const std::vector<Pose>& poses) const
+{
+    double worst = 0.0;
+    for (const Pose& pose : poses) {
+        double moved = 0.0;
+        for (const double a : pose.offsets) moved += std::abs(a);
+        const Eigen::Matrix4d p = predicted(k, base, pose.worlds);
+        const double e = matrixError(p, pose.worlds[static_cast<std::size_t>(k)], options_.frameRadius);
+        if (!std::isfinite(e)) return std::numeric_limits<double>::infinity();
+        worst = std::max(worst, e <= 1e-12 ? 0.0 : e / std::max(moved, 1e-300));
+    }
+    return worst;
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state, std::string& why)
+{
+    const auto& rest = probe_.rest();
+    const auto& names = probe_.rig().outputs();
+    int root = k, anchor = hierarchy_[static_cast<std::size_t>(k)];
+    while (anchor >= 0 && !usableAnchor(anchor, state)) {
+        root = anchor;
+        anchor = hierarchy_[static_cast<std::size_t>(anchor)];
+    }
+    const std::vector<int> movers = moversOf(k), anchorMovers = anchor >= 0 ? moversOf(anchor) : std::vector<int>{};
+    const auto movesAnchor = [&](int i) { return std::binary_search(anchorMovers.begin(), anchorMovers.end(), i); };
+    const auto moves = [&](int i, int h) {
+        const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
+        return std::binary_search(moved.begin(), moved.end(), h);
+    };
+    std::vector<int> helpers;
+    for (std::size_t h = 0; h < helper_.size(); ++h) {
+        const int hh = static_cast<int>(h);
+        if (!helper_[h] || hh == k || !usableAnchor(hh, state)) continue;
+        if (std::any_of(movers.begin(), movers.end(), [&](int i) { return !movesAnchor(i) && moves(i, hh); }))
+            helpers.push_back(hh);
+    }
+    if (helpers.empty()) {
+        why = "no helper frame is moved by what moves it apart from its anchor (rig-learn --helpers)";
+        return std::nullopt;
+    }
+    // The poses vary what moves k through its inputs; its own parameters stay at rest.
+    std::vector<int> varied;
+    for (const int i : movers)
+        if (movesAnchor(i) || std::any_of(helpers.begin(), helpers.end(), [&](int h) { return moves(i, h); }))
+            varied.push_back(i);
+    double closest = std::numeric_limits<double>::infinity();
+    std::string closestName;
+    const std::vector<Pose>& fitPoses = poses(varied, 0, 2 * options_.samples);
+    const std::vector<Pose>& check = poses(varied, 1, checkPoses);
+    for (const int goal : helpers) {
+        std::vector<int> poles = helpers;
+        poles.push_back(-1);
+        for (const int pole : poles) {
+            if (pole == goal) continue;
+            ConstraintBase base;
+            base.anchor = anchor;
+            base.goal = goal;
+            base.pole = pole;
+            base.root = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
+            const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
+            base.restPole = pole >= 0 ? Eigen::Vector3d(rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3))
+                                      : fixedPole(base.root, restGoal);
+            Sweep* sweep = nullptr;
+            if (!base.prepare(restGoal) || !sweepFor(base, varied, anchor, sweep)) continue;
+            // The sweep covers the reaches of the random poses, and half as much again on either side.
+            double lo = 0.0, hi = 0.0;
+            for (const Pose& pose : fitPoses) {
+                double x = 0.0;
+                Eigen::Matrix4d g;
+                if (!shapeAt(k, base, pose.worlds, x, g)) continue;
+                lo = std::min(lo, x);
+                hi = std::max(hi, x);
+            }
+            const double span = hi - lo;
+            lo = std::max(lo - 0.5 * span, -0.95 * base.restReach);
+            hi += 0.5 * span;
+            if (!makeBase(k, *sweep, lo, hi, base)) continue;
+            const double e = std::max(error(k, base, fitPoses), error(k, base, check));
+            if (e <= options_.epsilon) return base;
+            if (e < closest) {
+                closest = e;
+                const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
+                closestName = fmt::format("goal {}, pole {}", names[static_cast<std::size_t>(goal)],
+                                          pole < 0 ? "fixed to " + fixedTo : names[static_cast<std::size_t>(pole)]);
+            }
+        }
+    }
+    why = std::isfinite(closest)
+              ? fmt::format("the closest constraint, a planar chain ({}), is {:.3g} cm per unit off, over epsilon {:g}",
+                            closestName, closest, options_.epsilon)
+              : "no planar chain spans a plane from its helper frames";
+    return std::nullopt;
+}
+
+}  // namespace rig

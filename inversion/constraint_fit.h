@@ -1,0 +1,81 @@
+#pragma once
+// Fitting constraint operators (inversion/constraint.h) to the outputs the learner found non-compositional:
+// internal to the learner. For an output k, the planar chain is tried with every pair of candidate inputs:
+//
+//   anchor  the nearest ancestor of k (RigFunction::outputParents) modelled by operators alone;
+//   root    the origin of the topmost output between the anchor and k (k itself when it hangs from the anchor);
+//   goal    a helper moved by some parameter that moves k but not the anchor (an IK goal);
+//   pole    another such helper, or none (a pole carried by the anchor: the rotate-plane default).
+//
+// Its shape G is sampled on random poses of the parameters that move k through those inputs (the others at rest),
+// a spline over the reach through every sample, and it is kept when fresh random poses agree within epsilon per
+// unit moved (LearnOptions::epsilon, the learner's measure), samples doubling up to LearnOptions::maxSamples.
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "inversion/classifier.h"
+#include "inversion/constraint.h"
+#include "inversion/learner.h"
+
+namespace rig {
+
+// What fitting needs to know of the learner's state, and the rig evaluations it shares between outputs.
+class ConstraintFitter {
+public:
+    // `samples`: every parameter's first samples (which outputs each moves); `hierarchy`: the rig's output
+    // parents; `helper`: RigFunction::helperOutputs.
+    ConstraintFitter(RigProbe& probe, const std::vector<ParameterSamples>& samples, std::vector<int> hierarchy,
+                     std::vector<char> helper, const LearnOptions& options);
+
+    // The planar chain for rig output k in the learner's current state, or nullopt with `why` set (the family that
+    // came closest and its error).
+    std::optional<ConstraintBase> fit(int k, const RigState& state, std::string& why);
+
+    std::uint64_t evaluations() const { return evaluations_; }
+
+private:
+    struct Candidate {
+        int goal = -1, pole = -1;
+    };
+    struct Pose {
+        std::vector<double> offsets;       // per varied parameter
+        std::vector<Eigen::Matrix4d> worlds;  // every rig output
+    };
+    bool usableAnchor(int a, const RigState& state) const;
+    std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k
+    const std::vector<Pose>& poses(const std::vector<int>& varied, int set, int count);
+    // The goal's sweep: its parameters moved together so that the goal moves along the chain's line at rest by t
+    // (to first order), the rig's worlds there kept by t. False when no parameter moves the goal alone.
+    struct Sweep {
+        std::vector<int> parameters;
+        Eigen::VectorXd direction;  // per parameter, its offset per unit of t
+        std::map<double, std::vector<Eigen::Matrix4d>> worlds;
+    };
+    bool sweepFor(const ConstraintBase& base, const std::vector<int>& varied, int anchorOrPole, Sweep*& sweep);
+    const std::vector<Eigen::Matrix4d>& sweepAt(Sweep& sweep, double t);
+    // The base's shape from the sweep over reaches [lo, hi] (offsets from the rest reach): knots where the goal
+    // sits, halved where a midpoint misses; false when no shape can be made (a degenerate pose).
+    bool makeBase(int k, Sweep& sweep, double lo, double hi, ConstraintBase& base);
+    // G = C^-1 W_k W_k(0)^-1 C0 at one set of worlds, with its reach offset; false where the points span no plane.
+    bool shapeAt(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds, double& x,
+                 Eigen::Matrix4d& g) const;
+    // The worst error per unit moved of the base's prediction of k on the poses.
+    double error(int k, const ConstraintBase& base, const std::vector<Pose>& poses) const;
+    Eigen::Matrix4d predicted(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const;
+
+    RigProbe& probe_;
+    const std::vector<ParameterSamples>& samples_;
+    std::vector<int> hierarchy_;
+    std::vector<char> helper_;
+    const LearnOptions& options_;
+    std::map<std::pair<std::vector<int>, int>, std::vector<Pose>> poses_;  // (varied, set) -> poses
+    std::map<std::pair<int, int>, Sweep> sweeps_;                         // (goal, anchor) -> its sweep
+    std::uint64_t evaluations_ = 0;
+};
+
+}  // namespace rig

@@ -1,0 +1,165 @@
+// Constraint operators (inversion/constraint.h, constraint_fit.h): the planar chain learned on IK rigs, its
+// base's velocity against finite differences, and solves through it.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+
+#include "inversion/approximation.h"
+#include "inversion/constraint.h"
+#include "inversion/jacobian.h"
+#include "inversion/learner.h"
+#include "inversion/solver.h"
+#include "ik_arm.h"
+#include "solver_rigs.h"
+#include "test_support.h"
+
+namespace rig {
+namespace {
+
+// The IK arm with its goal and pole controls as helper frames, read from the graph beside the joints.
+class HelperRig final : public RigFunction {
+public:
+    HelperRig(RigFunction& rig, Graph& graph, std::vector<std::string> helpers)
+        : rig_(rig), graph_(graph), names_(rig.outputs())
+    {
+        for (const auto& h : helpers) {
+            plugs_.push_back(graph.plug(h + ".worldMatrix"));
+            names_.push_back(h);
+        }
+        parents_ = rig.outputParents();
+        parents_.resize(names_.size(), -1);
+        helper_.assign(rig.outputs().size(), 0);
+        helper_.resize(names_.size(), 1);
+    }
+    const std::vector<RigParameter>& parameters() const override { return rig_.parameters(); }
+    const std::vector<std::string>& outputs() const override { return names_; }
+    std::vector<int> outputParents() const override { return parents_; }
+    std::vector<char> helperOutputs() const override { return helper_; }
+    void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) override
+    {
+        rig_.evaluate(values, worlds);
+        for (const Plug& p : plugs_) worlds.push_back(std::get<Eigen::Matrix4d>(graph_.getValue(p)));
+    }
+    std::uint64_t evaluationCount() const override { return rig_.evaluationCount(); }
+    std::string fingerprint() const override { return rig_.fingerprint(); }
+
+private:
+    RigFunction& rig_;
+    Graph& graph_;
+    std::vector<std::string> names_;
+    std::vector<Plug> plugs_;
+    std::vector<int> parents_;
+    std::vector<char> helper_;
+};
+
+}  // namespace
+
+// The IK arm with its helpers, learned once per run.
+struct LearnedArm {
+    std::filesystem::path file = test::writeFile(test::scratchDir("constraint-ik-arm") / "arm.yaml", test::ikArm);
+    GraphRigFunction graphRig{file, test::ikArmOptions()};
+    HelperRig rig{graphRig, graphRig.graph(), {"arm_ik_ctrl", "arm_pole_ctrl"}};
+    Approximation approximation = learnApproximation(rig, LearnOptions{}, file.string());
+};
+
+LearnedArm& learnedArm()
+{
+    static LearnedArm arm;
+    return arm;
+}
+
+// Joint targets (not the helpers) from the real rig at these values of the approximation's parameters.
+std::vector<JointTarget> realTargets(LearnedArm& arm, std::span<const double> values)
+{
+    const Approximation& a = arm.approximation;
+    std::vector<double> rigValues;
+    for (const auto& p : arm.rig.parameters()) rigValues.push_back(p.defaultValue);
+    for (const auto& m : a.parameters)
+        for (std::size_t i = 0; i < arm.rig.parameters().size(); ++i)
+            if (arm.rig.parameters()[i].name == m.parameter.name) rigValues[i] = values[static_cast<std::size_t>(&m - a.parameters.data())];
+    std::vector<Eigen::Matrix4d> worlds;
+    arm.rig.evaluate(rigValues, worlds);
+    std::vector<JointTarget> targets(a.outputs.size());
+    for (std::size_t k = 0; k < a.outputs.size(); ++k) {
+        if (a.outputs[k].helper) continue;
+        const auto& names = arm.rig.outputs();
+        const auto at = std::find(names.begin(), names.end(), a.outputs[k].name) - names.begin();
+        targets[k].active = true;
+        targets[k].world = worlds[static_cast<std::size_t>(at)];
+    }
+    return targets;
+}
+
+TEST_CASE("constraints: the IK arm's chain is learned as planar-chain constraints, within epsilon")
+{
+    const Approximation& a = learnedArm().approximation;
+    CHECK(!a.hasUnmodelledOutputs());
+    CHECK(a.validation.withinEpsilon);
+    CHECK(a.validation.maxRelativeError < 1e-5);
+    REQUIRE(a.constraints.size() == 3);  // shoulder, elbow and wrist, each on the goal and the pole
+    std::vector<std::string> constrained;
+    for (const auto& o : a.outputs)
+        if (o.constraint >= 0) {
+            constrained.push_back(o.name);
+            const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
+            CHECK(a.outputs[static_cast<std::size_t>(c.anchor)].name == "clavicle");
+            CHECK(a.outputs[static_cast<std::size_t>(c.goal)].name == "arm_ik_ctrl");
+            CHECK(a.outputs[static_cast<std::size_t>(c.pole)].name == "arm_pole_ctrl");
+            CHECK(o.parent == -1);
+        }
+    CHECK(constrained == std::vector<std::string>{"shoulder", "elbow", "wrist"});
+    for (const auto& o : a.outputs) CHECK(o.helper == (o.name == "arm_ik_ctrl" || o.name == "arm_pole_ctrl"));
+}
+
+TEST_CASE("constraints: the analytic Jacobian through planar chains equals central differences")
+{
+    LearnedArm& arm = learnedArm();
+    const Approximation& a = arm.approximation;
+    std::mt19937 rng(3);
+    for (int pose = 0; pose < 10; ++pose) {
+        CAPTURE(pose);
+        const std::vector<double> values = test::randomValues(a, rng, 0.8);
+        const std::vector<JointTarget> targets = realTargets(arm, test::randomValues(a, rng, 0.8));
+        JacobianEvaluator evaluator(a, targets, 10.0);
+        CHECK(evaluator.structure().hasBases());
+        CHECK(!evaluator.structure().twistForm());
+        Eigen::MatrixXd analytic, numeric;
+        Eigen::VectorXd r1, r2;
+        evaluator.jacobian(values, JacobianMethod::analytic, 0.0, analytic, r1);
+        evaluator.jacobian(values, JacobianMethod::finiteDifference, 1e-5, numeric, r2);
+        CHECK((r1 - r2).norm() == doctest::Approx(0.0));
+        CHECK((analytic - numeric).cwiseAbs().maxCoeff() < 1e-5 * std::max(1.0, analytic.cwiseAbs().maxCoeff()));
+        // The goal's and the pole's columns move the chain: they are not zero.
+        CHECK(analytic.norm() > 0.0);
+    }
+}
+
+TEST_CASE("constraints: poses of the IK arm are solved through its planar chains, reached on the real rig")
+{
+    LearnedArm& arm = learnedArm();
+    const Approximation& a = arm.approximation;
+    const Solver solver(a, SolverOptions{});
+    std::mt19937 rng(5);
+    int fromRest = 0;
+    const int poses = 20;
+    for (int pose = 0; pose < poses; ++pose) {
+        CAPTURE(pose);
+        const std::vector<double> known = test::randomValues(a, rng, 0.6);
+        const std::vector<JointTarget> targets = realTargets(arm, known);
+        std::vector<double> values = a.defaults();
+        const SolveSummary summary = solver.solve(targets, values);
+        // Judged on the real rig: the joints at the values found against the targets.
+        const std::vector<JointTarget> reached = realTargets(arm, values);
+        double worst = 0.0;
+        for (std::size_t k = 0; k < targets.size(); ++k)
+            if (targets[k].active)
+                worst = std::max(worst, (reached[k].world.block<3, 1>(0, 3) - targets[k].world.block<3, 1>(0, 3)).norm());
+        if (summary.converged() && worst < 1e-3) ++fromRest;
+    }
+    MESSAGE("reached from rest: " << fromRest << " of " << poses);
+    CHECK(fromRest >= poses * 9 / 10);
+}
+
+}  // namespace rig
