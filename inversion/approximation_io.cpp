@@ -84,20 +84,22 @@ std::string parameterFields(const RigParameter& p, const std::string& field, std
 }
 
 // `held: [low, high]`: offsets beyond which the operator is held; an open end is null.
-std::string heldText(const Operator& op, const std::string& field)
+std::string heldText(const Operator& op, const std::string& field, std::string_view indent)
 {
     auto end = [&](double x) { return std::isfinite(x) ? number(x, field + ".held") : std::string("null"); };
-    return fmt::format("        held: [{}, {}]\n", end(op.low), end(op.high));
+    return fmt::format("{}held: [{}, {}]\n", indent, end(op.low), end(op.high));
 }
 
-std::string operatorText(const Operator& op, const std::string& field)
+// An operator's fields, the first line starting with `first` (a list item's "- ", or a field's indent) and the
+// others with `indent`: a parameter's operators and a constraint's shape are written alike.
+std::string operatorText(const Operator& op, const std::string& field, std::string_view first = "      - ",
+                         std::string_view indent = "        ")
 {
-    constexpr std::string_view indent = "        ";
-    std::string out = fmt::format("      - kind: {}\n", operatorKindName(op.kind));
+    std::string out = fmt::format("{}kind: {}\n", first, operatorKindName(op.kind));
     if (!op.traits().sampled) {
         out += fmt::format("{}axis: {}\n{}pivot: {}\n", indent, vector3(op.axis, field + ".axis"), indent,
                            vector3(op.pivot, field + ".pivot"));
-        if (op.held()) out += heldText(op, field);
+        if (op.held()) out += heldText(op, field, indent);
         if (op.linear()) out += fmt::format("{}slope: {}\n", indent, number(op.slope, field + ".slope"));
         else
             out += fmt::format("{0}curve:\n{0}  knots: {1}\n{0}  values: {2}\n", indent,
@@ -105,7 +107,7 @@ std::string operatorText(const Operator& op, const std::string& field)
                                splineValues(op.curve, field + ".curve.values"));
     } else {
         const auto& knots = op.kind == OperatorKind::sampledRigid ? op.rigid.knots() : op.affine.knots();
-        if (op.held()) out += heldText(op, field);
+        if (op.held()) out += heldText(op, field, indent);
         if (knots.empty()) throw internalError(fmt::format("approximationToYaml: {} has no knots", field));
         out += fmt::format("{}knots: {}\n", indent, list(knots, [&](double x) { return number(x, field + ".knots"); }));
         out += fmt::format("{}values: {}\n", indent,
@@ -159,6 +161,13 @@ std::string outputsText(const Approximation& a)
                     fmt::format("approximationToYaml: outputs[{}].parent: index {} out of range", k, o.parent));
             out += fmt::format("    parent: {}\n", yamlString(a.outputs[static_cast<std::size_t>(o.parent)].name));
         }
+        if (o.constraint >= 0) {
+            if (static_cast<std::size_t>(o.constraint) >= a.constraints.size())
+                throw internalError(
+                    fmt::format("approximationToYaml: outputs[{}].constraint: index {} out of range", k, o.constraint));
+            out += fmt::format("    constraint: {}\n", o.constraint);
+        }
+        if (o.helper) out += "    helper: true  # read by constraints, never a target\n";
         if (!o.modelled) out += "    modelled: false  # non-compositional: fitted on the real rig only\n";
         out += fmt::format("    validationError: {}\n    rest: [",
                            number(o.validationError, fmt::format("outputs[{}].validationError", k)));
@@ -168,6 +177,32 @@ std::string outputsText(const Approximation& a)
                                number(row[2], field), number(row[3], field));
         }
         out += "]\n";
+    }
+    return out;
+}
+
+// The constraint operators, their inputs by output name; what `ConstraintBase::prepare` derives is not written.
+std::string constraintsText(const Approximation& a)
+{
+    if (a.constraints.empty()) return {};
+    std::string out = "constraints:  # constraint operators, indexed by the outputs' `constraint`\n";
+    for (std::size_t c = 0; c < a.constraints.size(); ++c) {
+        const ConstraintBase& base = a.constraints[c];
+        const std::string field = fmt::format("constraints[{}]", c);
+        const auto input = [&](std::string_view which, int k, bool optional) -> std::string {
+            if (optional && k < 0) return {};
+            if (k < 0 || static_cast<std::size_t>(k) >= a.outputs.size())
+                throw internalError(fmt::format("approximationToYaml: {}.{}: index {} out of range", field, which, k));
+            return fmt::format("    {}: {}\n", which, yamlString(a.outputs[static_cast<std::size_t>(k)].name));
+        };
+        if (base.shape.kind != OperatorKind::sampledRigid)
+            throw internalError(fmt::format("approximationToYaml: {}.shape is {}, not sampledRigid", field,
+                                            operatorKindName(base.shape.kind)));
+        out += fmt::format("  - kind: {}\n", constraintKindName(base.kind));
+        out += input("anchor", base.anchor, true) + input("goal", base.goal, false) + input("pole", base.pole, true);
+        out += fmt::format("    root: {}\n    restPole: {}\n    shape:\n", vector3(base.root, field + ".root"),
+                           vector3(base.restPole, field + ".restPole"));
+        out += operatorText(base.shape, field + ".shape", "      ", "      ");
     }
     return out;
 }
@@ -491,7 +526,8 @@ YAML::Node parseDocument(std::string_view text, const std::string& fileName)
 }
 
 // The format and version first: any other problem in a file of another kind or version says less.
-void checkFormat(const Reader& r, const YAML::Node& root, const std::string& fileName)
+// Returns the version.
+int checkFormat(const Reader& r, const YAML::Node& root, const std::string& fileName)
 {
     if (!root.IsMap())
         throw Error(
@@ -513,7 +549,19 @@ void checkFormat(const Reader& r, const YAML::Node& root, const std::string& fil
     r.checkKeys(root, "file",
                 {"format", "version", "rigFile", "rigFingerprint", "epsilon", "training", "validation", "outputs",
                  "parameters", "discarded"},
-                {"droppedOutputs", "held"});
+                {"droppedOutputs", "held", "constraints"});
+    return version;
+}
+
+// A field version 3 added (helper outputs, constraint operators) means nothing to an older file's writer: such a
+// file was edited, or its version was.
+void checkVersion3Field(const Reader& r, const YAML::Node& n, const std::string& field, int version)
+{
+    if (n && version < 3)
+        r.fail(n, field,
+               fmt::format("version 3 added this field, but the file says version {}; re-run rig-learn, or write "
+                           "version: 3",
+                           version));
 }
 
 TrainingSummary readTraining(const Reader& r, const YAML::Node& training)
@@ -552,14 +600,18 @@ ValidationSummary readValidation(const Reader& r, const YAML::Node& validation)
     return v;
 }
 
-// The outputs with their parents (by name), into a.outputs; returns each output's index by name.
-std::map<std::string, int> readOutputs(const Reader& r, const YAML::Node& root, Approximation& a)
+// The outputs with their parents (by name), into a.outputs; returns each output's index by name. Their constraint
+// indices are read once the constraints are (readConstraintIndices).
+std::map<std::string, int> readOutputs(const Reader& r, const YAML::Node& root, int version, Approximation& a)
 {
     std::map<std::string, int> outputIndex;
     const YAML::Node outputs = r.sequence(root["outputs"], "outputs");
     for (std::size_t k = 0; k < outputs.size(); ++k) {
         const std::string field = fmt::format("outputs[{}]", k);
-        r.checkKeys(outputs[k], field, {"name", "rest"}, {"parent", "validationError", "modelled"});
+        r.checkKeys(outputs[k], field, {"name", "rest"},
+                    {"parent", "validationError", "modelled", "helper", "constraint"});
+        checkVersion3Field(r, outputs[k]["helper"], field + ".helper", version);
+        checkVersion3Field(r, outputs[k]["constraint"], field + ".constraint", version);
         ApproximationOutput out;
         out.name = r.text(outputs[k]["name"], field + ".name");
         if (!outputIndex.emplace(out.name, static_cast<int>(k)).second)
@@ -572,6 +624,7 @@ std::map<std::string, int> readOutputs(const Reader& r, const YAML::Node& root, 
         if (const YAML::Node n = outputs[k]["validationError"])
             out.validationError = r.nonNegative(n, field + ".validationError");
         if (const YAML::Node n = outputs[k]["modelled"]) out.modelled = r.boolean(n, field + ".modelled");
+        if (const YAML::Node n = outputs[k]["helper"]) out.helper = r.boolean(n, field + ".helper");
         a.outputs.push_back(std::move(out));
     }
     for (std::size_t k = 0; k < outputs.size(); ++k) {
@@ -585,13 +638,143 @@ std::map<std::string, int> readOutputs(const Reader& r, const YAML::Node& root, 
             r.fail(n, field, "a non-compositional output (modelled: false) is in world space: no parent, no children");
         a.outputs[k].parent = it->second;
     }
-    try {
-        a.outputOrder();
-    }
-    catch (const Error&) {
-        r.fail(outputs, "outputs", "the outputs' parents form a cycle; an output's parent is an ancestor joint");
-    }
     return outputIndex;
+}
+
+// One constraint operator; its inputs are modelled outputs, by name.
+ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::string& field,
+                              const std::map<std::string, int>& outputIndex, const Approximation& a)
+{
+    const YAML::Node kind = r.need(n, "kind", field);
+    const std::string kindName = r.text(kind, field + ".kind");
+    if (kindName != constraintKindName(ConstraintKind::planarChain))
+        r.fail(kind, field + ".kind",
+               fmt::format("unknown constraint '{}'; the constraints are {}", kindName,
+                           constraintKindName(ConstraintKind::planarChain)));
+    r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"}, {"anchor", "pole"});
+    const auto input = [&](std::string_view which) {
+        const YAML::Node v = r.child(n, which);
+        if (!v) return -1;
+        const std::string path = fmt::format("{}.{}", field, which);
+        const std::string name = r.text(v, path);
+        const auto it = outputIndex.find(name);
+        if (it == outputIndex.end()) r.fail(v, path, fmt::format("'{}' is not one of the outputs", name));
+        if (!a.outputs[static_cast<std::size_t>(it->second)].modelled)
+            r.fail(v, path,
+                   fmt::format("'{}' is not modelled (modelled: false); a constraint reads outputs the approximation "
+                               "predicts: re-run rig-learn",
+                               name));
+        return it->second;
+    };
+    ConstraintBase base;
+    base.kind = ConstraintKind::planarChain;
+    base.anchor = input("anchor");
+    base.goal = input("goal");
+    base.pole = input("pole");
+    base.root = r.vector3(r.child(n, "root"), field + ".root");
+    base.restPole = r.vector3(r.child(n, "restPole"), field + ".restPole");
+    const YAML::Node shape = r.child(n, "shape");
+    const YAML::Node shapeKind = r.need(shape, "kind", field + ".shape");
+    const std::string shapeName = r.text(shapeKind, field + ".shape.kind");
+    if (shapeName != operatorKindName(OperatorKind::sampledRigid))
+        r.fail(shapeKind, field + ".shape.kind",
+               fmt::format("'{}' is not sampledRigid; a chain's shape is a sampledRigid operator (re-run rig-learn)",
+                           shapeName));
+    base.shape = r.op(shape, field + ".shape");
+    if (!base.prepare(a.outputs[static_cast<std::size_t>(base.goal)].rest.block<3, 1>(0, 3)))
+        r.fail(n, field,
+               "the rest points span no plane (the goal's rest origin on `root`, or `restPole` on the line through "
+               "them); re-run rig-learn");
+    return base;
+}
+
+// The top-level `constraints` list (version 3), into a.constraints.
+void readConstraints(const Reader& r, const YAML::Node& root, int version,
+                     const std::map<std::string, int>& outputIndex, Approximation& a)
+{
+    const YAML::Node constraints = root["constraints"];
+    if (!constraints) return;
+    checkVersion3Field(r, constraints, "constraints", version);
+    for (std::size_t c = 0; c < r.sequence(constraints, "constraints").size(); ++c)
+        a.constraints.push_back(readConstraint(r, constraints[c], fmt::format("constraints[{}]", c), outputIndex, a));
+}
+
+// The outputs' `constraint` indices: in range, on a modelled output without a parent, whose constraint does not
+// read the output itself.
+void readConstraintIndices(const Reader& r, const YAML::Node& root, Approximation& a)
+{
+    const YAML::Node outputs = root["outputs"];
+    for (std::size_t k = 0; k < outputs.size(); ++k) {
+        const YAML::Node n = outputs[k]["constraint"];
+        if (!n) continue;
+        const std::string field = fmt::format("outputs[{}].constraint", k);
+        const int c = r.integer<int>(n, field);
+        if (c < 0 || static_cast<std::size_t>(c) >= a.constraints.size())
+            r.fail(n, field,
+                   a.constraints.empty()
+                       ? fmt::format("{} is not a constraint index: the file has no constraints list", c)
+                       : fmt::format("{} is not a constraint index (0..{})", c, a.constraints.size() - 1));
+        ApproximationOutput& out = a.outputs[k];
+        if (out.parent >= 0)
+            r.fail(n, field,
+                   "a constraint output has no parent (its constraint's inputs move it); remove `parent` or "
+                   "`constraint`");
+        if (!out.modelled) r.fail(n, field, "a non-compositional output (modelled: false) has no constraint");
+        const ConstraintBase& base = a.constraints[static_cast<std::size_t>(c)];
+        for (const int i : {base.anchor, base.goal, base.pole})
+            if (i == static_cast<int>(k))
+                r.fail(n, field,
+                       fmt::format("constraints[{}] reads '{}' itself; a constraint reads outputs learned before its "
+                                   "output",
+                                   c, out.name));
+        out.constraint = c;
+    }
+}
+
+// Approximation::outputOrder takes a cycle of frames (parents, constraints' inputs) for a bug; in a file it is
+// damage, refused here with the cycle named: placing outputs once their inputs are placed leaves the cycles and
+// what they feed, where following unplaced inputs comes round to one.
+void checkFrameCycles(const Reader& r, const YAML::Node& root, const Approximation& a)
+{
+    const std::vector<std::vector<int>> dependents = a.dependents();
+    std::vector<std::size_t> unplacedInputs(a.outputs.size());
+    std::vector<int> ready;
+    for (std::size_t k = 0; k < a.outputs.size(); ++k) {
+        unplacedInputs[k] = a.frameInputs(static_cast<int>(k)).size();
+        if (!unplacedInputs[k]) ready.push_back(static_cast<int>(k));
+    }
+    while (!ready.empty()) {
+        const int u = ready.back();
+        ready.pop_back();
+        for (const int d : dependents[static_cast<std::size_t>(u)])
+            if (--unplacedInputs[static_cast<std::size_t>(d)] == 0) ready.push_back(d);
+    }
+    const auto left = std::find_if(unplacedInputs.begin(), unplacedInputs.end(), [](std::size_t n) { return n > 0; });
+    if (left == unplacedInputs.end()) return;
+    std::vector<int> walk, position(a.outputs.size(), -1);
+    int u = static_cast<int>(left - unplacedInputs.begin());
+    while (position[static_cast<std::size_t>(u)] < 0) {
+        position[static_cast<std::size_t>(u)] = static_cast<int>(walk.size());
+        walk.push_back(u);
+        const std::vector<int> inputs = a.frameInputs(u);
+        u = *std::find_if(inputs.begin(), inputs.end(),
+                          [&](int i) { return unplacedInputs[static_cast<std::size_t>(i)] > 0; });
+    }
+    const std::vector<int> cycle(walk.begin() + position[static_cast<std::size_t>(u)], walk.end());
+    const auto name = [&](int k) {
+        return fmt::format("'{}'", messageExcerpt(a.outputs[static_cast<std::size_t>(k)].name));
+    };
+    std::string reads;
+    for (std::size_t j = 0; j < cycle.size() && j < 6; ++j) reads += name(cycle[j]) + " reads ";
+    reads += cycle.size() > 6 ? "..." : name(cycle.front());
+    const YAML::Node outputs = root["outputs"];
+    for (const int k : cycle)
+        if (a.outputs[static_cast<std::size_t>(k)].constraint >= 0)
+            r.fail(outputs[static_cast<std::size_t>(k)]["constraint"], fmt::format("outputs[{}].constraint", k),
+                   fmt::format("the frames form a cycle ({}); a constraint reads outputs learned before its output, "
+                               "never one that moves with it",
+                               reads));
+    r.fail(outputs, "outputs", "the outputs' parents form a cycle; an output's parent is an ancestor joint");
 }
 
 // One modelled parameter; `names` holds the parameters' names read so far (a name is listed once).
@@ -703,7 +886,7 @@ void readHeld(const Reader& r, const YAML::Node& root, const std::set<std::strin
 
 std::string approximationToYaml(const Approximation& a)
 {
-    std::string out = headerText(a) + outputsText(a);
+    std::string out = headerText(a) + outputsText(a) + constraintsText(a);
     out += a.parameters.empty() ? "parameters: []\n" : "parameters:  # composition order, outermost first\n";
     for (std::size_t p = 0; p < a.parameters.size(); ++p) out += parameterText(a, p);
     return out + setAsideText(a);
@@ -715,7 +898,7 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     // Read through a const node: operator[] on a mutable one would add the keys it looks for.
     const YAML::Node root = parseDocument(text, fileName);
     const Reader r(fileName);
-    checkFormat(r, root, fileName);
+    const int version = checkFormat(r, root, fileName);
 
     Approximation a;
     a.rigFile = r.text(root["rigFile"], "rigFile");
@@ -725,7 +908,10 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
 
     a.training = readTraining(r, root["training"]);
     a.validation = readValidation(r, root["validation"]);
-    const std::map<std::string, int> outputIndex = readOutputs(r, root, a);
+    const std::map<std::string, int> outputIndex = readOutputs(r, root, version, a);
+    readConstraints(r, root, version, outputIndex, a);
+    readConstraintIndices(r, root, a);
+    checkFrameCycles(r, root, a);
     std::set<std::string> names;
     const YAML::Node parameters = r.sequence(root["parameters"], "parameters");
     for (std::size_t p = 0; p < parameters.size(); ++p)

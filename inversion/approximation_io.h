@@ -16,9 +16,10 @@
 namespace rig {
 
 inline constexpr std::string_view approximationFormatName = "rigInversionApproximation";
-// Version 2 added parent-relative outputs (`parent:`), the relative validation figures and `noEffect`
-// ranges; version 1 files still read (every output in world space).
-inline constexpr int approximationFormatVersion = 2;
+// Version 3 added constraint operators (the top-level `constraints:`, an output's `constraint:`) and helper
+// outputs (`helper: true`); version 2 parent-relative outputs (`parent:`), the relative validation figures and
+// `noEffect` ranges. Versions 1 and 2 still read (version 1: every output in world space).
+inline constexpr int approximationFormatVersion = 3;
 // Largest file readApproximationFile reads (a biped's approximation is under 1 MB).
 inline constexpr std::uintmax_t approximationMaxFileBytes = std::uintmax_t{256} << 20;
 

@@ -67,6 +67,26 @@ void checkSame(const Approximation& a, const Approximation& b)
         CHECK(a.outputs[k].parent == b.outputs[k].parent);
         CHECK(same(a.outputs[k].validationError, b.outputs[k].validationError));
         CHECK(a.outputs[k].modelled == b.outputs[k].modelled);
+        CHECK(a.outputs[k].helper == b.outputs[k].helper);
+        CHECK(a.outputs[k].constraint == b.outputs[k].constraint);
+    }
+    REQUIRE(a.constraints.size() == b.constraints.size());
+    for (std::size_t c = 0; c < a.constraints.size(); ++c) {
+        const ConstraintBase &x = a.constraints[c], &y = b.constraints[c];
+        CHECK(x.kind == y.kind);
+        CHECK(x.anchor == y.anchor);
+        CHECK(x.goal == y.goal);
+        CHECK(x.pole == y.pole);
+        CHECK(sameMatrix(x.root, y.root));
+        CHECK(sameMatrix(x.restPole, y.restPole));
+        // Derived on reading, to the same bits.
+        CHECK(same(x.restReach, y.restReach));
+        CHECK(sameMatrix(x.restFrame, y.restFrame));
+        CHECK(sameMatrix(x.restFrameInverse, y.restFrameInverse));
+        CHECK(x.shape.kind == y.shape.kind);
+        CHECK(same(x.shape.low, y.shape.low));
+        CHECK(same(x.shape.high, y.shape.high));
+        CHECK(sameSpline(x.shape.rigid, y.shape.rigid));
     }
     REQUIRE(a.parameters.size() == b.parameters.size());
     for (std::size_t p = 0; p < a.parameters.size(); ++p) {
@@ -252,6 +272,92 @@ Approximation everything()
     return a;
 }
 
+ApproximationOutput restAt(const std::string& name, const Eigen::Vector3d& origin)
+{
+    ApproximationOutput out{name, Eigen::Matrix4d::Identity()};
+    out.rest.block<3, 1>(0, 3) = origin;
+    return out;
+}
+
+Operator rotationAbout(const Eigen::Vector3d& axis, const Eigen::Vector3d& pivot)
+{
+    Operator op;
+    op.kind = OperatorKind::rotation;
+    op.axis = axis.normalized();
+    op.pivot = pivot;
+    op.slope = 1.0;
+    return op;
+}
+
+Operator translationAlong(const Eigen::Vector3d& axis)
+{
+    Operator op;
+    op.kind = OperatorKind::translation;
+    op.axis = axis.normalized();
+    op.slope = 1.0;
+    return op;
+}
+
+// A leg as the learner models a two-bone IK chain (docs/rig-learn.md, Constraint operators): a hip, a goal and a
+// pole helper, a knee on a planar chain read from them (its shape held past a reach), a foot relative to the knee,
+// and a second chain in world space without a pole output.
+Approximation chain()
+{
+    Approximation a;
+    a.rigFile = "rigs/leg.yaml";
+    a.rigFingerprint = "0123456789abcdef";
+    a.epsilon = 1e-3;
+    a.outputs = {restAt("hip", {0, 100, 0}),         restAt("goal", {0, 10, 20}), restAt("pole", {0, 55, 40}),
+                 restAt("knee", {0, 55, 0.1 + 0.2}), restAt("foot", {0, 10, 20}), restAt("shin", {1, 60, 5})};
+    a.outputs[1].helper = a.outputs[2].helper = true;
+    a.outputs[3].constraint = 0;
+    a.outputs[4].parent = 3;
+    a.outputs[5].constraint = 1;
+
+    ConstraintBase knee;
+    knee.anchor = 0;
+    knee.goal = 1;
+    knee.pole = 2;
+    knee.root = {0, 100, 0};
+    knee.restPole = {0, 55, 40};
+    knee.shape.kind = OperatorKind::sampledRigid;
+    knee.shape.low = -25.0;
+    knee.shape.high = 4.0;
+    std::vector<CubicSpline<6>::Vector> values;
+    const std::vector<double> knots{-30.0, -10.0, 0.0, 5.0};
+    for (const double d : knots) {
+        CubicSpline<6>::Vector v;
+        v << 0.0, 0.0, -0.01 * d, 0.1 * d, 0.3 * d + 1e-3 * d * d, std::numbers::pi * 1e-3 * d;
+        values.push_back(v);
+    }
+    knee.shape.rigid = CubicSpline<6>(knots, values);
+    ConstraintBase shin = knee;
+    shin.anchor = shin.pole = -1;
+    shin.restPole = {30, 50, 0.1 + 0.2};
+    shin.shape.low = -std::numeric_limits<double>::infinity();
+    REQUIRE(knee.prepare(a.outputs[1].rest.block<3, 1>(0, 3)));
+    REQUIRE(shin.prepare(a.outputs[1].rest.block<3, 1>(0, 3)));
+    a.constraints = {knee, shin};
+
+    // One operator on one output, unlimited in -1..1.
+    const auto add = [&](const std::string& name, int output, const Operator& op) {
+        ModelledParameter m;
+        m.parameter = RigParameter{name, 0.0, -1.0, 1.0, op.kind == OperatorKind::rotation, false};
+        m.outputs = {output};
+        m.operators = {op};
+        m.operatorOfOutput = {0};
+        m.form = std::string(operatorKindName(op.kind));
+        a.parameters.push_back(m);
+    };
+    add("hip_ctrl.rotateX", 0, rotationAbout({1, 0, 0}, {0, 100, 0}));
+    add("goal_ctrl.translateY", 1, translationAlong({0, 1, 0}));
+    add("goal_ctrl.translateZ", 1, translationAlong({0, 0, 1}));
+    add("pole_ctrl.translateX", 2, translationAlong({1, 0, 0}));
+    add("knee_ctrl.twist", 3, rotationAbout({0, -45, 0.3}, {0, 100, 0}));
+    add("foot_ctrl.rotateX", 4, rotationAbout({1, 0, 0}, {0, 10, 20}));
+    return a;
+}
+
 // The minimal valid file the error cases below damage one line of.
 const std::string minimal = R"(format: rigInversionApproximation
 version: 1
@@ -280,10 +386,46 @@ parameters:
 discarded: []
 )";
 
-// The message for `minimal` with `from` replaced by `to`.
-std::string errorWith(const std::string& from, const std::string& to)
+// The minimal version 3 file with a constraint: a hip, a goal helper and a knee on a chain read from them.
+const std::string minimalChain = R"(format: rigInversionApproximation
+version: 3
+rigFile: "r.yaml"
+rigFingerprint: "00"
+epsilon: 0.001
+training: {evaluations: 1, orderEvaluations: 0, seconds: 0.5, orderer: "talk"}
+validation: {poses: 0, maxPositionErrorCm: 0, meanPositionErrorCm: 0, maxRotationErrorDeg: 0, )"
+                                 R"(meanRotationErrorDeg: 0, worstOutput: "", worstPose: -1}
+outputs:
+  - {name: "hip", rest: [[1, 0, 0, 0], [0, 1, 0, 100], [0, 0, 1, 0], [0, 0, 0, 1]]}
+  - {name: "goal", helper: true, rest: [[1, 0, 0, 0], [0, 1, 0, 10], [0, 0, 1, 20], [0, 0, 0, 1]]}
+  - {name: "knee", constraint: 0, rest: [[1, 0, 0, 0], [0, 1, 0, 55], [0, 0, 1, 0], [0, 0, 0, 1]]}
+constraints:
+  - kind: planarChain
+    anchor: "hip"
+    goal: "goal"
+    root: [0, 100, 0]
+    restPole: [0, 55, 40]
+    shape: {kind: sampledRigid, knots: [-1, 1], values: [[0, 0, 0, 0, 0, 0], [0, 0, 0, 0, 0, 0]]}
+parameters:
+  - name: "p"
+    default: 0
+    min: -1
+    max: 1
+    limited: true
+    angular: false
+    form: "translation"
+    fitError: 0
+    samples: 6
+    outputs: ["goal"]
+    operatorOfOutput: [0]
+    operators:
+      - {kind: translation, axis: [0, 0, 1], pivot: [0, 0, 0], slope: 1}
+discarded: []
+)";
+
+// The message for `text` with `from` replaced by `to`.
+std::string errorIn(std::string text, const std::string& from, const std::string& to)
 {
-    std::string text = minimal;
     const auto at = text.find(from);
     REQUIRE(at != std::string::npos);
     text.replace(at, from.size(), to);
@@ -295,6 +437,12 @@ std::string errorWith(const std::string& from, const std::string& to)
     }
     return "(no error)";
 }
+
+// The message for `minimal` with `from` replaced by `to`.
+std::string errorWith(const std::string& from, const std::string& to) { return errorIn(minimal, from, to); }
+
+// The message for `minimalChain` with `from` replaced by `to`.
+std::string chainErrorWith(const std::string& from, const std::string& to) { return errorIn(minimalChain, from, to); }
 
 }  // namespace
 
@@ -311,6 +459,61 @@ TEST_CASE("approximation files: every field of every operator kind reads back bi
     const auto file = test::scratchDir("approximation-io") / "everything.yaml";
     test::writeFile(file, text);
     checkSame(a, readApproximationFile(file));
+}
+
+TEST_CASE("approximation files: constraint operators and helper outputs read back bit for bit (version 3)")
+{
+    const Approximation a = chain();
+    const std::string text = approximationToYaml(a);
+    CHECK(text.find("version: 3\n") != std::string::npos);
+    CHECK(text.find("  - name: \"goal\"\n    helper: true") != std::string::npos);
+    CHECK(text.find("  - name: \"knee\"\n    constraint: 0\n") != std::string::npos);
+    CHECK(text.find("  - name: \"foot\"\n    parent: \"knee\"\n") != std::string::npos);
+    CHECK(text.find("constraints:  # constraint operators, indexed by the outputs' `constraint`\n"
+                    "  - kind: planarChain\n    anchor: \"hip\"\n    goal: \"goal\"\n    pole: \"pole\"\n"
+                    "    root: [0, 100, 0]\n    restPole: [0, 55, 40]\n    shape:\n      kind: sampledRigid\n"
+                    "      held: [-25, 4]\n      knots: [-30, -10, 0, 5]\n") != std::string::npos);
+    // Without anchor and pole outputs, the fixed pole in world space; an open end of the held range is null.
+    CHECK(text.find("  - kind: planarChain\n    goal: \"goal\"\n    root: [0, 100, 0]\n"
+                    "    restPole: [30, 50, 0.30000000000000004]\n    shape:\n      kind: sampledRigid\n"
+                    "      held: [null, 4]\n") != std::string::npos);
+    // What `prepare` derives is not written; an output that is neither helper nor constrained says nothing of it.
+    CHECK(text.find("restReach") == std::string::npos);
+    CHECK(text.find("restFrame") == std::string::npos);
+    CHECK(text.find("  - name: \"hip\"\n    validationError: 0\n") != std::string::npos);
+
+    const Approximation b = approximationFromYaml(text, "chain.yaml");
+    checkSame(a, b);
+    CHECK(approximationToYaml(b) == text);
+
+    // The same bits from both, and the chain really read: moving the goal moves the knee, the foot below it and the
+    // second chain's output, and nothing is lost to a degenerate plane.
+    std::mt19937 rng(11);
+    std::vector<Eigen::Matrix4d> wa, wb, rest;
+    a.evaluate(a.defaults(), rest);
+    for (std::size_t k = 0; k < rest.size(); ++k) CHECK(rest[k].isApprox(a.outputs[k].rest, 1e-12));
+    for (int pose = 0; pose < 20; ++pose) {
+        std::vector<double> values;
+        for (const auto& p : a.parameters)
+            values.push_back(std::uniform_real_distribution<double>(p.parameter.min, p.parameter.max)(rng));
+        a.evaluate(values, wa);
+        b.evaluate(values, wb);
+        for (std::size_t k = 0; k < wa.size(); ++k) {
+            CHECK(wa[k].allFinite());
+            CHECK(sameMatrix(wa[k], wb[k]));
+        }
+    }
+    std::vector<double> goalMoved = a.defaults();
+    goalMoved[1] = 0.5;
+    a.evaluate(goalMoved, wa);
+    for (const std::size_t k : {3, 4, 5}) CHECK_FALSE(wa[k].isApprox(a.outputs[k].rest, 1e-6));
+    CHECK(wa[0].isApprox(a.outputs[0].rest, 1e-12));
+
+    // Version 2 files still read, as they were: everything() has neither constraints nor helpers.
+    std::string version2 = approximationToYaml(everything());
+    version2.replace(version2.find("version: 3"), 10, "version: 2");
+    checkSame(everything(), approximationFromYaml(version2, "v2.yaml"));
+    CHECK(errorWith("version: 1", "version: 2") == "(no error)");
 }
 
 TEST_CASE("approximation files: a learned approximation evaluates identically after a round trip")
@@ -349,6 +552,22 @@ TEST_CASE("approximation files: what cannot be written is refused, naming the fi
     a.parameters[0].outputs[2] = 4;
     CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: parameters[0].outputs: index 4 out of range",
                          Error);
+    a = chain();
+    a.outputs[3].constraint = 2;
+    CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: outputs[3].constraint: index 2 out of range",
+                         Error);
+    a = chain();
+    a.constraints[0].goal = -1;
+    CHECK_THROWS_WITH_AS(approximationToYaml(a), "approximationToYaml: constraints[0].goal: index -1 out of range",
+                         Error);
+    a = chain();
+    a.constraints[1].shape.kind = OperatorKind::sampledAffine;
+    CHECK_THROWS_WITH_AS(approximationToYaml(a),
+                         "approximationToYaml: constraints[1].shape is sampledAffine, not sampledRigid", Error);
+    a = chain();
+    a.constraints[0].restPole.z() = std::numeric_limits<double>::infinity();
+    CHECK_THROWS_WITH_AS(approximationToYaml(a),
+                         "approximationToYaml: constraints[0].restPole is inf, not a finite number", Error);
 }
 
 TEST_CASE("approximation files: a damaged file is one line naming file:line:col and the field")
@@ -356,11 +575,11 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
     CHECK(errorWith("", "") == "(no error)");
     CHECK(errorWith("format: rigInversionApproximation", "format: rig") ==
           "f.yaml:1:9: format: not an approximation file (expected format: rigInversionApproximation)");
-    CHECK(errorWith("version: 1", "version: 3") ==
-          "f.yaml:2:10: version: version 3 is not supported; this program reads versions 1 to 2 (re-run rig-learn)");
+    CHECK(errorWith("version: 1", "version: 4") ==
+          "f.yaml:2:10: version: version 4 is not supported; this program reads versions 1 to 3 (re-run rig-learn)");
     CHECK(errorWith("rigFile:", "rigFiles:") ==
           "f.yaml:3:1: file: unknown field 'rigFiles'; the fields are format, version, rigFile, rigFingerprint, "
-          "epsilon, training, validation, outputs, parameters, discarded, droppedOutputs, held");
+          "epsilon, training, validation, outputs, parameters, discarded, droppedOutputs, held, constraints");
     CHECK(errorWith("    samples: 6\n", "") == "f.yaml:11:5: parameters[0]: the field 'samples' is missing");
     CHECK(errorWith("min: -1", "min: abc") == "f.yaml:13:10: parameters[0].min: 'abc' is not a number");
     CHECK(errorWith("max: 1", "max: inf") == "f.yaml:14:10: parameters[0].max: 'inf' is not a finite number");
@@ -448,6 +667,73 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
               "no/such/approximation.yaml: cannot read it (No such file or directory); check the name (rig-learn -o "
               "writes one)");
     }
+}
+
+TEST_CASE("approximation files: a damaged constraint or helper field is one line naming file:line:col and the field")
+{
+    CHECK(chainErrorWith("", "") == "(no error)");
+    // Version 3 fields in older files.
+    CHECK(chainErrorWith("version: 3", "version: 2") ==
+          "f.yaml:10:28: outputs[1].helper: version 3 added this field, but the file says version 2; re-run rig-learn, "
+          "or write version: 3");
+    CHECK(errorWith("discarded: []\n", "discarded: []\nconstraints: []\n") ==
+          "f.yaml:25:14: constraints: version 3 added this field, but the file says version 1; re-run rig-learn, or "
+          "write version: 3");
+    CHECK(errorWith("{name: \"a\", ", "{name: \"a\", constraint: 0, ") ==
+          "f.yaml:9:29: outputs[0].constraint: version 3 added this field, but the file says version 1; re-run "
+          "rig-learn, or write version: 3");
+    // The constraint entry.
+    CHECK(chainErrorWith("kind: planarChain", "kind: twoBone") ==
+          "f.yaml:13:11: constraints[0].kind: unknown constraint 'twoBone'; the constraints are planarChain");
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restReach: 3\n") ==
+          "f.yaml:18:5: constraints[0]: unknown field 'restReach'; the fields are kind, goal, root, restPole, shape, "
+          "anchor, pole");
+    CHECK(chainErrorWith("    goal: \"goal\"\n", "") == "f.yaml:13:5: constraints[0]: the field 'goal' is missing");
+    CHECK(chainErrorWith("goal: \"goal\"", "goal: \"ankle\"") ==
+          "f.yaml:15:11: constraints[0].goal: 'ankle' is not one of the outputs");
+    CHECK(chainErrorWith("anchor: \"hip\"", "anchor: [hip]") ==
+          "f.yaml:14:13: constraints[0].anchor: expected a string");
+    CHECK(chainErrorWith("{name: \"hip\", ", "{name: \"hip\", modelled: false, ") ==
+          "f.yaml:14:13: constraints[0].anchor: 'hip' is not modelled (modelled: false); a constraint reads outputs "
+          "the approximation predicts: re-run rig-learn");
+    CHECK(chainErrorWith("kind: sampledRigid", "kind: sampledAffine") ==
+          "f.yaml:18:19: constraints[0].shape.kind: 'sampledAffine' is not sampledRigid; a chain's shape is a "
+          "sampledRigid operator (re-run rig-learn)");
+    CHECK(chainErrorWith("shape: {kind: sampledRigid, ", "shape: {kind: sampledRigid, slope: 1, ") ==
+          "f.yaml:18:33: constraints[0].shape: unknown field 'slope'; the fields are kind, knots, values, held");
+    CHECK(chainErrorWith("root: [0, 100, 0]", "root: [0, 100]") ==
+          "f.yaml:16:11: constraints[0].root: expected 3 entries, found 2");
+    CHECK(chainErrorWith("restPole: [0, 55, 40]", "restPole: [0, 55, 10]") ==
+          "f.yaml:13:5: constraints[0]: the rest points span no plane (the goal's rest origin on `root`, or `restPole` "
+          "on the line through them); re-run rig-learn");
+    CHECK(chainErrorWith("root: [0, 100, 0]", "root: [0, 10, 20]") ==
+          "f.yaml:13:5: constraints[0]: the rest points span no plane (the goal's rest origin on `root`, or `restPole` "
+          "on the line through them); re-run rig-learn");
+    // The outputs' side.
+    CHECK(chainErrorWith("constraint: 0", "constraint: 1") ==
+          "f.yaml:11:32: outputs[2].constraint: 1 is not a constraint index (0..0)");
+    CHECK(chainErrorWith("constraint: 0", "constraint: -1") ==
+          "f.yaml:11:32: outputs[2].constraint: -1 is not a constraint index (0..0)");
+    CHECK(chainErrorWith("constraint: 0", "constraint: first") ==
+          "f.yaml:11:32: outputs[2].constraint: 'first' is not a whole number");
+    std::string version3 = minimal;
+    version3.replace(version3.find("version: 1"), 10, "version: 3");
+    CHECK(errorIn(version3, "{name: \"a\", ", "{name: \"a\", constraint: 0, ") ==
+          "f.yaml:9:29: outputs[0].constraint: 0 is not a constraint index: the file has no constraints list");
+    CHECK(chainErrorWith("helper: true", "helper: yes") == "f.yaml:10:28: outputs[1].helper: expected true or false");
+    CHECK(chainErrorWith("{name: \"knee\", ", "{name: \"knee\", parent: \"hip\", ") ==
+          "f.yaml:11:47: outputs[2].constraint: a constraint output has no parent (its constraint's inputs move it); "
+          "remove `parent` or `constraint`");
+    CHECK(chainErrorWith("{name: \"knee\", ", "{name: \"knee\", modelled: false, ") ==
+          "f.yaml:11:49: outputs[2].constraint: a non-compositional output (modelled: false) has no constraint");
+    CHECK(chainErrorWith("goal: \"goal\"", "goal: \"knee\"") ==
+          "f.yaml:11:32: outputs[2].constraint: constraints[0] reads 'knee' itself; a constraint reads outputs learned "
+          "before its output");
+    CHECK(chainErrorWith("{name: \"goal\", ", "{name: \"goal\", parent: \"knee\", ") ==
+          "f.yaml:11:32: outputs[2].constraint: the frames form a cycle ('goal' reads 'knee' reads 'goal'); a "
+          "constraint reads outputs learned before its output, never one that moves with it");
+    CHECK(chainErrorWith("{name: \"hip\", ", "{name: \"hip\", parent: \"hip\", ") ==
+          "f.yaml:9:3: outputs: the outputs' parents form a cycle; an output's parent is an ancestor joint");
 }
 
 TEST_CASE("approximation files: a rig that changed since learning is a warning, or an error when strict")
