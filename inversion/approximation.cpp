@@ -50,9 +50,8 @@ std::vector<int> Approximation::frameInputs(int k) const
     const ApproximationOutput& output = outputs[static_cast<std::size_t>(k)];
     if (output.constraint < 0) return output.parent < 0 ? std::vector<int>{} : std::vector<int>{output.parent};
     if (output.constraint >= static_cast<int>(constraints.size()))
-        throw internalError(
-            fmt::format("Approximation: output {} has constraint index {} of {}", output.name, output.constraint,
-                        constraints.size()));
+        throw internalError(fmt::format("Approximation: output {} has constraint index {} of {}", output.name,
+                                        output.constraint, constraints.size()));
     const ConstraintBase& base = constraints[static_cast<std::size_t>(output.constraint)];
     std::vector<int> inputs;
     for (const int i : {base.anchor, base.goal, base.pole})
@@ -72,26 +71,38 @@ std::vector<std::vector<int>> Approximation::dependents() const
 
 std::vector<int> Approximation::outputOrder() const
 {
-    // Depth first over what each output's frame reads, each output placed after its inputs.
+    // Depth first over what each output's frame reads, each output placed after its inputs; with an explicit stack,
+    // since a rope's chain of parents may be deeper than the call stack.
     const int n = static_cast<int>(outputs.size());
     std::vector<int> order;
-    std::vector<char> state(outputs.size(), 0);  // 0 new, 1 on the current walk, 2 placed
-    const auto visit = [&](const auto& self, int u) -> void {
-        state[static_cast<std::size_t>(u)] = 1;
-        for (const int i : frameInputs(u)) {
+    std::vector<char> state(outputs.size(), 0);          // 0 new, 1 on the current walk, 2 placed
+    std::vector<std::pair<int, std::vector<int>>> walk;  // an output and its inputs left to visit
+    for (int k = 0; k < n; ++k) {
+        if (state[static_cast<std::size_t>(k)] != 0) continue;
+        state[static_cast<std::size_t>(k)] = 1;
+        walk.emplace_back(k, frameInputs(k));
+        while (!walk.empty()) {
+            auto& [u, inputs] = walk.back();
+            if (inputs.empty()) {
+                state[static_cast<std::size_t>(u)] = 2;
+                order.push_back(u);
+                walk.pop_back();
+                continue;
+            }
+            const int i = inputs.back();
+            inputs.pop_back();
             if (i < 0 || i >= n)
                 throw internalError(fmt::format("Approximation: output {} reads output index {} of {}",
                                                 outputs[static_cast<std::size_t>(u)].name, i, n));
             if (state[static_cast<std::size_t>(i)] == 1)
                 throw internalError(fmt::format("Approximation: the frames of output {} form a cycle",
                                                 outputs[static_cast<std::size_t>(u)].name));
-            if (state[static_cast<std::size_t>(i)] == 0) self(self, i);
+            if (state[static_cast<std::size_t>(i)] == 0) {
+                state[static_cast<std::size_t>(i)] = 1;
+                walk.emplace_back(i, frameInputs(i));
+            }
         }
-        state[static_cast<std::size_t>(u)] = 2;
-        order.push_back(u);
-    };
-    for (int k = 0; k < n; ++k)
-        if (state[static_cast<std::size_t>(k)] == 0) visit(visit, k);
+    }
     return order;
 }
 

@@ -138,8 +138,8 @@ struct Context {
         const auto& rigRest = probe.rest();
         std::vector<Eigen::Matrix4d> mine;
         for (int k : outputs) {
-            mine.push_back(probe.inFrame(
-                k, [&](int j) -> const Eigen::Matrix4d& { return store.world(j, a, rigRest); }));
+            mine.push_back(
+                probe.inFrame(k, [&](int j) -> const Eigen::Matrix4d& { return store.world(j, a, rigRest); }));
             nonFinite = nonFinite || !mine.back().allFinite();
         }
         return framed.emplace(a, std::move(mine)).first->second;

@@ -5,7 +5,6 @@
 
 #include <Eigen/Geometry>
 
-
 namespace rig {
 namespace {
 
@@ -68,8 +67,7 @@ ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& ancho
 Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& points)
 {
     Eigen::Matrix4d frame;
-    if (!chainFrame(points, frame))
-        return Eigen::Matrix4d::Constant(std::numeric_limits<double>::quiet_NaN());
+    if (!chainFrame(points, frame)) return Eigen::Matrix4d::Constant(std::numeric_limits<double>::quiet_NaN());
     const double reach = (points.goal - points.root).norm();
     return frame * base.shape.matrix(reach - base.restReach) * base.restFrameInverse;
 }

@@ -41,8 +41,8 @@ bool setShape(const std::map<double, std::pair<double, Eigen::Matrix4d>>& knots,
     for (const auto& [t, knot] : knots) ordered.push_back(knot);
     for (std::size_t i = 1; i < ordered.size(); ++i)
         if (!(ordered[i].first > ordered[i - 1].first)) return false;
-    const auto z = std::find_if(ordered.begin(), ordered.end(), [](const auto& k) { return k.first == 0.0; }) -
-                   ordered.begin();
+    const auto z =
+        std::find_if(ordered.begin(), ordered.end(), [](const auto& k) { return k.first == 0.0; }) - ordered.begin();
     const auto value = [](const Eigen::Matrix4d& g, const Eigen::Vector3d& previous) {
         CubicSpline<6>::Vector v;
         Eigen::Vector3d r = rotationVector(g.block<3, 3>(0, 0));
@@ -61,8 +61,7 @@ bool setShape(const std::map<double, std::pair<double, Eigen::Matrix4d>>& knots,
         ys[static_cast<std::size_t>(i)] =
             value(ordered[static_cast<std::size_t>(i)].second, ys[static_cast<std::size_t>(i + 1)].head<3>());
     for (const auto& k : ordered) xs.push_back(k.first);
-    if (xs.size() < 2 || !std::all_of(ys.begin(), ys.end(), [](const auto& y) { return y.allFinite(); }))
-        return false;
+    if (xs.size() < 2 || !std::all_of(ys.begin(), ys.end(), [](const auto& y) { return y.allFinite(); })) return false;
     base.shape = Operator{};
     base.shape.kind = OperatorKind::sampledRigid;
     base.shape.rigid = CubicSpline<6>(std::move(xs), std::move(ys));
@@ -73,8 +72,7 @@ bool setShape(const std::map<double, std::pair<double, Eigen::Matrix4d>>& knots,
 
 ConstraintFitter::ConstraintFitter(RigProbe& probe, const std::vector<ParameterSamples>& samples,
                                    std::vector<int> hierarchy, std::vector<char> helper, const LearnOptions& options)
-    : probe_(probe), samples_(samples), hierarchy_(std::move(hierarchy)), helper_(std::move(helper)),
-      options_(options)
+    : probe_(probe), samples_(samples), hierarchy_(std::move(hierarchy)), helper_(std::move(helper)), options_(options)
 {
 }
 
@@ -120,24 +118,24 @@ Eigen::Matrix4d ConstraintFitter::predicted(int k, const ConstraintBase& base,
 {
     const auto& rest = probe_.rest();
     const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
-    const Eigen::Matrix4d motion =
-        base.anchor < 0 ? identity
-                        : Eigen::Matrix4d(worlds[static_cast<std::size_t>(base.anchor)] *
-                                          rest[static_cast<std::size_t>(base.anchor)].inverse());
+    const Eigen::Matrix4d motion = base.anchor < 0
+                                       ? identity
+                                       : Eigen::Matrix4d(worlds[static_cast<std::size_t>(base.anchor)] *
+                                                         rest[static_cast<std::size_t>(base.anchor)].inverse());
     const ChainPoints points = chainPoints(base, motion, worlds[static_cast<std::size_t>(base.goal)],
                                            base.pole < 0 ? identity : worlds[static_cast<std::size_t>(base.pole)]);
     return constraintBase(base, points) * rest[static_cast<std::size_t>(k)];
 }
 
-bool ConstraintFitter::shapeAt(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds,
-                               double& x, Eigen::Matrix4d& g) const
+bool ConstraintFitter::shapeAt(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds, double& x,
+                               Eigen::Matrix4d& g) const
 {
     const auto& rest = probe_.rest();
     const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
-    const Eigen::Matrix4d motion =
-        base.anchor < 0 ? identity
-                        : Eigen::Matrix4d(worlds[static_cast<std::size_t>(base.anchor)] *
-                                          rest[static_cast<std::size_t>(base.anchor)].inverse());
+    const Eigen::Matrix4d motion = base.anchor < 0
+                                       ? identity
+                                       : Eigen::Matrix4d(worlds[static_cast<std::size_t>(base.anchor)] *
+                                                         rest[static_cast<std::size_t>(base.anchor)].inverse());
     const ChainPoints points = chainPoints(base, motion, worlds[static_cast<std::size_t>(base.goal)],
                                            base.pole < 0 ? identity : worlds[static_cast<std::size_t>(base.pole)]);
     Eigen::Matrix4d frame;
@@ -213,8 +211,8 @@ bool ConstraintFitter::makeBase(int k, Sweep& sweep, double lo, double hi, Const
         for (auto a = knots.begin(), b = std::next(a); b != knots.end(); ++a, ++b) {
             const double t = 0.5 * (a->first + b->first);
             const std::vector<Eigen::Matrix4d>& worlds = sweepAt(sweep, t);
-            const double e = matrixError(predicted(k, base, worlds), worlds[static_cast<std::size_t>(k)],
-                                         options_.frameRadius);
+            const double e =
+                matrixError(predicted(k, base, worlds), worlds[static_cast<std::size_t>(k)], options_.frameRadius);
             const double moved = std::max(std::abs(t), 1.0) * sweep.direction.lpNorm<1>();
             if (!(e <= midpointShare * options_.epsilon * moved)) missed.push_back(t);
         }

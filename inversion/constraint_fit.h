@@ -43,7 +43,7 @@ private:
         int goal = -1, pole = -1;
     };
     struct Pose {
-        std::vector<double> offsets;       // per varied parameter
+        std::vector<double> offsets;          // per varied parameter
         std::vector<Eigen::Matrix4d> worlds;  // every rig output
     };
     bool usableAnchor(int a, const RigState& state) const;
@@ -74,7 +74,7 @@ private:
     std::vector<char> helper_;
     const LearnOptions& options_;
     std::map<std::pair<std::vector<int>, int>, std::vector<Pose>> poses_;  // (varied, set) -> poses
-    std::map<std::pair<int, int>, Sweep> sweeps_;                         // (goal, anchor) -> its sweep
+    std::map<std::pair<int, int>, Sweep> sweeps_;                          // (goal, anchor) -> its sweep
     std::uint64_t evaluations_ = 0;
 };
 

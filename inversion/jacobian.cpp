@@ -644,9 +644,9 @@ void ResidualWorkspace::baseVelocities()
             std::array<Affine, 3> x{Affine::Zero(), Affine::Zero(), Affine::Zero()};
             for (int t = base.termBegin[j]; t < base.termBegin[j + 1]; ++t) {
                 const ResidualStructure::InputTerm& term = s.inputTerms_[static_cast<std::size_t>(t)];
-                x[static_cast<std::size_t>(term.input)] += term.node >= 0
-                                                               ? velocity_[static_cast<std::size_t>(term.node)]
-                                                               : baseVelocity_[static_cast<std::size_t>(term.baseVelocity)];
+                x[static_cast<std::size_t>(term.input)] +=
+                    term.node >= 0 ? velocity_[static_cast<std::size_t>(term.node)]
+                                   : baseVelocity_[static_cast<std::size_t>(term.baseVelocity)];
             }
             const auto rate = [](const Affine& v, const Eigen::Vector3d& p) -> Eigen::Vector3d {
                 return v.leftCols<3>() * p + v.col(3);

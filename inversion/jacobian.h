@@ -137,7 +137,7 @@ private:
         int slot = -1;       // an unknown's operator; -1: a held one
         int parameter = -1;  // the held operator
         int op = -1;
-        int base = -1;  // a constraint's base B (index into bases_): the root of the products below it
+        int base = -1;          // a constraint's base B (index into bases_): the root of the products below it
         bool rigid = false;     // the whole product from the root is rigid
         bool constant = false;  // only held operators from the root: computed once per holdParameters
     };
@@ -147,15 +147,15 @@ private:
         int constraint = -1;  // index into approximation.constraints
         int node = -1;
         int anchorNode = -1, goalNode = -1, poleNode = -1;  // the inputs' product nodes (-1: the identity)
-        Eigen::Vector3d goalRest, poleRest;                  // the goal's and pole's rest origins
-        std::vector<int> columns;                            // the columns that move it, increasing
+        Eigen::Vector3d goalRest, poleRest;                 // the goal's and pole's rest origins
+        std::vector<int> columns;                           // the columns that move it, increasing
         // Per column, [termBegin[j], termBegin[j + 1]) of terms_: what moves its inputs.
         std::vector<int> termBegin;
         int velocityOffset = 0;  // its columns' velocities in ResidualWorkspace::baseVelocity_
     };
-    struct InputTerm {  // one velocity moving an input: an unknown node's, or an upstream base's for a column
-        int input = 0;  // 0 anchor, 1 goal, 2 pole
-        int node = -1;  // an unknown node on the input's path, or -1
+    struct InputTerm {          // one velocity moving an input: an unknown node's, or an upstream base's for a column
+        int input = 0;          // 0 anchor, 1 goal, 2 pole
+        int node = -1;          // an unknown node on the input's path, or -1
         int baseVelocity = -1;  // else an index into ResidualWorkspace::baseVelocity_
     };
     // Output k's product: the base it begins with (a constraint output, or -1) and its operators after it.
@@ -172,7 +172,7 @@ private:
     // The constructor's phases, in order.
     std::vector<int> checkIndices() const;                                      // per parameter: its column, or -1
     std::vector<std::vector<Link>> ownLinks(const std::vector<int>& columnOf);  // per output; makes the slots
-    Path pathOf(int k, const std::vector<std::vector<Link>>& own) const;  // approximation output k's
+    Path pathOf(int k, const std::vector<std::vector<Link>>& own) const;        // approximation output k's
     void makeChains(const std::vector<Path>& paths);
     void makeTree(const std::vector<Path>& paths, const std::vector<std::vector<Link>>& own);
     void baseTerms(Base& base, const std::array<int, 3>& inputNodes);  // its columns and what moves its inputs
@@ -190,7 +190,7 @@ private:
     // Whether output position o takes the joint target's own paths (else its term's virtual ones).
     bool jointTarget(std::size_t o) const { return jointTargetsOnly_ || jointTarget_[o]; }
     std::vector<Slot> slots_;
-    std::vector<Node> nodes_;                   // parents before children, a base's inputs before it
+    std::vector<Node> nodes_;  // parents before children, a base's inputs before it
     std::vector<Base> bases_;
     std::vector<InputTerm> inputTerms_;
     std::map<int, int> baseOfOutput_;  // constraint output -> index into bases_
@@ -281,9 +281,9 @@ private:
         Eigen::Matrix<double, 3, 4>;  // the top rows of a 4x4 whose last row is 0 0 0 1 (or 0 for a derivative)
 
     void evaluateSlots(std::span<const double> x, bool derivatives);
-    void evaluateTree();                               // node products and worlds from the slot matrices
-    Affine evaluateBase(std::size_t b);                // base b's product, from its inputs' (basePoints_ too)
-    void baseVelocities();                             // baseVelocity_ from velocity_, bases in order
+    void evaluateTree();                 // node products and worlds from the slot matrices
+    Affine evaluateBase(std::size_t b);  // base b's product, from its inputs' (basePoints_ too)
+    void baseVelocities();               // baseVelocity_ from velocity_, bases in order
     // Central differences of every column through whole evaluations (products that begin with a base).
     void wholeDifferences(std::span<const double> x, double step, Eigen::Ref<Eigen::VectorXd> r,
                           Eigen::Ref<Eigen::MatrixXd> jacobian);

@@ -418,8 +418,8 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
 // Why outputs left their parent output's frame, and why those were then set apart as non-compositional, for
 // the report (UnmodelledOutput). The first reason of each output is kept: an output never goes back.
 struct FrameHistory {
-    std::map<int, std::string> relative;  // rig output -> what failed relative to its parent output
-    std::map<int, std::string> world;     // rig output -> what failed in world space: the pair with neither order
+    std::map<int, std::string> relative;    // rig output -> what failed relative to its parent output
+    std::map<int, std::string> world;       // rig output -> what failed in world space: the pair with neither order
     std::map<int, std::string> constraint;  // rig output -> why no constraint operator fits it
     std::set<int> parentUnusable;           // rig outputs that left their parent's frame only for the parent's sake
 
@@ -596,10 +596,13 @@ bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hi
     std::vector<int> depth(hierarchy.size(), 0);
     for (std::size_t k = 0; k < hierarchy.size(); ++k) {
         order[k] = static_cast<int>(k);
-        for (int p = hierarchy[k]; p >= 0 && depth[k] <= static_cast<int>(hierarchy.size()); p = hierarchy[static_cast<std::size_t>(p)])
+        for (int p = hierarchy[k]; p >= 0 && depth[k] <= static_cast<int>(hierarchy.size());
+             p = hierarchy[static_cast<std::size_t>(p)])
             ++depth[k];
     }
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return depth[static_cast<std::size_t>(a)] < depth[static_cast<std::size_t>(b)]; });
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+        return depth[static_cast<std::size_t>(a)] < depth[static_cast<std::size_t>(b)];
+    });
     bool changed = false;
     for (const int k : order) {
         const auto i = static_cast<std::size_t>(k);

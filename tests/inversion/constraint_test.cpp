@@ -6,12 +6,12 @@
 #include <memory>
 #include <random>
 
+#include "ik_arm.h"
 #include "inversion/approximation.h"
 #include "inversion/constraint.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
 #include "inversion/solver.h"
-#include "ik_arm.h"
 #include "solver_rigs.h"
 #include "test_support.h"
 
@@ -78,7 +78,8 @@ std::vector<JointTarget> realTargets(LearnedArm& arm, std::span<const double> va
     for (const auto& p : arm.rig.parameters()) rigValues.push_back(p.defaultValue);
     for (const auto& m : a.parameters)
         for (std::size_t i = 0; i < arm.rig.parameters().size(); ++i)
-            if (arm.rig.parameters()[i].name == m.parameter.name) rigValues[i] = values[static_cast<std::size_t>(&m - a.parameters.data())];
+            if (arm.rig.parameters()[i].name == m.parameter.name)
+                rigValues[i] = values[static_cast<std::size_t>(&m - a.parameters.data())];
     std::vector<Eigen::Matrix4d> worlds;
     arm.rig.evaluate(rigValues, worlds);
     std::vector<JointTarget> targets(a.outputs.size());
@@ -155,7 +156,8 @@ TEST_CASE("constraints: poses of the IK arm are solved through its planar chains
         double worst = 0.0;
         for (std::size_t k = 0; k < targets.size(); ++k)
             if (targets[k].active)
-                worst = std::max(worst, (reached[k].world.block<3, 1>(0, 3) - targets[k].world.block<3, 1>(0, 3)).norm());
+                worst =
+                    std::max(worst, (reached[k].world.block<3, 1>(0, 3) - targets[k].world.block<3, 1>(0, 3)).norm());
         if (summary.converged() && worst < 1e-3) ++fromRest;
     }
     MESSAGE("reached from rest: " << fromRest << " of " << poses);
