@@ -356,8 +356,8 @@ std::set<NodeId> chooseHelpers(const Graph& g, const std::vector<std::string>& g
     std::set<NodeId> chosen;
     for (const std::string& glob : globs) {
         const auto refuse = [&](const std::string& reason, const std::string& advice) {
-            throw RigSelectionError(fmt::format("{}: helper {}'{}' {}; {}", rigName, isGlobPattern(glob) ? "glob " : "",
-                                                glob, reason, advice),
+            throw RigSelectionError(fmt::format("{}: helper {}'{}' {}{}{}", rigName, isGlobPattern(glob) ? "glob " : "",
+                                                glob, reason, advice.empty() ? "" : "; ", advice),
                                     "helper", glob, reason);
         };
         std::string outputMatched;  // the first output the glob matches
@@ -377,9 +377,10 @@ std::set<NodeId> chooseHelpers(const Graph& g, const std::vector<std::string>& g
         if (const NodeId other = isGlobPattern(glob) ? -1 : g.findNode(glob); other >= 0)
             refuse(fmt::format("is a {}, not a transform or joint", g.nodeType(other).name()),
                    "helpers are transforms or joints (nodes with a worldMatrix)");
-        refuse(fmt::format("matches no transform or joint{}",
-                           isGlobPattern(glob) ? std::string() : didYouMean(glob, candidates)),
-               "helpers are transforms or joints (nodes with a worldMatrix)");
+        // A suggestion ends the line, as for an output.
+        const std::string suggestion = isGlobPattern(glob) ? std::string() : didYouMean(glob, candidates);
+        refuse("matches no transform or joint" + suggestion,
+               suggestion.empty() ? "helpers are transforms or joints (nodes with a worldMatrix)" : "");
     }
     return chosen;
 }
