@@ -391,7 +391,9 @@ std::vector<char> reachable(const GraphModel& m, const std::vector<NodeId>& star
     std::vector<char> seen(static_cast<std::size_t>(m.nodeCount()), 0);
     std::vector<NodeId> stack;
     const auto visit = [&](NodeId n) {
-        if (!seen[static_cast<std::size_t>(n)]) stack.push_back(n), seen[static_cast<std::size_t>(n)] = 1;
+        if (seen[static_cast<std::size_t>(n)]) return;
+        seen[static_cast<std::size_t>(n)] = 1;
+        stack.push_back(n);
     };
     for (NodeId n : start) visit(n);
     while (!stack.empty()) {
@@ -415,10 +417,11 @@ std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<N
     for (const Plug& p : parameterPlugs) parameterNodes.push_back(p.node);
     const std::vector<char> moved = reachable(model, parameterNodes, true);
     const std::vector<char> upstreamOfOutput = reachable(model, outputs, false);
+    std::vector<char> isOutput(static_cast<std::size_t>(model.nodeCount()), 0);  // a crowd has thousands
+    for (NodeId n : outputs) isOutput[static_cast<std::size_t>(n)] = 1;
     std::map<std::string, NodeId> found;  // by name
     for (NodeId n = 0; n < model.nodeCount(); ++n) {
-        if (!moved[static_cast<std::size_t>(n)] || !isDagNode(model, n) ||
-            std::find(outputs.begin(), outputs.end(), n) != outputs.end())
+        if (!moved[static_cast<std::size_t>(n)] || isOutput[static_cast<std::size_t>(n)] || !isDagNode(model, n))
             continue;
         const auto& topology = model.topology(n);
         for (AttrId a = 0; a < static_cast<AttrId>(topology.outgoing.size()); ++a) {
