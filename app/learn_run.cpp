@@ -58,15 +58,26 @@ double learningFraction(std::string_view stage, double fraction)
     return start + width * fraction;
 }
 
+bool discoversHelpers(const LearnJob& job) { return job.autoHelpers || job.helpers.empty(); }
+
+GraphRigOptions rigOptions(const LearnJob& job)
+{
+    return GraphRigOptions{job.params, job.outputs, job.plugins,          job.held,
+                           job.ranges, job.helpers, discoversHelpers(job)};
+}
+
 LearnOutcome learn(const LearnJob& job)
 {
     const auto loadStart = std::chrono::steady_clock::now();
-    GraphRigFunction rig(job.rig, GraphRigOptions{job.params, job.outputs, job.plugins, job.held, job.ranges});
+    GraphRigFunction rig(job.rig, rigOptions(job));
     if (job.rigLoaded) job.rigLoaded(rig);
     LearnOutcome out;
     out.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
     out.rigParameters = rig.parameters().size();
     out.rigOutputs = rig.outputs().size();
+    const std::vector<char> helper = rig.helperOutputs();
+    for (std::size_t k = 0; k < helper.size(); ++k)
+        if (helper[k]) out.helpers.push_back(rig.outputs()[k]);
     try {
         out.approximation = learnApproximation(rig, job.options, job.rig, &out.unmodelled);
     }
@@ -142,6 +153,7 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                 {"orderer", a.training.orderer},
                 {"parameters", outcome.rigParameters},
                 {"outputs", outcome.rigOutputs},
+                {"helpers", outcome.helpers},
                 {"held", heldJson(a.held)},
                 {"evaluations", a.training.evaluations},
                 {"order_evaluations", a.training.orderEvaluations},

@@ -40,13 +40,24 @@ struct LearnJob {
     std::vector<HeldPlug>
         held{};  // plugs held at a value, not inverted (rig-learn --set); recorded in the approximation
     std::vector<GraphRigOptions::LearnRange> ranges{};  // the spec's `ranges:` (GraphRigOptions::ranges)
+    std::vector<std::string> helpers{};                 // helper frame globs (--helpers, the spec's `helpers:`)
+    bool autoHelpers = false;                           // --auto-helpers, the spec's `helpers: auto`
 };
+
+// Whether the rig's helper frames are found by discoverHelpers (graph_rig_function.h): when asked for, and by
+// default, when no helper is named (the learner keeps only the helpers a constraint reads, so a rig without
+// constraints learns as it would without helpers). The one place this default is decided.
+bool discoversHelpers(const LearnJob& job);
+
+// The rig's options for a job: its globs, plugins, held plugs, ranges and helpers.
+GraphRigOptions rigOptions(const LearnJob& job);
 
 struct LearnOutcome {
     Approximation approximation;
-    std::size_t rigParameters = 0;  // what the globs gave
-    std::size_t rigOutputs = 0;
-    double loadSeconds = 0.0;  // loading the rig
+    std::size_t rigParameters = 0;     // what the globs gave
+    std::size_t rigOutputs = 0;        // joints and helpers
+    std::vector<std::string> helpers;  // the rig's helper outputs, in order (named or found)
+    double loadSeconds = 0.0;          // loading the rig
     // The non-compositional outputs with why (what the learner measured; the approximation file does not hold it).
     std::vector<UnmodelledOutput> unmodelled;
 };

@@ -340,13 +340,129 @@ std::set<NodeId> chooseOutputs(const Graph& g, const std::vector<std::string>& g
     return chosen;
 }
 
+bool isDagNode(const GraphModel& m, NodeId n)
+{
+    const std::string& type = m.topology(n).type->name();
+    return type == "joint" || type == "transform";
+}
+
+// The helpers the globs name: transforms and joints that are not outputs, each glob matching at least one.
+std::set<NodeId> chooseHelpers(const Graph& g, const std::vector<std::string>& globs, const std::set<NodeId>& outputs,
+                               const std::string& rigName)
+{
+    std::vector<std::string> candidates;  // for a typo's suggestion
+    for (NodeId n = 0; n < g.nodeCount(); ++n)
+        if (isDagNode(g.model(), n) && !outputs.contains(n)) candidates.push_back(g.nodeName(n));
+    std::set<NodeId> chosen;
+    for (const std::string& glob : globs) {
+        const auto refuse = [&](const std::string& reason, const std::string& advice) {
+            throw RigSelectionError(fmt::format("{}: helper {}'{}' {}{}{}", rigName, isGlobPattern(glob) ? "glob " : "",
+                                                glob, reason, advice.empty() ? "" : "; ", advice),
+                                    "helper", glob, reason);
+        };
+        std::string outputMatched;  // the first output the glob matches
+        std::size_t found = 0;
+        for (NodeId n = 0; n < g.nodeCount(); ++n) {
+            if (!isDagNode(g.model(), n) || !globMatches(glob, g.nodeName(n))) continue;
+            if (!outputs.contains(n)) {
+                chosen.insert(n);
+                ++found;
+            } else if (outputMatched.empty()) outputMatched = g.nodeName(n);
+        }
+        if (found > 0) continue;
+        if (!outputMatched.empty())
+            refuse(
+                isGlobPattern(glob) ? fmt::format("matches only outputs, such as {}", outputMatched) : "is an output",
+                "a helper is a transform or joint that is not an output");
+        if (const NodeId other = isGlobPattern(glob) ? -1 : g.findNode(glob); other >= 0)
+            refuse(fmt::format("is a {}, not a transform or joint", g.nodeType(other).name()),
+                   "helpers are transforms or joints (nodes with a worldMatrix)");
+        // A suggestion ends the line, as for an output.
+        const std::string suggestion = isGlobPattern(glob) ? std::string() : didYouMean(glob, candidates);
+        refuse("matches no transform or joint" + suggestion,
+               suggestion.empty() ? "helpers are transforms or joints (nodes with a worldMatrix)" : "");
+    }
+    return chosen;
+}
+
+// Nodes reachable from `start` through connections, downstream or upstream (`start` included).
+std::vector<char> reachable(const GraphModel& m, const std::vector<NodeId>& start, bool downstream)
+{
+    std::vector<char> seen(static_cast<std::size_t>(m.nodeCount()), 0);
+    std::vector<NodeId> stack;
+    const auto visit = [&](NodeId n) {
+        if (seen[static_cast<std::size_t>(n)]) return;
+        seen[static_cast<std::size_t>(n)] = 1;
+        stack.push_back(n);
+    };
+    for (NodeId n : start) visit(n);
+    while (!stack.empty()) {
+        const auto& topology = m.topology(stack.back());
+        stack.pop_back();
+        if (!downstream)
+            for (int c : topology.incoming) visit(m.connections()[static_cast<std::size_t>(c)].source.node);
+        else
+            for (const auto& attribute : topology.outgoing)
+                for (int c : attribute) visit(m.connections()[static_cast<std::size_t>(c)].destination.node);
+    }
+    return seen;
+}
+
+}  // namespace
+
+std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<NodeId>& outputs,
+                                    const std::vector<Plug>& parameterPlugs)
+{
+    std::vector<NodeId> parameterNodes;
+    for (const Plug& p : parameterPlugs) parameterNodes.push_back(p.node);
+    const std::vector<char> moved = reachable(model, parameterNodes, true);
+    const std::vector<char> upstreamOfOutput = reachable(model, outputs, false);
+    std::vector<char> isOutput(static_cast<std::size_t>(model.nodeCount()), 0);  // a crowd has thousands
+    for (NodeId n : outputs) isOutput[static_cast<std::size_t>(n)] = 1;
+    std::map<std::string, NodeId> found;  // by name
+    for (NodeId n = 0; n < model.nodeCount(); ++n) {
+        if (!moved[static_cast<std::size_t>(n)] || isOutput[static_cast<std::size_t>(n)] || !isDagNode(model, n))
+            continue;
+        const auto& topology = model.topology(n);
+        for (AttrId a = 0; a < static_cast<AttrId>(topology.outgoing.size()); ++a) {
+            const std::string& attribute = topology.spec(a).name;
+            if (attribute != "worldMatrix" && attribute != "worldInverseMatrix") continue;
+            for (int c : topology.outgoing[static_cast<std::size_t>(a)])
+                if (upstreamOfOutput[static_cast<std::size_t>(
+                        model.connections()[static_cast<std::size_t>(c)].destination.node)])
+                    found.emplace(topology.name, n);
+        }
+    }
+    std::vector<NodeId> helpers;
+    for (const auto& [name, n] : found) helpers.push_back(n);
+    return helpers;
+}
+
+namespace {
+
+// The outputs' nodes: the joints the globs name in node order, then the helpers in name order.
+std::vector<NodeId> outputNodes(const Graph& g, const GraphRigOptions& options, const std::vector<Plug>& parameters,
+                                const std::string& rigName, std::size_t& jointCount)
+{
+    const std::set<NodeId> joints = chooseOutputs(g, options.outputGlobs, rigName);
+    std::vector<NodeId> nodes(joints.begin(), joints.end());
+    jointCount = nodes.size();
+    std::map<std::string, NodeId> helpers;
+    for (NodeId n : chooseHelpers(g, options.helperGlobs, joints, rigName)) helpers.emplace(g.nodeName(n), n);
+    if (options.autoHelpers)
+        for (NodeId n : discoverHelpers(g.model(), nodes, parameters)) helpers.emplace(g.nodeName(n), n);
+    for (const auto& [name, n] : helpers) nodes.push_back(n);
+    return nodes;
+}
+
 }  // namespace
 
 GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<std::string> plugins)
 {
     GraphRigOptions options;
     for (const auto& p : approximation.parameters) options.parameterGlobs.push_back(p.parameter.name);
-    for (const auto& o : approximation.outputs) options.outputGlobs.push_back(o.name);
+    for (const auto& o : approximation.outputs)
+        (o.helper ? options.helperGlobs : options.outputGlobs).push_back(o.name);
     options.plugins = std::move(plugins);
     options.held = approximation.held;
     return options;
@@ -375,14 +491,17 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
     }
     fingerprint_ = fmt::format("{:016x}", hash);
 
-    const std::set<NodeId> chosen = chooseOutputs(g, options.outputGlobs, rigName);
-    std::map<NodeId, int> outputOfNode;
-    for (NodeId n : chosen) {
-        outputOfNode[n] = static_cast<int>(outputNames_.size());
-        outputNames_.push_back(g.nodeName(n));
-        outputPlugs_.push_back(g.plug(g.nodeName(n) + ".worldMatrix"));
+    std::size_t joints = 0;
+    const std::vector<NodeId> chosen = outputNodes(g, options, parameterPlugs_, rigName, joints);
+    std::map<NodeId, int> jointOutputOfNode;  // a joint's parent walk passes helpers by
+    for (std::size_t k = 0; k < chosen.size(); ++k) {
+        if (k < joints) jointOutputOfNode[chosen[k]] = static_cast<int>(k);
+        outputNames_.push_back(g.nodeName(chosen[k]));
+        outputPlugs_.push_back(g.plug(g.nodeName(chosen[k]) + ".worldMatrix"));
+        helperFlags_.push_back(k < joints ? 0 : 1);
     }
-    for (NodeId n : chosen) outputParents_.push_back(parentOutput(g, n, outputOfNode));
+    for (std::size_t k = 0; k < chosen.size(); ++k)
+        outputParents_.push_back(k < joints ? parentOutput(g, chosen[k], jointOutputOfNode) : -1);
 }
 
 GraphRigFunction::GraphRigFunction(const GraphRigFunction& other)
@@ -393,6 +512,7 @@ GraphRigFunction::GraphRigFunction(const GraphRigFunction& other)
       outputNames_(other.outputNames_),
       outputPlugs_(other.outputPlugs_),
       outputParents_(other.outputParents_),
+      helperFlags_(other.helperFlags_),
       outputWorlds_(other.outputWorlds_.size()),
       computesSeen_(other.computesSeen_.size(), notRead),
       fingerprint_(other.fingerprint_),

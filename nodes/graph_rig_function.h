@@ -1,7 +1,8 @@
 #pragma once
 // The rig as a black box for the learner and the solver: a RigFunction backed by a private graph
 // instance loaded from a rig file. Parameters are free keyable scalar input plugs named by globs
-// ('L_arm_*.rotate?', 'hips.translate?'); outputs are joints (all, or by name globs), read as world
+// ('L_arm_*.rotate?', 'hips.translate?'); outputs are joints (all, or by name globs), then helper frames
+// (transforms and joints that are not outputs: IK goals, pole objects, aim targets), read as world
 // matrices. Evaluations are counted; one object evaluates serially (the graph is stateful), instances
 // of it in parallel (docs/rig-learn.md).
 
@@ -42,16 +43,21 @@ struct GraphRigOptions {
         double max = 0.0;
     };
     std::vector<LearnRange> ranges{};
+    // Helper frames (RigFunction::helperOutputs), outputs after the joints: names or globs of transforms and joints
+    // that are not outputs. Each glob must match at least one.
+    std::vector<std::string> helperGlobs{};
+    // Also every helper the rig shows (discoverHelpers): with the globs', each helper once, in name order.
+    bool autoHelpers = false;
 };
 
 // The options that load the rig of an approximation in the state it was learned in: its parameters, its
 // outputs and its held plugs.
 GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<std::string> plugins = {});
 
-// A parameter or output glob, or a held plug, the rig cannot provide (no such plug or joint, a driven plug,
-// not a joint, a value outside the attribute's limits). what() is the whole line ("RIG: parameter 'GLOB':
+// A parameter, output or helper glob, or a held plug, the rig cannot provide (no such plug or joint, a driven
+// plug, not a joint, a value outside the attribute's limits). what() is the whole line ("RIG: parameter 'GLOB':
 // REASON", ...); a caller that chose the names itself (rig-invert, from an approximation file) can say more
-// from kind() ("parameter", "output" or "held plug"), name() (the glob or plug) and reason().
+// from kind() ("parameter", "output", "helper" or "held plug"), name() (the glob or plug) and reason().
 class RigSelectionError : public Error {
 public:
     RigSelectionError(const std::string& message, std::string kind, std::string name, std::string reason)
@@ -81,10 +87,13 @@ public:
     GraphRigFunction(const std::filesystem::path& rigFile, const GraphRigOptions& options);
 
     const std::vector<RigParameter>& parameters() const override { return parameters_; }
+    // The joints, in rig order, then the helpers, in name order.
     const std::vector<std::string>& outputs() const override { return outputNames_; }
-    // Up the parentMatrix connections (a joint's `parent:`) through transforms and joints that are not
-    // outputs; a parentMatrix fed by anything else (a multMatrix, a constraint) ends the walk at -1.
+    // A joint's: up the parentMatrix connections (a joint's `parent:`) through transforms and joints that are
+    // not joint outputs (a helper is passed like any transform); a parentMatrix fed by anything else (a
+    // multMatrix, a constraint) ends the walk at -1. A helper's: -1, it is learned in world space.
     std::vector<int> outputParents() const override { return outputParents_; }
+    std::vector<char> helperOutputs() const override { return helperFlags_; }
     // Sets the parameter plugs whose value changed since the last call, evaluates, and reads the
     // outputs' worldMatrix. Throws an internal rig::Error for a wrong number of values, rig::Error for a
     // value the rig refuses (outside the attribute's limits).
@@ -117,6 +126,7 @@ private:
     std::vector<std::string> outputNames_;
     std::vector<Plug> outputPlugs_;
     std::vector<int> outputParents_;
+    std::vector<char> helperFlags_;
     // The outputs as last read, and their node's compute count then (notRead before the first read).
     static constexpr std::uint64_t notRead = ~std::uint64_t{0};
     std::vector<Eigen::Matrix4d> outputWorlds_;
@@ -126,6 +136,14 @@ private:
     std::vector<std::filesystem::path> files_;
     std::vector<HeldPlug> held_;
 };
+
+// The helper frames a rig shows for these outputs and parameter plugs (GraphRigOptions::autoHelpers, rig-learn's
+// default): every transform or joint that is not an output, whose worldMatrix or worldInverseMatrix feeds a node
+// upstream of an output (an IK goal, a pole object, an aim target, a parent), and which a parameter moves (the
+// parameter's node is that node or upstream of it). Upstream and downstream follow connections node to node. In
+// name order.
+std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<NodeId>& outputs,
+                                    const std::vector<Plug>& parameterPlugs);
 
 // FNV-1a 64 of bytes, continuing from `hash` (start: the FNV offset basis).
 std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t hash = 0xcbf29ce484222325ull);

@@ -106,11 +106,10 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
     if (!root.IsMap())
         throw Error(fmt::format(
             "{}: a spec is a map with 'params:' (and 'outputs:'), lists of globs (and 'set:', a map)", at(root)));
+    const std::string keys = "a spec has 'params:', 'outputs:', 'helpers:', 'set:' and 'ranges:'";
     for (const auto& entry : root) {
         if (!entry.first.IsScalar())
-            throw Error(fmt::format(
-                "{}: a key of a spec is a list or a map; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'",
-                at(entry.first)));
+            throw Error(fmt::format("{}: a key of a spec is a list or a map; {}", at(entry.first), keys));
         const std::string key = entry.first.Scalar();
         if (key == "set") {
             readSet(spec, entry.second, at);
@@ -120,12 +119,18 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
             readRanges(spec, entry.second, at);
             continue;
         }
-        auto* list = key == "params" ? &spec.params : key == "outputs" ? &spec.outputs : nullptr;
-        if (!list)
-            throw Error(fmt::format("{}: unknown key '{}'; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'",
-                                    at(entry.first), messageExcerpt(key)));
+        if (key == "helpers" && entry.second.IsScalar() && entry.second.Scalar() == "auto") {
+            spec.autoHelpers = true;
+            continue;
+        }
+        auto* list = key == "params"    ? &spec.params
+                     : key == "outputs" ? &spec.outputs
+                     : key == "helpers" ? &spec.helpers
+                                        : nullptr;
+        if (!list) throw Error(fmt::format("{}: unknown key '{}'; {}", at(entry.first), messageExcerpt(key), keys));
         if (!entry.second.IsSequence())
-            throw Error(fmt::format("{}: '{}' must be a list of globs", at(entry.second), key));
+            throw Error(fmt::format("{}: '{}' must be a list of globs{}", at(entry.second), key,
+                                    key == "helpers" ? " or 'auto'" : ""));
         for (const auto& glob : entry.second) {
             if (!glob.IsScalar() || glob.Scalar().empty())
                 throw Error(fmt::format("{}: '{}' must be a list of globs", at(glob), key));

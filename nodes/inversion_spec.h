@@ -1,8 +1,8 @@
 #pragma once
 // A rig's inversion choices in one file (docs/rig-learn.md, rigs/biped_inversion.yaml): `params:` and
-// optionally `outputs:`, lists of globs, `set:`, a map of plugs held at a value while learning, and `ranges:`, a
-// map of parameter globs to the range each is learned over, which rig-learn --spec adds to the command line's and
-// rig-bench learns the biped with.
+// optionally `outputs:` and `helpers:` (helper frames), lists of globs (`helpers: auto`: found by rig-learn), `set:`, a
+// map of plugs held at a value while learning, and `ranges:`, a map of parameter globs to the range each is learned
+// over, which rig-learn --spec adds to the command line's and rig-bench learns the biped with.
 
 #include <filesystem>
 #include <map>
@@ -17,6 +17,8 @@ namespace rig {
 struct InversionSpec {
     std::vector<std::string> params;   // parameter plug globs
     std::vector<std::string> outputs;  // output joint globs
+    std::vector<std::string> helpers;  // helper frame globs (GraphRigOptions::helperGlobs)
+    bool autoHelpers = false;          // `helpers: auto` (GraphRigOptions::autoHelpers)
     std::vector<HeldPlug> set;         // held plugs, in the file's order, values in the rig file's units
     // `ranges:`, a map of parameter glob -> [min, max] (the rig file's units): where a control without declared
     // limits is learned (GraphRigOptions::ranges), in the file's order.

@@ -25,6 +25,8 @@ struct Options {
     std::string rig;
     std::vector<std::string> params;
     std::vector<std::string> outputs;
+    std::vector<std::string> helpers;  // --helpers, then the spec's
+    bool autoHelpers = false;          // --auto-helpers or the spec's `helpers: auto`
     std::string output;
     std::string epsilon;
     bool epsilonGiven = false;
@@ -51,6 +53,8 @@ void readSpec(Options& options)
     InversionSpec spec = readInversionSpec(options.spec);
     options.params.insert(options.params.end(), spec.params.begin(), spec.params.end());
     options.outputs.insert(options.outputs.end(), spec.outputs.begin(), spec.outputs.end());
+    options.helpers.insert(options.helpers.end(), spec.helpers.begin(), spec.helpers.end());
+    options.autoHelpers = options.autoHelpers || spec.autoHelpers;
     options.specPlaces.merge(spec.places);
     options.ranges = spec.ranges;
     for (const HeldPlug& h : spec.set) {
@@ -142,6 +146,8 @@ std::string readableReport(const app::LearnOutcome& learned, const Options& opti
         fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n", options.rig,
                     learned.rigParameters, learned.rigOutputs, a.epsilon, a.training.orderer);
     if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", app::heldText(a.held));
+    if (!learned.helpers.empty())
+        out += fmt::format("Helpers (learned, never targets): {}\n", fmt::join(learned.helpers, ", "));
     out += "\n";
     out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
     std::vector<std::vector<std::string>> rows{
@@ -216,6 +222,8 @@ int run(Options& options)
     app::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
     job.held = options.held;
     job.ranges = options.ranges;
+    job.helpers = options.helpers;
+    job.autoHelpers = options.autoHelpers;
     if (options.epsilonGiven) job.options.epsilon = app::parseEpsilon(options.epsilon);
     job.options.orderer = app::ordererFromName(options.orderer);
     job.options.relativeFrames = !options.worldSpace;
@@ -284,9 +292,16 @@ int main(int argc, char** argv)
     app.add_option("--params", options.params,
                    "Parameter plug globs, e.g. 'L_arm_*.rotate?' 'hips.translate?' (one or more; repeatable)");
     app.add_option("--spec", options.spec,
-                   "YAML file with 'params:' and 'outputs:' lists of globs, added to --params and --outputs, and a "
-                   "'set:' map of held plugs, added to --set");
+                   "YAML file with 'params:', 'outputs:' and 'helpers:' lists of globs (or 'helpers: auto'), added to "
+                   "--params, --outputs and --helpers, and a 'set:' map of held plugs, added to --set");
     app.add_option("--outputs", options.outputs, "Output joint-name globs (default: every joint of the rig)");
+    app.add_option("--helpers", options.helpers,
+                   "Helper frames: transforms or joints that are not outputs (IK goals, pole objects, aim targets), "
+                   "learned but never targets, by name globs (repeatable; without --helpers or --auto-helpers "
+                   "they are found as --auto-helpers does)");
+    app.add_flag("--auto-helpers", options.autoHelpers,
+                 "Also find the helper frames: transforms or joints whose world matrix feeds the outputs and that "
+                 "a parameter moves");
     app.add_option("--set", options.sets,
                    "Hold a plug at a value while learning, not inverted: PLUG=VALUE in the rig file's units, e.g. "
                    "L_leg_settings.ikFk=1 (repeatable; wins over the spec's 'set:')")

@@ -1,13 +1,17 @@
-// GraphRigFunction: parameters from plug globs, joints as outputs, counted evaluations, the rig files'
-// fingerprint, and one-line errors for globs that match nothing usable.
+// GraphRigFunction: parameters from plug globs, joints as outputs, helper frames after them (named or found),
+// counted evaluations, the rig files' fingerprint, and one-line errors for globs that match nothing usable.
 #include <doctest/doctest.h>
 
 #include <numbers>
 
+#include <yaml-cpp/yaml.h>
+
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "inversion/approximation.h"
 #include "nodes/graph_rig_function.h"
+#include "nodes/inversion_spec.h"
 #include "test_support.h"
 
 using namespace rig;
@@ -319,4 +323,173 @@ TEST_CASE("GraphRigFunction: a plug that cannot be held is one line naming it an
         CHECK(e.name() == "ctrl.bend");
         CHECK(e.reason() == "50 is above its maximum 45");
     }
+}
+
+namespace {
+
+const std::string biped = (test::sourceDir() / "rigs/biped.yaml").string();
+
+// The biped's options from one of its spec files, helpers as given.
+GraphRigOptions bipedOptions(const std::string& spec, std::vector<std::string> helperGlobs, bool autoHelpers)
+{
+    const InversionSpec s = readInversionSpec(test::sourceDir() / spec);
+    return GraphRigOptions{s.params, s.outputs, {}, s.set, s.ranges, std::move(helperGlobs), autoHelpers};
+}
+
+std::vector<std::string> helpersOf(const RigFunction& rig)
+{
+    std::vector<std::string> out;
+    for (std::size_t k = 0; k < rig.outputs().size(); ++k)
+        if (rig.helperOutputs()[k]) out.push_back(rig.outputs()[k]);
+    return out;
+}
+
+}  // namespace
+
+TEST_CASE("GraphRigFunction: helpers come after the joints, flagged, in world space, read as graph-eval reads them")
+{
+    const GraphRigOptions plain = bipedOptions("rigs/biped_inversion_ik.yaml", {}, false);
+    const GraphRigFunction joints(biped, plain);
+    // world_ctrl, a parent of Hips that nothing moves, may be named; L_leg_*_ctrl matches two transforms.
+    GraphRigFunction f(biped, bipedOptions("rigs/biped_inversion_ik.yaml", {"world_ctrl", "L_leg_*_ctrl"}, false));
+    const std::size_t n = joints.outputs().size();
+    REQUIRE(f.outputs().size() == n + 3);
+    CHECK(std::equal(joints.outputs().begin(), joints.outputs().end(), f.outputs().begin()));
+    CHECK(std::vector<std::string>(f.outputs().begin() + static_cast<std::ptrdiff_t>(n), f.outputs().end()) ==
+          std::vector<std::string>{"L_leg_ik_ctrl", "L_leg_pole_ctrl", "world_ctrl"});  // in name order
+    std::vector<char> flags(n, 0);
+    flags.insert(flags.end(), 3, 1);
+    CHECK(f.helperOutputs() == flags);
+    CHECK(f.instance()->helperOutputs() == flags);
+    CHECK(joints.helperOutputs() == std::vector<char>(n, 0));
+    // A helper is in world space, and no joint's parent walk stops at one: Hips, below world_ctrl, has none.
+    std::vector<int> parents = joints.outputParents();
+    parents.insert(parents.end(), 3, -1);
+    CHECK(f.outputParents() == parents);
+    CHECK(f.outputParents()[0] == -1);
+    // Helpers change neither the parameters nor the fingerprint.
+    CHECK(names(f.parameters()) == names(joints.parameters()));
+    CHECK(f.fingerprint() == joints.fingerprint());
+
+    // Their worlds are the nodes' worldMatrix, on this object, an instance, and graph-eval's output (values as
+    // plugs hold them: centimetres, the same in both).
+    std::vector<double> values;
+    for (const RigParameter& p : f.parameters()) values.push_back(p.defaultValue);
+    const std::map<std::string, double> moved{
+        {"root_ctrl.translateX", 12.5}, {"L_leg_ik_ctrl.translateY", 4.0}, {"L_leg_pole_ctrl.translateZ", -3.25}};
+    std::string sets;
+    for (std::size_t i = 0; i < values.size(); ++i)
+        if (const auto it = moved.find(f.parameters()[i].name); it != moved.end()) {
+            values[i] = it->second;
+            sets += fmt::format(" --set {}={}", it->first, it->second);
+        }
+    std::vector<Eigen::Matrix4d> worlds, again;
+    f.evaluate(values, worlds);
+    f.instance()->evaluate(values, again);
+    CHECK(worlds == again);
+    const auto r =
+        test::run(fmt::format("{} {} --set L_leg_settings.ikFk=1 --set R_leg_settings.ikFk=1 --set "
+                              "L_leg_ik.stretch=true --set R_leg_ik.stretch=true{} --get '*_ctrl.worldMatrix'",
+                              test::tool("graph-eval"), biped, sets));
+    CAPTURE(r.err);
+    REQUIRE(r.exitCode == 0);
+    const YAML::Node frame = YAML::Load(r.out)[0];
+    for (std::size_t k = n; k < f.outputs().size(); ++k) {
+        CAPTURE(f.outputs()[k]);
+        Graph& g = f.graph();
+        CHECK(worlds[k] == std::get<Eigen::Matrix4d>(g.getValue(g.plug(f.outputs()[k] + ".worldMatrix"))));
+        const YAML::Node rows = frame[f.outputs()[k] + ".worldMatrix"];
+        REQUIRE(rows.size() == 4);
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j) CHECK(worlds[k](i, j) == rows[i][j].as<double>());
+    }
+    CHECK(worlds[n](1, 3) == 4.0);  // the IK goal moved, in world space
+}
+
+TEST_CASE("GraphRigFunction: helpers found on the biped are the frames its outputs read that a parameter moves")
+{
+    // FK legs: the pole objects hang below root_ctrl, which moves them; the IK goals are not moved by any parameter,
+    // and eyes_ctrl (the eyes' aim target) neither.
+    const GraphRigFunction fk(biped, bipedOptions("rigs/biped_inversion.yaml", {}, true));
+    CHECK(helpersOf(fk) == std::vector<std::string>{"L_leg_pole_ctrl", "R_leg_pole_ctrl", "root_ctrl"});
+    // IK legs: their goals and pole objects are parameters.
+    const GraphRigFunction ik(biped, bipedOptions("rigs/biped_inversion_ik.yaml", {}, true));
+    CHECK(helpersOf(ik) == std::vector<std::string>{"L_leg_ik_ctrl", "L_leg_pole_ctrl", "R_leg_ik_ctrl",
+                                                    "R_leg_pole_ctrl", "root_ctrl"});
+    // eyes_ctrl is found once a parameter moves it and an output reads it (the eyes, among every joint), and not
+    // while no output reads it.
+    GraphRigOptions eyes = bipedOptions("rigs/biped_inversion.yaml", {}, true);
+    eyes.parameterGlobs.push_back("eyes_ctrl.translate?");
+    CHECK(helpersOf(GraphRigFunction(biped, eyes)) == helpersOf(fk));
+    eyes.outputGlobs.clear();
+    const std::vector<std::string> all = helpersOf(GraphRigFunction(biped, eyes));
+    CHECK(std::find(all.begin(), all.end(), "eyes_ctrl") != all.end());
+    // Named helpers join the ones found, each once, in name order.
+    CHECK(
+        helpersOf(GraphRigFunction(biped, bipedOptions("rigs/biped_inversion.yaml", {"world_ctrl", "root_*"}, true))) ==
+        std::vector<std::string>{"L_leg_pole_ctrl", "R_leg_pole_ctrl", "root_ctrl", "world_ctrl"});
+    // An FK arm has none.
+    GraphRigOptions armOptions{{"shoulder.rotate?", "arm_ctrl.translate?"}, {}, {}};
+    armOptions.autoHelpers = true;
+    CHECK(helpersOf(GraphRigFunction(arm, armOptions)).empty());
+}
+
+TEST_CASE("GraphRigFunction: a helper glob that matches nothing usable is one line with a suggestion")
+{
+    const auto helperError = [](const std::string& glob) {
+        return errorOf(biped, bipedOptions("rigs/biped_inversion.yaml", {glob}, false));
+    };
+    CHECK(helperError("L_leg_pole_ctl") ==
+          biped + ": helper 'L_leg_pole_ctl' matches no transform or joint; did you mean 'L_leg_pole_ctrl'?");
+    CHECK(helperError("*_goal") ==
+          biped +
+              ": helper glob '*_goal' matches no transform or joint; helpers are transforms or joints (nodes with "
+              "a worldMatrix)");
+    CHECK(helperError("L_leg_ik") == biped +
+                                         ": helper 'L_leg_ik' is a ikHandle, not a transform or joint; helpers are "
+                                         "transforms or joints (nodes with a worldMatrix)");
+    CHECK(helperError("Hips") ==
+          biped + ": helper 'Hips' is an output; a helper is a transform or joint that is not an output");
+    CHECK(helperError("Left*Leg") == biped +
+                                         ": helper glob 'Left*Leg' matches only outputs, such as LeftUpLeg; a helper "
+                                         "is a transform or joint that is not an output");
+    try {
+        GraphRigFunction f(biped, bipedOptions("rigs/biped_inversion.yaml", {"*_goal"}, false));
+        FAIL("no error");
+    }
+    catch (const RigSelectionError& e) {
+        CHECK(e.kind() == "helper");
+        CHECK(e.name() == "*_goal");
+        CHECK(e.reason() == "matches no transform or joint");
+    }
+}
+
+TEST_CASE("GraphRigFunction: rigOptionsFor loads an approximation's joints and helpers again, in the same order")
+{
+    const GraphRigFunction learned(biped, bipedOptions("rigs/biped_inversion_ik.yaml", {}, true));
+    Approximation a;
+    for (const RigParameter& p : learned.parameters()) {
+        ModelledParameter m;
+        m.parameter = p;
+        a.parameters.push_back(m);
+    }
+    for (std::size_t k = 0; k < learned.outputs().size(); ++k) {
+        ApproximationOutput o;
+        o.name = learned.outputs()[k];
+        o.helper = learned.helperOutputs()[k] != 0;
+        a.outputs.push_back(o);
+    }
+    a.held = learned.held();
+    const GraphRigOptions options = rigOptionsFor(a);
+    CHECK(options.helperGlobs == std::vector<std::string>{"L_leg_ik_ctrl", "L_leg_pole_ctrl", "R_leg_ik_ctrl",
+                                                          "R_leg_pole_ctrl", "root_ctrl"});
+    CHECK(!options.autoHelpers);
+    CHECK(options.outputGlobs.size() + options.helperGlobs.size() == learned.outputs().size());
+    const GraphRigFunction loaded(biped, options);
+    CHECK(loaded.outputs() == learned.outputs());
+    CHECK(loaded.helperOutputs() == learned.helperOutputs());
+    CHECK(loaded.outputParents() == learned.outputParents());
+    CHECK(loaded.fingerprint() == learned.fingerprint());
+    CHECK(loaded.fingerprint() ==
+          GraphRigFunction(biped, bipedOptions("rigs/biped_inversion_ik.yaml", {}, false)).fingerprint());
 }

@@ -202,7 +202,73 @@ TEST_CASE("rig-learn --spec: the biped's inversion spec learns what its globs sp
         run(rigLearn(fmt::format("rigs/examples/arm.yaml --spec {} -o {}", spec.string(), (dir / "b.yaml").string())));
     CHECK(bad.exitCode == 2);
     CHECK(bad.err == "error: " + spec.string() +
-                         ":2:1: unknown key 'ouptuts'; a spec has 'params:', 'outputs:', 'set:' and 'ranges:'\n");
+                         ":2:1: unknown key 'ouptuts'; a spec has 'params:', 'outputs:', 'helpers:', 'set:' and "
+                         "'ranges:'\n");
+    CHECK(!std::filesystem::exists(dir / "b.yaml"));
+}
+
+TEST_CASE("rig-learn: helper frames are found by default, named by --helpers or the spec's helpers:, or both")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-helpers");
+    const auto json = dir / "report.json";
+    // The helpers of one run, from its JSON report.
+    const auto helpers = [&](const std::string& args) {
+        const auto r =
+            run(rigLearn(fmt::format("{} -o '{}' --report-json '{}'", args, (dir / "a.yaml").string(), json.string())));
+        CAPTURE(args);
+        CAPTURE(r.err);
+        REQUIRE(r.exitCode == 0);
+        return YAML::LoadFile(json.string())["helpers"].as<std::vector<std::string>>();
+    };
+    const std::string ik = "rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml";
+    const std::vector<std::string> found{"L_leg_ik_ctrl", "L_leg_pole_ctrl", "R_leg_ik_ctrl", "R_leg_pole_ctrl",
+                                         "root_ctrl"};
+    CHECK(helpers(ik) == found);
+    CHECK(helpers(ik + " --auto-helpers") == found);
+    // Naming helpers turns discovery off, unless it is asked for too.
+    CHECK(helpers(ik + " --helpers world_ctrl 'L_leg_*_ctrl'") ==
+          std::vector<std::string>{"L_leg_ik_ctrl", "L_leg_pole_ctrl", "world_ctrl"});
+    std::vector<std::string> both = found;
+    both.push_back("world_ctrl");
+    CHECK(helpers(ik + " --helpers world_ctrl --auto-helpers") == both);
+    // The spec's helpers: the IK spec with a `helpers:` key.
+    const auto ikSpec = [&](const std::string& name, const std::string& key) {
+        return rig::test::writeFile(dir / name,
+                                    rig::test::readFile(rig::test::sourceDir() / "rigs/biped_inversion_ik.yaml") + key)
+            .string();
+    };
+    const std::string named = ikSpec("named.yaml", "helpers: [world_ctrl]\n");
+    CHECK(helpers(fmt::format("rigs/biped.yaml --spec '{}'", named)) == std::vector<std::string>{"world_ctrl"});
+    const std::string automatic = ikSpec("auto.yaml", "helpers: auto\n");
+    CHECK(helpers(fmt::format("rigs/biped.yaml --spec '{}' --helpers world_ctrl", automatic)) == both);
+    // An FK arm has none; a named one is learned after the joints and reported.
+    CHECK(helpers(fmt::format("{} {}", arm, armParams)).empty());
+    const auto r =
+        run(rigLearn(fmt::format("{} {} --helpers arm_ctrl -o '{}'", arm, armParams, (dir / "a.yaml").string())));
+    REQUIRE(r.exitCode == 0);
+    CHECK(
+        r.out.starts_with("rig-learn rigs/examples/arm.yaml: 7 parameters, 4 outputs, epsilon 0.001 cm per unit, "
+                          "orderer structured\nHelpers (learned, never targets): arm_ctrl\n"));
+    const rig::Approximation a = rig::readApproximationFile(dir / "a.yaml");
+    REQUIRE(a.outputs.size() == 4);
+    CHECK(a.outputs.back().name == "arm_ctrl");
+
+    // Bad helpers are one line; the spec's name their place.
+    const std::string o = fmt::format("-o '{}'", (dir / "b.yaml").string());
+    checkBadInput(fmt::format("{} --helpers L_leg_ik {}", ik, o),
+                  "rigs/biped.yaml: helper 'L_leg_ik' is a ikHandle, not a transform or joint; helpers are transforms "
+                  "or joints (nodes with a worldMatrix)");
+    const std::string typo = ikSpec("typo.yaml", "helpers:\n  - L_leg_pole_ctl\n");
+    const std::string typoText = rig::test::readFile(typo);
+    const auto typoLine = std::count(typoText.begin(), typoText.end(), '\n');  // the last line's number
+    checkBadInput(fmt::format("rigs/biped.yaml --spec '{}' {}", typo, o),
+                  fmt::format("{}:{}:5: helper 'L_leg_pole_ctl' of the spec does not fit rigs/biped.yaml (matches no "
+                              "transform or joint; did you mean 'L_leg_pole_ctrl'?); fix or remove it",
+                              typo, typoLine));
+    const auto map =
+        rig::test::writeFile(dir / "map.yaml", "params: ['root_ctrl.translate?']\nhelpers: {auto: true}\n");
+    checkBadInput(fmt::format("rigs/biped.yaml --spec '{}' {}", map.string(), o),
+                  fmt::format("{}:2:10: 'helpers' must be a list of globs or 'auto'", map.string()));
     CHECK(!std::filesystem::exists(dir / "b.yaml"));
 }
 
