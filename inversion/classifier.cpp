@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/rotation_math.h"
+#include "inversion/constraint_fit.h"
 
 namespace rig {
 
@@ -693,13 +694,16 @@ bool frameOutputs(RigProbe& probe, Context& c, double lo, double hi, const RigSt
     for (std::size_t k = 0; k < rest.size(); ++k) {
         const int kk = static_cast<int>(k);
         if (state.unreliable[k] || state.idle[k]) continue;
-        double moved = 0.0;
+        // In a constraint's frame, what the shape's fit leaves (within its share of epsilon per unit moved) is not an
+        // effect: a root that carries the chain moves nothing there.
+        const double slack = probe.constraints.contains(kk) ? constraintFitShare * options.epsilon : 0.0;
+        bool acts = false;
         for (double a : offsets) {
             const Eigen::Matrix4d framed =
                 probe.inFrame(kk, [&](int j) -> const Eigen::Matrix4d& { return samples.world(j, a, rest); });
-            moved = std::max(moved, matrixError(framed, rest[k], options.frameRadius));
+            acts = acts || matrixError(framed, rest[k], options.frameRadius) > options.effectTolerance + slack * std::abs(a);
         }
-        if (moved > options.effectTolerance) {
+        if (acts) {
             c.outputs.push_back(kk);
             c.rest.push_back(rest[k]);
             c.restInverse.push_back(rest[k].inverse());

@@ -16,7 +16,9 @@ namespace {
 // (moving the goal by less than a centimetre counts as a centimetre). A chain's reach has a kink where it straightens,
 // which the refinement resolves with knots close around it.
 constexpr int maxShapeKnots = 256;
-constexpr double midpointShare = 0.5;
+
+// Random poses that give the range of reaches a shape is swept over, and check it.
+constexpr int rangePoses = 64;
 
 // Poses that check a candidate: the same for every candidate and sample count, apart from those it was fitted on.
 constexpr int checkPoses = 8;
@@ -214,7 +216,7 @@ bool ConstraintFitter::makeBase(int k, Sweep& sweep, double lo, double hi, Const
             const double e =
                 matrixError(predicted(k, base, worlds), worlds[static_cast<std::size_t>(k)], options_.frameRadius);
             const double moved = std::max(std::abs(t), 1.0) * sweep.direction.lpNorm<1>();
-            if (!(e <= midpointShare * options_.epsilon * moved)) missed.push_back(t);
+            if (!(e <= constraintFitShare * options_.epsilon * moved)) missed.push_back(t);
         }
         if (missed.empty() || static_cast<int>(knots.size() + missed.size()) > maxShapeKnots) return true;
         for (const double t : missed)
@@ -269,7 +271,7 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
             varied.push_back(i);
     double closest = std::numeric_limits<double>::infinity();
     std::string closestName;
-    const std::vector<Pose>& fitPoses = poses(varied, 0, 2 * options_.samples);
+    const std::vector<Pose>& fitPoses = poses(varied, 0, rangePoses);
     const std::vector<Pose>& check = poses(varied, 1, checkPoses);
     for (const int goal : helpers) {
         std::vector<int> poles = helpers;
@@ -296,8 +298,8 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
                 hi = std::max(hi, x);
             }
             const double span = hi - lo;
-            lo = std::max(lo - 0.5 * span, -0.95 * base.restReach);
-            hi += 0.5 * span;
+            lo = std::max(lo - 0.25 * span, -0.8 * base.restReach);
+            hi += 0.25 * span;
             if (!makeBase(k, *sweep, lo, hi, base)) continue;
             const double e = std::max(error(k, base, fitPoses), error(k, base, check));
             if (e <= options_.epsilon) return base;
@@ -317,3 +319,4 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
 }
 
 }  // namespace rig
+

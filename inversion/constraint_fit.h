@@ -24,6 +24,10 @@
 
 namespace rig {
 
+// The share of epsilon per unit moved that a constraint's shape may miss by at the midpoints of its knots; the
+// classifier takes what a constraint's frame moves within it for no effect.
+inline constexpr double constraintFitShare = 0.5;
+
 // What fitting needs to know of the learner's state, and the rig evaluations it shares between outputs.
 class ConstraintFitter {
 public:

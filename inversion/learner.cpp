@@ -421,7 +421,6 @@ struct FrameHistory {
     std::map<int, std::string> relative;    // rig output -> what failed relative to its parent output
     std::map<int, std::string> world;       // rig output -> what failed in world space: the pair with neither order
     std::map<int, std::string> constraint;  // rig output -> why no constraint operator fits it
-    std::set<int> parentUnusable;           // rig outputs that left their parent's frame only for the parent's sake
 
     // The non-compositional outputs of `a` (rig indices `rigOutput`), in its order, with their reasons.
     std::vector<UnmodelledOutput> unmodelled(const Approximation& a, const std::vector<int>& rigOutput) const
@@ -487,7 +486,6 @@ bool worldWhereParentUnusable(RigProbe& probe, const RigState& state, FrameHisto
         if (p < 0) continue;
         const auto parent = static_cast<std::size_t>(p);
         if (parent < outputs && !state.unreliable[parent] && !state.nonCompositional[parent]) continue;
-        if (parent < outputs) history.parentUnusable.insert(static_cast<int>(k));
         if (parent < outputs)
             history.relative.try_emplace(
                 static_cast<int>(k),
@@ -587,10 +585,10 @@ void recordDiscards(const Pass& pass, RigProbe& probe, const LearnOptions& optio
 }
 
 // Constraint operators for the non-compositional outputs, parents before children (constraint_fit.h). An output
-// that left its parent's frame only because its parent was not modelled goes back to that frame once the parent
-// is (a toe under an IK foot); the others are fitted once. True when a frame changed.
+// whose parent is now modelled by a constraint is first tried relative to it again (a toe under an IK foot: it
+// failed there only while its parent was mispredicted); each output is fitted once. True when a frame changed.
 bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hierarchy, ConstraintFitter& fitter,
-                    FrameHistory& history, std::set<int>& tried)
+                    FrameHistory& history, std::set<int>& tried, std::set<int>& relativeAgain)
 {
     std::vector<int> order(hierarchy.size());
     std::vector<int> depth(hierarchy.size(), 0);
@@ -604,17 +602,20 @@ bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hi
         return depth[static_cast<std::size_t>(a)] < depth[static_cast<std::size_t>(b)];
     });
     bool changed = false;
+    std::set<int> changedNow;  // their children wait for a pass in the new frames
     for (const int k : order) {
         const auto i = static_cast<std::size_t>(k);
         if (!state.nonCompositional[i] || tried.contains(k)) continue;
         const int p = hierarchy[i];
+        if (changedNow.contains(p)) continue;
         const bool parentModelled = p >= 0 && !state.nonCompositional[static_cast<std::size_t>(p)] &&
                                     !state.unreliable[static_cast<std::size_t>(p)];
         if (p >= 0 && !parentModelled && !tried.contains(p)) continue;  // its parent first
-        if (parentModelled && history.parentUnusable.erase(k) > 0) {
+        if (parentModelled && probe.constraints.contains(p) && relativeAgain.insert(k).second) {
             state.nonCompositional[i] = 0;
             probe.parents[i] = p;
             changed = true;
+            changedNow.insert(k);
             continue;
         }
         tried.insert(k);
@@ -630,6 +631,7 @@ bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hi
         probe.parents[i] = -1;
         state.nonCompositional[i] = 0;
         changed = true;
+        changedNow.insert(k);
     }
     return changed;
 }
@@ -662,7 +664,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
                                            : options.threads);
     std::vector<ParameterSamples> samples = firstSamples(pool, parameters.size(), rest, options);
     ConstraintFitter fitter(probe, samples, rig.outputParents(), helper, options);
-    std::set<int> fitted;  // outputs a constraint was tried on
+    std::set<int> fitted, relativeAgain;  // outputs a constraint was tried on; tried relative again
     ValidationPoses poses = drawPoses(parameters, options);
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
@@ -686,7 +688,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
             worldWhereParentUnusable(probe, state, history);
             continue;
         }
-        if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted)) continue;
+        if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain)) continue;
         if (distrustOverEpsilon(pass, options, distrusted)) continue;
         if (!raiseBudgets(pass, options, budgets)) break;
     }
@@ -708,3 +710,4 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
 }
 
 }  // namespace rig
+
