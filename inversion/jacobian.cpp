@@ -1159,7 +1159,8 @@ void ResidualWorkspace::wholeDifferences(std::span<const double> x, double step,
     // count.
     jacobian.setZero();
     trial_.assign(x.begin(), x.end());
-    Eigen::VectorXd plus(r.size()), minus(r.size());
+    const Eigen::Index rows = structure_->rows();
+    Eigen::VectorXd plus(rows), minus(rows);
     for (int c = 0; c < structure_->columnCount(); ++c) {
         const std::size_t i = static_cast<std::size_t>(c);
         trial_[i] = x[i] + step;
@@ -1169,7 +1170,7 @@ void ResidualWorkspace::wholeDifferences(std::span<const double> x, double step,
         trial_[i] = x[i];
         jacobian.col(c) = (plus - minus) / (2.0 * step);
     }
-    residuals(x, r);
+    residuals(x, r.head(rows));
 }
 
 void ResidualWorkspace::normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep,
