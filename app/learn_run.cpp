@@ -58,7 +58,7 @@ double learningFraction(std::string_view stage, double fraction)
     return start + width * fraction;
 }
 
-bool discoversHelpers(const LearnJob& job) { return job.autoHelpers || job.helpers.empty(); }
+bool discoversHelpers(const LearnJob& job) { return !job.noHelpers && (job.autoHelpers || job.helpers.empty()); }
 
 GraphRigOptions rigOptions(const LearnJob& job)
 {
@@ -135,10 +135,24 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
         redundant.push_back(Json::array({a.parameters[static_cast<std::size_t>(i)].parameter.name,
                                          a.parameters[static_cast<std::size_t>(j)].parameter.name}));
     Json outputs = Json::array();
+    const auto nameOf = [&](int k) { return k < 0 ? Json() : Json(a.outputs[static_cast<std::size_t>(k)].name); };
     for (const ApproximationOutput& o : a.outputs) {
-        const std::string frame = o.parent >= 0 ? a.outputs[static_cast<std::size_t>(o.parent)].name : "world";
+        const std::string frame = o.constraint >= 0 ? "constraint"
+                                  : o.parent >= 0   ? a.outputs[static_cast<std::size_t>(o.parent)].name
+                                                    : "world";
+        Json constraint;
+        if (o.constraint >= 0) {
+            const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
+            constraint = {{"kind", constraintKindName(c.kind)},
+                          {"anchor", nameOf(c.anchor)},
+                          {"goal", nameOf(c.goal)},
+                          {"pole", nameOf(c.pole)},
+                          {"knots", c.shape.rigid.knots().size()}};
+        }
         outputs.push_back({{"name", o.name},
                            {"frame", frame},
+                           {"helper", o.helper},
+                           {"constraint", std::move(constraint)},
                            {"validation_error", o.modelled ? numberJson(o.validationError) : Json()}});
     }
     Json unmodelled = Json::array();

@@ -42,6 +42,7 @@ struct LearnJob {
     std::vector<GraphRigOptions::LearnRange> ranges{};  // the spec's `ranges:` (GraphRigOptions::ranges)
     std::vector<std::string> helpers{};                 // helper frame globs (--helpers, the spec's `helpers:`)
     bool autoHelpers = false;                           // --auto-helpers, the spec's `helpers: auto`
+    bool noHelpers = false;  // --no-helpers, the spec's `helpers: none`: no helper frame, no constraint operator
 };
 
 // Whether the rig's helper frames are found by discoverHelpers (graph_rig_function.h): when asked for, and by

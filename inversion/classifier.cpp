@@ -701,7 +701,8 @@ bool frameOutputs(RigProbe& probe, Context& c, double lo, double hi, const RigSt
         for (double a : offsets) {
             const Eigen::Matrix4d framed =
                 probe.inFrame(kk, [&](int j) -> const Eigen::Matrix4d& { return samples.world(j, a, rest); });
-            acts = acts || matrixError(framed, rest[k], options.frameRadius) > options.effectTolerance + slack * std::abs(a);
+            acts = acts ||
+                   matrixError(framed, rest[k], options.frameRadius) > options.effectTolerance + slack * std::abs(a);
         }
         if (acts) {
             c.outputs.push_back(kk);

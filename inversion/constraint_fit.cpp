@@ -319,4 +319,3 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
 }
 
 }  // namespace rig
-

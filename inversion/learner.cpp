@@ -688,7 +688,11 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
             worldWhereParentUnusable(probe, state, history);
             continue;
         }
-        if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain)) continue;
+        // Without helper frames no constraint has an input (rig-learn --no-helpers): nothing to try.
+        const bool helpers = std::any_of(helper.begin(), helper.end(), [](char h) { return h != 0; });
+        if (options.perOutput && helpers &&
+            fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain))
+            continue;
         if (distrustOverEpsilon(pass, options, distrusted)) continue;
         if (!raiseBudgets(pass, options, budgets)) break;
     }
@@ -710,4 +714,3 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
 }
 
 }  // namespace rig
-

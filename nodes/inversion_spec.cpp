@@ -119,8 +119,9 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
             readRanges(spec, entry.second, at);
             continue;
         }
-        if (key == "helpers" && entry.second.IsScalar() && entry.second.Scalar() == "auto") {
-            spec.autoHelpers = true;
+        if (key == "helpers" && entry.second.IsScalar() &&
+            (entry.second.Scalar() == "auto" || entry.second.Scalar() == "none")) {
+            (entry.second.Scalar() == "auto" ? spec.autoHelpers : spec.noHelpers) = true;
             continue;
         }
         auto* list = key == "params"    ? &spec.params

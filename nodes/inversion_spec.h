@@ -19,6 +19,7 @@ struct InversionSpec {
     std::vector<std::string> outputs;  // output joint globs
     std::vector<std::string> helpers;  // helper frame globs (GraphRigOptions::helperGlobs)
     bool autoHelpers = false;          // `helpers: auto` (GraphRigOptions::autoHelpers)
+    bool noHelpers = false;            // `helpers: none`: no helper frame (rig-learn --no-helpers)
     std::vector<HeldPlug> set;         // held plugs, in the file's order, values in the rig file's units
     // `ranges:`, a map of parameter glob -> [min, max] (the rig file's units): where a control without declared
     // limits is learned (GraphRigOptions::ranges), in the file's order.

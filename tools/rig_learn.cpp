@@ -27,6 +27,7 @@ struct Options {
     std::vector<std::string> outputs;
     std::vector<std::string> helpers;  // --helpers, then the spec's
     bool autoHelpers = false;          // --auto-helpers or the spec's `helpers: auto`
+    bool noHelpers = false;            // --no-helpers or the spec's `helpers: none`
     std::string output;
     std::string epsilon;
     bool epsilonGiven = false;
@@ -55,6 +56,7 @@ void readSpec(Options& options)
     options.outputs.insert(options.outputs.end(), spec.outputs.begin(), spec.outputs.end());
     options.helpers.insert(options.helpers.end(), spec.helpers.begin(), spec.helpers.end());
     options.autoHelpers = options.autoHelpers || spec.autoHelpers;
+    options.noHelpers = options.noHelpers || spec.noHelpers;
     options.specPlaces.merge(spec.places);
     options.ranges = spec.ranges;
     for (const HeldPlug& h : spec.set) {
@@ -139,6 +141,25 @@ std::string validationText(const Approximation& a)
     return out;
 }
 
+// The outputs learned with a constraint operator, each with what its base reads (docs/rig-learn.md).
+std::string constraintsText(const Approximation& a)
+{
+    if (a.constraints.empty()) return {};
+    const auto name = [&](int k) { return a.outputs[static_cast<std::size_t>(k)].name; };
+    std::string out = fmt::format("\nConstraint operators: {} outputs\n", a.constraints.size());
+    for (const ApproximationOutput& o : a.outputs) {
+        if (o.constraint < 0) continue;
+        const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
+        const auto& knots = c.shape.rigid.knots();
+        out += fmt::format(
+            "  {}: {}, root carried by {}, goal {}, pole {}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
+            constraintKindName(c.kind), c.anchor < 0 ? "the world" : name(c.anchor), name(c.goal),
+            c.pole < 0 ? "fixed to the anchor" : name(c.pole), knots.size(), c.restReach + knots.front(),
+            c.restReach + knots.back());
+    }
+    return out;
+}
+
 std::string readableReport(const app::LearnOutcome& learned, const Options& options)
 {
     const Approximation& a = learned.approximation;
@@ -147,7 +168,8 @@ std::string readableReport(const app::LearnOutcome& learned, const Options& opti
                     learned.rigParameters, learned.rigOutputs, a.epsilon, a.training.orderer);
     if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", app::heldText(a.held));
     if (!learned.helpers.empty())
-        out += fmt::format("Helpers (learned, never targets): {}\n", fmt::join(learned.helpers, ", "));
+        out += fmt::format("Helpers (kept where a constraint operator reads them; never targets): {}\n",
+                           fmt::join(learned.helpers, ", "));
     out += "\n";
     out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
     std::vector<std::vector<std::string>> rows{
@@ -191,10 +213,13 @@ std::string readableReport(const app::LearnOutcome& learned, const Options& opti
     int relative = 0;
     for (const ApproximationOutput& o : a.outputs) {
         if (o.parent >= 0) ++relative;
-        else world.push_back(o.name);
+        else if (o.constraint < 0) world.push_back(o.name);
     }
-    out += fmt::format("\nFrames: {} outputs learned relative to their parent output, {} in world space{}{}\n",
-                       relative, world.size(), world.empty() ? "" : ": ", fmt::join(world, ", "));
+    out += constraintsText(a);
+    out += fmt::format(
+        "\nFrames: {} outputs learned relative to their parent output, {} with a constraint operator, "
+        "{} in world space{}{}\n",
+        relative, a.constraints.size(), world.size(), world.empty() ? "" : ": ", fmt::join(world, ", "));
     for (const DroppedOutput& d : a.droppedOutputs) out += fmt::format("  left out: {}: {}\n", d.name, d.reason);
     out += fmt::format(
         "\nTraining: {} rig evaluations ({} for the composition order), {:.2f} s learning, {:.2f} s loading "
@@ -224,6 +249,7 @@ int run(Options& options)
     job.ranges = options.ranges;
     job.helpers = options.helpers;
     job.autoHelpers = options.autoHelpers;
+    job.noHelpers = options.noHelpers;
     if (options.epsilonGiven) job.options.epsilon = app::parseEpsilon(options.epsilon);
     job.options.orderer = app::ordererFromName(options.orderer);
     job.options.relativeFrames = !options.worldSpace;
@@ -302,6 +328,10 @@ int main(int argc, char** argv)
     app.add_flag("--auto-helpers", options.autoHelpers,
                  "Also find the helper frames: transforms or joints whose world matrix feeds the outputs and that "
                  "a parameter moves");
+    app.add_flag("--no-helpers", options.noHelpers,
+                 "No helper frame, so no constraint operator: what does not compose stays unmodelled, for rig-invert "
+                 "--hybrid")
+        ->excludes("--auto-helpers");
     app.add_option("--set", options.sets,
                    "Hold a plug at a value while learning, not inverted: PLUG=VALUE in the rig file's units, e.g. "
                    "L_leg_settings.ikFk=1 (repeatable; wins over the spec's 'set:')")

@@ -98,8 +98,9 @@ TEST_CASE("constraints: the IK arm's chain is learned as planar-chain constraint
     const Approximation& a = learnedArm().approximation;
     CHECK(!a.hasUnmodelledOutputs());
     CHECK(a.validation.withinEpsilon);
-    CHECK(a.validation.maxRelativeError < 1e-5);
-    REQUIRE(a.constraints.size() == 3);  // shoulder, elbow and wrist, each on the goal and the pole
+    CHECK(a.validation.maxRelativeError < 1e-3);
+    // The shoulder and the elbow on the goal and the pole; the wrist, whose IK translation is constant, relative to
+    // the elbow again once that is modelled.
     std::vector<std::string> constrained;
     for (const auto& o : a.outputs)
         if (o.constraint >= 0) {
@@ -110,7 +111,11 @@ TEST_CASE("constraints: the IK arm's chain is learned as planar-chain constraint
             CHECK(a.outputs[static_cast<std::size_t>(c.pole)].name == "arm_pole_ctrl");
             CHECK(o.parent == -1);
         }
-    CHECK(constrained == std::vector<std::string>{"shoulder", "elbow", "wrist"});
+    CHECK(constrained == std::vector<std::string>{"shoulder", "elbow"});
+    const auto wrist =
+        std::find_if(a.outputs.begin(), a.outputs.end(), [](const auto& o) { return o.name == "wrist"; });
+    REQUIRE(wrist != a.outputs.end());
+    CHECK(a.outputs[static_cast<std::size_t>(wrist->parent)].name == "elbow");
     for (const auto& o : a.outputs) CHECK(o.helper == (o.name == "arm_ik_ctrl" || o.name == "arm_pole_ctrl"));
 }
 

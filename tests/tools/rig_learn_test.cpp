@@ -246,12 +246,13 @@ TEST_CASE("rig-learn: helper frames are found by default, named by --helpers or 
     const auto r =
         run(rigLearn(fmt::format("{} {} --helpers arm_ctrl -o '{}'", arm, armParams, (dir / "a.yaml").string())));
     REQUIRE(r.exitCode == 0);
-    CHECK(
-        r.out.starts_with("rig-learn rigs/examples/arm.yaml: 7 parameters, 4 outputs, epsilon 0.001 cm per unit, "
-                          "orderer structured\nHelpers (learned, never targets): arm_ctrl\n"));
+    CHECK(r.out.starts_with(
+        "rig-learn rigs/examples/arm.yaml: 7 parameters, 4 outputs, epsilon 0.001 cm per unit, "
+        "orderer structured\nHelpers (kept where a constraint operator reads them; never targets): arm_ctrl\n"));
+    // No constraint reads it: the approximation leaves it out.
     const rig::Approximation a = rig::readApproximationFile(dir / "a.yaml");
-    REQUIRE(a.outputs.size() == 4);
-    CHECK(a.outputs.back().name == "arm_ctrl");
+    REQUIRE(a.outputs.size() == 3);
+    CHECK(std::none_of(a.outputs.begin(), a.outputs.end(), [](const auto& o) { return o.helper; }));
 
     // Bad helpers are one line; the spec's name their place.
     const std::string o = fmt::format("-o '{}'", (dir / "b.yaml").string());
@@ -340,6 +341,8 @@ const std::string bipedLegs =
     "'[LR]_leg_pole_ctrl.translate?' '[LR]_foot_fk_ctrl.rotate?' '[LR]_toe_ctrl.rotate?' --outputs Hips "
     "LHipJoint LeftUpLeg LeftLeg LeftFoot LeftToeBase RHipJoint RightUpLeg RightLeg RightFoot RightToeBase";
 const std::string ikMode = "--set L_leg_settings.ikFk=1 --set R_leg_settings.ikFk=1";
+// Learned without helper frames: the legs stay unmodelled (the hybrid solve's case).
+const std::string ikLearn = ikMode + " --no-helpers";
 
 std::vector<std::string> names(const rig::Approximation& a)
 {
@@ -365,7 +368,7 @@ TEST_CASE("rig-learn --set: the biped's legs learned in IK mode are another mode
     const auto fk = dir / "fk.yaml", ik = dir / "ik.yaml", json = dir / "ik.json";
     REQUIRE(run(rigLearn(fmt::format("{} -o '{}'", bipedLegs, fk.string()))).exitCode == 0);
     const auto r =
-        run(rigLearn(fmt::format("{} {} -o '{}' --report-json '{}'", bipedLegs, ikMode, ik.string(), json.string())));
+        run(rigLearn(fmt::format("{} {} -o '{}' --report-json '{}'", bipedLegs, ikLearn, ik.string(), json.string())));
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
     // The report says the state it learned in, under its first line.
@@ -402,7 +405,7 @@ TEST_CASE("rig-invert and rig-batch on an approximation learned with --set evalu
 {
     const auto dir = rig::test::scratchDir("rig-invert-held");
     const auto ik = dir / "ik.yaml";
-    REQUIRE(run(rigLearn(fmt::format("{} {} -o '{}'", bipedLegs, ikMode, ik.string()))).exitCode == 0);
+    REQUIRE(run(rigLearn(fmt::format("{} {} -o '{}'", bipedLegs, ikLearn, ik.string()))).exitCode == 0);
     const rig::Approximation a = rig::readApproximationFile(ik);
     const auto modelled = names(a);
     REQUIRE(std::find(modelled.begin(), modelled.end(), "root_ctrl.translateY") != modelled.end());
@@ -514,12 +517,13 @@ TEST_CASE("rig-learn --set and the spec's set: bad input is one line naming the 
                               word.string()));
 }
 
-TEST_CASE("rig-learn: an IK arm's report says what the file stores, which outputs are not modelled and why")
+TEST_CASE(
+    "rig-learn --no-helpers: an IK arm's report says what the file stores, which outputs are not modelled and why")
 {
     const auto dir = rig::test::scratchDir("rig-learn-ik-arm");
     const auto rigFile = rig::test::writeFile(dir / "arm.yaml", rig::test::ikArm);
     const auto out = dir / "arm.approx.yaml", json = dir / "report.json";
-    const auto r = run(rigLearn(fmt::format("'{}' {} -o '{}' --report-json '{}'", rigFile.string(),
+    const auto r = run(rigLearn(fmt::format("'{}' {} --no-helpers -o '{}' --report-json '{}'", rigFile.string(),
                                             rig::test::ikArmFlags, out.string(), json.string())));
     REQUIRE(r.exitCode == 0);
     const rig::Approximation a = rig::readApproximationFile(out);
@@ -575,13 +579,15 @@ TEST_CASE("rig-learn: an IK arm's report says what the file stores, which output
     CHECK(report["validation"]["validated_outputs"].as<int>() == 1);
 }
 
-TEST_CASE("rig-learn: the biped with IK legs (rigs/biped_inversion_ik.yaml) reports its stored forms and its legs")
+TEST_CASE(
+    "rig-learn --no-helpers: the biped with IK legs (rigs/biped_inversion_ik.yaml) reports its stored forms "
+    "and its legs, unmodelled")
 {
     const auto dir = rig::test::scratchDir("rig-learn-ik-biped");
     const auto out = dir / "ik.yaml", json = dir / "report.json";
     const auto r =
-        run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml -o '{}' --report-json "
-                                 "'{}'",
+        run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml --no-helpers -o '{}' "
+                                 "--report-json '{}'",
                                  out.string(), json.string())));
     REQUIRE(r.exitCode == 0);
     const YAML::Node report = YAML::LoadFile(json.string());
@@ -613,11 +619,12 @@ TEST_CASE("rig-learn: the biped with IK legs (rigs/biped_inversion_ik.yaml) repo
     }
 }
 
-TEST_CASE("rig-invert --hybrid: the biped with IK legs (rigs/biped_inversion_ik.yaml) fits its legs on the real rig")
+TEST_CASE("rig-invert --hybrid: the biped with IK legs learned without helpers fits its legs on the real rig")
 {
     const auto dir = rig::test::scratchDir("rig-invert-hybrid");
     const auto ik = dir / "ik.yaml";
-    REQUIRE(run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml -o '{}'", ik.string())))
+    REQUIRE(run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml --no-helpers -o '{}'",
+                                     ik.string())))
                 .exitCode == 0);
     const rig::Approximation a = rig::readApproximationFile(ik);
     REQUIRE(a.hasUnmodelledOutputs());
