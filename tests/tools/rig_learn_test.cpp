@@ -696,3 +696,56 @@ TEST_CASE("rig-invert --hybrid: the biped with IK legs learned without helpers f
           "error: --hybrid with --polish 1: choose one; the hybrid solve fits what the "
           "approximation does not model on the real rig itself\n");
 }
+
+TEST_CASE("rig-learn: the biped's IK legs (rigs/biped_inversion_ik.yaml) learned as planar chains, inverted without "
+          "--hybrid on the real rig")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-ik-chains");
+    const auto ik = dir / "ik.yaml", json = dir / "learn.json";
+    const auto learned = run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml -o '{}' "
+                                                  "--report-json '{}'",
+                                                  ik.string(), json.string())));
+    INFO(learned.err);
+    REQUIRE(learned.exitCode == 0);
+    const rig::Approximation a = rig::readApproximationFile(ik);
+    // Every leg joint modelled, the thighs, shins and feet by a planar chain on their IK goal and pole, the toes
+    // relative to the feet, within epsilon.
+    CHECK(!a.hasUnmodelledOutputs());
+    CHECK(a.validation.withinEpsilon);
+    std::vector<std::string> constrained, helpers;
+    for (const auto& o : a.outputs) {
+        if (o.constraint >= 0) constrained.push_back(o.name);
+        if (o.helper) helpers.push_back(o.name);
+    }
+    CHECK(constrained ==
+          std::vector<std::string>{"LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg", "RightFoot"});
+    CHECK(helpers == std::vector<std::string>{"L_leg_ik_ctrl", "L_leg_pole_ctrl", "R_leg_ik_ctrl", "R_leg_pole_ctrl"});
+    CHECK(learned.out.find("\n  LeftLeg: planarChain, root carried by LHipJoint, goal L_leg_ik_ctrl, pole "
+                           "L_leg_pole_ctrl; shape ") != std::string::npos);
+    const YAML::Node report = YAML::LoadFile(json.string());
+    CHECK(report["unmodelled_outputs"].size() == 0);
+
+    // The hybrid test's targets (hips lowered, the left foot control moved): reached on the real rig by the
+    // approximation's solve alone, no real-rig evaluation in the solve.
+    std::string get;
+    for (const auto& o : a.outputs)
+        if (!o.helper) get += fmt::format(" --get {}.worldMatrix", o.name);
+    const auto targets = dir / "targets.json";
+    REQUIRE(run(fmt::format("{} rigs/biped.yaml --set L_leg_settings.ikFk=1 --set R_leg_settings.ikFk=1 --set "
+                            "L_leg_ik.stretch=true --set R_leg_ik.stretch=true --set root_ctrl.translateY=-8 --set "
+                            "L_leg_ik_ctrl.translateZ=12 --frames 1:3{} -o '{}'",
+                            rig::test::tool("graph-eval"), get, targets.string()))
+                .exitCode == 0);
+    const auto inverted =
+        run(fmt::format("{} '{}' --rig rigs/biped.yaml --clip '{}' -o '{}' --report-json '{}'",
+                        rig::test::tool("rig-invert"), ik.string(), targets.string(), (dir / "curves.json").string(),
+                        (dir / "report.json").string()));
+    INFO(inverted.out);
+    INFO(inverted.err);
+    REQUIRE(inverted.exitCode == 0);
+    const YAML::Node invert = YAML::LoadFile((dir / "report.json").string());
+    CHECK(invert["status_frames"]["reached"].as<int>() == 3);
+    CHECK(invert["max_position_error_cm"].as<double>() < 1e-3);
+    CHECK(invert["unmodelled_outputs"].size() == 0);
+    CHECK(invert["per_frame"][0]["real_rig_evaluations"].as<int>() == 0);
+}
