@@ -72,6 +72,13 @@ void printSummary(const bench::Json& r)
             figure(ik->at("cpu_ms_per_frame"), "ms"), figure(ik->at("real_rig_evaluations_per_frame"), "", 4),
             figure(ik->at("real_rig").at("max_position_error_cm"), "cm"),
             figure(ik->at("leg_joints_vs_fk_max_cm"), "cm"));
+    if (const auto ik = r.find("ik_legs_constraints"); ik != r.end() && !ik->is_null())
+        std::cout << fmt::format(
+            "ik chains   {} per frame (planar chains, 1 thread), {} unmodelled outputs, {} training evaluations, "
+            "worst {}; leg joints {} from FK's at worst\n",
+            figure(ik->at("cpu_ms_per_frame"), "ms"), figure(ik->at("unmodelled_outputs"), "", 4),
+            figure(ik->at("training_evaluations"), "", 6), figure(ik->at("real_rig").at("max_position_error_cm"), "cm"),
+            figure(ik->at("leg_joints_vs_fk_max_cm"), "cm"));
     std::cout << fmt::format("training    {} evaluations, {}\n", figure(train.at("evaluations"), "", 6),
                              figure(train.at("seconds"), "s"));
     const auto threadsLine = [](const std::string& what, const bench::Json& t) {
