@@ -697,14 +697,16 @@ TEST_CASE("rig-invert --hybrid: the biped with IK legs learned without helpers f
           "approximation does not model on the real rig itself\n");
 }
 
-TEST_CASE("rig-learn: the biped's IK legs (rigs/biped_inversion_ik.yaml) learned as planar chains, inverted without "
-          "--hybrid on the real rig")
+TEST_CASE(
+    "rig-learn: the biped's IK legs (rigs/biped_inversion_ik.yaml) learned as planar chains, inverted without "
+    "--hybrid on the real rig")
 {
     const auto dir = rig::test::scratchDir("rig-learn-ik-chains");
     const auto ik = dir / "ik.yaml", json = dir / "learn.json";
-    const auto learned = run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml -o '{}' "
-                                                  "--report-json '{}'",
-                                                  ik.string(), json.string())));
+    const auto learned =
+        run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion_ik.yaml -o '{}' "
+                                 "--report-json '{}'",
+                                 ik.string(), json.string())));
     INFO(learned.err);
     REQUIRE(learned.exitCode == 0);
     const rig::Approximation a = rig::readApproximationFile(ik);
@@ -736,10 +738,9 @@ TEST_CASE("rig-learn: the biped's IK legs (rigs/biped_inversion_ik.yaml) learned
                             "L_leg_ik_ctrl.translateZ=12 --frames 1:3{} -o '{}'",
                             rig::test::tool("graph-eval"), get, targets.string()))
                 .exitCode == 0);
-    const auto inverted =
-        run(fmt::format("{} '{}' --rig rigs/biped.yaml --clip '{}' -o '{}' --report-json '{}'",
-                        rig::test::tool("rig-invert"), ik.string(), targets.string(), (dir / "curves.json").string(),
-                        (dir / "report.json").string()));
+    const auto inverted = run(fmt::format("{} '{}' --rig rigs/biped.yaml --clip '{}' -o '{}' --report-json '{}'",
+                                          rig::test::tool("rig-invert"), ik.string(), targets.string(),
+                                          (dir / "curves.json").string(), (dir / "report.json").string()));
     INFO(inverted.out);
     INFO(inverted.err);
     REQUIRE(inverted.exitCode == 0);
