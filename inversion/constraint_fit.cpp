@@ -166,6 +166,8 @@ bool ConstraintFitter::sweepFor(const ConstraintBase& base, const std::vector<in
         const ParameterSamples& sample = samples_[static_cast<std::size_t>(i)];
         if (!std::binary_search(sample.moved.begin(), sample.moved.end(), base.goal)) continue;
         if (base.anchor >= 0 && std::binary_search(sample.moved.begin(), sample.moved.end(), base.anchor)) continue;
+        // A control with limits (a foot roll that also moves the goal) cannot go wherever the line goes.
+        if (probe_.rig().parameters()[static_cast<std::size_t>(i)].limited) continue;
         double smallest = 0.0;
         for (const auto& [a, worlds] : sample.worlds)
             if (a != 0.0 && (smallest == 0.0 || std::abs(a) < std::abs(smallest))) smallest = a;

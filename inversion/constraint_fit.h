@@ -53,8 +53,9 @@ private:
     bool usableAnchor(int a, const RigState& state) const;
     std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k
     const std::vector<Pose>& poses(const std::vector<int>& varied, int set, int count);
-    // The goal's sweep: its parameters moved together so that the goal moves along the chain's line at rest by t
-    // (to first order), the rig's worlds there kept by t. False when no parameter moves the goal alone.
+    // The goal's sweep: its free parameters (without limits: the goal's translations) moved together so that the goal
+    // moves along the chain's line at rest by t (to first order), the rig's worlds there kept by t. False when no
+    // such parameter moves the goal apart from the anchor.
     struct Sweep {
         std::vector<int> parameters;
         Eigen::VectorXd direction;  // per parameter, its offset per unit of t

@@ -750,3 +750,26 @@ TEST_CASE(
     CHECK(invert["unmodelled_outputs"].size() == 0);
     CHECK(invert["per_frame"][0]["real_rig_evaluations"].as<int>() == 0);
 }
+
+TEST_CASE(
+    "rig-learn: the creature's IK arms and thighs (rigs/creature_inversion_ik.yaml) learned as planar chains "
+    "on their goals and poles, within epsilon")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-creature-chains");
+    const auto out = dir / "creature.yaml";
+    const auto learned =
+        run(rigLearn(fmt::format("rigs/creature.yaml --spec rigs/creature_inversion_ik.yaml -o '{}'", out.string())));
+    INFO(learned.err);
+    REQUIRE(learned.exitCode == 0);
+    const rig::Approximation a = rig::readApproximationFile(out);
+    CHECK(a.validation.withinEpsilon);
+    std::vector<std::string> constrained;
+    for (const auto& o : a.outputs)
+        if (o.constraint >= 0) constrained.push_back(o.name);
+    // The reverse foot's ankle goal is the legs' goal helper; knees and claw tips are left to the hybrid solve.
+    CHECK(constrained == std::vector<std::string>{"L_upperArm", "L_forearm", "L_hand", "R_upperArm", "R_forearm",
+                                                  "R_hand", "L_thigh", "R_thigh"});
+    CHECK(
+        learned.out.find("  L_thigh: planarChain, root carried by pelvis, goal L_ankle_goal, pole L_leg_pole_ctrl; ") !=
+        std::string::npos);
+}
