@@ -414,6 +414,8 @@ void SolveRun::run()
     scratch_.results.assign(coupled ? plan_.trees.size() : plan_.partition.blocks.size(), MinimizerResult{});
     if (coupled) solveTrees();
     else solveBlocks();
+    // The joints stay where the solve put them: the final evaluation still measures them.
+    if (!impl_.poles.empty()) holdPoles(impl_.approximation, impl_.poles, values_);
     finish(fromSolve);
 }
 

@@ -12,16 +12,18 @@
 
 #include <oneapi/tbb/task_arena.h>
 
+#include "inversion/pole_hold.h"
 #include "inversion/solve_plan.h"
 #include "inversion/solver.h"
 
 namespace rig {
 
 struct Solver::Impl {
-    Impl(const Approximation& a, SolverOptions o) : approximation(a), options(o) {}
+    Impl(const Approximation& a, SolverOptions o) : approximation(a), options(o), poles(poleHolds(a)) {}
 
     const Approximation& approximation;
     SolverOptions options;
+    std::vector<PoleHold> poles;               // the planar chains' poles held where the joints do not decide them
     std::optional<Equivalences> equivalences;  // made once the approximation is checked (Solver's constructor)
     std::optional<tbb::task_arena> arena;
     Pool<SolveScratch> scratchPool;

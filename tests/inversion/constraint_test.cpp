@@ -11,6 +11,7 @@
 #include "inversion/constraint.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
+#include "inversion/pole_hold.h"
 #include "inversion/solver.h"
 #include "solver_rigs.h"
 #include "test_support.h"
@@ -167,6 +168,39 @@ TEST_CASE("constraints: poses of the IK arm are solved through its planar chains
     }
     MESSAGE("reached from rest: " << fromRest << " of " << poses);
     CHECK(fromRest >= poses * 9 / 10);
+}
+
+TEST_CASE("constraints: a held pole sits at its rest distance in the plane the solve found, the joints unchanged")
+{
+    const Approximation& a = learnedArm().approximation;
+    const std::vector<PoleHold> holds = poleHolds(a);
+    REQUIRE(holds.size() == 1);  // the arm's one pole, read by the shoulder's and the elbow's constraints
+    const PoleHold& hold = holds.front();
+    CHECK(hold.parameters.size() == 3);  // arm_pole_ctrl.translateX, Y and Z
+    CHECK(hold.across > 1.0);
+    const ConstraintBase& c = a.constraints[static_cast<std::size_t>(hold.constraint)];
+    std::mt19937 rng(11);
+    for (int pose = 0; pose < 20; ++pose) {
+        CAPTURE(pose);
+        std::vector<double> values = test::randomValues(a, rng, 1.0);
+        for (const int p : hold.parameters)
+            values[static_cast<std::size_t>(p)] *= 40.0;  // far out, as a drift leaves it
+        std::vector<Eigen::Matrix4d> before, after;
+        a.evaluate(values, before);
+        holdPoles(a, holds, values);
+        a.evaluate(values, after);
+        for (std::size_t k = 0; k < a.outputs.size(); ++k)
+            if (!a.outputs[k].helper) CHECK((before[k] - after[k]).cwiseAbs().maxCoeff() < 1e-9);
+        const Eigen::Vector3d root =
+            after[static_cast<std::size_t>(c.anchor)].block<3, 3>(0, 0) *
+                a.outputs[static_cast<std::size_t>(c.anchor)].rest.block<3, 3>(0, 0).transpose() *
+                (c.root - a.outputs[static_cast<std::size_t>(c.anchor)].rest.block<3, 1>(0, 3)) +
+            after[static_cast<std::size_t>(c.anchor)].block<3, 1>(0, 3);
+        const Eigen::Vector3d x = (after[static_cast<std::size_t>(c.goal)].block<3, 1>(0, 3) - root).normalized();
+        const Eigen::Vector3d offset = after[static_cast<std::size_t>(c.pole)].block<3, 1>(0, 3) - root;
+        CHECK(offset.dot(x) == doctest::Approx(hold.along).epsilon(1e-9));
+        CHECK((offset - offset.dot(x) * x).norm() == doctest::Approx(hold.across).epsilon(1e-9));
+    }
 }
 
 }  // namespace rig

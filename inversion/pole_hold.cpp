@@ -1,0 +1,106 @@
+#include "inversion/pole_hold.h"
+
+#include <algorithm>
+#include <set>
+
+#include <Eigen/Dense>
+
+namespace rig {
+namespace {
+
+// Below this distance from the chain's line the plane is not defined: the pole is left where it is.
+constexpr double degenerateAcross = 1e-6;
+
+// Output k's world at `values`, evaluating only what it reads (its parents, its base's inputs). With `columns`, the
+// pole's own translations' columns d(origin)/da are set there as they are met (their operators' axes through the
+// product before them), in the order of `controls`.
+Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> values,
+                        const std::vector<int>* controls = nullptr, Eigen::MatrixXd* columns = nullptr)
+{
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    for (std::size_t p = 0; p < a.parameters.size(); ++p) {
+        const ModelledParameter& mp = a.parameters[p];
+        const auto e = std::find(mp.outputs.begin(), mp.outputs.end(), k);
+        if (e == mp.outputs.end()) continue;
+        const Operator& op = mp.operators[static_cast<std::size_t>(
+            mp.operatorOfOutput[static_cast<std::size_t>(e - mp.outputs.begin())])];
+        const double offset = values[p] - mp.parameter.defaultValue;
+        if (controls) {
+            const auto c = std::find(controls->begin(), controls->end(), static_cast<int>(p));
+            if (c != controls->end())
+                columns->col(c - controls->begin()) = m.block<3, 3>(0, 0) * (op.magnitudeDerivative(offset) * op.axis);
+        }
+        m = m * op.matrix(offset);
+    }
+    const ApproximationOutput& output = a.outputs[static_cast<std::size_t>(k)];
+    if (output.constraint >= 0) {
+        const ConstraintBase& c = a.constraints[static_cast<std::size_t>(output.constraint)];
+        const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+        const Eigen::Matrix4d anchor =
+            c.anchor < 0 ? identity
+                         : Eigen::Matrix4d(worldOf(a, c.anchor, values) *
+                                           a.outputs[static_cast<std::size_t>(c.anchor)].rest.inverse());
+        m = constraintBase(c, chainPoints(c, anchor, worldOf(a, c.goal, values),
+                                          c.pole < 0 ? identity : worldOf(a, c.pole, values))) *
+            m;
+    } else if (output.parent >= 0) {
+        m = worldOf(a, output.parent, values) * a.outputs[static_cast<std::size_t>(output.parent)].rest.inverse() * m;
+    }
+    return m * output.rest;
+}
+
+}  // namespace
+
+std::vector<PoleHold> poleHolds(const Approximation& approximation)
+{
+    std::vector<PoleHold> holds;
+    std::set<int> poles;
+    for (std::size_t i = 0; i < approximation.constraints.size(); ++i) {
+        const ConstraintBase& c = approximation.constraints[i];
+        if (c.pole < 0 || !poles.insert(c.pole).second) continue;
+        PoleHold hold;
+        hold.constraint = static_cast<int>(i);
+        for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
+            const ModelledParameter& m = approximation.parameters[p];
+            if (m.outputs != std::vector<int>{c.pole}) continue;
+            const bool translations = std::all_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
+                return op.kind == OperatorKind::translation && op.linear() && !op.held();
+            });
+            if (translations && !m.parameter.limited) hold.parameters.push_back(static_cast<int>(p));
+        }
+        if (hold.parameters.empty()) continue;
+        const Eigen::Vector3d x =
+            (approximation.outputs[static_cast<std::size_t>(c.goal)].rest.block<3, 1>(0, 3) - c.root).normalized();
+        const Eigen::Vector3d offset = c.restPole - c.root;
+        hold.along = offset.dot(x);
+        hold.across = (offset - hold.along * x).norm();
+        holds.push_back(std::move(hold));
+    }
+    return holds;
+}
+
+void holdPoles(const Approximation& approximation, std::span<const PoleHold> holds, std::span<double> values)
+{
+    for (const PoleHold& hold : holds) {
+        const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(hold.constraint)];
+        const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+        const Eigen::Matrix4d anchor =
+            c.anchor < 0 ? identity
+                         : Eigen::Matrix4d(worldOf(approximation, c.anchor, values) *
+                                           approximation.outputs[static_cast<std::size_t>(c.anchor)].rest.inverse());
+        // The pole's controls are translations moving it alone: its origin is affine in them.
+        Eigen::MatrixXd j(3, static_cast<Eigen::Index>(hold.parameters.size()));
+        const Eigen::Matrix4d pole = worldOf(approximation, c.pole, values, &hold.parameters, &j);
+        const ChainPoints points = chainPoints(c, anchor, worldOf(approximation, c.goal, values), pole);
+        const Eigen::Vector3d x = (points.goal - points.root).normalized();
+        const Eigen::Vector3d offset = points.pole - points.root;
+        const Eigen::Vector3d w = offset - offset.dot(x) * x;
+        if (!(w.norm() > degenerateAcross) || !x.allFinite()) continue;
+        const Eigen::Vector3d wanted = points.root + hold.along * x + hold.across * w.normalized();
+        const Eigen::VectorXd step = j.completeOrthogonalDecomposition().solve(wanted - points.pole);
+        for (std::size_t i = 0; i < hold.parameters.size(); ++i)
+            values[static_cast<std::size_t>(hold.parameters[i])] += step[static_cast<Eigen::Index>(i)];
+    }
+}
+
+}  // namespace rig

@@ -1,0 +1,33 @@
+#pragma once
+// What the joints cannot determine of a planar chain (inversion/constraint.h): its pole's distance from the chain
+// and its place along it. Only the plane through the root, the goal and the pole counts, so a solve's minimum-norm
+// steps leave those directions where the warm start had them, and the plane's turns push the pole further out
+// frame after frame (the biped's pole control went 118 m out over CMU 01_01). After each solve the pole's own
+// controls are set so that the pole sits in the plane found, at its rest offset along the chain's line and its rest
+// distance from it: the joints are the same, the pole never drifts, and it is reported as held (docs/solver.md).
+
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "inversion/approximation.h"
+
+namespace rig {
+
+struct PoleHold {
+    int constraint = -1;          // one of the constraints that read the pole (they share its root and goal)
+    std::vector<int> parameters;  // the pole's own controls: translations that move the pole's helper alone
+    double along = 0.0;           // the pole's rest offset along the chain's line from the root, cm
+    double across = 0.0;          // and its rest distance from that line, cm
+};
+
+// A hold per pole helper whose own controls are translations moving nothing else; none where the pole is fixed to
+// the anchor or moved by anything else too.
+std::vector<PoleHold> poleHolds(const Approximation& approximation);
+
+// Moves each hold's controls in `values` (one per approximation parameter) so that its pole sits at its rest
+// offset and distance in the plane it spans now. Evaluates only the outputs the chain reads.
+void holdPoles(const Approximation& approximation, std::span<const PoleHold> holds, std::span<double> values);
+
+}  // namespace rig
