@@ -84,9 +84,21 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
     best.resize(values.size());
     // An output is reached when its cost is this far within targetTolerance: no start can do better.
     const double reachedCost = 0.5 * std::pow(1e-3 * impl.options.targetTolerance, 2);
+    std::vector<char> placed(impl.approximation.constraints.size(), 0);
     for (const auto& step : plan->guessSteps(impl.approximation, *impl.equivalences)) {
         const BlockPlan& block = step->plan;
         const std::vector<int>& columns = step->block.parameters;
+        // A planar chain's first output: its goal and pole from its end and middle joints' targets (closed form),
+        // its anchor guessed already (parents first).
+        for (const int k : step->block.outputs) {
+            const int b = impl.approximation.outputs[static_cast<std::size_t>(k)].constraint;
+            if (b < 0 || placed[static_cast<std::size_t>(b)]) continue;
+            placeChain(impl.approximation, b, impl.poles, targets, values);
+            for (std::size_t c = 0; c < impl.approximation.constraints.size(); ++c)
+                placed[c] = placed[c] || impl.approximation.constraints[c].goal ==
+                                             impl.approximation.constraints[static_cast<std::size_t>(b)].goal;
+            for (std::size_t p = 0; p < values.size(); ++p) trial[p] = values[p];
+        }
         // Rotations that cannot move the output's position (every pivot at the joint, as a joint's own
         // rotate channels): its position cost is the same from every start, and a start that reaches the
         // target's rotation is as good as any.

@@ -49,6 +49,41 @@ Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> v
     return m * output.rest;
 }
 
+// The controls of a helper that are translations moving it alone, free of limits: where a cold start or a hold
+// may put it.
+std::vector<int> ownTranslations(const Approximation& approximation, int helper)
+{
+    std::vector<int> controls;
+    for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
+        const ModelledParameter& m = approximation.parameters[p];
+        if (m.outputs != std::vector<int>{helper} || m.parameter.limited) continue;
+        if (std::all_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
+                return op.kind == OperatorKind::translation && op.linear() && !op.held();
+            }))
+            controls.push_back(static_cast<int>(p));
+    }
+    return controls;
+}
+
+// Moves `controls` (translations of helper k alone) so that k's origin is at `wanted`, as near as they can.
+void place(const Approximation& approximation, int k, const std::vector<int>& controls, const Eigen::Vector3d& wanted,
+           std::span<double> values)
+{
+    Eigen::MatrixXd j(3, static_cast<Eigen::Index>(controls.size()));
+    const Eigen::Vector3d now = worldOf(approximation, k, values, &controls, &j).block<3, 1>(0, 3);
+    const Eigen::VectorXd step = j.completeOrthogonalDecomposition().solve(wanted - now);
+    for (std::size_t i = 0; i < controls.size(); ++i)
+        values[static_cast<std::size_t>(controls[i])] += step[static_cast<Eigen::Index>(i)];
+}
+
+Eigen::Vector3d rootAt(const Approximation& approximation, const ConstraintBase& c, std::span<const double> values)
+{
+    if (c.anchor < 0) return c.root;
+    const Eigen::Matrix4d motion = worldOf(approximation, c.anchor, values) *
+                                   approximation.outputs[static_cast<std::size_t>(c.anchor)].rest.inverse();
+    return motion.block<3, 3>(0, 0) * c.root + motion.block<3, 1>(0, 3);
+}
+
 }  // namespace
 
 std::vector<PoleHold> poleHolds(const Approximation& approximation)
@@ -60,14 +95,7 @@ std::vector<PoleHold> poleHolds(const Approximation& approximation)
         if (c.pole < 0 || !poles.insert(c.pole).second) continue;
         PoleHold hold;
         hold.constraint = static_cast<int>(i);
-        for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
-            const ModelledParameter& m = approximation.parameters[p];
-            if (m.outputs != std::vector<int>{c.pole}) continue;
-            const bool translations = std::all_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
-                return op.kind == OperatorKind::translation && op.linear() && !op.held();
-            });
-            if (translations && !m.parameter.limited) hold.parameters.push_back(static_cast<int>(p));
-        }
+        hold.parameters = ownTranslations(approximation, c.pole);
         if (hold.parameters.empty()) continue;
         const Eigen::Vector3d x =
             (approximation.outputs[static_cast<std::size_t>(c.goal)].rest.block<3, 1>(0, 3) - c.root).normalized();
@@ -101,6 +129,51 @@ void holdPoles(const Approximation& approximation, std::span<const PoleHold> hol
         for (std::size_t i = 0; i < hold.parameters.size(); ++i)
             values[static_cast<std::size_t>(hold.parameters[i])] += step[static_cast<Eigen::Index>(i)];
     }
+}
+
+void placeChain(const Approximation& approximation, int constraint, std::span<const PoleHold> holds,
+                std::span<const JointTarget> targets, std::span<double> values)
+{
+    const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(constraint)];
+    const auto origin = [&](int k) -> Eigen::Vector3d {
+        return approximation.outputs[static_cast<std::size_t>(k)].rest.block<3, 1>(0, 3);
+    };
+    // The chain's members: the outputs on a base with its goal and pole. Its end is the one nearest the goal at
+    // rest, its middle the one furthest from the root-goal line.
+    const Eigen::Vector3d restGoal = origin(c.goal);
+    const Eigen::Vector3d x0 = (restGoal - c.root).normalized();
+    int end = -1, middle = -1;
+    double nearest = 0.0, furthest = 0.0;
+    for (std::size_t k = 0; k < approximation.outputs.size(); ++k) {
+        const int b = approximation.outputs[k].constraint;
+        if (b < 0) continue;
+        const ConstraintBase& m = approximation.constraints[static_cast<std::size_t>(b)];
+        if (m.goal != c.goal || m.pole != c.pole || !targets[k].active) continue;
+        const Eigen::Vector3d o = origin(static_cast<int>(k)) - c.root;
+        const double toGoal = (origin(static_cast<int>(k)) - restGoal).norm();
+        const double across = (o - o.dot(x0) * x0).norm();
+        if (end < 0 || toGoal < nearest) end = static_cast<int>(k), nearest = toGoal;
+        if (middle < 0 || across > furthest) middle = static_cast<int>(k), furthest = across;
+    }
+    if (end < 0) return;
+    const std::vector<int> goalControls = ownTranslations(approximation, c.goal);
+    if (!goalControls.empty())
+        place(approximation, c.goal, goalControls,
+              targets[static_cast<std::size_t>(end)].world.block<3, 1>(0, 3) + (restGoal - origin(end)), values);
+    const auto hold = std::find_if(holds.begin(), holds.end(), [&](const PoleHold& h) {
+        return approximation.constraints[static_cast<std::size_t>(h.constraint)].pole == c.pole;
+    });
+    if (hold == holds.end() || middle == end) return;
+    const Eigen::Vector3d root = rootAt(approximation, c, values);
+    const Eigen::Vector3d x = (worldOf(approximation, c.goal, values).block<3, 1>(0, 3) - root).normalized();
+    const Eigen::Vector3d knee = targets[static_cast<std::size_t>(middle)].world.block<3, 1>(0, 3) - root;
+    const Eigen::Vector3d w = knee - knee.dot(x) * x;
+    if (!(w.norm() > degenerateAcross) || !x.allFinite()) return;
+    // The pole on the knee's side of the line, as it is at rest.
+    const Eigen::Vector3d restKnee = origin(middle) - c.root, restPole = c.restPole - c.root;
+    const double side = (restKnee - restKnee.dot(x0) * x0).dot(restPole - restPole.dot(x0) * x0) < 0.0 ? -1.0 : 1.0;
+    place(approximation, c.pole, hold->parameters, root + hold->along * x + side * hold->across * w.normalized(),
+          values);
 }
 
 }  // namespace rig

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "inversion/approximation.h"
+#include "inversion/jacobian.h"
 
 namespace rig {
 
@@ -25,6 +26,13 @@ struct PoleHold {
 // A hold per pole helper whose own controls are translations moving nothing else; none where the pole is fixed to
 // the anchor or moved by anything else too.
 std::vector<PoleHold> poleHolds(const Approximation& approximation);
+
+// A cold start for a planar chain (Solver::initialGuess), before its first output is guessed: the goal's own
+// translation controls put the goal where the chain's end joint's target says (with its rest offset from that
+// joint), and the pole's (when held) in the plane of the middle joint's target, at its rest offset and distance.
+// `targets`: one per approximation output; inactive ones give nothing.
+void placeChain(const Approximation& approximation, int constraint, std::span<const PoleHold> holds,
+                std::span<const JointTarget> targets, std::span<double> values);
 
 // Moves each hold's controls in `values` (one per approximation parameter) so that its pole sits at its rest
 // offset and distance in the plane it spans now. Evaluates only the outputs the chain reads.
