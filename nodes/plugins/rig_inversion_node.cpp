@@ -340,8 +340,8 @@ int outputOfJoint(const Approximation& a, const TargetMap& targetMap, const std:
 {
     const auto renamed = targetMap.rename.count(joint) ? targetMap.rename.at(joint) : joint;
     if (std::find(targetMap.ignore.begin(), targetMap.ignore.end(), joint) != targetMap.ignore.end()) return -1;
-    for (std::size_t k = 0; k < a.outputs.size(); ++k)
-        if (a.outputs[k].name == renamed) return static_cast<int>(k);
+    for (std::size_t k = 0; k < a.outputs.size(); ++k)  // a helper frame is never a target
+        if (!a.outputs[k].helper && a.outputs[k].name == renamed) return static_cast<int>(k);
     return -1;
 }
 
