@@ -72,37 +72,45 @@ Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& po
     return frame * base.shape.matrix(reach - base.restReach) * base.restFrameInverse;
 }
 
-Affine baseVelocity(const ConstraintBase& base, const ChainPoints& points, const ChainPoints& rate)
+BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& points)
+{
+    BaseLinearization l;
+    l.root = points.root;
+    const Eigen::Vector3d u = points.goal - points.root;
+    l.reach = u.norm();
+    l.x = u / l.reach;
+    l.pole = points.pole - points.root;
+    const Eigen::Vector3d w = l.pole - l.pole.dot(l.x) * l.x;
+    l.across = w.norm();
+    l.y = w / l.across;
+    l.frame << l.x, l.y, l.x.cross(l.y);
+    // The shape's own motion per unit of reach, dG G^-1 with G rigid, turned into world space by C.
+    const double a = l.reach - base.restReach;
+    const Eigen::Matrix4d g = base.shape.matrix(a);
+    const Eigen::Matrix4d dg = base.shape.derivative(a);
+    const Eigen::Matrix3d omega = dg.block<3, 3>(0, 0) * g.block<3, 3>(0, 0).transpose();
+    const Eigen::Vector3d v = dg.block<3, 1>(0, 3) - omega * g.block<3, 1>(0, 3);
+    const Eigen::Matrix3d omegaWorld = l.frame * omega * l.frame.transpose();
+    l.shape.leftCols<3>() = omegaWorld;
+    l.shape.col(3) = l.frame * v - omegaWorld * l.root;
+    return l;
+}
+
+Affine baseVelocity(const BaseLinearization& l, const ChainPoints& rate)
 {
     // dB B^-1 = dC C^-1 + C (dG G^-1) C^-1 (C0 is constant). The frame's columns change as unit vectors do:
     // d(u / |u|) = (I - x x^T) du / |u|.
-    const Eigen::Vector3d u = points.goal - points.root, du = rate.goal - rate.root;
-    const double reach = u.norm();
-    const Eigen::Vector3d x = u / reach;
-    const Eigen::Vector3d dx = (du - x * x.dot(du)) / reach;
-    const Eigen::Vector3d p = points.pole - points.root, dp = rate.pole - rate.root;
-    const Eigen::Vector3d w = p - p.dot(x) * x;
-    const Eigen::Vector3d dw = dp - (dp.dot(x) + p.dot(dx)) * x - p.dot(x) * dx;
-    const double across = w.norm();
-    const Eigen::Vector3d y = w / across;
-    const Eigen::Vector3d dy = (dw - y * y.dot(dw)) / across;
-    Eigen::Matrix3d r, dr;
-    r << x, y, x.cross(y);
-    dr << dx, dy, dx.cross(y) + x.cross(dy);
-    const Eigen::Matrix3d omegaFrame = dr * r.transpose();
-    Affine v;
-    v.leftCols<3>() = omegaFrame;
-    v.col(3) = rate.root - omegaFrame * points.root;
-
-    // The shape's own motion, dG G^-1 with G rigid, turned into world space by C.
-    const double a = reach - base.restReach;
-    const Eigen::Matrix4d g = base.shape.matrix(a);
-    const Eigen::Matrix4d dg = base.shape.derivative(a) * x.dot(du);
-    const Eigen::Matrix3d omegaShape = dg.block<3, 3>(0, 0) * g.block<3, 3>(0, 0).transpose();
-    const Eigen::Vector3d vShape = dg.block<3, 1>(0, 3) - omegaShape * g.block<3, 1>(0, 3);
-    const Eigen::Matrix3d omegaWorld = r * omegaShape * r.transpose();
-    v.leftCols<3>() += omegaWorld;
-    v.col(3) += r * vShape - omegaWorld * points.root;
+    const Eigen::Vector3d du = rate.goal - rate.root;
+    const Eigen::Vector3d dx = (du - l.x * l.x.dot(du)) / l.reach;
+    const Eigen::Vector3d dp = rate.pole - rate.root;
+    const Eigen::Vector3d dw = dp - (dp.dot(l.x) + l.pole.dot(dx)) * l.x - l.pole.dot(l.x) * dx;
+    const Eigen::Vector3d dy = (dw - l.y * l.y.dot(dw)) / l.across;
+    Eigen::Matrix3d dr;
+    dr << dx, dy, dx.cross(l.y) + l.x.cross(dy);
+    const Eigen::Matrix3d omega = dr * l.frame.transpose();
+    Affine v = l.x.dot(du) * l.shape;
+    v.leftCols<3>() += omega;
+    v.col(3) += rate.root - omega * l.root;
     return v;
 }
 

@@ -65,8 +65,17 @@ ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& ancho
 // B for these points. Non-finite when the points span no plane.
 Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& points);
 
+// What a base's velocity needs at one set of points, made once for every rate of them (a solve's columns): the
+// chain frame, and the shape's own velocity per unit of reach, in world space.
+struct BaseLinearization {
+    Eigen::Vector3d root, x, y, pole;   // pole: q - r
+    double reach = 0.0, across = 0.0;   // |g - r|, and the pole's distance from the chain's line
+    Eigen::Matrix3d frame;              // [x y z]
+    Eigen::Matrix<double, 3, 4> shape;  // C (dG/dd G^-1) C^-1
+};
+BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& points);
+
 // dB B^-1 (its top three rows; B is rigid, so this is a twist [[omega]x, v]) for points moving at `rate`.
-Eigen::Matrix<double, 3, 4> baseVelocity(const ConstraintBase& base, const ChainPoints& points,
-                                         const ChainPoints& rate);
+Eigen::Matrix<double, 3, 4> baseVelocity(const BaseLinearization& at, const ChainPoints& rate);
 
 }  // namespace rig

@@ -640,6 +640,7 @@ void ResidualWorkspace::baseVelocities()
         const ResidualStructure::Base& base = s.bases_[b];
         const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
         const ChainPoints& points = basePoints_[b];
+        const BaseLinearization at = linearizeBase(c, points);
         for (std::size_t j = 0; j < base.columns.size(); ++j) {
             std::array<Affine, 3> x{Affine::Zero(), Affine::Zero(), Affine::Zero()};
             for (int t = base.termBegin[j]; t < base.termBegin[j + 1]; ++t) {
@@ -653,7 +654,7 @@ void ResidualWorkspace::baseVelocities()
             };
             const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal),
                                     rate(c.pole >= 0 ? x[2] : x[0], points.pole)};
-            baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] = baseVelocity(c, points, rates);
+            baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] = baseVelocity(at, rates);
         }
     }
 }
