@@ -111,6 +111,38 @@ std::string storedForm(const ModelledParameter& m)
     return out;
 }
 
+namespace {
+
+// Each output's frame (world, its parent's name, or constraint), whether it is a helper, its constraint operator
+// and its validation error, for the JSON report.
+Json outputsJson(const Approximation& a)
+{
+    Json outputs = Json::array();
+    const auto nameOf = [&](int k) { return k < 0 ? Json() : Json(a.outputs[static_cast<std::size_t>(k)].name); };
+    for (const ApproximationOutput& o : a.outputs) {
+        const std::string frame = o.constraint >= 0 ? "constraint"
+                                  : o.parent >= 0   ? a.outputs[static_cast<std::size_t>(o.parent)].name
+                                                    : "world";
+        Json constraint;
+        if (o.constraint >= 0) {
+            const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
+            constraint = {{"kind", constraintKindName(c.kind)},
+                          {"anchor", nameOf(c.anchor)},
+                          {"goal", nameOf(c.goal)},
+                          {"pole", nameOf(c.pole)},
+                          {"knots", c.shape.rigid.knots().size()}};
+        }
+        outputs.push_back({{"name", o.name},
+                           {"frame", frame},
+                           {"helper", o.helper},
+                           {"constraint", std::move(constraint)},
+                           {"validation_error", o.modelled ? numberJson(o.validationError) : Json()}});
+    }
+    return outputs;
+}
+
+}  // namespace
+
 Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std::optional<std::string>& approximation,
                  bool written)
 {
@@ -134,27 +166,7 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
     for (const auto& [i, j] : redundantParameters(a))
         redundant.push_back(Json::array({a.parameters[static_cast<std::size_t>(i)].parameter.name,
                                          a.parameters[static_cast<std::size_t>(j)].parameter.name}));
-    Json outputs = Json::array();
-    const auto nameOf = [&](int k) { return k < 0 ? Json() : Json(a.outputs[static_cast<std::size_t>(k)].name); };
-    for (const ApproximationOutput& o : a.outputs) {
-        const std::string frame = o.constraint >= 0 ? "constraint"
-                                  : o.parent >= 0   ? a.outputs[static_cast<std::size_t>(o.parent)].name
-                                                    : "world";
-        Json constraint;
-        if (o.constraint >= 0) {
-            const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
-            constraint = {{"kind", constraintKindName(c.kind)},
-                          {"anchor", nameOf(c.anchor)},
-                          {"goal", nameOf(c.goal)},
-                          {"pole", nameOf(c.pole)},
-                          {"knots", c.shape.rigid.knots().size()}};
-        }
-        outputs.push_back({{"name", o.name},
-                           {"frame", frame},
-                           {"helper", o.helper},
-                           {"constraint", std::move(constraint)},
-                           {"validation_error", o.modelled ? numberJson(o.validationError) : Json()}});
-    }
+    Json outputs = outputsJson(a);
     Json unmodelled = Json::array();
     for (const UnmodelledOutput& u : outcome.unmodelled) unmodelled.push_back({{"name", u.name}, {"reason", u.reason}});
     Json dropped = Json::array();

@@ -297,17 +297,7 @@ void ResidualStructure::makeTree(const std::vector<Path>& paths, const std::vect
             for (const Link& link : path.links) node = child(node, link);
             inputNodes[i] = node;
         }
-        const auto restOrigin = [&](int k) -> Eigen::Vector3d {
-            if (k < 0) return Eigen::Vector3d::Zero();
-            return approximation.outputs[static_cast<std::size_t>(k)].rest.block<3, 1>(0, 3);
-        };
-        Base base;
-        base.constraint = constraint;
-        base.anchorNode = inputNodes[0];
-        base.goalNode = inputNodes[1];
-        base.poleNode = inputNodes[2];
-        base.goalRest = restOrigin(c.goal);
-        base.poleRest = restOrigin(c.pole);
+        Base base = makeBase(constraint, inputNodes);
         base.node = static_cast<int>(nodes_.size());
         Node node;
         node.base = static_cast<int>(bases_.size());
@@ -337,6 +327,23 @@ void ResidualStructure::makeTree(const std::vector<Path>& paths, const std::vect
         outputRigid_[o] =
             (node < 0 || nodes_[static_cast<std::size_t>(node)].rigid) && nearlyOrthonormal(rest.block<3, 3>(0, 0));
     }
+}
+
+ResidualStructure::Base ResidualStructure::makeBase(int constraint, const std::array<int, 3>& inputNodes) const
+{
+    const ConstraintBase& c = approximation_->constraints[static_cast<std::size_t>(constraint)];
+    const auto restOrigin = [&](int k) -> Eigen::Vector3d {
+        if (k < 0) return Eigen::Vector3d::Zero();
+        return approximation_->outputs[static_cast<std::size_t>(k)].rest.block<3, 1>(0, 3);
+    };
+    Base base;
+    base.constraint = constraint;
+    base.anchorNode = inputNodes[0];
+    base.goalNode = inputNodes[1];
+    base.poleNode = inputNodes[2];
+    base.goalRest = restOrigin(c.goal);
+    base.poleRest = restOrigin(c.pole);
+    return base;
 }
 
 void ResidualStructure::baseTerms(Base& base, const std::array<int, 3>& inputNodes)

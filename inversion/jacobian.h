@@ -175,7 +175,8 @@ private:
     Path pathOf(int k, const std::vector<std::vector<Link>>& own) const;        // approximation output k's
     void makeChains(const std::vector<Path>& paths);
     void makeTree(const std::vector<Path>& paths, const std::vector<std::vector<Link>>& own);
-    void baseTerms(Base& base, const std::array<int, 3>& inputNodes);  // its columns and what moves its inputs
+    Base makeBase(int constraint, const std::array<int, 3>& inputNodes) const;  // its inputs, before its node
+    void baseTerms(Base& base, const std::array<int, 3>& inputNodes);           // its columns and what moves its inputs
     void addBaseColumns();
     void makePairs();
     void attachTerms(std::span<const ResidualTerm* const> terms);
