@@ -240,6 +240,36 @@ double ConstraintFitter::error(int k, const ConstraintBase& base, const std::vec
     return worst;
 }
 
+double ConstraintFitter::tryCandidate(int k, const std::vector<int>& varied, bool fixedGoal, ConstraintBase& base)
+{
+    const Eigen::Vector3d restGoal = probe_.rest()[static_cast<std::size_t>(base.goal)].block<3, 1>(0, 3);
+    const double failed = std::numeric_limits<double>::infinity();
+    if (!base.prepare(restGoal)) return failed;
+    // The shape covers the reaches of the random poses, and a quarter as much again on either side.
+    const std::vector<Pose>& fitPoses = poses(varied, 0, rangePoses);
+    double lo = 0.0, hi = 0.0;
+    for (const Pose& pose : fitPoses) {
+        double x = 0.0;
+        Eigen::Matrix4d g;
+        if (!shapeAt(k, base, pose.worlds, x, g)) continue;
+        lo = std::min(lo, x);
+        hi = std::max(hi, x);
+    }
+    const double span = hi - lo;
+    lo = std::max(lo - 0.25 * span, -0.8 * base.restReach);
+    hi += 0.25 * span;
+    if (fixedGoal) {
+        // An aim at a fixed point: what the output does cannot depend on its distance from it. G = I throughout.
+        std::map<double, std::pair<double, Eigen::Matrix4d>> flat{{lo, {lo, Eigen::Matrix4d::Identity()}},
+                                                                  {hi, {hi, Eigen::Matrix4d::Identity()}}};
+        if (!(hi > lo) || !setShape(flat, base)) return failed;
+    } else {
+        Sweep* sweep = nullptr;
+        if (!sweepFor(base, varied, base.anchor, sweep) || !makeBase(k, *sweep, lo, hi, base)) return failed;
+    }
+    return std::max(error(k, base, fitPoses), error(k, base, poses(varied, 1, checkPoses)));
+}
+
 std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state, std::string& why)
 {
     const auto& rest = probe_.rest();
@@ -255,14 +285,17 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
         const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
         return std::binary_search(moved.begin(), moved.end(), h);
     };
-    std::vector<int> helpers;
+    // Goals and poles: helpers moved by what moves k apart from its anchor; fixed ones (no parameter moves them)
+    // are goals too, aim targets.
+    std::vector<int> helpers, fixed;
     for (std::size_t h = 0; h < helper_.size(); ++h) {
         const int hh = static_cast<int>(h);
         if (!helper_[h] || hh == k || !usableAnchor(hh, state)) continue;
         if (std::any_of(movers.begin(), movers.end(), [&](int i) { return !movesAnchor(i) && moves(i, hh); }))
             helpers.push_back(hh);
+        else if (moversOf(hh).empty()) fixed.push_back(hh);
     }
-    if (helpers.empty()) {
+    if (helpers.empty() && fixed.empty()) {
         why = "no helper frame is moved by what moves it apart from its anchor (rig-learn --helpers)";
         return std::nullopt;
     }
@@ -271,39 +304,25 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     for (const int i : movers)
         if (movesAnchor(i) || std::any_of(helpers.begin(), helpers.end(), [&](int h) { return moves(i, h); }))
             varied.push_back(i);
+    const Eigen::Vector3d rootRest = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
     double closest = std::numeric_limits<double>::infinity();
     std::string closestName;
-    const std::vector<Pose>& fitPoses = poses(varied, 0, rangePoses);
-    const std::vector<Pose>& check = poses(varied, 1, checkPoses);
-    for (const int goal : helpers) {
-        std::vector<int> poles = helpers;
-        poles.push_back(-1);
-        for (const int pole : poles) {
-            if (pole == goal) continue;
+    std::vector<int> goals = helpers;
+    goals.insert(goals.end(), fixed.begin(), fixed.end());
+    for (const int goal : goals) {
+        const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
+        std::vector<std::pair<int, Eigen::Vector3d>> poles;  // (pole output or -1, its rest point)
+        for (const int pole : helpers)
+            if (pole != goal) poles.emplace_back(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3));
+        for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal)) poles.emplace_back(-1, point);
+        for (const auto& [pole, point] : poles) {
             ConstraintBase base;
             base.anchor = anchor;
             base.goal = goal;
             base.pole = pole;
-            base.root = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
-            const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
-            base.restPole = pole >= 0 ? Eigen::Vector3d(rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3))
-                                      : fixedPole(base.root, restGoal);
-            Sweep* sweep = nullptr;
-            if (!base.prepare(restGoal) || !sweepFor(base, varied, anchor, sweep)) continue;
-            // The sweep covers the reaches of the random poses, and half as much again on either side.
-            double lo = 0.0, hi = 0.0;
-            for (const Pose& pose : fitPoses) {
-                double x = 0.0;
-                Eigen::Matrix4d g;
-                if (!shapeAt(k, base, pose.worlds, x, g)) continue;
-                lo = std::min(lo, x);
-                hi = std::max(hi, x);
-            }
-            const double span = hi - lo;
-            lo = std::max(lo - 0.25 * span, -0.8 * base.restReach);
-            hi += 0.25 * span;
-            if (!makeBase(k, *sweep, lo, hi, base)) continue;
-            const double e = std::max(error(k, base, fitPoses), error(k, base, check));
+            base.root = rootRest;
+            base.restPole = point;
+            const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
             if (e <= options_.epsilon) return base;
             if (e < closest) {
                 closest = e;
@@ -318,6 +337,23 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
                             closestName, closest, options_.epsilon)
               : "no planar chain spans a plane from its helper frames";
     return std::nullopt;
+}
+
+std::vector<Eigen::Vector3d> ConstraintFitter::fixedPoles(int anchor, const Eigen::Vector3d& root,
+                                                          const Eigen::Vector3d& goal) const
+{
+    // A point off the chain's line carried by the anchor: along one of the anchor's axes at rest (an aim's up
+    // vector, a rotate-plane default), or any other when none is off the line.
+    std::vector<Eigen::Vector3d> points;
+    const double length = std::max(1.0, (goal - root).norm());
+    const Eigen::Vector3d x = (goal - root).normalized();
+    if (anchor >= 0)
+        for (int axis = 0; axis < 3; ++axis) {
+            const Eigen::Vector3d a = probe_.rest()[static_cast<std::size_t>(anchor)].block<3, 1>(0, axis).normalized();
+            if ((a - a.dot(x) * x).norm() > 1e-3) points.push_back(root + length * a);
+        }
+    points.push_back(fixedPole(root, goal));
+    return points;
 }
 
 }  // namespace rig

@@ -69,6 +69,11 @@ private:
     // G = C^-1 W_k W_k(0)^-1 C0 at one set of worlds, with its reach offset; false where the points span no plane.
     bool shapeAt(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds, double& x,
                  Eigen::Matrix4d& g) const;
+    // A candidate's shape (swept, or constant for a fixed goal) and its worst error per unit moved on random poses;
+    // infinite where it cannot be made.
+    double tryCandidate(int k, const std::vector<int>& varied, bool fixedGoal, ConstraintBase& base);
+    // Rest points of a pole carried by the anchor: along its axes at rest, and one more off the chain's line.
+    std::vector<Eigen::Vector3d> fixedPoles(int anchor, const Eigen::Vector3d& root, const Eigen::Vector3d& goal) const;
     // The worst error per unit moved of the base's prediction of k on the poses.
     double error(int k, const ConstraintBase& base, const std::vector<Pose>& poses) const;
     Eigen::Matrix4d predicted(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const;

@@ -421,16 +421,20 @@ std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<N
     for (NodeId n : outputs) isOutput[static_cast<std::size_t>(n)] = 1;
     std::map<std::string, NodeId> found;  // by name
     for (NodeId n = 0; n < model.nodeCount(); ++n) {
-        if (!moved[static_cast<std::size_t>(n)] || isOutput[static_cast<std::size_t>(n)] || !isDagNode(model, n))
-            continue;
+        if (isOutput[static_cast<std::size_t>(n)] || !isDagNode(model, n)) continue;
+        // A transform no parameter moves is a helper only where a constraint or a solver reads it (a fixed aim
+        // target), not as the parent of other transforms (a world control).
+        const bool fixed = !moved[static_cast<std::size_t>(n)];
         const auto& topology = model.topology(n);
         for (AttrId a = 0; a < static_cast<AttrId>(topology.outgoing.size()); ++a) {
             const std::string& attribute = topology.spec(a).name;
             if (attribute != "worldMatrix" && attribute != "worldInverseMatrix") continue;
-            for (int c : topology.outgoing[static_cast<std::size_t>(a)])
-                if (upstreamOfOutput[static_cast<std::size_t>(
-                        model.connections()[static_cast<std::size_t>(c)].destination.node)])
+            for (int c : topology.outgoing[static_cast<std::size_t>(a)]) {
+                const NodeId destination = model.connections()[static_cast<std::size_t>(c)].destination.node;
+                if (upstreamOfOutput[static_cast<std::size_t>(destination)] &&
+                    !(fixed && isDagNode(model, destination)))
                     found.emplace(topology.name, n);
+            }
         }
     }
     std::vector<NodeId> helpers;

@@ -140,8 +140,9 @@ private:
 // The helper frames a rig shows for these outputs and parameter plugs (GraphRigOptions::autoHelpers, rig-learn's
 // default): every transform or joint that is not an output, whose worldMatrix or worldInverseMatrix feeds a node
 // upstream of an output (an IK goal, a pole object, an aim target, a parent), and which a parameter moves (the
-// parameter's node is that node or upstream of it). Upstream and downstream follow connections node to node. In
-// name order.
+// parameter's node is that node or upstream of it); or which no parameter moves but whose matrix feeds a node that
+// is neither a transform nor a joint (a fixed aim target read by a constraint). Upstream and downstream follow
+// connections node to node. In name order.
 std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<NodeId>& outputs,
                                     const std::vector<Plug>& parameterPlugs);
 

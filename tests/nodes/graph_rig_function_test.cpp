@@ -406,12 +406,15 @@ TEST_CASE("GraphRigFunction: helpers come after the joints, flagged, in world sp
     CHECK(worlds[n](1, 3) == 4.0);  // the IK goal moved, in world space
 }
 
-TEST_CASE("GraphRigFunction: helpers found on the biped are the frames its outputs read that a parameter moves")
+TEST_CASE(
+    "GraphRigFunction: helpers found on the biped are the frames its outputs read that a parameter moves, or "
+    "that a constraint or a solver reads")
 {
-    // FK legs: the pole objects hang below root_ctrl, which moves them; the IK goals are not moved by any parameter,
-    // and eyes_ctrl (the eyes' aim target) neither.
+    // FK legs: the pole objects hang below root_ctrl, which moves them; the IK goals, which no parameter moves, feed
+    // the ikHandles (fixed targets); eyes_ctrl feeds the eyes' aims, which no output reads.
     const GraphRigFunction fk(biped, bipedOptions("rigs/biped_inversion.yaml", {}, true));
-    CHECK(helpersOf(fk) == std::vector<std::string>{"L_leg_pole_ctrl", "R_leg_pole_ctrl", "root_ctrl"});
+    CHECK(helpersOf(fk) == std::vector<std::string>{"L_leg_ik_ctrl", "L_leg_pole_ctrl", "R_leg_ik_ctrl",
+                                                    "R_leg_pole_ctrl", "root_ctrl"});
     // IK legs: their goals and pole objects are parameters.
     const GraphRigFunction ik(biped, bipedOptions("rigs/biped_inversion_ik.yaml", {}, true));
     CHECK(helpersOf(ik) == std::vector<std::string>{"L_leg_ik_ctrl", "L_leg_pole_ctrl", "R_leg_ik_ctrl",
@@ -427,7 +430,8 @@ TEST_CASE("GraphRigFunction: helpers found on the biped are the frames its outpu
     // Named helpers join the ones found, each once, in name order.
     CHECK(
         helpersOf(GraphRigFunction(biped, bipedOptions("rigs/biped_inversion.yaml", {"world_ctrl", "root_*"}, true))) ==
-        std::vector<std::string>{"L_leg_pole_ctrl", "R_leg_pole_ctrl", "root_ctrl", "world_ctrl"});
+        std::vector<std::string>{"L_leg_ik_ctrl", "L_leg_pole_ctrl", "R_leg_ik_ctrl", "R_leg_pole_ctrl", "root_ctrl",
+                                 "world_ctrl"});
     // An FK arm has none.
     GraphRigOptions armOptions{{"shoulder.rotate?", "arm_ctrl.translate?"}, {}, {}};
     armOptions.autoHelpers = true;
