@@ -200,8 +200,11 @@ std::string constraintsText(const Approximation& a)
                                             operatorKindName(base.shape.kind)));
         out += fmt::format("  - kind: {}\n", constraintKindName(base.kind));
         out += input("anchor", base.anchor, true) + input("goal", base.goal, false) + input("pole", base.pole, true);
-        out += fmt::format("    root: {}\n    restPole: {}\n    shape:\n", vector3(base.root, field + ".root"),
+        out += fmt::format("    root: {}\n    restPole: {}\n", vector3(base.root, field + ".root"),
                            vector3(base.restPole, field + ".restPole"));
+        // A chain without a pole keeps its rest plane: its normal is written, and says so.
+        if (base.restPlane) out += fmt::format("    restNormal: {}\n", vector3(base.restNormal, field + ".restNormal"));
+        out += "    shape:\n";
         out += operatorText(base.shape, field + ".shape", "      ", "      ");
     }
     return out;
@@ -651,7 +654,7 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
         r.fail(kind, field + ".kind",
                fmt::format("unknown constraint '{}'; the constraints are {}", kindName,
                            constraintKindName(ConstraintKind::planarChain)));
-    r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"}, {"anchor", "pole"});
+    r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"}, {"anchor", "pole", "restNormal"});
     const auto input = [&](std::string_view which) {
         const YAML::Node v = r.child(n, which);
         if (!v) return -1;
@@ -673,6 +676,13 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
     base.pole = input("pole");
     base.root = r.vector3(r.child(n, "root"), field + ".root");
     base.restPole = r.vector3(r.child(n, "restPole"), field + ".restPole");
+    if (const YAML::Node normal = r.child(n, "restNormal")) {
+        if (base.pole >= 0) r.fail(normal, field + ".restNormal", "a chain with a pole has no rest plane; remove one");
+        base.restNormal = r.vector3(normal, field + ".restNormal");
+        if (!(std::abs(base.restNormal.norm() - 1.0) < 1e-9))
+            r.fail(normal, field + ".restNormal", "must be a unit vector (re-run rig-learn)");
+        base.restPlane = true;
+    }
     const YAML::Node shape = r.child(n, "shape");
     const YAML::Node shapeKind = r.need(shape, "kind", field + ".shape");
     const std::string shapeName = r.text(shapeKind, field + ".shape.kind");

@@ -25,16 +25,16 @@ Eigen::Matrix4d rigidInverse(const Eigen::Matrix4d& m)
 
 std::string_view constraintKindName(ConstraintKind) { return "planarChain"; }
 
-bool chainFrame(const ChainPoints& points, Eigen::Matrix4d& frame)
+bool chainFrame(const ChainPoints& points, bool restPlane, Eigen::Matrix4d& frame)
 {
     const Eigen::Vector3d u = points.goal - points.root;
     const double reach = u.norm();
     if (!(reach > degenerateLength)) return false;
     const Eigen::Vector3d x = u / reach;
     const Eigen::Vector3d p = points.pole - points.root;
-    const Eigen::Vector3d w = p - p.dot(x) * x;
+    const Eigen::Vector3d w = restPlane ? Eigen::Vector3d(x.cross(points.normal)) : Eigen::Vector3d(p - p.dot(x) * x);
     const double across = w.norm();
-    if (!(across > degenerateLength * std::max(1.0, p.norm()))) return false;
+    if (!(across > degenerateLength * (restPlane ? 1.0 : std::max(1.0, p.norm())))) return false;
     const Eigen::Vector3d y = w / across;
     frame.setIdentity();
     frame.block<3, 1>(0, 0) = x;
@@ -47,7 +47,7 @@ bool chainFrame(const ChainPoints& points, Eigen::Matrix4d& frame)
 bool ConstraintBase::prepare(const Eigen::Vector3d& restGoal)
 {
     Eigen::Matrix4d frame;
-    if (!chainFrame({root, restGoal, restPole}, frame)) return false;
+    if (!chainFrame({root, restGoal, restPole, restNormal}, restPlane, frame)) return false;
     restFrame = frame;
     restFrameInverse = rigidInverse(frame);
     restReach = (restGoal - root).norm();
@@ -61,13 +61,15 @@ ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& ancho
         return anchorMotion.block<3, 3>(0, 0) * p + anchorMotion.block<3, 1>(0, 3);
     };
     return {carried(base.root), goalWorld.block<3, 1>(0, 3),
-            base.pole >= 0 ? Eigen::Vector3d(poleWorld.block<3, 1>(0, 3)) : carried(base.restPole)};
+            base.pole >= 0 ? Eigen::Vector3d(poleWorld.block<3, 1>(0, 3)) : carried(base.restPole),
+            anchorMotion.block<3, 3>(0, 0) * base.restNormal};
 }
 
 Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& points)
 {
     Eigen::Matrix4d frame;
-    if (!chainFrame(points, frame)) return Eigen::Matrix4d::Constant(std::numeric_limits<double>::quiet_NaN());
+    if (!chainFrame(points, base.restPlane, frame))
+        return Eigen::Matrix4d::Constant(std::numeric_limits<double>::quiet_NaN());
     const double reach = (points.goal - points.root).norm();
     return frame * base.shape.matrix(reach - base.restReach) * base.restFrameInverse;
 }
@@ -75,12 +77,15 @@ Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& po
 BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& points)
 {
     BaseLinearization l;
+    l.restPlane = base.restPlane;
+    l.normal = points.normal;
     l.root = points.root;
     const Eigen::Vector3d u = points.goal - points.root;
     l.reach = u.norm();
     l.x = u / l.reach;
     l.pole = points.pole - points.root;
-    const Eigen::Vector3d w = l.pole - l.pole.dot(l.x) * l.x;
+    const Eigen::Vector3d w =
+        l.restPlane ? Eigen::Vector3d(l.x.cross(l.normal)) : Eigen::Vector3d(l.pole - l.pole.dot(l.x) * l.x);
     l.across = w.norm();
     l.y = w / l.across;
     l.frame << l.x, l.y, l.x.cross(l.y);
@@ -103,7 +108,9 @@ Affine baseVelocity(const BaseLinearization& l, const ChainPoints& rate)
     const Eigen::Vector3d du = rate.goal - rate.root;
     const Eigen::Vector3d dx = (du - l.x * l.x.dot(du)) / l.reach;
     const Eigen::Vector3d dp = rate.pole - rate.root;
-    const Eigen::Vector3d dw = dp - (dp.dot(l.x) + l.pole.dot(dx)) * l.x - l.pole.dot(l.x) * dx;
+    const Eigen::Vector3d dw = l.restPlane
+                                   ? Eigen::Vector3d(dx.cross(l.normal) + l.x.cross(rate.normal))
+                                   : Eigen::Vector3d(dp - (dp.dot(l.x) + l.pole.dot(dx)) * l.x - l.pole.dot(l.x) * dx);
     const Eigen::Vector3d dy = (dw - l.y * l.y.dot(dw)) / l.across;
     Eigen::Matrix3d dr;
     dr << dx, dy, dx.cross(l.y) + l.x.cross(dy);

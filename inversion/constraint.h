@@ -12,6 +12,9 @@
 // pole q (another helper's origin, or a point carried by the anchor: the rotate-plane default):
 //
 //   C(r, g, q) = [x y z | r],  x = (g - r) / |g - r|,  y = the unit part of q - r across x,  z = x × y
+//
+// or, for a chain without a pole (the rotate-plane default: the rest plane kept), y = x × N / |x × N| with N the
+// rest plane's normal carried by the anchor, so that the plane's normal is the nearest to N across x
 //   B = C G(d - d0) C0^-1,     d = |g - r|
 //
 // with G a rigid motion sampled over the reach d (a spline of a rotation vector and a translation: the
@@ -35,11 +38,14 @@ struct ConstraintBase {
     // Inputs, indices into Approximation::outputs (rig outputs while learning).
     int anchor = -1;  // carries the root (and a fixed pole): its motion F~_a F_a(0)^-1; -1: the world
     int goal = -1;    // the goal is its origin
-    int pole = -1;    // the pole is its origin; -1: `restPole` carried by the anchor
+    int pole = -1;    // the pole is its origin; -1: `restPole` carried by the anchor, or the rest plane (restPlane)
     Eigen::Vector3d root = Eigen::Vector3d::Zero();      // the chain root at rest, world
     Eigen::Vector3d restPole = Eigen::Vector3d::Zero();  // the pole at rest, world
-    double restReach = 0.0;                              // d0 = |g - r| at rest
-    Operator shape;  // sampledRigid in d - d0: the output's motion within the chain's frame
+    // No pole: the plane through the chain's line nearest the rest plane, whose normal at rest is restNormal (unit).
+    bool restPlane = false;
+    Eigen::Vector3d restNormal = Eigen::Vector3d::Zero();
+    double restReach = 0.0;  // d0 = |g - r| at rest
+    Operator shape;          // sampledRigid in d - d0: the output's motion within the chain's frame
     // C0, the chain frame at rest (chainFrame of the rest points): derived, set by `prepare`.
     Eigen::Matrix4d restFrame = Eigen::Matrix4d::Identity();
     Eigen::Matrix4d restFrameInverse = Eigen::Matrix4d::Identity();
@@ -49,13 +55,14 @@ struct ConstraintBase {
     bool prepare(const Eigen::Vector3d& restGoal);
 };
 
-// The three points of a chain, and their rates of change.
+// The three points of a chain and the rest plane's normal as the anchor carries it, and their rates of change.
 struct ChainPoints {
-    Eigen::Vector3d root, goal, pole;
+    Eigen::Vector3d root, goal, pole, normal = Eigen::Vector3d::Zero();
 };
 
-// The chain frame of three points; false when they do not span a plane (`frame` is then untouched).
-bool chainFrame(const ChainPoints& points, Eigen::Matrix4d& frame);
+// The chain frame of three points (or of the root, the goal and the normal, `restPlane`); false when they do not
+// span a plane (`frame` is then untouched).
+bool chainFrame(const ChainPoints& points, bool restPlane, Eigen::Matrix4d& frame);
 
 // The points from the inputs' matrices: the anchor's motion (identity for the world), the goal's world, and the
 // pole's world (ignored when the base has no pole output).
@@ -68,10 +75,11 @@ Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& po
 // What a base's velocity needs at one set of points, made once for every rate of them (a solve's columns): the
 // chain frame, and the shape's own velocity per unit of reach, in world space.
 struct BaseLinearization {
-    Eigen::Vector3d root, x, y, pole;   // pole: q - r
-    double reach = 0.0, across = 0.0;   // |g - r|, and the pole's distance from the chain's line
-    Eigen::Matrix3d frame;              // [x y z]
-    Eigen::Matrix<double, 3, 4> shape;  // C (dG/dd G^-1) C^-1
+    bool restPlane = false;
+    Eigen::Vector3d root, x, y, pole, normal;  // pole: q - r
+    double reach = 0.0, across = 0.0;          // |g - r|, and the pole's distance from the chain's line (or |x × N|)
+    Eigen::Matrix3d frame;                     // [x y z]
+    Eigen::Matrix<double, 3, 4> shape;         // C (dG/dd G^-1) C^-1
 };
 BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& points);
 

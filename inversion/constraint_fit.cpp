@@ -141,7 +141,7 @@ bool ConstraintFitter::shapeAt(int k, const ConstraintBase& base, const std::vec
     const ChainPoints points = chainPoints(base, motion, worlds[static_cast<std::size_t>(base.goal)],
                                            base.pole < 0 ? identity : worlds[static_cast<std::size_t>(base.pole)]);
     Eigen::Matrix4d frame;
-    if (!chainFrame(points, frame) || !worlds[static_cast<std::size_t>(k)].allFinite()) return false;
+    if (!chainFrame(points, base.restPlane, frame) || !worlds[static_cast<std::size_t>(k)].allFinite()) return false;
     x = (points.goal - points.root).norm() - base.restReach;
     g = frame.inverse() * worlds[static_cast<std::size_t>(k)] * rest[static_cast<std::size_t>(k)].inverse() *
         base.restFrame;
@@ -311,24 +311,37 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     goals.insert(goals.end(), fixed.begin(), fixed.end());
     for (const int goal : goals) {
         const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
-        std::vector<std::pair<int, Eigen::Vector3d>> poles;  // (pole output or -1, its rest point)
-        for (const int pole : helpers)
-            if (pole != goal) poles.emplace_back(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3));
-        for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal)) poles.emplace_back(-1, point);
-        for (const auto& [pole, point] : poles) {
+        // Poles: a helper's origin, a point carried by the anchor, or none (the rest plane kept, its normal from the
+        // chain's joints at rest).
+        std::vector<ConstraintBase> poles;
+        const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
             ConstraintBase base;
+            base.pole = pole;
+            base.restPole = point;
+            base.restPlane = normal.squaredNorm() > 0.0;
+            base.restNormal = normal;
+            poles.push_back(base);
+        };
+        for (const int pole : helpers)
+            if (pole != goal)
+                choice(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3), Eigen::Vector3d::Zero());
+        for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal))
+            choice(-1, point, Eigen::Vector3d::Zero());
+        for (const Eigen::Vector3d& normal : restNormals(root, rootRest, restGoal)) choice(-1, rootRest, normal);
+        for (ConstraintBase base : poles) {
+            const int pole = base.pole;
             base.anchor = anchor;
             base.goal = goal;
-            base.pole = pole;
             base.root = rootRest;
-            base.restPole = point;
             const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
             if (e <= options_.epsilon) return base;
             if (e < closest) {
                 closest = e;
                 const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
                 closestName = fmt::format("goal {}, pole {}", names[static_cast<std::size_t>(goal)],
-                                          pole < 0 ? "fixed to " + fixedTo : names[static_cast<std::size_t>(pole)]);
+                                          base.restPlane ? "none (the rest plane of " + fixedTo + ")"
+                                          : pole < 0     ? "fixed to " + fixedTo
+                                                         : names[static_cast<std::size_t>(pole)]);
             }
         }
     }
@@ -337,6 +350,27 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
                             closestName, closest, options_.epsilon)
               : "no planar chain spans a plane from its helper frames";
     return std::nullopt;
+}
+
+std::vector<Eigen::Vector3d> ConstraintFitter::restNormals(int chainRoot, const Eigen::Vector3d& root,
+                                                           const Eigen::Vector3d& goal) const
+{
+    // The chain's rest plane through its line and a joint off it: one below the chain's root output, in rig order,
+    // each plane once.
+    std::vector<Eigen::Vector3d> normals;
+    const Eigen::Vector3d x = (goal - root).normalized();
+    for (std::size_t j = 0; j < hierarchy_.size(); ++j) {
+        int up = static_cast<int>(j);
+        while (up >= 0 && up != chainRoot) up = hierarchy_[static_cast<std::size_t>(up)];
+        if (up != chainRoot) continue;
+        const Eigen::Vector3d n = x.cross(probe_.rest()[j].block<3, 1>(0, 3) - root);
+        if (!(n.norm() > 1e-6)) continue;
+        const Eigen::Vector3d unit = n.normalized();
+        if (std::none_of(normals.begin(), normals.end(),
+                         [&](const Eigen::Vector3d& m) { return (m - unit).norm() < 1e-9; }))
+            normals.push_back(unit);
+    }
+    return normals;
 }
 
 std::vector<Eigen::Vector3d> ConstraintFitter::fixedPoles(int anchor, const Eigen::Vector3d& root,

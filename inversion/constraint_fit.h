@@ -72,6 +72,9 @@ private:
     // A candidate's shape (swept, or constant for a fixed goal) and its worst error per unit moved on random poses;
     // infinite where it cannot be made.
     double tryCandidate(int k, const std::vector<int>& varied, bool fixedGoal, ConstraintBase& base);
+    // Normals of the chain's rest plane: through its line and each joint off it below the chain's root output.
+    std::vector<Eigen::Vector3d> restNormals(int chainRoot, const Eigen::Vector3d& root,
+                                             const Eigen::Vector3d& goal) const;
     // Rest points of a pole carried by the anchor: along its axes at rest, and one more off the chain's line.
     std::vector<Eigen::Vector3d> fixedPoles(int anchor, const Eigen::Vector3d& root, const Eigen::Vector3d& goal) const;
     // The worst error per unit moved of the base's prediction of k on the poses.

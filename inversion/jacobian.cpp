@@ -636,6 +636,10 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
     points.root = moved(base.anchorNode, c.root);
     points.goal = moved(base.goalNode, base.goalRest);
     points.pole = c.pole >= 0 ? moved(base.poleNode, base.poleRest) : moved(base.anchorNode, c.restPole);
+    points.normal =
+        base.anchorNode < 0
+            ? c.restNormal
+            : Eigen::Vector3d(nodeMatrix_[static_cast<std::size_t>(base.anchorNode)].leftCols<3>() * c.restNormal);
     return constraintBase(c, points).topRows<3>();
 }
 
@@ -660,7 +664,7 @@ void ResidualWorkspace::baseVelocities()
                 return v.leftCols<3>() * p + v.col(3);
             };
             const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal),
-                                    rate(c.pole >= 0 ? x[2] : x[0], points.pole)};
+                                    rate(c.pole >= 0 ? x[2] : x[0], points.pole), x[0].leftCols<3>() * points.normal};
             baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] = baseVelocity(at, rates);
         }
     }

@@ -154,8 +154,10 @@ std::string constraintsText(const Approximation& a)
         out += fmt::format(
             "  {}: {}, root carried by {}, goal {}, pole {}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
             constraintKindName(c.kind), c.anchor < 0 ? "the world" : name(c.anchor), name(c.goal),
-            c.pole < 0 ? "fixed to the anchor" : name(c.pole), knots.size(), c.restReach + knots.front(),
-            c.restReach + knots.back());
+            c.restPlane  ? "none (its rest plane)"
+            : c.pole < 0 ? "fixed to the anchor"
+                         : name(c.pole),
+            knots.size(), c.restReach + knots.front(), c.restReach + knots.back());
     }
     return out;
 }

@@ -687,8 +687,13 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
           "f.yaml:13:11: constraints[0].kind: unknown constraint 'twoBone'; the constraints are planarChain");
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restReach: 3\n") ==
           "f.yaml:18:5: constraints[0]: unknown field 'restReach'; the fields are kind, goal, root, restPole, shape, "
-          "anchor, pole");
+          "anchor, pole, restNormal");
     CHECK(chainErrorWith("    goal: \"goal\"\n", "") == "f.yaml:13:5: constraints[0]: the field 'goal' is missing");
+    // A chain without a pole may keep its rest plane: its normal is a unit vector.
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restNormal: [0, 0, 2]\n")
+              .ends_with("constraints[0].restNormal: must be a unit vector (re-run rig-learn)"));
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restNormal: [0, 0, 1]\n") ==
+          "(no error)");
     CHECK(chainErrorWith("goal: \"goal\"", "goal: \"ankle\"") ==
           "f.yaml:15:11: constraints[0].goal: 'ankle' is not one of the outputs");
     CHECK(chainErrorWith("anchor: \"hip\"", "anchor: [hip]") ==

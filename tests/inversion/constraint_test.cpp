@@ -2,12 +2,14 @@
 // base's velocity against finite differences, and solves through it.
 #include <doctest/doctest.h>
 
+#include <fmt/format.h>
 #include <cmath>
 #include <memory>
 #include <random>
 
 #include "ik_arm.h"
 #include "inversion/approximation.h"
+#include "inversion/approximation_io.h"
 #include "inversion/constraint.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
@@ -267,6 +269,136 @@ TEST_CASE("constraints: random poses of the biped's IK legs are recovered from r
     // unit of the controls moved), not another minimum: every pose is within 0.01 cm.
     CHECK(reached >= 290);
     CHECK(worstOfAll < 0.01);
+}
+
+// A random two-bone IK limb under a translating root, as a rigger would build one nobody here tuned for: bone
+// lengths, the limb's direction and its rest bend at random, with or without a pole control, with or without
+// stretch, a sliding knee or not. The goal sits at the end joint at rest, so IK at rest is the FK rest pose.
+struct RandomLimb {
+    std::string yaml;
+    GraphRigOptions options;
+    bool pole = false;
+};
+
+RandomLimb randomLimb(std::mt19937& rng)
+{
+    std::uniform_real_distribution<double> unit(-1.0, 1.0), length(15.0, 40.0), bend(0.05, 0.6);
+    Eigen::Vector3d along(unit(rng), unit(rng) - 1.5, unit(rng));
+    along.normalize();
+    Eigen::Vector3d side = along.unitOrthogonal();
+    const double l1 = length(rng), l2 = length(rng), b = bend(rng);
+    const Eigen::Vector3d start(unit(rng) * 10.0, unit(rng) * 10.0, unit(rng) * 10.0);
+    // The mid joint off the start-end line by the bend, towards `side`: the rest plane.
+    const Eigen::Vector3d mid = l1 * (std::cos(b) * along + std::sin(b) * side);
+    const Eigen::Vector3d end = l2 * (std::cos(b) * along - std::sin(b) * side);
+    const Eigen::Vector3d goal = Eigen::Vector3d(0, 100, 0) + start + mid + end;
+    RandomLimb limb;
+    limb.pole = std::bernoulli_distribution(0.7)(rng);
+    const bool stretch = std::bernoulli_distribution(0.5)(rng);
+    const bool slide = std::bernoulli_distribution(0.3)(rng);
+    const auto v = [](const Eigen::Vector3d& x) { return fmt::format("[{:.9g}, {:.9g}, {:.9g}]", x[0], x[1], x[2]); };
+    const Eigen::Vector3d poleAt = Eigen::Vector3d(0, 100, 0) + start + mid + 40.0 * side;
+    limb.yaml = fmt::format(
+        "nodes:\n"
+        "  - {{name: root_ctrl, type: transform, translate: [0, 100, 0]}}\n"
+        "  - {{name: base, type: joint, parent: root_ctrl}}\n"
+        "  - {{name: upper, type: joint, parent: base, translate: {}}}\n"
+        "  - {{name: lower, type: joint, parent: upper}}\n"
+        "  - {{name: tip, type: joint, parent: lower}}\n"
+        "  - {{name: ik_ctrl, type: transform, translate: {}}}\n"
+        "  - {{name: ik, type: ikHandle, startTranslate: {}, midTranslate: {}, endTranslate: {}, stretch: {}{}}}\n"
+        "{}"
+        "connections:\n"
+        "  - base.worldMatrix -> ik.startParentMatrix\n"
+        "  - base.scale -> ik.startInverseScale\n"
+        "  - ik_ctrl.worldMatrix -> ik.goalMatrix\n"
+        "  - ik.startRotate -> upper.rotate\n"
+        "  - ik.midRotate -> lower.rotate\n"
+        "  - ik.outMidTranslate -> lower.translate\n"
+        "  - ik.outEndTranslate -> tip.translate\n"
+        "{}",
+        v(start), v(goal), v(start), v(mid), v(end), stretch ? "true" : "false", slide ? ", midSlide: 0.5" : "",
+        limb.pole ? fmt::format("  - {{name: pole_ctrl, type: transform, translate: {}}}\n"
+                                "  - {{name: pv, type: poleVectorConstraint, constraintRotatePivot: {}}}\n",
+                                v(poleAt), v(start))
+                  : "",
+        limb.pole ? "  - pole_ctrl.worldMatrix -> pv.targetMatrix[0]\n  - base.worldMatrix -> pv.pivotSpace\n"
+                    "  - pv.constraintTranslate -> ik.poleVector\n"
+                  : "");
+    limb.options.parameterGlobs = {"root_ctrl.translate?", "ik_ctrl.translate?"};
+    if (limb.pole) limb.options.parameterGlobs.push_back("pole_ctrl.translate?");
+    limb.options.outputGlobs = {"base", "upper", "lower", "tip"};
+    limb.options.autoHelpers = true;
+    return limb;
+}
+
+TEST_CASE(
+    "constraints: random IK limbs (poles or not, stretch, sliding knees) are learned within epsilon, their "
+    "Jacobians are central differences', their poses recovered from rest")
+{
+    std::mt19937 rng(2026);
+    int modelled = 0, reached = 0, poses = 0;
+    const int limbs = 12;
+    for (int limbIndex = 0; limbIndex < limbs; ++limbIndex) {
+        const RandomLimb limb = randomLimb(rng);
+        CAPTURE(limbIndex);
+        CAPTURE(limb.yaml);
+        const auto file = test::writeFile(
+            test::scratchDir("constraint-random-limb") / fmt::format("limb{}.yaml", limbIndex), limb.yaml);
+        GraphRigFunction rig(file, limb.options);
+        std::vector<UnmodelledOutput> unmodelled;
+        const Approximation a = learnApproximation(rig, LearnOptions{}, file.string(), &unmodelled);
+        CHECK(a.validation.withinEpsilon);
+        for (const auto& u : unmodelled) MESSAGE(u.name << ": " << u.reason);
+        if (a.hasUnmodelledOutputs()) continue;
+        ++modelled;
+        // A chain without a pole keeps its rest plane; through a file and back, the same bits.
+        const bool restPlane = std::any_of(a.constraints.begin(), a.constraints.end(),
+                                           [](const ConstraintBase& c) { return c.restPlane; });
+        CHECK(restPlane == !limb.pole);
+        const Approximation b = approximationFromYaml(approximationToYaml(a), "limb.approx.yaml");
+        std::vector<Eigen::Matrix4d> wa, wb;
+        const std::vector<double> some = test::randomValues(a, rng, 0.5);
+        a.evaluate(some, wa);
+        b.evaluate(some, wb);
+        CHECK(wa == wb);
+        RigBinding binding(a, rig);
+        const Solver solver(a, SolverOptions{});
+        std::vector<Eigen::Matrix4d> worlds;
+        for (int pose = 0; pose < 5; ++pose) {
+            const std::vector<double> truth = test::randomValues(a, rng, 0.4);
+            binding.evaluate(truth, worlds);
+            std::vector<JointTarget> targets(a.outputs.size());
+            for (std::size_t k = 0; k < a.outputs.size(); ++k) {
+                targets[k].active = !a.outputs[k].helper;
+                targets[k].world = worlds[k];
+            }
+            // The analytic Jacobian through the chain against central differences, at the truth.
+            JacobianEvaluator evaluator(a, targets, 10.0);
+            Eigen::MatrixXd analytic, numeric;
+            Eigen::VectorXd r1, r2;
+            evaluator.jacobian(truth, JacobianMethod::analytic, 0.0, analytic, r1);
+            evaluator.jacobian(truth, JacobianMethod::finiteDifference, 1e-5, numeric, r2);
+            CHECK((analytic - numeric).cwiseAbs().maxCoeff() < 1e-4 * std::max(1.0, analytic.cwiseAbs().maxCoeff()));
+            std::vector<double> values = a.defaults();
+            solver.initialGuess(targets, values);
+            solver.solve(targets, values);
+            binding.evaluate(values, worlds);
+            double worst = 0.0;
+            for (std::size_t k = 0; k < a.outputs.size(); ++k)
+                if (targets[k].active)
+                    worst = std::max(worst, (worlds[k].block<3, 1>(0, 3) - targets[k].world.block<3, 1>(0, 3)).norm());
+            reached += worst < 1e-3 ? 1 : 0;
+            ++poses;
+        }
+    }
+    MESSAGE("random IK limbs: " << modelled << " of " << limbs
+                                << " fully modelled; poses reached from rest on the real "
+                                << "rig: " << reached << " of " << poses);
+    // 10 of 12 measured: the two others' closest candidate is the right chain (pole or rest plane), 0.003 to 0.013 cm
+    // per unit off, the shape's spline short of epsilon round the chain's kink at full reach.
+    CHECK(modelled >= 10);
+    CHECK(reached >= poses * 9 / 10);
 }
 
 }  // namespace rig
