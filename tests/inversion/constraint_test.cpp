@@ -2,6 +2,8 @@
 // base's velocity against finite differences, and solves through it.
 #include <doctest/doctest.h>
 
+#include <unistd.h>
+
 #include <fmt/format.h>
 #include <cmath>
 #include <memory>
@@ -63,7 +65,9 @@ private:
 
 // The IK arm with its helpers, learned once per run.
 struct LearnedArm {
-    std::filesystem::path file = test::writeFile(test::scratchDir("constraint-ik-arm") / "arm.yaml", test::ikArm);
+    // Per process: CTest runs the cases that share it side by side.
+    std::filesystem::path file =
+        test::writeFile(test::scratchDir(fmt::format("constraint-ik-arm.{}", ::getpid())) / "arm.yaml", test::ikArm);
     GraphRigFunction graphRig{file, test::ikArmOptions()};
     HelperRig rig{graphRig, graphRig.graph(), {"arm_ik_ctrl", "arm_pole_ctrl"}};
     Approximation approximation = learnApproximation(rig, LearnOptions{}, file.string());

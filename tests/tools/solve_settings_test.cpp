@@ -4,6 +4,8 @@
 // line with exit code 2 in both command lines and in a manifest.
 #include <doctest/doctest.h>
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -28,7 +30,8 @@ const fs::path armClip = "tests/corpus/clips/arm.json";
 fs::path armApproximation()
 {
     static const fs::path file = [] {
-        const fs::path out = test::scratchDir("solve_settings_arm") / "arm.approx.yaml";
+        // Per process: CTest runs this file's cases side by side, each learning its own.
+        const fs::path out = test::scratchDir(fmt::format("solve_settings_arm.{}", ::getpid())) / "arm.approx.yaml";
         const auto r =
             test::run(fmt::format("{} rigs/examples/arm.yaml --params 'shoulder.rotate?' 'elbow.rotate?' -o {}",
                                   test::tool("rig-learn"), out.string()));
