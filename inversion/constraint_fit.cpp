@@ -115,31 +115,28 @@ const std::vector<ConstraintFitter::Pose>& ConstraintFitter::poses(const std::ve
     return poses;
 }
 
+ChainPoints ConstraintFitter::pointsAt(const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const
+{
+    const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+    const Eigen::Matrix4d motion =
+        base.anchor < 0 ? identity
+                        : Eigen::Matrix4d(worlds[static_cast<std::size_t>(base.anchor)] *
+                                          probe_.rest()[static_cast<std::size_t>(base.anchor)].inverse());
+    return chainPoints(base, motion, worlds[static_cast<std::size_t>(base.goal)],
+                       base.pole < 0 ? identity : worlds[static_cast<std::size_t>(base.pole)]);
+}
+
 Eigen::Matrix4d ConstraintFitter::predicted(int k, const ConstraintBase& base,
                                             const std::vector<Eigen::Matrix4d>& worlds) const
 {
-    const auto& rest = probe_.rest();
-    const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
-    const Eigen::Matrix4d motion = base.anchor < 0
-                                       ? identity
-                                       : Eigen::Matrix4d(worlds[static_cast<std::size_t>(base.anchor)] *
-                                                         rest[static_cast<std::size_t>(base.anchor)].inverse());
-    const ChainPoints points = chainPoints(base, motion, worlds[static_cast<std::size_t>(base.goal)],
-                                           base.pole < 0 ? identity : worlds[static_cast<std::size_t>(base.pole)]);
-    return constraintBase(base, points) * rest[static_cast<std::size_t>(k)];
+    return constraintBase(base, pointsAt(base, worlds)) * probe_.rest()[static_cast<std::size_t>(k)];
 }
 
 bool ConstraintFitter::shapeAt(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds, double& x,
                                Eigen::Matrix4d& g) const
 {
     const auto& rest = probe_.rest();
-    const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
-    const Eigen::Matrix4d motion = base.anchor < 0
-                                       ? identity
-                                       : Eigen::Matrix4d(worlds[static_cast<std::size_t>(base.anchor)] *
-                                                         rest[static_cast<std::size_t>(base.anchor)].inverse());
-    const ChainPoints points = chainPoints(base, motion, worlds[static_cast<std::size_t>(base.goal)],
-                                           base.pole < 0 ? identity : worlds[static_cast<std::size_t>(base.pole)]);
+    const ChainPoints points = pointsAt(base, worlds);
     Eigen::Matrix4d frame;
     if (!chainFrame(points, base.restPlane, frame) || !worlds[static_cast<std::size_t>(k)].allFinite()) return false;
     x = (points.goal - points.root).norm() - base.restReach;

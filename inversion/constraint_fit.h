@@ -80,6 +80,8 @@ private:
     // The worst error per unit moved of the base's prediction of k on the poses.
     double error(int k, const ConstraintBase& base, const std::vector<Pose>& poses) const;
     Eigen::Matrix4d predicted(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const;
+    // The chain's points at a pose's raw worlds (the anchor's motion from its rest world).
+    ChainPoints pointsAt(const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const;
 
     RigProbe& probe_;
     const std::vector<ParameterSamples>& samples_;

@@ -619,6 +619,26 @@ TEST_CASE(
     }
 }
 
+namespace {
+
+// Targets for the biped with IK legs (three frames): the rig in the IK spec's state, the hips lowered and the left
+// foot control moved, so that the legs bend; every joint output of `a` (not its helpers) as graph-eval reads it.
+std::filesystem::path loweredHipsTargets(const rig::Approximation& a, const std::filesystem::path& dir)
+{
+    std::string get;
+    for (const auto& o : a.outputs)
+        if (!o.helper) get += fmt::format(" --get {}.worldMatrix", o.name);
+    const auto targets = dir / "targets.json";
+    REQUIRE(run(fmt::format("{} rigs/biped.yaml --set L_leg_settings.ikFk=1 --set R_leg_settings.ikFk=1 --set "
+                            "L_leg_ik.stretch=true --set R_leg_ik.stretch=true --set root_ctrl.translateY=-8 --set "
+                            "L_leg_ik_ctrl.translateZ=12 --frames 1:3{} -o '{}'",
+                            rig::test::tool("graph-eval"), get, targets.string()))
+                .exitCode == 0);
+    return targets;
+}
+
+}  // namespace
+
 TEST_CASE("rig-invert --hybrid: the biped with IK legs learned without helpers fits its legs on the real rig")
 {
     const auto dir = rig::test::scratchDir("rig-invert-hybrid");
@@ -629,15 +649,7 @@ TEST_CASE("rig-invert --hybrid: the biped with IK legs learned without helpers f
     const rig::Approximation a = rig::readApproximationFile(ik);
     REQUIRE(a.hasUnmodelledOutputs());
 
-    // Targets: the rig in the spec's state, the hips lowered and the left foot control moved: IK legs bend.
-    std::string get;
-    for (const auto& o : a.outputs) get += fmt::format(" --get {}.worldMatrix", o.name);
-    const auto targets = dir / "targets.json";
-    REQUIRE(run(fmt::format("{} rigs/biped.yaml --set L_leg_settings.ikFk=1 --set R_leg_settings.ikFk=1 --set "
-                            "L_leg_ik.stretch=true --set R_leg_ik.stretch=true --set root_ctrl.translateY=-8 --set "
-                            "L_leg_ik_ctrl.translateZ=12 --frames 1:3{} -o '{}'",
-                            rig::test::tool("graph-eval"), get, targets.string()))
-                .exitCode == 0);
+    const auto targets = loweredHipsTargets(a, dir);
     const auto invert = [&](const std::string& flags) {
         return run(fmt::format("{} '{}' --rig rigs/biped.yaml --clip '{}' -o '{}' --report-json '{}' {}",
                                rig::test::tool("rig-invert"), ik.string(), targets.string(),
@@ -727,17 +739,9 @@ TEST_CASE(
     const YAML::Node report = YAML::LoadFile(json.string());
     CHECK(report["unmodelled_outputs"].size() == 0);
 
-    // The hybrid test's targets (hips lowered, the left foot control moved): reached on the real rig by the
-    // approximation's solve alone, no real-rig evaluation in the solve.
-    std::string get;
-    for (const auto& o : a.outputs)
-        if (!o.helper) get += fmt::format(" --get {}.worldMatrix", o.name);
-    const auto targets = dir / "targets.json";
-    REQUIRE(run(fmt::format("{} rigs/biped.yaml --set L_leg_settings.ikFk=1 --set R_leg_settings.ikFk=1 --set "
-                            "L_leg_ik.stretch=true --set R_leg_ik.stretch=true --set root_ctrl.translateY=-8 --set "
-                            "L_leg_ik_ctrl.translateZ=12 --frames 1:3{} -o '{}'",
-                            rig::test::tool("graph-eval"), get, targets.string()))
-                .exitCode == 0);
+    // The hybrid test's targets: reached on the real rig by the approximation's solve alone, no real-rig evaluation
+    // in the solve.
+    const auto targets = loweredHipsTargets(a, dir);
     const auto inverted = run(fmt::format("{} '{}' --rig rigs/biped.yaml --clip '{}' -o '{}' --report-json '{}'",
                                           rig::test::tool("rig-invert"), ik.string(), targets.string(),
                                           (dir / "curves.json").string(), (dir / "report.json").string()));
