@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/parse_number.h"
+#include "inversion/pole_hold.h"
 
 namespace rig::app {
 
@@ -141,6 +142,23 @@ Json outputsJson(const Approximation& a)
     return outputs;
 }
 
+// Per held pole, its controls: what the joints cannot decide, which the solver holds at rest (pole_hold.h).
+Json notIdentifiableJson(const Approximation& a)
+{
+    Json held = Json::array();
+    for (const PoleHold& hold : poleHolds(a)) {
+        Json controls = Json::array();
+        for (const int p : hold.parameters)
+            controls.push_back(a.parameters[static_cast<std::size_t>(p)].parameter.name);
+        held.push_back(
+            {{"pole",
+              a.outputs[static_cast<std::size_t>(a.constraints[static_cast<std::size_t>(hold.constraint)].pole)].name},
+             {"controls", std::move(controls)},
+             {"why", "the pole's distance from the chain and its place along it; the plane it spans is solved"}});
+    }
+    return held;
+}
+
 }  // namespace
 
 Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std::optional<std::string>& approximation,
@@ -180,6 +198,7 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                 {"parameters", outcome.rigParameters},
                 {"outputs", outcome.rigOutputs},
                 {"helpers", outcome.helpers},
+                {"not_identifiable", notIdentifiableJson(a)},
                 {"held", heldJson(a.held)},
                 {"evaluations", a.training.evaluations},
                 {"order_evaluations", a.training.orderEvaluations},

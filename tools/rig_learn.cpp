@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "core/table.h"
 #include "inversion/approximation_io.h"
+#include "inversion/pole_hold.h"
 #include "nodes/inversion_spec.h"
 #include "tools/cli_common.h"
 
@@ -158,6 +159,16 @@ std::string constraintsText(const Approximation& a)
             : c.pole < 0 ? "fixed to the anchor"
                          : name(c.pole),
             knots.size(), c.restReach + knots.front(), c.restReach + knots.back());
+    }
+    // What the joints cannot decide of a chain: its pole's distance and place along the chain (pole_hold.h).
+    for (const PoleHold& hold : poleHolds(a)) {
+        std::vector<std::string> controls;
+        for (const int p : hold.parameters)
+            controls.push_back(a.parameters[static_cast<std::size_t>(p)].parameter.name);
+        out += fmt::format(
+            "  held at rest where the joints cannot decide: {} (the pole's distance from the chain and "
+            "its place along it; the plane it spans is solved)\n",
+            fmt::join(controls, ", "));
     }
     return out;
 }

@@ -738,6 +738,15 @@ TEST_CASE(
                            "L_leg_pole_ctrl; shape ") != std::string::npos);
     const YAML::Node report = YAML::LoadFile(json.string());
     CHECK(report["unmodelled_outputs"].size() == 0);
+    // What the joints cannot decide, held by the solver, per control.
+    CHECK(learned.out.find("\n  held at rest where the joints cannot decide: L_leg_pole_ctrl.translateX, "
+                           "L_leg_pole_ctrl.translateY, L_leg_pole_ctrl.translateZ (the pole's distance from the chain "
+                           "and its place along it; the plane it spans is solved)\n") != std::string::npos);
+    REQUIRE(report["not_identifiable"].size() == 2);
+    CHECK(report["not_identifiable"][1]["pole"].as<std::string>() == "R_leg_pole_ctrl");
+    CHECK(report["not_identifiable"][1]["controls"].as<std::vector<std::string>>() ==
+          std::vector<std::string>{"R_leg_pole_ctrl.translateX", "R_leg_pole_ctrl.translateY",
+                                   "R_leg_pole_ctrl.translateZ"});
 
     // The hybrid test's targets: reached on the real rig by the approximation's solve alone, no real-rig evaluation
     // in the solve.
