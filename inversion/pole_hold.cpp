@@ -11,11 +11,25 @@ namespace {
 // Below this distance from the chain's line the plane is not defined: the pole is left where it is.
 constexpr double degenerateAcross = 1e-6;
 
+Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> values,
+                        const std::vector<int>* controls = nullptr, Eigen::MatrixXd* columns = nullptr);
+
+// A chain's points at `values`: its anchor's motion carries the root.
+ChainPoints pointsAt(const Approximation& a, const ConstraintBase& c, std::span<const double> values)
+{
+    const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+    const Eigen::Matrix4d anchor = c.anchor < 0
+                                       ? identity
+                                       : Eigen::Matrix4d(worldOf(a, c.anchor, values) *
+                                                         a.outputs[static_cast<std::size_t>(c.anchor)].rest.inverse());
+    return chainPoints(c, anchor, worldOf(a, c.goal, values), c.pole < 0 ? identity : worldOf(a, c.pole, values));
+}
+
 // Output k's world at `values`, evaluating only what it reads (its parents, its base's inputs). With `columns`, the
 // pole's own translations' columns d(origin)/da are set there as they are met (their operators' axes through the
 // product before them), in the order of `controls`.
-Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> values,
-                        const std::vector<int>* controls = nullptr, Eigen::MatrixXd* columns = nullptr)
+Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> values, const std::vector<int>* controls,
+                        Eigen::MatrixXd* columns)
 {
     Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
     for (std::size_t p = 0; p < a.parameters.size(); ++p) {
@@ -35,14 +49,7 @@ Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> v
     const ApproximationOutput& output = a.outputs[static_cast<std::size_t>(k)];
     if (output.constraint >= 0) {
         const ConstraintBase& c = a.constraints[static_cast<std::size_t>(output.constraint)];
-        const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
-        const Eigen::Matrix4d anchor =
-            c.anchor < 0 ? identity
-                         : Eigen::Matrix4d(worldOf(a, c.anchor, values) *
-                                           a.outputs[static_cast<std::size_t>(c.anchor)].rest.inverse());
-        m = constraintBase(c, chainPoints(c, anchor, worldOf(a, c.goal, values),
-                                          c.pole < 0 ? identity : worldOf(a, c.pole, values))) *
-            m;
+        m = constraintBase(c, pointsAt(a, c, values)) * m;
     } else if (output.parent >= 0) {
         m = worldOf(a, output.parent, values) * a.outputs[static_cast<std::size_t>(output.parent)].rest.inverse() * m;
     }
@@ -76,14 +83,6 @@ void place(const Approximation& approximation, int k, const std::vector<int>& co
         values[static_cast<std::size_t>(controls[i])] += step[static_cast<Eigen::Index>(i)];
 }
 
-Eigen::Vector3d rootAt(const Approximation& approximation, const ConstraintBase& c, std::span<const double> values)
-{
-    if (c.anchor < 0) return c.root;
-    const Eigen::Matrix4d motion = worldOf(approximation, c.anchor, values) *
-                                   approximation.outputs[static_cast<std::size_t>(c.anchor)].rest.inverse();
-    return motion.block<3, 3>(0, 0) * c.root + motion.block<3, 1>(0, 3);
-}
-
 }  // namespace
 
 std::vector<PoleHold> poleHolds(const Approximation& approximation)
@@ -111,23 +110,13 @@ void holdPoles(const Approximation& approximation, std::span<const PoleHold> hol
 {
     for (const PoleHold& hold : holds) {
         const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(hold.constraint)];
-        const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
-        const Eigen::Matrix4d anchor =
-            c.anchor < 0 ? identity
-                         : Eigen::Matrix4d(worldOf(approximation, c.anchor, values) *
-                                           approximation.outputs[static_cast<std::size_t>(c.anchor)].rest.inverse());
-        // The pole's controls are translations moving it alone: its origin is affine in them.
-        Eigen::MatrixXd j(3, static_cast<Eigen::Index>(hold.parameters.size()));
-        const Eigen::Matrix4d pole = worldOf(approximation, c.pole, values, &hold.parameters, &j);
-        const ChainPoints points = chainPoints(c, anchor, worldOf(approximation, c.goal, values), pole);
+        const ChainPoints points = pointsAt(approximation, c, values);
         const Eigen::Vector3d x = (points.goal - points.root).normalized();
         const Eigen::Vector3d offset = points.pole - points.root;
         const Eigen::Vector3d w = offset - offset.dot(x) * x;
         if (!(w.norm() > degenerateAcross) || !x.allFinite()) continue;
-        const Eigen::Vector3d wanted = points.root + hold.along * x + hold.across * w.normalized();
-        const Eigen::VectorXd step = j.completeOrthogonalDecomposition().solve(wanted - points.pole);
-        for (std::size_t i = 0; i < hold.parameters.size(); ++i)
-            values[static_cast<std::size_t>(hold.parameters[i])] += step[static_cast<Eigen::Index>(i)];
+        place(approximation, c.pole, hold.parameters, points.root + hold.along * x + hold.across * w.normalized(),
+              values);
     }
 }
 
@@ -164,8 +153,9 @@ void placeChain(const Approximation& approximation, int constraint, std::span<co
         return approximation.constraints[static_cast<std::size_t>(h.constraint)].pole == c.pole;
     });
     if (hold == holds.end() || middle == end) return;
-    const Eigen::Vector3d root = rootAt(approximation, c, values);
-    const Eigen::Vector3d x = (worldOf(approximation, c.goal, values).block<3, 1>(0, 3) - root).normalized();
+    const ChainPoints points = pointsAt(approximation, c, values);
+    const Eigen::Vector3d root = points.root;
+    const Eigen::Vector3d x = (points.goal - root).normalized();
     const Eigen::Vector3d knee = targets[static_cast<std::size_t>(middle)].world.block<3, 1>(0, 3) - root;
     const Eigen::Vector3d w = knee - knee.dot(x) * x;
     if (!(w.norm() > degenerateAcross) || !x.allFinite()) return;
