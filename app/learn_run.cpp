@@ -127,11 +127,21 @@ Json outputsJson(const Approximation& a)
         Json constraint;
         if (o.constraint >= 0) {
             const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
-            constraint = {{"kind", constraintKindName(c.kind)},
-                          {"anchor", nameOf(c.anchor)},
-                          {"goal", nameOf(c.goal)},
-                          {"pole", nameOf(c.pole)},
-                          {"knots", c.shape.rigid.knots().size()}};
+            if (c.kind == ConstraintKind::twistShare)
+                constraint = {{"kind", constraintKindName(c.kind)},
+                              {"anchor", nameOf(c.anchor)},
+                              {"driver", nameOf(c.driver)},
+                              {"driver_parent", nameOf(c.driverParent)},
+                              {"twist_axis", std::string(1, "xyz"[c.twistAxis])},
+                              {"read_order", rotateOrderName(c.readOrder)},
+                              {"twist_order", rotateOrderName(c.twistOrder)},
+                              {"share", c.share}};
+            else
+                constraint = {{"kind", constraintKindName(c.kind)},
+                              {"anchor", nameOf(c.anchor)},
+                              {"goal", nameOf(c.goal)},
+                              {"pole", nameOf(c.pole)},
+                              {"knots", c.shape.rigid.knots().size()}};
         }
         outputs.push_back({{"name", o.name},
                            {"frame", frame},
@@ -226,7 +236,9 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                   {"max_relative_error", numberJson(v.maxRelativeError)},
                   {"worst_relative_output", v.worstRelativeOutput},
                   {"worst_parameter", v.worstParameter},
-                  {"non_finite_poses", v.nonFinitePoses}}}};
+                  {"non_finite_poses", v.nonFinitePoses},
+                  {"singular_poses", v.singularPoses},
+                  {"singular_output", v.singularOutput}}}};
 }
 
 std::string validationFailure(const Approximation& approximation)

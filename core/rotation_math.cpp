@@ -1,11 +1,36 @@
 #include "core/rotation_math.h"
 
+#include <array>
 #include <cmath>
 
 #include <Eigen/Geometry>
 #include <Eigen/SVD>
 
 namespace rig {
+namespace {
+
+struct OrderInfo {
+    std::string_view name;
+    std::array<int, 3> axes;  // axis indices in application order
+    double parity;            // +1 for cyclic orders, -1 for the others
+};
+
+// Indexed by the enum value.
+constexpr std::array<OrderInfo, 6> orderTable{{
+    {"xyz", {0, 1, 2}, 1.0},
+    {"yzx", {1, 2, 0}, 1.0},
+    {"zxy", {2, 0, 1}, 1.0},
+    {"xzy", {0, 2, 1}, -1.0},
+    {"yxz", {1, 0, 2}, -1.0},
+    {"zyx", {2, 1, 0}, -1.0},
+}};
+
+const OrderInfo& info(RotateOrder order) { return orderTable[static_cast<std::size_t>(order)]; }
+
+// Below this, a length is treated as zero (gimbal lock).
+constexpr double tinyLength = 1e-12;
+
+}  // namespace
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& v)
 {
@@ -33,6 +58,84 @@ double orientationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b)
 double nearestTurn(double value, double reference, double period)
 {
     return value + period * std::round((reference - value) / period);
+}
+
+std::optional<RotateOrder> rotateOrderFromName(std::string_view name)
+{
+    if (name.size() != 3) return std::nullopt;
+    std::array<char, 3> lower{};
+    for (std::size_t i = 0; i < 3; ++i) {
+        const char c = name[i];
+        lower[i] = (c >= 'A' && c <= 'Z') ? static_cast<char>(c - 'A' + 'a') : c;
+    }
+    const std::string_view key(lower.data(), lower.size());
+    for (std::size_t i = 0; i < orderTable.size(); ++i)
+        if (orderTable[i].name == key) return static_cast<RotateOrder>(i);
+    return std::nullopt;
+}
+
+std::optional<RotateOrder> rotateOrderFromIndex(int index)
+{
+    if (index < 0 || index >= static_cast<int>(orderTable.size())) return std::nullopt;
+    return static_cast<RotateOrder>(index);
+}
+
+std::string_view rotateOrderName(RotateOrder order) { return info(order).name; }
+
+Eigen::Matrix3d eulerToMatrix(const Eigen::Vector3d& radians, RotateOrder order)
+{
+    const auto& axes = info(order).axes;
+    Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+    // Left-multiply so the first axis of the order acts first on column vectors.
+    for (const int axis : axes)
+        m = Eigen::AngleAxisd(radians[axis], Eigen::Vector3d::Unit(axis)).toRotationMatrix() * m;
+    return m;
+}
+
+Eigen::Vector3d matrixToEuler(const Eigen::Matrix3d& rotation, RotateOrder order)
+{
+    const auto& axes = info(order).axes;
+    const double parity = info(order).parity;
+    // Permuting the axes to x, y, z turns any order into xyz, with angles
+    // negated for odd permutations (a reflection flips rotation sense):
+    // r = Rz(c) * Ry(b) * Rx(a) with (a, b, c) = parity * (first, middle, last).
+    auto r = [&](int row, int col) { return rotation(axes[row], axes[col]); };
+
+    const double cosB = std::hypot(r(0, 0), r(1, 0));
+    const double b = std::atan2(-r(2, 0), cosB);
+    const double a = cosB > tinyLength ? std::atan2(r(2, 1), r(2, 2)) : 0.0;
+    // Solving c given a (from r * Rx(a)^T = Rz(c) * Ry(b)) stays exact at
+    // gimbal lock, where only the sum/difference of a and c is determined.
+    const double sa = std::sin(a);
+    const double ca = std::cos(a);
+    const double c = std::atan2(sa * r(0, 2) - ca * r(0, 1), ca * r(1, 1) - sa * r(1, 2));
+
+    Eigen::Vector3d result;
+    result[axes[0]] = parity * a;
+    result[axes[1]] = parity * b;
+    result[axes[2]] = parity * c;
+    return result;
+}
+
+Eigen::Vector3d closestEuler(const Eigen::Vector3d& euler, const Eigen::Vector3d& reference, RotateOrder order)
+{
+    const auto& axes = info(order).axes;
+    constexpr double pi = std::numbers::pi;
+
+    Eigen::Vector3d flipped;
+    flipped[axes[0]] = euler[axes[0]] + pi;
+    flipped[axes[1]] = pi - euler[axes[1]];
+    flipped[axes[2]] = euler[axes[2]] + pi;
+
+    auto wrapped = [&](const Eigen::Vector3d& candidate) {
+        Eigen::Vector3d out;
+        for (int axis = 0; axis < 3; ++axis) out[axis] = nearestTurn(candidate[axis], reference[axis]);
+        return out;
+    };
+    const Eigen::Vector3d direct = wrapped(euler);
+    const Eigen::Vector3d alternate = wrapped(flipped);
+    // Ties keep the direct solution so results do not flicker.
+    return (alternate - reference).squaredNorm() < (direct - reference).squaredNorm() ? alternate : direct;
 }
 
 }  // namespace rig

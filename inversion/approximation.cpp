@@ -36,8 +36,9 @@ void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::
             const ConstraintBase& base = constraints[static_cast<std::size_t>(output.constraint)];
             const Eigen::Matrix4d anchor =
                 base.anchor < 0 ? Eigen::Matrix4d::Identity() : worlds[static_cast<std::size_t>(base.anchor)];
-            const Eigen::Matrix4d pole = base.pole < 0 ? Eigen::Matrix4d::Identity() : world(base.pole);
-            product = constraintBase(base, chainPoints(base, anchor, world(base.goal), pole)) * product;
+            const std::array<int, 3> in = base.inputs();
+            const auto input = [&](int i) { return i < 0 ? Eigen::Matrix4d(Eigen::Matrix4d::Identity()) : world(i); };
+            product = constraintBase(base, anchor, input(in[1]), input(in[2])) * product;
         } else if (output.parent >= 0) {
             product = worlds[static_cast<std::size_t>(output.parent)] * product;
         }
@@ -54,7 +55,7 @@ std::vector<int> Approximation::frameInputs(int k) const
                                         output.constraint, constraints.size()));
     const ConstraintBase& base = constraints[static_cast<std::size_t>(output.constraint)];
     std::vector<int> inputs;
-    for (const int i : {base.anchor, base.goal, base.pole})
+    for (const int i : base.inputs())
         if (i >= 0) inputs.push_back(i);
     return inputs;
 }

@@ -93,6 +93,10 @@ struct ValidationSummary {
     std::string worstParameter;       // the parameter moved furthest there
     int nonFinitePoses = 0;           // poses where the real rig gave a non-finite matrix (not measured)
     bool withinEpsilon = true;        // maxRelativeError <= epsilon and every pose measured
+    // (output, pose) pairs not measured because the output's twist share is undefined there (twistSingular: its
+    // driver's angles at gimbal lock, or its swing or twist a half turn), and the first such output.
+    int singularPoses = 0;
+    std::string singularOutput;
 };
 
 struct TrainingSummary {

@@ -145,6 +145,9 @@ std::string headerText(const Approximation& a)
         "  withinEpsilon: {}\n",
         number(v.maxRelativeError, "validation.maxRelativeError"), yamlString(v.worstRelativeOutput),
         yamlString(v.worstParameter), v.nonFinitePoses, v.withinEpsilon);
+    if (v.singularPoses > 0)
+        out +=
+            fmt::format("  singularPoses: {}\n  singularOutput: {}\n", v.singularPoses, yamlString(v.singularOutput));
     return out;
 }
 
@@ -195,10 +198,21 @@ std::string constraintsText(const Approximation& a)
                 throw internalError(fmt::format("approximationToYaml: {}.{}: index {} out of range", field, which, k));
             return fmt::format("    {}: {}\n", which, yamlString(a.outputs[static_cast<std::size_t>(k)].name));
         };
+        out += fmt::format("  - kind: {}\n", constraintKindName(base.kind));
+        if (base.kind == ConstraintKind::twistShare) {
+            out += input("anchor", base.anchor, true) + input("driver", base.driver, false) +
+                   input("driverParent", base.driverParent, true);
+            out += fmt::format(
+                "    root: {}\n    axis: {}\n    twistAxis: {}\n    readOrder: {}\n    twistOrder: {}\n"
+                "    share: {}\n",
+                vector3(base.root, field + ".root"), vector3(base.axis, field + ".axis"), "xyz"[base.twistAxis],
+                rotateOrderName(base.readOrder), rotateOrderName(base.twistOrder),
+                number(base.share, field + ".share"));
+            continue;
+        }
         if (base.shape.kind != OperatorKind::sampledRigid)
             throw internalError(fmt::format("approximationToYaml: {}.shape is {}, not sampledRigid", field,
                                             operatorKindName(base.shape.kind)));
-        out += fmt::format("  - kind: {}\n", constraintKindName(base.kind));
         out += input("anchor", base.anchor, true) + input("goal", base.goal, false) + input("pole", base.pole, true);
         out += fmt::format("    root: {}\n    restPole: {}\n", vector3(base.root, field + ".root"),
                            vector3(base.restPole, field + ".restPole"));
@@ -583,7 +597,8 @@ ValidationSummary readValidation(const Reader& r, const YAML::Node& validation)
     r.checkKeys(validation, "validation",
                 {"poses", "maxPositionErrorCm", "meanPositionErrorCm", "maxRotationErrorDeg", "meanRotationErrorDeg",
                  "worstOutput", "worstPose"},
-                {"maxRelativeError", "worstRelativeOutput", "worstParameter", "nonFinitePoses", "withinEpsilon"});
+                {"maxRelativeError", "worstRelativeOutput", "worstParameter", "nonFinitePoses", "withinEpsilon",
+                 "singularPoses", "singularOutput"});
     ValidationSummary v;
     v.poses = r.count<int>(validation["poses"], "validation.poses");
     v.maxPositionErrorCm = r.nonNegative(validation["maxPositionErrorCm"], "validation.maxPositionErrorCm");
@@ -600,6 +615,8 @@ ValidationSummary readValidation(const Reader& r, const YAML::Node& validation)
     if (const YAML::Node n = validation["nonFinitePoses"])
         v.nonFinitePoses = r.count<int>(n, "validation.nonFinitePoses");
     if (const YAML::Node n = validation["withinEpsilon"]) v.withinEpsilon = r.boolean(n, "validation.withinEpsilon");
+    if (const YAML::Node n = validation["singularPoses"]) v.singularPoses = r.count<int>(n, "validation.singularPoses");
+    if (const YAML::Node n = validation["singularOutput"]) v.singularOutput = r.text(n, "validation.singularOutput");
     return v;
 }
 
@@ -644,17 +661,61 @@ std::map<std::string, int> readOutputs(const Reader& r, const YAML::Node& root, 
     return outputIndex;
 }
 
+// A twist share's fields (ConstraintBase); its driver's rest rotation relative to its parent's comes from their
+// rest matrices.
+template <class Input>
+ConstraintBase readTwistShare(const Reader& r, const YAML::Node& n, const std::string& field, const Input& input,
+                              const Approximation& a)
+{
+    ConstraintBase base;
+    base.kind = ConstraintKind::twistShare;
+    base.anchor = input("anchor");
+    base.driver = input("driver");
+    base.driverParent = input("driverParent");
+    base.root = r.vector3(r.child(n, "root"), field + ".root");
+    const YAML::Node axis = r.child(n, "axis");
+    base.axis = r.vector3(axis, field + ".axis");
+    if (!(std::abs(base.axis.norm() - 1.0) < 1e-9))
+        r.fail(axis, field + ".axis", "must be a unit vector (re-run rig-learn)");
+    const YAML::Node twistAxis = r.child(n, "twistAxis");
+    const std::string axisName = r.text(twistAxis, field + ".twistAxis");
+    if (axisName != "x" && axisName != "y" && axisName != "z")
+        r.fail(twistAxis, field + ".twistAxis", fmt::format("'{}' is not an axis; it is x, y or z", axisName));
+    base.twistAxis = axisName[0] - 'x';
+    const auto order = [&](std::string_view key) {
+        const YAML::Node v = r.child(n, key);
+        const std::string path = fmt::format("{}.{}", field, key);
+        const std::optional<RotateOrder> o = rotateOrderFromName(r.text(v, path));
+        if (!o) r.fail(v, path, "not a rotate order; it is one of xyz, yzx, zxy, xzy, yxz, zyx");
+        return *o;
+    };
+    base.readOrder = order("readOrder");
+    base.twistOrder = order("twistOrder");
+    base.share = r.real(r.child(n, "share"), field + ".share");
+    const auto restRotation = [&](int k) -> Eigen::Matrix3d {
+        if (k < 0) return Eigen::Matrix3d::Identity();
+        return polarRotation(a.outputs[static_cast<std::size_t>(k)].rest.block<3, 3>(0, 0));
+    };
+    base.driverRest = restRotation(base.driverParent).transpose() * restRotation(base.driver);
+    return base;
+}
+
 // One constraint operator; its inputs are modelled outputs, by name.
 ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::string& field,
                               const std::map<std::string, int>& outputIndex, const Approximation& a)
 {
     const YAML::Node kind = r.need(n, "kind", field);
     const std::string kindName = r.text(kind, field + ".kind");
-    if (kindName != constraintKindName(ConstraintKind::planarChain))
+    const std::optional<ConstraintKind> known = constraintKindFromName(kindName);
+    if (!known)
         r.fail(kind, field + ".kind",
-               fmt::format("unknown constraint '{}'; the constraints are {}", kindName,
-                           constraintKindName(ConstraintKind::planarChain)));
-    r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"}, {"anchor", "pole", "restNormal"});
+               fmt::format("unknown constraint '{}'; the constraints are {} and {}", kindName,
+                           constraintKindName(ConstraintKind::planarChain),
+                           constraintKindName(ConstraintKind::twistShare)));
+    if (*known == ConstraintKind::twistShare)
+        r.checkKeys(n, field, {"kind", "driver", "root", "axis", "twistAxis", "readOrder", "twistOrder", "share"},
+                    {"anchor", "driverParent"});
+    else r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"}, {"anchor", "pole", "restNormal"});
     const auto input = [&](std::string_view which) {
         const YAML::Node v = r.child(n, which);
         if (!v) return -1;
@@ -669,6 +730,7 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
                                name));
         return it->second;
     };
+    if (*known == ConstraintKind::twistShare) return readTwistShare(r, n, field, input, a);
     ConstraintBase base;
     base.kind = ConstraintKind::planarChain;
     base.anchor = input("anchor");

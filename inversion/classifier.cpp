@@ -56,7 +56,7 @@ std::vector<int> RigProbe::frameInputs(int k) const
 {
     if (const auto c = constraints.find(k); c != constraints.end()) {
         std::vector<int> inputs;
-        for (const int i : {c->second.anchor, c->second.goal, c->second.pole})
+        for (const int i : c->second.inputs())
             if (i >= 0) inputs.push_back(i);
         return inputs;
     }
@@ -65,13 +65,13 @@ std::vector<int> RigProbe::frameInputs(int k) const
 }
 
 Eigen::Matrix4d RigProbe::inConstraintFrame(const ConstraintBase& base, const Eigen::Matrix4d& world,
-                                            const Eigen::Matrix4d& anchorWorld, const Eigen::Matrix4d& goalWorld,
-                                            const Eigen::Matrix4d& poleWorld) const
+                                            const Eigen::Matrix4d& anchorWorld, const Eigen::Matrix4d& secondWorld,
+                                            const Eigen::Matrix4d& thirdWorld) const
 {
     const Eigen::Matrix4d motion =
         base.anchor < 0 ? Eigen::Matrix4d::Identity()
                         : Eigen::Matrix4d(anchorWorld * rest_[static_cast<std::size_t>(base.anchor)].inverse());
-    const Eigen::Matrix4d b = constraintBase(base, chainPoints(base, motion, goalWorld, poleWorld));
+    const Eigen::Matrix4d b = constraintBase(base, motion, secondWorld, thirdWorld);
     Eigen::Matrix4d inverse = Eigen::Matrix4d::Identity();  // b is rigid (or not finite: the sample says so)
     inverse.block<3, 3>(0, 0) = b.block<3, 3>(0, 0).transpose();
     inverse.block<3, 1>(0, 3) = -inverse.block<3, 3>(0, 0) * b.block<3, 1>(0, 3);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <numbers>
 
 #include <Eigen/Geometry>
 
@@ -21,9 +22,51 @@ Eigen::Matrix4d rigidInverse(const Eigen::Matrix4d& m)
     return inverse;
 }
 
+// The body rates of Euler angles: R(a)^T dR = [E(a) da]x, for R = R3 R2 R1 in the order's application order
+// (R1 = Rot(e_i1, a_i1) acts first), so that E's columns are R1^T R2^T e_i3, R1^T e_i2 and e_i1 at i3, i2, i1.
+Eigen::Matrix3d eulerRates(const Eigen::Vector3d& a, RotateOrder order)
+{
+    const std::string_view name = rotateOrderName(order);
+    const int i1 = name[0] - 'x', i2 = name[1] - 'x', i3 = name[2] - 'x';
+    const Eigen::Matrix3d r1 = Eigen::AngleAxisd(a[i1], Eigen::Vector3d::Unit(i1)).toRotationMatrix();
+    const Eigen::Matrix3d r2 = Eigen::AngleAxisd(a[i2], Eigen::Vector3d::Unit(i2)).toRotationMatrix();
+    Eigen::Matrix3d e;
+    e.col(i1) = Eigen::Vector3d::Unit(i1);
+    e.col(i2) = r1.transpose() * Eigen::Vector3d::Unit(i2);
+    e.col(i3) = r1.transpose() * r2.transpose() * Eigen::Vector3d::Unit(i3);
+    return e;
+}
+
+Eigen::Matrix3d polarOf(const Eigen::Matrix4d& m, Eigen::Matrix3d* symmetric = nullptr)
+{
+    return polarRotation(m.block<3, 3>(0, 0), symmetric);
+}
+
+// The vector of a skew matrix's skew part.
+Eigen::Vector3d vee(const Eigen::Matrix3d& k)
+{
+    return 0.5 * Eigen::Vector3d(k(2, 1) - k(1, 2), k(0, 2) - k(2, 0), k(1, 0) - k(0, 1));
+}
+
 }  // namespace
 
-std::string_view constraintKindName(ConstraintKind) { return "planarChain"; }
+std::string_view constraintKindName(ConstraintKind kind)
+{
+    return kind == ConstraintKind::twistShare ? "twistShare" : "planarChain";
+}
+
+std::optional<ConstraintKind> constraintKindFromName(std::string_view name)
+{
+    for (const ConstraintKind kind : {ConstraintKind::planarChain, ConstraintKind::twistShare})
+        if (constraintKindName(kind) == name) return kind;
+    return std::nullopt;
+}
+
+std::array<int, 3> ConstraintBase::inputs() const
+{
+    if (kind == ConstraintKind::twistShare) return {anchor, driver, driverParent};
+    return {anchor, goal, pole};
+}
 
 bool chainFrame(const ChainPoints& points, bool restPlane, Eigen::Matrix4d& frame)
 {
@@ -119,6 +162,97 @@ Affine baseVelocity(const BaseLinearization& l, const ChainPoints& rate)
     v.leftCols<3>() += omega;
     v.col(3) += rate.root - omega * l.root;
     return v;
+}
+
+double driverTwist(const ConstraintBase& base, const Eigen::Matrix3d& relative, Eigen::Vector3d* gradient)
+{
+    const Eigen::Matrix3d r = base.driverRest.transpose() * relative;
+    // The rig's reading: R's angles in readOrder taken in twistOrder (the same order: R itself).
+    Eigen::Matrix3d read = r, rates = Eigen::Matrix3d::Identity();
+    if (base.readOrder != base.twistOrder) {
+        const Eigen::Vector3d angles = matrixToEuler(r, base.readOrder);
+        read = eulerToMatrix(angles, base.twistOrder);
+        // A turn delta of R changes the angles by E_read^-1 delta, which turn the read rotation by E_twist of that.
+        rates = eulerRates(angles, base.twistOrder) * eulerRates(angles, base.readOrder).inverse();
+    }
+    Eigen::Quaterniond q(read);
+    if (q.w() < 0) q.coeffs() = -q.coeffs();
+    const Eigen::Vector3d e = Eigen::Vector3d::Unit(base.twistAxis);
+    const double s = q.vec().dot(e), c = q.w();
+    if (gradient) {
+        // q turned by delta in its own frame: dq_w = -q_v . delta / 2, dq_v = (q_w delta + q_v x delta) / 2.
+        const Eigen::Vector3d g = (c * (c * e + e.cross(q.vec())) + s * q.vec()) / (s * s + c * c);
+        *gradient = rates.transpose() * g;
+        if (!gradient->allFinite()) gradient->setZero();
+    }
+    return 2.0 * std::atan2(s, c);
+}
+
+bool twistSingular(const ConstraintBase& base, const Eigen::Matrix3d& relative)
+{
+    // Below these the angles' split or the twist's sign is decided by rounding.
+    constexpr double gimbal = 1e-9, halfTurn = 1e-12;
+    const Eigen::Matrix3d r = base.driverRest.transpose() * relative;
+    Eigen::Matrix3d read = r;
+    if (base.readOrder != base.twistOrder) {
+        const Eigen::Vector3d angles = matrixToEuler(r, base.readOrder);
+        const int middle = rotateOrderName(base.readOrder)[1] - 'x';
+        if (std::abs(std::cos(angles[middle])) < gimbal) return true;
+        read = eulerToMatrix(angles, base.twistOrder);
+    }
+    const Eigen::Quaterniond q(read);
+    const double s = q.vec()[base.twistAxis], c = q.w();
+    // A half-turn swing leaves no twist; a twist of a half turn is where it wraps from +pi to -pi.
+    return s * s + c * c < halfTurn || std::abs(c) < gimbal * std::abs(s);
+}
+
+Eigen::Vector3d polarRate(const Eigen::Matrix3d& q, const Eigen::Matrix3d& s, const Eigen::Matrix3d& l)
+{
+    // A = Q S, dA = L A: Q^T dA = W S + dS with W = Q^T dQ skew and dS symmetric, so the skew part of
+    // M = Q^T L Q S is W S + S W, whose vector is (tr S I - S) w.
+    const Eigen::Matrix3d m = q.transpose() * l * q * s;
+    const Eigen::Matrix3d t = s.trace() * Eigen::Matrix3d::Identity() - s;
+    return q * t.inverse() * (2.0 * vee(m));
+}
+
+TwistLinearization linearizeTwist(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
+                                  const Eigen::Matrix4d& driverWorld, const Eigen::Matrix4d& parentWorld)
+{
+    TwistLinearization l;
+    l.anchorQ = polarOf(anchorMotion, &l.anchorS);
+    l.driverQ = polarOf(driverWorld, &l.driverS);
+    l.parentQ = polarOf(parentWorld, &l.parentS);
+    const double tau = driverTwist(base, l.parentQ.transpose() * l.driverQ, &l.gradient);
+    l.gradient *= base.share;
+    l.centre = anchorMotion.block<3, 3>(0, 0) * base.root + anchorMotion.block<3, 1>(0, 3);
+    l.turnAxis = l.anchorQ * base.axis;
+    const Eigen::Matrix3d rotation = l.anchorQ * Eigen::AngleAxisd(base.share * tau, base.axis).toRotationMatrix();
+    l.base.setIdentity();
+    l.base.block<3, 3>(0, 0) = rotation;
+    l.base.block<3, 1>(0, 3) = l.centre - rotation * base.root;
+    return l;
+}
+
+Affine twistVelocity(const TwistLinearization& l, const Affine& anchor, const Affine& driver, const Affine& parent)
+{
+    // B y = R (y - c0) + m with R = Q_a Rot(u0, w tau), m = M_a c0: omega = omega(Q_a) + Q_a u0 w dtau, and the
+    // twist's translation part v = dm - omega x m.
+    const Eigen::Vector3d driverTurn = l.driverQ.transpose() * (polarRate(l.driverQ, l.driverS, driver.leftCols<3>()) -
+                                                                polarRate(l.parentQ, l.parentS, parent.leftCols<3>()));
+    const Eigen::Vector3d omega =
+        polarRate(l.anchorQ, l.anchorS, anchor.leftCols<3>()) + l.turnAxis * l.gradient.dot(driverTurn);
+    const Eigen::Vector3d moved = anchor.leftCols<3>() * l.centre + anchor.col(3);
+    Affine v;
+    v.leftCols<3>() = skew(omega);
+    v.col(3) = moved - omega.cross(l.centre);
+    return v;
+}
+
+Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
+                               const Eigen::Matrix4d& second, const Eigen::Matrix4d& third)
+{
+    if (base.kind == ConstraintKind::twistShare) return linearizeTwist(base, anchorMotion, second, third).base;
+    return constraintBase(base, chainPoints(base, anchorMotion, second, third));
 }
 
 }  // namespace rig

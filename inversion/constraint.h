@@ -20,18 +20,33 @@
 // with G a rigid motion sampled over the reach d (a spline of a rotation vector and a translation: the
 // sampledRigid operator), so that the chain's shape in its plane (its bend, a sliding knee, stretch, soft IK)
 // is learned from the rig without knowing which of them it uses.
+//
+// The twist share (a roll joint turned by a fraction of a driver's twist): the output turns with its anchor's
+// rotation (its polar part: a stretched parent's scale is not inherited, as a joint's segment scale compensation
+// does) about a fixed axis u0 through its rest origin c0 by a fitted share w of the driver's twist tau,
+//
+//   B(y) = Q_a Rot(u0, w tau) (y - c0) + M_a c0,      Q_a = polar(M_a),  M_a the anchor's motion
+//
+// where tau is the twist about one of the driver's local axes of its rotation relative to its parent output (from
+// rest: R_d = R_d(0)^T Q_p^T Q_d), read as a rig reads it: R_d's angles in one rotate order taken as angles in
+// another (a twist node reading the driver's rotate in an order other than the driver's; the same order is the
+// plain swing-twist), then twist = 2 atan2(q . e, q_w) of that rotation's quaternion (q_w >= 0).
 
+#include <array>
+#include <optional>
 #include <string_view>
 
 #include <Eigen/Core>
 
+#include "core/rotation_math.h"
 #include "inversion/operators.h"
 
 namespace rig {
 
-enum class ConstraintKind { planarChain };
+enum class ConstraintKind { planarChain, twistShare };
 
 std::string_view constraintKindName(ConstraintKind kind);
+std::optional<ConstraintKind> constraintKindFromName(std::string_view name);
 
 struct ConstraintBase {
     ConstraintKind kind = ConstraintKind::planarChain;
@@ -39,7 +54,10 @@ struct ConstraintBase {
     int anchor = -1;  // carries the root (and a fixed pole): its motion F~_a F_a(0)^-1; -1: the world
     int goal = -1;    // the goal is its origin
     int pole = -1;    // the pole is its origin; -1: `restPole` carried by the anchor, or the rest plane (restPlane)
-    Eigen::Vector3d root = Eigen::Vector3d::Zero();      // the chain root at rest, world
+    // Twist share inputs: the driver, and its parent output (-1: the world) its rotation is relative to.
+    int driver = -1;
+    int driverParent = -1;
+    Eigen::Vector3d root = Eigen::Vector3d::Zero();      // the chain root at rest, world (twist share: c0)
     Eigen::Vector3d restPole = Eigen::Vector3d::Zero();  // the pole at rest, world
     // No pole: the plane through the chain's line nearest the rest plane, whose normal at rest is restNormal (unit).
     bool restPlane = false;
@@ -49,6 +67,19 @@ struct ConstraintBase {
     // C0, the chain frame at rest (chainFrame of the rest points): derived, set by `prepare`.
     Eigen::Matrix4d restFrame = Eigen::Matrix4d::Identity();
     Eigen::Matrix4d restFrameInverse = Eigen::Matrix4d::Identity();
+    // Twist share: the axis u0 the output turns about (world, at rest, unit), the driver's local axis its twist is
+    // taken about (0 x, 1 y, 2 z), the driver's rotation at rest relative to its parent (R_d(0)), the order its
+    // angles are read in and the order the twist takes them in, and the share w.
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitX();
+    int twistAxis = 0;
+    Eigen::Matrix3d driverRest = Eigen::Matrix3d::Identity();
+    RotateOrder readOrder = RotateOrder::xyz;
+    RotateOrder twistOrder = RotateOrder::xyz;
+    double share = 0.0;
+
+    // Its inputs (indices into the outputs, -1 for none): anchor, goal, pole for a chain; anchor, driver and the
+    // driver's parent for a twist share. The solver and the orderer read them in this order.
+    std::array<int, 3> inputs() const;
 
     // Sets the derived fields from the others and the goal's rest position. False when the rest points do not
     // span a plane (the goal on the root, or the pole on the root-goal line).
@@ -85,5 +116,38 @@ BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& p
 
 // dB B^-1 (its top three rows; B is rigid, so this is a twist [[omega]x, v]) for points moving at `rate`.
 Eigen::Matrix<double, 3, 4> baseVelocity(const BaseLinearization& at, const ChainPoints& rate);
+
+// B from its inputs, for either family: the anchor's motion, and the worlds of its second and third inputs (the
+// identity where there is none).
+Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
+                               const Eigen::Matrix4d& second, const Eigen::Matrix4d& third);
+
+// The driver's twist tau (radians) from its rotation relative to its parent's (Q_p^T Q_d), and its gradient with
+// respect to a turn of that rotation in its own frame (R exp([delta]x): d tau = gradient . delta; zero where the
+// angles or the twist are undefined).
+double driverTwist(const ConstraintBase& base, const Eigen::Matrix3d& relative, Eigen::Vector3d* gradient = nullptr);
+
+// Whether the driver's twist is undefined at this relative rotation, so that a rig's twist there is decided by
+// rounding: its angles at gimbal lock where they are read in another order, its rotation a half turn about an axis
+// across the twist's, or its twist a half turn (where it wraps from +pi to -pi).
+bool twistSingular(const ConstraintBase& base, const Eigen::Matrix3d& relative);
+
+// The angular velocity of polar(A) when A moves at dA = L A (A = Q S given).
+Eigen::Vector3d polarRate(const Eigen::Matrix3d& q, const Eigen::Matrix3d& s, const Eigen::Matrix3d& l);
+
+// A twist share's base and what its velocity needs, made once per set of inputs.
+struct TwistLinearization {
+    Eigen::Matrix3d anchorQ, anchorS, driverQ, driverS, parentQ, parentS;
+    Eigen::Vector3d centre;    // M_a c0
+    Eigen::Vector3d turnAxis;  // Q_a u0
+    Eigen::Vector3d gradient;  // d tau / d delta (the driver's own frame), times the share
+    Eigen::Matrix4d base;
+};
+TwistLinearization linearizeTwist(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
+                                  const Eigen::Matrix4d& driverWorld, const Eigen::Matrix4d& parentWorld);
+// dB B^-1 for inputs moving at dM = L M (top three rows of each: [L | v]).
+Eigen::Matrix<double, 3, 4> twistVelocity(const TwistLinearization& at, const Eigen::Matrix<double, 3, 4>& anchor,
+                                          const Eigen::Matrix<double, 3, 4>& driver,
+                                          const Eigen::Matrix<double, 3, 4>& parent);
 
 }  // namespace rig

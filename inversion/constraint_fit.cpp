@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -126,10 +127,21 @@ ChainPoints ConstraintFitter::pointsAt(const ConstraintBase& base, const std::ve
                        base.pole < 0 ? identity : worlds[static_cast<std::size_t>(base.pole)]);
 }
 
+Eigen::Matrix4d ConstraintFitter::baseAt(const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const
+{
+    const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+    const auto [anchor, second, third] = base.inputs();
+    const auto world = [&](int i) { return i < 0 ? identity : worlds[static_cast<std::size_t>(i)]; };
+    const Eigen::Matrix4d motion =
+        anchor < 0 ? identity
+                   : Eigen::Matrix4d(world(anchor) * probe_.rest()[static_cast<std::size_t>(anchor)].inverse());
+    return constraintBase(base, motion, world(second), world(third));
+}
+
 Eigen::Matrix4d ConstraintFitter::predicted(int k, const ConstraintBase& base,
                                             const std::vector<Eigen::Matrix4d>& worlds) const
 {
-    return constraintBase(base, pointsAt(base, worlds)) * probe_.rest()[static_cast<std::size_t>(k)];
+    return baseAt(base, worlds) * probe_.rest()[static_cast<std::size_t>(k)];
 }
 
 bool ConstraintFitter::shapeAt(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds, double& x,
@@ -267,6 +279,123 @@ double ConstraintFitter::tryCandidate(int k, const std::vector<int>& varied, boo
     return std::max(error(k, base, fitPoses), error(k, base, poses(varied, 1, checkPoses)));
 }
 
+bool ConstraintFitter::bestShare(const std::vector<Pose>& poses, const std::vector<double>& theta,
+                                 ConstraintBase& base) const
+{
+    const auto world = [&](const Pose& pose, int i) -> Eigen::Matrix3d {
+        return i < 0 ? Eigen::Matrix3d::Identity()
+                     : polarRotation(pose.worlds[static_cast<std::size_t>(i)].block<3, 3>(0, 0));
+    };
+    std::vector<Eigen::Matrix3d> relative;
+    for (const Pose& pose : poses)
+        relative.push_back(world(pose, base.driverParent).transpose() * world(pose, base.driver));
+    const auto& rest = probe_.rest();
+    const auto restRotation = [&](int i) -> Eigen::Matrix3d {
+        return i < 0 ? Eigen::Matrix3d::Identity() : polarRotation(rest[static_cast<std::size_t>(i)].block<3, 3>(0, 0));
+    };
+    base.driverRest = restRotation(base.driverParent).transpose() * restRotation(base.driver);
+    double best = std::numeric_limits<double>::infinity();
+    ConstraintBase candidate = base;
+    constexpr std::array orders{RotateOrder::xyz, RotateOrder::yzx, RotateOrder::zxy,
+                                RotateOrder::xzy, RotateOrder::yxz, RotateOrder::zyx};
+    for (int axis = 0; axis < 3; ++axis)
+        for (const RotateOrder read : orders)
+            for (const RotateOrder twist : orders) {
+                // The same order is the plain swing-twist whichever it is: tried once.
+                if (read == twist && read != RotateOrder::xyz) continue;
+                candidate.twistAxis = axis;
+                candidate.readOrder = read;
+                candidate.twistOrder = twist;
+                double tt = 0.0, ttheta = 0.0;
+                std::vector<double> tau;
+                for (const Eigen::Matrix3d& r : relative) {
+                    tau.push_back(driverTwist(candidate, r));
+                    tt += tau.back() * tau.back();
+                    ttheta += tau.back() * theta[tau.size() - 1];
+                }
+                if (!(tt > 1e-12)) continue;
+                candidate.share = ttheta / tt;
+                double miss = 0.0;
+                for (std::size_t i = 0; i < tau.size(); ++i)
+                    miss = std::max(miss, std::abs(theta[i] - candidate.share * tau[i]));
+                if (miss < best) {
+                    best = miss;
+                    base = candidate;
+                }
+            }
+    return std::isfinite(best);
+}
+
+bool ConstraintFitter::turnsOf(int k, const std::vector<Pose>& poses, ConstraintBase& base,
+                               std::vector<double>& theta) const
+{
+    const auto& rest = probe_.rest();
+    // k's turn relative to what its anchor's rotation carries: D = R_k0^T Q_a^T R_k, about one axis for a share.
+    const Eigen::Matrix3d restK = polarRotation(rest[static_cast<std::size_t>(k)].block<3, 3>(0, 0));
+    std::vector<Eigen::Quaterniond> turns;
+    double largest = 0.0;
+    Eigen::Vector3d local = Eigen::Vector3d::UnitX();
+    for (const Pose& pose : poses) {
+        const auto a = static_cast<std::size_t>(base.anchor);
+        const Eigen::Matrix3d q =
+            base.anchor < 0 ? Eigen::Matrix3d::Identity()
+                            : polarRotation(pose.worlds[a].block<3, 3>(0, 0) * rest[a].block<3, 3>(0, 0).inverse());
+        turns.emplace_back(Eigen::Matrix3d(restK.transpose() * q.transpose() *
+                                           polarRotation(pose.worlds[static_cast<std::size_t>(k)].block<3, 3>(0, 0))));
+        const Eigen::AngleAxisd angleAxis(turns.back());
+        if (std::abs(angleAxis.angle()) > largest) {
+            largest = std::abs(angleAxis.angle());
+            local = angleAxis.axis();
+        }
+    }
+    if (!(largest > 1e-6)) return false;
+    theta.clear();
+    for (Eigen::Quaterniond& q : turns) {
+        if (q.w() < 0) q.coeffs() = -q.coeffs();
+        theta.push_back(2.0 * std::atan2(q.vec().dot(local), q.w()));
+    }
+    base.root = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
+    base.axis = restK * local;
+    return true;
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, int anchor, const std::vector<int>& movers,
+                                                         const RigState& state, Closest& closest)
+{
+    const auto& names = probe_.rig().outputs();
+    ConstraintBase base;
+    base.kind = ConstraintKind::twistShare;
+    base.anchor = anchor;
+    const auto movedBy = [&](const std::vector<int>& m) {
+        return std::any_of(m.begin(), m.end(),
+                           [&](int i) { return std::binary_search(movers.begin(), movers.end(), i); });
+    };
+    std::vector<double> theta;
+    for (std::size_t d = 0; d < hierarchy_.size(); ++d) {
+        const int driver = static_cast<int>(d), parent = hierarchy_[d];
+        const std::vector<int> driverMovers = moversOf(driver);
+        if (driver == k || !usableAnchor(driver, state) || !movedBy(driverMovers)) continue;
+        if (parent >= 0 && !usableAnchor(parent, state)) continue;
+        // The poses also vary what turns the driver without moving k alone: a turn about an axis across the twist's
+        // changes the twist only together with the others.
+        std::vector<int> varied;
+        std::set_union(movers.begin(), movers.end(), driverMovers.begin(), driverMovers.end(),
+                       std::back_inserter(varied));
+        const std::vector<Pose>& fitPoses = poses(varied, 0, rangePoses);
+        base.driver = driver;
+        base.driverParent = parent;
+        if (!turnsOf(k, fitPoses, base, theta) || !bestShare(fitPoses, theta, base)) continue;
+        const double e = std::max(error(k, base, fitPoses), error(k, base, poses(varied, 1, checkPoses)));
+        if (e <= options_.epsilon) return base;
+        if (e < closest.error) {
+            closest.error = e;
+            closest.what = fmt::format("a twist share ({:.3g} of {}'s twist about {})", base.share, names[d],
+                                       "xyz"[base.twistAxis]);
+        }
+    }
+    return std::nullopt;
+}
+
 std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state, std::string& why)
 {
     const auto& rest = probe_.rest();
@@ -277,6 +406,8 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
         anchor = hierarchy_[static_cast<std::size_t>(anchor)];
     }
     const std::vector<int> movers = moversOf(k), anchorMovers = anchor >= 0 ? moversOf(anchor) : std::vector<int>{};
+    Closest closest;
+    if (std::optional<ConstraintBase> twist = fitTwist(k, anchor, movers, state, closest)) return twist;
     const auto movesAnchor = [&](int i) { return std::binary_search(anchorMovers.begin(), anchorMovers.end(), i); };
     const auto moves = [&](int i, int h) {
         const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
@@ -294,6 +425,9 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     }
     if (helpers.empty() && fixed.empty()) {
         why = "no helper frame is moved by what moves it apart from its anchor (rig-learn --helpers)";
+        if (std::isfinite(closest.error))
+            why += fmt::format("; the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}",
+                               closest.what, closest.error, options_.epsilon);
         return std::nullopt;
     }
     // The poses vary what moves k through its inputs; its own parameters stay at rest.
@@ -302,8 +436,6 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
         if (movesAnchor(i) || std::any_of(helpers.begin(), helpers.end(), [&](int h) { return moves(i, h); }))
             varied.push_back(i);
     const Eigen::Vector3d rootRest = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
-    double closest = std::numeric_limits<double>::infinity();
-    std::string closestName;
     std::vector<int> goals = helpers;
     goals.insert(goals.end(), fixed.begin(), fixed.end());
     for (const int goal : goals) {
@@ -332,19 +464,19 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
             base.root = rootRest;
             const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
             if (e <= options_.epsilon) return base;
-            if (e < closest) {
-                closest = e;
+            if (e < closest.error) {
+                closest.error = e;
                 const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
-                closestName = fmt::format("goal {}, pole {}", names[static_cast<std::size_t>(goal)],
-                                          base.restPlane ? "none (the rest plane of " + fixedTo + ")"
-                                          : pole < 0     ? "fixed to " + fixedTo
-                                                         : names[static_cast<std::size_t>(pole)]);
+                closest.what = fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
+                                           base.restPlane ? "none (the rest plane of " + fixedTo + ")"
+                                           : pole < 0     ? "fixed to " + fixedTo
+                                                          : names[static_cast<std::size_t>(pole)]);
             }
         }
     }
-    why = std::isfinite(closest)
-              ? fmt::format("the closest constraint, a planar chain ({}), is {:.3g} cm per unit off, over epsilon {:g}",
-                            closestName, closest, options_.epsilon)
+    why = std::isfinite(closest.error)
+              ? fmt::format("the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}", closest.what,
+                            closest.error, options_.epsilon)
               : "no planar chain spans a plane from its helper frames";
     return std::nullopt;
 }

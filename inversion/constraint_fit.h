@@ -7,10 +7,15 @@
 //   goal    a helper moved by some parameter that moves k but not the anchor (an IK goal);
 //   pole    another such helper, or none (a pole carried by the anchor: the rotate-plane default).
 //
+// Before it, the twist share: every output moved with k (and its parent output) as the driver, each of its axes, and
+// its angles read in each pair of rotate orders; the share is the least-squares ratio of k's turn about its own axis
+// to the driver's twist on random poses, and the best one is checked like a chain.
+//
 // Its shape G is sampled on random poses of the parameters that move k through those inputs (the others at rest),
 // a spline over the reach through every sample, and it is kept when fresh random poses agree within epsilon per
 // unit moved (LearnOptions::epsilon, the learner's measure), samples doubling up to LearnOptions::maxSamples.
 
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -36,15 +41,17 @@ public:
     ConstraintFitter(RigProbe& probe, const std::vector<ParameterSamples>& samples, std::vector<int> hierarchy,
                      std::vector<char> helper, const LearnOptions& options);
 
-    // The planar chain for rig output k in the learner's current state, or nullopt with `why` set (the family that
-    // came closest and its error).
+    // The twist share or planar chain for rig output k in the learner's current state, or nullopt with `why` set (the
+    // family that came closest and its error).
     std::optional<ConstraintBase> fit(int k, const RigState& state, std::string& why);
 
     std::uint64_t evaluations() const { return evaluations_; }
+    double epsilon() const { return options_.epsilon; }
 
 private:
-    struct Candidate {
-        int goal = -1, pole = -1;
+    struct Closest {  // the nearest miss so far: its error per unit moved, and what it was
+        double error = std::numeric_limits<double>::infinity();
+        std::string what;
     };
     struct Pose {
         std::vector<double> offsets;          // per varied parameter
@@ -72,6 +79,15 @@ private:
     // A candidate's shape (swept, or constant for a fixed goal) and its worst error per unit moved on random poses;
     // infinite where it cannot be made.
     double tryCandidate(int k, const std::vector<int>& varied, bool fixedGoal, ConstraintBase& base);
+    // The twist share of k under `anchor` that the poses of `movers` fit best, if within epsilon.
+    std::optional<ConstraintBase> fitTwist(int k, int anchor, const std::vector<int>& movers, const RigState& state,
+                                           Closest& closest);
+    // k's turns about its own axis relative to its anchor's rotation on the poses (radians), with the base's axis and
+    // centre; false when k does not turn on them.
+    bool turnsOf(int k, const std::vector<Pose>& poses, ConstraintBase& base, std::vector<double>& theta) const;
+    // The best share of one driver (over its axes and reading orders) for k's turns `theta` about its own axis;
+    // false when the driver does not twist on these poses.
+    bool bestShare(const std::vector<Pose>& poses, const std::vector<double>& theta, ConstraintBase& base) const;
     // Normals of the chain's rest plane: through its line and each joint off it below the chain's root output.
     std::vector<Eigen::Vector3d> restNormals(int chainRoot, const Eigen::Vector3d& root,
                                              const Eigen::Vector3d& goal) const;
@@ -80,7 +96,9 @@ private:
     // The worst error per unit moved of the base's prediction of k on the poses.
     double error(int k, const ConstraintBase& base, const std::vector<Pose>& poses) const;
     Eigen::Matrix4d predicted(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const;
-    // The chain's points at a pose's raw worlds (the anchor's motion from its rest world).
+    // B at a pose's raw worlds (the anchor's motion from its rest world).
+    Eigen::Matrix4d baseAt(const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const;
+    // The chain's points at a pose's raw worlds.
     ChainPoints pointsAt(const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const;
 
     RigProbe& probe_;

@@ -92,7 +92,9 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
         // its anchor guessed already (parents first).
         for (const int k : step->block.outputs) {
             const int b = impl.approximation.outputs[static_cast<std::size_t>(k)].constraint;
-            if (b < 0 || placed[static_cast<std::size_t>(b)]) continue;
+            if (b < 0 || placed[static_cast<std::size_t>(b)] ||
+                impl.approximation.constraints[static_cast<std::size_t>(b)].kind != ConstraintKind::planarChain)
+                continue;
             placeChain(impl.approximation, b, impl.poles, targets, values);
             for (std::size_t c = 0; c < impl.approximation.constraints.size(); ++c)
                 placed[c] = placed[c] || impl.approximation.constraints[c].goal ==

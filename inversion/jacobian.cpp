@@ -289,7 +289,7 @@ void ResidualStructure::makeTree(const std::vector<Path>& paths, const std::vect
         const int constraint = approximation.outputs[static_cast<std::size_t>(output)].constraint;
         const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(constraint)];
         std::array<int, 3> inputNodes{-1, -1, -1};
-        const std::array<int, 3> inputs{c.anchor, c.goal, c.pole};
+        const std::array<int, 3> inputs = c.inputs();
         for (std::size_t i = 0; i < inputs.size(); ++i) {
             if (inputs[i] < 0) continue;
             const Path path = pathOf(inputs[i], own);
@@ -343,6 +343,12 @@ ResidualStructure::Base ResidualStructure::makeBase(int constraint, const std::a
     base.poleNode = inputNodes[2];
     base.goalRest = restOrigin(c.goal);
     base.poleRest = restOrigin(c.pole);
+    const auto rest = [&](int k) -> Eigen::Matrix4d {
+        return k < 0 ? Eigen::Matrix4d(Eigen::Matrix4d::Identity())
+                     : approximation_->outputs[static_cast<std::size_t>(k)].rest;
+    };
+    base.secondRest = rest(c.driver);
+    base.thirdRest = rest(c.driverParent);
     return base;
 }
 
@@ -475,6 +481,7 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     velocity_.assign(s.nodes_.size(), Affine::Zero());
     baseVelocity_.assign(static_cast<std::size_t>(s.baseVelocities_), Affine::Zero());
     basePoints_.resize(s.bases_.size());
+    baseTwists_.resize(s.bases_.size());
     slotOffset_.assign(s.slots_.size(), 0.0);
     quaternion_.assign(s.outputs_.size(), Eigen::Quaterniond::Identity());
     twist_.assign(s.nodes_.size(), Vector6d::Zero());
@@ -626,6 +633,17 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
     const auto& s = *structure_;
     const ResidualStructure::Base& base = s.bases_[b];
     const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
+    if (c.kind == ConstraintKind::twistShare) {
+        const auto motion = [&](int node) -> Eigen::Matrix4d {
+            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+            if (node >= 0) m.topRows<3>() = nodeMatrix_[static_cast<std::size_t>(node)];
+            return m;
+        };
+        TwistLinearization& t = baseTwists_[b];
+        t = linearizeTwist(c, motion(base.anchorNode), motion(base.goalNode) * base.secondRest,
+                           motion(base.poleNode) * base.thirdRest);
+        return t.base.topRows<3>();
+    }
     // An input's product is its node's (the identity without one): points move with it.
     const auto moved = [&](int node, const Eigen::Vector3d& p) -> Eigen::Vector3d {
         if (node < 0) return p;
@@ -651,7 +669,8 @@ void ResidualWorkspace::baseVelocities()
         const ResidualStructure::Base& base = s.bases_[b];
         const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
         const ChainPoints& points = basePoints_[b];
-        const BaseLinearization at = linearizeBase(c, points);
+        const bool twist = c.kind == ConstraintKind::twistShare;
+        const BaseLinearization at = twist ? BaseLinearization{} : linearizeBase(c, points);
         for (std::size_t j = 0; j < base.columns.size(); ++j) {
             std::array<Affine, 3> x{Affine::Zero(), Affine::Zero(), Affine::Zero()};
             for (int t = base.termBegin[j]; t < base.termBegin[j + 1]; ++t) {
@@ -659,6 +678,11 @@ void ResidualWorkspace::baseVelocities()
                 x[static_cast<std::size_t>(term.input)] +=
                     term.node >= 0 ? velocity_[static_cast<std::size_t>(term.node)]
                                    : baseVelocity_[static_cast<std::size_t>(term.baseVelocity)];
+            }
+            if (twist) {
+                baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
+                    twistVelocity(baseTwists_[b], x[0], x[1], x[2]);
+                continue;
             }
             const auto rate = [](const Affine& v, const Eigen::Vector3d& p) -> Eigen::Vector3d {
                 return v.leftCols<3>() * p + v.col(3);

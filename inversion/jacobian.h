@@ -148,13 +148,15 @@ private:
         int node = -1;
         int anchorNode = -1, goalNode = -1, poleNode = -1;  // the inputs' product nodes (-1: the identity)
         Eigen::Vector3d goalRest, poleRest;                 // the goal's and pole's rest origins
-        std::vector<int> columns;                           // the columns that move it, increasing
+        // A twist share's second and third inputs' rest worlds (the driver and its parent; identity for the world).
+        Eigen::Matrix4d secondRest = Eigen::Matrix4d::Identity(), thirdRest = Eigen::Matrix4d::Identity();
+        std::vector<int> columns;  // the columns that move it, increasing
         // Per column, [termBegin[j], termBegin[j + 1]) of terms_: what moves its inputs.
         std::vector<int> termBegin;
         int velocityOffset = 0;  // its columns' velocities in ResidualWorkspace::baseVelocity_
     };
     struct InputTerm {          // one velocity moving an input: an unknown node's, or an upstream base's for a column
-        int input = 0;          // 0 anchor, 1 goal, 2 pole
+        int input = 0;          // ConstraintBase::inputs' index: 0 anchor, 1 goal or driver, 2 pole or its parent
         int node = -1;          // an unknown node on the input's path, or -1
         int baseVelocity = -1;  // else an index into ResidualWorkspace::baseVelocity_
     };
@@ -316,6 +318,7 @@ private:
     std::vector<Affine> velocity_;                           // per unknown node: Xi
     std::vector<Affine> baseVelocity_;                       // per base and column: dB/da B^-1
     std::vector<ChainPoints> basePoints_;                    // per base: its chain's points at the last evaluation
+    std::vector<TwistLinearization> baseTwists_;             // per base: a twist share's at the last evaluation
     std::vector<double> trial_;                              // wholeDifferences' shifted values
     std::vector<Eigen::Matrix<double, 6, 1>> twist_, load_;  // per unknown node: (omega, v); sum of B_k^T r_k below
     // Sum of B_k^T B_k over outputs: [[A, [m]x], [-[m]x, s I]], as each output's is (twistNormalEquations),

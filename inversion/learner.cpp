@@ -145,6 +145,20 @@ std::pair<double, int> relativeError(const Eigen::Matrix4d& truth, const Eigen::
     return {relative, furthest};
 }
 
+// Whether output k is a twist share whose twist is undefined at these worlds (twistSingular): the rig's twist jumps
+// there by rounding, so no model can agree with it.
+bool undefinedTwist(const Approximation& a, const std::vector<Eigen::Matrix4d>& worlds, std::size_t k)
+{
+    const int c = a.outputs[k].constraint;
+    if (c < 0 || a.constraints[static_cast<std::size_t>(c)].kind != ConstraintKind::twistShare) return false;
+    const ConstraintBase& base = a.constraints[static_cast<std::size_t>(c)];
+    const auto rotation = [&](int i) -> Eigen::Matrix3d {
+        return i < 0 ? Eigen::Matrix3d::Identity()
+                     : polarRotation(worlds[static_cast<std::size_t>(i)].block<3, 3>(0, 0));
+    };
+    return twistSingular(base, rotation(base.driverParent).transpose() * rotation(base.driver));
+}
+
 // The approximation against the real rig on the poses, with only the modelled parameters moved.
 ValidationSummary validate(RigProbe& probe, Approximation& approximation, const std::vector<int>& indices,
                            const std::vector<int>& rigOutput, ValidationPoses& poses, const LearnOptions& options)
@@ -179,6 +193,10 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
         }
         for (std::size_t k = 0; k < approximated.size(); ++k) {
             if (!approximation.outputs[k].modelled) continue;  // not predicted: nothing to validate
+            if (undefinedTwist(approximation, approximated, k)) {
+                if (summary.singularPoses++ == 0) summary.singularOutput = approximation.outputs[k].name;
+                continue;
+            }
             const Eigen::Matrix4d& truth = truthWorlds[static_cast<std::size_t>(rigOutput[k])];
             const double position = (truth.block<3, 1>(0, 3) - approximated[k].block<3, 1>(0, 3)).norm();
             const double rotation =
@@ -336,7 +354,7 @@ void addConstraints(const RigProbe& probe, const std::vector<int>& outputIndex, 
             k = outputIndex[static_cast<std::size_t>(k)];
             return k >= 0;
         };
-        if (!map(base.anchor) || !map(base.goal) || !map(base.pole)) {
+        if (!map(base.anchor) || !map(base.goal) || !map(base.pole) || !map(base.driver) || !map(base.driverParent)) {
             result.outputs[o].modelled = false;
             continue;
         }
@@ -587,6 +605,31 @@ void recordDiscards(const Pass& pass, RigProbe& probe, const LearnOptions& optio
 // Constraint operators for the non-compositional outputs, parents before children (constraint_fit.h). An output
 // whose parent is now modelled by a constraint is first tried relative to it again (a toe under an IK foot: it
 // failed there only while its parent was mispredicted); each output is fitted once. True when a frame changed.
+// An output still over epsilon once its order is decided on the rig, though each parameter alone fitted an operator
+// (a roll joint: each of the driver's angles alone turns it about its axis, together they do not compose), is tried
+// with a constraint. True when one was found.
+bool constrainOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, ConstraintFitter& fitter,
+                          std::set<int>& tried)
+{
+    bool changed = false;
+    const Approximation& a = pass.approximation;
+    for (std::size_t o = 0; o < a.outputs.size(); ++o) {
+        const int k = pass.rigOutput[o];
+        if (a.outputs[o].validationError <= fitter.epsilon() || probe.constraints.contains(k) ||
+            !tried.insert(k).second)
+            continue;
+        std::string why;
+        const std::optional<ConstraintBase> base = fitter.fit(k, state, why);
+        if (!base) continue;
+        for (const int input : base->inputs())
+            if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
+        probe.constraints[k] = *base;
+        probe.parents[static_cast<std::size_t>(k)] = -1;
+        changed = true;
+    }
+    return changed;
+}
+
 bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hierarchy, ConstraintFitter& fitter,
                     FrameHistory& history, std::set<int>& tried, std::set<int>& relativeAgain)
 {
@@ -625,7 +668,7 @@ bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hi
             history.constraint[k] = why;
             continue;
         }
-        for (const int input : {base->anchor, base->goal, base->pole})
+        for (const int input : base->inputs())
             if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
         probe.constraints[k] = *base;
         probe.parents[i] = -1;
@@ -688,12 +731,10 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
             worldWhereParentUnusable(probe, state, history);
             continue;
         }
-        // Without helper frames no constraint has an input (rig-learn --no-helpers): nothing to try.
-        const bool helpers = std::any_of(helper.begin(), helper.end(), [](char h) { return h != 0; });
-        if (options.perOutput && helpers &&
-            fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain))
+        if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain))
             continue;
         if (distrustOverEpsilon(pass, options, distrusted)) continue;
+        if (options.perOutput && constrainOverEpsilon(pass, probe, state, fitter, fitted)) continue;
         if (!raiseBudgets(pass, options, budgets)) break;
     }
 

@@ -139,6 +139,11 @@ std::string validationText(const Approximation& a)
                        v.withinEpsilon ? "within" : "EXCEEDED");
     if (v.nonFinitePoses > 0)
         out += fmt::format("  {} poses not measured: the rig gave a non-finite matrix there\n", v.nonFinitePoses);
+    if (v.singularPoses > 0)
+        out += fmt::format(
+            "  {} output poses not measured ({} first): a twist share's driver at gimbal lock, or its "
+            "swing or twist a half turn, where a rig's twist is decided by rounding (limit poses hit them)\n",
+            v.singularPoses, v.singularOutput);
     return out;
 }
 
@@ -151,6 +156,17 @@ std::string constraintsText(const Approximation& a)
     for (const ApproximationOutput& o : a.outputs) {
         if (o.constraint < 0) continue;
         const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
+        if (c.kind == ConstraintKind::twistShare) {
+            const std::string reading = c.readOrder == c.twistOrder
+                                            ? std::string("swing-twist")
+                                            : fmt::format("its angles in {} read in {}", rotateOrderName(c.readOrder),
+                                                          rotateOrderName(c.twistOrder));
+            out += fmt::format("  {}: {}, turns with {}, {:.6g} of {}'s twist about {} relative to {} ({})\n", o.name,
+                               constraintKindName(c.kind), c.anchor < 0 ? "the world" : name(c.anchor), c.share,
+                               name(c.driver), "xyz"[c.twistAxis],
+                               c.driverParent < 0 ? "the world" : name(c.driverParent), reading);
+            continue;
+        }
         const auto& knots = c.shape.rigid.knots();
         out += fmt::format(
             "  {}: {}, root carried by {}, goal {}, pole {}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,

@@ -133,6 +133,8 @@ void checkSame(const Approximation& a, const Approximation& b)
     CHECK(a.validation.worstRelativeOutput == b.validation.worstRelativeOutput);
     CHECK(a.validation.worstParameter == b.validation.worstParameter);
     CHECK(a.validation.nonFinitePoses == b.validation.nonFinitePoses);
+    CHECK(a.validation.singularPoses == b.validation.singularPoses);
+    CHECK(a.validation.singularOutput == b.validation.singularOutput);
     CHECK(a.validation.withinEpsilon == b.validation.withinEpsilon);
     REQUIRE(a.droppedOutputs.size() == b.droppedOutputs.size());
     for (std::size_t d = 0; d < a.droppedOutputs.size(); ++d) {
@@ -263,7 +265,8 @@ Approximation everything()
         {parameter("nasty_ctrl.springy", false, true), "history-dependent: \"quoted\"\nsecond line\tand a tab"});
     a.discarded.push_back(
         {parameter("nasty_ctrl.coupledTurn", true, true), "coupled: it changes what others do; ünïcode"});
-    a.validation = {50, 1e-13, 0.1 + 0.2, 180.0, -0.0, "tip", 49, 7e-4, "mid: #x", "elbow.rotateZ", 2, false};
+    a.validation = {50,   1e-13,     0.1 + 0.2,       180.0, -0.0,  "tip", 49,
+                    7e-4, "mid: #x", "elbow.rotateZ", 2,     false, 3,     "twist: #1"};
     a.outputs[1].parent = 0;  // relative outputs, a parent listed after its child
     a.outputs[0].parent = 2;
     a.outputs[2].validationError = 0.1 + 0.2;
@@ -684,7 +687,8 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
           "rig-learn, or write version: 3");
     // The constraint entry.
     CHECK(chainErrorWith("kind: planarChain", "kind: twoBone") ==
-          "f.yaml:13:11: constraints[0].kind: unknown constraint 'twoBone'; the constraints are planarChain");
+          "f.yaml:13:11: constraints[0].kind: unknown constraint 'twoBone'; the constraints are planarChain and "
+          "twistShare");
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restReach: 3\n") ==
           "f.yaml:18:5: constraints[0]: unknown field 'restReach'; the fields are kind, goal, root, restPole, shape, "
           "anchor, pole, restNormal");
