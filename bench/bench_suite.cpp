@@ -650,6 +650,36 @@ Json ikLegsBench(BipedBench& b, bool helpers)
     return json;
 }
 
+// The biped with every joint as an output (the spec's parameters, its outputs left out): the eyes aims and the twist
+// joints twist shares (constraint operators), found as rig-learn finds them. Learning only: what is modelled, at
+// what cost in rig evaluations, and the validation.
+Json everyJointBench(const BenchOptions& o)
+{
+    const InversionSpec spec = readSpec(o.spec);
+    GraphRigOptions rigOptions{spec.params, {}, {}, spec.set, spec.ranges};
+    rigOptions.autoHelpers = true;
+    GraphRigFunction rig(o.rig, rigOptions);
+    say(o, "learning the biped with every joint as an output");
+    const auto start = Clock::now();
+    const Approximation a = learnApproximation(rig, LearnOptions{}, o.rig.string());
+    long long unmodelled = 0, shares = 0;
+    for (const ApproximationOutput& out : a.outputs) unmodelled += out.modelled ? 0 : 1;
+    for (const ConstraintBase& c : a.constraints) shares += c.kind == ConstraintKind::twistShare ? 1 : 0;
+    return Json{{"outputs", a.outputs.size()},
+                {"unmodelled_outputs", unmodelled},
+                {"constraint_outputs", a.constraints.size()},
+                {"twist_shares", shares},
+                {"training_evaluations", a.training.evaluations},
+                {"learn_seconds", secondsSince(start)},
+                {"validation_max_relative_error", a.validation.maxRelativeError},
+                {"within_epsilon", a.validation.withinEpsilon},
+                {"singular_poses", a.validation.singularPoses},
+                {"note",
+                 "every joint of the biped an output, helper frames found as rig-learn finds them: the eyes "
+                 "aims at eyes_ctrl, the 8 twist joints twist shares; validation skips the limit poses where "
+                 "the rig's twist is decided by rounding (singular_poses)"}};
+}
+
 // The clip's targets for the biped, and the frame counts of the sections.
 void readBipedClip(BipedBench& b, double loadSeconds, Json& report)
 {
@@ -746,6 +776,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
     compareCeres(b, report);
     report["ik_legs"] = ikLegsBench(b, false);
     report["ik_legs_constraints"] = ikLegsBench(b, true);
+    report["every_joint"] = everyJointBench(o);
 
     say(o, "cold starts: random poses of the approximation from rest");
     report["cold_start"] = coldStartJson(b.approximation, o.coldStartPoses);

@@ -79,6 +79,13 @@ void printSummary(const bench::Json& r)
             figure(ik->at("cpu_ms_per_frame"), "ms"), figure(ik->at("unmodelled_outputs"), "", 4),
             figure(ik->at("training_evaluations"), "", 6), figure(ik->at("real_rig").at("max_position_error_cm"), "cm"),
             figure(ik->at("leg_joints_vs_fk_max_cm"), "cm"));
+    if (const auto every = r.find("every_joint"); every != r.end() && !every->is_null())
+        std::cout << fmt::format(
+            "every joint {} outputs, {} unmodelled, {} twist shares, {} training evaluations, "
+            "validation {} per unit moved\n",
+            figure(every->at("outputs"), "", 4), figure(every->at("unmodelled_outputs"), "", 4),
+            figure(every->at("twist_shares"), "", 4), figure(every->at("training_evaluations"), "", 6),
+            figure(every->at("validation_max_relative_error"), "cm"));
     std::cout << fmt::format("training    {} evaluations, {}\n", figure(train.at("evaluations"), "", 6),
                              figure(train.at("seconds"), "s"));
     const auto threadsLine = [](const std::string& what, const bench::Json& t) {

@@ -424,10 +424,13 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
         else if (moversOf(hh).empty()) fixed.push_back(hh);
     }
     if (helpers.empty() && fixed.empty()) {
-        why = "no helper frame is moved by what moves it apart from its anchor (rig-learn --helpers)";
+        // Without any helper frame (rig-learn --no-helpers) only twist shares were tried: say so only if one came
+        // close.
+        const bool anyHelper = std::any_of(helper_.begin(), helper_.end(), [](char h) { return h != 0; });
+        why = anyHelper ? "no helper frame is moved by what moves it apart from its anchor (rig-learn --helpers)" : "";
         if (std::isfinite(closest.error))
-            why += fmt::format("; the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}",
-                               closest.what, closest.error, options_.epsilon);
+            why += fmt::format("{}the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}",
+                               why.empty() ? "" : "; ", closest.what, closest.error, options_.epsilon);
         return std::nullopt;
     }
     // The poses vary what moves k through its inputs; its own parameters stay at rest.

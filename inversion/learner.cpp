@@ -449,7 +449,8 @@ struct FrameHistory {
             const auto before = relative.find(rigOutput[o]), after = world.find(rigOutput[o]);
             std::string reason = before == relative.end() ? "" : before->second + "; ";
             if (after != world.end()) reason += "in world space, " + after->second;
-            if (const auto fit = constraint.find(rigOutput[o]); fit != constraint.end()) reason += "; " + fit->second;
+            if (const auto fit = constraint.find(rigOutput[o]); fit != constraint.end() && !fit->second.empty())
+                reason += "; " + fit->second;
             out.push_back({a.outputs[o].name, std::move(reason)});
         }
         return out;

@@ -358,8 +358,8 @@ int main(int argc, char** argv)
                  "Also find the helper frames: transforms or joints whose world matrix feeds the outputs and that "
                  "a parameter moves");
     app.add_flag("--no-helpers", options.noHelpers,
-                 "No helper frame, so no constraint operator: what does not compose stays unmodelled, for rig-invert "
-                 "--hybrid")
+                 "No helper frame, so no IK chain or aim (twist shares read joints only): what does not compose "
+                 "stays unmodelled, for rig-invert --hybrid")
         ->excludes("--auto-helpers");
     app.add_option("--set", options.sets,
                    "Hold a plug at a value while learning, not inverted: PLUG=VALUE in the rig file's units, e.g. "
