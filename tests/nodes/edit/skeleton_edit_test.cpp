@@ -1,11 +1,13 @@
 // The skeleton-space edit nodes (nodes/edit/, docs/nodes.md "Editing a clip's skeleton") through a Graph:
 // lookAt against closed forms (one joint onto its target, a chain's shares of the remaining turn worked by
 // hand in the plane, limits reached, a target behind and on a pivot, weights), offsetLayer and blendClips
-// against hand-computed matrices, the example clip -> lookAt graph serial and parallel, and bad inputs.
+// against hand-computed matrices, the example clip -> lookAt graph serial and parallel, the biped inverted
+// to look at a target through rigInversion (rigs/examples/biped_lookat.yaml), and bad inputs.
 
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <numbers>
 #include <string>
@@ -13,12 +15,14 @@
 
 #include <fmt/format.h>
 #include <Eigen/Geometry>
+#include <yaml-cpp/yaml.h>
 
 #include "core/error.h"
 #include "core/rotation_math.h"
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
+#include "learned_fixtures.h"
 #include "test_support.h"
 
 namespace {
@@ -356,6 +360,51 @@ TEST_CASE("a clip through lookAt: the example graph evaluates, its arm follows, 
     CHECK(one.err == "");
     CHECK(one.out.find("look.outMatrix[3]") != std::string::npos);
     CHECK(one.out == two.out);
+}
+
+TEST_CASE("clip -> lookAt -> rigInversion: the real biped's head looks at the target, one thread or two")
+{
+    if (!std::filesystem::exists(rig::test::cmuClip)) return;
+    // The example with its files named from the source folder and the approximation learned for this run.
+    const auto source = rig::test::sourceDir();
+    std::string text = rig::test::readFile(source / "rigs/examples/biped_lookat.yaml");
+    auto replace = [&](const std::string& from, const std::string& to) {
+        const auto at = text.find(from);
+        REQUIRE(at != std::string::npos);
+        text.replace(at, from.size(), to);
+    };
+    replace("../biped.yaml", (source / "rigs/biped.yaml").string());
+    replace("../../build/biped.approx.yaml", rig::test::bipedApproximation().string());
+    replace("../maps/cmu_to_biped.yaml", (source / "rigs/maps/cmu_to_biped.yaml").string());
+    const auto rig = rig::test::writeFile(rig::test::scratchDir("biped_lookat") / "biped_lookat.yaml", text);
+    const std::string command = fmt::format("{} {} --frames 1:120:7 --get 'look.outMatrix[3]' --get Head.worldMatrix "
+                                            "--get target.translate --get 'inverter.value[*]'",
+                                            rig::test::tool("graph-eval"), rig.string());
+    const auto one = rig::test::run(command + " --threads 1");
+    const auto two = rig::test::run(command + " --threads 2");
+    INFO(one.err);
+    REQUIRE(one.exitCode == 0);
+    CHECK(one.out == two.out);
+    // Per frame: the edited head aims exactly at the target (no limit reached on this path), and the
+    // biped's head, inverted from it, within 0.1 degrees (targets in the clip's units, the biped in cm).
+    const double scale = 5.644444444444445;  // rigs/maps/cmu_to_biped.yaml
+    const YAML::Node frames = YAML::Load(one.out);
+    REQUIRE(frames.size() == 18);
+    auto matrix = [](const YAML::Node& rows) {
+        Eigen::Matrix4d m;
+        for (int r = 0; r < 4; ++r)
+            for (int c = 0; c < 4; ++c) m(r, c) = rows[r][c].as<double>();
+        return m;
+    };
+    for (const YAML::Node& f : frames) {
+        CAPTURE(f["frame"].as<double>());
+        const Eigen::Matrix4d edited = matrix(f["look.outMatrix[3]"]);
+        const Eigen::Matrix4d head = matrix(f["Head.worldMatrix"]);
+        const Eigen::Vector3d target(f["target.translate"][0].as<double>(), f["target.translate"][1].as<double>(),
+                                     f["target.translate"][2].as<double>());
+        CHECK(angleBetween(aimOf(edited), target - edited.topRightCorner<3, 1>()) < 1e-6);
+        CHECK(angleBetween(aimOf(head), scale * target - head.topRightCorner<3, 1>()) < deg(0.1));
+    }
 }
 
 TEST_CASE("skeleton edits: bad inputs give one line naming the node and attribute")
