@@ -38,9 +38,10 @@ public:
             std::size_t k = 0;
             while (k < inA.size() && k < inB.size() && inA[k] == inB[k]) ++k;
             const bool aHasIt = k < inA.size() && (k >= inB.size() || inA[k] < inB[k]);
-            throw Error(fmt::format("{0}.inMatrix{1}[{2}] has no inMatrix{3}[{2}]; connect the same joints of both "
-                                    "clips, at the same indices",
-                                    c.nodeName(), aHasIt ? 'A' : 'B', aHasIt ? inA[k] : inB[k], aHasIt ? 'B' : 'A'));
+            throw Error(
+                fmt::format("{0}.inMatrix{1}[{2}] has no inMatrix{3}[{2}]; connect the same joints of both "
+                            "clips, at the same indices",
+                            c.nodeName(), aHasIt ? 'A' : 'B', aHasIt ? inA[k] : inB[k], aHasIt ? 'B' : 'A'));
         }
         const double weight = c.getDouble(Weight);
         std::vector<Value> out(a.size(), Value(Eigen::Matrix4d::Identity().eval()));

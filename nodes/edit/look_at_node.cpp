@@ -32,13 +32,14 @@ enum Up { None = 0, World = 1 };
 
 constexpr double degrees = std::numbers::pi / 180.0;
 
-// Checks a per-joint list (one number per chain joint, or none) and the range of its numbers.
+// Checks that a per-joint list gives one number per chain joint, or none.
 void checkPerJoint(const ComputeContext& c, const char* attr, const std::vector<double>& values, std::size_t joints)
 {
     if (!values.empty() && values.size() != joints)
-        throw Error(fmt::format("{}.{} has {} numbers but the chain has {} joints (inMatrix elements); give one "
-                                "number per joint, root first, or none",
-                                c.nodeName(), attr, values.size(), joints));
+        throw Error(
+            fmt::format("{}.{} has {} numbers but the chain has {} joints (inMatrix elements); give one "
+                        "number per joint, root first, or none",
+                        c.nodeName(), attr, values.size(), joints));
 }
 
 class LookAtNode final : public Node {
@@ -55,16 +56,18 @@ public:
         checkPerJoint(c, "share", s.share, s.chain.size());
         for (std::size_t k = 0; k < s.share.size(); ++k)
             if (!(s.share[k] >= 0.0 && s.share[k] <= 1.0))
-                throw Error(fmt::format("{}.share[{}] is {}; a share is the fraction of the remaining turn the "
-                                        "joint takes, from 0 to 1",
-                                        c.nodeName(), k, s.share[k]));
+                throw Error(
+                    fmt::format("{}.share[{}] is {}; a share is the fraction of the remaining turn the "
+                                "joint takes, from 0 to 1",
+                                c.nodeName(), k, s.share[k]));
         s.limit = c.getDoubleArray(Limit);
         checkPerJoint(c, "limit", s.limit, s.chain.size());
         for (std::size_t k = 0; k < s.limit.size(); ++k) {
             if (!(s.limit[k] >= 0.0))
-                throw Error(fmt::format("{}.limit[{}] is {} degrees; a limit is the largest angle the joint may "
-                                        "turn, 0 or more",
-                                        c.nodeName(), k, s.limit[k]));
+                throw Error(
+                    fmt::format("{}.limit[{}] is {} degrees; a limit is the largest angle the joint may "
+                                "turn, 0 or more",
+                                c.nodeName(), k, s.limit[k]));
             s.limit[k] *= degrees;
         }
         s.target = c.getVector3(Target);
@@ -98,10 +101,7 @@ void declareInputs(NodeTypeBuilder& b)
         .doc(
             "World matrix of each joint of the chain, root first (connect a clip's worldMatrix[j]: spine, "
             "neck, head). The chain is the elements given, in index order.");
-    b.input(Target, "target", ValueType::Vector3)
-        .unit(Unit::Distance)
-        .keyable()
-        .doc("The world point to look at, cm.");
+    b.input(Target, "target", ValueType::Vector3).unit(Unit::Distance).keyable().doc("The world point to look at, cm.");
     b.input(Share, "share", ValueType::DoubleArray)
         .doc(
             "Per joint, root first: the fraction (0..1) of the remaining turn the joint takes. None given: "

@@ -14,10 +14,10 @@ public:
     void compute(ComputeContext& c) override
     {
         const RotateOrder order = rotateOrderFromIndex(c.getEnum(RotateOrderAttr)).value_or(RotateOrder::xyz);
-        const OffsetSpace space = c.getEnum(Space) == static_cast<int>(OffsetSpace::world) ? OffsetSpace::world
-                                                                                          : OffsetSpace::local;
-        c.setOutput(OutMatrix, offsetMatrix(c.getMatrix(InMatrix), c.getVector3(Rotate), order,
-                                            c.getVector3(Translate), space, c.getDouble(Weight)));
+        const OffsetSpace space =
+            c.getEnum(Space) == static_cast<int>(OffsetSpace::world) ? OffsetSpace::world : OffsetSpace::local;
+        c.setOutput(OutMatrix, offsetMatrix(c.getMatrix(InMatrix), c.getVector3(Rotate), order, c.getVector3(Translate),
+                                            space, c.getDouble(Weight)));
     }
 };
 
@@ -32,7 +32,8 @@ std::shared_ptr<const NodeType> makeOffsetLayerType()
         "local: outMatrix = M * [R_w t_w; 0 1] (about the joint's origin in its own axes, the translation "
         "along them, the joint's scale included); space world: outMatrix = [R_w * M3 p + t_w; 0 1] (M3, p: "
         "M's 3x3 part and position; about the joint's position in world axes). weight 0 gives M exactly.");
-    b.input(InMatrix, "inMatrix", ValueType::Matrix4).doc("The joint's world matrix (connect a clip's worldMatrix[j]).");
+    b.input(InMatrix, "inMatrix", ValueType::Matrix4)
+        .doc("The joint's world matrix (connect a clip's worldMatrix[j]).");
     b.input(Rotate, "rotate", ValueType::Vector3)
         .unit(Unit::Angle)
         .keyable()
@@ -40,7 +41,10 @@ std::shared_ptr<const NodeType> makeOffsetLayerType()
     b.input(RotateOrderAttr, "rotateOrder", ValueType::Enum)
         .enumNames(rotateOrderEnumNames())
         .doc("Order of the rotate angles (xyz: x applied first).");
-    b.input(Translate, "translate", ValueType::Vector3).unit(Unit::Distance).keyable().doc("The offset translation, cm.");
+    b.input(Translate, "translate", ValueType::Vector3)
+        .unit(Unit::Distance)
+        .keyable()
+        .doc("The offset translation, cm.");
     b.input(Space, "space", ValueType::Enum)
         .enumNames({"local", "world"})
         .doc("local: in the joint's own axes; world: in world axes, about the joint's position.");

@@ -21,11 +21,11 @@ struct LookAtSettings {
     // Per joint, the fraction of the remaining turn it takes, in [0, 1]; empty: 1 / (joints left), so
     // that joints sharing a pivot split the turn in equal parts.
     std::vector<double> share;
-    std::vector<double> limit;  // per joint, the largest swing in radians (>= 0); empty: none
-    double weight = 1.0;        // clamped to [0, 1]; NaN counts as 0
+    std::vector<double> limit;                           // per joint, the largest swing in radians (>= 0); empty: none
+    double weight = 1.0;                                 // clamped to [0, 1]; NaN counts as 0
     Eigen::Vector3d aimAxis = Eigen::Vector3d::UnitZ();  // in the last joint's axes
     Eigen::Vector3d upAxis = Eigen::Vector3d::UnitY();   // in the last joint's axes
-    std::optional<Eigen::Vector3d> worldUp;               // nullopt: no up (upMode none)
+    std::optional<Eigen::Vector3d> worldUp;              // nullopt: no up (upMode none)
 };
 
 struct LookAtResult {

@@ -14,15 +14,15 @@
 #include <vector>
 
 #include <fmt/format.h>
-#include <Eigen/Geometry>
 #include <yaml-cpp/yaml.h>
+#include <Eigen/Geometry>
 
 #include "core/error.h"
 #include "core/rotation_math.h"
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
-#include "nodes/builtin_nodes.h"
 #include "learned_fixtures.h"
+#include "nodes/builtin_nodes.h"
 #include "test_support.h"
 
 namespace {
@@ -44,7 +44,10 @@ Eigen::Matrix3d rotation(double radians, const Eigen::Vector3d& axis)
     return Eigen::AngleAxisd(radians, axis.normalized()).toRotationMatrix();
 }
 
-double angleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+double angleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
+{
+    return std::atan2(a.cross(b).norm(), a.dot(b));
+}
 
 double maxDiff(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b) { return (a - b).cwiseAbs().maxCoeff(); }
 
@@ -110,8 +113,8 @@ std::vector<double> planarTurns(const std::vector<double>& share, const std::vec
             pz += 10.0 * std::cos(heading);
         }
         const double remaining = std::atan2(tx - px, tz - pz) - heading;
-        const double phi = std::min(share[static_cast<std::size_t>(k)] * remaining,
-                                    deg(limitDegrees[static_cast<std::size_t>(k)]));
+        const double phi =
+            std::min(share[static_cast<std::size_t>(k)] * remaining, deg(limitDegrees[static_cast<std::size_t>(k)]));
         turns.push_back(phi);
         heading += phi;
     }
@@ -146,7 +149,8 @@ TEST_CASE("lookAt: one joint turns its aim exactly onto the target")
         Eigen::Matrix3d world;
         world << A, U, A.cross(U);
         Eigen::Matrix3d local;  // aim +Z, up +Y in the joint's axes
-        local << Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ().cross(Eigen::Vector3d::UnitY());
+        local << Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitY(),
+            Eigen::Vector3d::UnitZ().cross(Eigen::Vector3d::UnitY());
         CHECK((m.topLeftCorner<3, 3>() - world * local.transpose()).cwiseAbs().maxCoeff() < 1e-14);
         CHECK(angleBetween(aimOf(m), target - in.topRightCorner<3, 1>()) < 1e-12);
     }
@@ -255,8 +259,7 @@ TEST_CASE("lookAt: weight 0 leaves the chain bit for bit, 1 is the full edit, be
     g->setValue(g->plug("n.weight"), 1.0);
     for (int k = 0; k < 3; ++k) CHECK(rig::bitEqual(rig::Value(out(*g, k)), rig::Value(out(*full, k))));
     g->setValue(g->plug("n.weight"), 0.25);
-    for (int k = 0; k < 3; ++k)
-        CHECK(turnOf(*g, k) == doctest::Approx(0.25 * turnOf(*full, k)).epsilon(1e-13));
+    for (int k = 0; k < 3; ++k) CHECK(turnOf(*g, k) == doctest::Approx(0.25 * turnOf(*full, k)).epsilon(1e-13));
     // The root turns about its own pivot by a quarter of its full turn about the same axis.
     const Eigen::Matrix3d r0 = out(*full, 0).topLeftCorner<3, 3>();
     const Eigen::AngleAxisd aa(r0);
@@ -377,9 +380,10 @@ TEST_CASE("clip -> lookAt -> rigInversion: the real biped's head looks at the ta
     replace("../../build/biped.approx.yaml", rig::test::bipedApproximation().string());
     replace("../maps/cmu_to_biped.yaml", (source / "rigs/maps/cmu_to_biped.yaml").string());
     const auto rig = rig::test::writeFile(rig::test::scratchDir("biped_lookat") / "biped_lookat.yaml", text);
-    const std::string command = fmt::format("{} {} --frames 1:120:7 --get 'look.outMatrix[3]' --get Head.worldMatrix "
-                                            "--get target.translate --get 'inverter.value[*]'",
-                                            rig::test::tool("graph-eval"), rig.string());
+    const std::string command = fmt::format(
+        "{} {} --frames 1:120:7 --get 'look.outMatrix[3]' --get Head.worldMatrix "
+        "--get target.translate --get 'inverter.value[*]'",
+        rig::test::tool("graph-eval"), rig.string());
     const auto one = rig::test::run(command + " --threads 1");
     const auto two = rig::test::run(command + " --threads 2");
     INFO(one.err);
@@ -416,7 +420,8 @@ TEST_CASE("skeleton edits: bad inputs give one line naming the node and attribut
           "n.share has 2 numbers but the chain has 3 joints (inMatrix elements); give one number per joint, root "
           "first, or none");
     g->setValue(g->plug("n.share"), std::vector<double>{0.5, 1.5, 1.0});
-    CHECK(errorOf(*g) == "n.share[1] is 1.5; a share is the fraction of the remaining turn the joint takes, from 0 to 1");
+    CHECK(errorOf(*g) ==
+          "n.share[1] is 1.5; a share is the fraction of the remaining turn the joint takes, from 0 to 1");
     g->setValue(g->plug("n.share"), std::vector<double>{});
     g->setValue(g->plug("n.limit"), std::vector<double>{10, -5, 30});
     CHECK(errorOf(*g) == "n.limit[1] is -5 degrees; a limit is the largest angle the joint may turn, 0 or more");
@@ -429,5 +434,6 @@ TEST_CASE("skeleton edits: bad inputs give one line naming the node and attribut
     b->setValue(b->plug("n.inMatrixA[0]"), j);
     b->setValue(b->plug("n.inMatrixB[0]"), j);
     b->setValue(b->plug("n.inMatrixB[1]"), j);
-    CHECK(errorOf(*b) == "n.inMatrixB[1] has no inMatrixA[1]; connect the same joints of both clips, at the same indices");
+    CHECK(errorOf(*b) ==
+          "n.inMatrixB[1] has no inMatrixA[1]; connect the same joints of both clips, at the same indices");
 }
