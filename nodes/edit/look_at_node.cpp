@@ -47,11 +47,7 @@ public:
     void compute(ComputeContext& c) override
     {
         LookAtSettings s;
-        std::vector<int> indices;  // the chain's logical indices in inMatrix
-        c.forEachElement(InMatrix, [&](int i, const Value& v) {
-            indices.push_back(i);
-            s.chain.push_back(std::get<Eigen::Matrix4d>(v));
-        });
+        c.forEachElement(InMatrix, [&](int, const Value& v) { s.chain.push_back(std::get<Eigen::Matrix4d>(v)); });
         s.share = c.getDoubleArray(Share);
         checkPerJoint(c, "share", s.share, s.chain.size());
         for (std::size_t k = 0; k < s.share.size(); ++k)
@@ -77,16 +73,12 @@ public:
         if (c.getEnum(UpMode) == World) s.worldUp = c.getVector3(WorldUp);
         const LookAtResult r = lookAtChain(s);
 
-        // Outputs at the chain's logical indices; a gap in inMatrix stays at the default (identity, 0).
-        const std::size_t size = indices.empty() ? 0 : static_cast<std::size_t>(indices.back()) + 1;
-        std::vector<Value> world(size, Value(Eigen::Matrix4d::Identity().eval()));
-        std::vector<Value> delta(size, Value(Eigen::Matrix4d::Identity().eval()));
-        std::vector<Value> turn(size, Value(0.0));
-        for (std::size_t k = 0; k < indices.size(); ++k) {
-            const auto i = static_cast<std::size_t>(indices[k]);
-            world[i] = r.world[k];
-            delta[i] = r.delta[k];
-            turn[i] = r.turn[k];
+        // Output k is the chain's joint k: outputs as many as the joints given, however sparse their indices.
+        std::vector<Value> world, delta, turn;
+        for (std::size_t k = 0; k < s.chain.size(); ++k) {
+            world.emplace_back(r.world[k]);
+            delta.emplace_back(r.delta[k]);
+            turn.emplace_back(r.turn[k]);
         }
         c.setOutputElements(OutMatrix, std::move(world));
         c.setOutputElements(DeltaMatrix, std::move(delta));
@@ -100,7 +92,7 @@ void declareInputs(NodeTypeBuilder& b)
         .array()
         .doc(
             "World matrix of each joint of the chain, root first (connect a clip's worldMatrix[j]: spine, "
-            "neck, head). The chain is the elements given, in index order.");
+            "neck, head). The chain is the elements given, in index order (a gap is no joint).");
     b.input(Target, "target", ValueType::Vector3).unit(Unit::Distance).keyable().doc("The world point to look at, cm.");
     b.input(Share, "share", ValueType::DoubleArray)
         .doc(
@@ -154,7 +146,9 @@ std::shared_ptr<const NodeType> makeLookAtType()
     declareInputs(b);
     b.output(OutMatrix, "outMatrix", ValueType::Matrix4)
         .array()
-        .doc("The edited world matrix of each joint, at inMatrix's indices (connect to rigInversion.target[k]).");
+        .doc(
+            "The edited world matrix of the chain's joint k (inMatrix[k] when its indices have no gap); connect "
+            "to rigInversion.target[j].");
     b.output(DeltaMatrix, "deltaMatrix", ValueType::Matrix4)
         .array()
         .doc(

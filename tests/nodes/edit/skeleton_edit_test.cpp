@@ -271,6 +271,20 @@ TEST_CASE("lookAt: weight 0 leaves the chain bit for bit, 1 is the full edit, be
     }
 }
 
+TEST_CASE("lookAt: a gap in inMatrix's indices is no joint; outputs are numbered along the chain")
+{
+    const std::vector<Eigen::Matrix4d> chain = planarChain();
+    auto dense = lookAt({chain[0], chain[2]}, {30, 0, 40});
+    auto g = single("lookAt");
+    g->setValue(g->plug("n.inMatrix[0]"), chain[0]);
+    g->setValue(g->plug("n.inMatrix[5000]"), chain[2]);
+    g->setValue(g->plug("n.target"), Eigen::Vector3d(30, 0, 40));
+    g->evaluateAll();
+    const rig::NodeId n = g->node("n");
+    CHECK(g->elementIndices(n, g->nodeType(n).findAttribute("outMatrix")) == std::vector<int>{0, 1});
+    for (int k = 0; k < 2; ++k) CHECK(rig::bitEqual(rig::Value(out(*g, k)), rig::Value(out(*dense, k))));
+}
+
 TEST_CASE("offsetLayer: a rotation and translation in the joint's axes or in world axes, weighted")
 {
     auto g = single("offsetLayer");
