@@ -213,7 +213,7 @@ TEST_CASE("lookAt: a joint at its limit turns exactly its limit, the next ones t
     }
 }
 
-TEST_CASE("lookAt: a target straight behind turns about the up; a target on a pivot turns nothing")
+TEST_CASE("lookAt: a target straight behind turns about the up, a target on a pivot turns nothing")
 {
     const Eigen::Matrix4d in = frame(Eigen::Matrix3d::Identity(), {0, 0, 0});
     SUBCASE("behind, limited to 90 degrees: a quarter turn about world up, aim to +X")
@@ -271,7 +271,7 @@ TEST_CASE("lookAt: weight 0 leaves the chain bit for bit, 1 is the full edit, be
     }
 }
 
-TEST_CASE("lookAt: a gap in inMatrix's indices is no joint; outputs are numbered along the chain")
+TEST_CASE("lookAt: a gap in inMatrix's indices is no joint, outputs are numbered along the chain")
 {
     const std::vector<Eigen::Matrix4d> chain = planarChain();
     auto dense = lookAt({chain[0], chain[2]}, {30, 0, 40});
