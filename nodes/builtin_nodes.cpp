@@ -33,6 +33,9 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeParentConstraintType());
     registry.add(makeAimConstraintType());
     registry.add(makePoleVectorConstraintType());
+    registry.add(makeLookAtType());
+    registry.add(makeOffsetLayerType());
+    registry.add(makeBlendClipsType());
 }
 
 std::shared_ptr<NodeRegistry> makeBuiltinRegistry()

@@ -43,5 +43,9 @@ std::shared_ptr<const NodeType> makeOrientConstraintType();
 std::shared_ptr<const NodeType> makeParentConstraintType();
 std::shared_ptr<const NodeType> makeAimConstraintType();
 std::shared_ptr<const NodeType> makePoleVectorConstraintType();
+// Skeleton-space edits between a clip and a rigInversion node (nodes/edit/, docs/nodes.md).
+std::shared_ptr<const NodeType> makeLookAtType();
+std::shared_ptr<const NodeType> makeOffsetLayerType();
+std::shared_ptr<const NodeType> makeBlendClipsType();
 
 }  // namespace rig

@@ -98,9 +98,10 @@ rig::Value testValue(const rig::AttributeSpec& spec, int pass, int attr)
 
 // The types whose every input this test's values are known to make matter.
 const std::vector<std::string> knownTypes{
-    "transform",   "joint",       "time",           "animCurveTU",      "animCurveTA",    "animCurveTL", "animCurveUU",
-    "animCurveUA", "animCurveUL", "multiplyDivide", "plusMinusAverage", "blendTwoAttr",   "clamp",       "reverse",
-    "remapValue",  "condition",   "multMatrix",     "composeMatrix",    "decomposeMatrix"};
+    "transform",       "joint",       "time",        "animCurveTU",    "animCurveTA",      "animCurveTL",
+    "animCurveUU",     "animCurveUA", "animCurveUL", "multiplyDivide", "plusMinusAverage", "blendTwoAttr",
+    "clamp",           "reverse",     "remapValue",  "condition",      "multMatrix",       "composeMatrix",
+    "decomposeMatrix", "lookAt",      "offsetLayer", "blendClips"};
 
 bool isAnimCurve(const std::string& type) { return type.starts_with("animCurve"); }
 
@@ -225,6 +226,16 @@ TEST_CASE("checked mode: every input of every built-in type is in its affects ta
                     } else if (isAnimCurve(typeName) && attrName == "keyOutTangent") {
                         value = std::vector<double>{static_cast<double>((3 * pass + 4) % 8),
                                                     static_cast<double>((pass + 2) % 8), -1.0};
+                    } else if (typeName == "lookAt" && spec.type == rig::ValueType::DoubleArray) {
+                        // One share and one limit (degrees) per chain joint: inMatrix[0] and inMatrix[2].
+                        value = attrName == "share" ? std::vector<double>{0.25 + 0.2 * pass, 1.0}
+                                                    : std::vector<double>{20.0 + 10.0 * pass, 45.0};
+                    } else if (typeName == "blendClips" && attrName == "inMatrixA") {
+                        // A joint in one clip only is an error: its partner in the other clip comes first (with a
+                        // value unlike the one inMatrixB gets when its own turn comes, so that it matters too).
+                        first.emplace(rig::Plug{node, attr + 1, index, -1},
+                                      testValue(specs[a + 1], pass, static_cast<int>(a) + 3));
+                        value = testValue(spec, pass, static_cast<int>(a));
                     } else {
                         value = testValue(spec, pass, static_cast<int>(a));
                     }

@@ -99,9 +99,15 @@ TEST_CASE("non-finite numbers into every input of every built-in node type: no c
                 CAPTURE(source.name);
                 // A bvhClip needs a clip to play; everything else starts from its defaults.
                 const std::string extra = typeName == "bvhClip" ? fmt::format(", file: '{}'", clip) : "";
+                // blendClips pairs its two clips joint by joint (a joint in one only is an error): the
+                // same source feeds both.
+                const std::string partner =
+                    typeName == "blendClips" && spec.array
+                        ? fmt::format("  - {} -> n.{}[1]\n", from, spec.name == "inMatrixA" ? "inMatrixB" : "inMatrixA")
+                        : "";
                 const std::string text =
-                    fmt::format("nodes:{}  - {{name: n, type: {}{}}}\nconnections:{}  - {} -> {}\n", sources, typeName,
-                                extra, sourceConnections, from, plug);
+                    fmt::format("nodes:{}  - {{name: n, type: {}{}}}\nconnections:{}  - {} -> {}\n{}", sources,
+                                typeName, extra, sourceConnections, from, plug, partner);
                 std::unique_ptr<Graph> g;
                 try {
                     g = loadGraphText(text, "feed.yaml", registry);
