@@ -396,10 +396,54 @@ std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, int anchor, cons
     return std::nullopt;
 }
 
-std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state, std::string& why)
+std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int root, const std::vector<int>& varied,
+                                                         const std::vector<int>& helpers, const std::vector<int>& goals,
+                                                         Closest& closest)
 {
     const auto& rest = probe_.rest();
     const auto& names = probe_.rig().outputs();
+    const Eigen::Vector3d rootRest = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
+    for (const int goal : goals) {
+        const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
+        // Poles: a helper's origin, a point carried by the anchor, or none (the rest plane kept, its normal from the
+        // chain's joints at rest).
+        std::vector<ConstraintBase> poles;
+        const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+            ConstraintBase base;
+            base.pole = pole;
+            base.restPole = point;
+            base.restPlane = normal.squaredNorm() > 0.0;
+            base.restNormal = normal;
+            poles.push_back(base);
+        };
+        for (const int pole : helpers)
+            if (pole != goal)
+                choice(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3), Eigen::Vector3d::Zero());
+        for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal))
+            choice(-1, point, Eigen::Vector3d::Zero());
+        for (const Eigen::Vector3d& normal : restNormals(root, rootRest, restGoal)) choice(-1, rootRest, normal);
+        for (ConstraintBase base : poles) {
+            const int pole = base.pole;
+            base.anchor = anchor;
+            base.goal = goal;
+            base.root = rootRest;
+            const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
+            if (e <= options_.epsilon) return base;
+            if (e < closest.error) {
+                closest.error = e;
+                const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
+                closest.what = fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
+                                           base.restPlane ? "none (the rest plane of " + fixedTo + ")"
+                                           : pole < 0     ? "fixed to " + fixedTo
+                                                          : names[static_cast<std::size_t>(pole)]);
+            }
+        }
+    }
+    return std::nullopt;
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state, std::string& why)
+{
     int root = k, anchor = hierarchy_[static_cast<std::size_t>(k)];
     while (anchor >= 0 && !usableAnchor(anchor, state)) {
         root = anchor;
@@ -438,45 +482,9 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     for (const int i : movers)
         if (movesAnchor(i) || std::any_of(helpers.begin(), helpers.end(), [&](int h) { return moves(i, h); }))
             varied.push_back(i);
-    const Eigen::Vector3d rootRest = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
     std::vector<int> goals = helpers;
     goals.insert(goals.end(), fixed.begin(), fixed.end());
-    for (const int goal : goals) {
-        const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
-        // Poles: a helper's origin, a point carried by the anchor, or none (the rest plane kept, its normal from the
-        // chain's joints at rest).
-        std::vector<ConstraintBase> poles;
-        const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
-            ConstraintBase base;
-            base.pole = pole;
-            base.restPole = point;
-            base.restPlane = normal.squaredNorm() > 0.0;
-            base.restNormal = normal;
-            poles.push_back(base);
-        };
-        for (const int pole : helpers)
-            if (pole != goal)
-                choice(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3), Eigen::Vector3d::Zero());
-        for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal))
-            choice(-1, point, Eigen::Vector3d::Zero());
-        for (const Eigen::Vector3d& normal : restNormals(root, rootRest, restGoal)) choice(-1, rootRest, normal);
-        for (ConstraintBase base : poles) {
-            const int pole = base.pole;
-            base.anchor = anchor;
-            base.goal = goal;
-            base.root = rootRest;
-            const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
-            if (e <= options_.epsilon) return base;
-            if (e < closest.error) {
-                closest.error = e;
-                const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
-                closest.what = fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
-                                           base.restPlane ? "none (the rest plane of " + fixedTo + ")"
-                                           : pole < 0     ? "fixed to " + fixedTo
-                                                          : names[static_cast<std::size_t>(pole)]);
-            }
-        }
-    }
+    if (std::optional<ConstraintBase> chain = fitChain(k, anchor, root, varied, helpers, goals, closest)) return chain;
     why = std::isfinite(closest.error)
               ? fmt::format("the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}", closest.what,
                             closest.error, options_.epsilon)
