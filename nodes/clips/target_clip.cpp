@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "nodes/clips/assimp_clip.h"
 #include "nodes/clips/bvh.h"
 
 namespace rig {
@@ -140,13 +141,15 @@ std::vector<int> keptParents(const std::vector<int>& parents, const std::vector<
     return out;
 }
 
-TargetClip readBvhTargets(const std::filesystem::path& file, const TargetMap& map)
+// A skeletal clip's joints' world matrices by forward kinematics, the map applied.
+TargetClip skeletalTargets(const SkeletalClip& skeleton, const std::string& file, const TargetMap& map)
 {
-    const BvhClip bvh = readBvhFile(file);
+    const BvhClip& bvh = skeleton.clip;
     std::vector<std::string> fileJoints;
     for (const auto& joint : bvh.joints) fileJoints.push_back(joint.name);
     TargetClip clip;
-    clip.file = file.string();
+    clip.file = file;
+    clip.source = skeleton.source.describe();
     const auto kept = applyMap(fileJoints, clip.file, map, clip.joints);
     clip.frameTime = bvh.frameTime;
     std::vector<int> parents;
@@ -351,18 +354,36 @@ TargetMap parseTargetMap(std::string_view text, const std::string& fileName)
     return map;
 }
 
-TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map)
+// A JSON clip by its content: a list, or a map that is not glTF (which has "asset"; the JSON clip's reader
+// then says what a JSON clip is).
+bool looksLikeJsonClip(std::string_view text)
+{
+    if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
+    const auto start = text.find_first_not_of(" \t\r\n");
+    if (start == std::string_view::npos) return false;
+    if (text[start] == '[') return true;
+    return text[start] == '{' && text.substr(0, 65536).find("\"asset\"") == std::string_view::npos;
+}
+
+TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map, const std::string& take)
 {
     std::error_code ec;
     if (std::filesystem::is_directory(file, ec))
-        throw Error(fmt::format("{}: is a folder; give a clip file (.bvh, or .json of world matrices)", file.string()));
-    const auto extension = file.extension().string();
-    if (extension == ".bvh" || extension == ".BVH") return readBvhTargets(file, map);
-    if (extension == ".json") return parseJsonTargetClip(readText(file, "JSON clip"), file.string(), map);
-    throw Error(
-        fmt::format("{}: a clip is a .bvh file or a .json file of world matrices (graph-eval's JSON); "
-                    "rename it or convert it",
-                    file.string()));
+        throw Error(
+            fmt::format("{}: is a folder; give a clip file (BVH, FBX, glTF, Collada, ..., or .json of world "
+                        "matrices)",
+                        file.string()));
+    const std::string text = readText(file, "clip");
+    if (looksLikeBvh(text)) return skeletalTargets(parseBvhSkeletalClip(text, file.string(), take), file.string(), map);
+    if (looksLikeJsonClip(text)) {
+        if (!take.empty() && take != "0")
+            throw Error(fmt::format("{}: no take '{}'; a JSON clip has one take, 0; leave --take out", file.string(),
+                                    messageExcerpt(take, 60)));
+        TargetClip clip = parseJsonTargetClip(text, file.string(), map);
+        clip.source = "JSON world matrices (cm, Y up, as graph-eval writes them)";
+        return clip;
+    }
+    return skeletalTargets(readAssimpClip(file, take), file.string(), map);
 }
 
 TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map)
