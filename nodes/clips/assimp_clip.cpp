@@ -237,6 +237,14 @@ std::vector<Key> readKeys(const Source* keys, unsigned count, Convert convert, c
     return out;
 }
 
+std::string lowerExtension(const std::filesystem::path& file)
+{
+    std::string extension = file.extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return extension;
+}
+
 Eigen::Vector3d toVector(const aiVector3D& v) { return {v.x, v.y, v.z}; }
 Eigen::Quaterniond toQuaternion(const aiQuaternion& q) { return Eigen::Quaterniond(q.w, q.x, q.y, q.z); }
 
@@ -592,11 +600,27 @@ SkeletalClip parseAssimpClip(std::string_view bytes, const std::string& hint, co
     return sceneClip(*scene, fileName, bytes, take);
 }
 
-bool looksLikeBvh(std::string_view head)
+ClipReader clipReaderFor(std::string_view text, const std::filesystem::path& file)
 {
-    if (head.substr(0, 3) == "\xEF\xBB\xBF") head.remove_prefix(3);
-    const auto start = head.find_first_not_of(" \t\r\n");
-    return start != std::string_view::npos && head.substr(start, 9) == "HIERARCHY";
+    if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
+    const auto start = text.find_first_not_of(" \t\r\n");
+    const std::string_view content = start == std::string_view::npos ? std::string_view() : text.substr(start);
+    if (content.starts_with("HIERARCHY")) return ClipReader::bvh;
+    if (content.starts_with("[")) return ClipReader::json;
+    const bool gltf = text.substr(0, 65536).find("\"asset\"") != std::string_view::npos;
+    if (content.starts_with("{") && !gltf) return ClipReader::json;
+    const std::string extension = lowerExtension(file);
+    if (extension == ".bvh") return ClipReader::bvh;
+    if (extension == ".json" && !gltf) return ClipReader::json;
+    return ClipReader::assimp;
+}
+
+InputFileKind clipFileKind(const std::filesystem::path& file)
+{
+    const std::string extension = lowerExtension(file);
+    if (extension == ".bvh") return {"a BVH file", "a .bvh file", bvhMaxFileBytes, "cut the clip into shorter ones"};
+    if (extension == ".json") return {"a JSON clip", "a JSON clip", bvhMaxFileBytes, "cut it into shorter files"};
+    return animationFileKind;
 }
 
 SkeletalClip parseBvhSkeletalClip(std::string_view text, const std::string& fileName, const std::string& take)
@@ -614,15 +638,24 @@ SkeletalClip parseBvhSkeletalClip(std::string_view text, const std::string& file
 
 SkeletalClip readSkeletalClip(const std::filesystem::path& file, const std::string& take)
 {
-    const std::string bytes = readInputFile(file, animationFileKind);
-    return looksLikeBvh(bytes) ? parseBvhSkeletalClip(bytes, file.string(), take) : readAssimpClip(file, take);
+    const std::string bytes = readInputFile(file, clipFileKind(file));
+    switch (clipReaderFor(bytes, file)) {
+        case ClipReader::bvh:
+            return parseBvhSkeletalClip(bytes, file.string(), take);
+        case ClipReader::json:
+            throw Error(
+                fmt::format("{}: a JSON clip of world matrices has no skeleton; give a BVH file or an animation "
+                            "assimp reads (FBX, glTF, Collada, X, ...)",
+                            file.string()));
+        case ClipReader::assimp:
+            break;
+    }
+    return readAssimpClip(file, take);
 }
 
 bool isClipFile(const std::filesystem::path& file)
 {
-    std::string extension = file.extension().string();
-    std::transform(extension.begin(), extension.end(), extension.begin(),
-                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    const std::string extension = lowerExtension(file);
     return extension == ".bvh" || extension == ".json" ||
            (extension.size() > 1 && Assimp::Importer().IsExtensionSupported(extension));
 }

@@ -23,6 +23,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/input_file.h"
 #include "nodes/clips/bvh.h"
 
 namespace rig {
@@ -61,12 +62,17 @@ SkeletalClip readAssimpClip(const std::filesystem::path& file, const std::string
 SkeletalClip parseAssimpClip(std::string_view bytes, const std::string& hint, const std::string& fileName,
                              const std::string& take);
 
-// True when the text starts as a BVH file ("HIERARCHY" after a BOM and blank space).
-bool looksLikeBvh(std::string_view head);
+// What reads a clip file, from its content first: BVH text ("HIERARCHY" after a BOM and blank space), a JSON
+// clip ('[', or '{' without glTF's "asset"); then, for content that says neither, its extension (.bvh, .json: their
+// readers say what is wrong); anything else assimp.
+enum class ClipReader { bvh, json, assimp };
+ClipReader clipReaderFor(std::string_view text, const std::filesystem::path& file);
+// The file kind for readInputFile's messages: a BVH file, a JSON clip or an animation file, by extension.
+InputFileKind clipFileKind(const std::filesystem::path& file);
 // A BVH file's text as a skeletal clip (the BVH reader's, its one take 0).
 SkeletalClip parseBvhSkeletalClip(std::string_view text, const std::string& fileName, const std::string& take);
-// Any skeletal clip, by the file's content: BVH text through the project's BVH reader (the reference,
-// docs/bvh.md), anything else through assimp. A BVH file has one take, 0 (its name is "").
+// Any skeletal clip, by clipReaderFor: BVH through the project's BVH reader (the reference, docs/bvh.md), the
+// others through assimp; a JSON clip (world matrices, no skeleton) is refused. A BVH file has one take, 0.
 SkeletalClip readSkeletalClip(const std::filesystem::path& file, const std::string& take);
 
 // A file a folder of clips holds (rig-batch --clips FOLDER): .bvh, .json, or an extension assimp reads.

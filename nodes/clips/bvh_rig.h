@@ -18,8 +18,8 @@ struct BvhRigOptions {
     // skel2rig, for a clip from another format (nodes/clips/assimp_clip.h): the clip node is a skeletonClip
     // playing this take, and the header says where the skeleton comes from (ClipSource::describe).
     bool general = false;
-    std::string take;
-    std::string source;
+    std::string take{};
+    std::string source{};
 };
 
 struct BvhRig {

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/input_file.h"
 #include "nodes/clips/assimp_clip.h"
 #include "nodes/clips/bvh.h"
 
@@ -354,17 +355,6 @@ TargetMap parseTargetMap(std::string_view text, const std::string& fileName)
     return map;
 }
 
-// A JSON clip by its content: a list, or a map that is not glTF (which has "asset"; the JSON clip's reader
-// then says what a JSON clip is).
-bool looksLikeJsonClip(std::string_view text)
-{
-    if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);
-    const auto start = text.find_first_not_of(" \t\r\n");
-    if (start == std::string_view::npos) return false;
-    if (text[start] == '[') return true;
-    return text[start] == '{' && text.substr(0, 65536).find("\"asset\"") == std::string_view::npos;
-}
-
 TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map, const std::string& take)
 {
     std::error_code ec;
@@ -373,15 +363,22 @@ TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& ma
             fmt::format("{}: is a folder; give a clip file (BVH, FBX, glTF, Collada, ..., or .json of world "
                         "matrices)",
                         file.string()));
-    const std::string text = readText(file, "clip");
-    if (looksLikeBvh(text)) return skeletalTargets(parseBvhSkeletalClip(text, file.string(), take), file.string(), map);
-    if (looksLikeJsonClip(text)) {
-        if (!take.empty() && take != "0")
-            throw Error(fmt::format("{}: no take '{}'; a JSON clip has one take, 0; leave --take out", file.string(),
-                                    messageExcerpt(take, 60)));
-        TargetClip clip = parseJsonTargetClip(text, file.string(), map);
-        clip.source = "JSON world matrices (cm, Y up, as graph-eval writes them)";
-        return clip;
+    // A JSON clip's file is read as before BVH and assimp came to share this path (its messages name it).
+    const bool jsonByName = file.extension() == ".json";
+    const std::string text = jsonByName ? readText(file, "JSON clip") : readInputFile(file, clipFileKind(file));
+    switch (clipReaderFor(text, file)) {
+        case ClipReader::bvh:
+            return skeletalTargets(parseBvhSkeletalClip(text, file.string(), take), file.string(), map);
+        case ClipReader::json: {
+            if (!take.empty() && take != "0")
+                throw Error(fmt::format("{}: no take '{}'; a JSON clip has one take, 0; leave --take out",
+                                        file.string(), messageExcerpt(take, 60)));
+            TargetClip clip = parseJsonTargetClip(text, file.string(), map);
+            clip.source = "JSON world matrices (cm, Y up, as graph-eval writes them)";
+            return clip;
+        }
+        case ClipReader::assimp:
+            break;
     }
     return skeletalTargets(readAssimpClip(file, take), file.string(), map);
 }
