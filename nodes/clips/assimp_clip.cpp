@@ -166,7 +166,9 @@ Eigen::Matrix4d normalisation(const aiScene& scene, const std::string& file, std
 // The take named `take` (a name, else a 0-based index; "" the first). A bad one: the takes, in one line.
 int chooseTake(const aiScene& scene, const std::string& take, const std::string& file)
 {
-    const auto name = [&](unsigned a) { return std::string(scene.mAnimations[a]->mName.C_Str()); };
+    const auto name = [&](unsigned a) {
+        return scene.mAnimations[a] ? std::string(scene.mAnimations[a]->mName.C_Str()) : std::string();
+    };
     if (take.empty()) return 0;
     for (unsigned a = 0; a < scene.mNumAnimations; ++a)
         if (name(a) == take) return static_cast<int>(a);
@@ -209,7 +211,7 @@ std::vector<SceneNode> flattenNodes(const aiScene& scene, const std::string& fil
             throw Error(fmt::format("{}: node '{}' has a transformation that is not finite; the file is damaged", file,
                                     messageExcerpt(n.name, 60)));
         const int self = static_cast<int>(nodes.size()) - 1;
-        for (unsigned c = node->mNumChildren; c-- > 0;)
+        for (unsigned c = node->mChildren ? node->mNumChildren : 0; c-- > 0;)
             if (node->mChildren[c]) stack.emplace_back(node->mChildren[c], self);
     }
     return nodes;
@@ -221,6 +223,7 @@ bool allFinite(const Eigen::Quaterniond& q) { return q.coeffs().allFinite() && q
 template <class Key, class Source, class Convert>
 std::vector<Key> readKeys(const Source* keys, unsigned count, Convert convert, const std::string& where)
 {
+    if (count > 0 && !keys) throw Error(fmt::format("{}: {} keys without their values; the file is damaged", where, count));
     std::vector<Key> out;
     for (unsigned k = 0; k < count; ++k) {
         Key key{keys[k].mTime, convert(keys[k].mValue)};
@@ -286,12 +289,13 @@ int markJoints(const aiScene& scene, const aiAnimation& take, std::vector<SceneN
                                     where, messageExcerpt(name, 60)));
         return &nodes[static_cast<std::size_t>(it->second)];
     };
-    for (unsigned c = 0; c < take.mNumChannels; ++c)
+    for (unsigned c = 0; take.mChannels && c < take.mNumChannels; ++c)
         if (take.mChannels[c])
             if (SceneNode* n = node(take.mChannels[c]->mNodeName.C_Str())) readChannel(*n, *take.mChannels[c], where);
-    for (unsigned m = 0; m < scene.mNumMeshes; ++m)
-        for (unsigned b = 0; scene.mMeshes[m] && b < scene.mMeshes[m]->mNumBones; ++b)
-            if (SceneNode* n = node(scene.mMeshes[m]->mBones[b]->mName.C_Str())) n->marked = true;
+    for (unsigned m = 0; scene.mMeshes && m < scene.mNumMeshes; ++m)
+        for (unsigned b = 0; scene.mMeshes[m] && scene.mMeshes[m]->mBones && b < scene.mMeshes[m]->mNumBones; ++b)
+            if (const aiBone* bone = scene.mMeshes[m]->mBones[b])
+                if (SceneNode* n = node(bone->mName.C_Str())) n->marked = true;
     std::vector<char> above(nodes.size(), 0), below(nodes.size(), 0);
     for (std::size_t i = 0; i < nodes.size(); ++i)
         if (const int p = nodes[i].parent; p >= 0) above[i] = nodes[p].marked || above[p];
@@ -522,13 +526,15 @@ BvhClip poseClip(const std::vector<SceneNode>& nodes, const Poses& poses, const 
 // The take of an imported scene as a clip; `head`: the file's first bytes (Collada's asset, for the report).
 SkeletalClip sceneClip(const aiScene& scene, const std::string& file, std::string_view head, const std::string& take)
 {
-    if (scene.mNumAnimations == 0 || !scene.mRootNode)
+    if (scene.mNumAnimations == 0 || !scene.mAnimations || !scene.mRootNode)
         throw Error(fmt::format("{}: has no animation; a clip needs a skeleton and its motion", file));
     SkeletalClip out;
     ClipSource& source = out.source;
     source.format = formatName(scene, std::filesystem::path(file).extension().string());
     source.takeIndex = chooseTake(scene, take, file);
     source.takeCount = static_cast<int>(scene.mNumAnimations);
+    if (!scene.mAnimations[source.takeIndex])
+        throw Error(fmt::format("{}: take {} is empty; the file is damaged", file, source.takeIndex));
     const aiAnimation& animation = *scene.mAnimations[source.takeIndex];
     source.take = animation.mName.C_Str();
     const std::string where = source.take.empty() ? fmt::format("{}: take {}", file, source.takeIndex)
@@ -544,6 +550,8 @@ SkeletalClip sceneClip(const aiScene& scene, const std::string& file, std::strin
     return out;
 }
 
+// No post-processing, not even aiProcess_ValidateDataStructure: it refuses a scene without a mesh (a BVH file, a
+// bare skeleton). What is read here (nodes, channels, keys, bones) is checked here instead.
 void configure(Assimp::Importer& importer)
 {
     // FBX pivots folded into their nodes, not helper nodes between the joints.
@@ -571,7 +579,7 @@ SkeletalClip readAssimpClip(const std::filesystem::path& file, const std::string
     configure(importer);
     const aiScene* scene = nullptr;
     try {
-        scene = importer.ReadFile(file.string(), aiProcess_ValidateDataStructure);
+        scene = importer.ReadFile(file.string(), 0);
     }
     catch (const std::exception& e) {
         throw Error(fmt::format("{}: assimp cannot read it: {}", file.string(), oneLine(e.what(), 200)));
@@ -589,7 +597,7 @@ SkeletalClip parseAssimpClip(std::string_view bytes, const std::string& hint, co
     configure(importer);
     const aiScene* scene = nullptr;
     try {
-        scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), aiProcess_ValidateDataStructure, hint.c_str());
+        scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), 0, hint.c_str());
     }
     catch (const std::exception& e) {
         throw Error(fmt::format("{}: assimp cannot read it: {}", fileName, oneLine(e.what(), 200)));
