@@ -18,6 +18,7 @@
 
 #include "core/error.h"
 #include "core/input_file.h"
+#include "core/parse_number.h"
 #include "core/rotation_math.h"
 #include "nodes/clips/bvh_rig.h"
 #include "nodes/transform_math.h"
@@ -90,7 +91,8 @@ double metadataNumber(const aiScene& scene, const char* key, double fallback)
             case AI_UINT64:
                 return static_cast<double>(*static_cast<const uint64_t*>(entry.mData));
             case AI_FLOAT:
-                return *static_cast<const float*>(entry.mData);
+                // A float's shortest decimal (2.54f is 2.54, not 2.5399999618...): what the file wrote.
+                return parseFiniteNumber(fmt::format("{}", *static_cast<const float*>(entry.mData))).value_or(fallback);
             case AI_DOUBLE:
                 return *static_cast<const double*>(entry.mData);
             default:
@@ -223,7 +225,8 @@ bool allFinite(const Eigen::Quaterniond& q) { return q.coeffs().allFinite() && q
 template <class Key, class Source, class Convert>
 std::vector<Key> readKeys(const Source* keys, unsigned count, Convert convert, const std::string& where)
 {
-    if (count > 0 && !keys) throw Error(fmt::format("{}: {} keys without their values; the file is damaged", where, count));
+    if (count > 0 && !keys)
+        throw Error(fmt::format("{}: {} keys without their values; the file is damaged", where, count));
     std::vector<Key> out;
     for (unsigned k = 0; k < count; ++k) {
         Key key{keys[k].mTime, convert(keys[k].mValue)};
