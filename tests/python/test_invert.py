@@ -81,12 +81,15 @@ def test_arrays_equal_the_same_targets_as_a_json_clip(learned_biped, tmp_path):
     assert np.array_equal(values, expected)
     # Arrays number their frames from 0, the JSON clip from 1; the curves' text holds the numbers.
     assert ours["clip"] is None and report["clip"] == str(clip)
+    # Arrays have no file to say where they come from.
+    assert ours["clip_source"] is None
+    assert report["clip_source"] == "JSON world matrices (cm, Y up, as graph-eval writes them)"
     assert [f["frame"] for f in ours["per_frame"]] == list(range(90))
     assert ours["worst_frame"] == report["worst_frame"] - 1
     assert ours["worst_rotation_frame"] == report["worst_rotation_frame"] - 1
     shifted = [dict(f, frame=f["frame"] - 1) for f in report["per_frame"]]
     assert ours["per_frame"] == shifted
-    frames = ("clip", "per_frame", "worst_frame", "worst_rotation_frame")
+    frames = ("clip", "clip_source", "per_frame", "worst_frame", "worst_rotation_frame")
     assert without(ours, *VOLATILE, *frames) == without(report, *VOLATILE, *frames)
 
 
