@@ -174,7 +174,8 @@ int chooseTake(const aiScene& scene, const std::string& take, const std::string&
     if (take.empty()) return 0;
     for (unsigned a = 0; a < scene.mNumAnimations; ++a)
         if (name(a) == take) return static_cast<int>(a);
-    if (!take.empty() && take.size() < 10 && std::all_of(take.begin(), take.end(), ::isdigit)) {
+    const auto digit = [](unsigned char c) { return std::isdigit(c) != 0; };
+    if (take.size() < 10 && std::all_of(take.begin(), take.end(), digit)) {
         const int index = std::stoi(take);
         if (index < static_cast<int>(scene.mNumAnimations)) return index;
     }
