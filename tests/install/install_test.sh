@@ -23,7 +23,8 @@ $3"
 }
 
 cmake --install "$build_dir" --prefix "$prefix" >"$scratch/install.log"
-for file in bin/graph-eval bin/rig-invert bin/skel2rig bin/bvh2rig lib/rigInversion.so include/rig/graph/node.h include/rig/app/eval_run.h \
+for file in bin/graph-eval bin/rig-invert bin/skel2rig bin/bvh2rig lib/rigInversion.so include/rig/graph/node.h \
+            include/rig/app/eval_run.h \
             lib/cmake/rig/rigConfig.cmake lib/cmake/rig/rigConfigVersion.cmake lib/cmake/rig/rigTargets.cmake; do
   [ -e "$prefix/$file" ] || fail "$file was not installed"
 done
