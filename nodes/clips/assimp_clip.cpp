@@ -21,6 +21,7 @@
 #include "core/parse_number.h"
 #include "core/rotation_math.h"
 #include "nodes/clips/bvh_rig.h"
+#include "nodes/clips/clip_isolation.h"
 #include "nodes/transform_math.h"
 
 namespace rig {
@@ -564,7 +565,15 @@ void configure(Assimp::Importer& importer)
     importer.SetPropertyBool(AI_CONFIG_IMPORT_NO_SKELETON_MESHES, true);
 }
 
-std::string importError(const Assimp::Importer& importer) { return oneLine(importer.GetErrorString(), 200); }
+// The scene assimp imported, or its reason in one line. (assimp catches its importers' exceptions; what
+// escapes it is the child's to report, clip_isolation.h.)
+const aiScene& imported(const Assimp::Importer& importer, const aiScene* scene, const std::string& file)
+{
+    if (!scene)
+        throw Error(fmt::format("{}: assimp cannot read it: {}; give a file of a format assimp reads (docs/clips.md)",
+                                file, oneLine(importer.GetErrorString(), 200)));
+    return *scene;
+}
 
 }  // namespace
 
@@ -578,38 +587,29 @@ std::string ClipSource::describe() const
 
 SkeletalClip readAssimpClip(const std::filesystem::path& file, const std::string& take)
 {
+    // The limits on the file in this process; assimp in a child (clip_isolation.h).
     const std::string bytes = readInputFile(file, animationFileKind);
-    Assimp::Importer importer;
-    configure(importer);
-    const aiScene* scene = nullptr;
-    try {
-        scene = importer.ReadFile(file.string(), 0);
-    }
-    catch (const std::exception& e) {
-        throw Error(fmt::format("{}: assimp cannot read it: {}", file.string(), oneLine(e.what(), 200)));
-    }
-    if (!scene)
-        throw Error(fmt::format("{}: assimp cannot read it: {}; give a file of a format assimp reads (docs/clips.md)",
-                                file.string(), importError(importer)));
-    return sceneClip(*scene, file.string(), bytes, take);
+    return readClipIsolated(
+        [&] {
+            Assimp::Importer importer;
+            configure(importer);
+            return sceneClip(imported(importer, importer.ReadFile(file.string(), 0), file.string()), file.string(),
+                             bytes, take);
+        },
+        file.string());
 }
 
 SkeletalClip parseAssimpClip(std::string_view bytes, const std::string& hint, const std::string& fileName,
                              const std::string& take)
 {
-    Assimp::Importer importer;
-    configure(importer);
-    const aiScene* scene = nullptr;
-    try {
-        scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), 0, hint.c_str());
-    }
-    catch (const std::exception& e) {
-        throw Error(fmt::format("{}: assimp cannot read it: {}", fileName, oneLine(e.what(), 200)));
-    }
-    if (!scene)
-        throw Error(fmt::format("{}: assimp cannot read it: {}; give a file of a format assimp reads (docs/clips.md)",
-                                fileName, importError(importer)));
-    return sceneClip(*scene, fileName, bytes, take);
+    return readClipIsolated(
+        [&] {
+            Assimp::Importer importer;
+            configure(importer);
+            const aiScene* scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), 0, hint.c_str());
+            return sceneClip(imported(importer, scene, fileName), fileName, bytes, take);
+        },
+        fileName);
 }
 
 ClipReader clipReaderFor(std::string_view text, const std::filesystem::path& file)
