@@ -195,6 +195,7 @@ std::vector<BatchShard> planShards(const BatchInputs& inputs, const std::vector<
                                              {"rig", inputs.rigFingerprint},
                                              {"map", inputs.mapChecksum},
                                              {"plugins", inputs.plugins},
+                                             {"take", inputs.take},
                                              {"settings", settings}});
     std::vector<BatchShard> out;
     for (std::size_t c = 0; c < clips.size(); ++c)
@@ -239,6 +240,7 @@ Json manifestJson(const BatchManifest& m)
                 {"map_checksum", in.mapChecksum.empty() ? Json() : Json(in.mapChecksum)},
                 {"plugins", in.plugins},
                 {"strict", in.strict},
+                {"take", in.take},
                 {"settings", settingsJson(in.settings)},
                 {"shard_frames", in.shardFrames},
                 {"clips", std::move(clips)},
@@ -276,6 +278,7 @@ BatchManifest readManifest(const std::filesystem::path& folder)
     inputs.mapChecksum = mapChecksum.is_string() ? mapChecksum.get<std::string>() : "";
     inputs.plugins = field<std::vector<std::string>>(j, "plugins", file);
     inputs.strict = field<bool>(j, "strict", file);
+    inputs.take = field<std::string>(j, "take", file);
     inputs.settings = readSettings(field<Json>(j, "settings", file), file);
     inputs.shardFrames = field<int>(j, "shard_frames", file);
     for (const Json& c : field<Json>(j, "clips", file)) {

@@ -21,6 +21,7 @@
 #include "app/output_file.h"
 #include "core/error.h"
 #include "inversion/continuity.h"
+#include "nodes/clips/assimp_clip.h"
 #include "nodes/graph_rig_function.h"
 
 namespace rig::app {
@@ -37,8 +38,6 @@ std::string hostName()
     return ::gethostname(name, sizeof(name) - 1) == 0 ? std::string(name) : std::string();
 }
 
-bool isClip(const fs::path& file) { return file.extension() == ".bvh" || file.extension() == ".json"; }
-
 // A clip path's status. A link loop, a link into a folder this user may not search, or any other error
 // of the file system is the user's to fix, named by its path (never an exception of std::filesystem).
 fs::file_status clipStatus(const fs::path& path, const std::string& shown)
@@ -51,8 +50,8 @@ fs::file_status clipStatus(const fs::path& path, const std::string& shown)
     return status;
 }
 
-// A folder's .bvh and .json files, in name order. A clip's name that is a broken link is an error, not a clip
-// silently left out of the library.
+// A folder's clip files (.bvh, .json and the extensions assimp reads: isClipFile), in name order. A clip's name that is
+// a broken link is an error, not a clip silently left out of the library.
 std::vector<fs::path> folderClips(const fs::path& folder, const std::string& shown)
 {
     std::vector<fs::path> found;
@@ -60,7 +59,7 @@ std::vector<fs::path> folderClips(const fs::path& folder, const std::string& sho
     fs::directory_iterator it(folder, ec);
     for (; !ec && it != fs::directory_iterator(); it.increment(ec)) {
         const fs::path& file = it->path();
-        if (!isClip(file)) continue;
+        if (!isClipFile(file)) continue;
         const fs::file_status status = clipStatus(file, file.string());
         if (!fs::exists(status))
             throw Error(fmt::format("--clips {}: a link to nothing; fix or remove it, or give the clips without it",
@@ -72,13 +71,15 @@ std::vector<fs::path> folderClips(const fs::path& folder, const std::string& sho
             fmt::format("--clips {}: cannot list the folder ({}); give a folder you may read", shown, ec.message()));
     if (found.empty())
         throw Error(fmt::format(
-            "--clips {}: the folder holds no .bvh or .json clip; give clip files or folders of them", shown));
+            "--clips {}: the folder holds no clip (BVH, FBX, glTF, Collada, ..., .json); give clip files or folders "
+            "of them",
+            shown));
     std::sort(found.begin(), found.end());
     return found;
 }
 
-// --clips: files as given, folders as their .bvh and .json files in name order; each path once (a file named
-// twice, by itself and in its folder), while links of other names are clips of those names.
+// --clips: files as given (what they are is read from their content), folders as their clip files in name order; each
+// path once (a file named twice, by itself and in its folder), while links of other names are clips of those names.
 std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs::path& out)
 {
     std::vector<fs::path> files;
@@ -92,12 +93,10 @@ std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs:
         const fs::file_status status = clipStatus(p, g);
         if (!fs::exists(status))
             throw Error(
-                fmt::format("--clips {}: no such file or folder; give clip files (.bvh, .json) or folders of "
-                            "them",
+                fmt::format("--clips {}: no such file or folder; give clip files (BVH, FBX, glTF, Collada, ..., "
+                            ".json) or folders of them",
                             g));
         if (!fs::is_directory(status)) {
-            if (!isClip(p))
-                throw Error(fmt::format("--clips {}: not a clip; give .bvh or .json files, or folders of them", g));
             add(p);
             continue;
         }
@@ -105,7 +104,8 @@ std::vector<fs::path> clipFiles(const std::vector<std::string>& given, const fs:
             throw Error(fmt::format("--clips {}: is the output folder (--out); give the folder of the clips", g));
         for (const auto& file : folderClips(p, g)) add(file);
     }
-    if (files.empty()) throw Error("--clips: no clip given; give clip files (.bvh, .json) or folders of them");
+    if (files.empty())
+        throw Error("--clips: no clip given; give clip files (BVH, FBX, glTF, Collada, ..., .json) or folders of them");
     return files;
 }
 

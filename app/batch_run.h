@@ -22,7 +22,7 @@ namespace rig::app {
 // run.
 struct BatchJob : InversionInputs {
     BatchJob() { settings = concurrentSolveDefaults(); }
-    std::vector<std::string> clips;  // clip files (.bvh, .json) and folders of them
+    std::vector<std::string> clips;  // clip files (any format readTargetClip reads) and folders of them
     std::string out;                 // the output folder
     std::string backend = "local";   // or "slurm"
     int jobs = 0;                    // processes (local) or tasks running at once (slurm); 0: the default

@@ -157,7 +157,7 @@ RigBinding bindRig(const InvertJob& job, const Approximation& approximation, Gra
 TargetClip readTargets(const InvertJob& job)
 {
     const TargetMap map = job.map.empty() ? TargetMap{} : readTargetMap(job.map);
-    return job.targets ? applyTargetMap(*job.targets, map) : readTargetClip(job.clip, map);
+    return job.targets ? applyTargetMap(*job.targets, map) : readTargetClip(job.clip, map, job.take);
 }
 
 ClipTargets matchClipTargets(const Approximation& approximation, const TargetClip& clip)
@@ -374,6 +374,7 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
         {"rig", rig},
         {"held", heldJson(a.held)},
         {"clip", nameOrNull(clip)},
+        {"clip_source", outcome.clip.source.empty() ? Json() : Json(outcome.clip.source)},
         {"parameters", a.parameters.size()},
         {"target_joints", outcome.targets.matchedJoints},
         {"frames", s.frames},

@@ -30,7 +30,8 @@ ClipInversionOptions clipInversionOptions(const SolveSettings& settings);
 struct InversionInputs {
     std::string approximation;  // its file, or what names it in messages (one given in memory)
     std::string rig;
-    std::string map;  // renames and scales the targets; "" for none
+    std::string map;   // renames and scales the targets; "" for none
+    std::string take;  // the animation to read from a clip file with several: a name or 0-based index; "" the first
     std::vector<std::string> plugins;
     bool strict = false;  // refuse an approximation learned from another version of the rig
     SolveSettings settings;

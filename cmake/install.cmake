@@ -17,7 +17,9 @@ install(TARGETS ${RIG_PACKAGE_TARGETS} EXPORT rigTargets
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # The plugin beside the engine's library, where NodeRegistry::loadPlugin looks last (as build/lib in the tree).
 install(TARGETS rigInversion LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
-install(TARGETS graph-eval bvh2rig rig-learn rig-invert rig-batch RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(TARGETS graph-eval skel2rig rig-learn rig-invert rig-batch RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+# bvh2rig, skel2rig's former name, as a relative link beside it.
+install(CODE "file(CREATE_LINK skel2rig \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_BINDIR}/bvh2rig\" SYMBOLIC)")
 foreach(folder core graph inversion nodes app)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${folder} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/rig
           FILES_MATCHING PATTERN "*.h")

@@ -20,6 +20,7 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeComposeMatrixType());
     registry.add(makeDecomposeMatrixType());
     registry.add(makeBvhClipType());
+    registry.add(makeSkeletonClipType());
     registry.add(makeIkHandleType());
     registry.add(makeBlendColorsType());
     registry.add(makeTwistDistributeType());

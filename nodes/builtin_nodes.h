@@ -36,7 +36,8 @@ std::shared_ptr<const NodeType> makeSquashStretchType();
 std::shared_ptr<const NodeType> makeCoupledBendType();
 std::shared_ptr<const NodeType> makeSaturateType();
 std::shared_ptr<const NodeType> makeSpringType();
-std::shared_ptr<const NodeType> makeBvhClipType();  // nodes/clips/, docs/bvh.md
+std::shared_ptr<const NodeType> makeBvhClipType();       // nodes/clips/, docs/bvh.md
+std::shared_ptr<const NodeType> makeSkeletonClipType();  // nodes/clips/, docs/clips.md
 // Constraints (nodes/constraints/, docs/constraints.md).
 std::shared_ptr<const NodeType> makePointConstraintType();
 std::shared_ptr<const NodeType> makeOrientConstraintType();

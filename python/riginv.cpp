@@ -520,7 +520,7 @@ public:
 
     py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map,
                      const py::object& progress, const py::object& plugins, const py::object& frames,
-                     const SettingArguments& settings) const
+                     const py::object& take, const SettingArguments& settings) const
     {
         app::InvertJob job;
         job.loadedApproximation = approximation_;
@@ -533,10 +533,11 @@ public:
         else
             throw Error(
                 fmt::format("targets: expected a dict from joint name to an (F, 4, 4) float64 array, "
-                            "or a clip path (.bvh or .json); got a {}",
+                            "or a clip path (BVH, FBX, glTF, Collada, ..., .json); got a {}",
                             typeName(targets)));
         if (!map.is_none()) job.map = pathText(map, "map");
         if (!frames.is_none()) job.frames = textArgument(frames, "frames");
+        if (!take.is_none()) job.take = textArgument(take, "take");
         checkProgress(progress);
         job.settings = settingsArgument(settings);
         ProgressToPython onProgress(progress);
@@ -673,7 +674,9 @@ void defInvert(py::class_<PyApproximation>& approximation, std::index_sequence<I
     const std::string doc = fmt::format(
         "Inverts targets to the rig's parameters, as rig-invert, and returns (values, names, report).\n\n"
         "targets: a dict {{joint: (F, 4, 4) float64 array of world matrices, cm}}, frames numbered 0 to F - 1, or a "
-        "clip path (.bvh, or .json as graph-eval writes world matrices).\n"
+        "clip path: BVH, an animation assimp reads (FBX, glTF, Collada, X, ...; docs/clips.md), or .json as graph-eval "
+        "writes world matrices, read by content; take: the clip file's animation, a name or 0-based index (None: the "
+        "first).\n"
         "rig: the rig file the approximation was learned from; map: a map file (scale, joint renames, ignored "
         "joints; docs/rig-invert.md).\n"
         "progress: called as progress(frames done, frames total), with the GIL held.\n"
@@ -687,12 +690,12 @@ void defInvert(py::class_<PyApproximation>& approximation, std::index_sequence<I
     approximation.def(
         "invert",
         [](const PyApproximation& self, const py::object& targets, const py::object& rig, const py::object& map,
-           const py::object& progress, const py::object& plugins, const py::object& frames,
+           const py::object& progress, const py::object& plugins, const py::object& frames, const py::object& take,
            const Object<I>&... settings) {
-            return self.invert(targets, rig, map, progress, plugins, frames, SettingArguments{settings...});
+            return self.invert(targets, rig, map, progress, plugins, frames, take, SettingArguments{settings...});
         },
         py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(), py::arg("progress") = py::none(),
-        py::kw_only(), py::arg("plugins") = py::list(), py::arg("frames") = py::none(),
+        py::kw_only(), py::arg("plugins") = py::list(), py::arg("frames") = py::none(), py::arg("take") = py::none(),
         (py::arg(keys[I].c_str()) = settingDefault(table[I]))..., doc.c_str());
 }
 

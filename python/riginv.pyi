@@ -73,6 +73,7 @@ class Approximation:
         *,
         plugins: Sequence[str] = [],
         frames: Optional[str] = None,
+        take: Optional[str] = None,
         threads: int = 1,
         no_partition: bool = False,
         block_by_block: bool = False,

@@ -8,9 +8,11 @@ cd "$(dirname "$0")/.."
 # NumPy build the Python module for Debian's /usr/bin/python3; pytest and PyYAML run its tests (docs/python.md).
 # libjs-three is the three.js rig-invert --html embeds; chromium runs that page in the tests, libpng-dev reads
 # their screenshots (docs/keys-anim-report.md). clang-format checks the house style (scripts/check_format.sh).
+# libassimp-dev reads FBX, glTF, Collada, X, ... clips (docs/clips.md); assimp-testmodels holds the models and
+# CMU clips the tests read (their tests skip without it).
 packages=(cmake ninja-build g++ python3 libeigen3-dev libtbb-dev libyaml-cpp-dev libfmt-dev doctest-dev libcli11-dev
-          nlohmann-json3-dev libceres-dev assimp-testmodels pybind11-dev python3-pybind11 python3-numpy python3-pytest
-          python3-yaml libjs-three chromium libpng-dev clang-format)
+          nlohmann-json3-dev libceres-dev libassimp-dev assimp-testmodels pybind11-dev python3-pybind11 python3-numpy
+          python3-pytest python3-yaml libjs-three chromium libpng-dev clang-format)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -83,7 +83,8 @@ int run(Options& o)
     if (o.job.approximation.empty())
         throw Error("no approximation given; give the approximation file rig-learn wrote as the first argument");
     if (o.job.rig.empty()) throw Error("--rig: give the rig file the approximation was learned from");
-    if (o.job.clips.empty()) throw Error("--clips: give clip files (.bvh, .json) or folders of them");
+    if (o.job.clips.empty())
+        throw Error("--clips: give clip files (BVH, FBX, glTF, Collada, ..., .json) or folders of them");
     if (o.job.out.empty()) throw Error("--out: give the folder for the curves and the report");
     std::error_code ec;
     o.job.program = std::filesystem::read_symlink("/proc/self/exe", ec);
@@ -131,7 +132,11 @@ int main(int argc, char** argv)
     app.add_option("approximation", job.approximation, "Approximation file written by rig-learn");
     app.add_option("--rig", job.rig, "The rig file the approximation was learned from");
     app.add_option("--map", job.map, "Map file: scale of the clips and target-to-rig joint names");
-    app.add_option("--clips", job.clips, "Clips (.bvh, .json) and folders of them")->expected(1, -1);
+    app.add_option("--clips", job.clips,
+                   "Clips (BVH, FBX, glTF, Collada, X, ... or .json; docs/clips.md) and folders of them")
+        ->expected(1, -1);
+    app.add_option("--take", job.take,
+                   "Each clip file's animation to invert: a name or 0-based index (default: the first)");
     app.add_option("--out", job.out, "Folder for the curves (NAME.json per clip), report.json and the batch's files");
     app.add_option("--backend", job.backend, "local (processes on this machine, default) or slurm (sbatch arrays)");
     app.add_option("--jobs", job.jobs,

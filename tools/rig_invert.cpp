@@ -41,6 +41,7 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
     const ClipInversionSummary& s = outcome.summary;
     std::cout << fmt::format("rig-invert: {} on {} with {} ({} parameters, {} target joints)\n", o.clip, o.rig,
                              o.approximation, a.parameters.size(), targets.matchedJoints);
+    if (!clip.source.empty()) std::cout << fmt::format("  clip: {}\n", clip.source);
     if (!a.held.empty())
         std::cout << fmt::format("  the rig is held as the approximation was learned: {}\n", app::heldText(a.held));
     if (!targets.unmatchedJoints.empty())
@@ -182,8 +183,12 @@ int main(int argc, char** argv)
         "rig-invert");
     app.add_option("approximation", options.approximation, "Approximation file written by rig-learn")->required();
     app.add_option("--rig", options.rig, "The rig file the approximation was learned from")->required();
-    app.add_option("--clip", options.clip, "Targets: a .bvh file, or a .json file of world matrices (graph-eval)")
+    app.add_option("--clip", options.clip,
+                   "Targets: a BVH file, an animation assimp reads (FBX, glTF, Collada, X, ...: docs/clips.md), or a "
+                   ".json file of world matrices (graph-eval); read by content")
         ->required();
+    app.add_option("--take", options.take,
+                   "The clip file's animation to invert: a name or 0-based index (default: the first)");
     app.add_option("--map", options.map, "Map file: scale of the clip and target-to-rig joint names");
     app.add_option("--frames", options.frames, "Frames A:B of the clip, inclusive, in the clip's numbering");
     app.add_option("-o,--output", options.output,

@@ -1,17 +1,21 @@
-// bvhClip: plays a BVH motion file (nodes/clips/bvh.h, docs/bvh.md). Outputs every joint's world
-// matrix by plain forward kinematics and every channel as a number to drive a rig with.
+// bvhClip: plays a BVH motion file (nodes/clips/bvh.h, docs/bvh.md); skeletonClip: a take of any skeletal
+// animation file, BVH or one assimp reads (nodes/clips/assimp_clip.h, docs/clips.md), as the same channels.
+// Both output every joint's world matrix by plain forward kinematics and every channel as a number to drive a
+// rig with.
 #include <memory>
 #include <string>
 
 #include <fmt/format.h>
 
 #include "nodes/builtin_nodes.h"
+#include "nodes/clips/assimp_clip.h"
 #include "nodes/clips/bvh.h"
 
 namespace rig {
 namespace {
 
-enum Attr : AttrId { file, time, worldMatrix, channel, jointNames, channelNames, frameCount, frameTime };
+// take and source last: bvhClip declares the attributes before them only.
+enum Attr : AttrId { file, time, worldMatrix, channel, jointNames, channelNames, frameCount, frameTime, take, source };
 
 std::string joinLines(const std::vector<std::string>& lines)
 {
@@ -23,20 +27,24 @@ std::string joinLines(const std::vector<std::string>& lines)
     return out;
 }
 
-class BvhClipNode : public Node {
+// `General`: skeletonClip (any format, a take), else bvhClip (BVH only).
+template <bool General>
+class ClipNode : public Node {
 public:
     void compute(ComputeContext& c) override
     {
         const std::string& path = c.getString(file);
-        // The parsed file is cached: it is read again only when `file` names another file. A failed
-        // read leaves the cache as it was, so the next evaluation tries again.
-        if (!loaded_ || path != loadedPath_) {
-            clip_ =
-                path.empty() ? std::make_shared<const BvhClip>() : std::make_shared<const BvhClip>(readBvhFile(path));
+        const std::string takeName = General ? c.getString(take) : std::string();
+        // The parsed file is cached: it is read again only when `file` (or `take`) names another one. A
+        // failed read leaves the cache as it was, so the next evaluation tries again.
+        if (!loaded_ || path != loadedPath_ || takeName != loadedTake_) {
+            clip_ = std::make_shared<const SkeletalClip>(load(path, takeName));
             loadedPath_ = path;
+            loadedTake_ = takeName;
             loaded_ = true;
         }
-        const BvhClip& clip = *clip_;
+        const BvhClip& clip = clip_->clip;
+        if constexpr (General) c.setOutput(source, clip_->source.format.empty() ? "" : clip_->source.describe());
 
         std::vector<std::string> joints;
         std::vector<std::string> channels;
@@ -63,28 +71,28 @@ public:
     }
 
 private:
+    static SkeletalClip load(const std::string& path, const std::string& takeName)
+    {
+        if (path.empty()) return {};
+        if (General) return readSkeletalClip(path, takeName);
+        return SkeletalClip{readBvhFile(path), {}};
+    }
+
     bool loaded_ = false;
     std::string loadedPath_;
-    std::shared_ptr<const BvhClip> clip_;
+    std::string loadedTake_;
+    std::shared_ptr<const SkeletalClip> clip_;
 };
 
-}  // namespace
-
-std::shared_ptr<const NodeType> makeBvhClipType()
+// The attributes the two types share; `what` names the file in the docs.
+void declareClip(NodeTypeBuilder& b, std::string_view what)
 {
-    NodeTypeBuilder b("bvhClip");
-    b.description(
-        "Plays a BVH motion file (docs/bvh.md): worldMatrix[j] is joint j's world matrix by forward "
-        "kinematics and channel[k] channel k's value, both in file order. Frame 1 is the first motion "
-        "line; times outside 1..frameCount hold the end frames, and between frames every channel is "
-        "interpolated linearly (rotations the shorter way round), worldMatrix being the kinematics of "
-        "those channels. The file is read once and cached until `file` changes.");
     b.input(file, "file", ValueType::String)
         .filePath()
-        .doc(
-            "Path of the .bvh file; in a rig file a relative path is read from the rig file's folder. Empty: no "
-            "joints.");
-    b.input(time, "time", ValueType::Double).unit(Unit::Time).sceneTime().doc("Frame to play (1 = first motion line).");
+        .doc(fmt::format("Path of the {}; in a rig file a relative path is read from the rig file's folder. Empty: "
+                         "no joints.",
+                         what));
+    b.input(time, "time", ValueType::Double).unit(Unit::Time).sceneTime().doc("Frame to play (1 = the first frame).");
     b.output(worldMatrix, "worldMatrix", ValueType::Matrix4)
         .array()
         .doc("World matrix of each joint, file order (End Sites excluded).");
@@ -96,11 +104,48 @@ std::shared_ptr<const NodeType> makeBvhClipType()
     b.output(jointNames, "jointNames", ValueType::String).doc("Joint names, file order, one per line.");
     b.output(channelNames, "channelNames", ValueType::String)
         .doc("Channel names as JOINT.Xrotation, file order, one per line.");
-    b.output(frameCount, "frameCount", ValueType::Int).doc("Number of motion lines.");
+    b.output(frameCount, "frameCount", ValueType::Int).doc("Number of frames.");
     b.output(frameTime, "frameTime", ValueType::Double).doc("Seconds per frame.");
+}
+
+}  // namespace
+
+std::shared_ptr<const NodeType> makeBvhClipType()
+{
+    NodeTypeBuilder b("bvhClip");
+    b.description(
+        "Plays a BVH motion file (docs/bvh.md): worldMatrix[j] is joint j's world matrix by forward "
+        "kinematics and channel[k] channel k's value, both in file order. Frame 1 is the first motion "
+        "line; times outside 1..frameCount hold the end frames, and between frames every channel is "
+        "interpolated linearly (rotations the shorter way round), worldMatrix being the kinematics of "
+        "those channels. The file is read once and cached until `file` changes. skeletonClip reads "
+        "other formats too.");
+    declareClip(b, ".bvh file");
     b.affects(file, {worldMatrix, channel, jointNames, channelNames, frameCount, frameTime});
     b.affects(time, {worldMatrix, channel});
-    return b.factory<BvhClipNode>().build();
+    return b.factory<ClipNode<false>>().build();
+}
+
+std::shared_ptr<const NodeType> makeSkeletonClipType()
+{
+    NodeTypeBuilder b("skeletonClip");
+    b.description(
+        "Plays a take of any skeletal animation file, by its content: BVH through the BVH reader, FBX, glTF, "
+        "Collada, X, SMD, MD5 and the other formats assimp reads through assimp, in cm and Y up "
+        "(docs/clips.md). The file becomes joints and channels as a BVH clip does (a frame per key step, "
+        "rotation channels in the steadiest order), so the outputs are bvhClip's: worldMatrix[j] joint j's "
+        "world matrix, channel[k] channel k's value, frame 1 the first frame, the ends held, channels "
+        "interpolated linearly between frames. The file is read once and cached until `file` or `take` "
+        "changes.");
+    declareClip(b, "animation file (BVH, FBX, glTF, Collada, X, ...)");
+    b.input(take, "take", ValueType::String)
+        .doc("The take (animation) to play: its name or 0-based index; empty: the first.");
+    b.output(source, "source", ValueType::String)
+        .doc("The file's format, unit factor to cm, up axis, take and frame rate, as rig-invert reports them.");
+    b.affects(file, {worldMatrix, channel, jointNames, channelNames, frameCount, frameTime, source});
+    b.affects(take, {worldMatrix, channel, jointNames, channelNames, frameCount, frameTime, source});
+    b.affects(time, {worldMatrix, channel});
+    return b.factory<ClipNode<true>>().build();
 }
 
 }  // namespace rig

@@ -13,6 +13,8 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/input_file.h"
+#include "nodes/clips/assimp_clip.h"
 #include "nodes/clips/bvh.h"
 
 namespace rig {
@@ -140,13 +142,15 @@ std::vector<int> keptParents(const std::vector<int>& parents, const std::vector<
     return out;
 }
 
-TargetClip readBvhTargets(const std::filesystem::path& file, const TargetMap& map)
+// A skeletal clip's joints' world matrices by forward kinematics, the map applied.
+TargetClip skeletalTargets(const SkeletalClip& skeleton, const std::string& file, const TargetMap& map)
 {
-    const BvhClip bvh = readBvhFile(file);
+    const BvhClip& bvh = skeleton.clip;
     std::vector<std::string> fileJoints;
     for (const auto& joint : bvh.joints) fileJoints.push_back(joint.name);
     TargetClip clip;
-    clip.file = file.string();
+    clip.file = file;
+    clip.source = skeleton.source.describe();
     const auto kept = applyMap(fileJoints, clip.file, map, clip.joints);
     clip.frameTime = bvh.frameTime;
     std::vector<int> parents;
@@ -351,18 +355,32 @@ TargetMap parseTargetMap(std::string_view text, const std::string& fileName)
     return map;
 }
 
-TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map)
+TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map, const std::string& take)
 {
     std::error_code ec;
     if (std::filesystem::is_directory(file, ec))
-        throw Error(fmt::format("{}: is a folder; give a clip file (.bvh, or .json of world matrices)", file.string()));
-    const auto extension = file.extension().string();
-    if (extension == ".bvh" || extension == ".BVH") return readBvhTargets(file, map);
-    if (extension == ".json") return parseJsonTargetClip(readText(file, "JSON clip"), file.string(), map);
-    throw Error(
-        fmt::format("{}: a clip is a .bvh file or a .json file of world matrices (graph-eval's JSON); "
-                    "rename it or convert it",
-                    file.string()));
+        throw Error(
+            fmt::format("{}: is a folder; give a clip file (BVH, FBX, glTF, Collada, ..., or .json of world "
+                        "matrices)",
+                        file.string()));
+    // A JSON clip's file is read as before BVH and assimp came to share this path (its messages name it).
+    const bool jsonByName = file.extension() == ".json";
+    const std::string text = jsonByName ? readText(file, "JSON clip") : readInputFile(file, clipFileKind(file));
+    switch (clipReaderFor(text, file)) {
+        case ClipReader::bvh:
+            return skeletalTargets(parseBvhSkeletalClip(text, file.string(), take), file.string(), map);
+        case ClipReader::json: {
+            if (!take.empty() && take != "0")
+                throw Error(fmt::format("{}: no take '{}'; a JSON clip has one take, 0; leave --take out",
+                                        file.string(), messageExcerpt(take, 60)));
+            TargetClip clip = parseJsonTargetClip(text, file.string(), map);
+            clip.source = "JSON world matrices (cm, Y up, as graph-eval writes them)";
+            return clip;
+        }
+        case ClipReader::assimp:
+            break;
+    }
+    return skeletalTargets(readAssimpClip(file, take), file.string(), map);
 }
 
 TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map)

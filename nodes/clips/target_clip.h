@@ -1,6 +1,8 @@
 #pragma once
-// Target joints for an inversion: world matrices per frame by joint name, read from
+// Target joints for an inversion: world matrices per frame by joint name, read from (by the file's content)
 //   - a BVH file (its joints' world matrices by the reference forward kinematics, nodes/clips/bvh.h), or
+//   - a take of any skeletal animation assimp reads (FBX, glTF, Collada, X, ...: nodes/clips/assimp_clip.h,
+//     in cm and Y up, joints named as skel2rig names its rig's; docs/clips.md), or
 //   - a JSON file of matrices as graph-eval writes them: a list of frames, each {"frame": F,
 //     "JOINT.worldMatrix": [[4 numbers] x 4 rows], ...} (column-vector convention, cm; null, graph-eval's
 //     number that is not finite, reads as NaN: the solver reports that frame's target as invalid),
@@ -46,10 +48,16 @@ struct TargetClip {
     // (JSON clips): for drawing the skeleton (rig-invert --html).
     std::vector<int> parents;
     double frameTime = 0.0;  // seconds per frame (a BVH file's Frame Time), 0 when the file does not say
+    // What the file is and how it was normalised (ClipSource::describe: format, unit factor, up axis, take), for
+    // reports; "" for targets made in memory.
+    std::string source;
 };
 
-// Reads a .bvh or .json target clip and applies the map.
-TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map);
+// Reads a target clip and applies the map. What the file is comes from its content: BVH text ("HIERARCHY"), a
+// JSON list of frames ('[', or '{' without glTF's "asset"), anything else through assimp. `take`: the
+// animation to read from a file that has several (a name or 0-based index; "": the first); a BVH or JSON file
+// has one, 0.
+TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map, const std::string& take = "");
 // A .json clip from its text; `fileName` is used in messages.
 TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileName, const TargetMap& map);
 // Targets made in memory (the Python module's arrays), with the map applied as to a file's joints:

@@ -23,10 +23,15 @@ $3"
 }
 
 cmake --install "$build_dir" --prefix "$prefix" >"$scratch/install.log"
-for file in bin/graph-eval bin/rig-invert lib/rigInversion.so include/rig/graph/node.h include/rig/app/eval_run.h \
+for file in bin/graph-eval bin/rig-invert bin/skel2rig bin/bvh2rig lib/rigInversion.so include/rig/graph/node.h \
+            include/rig/app/eval_run.h \
             lib/cmake/rig/rigConfig.cmake lib/cmake/rig/rigConfigVersion.cmake lib/cmake/rig/rigTargets.cmake; do
   [ -e "$prefix/$file" ] || fail "$file was not installed"
 done
+# bvh2rig is skel2rig under its former name: a relative link, so the prefix can move, that runs.
+expect "bin/bvh2rig" "skel2rig" "$(readlink "$prefix/bin/bvh2rig")"
+"$prefix/bin/bvh2rig" --help | head -1 | grep -q '^bvh2rig: write a forward-kinematics rig' ||
+  fail "the installed bvh2rig does not run as bvh2rig"
 
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)

@@ -81,12 +81,15 @@ def test_arrays_equal_the_same_targets_as_a_json_clip(learned_biped, tmp_path):
     assert np.array_equal(values, expected)
     # Arrays number their frames from 0, the JSON clip from 1; the curves' text holds the numbers.
     assert ours["clip"] is None and report["clip"] == str(clip)
+    # Arrays have no file to say where they come from.
+    assert ours["clip_source"] is None
+    assert report["clip_source"] == "JSON world matrices (cm, Y up, as graph-eval writes them)"
     assert [f["frame"] for f in ours["per_frame"]] == list(range(90))
     assert ours["worst_frame"] == report["worst_frame"] - 1
     assert ours["worst_rotation_frame"] == report["worst_rotation_frame"] - 1
     shifted = [dict(f, frame=f["frame"] - 1) for f in report["per_frame"]]
     assert ours["per_frame"] == shifted
-    frames = ("clip", "per_frame", "worst_frame", "worst_rotation_frame")
+    frames = ("clip", "clip_source", "per_frame", "worst_frame", "worst_rotation_frame")
     assert without(ours, *VOLATILE, *frames) == without(report, *VOLATILE, *frames)
 
 
@@ -363,3 +366,28 @@ def test_targets_too_far_for_the_cost_fail_every_frame_with_their_error(shift):
     # sqrt(3) * shift: a shift on each axis, measured without overflow.
     assert 1.7 * shift <= report["max_position_error_cm"] <= 1.8 * shift
     assert all(f["termination"] == "noConvergence" for f in report["per_frame"])
+
+
+def test_an_fbx_take_equals_rig_invert(tmp_path):
+    """An animation assimp reads (the hand-written Z-up leg in inches, tests/corpus/clips), its take by name or
+    index: the values and report of rig-invert --take, and the same one-line error for a take it lacks."""
+    leg = SOURCE / "tests/corpus/clips/leg_z_up_inches.fbx"
+    rig = tmp_path / "leg.yaml"
+    code, _, err = run("skel2rig", leg, "-o", rig)
+    assert code == 0, err
+    learned = riginv.learn(str(rig), params=["knee.rotate?", "hip.rotate?"], outputs=["hip", "knee", "ankle"])
+    file = tmp_path / "leg.approx.yaml"
+    learned.save(str(file))
+    curves, report = tmp_path / "curves.json", tmp_path / "report.json"
+    code, _, err = run("rig-invert", file, "--rig", rig, "--clip", leg, "--take", "bend", "-o", curves,
+                       "--report-json", report, "-q")
+    assert code == 0, err
+    expected = read_json(report)
+    for take in ("bend", "0"):
+        values, names, ours = learned.invert(str(leg), rig=str(rig), take=take)
+        assert values.shape == (3, len(names))
+        assert ours["clip_source"] == expected["clip_source"] == (
+            "FBX, units x2.54 to cm (FBX UnitScaleFactor 2.54), up axis Z, take 0 'bend' of 1, 2 fps")
+        assert ours["max_position_error_cm"] < 1e-6
+    raises_like("rig-invert", [file, "--rig", rig, "--clip", leg, "--take", "run", "-o", curves],
+                lambda: learned.invert(str(leg), rig=str(rig), take="run"))

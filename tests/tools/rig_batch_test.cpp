@@ -304,9 +304,11 @@ TEST_CASE("rig-batch: bad input is one error line and exit code 2, and writes no
         {fmt::format("{} --out {} --retries -1", library, out.string()), "error: --retries -1: give 0 or more"},
         {fmt::format("{} --out {} --restart-every 0", library, out.string()), "error: --restart-every 0: give 1 or"},
         {fmt::format("{} --clips {}/empty --out {}", inputs(), dir.string(), out.string()),
-         fmt::format("error: --clips {}/empty: the folder holds no .bvh or .json clip", dir.string())},
+         fmt::format("error: --clips {}/empty: the folder holds no clip (BVH, FBX, glTF, Collada, ..., .json)",
+                     dir.string())},
+        // A file given by name is read by its content: this one is no clip of any format.
         {fmt::format("{} --clips {}/file --out {}", inputs(), dir.string(), out.string()),
-         fmt::format("error: --clips {}/file: not a clip", dir.string())},
+         fmt::format("error: {}/file: assimp cannot read it: No suitable reader found", fs::absolute(dir).string())},
         {fmt::format("{} --clips {}/named --out {}", inputs(), dir.string(), out.string()),
          fmt::format("error: --clips {}/named/report.bvh: its curves would be report.json", dir.string())},
         {fmt::format("{} {}/other --out {}", library, dir.string(), out.string()),

@@ -95,9 +95,11 @@ TEST_CASE("target clip and map mistakes are one line with the place and what to 
           bvh.string() + ": two target joints become 'Hips'; rename or ignore one of them in the map");
     CHECK(errorOf([&] { readTargetMap(dir / "none.yaml"); }) ==
           (dir / "none.yaml").string() + ": no such map file; check the path");
-    CHECK(errorOf([&] { readTargetClip(dir / "clip.fbx", TargetMap{}); }) ==
+    // Neither BVH nor JSON by content or name: assimp's, whose own reason is quoted.
+    CHECK(errorOf([&] { readTargetClip(test::writeFile(dir / "clip.fbx", "not a model\n"), TargetMap{}); }) ==
           (dir / "clip.fbx").string() +
-              ": a clip is a .bvh file or a .json file of world matrices (graph-eval's JSON); rename it or convert it");
+              ": assimp cannot read it: FBX-Parser (TOK_DATA, line 1, col 4) unexpected token, expected TOK_KEY; give "
+              "a file of a format assimp reads (docs/clips.md)");
 
     const auto json = [&](const std::string& text) { return test::writeFile(dir / "clip.json", text); };
     const std::string j = (dir / "clip.json").string();
