@@ -309,15 +309,13 @@ TEST_CASE(
                               graph.string(), valueGets(count), (dir / "node.json").string()));
     INFO(node.err);
     REQUIRE(node.exitCode == 0);
-    // Frame 1 is measured wrong on the real rig (docs/solver.md: its IK goal past the range learned): rig-invert
-    // says so and exits 3, its curves written all the same.
+    // Every frame is an answer on the real rig (frame 1, the straight leg, too, since the chains' shapes are refined
+    // to an absolute bound).
     const auto invert = test::run(fmt::format("{} {} --rig rigs/biped.yaml --map {} --clip {} --frames 1:24 -o {} -q",
                                               test::tool("rig-invert"), approximation.string(), map,
                                               test::cmuClip.string(), (dir / "curves.json").string()));
-    CHECK(invert.exitCode == 3);
-    CHECK(
-        invert.err.starts_with("error: 1 of 24 frames are not an answer on the real rig (first: frame 1, model "
-                               "mismatch, LeftUpLeg)"));
+    INFO(invert.err);
+    CHECK(invert.exitCode == 0);
     checkSameCurves(dir / "node.json", dir / "curves.json", 24, count);
     const YAML::Node a = YAML::LoadFile((dir / "node.json").string());
     for (std::size_t f = 0; f < 24; ++f) CHECK(a[f]["inverter.realRigEvaluations"].as<int>() == 0);
