@@ -14,6 +14,7 @@
 
 #include "core/rotation_math.h"
 #include "inversion/approximation.h"
+#include "inversion/approximation_io.h"
 #include "inversion/constraint.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
@@ -308,6 +309,55 @@ TEST_CASE(
     MESSAGE("random poses of the biped with every joint reached from rest on the real rig: " << reached << " of "
                                                                                              << poses);
     CHECK(reached >= poses - 1);
+}
+
+TEST_CASE("twist share: an approximation file keeps it bit for bit, and a damaged twist share field is one line")
+{
+    std::mt19937 rng(404);
+    std::string axis;
+    double weight = 0.0;
+    const auto file = test::writeFile(test::scratchDir(fmt::format("twist-share-io.{}", ::getpid())) / "roll.yaml",
+                                      randomRollRig(rng, axis, weight));
+    GraphRigOptions options;
+    options.parameterGlobs = {"root_ctrl.rotate?", "elbow_ctrl.rotate?", "elbow_ctrl.stretch", "hand_ctrl.rotate?"};
+    GraphRigFunction rig(file, options);
+    const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
+    REQUIRE(a.constraints.size() == 1);
+    REQUIRE(a.constraints[0].kind == ConstraintKind::twistShare);
+    const std::string text = approximationToYaml(a);
+    const Approximation b = approximationFromYaml(text, "roll.approx.yaml");
+    CHECK(approximationToYaml(b) == text);
+    CHECK(b.constraints[0].driverRest == a.constraints[0].driverRest);
+    std::vector<Eigen::Matrix4d> wa, wb;
+    for (int pose = 0; pose < 5; ++pose) {
+        const std::vector<double> values = test::randomValues(a, rng);
+        a.evaluate(values, wa);
+        b.evaluate(values, wb);
+        for (std::size_t k = 0; k < wa.size(); ++k) CHECK(wa[k] == wb[k]);
+    }
+    // A damaged field: the one line names it, with its place in the file.
+    const auto errorWith = [&](const std::string& from, const std::string& to) -> std::string {
+        std::string damaged = text;
+        const auto at = damaged.find(from);
+        REQUIRE(at != std::string::npos);
+        damaged.replace(at, from.size(), to);
+        try {
+            approximationFromYaml(damaged, "f.yaml");
+        }
+        catch (const Error& e) {
+            return e.what();
+        }
+        return "(no error)";
+    };
+    const std::string twistAxis = fmt::format("twistAxis: {}", "xyz"[a.constraints[0].twistAxis]);
+    CHECK(errorWith(twistAxis, "twistAxis: w")
+              .ends_with("constraints[0].twistAxis: 'w' is not an axis; it is x, y or z"));
+    const std::string readOrder = fmt::format("readOrder: {}", rotateOrderName(a.constraints[0].readOrder));
+    CHECK(errorWith(readOrder, "readOrder: xxy")
+              .ends_with("constraints[0].readOrder: not a rotate order; it is one of xyz, yzx, zxy, xzy, yxz, zyx"));
+    CHECK(errorWith("    share:", "    shares:").find("constraints[0]") != std::string::npos);
+    CHECK(errorWith("driver: \"hand\"", "driver: \"nobody\"")
+              .ends_with("constraints[0].driver: 'nobody' is not one of the outputs"));
 }
 
 }  // namespace rig
