@@ -141,6 +141,7 @@ Json outputsJson(const Approximation& a)
                               {"anchor", nameOf(c.anchor)},
                               {"goal", nameOf(c.goal)},
                               {"pole", nameOf(c.pole)},
+                              {"world_up", c.worldUp},
                               {"knots", c.shape.rigid.knots().size()}};
         }
         outputs.push_back({{"name", o.name},

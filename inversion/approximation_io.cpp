@@ -218,6 +218,7 @@ std::string constraintsText(const Approximation& a)
                            vector3(base.restPole, field + ".restPole"));
         // A chain without a pole keeps its rest plane: its normal is written, and says so.
         if (base.restPlane) out += fmt::format("    restNormal: {}\n", vector3(base.restNormal, field + ".restNormal"));
+        if (base.worldUp) out += "    worldUp: true\n";
         out += "    shape:\n";
         out += operatorText(base.shape, field + ".shape", "      ", "      ");
     }
@@ -715,7 +716,9 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
     if (*known == ConstraintKind::twistShare)
         r.checkKeys(n, field, {"kind", "driver", "root", "axis", "twistAxis", "readOrder", "twistOrder", "share"},
                     {"anchor", "driverParent"});
-    else r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"}, {"anchor", "pole", "restNormal"});
+    else
+        r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"},
+                    {"anchor", "pole", "restNormal", "worldUp"});
     const auto input = [&](std::string_view which) {
         const YAML::Node v = r.child(n, which);
         if (!v) return -1;
@@ -738,6 +741,11 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
     base.pole = input("pole");
     base.root = r.vector3(r.child(n, "root"), field + ".root");
     base.restPole = r.vector3(r.child(n, "restPole"), field + ".restPole");
+    if (const YAML::Node up = r.child(n, "worldUp")) {
+        base.worldUp = r.boolean(up, field + ".worldUp");
+        if (base.worldUp && base.pole >= 0)
+            r.fail(up, field + ".worldUp", "a chain with a pole has no world up; remove one");
+    }
     if (const YAML::Node normal = r.child(n, "restNormal")) {
         if (base.pole >= 0) r.fail(normal, field + ".restNormal", "a chain with a pole has no rest plane; remove one");
         base.restNormal = r.vector3(normal, field + ".restNormal");

@@ -104,7 +104,9 @@ ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& ancho
         return anchorMotion.block<3, 3>(0, 0) * p + anchorMotion.block<3, 1>(0, 3);
     };
     return {carried(base.root), goalWorld.block<3, 1>(0, 3),
-            base.pole >= 0 ? Eigen::Vector3d(poleWorld.block<3, 1>(0, 3)) : carried(base.restPole),
+            base.pole >= 0 ? Eigen::Vector3d(poleWorld.block<3, 1>(0, 3))
+            : base.worldUp ? Eigen::Vector3d(carried(base.root) + base.restPole - base.root)
+                           : carried(base.restPole),
             anchorMotion.block<3, 3>(0, 0) * base.restNormal};
 }
 

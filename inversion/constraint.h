@@ -59,6 +59,9 @@ struct ConstraintBase {
     int driverParent = -1;
     Eigen::Vector3d root = Eigen::Vector3d::Zero();      // the chain root at rest, world (twist share: c0)
     Eigen::Vector3d restPole = Eigen::Vector3d::Zero();  // the pole at rest, world
+    // No pole output: `restPole` at its rest offset from the root in world axes, not turned by the anchor (an aim's up
+    // vector fixed in the world: scene or vector up).
+    bool worldUp = false;
     // No pole: the plane through the chain's line nearest the rest plane, whose normal at rest is restNormal (unit).
     bool restPlane = false;
     Eigen::Vector3d restNormal = Eigen::Vector3d::Zero();

@@ -397,6 +397,77 @@ std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, int anchor, cons
     return std::nullopt;
 }
 
+namespace {
+
+// How far the planes through the aims A_i and the up direction u turn from the one at rest by the output's turns D_i:
+// sum |n(A_i, u) - D_i n(A_0, u)|^2 with n(A, u) = A x u / |A x u| (for an up that is right, D_i carries the rest plane
+// onto each pose's).
+double upMisfit(const Eigen::Vector3d& u, const std::vector<Eigen::Vector3d>& aims,
+                const std::vector<Eigen::Matrix3d>& turns, const Eigen::Vector3d& restAim)
+{
+    const Eigen::Vector3d n0 = restAim.cross(u);
+    if (!(n0.norm() > 1e-9)) return std::numeric_limits<double>::infinity();
+    double sum = 0.0;
+    for (std::size_t i = 0; i < aims.size(); ++i) {
+        const Eigen::Vector3d n = aims[i].cross(u);
+        if (!(n.norm() > 1e-9)) return std::numeric_limits<double>::infinity();
+        sum += (n.normalized() - turns[i] * n0.normalized()).squaredNorm();
+    }
+    return sum;
+}
+
+}  // namespace
+
+bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, int goal,
+                                const std::vector<Pose>& poses, bool inWorld, Eigen::Vector3d& up) const
+{
+    const auto& rest = probe_.rest();
+    const auto at = [](const std::vector<Eigen::Matrix4d>& w, int i) { return w[static_cast<std::size_t>(i)]; };
+    const Eigen::Vector3d restAim = (rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3) - root).normalized();
+    std::vector<Eigen::Vector3d> aims;
+    std::vector<Eigen::Matrix3d> turns;
+    for (const Pose& pose : poses) {
+        const Eigen::Matrix4d motion =
+            anchor < 0 ? Eigen::Matrix4d(Eigen::Matrix4d::Identity())
+                       : Eigen::Matrix4d(at(pose.worlds, anchor) * rest[static_cast<std::size_t>(anchor)].inverse());
+        const Eigen::Matrix3d frame = inWorld ? Eigen::Matrix3d::Identity() : polarRotation(motion.block<3, 3>(0, 0));
+        const Eigen::Vector3d r = motion.block<3, 3>(0, 0) * root + motion.block<3, 1>(0, 3);
+        aims.push_back(frame.transpose() * (at(pose.worlds, goal).block<3, 1>(0, 3) - r).normalized());
+        turns.push_back(frame.transpose() *
+                        polarRotation(at(pose.worlds, k).block<3, 3>(0, 0) *
+                                      rest[static_cast<std::size_t>(k)].block<3, 3>(0, 0).inverse()));
+    }
+    // The best of directions spread over the sphere, then refined by a pattern search on it.
+    double best = std::numeric_limits<double>::infinity();
+    constexpr int directions = 2000;
+    for (int i = 0; i < directions; ++i) {
+        const double z = 1.0 - (2.0 * i + 1.0) / directions, ring = std::sqrt(1.0 - z * z);
+        const double angle = i * std::numbers::pi * (3.0 - std::sqrt(5.0));
+        const Eigen::Vector3d u(ring * std::cos(angle), ring * std::sin(angle), z);
+        const double e = upMisfit(u, aims, turns, restAim);
+        if (e < best) {
+            best = e;
+            up = u;
+        }
+    }
+    if (!std::isfinite(best)) return false;
+    for (double step = 0.05; step > 1e-12;) {
+        const Eigen::Vector3d t1 = up.unitOrthogonal(), t2 = up.cross(t1);
+        bool moved = false;
+        for (const Eigen::Vector3d& d : {t1, Eigen::Vector3d(-t1), t2, Eigen::Vector3d(-t2)}) {
+            const Eigen::Vector3d u = (up + step * d).normalized();
+            const double e = upMisfit(u, aims, turns, restAim);
+            if (e < best) {
+                best = e;
+                up = u;
+                moved = true;
+            }
+        }
+        if (!moved) step *= 0.5;
+    }
+    return best < 1e-12 * static_cast<double>(poses.size());
+}
+
 std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int root, const std::vector<int>& varied,
                                                          const std::vector<int>& helpers, const std::vector<int>& goals,
                                                          Closest& closest)
@@ -409,8 +480,10 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
         // Poles: a helper's origin, a point carried by the anchor, or none (the rest plane kept, its normal from the
         // chain's joints at rest).
         std::vector<ConstraintBase> poles;
-        const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+        const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+                                bool worldUp = false) {
             ConstraintBase base;
+            base.worldUp = worldUp;
             base.pole = pole;
             base.restPole = point;
             base.restPlane = normal.squaredNorm() > 0.0;
@@ -422,6 +495,13 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                 choice(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3), Eigen::Vector3d::Zero());
         for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal))
             choice(-1, point, Eigen::Vector3d::Zero());
+        // An up vector the poses show (an aim's up in the anchor's axes, or fixed in the world: scene or vector up).
+        const double length = std::max(1.0, (restGoal - rootRest).norm());
+        for (const bool inWorld : {false, true}) {
+            Eigen::Vector3d up;
+            if (fittedUp(k, anchor, rootRest, goal, poses(varied, 0, rangePoses), inWorld, up))
+                choice(-1, rootRest + length * up, Eigen::Vector3d::Zero(), inWorld);
+        }
         for (const Eigen::Vector3d& normal : restNormals(root, rootRest, restGoal)) choice(-1, rootRest, normal);
         for (ConstraintBase base : poles) {
             const int pole = base.pole;
@@ -435,6 +515,7 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                 const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
                 closest.what = fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
                                            base.restPlane ? "none (the rest plane of " + fixedTo + ")"
+                                           : base.worldUp ? std::string("a world axis from the root")
                                            : pole < 0     ? "fixed to " + fixedTo
                                                           : names[static_cast<std::size_t>(pole)]);
             }

@@ -653,7 +653,9 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
     ChainPoints& points = basePoints_[b];
     points.root = moved(base.anchorNode, c.root);
     points.goal = moved(base.goalNode, base.goalRest);
-    points.pole = c.pole >= 0 ? moved(base.poleNode, base.poleRest) : moved(base.anchorNode, c.restPole);
+    points.pole = c.pole >= 0 ? moved(base.poleNode, base.poleRest)
+                  : c.worldUp ? Eigen::Vector3d(points.root + c.restPole - c.root)
+                              : moved(base.anchorNode, c.restPole);
     points.normal =
         base.anchorNode < 0
             ? c.restNormal
@@ -687,8 +689,12 @@ void ResidualWorkspace::baseVelocities()
             const auto rate = [](const Affine& v, const Eigen::Vector3d& p) -> Eigen::Vector3d {
                 return v.leftCols<3>() * p + v.col(3);
             };
-            const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal),
-                                    rate(c.pole >= 0 ? x[2] : x[0], points.pole), x[0].leftCols<3>() * points.normal};
+            // A world up moves with the root only; a fixed pole with the anchor.
+            const Eigen::Vector3d poleRate = c.pole >= 0 ? rate(x[2], points.pole)
+                                             : c.worldUp ? rate(x[0], points.root)
+                                                         : rate(x[0], points.pole);
+            const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal), poleRate,
+                                    x[0].leftCols<3>() * points.normal};
             baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] = baseVelocity(at, rates);
         }
     }

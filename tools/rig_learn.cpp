@@ -172,6 +172,7 @@ std::string constraintsText(const Approximation& a)
             "  {}: {}, root carried by {}, goal {}, pole {}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
             constraintKindName(c.kind), c.anchor < 0 ? "the world" : name(c.anchor), name(c.goal),
             c.restPlane  ? "none (its rest plane)"
+            : c.worldUp  ? "a world axis from the root (a world up)"
             : c.pole < 0 ? "fixed to the anchor"
                          : name(c.pole),
             knots.size(), c.restReach + knots.front(), c.restReach + knots.back());

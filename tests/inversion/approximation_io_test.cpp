@@ -691,7 +691,12 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
           "twistShare");
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restReach: 3\n") ==
           "f.yaml:18:5: constraints[0]: unknown field 'restReach'; the fields are kind, goal, root, restPole, shape, "
-          "anchor, pole, restNormal");
+          "anchor, pole, restNormal, worldUp");
+    // A chain without a pole output may keep its up in the world's axes: a boolean.
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    worldUp: true\n") ==
+          "(no error)");
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    worldUp: 2\n")
+              .find("f.yaml:18:14: constraints[0].worldUp") == 0);
     CHECK(chainErrorWith("    goal: \"goal\"\n", "") == "f.yaml:13:5: constraints[0]: the field 'goal' is missing");
     // A chain without a pole may keep its rest plane: its normal is a unit vector.
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restNormal: [0, 0, 2]\n")
