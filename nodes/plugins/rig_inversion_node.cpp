@@ -386,12 +386,13 @@ void connectTargets(Graph& graph, const std::string& node, const YAML::Node& v, 
                         context.where(v), v.Scalar(), a.outputs.empty() ? "" : a.outputs[0].name));
 }
 
-// `parameters: true`: value[i] to the rig's parameter plug i, and heldValue[j] to its held plug j.
+// `parameters: true`: value[i] to the rig's parameter plug i, and heldValue[j] to its held plug j; `prefix`
+// ("NAMESPACE:" or empty) names the copy of the rig to drive when a graph holds several (a crowd).
 void connectParameters(Graph& graph, const std::string& node, const YAML::Node& v, const Approximation& a,
-                       const YamlFieldContext& context)
+                       const std::string& prefix, const YamlFieldContext& context)
 {
     for (std::size_t i = 0; i < a.parameters.size(); ++i) {
-        const auto& name = a.parameters[i].parameter.name;
+        const std::string name = prefix + a.parameters[i].parameter.name;
         Plug destination;
         try {
             destination = graph.plug(name);
@@ -407,22 +408,23 @@ void connectParameters(Graph& graph, const std::string& node, const YAML::Node& 
     // The held plugs too: the rig must be in the state the approximation was learned in.
     for (std::size_t j = 0; j < a.held.size(); ++j) {
         const HeldPlug& h = a.held[j];
+        const std::string plug = prefix + h.plug;
         Plug destination;
         try {
-            destination = graph.plug(h.plug);
+            destination = graph.plug(plug);
         }
         catch (const Error&) {
             throw Error(
                 fmt::format("{}: the approximation was learned with '{}' held at {}, which this graph does "
                             "not have: it was learned from another rig ({}); include that rig or learn this one",
-                            context.where(v), h.plug, h.value, a.rigFile));
+                            context.where(v), plug, h.value, a.rigFile));
         }
         if (const Connection* c = graph.incomingConnection(destination))
             throw Error(
                 fmt::format("{}: the approximation was learned with {} held at {}, but {} drives it here; "
                             "the node holds it at that value: disconnect it, or learn the rig in another "
                             "state (rig-learn --set)",
-                            context.where(v), h.plug, h.value, graph.plugName(c->source)));
+                            context.where(v), plug, h.value, graph.plugName(c->source)));
         graph.connect(graph.plug(fmt::format("{}.heldValue[{}]", node, j)), destination);
     }
 }
@@ -435,6 +437,14 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
     const Approximation a = readApproximation(std::get<std::string>(graph.getValue(graph.plug(node + ".file"))), node);
     const std::string mapPath = std::get<std::string>(graph.getValue(graph.plug(node + ".map")));
     const TargetMap targetMap = mapPath.empty() ? TargetMap{} : readTargetMap(mapPath);
+    // `namespace: NS` (a crowd's member, included under NS): the parameters are NS:ctrl.plug.
+    std::string prefix;
+    if (const YAML::Node ns = field["namespace"]) {
+        if (!ns.IsScalar() || ns.Scalar().empty())
+            throw Error(fmt::format("{}: 'namespace' is the namespace of the rig to drive (as in include:)",
+                                    context.where(ns)));
+        prefix = ns.Scalar() + ":";
+    }
     for (const auto& entry : field) {
         const std::string key = entry.first.Scalar();
         const YAML::Node& v = entry.second;
@@ -444,9 +454,9 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
         } else if (key == "parameters") {
             if (!v.IsScalar() || (v.Scalar() != "true" && v.Scalar() != "false"))
                 throw Error(fmt::format("{}: 'parameters' is true or false", context.where(v)));
-            if (v.Scalar() == "true") connectParameters(graph, node, v, a, context);
-        } else {
-            throw Error(fmt::format("{}: unknown key '{}' in 'connect'; it has 'targets' and 'parameters'",
+            if (v.Scalar() == "true") connectParameters(graph, node, v, a, prefix, context);
+        } else if (key != "namespace") {
+            throw Error(fmt::format("{}: unknown key '{}' in 'connect'; it has 'targets', 'parameters' and 'namespace'",
                                     context.where(entry.first), key));
         }
     }
