@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <ctime>
 #include <numbers>
 #include <numeric>
 #include <vector>
@@ -42,6 +43,14 @@ fs::path writeCrowd(const BenchOptions& o, const fs::path& approximation, int co
     return file;
 }
 
+// CPU time of the whole process (every thread), seconds: on a busy machine, what the frames cost.
+double processCpuSeconds()
+{
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
 double angleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
 {
     return std::atan2(a.cross(b).norm(), a.dot(b)) * 180.0 / std::numbers::pi;
@@ -50,9 +59,10 @@ double angleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b)
 // One crowd played on `threads` graph threads: each frame's wall time, and the heads' aim on the real rig.
 struct CrowdPlay {
     std::vector<double> frameMs;
-    double lookatMaxDeg = 0.0;  // over the heads whose lookAt reached the target
-    long long samples = 0;      // heads x frames measured
-    long long limited = 0;      // of those, heads whose lookAt was stopped by a limit (not measured)
+    double cpuMsPerFrame = 0.0;  // the process's CPU time over the timed frames, per frame (every thread)
+    double lookatMaxDeg = 0.0;   // over the heads whose lookAt reached the target
+    long long samples = 0;       // heads x frames measured
+    long long limited = 0;       // of those, heads whose lookAt was stopped by a limit (not measured)
     double loadSeconds = 0.0;
     double memoryMb = 0.0;
 };
@@ -94,12 +104,16 @@ CrowdPlay playCrowd(const fs::path& file, int count, int threads, int frames, do
         plugs.push_back(graph->plug(fmt::format("c{:04d}:look.outMatrix[3]", i)));
         plugs.push_back(graph->plug(fmt::format("c{:04d}:Head.worldMatrix", i)));
     }
+    double cpu = 0.0;
     for (int f = 2; f <= frames + 1; ++f) {
         const auto t0 = std::chrono::steady_clock::now();
+        const double c0 = processCpuSeconds();
         const std::vector<Value> values = app::evaluateFrame(*graph, file.string(), f, true, plugs);
+        cpu += processCpuSeconds() - c0;
         play.frameMs.push_back(1e3 * secondsSince(t0));
         measureHeads(values, first, count, scale, play);
     }
+    play.cpuMsPerFrame = 1e3 * cpu / static_cast<double>(frames);
     play.memoryMb = peakResidentMb() - before;
     return play;
 }
@@ -119,6 +133,7 @@ Json rowJson(int count, const CrowdPlay& p)
                 {"frame_ms_mean", mean},
                 {"frame_ms_median", percentile(p.frameMs, 0.5)},
                 {"frame_ms_p99", percentile(p.frameMs, 0.99)},
+                {"cpu_ms_per_frame", p.cpuMsPerFrame},
                 {"lookat_max_error_deg", p.samples > p.limited ? Json(p.lookatMaxDeg) : Json()},
                 {"heads_measured", p.samples - p.limited},
                 {"heads_at_a_limit", p.limited},
