@@ -315,11 +315,12 @@ private:
     std::vector<Eigen::Matrix4d> modelled_, real_;  // the approximation's and the real rig's outputs at reported_
 };
 
-// connect: {targets: NODE_OR_GLOB, parameters: true}
+// connect: {targets: NODE_OR_GLOB, parameters: true, namespace: NS}
 //   targets: a bvhClip node (its worldMatrix[j] by jointNames), or a glob of nodes with a worldMatrix
 //   (the joints of another rig); each target joint, renamed by the node's map file, that is an output of
 //   the approximation is connected to target[k]. parameters: value[i] -> the rig's parameter plug i, and
-//   heldValue[j] -> the rig's held plug j.
+//   heldValue[j] -> the rig's held plug j; with namespace NS, the plugs NS:ctrl.attr of the rig included
+//   under NS.
 void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const YamlFieldContext& context);
 
 // Errors of the engine (a cycle, a plug already driven) and of the files get the place of `connect:`.
@@ -474,7 +475,8 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
         "(docs/inversion-tutorial.md). target[k] is the target of the approximation's output k; "
         "value[i] its parameter i, angles in degrees. Warm-starts from the previous frame when time "
         "moves on by one frame. The rig-file field `connect: {targets: NODE_OR_GLOB, parameters: true}` "
-        "wires it by the names stored in the approximation, the held plugs (heldValue[j]) with the parameters.");
+        "wires it by the names stored in the approximation, the held plugs (heldValue[j]) with the parameters; "
+        "`namespace: NS` drives the copy of the rig included under NS (a crowd's member).");
     b.input(file, "file", ValueType::String)
         .filePath()
         .doc("Approximation file (rig-learn -o), relative to the rig file that names it; read again when it changes.");
