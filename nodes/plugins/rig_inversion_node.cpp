@@ -14,7 +14,10 @@
 // order is shifted by equivalences to meet the frame before it (inversion/continuity.h). rig-invert
 // follows the same rules, so the node played frame after frame gives rig-invert's curves.
 #include <cmath>
+#include <filesystem>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <numbers>
 #include <string>
 #include <thread>
@@ -65,7 +68,9 @@ enum Attr : AttrId {
     residualTermName,
 };
 
-// An approximation and the solver built on it, shared by every evaluation until `file` changes.
+// An approximation and the solver built on it: read-only (Solver is const and thread-safe), so every node
+// that reads the same file with the same solver settings shares one (a crowd's members: the model is
+// shared, each node keeps its own state: warm start, scratch, hybrid solve).
 struct Loaded {
     std::string path;
     std::unique_ptr<Approximation> approximation;
@@ -89,6 +94,29 @@ Approximation readApproximation(const std::string& path, std::string_view node)
     catch (const Error& e) {
         throw e.in(fmt::format("{}.file", node));
     }
+}
+
+// The shared model for `path` and `options`, read when no node holds it; the file's size and modification
+// time are part of the key, so a file written again is read again.
+std::shared_ptr<const Loaded> sharedModel(const std::string& path, const SolverOptions& options, std::string_view node)
+{
+    static std::mutex mutex;
+    static std::map<std::string, std::weak_ptr<const Loaded>> models;
+    std::error_code error;
+    const auto size = std::filesystem::file_size(path, error);
+    const auto time = error ? std::filesystem::file_time_type{} : std::filesystem::last_write_time(path, error);
+    const std::string key = fmt::format("{}\n{}\n{}\n{} {} {}", path, error ? 0 : size, time.time_since_epoch().count(),
+                                        options.maxIterations, options.threads, options.partition);
+    const std::lock_guard lock(mutex);
+    if (auto held = models[key].lock()) return held;
+    auto fresh = std::make_shared<Loaded>();
+    fresh->path = path;
+    fresh->approximation = std::make_unique<Approximation>(readApproximation(path, node));
+    fresh->solver = std::make_unique<Solver>(*fresh->approximation, options);
+    fresh->options = options;
+    std::erase_if(models, [](const auto& entry) { return entry.second.expired(); });
+    models[key] = fresh;
+    return fresh;
 }
 
 const ResidualTerm& targetTerm(const std::string& name, std::string_view node)
@@ -130,19 +158,13 @@ private:
             throw e.in(node);
         }
         const std::string& path = c.getString(file);
-        if (!loaded_ || loaded_->path != path) {
-            dropHybrid();
-            auto fresh = std::make_unique<Loaded>();
-            fresh->path = path;
-            fresh->approximation = std::make_unique<Approximation>(readApproximation(path, node));
-            loaded_ = std::move(fresh);
-            solution_.clear();
-        }
-        if (!loaded_->solver || loaded_->options.maxIterations != options.maxIterations ||
+        const bool newFile = !loaded_ || loaded_->path != path;
+        if (newFile || loaded_->options.maxIterations != options.maxIterations ||
             loaded_->options.threads != options.threads || loaded_->options.partition != options.partition) {
             dropHybrid();
-            loaded_->solver = std::make_unique<Solver>(*loaded_->approximation, options);
-            loaded_->options = options;
+            loaded_ = sharedModel(path, options, node);
+            // A warm start is kept across new solver settings, unless the file changed under it.
+            if (newFile || solution_.size() != loaded_->approximation->parameters.size()) solution_.clear();
         }
         const std::string& mapPath = c.getString(map);
         if (mapPath != mapPath_) {
@@ -295,7 +317,7 @@ private:
         realRig_.reset();
     }
 
-    std::unique_ptr<Loaded> loaded_;
+    std::shared_ptr<const Loaded> loaded_;
     std::unique_ptr<GraphRigFunction> realRig_;  // the hybrid solve's rig, its binding, and the solve
     std::unique_ptr<RigBinding> binding_;
     std::unique_ptr<HybridSolver> hybrid_;

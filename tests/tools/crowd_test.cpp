@@ -11,6 +11,10 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "app/eval_run.h"
+#include "core/error.h"
+#include "graph/graph.h"
+#include "graph/yaml_loader.h"
 #include "learned_fixtures.h"
 #include "test_support.h"
 
@@ -131,4 +135,34 @@ TEST_CASE("rigInversion connect: a namespace the graph lacks is one line naming 
     CHECK(r.err.find("the approximation drives 'extra:root_ctrl.translateX', which this graph does not have") !=
           std::string::npos);
     CHECK(r.err.find('\n') == r.err.size() - 1);
+}
+
+TEST_CASE("rigInversion: nodes share one approximation file's model, read again when the file is written again")
+{
+    const auto dir = rig::test::scratchDir("crowd-shared-model");
+    const fs::path approximation = dir / "biped.approx.yaml";
+    fs::copy_file(rig::test::bipedApproximation(), approximation);
+    const auto graph = rig::test::writeFile(
+        dir / "two.yaml",
+        "plugins: [rigInversion]\nnodes:\n  - {name: a, type: rigInversion, file: biped.approx.yaml}\n"
+        "  - {name: b, type: rigInversion, file: biped.approx.yaml}\n");
+    const auto registry = rig::app::nodeRegistry({});
+    auto first = rig::loadGraphFile(graph, registry);
+    CHECK(std::get<int>(first->getValue(first->plug("a.iterations"))) == 0);  // no targets: nothing to solve
+    CHECK(std::get<std::string>(first->getValue(first->plug("b.parameterNames"))).starts_with("root_ctrl."));
+    // While the first graph holds the model, the file is written again: a node that reads it now reads the new
+    // file (here not an approximation), not the model in memory.
+    rig::test::writeFile(approximation, "format: something else\n");
+    auto second = rig::loadGraphFile(graph, registry);
+    std::string message;
+    try {
+        second->getValue(second->plug("a.iterations"));
+    }
+    catch (const rig::Error& e) {
+        message = e.what();
+    }
+    INFO(message);
+    CHECK(message == fmt::format("a.file: {}:1:9: format: not an approximation file (expected format: "
+                                 "rigInversionApproximation)",
+                                 approximation.string()));
 }
