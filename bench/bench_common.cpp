@@ -187,4 +187,11 @@ std::optional<double> growthExponent(std::span<const double> x, std::span<const 
     return sxy / sxx;
 }
 
+std::string shellQuote(const std::string& s)
+{
+    std::string out = "'";
+    for (const char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+    return out + "'";
+}
+
 }  // namespace rig::bench

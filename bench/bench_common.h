@@ -41,6 +41,9 @@ Timing timeRepeated(const std::function<void()>& operation, double budgetSeconds
 
 double secondsSince(std::chrono::steady_clock::time_point start);
 
+// `s` in single quotes for the shell (the generator's command lines).
+std::string shellQuote(const std::string& s);
+
 // The machine and build: cores, CPU model, compiler, build type, library versions, load average.
 Json machineDescription();
 // The 1-, 5- and 15-minute load averages (/proc/loadavg), empty when unreadable.

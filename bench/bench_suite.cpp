@@ -14,7 +14,9 @@
 #include <oneapi/tbb/task_arena.h>
 
 #include "app/invert_run.h"
+#include "app/output_file.h"
 #include "bench/bench_cold_start.h"
+#include "bench/bench_crowd.h"
 #include "core/error.h"
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
@@ -44,6 +46,8 @@ BenchOptions quickOptions()
     o.crowdSizes = {1, 2};
     o.chainSizes = {17, 34};
     o.scalingFrames = 10;
+    o.realtimeFrames = 5;
+    o.realtimeMaxAgents = 2;
     return o;
 }
 
@@ -781,6 +785,16 @@ void runBipedBench(const BenchOptions& o, Json& report)
     say(o, "cold starts: random poses of the approximation from rest");
     report["cold_start"] = coldStartJson(b.approximation, o.coldStartPoses);
     report["accuracy"] = accuracyJson(b);
+
+    // The look-at crowd played in real time, every member inverted with this approximation (written for the
+    // graph's rigInversion nodes to read).
+    if (o.realtimeMaxAgents > 0 && !o.workDir.empty()) {
+        const auto file = o.workDir / "biped.approx.yaml";
+        app::writeFileAtomically(file.string(), approximationToYaml(b.approximation));
+        report["crowd_realtime"] = crowdRealtimeJson(o, file);
+    } else {
+        report["crowd_realtime"] = Json();
+    }
 }
 
 // --- scaling ---
@@ -794,13 +808,6 @@ struct ScalingRig {
     std::vector<std::string> params, outputs;
     std::vector<HeldPlug> held{};  // the biped's held plugs for every member of a crowd (biped0001:, ...)
 };
-
-std::string shellQuote(const std::string& s)
-{
-    std::string out = "'";
-    for (const char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return out + "'";
-}
 
 ScalingRig makeRig(const BenchOptions& o, const InversionSpec& biped, const std::string& kind, int count)
 {

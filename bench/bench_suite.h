@@ -32,6 +32,8 @@ struct BenchOptions {
     std::vector<int> chainSizes;  // joints per chain rig (3 parameters each)
     int scalingFrames = 60;       // frames inverted per scaling row (after a cold first frame, not timed)
     bool scalingBlackBox = true;  // a black-box Jacobian per scaling row (serial graph evaluations)
+    int realtimeFrames = 60;      // crowd_realtime: frames played per crowd (after an untimed first frame)
+    int realtimeMaxAgents = 512;  // crowd_realtime: the largest crowd tried (0: no crowd_realtime row)
 
     std::function<void(std::string_view)> log;  // one line per step; may be empty
 };

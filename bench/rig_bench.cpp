@@ -30,6 +30,7 @@ struct Options {
     std::string rig, spec, clip, map, makeRigs, python;
     std::optional<int> frames;
     std::vector<int> crowd, chain;
+    std::optional<int> realtimeMax, realtimeFrames;
     bool noScaling = false;
     bool noCrowd = false;
     bool noChain = false;
@@ -99,6 +100,13 @@ void printSummary(const bench::Json& r)
         if (!row.at("train_threads").is_null())
             threadsLine(fmt::format("{} {}", text(row.at("rig")), figure(row.at("count"), "", 6)),
                         row.at("train_threads"));
+    if (const auto crowd = r.find("crowd_realtime"); crowd != r.end() && !crowd->is_null())
+        for (const auto& t : crowd->at("by_threads"))
+            std::cout << fmt::format(
+                "crowd       {} look-at bipeds at 30 fps on {} thread(s): frame median {}, p99 {}; real heads' aim "
+                "within {}\n",
+                figure(t.at("agents_at_30fps"), "", 4), figure(t.at("threads")), figure(t.at("frame_ms_median"), "ms"),
+                figure(t.at("frame_ms_p99"), "ms"), figure(t.at("lookat_max_error_deg"), "deg"));
     for (const auto& row : r.at("scaling"))
         std::cout << fmt::format("scaling     {} {}: {} parameters, {} per frame, jacobian {}, {} evaluations\n",
                                  text(row.at("rig")), figure(row.at("count"), "", 6),
@@ -167,6 +175,17 @@ bench::BenchOptions benchOptions(const Options& o)
         if (*o.frames < 1) throw Error(fmt::format("--frames {}: give at least 1 frame", *o.frames));
         options.frames = *o.frames;
         options.ceresFrames = std::min(options.ceresFrames, *o.frames);
+    }
+    if (o.realtimeMax) {
+        if (*o.realtimeMax < 0 || *o.realtimeMax > maxCrowd)
+            throw Error(fmt::format("--realtime-max {}: give 0 (no crowd_realtime row) to {} bipeds", *o.realtimeMax,
+                                    maxCrowd));
+        options.realtimeMaxAgents = *o.realtimeMax;
+    }
+    if (o.realtimeFrames) {
+        if (*o.realtimeFrames < 1)
+            throw Error(fmt::format("--realtime-frames {}: give at least 1 frame", *o.realtimeFrames));
+        options.realtimeFrames = *o.realtimeFrames;
     }
     if (!o.crowd.empty()) options.crowdSizes = o.crowd;
     if (!o.chain.empty()) options.chainSizes = o.chain;
@@ -275,6 +294,10 @@ int main(int argc, char** argv)
     app.add_option("--crowd", options.crowd, "Crowd sizes (bipeds) for the scaling rows")->delimiter(',');
     app.add_option("--chain", options.chain, "Chain lengths (joints) for the scaling rows")->delimiter(',');
     app.add_flag("--no-crowd", options.noCrowd, "No crowd rows");
+    app.add_option("--realtime-max", options.realtimeMax,
+                   "Largest look-at crowd of the crowd_realtime row (default 512; --quick 2; 0: no such row)");
+    app.add_option("--realtime-frames", options.realtimeFrames,
+                   "Frames timed per crowd of the crowd_realtime row (default 60; --quick 5)");
     app.add_flag("--no-chain", options.noChain, "No chain rows");
     app.add_flag("--no-scaling", options.noScaling, "Measure the biped only");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors");

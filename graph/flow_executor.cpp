@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include <tbb/info.h>
+#include <tbb/parallel_for.h>
 
 namespace rig {
 
@@ -19,26 +20,33 @@ FlowExecutor::FlowExecutor(std::shared_ptr<const Schedule> schedule, int threads
         for (int n = 0; n < count; ++n) {
             nodes_.push_back(
                 std::make_unique<tbb::flow::continue_node<continue_msg>>(*graph_, [this, n](const continue_msg&) {
-                    if (!(*active_)[static_cast<std::size_t>(n)]) return;
-                    try {
-                        (*body_)(n);
-                    }
-                    catch (...) {
-                        // Keep the failure the serial order would have met first, so the message does not
-                        // depend on the thread count.
-                        const std::lock_guard lock(errorMutex_);
-                        const int r = schedule_->rank()[static_cast<std::size_t>(n)];
-                        if (!error_ || r < errorRank_) {
-                            error_ = std::current_exception();
-                            errorRank_ = r;
-                        }
-                    }
+                    if ((*active_)[static_cast<std::size_t>(n)]) runBody(n);
                 }));
             if (!hasPredecessor[static_cast<std::size_t>(n)]) tbb::flow::make_edge(*start_, *nodes_.back());
         }
         for (const auto& [from, to] : schedule_->edges())
             tbb::flow::make_edge(*nodes_[static_cast<std::size_t>(from)], *nodes_[static_cast<std::size_t>(to)]);
     });
+    predecessors_.resize(static_cast<std::size_t>(schedule_->nodeCount()));
+    for (const auto& [from, to] : schedule_->edges()) predecessors_[static_cast<std::size_t>(to)].push_back(from);
+    level_.assign(predecessors_.size(), 0);
+}
+
+void FlowExecutor::runBody(int n)
+{
+    try {
+        (*body_)(n);
+    }
+    catch (...) {
+        // Keep the failure the serial order would have met first, so the message does not depend on the
+        // thread count.
+        const std::lock_guard lock(errorMutex_);
+        const int r = schedule_->rank()[static_cast<std::size_t>(n)];
+        if (!error_ || r < errorRank_) {
+            error_ = std::current_exception();
+            errorRank_ = r;
+        }
+    }
 }
 
 void FlowExecutor::run(const std::vector<char>& active, const std::function<void(int)>& body)
@@ -49,6 +57,30 @@ void FlowExecutor::run(const std::vector<char>& active, const std::function<void
     arena_.execute([&] {
         start_->try_put(tbb::flow::continue_msg());
         graph_->wait_for_all();
+    });
+    if (error_) std::rethrow_exception(error_);
+}
+
+void FlowExecutor::runActive(std::vector<int> nodes, const std::vector<char>& active,
+                             const std::function<void(int)>& body)
+{
+    const auto& rank = schedule_->rank();
+    std::sort(nodes.begin(), nodes.end(),
+              [&](int a, int b) { return rank[static_cast<std::size_t>(a)] < rank[static_cast<std::size_t>(b)]; });
+    std::vector<std::vector<int>> levels;
+    for (const int n : nodes) {
+        int level = 0;
+        for (const int p : predecessors_[static_cast<std::size_t>(n)])
+            if (active[static_cast<std::size_t>(p)]) level = std::max(level, level_[static_cast<std::size_t>(p)] + 1);
+        level_[static_cast<std::size_t>(n)] = level;
+        if (static_cast<std::size_t>(level) >= levels.size()) levels.resize(static_cast<std::size_t>(level) + 1);
+        levels[static_cast<std::size_t>(level)].push_back(n);
+    }
+    body_ = &body;
+    error_ = nullptr;
+    arena_.execute([&] {
+        for (const auto& level : levels)
+            tbb::parallel_for(std::size_t{0}, level.size(), [&](std::size_t i) { runBody(level[i]); });
     });
     if (error_) std::rethrow_exception(error_);
 }

@@ -31,6 +31,11 @@ public:
     // order is rethrown here once the graph has drained: the one the serial order would have met.
     void run(const std::vector<char>& active, const std::function<void(int)>& body);
 
+    // The same for the active nodes `nodes` only, level by level (a node's level: one more than its active
+    // predecessors' highest), each level's nodes in parallel: a frame that needs a small part of a large
+    // graph (a crowd's curves) costs what it computes, where run() passes a message along every edge.
+    void runActive(std::vector<int> nodes, const std::vector<char>& active, const std::function<void(int)>& body);
+
 private:
     std::shared_ptr<const Schedule> schedule_;
     tbb::task_arena arena_;
@@ -43,6 +48,11 @@ private:
     std::mutex errorMutex_;
     std::exception_ptr error_;
     int errorRank_ = 0;
+    // runActive's: each node's predecessors (from the schedule's edges), and its level in the current run.
+    std::vector<std::vector<int>> predecessors_;
+    std::vector<int> level_;
+
+    void runBody(int node);  // body(node), its exception kept as run() keeps them
 };
 
 }  // namespace rig

@@ -324,7 +324,11 @@ void Graph::evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots)
     if (threads_ > 1 && list.size() > 1) {
         if (!flow_ || flow_->schedule() != s.get() || flow_->threads() != threads_)
             flow_ = std::make_unique<FlowExecutor>(s, threads_);
-        flow_->run(needed, [this](int n) { processNode(n); });
+        // A small part of a large graph (a crowd's curves) level by level over what is needed; most of it
+        // through the flow graph, whose messages then cost less than the levels' barriers.
+        if (list.size() * 4 < nodes_.size())
+            flow_->runActive(std::move(list), needed, [this](int n) { processNode(n); });
+        else flow_->run(needed, [this](int n) { processNode(n); });
         return;
     }
     std::sort(list.begin(), list.end(), [&](NodeId a, NodeId b) {

@@ -14,7 +14,10 @@
 // order is shifted by equivalences to meet the frame before it (inversion/continuity.h). rig-invert
 // follows the same rules, so the node played frame after frame gives rig-invert's curves.
 #include <cmath>
+#include <filesystem>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <numbers>
 #include <string>
 #include <thread>
@@ -65,7 +68,9 @@ enum Attr : AttrId {
     residualTermName,
 };
 
-// An approximation and the solver built on it, shared by every evaluation until `file` changes.
+// An approximation and the solver built on it: read-only (Solver is const and thread-safe), so every node
+// that reads the same file with the same solver settings shares one (a crowd's members: the model is
+// shared, each node keeps its own state: warm start, scratch, hybrid solve).
 struct Loaded {
     std::string path;
     std::unique_ptr<Approximation> approximation;
@@ -89,6 +94,29 @@ Approximation readApproximation(const std::string& path, std::string_view node)
     catch (const Error& e) {
         throw e.in(fmt::format("{}.file", node));
     }
+}
+
+// The shared model for `path` and `options`, read when no node holds it; the file's size and modification
+// time are part of the key, so a file written again is read again.
+std::shared_ptr<const Loaded> sharedModel(const std::string& path, const SolverOptions& options, std::string_view node)
+{
+    static std::mutex mutex;
+    static std::map<std::string, std::weak_ptr<const Loaded>> models;
+    std::error_code error;
+    const auto size = std::filesystem::file_size(path, error);
+    const auto time = error ? std::filesystem::file_time_type{} : std::filesystem::last_write_time(path, error);
+    const std::string key = fmt::format("{}\n{}\n{}\n{} {} {}", path, error ? 0 : size, time.time_since_epoch().count(),
+                                        options.maxIterations, options.threads, options.partition);
+    const std::lock_guard lock(mutex);
+    if (auto held = models[key].lock()) return held;
+    auto fresh = std::make_shared<Loaded>();
+    fresh->path = path;
+    fresh->approximation = std::make_unique<Approximation>(readApproximation(path, node));
+    fresh->solver = std::make_unique<Solver>(*fresh->approximation, options);
+    fresh->options = options;
+    std::erase_if(models, [](const auto& entry) { return entry.second.expired(); });
+    models[key] = fresh;
+    return fresh;
 }
 
 const ResidualTerm& targetTerm(const std::string& name, std::string_view node)
@@ -130,19 +158,13 @@ private:
             throw e.in(node);
         }
         const std::string& path = c.getString(file);
-        if (!loaded_ || loaded_->path != path) {
-            dropHybrid();
-            auto fresh = std::make_unique<Loaded>();
-            fresh->path = path;
-            fresh->approximation = std::make_unique<Approximation>(readApproximation(path, node));
-            loaded_ = std::move(fresh);
-            solution_.clear();
-        }
-        if (!loaded_->solver || loaded_->options.maxIterations != options.maxIterations ||
+        const bool newFile = !loaded_ || loaded_->path != path;
+        if (newFile || loaded_->options.maxIterations != options.maxIterations ||
             loaded_->options.threads != options.threads || loaded_->options.partition != options.partition) {
             dropHybrid();
-            loaded_->solver = std::make_unique<Solver>(*loaded_->approximation, options);
-            loaded_->options = options;
+            loaded_ = sharedModel(path, options, node);
+            // A warm start is kept across new solver settings, unless the file changed under it.
+            if (newFile || solution_.size() != loaded_->approximation->parameters.size()) solution_.clear();
         }
         const std::string& mapPath = c.getString(map);
         if (mapPath != mapPath_) {
@@ -295,7 +317,7 @@ private:
         realRig_.reset();
     }
 
-    std::unique_ptr<Loaded> loaded_;
+    std::shared_ptr<const Loaded> loaded_;
     std::unique_ptr<GraphRigFunction> realRig_;  // the hybrid solve's rig, its binding, and the solve
     std::unique_ptr<RigBinding> binding_;
     std::unique_ptr<HybridSolver> hybrid_;
@@ -315,11 +337,12 @@ private:
     std::vector<Eigen::Matrix4d> modelled_, real_;  // the approximation's and the real rig's outputs at reported_
 };
 
-// connect: {targets: NODE_OR_GLOB, parameters: true}
+// connect: {targets: NODE_OR_GLOB, parameters: true, namespace: NS}
 //   targets: a bvhClip node (its worldMatrix[j] by jointNames), or a glob of nodes with a worldMatrix
 //   (the joints of another rig); each target joint, renamed by the node's map file, that is an output of
 //   the approximation is connected to target[k]. parameters: value[i] -> the rig's parameter plug i, and
-//   heldValue[j] -> the rig's held plug j.
+//   heldValue[j] -> the rig's held plug j; with namespace NS, the plugs NS:ctrl.attr of the rig included
+//   under NS.
 void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const YamlFieldContext& context);
 
 // Errors of the engine (a cycle, a plug already driven) and of the files get the place of `connect:`.
@@ -386,12 +409,13 @@ void connectTargets(Graph& graph, const std::string& node, const YAML::Node& v, 
                         context.where(v), v.Scalar(), a.outputs.empty() ? "" : a.outputs[0].name));
 }
 
-// `parameters: true`: value[i] to the rig's parameter plug i, and heldValue[j] to its held plug j.
+// `parameters: true`: value[i] to the rig's parameter plug i, and heldValue[j] to its held plug j; `prefix`
+// ("NAMESPACE:" or empty) names the copy of the rig to drive when a graph holds several (a crowd).
 void connectParameters(Graph& graph, const std::string& node, const YAML::Node& v, const Approximation& a,
-                       const YamlFieldContext& context)
+                       const std::string& prefix, const YamlFieldContext& context)
 {
     for (std::size_t i = 0; i < a.parameters.size(); ++i) {
-        const auto& name = a.parameters[i].parameter.name;
+        const std::string name = prefix + a.parameters[i].parameter.name;
         Plug destination;
         try {
             destination = graph.plug(name);
@@ -407,22 +431,23 @@ void connectParameters(Graph& graph, const std::string& node, const YAML::Node& 
     // The held plugs too: the rig must be in the state the approximation was learned in.
     for (std::size_t j = 0; j < a.held.size(); ++j) {
         const HeldPlug& h = a.held[j];
+        const std::string plug = prefix + h.plug;
         Plug destination;
         try {
-            destination = graph.plug(h.plug);
+            destination = graph.plug(plug);
         }
         catch (const Error&) {
             throw Error(
                 fmt::format("{}: the approximation was learned with '{}' held at {}, which this graph does "
                             "not have: it was learned from another rig ({}); include that rig or learn this one",
-                            context.where(v), h.plug, h.value, a.rigFile));
+                            context.where(v), plug, h.value, a.rigFile));
         }
         if (const Connection* c = graph.incomingConnection(destination))
             throw Error(
                 fmt::format("{}: the approximation was learned with {} held at {}, but {} drives it here; "
                             "the node holds it at that value: disconnect it, or learn the rig in another "
                             "state (rig-learn --set)",
-                            context.where(v), h.plug, h.value, graph.plugName(c->source)));
+                            context.where(v), plug, h.value, graph.plugName(c->source)));
         graph.connect(graph.plug(fmt::format("{}.heldValue[{}]", node, j)), destination);
     }
 }
@@ -435,6 +460,14 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
     const Approximation a = readApproximation(std::get<std::string>(graph.getValue(graph.plug(node + ".file"))), node);
     const std::string mapPath = std::get<std::string>(graph.getValue(graph.plug(node + ".map")));
     const TargetMap targetMap = mapPath.empty() ? TargetMap{} : readTargetMap(mapPath);
+    // `namespace: NS` (a crowd's member, included under NS): the parameters are NS:ctrl.plug.
+    std::string prefix;
+    if (const YAML::Node ns = field["namespace"]) {
+        if (!ns.IsScalar() || ns.Scalar().empty())
+            throw Error(fmt::format("{}: 'namespace' is the namespace of the rig to drive (as in include:)",
+                                    context.where(ns)));
+        prefix = ns.Scalar() + ":";
+    }
     for (const auto& entry : field) {
         const std::string key = entry.first.Scalar();
         const YAML::Node& v = entry.second;
@@ -444,9 +477,9 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
         } else if (key == "parameters") {
             if (!v.IsScalar() || (v.Scalar() != "true" && v.Scalar() != "false"))
                 throw Error(fmt::format("{}: 'parameters' is true or false", context.where(v)));
-            if (v.Scalar() == "true") connectParameters(graph, node, v, a, context);
-        } else {
-            throw Error(fmt::format("{}: unknown key '{}' in 'connect'; it has 'targets' and 'parameters'",
+            if (v.Scalar() == "true") connectParameters(graph, node, v, a, prefix, context);
+        } else if (key != "namespace") {
+            throw Error(fmt::format("{}: unknown key '{}' in 'connect'; it has 'targets', 'parameters' and 'namespace'",
                                     context.where(entry.first), key));
         }
     }
@@ -464,7 +497,8 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
         "(docs/inversion-tutorial.md). target[k] is the target of the approximation's output k; "
         "value[i] its parameter i, angles in degrees. Warm-starts from the previous frame when time "
         "moves on by one frame. The rig-file field `connect: {targets: NODE_OR_GLOB, parameters: true}` "
-        "wires it by the names stored in the approximation, the held plugs (heldValue[j]) with the parameters.");
+        "wires it by the names stored in the approximation, the held plugs (heldValue[j]) with the parameters; "
+        "`namespace: NS` drives the copy of the rig included under NS (a crowd's member).");
     b.input(file, "file", ValueType::String)
         .filePath()
         .doc("Approximation file (rig-learn -o), relative to the rig file that names it; read again when it changes.");
