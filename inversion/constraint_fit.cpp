@@ -439,7 +439,7 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
     }
     // The best of directions spread over the sphere, then refined by a pattern search on it.
     double best = std::numeric_limits<double>::infinity();
-    constexpr int directions = 2000;
+    constexpr int directions = 500;
     for (int i = 0; i < directions; ++i) {
         const double z = 1.0 - (2.0 * i + 1.0) / directions, ring = std::sqrt(1.0 - z * z);
         const double angle = i * std::numbers::pi * (3.0 - std::sqrt(5.0));
@@ -490,12 +490,35 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
             base.restNormal = normal;
             poles.push_back(base);
         };
+        // The candidates so far, each made and checked; the first within epsilon, or the closest kept.
+        const auto tryPoles = [&]() -> std::optional<ConstraintBase> {
+            for (ConstraintBase base : poles) {
+                const int pole = base.pole;
+                base.anchor = anchor;
+                base.goal = goal;
+                base.root = rootRest;
+                const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
+                if (e <= options_.epsilon) return base;
+                if (!(e < closest.error)) continue;
+                closest.error = e;
+                const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
+                closest.what = fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
+                                           base.restPlane ? "none (the rest plane of " + fixedTo + ")"
+                                           : base.worldUp ? std::string("a world up")
+                                           : pole < 0     ? "fixed to " + fixedTo
+                                                          : names[static_cast<std::size_t>(pole)]);
+            }
+            poles.clear();
+            return std::nullopt;
+        };
         for (const int pole : helpers)
             if (pole != goal)
                 choice(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3), Eigen::Vector3d::Zero());
         for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal))
             choice(-1, point, Eigen::Vector3d::Zero());
-        // An up vector the poses show (an aim's up in the anchor's axes, or fixed in the world: scene or vector up).
+        if (std::optional<ConstraintBase> found = tryPoles()) return found;
+        // Then an up vector the poses show (an aim's up in the anchor's axes, or fixed in the world: scene or vector
+        // up), fitted only when no pole above did, and the rest plane.
         const double length = std::max(1.0, (restGoal - rootRest).norm());
         for (const bool inWorld : {false, true}) {
             Eigen::Vector3d up;
@@ -503,23 +526,7 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                 choice(-1, rootRest + length * up, Eigen::Vector3d::Zero(), inWorld);
         }
         for (const Eigen::Vector3d& normal : restNormals(root, rootRest, restGoal)) choice(-1, rootRest, normal);
-        for (ConstraintBase base : poles) {
-            const int pole = base.pole;
-            base.anchor = anchor;
-            base.goal = goal;
-            base.root = rootRest;
-            const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
-            if (e <= options_.epsilon) return base;
-            if (e < closest.error) {
-                closest.error = e;
-                const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
-                closest.what = fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
-                                           base.restPlane ? "none (the rest plane of " + fixedTo + ")"
-                                           : base.worldUp ? std::string("a world axis from the root")
-                                           : pole < 0     ? "fixed to " + fixedTo
-                                                          : names[static_cast<std::size_t>(pole)]);
-            }
-        }
+        if (std::optional<ConstraintBase> found = tryPoles()) return found;
     }
     return std::nullopt;
 }
