@@ -475,59 +475,66 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
     const auto& rest = probe_.rest();
     const auto& names = probe_.rig().outputs();
     const Eigen::Vector3d rootRest = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
-    for (const int goal : goals) {
-        const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
-        // Poles: a helper's origin, a point carried by the anchor, or none (the rest plane kept, its normal from the
-        // chain's joints at rest).
-        std::vector<ConstraintBase> poles;
-        const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
-                                bool worldUp = false) {
-            ConstraintBase base;
-            base.worldUp = worldUp;
-            base.pole = pole;
-            base.restPole = point;
-            base.restPlane = normal.squaredNorm() > 0.0;
-            base.restNormal = normal;
-            poles.push_back(base);
-        };
-        // The candidates so far, each made and checked; the first within epsilon, or the closest kept.
-        const auto tryPoles = [&]() -> std::optional<ConstraintBase> {
-            for (ConstraintBase base : poles) {
-                const int pole = base.pole;
-                base.anchor = anchor;
-                base.goal = goal;
-                base.root = rootRest;
-                const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
-                if (e <= options_.epsilon) return base;
-                if (!(e < closest.error)) continue;
-                closest.error = e;
-                const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
-                closest.what = fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
-                                           base.restPlane ? "none (the rest plane of " + fixedTo + ")"
-                                           : base.worldUp ? std::string("a world up")
-                                           : pole < 0     ? "fixed to " + fixedTo
-                                                          : names[static_cast<std::size_t>(pole)]);
+    // Two passes over the goals: first the poles the rig shows (helpers, points along the anchor's axes), then, only
+    // where none fits, the up directions fitted from the poses and the rest planes.
+    for (int pass = 0; pass < 2; ++pass)
+        for (const int goal : goals) {
+            const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
+            // Poles: a helper's origin, a point carried by the anchor, or none (the rest plane kept, its normal from
+            // the chain's joints at rest).
+            std::vector<ConstraintBase> poles;
+            const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
+                                    bool worldUp = false) {
+                ConstraintBase base;
+                base.worldUp = worldUp;
+                base.pole = pole;
+                base.restPole = point;
+                base.restPlane = normal.squaredNorm() > 0.0;
+                base.restNormal = normal;
+                poles.push_back(base);
+            };
+            // The candidates so far, each made and checked; the first within epsilon, or the closest kept.
+            const auto tryPoles = [&]() -> std::optional<ConstraintBase> {
+                for (ConstraintBase base : poles) {
+                    const int pole = base.pole;
+                    base.anchor = anchor;
+                    base.goal = goal;
+                    base.root = rootRest;
+                    const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
+                    if (e <= options_.epsilon) return base;
+                    if (!(e < closest.error)) continue;
+                    closest.error = e;
+                    const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
+                    closest.what =
+                        fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
+                                    base.restPlane ? "none (the rest plane of " + fixedTo + ")"
+                                    : base.worldUp ? std::string("a world up")
+                                    : pole < 0     ? "fixed to " + fixedTo
+                                                   : names[static_cast<std::size_t>(pole)]);
+                }
+                poles.clear();
+                return std::nullopt;
+            };
+            if (pass == 0) {
+                for (const int pole : helpers)
+                    if (pole != goal)
+                        choice(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3), Eigen::Vector3d::Zero());
+                for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal))
+                    choice(-1, point, Eigen::Vector3d::Zero());
+                if (std::optional<ConstraintBase> found = tryPoles()) return found;
+                continue;
             }
-            poles.clear();
-            return std::nullopt;
-        };
-        for (const int pole : helpers)
-            if (pole != goal)
-                choice(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3), Eigen::Vector3d::Zero());
-        for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal))
-            choice(-1, point, Eigen::Vector3d::Zero());
-        if (std::optional<ConstraintBase> found = tryPoles()) return found;
-        // Then an up vector the poses show (an aim's up in the anchor's axes, or fixed in the world: scene or vector
-        // up), fitted only when no pole above did, and the rest plane.
-        const double length = std::max(1.0, (restGoal - rootRest).norm());
-        for (const bool inWorld : {false, true}) {
-            Eigen::Vector3d up;
-            if (fittedUp(k, anchor, rootRest, goal, poses(varied, 0, rangePoses), inWorld, up))
-                choice(-1, rootRest + length * up, Eigen::Vector3d::Zero(), inWorld);
+            // An up vector the poses show (an aim's up in the anchor's axes, or fixed in the world: scene or vector
+            // up), and the rest plane.
+            const double length = std::max(1.0, (restGoal - rootRest).norm());
+            for (const bool inWorld : {false, true}) {
+                Eigen::Vector3d up;
+                if (fittedUp(k, anchor, rootRest, goal, poses(varied, 0, rangePoses), inWorld, up))
+                    choice(-1, rootRest + length * up, Eigen::Vector3d::Zero(), inWorld);
+            }
+            for (const Eigen::Vector3d& normal : restNormals(root, rootRest, restGoal)) choice(-1, rootRest, normal);
+            if (std::optional<ConstraintBase> found = tryPoles()) return found;
         }
-        for (const Eigen::Vector3d& normal : restNormals(root, rootRest, restGoal)) choice(-1, rootRest, normal);
-        if (std::optional<ConstraintBase> found = tryPoles()) return found;
-    }
     return std::nullopt;
 }
 
