@@ -213,22 +213,6 @@ TEST_CASE("constraints: a held pole sits at its rest distance in the plane the s
     }
 }
 
-// A cold start and a solve from rest, judged on the real rig: the largest distance of a targeted joint from its target.
-double solvedFromRest(const Approximation& a, const Solver& solver, RigBinding& binding,
-                      const std::vector<JointTarget>& targets)
-{
-    std::vector<double> values = a.defaults();
-    solver.initialGuess(targets, values);
-    solver.solve(targets, values);
-    std::vector<Eigen::Matrix4d> worlds;
-    binding.evaluate(values, worlds);
-    double worst = 0.0;
-    for (std::size_t k = 0; k < a.outputs.size(); ++k)
-        if (targets[k].active)
-            worst = std::max(worst, (worlds[k].block<3, 1>(0, 3) - targets[k].world.block<3, 1>(0, 3)).norm());
-    return worst;
-}
-
 // The biped with IK legs learned as rig-learn learns it (helper frames found), once per run.
 struct IkBipedChains {
     InversionSpec spec = readInversionSpec(test::sourceDir() / "rigs" / "biped_inversion_ik.yaml");
@@ -256,7 +240,6 @@ TEST_CASE("constraints: random poses of the biped's IK legs are recovered from r
     RigBinding binding(a, biped.rig);
     const Solver solver(a, SolverOptions{});
     std::mt19937 rng(7);
-    std::vector<Eigen::Matrix4d> worlds;
     int reached = 0;
     double worstOfAll = 0.0;
     const int poses = 300;
@@ -268,13 +251,8 @@ TEST_CASE("constraints: random poses of the biped's IK legs are recovered from r
             truth[p] +=
                 0.5 * std::uniform_real_distribution<double>(q.min - q.defaultValue, q.max - q.defaultValue)(rng);
         }
-        binding.evaluate(truth, worlds);
-        std::vector<JointTarget> targets(a.outputs.size());
-        for (std::size_t k = 0; k < a.outputs.size(); ++k) {
-            targets[k].active = !a.outputs[k].helper;
-            targets[k].world = worlds[k];
-        }
-        const double worst = solvedFromRest(a, solver, binding, targets);
+        const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, truth);
+        const double worst = test::solvedFromRest(a, solver, binding, targets);
         reached += worst < 1e-3 ? 1 : 0;
         worstOfAll = std::max(worstOfAll, worst);
     }
@@ -379,15 +357,9 @@ TEST_CASE(
         CHECK(wa == wb);
         RigBinding binding(a, rig);
         const Solver solver(a, SolverOptions{});
-        std::vector<Eigen::Matrix4d> worlds;
         for (int pose = 0; pose < 5; ++pose) {
             const std::vector<double> truth = test::randomValues(a, rng, 0.4);
-            binding.evaluate(truth, worlds);
-            std::vector<JointTarget> targets(a.outputs.size());
-            for (std::size_t k = 0; k < a.outputs.size(); ++k) {
-                targets[k].active = !a.outputs[k].helper;
-                targets[k].world = worlds[k];
-            }
+            const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, truth);
             // The analytic Jacobian through the chain against central differences, at the truth.
             JacobianEvaluator evaluator(a, targets, 10.0);
             Eigen::MatrixXd analytic, numeric;
@@ -395,7 +367,7 @@ TEST_CASE(
             evaluator.jacobian(truth, JacobianMethod::analytic, 0.0, analytic, r1);
             evaluator.jacobian(truth, JacobianMethod::finiteDifference, 1e-5, numeric, r2);
             CHECK((analytic - numeric).cwiseAbs().maxCoeff() < 1e-4 * std::max(1.0, analytic.cwiseAbs().maxCoeff()));
-            const double worst = solvedFromRest(a, solver, binding, targets);
+            const double worst = test::solvedFromRest(a, solver, binding, targets);
             reached += worst < 1e-3 ? 1 : 0;
             ++poses;
         }
@@ -473,26 +445,9 @@ TEST_CASE("constraints: random aims (axes, up modes, offsets) are learned as pla
         ++learned;
         RigBinding binding(a, rig);
         const Solver solver(a, SolverOptions{});
-        std::vector<Eigen::Matrix4d> worlds;
         for (int pose = 0; pose < 8; ++pose) {
-            const std::vector<double> truth = test::randomValues(a, rng, 0.5);
-            binding.evaluate(truth, worlds);
-            std::vector<JointTarget> targets(a.outputs.size());
-            for (std::size_t k = 0; k < a.outputs.size(); ++k) {
-                targets[k].active = !a.outputs[k].helper;
-                targets[k].world = worlds[k];
-            }
-            std::vector<double> values = a.defaults();
-            solver.initialGuess(targets, values);
-            solver.solve(targets, values);
-            std::vector<Eigen::Matrix4d> solved;
-            binding.evaluate(values, solved);
-            double worst = 0.0;
-            for (std::size_t k = 0; k < a.outputs.size(); ++k)
-                if (targets[k].active)
-                    worst = std::max(
-                        worst, (solved[k].block<3, 1>(0, 3) - worlds[k].block<3, 1>(0, 3)).norm() +
-                                   10.0 * orientationAngle(solved[k].block<3, 3>(0, 0), worlds[k].block<3, 3>(0, 0)));
+            const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
+            const double worst = test::solvedFromRest(a, solver, binding, targets, 10.0);
             ++tried;
             reached += worst < 1e-3 ? 1 : 0;
         }

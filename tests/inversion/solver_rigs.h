@@ -11,11 +11,14 @@
 #include <fmt/format.h>
 #include <Eigen/Geometry>
 
+#include "core/rotation_math.h"
 #include "graph/plug_glob.h"
 #include "graph/yaml_loader.h"
 #include "inversion/approximation.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
+#include "inversion/rig_binding.h"
+#include "inversion/solver.h"
 #include "nodes/builtin_nodes.h"
 #include "test_rigs.h"
 #include "test_support.h"
@@ -280,6 +283,41 @@ inline int outputIndex(const Approximation& a, const std::string& name)
     for (std::size_t i = 0; i < a.outputs.size(); ++i)
         if (a.outputs[i].name == name) return static_cast<int>(i);
     return -1;
+}
+
+// The real rig's worlds at `truth` as targets for every joint output (helper frames are never targets).
+inline std::vector<JointTarget> realTargetsAt(const Approximation& a, RigBinding& binding,
+                                              const std::vector<double>& truth)
+{
+    std::vector<Eigen::Matrix4d> worlds;
+    binding.evaluate(truth, worlds);
+    std::vector<JointTarget> targets(a.outputs.size());
+    for (std::size_t k = 0; k < a.outputs.size(); ++k) {
+        targets[k].active = !a.outputs[k].helper;
+        targets[k].world = worlds[k];
+    }
+    return targets;
+}
+
+// A cold start and a solve from rest, judged on the real rig: the largest distance of a targeted joint from its
+// target, cm, plus `radiusCm` times its orientation error in radians (0: positions alone).
+inline double solvedFromRest(const Approximation& a, const Solver& solver, RigBinding& binding,
+                             const std::vector<JointTarget>& targets, double radiusCm = 0.0)
+{
+    std::vector<double> values = a.defaults();
+    solver.initialGuess(targets, values);
+    solver.solve(targets, values);
+    std::vector<Eigen::Matrix4d> worlds;
+    binding.evaluate(values, worlds);
+    double worst = 0.0;
+    for (std::size_t k = 0; k < a.outputs.size(); ++k) {
+        if (!targets[k].active) continue;
+        double e = (worlds[k].block<3, 1>(0, 3) - targets[k].world.block<3, 1>(0, 3)).norm();
+        if (radiusCm > 0.0)
+            e += radiusCm * orientationAngle(worlds[k].block<3, 3>(0, 0), targets[k].world.block<3, 3>(0, 0));
+        worst = std::max(worst, e);
+    }
+    return worst;
 }
 
 }  // namespace rig::test

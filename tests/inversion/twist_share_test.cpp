@@ -218,25 +218,9 @@ TEST_CASE("twist share: random roll joints are learned as shares of their driver
         // Random poses, solved from rest through the share, judged on the real rig.
         RigBinding binding(a, rig);
         const Solver solver(a, SolverOptions{});
-        std::vector<Eigen::Matrix4d> worlds;
         for (int pose = 0; pose < 10; ++pose) {
-            const std::vector<double> truth = test::randomValues(a, rng, 0.5);
-            binding.evaluate(truth, worlds);
-            std::vector<JointTarget> targets(a.outputs.size());
-            for (std::size_t k = 0; k < a.outputs.size(); ++k) {
-                targets[k].active = true;
-                targets[k].world = worlds[k];
-            }
-            std::vector<double> values = a.defaults();
-            solver.initialGuess(targets, values);
-            solver.solve(targets, values);
-            std::vector<Eigen::Matrix4d> solved;
-            binding.evaluate(values, solved);
-            double worst = 0.0;
-            for (std::size_t k = 0; k < a.outputs.size(); ++k)
-                worst = std::max(worst,
-                                 (solved[k].block<3, 1>(0, 3) - worlds[k].block<3, 1>(0, 3)).norm() +
-                                     10.0 * orientationAngle(solved[k].block<3, 3>(0, 0), worlds[k].block<3, 3>(0, 0)));
+            const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
+            const double worst = test::solvedFromRest(a, solver, binding, targets, 10.0);
             ++posesTried;
             reached += worst < 1e-3 ? 1 : 0;
         }
@@ -275,17 +259,10 @@ TEST_CASE(
     std::mt19937 rng(9);
     RigBinding binding(a, rig);
     const Solver solver(a, SolverOptions{});
-    std::vector<Eigen::Matrix4d> worlds;
     int reached = 0;
     const int poses = 20;
     for (int pose = 0; pose < poses; ++pose) {
-        const std::vector<double> truth = test::randomValues(a, rng, 0.5);
-        binding.evaluate(truth, worlds);
-        std::vector<JointTarget> targets(a.outputs.size());
-        for (std::size_t k = 0; k < a.outputs.size(); ++k) {
-            targets[k].active = !a.outputs[k].helper;
-            targets[k].world = worlds[k];
-        }
+        const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
         if (pose < 3) {
             JacobianEvaluator evaluator(a, targets, 10.0);
             Eigen::MatrixXd analytic, numeric;
@@ -295,15 +272,7 @@ TEST_CASE(
             evaluator.jacobian(at, JacobianMethod::finiteDifference, 1e-6, numeric, r2);
             CHECK((analytic - numeric).cwiseAbs().maxCoeff() < 1e-5 * std::max(1.0, analytic.cwiseAbs().maxCoeff()));
         }
-        std::vector<double> values = a.defaults();
-        solver.initialGuess(targets, values);
-        solver.solve(targets, values);
-        std::vector<Eigen::Matrix4d> solved;
-        binding.evaluate(values, solved);
-        double worst = 0.0;
-        for (std::size_t k = 0; k < a.outputs.size(); ++k)
-            if (targets[k].active)
-                worst = std::max(worst, (solved[k].block<3, 1>(0, 3) - worlds[k].block<3, 1>(0, 3)).norm());
+        const double worst = test::solvedFromRest(a, solver, binding, targets);
         reached += worst < 1e-3 ? 1 : 0;
     }
     MESSAGE("random poses of the biped with every joint reached from rest on the real rig: " << reached << " of "
