@@ -1,5 +1,7 @@
 #include "test_support.h"
 
+#include "core/error.h"
+
 #include <sys/wait.h>
 #include <cstdio>
 #include <cstdlib>
@@ -23,6 +25,17 @@ std::filesystem::path scratchDir(const std::string& name)
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
     return dir;
+}
+
+std::string errorOf(const std::function<void()>& f)
+{
+    try {
+        f();
+    }
+    catch (const Error& e) {
+        return e.what();
+    }
+    return "(no error)";
 }
 
 std::filesystem::path writeFile(const std::filesystem::path& file, const std::string& text)

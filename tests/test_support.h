@@ -2,6 +2,7 @@
 // Helpers shared by the test suites: running the command lines, paths, temporary folders.
 
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace rig::test {
@@ -23,6 +24,9 @@ std::filesystem::path binaryDir();
 
 // A fresh empty folder under the build tree for one test.
 std::filesystem::path scratchDir(const std::string& name);
+
+// What `f` throws as a rig::Error (its what()), or "(no error)".
+std::string errorOf(const std::function<void()>& f);
 
 // Writes `text` to `file` and returns the path.
 std::filesystem::path writeFile(const std::filesystem::path& file, const std::string& text);

@@ -10,6 +10,7 @@
 #include "core/error.h"
 #include "graph/graph.h"
 #include "nodes/builtin_nodes.h"
+#include "test_support.h"
 
 using namespace rig;
 
@@ -58,16 +59,7 @@ std::shared_ptr<NodeRegistry> testRegistry()
     return registry;
 }
 
-std::string errorOf(const std::function<void()>& f)
-{
-    try {
-        f();
-    }
-    catch (const Error& e) {
-        return e.what();
-    }
-    return "(no error)";
-}
+using rig::test::errorOf;
 
 }  // namespace
 

@@ -310,13 +310,7 @@ TEST_CASE("twist share: an approximation file keeps it bit for bit, and a damage
         const auto at = damaged.find(from);
         REQUIRE(at != std::string::npos);
         damaged.replace(at, from.size(), to);
-        try {
-            approximationFromYaml(damaged, "f.yaml");
-        }
-        catch (const Error& e) {
-            return e.what();
-        }
-        return "(no error)";
+        return test::errorOf([&] { approximationFromYaml(damaged, "f.yaml"); });
     };
     const std::string twistAxis = fmt::format("twistAxis: {}", "xyz"[a.constraints[0].twistAxis]);
     CHECK(errorWith(twistAxis, "twistAxis: w")

@@ -16,6 +16,7 @@
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
+#include "test_support.h"
 
 namespace {
 
@@ -40,16 +41,7 @@ std::string loadError(const std::string& text)
     return "(no error)";
 }
 
-std::string errorOf(const std::function<void()>& f)
-{
-    try {
-        f();
-    }
-    catch (const rig::Error& e) {
-        return e.what();
-    }
-    return "(no error)";
-}
+using rig::test::errorOf;
 
 double num(rig::Graph& g, const std::string& path) { return std::get<double>(g.getValue(g.plug(path))); }
 
