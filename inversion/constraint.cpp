@@ -41,6 +41,18 @@ Eigen::Matrix3d polarOf(const Eigen::Matrix4d& m, Eigen::Matrix3d* symmetric = n
     return polarRotation(m.block<3, 3>(0, 0), symmetric);
 }
 
+// A twist share's B for the anchor's motion, its polar rotation and the driver's twist.
+Eigen::Matrix4d twistTurn(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
+                          const Eigen::Matrix3d& anchorQ, double tau)
+{
+    const Eigen::Matrix3d rotation = anchorQ * Eigen::AngleAxisd(base.share * tau, base.axis).toRotationMatrix();
+    Eigen::Matrix4d b = Eigen::Matrix4d::Identity();
+    b.block<3, 3>(0, 0) = rotation;
+    b.block<3, 1>(0, 3) =
+        anchorMotion.block<3, 3>(0, 0) * base.root + anchorMotion.block<3, 1>(0, 3) - rotation * base.root;
+    return b;
+}
+
 // The vector of a skew matrix's skew part.
 Eigen::Vector3d vee(const Eigen::Matrix3d& k)
 {
@@ -227,10 +239,7 @@ TwistLinearization linearizeTwist(const ConstraintBase& base, const Eigen::Matri
     l.gradient *= base.share;
     l.centre = anchorMotion.block<3, 3>(0, 0) * base.root + anchorMotion.block<3, 1>(0, 3);
     l.turnAxis = l.anchorQ * base.axis;
-    const Eigen::Matrix3d rotation = l.anchorQ * Eigen::AngleAxisd(base.share * tau, base.axis).toRotationMatrix();
-    l.base.setIdentity();
-    l.base.block<3, 3>(0, 0) = rotation;
-    l.base.block<3, 1>(0, 3) = l.centre - rotation * base.root;
+    l.base = twistTurn(base, anchorMotion, l.anchorQ, tau);
     return l;
 }
 
@@ -252,7 +261,17 @@ Affine twistVelocity(const TwistLinearization& l, const Affine& anchor, const Af
 Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
                                const Eigen::Matrix4d& second, const Eigen::Matrix4d& third)
 {
-    if (base.kind == ConstraintKind::twistShare) return linearizeTwist(base, anchorMotion, second, third).base;
+    if (base.kind == ConstraintKind::twistShare) {
+        // The base alone: no polar stretch parts and no twist gradient, which only its velocity needs.
+        const Eigen::Matrix3d anchorQ = polarOf(anchorMotion);
+        const double tau = driverTwist(base, polarOf(third).transpose() * polarOf(second));
+        const Eigen::Matrix3d rotation = anchorQ * Eigen::AngleAxisd(base.share * tau, base.axis).toRotationMatrix();
+        Eigen::Matrix4d b = Eigen::Matrix4d::Identity();
+        b.block<3, 3>(0, 0) = rotation;
+        b.block<3, 1>(0, 3) =
+            anchorMotion.block<3, 3>(0, 0) * base.root + anchorMotion.block<3, 1>(0, 3) - rotation * base.root;
+        return b;
+    }
     return constraintBase(base, chainPoints(base, anchorMotion, second, third));
 }
 
