@@ -30,6 +30,12 @@ const OrderInfo& info(RotateOrder order) { return orderTable[static_cast<std::si
 // Below this, a length is treated as zero (gimbal lock).
 constexpr double tinyLength = 1e-12;
 
+// A judge compares thousands of joints a frame, nearly all rotations already: their SVD would be most of its time.
+Eigen::Matrix3d orientationOf(const Eigen::Matrix3d& a)
+{
+    return nearlyOrthonormal(a) && a.determinant() > 0 ? a : polarRotation(a);
+}
+
 }  // namespace
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& v)
@@ -49,9 +55,16 @@ Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& a, Eigen::Matrix3d* symmetr
     return q;
 }
 
+bool nearlyOrthonormal(const Eigen::Matrix3d& a)
+{
+    // Below this drift the polar decomposition (an SVD) would move the block by far less than any tolerance.
+    constexpr double orthonormalSlack = 1e-10;
+    return ((a.transpose() * a) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < orthonormalSlack;
+}
+
 double orientationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b)
 {
-    const Eigen::Quaterniond relative(Eigen::Matrix3d(polarRotation(a).transpose() * polarRotation(b)));
+    const Eigen::Quaterniond relative(Eigen::Matrix3d(orientationOf(a).transpose() * orientationOf(b)));
     return 2.0 * std::atan2(relative.vec().norm(), std::abs(relative.w()));
 }
 

@@ -17,6 +17,10 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v);
 // symmetric (written to `symmetric` when given). A world matrix's 3x3 block may carry scale or shear.
 Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& a, Eigen::Matrix3d* symmetric = nullptr);
 
+// Whether a 3x3 block is orthonormal up to rounding (products of rigid operators drift by rounding only): its
+// polar decomposition would change it by less than any tolerance, so callers skip that SVD. A reflection passes.
+bool nearlyOrthonormal(const Eigen::Matrix3d& a);
+
 // The angle between the orientations of two 3x3 blocks (scale and shear removed), radians in [0, pi].
 // Accurate near zero (atan2 of the relative rotation's halves, not acos).
 double orientationAngle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);

@@ -20,10 +20,6 @@ namespace {
 
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 
-// Products of rigid operators drift from orthonormal by rounding only; below this the polar
-// decomposition (an SVD) is skipped: the error it would remove is far below any tolerance.
-constexpr double orthonormalSlack = 1e-10;
-
 // The rotation residual: 2 vec(q) for the unit quaternion q = (w, v) of Q_target^T Q, taken with w >= 0,
 // so |r| = 2 sin(theta / 2). Its cost 2 sin^2(theta / 2) = 1 - cos(theta) is smooth everywhere and stationary
 // only at theta = 0 (the minimum) and at half a turn (its maximum). The logarithm's cost theta^2 / 2 has
@@ -91,11 +87,6 @@ std::string_view jacobianMethodName(JacobianMethod method)
 }
 
 bool nearlySingular(const Eigen::Vector3d& sigma) { return !(sigma[0] > 0) || !(sigma[2] > 1e-9 * sigma[0]); }
-
-bool nearlyOrthonormal(const Eigen::Matrix3d& a)
-{
-    return ((a.transpose() * a) - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < orthonormalSlack;
-}
 
 bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTarget& prepared)
 {

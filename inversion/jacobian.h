@@ -62,10 +62,6 @@ bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTa
 // (largest first) are not positive, or the smallest is below 1e-9 of the largest.
 bool nearlySingular(const Eigen::Vector3d& singularValues);
 
-// Whether a 3x3 block is a rotation up to rounding (products of rigid operators drift by rounding only): its
-// polar decomposition would change it by less than any tolerance.
-bool nearlyOrthonormal(const Eigen::Matrix3d& a);
-
 // The six weighted residual rows of one target (the file's comment says which) for a world matrix: what a
 // black-box problem on the real rig measures, so that its cost is the solver's.
 Eigen::Matrix<double, 6, 1> targetResidual(const Eigen::Matrix4d& world, const PreparedTarget& target);

@@ -42,6 +42,21 @@ TEST_CASE("rotation math: the angle between orientations ignores scale and is ac
     CHECK(orientationAngle(a, a) == 0.0);
 }
 
+TEST_CASE("rotation math: a rotation up to rounding is taken as it is, a mirrored one still loses its mirror")
+{
+    const Eigen::Vector3d axis = Eigen::Vector3d(0.7, 0.1, -0.3).normalized();
+    const Eigen::Matrix3d a = Eigen::AngleAxisd(1.1, axis).toRotationMatrix();
+    Eigen::Matrix3d drifted = Eigen::AngleAxisd(1.1 + 0.25, axis).toRotationMatrix();
+    drifted(0, 1) += 2e-11;  // a product of rigid operators' rounding
+    CHECK(nearlyOrthonormal(drifted));
+    CHECK_FALSE(nearlyOrthonormal(1.001 * drifted));
+    CHECK(orientationAngle(a, drifted) == doctest::Approx(0.25).epsilon(1e-9));
+    // A reflection is orthonormal too: its orientation is its polar rotation's, as for any other block.
+    const Eigen::Matrix3d mirror = Eigen::Vector3d(1, 1, -1).asDiagonal();
+    CHECK(nearlyOrthonormal(a * mirror));
+    CHECK(orientationAngle(a * mirror, polarRotation(a * mirror)) == 0.0);
+}
+
 TEST_CASE("rotation math: an angle moved by whole turns to the one nearest a reference")
 {
     constexpr double pi = std::numbers::pi;
