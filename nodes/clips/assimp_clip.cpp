@@ -596,7 +596,7 @@ SkeletalClip readAssimpClip(const std::filesystem::path& file, const std::string
             return sceneClip(imported(importer, importer.ReadFile(file.string(), 0), file.string()), file.string(),
                              bytes, take);
         },
-        file.string());
+        file.string(), childLimitsFor(bytes.size()));
 }
 
 SkeletalClip parseAssimpClip(std::string_view bytes, const std::string& hint, const std::string& fileName,
@@ -609,7 +609,7 @@ SkeletalClip parseAssimpClip(std::string_view bytes, const std::string& hint, co
             const aiScene* scene = importer.ReadFileFromMemory(bytes.data(), bytes.size(), 0, hint.c_str());
             return sceneClip(imported(importer, scene, fileName), fileName, bytes, take);
         },
-        fileName);
+        fileName, childLimitsFor(bytes.size()));
 }
 
 ClipReader clipReaderFor(std::string_view text, const std::filesystem::path& file)

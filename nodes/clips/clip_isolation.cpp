@@ -1,11 +1,15 @@
 #include "nodes/clips/clip_isolation.h"
 
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <memory>
+#include <new>
 
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -175,35 +179,67 @@ std::string readAll(int fd)
     }
 }
 
+constexpr std::size_t megabyte = std::size_t{1} << 20;
+
+// The address space the child has from its parent (fork copies it): the memory limit comes on top of it.
+std::size_t inheritedBytes()
+{
+    std::ifstream statm("/proc/self/statm");
+    std::size_t pages = 0;
+    statm >> pages;
+    return pages * static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+}
+
+void limitChild(const ChildLimits& limits)
+{
+    const rlimit memory{inheritedBytes() + limits.memoryBytes, inheritedBytes() + limits.memoryBytes};
+    ::setrlimit(RLIMIT_AS, &memory);
+    // SIGXCPU at the soft limit ends the child; the hard limit one second later is SIGKILL's backstop.
+    const rlimit cpu{static_cast<rlim_t>(limits.cpuSeconds), static_cast<rlim_t>(limits.cpuSeconds) + 1};
+    ::setrlimit(RLIMIT_CPU, &cpu);
+}
+
+void writeError(Writer& w, ErrorKind kind, const std::string& message)
+{
+    w.bytes().clear();
+    w.number(Outcome::error);
+    w.number(kind);
+    w.text(message);
+}
+
 // The child: the reader's clip or its error, as bytes on `fd`; never returns.
-[[noreturn]] void runChild(const std::function<SkeletalClip()>& read, int fd, int output)
+[[noreturn]] void runChild(const std::function<SkeletalClip()>& read, const std::string& file,
+                           const ChildLimits& limits, int fd, int output)
 {
     // What assimp prints (its failed assertions) goes to the parent's file, not the user's terminal.
     ::dup2(output, STDOUT_FILENO);
     ::dup2(output, STDERR_FILENO);
+    limitChild(limits);
     Writer w;
     try {
         writeClip(w, read());
     }
+    catch (const std::bad_alloc&) {
+        writeError(w, ErrorKind::userInput,
+                   fmt::format("{}: assimp needed more than its {} MB to read it; the file is damaged or declares "
+                               "more than it holds",
+                               file, limits.memoryBytes / megabyte));
+    }
     catch (const Error& e) {
-        w.bytes().clear();
-        w.number(Outcome::error);
-        w.number(e.kind());
-        w.text(e.what());
+        writeError(w, e.kind(), e.what());
     }
     catch (const std::exception& e) {
-        w.bytes().clear();
-        w.number(Outcome::error);
-        w.number(ErrorKind::userInput);
-        w.text(fmt::format("assimp failed: {}", oneLine(e.what(), 200)));
+        writeError(w, ErrorKind::userInput, fmt::format("assimp failed: {}", oneLine(e.what(), 200)));
     }
     writeAll(fd, w.bytes());
     ::_exit(0);
 }
 
 // Why the child stopped, for a user: the first line it printed (assimp's failed assertion), else the signal.
-std::string childFailure(int status, std::FILE* output)
+std::string childFailure(int status, std::FILE* output, const ChildLimits& limits)
 {
+    if (WIFSIGNALED(status) && WTERMSIG(status) == SIGXCPU)
+        return fmt::format("past its limit of {} s of CPU time", limits.cpuSeconds);
     std::string printed;
     std::rewind(output);
     for (int c = std::fgetc(output); c != EOF && c != '\n' && printed.size() < 300; c = std::fgetc(output))
@@ -216,7 +252,14 @@ std::string childFailure(int status, std::FILE* output)
 
 }  // namespace
 
-SkeletalClip readClipIsolated(const std::function<SkeletalClip()>& read, const std::string& file)
+ChildLimits childLimitsFor(std::size_t bytes)
+{
+    constexpr std::size_t baseMemory = std::size_t{2} << 30;
+    return {baseMemory + 32 * bytes, 60 + static_cast<int>(bytes / megabyte)};
+}
+
+SkeletalClip readClipIsolated(const std::function<SkeletalClip()>& read, const std::string& file,
+                              const ChildLimits& limits)
 {
     const std::unique_ptr<std::FILE, int (*)(std::FILE*)> output(std::tmpfile(), &std::fclose);
     int fds[2];
@@ -230,7 +273,7 @@ SkeletalClip readClipIsolated(const std::function<SkeletalClip()>& read, const s
         throw Error(fmt::format("{}: cannot start the reader's process ({}); check the system's limits", file,
                                 std::strerror(errno)));
     }
-    if (pid == 0) runChild(read, fds[1], ::fileno(output.get()));
+    if (pid == 0) runChild(read, file, limits, fds[1], ::fileno(output.get()));
     ::close(fds[1]);
     const std::string bytes = readAll(fds[0]);
     ::close(fds[0]);
@@ -251,7 +294,7 @@ SkeletalClip readClipIsolated(const std::function<SkeletalClip()>& read, const s
         }
     }
     throw Error(fmt::format("{}: assimp stopped while reading it ({}); the file is damaged, or assimp cannot read it",
-                            file, childFailure(status, output.get())));
+                            file, childFailure(status, output.get(), limits)));
 }
 
 }  // namespace rig

@@ -7,7 +7,9 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <numbers>
+#include <vector>
 
 #include <fmt/format.h>
 #include <Eigen/Core>
@@ -17,6 +19,7 @@
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
 #include "nodes/clips/assimp_clip.h"
+#include "nodes/clips/clip_isolation.h"
 #include "nodes/clips/target_clip.h"
 #include "test_support.h"
 
@@ -235,4 +238,31 @@ nodes:
             CHECK(both->getValue(both->plug(fmt::format("a.{}", output))) ==
                   both->getValue(both->plug(fmt::format("b.{}", output))));
     }
+}
+
+TEST_CASE("assimp clips: the reader's process stops at its memory and CPU limits, each in one line")
+{
+    // Address space is what the limit counts, so the reader reserves without touching: no memory is used.
+    const rig::ChildLimits small{std::size_t{64} << 20, 1};
+    const auto greedy = [] {
+        std::vector<std::unique_ptr<char[]>> blocks;
+        for (int i = 0; i < 64; ++i) blocks.emplace_back(new char[std::size_t{16} << 20]);
+        return rig::SkeletalClip{};
+    };
+    CHECK_THROWS_WITH_AS(rig::readClipIsolated(greedy, "greedy.dae", small),
+                         "greedy.dae: assimp needed more than its 64 MB to read it; the file is damaged or declares "
+                         "more than it holds",
+                         rig::Error);
+    const auto endless = [] {
+        volatile double x = 0.0;
+        for (;;) x = x + 1.0;
+        return rig::SkeletalClip{};
+    };
+    CHECK_THROWS_WITH_AS(rig::readClipIsolated(endless, "endless.fbx", small),
+                         "endless.fbx: assimp stopped while reading it (past its limit of 1 s of CPU time); the "
+                         "file is damaged, or assimp cannot read it",
+                         rig::Error);
+    const rig::ChildLimits big = rig::childLimitsFor(std::size_t{100} << 20);
+    CHECK(big.memoryBytes == (std::size_t{2} << 30) + (std::size_t{3200} << 20));
+    CHECK(big.cpuSeconds == 160);
 }
