@@ -114,13 +114,22 @@ window.ReportKit = (function () {
     var above = new THREE.OrthographicCamera(-1, 1, 1, -1, -1e6, 1e6);
     // Far enough for the whole box to fit the field of view.
     var v = {renderer: renderer, scene: scene, center: center, size: size, top: false, zoom: 1,
-             azimuth: 0.7, elevation: 0.25, distance: 0.6 * size / Math.tan(perspective.fov * Math.PI / 360)};
+             azimuth: 0.7, elevation: 0.25, distance: 0, box: box};
+    // Looks at another box: around it, or from above its whole ground extent.
+    v.fit = function (b) {
+      v.box = b;
+      b.getCenter(v.center);
+      var s = Math.max(1, b.getSize(new THREE.Vector3()).length());
+      v.distance = 0.6 * s / Math.tan(perspective.fov * Math.PI / 360);
+    };
+    v.fit(box);
     v.render = function () {
       var w = element.clientWidth, h = element.clientHeight;
       if (renderer.domElement.width !== w || renderer.domElement.height !== h) renderer.setSize(w, h);
       var camera = perspective;
       if (v.top) {
-        var half = 0.55 * size / v.zoom, aspect = w / Math.max(1, h);
+        var aspect = w / Math.max(1, h), extent = v.box.getSize(new THREE.Vector3());
+        var half = 0.55 * Math.max(1, extent.z, extent.x / aspect) / v.zoom;
         above.left = -half * aspect; above.right = half * aspect; above.top = half; above.bottom = -half;
         above.position.set(v.center.x, v.center.y + size, v.center.z);
         above.up.set(0, 0, -1);
