@@ -330,10 +330,10 @@ void CrowdReport::record(Graph& graph, double frame)
 
 Json CrowdReport::characterJson(const Character& c) const
 {
+    std::vector<int> frames(statusNames_.size(), 0);
+    for (const auto& s : c.status) ++frames.at(s.get<std::size_t>());
     Json counts = Json::object();
-    for (const auto& name : statusNames_) counts[name] = 0;
-    for (const auto& s : c.status)
-        counts[statusNames_.at(s.get<std::size_t>())] = counts[statusNames_.at(s.get<std::size_t>())].get<int>() + 1;
+    for (std::size_t i = 0; i < statusNames_.size(); ++i) counts[statusNames_[i]] = frames[i];
     double worst = 0.0;
     for (const auto& w : c.worst)
         if (w.is_number()) worst = std::max(worst, w.get<double>());
