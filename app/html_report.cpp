@@ -1,66 +1,22 @@
 #include "app/html_report.h"
 
 #include <algorithm>
-#include <cctype>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
-#include <fstream>
-#include <sstream>
 
 #include <fmt/format.h>
 
-#include "core/error.h"
 #include "inversion/rig_binding.h"
 
 namespace rig::app {
 namespace {
 
-// The page around its three parts: the title, three.js and the data.
-constexpr std::string_view pageHead = R"page(<!DOCTYPE html>
-<html lang="en">
-<head>
-<meta charset="utf-8">
-<title>@TITLE@</title>
-<style>
-body { margin: 0; background: #16181d; color: #d8dce4; font: 13px sans-serif; }
-header { padding: 6px 10px; }
-header b { color: #fff; }
-#main { display: flex; height: 58vh; }
-#view { flex: 2; position: relative; min-width: 200px; overflow: hidden; }
-#view canvas { display: block; }
-#legend { position: absolute; left: 8px; bottom: 6px; font-size: 12px; }
-#legend span { display: inline-block; width: 120px; height: 8px; margin: 0 6px;
-  background: linear-gradient(to right, #2ecc40, #ffdc00, #ff4136); }
-#side { flex: 1; display: flex; flex-direction: column; min-width: 200px; padding: 0 6px; }
-#side select { margin: 4px 0; background: #23262e; color: #d8dce4; border: 1px solid #444; }
-#curve { flex: 1; width: 100%; }
+// The page's own style: the curve panel and the timeline.
+constexpr std::string_view pageStyle = R"page(#curve { flex: 1; width: 100%; }
 #timeline { width: 100%; height: 110px; display: block; }
-#controls { display: flex; align-items: center; padding: 4px 10px; gap: 10px; }
-#scrub { flex: 1; }
-#frame { min-width: 190px; font-variant-numeric: tabular-nums; }
-#status { display: none; }
-</style>
-<script>
-window.reportErrors = [];
-window.addEventListener('error', function (e) {
-  window.reportErrors.push(String(e.message || e));
-  if (window.reportStatus) window.reportStatus();
-});
-</script>
-<script>
 )page";
 
-constexpr std::string_view pageMiddle = R"page(
-</script>
-<script id="report-data" type="application/json">
-)page";
-
-constexpr std::string_view pageTail = R"page(
-</script>
-</head>
-<body>
-<header id="summary"></header>
+// The page's elements and script (drawing with ReportKit, app/report_page.h).
+constexpr std::string_view pageBody = R"page(<header id="summary"></header>
 <div id="main">
   <div id="view"><div id="legend"></div></div>
   <div id="side"><select id="control"></select><canvas id="curve"></canvas></div>
@@ -73,29 +29,12 @@ constexpr std::string_view pageTail = R"page(
 <script>
 (function () {
   'use strict';
-  var data = JSON.parse(document.getElementById('report-data').textContent);
+  var kit = window.ReportKit, $ = kit.$, fmt = kit.fmt, esc = kit.esc;
+  var data = kit.data();
   var n = data.frames.length;
-  var status = {ok: false, errors: window.reportErrors, frames: n, drawn: false, pixels: 0, view: null};
-  window.reportStatus = function () {
-    status.ok = status.errors.length === 0 && status.drawn;
-    document.getElementById('status').textContent = JSON.stringify(status);
-  };
-  var $ = function (id) { return document.getElementById(id); };
-  var fmt = function (x, d) { return x === null ? '-' : Number(x).toFixed(d); };
+  var status = kit.status({frames: n});
 
-  // Colour of an error: green at 0, yellow at half the scale, red at the scale and beyond.
   var scale = Math.max(1e-6, Math.max.apply(null, data.worst.map(function (x) { return x || 0; })));
-  function errorColor(e, color) {
-    var t = Math.min(1, Math.max(0, (e || 0) / scale));
-    return t < 0.5 ? color.setRGB(0.18 + 1.64 * t, 0.8 + 0.12 * t, 0.25 - 0.5 * t)
-                   : color.setRGB(1, 0.86 - 1.2 * (t - 0.5), 0.21 * (t - 0.5) * 2);
-  }
-
-  var esc = function (text) {
-    return String(text).replace(/[&<>"]/g, function (c) {
-      return {'&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;'}[c];
-    });
-  };
   var summary = '<b>' + esc(data.clip_name) + '</b> on <b>' + esc(data.rig_name) + '</b> with ' +
       esc(data.approximation_name) + ': ' + n + ' frames (' +
       data.frames[0] +
@@ -109,96 +48,12 @@ constexpr std::string_view pageTail = R"page(
   $('legend').innerHTML = 'joint error 0<span></span>' + fmt(scale, 2) + ' cm';
 
   // The 3D view: the targets' skeleton (grey) and the rig's joints (coloured by error) and bones (white).
-  var view = $('view');
-  var renderer = new THREE.WebGLRenderer({antialias: true});
-  renderer.setPixelRatio(1);
-  renderer.setSize(view.clientWidth, view.clientHeight);
-  view.insertBefore(renderer.domElement, view.firstChild);
-  var scene = new THREE.Scene();
-  scene.background = new THREE.Color(0x20232a);
-  var camera = new THREE.PerspectiveCamera(40, view.clientWidth / view.clientHeight, 0.1, 1e6);
-
-  var box = new THREE.Box3();
-  data.target.positions.forEach(function (p) {
-    for (var j = 0; j + 2 < p.length; j += 3)
-      if (p[j] !== null) box.expandByPoint(new THREE.Vector3(p[j], p[j + 1], p[j + 2]));
-  });
-  if (box.isEmpty()) box.expandByPoint(new THREE.Vector3(0, 0, 0));
-  var center = box.getCenter(new THREE.Vector3());
-  var size = Math.max(1, box.getSize(new THREE.Vector3()).length());
-  var grid = new THREE.GridHelper(size * 1.5, 20, 0x555a66, 0x33363f);
-  grid.position.set(center.x, box.min.y, center.z);
-  scene.add(grid);
-
-  var sphere = new THREE.SphereBufferGeometry(1, 12, 8);
-  function joints(count, radius, color) {
-    var out = [];
-    for (var j = 0; j < count; ++j) {
-      var mesh = new THREE.Mesh(sphere, new THREE.MeshBasicMaterial({color: color}));
-      mesh.scale.setScalar(radius);
-      scene.add(mesh);
-      out.push(mesh);
-    }
-    return out;
-  }
-  function bones(parents, color) {
-    var pairs = [];
-    parents.forEach(function (p, j) { if (p >= 0) pairs.push([p, j]); });
-    var geometry = new THREE.BufferGeometry();
-    geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(pairs.length * 6), 3));
-    var lines = new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({color: color}));
-    scene.add(lines);
-    return {pairs: pairs, lines: lines};
-  }
-  function place(meshes, skeleton, p) {
-    meshes.forEach(function (m, j) {
-      m.visible = p[3 * j] !== null;
-      if (m.visible) m.position.set(p[3 * j], p[3 * j + 1], p[3 * j + 2]);
-    });
-    var a = skeleton.lines.geometry.attributes.position;
-    skeleton.pairs.forEach(function (pair, k) {
-      for (var e = 0; e < 2; ++e)
-        for (var c = 0; c < 3; ++c) a.array[6 * k + 3 * e + c] = p[3 * pair[e] + c] || 0;
-    });
-    a.needsUpdate = true;
-  }
-  var targetJoints = joints(data.target.joints.length, size * 0.006, 0x8a96aa);
-  var targetBones = bones(data.target.parents, 0x5f6b80);
-  var rigJoints = joints(data.rig.joints.length, size * 0.009, 0xffffff);
-  var rigBones = bones(data.rig.parents, 0xf0f0f0);
-
-  // Far enough for the clip's whole box to fit the field of view.
-  var azimuth = 0.7, elevation = 0.25, distance = 0.6 * size / Math.tan(camera.fov * Math.PI / 360);
-  // The view follows its box (a window resized, the page laid out again).
-  function fitView() {
-    var w = view.clientWidth, h = view.clientHeight;
-    if (renderer.domElement.width === w && renderer.domElement.height === h) return;
-    renderer.setSize(w, h);
-    camera.aspect = w / h;
-    camera.updateProjectionMatrix();
-  }
-  window.addEventListener('resize', function () { show(current); });
-  function placeCamera() {
-    camera.position.set(center.x + distance * Math.cos(elevation) * Math.sin(azimuth),
-                        center.y + distance * Math.sin(elevation),
-                        center.z + distance * Math.cos(elevation) * Math.cos(azimuth));
-    camera.lookAt(center);
-  }
-  var drag = null;
-  renderer.domElement.addEventListener('mousedown', function (e) { drag = [e.clientX, e.clientY]; });
-  window.addEventListener('mouseup', function () { drag = null; });
-  window.addEventListener('mousemove', function (e) {
-    if (!drag) return;
-    azimuth -= 0.01 * (e.clientX - drag[0]);
-    elevation = Math.max(-1.4, Math.min(1.4, elevation + 0.01 * (e.clientY - drag[1])));
-    drag = [e.clientX, e.clientY];
-    show(current);
-  });
-  renderer.domElement.addEventListener('wheel', function (e) {
-    e.preventDefault();
-    distance *= Math.exp(0.001 * e.deltaY);
-    show(current);
-  });
+  var view = kit.view($('view'), kit.box(data.target.positions), function () { show(current); });
+  var size = view.size;
+  var targetJoints = kit.joints(view.scene, data.target.joints.length, size * 0.006, 0x8a96aa);
+  var targetBones = kit.bones(view.scene, data.target.parents, 0x5f6b80);
+  var rigJoints = kit.joints(view.scene, data.rig.joints.length, size * 0.009, 0xffffff);
+  var rigBones = kit.bones(view.scene, data.rig.parents, 0xf0f0f0);
 
   // Plots on 2D canvases sized to their box.
   function canvas2d(id) {
@@ -297,114 +152,33 @@ constexpr std::string_view pageTail = R"page(
     cursor(g, f, box);
   }
 
-  var scrub = $('scrub');
-  scrub.max = n - 1;
   var current = 0;
   var color = new THREE.Color();
+  var scrubTo = kit.playback(n, data.fps, show, function () { return current; });
   function show(f) {
     current = f;
-    place(targetJoints, targetBones, data.target.positions[f]);
-    place(rigJoints, rigBones, data.rig.positions[f]);
-    rigJoints.forEach(function (m, j) { errorColor(data.rig.errors[f][j], m.material.color); });
-    fitView();
-    placeCamera();
-    renderer.render(scene, camera);
-    scrub.value = f;
+    kit.place(targetJoints, targetBones, data.target.positions[f]);
+    kit.place(rigJoints, rigBones, data.rig.positions[f]);
+    rigJoints.forEach(function (m, j) { kit.errorColor(data.rig.errors[f][j], scale, m.material.color); });
+    view.render();
+    scrubTo(f);
     var text = 'frame ' + data.frames[f] + ': worst ' + fmt(data.worst[f], 3) + ' cm';
     if (data.keyed) text += ', keyed ' + fmt(data.keyed.error_cm[f], 3) + ' cm';
     $('frame').textContent = text;
     drawTimeline(f);
     drawCurve(f);
   }
-  scrub.addEventListener('input', function () { show(Number(scrub.value)); });
   $('timeline').addEventListener('click', function (e) {
     var box = plotBox($('timeline').getContext('2d'));
     var t = (e.offsetX - box.x) / box.w;
     show(Math.max(0, Math.min(n - 1, Math.round(t * (n - 1)))));
   });
 
-  var playing = false, start = 0, startFrame = 0;
-  function tick(time) {
-    if (!playing) return;
-    var f = startFrame + Math.floor((time - start) / 1000 * data.fps);
-    show(f % n);
-    requestAnimationFrame(tick);
-  }
-  $('play').addEventListener('click', function () {
-    playing = !playing;
-    $('play').textContent = playing ? 'Pause' : 'Play';
-    if (playing) {
-      startFrame = current;
-      requestAnimationFrame(function (t) { start = t; tick(t); });
-    }
-  });
-
   show(0);
-  // What the 3D view shows, read back from the frame just drawn: pixels unlike the background.
-  var gl = renderer.getContext();
-  var w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
-  var pixels = new Uint8Array(w * h * 4);
-  gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
-  var lit = 0;
-  for (var i = 0; i < pixels.length; i += 4)
-    if (Math.abs(pixels[i] - 0x20) + Math.abs(pixels[i + 1] - 0x23) + Math.abs(pixels[i + 2] - 0x2a) > 24) ++lit;
-  var rect = renderer.domElement.getBoundingClientRect();
-  status.pixels = lit;
-  status.view = [Math.round(rect.left), Math.round(rect.top), Math.round(rect.width), Math.round(rect.height)];
-  status.drawn = true;
-  window.reportStatus();
+  kit.drawn(status, view);
 })();
 </script>
-</body>
-</html>
 )page";
-
-std::string htmlEscape(std::string_view text)
-{
-    std::string out;
-    for (const char c : text) {
-        if (c == '&') out += "&amp;";
-        else if (c == '<') out += "&lt;";
-        else if (c == '>') out += "&gt;";
-        else if (c == '"') out += "&quot;";
-        else out += c;
-    }
-    return out;
-}
-
-// JavaScript that cannot end its <script> element early: "</script" (any case) becomes "<\/script", which
-// means the same inside a string or a regular expression, the only places it can be.
-std::string scriptSafe(std::string text)
-{
-    std::string lower = text;
-    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return std::tolower(c); });
-    for (std::size_t at = lower.find("</script"); at != std::string::npos; at = lower.find("</script", at + 1))
-        text.replace(at + text.size() - lower.size(), 2, "<\\/");
-    return text;
-}
-
-// JSON that cannot end its <script> element or open a comment in it: every '<' (only ever inside a string)
-// written \u003c.
-std::string jsonInScript(const std::string& json)
-{
-    std::string out;
-    for (const char c : json) {
-        if (c == '<') out += "\\u003c";
-        else out += c;
-    }
-    return out;
-}
-
-// Rounded to 0.001 (cm, degrees): what the page can show, at a fraction of the size.
-Json rounded(double x) { return std::isfinite(x) ? numberJson(std::round(x * 1000.0) / 1000.0) : Json(); }
-
-Json positions(const std::vector<Eigen::Matrix4d>& worlds)
-{
-    Json out = Json::array();
-    for (const auto& w : worlds)
-        for (int c = 0; c < 3; ++c) out.push_back(rounded(w(c, 3)));
-    return out;
-}
 
 // The rig's joints are the approximation's outputs; their bones, the rig's parent outputs.
 Json rigSkeleton(const InvertOutcome& outcome)
@@ -447,9 +221,9 @@ FramePositions framePositions(const InvertOutcome& outcome, const std::vector<st
     FramePositions out;
     for (std::size_t f = 0; f < outcome.values.size(); ++f) {
         const auto& targets = outcome.clip.worlds[static_cast<std::size_t>(outcome.first) + f];
-        out.target.push_back(positions(targets));
+        out.target.push_back(positionsJson(targets));
         binding.evaluate(shown[f], worlds);
-        out.rig.push_back(positions(worlds));
+        out.rig.push_back(positionsJson(worlds));
         Json frameErrors = Json::array();
         double frameWorst = 0.0;
         for (std::size_t o = 0; o < worlds.size(); ++o) {
@@ -460,11 +234,11 @@ FramePositions framePositions(const InvertOutcome& outcome, const std::vector<st
             }
             const double e =
                 (worlds[o].block<3, 1>(0, 3) - targets[static_cast<std::size_t>(j)].block<3, 1>(0, 3)).norm();
-            frameErrors.push_back(rounded(e));
+            frameErrors.push_back(roundedJson(e));
             if (std::isfinite(e)) frameWorst = std::max(frameWorst, e);
         }
         out.errors.push_back(std::move(frameErrors));
-        out.worst.push_back(rounded(frameWorst));
+        out.worst.push_back(roundedJson(frameWorst));
     }
     return out;
 }
@@ -479,12 +253,12 @@ Json controlCurves(const InvertOutcome& outcome, const KeysOutcome* keys)
         const RigParameter& parameter = a.parameters[p].parameter;
         Json dense = Json::array(), keyed = Json::array(), keyList = Json::array();
         for (std::size_t f = 0; f < outcome.values.size(); ++f) {
-            dense.push_back(rounded(parameterUserValue(parameter, outcome.values[f][p])));
-            if (keys) keyed.push_back(rounded(parameterUserValue(parameter, keys->keyed.values[f][p])));
+            dense.push_back(roundedJson(parameterUserValue(parameter, outcome.values[f][p])));
+            if (keys) keyed.push_back(roundedJson(parameterUserValue(parameter, keys->keyed.values[f][p])));
         }
         if (keys)
             for (const AnimKey& k : keys->keyed.keys[p])
-                keyList.push_back({numberJson(k.x), rounded(parameterUserValue(parameter, k.y))});
+                keyList.push_back({numberJson(k.x), roundedJson(parameterUserValue(parameter, k.y))});
         controls.push_back({{"name", parameter.name},
                             {"unit", parameter.angular ? "deg" : ""},
                             {"dense", std::move(dense)},
@@ -499,7 +273,7 @@ Json keyedSummary(const KeysOutcome* keys)
 {
     if (!keys) return Json();
     Json errorCm = Json::array();
-    for (const double e : keys->keyed.error.positionCm) errorCm.push_back(rounded(e));
+    for (const double e : keys->keyed.error.positionCm) errorCm.push_back(roundedJson(e));
     return {{"keys", keys->keyed.keyCount()},
             {"dense_keys", keys->denseKeys},
             {"reduction", numberJson(keys->reduction())},
@@ -533,26 +307,11 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
 
 }  // namespace
 
-std::string readThreeJs(const std::filesystem::path& file)
-{
-    std::ifstream in(file, std::ios::binary);
-    std::ostringstream text;
-    if (in) text << in.rdbuf();
-    if (!in || in.bad() || text.str().empty())
-        throw Error(
-            fmt::format("--html: cannot read three.js at {} ({}); install Debian's libjs-three "
-                        "(scripts/setup.sh does)",
-                        file.string(), in ? "empty" : std::strerror(errno)));
-    return text.str();
-}
-
 std::string htmlReport(const InvertOutcome& outcome, const KeysOutcome* keys, const HtmlReportNames& names,
                        const std::string& threeJs)
 {
-    std::string head(pageHead);
-    head.replace(head.find("@TITLE@"), 7, htmlEscape(fmt::format("rig-invert: {} on {}", names.clip, names.rig)));
-    return head + scriptSafe(threeJs) + std::string(pageMiddle) +
-           jsonInScript(jsonText(reportData(outcome, keys, names))) + std::string(pageTail);
+    return reportPage(fmt::format("rig-invert: {} on {}", names.clip, names.rig), pageStyle, threeJs,
+                      reportData(outcome, keys, names), pageBody);
 }
 
 }  // namespace rig::app

@@ -95,26 +95,6 @@ std::string readBytes(const std::filesystem::path& file)
     return s.str();
 }
 
-// The nearest ancestor of `node` among the outputs: up worldMatrix -> parentMatrix connections, through
-// transforms and joints that are not outputs. Anything else feeding a parentMatrix ends the walk.
-int parentOutput(const Graph& g, NodeId node, const std::map<NodeId, int>& outputOfNode)
-{
-    std::set<NodeId> visited{node};
-    while (true) {
-        const auto& attributes = g.attributes(node);
-        const auto it = std::find_if(attributes.begin(), attributes.end(),
-                                     [](const AttributeSpec& a) { return a.name == "parentMatrix"; });
-        if (it == attributes.end()) return -1;
-        const Connection* c = g.incomingConnection({node, static_cast<AttrId>(it - attributes.begin()), -1, -1});
-        if (!c || g.spec(c->source).name != "worldMatrix") return -1;
-        node = c->source.node;
-        if (!visited.insert(node).second) return -1;
-        if (const auto out = outputOfNode.find(node); out != outputOfNode.end()) return out->second;
-        const std::string& type = g.nodeType(node).name();
-        if (type != "joint" && type != "transform") return -1;
-    }
-}
-
 // A held plug's value as the graph stores it (internal units, the plug's own type). `refuse(reason,
 // advice)` throws for a value the plug cannot hold.
 template <class Refuse>
@@ -409,6 +389,24 @@ std::vector<char> reachable(const GraphModel& m, const std::vector<NodeId>& star
 }
 
 }  // namespace
+
+int parentOutput(const Graph& g, NodeId node, const std::map<NodeId, int>& outputOfNode)
+{
+    std::set<NodeId> visited{node};
+    while (true) {
+        const auto& attributes = g.attributes(node);
+        const auto it = std::find_if(attributes.begin(), attributes.end(),
+                                     [](const AttributeSpec& a) { return a.name == "parentMatrix"; });
+        if (it == attributes.end()) return -1;
+        const Connection* c = g.incomingConnection({node, static_cast<AttrId>(it - attributes.begin()), -1, -1});
+        if (!c || g.spec(c->source).name != "worldMatrix") return -1;
+        node = c->source.node;
+        if (!visited.insert(node).second) return -1;
+        if (const auto out = outputOfNode.find(node); out != outputOfNode.end()) return out->second;
+        const std::string& type = g.nodeType(node).name();
+        if (type != "joint" && type != "transform") return -1;
+    }
+}
 
 std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<NodeId>& outputs,
                                     const std::vector<Plug>& parameterPlugs)

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <span>
 #include <string>
@@ -145,6 +146,12 @@ private:
 // connections node to node. In name order.
 std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<NodeId>& outputs,
                                     const std::vector<Plug>& parameterPlugs);
+
+// The nearest ancestor of `node` among the nodes of `outputOfNode` (its value: the output's index): up
+// worldMatrix -> parentMatrix connections, through transforms and joints that are not outputs; -1 when anything
+// else feeds a parentMatrix. The outputs' hierarchy (GraphRigFunction::outputParents, graph-eval --html's
+// skeletons).
+int parentOutput(const Graph& g, NodeId node, const std::map<NodeId, int>& outputOfNode);
 
 // FNV-1a 64 of bytes, continuing from `hash` (start: the FNV offset basis).
 std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t hash = 0xcbf29ce484222325ull);

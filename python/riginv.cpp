@@ -306,9 +306,15 @@ public:
         return g;
     }
 
-    py::dict evaluate(const py::object& get, const py::object& setArgument, const py::object& frames)
+    py::dict evaluate(const py::object& get, const py::object& setArgument, const py::object& frames, int threads)
     {
         Graph& graph = *graph_;
+        if (threads < 0)
+            throw Error(
+                fmt::format("threads: {} is negative; give 0 (every core) or a thread count, as graph-eval "
+                            "--threads",
+                            threads));
+        graph.setThreads(threads);
         const auto set = dictArgument(setArgument, "set");
         if (set)
             for (const auto& [key, value] : *set) {
@@ -732,13 +738,16 @@ PYBIND11_MODULE(riginv, m)
                     "Loads a rig file (docs/rig-format.md) after the built-in node types and the plugins named "
                     "(as graph-eval --plugin). Raises riginv.Error with graph-eval's message for a bad file.")
         .def("evaluate", &PyGraph::evaluate, py::arg("get") = py::none(), py::arg("set") = py::none(),
-             py::arg("frames") = py::none(),
-             "Sets plugs, evaluates and returns {plug name: NumPy array}, as graph-eval --set/--get/--frames.\n\n"
+             py::arg("frames") = py::none(), py::kw_only(), py::arg("threads") = 1,
+             "Sets plugs, evaluates and returns {plug name: NumPy array}, as graph-eval --set/--get/--frames/"
+             "--threads.\n\n"
              "get: plug names or globs ('*.worldMatrix'); None: every output plug.\n"
              "set: {plug: value}, values as in a rig file (degrees for angles, cm; [x, y, z]; a 4x4 matrix as "
              "rows; enum names); they stay set on the graph.\n"
              "frames: None (the current time, one frame), 'A:B[:STEP]', or a list of frame numbers; the scene "
              "time is set to each.\n"
+             "threads: evaluation threads, as graph-eval --threads (1 serial, N parallel, 0 every core); the values "
+             "do not depend on it (a crowd's characters evaluate in parallel, docs/crowds.md).\n"
              "Arrays are in user units: (F,) for numbers (float64; int64 for whole numbers and enum indices; bool), "
              "(F, 3) for vectors, (F, 4, 4) for matrices (translation in the last column), (F, N) and (F, N, 4, 4) "
              "for arrays, a list of F strings for strings.")

@@ -30,14 +30,18 @@ class Graph:
         get: Union[None, str, Sequence[str]] = None,
         set: Optional[Mapping[str, Any]] = None,
         frames: Union[None, str, Iterable[float]] = None,
+        *,
+        threads: int = 1,
     ) -> dict[str, Any]:
-        """Sets plugs, evaluates and returns {plug name: NumPy array}, as graph-eval --set/--get/--frames.
+        """Sets plugs, evaluates and returns {plug name: NumPy array}, as graph-eval --set/--get/--frames/--threads.
 
         get: plug names or globs ('*.worldMatrix'); None: every output plug.
         set: {plug: value}, values as in a rig file (degrees for angles, cm; [x, y, z]; a 4x4 matrix as
         rows; enum names); they stay set on the graph.
         frames: None (the current time, one frame), 'A:B[:STEP]', or a list of frame numbers; the scene
         time is set to each.
+        threads: evaluation threads, as graph-eval --threads (1 serial, N parallel, 0 every core); the values
+        do not depend on it (a crowd's characters evaluate in parallel, docs/crowds.md).
         Arrays are in user units: (F,) for numbers (float64; int64 for whole numbers and enum indices;
         bool), (F, 3) for vectors, (F, 4, 4) for matrices (translation in the last column), (F, N) and
         (F, N, 4, 4) for arrays, a list of F strings for strings."""

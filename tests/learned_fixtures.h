@@ -74,4 +74,19 @@ inline std::filesystem::path bipedApproximation()
     return file;
 }
 
+// The look-at crowd of `count` bipeds (docs/crowds.md), scripts/make_crowd.py COUNT in `dir`, with the rig,
+// the learned approximation and the map named by absolute paths.
+inline std::filesystem::path writeCrowd(const std::filesystem::path& dir, int count)
+{
+    const auto source = sourceDir();
+    const std::filesystem::path file = dir / fmt::format("crowd{}.yaml", count);
+    const auto r =
+        run(fmt::format("python3 scripts/make_crowd.py {} --rig '{}' --approximation '{}' --map '{}' -o '{}'", count,
+                        (source / "rigs/biped.yaml").string(), bipedApproximation().string(),
+                        (source / "rigs/maps/cmu_to_biped.yaml").string(), file.string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    return file;
+}
+
 }  // namespace rig::test

@@ -1,5 +1,6 @@
 // graph-eval: evaluates a rig graph file, setting and reading plugs, over a frame range.
 #include <chrono>
+#include <filesystem>
 #include <iostream>
 #include <optional>
 #include <set>
@@ -7,9 +8,11 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "app/crowd_report.h"
 #include "app/eval_run.h"
 #include "app/frame_range.h"
 #include "app/output_file.h"
+#include "app/report_page.h"
 #include "app/value_output.h"
 #include "core/error.h"
 #include "core/table.h"
@@ -37,6 +40,10 @@ struct Options {
     int threads = 1;
     bool stats = false;
     bool check = false;
+    std::string html;  // the crowd's report page
+    bool htmlGiven = false;
+    std::string character;  // the character the page opens on
+    bool characterGiven = false;
 };
 
 void applySet(Graph& graph, const std::string& assignment)
@@ -72,7 +79,7 @@ std::string joinCsv(const std::vector<std::vector<std::string>>& rows)
 }
 
 std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vector<double>& frames, bool useTime,
-                   const Options& options)
+                   const Options& options, app::CrowdReport* crowd)
 {
     std::string out;
     std::vector<std::vector<std::string>> table;
@@ -87,6 +94,7 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
     std::size_t framesDone = 0;
     for (double frame : frames) {
         const std::vector<Value> values = app::evaluateFrame(graph, options.rig, frame, useTime, plugs, options.check);
+        if (crowd) crowd->record(graph, frame);
         if (options.format == "json") {
             std::vector<std::pair<std::string, app::Json>> named;
             for (std::size_t i = 0; i < plugs.size(); ++i)
@@ -118,13 +126,28 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
     return options.format == "csv" ? out : alignTable(table);
 }
 
+// The flags --html and --character need, and the files they write, checked before any work.
+void checkPageFlags(const Options& options)
+{
+    if (options.characterGiven && !options.htmlGiven)
+        throw Error(
+            fmt::format("--character {}: it chooses the character the crowd page opens on; give --html FILE too",
+                        options.character));
+    if (options.htmlGiven && (options.dot || options.types))
+        throw Error(fmt::format("--html: the crowd page plays the graph; it is not written with {}",
+                                options.dot ? "--dot" : "--types"));
+    if (options.htmlGiven) app::checkOutputFile(options.html, "crowd.html", "--html");
+}
+
 int run(const Options& options)
 {
-    // A bad -o is reported before any work.
-    if (options.outputGiven) {
-        app::checkOutputFile(options.output);
-        app::checkDistinctFiles({{"the rig file", options.rig}, {"--anim", options.anim}}, {{"-o", options.output}});
-    }
+    // A bad -o or --html is reported before any work.
+    checkPageFlags(options);
+    const std::vector<app::NamedFile> outputs{{"-o", options.outputGiven ? options.output : ""},
+                                              {"--html", options.html}};
+    if (options.outputGiven) app::checkOutputFile(options.output);
+    app::checkDistinctFiles({{"the rig file", options.rig}, {"--anim", options.anim}}, outputs);
+    const std::string threeJs = options.htmlGiven ? app::readThreeJs() : std::string();
     const auto registry = app::nodeRegistry(options.plugins);
     // The files the rig includes are inputs too: -o must not be one of them.
     auto load = [&] {
@@ -132,10 +155,10 @@ int run(const Options& options)
         auto graph = loadGraphFile(options.rig, registry, &read);
         std::vector<app::NamedFile> inputs;
         for (const auto& file : read) inputs.push_back({"a file the rig reads", file});
-        if (options.outputGiven) app::checkDistinctFiles(inputs, {{"-o", options.output}});
+        app::checkDistinctFiles(inputs, outputs);
         return graph;
     };
-    std::string text;
+    std::string text, page;
     if (options.types) text = nodeTypeReference(*registry);
     else if (options.rig.empty()) throw Error("no rig file given; usage: graph-eval RIG.yaml [options], or --help");
     else if (options.dot) text = toDot(*load());
@@ -155,10 +178,14 @@ int run(const Options& options)
             std::erase_if(plugs, [&](const Plug& p) {
                 return p.child >= 0 && seen.contains({p.node, p.attr, p.index, -1});
             });
+        std::optional<app::CrowdReport> crowd;
+        if (options.htmlGiven) crowd.emplace(*graph, options.rig);
+        if (options.characterGiven) crowd->open(options.character);
         const auto computesBefore = graph->computeCount();
         const auto start = std::chrono::steady_clock::now();
         const std::vector<double> frames = range ? range->frames() : std::vector<double>{graph->time()};
-        text = render(*graph, plugs, frames, range.has_value(), options);
+        text = render(*graph, plugs, frames, range.has_value(), options, crowd ? &*crowd : nullptr);
+        if (crowd) page = crowd->page(std::filesystem::path(options.rig).filename().string(), threeJs);
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (options.stats)
             std::cerr << fmt::format(
@@ -169,6 +196,7 @@ int run(const Options& options)
     }
     if (!options.outputGiven) std::cout << text;
     else app::writeFileAtomically(options.output, text);
+    if (options.htmlGiven) app::writeFileAtomically(options.html, page);
     return 0;
 }
 
@@ -207,11 +235,18 @@ int main(int argc, char** argv)
     app.add_option("--threads", options.threads, "Evaluation threads: 1 serial, N parallel, 0 all cores")
         ->check(rig::cli::threadCount());
     app.add_flag("--stats", options.stats, "Print node, connection and computation counts and timing to stderr");
+    app.add_option("--html", options.html,
+                   "Write the crowd's report page: each rigInversion node's character, its targets and the crowd "
+                   "from above (docs/crowds.md)");
+    app.add_option("--character", options.character,
+                   "The character the --html page opens on (its namespace, e.g. c0001); default: the crowd");
     app.add_flag("--check", options.check,
                  "Checked mode: after each frame recompute everything from scratch and fail on any difference");
     return rig::cli::runMain(app, argc, argv, [&] {
         options.outputGiven = app.count("--output") > 0;
         options.framesGiven = app.count("--frames") > 0;
+        options.htmlGiven = app.count("--html") > 0;
+        options.characterGiven = app.count("--character") > 0;
         return rig::run(options);
     });
 }

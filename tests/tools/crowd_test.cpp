@@ -22,20 +22,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// scripts/make_crowd.py COUNT with the rig, approximation and map named by absolute paths.
-fs::path writeCrowd(const fs::path& dir, int count)
-{
-    const auto source = rig::test::sourceDir();
-    const fs::path file = dir / fmt::format("crowd{}.yaml", count);
-    const auto r = rig::test::run(
-        fmt::format("python3 scripts/make_crowd.py {} --rig '{}' --approximation '{}' --map '{}' -o '{}'", count,
-                    (source / "rigs/biped.yaml").string(), rig::test::bipedApproximation().string(),
-                    (source / "rigs/maps/cmu_to_biped.yaml").string(), file.string()));
-    INFO(r.err);
-    REQUIRE(r.exitCode == 0);
-    return file;
-}
-
 // Each frame's values of the plugs named `NS.value[i]` (graph-eval JSON), in order, against rig-invert's
 // curves (JSON: "frame" then the controls in the approximation's order).
 void checkSameCurves(const YAML::Node& graph, const std::string& node, const YAML::Node& inverted)
@@ -73,7 +59,7 @@ TEST_CASE("the look-at crowd: each member's curves are rig-invert's on its edite
 {
     if (!fs::exists(rig::test::cmuClip)) return;
     const auto dir = rig::test::scratchDir("crowd-lookat");
-    const fs::path crowd = writeCrowd(dir, 2);
+    const fs::path crowd = rig::test::writeCrowd(dir, 2);
     const fs::path played = dir / "played.json";
     const auto eval = rig::test::run(
         fmt::format("{} '{}' --frames 1:6 --threads 2 --get '*:inverter.target[*]' --get '*:inverter.outputNames' "
@@ -124,7 +110,7 @@ TEST_CASE("rigInversion connect: a namespace the graph lacks is one line naming 
 {
     if (!fs::exists(rig::test::cmuClip)) return;
     const auto dir = rig::test::scratchDir("crowd-namespace");
-    std::string text = rig::test::readFile(writeCrowd(dir, 1));
+    std::string text = rig::test::readFile(rig::test::writeCrowd(dir, 1));
     const std::string from = "parameters: true, namespace: c0000}";
     const auto at = text.find(from);
     REQUIRE(at != std::string::npos);
