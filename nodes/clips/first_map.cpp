@@ -150,11 +150,15 @@ std::vector<int> unmatchedChildren(const RigSkeleton& s, const std::vector<int>&
 
 void matchByHierarchy(const RigSkeleton& clip, const RigSkeleton& rig, Matching& m)
 {
+    // Roots are matched by hierarchy only between skeletons that names already relate.
+    const bool related = std::any_of(m.rigOf.begin(), m.rigOf.end(), [](int r) { return r >= 0; });
     for (bool more = true; more;) {
         more = false;
         for (std::size_t c = 0; c < clip.joints.size(); ++c) {
             const int parent = clip.parents[c];
-            if (m.rigOf[c] >= 0 || (parent >= 0 && m.rigOf[static_cast<std::size_t>(parent)] < 0)) continue;
+            if (m.rigOf[c] >= 0 || (parent < 0 && !related) ||
+                (parent >= 0 && m.rigOf[static_cast<std::size_t>(parent)] < 0))
+                continue;
             const int rigParent = parent < 0 ? -1 : m.rigOf[static_cast<std::size_t>(parent)];
             const auto clipSiblings = unmatchedChildren(clip, m.rigOf, parent);
             const auto rigChildren = unmatchedChildren(rig, m.clipOf, rigParent);
