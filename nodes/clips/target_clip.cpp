@@ -397,16 +397,19 @@ void parseRetarget(const YAML::Node& value, const std::string& file, RetargetSpe
         if (key == "rootScale") {
             spec.rootScaleWhere = where(file, v.IsNull() ? entry.first : v);
             autoScale = v.IsScalar() && v.Scalar() == "auto";
+            double number = 0.0;
             if (autoScale) {
                 spec.rootScale.reset();
-                continue;
-            }
-            if (v.IsNull() || !v.IsScalar())
-                throw Error(fmt::format("{}: rootScale must be 'auto' or a positive number", spec.rootScaleWhere));
-            spec.rootScale = finiteNumber(v, file, "rootScale ('auto' or a positive number)");
-            if (*spec.rootScale <= 0.0)
+            } else if (v.IsScalar() && YAML::convert<double>::decode(v, number) && std::isfinite(number) &&
+                       number > 0.0) {
+                spec.rootScale = number;
+            } else {
                 throw Error(fmt::format("{}: rootScale must be 'auto' or a positive number, got {}",
-                                        spec.rootScaleWhere, *spec.rootScale));
+                                        spec.rootScaleWhere,
+                                        v.IsScalar() ? "'" + messageExcerpt(v.Scalar()) + "'"
+                                        : v.IsNull() ? std::string("nothing")
+                                                     : std::string("a list or map")));
+            }
         } else if (key == "leg") {
             if (!v.IsSequence() || v.size() < 2)
                 throw Error(

@@ -167,8 +167,9 @@ TEST_CASE("retarget and weights mistakes are one line with the map's file:line:c
     CHECK(error("retarget:\n  rootscale: 2\n") ==
           m + ":2:3: unknown key 'rootscale' in 'retarget'; it has 'rootScale:', 'leg:' and 'align:'");
     CHECK(error("retarget:\n  rootScale: big\n") ==
-          m + ":2:14: rootScale ('auto' or a positive number) must be a number, got 'big'");
-    CHECK(error("retarget:\n  rootScale: 0\n") == m + ":2:14: rootScale must be 'auto' or a positive number, got 0");
+          m + ":2:14: rootScale must be 'auto' or a positive number, got 'big'");
+    CHECK(error("retarget:\n  rootScale: 0\n") == m + ":2:14: rootScale must be 'auto' or a positive number, got '0'");
+    CHECK(error("retarget:\n  rootScale:\n") == m + ":2:3: rootScale must be 'auto' or a positive number, got nothing");
     CHECK(error("retarget:\n  rootScale: auto\n") ==
           m + ":2:14: rootScale auto needs 'leg:' in 'retarget' (the rig's joints from hip to ankle, [LeftUpLeg, "
               "LeftLeg, LeftFoot]); add it or give rootScale as a number");
