@@ -121,7 +121,8 @@ void retargetFrame(const std::vector<Eigen::Matrix4d>& clipWorlds, const RigSkel
         const int c = plan.clipOfRig[k];
         const int p = plan.parents[k];
         const Eigen::Matrix4d* source = c >= 0 ? &clipWorlds[static_cast<std::size_t>(c)] : nullptr;
-        if (source && !source->allFinite()) {  // an invalid target stays one
+        // An invalid target stays one, and so do the positions placed from it.
+        if ((source && !source->allFinite()) || (p >= 0 && !out[p].allFinite())) {
             out[k].setConstant(std::numeric_limits<double>::quiet_NaN());
             continue;
         }

@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <filesystem>
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -218,4 +219,37 @@ TEST_CASE("retarget and weights mistakes are one line with the map's file:line:c
     CHECK(retarget("retarget:\n  rootScale: 2\n") ==
           m + ":2:3: clip.bvh has no rest pose to retarget from (world matrices only); give a skeletal clip (BVH, "
               "FBX, glTF, ...) or leave 'retarget:' out");
+}
+
+TEST_CASE("retargeting: a rig joint without a parent takes the clip's; a target that is not finite stays invalid")
+{
+    // A leg of 10 + 10 cm in the clip, 8 + 12 cm on the rig, whose knee is learned in world space (no parent).
+    TargetClip clip;
+    clip.file = "leg.bvh";
+    clip.joints = {"hip", "knee", "ankle"};
+    clip.parents = {-1, 0, 1};
+    for (const double y : {0.0, -10.0, -20.0}) {
+        clip.restWorlds.push_back(Eigen::Matrix4d::Identity());
+        clip.restWorlds.back()(1, 3) = y;
+    }
+    Eigen::Matrix4d bent = Eigen::Matrix4d::Identity();
+    bent.block<3, 3>(0, 0) = eulerToMatrix(Eigen::Vector3d(0.5, 0, 0), RotateOrder::xyz);
+    std::vector<Eigen::Matrix4d> frame{clip.restWorlds[0], bent * clip.restWorlds[1], bent * clip.restWorlds[2]};
+    clip.worlds = {frame, frame};
+    clip.worlds[1][1](0, 0) = std::numeric_limits<double>::quiet_NaN();
+    RigSkeleton rig{clip.joints, clip.restWorlds, {-1, -1, 1}};
+    rig.rest[1](1, 3) = -8.0;
+    TargetMap map;
+    map.retarget.enabled = true;
+    map.retarget.rootScale = 1.0;
+    const TargetClip out = retargetClip(clip, map, rig);
+    const Eigen::Vector3d hip = out.worlds[0][0].block<3, 1>(0, 3), knee = out.worlds[0][1].block<3, 1>(0, 3),
+                          ankle = out.worlds[0][2].block<3, 1>(0, 3);
+    CHECK((knee - hip).norm() == doctest::Approx(8.0).epsilon(1e-14));
+    CHECK((ankle - knee).norm() == doctest::Approx(12.0).epsilon(1e-14));
+    CHECK(orientationAngle(rotation(out.worlds[0][1]), bent.block<3, 3>(0, 0)) < 1e-14);
+    // Frame 2: the knee's matrix is not finite: its target and the ankle's placed from it are invalid.
+    CHECK(out.worlds[1][0].allFinite());
+    CHECK(!out.worlds[1][1].allFinite());
+    CHECK(!out.worlds[1][2].allFinite());
 }
