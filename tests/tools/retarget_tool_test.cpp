@@ -101,6 +101,15 @@ TEST_CASE("retargeting onto the biped: longer legs invert as the clip of the bip
     CHECK(retargeted["max_position_error_cm"].get<double>() ==
           doctest::Approx(original["max_position_error_cm"].get<double>()).epsilon(1e-3));
     CHECK(retargeted["status_frames"] == original["status_frames"]);
+
+    // Weights reach the solve: the hands' rotations, which the biped cannot follow, weighted 0 are not measured.
+    REQUIRE(original["worst_rotation_joint"].get<std::string>().ends_with("Hand"));
+    const auto weightMap =
+        test::writeFile(dir / "weights.yaml",
+                        "scale: 5.644444444444445\nweights:\n  LeftHand: {rotation: 0}\n  RightHand: {rotation: 0}\n");
+    const Json weighted = invert(approximation, "rigs/biped.yaml", test::cmuClip, weightMap.string(), dir);
+    CHECK(!weighted["worst_rotation_joint"].get<std::string>().ends_with("Hand"));
+    CHECK(weighted["max_rotation_error_deg"].get<double>() < original["max_rotation_error_deg"].get<double>());
 }
 
 TEST_CASE("skel2rig --map-for: the first map for CMU onto the biped is rigs/maps/cmu_to_biped.yaml's")
