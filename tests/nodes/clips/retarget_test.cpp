@@ -221,7 +221,7 @@ TEST_CASE("retarget and weights mistakes are one line with the map's file:line:c
               "FBX, glTF, ...) or leave 'retarget:' out");
 }
 
-TEST_CASE("retargeting: a rig joint without a parent takes the clip's; a target that is not finite stays invalid")
+TEST_CASE("retargeting: a rig joint without a parent takes the clip's, and a target that is not finite stays invalid")
 {
     // A leg of 10 + 10 cm in the clip, 8 + 12 cm on the rig, whose knee is learned in world space (no parent).
     TargetClip clip;
