@@ -6,7 +6,8 @@
 //   - a JSON file of matrices as graph-eval writes them: a list of frames, each {"frame": F,
 //     "JOINT.worldMatrix": [[4 numbers] x 4 rows], ...} (column-vector convention, cm; null, graph-eval's
 //     number that is not finite, reads as NaN: the solver reports that frame's target as invalid),
-// renamed, scaled and retargeted by an optional map file (docs/retargeting.md):
+// renamed and scaled by an optional map file (docs/retargeting.md; its `retarget:` and `weights:` need the
+// approximation, and nodes/clips/retarget.h applies them):
 //
 //   scale: 5.644444444          # target units -> cm (a CMU clip: 2.54 / 0.45); 1 by default
 //   joints:                     # target joint -> rig joint; joints not listed keep their names
