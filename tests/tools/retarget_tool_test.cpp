@@ -133,6 +133,25 @@ TEST_CASE("skel2rig --map-for: the first map for CMU onto the biped is rigs/maps
     CHECK(map.weights.empty());
 }
 
+TEST_CASE("skel2rig --map-for: a rig of prefixed names (skel2rig --prefix) is matched by name")
+{
+    if (!fs::exists(test::cmuClip)) return;
+    const auto dir = test::scratchDir("retarget_tool_prefix");
+    const auto rig = dir / "mocap.yaml", out = dir / "map.yaml";
+    REQUIRE(test::run(fmt::format("{} {} --prefix mocap_ -o {}", test::tool("skel2rig"), test::cmuClip.string(),
+                                  rig.string()))
+                .exitCode == 0);
+    const auto r = test::run(fmt::format("{} {} --map-for {} -o {}", test::tool("skel2rig"), test::cmuClip.string(),
+                                         rig.string(), out.string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    const TargetMap map = readTargetMap(out);
+    CHECK(map.rename.size() == 31);
+    CHECK(map.rename.at("LeftUpLeg") == "mocap_LeftUpLeg");
+    CHECK(map.scale == 1.0);
+    CHECK(!map.retarget.enabled);
+}
+
 TEST_CASE("skel2rig --map-for: renamed joints matched by name and hierarchy, other proportions retargeted")
 {
     if (!fs::exists(test::cmuClip)) return;

@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/rotation_math.h"
+#include "nodes/clips/first_map.h"
 #include "nodes/clips/retarget.h"
 #include "nodes/clips/target_clip.h"
 #include "test_support.h"
@@ -252,4 +253,15 @@ TEST_CASE("retargeting: a rig joint without a parent takes the clip's, and a tar
     CHECK(out.worlds[1][0].allFinite());
     CHECK(!out.worlds[1][1].allFinite());
     CHECK(!out.worlds[1][2].allFinite());
+}
+
+TEST_CASE("first maps compare joint names without case, namespace, a shared prefix, separators and side spelling")
+{
+    for (const char* name : {"LeftUpLeg", "L_UpLeg", "upLeg_l", "l_up_leg", "UpLeg.L", "ns:LeftUpLeg", "UpLegLeft"})
+        CHECK(jointKey(name) == "l:upleg");
+    CHECK(jointKey("RThumb") == "r:thumb");
+    CHECK(jointKey("LowerBack") == "lowerback");  // an L before a small letter is no side
+    CHECK(jointKey("Root") == "root");
+    CHECK(jointKey("mocap_LeftArm", "mocap_") == "l:arm");
+    CHECK(jointKey("Bip01 R Forearm", "Bip01 ") == "r:forearm");
 }
