@@ -22,6 +22,7 @@
 #include "core/error.h"
 #include "inversion/continuity.h"
 #include "nodes/clips/assimp_clip.h"
+#include "nodes/clips/retarget.h"
 #include "nodes/graph_rig_function.h"
 
 namespace rig::app {
@@ -373,8 +374,10 @@ std::vector<std::vector<double>> readClips(const InvertJob& base, const Approxim
         try {
             InvertJob one = base;
             one.clip = files[c].string();
-            const TargetClip clip = readTargets(one);
-            matchClipTargets(approximation, clip);
+            TargetMap map;
+            const TargetClip clip = readTargets(one, approximation, &map);
+            ClipTargets targets = matchClipTargets(approximation, clip);
+            applyTargetWeights(targets, map, clip);
             manifest.clips[c].checksum = fileChecksum(files[c], "the clip");
             manifest.clips[c].frames = static_cast<int>(clip.frameNumbers.size());
             frameNumbers[c] = clip.frameNumbers;

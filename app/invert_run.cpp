@@ -14,6 +14,7 @@
 #include "inversion/residual_term.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
+#include "nodes/clips/retarget.h"
 
 namespace rig::app {
 namespace {
@@ -154,10 +155,13 @@ RigBinding bindRig(const InvertJob& job, const Approximation& approximation, Gra
     }
 }
 
-TargetClip readTargets(const InvertJob& job)
+TargetClip readTargets(const InvertJob& job, const Approximation& approximation, TargetMap* mapOut)
 {
     const TargetMap map = job.map.empty() ? TargetMap{} : readTargetMap(job.map);
-    return job.targets ? applyTargetMap(*job.targets, map) : readTargetClip(job.clip, map, job.take);
+    TargetClip clip = job.targets ? applyTargetMap(*job.targets, map) : readTargetClip(job.clip, map, job.take);
+    if (map.retarget.enabled) clip = retargetClip(clip, map, rigSkeleton(approximation));
+    if (mapOut) *mapOut = map;
+    return clip;
 }
 
 ClipTargets matchClipTargets(const Approximation& approximation, const TargetClip& clip)
@@ -191,7 +195,8 @@ InvertOutcome invert(const InvertJob& job)
     InvertOutcome out;
     out.approximation = loaded.approximation;
     const Approximation& approximation = *out.approximation;
-    out.clip = readTargets(job);
+    TargetMap map;
+    out.clip = readTargets(job, approximation, &map);
     const TargetClip& clip = out.clip;
     int last = static_cast<int>(clip.frameNumbers.size()) - 1;
     if (job.frames) std::tie(out.first, last) = frameIndices(clip, *job.frames);
@@ -202,6 +207,7 @@ InvertOutcome invert(const InvertJob& job)
                                     last, clip.frameNumbers.size()));
     }
     out.targets = matchClipTargets(approximation, clip);
+    applyTargetWeights(out.targets, map, clip);
     applyTerm(out.targets, job.settings.term);
     const Solver solver(approximation, options.solver);
     RigBinding bound = bindRig(job, approximation, *loaded.rig);

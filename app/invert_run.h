@@ -87,8 +87,10 @@ struct LoadedRig {
 LoadedRig loadRig(const InvertJob& job);
 // The approximation bound to the rig by names.
 RigBinding bindRig(const InvertJob& job, const Approximation& approximation, GraphRigFunction& rig);
-// The job's targets (job.targets or the clip file), the map applied.
-TargetClip readTargets(const InvertJob& job);
+// The job's targets (job.targets or the clip file), the map applied: renamed, scaled and, with its `retarget:`,
+// retargeted onto the approximation's rest skeleton (nodes/clips/retarget.h). `map`, when given, receives the map
+// (its `weights:` are applied to the matched targets, applyTargetWeights).
+TargetClip readTargets(const InvertJob& job, const Approximation& approximation, TargetMap* map = nullptr);
 // The clip's joints matched to the approximation's outputs; none matching is an error.
 ClipTargets matchClipTargets(const Approximation& approximation, const TargetClip& clip);
 

@@ -10,6 +10,8 @@
 #include "core/error.h"
 #include "nodes/clips/assimp_clip.h"
 #include "nodes/clips/bvh_rig.h"
+#include "nodes/clips/first_map.h"
+#include "nodes/clips/target_clip.h"
 #include "tools/cli_common.h"
 
 namespace rig {
@@ -19,10 +21,29 @@ struct Options {
     std::string clip;
     std::string output;
     BvhRigOptions rig;
+    std::string mapFor;  // write a first map onto this rig instead of a rig
 };
+
+// --map-for: a first map from the clip's skeleton to the rig's joints (nodes/clips/first_map.h).
+int writeMap(const Options& options)
+{
+    app::checkOutputFile(options.output, "map.yaml");
+    app::checkDistinctFiles({{"the clip", options.clip}, {"--map-for", options.mapFor}}, {{"-o", options.output}});
+    const TargetClip clip = readTargetClip(options.clip, TargetMap{}, options.rig.take);
+    const FirstMap map = firstMap({clip.joints, clip.restWorlds, clip.parents}, options.clip,
+                                  rigFileSkeleton(options.mapFor), options.mapFor);
+    app::writeFileAtomically(options.output, map.text);
+    std::cout << fmt::format(
+        "wrote {}: {} joints by the same name, {} by name, {} by hierarchy, {} left for a "
+        "person; scale {:.10g}{}\n",
+        options.output, map.sameName, map.byName, map.byHierarchy, map.unmatched.size(), map.scale,
+        map.retarget ? "; retarget (the proportions or rest poses differ)" : "");
+    return 0;
+}
 
 int run(Options options)
 {
+    if (!options.mapFor.empty()) return writeMap(options);
     // A bad -o is reported before the clip is read.
     app::checkOutputFile(options.output, "rig.yaml");
     app::checkDistinctFiles({{"the clip", options.clip}}, {{"-o", options.output}});
@@ -61,7 +82,10 @@ int main(int argc, char** argv)
             "One joint per skeleton joint (translate = its offset, rotateOrder from the channel order), BVH End\n"
             "Sites as leaf joints <joint>_end. The rig's parameters are the rotate (and, for position channels,\n"
             "translate) plugs the channels set; the file's header comment lists them. See docs/bvh.md and\n"
-            "docs/clips.md.",
+            "docs/clips.md.\n\n"
+            "With --map-for RIG.yaml it writes a map file instead (-o MAP.yaml): the clip's joints matched to the\n"
+            "rig's by name and hierarchy, the scale from the bone lengths, retargeting when the proportions differ,\n"
+            "with comments for a person to check (docs/retargeting.md).",
             name, name),
         name};
     app.add_option("clip", options.clip, "Animation file (BVH, FBX, glTF, Collada, X, ...)")->required();
@@ -72,6 +96,12 @@ int main(int argc, char** argv)
     app.add_option("--take", options.rig.take,
                    "The take (animation) whose skeleton and motion to use: a name or 0-based index (default: the "
                    "first)");
-    app.add_option("--prefix", options.rig.prefix, "Put this before every node name (e.g. mocap_ or mocap:)");
+    auto* prefix =
+        app.add_option("--prefix", options.rig.prefix, "Put this before every node name (e.g. mocap_ or mocap:)");
+    app.add_option("--map-for", options.mapFor,
+                   "Write a first map file (-o MAP.yaml) from the clip's skeleton to this rig's joints instead of a "
+                   "rig (docs/retargeting.md)")
+        ->excludes(prefix)
+        ->excludes(app.get_option("--with-motion"));
     return rig::cli::runMain(app, argc, argv, [&] { return rig::run(options); });
 }

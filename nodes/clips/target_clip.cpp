@@ -156,6 +156,18 @@ TargetClip skeletalTargets(const SkeletalClip& skeleton, const std::string& file
     std::vector<int> parents;
     for (const auto& joint : bvh.joints) parents.push_back(joint.parent);
     clip.parents = keptParents(parents, kept);
+    // The rest pose: offsets down the hierarchy, no rotation (parents come before their children).
+    std::vector<Eigen::Matrix4d> rest(bvh.joints.size(), Eigen::Matrix4d::Identity());
+    for (std::size_t j = 0; j < bvh.joints.size(); ++j) {
+        Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
+        local.block<3, 1>(0, 3) = bvh.joints[j].offset;
+        rest[j] = bvh.joints[j].parent < 0 ? local : rest[static_cast<std::size_t>(bvh.joints[j].parent)] * local;
+    }
+    for (const int j : kept) {
+        Eigen::Matrix4d m = rest[static_cast<std::size_t>(j)];
+        m.block<3, 1>(0, 3) *= map.scale;
+        clip.restWorlds.push_back(m);
+    }
     for (int f = 0; f < bvh.frameCount; ++f) {
         const auto worlds = bvhWorldMatrices(bvh, f);
         auto& frame = clip.worlds.emplace_back();
@@ -307,14 +319,159 @@ TargetMap readTargetMap(const std::filesystem::path& file)
     return parseTargetMap(readText(file, "map file"), file.string());
 }
 
+namespace {
+
+constexpr std::string_view mapKeys = "'scale:', 'joints:', 'ignore:', 'retarget:' and 'weights:'";
+
+void parseRenames(const YAML::Node& value, TargetMap& map)
+{
+    if (!value.IsMap())
+        throw Error(
+            fmt::format("{}: 'joints' must map target joints to rig joints (Hips: pelvis)", where(map.file, value)));
+    for (const auto& rename : value) {
+        const std::string from = keyText(rename.first, map.file, "'joints'");
+        // A missing name (null) has its place after the key: point at the key.
+        if (!rename.second.IsScalar() || rename.second.Scalar().empty())
+            throw Error(fmt::format("{}: '{}' must be renamed to a rig joint's name (clip joint: rig joint)",
+                                    where(map.file, rename.second.IsNull() ? rename.first : rename.second),
+                                    messageExcerpt(from)));
+        map.rename[from] = rename.second.Scalar();
+        map.renameLines[from] = rename.first.Mark().line + 1;
+    }
+}
+
+void parseIgnore(const YAML::Node& value, TargetMap& map)
+{
+    if (!value.IsSequence())
+        throw Error(fmt::format("{}: 'ignore' must be a list of target joints", where(map.file, value)));
+    for (const auto& joint : value) {
+        if (!joint.IsScalar() || joint.Scalar().empty())
+            throw Error(fmt::format("{}: 'ignore' must be a list of target joints' names", where(map.file, joint)));
+        map.ignore.push_back(joint.Scalar());
+        map.ignoreLines[joint.Scalar()] = joint.Mark().line + 1;
+    }
+}
+
+// A rig joint's name in a list or as a key: a non-empty scalar.
+std::string jointName(const YAML::Node& node, const std::string& file, std::string_view what)
+{
+    if (!node.IsScalar() || node.Scalar().empty())
+        throw Error(fmt::format("{}: {} must be a rig joint's name", where(file, node), what));
+    return node.Scalar();
+}
+
+void parseAlign(const YAML::Node& value, const std::string& file, RetargetSpec& spec)
+{
+    if (!value.IsMap())
+        throw Error(fmt::format("{}: 'align' must map rig joints to three angles in degrees (LeftArm: [0, 0, -45])",
+                                where(file, value)));
+    for (const auto& entry : value) {
+        const std::string joint = jointName(entry.first, file, "a key of 'align'");
+        const YAML::Node& angles = entry.second;
+        if (!angles.IsSequence() || angles.size() != 3)
+            throw Error(fmt::format("{}: align of '{}' must be three angles in degrees, X Y Z ([0, 0, -45])",
+                                    where(file, angles.IsNull() ? entry.first : angles), messageExcerpt(joint)));
+        Eigen::Vector3d degrees;
+        for (int i = 0; i < 3; ++i)
+            degrees[i] = finiteNumber(angles[i], file, fmt::format("align of '{}'", messageExcerpt(joint)));
+        spec.align[joint] = degrees;
+        spec.alignWhere[joint] = where(file, entry.first);
+    }
+}
+
+void parseRetarget(const YAML::Node& value, const std::string& file, RetargetSpec& spec)
+{
+    spec.enabled = true;
+    spec.where = where(file, value);
+    spec.rootScale = 1.0;        // unless given
+    if (value.IsNull()) return;  // `retarget:` alone: every default
+    if (!value.IsMap())
+        throw Error(
+            fmt::format("{}: 'retarget' must be a map with 'rootScale:', 'leg:' and 'align:' "
+                        "(docs/retargeting.md)",
+                        where(file, value)));
+    bool autoScale = false;
+    for (const auto& entry : value) {
+        const auto key = keyText(entry.first, file, "'retarget'");
+        const YAML::Node& v = entry.second;
+        if (key == "rootScale") {
+            spec.rootScaleWhere = where(file, v.IsNull() ? entry.first : v);
+            autoScale = v.IsScalar() && v.Scalar() == "auto";
+            double number = 0.0;
+            if (autoScale) {
+                spec.rootScale.reset();
+            } else if (v.IsScalar() && YAML::convert<double>::decode(v, number) && std::isfinite(number) &&
+                       number > 0.0) {
+                spec.rootScale = number;
+            } else {
+                throw Error(fmt::format("{}: rootScale must be 'auto' or a positive number, got {}",
+                                        spec.rootScaleWhere,
+                                        v.IsScalar() ? "'" + messageExcerpt(v.Scalar()) + "'"
+                                        : v.IsNull() ? std::string("nothing")
+                                                     : std::string("a list or map")));
+            }
+        } else if (key == "leg") {
+            if (!v.IsSequence() || v.size() < 2)
+                throw Error(
+                    fmt::format("{}: 'leg' must list two or more rig joints from hip to ankle "
+                                "([LeftUpLeg, LeftLeg, LeftFoot])",
+                                where(file, v.IsNull() ? entry.first : v)));
+            for (const auto& joint : v) {
+                spec.leg.push_back(jointName(joint, file, "each entry of 'leg'"));
+                spec.legWhere.push_back(where(file, joint));
+            }
+        } else if (key == "align") {
+            parseAlign(v, file, spec);
+        } else {
+            throw Error(fmt::format("{}: unknown key '{}' in 'retarget'; it has 'rootScale:', 'leg:' and 'align:'",
+                                    where(file, entry.first), messageExcerpt(key)));
+        }
+    }
+    if (autoScale && spec.leg.empty())
+        throw Error(
+            fmt::format("{}: rootScale auto needs 'leg:' in 'retarget' (the rig's joints from hip to ankle, "
+                        "[LeftUpLeg, LeftLeg, LeftFoot]); add it or give rootScale as a number",
+                        spec.rootScaleWhere));
+}
+
+void parseWeights(const YAML::Node& value, TargetMap& map)
+{
+    if (!value.IsMap())
+        throw Error(
+            fmt::format("{}: 'weights' must map rig joints to {{position: W, rotation: W}}", where(map.file, value)));
+    for (const auto& entry : value) {
+        const std::string joint = jointName(entry.first, map.file, "a key of 'weights'");
+        if (!entry.second.IsMap())
+            throw Error(fmt::format("{}: the weights of '{}' must be a map {{position: W, rotation: W}}",
+                                    where(map.file, entry.second.IsNull() ? entry.first : entry.second),
+                                    messageExcerpt(joint)));
+        TargetWeight weight;
+        weight.where = where(map.file, entry.first);
+        for (const auto& w : entry.second) {
+            const auto key = keyText(w.first, map.file, "a joint's weights");
+            if (key != "position" && key != "rotation")
+                throw Error(fmt::format("{}: unknown weight '{}'; a joint's weights are 'position:' and 'rotation:'",
+                                        where(map.file, w.first), messageExcerpt(key)));
+            const double number = finiteNumber(w.second, map.file, fmt::format("the {} weight", key));
+            if (number < 0.0)
+                throw Error(fmt::format("{}: the {} weight of '{}' must be 0 or more, got {}",
+                                        where(map.file, w.second), key, messageExcerpt(joint), number));
+            (key == "position" ? weight.position : weight.rotation) = number;
+        }
+        map.weights[joint] = weight;
+    }
+}
+
+}  // namespace
+
 TargetMap parseTargetMap(std::string_view text, const std::string& fileName)
 {
     TargetMap map;
     map.file = fileName;
     const YAML::Node root = parseYaml(std::string(text), map.file, "YAML", "map file");
     if (!root.IsMap())
-        throw Error(fmt::format("{}: a map file is a map with 'scale:', 'joints:' and 'ignore:' (docs/rig-invert.md)",
-                                where(map.file, root)));
+        throw Error(
+            fmt::format("{}: a map file is a map with {} (docs/retargeting.md)", where(map.file, root), mapKeys));
     for (const auto& entry : root) {
         const auto key = keyText(entry.first, map.file, "a map file");
         const YAML::Node& value = entry.second;
@@ -324,32 +481,16 @@ TargetMap parseTargetMap(std::string_view text, const std::string& fileName)
                 throw Error(fmt::format("{}: scale must be positive (target units to cm), got {}",
                                         where(map.file, value), map.scale));
         } else if (key == "joints") {
-            if (!value.IsMap())
-                throw Error(fmt::format("{}: 'joints' must map target joints to rig joints (Hips: pelvis)",
-                                        where(map.file, value)));
-            for (const auto& rename : value) {
-                const std::string from = keyText(rename.first, map.file, "'joints'");
-                // A missing name (null) has its place after the key: point at the key.
-                if (!rename.second.IsScalar() || rename.second.Scalar().empty())
-                    throw Error(fmt::format("{}: '{}' must be renamed to a rig joint's name (clip joint: rig joint)",
-                                            where(map.file, rename.second.IsNull() ? rename.first : rename.second),
-                                            messageExcerpt(from)));
-                map.rename[from] = rename.second.Scalar();
-                map.renameLines[from] = rename.first.Mark().line + 1;
-            }
+            parseRenames(value, map);
         } else if (key == "ignore") {
-            if (!value.IsSequence())
-                throw Error(fmt::format("{}: 'ignore' must be a list of target joints", where(map.file, value)));
-            for (const auto& joint : value) {
-                if (!joint.IsScalar() || joint.Scalar().empty())
-                    throw Error(
-                        fmt::format("{}: 'ignore' must be a list of target joints' names", where(map.file, joint)));
-                map.ignore.push_back(joint.Scalar());
-                map.ignoreLines[joint.Scalar()] = joint.Mark().line + 1;
-            }
+            parseIgnore(value, map);
+        } else if (key == "retarget") {
+            parseRetarget(value, map.file, map.retarget);
+        } else if (key == "weights") {
+            parseWeights(value, map);
         } else {
-            throw Error(fmt::format("{}: unknown key '{}'; a map file has 'scale:', 'joints:' and 'ignore:'",
-                                    where(map.file, entry.first), messageExcerpt(key)));
+            throw Error(fmt::format("{}: unknown key '{}'; a map file has {}", where(map.file, entry.first),
+                                    messageExcerpt(key), mapKeys));
         }
     }
     return map;
@@ -391,6 +532,12 @@ TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map)
     out.frameTime = clip.frameTime;
     const auto kept = applyMap(clip.joints, clip.file, map, out.joints);
     out.parents = keptParents(clip.parents, kept);
+    if (!clip.restWorlds.empty())
+        for (const int j : kept) {
+            Eigen::Matrix4d m = clip.restWorlds[static_cast<std::size_t>(j)];
+            m.block<3, 1>(0, 3) *= map.scale;
+            out.restWorlds.push_back(m);
+        }
     for (const auto& worlds : clip.worlds) {
         auto& frame = out.worlds.emplace_back();
         for (const int j : kept) {

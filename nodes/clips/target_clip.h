@@ -6,18 +6,26 @@
 //   - a JSON file of matrices as graph-eval writes them: a list of frames, each {"frame": F,
 //     "JOINT.worldMatrix": [[4 numbers] x 4 rows], ...} (column-vector convention, cm; null, graph-eval's
 //     number that is not finite, reads as NaN: the solver reports that frame's target as invalid),
-// renamed and scaled by an optional map file (docs/rig-invert.md):
+// renamed and scaled by an optional map file (docs/retargeting.md; its `retarget:` and `weights:` need the
+// approximation, and nodes/clips/retarget.h applies them):
 //
 //   scale: 5.644444444          # target units -> cm (a CMU clip: 2.54 / 0.45); 1 by default
 //   joints:                     # target joint -> rig joint; joints not listed keep their names
 //     LeftUpLeg: L_thigh
 //   ignore: [LHipJoint]         # target joints that must not be targets
+//   retarget:                   # a clip of other proportions onto the rig's (nodes/clips/retarget.h)
+//     rootScale: auto           # or a number; auto: the rig's leg length over the clip's, along `leg`
+//     leg: [LeftUpLeg, LeftLeg, LeftFoot]
+//     align: {LeftArm: [0, 0, -45]}   # degrees; default: the rest orientations' difference
+//   weights:                    # per rig joint; 1 by default
+//     LeftHand: {position: 1, rotation: 0.2}
 //
 // Errors (missing or malformed files, a map naming joints the clip does not have) throw rig::Error with
 // file:line:col where known.
 
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -26,6 +34,27 @@
 
 namespace rig {
 
+// The map's `retarget:` key (docs/retargeting.md). Each entry keeps its place in the map file (file:line:col) for
+// messages; names are the rig's (after `joints:`).
+struct RetargetSpec {
+    bool enabled = false;  // the map has `retarget:`
+    std::string where;     // the key's place
+    // The root's translation factor; none: auto, from `leg`.
+    std::optional<double> rootScale;
+    std::string rootScaleWhere;
+    std::vector<std::string> leg;       // hip to ankle, for rootScale auto
+    std::vector<std::string> legWhere;  // each entry's place
+    // Per rig joint, its rest orientation in the clip joint's rest frame: XYZ Euler angles in degrees.
+    std::map<std::string, Eigen::Vector3d> align;
+    std::map<std::string, std::string> alignWhere;
+};
+
+struct TargetWeight {
+    double position = 1.0;  // JointTarget::positionWeight
+    double rotation = 1.0;  // JointTarget::rotationWeight
+    std::string where;      // the entry's place in the map file
+};
+
 struct TargetMap {
     std::string file;                           // the map file, for messages ("" for none)
     double scale = 1.0;                         // multiplies translations: target units -> cm
@@ -33,6 +62,8 @@ struct TargetMap {
     std::map<std::string, int> renameLines;     // the line of each entry, for messages
     std::vector<std::string> ignore;            // target joints left out
     std::map<std::string, int> ignoreLines;     // the line of each, for messages
+    RetargetSpec retarget;
+    std::map<std::string, TargetWeight> weights;  // by rig joint
 };
 
 TargetMap readTargetMap(const std::filesystem::path& file);
@@ -47,6 +78,9 @@ struct TargetClip {
     // Per joint its parent (its nearest ancestor the map kept), -1 for a root or when the file does not say
     // (JSON clips): for drawing the skeleton (rig-invert --html).
     std::vector<int> parents;
+    // Per joint its world matrix in the clip's rest pose (the skeleton's offsets without rotation: BVH's zero
+    // pose), scaled as the frames; empty when the file has no skeleton (JSON clips, targets made in memory).
+    std::vector<Eigen::Matrix4d> restWorlds;
     double frameTime = 0.0;  // seconds per frame (a BVH file's Frame Time), 0 when the file does not say
     // What the file is and how it was normalised (ClipSource::describe: format, unit factor, up axis, take), for
     // reports; "" for targets made in memory.

@@ -119,6 +119,20 @@ std::shared_ptr<const Loaded> sharedModel(const std::string& path, const SolverO
     return fresh;
 }
 
+// The node's map: it scales and renames the targets it is given frame by frame; retargeting needs the clip's rest
+// pose and weights have the node's own attributes, so a map asking for either is refused, not half applied.
+TargetMap nodeMap(const std::string& path)
+{
+    if (path.empty()) return {};
+    TargetMap map = readTargetMap(path);
+    if (map.retarget.enabled || !map.weights.empty())
+        throw Error(
+            fmt::format("{}: the rigInversion node applies a map's 'scale:', 'joints:' and 'ignore:' only; "
+                        "'retarget:' and 'weights:' are for rig-invert and rig-batch (docs/retargeting.md)",
+                        map.retarget.enabled ? map.retarget.where : map.weights.begin()->second.where));
+    return map;
+}
+
 const ResidualTerm& targetTerm(const std::string& name, std::string_view node)
 {
     try {
@@ -168,7 +182,7 @@ private:
         }
         const std::string& mapPath = c.getString(map);
         if (mapPath != mapPath_) {
-            scale_ = mapPath.empty() ? 1.0 : readTargetMap(mapPath).scale;
+            scale_ = nodeMap(mapPath).scale;
             mapPath_ = mapPath;
         }
     }
@@ -459,7 +473,7 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
         throw Error(fmt::format("{}: 'connect' is a map {{targets: NODE, parameters: true}}", context.where(field)));
     const Approximation a = readApproximation(std::get<std::string>(graph.getValue(graph.plug(node + ".file"))), node);
     const std::string mapPath = std::get<std::string>(graph.getValue(graph.plug(node + ".map")));
-    const TargetMap targetMap = mapPath.empty() ? TargetMap{} : readTargetMap(mapPath);
+    const TargetMap targetMap = nodeMap(mapPath);
     // `namespace: NS` (a crowd's member, included under NS): the parameters are NS:ctrl.plug.
     std::string prefix;
     if (const YAML::Node ns = field["namespace"]) {

@@ -84,11 +84,11 @@ TEST_CASE("target clip and map mistakes are one line with the place and what to 
     CHECK(errorOf([&] { map("scale: -1\n"); }) == m + ":1:8: scale must be positive (target units to cm), got -1");
     CHECK(errorOf([&] { map("scale: .nan\n"); }) == m + ":1:8: scale is not a finite number");
     CHECK(errorOf([&] { map("scael: 2\n"); }) ==
-          m + ":1:1: unknown key 'scael'; a map file has 'scale:', 'joints:' and 'ignore:'");
+          m + ":1:1: unknown key 'scael'; a map file has 'scale:', 'joints:', 'ignore:', 'retarget:' and 'weights:'");
     CHECK(errorOf([&] { map("joints: [a, b]\n"); }) ==
           m + ":1:9: 'joints' must map target joints to rig joints (Hips: pelvis)");
-    CHECK(errorOf([&] { map("- 1\n"); }) ==
-          m + ":1:1: a map file is a map with 'scale:', 'joints:' and 'ignore:' (docs/rig-invert.md)");
+    CHECK(errorOf([&] { map("- 1\n"); }) == m + ":1:1: a map file is a map with 'scale:', 'joints:', 'ignore:', "
+                                                "'retarget:' and 'weights:' (docs/retargeting.md)");
     CHECK(errorOf([&] { readTargetClip(bvh, map("joints:\n  Chset: spine\n")); }) ==
           m + ":2: the map renames 'Chset', which " + bvh.string() + " does not have; check the joint name");
     CHECK(errorOf([&] { readTargetClip(bvh, map("joints: {Chest: Hips}\n")); }) ==

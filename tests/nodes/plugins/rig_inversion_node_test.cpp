@@ -203,6 +203,12 @@ TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are 
                                       arm.string(), map.string()));
     CHECK(badMap.starts_with("error: " + (dir / "badmap.yaml").string() + ":6:"));
     CHECK(badMap.ends_with(map.string() + ":1:8: scale must be positive (target units to cm), got -1\n"));
+    // Retargeting needs the clip's rest pose, which the node's targets do not carry: refused, not half applied.
+    test::writeFile(map, "retarget:\n  rootScale: 1\n");
+    const std::string retarget = evaluate("badmap.yaml", test::readFile(dir / "badmap.yaml"));
+    CHECK(retarget.ends_with(map.string() +
+                             ":2:3: the rigInversion node applies a map's 'scale:', 'joints:' and 'ignore:' only; "
+                             "'retarget:' and 'weights:' are for rig-invert and rig-batch (docs/retargeting.md)\n"));
 
     // Targets from the very rig the node drives: the engine's cycle message, with the path.
     const std::string cycle = evaluate(
