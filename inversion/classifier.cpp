@@ -620,7 +620,12 @@ void takeFirstSamples(RigFunction& rig, int index, const std::vector<Eigen::Matr
         rig.evaluate(values, all[a]);
     }
     values[static_cast<std::size_t>(index)] = parameter.defaultValue;
-    rig.evaluate(values, samples.restAfter);
+    std::vector<Eigen::Matrix4d> restAfter;
+    rig.evaluate(values, restAfter);
+    for (std::size_t k = 0; k < rest.size(); ++k)
+        if (const double moved = matrixError(restAfter[k], rest[k], options.frameRadius);
+            moved > options.effectTolerance)
+            samples.restMoved.emplace_back(static_cast<int>(k), moved);
     samples.taken = true;
     for (std::size_t k = 0; k < rest.size(); ++k)
         for (const auto& [a, worlds] : all)
@@ -645,18 +650,15 @@ bool measureEffect(RigProbe& probe, const RigParameter& parameter, const std::ve
 {
     const auto& outputNames = probe.rig().outputs();
     const auto& rest = probe.rest();
-    for (std::size_t k = 0; k < rest.size(); ++k) {
-        if (state.unreliable[k]) continue;
-        const double moved = matrixError(samples.restAfter[k], rest[k], options.frameRadius);
-        if (moved > options.effectTolerance) {
-            // Its value depends on earlier evaluations: no parameter can be modelled on it.
-            state.unreliable[k] = 1;
-            if (samples.historyDependent.empty())
-                samples.historyDependent = fmt::format(
-                    "history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
-                    "(its outputs depend on earlier evaluations, not on the parameters alone)",
-                    outputNames[k], moved);
-        }
+    for (const auto& [k, moved] : samples.restMoved) {
+        if (state.unreliable[static_cast<std::size_t>(k)]) continue;
+        // Its value depends on earlier evaluations: no parameter can be modelled on it.
+        state.unreliable[static_cast<std::size_t>(k)] = 1;
+        if (samples.historyDependent.empty())
+            samples.historyDependent = fmt::format(
+                "history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
+                "(its outputs depend on earlier evaluations, not on the parameters alone)",
+                outputNames[static_cast<std::size_t>(k)], moved);
     }
 
     for (std::size_t k = 0; k < rest.size(); ++k) {
