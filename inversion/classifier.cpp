@@ -620,11 +620,20 @@ void takeFirstSamples(RigFunction& rig, int index, const std::vector<Eigen::Matr
         rig.evaluate(values, all[a]);
     }
     values[static_cast<std::size_t>(index)] = parameter.defaultValue;
-    rig.evaluate(values, samples.restAfter);
+    std::vector<Eigen::Matrix4d> restAfter;
+    rig.evaluate(values, restAfter);
+    // Most outputs of a large rig are the rest world bit for bit (not recomputed): told by comparing, before measuring.
+    auto atRest = [&](const Eigen::Matrix4d& world, std::size_t k) { return world == rest[k] && world.allFinite(); };
+    for (std::size_t k = 0; k < rest.size(); ++k)
+        if (const double moved =
+                atRest(restAfter[k], k) ? 0.0 : matrixError(restAfter[k], rest[k], options.frameRadius);
+            moved > options.effectTolerance)
+            samples.restMoved.emplace_back(static_cast<int>(k), moved);
     samples.taken = true;
     for (std::size_t k = 0; k < rest.size(); ++k)
         for (const auto& [a, worlds] : all)
-            if (!(matrixError(worlds[k], rest[k], options.frameRadius) <= options.effectTolerance)) {
+            if (!atRest(worlds[k], k) &&
+                !(matrixError(worlds[k], rest[k], options.frameRadius) <= options.effectTolerance)) {
                 samples.moved.push_back(static_cast<int>(k));
                 break;
             }
@@ -645,23 +654,19 @@ bool measureEffect(RigProbe& probe, const RigParameter& parameter, const std::ve
 {
     const auto& outputNames = probe.rig().outputs();
     const auto& rest = probe.rest();
-    for (std::size_t k = 0; k < rest.size(); ++k) {
-        if (state.unreliable[k]) continue;
-        const double moved = matrixError(samples.restAfter[k], rest[k], options.frameRadius);
-        if (moved > options.effectTolerance) {
-            // Its value depends on earlier evaluations: no parameter can be modelled on it.
-            state.unreliable[k] = 1;
-            if (samples.historyDependent.empty())
-                samples.historyDependent = fmt::format(
-                    "history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
-                    "(its outputs depend on earlier evaluations, not on the parameters alone)",
-                    outputNames[k], moved);
-        }
+    for (const auto& [k, moved] : samples.restMoved) {
+        if (state.unreliable[static_cast<std::size_t>(k)]) continue;
+        // Its value depends on earlier evaluations: no parameter can be modelled on it.
+        state.unreliable[static_cast<std::size_t>(k)] = 1;
+        if (samples.historyDependent.empty())
+            samples.historyDependent = fmt::format(
+                "history-dependent: after sampling it, the rest pose of {} moved by {:.3g} cm "
+                "(its outputs depend on earlier evaluations, not on the parameters alone)",
+                outputNames[static_cast<std::size_t>(k)], moved);
     }
 
-    for (std::size_t k = 0; k < rest.size(); ++k) {
-        const int kk = static_cast<int>(k);
-        if (!std::binary_search(samples.moved.begin(), samples.moved.end(), kk)) continue;
+    for (const int kk : samples.moved) {
+        const auto k = static_cast<std::size_t>(kk);
         double raw = 0.0;
         for (double a : offsets) {
             if (!samples.world(kk, a, rest).allFinite()) {
@@ -690,10 +695,17 @@ bool frameOutputs(RigProbe& probe, Context& c, double lo, double hi, const RigSt
     const RigParameter& parameter = result.model.parameter;
     const auto& rest = probe.rest();
     const std::vector<double>& offsets = c.initial;
-    // The affected outputs in their frames: a relative output moves when its parent-relative transform does.
+    // The affected outputs in their frames: a relative output moves when its parent-relative transform does. One
+    // whose raw world and parent's stay at rest stays at rest in its frame (to rounding, far below effectTolerance):
+    // only what the parameter moves, their children and the constraints' outputs are framed, not a whole crowd.
+    std::vector<char> moved(rest.size(), 0);
+    for (const int k : samples.moved) moved[static_cast<std::size_t>(k)] = 1;
     for (std::size_t k = 0; k < rest.size(); ++k) {
         const int kk = static_cast<int>(k);
         if (state.unreliable[k] || state.idle[k]) continue;
+        const int parent = probe.parentOf(kk);
+        if (!moved[k] && (parent < 0 || !moved[static_cast<std::size_t>(parent)]) && !probe.constraints.contains(kk))
+            continue;
         // In a constraint's frame, what the shape's fit leaves (within its share of epsilon per unit moved) is not an
         // effect: a root that carries the chain moves nothing there.
         const double slack = probe.constraints.contains(kk) ? constraintFitShare * options.epsilon : 0.0;

@@ -6,6 +6,7 @@
 
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -77,7 +78,10 @@ struct ParameterSamples {
     bool taken = false;
     std::vector<int> moved;  // outputs whose raw world moves at a first sample, increasing
     std::map<double, std::vector<Eigen::Matrix4d>> worlds;  // offset -> raw world per `moved` entry
-    std::vector<Eigen::Matrix4d> restAfter;                 // every output at rest again, after the first samples
+    // The outputs whose raw world did not come back to rest after the first samples (the rest pose evaluated again),
+    // increasing, with how far they stayed away (cm): only these, not every output, since the learner keeps every
+    // parameter's samples and a crowd's outputs grow with its parameters (issue #35: quadratic memory).
+    std::vector<std::pair<int, double>> restMoved;
     std::string historyDependent;  // what its first samples showed, if it made an output history-dependent
 
     // Raw world of output k at a sampled offset (its rest world when k does not move).

@@ -1,54 +1,16 @@
-// A warm-start chain allocates nothing per frame once its storage has grown: this test binary replaces
-// the global operator new (every library of the process allocates through it) and counts the calls made
-// while the biped's frames are solved.
+// A warm-start chain allocates nothing per frame once its storage has grown: the test binary's operator new
+// (allocation_counter.h) counts the calls made while the biped's frames are solved.
 #include <doctest/doctest.h>
 
-#include <atomic>
 #include <cmath>
-#include <cstdlib>
-#include <new>
 #include <numbers>
 #include <random>
 
+#include "allocation_counter.h"
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
 #include "learned_fixtures.h"
 #include "solver_rigs.h"
-
-namespace {
-
-std::atomic<bool> counting{false};
-std::atomic<long> allocations{0};
-
-void* allocate(std::size_t size)
-{
-    if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-    if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
-    throw std::bad_alloc();
-}
-
-void* allocateAligned(std::size_t size, std::align_val_t alignment)
-{
-    if (counting.load(std::memory_order_relaxed)) allocations.fetch_add(1, std::memory_order_relaxed);
-    const std::size_t a = static_cast<std::size_t>(alignment);
-    if (void* p = std::aligned_alloc(a, (size + a - 1) / a * a)) return p;
-    throw std::bad_alloc();
-}
-
-}  // namespace
-
-void* operator new(std::size_t size) { return allocate(size); }
-void* operator new[](std::size_t size) { return allocate(size); }
-void* operator new(std::size_t size, std::align_val_t alignment) { return allocateAligned(size, alignment); }
-void* operator new[](std::size_t size, std::align_val_t alignment) { return allocateAligned(size, alignment); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
 
 using namespace rig;
 
@@ -86,8 +48,7 @@ TEST_CASE(
     for (int f = 0; f < frames; ++f) {
         // The first chain grows the storage; the second is counted.
         if (f == restartInterval) {
-            allocations = 0;
-            counting = true;
+            test::startCountingAllocations();
         }
         const bool restart = f % restartInterval == 0;
         if (restart) {
@@ -104,8 +65,7 @@ TEST_CASE(
             retried += frame.retried;
         }
         if (f == frames - 1) {
-            counting = false;
-            counted = allocations;
+            counted = test::stopCountingAllocations();
         }
     }
     CHECK(restarts == 2);
