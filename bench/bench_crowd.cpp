@@ -37,7 +37,7 @@ fs::path writeCrowd(const BenchOptions& o, const fs::path& approximation, int co
     const std::string command =
         fmt::format("{} {} {} --rig {} --approximation {} --map {} --clip {} -o {}", shellQuote(o.python),
                     shellQuote(script.string()), count, shellQuote(fs::absolute(o.rig).string()),
-                    shellQuote(fs::absolute(approximation).string()), shellQuote(fs::absolute(o.map).string()),
+                    shellQuote(fs::absolute(approximation).string()), shellQuote(fs::absolute(o.crowdMap).string()),
                     shellQuote(fs::absolute(o.clip).string()), shellQuote(file.string()));
     if (std::system(command.c_str()) != 0) throw Error(fmt::format("could not write a crowd: {}", command));
     return file;
@@ -171,7 +171,7 @@ Json threadsJson(const BenchOptions& o, const fs::path& approximation, int threa
 
 Json crowdRealtimeJson(const BenchOptions& o, const fs::path& approximation)
 {
-    const double scale = o.map.empty() ? 1.0 : readTargetMap(o.map).scale;
+    const double scale = readTargetMap(o.crowdMap).scale;
     Json byThreads = Json::array();
     for (const int threads : {1, 2}) byThreads.push_back(threadsJson(o, approximation, threads, scale));
     // The headline is the two-thread run's (the goal: 256 bipeds at 30 fps with 2 threads).

@@ -18,6 +18,8 @@ struct BenchOptions {
     std::filesystem::path spec = "rigs/biped_inversion.yaml";  // params and outputs to invert
     std::filesystem::path clip = "/usr/share/assimp/models/BVH/01_01.bvh";
     std::filesystem::path map = "rigs/maps/cmu_to_biped.yaml";
+    // The look-at crowd's (crowd_realtime): the same scale, the head weighted (docs/crowds.md).
+    std::filesystem::path crowdMap = "rigs/maps/cmu_to_biped_lookat.yaml";
     std::filesystem::path makeRigs = "scripts/make_rigs.py";
     std::string python = "python3";
     std::filesystem::path workDir;  // generated rigs are written here

@@ -2,7 +2,7 @@
 """Writes a crowd of N bipeds that look at one moving target, each inverted by its own rigInversion node.
 
     scripts/make_crowd.py N [-o FILE] [--start-step 37] [--rig ../biped.yaml]
-        [--approximation ../../build/biped.approx.yaml] [--map ../maps/cmu_to_biped.yaml] [--clip BVH]
+        [--approximation ../../build/biped.approx.yaml] [--map ../maps/cmu_to_biped_lookat.yaml] [--clip BVH]
 
 Member i (0 first) is the biped included under the namespace cNNNN (c0000:Head, c0000:L_arm_fk_ctrl, ...),
 with its own nodes under the same namespace: an offset that plays the clip from frame 1 + i * start-step
@@ -114,7 +114,7 @@ def main():
     parser.add_argument("--start-step", type=int, default=37, help="clip frames between two members' starts")
     parser.add_argument("--rig", default="../biped.yaml")
     parser.add_argument("--approximation", default="../../build/biped.approx.yaml")
-    parser.add_argument("--map", default="../maps/cmu_to_biped.yaml")
+    parser.add_argument("--map", default="../maps/cmu_to_biped_lookat.yaml")
     parser.add_argument("--clip", default=CLIP)
     args = parser.parse_args()
     if args.count < 1:

@@ -83,7 +83,7 @@ inline std::filesystem::path writeCrowd(const std::filesystem::path& dir, int co
     const auto r =
         run(fmt::format("python3 scripts/make_crowd.py {} --rig '{}' --approximation '{}' --map '{}' -o '{}'", count,
                         (source / "rigs/biped.yaml").string(), bipedApproximation().string(),
-                        (source / "rigs/maps/cmu_to_biped.yaml").string(), file.string()));
+                        (source / "rigs/maps/cmu_to_biped_lookat.yaml").string(), file.string()));
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
     return file;

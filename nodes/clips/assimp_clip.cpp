@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <map>
+#include <new>
 #include <numbers>
 #include <regex>
 #include <set>
@@ -569,6 +570,9 @@ void configure(Assimp::Importer& importer)
 // escapes it is the child's to report, clip_isolation.h.)
 const aiScene& imported(const Assimp::Importer& importer, const aiScene* scene, const std::string& file)
 {
+    // assimp reports the child's memory limit (clip_isolation.h) as its reason: said as the limit, not as a format.
+    if (!scene && std::string_view(importer.GetErrorString()).find("bad_alloc") != std::string_view::npos)
+        throw std::bad_alloc();
     if (!scene)
         throw Error(fmt::format("{}: assimp cannot read it: {}; give a file of a format assimp reads (docs/clips.md)",
                                 file, oneLine(importer.GetErrorString(), 200)));

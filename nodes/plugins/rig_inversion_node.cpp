@@ -119,18 +119,35 @@ std::shared_ptr<const Loaded> sharedModel(const std::string& path, const SolverO
     return fresh;
 }
 
-// The node's map: it scales and renames the targets it is given frame by frame; retargeting needs the clip's rest
-// pose and weights have the node's own attributes, so a map asking for either is refused, not half applied.
+// The node's map: it scales, renames and weights the targets it is given frame by frame; retargeting needs the
+// clip's rest pose, which the node's targets do not carry, so a map asking for it is refused, not half applied.
 TargetMap nodeMap(const std::string& path)
 {
     if (path.empty()) return {};
     TargetMap map = readTargetMap(path);
-    if (map.retarget.enabled || !map.weights.empty())
+    if (map.retarget.enabled)
         throw Error(
-            fmt::format("{}: the rigInversion node applies a map's 'scale:', 'joints:' and 'ignore:' only; "
-                        "'retarget:' and 'weights:' are for rig-invert and rig-batch (docs/retargeting.md)",
-                        map.retarget.enabled ? map.retarget.where : map.weights.begin()->second.where));
+            fmt::format("{}: the rigInversion node applies a map's 'scale:', 'joints:', 'ignore:' and "
+                        "'weights:' only; 'retarget:' is for rig-invert and rig-batch (docs/retargeting.md)",
+                        map.retarget.where));
     return map;
+}
+
+// Per output, the map's weights (1 and 1 where it names none), as rig-invert sets them on the same map's targets.
+std::vector<TargetWeight> outputWeights(const TargetMap& map, const Approximation& a)
+{
+    std::vector<TargetWeight> weights(a.outputs.size());
+    for (const auto& [joint, weight] : map.weights) {
+        const auto named = [&](const ApproximationOutput& o) { return o.name == joint; };
+        const auto it = std::find_if(a.outputs.begin(), a.outputs.end(), named);
+        if (it == a.outputs.end())
+            throw Error(
+                fmt::format("{}: weights for '{}', which is not an output of the approximation; check the "
+                            "name (the rig's)",
+                            weight.where, messageExcerpt(joint)));
+        weights[static_cast<std::size_t>(it - a.outputs.begin())] = weight;
+    }
+    return weights;
 }
 
 const ResidualTerm& targetTerm(const std::string& name, std::string_view node)
@@ -173,21 +190,26 @@ private:
         }
         const std::string& path = c.getString(file);
         const bool newFile = !loaded_ || loaded_->path != path;
+        bool mapStale = false;
         if (newFile || loaded_->options.maxIterations != options.maxIterations ||
             loaded_->options.threads != options.threads || loaded_->options.partition != options.partition) {
             dropHybrid();
             loaded_ = sharedModel(path, options, node);
+            mapStale = true;  // its weights name the outputs of the model just read
             // A warm start is kept across new solver settings, unless the file changed under it.
             if (newFile || solution_.size() != loaded_->approximation->parameters.size()) solution_.clear();
         }
         const std::string& mapPath = c.getString(map);
-        if (mapPath != mapPath_) {
-            scale_ = nodeMap(mapPath).scale;
+        if (mapStale || mapPath != mapPath_) {
+            const TargetMap read = nodeMap(mapPath);
+            scale_ = read.scale;
+            weights_ = outputWeights(read, *loaded_->approximation);
             mapPath_ = mapPath;
         }
     }
 
-    // The connected targets, scaled to cm, with their weights; those past the outputs reach nothing.
+    // The connected targets, scaled to cm, with their weights (the map's times the node's attributes'); those past
+    // the outputs reach nothing.
     std::vector<JointTarget> targetsOf(ComputeContext& c, const Approximation& a) const
     {
         std::vector<JointTarget> targets(a.outputs.size());
@@ -198,11 +220,12 @@ private:
             targets[k].active = true;
             targets[k].world = std::get<Eigen::Matrix4d>(v);
             targets[k].world.block<3, 1>(0, 3) *= scale_;
-            targets[k].rotationWeight = rotation;
+            targets[k].positionWeight = weights_[static_cast<std::size_t>(k)].position;
+            targets[k].rotationWeight = rotation * weights_[static_cast<std::size_t>(k)].rotation;
             setTerm(targets[k], term);
         });
         c.forEachElement(targetWeight, [&](int k, const Value& v) {
-            if (k < static_cast<int>(targets.size())) targets[k].positionWeight = std::get<double>(v);
+            if (k < static_cast<int>(targets.size())) targets[k].positionWeight *= std::get<double>(v);
         });
         return targets;
     }
@@ -338,6 +361,7 @@ private:
     std::string hybridRigPath_;
     std::string mapPath_;
     double scale_ = 1.0;
+    std::vector<TargetWeight> weights_;  // per output, from the map
     double previousTime_ = 0.0;
     std::vector<double> start_;
     double startCost_ = retryNever;     // the cost of the frame start_ came from (retryNever: from rest)
@@ -474,6 +498,7 @@ void connectByNames(Graph& graph, NodeId id, const YAML::Node& field, const Yaml
     const Approximation a = readApproximation(std::get<std::string>(graph.getValue(graph.plug(node + ".file"))), node);
     const std::string mapPath = std::get<std::string>(graph.getValue(graph.plug(node + ".map")));
     const TargetMap targetMap = nodeMap(mapPath);
+    outputWeights(targetMap, a);  // a weight naming no output is said here, with the map's line, before any frame
     // `namespace: NS` (a crowd's member, included under NS): the parameters are NS:ctrl.plug.
     std::string prefix;
     if (const YAML::Node ns = field["namespace"]) {

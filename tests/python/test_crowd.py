@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import riginv
-from conftest import ARM, CMU_MAP, SOURCE, need_cmu_clip, run
+from conftest import ARM, SOURCE, need_cmu_clip, run
 
 
 @pytest.fixture(scope="module")
@@ -20,7 +20,8 @@ def crowd(tmp_path_factory, learned_biped):
     approximation, _ = learned_biped
     file = tmp_path_factory.mktemp("crowd") / "crowd.yaml"
     done = subprocess.run([sys.executable, "scripts/make_crowd.py", "2", "--rig", str(SOURCE / "rigs/biped.yaml"),
-                           "--approximation", str(approximation), "--map", str(SOURCE / CMU_MAP), "-o", str(file)],
+                           "--approximation", str(approximation),
+                           "--map", str(SOURCE / "rigs/maps/cmu_to_biped_lookat.yaml"), "-o", str(file)],
                           cwd=SOURCE, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     return file

@@ -79,12 +79,14 @@ TEST_CASE("learning a crowd: the heap it holds grows with the crowd, not with it
 TEST_CASE("learning a crowd: a crowd of 2 learns the approximation it learned before the samples were kept sparse")
 {
     // The digest of the file rig-learn wrote for this crowd before the change (the same options: one thread, no
-    // helpers, no ranges); keeping less must not change a bit of what is learned.
+    // helpers, no ranges); keeping less must not change a bit of what is learned. Updated once since, when
+    // orientationAngle stopped taking the polar part of blocks already rotations: only the validation's rotation
+    // errors moved, by rounding (4.75e-14 against 4.92e-14 degrees, mean).
     const auto two = crowd(2);
     LearnOptions options;
     options.threads = 1;
     const Approximation a = learnApproximation(*two, options, "crowd.yaml");
     CHECK(a.parameters.size() == 2 * 79);
     CHECK(a.validation.withinEpsilon);
-    CHECK(fmt::format("{:016x}", digest(a)) == "d7b3041896ffef21");
+    CHECK(fmt::format("{:016x}", digest(a)) == "3eb65a79fd66df53");
 }

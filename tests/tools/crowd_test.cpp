@@ -76,7 +76,7 @@ TEST_CASE("the look-at crowd: each member's curves are rig-invert's on its edite
         CAPTURE(ns);
         const fs::path curves = dir / (ns + ".curves.json");
         const auto inverted = rig::test::run(
-            fmt::format("{} '{}' --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip '{}' -q -o '{}'",
+            fmt::format("{} '{}' --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped_lookat.yaml --clip '{}' -q -o '{}'",
                         rig::test::tool("rig-invert"), rig::test::bipedApproximation().string(),
                         (dir / "targets" / (ns + ".json")).string(), curves.string()));
         INFO(inverted.err);
@@ -87,9 +87,10 @@ TEST_CASE("the look-at crowd: each member's curves are rig-invert's on its edite
     // The first member starts at frame 1 under the same camera path: the single biped's graph, value for value.
     const auto source = rig::test::sourceDir();
     std::string single = rig::test::readFile(source / "rigs/examples/biped_lookat.yaml");
-    for (const auto& [from, to] : {std::pair<std::string, fs::path>{"../biped.yaml", source / "rigs/biped.yaml"},
-                                   {"../../build/biped.approx.yaml", rig::test::bipedApproximation()},
-                                   {"../maps/cmu_to_biped.yaml", source / "rigs/maps/cmu_to_biped.yaml"}}) {
+    for (const auto& [from, to] :
+         {std::pair<std::string, fs::path>{"../biped.yaml", source / "rigs/biped.yaml"},
+          {"../../build/biped.approx.yaml", rig::test::bipedApproximation()},
+          {"../maps/cmu_to_biped_lookat.yaml", source / "rigs/maps/cmu_to_biped_lookat.yaml"}}) {
         const auto at = single.find(from);
         REQUIRE(at != std::string::npos);
         single.replace(at, from.size(), to.string());

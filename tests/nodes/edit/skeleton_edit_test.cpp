@@ -392,7 +392,7 @@ TEST_CASE("clip -> lookAt -> rigInversion: the real biped's head looks at the ta
     };
     replace("../biped.yaml", (source / "rigs/biped.yaml").string());
     replace("../../build/biped.approx.yaml", rig::test::bipedApproximation().string());
-    replace("../maps/cmu_to_biped.yaml", (source / "rigs/maps/cmu_to_biped.yaml").string());
+    replace("../maps/cmu_to_biped_lookat.yaml", (source / "rigs/maps/cmu_to_biped_lookat.yaml").string());
     const auto rig = rig::test::writeFile(rig::test::scratchDir("biped_lookat") / "biped_lookat.yaml", text);
     const std::string command = fmt::format(
         "{} {} --frames 1:120:7 --get 'look.outMatrix[3]' --get Head.worldMatrix "
@@ -405,7 +405,7 @@ TEST_CASE("clip -> lookAt -> rigInversion: the real biped's head looks at the ta
     CHECK(one.out == two.out);
     // Per frame: the edited head aims exactly at the target (no limit reached on this path), and the
     // biped's head, inverted from it, within 0.1 degrees (targets in the clip's units, the biped in cm).
-    const double scale = 5.644444444444445;  // rigs/maps/cmu_to_biped.yaml
+    const double scale = 5.644444444444445;  // rigs/maps/cmu_to_biped_lookat.yaml
     const YAML::Node frames = YAML::Load(one.out);
     REQUIRE(frames.size() == 18);
     auto matrix = [](const YAML::Node& rows) {

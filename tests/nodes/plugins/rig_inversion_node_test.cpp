@@ -206,9 +206,15 @@ TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are 
     // Retargeting needs the clip's rest pose, which the node's targets do not carry: refused, not half applied.
     test::writeFile(map, "retarget:\n  rootScale: 1\n");
     const std::string retarget = evaluate("badmap.yaml", test::readFile(dir / "badmap.yaml"));
-    CHECK(retarget.ends_with(map.string() +
-                             ":2:3: the rigInversion node applies a map's 'scale:', 'joints:' and 'ignore:' only; "
-                             "'retarget:' and 'weights:' are for rig-invert and rig-batch (docs/retargeting.md)\n"));
+    CHECK(
+        retarget.ends_with(map.string() +
+                           ":2:3: the rigInversion node applies a map's 'scale:', 'joints:', 'ignore:' and 'weights:' "
+                           "only; 'retarget:' is for rig-invert and rig-batch (docs/retargeting.md)\n"));
+    test::writeFile(map, "weights:\n  pinky: {position: 2}\n");
+    const std::string weights = evaluate("badmap.yaml", test::readFile(dir / "badmap.yaml"));
+    INFO(weights);
+    CHECK(weights.ends_with(map.string() + ":2:3: weights for 'pinky', which is not an output of the approximation; "
+                                           "check the name (the rig's)\n"));
 
     // Targets from the very rig the node drives: the engine's cycle message, with the path.
     const std::string cycle = evaluate(
