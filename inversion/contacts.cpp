@@ -44,16 +44,16 @@ std::vector<Contact> detectContacts(const ClipTargets& targets, std::span<const 
         double lowest = std::numeric_limits<double>::infinity();
         for (int f = 0; f < frames; ++f)
             if (usable(target(f))) lowest = std::min(lowest, target(f).world(1, 3));
-        // A frame is planted when low and still on both sides (a frame without a usable neighbour is not still).
+        // Still towards the frame before or the one after: a contact's first frame moves little to the next, its
+        // last from the one before (the foot landing and lifting off moves fast on the other side).
         const auto still = [&](int f, int g) {
-            return g < 0 || g >= frames ||
-                   (usable(target(g)) &&
-                    (targetPosition(targets, f, output) - targetPosition(targets, g, output)).norm() <=
-                        d.speedCmPerFrame);
+            return g >= 0 && g < frames && usable(target(g)) &&
+                   (targetPosition(targets, f, output) - targetPosition(targets, g, output)).norm() <=
+                       d.speedCmPerFrame;
         };
         const auto planted = [&](int f) {
-            return usable(target(f)) && target(f).world(1, 3) <= lowest + d.heightCm && still(f, f - 1) &&
-                   still(f, f + 1);
+            return usable(target(f)) && target(f).world(1, 3) <= lowest + d.heightCm &&
+                   (still(f, f - 1) || still(f, f + 1));
         };
         for (int f = 0; f < frames;) {
             if (!planted(f)) {

@@ -33,8 +33,8 @@ struct Contact {
 
 // Contact detection from a clip's targets: a joint is planted at a frame where its target's height (the clip's up
 // axis, Y, in cm) is at most `heightCm` above its lowest over the clip and its target moves at most `speedCmPerFrame`
-// (cm per frame at the clip's rate) both from the frame before and to the frame after; runs of at least `minFrames`
-// such frames are contacts.
+// (cm per frame at the clip's rate) from the frame before or to the frame after (either: a contact's first and last
+// frames, where the foot lands and lifts off, count); runs of at least `minFrames` such frames are contacts.
 struct ContactDetection {
     double heightCm = 5.0;
     double speedCmPerFrame = 0.5;
