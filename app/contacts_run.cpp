@@ -121,14 +121,15 @@ std::vector<Contact> readContacts(const std::string& spec, const std::string& fl
     }
 }
 
-Json contactsJson(const ClipInversionSummary& s, const Approximation& a, const TargetClip& clip, bool asked)
+Json contactsJson(const ClipInversionSummary& s, const Approximation& a, std::span<const double> frameNumbers,
+                  bool asked)
 {
     if (!asked) return Json();
     Json each = Json::array();
     for (const ContactSlide& c : s.contacts)
         each.push_back({{"joint", a.outputs[static_cast<std::size_t>(c.output)].name},
-                        {"first_frame", numberJson(clip.frameNumbers[static_cast<std::size_t>(c.first)])},
-                        {"last_frame", numberJson(clip.frameNumbers[static_cast<std::size_t>(c.last)])},
+                        {"first_frame", numberJson(frameNumbers[static_cast<std::size_t>(c.first)])},
+                        {"last_frame", numberJson(frameNumbers[static_cast<std::size_t>(c.last)])},
                         {"slide_cm", numberJson(c.slideCm)}});
     return Json{{"count", s.contacts.size()},
                 {"max_slide_cm", numberJson(maxSlideCm(s.contacts))},

@@ -2,6 +2,7 @@
 // rig-invert's, rig-batch's and Python's --contacts (contacts=): the contacts of a clip, detected (`auto`) or read
 // from a file of frame ranges per joint, and their slides as the reports give them (docs/retargeting.md, Contacts).
 
+#include <span>
 #include <string>
 #include <vector>
 
@@ -19,8 +20,8 @@ std::vector<Contact> readContacts(const std::string& spec, const std::string& fl
                                   const TargetClip& clip, const ClipTargets& targets);
 
 // The report's object: {count, max_slide_cm, mean_slide_cm, per_contact: [{joint, first_frame, last_frame, slide_cm}]}
-// (frames in the clip's numbering); null when no contacts were asked for.
-Json contactsJson(const ClipInversionSummary& summary, const Approximation& approximation, const TargetClip& clip,
-                  bool asked);
+// (frames in the clip's numbering, `frameNumbers` indexed by clip index); null when no contacts were asked for.
+Json contactsJson(const ClipInversionSummary& summary, const Approximation& approximation,
+                  std::span<const double> frameNumbers, bool asked);
 
 }  // namespace rig::app

@@ -403,7 +403,7 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
         {"ms_per_frame", numberJson(s.msPerFrame)},
         {"lead_in_frames", s.leadInFrames},
         {"unmodelled_outputs", unmodelledOutputs(a)},
-        {"contacts", contactsJson(s, a, outcome.clip, outcome.contactsAsked)},
+        {"contacts", contactsJson(s, a, outcome.clip.frameNumbers, outcome.contactsAsked)},
         {"hybrid", outcome.hybridBlocks.empty()
                        ? Json()
                        : Json{{"blocks", outcome.hybridBlocks},

@@ -163,6 +163,8 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
         meanRotationErrorDeg = (meanRotationErrorDeg * n + later.meanRotationErrorDeg * k) / (n + k);
     }
     jointFrames += later.jointFrames;
+    joinSlides(contacts, later.contacts);
+    contactRounds += later.contactRounds;
     frames += later.frames;
     retriedFrames += later.retriedFrames;
     retriesKept += later.retriesKept;
@@ -338,15 +340,10 @@ void measureSlides(std::span<const Contact> contacts, int frame, std::span<const
 {
     for (const Contact& c : contacts) {
         if (frame < c.first || frame > c.last) continue;
-        const Eigen::Vector3d p = real[static_cast<std::size_t>(c.output)].block<3, 1>(0, 3);
         auto it = std::find_if(slides.begin(), slides.end(),
                                [&](const ContactSlide& s) { return s.output == c.output && s.first == c.first; });
-        if (it == slides.end()) {
-            slides.push_back({c.output, c.first, c.last, frame, p, 0.0});
-            continue;
-        }
-        const double d = (p - it->reference).norm();
-        if (worse(d, it->slideCm)) it->slideCm = d;
+        if (it == slides.end()) it = slides.insert(slides.end(), {c.output, c.first, c.last, frame, {}, 0.0});
+        it->add(real[static_cast<std::size_t>(c.output)].block<3, 1>(0, 3));
     }
 }
 

@@ -93,6 +93,27 @@ void applyHolds(std::span<const ContactHold> holds, std::span<const JointTarget>
     }
 }
 
+void ContactSlide::add(const Eigen::Vector3d& position)
+{
+    positions.push_back(position);
+    const double d = (position - positions.front()).norm();
+    if (std::isnan(d) || d > slideCm) slideCm = d;
+}
+
+void joinSlides(std::vector<ContactSlide>& slides, const std::vector<ContactSlide>& later)
+{
+    for (const ContactSlide& next : later) {
+        auto it = std::find_if(slides.begin(), slides.end(), [&](const ContactSlide& s) {
+            return s.output == next.output && s.first == next.first && s.last == next.last;
+        });
+        if (it == slides.end() || it->positions.empty()) {
+            slides.push_back(next);
+            continue;
+        }
+        for (const Eigen::Vector3d& p : next.positions) it->add(p);
+    }
+}
+
 double maxSlideCm(std::span<const ContactSlide> slides)
 {
     double worst = 0.0;

@@ -84,9 +84,15 @@ struct ContactSlide {
     int first = 0;  // the contact's frames (clip indices)
     int last = 0;
     int measuredFrom = -1;  // the first frame reported (the reference's)
-    Eigen::Vector3d reference = Eigen::Vector3d::Zero();
+    // The joint's real-rig positions from measuredFrom on, a frame each: rig-batch joins a contact that spans its
+    // shards into the one run's slide (joinSlides).
+    std::vector<Eigen::Vector3d> positions;
     double slideCm = 0.0;
+    void add(const Eigen::Vector3d& position);
 };
+// `later`'s slides after `slides`' (the frames after theirs): a contact in both continues, its slide measured from
+// the earlier reference over both.
+void joinSlides(std::vector<ContactSlide>& slides, const std::vector<ContactSlide>& later);
 // The largest and the mean slide over contacts (0 with none).
 double maxSlideCm(std::span<const ContactSlide> slides);
 double meanSlideCm(std::span<const ContactSlide> slides);
