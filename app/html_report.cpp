@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 
+#include "app/contacts_run.h"
 #include "core/error.h"
 #include "inversion/rig_binding.h"
 
@@ -75,7 +76,8 @@ constexpr std::string_view pageTail = R"page(
   'use strict';
   var data = JSON.parse(document.getElementById('report-data').textContent);
   var n = data.frames.length;
-  var status = {ok: false, errors: window.reportErrors, frames: n, drawn: false, pixels: 0, view: null};
+  var status = {ok: false, errors: window.reportErrors, frames: n, drawn: false, pixels: 0, view: null,
+                contacts: data.contacts ? data.contacts.count : null};
   window.reportStatus = function () {
     status.ok = status.errors.length === 0 && status.drawn;
     document.getElementById('status').textContent = JSON.stringify(status);
@@ -104,6 +106,10 @@ constexpr std::string_view pageTail = R"page(
     summary += '; keys: ' + data.keyed.keys + ' against ' + data.keyed.dense_keys + ' dense (' +
         fmt(100 * data.keyed.reduction, 1) + '% fewer), within ' + data.keyed.tolerance_cm + ' cm and ' +
         data.keyed.tolerance_deg + ' deg of the dense curves';
+  }
+  if (data.contacts) {
+    summary += '; contacts: ' + data.contacts.count + ', foot slide on the real rig worst ' +
+        fmt(data.contacts.max_slide_cm, 4) + ' cm, mean ' + fmt(data.contacts.mean_slide_cm, 4) + ' cm';
   }
   $('summary').innerHTML = summary;
   $('legend').innerHTML = 'joint error 0<span></span>' + fmt(scale, 2) + ' cm';
@@ -528,6 +534,7 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
         {"rig", std::move(rig)},
         {"worst", std::move(frames.worst)},
         {"keyed", keyedSummary(keys)},
+        {"contacts", contactsJson(outcome.summary, *outcome.approximation, clip.frameNumbers, outcome.contactsAsked)},
         {"controls", controlCurves(outcome, keys)}};
 }
 
