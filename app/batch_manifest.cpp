@@ -88,7 +88,7 @@ template <class Bad>
 void readContactSlides(const Json& j, ShardOutput& o, const Bad& bad)
 {
     ClipInversionSummary& s = o.summary;
-    s.contactRounds = j.at("contact_rounds").get<int>();
+    s.multiplierUpdates = j.at("multiplier_updates").get<int>();
     for (const Json& c : j.at("contacts")) {
         ContactSlide& slide = s.contacts.emplace_back();
         slide.output = c.at(0).get<int>();
@@ -429,7 +429,7 @@ std::string shardOutputBytes(const ShardOutput& o)
         {"joint_frames", s.jointFrames},
         {"real_rig_evaluations", s.realRigEvaluations},
         {"contacts", std::move(contacts)},
-        {"contact_rounds", s.contactRounds},
+        {"multiplier_updates", s.multiplierUpdates},
         {"curves_file_checksum", o.curvesChecksum},
         {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
     std::string out = header.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";

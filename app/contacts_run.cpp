@@ -93,7 +93,7 @@ Json contactsJson(const ClipInversionSummary& s, const Approximation& a, std::sp
     return Json{{"count", s.contacts.size()},
                 {"max_slide_cm", numberJson(maxSlideCm(s.contacts))},
                 {"mean_slide_cm", numberJson(meanSlideCm(s.contacts))},
-                {"multiplier_updates", s.contactRounds},
+                {"multiplier_updates", s.multiplierUpdates},
                 {"per_contact", std::move(each)}};
 }
 

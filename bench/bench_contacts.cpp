@@ -77,7 +77,7 @@ Json contactsBenchJson(const BenchOptions& o)
         }
         Json row = runJson(best, binding, targets, values, options.contacts);
         ms[hold] = row.at("ms_per_frame").get<double>();
-        updates = best.contactRounds;
+        updates = best.multiplierUpdates;
         measured = static_cast<int>(best.contacts.size());
         rows[hold ? "after" : "before"] = std::move(row);
     }

@@ -164,7 +164,7 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
     }
     jointFrames += later.jointFrames;
     joinSlides(contacts, later.contacts);
-    contactRounds += later.contactRounds;
+    multiplierUpdates += later.multiplierUpdates;
     frames += later.frames;
     retriedFrames += later.retriedFrames;
     retriesKept += later.retriesKept;
@@ -247,7 +247,7 @@ int solveHeldFrame(const Approximation& approximation, const HeldSolve& solveOnc
             frame.summary.finalCost = round.summary.finalCost;
             frame.realRigEvaluations += round.realRigEvaluations;
         }
-        if (frame.summary.termination == TerminationType::invalidTargets || k + 1 >= contactRounds) return updates;
+        if (frame.summary.termination == TerminationType::invalidTargets || k + 1 >= contactSolves) return updates;
         approximation.evaluate(values, worlds);
         double worst = 0.0;
         for (const ContactHold& h : holds)
@@ -438,7 +438,7 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
         summary.retriedFrames += solved.retried;
         summary.retriesKept += solved.kept;
-        summary.contactRounds += rounds;
+        summary.multiplierUpdates += rounds;
         measureSlides(options.contacts, frame, worlds, summary.contacts);
         summary.add(result, approximation.outputs);
         summary.perFrame.push_back(std::move(result));

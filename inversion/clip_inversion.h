@@ -64,8 +64,8 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
 
 // One frame with contacts held (inversion/contacts.h): `solveOnce` (a chain frame's solve on the held targets) run
 // again with each hold's multiplier updated until every held output is within contactToleranceCm of its hold on the
-// approximation, or contactRounds. `holds` come in with their shifts (contactHolds) and leave with the last; `frame`
-// sums the solves' iterations. Returns the multiplier updates made.
+// approximation, or contactSolves solves. `holds` come in with their shifts (contactHolds) and leave with the last;
+// `frame` sums the solves' iterations. Returns the multiplier updates made.
 using HeldSolve = std::function<void(std::span<const JointTarget> targets, std::vector<double>& values,
                                      double previousCost, ChainFrame& frame)>;
 int solveHeldFrame(const Approximation& approximation, const HeldSolve& solveOnce, std::span<const JointTarget> targets,
@@ -220,7 +220,8 @@ struct ClipInversionSummary {
     std::vector<FrameInversion> perFrame;
     // The contacts that cover reported frames, in the options' order, with their slides on the real rig.
     std::vector<ContactSlide> contacts;
-    int contactRounds = 0;  // multiplier updates over the reported frames (solves beyond one per held frame)
+    int multiplierUpdates =
+        0;  // contacts: multiplier updates over the reported frames (solves beyond one per held frame)
 
     int count(FrameStatus status) const { return statusFrames[static_cast<std::size_t>(status)]; }
     int failedFrames() const;

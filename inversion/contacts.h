@@ -54,7 +54,7 @@ std::vector<Contact> detectContacts(const ClipTargets& targets, std::span<const 
 // The solve's hold (see above).
 inline constexpr double contactWeight = 100.0;      // per cm of the held position's error
 inline constexpr double contactToleranceCm = 1e-4;  // on the approximation; the real rig is within ~1e-3 cm of it
-inline constexpr int contactRounds = 8;             // multiplier updates at most per frame
+inline constexpr int contactSolves = 8;             // solves at most per held frame
 
 // A contact held at one frame: its index among the contacts, its output, the position held and the multiplier's shift
 // of the target (cm).

@@ -701,8 +701,7 @@ void defInvert(py::class_<PyApproximation>& approximation, std::index_sequence<I
         },
         py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(), py::arg("progress") = py::none(),
         py::kw_only(), py::arg("plugins") = py::list(), py::arg("frames") = py::none(), py::arg("take") = py::none(),
-        py::arg("contacts") = py::none(),
-        (py::arg(keys[I].c_str()) = settingDefault(table[I]))..., doc.c_str());
+        py::arg("contacts") = py::none(), (py::arg(keys[I].c_str()) = settingDefault(table[I]))..., doc.c_str());
 }
 
 }  // namespace

@@ -111,8 +111,9 @@ TEST_CASE("contacts: a synthetic walk's planted feet are detected exactly and he
     REQUIRE(free.contacts.size() == contacts.size());
     REQUIRE(held.contacts.size() == contacts.size());
     MESSAGE("foot slide on the real rig: " << maxSlideCm(free.contacts) << " cm not held, " << maxSlideCm(held.contacts)
-                                           << " cm held (" << held.contactRounds << " multiplier updates); mean error "
-                                           << free.meanPositionErrorCm << " -> " << held.meanPositionErrorCm << " cm");
+                                           << " cm held (" << held.multiplierUpdates
+                                           << " multiplier updates); mean error " << free.meanPositionErrorCm << " -> "
+                                           << held.meanPositionErrorCm << " cm");
     CHECK(maxSlideCm(held.contacts) < 0.01);
     CHECK(maxSlideCm(free.contacts) > 0.1);  // the body's targets drag a foot that is not held
     // Each contact held where its target stands, on the real rig too.

@@ -5,6 +5,7 @@
 #include <numbers>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <Eigen/LU>
