@@ -44,6 +44,13 @@ std::vector<Contact> contactsFile(const std::string& file, const Approximation& 
         const int output = outputNamed(range, a, targets);
         const int first = frameIndex(range.first, range.firstMark, clip);
         const int last = frameIndex(range.last, range.lastMark, clip);
+        // The hold is the target's position at the first frame (inversion/contacts.h): it must have one.
+        const JointTarget& held = targets.frames[static_cast<std::size_t>(first)][static_cast<std::size_t>(output)];
+        if (!held.active || !held.world.allFinite())
+            throw Error(
+                fmt::format("{}: '{}' has no finite target at frame {}, where its hold would be; start the "
+                            "contact at a frame that has one",
+                            formatMark(range.firstMark), messageExcerpt(range.joint), range.first));
         if (first > last)
             throw Error(fmt::format("{}: frame range [{}, {}] ends before it starts; give [first, last]",
                                     formatMark(range.rangeMark), range.first, range.last));

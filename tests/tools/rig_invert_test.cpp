@@ -396,4 +396,14 @@ TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keep
         CHECK(entry.second.as<double>() == c[0][entry.first.as<std::string>()].as<double>());
     }
     CHECK(std::abs(c[0]["shoulder.rotateZ"].as<double>() - 20.0) < 1e-6);
+
+    // A contact cannot start at that frame: its hold would be the target there.
+    const auto contacts = test::writeFile(dir / "contacts.yaml", "elbow: [[2, 3]]\n");
+    const auto held =
+        rigInvert(fmt::format("{} --rig rigs/examples/arm.yaml --clip {} --contacts {} -o {}", arm.string(),
+                              clip.string(), contacts.string(), (dir / "held.json").string()));
+    CHECK(held.exitCode == 2);
+    CHECK(held.err == fmt::format("error: --contacts: {}:1:10: 'elbow' has no finite target at frame 2, where its "
+                                  "hold would be; start the contact at a frame that has one\n",
+                                  contacts.string()));
 }
