@@ -16,7 +16,7 @@ namespace rig::app {
 namespace {
 
 constexpr std::string_view manifestFormat = "rig-batch manifest 3";
-constexpr std::string_view shardFormat = "rig-batch shard 2";
+constexpr std::string_view shardFormat = "rig-batch shard 3";  // 3: contacts
 constexpr std::size_t shardFigures = 8;  // the summary's figures held as raw doubles (shardOutputBytes)
 
 // The settings' table (app/solve_settings.h) as fields: a count as a number, a flag as a bool, a choice as its word.
@@ -81,6 +81,33 @@ SolveSettings readSettings(const Json& settings, const std::string& file)
         throw bad(e);
     }
     return out;
+}
+
+// A shard output's contacts (shardOutputBytes), each within its frames.
+template <class Bad>
+void readContactSlides(const Json& j, ShardOutput& o, const Bad& bad)
+{
+    ClipInversionSummary& s = o.summary;
+    s.multiplierUpdates = j.at("multiplier_updates").get<int>();
+    for (const Json& c : j.at("contacts")) {
+        ContactSlide& slide = s.contacts.emplace_back();
+        slide.output = c.at(0).get<int>();
+        slide.first = c.at(1).get<int>();
+        slide.last = c.at(2).get<int>();
+        slide.measuredFrom = c.at(3).get<int>();
+        const Json& positions = c.at(4);
+        const int frames = std::min(slide.last, o.last) - slide.measuredFrom + 1;
+        if (slide.output < 0 || slide.first > slide.last || slide.measuredFrom < std::max(slide.first, o.first) ||
+            frames < 1 || positions.size() != 3 * static_cast<std::size_t>(frames))
+            throw bad(fmt::format("a contact over frames {} to {} measured from {} is not within frames {} to {}",
+                                  slide.first, slide.last, slide.measuredFrom, o.first, o.last));
+        for (std::size_t f = 0; f < positions.size(); f += 3) {
+            Eigen::Vector3d p;
+            for (std::size_t i = 0; i < 3; ++i)
+                p[i] = std::strtod(positions.at(f + i).get<std::string>().c_str(), nullptr);
+            slide.add(p);
+        }
+    }
 }
 
 const char* byteOrder() { return std::endian::native == std::endian::little ? "little" : "big"; }
@@ -194,6 +221,7 @@ std::vector<BatchShard> planShards(const BatchInputs& inputs, const std::vector<
                                              {"approximation", inputs.approximationChecksum},
                                              {"rig", inputs.rigFingerprint},
                                              {"map", inputs.mapChecksum},
+                                             {"contacts", inputs.contacts == "auto" ? "auto" : inputs.contactsChecksum},
                                              {"plugins", inputs.plugins},
                                              {"take", inputs.take},
                                              {"settings", settings}});
@@ -238,6 +266,8 @@ Json manifestJson(const BatchManifest& m)
                 {"rig_fingerprint", in.rigFingerprint},
                 {"map", in.map.empty() ? Json() : Json(in.map)},
                 {"map_checksum", in.mapChecksum.empty() ? Json() : Json(in.mapChecksum)},
+                {"contacts", in.contacts.empty() ? Json() : Json(in.contacts)},
+                {"contacts_checksum", in.contactsChecksum.empty() ? Json() : Json(in.contactsChecksum)},
                 {"plugins", in.plugins},
                 {"strict", in.strict},
                 {"take", in.take},
@@ -276,6 +306,10 @@ BatchManifest readManifest(const std::filesystem::path& folder)
     inputs.map = map.is_string() ? map.get<std::string>() : "";
     const Json mapChecksum = field<Json>(j, "map_checksum", file);
     inputs.mapChecksum = mapChecksum.is_string() ? mapChecksum.get<std::string>() : "";
+    const Json contacts = field<Json>(j, "contacts", file);
+    inputs.contacts = contacts.is_string() ? contacts.get<std::string>() : "";
+    const Json contactsChecksum = field<Json>(j, "contacts_checksum", file);
+    inputs.contactsChecksum = contactsChecksum.is_string() ? contactsChecksum.get<std::string>() : "";
     inputs.plugins = field<std::vector<std::string>>(j, "plugins", file);
     inputs.strict = field<bool>(j, "strict", file);
     inputs.take = field<std::string>(j, "take", file);
@@ -367,6 +401,15 @@ std::string shardOutputBytes(const ShardOutput& o)
     const std::string_view figureBytes(reinterpret_cast<const char*>(figures.data()), sizeof(figures));
     Json statuses = Json::array();
     for (const int n : s.statusFrames) statuses.push_back(n);
+    // Each contact's positions as text that strtod reads back exactly (a NaN too): the merge joins a contact that
+    // spans shards into one run's slide.
+    Json contacts = Json::array();
+    for (const ContactSlide& c : s.contacts) {
+        Json positions = Json::array();
+        for (const Eigen::Vector3d& p : c.positions)
+            for (int i = 0; i < 3; ++i) positions.push_back(fmt::format("{}", p[i]));
+        contacts.push_back({c.output, c.first, c.last, c.measuredFrom, std::move(positions)});
+    }
     const Json header{
         {"format", shardFormat},
         {"byte_order", byteOrder()},
@@ -385,6 +428,8 @@ std::string shardOutputBytes(const ShardOutput& o)
         {"worst_rotation_frame", s.worstRotationFrame},
         {"joint_frames", s.jointFrames},
         {"real_rig_evaluations", s.realRigEvaluations},
+        {"contacts", std::move(contacts)},
+        {"multiplier_updates", s.multiplierUpdates},
         {"curves_file_checksum", o.curvesChecksum},
         {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
     std::string out = header.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";
@@ -459,6 +504,7 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         s.worstRotationFrame = j.at("worst_rotation_frame").get<int>();
         s.jointFrames = j.at("joint_frames").get<long long>();
         s.realRigEvaluations = j.at("real_rig_evaluations").get<long long>();
+        readContactSlides(j, o, bad);
     }
     catch (const Json::exception& e) {
         throw bad(e.what());

@@ -28,7 +28,8 @@ struct BatchInputs : InversionInputs {
     // Checksums of the inputs when the batch was planned: a task refuses inputs that changed since.
     std::string approximationChecksum;
     std::string rigFingerprint;
-    std::string mapChecksum;  // "" for none
+    std::string mapChecksum;       // "" for none
+    std::string contactsChecksum;  // of a contacts file; "" for none or auto
 };
 
 struct BatchClip {

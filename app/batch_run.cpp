@@ -18,6 +18,7 @@
 
 #include "app/batch_backend.h"
 #include "app/batch_manifest.h"
+#include "app/contacts_run.h"
 #include "app/output_file.h"
 #include "core/error.h"
 #include "inversion/continuity.h"
@@ -224,6 +225,12 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
                     fmt::format("{}: is not the output of shard {} (frames {}); run rig-batch again to solve "
                                 "it again",
                                 file.string(), i, framesText(shard)));
+            for (const ContactSlide& c : out.summary.contacts)
+                if (c.output >= static_cast<int>(approximation.outputs.size()))
+                    throw Error(
+                        fmt::format("{}: is not the output of shard {} (a contact of output {}); run "
+                                    "rig-batch again to solve it again",
+                                    file.string(), i, c.output));
         }
         catch (const Error& e) {
             merged.failedShard = i;
@@ -257,7 +264,8 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
     return merged;
 }
 
-Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, const fs::path& curves)
+Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, const fs::path& curves,
+                const Approximation& approximation, bool asked)
 {
     Json j{{"name", clip.name},
            {"file", clip.file},
@@ -290,6 +298,7 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
     j["worst_rotation_frame"] = frameNumber(s.worstRotationFrame);
     j["mean_rotation_error_deg"] = numberJson(s.meanRotationErrorDeg);
     j["max_model_gap_cm"] = numberJson(s.maxModelGapCm);
+    j["contacts"] = contactsJson(s, approximation, merged->frameNumbers, asked);
     j["ms_per_frame"] = numberJson(s.msPerFrame);
     j["task_seconds"] = numberJson(merged->taskSeconds);
     j["curves"] = {{"file", curves.string()}, {"checksum", merged->curvesChecksum}};
@@ -323,7 +332,8 @@ void checkManifestPaths(const BatchInputs& inputs)
 {
     for (const auto& [flag, path] : {std::pair<std::string, std::string>{"approximation", inputs.approximation},
                                      {"--rig", inputs.rig},
-                                     {"--map", inputs.map}})
+                                     {"--map", inputs.map},
+                                     {"--contacts", inputs.contacts}})
         if (!isUtf8(path))
             throw Error(
                 fmt::format("{} {}: its path is not UTF-8, which the batch's manifest (JSON) cannot hold; "
@@ -378,6 +388,7 @@ std::vector<std::vector<double>> readClips(const InvertJob& base, const Approxim
             const TargetClip clip = readTargets(one, approximation, &map);
             ClipTargets targets = matchClipTargets(approximation, clip);
             applyTargetWeights(targets, map, clip);
+            if (!one.contacts.empty()) readContacts(one.contacts, one.contactsName, approximation, clip, targets);
             manifest.clips[c].checksum = fileChecksum(files[c], "the clip");
             manifest.clips[c].frames = static_cast<int>(clip.frameNumbers.size());
             frameNumbers[c] = clip.frameNumbers;
@@ -413,6 +424,7 @@ BatchPlan planBatch(const BatchJob& job)
     base.approximation = fs::absolute(job.approximation).string();
     base.rig = fs::absolute(job.rig).string();
     base.map = job.map.empty() ? "" : fs::absolute(job.map).string();
+    base.contacts = job.contacts.empty() || job.contacts == "auto" ? job.contacts : fs::absolute(job.contacts).string();
     base.warning = job.warning;
     plan.loaded = loadRig(base);
     const Approximation& approximation = *plan.loaded.approximation;
@@ -424,8 +436,12 @@ BatchPlan planBatch(const BatchJob& job)
     inputs.approximationChecksum = fileChecksum(inputs.approximation, "the approximation");
     inputs.rigFingerprint = plan.loaded.rig->fingerprint();
     inputs.mapChecksum = inputs.map.empty() ? "" : fileChecksum(inputs.map, "the map");
-    std::vector<std::pair<std::string, fs::path>> inputFiles{{"the approximation", inputs.approximation},
-                                                             {"the map", inputs.map}};
+    const bool contactsFile = !inputs.contacts.empty() && inputs.contacts != "auto";
+    inputs.contactsChecksum = contactsFile ? fileChecksum(inputs.contacts, "the contacts file") : "";
+    std::vector<std::pair<std::string, fs::path>> inputFiles{
+        {"the approximation", inputs.approximation},
+        {"the map", inputs.map},
+        {"the contacts file", contactsFile ? inputs.contacts : ""}};
     for (const auto& file : plan.loaded.rig->files()) inputFiles.emplace_back("a file the rig reads", file);
     checkManifestPaths(inputs);
     addClips(files, plan.manifest, inputFiles);
@@ -641,7 +657,7 @@ void checkCurvesWritten(const fs::path& folder, const BatchManifest& manifest, c
 // The clips' part of the report. A clip whose merge found a shard's output unusable is not merged: that shard
 // is failed (its checksum cleared for the manifest). Counts the outcome's failed clips and the figures' totals.
 Json clipsReport(BatchManifest& manifest, std::vector<ClipMerge>& merges, const fs::path& folder, BatchOutcome& outcome,
-                 BatchFigures& figures)
+                 BatchFigures& figures, const Approximation& approximation)
 {
     Json clips = Json::array();
     for (ClipMerge& m : merges) {
@@ -665,7 +681,7 @@ Json clipsReport(BatchManifest& manifest, std::vector<ClipMerge>& merges, const 
             }
         }
         clips.push_back(clipReport(clip, static_cast<int>(m.end - m.first), m.merged ? &*m.merged : nullptr,
-                                   folder / (clip.name + ".json")));
+                                   folder / (clip.name + ".json"), approximation, !manifest.inputs.contacts.empty()));
     }
     return clips;
 }
@@ -747,7 +763,7 @@ BatchOutcome runBatch(const BatchJob& job)
     std::vector<ClipMerge> merges = mergeClips(plan);
     checkCurvesWritten(folder, plan.manifest, merges);
     BatchOutcome outcome;
-    Json clips = clipsReport(plan.manifest, merges, folder, outcome, figures);
+    Json clips = clipsReport(plan.manifest, merges, folder, outcome, figures, *plan.loaded.approximation);
     writeManifest(folder, plan.manifest);
     figures.mergeSeconds = secondsSince(mergeStart);
     outcome.report = batchReport(job, plan, std::move(clips), figures, outcome);
@@ -778,6 +794,8 @@ void runShard(const std::filesystem::path& folder, int index)
         if (fileChecksum(in.approximation, "the approximation") != in.approximationChecksum)
             throw changed(in.approximation, "the approximation");
         if (!in.map.empty() && fileChecksum(in.map, "the map") != in.mapChecksum) throw changed(in.map, "the map");
+        if (!in.contactsChecksum.empty() && fileChecksum(in.contacts, "the contacts file") != in.contactsChecksum)
+            throw changed(in.contacts, "the contacts file");
         if (fileChecksum(clip.file, "the clip") != clip.checksum) throw changed(clip.file, "the clip");
         InvertJob job;
         static_cast<InversionInputs&>(job) = in;

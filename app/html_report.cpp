@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "app/contacts_run.h"
 #include "inversion/rig_binding.h"
 
 namespace rig::app {
@@ -32,7 +33,7 @@ constexpr std::string_view pageBody = R"page(<header id="summary"></header>
   var kit = window.ReportKit, $ = kit.$, fmt = kit.fmt, esc = kit.esc;
   var data = kit.data();
   var n = data.frames.length;
-  var status = kit.status({frames: n});
+  var status = kit.status({frames: n, contacts: data.contacts ? data.contacts.count : null});
 
   var scale = Math.max(1e-6, Math.max.apply(null, data.worst.map(function (x) { return x || 0; })));
   var summary = '<b>' + esc(data.clip_name) + '</b> on <b>' + esc(data.rig_name) + '</b> with ' +
@@ -43,6 +44,10 @@ constexpr std::string_view pageBody = R"page(<header id="summary"></header>
     summary += '; keys: ' + data.keyed.keys + ' against ' + data.keyed.dense_keys + ' dense (' +
         fmt(100 * data.keyed.reduction, 1) + '% fewer), within ' + data.keyed.tolerance_cm + ' cm and ' +
         data.keyed.tolerance_deg + ' deg of the dense curves';
+  }
+  if (data.contacts) {
+    summary += '; contacts: ' + data.contacts.count + ', foot slide on the real rig worst ' +
+        fmt(data.contacts.max_slide_cm, 4) + ' cm, mean ' + fmt(data.contacts.mean_slide_cm, 4) + ' cm';
   }
   $('summary').innerHTML = summary;
   $('legend').innerHTML = 'joint error 0<span></span>' + fmt(scale, 2) + ' cm';
@@ -302,6 +307,7 @@ Json reportData(const InvertOutcome& outcome, const KeysOutcome* keys, const Htm
         {"rig", std::move(rig)},
         {"worst", std::move(frames.worst)},
         {"keyed", keyedSummary(keys)},
+        {"contacts", contactsJson(outcome.summary, *outcome.approximation, clip.frameNumbers, outcome.contactsAsked)},
         {"controls", controlCurves(outcome, keys)}};
 }
 

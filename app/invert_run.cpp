@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "app/contacts_run.h"
 #include "app/frame_range.h"
 #include "core/error.h"
 #include "inversion/approximation_io.h"
@@ -209,6 +210,9 @@ InvertOutcome invert(const InvertJob& job)
     out.targets = matchClipTargets(approximation, clip);
     applyTargetWeights(out.targets, map, clip);
     applyTerm(out.targets, job.settings.term);
+    out.contactsAsked = !job.contacts.empty();
+    if (out.contactsAsked)
+        options.contacts = readContacts(job.contacts, job.contactsName, approximation, clip, out.targets);
     const Solver solver(approximation, options.solver);
     RigBinding bound = bindRig(job, approximation, *loaded.rig);
     if (!job.after.empty())
@@ -405,6 +409,7 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
         {"ms_per_frame", numberJson(s.msPerFrame)},
         {"lead_in_frames", s.leadInFrames},
         {"unmodelled_outputs", unmodelledOutputs(a)},
+        {"contacts", contactsJson(s, a, outcome.clip.frameNumbers, outcome.contactsAsked)},
         {"hybrid", outcome.hybridBlocks.empty()
                        ? Json()
                        : Json{{"blocks", outcome.hybridBlocks},

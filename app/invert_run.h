@@ -34,6 +34,8 @@ struct InversionInputs {
     std::string take;  // the animation to read from a clip file with several: a name or 0-based index; "" the first
     std::vector<std::string> plugins;
     bool strict = false;  // refuse an approximation learned from another version of the rig
+    // Joints held where they are planted (app/contacts_run.h): "auto" (detected), a contacts file, or "" (none).
+    std::string contacts;
     SolveSettings settings;
 };
 
@@ -48,7 +50,8 @@ struct InvertJob : InversionInputs {
     std::optional<std::string> frames;  // A:B in the clip's numbering; none: the whole clip
     // Or the frames as clip indices (0-based), first and last: rig-batch's shards.
     std::optional<std::pair<int, int>> frameIndices;
-    std::string after;  // the curves of the chunk before (rig-invert --after), "" for none
+    std::string after;                        // the curves of the chunk before (rig-invert --after), "" for none
+    std::string contactsName = "--contacts";  // how messages name `contacts` (Python: "contacts")
     // Called after each reported frame with the frames done and the frames to report; may be empty.
     std::function<void(int done, int total)> progress;
     // Called with a warning line (the rig changed since learning); may be empty.
@@ -69,6 +72,7 @@ struct InvertOutcome {
     std::vector<std::vector<double>> solved;
     // With settings.hybrid: the blocks solved on the real rig (HybridSolver::describe), one per line.
     std::string hybridBlocks;
+    bool contactsAsked = false;  // the job named contacts (the report then has their slides, even with none found)
 };
 
 // Checks the settings, reads what the job names, binds the approximation to the rig and inverts the

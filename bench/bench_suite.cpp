@@ -16,6 +16,7 @@
 #include "app/invert_run.h"
 #include "app/output_file.h"
 #include "bench/bench_cold_start.h"
+#include "bench/bench_contacts.h"
 #include "bench/bench_crowd.h"
 #include "core/error.h"
 #include "inversion/approximation_io.h"
@@ -785,6 +786,7 @@ void runBipedBench(const BenchOptions& o, Json& report)
     say(o, "cold starts: random poses of the approximation from rest");
     report["cold_start"] = coldStartJson(b.approximation, o.coldStartPoses);
     report["accuracy"] = accuracyJson(b);
+    report["contacts"] = contactsBenchJson(o);
 
     // The look-at crowd played in real time, every member inverted with this approximation (written for the
     // graph's rigInversion nodes to read).

@@ -15,7 +15,8 @@ namespace rig::bench {
 struct BenchOptions {
     // Inputs, relative to the working folder (the source folder, as every tool's examples).
     std::filesystem::path rig = "rigs/biped.yaml";
-    std::filesystem::path spec = "rigs/biped_inversion.yaml";  // params and outputs to invert
+    std::filesystem::path spec = "rigs/biped_inversion.yaml";         // params and outputs to invert
+    std::filesystem::path longLegsRig = "rigs/biped_long_legs.yaml";  // the contacts row's other proportions
     std::filesystem::path clip = "/usr/share/assimp/models/BVH/01_01.bvh";
     std::filesystem::path map = "rigs/maps/cmu_to_biped.yaml";
     // The look-at crowd's (crowd_realtime): the same scale, the head weighted (docs/crowds.md).
@@ -44,7 +45,7 @@ BenchOptions quickOptions();  // under a minute on two cores
 BenchOptions fullOptions();   // under ten minutes
 
 // Jacobian, inversion, Ceres, training and accuracy on the biped: the objects "biped", "jacobian",
-// "invert", "blackbox", "ceres", "cold_start", "train" and "accuracy" are set in `report`.
+// "invert", "blackbox", "ceres", "cold_start", "train", "accuracy" and "contacts" are set in `report`.
 void runBipedBench(const BenchOptions& options, Json& report);
 
 // Generated rigs: "scaling" (one row per rig) and "growth" (fitted exponents) are set in `report`.

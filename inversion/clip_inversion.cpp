@@ -50,6 +50,12 @@ void ClipInversionOptions::validate() const
     solver.validate();
     if (polishCorrections < 0) throw Error(fmt::format("polishCorrections must be >= 0, got {}", polishCorrections));
     if (restartInterval <= 0) throw Error(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
+    for (const Contact& c : contacts)
+        if (c.output < 0 || c.first < 0 || c.first > c.last)
+            throw Error(
+                fmt::format("a contact must name an output and frames first <= last, got output {}, frames "
+                            "{} to {}",
+                            c.output, c.first, c.last));
 }
 
 std::string_view frameStatusName(FrameStatus status)
@@ -157,6 +163,8 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
         meanRotationErrorDeg = (meanRotationErrorDeg * n + later.meanRotationErrorDeg * k) / (n + k);
     }
     jointFrames += later.jointFrames;
+    joinSlides(contacts, later.contacts);
+    multiplierUpdates += later.multiplierUpdates;
     frames += later.frames;
     retriedFrames += later.retriedFrames;
     retriesKept += later.retriesKept;
@@ -218,6 +226,39 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     second.initialCost = frame.summary.initialCost;
     std::swap(frame.summary, second);
     values.swap(scratch.start);
+}
+
+int solveHeldFrame(const Approximation& approximation, const HeldSolve& solveOnce, std::span<const JointTarget> targets,
+                   std::vector<ContactHold>& holds, std::vector<double>& values, double previousCost, ChainFrame& frame)
+{
+    std::vector<JointTarget> held;
+    std::vector<Eigen::Matrix4d> worlds;
+    ChainFrame round;
+    int updates = 0;
+    for (int k = 0;; ++k) {
+        applyHolds(holds, targets, held);
+        // Only the first solve may retry from the initial guess: later ones start at the answer they correct.
+        solveOnce(held, values, k == 0 ? previousCost : retryNever, k == 0 ? frame : round);
+        if (k > 0) {
+            frame.summary.iterations += round.summary.iterations;
+            frame.summary.gaussNewtonIterations += round.summary.gaussNewtonIterations;
+            frame.summary.levenbergMarquardtIterations += round.summary.levenbergMarquardtIterations;
+            frame.summary.termination = round.summary.termination;
+            frame.summary.finalCost = round.summary.finalCost;
+            frame.realRigEvaluations += round.realRigEvaluations;
+        }
+        if (frame.summary.termination == TerminationType::invalidTargets || k + 1 >= contactSolves) return updates;
+        approximation.evaluate(values, worlds);
+        double worst = 0.0;
+        for (const ContactHold& h : holds)
+            worst = std::max(worst, (worlds[static_cast<std::size_t>(h.output)].block<3, 1>(0, 3) - h.position).norm());
+        if (!(worst > contactToleranceCm)) return updates;  // met (or not finite: no update helps)
+        // The method of multipliers: the target moves past the hold by what the solve left, so the next solve's
+        // weighted rows carry the force the other targets pull with.
+        for (ContactHold& h : holds)
+            h.shift += h.position - worlds[static_cast<std::size_t>(h.output)].block<3, 1>(0, 3);
+        ++updates;
+    }
 }
 
 namespace {
@@ -292,6 +333,20 @@ FrameStatus frameStatus(const FrameInversion& f, bool unfittedMiss)
     return FrameStatus::bestFit;
 }
 
+// The real rig's joints at reported frame `frame` against each covering contact's reference (its first reported
+// frame's position), into `slides` (a contact's entry made at its first reported frame, in the contacts' order).
+void measureSlides(std::span<const Contact> contacts, int frame, std::span<const Eigen::Matrix4d> real,
+                   std::vector<ContactSlide>& slides)
+{
+    for (const Contact& c : contacts) {
+        if (frame < c.first || frame > c.last) continue;
+        auto it = std::find_if(slides.begin(), slides.end(),
+                               [&](const ContactSlide& s) { return s.output == c.output && s.first == c.first; });
+        if (it == slides.end()) it = slides.insert(slides.end(), {c.output, c.first, c.last, frame, {}, 0.0});
+        it->add(real[static_cast<std::size_t>(c.output)].block<3, 1>(0, 3));
+    }
+}
+
 }  // namespace
 
 void judgeFrame(const Approximation& approximation, const SolverOptions& options, RealRigFit fit,
@@ -310,6 +365,12 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     const int frameCount = static_cast<int>(targets.frames.size());
     if (first < 0 || last >= frameCount || first > last)
         throw internalError(fmt::format("frames {}..{} are not within the clip's 0..{}", first, last, frameCount - 1));
+    for (const Contact& c : options.contacts)
+        if (c.last >= frameCount || c.output >= static_cast<int>(solver.approximation().outputs.size()))
+            throw internalError(
+                fmt::format("a contact of output {} over frames {}..{} is not within the clip's "
+                            "0..{} and outputs",
+                            c.output, c.first, c.last, frameCount - 1));
     const Approximation& approximation = solver.approximation();
     const std::vector<double> rest = approximation.defaults();
 
@@ -326,6 +387,14 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     ChainFrame solved;
     double previousCost = 0.0;
     std::vector<Eigen::Matrix4d> worlds, modelled;
+    const HeldSolve solveOnce = [&](std::span<const JointTarget> t, std::vector<double>& v, double previous,
+                                    ChainFrame& f) {
+        if (options.frameSolve) options.frameSolve(t, v, previous, f);
+        else solveChainFrame(solver, t, v, previous, chainScratch, f);
+    };
+    std::vector<ContactHold> holds;
+    std::vector<Eigen::Vector3d> shifts(options.contacts.size(), Eigen::Vector3d::Zero());
+    std::vector<JointTarget> heldTargets;
     using Clock = std::chrono::steady_clock;
     for (int frame = first - summary.leadInFrames; frame <= last; ++frame) {
         const auto& frameTargets = targets.frames[frame];
@@ -337,13 +406,20 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
             if (options.coldStart) solver.initialGuess(frameTargets, current);
         }
         const double previous = options.retryStuck && !restart ? previousCost : retryNever;
-        if (options.frameSolve) options.frameSolve(frameTargets, current, previous, solved);
-        else solveChainFrame(solver, frameTargets, current, previous, chainScratch, solved);
+        if (restart) std::fill(shifts.begin(), shifts.end(), Eigen::Vector3d::Zero());
+        if (options.holdContacts) contactHolds(options.contacts, targets, frame, shifts, holds);
+        const int rounds =
+            holds.empty() ? (solveOnce(frameTargets, current, previous, solved), 0)
+                          : solveHeldFrame(approximation, solveOnce, frameTargets, holds, current, previous, solved);
+        for (const ContactHold& h : holds) shifts[static_cast<std::size_t>(h.contact)] = h.shift;
         const SolveSummary& solve = solved.summary;
         if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
         if (options.polishCorrections > 0 && !options.frameSolve &&
-            solve.termination != TerminationType::invalidTargets)
-            polish(solver, rig, frameTargets, current, options.polishCorrections);
+            solve.termination != TerminationType::invalidTargets) {
+            // The polish keeps the holds as the solve left them (its targets the held ones).
+            applyHolds(holds, frameTargets, heldTargets);
+            polish(solver, rig, heldTargets, current, options.polishCorrections);
+        }
         const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
         const double cpuSeconds = threadCpuSeconds() - cpuStart;
         const std::span<const double> reported = continuity.next(current, restart);
@@ -362,6 +438,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
         summary.retriedFrames += solved.retried;
         summary.retriesKept += solved.kept;
+        summary.multiplierUpdates += rounds;
+        measureSlides(options.contacts, frame, worlds, summary.contacts);
         summary.add(result, approximation.outputs);
         summary.perFrame.push_back(std::move(result));
         if (options.progress) options.progress(static_cast<double>(frame - first + 1) / (last - first + 1));

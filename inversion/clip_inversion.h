@@ -24,6 +24,7 @@
 #include <Eigen/Core>
 
 #include "inversion/approximation.h"
+#include "inversion/contacts.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
 
@@ -60,6 +61,16 @@ struct ChainScratch {
 };
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
                      double previousCost, ChainScratch& scratch, ChainFrame& frame);
+
+// One frame with contacts held (inversion/contacts.h): `solveOnce` (a chain frame's solve on the held targets) run
+// again with each hold's multiplier updated until every held output is within contactToleranceCm of its hold on the
+// approximation, or contactSolves solves. `holds` come in with their shifts (contactHolds) and leave with the last;
+// `frame` sums the solves' iterations. Returns the multiplier updates made.
+using HeldSolve = std::function<void(std::span<const JointTarget> targets, std::vector<double>& values,
+                                     double previousCost, ChainFrame& frame)>;
+int solveHeldFrame(const Approximation& approximation, const HeldSolve& solveOnce, std::span<const JointTarget> targets,
+                   std::vector<ContactHold>& holds, std::vector<double>& values, double previousCost,
+                   ChainFrame& frame);
 
 // How a chain solves one frame: `values` in, the warm start (at a restart frame, the start the options
 // chose), out, the solution; `previousCost` as solveChainFrame takes it; `frame` the result. Empty: the
@@ -98,6 +109,12 @@ struct ClipInversionOptions {
     std::function<void(double fraction)> progress;
     // The per-frame solve; empty: the solver's (see FrameSolveStrategy). A strategy gets no polish.
     FrameSolveStrategy frameSolve;
+    // Joints planted over frame ranges (inversion/contacts.h), each held at its target's position at the contact's
+    // first frame with a priority above the other targets, and its slide on the real rig measured
+    // (ClipInversionSummary::contacts). Empty: none.
+    std::vector<Contact> contacts;
+    // false: the contacts' slides measured but the contacts not held (a run to compare with).
+    bool holdContacts = true;
 
     // Throws rig::Error naming the field (and the solver's fields).
     void validate() const;
@@ -201,6 +218,10 @@ struct ClipInversionSummary {
     long long realRigEvaluations = 0;  // by the solves of the reported frames (a hybrid solve's); 0 otherwise
     long long jointFrames = 0;         // the (joint, frame) pairs the means are over
     std::vector<FrameInversion> perFrame;
+    // The contacts that cover reported frames, in the options' order, with their slides on the real rig.
+    std::vector<ContactSlide> contacts;
+    int multiplierUpdates =
+        0;  // contacts: multiplier updates over the reported frames (solves beyond one per held frame)
 
     int count(FrameStatus status) const { return statusFrames[static_cast<std::size_t>(status)]; }
     int failedFrames() const;

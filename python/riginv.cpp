@@ -526,7 +526,7 @@ public:
 
     py::tuple invert(const py::object& targets, const py::object& rig, const py::object& map,
                      const py::object& progress, const py::object& plugins, const py::object& frames,
-                     const py::object& take, const SettingArguments& settings) const
+                     const py::object& take, const py::object& contacts, const SettingArguments& settings) const
     {
         app::InvertJob job;
         job.loadedApproximation = approximation_;
@@ -544,6 +544,8 @@ public:
         if (!map.is_none()) job.map = pathText(map, "map");
         if (!frames.is_none()) job.frames = textArgument(frames, "frames");
         if (!take.is_none()) job.take = textArgument(take, "take");
+        if (!contacts.is_none()) job.contacts = pathText(contacts, "contacts");
+        job.contactsName = "contacts";
         checkProgress(progress);
         job.settings = settingsArgument(settings);
         ProgressToPython onProgress(progress);
@@ -687,6 +689,8 @@ void defInvert(py::class_<PyApproximation>& approximation, std::index_sequence<I
         "joints; docs/rig-invert.md).\n"
         "progress: called as progress(frames done, frames total), with the GIL held.\n"
         "plugins, frames: as rig-invert's --plugin and --frames ('A:B' in the clip's numbering).\n"
+        "contacts: as rig-invert's --contacts: 'auto' (the feet's contacts detected from the clip) or a file of "
+        "frame ranges per joint, held above the other targets (docs/retargeting.md); None: none.\n"
         "{}: the solve settings, as rig-invert's flags of those names ('-' for '_'; a flag's keyword is True or "
         "False); threads counts the solver's threads (0: all cores; the values do not depend on it).\n"
         "values: an (F, P) float64 array in the curves' units (degrees, cm); names: its P parameter names; report: "
@@ -697,12 +701,13 @@ void defInvert(py::class_<PyApproximation>& approximation, std::index_sequence<I
         "invert",
         [](const PyApproximation& self, const py::object& targets, const py::object& rig, const py::object& map,
            const py::object& progress, const py::object& plugins, const py::object& frames, const py::object& take,
-           const Object<I>&... settings) {
-            return self.invert(targets, rig, map, progress, plugins, frames, take, SettingArguments{settings...});
+           const py::object& contacts, const Object<I>&... settings) {
+            return self.invert(targets, rig, map, progress, plugins, frames, take, contacts,
+                               SettingArguments{settings...});
         },
         py::arg("targets"), py::arg("rig"), py::arg("map") = py::none(), py::arg("progress") = py::none(),
         py::kw_only(), py::arg("plugins") = py::list(), py::arg("frames") = py::none(), py::arg("take") = py::none(),
-        (py::arg(keys[I].c_str()) = settingDefault(table[I]))..., doc.c_str());
+        py::arg("contacts") = py::none(), (py::arg(keys[I].c_str()) = settingDefault(table[I]))..., doc.c_str());
 }
 
 }  // namespace

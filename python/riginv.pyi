@@ -78,6 +78,7 @@ class Approximation:
         plugins: Sequence[str] = [],
         frames: Optional[str] = None,
         take: Optional[str] = None,
+        contacts: Optional[_Path] = None,
         threads: int = 1,
         no_partition: bool = False,
         block_by_block: bool = False,

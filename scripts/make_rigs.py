@@ -2,6 +2,7 @@
 """Writes the bundled production-style rigs and the generated large rigs.
 
     scripts/make_rigs.py biped  [-o rigs/biped.yaml]
+    scripts/make_rigs.py biped --leg-scale 1.15 -o rigs/biped_long_legs.yaml   thighs, shins and feet 15% longer
     scripts/make_rigs.py crowd N [-o FILE] [--rig ../biped.yaml]   N bipeds in one graph (includes)
     scripts/make_rigs.py chain N [-o FILE]                          one FK chain of N joints (3N parameters)
 
@@ -167,10 +168,26 @@ def sdk(rig, name, driver, keys, tangents="spline", kind="animCurveUA"):
     return f"{name}.output"
 
 
-def biped():
+# The bones a leg scale lengthens: each joint's offset from its parent (thigh, shin, foot).
+LEG_BONES = ("LeftLeg", "LeftFoot", "LeftToeBase", "RightLeg", "RightFoot", "RightToeBase")
+
+
+def leg_scaled(skeleton, factor):
+    """The skeleton with the thighs, shins and feet `factor` times as long (a character of other proportions)."""
+    return [(name, parent, scaled(offset, factor) if name in LEG_BONES else offset)
+            for name, parent, offset in skeleton]
+
+
+def biped(leg_scale=1.0):
     s = CMU_TO_CM
-    pos = world_positions(CMU_SKELETON)
-    rig = Rig(BIPED_HEADER)
+    skeleton = leg_scaled(CMU_SKELETON, leg_scale)
+    pos = world_positions(skeleton)
+    header = BIPED_HEADER
+    if leg_scale != 1.0:
+        header = header.replace("rigs/biped.yaml:", "rigs/biped_long_legs.yaml:").replace(
+            "scripts/make_rigs.py biped --", f"scripts/make_rigs.py biped --leg-scale {leg_scale} --")
+        header += f"# Thighs, shins and feet {leg_scale} times as long as the CMU skeleton's (other proportions).\n"
+    rig = Rig(header)
     joints = {}
 
     def joint(name, parent, translate, **fields):
@@ -186,7 +203,7 @@ def biped():
     # Global and root controls.
     ctrl(rig, "world_ctrl")
     ctrl(rig, "root_ctrl", order=ROTATE_ORDERS["Hips"])
-    for name, parent, offset in CMU_SKELETON:
+    for name, parent, offset in skeleton:
         extra = {"segmentScaleCompensate": False} if name == "Hips" else {}
         joint(name, parent or "world_ctrl", tuple(s * o for o in offset), **extra)
     rig.connect("root_ctrl.translate", "Hips.translate")
@@ -446,12 +463,14 @@ def main():
     parser.add_argument("count", nargs="?", type=int, default=0)
     parser.add_argument("-o", "--output", default="-")
     parser.add_argument("--rig", default="biped.yaml", help="crowd: the rig file each member includes")
+    parser.add_argument("--leg-scale", type=float, default=1.0,
+                        help="biped: thighs, shins and feet this many times as long (rigs/biped_long_legs.yaml: 1.15)")
     args = parser.parse_args()
     if args.what in ("crowd", "chain") and args.count < 1:
         parser.error(f"{args.what} needs a count of at least 1")
     out = sys.stdout if args.output == "-" else open(args.output, "w")
     if args.what == "biped":
-        biped().write(out)
+        biped(args.leg_scale).write(out)
     elif args.what == "chain":
         chain(args.count).write(out)
     else:

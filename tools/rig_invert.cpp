@@ -83,6 +83,13 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
             "not modelled      {} (non-compositional: their targets were not fitted, so frames that miss them "
             "are model mismatches; --hybrid fits them on the real rig)\n",
             fmt::join(unmodelled, ", "));
+    if (outcome.contactsAsked) {
+        std::cout << fmt::format("contacts          {}: foot slide on the real rig worst {:.4g} cm, mean {:.4g} cm\n",
+                                 s.contacts.size(), maxSlideCm(s.contacts), meanSlideCm(s.contacts));
+        for (const ContactSlide& c : s.contacts)
+            std::cout << fmt::format("                  {} frames {} to {}: {:.4g} cm\n", a.outputs[c.output].name,
+                                     clip.frameNumbers[c.first], clip.frameNumbers[c.last], c.slideCm);
+    }
     std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
                              s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
     if (keys) std::cout << app::keysText(outcome, *keys);
@@ -108,7 +115,8 @@ int run(const Options& o)
                              {"the rig file", o.rig},
                              {"the clip", o.clip},
                              {"the map", o.map},
-                             {"--after", o.after}},
+                             {"--after", o.after},
+                             {"--contacts", o.contacts == "auto" ? std::string() : o.contacts}},
                             outputs);
     app::InvertJob job;
     static_cast<app::InversionInputs&>(job) = o;
@@ -196,6 +204,9 @@ int main(int argc, char** argv)
         ->required();
     app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
     const rig::cli::SolveFlags solveFlags(app, rig::app::SolveSettings{});
+    app.add_option("--contacts", options.contacts,
+                   "Hold planted joints (feet) with a priority above the other targets: auto (detected from the "
+                   "clip) or a file of frame ranges per joint (docs/retargeting.md)");
     app.add_option("--after", options.after,
                    "JSON curves rig-invert wrote for the frames before these: this run continues them (the curves "
                    "of chunks then equal one run's)");

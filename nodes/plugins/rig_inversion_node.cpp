@@ -19,6 +19,8 @@
 #include <memory>
 #include <mutex>
 #include <numbers>
+#include <optional>
+#include <span>
 #include <string>
 #include <thread>
 
@@ -31,11 +33,13 @@
 #include "graph/plug_glob.h"
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
+#include "inversion/contacts.h"
 #include "inversion/continuity.h"
 #include "inversion/hybrid_solve.h"
 #include "inversion/residual_term.h"
 #include "inversion/solver.h"
 #include "nodes/clips/target_clip.h"
+#include "nodes/contact_ranges.h"
 #include "nodes/graph_rig_function.h"
 
 namespace rig {
@@ -66,6 +70,7 @@ enum Attr : AttrId {
     rigFile,
     realRigEvaluations,
     residualTermName,
+    contactsFile,
 };
 
 // An approximation and the solver built on it: read-only (Solver is const and thread-safe), so every node
@@ -199,12 +204,66 @@ private:
             // A warm start is kept across new solver settings, unless the file changed under it.
             if (newFile || solution_.size() != loaded_->approximation->parameters.size()) solution_.clear();
         }
+        loadContacts(c.getString(contactsFile), node);
         const std::string& mapPath = c.getString(map);
         if (mapStale || mapPath != mapPath_) {
             const TargetMap read = nodeMap(mapPath);
             scale_ = read.scale;
             weights_ = outputWeights(read, *loaded_->approximation);
             mapPath_ = mapPath;
+        }
+    }
+
+    // `contacts`: a contacts file's ranges (nodes/contact_ranges.h) in scene time, read again when the path or the
+    // approximation changes.
+    void loadContacts(const std::string& path, const std::string& node)
+    {
+        if (path == contactsPath_ && contactsModel_ == loaded_.get()) return;
+        contacts_.clear();
+        contactsPath_ = path;
+        contactsModel_ = loaded_.get();
+        if (!path.empty()) {
+            const Approximation& a = *loaded_->approximation;
+            try {
+                for (const ContactRange& r : readContactRanges(path)) {
+                    const auto o = std::find_if(a.outputs.begin(), a.outputs.end(),
+                                                [&](const ApproximationOutput& out) { return out.name == r.joint; });
+                    if (o == a.outputs.end())
+                        throw Error(
+                            fmt::format("{}: '{}' is not an output of the approximation; name a joint the "
+                                        "node targets (LeftFoot)",
+                                        formatMark(r.jointMark), messageExcerpt(r.joint)));
+                    if (r.first > r.last)
+                        throw Error(fmt::format("{}: frame range [{}, {}] ends before it starts; give [first, last]",
+                                                formatMark(r.rangeMark), r.first, r.last));
+                    contacts_.push_back({static_cast<int>(o - a.outputs.begin()), r.first, r.last});
+                }
+            }
+            catch (const Error& e) {
+                throw e.in(fmt::format("{}.contacts", node));
+            }
+        }
+        holds_.assign(contacts_.size(), std::nullopt);
+        shifts_.assign(contacts_.size(), Eigen::Vector3d::Zero());
+        startShifts_ = shifts_;
+    }
+
+    // The holds of the contacts that cover time `t` (inversion/contacts.h): each at its target's position at the
+    // contact's first frame, as rig-invert holds it when the node plays the frames in order (entered later, at
+    // the first frame it evaluates inside the contact), with the multiplier carried along the chain.
+    void contactHoldsAt(double t, std::span<const JointTarget> targets)
+    {
+        frameHolds_.clear();
+        for (std::size_t i = 0; i < contacts_.size(); ++i) {
+            const NodeContact& c = contacts_[i];
+            const JointTarget& target = targets[static_cast<std::size_t>(c.output)];
+            if (t < c.first || t > c.last || !target.active) {
+                holds_[i].reset();
+                continue;
+            }
+            if (t == c.first || !holds_[i]) holds_[i] = target.world.block<3, 1>(0, 3);
+            frameHolds_.push_back(
+                {static_cast<int>(i), c.output, *holds_[i], t == c.first ? Eigen::Vector3d::Zero() : shifts_[i]});
         }
     }
 
@@ -249,13 +308,24 @@ private:
             start_ = a.defaults();
             if (c.getBool(coldStart)) loaded_->solver->initialGuess(targets, start_);
             startCost_ = retryNever;  // a restart is not retried, as in rig-invert
+            std::fill(startShifts_.begin(), startShifts_.end(), Eigen::Vector3d::Zero());
         } else if (t != previousTime_) {
             start_ = solution_;
             startCost_ = solutionCost_;
+            startShifts_ = shifts_;
         }
         solution_ = start_;
-        if (HybridSolver* h = hybridSolver(c, node)) h->solveFrame(targets, solution_, startCost_, scratch_, frame_);
-        else solveChainFrame(*loaded_->solver, targets, solution_, startCost_, scratch_, frame_);
+        shifts_ = startShifts_;
+        HybridSolver* h = hybridSolver(c, node);
+        const HeldSolve solveOnce = [&](std::span<const JointTarget> asked, std::vector<double>& v, double previous,
+                                        ChainFrame& f) {
+            if (h) h->solveFrame(asked, v, previous, scratch_, f);
+            else solveChainFrame(*loaded_->solver, asked, v, previous, scratch_, f);
+        };
+        contactHoldsAt(t, targets);
+        if (frameHolds_.empty()) solveOnce(targets, solution_, startCost_, frame_);
+        else solveHeldFrame(a, solveOnce, targets, frameHolds_, solution_, startCost_, frame_);
+        for (const ContactHold& held : frameHolds_) shifts_[static_cast<std::size_t>(held.contact)] = held.shift;
         const SolveSummary& summary = frame_.summary;
         solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
         previousTime_ = t;
@@ -371,7 +441,19 @@ private:
     std::vector<double> solution_;  // the chain's, as solved
     ChunkShift shift_;              // of the current chain (inversion/continuity.h)
     std::vector<double> reported_;  // solution_ shifted: the values output
-    std::vector<double> before_;    // reported_ of the frame before, when played in order; empty otherwise
+    // `contacts`: the file's ranges (scene time), each contact's hold once entered, the multipliers of the frame
+    // solved and of the frame the next solve starts from (as start_ and solution_).
+    struct NodeContact {
+        int output = -1;
+        double first = 0.0, last = 0.0;
+    };
+    std::string contactsPath_;
+    const Loaded* contactsModel_ = nullptr;
+    std::vector<NodeContact> contacts_;
+    std::vector<std::optional<Eigen::Vector3d>> holds_;
+    std::vector<Eigen::Vector3d> shifts_, startShifts_;
+    std::vector<ContactHold> frameHolds_;
+    std::vector<double> before_;  // reported_ of the frame before, when played in order; empty otherwise
     std::vector<Eigen::Matrix4d> modelled_, real_;  // the approximation's and the real rig's outputs at reported_
 };
 
@@ -613,6 +695,12 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
         .doc(
             "The residual term of every target (docs/solver.md): jointTarget (position and rotation) or position "
             "(the position alone, three rows; rotationWeight is not used).");
+    b.input(contactsFile, "contacts", ValueType::String)
+        .filePath()
+        .doc(
+            "A contacts file (docs/retargeting.md, Contacts), relative to the rig file that names it: joints planted "
+            "over frame ranges in scene time, each held at its target's position at the range's first frame with a "
+            "priority above the other targets, as rig-invert --contacts FILE holds them when played in order.");
     b.affectsAll();
     b.stateful();
     b.yamlConnector("connect", connectField);

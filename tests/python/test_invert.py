@@ -391,3 +391,23 @@ def test_an_fbx_take_equals_rig_invert(tmp_path):
         assert ours["max_position_error_cm"] < 1e-6
     raises_like("rig-invert", [file, "--rig", rig, "--clip", leg, "--take", "run", "-o", curves],
                 lambda: learned.invert(str(leg), rig=str(rig), take="run"))
+
+
+def test_contacts_equal_rig_invert_s(learned_biped, tmp_path):
+    need_cmu_clip()
+    file, _ = learned_biped
+    expected, _, report = rig_invert(file, tmp_path, "--clip", CMU_CLIP, "--map", CMU_MAP, "--frames", "1:300",
+                                     "--threads", "1", "--contacts", "auto")
+    values, _, ours = riginv.Approximation.load(file).invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, frames="1:300",
+                                                             contacts="auto")
+    assert np.array_equal(values, expected)
+    assert without(ours, *VOLATILE) == without(report, *VOLATILE)
+    assert ours["contacts"]["count"] >= 2 and ours["contacts"]["max_slide_cm"] < 0.01
+    missing = tmp_path / "missing.yaml"
+    code, _, err = run("rig-invert", file, "--rig", BIPED, "--clip", CMU_CLIP, "--map", CMU_MAP, "-o",
+                       tmp_path / "c.json", "--contacts", missing)
+    assert code == 2 and err.startswith(f"error: --contacts: {missing}: cannot open")
+    # The same line, naming the keyword.
+    with pytest.raises(riginv.Error) as caught:
+        riginv.Approximation.load(file).invert(CMU_CLIP, rig=BIPED, map=CMU_MAP, contacts=missing)
+    assert "error: " + str(caught.value) + "\n" == err.replace("--contacts", "contacts", 1)

@@ -5,6 +5,7 @@
 #include <numbers>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include <fmt/format.h>
 #include <Eigen/LU>
@@ -260,4 +261,34 @@ TEST_CASE("rigs/biped.yaml is what scripts/make_rigs.py generates")
         test::run(fmt::format("python3 scripts/make_rigs.py biped -o '{}' && cmp -s '{}' rigs/biped.yaml",
                               (dir / "biped.yaml").string(), (dir / "biped.yaml").string()));
     CHECK(result.exitCode == 0);
+}
+
+TEST_CASE("rigs/biped_long_legs.yaml is make_rigs.py's biped with thighs, shins and feet 15% longer, IK and FK alike")
+{
+    const auto dir = test::scratchDir("biped-long-legs-generated");
+    const auto result = test::run(fmt::format(
+        "python3 scripts/make_rigs.py biped --leg-scale 1.15 -o '{}' && cmp -s '{}' rigs/biped_long_legs.yaml",
+        (dir / "long.yaml").string(), (dir / "long.yaml").string()));
+    CHECK(result.exitCode == 0);
+    auto biped = loadRig("rigs/biped.yaml");
+    auto longLegs = loadRig("rigs/biped_long_legs.yaml");
+    const auto length = [](Graph& g, const char* from, const char* to) {
+        return (world(g, to).block<3, 1>(0, 3) - world(g, from).block<3, 1>(0, 3)).norm();
+    };
+    for (const auto& [from, to, factor] : {std::tuple{"LeftUpLeg", "LeftLeg", 1.15},
+                                           {"LeftLeg", "LeftFoot", 1.15},
+                                           {"LeftFoot", "LeftToeBase", 1.15},
+                                           {"RightUpLeg", "RightLeg", 1.15},
+                                           {"RightLeg", "RightFoot", 1.15},
+                                           {"RightFoot", "RightToeBase", 1.15},
+                                           {"LHipJoint", "LeftUpLeg", 1.0},
+                                           {"LeftArm", "LeftForeArm", 1.0},
+                                           {"Spine", "Spine1", 1.0}}) {
+        CAPTURE(to);
+        CHECK(length(*longLegs, from, to) == doctest::Approx(factor * length(*biped, from, to)).epsilon(1e-9));
+    }
+    // The IK legs at rest are the FK legs, as on the biped: the goals, poles and IK handles are scaled with them.
+    const Eigen::Vector3d fk = world(*longLegs, "LeftFoot").block<3, 1>(0, 3);
+    set(*longLegs, "L_leg_settings.ikFk", 1.0);
+    CHECK((world(*longLegs, "LeftFoot").block<3, 1>(0, 3) - fk).norm() < 1e-9);
 }

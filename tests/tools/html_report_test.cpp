@@ -117,9 +117,9 @@ TEST_CASE("html report: chromium runs the page without a script error, draws it 
     const fs::path page = dir / "report.html";
     const auto r = test::run(fmt::format(
         "{} {} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames 30:53 --key-tolerance 0.1 "
-        "-o {} --html {}",
+        "--contacts auto -o {} --html {} --report-json {}",
         test::tool("rig-invert"), test::bipedApproximation().string(), test::cmuClip.string(),
-        (dir / "curves.anim").string(), page.string()));
+        (dir / "curves.anim").string(), page.string(), (dir / "report.json").string()));
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
     CHECK(r.out.find(fmt::format("report page       {}\n", page.string())) != std::string::npos);
@@ -138,6 +138,11 @@ TEST_CASE("html report: chromium runs the page without a script error, draws it 
     CHECK(status["drawn"].as<bool>());
     CHECK(status["frames"].as<int>() == 24);
     CHECK(status["pixels"].as<int>() > 500);
+    // The contacts the report has, and their slide in the summary line.
+    const int contacts = YAML::LoadFile((dir / "report.json").string())["contacts"]["count"].as<int>();
+    CHECK(contacts >= 1);
+    CHECK(status["contacts"].as<int>() == contacts);
+    CHECK(dom.out.find(fmt::format("; contacts: {}, foot slide on the real rig worst", contacts)) != std::string::npos);
 
     const fs::path shot = dir / "shot.png";
     const auto screenshot =

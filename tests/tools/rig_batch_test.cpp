@@ -227,6 +227,43 @@ TEST_CASE(
     sameCurves();
 }
 
+TEST_CASE("rig-batch: --contacts auto gives rig-invert's curves and contacts, a contact spanning shards joined")
+{
+    if (!clipsInstalled()) return;
+    const auto dir = test::scratchDir("rig_batch_contacts");
+    fs::create_directories(dir / "clips");
+    cutBvh(test::cmuClip, 600, dir / "clips" / "walk.bvh");
+    auto r = test::run(fmt::format("{} {} --clip {} --contacts auto -o {} --report-json {} -q",
+                                   test::tool("rig-invert"), inputs(), (dir / "clips" / "walk.bvh").string(),
+                                   (dir / "walk.json").string(), (dir / "walk.report.json").string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    // Shards of 120 frames: contacts cross their boundaries.
+    r = rigBatch(fmt::format("{} --clips {} --out {} --jobs 2 --shard-frames 120 --contacts auto -q", inputs(),
+                             (dir / "clips").string(), (dir / "out").string()));
+    INFO(r.err);
+    REQUIRE(r.exitCode == 0);
+    CHECK(test::readFile(dir / "out" / "walk.json") == test::readFile(dir / "walk.json"));
+    const Json whole = readJson(dir / "walk.report.json")["contacts"];
+    const Json merged = readJson(dir / "out" / "report.json")["clips"][0]["contacts"];
+    REQUIRE(whole["count"].get<int>() >= 2);
+    CHECK(merged["count"] == whole["count"]);
+    CHECK(merged["multiplier_updates"] == whole["multiplier_updates"]);
+    REQUIRE(merged["per_contact"].size() == whole["per_contact"].size());
+    bool spans = false;
+    for (std::size_t i = 0; i < whole["per_contact"].size(); ++i) {
+        const Json& a = merged["per_contact"][i];
+        const Json& b = whole["per_contact"][i];
+        CHECK(a["joint"] == b["joint"]);
+        CHECK(a["first_frame"] == b["first_frame"]);
+        CHECK(a["last_frame"] == b["last_frame"]);
+        CHECK(a["slide_cm"].get<double>() == doctest::Approx(b["slide_cm"].get<double>()).epsilon(1e-6));
+        spans = spans || (b["first_frame"].get<int>() - 1) / 120 != (b["last_frame"].get<int>() - 1) / 120;
+    }
+    CHECK(spans);
+    CHECK(merged["max_slide_cm"].get<double>() < 0.01);
+}
+
 TEST_CASE("rig-batch: a shard that fails is listed with its error line, exit code 3, and solved by the next run")
 {
     if (!clipsInstalled()) return;

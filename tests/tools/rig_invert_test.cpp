@@ -212,6 +212,56 @@ TEST_CASE("rig-invert: --term position fits the joints' positions alone, closer 
     CHECK(position["mean_position_error_cm"].as<double>() < 0.5 * joint["mean_position_error_cm"].as<double>());
 }
 
+TEST_CASE("rig-invert: --contacts holds the feet, a file of the detected ranges gives the same curves, chunks agree")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto dir = test::scratchDir("rig_invert_contacts");
+    const auto run = [&](const std::string& name, const std::string& flags) {
+        const auto r = rigInvert(
+            fmt::format("{} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --restart-every 40 {} "
+                        "-o {} --report-json {}",
+                        test::bipedApproximation().string(), test::cmuClip.string(), flags,
+                        (dir / (name + ".json")).string(), (dir / (name + ".report.json")).string()));
+        INFO(r.err);
+        REQUIRE(r.exitCode == 0);
+        return r.out;
+    };
+    const std::string text = run("auto", "--frames 1:300 --contacts auto");
+    const YAML::Node contacts = report(dir / "auto.report.json")["contacts"];
+    REQUIRE(contacts["count"].as<int>() >= 2);
+    CHECK(contacts["per_contact"].size() == contacts["count"].as<std::size_t>());
+    CHECK(contacts["max_slide_cm"].as<double>() < 0.01);
+    CHECK(text.find(fmt::format("contacts          {}: foot slide on the real rig worst",
+                                contacts["count"].as<int>())) != std::string::npos);
+    // The detected ranges as a file: the same holds, the same curves.
+    std::string file;
+    for (const auto& joint : {"LeftFoot", "RightFoot"}) {
+        std::vector<std::string> ranges;
+        for (const auto& c : contacts["per_contact"])
+            if (c["joint"].as<std::string>() == joint)
+                ranges.push_back(fmt::format("[{}, {}]", c["first_frame"].as<double>(), c["last_frame"].as<double>()));
+        file += fmt::format("{}: [{}]\n", joint, fmt::join(ranges, ", "));
+    }
+    test::writeFile(dir / "contacts.yaml", file);
+    run("file", "--frames 1:300 --contacts " + (dir / "contacts.yaml").string());
+    CHECK(test::readFile(dir / "file.json") == test::readFile(dir / "auto.json"));
+    // Without contacts the report says none were asked for.
+    run("none", "--frames 1:300");
+    CHECK(report(dir / "none.report.json")["contacts"].IsNull());
+    // Chunks, the second continuing the first: one run's curves, contacts spanning the boundary included.
+    run("first", "--frames 1:150 --contacts auto");
+    run("second", "--frames 151:300 --contacts auto --after " + (dir / "first.json").string());
+    const YAML::Node whole = YAML::LoadFile((dir / "auto.json").string());
+    const YAML::Node first = YAML::LoadFile((dir / "first.json").string());
+    const YAML::Node second = YAML::LoadFile((dir / "second.json").string());
+    REQUIRE(first.size() + second.size() == whole.size());
+    for (std::size_t f = 0; f < whole.size(); ++f)
+        CHECK(YAML::Dump(f < first.size() ? first[f] : second[f - first.size()]) == YAML::Dump(whole[f]));
+}
+
 TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs alone")
 {
     const auto dir = test::scratchDir("rig_invert_errors");
@@ -346,4 +396,14 @@ TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keep
         CHECK(entry.second.as<double>() == c[0][entry.first.as<std::string>()].as<double>());
     }
     CHECK(std::abs(c[0]["shoulder.rotateZ"].as<double>() - 20.0) < 1e-6);
+
+    // A contact cannot start at that frame: its hold would be the target there.
+    const auto contacts = test::writeFile(dir / "contacts.yaml", "elbow: [[2, 3]]\n");
+    const auto held =
+        rigInvert(fmt::format("{} --rig rigs/examples/arm.yaml --clip {} --contacts {} -o {}", arm.string(),
+                              clip.string(), contacts.string(), (dir / "held.json").string()));
+    CHECK(held.exitCode == 2);
+    CHECK(held.err == fmt::format("error: --contacts: {}:1:10: 'elbow' has no finite target at frame 2, where its "
+                                  "hold would be; start the contact at a frame that has one\n",
+                                  contacts.string()));
 }

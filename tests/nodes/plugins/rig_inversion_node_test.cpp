@@ -158,6 +158,44 @@ TEST_CASE("rigInversion: the node's values equal rig-invert's curves on the bipe
     checkSameCurves(dir / "node.json", dir / "curves.json", 80, count);
 }
 
+TEST_CASE("rigInversion: with contacts, the node's values equal rig-invert --contacts' curves, frame for frame")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto approximation = test::bipedApproximation();
+    const auto dir = test::scratchDir("rig_inversion_node_contacts");
+    // A contact across the restart at frame 41 (restartInterval 40), one from the first frame.
+    const auto contacts = test::writeFile(dir / "contacts.yaml", "LeftFoot: [[1, 30]]\nRightFoot: [[20, 70]]\n");
+    const auto graph = test::writeFile(
+        dir / "biped_mocap.yaml",
+        graphFile(test::sourceDir() / "rigs/biped.yaml", approximation,
+                  (test::sourceDir() / "rigs/maps/cmu_to_biped.yaml").string(),
+                  "{targets: clip, parameters: true}\n    restartInterval: 40\n    contacts: " + contacts.string()));
+    const int count = parameterCount(approximation);
+    const auto node = test::run(fmt::format("{} {} --frames 1:80{} -o {}", test::tool("graph-eval"), graph.string(),
+                                            valueGets(count), (dir / "node.json").string()));
+    INFO(node.err);
+    REQUIRE(node.exitCode == 0);
+    const auto invert = test::run(fmt::format(
+        "{} {} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} --frames 1:80 --restart-every 40 "
+        "--contacts {} -o {} --report-json {} -q",
+        test::tool("rig-invert"), approximation.string(), test::cmuClip.string(), contacts.string(),
+        (dir / "curves.json").string(), (dir / "report.json").string()));
+    INFO(invert.err);
+    REQUIRE(invert.exitCode == 0);
+    CHECK(YAML::LoadFile((dir / "report.json").string())["contacts"]["max_slide_cm"].as<double>() < 0.01);
+    checkSameCurves(dir / "node.json", dir / "curves.json", 80, count);
+    // A joint the approximation does not have is the node's one line.
+    test::writeFile(contacts, "Tail: [[1, 2]]\n");
+    const auto bad = test::run(
+        fmt::format("{} {} --frames 1:2 --get 'inverter.value[0]'", test::tool("graph-eval"), graph.string()));
+    CHECK(bad.exitCode == 2);
+    CHECK(bad.err.find(fmt::format("inverter.contacts: {}:1:1: 'Tail' is not an output of the approximation",
+                                   contacts.string())) != std::string::npos);
+}
+
 TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are one-line errors")
 {
     const auto dir = test::scratchDir("rig_inversion_node_errors");
