@@ -436,7 +436,7 @@ double dot(const double* x, const double* y, Eigen::Index n)
 
 }  // namespace
 
-bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu, double reference)
+bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu)
 {
     // S_b^-1 = F^T F with F = L^-1 (S = L L^T), or S^+ = F^T F with F = diag(lambda^-1/2) V^T on the range.
     // S is symmetric by construction; only its lower triangle is read.
@@ -449,11 +449,10 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
     // is divided by its pivot's root. A pivot at or below the rank tolerance leaves it to the range. The
     // diagonal keeps 1 / L(j, j): the triangular solves multiply by it.
     bool wellConditioned = largestDiagonal > 0;
-    const double smallest = rankTolerance * std::max(largestDiagonal, reference);
     for (Eigen::Index j = 0; wellConditioned && j < n; ++j) {
         double* column = l + j * n;
         subtractMany(l + j, n, l + j, n, j, column + j, n - j);
-        if (!(column[j] > smallest)) {
+        if (!(column[j] > rankTolerance * largestDiagonal)) {
             wellConditioned = false;
             break;
         }
@@ -474,7 +473,7 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
     eigen.compute(f);
     if (eigen.info() != Eigen::Success) return false;
     const auto& lambda = eigen.eigenvalues();
-    const double largest = std::max(lambda.cwiseAbs().maxCoeff(), reference);
+    const double largest = lambda.cwiseAbs().maxCoeff();
     for (Eigen::Index i = 0; i < n; ++i)
         f.row(i) = (lambda[i] > rankTolerance * largest ? 1.0 / std::sqrt(lambda[i]) : 0.0) *
                    eigen.eigenvectors().col(i).transpose();
@@ -655,6 +654,13 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
     // with its own attach node by Fold t. Its S_b^-1 = F^T F, T = F W^T and y = F rhs then leave
     // T^T T and T^T y (plus its children's) at its attach node.
     for (std::size_t b = blocks; b-- > 0;) {
+        const int group = e.groupOf_.empty() ? -1 : e.groupOf_[b];
+        // A split block's pivot left out: its matrix is singular here, and its step is the minimum-norm one.
+        if (group >= 0) {
+            if (!eliminateNode(b, mu, groupScale_[static_cast<std::size_t>(group)]))
+                return solveWhole(gradient, mu, delta);
+            continue;
+        }
         double* y = rhs_[b].data();
         for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) folded_[static_cast<std::size_t>(i)] = 0;
         const double* panel = entries_.data() + e.base_[b][0];
@@ -662,10 +668,7 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
             gatherFolds(b);
             panel = foldedPanel(b, y);
         }
-        const int group = e.groupOf_.empty() ? -1 : e.groupOf_[b];
-        if (!factor(b, panel, mu, group < 0 ? 0.0 : groupScale_[static_cast<std::size_t>(group)])) return false;
-        // A split block's pivot left out: its matrix is singular here, and its step is the minimum-norm one.
-        if (group >= 0 && !triangular_[b] && !held(e.columns_[b][0])) return solveWhole(gradient, mu, delta);
+        if (!factor(b, panel, mu)) return false;
         applyF(b, y);
         if (e.attach_[b] >= 0) foldIntoAttach(b, y);
     }
@@ -673,6 +676,51 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
     // its nodes' motions for its children.
     for (std::size_t b = 0; b < blocks; ++b) substituteFolded(b, delta);
     return delta.allFinite();
+}
+
+bool BlockEliminationWorkspace::eliminateNode(std::size_t b, double mu, double scale)
+{
+    // foldedPanel, factor, applyF and foldIntoAttach for a block of one column on one node, in their order of
+    // operations (the same numbers), without their loops over a block's columns, pairs and chain.
+    const BlockElimination& e = *e_;
+    const ResidualWorkspace& rw = *twists_;
+    const std::size_t f = static_cast<std::size_t>(e.nodeBegin_[b]);
+    const int node = e.nodeId_[f];
+    double& y = rhs_[b][0];
+    double s = entries_[static_cast<std::size_t>(e.base_[b][0])];
+    folded_[f] = 0;
+    if (!e.children_[b].empty()) gatherFolds(b);
+    const Vector6& t = rw.twist(node);
+    Vector6 c = rw.weighted(node);
+    const bool still = held(e.columns_[b][0]);
+    if (still) {  // an identity row and column, no right-hand side, no coupling
+        s = 1.0;
+        y = 0.0;
+        c.setZero();
+    } else if (folded_[f]) {
+        foldProduct_[f].noalias() = *foldWeightOf_[f] * t;
+        y -= t.dot(*foldLoadOf_[f]);
+        s -= t.dot(foldProduct_[f]);
+        c -= foldProduct_[f];
+    }
+    s += mu;
+    const bool regular = s > rankTolerance * std::max(s, scale);
+    if (!regular && !still) return false;
+    const double inverse = regular ? 1.0 / std::sqrt(s) : 0.0;  // F, L^-1 of the 1x1
+    squares_[static_cast<std::size_t>(e.square_[b])] = inverse;
+    triangular_[b] = 1;
+    y *= inverse;
+    if (e.attach_[b] < 0) return true;
+    Eigen::Map<Vector6> row(couplings_.data() + e.coupling_[b]);
+    row = c * inverse;
+    Matrix6& k = blockWeight_[b];
+    k.noalias() = row * row.transpose();
+    blockLoad_[b] = y * row;
+    for (const int child : e.children_[b]) {
+        k += blockWeight_[static_cast<std::size_t>(child)];
+        blockLoad_[b] += blockLoad_[static_cast<std::size_t>(child)];
+    }
+    return true;
 }
 
 bool BlockEliminationWorkspace::solveWhole(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu,

@@ -145,9 +145,8 @@ private:
     BlockMap block(std::size_t b, std::size_t i);
     ConstBlockMap block(std::size_t b, std::size_t i) const;
     // S_b^-1 (or S_b^+) = F^T F for S_b (s: its panel's first columns) plus mu I: S_b = L L^T, F = L^-1 (L in
-    // squares_), else F in factor_. False when S_b has no finite inverse. Ranks are judged against S_b's
-    // largest diagonal or eigenvalue, or `reference` (a split block's group's largest diagonal) if larger.
-    bool factor(std::size_t b, const double* s, double mu, double reference = 0.0);
+    // squares_), else F in factor_. False when S_b has no finite inverse.
+    bool factor(std::size_t b, const double* s, double mu);
     void applyF(std::size_t b, double* x);            // x <- F x, in place
     void applyFTransposed(std::size_t b, double* x);  // x <- F^T x, in place
     // T = F W into rows, row-major (W: m columns after S_b, column-major; a row of T per block column).
@@ -157,6 +156,9 @@ private:
         return e_->folded_ && entries_[static_cast<std::size_t>(e_->heldBase_ + column)] != 0;
     }
     bool solveFolded(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
+    // Node by node: a split block's one column eliminated (its 1x1 S_b factored, T and K folded into its attach
+    // node). False when its pivot is at or below 1e-12 of `scale` (its group's largest diagonal): singular there.
+    bool eliminateNode(std::size_t b, double mu, double scale);
     // Node by node, where a split block is singular: the step of the blocks unsplit (BlockElimination::whole_).
     bool solveWhole(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
     // solveFolded's phases. A node's folds (the 6x6 and the load of what is eliminated below it): one more added.
