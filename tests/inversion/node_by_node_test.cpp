@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <random>
 
+#include <fmt/format.h>
 #include <Eigen/Eigenvalues>
 
 #include "inversion/block_elimination.h"
@@ -224,35 +225,102 @@ TEST_CASE("node by node: a long block's step is the dense system's, alone or bet
     CHECK(split >= 12);
 }
 
-TEST_CASE("node by node: a singular chain's step is the minimum-norm step, as the dense system's")
+namespace {
+
+// The step of the unfolded elimination of `partition` (every block kept whole and factored densely, minimum-norm
+// within a singular block: the step before blocks were split), at mu = 0.
+Eigen::VectorXd unfoldedStep(const Approximation& a, const Partition& partition,
+                             const std::vector<JointTarget>& targets, const std::vector<double>& values)
 {
-    // A straight chain at rest with targets on positions only: turning a joint about the chain's axis moves no
-    // joint, so J^T J has a null space; with the tip's position alone, a null space of all but three dimensions.
-    // Node by node, a pivot at or below 1e-12 of the block's largest diagonal hands the step to the block
-    // unsplit, whose minimum-norm step leaves the null space alone (leaf first, the last joints would take the
-    // whole motion: more than twenty times the minimum norm's on the tip alone).
+    const ResidualStructure structure(a, Systems::indices(partition, &PartitionBlock::parameters),
+                                      Systems::indices(partition, &PartitionBlock::outputs));
+    const BlockElimination elimination(partition, structure, false);
+    REQUIRE_FALSE(elimination.nodeByNode());
+    std::vector<PreparedTarget> prepared(targets.size());
+    for (std::size_t k = 0; k < targets.size(); ++k)
+        if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
+    ResidualWorkspace w(structure);
+    w.useLayout(elimination.layout());
+    w.holdParameters(values);
+    w.setTargets(prepared);
+    BlockEliminationWorkspace step(elimination);
+    std::vector<double> x;
+    for (const int c : structure.columns()) x.push_back(values[static_cast<std::size_t>(c)]);
+    const Eigen::Index n = structure.columnCount();
+    Eigen::VectorXd r(structure.rows()), g(n), delta(n);
+    Eigen::MatrixXd j(structure.rows(), n);
+    w.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, g, step.entries(), j);
+    REQUIRE(step.solve(g, 0.0, delta));
+    return delta;
+}
+
+// A partition by joints: block b holds the channels and outputs of joints[b], below parents[b].
+Partition byJoints(const Approximation& a, const std::vector<std::vector<int>>& joints, const std::vector<int>& parents)
+{
+    Partition p;
+    for (std::size_t b = 0; b < joints.size(); ++b) {
+        PartitionBlock block;
+        block.parent = parents[b];
+        for (const int j : joints[b]) {
+            block.outputs.push_back(test::outputIndex(a, fmt::format("j{}", j)));
+            for (const char* channel : {"rotateX", "rotateY", "rotateZ"})
+                block.parameters.push_back(test::parameterIndex(a, fmt::format("j{}.{}", j, channel)));
+        }
+        std::sort(block.parameters.begin(), block.parameters.end());
+        if (block.parent < 0) p.roots.push_back(static_cast<int>(b));
+        else p.blocks[static_cast<std::size_t>(block.parent)].children.push_back(static_cast<int>(b));
+        p.blocks.push_back(std::move(block));
+    }
+    return p;
+}
+
+}  // namespace
+
+TEST_CASE("node by node: a singular block's step is the minimum-norm step within it, as before blocks were split")
+{
+    // Straight limbs at rest with targets on positions only: turning a joint about the limb's axis moves no joint,
+    // so J^T J has a null space; with the ends' positions alone (the tip; the spine's and the arms'), a null space
+    // of all but three dimensions per end. Node by node, a pivot at or below 1e-12 of the block's largest diagonal
+    // hands the step to the blocks unsplit, whose minimum-norm step leaves the null space alone (leaf first, the
+    // last joints would take the whole motion: more than twenty times the minimum norm's on the tip alone).
+    // Shapes: a chain of 12 joints as one block, and a spine of 10 joints (a block split node by node) with two
+    // arms of 3 (blocks kept whole below it).
     std::mt19937 rng(35);
-    std::vector<int> parent;
-    appendChain(parent, 12, -1);
-    const test::RandomFk fk = fkOn(rng, parent, true);
-    const Approximation a = learned(fk);
-    for (const bool tipOnly : {false, true}) {
-        CAPTURE(tipOnly);
-        std::vector<JointTarget> targets = test::targetsAt(a, test::randomValues(a, rng, 0.3));
-        for (JointTarget& t : targets) t.rotationWeight = 0.0;
-        for (std::size_t k = 0; k + 1 < targets.size(); ++k) targets[k].active = !tipOnly;
-        Systems s(a, oneBlock(a), targets, a.defaults());
-        REQUIRE(s.elimination.nodeByNode());
-        const Eigen::Index n = s.structure.columnCount();
-        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(s.full);
-        const Eigen::VectorXd& lambda = eigen.eigenvalues();
-        CHECK((lambda.array() <= 1e-12 * lambda.maxCoeff()).count() >= (tipOnly ? n - 3 : 12));
-        const Eigen::VectorXd minimumNorm = minimumNormStep(s.full, 0.0, s.g);
-        Eigen::VectorXd delta(n);
-        REQUIRE(s.step.solve(s.g, 0.0, delta));
-        CHECK((delta - minimumNorm).norm() <= 1e-8 * minimumNorm.norm());
-        // Held columns, and the damped system (regular: node by node): the dense system's steps.
-        checkAgainstDense(s);
+    std::vector<int> chain, spine;
+    appendChain(chain, 12, -1);
+    appendChain(spine, 10, -1);
+    appendChain(spine, 3, 9);
+    appendChain(spine, 3, 9);
+    for (const bool armed : {false, true}) {
+        CAPTURE(armed);
+        const test::RandomFk fk = fkOn(rng, armed ? spine : chain, true);
+        const Approximation a = learned(fk);
+        const Partition partition =
+            armed ? byJoints(a, {{0, 1, 2, 3, 4, 5, 6, 7, 8, 9}, {10, 11, 12}, {13, 14, 15}}, {-1, 0, 0}) : oneBlock(a);
+        const std::vector<int> ends = armed ? std::vector<int>{9, 12, 15} : std::vector<int>{11};
+        for (const bool endsOnly : {false, true}) {
+            CAPTURE(endsOnly);
+            std::vector<JointTarget> targets = test::targetsAt(a, test::randomValues(a, rng, 0.3));
+            for (JointTarget& t : targets) t.rotationWeight = 0.0;
+            for (std::size_t k = 0; k < targets.size(); ++k)
+                targets[k].active = !endsOnly || std::find(ends.begin(), ends.end(),
+                                                           std::stoi(a.outputs[k].name.substr(1))) != ends.end();
+            Systems s(a, partition, targets, a.defaults());
+            REQUIRE(s.elimination.nodeByNode());
+            const Eigen::Index n = s.structure.columnCount();
+            const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(s.full);
+            const Eigen::VectorXd& lambda = eigen.eigenvalues();
+            const Eigen::Index rank = endsOnly ? 3 * static_cast<Eigen::Index>(ends.size()) : n - 12;
+            CHECK((lambda.array() <= 1e-12 * lambda.maxCoeff()).count() >= n - rank);
+            Eigen::VectorXd delta(n);
+            REQUIRE(s.step.solve(s.g, 0.0, delta));
+            const Eigen::VectorXd before = unfoldedStep(a, partition, targets, a.defaults());
+            CHECK((delta - before).norm() <= 1e-8 * before.norm());
+            CHECK((s.full * delta + s.g).norm() <= 1e-8 * s.g.norm());
+            if (!armed) CHECK((delta - minimumNormStep(s.full, 0.0, s.g)).norm() <= 1e-8 * delta.norm());
+            // Held columns, and the damped system (regular: node by node): the dense system's steps.
+            if (!armed) checkAgainstDense(s);
+        }
     }
 }
 
