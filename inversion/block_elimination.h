@@ -53,8 +53,8 @@ public:
     // where the blocks hang as it needs.
     BlockElimination(const Partition& partition, const ResidualStructure& structure, bool twists = false);
 
-    // Blocks of more columns than this are eliminated node by node where folded (above): below it the dense
-    // factor of a block costs less than the recursion's 6x6 work per column.
+    // Blocks of more columns than this are eliminated node by node where folded (above). Measured on chains: the
+    // dense factor is faster up to about 12 columns, the two even from 18 to 24, the recursion faster beyond.
     static constexpr int recursiveAbove = 24;
 
     // The blocks eliminated, a long block's columns each one of them.
