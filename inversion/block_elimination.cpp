@@ -27,6 +27,27 @@ int positionOf(const std::vector<int>& sorted, int value)
 
 BlockElimination::BlockElimination(const Partition& partition, const ResidualStructure& structure, bool twists)
 {
+    build(partition, structure, twists);
+    if (!folded_) return;
+    Partition finer;
+    std::vector<int> group;
+    if (!splitLongBlocks(partition, structure, finer, group)) return;
+    BlockElimination recursive(finer, structure, true);
+    if (!recursive.folded_) return;
+    auto whole = std::make_unique<BlockElimination>(std::move(*this));
+    *this = std::move(recursive);
+    whole_ = std::move(whole);
+    groupOf_ = std::move(group);
+    for (std::size_t b = 0; b < groupOf_.size(); ++b) {
+        if (groupOf_[b] < 0) continue;
+        const std::size_t g = static_cast<std::size_t>(groupOf_[b]);
+        if (groupColumns_.size() <= g) groupColumns_.resize(g + 1);
+        groupColumns_[g].push_back(columns_[b][0]);
+    }
+}
+
+void BlockElimination::build(const Partition& partition, const ResidualStructure& structure, bool twists)
+{
     const std::size_t blocks = partition.blocks.size();
     size_.resize(blocks);
     chain_.resize(blocks);
@@ -101,6 +122,71 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
     heldBase_ = entryCount_;
     entryCount_ += n;
     for (int& entry : pairEntry_) entry = layout_[static_cast<std::size_t>(entry)];
+}
+
+bool BlockElimination::splitLongBlocks(const Partition& partition, const ResidualStructure& s, Partition& finer,
+                                       std::vector<int>& group) const
+{
+    // A long block whose columns each have one unknown node becomes a block per column, below the block of its
+    // node's unknown parent (or, at its top, of its attach node): the fold then runs node by node.
+    std::vector<int> nodeOf(blockOfColumn_.size(), -1), count(blockOfColumn_.size(), 0);
+    for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k) {
+        const std::size_t c = static_cast<std::size_t>(s.unknownColumn_[k]);
+        ++count[c];
+        nodeOf[c] = s.unknownNodes_[k];
+    }
+    std::vector<int> columnOfNode(s.nodes_.size(), -1);
+    for (std::size_t k = 0; k < s.unknownNodes_.size(); ++k)
+        columnOfNode[static_cast<std::size_t>(s.unknownNodes_[k])] = s.unknownColumn_[k];
+    std::vector<char> split(size_.size(), 0);
+    for (std::size_t b = 0; b < size_.size(); ++b)
+        split[b] = size_[b] > recursiveAbove && std::all_of(columns_[b].begin(), columns_[b].end(), [&](int c) {
+                       return count[static_cast<std::size_t>(c)] == 1;
+                   });
+    if (std::find(split.begin(), split.end(), 1) == split.end()) return false;
+    std::vector<int> blockOf(blockOfColumn_.size(), -1), depth;
+    const auto add = [&](std::vector<int> parameters, int parent, int g) {
+        const int index = static_cast<int>(finer.blocks.size());
+        if (parent >= 0) finer.blocks[static_cast<std::size_t>(parent)].children.push_back(index);
+        else finer.roots.push_back(index);
+        finer.blocks.push_back({std::move(parameters), {}, parent, {}});
+        depth.push_back(parent < 0 ? 0 : depth[static_cast<std::size_t>(parent)] + 1);
+        group.push_back(g);
+        return index;
+    };
+    int groups = 0;
+    for (std::size_t b = 0; b < size_.size(); ++b) {
+        if (!split[b]) {  // kept whole, below the block of its attach node
+            const int attach = attach_[b] < 0 ? -1 : nodeColumn_[static_cast<std::size_t>(attach_[b])];
+            const int index =
+                add(partition.blocks[b].parameters, attach < 0 ? -1 : blockOf[static_cast<std::size_t>(attach)], -1);
+            for (const int c : columns_[b]) blockOf[static_cast<std::size_t>(c)] = index;
+            continue;
+        }
+        std::vector<int> columns = columns_[b];  // parents first: in the structure's order of their nodes
+        std::sort(columns.begin(), columns.end(), [&](int x, int y) {
+            return nodeOf[static_cast<std::size_t>(x)] < nodeOf[static_cast<std::size_t>(y)];
+        });
+        for (const int c : columns) {
+            const int up = s.unknownUp_[static_cast<std::size_t>(nodeOf[static_cast<std::size_t>(c)])];
+            const int parent =
+                up < 0 ? -1 : blockOf[static_cast<std::size_t>(columnOfNode[static_cast<std::size_t>(up)])];
+            if (up >= 0 && parent < 0) return false;
+            blockOf[static_cast<std::size_t>(c)] = add({s.columns()[static_cast<std::size_t>(c)]}, parent, groups);
+        }
+        ++groups;
+    }
+    // Each output to the deepest block that moves it (the others are in that block's chain, which the build checks).
+    std::vector<int> owner(s.outputs().size(), -1);
+    for (std::size_t c = 0; c < blockOf.size(); ++c)
+        for (const int o : s.outputsOfColumn(static_cast<int>(c))) {
+            int& own = owner[static_cast<std::size_t>(o)];
+            const int block = blockOf[c];
+            if (own < 0 || depth[static_cast<std::size_t>(block)] > depth[static_cast<std::size_t>(own)]) own = block;
+        }
+    for (std::size_t o = 0; o < owner.size(); ++o)
+        if (owner[o] >= 0) finer.blocks[static_cast<std::size_t>(owner[o])].outputs.push_back(s.outputs()[o]);
+    return true;
 }
 
 bool BlockElimination::planFold(const Partition& partition, const ResidualStructure& s)
@@ -201,6 +287,7 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
     blockWeight_.assign(blocks, Matrix6::Zero());
     blockLoad_.assign(blocks, Vector6::Zero());
     foldCoupling_.assign(static_cast<std::size_t>(6 * largest), 0.0);
+    groupScale_.assign(elimination.groupColumns_.size(), 0.0);
 }
 
 BlockEliminationWorkspace::BlockMap BlockEliminationWorkspace::block(std::size_t b, std::size_t i)
@@ -553,6 +640,13 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
     for (std::size_t b = 0; b < blocks; ++b)
         for (Eigen::Index l = 0; l < e.size_[b]; ++l)
             rhs_[b][l] = -gradient[e.columns_[b][static_cast<std::size_t>(l)]];
+    // A split block's pivots are judged against its whole matrix's scale, as its dense factor would be.
+    for (std::size_t g = 0; g < e.groupColumns_.size(); ++g) {
+        double largest = 0.0;
+        for (const int c : e.groupColumns_[g])
+            if (!held(c)) largest = std::max(largest, diagonal(c));
+        groupScale_[g] = largest + mu;
+    }
     // Leaves first. A block's children have left, at their attach nodes (its nodes), what eliminating them
     // takes off J^T J and the right-hand side in twist space: K = W^T S^-1 W (6x6) and W^T S^-1 rhs (W: the
     // child's couplings with the attach node's motion), and theirs below. Summed up its nodes (Fold), they
@@ -560,6 +654,13 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
     // with its own attach node by Fold t. Its S_b^-1 = F^T F, T = F W^T and y = F rhs then leave
     // T^T T and T^T y (plus its children's) at its attach node.
     for (std::size_t b = blocks; b-- > 0;) {
+        const int group = e.groupOf_.empty() ? -1 : e.groupOf_[b];
+        // A split block's pivot left out: its matrix is singular here, and its step is the minimum-norm one.
+        if (group >= 0) {
+            if (!eliminateNode(b, mu, groupScale_[static_cast<std::size_t>(group)]))
+                return solveWhole(gradient, mu, delta);
+            continue;
+        }
         double* y = rhs_[b].data();
         for (int i = e.nodeBegin_[b]; i < e.nodeBegin_[b + 1]; ++i) folded_[static_cast<std::size_t>(i)] = 0;
         const double* panel = entries_.data() + e.base_[b][0];
@@ -575,6 +676,74 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
     // its nodes' motions for its children.
     for (std::size_t b = 0; b < blocks; ++b) substituteFolded(b, delta);
     return delta.allFinite();
+}
+
+bool BlockEliminationWorkspace::eliminateNode(std::size_t b, double mu, double scale)
+{
+    // foldedPanel, factor, applyF and foldIntoAttach for a block of one column on one node, in their order of
+    // operations (the same numbers), without their loops over a block's columns, pairs and chain.
+    const BlockElimination& e = *e_;
+    const ResidualWorkspace& rw = *twists_;
+    const std::size_t f = static_cast<std::size_t>(e.nodeBegin_[b]);
+    const int node = e.nodeId_[f];
+    double& y = rhs_[b][0];
+    double s = entries_[static_cast<std::size_t>(e.base_[b][0])];
+    folded_[f] = 0;
+    if (!e.children_[b].empty()) gatherFolds(b);
+    const Vector6& t = rw.twist(node);
+    Vector6 c = rw.weighted(node);
+    const bool still = held(e.columns_[b][0]);
+    if (still) {  // an identity row and column, no right-hand side, no coupling
+        s = 1.0;
+        y = 0.0;
+        c.setZero();
+    } else if (folded_[f]) {
+        foldProduct_[f].noalias() = *foldWeightOf_[f] * t;
+        y -= t.dot(*foldLoadOf_[f]);
+        s -= t.dot(foldProduct_[f]);
+        c -= foldProduct_[f];
+    }
+    s += mu;
+    const bool regular = s > rankTolerance * std::max(s, scale);
+    if (!regular && !still) return false;
+    const double inverse = regular ? 1.0 / std::sqrt(s) : 0.0;  // F, L^-1 of the 1x1
+    squares_[static_cast<std::size_t>(e.square_[b])] = inverse;
+    triangular_[b] = 1;
+    y *= inverse;
+    if (e.attach_[b] < 0) return true;
+    Eigen::Map<Vector6> row(couplings_.data() + e.coupling_[b]);
+    row = c * inverse;
+    Matrix6& k = blockWeight_[b];
+    k.noalias() = row * row.transpose();
+    blockLoad_[b] = y * row;
+    for (const int child : e.children_[b]) {
+        k += blockWeight_[static_cast<std::size_t>(child)];
+        blockLoad_[b] += blockLoad_[static_cast<std::size_t>(child)];
+    }
+    return true;
+}
+
+bool BlockEliminationWorkspace::solveWhole(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu,
+                                           Eigen::Ref<Eigen::VectorXd> delta)
+{
+    // The blocks as the partition gave them, J^T J within each from the twists as the normal equations form it,
+    // the held columns held again. Made on the first such step: a chain's targets that determine it never need it.
+    const BlockElimination& whole = *e_->whole_;
+    if (!whole_) whole_ = std::make_unique<BlockEliminationWorkspace>(whole, twists_);
+    const ResidualWorkspace& rw = *twists_;
+    std::vector<double>& entries = whole_->entries_;
+    std::fill(entries.begin(), entries.end(), 0.0);
+    for (std::size_t f = 0; f < whole.nodeId_.size(); ++f) {
+        const auto& u = rw.weighted(whole.nodeId_[f]);
+        for (int p = whole.pairBegin_[f]; p < whole.pairBegin_[f + 1]; ++p) {
+            const std::size_t q = static_cast<std::size_t>(p);
+            entries[static_cast<std::size_t>(whole.pairEntry_[q])] +=
+                whole.pairFactor_[q] * rw.twist(whole.nodeId_[static_cast<std::size_t>(whole.pairOther_[q])]).dot(u);
+        }
+    }
+    for (int c = 0; c < static_cast<int>(e_->blockOfColumn_.size()); ++c)
+        if (held(c)) whole_->hold(c);
+    return whole_->solve(gradient, mu, delta);
 }
 
 void BlockEliminationWorkspace::addFold(std::size_t i, const Matrix6* weight, const Vector6* load)

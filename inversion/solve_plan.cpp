@@ -114,8 +114,11 @@ Plan::Plan(const Approximation& approximation, const Equivalences& equivalences,
            std::vector<const ResidualTerm*> terms, bool coupledBlocks, bool twists)
     : partition(std::move(p)), terms(std::move(terms)), whole(approximation, {}, std::move(counted), this->terms)
 {
-    for (const PartitionBlock& block : partition.blocks)
+    for (const PartitionBlock& block : partition.blocks) {
         blocks.push_back(std::make_unique<BlockPlan>(approximation, equivalences, block, this->terms));
+        if (twists && static_cast<int>(block.parameters.size()) > BlockElimination::recursiveAbove)
+            eliminateNodeByNode(*blocks.back());
+    }
     if (!coupledBlocks) return;
     planTrees(approximation, equivalences, twists);
     if (trees.size() == 1) {
@@ -134,6 +137,17 @@ Plan::Plan(const Approximation& approximation, const Equivalences& equivalences,
     // The whole's workspace made now: solves that take both costs from the system (or the trees) never make
     // it, and a later one that needs it (values off the limits) must allocate nothing.
     if (system || treesCover) wholePool.release(std::make_unique<WholeWorkspace>(whole));
+}
+
+// A long block alone (a chain) is eliminated node by node where its structure allows it, rather than factored
+// densely (inversion/block_elimination.h).
+void Plan::eliminateNodeByNode(BlockPlan& plan)
+{
+    Partition single;
+    single.blocks.push_back({plan.structure.columns(), plan.structure.outputs(), -1, {}});
+    single.roots.push_back(0);
+    auto elimination = std::make_unique<BlockElimination>(single, plan.structure, true);
+    if (elimination->nodeByNode()) plan.elimination = std::move(elimination);
 }
 
 // One coupled system per independent tree: trees share nothing (a crowd's members), and one system over all of

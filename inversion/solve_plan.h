@@ -61,7 +61,8 @@ struct BlockPlan {
     ResidualStructure structure;
     Unknowns unknowns;
     bool rotationsOnly = true;  // every operator of every parameter is a rotation about a pivot (an angular kind)
-    // Set for a partition's coupled solve: the blocks' step by elimination instead of one dense system.
+    // Set for a partition's coupled solve, or a long block eliminated node by node: the step by elimination
+    // instead of one dense system.
     std::unique_ptr<BlockElimination> elimination;
     mutable Pool<BlockWorkspace> pool;
     std::unique_ptr<BlockWorkspace> makeWorkspace() const
@@ -142,6 +143,7 @@ struct Plan {
     mutable Pool<BlockGraph> graphs;
 
 private:
+    static void eliminateNodeByNode(BlockPlan& plan);
     // One coupled system per independent tree (a crowd's members share nothing).
     void planTrees(const Approximation& approximation, const Equivalences& equivalences, bool twists);
     // Partition of tree t: its blocks renumbered from its root, and all of them as one block.

@@ -1,5 +1,6 @@
 // A warm-start chain allocates nothing per frame once its storage has grown: the test binary's operator new
-// (allocation_counter.h) counts the calls made while the biped's frames are solved.
+// (allocation_counter.h) counts the calls made while the biped's frames are solved, and a long chain's (eliminated
+// node by node).
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -8,8 +9,11 @@
 
 #include "allocation_counter.h"
 #include "inversion/approximation_io.h"
+#include "inversion/block_elimination.h"
 #include "inversion/clip_inversion.h"
+#include "inversion/learner.h"
 #include "learned_fixtures.h"
+#include "random_fk.h"
 #include "solver_rigs.h"
 
 using namespace rig;
@@ -72,5 +76,44 @@ TEST_CASE(
     CHECK(stuck == frames - restartInterval);  // missed joints listed on every counted frame
     CHECK(retried == 1);
     CHECK(!frame.summary.missedOutputs.empty());
+    CHECK(counted == 0);
+}
+
+TEST_CASE("allocation: a long chain, eliminated node by node, allocates nothing per frame once its storage has grown")
+{
+    // A serial chain of 12 joints along x, three rotate channels each: one block of 36 columns.
+    test::RandomFk fk;
+    for (int j = 0; j < 12; ++j) {
+        fk.parent.push_back(j - 1);
+        fk.offset.emplace_back(j == 0 ? 0.0 : 10.0, 0.0, 0.0);
+        fk.orient.push_back(Eigen::Matrix3d::Identity());
+        fk.order.push_back({j % 3, (j + 1) % 3, (j + 2) % 3});
+        for (int axis = 0; axis < 3; ++axis) fk.channels.push_back({j, false, axis});
+    }
+    test::LambdaRig rig = test::lambdaRig(fk, true);
+    LearnOptions learn;
+    learn.validationPoses = 3;
+    const Approximation a = learnApproximation(rig, learn, "chain");
+    REQUIRE(a.parameters.size() > static_cast<std::size_t>(BlockElimination::recursiveAbove));
+    std::mt19937 rng(12);
+    const std::vector<double> from = test::randomValues(a, rng, 0.3), to = test::randomValues(a, rng, 0.3);
+    const Solver solver(a, SolverOptions{});
+    std::vector<double> values = a.defaults();
+    ChainScratch scratch;
+    ChainFrame frame;
+    constexpr int frames = 40;
+    long counted = 0;
+    int converged = 0;
+    for (int f = 0; f < frames; ++f) {
+        std::vector<double> pose(from.size());
+        for (std::size_t p = 0; p < pose.size(); ++p) pose[p] = from[p] + (to[p] - from[p]) * f / frames;
+        const std::vector<JointTarget> targets = test::targetsAt(a, pose);  // made before counting starts
+        const bool count = f >= frames / 2;  // the first half grows the storage; the second is counted
+        if (count) test::startCountingAllocations();
+        solveChainFrame(solver, targets, values, f == 0 ? retryNever : frame.summary.finalCost, scratch, frame);
+        if (count) counted += test::stopCountingAllocations();
+        converged += count && frame.summary.converged();
+    }
+    CHECK(converged == frames / 2);
     CHECK(counted == 0);
 }
