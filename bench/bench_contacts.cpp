@@ -9,6 +9,7 @@
 #include "inversion/clip_inversion.h"
 #include "inversion/contacts.h"
 #include "inversion/learner.h"
+#include "nodes/clips/retarget.h"
 #include "nodes/clips/target_clip.h"
 #include "nodes/graph_rig_function.h"
 #include "nodes/inversion_spec.h"
@@ -46,6 +47,16 @@ Json runJson(const ClipInversionSummary& s, RigBinding& binding, const ClipTarge
                 {"ms_per_frame", 1000.0 * s.solveCpuSeconds / std::max(1, s.frames)}};
 }
 
+// The clip's targets on the long-legged rig: as the map gives them (the CMU skeleton's proportions) or retargeted
+// onto the rig's (its `retarget:`).
+ClipTargets longLegsTargets(const BenchOptions& o, const Approximation& a, const std::filesystem::path& mapFile)
+{
+    const TargetMap map = readTargetMap(mapFile);
+    TargetClip clip = readTargetClip(o.clip, map);
+    if (map.retarget.enabled) clip = retargetClip(clip, map, rigSkeleton(a));
+    return matchTargets(a, clip.joints, clip.worlds);
+}
+
 }  // namespace
 
 Json contactsBenchJson(const BenchOptions& o)
@@ -55,45 +66,53 @@ Json contactsBenchJson(const BenchOptions& o)
     if (o.log) o.log("contacts: learning the biped with longer legs");
     const Approximation a = learnApproximation(rig, LearnOptions{}, o.longLegsRig.string());
     RigBinding binding(a, rig);
-    const TargetClip clip = readTargetClip(o.clip, o.map.empty() ? TargetMap{} : readTargetMap(o.map));
-    const ClipTargets targets = matchTargets(a, clip.joints, clip.worlds);
-    const int frames = std::min(o.frames, static_cast<int>(targets.frames.size()));
     ClipInversionOptions options;
     options.solver.threads = 1;
-    options.contacts = detectContacts(targets, contactJoints(a, targets));
     const Solver solver(a, options.solver);
     Json rows = Json::object();
-    double ms[2] = {0.0, 0.0};
-    int updates = 0, measured = 0;
-    for (const bool hold : {false, true}) {
-        if (o.log) o.log(fmt::format("contacts: inverting {} frames, contacts {}", frames, hold ? "held" : "free"));
-        options.holdContacts = hold;
-        // The faster of two runs: the time per frame on a machine shared with others.
-        ClipInversionSummary best;
-        std::vector<std::vector<double>> values;
-        for (int run = 0; run < 2; ++run) {
-            ClipInversionSummary s = invertClip(solver, binding, targets, 0, frames - 1, options, values);
-            if (run == 0 || s.solveCpuSeconds < best.solveCpuSeconds) best = std::move(s);
+    int frames = 0;
+    // The clip as it is (before) and retargeted (after), each with its feet free and held.
+    for (const bool retargeted : {false, true}) {
+        const ClipTargets targets = longLegsTargets(o, a, retargeted ? o.longLegsMap : o.map);
+        frames = std::min(o.frames, static_cast<int>(targets.frames.size()));
+        options.contacts = detectContacts(targets, contactJoints(a, targets));
+        for (const bool hold : {false, true}) {
+            if (o.log)
+                o.log(fmt::format("contacts: inverting {} frames{}, contacts {}", frames,
+                                  retargeted ? " retargeted" : "", hold ? "held" : "free"));
+            options.holdContacts = hold;
+            // The faster of two runs: the time per frame on a machine shared with others.
+            ClipInversionSummary best;
+            std::vector<std::vector<double>> values;
+            for (int run = 0; run < 2; ++run) {
+                ClipInversionSummary s = invertClip(solver, binding, targets, 0, frames - 1, options, values);
+                if (run == 0 || s.solveCpuSeconds < best.solveCpuSeconds) best = std::move(s);
+            }
+            Json row = runJson(best, binding, targets, values, options.contacts);
+            row["contacts"] = best.contacts.size();
+            row["multiplier_updates"] = best.multiplierUpdates;
+            rows[fmt::format("{}_{}", retargeted ? "retargeted" : "as_is", hold ? "held" : "free")] = std::move(row);
         }
-        Json row = runJson(best, binding, targets, values, options.contacts);
-        ms[hold] = row.at("ms_per_frame").get<double>();
-        updates = best.multiplierUpdates;
-        measured = static_cast<int>(best.contacts.size());
-        rows[hold ? "after" : "before"] = std::move(row);
     }
+    const auto ratio = [&](const char* held, const char* free) {
+        return rows.at(held).at("ms_per_frame").get<double>() / rows.at(free).at("ms_per_frame").get<double>();
+    };
     return Json{{"rig", o.longLegsRig.string()},
                 {"clip", o.clip.string()},
+                {"map_after", o.longLegsMap.string()},
                 {"frames", frames},
-                {"contacts", measured},
-                {"before", rows.at("before")},
-                {"after", rows.at("after")},
-                {"time_ratio", ms[1] / ms[0]},
-                {"multiplier_updates", updates},
+                {"contacts", rows.at("retargeted_held").at("contacts")},
+                {"before", rows.at("as_is_free")},
+                {"after", rows.at("retargeted_held")},
+                {"runs", rows},
+                {"time_ratio", ratio("retargeted_held", "retargeted_free")},
+                {"time_ratio_as_is", ratio("as_is_held", "as_is_free")},
                 {"learn_seconds", a.training.seconds},
                 {"note",
-                 "contacts detected on the feet (LeftFoot, RightFoot) from the clip's targets; slides and errors on "
-                 "the real rig, the held feet left out of the other joints' errors; ms per frame in the thread's CPU "
-                 "time, the faster of two runs"}};
+                 "before: the CMU clip as it is, feet free; after: retargeted onto the rig's proportions "
+                 "(map_after), contacts detected on the feet (LeftFoot, RightFoot) and held; runs: every "
+                 "combination; slides and errors on the real rig, the held feet left out of the other joints' "
+                 "errors; ms per frame in the thread's CPU time, the faster of two runs"}};
 }
 
 }  // namespace rig::bench

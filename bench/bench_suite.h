@@ -17,6 +17,7 @@ struct BenchOptions {
     std::filesystem::path rig = "rigs/biped.yaml";
     std::filesystem::path spec = "rigs/biped_inversion.yaml";         // params and outputs to invert
     std::filesystem::path longLegsRig = "rigs/biped_long_legs.yaml";  // the contacts row's other proportions
+    std::filesystem::path longLegsMap = "rigs/maps/cmu_to_biped_long_legs.yaml";  // the clip retargeted onto it
     std::filesystem::path clip = "/usr/share/assimp/models/BVH/01_01.bvh";
     std::filesystem::path map = "rigs/maps/cmu_to_biped.yaml";
     // The look-at crowd's (crowd_realtime): the same scale, the head weighted (docs/crowds.md).

@@ -202,7 +202,8 @@ bench::BenchOptions benchOptions(const Options& o)
                                      {options.clip, "--clip"},
                                      {options.map, "--map"},
                                      {options.makeRigs, "--make-rigs"},
-                                     {options.longLegsRig, "the contacts row's rig"}})
+                                     {options.longLegsRig, "the contacts row's rig"},
+                                     {options.longLegsMap, "the contacts row's map"}})
         if (!std::filesystem::exists(file))
             throw Error(fmt::format("{} {}: no such file{}; check the path", flag, file.string(),
                                     std::string_view(flag) == "--clip" ? " (Debian package assimp-testmodels)" : ""));

@@ -125,13 +125,16 @@ TEST_CASE("rig-bench --quick: every figure of issue 7, finite, with the machine 
     CHECK(figure(cold, "recovered_from_rest") < 100);
     positive(cold, "guess_ms");
 
-    // Contacts: the CMU clip onto the biped with longer legs; the feet held within the goal's 0.2 cm on the real
-    // rig where they slide without the hold (the time ratio is measured, not asserted: the machine is shared).
+    // Contacts: the CMU clip onto the biped with longer legs; retargeted, the feet held within the goal's 0.2 cm on
+    // the real rig where the clip as it is slides, and the other joints nearer their targets (the time ratio is
+    // measured, not asserted: the machine is shared).
     const YAML::Node contacts = b["contacts"];
     CHECK(positive(contacts, "contacts") >= 2);
     CHECK(positive(contacts["after"], "max_slide_cm") <= 0.2);
     CHECK(figure(contacts["before"], "max_slide_cm") > 1.0);
-    positive(contacts["after"], "other_mean_position_error_cm");
+    CHECK(positive(contacts["runs"]["as_is_held"], "max_slide_cm") <= 0.2);
+    CHECK(positive(contacts["after"], "other_mean_position_error_cm") <
+          figure(contacts["before"], "other_mean_position_error_cm"));
     positive(contacts["before"], "ms_per_frame");
     positive(contacts, "time_ratio");
 
