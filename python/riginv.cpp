@@ -686,7 +686,7 @@ void defInvert(py::class_<PyApproximation>& approximation, std::index_sequence<I
         "writes world matrices, read by content; take: the clip file's animation, a name or 0-based index (None: the "
         "first).\n"
         "rig: the rig file the approximation was learned from; map: a map file (scale, joint renames, ignored "
-        "joints; docs/rig-invert.md).\n"
+        "joints, weights, and retarget: for a clip path; docs/retargeting.md).\n"
         "progress: called as progress(frames done, frames total), with the GIL held.\n"
         "plugins, frames: as rig-invert's --plugin and --frames ('A:B' in the clip's numbering).\n"
         "contacts: as rig-invert's --contacts: 'auto' (the feet's contacts detected from the clip) or a file of "

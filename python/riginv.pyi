@@ -94,7 +94,7 @@ class Approximation:
         targets: a dict {joint: (F, 4, 4) float64 array of world matrices, cm}, frames numbered 0 to
         F - 1, or a clip path (.bvh, or .json as graph-eval writes world matrices).
         rig: the rig file the approximation was learned from; map: a map file (scale, joint renames,
-        ignored joints; docs/rig-invert.md).
+        ignored joints, weights, and retarget: for a clip path; docs/retargeting.md).
         progress: called as progress(frames done, frames total), with the GIL held.
         plugins, frames: as rig-invert's --plugin and --frames ('A:B' in the clip's numbering).
         threads, no_partition, block_by_block, jacobian, polish, restart_every, rest_starts, hybrid, term: the
