@@ -357,20 +357,31 @@ void judgeFrame(const Approximation& approximation, const SolverOptions& options
     frame.status = frameStatus(frame, unfitted);
 }
 
-ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first, int last,
-                                const ClipInversionOptions& options, std::vector<std::vector<double>>& values,
-                                std::vector<std::vector<double>>* solvedValues)
+namespace {
+
+// The callers' frames and contacts within the clip and the approximation: a caller's mistake, not a user's.
+void checkClipRange(const Approximation& approximation, const ClipTargets& targets, int first, int last,
+                    const ClipInversionOptions& options)
 {
     options.validate();
     const int frameCount = static_cast<int>(targets.frames.size());
     if (first < 0 || last >= frameCount || first > last)
         throw internalError(fmt::format("frames {}..{} are not within the clip's 0..{}", first, last, frameCount - 1));
     for (const Contact& c : options.contacts)
-        if (c.last >= frameCount || c.output >= static_cast<int>(solver.approximation().outputs.size()))
+        if (c.last >= frameCount || c.output >= static_cast<int>(approximation.outputs.size()))
             throw internalError(
                 fmt::format("a contact of output {} over frames {}..{} is not within the clip's "
                             "0..{} and outputs",
                             c.output, c.first, c.last, frameCount - 1));
+}
+
+}  // namespace
+
+ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first, int last,
+                                const ClipInversionOptions& options, std::vector<std::vector<double>>& values,
+                                std::vector<std::vector<double>>* solvedValues)
+{
+    checkClipRange(solver.approximation(), targets, first, last, options);
     const Approximation& approximation = solver.approximation();
     const std::vector<double> rest = approximation.defaults();
 
