@@ -28,8 +28,8 @@ constexpr std::string_view pageStyle = R"page(#modes button.on { background: #3d
 #table tr { cursor: pointer; }
 )page";
 
-// The page's elements and script (drawing with ReportKit, app/report_page.h).
-constexpr std::string_view pageBody = R"page(<header id="summary"></header>
+// The page's elements, above the controls every page has (app/report_page.h).
+constexpr std::string_view pageElements = R"page(<header id="summary"></header>
 <div id="main">
   <div id="view"><div id="legend"></div></div>
   <div id="side">
@@ -40,11 +40,10 @@ constexpr std::string_view pageBody = R"page(<header id="summary"></header>
     <div id="table"></div>
   </div>
 </div>
-<div id="controls">
-  <button id="play">Play</button><input id="scrub" type="range" min="0" value="0"><span id="frame"></span>
-</div>
-<pre id="status">{"ok": false, "errors": ["the page's script did not run"]}</pre>
-<script>
+)page";
+
+// The page's script (drawing with ReportKit).
+constexpr std::string_view pageScript = R"page(<script>
 (function () {
   'use strict';
   var kit = window.ReportKit, $ = kit.$, fmt = kit.fmt, esc = kit.esc;
@@ -365,7 +364,7 @@ std::string CrowdReport::page(const std::string& title, const std::string& three
                     {"status_names", statusNames_},
                     {"markers", std::move(markers)},
                     {"characters", std::move(characters)}};
-    return reportPage(fmt::format("graph-eval: {}", title), pageStyle, threeJs, data, pageBody);
+    return reportPage(fmt::format("graph-eval: {}", title), pageStyle, threeJs, data, pageElements, pageScript);
 }
 
 }  // namespace rig::app

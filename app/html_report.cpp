@@ -16,18 +16,17 @@ constexpr std::string_view pageStyle = R"page(#curve { flex: 1; width: 100%; }
 #timeline { width: 100%; height: 110px; display: block; }
 )page";
 
-// The page's elements and script (drawing with ReportKit, app/report_page.h).
-constexpr std::string_view pageBody = R"page(<header id="summary"></header>
+// The page's elements, above the controls every page has (app/report_page.h).
+constexpr std::string_view pageElements = R"page(<header id="summary"></header>
 <div id="main">
   <div id="view"><div id="legend"></div></div>
   <div id="side"><select id="control"></select><canvas id="curve"></canvas></div>
 </div>
 <canvas id="timeline"></canvas>
-<div id="controls">
-  <button id="play">Play</button><input id="scrub" type="range" min="0" value="0"><span id="frame"></span>
-</div>
-<pre id="status">{"ok": false, "errors": ["the page's script did not run"]}</pre>
-<script>
+)page";
+
+// The page's script (drawing with ReportKit).
+constexpr std::string_view pageScript = R"page(<script>
 (function () {
   'use strict';
   var kit = window.ReportKit, $ = kit.$, fmt = kit.fmt, esc = kit.esc;
@@ -317,7 +316,7 @@ std::string htmlReport(const InvertOutcome& outcome, const KeysOutcome* keys, co
                        const std::string& threeJs)
 {
     return reportPage(fmt::format("rig-invert: {} on {}", names.clip, names.rig), pageStyle, threeJs,
-                      reportData(outcome, keys, names), pageBody);
+                      reportData(outcome, keys, names), pageElements, pageScript);
 }
 
 }  // namespace rig::app

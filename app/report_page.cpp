@@ -252,6 +252,13 @@ constexpr std::string_view pageBody = R"page(
 <body>
 )page";
 
+// Under every page's own elements: the Play button, the frame scrubber and its label, and #status.
+constexpr std::string_view playbackControls = R"page(<div id="controls">
+  <button id="play">Play</button><input id="scrub" type="range" min="0" value="0"><span id="frame"></span>
+</div>
+<pre id="status">{"ok": false, "errors": ["the page's script did not run"]}</pre>
+)page";
+
 std::string htmlEscape(std::string_view text)
 {
     std::string out;
@@ -314,12 +321,13 @@ Json positionsJson(const std::vector<Eigen::Matrix4d>& worlds)
 }
 
 std::string reportPage(std::string_view title, std::string_view style, const std::string& threeJs, const Json& data,
-                       std::string_view body)
+                       std::string_view elements, std::string_view script)
 {
     std::string head(pageHead);
     head.replace(head.find("@TITLE@"), 7, htmlEscape(title));
     return head + std::string(style) + std::string(pageScripts) + scriptSafe(threeJs) + std::string(kit) +
-           jsonInScript(jsonText(data)) + std::string(pageBody) + std::string(body) + "</body>\n</html>\n";
+           jsonInScript(jsonText(data)) + std::string(pageBody) + std::string(elements) +
+           std::string(playbackControls) + std::string(script) + "</body>\n</html>\n";
 }
 
 }  // namespace rig::app

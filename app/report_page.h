@@ -33,9 +33,10 @@ Json roundedJson(double x);
 // The matrices' translations, x y z one after the other, rounded.
 Json positionsJson(const std::vector<Eigen::Matrix4d>& worlds);
 
-// The page: `title`, the shared style and `style`, three.js, the kit, `data`, then `body` (the page's own
-// elements and script, which reads the data with ReportKit.data()).
+// The page: `title`, the shared style and `style`, three.js, the kit, `data`, then the page's own `elements`, the
+// controls every page has (Play, the frame scrubber and #status), and its `script`, which reads the data with
+// ReportKit.data().
 std::string reportPage(std::string_view title, std::string_view style, const std::string& threeJs, const Json& data,
-                       std::string_view body);
+                       std::string_view elements, std::string_view script);
 
 }  // namespace rig::app
