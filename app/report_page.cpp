@@ -129,7 +129,7 @@ window.ReportKit = (function () {
       var camera = perspective;
       if (v.top) {
         var aspect = w / Math.max(1, h), extent = v.box.getSize(new THREE.Vector3());
-        var half = 0.55 * Math.max(1, extent.z, extent.x / aspect) / v.zoom;
+        var half = 0.62 * Math.max(1, extent.z, extent.x / aspect) / v.zoom;  // a margin for the legend
         above.left = -half * aspect; above.right = half * aspect; above.top = half; above.bottom = -half;
         above.position.set(v.center.x, v.center.y + size, v.center.z);
         above.up.set(0, 0, -1);
