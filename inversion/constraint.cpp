@@ -63,12 +63,13 @@ Eigen::Vector3d vee(const Eigen::Matrix3d& k)
 
 std::string_view constraintKindName(ConstraintKind kind)
 {
+    if (kind == ConstraintKind::blend) return "blend";
     return kind == ConstraintKind::twistShare ? "twistShare" : "planarChain";
 }
 
 std::optional<ConstraintKind> constraintKindFromName(std::string_view name)
 {
-    for (const ConstraintKind kind : {ConstraintKind::planarChain, ConstraintKind::twistShare})
+    for (const ConstraintKind kind : {ConstraintKind::planarChain, ConstraintKind::twistShare, ConstraintKind::blend})
         if (constraintKindName(kind) == name) return kind;
     return std::nullopt;
 }
@@ -76,7 +77,15 @@ std::optional<ConstraintKind> constraintKindFromName(std::string_view name)
 std::array<int, 3> ConstraintBase::inputs() const
 {
     if (kind == ConstraintKind::twistShare) return {anchor, driver, driverParent};
+    if (kind == ConstraintKind::blend) return {anchor, ik, fk};
     return {anchor, goal, pole};
+}
+
+std::array<int, 5> ConstraintBase::frameInputs() const
+{
+    const std::array<int, 3> in = inputs();
+    if (kind == ConstraintKind::blend) return {in[0], in[1], in[2], ikParent, fkParent};
+    return {in[0], in[1], in[2], -1, -1};
 }
 
 bool chainFrame(const ChainPoints& points, bool restPlane, Eigen::Matrix4d& frame)
@@ -273,6 +282,139 @@ Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d
         return b;
     }
     return constraintBase(base, chainPoints(base, anchorMotion, second, third));
+}
+
+namespace {
+
+// A local transform's parts, as a blend takes them: A = R S (R the polar rotation, S its symmetric stretch) and t.
+struct LocalParts {
+    Eigen::Matrix3d rotation, stretch;
+    Eigen::Vector3d translate;
+};
+
+LocalParts localParts(const Eigen::Matrix4d& local)
+{
+    LocalParts parts;
+    parts.rotation = polarRotation(local.block<3, 3>(0, 0), &parts.stretch);
+    parts.translate = local.block<3, 1>(0, 3);
+    return parts;
+}
+
+// A branch's Euler angles as the rig holds them: nearest rest.
+Eigen::Vector3d restEuler(const Eigen::Matrix3d& rotation, RotateOrder order)
+{
+    return closestEuler(matrixToEuler(rotation, order), Eigen::Vector3d::Zero(), order);
+}
+
+Eigen::Matrix3d expSo3(const Eigen::Vector3d& phi)
+{
+    const double angle = phi.norm();
+    if (angle < 1e-300) return Eigen::Matrix3d::Identity();
+    return Eigen::AngleAxisd(angle, phi / angle).toRotationMatrix();
+}
+
+Eigen::Vector3d logSo3(const Eigen::Matrix3d& r)
+{
+    const Eigen::AngleAxisd aa(r);
+    return aa.angle() * aa.axis();
+}
+
+// SO(3)'s right Jacobian, exp(phi + d) = exp(phi) exp(J_r(phi) d) to first order, and its inverse; their series near
+// zero, where the closed forms lose their digits.
+Eigen::Matrix3d rightJacobian(const Eigen::Vector3d& phi)
+{
+    const double t = phi.norm();
+    const Eigen::Matrix3d k = skew(phi);
+    if (t < 1e-4) return Eigen::Matrix3d::Identity() - 0.5 * k + k * k / 6.0;
+    return Eigen::Matrix3d::Identity() - (1.0 - std::cos(t)) / (t * t) * k + (t - std::sin(t)) / (t * t * t) * k * k;
+}
+
+Eigen::Matrix3d rightJacobianInverse(const Eigen::Vector3d& phi)
+{
+    const double t = phi.norm();
+    const Eigen::Matrix3d k = skew(phi);
+    if (t < 1e-4) return Eigen::Matrix3d::Identity() + 0.5 * k + k * k / 12.0;
+    return Eigen::Matrix3d::Identity() + 0.5 * k +
+           (1.0 / (t * t) - (1.0 + std::cos(t)) / (2.0 * t * std::sin(t))) * k * k;
+}
+
+Eigen::Matrix3d blendRotation(const BlendRule& rule, double w, const Eigen::Matrix3d& ik, const Eigen::Matrix3d& fk)
+{
+    if (rule.mode == BlendMode::slerp) return fk * expSo3(w * logSo3(fk.transpose() * ik));
+    const Eigen::Vector3d angles = (1.0 - w) * restEuler(fk, rule.order) + w * restEuler(ik, rule.order);
+    return eulerToMatrix(angles, rule.order);
+}
+
+// A branch's rotation rate in its own (body) frame, R^T dR, and its stretch's rate, for its local moving at `rate`.
+struct PartsRate {
+    Eigen::Vector3d turn;
+    Eigen::Matrix3d stretch;
+};
+
+PartsRate partsRate(const LocalParts& parts, const Eigen::Matrix4d& local, const Eigen::Matrix4d& rate)
+{
+    const Eigen::Matrix3d a = local.block<3, 3>(0, 0), da = rate.block<3, 3>(0, 0);
+    const Eigen::Vector3d spatial = polarRate(parts.rotation, parts.stretch, da * a.inverse());
+    PartsRate r;
+    r.turn = parts.rotation.transpose() * spatial;
+    r.stretch = parts.rotation.transpose() * (da - skew(spatial) * a);
+    return r;
+}
+
+// The blended rotation's body rate, from the branches' body rates.
+Eigen::Vector3d blendTurnRate(const BlendRule& rule, double w, const LocalParts& ik, const LocalParts& fk, double dw,
+                              const PartsRate& dIk, const PartsRate& dFk)
+{
+    if (rule.mode == BlendMode::slerp) {
+        // R = R_fk exp(w phi), phi = log(R_fk^T R_ik): R^T dR = exp(-w phi) [dFk] exp(w phi) + J_r(w phi) d(w phi),
+        // with d phi = J_r(phi)^-1 (R_ik^T (omega_ik - omega_fk)) in spatial rates, that is dIk - Delta^T dFk.
+        const Eigen::Matrix3d delta = fk.rotation.transpose() * ik.rotation;
+        const Eigen::Vector3d phi = logSo3(delta);
+        const Eigen::Matrix3d step = expSo3(w * phi);
+        const Eigen::Vector3d dphi = rightJacobianInverse(phi) * (dIk.turn - delta.transpose() * dFk.turn);
+        return step.transpose() * dFk.turn + rightJacobian(w * phi) * (dw * phi + w * dphi);
+    }
+    const Eigen::Vector3d aIk = restEuler(ik.rotation, rule.order), aFk = restEuler(fk.rotation, rule.order);
+    const Eigen::Vector3d rateIk = eulerRates(aIk, rule.order).inverse() * dIk.turn;
+    const Eigen::Vector3d rateFk = eulerRates(aFk, rule.order).inverse() * dFk.turn;
+    const Eigen::Vector3d angles = (1.0 - w) * aFk + w * aIk;
+    return eulerRates(angles, rule.order) * ((1.0 - w) * rateFk + w * rateIk + dw * (aIk - aFk));
+}
+
+}  // namespace
+
+std::string_view blendModeName(BlendMode mode) { return mode == BlendMode::slerp ? "slerp" : "eulerChannels"; }
+
+std::optional<BlendMode> blendModeFromName(std::string_view name)
+{
+    for (const BlendMode mode : {BlendMode::eulerChannels, BlendMode::slerp})
+        if (blendModeName(mode) == name) return mode;
+    return std::nullopt;
+}
+
+Eigen::Matrix4d blendLocal(const BlendRule& rule, double w, const Eigen::Matrix4d& ik, const Eigen::Matrix4d& fk)
+{
+    const LocalParts a = localParts(ik), b = localParts(fk);
+    Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
+    local.block<3, 3>(0, 0) = blendRotation(rule, w, a.rotation, b.rotation) * ((1.0 - w) * b.stretch + w * a.stretch);
+    local.block<3, 1>(0, 3) = (1.0 - w) * b.translate + w * a.translate;
+    return local;
+}
+
+Eigen::Matrix4d blendLocalRate(const BlendRule& rule, double w, const Eigen::Matrix4d& ik, const Eigen::Matrix4d& fk,
+                               double dw, const Eigen::Matrix4d& dIk, const Eigen::Matrix4d& dFk)
+{
+    const LocalParts a = localParts(ik), b = localParts(fk);
+    const PartsRate da = partsRate(a, ik, dIk), db = partsRate(b, fk, dFk);
+    const Eigen::Matrix3d rotation = blendRotation(rule, w, a.rotation, b.rotation);
+    const Eigen::Matrix3d stretch = (1.0 - w) * b.stretch + w * a.stretch;
+    const Eigen::Matrix3d stretchRate = (1.0 - w) * db.stretch + w * da.stretch + dw * (a.stretch - b.stretch);
+    const Eigen::Vector3d turn = blendTurnRate(rule, w, a, b, dw, da, db);
+    Eigen::Matrix4d rate = Eigen::Matrix4d::Zero();
+    rate.block<3, 3>(0, 0) = rotation * (skew(turn) * stretch + stretchRate);
+    rate.block<3, 1>(0, 3) =
+        (1.0 - w) * dFk.block<3, 1>(0, 3) + w * dIk.block<3, 1>(0, 3) + dw * (a.translate - b.translate);
+    return rate;
 }
 
 }  // namespace rig

@@ -43,7 +43,25 @@
 
 namespace rig {
 
-enum class ConstraintKind { planarChain, twistShare };
+// The blend (issue #32, an animated switch): an output whose local transform relative to its parent output is the
+// rig's blend, by a weight w in [0, 1], of two branches each modelled on its own, the IK branch (w = 1) and the FK
+// branch (w = 0): L = blend(w, L_ik, L_fk), L_x = W(parent_x)^-1 W(x) read in each branch's own frames, as blendColors
+// nodes blend a joint's channels between an IK handle's and the FK controls' values. A rig blends channels, not
+// frames: its rotation is the blend of each Euler angle in one rotate order, read nearest rest (the values the rig
+// blends, where they are within half a turn of rest, the middle angle within a quarter), so that slerping the frames
+// does not reproduce it; the translation is blended linearly (a sliding knee), the stretch (the linear part's right
+// polar factor) too. A rig that blends frames (a pair blend in quaternions) is the slerp: R_fk exp(w log(R_fk^T R_ik)).
+enum class BlendMode { eulerChannels, slerp };
+
+std::string_view blendModeName(BlendMode mode);
+std::optional<BlendMode> blendModeFromName(std::string_view name);
+
+struct BlendRule {
+    BlendMode mode = BlendMode::eulerChannels;
+    RotateOrder order = RotateOrder::xyz;  // eulerChannels: the order the angles are read and composed in
+};
+
+enum class ConstraintKind { planarChain, twistShare, blend };
 
 std::string_view constraintKindName(ConstraintKind kind);
 std::optional<ConstraintKind> constraintKindFromName(std::string_view name);
@@ -79,10 +97,18 @@ struct ConstraintBase {
     RotateOrder readOrder = RotateOrder::xyz;
     RotateOrder twistOrder = RotateOrder::xyz;
     double share = 0.0;
+    // Blend: the output's own parent output is `anchor`; the branches' outputs (`ik` the IK branch's, at weight 1)
+    // and their parent outputs (-1: the world), whose locals it blends; the weight, an index into
+    // Approximation::parameters; and the blend the rig does.
+    int ik = -1, fk = -1, ikParent = -1, fkParent = -1;
+    int weight = -1;
+    BlendRule blend;
 
     // Its inputs (indices into the outputs, -1 for none): anchor, goal, pole for a chain; anchor, driver and the
     // driver's parent for a twist share. The solver and the orderer read them in this order.
     std::array<int, 3> inputs() const;
+    // Every output its frame reads, -1 where none: inputs() and, for a blend, its branches and their parents.
+    std::array<int, 5> frameInputs() const;
 
     // Sets the derived fields from the others and the goal's rest position. False when the rest points do not
     // span a plane (the goal on the root, or the pole on the root-goal line).
@@ -152,5 +178,13 @@ TwistLinearization linearizeTwist(const ConstraintBase& base, const Eigen::Matri
 Eigen::Matrix<double, 3, 4> twistVelocity(const TwistLinearization& at, const Eigen::Matrix<double, 3, 4>& anchor,
                                           const Eigen::Matrix<double, 3, 4>& driver,
                                           const Eigen::Matrix<double, 3, 4>& parent);
+
+// The blended local transform, from the branches' locals (rotation times a stretch, and a translation).
+Eigen::Matrix4d blendLocal(const BlendRule& rule, double w, const Eigen::Matrix4d& ik, const Eigen::Matrix4d& fk);
+
+// Its derivative for the weight and the branches' locals moving at dw, dIk and dFk (its velocity: the solver's
+// column of w, and the columns of the branches' controls through their locals).
+Eigen::Matrix4d blendLocalRate(const BlendRule& rule, double w, const Eigen::Matrix4d& ik, const Eigen::Matrix4d& fk,
+                               double dw, const Eigen::Matrix4d& dIk, const Eigen::Matrix4d& dFk);
 
 }  // namespace rig

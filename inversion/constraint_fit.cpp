@@ -626,4 +626,25 @@ std::vector<Eigen::Vector3d> ConstraintFitter::fixedPoles(int anchor, const Eige
     return points;
 }
 
+std::optional<BlendFit> fitBlendRule(const std::vector<BlendSample>& samples, double tolerance, double frameRadius,
+                                     BlendFit* closest)
+{
+    std::vector<BlendRule> rules;
+    for (int order = 0; order < 6; ++order) rules.push_back({BlendMode::eulerChannels, *rotateOrderFromIndex(order)});
+    rules.push_back({BlendMode::slerp, RotateOrder::xyz});
+    BlendFit best{rules.front(), std::numeric_limits<double>::infinity()};
+    for (const BlendRule& rule : rules) {
+        double worst = 0.0;
+        for (const BlendSample& s : samples) {
+            const double e = matrixError(blendLocal(rule, s.weight, s.ik, s.fk), s.blended, frameRadius);
+            worst = std::isfinite(e) ? std::max(worst, e) : std::numeric_limits<double>::infinity();
+            if (worst > tolerance) break;
+        }
+        if (worst <= tolerance) return BlendFit{rule, worst};
+        if (worst < best.error) best = {rule, worst};
+    }
+    if (closest) *closest = best;
+    return std::nullopt;
+}
+
 }  // namespace rig

@@ -120,4 +120,23 @@ private:
     std::uint64_t evaluations_ = 0;
 };
 
+// The blend of an animated switch (constraint.h, BlendRule), found from samples: each the switch's weight, both
+// branches' locals (the output relative to its parent output, read with the switch held at 1 and at 0) and the
+// rig's local at that weight.
+struct BlendSample {
+    double weight = 0.0;
+    Eigen::Matrix4d ik, fk, blended;
+};
+
+struct BlendFit {
+    BlendRule rule;
+    double error = 0.0;  // the worst matrixError over the samples, cm
+};
+
+// The blend that reproduces every sample within `tolerance` (matrixError at `frameRadius`), tried in turn: the Euler
+// channels in each rotate order (Maya's order of the enum) with the translation and stretch linear, then the slerp;
+// the first that does. None: no blend does (`closest`, when given, gets the nearest miss).
+std::optional<BlendFit> fitBlendRule(const std::vector<BlendSample>& samples, double tolerance, double frameRadius,
+                                     BlendFit* closest = nullptr);
+
 }  // namespace rig
