@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include <fmt/format.h>
+#include <Eigen/LU>
 
 #include "core/error.h"
 
@@ -32,7 +33,16 @@ void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::
     for (const int k : outputOrder()) {
         const ApproximationOutput& output = outputs[static_cast<std::size_t>(k)];
         Eigen::Matrix4d& product = worlds[static_cast<std::size_t>(k)];
-        if (output.constraint >= 0) {
+        if (output.constraint >= 0 &&
+            constraints[static_cast<std::size_t>(output.constraint)].kind == ConstraintKind::blend) {
+            // The parent's world times the blend of the branches' locals; the rest matrix goes last, as for any.
+            const ConstraintBase& base = constraints[static_cast<std::size_t>(output.constraint)];
+            const auto input = [&](int i) { return i < 0 ? Eigen::Matrix4d(Eigen::Matrix4d::Identity()) : world(i); };
+            const Eigen::Matrix4d local = blendLocal(base.blend, values[static_cast<std::size_t>(base.weight)],
+                                                     input(base.ikParent).inverse() * input(base.ik),
+                                                     input(base.fkParent).inverse() * input(base.fk));
+            product = input(base.anchor) * local * output.rest.inverse() * product;
+        } else if (output.constraint >= 0) {
             const ConstraintBase& base = constraints[static_cast<std::size_t>(output.constraint)];
             const Eigen::Matrix4d anchor =
                 base.anchor < 0 ? Eigen::Matrix4d::Identity() : worlds[static_cast<std::size_t>(base.anchor)];
@@ -55,7 +65,7 @@ std::vector<int> Approximation::frameInputs(int k) const
                                         output.constraint, constraints.size()));
     const ConstraintBase& base = constraints[static_cast<std::size_t>(output.constraint)];
     std::vector<int> inputs;
-    for (const int i : base.inputs())
+    for (const int i : base.frameInputs())
         if (i >= 0) inputs.push_back(i);
     return inputs;
 }
@@ -113,8 +123,15 @@ std::vector<std::vector<int>> Approximation::reach() const
     std::vector<std::vector<int>> result;
     result.reserve(parameters.size());
     std::vector<char> seen(outputs.size(), 0);
-    for (const ModelledParameter& m : parameters) {
+    for (std::size_t p = 0; p < parameters.size(); ++p) {
+        const ModelledParameter& m = parameters[p];
         std::vector<int> reached, stack(m.outputs.begin(), m.outputs.end());
+        // A blend's weight moves its output with no operator of its own.
+        for (std::size_t k = 0; k < outputs.size(); ++k)
+            if (const int c = outputs[k].constraint;
+                c >= 0 && constraints[static_cast<std::size_t>(c)].kind == ConstraintKind::blend &&
+                constraints[static_cast<std::size_t>(c)].weight == static_cast<int>(p))
+                stack.push_back(static_cast<int>(k));
         while (!stack.empty()) {
             const int k = stack.back();
             stack.pop_back();

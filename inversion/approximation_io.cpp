@@ -184,6 +184,19 @@ std::string outputsText(const Approximation& a)
     return out;
 }
 
+// A blend's weight (a parameter, by name) and its rule.
+std::string blendText(const Approximation& a, const ConstraintBase& base, const std::string& field)
+{
+    if (base.weight < 0 || static_cast<std::size_t>(base.weight) >= a.parameters.size())
+        throw internalError(fmt::format("approximationToYaml: {}.weight: index {} out of range", field, base.weight));
+    std::string out = fmt::format("    weight: {}\n    mode: {}\n",
+                                  yamlString(a.parameters[static_cast<std::size_t>(base.weight)].parameter.name),
+                                  blendModeName(base.blend.mode));
+    if (base.blend.mode == BlendMode::eulerChannels)
+        out += fmt::format("    order: {}\n", rotateOrderName(base.blend.order));
+    return out;
+}
+
 // The constraint operators, their inputs by output name; what `ConstraintBase::prepare` derives is not written.
 std::string constraintsText(const Approximation& a)
 {
@@ -199,6 +212,12 @@ std::string constraintsText(const Approximation& a)
             return fmt::format("    {}: {}\n", which, yamlString(a.outputs[static_cast<std::size_t>(k)].name));
         };
         out += fmt::format("  - kind: {}\n", constraintKindName(base.kind));
+        if (base.kind == ConstraintKind::blend) {
+            out += input("anchor", base.anchor, true) + input("ik", base.ik, false) + input("fk", base.fk, false) +
+                   input("ikParent", base.ikParent, true) + input("fkParent", base.fkParent, true);
+            out += blendText(a, base, field);
+            continue;
+        }
         if (base.kind == ConstraintKind::twistShare) {
             out += input("anchor", base.anchor, true) + input("driver", base.driver, false) +
                    input("driverParent", base.driverParent, true);
@@ -701,6 +720,71 @@ ConstraintBase readTwistShare(const Reader& r, const YAML::Node& n, const std::s
     return base;
 }
 
+// A blend's inputs and rule; its weight, a parameter, is read once the parameters are (readBlendWeights).
+template <class Input>
+ConstraintBase readBlend(const Reader& r, const YAML::Node& n, const std::string& field, const Input& input)
+{
+    ConstraintBase base;
+    base.kind = ConstraintKind::blend;
+    base.anchor = input("anchor");
+    base.ik = input("ik");
+    base.fk = input("fk");
+    base.ikParent = input("ikParent");
+    base.fkParent = input("fkParent");
+    if (base.ik == base.fk) r.fail(r.child(n, "fk"), field + ".fk", "is the IK branch too; a blend has two branches");
+    const YAML::Node mode = r.child(n, "mode");
+    const std::string modeName = r.text(mode, field + ".mode");
+    const std::optional<BlendMode> known = blendModeFromName(modeName);
+    if (!known)
+        r.fail(mode, field + ".mode",
+               fmt::format("unknown blend '{}'; the blends are {} and {}", modeName,
+                           blendModeName(BlendMode::eulerChannels), blendModeName(BlendMode::slerp)));
+    base.blend.mode = *known;
+    const YAML::Node order = r.child(n, "order");
+    if (base.blend.mode == BlendMode::slerp && order)
+        r.fail(order, field + ".order", "a slerp has no rotate order; remove it");
+    if (base.blend.mode == BlendMode::eulerChannels) {
+        if (!order) r.fail(n, field, "an eulerChannels blend needs `order`, the rotate order its angles are read in");
+        const std::optional<RotateOrder> o = rotateOrderFromName(r.text(order, field + ".order"));
+        if (!o) r.fail(order, field + ".order", "not a rotate order; it is one of xyz, yzx, zxy, xzy, yxz, zyx");
+        base.blend.order = *o;
+    }
+    return base;
+}
+
+// Whether some blend names this parameter as its weight (checked further by readBlendWeights).
+bool blendWeight(const YAML::Node& root, const std::string& name)
+{
+    const YAML::Node constraints = root["constraints"];
+    if (!constraints || !constraints.IsSequence()) return false;
+    for (const YAML::Node& c : constraints)
+        if (c.IsMap() && c["kind"] && c["kind"].IsScalar() && c["kind"].Scalar() == "blend" && c["weight"] &&
+            c["weight"].IsScalar() && c["weight"].Scalar() == name)
+            return true;
+    return false;
+}
+
+// The blends' weights, by parameter name: a modelled parameter limited to [0, 1], as a switch is.
+void readBlendWeights(const Reader& r, const YAML::Node& root, Approximation& a)
+{
+    for (std::size_t c = 0; c < a.constraints.size(); ++c) {
+        ConstraintBase& base = a.constraints[c];
+        if (base.kind != ConstraintKind::blend) continue;
+        const std::string field = fmt::format("constraints[{}].weight", c);
+        const YAML::Node n = root["constraints"][c]["weight"];
+        const std::string name = r.text(n, field);
+        const auto it = std::find_if(a.parameters.begin(), a.parameters.end(),
+                                     [&](const ModelledParameter& m) { return m.parameter.name == name; });
+        if (it == a.parameters.end()) r.fail(n, field, fmt::format("'{}' is not one of the parameters", name));
+        const RigParameter& p = it->parameter;
+        if (!p.limited || p.min < 0.0 || p.max > 1.0)
+            r.fail(
+                n, field,
+                fmt::format("'{}' is not limited to [0, 1]; a blend's weight is a switch's (re-run rig-learn)", name));
+        base.weight = static_cast<int>(it - a.parameters.begin());
+    }
+}
+
 // One constraint operator; its inputs are modelled outputs, by name.
 ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::string& field,
                               const std::map<std::string, int>& outputIndex, const Approximation& a)
@@ -710,10 +794,12 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
     const std::optional<ConstraintKind> known = constraintKindFromName(kindName);
     if (!known)
         r.fail(kind, field + ".kind",
-               fmt::format("unknown constraint '{}'; the constraints are {} and {}", kindName,
+               fmt::format("unknown constraint '{}'; the constraints are {}, {} and {}", kindName,
                            constraintKindName(ConstraintKind::planarChain),
-                           constraintKindName(ConstraintKind::twistShare)));
-    if (*known == ConstraintKind::twistShare)
+                           constraintKindName(ConstraintKind::twistShare), constraintKindName(ConstraintKind::blend)));
+    if (*known == ConstraintKind::blend)
+        r.checkKeys(n, field, {"kind", "ik", "fk", "weight", "mode"}, {"anchor", "ikParent", "fkParent", "order"});
+    else if (*known == ConstraintKind::twistShare)
         r.checkKeys(n, field, {"kind", "driver", "root", "axis", "twistAxis", "readOrder", "twistOrder", "share"},
                     {"anchor", "driverParent"});
     else
@@ -734,6 +820,7 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
         return it->second;
     };
     if (*known == ConstraintKind::twistShare) return readTwistShare(r, n, field, input, a);
+    if (*known == ConstraintKind::blend) return readBlend(r, n, field, input);
     ConstraintBase base;
     base.kind = ConstraintKind::planarChain;
     base.anchor = input("anchor");
@@ -801,7 +888,7 @@ void readConstraintIndices(const Reader& r, const YAML::Node& root, Approximatio
                    "`constraint`");
         if (!out.modelled) r.fail(n, field, "a non-compositional output (modelled: false) has no constraint");
         const ConstraintBase& base = a.constraints[static_cast<std::size_t>(c)];
-        for (const int i : {base.anchor, base.goal, base.pole})
+        for (const int i : base.frameInputs())
             if (i == static_cast<int>(k))
                 r.fail(n, field,
                        fmt::format("constraints[{}] reads '{}' itself; a constraint reads outputs learned before its "
@@ -858,8 +945,9 @@ void checkFrameCycles(const Reader& r, const YAML::Node& root, const Approximati
 }
 
 // One modelled parameter; `names` holds the parameters' names read so far (a name is listed once).
-ModelledParameter readParameter(const Reader& r, const YAML::Node& n, const std::string& field, const Approximation& a,
-                                const std::map<std::string, int>& outputIndex, std::set<std::string>& names)
+ModelledParameter readParameter(const Reader& r, const YAML::Node& root, const YAML::Node& n, const std::string& field,
+                                const Approximation& a, const std::map<std::string, int>& outputIndex,
+                                std::set<std::string>& names)
 {
     r.checkKeys(n, field,
                 {"name", "default", "min", "max", "limited", "angular", "form", "fitError", "samples", "outputs",
@@ -899,7 +987,8 @@ ModelledParameter readParameter(const Reader& r, const YAML::Node& n, const std:
     };
     m.outputs = outputList(n["outputs"], "outputs", true);
     if (const YAML::Node v = n["unmodelledOutputs"]) m.unmodelledOutputs = outputList(v, "unmodelledOutputs", false);
-    if (m.outputs.empty() && m.unmodelledOutputs.empty())
+    // A blend's weight moves its outputs through the blend alone (readBlendWeights).
+    if (m.outputs.empty() && m.unmodelledOutputs.empty() && !blendWeight(root, m.parameter.name))
         r.fail(n["outputs"], field + ".outputs", "a parameter affects at least one output");
     const YAML::Node operators = r.sequence(n["operators"], field + ".operators");
     if (operators.size() == 0 && !m.outputs.empty())
@@ -996,7 +1085,8 @@ Approximation approximationFromYaml(std::string_view text, const std::string& fi
     const YAML::Node parameters = r.sequence(root["parameters"], "parameters");
     for (std::size_t p = 0; p < parameters.size(); ++p)
         a.parameters.push_back(
-            readParameter(r, parameters[p], fmt::format("parameters[{}]", p), a, outputIndex, names));
+            readParameter(r, root, parameters[p], fmt::format("parameters[{}]", p), a, outputIndex, names));
+    readBlendWeights(r, root, a);
     readSetAside(r, root, names, a);
     readHeld(r, root, names, a);
     return a;
