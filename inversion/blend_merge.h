@@ -1,0 +1,38 @@
+#pragma once
+// An animated switch's approximation from its two branches (docs/rig-learn.md, Blends): the rig learned with the
+// switch held at 1 (the IK branch) and at 0 (the FK branch), merged into one approximation whose switched outputs are
+// blends (constraint.h, BlendRule) of their two branch copies by the switch's weight, a parameter.
+//
+// Every output keeps the IK branch's modelling, but a switched output, which becomes a blend reading two helper
+// copies of it, NAME@ik (its IK-branch modelling, its inputs the IK copies of switched outputs) and NAME@fk (the FK
+// branch's). Outputs found only in one branch (the IK goal and pole helpers) are added as they are. Parameters are the
+// union by name, in an order that keeps both branches' orders; each one's operators on a switched output act on that
+// branch's copy.
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "inversion/approximation.h"
+#include "inversion/constraint.h"
+
+namespace rig {
+
+struct SwitchBranches {
+    const Approximation* ik = nullptr;  // learned with the switch held at 1
+    const Approximation* fk = nullptr;  // and at 0, with the same outputs
+    RigParameter weight;                // the switch, limited to [0, 1]
+    // The switched outputs (the joints whose channels the switch blends), each with its parent joint among the
+    // outputs ("" for none) and the blend the rig does there (fitBlendRule).
+    struct Switched {
+        std::string output, parent;
+        BlendRule rule;
+    };
+    std::vector<Switched> switched;
+};
+
+// The merged approximation; throws a userInput rig::Error naming what does not merge (an output missing from a branch,
+// a switched output in neither, parameters ordered differently by the two branches).
+Approximation mergeSwitchBranches(const SwitchBranches& branches);
+
+}  // namespace rig
