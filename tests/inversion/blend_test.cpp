@@ -1,0 +1,392 @@
+// Blends of an animated switch (inversion/constraint.h, BlendRule): the blended local's rate against central
+// differences in both modes and every rotate order, and the rule found from the biped's legs sampled with the IK/FK
+// switch animated (L_leg_settings.ikFk a parameter, not held).
+#include <doctest/doctest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <random>
+#include <string>
+
+#include "core/error.h"
+#include "core/rotation_math.h"
+#include "inversion/approximation.h"
+#include "inversion/approximation_io.h"
+#include "inversion/blend_merge.h"
+#include "inversion/constraint.h"
+#include "inversion/constraint_fit.h"
+#include "inversion/jacobian.h"
+#include "inversion/learner.h"
+#include "nodes/graph_rig_function.h"
+#include "test_support.h"
+
+namespace rig {
+namespace {
+
+// A local transform as a joint makes one: a rotation of Euler angles within a radian of rest, a stretch and a
+// translation.
+Eigen::Matrix4d randomLocal(std::mt19937& rng, bool stretched)
+{
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    const Eigen::Vector3d scale =
+        stretched ? Eigen::Vector3d(1.0 + 0.4 * u(rng), 1.0 + 0.4 * u(rng), 1.0) : Eigen::Vector3d::Ones();
+    m.block<3, 3>(0, 0) = eulerToMatrix(Eigen::Vector3d(u(rng), u(rng), u(rng)), RotateOrder::xyz) * scale.asDiagonal();
+    m.block<3, 1>(0, 3) = 10.0 * Eigen::Vector3d(u(rng), u(rng), u(rng));
+    return m;
+}
+
+Eigen::Matrix4d randomRate(std::mt19937& rng)
+{
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 4; ++j) m(i, j) = u(rng);
+    return m;
+}
+
+ApproximationOutput restAt(const std::string& name, const Eigen::Vector3d& origin)
+{
+    ApproximationOutput out{name, Eigen::Matrix4d::Identity()};
+    out.rest.block<3, 1>(0, 3) = origin;
+    return out;
+}
+
+Operator rotationAbout(int axis, const Eigen::Vector3d& pivot)
+{
+    Operator op;
+    op.kind = OperatorKind::rotation;
+    op.axis = Eigen::Vector3d::Unit(axis);
+    op.pivot = pivot;
+    op.slope = 1.0;
+    return op;
+}
+
+// A switched thigh as a blend stores it: a hip, the thigh's IK branch (turned about x) and FK branch (about y then
+// z, its rotate order yzx) relative to the hip, and the thigh the blend of their locals by the switch's weight.
+Approximation switchedThigh()
+{
+    Approximation a;
+    a.rigFile = "rigs/leg.yaml";
+    a.rigFingerprint = "0123456789abcdef";
+    a.epsilon = 1e-3;
+    a.outputs = {restAt("hip", {0, 100, 0}), restAt("thigh_ik", {10, 90, 0}), restAt("thigh_fk", {10, 90, 0}),
+                 restAt("thigh", {10, 90, 0}), restAt("knee", {10, 50, 0})};
+    a.outputs[1].parent = a.outputs[2].parent = 0;
+    a.outputs[1].helper = a.outputs[2].helper = true;
+    a.outputs[3].constraint = 0;
+    a.outputs[4].parent = 3;
+    ConstraintBase blend;
+    blend.kind = ConstraintKind::blend;
+    blend.anchor = blend.ikParent = blend.fkParent = 0;
+    blend.ik = 1;
+    blend.fk = 2;
+    blend.weight = 4;
+    blend.blend = {BlendMode::eulerChannels, RotateOrder::yzx};
+    a.constraints = {blend};
+    const auto add = [&](const std::string& name, int output, const Operator& op, double min, double max) {
+        ModelledParameter m;
+        m.parameter = RigParameter{name, 0.0, min, max, op.kind == OperatorKind::rotation, true};
+        m.outputs = {output};
+        m.operators = {op};
+        m.operatorOfOutput = {0};
+        m.form = std::string(operatorKindName(op.kind));
+        a.parameters.push_back(m);
+    };
+    add("hip_ctrl.rotateX", 0, rotationAbout(0, {0, 100, 0}), -1.0, 1.0);
+    add("ik_ctrl.rotateX", 1, rotationAbout(0, {10, 90, 0}), -1.0, 1.0);
+    add("fk_ctrl.rotateY", 2, rotationAbout(1, {10, 90, 0}), -1.0, 1.0);
+    add("fk_ctrl.rotateZ", 2, rotationAbout(2, {10, 90, 0}), -1.0, 1.0);
+    ModelledParameter w;
+    w.parameter = RigParameter{"settings.ikFk", 0.0, 0.0, 1.0, false, true};
+    w.form = "blend weight";
+    a.parameters.push_back(w);
+    return a;
+}
+
+std::string blendErrorWith(const std::string& from, const std::string& to)
+{
+    std::string text = approximationToYaml(switchedThigh());
+    const auto at = text.find(from);
+    REQUIRE(at != std::string::npos);
+    text.replace(at, from.size(), to);
+    try {
+        approximationFromYaml(text, "f.yaml");
+    }
+    catch (const Error& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+// The biped's left leg: its IK branch's controls (the goal and pole), its FK branch's, and those of both.
+const std::vector<std::string> legIkParams{"root_ctrl.rotate?",        "L_hip_ctrl.rotate?",
+                                           "L_leg_ik_ctrl.translate?", "L_leg_pole_ctrl.translate?",
+                                           "L_foot_fk_ctrl.rotate?",   "L_toe_ctrl.rotate?"};
+const std::vector<std::string> legFkParams{"root_ctrl.rotate?",       "L_hip_ctrl.rotate?",
+                                           "L_upLeg_fk_ctrl.rotate?", "L_knee_fk_ctrl.rotateX",
+                                           "L_foot_fk_ctrl.rotate?",  "L_toe_ctrl.rotate?"};
+// Each joint with its parent joint.
+const std::vector<std::pair<std::string, std::string>> legJoints{
+    {"LeftUpLeg", "LHipJoint"}, {"LeftLeg", "LeftUpLeg"}, {"LeftFoot", "LeftLeg"}, {"LeftToeBase", "LeftFoot"}};
+
+// The leg's rig with these controls and, when `fk` is given, both branches' and the switch last (animated).
+GraphRigOptions switchedLegOptions(std::vector<std::string> params, const std::vector<std::string>& fk)
+{
+    GraphRigOptions options;
+    for (const std::string& glob : fk)
+        if (std::find(params.begin(), params.end(), glob) == params.end()) params.push_back(glob);
+    if (!fk.empty()) params.push_back("L_leg_settings.ikFk");
+    options.parameterGlobs = params;
+    options.outputGlobs = {"LHipJoint", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase"};
+    options.held = {{"L_leg_ik.stretch", 1.0}};
+    return options;
+}
+
+// Per joint of legJoints, 40 random poses with a random weight: each joint relative to its parent joint with the
+// switch at 1 (IK), at 0 (FK) and at the weight.
+std::vector<std::vector<BlendSample>> switchedLegSamples(GraphRigFunction& rig)
+{
+    const auto& names = rig.outputs();
+    const auto output = [&](const std::string& name) {
+        return static_cast<std::size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+    };
+    const auto& parameters = rig.parameters();
+    const std::size_t switchIndex = parameters.size() - 1;
+    REQUIRE(parameters[switchIndex].name == "L_leg_settings.ikFk");
+    std::vector<std::vector<BlendSample>> samples(legJoints.size());
+    std::mt19937 rng(2026);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<double> values(parameters.size());
+    std::vector<Eigen::Matrix4d> ik, fk, blended;
+    const auto local = [&](const std::vector<Eigen::Matrix4d>& worlds, const std::pair<std::string, std::string>& j) {
+        return Eigen::Matrix4d(worlds[output(j.second)].inverse() * worlds[output(j.first)]);
+    };
+    for (int pose = 0; pose < 40; ++pose) {
+        for (std::size_t p = 0; p < parameters.size(); ++p)
+            values[p] = parameters[p].min + unit(rng) * (parameters[p].max - parameters[p].min);
+        const double w = values[switchIndex];
+        values[switchIndex] = 1.0;
+        rig.evaluate(values, ik);
+        values[switchIndex] = 0.0;
+        rig.evaluate(values, fk);
+        values[switchIndex] = w;
+        rig.evaluate(values, blended);
+        for (std::size_t j = 0; j < legJoints.size(); ++j)
+            samples[j].push_back({w, local(ik, legJoints[j]), local(fk, legJoints[j]), local(blended, legJoints[j])});
+    }
+    return samples;
+}
+
+}  // namespace
+
+TEST_CASE("blend: the blended local's rate matches central differences in every mode and rotate order")
+{
+    std::mt19937 rng(32);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<BlendRule> rules{{BlendMode::slerp, RotateOrder::xyz}};
+    for (int order = 0; order < 6; ++order) rules.push_back({BlendMode::eulerChannels, *rotateOrderFromIndex(order)});
+    for (const BlendRule& rule : rules)
+        for (int trial = 0; trial < 20; ++trial) {
+            const bool stretched = trial % 2 == 1;
+            const Eigen::Matrix4d ik = randomLocal(rng, stretched), fk = randomLocal(rng, stretched);
+            const Eigen::Matrix4d dIk = randomRate(rng), dFk = randomRate(rng);
+            const double w = unit(rng), dw = unit(rng) - 0.5;
+            const double h = 1e-6;
+            const Eigen::Matrix4d numeric = (blendLocal(rule, w + h * dw, ik + h * dIk, fk + h * dFk) -
+                                             blendLocal(rule, w - h * dw, ik - h * dIk, fk - h * dFk)) /
+                                            (2.0 * h);
+            const Eigen::Matrix4d analytic = blendLocalRate(rule, w, ik, fk, dw, dIk, dFk);
+            INFO(blendModeName(rule.mode) << " " << rotateOrderName(rule.order) << " trial " << trial);
+            CHECK((analytic - numeric).cwiseAbs().maxCoeff() < 1e-6);
+        }
+}
+
+TEST_CASE("blend: at w 0 and 1 the blend is the FK and the IK branch, and a frame's slerp is not a channel blend")
+{
+    std::mt19937 rng(7);
+    const Eigen::Matrix4d ik = randomLocal(rng, true), fk = randomLocal(rng, true);
+    for (const BlendRule rule : {BlendRule{BlendMode::eulerChannels, RotateOrder::yzx}, BlendRule{BlendMode::slerp}}) {
+        CHECK((blendLocal(rule, 0.0, ik, fk) - fk).cwiseAbs().maxCoeff() < 1e-12);
+        CHECK((blendLocal(rule, 1.0, ik, fk) - ik).cwiseAbs().maxCoeff() < 1e-12);
+    }
+    const Eigen::Matrix4d euler = blendLocal({BlendMode::eulerChannels, RotateOrder::yzx}, 0.5, ik, fk);
+    const Eigen::Matrix4d slerp = blendLocal({BlendMode::slerp}, 0.5, ik, fk);
+    CHECK(matrixError(euler, slerp, 10.0) > 0.01);
+}
+
+TEST_CASE("blend: the biped's legs with ikFk animated are the rig's channel blends of their IK and FK branches")
+{
+    GraphRigFunction rig(test::sourceDir() / "rigs" / "biped.yaml", switchedLegOptions(legIkParams, legFkParams));
+    const std::vector<std::vector<BlendSample>> samples = switchedLegSamples(rig);
+    std::vector<std::string> found;
+    for (std::size_t j = 0; j < legJoints.size(); ++j) {
+        BlendFit closest;
+        const std::optional<BlendFit> fit = fitBlendRule(samples[j], 1e-6, 10.0, &closest);
+        INFO(legJoints[j].first << ": nearest " << blendModeName(closest.rule.mode) << " "
+                                << rotateOrderName(closest.rule.order) << " at " << closest.error << " cm");
+        REQUIRE(fit);
+        found.push_back(std::string(blendModeName(fit->rule.mode)) + " " +
+                        std::string(rotateOrderName(fit->rule.order)));
+    }
+    // The thigh's channels are blended in its rotate order (yzx); the knee turns about x alone in both branches and
+    // the foot's rotation is the same in both (its translation is blended), so the first order already reproduces
+    // them; the toe is not switched at all.
+    CHECK(found ==
+          std::vector<std::string>{"eulerChannels yzx", "eulerChannels xyz", "eulerChannels xyz", "eulerChannels xyz"});
+    // The thigh's frames slerped are not what the rig does.
+    double slerpError = 0.0;
+    for (const BlendSample& s : samples[0])
+        slerpError =
+            std::max(slerpError, matrixError(blendLocal({BlendMode::slerp}, s.weight, s.ik, s.fk), s.blended, 10.0));
+    CHECK(slerpError > 1e-2);
+}
+
+TEST_CASE("blend: the biped's left leg learned in both branches and merged is the real rig with ikFk animated")
+{
+    // Each branch learned with the switch held, every output modelled (the IK one on planar chains).
+    const auto learnBranch = [](const std::vector<std::string>& params, double held) {
+        GraphRigOptions options = switchedLegOptions(params, {});
+        options.held.push_back({"L_leg_settings.ikFk", held});
+        options.autoHelpers = held == 1.0;
+        GraphRigFunction branch(test::sourceDir() / "rigs" / "biped.yaml", options);
+        return learnApproximation(branch, LearnOptions{}, "rigs/biped.yaml");
+    };
+    const Approximation ik = learnBranch(legIkParams, 1.0), fk = learnBranch(legFkParams, 0.0);
+    CHECK(!ik.hasUnmodelledOutputs());
+    CHECK(!fk.hasUnmodelledOutputs());
+    CHECK(ik.validation.withinEpsilon);
+    CHECK(fk.validation.withinEpsilon);
+
+    GraphRigFunction rig(test::sourceDir() / "rigs" / "biped.yaml", switchedLegOptions(legIkParams, legFkParams));
+    const std::vector<std::vector<BlendSample>> samples = switchedLegSamples(rig);
+    SwitchBranches branches{&ik, &fk, rig.parameters().back(), {}};
+    REQUIRE(branches.weight.name == "L_leg_settings.ikFk");
+    for (std::size_t j = 0; j < 3; ++j) {
+        const std::optional<BlendFit> fit = fitBlendRule(samples[j], 1e-6, 10.0);
+        REQUIRE(fit);
+        branches.switched.push_back({legJoints[j].first, legJoints[j].second, fit->rule});
+    }
+    const Approximation merged = mergeSwitchBranches(branches);
+    CHECK(!merged.hasUnmodelledOutputs());
+    // It reads back as it was written, and evaluates to the same bits.
+    const Approximation read = approximationFromYaml(approximationToYaml(merged), "merged.yaml");
+
+    // Random poses with a random weight, the real rig against the merged approximation, every joint.
+    std::mt19937 rng(99);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    const auto& parameters = rig.parameters();
+    std::vector<double> values(parameters.size()), mergedValues(merged.parameters.size());
+    std::vector<Eigen::Matrix4d> real, model, again;
+    double worst = 0.0;
+    for (int pose = 0; pose < 30; ++pose) {
+        for (std::size_t p = 0; p < parameters.size(); ++p)
+            values[p] = parameters[p].min + unit(rng) * (parameters[p].max - parameters[p].min);
+        for (std::size_t p = 0; p < merged.parameters.size(); ++p) {
+            const auto it = std::find_if(parameters.begin(), parameters.end(), [&](const RigParameter& r) {
+                return r.name == merged.parameters[p].parameter.name;
+            });
+            REQUIRE(it != parameters.end());
+            mergedValues[p] = values[static_cast<std::size_t>(it - parameters.begin())];
+        }
+        rig.evaluate(values, real);
+        merged.evaluate(mergedValues, model);
+        read.evaluate(mergedValues, again);
+        for (std::size_t k = 0; k < rig.outputs().size(); ++k) {
+            const int m = static_cast<int>(
+                std::find_if(merged.outputs.begin(), merged.outputs.end(),
+                             [&](const ApproximationOutput& o) { return o.name == rig.outputs()[k]; }) -
+                merged.outputs.begin());
+            REQUIRE(m < static_cast<int>(merged.outputs.size()));
+            worst = std::max(worst, matrixError(model[static_cast<std::size_t>(m)], real[k], 10.0));
+            CHECK(again[static_cast<std::size_t>(m)] == model[static_cast<std::size_t>(m)]);
+        }
+    }
+    MESSAGE("the merged left leg against the real rig with ikFk animated: worst " << worst << " cm");
+    CHECK(worst < 1e-2);
+}
+
+TEST_CASE("blend: an approximation with a blend evaluates the parent times the blended locals, reads back bit for bit")
+{
+    const Approximation a = switchedThigh();
+    std::vector<Eigen::Matrix4d> worlds, rest;
+    a.evaluate(a.defaults(), rest);
+    for (std::size_t k = 0; k < rest.size(); ++k) CHECK(rest[k].isApprox(a.outputs[k].rest, 1e-12));
+    std::vector<double> values{0.3, 0.7, -0.4, 0.5, 1.0};
+    a.evaluate(values, worlds);
+    CHECK(worlds[3].isApprox(worlds[1], 1e-12));  // at weight 1, the IK branch
+    values[4] = 0.0;
+    a.evaluate(values, worlds);
+    CHECK(worlds[3].isApprox(worlds[2], 1e-12));  // at 0, the FK branch
+    values[4] = 0.25;
+    a.evaluate(values, worlds);
+    const Eigen::Matrix4d local =
+        blendLocal(a.constraints[0].blend, 0.25, worlds[0].inverse() * worlds[1], worlds[0].inverse() * worlds[2]);
+    CHECK(worlds[3].isApprox(worlds[0] * local, 1e-12));
+    // The knee hangs from the blended thigh; the weight reaches both, the FK controls the FK branch and below.
+    CHECK(worlds[4].isApprox(worlds[3] * a.outputs[3].rest.inverse() * a.outputs[4].rest, 1e-12));
+    const std::vector<std::vector<int>> reach = a.reach();
+    CHECK(reach[4] == std::vector<int>{3, 4});
+    CHECK(reach[2] == std::vector<int>{2, 3, 4});
+
+    const std::string text = approximationToYaml(a);
+    CHECK(text.find("  - kind: blend\n    anchor: \"hip\"\n    ik: \"thigh_ik\"\n    fk: \"thigh_fk\"\n"
+                    "    ikParent: \"hip\"\n    fkParent: \"hip\"\n    weight: \"settings.ikFk\"\n"
+                    "    mode: eulerChannels\n    order: yzx\n") != std::string::npos);
+    const Approximation b = approximationFromYaml(text, "blend.yaml");
+    CHECK(approximationToYaml(b) == text);
+    REQUIRE(b.constraints.size() == 1);
+    CHECK(b.constraints[0].kind == ConstraintKind::blend);
+    CHECK(b.constraints[0].weight == 4);
+    std::vector<Eigen::Matrix4d> again;
+    b.evaluate(values, again);
+    for (std::size_t k = 0; k < worlds.size(); ++k) CHECK(again[k] == worlds[k]);
+
+    // A slerp has no rotate order.
+    Approximation slerp = a;
+    slerp.constraints[0].blend = {BlendMode::slerp};
+    const std::string slerpText = approximationToYaml(slerp);
+    CHECK(slerpText.find("    mode: slerp\n    parameters:") == std::string::npos);
+    CHECK(slerpText.find("    mode: slerp\n") != std::string::npos);
+    CHECK(slerpText.find("order: yzx") == std::string::npos);
+    CHECK(approximationFromYaml(slerpText, "slerp.yaml").constraints[0].blend.mode == BlendMode::slerp);
+}
+
+TEST_CASE("blend: a damaged blend is one line naming file:line:col and the field, and the solver refuses a blend")
+{
+    CHECK(blendErrorWith("", "") == "(no error)");
+    CHECK(blendErrorWith("mode: eulerChannels", "mode: lerp") ==
+          "f.yaml:56:11: constraints[0].mode: unknown blend 'lerp'; the blends are eulerChannels and slerp");
+    CHECK(blendErrorWith("    order: yzx\n", "") ==
+          "f.yaml:49:5: constraints[0]: an eulerChannels blend needs `order`, the rotate order its angles are read in");
+    CHECK(blendErrorWith("order: yzx", "order: xyy") ==
+          "f.yaml:57:12: constraints[0].order: not a rotate order; it is one of xyz, yzx, zxy, xzy, yxz, zyx");
+    CHECK(blendErrorWith("mode: eulerChannels", "mode: slerp") ==
+          "f.yaml:57:12: constraints[0].order: a slerp has no rotate order; remove it");
+    // The weight is a parameter limited to [0, 1]; another parameter named instead leaves the weight moving nothing.
+    CHECK(blendErrorWith("weight: \"settings.ikFk\"", "weight: \"hip_ctrl.rotateX\"") ==
+          "f.yaml:137:14: parameters[4].outputs: a parameter affects at least one output");
+    CHECK(blendErrorWith("\"settings.ikFk\"\n    default: 0\n    min: 0\n    max: 1\n",
+                         "\"settings.ikFk\"\n    default: 0\n    min: 0\n    max: 2\n") ==
+          "f.yaml:55:13: constraints[0].weight: 'settings.ikFk' is not limited to [0, 1]; a blend's weight is a "
+          "switch's (re-run rig-learn)");
+    CHECK(blendErrorWith("fk: \"thigh_fk\"", "fk: \"thigh_ik\"") ==
+          "f.yaml:52:9: constraints[0].fk: is the IK branch too; a blend has two branches");
+    CHECK(
+        blendErrorWith("ik: \"thigh_ik\"", "ik: \"thigh\"") ==
+        "f.yaml:41:17: outputs[3].constraint: constraints[0] reads 'thigh' itself; a constraint reads outputs learned "
+        "before its output");
+    CHECK(
+        blendErrorWith("    weight:", "    wait: 1\n    weight:")
+            .find("constraints[0]: unknown field 'wait'; the fields are kind, ik, fk, weight, mode, anchor, ikParent, "
+                  "fkParent, order") != std::string::npos);
+
+    const Approximation a = switchedThigh();
+    const std::vector<JointTarget> targets(a.outputs.size());
+    CHECK_THROWS_WITH_AS(JacobianEvaluator(a, targets, 10.0),
+                         "output 'thigh' is a blend of an animated switch, which the solver does not take yet; learn "
+                         "with the switch held (rig-learn --set PLUG=0 or 1)",
+                         Error);
+}
+
+}  // namespace rig
