@@ -127,7 +127,18 @@ Json outputsJson(const Approximation& a)
         Json constraint;
         if (o.constraint >= 0) {
             const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
-            if (c.kind == ConstraintKind::twistShare)
+            if (c.kind == ConstraintKind::blend)
+                constraint = {{"kind", constraintKindName(c.kind)},
+                              {"anchor", nameOf(c.anchor)},
+                              {"ik", nameOf(c.ik)},
+                              {"fk", nameOf(c.fk)},
+                              {"ik_parent", nameOf(c.ikParent)},
+                              {"fk_parent", nameOf(c.fkParent)},
+                              {"weight", a.parameters[static_cast<std::size_t>(c.weight)].parameter.name},
+                              {"mode", blendModeName(c.blend.mode)},
+                              {"order", c.blend.mode == BlendMode::eulerChannels ? Json(rotateOrderName(c.blend.order))
+                                                                                 : Json()}};
+            else if (c.kind == ConstraintKind::twistShare)
                 constraint = {{"kind", constraintKindName(c.kind)},
                               {"anchor", nameOf(c.anchor)},
                               {"driver", nameOf(c.driver)},

@@ -8,6 +8,7 @@
 #include <random>
 #include <string>
 
+#include "app/learn_run.h"
 #include "core/error.h"
 #include "core/rotation_math.h"
 #include "inversion/approximation.h"
@@ -269,6 +270,22 @@ TEST_CASE("blend: the biped's left leg learned in both branches and merged is th
     }
     const Approximation merged = mergeSwitchBranches(branches);
     CHECK(!merged.hasUnmodelledOutputs());
+    CHECK(merged.parameters.back().parameter.name == "L_leg_settings.ikFk");
+    // rig-learn's report names each blend's branches, weight and rotate order.
+    const app::Json report =
+        app::learnReport(app::LearnOutcome{merged, 0, 0, {}, 0.0, {}}, "rigs/biped.yaml", std::nullopt, false);
+    bool thigh = false;
+    for (const app::Json& o : report.at("frames"))
+        if (o.at("name") == "LeftUpLeg") {
+            thigh = true;
+            CHECK(o.at("constraint").at("kind") == "blend");
+            CHECK(o.at("constraint").at("ik") == "LeftUpLeg@ik");
+            CHECK(o.at("constraint").at("fk") == "LeftUpLeg@fk");
+            CHECK(o.at("constraint").at("anchor") == "LHipJoint");
+            CHECK(o.at("constraint").at("weight") == "L_leg_settings.ikFk");
+            CHECK(o.at("constraint").at("order") == "yzx");
+        }
+    CHECK(thigh);
     // It reads back as it was written, and evaluates to the same bits.
     const Approximation read = approximationFromYaml(approximationToYaml(merged), "merged.yaml");
 
