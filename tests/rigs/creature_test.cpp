@@ -322,7 +322,7 @@ TEST_CASE(
         return *found;
     };
     CHECK(output("L_hand").constraint >= 0);
-    // Below the IK hand, the claws and their tips stay parent-relative, the tips' curl the FK mode's exact form.
+    // Below the IK hand, the claws and their tips stay parent-relative, the tips' curl learned as in FK mode.
     for (const char* side : {"L", "R"})
         for (const char* claw : {"claw1", "claw2"}) {
             const std::string name = fmt::format("{}_{}", side, claw), tip = name + "_tip";

@@ -780,7 +780,7 @@ TEST_CASE(
     for (const auto& o : a.outputs)
         if (o.constraint >= 0) constrained.push_back(o.name);
     // The reverse foot's ankle goal is the legs' goal helper. The right knee is a chain within epsilon; the left knee
-    // (0.0067 cm per unit off) and the claw tips are left to the hybrid solve.
+    // (0.0067 cm per unit off) is left to the hybrid solve, the claw tips are relative to their claws.
     CHECK(constrained == std::vector<std::string>{"L_upperArm", "L_forearm", "L_hand", "R_upperArm", "R_forearm",
                                                   "R_hand", "L_thigh", "R_thigh", "R_knee"});
     CHECK(
