@@ -375,10 +375,12 @@ TEST_CASE(
     MESSAGE("random IK limbs: " << modelled << " of " << limbs
                                 << " fully modelled; poses reached from rest on the real "
                                 << "rig: " << reached << " of " << poses);
-    // 10 of 12 measured: the two others' closest candidate is the right chain (pole or rest plane), 0.003 to 0.013 cm
-    // per unit off (not the shape's sampling: four times the knots changed nothing; the cause is not found yet).
-    CHECK(modelled >= 10);
-    CHECK(reached >= poses * 9 / 10);
+    // 12 of 12 measured. Before, 10: limbs 5 and 6 had goals nearer the root than the shape's knots, which stopped at a
+    // fifth of the rest reach, and were 0.003 to 0.013 cm per unit off there. Poses: 58 of 60; the two misses (limbs 2
+    // and 8, with poles) are the solve's, not the approximation's: it is within 4e-6 cm of the rig at their truths,
+    // and the solve from rest ends 4.5 and 6.9 cm away.
+    CHECK(modelled == limbs);
+    CHECK(reached >= poses * 19 / 20);
 }
 
 // A random aimed joint (an eye) under a head that turns and moves, aimed at a target control that translates: a
