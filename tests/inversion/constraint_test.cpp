@@ -383,6 +383,70 @@ TEST_CASE(
     CHECK(reached >= poses * 19 / 20);
 }
 
+TEST_CASE("constraints: a chain's shape holds for goals near its root, nearer than any pose it was swept for")
+{
+    // Random limb 6 above (seed 2026): bones of 21.0 and 18.3 cm, nearly straight at rest (38.4 cm of 39.3), a pole,
+    // stretch. With the shape's sweep stopped at a fifth of the rest reach, a goal 5 cm from the root was 0.72 cm off.
+    const std::string yaml =
+        "nodes:\n"
+        "  - {name: root_ctrl, type: transform, translate: [0, 100, 0]}\n"
+        "  - {name: base, type: joint, parent: root_ctrl}\n"
+        "  - {name: upper, type: joint, parent: base, translate: [0.573714413, -4.55110913, 3.24187096]}\n"
+        "  - {name: lower, type: joint, parent: upper}\n"
+        "  - {name: tip, type: joint, parent: lower}\n"
+        "  - {name: ik_ctrl, type: transform, translate: [10.559898, 60.5933138, -9.30462863]}\n"
+        "  - {name: ik, type: ikHandle, startTranslate: [0.573714413, -4.55110913, 3.24187096], midTranslate: "
+        "[9.43226999, -17.5253882, -6.70504874], endTranslate: [0.55391356, -17.3301889, -5.84145085], stretch: true}\n"
+        "  - {name: pole_ctrl, type: transform, translate: [48.6321466, 88.3167501, -3.46317778]}\n"
+        "  - {name: pv, type: poleVectorConstraint, constraintRotatePivot: [0.573714413, -4.55110913, 3.24187096]}\n"
+        "connections:\n"
+        "  - base.worldMatrix -> ik.startParentMatrix\n"
+        "  - base.scale -> ik.startInverseScale\n"
+        "  - ik_ctrl.worldMatrix -> ik.goalMatrix\n"
+        "  - ik.startRotate -> upper.rotate\n"
+        "  - ik.midRotate -> lower.rotate\n"
+        "  - ik.outMidTranslate -> lower.translate\n"
+        "  - ik.outEndTranslate -> tip.translate\n"
+        "  - pole_ctrl.worldMatrix -> pv.targetMatrix[0]\n"
+        "  - base.worldMatrix -> pv.pivotSpace\n"
+        "  - pv.constraintTranslate -> ik.poleVector\n";
+    const auto file = test::writeFile(test::scratchDir("constraint-near-goals") / "limb.yaml", yaml);
+    GraphRigOptions options;
+    options.parameterGlobs = {"root_ctrl.translate?", "ik_ctrl.translate?", "pole_ctrl.translate?"};
+    options.outputGlobs = {"base", "upper", "lower", "tip"};
+    options.autoHelpers = true;
+    GraphRigFunction rig(file, options);
+    const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
+    REQUIRE(!a.hasUnmodelledOutputs());
+    CHECK(a.constraints.size() == 3);
+    RigBinding binding(a, rig);
+    // Goals from a fiftieth to a fifth of the rest reach from the chain's root (the upper joint), in random
+    // directions: the knee folded, then bending, in planes at every angle from the rest plane.
+    const Eigen::Vector3d root(0.573714413, 95.44889087, 3.24187096);
+    const double restReach = (Eigen::Vector3d(10.559898, 60.5933138, -9.30462863) - root).norm();
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    double worst = 0.0;
+    for (int i = 0; i < 20; ++i) {
+        const Eigen::Vector3d direction = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+        const Eigen::Vector3d goal = root + restReach * (0.02 + 0.09 * (1.0 + unit(rng))) * direction;
+        std::vector<double> values = a.defaults();
+        for (int axis = 0; axis < 3; ++axis)
+            values[static_cast<std::size_t>(test::parameterIndex(a, fmt::format("ik_ctrl.translate{}", "XYZ"[axis])))] =
+                goal[axis];
+        std::vector<Eigen::Matrix4d> model, real;
+        a.evaluate(values, model);
+        binding.evaluate(values, real);
+        for (std::size_t k = 0; k < a.outputs.size(); ++k)
+            if (!a.outputs[k].helper)
+                worst =
+                    std::max(worst, (model[k].block<3, 1>(0, 3) - real[k].block<3, 1>(0, 3)).norm() +
+                                        10.0 * orientationAngle(model[k].block<3, 3>(0, 0), real[k].block<3, 3>(0, 0)));
+    }
+    MESSAGE("a nearly straight limb's joints, goals within a fifth of the rest reach: worst " << worst << " cm");
+    CHECK(worst < 1e-3);
+}
+
 // A random aimed joint (an eye) under a head that turns and moves, aimed at a target control that translates: a
 // random aim axis, a random up axis and up mode (carried by the head, the scene's +Y or a fixed world vector), the
 // eye at a random offset. The target's controls are its helper frame, found as rig-learn finds them.

@@ -765,7 +765,7 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "rig-learn: the creature's IK arms and thighs (rigs/creature_inversion_ik.yaml) learned as planar chains "
+    "rig-learn: the creature's IK arms, thighs and knees (rigs/creature_inversion_ik.yaml) learned as planar chains "
     "on their goals and poles, within epsilon")
 {
     const auto dir = rig::test::scratchDir("rig-learn-creature-chains");
