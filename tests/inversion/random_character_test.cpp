@@ -12,8 +12,11 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "core/rotation_math.h"
 #include "inversion/approximation.h"
@@ -44,7 +47,7 @@ Eigen::Matrix4d restLocal(const Eigen::Vector3d& translate, const Eigen::Vector3
 
 // What the generator chose, for messages and for the family counts it expects.
 struct CharacterParts {
-    int spineJoints = 0, ikArms = 0, fkArms = 0, poles = 0, stretchy = 0, eyes = 0;
+    int spineJoints = 0, ikArms = 0, fkArms = 0, eyes = 0;
     std::vector<std::string> rigidIkSides;  // the IK arms without stretch ("L_", "R_")
     std::string summary;
 };
@@ -319,8 +322,6 @@ void CharacterBuilder::armSwitch(const std::string& side, double sign, const Cha
         param(side + "elbow_fk_ctrl.rotate?");
     }
     ++(atIk ? parts.ikArms : parts.fkArms);
-    parts.poles += atIk && pole ? 1 : 0;
-    parts.stretchy += atIk && stretch ? 1 : 0;
     if (atIk && !stretch) parts.rigidIkSides.push_back(side);
     armMode_ = atIk ? fmt::format("IK ({}, {})", pole ? "pole" : "no pole", stretch ? "stretch" : "no stretch") : "FK";
 }
