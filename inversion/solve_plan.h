@@ -176,6 +176,7 @@ struct SolveScratch {
     std::vector<TreeErrors> treeErrors;  // per tree, when the trees give the whole's errors
     std::vector<char> missed;            // per output: further than targetTolerance (Solver::solve's errors)
     std::vector<double> trial, best;     // initialGuess: the start being solved, the best answer so far
+    std::vector<double> held;            // Solver::solve: the first answer, while a held goal's is solved again
     std::vector<Varied> varied;
 };
 
