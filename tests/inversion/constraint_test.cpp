@@ -22,6 +22,7 @@
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
 #include "inversion/pole_hold.h"
+#include "inversion/residual_term.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
 #include "nodes/inversion_spec.h"
@@ -266,6 +267,37 @@ TEST_CASE("constraints: random poses of the biped's IK legs are recovered from r
     // 99%). Before, 295: the misses were the approximation's own error, 1.1e-3 to 1.8e-3 cm.
     CHECK(reached >= 297);
     CHECK(worstOfAll < 2e-3);
+}
+
+TEST_CASE("constraints: the normal equations through planar chains' bases, from twists, are J^T J and J^T r")
+{
+    // The bases' columns (root, IK goal, pole) against each other and the unknowns below each base, without J.
+    IkBipedChains& biped = ikBiped();
+    const Approximation& a = biped.a;
+    RigBinding binding(a, biped.rig);
+    std::mt19937 rng(31);
+    for (int pose = 0; pose < 10; ++pose) {
+        CAPTURE(pose);
+        std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
+        if (pose % 2)  // another term on every other output: B^T B as a full 6x6
+            for (std::size_t k = 0; k < targets.size(); k += 2) targets[k].term = &residualTerm("position");
+        JacobianEvaluator evaluator(a, targets, SolverOptions{}.rotationScaleCm);
+        REQUIRE(evaluator.structure().hasBases());
+        CHECK(evaluator.structure().twistNormals());
+        CHECK_FALSE(evaluator.structure().twistForm());  // no fold through a base
+        const std::vector<double> values = test::randomValues(a, rng, 0.5);
+        Eigen::MatrixXd j, h;
+        Eigen::VectorXd r, rAgain, g;
+        evaluator.jacobian(values, JacobianMethod::analytic, 0.0, j, r);
+        evaluator.normalEquations(values, JacobianMethod::analytic, 0.0, g, h, rAgain);
+        CHECK(rAgain == r);
+        const Eigen::VectorXd gradient = j.transpose() * r;
+        const Eigen::MatrixXd product = j.transpose() * j;
+        CHECK((g - gradient).norm() <= 1e-10 * gradient.norm());
+        const Eigen::MatrixXd lower = product.triangularView<Eigen::Lower>();
+        const Eigen::MatrixXd formed = h.triangularView<Eigen::Lower>();
+        CHECK((formed - lower).norm() <= 1e-10 * product.norm());
+    }
 }
 
 TEST_CASE("constraints: the IK biped's singular leg blocks (a pole's free directions) take the minimum-norm step")
