@@ -65,7 +65,7 @@ std::vector<int> ownTranslations(const Approximation& approximation, int helper)
     std::vector<int> controls;
     for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
         const ModelledParameter& m = approximation.parameters[p];
-        if (m.outputs != std::vector<int>{helper} || m.parameter.limited) continue;
+        if (m.outputs.size() != 1 || m.outputs.front() != helper || m.parameter.limited) continue;
         if (std::all_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
                 return op.kind == OperatorKind::translation && op.linear() && !op.held();
             }))

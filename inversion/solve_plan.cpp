@@ -23,7 +23,7 @@ void BlockWorkspace::configure(const SolverOptions& options, bool parallel)
 {
     options_ = &options;
     parallel_ = parallel;
-    reuse_ = options.jacobian == JacobianMethod::analytic && residual.structure().twistForm();
+    reuse_ = options.jacobian == JacobianMethod::analytic && residual.structure().twistNormals();
 }
 
 // At an accepted trial point the residuals and products are those of its evaluation (r).

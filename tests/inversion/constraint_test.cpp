@@ -5,19 +5,24 @@
 #include <unistd.h>
 
 #include <fmt/format.h>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
 #include <random>
 
+#include <Eigen/Eigenvalues>
+
 #include "core/rotation_math.h"
 #include "ik_arm.h"
 #include "inversion/approximation.h"
 #include "inversion/approximation_io.h"
+#include "inversion/block_elimination.h"
 #include "inversion/constraint.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
 #include "inversion/pole_hold.h"
+#include "inversion/residual_term.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
 #include "nodes/inversion_spec.h"
@@ -262,6 +267,98 @@ TEST_CASE("constraints: random poses of the biped's IK legs are recovered from r
     // 99%). Before, 295: the misses were the approximation's own error, 1.1e-3 to 1.8e-3 cm.
     CHECK(reached >= 297);
     CHECK(worstOfAll < 2e-3);
+}
+
+TEST_CASE("constraints: the normal equations through planar chains' bases, from twists, are J^T J and J^T r")
+{
+    // The bases' columns (root, IK goal, pole) against each other and the unknowns below each base, without J.
+    IkBipedChains& biped = ikBiped();
+    const Approximation& a = biped.a;
+    RigBinding binding(a, biped.rig);
+    std::mt19937 rng(31);
+    for (int pose = 0; pose < 10; ++pose) {
+        CAPTURE(pose);
+        std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
+        if (pose % 2)  // another term on every other output: B^T B as a full 6x6
+            for (std::size_t k = 0; k < targets.size(); k += 2) targets[k].term = &residualTerm("position");
+        JacobianEvaluator evaluator(a, targets, SolverOptions{}.rotationScaleCm);
+        REQUIRE(evaluator.structure().hasBases());
+        CHECK(evaluator.structure().twistNormals());
+        CHECK_FALSE(evaluator.structure().twistForm());  // no fold through a base
+        const std::vector<double> values = test::randomValues(a, rng, 0.5);
+        Eigen::MatrixXd j, h;
+        Eigen::VectorXd r, rAgain, g;
+        evaluator.jacobian(values, JacobianMethod::analytic, 0.0, j, r);
+        evaluator.normalEquations(values, JacobianMethod::analytic, 0.0, g, h, rAgain);
+        CHECK(rAgain == r);
+        const Eigen::VectorXd gradient = j.transpose() * r;
+        const Eigen::MatrixXd product = j.transpose() * j;
+        CHECK((g - gradient).norm() <= 1e-10 * gradient.norm());
+        const Eigen::MatrixXd lower = product.triangularView<Eigen::Lower>();
+        const Eigen::MatrixXd formed = h.triangularView<Eigen::Lower>();
+        CHECK((formed - lower).norm() <= 1e-10 * product.norm());
+    }
+}
+
+TEST_CASE("constraints: the IK biped's singular leg blocks (a pole's free directions) take the minimum-norm step")
+{
+    // A pole moved within its chain's plane changes nothing: each leg's block of J^T J is singular, and the coupled
+    // elimination's step must be the whole system's minimum-norm one (S^+ of each leg on its range).
+    IkBipedChains& biped = ikBiped();
+    const Approximation& a = biped.a;
+    RigBinding binding(a, biped.rig);
+    std::mt19937 rng(29);
+    const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
+    const Partition partition = Solver(a, SolverOptions{}).partition(targets);
+    REQUIRE(partition.blocks.size() > 3);
+    std::vector<int> columns, outputs;
+    for (const PartitionBlock& b : partition.blocks) {
+        columns.insert(columns.end(), b.parameters.begin(), b.parameters.end());
+        outputs.insert(outputs.end(), b.outputs.begin(), b.outputs.end());
+    }
+    std::sort(columns.begin(), columns.end());
+    std::sort(outputs.begin(), outputs.end());
+    const ResidualStructure structure(a, columns, outputs);
+    REQUIRE(structure.hasBases());
+    const BlockElimination elimination(partition, structure);
+    std::vector<PreparedTarget> prepared(targets.size());
+    for (std::size_t k = 0; k < targets.size(); ++k)
+        if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
+    const Eigen::Index n = structure.columnCount();
+    for (int pose = 0; pose < 5; ++pose) {
+        CAPTURE(pose);
+        const std::vector<double> values = test::randomValues(a, rng, 0.5);
+        std::vector<double> x;
+        for (const int c : columns) x.push_back(values[static_cast<std::size_t>(c)]);
+        ResidualWorkspace dense(structure), blocks(structure);
+        blocks.useLayout(elimination.layout());
+        BlockEliminationWorkspace step(elimination);
+        Eigen::VectorXd r(structure.rows()), g(n), gBlocks(n);
+        Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, n), j(structure.rows(), n);
+        for (ResidualWorkspace* w : {&dense, &blocks}) {
+            w->holdParameters(values);
+            w->setTargets(prepared);
+        }
+        dense.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, g, std::span<double>(h.data(), h.size()), j);
+        blocks.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, gBlocks, step.entries(), j);
+        const Eigen::MatrixXd full = h.selfadjointView<Eigen::Lower>();
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(full);
+        const Eigen::VectorXd& lambda = eigen.eigenvalues();
+        Eigen::Index nullity = 0;
+        Eigen::VectorXd inverse(n);
+        for (Eigen::Index i = 0; i < n; ++i) {
+            const bool range = lambda[i] > 1e-12 * lambda.cwiseAbs().maxCoeff();
+            nullity += range ? 0 : 1;
+            inverse[i] = range ? 1.0 / lambda[i] : 0.0;
+        }
+        CHECK(nullity >= 4);  // two free directions per pole
+        const Eigen::VectorXd minimumNorm =
+            -(eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose() * g);
+        Eigen::VectorXd delta(n);
+        REQUIRE(step.solve(gBlocks, 0.0, delta));
+        CHECK((delta - minimumNorm).norm() <= 1e-7 * minimumNorm.norm());
+        CHECK((full * delta + g).norm() <= 1e-7 * g.norm());
+    }
 }
 
 // A random two-bone IK limb under a translating root, as a rigger would build one nobody here tuned for: bone
