@@ -229,9 +229,8 @@ const std::vector<std::unique_ptr<GuessStep>>& Plan::guessSteps(const Approximat
             for (std::size_t s = steps.size(); s-- > 0;) {
                 const std::vector<int>& ps = steps[s].parameters;
                 if (std::none_of(ps.begin(), ps.end(), [&](int p) { return reaches(p, k); })) continue;
-                if (underdetermined[s]) steps[s].outputs.insert(std::upper_bound(steps[s].outputs.begin(),
-                                                                                 steps[s].outputs.end(), k),
-                                                                k);
+                if (underdetermined[s])
+                    steps[s].outputs.insert(std::upper_bound(steps[s].outputs.begin(), steps[s].outputs.end(), k), k);
                 break;
             }
         }
