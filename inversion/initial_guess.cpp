@@ -12,9 +12,7 @@ namespace {
 
 // Each angular unknown starts at its value and a third of a turn either way: of three starts a third of a
 // turn apart, one lies within a sixth of a turn of any answer, where the cost (1 - cos) is convex enough for
-// Gauss-Newton. A limited one starts at the middles of the thirds of its range instead, and so does a limited
-// control that acts through a sampled curve (a reverse foot's roll: its heel, ball and toe pieces each flat where
-// another one turns, so a start on the wrong piece stays there).
+// Gauss-Newton. A limited one starts at the middles of the thirds of its range instead.
 void variedStarts(const Approximation& approximation, const BlockPlan& block, const std::vector<int>& columns,
                   std::span<const double> values, std::vector<Varied>& varied)
 {
@@ -22,11 +20,8 @@ void variedStarts(const Approximation& approximation, const BlockPlan& block, co
     varied.clear();
     for (std::size_t c = 0; c < columns.size() && varied.size() < maxVaried; ++c) {
         const std::size_t i = static_cast<std::size_t>(columns[c]);
-        const ModelledParameter& m = approximation.parameters[i];
-        const RigParameter& p = m.parameter;
-        const bool curved = p.limited && std::any_of(m.operators.begin(), m.operators.end(),
-                                                     [](const Operator& op) { return !op.linear(); });
-        if (!p.angular && !curved) continue;
+        const RigParameter& p = approximation.parameters[i].parameter;
+        if (!p.angular) continue;
         const double v = values[i];
         if (p.limited) {
             const double third = (p.max - p.min) / 3.0;
