@@ -4,7 +4,9 @@
 #include <cmath>
 
 #include <fmt/format.h>
-#include <Eigen/Eigenvalues>
+#include <numeric>
+
+#include <Eigen/Cholesky>
 
 #include "core/error.h"
 #include "core/prefetch.h"
@@ -267,9 +269,11 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
     triangular_.assign(blocks, 0);
     const int largest = *std::max_element(elimination.size_.begin(), elimination.size_.end());
     scratch_.assign(static_cast<std::size_t>(largest), 0.0);
+    pivoted_.resize(largest, largest);
+    gram_.resize(largest, largest);
+    permutation_.assign(static_cast<std::size_t>(largest), 0);
     for (std::size_t b = 0; b < blocks; ++b) {
         factor_.emplace_back(elimination.size_[b], elimination.size_[b]);
-        eigen_.emplace_back(elimination.size_[b]);
         rhs_.emplace_back(elimination.size_[b]);
     }
     if (!elimination.folded_) return;
@@ -466,17 +470,48 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
                 if (!std::isfinite(l[j * n + i])) return false;
         return true;
     }
+    return rangeFactor(b, s, mu, largestDiagonal);
+}
+
+bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, double mu, double largestDiagonal)
+{
+    // S^+ = F^T F on S's range from a Cholesky factor with diagonal pivoting, P S P^T = L L^T with L n x r (r: the
+    // pivots above the rank tolerance): S = R^T R with R = L^T P, so S^+ = R^T G^-2 R with G = R R^T = L^T L, and
+    // F = G^-1 R (its last n - r rows zero). The same S^+ as an eigendecomposition's at a fraction of its cost.
+    const Eigen::Index n = e_->size_[b];
+    std::iota(permutation_.begin(), permutation_.begin() + n, 0);
+    auto a = pivoted_.topLeftCorner(n, n);
+    a = ConstBlockMap(s, n, n).selfadjointView<Eigen::Lower>();
+    a.diagonal().array() += mu;
+    Eigen::Index rank = 0;
+    for (Eigen::Index k = 0; k < n; ++k, ++rank) {
+        Eigen::Index p = 0;
+        const double pivot = a.diagonal().tail(n - k).maxCoeff(&p);
+        if (!(pivot > rankTolerance * largestDiagonal)) break;
+        p += k;
+        if (p != k) {
+            a.row(k).swap(a.row(p));
+            a.col(k).swap(a.col(p));
+            std::swap(permutation_[static_cast<std::size_t>(k)], permutation_[static_cast<std::size_t>(p)]);
+        }
+        a(k, k) = std::sqrt(pivot);
+        a.col(k).tail(n - k - 1) /= a(k, k);
+        a.bottomRightCorner(n - k - 1, n - k - 1).noalias() -=
+            a.col(k).tail(n - k - 1) * a.col(k).tail(n - k - 1).transpose();
+    }
+    auto l = a.leftCols(rank);
+    l.topRows(rank).triangularView<Eigen::StrictlyUpper>().setZero();
+    auto gram = gram_.topLeftCorner(rank, rank);
+    gram.noalias() = l.transpose() * l;
     Eigen::MatrixXd& f = factor_[b];
-    f = ConstBlockMap(s, n, n);
-    f.diagonal().array() += mu;
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>& eigen = eigen_[b];
-    eigen.compute(f);
-    if (eigen.info() != Eigen::Success) return false;
-    const auto& lambda = eigen.eigenvalues();
-    const double largest = lambda.cwiseAbs().maxCoeff();
-    for (Eigen::Index i = 0; i < n; ++i)
-        f.row(i) = (lambda[i] > rankTolerance * largest ? 1.0 / std::sqrt(lambda[i]) : 0.0) *
-                   eigen.eigenvectors().col(i).transpose();
+    f.setZero();
+    if (rank == 0) return true;
+    for (Eigen::Index i = 0; i < n; ++i) f.col(permutation_[static_cast<std::size_t>(i)]).head(rank) = l.row(i);
+    Eigen::Ref<Eigen::MatrixXd> inPlace(gram);
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(inPlace);
+    if (llt.info() != Eigen::Success) return false;
+    auto rows = f.topRows(rank);
+    llt.solveInPlace(rows);
     return f.allFinite();
 }
 

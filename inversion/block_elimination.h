@@ -19,9 +19,10 @@
 // as the articulated-body algorithm does, and J^T J is kept only within the blocks. Elsewhere (a parameter
 // of a block below a node of a block under it) the couplings are kept and eliminated as above.
 //
-// A block's own matrix that is singular (redundant controls, a straight limb) is inverted on its range
-// only (eigenvalues above 1e-12 of its largest): the minimum-norm step within the block, as the
-// one-block solve takes.
+// A block's own matrix that is singular (redundant controls, a straight limb, a pole's free directions) is
+// inverted on its range only (the pivots of a Cholesky factor with diagonal pivoting above 1e-12 of its largest
+// diagonal): the minimum-norm step within the block, as the one-block solve takes, at a fraction of an
+// eigendecomposition's cost.
 //
 // Node by node (long blocks: a tail, a rope, a spine of many joints): folded, a block of more than
 // recursiveAbove columns, each of one unknown node, is split into a block per column below the block of its
@@ -38,7 +39,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
 
 #include "inversion/jacobian.h"
 #include "inversion/partition.h"
@@ -147,6 +147,8 @@ private:
     // S_b^-1 (or S_b^+) = F^T F for S_b (s: its panel's first columns) plus mu I: S_b = L L^T, F = L^-1 (L in
     // squares_), else F in factor_. False when S_b has no finite inverse.
     bool factor(std::size_t b, const double* s, double mu);
+    // factor's F where S_b + mu I is singular (a pivot at or below the rank tolerance of `largestDiagonal`).
+    bool rangeFactor(std::size_t b, const double* s, double mu, double largestDiagonal);
     void applyF(std::size_t b, double* x);            // x <- F x, in place
     void applyFTransposed(std::size_t b, double* x);  // x <- F^T x, in place
     // T = F W into rows, row-major (W: m columns after S_b, column-major; a row of T per block column).
@@ -181,7 +183,8 @@ private:
     std::vector<double> couplings_;  // per block: T = F (its coupling columns), row-major, a row per block column
     std::vector<Eigen::MatrixXd> factor_;  // per block: F where S_b is singular
     std::vector<char> triangular_;         // per block: F = L^-1 (L in squares_)
-    std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen_;
+    Eigen::MatrixXd pivoted_, gram_;  // rangeFactor's: the pivoted factor L, then G = L^T L (the largest block's size)
+    std::vector<int> permutation_;    // rangeFactor's P
     std::vector<Eigen::VectorXd> rhs_;  // per block: its right-hand side, then y, then its step
     std::vector<double> scratch_;
     // The fold's: per flat node, the folds below it (6x6 and load) and F t-products; per block, what its

@@ -88,8 +88,9 @@ private:
     // The best share of one driver (over its axes and reading orders) for k's turns `theta` about its own axis;
     // false when the driver does not twist on these poses.
     bool bestShare(const std::vector<Pose>& poses, const std::vector<double>& theta, ConstraintBase& base) const;
-    // The first planar chain of k under `anchor` (its root output `root`) within epsilon on poses of `varied`, over
-    // the goals and the poles the helpers and the anchor give.
+    // The planar chain of k under `anchor` (its root output `root`) on poses of `varied`, over the goals and the poles
+    // the helpers and the anchor give: the first within rounding (exactShare of epsilon), else the closest within
+    // epsilon.
     std::optional<ConstraintBase> fitChain(int k, int anchor, int root, const std::vector<int>& varied,
                                            const std::vector<int>& helpers, const std::vector<int>& goals,
                                            Closest& closest);

@@ -436,13 +436,38 @@ void ResidualStructure::makePairs()
         }
     }
     pairBegin_.push_back(static_cast<int>(pairNode_.size()));
-    // A base's velocity is not a twist of one operator: its products' normal equations come from the Jacobian.
-    twistForm_ = twistForm_ && bases_.empty();
     outputDeepest_.assign(outputs_.size(), -1);
     for (std::size_t o = 0; o < outputs_.size(); ++o) {
-        if (outputVars_[o].empty()) continue;
-        outputDeepest_[o] = outputVars_[o].back();
-        twistForm_ = twistForm_ && outputRigid_[o];
+        if (!outputVars_[o].empty()) outputDeepest_[o] = outputVars_[o].back();
+        if (!outputVars_[o].empty() || outputBase_[o] >= 0) twistForm_ = twistForm_ && outputRigid_[o];
+    }
+    basePairs();
+    // A planar chain's base is rigid and its velocity per column a twist (its inputs' rigid motions through the
+    // chain): the normal equations still come from twists, the base's columns against what lies below it. The
+    // fold of a BlockElimination (twistForm) needs each column's motion at one node, which a base's are not.
+    twistNormals_ = twistForm_;
+    for (const Base& base : bases_)
+        twistNormals_ = twistNormals_ && approximation_->constraints[static_cast<std::size_t>(base.constraint)].kind ==
+                                             ConstraintKind::planarChain;
+    twistForm_ = twistNormals_ && bases_.empty();
+}
+
+void ResidualStructure::basePairs()
+{
+    // Per base, the unknown nodes below it: a product that begins with the base moves with them and with its columns.
+    std::vector<int> baseOf(nodes_.size(), -1);
+    for (std::size_t n = 0; n < nodes_.size(); ++n) {
+        const Node& node = nodes_[n];
+        baseOf[n] = node.base >= 0 ? node.base : node.parent >= 0 ? baseOf[static_cast<std::size_t>(node.parent)] : -1;
+    }
+    std::vector<std::vector<int>> below(bases_.size());
+    for (const int n : unknownNodes_)
+        if (const int b = baseOf[static_cast<std::size_t>(n)]; b >= 0) below[static_cast<std::size_t>(b)].push_back(n);
+    baseUnknownBegin_.assign(1, 0);
+    baseUnknown_.clear();
+    for (const auto& nodes : below) {
+        baseUnknown_.insert(baseUnknown_.end(), nodes.begin(), nodes.end());
+        baseUnknownBegin_.push_back(static_cast<int>(baseUnknown_.size()));
     }
 }
 
@@ -496,6 +521,12 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     weight_.assign(s.nodes_.size(), TwistWeight{Eigen::Matrix3d::Zero(), Eigen::Vector3d::Zero(), 0.0});
     weighted_.assign(s.nodes_.size(), Vector6d::Zero());
     if (!s.jointTargetsOnly_) fullWeight_.assign(s.nodes_.size(), Matrix6::Zero());
+    baseTwist_.assign(static_cast<std::size_t>(s.baseVelocities_), Vector6d::Zero());
+    baseWeighted_.assign(baseTwist_.size(), Vector6d::Zero());
+    baseLoad_.assign(s.bases_.size(), Vector6d::Zero());
+    baseWeight_.assign(s.bases_.size(), TwistWeight{Eigen::Matrix3d::Zero(), Eigen::Vector3d::Zero(), 0.0});
+    if (!s.jointTargetsOnly_) baseFullWeight_.assign(s.bases_.size(), Matrix6::Zero());
+    baseFresh_.assign(s.bases_.size(), 0);
     useLayout({});
     fresh_.assign(s.nodes_.size(), 0);
 }
@@ -959,14 +990,57 @@ void ResidualWorkspace::useLayout(std::span<const int> layout)
         }
         pairBegin_.push_back(static_cast<int>(pairNode_.size()));
     }
+    useBaseLayout();
+}
+
+void ResidualWorkspace::useBaseLayout()
+{
+    const auto& s = *structure_;
+    const std::size_t n = static_cast<std::size_t>(s.columnCount());
+    const auto target = [&](int a, int c) {
+        const std::size_t dense =
+            static_cast<std::size_t>(std::min(a, c)) * n + static_cast<std::size_t>(std::max(a, c));
+        const int at = layout_.empty() ? static_cast<int>(dense) : layout_[dense];
+        if (at < 0) throw internalError("ResidualWorkspace::useLayout: columns that share an output have no entry");
+        return at;
+    };
+    basePairBegin_.assign(1, 0);
+    baseNodeBegin_.assign(1, 0);
+    for (auto* v :
+         {&basePairFirst_, &basePairSecond_, &basePairTarget_, &baseNodeVelocity_, &baseNodeNode_, &baseNodeTarget_})
+        v->clear();
+    baseNodeFactor_.clear();
+    for (std::size_t b = 0; b < s.bases_.size() && s.twistNormals_; ++b) {
+        const ResidualStructure::Base& base = s.bases_[b];
+        for (std::size_t j = 0; j < base.columns.size(); ++j) {
+            const int vj = base.velocityOffset + static_cast<int>(j);
+            for (std::size_t i = 0; i <= j; ++i) {
+                basePairFirst_.push_back(base.velocityOffset + static_cast<int>(i));
+                basePairSecond_.push_back(vj);
+                basePairTarget_.push_back(target(base.columns[i], base.columns[j]));
+            }
+            for (int u = s.baseUnknownBegin_[b]; u < s.baseUnknownBegin_[b + 1]; ++u) {
+                const int node = s.baseUnknown_[static_cast<std::size_t>(u)];
+                const int column =
+                    s.slots_[static_cast<std::size_t>(s.nodes_[static_cast<std::size_t>(node)].slot)].column;
+                baseNodeVelocity_.push_back(vj);
+                baseNodeNode_.push_back(node);
+                baseNodeTarget_.push_back(target(base.columns[j], column));
+                baseNodeFactor_.push_back(column == base.columns[j] ? 2.0 : 1.0);
+            }
+        }
+        basePairBegin_.push_back(static_cast<int>(basePairTarget_.size()));
+        baseNodeBegin_.push_back(static_cast<int>(baseNodeTarget_.size()));
+    }
 }
 
 void ResidualWorkspace::normalEquationsAtLast(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
                                               std::span<double> h)
 {
-    if (!structure_->twistForm_)
-        throw internalError("ResidualWorkspace::normalEquationsAtLast: only for structures in twist form");
+    if (!structure_->twistNormals_)
+        throw internalError("ResidualWorkspace::normalEquationsAtLast: only for structures with twist normals");
     twists();
+    if (structure_->hasBases()) baseTwistVelocities();
     twistNormalEquations(r, g, h);
 }
 
@@ -983,7 +1057,7 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
             load.noalias() = b.transpose() * r.segment(s.rowOffset_[o], b.rows());
         };
         const auto times = [](const Matrix6& weight, const Vector6d& twist) -> Vector6d { return weight * twist; };
-        foldTwists(fullWeight_, contribution, times, g, h);
+        foldTwists(fullWeight_, baseFullWeight_, contribution, times, g, h);
         return;
     }
     // An output's rows for a twist (omega, v) of a node above it: B = [[-w_p [p]x, w_p I], [w_r H Q^T, 0]]
@@ -1013,34 +1087,41 @@ void ResidualWorkspace::twistNormalEquations(const Eigen::Ref<const Eigen::Vecto
         u << w.a * omega + w.m.cross(v), w.s * v - w.m.cross(omega);
         return u;
     };
-    foldTwists(weight_, contribution, times, g, h);
+    foldTwists(weight_, baseWeight_, contribution, times, g, h);
 }
 
 template <class Weight, class Contribution, class Times>
-void ResidualWorkspace::foldTwists(std::vector<Weight>& weights, const Contribution& contribution, const Times& times,
-                                   Eigen::Ref<Eigen::VectorXd> g, std::span<double> h)
+void ResidualWorkspace::foldTwists(std::vector<Weight>& weights, std::vector<Weight>& baseWeights,
+                                   const Contribution& contribution, const Times& times, Eigen::Ref<Eigen::VectorXd> g,
+                                   std::span<double> h)
 {
     const auto& s = *structure_;
     // A node's sums are set by their first term rather than zeroed first: two hundred small memsets cost
     // more than the sums. Every unknown node has an output below it.
     for (const int n : s.unknownNodes_) fresh_[static_cast<std::size_t>(n)] = 1;
-    const auto add = [&](std::size_t n, const Weight& weight, const Vector6d& load) {
-        if (fresh_[n]) {
-            weights[n] = weight;
-            load_[n] = load;
-            fresh_[n] = 0;
+    std::fill(baseFresh_.begin(), baseFresh_.end(), 1);
+    const auto addTo = [](std::vector<Weight>& sums, std::vector<Vector6d>& loads, std::vector<char>& fresh,
+                          std::size_t n, const Weight& weight, const Vector6d& load) {
+        if (fresh[n]) {
+            sums[n] = weight;
+            loads[n] = load;
+            fresh[n] = 0;
             return;
         }
-        weights[n] += weight;
-        load_[n] += load;
+        sums[n] += weight;
+        loads[n] += load;
+    };
+    const auto add = [&](std::size_t n, const Weight& weight, const Vector6d& load) {
+        addTo(weights, load_, fresh_, n, weight, load);
     };
     for (std::size_t o = 0; o < worlds_.size(); ++o) {
-        const int deepest = s.outputDeepest_[o];
-        if (deepest < 0) continue;
+        const int deepest = s.outputDeepest_[o], base = s.outputBase_[o];
+        if (deepest < 0 && base < 0) continue;
         Weight w;
         Vector6d load;
         contribution(o, w, load);
-        add(static_cast<std::size_t>(deepest), w, load);
+        if (deepest >= 0) add(static_cast<std::size_t>(deepest), w, load);
+        if (base >= 0) addTo(baseWeights, baseLoad_, baseFresh_, static_cast<std::size_t>(base), w, load);
     }
     // Children after parents: summed leaves first, each node's sums cover every output below it.
     for (auto it = s.unknownNodes_.rbegin(); it != s.unknownNodes_.rend(); ++it) {
@@ -1061,6 +1142,55 @@ void ResidualWorkspace::foldTwists(std::vector<Weight>& weights, const Contribut
             const std::size_t q = static_cast<std::size_t>(p);
             entries[pairTarget_[q]] += pairFactor_[q] * twist_[static_cast<std::size_t>(pairNode_[q])].dot(u);
         }
+    }
+    if (s.hasBases()) foldBases(baseWeights, times, g, entries);
+}
+
+template <class Weight, class Times>
+void ResidualWorkspace::foldBases(const std::vector<Weight>& baseWeights, const Times& times,
+                                  Eigen::Ref<Eigen::VectorXd> g, double* entries)
+{
+    // A base's column moves every output that begins with the base by its twist tau: g += tau . (sum of B_k^T r_k),
+    // its pairs with the base's other columns tau_i^T W_b tau_j, with an unknown node m below tau^T (W_m t_m) (twice
+    // on the diagonal where m is of the same column).
+    const auto& s = *structure_;
+    for (std::size_t b = 0; b < s.bases_.size(); ++b) {
+        if (baseFresh_[b]) continue;  // no output begins with it
+        const ResidualStructure::Base& base = s.bases_[b];
+        for (std::size_t j = 0; j < base.columns.size(); ++j) {
+            const std::size_t v = static_cast<std::size_t>(base.velocityOffset) + j;
+            g[base.columns[j]] += baseTwist_[v].dot(baseLoad_[b]);
+            baseWeighted_[v] = times(baseWeights[b], baseTwist_[v]);
+        }
+        for (int p = basePairBegin_[b]; p < basePairBegin_[b + 1]; ++p) {
+            const std::size_t q = static_cast<std::size_t>(p);
+            entries[basePairTarget_[q]] += baseTwist_[static_cast<std::size_t>(basePairFirst_[q])].dot(
+                baseWeighted_[static_cast<std::size_t>(basePairSecond_[q])]);
+        }
+        for (int p = baseNodeBegin_[b]; p < baseNodeBegin_[b + 1]; ++p) {
+            const std::size_t q = static_cast<std::size_t>(p);
+            entries[baseNodeTarget_[q]] +=
+                baseNodeFactor_[q] * baseTwist_[static_cast<std::size_t>(baseNodeVelocity_[q])].dot(
+                                         weighted_[static_cast<std::size_t>(baseNodeNode_[q])]);
+        }
+    }
+}
+
+void ResidualWorkspace::baseTwistVelocities()
+{
+    // An unknown node's velocity Xi = [[omega]x, v] from its twist; the bases' through their chains' points.
+    const auto& s = *structure_;
+    for (const int n : s.unknownNodes_) {
+        const Vector6d& t = twist_[static_cast<std::size_t>(n)];
+        Affine& xi = velocity_[static_cast<std::size_t>(n)];
+        xi.leftCols<3>() = skew(t.head<3>());
+        xi.col(3) = t.tail<3>();
+    }
+    baseVelocities();
+    for (std::size_t v = 0; v < baseVelocity_.size(); ++v) {
+        const Affine& xi = baseVelocity_[v];
+        baseTwist_[v] << 0.5 * (xi(2, 1) - xi(1, 2)), 0.5 * (xi(0, 2) - xi(2, 0)), 0.5 * (xi(1, 0) - xi(0, 1)),
+            xi.col(3);
     }
 }
 
@@ -1227,7 +1357,7 @@ void ResidualWorkspace::normalEquations(std::span<const double> x, JacobianMetho
                                         std::span<double> h, Eigen::Ref<Eigen::MatrixXd> jacobian)
 {
     const auto& s = *structure_;
-    if (method == JacobianMethod::analytic && s.twistForm_) {
+    if (method == JacobianMethod::analytic && s.twistNormals_) {
         residuals(x, r);
         normalEquationsAtLast(r, g, h);
         return;

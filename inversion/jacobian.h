@@ -105,6 +105,9 @@ public:
     // Whether the analytic normal equations come from twists, without the Jacobian
     // (ResidualWorkspace::normalEquations).
     bool twistForm() const { return twistForm_; }
+    // Whether the analytic normal equations come from twists and bases' velocities, without the Jacobian: twist
+    // form, or its products begin with planar chains' bases. No fold of a BlockElimination through the bases.
+    bool twistNormals() const { return twistNormals_; }
     // Whether some output's product begins with a constraint's base (inversion/constraint.h).
     bool hasBases() const { return !bases_.empty(); }
 
@@ -177,6 +180,7 @@ private:
     void baseTerms(Base& base, const std::array<int, 3>& inputNodes);           // its columns and what moves its inputs
     void addBaseColumns();
     void makePairs();
+    void basePairs();  // baseUnknownBegin_, baseUnknown_
     void attachTerms(std::span<const ResidualTerm* const> terms);
 
     const Approximation* approximation_;
@@ -213,7 +217,10 @@ private:
     std::vector<int> unknownColumn_;
     std::vector<int> pairBegin_, pairNode_, pairOffset_;
     std::vector<double> pairFactor_;
-    bool twistForm_ = false;  // every unknown node and every output with one is rigid
+    bool twistForm_ = false;     // every unknown node and every output with one is rigid, and no base
+    bool twistNormals_ = false;  // the same, bases of planar chains allowed
+    // Per base, [baseUnknownBegin_[b], baseUnknownBegin_[b + 1]) of baseUnknown_: the unknown nodes below it.
+    std::vector<int> baseUnknownBegin_, baseUnknown_;
     int maxVars_ = 0;
     int constantCount_ = 0;  // sum over chains of (vars + 1)
 };
@@ -243,14 +250,16 @@ public:
     // With the analytic method on rigid operators and outputs, each unknown's world-space velocity is a
     // twist (omega, v), the output's rows are a map B_k of it (its term's rows x 6; B_k^T B_k is 6x6 for any
     // term), and H_ij = twist_i^T (sum of B_k^T B_k below j) twist_j for i above j: the sums are accumulated up
-    // the prefix tree once, and J is never formed. Otherwise J is
+    // the prefix tree once, and J is never formed. A planar chain's base (a root of the tree) moves by a twist per
+    // column too, from its inputs' twists: its columns meet each other through the sum of B_k^T B_k over the
+    // outputs that begin with it, and the unknowns below it through theirs (twistNormals()). Otherwise J is
     // formed in `jacobian` (rows() x columnCount()) and multiplied output by output over the columns that
     // move it. Either way only pairs of columns that share an output cost anything.
     void normalEquations(std::span<const double> x, JacobianMethod method, double finiteDifferenceStep, bool parallel,
                          Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::VectorXd> g, std::span<double> h,
                          Eigen::Ref<Eigen::MatrixXd> jacobian);
     // The same normal equations at the point of the last residuals() call, whose rows `r` gave: a step's
-    // trial point, once accepted, is not evaluated again. Only for structures in twistForm() (analytic).
+    // trial point, once accepted, is not evaluated again. Only for structures with twistNormals() (analytic).
     void normalEquationsAtLast(const Eigen::Ref<const Eigen::VectorXd>& r, Eigen::Ref<Eigen::VectorXd> g,
                                std::span<double> h);
     // Where H goes: entry (i, j), i >= j, at h[layout[j * columnCount() + i]] (BlockElimination::layout()),
@@ -299,9 +308,16 @@ private:
     // Its sums up the tree, g and h, from each output's B^T B and B^T r (`contribution`) and a sum's product
     // with a twist (`times`): the joint targets' 13 numbers, or any term's full 6x6.
     template <class Weight, class Contribution, class Times>
-    void foldTwists(std::vector<Weight>& weights, const Contribution& contribution, const Times& times,
-                    Eigen::Ref<Eigen::VectorXd> g, std::span<double> h);
-    void holdChains();  // the flat chains' held products, computed when first needed after holdParameters
+    void foldTwists(std::vector<Weight>& weights, std::vector<Weight>& baseWeights, const Contribution& contribution,
+                    const Times& times, Eigen::Ref<Eigen::VectorXd> g, std::span<double> h);
+    // The bases' columns in foldTwists: against each other through the sums below each base, against its unknown
+    // nodes through theirs.
+    template <class Weight, class Times>
+    void foldBases(const std::vector<Weight>& baseWeights, const Times& times, Eigen::Ref<Eigen::VectorXd> g,
+                   double* entries);
+    void baseTwistVelocities();  // bases' velocities from the unknown nodes' twists, and theirs as twists
+    void useBaseLayout();        // the bases' entries in h (twist normals through bases)
+    void holdChains();           // the flat chains' held products, computed when first needed after holdParameters
     // World of output o from the slot matrices, with column `perturbed` (if >= 0) at value `value`.
     Eigen::Matrix4d chainWorld(int o, int perturbed, double value) const;
     void outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobian);
@@ -336,10 +352,21 @@ private:
     std::vector<Matrix6> fullWeight_;                    // the same where some term is not a joint target
     std::vector<Eigen::Matrix<double, 6, 1>> weighted_;  // per unknown node: weight_ times twist_
     std::vector<char> fresh_;                            // per unknown node: its sums not yet begun
-    std::vector<Eigen::Matrix4d> constants_;             // per chain, C_0 .. C_v
-    std::vector<char> identity_;                         // per constant: it is I (skip the product)
-    std::vector<int> constantOffset_;                    // per chain
-    std::vector<PreparedTarget> targets_;                // per output position
+    // Twist normals through bases: per base velocity its twist and W_b times it; per base the sums of B_k^T B_k
+    // and B_k^T r_k over the outputs that begin with it.
+    std::vector<Eigen::Matrix<double, 6, 1>> baseTwist_, baseWeighted_, baseLoad_;
+    std::vector<TwistWeight> baseWeight_;
+    std::vector<Matrix6> baseFullWeight_;
+    std::vector<char> baseFresh_;
+    // Their entries in h: per base, [basePairBegin_[b], basePairBegin_[b + 1]) of two base velocities and the entry;
+    // [baseNodeBegin_[b], baseNodeBegin_[b + 1]) of a base velocity, an unknown node below, the entry, the factor.
+    std::vector<int> basePairBegin_, basePairFirst_, basePairSecond_, basePairTarget_;
+    std::vector<int> baseNodeBegin_, baseNodeVelocity_, baseNodeNode_, baseNodeTarget_;
+    std::vector<double> baseNodeFactor_;
+    std::vector<Eigen::Matrix4d> constants_;  // per chain, C_0 .. C_v
+    std::vector<char> identity_;              // per constant: it is I (skip the product)
+    std::vector<int> constantOffset_;         // per chain
+    std::vector<PreparedTarget> targets_;     // per output position
     std::vector<Eigen::Matrix4d> slotMatrix_;
     std::vector<Eigen::Matrix4d> slotDerivative_;
     std::vector<int> layout_;  // useLayout's; empty: dense

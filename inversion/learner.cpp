@@ -604,8 +604,9 @@ void recordDiscards(const Pass& pass, RigProbe& probe, const LearnOptions& optio
 }
 
 // Constraint operators for the non-compositional outputs, parents before children (constraint_fit.h). An output
-// whose parent is now modelled by a constraint is first tried relative to it again (a toe under an IK foot: it
-// failed there only while its parent was mispredicted); each output is fitted once. True when a frame changed.
+// whose parent is now modelled by a constraint, or is itself back relative to its own parent, is first tried
+// relative to it again (a toe under an IK foot, a claw tip under a claw under an IK hand: it failed there only while
+// an ancestor was mispredicted); each output is fitted once. True when a frame changed.
 // An output still over epsilon once its order is decided on the rig, though each parameter alone fitted an operator
 // (a roll joint: each of the driver's angles alone turns it about its axis, together they do not compose), is tried
 // with a constraint. True when one was found.
@@ -655,7 +656,8 @@ bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hi
         const bool parentModelled = p >= 0 && !state.nonCompositional[static_cast<std::size_t>(p)] &&
                                     !state.unreliable[static_cast<std::size_t>(p)];
         if (p >= 0 && !parentModelled && !tried.contains(p)) continue;  // its parent first
-        if (parentModelled && probe.constraints.contains(p) && relativeAgain.insert(k).second) {
+        const bool parentBack = probe.constraints.contains(p) || relativeAgain.contains(p);
+        if (parentModelled && parentBack && relativeAgain.insert(k).second) {
             state.nonCompositional[i] = 0;
             probe.parents[i] = p;
             changed = true;

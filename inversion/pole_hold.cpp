@@ -1,6 +1,8 @@
 #include "inversion/pole_hold.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <set>
 
 #include <Eigen/Dense>
@@ -63,7 +65,7 @@ std::vector<int> ownTranslations(const Approximation& approximation, int helper)
     std::vector<int> controls;
     for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
         const ModelledParameter& m = approximation.parameters[p];
-        if (m.outputs != std::vector<int>{helper} || m.parameter.limited) continue;
+        if (m.outputs.size() != 1 || m.outputs.front() != helper || m.parameter.limited) continue;
         if (std::all_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
                 return op.kind == OperatorKind::translation && op.linear() && !op.held();
             }))
@@ -164,6 +166,67 @@ void placeChain(const Approximation& approximation, int constraint, std::span<co
     const double side = (restKnee - restKnee.dot(x0) * x0).dot(restPole - restPole.dot(x0) * x0) < 0.0 ? -1.0 : 1.0;
     place(approximation, c.pole, hold->parameters, root + hold->along * x + side * hold->across * w.normalized(),
           values);
+}
+
+namespace {
+
+// Knot values this close are the same shape (rotation vector in radians, translation in cm).
+constexpr double flatTolerance = 1e-9;
+// How far inside the flat reach a held goal sits, as a share of the rest reach: on the bend's side of the last knot
+// with a slope, and near enough that the joints do not move (a shape's slope times this is under 1e-6 cm).
+constexpr double insideReach = 1e-8;
+
+// The reach (the root-goal distance, cm) from which a chain's shape stays put: the first of the knots whose values are
+// all the same to the end, more than one of them, after knots where it changes; else infinity.
+double flatFrom(const ConstraintBase& c)
+{
+    const auto& knots = c.shape.rigid.knots();
+    const auto& y = c.shape.rigid.values();
+    if (knots.size() < 3) return std::numeric_limits<double>::infinity();
+    std::size_t first = knots.size() - 1;
+    while (first > 0 && (y[first - 1] - y.back()).cwiseAbs().maxCoeff() <= flatTolerance) --first;
+    // Still changing at its last knot (stretch), or never (an aim: its goal's distance is held by no reach).
+    if (first + 1 >= knots.size() || first == 0) return std::numeric_limits<double>::infinity();
+    return c.restReach + knots[first];
+}
+
+}  // namespace
+
+std::vector<GoalHold> goalHolds(const Approximation& approximation)
+{
+    std::vector<GoalHold> holds;
+    std::set<int> goals;
+    for (std::size_t i = 0; i < approximation.constraints.size(); ++i) {
+        const ConstraintBase& c = approximation.constraints[i];
+        if (c.kind != ConstraintKind::planarChain || !goals.insert(c.goal).second) continue;
+        GoalHold hold;
+        hold.constraint = static_cast<int>(i);
+        hold.parameters = ownTranslations(approximation, c.goal);
+        // Every chain on this goal must be flat past the reach held: the furthest of their flat reaches.
+        hold.flatReach = 0.0;
+        for (const ConstraintBase& other : approximation.constraints)
+            if (other.kind == ConstraintKind::planarChain && other.goal == c.goal)
+                hold.flatReach = std::max(hold.flatReach, flatFrom(other));
+        if (hold.parameters.empty() || !std::isfinite(hold.flatReach)) continue;
+        holds.push_back(std::move(hold));
+    }
+    return holds;
+}
+
+bool holdGoals(const Approximation& approximation, std::span<const GoalHold> holds, std::span<double> values)
+{
+    bool moved = false;
+    for (const GoalHold& hold : holds) {
+        const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(hold.constraint)];
+        const ChainPoints points = pointsAt(approximation, c, values);
+        const Eigen::Vector3d line = points.goal - points.root;
+        const double reach = line.norm();
+        if (!(reach > hold.flatReach) || !std::isfinite(reach)) continue;
+        const double held = hold.flatReach - insideReach * c.restReach;
+        place(approximation, c.goal, hold.parameters, points.root + held / reach * line, values);
+        moved = true;
+    }
+    return moved;
 }
 
 }  // namespace rig

@@ -38,4 +38,22 @@ void placeChain(const Approximation& approximation, int constraint, std::span<co
 // offset and distance in the plane it spans now. Evaluates only the outputs the chain reads.
 void holdPoles(const Approximation& approximation, std::span<const PoleHold> holds, std::span<double> values);
 
+// A rigid chain's goal past its reach (docs/solver.md, goal holds). Where the chain cannot stretch, its shape is the
+// same for every reach past the one where it straightens: the joints cannot tell how far past that the goal is, and
+// there no step can bring the goal back (the shape's slope is zero), so a solve that takes the goal out leaves the
+// chain straight where its targets bend it. The goal is held on the inside of the reach where the shape flattens.
+struct GoalHold {
+    int constraint = -1;          // one of the constraints that read the goal (they share its root)
+    std::vector<int> parameters;  // the goal's own controls: translations that move the goal's helper alone
+    double flatReach = 0.0;       // the root-goal distance from which every output of the goal's chains stays put, cm
+};
+
+// A hold per goal helper whose own controls are translations moving nothing else and whose chains' shapes all end
+// flat over the last knots (a chain without stretch); none for a goal no chain holds still past some reach.
+std::vector<GoalHold> goalHolds(const Approximation& approximation);
+
+// Moves each hold's goal whose root-goal distance is past its flatReach back along the chain's line to just inside
+// it, where the shape's slope is the bend's (the joints move by under 1e-6 cm). True when a goal moved.
+bool holdGoals(const Approximation& approximation, std::span<const GoalHold> holds, std::span<double> values);
+
 }  // namespace rig

@@ -23,7 +23,7 @@ void BlockWorkspace::configure(const SolverOptions& options, bool parallel)
 {
     options_ = &options;
     parallel_ = parallel;
-    reuse_ = options.jacobian == JacobianMethod::analytic && residual.structure().twistForm();
+    reuse_ = options.jacobian == JacobianMethod::analytic && residual.structure().twistNormals();
 }
 
 // At an accepted trial point the residuals and products are those of its evaluation (r).
@@ -202,18 +202,40 @@ const std::vector<std::unique_ptr<GuessStep>>& Plan::guessSteps(const Approximat
         std::vector<char> counted(approximation.outputs.size(), 0);
         for (const int k : whole.outputs()) counted[static_cast<std::size_t>(k)] = 1;
         const std::vector<std::vector<int>> reach = approximation.reach();
+        const auto reaches = [&](int p, int k) {
+            return std::binary_search(reach[static_cast<std::size_t>(p)].begin(),
+                                      reach[static_cast<std::size_t>(p)].end(), k);
+        };
+        std::vector<PartitionBlock> steps;
+        std::vector<char> underdetermined;
         for (const int k : approximation.outputOrder()) {
             if (!counted[static_cast<std::size_t>(k)]) continue;
             PartitionBlock step;
             step.outputs = {k};
             for (std::size_t p = 0; p < reach.size(); ++p)
-                if (solved[p] && !assigned[p] && std::binary_search(reach[p].begin(), reach[p].end(), k)) {
+                if (solved[p] && !assigned[p] && reaches(static_cast<int>(p), k)) {
                     step.parameters.push_back(static_cast<int>(p));
                     assigned[p] = 1;
                 }
-            if (!step.parameters.empty())
-                guess.push_back(std::make_unique<GuessStep>(approximation, equivalences, step, terms));
+            if (!step.parameters.empty()) {
+                const int rows = ResidualStructure(approximation, step.parameters, step.outputs, terms).rows();
+                underdetermined.push_back(rows < static_cast<int>(step.parameters.size()));
+                steps.push_back(std::move(step));
+                continue;
+            }
+            // An output whose parameters were all fixed before it: when the latest step that moves it left some
+            // of them free on its own output (a reverse foot's roll beside its translate and rotate, on the ankle
+            // alone), that step solves this output too, else the free ones stay where they started.
+            for (std::size_t s = steps.size(); s-- > 0;) {
+                const std::vector<int>& ps = steps[s].parameters;
+                if (std::none_of(ps.begin(), ps.end(), [&](int p) { return reaches(p, k); })) continue;
+                if (underdetermined[s])
+                    steps[s].outputs.insert(std::upper_bound(steps[s].outputs.begin(), steps[s].outputs.end(), k), k);
+                break;
+            }
         }
+        for (const PartitionBlock& step : steps)
+            guess.push_back(std::make_unique<GuessStep>(approximation, equivalences, step, terms));
     });
     return guess;
 }

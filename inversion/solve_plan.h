@@ -71,7 +71,8 @@ struct BlockPlan {
     }
 };
 
-// One step of Solver::initialGuess: the parameters that the output's target fixes, solved on it alone.
+// One step of Solver::initialGuess: the parameters that the output's target fixes, solved on it alone (or with
+// the later outputs only they move, where the one output leaves some of them free).
 struct GuessStep {
     GuessStep(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& b,
               std::span<const ResidualTerm* const> terms)
@@ -121,7 +122,8 @@ struct Plan {
         return trees[t] ? *trees[t] : *blocks[static_cast<std::size_t>(partition.roots[t])];
     }
     // The steps of initialGuess, made when first needed: parents first, each counted output with the
-    // solved parameters that reach it and no output before it.
+    // solved parameters that reach it and no output before it. A later output left with none joins the latest
+    // step that moves it when that step has fewer rows than parameters (a reverse foot's ankle, ball and toe).
     const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation,
                                                               const Equivalences& equivalences) const;
 
@@ -176,6 +178,7 @@ struct SolveScratch {
     std::vector<TreeErrors> treeErrors;  // per tree, when the trees give the whole's errors
     std::vector<char> missed;            // per output: further than targetTolerance (Solver::solve's errors)
     std::vector<double> trial, best;     // initialGuess: the start being solved, the best answer so far
+    std::vector<double> held;            // Solver::solve: the first answer, while a held goal's is solved again
     std::vector<Varied> varied;
 };
 

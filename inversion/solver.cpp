@@ -469,6 +469,26 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     impl.prepare(targets, values, *scratch, plan, summary.termination);
     if (summary.termination == TerminationType::invalidTargets) return;
     SolveRun(impl, targets, values, summary, *scratch, *plan).run();
+    if (summary.converged() || impl.goals.empty()) return;
+    // Targets missed with a rigid chain's goal past its reach, where no step brings it back (the chain straight where
+    // its targets bend it): the goal held back inside the reach, and solved again from there once, the cheaper
+    // answer kept.
+    scratch->held.assign(values.begin(), values.end());
+    if (!holdGoals(impl.approximation, impl.goals, values)) return;
+    SolveSummary again;
+    SolveRun(impl, targets, values, again, *scratch, *plan).run();
+    again.initialCost = summary.initialCost;
+    again.gaussNewtonIterations += summary.gaussNewtonIterations;
+    again.levenbergMarquardtIterations += summary.levenbergMarquardtIterations;
+    again.iterations += summary.iterations;
+    if (again.finalCost < summary.finalCost) {
+        summary = std::move(again);
+        return;
+    }
+    std::copy(scratch->held.begin(), scratch->held.end(), values.begin());
+    summary.gaussNewtonIterations = again.gaussNewtonIterations;
+    summary.levenbergMarquardtIterations = again.levenbergMarquardtIterations;
+    summary.iterations = again.iterations;
 }
 
 }  // namespace rig

@@ -130,11 +130,12 @@ public:
     // starts), for a solve far from the answer: the outputs are taken parents first, and each output's
     // target fixes the parameters that reach it and no output before it, by a small solve on that output
     // alone from several starts a third of a turn apart (each rotation's equivalent values), the others
-    // held. With parent-relative operators that is each joint's local transform decomposed in its
-    // channels. `values`: in, the values to start from (rest, or the previous frame); out, the guess.
-    // Parameters that reach no counted target keep their values. invalidTargets and noTargets leave
-    // `values` alone, as solve() does; returns the termination a solve would start with (converged: a guess
-    // was made). Throws as solve() does.
+    // held; where that output leaves some of its parameters free (a reverse foot's roll, on the ankle), with
+    // the later outputs that have no parameter of their own (the ball and toe). With parent-relative
+    // operators that is each joint's local transform decomposed in its channels. `values`: in, the values
+    // to start from (rest, or the previous frame); out, the guess. Parameters that reach no counted target
+    // keep their values. invalidTargets and noTargets leave `values` alone, as solve() does; returns the
+    // termination a solve would start with (converged: a guess was made). Throws as solve() does.
     TerminationType initialGuess(std::span<const JointTarget> targets, std::span<double> values) const;
 
     const SolverOptions& options() const;

@@ -19,11 +19,15 @@
 namespace rig {
 
 struct Solver::Impl {
-    Impl(const Approximation& a, SolverOptions o) : approximation(a), options(o), poles(poleHolds(a)) {}
+    Impl(const Approximation& a, SolverOptions o)
+        : approximation(a), options(o), poles(poleHolds(a)), goals(goalHolds(a))
+    {
+    }
 
     const Approximation& approximation;
     SolverOptions options;
     std::vector<PoleHold> poles;               // the planar chains' poles held where the joints do not decide them
+    std::vector<GoalHold> goals;               // rigid chains' goals held inside their reach
     std::optional<Equivalences> equivalences;  // made once the approximation is checked (Solver's constructor)
     std::optional<tbb::task_arena> arena;
     Pool<SolveScratch> scratchPool;

@@ -5,19 +5,24 @@
 #include <unistd.h>
 
 #include <fmt/format.h>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <memory>
 #include <random>
 
+#include <Eigen/Eigenvalues>
+
 #include "core/rotation_math.h"
 #include "ik_arm.h"
 #include "inversion/approximation.h"
 #include "inversion/approximation_io.h"
+#include "inversion/block_elimination.h"
 #include "inversion/constraint.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
 #include "inversion/pole_hold.h"
+#include "inversion/residual_term.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
 #include "nodes/inversion_spec.h"
@@ -264,6 +269,98 @@ TEST_CASE("constraints: random poses of the biped's IK legs are recovered from r
     CHECK(worstOfAll < 2e-3);
 }
 
+TEST_CASE("constraints: the normal equations through planar chains' bases, from twists, are J^T J and J^T r")
+{
+    // The bases' columns (root, IK goal, pole) against each other and the unknowns below each base, without J.
+    IkBipedChains& biped = ikBiped();
+    const Approximation& a = biped.a;
+    RigBinding binding(a, biped.rig);
+    std::mt19937 rng(31);
+    for (int pose = 0; pose < 10; ++pose) {
+        CAPTURE(pose);
+        std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
+        if (pose % 2)  // another term on every other output: B^T B as a full 6x6
+            for (std::size_t k = 0; k < targets.size(); k += 2) targets[k].term = &residualTerm("position");
+        JacobianEvaluator evaluator(a, targets, SolverOptions{}.rotationScaleCm);
+        REQUIRE(evaluator.structure().hasBases());
+        CHECK(evaluator.structure().twistNormals());
+        CHECK_FALSE(evaluator.structure().twistForm());  // no fold through a base
+        const std::vector<double> values = test::randomValues(a, rng, 0.5);
+        Eigen::MatrixXd j, h;
+        Eigen::VectorXd r, rAgain, g;
+        evaluator.jacobian(values, JacobianMethod::analytic, 0.0, j, r);
+        evaluator.normalEquations(values, JacobianMethod::analytic, 0.0, g, h, rAgain);
+        CHECK(rAgain == r);
+        const Eigen::VectorXd gradient = j.transpose() * r;
+        const Eigen::MatrixXd product = j.transpose() * j;
+        CHECK((g - gradient).norm() <= 1e-10 * gradient.norm());
+        const Eigen::MatrixXd lower = product.triangularView<Eigen::Lower>();
+        const Eigen::MatrixXd formed = h.triangularView<Eigen::Lower>();
+        CHECK((formed - lower).norm() <= 1e-10 * product.norm());
+    }
+}
+
+TEST_CASE("constraints: the IK biped's singular leg blocks (a pole's free directions) take the minimum-norm step")
+{
+    // A pole moved within its chain's plane changes nothing: each leg's block of J^T J is singular, and the coupled
+    // elimination's step must be the whole system's minimum-norm one (S^+ of each leg on its range).
+    IkBipedChains& biped = ikBiped();
+    const Approximation& a = biped.a;
+    RigBinding binding(a, biped.rig);
+    std::mt19937 rng(29);
+    const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
+    const Partition partition = Solver(a, SolverOptions{}).partition(targets);
+    REQUIRE(partition.blocks.size() > 3);
+    std::vector<int> columns, outputs;
+    for (const PartitionBlock& b : partition.blocks) {
+        columns.insert(columns.end(), b.parameters.begin(), b.parameters.end());
+        outputs.insert(outputs.end(), b.outputs.begin(), b.outputs.end());
+    }
+    std::sort(columns.begin(), columns.end());
+    std::sort(outputs.begin(), outputs.end());
+    const ResidualStructure structure(a, columns, outputs);
+    REQUIRE(structure.hasBases());
+    const BlockElimination elimination(partition, structure);
+    std::vector<PreparedTarget> prepared(targets.size());
+    for (std::size_t k = 0; k < targets.size(); ++k)
+        if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
+    const Eigen::Index n = structure.columnCount();
+    for (int pose = 0; pose < 5; ++pose) {
+        CAPTURE(pose);
+        const std::vector<double> values = test::randomValues(a, rng, 0.5);
+        std::vector<double> x;
+        for (const int c : columns) x.push_back(values[static_cast<std::size_t>(c)]);
+        ResidualWorkspace dense(structure), blocks(structure);
+        blocks.useLayout(elimination.layout());
+        BlockEliminationWorkspace step(elimination);
+        Eigen::VectorXd r(structure.rows()), g(n), gBlocks(n);
+        Eigen::MatrixXd h = Eigen::MatrixXd::Zero(n, n), j(structure.rows(), n);
+        for (ResidualWorkspace* w : {&dense, &blocks}) {
+            w->holdParameters(values);
+            w->setTargets(prepared);
+        }
+        dense.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, g, std::span<double>(h.data(), h.size()), j);
+        blocks.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, gBlocks, step.entries(), j);
+        const Eigen::MatrixXd full = h.selfadjointView<Eigen::Lower>();
+        const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(full);
+        const Eigen::VectorXd& lambda = eigen.eigenvalues();
+        Eigen::Index nullity = 0;
+        Eigen::VectorXd inverse(n);
+        for (Eigen::Index i = 0; i < n; ++i) {
+            const bool range = lambda[i] > 1e-12 * lambda.cwiseAbs().maxCoeff();
+            nullity += range ? 0 : 1;
+            inverse[i] = range ? 1.0 / lambda[i] : 0.0;
+        }
+        CHECK(nullity >= 4);  // two free directions per pole
+        const Eigen::VectorXd minimumNorm =
+            -(eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose() * g);
+        Eigen::VectorXd delta(n);
+        REQUIRE(step.solve(gBlocks, 0.0, delta));
+        CHECK((delta - minimumNorm).norm() <= 1e-7 * minimumNorm.norm());
+        CHECK((full * delta + g).norm() <= 1e-7 * g.norm());
+    }
+}
+
 // A random two-bone IK limb under a translating root, as a rigger would build one nobody here tuned for: bone
 // lengths, the limb's direction and its rest bend at random, with or without a pole control, with or without
 // stretch, a sliding knee or not. The goal sits at the end joint at rest, so IK at rest is the FK rest pose.
@@ -375,10 +472,76 @@ TEST_CASE(
     MESSAGE("random IK limbs: " << modelled << " of " << limbs
                                 << " fully modelled; poses reached from rest on the real "
                                 << "rig: " << reached << " of " << poses);
-    // 10 of 12 measured: the two others' closest candidate is the right chain (pole or rest plane), 0.003 to 0.013 cm
-    // per unit off (not the shape's sampling: four times the knots changed nothing; the cause is not found yet).
-    CHECK(modelled >= 10);
-    CHECK(reached >= poses * 9 / 10);
+    // 12 of 12 measured. Before, 10: limbs 5 and 6 had goals nearer the root than the shape's knots, which stopped at a
+    // fifth of the rest reach, and were 0.003 to 0.013 cm per unit off there. Poses: 58 of 60; the two misses (limbs 2
+    // and 8, with poles) are the solve's, not the approximation's: it is within 4e-6 cm of the rig at their truths,
+    // and the solve from rest ends 4.5 and 6.9 cm away.
+    CHECK(modelled == limbs);
+    CHECK(reached >= poses * 19 / 20);
+}
+
+TEST_CASE("constraints: a chain's shape holds for goals near its root, nearer than any pose it was swept for")
+{
+    // Random limb 6 above (seed 2026): bones of 21.0 and 18.3 cm, nearly straight at rest (38.4 cm of 39.3), a pole,
+    // stretch. With the shape's sweep stopped at a fifth of the rest reach, a goal 5 cm from the root was 0.72 cm off.
+    const std::string yaml =
+        "nodes:\n"
+        "  - {name: root_ctrl, type: transform, translate: [0, 100, 0]}\n"
+        "  - {name: base, type: joint, parent: root_ctrl}\n"
+        "  - {name: upper, type: joint, parent: base, translate: [0.573714413, -4.55110913, 3.24187096]}\n"
+        "  - {name: lower, type: joint, parent: upper}\n"
+        "  - {name: tip, type: joint, parent: lower}\n"
+        "  - {name: ik_ctrl, type: transform, translate: [10.559898, 60.5933138, -9.30462863]}\n"
+        "  - {name: ik, type: ikHandle, startTranslate: [0.573714413, -4.55110913, 3.24187096], midTranslate: "
+        "[9.43226999, -17.5253882, -6.70504874], endTranslate: [0.55391356, -17.3301889, -5.84145085], stretch: true}\n"
+        "  - {name: pole_ctrl, type: transform, translate: [48.6321466, 88.3167501, -3.46317778]}\n"
+        "  - {name: pv, type: poleVectorConstraint, constraintRotatePivot: [0.573714413, -4.55110913, 3.24187096]}\n"
+        "connections:\n"
+        "  - base.worldMatrix -> ik.startParentMatrix\n"
+        "  - base.scale -> ik.startInverseScale\n"
+        "  - ik_ctrl.worldMatrix -> ik.goalMatrix\n"
+        "  - ik.startRotate -> upper.rotate\n"
+        "  - ik.midRotate -> lower.rotate\n"
+        "  - ik.outMidTranslate -> lower.translate\n"
+        "  - ik.outEndTranslate -> tip.translate\n"
+        "  - pole_ctrl.worldMatrix -> pv.targetMatrix[0]\n"
+        "  - base.worldMatrix -> pv.pivotSpace\n"
+        "  - pv.constraintTranslate -> ik.poleVector\n";
+    const auto file = test::writeFile(test::scratchDir("constraint-near-goals") / "limb.yaml", yaml);
+    GraphRigOptions options;
+    options.parameterGlobs = {"root_ctrl.translate?", "ik_ctrl.translate?", "pole_ctrl.translate?"};
+    options.outputGlobs = {"base", "upper", "lower", "tip"};
+    options.autoHelpers = true;
+    GraphRigFunction rig(file, options);
+    const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
+    REQUIRE(!a.hasUnmodelledOutputs());
+    CHECK(a.constraints.size() == 3);
+    RigBinding binding(a, rig);
+    // Goals from a fiftieth to a fifth of the rest reach from the chain's root (the upper joint), in random
+    // directions: the knee folded, then bending, in planes at every angle from the rest plane.
+    const Eigen::Vector3d root(0.573714413, 95.44889087, 3.24187096);
+    const double restReach = (Eigen::Vector3d(10.559898, 60.5933138, -9.30462863) - root).norm();
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> unit(-1.0, 1.0);
+    double worst = 0.0;
+    for (int i = 0; i < 20; ++i) {
+        const Eigen::Vector3d direction = Eigen::Vector3d(unit(rng), unit(rng), unit(rng)).normalized();
+        const Eigen::Vector3d goal = root + restReach * (0.02 + 0.09 * (1.0 + unit(rng))) * direction;
+        std::vector<double> values = a.defaults();
+        for (int axis = 0; axis < 3; ++axis)
+            values[static_cast<std::size_t>(test::parameterIndex(a, fmt::format("ik_ctrl.translate{}", "XYZ"[axis])))] =
+                goal[axis];
+        std::vector<Eigen::Matrix4d> model, real;
+        a.evaluate(values, model);
+        binding.evaluate(values, real);
+        for (std::size_t k = 0; k < a.outputs.size(); ++k)
+            if (!a.outputs[k].helper)
+                worst =
+                    std::max(worst, (model[k].block<3, 1>(0, 3) - real[k].block<3, 1>(0, 3)).norm() +
+                                        10.0 * orientationAngle(model[k].block<3, 3>(0, 0), real[k].block<3, 3>(0, 0)));
+    }
+    MESSAGE("a nearly straight limb's joints, goals within a fifth of the rest reach: worst " << worst << " cm");
+    CHECK(worst < 1e-3);
 }
 
 // A random aimed joint (an eye) under a head that turns and moves, aimed at a target control that translates: a

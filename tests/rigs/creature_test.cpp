@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <random>
 #include <set>
@@ -94,6 +95,60 @@ int indexOf(const Approximation& a, const std::string& name)
     for (std::size_t i = 0; i < a.parameters.size(); ++i)
         if (a.parameters[i].parameter.name == name) return static_cast<int>(i);
     return -1;
+}
+
+// The IK spec learned as rig-learn learns it (helpers found in the rig): the arms and legs planar chains on their
+// goals and poles. Learned once per process, with the rig it was learned on (for RigBinding).
+struct IkCreature {
+    std::unique_ptr<GraphRigFunction> rig;
+    Approximation approximation;
+};
+
+const IkCreature& ikCreature()
+{
+    static const IkCreature creature = [] {
+        const InversionSpec s = spec("creature_inversion_ik.yaml");
+        GraphRigOptions options{s.params, s.outputs, {}, s.set};
+        options.autoHelpers = true;
+        IkCreature c;
+        c.rig = std::make_unique<GraphRigFunction>(test::sourceDir() / "rigs/creature.yaml", options);
+        c.approximation = learnApproximation(*c.rig, LearnOptions{}, "rigs/creature.yaml");
+        return c;
+    }();
+    return creature;
+}
+
+// Every parameter within 60% of its range, as scripts/random_poses.py draws them.
+std::vector<double> randomPoseValues(const Approximation& a, std::mt19937& rng)
+{
+    std::vector<double> values;
+    for (const auto& m : a.parameters) {
+        const RigParameter& p = m.parameter;
+        const double mid = 0.5 * (p.min + p.max), half = 0.3 * (p.max - p.min);
+        values.push_back(std::uniform_real_distribution<double>(mid - half, mid + half)(rng));
+    }
+    return values;
+}
+
+// The largest distance between the origins of two sets of worlds over the active targets, cm.
+double farthestCm(const std::vector<JointTarget>& targets, const std::vector<Eigen::Matrix4d>& a,
+                  const std::vector<Eigen::Matrix4d>& b)
+{
+    double cm = 0.0;
+    for (std::size_t k = 0; k < targets.size(); ++k)
+        if (targets[k].active) cm = std::max(cm, (a[k].block<3, 1>(0, 3) - b[k].block<3, 1>(0, 3)).norm());
+    return cm;
+}
+
+// Targets at `worlds` on every modelled output but the helpers (never targets): the legs and claw tips too.
+std::vector<JointTarget> jointTargets(const Approximation& a, const std::vector<Eigen::Matrix4d>& worlds)
+{
+    std::vector<JointTarget> targets(worlds.size());
+    for (std::size_t k = 0; k < worlds.size(); ++k) {
+        targets[k].active = a.outputs[k].modelled && !a.outputs[k].helper;
+        targets[k].world = worlds[k];
+    }
+    return targets;
 }
 
 }  // namespace
@@ -304,6 +359,93 @@ TEST_CASE("learning the creature's IK spec: the IK limbs unmodelled, the leg pol
         CHECK(std::find(unmodelled.begin(), unmodelled.end(), joint) == unmodelled.end());
 }
 
+TEST_CASE(
+    "learning the creature's IK spec with helper frames: the claw tips relative to their claws, within epsilon, "
+    "and random poses of every joint recovered from the initial guess at the tips on the real rig")
+{
+    const Approximation& a = ikCreature().approximation;
+    CHECK(a.validation.withinEpsilon);
+    const auto output = [&](const std::string& name) {
+        const auto found = std::find_if(a.outputs.begin(), a.outputs.end(),
+                                        [&](const ApproximationOutput& o) { return o.name == name; });
+        REQUIRE_MESSAGE(found != a.outputs.end(), "no output " << name);
+        return *found;
+    };
+    CHECK(output("L_hand").constraint >= 0);
+    // Below the IK hand, the claws and their tips stay parent-relative, the tips' curl learned as in FK mode.
+    for (const char* side : {"L", "R"})
+        for (const char* claw : {"claw1", "claw2"}) {
+            const std::string name = fmt::format("{}_{}", side, claw), tip = name + "_tip";
+            CAPTURE(tip);
+            const ApproximationOutput& t = output(tip);
+            CHECK(t.modelled);
+            CHECK(t.constraint < 0);
+            REQUIRE(t.parent >= 0);
+            CHECK(a.outputs[static_cast<std::size_t>(t.parent)].name == name);
+            CHECK(t.validationError <= a.epsilon);
+            const ApproximationOutput& c = output(name);
+            REQUIRE(c.parent >= 0);
+            CHECK(a.outputs[static_cast<std::size_t>(c.parent)].name == fmt::format("{}_hand", side));
+        }
+    for (const char* grip : {"L_wrist_ctrl.grip", "R_wrist_ctrl.grip"}) {
+        CHECK(modelled(a, grip).form == "per output: 2 rotation 2 rotation (curve)");
+        CHECK(modelled(a, grip).unmodelledOutputs.empty());
+    }
+    // Every output, the left knee too (its chain is within epsilon since the shapes reach goals near the hip).
+    for (const auto& o : a.outputs) {
+        CAPTURE(o.name);
+        CHECK(o.modelled);
+    }
+    CHECK(output("L_knee").constraint >= 0);
+
+    // Random poses on the real rig, every joint a target (the legs' reverse feet too), solved from the initial
+    // guess on the approximation: the real rig there puts the claw tips on their targets, the grips recovered.
+    RigBinding binding(a, *ikCreature().rig);
+    const Solver solver(a, SolverOptions{});
+    std::mt19937 rng(23);
+    for (int pose = 0; pose < 6; ++pose) {
+        CAPTURE(pose);
+        const std::vector<double> known = randomPoseValues(a, rng);
+        std::vector<Eigen::Matrix4d> worlds;
+        binding.evaluate(known, worlds);
+        const std::vector<JointTarget> targets = jointTargets(a, worlds);
+        std::vector<double> values = a.defaults();
+        REQUIRE(solver.initialGuess(targets, values) == TerminationType::converged);
+        const SolveSummary summary = solver.solve(targets, values);
+        CAPTURE(summary.briefReport());
+        CHECK(summary.converged());
+        std::vector<Eigen::Matrix4d> solved;
+        binding.evaluate(values, solved);
+        double tipCm = 0.0, footCm = 0.0;
+        int feet = 0;
+        for (std::size_t k = 0; k < worlds.size(); ++k) {
+            const std::string& name = a.outputs[k].name;
+            const double cm = (solved[k].block<3, 1>(0, 3) - worlds[k].block<3, 1>(0, 3)).norm();
+            if (name.ends_with("_tip")) tipCm = std::max(tipCm, cm);
+            if (targets[k].active &&
+                (name.ends_with("_ankle") || name.ends_with("_ball") || name.ends_with("_toe_end")))
+                footCm = std::max(footCm, cm), ++feet;
+        }
+        // The approximation at the pose is itself off the real rig by its learning error (up to 0.004 cm on these
+        // poses): the feet are held to that, as the issue's "where the targets are reachable" asks.
+        std::vector<Eigen::Matrix4d> approximated;
+        a.evaluate(known, approximated);
+        const double learnedCm = farthestCm(targets, approximated, worlds);
+        MESSAGE(
+            fmt::format("pose {}: the claw tips {:.3g} cm, the feet {:.3g} cm from their targets on the real rig "
+                        "(the approximation at the pose {:.3g} cm)",
+                        pose, tipCm, footCm, learnedCm));
+        CHECK(feet == 6);
+        CHECK(tipCm < 1e-3);
+        CHECK(footCm < 1e-3 + learnedCm);
+        for (const char* grip : {"L_wrist_ctrl.grip", "R_wrist_ctrl.grip"}) {
+            CAPTURE(grip);
+            const auto i = static_cast<std::size_t>(indexOf(a, grip));
+            CHECK(std::abs(values[i] - known[i]) < 1e-4);
+        }
+    }
+}
+
 TEST_CASE("creature: scripts/random_poses.py makes a JSON clip that rig-invert inverts onto the real rig")
 {
     const auto dir = test::scratchDir("creature-random-poses");
@@ -326,4 +468,42 @@ TEST_CASE("creature: scripts/random_poses.py makes a JSON clip that rig-invert i
     INFO(inverted.out << inverted.err);
     CHECK(inverted.exitCode == 0);
     CHECK(inverted.out.find("frames            4: 4 reached\n") != std::string::npos);
+}
+
+TEST_CASE(
+    "learning the creature's IK spec with helper frames: random poses of every joint, the reverse feet and claws "
+    "too, recovered from the initial guess")
+{
+    // Targets on the approximation's own worlds (reachable exactly) at random poses, on every modelled joint (the
+    // left knee while its chain is over epsilon is not one). From rest, a reverse foot's roll stops where its heel,
+    // ball or toe piece is flat (a few degrees off at the ankle and ball); the guess solves each foot's ankle, ball
+    // and toe together from three rolls (docs/solver.md, Cold starts).
+    const Approximation& a = ikCreature().approximation;
+    const Solver solver(a, SolverOptions{});
+    const double scaleCm = solver.options().rotationScaleCm;
+    const double recoveredCm = solver.options().targetTolerance;  // 1e-3 cm: issue #32's bar
+    constexpr int poses = 200;
+    std::mt19937 rng(29);
+    int fromGuess = 0, fromRest = 0;
+    for (int pose = 0; pose < poses; ++pose) {
+        CAPTURE(pose);
+        std::vector<Eigen::Matrix4d> worlds;
+        a.evaluate(randomPoseValues(a, rng), worlds);
+        const std::vector<JointTarget> targets = jointTargets(a, worlds);
+        for (const bool guess : {true, false}) {
+            CAPTURE(guess);
+            std::vector<double> values = a.defaults();
+            if (guess) REQUIRE(solver.initialGuess(targets, values) == TerminationType::converged);
+            const SolveSummary summary = solver.solve(targets, values);
+            CAPTURE(summary.briefReport());
+            const bool recovered = summary.maxPositionErrorCm <= recoveredCm &&
+                                   scaleCm * summary.maxRotationErrorDeg * degree <= recoveredCm;
+            (guess ? fromGuess : fromRest) += recovered;
+            // What is not recovered is never called converged.
+            if (!recovered) CHECK(!summary.converged());
+        }
+    }
+    MESSAGE(fmt::format("IK creature: {} of {} poses recovered from the initial guess, {} from rest", fromGuess, poses,
+                        fromRest));
+    CHECK(fromGuess * 100 >= 99 * poses);
 }

@@ -765,7 +765,7 @@ TEST_CASE(
 }
 
 TEST_CASE(
-    "rig-learn: the creature's IK arms and thighs (rigs/creature_inversion_ik.yaml) learned as planar chains "
+    "rig-learn: the creature's IK arms, thighs and knees (rigs/creature_inversion_ik.yaml) learned as planar chains "
     "on their goals and poles, within epsilon")
 {
     const auto dir = rig::test::scratchDir("rig-learn-creature-chains");
@@ -779,11 +779,14 @@ TEST_CASE(
     std::vector<std::string> constrained;
     for (const auto& o : a.outputs)
         if (o.constraint >= 0) constrained.push_back(o.name);
-    // The reverse foot's ankle goal is the legs' goal helper. The right knee is a chain within epsilon; the left knee
-    // (0.0067 cm per unit off) and the claw tips are left to the hybrid solve.
+    // The reverse foot's ankle goal is the legs' goal helper. Both knees are chains within epsilon (the left one was
+    // 0.0067 cm per unit off while the shapes stopped at a fifth of the rest reach); the claw tips are relative to
+    // their claws.
     CHECK(constrained == std::vector<std::string>{"L_upperArm", "L_forearm", "L_hand", "R_upperArm", "R_forearm",
-                                                  "R_hand", "L_thigh", "R_thigh", "R_knee"});
+                                                  "R_hand", "L_thigh", "L_knee", "R_thigh", "R_knee"});
     CHECK(
         learned.out.find("  L_thigh: planarChain, root carried by pelvis, goal L_ankle_goal, pole L_leg_pole_ctrl; ") !=
         std::string::npos);
+    CHECK(learned.out.find("  L_knee: planarChain, root carried by pelvis, goal L_ankle_goal, pole L_leg_pole_ctrl; "
+                           "shape ") != std::string::npos);
 }
