@@ -31,6 +31,18 @@ struct SwitchBranches {
     std::vector<Switched> switched;
 };
 
+// What the targets cannot decide of a switch at a branch: with its weight at 1 the FK branch's own controls (those
+// that reach joints only through the FK copies of its blends) move no joint, and at 0 the IK branch's. A solve leaves
+// them at its warm start (Solver::solve), as pole_hold.h holds a chain's pole: minimum-norm steps would otherwise move
+// them by rounding whenever the weight left its limit by a rounding error.
+struct SwitchHold {
+    int weight = -1;      // index into Approximation::parameters
+    std::vector<int> fk;  // the FK branch's own controls: held while the weight is 1
+    std::vector<int> ik;  // the IK branch's: held while it is 0
+};
+// One per blend weight that has such controls.
+std::vector<SwitchHold> switchHolds(const Approximation& approximation);
+
 // The merged approximation; throws a userInput rig::Error naming what does not merge (an output missing from a branch,
 // a switched output in neither, parameters ordered differently by the two branches).
 Approximation mergeSwitchBranches(const SwitchBranches& branches);

@@ -122,26 +122,10 @@ TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& targ
 
 // --- ResidualStructure ---
 
-// The blend of an animated switch (constraint.h) is learned, validated and stored, but its velocity is not yet carried
-// through the prefix tree: an approximation with one is refused before any solve rather than solved wrong.
-namespace {
-void refuseBlends(const Approximation& approximation)
-{
-    for (const ApproximationOutput& o : approximation.outputs)
-        if (o.constraint >= 0 && static_cast<std::size_t>(o.constraint) < approximation.constraints.size() &&
-            approximation.constraints[static_cast<std::size_t>(o.constraint)].kind == ConstraintKind::blend)
-            throw Error(
-                fmt::format("output '{}' is a blend of an animated switch, which the solver does not take yet; "
-                            "learn with the switch held (rig-learn --set PLUG=0 or 1)",
-                            messageExcerpt(o.name)));
-}
-}  // namespace
-
 ResidualStructure::ResidualStructure(const Approximation& approximation, std::vector<int> columns,
                                      std::vector<int> outputs, std::span<const ResidualTerm* const> terms)
     : approximation_(&approximation), columns_(std::move(columns)), outputs_(std::move(outputs))
 {
-    refuseBlends(approximation);
     const std::vector<std::vector<Link>> own = ownLinks(checkIndices());
     std::vector<Path> paths;
     for (const int k : outputs_) paths.push_back(pathOf(k, own));
@@ -295,8 +279,8 @@ void ResidualStructure::makeTree(const std::vector<Path>& paths, const std::vect
             return bases_[static_cast<std::size_t>(known->second)].node;
         const int constraint = approximation.outputs[static_cast<std::size_t>(output)].constraint;
         const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(constraint)];
-        std::array<int, 3> inputNodes{-1, -1, -1};
-        const std::array<int, 3> inputs = c.inputs();
+        std::array<int, 5> inputNodes{-1, -1, -1, -1, -1};
+        const std::array<int, 5> inputs = c.frameInputs();
         for (std::size_t i = 0; i < inputs.size(); ++i) {
             if (inputs[i] < 0) continue;
             const Path path = pathOf(inputs[i], own);
@@ -306,9 +290,11 @@ void ResidualStructure::makeTree(const std::vector<Path>& paths, const std::vect
         }
         Base base = makeBase(constraint, inputNodes);
         base.node = static_cast<int>(nodes_.size());
+        base.restInverse = approximation.outputs[static_cast<std::size_t>(output)].rest.inverse();
         Node node;
         node.base = static_cast<int>(bases_.size());
-        node.rigid = true;  // a rigid frame times a sampled rigid motion
+        // A chain's: a rigid frame times a sampled rigid motion; a blend's blended stretch need not be rigid.
+        node.rigid = c.kind != ConstraintKind::blend;
         nodes_.push_back(node);
         baseTerms(base, inputNodes);
         baseOfOutput_[output] = static_cast<int>(bases_.size());
@@ -336,7 +322,7 @@ void ResidualStructure::makeTree(const std::vector<Path>& paths, const std::vect
     }
 }
 
-ResidualStructure::Base ResidualStructure::makeBase(int constraint, const std::array<int, 3>& inputNodes) const
+ResidualStructure::Base ResidualStructure::makeBase(int constraint, const std::array<int, 5>& inputNodes) const
 {
     const ConstraintBase& c = approximation_->constraints[static_cast<std::size_t>(constraint)];
     const auto restOrigin = [&](int k) -> Eigen::Vector3d {
@@ -356,14 +342,26 @@ ResidualStructure::Base ResidualStructure::makeBase(int constraint, const std::a
     };
     base.secondRest = rest(c.driver);
     base.thirdRest = rest(c.driverParent);
+    base.frameRest.fill(Eigen::Matrix4d::Identity());
+    if (c.kind != ConstraintKind::blend) return base;
+    const std::array<int, 5> inputs = c.frameInputs();
+    for (std::size_t i = 0; i < inputs.size(); ++i) {
+        base.frameNodes[i] = inputNodes[i];
+        base.frameRest[i] = rest(inputs[i]);
+    }
+    // The weight is a column of its own, or held (its value read by holdParameters).
+    if (const auto w = std::lower_bound(columns_.begin(), columns_.end(), c.weight);
+        w != columns_.end() && *w == c.weight)
+        base.weightColumn = static_cast<int>(w - columns_.begin());
     return base;
 }
 
-void ResidualStructure::baseTerms(Base& base, const std::array<int, 3>& inputNodes)
+void ResidualStructure::baseTerms(Base& base, const std::array<int, 5>& inputNodes)
 {
     // Every velocity that moves an input, by column: the unknown nodes up its path, and the base its path
-    // begins with (whose columns' velocities come before this one's).
+    // begins with (whose columns' velocities come before this one's); a blend's weight column moves it directly.
     std::vector<std::pair<int, InputTerm>> found;  // (column, term)
+    if (base.weightColumn >= 0) found.push_back({base.weightColumn, InputTerm{blendWeightInput, -1, -1}});
     for (std::size_t i = 0; i < inputNodes.size(); ++i)
         for (int m = inputNodes[i]; m >= 0; m = nodes_[static_cast<std::size_t>(m)].parent) {
             const Node& node = nodes_[static_cast<std::size_t>(m)];
@@ -514,6 +512,7 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     baseVelocity_.assign(static_cast<std::size_t>(s.baseVelocities_), Affine::Zero());
     basePoints_.resize(s.bases_.size());
     baseTwists_.resize(s.bases_.size());
+    blends_.resize(s.bases_.size());
     slotOffset_.assign(s.slots_.size(), 0.0);
     quaternion_.assign(s.outputs_.size(), Eigen::Quaterniond::Identity());
     twist_.assign(s.nodes_.size(), Vector6d::Zero());
@@ -540,6 +539,10 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
     // Only the parameters this structure holds: a crowd's blocks must not each copy every value.
     for (std::size_t i = 0; i < s.heldParameters_.size(); ++i)
         held_[i] = values[static_cast<std::size_t>(s.heldParameters_[i])];
+    for (std::size_t b = 0; b < s.bases_.size(); ++b)
+        if (const ConstraintBase& c = approx.constraints[static_cast<std::size_t>(s.bases_[b].constraint)];
+            c.kind == ConstraintKind::blend && s.bases_[b].weightColumn < 0)
+            blends_[b].weight = values[static_cast<std::size_t>(c.weight)];
     chainsHeld_ = false;
     for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
         const auto& node = s.nodes_[n];
@@ -614,6 +617,8 @@ void ResidualWorkspace::evaluateSlots(std::span<const double> x, bool derivative
             slotDerivative_[i] = op.derivative(a);
         }
     }
+    for (std::size_t b = 0; b < s.bases_.size(); ++b)
+        if (const int c = s.bases_[b].weightColumn; c >= 0) blends_[b].weight = x[static_cast<std::size_t>(c)];
 }
 
 Eigen::Matrix4d ResidualWorkspace::chainWorld(int o, int perturbed, double value) const
@@ -671,6 +676,7 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
     const auto& s = *structure_;
     const ResidualStructure::Base& base = s.bases_[b];
     const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
+    if (c.kind == ConstraintKind::blend) return evaluateBlend(b);
     if (c.kind == ConstraintKind::twistShare) {
         const auto motion = [&](int node) -> Eigen::Matrix4d {
             Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
@@ -701,6 +707,45 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
     return constraintBase(c, points).topRows<3>();
 }
 
+ResidualWorkspace::Affine ResidualWorkspace::evaluateBlend(std::size_t b)
+{
+    // B = W_a blend(w, W_ikp^-1 W_ik, W_fkp^-1 W_fk) R^-1 (Approximation::evaluate), each input's world its node's
+    // product times its rest.
+    const ResidualStructure::Base& base = structure_->bases_[b];
+    BlendState& blend = blends_[b];
+    for (std::size_t i = 0; i < blend.worlds.size(); ++i) {
+        blend.worlds[i] = base.frameRest[i];
+        if (const int node = base.frameNodes[i]; node >= 0)
+            blend.worlds[i].topRows<3>() =
+                compose(nodeMatrix_[static_cast<std::size_t>(node)], base.frameRest[i].topRows<3>());
+    }
+    const BlendRule& rule = structure_->approximation_->constraints[static_cast<std::size_t>(base.constraint)].blend;
+    blend.ik = blend.worlds[3].inverse() * blend.worlds[1];
+    blend.fk = blend.worlds[4].inverse() * blend.worlds[2];
+    blend.moved = blend.worlds[0] * blendLocal(rule, blend.weight, blend.ik, blend.fk);
+    return (blend.moved * base.restInverse).topRows<3>();
+}
+
+ResidualWorkspace::Affine ResidualWorkspace::blendVelocity(std::size_t b, const std::array<Affine, 5>& x,
+                                                           double dw) const
+{
+    // dB B^-1 = Xi_a + W_a dL (W_a L)^-1, a branch's local moving at d(W_p^-1 W) = W_p^-1 (Xi - Xi_p) W.
+    const ResidualStructure::Base& base = structure_->bases_[b];
+    const BlendState& blend = blends_[b];
+    const auto full = [](const Affine& v) {
+        Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+        m.topRows<3>() = v;
+        return m;
+    };
+    const auto localRate = [&](std::size_t branch, std::size_t parent) -> Eigen::Matrix4d {
+        return blend.worlds[parent].inverse() * (full(x[branch]) - full(x[parent])) * blend.worlds[branch];
+    };
+    const BlendRule& rule = structure_->approximation_->constraints[static_cast<std::size_t>(base.constraint)].blend;
+    const Eigen::Matrix4d rate =
+        blendLocalRate(rule, blend.weight, blend.ik, blend.fk, dw, localRate(1, 3), localRate(2, 4));
+    return x[0] + (blend.worlds[0] * rate * blend.moved.inverse()).topRows<3>();
+}
+
 void ResidualWorkspace::baseVelocities()
 {
     // Per base and column: each input's velocity (the sum of what moves it), its points' rates, then the base's.
@@ -709,15 +754,25 @@ void ResidualWorkspace::baseVelocities()
         const ResidualStructure::Base& base = s.bases_[b];
         const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
         const ChainPoints& points = basePoints_[b];
-        const bool twist = c.kind == ConstraintKind::twistShare;
-        const BaseLinearization at = twist ? BaseLinearization{} : linearizeBase(c, points);
+        const bool twist = c.kind == ConstraintKind::twistShare, blend = c.kind == ConstraintKind::blend;
+        const BaseLinearization at = twist || blend ? BaseLinearization{} : linearizeBase(c, points);
         for (std::size_t j = 0; j < base.columns.size(); ++j) {
-            std::array<Affine, 3> x{Affine::Zero(), Affine::Zero(), Affine::Zero()};
+            std::array<Affine, 5> x;
+            x.fill(Affine::Zero());
+            double dw = 0.0;
             for (int t = base.termBegin[j]; t < base.termBegin[j + 1]; ++t) {
                 const ResidualStructure::InputTerm& term = s.inputTerms_[static_cast<std::size_t>(t)];
+                if (term.input == ResidualStructure::blendWeightInput) {
+                    dw = 1.0;
+                    continue;
+                }
                 x[static_cast<std::size_t>(term.input)] +=
                     term.node >= 0 ? velocity_[static_cast<std::size_t>(term.node)]
                                    : baseVelocity_[static_cast<std::size_t>(term.baseVelocity)];
+            }
+            if (blend) {
+                baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] = blendVelocity(b, x, dw);
+                continue;
             }
             if (twist) {
                 baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =

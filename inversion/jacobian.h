@@ -149,13 +149,24 @@ private:
         Eigen::Vector3d goalRest, poleRest;                 // the goal's and pole's rest origins
         // A twist share's second and third inputs' rest worlds (the driver and its parent; identity for the world).
         Eigen::Matrix4d secondRest = Eigen::Matrix4d::Identity(), thirdRest = Eigen::Matrix4d::Identity();
+        // A blend's frame inputs (ConstraintBase::frameInputs: anchor, ik, fk, ikParent, fkParent): their product
+        // nodes (-1: the identity) and rest worlds (the identity for no output), the output's rest inverse, and its
+        // weight's column (-1: held).
+        std::array<int, 5> frameNodes{-1, -1, -1, -1, -1};
+        std::array<Eigen::Matrix4d, 5> frameRest;
+        Eigen::Matrix4d restInverse = Eigen::Matrix4d::Identity();
+        int weightColumn = -1;
         std::vector<int> columns;  // the columns that move it, increasing
         // Per column, [termBegin[j], termBegin[j + 1]) of terms_: what moves its inputs.
         std::vector<int> termBegin;
         int velocityOffset = 0;  // its columns' velocities in ResidualWorkspace::baseVelocity_
     };
-    struct InputTerm {          // one velocity moving an input: an unknown node's, or an upstream base's for a column
-        int input = 0;          // ConstraintBase::inputs' index: 0 anchor, 1 goal or driver, 2 pole or its parent
+    // InputTerm::input of a blend's weight column: the weight itself moves (dw = 1), no node.
+    static constexpr int blendWeightInput = 5;
+    struct InputTerm {  // one velocity moving an input: an unknown node's, or an upstream base's for a column
+        // ConstraintBase::frameInputs' index: 0 anchor, 1 goal or driver or ik, 2 pole or its parent or fk, 3 and 4
+        // a blend's branch parents; or blendWeightInput.
+        int input = 0;
         int node = -1;          // an unknown node on the input's path, or -1
         int baseVelocity = -1;  // else an index into ResidualWorkspace::baseVelocity_
     };
@@ -176,8 +187,8 @@ private:
     Path pathOf(int k, const std::vector<std::vector<Link>>& own) const;        // approximation output k's
     void makeChains(const std::vector<Path>& paths);
     void makeTree(const std::vector<Path>& paths, const std::vector<std::vector<Link>>& own);
-    Base makeBase(int constraint, const std::array<int, 3>& inputNodes) const;  // its inputs, before its node
-    void baseTerms(Base& base, const std::array<int, 3>& inputNodes);           // its columns and what moves its inputs
+    Base makeBase(int constraint, const std::array<int, 5>& inputNodes) const;  // its inputs, before its node
+    void baseTerms(Base& base, const std::array<int, 5>& inputNodes);           // its columns and what moves its inputs
     void addBaseColumns();
     void makePairs();
     void basePairs();  // baseUnknownBegin_, baseUnknown_
@@ -289,9 +300,12 @@ private:
         Eigen::Matrix<double, 3, 4>;  // the top rows of a 4x4 whose last row is 0 0 0 1 (or 0 for a derivative)
 
     void evaluateSlots(std::span<const double> x, bool derivatives);
-    void evaluateTree();                 // node products and worlds from the slot matrices
-    Affine evaluateBase(std::size_t b);  // base b's product, from its inputs' (basePoints_ too)
-    void baseVelocities();               // baseVelocity_ from velocity_, bases in order
+    void evaluateTree();                  // node products and worlds from the slot matrices
+    Affine evaluateBase(std::size_t b);   // base b's product, from its inputs' (basePoints_ too)
+    Affine evaluateBlend(std::size_t b);  // a blend's base, from its inputs' products and its weight (blends_ too)
+    // A blend's dB B^-1 for its inputs moving at x (ConstraintBase::frameInputs' order) and its weight at dw.
+    Affine blendVelocity(std::size_t b, const std::array<Affine, 5>& x, double dw) const;
+    void baseVelocities();  // baseVelocity_ from velocity_, bases in order
     // Central differences of every column through whole evaluations (products that begin with a base).
     void wholeDifferences(std::span<const double> x, double step, Eigen::Ref<Eigen::VectorXd> r,
                           Eigen::Ref<Eigen::MatrixXd> jacobian);
@@ -325,12 +339,18 @@ private:
     const ResidualStructure* structure_;
     std::vector<double> held_;  // per heldParameters_ entry: its value given to holdParameters
     bool chainsHeld_ = false;
-    std::vector<Affine> heldMatrix_;                         // per held node: its operator's matrix
-    std::vector<Affine> nodeMatrix_;                         // per node: its product from the root
-    std::vector<Affine> velocity_;                           // per unknown node: Xi
-    std::vector<Affine> baseVelocity_;                       // per base and column: dB/da B^-1
-    std::vector<ChainPoints> basePoints_;                    // per base: its chain's points at the last evaluation
-    std::vector<TwistLinearization> baseTwists_;             // per base: a twist share's at the last evaluation
+    std::vector<Affine> heldMatrix_;              // per held node: its operator's matrix
+    std::vector<Affine> nodeMatrix_;              // per node: its product from the root
+    std::vector<Affine> velocity_;                // per unknown node: Xi
+    std::vector<Affine> baseVelocity_;            // per base and column: dB/da B^-1
+    std::vector<ChainPoints> basePoints_;         // per base: its chain's points at the last evaluation
+    std::vector<TwistLinearization> baseTwists_;  // per base: a twist share's at the last evaluation
+    struct BlendState {                           // a blend's at the last evaluation: what its velocity needs
+        double weight = 0.0;
+        std::array<Eigen::Matrix4d, 5> worlds;  // its frame inputs' worlds
+        Eigen::Matrix4d ik, fk, moved;          // the branches' locals, and W_a L
+    };
+    std::vector<BlendState> blends_;                         // per base (a blend's only used)
     std::vector<double> trial_;                              // wholeDifferences' shifted values
     std::vector<Eigen::Matrix<double, 6, 1>> twist_, load_;  // per unknown node: (omega, v); sum of B_k^T r_k below
     // Sum of B_k^T B_k over outputs: [[A, [m]x], [-[m]x, s I]], as each output's is (twistNormalEquations),

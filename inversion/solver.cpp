@@ -19,6 +19,8 @@ namespace rig {
 namespace {
 
 constexpr std::size_t maxCachedPlans = 256;
+// A switch's weight this close to its branch after a solve that started there is on it: the solve moved it by rounding.
+constexpr double branchRounding = 1e-9;
 
 // A non-compositional output's target is not counted: the approximation does not predict it. The rows a
 // target's term counts, and its kind (termRowsKey): plans differ by both.
@@ -232,6 +234,8 @@ private:
     bool initialFromSolve();
     void solveTrees();
     void solveBlocks();
+    // Before the solve, the switches at a branch and their inactive controls noted; after, held (SwitchHold).
+    void holdBranches(bool before);
     void finish(bool initialFromSolve);
 
     Solver::Impl& impl_;
@@ -412,11 +416,39 @@ void SolveRun::run()
     parallel_ = impl_.options.threads != 1;
     const bool coupled = !plan_.trees.empty();
     scratch_.results.assign(coupled ? plan_.trees.size() : plan_.partition.blocks.size(), MinimizerResult{});
+    if (!impl_.switches.empty()) holdBranches(true);
     if (coupled) solveTrees();
     else solveBlocks();
+    if (!impl_.switches.empty()) holdBranches(false);
     // The joints stay where the solve put them: the final evaluation still measures them.
     if (!impl_.poles.empty()) holdPoles(impl_.approximation, impl_.poles, values_);
     finish(fromSolve);
+}
+
+void SolveRun::holdBranches(bool before)
+{
+    // A switch whose weight starts at a branch and ends within rounding of it: its weight put back on the branch and
+    // the other branch's controls, which then move no joint, back at their warm start (blend_merge.h, SwitchHold).
+    std::vector<double>& start = scratch_.branches;
+    if (before) start.clear();
+    std::size_t next = 0;
+    for (const SwitchHold& hold : impl_.switches) {
+        double& w = values_[static_cast<std::size_t>(hold.weight)];
+        if (before) start.push_back(w);
+        const double branch = start[next++];
+        if (branch != 0.0 && branch != 1.0) continue;
+        const std::vector<int>& held = branch == 1.0 ? hold.fk : hold.ik;
+        if (before) {
+            for (const int p : held) start.push_back(values_[static_cast<std::size_t>(p)]);
+            continue;
+        }
+        const bool kept = std::abs(w - branch) <= branchRounding;
+        if (kept) w = branch;
+        for (const int p : held) {
+            if (kept) values_[static_cast<std::size_t>(p)] = start[next];
+            ++next;
+        }
+    }
 }
 
 void SolveRun::finish(bool initialFromSolve)

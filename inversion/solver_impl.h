@@ -12,6 +12,7 @@
 
 #include <oneapi/tbb/task_arena.h>
 
+#include "inversion/blend_merge.h"
 #include "inversion/pole_hold.h"
 #include "inversion/solve_plan.h"
 #include "inversion/solver.h"
@@ -20,7 +21,7 @@ namespace rig {
 
 struct Solver::Impl {
     Impl(const Approximation& a, SolverOptions o)
-        : approximation(a), options(o), poles(poleHolds(a)), goals(goalHolds(a))
+        : approximation(a), options(o), poles(poleHolds(a)), goals(goalHolds(a)), switches(switchHolds(a))
     {
     }
 
@@ -28,6 +29,7 @@ struct Solver::Impl {
     SolverOptions options;
     std::vector<PoleHold> poles;               // the planar chains' poles held where the joints do not decide them
     std::vector<GoalHold> goals;               // rigid chains' goals held inside their reach
+    std::vector<SwitchHold> switches;          // a switch's inactive branch held at the warm start
     std::optional<Equivalences> equivalences;  // made once the approximation is checked (Solver's constructor)
     std::optional<tbb::task_arena> arena;
     Pool<SolveScratch> scratchPool;

@@ -18,7 +18,9 @@
 #include "inversion/constraint_fit.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
+#include "inversion/solver.h"
 #include "nodes/graph_rig_function.h"
+#include "solver_rigs.h"
 #include "test_support.h"
 
 namespace rig {
@@ -243,32 +245,94 @@ TEST_CASE("blend: the biped's legs with ikFk animated are the rig's channel blen
     CHECK(slerpError > 1e-2);
 }
 
-TEST_CASE("blend: the biped's left leg learned in both branches and merged is the real rig with ikFk animated")
-{
-    // Each branch learned with the switch held, every output modelled (the IK one on planar chains).
-    const auto learnBranch = [](const std::vector<std::string>& params, double held) {
+namespace {
+
+// The biped's left leg learned in each branch (the switch held) and merged, with the rig of both branches' controls
+// and the switch animated; once per run.
+struct MergedLeg {
+    static Approximation learnBranch(const std::vector<std::string>& params, double held)
+    {
         GraphRigOptions options = switchedLegOptions(params, {});
         options.held.push_back({"L_leg_settings.ikFk", held});
         options.autoHelpers = held == 1.0;
         GraphRigFunction branch(test::sourceDir() / "rigs" / "biped.yaml", options);
         return learnApproximation(branch, LearnOptions{}, "rigs/biped.yaml");
-    };
-    const Approximation ik = learnBranch(legIkParams, 1.0), fk = learnBranch(legFkParams, 0.0);
+    }
+    Approximation ik = learnBranch(legIkParams, 1.0), fk = learnBranch(legFkParams, 0.0);
+    GraphRigFunction rig{test::sourceDir() / "rigs" / "biped.yaml", switchedLegOptions(legIkParams, legFkParams)};
+    Approximation merged = merge();
+
+    Approximation merge()
+    {
+        const std::vector<std::vector<BlendSample>> samples = switchedLegSamples(rig);
+        SwitchBranches branches{&ik, &fk, rig.parameters().back(), {}};
+        REQUIRE(branches.weight.name == "L_leg_settings.ikFk");
+        for (std::size_t j = 0; j < 3; ++j) {
+            const std::optional<BlendFit> fit = fitBlendRule(samples[j], 1e-6, 10.0);
+            REQUIRE(fit);
+            branches.switched.push_back({legJoints[j].first, legJoints[j].second, fit->rule});
+        }
+        return mergeSwitchBranches(branches);
+    }
+    // The merged approximation's values from the rig's (by name).
+    std::vector<double> mergedValues(const std::vector<double>& rigValues) const
+    {
+        const auto& parameters = rig.parameters();
+        std::vector<double> values(merged.parameters.size());
+        for (std::size_t p = 0; p < merged.parameters.size(); ++p) {
+            const auto it = std::find_if(parameters.begin(), parameters.end(), [&](const RigParameter& r) {
+                return r.name == merged.parameters[p].parameter.name;
+            });
+            REQUIRE(it != parameters.end());
+            values[p] = rigValues[static_cast<std::size_t>(it - parameters.begin())];
+        }
+        return values;
+    }
+    // Per rig output, its index among the merged outputs.
+    std::vector<std::size_t> mergedOutputs() const
+    {
+        std::vector<std::size_t> index;
+        for (const std::string& name : rig.outputs()) {
+            const auto it = std::find_if(merged.outputs.begin(), merged.outputs.end(),
+                                         [&](const ApproximationOutput& o) { return o.name == name; });
+            REQUIRE(it != merged.outputs.end());
+            index.push_back(static_cast<std::size_t>(it - merged.outputs.begin()));
+        }
+        return index;
+    }
+};
+
+MergedLeg& mergedLeg()
+{
+    static MergedLeg leg;
+    return leg;
+}
+
+// Every output but the helpers a target at its world for these values.
+std::vector<JointTarget> jointTargetsAt(const Approximation& a, const std::vector<double>& values)
+{
+    std::vector<Eigen::Matrix4d> worlds;
+    a.evaluate(values, worlds);
+    std::vector<JointTarget> targets(a.outputs.size());
+    for (std::size_t k = 0; k < targets.size(); ++k) {
+        targets[k].active = !a.outputs[k].helper;
+        targets[k].world = worlds[k];
+    }
+    return targets;
+}
+
+}  // namespace
+
+TEST_CASE("blend: the biped's left leg learned in both branches and merged is the real rig with ikFk animated")
+{
+    // Each branch learned with the switch held, every output modelled (the IK one on planar chains).
+    MergedLeg& leg = mergedLeg();
+    const Approximation &ik = leg.ik, &fk = leg.fk, &merged = leg.merged;
+    GraphRigFunction& rig = leg.rig;
     CHECK(!ik.hasUnmodelledOutputs());
     CHECK(!fk.hasUnmodelledOutputs());
     CHECK(ik.validation.withinEpsilon);
     CHECK(fk.validation.withinEpsilon);
-
-    GraphRigFunction rig(test::sourceDir() / "rigs" / "biped.yaml", switchedLegOptions(legIkParams, legFkParams));
-    const std::vector<std::vector<BlendSample>> samples = switchedLegSamples(rig);
-    SwitchBranches branches{&ik, &fk, rig.parameters().back(), {}};
-    REQUIRE(branches.weight.name == "L_leg_settings.ikFk");
-    for (std::size_t j = 0; j < 3; ++j) {
-        const std::optional<BlendFit> fit = fitBlendRule(samples[j], 1e-6, 10.0);
-        REQUIRE(fit);
-        branches.switched.push_back({legJoints[j].first, legJoints[j].second, fit->rule});
-    }
-    const Approximation merged = mergeSwitchBranches(branches);
     CHECK(!merged.hasUnmodelledOutputs());
     CHECK(merged.parameters.back().parameter.name == "L_leg_settings.ikFk");
     // rig-learn's report names each blend's branches, weight and rotate order.
@@ -293,30 +357,20 @@ TEST_CASE("blend: the biped's left leg learned in both branches and merged is th
     std::mt19937 rng(99);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     const auto& parameters = rig.parameters();
-    std::vector<double> values(parameters.size()), mergedValues(merged.parameters.size());
+    std::vector<double> values(parameters.size());
     std::vector<Eigen::Matrix4d> real, model, again;
+    const std::vector<std::size_t> index = leg.mergedOutputs();
     double worst = 0.0;
     for (int pose = 0; pose < 30; ++pose) {
         for (std::size_t p = 0; p < parameters.size(); ++p)
             values[p] = parameters[p].min + unit(rng) * (parameters[p].max - parameters[p].min);
-        for (std::size_t p = 0; p < merged.parameters.size(); ++p) {
-            const auto it = std::find_if(parameters.begin(), parameters.end(), [&](const RigParameter& r) {
-                return r.name == merged.parameters[p].parameter.name;
-            });
-            REQUIRE(it != parameters.end());
-            mergedValues[p] = values[static_cast<std::size_t>(it - parameters.begin())];
-        }
+        const std::vector<double> mergedValues = leg.mergedValues(values);
         rig.evaluate(values, real);
         merged.evaluate(mergedValues, model);
         read.evaluate(mergedValues, again);
         for (std::size_t k = 0; k < rig.outputs().size(); ++k) {
-            const int m = static_cast<int>(
-                std::find_if(merged.outputs.begin(), merged.outputs.end(),
-                             [&](const ApproximationOutput& o) { return o.name == rig.outputs()[k]; }) -
-                merged.outputs.begin());
-            REQUIRE(m < static_cast<int>(merged.outputs.size()));
-            worst = std::max(worst, matrixError(model[static_cast<std::size_t>(m)], real[k], 10.0));
-            CHECK(again[static_cast<std::size_t>(m)] == model[static_cast<std::size_t>(m)]);
+            worst = std::max(worst, matrixError(model[index[k]], real[k], 10.0));
+            CHECK(again[index[k]] == model[index[k]]);
         }
     }
     MESSAGE("the merged left leg against the real rig with ikFk animated: worst " << worst << " cm");
@@ -369,7 +423,148 @@ TEST_CASE("blend: an approximation with a blend evaluates the parent times the b
     CHECK(approximationFromYaml(slerpText, "slerp.yaml").constraints[0].blend.mode == BlendMode::slerp);
 }
 
-TEST_CASE("blend: a damaged blend is one line naming file:line:col and the field, and the solver refuses a blend")
+TEST_CASE("blend: the Jacobian through a blend is central differences', the weight's column and both branches'")
+{
+    const Approximation a = switchedThigh();
+    std::mt19937 rng(41);
+    for (int trial = 0; trial < 12; ++trial) {
+        CAPTURE(trial);
+        std::vector<double> values = test::randomValues(a, rng);
+        const std::vector<JointTarget> targets = jointTargetsAt(a, test::randomValues(a, rng));
+        if (trial < 2) values[4] = trial;  // at a branch: the other branch moves nothing
+        JacobianEvaluator evaluator(a, targets, 10.0);
+        CHECK(evaluator.structure().hasBases());
+        // hip, thigh, knee: the weight moves the thigh and the knee below it.
+        CHECK(evaluator.structure().outputsOfColumn(4) == std::vector<int>{1, 2});
+        Eigen::MatrixXd analytic, numeric, h;
+        Eigen::VectorXd r1, r2, g;
+        evaluator.jacobian(values, JacobianMethod::analytic, 0.0, analytic, r1);
+        evaluator.jacobian(values, JacobianMethod::finiteDifference, 1e-6, numeric, r2);
+        CHECK((r1 - r2).norm() == doctest::Approx(0.0));
+        CHECK((analytic - numeric).cwiseAbs().maxCoeff() < 1e-6 * std::max(1.0, analytic.cwiseAbs().maxCoeff()));
+        if (trial == 0) CHECK(analytic.col(1).norm() == 0.0);            // w = 0: the IK control moves only its helper
+        if (trial == 1) CHECK(analytic.middleCols(2, 2).norm() == 0.0);  // w = 1: the FK controls nothing
+        if (trial >= 2) CHECK(analytic.col(4).norm() > 0.0);
+        evaluator.normalEquations(values, JacobianMethod::analytic, 0.0, g, h, r1);
+        const Eigen::MatrixXd jtj = analytic.transpose() * analytic;
+        CHECK((Eigen::MatrixXd(h.triangularView<Eigen::Lower>()) - Eigen::MatrixXd(jtj.triangularView<Eigen::Lower>()))
+                  .cwiseAbs()
+                  .maxCoeff() < 1e-9 * std::max(1.0, jtj.cwiseAbs().maxCoeff()));
+        CHECK((g - analytic.transpose() * r1).cwiseAbs().maxCoeff() < 1e-9 * std::max(1.0, g.cwiseAbs().maxCoeff()));
+
+        // The weight held (not a column): the blend reads it from the held values.
+        const ResidualStructure held(a, {0, 1, 2, 3}, {0, 3, 4});
+        ResidualWorkspace workspace(held);
+        workspace.holdParameters(values);
+        std::vector<PreparedTarget> prepared(a.outputs.size());
+        for (std::size_t k = 0; k < a.outputs.size(); ++k) REQUIRE(prepareTarget(targets[k], 10.0, prepared[k]));
+        workspace.setTargets(prepared);
+        Eigen::MatrixXd heldAnalytic(held.rows(), 4), heldNumeric(held.rows(), 4);
+        Eigen::VectorXd heldR(held.rows());
+        const std::vector<double> x(values.begin(), values.begin() + 4);
+        workspace.jacobian(x, JacobianMethod::analytic, 0.0, false, heldR, heldAnalytic);
+        CHECK((heldR - r2).norm() == doctest::Approx(0.0));
+        workspace.jacobian(x, JacobianMethod::finiteDifference, 1e-6, false, heldR, heldNumeric);
+        CHECK((heldAnalytic - analytic.leftCols(4)).cwiseAbs().maxCoeff() < 1e-12 * std::max(1.0, analytic.norm()));
+        CHECK((heldAnalytic - heldNumeric).cwiseAbs().maxCoeff() < 1e-6 * std::max(1.0, heldAnalytic.norm()));
+    }
+}
+
+TEST_CASE("blend: warm-started solves with the switch at a branch leave the other branch's controls where they were")
+{
+    // At w = 1 the FK controls move nothing (and the IK control at w = 0): their columns are zero, the minimum-norm
+    // steps leave them, and the weight stays at its limit while the active branch reaches the targets.
+    const Approximation a = switchedThigh();
+    const Solver solver(a, SolverOptions{});
+    std::mt19937 rng(17);
+    for (const double branch : {1.0, 0.0}) {
+        CAPTURE(branch);
+        std::vector<double> values{0.0, 0.3, -0.2, 0.4, branch};
+        const std::vector<double> start = values;
+        for (int frame = 0; frame < 5; ++frame) {
+            CAPTURE(frame);
+            std::vector<double> truth = test::randomValues(a, rng, 0.5);
+            truth[4] = branch;
+            const SolveSummary summary = solver.solve(jointTargetsAt(a, truth), values);
+            CHECK(summary.converged());
+            CHECK(values[4] == branch);
+            if (branch == 1.0) {
+                CHECK(values[2] == start[2]);
+                CHECK(values[3] == start[3]);
+            } else {
+                CHECK(values[1] == start[1]);
+            }
+        }
+    }
+}
+
+TEST_CASE("blend: the merged left leg's Jacobian through its chained blends and chains is central differences'")
+{
+    // The knee's blend hangs from the thigh's, the foot's from the knee's, and the IK copies are planar chains.
+    const Approximation& a = mergedLeg().merged;
+    std::mt19937 rng(8);
+    for (int trial = 0; trial < 10; ++trial) {
+        CAPTURE(trial);
+        const std::vector<double> values = test::randomValues(a, rng, 0.5);
+        JacobianEvaluator evaluator(a, jointTargetsAt(a, test::randomValues(a, rng, 0.5)), 10.0);
+        Eigen::MatrixXd analytic, numeric;
+        Eigen::VectorXd r1, r2;
+        evaluator.jacobian(values, JacobianMethod::analytic, 0.0, analytic, r1);
+        evaluator.jacobian(values, JacobianMethod::finiteDifference, 1e-6, numeric, r2);
+        CHECK((analytic - numeric).cwiseAbs().maxCoeff() < 1e-5 * std::max(1.0, analytic.cwiseAbs().maxCoeff()));
+        CHECK(analytic.col(analytic.cols() - 1).norm() > 0.0);  // the weight, last
+    }
+}
+
+TEST_CASE("blend: random poses of the left leg with a random ikFk weight are recovered from rest on the real rig")
+{
+    MergedLeg& leg = mergedLeg();
+    const Approximation& a = leg.merged;
+    const Solver solver(a, SolverOptions{});
+    const auto& parameters = leg.rig.parameters();
+    const std::vector<std::size_t> index = leg.mergedOutputs();
+    std::mt19937 rng(32);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<double> truth(parameters.size()), solved(parameters.size());
+    std::vector<Eigen::Matrix4d> real, reached;
+    int recovered = 0;
+    double worstOfAll = 0.0;
+    const int poses = 30;
+    for (int pose = 0; pose < poses; ++pose) {
+        // Every control within half its range around rest, the switch anywhere in [0, 1].
+        for (std::size_t p = 0; p < parameters.size(); ++p)
+            truth[p] = parameters[p].defaultValue + 0.5 * (parameters[p].min - parameters[p].defaultValue +
+                                                           unit(rng) * (parameters[p].max - parameters[p].min));
+        truth.back() = unit(rng);
+        leg.rig.evaluate(truth, real);
+        std::vector<JointTarget> targets(a.outputs.size());
+        for (std::size_t k = 0; k < index.size(); ++k) targets[index[k]] = JointTarget{true, real[k]};
+        std::vector<double> values = a.defaults();
+        solver.initialGuess(targets, values);
+        solver.solve(targets, values);
+        // Judged on the real rig at the values found (mapped back by name).
+        for (std::size_t p = 0; p < a.parameters.size(); ++p) {
+            const auto it = std::find_if(parameters.begin(), parameters.end(), [&](const RigParameter& r) {
+                return r.name == a.parameters[p].parameter.name;
+            });
+            solved[static_cast<std::size_t>(it - parameters.begin())] = values[p];
+        }
+        leg.rig.evaluate(solved, reached);
+        double worst = 0.0;
+        for (std::size_t k = 0; k < real.size(); ++k)
+            worst = std::max(worst, (reached[k].block<3, 1>(0, 3) - real[k].block<3, 1>(0, 3)).norm());
+        recovered += worst < 1e-3 ? 1 : 0;
+        worstOfAll = std::max(worstOfAll, worst);
+    }
+    MESSAGE("random poses of the switched left leg reached from rest on the real rig: "
+            << recovered << " of " << poses << ", worst " << worstOfAll << " cm");
+    // 22 of 30 measured: the misses end stuck (7 to 15 degrees off at the foot) with the weight away from the truth's,
+    // often near a branch that cannot reach the pose (the FK leg does not stretch): local minima of the blended leg's
+    // redundant controls, not the Jacobian (checked above) nor the approximation (1e-4 cm from the real rig).
+    CHECK(recovered >= 20);
+}
+
+TEST_CASE("blend: a damaged blend is one line naming file:line:col and the field")
 {
     CHECK(blendErrorWith("", "") == "(no error)");
     CHECK(blendErrorWith("mode: eulerChannels", "mode: lerp") ==
@@ -397,13 +592,6 @@ TEST_CASE("blend: a damaged blend is one line naming file:line:col and the field
         blendErrorWith("    weight:", "    wait: 1\n    weight:")
             .find("constraints[0]: unknown field 'wait'; the fields are kind, ik, fk, weight, mode, anchor, ikParent, "
                   "fkParent, order") != std::string::npos);
-
-    const Approximation a = switchedThigh();
-    const std::vector<JointTarget> targets(a.outputs.size());
-    CHECK_THROWS_WITH_AS(JacobianEvaluator(a, targets, 10.0),
-                         "output 'thigh' is a blend of an animated switch, which the solver does not take yet; learn "
-                         "with the switch held (rig-learn --set PLUG=0 or 1)",
-                         Error);
 }
 
 }  // namespace rig
