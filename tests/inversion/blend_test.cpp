@@ -18,6 +18,7 @@
 #include "inversion/constraint_fit.h"
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
+#include "inversion/partition.h"
 #include "inversion/solver.h"
 #include "nodes/graph_rig_function.h"
 #include "solver_rigs.h"
@@ -468,6 +469,24 @@ TEST_CASE("blend: the Jacobian through a blend is central differences', the weig
         CHECK((heldAnalytic - analytic.leftCols(4)).cwiseAbs().maxCoeff() < 1e-12 * std::max(1.0, analytic.norm()));
         CHECK((heldAnalytic - heldNumeric).cwiseAbs().maxCoeff() < 1e-6 * std::max(1.0, heldAnalytic.norm()));
     }
+}
+
+TEST_CASE("blend: the partition solves a switch's weight with both branches' controls, on the outputs it blends")
+{
+    const Approximation a = switchedThigh();
+    // Targets on the hip, the thigh and the knee: the hip's control may be solved first, on the hip alone; the weight,
+    // the IK and the FK controls move the thigh together (through the blend), so one block holds them.
+    const std::vector<unsigned char> rows{allRows, 0, 0, allRows, allRows};
+    const Partition partition = partitionProblem(a, rows, true);
+    CHECK(partition.unreached.empty());
+    const auto block = std::find_if(partition.blocks.begin(), partition.blocks.end(), [](const PartitionBlock& b) {
+        return std::find(b.parameters.begin(), b.parameters.end(), 4) != b.parameters.end();
+    });
+    REQUIRE(block != partition.blocks.end());
+    for (const int p : {1, 2, 3})
+        CHECK(std::find(block->parameters.begin(), block->parameters.end(), p) != block->parameters.end());
+    for (const int k : {3, 4})
+        CHECK(std::find(block->outputs.begin(), block->outputs.end(), k) != block->outputs.end());
 }
 
 TEST_CASE("blend: warm-started solves with the switch at a branch leave the other branch's controls where they were")
