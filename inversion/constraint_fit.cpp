@@ -89,10 +89,15 @@ ConstraintFitter::ConstraintFitter(RigProbe& probe, const std::vector<ParameterS
 {
 }
 
-bool ConstraintFitter::usableAnchor(int a, const RigState& state) const
+bool ConstraintFitter::modelled(int a, const RigState& state) const
 {
     const auto i = static_cast<std::size_t>(a);
-    return !state.nonCompositional[i] && !state.unreliable[i] && !probe_.constraints.contains(a);
+    return !state.nonCompositional[i] && !state.unreliable[i];
+}
+
+bool ConstraintFitter::usableAnchor(int a, const RigState& state) const
+{
+    return modelled(a, state) && !probe_.constraints.contains(a);
 }
 
 std::vector<int> ConstraintFitter::moversOf(int k) const
@@ -369,13 +374,23 @@ bool ConstraintFitter::turnsOf(int k, const std::vector<Pose>& poses, Constraint
     return true;
 }
 
-std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, int anchor, const std::vector<int>& movers,
-                                                         const RigState& state, Closest& closest)
+std::optional<ConstraintBase> ConstraintFitter::twistShare(int k, const RigState& state)
+{
+    Closest closest;
+    return fitTwist(k, moversOf(k), state, true, closest);
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, const std::vector<int>& movers, const RigState& state,
+                                                         bool constraintInputs, Closest& closest)
 {
     const auto& names = probe_.rig().outputs();
+    const auto usable = [&](int i) { return constraintInputs ? modelled(i, state) : usableAnchor(i, state); };
     ConstraintBase base;
     base.kind = ConstraintKind::twistShare;
-    base.anchor = anchor;
+    // With constraint inputs, a roll joint under an IK forearm turns with the forearm: its motion M_a carries the roll
+    // joint's rest origin wherever the chain puts it.
+    base.anchor = hierarchy_[static_cast<std::size_t>(k)];
+    while (base.anchor >= 0 && !usable(base.anchor)) base.anchor = hierarchy_[static_cast<std::size_t>(base.anchor)];
     const auto movedBy = [&](const std::vector<int>& m) {
         return std::any_of(m.begin(), m.end(),
                            [&](int i) { return std::binary_search(movers.begin(), movers.end(), i); });
@@ -384,8 +399,8 @@ std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, int anchor, cons
     for (std::size_t d = 0; d < hierarchy_.size(); ++d) {
         const int driver = static_cast<int>(d), parent = hierarchy_[d];
         const std::vector<int> driverMovers = moversOf(driver);
-        if (driver == k || !usableAnchor(driver, state) || !movedBy(driverMovers)) continue;
-        if (parent >= 0 && !usableAnchor(parent, state)) continue;
+        if (driver == k || !usable(driver) || !movedBy(driverMovers)) continue;
+        if (parent >= 0 && !usable(parent)) continue;
         // The poses also vary what turns the driver without moving k alone: a turn about an axis across the twist's
         // changes the twist only together with the others.
         std::vector<int> varied;
@@ -561,7 +576,7 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     }
     const std::vector<int> movers = moversOf(k), anchorMovers = anchor >= 0 ? moversOf(anchor) : std::vector<int>{};
     Closest closest;
-    if (std::optional<ConstraintBase> twist = fitTwist(k, anchor, movers, state, closest)) return twist;
+    if (std::optional<ConstraintBase> twist = fitTwist(k, movers, state, false, closest)) return twist;
     const auto movesAnchor = [&](int i) { return std::binary_search(anchorMovers.begin(), anchorMovers.end(), i); };
     const auto moves = [&](int i, int h) {
         const auto& moved = samples_[static_cast<std::size_t>(i)].moved;

@@ -632,6 +632,31 @@ bool constrainOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, Co
     return changed;
 }
 
+// An output given a planar chain but over epsilon in validation is tried as a twist share again, once. A roll joint
+// under an IK forearm is fitted before the hand that drives it has its own chain (siblings, in rig order), and the
+// chain fitted instead is checked only on what moves its inputs: the hand's twist is left to the roll joint's own
+// operators, which do not compose. True when one was found.
+bool twistOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, ConstraintFitter& fitter,
+                      std::set<int>& retried)
+{
+    bool changed = false;
+    const Approximation& a = pass.approximation;
+    for (std::size_t o = 0; o < a.outputs.size(); ++o) {
+        const int k = pass.rigOutput[o];
+        const auto chain = probe.constraints.find(k);
+        if (a.outputs[o].validationError <= fitter.epsilon() || chain == probe.constraints.end() ||
+            chain->second.kind != ConstraintKind::planarChain || !retried.insert(k).second)
+            continue;
+        const std::optional<ConstraintBase> base = fitter.twistShare(k, state);
+        if (!base) continue;
+        for (const int input : base->inputs())
+            if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
+        chain->second = *base;
+        changed = true;
+    }
+    return changed;
+}
+
 bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hierarchy, ConstraintFitter& fitter,
                     FrameHistory& history, std::set<int>& tried, std::set<int>& relativeAgain)
 {
@@ -710,7 +735,8 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
                                            : options.threads);
     std::vector<ParameterSamples> samples = firstSamples(pool, parameters.size(), rest, options);
     ConstraintFitter fitter(probe, samples, rig.outputParents(), helper, options);
-    std::set<int> fitted, relativeAgain;  // outputs a constraint was tried on; tried relative again
+    // Outputs a constraint was tried on; tried relative again; planar chains tried as twist shares again.
+    std::set<int> fitted, relativeAgain, twistAgain;
     ValidationPoses poses = drawPoses(parameters, options);
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
@@ -736,6 +762,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         }
         if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain))
             continue;
+        if (options.perOutput && twistOverEpsilon(pass, probe, state, fitter, twistAgain)) continue;
         if (distrustOverEpsilon(pass, options, distrusted)) continue;
         if (options.perOutput && constrainOverEpsilon(pass, probe, state, fitter, fitted)) continue;
         if (!raiseBudgets(pass, options, budgets)) break;
