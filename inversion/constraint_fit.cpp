@@ -31,6 +31,10 @@ constexpr double nearestReach = 1e-3;
 // bundled rigs' chains and aims), and is taken at once; the others within epsilon only if no exact one follows.
 constexpr double exactShare = 1e-2;
 
+// Two readings of a driver's twist whose worst misses on the poses differ by less than this (radians) fit alike: their
+// difference is rounding (1e-16 measured).
+constexpr double sameTwist = 1e-10;
+
 // Poses that check a candidate: the same for every candidate and sample count, apart from those it was fitted on.
 constexpr int checkPoses = 8;
 
@@ -333,7 +337,11 @@ bool ConstraintFitter::bestShare(const std::vector<Pose>& poses, const std::vect
                 double miss = 0.0;
                 for (std::size_t i = 0; i < tau.size(); ++i)
                     miss = std::max(miss, std::abs(theta[i] - candidate.share * tau[i]));
-                if (miss < best) {
+                // Readings that agree to rounding are the same twist but where one's angles are at gimbal lock, which
+                // the validation's limit poses hit: the first is kept, the plain swing-twist before the reorderings
+                // (two IK forearms' roll joints, a swing-twist in the rig, took an xyz read in yzx, 1e-16 closer,
+                // and missed a limit pose by 47 degrees).
+                if (miss < best - sameTwist) {
                     best = miss;
                     base = candidate;
                 }

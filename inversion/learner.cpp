@@ -145,18 +145,24 @@ std::pair<double, int> relativeError(const Eigen::Matrix4d& truth, const Eigen::
     return {relative, furthest};
 }
 
-// Whether output k is a twist share whose twist is undefined at these worlds (twistSingular): the rig's twist jumps
-// there by rounding, so no model can agree with it.
-bool undefinedTwist(const Approximation& a, const std::vector<Eigen::Matrix4d>& worlds, std::size_t k)
+// Whether output k is a twist share whose twist is undefined at the approximation's worlds or the rig's
+// (twistSingular): the rig's twist jumps there by rounding, so no model can agree with it. The rig's too: a driver
+// learned with a constraint (an IK hand) is off the rig's by its shape's error, which decides the approximation's
+// twist where the rig's is undefined (47 degrees off at a limit pose of a random IK arm).
+bool undefinedTwist(const Approximation& a, const std::vector<Eigen::Matrix4d>& approximated,
+                    const std::vector<Eigen::Matrix4d>& truth, const std::vector<int>& rigOutput, std::size_t k)
 {
     const int c = a.outputs[k].constraint;
     if (c < 0 || a.constraints[static_cast<std::size_t>(c)].kind != ConstraintKind::twistShare) return false;
     const ConstraintBase& base = a.constraints[static_cast<std::size_t>(c)];
-    const auto rotation = [&](int i) -> Eigen::Matrix3d {
-        return i < 0 ? Eigen::Matrix3d::Identity()
-                     : polarRotation(worlds[static_cast<std::size_t>(i)].block<3, 3>(0, 0));
+    const auto singular = [&](const auto& world) {
+        const auto rotation = [&](int i) -> Eigen::Matrix3d {
+            return i < 0 ? Eigen::Matrix3d::Identity() : polarRotation(world(i).template block<3, 3>(0, 0));
+        };
+        return twistSingular(base, rotation(base.driverParent).transpose() * rotation(base.driver));
     };
-    return twistSingular(base, rotation(base.driverParent).transpose() * rotation(base.driver));
+    return singular([&](int i) { return approximated[static_cast<std::size_t>(i)]; }) ||
+           singular([&](int i) { return truth[static_cast<std::size_t>(rigOutput[static_cast<std::size_t>(i)])]; });
 }
 
 // The approximation against the real rig on the poses, with only the modelled parameters moved.
@@ -193,7 +199,7 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
         }
         for (std::size_t k = 0; k < approximated.size(); ++k) {
             if (!approximation.outputs[k].modelled) continue;  // not predicted: nothing to validate
-            if (undefinedTwist(approximation, approximated, k)) {
+            if (undefinedTwist(approximation, approximated, truthWorlds, rigOutput, k)) {
                 if (summary.singularPoses++ == 0) summary.singularOutput = approximation.outputs[k].name;
                 continue;
             }
