@@ -63,9 +63,9 @@ private:
         std::vector<double> offsets;          // per varied parameter
         std::vector<Eigen::Matrix4d> worlds;  // every rig output
     };
-    bool modelled(int a, const RigState& state) const;  // learned: by operators or a constraint
+    bool modelled(int a, const RigState& state) const;      // learned: by operators or a constraint
     bool usableAnchor(int a, const RigState& state) const;  // learned by operators alone
-    std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k
+    std::vector<int> moversOf(int k) const;                 // parameters whose first samples moved output k
     const std::vector<Pose>& poses(const std::vector<int>& varied, int set, int count);
     // The goal's sweep: its free parameters (without limits: the goal's translations) moved together so that the goal
     // moves along the chain's line at rest by t (to first order), the rig's worlds there kept by t. False when no
