@@ -337,10 +337,9 @@ bool ConstraintFitter::bestShare(const std::vector<Pose>& poses, const std::vect
                 double miss = 0.0;
                 for (std::size_t i = 0; i < tau.size(); ++i)
                     miss = std::max(miss, std::abs(theta[i] - candidate.share * tau[i]));
-                // Readings that agree to rounding are the same twist but where one's angles are at gimbal lock, which
-                // the validation's limit poses hit: the first is kept, the plain swing-twist before the reorderings
-                // (two IK forearms' roll joints, a swing-twist in the rig, took an xyz read in yzx, 1e-16 closer,
-                // and missed a limit pose by 47 degrees).
+                // Readings that agree to rounding are the same twist (but at their own gimbal locks): the first is
+                // kept, the plain swing-twist before the reorderings, not one rounding picks (the creature's IK roll
+                // joints, a swing-twist in the rig, were reported as xyz angles read in yzx, 1e-16 closer).
                 if (miss < best - sameTwist) {
                     best = miss;
                     base = candidate;

@@ -544,6 +544,9 @@ TEST_CASE(
         // The rig's weight, 0.5, of the wrist's twist about the hand's x axis (the sign is the fitted axis's).
         CHECK(base.twistAxis == 0);
         CHECK(std::abs(base.share) == doctest::Approx(0.5).epsilon(1e-9));
+        // The plain swing-twist, as twistDistribute reads the wrist's rotate in the hand's own order (the reorderings
+        // that agree with it to rounding are not taken).
+        CHECK(base.readOrder == base.twistOrder);
         // The forearm and the hand are planar chains on the arm's goal and pole.
         for (const int input : {base.anchor, base.driver})
             CHECK(a.constraints[static_cast<std::size_t>(a.outputs[static_cast<std::size_t>(input)].constraint)].kind ==
