@@ -584,3 +584,27 @@ TEST_CASE(
         }
     }
 }
+
+TEST_CASE("rig-learn: the creature's IK spec with the forearm twist joints writes them as twist shares of the hands")
+{
+    // The command line of the issue (it exited 3, the roll joints planar chains 0.0453 cm per unit over epsilon).
+    const auto dir = test::scratchDir("creature-ik-twist");
+    std::string text = test::readFile(test::sourceDir() / "rigs/creature_inversion_ik.yaml");
+    const std::string hands = "'[LR]_hand', ";
+    const auto at = text.find(hands);
+    REQUIRE(at != std::string::npos);
+    text.insert(at + hands.size(), "'[LR]_forearm_twist', ");
+    const auto specFile = test::writeFile(dir / "creature_inversion_ik_with_twist.yaml", text);
+    const auto approx = dir / "creature.approx.yaml";
+    const auto learned = test::run(fmt::format("{} rigs/creature.yaml --spec '{}' -o '{}'", test::tool("rig-learn"),
+                                               specFile.string(), approx.string()));
+    INFO(learned.out << learned.err);
+    CHECK(learned.exitCode == 0);
+    for (const char* side : {"L", "R"})
+        CHECK(
+            learned.out.find(fmt::format("  {0}_forearm_twist: twistShare, turns with {0}_forearm, -0.5 of {0}_hand's "
+                                         "twist about x relative to {0}_forearm (swing-twist)\n",
+                                         side)) != std::string::npos);
+    CHECK(learned.out.find("epsilon 0.001: within") != std::string::npos);
+    CHECK(std::filesystem::exists(approx));
+}
