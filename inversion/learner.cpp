@@ -747,8 +747,9 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
     // First, a relative output where learning failed moves to world space (an output never goes back).
-    // Then outputs where a pair has neither order are set apart (setApartConflicts), then the rig decides
-    // the order of every pair on an output still over epsilon (distrustOverEpsilon), then interpolated fits
+    // Then outputs where a pair has neither order are set apart (setApartConflicts), constraints are fitted
+    // (fitConstraints), a planar chain over epsilon is tried as a twist share (twistOverEpsilon), then the rig
+    // decides the order of every pair on an output still over epsilon (distrustOverEpsilon), then interpolated fits
     // reaching one get more samples (raiseBudgets).
     std::vector<int> budgets(parameters.size(), options.maxSamples);
     std::set<int> distrusted;

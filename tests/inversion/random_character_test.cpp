@@ -527,8 +527,8 @@ TEST_CASE(
     // docs/rig-learn.md.)
     // - With a rigid (no stretch) IK arm, before goal holds (GoalHold, docs/solver.md) 4 poses (3.4 to 15.5 cm) ended
     //   with the arm straight where the truth bends it: the solve took the goal past the chain's reach, where the shape
-    //   is flat and no step brings it back. One more (0.029 cm, that arm straight in the truth too) was
-    //   missed while the roll joints under IK forearms were left out of the outputs, and is reached with them.
+    //   is flat and no step brings it back. One more (0.029 cm, that arm straight in the truth too) was missed
+    //   while the roll joints under IK forearms were left out of the outputs, and is reached with them.
     // - The roll joints under IK forearms were first learned as planar chains on the arm's goal and pole, 0.03 to 0.06
     //   cm per unit over epsilon: tried before the hand that drives them had its own chain, and checked only on what
     //   moves the chain's inputs. The learner now tries a chain over epsilon as a twist share again, its inputs
