@@ -665,4 +665,48 @@ TEST_CASE("constraints: random aims (axes, up modes, offsets) are learned as pla
     CHECK(reached >= tried * 9 / 10);
 }
 
+TEST_CASE(
+    "constraints: an aim target's distance along the line of sight is held at the solve's start, frame after frame")
+{
+    // One eye on a turning head, aimed at a target control: the joints fix the target's direction from the eye, never
+    // its distance. Warm-started frames whose targets turn the eye must leave the distance where it was, and the
+    // minimum-norm steps alone would move the target across the line of sight, further out each frame.
+    std::mt19937 rng(31);
+    std::string upMode;
+    const auto file = test::writeFile(test::scratchDir("constraint-aim-hold") / "aim.yaml", randomAimRig(rng, upMode));
+    GraphRigOptions options;
+    options.parameterGlobs = {"root_ctrl.translate?", "head_ctrl.rotate?", "target_ctrl.translate?"};
+    options.outputGlobs = {"root", "head", "eye"};
+    options.autoHelpers = true;
+    GraphRigFunction rig(file, options);
+    const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
+    REQUIRE(!a.hasUnmodelledOutputs());
+    const std::vector<AimHold> holds = aimHolds(a);
+    REQUIRE(holds.size() == 1);
+    const std::vector<PoleHold> poles = poleHolds(a);
+    const Solver solver(a, SolverOptions{});
+    RigBinding binding(a, rig);
+    std::vector<double> values = a.defaults(), truth = a.defaults();
+    std::vector<double> start;
+    aimReaches(a, holds, values, start);
+    const auto target = [&](int axis) {
+        return static_cast<std::size_t>(test::parameterIndex(a, fmt::format("target_ctrl.translate{}", "XYZ"[axis])));
+    };
+    for (int frame = 1; frame <= 40; ++frame) {
+        CAPTURE(frame);
+        // The target circles the head at its rest distance and the head turns: the eye turns frame after frame.
+        const double t = 0.15 * frame;
+        for (int axis = 0; axis < 3; ++axis)
+            truth[target(axis)] = a.defaults()[target(axis)] + 25.0 * std::sin(t + 2.0 * axis);
+        truth[static_cast<std::size_t>(test::parameterIndex(a, "head_ctrl.rotateY"))] = 0.3 * std::sin(0.5 * t);
+        std::vector<JointTarget> targets = test::realTargetsAt(a, binding, truth);
+        const SolveSummary s = solver.solve(targets, values);
+        CHECK(s.converged());
+        std::vector<double> now;
+        aimReaches(a, holds, values, now);
+        CHECK(now[0] == doctest::Approx(start[0]).epsilon(1e-9));
+    }
+    CHECK(poles.empty());  // the up vector is carried by the head or fixed: no pole control to hold
+}
+
 }  // namespace rig
