@@ -152,6 +152,32 @@ std::vector<JointTarget> jointTargets(const Approximation& a, const std::vector<
     return targets;
 }
 
+// A random pose (randomPoseValues) set on the real rig, every joint a target, solved on the approximation from its
+// initial guess (checked converged): the values set, the targets, the real rig's worlds at them, the answer and the
+// real rig's worlds at it.
+struct RealPose {
+    std::vector<double> known;
+    std::vector<JointTarget> targets;
+    std::vector<Eigen::Matrix4d> worlds;
+    std::vector<double> values;
+    std::vector<Eigen::Matrix4d> solved;
+};
+
+RealPose solveRealPose(const Approximation& a, const Solver& solver, RigBinding& binding, std::mt19937& rng)
+{
+    RealPose pose;
+    pose.known = randomPoseValues(a, rng);
+    binding.evaluate(pose.known, pose.worlds);
+    pose.targets = jointTargets(a, pose.worlds);
+    pose.values = a.defaults();
+    REQUIRE(solver.initialGuess(pose.targets, pose.values) == TerminationType::converged);
+    const SolveSummary summary = solver.solve(pose.targets, pose.values);
+    CAPTURE(summary.briefReport());
+    CHECK(summary.converged());
+    binding.evaluate(pose.values, pose.solved);
+    return pose;
+}
+
 }  // namespace
 
 TEST_CASE("creature: 47 joints, every control a free keyable plug on a *_ctrl, checked mode at random values")
@@ -406,17 +432,8 @@ TEST_CASE(
     std::mt19937 rng(23);
     for (int pose = 0; pose < 6; ++pose) {
         CAPTURE(pose);
-        const std::vector<double> known = randomPoseValues(a, rng);
-        std::vector<Eigen::Matrix4d> worlds;
-        binding.evaluate(known, worlds);
-        const std::vector<JointTarget> targets = jointTargets(a, worlds);
-        std::vector<double> values = a.defaults();
-        REQUIRE(solver.initialGuess(targets, values) == TerminationType::converged);
-        const SolveSummary summary = solver.solve(targets, values);
-        CAPTURE(summary.briefReport());
-        CHECK(summary.converged());
-        std::vector<Eigen::Matrix4d> solved;
-        binding.evaluate(values, solved);
+        const RealPose real = solveRealPose(a, solver, binding, rng);
+        const auto& [known, targets, worlds, values, solved] = real;
         double tipCm = 0.0, footCm = 0.0;
         int feet = 0;
         for (std::size_t k = 0; k < worlds.size(); ++k) {
@@ -558,19 +575,10 @@ TEST_CASE(
     std::mt19937 rng(31);
     for (int pose = 0; pose < 6; ++pose) {
         CAPTURE(pose);
-        const std::vector<double> known = randomPoseValues(a, rng);
-        std::vector<Eigen::Matrix4d> worlds;
-        binding.evaluate(known, worlds);
-        const std::vector<JointTarget> targets = jointTargets(a, worlds);
-        std::vector<double> values = a.defaults();
         // A cold start from rest: the guess places the chains and the reverse feet (without it a foot's roll can stop
         // flat, 0.5 cm off; the twist joints are on their targets either way), then the solve.
-        REQUIRE(solver.initialGuess(targets, values) == TerminationType::converged);
-        const SolveSummary summary = solver.solve(targets, values);
-        CAPTURE(summary.briefReport());
-        CHECK(summary.converged());
-        std::vector<Eigen::Matrix4d> solved;
-        binding.evaluate(values, solved);
+        const RealPose real = solveRealPose(a, solver, binding, rng);
+        const auto& [known, targets, worlds, values, solved] = real;
         for (const char* name : {"L_forearm_twist", "R_forearm_twist"}) {
             CAPTURE(name);
             const auto k = static_cast<std::size_t>(index(name));
