@@ -628,6 +628,16 @@ TEST_CASE("constraints: a rigid chain's goal past its reach is held back inside 
     }
 }
 
+// A random aim rig's parameters and outputs, its helper frames found as rig-learn finds them.
+GraphRigOptions aimRigOptions()
+{
+    GraphRigOptions options;
+    options.parameterGlobs = {"root_ctrl.translate?", "head_ctrl.rotate?", "target_ctrl.translate?"};
+    options.outputGlobs = {"root", "head", "eye"};
+    options.autoHelpers = true;
+    return options;
+}
+
 TEST_CASE("constraints: random aims (axes, up modes, offsets) are learned as planar chains and solved from rest")
 {
     std::mt19937 rng(31);
@@ -638,11 +648,7 @@ TEST_CASE("constraints: random aims (axes, up modes, offsets) are learned as pla
         std::string upMode;
         const auto file = test::writeFile(dir / fmt::format("aim{}.yaml", r), randomAimRig(rng, upMode));
         CAPTURE(upMode);
-        GraphRigOptions options;
-        options.parameterGlobs = {"root_ctrl.translate?", "head_ctrl.rotate?", "target_ctrl.translate?"};
-        options.outputGlobs = {"root", "head", "eye"};
-        options.autoHelpers = true;
-        GraphRigFunction rig(file, options);
+        GraphRigFunction rig(file, aimRigOptions());
         const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
         if (a.hasUnmodelledOutputs() || !a.validation.withinEpsilon) {
             MESSAGE("aim " << r << " (" << upMode << ") not learned within epsilon");
@@ -674,11 +680,7 @@ TEST_CASE(
     std::mt19937 rng(31);
     std::string upMode;
     const auto file = test::writeFile(test::scratchDir("constraint-aim-hold") / "aim.yaml", randomAimRig(rng, upMode));
-    GraphRigOptions options;
-    options.parameterGlobs = {"root_ctrl.translate?", "head_ctrl.rotate?", "target_ctrl.translate?"};
-    options.outputGlobs = {"root", "head", "eye"};
-    options.autoHelpers = true;
-    GraphRigFunction rig(file, options);
+    GraphRigFunction rig(file, aimRigOptions());
     const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
     REQUIRE(!a.hasUnmodelledOutputs());
     const std::vector<AimHold> holds = aimHolds(a);
