@@ -164,7 +164,7 @@ Json outputsJson(const Approximation& a)
     return outputs;
 }
 
-// Per held pole, its controls: what the joints cannot decide, which the solver holds at rest (pole_hold.h).
+// Per held pole and aim target, its controls: what the joints cannot decide, which the solver holds (pole_hold.h).
 Json notIdentifiableJson(const Approximation& a)
 {
     Json held = Json::array();
@@ -177,6 +177,16 @@ Json notIdentifiableJson(const Approximation& a)
               a.outputs[static_cast<std::size_t>(a.constraints[static_cast<std::size_t>(hold.constraint)].pole)].name},
              {"controls", std::move(controls)},
              {"why", "the pole's distance from the chain and its place along it; the plane it spans is solved"}});
+    }
+    for (const AimHold& hold : aimHolds(a)) {
+        Json controls = Json::array();
+        for (const int p : hold.parameters)
+            controls.push_back(a.parameters[static_cast<std::size_t>(p)].parameter.name);
+        held.push_back(
+            {{"target",
+              a.outputs[static_cast<std::size_t>(a.constraints[static_cast<std::size_t>(hold.constraint)].goal)].name},
+             {"controls", std::move(controls)},
+             {"why", "the aim target's distance along the line of sight; its direction is solved"}});
     }
     return held;
 }

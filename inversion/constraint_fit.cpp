@@ -31,6 +31,10 @@ constexpr double nearestReach = 1e-3;
 // bundled rigs' chains and aims), and is taken at once; the others within epsilon only if no exact one follows.
 constexpr double exactShare = 1e-2;
 
+// Two readings of a driver's twist whose worst misses on the poses differ by less than this (radians) fit alike: their
+// difference is rounding (1e-16 measured).
+constexpr double sameTwist = 1e-10;
+
 // Poses that check a candidate: the same for every candidate and sample count, apart from those it was fitted on.
 constexpr int checkPoses = 8;
 
@@ -89,10 +93,15 @@ ConstraintFitter::ConstraintFitter(RigProbe& probe, const std::vector<ParameterS
 {
 }
 
-bool ConstraintFitter::usableAnchor(int a, const RigState& state) const
+bool ConstraintFitter::modelled(int a, const RigState& state) const
 {
     const auto i = static_cast<std::size_t>(a);
-    return !state.nonCompositional[i] && !state.unreliable[i] && !probe_.constraints.contains(a);
+    return !state.nonCompositional[i] && !state.unreliable[i];
+}
+
+bool ConstraintFitter::usableAnchor(int a, const RigState& state) const
+{
+    return modelled(a, state) && !probe_.constraints.contains(a);
 }
 
 std::vector<int> ConstraintFitter::moversOf(int k) const
@@ -328,7 +337,10 @@ bool ConstraintFitter::bestShare(const std::vector<Pose>& poses, const std::vect
                 double miss = 0.0;
                 for (std::size_t i = 0; i < tau.size(); ++i)
                     miss = std::max(miss, std::abs(theta[i] - candidate.share * tau[i]));
-                if (miss < best) {
+                // Readings that agree to rounding are the same twist (but at their own gimbal locks): the first is
+                // kept, the plain swing-twist before the reorderings, not one rounding picks (the creature's IK roll
+                // joints, a swing-twist in the rig, were reported as xyz angles read in yzx, 1e-16 closer).
+                if (miss < best - sameTwist) {
                     best = miss;
                     base = candidate;
                 }
@@ -369,13 +381,23 @@ bool ConstraintFitter::turnsOf(int k, const std::vector<Pose>& poses, Constraint
     return true;
 }
 
-std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, int anchor, const std::vector<int>& movers,
-                                                         const RigState& state, Closest& closest)
+std::optional<ConstraintBase> ConstraintFitter::twistShare(int k, const RigState& state)
+{
+    Closest closest;
+    return fitTwist(k, moversOf(k), state, true, closest);
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, const std::vector<int>& movers, const RigState& state,
+                                                         bool constraintInputs, Closest& closest)
 {
     const auto& names = probe_.rig().outputs();
+    const auto usable = [&](int i) { return constraintInputs ? modelled(i, state) : usableAnchor(i, state); };
     ConstraintBase base;
     base.kind = ConstraintKind::twistShare;
-    base.anchor = anchor;
+    // With constraint inputs, a roll joint under an IK forearm turns with the forearm: its motion M_a carries the roll
+    // joint's rest origin wherever the chain puts it.
+    base.anchor = hierarchy_[static_cast<std::size_t>(k)];
+    while (base.anchor >= 0 && !usable(base.anchor)) base.anchor = hierarchy_[static_cast<std::size_t>(base.anchor)];
     const auto movedBy = [&](const std::vector<int>& m) {
         return std::any_of(m.begin(), m.end(),
                            [&](int i) { return std::binary_search(movers.begin(), movers.end(), i); });
@@ -384,8 +406,8 @@ std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, int anchor, cons
     for (std::size_t d = 0; d < hierarchy_.size(); ++d) {
         const int driver = static_cast<int>(d), parent = hierarchy_[d];
         const std::vector<int> driverMovers = moversOf(driver);
-        if (driver == k || !usableAnchor(driver, state) || !movedBy(driverMovers)) continue;
-        if (parent >= 0 && !usableAnchor(parent, state)) continue;
+        if (driver == k || !usable(driver) || !movedBy(driverMovers)) continue;
+        if (parent >= 0 && !usable(parent)) continue;
         // The poses also vary what turns the driver without moving k alone: a turn about an axis across the twist's
         // changes the twist only together with the others.
         std::vector<int> varied;
@@ -561,7 +583,7 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     }
     const std::vector<int> movers = moversOf(k), anchorMovers = anchor >= 0 ? moversOf(anchor) : std::vector<int>{};
     Closest closest;
-    if (std::optional<ConstraintBase> twist = fitTwist(k, anchor, movers, state, closest)) return twist;
+    if (std::optional<ConstraintBase> twist = fitTwist(k, movers, state, false, closest)) return twist;
     const auto movesAnchor = [&](int i) { return std::binary_search(anchorMovers.begin(), anchorMovers.end(), i); };
     const auto moves = [&](int i, int h) {
         const auto& moved = samples_[static_cast<std::size_t>(i)].moved;

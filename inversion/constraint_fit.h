@@ -45,6 +45,12 @@ public:
     // family that came closest and its error).
     std::optional<ConstraintBase> fit(int k, const RigState& state, std::string& why);
 
+    // The twist share alone, its anchor, driver and driver's parent outputs learned by operators or by a constraint
+    // (fit reads operator outputs only): a roll joint under an IK forearm turns with the forearm by a share of the
+    // hand's twist, both planar chain outputs, the hand fitted after the roll joint. Nullopt when none is within
+    // epsilon.
+    std::optional<ConstraintBase> twistShare(int k, const RigState& state);
+
     std::uint64_t evaluations() const { return evaluations_; }
     double epsilon() const { return options_.epsilon; }
 
@@ -57,8 +63,9 @@ private:
         std::vector<double> offsets;          // per varied parameter
         std::vector<Eigen::Matrix4d> worlds;  // every rig output
     };
-    bool usableAnchor(int a, const RigState& state) const;
-    std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k
+    bool modelled(int a, const RigState& state) const;      // learned: by operators or a constraint
+    bool usableAnchor(int a, const RigState& state) const;  // learned by operators alone
+    std::vector<int> moversOf(int k) const;                 // parameters whose first samples moved output k
     const std::vector<Pose>& poses(const std::vector<int>& varied, int set, int count);
     // The goal's sweep: its free parameters (without limits: the goal's translations) moved together so that the goal
     // moves along the chain's line at rest by t (to first order), the rig's worlds there kept by t. False when no
@@ -79,9 +86,11 @@ private:
     // A candidate's shape (swept, or constant for a fixed goal) and its worst error per unit moved on random poses;
     // infinite where it cannot be made.
     double tryCandidate(int k, const std::vector<int>& varied, bool fixedGoal, ConstraintBase& base);
-    // The twist share of k under `anchor` that the poses of `movers` fit best, if within epsilon.
-    std::optional<ConstraintBase> fitTwist(int k, int anchor, const std::vector<int>& movers, const RigState& state,
-                                           Closest& closest);
+    // The twist share of k that the poses of `movers` fit best, if within epsilon: its anchor the nearest usable
+    // ancestor, its driver and the driver's parent usable outputs, where `constraintInputs` makes outputs learned
+    // with a constraint usable too (else operators alone: what fit tries first, before the other chains are fitted).
+    std::optional<ConstraintBase> fitTwist(int k, const std::vector<int>& movers, const RigState& state,
+                                           bool constraintInputs, Closest& closest);
     // k's turns about its own axis relative to its anchor's rotation on the poses (radians), with the base's axis and
     // centre; false when k does not turn on them.
     bool turnsOf(int k, const std::vector<Pose>& poses, ConstraintBase& base, std::vector<double>& theta) const;

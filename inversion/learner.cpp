@@ -145,18 +145,24 @@ std::pair<double, int> relativeError(const Eigen::Matrix4d& truth, const Eigen::
     return {relative, furthest};
 }
 
-// Whether output k is a twist share whose twist is undefined at these worlds (twistSingular): the rig's twist jumps
-// there by rounding, so no model can agree with it.
-bool undefinedTwist(const Approximation& a, const std::vector<Eigen::Matrix4d>& worlds, std::size_t k)
+// Whether output k is a twist share whose twist is undefined at the approximation's worlds or the rig's
+// (twistSingular): the rig's twist jumps there by rounding, so no model can agree with it. The rig's too: a driver
+// learned with a constraint (an IK hand) is off the rig's by its shape's error, which decides the approximation's
+// twist where the rig's is undefined (47 degrees off at a limit pose of a random IK arm).
+bool undefinedTwist(const Approximation& a, const std::vector<Eigen::Matrix4d>& approximated,
+                    const std::vector<Eigen::Matrix4d>& truth, const std::vector<int>& rigOutput, std::size_t k)
 {
     const int c = a.outputs[k].constraint;
     if (c < 0 || a.constraints[static_cast<std::size_t>(c)].kind != ConstraintKind::twistShare) return false;
     const ConstraintBase& base = a.constraints[static_cast<std::size_t>(c)];
-    const auto rotation = [&](int i) -> Eigen::Matrix3d {
-        return i < 0 ? Eigen::Matrix3d::Identity()
-                     : polarRotation(worlds[static_cast<std::size_t>(i)].block<3, 3>(0, 0));
+    const auto singular = [&](const auto& world) {
+        const auto rotation = [&](int i) -> Eigen::Matrix3d {
+            return i < 0 ? Eigen::Matrix3d::Identity() : polarRotation(world(i).template block<3, 3>(0, 0));
+        };
+        return twistSingular(base, rotation(base.driverParent).transpose() * rotation(base.driver));
     };
-    return twistSingular(base, rotation(base.driverParent).transpose() * rotation(base.driver));
+    return singular([&](int i) { return approximated[static_cast<std::size_t>(i)]; }) ||
+           singular([&](int i) { return truth[static_cast<std::size_t>(rigOutput[static_cast<std::size_t>(i)])]; });
 }
 
 // The approximation against the real rig on the poses, with only the modelled parameters moved.
@@ -193,7 +199,7 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
         }
         for (std::size_t k = 0; k < approximated.size(); ++k) {
             if (!approximation.outputs[k].modelled) continue;  // not predicted: nothing to validate
-            if (undefinedTwist(approximation, approximated, k)) {
+            if (undefinedTwist(approximation, approximated, truthWorlds, rigOutput, k)) {
                 if (summary.singularPoses++ == 0) summary.singularOutput = approximation.outputs[k].name;
                 continue;
             }
@@ -632,6 +638,31 @@ bool constrainOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, Co
     return changed;
 }
 
+// An output given a planar chain but over epsilon in validation is tried as a twist share again, once. A roll joint
+// under an IK forearm is fitted before the hand that drives it has its own chain (siblings, in rig order), and the
+// chain fitted instead is checked only on what moves its inputs: the hand's twist is left to the roll joint's own
+// operators, which do not compose. True when one was found.
+bool twistOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, ConstraintFitter& fitter,
+                      std::set<int>& retried)
+{
+    bool changed = false;
+    const Approximation& a = pass.approximation;
+    for (std::size_t o = 0; o < a.outputs.size(); ++o) {
+        const int k = pass.rigOutput[o];
+        const auto chain = probe.constraints.find(k);
+        if (a.outputs[o].validationError <= fitter.epsilon() || chain == probe.constraints.end() ||
+            chain->second.kind != ConstraintKind::planarChain || !retried.insert(k).second)
+            continue;
+        const std::optional<ConstraintBase> base = fitter.twistShare(k, state);
+        if (!base) continue;
+        for (const int input : base->inputs())
+            if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
+        chain->second = *base;
+        changed = true;
+    }
+    return changed;
+}
+
 bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hierarchy, ConstraintFitter& fitter,
                     FrameHistory& history, std::set<int>& tried, std::set<int>& relativeAgain)
 {
@@ -710,13 +741,15 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
                                            : options.threads);
     std::vector<ParameterSamples> samples = firstSamples(pool, parameters.size(), rest, options);
     ConstraintFitter fitter(probe, samples, rig.outputParents(), helper, options);
-    std::set<int> fitted, relativeAgain;  // outputs a constraint was tried on; tried relative again
+    // Outputs a constraint was tried on; tried relative again; planar chains tried as twist shares again.
+    std::set<int> fitted, relativeAgain, twistAgain;
     ValidationPoses poses = drawPoses(parameters, options);
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
     // First, a relative output where learning failed moves to world space (an output never goes back).
-    // Then outputs where a pair has neither order are set apart (setApartConflicts), then the rig decides
-    // the order of every pair on an output still over epsilon (distrustOverEpsilon), then interpolated fits
+    // Then outputs where a pair has neither order are set apart (setApartConflicts), constraints are fitted
+    // (fitConstraints), a planar chain over epsilon is tried as a twist share (twistOverEpsilon), then the rig
+    // decides the order of every pair on an output still over epsilon (distrustOverEpsilon), then interpolated fits
     // reaching one get more samples (raiseBudgets).
     std::vector<int> budgets(parameters.size(), options.maxSamples);
     std::set<int> distrusted;
@@ -736,6 +769,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         }
         if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain))
             continue;
+        if (options.perOutput && twistOverEpsilon(pass, probe, state, fitter, twistAgain)) continue;
         if (distrustOverEpsilon(pass, options, distrusted)) continue;
         if (options.perOutput && constrainOverEpsilon(pass, probe, state, fitter, fitted)) continue;
         if (!raiseBudgets(pass, options, budgets)) break;

@@ -190,6 +190,15 @@ double flatFrom(const ConstraintBase& c)
     return c.restReach + knots[first];
 }
 
+// An aim: a planar chain whose shape is the same at every knot.
+bool isAim(const ConstraintBase& c)
+{
+    const auto& y = c.shape.rigid.values();
+    return c.kind == ConstraintKind::planarChain && !y.empty() && std::all_of(y.begin(), y.end(), [&](const auto& v) {
+               return (v - y.front()).cwiseAbs().maxCoeff() <= flatTolerance;
+           });
+}
+
 }  // namespace
 
 std::vector<GoalHold> goalHolds(const Approximation& approximation)
@@ -227,6 +236,53 @@ bool holdGoals(const Approximation& approximation, std::span<const GoalHold> hol
         moved = true;
     }
     return moved;
+}
+
+std::vector<AimHold> aimHolds(const Approximation& approximation)
+{
+    std::vector<AimHold> holds;
+    std::set<int> targets;
+    for (std::size_t i = 0; i < approximation.constraints.size(); ++i) {
+        const ConstraintBase& c = approximation.constraints[i];
+        if (c.kind != ConstraintKind::planarChain || !targets.insert(c.goal).second) continue;
+        // Every chain on the target an aim from the same point, carried by the same anchor.
+        const bool oneEye = std::all_of(approximation.constraints.begin(), approximation.constraints.end(),
+                                        [&](const ConstraintBase& other) {
+                                            return other.kind != ConstraintKind::planarChain || other.goal != c.goal ||
+                                                   (isAim(other) && other.anchor == c.anchor &&
+                                                    (other.root - c.root).norm() <= 1e-9 * (1.0 + c.root.norm()));
+                                        });
+        AimHold hold{static_cast<int>(i), ownTranslations(approximation, c.goal)};
+        if (oneEye && !hold.parameters.empty()) holds.push_back(std::move(hold));
+    }
+    return holds;
+}
+
+void aimReaches(const Approximation& approximation, std::span<const AimHold> holds, std::span<const double> values,
+                std::vector<double>& reaches)
+{
+    reaches.resize(holds.size());
+    for (std::size_t h = 0; h < holds.size(); ++h) {
+        const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(holds[h].constraint)];
+        const ChainPoints points = pointsAt(approximation, c, values);
+        reaches[h] = (points.goal - points.root).norm();
+    }
+}
+
+void holdAims(const Approximation& approximation, std::span<const AimHold> holds, std::span<const double> reaches,
+              std::span<double> values)
+{
+    for (std::size_t h = 0; h < holds.size(); ++h) {
+        const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(holds[h].constraint)];
+        const ChainPoints points = pointsAt(approximation, c, values);
+        const Eigen::Vector3d line = points.goal - points.root;
+        const double reach = line.norm();
+        // On the root the line of sight is undefined: left where it is.
+        if (!(reach > degenerateAcross) || !std::isfinite(reach) || !std::isfinite(reaches[h]) ||
+            !(reaches[h] > degenerateAcross))
+            continue;
+        place(approximation, c.goal, holds[h].parameters, points.root + reaches[h] / reach * line, values);
+    }
 }
 
 }  // namespace rig

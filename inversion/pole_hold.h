@@ -56,4 +56,25 @@ std::vector<GoalHold> goalHolds(const Approximation& approximation);
 // it, where the shape's slope is the bend's (the joints move by under 1e-6 cm). True when a goal moved.
 bool holdGoals(const Approximation& approximation, std::span<const GoalHold> holds, std::span<double> values);
 
+// An aim's target (a planar chain whose shape never changes: docs/rig-learn.md, aims): only its direction from the
+// aimed joint counts, so its distance along the line of sight is not identifiable. A solve's minimum-norm steps move
+// the target across the line as the aim turns, frame after frame further out (a look-at control went 548 m down the eye
+// line); the target is held at the distance it had when the solve started, the joints unchanged.
+struct AimHold {
+    int constraint = -1;          // one of the aims that read the target (they share its root)
+    std::vector<int> parameters;  // the target's own controls: translations that move the target's helper alone
+};
+
+// A hold per target helper read only by aims from one point (one eye: two eyes on one target fix its distance);
+// none where the target has no own translation controls.
+std::vector<AimHold> aimHolds(const Approximation& approximation);
+
+// Each hold's target distance from its aim's root at `values`, into `reaches` (one per hold).
+void aimReaches(const Approximation& approximation, std::span<const AimHold> holds, std::span<const double> values,
+                std::vector<double>& reaches);
+
+// Moves each hold's target along its line of sight to the distance in `reaches`.
+void holdAims(const Approximation& approximation, std::span<const AimHold> holds, std::span<const double> reaches,
+              std::span<double> values);
+
 }  // namespace rig

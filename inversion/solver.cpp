@@ -414,6 +414,7 @@ void SolveRun::run()
         return;  // noTargets: nothing reaches the targets
     }
     parallel_ = impl_.options.threads != 1;
+    if (!impl_.aims.empty()) aimReaches(impl_.approximation, impl_.aims, values_, scratch_.aimReach);
     const bool coupled = !plan_.trees.empty();
     scratch_.results.assign(coupled ? plan_.trees.size() : plan_.partition.blocks.size(), MinimizerResult{});
     if (!impl_.switches.empty()) holdBranches(true);
@@ -422,6 +423,7 @@ void SolveRun::run()
     if (!impl_.switches.empty()) holdBranches(false);
     // The joints stay where the solve put them: the final evaluation still measures them.
     if (!impl_.poles.empty()) holdPoles(impl_.approximation, impl_.poles, values_);
+    if (!impl_.aims.empty()) holdAims(impl_.approximation, impl_.aims, scratch_.aimReach, values_);
     finish(fromSolve);
 }
 

@@ -21,7 +21,12 @@ namespace rig {
 
 struct Solver::Impl {
     Impl(const Approximation& a, SolverOptions o)
-        : approximation(a), options(o), poles(poleHolds(a)), goals(goalHolds(a)), switches(switchHolds(a))
+        : approximation(a),
+          options(o),
+          poles(poleHolds(a)),
+          goals(goalHolds(a)),
+          aims(aimHolds(a)),
+          switches(switchHolds(a))
     {
     }
 
@@ -29,6 +34,7 @@ struct Solver::Impl {
     SolverOptions options;
     std::vector<PoleHold> poles;               // the planar chains' poles held where the joints do not decide them
     std::vector<GoalHold> goals;               // rigid chains' goals held inside their reach
+    std::vector<AimHold> aims;                 // aims' targets held at their distance along the line of sight
     std::vector<SwitchHold> switches;          // a switch's inactive branch held at the warm start
     std::optional<Equivalences> equivalences;  // made once the approximation is checked (Solver's constructor)
     std::optional<tbb::task_arena> arena;

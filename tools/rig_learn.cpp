@@ -187,6 +187,16 @@ std::string constraintsText(const Approximation& a)
             "its place along it; the plane it spans is solved)\n",
             fmt::join(controls, ", "));
     }
+    // And of an aim: its target's distance along the line of sight.
+    for (const AimHold& hold : aimHolds(a)) {
+        std::vector<std::string> controls;
+        for (const int p : hold.parameters)
+            controls.push_back(a.parameters[static_cast<std::size_t>(p)].parameter.name);
+        out += fmt::format(
+            "  held at the solve's start where the joints cannot decide: {} (the aim target's distance along the "
+            "line of sight; its direction is solved)\n",
+            fmt::join(controls, ", "));
+    }
     return out;
 }
 

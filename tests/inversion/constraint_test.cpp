@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <random>
 
 #include <Eigen/Eigenvalues>
@@ -370,24 +371,15 @@ struct RandomLimb {
     bool pole = false;
 };
 
-RandomLimb randomLimb(std::mt19937& rng)
+// A two-bone IK limb under a translating root (start, mid and end: the upper joint's offset and the two bones), its
+// goal control at the end joint at rest, a pole control at `poleAt` or none, stretch or not, a sliding knee or not.
+RandomLimb limbRig(const Eigen::Vector3d& start, const Eigen::Vector3d& mid, const Eigen::Vector3d& end,
+                   const std::optional<Eigen::Vector3d>& poleAt, bool stretch, bool slide)
 {
-    std::uniform_real_distribution<double> unit(-1.0, 1.0), length(15.0, 40.0), bend(0.05, 0.6);
-    Eigen::Vector3d along(unit(rng), unit(rng) - 1.5, unit(rng));
-    along.normalize();
-    Eigen::Vector3d side = along.unitOrthogonal();
-    const double l1 = length(rng), l2 = length(rng), b = bend(rng);
-    const Eigen::Vector3d start(unit(rng) * 10.0, unit(rng) * 10.0, unit(rng) * 10.0);
-    // The mid joint off the start-end line by the bend, towards `side`: the rest plane.
-    const Eigen::Vector3d mid = l1 * (std::cos(b) * along + std::sin(b) * side);
-    const Eigen::Vector3d end = l2 * (std::cos(b) * along - std::sin(b) * side);
+    const auto v = [](const Eigen::Vector3d& x) { return fmt::format("[{:.9g}, {:.9g}, {:.9g}]", x[0], x[1], x[2]); };
     const Eigen::Vector3d goal = Eigen::Vector3d(0, 100, 0) + start + mid + end;
     RandomLimb limb;
-    limb.pole = std::bernoulli_distribution(0.7)(rng);
-    const bool stretch = std::bernoulli_distribution(0.5)(rng);
-    const bool slide = std::bernoulli_distribution(0.3)(rng);
-    const auto v = [](const Eigen::Vector3d& x) { return fmt::format("[{:.9g}, {:.9g}, {:.9g}]", x[0], x[1], x[2]); };
-    const Eigen::Vector3d poleAt = Eigen::Vector3d(0, 100, 0) + start + mid + 40.0 * side;
+    limb.pole = poleAt.has_value();
     limb.yaml = fmt::format(
         "nodes:\n"
         "  - {{name: root_ctrl, type: transform, translate: [0, 100, 0]}}\n"
@@ -410,7 +402,7 @@ RandomLimb randomLimb(std::mt19937& rng)
         v(start), v(goal), v(start), v(mid), v(end), stretch ? "true" : "false", slide ? ", midSlide: 0.5" : "",
         limb.pole ? fmt::format("  - {{name: pole_ctrl, type: transform, translate: {}}}\n"
                                 "  - {{name: pv, type: poleVectorConstraint, constraintRotatePivot: {}}}\n",
-                                v(poleAt), v(start))
+                                v(*poleAt), v(start))
                   : "",
         limb.pole ? "  - pole_ctrl.worldMatrix -> pv.targetMatrix[0]\n  - base.worldMatrix -> pv.pivotSpace\n"
                     "  - pv.constraintTranslate -> ik.poleVector\n"
@@ -420,6 +412,26 @@ RandomLimb randomLimb(std::mt19937& rng)
     limb.options.outputGlobs = {"base", "upper", "lower", "tip"};
     limb.options.autoHelpers = true;
     return limb;
+}
+
+// Bone lengths, the limb's direction and its rest bend at random, with or without a pole control, with or without
+// stretch, a sliding knee or not.
+RandomLimb randomLimb(std::mt19937& rng)
+{
+    std::uniform_real_distribution<double> unit(-1.0, 1.0), length(15.0, 40.0), bend(0.05, 0.6);
+    Eigen::Vector3d along(unit(rng), unit(rng) - 1.5, unit(rng));
+    along.normalize();
+    Eigen::Vector3d side = along.unitOrthogonal();
+    const double l1 = length(rng), l2 = length(rng), b = bend(rng);
+    const Eigen::Vector3d start(unit(rng) * 10.0, unit(rng) * 10.0, unit(rng) * 10.0);
+    // The mid joint off the start-end line by the bend, towards `side`: the rest plane.
+    const Eigen::Vector3d mid = l1 * (std::cos(b) * along + std::sin(b) * side);
+    const Eigen::Vector3d end = l2 * (std::cos(b) * along - std::sin(b) * side);
+    const bool pole = std::bernoulli_distribution(0.7)(rng);
+    const bool stretch = std::bernoulli_distribution(0.5)(rng);
+    const bool slide = std::bernoulli_distribution(0.3)(rng);
+    const Eigen::Vector3d poleAt = Eigen::Vector3d(0, 100, 0) + start + mid + 40.0 * side;
+    return limbRig(start, mid, end, pole ? std::optional(poleAt) : std::nullopt, stretch, slide);
 }
 
 TEST_CASE(
@@ -480,39 +492,22 @@ TEST_CASE(
     CHECK(reached >= poses * 19 / 20);
 }
 
+// Random limb 6 of the test above (seed 2026): bones of 21.0 and 18.3 cm, nearly straight at rest (38.4 cm of 39.3),
+// a pole; with stretch or not.
+RandomLimb limbSix(bool stretch)
+{
+    return limbRig({0.573714413, -4.55110913, 3.24187096}, {9.43226999, -17.5253882, -6.70504874},
+                   {0.55391356, -17.3301889, -5.84145085}, Eigen::Vector3d(48.6321466, 88.3167501, -3.46317778),
+                   stretch, false);
+}
+
 TEST_CASE("constraints: a chain's shape holds for goals near its root, nearer than any pose it was swept for")
 {
-    // Random limb 6 above (seed 2026): bones of 21.0 and 18.3 cm, nearly straight at rest (38.4 cm of 39.3), a pole,
-    // stretch. With the shape's sweep stopped at a fifth of the rest reach, a goal 5 cm from the root was 0.72 cm off.
-    const std::string yaml =
-        "nodes:\n"
-        "  - {name: root_ctrl, type: transform, translate: [0, 100, 0]}\n"
-        "  - {name: base, type: joint, parent: root_ctrl}\n"
-        "  - {name: upper, type: joint, parent: base, translate: [0.573714413, -4.55110913, 3.24187096]}\n"
-        "  - {name: lower, type: joint, parent: upper}\n"
-        "  - {name: tip, type: joint, parent: lower}\n"
-        "  - {name: ik_ctrl, type: transform, translate: [10.559898, 60.5933138, -9.30462863]}\n"
-        "  - {name: ik, type: ikHandle, startTranslate: [0.573714413, -4.55110913, 3.24187096], midTranslate: "
-        "[9.43226999, -17.5253882, -6.70504874], endTranslate: [0.55391356, -17.3301889, -5.84145085], stretch: true}\n"
-        "  - {name: pole_ctrl, type: transform, translate: [48.6321466, 88.3167501, -3.46317778]}\n"
-        "  - {name: pv, type: poleVectorConstraint, constraintRotatePivot: [0.573714413, -4.55110913, 3.24187096]}\n"
-        "connections:\n"
-        "  - base.worldMatrix -> ik.startParentMatrix\n"
-        "  - base.scale -> ik.startInverseScale\n"
-        "  - ik_ctrl.worldMatrix -> ik.goalMatrix\n"
-        "  - ik.startRotate -> upper.rotate\n"
-        "  - ik.midRotate -> lower.rotate\n"
-        "  - ik.outMidTranslate -> lower.translate\n"
-        "  - ik.outEndTranslate -> tip.translate\n"
-        "  - pole_ctrl.worldMatrix -> pv.targetMatrix[0]\n"
-        "  - base.worldMatrix -> pv.pivotSpace\n"
-        "  - pv.constraintTranslate -> ik.poleVector\n";
-    const auto file = test::writeFile(test::scratchDir("constraint-near-goals") / "limb.yaml", yaml);
-    GraphRigOptions options;
-    options.parameterGlobs = {"root_ctrl.translate?", "ik_ctrl.translate?", "pole_ctrl.translate?"};
-    options.outputGlobs = {"base", "upper", "lower", "tip"};
-    options.autoHelpers = true;
-    GraphRigFunction rig(file, options);
+    // limbSix with stretch. With the shape's sweep stopped at a fifth of the rest reach, a goal 5 cm from the root was
+    // 0.72 cm off.
+    const RandomLimb limb = limbSix(true);
+    const auto file = test::writeFile(test::scratchDir("constraint-near-goals") / "limb.yaml", limb.yaml);
+    GraphRigFunction rig(file, limb.options);
     const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
     REQUIRE(!a.hasUnmodelledOutputs());
     CHECK(a.constraints.size() == 3);
@@ -584,6 +579,65 @@ std::string randomAimRig(std::mt19937& rng, std::string& upMode)
     return yaml;
 }
 
+TEST_CASE("constraints: a rigid chain's goal past its reach is held back inside it, where a missed solve restarts")
+{
+    // Without stretch the limb straightens at the sum of its bones (21.0 + 18.3 cm from the upper joint): past it the
+    // shape is flat, and the goal gets a hold there; a stretchy chain's shape never flattens, so it gets none.
+    for (const bool stretch : {false, true}) {
+        CAPTURE(stretch);
+        const RandomLimb limb = limbSix(stretch);
+        const auto file = test::writeFile(
+            test::scratchDir("constraint-goal-hold") / fmt::format("limb{}.yaml", stretch ? 1 : 0), limb.yaml);
+        GraphRigFunction rig(file, limb.options);
+        const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
+        REQUIRE(!a.hasUnmodelledOutputs());
+        const std::vector<GoalHold> holds = goalHolds(a);
+        if (stretch) {
+            CHECK(holds.empty());
+            continue;
+        }
+        REQUIRE(holds.size() == 1);
+        const double bones = Eigen::Vector3d(9.43226999, -17.5253882, -6.70504874).norm() +
+                             Eigen::Vector3d(0.55391356, -17.3301889, -5.84145085).norm();
+        // The flat reach is a knot of the shape at or past the straightening, within the knots' spacing of it.
+        CHECK(holds[0].flatReach >= bones - 1e-6);
+        CHECK(holds[0].flatReach <= bones + 0.05 * bones);
+
+        // The goal 20 cm past the reach: held back onto the chain's line inside the flat reach, the joints as they were
+        // (straight toward the goal on the real rig both times).
+        RigBinding binding(a, rig);
+        const Eigen::Vector3d root(0.573714413, 95.44889087, 3.24187096);
+        const Eigen::Vector3d direction = Eigen::Vector3d(1.0, -2.0, 0.5).normalized();
+        std::vector<double> values = a.defaults();
+        const auto goalIndex = [&](int axis) {
+            return static_cast<std::size_t>(test::parameterIndex(a, fmt::format("ik_ctrl.translate{}", "XYZ"[axis])));
+        };
+        for (int axis = 0; axis < 3; ++axis) values[goalIndex(axis)] = root[axis] + (bones + 20.0) * direction[axis];
+        std::vector<Eigen::Matrix4d> before, after;
+        binding.evaluate(values, before);
+        REQUIRE(holdGoals(a, holds, values));
+        Eigen::Vector3d goal;
+        for (int axis = 0; axis < 3; ++axis) goal[axis] = values[goalIndex(axis)];
+        CHECK((goal - root).norm() < holds[0].flatReach);
+        CHECK((goal - root).norm() > holds[0].flatReach - 1e-6);
+        CHECK(((goal - root).normalized() - direction).norm() < 1e-9);
+        binding.evaluate(values, after);
+        for (std::size_t k = 0; k < after.size(); ++k)
+            if (!a.outputs[k].helper) CHECK((after[k].block<3, 1>(0, 3) - before[k].block<3, 1>(0, 3)).norm() < 1e-4);
+        CHECK_FALSE(holdGoals(a, holds, values));  // inside: left alone
+    }
+}
+
+// A random aim rig's parameters and outputs, its helper frames found as rig-learn finds them.
+GraphRigOptions aimRigOptions()
+{
+    GraphRigOptions options;
+    options.parameterGlobs = {"root_ctrl.translate?", "head_ctrl.rotate?", "target_ctrl.translate?"};
+    options.outputGlobs = {"root", "head", "eye"};
+    options.autoHelpers = true;
+    return options;
+}
+
 TEST_CASE("constraints: random aims (axes, up modes, offsets) are learned as planar chains and solved from rest")
 {
     std::mt19937 rng(31);
@@ -594,11 +648,7 @@ TEST_CASE("constraints: random aims (axes, up modes, offsets) are learned as pla
         std::string upMode;
         const auto file = test::writeFile(dir / fmt::format("aim{}.yaml", r), randomAimRig(rng, upMode));
         CAPTURE(upMode);
-        GraphRigOptions options;
-        options.parameterGlobs = {"root_ctrl.translate?", "head_ctrl.rotate?", "target_ctrl.translate?"};
-        options.outputGlobs = {"root", "head", "eye"};
-        options.autoHelpers = true;
-        GraphRigFunction rig(file, options);
+        GraphRigFunction rig(file, aimRigOptions());
         const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
         if (a.hasUnmodelledOutputs() || !a.validation.withinEpsilon) {
             MESSAGE("aim " << r << " (" << upMode << ") not learned within epsilon");
@@ -619,6 +669,46 @@ TEST_CASE("constraints: random aims (axes, up modes, offsets) are learned as pla
                                                    << reached << " of " << tried);
     CHECK(learned == rigs);
     CHECK(reached >= tried * 9 / 10);
+}
+
+TEST_CASE(
+    "constraints: an aim target's distance along the line of sight is held at the solve's start, frame after frame")
+{
+    // One eye on a turning head, aimed at a target control: the joints fix the target's direction from the eye, never
+    // its distance. Warm-started frames whose targets turn the eye must leave the distance where it was, and the
+    // minimum-norm steps alone would move the target across the line of sight, further out each frame.
+    std::mt19937 rng(31);
+    std::string upMode;
+    const auto file = test::writeFile(test::scratchDir("constraint-aim-hold") / "aim.yaml", randomAimRig(rng, upMode));
+    GraphRigFunction rig(file, aimRigOptions());
+    const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
+    REQUIRE(!a.hasUnmodelledOutputs());
+    const std::vector<AimHold> holds = aimHolds(a);
+    REQUIRE(holds.size() == 1);
+    const std::vector<PoleHold> poles = poleHolds(a);
+    const Solver solver(a, SolverOptions{});
+    RigBinding binding(a, rig);
+    std::vector<double> values = a.defaults(), truth = a.defaults();
+    std::vector<double> start;
+    aimReaches(a, holds, values, start);
+    const auto target = [&](int axis) {
+        return static_cast<std::size_t>(test::parameterIndex(a, fmt::format("target_ctrl.translate{}", "XYZ"[axis])));
+    };
+    for (int frame = 1; frame <= 40; ++frame) {
+        CAPTURE(frame);
+        // The target circles the head at its rest distance and the head turns: the eye turns frame after frame.
+        const double t = 0.15 * frame;
+        for (int axis = 0; axis < 3; ++axis)
+            truth[target(axis)] = a.defaults()[target(axis)] + 25.0 * std::sin(t + 2.0 * axis);
+        truth[static_cast<std::size_t>(test::parameterIndex(a, "head_ctrl.rotateY"))] = 0.3 * std::sin(0.5 * t);
+        std::vector<JointTarget> targets = test::realTargetsAt(a, binding, truth);
+        const SolveSummary s = solver.solve(targets, values);
+        CHECK(s.converged());
+        std::vector<double> now;
+        aimReaches(a, holds, values, now);
+        CHECK(now[0] == doctest::Approx(start[0]).epsilon(1e-9));
+    }
+    CHECK(poles.empty());  // the up vector is carried by the head or fixed: no pole control to hold
 }
 
 }  // namespace rig

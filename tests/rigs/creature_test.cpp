@@ -1,7 +1,8 @@
 // rigs/creature.yaml, the hand-written creature (docs/rigs.md): it loads, evaluates at random control values
 // in checked mode, its switches, reverse feet and shared spine behave as the file says, its FK spec learns
 // within epsilon and random poses invert back onto the real rig; its IK spec learns with the IK limbs
-// reported, and scripts/random_poses.py makes a clip rig-invert inverts.
+// reported, with its forearm twist joints twist shares of the IK hands, and scripts/random_poses.py makes a clip
+// rig-invert inverts.
 #include <doctest/doctest.h>
 
 #include <algorithm>
@@ -149,6 +150,32 @@ std::vector<JointTarget> jointTargets(const Approximation& a, const std::vector<
         targets[k].world = worlds[k];
     }
     return targets;
+}
+
+// A random pose (randomPoseValues) set on the real rig, every joint a target, solved on the approximation from its
+// initial guess (checked converged): the values set, the targets, the real rig's worlds at them, the answer and the
+// real rig's worlds at it.
+struct RealPose {
+    std::vector<double> known;
+    std::vector<JointTarget> targets;
+    std::vector<Eigen::Matrix4d> worlds;
+    std::vector<double> values;
+    std::vector<Eigen::Matrix4d> solved;
+};
+
+RealPose solveRealPose(const Approximation& a, const Solver& solver, RigBinding& binding, std::mt19937& rng)
+{
+    RealPose pose;
+    pose.known = randomPoseValues(a, rng);
+    binding.evaluate(pose.known, pose.worlds);
+    pose.targets = jointTargets(a, pose.worlds);
+    pose.values = a.defaults();
+    REQUIRE(solver.initialGuess(pose.targets, pose.values) == TerminationType::converged);
+    const SolveSummary summary = solver.solve(pose.targets, pose.values);
+    CAPTURE(summary.briefReport());
+    CHECK(summary.converged());
+    binding.evaluate(pose.values, pose.solved);
+    return pose;
 }
 
 }  // namespace
@@ -405,17 +432,8 @@ TEST_CASE(
     std::mt19937 rng(23);
     for (int pose = 0; pose < 6; ++pose) {
         CAPTURE(pose);
-        const std::vector<double> known = randomPoseValues(a, rng);
-        std::vector<Eigen::Matrix4d> worlds;
-        binding.evaluate(known, worlds);
-        const std::vector<JointTarget> targets = jointTargets(a, worlds);
-        std::vector<double> values = a.defaults();
-        REQUIRE(solver.initialGuess(targets, values) == TerminationType::converged);
-        const SolveSummary summary = solver.solve(targets, values);
-        CAPTURE(summary.briefReport());
-        CHECK(summary.converged());
-        std::vector<Eigen::Matrix4d> solved;
-        binding.evaluate(values, solved);
+        const RealPose real = solveRealPose(a, solver, binding, rng);
+        const auto& [known, targets, worlds, values, solved] = real;
         double tipCm = 0.0, footCm = 0.0;
         int feet = 0;
         for (std::size_t k = 0; k < worlds.size(); ++k) {
@@ -506,4 +524,95 @@ TEST_CASE(
     MESSAGE(fmt::format("IK creature: {} of {} poses recovered from the initial guess, {} from rest", fromGuess, poses,
                         fromRest));
     CHECK(fromGuess * 100 >= 99 * poses);
+}
+
+TEST_CASE(
+    "learning the creature's IK spec with the forearm twist joints: twist shares of half the hand's twist, within "
+    "epsilon, and random poses solved from rest with the twist joints on their targets on the real rig")
+{
+    // The roll joints under the IK forearms: each turns with its forearm by a share of the hand's twist relative to
+    // the forearm, both planar chain outputs (the hand fitted after the roll joint, which a chain first took).
+    InversionSpec s = spec("creature_inversion_ik.yaml");
+    s.outputs.push_back("[LR]_forearm_twist");
+    GraphRigOptions options{s.params, s.outputs, {}, s.set};
+    options.autoHelpers = true;
+    GraphRigFunction rig(test::sourceDir() / "rigs/creature.yaml", options);
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "rigs/creature.yaml");
+    CHECK(a.validation.withinEpsilon);
+    CHECK(a.validation.maxRelativeError <= a.epsilon);
+    const auto index = [&](const std::string& name) {
+        const auto found = std::find_if(a.outputs.begin(), a.outputs.end(),
+                                        [&](const ApproximationOutput& o) { return o.name == name; });
+        REQUIRE_MESSAGE(found != a.outputs.end(), "no output " << name);
+        return static_cast<int>(found - a.outputs.begin());
+    };
+    for (const char* side : {"L", "R"}) {
+        CAPTURE(side);
+        const ApproximationOutput& twist =
+            a.outputs[static_cast<std::size_t>(index(fmt::format("{}_forearm_twist", side)))];
+        CHECK(twist.modelled);
+        CHECK(twist.validationError <= a.epsilon);
+        REQUIRE(twist.constraint >= 0);
+        const ConstraintBase& base = a.constraints[static_cast<std::size_t>(twist.constraint)];
+        CHECK(base.kind == ConstraintKind::twistShare);
+        CHECK(base.anchor == index(fmt::format("{}_forearm", side)));
+        CHECK(base.driver == index(fmt::format("{}_hand", side)));
+        CHECK(base.driverParent == index(fmt::format("{}_forearm", side)));
+        // The rig's weight, 0.5, of the wrist's twist about the hand's x axis (the sign is the fitted axis's).
+        CHECK(base.twistAxis == 0);
+        CHECK(std::abs(base.share) == doctest::Approx(0.5).epsilon(1e-9));
+        // The plain swing-twist, as twistDistribute reads the wrist's rotate in the hand's own order (the reorderings
+        // that agree with it to rounding are not taken).
+        CHECK(base.readOrder == base.twistOrder);
+        // The forearm and the hand are planar chains on the arm's goal and pole.
+        for (const int input : {base.anchor, base.driver})
+            CHECK(a.constraints[static_cast<std::size_t>(a.outputs[static_cast<std::size_t>(input)].constraint)].kind ==
+                  ConstraintKind::planarChain);
+    }
+
+    RigBinding binding(a, rig);
+    const Solver solver(a, SolverOptions{});
+    std::mt19937 rng(31);
+    for (int pose = 0; pose < 6; ++pose) {
+        CAPTURE(pose);
+        // A cold start from rest: the guess places the chains and the reverse feet (without it a foot's roll can stop
+        // flat, 0.5 cm off; the twist joints are on their targets either way), then the solve.
+        const RealPose real = solveRealPose(a, solver, binding, rng);
+        const auto& [known, targets, worlds, values, solved] = real;
+        for (const char* name : {"L_forearm_twist", "R_forearm_twist"}) {
+            CAPTURE(name);
+            const auto k = static_cast<std::size_t>(index(name));
+            const Eigen::Matrix4d offset = solved[k].inverse() * worlds[k];
+            // Its roll as the distance it moves a frame point a rotation scale away: the origin alone barely sees it.
+            const double cm = (solved[k].block<3, 1>(0, 3) - worlds[k].block<3, 1>(0, 3)).norm();
+            const double turnCm =
+                solver.options().rotationScaleCm * Eigen::AngleAxisd(Eigen::Matrix3d(offset.block<3, 3>(0, 0))).angle();
+            CHECK(cm < 1e-3);
+            CHECK(turnCm < 1e-3);
+        }
+    }
+}
+
+TEST_CASE("rig-learn: the creature's IK spec with the forearm twist joints writes them as twist shares of the hands")
+{
+    // The command line of the issue (it exited 3, the roll joints planar chains 0.0453 cm per unit over epsilon).
+    const auto dir = test::scratchDir("creature-ik-twist");
+    std::string text = test::readFile(test::sourceDir() / "rigs/creature_inversion_ik.yaml");
+    const std::string hands = "'[LR]_hand', ";
+    const auto at = text.find(hands);
+    REQUIRE(at != std::string::npos);
+    text.insert(at + hands.size(), "'[LR]_forearm_twist', ");
+    const auto specFile = test::writeFile(dir / "creature_inversion_ik_with_twist.yaml", text);
+    const auto approx = dir / "creature.approx.yaml";
+    const auto learned = test::run(fmt::format("{} rigs/creature.yaml --spec '{}' -o '{}'", test::tool("rig-learn"),
+                                               specFile.string(), approx.string()));
+    INFO(learned.out << learned.err);
+    CHECK(learned.exitCode == 0);
+    for (const char* side : {"L", "R"})
+        CHECK(
+            learned.out.find(fmt::format("  {0}_forearm_twist: twistShare, turns with {0}_forearm, -0.5 of {0}_hand's "
+                                         "twist about x relative to {0}_forearm (swing-twist)\n",
+                                         side)) != std::string::npos);
+    CHECK(learned.out.find("epsilon 0.001: within") != std::string::npos);
+    CHECK(std::filesystem::exists(approx));
 }

@@ -790,3 +790,39 @@ TEST_CASE(
     CHECK(learned.out.find("  L_knee: planarChain, root carried by pelvis, goal L_ankle_goal, pole L_leg_pole_ctrl; "
                            "shape ") != std::string::npos);
 }
+
+TEST_CASE("rig-learn: a one-eyed aim's target controls are reported as held where the joints cannot decide them")
+{
+    // One eye on a turning head aimed at a target control: the target's distance along the line of sight is not
+    // identifiable (docs/solver.md, an aim target's distance is held).
+    const auto dir = rig::test::scratchDir("rig-learn-aim-hold");
+    const auto rigFile = rig::test::writeFile(dir / "eye.yaml", R"(nodes:
+  - {name: head_ctrl, type: transform}
+  - {name: target_ctrl, type: transform, translate: [2, 160, 60]}
+  - {name: head, type: joint, translate: [0, 150, 0]}
+  - {name: eye, type: joint, parent: head, translate: [2, 5, 8]}
+  - {name: eye_aim, type: aimConstraint, aimVector: [0, 0, 1], upVector: [0, 1, 0], worldUpType: objectRotation,
+     worldUpVector: [0, 1, 0], constraintTranslate: [2, 5, 8]}
+connections:
+  - head_ctrl.rotate -> head.rotate
+  - target_ctrl.worldMatrix -> eye_aim.targetMatrix[0]
+  - head.worldInverseMatrix -> eye_aim.constraintParentInverseMatrix
+  - head.worldMatrix -> eye_aim.worldUpMatrix
+  - eye_aim.constraintRotate -> eye.rotate
+)");
+    const auto json = dir / "report.json";
+    const auto learned = run(rigLearn(fmt::format(
+        "'{}' --params 'head_ctrl.rotate?' 'target_ctrl.translate?' --outputs head eye -o '{}' --report-json '{}'",
+        rigFile.string(), (dir / "eye.approx.yaml").string(), json.string())));
+    INFO(learned.out);
+    INFO(learned.err);
+    REQUIRE(learned.exitCode == 0);
+    CHECK(learned.out.find("\n  held at the solve's start where the joints cannot decide: target_ctrl.translateX, "
+                           "target_ctrl.translateY, target_ctrl.translateZ (the aim target's distance along the line "
+                           "of sight; its direction is solved)\n") != std::string::npos);
+    const YAML::Node report = YAML::LoadFile(json.string());
+    REQUIRE(report["not_identifiable"].size() == 1);
+    CHECK(report["not_identifiable"][0]["target"].as<std::string>() == "target_ctrl");
+    CHECK(report["not_identifiable"][0]["controls"].as<std::vector<std::string>>() ==
+          std::vector<std::string>{"target_ctrl.translateX", "target_ctrl.translateY", "target_ctrl.translateZ"});
+}
