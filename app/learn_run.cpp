@@ -8,8 +8,10 @@
 
 #include <fmt/format.h>
 
+#include "app/switch_learn.h"
 #include "core/error.h"
 #include "core/parse_number.h"
+#include "inversion/blend_merge.h"
 #include "inversion/pole_hold.h"
 
 namespace rig::app {
@@ -79,8 +81,11 @@ LearnOutcome learn(const LearnJob& job)
     const std::vector<char> helper = rig.helperOutputs();
     for (std::size_t k = 0; k < helper.size(); ++k)
         if (helper[k]) out.helpers.push_back(rig.outputs()[k]);
+    // Switches among the parameters: the rig learned in each branch and blended (switch_learn.h).
+    const RigSwitches switches = findSwitches(rig, job.rig);
     try {
-        out.approximation = learnApproximation(rig, job.options, job.rig, &out.unmodelled);
+        out.approximation = switches.switches.empty() ? learnApproximation(rig, job.options, job.rig, &out.unmodelled)
+                                                      : learnSwitched(job, rig, switches, out.unmodelled);
     }
     catch (const Error& e) {
         // A rig that refuses a sampled value (a node's own limit) or fails to evaluate: say where.
@@ -93,8 +98,10 @@ LearnOutcome learn(const LearnJob& job)
 int validatedOutputs(const Approximation& a)
 {
     if (a.validation.poses == 0 || a.parameters.empty()) return 0;
-    return static_cast<int>(
-        std::count_if(a.outputs.begin(), a.outputs.end(), [](const ApproximationOutput& o) { return o.modelled; }));
+    // A blend's branch copies are not the rig's: they are measured through their blends.
+    return static_cast<int>(std::count_if(a.outputs.begin(), a.outputs.end(), [](const ApproximationOutput& o) {
+        return o.modelled && !(o.helper && rigOutputName(o.name) != o.name);
+    }));
 }
 
 std::string storedForm(const ModelledParameter& m)
@@ -103,7 +110,7 @@ std::string storedForm(const ModelledParameter& m)
         return op.linear() ? std::string(operatorKindName(op.kind))
                            : fmt::format("{} (curve)", operatorKindName(op.kind));
     };
-    if (m.operators.empty()) return "none (real rig only)";
+    if (m.operators.empty()) return m.form == "blend weight" ? m.form : "none (real rig only)";
     if (m.operators.size() == 1) return name(m.operators.front());
     std::map<std::string, int> counts;
     for (const Operator& op : m.operators) ++counts[name(op)];
@@ -191,6 +198,22 @@ Json notIdentifiableJson(const Approximation& a)
     return held;
 }
 
+// Per blend (an animated switch's output, switch_learn.h): the output, its weight and its branches' copies.
+Json blendsJson(const Approximation& a)
+{
+    Json blends = Json::array();
+    for (const ApproximationOutput& o : a.outputs) {
+        if (o.constraint < 0) continue;
+        const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
+        if (c.kind != ConstraintKind::blend) continue;
+        blends.push_back({{"output", o.name},
+                          {"weight", a.parameters[static_cast<std::size_t>(c.weight)].parameter.name},
+                          {"ik", a.outputs[static_cast<std::size_t>(c.ik)].name},
+                          {"fk", a.outputs[static_cast<std::size_t>(c.fk)].name}});
+    }
+    return blends;
+}
+
 }  // namespace
 
 Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std::optional<std::string>& approximation,
@@ -231,6 +254,7 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                 {"outputs", outcome.rigOutputs},
                 {"helpers", outcome.helpers},
                 {"not_identifiable", notIdentifiableJson(a)},
+                {"blends", blendsJson(a)},
                 {"held", heldJson(a.held)},
                 {"evaluations", a.training.evaluations},
                 {"order_evaluations", a.training.orderEvaluations},

@@ -65,16 +65,16 @@ struct LearnOutcome {
 
 // A parameter's form as the approximation holds it, from its operators (the learner's classification, `form`,
 // may name operators of outputs later found non-compositional): "rotation", "rotation (curve)", "sampledRigid"
-// for one operator shared by its outputs, "per output: 2 rotation 1 sampledRigid" for one per output, "none
-// (real rig only)" without operators.
+// for one operator shared by its outputs, "per output: 2 rotation 1 sampledRigid" for one per output, "blend weight"
+// for a switch's weight (its blends' parameter), "none (real rig only)" for others without operators.
 std::string storedForm(const ModelledParameter& m);
 
 // Loads the rig and learns. Throws rig::Error with rig-learn's one-line messages (RigSelectionError for
 // a glob the rig cannot provide).
 LearnOutcome learn(const LearnJob& job);
 
-// The outputs the validation measured: the modelled ones (non-compositional outputs are not predicted), none when
-// it did not run (no poses, or nothing modelled).
+// The outputs the validation measured: the modelled ones (non-compositional outputs are not predicted; a blend's
+// branch copies are measured through their blends), none when it did not run (no poses, or nothing modelled).
 int validatedOutputs(const Approximation& approximation);
 
 // The --report-json report. `approximation` is the file written, or to be written (none: none named);

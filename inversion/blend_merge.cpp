@@ -152,15 +152,18 @@ OutputMaps mergeOutputs(const SwitchBranches& s, Approximation& m)
     return maps;
 }
 
-// Each switched output a blend of its copies, read relative to their branches' parents.
-void makeBlends(const SwitchBranches& s, const OutputMaps& maps, int weight, Approximation& m)
+// Each switched output a blend of its copies, read relative to their branches' parents; the weights' parameters
+// start at `firstWeight`.
+void makeBlends(const SwitchBranches& s, const OutputMaps& maps, int firstWeight, Approximation& m)
 {
     for (const SwitchBranches::Switched& w : s.switched) {
         const int a = find(*s.ik, w.output), b = find(*s.fk, w.output);
         ConstraintBase c;
         c.kind = ConstraintKind::blend;
         c.blend = w.rule;
-        c.weight = weight;
+        if (w.weight < 0 || w.weight >= static_cast<int>(s.weights.size()))
+            throw internalError(fmt::format("mergeSwitchBranches: '{}' has no weight {}", w.output, w.weight));
+        c.weight = firstWeight + w.weight;
         c.ik = maps.ikCopy[static_cast<std::size_t>(a)];
         c.fk = maps.fkCopy[static_cast<std::size_t>(b)];
         if (!w.parent.empty()) {
@@ -194,16 +197,19 @@ void addOperators(const ModelledParameter& p, const OperatorMap& map, std::vecto
 Approximation mergeSwitchBranches(const SwitchBranches& s)
 {
     if (!s.ik || !s.fk) throw internalError("mergeSwitchBranches: both branches are needed");
-    if (!s.weight.limited || s.weight.min < 0.0 || s.weight.max > 1.0)
-        throw Error(fmt::format("switch branches: the weight '{}' is not limited to [0, 1]", s.weight.name));
+    std::set<std::string> weights;
+    for (const RigParameter& w : s.weights) {
+        if (!w.limited || w.min < 0.0 || w.max > 1.0)
+            throw Error(fmt::format("switch branches: the weight '{}' is not limited to [0, 1]", w.name));
+        weights.insert(w.name);
+    }
     const Approximation &ik = *s.ik, &fk = *s.fk;
     Approximation m;
     m.rigFile = ik.rigFile;
     m.rigFingerprint = ik.rigFingerprint;
     m.epsilon = ik.epsilon;
     for (const HeldPlug& h : ik.held)
-        if (h.plug != s.weight.name) m.held.push_back(h);
-    m.discarded = ik.discarded;
+        if (!weights.contains(h.plug)) m.held.push_back(h);
     m.droppedOutputs = ik.droppedOutputs;
     m.training = ik.training;
     m.training.evaluations += fk.training.evaluations;
@@ -245,12 +251,27 @@ Approximation mergeSwitchBranches(const SwitchBranches& s)
             for (const int k : a->unmodelledOutputs) p.unmodelledOutputs.push_back(k);
         m.parameters.push_back(std::move(p));
     }
-    ModelledParameter weight;
-    weight.parameter = s.weight;
-    weight.form = "blend weight";
-    m.parameters.push_back(std::move(weight));
-    makeBlends(s, maps, static_cast<int>(m.parameters.size()) - 1, m);
+    // A parameter one branch discarded (an FK control with the switch at 1) is modelled if the other branch models it.
+    std::set<std::string> modelled;
+    for (const ModelledParameter& p : m.parameters) modelled.insert(p.parameter.name);
+    for (const Approximation* a : {&ik, &fk})
+        for (const DiscardedParameter& d : a->discarded)
+            if (modelled.insert(d.parameter.name).second) m.discarded.push_back(d);
+    const int firstWeight = static_cast<int>(m.parameters.size());
+    for (const RigParameter& w : s.weights) {
+        ModelledParameter weight;
+        weight.parameter = w;
+        weight.form = "blend weight";
+        m.parameters.push_back(std::move(weight));
+    }
+    makeBlends(s, maps, firstWeight, m);
     return m;
+}
+
+std::string rigOutputName(const std::string& name)
+{
+    if (name.size() > 3 && (name.ends_with("@ik") || name.ends_with("@fk"))) return name.substr(0, name.size() - 3);
+    return name;
 }
 
 namespace {

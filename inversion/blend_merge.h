@@ -1,13 +1,13 @@
 #pragma once
-// An animated switch's approximation from its two branches (docs/rig-learn.md, Blends): the rig learned with the
+// Animated switches' approximation from their two branches (docs/rig-learn.md, Blends): the rig learned with every
 // switch held at 1 (the IK branch) and at 0 (the FK branch), merged into one approximation whose switched outputs are
-// blends (constraint.h, BlendRule) of their two branch copies by the switch's weight, a parameter.
+// blends (constraint.h, BlendRule) of their two branch copies by their switch's weight, a parameter.
 //
 // Every output keeps the IK branch's modelling, but a switched output, which becomes a blend reading two helper
 // copies of it, NAME@ik (its IK-branch modelling, its inputs the IK copies of switched outputs) and NAME@fk (the FK
 // branch's). Outputs found only in one branch (the IK goal and pole helpers) are added as they are. Parameters are the
 // union by name, in an order that keeps both branches' orders; each one's operators on a switched output act on that
-// branch's copy.
+// branch's copy; the weights come last.
 
 #include <map>
 #include <string>
@@ -19,14 +19,15 @@
 namespace rig {
 
 struct SwitchBranches {
-    const Approximation* ik = nullptr;  // learned with the switch held at 1
+    const Approximation* ik = nullptr;  // learned with every switch held at 1
     const Approximation* fk = nullptr;  // and at 0, with the same outputs
-    RigParameter weight;                // the switch, limited to [0, 1]
-    // The switched outputs (the joints whose channels the switch blends), each with its parent joint among the
-    // outputs ("" for none) and the blend the rig does there (fitBlendRule).
+    std::vector<RigParameter> weights;  // the switches, each limited to [0, 1]
+    // The switched outputs (the joints whose channels a switch blends), each with its parent joint among the
+    // outputs ("" for none), the blend the rig does there (fitBlendRule) and its switch (an index into `weights`).
     struct Switched {
         std::string output, parent;
         BlendRule rule;
+        int weight = 0;
     };
     std::vector<Switched> switched;
 };
@@ -43,8 +44,15 @@ struct SwitchHold {
 // One per blend weight that has such controls.
 std::vector<SwitchHold> switchHolds(const Approximation& approximation);
 
-// The merged approximation; throws a userInput rig::Error naming what does not merge (an output missing from a branch,
-// a switched output in neither, parameters ordered differently by the two branches).
+// The rig output a blend's branch copy stands for ("LeftUpLeg" for "LeftUpLeg@ik" or "LeftUpLeg@fk"); any other name
+// as it is. A copy is never a target, and the real rig has no such joint: rig-invert reads the joint in its place.
+std::string rigOutputName(const std::string& name);
+
+// The merged approximation, its held plugs the IK branch's but the weights, the parameters either branch discarded
+// and the merge does not model discarded; its fingerprint is the IK branch's (the caller sets the fingerprint of the
+// rig with the weights as parameters). Throws a userInput rig::Error naming what does not merge (an output missing
+// from a branch, a switched output in neither, parameters ordered differently by the two branches, a weight not
+// limited to [0, 1]).
 Approximation mergeSwitchBranches(const SwitchBranches& branches);
 
 }  // namespace rig

@@ -192,13 +192,15 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
         if (evaluate) truthWorlds = probe.atValues(drawn.rig);
         approximation.evaluate(drawn.modelled, approximated);
         bool finite = true;
-        for (const int k : rigOutput) finite = finite && truthWorlds[static_cast<std::size_t>(k)].allFinite();
+        for (const int k : rigOutput)
+            finite = finite && (k < 0 || truthWorlds[static_cast<std::size_t>(k)].allFinite());
         if (!finite) {
             ++summary.nonFinitePoses;
             continue;
         }
         for (std::size_t k = 0; k < approximated.size(); ++k) {
-            if (!approximation.outputs[k].modelled) continue;  // not predicted: nothing to validate
+            // Not predicted, or not a rig output (a blend's branch copy, measured through its blend): not measured.
+            if (!approximation.outputs[k].modelled || rigOutput[k] < 0) continue;
             if (undefinedTwist(approximation, approximated, truthWorlds, rigOutput, k)) {
                 if (summary.singularPoses++ == 0) summary.singularOutput = approximation.outputs[k].name;
                 continue;
@@ -789,6 +791,27 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     result.training.orderer = std::string(ordererName(options.orderer));
     result.training.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
+}
+
+void validateApproximation(RigFunction& rig, Approximation& approximation, const LearnOptions& options)
+{
+    options.validate();
+    const auto index = [](const auto& names, const std::string& name, const auto& nameOf) {
+        const auto it =
+            std::find_if(names.begin(), names.end(), [&](const auto& entry) { return nameOf(entry) == name; });
+        return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+    };
+    std::vector<int> indices, rigOutput;
+    for (const ModelledParameter& m : approximation.parameters) {
+        indices.push_back(index(rig.parameters(), m.parameter.name, [](const RigParameter& p) { return p.name; }));
+        if (indices.back() < 0)
+            throw internalError(fmt::format("validateApproximation: the rig has no parameter {}", m.parameter.name));
+    }
+    for (const ApproximationOutput& o : approximation.outputs)
+        rigOutput.push_back(index(rig.outputs(), o.name, [](const std::string& n) { return n; }));
+    RigProbe probe(rig);
+    ValidationPoses poses = drawPoses(rig.parameters(), options);
+    approximation.validation = validate(probe, approximation, indices, rigOutput, poses, options);
 }
 
 }  // namespace rig

@@ -84,6 +84,12 @@ struct UnmodelledOutput {
 Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, const std::string& rigFile,
                                  std::vector<UnmodelledOutput>* unmodelled = nullptr);
 
+// Measures `approximation` against `rig` on the poses learnApproximation validates on (its `validation` and its
+// outputs' and parameters' validation errors): parameters matched by name (each must be the rig's; the rig's others
+// at their defaults), outputs by name, those the rig lacks (a blend's branch copies, measured through their blends)
+// not measured. For an approximation assembled from learned ones (a switch's branches merged, blend_merge.h).
+void validateApproximation(RigFunction& rig, Approximation& approximation, const LearnOptions& options);
+
 // Pairs of modelled parameters (indices into approximation.parameters, first < second) with the same
 // effect: the same outputs, moved alike at offsets across the range both share (within `tolerance` cm
 // of the error measure). An inversion cannot tell them apart; it has to split their sum.

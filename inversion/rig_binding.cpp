@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/rotation_math.h"
+#include "inversion/blend_merge.h"
 
 namespace rig {
 
@@ -23,8 +24,10 @@ RigBinding::RigBinding(const Approximation& approximation, RigFunction& rig) : a
     }
     const auto& outputs = rig.outputs();
     for (const auto& o : approximation.outputs) {
-        const auto found = std::find(outputs.begin(), outputs.end(), o.name);
-        if (found == outputs.end()) throw Error(fmt::format("RigBinding: the rig has no output {}", o.name));
+        // A blend's branch copy (a helper, never a target) reads the joint it copies.
+        const std::string name = o.helper ? rigOutputName(o.name) : o.name;
+        const auto found = std::find(outputs.begin(), outputs.end(), name);
+        if (found == outputs.end()) throw Error(fmt::format("RigBinding: the rig has no output {}", name));
         outputIndex_.push_back(static_cast<int>(found - outputs.begin()));
     }
     for (const auto& p : parameters) rigValues_.push_back(p.defaultValue);

@@ -14,8 +14,8 @@
 
 namespace rig {
 
-// Binds an approximation to a real rig by names. Keeps references to both; not thread-safe (the rig
-// is not).
+// Binds an approximation to a real rig by names (a blend's branch copy, NAME@ik or NAME@fk, to the joint NAME:
+// blend_merge.h). Keeps references to both; not thread-safe (the rig is not).
 class RigBinding {
 public:
     // Throws rig::Error naming the first approximation parameter or output the rig lacks.

@@ -16,6 +16,7 @@
 #include "graph/plug_glob.h"
 #include "graph/suggest.h"
 #include "graph/yaml_loader.h"
+#include "inversion/blend_merge.h"
 #include "nodes/builtin_nodes.h"
 
 namespace rig {
@@ -464,7 +465,8 @@ GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<st
     GraphRigOptions options;
     for (const auto& p : approximation.parameters) options.parameterGlobs.push_back(p.parameter.name);
     for (const auto& o : approximation.outputs)
-        (o.helper ? options.helperGlobs : options.outputGlobs).push_back(o.name);
+        if (!o.helper || rigOutputName(o.name) == o.name)  // a blend's branch copy is the joint it copies
+            (o.helper ? options.helperGlobs : options.outputGlobs).push_back(o.name);
     options.plugins = std::move(plugins);
     options.held = approximation.held;
     return options;

@@ -52,7 +52,7 @@ struct GraphRigOptions {
 };
 
 // The options that load the rig of an approximation in the state it was learned in: its parameters, its
-// outputs and its held plugs.
+// outputs (not a blend's branch copies, which are joints of the rig: blend_merge.h) and its held plugs.
 GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<std::string> plugins = {});
 
 // A parameter, output or helper glob, or a held plug, the rig cannot provide (no such plug or joint, a driven

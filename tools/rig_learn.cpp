@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "core/table.h"
 #include "inversion/approximation_io.h"
+#include "inversion/blend_merge.h"
 #include "inversion/pole_hold.h"
 #include "nodes/inversion_spec.h"
 #include "tools/cli_common.h"
@@ -125,8 +126,12 @@ std::string validationText(const Approximation& a)
         v.poses);
     if (v.poses == 0 || a.parameters.empty()) return out + "  not run (no poses or nothing modelled)\n";
     const int validated = app::validatedOutputs(a);
-    const auto unmodelled = a.outputs.size() - static_cast<std::size_t>(validated);
-    out += fmt::format("  validated {} of {} outputs", validated, a.outputs.size() + a.droppedOutputs.size());
+    // A blend's branch copies are no rig output: measured through their blends.
+    const auto copies = static_cast<std::size_t>(std::count_if(
+        a.outputs.begin(), a.outputs.end(), [](const auto& o) { return o.helper && rigOutputName(o.name) != o.name; }));
+    const auto unmodelled = a.outputs.size() - copies - static_cast<std::size_t>(validated);
+    out += fmt::format("  validated {} of {} outputs", validated, a.outputs.size() - copies + a.droppedOutputs.size());
+    if (copies > 0) out += fmt::format(" (and {} branch copies of blends, through their blends)", copies);
     if (unmodelled > 0) out += fmt::format("; {} not modelled (listed above)", unmodelled);
     if (!a.droppedOutputs.empty()) out += fmt::format("; {} left out (listed above)", a.droppedOutputs.size());
     out += "\n";
@@ -156,6 +161,15 @@ std::string constraintsText(const Approximation& a)
     for (const ApproximationOutput& o : a.outputs) {
         if (o.constraint < 0) continue;
         const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
+        if (c.kind == ConstraintKind::blend) {
+            const std::string rule = c.blend.mode == BlendMode::eulerChannels
+                                         ? fmt::format("Euler channels in {}", rotateOrderName(c.blend.order))
+                                         : std::string("slerp");
+            out += fmt::format("  {}: blend of {} and {} relative to {} by {} ({}, translation and stretch linear)\n",
+                               o.name, name(c.ik), name(c.fk), c.anchor < 0 ? "the world" : name(c.anchor),
+                               a.parameters[static_cast<std::size_t>(c.weight)].parameter.name, rule);
+            continue;
+        }
         if (c.kind == ConstraintKind::twistShare) {
             const std::string reading = c.readOrder == c.twistOrder
                                             ? std::string("swing-twist")

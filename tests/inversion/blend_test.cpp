@@ -266,8 +266,8 @@ struct MergedLeg {
     Approximation merge()
     {
         const std::vector<std::vector<BlendSample>> samples = switchedLegSamples(rig);
-        SwitchBranches branches{&ik, &fk, rig.parameters().back(), {}};
-        REQUIRE(branches.weight.name == "L_leg_settings.ikFk");
+        SwitchBranches branches{&ik, &fk, {rig.parameters().back()}, {}};
+        REQUIRE(branches.weights[0].name == "L_leg_settings.ikFk");
         for (std::size_t j = 0; j < 3; ++j) {
             const std::optional<BlendFit> fit = fitBlendRule(samples[j], 1e-6, 10.0);
             REQUIRE(fit);
