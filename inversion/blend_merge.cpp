@@ -313,8 +313,9 @@ std::vector<SwitchHold> switchHolds(const Approximation& approximation)
     std::set<int> weights;
     for (const ConstraintBase& c : approximation.constraints)
         if (c.kind == ConstraintKind::blend) weights.insert(c.weight);
+    const std::vector<std::vector<int>> reach = approximation.reach();
     for (const int w : weights) {
-        SwitchHold hold{w, {}, {}};
+        SwitchHold hold{w, {}, {}, reach[static_cast<std::size_t>(w)]};
         for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
             const int q = static_cast<int>(p);
             if (q == w) continue;

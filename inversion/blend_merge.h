@@ -37,9 +37,11 @@ struct SwitchBranches {
 // them at its warm start (Solver::solve), as pole_hold.h holds a chain's pole: minimum-norm steps would otherwise move
 // them by rounding whenever the weight left its limit by a rounding error.
 struct SwitchHold {
-    int weight = -1;      // index into Approximation::parameters
-    std::vector<int> fk;  // the FK branch's own controls: held while the weight is 1
-    std::vector<int> ik;  // the IK branch's: held while it is 0
+    int weight = -1;           // index into Approximation::parameters
+    std::vector<int> fk;       // the FK branch's own controls: held while the weight is 1
+    std::vector<int> ik;       // the IK branch's: held while it is 0
+    std::vector<int> outputs;  // what the weight moves (Approximation::reach): a solve missing one tries the other
+                               // branch (Solver::solve)
 };
 // One per blend weight that has such controls.
 std::vector<SwitchHold> switchHolds(const Approximation& approximation);

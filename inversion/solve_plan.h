@@ -180,6 +180,7 @@ struct SolveScratch {
     std::vector<double> trial, best;     // initialGuess: the start being solved, the best answer so far
     std::vector<double> held;            // Solver::solve: the first answer, while a held goal's is solved again
     std::vector<double> branches;        // Solver::solve: the inactive branches' controls at the warm start
+    std::vector<double> start;           // Solver::solve: the warm start, while a switch's other branch is tried
     std::vector<double> aimReach;        // per AimHold: its target's distance from the aim's root at the start
     std::vector<Varied> varied;
 };

@@ -478,6 +478,43 @@ void SolveRun::finish(bool initialFromSolve)
     else summary_.termination = summary_.missedOutputs.empty() ? TerminationType::converged : TerminationType::stuck;
 }
 
+// A solve that missed an output a switch's weight moves, solved again from the warm start with each such weight at
+// the branch end further from where it started, guessed anew from there (Solver::initialGuess): of two branches that
+// both reach the first joint they blend (an IK and an FK thigh), the one the start favoured may not reach the rest
+// (an FK leg does not stretch). The cheaper answer is kept.
+void solveFromOtherBranches(const Solver& solver, Solver::Impl& impl, std::span<const JointTarget> targets,
+                            std::span<double> values, SolveSummary& summary, SolveScratch& scratch, const Plan& plan)
+{
+    scratch.held.assign(values.begin(), values.end());
+    std::copy(scratch.start.begin(), scratch.start.end(), values.begin());
+    bool flipped = false;
+    for (const SwitchHold& hold : impl.switches) {
+        const bool missed = std::any_of(hold.outputs.begin(), hold.outputs.end(), [&](int k) {
+            return std::binary_search(summary.missedOutputs.begin(), summary.missedOutputs.end(), k);
+        });
+        double& w = values[static_cast<std::size_t>(hold.weight)];
+        if (missed) w = w < 0.5 ? 1.0 : 0.0;
+        flipped = flipped || missed;
+    }
+    SolveSummary again;
+    if (flipped) {
+        solver.initialGuess(targets, values);
+        SolveRun(impl, targets, values, again, scratch, plan).run();
+    }
+    if (flipped && again.finalCost < summary.finalCost) {
+        again.initialCost = summary.initialCost;
+        again.gaussNewtonIterations += summary.gaussNewtonIterations;
+        again.levenbergMarquardtIterations += summary.levenbergMarquardtIterations;
+        again.iterations += summary.iterations;
+        summary = std::move(again);
+        return;
+    }
+    std::copy(scratch.held.begin(), scratch.held.end(), values.begin());
+    summary.gaussNewtonIterations += again.gaussNewtonIterations;
+    summary.levenbergMarquardtIterations += again.levenbergMarquardtIterations;
+    summary.iterations += again.iterations;
+}
+
 }  // namespace
 
 SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<double> values) const
@@ -502,7 +539,10 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     std::shared_ptr<const Plan> plan;
     impl.prepare(targets, values, *scratch, plan, summary.termination);
     if (summary.termination == TerminationType::invalidTargets) return;
+    if (!impl.switches.empty()) scratch->start.assign(values.begin(), values.end());
     SolveRun(impl, targets, values, summary, *scratch, *plan).run();
+    if (!summary.converged() && !impl.switches.empty())
+        solveFromOtherBranches(*this, impl, targets, values, summary, *scratch, *plan);
     if (summary.converged() || impl.goals.empty()) return;
     // Targets missed with a rigid chain's goal past its reach, where no step brings it back (the chain straight where
     // its targets bend it): the goal held back inside the reach, and solved again from there once, the cheaper

@@ -21,6 +21,7 @@
 #include "inversion/partition.h"
 #include "inversion/solver.h"
 #include "nodes/graph_rig_function.h"
+#include "nodes/inversion_spec.h"
 #include "solver_rigs.h"
 #include "test_support.h"
 
@@ -577,10 +578,95 @@ TEST_CASE("blend: random poses of the left leg with a random ikFk weight are rec
     }
     MESSAGE("random poses of the switched left leg reached from rest on the real rig: "
             << recovered << " of " << poses << ", worst " << worstOfAll << " cm");
-    // 22 of 30 measured: the misses end stuck (7 to 15 degrees off at the foot) with the weight away from the truth's,
-    // often near a branch that cannot reach the pose (the FK leg does not stretch): local minima of the blended leg's
-    // redundant controls, not the Jacobian (checked above) nor the approximation (1e-4 cm from the real rig).
-    CHECK(recovered >= 20);
+    // 25 of 30 measured (22 before a solve that misses the switched leg tries again from the other branch's end,
+    // guessed anew there). Four misses end stuck (2.5 to 5.8 cm at the foot) with the weight away from the truth's,
+    // near the IK branch: local minima of the blended leg's redundant controls, not the Jacobian (checked above). One
+    // (50.9 cm) converges on the approximation with the FK thigh's rotateY at -139 degrees, past its learned range,
+    // where the blend reads the FK thigh's Euler angles as the triple nearest rest and the rig blends its raw channels.
+    CHECK(recovered >= 25);
+}
+
+namespace {
+
+// rig-learn's work on rigs/biped_inversion_ikfk.yaml (both legs' switches animated), with the rig of its parameters;
+// once per run.
+struct TwoLegs {
+    static app::LearnJob job()
+    {
+        const InversionSpec spec = readInversionSpec(test::sourceDir() / "rigs" / "biped_inversion_ikfk.yaml");
+        app::LearnJob job{(test::sourceDir() / "rigs" / "biped.yaml").string(), spec.params, spec.outputs, {}, {}, {}};
+        job.held = spec.set;
+        return job;
+    }
+    app::LearnOutcome learned = app::learn(job());
+    GraphRigFunction rig{job().rig, app::rigOptions(job())};
+};
+
+TwoLegs& twoLegs()
+{
+    static TwoLegs legs;
+    return legs;
+}
+
+}  // namespace
+
+TEST_CASE("blend: random poses with random ikFk weights are recovered from rest on the real rig with both legs blended")
+{
+    TwoLegs& legs = twoLegs();
+    const Approximation& a = legs.learned.approximation;
+    const Solver solver(a, SolverOptions{});
+    GraphRigFunction& rig = legs.rig;
+    const auto& parameters = rig.parameters();
+    REQUIRE(parameters.size() == a.parameters.size());
+    std::vector<std::size_t> index;  // per approximation parameter, the rig's
+    for (const ModelledParameter& m : a.parameters)
+        index.push_back(
+            static_cast<std::size_t>(std::find_if(parameters.begin(), parameters.end(),
+                                                  [&](const RigParameter& r) { return r.name == m.parameter.name; }) -
+                                     parameters.begin()));
+    std::vector<int> target(a.outputs.size(), -1);  // per approximation output, the rig's joint
+    for (std::size_t k = 0; k < a.outputs.size(); ++k)
+        if (!a.outputs[k].helper)
+            target[k] = static_cast<int>(std::find(rig.outputs().begin(), rig.outputs().end(), a.outputs[k].name) -
+                                         rig.outputs().begin());
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<double> truth(parameters.size()), solved(parameters.size());
+    std::vector<Eigen::Matrix4d> real, reached;
+    int recovered = 0;
+    double worstOfAll = 0.0;
+    const int poses = 30;
+    for (int pose = 0; pose < poses; ++pose) {
+        // Every control within half its range around rest, the switches anywhere in [0, 1].
+        for (std::size_t p = 0; p < parameters.size(); ++p)
+            truth[p] = parameters[p].defaultValue + 0.5 * (parameters[p].min - parameters[p].defaultValue +
+                                                           unit(rng) * (parameters[p].max - parameters[p].min));
+        for (const char* weight : {"L_leg_settings.ikFk", "R_leg_settings.ikFk"})
+            truth[static_cast<std::size_t>(std::find_if(parameters.begin(), parameters.end(),
+                                                        [&](const RigParameter& r) { return r.name == weight; }) -
+                                           parameters.begin())] = unit(rng);
+        rig.evaluate(truth, real);
+        std::vector<JointTarget> targets(a.outputs.size());
+        for (std::size_t k = 0; k < a.outputs.size(); ++k)
+            if (target[k] >= 0) targets[k] = JointTarget{true, real[static_cast<std::size_t>(target[k])]};
+        std::vector<double> values = a.defaults();
+        solver.initialGuess(targets, values);
+        solver.solve(targets, values);
+        for (std::size_t p = 0; p < a.parameters.size(); ++p) solved[index[p]] = values[p];
+        rig.evaluate(solved, reached);
+        double worst = 0.0;
+        for (std::size_t k = 0; k < real.size(); ++k)
+            if (!rig.helperOutputs()[k])
+                worst = std::max(worst, (reached[k].block<3, 1>(0, 3) - real[k].block<3, 1>(0, 3)).norm());
+        recovered += worst < 1e-3 ? 1 : 0;
+        worstOfAll = std::max(worstOfAll, worst);
+    }
+    MESSAGE("random poses of the biped with both legs switched reached from rest on the real rig: "
+            << recovered << " of " << poses << ", worst " << worstOfAll << " cm");
+    // 18 of 30 measured (96 of 150 with other seeds; 14 of 30 and 78 of 150 before a solve that misses a switched leg
+    // tries the other branch's end, 16 and 87 without guessing anew from there): a miss ends stuck at a foot with its
+    // weight away from the truth's, as on the left leg alone (above), in either leg.
+    CHECK(recovered >= 18);
 }
 
 TEST_CASE("blend: a damaged blend is one line naming file:line:col and the field")
