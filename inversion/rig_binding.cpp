@@ -24,7 +24,7 @@ RigBinding::RigBinding(const Approximation& approximation, RigFunction& rig) : a
     }
     const auto& outputs = rig.outputs();
     for (const auto& o : approximation.outputs) {
-        // A blend's branch copy (a helper, never a target) reads the joint it copies.
+        // A blend's branch copy (a helper, never a target) reads the joint it copies: its frame at its branch's end.
         const std::string name = o.helper ? rigOutputName(o.name) : o.name;
         const auto found = std::find(outputs.begin(), outputs.end(), name);
         if (found == outputs.end()) throw Error(fmt::format("RigBinding: the rig has no output {}", name));

@@ -19,6 +19,7 @@
 #include "inversion/jacobian.h"
 #include "inversion/learner.h"
 #include "inversion/partition.h"
+#include "inversion/rig_binding.h"
 #include "inversion/solver.h"
 #include "nodes/graph_rig_function.h"
 #include "nodes/inversion_spec.h"
@@ -609,6 +610,65 @@ TwoLegs& twoLegs()
 }
 
 }  // namespace
+
+TEST_CASE("blend: rig-learn's biped with both switches animated blends each leg by its own switch, within epsilon")
+{
+    TwoLegs& legs = twoLegs();
+    const Approximation& a = legs.learned.approximation;
+    CHECK(!a.hasUnmodelledOutputs());
+    CHECK(legs.learned.unmodelled.empty());
+    CHECK(a.discarded.empty());
+    // Measured against the rig with the switches as parameters, drawn in [0, 1] like every control in its range.
+    CHECK(a.validation.poses == 60);
+    CHECK(a.validation.withinEpsilon);
+    CHECK(a.validation.maxPositionErrorCm < 1e-3);
+    // The weights last, each blend reading its own leg's.
+    const std::size_t n = a.parameters.size();
+    CHECK(a.parameters[n - 2].parameter.name == "L_leg_settings.ikFk");
+    CHECK(a.parameters[n - 1].parameter.name == "R_leg_settings.ikFk");
+    std::vector<std::string> blends;
+    for (const ApproximationOutput& o : a.outputs)
+        if (o.constraint >= 0 && a.constraints[static_cast<std::size_t>(o.constraint)].kind == ConstraintKind::blend)
+            blends.push_back(
+                o.name + " by " +
+                a.parameters[static_cast<std::size_t>(a.constraints[static_cast<std::size_t>(o.constraint)].weight)]
+                    .parameter.name);
+    CHECK(blends == std::vector<std::string>{"LeftUpLeg by L_leg_settings.ikFk", "LeftLeg by L_leg_settings.ikFk",
+                                             "LeftFoot by L_leg_settings.ikFk", "RightUpLeg by R_leg_settings.ikFk",
+                                             "RightLeg by R_leg_settings.ikFk", "RightFoot by R_leg_settings.ikFk"});
+    // Each switch's own FK controls held at the IK branch, and its IK controls at the FK branch.
+    const std::vector<SwitchHold> holds = switchHolds(a);
+    REQUIRE(holds.size() == 2);
+    const auto names = [&](const std::vector<int>& ps) {
+        std::vector<std::string> out;
+        for (const int p : ps) out.push_back(a.parameters[static_cast<std::size_t>(p)].parameter.name);
+        std::sort(out.begin(), out.end());
+        return out;
+    };
+    CHECK(names(holds[0].fk) == std::vector<std::string>{"L_knee_fk_ctrl.rotateX", "L_upLeg_fk_ctrl.rotateX",
+                                                         "L_upLeg_fk_ctrl.rotateY", "L_upLeg_fk_ctrl.rotateZ"});
+    CHECK(names(holds[1].ik) == std::vector<std::string>{"R_leg_ik_ctrl.translateX", "R_leg_ik_ctrl.translateY",
+                                                         "R_leg_ik_ctrl.translateZ", "R_leg_pole_ctrl.translateX",
+                                                         "R_leg_pole_ctrl.translateY", "R_leg_pole_ctrl.translateZ"});
+    // The file loads the rig as rig-invert does (the switches parameters, the branch copies not the rig's joints),
+    // with the fingerprint it records.
+    const Approximation read = approximationFromYaml(approximationToYaml(a), "ikfk.yaml");
+    CHECK(read.held.size() == 2);  // the stretch, not the switches
+    GraphRigFunction rig(test::sourceDir() / "rigs" / "biped.yaml", rigOptionsFor(read));
+    CHECK(rig.fingerprint() == read.rigFingerprint);
+    CHECK(rig.parameters().size() == read.parameters.size());
+    RigBinding binding(read, rig);
+    std::vector<Eigen::Matrix4d> real, model;
+    binding.evaluate(read.defaults(), real);
+    read.evaluate(read.defaults(), model);
+    // At rest (both switches at 0, FK) every joint as the approximation has it; a branch copy reads its joint, which is
+    // the IK copy's frame only at the IK end (the biped's IK thigh rests a quarter turn from its FK thigh).
+    for (std::size_t k = 0; k < real.size(); ++k) {
+        INFO(read.outputs[k].name);
+        const std::string name = read.outputs[k].name;
+        CHECK((matrixError(real[k], model[k], 10.0) < 1e-6) == !name.ends_with("@ik"));
+    }
+}
 
 TEST_CASE("blend: random poses with random ikFk weights are recovered from rest on the real rig with both legs blended")
 {

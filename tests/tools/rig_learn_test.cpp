@@ -765,6 +765,62 @@ TEST_CASE(
 }
 
 TEST_CASE(
+    "rig-learn: the biped with both ikFk switches animated (rigs/biped_inversion_ikfk.yaml) blends its legs, and "
+    "rig-invert inverts a clip with the switches between their branches")
+{
+    const auto dir = rig::test::scratchDir("rig-learn-ikfk-blends");
+    const auto ikfk = dir / "ikfk.yaml", json = dir / "learn.json";
+    const auto learned =
+        run(rigLearn(fmt::format("rigs/biped.yaml --spec rigs/biped_inversion_ikfk.yaml -o '{}' "
+                                 "--report-json '{}'",
+                                 ikfk.string(), json.string())));
+    INFO(learned.err);
+    REQUIRE(learned.exitCode == 0);
+    CHECK(learned.out.find("\n  LeftUpLeg: blend of LeftUpLeg@ik and LeftUpLeg@fk relative to LHipJoint by "
+                           "L_leg_settings.ikFk (Euler channels in yzx, translation and stretch linear)\n") !=
+          std::string::npos);
+    CHECK(learned.out.find("\n  validated 35 of 35 outputs (and 12 branch copies of blends, through their blends)\n") !=
+          std::string::npos);
+    const YAML::Node report = YAML::LoadFile(json.string());
+    CHECK(report["unmodelled_outputs"].size() == 0);
+    CHECK(report["within_epsilon"].as<bool>());
+    CHECK(report["discarded"].size() == 0);
+    REQUIRE(report["blends"].size() == 6);
+    CHECK(report["blends"][0]["output"].as<std::string>() == "LeftUpLeg");
+    CHECK(report["blends"][0]["weight"].as<std::string>() == "L_leg_settings.ikFk");
+    CHECK(report["blends"][0]["ik"].as<std::string>() == "LeftUpLeg@ik");
+    CHECK(report["blends"][0]["fk"].as<std::string>() == "LeftUpLeg@fk");
+    CHECK(report["blends"][5]["output"].as<std::string>() == "RightFoot");
+    CHECK(report["blends"][5]["weight"].as<std::string>() == "R_leg_settings.ikFk");
+    // Only the stretch is held: the switches are parameters, and the training counts both branches' learning.
+    CHECK(report["held"].size() == 2);
+    CHECK(report["evaluations"].as<int>() > 10000);
+
+    // Three frames with the left leg between its branches and the right one near FK, its knee bent by FK.
+    const rig::Approximation a = rig::readApproximationFile(ikfk);
+    std::string get;
+    for (const auto& o : a.outputs)
+        if (!o.helper) get += fmt::format(" --get {}.worldMatrix", o.name);
+    const auto targets = dir / "targets.json";
+    REQUIRE(run(fmt::format("{} rigs/biped.yaml --set L_leg_settings.ikFk=0.6 --set R_leg_settings.ikFk=0.3 --set "
+                            "L_leg_ik.stretch=true --set R_leg_ik.stretch=true --set root_ctrl.translateY=-8 --set "
+                            "L_leg_ik_ctrl.translateZ=12 --set L_upLeg_fk_ctrl.rotateX=20 --set "
+                            "R_knee_fk_ctrl.rotateX=30 --frames 1:3{} -o '{}'",
+                            rig::test::tool("graph-eval"), get, targets.string()))
+                .exitCode == 0);
+    const auto inverted = run(fmt::format("{} '{}' --rig rigs/biped.yaml --clip '{}' -o '{}' --report-json '{}'",
+                                          rig::test::tool("rig-invert"), ikfk.string(), targets.string(),
+                                          (dir / "curves.json").string(), (dir / "report.json").string()));
+    INFO(inverted.out);
+    INFO(inverted.err);
+    REQUIRE(inverted.exitCode == 0);
+    CHECK(inverted.err.empty());  // the fingerprint and the held plugs are the rig's
+    const YAML::Node invert = YAML::LoadFile((dir / "report.json").string());
+    CHECK(invert["status_frames"]["reached"].as<int>() == 3);
+    CHECK(invert["max_position_error_cm"].as<double>() < 1e-3);
+}
+
+TEST_CASE(
     "rig-learn: the creature's IK arms, thighs and knees (rigs/creature_inversion_ik.yaml) learned as planar chains "
     "on their goals and poles, within epsilon")
 {
