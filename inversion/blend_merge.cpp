@@ -194,28 +194,37 @@ void addOperators(const ModelledParameter& p, const OperatorMap& map, std::vecto
 
 }  // namespace
 
-Approximation mergeSwitchBranches(const SwitchBranches& s)
+namespace {
+
+// The switched outputs a blend can model: modelled in both branches, under a parent that is (an unmodelled output has
+// no output relative to it). The others stay the IK branch's, not modelled (--no-helpers leaves an IK leg so), and
+// their switches move them on the real rig only; `unblended` gets them.
+std::vector<SwitchBranches::Switched> blendable(const SwitchBranches& s,
+                                                std::vector<SwitchBranches::Switched>& unblended)
 {
-    if (!s.ik || !s.fk) throw internalError("mergeSwitchBranches: both branches are needed");
-    std::set<std::string> weights;
-    for (const RigParameter& w : s.weights) {
-        if (!w.limited || w.min < 0.0 || w.max > 1.0)
-            throw Error(fmt::format("switch branches: the weight '{}' is not limited to [0, 1]", w.name));
-        weights.insert(w.name);
+    std::vector<SwitchBranches::Switched> out;
+    std::set<std::string> left;
+    for (const SwitchBranches::Switched& w : s.switched) {
+        const int a = find(*s.ik, w.output), b = find(*s.fk, w.output);
+        // An output missing from a branch is mergeOutputs' error to report.
+        const bool modelled = a < 0 || b < 0 ||
+                              (s.ik->outputs[static_cast<std::size_t>(a)].modelled &&
+                               s.fk->outputs[static_cast<std::size_t>(b)].modelled && !left.contains(w.parent));
+        if (modelled) out.push_back(w);
+        else {
+            unblended.push_back(w);
+            left.insert(w.output);
+        }
     }
+    return out;
+}
+
+// The parameters of both branches by name (mergedOrder), each one's operators on the merged outputs. An FK branch's
+// operator on an output the merge does not model (the IK branch's) makes that output one the parameter moves on the
+// real rig only.
+void mergeParameters(const SwitchBranches& s, const OutputMaps& maps, Approximation& m)
+{
     const Approximation &ik = *s.ik, &fk = *s.fk;
-    Approximation m;
-    m.rigFile = ik.rigFile;
-    m.rigFingerprint = ik.rigFingerprint;
-    m.epsilon = ik.epsilon;
-    for (const HeldPlug& h : ik.held)
-        if (!weights.contains(h.plug)) m.held.push_back(h);
-    m.droppedOutputs = ik.droppedOutputs;
-    m.training = ik.training;
-    m.training.evaluations += fk.training.evaluations;
-    m.training.orderEvaluations += fk.training.orderEvaluations;
-    m.training.seconds += fk.training.seconds;
-    const OutputMaps maps = mergeOutputs(s, m);
     const OperatorMap ikMap = [&](int k) {
         return maps.ikSwitched[static_cast<std::size_t>(k)] ? maps.ikCopy[static_cast<std::size_t>(k)] : k;
     };
@@ -246,11 +255,46 @@ Approximation mergeSwitchBranches(const SwitchBranches& s)
             p.operatorOfOutput.push_back(static_cast<int>(p.operators.size()));
             p.operators.push_back(op);
         }
-        p.unmodelledOutputs.clear();
-        if (a)
-            for (const int k : a->unmodelledOutputs) p.unmodelledOutputs.push_back(k);
+        std::set<int> unmodelled;
+        if (a) unmodelled.insert(a->unmodelledOutputs.begin(), a->unmodelledOutputs.end());
+        if (b)
+            for (const int k : b->outputs)
+                if (const int shared = find(ik, fk.outputs[static_cast<std::size_t>(k)].name);
+                    fkMap(k) < 0 && shared >= 0 && !m.outputs[static_cast<std::size_t>(shared)].modelled)
+                    unmodelled.insert(shared);
+        p.unmodelledOutputs.assign(unmodelled.begin(), unmodelled.end());
         m.parameters.push_back(std::move(p));
     }
+}
+
+}  // namespace
+
+Approximation mergeSwitchBranches(const SwitchBranches& branches)
+{
+    if (!branches.ik || !branches.fk) throw internalError("mergeSwitchBranches: both branches are needed");
+    std::set<std::string> weights;
+    for (const RigParameter& w : branches.weights) {
+        if (!w.limited || w.min < 0.0 || w.max > 1.0)
+            throw Error(fmt::format("switch branches: the weight '{}' is not limited to [0, 1]", w.name));
+        weights.insert(w.name);
+    }
+    SwitchBranches s = branches;
+    std::vector<SwitchBranches::Switched> unblended;
+    s.switched = blendable(branches, unblended);
+    const Approximation &ik = *s.ik, &fk = *s.fk;
+    Approximation m;
+    m.rigFile = ik.rigFile;
+    m.rigFingerprint = ik.rigFingerprint;
+    m.epsilon = ik.epsilon;
+    for (const HeldPlug& h : ik.held)
+        if (!weights.contains(h.plug)) m.held.push_back(h);
+    m.droppedOutputs = ik.droppedOutputs;
+    m.training = ik.training;
+    m.training.evaluations += fk.training.evaluations;
+    m.training.orderEvaluations += fk.training.orderEvaluations;
+    m.training.seconds += fk.training.seconds;
+    const OutputMaps maps = mergeOutputs(s, m);
+    mergeParameters(s, maps, m);
     // A parameter one branch discarded (an FK control with the switch at 1) is modelled if the other branch models it.
     std::set<std::string> modelled;
     for (const ModelledParameter& p : m.parameters) modelled.insert(p.parameter.name);
@@ -258,10 +302,14 @@ Approximation mergeSwitchBranches(const SwitchBranches& s)
         for (const DiscardedParameter& d : a->discarded)
             if (modelled.insert(d.parameter.name).second) m.discarded.push_back(d);
     const int firstWeight = static_cast<int>(m.parameters.size());
-    for (const RigParameter& w : s.weights) {
+    for (std::size_t i = 0; i < s.weights.size(); ++i) {
         ModelledParameter weight;
-        weight.parameter = w;
-        weight.form = "blend weight";
+        weight.parameter = s.weights[i];
+        const auto blends = [&](const SwitchBranches::Switched& w) { return w.weight == static_cast<int>(i); };
+        if (std::any_of(s.switched.begin(), s.switched.end(), blends)) weight.form = "blend weight";
+        for (const SwitchBranches::Switched& w : unblended)
+            if (blends(w)) weight.unmodelledOutputs.push_back(find(ik, w.output));
+        std::sort(weight.unmodelledOutputs.begin(), weight.unmodelledOutputs.end());
         m.parameters.push_back(std::move(weight));
     }
     makeBlends(s, maps, firstWeight, m);

@@ -51,10 +51,12 @@ std::vector<SwitchHold> switchHolds(const Approximation& approximation);
 std::string rigOutputName(const std::string& name);
 
 // The merged approximation, its held plugs the IK branch's but the weights, the parameters either branch discarded
-// and the merge does not model discarded; its fingerprint is the IK branch's (the caller sets the fingerprint of the
-// rig with the weights as parameters). Throws a userInput rig::Error naming what does not merge (an output missing
-// from a branch, a switched output in neither, parameters ordered differently by the two branches, a weight not
-// limited to [0, 1]).
+// and the merge does not model discarded. A switched output a branch leaves unmodelled (no helper frames, so no IK
+// chain) is not blended: it stays the IK branch's, not modelled, and its switch and the FK controls that move it
+// move it on the real rig only (ModelledParameter::unmodelledOutputs). Its fingerprint is the IK branch's (the caller
+// sets the fingerprint of the rig with the weights as parameters). Throws a userInput rig::Error naming what does not
+// merge (an output missing from a branch, a switched output in neither, parameters ordered differently by the two
+// branches, a weight not limited to [0, 1]).
 Approximation mergeSwitchBranches(const SwitchBranches& branches);
 
 }  // namespace rig

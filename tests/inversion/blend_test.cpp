@@ -670,6 +670,37 @@ TEST_CASE("blend: rig-learn's biped with both switches animated blends each leg 
     }
 }
 
+TEST_CASE(
+    "blend: without helper frames the IK legs are not modelled, so not blended: their switches move them on the "
+    "real rig only")
+{
+    app::LearnJob job = TwoLegs::job();
+    job.noHelpers = true;
+    const app::LearnOutcome learned = app::learn(job);
+    const Approximation& a = learned.approximation;
+    // The IK branch's thighs, knees, feet and toes, as the IK spec learned without helpers leaves them.
+    std::vector<std::string> unmodelled;
+    for (const ApproximationOutput& o : a.outputs)
+        if (!o.modelled) unmodelled.push_back(o.name);
+    CHECK(unmodelled == std::vector<std::string>{"LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase", "RightUpLeg",
+                                                 "RightLeg", "RightFoot", "RightToeBase"});
+    CHECK(a.constraints.empty());
+    CHECK(a.validation.withinEpsilon);
+    const auto parameter = [&](const std::string& name) {
+        return *std::find_if(a.parameters.begin(), a.parameters.end(),
+                             [&](const ModelledParameter& m) { return m.parameter.name == name; });
+    };
+    const ModelledParameter weight = parameter("L_leg_settings.ikFk");
+    CHECK(weight.outputs.empty());
+    CHECK(weight.unmodelledOutputs.size() == 3);
+    CHECK(app::storedForm(weight) == "none (real rig only)");
+    const ModelledParameter fk = parameter("L_upLeg_fk_ctrl.rotateX");
+    CHECK(fk.outputs.empty());
+    CHECK(fk.unmodelledOutputs.size() == 1);
+    // A file rig-invert loads (a blend reading an unmodelled copy would be refused).
+    CHECK(approximationFromYaml(approximationToYaml(a), "hybrid.yaml").parameters.size() == a.parameters.size());
+}
+
 TEST_CASE("blend: random poses with random ikFk weights are recovered from rest on the real rig with both legs blended")
 {
     TwoLegs& legs = twoLegs();
