@@ -398,10 +398,8 @@ private:
                 fmt::format("{}.rig is empty; the hybrid solve evaluates the rig the approximation was learned "
                             "from ({}): give its file",
                             node, a.rigFile));
-        GraphRigOptions options;
-        for (const auto& m : a.parameters) options.parameterGlobs.push_back(m.parameter.name);
-        for (const auto& o : a.outputs) options.outputGlobs.push_back(o.name);
-        options.held = a.held;
+        // The rig as rig-invert loads it: helpers as helpers, a blend's branch copies as the joints they copy.
+        const GraphRigOptions options = rigOptionsFor(a);
         try {
             realRig_ = std::make_unique<GraphRigFunction>(path, options);
             binding_ = std::make_unique<RigBinding>(a, *realRig_);
