@@ -102,6 +102,15 @@ RigSwitches findSwitches(GraphRigFunction& rig, const std::string& rigName)
         out.switchOfOutput[k] = *switches.begin();
         used.insert(*switches.begin());
     }
+    // A blend's weight goes from the FK branch (0) to the IK branch (1): the solver must not take it past them.
+    for (const int p : used) {
+        const RigParameter& r = rig.parameters()[static_cast<std::size_t>(p)];
+        if (!r.limited || r.min < 0.0 || r.max > 1.0)
+            throw Error(fmt::format(
+                "{}: switch '{}' (it drives a blendColors blender) is not limited to [0, 1]; give its attribute min 0 "
+                "and max 1, or hold it with the spec's `set:` (or --set)",
+                rigName, r.name));
+    }
     out.switches.assign(used.begin(), used.end());
     return out;
 }

@@ -17,7 +17,8 @@ struct RigSwitches {
     std::vector<int> switchOfOutput;  // per rig output: the switch (a parameter index) blending it, or -1
 };
 
-// Throws a userInput rig::Error for an output that two switches blend (`rigName` says where).
+// Throws a userInput rig::Error for an output that two switches blend, or a switch not limited to [0, 1] (`rigName`
+// says where).
 RigSwitches findSwitches(GraphRigFunction& rig, const std::string& rigName);
 
 }  // namespace rig

@@ -31,7 +31,8 @@ std::map<std::string, std::vector<std::string>> blendedBy(GraphRigFunction& rig)
 // A knee blended by `ikFk` through a relay's input (a plain connection), a foot by `space` through a reverse node.
 const char* const relayedRig = R"(nodes:
   - {name: settings, type: transform, addAttr: [{name: ikFk, min: 0, max: 1, keyable: true},
-                                                {name: space, min: 0, max: 1, keyable: true}]}
+                                                {name: space, min: 0, max: 1, keyable: true},
+                                                {name: free, keyable: true}]}
   - {name: relay, type: transform, addAttr: [{name: w, min: 0, max: 1, keyable: true}]}
   - {name: a_ctrl, type: transform}
   - {name: b_ctrl, type: transform}
@@ -98,4 +99,25 @@ TEST_CASE("switches: an output two switches blend is one line naming both")
     GraphRigFunction one(file,
                          {{"a_ctrl.rotate?", "b_ctrl.rotate?", "settings.ikFk"}, {}, {}, {{"settings.space", 1}}});
     CHECK(blendedBy(one) == std::map<std::string, std::vector<std::string>>{{"settings.ikFk", {"knee"}}});
+}
+
+TEST_CASE("switches: a switch not limited to [0, 1] is one line saying how to limit or hold it")
+{
+    // settings.free drives the knee's blender in place of settings.ikFk: a parameter without limits.
+    std::string text = relayedRig;
+    const std::string from = "  - settings.ikFk -> relay.w\n";
+    text.replace(text.find(from), from.size(), "  - settings.free -> relay.w\n");
+    const auto file = test::writeFile(test::scratchDir("rig-switches") / "free.yaml", text);
+    GraphRigFunction rig(file, {{"a_ctrl.rotate?", "b_ctrl.rotate?", "settings.free"}, {}, {}, {}});
+    std::string message;
+    try {
+        findSwitches(rig, "free.yaml");
+    }
+    catch (const Error& e) {
+        message = e.what();
+        CHECK(e.kind() == ErrorKind::userInput);
+    }
+    CHECK(message ==
+          "free.yaml: switch 'settings.free' (it drives a blendColors blender) is not limited to [0, 1]; give its "
+          "attribute min 0 and max 1, or hold it with the spec's `set:` (or --set)");
 }
