@@ -222,21 +222,21 @@ bool solveRotationsFirst(const Solver& solver, std::span<const JointTarget> targ
 
 // Whether the rotations lead the next frame, from this one's solve (`led`: with the rotations leading, `summary` the
 // second solve's).
-void decideLead(bool led, const SolveSummary& summary, ChainScratch& scratch)
+void decideLead(bool led, const SolveSummary& summary, ChainLead& lead)
 {
     if (!led) {
-        scratch.leadWait = std::max(0, scratch.leadWait - 1);
-        scratch.rotationsLead = summary.longFirstStep && scratch.leadWait == 0;
+        lead.wait = std::max(0, lead.wait - 1);
+        lead.rotations = summary.longFirstStep && lead.wait == 0;
         return;
     }
     // It paid where the targets' own weights took one step from the rotations' answer.
-    scratch.rotationsLead = summary.converged() && summary.iterations <= 1;
-    if (scratch.rotationsLead) {
-        scratch.leadBackoff = ChainScratch::firstLeadWait;
+    lead.rotations = summary.converged() && summary.iterations <= 1;
+    if (lead.rotations) {
+        lead.backoff = ChainLead::firstWait;
         return;
     }
-    scratch.leadWait = scratch.leadBackoff;
-    scratch.leadBackoff = std::min(2 * scratch.leadBackoff, 1 << 20);
+    lead.wait = lead.backoff;
+    lead.backoff = std::min(2 * lead.backoff, 1 << 20);
 }
 
 }  // namespace
@@ -248,9 +248,10 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     frame.retried = frame.kept = false;
     frame.realRigEvaluations = 0;
     scratch.led.reserve(targets.size());  // grown at the chain's first frame, whether or not the rotations lead
-    const bool led = scratch.rotationsLead && solveRotationsFirst(solver, targets, values, scratch);
+    if (!(previousCost < retryNever)) scratch.lead = ChainLead{};
+    const bool led = scratch.lead.rotations && solveRotationsFirst(solver, targets, values, scratch);
     solver.solve(targets, values, frame.summary);
-    decideLead(led, frame.summary, scratch);
+    decideLead(led, frame.summary, scratch.lead);
     if (led) {
         frame.summary.iterations += scratch.second.iterations;
         frame.summary.gaussNewtonIterations += scratch.second.gaussNewtonIterations;

@@ -56,7 +56,8 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
 // linear; where the targets are reached, the second solve takes one step. The rotations keep leading while that holds
 // (the second solve converges at its first step). Where it does not (targets out of reach: the two weightings have
 // different optima), the lead did not pay, and the next one waits 4 frames, then 8, 16, ... Targets without a rotation
-// to lead are solved plainly.
+// to lead are solved plainly. A chain's first frame (`previousCost` = retryNever) starts without a lead, so that a
+// chunk of a clip solves as the whole clip does from the same restart frame.
 inline constexpr double retryNever = std::numeric_limits<double>::infinity();
 struct ChainFrame {
     SolveSummary summary;  // of the answer kept; iterations of every solve the frame ran
@@ -65,16 +66,21 @@ struct ChainFrame {
     int realRigEvaluations = 0;  // of a hybrid solve (hybrid_solve.h); 0 on the approximation alone
 };
 inline constexpr double rotationsLeadPositionWeight = 0.01;
+// Whether the rotations lead a chain's next frame: state carried from frame to frame, as the values are (a caller that
+// solves one frame again, as the rigInversion node does when its inputs change, restores it with the values).
+struct ChainLead {
+    bool rotations = false;  // the next frame is solved with the rotations leading
+    // After a lead that did not pay, the frames to wait before the rotations lead again, and the wait after the next
+    // one that does not (doubled each time, back to firstWait once a lead pays).
+    int wait = 0;
+    int backoff = firstWait;
+    static constexpr int firstWait = 4;
+};
 struct ChainScratch {
     std::vector<double> start;  // the warm start, for the second solve
     SolveSummary second;
-    bool rotationsLead = false;    // the next frame is solved with the rotations leading
-    std::vector<JointTarget> led;  // its targets, positions weighed rotationsLeadPositionWeight times their own
-    // After a lead that did not pay, the frames to wait before the rotations lead again, and the wait after the next
-    // one that does not (doubled each time, back to firstLeadWait once a lead pays).
-    int leadWait = 0;
-    int leadBackoff = firstLeadWait;
-    static constexpr int firstLeadWait = 4;
+    ChainLead lead;                // reset at a chain's first frame (previousCost = retryNever)
+    std::vector<JointTarget> led;  // a led frame's targets, positions weighed rotationsLeadPositionWeight times theirs
 };
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
                      double previousCost, ChainScratch& scratch, ChainFrame& frame);

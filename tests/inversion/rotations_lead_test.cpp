@@ -11,6 +11,7 @@
 
 #include "inversion/clip_inversion.h"
 #include "inversion/learner.h"
+#include "inversion/rig_binding.h"
 #include "random_fk.h"
 #include "solver_rigs.h"
 
@@ -20,7 +21,7 @@ namespace {
 
 // rig-bench's chain (scripts/make_rigs.py chain): `joints` joints 10 cm apart along x, rotate orders xyz, yzx, zxy in
 // turn, every rotate channel a parameter.
-Approximation longChain(int joints)
+test::RandomFk chainFk(int joints)
 {
     test::RandomFk fk;
     const std::array<std::array<int, 3>, 3> orders{{{0, 1, 2}, {1, 2, 0}, {2, 0, 1}}};
@@ -31,10 +32,20 @@ Approximation longChain(int joints)
         fk.order.push_back(orders[static_cast<std::size_t>(j % 3)]);
         for (int axis = 0; axis < 3; ++axis) fk.channels.push_back({j, false, axis});
     }
-    test::LambdaRig rig = test::lambdaRig(fk, true);
+    return fk;
+}
+
+Approximation learnChain(test::LambdaRig& rig)
+{
     LearnOptions options;
     options.validationPoses = 3;
     return learnApproximation(rig, options, "chain");
+}
+
+Approximation longChain(int joints)
+{
+    test::LambdaRig rig = test::lambdaRig(chainFk(joints), true);
+    return learnChain(rig);
 }
 
 // rig-bench's chain motion: each parameter a sine about its default, up to a sixth of its range, 0.5 to 2 cycles
@@ -82,10 +93,13 @@ ChainRun runChain(const Solver& solver, const std::vector<std::vector<JointTarge
     solver.initialGuess(clip.front(), values);
     ChainScratch scratch;
     ChainFrame frame;
+    bool first = true;
     for (const auto& targets : clip) {
         if (chainFrames) {
-            run.ledFrames += scratch.rotationsLead;
-            solveChainFrame(solver, targets, values, retryNever, scratch, frame);
+            run.ledFrames += scratch.lead.rotations;
+            // Retried never (a finite previous cost no frame's doubles): only the first frame starts the chain.
+            solveChainFrame(solver, targets, values, first ? retryNever : 1e300, scratch, frame);
+            first = false;
         } else {
             solver.solve(targets, values, frame.summary);
         }
@@ -161,4 +175,24 @@ TEST_CASE("rotations lead: position targets alone have no rotation to lead")
     const ChainRun plain = runChain(solver, clip, false), led = runChain(solver, clip, true);
     CHECK(led.values == plain.values);  // bit for bit: every frame solved plainly
     CHECK(led.iterations == plain.iterations);
+}
+
+TEST_CASE("rotations lead: a chunk from a restart frame solves as the whole clip does")
+{
+    test::LambdaRig rig = test::lambdaRig(chainFk(67), true);
+    const Approximation a = learnChain(rig);
+    const Solver solver(a, SolverOptions{});
+    ClipTargets clip;
+    clip.frames = chainMotion(a, 41, 0.0);
+    clip.matchedJoints = static_cast<int>(a.outputs.size());
+    RigBinding binding(a, rig);
+    ClipInversionOptions options;
+    options.restartInterval = 20;
+    std::vector<std::vector<double>> whole, chunk;
+    const ClipInversionSummary all = invertClip(solver, binding, clip, 0, 40, options, whole);
+    invertClip(solver, binding, clip, 20, 40, options, chunk);
+    CHECK(all.count(FrameStatus::reached) == 41);
+    REQUIRE(chunk.size() == 21);
+    // The whole clip's frames 1 to 19 led it into frame 20 with the rotations leading; the restart starts anew.
+    for (std::size_t f = 0; f < chunk.size(); ++f) CHECK(chunk[f] == whole[f + 20]);  // bit for bit
 }
