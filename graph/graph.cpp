@@ -255,13 +255,8 @@ Value Graph::getValue(const Plug& p)
 void Graph::setTime(double frame)
 {
     time_ = frame;
-    for (NodeId n = 0; n < nodeCount(); ++n) {
-        const auto& specs = attributes(n);
-        for (std::size_t a = 0; a < specs.size(); ++a) {
-            const Plug p{n, static_cast<AttrId>(a), -1, -1};
-            if (specs[a].sceneTime && incomingConnection(p) == nullptr) setValue(p, frame);
-        }
-    }
+    const std::shared_ptr<const std::vector<Plug>> plugs = model_->timePlugs();
+    for (const Plug& p : *plugs) setValue(p, frame);
 }
 
 void Graph::setThreads(int threads)

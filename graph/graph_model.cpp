@@ -88,6 +88,7 @@ AttrId GraphModel::addAttribute(NodeId node, AttributeSpec spec)
     specs->push_back(std::move(spec));
     rec.ownSpecs = std::move(specs);
     rec.outgoing.emplace_back();
+    topologyChanged();  // a new plug: the time plugs are listed again
     return static_cast<AttrId>(rec.specs().size() - 1);
 }
 
@@ -308,6 +309,7 @@ void GraphModel::topologyChanged()
 {
     const std::lock_guard lock(scheduleMutex_);
     schedule_.reset();
+    timePlugs_.reset();
 }
 
 std::shared_ptr<const Schedule> GraphModel::schedule() const
@@ -321,6 +323,23 @@ std::shared_ptr<const Schedule> GraphModel::schedule() const
         schedule_ = std::make_shared<const Schedule>(nodeCount(), edges);
     }
     return schedule_;
+}
+
+std::shared_ptr<const std::vector<Plug>> GraphModel::timePlugs() const
+{
+    const std::lock_guard lock(scheduleMutex_);
+    if (!timePlugs_) {
+        auto plugs = std::make_shared<std::vector<Plug>>();
+        for (NodeId n = 0; n < nodeCount(); ++n) {
+            const auto& specs = topology(n).specs();
+            for (std::size_t a = 0; a < specs.size(); ++a) {
+                const Plug p{n, static_cast<AttrId>(a), -1, -1};
+                if (specs[a].sceneTime && incomingConnection(p) == nullptr) plugs->push_back(p);
+            }
+        }
+        timePlugs_ = std::move(plugs);
+    }
+    return timePlugs_;
 }
 
 }  // namespace rig

@@ -82,6 +82,9 @@ public:
 
     // The evaluation order, built on first use after the topology changed (thread-safe).
     std::shared_ptr<const Schedule> schedule() const;
+    // The plugs that take the scene time (AttributeSpec::sceneTime) and have no incoming connection, built on first
+    // use after the topology changed (thread-safe): Graph::setTime sets them without a pass over every attribute.
+    std::shared_ptr<const std::vector<Plug>> timePlugs() const;
 
 private:
     std::vector<int> cyclePath(NodeId from, NodeId to) const;
@@ -93,6 +96,7 @@ private:
     std::vector<Connection> connections_;
     mutable std::mutex scheduleMutex_;
     mutable std::shared_ptr<const Schedule> schedule_;
+    mutable std::shared_ptr<const std::vector<Plug>> timePlugs_;
 };
 
 }  // namespace rig

@@ -202,13 +202,61 @@ std::string ClipInversionSummary::briefReport() const
         worstRotationFrame, meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
 }
 
+namespace {
+
+// The frame solved with the positions weighed rotationsLeadPositionWeight times their own, from `values`; false (and
+// `values` unchanged) when no active target has a rotation to lead.
+bool solveRotationsFirst(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                         ChainScratch& scratch)
+{
+    scratch.led.assign(targets.begin(), targets.end());
+    bool rotations = false;
+    for (JointTarget& t : scratch.led) {
+        rotations = rotations || (t.active && t.rotationWeight > 0.0);
+        t.positionWeight *= rotationsLeadPositionWeight;
+    }
+    if (!rotations) return false;
+    solver.solve(scratch.led, values, scratch.second);
+    return true;
+}
+
+// Whether the rotations lead the next frame, from this one's solve (`led`: with the rotations leading, `summary` the
+// second solve's).
+void decideLead(bool led, const SolveSummary& summary, ChainLead& lead)
+{
+    if (!led) {
+        lead.wait = std::max(0, lead.wait - 1);
+        lead.rotations = summary.longFirstStep && lead.wait == 0;
+        return;
+    }
+    // It paid where the targets' own weights took one step from the rotations' answer.
+    lead.rotations = summary.converged() && summary.iterations <= 1;
+    if (lead.rotations) {
+        lead.backoff = ChainLead::firstWait;
+        return;
+    }
+    lead.wait = lead.backoff;
+    lead.backoff = std::min(2 * lead.backoff, 1 << 20);
+}
+
+}  // namespace
+
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
                      double previousCost, ChainScratch& scratch, ChainFrame& frame)
 {
     scratch.start.assign(values.begin(), values.end());  // the warm start
     frame.retried = frame.kept = false;
     frame.realRigEvaluations = 0;
+    scratch.led.reserve(targets.size());  // grown at the chain's first frame, whether or not the rotations lead
+    if (!(previousCost < retryNever)) scratch.lead = ChainLead{};
+    const bool led = scratch.lead.rotations && solveRotationsFirst(solver, targets, values, scratch);
     solver.solve(targets, values, frame.summary);
+    decideLead(led, frame.summary, scratch.lead);
+    if (led) {
+        frame.summary.iterations += scratch.second.iterations;
+        frame.summary.gaussNewtonIterations += scratch.second.gaussNewtonIterations;
+        frame.summary.levenbergMarquardtIterations += scratch.second.levenbergMarquardtIterations;
+    }
     const double tolerance = solver.options().targetTolerance;
     const double floor = 0.5 * tolerance * tolerance;
     if (!(previousCost < retryNever) || frame.summary.termination != TerminationType::stuck ||

@@ -48,16 +48,39 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
 // cheaper answer is kept (ClipInversionOptions::retryStuck). `previousCost` = retryNever: no retry
 // (restart frames). `frame` is the result; it and `scratch` keep their storage from frame to frame, so
 // that a chain allocates nothing once they have grown.
+//
+// The rotations lead (docs/solver.md, long chains): after a frame whose first step was longer than the angular trust
+// region allows (SolveSummary::longFirstStep), the next frame is solved first with every position weighed
+// rotationsLeadPositionWeight times its own, then from that answer with the targets' own weights. The targets' world
+// rotations fix each joint's local rotation without the lever arms that make a long chain's far positions so far from
+// linear; where the targets are reached, the second solve takes one step. The rotations keep leading while that holds
+// (the second solve converges at its first step). Where it does not (targets out of reach: the two weightings have
+// different optima), the lead did not pay, and the next one waits 4 frames, then 8, 16, ... Targets without a rotation
+// to lead are solved plainly. A chain's first frame (`previousCost` = retryNever) starts without a lead, so that a
+// chunk of a clip solves as the whole clip does from the same restart frame.
 inline constexpr double retryNever = std::numeric_limits<double>::infinity();
 struct ChainFrame {
-    SolveSummary summary;  // of the answer kept; iterations of both solves when the second is kept
+    SolveSummary summary;  // of the answer kept; iterations of every solve the frame ran
     bool retried = false;
     bool kept = false;           // the second answer was cheaper
     int realRigEvaluations = 0;  // of a hybrid solve (hybrid_solve.h); 0 on the approximation alone
 };
+inline constexpr double rotationsLeadPositionWeight = 0.01;
+// Whether the rotations lead a chain's next frame: state carried from frame to frame, as the values are (a caller that
+// solves one frame again, as the rigInversion node does when its inputs change, restores it with the values).
+struct ChainLead {
+    bool rotations = false;  // the next frame is solved with the rotations leading
+    // After a lead that did not pay, the frames to wait before the rotations lead again, and the wait after the next
+    // one that does not (doubled each time, back to firstWait once a lead pays).
+    int wait = 0;
+    int backoff = firstWait;
+    static constexpr int firstWait = 4;
+};
 struct ChainScratch {
     std::vector<double> start;  // the warm start, for the second solve
     SolveSummary second;
+    ChainLead lead;                // reset at a chain's first frame (previousCost = retryNever)
+    std::vector<JointTarget> led;  // a led frame's targets, positions weighed rotationsLeadPositionWeight times theirs
 };
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
                      double previousCost, ChainScratch& scratch, ChainFrame& frame);

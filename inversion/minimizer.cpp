@@ -43,9 +43,9 @@ double holdAtLimits(MinimizerProblem& problem, const Unknowns& u, const SolverOp
 
 // The damped step from state.x, times `scale`, within the angular trust region and the limits, into state.trial
 // and state.step; false when the system has no solution. `smallStep`: under parameterTolerance. `wholeStep`:
-// neither scaled, shortened nor projected.
+// neither scaled, shortened nor projected. `shortened`: cut to the angular trust region.
 bool trialStep(MinimizerProblem& problem, const Unknowns& u, const SolverOptions& options, MinimizerState& s,
-               double damping, double scale, bool& smallStep, bool& wholeStep)
+               double damping, double scale, bool& smallStep, bool& wholeStep, bool& shortened)
 {
     const std::size_t n = u.size();
     if (!problem.solveStep(s.gFree, damping, s.fixed, s.delta)) return false;
@@ -54,8 +54,9 @@ bool trialStep(MinimizerProblem& problem, const Unknowns& u, const SolverOptions
     double largestTurn = 0.0;
     for (std::size_t c = 0; c < n; ++c)
         if (u.angular[c]) largestTurn = std::max(largestTurn, std::abs(s.delta[static_cast<Eigen::Index>(c)]));
-    wholeStep = largestTurn <= options.maxAngularStep;
-    if (!wholeStep) s.delta *= options.maxAngularStep / largestTurn;
+    shortened = largestTurn > options.maxAngularStep;
+    if (shortened) s.delta *= options.maxAngularStep / largestTurn;
+    wholeStep = !shortened;
     wholeStep = wholeStep && scale == 1.0;
     // Projection onto the limits; the step actually taken is what the model and tolerances see.
     double stepNorm2 = 0.0, xNorm2 = 0.0;
@@ -188,9 +189,11 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
             break;
         }
         const bool gaussNewton = control.gaussNewton();
-        bool smallStep = false, wholeStep = false;
-        if (!trialStep(problem, u, o, s, control.damping(largestDiagonal), control.scale(), smallStep, wholeStep))
+        bool smallStep = false, wholeStep = false, shortened = false;
+        if (!trialStep(problem, u, o, s, control.damping(largestDiagonal), control.scale(), smallStep, wholeStep,
+                       shortened))
             break;
+        if (result.gaussNewton + result.levenbergMarquardt == 0) result.longFirstStep = shortened;
         // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
         const auto predicted = [&] {
             problem.multiply(s.step, s.hStep);

@@ -75,6 +75,10 @@ struct MinimizerResult {
     double cost = 0.0;            // 1/2 |r|^2 at the values returned
     double initialCost = 0.0;     // the same at the start
     bool evaluatedAtEnd = false;  // the problem's last evaluation (and state.r) is at the values returned
+    // The first step turned some angle further than options.maxAngularStep and was shortened: the linear model at the
+    // start did not hold as far as the answer (a long chain's far joints, whose positions are far from linear in the
+    // angles of the joints above them).
+    bool longFirstStep = false;
 };
 
 // Minimizes 1/2 |r(x)|^2 from state.x (within the limits) within the unknowns' limits: Gauss-Newton then

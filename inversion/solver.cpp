@@ -461,6 +461,7 @@ void SolveRun::finish(bool initialFromSolve)
         summary_.gaussNewtonIterations += r.gaussNewton;
         summary_.levenbergMarquardtIterations += r.levenbergMarquardt;
         converged = converged && r.converged;
+        summary_.longFirstStep = summary_.longFirstStep || r.longFirstStep;
     }
     summary_.iterations = summary_.gaussNewtonIterations + summary_.levenbergMarquardtIterations;
     if (initialFromSolve && system_) summary_.initialCost = results[0].initialCost;
@@ -503,6 +504,7 @@ void solveFromOtherBranches(const Solver& solver, Solver::Impl& impl, std::span<
     }
     if (flipped && again.finalCost < summary.finalCost) {
         again.initialCost = summary.initialCost;
+        again.longFirstStep = summary.longFirstStep;  // of the start the solve was given
         again.gaussNewtonIterations += summary.gaussNewtonIterations;
         again.levenbergMarquardtIterations += summary.levenbergMarquardtIterations;
         again.iterations += summary.iterations;
@@ -552,6 +554,7 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     SolveSummary again;
     SolveRun(impl, targets, values, again, *scratch, *plan).run();
     again.initialCost = summary.initialCost;
+    again.longFirstStep = summary.longFirstStep;  // of the start the solve was given
     again.gaussNewtonIterations += summary.gaussNewtonIterations;
     again.levenbergMarquardtIterations += summary.levenbergMarquardtIterations;
     again.iterations += summary.iterations;

@@ -100,6 +100,10 @@ struct SolveSummary {
     // targets at the end: where a stuck or unconverged solve left a residual. Empty when converged.
     std::vector<int> missedOutputs;
     int blocks = 0;  // partition blocks solved
+    // Some block's first step from the start turned an angle further than SolverOptions::maxAngularStep and was
+    // shortened: the linear model at the start did not hold as far as the answer (solveChainFrame lets the rotations
+    // lead the next frame).
+    bool longFirstStep = false;
 
     // One line: termination, iterations, blocks, costs, worst errors.
     std::string briefReport() const;

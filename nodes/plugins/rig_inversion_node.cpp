@@ -309,13 +309,16 @@ private:
             if (c.getBool(coldStart)) loaded_->solver->initialGuess(targets, start_);
             startCost_ = retryNever;  // a restart is not retried, as in rig-invert
             std::fill(startShifts_.begin(), startShifts_.end(), Eigen::Vector3d::Zero());
+            startLead_ = ChainLead{};
         } else if (t != previousTime_) {
             start_ = solution_;
             startCost_ = solutionCost_;
             startShifts_ = shifts_;
+            startLead_ = scratch_.lead;
         }
         solution_ = start_;
         shifts_ = startShifts_;
+        scratch_.lead = startLead_;  // a frame solved again leads as it did the first time
         HybridSolver* h = hybridSolver(c, node);
         const HeldSolve solveOnce = [&](std::span<const JointTarget> asked, std::vector<double>& v, double previous,
                                         ChainFrame& f) {
@@ -435,6 +438,7 @@ private:
     double startCost_ = retryNever;     // the cost of the frame start_ came from (retryNever: from rest)
     double solutionCost_ = retryNever;  // the cost of solution_
     ChainScratch scratch_;
+    ChainLead startLead_;  // whether the rotations lead the frame start_ starts (clip_inversion.h), as start_
     ChainFrame frame_;
     std::vector<double> solution_;  // the chain's, as solved
     ChunkShift shift_;              // of the current chain (inversion/continuity.h)

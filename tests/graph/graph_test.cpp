@@ -211,6 +211,30 @@ TEST_CASE("scene time drives unconnected time inputs")
     g.addNode("time", "time1");
     g.setTime(12.5);
     CHECK(std::get<double>(g.getValue(g.plug("time1.outTime"))) == 12.5);
+    // The list of time inputs follows the topology: a node added later, an input connected and disconnected.
+    g.addNode("time", "time2");
+    g.addNode("time", "offset");
+    g.setValue(g.plug("offset.time"), 3.0);
+    g.setTime(14.0);
+    CHECK(std::get<double>(g.getValue(g.plug("time2.outTime"))) == 14.0);
+    g.connect(g.plug("offset.outTime"), g.plug("time2.time"));
+    g.setTime(15.0);
+    CHECK(std::get<double>(g.getValue(g.plug("time1.outTime"))) == 15.0);
+    CHECK(std::get<double>(g.getValue(g.plug("time2.outTime"))) == 15.0);  // offset's time follows the scene's too
+    g.disconnect(g.plug("offset.outTime"), g.plug("time2.time"));
+    g.setTime(16.0);
+    CHECK(std::get<double>(g.getValue(g.plug("time2.outTime"))) == 16.0);
+}
+
+TEST_CASE("scene time leaves a connected time input to its connection")
+{
+    Graph g(testRegistry());
+    g.addNode("time", "time1");
+    g.addNode("add", "frame");
+    g.connect(g.plug("frame.sum"), g.plug("time1.time"));
+    g.setValue(g.plug("frame.a"), 7.0);
+    g.setTime(12.5);
+    CHECK(std::get<double>(g.getValue(g.plug("time1.outTime"))) == 7.0);
 }
 
 namespace {

@@ -79,6 +79,7 @@ TEST_CASE("minimizer: a step longer than maxAngularStep is shortened whole, dire
     const std::vector<double> near{0.0, 0.0};
     const MinimizerResult result = minimize(problem, u, options, state, near);
     CHECK(result.gaussNewton == 1);
+    CHECK(result.longFirstStep);
     // Gauss-Newton's step at 0 is (sin 1.2, 2): the angle's part is capped at 0.3, the distance's scaled alike.
     CHECK(state.x[0] == doctest::Approx(0.3).epsilon(1e-14));
     CHECK(state.x[1] == doctest::Approx(2.0 * 0.3 / std::sin(1.2)).epsilon(1e-12));
@@ -93,6 +94,7 @@ TEST_CASE("minimizer: a limit holds its unknown, and the solve converges there")
     const std::vector<double> near{0.0, 0.0};
     const MinimizerResult result = minimize(problem, u, SolverOptions{}, state, near);
     CHECK(result.converged);
+    CHECK_FALSE(result.longFirstStep);  // 0.4 radians: within the default 0.5
     CHECK(state.x[1] == 3.0);
     CHECK(state.x[0] == doctest::Approx(0.4).epsilon(1e-6));
     CHECK(result.cost == doctest::Approx(0.5 * 2.0 * 2.0).epsilon(1e-12));
