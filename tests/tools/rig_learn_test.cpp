@@ -820,6 +820,37 @@ TEST_CASE(
     CHECK(invert["max_position_error_cm"].as<double>() < 1e-3);
 }
 
+TEST_CASE("rig-learn: a switch whose blend no rule reproduces is measured against the rig, over epsilon: exit 3")
+{
+    // The knee turns by the square of the blended value: not a blend of the branches' angles, which the merge's
+    // validation (the weight drawn in [0, 1]) measures.
+    const auto dir = rig::test::scratchDir("rig-learn-squared-switch");
+    const auto rigFile = rig::test::writeFile(dir / "squared.yaml", R"(nodes:
+  - {name: settings, type: transform, addAttr: [{name: ikFk, min: 0, max: 1, keyable: true}]}
+  - {name: a_ctrl, type: transform}
+  - {name: b_ctrl, type: transform}
+  - {name: knee_switch, type: blendColors, color1: [1, 0, 0], color2: [1, 0, 0]}
+  - {name: square, type: multiplyDivide, operation: power, input2: [2, 1, 1]}
+  - {name: hip, type: joint}
+  - {name: knee, type: joint, parent: hip, translate: [0, -40, 0]}
+  - {name: foot, type: joint, parent: knee, translate: [0, -40, 0]}
+connections:
+  - settings.ikFk -> knee_switch.blender
+  - a_ctrl.translateX -> knee_switch.color1R
+  - b_ctrl.translateX -> knee_switch.color2R
+  - knee_switch.outputR -> square.input1X
+  - square.outputX -> knee.rotateZ
+)");
+    const auto out = dir / "approx.yaml";
+    const auto r = run(rigLearn(fmt::format("'{}' --params a_ctrl.translateX b_ctrl.translateX settings.ikFk -o '{}'",
+                                            rigFile.string(), out.string())));
+    CHECK(r.exitCode == 3);
+    CHECK(r.err.starts_with("error: the approximation exceeds epsilon 0.001: "));
+    CHECK(r.err.ends_with(fmt::format("; {} not written (--allow-inexact writes it anyway)\n", out.string())));
+    CHECK(r.out.find("\n  knee: blend of knee@ik and knee@fk relative to hip by settings.ikFk") != std::string::npos);
+    CHECK(!std::filesystem::exists(out));
+}
+
 TEST_CASE(
     "rig-learn: the creature's IK arms, thighs and knees (rigs/creature_inversion_ik.yaml) learned as planar chains "
     "on their goals and poles, within epsilon")
