@@ -248,9 +248,11 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     frame.retried = frame.kept = false;
     frame.realRigEvaluations = 0;
     scratch.led.reserve(targets.size());  // grown at the chain's first frame, whether or not the rotations lead
-    if (!(previousCost < retryNever)) scratch.lead = ChainLead{};
+    const bool chainStart = !(previousCost < retryNever);
+    if (chainStart) scratch.lead = ChainLead{};
     const bool led = scratch.lead.rotations && solveRotationsFirst(solver, targets, values, scratch);
-    solver.solve(targets, values, frame.summary);
+    if (chainStart) solver.solveCold(targets, values, frame.summary);
+    else solver.solve(targets, values, frame.summary);
     decideLead(led, frame.summary, scratch.lead);
     if (led) {
         frame.summary.iterations += scratch.second.iterations;
@@ -265,7 +267,7 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     frame.retried = true;
     solver.initialGuess(targets, scratch.start);
     SolveSummary& second = scratch.second;
-    solver.solve(targets, scratch.start, second);
+    solver.solveCold(targets, scratch.start, second);
     if (!(second.finalCost < frame.summary.finalCost * (1.0 - 1e-9) - floor * 1e-6)) return;
     frame.kept = true;
     second.iterations += frame.summary.iterations;
@@ -464,7 +466,7 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
             current = rest;
             if (options.coldStart) solver.initialGuess(frameTargets, current);
         }
-        const double previous = options.retryStuck && !restart ? previousCost : retryNever;
+        const double previous = restart ? retryNever : options.retryStuck ? previousCost : noRetry;
         if (restart) std::fill(shifts.begin(), shifts.end(), Eigen::Vector3d::Zero());
         if (options.holdContacts) contactHolds(options.contacts, targets, frame, shifts, holds);
         const int rounds =

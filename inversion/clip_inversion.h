@@ -45,9 +45,10 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
 // One frame of a warm-start chain (invertClip and the rigInversion node): solve from `values` (the warm
 // start, out the solution). When it ends stuck at a cost above twice `previousCost` plus
 // 0.5 targetTolerance^2, it is solved again from Solver::initialGuess at the same warm start and the
-// cheaper answer is kept (ClipInversionOptions::retryStuck). `previousCost` = retryNever: no retry
-// (restart frames). `frame` is the result; it and `scratch` keep their storage from frame to frame, so
-// that a chain allocates nothing once they have grown.
+// cheaper answer is kept (ClipInversionOptions::retryStuck). `previousCost` = retryNever: a chain's first
+// frame (a restart), solved by Solver::solveCold and not retried; noRetry: a later frame never retried.
+// `frame` is the result; it and `scratch` keep their storage from frame to frame, so that a chain allocates
+// nothing once they have grown.
 //
 // The rotations lead (docs/solver.md, long chains): after a frame whose first step was longer than the angular trust
 // region allows (SolveSummary::longFirstStep), the next frame is solved first with every position weighed
@@ -59,6 +60,7 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
 // to lead are solved plainly. A chain's first frame (`previousCost` = retryNever) starts without a lead, so that a
 // chunk of a clip solves as the whole clip does from the same restart frame.
 inline constexpr double retryNever = std::numeric_limits<double>::infinity();
+inline constexpr double noRetry = std::numeric_limits<double>::max();  // no finite cost is above twice it
 struct ChainFrame {
     SolveSummary summary;  // of the answer kept; iterations of every solve the frame ran
     bool retried = false;

@@ -528,6 +528,17 @@ SolveSummary Solver::solve(std::span<const JointTarget> targets, std::span<doubl
 
 void Solver::solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary) const
 {
+    solve(targets, values, summary, false);
+}
+
+void Solver::solveCold(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary) const
+{
+    solve(targets, values, summary, true);
+}
+
+void Solver::solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary,
+                   bool cold) const
+{
     Impl& impl = *impl_;
     Borrowed<SolveScratch> scratch(impl.scratchPool, [] { return std::make_unique<SolveScratch>(); });
     // Every field anew; the name's and the list's storage kept.
@@ -541,9 +552,10 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     std::shared_ptr<const Plan> plan;
     impl.prepare(targets, values, *scratch, plan, summary.termination);
     if (summary.termination == TerminationType::invalidTargets) return;
-    if (!impl.switches.empty()) scratch->start.assign(values.begin(), values.end());
+    const bool branches = cold && !impl.switches.empty();
+    if (branches) scratch->start.assign(values.begin(), values.end());
     SolveRun(impl, targets, values, summary, *scratch, *plan).run();
-    if (!summary.converged() && !impl.switches.empty())
+    if (!summary.converged() && branches)
         solveFromOtherBranches(*this, impl, targets, values, summary, *scratch, *plan);
     if (summary.converged() || impl.goals.empty()) return;
     // Targets missed with a rigid chain's goal past its reach, where no step brings it back (the chain straight where

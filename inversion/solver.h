@@ -129,6 +129,12 @@ public:
     // The same, into `summary`, whose storage is reused: once the solver's scratch and the summary have
     // grown (after the first solves of a set of counted targets), a solve allocates nothing.
     void solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary) const;
+    // solve() from a start far from the answer (a chain's first frame: the initial guess, or rest). Where it misses
+    // an output an animated switch's weight moves, it is solved again from that start with the weight at the other
+    // branch's end, guessed anew there (initialGuess), and the cheaper answer is kept: of two branches that both reach
+    // the first joint they blend, the one the start favoured may not reach the rest (an FK leg does not stretch).
+    // solve() never flips a switch: along a chain the weight follows the frames.
+    void solveCold(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary) const;
 
     // A start found from the approximation's structure instead of from the warm start (DESIGN: cold
     // starts), for a solve far from the answer: the outputs are taken parents first, and each output's
@@ -152,6 +158,7 @@ public:
     struct Impl;  // the solver's state and plans (inversion/solver_impl.h, internal)
 
 private:
+    void solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary, bool cold) const;
     std::unique_ptr<Impl> impl_;
 };
 

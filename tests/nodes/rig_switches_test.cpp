@@ -55,9 +55,7 @@ connections:
 
 }  // namespace
 
-TEST_CASE(
-    "switches: the biped's ikFk parameters blend their own leg's thigh, knee and foot; other controls are not "
-    "switches")
+TEST_CASE("switches: the biped's ikFk parameters blend their own leg's thigh, knee and foot, and no other control")
 {
     const InversionSpec spec = readInversionSpec(test::sourceDir() / "rigs/biped_inversion_ikfk.yaml");
     GraphRigFunction rig(test::sourceDir() / "rigs/biped.yaml", {spec.params, spec.outputs, {}, spec.set});
