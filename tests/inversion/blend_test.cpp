@@ -184,6 +184,15 @@ std::vector<std::vector<BlendSample>> switchedLegSamples(GraphRigFunction& rig)
     return samples;
 }
 
+// Every control at random within half its range around rest (a random pose the solve is to recover from rest).
+void halfRangePose(const std::vector<RigParameter>& parameters, std::mt19937& rng, std::vector<double>& truth)
+{
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (std::size_t p = 0; p < parameters.size(); ++p)
+        truth[p] = parameters[p].defaultValue + 0.5 * (parameters[p].min - parameters[p].defaultValue +
+                                                       unit(rng) * (parameters[p].max - parameters[p].min));
+}
+
 }  // namespace
 
 TEST_CASE("blend: the blended local's rate matches central differences in every mode and rotate order")
@@ -552,10 +561,7 @@ TEST_CASE("blend: random poses of the left leg with a random ikFk weight are rec
     double worstOfAll = 0.0;
     const int poses = 30;
     for (int pose = 0; pose < poses; ++pose) {
-        // Every control within half its range around rest, the switch anywhere in [0, 1].
-        for (std::size_t p = 0; p < parameters.size(); ++p)
-            truth[p] = parameters[p].defaultValue + 0.5 * (parameters[p].min - parameters[p].defaultValue +
-                                                           unit(rng) * (parameters[p].max - parameters[p].min));
+        halfRangePose(parameters, rng, truth);  // the switch then anywhere in [0, 1]
         truth.back() = unit(rng);
         leg.rig.evaluate(truth, real);
         std::vector<JointTarget> targets(a.outputs.size());
@@ -729,10 +735,7 @@ TEST_CASE("blend: random poses with random ikFk weights are recovered from rest 
     double worstOfAll = 0.0;
     const int poses = 30;
     for (int pose = 0; pose < poses; ++pose) {
-        // Every control within half its range around rest, the switches anywhere in [0, 1].
-        for (std::size_t p = 0; p < parameters.size(); ++p)
-            truth[p] = parameters[p].defaultValue + 0.5 * (parameters[p].min - parameters[p].defaultValue +
-                                                           unit(rng) * (parameters[p].max - parameters[p].min));
+        halfRangePose(parameters, rng, truth);  // the switches then anywhere in [0, 1]
         for (const char* weight : {"L_leg_settings.ikFk", "R_leg_settings.ikFk"})
             truth[static_cast<std::size_t>(std::find_if(parameters.begin(), parameters.end(),
                                                         [&](const RigParameter& r) { return r.name == weight; }) -
