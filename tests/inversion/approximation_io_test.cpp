@@ -13,6 +13,7 @@
 #include "inversion/approximation_io.h"
 #include "inversion/learner.h"
 #include "nodes/graph_rig_function.h"
+#include "solver_rigs.h"
 #include "test_support.h"
 
 using namespace rig;
@@ -275,22 +276,8 @@ Approximation everything()
     return a;
 }
 
-ApproximationOutput restAt(const std::string& name, const Eigen::Vector3d& origin)
-{
-    ApproximationOutput out{name, Eigen::Matrix4d::Identity()};
-    out.rest.block<3, 1>(0, 3) = origin;
-    return out;
-}
-
-Operator rotationAbout(const Eigen::Vector3d& axis, const Eigen::Vector3d& pivot)
-{
-    Operator op;
-    op.kind = OperatorKind::rotation;
-    op.axis = axis.normalized();
-    op.pivot = pivot;
-    op.slope = 1.0;
-    return op;
-}
+using test::restAt;
+using test::rotationAbout;
 
 Operator translationAlong(const Eigen::Vector3d& axis)
 {

@@ -51,21 +51,10 @@ Eigen::Matrix4d randomRate(std::mt19937& rng)
     return m;
 }
 
-ApproximationOutput restAt(const std::string& name, const Eigen::Vector3d& origin)
-{
-    ApproximationOutput out{name, Eigen::Matrix4d::Identity()};
-    out.rest.block<3, 1>(0, 3) = origin;
-    return out;
-}
-
+// A rotation operator about the `axis`-th unit axis through `pivot`.
 Operator rotationAbout(int axis, const Eigen::Vector3d& pivot)
 {
-    Operator op;
-    op.kind = OperatorKind::rotation;
-    op.axis = Eigen::Vector3d::Unit(axis);
-    op.pivot = pivot;
-    op.slope = 1.0;
-    return op;
+    return test::rotationAbout(Eigen::Vector3d::Unit(axis), pivot);
 }
 
 // A switched thigh as a blend stores it: a hip, the thigh's IK branch (turned about x) and FK branch (about y then
@@ -76,8 +65,9 @@ Approximation switchedThigh()
     a.rigFile = "rigs/leg.yaml";
     a.rigFingerprint = "0123456789abcdef";
     a.epsilon = 1e-3;
-    a.outputs = {restAt("hip", {0, 100, 0}), restAt("thigh_ik", {10, 90, 0}), restAt("thigh_fk", {10, 90, 0}),
-                 restAt("thigh", {10, 90, 0}), restAt("knee", {10, 50, 0})};
+    a.outputs = {test::restAt("hip", {0, 100, 0}), test::restAt("thigh_ik", {10, 90, 0}),
+                 test::restAt("thigh_fk", {10, 90, 0}), test::restAt("thigh", {10, 90, 0}),
+                 test::restAt("knee", {10, 50, 0})};
     a.outputs[1].parent = a.outputs[2].parent = 0;
     a.outputs[1].helper = a.outputs[2].helper = true;
     a.outputs[3].constraint = 0;

@@ -27,6 +27,25 @@ namespace rig::test {
 
 inline constexpr double degree = std::numbers::pi / 180.0;
 
+// A hand-made approximation's pieces: an output resting at `origin`, and a rotation operator about `axis` through
+// `pivot` (slope 1).
+inline ApproximationOutput restAt(const std::string& name, const Eigen::Vector3d& origin)
+{
+    ApproximationOutput out{name, Eigen::Matrix4d::Identity()};
+    out.rest.block<3, 1>(0, 3) = origin;
+    return out;
+}
+
+inline Operator rotationAbout(const Eigen::Vector3d& axis, const Eigen::Vector3d& pivot)
+{
+    Operator op;
+    op.kind = OperatorKind::rotation;
+    op.axis = axis.normalized();
+    op.pivot = pivot;
+    op.slope = 1.0;
+    return op;
+}
+
 // Root translate X/Y/Z and rotate Y at the hips (1 m up); two arms hanging from the chest, each as
 // fkArm: shoulder rotate X, Y, Z (R = Rx Ry Rz), elbow rotate Z after a 20 degree orient about Y,
 // wrist rotate X; joints 25 cm apart, the left arm along +X, the right along -X. 14 parameters.
