@@ -28,9 +28,20 @@ struct AttributeSpec {
     bool filePath = false;  // a String naming a file: a relative one in a rig file is read from that file's folder
     bool dynamic = false;   // added to one node by the rig file (Maya's addAttr), not by its type
     std::string description;
+    // Maya's names (docs/maya.md), read by the Maya ASCII loader. shortName: ".t" for translate; a vector3's
+    // children are its short name plus each child's suffix (tx, shxy) unless childShortNames says otherwise.
+    // mayaCompound and mayaCompoundShort: this array attribute is one child of a Maya compound multi attribute,
+    // flattened into parallel arrays (a constraint's target[i].targetTranslate is targetTranslate[i]; Maya's
+    // ".tg[i].tt" is read as that).
+    std::string shortName;
+    std::array<std::string, 3> childShortNames;
+    std::string mayaCompound;
+    std::string mayaCompoundShort;
 };
 
 // Index of `name` among a vector3 spec's childNames, or -1.
 int childIndex(const AttributeSpec& spec, std::string_view name);
+// Index of `name` among a vector3 spec's Maya child names (long or short: translateX or tx), or -1.
+int mayaChildIndex(const AttributeSpec& spec, std::string_view name);
 
 }  // namespace rig

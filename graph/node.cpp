@@ -14,6 +14,15 @@ int childIndex(const AttributeSpec& spec, std::string_view name)
     return -1;
 }
 
+int mayaChildIndex(const AttributeSpec& spec, std::string_view name)
+{
+    if (spec.type != ValueType::Vector3) return -1;
+    for (std::size_t i = 0; i < 3; ++i)
+        if (spec.childNames[i] == name || (!spec.childShortNames[i].empty() && spec.childShortNames[i] == name))
+            return static_cast<int>(i);
+    return -1;
+}
+
 const AttrData& ComputeContext::input(AttrId a) const
 {
     // Maya's rule: compute reads only its own node's inputs.

@@ -8,12 +8,42 @@
 #include "core/error.h"
 
 namespace rig {
+namespace {
+
+std::string lowerAscii(std::string text)
+{
+    for (char& ch : text)
+        if (ch >= 'A' && ch <= 'Z') ch = static_cast<char>(ch - 'A' + 'a');
+    return text;
+}
+
+}  // namespace
 
 AttrId NodeType::findAttribute(std::string_view name) const
 {
     for (std::size_t i = 0; i < attributes_.size(); ++i)
         if (attributes_[i].name == name) return static_cast<AttrId>(i);
     return -1;
+}
+
+AttrId NodeType::findMayaAttribute(std::string_view name) const
+{
+    for (std::size_t i = 0; i < attributes_.size(); ++i) {
+        const AttributeSpec& a = attributes_[i];
+        if (a.mayaCompound.empty() && (a.name == name || a.shortName == name)) return static_cast<AttrId>(i);
+    }
+    return -1;
+}
+
+std::vector<AttrId> NodeType::mayaCompoundChildren(std::string_view compound) const
+{
+    std::vector<AttrId> children;
+    for (std::size_t i = 0; i < attributes_.size(); ++i) {
+        const AttributeSpec& a = attributes_[i];
+        if (!a.mayaCompound.empty() && (a.mayaCompound == compound || a.mayaCompoundShort == compound))
+            children.push_back(static_cast<AttrId>(i));
+    }
+    return children;
 }
 
 AttributeSpec& AttributeBuilder::spec() { return owner_.type_.attributes_[static_cast<std::size_t>(id_)]; }
@@ -91,6 +121,25 @@ AttributeBuilder& AttributeBuilder::doc(std::string description)
     return *this;
 }
 
+AttributeBuilder& AttributeBuilder::shortName(std::string name)
+{
+    spec().shortName = std::move(name);
+    return *this;
+}
+
+AttributeBuilder& AttributeBuilder::childShortNames(std::string x, std::string y, std::string z)
+{
+    spec().childShortNames = {std::move(x), std::move(y), std::move(z)};
+    return *this;
+}
+
+AttributeBuilder& AttributeBuilder::mayaCompound(std::string longName, std::string shortName)
+{
+    spec().mayaCompound = std::move(longName);
+    spec().mayaCompoundShort = std::move(shortName);
+    return *this;
+}
+
 NodeTypeBuilder::NodeTypeBuilder(std::string typeName) { type_.name_ = std::move(typeName); }
 
 AttributeBuilder NodeTypeBuilder::add(AttrId id, std::string name, ValueType type, bool input)
@@ -162,6 +211,19 @@ NodeTypeBuilder& NodeTypeBuilder::yamlConnector(std::string field, YamlConnector
     return *this;
 }
 
+NodeTypeBuilder& NodeTypeBuilder::mayaType(std::string name)
+{
+    type_.mayaType_ = std::move(name);
+    return *this;
+}
+
+NodeTypeBuilder& NodeTypeBuilder::mayaField(std::string longName, std::string shortName, MayaFieldParser parser)
+{
+    type_.mayaFields_[std::move(longName)] = parser;
+    type_.mayaFields_[std::move(shortName)] = std::move(parser);
+    return *this;
+}
+
 NodeTypeBuilder& NodeTypeBuilder::factory(std::function<std::unique_ptr<Node>()> make)
 {
     type_.factory_ = std::move(make);
@@ -193,6 +255,19 @@ std::shared_ptr<const NodeType> NodeTypeBuilder::build()
         if (a.type == ValueType::Vector3)
             for (const std::string& child : a.childNames)
                 if (!names.insert(child).second) fail(fmt::format("child name '{}' used twice", child));
+    }
+    std::set<std::string, std::less<>> mayaNames;  // one Maya name, one attribute
+    for (AttributeSpec& a : type_.attributes_) {
+        // A vector3's children's short names: the short name plus each child's suffix (tx, shxy).
+        if (a.type == ValueType::Vector3 && !a.shortName.empty())
+            for (std::size_t i = 0; i < 3; ++i)
+                if (a.childShortNames[i].empty() && a.childNames[i].starts_with(a.name))
+                    a.childShortNames[i] = a.shortName + lowerAscii(a.childNames[i].substr(a.name.size()));
+        const std::string group = a.mayaCompound.empty() ? std::string() : a.mayaCompound + ".";
+        if (!a.shortName.empty() && a.shortName != a.name && !mayaNames.insert(group + a.shortName).second)
+            fail(fmt::format("Maya short name '{}' used twice", a.shortName));
+        if (!mayaNames.insert(group + a.name).second && !a.mayaCompound.empty())
+            fail(fmt::format("attribute '{}' declared twice in Maya compound '{}'", a.name, a.mayaCompound));
     }
     return std::make_shared<const NodeType>(std::move(type_));
 }

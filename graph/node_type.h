@@ -36,6 +36,21 @@ using YamlFieldParser =
 using YamlConnector =
     std::function<void(Graph& graph, NodeId node, const YAML::Node& value, const YamlFieldContext& context)>;
 
+// A Maya attribute that is not one attribute here (an animation curve's ".ktv[0:5]", key times and values stored
+// as two arrays): a setAttr of it, for elements `first` to `last` (-1, -1 without an element), with its value words
+// as Maya wrote them, turns into attribute values. `current` reads the node's value of an attribute as set so far (a
+// curve's keys come in several setAttr statements). It throws rig::Error with the message only; the loader adds where.
+struct MayaFieldInput {
+    int first = -1;
+    int last = -1;
+    std::vector<std::string> words;
+    std::function<Value(AttrId)> current;
+    // The scene's units, as factors to cm, degrees and frames (a curve's keys are in the scene's units).
+    double linearToCm = 1.0;
+    double angleToDegrees = 1.0;
+};
+using MayaFieldParser = std::function<std::vector<std::pair<AttrId, Value>>(const MayaFieldInput& input)>;
+
 class NodeType {
 public:
     const std::string& name() const { return name_; }
@@ -52,6 +67,18 @@ public:
     const std::map<std::string, YamlConnector, std::less<>>& yamlConnectors() const { return yamlConnectors_; }
     std::unique_ptr<Node> create() const { return factory_(); }
 
+    // --- Maya (docs/maya.md) ---
+    // The Maya node type this type stands for when a Maya scene is read ("ikHandle" for mayaIkHandle); empty: the
+    // type's own name, when it is one of Maya's.
+    const std::string& mayaType() const { return mayaType_; }
+    // The attribute a Maya scene names `name` (long or short, Maya's spelling), or -1. A vector3 child's name
+    // (".tx") is found by mayaChildIndex on the parent's spec.
+    AttrId findMayaAttribute(std::string_view name) const;
+    // The attributes flattened from Maya's compound multi attribute `compound` (long or short name), in declaration
+    // order (a setAttr of several elements gives each element's children in this order).
+    std::vector<AttrId> mayaCompoundChildren(std::string_view compound) const;
+    const std::map<std::string, MayaFieldParser, std::less<>>& mayaFields() const { return mayaFields_; }
+
 private:
     friend class NodeTypeBuilder;
     friend class AttributeBuilder;
@@ -62,6 +89,8 @@ private:
     bool stateful_ = false;
     std::map<std::string, YamlFieldParser, std::less<>> yamlFields_;
     std::map<std::string, YamlConnector, std::less<>> yamlConnectors_;
+    std::string mayaType_;
+    std::map<std::string, MayaFieldParser, std::less<>> mayaFields_;
     std::function<std::unique_ptr<Node>()> factory_;
 };
 
@@ -84,6 +113,12 @@ public:
     AttributeBuilder& sceneTime(bool on = true);
     AttributeBuilder& filePath(bool on = true);
     AttributeBuilder& doc(std::string description);
+    // Maya's short name (docs/maya.md): "t" for translate.
+    AttributeBuilder& shortName(std::string name);
+    // A vector3's children's short names where they are not the short name plus each child's suffix.
+    AttributeBuilder& childShortNames(std::string x, std::string y, std::string z);
+    // This array attribute is a child of Maya's compound multi attribute `longName` ("target", short "tg").
+    AttributeBuilder& mayaCompound(std::string longName, std::string shortName);
 
 private:
     AttributeSpec& spec();
@@ -106,6 +141,10 @@ public:
     NodeTypeBuilder& stateful(bool on = true);
     NodeTypeBuilder& yamlField(std::string field, YamlFieldParser parser);
     NodeTypeBuilder& yamlConnector(std::string field, YamlConnector connector);
+    // The Maya node type this type stands for, when it is not the type's own name.
+    NodeTypeBuilder& mayaType(std::string name);
+    // A Maya attribute read by a parser (MayaFieldParser), named by its long and short names.
+    NodeTypeBuilder& mayaField(std::string longName, std::string shortName, MayaFieldParser parser);
     NodeTypeBuilder& factory(std::function<std::unique_ptr<Node>()> make);
     template <class T>
     NodeTypeBuilder& factory()
