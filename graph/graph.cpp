@@ -150,9 +150,9 @@ void Graph::writeStored(const Plug& p, const Value& value)
 
 // --- connections ------------------------------------------------------------------------------------
 
-void Graph::connect(const Plug& src, const Plug& dst)
+void Graph::connect(const Plug& src, const Plug& dst, bool convertUnits)
 {
-    editModel().connect(src, dst);
+    editModel().connect(src, dst, convertUnits);
     if (spec(dst).array && readStored(dst).index() == Value().index()) writeStored(dst, readStored(dst));
     dirtyInput(dst.node, dst.attr);
 }
@@ -348,7 +348,7 @@ Value Graph::pulledValue(const Connection& c) const
 {
     const ValueType from = plugType(c.source);
     const ValueType to = plugType(c.destination);
-    const double factor = unitFactor(spec(c.source).unit, spec(c.destination).unit);
+    const double factor = c.rawUnits ? 1.0 : unitFactor(spec(c.source).unit, spec(c.destination).unit);
     const Value source = readStored(c.source);
     if ((to == ValueType::Int || to == ValueType::Enum) && from != ValueType::Int && from != ValueType::Enum) {
         // A number computed upstream (NaN from a degenerate node, say) must not become an arbitrary int,

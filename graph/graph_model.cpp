@@ -19,7 +19,7 @@ bool validNodeName(std::string_view name)
 {
     if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0]))) return false;
     return std::all_of(name.begin(), name.end(),
-                       [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == ':'; });
+                       [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == ':' || c == '|'; });
 }
 
 std::string typeDescription(const AttributeSpec& spec, int child)
@@ -49,7 +49,8 @@ NodeId GraphModel::addNode(std::string_view typeName, std::string_view name)
         throw Error(fmt::format("a node name of {} characters is too long (at most {})", name.size(), maxNameLength));
     if (!validNodeName(name))
         throw Error(
-            fmt::format("invalid node name '{}': use letters, digits, '_' and ':', not starting with a digit", name));
+            fmt::format("invalid node name '{}': use letters, digits, '_', ':' and '|', not starting with a digit",
+                        name));
     if (const NodeId existing = findNode(name); existing >= 0)
         throw Error(fmt::format("duplicate node name '{}' (already a {}); node names must be unique", name,
                                 topology(existing).type->name()));
@@ -244,7 +245,7 @@ std::vector<int> GraphModel::cyclePath(NodeId from, NodeId to) const
     return path;
 }
 
-void GraphModel::connect(const Plug& src, const Plug& dst)
+void GraphModel::connect(const Plug& src, const Plug& dst, bool convertUnits)
 {
     checkPlug(src);
     checkPlug(dst);
@@ -276,7 +277,7 @@ void GraphModel::connect(const Plug& src, const Plug& dst)
                         "acyclic at node level, so feed {} from nodes that do not depend on {}",
                         srcName, dstName, cycle, srcName, dstName, topology(dst.node).name, topology(dst.node).name));
     }
-    connections_.push_back({src, dst});
+    connections_.push_back({src, dst, !convertUnits});
     const int ci = static_cast<int>(connections_.size() - 1);
     nodes_[static_cast<std::size_t>(src.node)].outgoing[static_cast<std::size_t>(src.attr)].push_back(ci);
     nodes_[static_cast<std::size_t>(dst.node)].incoming.push_back(ci);

@@ -55,8 +55,9 @@ public:
     // A dynamic attribute (Maya's addAttr): an input that affects nothing on its node.
     AttrId addAttribute(NodeId node, AttributeSpec spec);
     // Type-checked; refuses a second source for an input, outputs as destinations, and any connection
-    // that would close a cycle (the message lists the whole cycle).
-    void connect(const Plug& source, const Plug& destination);
+    // that would close a cycle (the message lists the whole cycle). convertUnits false: the value crosses as it is
+    // stored (radians into a unitless plug), as in a Maya scene, which carries its own unitConversion nodes.
+    void connect(const Plug& source, const Plug& destination, bool convertUnits = true);
     void disconnect(const Plug& source, const Plug& destination);
 
     // --- queries -----------------------------------------------------------------------------------

@@ -22,6 +22,7 @@ struct Plug {
 struct Connection {
     Plug source;
     Plug destination;
+    bool rawUnits = false;  // no unit conversion across it (a Maya scene's connections: docs/maya.md)
 };
 
 }  // namespace rig

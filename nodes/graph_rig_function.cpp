@@ -15,6 +15,7 @@
 #include "core/error.h"
 #include "graph/plug_glob.h"
 #include "graph/suggest.h"
+#include "graph/rig_file.h"
 #include "graph/yaml_loader.h"
 #include "inversion/blend_merge.h"
 #include "nodes/builtin_nodes.h"
@@ -477,7 +478,7 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
     auto registry = makeBuiltinRegistry();
     for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
     std::vector<std::filesystem::path> filesRead;
-    graph_ = loadGraphFile(rigFile, registry, &filesRead);
+    graph_ = loadRigFile(rigFile, registry, &filesRead);
     std::uint64_t hash = fnv1a64({});
     for (const auto& file : filesRead) hash = fnv1a64(readBytes(file), hash);
     files_ = filesRead;

@@ -23,6 +23,7 @@
 #include "app/output_file.h"
 #include "app/solve_settings.h"
 #include "core/error.h"
+#include "graph/rig_file.h"
 #include "graph/yaml_loader.h"
 #include "inversion/approximation_io.h"
 
@@ -302,7 +303,7 @@ public:
         PyGraph g;
         g.file_ = pathText(path, "path");
         g.registry_ = app::nodeRegistry(textList(plugins, "plugins"));
-        g.graph_ = loadGraphFile(g.file_, g.registry_);
+        g.graph_ = loadRigFile(g.file_, g.registry_);
         return g;
     }
 

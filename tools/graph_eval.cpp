@@ -17,6 +17,7 @@
 #include "core/error.h"
 #include "core/table.h"
 #include "graph/dot_writer.h"
+#include "graph/rig_file.h"
 #include "graph/type_reference.h"
 #include "graph/yaml_loader.h"
 #include "tools/cli_common.h"
@@ -44,6 +45,7 @@ struct Options {
     bool htmlGiven = false;
     std::string character;  // the character the page opens on
     bool characterGiven = false;
+    std::vector<std::filesystem::path> searchPath;  // where a Maya scene's references are also looked for
 };
 
 void applySet(Graph& graph, const std::string& assignment)
@@ -150,9 +152,11 @@ int run(const Options& options)
     const std::string threeJs = options.htmlGiven ? app::readThreeJs() : std::string();
     const auto registry = app::nodeRegistry(options.plugins);
     // The files the rig includes are inputs too: -o must not be one of them.
+    MayaSceneInfo maya;
     auto load = [&] {
         std::vector<std::filesystem::path> read;
-        auto graph = loadGraphFile(options.rig, registry, &read);
+        auto graph = loadRigFile(options.rig, registry, &read, &maya, {options.searchPath});
+        for (const std::string& warning : maya.warnings) std::cerr << "warning: " << warning << "\n";
         std::vector<app::NamedFile> inputs;
         for (const auto& file : read) inputs.push_back({"a file the rig reads", file});
         app::checkDistinctFiles(inputs, outputs);
@@ -168,7 +172,9 @@ int run(const Options& options)
         if (!options.anim.empty()) app::applyAnimFile(*graph, options.anim);
         for (const auto& s : options.sets) applySet(*graph, s);
         std::optional<app::FrameRange> range;
-        if (options.framesGiven) range = app::parseFrameRange(options.frames, "--frames");
+        if (options.framesGiven && options.frames.empty() && maya.playbackRange)
+            range = app::FrameRange{maya.playbackRange->first, maya.playbackRange->second, 1.0};
+        else if (options.framesGiven) range = app::parseFrameRange(options.frames, "--frames");
         std::vector<Plug> plugs =
             app::selectPlugs(*graph, options.rig, options.gets, range ? std::optional(range->first) : std::nullopt);
         const std::set<Plug> seen(plugs.begin(), plugs.end());
@@ -193,6 +199,7 @@ int run(const Options& options)
                 "{:.3f} ms per frame\n",
                 graph->nodeCount(), graph->connections().size(), graph->threads(), frames.size(),
                 graph->computeCount() - computesBefore, 1e3 * seconds / static_cast<double>(frames.size()));
+        if (options.stats && isMayaFile(options.rig)) std::cerr << mayaStatsText(maya);
     }
     if (!options.outputGiven) std::cout << text;
     else app::writeFileAtomically(options.output, text);
@@ -222,7 +229,13 @@ int main(int argc, char** argv)
         ->allow_extra_args(false);
     app.add_option("--get", options.gets, "Plugs to print, by name or glob (repeatable; default: every output)")
         ->allow_extra_args(false);
-    app.add_option("--frames", options.frames, "Frame range A:B[:STEP], inclusive (default: the current time, 0)");
+    app.add_option("--frames", options.frames,
+                   "Frame range A:B[:STEP], inclusive (default: the current time: 0, or a Maya scene's saved time); "
+                   "--frames '' on a Maya scene: its playback range");
+    app.add_option("--search-path", options.searchPath,
+                   "A folder where a Maya scene's references are looked for, after the scene's own folders "
+                   "(repeatable; docs/maya.md)")
+        ->allow_extra_args(false);
     app.add_option("--format", options.format, "Output format: json (default), csv, or table (aligned, 6 digits)")
         ->check(CLI::IsMember({"json", "csv", "table"}));
     app.add_option("-o,--output", options.output, "Write to this file instead of standard output");
@@ -234,7 +247,7 @@ int main(int argc, char** argv)
     app.add_flag("--dot", options.dot, "Print the graph in Graphviz dot format instead of evaluating");
     app.add_option("--threads", options.threads, "Evaluation threads: 1 serial, N parallel, 0 all cores")
         ->check(rig::cli::threadCount());
-    app.add_flag("--stats", options.stats, "Print node, connection and computation counts and timing to stderr");
+    app.add_flag("--stats", options.stats, "Print node, connection and computation counts and timing to stderr (a Maya scene: also what was not read)");
     app.add_option("--html", options.html,
                    "Write the crowd's report page: each rigInversion node's character, its targets and the crowd "
                    "from above (docs/crowds.md)");

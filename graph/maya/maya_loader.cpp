@@ -1,0 +1,766 @@
+#include "graph/maya/maya_loader.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <numbers>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "graph/maya/ma_scene.h"
+#include "graph/maya/maya_references.h"
+#include "graph/maya/maya_values.h"
+
+namespace rig {
+namespace {
+
+using maya::Scene;
+using maya::Where;
+
+// Maya DAG types that are transforms here: their own attributes are a transform's.
+bool transformLike(std::string_view type)
+{
+    return type == "ikEffector" || type == "dagContainer" || type == "lodGroup";
+}
+
+// A Maya attribute path split: name[first:last].child
+struct AttrPath {
+    std::string name;
+    int first = -1, last = -1;
+    std::string child;
+    int childIndex = -1;
+    bool valid = true;
+};
+
+AttrPath splitAttr(std::string_view text)
+{
+    AttrPath p;
+    auto segment = [&](std::string_view s, std::string& name, int& first, int* last) {
+        const auto open = s.find('[');
+        name = std::string(s.substr(0, open));
+        if (open == std::string_view::npos) return;
+        const auto close = s.find(']', open);
+        if (close == std::string_view::npos || close + 1 != s.size()) {
+            p.valid = false;
+            return;
+        }
+        const std::string inside(s.substr(open + 1, close - open - 1));
+        const auto colon = inside.find(':');
+        char* end = nullptr;
+        first = static_cast<int>(std::strtol(inside.c_str(), &end, 10));
+        if (last) *last = colon == std::string::npos ? first : static_cast<int>(std::strtol(inside.c_str() + colon + 1, nullptr, 10));
+        if (inside.empty() || first < 0 || (last && *last < first)) p.valid = false;
+    };
+    const auto dot = text.find('.');
+    segment(text.substr(0, dot), p.name, p.first, &p.last);
+    if (dot != std::string_view::npos) {
+        const std::string_view rest = text.substr(dot + 1);
+        if (rest.find('.') != std::string_view::npos) p.valid = false;
+        segment(rest, p.child, p.childIndex, nullptr);
+    }
+    return p;
+}
+
+class Builder {
+public:
+    Builder(Scene& scene, std::shared_ptr<NodeRegistry> registry, MayaSceneInfo& info)
+        : scene_(scene), info_(info), graph_(std::make_unique<Graph>(registry))
+    {
+        for (const std::string& name : registry->typeNames()) {
+            auto type = registry->get(name);
+            const std::string maya = type->mayaType().empty() ? name : type->mayaType();
+            if (!type->mayaType().empty() || !mayaTypes_.count(maya)) mayaTypes_[maya] = type;
+        }
+    }
+
+    std::unique_ptr<Graph> build()
+    {
+        makeNodes();
+        setValues();
+        readMessages();
+        connectAll();
+        wireDag();
+        wireIk();
+        checkReachesNoJoint();
+        readSkins();
+        info_.nodes = graph_->nodeCount();
+        info_.connections = static_cast<int>(graph_->connections().size());
+        graph_->setTime(info_.savedTime);
+        return std::move(graph_);
+    }
+
+private:
+    [[noreturn]] void fail(const Where& where, const std::string& what) const
+    {
+        throw Error(fmt::format("{}: {}", maya::formatWhere(scene_, where), what));
+    }
+    const maya::Node& node(int n) const { return scene_.nodes[static_cast<std::size_t>(n)]; }
+    NodeId graphNode(int n) const { return n < 0 ? -1 : graphNode_[static_cast<std::size_t>(n)]; }
+    const std::string& name(NodeId g) const { return graph_->nodeName(g); }
+
+    std::shared_ptr<const NodeType> ourType(const maya::Node& n) const
+    {
+        const auto it = mayaTypes_.find(transformLike(n.type) ? "transform" : n.type);
+        return it == mayaTypes_.end() ? nullptr : it->second;
+    }
+
+    // The name Maya shows: the leaf name when no other node has it, else the shortest unique DAG path.
+    std::string displayName(int n) const
+    {
+        const std::string path = scene_.path(n);
+        std::size_t start = path.size();
+        while (true) {
+            start = path.rfind('|', start - 1);
+            const std::string candidate = path.substr(start + 1);
+            if (start == 0) return path;
+            bool unique = true;
+            try {
+                unique = scene_.find(candidate) == n;
+            } catch (const Error&) {
+                unique = false;
+            }
+            if (unique) return candidate;
+        }
+    }
+
+    void makeNodes()
+    {
+        graphNode_.assign(scene_.nodes.size(), -1);
+        for (std::size_t i = 0; i < scene_.nodes.size(); ++i) {
+            const maya::Node& n = scene_.nodes[i];
+            const auto type = ourType(n);
+            if (!type) {
+                ++info_.notEvaluatedTypes[n.type];
+                continue;
+            }
+            NodeId g = -1;
+            try {
+                g = graph_->addNode(type->name(), displayName(static_cast<int>(i)));
+            } catch (const Error& e) {
+                fail(n.where, e.what());
+            }
+            graphNode_[i] = g;
+            addDynamicAttributes(n, g);
+        }
+    }
+
+    void addDynamicAttributes(const maya::Node& n, NodeId g)
+    {
+        const maya::Units& units = scene_.units[static_cast<std::size_t>(n.where.file)];
+        for (std::size_t a = 0; a < n.adds.size(); ++a) {
+            const maya::AddAttr& add = n.adds[a];
+            if (!add.parent.empty()) continue;  // a compound's child: named by its parent
+            std::vector<maya::AddAttr> children;
+            for (std::size_t c = a + 1; c < n.adds.size() && n.adds[c].parent == add.longName; ++c)
+                children.push_back(n.adds[c]);
+            auto spec = maya::dynamicAttribute(add, children, units);
+            if (!spec || findAttribute(g, spec->name) >= 0 ||
+                (!spec->shortName.empty() && findAttribute(g, spec->shortName) >= 0)) {
+                ++info_.notEvaluatedAttributes[n.type + "." + add.longName];
+                continue;
+            }
+            try {
+                graph_->addAttribute(g, std::move(*spec));
+            } catch (const Error& e) {
+                fail(add.where, e.what());
+            }
+        }
+    }
+
+    // An attribute of graph node g by Maya's long or short name (not a compound's child), or -1.
+    AttrId findAttribute(NodeId g, std::string_view mayaName) const
+    {
+        const auto& specs = graph_->attributes(g);
+        for (std::size_t i = 0; i < specs.size(); ++i) {
+            const AttributeSpec& s = specs[i];
+            if (s.mayaCompound.empty() && (s.name == mayaName || (!s.shortName.empty() && s.shortName == mayaName)))
+                return static_cast<AttrId>(i);
+        }
+        return -1;
+    }
+
+    // A vector3 attribute one of whose children Maya names `mayaName`: (attribute, child), or (-1, -1).
+    std::pair<AttrId, int> findChild(NodeId g, std::string_view mayaName, std::string_view compound = {}) const
+    {
+        const auto& specs = graph_->attributes(g);
+        for (std::size_t i = 0; i < specs.size(); ++i) {
+            const AttributeSpec& s = specs[i];
+            const bool inCompound = !compound.empty() && (s.mayaCompound == compound || s.mayaCompoundShort == compound);
+            if (!(compound.empty() ? s.mayaCompound.empty() : inCompound)) continue;
+            if (const int c = mayaChildIndex(s, mayaName); c >= 0) return {static_cast<AttrId>(i), c};
+        }
+        return {-1, -1};
+    }
+
+    // A compound's child attribute by Maya name, or -1.
+    AttrId findCompoundChild(NodeId g, std::string_view compound, std::string_view child) const
+    {
+        const auto& specs = graph_->attributes(g);
+        for (std::size_t i = 0; i < specs.size(); ++i) {
+            const AttributeSpec& s = specs[i];
+            if ((s.mayaCompound == compound || s.mayaCompoundShort == compound) &&
+                (s.name == child || (!s.shortName.empty() && s.shortName == child)))
+                return static_cast<AttrId>(i);
+        }
+        return -1;
+    }
+
+    // The plug Maya's attribute path names on graph node g; nothing when this engine does not store it.
+    std::optional<Plug> resolve(NodeId g, const AttrPath& p) const
+    {
+        if (!p.valid) return std::nullopt;
+        if (const auto alias = aliases_.find({g, p.name}); alias != aliases_.end() && p.child.empty())
+            return alias->second;
+        if (p.child.empty()) {
+            if (const AttrId a = findAttribute(g, p.name); a >= 0) {
+                const bool array = graph_->attributes(g)[static_cast<std::size_t>(a)].array;
+                if (!array && p.first > 0) return std::nullopt;  // worldMatrix[1]: another instance
+                return Plug{g, a, array ? p.first : -1, -1};
+            }
+            if (const auto [a, c] = findChild(g, p.name); a >= 0) return Plug{g, a, -1, c};
+            return std::nullopt;
+        }
+        if (const AttrId a = findCompoundChild(g, p.name, p.child); a >= 0) return Plug{g, a, p.first, -1};
+        if (const auto [a, c] = findChild(g, p.child, p.name); a >= 0) return Plug{g, a, p.first, c};
+        if (const AttrId a = findAttribute(g, p.name); a >= 0) {
+            const AttributeSpec& s = graph_->attributes(g)[static_cast<std::size_t>(a)];
+            if (const int c = mayaChildIndex(s, p.child); c >= 0) return Plug{g, a, s.array ? p.first : -1, c};
+        }
+        return std::nullopt;
+    }
+
+    void countNotEvaluated(int n, const std::string& attr)
+    {
+        ++info_.notEvaluatedAttributes[node(n).type + "." + splitAttr(attr).name];
+    }
+
+    void setValues()
+    {
+        for (std::size_t i = 0; i < scene_.nodes.size(); ++i) {
+            const NodeId g = graphNode_[i];
+            for (const maya::SetAttr& set : scene_.nodes[i].sets) {
+                if (set.values.empty()) continue;
+                if (g < 0) {
+                    if (scene_.nodes[i].type == "time" || scene_.nodes[i].name == "time1") readTime(set);
+                    continue;
+                }
+                try {
+                    setValue(static_cast<int>(i), g, set);
+                } catch (const Error& e) {
+                    fail(set.where, fmt::format("{}.{}: {}", name(g), set.plug, e.what()));
+                }
+            }
+        }
+    }
+
+    void readTime(const maya::SetAttr& set)
+    {
+        if (set.plug != "o" && set.plug != "outTime") return;
+        maya::ValueReader r(set.values, scene_.units[0]);
+        info_.savedTime = std::get<double>(r.read(ValueType::Double, Unit::None));
+    }
+
+    void setValue(int n, NodeId g, const maya::SetAttr& set)
+    {
+        const maya::Units& units = scene_.units[static_cast<std::size_t>(set.where.file)];
+        const AttrPath p = splitAttr(set.plug);
+        if (graph_->nodeType(g).name() == "time" && (p.name == "o" || p.name == "outTime")) return readTime(set);
+        if (const auto field = graph_->nodeType(g).mayaFields().find(p.name);
+            field != graph_->nodeType(g).mayaFields().end() && p.child.empty())
+            return setField(g, field->second, p, set, units);
+        const auto compound = p.child.empty() ? graph_->nodeType(g).mayaCompoundChildren(p.name) : std::vector<AttrId>{};
+        if (!compound.empty()) return setCompoundRange(g, compound, p, set, units);
+        const auto plug = resolve(g, p);
+        if (!plug) return countNotEvaluated(n, set.plug);
+        const AttributeSpec& spec = graph_->spec(*plug);
+        if (!spec.input || graph_->incomingConnection(*plug)) return;  // computed, or driven: Maya saved a result
+        maya::ValueReader r(set.values, units);
+        const ValueType type = graph_->plugType(*plug);
+        if (spec.array && plug->index >= 0 && p.last > p.first) {
+            for (int e = p.first; e <= p.last && !r.done(); ++e)
+                graph_->setValue(Plug{g, plug->attr, e, plug->child}, r.read(type, spec.unit));
+            return;
+        }
+        if (spec.array && plug->index < 0) {
+            for (int e = 0; !r.done(); ++e) graph_->setValue(Plug{g, plug->attr, e, plug->child}, r.read(type, spec.unit));
+            return;
+        }
+        graph_->setValue(*plug, r.read(type, spec.unit));
+    }
+
+    // ".tg[0:1]" with each element's children in turn.
+    void setCompoundRange(NodeId g, const std::vector<AttrId>& children, const AttrPath& p, const maya::SetAttr& set,
+                          const maya::Units& units)
+    {
+        maya::ValueReader r(set.values, units);
+        for (int e = std::max(p.first, 0); e <= std::max(p.last, 0) && !r.done(); ++e)
+            for (AttrId a : children) {
+                const AttributeSpec& spec = graph_->attributes(g)[static_cast<std::size_t>(a)];
+                graph_->setValue(Plug{g, a, e, -1}, r.read(spec.type, spec.unit));
+            }
+    }
+
+    void setField(NodeId g, const MayaFieldParser& parser, const AttrPath& p, const maya::SetAttr& set,
+                  const maya::Units& units)
+    {
+        MayaFieldInput in;
+        in.first = p.first;
+        in.last = p.last;
+        for (const maya::Word& w : set.values) in.words.push_back(w.text);
+        in.current = [this, g](AttrId a) { return graph_->getValue(Plug{g, a, -1, -1}); };
+        in.linearToCm = units.linearToCm;
+        in.angleToDegrees = units.angleToDegrees;
+        for (const auto& [a, value] : parser(in)) graph_->setValue(Plug{g, a, -1, -1}, value);
+    }
+
+    // Message connections say which joints an IK handle solves: read before anything is connected.
+    void readMessages()
+    {
+        for (const maya::Connection& c : scene_.connections) {
+            const auto [dstNode, dstAttr] = maya::splitPlug(c.destination);
+            const std::string attr = splitAttr(dstAttr).name;
+            if (attr != "hsj" && attr != "startJoint" && attr != "hee" && attr != "endEffector" && attr != "hsv" &&
+                attr != "ikSolver")
+                continue;
+            const int handle = scene_.find(dstNode);
+            const int source = scene_.find(maya::splitPlug(c.source).first);
+            if (handle < 0 || source < 0) continue;
+            IkLinks& links = ik_[handle];
+            (attr == "hsj" || attr == "startJoint" ? links.startJoint : attr == "hsv" || attr == "ikSolver" ? links.solver
+                                                                                                          : links.effector) =
+                source;
+            links.where = c.where;
+        }
+    }
+
+    bool isMessage(std::string_view attr) const
+    {
+        const std::string n = splitAttr(attr).name;
+        return n == "msg" || n == "message" || n == "hsj" || n == "startJoint" || n == "hee" || n == "endEffector" ||
+               n == "hsv" || n == "ikSolver" || n == "hp" || n == "handlePath";
+    }
+
+    // Maya's parentMatrix and parentInverseMatrix outputs are the DAG parent's world matrices here.
+    std::optional<Plug> dagSource(int n, const AttrPath& p, bool& identity) const
+    {
+        const bool pm = p.name == "pm" || p.name == "parentMatrix";
+        const bool pim = p.name == "pim" || p.name == "parentInverseMatrix";
+        if (!(pm || pim) || !p.child.empty() || p.first > 0) return std::nullopt;
+        const int parent = node(n).parent;
+        identity = parent < 0;
+        const NodeId g = graphNode(parent);
+        if (g < 0) return std::nullopt;
+        const AttrId a = findAttribute(g, pm ? "worldMatrix" : "worldInverseMatrix");
+        if (a < 0) return std::nullopt;
+        return Plug{g, a, -1, -1};
+    }
+
+    void markUnevaluated(NodeId driven, int source, const std::string& why, const Where& where)
+    {
+        if (driven >= 0 && !unevaluated_.count(driven)) unevaluated_[driven] = {source, why, where};
+    }
+
+    void connectAll()
+    {
+        std::vector<const maya::Connection*> selfConnections;
+        for (const maya::Connection& c : scene_.connections) {
+            if (isMessage(c.source) || isMessage(c.destination)) continue;
+            const auto [srcName, srcAttr] = maya::splitPlug(c.source);
+            const auto [dstName, dstAttr] = maya::splitPlug(c.destination);
+            const int src = scene_.find(srcName), dst = scene_.find(dstName);
+            if (dst < 0 || src < 0) {
+                const std::string& missing = src < 0 ? srcName : dstName;
+                // Maya's default nodes (:defaultColorMgtGlobals) exist in every scene without a createNode.
+                if (missing.starts_with(':') || referenceMissing(missing)) continue;
+                fail(c.where, fmt::format("connectAttr names '{}', which is no node of the scene",
+                                          messageExcerpt(src < 0 ? srcName : dstName)));
+            }
+            if (src == dst) {
+                selfConnections.push_back(&c);
+                continue;
+            }
+            connectOne(c, src, dst, srcAttr, dstAttr);
+        }
+        for (const maya::Connection* c : selfConnections) connectSelf(*c);
+    }
+
+    bool referenceMissing(std::string_view nodeName) const
+    {
+        for (const std::string& ns : missingNamespaces_)
+            if (nodeName.find(ns + ":") != std::string_view::npos) return true;
+        return false;
+    }
+
+    void connectOne(const maya::Connection& c, int src, int dst, const std::string& srcAttr, const std::string& dstAttr)
+    {
+        const NodeId gd = graphNode(dst);
+        if (gd < 0) return;  // into a node kept out of the graph
+        const AttrPath dp = splitAttr(dstAttr);
+        auto dplug = resolve(gd, dp);
+        if (!dplug && dp.first < 0 && c.nextAvailable) dplug = nextAvailable(gd, dp);
+        if (!dplug) return countNotEvaluated(dst, dstAttr);
+        const NodeId gs = graphNode(src);
+        if (gs < 0)
+            return markUnevaluated(gd, src, fmt::format("this reader does not evaluate {}", node(src).type), c.where);
+        const AttrPath sp = splitAttr(srcAttr);
+        bool identity = false;
+        auto splug = dagSource(src, sp, identity);
+        if (!splug && identity) return;  // a root's parent matrix: the identity, the destination's default
+        if (!splug && (sp.name == "pm" || sp.name == "pim" || sp.name == "parentMatrix" || sp.name == "parentInverseMatrix"))
+            return markUnevaluated(gd, node(src).parent, "its DAG parent is not evaluated", c.where);
+        if (!splug) splug = resolve(gs, sp);
+        if (!splug)
+            return markUnevaluated(gd, src,
+                                   fmt::format("{}.{} is not an attribute this reader evaluates", name(gs), srcAttr),
+                                   c.where);
+        try {
+            if (const Connection* existing = graph_->incomingConnection(*dplug))
+                graph_->disconnect(existing->source, existing->destination);  // connectAttr -f replaces
+            if (!connectOrFeed(*splug, *dplug)) fail(c.where, cycleError_);
+        } catch (const Error& e) {
+            fail(c.where, e.what());
+        }
+    }
+
+    // Maya's cycles are per attribute, this engine's per node: a connection from an input (joint.scale into the
+    // inverseScale of a joint that is not its child) that would close a node-level cycle takes what drives that input
+    // instead, or its value. False (with the message kept) when that is not possible either.
+    bool connectOrFeed(const Plug& source, const Plug& destination)
+    {
+        try {
+            graph_->connect(source, destination, false);
+            return true;
+        } catch (const Error& e) {
+            cycleError_ = e.what();
+            if (!graph_->spec(source).input || std::string_view(e.what()).find("cycle") == std::string_view::npos)
+                return false;
+        }
+        feed(destination, source);
+        return true;
+    }
+
+    std::optional<Plug> nextAvailable(NodeId g, const AttrPath& p)
+    {
+        const AttrId a = findAttribute(g, p.name);
+        if (a < 0 || !graph_->attributes(g)[static_cast<std::size_t>(a)].array) return std::nullopt;
+        int& next = nextIndex_[{g, a}];
+        while (graph_->incomingConnection(Plug{g, a, next, -1})) ++next;
+        return Plug{g, a, next++, -1};
+    }
+
+    // node.w0 -> node.tg[0].tw (a constraint's weight): the engine connects no node to itself, so the dynamic
+    // attribute becomes another name of the plug it feeds (as Maya's alias), its value and sources moved there.
+    void connectSelf(const maya::Connection& c)
+    {
+        const auto [nodeName, srcAttr] = maya::splitPlug(c.source);
+        const int n = scene_.find(nodeName);
+        const NodeId g = graphNode(n);
+        if (g < 0) return;
+        const auto src = resolve(g, splitAttr(srcAttr));
+        const auto dst = resolve(g, splitAttr(maya::splitPlug(c.destination).second));
+        if (!src || !dst) return countNotEvaluated(n, src ? maya::splitPlug(c.destination).second : srcAttr);
+        try {
+            if (const Connection* in = graph_->incomingConnection(*src)) {
+                const Plug from = in->source;
+                graph_->disconnect(from, *src);
+                graph_->connect(from, *dst, false);
+            } else if (graph_->spec(*src).input && !graph_->incomingConnection(*dst)) {
+                graph_->setValue(*dst, graph_->getValue(*src));
+            }
+        } catch (const Error& e) {
+            fail(c.where, e.what());
+        }
+        aliases_[{g, splitAttr(srcAttr).name}] = *dst;
+    }
+
+    void wireDag()
+    {
+        for (std::size_t i = 0; i < scene_.nodes.size(); ++i) {
+            const NodeId g = graphNode_[i];
+            const int parent = scene_.nodes[i].parent;
+            if (g < 0 || parent < 0) continue;
+            const AttrId pm = findAttribute(g, "parentMatrix");
+            if (pm < 0 || graph_->incomingConnection(Plug{g, pm, -1, -1})) continue;
+            const NodeId gp = graphNode(parent);
+            if (gp < 0) {
+                markUnevaluated(g, parent, fmt::format("this reader does not evaluate {}", node(parent).type),
+                                scene_.nodes[i].where);
+                continue;
+            }
+            const AttrId wm = findAttribute(gp, "worldMatrix");
+            if (wm < 0) continue;
+            try {
+                graph_->connect(Plug{gp, wm, -1, -1}, Plug{g, pm, -1, -1}, false);
+            } catch (const Error& e) {
+                fail(scene_.nodes[i].where, e.what());
+            }
+        }
+    }
+
+    void wireIk();
+    void wireChain(int handle, const std::vector<int>& chain, int effector);
+    void feed(const Plug& destination, const Plug& source);
+    void checkReachesNoJoint();
+    void readSkins();
+
+    struct IkLinks {
+        int startJoint = -1, effector = -1, solver = -1;
+        Where where;
+    };
+    struct Unevaluated {
+        int source;
+        std::string why;
+        Where where;
+    };
+
+    Scene& scene_;
+    MayaSceneInfo& info_;
+    std::unique_ptr<Graph> graph_;
+    std::map<std::string, std::shared_ptr<const NodeType>> mayaTypes_;
+    std::vector<NodeId> graphNode_;
+    std::map<std::pair<NodeId, std::string>, Plug> aliases_;
+    std::map<NodeId, Unevaluated> unevaluated_;
+    std::map<int, IkLinks> ik_;
+    std::map<std::pair<NodeId, AttrId>, int> nextIndex_;
+    std::string cycleError_;
+
+public:
+    std::vector<std::string> missingNamespaces_;
+};
+
+// destination takes what drives `source` (its connection's source, per component) or, undriven, its value.
+void Builder::feed(const Plug& destination, const Plug& source)
+{
+    if (const Connection* in = graph_->incomingConnection(source); in && in->destination == source) {
+        graph_->connect(in->source, destination, false);
+        return;
+    }
+    const AttributeSpec& spec = graph_->spec(source);
+    if (spec.type == ValueType::Vector3 && source.child < 0) {
+        Eigen::Vector3d v = std::get<Eigen::Vector3d>(graph_->getValue(source));
+        std::vector<std::pair<Plug, int>> driven;
+        for (int c = 0; c < 3; ++c) {
+            const Plug child{source.node, source.attr, source.index, c};
+            if (const Connection* in = graph_->incomingConnection(child)) driven.emplace_back(in->source, c);
+        }
+        graph_->setValue(destination, Value(v));
+        for (const auto& [from, c] : driven)
+            graph_->connect(from, Plug{destination.node, destination.attr, destination.index, c}, false);
+        return;
+    }
+    graph_->setValue(destination, graph_->getValue(source));
+}
+
+void Builder::wireIk()
+{
+    for (const auto& [handle, links] : ik_) {
+        const NodeId h = graphNode(handle);
+        const std::string solverType = links.solver >= 0 ? node(links.solver).type : "ikRPsolver";
+        if (links.startJoint < 0 || links.effector < 0) continue;
+        std::vector<int> chain;
+        for (int j = node(links.effector).parent; j >= 0; j = node(j).parent) {
+            chain.insert(chain.begin(), j);
+            if (j == links.startJoint) break;
+        }
+        if (chain.empty() || chain.front() != links.startJoint)
+            fail(links.where, fmt::format("IK handle '{}': its start joint '{}' is not above its effector '{}'",
+                                          node(handle).name, node(links.startJoint).name, node(links.effector).name));
+        if (solverType == "ikSplineSolver" || h < 0) {
+            const std::string why = fmt::format("this reader does not evaluate {}", h < 0 ? node(handle).type : solverType);
+            for (int j : chain) markUnevaluated(graphNode(j), h < 0 ? handle : links.solver, why, links.where);
+            continue;
+        }
+        for (int j : chain) {
+            for (const maya::SetAttr& set : node(j).sets)
+                if ((set.plug == "r" || set.plug == "rotate") && set.values.size() == 3) {
+                    maya::ValueReader r(set.values, maya::Units{});
+                    info_.savedIkRotate[name(graphNode(j))] = std::get<Eigen::Vector3d>(r.read(ValueType::Vector3, Unit::None));
+                }
+        }
+        try {
+            const AttrId type = findAttribute(h, "solverType");
+            if (type >= 0)
+                graph_->setValue(Plug{h, type, -1, -1}, solverType == "ikSCsolver" ? 1 : 0);
+            wireChain(handle, chain, links.effector);
+        } catch (const Error& e) {
+            fail(links.where, fmt::format("IK handle '{}': {}", name(h), e.what()));
+        }
+    }
+}
+
+void Builder::wireChain(int handle, const std::vector<int>& chain, int effector)
+{
+    const NodeId h = graphNode(handle);
+    auto attr = [&](NodeId g, std::string_view n) {
+        const AttrId a = findAttribute(g, n);
+        if (a < 0) throw Error(fmt::format("'{}' has no attribute {}", name(g), n));
+        return a;
+    };
+    const NodeId start = graphNode(chain.front());
+    if (start < 0) throw Error(fmt::format("its start joint '{}' is not evaluated", node(chain.front()).name));
+    if (const Connection* pm = graph_->incomingConnection(Plug{start, attr(start, "parentMatrix"), -1, -1}))
+        graph_->connect(pm->source, Plug{h, attr(h, "startParentMatrix"), -1, -1}, false);
+    for (std::size_t i = 0; i < chain.size(); ++i) {
+        const NodeId j = graphNode(chain[i]);
+        if (j < 0) throw Error(fmt::format("chain joint '{}' is not evaluated", node(chain[i]).name));
+        const int e = static_cast<int>(i);
+        for (const auto& [from, to] : {std::pair<const char*, const char*>{"translate", "jointTranslate"},
+                                       {"jointOrient", "jointOrient"}, {"rotateAxis", "jointRotateAxis"},
+                                       {"scale", "jointScale"}, {"rotate", "jointRotate"}})
+            feed(Plug{h, attr(h, to), e, -1}, Plug{j, attr(j, from), -1, -1});
+        graph_->setValue(Plug{h, attr(h, "jointRotateOrder"), e, -1},
+                         graph_->getValue(Plug{j, attr(j, "rotateOrder"), -1, -1}));
+        const Plug rotate{j, attr(j, "rotate"), -1, -1};
+        for (int c = -1; c < 3; ++c)
+            if (const Connection* in = graph_->incomingConnection(Plug{j, rotate.attr, -1, c}))
+                graph_->disconnect(in->source, in->destination);
+        graph_->connect(Plug{h, attr(h, "outRotate"), e, -1}, rotate, false);
+    }
+    const NodeId eff = graphNode(effector);
+    if (eff >= 0) {
+        // The effector sits under the last chain joint and takes the end joint's translate: fed from the same.
+        const Plug effTranslate{eff, attr(eff, "translate"), -1, -1};
+        Plug source = effTranslate;
+        if (const Connection* in = graph_->incomingConnection(Plug{eff, effTranslate.attr, -1, 0}))
+            source = Plug{in->source.node, in->source.attr, -1, -1};
+        feed(Plug{h, attr(h, "effectorTranslate"), -1, -1}, source);
+    }
+}
+
+// A node this library does not evaluate must not move a joint: the joints' upstream is searched, and the first node
+// on it driven by such a node is refused in one line.
+void Builder::checkReachesNoJoint()
+{
+    if (unevaluated_.empty()) return;
+    const auto& model = graph_->model();
+    std::vector<NodeId> reachesJoint(static_cast<std::size_t>(graph_->nodeCount()), -1);
+    std::deque<NodeId> queue;
+    for (NodeId g = 0; g < graph_->nodeCount(); ++g)
+        if (graph_->nodeType(g).name() == "joint") {
+            reachesJoint[static_cast<std::size_t>(g)] = g;
+            queue.push_back(g);
+        }
+    while (!queue.empty()) {
+        const NodeId g = queue.front();
+        queue.pop_front();
+        for (int ci : model.topology(g).incoming) {
+            const NodeId from = model.connections()[static_cast<std::size_t>(ci)].source.node;
+            if (reachesJoint[static_cast<std::size_t>(from)] >= 0) continue;
+            reachesJoint[static_cast<std::size_t>(from)] = reachesJoint[static_cast<std::size_t>(g)];
+            queue.push_back(from);
+        }
+    }
+    const Unevaluated* first = nullptr;
+    NodeId firstJoint = -1;
+    for (const auto& [g, u] : unevaluated_) {
+        const NodeId joint = reachesJoint[static_cast<std::size_t>(g)];
+        if (joint < 0) continue;
+        if (!first || std::tie(u.where.file, u.where.line) < std::tie(first->where.file, first->where.line)) {
+            first = &u;
+            firstJoint = joint;
+        }
+    }
+    if (!first) return;
+    const maya::Node& src = node(first->source);
+    fail(first->where, fmt::format("node '{}' ({}) drives joint '{}'; {}", src.name, src.type, name(firstJoint),
+                                   first->why));
+}
+
+void Builder::readSkins()
+{
+    std::map<int, MayaSceneInfo::Skin> skins;
+    for (const maya::Connection& c : scene_.connections) {
+        const auto [dstName, dstAttr] = maya::splitPlug(c.destination);
+        const AttrPath p = splitAttr(dstAttr);
+        if ((p.name != "ma" && p.name != "matrix") || p.first < 0) continue;
+        const int skin = scene_.find(dstName);
+        if (skin < 0 || node(skin).type != "skinCluster") continue;
+        const int joint = scene_.find(maya::splitPlug(c.source).first);
+        auto& s = skins[skin];
+        if (s.influences.size() <= static_cast<std::size_t>(p.first)) s.influences.resize(static_cast<std::size_t>(p.first) + 1);
+        if (joint >= 0 && graphNode(joint) >= 0) s.influences[static_cast<std::size_t>(p.first)] = name(graphNode(joint));
+    }
+    for (auto& [skin, s] : skins) {
+        s.name = node(skin).name;
+        s.bindPreMatrix.assign(s.influences.size(), Eigen::Matrix4d::Zero());
+        for (const maya::SetAttr& set : node(skin).sets) {
+            const AttrPath p = splitAttr(set.plug);
+            if ((p.name != "pm" && p.name != "bindPreMatrix") || p.first < 0 || set.type != "matrix") continue;
+            if (static_cast<std::size_t>(p.first) >= s.bindPreMatrix.size()) continue;
+            maya::ValueReader r(set.values, scene_.units[static_cast<std::size_t>(set.where.file)]);
+            try {
+                s.bindPreMatrix[static_cast<std::size_t>(p.first)] = std::get<Eigen::Matrix4d>(r.read(ValueType::Matrix4, Unit::None));
+            } catch (const Error&) {
+                // a malformed bind matrix only loses this datum
+            }
+        }
+        info_.skins.push_back(std::move(s));
+    }
+}
+
+std::unique_ptr<Graph> buildGraph(Scene& scene, std::shared_ptr<NodeRegistry> registry, MayaSceneInfo& info,
+                                  const std::vector<std::string>& missingNamespaces)
+{
+    info.skippedStatements = scene.skipped;
+    info.playbackRange = scene.playbackRange;
+    info.framesPerSecond = scene.units.front().framesPerSecond;
+    Builder builder(scene, std::move(registry), info);
+    builder.missingNamespaces_ = missingNamespaces;
+    return builder.build();
+}
+
+}  // namespace
+
+std::string mayaStatsText(const MayaSceneInfo& info)
+{
+    auto list = [](const std::map<std::string, int>& counts) {
+        std::vector<std::pair<int, std::string>> sorted;
+        for (const auto& [name, n] : counts) sorted.emplace_back(-n, name);
+        std::sort(sorted.begin(), sorted.end());
+        std::string text;
+        for (const auto& [n, name] : sorted) text += fmt::format("{}{} {}", text.empty() ? "" : ", ", name, -n);
+        return text.empty() ? std::string("none") : text;
+    };
+    return fmt::format(
+        "maya: {} graph nodes, {} connections; saved time {}, {} fps{}\n"
+        "maya: nodes not evaluated (they move no joint), by type: {}\n"
+        "maya: statements skipped: {}\n"
+        "maya: attributes not evaluated: {}\n",
+        info.nodes, info.connections, info.savedTime, info.framesPerSecond,
+        info.playbackRange ? fmt::format(", playback {}:{}", info.playbackRange->first, info.playbackRange->second)
+                           : std::string(),
+        list(info.notEvaluatedTypes), list(info.skippedStatements), list(info.notEvaluatedAttributes));
+}
+
+bool isMayaAscii(std::string_view text) { return text.starts_with("//Maya ASCII"); }
+
+bool isMayaBinary(std::string_view text) { return text.starts_with("FOR4") || text.starts_with("FOR8"); }
+
+std::unique_ptr<Graph> loadMayaFile(const std::filesystem::path& file, std::shared_ptr<NodeRegistry> registry,
+                                    std::vector<std::filesystem::path>* filesRead, MayaSceneInfo* info,
+                                    const MayaLoadOptions& options)
+{
+    MayaSceneInfo local;
+    MayaSceneInfo& out = info ? *info : local;
+    out = MayaSceneInfo{};
+    maya::Scene scene;
+    const maya::ReadResult read = maya::readSceneFile(scene, file, options.searchPath, out.warnings);
+    if (filesRead) *filesRead = read.files;
+    return buildGraph(scene, std::move(registry), out, read.missingNamespaces);
+}
+
+std::unique_ptr<Graph> loadMayaText(std::string_view text, const std::string& fileName,
+                                    std::shared_ptr<NodeRegistry> registry, MayaSceneInfo* info,
+                                    const MayaLoadOptions& options)
+{
+    MayaSceneInfo local;
+    MayaSceneInfo& out = info ? *info : local;
+    out = MayaSceneInfo{};
+    maya::Scene scene;
+    const maya::ReadResult read = maya::readSceneText(scene, text, fileName, options.searchPath, out.warnings);
+    return buildGraph(scene, std::move(registry), out, read.missingNamespaces);
+}
+
+}  // namespace rig
