@@ -22,6 +22,7 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeBvhClipType());
     registry.add(makeSkeletonClipType());
     registry.add(makeIkHandleType());
+    registry.add(makeMayaIkHandleType());
     registry.add(makeBlendColorsType());
     registry.add(makeTwistDistributeType());
     registry.add(makeSlidingPivotType());

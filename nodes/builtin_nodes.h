@@ -29,6 +29,7 @@ std::shared_ptr<const NodeType> makeMultMatrixType();
 std::shared_ptr<const NodeType> makeComposeMatrixType();
 std::shared_ptr<const NodeType> makeDecomposeMatrixType();
 std::shared_ptr<const NodeType> makeIkHandleType();  // nodes/ik, nodes/deformers (docs/ik-and-deformers.md)
+std::shared_ptr<const NodeType> makeMayaIkHandleType();  // nodes/ik: Maya's ikHandle (RP and SC solvers), for .ma scenes
 std::shared_ptr<const NodeType> makeBlendColorsType();
 std::shared_ptr<const NodeType> makeTwistDistributeType();
 std::shared_ptr<const NodeType> makeSlidingPivotType();
