@@ -7,6 +7,7 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeTransformType());
     registry.add(makeJointType());
     registry.add(makeTimeType());
+    registry.add(makeCharacterType());
     for (const char* name : {"animCurveTU", "animCurveTA", "animCurveTL", "animCurveUU", "animCurveUA", "animCurveUL"})
         registry.add(makeAnimCurveType(name));
     registry.add(makeMultiplyDivideType());

@@ -15,6 +15,7 @@ std::shared_ptr<NodeRegistry> makeBuiltinRegistry();
 std::shared_ptr<const NodeType> makeTransformType();
 std::shared_ptr<const NodeType> makeJointType();
 std::shared_ptr<const NodeType> makeTimeType();
+std::shared_ptr<const NodeType> makeCharacterType();  // nodes/curves: Maya's character set (docs/maya.md)
 // animCurveTU, animCurveTA, animCurveTL, animCurveUU, animCurveUA, animCurveUL.
 std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName);
 

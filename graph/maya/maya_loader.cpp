@@ -80,8 +80,8 @@ public:
         makeNodes();
         setValues();
         readMessages();
+        wireDag();  // first: DAG parenting is what a scene is, a stray connection must not close a cycle with it
         connectAll();
-        wireDag();
         wireIk();
         checkReachesNoJoint();
         readSkins();
@@ -501,6 +501,7 @@ private:
 
     void wireIk();
     void wireChain(int handle, const std::vector<int>& chain, int effector);
+    std::optional<Eigen::Vector3d> preferredAngle(int joint) const;
     void feed(const Plug& destination, const Plug& source);
     void checkReachesNoJoint();
     void readSkins();
@@ -590,6 +591,18 @@ void Builder::wireIk()
     }
 }
 
+// A joint's preferred angle (".pa", which joints here do not store), in radians.
+std::optional<Eigen::Vector3d> Builder::preferredAngle(int joint) const
+{
+    std::optional<Eigen::Vector3d> angle;
+    for (const maya::SetAttr& set : node(joint).sets)
+        if ((set.plug == "pa" || set.plug == "preferredAngle") && set.values.size() == 3) {
+            maya::ValueReader r(set.values, scene_.units[static_cast<std::size_t>(set.where.file)]);
+            angle = std::get<Eigen::Vector3d>(r.read(ValueType::Vector3, Unit::Angle));
+        }
+    return angle;
+}
+
 void Builder::wireChain(int handle, const std::vector<int>& chain, int effector)
 {
     const NodeId h = graphNode(handle);
@@ -602,6 +615,7 @@ void Builder::wireChain(int handle, const std::vector<int>& chain, int effector)
     if (start < 0) throw Error(fmt::format("its start joint '{}' is not evaluated", node(chain.front()).name));
     if (const Connection* pm = graph_->incomingConnection(Plug{start, attr(start, "parentMatrix"), -1, -1}))
         graph_->connect(pm->source, Plug{h, attr(h, "startParentMatrix"), -1, -1}, false);
+    feed(Plug{h, attr(h, "startInverseScale"), -1, -1}, Plug{start, attr(start, "inverseScale"), -1, -1});
     for (std::size_t i = 0; i < chain.size(); ++i) {
         const NodeId j = graphNode(chain[i]);
         if (j < 0) throw Error(fmt::format("chain joint '{}' is not evaluated", node(chain[i]).name));
@@ -610,8 +624,12 @@ void Builder::wireChain(int handle, const std::vector<int>& chain, int effector)
                                        {"jointOrient", "jointOrient"}, {"rotateAxis", "jointRotateAxis"},
                                        {"scale", "jointScale"}, {"rotate", "jointRotate"}})
             feed(Plug{h, attr(h, to), e, -1}, Plug{j, attr(j, from), -1, -1});
-        graph_->setValue(Plug{h, attr(h, "jointRotateOrder"), e, -1},
-                         graph_->getValue(Plug{j, attr(j, "rotateOrder"), -1, -1}));
+        for (const auto& [from, to] : {std::pair<const char*, const char*>{"rotateOrder", "jointRotateOrder"},
+                                       {"segmentScaleCompensate", "jointSegmentScaleCompensate"}})
+            if (findAttribute(j, from) >= 0)
+                graph_->setValue(Plug{h, attr(h, to), e, -1}, graph_->getValue(Plug{j, attr(j, from), -1, -1}));
+        if (const auto pa = preferredAngle(chain[i]))
+            graph_->setValue(Plug{h, attr(h, "jointPreferredAngle"), e, -1}, Value(*pa));
         const Plug rotate{j, attr(j, "rotate"), -1, -1};
         for (int c = -1; c < 3; ++c)
             if (const Connection* in = graph_->incomingConnection(Plug{j, rotate.attr, -1, c}))

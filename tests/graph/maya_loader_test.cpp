@@ -1,0 +1,225 @@
+// The Maya ASCII reader on small scenes written here (docs/maya.md): the MEL Maya writes, names as Maya shows them,
+// units, DAG parenting, IK chains solved as Maya's solver does, references with namespaces and edits, and every
+// malformed input refused in one line with file:line:col.
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include <Eigen/Geometry>
+
+#include "graph/maya/ma_parser.h"
+#include "graph/maya/maya_loader.h"
+#include "graph/rig_file.h"
+#include "nodes/builtin_nodes.h"
+#include "test_support.h"
+
+namespace {
+
+using namespace rig;
+constexpr double pi = std::numbers::pi;
+
+const std::string header = "//Maya ASCII 2023 scene\nrequires maya \"2023\";\ncurrentUnit -l centimeter -a degree -t film;\n";
+
+std::unique_ptr<Graph> load(const std::string& text, MayaSceneInfo* info = nullptr)
+{
+    return loadMayaText(text, "scene.ma", makeBuiltinRegistry(), info);
+}
+
+Eigen::Vector3d vec(Graph& g, const std::string& plug) { return std::get<Eigen::Vector3d>(g.getValue(g.plug(plug))); }
+Eigen::Matrix4d mat(Graph& g, const std::string& plug) { return std::get<Eigen::Matrix4d>(g.getValue(g.plug(plug))); }
+
+}  // namespace
+
+TEST_CASE("maya parser: statements, strings with escapes, joined strings, comments")
+{
+    const auto s = maya::parseStatements(
+        "//Maya ASCII\n/* a block\n comment */ setAttr \".b\" -type \"string\" \"a \\\"q\\\"\"\n + \"b\";\n"
+        "createNode joint -n \"j1\"; // trailing\n",
+        "x.ma");
+    REQUIRE(s.size() == 2);
+    CHECK(s[0].command() == "setAttr");
+    CHECK(s[0].words.back().text == "a \"q\"b");
+    CHECK(s[0].line() == 3);
+    CHECK(s[1].words[3].text == "j1");
+    CHECK(s[1].words[3].quoted);
+}
+
+TEST_CASE("maya parser: truncated files and unterminated strings are one line with file:line:col")
+{
+    CHECK(test::errorOf([] { maya::parseStatements("createNode joint -n \"j1", "t.ma"); }) ==
+          "t.ma:1:21: a string begun here is never closed (no closing '\"'): the scene is truncated");
+    CHECK(test::errorOf([] { maya::parseStatements("createNode joint;\nsetAttr \".t\" 1 2", "t.ma"); }) ==
+          "t.ma:2:1: the file ends inside the statement 'setAttr' begun here (no ';'): the scene is truncated; save "
+          "it again from Maya");
+    CHECK(test::errorOf([] { maya::parseStatements("/* open", "t.ma"); }) ==
+          "t.ma:1:1: a comment begun here is never closed ('*/')");
+}
+
+TEST_CASE("maya scene: joints with orients, DAG parenting, short and long names, saved time")
+{
+    MayaSceneInfo info;
+    auto g = load(header +
+                      "createNode transform -n \"grp\";\n"
+                      "\tsetAttr \".t\" -type \"double3\" 0 10 0 ;\n"
+                      "\tsetAttr \".ry\" 90;\n"
+                      "createNode joint -n \"hip\" -p \"grp\";\n"
+                      "\tsetAttr \".t\" -type \"double3\" 1 0 0 ;\n"
+                      "\tsetAttr \".jo\" -type \"double3\" 0 0 90 ;\n"
+                      "\tsetAttr \".radi\" 0.5;\n"
+                      "createNode joint -n \"knee\" -p \"hip\";\n"
+                      "\tsetAttr \".translateX\" 5;\n"
+                      "\tsetAttr -k on \".rz\" -45;\n"
+                      "select -ne :time1;\n\tsetAttr \".o\" 12;\n"
+                      "connectAttr \"hip.s\" \"knee.is\";\n",
+                  &info);
+    CHECK(info.savedTime == 12.0);
+    CHECK(g->time() == 12.0);
+    // grp: T(0,10,0) Ry(90); hip at grp * (1,0,0) = (0, 10, -1); hip's X axis along grp's Y (jo Z 90).
+    const Eigen::Matrix4d knee = mat(*g, "knee.worldMatrix");
+    const Eigen::Vector3d expected = Eigen::Vector3d(0, 10, -1) + 5 * Eigen::Vector3d(0, 1, 0);
+    CHECK((knee.block<3, 1>(0, 3) - expected).norm() < 1e-12);
+    CHECK(vec(*g, "knee.rotate").z() == doctest::Approx(-pi / 4));
+    CHECK(info.notEvaluatedAttributes.at("joint.radi") == 1);
+}
+
+TEST_CASE("maya scene: a leaf name used twice becomes its shortest unique DAG path")
+{
+    auto g = load(header +
+                  "createNode transform -n \"L\";\ncreateNode transform -n \"ctrl\" -p \"L\";\n"
+                  "createNode transform -n \"R\";\ncreateNode transform -n \"ctrl\" -p \"R\";\n"
+                  "\tsetAttr \".tx\" 3;\n");
+    CHECK(g->findNode("L|ctrl") >= 0);
+    CHECK(g->findNode("R|ctrl") >= 0);
+    CHECK(g->findNode("ctrl") < 0);
+    CHECK(vec(*g, "R|ctrl.translate").x() == 3.0);
+}
+
+TEST_CASE("maya scene: currentUnit meter and radian become cm and radians")
+{
+    auto g = load("//Maya ASCII 2023 scene\ncurrentUnit -l meter -a radian -t ntsc;\n"
+                  "createNode transform -n \"a\";\n\tsetAttr \".t\" -type \"double3\" 1 2 3 ;\n\tsetAttr \".rx\" 0.5;\n");
+    CHECK((vec(*g, "a.translate") - Eigen::Vector3d(100, 200, 300)).norm() < 1e-12);
+    CHECK(vec(*g, "a.rotate").x() == doctest::Approx(0.5));
+}
+
+TEST_CASE("maya scene: dynamic attributes, a constraint's weight alias, nodes that move no joint are counted")
+{
+    MayaSceneInfo info;
+    auto g = load(header +
+                      "createNode transform -n \"ctrl\";\n"
+                      "\taddAttr -ci true -k true -sn \"fk\" -ln \"ikFk\" -min 0 -max 1 -at \"double\";\n"
+                      "\taddAttr -ci true -sn \"mode\" -ln \"mode\" -min 0 -max 2 -en \"a:b:c\" -at \"enum\";\n"
+                      "\tsetAttr \".fk\" 0.25;\n"
+                      "\tsetAttr \".mode\" 2;\n"
+                      "createNode nurbsCurve -n \"ctrlShape\" -p \"ctrl\";\n"
+                      "createNode lambert -n \"mat\";\n",
+                  &info);
+    CHECK(std::get<double>(g->getValue(g->plug("ctrl.ikFk"))) == 0.25);
+    CHECK(std::get<int>(g->getValue(g->plug("ctrl.mode"))) == 2);
+    CHECK(g->spec(g->plug("ctrl.ikFk")).keyable);
+    CHECK(info.notEvaluatedTypes.at("nurbsCurve") == 1);
+    CHECK(info.notEvaluatedTypes.at("lambert") == 1);
+}
+
+TEST_CASE("maya scene: a node this library does not evaluate that drives a joint is refused in one line")
+{
+    const std::string text = header +
+                             "createNode joint -n \"arm\";\n"
+                             "createNode HIKSolverNode -n \"L_arm_HIK\";\n"
+                             "connectAttr \"L_arm_HIK.ot\" \"arm.t\";\n";
+    CHECK(test::errorOf([&] { load(text); }) ==
+          "scene.ma:6:13: node 'L_arm_HIK' (HIKSolverNode) drives joint 'arm'; this reader does not evaluate "
+          "HIKSolverNode");
+    // The same node driving nothing that reaches a joint is only counted.
+    MayaSceneInfo info;
+    load(header + "createNode transform -n \"loc\";\ncreateNode HIKSolverNode -n \"hik\";\n"
+                  "connectAttr \"hik.ot\" \"loc.t\";\n",
+         &info);
+    CHECK(info.notEvaluatedTypes.at("HIKSolverNode") == 1);
+}
+
+TEST_CASE("maya scene: bad input is one line with file:line:col")
+{
+    CHECK(test::errorOf([] { load(header + "connectAttr \"nobody.t\" \"other.t\";\n"); }) ==
+          "scene.ma:4:13: connectAttr names '|nobody', which is no node of the scene");
+    CHECK(test::errorOf([] { load(header + "createNode joint -n \"a\" -p \"missing\";\n"); }) ==
+          "scene.ma:4:29: no node named 'missing' in the scene so far");
+    CHECK(test::errorOf([] { load(header + "createNode transform -n \"a\";\n\tsetAttr \".tx\" 1e400;\n"); }) ==
+          "scene.ma:5:10: a.tx: 1e400 is not a finite number a double holds");
+    CHECK(test::errorOf([] { load(header + "createNode transform -n \"a\";\n\tsetAttr \".tx\" nan;\n"); }) ==
+          "scene.ma:5:10: a.tx: nan is not a finite number a double holds");
+    CHECK(test::errorOf([] {
+              load(header + "createNode transform -n \"a\";\ncreateNode transform -n \"b\";\n"
+                            "connectAttr \"a.wm\" \"b.pm\";\nconnectAttr \"b.wm\" \"a.pm\";\n");
+          }).find("scene.ma:7:13: cannot connect b.worldMatrix -> a.parentMatrix: it would close a cycle") == 0);
+    CHECK(test::errorOf([] { loadMayaText("createNode joint;", "x.ma", makeBuiltinRegistry()); }) ==
+          "x.ma:1:1: not a Maya ASCII scene (its first line is not '//Maya ASCII ...')");
+    const auto mb = test::writeFile(test::scratchDir("maya_mb") / "rig.mb", std::string("FOR4\0\0\0\x20", 8));
+    CHECK(test::errorOf([&] { loadRigFile(mb, makeBuiltinRegistry()); }) ==
+          mb.string() + ": a Maya binary scene (.mb) is not read; save it as Maya ASCII (.ma)");
+}
+
+TEST_CASE("maya scene: a two-bone ikRPsolver chain reaches its handle and keeps its saved pose as a fixed point")
+{
+    // A chain bent in its XY plane; the handle saved at the effector (the end joint at (4, 3, 0): the rest pose is
+    // Maya's answer), then moved: the end joint follows it.
+    const std::string scene = header +
+                              "createNode joint -n \"j1\";\n"
+                              "createNode joint -n \"j2\" -p \"j1\";\n\tsetAttr \".t\" -type \"double3\" 5 0 0 ;\n"
+                              "\tsetAttr \".r\" -type \"double3\" 0 0 90 ;\n"
+                              "createNode joint -n \"j3\" -p \"j2\";\n\tsetAttr \".t\" -type \"double3\" 3 0 0 ;\n"
+                              "createNode ikEffector -n \"effector1\" -p \"j2\";\n"
+                              "createNode ikHandle -n \"ikHandle1\";\n"
+                              "\tsetAttr \".t\" -type \"double3\" 5 3 0 ;\n"
+                              "\tsetAttr \".pv\" -type \"double3\" 0 1 0 ;\n"
+                              "createNode ikRPsolver -n \"ikRPsolver\";\n"
+                              "connectAttr \"j1.s\" \"j2.is\";\nconnectAttr \"j2.s\" \"j3.is\";\n"
+                              "connectAttr \"j3.tx\" \"effector1.tx\";\nconnectAttr \"j3.ty\" \"effector1.ty\";\n"
+                              "connectAttr \"j3.tz\" \"effector1.tz\";\n"
+                              "connectAttr \"j1.msg\" \"ikHandle1.hsj\";\nconnectAttr \"effector1.hp\" \"ikHandle1.hee\";\n"
+                              "connectAttr \"ikRPsolver.msg\" \"ikHandle1.hsv\";\n";
+    MayaSceneInfo info;
+    auto g = load(scene, &info);
+    CHECK(info.savedIkRotate.count("j2") == 1);
+    CHECK((mat(*g, "j3.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(5, 3, 0)).norm() < 1e-9);
+    CHECK((vec(*g, "j2.rotate") - Eigen::Vector3d(0, 0, pi / 2)).norm() < 1e-9);
+    g->setValue(g->plug("ikHandle1.translate"), Eigen::Vector3d(4, 4, 1));
+    CHECK((mat(*g, "j3.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(4, 4, 1)).norm() < 1e-9);
+}
+
+TEST_CASE("maya references: namespaces, placeholder edits, setAttr edits, a missing one, a loop")
+{
+    const auto dir = test::scratchDir("maya_references");
+    test::writeFile(dir / "rigs" / "arm.ma",
+                    header + "createNode transform -n \"ctrl\";\ncreateNode joint -n \"bone\" -p \"ctrl\";\n"
+                             "\tsetAttr \".tx\" 2;\n");
+    // The animation scene names its reference by an absolute path from another machine: found by its suffix.
+    const auto anim = test::writeFile(
+        dir / "shots" / "shot.ma",
+        "//Maya ASCII 2023 scene\nfile -r -ns \"hero\" -rfn \"heroRN\" \"C:/work/rigs/arm.ma\";\n"
+        "requires maya \"2023\";\ncurrentUnit -l centimeter -a degree -t film;\n"
+        "createNode reference -n \"heroRN\";\n"
+        "\tsetAttr \".ed\" -type \"dataReferenceEdits\" \"heroRN\" \"heroRN\" 2\n"
+        "\t\t2 \"|hero:ctrl|hero:bone\" \"translateY\" \" 7\"\n"
+        "\t\t5 4 \"heroRN\" \"|hero:ctrl.translateZ\" \"heroRN.placeHolderList[1]\" \"\";\n"
+        "createNode transform -n \"driver\";\n\tsetAttr \".tz\" 4;\n"
+        "connectAttr \"driver.tz\" \"heroRN.phl[1]\";\n");
+    std::vector<std::filesystem::path> read;
+    auto g = loadRigFile(anim, makeBuiltinRegistry(), &read);
+    CHECK(read.size() == 2);
+    CHECK((mat(*g, "hero:bone.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(2, 7, 4)).norm() < 1e-12);
+
+    MayaSceneInfo info;
+    const auto lonely = test::writeFile(dir / "lonely.ma", "//Maya ASCII 2023 scene\nfile -r -ns \"x\" \"gone.ma\";\n"
+                                                           "createNode transform -n \"a\";\n");
+    loadRigFile(lonely, makeBuiltinRegistry(), nullptr, &info);
+    REQUIRE(info.warnings.size() == 1);
+    CHECK(info.warnings[0].find("lonely.ma:2:1: reference 'gone.ma' not found") == 0);
+
+    const auto loop = test::writeFile(dir / "loop.ma", "//Maya ASCII 2023 scene\nfile -r -ns \"x\" \"loop.ma\";\n");
+    CHECK(test::errorOf([&] { loadRigFile(loop, makeBuiltinRegistry()); })
+              .find("loop.ma:2:1: the reference 'loop.ma' loops back to a scene that references it") != std::string::npos);
+}
