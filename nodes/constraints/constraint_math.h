@@ -31,6 +31,50 @@ struct Target {
 // the same index of `weights` (1, Maya's default, when that element does not exist), by index.
 std::vector<Target> gatherTargets(const ComputeContext& c, AttrId matrices, AttrId weights);
 
+// Maya's per-target inputs, children of its compound multi attribute target (tg) flattened into parallel arrays
+// (Maya's ".tg[2].tt" is targetTranslate[2]). A type declares the ones its Maya node has, -1 for the others;
+// addMayaTargets declares them in this member order, so a type's enum lists them in the same order.
+struct MayaTargetIds {
+    AttrId translate = -1;        // targetTranslate (tt) <- target.translate
+    AttrId rotate = -1;           // targetRotate (tr) <- target.rotate
+    AttrId rotateOrder = -1;      // targetRotateOrder (tro) <- target.rotateOrder
+    AttrId rotatePivot = -1;      // targetRotatePivot (trp) <- target.rotatePivot
+    AttrId rotateTranslate = -1;  // targetRotateTranslate (trt) <- target.rotatePivotTranslate
+    AttrId scale = -1;            // targetScale (ts) <- target.scale
+    AttrId parentMatrix = -1;     // targetParentMatrix (tpm) <- target.parentMatrix
+    AttrId jointOrient = -1;      // targetJointOrient (tjo) <- joint target.jointOrient
+    AttrId scaleCompensate = -1;  // targetScaleCompensate (tsc) <- joint target.segmentScaleCompensate
+    AttrId inverseScale = -1;     // targetInverseScale (tis) <- joint target.inverseScale
+};
+// A target as the types read it: the world matrix that places it and the world position of its rotate pivot.
+struct TargetFrame {
+    int index = 0;
+    double weight = 1.0;
+    Eigen::Matrix4d world = Eigen::Matrix4d::Identity();
+    Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
+    bool fromMatrix = false;  // given by targetMatrix[index] (this project's input), not by Maya's inputs
+};
+
+// The targets of a constraint: every index where targetMatrix or one of Maya's per-target arrays in `ids` has an
+// element (a targetWeight element alone makes no target), by index. targetMatrix[i], where present, is the target's
+// world matrix and its translation the pivot; otherwise world = targetParentMatrix * L, L = T(tt) * IS * T(trt) *
+// T(trp) * R(tjo) * R(tr, tro) * S(ts) * T(-trp) (IS = diag(1 / tis) when tsc is on), and pivot = tpm * (tt + trp +
+// trt), Maya's world position of the target's rotate pivot.
+std::vector<TargetFrame> gatherFrames(const ComputeContext& c, AttrId matrices, AttrId weights,
+                                      const MayaTargetIds& ids);
+
+// The weighted mean of the frames' pivots; nullopt when the total weight is <= minTotalWeight.
+std::optional<Eigen::Vector3d> weightedPivot(const std::vector<TargetFrame>& frames);
+
+// Maya's interpType enum.
+enum InterpType { NoFlip = 0, Average = 1, Shortest = 2, Longest = 3, Cache = 4 };
+
+// Orientations blended as Maya's interpType: average (averageRotation);
+// shortest / longest: q = q_first, then for each next target of nonzero weight, q = slerp(q, q_i, w_i / W_i) with
+// W_i the weight summed so far including i, the short (long) way round; noFlip and cache read as average.
+std::optional<Eigen::Quaterniond> blendRotations(const std::vector<std::pair<Eigen::Quaterniond, double>>& rotations,
+                                                 int interpType);
+
 // Element `index` of a matrix array input, or identity when it does not exist.
 Eigen::Matrix4d matrixElement(const ComputeContext& c, AttrId matrices, int index);
 
@@ -64,6 +108,10 @@ Eigen::Matrix3d parentRotation(const Eigen::Matrix4d& parentInverse);
 // equivalent Euler triples, the one nearest to zero (as ikHandle: a knee bent 120 degrees about Y reads
 // (0, 120, 0), not (180, 60, 180)).
 Eigen::Vector3d rotateFromWorld(const Eigen::Matrix4d& parentInverse, const Eigen::Matrix3d& world,
+                                const Eigen::Vector3d& jointOrient, RotateOrder order);
+
+// rotateFromWorld with the parent's world frame itself given (its rotation is used).
+Eigen::Vector3d rotateFromFrame(const Eigen::Matrix4d& parentFrame, const Eigen::Matrix3d& world,
                                 const Eigen::Vector3d& jointOrient, RotateOrder order);
 
 // The world orientation the constrained object has with rotate = 0: parentRotation * JO.
