@@ -220,7 +220,6 @@ nodes:
     targetOffsetTranslate: [[1, 2, -3]]
     targetOffsetRotate: [[10, 50, -30]]
 connections:
-  - chest.scale -> ctrl.inverseScale
 )" + mayaTarget("ctrl", "prc", 0, forJoint(parentChildren)) + R"(
   - op.worldInverseMatrix -> prc.constraintParentInverseMatrix
   - prc.constraintTranslate -> obj.translate
@@ -259,8 +258,7 @@ nodes:
     constraintRotateOrder: zyx                  # = knee.rotateOrder
     offset: [0, 0, 15]
 connections:
-  - hip.scale -> knee.inverseScale
-  - hip.scale -> oc.inverseScale
+  - hip.scale -> oc.inverseScale               # what feeds knee.inverseScale (a joint's parent's scale)
 )" + mayaTarget("target", "oc", 0, orientChildren) + R"(
   - hip.worldInverseMatrix -> oc.constraintParentInverseMatrix
   - oc.constraintRotate -> knee.rotate
