@@ -14,8 +14,8 @@
 
 namespace rig::constraint {
 
-// targetMatrix[] and targetWeight[] (Maya's target[i].targetWeight, tw; read by gatherTargets); `matrixDoc` says what the type takes from a target's
-// world matrix.
+// targetMatrix[] and targetWeight[] (Maya's target[i].targetWeight, tw; read by gatherFrames); `matrixDoc` says
+// what the type takes from a target's world matrix.
 void addTargets(NodeTypeBuilder& b, AttrId matrices, AttrId weights, std::string matrixDoc);
 
 // offset: a keyable vector3 in `unit` (a translation's cm or a rotation's angles), added to the result.

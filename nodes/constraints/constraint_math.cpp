@@ -6,18 +6,6 @@
 
 namespace rig::constraint {
 
-std::vector<Target> gatherTargets(const ComputeContext& c, AttrId matrices, AttrId weights)
-{
-    std::map<int, double> weightOf;
-    c.forEachElement(weights, [&](int i, const Value& v) { weightOf[i] = std::get<double>(v); });
-    std::vector<Target> targets;
-    c.forEachElement(matrices, [&](int i, const Value& v) {
-        const auto w = weightOf.find(i);
-        targets.push_back(Target{i, std::get<Eigen::Matrix4d>(v), w == weightOf.end() ? 1.0 : w->second});
-    });
-    return targets;
-}
-
 namespace {
 
 // The existing elements of an array input, by logical index.
@@ -113,8 +101,7 @@ Eigen::Quaterniond slerpAlong(const Eigen::Quaterniond& a, const Eigen::Quaterni
         result.coeffs() = ((1.0 - t) * a.coeffs() + t * b.coeffs()).normalized();
         return result;
     }
-    result.coeffs() =
-        (std::sin((1.0 - t) * theta) * a.coeffs() + std::sin(t * theta) * b.coeffs()) / std::sin(theta);
+    result.coeffs() = (std::sin((1.0 - t) * theta) * a.coeffs() + std::sin(t * theta) * b.coeffs()) / std::sin(theta);
     return result;
 }
 
@@ -190,22 +177,6 @@ Eigen::Matrix4d matrixElement(const ComputeContext& c, AttrId matrices, int inde
     return result;
 }
 
-double totalWeight(const std::vector<Target>& targets)
-{
-    double total = 0.0;
-    for (const Target& t : targets) total += t.weight;
-    return total;
-}
-
-std::optional<Eigen::Vector3d> weightedPosition(const std::vector<Target>& targets)
-{
-    const double total = totalWeight(targets);
-    if (!(total > minTotalWeight)) return std::nullopt;
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const Target& t : targets) sum += t.weight * t.matrix.topRightCorner<3, 1>();
-    return Eigen::Vector3d(sum / total);
-}
-
 Eigen::Quaterniond rotationOf(const Eigen::Matrix4d& matrix) { return decomposeMatrix(matrix, RotateOrder::xyz).quat; }
 
 std::optional<Eigen::Quaterniond> averageRotation(const std::vector<std::pair<Eigen::Quaterniond, double>>& rotations)
@@ -240,11 +211,6 @@ Eigen::Vector3d toParentSpace(const Eigen::Matrix4d& parentInverse, const Eigen:
     return parentInverse.topLeftCorner<3, 3>() * worldPoint + parentInverse.topRightCorner<3, 1>();
 }
 
-Eigen::Matrix3d parentRotation(const Eigen::Matrix4d& parentInverse)
-{
-    return rotationOf(safeInverse(parentInverse)).toRotationMatrix();
-}
-
 Eigen::Vector3d rotateFromWorld(const Eigen::Matrix4d& parentInverse, const Eigen::Matrix3d& world,
                                 const Eigen::Vector3d& jointOrient, RotateOrder order)
 {
@@ -254,14 +220,10 @@ Eigen::Vector3d rotateFromWorld(const Eigen::Matrix4d& parentInverse, const Eige
 Eigen::Vector3d rotateFromFrame(const Eigen::Matrix4d& parentFrame, const Eigen::Matrix3d& world,
                                 const Eigen::Vector3d& jointOrient, RotateOrder order)
 {
-    const Eigen::Matrix3d rest = rotationOf(parentFrame).toRotationMatrix() * eulerToMatrix(jointOrient, RotateOrder::xyz);
+    const Eigen::Matrix3d rest =
+        rotationOf(parentFrame).toRotationMatrix() * eulerToMatrix(jointOrient, RotateOrder::xyz);
     const Eigen::Matrix3d local = rest.transpose() * world;
     return closestEuler(matrixToEuler(local, order), Eigen::Vector3d::Zero(), order);
-}
-
-Eigen::Matrix3d restFrame(const Eigen::Matrix4d& parentInverse, const Eigen::Vector3d& jointOrient)
-{
-    return parentRotation(parentInverse) * eulerToMatrix(jointOrient, RotateOrder::xyz);
 }
 
 }  // namespace rig::constraint

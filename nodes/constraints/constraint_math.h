@@ -21,16 +21,6 @@ namespace rig::constraint {
 // rest value.
 inline constexpr double minTotalWeight = 1e-12;
 
-struct Target {
-    int index = 0;                                         // logical index in targetMatrix
-    Eigen::Matrix4d matrix = Eigen::Matrix4d::Identity();  // world matrix of the target
-    double weight = 1.0;
-};
-
-// The targets of a constraint: every existing element of the array `matrices`, with the element of
-// the same index of `weights` (1, Maya's default, when that element does not exist), by index.
-std::vector<Target> gatherTargets(const ComputeContext& c, AttrId matrices, AttrId weights);
-
 // Maya's per-target inputs, children of its compound multi attribute target (tg) flattened into parallel arrays
 // (Maya's ".tg[2].tt" is targetTranslate[2]). A type declares the ones its Maya node has, -1 for the others;
 // addMayaTargets declares them in this member order, so a type's enum lists them in the same order.
@@ -78,12 +68,6 @@ std::optional<Eigen::Quaterniond> blendRotations(const std::vector<std::pair<Eig
 // Element `index` of a matrix array input, or identity when it does not exist.
 Eigen::Matrix4d matrixElement(const ComputeContext& c, AttrId matrices, int index);
 
-double totalWeight(const std::vector<Target>& targets);
-
-// The weighted mean of the targets' positions (translation columns), weights normalized; nullopt when
-// the total weight is <= minTotalWeight.
-std::optional<Eigen::Vector3d> weightedPosition(const std::vector<Target>& targets);
-
 // The rotation of a matrix with its scale and shear removed (decomposeMatrix's rotation).
 Eigen::Quaterniond rotationOf(const Eigen::Matrix4d& matrix);
 
@@ -98,9 +82,6 @@ Eigen::Matrix4d safeInverse(const Eigen::Matrix4d& matrix);
 // A world point expressed in the constrained object's parent space: parentInverse * point.
 Eigen::Vector3d toParentSpace(const Eigen::Matrix4d& parentInverse, const Eigen::Vector3d& worldPoint);
 
-// The parent's world rotation: the rotation of inverse(parentInverse).
-Eigen::Matrix3d parentRotation(const Eigen::Matrix4d& parentInverse);
-
 // The rotate values (radians, in `order`) that give the constrained object the world orientation
 // `world` under a parent whose world inverse matrix is `parentInverse`, with the joint orient
 // (radians, xyz) removed: R = JO^-1 * parentRotation^-1 * world. Exact when the parent's world
@@ -113,8 +94,5 @@ Eigen::Vector3d rotateFromWorld(const Eigen::Matrix4d& parentInverse, const Eige
 // rotateFromWorld with the parent's world frame itself given (its rotation is used).
 Eigen::Vector3d rotateFromFrame(const Eigen::Matrix4d& parentFrame, const Eigen::Matrix3d& world,
                                 const Eigen::Vector3d& jointOrient, RotateOrder order);
-
-// The world orientation the constrained object has with rotate = 0: parentRotation * JO.
-Eigen::Matrix3d restFrame(const Eigen::Matrix4d& parentInverse, const Eigen::Vector3d& jointOrient);
 
 }  // namespace rig::constraint

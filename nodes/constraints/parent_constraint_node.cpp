@@ -41,10 +41,9 @@ enum Attr : AttrId {
 };
 
 constexpr constraint::RotateFrame rotateFrame{ConstraintRotateOrder, ConstraintJointOrient};
-constexpr constraint::MayaTargetIds mayaTargets{TargetTranslate,   TargetRotate,       TargetRotateOrder,
-                                                TargetRotatePivot, TargetRotateTranslate, TargetScale,
-                                                TargetParentMatrix, TargetJointOrient,  TargetScaleCompensate,
-                                                TargetInverseScale};
+constexpr constraint::MayaTargetIds mayaTargets{
+    TargetTranslate, TargetRotate,       TargetRotateOrder, TargetRotatePivot,     TargetRotateTranslate,
+    TargetScale,     TargetParentMatrix, TargetJointOrient, TargetScaleCompensate, TargetInverseScale};
 
 // Where target i puts the object: its world position and orientation.
 struct Placement {
@@ -99,10 +98,11 @@ public:
         const bool rest = c.getBool(EnableRestPosition);
         const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
         // Maya places the object's rotate pivot, so its pivot offsets come off the translate.
-        c.setOutput(ConstraintTranslate, position ? Eigen::Vector3d(constraint::toParentSpace(parentInverse, *position) -
-                                                                    c.getVector3(ConstraintRotatePivot) -
-                                                                    c.getVector3(ConstraintRotateTranslate))
-                                                  : (rest ? c.getVector3(RestTranslate) : zero));
+        c.setOutput(ConstraintTranslate,
+                    position
+                        ? Eigen::Vector3d(constraint::toParentSpace(parentInverse, *position) -
+                                          c.getVector3(ConstraintRotatePivot) - c.getVector3(ConstraintRotateTranslate))
+                        : (rest ? c.getVector3(RestTranslate) : zero));
         if (!average) {
             c.setOutput(ConstraintRotate, rest ? c.getVector3(RestRotate) : zero);
             return;
@@ -122,8 +122,8 @@ std::shared_ptr<const NodeType> makeParentConstraintType()
         "puts the object at M_i = targetMatrix[i] * O_i in world space, O_i = targetOffset[i], or "
         "targetRestMatrix[i]^-1 * restMatrix when maintainOffset is on; from Maya's inputs, at position "
         "W_i * targetOffsetTranslate[i] and orientation R(W_i) * R(targetOffsetRotate[i], constraintRotateOrder), "
-        "W_i = targetParentMatrix[i] * the target's local matrix (docs/constraints.md) (stateless: the rest matrices are "
-        "constant inputs, nothing is captured). Positions blend linearly and orientations as orientConstraint "
+        "W_i = targetParentMatrix[i] * the target's local matrix (docs/constraints.md) (stateless: the rest matrices "
+        "are constant inputs, nothing is captured). Positions blend linearly and orientations as orientConstraint "
         "(normalized weighted quaternion sum, signs aligned to the first target of nonzero weight; interpType "
         "shortest / longest slerp instead); "
         "constraintTranslate = constraintParentInverseMatrix * position - constraintRotatePivot - "

@@ -41,7 +41,8 @@ public:
                                                                            : Eigen::Vector3d(Eigen::Vector3d::Zero()));
             return;
         }
-        const Eigen::Vector3d startLocal = c.getVector3(ConstraintRotatePivot) + c.getVector3(ConstraintRotateTranslate);
+        const Eigen::Vector3d startLocal =
+            c.getVector3(ConstraintRotatePivot) + c.getVector3(ConstraintRotateTranslate);
         const Eigen::Vector3d start = (c.getMatrix(PivotSpace) * startLocal.homogeneous()).head<3>();
         const Eigen::Vector3d pole =
             c.getMatrix(ConstraintParentInverseMatrix).topLeftCorner<3, 3>() * (*target - start) + c.getVector3(Offset);
@@ -91,8 +92,9 @@ std::shared_ptr<const NodeType> makePoleVectorConstraintType()
     b.input(ConstraintRotateTranslate, "constraintRotateTranslate", ValueType::Vector3)
         .shortName("crt")
         .unit(Unit::Distance)
-        .doc("Added to constraintRotatePivot before pivotSpace (Maya's, inherited from pointConstraint; zero as Maya "
-             "wires a pole vector).");
+        .doc(
+            "Added to constraintRotatePivot before pivotSpace (Maya's, inherited from pointConstraint; zero as Maya "
+            "wires a pole vector).");
     constraint::addEnableRestPosition(b, EnableRestPosition);
     b.affectsAll();
     return b.factory<PoleVectorConstraintNode>().build();

@@ -25,7 +25,10 @@ enum Attr : AttrId {
 constexpr constraint::MayaTargetIds mayaTargets{.scale = TargetScale, .parentMatrix = TargetParentMatrix};
 
 // The scale factors of a world matrix (decomposeMatrix's), by absolute value.
-Eigen::Vector3d worldScale(const Eigen::Matrix4d& matrix) { return decomposeMatrix(matrix, RotateOrder::xyz).scale.cwiseAbs(); }
+Eigen::Vector3d worldScale(const Eigen::Matrix4d& matrix)
+{
+    return decomposeMatrix(matrix, RotateOrder::xyz).scale.cwiseAbs();
+}
 
 class ScaleConstraintNode final : public Node {
 public:
@@ -74,8 +77,9 @@ std::shared_ptr<const NodeType> makeScaleConstraintType()
         .shortName("o")
         .defaultValue(Eigen::Vector3d(1, 1, 1))
         .keyable()
-        .doc("Factors multiplying the result (Maya's offset; maintain offset = the object's scale over the "
-             "constrained result at bind time).");
+        .doc(
+            "Factors multiplying the result (Maya's offset; maintain offset = the object's scale over the "
+            "constrained result at bind time).");
     b.input(RestScale, "restScale", ValueType::Vector3)
         .childShortNames("rsx", "rsy", "rsz")
         .defaultValue(Eigen::Vector3d(1, 1, 1))

@@ -54,8 +54,14 @@ struct Rig {
 
     void set(const std::string& path, const rig::Value& value) { graph->setValue(graph->plug(path), value); }
     void connect(const std::string& from, const std::string& to) { graph->connect(graph->plug(from), graph->plug(to)); }
-    Eigen::Vector3d vec(const std::string& path) { return std::get<Eigen::Vector3d>(graph->getValue(graph->plug(path))); }
-    Eigen::Matrix4d mat(const std::string& path) { return std::get<Eigen::Matrix4d>(graph->getValue(graph->plug(path))); }
+    Eigen::Vector3d vec(const std::string& path)
+    {
+        return std::get<Eigen::Vector3d>(graph->getValue(graph->plug(path)));
+    }
+    Eigen::Matrix4d mat(const std::string& path)
+    {
+        return std::get<Eigen::Matrix4d>(graph->getValue(graph->plug(path)));
+    }
     std::string check() { return fmt::format("{}", fmt::join(graph->checkEvaluation(), ", ")); }
 };
 
@@ -63,12 +69,16 @@ struct Rig {
 std::string mayaTarget(const std::string& target, const std::string& con, int i,
                        const std::vector<std::string>& children)
 {
-    const std::map<std::string, std::string> source{
-        {"targetTranslate", "translate"},     {"targetRotate", "rotate"},
-        {"targetRotateOrder", "rotateOrder"}, {"targetRotatePivot", "rotatePivot"},
-        {"targetRotateTranslate", "rotatePivotTranslate"}, {"targetScale", "scale"},
-        {"targetParentMatrix", "parentMatrix"}, {"targetJointOrient", "jointOrient"},
-        {"targetScaleCompensate", "segmentScaleCompensate"}, {"targetInverseScale", "inverseScale"}};
+    const std::map<std::string, std::string> source{{"targetTranslate", "translate"},
+                                                    {"targetRotate", "rotate"},
+                                                    {"targetRotateOrder", "rotateOrder"},
+                                                    {"targetRotatePivot", "rotatePivot"},
+                                                    {"targetRotateTranslate", "rotatePivotTranslate"},
+                                                    {"targetScale", "scale"},
+                                                    {"targetParentMatrix", "parentMatrix"},
+                                                    {"targetJointOrient", "jointOrient"},
+                                                    {"targetScaleCompensate", "segmentScaleCompensate"},
+                                                    {"targetInverseScale", "inverseScale"}};
     std::string text;
     for (const std::string& child : children)
         text += fmt::format("  - {}.{} -> {}.{}[{}]\n", target, source.at(child), con, child, i);
@@ -79,10 +89,9 @@ const std::vector<std::string> pointChildren{"targetTranslate", "targetRotatePiv
                                              "targetParentMatrix"};
 const std::vector<std::string> orientChildren{"targetRotate", "targetRotateOrder", "targetParentMatrix",
                                               "targetJointOrient"};
-const std::vector<std::string> parentChildren{"targetTranslate",      "targetRotate",       "targetRotateOrder",
-                                              "targetRotatePivot",    "targetRotateTranslate", "targetScale",
-                                              "targetParentMatrix",   "targetJointOrient",  "targetScaleCompensate",
-                                              "targetInverseScale"};
+const std::vector<std::string> parentChildren{
+    "targetTranslate", "targetRotate",       "targetRotateOrder", "targetRotatePivot",     "targetRotateTranslate",
+    "targetScale",     "targetParentMatrix", "targetJointOrient", "targetScaleCompensate", "targetInverseScale"};
 
 // The children a joint (no pivots here) or a transform (no joint orient, inverse scale) can feed.
 std::vector<std::string> without(const std::vector<std::string>& list, const std::set<std::string>& drop)
@@ -220,7 +229,8 @@ nodes:
     targetOffsetTranslate: [[1, 2, -3]]
     targetOffsetRotate: [[10, 50, -30]]
 connections:
-)" + mayaTarget("ctrl", "prc", 0, forJoint(parentChildren)) + R"(
+)" + mayaTarget("ctrl", "prc", 0, forJoint(parentChildren)) +
+                             R"(
   - op.worldInverseMatrix -> prc.constraintParentInverseMatrix
   - prc.constraintTranslate -> obj.translate
   - prc.constraintRotate -> obj.rotate
@@ -259,7 +269,8 @@ nodes:
     offset: [0, 0, 15]
 connections:
   - hip.scale -> oc.inverseScale               # what feeds knee.inverseScale (a joint's parent's scale)
-)" + mayaTarget("target", "oc", 0, orientChildren) + R"(
+)" + mayaTarget("target", "oc", 0, orientChildren) +
+                             R"(
   - hip.worldInverseMatrix -> oc.constraintParentInverseMatrix
   - oc.constraintRotate -> knee.rotate
 )";
@@ -309,7 +320,8 @@ nodes:
     constraintRotatePivot: [0, 0, 1]            # = obj.rotatePivot
     constraintRotateOrder: zxy
 connections:
-)" + mayaTarget("look", "ac", 0, pointChildren) + R"(
+)" + mayaTarget("look", "ac", 0, pointChildren) +
+                             R"(
   - upObj.worldMatrix -> ac.worldUpMatrix
   - op.worldInverseMatrix -> ac.constraintParentInverseMatrix
   - ac.constraintRotate -> obj.rotate
@@ -319,11 +331,11 @@ connections:
     const Eigen::Vector3d pivot = point(r.mat("op.worldMatrix"), v3(2, 0, 2));
     const Eigen::Vector3d A = (target - pivot).normalized();
     const std::vector<std::pair<int, Eigen::Vector3d>> ups{
-        {0, v3(0, 1, 0)},                                           // scene
+        {0, v3(0, 1, 0)},                                                    // scene
         {1, Eigen::Vector3d(position(r.mat("upObj.worldMatrix")) - pivot)},  // object
-        {2, unscaled(r.mat("upObj.worldMatrix")) * v3(1, 1, 0)},    // objectRotation
-        {3, v3(1, 1, 0)},                                           // vector
-        {4, Eigen::Vector3d::Zero()}};                              // none
+        {2, unscaled(r.mat("upObj.worldMatrix")) * v3(1, 1, 0)},             // objectRotation
+        {3, v3(1, 1, 0)},                                                    // vector
+        {4, Eigen::Vector3d::Zero()}};                                       // none
     for (const auto& [type, worldUp] : ups) {
         CAPTURE(type);
         r.set("ac.worldUpType", type);
@@ -453,27 +465,29 @@ nodes:
 )";
     std::string connections = "connections:\n";
     const std::map<std::string, std::vector<std::string>> children{
-        {"pointConstraint", pointChildren},   {"orientConstraint", orientChildren},
-        {"parentConstraint", parentChildren}, {"aimConstraint", pointChildren},
+        {"pointConstraint", pointChildren},      {"orientConstraint", orientChildren},
+        {"parentConstraint", parentChildren},    {"aimConstraint", pointChildren},
         {"poleVectorConstraint", pointChildren}, {"scaleConstraint", {"targetScale", "targetParentMatrix"}}};
     for (const auto& [type, list] : children) {
         for (const char* path : {"Old", "Maya"}) {
             const std::string name = type + path;
             yaml += fmt::format("  - {{name: {}, type: {}, targetWeight: [1, 2]}}\n", name, type);
             connections += fmt::format("  - op.worldInverseMatrix -> {}.constraintParentInverseMatrix\n", name);
-            if (type == "poleVectorConstraint") connections += fmt::format("  - op.worldMatrix -> {}.pivotSpace\n", name);
+            if (type == "poleVectorConstraint")
+                connections += fmt::format("  - op.worldMatrix -> {}.pivotSpace\n", name);
             for (int i = 0; i < 2; ++i) {
                 const std::string target = i == 0 ? "a" : "b";
                 if (std::string(path) == "Old")
                     connections += fmt::format("  - {}.worldMatrix -> {}.targetMatrix[{}]\n", target, name, i);
-                else
-                    connections += mayaTarget(target, name, i, i == 0 ? forJoint(list) : forTransform(list));
+                else connections += mayaTarget(target, name, i, i == 0 ? forJoint(list) : forTransform(list));
             }
         }
     }
     Rig r(yaml + connections);
-    for (const char* offset : {"Old", "Maya"}) r.set(fmt::format("aimConstraint{}.constraintTranslate", offset), v3(1, 1, 1));
-    for (const char* offset : {"Old", "Maya"}) r.set(fmt::format("poleVectorConstraint{}.constraintRotatePivot", offset), v3(1, 1, 1));
+    for (const char* offset : {"Old", "Maya"})
+        r.set(fmt::format("aimConstraint{}.constraintTranslate", offset), v3(1, 1, 1));
+    for (const char* offset : {"Old", "Maya"})
+        r.set(fmt::format("poleVectorConstraint{}.constraintRotatePivot", offset), v3(1, 1, 1));
     // parentConstraint: the old path's per-target offset matrix against Maya's tot / tor.
     Eigen::Matrix4d offset = Eigen::Matrix4d::Identity();
     offset.topLeftCorner<3, 3>() = rig::eulerToMatrix(v3(deg(30), deg(-20), deg(70)), rig::RotateOrder::xyz);
