@@ -36,6 +36,7 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeParentConstraintType());
     registry.add(makeAimConstraintType());
     registry.add(makePoleVectorConstraintType());
+    registry.add(makeScaleConstraintType());
     registry.add(makeLookAtType());
     registry.add(makeOffsetLayerType());
     registry.add(makeBlendClipsType());

@@ -46,6 +46,7 @@ std::shared_ptr<const NodeType> makeOrientConstraintType();
 std::shared_ptr<const NodeType> makeParentConstraintType();
 std::shared_ptr<const NodeType> makeAimConstraintType();
 std::shared_ptr<const NodeType> makePoleVectorConstraintType();
+std::shared_ptr<const NodeType> makeScaleConstraintType();
 // Skeleton-space edits between a clip and a rigInversion node (nodes/edit/, docs/nodes.md).
 std::shared_ptr<const NodeType> makeLookAtType();
 std::shared_ptr<const NodeType> makeOffsetLayerType();

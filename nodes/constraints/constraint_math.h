@@ -21,24 +21,52 @@ namespace rig::constraint {
 // rest value.
 inline constexpr double minTotalWeight = 1e-12;
 
-struct Target {
-    int index = 0;                                         // logical index in targetMatrix
-    Eigen::Matrix4d matrix = Eigen::Matrix4d::Identity();  // world matrix of the target
+// Maya's per-target inputs, children of its compound multi attribute target (tg) flattened into parallel arrays
+// (Maya's ".tg[2].tt" is targetTranslate[2]). A type declares the ones its Maya node has, -1 for the others;
+// addMayaTargets declares them in this member order, so a type's enum lists them in the same order.
+struct MayaTargetIds {
+    AttrId translate = -1;        // targetTranslate (tt) <- target.translate
+    AttrId rotate = -1;           // targetRotate (tr) <- target.rotate
+    AttrId rotateOrder = -1;      // targetRotateOrder (tro) <- target.rotateOrder
+    AttrId rotatePivot = -1;      // targetRotatePivot (trp) <- target.rotatePivot
+    AttrId rotateTranslate = -1;  // targetRotateTranslate (trt) <- target.rotatePivotTranslate
+    AttrId scale = -1;            // targetScale (ts) <- target.scale
+    AttrId parentMatrix = -1;     // targetParentMatrix (tpm) <- target.parentMatrix
+    AttrId jointOrient = -1;      // targetJointOrient (tjo) <- joint target.jointOrient
+    AttrId scaleCompensate = -1;  // targetScaleCompensate (tsc) <- joint target.segmentScaleCompensate
+    AttrId inverseScale = -1;     // targetInverseScale (tis) <- joint target.inverseScale
+};
+// A target as the types read it: the world matrix that places it and the world position of its rotate pivot.
+struct TargetFrame {
+    int index = 0;
     double weight = 1.0;
+    Eigen::Matrix4d world = Eigen::Matrix4d::Identity();
+    Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
+    bool fromMatrix = false;  // given by targetMatrix[index] (this project's input), not by Maya's inputs
 };
 
-// The targets of a constraint: every existing element of the array `matrices`, with the element of
-// the same index of `weights` (1, Maya's default, when that element does not exist), by index.
-std::vector<Target> gatherTargets(const ComputeContext& c, AttrId matrices, AttrId weights);
+// The targets of a constraint: every index where targetMatrix or one of Maya's per-target arrays in `ids` has an
+// element (a targetWeight element alone makes no target), by index. targetMatrix[i], where present, is the target's
+// world matrix and its translation the pivot; otherwise world = targetParentMatrix * L, L = T(tt) * IS * T(trt) *
+// T(trp) * R(tjo) * R(tr, tro) * S(ts) * T(-trp) (IS = diag(1 / tis) when tsc is on), and pivot = tpm * (tt + trp +
+// trt), Maya's world position of the target's rotate pivot.
+std::vector<TargetFrame> gatherFrames(const ComputeContext& c, AttrId matrices, AttrId weights,
+                                      const MayaTargetIds& ids);
+
+// The weighted mean of the frames' pivots; nullopt when the total weight is <= minTotalWeight.
+std::optional<Eigen::Vector3d> weightedPivot(const std::vector<TargetFrame>& frames);
+
+// Maya's interpType enum.
+enum InterpType { NoFlip = 0, Average = 1, Shortest = 2, Longest = 3, Cache = 4 };
+
+// Orientations blended as Maya's interpType: average (averageRotation);
+// shortest / longest: q = q_first, then for each next target of nonzero weight, q = slerp(q, q_i, w_i / W_i) with
+// W_i the weight summed so far including i, the short (long) way round; noFlip and cache read as average.
+std::optional<Eigen::Quaterniond> blendRotations(const std::vector<std::pair<Eigen::Quaterniond, double>>& rotations,
+                                                 int interpType);
 
 // Element `index` of a matrix array input, or identity when it does not exist.
 Eigen::Matrix4d matrixElement(const ComputeContext& c, AttrId matrices, int index);
-
-double totalWeight(const std::vector<Target>& targets);
-
-// The weighted mean of the targets' positions (translation columns), weights normalized; nullopt when
-// the total weight is <= minTotalWeight.
-std::optional<Eigen::Vector3d> weightedPosition(const std::vector<Target>& targets);
 
 // The rotation of a matrix with its scale and shear removed (decomposeMatrix's rotation).
 Eigen::Quaterniond rotationOf(const Eigen::Matrix4d& matrix);
@@ -54,9 +82,6 @@ Eigen::Matrix4d safeInverse(const Eigen::Matrix4d& matrix);
 // A world point expressed in the constrained object's parent space: parentInverse * point.
 Eigen::Vector3d toParentSpace(const Eigen::Matrix4d& parentInverse, const Eigen::Vector3d& worldPoint);
 
-// The parent's world rotation: the rotation of inverse(parentInverse).
-Eigen::Matrix3d parentRotation(const Eigen::Matrix4d& parentInverse);
-
 // The rotate values (radians, in `order`) that give the constrained object the world orientation
 // `world` under a parent whose world inverse matrix is `parentInverse`, with the joint orient
 // (radians, xyz) removed: R = JO^-1 * parentRotation^-1 * world. Exact when the parent's world
@@ -66,7 +91,8 @@ Eigen::Matrix3d parentRotation(const Eigen::Matrix4d& parentInverse);
 Eigen::Vector3d rotateFromWorld(const Eigen::Matrix4d& parentInverse, const Eigen::Matrix3d& world,
                                 const Eigen::Vector3d& jointOrient, RotateOrder order);
 
-// The world orientation the constrained object has with rotate = 0: parentRotation * JO.
-Eigen::Matrix3d restFrame(const Eigen::Matrix4d& parentInverse, const Eigen::Vector3d& jointOrient);
+// rotateFromWorld with the parent's world frame itself given (its rotation is used).
+Eigen::Vector3d rotateFromFrame(const Eigen::Matrix4d& parentFrame, const Eigen::Matrix3d& world,
+                                const Eigen::Vector3d& jointOrient, RotateOrder order);
 
 }  // namespace rig::constraint

@@ -15,27 +15,42 @@ enum Attr : AttrId {
     ConstraintJointOrient,
     RestRotate,
     ConstraintParentInverseMatrix,
-    ConstraintRotate
+    ConstraintRotate,
+    // Maya's inputs (appended: rig files and the inversion name attributes by the ids above).
+    TargetRotate,
+    TargetRotateOrder,
+    TargetParentMatrix,
+    TargetJointOrient,
+    InverseScale,
+    ScaleCompensate,
+    InterpType,
+    EnableRestPosition
 };
 
 constexpr constraint::RotateFrame rotateFrame{ConstraintRotateOrder, ConstraintJointOrient};
+constexpr constraint::MayaTargetIds mayaTargets{.rotate = TargetRotate,
+                                                .rotateOrder = TargetRotateOrder,
+                                                .parentMatrix = TargetParentMatrix,
+                                                .jointOrient = TargetJointOrient};
+constexpr constraint::ParentScale parentScale{InverseScale, ScaleCompensate};
 
 class OrientConstraintNode final : public Node {
 public:
     void compute(ComputeContext& c) override
     {
         std::vector<std::pair<Eigen::Quaterniond, double>> rotations;
-        for (const constraint::Target& t : constraint::gatherTargets(c, TargetMatrix, TargetWeight))
-            rotations.emplace_back(constraint::rotationOf(t.matrix), t.weight);
-        const auto average = constraint::averageRotation(rotations);
+        for (const constraint::TargetFrame& t : constraint::gatherFrames(c, TargetMatrix, TargetWeight, mayaTargets))
+            rotations.emplace_back(constraint::rotationOf(t.world), t.weight);
+        const auto average = constraint::blendRotations(rotations, c.getEnum(InterpType));
         if (!average) {
-            c.setOutput(ConstraintRotate, c.getVector3(RestRotate));
+            c.setOutput(ConstraintRotate, c.getBool(EnableRestPosition) ? c.getVector3(RestRotate)
+                                                                        : Eigen::Vector3d(Eigen::Vector3d::Zero()));
             return;
         }
         const Eigen::Matrix3d world =
             average->toRotationMatrix() * eulerToMatrix(c.getVector3(Offset), RotateOrder::xyz);
-        c.setOutput(ConstraintRotate,
-                    constraint::rotateFor(c, rotateFrame, c.getMatrix(ConstraintParentInverseMatrix), world));
+        const Eigen::Matrix4d parent = constraint::parentFrame(c, ConstraintParentInverseMatrix, parentScale);
+        c.setOutput(ConstraintRotate, constraint::rotateInFrame(c, rotateFrame, parent, world));
     }
 };
 
@@ -47,9 +62,11 @@ std::shared_ptr<const NodeType> makeOrientConstraintType()
     b.description(
         "Turns an object to the weighted average of its targets' world orientations, as Maya's "
         "orientConstraint with interpType average: q = normalize(sum w_i s_i q_i), q_i the rotation of "
-        "targetMatrix[i] (scale removed), s_i = +-1 putting q_i in the hemisphere of the first target of "
+        "targetMatrix[i] (scale removed) or, from Maya's inputs, of targetParentMatrix[i] * R(targetJointOrient[i]) "
+        "* R(targetRotate[i], targetRotateOrder[i]), s_i = +-1 putting q_i in the hemisphere of the first target of "
         "nonzero weight. World orientation W = R(q) * R(offset); constraintRotate = the Euler angles in "
-        "constraintRotateOrder of JO^-1 * P^-1 * W, P the parent's world rotation, JO the joint orient. "
+        "constraintRotateOrder of JO^-1 * P^-1 * W, P the rotation of the parent's world frame (with inverseScale "
+        "removed when scaleCompensate is on), JO the joint orient. interpType shortest / longest slerp instead. "
         "With every weight zero (or no target) it outputs restRotate. Wiring: docs/constraints.md.");
     constraint::addTargets(b, TargetMatrix, TargetWeight,
                            "World matrix of target i (connect from target.worldMatrix); its rotation, scale and "
@@ -63,7 +80,11 @@ std::shared_ptr<const NodeType> makeOrientConstraintType()
         .doc("The output when every weight is zero or there is no target (Maya's rest position).");
     constraint::addParentInverse(b, ConstraintParentInverseMatrix);
     constraint::addRotateOutput(b, ConstraintRotate);
-    for (AttrId in = TargetMatrix; in < ConstraintRotate; ++in) b.affects(in, {ConstraintRotate});
+    constraint::addMayaTargets(b, mayaTargets);
+    constraint::addParentScale(b, parentScale);
+    constraint::addInterpType(b, InterpType);
+    constraint::addEnableRestPosition(b, EnableRestPosition);
+    b.affectsAll();
     return b.factory<OrientConstraintNode>().build();
 }
 

@@ -15,20 +15,35 @@ enum Attr : AttrId {
     PivotSpace,
     ConstraintRotatePivot,
     ConstraintParentInverseMatrix,
-    ConstraintTranslate
+    ConstraintTranslate,
+    // Maya's inputs (appended: rig files and the inversion name attributes by the ids above).
+    TargetTranslate,
+    TargetRotatePivot,
+    TargetRotateTranslate,
+    TargetParentMatrix,
+    ConstraintRotateTranslate,
+    EnableRestPosition
 };
+
+constexpr constraint::MayaTargetIds mayaTargets{.translate = TargetTranslate,
+                                                .rotatePivot = TargetRotatePivot,
+                                                .rotateTranslate = TargetRotateTranslate,
+                                                .parentMatrix = TargetParentMatrix};
 
 class PoleVectorConstraintNode final : public Node {
 public:
     void compute(ComputeContext& c) override
     {
-        const auto target = constraint::weightedPosition(constraint::gatherTargets(c, TargetMatrix, TargetWeight));
+        const auto target =
+            constraint::weightedPivot(constraint::gatherFrames(c, TargetMatrix, TargetWeight, mayaTargets));
         if (!target) {
-            c.setOutput(ConstraintTranslate, c.getVector3(RestTranslate));
+            c.setOutput(ConstraintTranslate, c.getBool(EnableRestPosition) ? c.getVector3(RestTranslate)
+                                                                           : Eigen::Vector3d(Eigen::Vector3d::Zero()));
             return;
         }
-        const Eigen::Vector3d start =
-            (c.getMatrix(PivotSpace) * c.getVector3(ConstraintRotatePivot).homogeneous()).head<3>();
+        const Eigen::Vector3d startLocal =
+            c.getVector3(ConstraintRotatePivot) + c.getVector3(ConstraintRotateTranslate);
+        const Eigen::Vector3d start = (c.getMatrix(PivotSpace) * startLocal.homogeneous()).head<3>();
         const Eigen::Vector3d pole =
             c.getMatrix(ConstraintParentInverseMatrix).topLeftCorner<3, 3>() * (*target - start) + c.getVector3(Offset);
         c.setOutput(ConstraintTranslate, pole);
@@ -42,9 +57,10 @@ std::shared_ptr<const NodeType> makePoleVectorConstraintType()
     NodeTypeBuilder b("poleVectorConstraint");
     b.description(
         "The pole vector of a rotate-plane ikHandle toward the weighted mean of its targets, as Maya's "
-        "poleVectorConstraint: constraintTranslate = L * (p - s) + offset, p = sum w_i p_i / sum w_i (the "
-        "translations of targetMatrix[i]), s = pivotSpace * constraintRotatePivot the start joint's world "
-        "position, L the 3x3 part of constraintParentInverseMatrix (identity by default: a world-space "
+        "poleVectorConstraint: constraintTranslate = L * (p - s) + offset, p = sum w_i p_i / sum w_i (p_i the "
+        "translation of targetMatrix[i] or targetParentMatrix[i] * (targetTranslate[i] + targetRotatePivot[i] + "
+        "targetRotateTranslate[i])), s = pivotSpace * (constraintRotatePivot + constraintRotateTranslate) the start "
+        "joint's world position, L the 3x3 part of constraintParentInverseMatrix (identity by default: a world-space "
         "direction from the start joint, the pole vector the ikHandle takes). With every weight zero (or no "
         "target) it outputs restTranslate. Wiring: docs/constraints.md.");
     constraint::addTargets(b, TargetMatrix, TargetWeight,
@@ -55,10 +71,12 @@ std::shared_ptr<const NodeType> makePoleVectorConstraintType()
     constraint::addRestTranslate(b, RestTranslate)
         .doc("The output when every weight is zero or there is no target: set the handle's rest pole vector.");
     b.input(PivotSpace, "pivotSpace", ValueType::Matrix4)
+        .shortName("ps")
         .doc(
             "World matrix of the ik chain's start joint's PARENT (connect from parent.worldMatrix; Maya "
             "connects startJoint.parentMatrix).");
     b.input(ConstraintRotatePivot, "constraintRotatePivot", ValueType::Vector3)
+        .shortName("crp")
         .unit(Unit::Distance)
         .doc(
             "The start joint's translate, cm (set the same constant; connecting the start joint itself would "
@@ -70,7 +88,15 @@ std::shared_ptr<const NodeType> makePoleVectorConstraintType()
             "parent's space (Maya connects handle.parentInverseMatrix).");
     constraint::addTranslateOutput(b, ConstraintTranslate)
         .doc("The pole vector, cm: from the start joint toward the target (connect to ikHandle.poleVector).");
-    for (AttrId in = TargetMatrix; in < ConstraintTranslate; ++in) b.affects(in, {ConstraintTranslate});
+    constraint::addMayaTargets(b, mayaTargets);
+    b.input(ConstraintRotateTranslate, "constraintRotateTranslate", ValueType::Vector3)
+        .shortName("crt")
+        .unit(Unit::Distance)
+        .doc(
+            "Added to constraintRotatePivot before pivotSpace (Maya's, inherited from pointConstraint; zero as Maya "
+            "wires a pole vector).");
+    constraint::addEnableRestPosition(b, EnableRestPosition);
+    b.affectsAll();
     return b.factory<PoleVectorConstraintNode>().build();
 }
 
