@@ -114,7 +114,6 @@ private:
         while (true) {
             start = path.rfind('|', start - 1);
             const std::string candidate = path.substr(start + 1);
-            if (start == 0) return path;
             bool unique = true;
             try {
                 unique = scene_.find(candidate) == n;
@@ -122,6 +121,7 @@ private:
                 unique = false;
             }
             if (unique) return candidate;
+            if (start == 0) return path;
         }
     }
 
@@ -142,6 +142,9 @@ private:
                 fail(n.where, e.what());
             }
             graphNode_[i] = g;
+            // Maya's node default, where ours differs: a constraint's rest position is off unless the scene says so.
+            if (const AttrId erp = findAttribute(g, "enableRestPosition"); erp >= 0)
+                graph_->setValue(Plug{g, erp, -1, -1}, false);
             addDynamicAttributes(n, g);
         }
     }
@@ -365,8 +368,10 @@ private:
     void connectAll()
     {
         std::vector<const maya::Connection*> selfConnections;
+        collectCharacterInputs();
         for (const maya::Connection& c : scene_.connections) {
             if (isMessage(c.source) || isMessage(c.destination)) continue;
+            if (intoCharacter(c)) continue;
             const auto [srcName, srcAttr] = maya::splitPlug(c.source);
             const auto [dstName, dstAttr] = maya::splitPlug(c.destination);
             const int src = scene_.find(srcName), dst = scene_.find(dstName);
@@ -393,7 +398,46 @@ private:
         return false;
     }
 
-    void connectOne(const maya::Connection& c, int src, int dst, const std::string& srcAttr, const std::string& dstAttr)
+    // A character set's element: a plug of its graph node (which stores the values the scene set), or nothing.
+    std::optional<Plug> characterPlug(int n, const std::string& attr) const
+    {
+        const NodeId g = graphNode(n);
+        if (g < 0 || node(n).type != "character") return std::nullopt;
+        return resolve(g, splitAttr(attr));
+    }
+
+    // A joint's pivots and shear, which joints here do not store: Maya's zero unless the scene sets them.
+    bool atMayaDefault(int n, NodeId g, const AttrPath& p) const
+    {
+        static const std::set<std::string_view> pivots{"rp", "rotatePivot", "rpt", "rotatePivotTranslate",
+                                                       "sp", "scalePivot", "spt", "scalePivotTranslate", "sh", "shear"};
+        if (graph_->nodeType(g).name() != "joint" || !pivots.count(p.name) || !p.child.empty()) return false;
+        for (const maya::SetAttr& set : node(n).sets)
+            if (splitAttr(set.plug).name == p.name) return false;
+        return true;
+    }
+
+    bool intoCharacter(const maya::Connection& c) const
+    {
+        const auto [name, attr] = maya::splitPlug(c.destination);
+        const int n = scene_.find(name);
+        return n >= 0 && node(n).type == "character";
+    }
+
+    // Character sets pass their elements through, and a control may drive the set that drives another control: kept
+    // as a node, a set would close node-level cycles. Connections into a set are remembered; one out of it takes
+    // their source instead, or, undriven, the element's value.
+    void collectCharacterInputs()
+    {
+        for (const maya::Connection& c : scene_.connections) {
+            const auto [name, attr] = maya::splitPlug(c.destination);
+            const int n = scene_.find(name);
+            if (n < 0) continue;
+            if (const auto plug = characterPlug(n, attr)) characterInputs_[*plug] = &c;
+        }
+    }
+
+    void connectOne(const maya::Connection& c, int src, int dst, std::string srcAttr, const std::string& dstAttr)
     {
         const NodeId gd = graphNode(dst);
         if (gd < 0) return;  // into a node kept out of the graph
@@ -401,6 +445,23 @@ private:
         auto dplug = resolve(gd, dp);
         if (!dplug && dp.first < 0 && c.nextAvailable) dplug = nextAvailable(gd, dp);
         if (!dplug) return countNotEvaluated(dst, dstAttr);
+        for (int hops = 0; node(src).type == "character"; ++hops) {
+            const auto element = characterPlug(src, srcAttr);
+            if (!element) return countNotEvaluated(src, srcAttr);
+            const auto in = characterInputs_.find(*element);
+            if (in == characterInputs_.end() || hops > 64) {
+                try {
+                    setConverted(*dplug, *element);
+                } catch (const Error& e) {
+                    fail(c.where, e.what());
+                }
+                return;
+            }
+            const auto [name, attr] = maya::splitPlug(in->second->source);
+            src = scene_.find(name);
+            srcAttr = attr;
+            if (src < 0) return;
+        }
         const NodeId gs = graphNode(src);
         if (gs < 0)
             return markUnevaluated(gd, src, fmt::format("this reader does not evaluate {}", node(src).type), c.where);
@@ -411,6 +472,7 @@ private:
         if (!splug && (sp.name == "pm" || sp.name == "pim" || sp.name == "parentMatrix" || sp.name == "parentInverseMatrix"))
             return markUnevaluated(gd, node(src).parent, "its DAG parent is not evaluated", c.where);
         if (!splug) splug = resolve(gs, sp);
+        if (!splug && atMayaDefault(src, gs, sp)) return;  // a joint's rotate pivot: zero, the destination's default
         if (!splug)
             return markUnevaluated(gd, src,
                                    fmt::format("{}.{} is not an attribute this reader evaluates", name(gs), srcAttr),
@@ -503,6 +565,9 @@ private:
     void wireChain(int handle, const std::vector<int>& chain, int effector);
     std::optional<Eigen::Vector3d> preferredAngle(int joint) const;
     void feed(const Plug& destination, const Plug& source);
+    void setConverted(const Plug& destination, const Plug& source);
+    bool connectOrValue(const Plug& from, const Plug& to);
+    void detachInputs(NodeId joint);
     void checkReachesNoJoint();
     void readSkins();
 
@@ -526,6 +591,7 @@ private:
     std::map<int, IkLinks> ik_;
     std::map<std::pair<NodeId, AttrId>, int> nextIndex_;
     std::string cycleError_;
+    std::map<Plug, const maya::Connection*> characterInputs_;
 
 public:
     std::vector<std::string> missingNamespaces_;
@@ -535,7 +601,7 @@ public:
 void Builder::feed(const Plug& destination, const Plug& source)
 {
     if (const Connection* in = graph_->incomingConnection(source); in && in->destination == source) {
-        graph_->connect(in->source, destination, false);
+        if (!connectOrValue(in->source, destination)) setConverted(destination, source);
         return;
     }
     const AttributeSpec& spec = graph_->spec(source);
@@ -547,11 +613,56 @@ void Builder::feed(const Plug& destination, const Plug& source)
             if (const Connection* in = graph_->incomingConnection(child)) driven.emplace_back(in->source, c);
         }
         graph_->setValue(destination, Value(v));
-        for (const auto& [from, c] : driven)
-            graph_->connect(from, Plug{destination.node, destination.attr, destination.index, c}, false);
+        for (const auto& [from, c] : driven) {
+            const Plug to{destination.node, destination.attr, destination.index, c};
+            if (!connectOrValue(from, to))
+                setConverted(to, Plug{source.node, source.attr, source.index, c});
+        }
         return;
     }
-    graph_->setValue(destination, graph_->getValue(source));
+    setConverted(destination, source);
+}
+
+// Connects from -> to; false, with nothing changed, when that would close a node-level cycle (a chain joint's scale
+// driven by a constraint that follows the chain: the IK then takes the scale's value at load).
+bool Builder::connectOrValue(const Plug& from, const Plug& to)
+{
+    try {
+        graph_->connect(from, to, false);
+        return true;
+    } catch (const Error& e) {
+        if (std::string_view(e.what()).find("cycle") == std::string_view::npos) throw;
+        return false;
+    }
+}
+
+// destination = source's value, converted between numeric types (an enum into a weight).
+void Builder::setConverted(const Plug& destination, const Plug& source)
+{
+    Value value = graph_->getValue(source);
+    const ValueType from = graph_->plugType(source), to = graph_->plugType(destination);
+    if (from != to) {
+        if (!canConvert(from, to))
+            throw Error(fmt::format("{} cannot take the value of {}", graph_->plugName(destination),
+                                    graph_->plugName(source)));
+        value = convertValue(value, from, to, 1.0);
+    }
+    graph_->setValue(destination, value);
+}
+
+// Connections out of a chain joint's inputs (its translate into a pole vector constraint) would close a node-level
+// cycle once the IK writes the joint's rotate: they take what drives those inputs, or their values.
+void Builder::detachInputs(NodeId joint)
+{
+    const auto& top = graph_->model().topology(joint);
+    std::vector<Connection> out;
+    for (std::size_t a = 0; a < top.outgoing.size(); ++a)
+        if (top.spec(static_cast<AttrId>(a)).input)
+            for (int ci : top.outgoing[a]) out.push_back(graph_->connections()[static_cast<std::size_t>(ci)]);
+    for (const Connection& c : out) {
+        graph_->disconnect(c.source, c.destination);
+        feed(c.destination, c.source);
+    }
 }
 
 void Builder::wireIk()
@@ -616,6 +727,8 @@ void Builder::wireChain(int handle, const std::vector<int>& chain, int effector)
     if (const Connection* pm = graph_->incomingConnection(Plug{start, attr(start, "parentMatrix"), -1, -1}))
         graph_->connect(pm->source, Plug{h, attr(h, "startParentMatrix"), -1, -1}, false);
     feed(Plug{h, attr(h, "startInverseScale"), -1, -1}, Plug{start, attr(start, "inverseScale"), -1, -1});
+    for (int joint : chain)
+        if (graphNode(joint) >= 0) detachInputs(graphNode(joint));
     for (std::size_t i = 0; i < chain.size(); ++i) {
         const NodeId j = graphNode(chain[i]);
         if (j < 0) throw Error(fmt::format("chain joint '{}' is not evaluated", node(chain[i]).name));

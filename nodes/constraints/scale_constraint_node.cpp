@@ -93,7 +93,8 @@ std::shared_ptr<const NodeType> makeScaleConstraintType()
             "does not depend on it here; the parent's full world scale is divided out either way.");
     constraint::addParentInverse(b, ConstraintParentInverseMatrix);
     b.output(ConstraintScale, "constraintScale", ValueType::Vector3)
-        .shortName("csc")
+        .shortName("cs")
+        .childShortNames("csx", "csy", "csz")
         .doc("Scale for the constrained object (connect to its scale).");
     b.affectsAll();
     return b.factory<ScaleConstraintNode>().build();

@@ -161,7 +161,7 @@ TEST_CASE("Maya constraints: Maya's long and short names on every type")
     CHECK(shortOf("aimConstraint", "constraintTranslate") == "ct");
     CHECK(shortOf("pointConstraint", "offset") == "o");
     CHECK(shortOf("poleVectorConstraint", "pivotSpace") == "ps");
-    CHECK(shortOf("scaleConstraint", "constraintScale") == "csc");
+    CHECK(shortOf("scaleConstraint", "constraintScale") == "cs");
     CHECK(shortOf("scaleConstraint", "constraintScaleCompensate") == "tsc");
     // A vector3's children: ctx from ct, Maya's own rrx for restRotate (not rsrrx).
     const rig::NodeType* parent = registry->find("parentConstraint");
