@@ -29,7 +29,7 @@ if [ ! -f "$build/build.ninja" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DRIG_FUZZ=ON \
     >/dev/null
 fi
-if ! cmake --build "$build" --target rig_loader_fuzzer bvh_reader_fuzzer approximation_loader_fuzzer \
+if ! cmake --build "$build" --target rig_loader_fuzzer maya_loader_fuzzer bvh_reader_fuzzer approximation_loader_fuzzer \
     target_clip_fuzzer anim_file_fuzzer assimp_clip_fuzzer command_line_fuzzer rig-learn -- -j"$jobs" \
     >"$build/build.log" 2>&1; then
   grep -E 'error|FAILED' "$build/build.log" | head -20 >&2
@@ -39,6 +39,8 @@ fi
 
 # Seeds: the corpus of bad inputs, and good inputs to mutate from.
 rig_seeds=(tests/corpus/rigs rigs)
+maya_seeds=(tests/corpus/maya)
+[ -d ../shared/maya ] && maya_seeds+=(../shared/maya)
 bvh_seeds=(tests/corpus/bvh)
 [ -d /usr/share/assimp/models/BVH ] && bvh_seeds+=(/usr/share/assimp/models/BVH)
 [ -d ../shared/motion ] && bvh_seeds+=(../shared/motion)
@@ -102,6 +104,7 @@ run_target() {
   fi
 }
 run_target rig_loader fuzz/rig.dict 65536 "${rig_seeds[@]}"
+run_target maya_loader fuzz/maya.dict 4194304 "${maya_seeds[@]}"
 run_target bvh_reader fuzz/bvh.dict 65536 "${bvh_seeds[@]}"
 run_target approximation_loader fuzz/approximation.dict 65536 "${approximation_seeds[@]}"
 run_target target_clip fuzz/target_clip.dict 65536 "${clip_seeds[@]}"

@@ -477,13 +477,15 @@ private:
             return markUnevaluated(gd, src,
                                    fmt::format("{}.{} is not an attribute this reader evaluates", name(gs), srcAttr),
                                    c.where);
+        bool connected = false;
         try {
             if (const Connection* existing = graph_->incomingConnection(*dplug))
                 graph_->disconnect(existing->source, existing->destination);  // connectAttr -f replaces
-            if (!connectOrFeed(*splug, *dplug)) fail(c.where, cycleError_);
+            connected = connectOrFeed(*splug, *dplug);
         } catch (const Error& e) {
             fail(c.where, e.what());
         }
+        if (!connected) fail(c.where, cycleError_);
     }
 
     // Maya's cycles are per attribute, this engine's per node: a connection from an input (joint.scale into the

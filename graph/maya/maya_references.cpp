@@ -123,8 +123,9 @@ private:
         ancestry.push_back(canonical_[from]);
         for (const auto& a : ancestry)
             if (a == *found)
-                throw Error(fmt::format("{}: the reference '{}' loops back to a scene that references it ({})",
-                                        formatWhere(scene_, ref.where), ref.path, found->string()));
+                throw Error(fmt::format("{}: the reference '{}' loops back to a scene that references it; a scene "
+                                        "cannot contain itself",
+                                        formatWhere(scene_, ref.where), ref.path));
         if (scene_.files.size() >= maxReferences)
             throw Error(fmt::format("{}: more than {} references", formatWhere(scene_, ref.where), maxReferences));
         readOne(readText(*found), found->string(), ref.nameSpace);

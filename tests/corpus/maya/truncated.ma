@@ -1,0 +1,5 @@
+//Maya ASCII 2023 scene
+requires maya "2023";
+currentUnit -l centimeter -a degree -t film;
+createNode joint -n "hip";
+	setAttr ".t" -type "double3" 1 2

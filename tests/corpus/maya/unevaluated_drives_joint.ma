@@ -1,0 +1,6 @@
+//Maya ASCII 2023 scene
+requires maya "2023";
+currentUnit -l centimeter -a degree -t film;
+createNode joint -n "arm";
+createNode HIKSolverNode -n "L_arm_HIK";
+connectAttr "L_arm_HIK.ot" "arm.t";
