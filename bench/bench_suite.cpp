@@ -18,6 +18,7 @@
 #include "bench/bench_cold_start.h"
 #include "bench/bench_contacts.h"
 #include "bench/bench_crowd.h"
+#include "bench/bench_maya.h"
 #include "core/error.h"
 #include "inversion/approximation_io.h"
 #include "inversion/clip_inversion.h"
@@ -787,6 +788,8 @@ void runBipedBench(const BenchOptions& o, Json& report)
     report["cold_start"] = coldStartJson(b.approximation, o.coldStartPoses);
     report["accuracy"] = accuracyJson(b);
     report["contacts"] = contactsBenchJson(o);
+    say(o, "Maya scenes: each of ../shared/maya read into a graph");
+    report["maya_load"] = mayaLoadJson(o.mayaFolder);
 
     // The look-at crowd played in real time, every member inverted with this approximation (written for the
     // graph's rigInversion nodes to read).

@@ -207,7 +207,7 @@ void runCase(const Case& k, int number, const std::string& prefix)
     }
 }
 
-// The cases of one section of the manifest (the first word of their names: rig, bvh, graph-eval, bvh2rig,
+// The cases of one section of the manifest (the first word of their names: rig, maya, bvh, graph-eval, bvh2rig,
 // approx, map, clip, rig-learn, rig-invert, rig-bench).
 void runSection(const std::string& section)
 {
@@ -263,6 +263,8 @@ TEST_CASE("corpus: the manifest is well formed and names every corpus file")
 TEST_CASE("corpus: hostile rig files fail with their exact one-line error") { runSection("rig"); }
 
 TEST_CASE("corpus: hostile BVH files fail with their exact one-line error") { runSection("bvh"); }
+
+TEST_CASE("corpus: hostile Maya scenes fail with their exact one-line error") { runSection("maya"); }
 
 TEST_CASE("corpus: bad graph-eval command lines fail with their exact one-line error") { runSection("graph-eval"); }
 
