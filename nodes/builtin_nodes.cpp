@@ -1,5 +1,7 @@
 #include "nodes/builtin_nodes.h"
 
+#include <iterator>
+
 namespace rig {
 namespace {
 

@@ -39,7 +39,7 @@ Eigen::Matrix4d blendTRS(const Eigen::Matrix4d& from, const Eigen::Matrix4d& to,
     return m;
 }
 
-// Element i of an array input, or `fallback` where it is absent.
+// Elements 0..count-1 of an array input, 1 where one is absent.
 std::vector<double> elements(const ComputeContext& context, AttrId attr, std::size_t count)
 {
     std::vector<double> values(count, 1.0);

@@ -51,36 +51,48 @@ struct RampEntry {
     int interp = Linear;
 };
 
-// Maya's value[i] entries, flattened into valuePosition[i], valueFloatValue[i], valueInterp[i]: an entry exists
-// where its position or its value does (Maya writes both); a missing field takes Maya's default.
-std::vector<RampEntry> mayaEntries(const ComputeContext& context)
+// Sets field `field` of entry i for every element of an array input, creating the entries it names (an element of
+// Maya's compound multi value[i] exists once any of its fields is set).
+template <class F>
+void applyField(const ComputeContext& context, AttrId attr, std::vector<RampEntry>& entries, int interp, F field)
 {
-    std::map<int, RampEntry> entries;
-    context.forEachElement(ValuePosition, [&](int i, const Value& v) { entries[i].position = std::get<double>(v); });
-    context.forEachElement(ValueFloatValue, [&](int i, const Value& v) { entries[i].value = std::get<double>(v); });
-    std::vector<RampEntry> out;
-    if (entries.empty()) return out;
-    context.forEachElement(ValueInterp, [&](int i, const Value& v) {
-        if (auto it = entries.find(i); it != entries.end()) it->second.interp = std::get<int>(v);
+    context.forEachElement(attr, [&](int i, const Value& v) {
+        const auto k = static_cast<std::size_t>(i);
+        if (entries.size() <= k) entries.resize(k + 1, RampEntry{0.0, 0.0, interp});
+        field(entries[k], v);
     });
-    for (const auto& [index, entry] : entries) out.push_back(entry);
-    return out;
 }
 
-// The flat `value` pairs with the one `interp` for every entry.
-std::vector<RampEntry> flatEntries(const ComputeContext& context)
+// The ramp's entries by index: entry i is (value[2i], value[2i + 1]) with `interp`, each field replaced where
+// valuePosition[i], valueFloatValue[i] or valueInterp[i] is given (a Maya scene's .vl[i].vp, .fv, .vi). Entries
+// neither gives are dropped; none at all is Maya's default ramp.
+std::vector<RampEntry> rampEntries(const ComputeContext& context)
 {
-    std::vector<double> flat = context.getDoubleArray(RampValue);
-    if (flat.empty()) flat = {0.0, 0.0, 1.0, 1.0};  // Maya's default ramp
+    const std::vector<double>& flat = context.getDoubleArray(RampValue);
     if (flat.size() % 2 != 0)
         throw Error(
             fmt::format("{}.value: the ramp has {} numbers; it must be (position, value) pairs, "
                         "an even count",
                         context.nodeName(), flat.size()));
+    const int interp = context.getEnum(Interp);
     std::vector<RampEntry> entries;
-    for (std::size_t i = 0; i < flat.size(); i += 2)
-        entries.push_back({flat[i], flat[i + 1], context.getEnum(Interp)});
-    return entries;
+    std::vector<bool> given(flat.size() / 2, true);
+    for (std::size_t i = 0; i < flat.size(); i += 2) entries.push_back({flat[i], flat[i + 1], interp});
+    auto mark = [&](AttrId attr) {
+        context.forEachElement(attr, [&](int i, const Value&) {
+            if (given.size() <= static_cast<std::size_t>(i)) given.resize(static_cast<std::size_t>(i) + 1, false);
+            given[static_cast<std::size_t>(i)] = true;
+        });
+    };
+    applyField(context, ValuePosition, entries, interp, [](RampEntry& e, const Value& v) { e.position = std::get<double>(v); });
+    applyField(context, ValueFloatValue, entries, interp, [](RampEntry& e, const Value& v) { e.value = std::get<double>(v); });
+    applyField(context, ValueInterp, entries, interp, [](RampEntry& e, const Value& v) { e.interp = std::get<int>(v); });
+    for (AttrId attr : {ValuePosition, ValueFloatValue, ValueInterp}) mark(attr);
+    std::vector<RampEntry> present;
+    for (std::size_t i = 0; i < entries.size(); ++i)
+        if (given[i]) present.push_back(entries[i]);
+    if (present.empty()) present = {{0.0, 0.0, interp}, {1.0, 1.0, interp}};  // Maya's default ramp
+    return present;
 }
 
 // The ramp as a curve with constant ends. An entry's interpolation governs the span after it (Maya's
@@ -88,8 +100,7 @@ std::vector<RampEntry> flatEntries(const ComputeContext& context)
 // Catmull-Rom slopes (secant at the end entries).
 AnimCurve rampCurve(const ComputeContext& context)
 {
-    std::vector<RampEntry> entries = mayaEntries(context);
-    if (entries.empty()) entries = flatEntries(context);
+    std::vector<RampEntry> entries = rampEntries(context);
     std::stable_sort(entries.begin(), entries.end(),
                      [](const RampEntry& a, const RampEntry& b) { return a.position < b.position; });
     // Of entries at the same position the last one given wins.
@@ -138,8 +149,9 @@ std::shared_ptr<const NodeType> makeRemapValueType()
         "(inputMax - inputMin), outValue = outputMin + (outputMax - outputMin) * ramp(t). The ramp holds its first "
         "and last entries' values outside their positions. When inputMin == inputMax the ramp is read at its "
         "right end for inputValue > inputMin, its left end below, and at 0 when equal. An overflowing result "
-        "outputs 0. The ramp is Maya's value[i] entries (valuePosition, valueFloatValue, valueInterp) when any is "
-        "given, otherwise the flat `value` pairs with one `interp`. Maya's colour ramp (color, outColor) is not modelled.");
+        "outputs 0. The ramp's entries come by index from the flat `value` pairs and from Maya's value[i] fields "
+        "(valuePosition, valueFloatValue, valueInterp), which replace a pair's field where given. Maya's colour ramp "
+        "(color, outColor) is not modelled.");
     b.input(InputValue, "inputValue", ValueType::Double).shortName("i").keyable().doc("The value remapped.");
     b.input(InputMin, "inputMin", ValueType::Double).shortName("imn").keyable().doc("The inputValue that maps to ramp position 0.");
     b.input(InputMax, "inputMax", ValueType::Double)
@@ -157,27 +169,29 @@ std::shared_ptr<const NodeType> makeRemapValueType()
         .doc(
             "The ramp, flattened as (position, value) pairs: [position0, value0, position1, value1, ...] "
             "(Maya's value[i].value_Position and value[i].value_FloatValue). Entries may come in any order; "
-            "of two at the same position the later one wins; an odd count is an error. Empty means Maya's "
-            "default ramp [0, 0, 1, 1] (outValue follows inputValue linearly).");
+            "of two at the same position the later one wins; an odd count is an error. Empty, with no "
+            "valuePosition, valueFloatValue or valueInterp elements either, means Maya's default ramp [0, 0, 1, 1] "
+            "(outValue follows inputValue linearly).");
     b.input(Interp, "interp", ValueType::Enum)
         .enumNames({"none", "linear", "smooth", "spline"})
         .defaultValue(static_cast<int>(Linear))
         .doc(
-            "Interpolation between ramp entries, for the whole ramp (Maya's value[i].value_Interp, one per "
-            "entry there): none holds each entry's value up to the next, linear, smooth eases in and out of "
+            "Interpolation between ramp entries, for every entry valueInterp does not set (Maya's value[i].value_Interp, "
+            "one per entry there): none holds each entry's value up to the next, linear, smooth eases in and out of "
             "each entry (zero slope at entries), spline is a Catmull-Rom curve through the entries.");
     b.input(ValuePosition, "valuePosition", ValueType::Double)
         .array()
         .shortName("vp")
         .mayaCompound("value", "vl")
         .doc(
-            "Maya's ramp entry i, its position (value[i].value_Position, \".vl[i].vp\"). When valuePosition or "
-            "valueFloatValue has elements, these entries are the ramp and `value` and `interp` are ignored.");
+            "Entry i's position (Maya's value[i].value_Position, \".vl[i].vp\"): replaces value[2i] or adds entry i "
+            "(position 0 when only its other fields are given).");
     b.input(ValueFloatValue, "valueFloatValue", ValueType::Double)
         .array()
         .shortName("fv")
         .mayaCompound("value", "vl")
-        .doc("Maya's ramp entry i, its value (value[i].value_FloatValue, \".vl[i].fv\"); 0 when absent.");
+        .doc("Entry i's value (Maya's value[i].value_FloatValue, \".vl[i].fv\"): replaces value[2i + 1] or adds entry "
+             "i (value 0 when only its other fields are given).");
     b.input(ValueInterp, "valueInterp", ValueType::Enum)
         .array()
         .enumNames({"none", "linear", "smooth", "spline"})
@@ -185,8 +199,8 @@ std::shared_ptr<const NodeType> makeRemapValueType()
         .shortName("vi")
         .mayaCompound("value", "vl")
         .doc(
-            "Maya's ramp entry i, the interpolation from it to the next entry (value[i].value_Interp, \".vl[i].vi\"); "
-            "linear when absent.");
+            "Entry i's interpolation toward the next entry (Maya's value[i].value_Interp, \".vl[i].vi\"), in place "
+            "of `interp` for that entry.");
     b.output(OutValue, "outValue", ValueType::Double).shortName("ov").doc("The remapped value.");
     for (AttrId in :
          {InputValue, InputMin, InputMax, OutputMin, OutputMax, RampValue, Interp, ValuePosition, ValueFloatValue, ValueInterp})

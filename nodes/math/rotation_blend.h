@@ -2,6 +2,8 @@
 // Quaternion helpers shared by the Maya nodes that blend or convert rotations (pairBlend, eulerToQuat,
 // quatToEuler, animBlendNodeAdditiveRotation, angleBetween, blendMatrix).
 
+#include <cmath>
+
 #include <Eigen/Geometry>
 
 #include "core/rotation_math.h"

@@ -5,6 +5,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <set>
@@ -528,7 +529,6 @@ TEST_CASE("maya utility nodes: remapValue's Maya ramp entries (value[i] flattene
 {
     Fixture f;
     f.add("remapValue", "rv");
-    f.set("rv.value", std::vector<double>{0.0, 1.0, 1.0, 1.0});  // ignored once Maya's entries exist
     // Entries by index, not in position order: [0] at 0 holds (none), [1] at 1, [2] at 0.5 linear to [1].
     f.set("rv.valuePosition[0]", 0.0);
     f.set("rv.valueFloatValue[0]", 0.0);
@@ -544,8 +544,19 @@ TEST_CASE("maya utility nodes: remapValue's Maya ramp entries (value[i] flattene
     f.set("rv.valueInterp[2]", 2);  // smooth: a smoothstep from entry 2 down to entry 1
     f.set("rv.inputValue", 0.625);  // a quarter of that span: 1 - (3s^2 - 2s^3) at s = 0.25
     CHECK(f.num("rv.outValue") == doctest::Approx(1.0 - (3 * 0.0625 - 2 * 0.015625)));
-    // An entry with a position but no value is Maya's value 0.
+    // An entry given only its position has Maya's value 0.
     f.set("rv.valuePosition[5]", 0.625);
     CHECK(f.num("rv.outValue") == doctest::Approx(0.0));
     CHECK(f.graph.checkEvaluation().empty());
+
+    // The flat pairs are the same entries by index: a field given replaces that entry's.
+    Fixture g;
+    g.add("remapValue", "rv");
+    g.set("rv.value", std::vector<double>{0.0, 0.0, 1.0, 1.0});
+    g.set("rv.inputValue", 0.5);
+    CHECK(g.num("rv.outValue") == doctest::Approx(0.5));
+    g.set("rv.valueFloatValue[1]", 0.5);  // entry 1 becomes (1, 0.5)
+    CHECK(g.num("rv.outValue") == doctest::Approx(0.25));
+    g.set("rv.valueInterp[0]", 0);  // entry 0 holds its value up to entry 1
+    CHECK(g.num("rv.outValue") == doctest::Approx(0.0));
 }
