@@ -1,5 +1,7 @@
 // distanceBetween: Maya's distanceBetween, the distance between two points each placed by a matrix.
 
+#include <Eigen/Geometry>
+
 #include "graph/node_type.h"
 #include "nodes/builtin_nodes.h"
 

@@ -40,8 +40,10 @@ Eigen::Vector3d blendRotation(const ComputeContext& context, double w)
     const Eigen::Vector3d& r1 = context.getVector3(InRotate1);
     const Eigen::Vector3d& r2 = context.getVector3(InRotate2);
     const int mode = context.getEnum(RotateMode);
-    if (mode == Input1Only) return r1;
-    if (mode == Input2Only) return r2;
+    // The ends pass an input through as written (at gimbal lock its Euler triple is not recoverable from the
+    // rotation).
+    if (mode == Input1Only || (mode == BlendInputs && w == 0.0)) return r1;
+    if (mode == Input2Only || (mode == BlendInputs && w == 1.0)) return r2;
     const Eigen::Vector3d euler = r1 + w * (r2 - r1);
     if (context.getEnum(RotInterpolation) != Quaternion) return euler;
     const auto order = rotateOrderFromIndex(context.getEnum(RotateOrder_)).value_or(RotateOrder::xyz);
@@ -87,8 +89,8 @@ std::shared_ptr<const NodeType> makePairBlendType()
         "Blends two translations and two rotations by weight (Maya's pairBlend node): outTranslate = inTranslate1 "
         "+ weight * (inTranslate2 - inTranslate1) per channel unless the channel's mode picks one input; outRotate "
         "the same per Euler angle (rotInterpolation euler), or the shorter-arc slerp of the two rotations in "
-        "rotateOrder (quaternion), written as the Euler triple nearest the per-angle blend, so weight 0 gives "
-        "inRotate1 and weight 1 inRotate2 exactly. rotateMode picks the rotation's inputs for all three angles.");
+        "rotateOrder (quaternion), written as the Euler triple nearest the per-angle blend; weight 0 gives "
+        "inRotate1 and weight 1 inRotate2 as written. rotateMode picks the rotation's inputs for all three angles.");
     vectorInput(b, InTranslate1, "inTranslate", "it", '1', Unit::Distance)
         .doc("The first translation (inTranslateX1, inTranslateY1, inTranslateZ1), output at weight 0.");
     vectorInput(b, InRotate1, "inRotate", "ir", '1', Unit::Angle)

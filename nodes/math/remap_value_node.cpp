@@ -22,7 +22,6 @@ enum Attr : AttrId {
     OutputMin,
     OutputMax,
     RampValue,
-    Interp,
     ValuePosition,
     ValueFloatValue,
     ValueInterp,
@@ -63,7 +62,7 @@ void applyField(const ComputeContext& context, AttrId attr, std::vector<RampEntr
     });
 }
 
-// The ramp's entries by index: entry i is (value[2i], value[2i + 1]) with `interp`, each field replaced where
+// The ramp's entries by index: entry i is (value[2i], value[2i + 1]), linear, each field replaced where
 // valuePosition[i], valueFloatValue[i] or valueInterp[i] is given (a Maya scene's .vl[i].vp, .fv, .vi). Entries
 // neither gives are dropped; none at all is Maya's default ramp.
 std::vector<RampEntry> rampEntries(const ComputeContext& context)
@@ -74,7 +73,7 @@ std::vector<RampEntry> rampEntries(const ComputeContext& context)
             fmt::format("{}.value: the ramp has {} numbers; it must be (position, value) pairs, "
                         "an even count",
                         context.nodeName(), flat.size()));
-    const int interp = context.getEnum(Interp);
+    const int interp = Linear;  // Maya's default for an entry
     std::vector<RampEntry> entries;
     std::vector<bool> given(flat.size() / 2, true);
     for (std::size_t i = 0; i < flat.size(); i += 2) entries.push_back({flat[i], flat[i + 1], interp});
@@ -172,13 +171,6 @@ std::shared_ptr<const NodeType> makeRemapValueType()
             "of two at the same position the later one wins; an odd count is an error. Empty, with no "
             "valuePosition, valueFloatValue or valueInterp elements either, means Maya's default ramp [0, 0, 1, 1] "
             "(outValue follows inputValue linearly).");
-    b.input(Interp, "interp", ValueType::Enum)
-        .enumNames({"none", "linear", "smooth", "spline"})
-        .defaultValue(static_cast<int>(Linear))
-        .doc(
-            "Interpolation between ramp entries, for every entry valueInterp does not set (Maya's value[i].value_Interp, "
-            "one per entry there): none holds each entry's value up to the next, linear, smooth eases in and out of "
-            "each entry (zero slope at entries), spline is a Catmull-Rom curve through the entries.");
     b.input(ValuePosition, "valuePosition", ValueType::Double)
         .array()
         .shortName("vp")
@@ -199,11 +191,12 @@ std::shared_ptr<const NodeType> makeRemapValueType()
         .shortName("vi")
         .mayaCompound("value", "vl")
         .doc(
-            "Entry i's interpolation toward the next entry (Maya's value[i].value_Interp, \".vl[i].vi\"), in place "
-            "of `interp` for that entry.");
+            "Entry i's interpolation toward the next entry (Maya's value[i].value_Interp, \".vl[i].vi\"): none holds "
+            "the entry's value up to the next, linear (Maya's default, and the flat pairs'), smooth eases in and out "
+            "(zero slope at both entries), spline is a Catmull-Rom curve through the entries.");
     b.output(OutValue, "outValue", ValueType::Double).shortName("ov").doc("The remapped value.");
     for (AttrId in :
-         {InputValue, InputMin, InputMax, OutputMin, OutputMax, RampValue, Interp, ValuePosition, ValueFloatValue, ValueInterp})
+         {InputValue, InputMin, InputMax, OutputMin, OutputMax, RampValue, ValuePosition, ValueFloatValue, ValueInterp})
         b.affects(in, {OutValue});
     b.factory<RemapValueNode>();
     return b.build();
