@@ -88,8 +88,11 @@ std::vector<RampEntry> rampEntries(const ComputeContext& context)
     applyField(context, ValueInterp, entries, interp, [](RampEntry& e, const Value& v) { e.interp = std::get<int>(v); });
     for (AttrId attr : {ValuePosition, ValueFloatValue, ValueInterp}) mark(attr);
     std::vector<RampEntry> present;
+    // An entry whose position or value is not a number (NaN or infinity through a connection) cannot be placed on
+    // the ramp: it is left out, so a bad driver never stops the evaluation.
     for (std::size_t i = 0; i < entries.size(); ++i)
-        if (given[i]) present.push_back(entries[i]);
+        if (given[i] && std::isfinite(entries[i].position) && std::isfinite(entries[i].value))
+            present.push_back(entries[i]);
     if (present.empty()) present = {{0.0, 0.0, interp}, {1.0, 1.0, interp}};  // Maya's default ramp
     return present;
 }
@@ -149,7 +152,8 @@ std::shared_ptr<const NodeType> makeRemapValueType()
         "and last entries' values outside their positions. When inputMin == inputMax the ramp is read at its "
         "right end for inputValue > inputMin, its left end below, and at 0 when equal. An overflowing result "
         "outputs 0. The ramp's entries come by index from the flat `value` pairs and from Maya's value[i] fields "
-        "(valuePosition, valueFloatValue, valueInterp), which replace a pair's field where given. Maya's colour ramp "
+        "(valuePosition, valueFloatValue, valueInterp), which replace a pair's field where given; an entry whose "
+        "position or value is NaN or infinite is left out. Maya's colour ramp "
         "(color, outColor) is not modelled.");
     b.input(InputValue, "inputValue", ValueType::Double).shortName("i").keyable().doc("The value remapped.");
     b.input(InputMin, "inputMin", ValueType::Double).shortName("imn").keyable().doc("The inputValue that maps to ramp position 0.");
