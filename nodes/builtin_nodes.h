@@ -3,8 +3,11 @@
 // function builds one type (one file each under nodes/).
 
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "graph/node_registry.h"
+#include "graph/value.h"
 
 namespace rig {
 
@@ -29,6 +32,33 @@ std::shared_ptr<const NodeType> makeConditionType();
 std::shared_ptr<const NodeType> makeMultMatrixType();
 std::shared_ptr<const NodeType> makeComposeMatrixType();
 std::shared_ptr<const NodeType> makeDecomposeMatrixType();
+// Maya's utility and animation-layer types (nodes/math/, docs/nodes.md).
+std::shared_ptr<const NodeType> makeUnitConversionType();
+// The conversionFactor a unitConversion node takes for a Maya scene's factor `mayaFactor` between a `source` plug
+// and a `destination` plug: Maya multiplies internal units (radians), while a connection between an angle plug and
+// a unitless one here already converts radians and degrees, so that part is divided out (57.2958 from rotateX into
+// an animCurveUA's input becomes 1).
+double unitConversionFactor(double mayaFactor, Unit source, Unit destination);
+std::shared_ptr<const NodeType> makeMultDoubleLinearType();
+std::shared_ptr<const NodeType> makeAddDoubleLinearType();
+std::shared_ptr<const NodeType> makeBlendWeightedType();
+std::shared_ptr<const NodeType> makePairBlendType();
+std::shared_ptr<const NodeType> makeDistanceBetweenType();
+std::shared_ptr<const NodeType> makeSetRangeType();
+std::shared_ptr<const NodeType> makeInverseMatrixType();
+std::shared_ptr<const NodeType> makeFloatConstantType();
+std::shared_ptr<const NodeType> makeAngleBetweenType();
+std::shared_ptr<const NodeType> makeQuatToEulerType();
+std::shared_ptr<const NodeType> makeEulerToQuatType();
+std::shared_ptr<const NodeType> makeBlendMatrixType();
+// animBlendNodeAdditive, animBlendNodeAdditiveDL/DA/F/FA/I16/I32.
+std::shared_ptr<const NodeType> makeAnimBlendNodeAdditiveType(const char* typeName);
+std::shared_ptr<const NodeType> makeAnimBlendNodeAdditiveRotationType();
+std::shared_ptr<const NodeType> makeAnimBlendNodeAdditiveScaleType();
+// animBlendNodeEnum, animBlendNodeBoolean.
+std::shared_ptr<const NodeType> makeAnimBlendNodeEnumType(const char* typeName);
+// Every Maya utility and animation-layer type name registered by the functions above.
+const std::vector<std::string>& mayaUtilityTypeNames();
 std::shared_ptr<const NodeType> makeIkHandleType();  // nodes/ik, nodes/deformers (docs/ik-and-deformers.md)
 std::shared_ptr<const NodeType> makeMayaIkHandleType();  // nodes/ik: Maya's ikHandle (RP and SC solvers), for .ma scenes
 std::shared_ptr<const NodeType> makeBlendColorsType();

@@ -32,10 +32,11 @@ std::shared_ptr<const NodeType> makeBlendTwoAttrType()
         "are ignored. Unlike Maya's generic input, the values are unitless: an angle connected in arrives "
         "in degrees.");
     b.input(AttributesBlender, "attributesBlender", ValueType::Double)
+        .shortName("ab")
         .keyable()
         .doc("The blend weight: 0 gives input[0], 1 gives input[1]; values outside 0..1 extrapolate.");
-    b.input(Input, "input", ValueType::Double).array().doc("The two values blended, input[0] and input[1].");
-    b.output(Output, "output", ValueType::Double).doc("The blended value.");
+    b.input(Input, "input", ValueType::Double).shortName("i").array().doc("The two values blended, input[0] and input[1].");
+    b.output(Output, "output", ValueType::Double).shortName("o").doc("The blended value.");
     b.affects(AttributesBlender, {Output}).affects(Input, {Output});
     b.factory<BlendTwoAttrNode>();
     return b.build();

@@ -32,18 +32,22 @@ std::shared_ptr<const NodeType> makeClampType()
         "Clamps each component of input into [min, max]: output = min(max(input, min), max) (Maya's clamp "
         "utility node). Where min > max the output is max. With the defaults (min = max = 0) the output is 0.");
     b.input(Min, "min", ValueType::Vector3)
+        .shortName("mn")
         .children("minR", "minG", "minB")
         .keyable()
         .doc("Lower bound of each component (minR, minG, minB).");
     b.input(Max, "max", ValueType::Vector3)
+        .shortName("mx")
         .children("maxR", "maxG", "maxB")
         .keyable()
         .doc("Upper bound of each component (maxR, maxG, maxB); wins over min where they cross.");
     b.input(Input, "input", ValueType::Vector3)
+        .shortName("ip")
         .children("inputR", "inputG", "inputB")
         .keyable()
         .doc("The value clamped (inputR, inputG, inputB).");
     b.output(Output, "output", ValueType::Vector3)
+        .shortName("op")
         .children("outputR", "outputG", "outputB")
         .doc("The clamped value (outputR, outputG, outputB).");
     b.affects(Min, {Output}).affects(Max, {Output}).affects(Input, {Output});

@@ -57,40 +57,47 @@ std::shared_ptr<const NodeType> makeComposeMatrixType()
         "R comes from inputRotate in inputRotateOrder, or from the quaternion inputQuatX..W when "
         "useEulerRotation is off.");
     b.input(InputTranslate, "inputTranslate", ValueType::Vector3)
+        .shortName("it")
         .unit(Unit::Distance)
         .keyable()
         .doc("Translation (inputTranslateX, inputTranslateY, inputTranslateZ).");
     b.input(InputRotate, "inputRotate", ValueType::Vector3)
+        .shortName("ir")
         .unit(Unit::Angle)
         .keyable()
         .doc(
             "Euler rotation, applied in inputRotateOrder (inputRotateX, inputRotateY, inputRotateZ); used when "
             "useEulerRotation is on.");
     b.input(InputScale, "inputScale", ValueType::Vector3)
+        .shortName("is")
         .defaultValue(Eigen::Vector3d(1.0, 1.0, 1.0))
         .keyable()
         .doc("Scale along the local axes (inputScaleX, inputScaleY, inputScaleZ).");
     b.input(InputShear, "inputShear", ValueType::Vector3)
+        .shortName("ish")
         .keyable()
         .doc(
             "Shear (inputShearX = xy, inputShearY = xz, inputShearZ = yz), applied after scale as Maya's "
             "transform shear.");
     b.input(InputRotateOrder, "inputRotateOrder", ValueType::Enum)
+        .shortName("iro")
         .enumNames(rotateOrderEnumNames())
         .doc("The order the inputRotate axes are applied in; xyz applies X first.");
     b.input(UseEulerRotation, "useEulerRotation", ValueType::Bool)
+        .shortName("uer")
         .defaultValue(true)
         .doc("On: rotation from inputRotate; off: from the quaternion inputQuatX..W.");
-    b.input(InputQuatX, "inputQuatX", ValueType::Double).keyable().doc("Quaternion rotation, x (imaginary i) part.");
-    b.input(InputQuatY, "inputQuatY", ValueType::Double).keyable().doc("Quaternion rotation, y (imaginary j) part.");
-    b.input(InputQuatZ, "inputQuatZ", ValueType::Double).keyable().doc("Quaternion rotation, z (imaginary k) part.");
+    b.input(InputQuatX, "inputQuatX", ValueType::Double).shortName("iqx").keyable().doc("Quaternion rotation, x (imaginary i) part.");
+    b.input(InputQuatY, "inputQuatY", ValueType::Double).shortName("iqy").keyable().doc("Quaternion rotation, y (imaginary j) part.");
+    b.input(InputQuatZ, "inputQuatZ", ValueType::Double).shortName("iqz").keyable().doc("Quaternion rotation, z (imaginary k) part.");
     b.input(InputQuatW, "inputQuatW", ValueType::Double)
+        .shortName("iqw")
         .defaultValue(1.0)
         .keyable()
         .doc(
             "Quaternion rotation, w (real) part. The quaternion is normalized before use; all four zero gives "
             "no rotation. Used when useEulerRotation is off.");
-    b.output(OutputMatrix, "outputMatrix", ValueType::Matrix4).doc("T * R * SH * S (column vectors).");
+    b.output(OutputMatrix, "outputMatrix", ValueType::Matrix4).shortName("omat").doc("T * R * SH * S (column vectors).");
     for (AttrId in : {InputTranslate, InputRotate, InputScale, InputShear, InputRotateOrder, UseEulerRotation,
                       InputQuatX, InputQuatY, InputQuatZ, InputQuatW})
         b.affects(in, {OutputMatrix});

@@ -45,23 +45,27 @@ std::shared_ptr<const NodeType> makeConditionType()
         "Compares firstTerm with secondTerm and outputs colorIfTrue when the comparison holds, colorIfFalse "
         "otherwise (Maya's condition utility node). Comparisons are exact (no tolerance), as in Maya.");
     b.input(Operation, "operation", ValueType::Enum)
+        .shortName("op")
         .enumNames({"equal", "notEqual", "greaterThan", "greaterOrEqual", "lessThan", "lessOrEqual"})
         .keyable()
         .doc(
             "The comparison: firstTerm == (equal), != (notEqual), > (greaterThan), >= (greaterOrEqual), "
             "< (lessThan) or <= (lessOrEqual) secondTerm.");
-    b.input(FirstTerm, "firstTerm", ValueType::Double).keyable().doc("The left side of the comparison.");
-    b.input(SecondTerm, "secondTerm", ValueType::Double).keyable().doc("The right side of the comparison.");
+    b.input(FirstTerm, "firstTerm", ValueType::Double).shortName("ft").keyable().doc("The left side of the comparison.");
+    b.input(SecondTerm, "secondTerm", ValueType::Double).shortName("st").keyable().doc("The right side of the comparison.");
     b.input(ColorIfTrue, "colorIfTrue", ValueType::Vector3)
+        .shortName("ct")
         .children("colorIfTrueR", "colorIfTrueG", "colorIfTrueB")
         .keyable()
         .doc("The output when the comparison holds (colorIfTrueR, colorIfTrueG, colorIfTrueB).");
     b.input(ColorIfFalse, "colorIfFalse", ValueType::Vector3)
+        .shortName("cf")
         .children("colorIfFalseR", "colorIfFalseG", "colorIfFalseB")
         .defaultValue(Eigen::Vector3d(1.0, 1.0, 1.0))
         .keyable()
         .doc("The output when the comparison fails (colorIfFalseR, colorIfFalseG, colorIfFalseB).");
     b.output(OutColor, "outColor", ValueType::Vector3)
+        .shortName("oc")
         .children("outColorR", "outColorG", "outColorB")
         .doc("colorIfTrue or colorIfFalse (outColorR, outColorG, outColorB).");
     for (AttrId in : {Operation, FirstTerm, SecondTerm, ColorIfTrue, ColorIfFalse}) b.affects(in, {OutColor});

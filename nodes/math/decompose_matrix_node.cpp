@@ -49,26 +49,31 @@ std::shared_ptr<const NodeType> makeDecomposeMatrixType()
         "(negative determinant) shows as a negative outputScaleX; a zero scale axis gives 0 scale and no shear "
         "on it. The projective row is ignored. Maya's compound outputQuat is the four doubles "
         "outputQuatX..outputQuatW here.");
-    b.input(InputMatrix, "inputMatrix", ValueType::Matrix4).doc("The matrix decomposed.");
+    b.input(InputMatrix, "inputMatrix", ValueType::Matrix4).shortName("imat").doc("The matrix decomposed.");
     b.input(InputRotateOrder, "inputRotateOrder", ValueType::Enum)
+        .shortName("ro")
         .enumNames(rotateOrderEnumNames())
         .doc("The rotate order outputRotate is expressed in (xyz applies X first).");
     b.output(OutputTranslate, "outputTranslate", ValueType::Vector3)
+        .shortName("ot")
         .unit(Unit::Distance)
         .doc("Translation, the matrix's last column (outputTranslateX, outputTranslateY, outputTranslateZ).");
     b.output(OutputRotate, "outputRotate", ValueType::Vector3)
+        .shortName("or")
         .unit(Unit::Angle)
         .doc(
             "Euler rotation in inputRotateOrder (outputRotateX, outputRotateY, outputRotateZ); the middle "
             "angle lies in [-90, 90] degrees, the others in [-180, 180].");
     b.output(OutputScale, "outputScale", ValueType::Vector3)
+        .shortName("os")
         .doc("Scale (outputScaleX, outputScaleY, outputScaleZ); a reflection makes outputScaleX negative.");
     b.output(OutputShear, "outputShear", ValueType::Vector3)
+        .shortName("osh")
         .doc("Shear (outputShearX = xy, outputShearY = xz, outputShearZ = yz), as composeMatrix's inputShear.");
-    b.output(OutputQuatX, "outputQuatX", ValueType::Double).doc("The rotation as a unit quaternion, x part.");
-    b.output(OutputQuatY, "outputQuatY", ValueType::Double).doc("The rotation as a unit quaternion, y part.");
-    b.output(OutputQuatZ, "outputQuatZ", ValueType::Double).doc("The rotation as a unit quaternion, z part.");
-    b.output(OutputQuatW, "outputQuatW", ValueType::Double).doc("The rotation as a unit quaternion, w (real) part.");
+    b.output(OutputQuatX, "outputQuatX", ValueType::Double).shortName("oqx").doc("The rotation as a unit quaternion, x part.");
+    b.output(OutputQuatY, "outputQuatY", ValueType::Double).shortName("oqy").doc("The rotation as a unit quaternion, y part.");
+    b.output(OutputQuatZ, "outputQuatZ", ValueType::Double).shortName("oqz").doc("The rotation as a unit quaternion, z part.");
+    b.output(OutputQuatW, "outputQuatW", ValueType::Double).shortName("oqw").doc("The rotation as a unit quaternion, w (real) part.");
     b.affects(InputMatrix, {OutputTranslate, OutputRotate, OutputScale, OutputShear, OutputQuatX, OutputQuatY,
                             OutputQuatZ, OutputQuatW});
     b.affects(InputRotateOrder, {OutputRotate});

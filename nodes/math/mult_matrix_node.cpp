@@ -32,9 +32,11 @@ std::shared_ptr<const NodeType> makeMultMatrixType()
         "matrixIn[0]. So a local matrix at [0] and its parent's world matrix at [1] give the world matrix. "
         "Gaps in the indices are skipped; no elements give the identity.");
     b.input(MatrixIn, "matrixIn", ValueType::Matrix4)
+        .shortName("i")
         .array()
         .doc("The matrices, matrixIn[0] applied first (innermost), then matrixIn[1], and so on.");
     b.output(MatrixSum, "matrixSum", ValueType::Matrix4)
+        .shortName("o")
         .doc(
             "matrixIn[n-1] * ... * matrixIn[0] in column-vector form (Maya's row-form "
             "matrixIn[0] * ... * matrixIn[n-1]).");

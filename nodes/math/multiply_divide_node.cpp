@@ -51,20 +51,23 @@ std::shared_ptr<const NodeType> makeMultiplyDivideType()
         "multiplyDivide utility node). A component whose result is not a finite number (division by zero, "
         "a negative base raised to a fractional power, overflow) outputs 0, where Maya would give inf or NaN.");
     b.input(Operation, "operation", ValueType::Enum)
+        .shortName("op")
         .enumNames({"noOperation", "multiply", "divide", "power"})
         .defaultValue(static_cast<int>(Multiply))
         .keyable()
         .doc(
             "noOperation: output = input1; multiply: input1 * input2; divide: input1 / input2; "
             "power: input1 ^ input2 (each component separately).");
-    b.input(Input1, "input1", ValueType::Vector3).keyable().doc("The first operand (input1X, input1Y, input1Z).");
+    b.input(Input1, "input1", ValueType::Vector3).shortName("i1").keyable().doc("The first operand (input1X, input1Y, input1Z).");
     b.input(Input2, "input2", ValueType::Vector3)
+        .shortName("i2")
         .defaultValue(Eigen::Vector3d(1.0, 1.0, 1.0))
         .keyable()
         .doc(
             "The second operand: multiplier, divisor or exponent (input2X, input2Y, input2Z). A zero divisor "
             "gives 0 in that output component.");
     b.output(Output, "output", ValueType::Vector3)
+        .shortName("o")
         .doc("The result (outputX, outputY, outputZ); a component that would be inf or NaN is 0.");
     b.affects(Operation, {Output}).affects(Input1, {Output}).affects(Input2, {Output});
     b.factory<MultiplyDivideNode>();

@@ -47,6 +47,7 @@ std::shared_ptr<const NodeType> makePlusMinusAverageType()
         "order, so gaps in the indices are skipped (input1D[0] and input1D[5] average over 2). An empty array "
         "gives 0.");
     b.input(Operation, "operation", ValueType::Enum)
+        .shortName("op")
         .enumNames({"noOperation", "sum", "subtract", "average"})
         .defaultValue(static_cast<int>(Sum))
         .keyable()
@@ -54,18 +55,21 @@ std::shared_ptr<const NodeType> makePlusMinusAverageType()
             "noOperation: the first existing element; sum: all elements added; subtract: the first element "
             "minus all the others; average: the sum divided by the number of existing elements.");
     b.input(Input1D, "input1D", ValueType::Double)
+        .shortName("i1")
         .array()
         .keyable()
         .doc("The scalar operands, input1D[0], input1D[1], ... (indices may have gaps).");
     b.input(Input3D, "input3D", ValueType::Vector3)
+        .shortName("i3")
         .array()
         .children("input3Dx", "input3Dy", "input3Dz")
         .keyable()
         .doc(
             "The vector3 operands, input3D[i] with components input3D[i].input3Dx, .input3Dy, .input3Dz "
             "(indices may have gaps).");
-    b.output(Output1D, "output1D", ValueType::Double).doc("The result over input1D.");
+    b.output(Output1D, "output1D", ValueType::Double).shortName("o1").doc("The result over input1D.");
     b.output(Output3D, "output3D", ValueType::Vector3)
+        .shortName("o3")
         .children("output3Dx", "output3Dy", "output3Dz")
         .doc("The result over input3D, component by component (output3Dx, output3Dy, output3Dz).");
     b.affects(Operation, {Output1D, Output3D}).affects(Input1D, {Output1D}).affects(Input3D, {Output3D});

@@ -189,6 +189,10 @@ TEST_CASE("math nodes: remapValue")
     f.set("rv.inputValue", -5.0);
     CHECK(f.num("rv.outValue") == doctest::Approx(-100.0));
 
+    // Every entry's interpolation (Maya's value[i].value_Interp; the flat pairs are entries 0..2 here).
+    auto setInterp = [&](int interp) {
+        for (int i = 0; i < 3; ++i) f.set("rv.valueInterp[" + std::to_string(i) + "]", interp);
+    };
     // A tent ramp, given out of order.
     f.set("rv.inputMax", 1.0);
     f.set("rv.outputMin", 0.0);
@@ -196,23 +200,24 @@ TEST_CASE("math nodes: remapValue")
     f.set("rv.value", std::vector<double>{1.0, 0.0, 0.0, 0.0, 0.5, 1.0});
     f.set("rv.inputValue", 0.25);
     CHECK(f.num("rv.outValue") == doctest::Approx(0.5));  // linear (default)
-    f.set("rv.interp", 0);                                // none: holds the entry at or before
+    setInterp(0);                                // none: holds the entry at or before
     CHECK(f.num("rv.outValue") == doctest::Approx(0.0));
     f.set("rv.inputValue", 0.75);
     CHECK(f.num("rv.outValue") == doctest::Approx(1.0));
-    f.set("rv.interp", 2);  // smooth: smoothstep, s = 0.25 -> 3s^2 - 2s^3
+    setInterp(2);  // smooth: smoothstep, s = 0.25 -> 3s^2 - 2s^3
     f.set("rv.inputValue", 0.125);
     CHECK(f.num("rv.outValue") == doctest::Approx(3 * 0.0625 - 2 * 0.015625));
     // spline: Hermite on [0, 0.5] with slopes 2 (secant at the end entry) and 0 (Catmull-Rom at the
     // peak); at the middle, h00 = h01 = 1/2, h10 = 1/8: 0.5 * 1 + 0.125 * 0.5 * 2.
-    f.set("rv.interp", 3);
+    setInterp(3);
     f.set("rv.inputValue", 0.25);
     CHECK(f.num("rv.outValue") == doctest::Approx(0.625));
 
     SUBCASE("inputMin == inputMax reads the ramp's ends")
     {
-        f.set("rv.interp", 1);
-        f.set("rv.value", std::vector<double>{0.0, 0.2, 1.0, 0.7});
+        setInterp(1);
+        // Three entries: the valueInterp elements above name entries 0 to 2.
+        f.set("rv.value", std::vector<double>{0.0, 0.2, 0.5, 0.45, 1.0, 0.7});
         f.set("rv.inputMin", 2.0);
         f.set("rv.inputMax", 2.0);
         f.set("rv.inputValue", 3.0);

@@ -1,0 +1,39 @@
+// multDoubleLinear: Maya's multDoubleLinear, output = input1 * input2.
+
+#include "graph/node_type.h"
+#include "nodes/builtin_nodes.h"
+
+namespace rig {
+namespace {
+
+enum Attr : AttrId { Input1, Input2, Output };
+
+class MultDoubleLinearNode final : public Node {
+public:
+    void compute(ComputeContext& context) override
+    {
+        context.setOutput(Output, context.getDouble(Input1) * context.getDouble(Input2));
+    }
+};
+
+}  // namespace
+
+std::shared_ptr<const NodeType> makeMultDoubleLinearType()
+{
+    NodeTypeBuilder b("multDoubleLinear");
+    b.description(
+        "Multiplies two numbers: output = input1 * input2 (Maya's multDoubleLinear node). Unitless: an angle "
+        "connected in arrives in degrees.");
+    b.input(Input1, "input1", ValueType::Double).shortName("i1").keyable().doc("The first factor.");
+    b.input(Input2, "input2", ValueType::Double)
+        .shortName("i2")
+        .defaultValue(1.0)
+        .keyable()
+        .doc("The second factor (Maya's default 1).");
+    b.output(Output, "output", ValueType::Double).shortName("o").doc("input1 * input2.");
+    b.affects(Input1, {Output}).affects(Input2, {Output});
+    b.factory<MultDoubleLinearNode>();
+    return b.build();
+}
+
+}  // namespace rig
