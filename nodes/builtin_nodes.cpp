@@ -7,7 +7,8 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeTransformType());
     registry.add(makeJointType());
     registry.add(makeTimeType());
-    for (const char* name : {"animCurveTU", "animCurveTA", "animCurveTL", "animCurveUU", "animCurveUA", "animCurveUL"})
+    for (const char* name : {"animCurveTU", "animCurveTA", "animCurveTL", "animCurveTT", "animCurveUU", "animCurveUA",
+                             "animCurveUL", "animCurveUT"})
         registry.add(makeAnimCurveType(name));
     registry.add(makeMultiplyDivideType());
     registry.add(makePlusMinusAverageType());

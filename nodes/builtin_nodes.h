@@ -15,7 +15,7 @@ std::shared_ptr<NodeRegistry> makeBuiltinRegistry();
 std::shared_ptr<const NodeType> makeTransformType();
 std::shared_ptr<const NodeType> makeJointType();
 std::shared_ptr<const NodeType> makeTimeType();
-// animCurveTU, animCurveTA, animCurveTL, animCurveUU, animCurveUA, animCurveUL.
+// animCurveTU, animCurveTA, animCurveTL, animCurveTT, animCurveUU, animCurveUA, animCurveUL, animCurveUT.
 std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName);
 
 std::shared_ptr<const NodeType> makeMultiplyDivideType();
