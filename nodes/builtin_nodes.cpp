@@ -17,6 +17,7 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeReverseType());
     registry.add(makeRemapValueType());
     registry.add(makeConditionType());
+    registry.add(makeExpressionType());
     registry.add(makeMultMatrixType());
     registry.add(makeComposeMatrixType());
     registry.add(makeDecomposeMatrixType());

@@ -25,6 +25,8 @@ std::shared_ptr<const NodeType> makeClampType();
 std::shared_ptr<const NodeType> makeReverseType();
 std::shared_ptr<const NodeType> makeRemapValueType();
 std::shared_ptr<const NodeType> makeConditionType();
+// Maya's expression node for rig arithmetic (nodes/math/expression.h).
+std::shared_ptr<const NodeType> makeExpressionType();
 std::shared_ptr<const NodeType> makeMultMatrixType();
 std::shared_ptr<const NodeType> makeComposeMatrixType();
 std::shared_ptr<const NodeType> makeDecomposeMatrixType();

@@ -4,7 +4,6 @@
 // a Maya .anim file (animFile and animPlug; nodes/curves/anim_file.h), or from a Maya ASCII scene's setAttr
 // statements (the Maya fields at the end of this file: ".ktv", ".kit", ".kix", ...).
 #include <cmath>
-#include <limits>
 #include <numbers>
 #include <optional>
 #include <tuple>
@@ -46,7 +45,9 @@ enum Attr : AttrId {
 constexpr int keyTangentTypeCount = 8;
 constexpr int tangentTypeCount = 9;
 constexpr int infinityCount = 5;
-constexpr double notGiven = std::numeric_limits<double>::quiet_NaN();
+// Arrays hold finite numbers only (setValue checks them): a tangent vector's x of 0 stands for "not fixed"
+// (a fixed tangent's x is > 0), and keys a setAttr has not reached yet hold 0.
+constexpr double notGiven = 0.0;
 
 std::vector<std::string> tangentNames(int count = keyTangentTypeCount)
 {
@@ -166,10 +167,10 @@ private:
         const std::vector<double>& ys = in ? k.inY : k.outY;
         const double x = i < xs.size() ? xs[i] : notGiven;
         const double y = i < ys.size() ? ys[i] : notGiven;
-        if (std::isnan(x) && std::isnan(y)) return {type, TangentVector{}};  // fixed without a vector: flat
-        if (std::isnan(x) || std::isnan(y))
-            throw Error(fmt::format("node '{}': {}X[{}] and {}Y[{}] give a fixed tangent together; give both",
-                                    c.nodeName(), what, i, what, i));
+        if (x == notGiven) return {type, TangentVector{}};  // a fixed type without a vector is flat
+        if (x < 0.0)
+            throw Error(fmt::format("node '{}': {}X[{}] = {} is negative; a fixed tangent's x is > 0 (0: not fixed)",
+                                    c.nodeName(), what, i, x));
         // Maya's tangent x is in seconds on a time-driven curve; keys are in frames.
         return {TangentType::fixed, TangentVector{x * (timeDriven() ? k.framesPerSecond : 1.0), y}};
     }
@@ -346,8 +347,8 @@ MayaValues mayaKeyTimeValue(const MayaFieldInput& in, Unit outUnit)
     const double yScale = outUnit == Unit::Distance ? in.linearToCm
                           : outUnit == Unit::Angle  ? in.angleToDegrees * std::numbers::pi / 180.0
                                                     : 1.0;
-    std::vector<double> times = currentArray(in, keyTime, notGiven);
-    std::vector<double> values = currentArray(in, keyValue, notGiven);
+    std::vector<double> times = currentArray(in, keyTime, 0.0);
+    std::vector<double> values = currentArray(in, keyValue, 0.0);
     for (std::size_t k = 0; k < elements.size(); ++k) {
         times[static_cast<std::size_t>(in.first) + k] = mayaNumber(elements[k][0], ".ktv");
         values[static_cast<std::size_t>(in.first) + k] = mayaNumber(elements[k][1], ".ktv") * yScale;
@@ -374,7 +375,7 @@ MayaValues mayaTangentTypes(const MayaFieldInput& in, bool inSide)
         const TangentType type = mayaTangent(elements[k][0], what);
         const bool fixed = type == TangentType::fixed;
         types[i] = fixed ? -1.0 : static_cast<double>(type);
-        if (fixed && std::isnan(xs[i])) std::tie(xs[i], ys[i]) = std::pair{1.0, 0.0};
+        if (fixed && xs[i] == notGiven) std::tie(xs[i], ys[i]) = std::pair{1.0, 0.0};
         if (!fixed) xs[i] = ys[i] = notGiven;
     }
     return {{typeAttr, types}, {xAttr, xs}, {yAttr, ys}};
@@ -397,7 +398,7 @@ MayaValues mayaTangentVector(const MayaFieldInput& in, bool inSide, bool xPart)
     for (std::size_t k = 0; k < elements.size(); ++k) {
         const std::size_t i = static_cast<std::size_t>(in.first) + k;
         const double value = mayaNumber(elements[k][0], what);
-        if (!std::isnan(xs[i]) || (types[i] == -1.0 && curveFixed)) values[i] = value;
+        if (xs[i] != notGiven || (types[i] == -1.0 && curveFixed)) values[i] = value;
     }
     return {{target, values}};
 }
@@ -473,7 +474,7 @@ std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
         .doc("Per-key out-tangent type index, -1 for `tangents` (set with `keys:`).");
     const std::string vectorDoc = fmt::format(
         "a fixed tangent's vector, as Maya stores it: x in {}, y in the output's internal units ({}). A key "
-        "with a vector here has a fixed tangent on that side, whatever its type index; NaN or no element: none.",
+        "whose x here is > 0 has a fixed tangent on that side, whatever its type index; 0 or no element: none.",
         timeDriven ? "seconds (framesPerSecond turns it into frames)" : "the driver's units",
         outUnit == Unit::Angle ? "radians" : outUnit == Unit::Distance ? "cm" : "as keyValue");
     b.input(keyInTangentX, "keyInTangentX", ValueType::DoubleArray).doc("Per-key x of " + vectorDoc);
