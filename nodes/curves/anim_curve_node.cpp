@@ -20,34 +20,35 @@
 namespace rig {
 namespace {
 
+// framesPerSecond comes last, after the output: only time-driven curves have it.
 enum Attr : AttrId {
     input,
     keyTime,
     keyValue,
     keyInTangent,
     keyOutTangent,
-    keyInTangentX,
-    keyInTangentY,
-    keyOutTangentX,
-    keyOutTangentY,
     tangents,
-    weightedTangents,
-    framesPerSecond,
     preInfinity,
     postInfinity,
+    keyTangentVectors,
+    weightedTangents,
     animFile,
     animPlug,
-    output
+    output,
+    framesPerSecond
 };
 
 // Per-key tangent type indices name the first eight types; a key's tangent is fixed through its vector
-// (keyInTangentX/Y, keyOutTangentX/Y). `tangents` also takes fixed (Maya's curves whose keys default to fixed).
+// (keyTangentVectors). `tangents` also takes fixed (Maya's curves whose keys default to fixed).
 constexpr int keyTangentTypeCount = 8;
 constexpr int tangentTypeCount = 9;
 constexpr int infinityCount = 5;
 // Arrays hold finite numbers only (setValue checks them): a tangent vector's x of 0 stands for "not fixed"
 // (a fixed tangent's x is > 0), and keys a setAttr has not reached yet hold 0.
 constexpr double notGiven = 0.0;
+
+// keyTangentVectors holds four numbers a key: in x, in y, out x, out y.
+std::size_t vectorIndex(std::size_t key, bool in, bool x) { return 4 * key + (in ? 0 : 2) + (x ? 0 : 1); }
 
 std::vector<std::string> tangentNames(int count = keyTangentTypeCount)
 {
@@ -66,7 +67,7 @@ std::vector<std::string> infinityNames()
 // Everything a curve is built from when it does not come from a .anim file; compute rebuilds the curve only
 // when one of them changes (the input changes every frame, the keys seldom).
 struct KeyInputs {
-    std::vector<double> times, values, ins, outs, inX, inY, outX, outY;
+    std::vector<double> times, values, ins, outs, vectors;
     int fallback = -1, pre = -1, post = -1;
     bool weighted = false;
     double framesPerSecond = 0.0;
@@ -99,11 +100,16 @@ public:
             fromFile_ = false;
             inputs_.fallback = -1;  // rebuilt from the keys below
         }
-        KeyInputs now{c.getDoubleArray(keyTime),      c.getDoubleArray(keyValue),      c.getDoubleArray(keyInTangent),
-                      c.getDoubleArray(keyOutTangent), c.getDoubleArray(keyInTangentX), c.getDoubleArray(keyInTangentY),
-                      c.getDoubleArray(keyOutTangentX), c.getDoubleArray(keyOutTangentY), c.getEnum(tangents),
-                      c.getEnum(preInfinity),          c.getEnum(postInfinity),         c.getBool(weightedTangents),
-                      c.getDouble(framesPerSecond)};
+        KeyInputs now{c.getDoubleArray(keyTime),
+                      c.getDoubleArray(keyValue),
+                      c.getDoubleArray(keyInTangent),
+                      c.getDoubleArray(keyOutTangent),
+                      c.getDoubleArray(keyTangentVectors),
+                      c.getEnum(tangents),
+                      c.getEnum(preInfinity),
+                      c.getEnum(postInfinity),
+                      c.getBool(weightedTangents),
+                      timeDriven() ? c.getDouble(framesPerSecond) : 1.0};
         if (!(now == inputs_)) {
             curve_ = build(c, now);
             inputs_ = std::move(now);
@@ -163,14 +169,14 @@ private:
         if (t != -1.0 && (t != std::floor(t) || t < 0 || t >= keyTangentTypeCount))
             throw Error(fmt::format("node '{}': {}[{}] = {} is not a tangent type index", c.nodeName(), what, i, t));
         const TangentType type = static_cast<TangentType>(t == -1.0 ? k.fallback : static_cast<int>(t));
-        const std::vector<double>& xs = in ? k.inX : k.outX;
-        const std::vector<double>& ys = in ? k.inY : k.outY;
-        const double x = i < xs.size() ? xs[i] : notGiven;
-        const double y = i < ys.size() ? ys[i] : notGiven;
+        const std::size_t at = vectorIndex(i, in, true);
+        const double x = at < k.vectors.size() ? k.vectors[at] : notGiven;
+        const double y = at + 1 < k.vectors.size() ? k.vectors[at + 1] : notGiven;
         if (x == notGiven) return {type, TangentVector{}};  // a fixed type without a vector is flat
         if (x < 0.0)
-            throw Error(fmt::format("node '{}': {}X[{}] = {} is negative; a fixed tangent's x is > 0 (0: not fixed)",
-                                    c.nodeName(), what, i, x));
+            throw Error(fmt::format("node '{}': keyTangentVectors[{}] = {}, key {}'s {}-tangent x, is negative; a "
+                                    "fixed tangent's x is > 0 (0: not fixed)",
+                                    c.nodeName(), at, x, i, in ? "in" : "out"));
         // Maya's tangent x is in seconds on a time-driven curve; keys are in frames.
         return {TangentType::fixed, TangentVector{x * (timeDriven() ? k.framesPerSecond : 1.0), y}};
     }
@@ -331,11 +337,12 @@ std::vector<std::vector<std::string>> mayaElements(const MayaFieldInput& in, std
     return elements;
 }
 
-// The array `a` as set so far, long enough for element `last`, new elements `fill`.
-std::vector<double> currentArray(const MayaFieldInput& in, AttrId a, double fill)
+// The array `a` as set so far, long enough for element `last` (`per` numbers an element), new elements `fill`.
+std::vector<double> currentArray(const MayaFieldInput& in, AttrId a, double fill, std::size_t per = 1)
 {
     std::vector<double> values = std::get<std::vector<double>>(in.current(a));
-    if (values.size() < static_cast<std::size_t>(in.last) + 1) values.resize(static_cast<std::size_t>(in.last) + 1, fill);
+    const std::size_t size = per * (static_cast<std::size_t>(in.last) + 1);
+    if (values.size() < size) values.resize(size, fill);
     return values;
 }
 
@@ -365,20 +372,19 @@ MayaValues mayaTangentTypes(const MayaFieldInput& in, bool inSide)
     const auto elements = mayaElements(in, 1, what);
     if (elements.empty()) return {};
     const AttrId typeAttr = inSide ? keyInTangent : keyOutTangent;
-    const AttrId xAttr = inSide ? keyInTangentX : keyOutTangentX;
-    const AttrId yAttr = inSide ? keyInTangentY : keyOutTangentY;
     std::vector<double> types = currentArray(in, typeAttr, -1.0);
-    std::vector<double> xs = currentArray(in, xAttr, notGiven);
-    std::vector<double> ys = currentArray(in, yAttr, notGiven);
+    std::vector<double> vectors = currentArray(in, keyTangentVectors, notGiven, 4);
     for (std::size_t k = 0; k < elements.size(); ++k) {
         const std::size_t i = static_cast<std::size_t>(in.first) + k;
         const TangentType type = mayaTangent(elements[k][0], what);
         const bool fixed = type == TangentType::fixed;
         types[i] = fixed ? -1.0 : static_cast<double>(type);
-        if (fixed && xs[i] == notGiven) std::tie(xs[i], ys[i]) = std::pair{1.0, 0.0};
-        if (!fixed) xs[i] = ys[i] = notGiven;
+        double& x = vectors[vectorIndex(i, inSide, true)];
+        double& y = vectors[vectorIndex(i, inSide, false)];
+        if (fixed && x == notGiven) std::tie(x, y) = std::pair{1.0, 0.0};
+        if (!fixed) x = y = notGiven;
     }
-    return {{typeAttr, types}, {xAttr, xs}, {yAttr, ys}};
+    return {{typeAttr, types}, {keyTangentVectors, vectors}};
 }
 
 // ".kix" ".kiy" ".kox" ".koy": a fixed tangent's vector, x in seconds (time curves) or the driver's units, y in
@@ -389,18 +395,16 @@ MayaValues mayaTangentVector(const MayaFieldInput& in, bool inSide, bool xPart)
     const char* what = inSide ? (xPart ? ".kix" : ".kiy") : (xPart ? ".kox" : ".koy");
     const auto elements = mayaElements(in, 1, what);
     if (elements.empty()) return {};
-    const AttrId xAttr = inSide ? keyInTangentX : keyOutTangentX;
-    const AttrId target = xPart ? xAttr : (inSide ? keyInTangentY : keyOutTangentY);
     const std::vector<double> types = currentArray(in, inSide ? keyInTangent : keyOutTangent, -1.0);
-    const std::vector<double> xs = currentArray(in, xAttr, notGiven);
     const bool curveFixed = std::get<int>(in.current(tangents)) == static_cast<int>(TangentType::fixed);
-    std::vector<double> values = currentArray(in, target, notGiven);
+    std::vector<double> vectors = currentArray(in, keyTangentVectors, notGiven, 4);
     for (std::size_t k = 0; k < elements.size(); ++k) {
         const std::size_t i = static_cast<std::size_t>(in.first) + k;
         const double value = mayaNumber(elements[k][0], what);
-        if (xs[i] != notGiven || (types[i] == -1.0 && curveFixed)) values[i] = value;
+        if (vectors[vectorIndex(i, inSide, true)] != notGiven || (types[i] == -1.0 && curveFixed))
+            vectors[vectorIndex(i, inSide, xPart)] = value;
     }
-    return {{target, values}};
+    return {{keyTangentVectors, vectors}};
 }
 
 MayaValues mayaInfinity(const MayaFieldInput& in, AttrId a, const char* what)
@@ -472,29 +476,22 @@ std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
         .doc("Per-key in-tangent type index, -1 for `tangents` (set with `keys:`).");
     b.input(keyOutTangent, "keyOutTangent", ValueType::DoubleArray)
         .doc("Per-key out-tangent type index, -1 for `tangents` (set with `keys:`).");
-    const std::string vectorDoc = fmt::format(
-        "a fixed tangent's vector, as Maya stores it: x in {}, y in the output's internal units ({}). A key "
-        "whose x here is > 0 has a fixed tangent on that side, whatever its type index; 0 or no element: none.",
-        timeDriven ? "seconds (framesPerSecond turns it into frames)" : "the driver's units",
-        outUnit == Unit::Angle ? "radians" : outUnit == Unit::Distance ? "cm" : "as keyValue");
-    b.input(keyInTangentX, "keyInTangentX", ValueType::DoubleArray).doc("Per-key x of " + vectorDoc);
-    b.input(keyInTangentY, "keyInTangentY", ValueType::DoubleArray).doc("Per-key y of " + vectorDoc);
-    b.input(keyOutTangentX, "keyOutTangentX", ValueType::DoubleArray).doc("Per-key x of " + vectorDoc);
-    b.input(keyOutTangentY, "keyOutTangentY", ValueType::DoubleArray).doc("Per-key y of " + vectorDoc);
     b.input(tangents, "tangents", ValueType::Enum)
         .enumNames(tangentNames(tangentTypeCount))
         .defaultValue(static_cast<int>(TangentType::auto_))
         .doc("Tangent type of keys that do not name one (fixed: their vector, flat without one).");
+    b.input(preInfinity, "preInfinity", ValueType::Enum).enumNames(infinityNames()).doc("Before the first key.");
+    b.input(postInfinity, "postInfinity", ValueType::Enum).enumNames(infinityNames()).doc("After the last key.");
+    const std::string vectorDoc = fmt::format(
+        "as Maya stores them: x in {}, y in the output's internal units ({}). A key whose x is > 0 here has a "
+        "fixed tangent on that side, whatever its type index; 0 or no element: none.",
+        timeDriven ? "seconds (framesPerSecond turns it into frames)" : "the driver's units",
+        outUnit == Unit::Angle ? "radians" : outUnit == Unit::Distance ? "cm" : "as keyValue");
+    b.input(keyTangentVectors, "keyTangentVectors", ValueType::DoubleArray)
+        .doc("Fixed tangents' vectors, four numbers a key (in x, in y, out x, out y), " + vectorDoc);
     b.input(weightedTangents, "weightedTangents", ValueType::Bool)
         .shortName("wgt")
         .doc("Maya's weighted tangents: a fixed tangent's length bends its segment (a Bezier in x and y).");
-    b.input(framesPerSecond, "framesPerSecond", ValueType::Double)
-        .defaultValue(24.0)
-        .min(1e-6)
-        .doc(timeDriven ? "The scene's frame rate: fixed tangents' x values are in seconds."
-                        : "Unused (a set-driven key's tangent x is in the driver's units).");
-    b.input(preInfinity, "preInfinity", ValueType::Enum).enumNames(infinityNames()).doc("Before the first key.");
-    b.input(postInfinity, "postInfinity", ValueType::Enum).enumNames(infinityNames()).doc("After the last key.");
     b.input(animFile, "animFile", ValueType::String)
         .filePath()
         .doc(
@@ -505,6 +502,11 @@ std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
             "The plug whose curve in animFile this node plays, NODE.ATTRIBUTE as the file's anim lines name it "
             "(e.g. L_arm_fk_ctrl.rotateX).");
     b.output(output, "output", ValueType::Double).shortName("o").unit(outUnit).doc("The curve's value at input.");
+    if (timeDriven)
+        b.input(framesPerSecond, "framesPerSecond", ValueType::Double)
+            .defaultValue(24.0)
+            .min(1e-6)
+            .doc("The scene's frame rate: fixed tangents' x values are in seconds.");
     b.affectsAll();
     addMayaFields(b, outUnit);
     b.yamlField("keys", [yScale](const YAML::Node& node, const YamlFieldContext& context) {

@@ -186,7 +186,8 @@ TEST_CASE("maya curves: fixed tangents from .kix/.kiy/.kox/.koy, x in seconds, y
     c.setAttr("kit", 1, 1, {"18"});
     c.setAttr("kix", 1, 1, {"1"});
     c.setAttr("kiy", 1, 1, {"5"});
-    CHECK(c.array("keyInTangentX") == std::vector<double>{1, 0});
+    // Four numbers a key (in x, in y, out x, out y): key 0's in-tangent keeps the placeholder its fixed type gave.
+    CHECK(c.array("keyTangentVectors") == std::vector<double>{1, 0, 0.5, 1, 0, 0, 1, 0});
     CHECK(c.at(3.0) == doctest::Approx(hermite(0, 0, 2.0 / 30, 10, 0, 0.0, 3.0)).epsilon(1e-13));
 
     // An angular curve's tangent y is in radians: 0.5 rad/s is 0.5 / 24 rad a frame.
