@@ -35,7 +35,8 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeJointType());
     registry.add(makeTimeType());
     registry.add(makeCharacterType());
-    for (const char* name : {"animCurveTU", "animCurveTA", "animCurveTL", "animCurveUU", "animCurveUA", "animCurveUL"})
+    for (const char* name : {"animCurveTU", "animCurveTA", "animCurveTL", "animCurveTT", "animCurveUU", "animCurveUA",
+                             "animCurveUL", "animCurveUT"})
         registry.add(makeAnimCurveType(name));
     registry.add(makeMultiplyDivideType());
     registry.add(makePlusMinusAverageType());
@@ -44,6 +45,7 @@ void registerBuiltinNodes(NodeRegistry& registry)
     registry.add(makeReverseType());
     registry.add(makeRemapValueType());
     registry.add(makeConditionType());
+    registry.add(makeExpressionType());
     registry.add(makeMultMatrixType());
     registry.add(makeComposeMatrixType());
     registry.add(makeDecomposeMatrixType());

@@ -19,7 +19,7 @@ std::shared_ptr<const NodeType> makeTransformType();
 std::shared_ptr<const NodeType> makeJointType();
 std::shared_ptr<const NodeType> makeTimeType();
 std::shared_ptr<const NodeType> makeCharacterType();  // nodes/curves: Maya's character set (docs/maya.md)
-// animCurveTU, animCurveTA, animCurveTL, animCurveUU, animCurveUA, animCurveUL.
+// animCurveTU, animCurveTA, animCurveTL, animCurveTT, animCurveUU, animCurveUA, animCurveUL, animCurveUT.
 std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName);
 
 std::shared_ptr<const NodeType> makeMultiplyDivideType();
@@ -29,6 +29,8 @@ std::shared_ptr<const NodeType> makeClampType();
 std::shared_ptr<const NodeType> makeReverseType();
 std::shared_ptr<const NodeType> makeRemapValueType();
 std::shared_ptr<const NodeType> makeConditionType();
+// Maya's expression node for rig arithmetic (nodes/math/expression.h).
+std::shared_ptr<const NodeType> makeExpressionType();
 std::shared_ptr<const NodeType> makeMultMatrixType();
 std::shared_ptr<const NodeType> makeComposeMatrixType();
 std::shared_ptr<const NodeType> makeDecomposeMatrixType();
