@@ -224,6 +224,12 @@ NodeTypeBuilder& NodeTypeBuilder::mayaField(std::string longName, std::string sh
     return *this;
 }
 
+NodeTypeBuilder& NodeTypeBuilder::mayaCheck(MayaCheck check)
+{
+    type_.mayaCheck_ = std::move(check);
+    return *this;
+}
+
 NodeTypeBuilder& NodeTypeBuilder::factory(std::function<std::unique_ptr<Node>()> make)
 {
     type_.factory_ = std::move(make);

@@ -6,6 +6,7 @@
 #include <initializer_list>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -50,6 +51,9 @@ struct MayaFieldInput {
     double angleToDegrees = 1.0;
 };
 using MayaFieldParser = std::function<std::vector<std::pair<AttrId, Value>>(const MayaFieldInput& input)>;
+// Whether a node of a type, with the values a Maya scene gave it (read through `value`), can be evaluated: the reason
+// it cannot (an expression that calls MEL commands), or nothing. The loader refuses such a node where it drives a joint.
+using MayaCheck = std::function<std::optional<std::string>(const std::function<Value(AttrId)>& value)>;
 
 class NodeType {
 public:
@@ -78,6 +82,7 @@ public:
     // order (a setAttr of several elements gives each element's children in this order).
     std::vector<AttrId> mayaCompoundChildren(std::string_view compound) const;
     const std::map<std::string, MayaFieldParser, std::less<>>& mayaFields() const { return mayaFields_; }
+    const MayaCheck& mayaCheck() const { return mayaCheck_; }
 
 private:
     friend class NodeTypeBuilder;
@@ -91,6 +96,7 @@ private:
     std::map<std::string, YamlConnector, std::less<>> yamlConnectors_;
     std::string mayaType_;
     std::map<std::string, MayaFieldParser, std::less<>> mayaFields_;
+    MayaCheck mayaCheck_;
     std::function<std::unique_ptr<Node>()> factory_;
 };
 
@@ -145,6 +151,7 @@ public:
     NodeTypeBuilder& mayaType(std::string name);
     // A Maya attribute read by a parser (MayaFieldParser), named by its long and short names.
     NodeTypeBuilder& mayaField(std::string longName, std::string shortName, MayaFieldParser parser);
+    NodeTypeBuilder& mayaCheck(MayaCheck check);
     NodeTypeBuilder& factory(std::function<std::unique_ptr<Node>()> make);
     template <class T>
     NodeTypeBuilder& factory()

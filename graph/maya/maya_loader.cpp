@@ -79,6 +79,7 @@ public:
     {
         makeNodes();
         setValues();
+        checkTypes();
         readMessages();
         wireDag();  // first: DAG parenting is what a scene is, a stray connection must not close a cycle with it
         connectAll();
@@ -145,6 +146,9 @@ private:
             // Maya's node default, where ours differs: a constraint's rest position is off unless the scene says so.
             if (const AttrId erp = findAttribute(g, "enableRestPosition"); erp >= 0)
                 graph_->setValue(Plug{g, erp, -1, -1}, false);
+            // Time curves and expressions turn Maya's seconds (tangents, `time`) into the scene's frames.
+            if (const AttrId fps = findAttribute(g, "framesPerSecond"); fps >= 0)
+                graph_->setValue(Plug{g, fps, -1, -1}, scene_.units[static_cast<std::size_t>(n.where.file)].framesPerSecond);
             addDynamicAttributes(n, g);
         }
     }
@@ -258,9 +262,22 @@ private:
         }
     }
 
+    // Nodes whose type can tell, from their values, that they cannot be evaluated (an expression calling MEL).
+    void checkTypes()
+    {
+        for (std::size_t i = 0; i < scene_.nodes.size(); ++i) {
+            const NodeId g = graphNode_[i];
+            if (g < 0 || !graph_->nodeType(g).mayaCheck()) continue;
+            const auto why =
+                graph_->nodeType(g).mayaCheck()([&](AttrId a) { return graph_->getValue(Plug{g, a, -1, -1}); });
+            if (why) markUnevaluated(g, static_cast<int>(i), *why, scene_.nodes[i].where);
+        }
+    }
+
+    // The host scene's saved time: a referenced file's own time1 (merged with the scene's) says nothing about it.
     void readTime(const maya::SetAttr& set)
     {
-        if (set.plug != "o" && set.plug != "outTime") return;
+        if ((set.plug != "o" && set.plug != "outTime") || set.where.file != 0) return;
         maya::ValueReader r(set.values, scene_.units[0]);
         info_.savedTime = std::get<double>(r.read(ValueType::Double, Unit::None));
     }

@@ -52,9 +52,11 @@ std::optional<std::filesystem::path> locate(const std::string& written, const st
         if (sep > start) parts.push_back(written.substr(start, sep - start));
         start = sep + 1;
     }
-    std::vector<std::filesystem::path> candidates{from.parent_path() / written};
+    std::error_code ec;
+    const std::filesystem::path scene = std::filesystem::absolute(from, ec);
+    std::vector<std::filesystem::path> candidates{scene.parent_path() / written};
     std::vector<std::filesystem::path> folders;
-    for (auto folder = from.parent_path(); !folder.empty(); folder = folder.parent_path()) {
+    for (auto folder = scene.parent_path(); !folder.empty(); folder = folder.parent_path()) {
         folders.push_back(folder);
         if (folder == folder.parent_path()) break;
     }
@@ -66,10 +68,9 @@ std::optional<std::filesystem::path> locate(const std::string& written, const st
             candidates.push_back(p);
         }
     for (const auto& c : candidates) {
-        std::error_code ec;
         if (std::filesystem::is_regular_file(c, ec)) return std::filesystem::weakly_canonical(c, ec);
     }
-    looked.push_back(from.parent_path().string());
+    looked.push_back(scene.parent_path().string() + " and its parent folders");
     for (const auto& s : searchPath) looked.push_back(s.string());
     return std::nullopt;
 }
@@ -113,8 +114,8 @@ private:
         if (!found) {
             std::string where;
             for (const auto& l : looked) where += (where.empty() ? "" : ", ") + l;
-            warnings_.push_back(fmt::format("{}: reference '{}' not found (looked beside the scene and under {}); the "
-                                            "scene is read without it",
+            warnings_.push_back(fmt::format("{}: reference '{}' not found (looked for it and each end of its path "
+                                            "under {}); the scene is read without it; give --search-path DIR",
                                             formatWhere(scene_, ref.where), ref.path, where));
             result_.missingNamespaces.push_back(ref.nameSpace);
             return;

@@ -62,8 +62,9 @@ Placement placementOf(const ComputeContext& c, const constraint::TargetFrame& t)
         const Eigen::Matrix4d placed = t.world * offset;
         return {placed.topRightCorner<3, 1>(), constraint::rotationOf(placed)};
     }
-    // Maya's offsets: targetOffsetTranslate a point in the target's space (its scale included),
-    // targetOffsetRotate a rotation after the target's orientation, in the constrained object's rotate order.
+    // Maya's offsets: targetOffsetTranslate from the target's rotate pivot, along the target's axes (its scale
+    // included), targetOffsetRotate a rotation after the target's orientation, in the constrained object's rotate
+    // order. (A control whose pivot was moved holds its joint where Maya does: the offset is from the pivot.)
     Eigen::Vector3d offsetTranslate = Eigen::Vector3d::Zero();
     Eigen::Vector3d offsetRotate = Eigen::Vector3d::Zero();
     c.forEachElement(TargetOffsetTranslate, [&](int i, const Value& v) {
@@ -75,7 +76,7 @@ Placement placementOf(const ComputeContext& c, const constraint::TargetFrame& t)
     const auto order = rotateOrderFromIndex(c.getEnum(ConstraintRotateOrder)).value_or(RotateOrder::xyz);
     const Eigen::Quaterniond rotation(constraint::rotationOf(t.world).toRotationMatrix() *
                                       eulerToMatrix(offsetRotate, order));
-    return {(t.world * offsetTranslate.homogeneous()).head<3>(), rotation.normalized()};
+    return {t.pivot + t.world.topLeftCorner<3, 3>() * offsetTranslate, rotation.normalized()};
 }
 
 class ParentConstraintNode final : public Node {

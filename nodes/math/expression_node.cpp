@@ -75,6 +75,9 @@ std::shared_ptr<const NodeType> makeExpressionType()
         .doc("The scene's frame rate, which turns frames into the seconds `time` reads.");
     b.output(Output, "output", ValueType::Double).array().shortName("out").doc("The values .O[n] are assigned.");
     b.affectsAll();
+    b.mayaCheck([](const std::function<Value(AttrId)>& value) {
+        return expressionUnsupported(std::get<std::string>(value(Expression)));
+    });
     return b.factory<ExpressionNode>().build();
 }
 
