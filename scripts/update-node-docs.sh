@@ -5,10 +5,14 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 begin='<!-- BEGIN GENERATED: scripts/update-node-docs.sh -->'
 end='<!-- END GENERATED -->'
-reference=$(build/bin/graph-eval --types)
+# Through a file: the reference is larger than an argument may be.
+reference=$(mktemp)
+trap 'rm -f "$reference"' EXIT
+build/bin/graph-eval --types >"$reference"
 python3 - "$begin" "$end" "$reference" <<'PY'
 import sys
-begin, end, reference = sys.argv[1:4]
+begin, end, reference_file = sys.argv[1:4]
+reference = open(reference_file).read()
 path = "docs/nodes.md"
 text = open(path).read()
 head, rest = text.split(begin, 1)
