@@ -101,10 +101,74 @@ private:
     NodeId graphNode(int n) const { return n < 0 ? -1 : graphNode_[static_cast<std::size_t>(n)]; }
     const std::string& name(NodeId g) const { return graph_->nodeName(g); }
 
-    std::shared_ptr<const NodeType> ourType(const maya::Node& n) const
+    std::shared_ptr<const NodeType> ourType(int index) const
     {
-        const auto it = mayaTypes_.find(transformLike(n.type) ? "transform" : n.type);
+        const maya::Node& n = node(index);
+        const std::string type = transformLike(n.type)                                   ? "transform"
+                                 : n.type == "unitConversion" && vectorConversion(index) ? "multiplyDivide"
+                                                                                         : n.type;
+        const auto it = mayaTypes_.find(type);
         return it == mayaTypes_.end() ? nullptr : it->second;
+    }
+
+    // Whether a plug of a scene node is a whole vector (its type's vector3 attribute, or a double3 added to it).
+    bool vectorPlug(int n, const std::string& attr) const
+    {
+        const AttrPath p = splitAttr(attr);
+        if (!p.child.empty()) return false;
+        for (const maya::AddAttr& add : node(n).adds)
+            if (add.longName == p.name || add.shortName == p.name)
+                return add.attributeType.ends_with("3");
+        const auto it = mayaTypes_.find(transformLike(node(n).type) ? "transform" : node(n).type);
+        if (it == mayaTypes_.end()) return false;
+        const AttrId a = it->second->findMayaAttribute(p.name);
+        return a >= 0 && it->second->attribute(a).type == ValueType::Vector3;
+    }
+
+    // A unitConversion between whole vectors (a rotate into a multiplyDivide): Maya's conversion takes any numeric
+    // data, this engine's unitConversion one number, so it is made a multiplyDivide by (cf, cf, cf) here.
+    bool vectorConversion(int uc) const
+    {
+        const auto it = conversionEnds_.find(uc);
+        if (it == conversionEnds_.end()) return false;
+        for (const auto& [n, attr] : it->second)
+            if (vectorPlug(n, attr)) return true;
+        return false;
+    }
+
+    // The plugs each unitConversion is connected with, found in one pass over the connections.
+    void findConversionEnds()
+    {
+        for (const maya::Connection& c : scene_.connections) {
+            const auto [srcName, srcAttr] = maya::splitPlug(c.source);
+            const auto [dstName, dstAttr] = maya::splitPlug(c.destination);
+            int src = -1, dst = -1;
+            try {
+                src = scene_.find(srcName);
+                dst = scene_.find(dstName);
+            } catch (const Error&) {
+                continue;  // reported where the connection is made
+            }
+            if (src < 0 || dst < 0) continue;
+            if (node(dst).type == "unitConversion") conversionEnds_[dst].emplace_back(src, srcAttr);
+            if (node(src).type == "unitConversion") conversionEnds_[src].emplace_back(dst, dstAttr);
+        }
+    }
+
+    void aliasVectorConversion(NodeId g, const maya::Node& n)
+    {
+        if (n.type != "unitConversion" || graph_->nodeType(g).name() != "multiplyDivide") return;
+        for (const char* name : {"i", "input"}) aliases_[{g, name}] = Plug{g, findAttribute(g, "input1"), -1, -1};
+        for (const char* name : {"o", "output"}) aliases_[{g, name}] = Plug{g, findAttribute(g, "output"), -1, -1};
+        graph_->setValue(Plug{g, findAttribute(g, "operation"), -1, -1}, 1);  // multiply
+        double factor = 1.0;
+        for (const maya::SetAttr& set : n.sets)
+            if ((set.plug == "cf" || set.plug == "conversionFactor") && !set.values.empty()) {
+                maya::ValueReader r(set.values, maya::Units{});
+                factor = std::get<double>(r.read(ValueType::Double, Unit::None));
+            }
+        graph_->setValue(Plug{g, findAttribute(g, "input2"), -1, -1}, Eigen::Vector3d(factor, factor, factor));
+        ++info_.vectorConversions;
     }
 
     // The name Maya shows: the leaf name when no other node has it, else the shortest unique DAG path.
@@ -128,10 +192,11 @@ private:
 
     void makeNodes()
     {
+        findConversionEnds();
         graphNode_.assign(scene_.nodes.size(), -1);
         for (std::size_t i = 0; i < scene_.nodes.size(); ++i) {
             const maya::Node& n = scene_.nodes[i];
-            const auto type = ourType(n);
+            const auto type = ourType(static_cast<int>(i));
             if (!type) {
                 ++info_.notEvaluatedTypes[n.type];
                 continue;
@@ -143,6 +208,11 @@ private:
                 fail(n.where, e.what());
             }
             graphNode_[i] = g;
+            try {
+                aliasVectorConversion(g, n);
+            } catch (const Error& e) {
+                fail(n.where, e.what());
+            }
             // Maya's node default, where ours differs: a constraint's rest position is off unless the scene says so.
             if (const AttrId erp = findAttribute(g, "enableRestPosition"); erp >= 0)
                 graph_->setValue(Plug{g, erp, -1, -1}, false);
@@ -287,6 +357,9 @@ private:
         const maya::Units& units = scene_.units[static_cast<std::size_t>(set.where.file)];
         const AttrPath p = splitAttr(set.plug);
         if (graph_->nodeType(g).name() == "time" && (p.name == "o" || p.name == "outTime")) return readTime(set);
+        if (node(n).type == "unitConversion" && (p.name == "cf" || p.name == "conversionFactor")) {
+            if (graph_->nodeType(g).name() == "multiplyDivide") return;  // read by aliasVectorConversion
+        }
         if (const auto field = graph_->nodeType(g).mayaFields().find(p.name);
             field != graph_->nodeType(g).mayaFields().end() && p.child.empty())
             return setField(g, field->second, p, set, units);
@@ -382,30 +455,61 @@ private:
         if (driven >= 0 && !unevaluated_.count(driven)) unevaluated_[driven] = {source, why, where};
     }
 
+    // Connections out of outputs first, then those out of inputs: Maya evaluates per attribute, this engine per node,
+    // and an input-to-input connection that would close a node-level cycle can be fed instead (connectOrFeed) only
+    // when it is the one that closes it.
     void connectAll()
     {
         std::vector<const maya::Connection*> selfConnections;
         collectCharacterInputs();
-        for (const maya::Connection& c : scene_.connections) {
-            if (isMessage(c.source) || isMessage(c.destination)) continue;
-            if (intoCharacter(c)) continue;
-            const auto [srcName, srcAttr] = maya::splitPlug(c.source);
-            const auto [dstName, dstAttr] = maya::splitPlug(c.destination);
-            const int src = scene_.find(srcName), dst = scene_.find(dstName);
-            if (dst < 0 || src < 0) {
-                const std::string& missing = src < 0 ? srcName : dstName;
-                // Maya's default nodes (:defaultColorMgtGlobals) exist in every scene without a createNode.
-                if (missing.starts_with(':') || referenceMissing(missing)) continue;
-                fail(c.where, fmt::format("connectAttr names '{}', which is no node of the scene",
-                                          messageExcerpt(src < 0 ? srcName : dstName)));
-            }
-            if (src == dst) {
-                selfConnections.push_back(&c);
-                continue;
-            }
-            connectOne(c, src, dst, srcAttr, dstAttr);
-        }
+        std::vector<const maya::Connection*> fromOutputs, fromInputs;
+        for (const maya::Connection& c : scene_.connections)
+            (sourceIsInput(c) ? fromInputs : fromOutputs).push_back(&c);
+        for (const auto* list : {&fromOutputs, &fromInputs})
+            for (const maya::Connection* c : *list) connectStatement(*c, selfConnections);
         for (const maya::Connection* c : selfConnections) connectSelf(*c);
+    }
+
+    bool sourceIsInput(const maya::Connection& c) const
+    {
+        const auto [name, attr] = maya::splitPlug(c.source);
+        int n = -1;
+        try {
+            n = scene_.find(name);
+        } catch (const Error&) {
+            return false;  // reported in its turn
+        }
+        const NodeId g = graphNode(n);
+        if (g < 0) return false;
+        const auto plug = resolve(g, splitAttr(attr));
+        return plug && graph_->spec(*plug).input;
+    }
+
+    void connectStatement(const maya::Connection& c, std::vector<const maya::Connection*>& selfConnections)
+    {
+        if (isMessage(c.source) || isMessage(c.destination)) return;
+        if (intoCharacter(c)) return;
+        const auto [srcName, srcAttr] = maya::splitPlug(c.source);
+        const auto [dstName, dstAttr] = maya::splitPlug(c.destination);
+        int src = -1, dst = -1;
+        try {
+            src = scene_.find(srcName);
+            dst = scene_.find(dstName);
+        } catch (const Error& e) {
+            fail(c.where, e.what());
+        }
+        if (dst < 0 || src < 0) {
+            const std::string& missing = src < 0 ? srcName : dstName;
+            // Maya's default nodes (:defaultColorMgtGlobals) exist in every scene without a createNode.
+            if (missing.starts_with(':') || referenceMissing(missing)) return;
+            fail(c.where, fmt::format("connectAttr names '{}', which is no node of the scene",
+                                      messageExcerpt(src < 0 ? srcName : dstName)));
+        }
+        if (src == dst) {
+            selfConnections.push_back(&c);
+            return;
+        }
+        connectOne(c, src, dst, srcAttr, dstAttr);
     }
 
     bool referenceMissing(std::string_view nodeName) const
@@ -611,6 +715,7 @@ private:
     std::map<std::pair<NodeId, AttrId>, int> nextIndex_;
     std::string cycleError_;
     std::map<Plug, const maya::Connection*> characterInputs_;
+    std::map<int, std::vector<std::pair<int, std::string>>> conversionEnds_;  // unitConversion -> (node, attr)
 
 public:
     std::vector<std::string> missingNamespaces_;

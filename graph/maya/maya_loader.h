@@ -43,6 +43,7 @@ struct MayaSceneInfo {
     std::map<std::string, int> skippedStatements;  // by command
     std::map<std::string, int> notEvaluatedTypes;  // nodes kept out of the graph, by Maya type
     std::map<std::string, int> notEvaluatedAttributes;  // "type.attribute" set or connected but not evaluated
+    int vectorConversions = 0;  // unitConversion nodes between vectors, made multiplyDivide nodes
     int nodes = 0;                                     // graph nodes made
     int connections = 0;                               // graph connections made
 };
