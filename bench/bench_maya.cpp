@@ -30,7 +30,8 @@ Json mayaLoadJson(const std::filesystem::path& folder)
                 const auto graph = loadRigFile(scene, registry, nullptr, &info);
                 row["graph_nodes"] = graph->nodeCount();
                 row["refused"] = Json();
-            } catch (const Error& e) {
+            }
+            catch (const Error& e) {
                 row["refused"] = e.what();
             }
             best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());

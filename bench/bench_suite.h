@@ -15,8 +15,8 @@ namespace rig::bench {
 struct BenchOptions {
     // Inputs, relative to the working folder (the source folder, as every tool's examples).
     std::filesystem::path rig = "rigs/biped.yaml";
-    std::filesystem::path mayaFolder = "../shared/maya";  // the maya_load row's scenes (no row where absent)
-    std::filesystem::path spec = "rigs/biped_inversion.yaml";         // params and outputs to invert
+    std::filesystem::path mayaFolder = "../shared/maya";       // the maya_load row's scenes (no row where absent)
+    std::filesystem::path spec = "rigs/biped_inversion.yaml";  // params and outputs to invert
     std::filesystem::path longLegsRig = "rigs/biped_long_legs.yaml";  // the contacts row's other proportions
     std::filesystem::path longLegsMap = "rigs/maps/cmu_to_biped_long_legs.yaml";  // the clip retargeted onto it
     std::filesystem::path clip = "/usr/share/assimp/models/BVH/01_01.bvh";

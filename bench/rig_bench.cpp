@@ -109,8 +109,8 @@ void printSummary(const bench::Json& r)
                 figure(t.at("frame_ms_p99"), "ms"), figure(t.at("lookat_max_error_deg"), "deg"));
     if (const auto maya = r.find("maya_load"); maya != r.end() && !maya->is_null())
         std::cout << fmt::format("maya load   the largest scene ({} bytes) in {}; {} scenes\n",
-                                 figure(maya->at("largest_bytes"), "", 9), figure(maya->at("largest_load_seconds"), "s"),
-                                 maya->at("scenes").size());
+                                 figure(maya->at("largest_bytes"), "", 9),
+                                 figure(maya->at("largest_load_seconds"), "s"), maya->at("scenes").size());
     for (const auto& row : r.at("scaling"))
         std::cout << fmt::format("scaling     {} {}: {} parameters, {} per frame, jacobian {}, {} evaluations\n",
                                  text(row.at("rig")), figure(row.at("count"), "", 6),

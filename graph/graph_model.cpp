@@ -18,8 +18,9 @@ namespace {
 bool validNodeName(std::string_view name)
 {
     if (name.empty() || std::isdigit(static_cast<unsigned char>(name[0]))) return false;
-    return std::all_of(name.begin(), name.end(),
-                       [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == ':' || c == '|'; });
+    return std::all_of(name.begin(), name.end(), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == ':' || c == '|';
+    });
 }
 
 std::string typeDescription(const AttributeSpec& spec, int child)
@@ -48,9 +49,8 @@ NodeId GraphModel::addNode(std::string_view typeName, std::string_view name)
     if (name.size() > maxNameLength)
         throw Error(fmt::format("a node name of {} characters is too long (at most {})", name.size(), maxNameLength));
     if (!validNodeName(name))
-        throw Error(
-            fmt::format("invalid node name '{}': use letters, digits, '_', ':' and '|', not starting with a digit",
-                        name));
+        throw Error(fmt::format(
+            "invalid node name '{}': use letters, digits, '_', ':' and '|', not starting with a digit", name));
     if (const NodeId existing = findNode(name); existing >= 0)
         throw Error(fmt::format("duplicate node name '{}' (already a {}); node names must be unique", name,
                                 topology(existing).type->name()));

@@ -52,7 +52,8 @@ struct MayaFieldInput {
 };
 using MayaFieldParser = std::function<std::vector<std::pair<AttrId, Value>>(const MayaFieldInput& input)>;
 // Whether a node of a type, with the values a Maya scene gave it (read through `value`), can be evaluated: the reason
-// it cannot (an expression that calls MEL commands), or nothing. The loader refuses such a node where it drives a joint.
+// it cannot (an expression that calls MEL commands), or nothing. The loader refuses such a node where it drives a
+// joint.
 using MayaCheck = std::function<std::optional<std::string>(const std::function<Value(AttrId)>& value)>;
 
 class NodeType {

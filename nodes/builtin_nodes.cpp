@@ -5,24 +5,43 @@
 namespace rig {
 namespace {
 
-constexpr const char* additiveLayerTypes[] = {"animBlendNodeAdditive",    "animBlendNodeAdditiveDL",
-                                              "animBlendNodeAdditiveDA",  "animBlendNodeAdditiveF",
-                                              "animBlendNodeAdditiveFA",  "animBlendNodeAdditiveI16",
-                                              "animBlendNodeAdditiveI32"};
+constexpr const char* additiveLayerTypes[] = {
+    "animBlendNodeAdditive",   "animBlendNodeAdditiveDL",  "animBlendNodeAdditiveDA", "animBlendNodeAdditiveF",
+    "animBlendNodeAdditiveFA", "animBlendNodeAdditiveI16", "animBlendNodeAdditiveI32"};
 
 }  // namespace
 
 const std::vector<std::string>& mayaUtilityTypeNames()
 {
     static const std::vector<std::string> names = [] {
-        std::vector<std::string> n{"multiplyDivide", "plusMinusAverage", "condition",       "clamp",
-                                   "reverse",        "remapValue",       "blendTwoAttr",    "blendColors",
-                                   "composeMatrix",  "decomposeMatrix",  "multMatrix",      "unitConversion",
-                                   "multDoubleLinear", "addDoubleLinear", "blendWeighted",  "pairBlend",
-                                   "distanceBetween", "setRange",        "inverseMatrix",   "floatConstant",
-                                   "angleBetween",   "quatToEuler",      "eulerToQuat",     "blendMatrix",
-                                   "animBlendNodeAdditiveRotation", "animBlendNodeAdditiveScale",
-                                   "animBlendNodeEnum", "animBlendNodeBoolean"};
+        std::vector<std::string> n{"multiplyDivide",
+                                   "plusMinusAverage",
+                                   "condition",
+                                   "clamp",
+                                   "reverse",
+                                   "remapValue",
+                                   "blendTwoAttr",
+                                   "blendColors",
+                                   "composeMatrix",
+                                   "decomposeMatrix",
+                                   "multMatrix",
+                                   "unitConversion",
+                                   "multDoubleLinear",
+                                   "addDoubleLinear",
+                                   "blendWeighted",
+                                   "pairBlend",
+                                   "distanceBetween",
+                                   "setRange",
+                                   "inverseMatrix",
+                                   "floatConstant",
+                                   "angleBetween",
+                                   "quatToEuler",
+                                   "eulerToQuat",
+                                   "blendMatrix",
+                                   "animBlendNodeAdditiveRotation",
+                                   "animBlendNodeAdditiveScale",
+                                   "animBlendNodeEnum",
+                                   "animBlendNodeBoolean"};
         n.insert(n.end(), std::begin(additiveLayerTypes), std::end(additiveLayerTypes));
         return n;
     }();
@@ -65,7 +84,8 @@ void registerBuiltinNodes(NodeRegistry& registry)
     for (const char* name : additiveLayerTypes) registry.add(makeAnimBlendNodeAdditiveType(name));
     registry.add(makeAnimBlendNodeAdditiveRotationType());
     registry.add(makeAnimBlendNodeAdditiveScaleType());
-    for (const char* name : {"animBlendNodeEnum", "animBlendNodeBoolean"}) registry.add(makeAnimBlendNodeEnumType(name));
+    for (const char* name : {"animBlendNodeEnum", "animBlendNodeBoolean"})
+        registry.add(makeAnimBlendNodeEnumType(name));
     registry.add(makeBvhClipType());
     registry.add(makeSkeletonClipType());
     registry.add(makeIkHandleType());

@@ -62,7 +62,8 @@ std::shared_ptr<const NodeType> makeAnimBlendNodeEnumType(const char* typeName);
 // Every Maya utility and animation-layer type name registered by the functions above.
 const std::vector<std::string>& mayaUtilityTypeNames();
 std::shared_ptr<const NodeType> makeIkHandleType();  // nodes/ik, nodes/deformers (docs/ik-and-deformers.md)
-std::shared_ptr<const NodeType> makeMayaIkHandleType();  // nodes/ik: Maya's ikHandle (RP and SC solvers), for .ma scenes
+std::shared_ptr<const NodeType>
+makeMayaIkHandleType();  // nodes/ik: Maya's ikHandle (RP and SC solvers), for .ma scenes
 std::shared_ptr<const NodeType> makeBlendColorsType();
 std::shared_ptr<const NodeType> makeTwistDistributeType();
 std::shared_ptr<const NodeType> makeSlidingPivotType();

@@ -14,8 +14,8 @@
 
 #include "core/error.h"
 #include "graph/plug_glob.h"
-#include "graph/suggest.h"
 #include "graph/rig_file.h"
+#include "graph/suggest.h"
 #include "graph/yaml_loader.h"
 #include "inversion/blend_merge.h"
 #include "nodes/builtin_nodes.h"

@@ -29,8 +29,9 @@ if [ ! -f "$build/build.ninja" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ -DRIG_FUZZ=ON \
     >/dev/null
 fi
-if ! cmake --build "$build" --target rig_loader_fuzzer maya_loader_fuzzer bvh_reader_fuzzer approximation_loader_fuzzer \
-    target_clip_fuzzer anim_file_fuzzer assimp_clip_fuzzer command_line_fuzzer rig-learn -- -j"$jobs" \
+if ! cmake --build "$build" --target rig_loader_fuzzer maya_loader_fuzzer bvh_reader_fuzzer \
+    approximation_loader_fuzzer target_clip_fuzzer anim_file_fuzzer assimp_clip_fuzzer command_line_fuzzer rig-learn \
+    -- -j"$jobs" \
     >"$build/build.log" 2>&1; then
   grep -E 'error|FAILED' "$build/build.log" | head -20 >&2
   echo "fuzz: the build failed; see $build/build.log" >&2

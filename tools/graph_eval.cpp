@@ -247,7 +247,9 @@ int main(int argc, char** argv)
     app.add_flag("--dot", options.dot, "Print the graph in Graphviz dot format instead of evaluating");
     app.add_option("--threads", options.threads, "Evaluation threads: 1 serial, N parallel, 0 all cores")
         ->check(rig::cli::threadCount());
-    app.add_flag("--stats", options.stats, "Print node, connection and computation counts and timing to stderr (a Maya scene: also what was not read)");
+    app.add_flag(
+        "--stats", options.stats,
+        "Print node, connection and computation counts and timing to stderr (a Maya scene: also what was not read)");
     app.add_option("--html", options.html,
                    "Write the crowd's report page: each rigInversion node's character, its targets and the crowd "
                    "from above (docs/crowds.md)");

@@ -45,8 +45,8 @@ struct Parsed {
 bool isBoolWord(const Word& w)
 {
     const std::string& t = w.text;
-    return !w.quoted && (t == "true" || t == "false" || t == "on" || t == "off" || t == "yes" || t == "no" || t == "0" ||
-                         t == "1");
+    return !w.quoted &&
+           (t == "true" || t == "false" || t == "on" || t == "off" || t == "yes" || t == "no" || t == "0" || t == "1");
 }
 
 // `boolArgs`: a standalone flag may still be given a boolean (addAttr -s false).
@@ -160,7 +160,8 @@ private:
         }
         try {
             current_ = scene_.add(std::move(node));
-        } catch (const Error& e) {
+        }
+        catch (const Error& e) {
             fail(s.words.front(), e.what());
         }
     }
@@ -358,15 +359,15 @@ struct UnitName {
     double factor;
 };
 
-constexpr UnitName linearUnits[] = {{"mm", "millimeter", 0.1}, {"cm", "centimeter", 1.0},   {"m", "meter", 100.0},
-                                    {"km", "kilometer", 1e5},  {"in", "inch", 2.54},          {"ft", "foot", 30.48},
+constexpr UnitName linearUnits[] = {{"mm", "millimeter", 0.1}, {"cm", "centimeter", 1.0}, {"m", "meter", 100.0},
+                                    {"km", "kilometer", 1e5},  {"in", "inch", 2.54},      {"ft", "foot", 30.48},
                                     {"yd", "yard", 91.44},     {"mi", "mile", 160934.4}};
 constexpr UnitName angleUnits[] = {{"deg", "degree", 1.0},
                                    {"rad", "radian", 57.295779513082320876798},
                                    {"min", "angMinute", 1.0 / 60.0},
                                    {"sec", "angSecond", 1.0 / 3600.0}};
-constexpr UnitName timeUnits[] = {{"game", "game", 15.0},   {"film", "film", 24.0},  {"pal", "pal", 25.0},
-                                  {"ntsc", "ntsc", 30.0},   {"show", "show", 48.0},  {"palf", "palf", 50.0},
+constexpr UnitName timeUnits[] = {{"game", "game", 15.0},   {"film", "film", 24.0}, {"pal", "pal", 25.0},
+                                  {"ntsc", "ntsc", 30.0},   {"show", "show", 48.0}, {"palf", "palf", 50.0},
                                   {"ntscf", "ntscf", 60.0}, {"sec", "second", 1.0}, {"ms", "millisecond", 1000.0}};
 
 template <std::size_t N>
@@ -433,15 +434,16 @@ int Scene::find(std::string_view name) const
         ++count;
     }
     if (count > 1)
-        throw Error(fmt::format("'{}' names {} nodes; write its DAG path (|parent|{})", messageExcerpt(name), count,
-                                leaf));
+        throw Error(
+            fmt::format("'{}' names {} nodes; write its DAG path (|parent|{})", messageExcerpt(name), count, leaf));
     return found;
 }
 
 std::string Scene::path(int node) const
 {
     std::string p;
-    for (int n = node; n >= 0; n = nodes[static_cast<std::size_t>(n)].parent) p = "|" + nodes[static_cast<std::size_t>(n)].name + p;
+    for (int n = node; n >= 0; n = nodes[static_cast<std::size_t>(n)].parent)
+        p = "|" + nodes[static_cast<std::size_t>(n)].name + p;
     return p;
 }
 

@@ -66,9 +66,9 @@ struct Reference {
 };
 
 struct Units {
-    double linearToCm = 1.0;       // currentUnit -l
-    double angleToDegrees = 1.0;   // currentUnit -a
-    double framesPerSecond = 24.0; // currentUnit -t (film)
+    double linearToCm = 1.0;        // currentUnit -l
+    double angleToDegrees = 1.0;    // currentUnit -a
+    double framesPerSecond = 24.0;  // currentUnit -t (film)
     std::string linear = "centimeter", angle = "degree", time = "film";
 };
 
@@ -106,7 +106,8 @@ std::string formatWhere(const Scene& scene, const Where& where);
 // Reads the statements of file `fileIndex` (its name and default units already pushed by the caller) into `scene`.
 // `nameSpace`, when not empty, prefixes every node name the statements create (a reference's namespace). Throws
 // rig::Error "file:line:col: ..." for anything malformed.
-void readStatements(Scene& scene, const std::vector<Statement>& statements, int fileIndex, const std::string& nameSpace);
+void readStatements(Scene& scene, const std::vector<Statement>& statements, int fileIndex,
+                    const std::string& nameSpace);
 
 // Maya's plug text split: "node.attr[0].child" -> ("node", "attr[0].child"). The node part may hold '|' and ':'.
 std::pair<std::string, std::string> splitPlug(std::string_view plug);

@@ -50,7 +50,9 @@ AttrPath splitAttr(std::string_view text)
         const auto colon = inside.find(':');
         char* end = nullptr;
         first = static_cast<int>(std::strtol(inside.c_str(), &end, 10));
-        if (last) *last = colon == std::string::npos ? first : static_cast<int>(std::strtol(inside.c_str() + colon + 1, nullptr, 10));
+        if (last)
+            *last = colon == std::string::npos ? first
+                                               : static_cast<int>(std::strtol(inside.c_str() + colon + 1, nullptr, 10));
         if (inside.empty() || first < 0 || (last && *last < first)) p.valid = false;
     };
     const auto dot = text.find('.');
@@ -117,8 +119,7 @@ private:
         const AttrPath p = splitAttr(attr);
         if (!p.child.empty()) return false;
         for (const maya::AddAttr& add : node(n).adds)
-            if (add.longName == p.name || add.shortName == p.name)
-                return add.attributeType.ends_with("3");
+            if (add.longName == p.name || add.shortName == p.name) return add.attributeType.ends_with("3");
         const auto it = mayaTypes_.find(transformLike(node(n).type) ? "transform" : node(n).type);
         if (it == mayaTypes_.end()) return false;
         const AttrId a = it->second->findMayaAttribute(p.name);
@@ -146,7 +147,8 @@ private:
             try {
                 src = scene_.find(srcName);
                 dst = scene_.find(dstName);
-            } catch (const Error&) {
+            }
+            catch (const Error&) {
                 continue;  // reported where the connection is made
             }
             if (src < 0 || dst < 0) continue;
@@ -182,7 +184,8 @@ private:
             bool unique = true;
             try {
                 unique = scene_.find(candidate) == n;
-            } catch (const Error&) {
+            }
+            catch (const Error&) {
                 unique = false;
             }
             if (unique) return candidate;
@@ -204,13 +207,15 @@ private:
             NodeId g = -1;
             try {
                 g = graph_->addNode(type->name(), displayName(static_cast<int>(i)));
-            } catch (const Error& e) {
+            }
+            catch (const Error& e) {
                 fail(n.where, e.what());
             }
             graphNode_[i] = g;
             try {
                 aliasVectorConversion(g, n);
-            } catch (const Error& e) {
+            }
+            catch (const Error& e) {
                 fail(n.where, e.what());
             }
             // Maya's node default, where ours differs: a constraint's rest position is off unless the scene says so.
@@ -218,7 +223,8 @@ private:
                 graph_->setValue(Plug{g, erp, -1, -1}, false);
             // Time curves and expressions turn Maya's seconds (tangents, `time`) into the scene's frames.
             if (const AttrId fps = findAttribute(g, "framesPerSecond"); fps >= 0)
-                graph_->setValue(Plug{g, fps, -1, -1}, scene_.units[static_cast<std::size_t>(n.where.file)].framesPerSecond);
+                graph_->setValue(Plug{g, fps, -1, -1},
+                                 scene_.units[static_cast<std::size_t>(n.where.file)].framesPerSecond);
             addDynamicAttributes(n, g);
         }
     }
@@ -240,7 +246,8 @@ private:
             }
             try {
                 graph_->addAttribute(g, std::move(*spec));
-            } catch (const Error& e) {
+            }
+            catch (const Error& e) {
                 fail(add.where, e.what());
             }
         }
@@ -264,7 +271,8 @@ private:
         const auto& specs = graph_->attributes(g);
         for (std::size_t i = 0; i < specs.size(); ++i) {
             const AttributeSpec& s = specs[i];
-            const bool inCompound = !compound.empty() && (s.mayaCompound == compound || s.mayaCompoundShort == compound);
+            const bool inCompound =
+                !compound.empty() && (s.mayaCompound == compound || s.mayaCompoundShort == compound);
             if (!(compound.empty() ? s.mayaCompound.empty() : inCompound)) continue;
             if (const int c = mayaChildIndex(s, mayaName); c >= 0) return {static_cast<AttrId>(i), c};
         }
@@ -325,7 +333,8 @@ private:
                 }
                 try {
                     setValue(static_cast<int>(i), g, set);
-                } catch (const Error& e) {
+                }
+                catch (const Error& e) {
                     fail(set.where, fmt::format("{}.{}: {}", name(g), set.plug, e.what()));
                 }
             }
@@ -338,8 +347,9 @@ private:
         for (std::size_t i = 0; i < scene_.nodes.size(); ++i) {
             const NodeId g = graphNode_[i];
             if (g < 0 || !graph_->nodeType(g).mayaCheck()) continue;
-            const auto why =
-                graph_->nodeType(g).mayaCheck()([&](AttrId a) { return graph_->getValue(Plug{g, a, -1, -1}); });
+            const auto why = graph_->nodeType(g).mayaCheck()([&](AttrId a) {
+                return graph_->getValue(Plug{g, a, -1, -1});
+            });
             if (why) markUnevaluated(g, static_cast<int>(i), *why, scene_.nodes[i].where);
         }
     }
@@ -363,7 +373,8 @@ private:
         if (const auto field = graph_->nodeType(g).mayaFields().find(p.name);
             field != graph_->nodeType(g).mayaFields().end() && p.child.empty())
             return setField(g, field->second, p, set, units);
-        const auto compound = p.child.empty() ? graph_->nodeType(g).mayaCompoundChildren(p.name) : std::vector<AttrId>{};
+        const auto compound =
+            p.child.empty() ? graph_->nodeType(g).mayaCompoundChildren(p.name) : std::vector<AttrId>{};
         if (!compound.empty()) return setCompoundRange(g, compound, p, set, units);
         const auto plug = resolve(g, p);
         if (!plug) return countNotEvaluated(n, set.plug);
@@ -377,7 +388,8 @@ private:
             return;
         }
         if (spec.array && plug->index < 0) {
-            for (int e = 0; !r.done(); ++e) graph_->setValue(Plug{g, plug->attr, e, plug->child}, r.read(type, spec.unit));
+            for (int e = 0; !r.done(); ++e)
+                graph_->setValue(Plug{g, plug->attr, e, plug->child}, r.read(type, spec.unit));
             return;
         }
         graph_->setValue(*plug, r.read(type, spec.unit));
@@ -421,9 +433,9 @@ private:
             const int source = scene_.find(maya::splitPlug(c.source).first);
             if (handle < 0 || source < 0) continue;
             IkLinks& links = ik_[handle];
-            (attr == "hsj" || attr == "startJoint" ? links.startJoint : attr == "hsv" || attr == "ikSolver" ? links.solver
-                                                                                                          : links.effector) =
-                source;
+            (attr == "hsj" || attr == "startJoint" ? links.startJoint
+             : attr == "hsv" || attr == "ikSolver" ? links.solver
+                                                   : links.effector) = source;
             links.where = c.where;
         }
     }
@@ -476,7 +488,8 @@ private:
         int n = -1;
         try {
             n = scene_.find(name);
-        } catch (const Error&) {
+        }
+        catch (const Error&) {
             return false;  // reported in its turn
         }
         const NodeId g = graphNode(n);
@@ -495,7 +508,8 @@ private:
         try {
             src = scene_.find(srcName);
             dst = scene_.find(dstName);
-        } catch (const Error& e) {
+        }
+        catch (const Error& e) {
             fail(c.where, e.what());
         }
         if (dst < 0 || src < 0) {
@@ -531,7 +545,8 @@ private:
     bool atMayaDefault(int n, NodeId g, const AttrPath& p) const
     {
         static const std::set<std::string_view> pivots{"rp", "rotatePivot", "rpt", "rotatePivotTranslate",
-                                                       "sp", "scalePivot", "spt", "scalePivotTranslate", "sh", "shear"};
+                                                       "sp", "scalePivot",  "spt", "scalePivotTranslate",
+                                                       "sh", "shear"};
         if (graph_->nodeType(g).name() != "joint" || !pivots.count(p.name) || !p.child.empty()) return false;
         for (const maya::SetAttr& set : node(n).sets)
             if (splitAttr(set.plug).name == p.name) return false;
@@ -573,7 +588,8 @@ private:
             if (in == characterInputs_.end() || hops > 64) {
                 try {
                     setConverted(*dplug, *element);
-                } catch (const Error& e) {
+                }
+                catch (const Error& e) {
                     fail(c.where, e.what());
                 }
                 return;
@@ -590,20 +606,21 @@ private:
         bool identity = false;
         auto splug = dagSource(src, sp, identity);
         if (!splug && identity) return;  // a root's parent matrix: the identity, the destination's default
-        if (!splug && (sp.name == "pm" || sp.name == "pim" || sp.name == "parentMatrix" || sp.name == "parentInverseMatrix"))
+        if (!splug &&
+            (sp.name == "pm" || sp.name == "pim" || sp.name == "parentMatrix" || sp.name == "parentInverseMatrix"))
             return markUnevaluated(gd, node(src).parent, "its DAG parent is not evaluated", c.where);
         if (!splug) splug = resolve(gs, sp);
         if (!splug && atMayaDefault(src, gs, sp)) return;  // a joint's rotate pivot: zero, the destination's default
         if (!splug)
-            return markUnevaluated(gd, src,
-                                   fmt::format("{}.{} is not an attribute this reader evaluates", name(gs), srcAttr),
-                                   c.where);
+            return markUnevaluated(
+                gd, src, fmt::format("{}.{} is not an attribute this reader evaluates", name(gs), srcAttr), c.where);
         bool connected = false;
         try {
             if (const Connection* existing = graph_->incomingConnection(*dplug))
                 graph_->disconnect(existing->source, existing->destination);  // connectAttr -f replaces
             connected = connectOrFeed(*splug, *dplug);
-        } catch (const Error& e) {
+        }
+        catch (const Error& e) {
             fail(c.where, e.what());
         }
         if (!connected) fail(c.where, cycleError_);
@@ -617,7 +634,8 @@ private:
         try {
             graph_->connect(source, destination, false);
             return true;
-        } catch (const Error& e) {
+        }
+        catch (const Error& e) {
             cycleError_ = e.what();
             if (!graph_->spec(source).input || std::string_view(e.what()).find("cycle") == std::string_view::npos)
                 return false;
@@ -654,7 +672,8 @@ private:
             } else if (graph_->spec(*src).input && !graph_->incomingConnection(*dst)) {
                 graph_->setValue(*dst, graph_->getValue(*src));
             }
-        } catch (const Error& e) {
+        }
+        catch (const Error& e) {
             fail(c.where, e.what());
         }
         aliases_[{g, splitAttr(srcAttr).name}] = *dst;
@@ -678,7 +697,8 @@ private:
             if (wm < 0) continue;
             try {
                 graph_->connect(Plug{gp, wm, -1, -1}, Plug{g, pm, -1, -1}, false);
-            } catch (const Error& e) {
+            }
+            catch (const Error& e) {
                 fail(scene_.nodes[i].where, e.what());
             }
         }
@@ -739,8 +759,7 @@ void Builder::feed(const Plug& destination, const Plug& source)
         graph_->setValue(destination, Value(v));
         for (const auto& [from, c] : driven) {
             const Plug to{destination.node, destination.attr, destination.index, c};
-            if (!connectOrValue(from, to))
-                setConverted(to, Plug{source.node, source.attr, source.index, c});
+            if (!connectOrValue(from, to)) setConverted(to, Plug{source.node, source.attr, source.index, c});
         }
         return;
     }
@@ -754,7 +773,8 @@ bool Builder::connectOrValue(const Plug& from, const Plug& to)
     try {
         graph_->connect(from, to, false);
         return true;
-    } catch (const Error& e) {
+    }
+    catch (const Error& e) {
         if (std::string_view(e.what()).find("cycle") == std::string_view::npos) throw;
         return false;
     }
@@ -767,8 +787,8 @@ void Builder::setConverted(const Plug& destination, const Plug& source)
     const ValueType from = graph_->plugType(source), to = graph_->plugType(destination);
     if (from != to) {
         if (!canConvert(from, to))
-            throw Error(fmt::format("{} cannot take the value of {}", graph_->plugName(destination),
-                                    graph_->plugName(source)));
+            throw Error(
+                fmt::format("{} cannot take the value of {}", graph_->plugName(destination), graph_->plugName(source)));
         value = convertValue(value, from, to, 1.0);
     }
     graph_->setValue(destination, value);
@@ -804,7 +824,8 @@ void Builder::wireIk()
             fail(links.where, fmt::format("IK handle '{}': its start joint '{}' is not above its effector '{}'",
                                           node(handle).name, node(links.startJoint).name, node(links.effector).name));
         if (solverType == "ikSplineSolver" || h < 0) {
-            const std::string why = fmt::format("this reader does not evaluate {}", h < 0 ? node(handle).type : solverType);
+            const std::string why =
+                fmt::format("this reader does not evaluate {}", h < 0 ? node(handle).type : solverType);
             for (int j : chain) markUnevaluated(graphNode(j), h < 0 ? handle : links.solver, why, links.where);
             continue;
         }
@@ -812,15 +833,16 @@ void Builder::wireIk()
             for (const maya::SetAttr& set : node(j).sets)
                 if ((set.plug == "r" || set.plug == "rotate") && set.values.size() == 3) {
                     maya::ValueReader r(set.values, maya::Units{});
-                    info_.savedIkRotate[name(graphNode(j))] = std::get<Eigen::Vector3d>(r.read(ValueType::Vector3, Unit::None));
+                    info_.savedIkRotate[name(graphNode(j))] =
+                        std::get<Eigen::Vector3d>(r.read(ValueType::Vector3, Unit::None));
                 }
         }
         try {
             const AttrId type = findAttribute(h, "solverType");
-            if (type >= 0)
-                graph_->setValue(Plug{h, type, -1, -1}, solverType == "ikSCsolver" ? 1 : 0);
+            if (type >= 0) graph_->setValue(Plug{h, type, -1, -1}, solverType == "ikSCsolver" ? 1 : 0);
             wireChain(handle, chain, links.effector);
-        } catch (const Error& e) {
+        }
+        catch (const Error& e) {
             fail(links.where, fmt::format("IK handle '{}': {}", name(h), e.what()));
         }
     }
@@ -858,8 +880,10 @@ void Builder::wireChain(int handle, const std::vector<int>& chain, int effector)
         if (j < 0) throw Error(fmt::format("chain joint '{}' is not evaluated", node(chain[i]).name));
         const int e = static_cast<int>(i);
         for (const auto& [from, to] : {std::pair<const char*, const char*>{"translate", "jointTranslate"},
-                                       {"jointOrient", "jointOrient"}, {"rotateAxis", "jointRotateAxis"},
-                                       {"scale", "jointScale"}, {"rotate", "jointRotate"}})
+                                       {"jointOrient", "jointOrient"},
+                                       {"rotateAxis", "jointRotateAxis"},
+                                       {"scale", "jointScale"},
+                                       {"rotate", "jointRotate"}})
             feed(Plug{h, attr(h, to), e, -1}, Plug{j, attr(j, from), -1, -1});
         for (const auto& [from, to] : {std::pair<const char*, const char*>{"rotateOrder", "jointRotateOrder"},
                                        {"segmentScaleCompensate", "jointSegmentScaleCompensate"}})
@@ -919,8 +943,8 @@ void Builder::checkReachesNoJoint()
     }
     if (!first) return;
     const maya::Node& src = node(first->source);
-    fail(first->where, fmt::format("node '{}' ({}) drives joint '{}'; {}", src.name, src.type, name(firstJoint),
-                                   first->why));
+    fail(first->where,
+         fmt::format("node '{}' ({}) drives joint '{}'; {}", src.name, src.type, name(firstJoint), first->why));
 }
 
 void Builder::readSkins()
@@ -934,8 +958,10 @@ void Builder::readSkins()
         if (skin < 0 || node(skin).type != "skinCluster") continue;
         const int joint = scene_.find(maya::splitPlug(c.source).first);
         auto& s = skins[skin];
-        if (s.influences.size() <= static_cast<std::size_t>(p.first)) s.influences.resize(static_cast<std::size_t>(p.first) + 1);
-        if (joint >= 0 && graphNode(joint) >= 0) s.influences[static_cast<std::size_t>(p.first)] = name(graphNode(joint));
+        if (s.influences.size() <= static_cast<std::size_t>(p.first))
+            s.influences.resize(static_cast<std::size_t>(p.first) + 1);
+        if (joint >= 0 && graphNode(joint) >= 0)
+            s.influences[static_cast<std::size_t>(p.first)] = name(graphNode(joint));
     }
     for (auto& [skin, s] : skins) {
         s.name = node(skin).name;
@@ -946,8 +972,10 @@ void Builder::readSkins()
             if (static_cast<std::size_t>(p.first) >= s.bindPreMatrix.size()) continue;
             maya::ValueReader r(set.values, scene_.units[static_cast<std::size_t>(set.where.file)]);
             try {
-                s.bindPreMatrix[static_cast<std::size_t>(p.first)] = std::get<Eigen::Matrix4d>(r.read(ValueType::Matrix4, Unit::None));
-            } catch (const Error&) {
+                s.bindPreMatrix[static_cast<std::size_t>(p.first)] =
+                    std::get<Eigen::Matrix4d>(r.read(ValueType::Matrix4, Unit::None));
+            }
+            catch (const Error&) {
                 // a malformed bind matrix only loses this datum
             }
         }

@@ -35,17 +35,17 @@ struct MayaSceneInfo {
     std::map<std::string, Eigen::Vector3d> savedIkRotate;
     struct Skin {
         std::string name;
-        std::vector<std::string> influences;          // graph node names, by influence index (empty: not evaluated)
-        std::vector<Eigen::Matrix4d> bindPreMatrix;   // by influence index: the inverse of its world matrix at bind
+        std::vector<std::string> influences;         // graph node names, by influence index (empty: not evaluated)
+        std::vector<Eigen::Matrix4d> bindPreMatrix;  // by influence index: the inverse of its world matrix at bind
     };
     std::vector<Skin> skins;
-    std::vector<std::string> warnings;            // one line each (a missing reference)
-    std::map<std::string, int> skippedStatements;  // by command
-    std::map<std::string, int> notEvaluatedTypes;  // nodes kept out of the graph, by Maya type
+    std::vector<std::string> warnings;                  // one line each (a missing reference)
+    std::map<std::string, int> skippedStatements;       // by command
+    std::map<std::string, int> notEvaluatedTypes;       // nodes kept out of the graph, by Maya type
     std::map<std::string, int> notEvaluatedAttributes;  // "type.attribute" set or connected but not evaluated
     int vectorConversions = 0;  // unitConversion nodes between vectors, made multiplyDivide nodes
-    int nodes = 0;                                     // graph nodes made
-    int connections = 0;                               // graph connections made
+    int nodes = 0;              // graph nodes made
+    int connections = 0;        // graph connections made
 };
 
 // The --stats lines of a Maya scene: what was made, the nodes kept out of the graph by type, the statements skipped
@@ -57,8 +57,8 @@ bool isMayaAscii(std::string_view text);
 // Whether it is a Maya binary file (an IFF "FOR4"/"FOR8" header).
 bool isMayaBinary(std::string_view text);
 
-// Loads a Maya ASCII scene. Throws rig::Error "file:line:col: ..." for anything malformed or not evaluated that drives a
-// joint. `filesRead` receives the scene and every reference read.
+// Loads a Maya ASCII scene. Throws rig::Error "file:line:col: ..." for anything malformed or not evaluated that drives
+// a joint. `filesRead` receives the scene and every reference read.
 std::unique_ptr<Graph> loadMayaFile(const std::filesystem::path& file, std::shared_ptr<NodeRegistry> registry,
                                     std::vector<std::filesystem::path>* filesRead = nullptr,
                                     MayaSceneInfo* info = nullptr, const MayaLoadOptions& options = {});

@@ -114,9 +114,10 @@ private:
         if (!found) {
             std::string where;
             for (const auto& l : looked) where += (where.empty() ? "" : ", ") + l;
-            warnings_.push_back(fmt::format("{}: reference '{}' not found (looked for it and each end of its path "
-                                            "under {}); the scene is read without it; give --search-path DIR",
-                                            formatWhere(scene_, ref.where), ref.path, where));
+            warnings_.push_back(
+                fmt::format("{}: reference '{}' not found (looked for it and each end of its path "
+                            "under {}); the scene is read without it; give --search-path DIR",
+                            formatWhere(scene_, ref.where), ref.path, where));
             result_.missingNamespaces.push_back(ref.nameSpace);
             return;
         }
@@ -124,9 +125,10 @@ private:
         ancestry.push_back(canonical_[from]);
         for (const auto& a : ancestry)
             if (a == *found)
-                throw Error(fmt::format("{}: the reference '{}' loops back to a scene that references it; a scene "
-                                        "cannot contain itself",
-                                        formatWhere(scene_, ref.where), ref.path));
+                throw Error(
+                    fmt::format("{}: the reference '{}' loops back to a scene that references it; a scene "
+                                "cannot contain itself",
+                                formatWhere(scene_, ref.where), ref.path));
         if (scene_.files.size() >= maxReferences)
             throw Error(fmt::format("{}: more than {} references", formatWhere(scene_, ref.where), maxReferences));
         readOne(readText(*found), found->string(), ref.nameSpace);
@@ -167,10 +169,10 @@ private:
     Scene& scene_;
     const std::vector<std::filesystem::path>& searchPath_;
     std::vector<std::string>& warnings_;
-    std::vector<std::string> namespaces_;                          // by file
-    std::vector<std::vector<std::filesystem::path>> ancestry_;    // by file: the files that reference it
-    std::vector<std::filesystem::path> canonical_;                // by file
-    std::map<std::string, std::string> placeholders_;             // "|RN.placeHolderList[i]" -> plug
+    std::vector<std::string> namespaces_;                       // by file
+    std::vector<std::vector<std::filesystem::path>> ancestry_;  // by file: the files that reference it
+    std::vector<std::filesystem::path> canonical_;              // by file
+    std::map<std::string, std::string> placeholders_;           // "|RN.placeHolderList[i]" -> plug
     ReadResult result_;
 };
 
@@ -193,7 +195,8 @@ void SceneReader::setEdit(int file, const std::string& node, const std::string& 
         if (!w.quoted && (w.text == "-type" || w.text == "-s") && i + 1 < words.size()) {
             if (w.text == "-type") set.type = words[i + 1].text;
             ++i;
-        } else if (!w.quoted && w.text.size() > 1 && w.text[0] == '-' && std::isalpha(static_cast<unsigned char>(w.text[1]))) {
+        } else if (!w.quoted && w.text.size() > 1 && w.text[0] == '-' &&
+                   std::isalpha(static_cast<unsigned char>(w.text[1]))) {
             continue;  // -av, -k, -l: no value
         } else {
             set.values.push_back(w);
@@ -278,7 +281,8 @@ void SceneReader::applyEdits()
     for (Connection c : scene_.connections)
         if (substitute(c.source) && substitute(c.destination)) kept.push_back(std::move(c));
     for (const Connection& d : scene_.disconnections)
-        std::erase_if(kept, [&](const Connection& c) { return c.source == d.source && c.destination == d.destination; });
+        std::erase_if(kept,
+                      [&](const Connection& c) { return c.source == d.source && c.destination == d.destination; });
     scene_.connections = std::move(kept);
 }
 

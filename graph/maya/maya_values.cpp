@@ -88,11 +88,12 @@ std::optional<TypeOf> attributeType(const AddAttr& add)
     const std::string& t = add.attributeType.empty() ? add.dataType : add.attributeType;
     if (t == "double" || t == "float" || t == "doubleLinear" || t == "doubleAngle" || t == "time" ||
         t == "floatLinear" || t == "floatAngle")
-        return TypeOf{ValueType::Double, t.ends_with("Linear") ? Unit::Distance
+        return TypeOf{ValueType::Double, t.ends_with("Linear")  ? Unit::Distance
                                          : t.ends_with("Angle") ? Unit::Angle
                                          : t == "time"          ? Unit::Time
                                                                 : Unit::None};
-    if (t == "long" || t == "short" || t == "byte" || t == "char" || t == "int") return TypeOf{ValueType::Int, Unit::None};
+    if (t == "long" || t == "short" || t == "byte" || t == "char" || t == "int")
+        return TypeOf{ValueType::Int, Unit::None};
     if (t == "bool") return TypeOf{ValueType::Bool, Unit::None};
     if (t == "enum") return TypeOf{ValueType::Enum, Unit::None};
     if (t == "double3" || t == "float3") return TypeOf{ValueType::Vector3, Unit::None};

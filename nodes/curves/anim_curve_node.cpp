@@ -174,9 +174,10 @@ private:
         const double y = at + 1 < k.vectors.size() ? k.vectors[at + 1] : notGiven;
         if (x == notGiven) return {type, TangentVector{}};  // a fixed type without a vector is flat
         if (x < 0.0)
-            throw Error(fmt::format("node '{}': keyTangentVectors[{}] = {}, key {}'s {}-tangent x, is negative; a "
-                                    "fixed tangent's x is > 0 (0: not fixed)",
-                                    c.nodeName(), at, x, i, in ? "in" : "out"));
+            throw Error(
+                fmt::format("node '{}': keyTangentVectors[{}] = {}, key {}'s {}-tangent x, is negative; a "
+                            "fixed tangent's x is > 0 (0: not fixed)",
+                            c.nodeName(), at, x, i, in ? "in" : "out"));
         // Maya's tangent x is in seconds on a time-driven curve; keys are in frames.
         return {TangentType::fixed, TangentVector{x * (timeDriven() ? k.framesPerSecond : 1.0), y}};
     }
@@ -314,9 +315,10 @@ TangentType mayaTangent(const std::string& word, const char* what)
     for (const MayaTangentCode& entry : mayaTangentCodes) {
         if (entry.code != code) continue;
         if (entry.type) return *entry.type;
-        throw Error(fmt::format("{}: tangent type {} ({}) is not evaluated by this reader; set the keys' tangents "
-                                "to fixed, linear, flat, step, stepnext, spline, clamped, plateau or auto in Maya",
-                                what, code, entry.name));
+        throw Error(
+            fmt::format("{}: tangent type {} ({}) is not evaluated by this reader; set the keys' tangents "
+                        "to fixed, linear, flat, step, stepnext, spline, clamped, plateau or auto in Maya",
+                        what, code, entry.name));
     }
     throw Error(fmt::format("{}: {} is not one of Maya's tangent type codes", what, code));
 }
@@ -413,9 +415,10 @@ MayaValues mayaInfinity(const MayaFieldInput& in, AttrId a, const char* what)
     const int code = mayaInteger(in.words[0], what);
     for (const auto& [entry, mode] : mayaInfinityCodes)
         if (entry == code) return {{a, static_cast<int>(mode)}};
-    throw Error(fmt::format("{}: {} is not one of Maya's infinity codes (0 constant, 1 linear, 3 cycle, 4 "
-                            "cycleRelative, 5 oscillate)",
-                            what, code));
+    throw Error(
+        fmt::format("{}: {} is not one of Maya's infinity codes (0 constant, 1 linear, 3 cycle, 4 "
+                    "cycleRelative, 5 oscillate)",
+                    what, code));
 }
 
 void addMayaFields(NodeTypeBuilder& b, Unit outUnit)
@@ -433,8 +436,7 @@ void addMayaFields(NodeTypeBuilder& b, Unit outUnit)
     });
     // Our preInfinity and postInfinity number the modes 0 to 4; Maya's codes skip 2.
     b.mayaField("preInfinity", "pre", [](const MayaFieldInput& in) { return mayaInfinity(in, preInfinity, ".pre"); });
-    b.mayaField("postInfinity", "pst",
-                [](const MayaFieldInput& in) { return mayaInfinity(in, postInfinity, ".pst"); });
+    b.mayaField("postInfinity", "pst", [](const MayaFieldInput& in) { return mayaInfinity(in, postInfinity, ".pst"); });
     // Editing state that does not change the curve's values: tangent and weight locks, breakdown keys, the graph
     // editor's drawing. Read and dropped, so that a scene's statistics do not count them as unknown.
     const auto ignored = [](const MayaFieldInput&) { return MayaValues{}; };
@@ -486,7 +488,9 @@ std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
         "as Maya stores them: x in {}, y in the output's internal units ({}). A key whose x is > 0 here has a "
         "fixed tangent on that side, whatever its type index; 0 or no element: none.",
         timeDriven ? "seconds (framesPerSecond turns it into frames)" : "the driver's units",
-        outUnit == Unit::Angle ? "radians" : outUnit == Unit::Distance ? "cm" : "as keyValue");
+        outUnit == Unit::Angle      ? "radians"
+        : outUnit == Unit::Distance ? "cm"
+                                    : "as keyValue");
     b.input(keyTangentVectors, "keyTangentVectors", ValueType::DoubleArray)
         .doc("Fixed tangents' vectors, four numbers a key (in x, in y, out x, out y), " + vectorDoc);
     b.input(weightedTangents, "weightedTangents", ValueType::Bool)

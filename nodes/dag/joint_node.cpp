@@ -58,7 +58,10 @@ std::shared_ptr<const NodeType> makeJointType()
         .keyable()
         .doc("Offset from the parent, cm.");
     b.input(rotate, "rotate", ValueType::Vector3)
-        .shortName("r").unit(Unit::Angle).keyable().doc("Euler angles, degrees in files.");
+        .shortName("r")
+        .unit(Unit::Angle)
+        .keyable()
+        .doc("Euler angles, degrees in files.");
     b.input(rotateOrder, "rotateOrder", ValueType::Enum)
         .shortName("ro")
         .enumNames(rotateOrderEnumNames())
@@ -72,7 +75,10 @@ std::shared_ptr<const NodeType> makeJointType()
         .unit(Unit::Angle)
         .doc("Orientation of the rotation axes (xyz order), applied before rotate.");
     b.input(scale, "scale", ValueType::Vector3)
-        .shortName("s").defaultValue(Eigen::Vector3d(1, 1, 1)).keyable().doc("Scale factors.");
+        .shortName("s")
+        .defaultValue(Eigen::Vector3d(1, 1, 1))
+        .keyable()
+        .doc("Scale factors.");
     b.input(inverseScale, "inverseScale", ValueType::Vector3)
         .shortName("is")
         .defaultValue(Eigen::Vector3d(1, 1, 1))
@@ -82,13 +88,13 @@ std::shared_ptr<const NodeType> makeJointType()
         .defaultValue(true)
         .doc("Keep the parent's scale from reaching this joint.");
     b.input(parentMatrix, "parentMatrix", ValueType::Matrix4)
-        .shortName("pm").doc("World matrix of the parent (identity at the root).");
-    b.output(matrix, "matrix", ValueType::Matrix4)
-        .shortName("m").doc("Local matrix.");
-    b.output(worldMatrix, "worldMatrix", ValueType::Matrix4)
-        .shortName("wm").doc("parentMatrix * matrix.");
+        .shortName("pm")
+        .doc("World matrix of the parent (identity at the root).");
+    b.output(matrix, "matrix", ValueType::Matrix4).shortName("m").doc("Local matrix.");
+    b.output(worldMatrix, "worldMatrix", ValueType::Matrix4).shortName("wm").doc("parentMatrix * matrix.");
     b.output(worldInverseMatrix, "worldInverseMatrix", ValueType::Matrix4)
-        .shortName("wim").doc("Inverse of worldMatrix.");
+        .shortName("wim")
+        .doc("Inverse of worldMatrix.");
     for (AttrId in = translate; in < parentMatrix; ++in) b.affects(in, {matrix, worldMatrix, worldInverseMatrix});
     b.affects(parentMatrix, {worldMatrix, worldInverseMatrix});
     return b.factory<JointNode>().build();

@@ -254,7 +254,8 @@ BendFamily fallbackFamily(const Chain& chain, const Pose& pose)
     BendFamily f = bendFamily(preferredPose);
     const std::size_t n = pose.position.size();
     const Eigen::Vector3d along = pose.effector - pose.position[0];
-    const Eigen::Vector3d direction = along.norm() > 0.0 ? Eigen::Vector3d(along.normalized()) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d direction =
+        along.norm() > 0.0 ? Eigen::Vector3d(along.normalized()) : Eigen::Vector3d::Zero();
     for (std::size_t i = 1; i < n; ++i) {
         if (f.bent) {
             // The preferred pose's axis, carried from the frame joint i turns in there into the reference's.
@@ -328,7 +329,8 @@ std::vector<Eigen::Matrix3d> solve(const Chain& chain, const Goal& goal)
         // Straight (no bend axis anywhere): only a goal nearer than the chain's length needs one.
         if (!f.bent && distance < (pose.effector - pose.position[0]).norm() * (1.0 - 1e-12))
             f = fallbackFamily(chain, pose);
-        if (f.bent) bends = bendTurns(pose, f, n == 2 ? twoBoneScale(pose, f, distance) : chainScale(pose, f, distance));
+        if (f.bent)
+            bends = bendTurns(pose, f, n == 2 ? twoBoneScale(pose, f, distance) : chainScale(pose, f, distance));
     }
     bends[0].rotation = startTurn(pose, bends, goal);
     std::vector<Eigen::Matrix3d> out;
@@ -437,27 +439,51 @@ public:
 void declareTransform(NodeTypeBuilder& b)
 {
     b.input(Translate, "translate", ValueType::Vector3)
-        .shortName("t").unit(Unit::Distance).keyable().doc("The handle's translation, cm (moves the goal).");
+        .shortName("t")
+        .unit(Unit::Distance)
+        .keyable()
+        .doc("The handle's translation, cm (moves the goal).");
     b.input(Rotate, "rotate", ValueType::Vector3)
-        .shortName("r").unit(Unit::Angle).keyable().doc("The handle's rotation (no effect on the solve).");
+        .shortName("r")
+        .unit(Unit::Angle)
+        .keyable()
+        .doc("The handle's rotation (no effect on the solve).");
     b.input(RotateOrderAttr, "rotateOrder", ValueType::Enum)
-        .shortName("ro").enumNames(rotateOrderEnumNames()).doc("The order of the handle's rotate angles.");
+        .shortName("ro")
+        .enumNames(rotateOrderEnumNames())
+        .doc("The order of the handle's rotate angles.");
     b.input(Scale, "scale", ValueType::Vector3)
-        .shortName("s").defaultValue(Eigen::Vector3d(1, 1, 1)).keyable().doc("The handle's scale.");
+        .shortName("s")
+        .defaultValue(Eigen::Vector3d(1, 1, 1))
+        .keyable()
+        .doc("The handle's scale.");
     b.input(Shear, "shear", ValueType::Vector3)
-        .shortName("sh").children("shearXY", "shearXZ", "shearYZ").doc("The handle's shear xy, xz, yz.");
+        .shortName("sh")
+        .children("shearXY", "shearXZ", "shearYZ")
+        .doc("The handle's shear xy, xz, yz.");
     b.input(RotatePivot, "rotatePivot", ValueType::Vector3)
-        .shortName("rp").unit(Unit::Distance).doc("The handle's rotate pivot, cm: with translate, the goal.");
+        .shortName("rp")
+        .unit(Unit::Distance)
+        .doc("The handle's rotate pivot, cm: with translate, the goal.");
     b.input(RotatePivotTranslate, "rotatePivotTranslate", ValueType::Vector3)
-        .shortName("rpt").unit(Unit::Distance).doc("Offset of the rotate pivot, cm (moves the goal).");
+        .shortName("rpt")
+        .unit(Unit::Distance)
+        .doc("Offset of the rotate pivot, cm (moves the goal).");
     b.input(ScalePivot, "scalePivot", ValueType::Vector3)
-        .shortName("sp").unit(Unit::Distance).doc("The handle's scale pivot, cm.");
+        .shortName("sp")
+        .unit(Unit::Distance)
+        .doc("The handle's scale pivot, cm.");
     b.input(ScalePivotTranslate, "scalePivotTranslate", ValueType::Vector3)
-        .shortName("spt").unit(Unit::Distance).doc("Offset of the scale pivot, cm.");
+        .shortName("spt")
+        .unit(Unit::Distance)
+        .doc("Offset of the scale pivot, cm.");
     b.input(RotateAxis, "rotateAxis", ValueType::Vector3)
-        .shortName("ra").unit(Unit::Angle).doc("The handle's rotate axis (xyz).");
+        .shortName("ra")
+        .unit(Unit::Angle)
+        .doc("The handle's rotate axis (xyz).");
     b.input(ParentMatrix, "parentMatrix", ValueType::Matrix4)
-        .shortName("pm").doc("World matrix of the handle's parent (identity at the root): the goal's and pole's space.");
+        .shortName("pm")
+        .doc("World matrix of the handle's parent (identity at the root): the goal's and pole's space.");
 }
 
 void declareHandle(NodeTypeBuilder& b)
@@ -471,7 +497,10 @@ void declareHandle(NodeTypeBuilder& b)
             "parent space (a poleVectorConstraint's constraintTranslate); only its direction matters. Zero or "
             "parallel to start->goal: the chain's plane turns with the smallest rotation.");
     b.input(Twist, "twist", ValueType::Double)
-        .shortName("twi").unit(Unit::Angle).keyable().doc("ikRPsolver: the chain's plane turned about start->goal.");
+        .shortName("twi")
+        .unit(Unit::Angle)
+        .keyable()
+        .doc("ikRPsolver: the chain's plane turned about start->goal.");
     b.input(IkBlend, "ikBlend", ValueType::Double)
         .shortName("ikb")
         .defaultValue(1.0)
@@ -479,9 +508,13 @@ void declareHandle(NodeTypeBuilder& b)
         .keyable()
         .doc("1: the IK solve; 0: the FK rotates (jointRotate); between: each joint slerped from FK to IK.");
     b.input(Roll, "roll", ValueType::Double)
-        .shortName("rol").unit(Unit::Angle).keyable().doc("Maya's spline-IK roll: read, no effect on RP and SC.");
+        .shortName("rol")
+        .unit(Unit::Angle)
+        .keyable()
+        .doc("Maya's spline-IK roll: read, no effect on RP and SC.");
     b.input(Offset, "offset", ValueType::Double)
-        .shortName("off").doc("Maya's spline-IK offset along the curve: read, no effect on RP and SC.");
+        .shortName("off")
+        .doc("Maya's spline-IK offset along the curve: read, no effect on RP and SC.");
     b.input(SolverType, "solverType", ValueType::Enum)
         .enumNames({"ikRPsolver", "ikSCsolver"})
         .doc("The solver (Maya's .hsv connection): rotate plane (pole vector, twist) or single chain.");
@@ -495,21 +528,33 @@ void declareChain(NodeTypeBuilder& b)
         .defaultValue(Eigen::Vector3d(1, 1, 1))
         .doc("The start joint's inverseScale (its parent's scale, undone with segmentScaleCompensate).");
     b.input(JointTranslate, "jointTranslate", ValueType::Vector3)
-        .array().unit(Unit::Distance).doc("Chain joint i's translate, cm; i = 0 the start joint. Its count is the chain's.");
+        .array()
+        .unit(Unit::Distance)
+        .doc("Chain joint i's translate, cm; i = 0 the start joint. Its count is the chain's.");
     b.input(JointRotate, "jointRotate", ValueType::Vector3)
         .array()
         .unit(Unit::Angle)
         .doc("Chain joint i's rotate as saved or as FK drives it: the pose the solve starts from, and ikBlend's FK.");
     b.input(JointOrient, "jointOrient", ValueType::Vector3)
-        .array().unit(Unit::Angle).doc("Chain joint i's jointOrient (xyz).");
+        .array()
+        .unit(Unit::Angle)
+        .doc("Chain joint i's jointOrient (xyz).");
     b.input(JointRotateAxis, "jointRotateAxis", ValueType::Vector3)
-        .array().unit(Unit::Angle).doc("Chain joint i's rotateAxis (xyz).");
+        .array()
+        .unit(Unit::Angle)
+        .doc("Chain joint i's rotateAxis (xyz).");
     b.input(JointRotateOrder, "jointRotateOrder", ValueType::Enum)
-        .array().enumNames(rotateOrderEnumNames()).doc("Chain joint i's rotateOrder: the order of outRotate[i].");
+        .array()
+        .enumNames(rotateOrderEnumNames())
+        .doc("Chain joint i's rotateOrder: the order of outRotate[i].");
     b.input(JointScale, "jointScale", ValueType::Vector3)
-        .array().defaultValue(Eigen::Vector3d(1, 1, 1)).doc("Chain joint i's scale.");
+        .array()
+        .defaultValue(Eigen::Vector3d(1, 1, 1))
+        .doc("Chain joint i's scale.");
     b.input(JointSegmentScaleCompensate, "jointSegmentScaleCompensate", ValueType::Bool)
-        .array().defaultValue(true).doc("Chain joint i's segmentScaleCompensate (its inverseScale: joint i-1's scale).");
+        .array()
+        .defaultValue(true)
+        .doc("Chain joint i's segmentScaleCompensate (its inverseScale: joint i-1's scale).");
     b.input(JointPreferredAngle, "jointPreferredAngle", ValueType::Vector3)
         .array()
         .unit(Unit::Angle)
@@ -539,7 +584,8 @@ std::shared_ptr<const NodeType> makeMayaIkHandleType()
     b.output(Matrix, "matrix", ValueType::Matrix4).shortName("m").doc("The handle's local matrix.");
     b.output(WorldMatrix, "worldMatrix", ValueType::Matrix4).shortName("wm").doc("parentMatrix * matrix.");
     b.output(WorldInverseMatrix, "worldInverseMatrix", ValueType::Matrix4)
-        .shortName("wim").doc("Inverse of worldMatrix.");
+        .shortName("wim")
+        .doc("Inverse of worldMatrix.");
     b.output(OutRotate, "outRotate", ValueType::Vector3)
         .array()
         .unit(Unit::Angle)

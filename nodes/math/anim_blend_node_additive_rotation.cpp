@@ -28,8 +28,8 @@ public:
         // By layer: each layer's whole rotation, scaled by its weight along its shorter arc, applied after the
         // layers below it (as the first-applied axis of an Euler order, the lower layer is the inner rotation).
         const auto order = rotateOrderFromIndex(context.getEnum(RotateOrder_)).value_or(RotateOrder::xyz);
-        const Eigen::Quaterniond q = scaledRotation(eulerQuaternion(b, order), wb) *
-                                     scaledRotation(eulerQuaternion(a, order), wa);
+        const Eigen::Quaterniond q =
+            scaledRotation(eulerQuaternion(b, order), wb) * scaledRotation(eulerQuaternion(a, order), wa);
         context.setOutput(Output, quaternionEuler(q, order, sum));
     }
 };
@@ -64,8 +64,9 @@ std::shared_ptr<const NodeType> makeAnimBlendNodeAdditiveRotationType()
     b.input(AccumulationMode, "accumulationMode", ValueType::Enum)
         .shortName("acm")
         .enumNames({"byComponent", "byLayer"})
-        .doc("byComponent sums Euler angles; byLayer composes rotations. Connected from the layer's "
-             "outRotationAccumulationMode.");
+        .doc(
+            "byComponent sums Euler angles; byLayer composes rotations. Connected from the layer's "
+            "outRotationAccumulationMode.");
     b.input(RotateOrder_, "rotateOrder", ValueType::Enum)
         .shortName("ro")
         .enumNames(rotateOrderEnumNames())

@@ -20,8 +20,8 @@ public:
         const double b = context.getDouble(InputB);
         const double wa = context.getDouble(WeightA);
         const double wb = context.getDouble(WeightB);
-        const double out = context.getEnum(AccumulationMode) == Additive ? a * wa + b * wb
-                                                                         : std::pow(a, wa) * std::pow(b, wb);
+        const double out =
+            context.getEnum(AccumulationMode) == Additive ? a * wa + b * wb : std::pow(a, wa) * std::pow(b, wb);
         // A negative scale raised to a fractional weight (or 0 to a negative one) has no value: 0, never NaN.
         context.setOutput(Output, std::isfinite(out) ? out : 0.0);
     }
@@ -48,8 +48,9 @@ std::shared_ptr<const NodeType> makeAnimBlendNodeAdditiveScaleType()
     b.input(AccumulationMode, "accumulationMode", ValueType::Enum)
         .shortName("acm")
         .enumNames({"multiply", "additive"})
-        .doc("multiply: scales multiply (weights are exponents); additive: weighted sum. Connected from the "
-             "layer's scaleAccumulationMode.");
+        .doc(
+            "multiply: scales multiply (weights are exponents); additive: weighted sum. Connected from the "
+            "layer's scaleAccumulationMode.");
     b.output(Output, "output", ValueType::Double).shortName("o").doc("The accumulated scale.");
     for (AttrId in : {InputA, InputB, WeightA, WeightB, AccumulationMode}) b.affects(in, {Output});
     b.factory<AnimBlendNodeAdditiveScaleNode>();

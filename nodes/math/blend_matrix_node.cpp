@@ -75,8 +75,12 @@ public:
 
 AttributeBuilder targetInput(NodeTypeBuilder& b, AttrId id, const char* name, const char* shortName)
 {
-    return b.input(id, name, ValueType::Double).array().defaultValue(1.0).keyable().shortName(shortName).mayaCompound(
-        "target", "tgt");
+    return b.input(id, name, ValueType::Double)
+        .array()
+        .defaultValue(1.0)
+        .keyable()
+        .shortName(shortName)
+        .mayaCompound("target", "tgt");
 }
 
 }  // namespace
@@ -107,8 +111,8 @@ std::shared_ptr<const NodeType> makeBlendMatrixType()
     targetInput(b, ScaleWeight, "scaleWeight", "sw").doc("How much of target i's scale, 1 when absent.");
     targetInput(b, ShearWeight, "shearWeight", "shw").doc("How much of target i's shear, 1 when absent.");
     b.output(OutputMatrix, "outputMatrix", ValueType::Matrix4).shortName("omat").doc("The blended matrix.");
-    for (AttrId in : {InputMatrix, Envelope, TargetMatrix, TargetWeight, TranslateWeight, RotateWeight, ScaleWeight,
-                      ShearWeight})
+    for (AttrId in :
+         {InputMatrix, Envelope, TargetMatrix, TargetWeight, TranslateWeight, RotateWeight, ScaleWeight, ShearWeight})
         b.affects(in, {OutputMatrix});
     b.factory<BlendMatrixNode>();
     return b.build();

@@ -35,7 +35,10 @@ std::shared_ptr<const NodeType> makeBlendTwoAttrType()
         .shortName("ab")
         .keyable()
         .doc("The blend weight: 0 gives input[0], 1 gives input[1]; values outside 0..1 extrapolate.");
-    b.input(Input, "input", ValueType::Double).shortName("i").array().doc("The two values blended, input[0] and input[1].");
+    b.input(Input, "input", ValueType::Double)
+        .shortName("i")
+        .array()
+        .doc("The two values blended, input[0] and input[1].");
     b.output(Output, "output", ValueType::Double).shortName("o").doc("The blended value.");
     b.affects(AttributesBlender, {Output}).affects(Input, {Output});
     b.factory<BlendTwoAttrNode>();

@@ -87,9 +87,18 @@ std::shared_ptr<const NodeType> makeComposeMatrixType()
         .shortName("uer")
         .defaultValue(true)
         .doc("On: rotation from inputRotate; off: from the quaternion inputQuatX..W.");
-    b.input(InputQuatX, "inputQuatX", ValueType::Double).shortName("iqx").keyable().doc("Quaternion rotation, x (imaginary i) part.");
-    b.input(InputQuatY, "inputQuatY", ValueType::Double).shortName("iqy").keyable().doc("Quaternion rotation, y (imaginary j) part.");
-    b.input(InputQuatZ, "inputQuatZ", ValueType::Double).shortName("iqz").keyable().doc("Quaternion rotation, z (imaginary k) part.");
+    b.input(InputQuatX, "inputQuatX", ValueType::Double)
+        .shortName("iqx")
+        .keyable()
+        .doc("Quaternion rotation, x (imaginary i) part.");
+    b.input(InputQuatY, "inputQuatY", ValueType::Double)
+        .shortName("iqy")
+        .keyable()
+        .doc("Quaternion rotation, y (imaginary j) part.");
+    b.input(InputQuatZ, "inputQuatZ", ValueType::Double)
+        .shortName("iqz")
+        .keyable()
+        .doc("Quaternion rotation, z (imaginary k) part.");
     b.input(InputQuatW, "inputQuatW", ValueType::Double)
         .shortName("iqw")
         .defaultValue(1.0)
@@ -97,7 +106,9 @@ std::shared_ptr<const NodeType> makeComposeMatrixType()
         .doc(
             "Quaternion rotation, w (real) part. The quaternion is normalized before use; all four zero gives "
             "no rotation. Used when useEulerRotation is off.");
-    b.output(OutputMatrix, "outputMatrix", ValueType::Matrix4).shortName("omat").doc("T * R * SH * S (column vectors).");
+    b.output(OutputMatrix, "outputMatrix", ValueType::Matrix4)
+        .shortName("omat")
+        .doc("T * R * SH * S (column vectors).");
     for (AttrId in : {InputTranslate, InputRotate, InputScale, InputShear, InputRotateOrder, UseEulerRotation,
                       InputQuatX, InputQuatY, InputQuatZ, InputQuatW})
         b.affects(in, {OutputMatrix});

@@ -51,8 +51,14 @@ std::shared_ptr<const NodeType> makeConditionType()
         .doc(
             "The comparison: firstTerm == (equal), != (notEqual), > (greaterThan), >= (greaterOrEqual), "
             "< (lessThan) or <= (lessOrEqual) secondTerm.");
-    b.input(FirstTerm, "firstTerm", ValueType::Double).shortName("ft").keyable().doc("The left side of the comparison.");
-    b.input(SecondTerm, "secondTerm", ValueType::Double).shortName("st").keyable().doc("The right side of the comparison.");
+    b.input(FirstTerm, "firstTerm", ValueType::Double)
+        .shortName("ft")
+        .keyable()
+        .doc("The left side of the comparison.");
+    b.input(SecondTerm, "secondTerm", ValueType::Double)
+        .shortName("st")
+        .keyable()
+        .doc("The right side of the comparison.");
     b.input(ColorIfTrue, "colorIfTrue", ValueType::Vector3)
         .shortName("ct")
         .children("colorIfTrueR", "colorIfTrueG", "colorIfTrueB")

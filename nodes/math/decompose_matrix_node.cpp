@@ -70,10 +70,18 @@ std::shared_ptr<const NodeType> makeDecomposeMatrixType()
     b.output(OutputShear, "outputShear", ValueType::Vector3)
         .shortName("osh")
         .doc("Shear (outputShearX = xy, outputShearY = xz, outputShearZ = yz), as composeMatrix's inputShear.");
-    b.output(OutputQuatX, "outputQuatX", ValueType::Double).shortName("oqx").doc("The rotation as a unit quaternion, x part.");
-    b.output(OutputQuatY, "outputQuatY", ValueType::Double).shortName("oqy").doc("The rotation as a unit quaternion, y part.");
-    b.output(OutputQuatZ, "outputQuatZ", ValueType::Double).shortName("oqz").doc("The rotation as a unit quaternion, z part.");
-    b.output(OutputQuatW, "outputQuatW", ValueType::Double).shortName("oqw").doc("The rotation as a unit quaternion, w (real) part.");
+    b.output(OutputQuatX, "outputQuatX", ValueType::Double)
+        .shortName("oqx")
+        .doc("The rotation as a unit quaternion, x part.");
+    b.output(OutputQuatY, "outputQuatY", ValueType::Double)
+        .shortName("oqy")
+        .doc("The rotation as a unit quaternion, y part.");
+    b.output(OutputQuatZ, "outputQuatZ", ValueType::Double)
+        .shortName("oqz")
+        .doc("The rotation as a unit quaternion, z part.");
+    b.output(OutputQuatW, "outputQuatW", ValueType::Double)
+        .shortName("oqw")
+        .doc("The rotation as a unit quaternion, w (real) part.");
     b.affects(InputMatrix, {OutputTranslate, OutputRotate, OutputScale, OutputShear, OutputQuatX, OutputQuatY,
                             OutputQuatZ, OutputQuatW});
     b.affects(InputRotateOrder, {OutputRotate});

@@ -45,7 +45,8 @@ std::shared_ptr<const NodeType> makeEulerToQuatType()
     b.output(OutputQuatY, "outputQuatY", ValueType::Double).shortName("oqy").doc("The quaternion's y part.");
     b.output(OutputQuatZ, "outputQuatZ", ValueType::Double).shortName("oqz").doc("The quaternion's z part.");
     b.output(OutputQuatW, "outputQuatW", ValueType::Double).shortName("oqw").doc("The quaternion's w (real) part.");
-    for (AttrId in : {InputRotate, InputRotateOrder}) b.affects(in, {OutputQuatX, OutputQuatY, OutputQuatZ, OutputQuatW});
+    for (AttrId in : {InputRotate, InputRotateOrder})
+        b.affects(in, {OutputQuatX, OutputQuatY, OutputQuatZ, OutputQuatW});
     b.factory<EulerToQuatNode>();
     return b.build();
 }

@@ -24,9 +24,9 @@ struct Function {
 
 // The functions read, by index (Instruction::index of a call).
 constexpr std::array<Function, 19> functions{{
-    {"abs", 1},   {"ceil", 1},  {"floor", 1},      {"sqrt", 1},       {"exp", 1}, {"log", 1},   {"pow", 2},
-    {"sin", 1},   {"cos", 1},   {"tan", 1},        {"asin", 1},       {"acos", 1}, {"atan", 1}, {"atan2", 2},
-    {"min", 2},   {"max", 2},   {"clamp", 3},      {"deg_to_rad", 1}, {"rad_to_deg", 1},
+    {"abs", 1}, {"ceil", 1}, {"floor", 1}, {"sqrt", 1},       {"exp", 1},        {"log", 1},  {"pow", 2},
+    {"sin", 1}, {"cos", 1},  {"tan", 1},   {"asin", 1},       {"acos", 1},       {"atan", 1}, {"atan2", 2},
+    {"min", 2}, {"max", 2},  {"clamp", 3}, {"deg_to_rad", 1}, {"rad_to_deg", 1},
 }};
 // Not in the table: sign, read as its own function below to keep the table's indices contiguous.
 constexpr int signFunction = static_cast<int>(functions.size());
@@ -35,27 +35,48 @@ double callFunction(int index, const double* a)
 {
     constexpr double degreesPerRadian = 180.0 / std::numbers::pi;
     switch (index) {
-        case 0: return std::abs(a[0]);
-        case 1: return std::ceil(a[0]);
-        case 2: return std::floor(a[0]);
-        case 3: return std::sqrt(a[0]);
-        case 4: return std::exp(a[0]);
-        case 5: return std::log(a[0]);
-        case 6: return std::pow(a[0], a[1]);
-        case 7: return std::sin(a[0]);
-        case 8: return std::cos(a[0]);
-        case 9: return std::tan(a[0]);
-        case 10: return std::asin(a[0]);
-        case 11: return std::acos(a[0]);
-        case 12: return std::atan(a[0]);
-        case 13: return std::atan2(a[0], a[1]);
-        case 14: return std::min(a[0], a[1]);
-        case 15: return std::max(a[0], a[1]);
-        case 16: return std::min(std::max(a[2], a[0]), a[1]);  // Maya's clamp(low, high, value)
-        case 17: return a[0] / degreesPerRadian;
-        case 18: return a[0] * degreesPerRadian;
-        case signFunction: return a[0] > 0.0 ? 1.0 : a[0] < 0.0 ? -1.0 : 0.0;
-        default: return 0.0;  // unreachable: the parser emits known indices only
+        case 0:
+            return std::abs(a[0]);
+        case 1:
+            return std::ceil(a[0]);
+        case 2:
+            return std::floor(a[0]);
+        case 3:
+            return std::sqrt(a[0]);
+        case 4:
+            return std::exp(a[0]);
+        case 5:
+            return std::log(a[0]);
+        case 6:
+            return std::pow(a[0], a[1]);
+        case 7:
+            return std::sin(a[0]);
+        case 8:
+            return std::cos(a[0]);
+        case 9:
+            return std::tan(a[0]);
+        case 10:
+            return std::asin(a[0]);
+        case 11:
+            return std::acos(a[0]);
+        case 12:
+            return std::atan(a[0]);
+        case 13:
+            return std::atan2(a[0], a[1]);
+        case 14:
+            return std::min(a[0], a[1]);
+        case 15:
+            return std::max(a[0], a[1]);
+        case 16:
+            return std::min(std::max(a[2], a[0]), a[1]);  // Maya's clamp(low, high, value)
+        case 17:
+            return a[0] / degreesPerRadian;
+        case 18:
+            return a[0] * degreesPerRadian;
+        case signFunction:
+            return a[0] > 0.0 ? 1.0 : a[0] < 0.0 ? -1.0 : 0.0;
+        default:
+            return 0.0;  // unreachable: the parser emits known indices only
     }
 }
 
@@ -73,13 +94,20 @@ struct Token {
 std::string describeName(const std::string& name)
 {
     static const std::map<std::string, std::string, std::less<>> known{
-        {"if", "a conditional ('if')"},        {"else", "a conditional ('else')"},
-        {"for", "a loop ('for')"},             {"while", "a loop ('while')"},
-        {"do", "a loop ('do')"},               {"switch", "a conditional ('switch')"},
-        {"int", "an int variable"},            {"string", "a string variable"},
-        {"vector", "a vector variable"},       {"matrix", "a matrix variable"},
-        {"getAttr", "the MEL command getAttr"}, {"setAttr", "the MEL command setAttr"},
-        {"return", "'return'"},                {"global", "a global variable"},
+        {"if", "a conditional ('if')"},
+        {"else", "a conditional ('else')"},
+        {"for", "a loop ('for')"},
+        {"while", "a loop ('while')"},
+        {"do", "a loop ('do')"},
+        {"switch", "a conditional ('switch')"},
+        {"int", "an int variable"},
+        {"string", "a string variable"},
+        {"vector", "a vector variable"},
+        {"matrix", "a matrix variable"},
+        {"getAttr", "the MEL command getAttr"},
+        {"setAttr", "the MEL command setAttr"},
+        {"return", "'return'"},
+        {"global", "a global variable"},
         {"proc", "a MEL procedure ('proc')"},
     };
     if (const auto it = known.find(name); it != known.end()) return it->second;
@@ -103,8 +131,8 @@ public:
         if (std::isalpha(static_cast<unsigned char>(c)) || c == '_' || c == '$') return name(token);
         if (c == '.') return element(token);
         // Two-character operators are read whole so that the message names them (==, +=, &&, ...).
-        static constexpr std::string_view pairs[] = {"==", "!=", "<=", ">=", "&&", "||", "+=", "-=",
-                                                     "*=", "/=", "++", "--", "<<", ">>"};
+        static constexpr std::string_view pairs[] = {
+            "==", "!=", "<=", ">=", "&&", "||", "+=", "-=", "*=", "/=", "++", "--", "<<", ">>"};
         std::size_t length = 1;
         for (std::string_view pair : pairs)
             if (text_.substr(at_, 2) == pair) length = 2;
@@ -147,9 +175,9 @@ private:
     Token number(Token& token)
     {
         const std::size_t start = at_;
-        while (at_ < text_.size() && (std::isalnum(static_cast<unsigned char>(text_[at_])) || text_[at_] == '.' ||
-                                      ((text_[at_] == '-' || text_[at_] == '+') &&
-                                       (text_[at_ - 1] == 'e' || text_[at_ - 1] == 'E'))))
+        while (at_ < text_.size() &&
+               (std::isalnum(static_cast<unsigned char>(text_[at_])) || text_[at_] == '.' ||
+                ((text_[at_] == '-' || text_[at_] == '+') && (text_[at_ - 1] == 'e' || text_[at_ - 1] == 'E'))))
             ++at_;
         token.text = std::string(text_.substr(start, at_ - start));
         const auto value = parseFiniteNumber(token.text);
@@ -179,8 +207,8 @@ private:
             fail(token.line, fmt::format("'{}' is not read: only .I[n] and .O[n] name the node's inputs and outputs",
                                          messageExcerpt(token.text)));
         const std::size_t close = text_.find(']', at_);
-        const auto index = close == std::string_view::npos ? std::nullopt
-                                                            : parseFiniteNumber(text_.substr(at_ + 1, close - at_ - 1));
+        const auto index =
+            close == std::string_view::npos ? std::nullopt : parseFiniteNumber(text_.substr(at_ + 1, close - at_ - 1));
         if (!index || *index < 0 || *index != std::floor(*index) || *index > 1e6)
             fail(token.line, fmt::format("{}[...] needs a whole element index, as {}[0]", token.text, token.text));
         token.kind = TokenKind::element;
@@ -241,7 +269,8 @@ private:
         if (isSymbol(";")) return advance();
         if (token_.kind == TokenKind::name && token_.text == "float") {
             advance();
-            if (token_.kind != TokenKind::variable) refuse(fmt::format("expected a $variable after 'float', found {}", shown()));
+            if (token_.kind != TokenKind::variable)
+                refuse(fmt::format("expected a $variable after 'float', found {}", shown()));
             const int slot = declare(token_.text);
             advance();
             if (isSymbol("[")) refuse("an array variable is not read");
@@ -346,9 +375,10 @@ private:
         }
         if (token.kind == TokenKind::name) return name(token);
         if (token.kind == TokenKind::symbol && (token.text == "\"" || token.text == "`" || token.text == "<<"))
-            refuse(fmt::format("{} is not read (strings, MEL commands in back quotes and vectors are not "
-                               "expressions this reader evaluates)",
-                               shown()));
+            refuse(
+                fmt::format("{} is not read (strings, MEL commands in back quotes and vectors are not "
+                            "expressions this reader evaluates)",
+                            shown()));
         refuse(fmt::format("expected a number, .I[n], a $variable, time, frame or a function, found {}", shown()));
     }
 
@@ -413,15 +443,33 @@ std::vector<double> ExpressionProgram::evaluate(const std::vector<double>& input
     for (const Instruction& in : code_) {
         const auto i = static_cast<std::size_t>(in.index);
         switch (in.code) {
-            case Code::constant: stack.push_back(in.value); break;
-            case Code::variable: stack.push_back(variables[i]); break;
-            case Code::inputElement: stack.push_back(i < inputs.size() ? inputs[i] : 0.0); break;
-            case Code::outputElement: stack.push_back(i < outputs.size() ? outputs[i] : 0.0); break;
-            case Code::time: stack.push_back(seconds); break;
-            case Code::frame: stack.push_back(frame); break;
-            case Code::negate: stack.back() = -stack.back(); break;
-            case Code::storeVariable: variables[i] = pop(); break;
-            case Code::storeOutput: outputs[i] = pop(); break;
+            case Code::constant:
+                stack.push_back(in.value);
+                break;
+            case Code::variable:
+                stack.push_back(variables[i]);
+                break;
+            case Code::inputElement:
+                stack.push_back(i < inputs.size() ? inputs[i] : 0.0);
+                break;
+            case Code::outputElement:
+                stack.push_back(i < outputs.size() ? outputs[i] : 0.0);
+                break;
+            case Code::time:
+                stack.push_back(seconds);
+                break;
+            case Code::frame:
+                stack.push_back(frame);
+                break;
+            case Code::negate:
+                stack.back() = -stack.back();
+                break;
+            case Code::storeVariable:
+                variables[i] = pop();
+                break;
+            case Code::storeOutput:
+                outputs[i] = pop();
+                break;
             case Code::call: {
                 const std::size_t first = stack.size() - static_cast<std::size_t>(in.arguments);
                 const double result = callFunction(in.index, stack.data() + first);

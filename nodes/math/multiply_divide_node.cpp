@@ -58,7 +58,10 @@ std::shared_ptr<const NodeType> makeMultiplyDivideType()
         .doc(
             "noOperation: output = input1; multiply: input1 * input2; divide: input1 / input2; "
             "power: input1 ^ input2 (each component separately).");
-    b.input(Input1, "input1", ValueType::Vector3).shortName("i1").keyable().doc("The first operand (input1X, input1Y, input1Z).");
+    b.input(Input1, "input1", ValueType::Vector3)
+        .shortName("i1")
+        .keyable()
+        .doc("The first operand (input1X, input1Y, input1Z).");
     b.input(Input2, "input2", ValueType::Vector3)
         .shortName("i2")
         .defaultValue(Eigen::Vector3d(1.0, 1.0, 1.0))

@@ -140,7 +140,9 @@ std::shared_ptr<const NodeType> makePairBlendType()
         .shortName("or")
         .unit(Unit::Angle)
         .doc("The blended rotation in rotateOrder (outRotateX, outRotateY, outRotateZ).");
-    b.affects(InTranslate1, {OutTranslate}).affects(InTranslate2, {OutTranslate}).affects(Weight, {OutTranslate, OutRotate});
+    b.affects(InTranslate1, {OutTranslate})
+        .affects(InTranslate2, {OutTranslate})
+        .affects(Weight, {OutTranslate, OutRotate});
     for (AttrId in : {TranslateXMode, TranslateYMode, TranslateZMode}) b.affects(in, {OutTranslate});
     for (AttrId in : {InRotate1, InRotate2, RotInterpolation, RotateOrder_, RotateMode}) b.affects(in, {OutRotate});
     b.factory<PairBlendNode>();

@@ -83,9 +83,12 @@ std::vector<RampEntry> rampEntries(const ComputeContext& context)
             given[static_cast<std::size_t>(i)] = true;
         });
     };
-    applyField(context, ValuePosition, entries, interp, [](RampEntry& e, const Value& v) { e.position = std::get<double>(v); });
-    applyField(context, ValueFloatValue, entries, interp, [](RampEntry& e, const Value& v) { e.value = std::get<double>(v); });
-    applyField(context, ValueInterp, entries, interp, [](RampEntry& e, const Value& v) { e.interp = std::get<int>(v); });
+    applyField(context, ValuePosition, entries, interp,
+               [](RampEntry& e, const Value& v) { e.position = std::get<double>(v); });
+    applyField(context, ValueFloatValue, entries, interp,
+               [](RampEntry& e, const Value& v) { e.value = std::get<double>(v); });
+    applyField(context, ValueInterp, entries, interp,
+               [](RampEntry& e, const Value& v) { e.interp = std::get<int>(v); });
     for (AttrId attr : {ValuePosition, ValueFloatValue, ValueInterp}) mark(attr);
     std::vector<RampEntry> present;
     // An entry whose position or value is not a number (NaN or infinity through a connection) cannot be placed on
@@ -156,13 +159,19 @@ std::shared_ptr<const NodeType> makeRemapValueType()
         "position or value is NaN or infinite is left out. Maya's colour ramp "
         "(color, outColor) is not modelled.");
     b.input(InputValue, "inputValue", ValueType::Double).shortName("i").keyable().doc("The value remapped.");
-    b.input(InputMin, "inputMin", ValueType::Double).shortName("imn").keyable().doc("The inputValue that maps to ramp position 0.");
+    b.input(InputMin, "inputMin", ValueType::Double)
+        .shortName("imn")
+        .keyable()
+        .doc("The inputValue that maps to ramp position 0.");
     b.input(InputMax, "inputMax", ValueType::Double)
         .shortName("imx")
         .defaultValue(1.0)
         .keyable()
         .doc("The inputValue that maps to ramp position 1.");
-    b.input(OutputMin, "outputMin", ValueType::Double).shortName("omn").keyable().doc("The outValue for a ramp value of 0.");
+    b.input(OutputMin, "outputMin", ValueType::Double)
+        .shortName("omn")
+        .keyable()
+        .doc("The outValue for a ramp value of 0.");
     b.input(OutputMax, "outputMax", ValueType::Double)
         .shortName("omx")
         .defaultValue(1.0)
@@ -186,8 +195,9 @@ std::shared_ptr<const NodeType> makeRemapValueType()
         .array()
         .shortName("fv")
         .mayaCompound("value", "vl")
-        .doc("Entry i's value (Maya's value[i].value_FloatValue, \".vl[i].fv\"): replaces value[2i + 1] or adds entry "
-             "i (value 0 when only its other fields are given).");
+        .doc(
+            "Entry i's value (Maya's value[i].value_FloatValue, \".vl[i].fv\"): replaces value[2i + 1] or adds entry "
+            "i (value 0 when only its other fields are given).");
     b.input(ValueInterp, "valueInterp", ValueType::Enum)
         .array()
         .enumNames({"none", "linear", "smooth", "spline"})

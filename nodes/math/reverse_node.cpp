@@ -24,7 +24,10 @@ std::shared_ptr<const NodeType> makeReverseType()
     b.description(
         "Outputs 1 - input for each component (Maya's reverse utility node); the usual way to turn "
         "a 0..1 weight w into 1 - w.");
-    b.input(Input, "input", ValueType::Vector3).shortName("i").keyable().doc("The value reversed (inputX, inputY, inputZ).");
+    b.input(Input, "input", ValueType::Vector3)
+        .shortName("i")
+        .keyable()
+        .doc("The value reversed (inputX, inputY, inputZ).");
     b.output(Output, "output", ValueType::Vector3).shortName("o").doc("1 - input (outputX, outputY, outputZ).");
     b.affects(Input, {Output});
     b.factory<ReverseNode>();

@@ -17,7 +17,8 @@ inline Eigen::Quaterniond eulerQuaternion(const Eigen::Vector3d& radians, Rotate
     static constexpr int axes[6][3] = {{0, 1, 2}, {1, 2, 0}, {2, 0, 1}, {0, 2, 1}, {1, 0, 2}, {2, 1, 0}};
     const auto& a = axes[static_cast<int>(order)];
     Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
-    for (int k = 0; k < 3; ++k) q = Eigen::Quaterniond(Eigen::AngleAxisd(radians[a[k]], Eigen::Vector3d::Unit(a[k]))) * q;
+    for (int k = 0; k < 3; ++k)
+        q = Eigen::Quaterniond(Eigen::AngleAxisd(radians[a[k]], Eigen::Vector3d::Unit(a[k]))) * q;
     return q;
 }
 

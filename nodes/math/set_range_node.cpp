@@ -44,7 +44,10 @@ std::shared_ptr<const NodeType> makeSetRangeType()
         "Maps each component of value from [oldMin, oldMax] onto [min, max] (Maya's setRange node): outValue = "
         "min + t * (max - min), t = (value - oldMin) / (oldMax - oldMin) held to [0, 1], so the output stops at "
         "min and max. Where oldMin == oldMax, t is 1 for value > oldMin and 0 otherwise. Unitless.");
-    b.input(Value_, "value", ValueType::Vector3).shortName("v").keyable().doc("The values mapped (valueX, valueY, valueZ).");
+    b.input(Value_, "value", ValueType::Vector3)
+        .shortName("v")
+        .keyable()
+        .doc("The values mapped (valueX, valueY, valueZ).");
     b.input(Min, "min", ValueType::Vector3).shortName("n").keyable().doc("The new range's start (minX, minY, minZ).");
     b.input(Max, "max", ValueType::Vector3).shortName("m").keyable().doc("The new range's end (maxX, maxY, maxZ).");
     b.input(OldMin, "oldMin", ValueType::Vector3)

@@ -93,7 +93,7 @@ TEST_CASE("nodes: unknown types, bad and duplicate names")
     CHECK(errorOf([&] { g.addNode("joint", "hips"); }) ==
           "duplicate node name 'hips' (already a joint); node names must be unique");
     CHECK(errorOf([&] { g.addNode("joint", "a.b"); }) ==
-          "invalid node name 'a.b': use letters, digits, '_' and ':', not starting with a digit");
+          "invalid node name 'a.b': use letters, digits, '_', ':' and '|', not starting with a digit");
     CHECK(g.addNode("joint", "mixamorig:Hips") == 1);
 }
 

@@ -21,7 +21,8 @@ namespace {
 using namespace rig;
 constexpr double pi = std::numbers::pi;
 
-const std::string header = "//Maya ASCII 2023 scene\nrequires maya \"2023\";\ncurrentUnit -l centimeter -a degree -t film;\n";
+const std::string header =
+    "//Maya ASCII 2023 scene\nrequires maya \"2023\";\ncurrentUnit -l centimeter -a degree -t film;\n";
 
 std::unique_ptr<Graph> load(const std::string& text, MayaSceneInfo* info = nullptr)
 {
@@ -99,8 +100,9 @@ TEST_CASE("maya scene: a leaf name used twice becomes its shortest unique DAG pa
 
 TEST_CASE("maya scene: currentUnit meter and radian become cm and radians")
 {
-    auto g = load("//Maya ASCII 2023 scene\ncurrentUnit -l meter -a radian -t ntsc;\n"
-                  "createNode transform -n \"a\";\n\tsetAttr \".t\" -type \"double3\" 1 2 3 ;\n\tsetAttr \".rx\" 0.5;\n");
+    auto g = load(
+        "//Maya ASCII 2023 scene\ncurrentUnit -l meter -a radian -t ntsc;\n"
+        "createNode transform -n \"a\";\n\tsetAttr \".t\" -type \"double3\" 1 2 3 ;\n\tsetAttr \".rx\" 0.5;\n");
     CHECK((vec(*g, "a.translate") - Eigen::Vector3d(100, 200, 300)).norm() < 1e-12);
     CHECK(vec(*g, "a.rotate").x() == doctest::Approx(0.5));
 }
@@ -135,8 +137,9 @@ TEST_CASE("maya scene: a node this library does not evaluate that drives a joint
           "HIKSolverNode");
     // The same node driving nothing that reaches a joint is only counted.
     MayaSceneInfo info;
-    load(header + "createNode transform -n \"loc\";\ncreateNode HIKSolverNode -n \"hik\";\n"
-                  "connectAttr \"hik.ot\" \"loc.t\";\n",
+    load(header +
+             "createNode transform -n \"loc\";\ncreateNode HIKSolverNode -n \"hik\";\n"
+             "connectAttr \"hik.ot\" \"loc.t\";\n",
          &info);
     CHECK(info.notEvaluatedTypes.at("HIKSolverNode") == 1);
 }
@@ -152,9 +155,11 @@ TEST_CASE("maya scene: bad input is one line with file:line:col")
     CHECK(test::errorOf([] { load(header + "createNode transform -n \"a\";\n\tsetAttr \".tx\" nan;\n"); }) ==
           "scene.ma:5:10: a.tx: nan is not a finite number a double holds");
     CHECK(test::errorOf([] {
-              load(header + "createNode transform -n \"a\";\ncreateNode transform -n \"b\";\n"
-                            "connectAttr \"a.wm\" \"b.pm\";\nconnectAttr \"b.wm\" \"a.pm\";\n");
-          }).find("scene.ma:7:13: cannot connect b.worldMatrix -> a.parentMatrix: it would close a cycle") != std::string::npos);
+              load(header +
+                   "createNode transform -n \"a\";\ncreateNode transform -n \"b\";\n"
+                   "connectAttr \"a.wm\" \"b.pm\";\nconnectAttr \"b.wm\" \"a.pm\";\n");
+          }).find("scene.ma:7:13: cannot connect b.worldMatrix -> a.parentMatrix: it would close a cycle") !=
+          std::string::npos);
     CHECK(test::errorOf([] { loadMayaText("createNode joint;", "x.ma", makeBuiltinRegistry()); }) ==
           "x.ma:1:1: not a Maya ASCII scene (its first line is not '//Maya ASCII ...')");
     const auto mb = test::writeFile(test::scratchDir("maya_mb") / "rig.mb", std::string("FOR4\0\0\0\x20", 8));
@@ -166,21 +171,22 @@ TEST_CASE("maya scene: a two-bone ikRPsolver chain reaches its handle and keeps 
 {
     // A chain bent in its XY plane; the handle saved at the effector (the end joint at (4, 3, 0): the rest pose is
     // Maya's answer), then moved: the end joint follows it.
-    const std::string scene = header +
-                              "createNode joint -n \"j1\";\n"
-                              "createNode joint -n \"j2\" -p \"j1\";\n\tsetAttr \".t\" -type \"double3\" 5 0 0 ;\n"
-                              "\tsetAttr \".r\" -type \"double3\" 0 0 90 ;\n"
-                              "createNode joint -n \"j3\" -p \"j2\";\n\tsetAttr \".t\" -type \"double3\" 3 0 0 ;\n"
-                              "createNode ikEffector -n \"effector1\" -p \"j2\";\n"
-                              "createNode ikHandle -n \"ikHandle1\";\n"
-                              "\tsetAttr \".t\" -type \"double3\" 5 3 0 ;\n"
-                              "\tsetAttr \".pv\" -type \"double3\" 0 1 0 ;\n"
-                              "createNode ikRPsolver -n \"ikRPsolver\";\n"
-                              "connectAttr \"j1.s\" \"j2.is\";\nconnectAttr \"j2.s\" \"j3.is\";\n"
-                              "connectAttr \"j3.tx\" \"effector1.tx\";\nconnectAttr \"j3.ty\" \"effector1.ty\";\n"
-                              "connectAttr \"j3.tz\" \"effector1.tz\";\n"
-                              "connectAttr \"j1.msg\" \"ikHandle1.hsj\";\nconnectAttr \"effector1.hp\" \"ikHandle1.hee\";\n"
-                              "connectAttr \"ikRPsolver.msg\" \"ikHandle1.hsv\";\n";
+    const std::string scene =
+        header +
+        "createNode joint -n \"j1\";\n"
+        "createNode joint -n \"j2\" -p \"j1\";\n\tsetAttr \".t\" -type \"double3\" 5 0 0 ;\n"
+        "\tsetAttr \".r\" -type \"double3\" 0 0 90 ;\n"
+        "createNode joint -n \"j3\" -p \"j2\";\n\tsetAttr \".t\" -type \"double3\" 3 0 0 ;\n"
+        "createNode ikEffector -n \"effector1\" -p \"j2\";\n"
+        "createNode ikHandle -n \"ikHandle1\";\n"
+        "\tsetAttr \".t\" -type \"double3\" 5 3 0 ;\n"
+        "\tsetAttr \".pv\" -type \"double3\" 0 1 0 ;\n"
+        "createNode ikRPsolver -n \"ikRPsolver\";\n"
+        "connectAttr \"j1.s\" \"j2.is\";\nconnectAttr \"j2.s\" \"j3.is\";\n"
+        "connectAttr \"j3.tx\" \"effector1.tx\";\nconnectAttr \"j3.ty\" \"effector1.ty\";\n"
+        "connectAttr \"j3.tz\" \"effector1.tz\";\n"
+        "connectAttr \"j1.msg\" \"ikHandle1.hsj\";\nconnectAttr \"effector1.hp\" \"ikHandle1.hee\";\n"
+        "connectAttr \"ikRPsolver.msg\" \"ikHandle1.hsv\";\n";
     MayaSceneInfo info;
     auto g = load(scene, &info);
     CHECK(info.savedIkRotate.count("j2") == 1);
@@ -196,32 +202,36 @@ TEST_CASE("maya references: namespaces, placeholder edits, setAttr edits, a miss
     std::filesystem::create_directories(dir / "rigs");
     std::filesystem::create_directories(dir / "shots");
     test::writeFile(dir / "rigs" / "arm.ma",
-                    header + "createNode transform -n \"ctrl\";\ncreateNode joint -n \"bone\" -p \"ctrl\";\n"
-                             "\tsetAttr \".tx\" 2;\n");
+                    header +
+                        "createNode transform -n \"ctrl\";\ncreateNode joint -n \"bone\" -p \"ctrl\";\n"
+                        "\tsetAttr \".tx\" 2;\n");
     // The animation scene names its reference by an absolute path from another machine: found by its suffix.
-    const auto anim = test::writeFile(
-        dir / "shots" / "shot.ma",
-        "//Maya ASCII 2023 scene\nfile -r -ns \"hero\" -rfn \"heroRN\" \"C:/work/rigs/arm.ma\";\n"
-        "requires maya \"2023\";\ncurrentUnit -l centimeter -a degree -t film;\n"
-        "createNode reference -n \"heroRN\";\n"
-        "\tsetAttr \".ed\" -type \"dataReferenceEdits\" \"heroRN\" \"heroRN\" 2\n"
-        "\t\t2 \"|hero:ctrl|hero:bone\" \"translateY\" \" 7\"\n"
-        "\t\t5 4 \"heroRN\" \"|hero:ctrl.translateZ\" \"heroRN.placeHolderList[1]\" \"\";\n"
-        "createNode transform -n \"driver\";\n\tsetAttr \".tz\" 4;\n"
-        "connectAttr \"driver.tz\" \"heroRN.phl[1]\";\n");
+    const auto anim =
+        test::writeFile(dir / "shots" / "shot.ma",
+                        "//Maya ASCII 2023 scene\nfile -r -ns \"hero\" -rfn \"heroRN\" \"C:/work/rigs/arm.ma\";\n"
+                        "requires maya \"2023\";\ncurrentUnit -l centimeter -a degree -t film;\n"
+                        "createNode reference -n \"heroRN\";\n"
+                        "\tsetAttr \".ed\" -type \"dataReferenceEdits\" \"heroRN\" \"heroRN\" 2\n"
+                        "\t\t2 \"|hero:ctrl|hero:bone\" \"translateY\" \" 7\"\n"
+                        "\t\t5 4 \"heroRN\" \"|hero:ctrl.translateZ\" \"heroRN.placeHolderList[1]\" \"\";\n"
+                        "createNode transform -n \"driver\";\n\tsetAttr \".tz\" 4;\n"
+                        "connectAttr \"driver.tz\" \"heroRN.phl[1]\";\n");
     std::vector<std::filesystem::path> read;
     auto g = loadRigFile(anim, makeBuiltinRegistry(), &read);
     CHECK(read.size() == 2);
     CHECK((mat(*g, "hero:bone.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(2, 7, 4)).norm() < 1e-12);
 
     MayaSceneInfo info;
-    const auto lonely = test::writeFile(dir / "lonely.ma", "//Maya ASCII 2023 scene\nfile -r -ns \"x\" \"gone.ma\";\n"
-                                                           "createNode transform -n \"a\";\n");
+    const auto lonely = test::writeFile(dir / "lonely.ma",
+                                        "//Maya ASCII 2023 scene\nfile -r -ns \"x\" \"gone.ma\";\n"
+                                        "createNode transform -n \"a\";\n");
     loadRigFile(lonely, makeBuiltinRegistry(), nullptr, &info);
     REQUIRE(info.warnings.size() == 1);
     CHECK(info.warnings[0].find("lonely.ma:2:1: reference 'gone.ma' not found") != std::string::npos);
 
     const auto loop = test::writeFile(dir / "loop.ma", "//Maya ASCII 2023 scene\nfile -r -ns \"x\" \"loop.ma\";\n");
-    CHECK(test::errorOf([&] { loadRigFile(loop, makeBuiltinRegistry()); })
-              .find("loop.ma:2:1: the reference 'loop.ma' loops back to a scene that references it") != std::string::npos);
+    CHECK(test::errorOf([&] {
+              loadRigFile(loop, makeBuiltinRegistry());
+          }).find("loop.ma:2:1: the reference 'loop.ma' loops back to a scene that references it") !=
+          std::string::npos);
 }

@@ -42,8 +42,8 @@ double worstIkError(Graph& graph, const MayaSceneInfo& info, std::string& worstJ
             rotateOrderFromIndex(std::get<int>(graph.getValue(graph.plug(joint + ".rotateOrder")))).value();
         const Eigen::Vector3d got = std::get<Eigen::Vector3d>(graph.getValue(graph.plug(joint + ".rotate")));
         const double angle =
-            orientationAngle(eulerToMatrix(saved * std::numbers::pi / 180.0, order), eulerToMatrix(got, order)) * 180.0 /
-            std::numbers::pi;
+            orientationAngle(eulerToMatrix(saved * std::numbers::pi / 180.0, order), eulerToMatrix(got, order)) *
+            180.0 / std::numbers::pi;
         if (angle > worst) {
             worst = angle;
             worstJoint = joint;
@@ -52,17 +52,38 @@ double worstIkError(Graph& graph, const MayaSceneInfo& info, std::string& worstJ
     return worst;
 }
 
+// The worst distance, in cm, between a skin influence's world position and the one its skinCluster's bind-pre matrix
+// holds (0 where the scene is saved at its bind pose), over every skin; -1 when the scene has no skin.
+double worstBindError(Graph& graph, const MayaSceneInfo& info, int& influences)
+{
+    double worst = -1.0;
+    influences = 0;
+    for (const auto& skin : info.skins)
+        for (std::size_t i = 0; i < skin.influences.size(); ++i) {
+            if (skin.influences[i].empty() || skin.bindPreMatrix[i].isZero()) continue;
+            const Eigen::Matrix4d world =
+                std::get<Eigen::Matrix4d>(graph.getValue(graph.plug(skin.influences[i] + ".worldMatrix")));
+            const Eigen::Vector3d bindPosition = skin.bindPreMatrix[i].inverse().topRightCorner<3, 1>();
+            worst = std::max(worst, (world.topRightCorner<3, 1>() - bindPosition).norm());
+            ++influences;
+        }
+    return worst;
+}
+
 bool jointsFinite(Graph& graph)
 {
     for (NodeId n = 0; n < graph.nodeCount(); ++n)
-        if (graph.nodeType(n).name() == "joint" && !isFinite(graph.getValue(graph.plug(graph.nodeName(n) + ".worldMatrix"))))
+        if (graph.nodeType(n).name() == "joint" &&
+            !isFinite(graph.getValue(graph.plug(graph.nodeName(n) + ".worldMatrix"))))
             return false;
     return true;
 }
 
 }  // namespace
 
-TEST_CASE("maya scenes of ../shared/maya: each evaluates or is refused in one line; Maya's IK answers within 0.01 deg")
+TEST_CASE(
+    "maya scenes of ../shared/maya: each evaluates or is refused in one line, and Maya's IK answers hold within 0.01 "
+    "deg")
 {
     const auto scenes = sharedScenes();
     if (scenes.empty()) {
@@ -76,7 +97,8 @@ TEST_CASE("maya scenes of ../shared/maya: each evaluates or is refused in one li
         std::unique_ptr<Graph> graph;
         try {
             graph = loadRigFile(scene, makeBuiltinRegistry(), nullptr, &info);
-        } catch (const Error& e) {
+        }
+        catch (const Error& e) {
             const std::string message = e.what();
             CHECK(message.find('\n') == std::string::npos);
             CHECK(e.kind() == ErrorKind::userInput);
@@ -92,6 +114,13 @@ TEST_CASE("maya scenes of ../shared/maya: each evaluates or is refused in one li
                                  scene.filename().string(), info.nodes, info.savedIkRotate.size(), worst,
                                  joint.empty() ? "" : " at " + joint);
         CHECK(worst < 0.01);
+        int influences = 0;
+        const double bind = worstBindError(*graph, info, influences);
+        if (bind >= 0)
+            std::cout << fmt::format("maya scene {}: {} skin influences, worst {:.3g} cm from the bind pose{}\n",
+                                     scene.filename().string(), influences, bind, bind < 1e-4 ? " (saved at it)" : "");
+        // A scene saved at its bind pose is there exactly: close to it (1e-2 cm) means within 1e-4 cm.
+        if (bind >= 0 && bind < 1e-2) CHECK(bind < 1e-4);
         if (info.playbackRange)
             for (double f = info.playbackRange->first; f <= info.playbackRange->second; f += 1.0) {
                 graph->setTime(f);

@@ -678,7 +678,7 @@ TEST_CASE("constraints: checked mode finds no missing affects entries")
                 CAPTURE(spec.name);
                 // Maya's per-target inputs at indices of their own: where targetMatrix[i] exists it wins.
                 const bool mayaTarget = !spec.mayaCompound.empty() && spec.name != "targetWeight";
-                const std::vector<int> indices = !spec.array ? std::vector<int>{-1}
+                const std::vector<int> indices = !spec.array  ? std::vector<int>{-1}
                                                  : mayaTarget ? std::vector<int>{5, 3, 4}
                                                               : std::vector<int>{2, 0, 1};
                 for (int index : indices) {

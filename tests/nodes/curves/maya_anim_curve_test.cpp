@@ -272,8 +272,7 @@ TEST_CASE("maya curves: what the fields refuse, and Maya's short names")
     CHECK(errorOf([&] { c.setAttr("kot", 0, 0, {"4"}); }) == ".kot: 4 is not one of Maya's tangent type codes");
     CHECK(errorOf([&] { c.setAttr("ktv", 0, 1, {"0", "1", "2"}); }) == ".ktv[0:1]: 3 values for 2 keys; give 2 a key");
     CHECK(errorOf([&] { c.setAttr("ktv", 0, 0, {"0", "abc"}); }) == ".ktv: 'abc' is not a finite number");
-    CHECK(errorOf([&] { c.setAttr("ktv", -1, -1, {"0", "1"}); }) ==
-          ".ktv: give the keys' element range (.ktv[0:2])");
+    CHECK(errorOf([&] { c.setAttr("ktv", -1, -1, {"0", "1"}); }) == ".ktv: give the keys' element range (.ktv[0:2])");
 
     const rig::NodeType& type = c.g.nodeType(c.node);
     CHECK(type.findMayaAttribute("i") == type.findAttribute("input"));

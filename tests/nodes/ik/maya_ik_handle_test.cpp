@@ -30,9 +30,9 @@ double deg(double degrees) { return degrees * pi / 180.0; }
 // A chain of joints j0 .. jn (jn the end joint, under which Maya's effector sits) and the handle h driving
 // j0 .. j(n-1). Every joint value is given to the handle as the constant the loader would set.
 struct ChainSpec {
-    std::vector<Eigen::Vector3d> translate;  // n + 1: the end joint's translate last
+    std::vector<Eigen::Vector3d> translate;                                     // n + 1: the end joint's translate last
     std::vector<Eigen::Vector3d> rotate, orient, rotateAxis, scale, preferred;  // n
-    std::vector<int> order;                                                        // n
+    std::vector<int> order;                                                     // n
     int bones() const { return static_cast<int>(translate.size()) - 1; }
 };
 
@@ -223,8 +223,7 @@ TEST_CASE("maya ik: an unreachable goal straightens the chain toward it")
             continue;
         }
         CHECK((chain.effector() - (start + length * direction)).norm() < 1e-6);
-        for (int i = 1; i < bones; ++i)
-            CHECK(((chain.position(i) - start).cross(direction)).norm() < 1e-6);
+        for (int i = 1; i < bones; ++i) CHECK(((chain.position(i) - start).cross(direction)).norm() < 1e-6);
     }
 }
 
@@ -266,7 +265,8 @@ TEST_CASE("maya ik: rotate orders, joint orients and rotate axes: random chains 
         double nearest = current;
         if (bones == 2) nearest = std::abs((p[1] - p[0]).norm() - (p[2] - p[1]).norm()) + 0.01;
         if (bones == 1) nearest = length = current;
-        const double distance = std::uniform_real_distribution<double>(nearest, nearest + 0.98 * (length - nearest))(rng);
+        const double distance =
+            std::uniform_real_distribution<double>(nearest, nearest + 0.98 * (length - nearest))(rng);
         const Eigen::Vector3d goal = p[0] + distance * randomUnit(rng);
         chain.goal(goal);
         CHECK((chain.effector() - goal).norm() < tolerance * std::max(1.0, length));
@@ -284,7 +284,8 @@ TEST_CASE("maya ik: the rotate plane past two bones puts the chain's side on the
         double length = 0.0;
         for (std::size_t k = 1; k < p.size(); ++k) length += (p[k] - p[k - 1]).norm();
         const double current = (p.back() - p[0]).norm();
-        const Eigen::Vector3d goal = p[0] + (current + 0.5 * (length - current)) * Eigen::Vector3d(0.3, 0.5, 0.8).normalized();
+        const Eigen::Vector3d goal =
+            p[0] + (current + 0.5 * (length - current)) * Eigen::Vector3d(0.3, 0.5, 0.8).normalized();
         const Eigen::Vector3d pole(0.2, 0.4, -1.0);
         chain.goal(goal);
         chain.pole(pole);
@@ -303,7 +304,9 @@ TEST_CASE("maya ik: ikBlend 0 gives the FK rotates, between slerps each joint")
     chain.goal(Eigen::Vector3d(4, 3, -2));
     chain.pole(Eigen::Vector3d(0, 0, 1));
     std::vector<Eigen::Matrix3d> ik;
-    for (int i = 0; i < 2; ++i) ik.push_back(rig::eulerToMatrix(chain.out(i), *rig::rotateOrderFromIndex(spec.order[static_cast<std::size_t>(i)])));
+    for (int i = 0; i < 2; ++i)
+        ik.push_back(
+            rig::eulerToMatrix(chain.out(i), *rig::rotateOrderFromIndex(spec.order[static_cast<std::size_t>(i)])));
     chain.blend(0.0);
     for (int i = 0; i < 2; ++i) CHECK((chain.out(i) - spec.rotate[static_cast<std::size_t>(i)]).norm() < 1e-12);
     chain.blend(0.25);
@@ -330,8 +333,8 @@ TEST_CASE("maya ik: a one-bone single-chain handle aims the effector by the smal
     CHECK((chain.effector() - p[0]).normalized().dot((target - p[0]).normalized()) ==
           doctest::Approx(1.0).epsilon(1e-14));
     // The smallest turn: its axis is perpendicular to the old and the new aim.
-    const Eigen::Matrix3d turn = chain.world(0).topLeftCorner<3, 3>() *
-                                 rig::eulerToMatrix(spec.orient[0], rig::RotateOrder::xyz).transpose();
+    const Eigen::Matrix3d turn =
+        chain.world(0).topLeftCorner<3, 3>() * rig::eulerToMatrix(spec.orient[0], rig::RotateOrder::xyz).transpose();
     const Eigen::AngleAxisd axis(turn);
     CHECK(std::abs(axis.axis().dot(p[1] - p[0])) < 1e-9);
     CHECK(std::abs(axis.axis().dot(target - p[0])) < 1e-9);

@@ -102,8 +102,7 @@ TEST_CASE("expression: time in seconds and frame, through a graph")
     g.setValue(g.plug("e.expression"), std::string(".O[0] = -frame;"));
     CHECK(out(0) == -48.0);
     g.setValue(g.plug("e.expression"), std::string(".O[0] = getAttr(\"x.ty\");"));
-    CHECK(rig::test::errorOf([&] { out(0); }) ==
-          "node 'e': expression: line 1: the MEL command getAttr is not read");
+    CHECK(rig::test::errorOf([&] { out(0); }) == "node 'e': expression: line 1: the MEL command getAttr is not read");
 
     // Maya's short names.
     const rig::NodeType& type = g.nodeType(0);

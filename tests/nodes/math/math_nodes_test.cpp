@@ -200,7 +200,7 @@ TEST_CASE("math nodes: remapValue")
     f.set("rv.value", std::vector<double>{1.0, 0.0, 0.0, 0.0, 0.5, 1.0});
     f.set("rv.inputValue", 0.25);
     CHECK(f.num("rv.outValue") == doctest::Approx(0.5));  // linear (default)
-    setInterp(0);                                // none: holds the entry at or before
+    setInterp(0);                                         // none: holds the entry at or before
     CHECK(f.num("rv.outValue") == doctest::Approx(0.0));
     f.set("rv.inputValue", 0.75);
     CHECK(f.num("rv.outValue") == doctest::Approx(1.0));

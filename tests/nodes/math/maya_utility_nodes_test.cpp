@@ -207,7 +207,8 @@ connections:
   - back.output -> bone2.rotateY
 )",
                                 "t.yaml", rig::makeBuiltinRegistry());
-    g->setValue(g->plug("uc.conversionFactor"), rig::unitConversionFactor(180.0 / pi, rig::Unit::Angle, rig::Unit::None));
+    g->setValue(g->plug("uc.conversionFactor"),
+                rig::unitConversionFactor(180.0 / pi, rig::Unit::Angle, rig::Unit::None));
     g->setValue(g->plug("back.conversionFactor"),
                 rig::unitConversionFactor(pi / 180.0, rig::Unit::None, rig::Unit::Angle));
     CHECK(std::get<double>(g->getValue(g->plug("uc.output"))) == doctest::Approx(30.0));
@@ -328,13 +329,14 @@ TEST_CASE("maya utility nodes: distanceBetween, setRange, inverseMatrix")
     CHECK(near(f.vec("sr.outValue"), v3(0.25, 12.5, -1)));  // oldMin == oldMax: value not above gives min
     f.set("sr.value", v3(400, -3, 6));
     CHECK(near(f.vec("sr.outValue"), v3(1, 10, 1)));  // held to the range; above an empty range gives max
-    f.set("sr.oldMin", v3(360, 2, 5));  // a reversed old range maps its own start to min
+    f.set("sr.oldMin", v3(360, 2, 5));                // a reversed old range maps its own start to min
     f.set("sr.oldMax", v3(0, 0, 5));
     f.set("sr.value", v3(270, 1.5, 0));
     CHECK(near(f.vec("sr.outValue"), v3(0.25, 12.5, -1)));
 
     f.add("inverseMatrix", "im");
-    const Eigen::Matrix4d m = affine(rot(0, 0.3) * rot(1, -1.1) * Eigen::Vector3d(2, 0.5, 3).asDiagonal(), v3(4, -5, 6));
+    const Eigen::Matrix4d m =
+        affine(rot(0, 0.3) * rot(1, -1.1) * Eigen::Vector3d(2, 0.5, 3).asDiagonal(), v3(4, -5, 6));
     f.set("im.inputMatrix", m);
     CHECK(near(f.mat("im.outputMatrix") * m, Eigen::Matrix4d::Identity()));
     f.set("im.inputMatrix", affine(Eigen::Vector3d(1, 0, 1).asDiagonal(), v3(1, 2, 3)));  // singular
@@ -385,15 +387,18 @@ TEST_CASE("maya utility nodes: eulerToQuat and quatToEuler")
     Fixture f;
     f.add("eulerToQuat", "eq");
     f.add("quatToEuler", "qe");
-    auto quat = [&] { return Eigen::Vector4d(f.num("eq.outputQuatX"), f.num("eq.outputQuatY"), f.num("eq.outputQuatZ"),
-                                             f.num("eq.outputQuatW")); };
+    auto quat = [&] {
+        return Eigen::Vector4d(f.num("eq.outputQuatX"), f.num("eq.outputQuatY"), f.num("eq.outputQuatZ"),
+                               f.num("eq.outputQuatW"));
+    };
     f.set("eq.inputRotate", v3(0, 0, pi / 2));
     const double h = std::sqrt(0.5);
     CHECK(near(quat(), Eigen::Vector4d(0, 0, h, h)));
     f.set("eq.inputRotate", v3(0, 0, deg(270)));  // past a half turn: w < 0, as the angle gives it
     CHECK(near(quat(), Eigen::Vector4d(0, 0, h, -h)));
 
-    for (const char* c : {"X", "Y", "Z", "W"}) f.connect(std::string("eq.outputQuat") + c, std::string("qe.inputQuat") + c);
+    for (const char* c : {"X", "Y", "Z", "W"})
+        f.connect(std::string("eq.outputQuat") + c, std::string("qe.inputQuat") + c);
     f.connect("eq.inputRotateOrder", "qe.inputRotateOrder");
     // Every angle within its principal range in every order (middle axis within 90 degrees).
     const Eigen::Vector3d angles(deg(20), deg(-35), deg(70));
@@ -542,8 +547,8 @@ TEST_CASE("maya utility nodes: remapValue's Maya ramp entries (value[i] flattene
     CHECK(f.num("rv.outValue") == doctest::Approx(0.0));  // held by entry 0
     f.set("rv.inputValue", 0.75);
     CHECK(f.num("rv.outValue") == doctest::Approx(0.5));  // linear from entry 2 (Maya's default interp)
-    f.set("rv.valueInterp[2]", 2);  // smooth: a smoothstep from entry 2 down to entry 1
-    f.set("rv.inputValue", 0.625);  // a quarter of that span: 1 - (3s^2 - 2s^3) at s = 0.25
+    f.set("rv.valueInterp[2]", 2);                        // smooth: a smoothstep from entry 2 down to entry 1
+    f.set("rv.inputValue", 0.625);                        // a quarter of that span: 1 - (3s^2 - 2s^3) at s = 0.25
     CHECK(f.num("rv.outValue") == doctest::Approx(1.0 - (3 * 0.0625 - 2 * 0.015625)));
     // An entry given only its position has Maya's value 0.
     f.set("rv.valuePosition[5]", 0.625);
