@@ -7,8 +7,11 @@
 namespace rig {
 namespace {
 
+// The file's first bytes; none for what is not a regular file (a pipe would block: the YAML reader says what it is).
 std::string firstBytes(const std::filesystem::path& file)
 {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(file, ec)) return {};
     std::ifstream in(file, std::ios::binary);
     std::string head(16, '\0');
     in.read(head.data(), static_cast<std::streamsize>(head.size()));

@@ -9,6 +9,7 @@
 #include <iostream>
 #include <numbers>
 
+#include <Eigen/LU>
 #include <fmt/format.h>
 
 #include "core/error.h"
