@@ -326,7 +326,8 @@ private:
         for (std::size_t i = 0; i < scene_.nodes.size(); ++i) {
             const NodeId g = graphNode_[i];
             for (const maya::SetAttr& set : scene_.nodes[i].sets) {
-                if (set.values.empty()) continue;
+                const bool flagged = set.keyable || set.locked || set.channelBox;
+                if (set.values.empty() && (!flagged || g < 0)) continue;
                 if (g < 0) {
                     if (scene_.nodes[i].type == "time" || scene_.nodes[i].name == "time1") readTime(set);
                     continue;
@@ -366,6 +367,10 @@ private:
     {
         const maya::Units& units = scene_.units[static_cast<std::size_t>(set.where.file)];
         const AttrPath p = splitAttr(set.plug);
+        if (set.values.empty()) {  // flags only: the channel's keyable, lock and channel-box state
+            if (const auto plug = resolve(g, p)) recordState(*plug, set);
+            return;
+        }
         if (graph_->nodeType(g).name() == "time" && (p.name == "o" || p.name == "outTime")) return readTime(set);
         if (node(n).type == "unitConversion" && (p.name == "cf" || p.name == "conversionFactor")) {
             if (graph_->nodeType(g).name() == "multiplyDivide") return;  // read by aliasVectorConversion
@@ -378,6 +383,7 @@ private:
         if (!compound.empty()) return setCompoundRange(g, compound, p, set, units);
         const auto plug = resolve(g, p);
         if (!plug) return countNotEvaluated(n, set.plug);
+        recordState(*plug, set);
         const AttributeSpec& spec = graph_->spec(*plug);
         if (!spec.input || graph_->incomingConnection(*plug)) return;  // computed, or driven: Maya saved a result
         maya::ValueReader r(set.values, units);
@@ -393,6 +399,15 @@ private:
             return;
         }
         graph_->setValue(*plug, r.read(type, spec.unit));
+    }
+
+    void recordState(const Plug& plug, const maya::SetAttr& set)
+    {
+        if (!set.keyable && !set.locked && !set.channelBox) return;
+        MayaSceneInfo::PlugState& state = info_.plugStates[graph_->plugName(plug)];
+        if (set.keyable) state.keyable = set.keyable;
+        if (set.locked) state.locked = set.locked;
+        if (set.channelBox) state.channelBox = set.channelBox;
     }
 
     // ".tg[0:1]" with each element's children in turn.
@@ -515,7 +530,14 @@ private:
         if (dst < 0 || src < 0) {
             const std::string& missing = src < 0 ? srcName : dstName;
             // Maya's default nodes (:defaultColorMgtGlobals) exist in every scene without a createNode.
-            if (missing.starts_with(':') || referenceMissing(missing)) return;
+            if (missing.starts_with(':')) return;
+            if (referenceMissing(missing)) {
+                // Lost with its reference: an error only where what it drives reaches a joint.
+                if (src < 0 && dst >= 0 && graphNode(dst) >= 0)
+                    markUnevaluated(graphNode(dst), -1,
+                                    fmt::format("it is in a reference that was not found ({})", srcName), c.where);
+                return;
+            }
             fail(c.where, fmt::format("connectAttr names '{}', which is no node of the scene",
                                       messageExcerpt(src < 0 ? srcName : dstName)));
         }
@@ -942,6 +964,8 @@ void Builder::checkReachesNoJoint()
         }
     }
     if (!first) return;
+    if (first->source < 0)
+        fail(first->where, fmt::format("a node drives joint '{}' but {}", name(firstJoint), first->why));
     const maya::Node& src = node(first->source);
     fail(first->where,
          fmt::format("node '{}' ({}) drives joint '{}'; {}", src.name, src.type, name(firstJoint), first->why));

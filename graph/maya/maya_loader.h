@@ -39,6 +39,12 @@ struct MayaSceneInfo {
         std::vector<Eigen::Matrix4d> bindPreMatrix;  // by influence index: the inverse of its world matrix at bind
     };
     std::vector<Skin> skins;
+    // The channel-box state the scene gave plugs (setAttr -k, -l, -cb), by plug name as the graph names it: which
+    // channels an animator keys (keyable, unlocked) and sees (in the channel box).
+    struct PlugState {
+        std::optional<bool> keyable, locked, channelBox;
+    };
+    std::map<std::string, PlugState> plugStates;
     std::vector<std::string> warnings;                  // one line each (a missing reference)
     std::map<std::string, int> skippedStatements;       // by command
     std::map<std::string, int> notEvaluatedTypes;       // nodes kept out of the graph, by Maya type

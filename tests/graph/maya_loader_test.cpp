@@ -116,12 +116,17 @@ TEST_CASE("maya scene: dynamic attributes, a constraint's weight alias, nodes th
                       "\taddAttr -ci true -sn \"mode\" -ln \"mode\" -min 0 -max 2 -en \"a:b:c\" -at \"enum\";\n"
                       "\tsetAttr \".fk\" 0.25;\n"
                       "\tsetAttr \".mode\" 2;\n"
+                      "\tsetAttr -l on \".tx\";\n"
+                      "\tsetAttr -k off -cb on \".ry\";\n"
                       "createNode nurbsCurve -n \"ctrlShape\" -p \"ctrl\";\n"
                       "createNode lambert -n \"mat\";\n",
                   &info);
     CHECK(std::get<double>(g->getValue(g->plug("ctrl.ikFk"))) == 0.25);
     CHECK(std::get<int>(g->getValue(g->plug("ctrl.mode"))) == 2);
     CHECK(g->spec(g->plug("ctrl.ikFk")).keyable);
+    CHECK(info.plugStates.at("ctrl.translateX").locked == true);
+    CHECK(info.plugStates.at("ctrl.rotateY").keyable == false);
+    CHECK(info.plugStates.at("ctrl.rotateY").channelBox == true);
     CHECK(info.notEvaluatedTypes.at("nurbsCurve") == 1);
     CHECK(info.notEvaluatedTypes.at("lambert") == 1);
 }
@@ -228,6 +233,16 @@ TEST_CASE("maya references: namespaces, placeholder edits, setAttr edits, a miss
     loadRigFile(lonely, makeBuiltinRegistry(), nullptr, &info);
     REQUIRE(info.warnings.size() == 1);
     CHECK(info.warnings[0].find("lonely.ma:2:1: reference 'gone.ma' not found") != std::string::npos);
+
+    // A joint of the scene driven from the missing reference: one error line.
+    const auto driven = test::writeFile(dir / "driven.ma",
+                                        "//Maya ASCII 2023 scene\nfile -r -ns \"x\" \"gone.ma\";\n"
+                                        "createNode joint -n \"j\";\n"
+                                        "connectAttr \"x:ctrl.tx\" \"j.tx\";\n");
+    CHECK(test::errorOf([&] {
+              loadRigFile(driven, makeBuiltinRegistry());
+          }).find("driven.ma:4:13: a node drives joint 'j' but it is in a reference that was not found (x:ctrl)") !=
+          std::string::npos);
 
     const auto loop = test::writeFile(dir / "loop.ma", "//Maya ASCII 2023 scene\nfile -r -ns \"x\" \"loop.ma\";\n");
     CHECK(test::errorOf([&] {

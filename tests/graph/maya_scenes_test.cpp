@@ -9,8 +9,8 @@
 #include <iostream>
 #include <numbers>
 
-#include <Eigen/LU>
 #include <fmt/format.h>
+#include <Eigen/LU>
 
 #include "core/error.h"
 #include "core/rotation_math.h"
