@@ -73,6 +73,14 @@ std::string limitsText(const AttributeSpec& spec)
     return "";
 }
 
+// Maya's name for the attribute (docs/maya.md): `.t`, or `.tg[i].tt` for a child of a compound multi attribute.
+std::string mayaText(const AttributeSpec& a)
+{
+    if (a.shortName.empty()) return "";
+    if (!a.mayaCompound.empty()) return fmt::format("`.{}[i].{}`", a.mayaCompoundShort, a.shortName);
+    return fmt::format("`.{}`", a.shortName);
+}
+
 }  // namespace
 
 std::string nodeTypeReference(const NodeRegistry& registry)
@@ -88,11 +96,18 @@ std::string nodeTypeReference(const NodeRegistry& registry)
             for (const auto& f : type.yamlConnectors()) fields += (fields.empty() ? "`" : ", `") + f.first + "`";
             out += fmt::format("Rig-file fields besides attributes: {}.\n\n", fields);
         }
-        out += "| attribute | in/out | type | unit | default | limits | keyable | description |\n";
-        out += "|---|---|---|---|---|---|---|---|\n";
+        if (!type.mayaType().empty()) out += fmt::format("Read from a Maya scene's `{}` nodes.\n\n", type.mayaType());
+        if (!type.mayaFields().empty()) {
+            std::string fields;
+            for (const auto& f : type.mayaFields()) fields += (fields.empty() ? "`." : ", `.") + f.first + "`";
+            out += fmt::format("Maya attributes read into the attributes below: {}.\n\n", fields);
+        }
+        out += "| attribute | Maya | in/out | type | unit | default | limits | keyable | description |\n";
+        out += "|---|---|---|---|---|---|---|---|---|\n";
         for (const AttributeSpec& a : type.attributes())
-            out += fmt::format("| `{}` | {} | {} | {} | {} | {} | {} | {} |\n", a.name, a.input ? "in" : "out",
-                               typeText(a), unitText(a), defaultText(a), limitsText(a), a.keyable ? "yes" : "",
+            out += fmt::format("| `{}` | {} | {} | {} | {} | {} | {} | {} | {} |\n", a.name, mayaText(a),
+                               a.input ? "in" : "out", typeText(a), unitText(a), defaultText(a), limitsText(a),
+                               a.keyable ? "yes" : "",
                                a.description + (a.sceneTime ? " Follows the scene time when unconnected." : ""));
         std::string affects;
         for (AttrId i = 0; i < static_cast<AttrId>(type.attributes().size()); ++i) {
