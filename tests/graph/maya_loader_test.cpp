@@ -250,3 +250,88 @@ TEST_CASE("maya references: namespaces, placeholder edits, setAttr edits, a miss
           }).find("loop.ma:2:1: the reference 'loop.ma' loops back to a scene that references it") !=
           std::string::npos);
 }
+
+TEST_CASE("maya scene: a parent constraint reading the joint it drives, its weight alias, and its offset from the "
+          "target's pivot")
+{
+    // The control's pivot is at (0, 5, 0) and it sits at (2, 0, 0): its pivot is at (2, 5, 0) in the world. The joint
+    // keeps an offset of (0, 1, 0) from that pivot: it lands at (2, 6, 0), and turns with the control.
+    const std::string scene = header +
+                              "createNode transform -n \"ctrl\";\n\tsetAttr \".t\" -type \"double3\" 2 0 0 ;\n"
+                              "\tsetAttr \".rp\" -type \"double3\" 0 5 0 ;\n\tsetAttr \".ry\" 90;\n"
+                              "createNode joint -n \"hip\";\n"
+                              "createNode parentConstraint -n \"hip_pc\" -p \"hip\";\n"
+                              "\taddAttr -dcb 0 -ci true -k true -sn \"w0\" -ln \"ctrlW0\" -dv 1 -min 0 -at \"double\";\n"
+                              "\tsetAttr \".erp\" yes;\n"
+                              "\tsetAttr \".tg[0].tot\" -type \"double3\" 0 1 0 ;\n"
+                              "connectAttr \"hip_pc.ctx\" \"hip.tx\";\nconnectAttr \"hip_pc.cty\" \"hip.ty\";\n"
+                              "connectAttr \"hip_pc.ctz\" \"hip.tz\";\nconnectAttr \"hip_pc.crx\" \"hip.rx\";\n"
+                              "connectAttr \"hip_pc.cry\" \"hip.ry\";\nconnectAttr \"hip_pc.crz\" \"hip.rz\";\n"
+                              "connectAttr \"hip.ro\" \"hip_pc.cro\";\nconnectAttr \"hip.pim\" \"hip_pc.cpim\";\n"
+                              "connectAttr \"hip.rp\" \"hip_pc.crp\";\nconnectAttr \"hip.rpt\" \"hip_pc.crt\";\n"
+                              "connectAttr \"hip.jo\" \"hip_pc.cjo\";\n"
+                              "connectAttr \"ctrl.t\" \"hip_pc.tg[0].tt\";\nconnectAttr \"ctrl.rp\" \"hip_pc.tg[0].trp\";\n"
+                              "connectAttr \"ctrl.rpt\" \"hip_pc.tg[0].trt\";\nconnectAttr \"ctrl.r\" \"hip_pc.tg[0].tr\";\n"
+                              "connectAttr \"ctrl.ro\" \"hip_pc.tg[0].tro\";\nconnectAttr \"ctrl.s\" \"hip_pc.tg[0].ts\";\n"
+                              "connectAttr \"ctrl.pm\" \"hip_pc.tg[0].tpm\";\n"
+                              "connectAttr \"hip_pc.w0\" \"hip_pc.tg[0].tw\";\n";
+    auto g = load(scene);
+    const Eigen::Matrix4d hip = mat(*g, "hip.worldMatrix");
+    CHECK((hip.topRightCorner<3, 1>() - Eigen::Vector3d(2, 6, 0)).norm() < 1e-12);
+    CHECK((hip.topLeftCorner<3, 3>() - Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitY()).toRotationMatrix()).norm() <
+          1e-12);
+    // The weight is the constraint's targetWeight[0] under Maya's name for it.
+    g->setValue(g->plug("hip_pc.targetWeight[0]"), 0.0);
+    CHECK(mat(*g, "hip.worldMatrix").topRightCorner<3, 1>().norm() < 1e-12);
+}
+
+TEST_CASE("maya scene: time curves at the saved time, set-driven keys through unitConversion, vectors converted")
+{
+    // ctrl.rx keyed 0 -> 90 degrees over frames 0 -> 10 (linear); a set-driven key turns the joint's rz by the same
+    // angle through Maya's unitConversion nodes (radians to degrees, and back); a unitConversion between vectors
+    // halves the control's translate into the joint's.
+    const std::string scene =
+        header +
+        "createNode transform -n \"ctrl\";\n"
+        "createNode animCurveTA -n \"ctrl_rotateX\";\n\tsetAttr \".tan\" 2;\n\tsetAttr \".wgt\" no;\n"
+        "\tsetAttr -s 2 \".ktv[0:1]\"  0 0 10 90;\n"
+        "createNode joint -n \"j\";\n"
+        "createNode animCurveUA -n \"j_rotateZ\";\n\tsetAttr \".tan\" 2;\n\tsetAttr -s 2 \".ktv[0:1]\"  0 0 90 90;\n"
+        "createNode unitConversion -n \"uc1\";\n\tsetAttr \".cf\" 57.295779513082323;\n"
+        "createNode unitConversion -n \"uc2\";\n\tsetAttr \".cf\" 0.5;\n"
+        "select -ne :time1;\n\tsetAttr \".o\" 5;\n"
+        "connectAttr \"ctrl_rotateX.o\" \"ctrl.rx\";\nconnectAttr \":time1.o\" \"ctrl_rotateX.i\";\n"
+        "connectAttr \"ctrl.rx\" \"uc1.i\";\nconnectAttr \"uc1.o\" \"j_rotateZ.i\";\nconnectAttr \"j_rotateZ.o\" \"j.rz\";\n"
+        "connectAttr \"ctrl.t\" \"uc2.i\";\nconnectAttr \"uc2.o\" \"j.t\";\n";
+    MayaSceneInfo info;
+    auto g = load(scene, &info);
+    CHECK(info.vectorConversions == 1);
+    CHECK(vec(*g, "ctrl.rotate").x() == doctest::Approx(pi / 4));
+    CHECK(vec(*g, "j.rotate").z() == doctest::Approx(pi / 4));
+    g->setValue(g->plug("ctrl.translate"), Eigen::Vector3d(2, 4, 6));
+    CHECK((vec(*g, "j.translate") - Eigen::Vector3d(1, 2, 3)).norm() < 1e-12);
+    g->setTime(10);
+    CHECK(vec(*g, "j.rotate").z() == doctest::Approx(pi / 2));
+}
+
+TEST_CASE("maya scene: a character set passes its elements through; an expression it cannot read is refused")
+{
+    const std::string scene = header +
+                              "createNode transform -n \"ctrl\";\ncreateNode joint -n \"j\" -p \"ctrl\";\n"
+                              "createNode character -n \"hero\";\n\tsetAttr \".lv[3]\" 7;\n"
+                              "createNode animCurveTL -n \"hero_ty\";\n\tsetAttr -s 2 \".ktv[0:1]\"  0 1 10 11;\n"
+                              "connectAttr \"hero_ty.o\" \"hero.lv[4]\";\n"
+                              "connectAttr \"hero.lv[3]\" \"ctrl.tx\";\nconnectAttr \"hero.lv[4]\" \"ctrl.ty\";\n";
+    auto g = load(scene);
+    g->setTime(5);
+    CHECK((vec(*g, "ctrl.translate") - Eigen::Vector3d(7, 6, 0)).norm() < 1e-12);
+
+    const std::string expression = header +
+                                   "createNode joint -n \"j\";\n"
+                                   "createNode expression -n \"wobble\";\n"
+                                   "\tsetAttr -k on \".nds\";\n\tsetAttr -s 2 \".out\";\n"
+                                   "\tsetAttr \".ixp\" -type \"string\" \".O[0] = `getAttr ball.tx`;\";\n"
+                                   "connectAttr \"wobble.out[0]\" \"j.tx\";\n";
+    const std::string message = test::errorOf([&] { load(expression); });
+    CHECK(message.find("scene.ma:5:1: node 'wobble' (expression) drives joint 'j'; expression:") == 0);
+}
