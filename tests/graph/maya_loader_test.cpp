@@ -251,30 +251,32 @@ TEST_CASE("maya references: namespaces, placeholder edits, setAttr edits, a miss
           std::string::npos);
 }
 
-TEST_CASE("maya scene: a parent constraint reading the joint it drives, its weight alias, and its offset from the "
-          "target's pivot")
+TEST_CASE(
+    "maya scene: a parent constraint reading the joint it drives, its weight alias, and its offset from the "
+    "target's pivot")
 {
     // The control's pivot is at (0, 5, 0) and it sits at (2, 0, 0): its pivot is at (2, 5, 0) in the world. The joint
     // keeps an offset of (0, 1, 0) from that pivot: it lands at (2, 6, 0), and turns with the control.
-    const std::string scene = header +
-                              "createNode transform -n \"ctrl\";\n\tsetAttr \".t\" -type \"double3\" 2 0 0 ;\n"
-                              "\tsetAttr \".rp\" -type \"double3\" 0 5 0 ;\n\tsetAttr \".ry\" 90;\n"
-                              "createNode joint -n \"hip\";\n"
-                              "createNode parentConstraint -n \"hip_pc\" -p \"hip\";\n"
-                              "\taddAttr -dcb 0 -ci true -k true -sn \"w0\" -ln \"ctrlW0\" -dv 1 -min 0 -at \"double\";\n"
-                              "\tsetAttr \".erp\" yes;\n"
-                              "\tsetAttr \".tg[0].tot\" -type \"double3\" 0 1 0 ;\n"
-                              "connectAttr \"hip_pc.ctx\" \"hip.tx\";\nconnectAttr \"hip_pc.cty\" \"hip.ty\";\n"
-                              "connectAttr \"hip_pc.ctz\" \"hip.tz\";\nconnectAttr \"hip_pc.crx\" \"hip.rx\";\n"
-                              "connectAttr \"hip_pc.cry\" \"hip.ry\";\nconnectAttr \"hip_pc.crz\" \"hip.rz\";\n"
-                              "connectAttr \"hip.ro\" \"hip_pc.cro\";\nconnectAttr \"hip.pim\" \"hip_pc.cpim\";\n"
-                              "connectAttr \"hip.rp\" \"hip_pc.crp\";\nconnectAttr \"hip.rpt\" \"hip_pc.crt\";\n"
-                              "connectAttr \"hip.jo\" \"hip_pc.cjo\";\n"
-                              "connectAttr \"ctrl.t\" \"hip_pc.tg[0].tt\";\nconnectAttr \"ctrl.rp\" \"hip_pc.tg[0].trp\";\n"
-                              "connectAttr \"ctrl.rpt\" \"hip_pc.tg[0].trt\";\nconnectAttr \"ctrl.r\" \"hip_pc.tg[0].tr\";\n"
-                              "connectAttr \"ctrl.ro\" \"hip_pc.tg[0].tro\";\nconnectAttr \"ctrl.s\" \"hip_pc.tg[0].ts\";\n"
-                              "connectAttr \"ctrl.pm\" \"hip_pc.tg[0].tpm\";\n"
-                              "connectAttr \"hip_pc.w0\" \"hip_pc.tg[0].tw\";\n";
+    const std::string scene =
+        header +
+        "createNode transform -n \"ctrl\";\n\tsetAttr \".t\" -type \"double3\" 2 0 0 ;\n"
+        "\tsetAttr \".rp\" -type \"double3\" 0 5 0 ;\n\tsetAttr \".ry\" 90;\n"
+        "createNode joint -n \"hip\";\n"
+        "createNode parentConstraint -n \"hip_pc\" -p \"hip\";\n"
+        "\taddAttr -dcb 0 -ci true -k true -sn \"w0\" -ln \"ctrlW0\" -dv 1 -min 0 -at \"double\";\n"
+        "\tsetAttr \".erp\" yes;\n"
+        "\tsetAttr \".tg[0].tot\" -type \"double3\" 0 1 0 ;\n"
+        "connectAttr \"hip_pc.ctx\" \"hip.tx\";\nconnectAttr \"hip_pc.cty\" \"hip.ty\";\n"
+        "connectAttr \"hip_pc.ctz\" \"hip.tz\";\nconnectAttr \"hip_pc.crx\" \"hip.rx\";\n"
+        "connectAttr \"hip_pc.cry\" \"hip.ry\";\nconnectAttr \"hip_pc.crz\" \"hip.rz\";\n"
+        "connectAttr \"hip.ro\" \"hip_pc.cro\";\nconnectAttr \"hip.pim\" \"hip_pc.cpim\";\n"
+        "connectAttr \"hip.rp\" \"hip_pc.crp\";\nconnectAttr \"hip.rpt\" \"hip_pc.crt\";\n"
+        "connectAttr \"hip.jo\" \"hip_pc.cjo\";\n"
+        "connectAttr \"ctrl.t\" \"hip_pc.tg[0].tt\";\nconnectAttr \"ctrl.rp\" \"hip_pc.tg[0].trp\";\n"
+        "connectAttr \"ctrl.rpt\" \"hip_pc.tg[0].trt\";\nconnectAttr \"ctrl.r\" \"hip_pc.tg[0].tr\";\n"
+        "connectAttr \"ctrl.ro\" \"hip_pc.tg[0].tro\";\nconnectAttr \"ctrl.s\" \"hip_pc.tg[0].ts\";\n"
+        "connectAttr \"ctrl.pm\" \"hip_pc.tg[0].tpm\";\n"
+        "connectAttr \"hip_pc.w0\" \"hip_pc.tg[0].tw\";\n";
     auto g = load(scene);
     const Eigen::Matrix4d hip = mat(*g, "hip.worldMatrix");
     CHECK((hip.topRightCorner<3, 1>() - Eigen::Vector3d(2, 6, 0)).norm() < 1e-12);
@@ -301,7 +303,8 @@ TEST_CASE("maya scene: time curves at the saved time, set-driven keys through un
         "createNode unitConversion -n \"uc2\";\n\tsetAttr \".cf\" 0.5;\n"
         "select -ne :time1;\n\tsetAttr \".o\" 5;\n"
         "connectAttr \"ctrl_rotateX.o\" \"ctrl.rx\";\nconnectAttr \":time1.o\" \"ctrl_rotateX.i\";\n"
-        "connectAttr \"ctrl.rx\" \"uc1.i\";\nconnectAttr \"uc1.o\" \"j_rotateZ.i\";\nconnectAttr \"j_rotateZ.o\" \"j.rz\";\n"
+        "connectAttr \"ctrl.rx\" \"uc1.i\";\nconnectAttr \"uc1.o\" \"j_rotateZ.i\";\nconnectAttr \"j_rotateZ.o\" "
+        "\"j.rz\";\n"
         "connectAttr \"ctrl.t\" \"uc2.i\";\nconnectAttr \"uc2.o\" \"j.t\";\n";
     MayaSceneInfo info;
     auto g = load(scene, &info);
