@@ -10,59 +10,22 @@
 
 #include "core/error.h"
 #include "graph/maya/ma_scene.h"
+#include "graph/maya/maya_info.h"
 #include "graph/maya/maya_references.h"
 #include "graph/maya/maya_values.h"
 
 namespace rig {
 namespace {
 
+using maya::AttrPath;
 using maya::Scene;
+using maya::splitAttr;
 using maya::Where;
 
 // Maya DAG types that are transforms here: their own attributes are a transform's.
 bool transformLike(std::string_view type)
 {
     return type == "ikEffector" || type == "dagContainer" || type == "lodGroup";
-}
-
-// A Maya attribute path split: name[first:last].child
-struct AttrPath {
-    std::string name;
-    int first = -1, last = -1;
-    std::string child;
-    int childIndex = -1;
-    bool valid = true;
-};
-
-AttrPath splitAttr(std::string_view text)
-{
-    AttrPath p;
-    auto segment = [&](std::string_view s, std::string& name, int& first, int* last) {
-        const auto open = s.find('[');
-        name = std::string(s.substr(0, open));
-        if (open == std::string_view::npos) return;
-        const auto close = s.find(']', open);
-        if (close == std::string_view::npos || close + 1 != s.size()) {
-            p.valid = false;
-            return;
-        }
-        const std::string inside(s.substr(open + 1, close - open - 1));
-        const auto colon = inside.find(':');
-        char* end = nullptr;
-        first = static_cast<int>(std::strtol(inside.c_str(), &end, 10));
-        if (last)
-            *last = colon == std::string::npos ? first
-                                               : static_cast<int>(std::strtol(inside.c_str() + colon + 1, nullptr, 10));
-        if (inside.empty() || first < 0 || (last && *last < first)) p.valid = false;
-    };
-    const auto dot = text.find('.');
-    segment(text.substr(0, dot), p.name, p.first, &p.last);
-    if (dot != std::string_view::npos) {
-        const std::string_view rest = text.substr(dot + 1);
-        if (rest.find('.') != std::string_view::npos) p.valid = false;
-        segment(rest, p.child, p.childIndex, nullptr);
-    }
-    return p;
 }
 
 class Builder {
@@ -87,7 +50,8 @@ public:
         connectAll();
         wireIk();
         checkReachesNoJoint();
-        readSkins();
+        maya::readSkins(
+            scene_, [this](int n) { return graphNode(n) < 0 ? std::string() : name(graphNode(n)); }, info_);
         info_.nodes = graph_->nodeCount();
         info_.connections = static_cast<int>(graph_->connections().size());
         graph_->setTime(info_.savedTime);
@@ -734,7 +698,6 @@ private:
     bool connectOrValue(const Plug& from, const Plug& to);
     void detachInputs(NodeId joint);
     void checkReachesNoJoint();
-    void readSkins();
 
     struct IkLinks {
         int startJoint = -1, effector = -1, solver = -1;
@@ -971,42 +934,6 @@ void Builder::checkReachesNoJoint()
          fmt::format("node '{}' ({}) drives joint '{}'; {}", src.name, src.type, name(firstJoint), first->why));
 }
 
-void Builder::readSkins()
-{
-    std::map<int, MayaSceneInfo::Skin> skins;
-    for (const maya::Connection& c : scene_.connections) {
-        const auto [dstName, dstAttr] = maya::splitPlug(c.destination);
-        const AttrPath p = splitAttr(dstAttr);
-        if ((p.name != "ma" && p.name != "matrix") || p.first < 0) continue;
-        const int skin = scene_.find(dstName);
-        if (skin < 0 || node(skin).type != "skinCluster") continue;
-        const int joint = scene_.find(maya::splitPlug(c.source).first);
-        auto& s = skins[skin];
-        if (s.influences.size() <= static_cast<std::size_t>(p.first))
-            s.influences.resize(static_cast<std::size_t>(p.first) + 1);
-        if (joint >= 0 && graphNode(joint) >= 0)
-            s.influences[static_cast<std::size_t>(p.first)] = name(graphNode(joint));
-    }
-    for (auto& [skin, s] : skins) {
-        s.name = node(skin).name;
-        s.bindPreMatrix.assign(s.influences.size(), Eigen::Matrix4d::Zero());
-        for (const maya::SetAttr& set : node(skin).sets) {
-            const AttrPath p = splitAttr(set.plug);
-            if ((p.name != "pm" && p.name != "bindPreMatrix") || p.first < 0 || set.type != "matrix") continue;
-            if (static_cast<std::size_t>(p.first) >= s.bindPreMatrix.size()) continue;
-            maya::ValueReader r(set.values, scene_.units[static_cast<std::size_t>(set.where.file)]);
-            try {
-                s.bindPreMatrix[static_cast<std::size_t>(p.first)] =
-                    std::get<Eigen::Matrix4d>(r.read(ValueType::Matrix4, Unit::None));
-            }
-            catch (const Error&) {
-                // a malformed bind matrix only loses this datum
-            }
-        }
-        info_.skins.push_back(std::move(s));
-    }
-}
-
 std::unique_ptr<Graph> buildGraph(Scene& scene, std::shared_ptr<NodeRegistry> registry, MayaSceneInfo& info,
                                   const std::vector<std::string>& missingNamespaces)
 {
@@ -1019,27 +946,6 @@ std::unique_ptr<Graph> buildGraph(Scene& scene, std::shared_ptr<NodeRegistry> re
 }
 
 }  // namespace
-
-std::string mayaStatsText(const MayaSceneInfo& info)
-{
-    auto list = [](const std::map<std::string, int>& counts) {
-        std::vector<std::pair<int, std::string>> sorted;
-        for (const auto& [name, n] : counts) sorted.emplace_back(-n, name);
-        std::sort(sorted.begin(), sorted.end());
-        std::string text;
-        for (const auto& [n, name] : sorted) text += fmt::format("{}{} {}", text.empty() ? "" : ", ", name, -n);
-        return text.empty() ? std::string("none") : text;
-    };
-    return fmt::format(
-        "maya: {} graph nodes, {} connections; saved time {}, {} fps{}\n"
-        "maya: nodes not evaluated (they move no joint), by type: {}\n"
-        "maya: statements skipped: {}\n"
-        "maya: attributes not evaluated: {}\n",
-        info.nodes, info.connections, info.savedTime, info.framesPerSecond,
-        info.playbackRange ? fmt::format(", playback {}:{}", info.playbackRange->first, info.playbackRange->second)
-                           : std::string(),
-        list(info.notEvaluatedTypes), list(info.skippedStatements), list(info.notEvaluatedAttributes));
-}
 
 bool isMayaAscii(std::string_view text) { return text.starts_with("//Maya ASCII"); }
 

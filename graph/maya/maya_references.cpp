@@ -12,8 +12,9 @@
 namespace rig::maya {
 namespace {
 
-// Limits of docs/robustness.md: a scene with its meshes may be large, a loop of references must end.
-constexpr std::uintmax_t maxSceneBytes = std::uintmax_t{1} << 30;
+// Limits of docs/robustness.md: a scene with its meshes may be large (but parsed words cost about 24 times their
+// text: 256 MB is 6 GB at worst), and a loop of references must end.
+constexpr std::uintmax_t maxSceneBytes = std::uintmax_t{256} << 20;
 constexpr std::size_t maxReferences = 2000;
 
 std::string readText(const std::filesystem::path& file)

@@ -11,6 +11,38 @@
 
 namespace rig::maya {
 
+AttrPath splitAttr(std::string_view text)
+{
+    AttrPath p;
+    auto segment = [&](std::string_view s, std::string& name, int& first, int* last) {
+        const auto open = s.find('[');
+        name = std::string(s.substr(0, open));
+        if (open == std::string_view::npos) return;
+        const auto close = s.find(']', open);
+        if (close == std::string_view::npos || close + 1 != s.size()) {
+            p.valid = false;
+            return;
+        }
+        const std::string inside(s.substr(open + 1, close - open - 1));
+        const auto colon = inside.find(':');
+        first = static_cast<int>(std::strtol(inside.c_str(), nullptr, 10));
+        if (last)
+            *last = colon == std::string::npos ? first
+                                               : static_cast<int>(std::strtol(inside.c_str() + colon + 1, nullptr, 10));
+        if (inside.empty() || first < 0 || first > AttrPath::maxIndex ||
+            (last && (*last < first || *last > AttrPath::maxIndex)))
+            p.valid = false;
+    };
+    const auto dot = text.find('.');
+    segment(text.substr(0, dot), p.name, p.first, &p.last);
+    if (dot != std::string_view::npos) {
+        const std::string_view rest = text.substr(dot + 1);
+        if (rest.find('.') != std::string_view::npos) p.valid = false;
+        segment(rest, p.child, p.childIndex, nullptr);
+    }
+    return p;
+}
+
 double fileFactor(Unit unit, const Units& units)
 {
     if (unit == Unit::Angle) return units.angleToDegrees * std::numbers::pi / 180.0;

@@ -5,6 +5,7 @@
 
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "graph/attribute.h"
@@ -12,6 +13,18 @@
 #include "graph/value.h"
 
 namespace rig::maya {
+
+// A Maya attribute path split: name[first:last].child (".tg[0].tt", ".ktv[0:5]"); not valid for a malformed one or
+// an index past maxIndex (Maya's multi indices are dense here: a hostile index must not allocate).
+struct AttrPath {
+    std::string name;
+    int first = -1, last = -1;
+    std::string child;
+    int childIndex = -1;
+    bool valid = true;
+    static constexpr int maxIndex = 1 << 16;
+};
+AttrPath splitAttr(std::string_view text);
 
 // Reads values from a setAttr's words, from `pos` on, advancing it. Throws rig::Error with the message only.
 class ValueReader {
