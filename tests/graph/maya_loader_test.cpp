@@ -317,7 +317,7 @@ TEST_CASE("maya scene: time curves at the saved time, set-driven keys through un
     CHECK(vec(*g, "j.rotate").z() == doctest::Approx(pi / 2));
 }
 
-TEST_CASE("maya scene: a character set passes its elements through; an expression it cannot read is refused")
+TEST_CASE("maya scene: a character set passes its elements through, and an expression it cannot read is refused")
 {
     const std::string scene = header +
                               "createNode transform -n \"ctrl\";\ncreateNode joint -n \"j\" -p \"ctrl\";\n"
