@@ -217,6 +217,12 @@ NodeTypeBuilder& NodeTypeBuilder::mayaType(std::string name)
     return *this;
 }
 
+NodeTypeBuilder& NodeTypeBuilder::notMaya()
+{
+    type_.readsMaya_ = false;
+    return *this;
+}
+
 NodeTypeBuilder& NodeTypeBuilder::mayaField(std::string longName, std::string shortName, MayaFieldParser parser)
 {
     type_.mayaFields_[std::move(longName)] = parser;

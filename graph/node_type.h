@@ -76,6 +76,9 @@ public:
     // The Maya node type this type stands for when a Maya scene is read ("ikHandle" for mayaIkHandle); empty: the
     // type's own name, when it is one of Maya's.
     const std::string& mayaType() const { return mayaType_; }
+    // False for a type of this project whose name Maya uses for another node (our lookAt, spring): a Maya scene's
+    // node of that name is not made one.
+    bool readsMaya() const { return readsMaya_; }
     // The attribute a Maya scene names `name` (long or short, Maya's spelling), or -1. A vector3 child's name
     // (".tx") is found by mayaChildIndex on the parent's spec.
     AttrId findMayaAttribute(std::string_view name) const;
@@ -96,6 +99,7 @@ private:
     std::map<std::string, YamlFieldParser, std::less<>> yamlFields_;
     std::map<std::string, YamlConnector, std::less<>> yamlConnectors_;
     std::string mayaType_;
+    bool readsMaya_ = true;
     std::map<std::string, MayaFieldParser, std::less<>> mayaFields_;
     MayaCheck mayaCheck_;
     std::function<std::unique_ptr<Node>()> factory_;
@@ -150,6 +154,8 @@ public:
     NodeTypeBuilder& yamlConnector(std::string field, YamlConnector connector);
     // The Maya node type this type stands for, when it is not the type's own name.
     NodeTypeBuilder& mayaType(std::string name);
+    // This type is not the Maya node of the same name (see NodeType::readsMaya).
+    NodeTypeBuilder& notMaya();
     // A Maya attribute read by a parser (MayaFieldParser), named by its long and short names.
     NodeTypeBuilder& mayaField(std::string longName, std::string shortName, MayaFieldParser parser);
     NodeTypeBuilder& mayaCheck(MayaCheck check);

@@ -35,6 +35,7 @@ public:
     {
         for (const std::string& name : registry->typeNames()) {
             auto type = registry->get(name);
+            if (!type->readsMaya()) continue;
             const std::string maya = type->mayaType().empty() ? name : type->mayaType();
             if (!type->mayaType().empty() || !mayaTypes_.count(maya)) mayaTypes_[maya] = type;
         }

@@ -46,6 +46,7 @@ private:
 std::shared_ptr<const NodeType> makeSpringType()
 {
     NodeTypeBuilder b("spring");
+    b.notMaya();  // Maya's spring is a particle dynamics node
     b.description(
         "A damped spring following input, HISTORY-DEPENDENT (stateful): each computation is one step, "
         "velocity = (1 - damping) * velocity + stiffness * (input - output); output += velocity. The node "

@@ -133,6 +133,7 @@ void declareInputs(NodeTypeBuilder& b)
 std::shared_ptr<const NodeType> makeLookAtType()
 {
     NodeTypeBuilder b("lookAt");
+    b.notMaya();  // Maya's lookAt is a camera's aim constraint
     b.description(
         "Turns a chain of joints toward a target point (docs/nodes.md, \"Editing a clip's skeleton\"). Root "
         "first, joint k at its current pivot p_k (moved by the turns before it) measures theta_k, the angle "

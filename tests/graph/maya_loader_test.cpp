@@ -119,6 +119,7 @@ TEST_CASE("maya scene: dynamic attributes, a constraint's weight alias, nodes th
                       "\tsetAttr -l on \".tx\";\n"
                       "\tsetAttr -k off -cb on \".ry\";\n"
                       "createNode nurbsCurve -n \"ctrlShape\" -p \"ctrl\";\n"
+                      "createNode lookAt -n \"cameraAim\";\n"
                       "createNode lambert -n \"mat\";\n",
                   &info);
     CHECK(std::get<double>(g->getValue(g->plug("ctrl.ikFk"))) == 0.25);
@@ -129,6 +130,9 @@ TEST_CASE("maya scene: dynamic attributes, a constraint's weight alias, nodes th
     CHECK(info.plugStates.at("ctrl.rotateY").channelBox == true);
     CHECK(info.notEvaluatedTypes.at("nurbsCurve") == 1);
     CHECK(info.notEvaluatedTypes.at("lambert") == 1);
+    // Maya's lookAt (a camera's aim) is not this project's lookAt.
+    CHECK(info.notEvaluatedTypes.at("lookAt") == 1);
+    CHECK(g->findNode("cameraAim") < 0);
 }
 
 TEST_CASE("maya scene: a node this library does not evaluate that drives a joint is refused in one line")
