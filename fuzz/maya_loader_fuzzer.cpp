@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "core/error.h"
+#include "fuzz/evaluate_loaded.h"
 #include "graph/maya/maya_loader.h"
 #include "nodes/builtin_nodes.h"
 
@@ -21,15 +22,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     catch (const rig::Error&) {
         return 0;
     }
-    for (const int threads : {1, 2}) {
-        try {
-            graph->setThreads(threads);
-            graph->dirtyAll();
-            graph->setTime(1.5);
-            graph->evaluateAll();
-        }
-        catch (const rig::Error&) {
-        }
-    }
+    rig::fuzz::evaluateLoaded(*graph);
     return 0;
 }
