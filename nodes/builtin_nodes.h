@@ -36,10 +36,11 @@ std::shared_ptr<const NodeType> makeComposeMatrixType();
 std::shared_ptr<const NodeType> makeDecomposeMatrixType();
 // Maya's utility and animation-layer types (nodes/math/, docs/nodes.md).
 std::shared_ptr<const NodeType> makeUnitConversionType();
-// The conversionFactor a unitConversion node takes for a Maya scene's factor `mayaFactor` between a `source` plug
-// and a `destination` plug: Maya multiplies internal units (radians), while a connection between an angle plug and
-// a unitless one here already converts radians and degrees, so that part is divided out (57.2958 from rotateX into
-// an animCurveUA's input becomes 1).
+// The conversionFactor a unitConversion node takes, between a `source` plug and a `destination` plug joined by
+// converting connections (a YAML rig's), for Maya's factor `mayaFactor`: Maya multiplies internal units (radians),
+// while such a connection between an angle plug and a unitless one already converts radians and degrees, so that
+// part is divided out (57.2958 from rotateX into an animCurveUA's input becomes 1). A Maya scene's connections
+// convert nothing: its factors are used as they are (docs/maya.md).
 double unitConversionFactor(double mayaFactor, Unit source, Unit destination);
 std::shared_ptr<const NodeType> makeMultDoubleLinearType();
 std::shared_ptr<const NodeType> makeAddDoubleLinearType();

@@ -35,8 +35,9 @@ std::shared_ptr<const NodeType> makeBlendWeightedType()
     b.description(
         "Sums its inputs, each times its weight: output = sum over existing input[i] of input[i] * weight[i] "
         "(Maya's blendWeighted node); a missing weight[i] is Maya's default 1, a weight without an input adds "
-        "nothing, no inputs give 0. Unitless: angles connected in arrive in degrees (Maya connects animCurveUA "
-        "outputs through unitConversion nodes).");
+        "nothing, no inputs give 0. Unitless: an angle connected in arrives in degrees through a YAML rig's "
+        "converting connection, in radians through a Maya scene's (which converts with its own unitConversion "
+        "nodes).");
     b.input(Input, "input", ValueType::Double).array().shortName("i").keyable().doc("The values summed, input[i].");
     b.input(Weight, "weight", ValueType::Double)
         .array()

@@ -20,8 +20,8 @@ public:
 
 double unitConversionFactor(double mayaFactor, Unit source, Unit destination)
 {
-    // Maya multiplies internal units (radians) by its factor; this engine already converts radians to degrees on
-    // a connection from an angle plug into a unitless one (and back on the way out), so that part is divided out.
+    // Maya multiplies internal units (radians) by its factor; a converting connection (a YAML rig's) already turns
+    // radians into degrees from an angle plug into a unitless one (and back on the way out): that part is divided out.
     return mayaFactor / (unitFactor(source, Unit::None) * unitFactor(Unit::None, destination));
 }
 
@@ -30,17 +30,16 @@ std::shared_ptr<const NodeType> makeUnitConversionType()
     NodeTypeBuilder b("unitConversion");
     b.description(
         "Multiplies its input by a factor (Maya's unitConversion node, which Maya inserts between plugs of "
-        "different units): output = input * conversionFactor. Input and output are unitless here, and this engine "
-        "converts radians to degrees on a connection from an angle plug into a unitless plug (and back on the way "
-        "into an angle plug), which Maya does inside the node through its factor. So a scene's factor is divided "
-        "by the conversions the connections make (unitConversionFactor in nodes/builtin_nodes.h): Maya's 57.2958 "
-        "between an angle plug and a unitless plug becomes 1, and a rotateX read by an animCurveUA through it "
-        "arrives in degrees, as in Maya.");
+        "different units): output = input * conversionFactor; input and output are unitless. A Maya scene's "
+        "connections carry values as Maya stores them (docs/maya.md), so its factor is Maya's own: 57.2958 turns a "
+        "rotateX's radians into the degrees an animCurveUA reads. In a YAML rig, a connection from an angle plug "
+        "into a unitless one already gives degrees: unitConversionFactor (nodes/builtin_nodes.h) divides that out "
+        "of a Maya factor (57.2958 becomes 1).");
     b.input(Input, "input", ValueType::Double).shortName("i").doc("The value converted.");
     b.input(ConversionFactor, "conversionFactor", ValueType::Double)
         .shortName("cf")
         .defaultValue(1.0)
-        .doc("The multiplier (a scene's factor, divided by what the connections convert: see the description).");
+        .doc("The multiplier (a Maya scene's factor as it is; in a YAML rig, see the description).");
     b.output(Output, "output", ValueType::Double).shortName("o").doc("input * conversionFactor.");
     b.affects(Input, {Output}).affects(ConversionFactor, {Output});
     b.factory<UnitConversionNode>();
