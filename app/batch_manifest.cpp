@@ -16,7 +16,7 @@ namespace rig::app {
 namespace {
 
 constexpr std::string_view manifestFormat = "rig-batch manifest 3";
-constexpr std::string_view shardFormat = "rig-batch shard 3";  // 3: contacts
+constexpr std::string_view shardFormat = "rig-batch shard 4";  // 3: contacts; 4: residual cm and deg apart
 constexpr std::size_t shardFigures = 8;  // the summary's figures held as raw doubles (shardOutputBytes)
 
 // The settings' table (app/solve_settings.h) as fields: a count as a number, a flag as a bool, a choice as its word.
@@ -390,7 +390,9 @@ std::string shardOutputBytes(const ShardOutput& o)
     // Residual errors may be NaN or infinite, which JSON cannot hold: as text that strtod reads back exactly.
     Json residual = Json::array();
     for (const auto& joint : s.residualJoints)
-        residual.push_back({joint.name, joint.frames, fmt::format("{}", joint.worstErrorCm)});
+        residual.push_back({joint.name, joint.frames, fmt::format("{}", joint.worstPositionErrorCm),
+                            fmt::format("{}", joint.worstRotationErrorDeg),
+                            fmt::format("{}", joint.worstScaledErrorCm)});
     const std::string_view numbers(reinterpret_cast<const char*>(o.frameNumbers.data()),
                                    o.frameNumbers.size() * sizeof(double));
     const std::string_view values(reinterpret_cast<const char*>(solved.data()), solved.size() * sizeof(double));
@@ -495,9 +497,10 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         s.firstFailedJoint = failure.at(2).get<std::string>();
         s.retriedFrames = j.at("retried_frames").get<int>();
         s.retriesKept = j.at("retries_kept").get<int>();
+        const auto figure = [](const Json& text) { return std::strtod(text.get<std::string>().c_str(), nullptr); };
         for (const Json& joint : j.at("residual_joints"))
-            s.residualJoints.push_back({joint.at(0).get<std::string>(), joint.at(1).get<int>(),
-                                        std::strtod(joint.at(2).get<std::string>().c_str(), nullptr)});
+            s.residualJoints.push_back({joint.at(0).get<std::string>(), joint.at(1).get<int>(), figure(joint.at(2)),
+                                        figure(joint.at(3)), figure(joint.at(4))});
         s.worstJoint = j.at("worst_joint").get<std::string>();
         s.worstFrame = j.at("worst_frame").get<int>();
         s.worstRotationJoint = j.at("worst_rotation_joint").get<std::string>();

@@ -326,7 +326,9 @@ Json residualJointsJson(const ClipInversionSummary& s)
 {
     Json joints = Json::object();
     for (const auto& joint : s.residualJoints)
-        joints[joint.name] = {{"frames", joint.frames}, {"worst_error_cm", numberJson(joint.worstErrorCm)}};
+        joints[joint.name] = {{"frames", joint.frames},
+                              {"worst_position_error_cm", numberJson(joint.worstPositionErrorCm)},
+                              {"worst_rotation_error_deg", numberJson(joint.worstRotationErrorDeg)}};
     return joints;
 }
 

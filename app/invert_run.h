@@ -115,7 +115,8 @@ std::string curvesCsv(const InvertOutcome& outcome);
 std::vector<std::string> unmodelledOutputs(const Approximation& approximation);
 
 // A summary's frames per status ({"reached": N, "best_fit": N, ...}), and its residual joints
-// ({joint: {frames, worst_error_cm}}), as the reports of rig-invert and rig-batch give them.
+// ({joint: {frames, worst_position_error_cm, worst_rotation_error_deg}}), as the reports of rig-invert and rig-batch
+// give them.
 Json statusCountsJson(const ClipInversionSummary& summary);
 Json residualJointsJson(const ClipInversionSummary& summary);
 // The words of the summary's status counts, for a text report: "1 reached, 239 best fit" (zero counts left out).

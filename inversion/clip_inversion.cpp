@@ -112,9 +112,9 @@ void ClipInversionSummary::add(const FrameInversion& f, const std::vector<Approx
                            : !f.missed.empty() ? outputs[static_cast<std::size_t>(f.missed.front().output)].name
                                                : f.worstJoint;
     }
-    for (const auto& m : f.missed) {
-        addResidual(outputs[static_cast<std::size_t>(m.output)].name, 1, m.errorCm);
-    }
+    for (const auto& m : f.missed)
+        addResidual({outputs[static_cast<std::size_t>(m.output)].name, 1, m.positionErrorCm, m.rotationErrorDeg,
+                     m.scaledErrorCm});
     if (worse(f.positionErrorCm, maxPositionErrorCm) || worstFrame < 0) {
         maxPositionErrorCm = f.positionErrorCm;
         worstJoint = f.worstJoint;
@@ -144,7 +144,7 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
     }
     for (int k = 0; k < frameStatusCount; ++k)
         statusFrames[static_cast<std::size_t>(k)] += later.statusFrames[static_cast<std::size_t>(k)];
-    for (const auto& joint : later.residualJoints) addResidual(joint.name, joint.frames, joint.worstErrorCm);
+    for (const auto& joint : later.residualJoints) addResidual(joint);
     sortResidualJoints();
     if (later.frames > 0 && (worse(later.maxPositionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
         maxPositionErrorCm = later.maxPositionErrorCm;
@@ -174,18 +174,23 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
     msPerFrame = frames > 0 ? 1000.0 * solveSeconds / frames : 0.0;
 }
 
-void ClipInversionSummary::addResidual(const std::string& name, int frames, double errorCm)
+void ClipInversionSummary::addResidual(const ResidualJoint& joint)
 {
-    auto it = std::find_if(residualJoints.begin(), residualJoints.end(), [&](const auto& r) { return r.name == name; });
-    if (it == residualJoints.end()) it = residualJoints.insert(residualJoints.end(), {name, 0, 0.0});
-    it->frames += frames;
-    if (worse(errorCm, it->worstErrorCm)) it->worstErrorCm = errorCm;
+    auto it =
+        std::find_if(residualJoints.begin(), residualJoints.end(), [&](const auto& r) { return r.name == joint.name; });
+    if (it == residualJoints.end()) it = residualJoints.insert(residualJoints.end(), {joint.name});
+    it->frames += joint.frames;
+    if (worse(joint.worstPositionErrorCm, it->worstPositionErrorCm))
+        it->worstPositionErrorCm = joint.worstPositionErrorCm;
+    if (worse(joint.worstRotationErrorDeg, it->worstRotationErrorDeg))
+        it->worstRotationErrorDeg = joint.worstRotationErrorDeg;
+    if (worse(joint.worstScaledErrorCm, it->worstScaledErrorCm)) it->worstScaledErrorCm = joint.worstScaledErrorCm;
 }
 
 void ClipInversionSummary::sortResidualJoints()
 {
     std::stable_sort(residualJoints.begin(), residualJoints.end(),
-                     [](const auto& a, const auto& b) { return worse(a.worstErrorCm, b.worstErrorCm); });
+                     [](const auto& a, const auto& b) { return worse(a.worstScaledErrorCm, b.worstScaledErrorCm); });
 }
 
 std::string ClipInversionSummary::briefReport() const
@@ -356,7 +361,7 @@ bool measureFrame(const Approximation& a, const SolverOptions& o, RealRigFit fit
         const bool onRealRig =
             fit == RealRigFit::everyOutput || (fit == RealRigFit::unmodelledOutputs && !a.outputs[k].modelled);
         if (!(error <= o.targetTolerance)) {
-            f.missed.push_back({static_cast<int>(k), error});
+            f.missed.push_back({static_cast<int>(k), p, r * degrees, error});
             unfitted = unfitted || (!a.outputs[k].modelled && !onRealRig);
         }
         if (onRealRig || !a.outputs[k].modelled) continue;

@@ -191,11 +191,14 @@ struct FrameInversion {
     // Some counted output's gap is over max(targetTolerance, modelAgreement * its real-rig error): the
     // approximation's answer cannot be taken as the real rig's best fit there.
     bool disagrees = false;
-    // Outputs further than targetTolerance on the real rig, increasing, each with its error there (cm, the larger
-    // of the position error and rotationScaleCm * the rotation error in radians).
+    // Outputs further than targetTolerance on the real rig, increasing, each with its errors there: position (cm) and
+    // rotation (degrees) apart, and the larger of the position error and rotationScaleCm * the rotation in radians,
+    // the one measure the tolerance judges (cm on the rotation scale: never shown as a distance).
     struct Missed {
         int output = -1;
-        double errorCm = 0.0;
+        double positionErrorCm = 0.0;
+        double rotationErrorDeg = 0.0;
+        double scaledErrorCm = 0.0;
     };
     std::vector<Missed> missed;
     // Sums over the counted halves of the active targets, for the clip's means.
@@ -216,12 +219,15 @@ struct ClipInversionSummary {
     int firstFailedFrame = -1;
     FrameStatus firstFailedStatus = FrameStatus::reached;
     std::string firstFailedJoint;
-    // The outputs frames left further than targetTolerance on the real rig, with how many frames did and the
-    // worst position error there (cm), the largest error first: the joints that carry the residual.
+    // The outputs frames left further than targetTolerance on the real rig, with how many frames did and their worst
+    // position (cm) and rotation (degrees) errors on those frames, each its own worst: the joints that carry the
+    // residual. Ordered by worstScaledErrorCm (FrameInversion::Missed::scaledErrorCm), the measure that missed them.
     struct ResidualJoint {
         std::string name;
         int frames = 0;
-        double worstErrorCm = 0.0;
+        double worstPositionErrorCm = 0.0;
+        double worstRotationErrorDeg = 0.0;
+        double worstScaledErrorCm = 0.0;
     };
     std::vector<ResidualJoint> residualJoints;
     // Real rig, over every counted half of every active target of every frame. Maxima and means keep a NaN or
@@ -256,10 +262,10 @@ struct ClipInversionSummary {
     void add(const FrameInversion& frame, const std::vector<ApproximationOutput>& outputs);
     // Adds another summary of later frames (sums, maxima with the first frame on a tie, the first failure).
     void merge(const ClipInversionSummary& later);
-    // residualJoints, the largest error first (a NaN first of all).
+    // residualJoints, the largest scaled error first (a NaN first of all).
     void sortResidualJoints();
-    // `frames` more frames that left joint `name` off its target, the worst by errorCm (cm).
-    void addResidual(const std::string& name, int frames, double errorCm);
+    // `frames` more frames that left joint `joint.name` off its target, with their worst errors.
+    void addResidual(const ResidualJoint& joint);
     std::string briefReport() const;
 };
 

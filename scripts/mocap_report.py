@@ -20,10 +20,16 @@ STATUS_WORDS = {"reached": "reached", "best_fit": "best fit", "model_mismatch": 
 
 
 def residual_joints(report, shown=4):
-    """The joints the real rig leaves off their targets, the largest error first:
-    'A (1.4 cm, 239 frames), B (...) and N more'."""
-    joints = sorted(report["residual_joints"].items(), key=lambda item: -(item[1]["worst_error_cm"] or 0))
-    text = ", ".join(f"{name} ({j['worst_error_cm']:.3g} cm, "
+    """The joints the real rig leaves off their targets, in the report's order (rig-invert's: the largest error on
+    the target tolerance's scale first), each with its worst position and rotation errors apart:
+    'A (0.27 cm, 34.9 deg, 239 frames), B (...) and N more'."""
+    joints = list(report["residual_joints"].items())
+
+    def figure(value, unit):
+        return f"{value:.3g} {unit}" if value is not None else f"nan {unit}"
+
+    text = ", ".join(f"{name} ({figure(j['worst_position_error_cm'], 'cm')}, "
+                     f"{figure(j['worst_rotation_error_deg'], 'deg')}, "
                      f"{j['frames']} frame{'' if j['frames'] == 1 else 's'})"
                      for name, j in joints[:shown])
     if len(joints) > shown:

@@ -56,12 +56,15 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
     const auto frameNumber = [&](int index) { return index >= 0 ? clip.frameNumbers[index] : 0.0; };
     std::cout << fmt::format("\nframes            {}: {}\n", s.frames, app::statusCountsText(s));
     if (!s.residualJoints.empty()) {
-        // The joints left off their targets on the real rig, the largest error first.
+        // The joints left off their targets on the real rig, the largest error first, each with its worst position
+        // and rotation errors apart (each in its own unit).
         std::string joints;
         const std::size_t shown = std::min<std::size_t>(s.residualJoints.size(), 6);
-        for (std::size_t i = 0; i < shown; ++i)
-            joints += fmt::format("{}{} ({:.3g} cm, {} frames)", i ? ", " : "", s.residualJoints[i].name,
-                                  s.residualJoints[i].worstErrorCm, s.residualJoints[i].frames);
+        for (std::size_t i = 0; i < shown; ++i) {
+            const auto& joint = s.residualJoints[i];
+            joints += fmt::format("{}{} ({:.3g} cm, {:.3g} deg, {} frames)", i ? ", " : "", joint.name,
+                                  joint.worstPositionErrorCm, joint.worstRotationErrorDeg, joint.frames);
+        }
         if (shown < s.residualJoints.size()) joints += fmt::format(" and {} more", s.residualJoints.size() - shown);
         std::cout << fmt::format("residual joints   {}\n", joints);
     }

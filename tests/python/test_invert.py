@@ -48,6 +48,13 @@ def test_a_cmu_clip_equals_rig_invert(learned_biped, tmp_path):
     # The fingerprint of the curves rig-invert would write: the same text.
     assert our_report["curves"] == {"file": None, "fnv1a64": report["curves"]["fnv1a64"]}
     assert our_report["ms_per_frame"] > 0
+    # Each residual joint's worst position (cm) and rotation (deg) apart, in rig-invert's order (the largest error on
+    # the target tolerance's scale first); the clip's worst rotation is its joint's own.
+    assert list(our_report["residual_joints"]) == list(report["residual_joints"])
+    hand = our_report["residual_joints"][our_report["worst_rotation_joint"]]
+    assert list(hand) == ["frames", "worst_position_error_cm", "worst_rotation_error_deg"]
+    assert hand["worst_rotation_error_deg"] == our_report["max_rotation_error_deg"]
+    assert hand["worst_position_error_cm"] < our_report["max_position_error_cm"]
 
 
 def test_options_equal_rig_invert_flags(learned_biped, tmp_path):

@@ -152,7 +152,22 @@ TEST_CASE("rig-invert: the CMU clip on the biped leaves a finite residual that i
     CHECK(rep["first_failure"].IsNull());
     CHECK(rep["residual_joints"].size() > 0);
     CHECK(rep["max_model_gap_cm"].as<double>() < 1e-3);
-    CHECK(r.out.find("residual joints   ") != std::string::npos);
+    // Each residual joint's worst position (cm) and rotation (deg) apart, each its own unit: the worst rotation's
+    // joint carries the clip's worst rotation, and no joint's figure passes the clip's worst in its unit. The text
+    // line gives the report's first joint in the same figures.
+    CHECK(rep["residual_joints"]["LeftHand"]["worst_rotation_error_deg"].as<double>() ==
+          rep["max_rotation_error_deg"].as<double>());
+    CHECK(rep["residual_joints"]["Neck1"]["worst_position_error_cm"].as<double>() ==
+          rep["max_position_error_cm"].as<double>());
+    for (const auto& joint : rep["residual_joints"]) {
+        CHECK(joint.second["worst_position_error_cm"].as<double>() <= rep["max_position_error_cm"].as<double>());
+        CHECK(joint.second["worst_rotation_error_deg"].as<double>() <= rep["max_rotation_error_deg"].as<double>());
+    }
+    const auto first = rep["residual_joints"].begin();
+    CHECK(r.out.find(fmt::format("residual joints   {} ({:.3g} cm, {:.3g} deg, {} frames), ",
+                                 first->first.as<std::string>(), first->second["worst_position_error_cm"].as<double>(),
+                                 first->second["worst_rotation_error_deg"].as<double>(),
+                                 first->second["frames"].as<int>())) != std::string::npos);
     for (std::size_t i = 1; i < rep["per_frame"].size(); ++i) {
         CHECK(rep["per_frame"][i]["status"].as<std::string>() == "best fit");
         CHECK(rep["per_frame"][i]["missed_joints"].size() > 0);
@@ -385,7 +400,10 @@ TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keep
     CHECK(rep["per_frame"][2]["termination"].as<std::string>() == "stuck");
     CHECK(rep["per_frame"][2]["status"].as<std::string>() == "best fit");
     CHECK(rep["residual_joints"]["elbow"]["frames"].as<int>() == 1);
-    CHECK(rep["residual_joints"]["elbow"]["worst_error_cm"].as<double>() > 1.0);
+    // The elbow's worst position and rotation there, each in its own unit and equal to that frame's own figures.
+    CHECK(rep["residual_joints"]["elbow"]["worst_position_error_cm"].as<double>() > 1.0);
+    CHECK(rep["residual_joints"]["elbow"]["worst_rotation_error_deg"].as<double>() ==
+          rep["per_frame"][2]["rotation_error_deg"].as<double>());
     CHECK(rep["per_frame"][1]["termination"].as<std::string>() == "invalidTargets");
     CHECK(r.out.find("invalid targets") != std::string::npos);
     const std::string curves = test::readFile(dir / "curves.json");
