@@ -115,10 +115,22 @@ std::string unmodelledText(const app::LearnOutcome& learned)
     return out;
 }
 
-// The validation's figures, and how many outputs they cover: the non-compositional ones are not predicted, the
-// dropped ones not learned.
-std::string validationText(const Approximation& a)
+// The rig's helper frames the approximation left out: the learner keeps only those a constraint operator reads.
+std::vector<std::string> helpersNotKept(const app::LearnOutcome& learned)
 {
+    std::vector<std::string> names;
+    for (const std::string& helper : learned.helpers)
+        if (std::none_of(learned.approximation.outputs.begin(), learned.approximation.outputs.end(),
+                         [&](const ApproximationOutput& o) { return o.name == helper; }))
+            names.push_back(helper);
+    return names;
+}
+
+// The validation's figures, and how many of the rig's outputs (the first line's count) they cover: the
+// non-compositional ones are not predicted, the dropped ones not learned, the helpers no constraint reads not kept.
+std::string validationText(const app::LearnOutcome& learned)
+{
+    const Approximation& a = learned.approximation;
     const ValidationSummary& v = a.validation;
     std::string out = fmt::format(
         "Validation on {} random poses within the limits of the modelled parameters, real rig against "
@@ -130,16 +142,24 @@ std::string validationText(const Approximation& a)
     const auto copies = static_cast<std::size_t>(std::count_if(
         a.outputs.begin(), a.outputs.end(), [](const auto& o) { return o.helper && rigOutputName(o.name) != o.name; }));
     const auto unmodelled = a.outputs.size() - copies - static_cast<std::size_t>(validated);
-    out += fmt::format("  validated {} of {} outputs", validated, a.outputs.size() - copies + a.droppedOutputs.size());
+    const std::size_t notKept = helpersNotKept(learned).size();
+    out += fmt::format("  validated {} of {} outputs", validated,
+                       a.outputs.size() - copies + a.droppedOutputs.size() + notKept);
     if (copies > 0) out += fmt::format(" (and {} branch copies of blends, through their blends)", copies);
     if (unmodelled > 0) out += fmt::format("; {} not modelled (listed above)", unmodelled);
     if (!a.droppedOutputs.empty()) out += fmt::format("; {} left out (listed above)", a.droppedOutputs.size());
+    if (notKept > 0)
+        out += fmt::format("; {} helper frame{} not kept (no constraint operator reads {})", notKept,
+                           notKept == 1 ? "" : "s", notKept == 1 ? "it" : "them");
     out += "\n";
-    out += fmt::format("  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm\n", v.maxPositionErrorCm,
-                       v.worstOutput, v.worstPose, v.meanPositionErrorCm);
+    // Epsilon bounds the error per unit moved, not the error of a pose that moves many parameters far: said on the
+    // line whose figure may be above epsilon, so that the two read together.
+    out += fmt::format(
+        "  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm (whole poses; epsilon is per unit moved)\n",
+        v.maxPositionErrorCm, v.worstOutput, v.worstPose, v.meanPositionErrorCm);
     out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg,
                        v.meanRotationErrorDeg);
-    out += fmt::format("  per unit of the parameters moved: worst {:.3g} cm ({}), epsilon {:g}: {}\n",
+    out += fmt::format("  per unit of the parameters moved: worst {:.3g} cm ({}), epsilon {:g} cm: {}\n",
                        v.maxRelativeError, v.worstRelativeOutput.empty() ? "-" : v.worstRelativeOutput, a.epsilon,
                        v.withinEpsilon ? "within" : "EXCEEDED");
     if (v.nonFinitePoses > 0)
@@ -217,13 +237,24 @@ std::string constraintsText(const Approximation& a)
 std::string readableReport(const app::LearnOutcome& learned, const Options& options)
 {
     const Approximation& a = learned.approximation;
+    // The outputs counted as the validation counts them, the helper frames among them said apart.
+    const std::string helpers = learned.helpers.empty()
+                                    ? ""
+                                    : fmt::format(" ({} helper frame{} among them)", learned.helpers.size(),
+                                                  learned.helpers.size() == 1 ? "" : "s");
     std::string out =
-        fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n", options.rig,
-                    learned.rigParameters, learned.rigOutputs, a.epsilon, a.training.orderer);
+        fmt::format("rig-learn {}: {} parameters, {} outputs{}, epsilon {:g} cm per unit moved, orderer {}\n",
+                    options.rig, learned.rigParameters, learned.rigOutputs, helpers, a.epsilon, a.training.orderer);
     if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", app::heldText(a.held));
-    if (!learned.helpers.empty())
-        out += fmt::format("Helpers (kept where a constraint operator reads them; never targets): {}\n",
-                           fmt::join(learned.helpers, ", "));
+    if (!learned.helpers.empty()) {
+        const std::vector<std::string> notKept = helpersNotKept(learned);
+        out += fmt::format("Helpers (kept where a constraint operator reads them; never targets): {}{}\n",
+                           fmt::join(learned.helpers, ", "),
+                           notKept.empty() ? "; all kept"
+                           : notKept.size() == learned.helpers.size()
+                               ? "; none kept"
+                               : fmt::format("; not kept: {}", fmt::join(notKept, ", ")));
+    }
     out += "\n";
     out += fmt::format("Modelled: {} parameters, in composition order (outermost first)\n", a.parameters.size());
     std::vector<std::vector<std::string>> rows{
@@ -279,7 +310,7 @@ std::string readableReport(const app::LearnOutcome& learned, const Options& opti
         "\nTraining: {} rig evaluations ({} for the composition order), {:.2f} s learning, {:.2f} s loading "
         "the rig\n",
         a.training.evaluations, a.training.orderEvaluations, a.training.seconds, learned.loadSeconds);
-    out += validationText(a);
+    out += validationText(learned);
     if (a.validation.withinEpsilon || options.allowInexact) out += fmt::format("\nWrote {}\n", options.output);
     else out += fmt::format("\nNot written: {} (over epsilon; --allow-inexact writes it anyway)\n", options.output);
     return out;

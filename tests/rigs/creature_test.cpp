@@ -613,6 +613,6 @@ TEST_CASE("rig-learn: the creature's IK spec with the forearm twist joints write
             learned.out.find(fmt::format("  {0}_forearm_twist: twistShare, turns with {0}_forearm, -0.5 of {0}_hand's "
                                          "twist about x relative to {0}_forearm (swing-twist)\n",
                                          side)) != std::string::npos);
-    CHECK(learned.out.find("epsilon 0.001: within") != std::string::npos);
+    CHECK(learned.out.find("epsilon 0.001 cm: within") != std::string::npos);
     CHECK(std::filesystem::exists(approx));
 }

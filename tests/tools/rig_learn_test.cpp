@@ -46,7 +46,7 @@ TEST_CASE("rig-learn: the arm end to end, report, JSON report and approximation 
     CHECK(r.err.empty());  // no progress bar when standard error is not a terminal
     // The readable report: the table in composition order, discards, training, validation.
     CHECK(r.out.starts_with(
-        "rig-learn rigs/examples/arm.yaml: 7 parameters, 3 outputs, epsilon 0.001 cm per unit, orderer "
+        "rig-learn rigs/examples/arm.yaml: 7 parameters, 3 outputs, epsilon 0.001 cm per unit moved, orderer "
         "structured\n"));
     CHECK(r.out.find("Modelled: 7 parameters, in composition order (outermost first)\n") != std::string::npos);
     CHECK(r.out.find("  #  parameter         form      axis") != std::string::npos);
@@ -55,7 +55,11 @@ TEST_CASE("rig-learn: the arm end to end, report, JSON report and approximation 
     CHECK(r.out.find("\nTraining: ") != std::string::npos);
     CHECK(r.out.find(" rig evaluations (") != std::string::npos);
     CHECK(r.out.find("  position error: worst ") != std::string::npos);
+    // A whole pose's error beside epsilon, which bounds the error per unit moved: each line says which it is.
+    CHECK(r.out.find(" cm (whole poses; epsilon is per unit moved)\n") != std::string::npos);
     CHECK(r.out.find("  rotation error: worst ") != std::string::npos);
+    CHECK(r.out.find("\n  per unit of the parameters moved: worst 0 cm (-), epsilon 0.001 cm: within\n") !=
+          std::string::npos);
     CHECK(r.out.ends_with(fmt::format("\nWrote {}\n", out.string())));
 
     // The JSON report (JSON is YAML): the keys of docs/rig-learn.md.
@@ -90,7 +94,7 @@ TEST_CASE("rig-learn: discards in the report and the JSON, with their reasons, a
                                  "--report-json '{}'",
                                  out.string(), json.string())));
     REQUIRE(r.exitCode == 0);
-    CHECK(r.out.find("epsilon 0.01 cm per unit, orderer talk") != std::string::npos);
+    CHECK(r.out.find("epsilon 0.01 cm per unit moved, orderer talk") != std::string::npos);
     CHECK(r.out.find("\nRedundant: 1 pairs with the same effect (an inversion must split it)\n"
                      "  nasty_ctrl.redundantA and nasty_ctrl.redundantB\n") != std::string::npos);
     CHECK(r.out.find("\nDiscarded: 2 parameters\n  nasty_ctrl.coupledTurn: no effect on its own") != std::string::npos);
@@ -247,8 +251,12 @@ TEST_CASE("rig-learn: helper frames are found by default, named by --helpers or 
         run(rigLearn(fmt::format("{} {} --helpers arm_ctrl -o '{}'", arm, armParams, (dir / "a.yaml").string())));
     REQUIRE(r.exitCode == 0);
     CHECK(r.out.starts_with(
-        "rig-learn rigs/examples/arm.yaml: 7 parameters, 4 outputs, epsilon 0.001 cm per unit, "
-        "orderer structured\nHelpers (kept where a constraint operator reads them; never targets): arm_ctrl\n"));
+        "rig-learn rigs/examples/arm.yaml: 7 parameters, 4 outputs (1 helper frame among them), epsilon 0.001 cm "
+        "per unit moved, orderer structured\nHelpers (kept where a constraint operator reads them; never targets): "
+        "arm_ctrl; none kept\n"));
+    // The validation counts the rig's outputs as the first line does: the helper not kept is said.
+    CHECK(r.out.find("\n  validated 3 of 4 outputs; 1 helper frame not kept (no constraint operator reads it)\n") !=
+          std::string::npos);
     // No constraint reads it: the approximation leaves it out.
     const rig::Approximation a = rig::readApproximationFile(dir / "a.yaml");
     REQUIRE(a.outputs.size() == 3);
@@ -373,7 +381,7 @@ TEST_CASE("rig-learn --set: the biped's legs learned in IK mode are another mode
     REQUIRE(r.exitCode == 0);
     // The report says the state it learned in, under its first line.
     CHECK(
-        r.out.starts_with("rig-learn rigs/biped.yaml: 30 parameters, 11 outputs, epsilon 0.001 cm per unit, "
+        r.out.starts_with("rig-learn rigs/biped.yaml: 30 parameters, 11 outputs, epsilon 0.001 cm per unit moved, "
                           "orderer structured\nHeld (not inverted): L_leg_settings.ikFk = 1, R_leg_settings.ikFk "
                           "= 1\n\nModelled: "));
     const YAML::Node report = YAML::LoadFile(json.string());
@@ -779,8 +787,9 @@ TEST_CASE(
     CHECK(learned.out.find("\n  LeftUpLeg: blend of LeftUpLeg@ik and LeftUpLeg@fk relative to LHipJoint by "
                            "L_leg_settings.ikFk (Euler channels in yzx, translation and stretch linear)\n") !=
           std::string::npos);
-    CHECK(learned.out.find("\n  validated 35 of 35 outputs (and 12 branch copies of blends, through their blends)\n") !=
-          std::string::npos);
+    // The rig's 36 outputs as the first line counts them: 35 validated, and root_ctrl, a helper no constraint reads.
+    CHECK(learned.out.find("\n  validated 35 of 36 outputs (and 12 branch copies of blends, through their blends); 1 "
+                           "helper frame not kept (no constraint operator reads it)\n") != std::string::npos);
     const YAML::Node report = YAML::LoadFile(json.string());
     CHECK(report["unmodelled_outputs"].size() == 0);
     CHECK(report["within_epsilon"].as<bool>());
