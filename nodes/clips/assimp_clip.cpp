@@ -581,12 +581,13 @@ const aiScene& imported(const Assimp::Importer& importer, const aiScene* scene, 
 
 }  // namespace
 
-std::string ClipSource::describe() const
+std::string ClipSource::describe(double mapScale, const std::string& mapFile) const
 {
     const std::string takeText = take.empty() ? fmt::format("take {}", takeIndex)
                                               : fmt::format("take {} '{}'", takeIndex, messageExcerpt(take, 60));
-    return fmt::format("{}, units x{:.6g} to cm ({}), up axis {}, {} of {}, {:.6g} fps", format, unitsToCm, units,
-                       upAxis, takeText, takeCount, framesPerSecond);
+    const std::string byMap = mapScale == 1.0 ? "" : fmt::format("; x{:.6g} by the map {}", mapScale, mapFile);
+    return fmt::format("{}, units x{:.6g} to cm ({}{}), up axis {}, {} of {}, {:.6g} fps", format, unitsToCm * mapScale,
+                       units, byMap, upAxis, takeText, takeCount, framesPerSecond);
 }
 
 SkeletalClip readAssimpClip(const std::filesystem::path& file, const std::string& take)

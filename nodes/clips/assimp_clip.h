@@ -39,8 +39,10 @@ struct ClipSource {
     int takeCount = 1;
     double framesPerSecond = 0.0;  // the sampling rate (0 for a file that does not say)
 
-    // "FBX, units x1 to cm (FBX UnitScaleFactor 1), up axis Y, take 0 'Run' of 3, 30 fps"
-    std::string describe() const;
+    // "FBX, units x1 to cm (FBX UnitScaleFactor 1), up axis Y, take 0 'Run' of 3, 30 fps". A map's scale
+    // (`mapScale`, read from `mapFile`) is part of the factor said, and named: "BVH, units x5.644 to cm (BVH has no
+    // unit: taken as is; x5.644 by the map rigs/maps/cmu_to_biped.yaml), ...".
+    std::string describe(double mapScale = 1.0, const std::string& mapFile = "") const;
 };
 
 struct SkeletalClip {

@@ -150,7 +150,7 @@ TargetClip skeletalTargets(const SkeletalClip& skeleton, const std::string& file
     for (const auto& joint : bvh.joints) fileJoints.push_back(joint.name);
     TargetClip clip;
     clip.file = file;
-    clip.source = skeleton.source.describe();
+    clip.source = skeleton.source.describe(map.scale, map.file);
     const auto kept = applyMap(fileJoints, clip.file, map, clip.joints);
     clip.frameTime = bvh.frameTime;
     std::vector<int> parents;
@@ -515,7 +515,11 @@ TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& ma
                 throw Error(fmt::format("{}: no take '{}'; a JSON clip has one take, 0; leave --take out",
                                         file.string(), messageExcerpt(take, 60)));
             TargetClip clip = parseJsonTargetClip(text, file.string(), map);
-            clip.source = "JSON world matrices (cm, Y up, as graph-eval writes them)";
+            clip.source = map.scale == 1.0 ? std::string("JSON world matrices (cm, Y up, as graph-eval writes them)")
+                                           : fmt::format(
+                                                 "JSON world matrices (Y up, as graph-eval writes them), units "
+                                                 "x{:.6g} to cm (by the map {})",
+                                                 map.scale, map.file);
             return clip;
         }
         case ClipReader::assimp:

@@ -140,6 +140,9 @@ TEST_CASE("rig-invert: the CMU clip on the biped leaves a finite residual that i
     INFO(r.err);
     REQUIRE(r.exitCode == 0);
     CHECK(r.out.find("frames            240: 1 reached, 239 best fit\n") != std::string::npos);
+    // The clip's units as the targets have them: the map's scale is in the factor, and named.
+    CHECK(r.out.find("\n  clip: BVH, units x5.64444 to cm (BVH has no unit: taken as is; x5.64444 by the map "
+                     "rigs/maps/cmu_to_biped.yaml), up axis Y, take 0 of 1, 120 fps\n") != std::string::npos);
     const auto rep = report(dir / "report.json");
     MESSAGE("biped residual on 01_01 frames 1-240: worst "
             << rep["max_position_error_cm"].as<double>() << " cm, " << rep["max_rotation_error_deg"].as<double>()
