@@ -183,6 +183,7 @@ Json keysReport(const InvertOutcome& outcome, const KeysOutcome& keys)
                 {"uniform",
                  {{"step", u.step},
                   {"keys", u.keyCount},
+                  {"constant_curves", u.constantCurves},
                   {"reduction", numberJson(uniformReduction)},
                   {"max_position_error_cm", numberJson(u.error.maxPositionCm)},
                   {"max_rotation_error_deg", numberJson(u.error.maxRotationDeg)}}}};
@@ -194,7 +195,8 @@ std::string keysText(const InvertOutcome& outcome, const KeysOutcome& keys)
     const KeyedError& e = keys.keyed.error;
     const UniformKeys& u = keys.uniform;
     std::string out = fmt::format(
-        "keys              {} for {} controls against {} dense keys: {} fewer ({} tangents, tolerance {} cm, {} deg)\n",
+        "keys              {} for {} controls against {} dense keys (one per frame and control): {} fewer ({} "
+        "tangents, tolerance {} cm, {} deg)\n",
         keys.keyed.keyCount(), keys.keyed.keys.size(), keys.denseKeys, percent(keys.reduction()), keys.settings.tangent,
         keys.settings.toleranceCm, keys.settings.toleranceDeg);
     out += fmt::format(
@@ -203,11 +205,12 @@ std::string keysText(const InvertOutcome& outcome, const KeysOutcome& keys)
         e.maxPositionCm, e.maxRotationDeg,
         outcome.approximation->outputs[static_cast<std::size_t>(e.worstOutputOverall)].name,
         frames[static_cast<std::size_t>(e.worstFrame)]);
+    // The dense keys less the constant curves' keys after their first: the counts add up on the screen.
     if (u.step == 1)
         out += fmt::format(
-            "uniform keys      no step over 1 frame holds the tolerance: a key on every frame ({} "
-            "keys)\n",
-            u.keyCount);
+            "uniform keys      no step over 1 frame holds the tolerance: a key on every frame, constant curves keyed "
+            "once ({} of {}): {} keys\n",
+            u.constantCurves, keys.keyed.keys.size(), u.keyCount);
     else
         out += fmt::format(
             "uniform keys      every {} frames: {} keys, {} fewer, at the same tolerance (worst {:.4g} "

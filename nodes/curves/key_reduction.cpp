@@ -740,7 +740,11 @@ UniformKeys uniformKeys(RigBinding& rig, std::span<const double> frames, const s
         if (!allWithin(state.errors)) return false;
         out.step = static_cast<int>(step);
         out.keyCount = 0;
-        for (const auto& k : state.keys) out.keyCount += k.size();
+        out.constantCurves = 0;
+        for (const auto& k : state.keys) {
+            out.keyCount += k.size();
+            out.constantCurves += k.size() == 1 ? 1 : 0;
+        }
         out.error = summarize(state.errors);
         return true;
     };

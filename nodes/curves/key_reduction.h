@@ -64,6 +64,7 @@ struct KeyedCurves {
 struct UniformKeys {
     int step = 1;
     std::size_t keyCount = 0;
+    std::size_t constantCurves = 0;  // keyed once: why a step of 1 has fewer keys than one per frame and control
     KeyedError error;
 };
 

@@ -78,6 +78,19 @@ TEST_CASE(
     CHECK(perControl == keys);
     CHECK(report["uniform"]["step"].as<int>() >= 1);
     CHECK(report["uniform"]["max_position_error_cm"].as<double>() <= toleranceCm);
+    // The uniform keys' count beside the dense one adds up: at a step of 1, one per frame and control but on the
+    // constant curves, keyed once.
+    const auto uniformKeys = report["uniform"]["keys"].as<std::size_t>();
+    const auto constant = report["uniform"]["constant_curves"].as<std::size_t>();
+    CHECK(keyed.out.find(fmt::format("\nkeys              {} for 79 controls against 4740 dense keys (one per frame "
+                                     "and control): ",
+                                     keys)) != std::string::npos);
+    if (report["uniform"]["step"].as<int>() == 1) {
+        CHECK(uniformKeys == 60 * 79 - 59 * constant);
+        CHECK(keyed.out.find(fmt::format("\nuniform keys      no step over 1 frame holds the tolerance: a key on "
+                                         "every frame, constant curves keyed once ({} of 79): {} keys\n",
+                                         constant, uniformKeys)) != std::string::npos);
+    }
 
     // The same keys as JSON and CSV.
     REQUIRE(test::run(rigInvert(keysFlags + " -q -o " + (dir / "keys.json").string())).exitCode == 0);
