@@ -49,6 +49,10 @@ void printSummary(const app::BatchJob& job, const app::Json& report)
             c["failed_frames"].get<int>(), number(c["max_position_error_cm"]), number(c["max_rotation_error_deg"]),
             number(c["ms_per_frame"]), c["curves"]["file"].get<std::string>());
     }
+    // A large worst error beside 0 failed frames reads as a contradiction unless the table says what each counts.
+    std::cout << "worst cm, worst deg: the real rig's largest errors over a clip's frames, best fits (least-squares "
+                 "answers) included;\nfailed: frames of any other status (docs/rig-invert.md); the joints: "
+                 "residual_joints in report.json\n";
     if (!report["unmodelled_outputs"].empty())
         std::cout << fmt::format("\nnot modelled      {} (non-compositional: {})\n",
                                  fmt::join(report["unmodelled_outputs"].get<std::vector<std::string>>(), ", "),

@@ -105,6 +105,10 @@ TEST_CASE(
         CHECK(r.err.empty());
         CHECK(r.out.find("rig-batch: 2 clips, 6 shards (0 done before, 6 run on local, 0 failed)") !=
               std::string::npos);
+        // The table says what its worst errors count, beside its failed frames.
+        CHECK(r.out.find("\nworst cm, worst deg: the real rig's largest errors over a clip's frames, best fits "
+                         "(least-squares answers) included;\nfailed: frames of any other status (docs/rig-invert.md); "
+                         "the joints: residual_joints in report.json\n") != std::string::npos);
         const Json report = readJson(out / "report.json");
         CHECK(report["totals"]["shards_run"] == 6);
         CHECK(report["totals"]["frames_run"] == 1320);
@@ -129,7 +133,18 @@ TEST_CASE(
                   doctest::Approx(whole["max_position_error_cm"].get<double>()).epsilon(1e-9));
             CHECK(clip["max_rotation_error_deg"].get<double>() ==
                   doctest::Approx(whole["max_rotation_error_deg"].get<double>()).epsilon(1e-9));
-            CHECK(clip["residual_joints"].size() == whole["residual_joints"].size());
+            // The residual joints joined over the shards: one run's, joint by joint, each one's worst position and
+            // rotation apart.
+            REQUIRE(clip["residual_joints"].size() == whole["residual_joints"].size());
+            auto joint = clip["residual_joints"].begin();
+            for (auto expected = whole["residual_joints"].begin(); expected != whole["residual_joints"].end();
+                 ++expected, ++joint) {
+                CHECK(joint.key() == expected.key());
+                CHECK(joint.value()["frames"] == expected.value()["frames"]);
+                for (const char* figure : {"worst_position_error_cm", "worst_rotation_error_deg"})
+                    CHECK(joint.value()[figure].get<double>() ==
+                          doctest::Approx(expected.value()[figure].get<double>()).epsilon(1e-9));
+            }
             CHECK(clip["ms_per_frame"].get<double>() > 0.0);
         }
     }
