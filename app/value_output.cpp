@@ -144,6 +144,9 @@ std::vector<std::string> csvColumns(const Graph& graph, const Plug& plug, const 
 std::vector<std::string> csvFields(const Graph& graph, const Plug& plug, const Value& value, int digits)
 {
     if (const auto* s = std::get_if<std::string>(&value)) return {jsonText(Json(*s))};
+    // An enum by its name, as the JSON output writes it (one spelling whatever the format); names need no quotes.
+    if (std::holds_alternative<int>(value))
+        if (const Json named = valueToJson(graph, plug, value); named.is_string()) return {named.get<std::string>()};
     std::vector<std::string> fields;
     for (const auto& [suffix, x] : flatten(graph, plug, value)) {
         if (!std::isfinite(x)) fields.emplace_back();

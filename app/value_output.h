@@ -49,7 +49,7 @@ Json heldJson(const std::vector<HeldPlug>& held);
 
 // CSV column names for `plug` (one per number) and the matching fields of a value.
 std::vector<std::string> csvColumns(const Graph& graph, const Plug& plug, const Value& value);
-// `digits` > 0 rounds to that many significant digits (for tables meant to be read).
+// `digits` > 0 rounds to that many significant digits (for tables meant to be read). An enum is its name, as in JSON.
 std::vector<std::string> csvFields(const Graph& graph, const Plug& plug, const Value& value, int digits = 0);
 
 }  // namespace rig::app

@@ -60,29 +60,12 @@ void ClipInversionOptions::validate() const
 
 std::string_view frameStatusName(FrameStatus status)
 {
-    switch (status) {
-        case FrameStatus::reached:
-            return "reached";
-        case FrameStatus::bestFit:
-            return "best fit";
-        case FrameStatus::modelMismatch:
-            return "model mismatch";
-        case FrameStatus::notConverged:
-            return "not converged";
-        case FrameStatus::nonFinite:
-            return "non-finite";
-        case FrameStatus::invalidTargets:
-            return "invalid targets";
-    }
-    return "?";
+    return frameStatusSpellings.at(static_cast<std::size_t>(status)).words;
 }
 
 std::string frameStatusKey(FrameStatus status)
 {
-    std::string key(frameStatusName(status));
-    std::replace(key.begin(), key.end(), ' ', '_');
-    std::replace(key.begin(), key.end(), '-', '_');
-    return key;
+    return std::string(frameStatusSpellings.at(static_cast<std::size_t>(status)).key);
 }
 
 namespace {

@@ -165,9 +165,25 @@ enum class FrameStatus {
     invalidTargets,  // a target cannot be used (not finite, singular) or none is active: no answer
 };
 inline constexpr int frameStatusCount = 6;
-// "reached", "best fit", "model mismatch", "not converged", "non-finite", "invalid targets".
+// Every spelling of each status, in FrameStatus order: the one table that text reports, JSON keys and the
+// rigInversion node's enum read, so that no two places spell a status apart. `words`: text and the JSON values of
+// rig-invert, rig-batch and Python ("best fit"); `key`: a JSON object's key, its count's in `status_frames`
+// ("best_fit"); `enumName`: the rigInversion node's `status` attribute, named as attribute values are (camelCase:
+// graph-eval writes "bestFit" in JSON, table and CSV alike).
+struct FrameStatusSpelling {
+    std::string_view words, key, enumName;
+};
+inline constexpr std::array<FrameStatusSpelling, frameStatusCount> frameStatusSpellings{{
+    {"reached", "reached", "reached"},
+    {"best fit", "best_fit", "bestFit"},
+    {"model mismatch", "model_mismatch", "modelMismatch"},
+    {"not converged", "not_converged", "notConverged"},
+    {"non-finite", "non_finite", "nonFinite"},
+    {"invalid targets", "invalid_targets", "invalidTargets"},
+}};
+// frameStatusSpellings' words: "reached", "best fit", "model mismatch", "not converged", "non-finite", ...
 std::string_view frameStatusName(FrameStatus status);
-// The JSON key of its count: "reached", "best_fit", "model_mismatch", ...
+// frameStatusSpellings' key, the JSON key of its count: "reached", "best_fit", "model_mismatch", ...
 std::string frameStatusKey(FrameStatus status);
 inline bool frameStatusFails(FrameStatus status)
 {

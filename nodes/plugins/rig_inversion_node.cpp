@@ -83,6 +83,14 @@ struct Loaded {
     SolverOptions options;
 };
 
+// The status attribute's names, from the statuses' one table (clip_inversion.h), in FrameStatus order.
+std::vector<std::string> statusEnumNames()
+{
+    std::vector<std::string> names;
+    for (const FrameStatusSpelling& s : frameStatusSpellings) names.emplace_back(s.enumName);
+    return names;
+}
+
 std::string joinLines(const std::vector<std::string>& lines)
 {
     std::string out;
@@ -662,7 +670,7 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
         .array()
         .doc("Each parameter of the approximation, angles in degrees (unitless).");
     b.output(status, "status", ValueType::Enum)
-        .enumNames({"reached", "bestFit", "modelMismatch", "notConverged", "nonFinite", "invalidTargets"})
+        .enumNames(statusEnumNames())
         .doc(
             "The frame's status as rig-invert names it (docs/rig-invert.md): reached (every target within 1e-3 cm), "
             "bestFit (stationary with a residual: out of the rig's reach, or a local minimum), modelMismatch, "
