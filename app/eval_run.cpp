@@ -116,6 +116,13 @@ std::shared_ptr<NodeRegistry> nodeRegistry(const std::vector<std::string>& plugi
     return registry;
 }
 
+std::shared_ptr<NodeRegistry> typesRegistry(const std::vector<std::string>& plugins)
+{
+    auto registry = nodeRegistry(plugins);
+    for (const auto& plugin : bundledPlugins) registry->loadPlugin(plugin);
+    return registry;
+}
+
 Plug settablePlug(const Graph& graph, std::string_view name)
 {
     const Plug plug = graph.plug(name);
@@ -152,8 +159,15 @@ std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const st
     // A plug named by several patterns is listed once (JSON objects must not repeat a key).
     std::set<Plug> seen;
     for (const auto& pattern : patterns)
-        for (const Plug& p : matchPlugs(graph, pattern))
+        for (const Plug& p : matchPlugs(graph, pattern)) {
+            // Said here, before any frame is evaluated, with the way to take every element.
+            if (graph.spec(p).array && p.index < 0)
+                throw Error(
+                    fmt::format("{} is an array attribute: name an element, e.g. {}[0], or take them all "
+                                "with {}[*]",
+                                graph.plugName(p), graph.plugName(p), graph.plugName(p)));
             if (seen.insert(p).second) plugs.push_back(p);
+        }
     return plugs;
 }
 

@@ -20,6 +20,10 @@ namespace rig::app {
 
 // The built-in node types and those of `plugins` (graph-eval --plugin), loaded before any rig is read.
 std::shared_ptr<NodeRegistry> nodeRegistry(const std::vector<std::string>& plugins);
+// The plugins built and installed with the project (found without a path: NodeRegistry::loadPlugin).
+inline const std::vector<std::string> bundledPlugins{"rigInversion"};
+// Every node type graph-eval --types lists: the built-in ones, the bundled plugins' and those of `plugins`.
+std::shared_ptr<NodeRegistry> typesRegistry(const std::vector<std::string>& plugins);
 
 // graph-eval --set NAME=VALUE: the plug NAME, which must be an input (rig::Error otherwise) ...
 Plug settablePlug(const Graph& graph, std::string_view name);

@@ -4,9 +4,11 @@
 #include <cctype>
 #include <charconv>
 #include <deque>
+#include <span>
 #include <unordered_map>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/error.h"
 #include "graph/suggest.h"
@@ -14,6 +16,19 @@
 namespace rig {
 
 namespace {
+
+// After "has no attribute 'x'": the attribute it is a typo of, or, when none is close (a name from another tool, as
+// a rigInversion's 'converged'), what the node's type computes, so that the line alone says what to ask for.
+std::string noAttributeHint(std::span<const AttributeSpec> specs, std::string_view name,
+                            const std::vector<std::string>& names)
+{
+    if (std::string hint = didYouMean(name, names); !hint.empty()) return hint;
+    std::vector<std::string> outputs;
+    for (const AttributeSpec& spec : specs)
+        if (!spec.input) outputs.push_back(spec.name);
+    if (outputs.empty()) return {};
+    return fmt::format("; its outputs are {} (graph-eval --types lists its inputs)", fmt::join(outputs, ", "));
+}
 
 bool validNodeName(std::string_view name)
 {
@@ -164,7 +179,7 @@ Plug GraphModel::plug(std::string_view path) const
                 names.insert(names.end(), spec.childNames.begin(), spec.childNames.end());
         }
         throw Error(fmt::format("node '{}' ({}) has no attribute '{}'{}", rec.name, rec.type->name(), attrName,
-                                didYouMean(attrName, names)));
+                                noAttributeHint(rec.specs(), attrName, names)));
     }
     const AttributeSpec& spec = rec.spec(p.attr);
     if (p.index >= 0 && !spec.array)

@@ -150,7 +150,7 @@ int run(const Options& options)
     if (options.outputGiven) app::checkOutputFile(options.output);
     app::checkDistinctFiles({{"the rig file", options.rig}, {"--anim", options.anim}}, outputs);
     const std::string threeJs = options.htmlGiven ? app::readThreeJs() : std::string();
-    const auto registry = app::nodeRegistry(options.plugins);
+    const auto registry = options.types ? app::typesRegistry(options.plugins) : app::nodeRegistry(options.plugins);
     // The files the rig includes are inputs too: -o must not be one of them.
     MayaSceneInfo maya;
     auto load = [&] {
@@ -243,7 +243,9 @@ int main(int argc, char** argv)
                    "A Maya .anim file: its curves drive the rig's plugs they name (docs/keys-anim-report.md)");
     app.add_option("--plugin", options.plugins, "Load a node plugin before reading the rig (repeatable)")
         ->allow_extra_args(false);
-    app.add_flag("--types", options.types, "Print the reference of every node type (Markdown) and exit");
+    app.add_flag(
+        "--types", options.types,
+        "Print the reference of every node type, built-in, rigInversion's and --plugin's (Markdown), and exit");
     app.add_flag("--dot", options.dot, "Print the graph in Graphviz dot format instead of evaluating");
     app.add_option("--threads", options.threads, "Evaluation threads: 1 serial, N parallel, 0 all cores")
         ->check(rig::cli::threadCount());

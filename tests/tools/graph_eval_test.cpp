@@ -248,11 +248,11 @@ TEST_CASE("graph-eval --format csv: a header naming components and matrix cells,
         CHECK(fields[0] == std::to_string(i));
         CHECK(fields[16] == "0");  // matrix row 3: 0 0 0 1
         CHECK(fields[19] == "1");
-        CHECK(fields[20] == "3");  // CSV has numbers only: the enum's index (xzy)
+        CHECK(fields[20] == "xzy");  // an enum by its name, as in JSON and the table
     }
     CHECK(rows[1] ==
           "1,0,0,0,0.8660254037844387,0,-0.5,69.84141371818822,0,1,0,150,0.5,0,0.8660254037844387,"
-          "22.760604299770062,0,0,0,1,3");
+          "22.760604299770062,0,0,0,1,xzy");
 
     // A fractional step.
     const auto half = run(graphEval(arm + " --frames 0:2:0.5 --get shoulder.rotateY --format csv"));
@@ -297,7 +297,7 @@ TEST_CASE("graph-eval --get globs and names")
     CHECK(csv.exitCode == 0);
     CHECK(csv.out ==
           "frame,wrist.rotateX,wrist.rotateY,wrist.rotateZ,wrist.rotateOrder,wrist.rotateAxisX,"
-          "wrist.rotateAxisY,wrist.rotateAxisZ\n0,0,0,0,0,0,0,0\n");
+          "wrist.rotateAxisY,wrist.rotateAxisZ\n0,0,0,0,xyz,0,0,0\n");
     CHECK(keys("--get 'wrist.rotate*'") == std::vector<std::string>{"wrist.rotate", "wrist.rotateX", "wrist.rotateY",
                                                                     "wrist.rotateZ", "wrist.rotateOrder",
                                                                     "wrist.rotateAxis", "wrist.rotateAxisX",
@@ -330,6 +330,24 @@ TEST_CASE("graph-eval --get: [*] and [N] select array elements, other brackets a
           "'L_arm_*.rotate?'\n");
     const auto noIndex = run(graphEval("rigs/biped.yaml --get 'L_thumb2_curl_sum.output1D[*]'"));
     CHECK(noIndex.exitCode == 2);
+    // An array named without an element: the way to take them all is said, before any frame is evaluated.
+    const auto whole = run(graphEval("rigs/biped.yaml --get L_thumb2_curl_sum.input1D"));
+    CHECK(whole.exitCode == 2);
+    CHECK(whole.err ==
+          "error: L_thumb2_curl_sum.input1D is an array attribute: name an element, e.g. "
+          "L_thumb2_curl_sum.input1D[0], or take them all with L_thumb2_curl_sum.input1D[*]\n");
+}
+
+TEST_CASE("graph-eval --types lists every node type, the bundled rigInversion plugin's among them")
+{
+    const auto r = run(graphEval("--types"));
+    REQUIRE(r.exitCode == 0);
+    CHECK(r.out.find("\n### joint\n") != std::string::npos);
+    CHECK(r.out.find("\n### rigInversion\n") != std::string::npos);
+    // Given with --plugin too, it is listed once.
+    const auto again = run(graphEval("--plugin rigInversion --types"));
+    REQUIRE(again.exitCode == 0);
+    CHECK(again.out == r.out);
 }
 
 TEST_CASE("graph-eval --set takes degrees: a scalar, a vector and an enum by name or index")
@@ -592,6 +610,10 @@ TEST_CASE("graph-eval bad input: exit 2, one error line, nothing on stdout")
     checkBadInput(arm + " --get '*.rotateZ' --get '*.rotateW'",
                   "no plug matches '*.rotateW'; patterns look like '*.worldMatrix' or 'L_arm_*.rotate?'");
     checkBadInput(arm + " --get elbow.rotat", "node 'elbow' (joint) has no attribute 'rotat'; did you mean 'rotate'?");
+    // A name close to none (another tool's word): what the node computes, named.
+    checkBadInput(arm + " --get elbow_bend_sdk.converged",
+                  "node 'elbow_bend_sdk' (animCurveUA) has no attribute 'converged'; its outputs are output "
+                  "(graph-eval --types lists its inputs)");
 
     const auto syntax = rig::test::writeFile(dir / "syntax.yaml", "nodes:\n  - {name: a, type: joint\n  - {name: b}\n");
     checkBadInput(quote(syntax), fmt::format("{}:3:5: YAML syntax error: end of map flow not found", syntax.string()));
