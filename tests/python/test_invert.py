@@ -90,7 +90,9 @@ def test_arrays_equal_the_same_targets_as_a_json_clip(learned_biped, tmp_path):
     assert ours["clip"] is None and report["clip"] == str(clip)
     # Arrays have no file to say where they come from.
     assert ours["clip_source"] is None
-    assert report["clip_source"] == "JSON world matrices (cm, Y up, as graph-eval writes them)"
+    # The map's scale is the units of the targets, said on the clip's line.
+    assert report["clip_source"] == ("JSON world matrices (Y up, as graph-eval writes them), units x5.64444 to cm "
+                                     f"(by the map {CMU_MAP})")
     assert [f["frame"] for f in ours["per_frame"]] == list(range(90))
     assert ours["worst_frame"] == report["worst_frame"] - 1
     assert ours["worst_rotation_frame"] == report["worst_rotation_frame"] - 1
