@@ -149,12 +149,12 @@ ChainPoints ConstraintFitter::pointsAt(const ConstraintBase& base, const std::ve
 Eigen::Matrix4d ConstraintFitter::baseAt(const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const
 {
     const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
-    const auto [anchor, second, third] = base.inputs();
+    const auto [anchor, second, third, orient, unused] = base.frameInputs();
     const auto world = [&](int i) { return i < 0 ? identity : worlds[static_cast<std::size_t>(i)]; };
-    const Eigen::Matrix4d motion =
-        anchor < 0 ? identity
-                   : Eigen::Matrix4d(world(anchor) * probe_.rest()[static_cast<std::size_t>(anchor)].inverse());
-    return constraintBase(base, motion, world(second), world(third));
+    const auto motion = [&](int i) -> Eigen::Matrix4d {
+        return i < 0 ? identity : Eigen::Matrix4d(world(i) * probe_.rest()[static_cast<std::size_t>(i)].inverse());
+    };
+    return constraintBase(base, motion(anchor), world(second), world(third), motion(orient));
 }
 
 Eigen::Matrix4d ConstraintFitter::predicted(int k, const ConstraintBase& base,
@@ -501,7 +501,7 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
 
 std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int root, const std::vector<int>& varied,
                                                          const std::vector<int>& helpers, const std::vector<int>& goals,
-                                                         Closest& closest)
+                                                         Closest& closest, int orient)
 {
     const auto& rest = probe_.rest();
     const auto& names = probe_.rig().outputs();
@@ -534,6 +534,8 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                     base.anchor = anchor;
                     base.goal = goal;
                     base.root = rootRest;
+                    base.orient = orient;
+                    base.origin = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
                     const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
                     if (e <= exactShare * options_.epsilon) return base;
                     if (e <= options_.epsilon && !(within && within->second <= e)) within.emplace(base, e);
@@ -541,11 +543,12 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                     closest.error = e;
                     const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
                     closest.what =
-                        fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
+                        fmt::format("a planar chain (goal {}, pole {}{})", names[static_cast<std::size_t>(goal)],
                                     base.restPlane ? "none (the rest plane of " + fixedTo + ")"
                                     : base.worldUp ? std::string("a world up")
                                     : pole < 0     ? "fixed to " + fixedTo
-                                                   : names[static_cast<std::size_t>(pole)]);
+                                                   : names[static_cast<std::size_t>(pole)],
+                                    orient < 0 ? "" : ", turning as " + names[static_cast<std::size_t>(orient)]);
                 }
                 poles.clear();
                 return std::nullopt;
@@ -617,11 +620,37 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     std::vector<int> goals = helpers;
     goals.insert(goals.end(), fixed.begin(), fixed.end());
     if (std::optional<ConstraintBase> chain = fitChain(k, anchor, root, varied, helpers, goals, closest)) return chain;
+    for (const int orient : orientSources(k, varied, helpers))
+        if (std::optional<ConstraintBase> chain = fitChain(k, anchor, root, varied, helpers, goals, closest, orient))
+            return chain;
     why = std::isfinite(closest.error)
               ? fmt::format("the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}", closest.what,
                             closest.error, options_.epsilon)
               : "no planar chain spans a plane from its helper frames";
     return std::nullopt;
+}
+
+std::vector<int> ConstraintFitter::orientSources(int k, const std::vector<int>& varied, const std::vector<int>& helpers)
+{
+    // Rotations agree (their difference's Frobenius norm, about the angle between them in radians, well under what
+    // epsilon allows at a frame's radius), and k turns (by a thousand times as much).
+    constexpr double sameTurn = 1e-6;
+    const auto& rest = probe_.rest();
+    const auto turn = [&](int o, const Pose& pose) -> Eigen::Matrix3d {
+        return polarRotation(pose.worlds[static_cast<std::size_t>(o)].block<3, 3>(0, 0)) *
+               polarRotation(rest[static_cast<std::size_t>(o)].block<3, 3>(0, 0)).transpose();
+    };
+    const std::vector<Pose>& checks = poses(varied, 0, rangePoses);
+    const bool turns = std::any_of(checks.begin(), checks.end(), [&](const Pose& pose) {
+        return (turn(k, pose) - Eigen::Matrix3d::Identity()).norm() > 1e3 * sameTurn;
+    });
+    std::vector<int> sources;
+    if (!turns) return sources;
+    for (const int h : helpers)
+        if (std::all_of(checks.begin(), checks.end(),
+                        [&](const Pose& pose) { return (turn(k, pose) - turn(h, pose)).norm() < sameTurn; }))
+            sources.push_back(h);
+    return sources;
 }
 
 std::vector<Eigen::Vector3d> ConstraintFitter::restNormals(int chainRoot, const Eigen::Vector3d& root,

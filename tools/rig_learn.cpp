@@ -183,13 +183,14 @@ std::string constraintsText(const Approximation& a)
         }
         const auto& knots = c.shape.rigid.knots();
         out += fmt::format(
-            "  {}: {}, root carried by {}, goal {}, pole {}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
+            "  {}: {}, root carried by {}, goal {}, pole {}{}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
             constraintKindName(c.kind), c.anchor < 0 ? "the world" : name(c.anchor), name(c.goal),
             c.restPlane  ? "none (its rest plane)"
             : c.worldUp  ? "a world axis from the root (a world up)"
             : c.pole < 0 ? "fixed to the anchor"
                          : name(c.pole),
-            knots.size(), c.restReach + knots.front(), c.restReach + knots.back());
+            c.orient < 0 ? "" : ", turning as " + name(c.orient), knots.size(), c.restReach + knots.front(),
+            c.restReach + knots.back());
     }
     // What the joints cannot decide of a chain: its pole's distance and place along the chain (pole_hold.h).
     for (const PoleHold& hold : poleHolds(a)) {
