@@ -584,9 +584,34 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
         root = anchor;
         anchor = hierarchy_[static_cast<std::size_t>(anchor)];
     }
-    const std::vector<int> movers = moversOf(k), anchorMovers = anchor >= 0 ? moversOf(anchor) : std::vector<int>{};
     Closest closest;
-    if (std::optional<ConstraintBase> twist = fitTwist(k, movers, state, false, closest)) return twist;
+    if (std::optional<ConstraintBase> twist = fitTwist(k, moversOf(k), state, false, closest)) return twist;
+    bool candidates = false;
+    if (std::optional<ConstraintBase> chain = fitAnchored(k, anchor, root, state, closest, candidates)) return chain;
+    for (const int carrier : rootCarriers(k, anchor, root, state))
+        if (std::optional<ConstraintBase> chain = fitAnchored(k, carrier, root, state, closest, candidates))
+            return chain;
+    if (!candidates) {
+        // Without any helper frame (rig-learn --no-helpers) only twist shares were tried: say so only if one came
+        // close.
+        const bool anyHelper = std::any_of(helper_.begin(), helper_.end(), [](char h) { return h != 0; });
+        why = anyHelper ? "no helper frame is moved by what moves it apart from its anchor (rig-learn --helpers)" : "";
+        if (std::isfinite(closest.error))
+            why += fmt::format("{}the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}",
+                               why.empty() ? "" : "; ", closest.what, closest.error, options_.epsilon);
+        return std::nullopt;
+    }
+    why = std::isfinite(closest.error)
+              ? fmt::format("the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}", closest.what,
+                            closest.error, options_.epsilon)
+              : "no planar chain spans a plane from its helper frames";
+    return std::nullopt;
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fitAnchored(int k, int anchor, int root, const RigState& state,
+                                                            Closest& closest, bool& candidates)
+{
+    const std::vector<int> movers = moversOf(k), anchorMovers = anchor >= 0 ? moversOf(anchor) : std::vector<int>{};
     const auto movesAnchor = [&](int i) { return std::binary_search(anchorMovers.begin(), anchorMovers.end(), i); };
     const auto moves = [&](int i, int h) {
         const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
@@ -597,21 +622,13 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     std::vector<int> helpers, fixed;
     for (std::size_t h = 0; h < helper_.size(); ++h) {
         const int hh = static_cast<int>(h);
-        if (!helper_[h] || hh == k || !usableAnchor(hh, state)) continue;
+        if (!helper_[h] || hh == k || hh == anchor || !usableAnchor(hh, state)) continue;
         if (std::any_of(movers.begin(), movers.end(), [&](int i) { return !movesAnchor(i) && moves(i, hh); }))
             helpers.push_back(hh);
         else if (moversOf(hh).empty()) fixed.push_back(hh);
     }
-    if (helpers.empty() && fixed.empty()) {
-        // Without any helper frame (rig-learn --no-helpers) only twist shares were tried: say so only if one came
-        // close.
-        const bool anyHelper = std::any_of(helper_.begin(), helper_.end(), [](char h) { return h != 0; });
-        why = anyHelper ? "no helper frame is moved by what moves it apart from its anchor (rig-learn --helpers)" : "";
-        if (std::isfinite(closest.error))
-            why += fmt::format("{}the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}",
-                               why.empty() ? "" : "; ", closest.what, closest.error, options_.epsilon);
-        return std::nullopt;
-    }
+    if (helpers.empty() && fixed.empty()) return std::nullopt;
+    candidates = true;
     // The poses vary what moves k through its inputs; its own parameters stay at rest.
     std::vector<int> varied;
     for (const int i : movers)
@@ -623,11 +640,35 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     for (const int orient : orientSources(k, varied, helpers))
         if (std::optional<ConstraintBase> chain = fitChain(k, anchor, root, varied, helpers, goals, closest, orient))
             return chain;
-    why = std::isfinite(closest.error)
-              ? fmt::format("the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}", closest.what,
-                            closest.error, options_.epsilon)
-              : "no planar chain spans a plane from its helper frames";
     return std::nullopt;
+}
+
+std::vector<int> ConstraintFitter::rootCarriers(int k, int anchor, int root, const RigState& state)
+{
+    // The root's origin where the helper's motion takes it, to rounding, and moving on some pose.
+    constexpr double carried = 1e-7;
+    const auto& rest = probe_.rest();
+    const Eigen::Vector3d root0 = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
+    const std::vector<Pose>& checks = poses(moversOf(k), 0, rangePoses);
+    const auto origin = [&](int o, const Pose& pose) -> Eigen::Vector3d {
+        return pose.worlds[static_cast<std::size_t>(o)].block<3, 1>(0, 3);
+    };
+    std::vector<int> carriers;
+    if (std::none_of(checks.begin(), checks.end(),
+                     [&](const Pose& pose) { return (origin(root, pose) - root0).norm() > 1e3 * carried; }))
+        return carriers;
+    for (std::size_t h = 0; h < helper_.size(); ++h) {
+        const int hh = static_cast<int>(h);
+        if (!helper_[h] || hh == k || hh == anchor || !usableAnchor(hh, state)) continue;
+        const Eigen::Matrix4d restInverse = rest[h].inverse();
+        if (std::all_of(checks.begin(), checks.end(), [&](const Pose& pose) {
+                const Eigen::Matrix4d motion = pose.worlds[h] * restInverse;
+                const Eigen::Vector3d moved = motion.block<3, 3>(0, 0) * root0 + motion.block<3, 1>(0, 3);
+                return (moved - origin(root, pose)).norm() <= carried * std::max(1.0, root0.norm());
+            }))
+            carriers.push_back(hh);
+    }
+    return carriers;
 }
 
 std::vector<int> ConstraintFitter::orientSources(int k, const std::vector<int>& varied, const std::vector<int>& helpers)

@@ -325,8 +325,14 @@ std::set<NodeId> chooseOutputs(const Graph& g, const std::vector<std::string>& g
 bool isDagNode(const GraphModel& m, NodeId n)
 {
     const std::string& type = m.topology(n).type->name();
-    return type == "joint" || type == "transform";
+    return type == "joint" || type == "transform" || type == "mayaIkHandle";
 }
+
+// A Maya ikHandle: a transform whose world position is its solver's goal, read inside the node, not through a plug.
+bool isIkGoal(const GraphModel& m, NodeId n) { return m.topology(n).type->name() == "mayaIkHandle"; }
+
+// A constraint node (pointConstraint, poleVectorConstraint, ...): what reads its targets' channels is a target.
+bool isConstraint(const GraphModel& m, NodeId n) { return m.topology(n).type->name().ends_with("Constraint"); }
 
 // The helpers the globs name: transforms and joints that are not outputs, each glob matching at least one.
 std::set<NodeId> chooseHelpers(const Graph& g, const std::vector<std::string>& globs, const std::set<NodeId>& outputs,
@@ -426,13 +432,17 @@ std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<N
         // target), not as the parent of other transforms (a world control).
         const bool fixed = !moved[static_cast<std::size_t>(n)];
         const auto& topology = model.topology(n);
+        if (isIkGoal(model, n) && !fixed && upstreamOfOutput[static_cast<std::size_t>(n)])
+            found.emplace(topology.name, n);
         for (AttrId a = 0; a < static_cast<AttrId>(topology.outgoing.size()); ++a) {
+            // Its world matrix read anywhere, or its own channels read by a constraint or a solver (Maya's
+            // constraints read a target's translate, pivots and parent matrix apart).
             const std::string& attribute = topology.spec(a).name;
-            if (attribute != "worldMatrix" && attribute != "worldInverseMatrix") continue;
+            const bool world = attribute == "worldMatrix" || attribute == "worldInverseMatrix";
             for (int c : topology.outgoing[static_cast<std::size_t>(a)]) {
                 const NodeId destination = model.connections()[static_cast<std::size_t>(c)].destination.node;
-                if (upstreamOfOutput[static_cast<std::size_t>(destination)] &&
-                    !(fixed && isDagNode(model, destination)))
+                if (!upstreamOfOutput[static_cast<std::size_t>(destination)]) continue;
+                if (world ? !(fixed && isDagNode(model, destination)) : isConstraint(model, destination))
                     found.emplace(topology.name, n);
             }
         }

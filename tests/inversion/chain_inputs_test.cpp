@@ -1,7 +1,7 @@
-// A planar chain whose output turns as another output does (ConstraintBase::orient): an IK hand orient-constrained to
-// its IK control, the construction real rigs use everywhere and no product of operators reproduces. The base's
-// velocity against differences, the hand learned as such a chain, its file round trip, the Jacobian through it, and
-// poses solved from rest on the real rig.
+// A planar chain's inputs as production rigs give them. An output turning as another does (ConstraintBase::orient):
+// an IK hand orient-constrained to its IK control, which no product of operators reproduces: the base's velocity
+// against differences, the hand learned as such a chain, its file round trip, the Jacobian through it, poses solved
+// from rest on the real rig.
 #include <doctest/doctest.h>
 
 #include <unistd.h>
@@ -56,7 +56,7 @@ connections:
 
 struct LearnedOrientArm {
     std::filesystem::path file =
-        test::writeFile(test::scratchDir(fmt::format("orient-chain.{}", ::getpid())) / "orient_arm.yaml", orientArm);
+        test::writeFile(test::scratchDir(fmt::format("chain-inputs.{}", ::getpid())) / "orient_arm.yaml", orientArm);
     GraphRigFunction rig{file, [] {
                              GraphRigOptions options{{"root_ctrl.translate?", "arm_ik_ctrl.translate?",
                                                       "arm_ik_ctrl.rotate?", "arm_pole_ctrl.translate?"},
@@ -105,7 +105,7 @@ Eigen::Matrix4d moved(const Eigen::Matrix<double, 3, 4>& v, double h, const Eige
 
 }  // namespace
 
-TEST_CASE("orient chain: the oriented base's velocity is the derivative of the base it builds")
+TEST_CASE("chain inputs: the oriented base's velocity is the derivative of the base it builds")
 {
     std::mt19937 rng(17);
     ConstraintBase base;
@@ -133,7 +133,7 @@ TEST_CASE("orient chain: the oriented base's velocity is the derivative of the b
     CHECK(orientedBase(base, chain, randomRigid(rng)) == chain);
 }
 
-TEST_CASE("orient chain: an IK hand orient-constrained to its control is a planar chain turning as the control")
+TEST_CASE("chain inputs: an IK hand orient-constrained to its control is a planar chain turning as the control")
 {
     const Approximation& a = learnedOrientArm().approximation;
     CHECK_FALSE(a.hasUnmodelledOutputs());
@@ -162,7 +162,7 @@ TEST_CASE("orient chain: an IK hand orient-constrained to its control is a plana
     CHECK(before == after);
 }
 
-TEST_CASE("orient chain: the analytic Jacobian through a turning chain equals central differences")
+TEST_CASE("chain inputs: the analytic Jacobian through a turning chain equals central differences")
 {
     LearnedOrientArm& arm = learnedOrientArm();
     const Approximation& a = arm.approximation;
@@ -183,7 +183,7 @@ TEST_CASE("orient chain: the analytic Jacobian through a turning chain equals ce
     }
 }
 
-TEST_CASE("orient chain: poses of the arm whose hand turns with its control are reached from rest on the real rig")
+TEST_CASE("chain inputs: poses of the arm whose hand turns with its control are reached from rest on the real rig")
 {
     LearnedOrientArm& arm = learnedOrientArm();
     const Approximation& a = arm.approximation;
