@@ -31,6 +31,7 @@ struct Options {
     bool autoHelpers = false;          // --auto-helpers or the spec's `helpers: auto`
     bool noHelpers = false;            // --no-helpers or the spec's `helpers: none`
     std::string output;
+    bool outputGiven = false;
     std::string writeSpec;  // --write-spec: the parameters, outputs and held plugs chosen, as a spec
     std::string epsilon;
     bool epsilonGiven = false;
@@ -328,7 +329,7 @@ int writeSpecOnly(const Options& options, const app::LearnJob& job)
 
 int run(Options& options)
 {
-    if (options.output.empty() && options.writeSpec.empty())
+    if (!options.outputGiven && options.writeSpec.empty())
         throw Error("--output is required; run 'rig-learn --help' for usage");
     if (options.rig.empty())
         throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
@@ -336,7 +337,7 @@ int run(Options& options)
     if (!options.spec.empty()) readSpec(options);
     if (options.params.empty()) throw Error("--params is required; run 'rig-learn --help' for usage");
     // Bad outputs and flags are reported before any work.
-    if (!options.output.empty()) app::checkOutputFile(options.output, "approximation.yaml");
+    if (options.outputGiven) app::checkOutputFile(options.output, "approximation.yaml");
     if (options.reportGiven) app::checkOutputFile(options.reportJson, "report.json", "--report-json");
     if (!options.writeSpec.empty()) app::checkOutputFile(options.writeSpec, "spec.yaml", "--write-spec");
     const std::vector<app::NamedFile> outputs{{"-o", options.output},
@@ -354,7 +355,7 @@ int run(Options& options)
     job.options.relativeFrames = !options.worldSpace;
     job.options.perOutput = !options.noPerOutput;
     job.options.threads = options.threads;
-    if (options.output.empty()) return writeSpecOnly(options, job);
+    if (!options.outputGiven) return writeSpecOnly(options, job);
     job.rigLoaded = [&](const GraphRigFunction& rig) {
         std::vector<app::NamedFile> read;
         for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
@@ -472,6 +473,7 @@ int main(int argc, char** argv)
         ->allow_extra_args(false);
     return rig::cli::runMain(app, argc, argv, [&] {
         options.epsilonGiven = app.count("--epsilon") > 0;
+        options.outputGiven = app.count("--output") > 0;
         options.reportGiven = app.count("--report-json") > 0;
         return rig::run(options);
     });
