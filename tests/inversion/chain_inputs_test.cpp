@@ -1,7 +1,8 @@
 // A planar chain's inputs as production rigs give them. An output turning as another does (ConstraintBase::orient):
 // an IK hand orient-constrained to its IK control, which no product of operators reproduces: the base's velocity
 // against differences, the hand learned as such a chain, its file round trip, the Jacobian through it, poses solved
-// from rest on the real rig.
+// from rest on the real rig. And a Maya scene's chain read from the graph: the goal the ikHandle itself under a
+// control, the pole a poleVectorConstraint's target, the root carried by a control through a pointConstraint.
 #include <doctest/doctest.h>
 
 #include <unistd.h>
@@ -194,6 +195,120 @@ TEST_CASE("chain inputs: poses of the arm whose hand turns with its control are 
     const int poses = 20;
     for (int pose = 0; pose < poses; ++pose) {
         const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.6));
+        const double worst = test::solvedFromRest(a, solver, binding, targets);
+        if (worst < 1e-3) ++reached;
+        else MESSAGE("pose " << pose << " missed by " << worst << " cm");
+    }
+    CHECK(reached >= poses * 95 / 100);
+}
+
+}  // namespace rig
+
+namespace rig {
+namespace {
+
+// A two-bone chain j1 -> j2 -> j3 whose ikHandle is parented under hand_ctrl (the goal is the handle's own world
+// position), its pole vector constrained to pole_ctrl, and its start joint point-constrained to shoulder_ctrl: Maya's
+// own inputs throughout (the constraints read their targets' translate, pivots and parent matrix apart).
+const std::string mayaChain = R"(//Maya ASCII 2023 scene
+requires maya "2023";
+currentUnit -l centimeter -a degree -t film;
+createNode transform -n "shoulder_ctrl";
+	setAttr ".t" -type "double3" 0 10 0 ;
+createNode transform -n "hand_ctrl";
+	setAttr ".t" -type "double3" 7 13.9 0.1 ;
+createNode transform -n "pole_ctrl";
+	setAttr ".t" -type "double3" 4 14 -6 ;
+createNode joint -n "root_jnt";
+createNode joint -n "j1" -p "root_jnt";
+	setAttr ".t" -type "double3" 0 10 0 ;
+createNode joint -n "j2" -p "j1";
+	setAttr ".t" -type "double3" 5 0 0 ;
+	setAttr ".r" -type "double3" 0 0 90 ;
+createNode joint -n "j3" -p "j2";
+	setAttr ".t" -type "double3" 4 0 0 ;
+createNode ikEffector -n "effector1" -p "j2";
+createNode ikHandle -n "ikHandle1" -p "hand_ctrl";
+	setAttr ".t" -type "double3" -2 0.1 -0.1 ;
+	setAttr ".roc" yes;
+createNode poleVectorConstraint -n "pv1" -p "ikHandle1";
+	addAttr -ci true -k true -sn "w0" -ln "pole_ctrlW0" -dv 1 -min 0 -at "double";
+	setAttr -k on ".w0";
+createNode pointConstraint -n "pc1" -p "j1";
+	addAttr -ci true -k true -sn "w0" -ln "shoulder_ctrlW0" -dv 1 -min 0 -at "double";
+	setAttr -k on ".w0";
+createNode ikRPsolver -n "ikRPsolver";
+connectAttr "root_jnt.s" "j1.is";
+connectAttr "j1.s" "j2.is";
+connectAttr "j2.s" "j3.is";
+connectAttr "j3.tx" "effector1.tx";
+connectAttr "j3.ty" "effector1.ty";
+connectAttr "j3.tz" "effector1.tz";
+connectAttr "j1.msg" "ikHandle1.hsj";
+connectAttr "effector1.hp" "ikHandle1.hee";
+connectAttr "ikRPsolver.msg" "ikHandle1.hsv";
+connectAttr "pv1.ctx" "ikHandle1.pvx";
+connectAttr "pv1.cty" "ikHandle1.pvy";
+connectAttr "pv1.ctz" "ikHandle1.pvz";
+connectAttr "ikHandle1.pim" "pv1.cpim";
+connectAttr "j1.pm" "pv1.ps";
+connectAttr "j1.t" "pv1.crp";
+connectAttr "pole_ctrl.t" "pv1.tg[0].tt";
+connectAttr "pole_ctrl.rp" "pv1.tg[0].trp";
+connectAttr "pole_ctrl.rpt" "pv1.tg[0].trt";
+connectAttr "pole_ctrl.pm" "pv1.tg[0].tpm";
+connectAttr "pv1.w0" "pv1.tg[0].tw";
+connectAttr "pc1.ctx" "j1.tx";
+connectAttr "pc1.cty" "j1.ty";
+connectAttr "pc1.ctz" "j1.tz";
+connectAttr "j1.pim" "pc1.cpim";
+connectAttr "j1.rp" "pc1.crp";
+connectAttr "j1.rpt" "pc1.crt";
+connectAttr "shoulder_ctrl.t" "pc1.tg[0].tt";
+connectAttr "shoulder_ctrl.rp" "pc1.tg[0].trp";
+connectAttr "shoulder_ctrl.rpt" "pc1.tg[0].trt";
+connectAttr "shoulder_ctrl.pm" "pc1.tg[0].tpm";
+connectAttr "pc1.w0" "pc1.tg[0].tw";
+)";
+
+}  // namespace
+
+TEST_CASE("chain inputs: a Maya chain's goal is its ikHandle, its pole the constraint's target, its root a control's")
+{
+    const auto file =
+        test::writeFile(test::scratchDir(fmt::format("chain-inputs-maya.{}", ::getpid())) / "chain.ma", mayaChain);
+    GraphRigOptions options{{"shoulder_ctrl.translate?", "hand_ctrl.translate?", "pole_ctrl.translate?"},
+                            {"root_jnt", "j1", "j2", "j3"},
+                            {},
+                            {}};
+    options.autoHelpers = true;
+    GraphRigFunction rig(file, options);
+    // The helper frames: the handle (a transform whose world position its solver reads inside the node) and the
+    // constraints' targets (read through their channels, not a world matrix).
+    std::vector<std::string> helpers;
+    for (std::size_t k = 0; k < rig.outputs().size(); ++k)
+        if (rig.helperOutputs()[k]) helpers.push_back(rig.outputs()[k]);
+    CHECK(helpers == std::vector<std::string>{"hand_ctrl", "ikHandle1", "pole_ctrl", "shoulder_ctrl"});
+    const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
+    CHECK_FALSE(a.hasUnmodelledOutputs());
+    CHECK(a.validation.withinEpsilon);
+    const auto name = [&](int k) { return k < 0 ? std::string("-") : a.outputs[static_cast<std::size_t>(k)].name; };
+    for (const char* joint : {"j1", "j2"}) {
+        CAPTURE(joint);
+        const ApproximationOutput& o = a.outputs[static_cast<std::size_t>(test::outputIndex(a, joint))];
+        REQUIRE(o.constraint >= 0);
+        const ConstraintBase& c = a.constraints[static_cast<std::size_t>(o.constraint)];
+        CHECK(name(c.anchor) == "shoulder_ctrl");
+        CHECK(name(c.goal) == "ikHandle1");
+        CHECK(name(c.pole) == "pole_ctrl");
+    }
+    RigBinding binding(a, rig);
+    const Solver solver(a, SolverOptions{});
+    std::mt19937 rng(3);
+    int reached = 0;
+    const int poses = 20;
+    for (int pose = 0; pose < poses; ++pose) {
+        const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
         const double worst = test::solvedFromRest(a, solver, binding, targets);
         if (worst < 1e-3) ++reached;
         else MESSAGE("pose " << pose << " missed by " << worst << " cm");
