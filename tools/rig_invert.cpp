@@ -105,8 +105,10 @@ int run(const Options& o)
     if (extension != ".json" && extension != ".csv" && extension != ".anim")
         throw Error(
             fmt::format("-o {}: the curves are written as .json, .csv or .anim (Maya); give one of those", o.output));
-    if (!o.reportJson.empty()) app::checkOutputFile(o.reportJson, "report.json", "--report-json");
-    if (!o.html.empty()) app::checkOutputFile(o.html, "report.html", "--html");
+    app::OutputFiles files;
+    files.add(o.output, "curves.json");
+    if (!o.reportJson.empty()) files.add(o.reportJson, "report.json", "--report-json");
+    if (!o.html.empty()) files.add(o.html, "report.html", "--html");
     const TangentType tangent = app::keyTangent(o.keys.tangent);
     if (o.keysGiven) app::checkKeySettings(o.keys);
     const std::string threeJs = o.html.empty() ? std::string() : app::readThreeJs();
@@ -146,14 +148,15 @@ int run(const Options& o)
     else curves = keys ? app::keyedCurvesJson(outcome, *keys) : app::curvesJson(outcome);
     const std::string page =
         o.html.empty() ? std::string() : app::htmlReport(outcome, keyed, {o.clip, o.rig, o.approximation}, threeJs);
-    app::writeFileAtomically(o.output, curves);
-    if (!o.html.empty()) app::writeFileAtomically(o.html, page);
     if (!o.reportJson.empty()) {
         app::Json report =
             app::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, app::fingerprintText(curves));
         if (keys) report["keys"] = app::keysReport(outcome, *keys);
-        app::writeFileAtomically(o.reportJson, app::jsonText(report, 2) + "\n");
+        files.set(o.reportJson, app::jsonText(report, 2) + "\n");
     }
+    files.set(o.output, std::move(curves));
+    if (!o.html.empty()) files.set(o.html, page);
+    files.commit();
     const ClipInversionSummary& summary = outcome.summary;
     if (!o.quiet) printReport(o, outcome, keyed);
     // Measured as wrong: never an exit code of success.
