@@ -115,12 +115,13 @@ void ClipInversionSummary::add(const FrameInversion& f, const std::vector<Approx
     for (const auto& m : f.missed) {
         addResidual(outputs[static_cast<std::size_t>(m.output)].name, 1, m.errorCm);
     }
-    if (worse(f.positionErrorCm, maxPositionErrorCm) || worstFrame < 0) {
+    // A frame not measured has no error to be the worst: 0 there would make a run of invalid targets look exact.
+    if (f.measured() && (worse(f.positionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
         maxPositionErrorCm = f.positionErrorCm;
         worstJoint = f.worstJoint;
         worstFrame = f.frame;
     }
-    if (worse(f.rotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0) {
+    if (f.measured() && (worse(f.rotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0)) {
         maxRotationErrorDeg = f.rotationErrorDeg;
         worstRotationJoint = f.worstRotationJoint;
         worstRotationFrame = f.frame;
@@ -146,12 +147,12 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
         statusFrames[static_cast<std::size_t>(k)] += later.statusFrames[static_cast<std::size_t>(k)];
     for (const auto& joint : later.residualJoints) addResidual(joint.name, joint.frames, joint.worstErrorCm);
     sortResidualJoints();
-    if (later.frames > 0 && (worse(later.maxPositionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
+    if (later.measured() && (worse(later.maxPositionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
         maxPositionErrorCm = later.maxPositionErrorCm;
         worstJoint = later.worstJoint;
         worstFrame = later.worstFrame;
     }
-    if (later.frames > 0 && (worse(later.maxRotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0)) {
+    if (later.measured() && (worse(later.maxRotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0)) {
         maxRotationErrorDeg = later.maxRotationErrorDeg;
         worstRotationJoint = later.worstRotationJoint;
         worstRotationFrame = later.worstRotationFrame;

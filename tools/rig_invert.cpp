@@ -50,9 +50,13 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
     std::cout << fmt::format("\n{:>8}  {:<15} {:>5}  {:>12}  {:<14} {:>12}  {}\n", "frame", "status", "iter",
                              "error cm", "joint", "error deg", "joint");
     for (const auto& f : s.perFrame)
-        std::cout << fmt::format("{:>8}  {:<15} {:>5}  {:>12.4g}  {:<14} {:>12.4g}  {}\n", clip.frameNumbers[f.frame],
-                                 frameStatusName(f.status), f.solve.iterations, f.positionErrorCm, f.worstJoint,
-                                 f.rotationErrorDeg, f.worstRotationJoint);
+        if (f.measured())
+            std::cout << fmt::format("{:>8}  {:<15} {:>5}  {:>12.4g}  {:<14} {:>12.4g}  {}\n",
+                                     clip.frameNumbers[f.frame], frameStatusName(f.status), f.solve.iterations,
+                                     f.positionErrorCm, f.worstJoint, f.rotationErrorDeg, f.worstRotationJoint);
+        else
+            std::cout << fmt::format("{:>8}  {:<15} {:>5}  {:>12}  {:<14} {:>12}\n", clip.frameNumbers[f.frame],
+                                     frameStatusName(f.status), f.solve.iterations, "-", "", "-");
     const auto frameNumber = [&](int index) { return index >= 0 ? clip.frameNumbers[index] : 0.0; };
     std::cout << fmt::format("\nframes            {}: {}\n", s.frames, app::statusCountsText(s));
     if (!s.residualJoints.empty()) {
@@ -65,15 +69,18 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
         if (shown < s.residualJoints.size()) joints += fmt::format(" and {} more", s.residualJoints.size() - shown);
         std::cout << fmt::format("residual joints   {}\n", joints);
     }
-    std::cout << fmt::format(
-        "real-rig error    worst {:.4g} cm ({} at frame {}), {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
-        "{:.4g} deg\n",
-        s.maxPositionErrorCm, s.worstJoint, frameNumber(s.worstFrame), s.maxRotationErrorDeg, s.worstRotationJoint,
-        frameNumber(s.worstRotationFrame), s.meanPositionErrorCm, s.meanRotationErrorDeg);
-    std::cout << fmt::format(
-        "model gap         {:.3g} cm at worst (the approximation against the real rig at the "
-        "answers)\n",
-        s.maxModelGapCm);
+    if (!s.measured())
+        std::cout << "real-rig error    not measured (no frame has a target it could be measured against)\n";
+    else {
+        std::cout << fmt::format(
+            "real-rig error    worst {:.4g} cm ({} at frame {}), {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
+            "{:.4g} deg\n",
+            s.maxPositionErrorCm, s.worstJoint, frameNumber(s.worstFrame), s.maxRotationErrorDeg, s.worstRotationJoint,
+            frameNumber(s.worstRotationFrame), s.meanPositionErrorCm, s.meanRotationErrorDeg);
+        std::cout << fmt::format(
+            "model gap         {:.3g} cm at worst (the approximation against the real rig at the answers)\n",
+            s.maxModelGapCm);
+    }
     const std::vector<std::string> unmodelled = app::unmodelledOutputs(a);
     if (!outcome.hybridBlocks.empty())
         std::cout << fmt::format("hybrid            {}\n                  {:.4g} real-rig evaluations per frame\n",
