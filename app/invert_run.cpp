@@ -78,7 +78,7 @@ std::string learnedFrom(const Approximation& approximation)
 // The clip indices of --frames A:B.
 std::pair<int, int> frameIndices(const TargetClip& clip, const std::string& frames)
 {
-    const auto range = parseFrameRange(frames, "--frames");
+    const auto range = parseFrameRange(frames, "--frames", false);
     if (range.step != 1.0)
         throw Error(
             fmt::format("--frames {}: a step is not supported; frames are solved in a warm-start chain", frames));

@@ -27,12 +27,13 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
         if (targets.outputOfJoint.back() >= 0) ++targets.matchedJoints;
         else targets.unmatchedJoints.push_back(joint);
     }
+    const auto first = [](const std::string& name) { return fmt::format("'{}', ...", name); };
     if (targets.matchedJoints == 0)
         throw Error(fmt::format(
-            "no joint of the clip is an output of the approximation (the clip has '{}', ...; the approximation "
-            "'{}', ...); rename them with a map file",
-            joints.empty() ? std::string() : joints.front(),
-            approximation.outputs.empty() ? std::string() : approximation.outputs.front().name));
+            "no joint of the clip is an output of the approximation (the clip has {}; the approximation {}); "
+            "rename them with a map file",
+            joints.empty() ? "none" : first(joints.front()),
+            approximation.outputs.empty() ? "none" : first(approximation.outputs.front().name)));
     for (const auto& frame : worlds) {
         auto& out = targets.frames.emplace_back(approximation.outputs.size());
         for (std::size_t j = 0; j < joints.size(); ++j) {

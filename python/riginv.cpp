@@ -544,8 +544,11 @@ public:
                             typeName(targets)));
         if (!map.is_none()) job.map = pathText(map, "map");
         if (!frames.is_none()) job.frames = textArgument(frames, "frames");
-        if (!take.is_none()) job.take = textArgument(take, "take");
-        if (!contacts.is_none()) job.contacts = pathText(contacts, "contacts");
+        // '' would mean None (the first take, no contacts): refused, as rig-invert refuses --take ''.
+        if (!take.is_none() && (job.take = textArgument(take, "take")).empty())
+            throw Error("take: the value is empty; give a take's name or 0-based index, or None for the first");
+        if (!contacts.is_none() && (job.contacts = pathText(contacts, "contacts")).empty())
+            throw Error("contacts: the value is empty; give 'auto' or a contacts file, or None");
         job.contactsName = "contacts";
         checkProgress(progress);
         job.settings = settingsArgument(settings);

@@ -206,7 +206,8 @@ int main(int argc, char** argv)
                    ".json file of world matrices (graph-eval); read by content")
         ->required();
     app.add_option("--take", options.take,
-                   "The clip file's animation to invert: a name or 0-based index (default: the first)");
+                   "The clip file's animation to invert: a name or 0-based index (default: the first)")
+        ->check(rig::cli::nonEmpty("a take's name or 0-based index, or leave --take out for the first"));
     app.add_option("--map", options.map, "Map file: scale of the clip and target-to-rig joint names");
     app.add_option("--frames", options.frames, "Frames A:B of the clip, inclusive, in the clip's numbering");
     app.add_option("-o,--output", options.output,
@@ -216,7 +217,8 @@ int main(int argc, char** argv)
     const rig::cli::SolveFlags solveFlags(app, rig::app::SolveSettings{});
     app.add_option("--contacts", options.contacts,
                    "Hold planted joints (feet) with a priority above the other targets: auto (detected from the "
-                   "clip) or a file of frame ranges per joint (docs/retargeting.md)");
+                   "clip) or a file of frame ranges per joint (docs/retargeting.md)")
+        ->check(rig::cli::nonEmpty("auto or a contacts file, or leave --contacts out"));
     app.add_option("--after", options.after,
                    "JSON curves rig-invert wrote for the frames before these: this run continues them (the curves "
                    "of chunks then equal one run's)");

@@ -384,6 +384,17 @@ def test_targets_of_nan_measure_nothing_and_report_null_not_0():
                                        "worst_rotation_joint", "model_gap_cm")] == [None] * 5
 
 
+def test_an_empty_take_or_contacts_is_refused_not_read_as_none():
+    approx = riginv.learn(ARM, params=["shoulder.rotate?", "elbow.rotate?"])
+    clip = SOURCE / "tests/corpus/clips/arm.json"
+    with pytest.raises(riginv.Error) as caught:
+        approx.invert(clip, rig=ARM, take="")
+    assert str(caught.value) == "take: the value is empty; give a take's name or 0-based index, or None for the first"
+    with pytest.raises(riginv.Error) as caught:
+        approx.invert(clip, rig=ARM, contacts="")
+    assert str(caught.value) == "contacts: the value is empty; give 'auto' or a contacts file, or None"
+
+
 def test_an_fbx_take_equals_rig_invert(tmp_path):
     """An animation assimp reads (the hand-written Z-up leg in inches, tests/corpus/clips), its take by name or
     index: the values and report of rig-invert --take, and the same one-line error for a take it lacks."""
