@@ -104,6 +104,25 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
     if (!o.html.empty()) std::cout << fmt::format("report page       {}\n", o.html);
 }
 
+// The curves, the report and the page of one run, given to `files`, which commits them together.
+void setOutputs(app::OutputFiles& files, const Options& o, const app::InvertOutcome& outcome,
+                const app::KeysOutcome* keys, TangentType tangent, const std::string& threeJs)
+{
+    const auto extension = std::filesystem::path(o.output).extension();
+    std::string curves;
+    if (extension == ".anim") curves = app::curvesAnim(outcome, keys, tangent);
+    else if (extension == ".csv") curves = keys ? app::keyedCurvesCsv(outcome, *keys) : app::curvesCsv(outcome);
+    else curves = keys ? app::keyedCurvesJson(outcome, *keys) : app::curvesJson(outcome);
+    if (!o.reportJson.empty()) {
+        app::Json report =
+            app::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, app::fingerprintText(curves));
+        if (keys) report["keys"] = app::keysReport(outcome, *keys);
+        files.set(o.reportJson, app::jsonText(report, 2) + "\n");
+    }
+    files.set(o.output, std::move(curves));
+    if (!o.html.empty()) files.set(o.html, app::htmlReport(outcome, keys, {o.clip, o.rig, o.approximation}, threeJs));
+}
+
 int run(const Options& o)
 {
     // Everything that can be checked before the work is.
@@ -149,20 +168,7 @@ int run(const Options& o)
     }
     const app::KeysOutcome* keyed = keys ? &*keys : nullptr;
 
-    std::string curves;
-    if (extension == ".anim") curves = app::curvesAnim(outcome, keyed, tangent);
-    else if (extension == ".csv") curves = keys ? app::keyedCurvesCsv(outcome, *keys) : app::curvesCsv(outcome);
-    else curves = keys ? app::keyedCurvesJson(outcome, *keys) : app::curvesJson(outcome);
-    const std::string page =
-        o.html.empty() ? std::string() : app::htmlReport(outcome, keyed, {o.clip, o.rig, o.approximation}, threeJs);
-    if (!o.reportJson.empty()) {
-        app::Json report =
-            app::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, app::fingerprintText(curves));
-        if (keys) report["keys"] = app::keysReport(outcome, *keys);
-        files.set(o.reportJson, app::jsonText(report, 2) + "\n");
-    }
-    files.set(o.output, std::move(curves));
-    if (!o.html.empty()) files.set(o.html, page);
+    setOutputs(files, o, outcome, keyed, tangent, threeJs);
     files.commit();
     const ClipInversionSummary& summary = outcome.summary;
     if (!o.quiet) printReport(o, outcome, keyed);
