@@ -338,8 +338,9 @@ int run(Options& options)
     if (!options.spec.empty()) readSpec(options);
     if (options.params.empty()) throw Error("--params is required; run 'rig-learn --help' for usage");
     // Bad outputs and flags are reported before any work.
-    if (options.outputGiven) app::checkOutputFile(options.output, "approximation.yaml");
-    if (options.reportGiven) app::checkOutputFile(options.reportJson, "report.json", "--report-json");
+    app::OutputFiles files;
+    if (options.outputGiven) files.add(options.output, "approximation.yaml");
+    if (options.reportGiven) files.add(options.reportJson, "report.json", "--report-json");
     if (!options.writeSpec.empty()) app::checkOutputFile(options.writeSpec, "spec.yaml", "--write-spec");
     const std::vector<app::NamedFile> outputs{{"-o", options.output},
                                               {"--report-json", options.reportGiven ? options.reportJson : ""},
@@ -386,11 +387,11 @@ int run(Options& options)
     // What the learner measured as wrong is not written as if it were fine (docs/rig-learn.md: exit 3).
     const std::string failure = app::validationFailure(approximation);
     const bool write = failure.empty() || options.allowInexact;
-    if (write) app::writeFileAtomically(options.output, approximationToYaml(approximation));
+    if (write) files.set(options.output, approximationToYaml(approximation));
     if (options.reportGiven)
-        app::writeFileAtomically(
-            options.reportJson,
-            app::jsonText(app::learnReport(*learned, options.rig, options.output, write), 2) + "\n");
+        files.set(options.reportJson,
+                  app::jsonText(app::learnReport(*learned, options.rig, options.output, write), 2) + "\n");
+    files.commit();
     std::cout << readableReport(*learned, options);
     if (approximation.parameters.empty())
         std::cerr << "warning: no parameter could be modelled; the approximation is empty (see the discards above)\n";
