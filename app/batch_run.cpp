@@ -289,15 +289,17 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
     j["retried_frames"] = s.retriedFrames;
     j["retries_kept"] = s.retriesKept;
     j["residual_joints"] = residualJointsJson(s);
-    j["max_position_error_cm"] = numberJson(s.maxPositionErrorCm);
-    j["worst_joint"] = s.worstJoint;
+    // What was not measured (a clip of invalid targets) is null, never 0.
+    const auto measured = [&](Json value) { return s.measured() ? std::move(value) : Json(); };
+    j["max_position_error_cm"] = measured(numberJson(s.maxPositionErrorCm));
+    j["worst_joint"] = measured(s.worstJoint);
     j["worst_frame"] = frameNumber(s.worstFrame);
-    j["mean_position_error_cm"] = numberJson(s.meanPositionErrorCm);
-    j["max_rotation_error_deg"] = numberJson(s.maxRotationErrorDeg);
-    j["worst_rotation_joint"] = s.worstRotationJoint;
+    j["mean_position_error_cm"] = measured(numberJson(s.meanPositionErrorCm));
+    j["max_rotation_error_deg"] = measured(numberJson(s.maxRotationErrorDeg));
+    j["worst_rotation_joint"] = measured(s.worstRotationJoint);
     j["worst_rotation_frame"] = frameNumber(s.worstRotationFrame);
-    j["mean_rotation_error_deg"] = numberJson(s.meanRotationErrorDeg);
-    j["max_model_gap_cm"] = numberJson(s.maxModelGapCm);
+    j["mean_rotation_error_deg"] = measured(numberJson(s.meanRotationErrorDeg));
+    j["max_model_gap_cm"] = measured(numberJson(s.maxModelGapCm));
     j["contacts"] = contactsJson(s, approximation, merged->frameNumbers, asked);
     j["ms_per_frame"] = numberJson(s.msPerFrame);
     j["task_seconds"] = numberJson(merged->taskSeconds);

@@ -22,10 +22,11 @@ std::vector<double> FrameRange::frames() const
     return out;
 }
 
-FrameRange parseFrameRange(std::string_view text, std::string_view flag)
+FrameRange parseFrameRange(std::string_view text, std::string_view flag, bool steps)
 {
     auto bad = [&](std::string_view why) {
-        return Error(fmt::format("{} '{}': {}; expected A:B[:STEP], e.g. 1:240 or 1:240:2", flag, text, why));
+        return Error(fmt::format("{} '{}': {}; expected {}", flag, text, why,
+                                 steps ? "A:B[:STEP], e.g. 1:240 or 1:240:2" : "A:B, e.g. 1:240"));
     };
     std::vector<double> parts;
     std::string_view rest = text;
@@ -40,7 +41,7 @@ FrameRange parseFrameRange(std::string_view text, std::string_view flag)
         if (colon == std::string_view::npos) break;
         rest.remove_prefix(colon + 1);
     }
-    if (parts.size() < 2 || parts.size() > 3) throw bad("give two or three numbers");
+    if (parts.size() < 2 || parts.size() > 3) throw bad(steps ? "give two or three numbers" : "give two numbers");
     FrameRange range{parts[0], parts[1], parts.size() == 3 ? parts[2] : 1.0};
     if (range.step <= 0) throw bad("the step must be positive");
     if (range.last < range.first) throw bad("the last frame is before the first");

@@ -13,7 +13,8 @@ struct FrameRange {
     double step = 1.0;
     std::vector<double> frames() const;
 };
-// Throws rig::Error naming the flag when the text is not a valid range.
-FrameRange parseFrameRange(std::string_view text, std::string_view flag);
+// Throws rig::Error naming the flag when the text is not a valid range. `steps`: whether the command takes a STEP
+// (rig-invert does not: its frames are a warm-start chain), for the form and example the messages suggest.
+FrameRange parseFrameRange(std::string_view text, std::string_view flag, bool steps = true);
 
 }  // namespace rig::app

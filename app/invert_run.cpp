@@ -78,7 +78,7 @@ std::string learnedFrom(const Approximation& approximation)
 // The clip indices of --frames A:B.
 std::pair<int, int> frameIndices(const TargetClip& clip, const std::string& frames)
 {
-    const auto range = parseFrameRange(frames, "--frames");
+    const auto range = parseFrameRange(frames, "--frames", false);
     if (range.step != 1.0)
         throw Error(
             fmt::format("--frames {}: a step is not supported; frames are solved in a warm-start chain", frames));
@@ -364,6 +364,8 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
         return index >= 0 ? numberJson(outcome.clip.frameNumbers[static_cast<std::size_t>(index)]) : Json();
     };
     const auto nameOrNull = [](const std::optional<std::string>& name) { return name ? Json(*name) : Json(); };
+    // What was not measured (a frame of invalid targets, a run of them) is null, never 0.
+    const auto measured = [](bool was, Json value) { return was ? std::move(value) : Json(); };
     Json perFrame = Json::array();
     for (const auto& f : s.perFrame) {
         Json missed = Json::array();
@@ -374,11 +376,11 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
                             {"missed_joints", std::move(missed)},
                             {"iterations", f.solve.iterations},
                             {"real_rig_evaluations", f.realRigEvaluations},
-                            {"position_error_cm", numberJson(f.positionErrorCm)},
-                            {"worst_joint", f.worstJoint},
-                            {"rotation_error_deg", numberJson(f.rotationErrorDeg)},
-                            {"worst_rotation_joint", f.worstRotationJoint},
-                            {"model_gap_cm", numberJson(f.modelGapCm)},
+                            {"position_error_cm", measured(f.measured(), numberJson(f.positionErrorCm))},
+                            {"worst_joint", measured(f.measured(), f.worstJoint)},
+                            {"rotation_error_deg", measured(f.measured(), numberJson(f.rotationErrorDeg))},
+                            {"worst_rotation_joint", measured(f.measured(), f.worstRotationJoint)},
+                            {"model_gap_cm", measured(f.measured(), numberJson(f.modelGapCm))},
                             {"non_finite_joint", f.nonFiniteJoint.empty() ? Json() : Json(f.nonFiniteJoint)}});
     }
     return Json{
@@ -399,15 +401,15 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
         {"retried_frames", s.retriedFrames},
         {"retries_kept", s.retriesKept},
         {"residual_joints", residualJointsJson(s)},
-        {"max_position_error_cm", numberJson(s.maxPositionErrorCm)},
-        {"worst_joint", s.worstJoint},
+        {"max_position_error_cm", measured(s.measured(), numberJson(s.maxPositionErrorCm))},
+        {"worst_joint", measured(s.measured(), s.worstJoint)},
         {"worst_frame", frameNumber(s.worstFrame)},
-        {"mean_position_error_cm", numberJson(s.meanPositionErrorCm)},
-        {"max_rotation_error_deg", numberJson(s.maxRotationErrorDeg)},
-        {"worst_rotation_joint", s.worstRotationJoint},
+        {"mean_position_error_cm", measured(s.measured(), numberJson(s.meanPositionErrorCm))},
+        {"max_rotation_error_deg", measured(s.measured(), numberJson(s.maxRotationErrorDeg))},
+        {"worst_rotation_joint", measured(s.measured(), s.worstRotationJoint)},
         {"worst_rotation_frame", frameNumber(s.worstRotationFrame)},
-        {"mean_rotation_error_deg", numberJson(s.meanRotationErrorDeg)},
-        {"max_model_gap_cm", numberJson(s.maxModelGapCm)},
+        {"mean_rotation_error_deg", measured(s.measured(), numberJson(s.meanRotationErrorDeg))},
+        {"max_model_gap_cm", measured(s.measured(), numberJson(s.maxModelGapCm))},
         {"ms_per_frame", numberJson(s.msPerFrame)},
         {"lead_in_frames", s.leadInFrames},
         {"unmodelled_outputs", unmodelledOutputs(a)},

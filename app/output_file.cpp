@@ -185,24 +185,36 @@ bool writeAll(int fd, std::string_view content)
 
 }  // namespace
 
-void writeFileAtomically(const std::filesystem::path& file, std::string_view content)
+namespace {
+
+// A FIFO or a device, opened for writing before the work. A FIFO is opened without waiting: when no process
+// reads it, open() fails with ENXIO and the output is refused now rather than block the run at its end.
+int openStream(const std::filesystem::path& file, const std::filesystem::path& target, bool fifo, std::string_view flag)
 {
-    checkOutputFile(file);
-    // A link is followed: the file it names is replaced, the link stays a link.
-    const std::filesystem::path target = outputTarget(file);
+    const int fd = ::open(target.c_str(), O_WRONLY | O_CLOEXEC | (fifo ? O_NONBLOCK : 0));
+    if (fd < 0 && fifo && errno == ENXIO)
+        throw Error(fmt::format("{}: is a FIFO that no process reads; start its reader first, or give a file for {}",
+                                file.string(), flag));
+    if (fd < 0)
+        throw Error(fmt::format("{}: cannot write here ({}); check the folder exists and is writable", file.string(),
+                                std::strerror(errno)));
+    // Once open, a slow reader is waited for, as a shell's > would.
+    if (fifo) ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+    return fd;
+}
+
+Error writingFailed(const std::filesystem::path& file, int error)
+{
+    return Error(fmt::format("{}: writing failed ({}); check the free space and the folder's permissions",
+                             file.string(), std::strerror(error)));
+}
+
+// Writes `content` to a new temporary file beside `target`, with the mode the output will have, and returns
+// its name; throws (nothing left behind) when it cannot.
+std::string stage(const std::filesystem::path& file, const std::filesystem::path& target, std::string_view content)
+{
     struct stat st {};
     const bool exists = ::stat(target.c_str(), &st) == 0;
-    if (exists && (S_ISFIFO(st.st_mode) || S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode))) {
-        // Streamed: renaming over a FIFO or a device (/dev/null) would replace it with a plain file.
-        const int fd = ::open(target.c_str(), O_WRONLY | O_CLOEXEC);
-        if (fd < 0 || !writeAll(fd, content)) {
-            const int error = errno;
-            if (fd >= 0) ::close(fd);
-            throw Error(fmt::format("{}: writing failed ({})", file.string(), std::strerror(error)));
-        }
-        ::close(fd);
-        return;
-    }
     for (const auto& old : staleTemporaryFiles(target)) {
         std::error_code ec;
         std::filesystem::remove(old, ec);
@@ -235,15 +247,84 @@ void writeFileAtomically(const std::filesystem::path& file, std::string_view con
         ok = false;
         error = errno;
     }
-    if (ok && std::rename(tmpl.c_str(), target.c_str()) != 0) {
-        ok = false;
-        error = errno;
-    }
     if (!ok) {
         std::remove(tmpl.c_str());
-        throw Error(fmt::format("{}: writing failed ({}); check the free space and the folder's permissions",
-                                file.string(), std::strerror(error)));
+        throw writingFailed(file, error);
     }
+    return tmpl;
+}
+
+}  // namespace
+
+OutputFiles::~OutputFiles()
+{
+    removeTemporaries();
+    for (const Output& o : outputs_)
+        if (o.stream >= 0) ::close(o.stream);
+}
+
+void OutputFiles::add(const std::filesystem::path& file, std::string_view example, std::string_view flag)
+{
+    checkOutputFile(file, example, flag);
+    Output out;
+    out.file = file;
+    // A link is followed: the file it names is replaced, the link stays a link.
+    out.target = outputTarget(file);
+    struct stat st {};
+    if (::stat(out.target.c_str(), &st) == 0 && (S_ISFIFO(st.st_mode) || S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode)))
+        out.stream = openStream(file, out.target, S_ISFIFO(st.st_mode), flag);
+    outputs_.push_back(std::move(out));
+}
+
+OutputFiles::Output& OutputFiles::find(const std::filesystem::path& file)
+{
+    for (Output& o : outputs_)
+        if (o.file == file) return o;
+    throw Error(fmt::format("{}: written without being checked first", file.string()), ErrorKind::internal);
+}
+
+void OutputFiles::set(const std::filesystem::path& file, std::string content)
+{
+    Output& o = find(file);
+    o.content = std::move(content);
+    o.given = true;
+}
+
+void OutputFiles::removeTemporaries()
+{
+    for (Output& o : outputs_)
+        if (!o.temporary.empty()) {
+            std::remove(o.temporary.c_str());
+            o.temporary.clear();
+        }
+}
+
+void OutputFiles::commit()
+{
+    try {
+        for (Output& o : outputs_)
+            if (o.given && o.stream < 0) o.temporary = stage(o.file, o.target, o.content);
+        // Renaming over a FIFO or a device (/dev/null) would replace it with a plain file: they are streamed.
+        for (const Output& o : outputs_)
+            if (o.given && o.stream >= 0 && !writeAll(o.stream, o.content)) throw writingFailed(o.file, errno);
+        for (Output& o : outputs_) {
+            if (o.temporary.empty()) continue;
+            if (std::rename(o.temporary.c_str(), o.target.c_str()) != 0) throw writingFailed(o.file, errno);
+            o.temporary.clear();
+        }
+    }
+    catch (...) {
+        removeTemporaries();
+        throw;
+    }
+}
+
+void writeFileAtomically(const std::filesystem::path& file, std::string_view content)
+{
+    OutputFiles out;
+    out.add(file);
+    out.set(file, std::string(content));
+    out.commit();
 }
 
 }  // namespace rig::app

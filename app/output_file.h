@@ -24,7 +24,41 @@ void checkOutputFile(const std::filesystem::path& file, std::string_view example
 // The temporary file is ".NAME.PID.XXXXXX.tmp" (PID: the writing process; NAME cut and followed by a
 // checksum of itself where that would be longer than the folder allows). A process killed while writing
 // leaves it behind; the next write of NAME removes those whose process is gone.
+// One output of a run; a run of several outputs commits them together with OutputFiles.
 void writeFileAtomically(const std::filesystem::path& file, std::string_view content);
+
+// The outputs of one run, committed together: a run that fails while writing one of them (a full disk,
+// `--report-json /dev/full`) replaces none. Each output is checked when it is added, before the work, and a
+// FIFO or a device is opened then: a FIFO no process reads is refused at once (a run that solved for minutes
+// would otherwise block on it when it writes). commit() writes every regular file to its temporary file, then
+// the FIFOs and devices, and renames the temporary files over their outputs only when all of that succeeded.
+class OutputFiles {
+public:
+    OutputFiles() = default;
+    OutputFiles(const OutputFiles&) = delete;
+    OutputFiles& operator=(const OutputFiles&) = delete;
+    ~OutputFiles();
+
+    // checkOutputFile's checks (with its `example` and `flag`), and a FIFO or a device opened.
+    void add(const std::filesystem::path& file, std::string_view example = "out.json", std::string_view flag = "-o");
+    // What an added output will hold; an added output given no content is not written.
+    void set(const std::filesystem::path& file, std::string content);
+    // Writes the outputs given content, all or none (see above). Throws rig::Error naming the output that failed.
+    void commit();
+
+private:
+    struct Output {
+        std::filesystem::path file;    // as the user named it, for messages
+        std::filesystem::path target;  // the file it leads to (a link followed)
+        int stream = -1;               // a FIFO's or a device's descriptor, open from add() on
+        bool given = false;
+        std::string content;
+        std::string temporary;  // a regular file's staged content, until commit() renames it
+    };
+    Output& find(const std::filesystem::path& file);
+    void removeTemporaries();
+    std::vector<Output> outputs_;
+};
 
 // The file an output name leads to: a symbolic link (or a chain of them) followed, anything else as is.
 std::filesystem::path outputTarget(const std::filesystem::path& file);

@@ -27,12 +27,13 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
         if (targets.outputOfJoint.back() >= 0) ++targets.matchedJoints;
         else targets.unmatchedJoints.push_back(joint);
     }
+    const auto first = [](const std::string& name) { return fmt::format("'{}', ...", name); };
     if (targets.matchedJoints == 0)
         throw Error(fmt::format(
-            "no joint of the clip is an output of the approximation (the clip has '{}', ...; the approximation "
-            "'{}', ...); rename them with a map file",
-            joints.empty() ? std::string() : joints.front(),
-            approximation.outputs.empty() ? std::string() : approximation.outputs.front().name));
+            "no joint of the clip is an output of the approximation (the clip has {}; the approximation {}); "
+            "rename them with a map file",
+            joints.empty() ? "none" : first(joints.front()),
+            approximation.outputs.empty() ? "none" : first(approximation.outputs.front().name)));
     for (const auto& frame : worlds) {
         auto& out = targets.frames.emplace_back(approximation.outputs.size());
         for (std::size_t j = 0; j < joints.size(); ++j) {
@@ -98,12 +99,13 @@ void ClipInversionSummary::add(const FrameInversion& f, const std::vector<Approx
     for (const auto& m : f.missed)
         addResidual({outputs[static_cast<std::size_t>(m.output)].name, 1, m.positionErrorCm, m.rotationErrorDeg,
                      m.scaledErrorCm});
-    if (worse(f.positionErrorCm, maxPositionErrorCm) || worstFrame < 0) {
+    // A frame not measured has no error to be the worst: 0 there would make a run of invalid targets look exact.
+    if (f.measured() && (worse(f.positionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
         maxPositionErrorCm = f.positionErrorCm;
         worstJoint = f.worstJoint;
         worstFrame = f.frame;
     }
-    if (worse(f.rotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0) {
+    if (f.measured() && (worse(f.rotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0)) {
         maxRotationErrorDeg = f.rotationErrorDeg;
         worstRotationJoint = f.worstRotationJoint;
         worstRotationFrame = f.frame;
@@ -129,12 +131,12 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
         statusFrames[static_cast<std::size_t>(k)] += later.statusFrames[static_cast<std::size_t>(k)];
     for (const auto& joint : later.residualJoints) addResidual(joint);
     sortResidualJoints();
-    if (later.frames > 0 && (worse(later.maxPositionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
+    if (later.measured() && (worse(later.maxPositionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
         maxPositionErrorCm = later.maxPositionErrorCm;
         worstJoint = later.worstJoint;
         worstFrame = later.worstFrame;
     }
-    if (later.frames > 0 && (worse(later.maxRotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0)) {
+    if (later.measured() && (worse(later.maxRotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0)) {
         maxRotationErrorDeg = later.maxRotationErrorDeg;
         worstRotationJoint = later.worstRotationJoint;
         worstRotationFrame = later.worstRotationFrame;

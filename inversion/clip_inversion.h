@@ -224,6 +224,9 @@ struct FrameInversion {
     std::string nonFiniteJoint;  // a joint the real rig gave a non-finite matrix for, or ""
     std::string invalidJoint;    // a joint whose target is not finite (not measured), or ""
     int realRigEvaluations = 0;  // by the solve (a hybrid solve's second stage), not by this measurement
+    // Whether the real rig was measured against some target here: a frame of invalid targets was not, and its
+    // errors and joints are reported as null, never as 0.
+    bool measured() const { return countedJoints > 0; }
 };
 
 struct ClipInversionSummary {
@@ -246,8 +249,9 @@ struct ClipInversionSummary {
         double worstScaledErrorCm = 0.0;
     };
     std::vector<ResidualJoint> residualJoints;
-    // Real rig, over every counted half of every active target of every frame. Maxima and means keep a NaN or
-    // an infinity (no figure hides one).
+    // Real rig, over every counted half of every active target of every measured frame. Maxima and means keep a
+    // NaN or an infinity (no figure hides one); when no frame was measured (measured() is false) they are 0 and the
+    // frames -1, which reports show as null.
     double maxPositionErrorCm = 0.0;
     double meanPositionErrorCm = 0.0;  // mean over joints and frames
     double maxRotationErrorDeg = 0.0;
@@ -271,6 +275,7 @@ struct ClipInversionSummary {
         0;  // contacts: multiplier updates over the reported frames (solves beyond one per held frame)
 
     int count(FrameStatus status) const { return statusFrames[static_cast<std::size_t>(status)]; }
+    bool measured() const { return jointFrames > 0; }
     int failedFrames() const;
     // Adds one frame's figures (its status, errors, residual joints, first failure), as invertClip gathers them
     // frame after frame (perFrame is not touched); `outputs` names the approximation's outputs. rig-batch joins

@@ -1,16 +1,18 @@
 #include "nodes/contact_ranges.h"
 
 #include <cmath>
+#include <filesystem>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
 #include "core/input_file.h"
+#include "nodes/clips/target_clip.h"
 
 namespace rig {
 namespace {
 
-constexpr InputFileKind contactsFileKind{"contacts file", "give the path of a contacts file (YAML or JSON)", 16u << 20,
+constexpr InputFileKind contactsFileKind{"a contacts file", "a contacts file (YAML or JSON)", 16u << 20,
                                          "give fewer contacts per file"};
 
 SourceMark markOf(const std::string& file, const YAML::Node& node)
@@ -33,6 +35,9 @@ double frameNumber(const std::string& file, const YAML::Node& node)
 std::vector<ContactRange> readContactRanges(const std::string& file)
 {
     const std::string text = readInputFile(file, contactsFileKind);
+    // YAML reads a JSON file too, but would take trailing text as more of it.
+    if (std::filesystem::path(file).extension() == ".json")
+        checkStrictJson(text, file, "a contacts file maps joints to frame ranges ({\"LeftFoot\": [[1, 40]]})");
     YAML::Node root;
     try {
         root = YAML::Load(text);

@@ -307,13 +307,16 @@ public:
         return g;
     }
 
-    py::dict evaluate(const py::object& get, const py::object& setArgument, const py::object& frames, int threads)
+    py::dict evaluate(const py::object& get, const py::object& setArgument, const py::object& frames,
+                      const py::object& threadsArgument)
     {
         Graph& graph = *graph_;
-        if (threads < 0)
+        // Taken as an object: pybind11's int would refuse 1.5 with its TypeError listing the signature.
+        const int threads = intArgument(threadsArgument, "threads");
+        if (threads < 0 || threads > 1024)
             throw Error(
-                fmt::format("threads: {} is negative; give 0 (every core) or a thread count, as graph-eval "
-                            "--threads",
+                fmt::format("threads: {} is not a thread count; give a whole number from 0 (all cores) to 1024, as "
+                            "graph-eval --threads",
                             threads));
         graph.setThreads(threads);
         const auto set = dictArgument(setArgument, "set");
@@ -343,6 +346,8 @@ public:
             app::selectPlugs(graph, file_, patterns, setTime ? std::optional(numbers.front()) : std::nullopt);
         std::vector<std::vector<Value>> columns(plugs.size());
         for (const double frame : numbers) {
+            // Ctrl-C stops a long evaluation between frames (Python runs its handler only once this returns).
+            if (PyErr_CheckSignals() != 0) throw py::error_already_set();
             auto values = app::evaluateFrame(graph, file_, frame, setTime, plugs);
             // graph-eval's limit, measured as graph-eval measures it: its JSON for as many frames as the first.
             if (columns.empty() || columns.front().empty())
@@ -544,8 +549,11 @@ public:
                             typeName(targets)));
         if (!map.is_none()) job.map = pathText(map, "map");
         if (!frames.is_none()) job.frames = textArgument(frames, "frames");
-        if (!take.is_none()) job.take = textArgument(take, "take");
-        if (!contacts.is_none()) job.contacts = pathText(contacts, "contacts");
+        // '' would mean None (the first take, no contacts): refused, as rig-invert refuses --take ''.
+        if (!take.is_none() && (job.take = textArgument(take, "take")).empty())
+            throw Error("take: the value is empty; give a take's name or 0-based index, or None for the first");
+        if (!contacts.is_none() && (job.contacts = pathText(contacts, "contacts")).empty())
+            throw Error("contacts: the value is empty; give 'auto' or a contacts file, or None");
         job.contactsName = "contacts";
         checkProgress(progress);
         job.settings = settingsArgument(settings);

@@ -90,4 +90,13 @@ CLI::Validator threadCount()
         "0..1024");
 }
 
+CLI::Validator nonEmpty(std::string give)
+{
+    return CLI::Validator(
+        [give = std::move(give)](std::string& text) {
+            return text.empty() ? fmt::format("the value is empty; give {}", give) : std::string();
+        },
+        "TEXT");
+}
+
 }  // namespace rig::cli

@@ -129,7 +129,7 @@ std::string render(Graph& graph, const std::vector<Plug>& plugs, const std::vect
 }
 
 // The flags --html and --character need, and the files they write, checked before any work.
-void checkPageFlags(const Options& options)
+void checkPageFlags(const Options& options, app::OutputFiles& files)
 {
     if (options.characterGiven && !options.htmlGiven)
         throw Error(
@@ -138,16 +138,17 @@ void checkPageFlags(const Options& options)
     if (options.htmlGiven && (options.dot || options.types))
         throw Error(fmt::format("--html: the crowd page plays the graph; it is not written with {}",
                                 options.dot ? "--dot" : "--types"));
-    if (options.htmlGiven) app::checkOutputFile(options.html, "crowd.html", "--html");
+    if (options.htmlGiven) files.add(options.html, "crowd.html", "--html");
 }
 
 int run(const Options& options)
 {
     // A bad -o or --html is reported before any work.
-    checkPageFlags(options);
+    app::OutputFiles files;
+    checkPageFlags(options, files);
     const std::vector<app::NamedFile> outputs{{"-o", options.outputGiven ? options.output : ""},
                                               {"--html", options.html}};
-    if (options.outputGiven) app::checkOutputFile(options.output);
+    if (options.outputGiven) files.add(options.output);
     app::checkDistinctFiles({{"the rig file", options.rig}, {"--anim", options.anim}}, outputs);
     const std::string threeJs = options.htmlGiven ? app::readThreeJs() : std::string();
     const auto registry = options.types ? app::typesRegistry(options.plugins) : app::nodeRegistry(options.plugins);
@@ -202,8 +203,9 @@ int run(const Options& options)
         if (options.stats && isMayaFile(options.rig)) std::cerr << mayaStatsText(maya);
     }
     if (!options.outputGiven) std::cout << text;
-    else app::writeFileAtomically(options.output, text);
-    if (options.htmlGiven) app::writeFileAtomically(options.html, page);
+    else files.set(options.output, std::move(text));
+    if (options.htmlGiven) files.set(options.html, std::move(page));
+    files.commit();
     return 0;
 }
 

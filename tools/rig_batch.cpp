@@ -140,10 +140,12 @@ int main(int argc, char** argv)
                    "Clips (BVH, FBX, glTF, Collada, X, ... or .json; docs/clips.md) and folders of them")
         ->expected(1, -1);
     app.add_option("--take", job.take,
-                   "Each clip file's animation to invert: a name or 0-based index (default: the first)");
+                   "Each clip file's animation to invert: a name or 0-based index (default: the first)")
+        ->check(rig::cli::nonEmpty("a take's name or 0-based index, or leave --take out for the first"));
     app.add_option("--contacts", job.contacts,
                    "Hold planted joints (feet) above the other targets: auto (detected per clip) or a file of frame "
-                   "ranges per joint, for every clip (docs/retargeting.md)");
+                   "ranges per joint, for every clip (docs/retargeting.md)")
+        ->check(rig::cli::nonEmpty("auto or a contacts file, or leave --contacts out"));
     app.add_option("--out", job.out, "Folder for the curves (NAME.json per clip), report.json and the batch's files");
     app.add_option("--backend", job.backend, "local (processes on this machine, default) or slurm (sbatch arrays)");
     app.add_option("--jobs", job.jobs,

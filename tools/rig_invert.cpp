@@ -50,9 +50,13 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
     std::cout << fmt::format("\n{:>8}  {:<15} {:>5}  {:>12}  {:<14} {:>12}  {}\n", "frame", "status", "iter",
                              "error cm", "joint", "error deg", "joint");
     for (const auto& f : s.perFrame)
-        std::cout << fmt::format("{:>8}  {:<15} {:>5}  {:>12.4g}  {:<14} {:>12.4g}  {}\n", clip.frameNumbers[f.frame],
-                                 frameStatusName(f.status), f.solve.iterations, f.positionErrorCm, f.worstJoint,
-                                 f.rotationErrorDeg, f.worstRotationJoint);
+        if (f.measured())
+            std::cout << fmt::format("{:>8}  {:<15} {:>5}  {:>12.4g}  {:<14} {:>12.4g}  {}\n",
+                                     clip.frameNumbers[f.frame], frameStatusName(f.status), f.solve.iterations,
+                                     f.positionErrorCm, f.worstJoint, f.rotationErrorDeg, f.worstRotationJoint);
+        else
+            std::cout << fmt::format("{:>8}  {:<15} {:>5}  {:>12}  {:<14} {:>12}\n", clip.frameNumbers[f.frame],
+                                     frameStatusName(f.status), f.solve.iterations, "-", "", "-");
     const auto frameNumber = [&](int index) { return index >= 0 ? clip.frameNumbers[index] : 0.0; };
     std::cout << fmt::format("\nframes            {}: {}\n", s.frames, app::statusCountsText(s));
     if (!s.residualJoints.empty()) {
@@ -68,15 +72,18 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
         if (shown < s.residualJoints.size()) joints += fmt::format(" and {} more", s.residualJoints.size() - shown);
         std::cout << fmt::format("residual joints   {}\n", joints);
     }
-    std::cout << fmt::format(
-        "real-rig error    worst {:.4g} cm ({} at frame {}), {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
-        "{:.4g} deg\n",
-        s.maxPositionErrorCm, s.worstJoint, frameNumber(s.worstFrame), s.maxRotationErrorDeg, s.worstRotationJoint,
-        frameNumber(s.worstRotationFrame), s.meanPositionErrorCm, s.meanRotationErrorDeg);
-    std::cout << fmt::format(
-        "model gap         {:.3g} cm at worst (the approximation against the real rig at the "
-        "answers)\n",
-        s.maxModelGapCm);
+    if (!s.measured())
+        std::cout << "real-rig error    not measured (no frame has a target it could be measured against)\n";
+    else {
+        std::cout << fmt::format(
+            "real-rig error    worst {:.4g} cm ({} at frame {}), {:.4g} deg ({} at frame {}); mean {:.4g} cm, "
+            "{:.4g} deg\n",
+            s.maxPositionErrorCm, s.worstJoint, frameNumber(s.worstFrame), s.maxRotationErrorDeg, s.worstRotationJoint,
+            frameNumber(s.worstRotationFrame), s.meanPositionErrorCm, s.meanRotationErrorDeg);
+        std::cout << fmt::format(
+            "model gap         {:.3g} cm at worst (the approximation against the real rig at the answers)\n",
+            s.maxModelGapCm);
+    }
     const std::vector<std::string> unmodelled = app::unmodelledOutputs(a);
     if (!outcome.hybridBlocks.empty())
         std::cout << fmt::format("hybrid            {}\n                  {:.4g} real-rig evaluations per frame\n",
@@ -100,6 +107,25 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
     if (!o.html.empty()) std::cout << fmt::format("report page       {}\n", o.html);
 }
 
+// The curves, the report and the page of one run, given to `files`, which commits them together.
+void setOutputs(app::OutputFiles& files, const Options& o, const app::InvertOutcome& outcome,
+                const app::KeysOutcome* keys, TangentType tangent, const std::string& threeJs)
+{
+    const auto extension = std::filesystem::path(o.output).extension();
+    std::string curves;
+    if (extension == ".anim") curves = app::curvesAnim(outcome, keys, tangent);
+    else if (extension == ".csv") curves = keys ? app::keyedCurvesCsv(outcome, *keys) : app::curvesCsv(outcome);
+    else curves = keys ? app::keyedCurvesJson(outcome, *keys) : app::curvesJson(outcome);
+    if (!o.reportJson.empty()) {
+        app::Json report =
+            app::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, app::fingerprintText(curves));
+        if (keys) report["keys"] = app::keysReport(outcome, *keys);
+        files.set(o.reportJson, app::jsonText(report, 2) + "\n");
+    }
+    files.set(o.output, std::move(curves));
+    if (!o.html.empty()) files.set(o.html, app::htmlReport(outcome, keys, {o.clip, o.rig, o.approximation}, threeJs));
+}
+
 int run(const Options& o)
 {
     // Everything that can be checked before the work is.
@@ -108,8 +134,10 @@ int run(const Options& o)
     if (extension != ".json" && extension != ".csv" && extension != ".anim")
         throw Error(
             fmt::format("-o {}: the curves are written as .json, .csv or .anim (Maya); give one of those", o.output));
-    if (!o.reportJson.empty()) app::checkOutputFile(o.reportJson, "report.json", "--report-json");
-    if (!o.html.empty()) app::checkOutputFile(o.html, "report.html", "--html");
+    app::OutputFiles files;
+    files.add(o.output, "curves.json");
+    if (!o.reportJson.empty()) files.add(o.reportJson, "report.json", "--report-json");
+    if (!o.html.empty()) files.add(o.html, "report.html", "--html");
     const TangentType tangent = app::keyTangent(o.keys.tangent);
     if (o.keysGiven) app::checkKeySettings(o.keys);
     const std::string threeJs = o.html.empty() ? std::string() : app::readThreeJs();
@@ -143,20 +171,8 @@ int run(const Options& o)
     }
     const app::KeysOutcome* keyed = keys ? &*keys : nullptr;
 
-    std::string curves;
-    if (extension == ".anim") curves = app::curvesAnim(outcome, keyed, tangent);
-    else if (extension == ".csv") curves = keys ? app::keyedCurvesCsv(outcome, *keys) : app::curvesCsv(outcome);
-    else curves = keys ? app::keyedCurvesJson(outcome, *keys) : app::curvesJson(outcome);
-    const std::string page =
-        o.html.empty() ? std::string() : app::htmlReport(outcome, keyed, {o.clip, o.rig, o.approximation}, threeJs);
-    app::writeFileAtomically(o.output, curves);
-    if (!o.html.empty()) app::writeFileAtomically(o.html, page);
-    if (!o.reportJson.empty()) {
-        app::Json report =
-            app::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, app::fingerprintText(curves));
-        if (keys) report["keys"] = app::keysReport(outcome, *keys);
-        app::writeFileAtomically(o.reportJson, app::jsonText(report, 2) + "\n");
-    }
+    setOutputs(files, o, outcome, keyed, tangent, threeJs);
+    files.commit();
     const ClipInversionSummary& summary = outcome.summary;
     if (!o.quiet) printReport(o, outcome, keyed);
     // Measured as wrong: never an exit code of success.
@@ -199,7 +215,8 @@ int main(int argc, char** argv)
                    ".json file of world matrices (graph-eval); read by content")
         ->required();
     app.add_option("--take", options.take,
-                   "The clip file's animation to invert: a name or 0-based index (default: the first)");
+                   "The clip file's animation to invert: a name or 0-based index (default: the first)")
+        ->check(rig::cli::nonEmpty("a take's name or 0-based index, or leave --take out for the first"));
     app.add_option("--map", options.map, "Map file: scale of the clip and target-to-rig joint names");
     app.add_option("--frames", options.frames, "Frames A:B of the clip, inclusive, in the clip's numbering");
     app.add_option("-o,--output", options.output,
@@ -209,7 +226,8 @@ int main(int argc, char** argv)
     const rig::cli::SolveFlags solveFlags(app, rig::app::SolveSettings{});
     app.add_option("--contacts", options.contacts,
                    "Hold planted joints (feet) with a priority above the other targets: auto (detected from the "
-                   "clip) or a file of frame ranges per joint (docs/retargeting.md)");
+                   "clip) or a file of frame ranges per joint (docs/retargeting.md)")
+        ->check(rig::cli::nonEmpty("auto or a contacts file, or leave --contacts out"));
     app.add_option("--after", options.after,
                    "JSON curves rig-invert wrote for the frames before these: this run continues them (the curves "
                    "of chunks then equal one run's)");

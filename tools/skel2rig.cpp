@@ -95,7 +95,8 @@ int main(int argc, char** argv)
                  "file, skeletonClip for the others");
     app.add_option("--take", options.rig.take,
                    "The take (animation) whose skeleton and motion to use: a name or 0-based index (default: the "
-                   "first)");
+                   "first)")
+        ->check(rig::cli::nonEmpty("a take's name or 0-based index, or leave --take out for the first"));
     auto* prefix =
         app.add_option("--prefix", options.rig.prefix, "Put this before every node name (e.g. mocap_ or mocap:)");
     app.add_option("--map-for", options.mapFor,

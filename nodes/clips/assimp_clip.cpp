@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <new>
 #include <numbers>
@@ -330,23 +331,39 @@ struct FrameGrid {
     double ticksPerSecond = defaultFramesPerSecond;
 };
 
+// The times of a take's channels that change: a channel of one key is a constant, whatever its time (assimp's glTF
+// importer gives a node's unanimated translation, rotation or scale one key at time 0), so a take whose keys are
+// all at one time is one pose, not two frames from 0 to that time. `earliest`: the first key of any channel.
+std::vector<double> changingTimes(const std::vector<SceneNode>& nodes, double& earliest)
+{
+    std::vector<double> times;
+    earliest = std::numeric_limits<double>::infinity();
+    const auto add = [&](const auto& keys) {
+        if (!keys.empty()) earliest = std::min(earliest, keys.front().time);
+        if (keys.size() > 1)
+            for (const auto& k : keys) times.push_back(k.time);
+    };
+    for (const SceneNode& n : nodes) {
+        add(n.positions);
+        add(n.rotations);
+        add(n.scalings);
+    }
+    std::sort(times.begin(), times.end());
+    times.erase(std::unique(times.begin(), times.end()), times.end());
+    return times;
+}
+
 // The step is the keys' spacing when every key of the take lies on it (exported and baked clips), otherwise
 // 1/30 s; a take without ticks per second has its ticks read as frames at 30 per second.
 FrameGrid frameGrid(const std::vector<SceneNode>& nodes, const aiAnimation& take, int joints, const std::string& where)
 {
     FrameGrid grid;
     if (std::isfinite(take.mTicksPerSecond) && take.mTicksPerSecond > 0.0) grid.ticksPerSecond = take.mTicksPerSecond;
-    std::vector<double> times;
-    for (const SceneNode& n : nodes) {
-        for (const auto& k : n.positions) times.push_back(k.time);
-        for (const auto& k : n.rotations) times.push_back(k.time);
-        for (const auto& k : n.scalings) times.push_back(k.time);
-    }
-    std::sort(times.begin(), times.end());
-    times.erase(std::unique(times.begin(), times.end()), times.end());
+    double earliest = 0.0;
+    const std::vector<double> times = changingTimes(nodes, earliest);
     if (times.size() < 2) {
         grid.step = grid.ticksPerSecond / defaultFramesPerSecond;
-        grid.first = times.empty() ? 0.0 : times.front();
+        grid.first = times.empty() ? (std::isfinite(earliest) ? earliest : 0.0) : times.front();
         return grid;
     }
     const double span = times.back() - times.front();

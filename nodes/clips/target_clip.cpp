@@ -121,6 +121,9 @@ std::vector<int> applyMap(const std::vector<std::string>& fileJoints, const std:
         kept.push_back(j);
         names.push_back(name);
     }
+    if (kept.empty() && !fileJoints.empty())
+        throw Error(fmt::format("{}: the map ignores every joint of {}, so nothing is left to invert; ignore fewer",
+                                at(map.ignoreLines, map.ignore.front()), clipFile));
     return kept;
 }
 
@@ -199,10 +202,10 @@ Eigen::Matrix4d readMatrix(const YAML::Node& node, const std::string& file, cons
     return m;
 }
 
-// JSON, strictly: one value and nothing after it (YAML, which reads the clip, would take a second list
-// or trailing text as more of the file, or ignore them). Duplicate keys are checked where the frames
-// are read. Memory stays small: the SAX handler keeps nothing.
-void checkStrictJson(std::string_view text, const std::string& file)
+}  // namespace
+
+// Duplicate keys are checked where the frames are read. Memory stays small: the SAX handler keeps nothing.
+void checkStrictJson(std::string_view text, const std::string& file, std::string_view shape)
 {
     struct Checker : nlohmann::json_sax<nlohmann::json> {
         std::size_t errorAt = 0;
@@ -240,9 +243,11 @@ void checkStrictJson(std::string_view text, const std::string& file)
             ++column;
         }
     }
-    throw Error(fmt::format("{}: JSON syntax error: {}; a JSON clip is one list of frames, as graph-eval writes it",
-                            formatMark({file, line, column}), oneLine(what, 200)));
+    throw Error(
+        fmt::format("{}: JSON syntax error: {}; {}", formatMark({file, line, column}), oneLine(what, 200), shape));
 }
+
+namespace {
 
 // A frame's keys, each once: YAML keeps both of a duplicated key and would read the first.
 void checkUniqueKeys(const YAML::Node& frame, const std::string& file)
@@ -260,7 +265,7 @@ TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileNam
 {
     TargetClip clip;
     clip.file = fileName;
-    checkStrictJson(text, clip.file);
+    checkStrictJson(text, clip.file, "a JSON clip is one list of frames, as graph-eval writes it");
     const YAML::Node root = parseYaml(std::string(text), clip.file, "JSON", "JSON clip");
     if (!root.IsSequence() || root.size() == 0)
         throw Error(
@@ -335,6 +340,10 @@ void parseRenames(const YAML::Node& value, TargetMap& map)
             throw Error(fmt::format("{}: '{}' must be renamed to a rig joint's name (clip joint: rig joint)",
                                     where(map.file, rename.second.IsNull() ? rename.first : rename.second),
                                     messageExcerpt(from)));
+        // YAML keeps both of a key given twice, and the later would win unseen.
+        if (map.rename.contains(from))
+            throw Error(fmt::format("{}: '{}' is renamed twice in 'joints'; rename each clip joint once",
+                                    where(map.file, rename.first), messageExcerpt(from)));
         map.rename[from] = rename.second.Scalar();
         map.renameLines[from] = rename.first.Mark().line + 1;
     }
@@ -374,6 +383,9 @@ void parseAlign(const YAML::Node& value, const std::string& file, RetargetSpec& 
         Eigen::Vector3d degrees;
         for (int i = 0; i < 3; ++i)
             degrees[i] = finiteNumber(angles[i], file, fmt::format("align of '{}'", messageExcerpt(joint)));
+        if (spec.align.contains(joint))
+            throw Error(fmt::format("{}: '{}' is given twice in 'align'; give each joint's angles once",
+                                    where(file, entry.first), messageExcerpt(joint)));
         spec.align[joint] = degrees;
         spec.alignWhere[joint] = where(file, entry.first);
     }
@@ -441,6 +453,9 @@ void parseWeights(const YAML::Node& value, TargetMap& map)
             fmt::format("{}: 'weights' must map rig joints to {{position: W, rotation: W}}", where(map.file, value)));
     for (const auto& entry : value) {
         const std::string joint = jointName(entry.first, map.file, "a key of 'weights'");
+        if (map.weights.contains(joint))
+            throw Error(fmt::format("{}: '{}' is given twice in 'weights'; give each joint's weights once",
+                                    where(map.file, entry.first), messageExcerpt(joint)));
         if (!entry.second.IsMap())
             throw Error(fmt::format("{}: the weights of '{}' must be a map {{position: W, rotation: W}}",
                                     where(map.file, entry.second.IsNull() ? entry.first : entry.second),

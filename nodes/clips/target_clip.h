@@ -94,6 +94,11 @@ struct TargetClip {
 TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map, const std::string& take = "");
 // A .json clip from its text; `fileName` is used in messages.
 TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileName, const TargetMap& map);
+
+// JSON, strictly: one value and nothing after it (YAML, which reads JSON files here, would take a second value or
+// trailing text as more of the file, or ignore them). Throws rig::Error "FILE:LINE:COL: JSON syntax error: WHAT;
+// SHAPE", SHAPE saying what the file holds ("a JSON clip is one list of frames, as graph-eval writes it").
+void checkStrictJson(std::string_view text, const std::string& file, std::string_view shape);
 // Targets made in memory (the Python module's arrays), with the map applied as to a file's joints:
 // `clip.joints` and `clip.worlds` are the given names and matrices, `clip.file` names them in messages.
 TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map);

@@ -143,7 +143,8 @@ std::shared_ptr<const NodeType> makeLookAtType()
         "then rolls about its aim toward worldUp. The result is weighted per joint: outMatrix[k] = H_0(w) * "
         "... * H_k(w) * inMatrix[k], H_j(w) the turn of joint j about its input pivot by w times its angle. "
         "A joint whose pivot is on the target (within 1e-9 relative) does not turn; nothing gives NaN that "
-        "was not NaN.");
+        "was not NaN. A target or worldUp that is not finite (NaN, infinite) gives NaN outputs, never the "
+        "unedited chain.");
     declareInputs(b);
     b.output(OutMatrix, "outMatrix", ValueType::Matrix4)
         .array()

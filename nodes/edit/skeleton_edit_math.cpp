@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/rotation_math.h"
 
@@ -104,6 +105,15 @@ LookAtResult lookAtChain(const LookAtSettings& s)
                         std::vector<double>(m, 0.0)};
     const double weight = s.weight > 0.0 ? std::min(s.weight, 1.0) : 0.0;
     if (m == 0 || weight == 0.0) return result;
+    // A target or an up that is not finite gives no direction. The unedited chain would pass for a target
+    // straight ahead (what a rigInversion node downstream solves for, exit 0): NaN is taken through instead.
+    if (!s.target.allFinite() || (s.worldUp && !s.worldUp->allFinite())) {
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        std::fill(result.world.begin(), result.world.end(), Eigen::Matrix4d::Constant(nan));
+        std::fill(result.delta.begin(), result.delta.end(), Eigen::Matrix4d::Constant(nan));
+        std::fill(result.turn.begin(), result.turn.end(), nan);
+        return result;
+    }
     const std::vector<Eigen::AngleAxisd> turns = fullTurns(s);
     // Weighted: each joint turns by weight times its angle about its own axis, re-composed root first, so
     // every later joint keeps its transform relative to the one before it.

@@ -7,7 +7,8 @@
 // The solve, in world space about the reference pose (jointRotate): the joints after the start one bend to put
 // the effector at the goal's distance from the start joint (2 bones: Maya's rotate-plane closed form, the mid
 // joint turning about (start->mid) x (mid->effector)); the start joint then turns the effector onto the goal by
-// the smallest rotation, then (ikRPsolver) about start->goal until the chain's plane holds the pole vector,
+// the smallest rotation, then (ikRPsolver) about start->goal until the chain's plane holds the pole vector (its
+// normal kept from the reference pose where the goal is past the chain's reach and the solve straightens it),
 // then by the twist. Each world turn D_i is taken into joint i's rotate space, R_i' = (B_i^-1 D_i B_i) R_i,
 // B_i the frame its rotate acts in (the product-of-exponentials form of the chain: exact for rigid and uniformly
 // scaled chains).
@@ -307,7 +308,15 @@ Eigen::Matrix3d startTurn(const Pose& pose, const std::vector<Turn>& bends, cons
         turn = Eigen::Quaterniond::FromTwoVectors(e, h).toRotationMatrix();
     }
     if (goal.solver == SingleChain) return turn;
-    const Eigen::Vector3d side = perpendicular(turn * plane, h);
+    // The chain's plane by its normal, which a chain straightened past its reach keeps from its reference pose (as
+    // Maya's does: a straight arm still turns with its pole vector); h x (turn n) is the plane's side of h.
+    Eigen::Vector3d normal = plane.cross(toEffector);
+    if (!(normal.norm() > parallelTolerance * scale * scale)) {
+        Eigen::Vector3d reference = Eigen::Vector3d::Zero();
+        for (std::size_t k = 1; k < n; ++k) reference += pose.position[k] - start;
+        normal = reference.cross(pose.effector - start);
+    }
+    const Eigen::Vector3d side = h.cross(turn * normal);
     const Eigen::Vector3d pole = perpendicular(goal.pole, h);
     if (side.squaredNorm() > 0.0 && pole.squaredNorm() > 0.0)
         turn = Eigen::AngleAxisd(std::atan2(side.cross(pole).dot(h), side.dot(pole)), h) * turn;

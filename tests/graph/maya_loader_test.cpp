@@ -203,6 +203,14 @@ TEST_CASE("maya scene: a two-bone ikRPsolver chain reaches its handle and keeps 
     CHECK((vec(*g, "j2.rotate") - Eigen::Vector3d(0, 0, pi / 2)).norm() < 1e-9);
     g->setValue(g->plug("ikHandle1.translate"), Eigen::Vector3d(4, 4, 1));
     CHECK((mat(*g, "j3.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(4, 4, 1)).norm() < 1e-9);
+    // Past its reach the chain is straight, and still turns with its pole vector about the line to the goal: the
+    // plane keeps the reference pose's normal (a pole a quarter turn about x turns the chain a quarter turn).
+    g->setValue(g->plug("ikHandle1.translate"), Eigen::Vector3d(20, 0, 0));
+    const Eigen::Matrix3d up = mat(*g, "j1.worldMatrix").block<3, 3>(0, 0);
+    CHECK((mat(*g, "j3.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(8, 0, 0)).norm() < 1e-9);
+    g->setValue(g->plug("ikHandle1.poleVector"), Eigen::Vector3d(0, 0, 1));
+    const Eigen::Matrix3d quarter = Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    CHECK((mat(*g, "j1.worldMatrix").block<3, 3>(0, 0) - quarter * up).norm() < 1e-9);
 }
 
 TEST_CASE("maya references: namespaces, placeholder edits, setAttr edits, a missing one, a loop")

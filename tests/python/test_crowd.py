@@ -51,8 +51,8 @@ def test_each_characters_curves_equal_graph_eval(crowd):
 def test_a_negative_thread_count_is_refused():
     with pytest.raises(riginv.Error) as caught:
         riginv.Graph.load(ARM).evaluate(get="elbow.rotateZ", threads=-1)
-    assert str(caught.value) == ("threads: -1 is negative; give 0 (every core) or a thread count, as graph-eval "
-                                 "--threads")
+    assert str(caught.value) == ("threads: -1 is not a thread count; give a whole number from 0 (all cores) to 1024, "
+                                 "as graph-eval --threads")
 
 
 def test_the_docs_crowd_script_runs(crowd, tmp_path):

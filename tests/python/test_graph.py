@@ -1,6 +1,10 @@
 """riginv.Graph against graph-eval: the same values bit for bit, the same errors."""
 
 import json
+import os
+import signal
+import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -148,6 +152,43 @@ def test_arguments_of_the_wrong_type_are_one_line_errors():
         with pytest.raises(riginv.Error) as caught:
             call()
         assert str(caught.value) == message
+
+
+def test_threads_is_a_thread_count_as_graph_eval_s():
+    graph = riginv.Graph.load(ARM)
+    cases = [(1.5, "threads: expected a whole number, got a float"),
+             (10000, "threads: 10000 is not a thread count; give a whole number from 0 (all cores) to 1024, as "
+                     "graph-eval --threads"),
+             (-1, "threads: -1 is not a thread count; give a whole number from 0 (all cores) to 1024, as graph-eval "
+                  "--threads")]
+    for threads, message in cases:
+        with pytest.raises(riginv.Error) as caught:
+            graph.evaluate(get="wrist.worldMatrix", threads=threads)
+        assert str(caught.value) == message
+    assert graph.evaluate(get="wrist.worldMatrix", threads=np.int64(2))["wrist.worldMatrix"].shape == (1, 4, 4)
+
+
+def test_ctrl_c_stops_a_long_evaluation():
+    graph = riginv.Graph.load(ARM)
+
+    class Stop(Exception):
+        pass
+
+    def handler(signum, frame):
+        raise Stop
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        # A real SIGINT from another process, as Ctrl-C sends: the evaluation holds the GIL, so no Python thread
+        # of this process could send it.
+        killer = subprocess.Popen(["sh", "-c", f"sleep 0.2; kill -INT {os.getpid()}"])
+        start = time.perf_counter()
+        with pytest.raises(Stop):
+            graph.evaluate(get="wrist.worldMatrix", frames="1:1000000")  # about 2.5 s on a 2-core Xeon VM
+        assert time.perf_counter() - start < 0.8
+        killer.wait()
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def test_array_elements_by_index_glob():

@@ -377,6 +377,33 @@ def test_targets_too_far_for_the_cost_fail_every_frame_with_their_error(shift):
     assert all(f["termination"] == "noConvergence" for f in report["per_frame"])
 
 
+def test_targets_of_nan_measure_nothing_and_report_null_not_0():
+    """NaN arrays: every frame invalid targets, and nothing measured reads as null (None), never as an exact 0."""
+    worlds = riginv.Graph.load(ARM).evaluate(get="*.worldMatrix", frames="1:3")
+    targets = {plug[: -len(".worldMatrix")]: np.full_like(matrices, np.nan) for plug, matrices in worlds.items()}
+    approx = riginv.learn(ARM, params=["shoulder.rotate?", "wrist.rotate?"])
+    _, _, report = approx.invert(targets, rig=ARM)
+    assert report["status_frames"]["invalid_targets"] == 3 and report["failed_frames"] == 3
+    for key in ("max_position_error_cm", "worst_joint", "worst_frame", "mean_position_error_cm",
+                "max_rotation_error_deg", "worst_rotation_joint", "worst_rotation_frame", "mean_rotation_error_deg",
+                "max_model_gap_cm"):
+        assert report[key] is None, key
+    for frame in report["per_frame"]:
+        assert [frame[key] for key in ("position_error_cm", "worst_joint", "rotation_error_deg",
+                                       "worst_rotation_joint", "model_gap_cm")] == [None] * 5
+
+
+def test_an_empty_take_or_contacts_is_refused_not_read_as_none():
+    approx = riginv.learn(ARM, params=["shoulder.rotate?", "elbow.rotate?"])
+    clip = SOURCE / "tests/corpus/clips/arm.json"
+    with pytest.raises(riginv.Error) as caught:
+        approx.invert(clip, rig=ARM, take="")
+    assert str(caught.value) == "take: the value is empty; give a take's name or 0-based index, or None for the first"
+    with pytest.raises(riginv.Error) as caught:
+        approx.invert(clip, rig=ARM, contacts="")
+    assert str(caught.value) == "contacts: the value is empty; give 'auto' or a contacts file, or None"
+
+
 def test_an_fbx_take_equals_rig_invert(tmp_path):
     """An animation assimp reads (the hand-written Z-up leg in inches, tests/corpus/clips), its take by name or
     index: the values and report of rig-invert --take, and the same one-line error for a take it lacks."""

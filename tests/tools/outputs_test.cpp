@@ -244,3 +244,36 @@ TEST_CASE("outputs: a legal long name is written (its temporary name cut to fit)
                                tooLong.string()));
     CHECK(std::distance(fs::directory_iterator(dir), fs::directory_iterator()) == 1);
 }
+
+TEST_CASE("outputs: graph-eval's -o and --html are committed together, and a FIFO no process reads is refused first")
+{
+    const auto dir = rig::test::scratchDir("outputs-together");
+    REQUIRE(run(fmt::format("{} {} --params 'shoulder.rotate?' 'elbow.rotate?' -o '{}'", rig::test::tool("rig-learn"),
+                            arm, (dir / "arm.approx.yaml").string()))
+                .exitCode == 0);
+    // One character: the arm driven by its inverter, so that the crowd page has something to show.
+    const fs::path crowd = rig::test::writeFile(
+        dir / "crowd.yaml",
+        fmt::format("plugins: [rigInversion]\ninclude: [{{file: '{}', namespace: c0}}]\nnodes:\n"
+                    "  - {{name: c0:inv, type: rigInversion, file: arm.approx.yaml, connect: {{parameters: true, "
+                    "namespace: c0}}}}\n",
+                    (rig::test::sourceDir() / arm).string()));
+    const fs::path values = rig::test::writeFile(dir / "values.json", "the previous values\n");
+    auto r = run(graphEval(fmt::format("'{}' -o '{}' --html /dev/full", crowd.string(), values.string())));
+    CHECK(r.exitCode == 2);
+    CHECK(r.err ==
+          "error: /dev/full: writing failed (No space left on device); check the free space and the folder's "
+          "permissions\n");
+    CHECK(rig::test::readFile(values) == "the previous values\n");
+    CHECK(std::distance(fs::directory_iterator(dir), fs::directory_iterator()) == 3);
+
+    // Without a reader the write would block forever once the work is done: refused before it.
+    const fs::path fifo = dir / "fifo";
+    REQUIRE(::mkfifo(fifo.c_str(), 0644) == 0);
+    r = run("timeout -s KILL 60 " + graphEval(fmt::format("{} -o '{}'", arm, fifo.string())));
+    CHECK(r.exitCode == 2);
+    CHECK(r.err == fmt::format("error: {}: is a FIFO that no process reads; start its reader first, or give a file "
+                               "for -o\n",
+                               fifo.string()));
+    CHECK(typeOf(fifo) == fs::file_type::fifo);
+}

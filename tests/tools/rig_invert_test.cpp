@@ -365,6 +365,41 @@ TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs
     CHECK(strict.err.starts_with("error: "));
 }
 
+TEST_CASE("rig-invert: a run of invalid targets measures nothing: its errors are null and 'not measured', never 0")
+{
+    const auto dir = test::scratchDir("rig_invert_unmeasured");
+    const auto arm = dir / "arm.approx.yaml";
+    REQUIRE(test::run(fmt::format("{} rigs/examples/arm.yaml --params 'shoulder.rotate?' 'elbow.rotate?' -o {}",
+                                  test::tool("rig-learn"), arm.string()))
+                .exitCode == 0);
+    // Every target 1e308 times out: not finite, so no frame is measured.
+    const auto map = test::writeFile(dir / "map.yaml", "scale: 1e308\n");
+    const auto r = rigInvert(
+        fmt::format("{} --rig rigs/examples/arm.yaml --clip tests/corpus/clips/arm.json --map {} "
+                    "-o {} --report-json {}",
+                    arm.string(), map.string(), (dir / "curves.json").string(), (dir / "report.json").string()));
+    CHECK(r.exitCode == 3);
+    CHECK(r.err ==
+          "error: 2 of 2 frames are not an answer on the real rig (first: frame 1, invalid targets, shoulder): a "
+          "target there is not finite or is singular\n");
+    CHECK(r.out.find("real-rig error    not measured (no frame has a target it could be measured against)\n") !=
+          std::string::npos);
+    CHECK(r.out.find("       1  invalid targets     0             -                            -\n") !=
+          std::string::npos);
+    CHECK(r.out.find("worst 0 cm") == std::string::npos);
+    const auto rep = report(dir / "report.json");
+    for (const char* key :
+         {"max_position_error_cm", "worst_joint", "worst_frame", "mean_position_error_cm", "max_rotation_error_deg",
+          "worst_rotation_joint", "worst_rotation_frame", "mean_rotation_error_deg", "max_model_gap_cm"}) {
+        CAPTURE(key);
+        CHECK(rep[key].IsNull());
+    }
+    for (const char* key : {"position_error_cm", "worst_joint", "rotation_error_deg", "model_gap_cm"}) {
+        CAPTURE(key);
+        CHECK(rep["per_frame"][0][key].IsNull());
+    }
+}
+
 TEST_CASE("rig-invert: a frame whose targets are not finite is reported and keeps the previous frame's values")
 {
     const auto dir = test::scratchDir("rig_invert_nan");

@@ -9,6 +9,8 @@
 #include <map>
 #include <memory>
 #include <numbers>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include <sys/resource.h>
@@ -130,6 +132,41 @@ TEST_CASE("assimp clips: what a file is comes from its content, not its name")
     CHECK(errorOf([&] { readTargetClip(misnamed, TargetMap{}, "1"); }) ==
           misnamed.string() + ": no take '1'; a BVH file has one take, 0; leave --take out");
     CHECK(readTargetClip(misnamed, TargetMap{}, "0").joints.size() == 1);
+}
+
+TEST_CASE("assimp clips: a glTF take whose keys are all at one time is one pose, not two frames a time apart")
+{
+    // The knee's one rotation key (45 degrees about Z) at 1 s; assimp gives the unanimated translations a key at 0 s.
+    const auto gltf = [](std::string_view times, int count) {
+        return fmt::format(
+            R"({{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+"nodes": [{{"name": "hip", "children": [1], "translation": [0, 1, 0]}}, {{"name": "knee", "translation": [0, 0.5, 0]}}],
+"buffers": [{{"byteLength": {}, "uri": "data:application/octet-stream;base64,{}"}}],
+"bufferViews": [{{"buffer": 0, "byteOffset": 0, "byteLength": {}}},
+                {{"buffer": 0, "byteOffset": {}, "byteLength": {}}}],
+"accessors": [{{"bufferView": 0, "componentType": 5126, "count": {}, "type": "SCALAR", "min": [1], "max": [1]}},
+              {{"bufferView": 1, "componentType": 5126, "count": {}, "type": "VEC4"}}],
+"animations": [{{"name": "pose", "channels": [{{"sampler": 0, "target": {{"node": 1, "path": "rotation"}}}}],
+                "samplers": [{{"input": 0, "output": 1, "interpolation": "LINEAR"}}]}}]}})",
+            20 * count, times, 4 * count, 4 * count, 16 * count, count, count);
+    };
+    const auto dir = test::scratchDir("assimp-one-time");
+    // Base64 of the float times (1.0) then the quaternions (0, 0, sin 22.5, cos 22.5): one key, then two at 1 s.
+    const std::map<std::string, std::string> files{
+        {"one.gltf", gltf("AACAPwAAAAAAAAAAFO/DPl6DbD8=", 1)},
+        {"two.gltf", gltf("AACAPwAAgD8AAAAAAAAAABTvwz5eg2w/AAAAAAAAAAAU78M+XoNsPw==", 2)}};
+    for (const auto& [name, text] : files) {
+        CAPTURE(name);
+        const TargetClip clip = readTargetClip(test::writeFile(dir / name, text), TargetMap{});
+        CHECK(clip.worlds.size() == 1);
+        CHECK(clip.frameNumbers.size() == 1);
+        CHECK(clip.frameTime == doctest::Approx(1.0 / 30));
+        const auto knee = std::find(clip.joints.begin(), clip.joints.end(), "knee");
+        REQUIRE(knee != clip.joints.end());
+        const Eigen::Matrix4d world = clip.worlds[0][static_cast<std::size_t>(knee - clip.joints.begin())];
+        CHECK(std::abs(world(0, 0) - std::sqrt(0.5)) < 1e-6);
+        CHECK(std::abs(world(1, 0) - std::sqrt(0.5)) < 1e-6);
+    }
 }
 
 TEST_CASE("assimp clips: takes by name or index, the first by default, a bad one listing them")

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <string>
@@ -244,6 +245,40 @@ TEST_CASE("lookAt: a target straight behind turns about the up, a target on a pi
         for (int k = 0; k < 3; ++k) CHECK(out(*g, k).allFinite());
         CHECK(turnOf(*g, 1) == 0.0);
     }
+}
+
+TEST_CASE("lookAt: a target or world up that is not finite gives NaN outputs, never the unedited chain")
+{
+    // Values set are refused when not finite; a node computes them: the inverse of a zero-scaled joint (NaN),
+    // a product of two matrices of 1e300 (infinities).
+    const std::string sources =
+        "nodes:\n"
+        "  - {name: zero, type: joint, scale: [0, 0, 0]}\n"
+        "  - {name: nanD, type: decomposeMatrix}\n"
+        "  - {name: big, type: transform, translate: [1e300, 1e300, 1e300], scale: [1e300, 1e300, 1e300]}\n"
+        "  - {name: bigSquared, type: multMatrix}\n"
+        "  - {name: infD, type: decomposeMatrix}\n"
+        "  - {name: n, type: lookAt, upMode: world}\n"
+        "connections:\n"
+        "  - zero.worldInverseMatrix -> nanD.inputMatrix\n"
+        "  - big.worldMatrix -> bigSquared.matrixIn[0]\n"
+        "  - big.worldMatrix -> bigSquared.matrixIn[1]\n"
+        "  - bigSquared.matrixSum -> infD.inputMatrix\n";
+    for (const std::string source : {"nanD", "infD"})
+        for (const std::string input : {"target", "worldUp"}) {
+            CAPTURE(source);
+            CAPTURE(input);
+            auto g = rig::loadGraphText(fmt::format("{}  - {}.outputTranslate -> n.{}\n", sources, source, input),
+                                        "look.yaml", rig::makeBuiltinRegistry());
+            const auto chain = planarChain();
+            for (std::size_t k = 0; k < chain.size(); ++k)
+                g->setValue(g->plug(fmt::format("n.inMatrix[{}]", k)), chain[k]);
+            if (input == "worldUp") g->setValue(g->plug("n.target"), Eigen::Vector3d(0, 5, 10));
+            for (int k = 0; k < 3; ++k) {
+                CHECK(out(*g, k).array().isNaN().all());
+                CHECK(std::isnan(turnOf(*g, k)));
+            }
+        }
 }
 
 TEST_CASE("lookAt: weight 0 leaves the chain bit for bit, 1 is the full edit, between scales every turn")
