@@ -15,6 +15,7 @@
 #include "inversion/residual_term.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
+#include "nodes/clips/maya_clip.h"
 #include "nodes/clips/retarget.h"
 
 namespace rig::app {
@@ -160,6 +161,11 @@ TargetClip readTargets(const InvertJob& job, const Approximation& approximation,
 {
     const TargetMap map = job.map.empty() ? TargetMap{} : readTargetMap(job.map);
     TargetClip clip = job.targets ? applyTargetMap(*job.targets, map) : readTargetClip(job.clip, map, job.take);
+    // A scene that references the rig names its joints under the reference's namespace.
+    std::vector<std::string> joints;
+    for (const auto& output : approximation.outputs)
+        if (!output.helper) joints.push_back(output.name);
+    matchNamespaces(clip, joints);
     if (map.retarget.enabled) clip = retargetClip(clip, map, rigSkeleton(approximation));
     if (mapOut) *mapOut = map;
     return clip;

@@ -138,6 +138,19 @@ std::string keyedCurvesCsv(const InvertOutcome& outcome, const KeysOutcome& keys
     return out;
 }
 
+std::vector<AnimFileCurve> outputCurves(const InvertOutcome& outcome, const KeysOutcome* keys, TangentType tangent)
+{
+    const auto frames = reportedFrames(outcome);
+    const auto dense = keys ? std::vector<std::vector<AnimKey>>{} : denseKeys(frames, outcome.values, tangent);
+    std::vector<AnimFileCurve> curves;
+    for (std::size_t p = 0; p < outcome.approximation->parameters.size(); ++p) {
+        AnimFileCurve curve = animCurveFor(outcome, p);
+        curve.keys = userKeys(parameter(outcome, p), keys ? keys->keyed.keys[p] : dense[p]);
+        curves.push_back(std::move(curve));
+    }
+    return curves;
+}
+
 std::string curvesAnim(const InvertOutcome& outcome, const KeysOutcome* keys, TangentType tangent)
 {
     const auto frames = reportedFrames(outcome);
@@ -147,12 +160,7 @@ std::string curvesAnim(const InvertOutcome& outcome, const KeysOutcome* keys, Ta
         if (const auto unit = mayaTimeUnit(1.0 / outcome.clip.frameTime)) file.timeUnit = *unit;
     file.startTime = frames.front();
     file.endTime = frames.back();
-    const auto dense = keys ? std::vector<std::vector<AnimKey>>{} : denseKeys(frames, outcome.values, tangent);
-    for (std::size_t p = 0; p < outcome.approximation->parameters.size(); ++p) {
-        AnimFileCurve curve = animCurveFor(outcome, p);
-        curve.keys = userKeys(parameter(outcome, p), keys ? keys->keyed.keys[p] : dense[p]);
-        file.curves.push_back(std::move(curve));
-    }
+    file.curves = outputCurves(outcome, keys, tangent);
     return formatAnimFile(file);
 }
 

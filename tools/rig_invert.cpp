@@ -10,6 +10,7 @@
 #include "app/html_report.h"
 #include "app/invert_run.h"
 #include "app/keys_run.h"
+#include "app/maya_scene_output.h"
 #include "app/output_file.h"
 #include "app/progress_bar.h"
 #include "core/error.h"
@@ -33,7 +34,8 @@ struct Options : app::InversionInputs {
     std::string html;
 };
 
-void printReport(const Options& o, const app::InvertOutcome& outcome, const app::KeysOutcome* keys)
+void printReport(const Options& o, const app::InvertOutcome& outcome, const app::KeysOutcome* keys,
+                 const std::vector<app::SceneCurveDifference>& sceneCurves)
 {
     const Approximation& a = *outcome.approximation;
     const TargetClip& clip = outcome.clip;
@@ -93,6 +95,7 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
     std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
                              s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
     if (keys) std::cout << app::keysText(outcome, *keys);
+    std::cout << app::sceneCurvesText(sceneCurves);
     std::cout << fmt::format("curves            {}\n", o.output);
     if (!o.html.empty()) std::cout << fmt::format("report page       {}\n", o.html);
 }
@@ -102,9 +105,10 @@ int run(const Options& o)
     // Everything that can be checked before the work is.
     app::checkOutputFile(o.output, "curves.json");
     const auto extension = std::filesystem::path(o.output).extension();
-    if (extension != ".json" && extension != ".csv" && extension != ".anim")
-        throw Error(
-            fmt::format("-o {}: the curves are written as .json, .csv or .anim (Maya); give one of those", o.output));
+    if (extension != ".json" && extension != ".csv" && extension != ".anim" && extension != ".ma")
+        throw Error(fmt::format("-o {}: the curves are written as .json, .csv, .anim or .ma (Maya); give one of those",
+                                o.output));
+    if (extension == ".ma") app::checkMayaSceneOutput(o.rig, o.output);
     if (!o.reportJson.empty()) app::checkOutputFile(o.reportJson, "report.json", "--report-json");
     if (!o.html.empty()) app::checkOutputFile(o.html, "report.html", "--html");
     const TangentType tangent = app::keyTangent(o.keys.tangent);
@@ -140,8 +144,10 @@ int run(const Options& o)
     }
     const app::KeysOutcome* keyed = keys ? &*keys : nullptr;
 
+    const auto sceneCurves = app::sceneCurveDifferences(outcome);
     std::string curves;
     if (extension == ".anim") curves = app::curvesAnim(outcome, keyed, tangent);
+    else if (extension == ".ma") curves = app::curvesMayaScene(outcome, keyed, tangent, o.rig, o.output);
     else if (extension == ".csv") curves = keys ? app::keyedCurvesCsv(outcome, *keys) : app::curvesCsv(outcome);
     else curves = keys ? app::keyedCurvesJson(outcome, *keys) : app::curvesJson(outcome);
     const std::string page =
@@ -152,10 +158,11 @@ int run(const Options& o)
         app::Json report =
             app::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, app::fingerprintText(curves));
         if (keys) report["keys"] = app::keysReport(outcome, *keys);
+        if (outcome.clip.scene) report["scene_curves"] = app::sceneCurvesJson(sceneCurves);
         app::writeFileAtomically(o.reportJson, app::jsonText(report, 2) + "\n");
     }
     const ClipInversionSummary& summary = outcome.summary;
-    if (!o.quiet) printReport(o, outcome, keyed);
+    if (!o.quiet) printReport(o, outcome, keyed, sceneCurves);
     // Measured as wrong: never an exit code of success.
     if (summary.failedFrames() > 0) {
         std::cerr << "error: "
@@ -192,15 +199,17 @@ int main(int argc, char** argv)
     app.add_option("approximation", options.approximation, "Approximation file written by rig-learn")->required();
     app.add_option("--rig", options.rig, "The rig file the approximation was learned from")->required();
     app.add_option("--clip", options.clip,
-                   "Targets: a BVH file, an animation assimp reads (FBX, glTF, Collada, X, ...: docs/clips.md), or a "
-                   ".json file of world matrices (graph-eval); read by content")
+                   "Targets: a BVH file, an animation assimp reads (FBX, glTF, Collada, X, ...: docs/clips.md), a "
+                   "Maya ASCII scene (its joints over its playback range), or a .json file of world matrices "
+                   "(graph-eval); read by content")
         ->required();
     app.add_option("--take", options.take,
                    "The clip file's animation to invert: a name or 0-based index (default: the first)");
     app.add_option("--map", options.map, "Map file: scale of the clip and target-to-rig joint names");
     app.add_option("--frames", options.frames, "Frames A:B of the clip, inclusive, in the clip's numbering");
     app.add_option("-o,--output", options.output,
-                   "Curves to write: .json, .csv or .anim (Maya's animImportExport), angles in degrees")
+                   "Curves to write: .json, .csv, .anim (Maya's animImportExport), angles in degrees, or .ma (a Maya "
+                   "scene that references the rig's scene and drives its controls)")
         ->required();
     app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
     const rig::cli::SolveFlags solveFlags(app, rig::app::SolveSettings{});

@@ -1,0 +1,151 @@
+#include "nodes/clips/maya_clip.h"
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "graph/rig_file.h"
+#include "nodes/builtin_nodes.h"
+
+namespace rig {
+namespace {
+
+// The frames a scene clip plays: the whole frames of its playback range, or its saved time.
+std::vector<double> sceneFrames(const MayaSceneInfo& info)
+{
+    std::vector<double> frames;
+    if (info.playbackRange)
+        for (double f = std::ceil(info.playbackRange->first); f <= std::floor(info.playbackRange->second); ++f)
+            frames.push_back(f);
+    if (frames.empty()) frames.push_back(info.savedTime);
+    return frames;
+}
+
+bool isJoint(const Graph& graph, NodeId node) { return graph.nodeType(node).name() == "joint"; }
+
+// Each joint's nearest joint above it in the DAG (an index into `joints`), -1 for none: a DAG parent drives a node's
+// parentMatrix here (docs/maya.md).
+std::vector<int> jointParents(const Graph& graph, const std::vector<NodeId>& joints)
+{
+    std::map<NodeId, int> index;
+    for (std::size_t j = 0; j < joints.size(); ++j) index[joints[j]] = static_cast<int>(j);
+    std::vector<int> parents;
+    for (const NodeId joint : joints) {
+        int parent = -1;
+        NodeId n = joint;
+        for (int depth = 0; parent < 0 && depth < graph.nodeCount(); ++depth) {
+            const AttrId pm = graph.nodeType(n).findAttribute("parentMatrix");
+            const Connection* in = pm >= 0 ? graph.incomingConnection(Plug{n, pm, -1, -1}) : nullptr;
+            if (!in) break;
+            n = in->source.node;
+            if (const auto it = index.find(n); it != index.end()) parent = it->second;
+        }
+        parents.push_back(parent);
+    }
+    return parents;
+}
+
+// The plug that feeds each time curve's driven plug (the curve, or the unitConversion after it), or none.
+std::vector<std::optional<Plug>> curveSources(const Graph& graph, const MayaSceneInfo& info)
+{
+    std::vector<std::optional<Plug>> sources;
+    for (const auto& curve : info.timeCurves) {
+        std::optional<Plug> source;
+        if (!curve.plug.empty())
+            if (const Connection* in = graph.incomingConnection(graph.plug(curve.plug));
+                in && graph.plugType(in->source) == ValueType::Double)
+                source = in->source;
+        sources.push_back(source);
+    }
+    return sources;
+}
+
+}  // namespace
+
+TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map)
+{
+    auto scene = std::make_shared<ClipScene>();
+    const auto graph = loadRigFile(file, makeBuiltinRegistry(), nullptr, &scene->info);
+    const MayaSceneInfo& info = scene->info;
+    TargetClip raw;
+    raw.file = file.string();
+    raw.frameNumbers = sceneFrames(info);
+    raw.frameTime = 1.0 / info.framesPerSecond;
+    std::vector<NodeId> joints;
+    std::vector<Plug> plugs;
+    for (NodeId n = 0; n < graph->nodeCount(); ++n)
+        if (isJoint(*graph, n)) {
+            joints.push_back(n);
+            raw.joints.push_back(graph->nodeName(n));
+            plugs.push_back(graph->plug(graph->nodeName(n) + ".worldMatrix"));
+        }
+    if (joints.empty())
+        throw Error(
+            fmt::format("{}: the scene has no joint that this reader evaluates; a Maya scene clip is its "
+                        "joints over its playback range",
+                        raw.file));
+    raw.parents = jointParents(*graph, joints);
+    const auto sources = curveSources(*graph, info);
+    scene->curveValues.resize(sources.size());
+    for (const double frame : raw.frameNumbers) {
+        graph->setTime(frame);
+        graph->evaluate(plugs);
+        auto& worlds = raw.worlds.emplace_back();
+        for (const Plug& p : plugs) worlds.push_back(std::get<Eigen::Matrix4d>(graph->getValue(p)));
+        for (std::size_t c = 0; c < sources.size(); ++c)
+            if (sources[c]) scene->curveValues[c].push_back(std::get<double>(graph->getValue(*sources[c])));
+    }
+    raw.source = fmt::format("Maya scene: its {} joints over frames {} to {} at {} fps ({}), in cm ({} in the file)",
+                             joints.size(), raw.frameNumbers.front(), raw.frameNumbers.back(), info.framesPerSecond,
+                             info.timeUnit, info.linearUnit);
+    raw.scene = std::move(scene);
+    return applyTargetMap(raw, map);
+}
+
+std::string withoutNamespaces(std::string_view name)
+{
+    std::string out;
+    std::size_t start = 0;
+    while (start <= name.size()) {
+        const std::size_t bar = std::min(name.find('|', start), name.size());
+        const std::string_view part = name.substr(start, bar - start);
+        // The attribute of a plug holds no ':'; the namespace ends at the component's last one.
+        const std::size_t dot = part.find('.');
+        const std::size_t colon = part.substr(0, dot).rfind(':');
+        out += colon == std::string_view::npos ? part : part.substr(colon + 1);
+        if (bar < name.size()) out += '|';
+        start = bar + 1;
+    }
+    return out;
+}
+
+int matchNamespaces(TargetClip& clip, std::span<const std::string> rigJoints)
+{
+    const std::set<std::string> exact(rigJoints.begin(), rigJoints.end());
+    std::map<std::string, std::vector<std::string>> bare;
+    for (const auto& joint : rigJoints) bare[withoutNamespaces(joint)].push_back(joint);
+    // Each clip joint's rig joint by its bare name, where one rig joint has it and no other clip joint takes it.
+    std::vector<std::string> to(clip.joints.size());
+    std::map<std::string, int> claims;
+    for (const auto& joint : clip.joints) ++claims[joint];
+    for (std::size_t j = 0; j < clip.joints.size(); ++j) {
+        if (exact.count(clip.joints[j])) continue;
+        const auto it = bare.find(withoutNamespaces(clip.joints[j]));
+        if (it == bare.end() || it->second.size() != 1) continue;
+        to[j] = it->second.front();
+        ++claims[to[j]];
+    }
+    int renamed = 0;
+    for (std::size_t j = 0; j < clip.joints.size(); ++j)
+        if (!to[j].empty() && claims[to[j]] == 1) {
+            clip.joints[j] = to[j];
+            ++renamed;
+        }
+    return renamed;
+}
+
+}  // namespace rig
