@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 
 #include <fmt/format.h>
@@ -14,13 +15,24 @@
 namespace rig {
 namespace {
 
-// The frames a scene clip plays: the whole frames of its playback range, or its saved time.
-std::vector<double> sceneFrames(const MayaSceneInfo& info)
+// The frames a scene clip plays: the whole frames of its playback range; without one, those its time curves' keys span;
+// without either, its saved time.
+std::vector<double> sceneFrames(Graph& graph, const MayaSceneInfo& info)
 {
+    std::optional<std::pair<double, double>> range = info.playbackRange;
+    if (!range)
+        for (const auto& curve : info.timeCurves) {
+            const NodeId n = graph.findNode(curve.curve);
+            const AttrId keyTime = n >= 0 ? graph.nodeType(n).findAttribute("keyTime") : -1;
+            if (keyTime < 0) continue;
+            const auto times = std::get<std::vector<double>>(graph.getValue(Plug{n, keyTime, -1, -1}));
+            if (times.empty()) continue;
+            range = range ? std::pair{std::min(range->first, times.front()), std::max(range->second, times.back())}
+                          : std::pair{times.front(), times.back()};
+        }
     std::vector<double> frames;
-    if (info.playbackRange)
-        for (double f = std::ceil(info.playbackRange->first); f <= std::floor(info.playbackRange->second); ++f)
-            frames.push_back(f);
+    if (range)
+        for (double f = std::ceil(range->first); f <= std::floor(range->second); ++f) frames.push_back(f);
     if (frames.empty()) frames.push_back(info.savedTime);
     return frames;
 }
@@ -73,7 +85,7 @@ TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map)
     const MayaSceneInfo& info = scene->info;
     TargetClip raw;
     raw.file = file.string();
-    raw.frameNumbers = sceneFrames(info);
+    raw.frameNumbers = sceneFrames(*graph, info);
     raw.frameTime = 1.0 / info.framesPerSecond;
     std::vector<NodeId> joints;
     std::vector<Plug> plugs;

@@ -16,7 +16,8 @@
 namespace rig {
 
 // Reads a Maya ASCII scene as a clip, the map applied as to any clip's joints. The frames are the whole frames of
-// its playback range (playbackOptions -min -max), or its saved time when it has none; joints are named as the graph
+// its playback range (playbackOptions -min -max); of the span of its time curves' keys where it has none; else its
+// saved time; joints are named as the graph
 // names them (a referenced rig's under its namespace: "hero:hips"). A scene without joints, or one the reader refuses
 // (docs/maya.md), is a rig::Error in one line.
 TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map);
