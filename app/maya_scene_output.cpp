@@ -47,14 +47,12 @@ std::vector<SceneCurveDifference> sceneCurveDifferences(const InvertOutcome& out
     std::vector<SceneCurveDifference> out;
     const ClipScene* scene = outcome.clip.scene.get();
     if (!scene) return out;
-    // The units of each parameter's plug, as the curves name them.
-    const std::vector<AnimFileCurve> curves = outputCurves(outcome, nullptr, TangentType::linear);
     const auto& parameters = outcome.approximation->parameters;
     for (std::size_t p = 0; p < parameters.size(); ++p) {
         const RigParameter& parameter = parameters[p].parameter;
         const auto c = sceneCurveOf(*scene, parameter.name);
         if (!c) continue;
-        SceneCurveDifference d{parameter.name, unitName(curves[p].output)};
+        SceneCurveDifference d{parameter.name, unitName(plugCurve(outcome.rig->graph(), parameter.name).output)};
         for (std::size_t f = 0; f < outcome.values.size(); ++f) {
             const std::size_t frame = static_cast<std::size_t>(outcome.first) + f;
             double difference = parameterUserValue(parameter, outcome.values[f][p]) -
@@ -129,18 +127,10 @@ void referenceRig(MayaAnimScene& scene, const InvertOutcome& outcome, const std:
 
 std::vector<MayaHeldPlug> heldPlugs(const InvertOutcome& outcome)
 {
-    const Graph& graph = outcome.rig->graph();
     std::vector<MayaHeldPlug> out;
     for (const HeldPlug& held : outcome.approximation->held) {
-        const Plug plug = graph.plug(held.plug);
-        const AttributeSpec& spec = graph.spec(plug);
-        out.push_back({graph.nodeName(plug.node),
-                       plug.child >= 0 ? spec.childNames[static_cast<std::size_t>(plug.child)]
-                                       : spec.name + (plug.index >= 0 ? fmt::format("[{}]", plug.index) : ""),
-                       spec.unit == Unit::Angle      ? AnimQuantity::angular
-                       : spec.unit == Unit::Distance ? AnimQuantity::linear
-                                                     : AnimQuantity::unitless,
-                       held.value});
+        const AnimFileCurve plug = plugCurve(outcome.rig->graph(), held.plug);
+        out.push_back({plug.node, plug.leaf, plug.output, held.value});
     }
     return out;
 }

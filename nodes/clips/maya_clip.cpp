@@ -15,9 +15,12 @@
 namespace rig {
 namespace {
 
+// As an assimp take's (docs/clips.md): a clip past this is refused before it is evaluated.
+constexpr double maxJointFrames = 4e6;
+
 // The frames a scene clip plays: the whole frames of its playback range; without one, those its time curves' keys span;
 // without either, its saved time.
-std::vector<double> sceneFrames(Graph& graph, const MayaSceneInfo& info)
+std::vector<double> sceneFrames(Graph& graph, const MayaSceneInfo& info, const std::string& file)
 {
     std::optional<std::pair<double, double>> range = info.playbackRange;
     if (!range)
@@ -31,6 +34,11 @@ std::vector<double> sceneFrames(Graph& graph, const MayaSceneInfo& info)
                           : std::pair{times.front(), times.back()};
         }
     std::vector<double> frames;
+    if (range && std::floor(range->second) - std::ceil(range->first) >= maxJointFrames)
+        throw Error(
+            fmt::format("{}: frames {} to {} are more than the {} joint-frames a clip may have; give the scene "
+                        "a shorter playback range",
+                        file, range->first, range->second, maxJointFrames));
     if (range)
         for (double f = std::ceil(range->first); f <= std::floor(range->second); ++f) frames.push_back(f);
     if (frames.empty()) frames.push_back(info.savedTime);
@@ -85,7 +93,7 @@ TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map)
     const MayaSceneInfo& info = scene->info;
     TargetClip raw;
     raw.file = file.string();
-    raw.frameNumbers = sceneFrames(*graph, info);
+    raw.frameNumbers = sceneFrames(*graph, info, raw.file);
     raw.frameTime = 1.0 / info.framesPerSecond;
     std::vector<NodeId> joints;
     std::vector<Plug> plugs;
@@ -100,6 +108,11 @@ TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map)
             fmt::format("{}: the scene has no joint that this reader evaluates; a Maya scene clip is its "
                         "joints over its playback range",
                         raw.file));
+    if (static_cast<double>(joints.size()) * static_cast<double>(raw.frameNumbers.size()) > maxJointFrames)
+        throw Error(
+            fmt::format("{}: {} frames of {} joints are more than the {} joint-frames a clip may have; give "
+                        "the scene a shorter playback range",
+                        raw.file, raw.frameNumbers.size(), joints.size(), maxJointFrames));
     raw.parents = jointParents(*graph, joints);
     const auto sources = curveSources(*graph, info);
     scene->curveValues.resize(sources.size());
