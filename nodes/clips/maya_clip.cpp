@@ -18,27 +18,39 @@ namespace {
 // As an assimp take's (docs/clips.md): a clip past this is refused before it is evaluated.
 constexpr double maxJointFrames = 4e6;
 
-// The frames a scene clip plays: the whole frames of its playback range; without one, those its time curves' keys span;
-// without either, its saved time.
-std::vector<double> sceneFrames(Graph& graph, const MayaSceneInfo& info, const std::string& file)
+using Span = std::optional<std::pair<double, double>>;
+
+Span joined(const Span& a, const Span& b)
 {
-    std::optional<std::pair<double, double>> range = info.playbackRange;
-    if (!range)
-        for (const auto& curve : info.timeCurves) {
-            const NodeId n = graph.findNode(curve.curve);
-            const AttrId keyTime = n >= 0 ? graph.nodeType(n).findAttribute("keyTime") : -1;
-            if (keyTime < 0) continue;
-            const auto times = std::get<std::vector<double>>(graph.getValue(Plug{n, keyTime, -1, -1}));
-            if (times.empty()) continue;
-            range = range ? std::pair{std::min(range->first, times.front()), std::max(range->second, times.back())}
-                          : std::pair{times.front(), times.back()};
-        }
-    std::vector<double> frames;
+    if (!a || !b) return a ? a : b;
+    return std::pair{std::min(a->first, b->first), std::max(a->second, b->second)};
+}
+
+// The span of the scene's time curves' keys, or none.
+Span keySpan(Graph& graph, const MayaSceneInfo& info)
+{
+    Span span;
+    for (const auto& curve : info.timeCurves) {
+        const NodeId n = graph.findNode(curve.curve);
+        const AttrId keyTime = n >= 0 ? graph.nodeType(n).findAttribute("keyTime") : -1;
+        if (keyTime < 0) continue;
+        const auto times = std::get<std::vector<double>>(graph.getValue(Plug{n, keyTime, -1, -1}));
+        if (!times.empty()) span = joined(span, std::pair{times.front(), times.back()});
+    }
+    return span;
+}
+
+// The frames a scene clip plays: the whole frames of its playback range (without one, of the span its time curves'
+// keys cover), reaching `asked` where given; without any of these, its saved time.
+std::vector<double> sceneFrames(Graph& graph, const MayaSceneInfo& info, const std::string& file, const Span& asked)
+{
+    const Span range = joined(info.playbackRange ? info.playbackRange : keySpan(graph, info), asked);
     if (range && std::floor(range->second) - std::ceil(range->first) >= maxJointFrames)
         throw Error(
             fmt::format("{}: frames {} to {} are more than the {} joint-frames a clip may have; give the scene "
                         "a shorter playback range",
                         file, range->first, range->second, maxJointFrames));
+    std::vector<double> frames;
     if (range)
         for (double f = std::ceil(range->first); f <= std::floor(range->second); ++f) frames.push_back(f);
     if (frames.empty()) frames.push_back(info.savedTime);
@@ -86,14 +98,15 @@ std::vector<std::optional<Plug>> curveSources(const Graph& graph, const MayaScen
 
 }  // namespace
 
-TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map)
+TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map,
+                        std::optional<std::pair<double, double>> frames)
 {
     auto scene = std::make_shared<ClipScene>();
     const auto graph = loadRigFile(file, makeBuiltinRegistry(), nullptr, &scene->info);
     const MayaSceneInfo& info = scene->info;
     TargetClip raw;
     raw.file = file.string();
-    raw.frameNumbers = sceneFrames(*graph, info, raw.file);
+    raw.frameNumbers = sceneFrames(*graph, info, raw.file, frames);
     raw.frameTime = 1.0 / info.framesPerSecond;
     std::vector<NodeId> joints;
     std::vector<Plug> plugs;

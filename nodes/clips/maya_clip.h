@@ -7,9 +7,11 @@
 // an inversion's controls with the animator's).
 
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 
 #include "nodes/clips/target_clip.h"
 
@@ -20,7 +22,9 @@ namespace rig {
 // saved time; joints are named as the graph
 // names them (a referenced rig's under its namespace: "hero:hips"). A scene without joints, or one the reader refuses
 // (docs/maya.md), is a rig::Error in one line.
-TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map);
+// `frames`, when given (first and last: rig-invert's --frames), extend the frames to reach them.
+TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map,
+                        std::optional<std::pair<double, double>> frames = std::nullopt);
 
 // `name` without the namespaces of its DAG components: "hero:grp|hero:hips" -> "grp|hips"; a plug's attribute
 // ("hero:ctrl.rotateX" -> "ctrl.rotateX") has none.

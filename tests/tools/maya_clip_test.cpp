@@ -101,6 +101,18 @@ TEST_CASE("maya clip: an animation scene of the project's arm inverts exactly, a
     CHECK(dense.positionCm < 1e-9);
     CHECK(dense.rotationDeg < 1e-6);
 
+    // --frames reaches past the playback range (1 to 12): the scene is evaluated there too.
+    const auto past =
+        inDir(fmt::format("{} arm.approx.yaml --rig arm_rig.ma --clip arm_anim.ma --frames 10:16 -o past.json "
+                          "--report-json past.r.json -q",
+                          test::tool("rig-invert")));
+    INFO(past.err);
+    REQUIRE(past.exitCode == 0);
+    const YAML::Node pastReport = YAML::LoadFile(in("past.r.json"));
+    CHECK(pastReport["frames"].as<int>() == 7);
+    CHECK(pastReport["status_frames"]["reached"].as<int>() == 7);
+    CHECK(pastReport["per_frame"][6]["frame"].as<double>() == 16);
+
     // Sparse keys replay within their tolerance.
     const auto keyed = inDir(fmt::format(
         "{} arm.approx.yaml --rig arm_rig.ma --clip arm_anim.ma -o keys.ma --key-tolerance 0.01 --key-tolerance-deg "
