@@ -11,8 +11,10 @@
 #include "app/switch_learn.h"
 #include "core/error.h"
 #include "core/parse_number.h"
+#include "graph/rig_file.h"
 #include "inversion/blend_merge.h"
 #include "inversion/pole_hold.h"
+#include "nodes/inversion_spec.h"
 
 namespace rig::app {
 
@@ -63,10 +65,59 @@ double learningFraction(std::string_view stage, double fraction)
 
 bool discoversHelpers(const LearnJob& job) { return !job.noHelpers && (job.autoHelpers || job.helpers.empty()); }
 
+namespace {
+
+// Takes "auto" out of a list of globs; whether it was there.
+bool takeAuto(std::vector<std::string>& globs)
+{
+    const auto end = std::remove(globs.begin(), globs.end(), std::string("auto"));
+    const bool found = end != globs.end();
+    globs.erase(end, globs.end());
+    return found;
+}
+
+}  // namespace
+
 GraphRigOptions rigOptions(const LearnJob& job)
 {
-    return GraphRigOptions{job.params, job.outputs, job.plugins,          job.held,
-                           job.ranges, job.helpers, discoversHelpers(job)};
+    GraphRigOptions options{job.params, job.outputs, job.plugins,          job.held,
+                            job.ranges, job.helpers, discoversHelpers(job)};
+    const bool maya = isMayaFile(job.rig);
+    options.autoParameters = takeAuto(options.parameterGlobs);
+    options.autoOutputs = takeAuto(options.outputGlobs) || (maya && job.outputs.empty());
+    options.cutTimeCurves = maya;
+    return options;
+}
+
+std::string autoSpecText(const GraphRigFunction& rig, const std::string& rigFile)
+{
+    InversionSpec spec;
+    for (const RigParameter& p : rig.parameters()) spec.params.push_back(p.name);
+    const std::vector<char> helper = rig.helperOutputs();
+    for (std::size_t k = 0; k < helper.size(); ++k)
+        if (!helper[k]) spec.outputs.push_back(rig.outputs()[k]);
+    spec.set = rig.held();
+    const AutoChoice& a = rig.autoChoice();
+    std::vector<std::string> header{
+        fmt::format("The inversion choices rig-learn made for {}; edit them, then: rig-learn {} --spec THIS_FILE "
+                    "-o APPROX.yaml",
+                    rigFile, rigFile),
+        fmt::format("params: {} channels of {} controls (transforms with a nurbsCurve shape, or keyed by a time curve) "
+                    "that move an output",
+                    spec.params.size(), a.controls.size())};
+    if (!a.cutCurves.empty())
+        header.push_back(fmt::format("  {} of them keyed by a time curve, cut while learning (the curves are the clip)",
+                                     a.cutCurves.size()));
+    header.push_back(a.skins > 0 ? fmt::format("outputs: the {} joints {} skinCluster{} bind", spec.outputs.size(),
+                                               a.skins, a.skins > 1 ? "s" : "")
+                     : a.skins == 0
+                         ? fmt::format("outputs: every joint ({}; no skinCluster binds one)", spec.outputs.size())
+                         : fmt::format("outputs: {} joints", spec.outputs.size()));
+    if (!a.settings.empty())
+        header.push_back(fmt::format("set: the controls' {} settings at the scene's values", a.settings.size()));
+    if (!a.passed.empty()) header.push_back("channels of the controls passed by:");
+    for (const PassedChannel& p : a.passed) header.push_back(fmt::format("  {}: {}", p.plug, p.why));
+    return inversionSpecYaml(spec, header);
 }
 
 LearnOutcome learn(const LearnJob& job)
@@ -78,6 +129,7 @@ LearnOutcome learn(const LearnJob& job)
     out.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
     out.rigParameters = rig.parameters().size();
     out.rigOutputs = rig.outputs().size();
+    out.autoChoice = rig.autoChoice();
     const std::vector<char> helper = rig.helperOutputs();
     for (std::size_t k = 0; k < helper.size(); ++k)
         if (helper[k]) out.helpers.push_back(rig.outputs()[k]);

@@ -50,8 +50,15 @@ struct LearnJob {
 // constraints learns as it would without helpers). The one place this default is decided.
 bool discoversHelpers(const LearnJob& job);
 
-// The rig's options for a job: its globs, plugins, held plugs, ranges and helpers.
+// The rig's options for a job: its globs, plugins, held plugs, ranges and helpers; "auto" among the parameter or
+// output globs (rig-learn --params auto, a spec's `params: auto`) is GraphRigOptions::autoParameters or autoOutputs,
+// and a Maya scene's outputs are auto unless globs name them; a Maya scene's time curves are cut from the
+// parameters they key (GraphRigOptions::cutTimeCurves). The one place these defaults are decided.
 GraphRigOptions rigOptions(const LearnJob& job);
+
+// What auto chose as a spec the user edits and learns with (rig-learn --write-spec, docs/rig-learn.md): the rig's
+// parameters, joint outputs and held plugs by name, with comment lines saying what auto found and passed by.
+std::string autoSpecText(const GraphRigFunction& rig, const std::string& rigFile);
 
 struct LearnOutcome {
     Approximation approximation;
@@ -61,6 +68,7 @@ struct LearnOutcome {
     double loadSeconds = 0.0;          // loading the rig
     // The non-compositional outputs with why (what the learner measured; the approximation file does not hold it).
     std::vector<UnmodelledOutput> unmodelled;
+    AutoChoice autoChoice{};  // what auto chose, and the time curves cut
 };
 
 // A parameter's form as the approximation holds it, from its operators (the learner's classification, `form`,

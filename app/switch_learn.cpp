@@ -33,6 +33,8 @@ Approximation learnBranch(const LearnJob& job, const GraphRigFunction& rig, cons
 {
     GraphRigOptions options = rigOptions(job);
     options.parameterGlobs.clear();
+    options.autoParameters = false;  // what auto chose is named below: parameters, and settings among the held
+    options.held = rig.held();
     for (std::size_t p = 0; p < rig.parameters().size(); ++p) {
         if (isSwitch(s, p)) options.held.push_back({rig.parameters()[p].name, value});
         else options.parameterGlobs.push_back(rig.parameters()[p].name);

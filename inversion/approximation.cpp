@@ -48,7 +48,9 @@ void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::
                 base.anchor < 0 ? Eigen::Matrix4d::Identity() : worlds[static_cast<std::size_t>(base.anchor)];
             const std::array<int, 3> in = base.inputs();
             const auto input = [&](int i) { return i < 0 ? Eigen::Matrix4d(Eigen::Matrix4d::Identity()) : world(i); };
-            product = constraintBase(base, anchor, input(in[1]), input(in[2])) * product;
+            const Eigen::Matrix4d orient =
+                base.orient < 0 ? Eigen::Matrix4d::Identity() : worlds[static_cast<std::size_t>(base.orient)];
+            product = constraintBase(base, anchor, input(in[1]), input(in[2]), orient) * product;
         } else if (output.parent >= 0) {
             product = worlds[static_cast<std::size_t>(output.parent)] * product;
         }

@@ -238,6 +238,10 @@ std::string constraintsText(const Approximation& a)
         // A chain without a pole keeps its rest plane: its normal is written, and says so.
         if (base.restPlane) out += fmt::format("    restNormal: {}\n", vector3(base.restNormal, field + ".restNormal"));
         if (base.worldUp) out += "    worldUp: true\n";
+        // An output turning as another does: that output, and the rest origin the chain carries.
+        if (base.orient >= 0)
+            out += input("orient", base.orient, false) +
+                   fmt::format("    origin: {}\n", vector3(base.origin, field + ".origin"));
         out += "    shape:\n";
         out += operatorText(base.shape, field + ".shape", "      ", "      ");
     }
@@ -804,7 +808,7 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
                     {"anchor", "driverParent"});
     else
         r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"},
-                    {"anchor", "pole", "restNormal", "worldUp"});
+                    {"anchor", "pole", "restNormal", "worldUp", "orient", "origin"});
     const auto input = [&](std::string_view which) {
         const YAML::Node v = r.child(n, which);
         if (!v) return -1;
@@ -826,6 +830,10 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
     base.anchor = input("anchor");
     base.goal = input("goal");
     base.pole = input("pole");
+    base.orient = input("orient");
+    if (base.orient >= 0) base.origin = r.vector3(r.need(n, "origin", field), field + ".origin");
+    else if (const YAML::Node origin = r.child(n, "origin"))
+        r.fail(origin, field + ".origin", "an origin belongs to a chain with an orient output; remove it");
     base.root = r.vector3(r.child(n, "root"), field + ".root");
     base.restPole = r.vector3(r.child(n, "restPole"), field + ".restPole");
     if (const YAML::Node up = r.child(n, "worldUp")) {

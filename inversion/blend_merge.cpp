@@ -72,7 +72,7 @@ std::vector<std::string> mergedOrder(const Approximation& ik, const OperatorMap&
 template <class Map>
 ConstraintBase remapped(ConstraintBase c, const Map& map)
 {
-    for (int* input : {&c.anchor, &c.goal, &c.pole, &c.driver, &c.driverParent, &c.ik, &c.fk, &c.ikParent, &c.fkParent})
+    for (int* input : c.outputFields())
         if (*input >= 0) *input = map(*input);
     return c;
 }

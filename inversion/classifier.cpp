@@ -56,7 +56,7 @@ std::vector<int> RigProbe::frameInputs(int k) const
 {
     if (const auto c = constraints.find(k); c != constraints.end()) {
         std::vector<int> inputs;
-        for (const int i : c->second.inputs())
+        for (const int i : c->second.frameInputs())
             if (i >= 0) inputs.push_back(i);
         return inputs;
     }
@@ -66,12 +66,14 @@ std::vector<int> RigProbe::frameInputs(int k) const
 
 Eigen::Matrix4d RigProbe::inConstraintFrame(const ConstraintBase& base, const Eigen::Matrix4d& world,
                                             const Eigen::Matrix4d& anchorWorld, const Eigen::Matrix4d& secondWorld,
-                                            const Eigen::Matrix4d& thirdWorld) const
+                                            const Eigen::Matrix4d& thirdWorld, const Eigen::Matrix4d& orientWorld) const
 {
-    const Eigen::Matrix4d motion =
-        base.anchor < 0 ? Eigen::Matrix4d::Identity()
-                        : Eigen::Matrix4d(anchorWorld * rest_[static_cast<std::size_t>(base.anchor)].inverse());
-    const Eigen::Matrix4d b = constraintBase(base, motion, secondWorld, thirdWorld);
+    const auto motion = [&](int i, const Eigen::Matrix4d& world) -> Eigen::Matrix4d {
+        return i < 0 ? Eigen::Matrix4d(Eigen::Matrix4d::Identity())
+                     : Eigen::Matrix4d(world * rest_[static_cast<std::size_t>(i)].inverse());
+    };
+    const Eigen::Matrix4d b = constraintBase(base, motion(base.anchor, anchorWorld), secondWorld, thirdWorld,
+                                             motion(base.orient, orientWorld));
     Eigen::Matrix4d inverse = Eigen::Matrix4d::Identity();  // b is rigid (or not finite: the sample says so)
     inverse.block<3, 3>(0, 0) = b.block<3, 3>(0, 0).transpose();
     inverse.block<3, 1>(0, 3) = -inverse.block<3, 3>(0, 0) * b.block<3, 1>(0, 3);

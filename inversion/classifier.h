@@ -50,19 +50,20 @@ public:
     {
         if (const auto c = constraints.find(k); c != constraints.end()) {
             const ConstraintBase& b = c->second;
-            const auto [anchor, second, third] = b.inputs();
+            const auto [anchor, second, third, orient, unused] = b.frameInputs();
             const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
             return inConstraintFrame(b, worldOf(k), anchor < 0 ? identity : worldOf(anchor),
-                                     second < 0 ? identity : worldOf(second), third < 0 ? identity : worldOf(third));
+                                     second < 0 ? identity : worldOf(second), third < 0 ? identity : worldOf(third),
+                                     orient < 0 ? identity : worldOf(orient));
         }
         const int p = parentOf(k);
         return p < 0 ? Eigen::Matrix4d(worldOf(k)) : inFrame(k, worldOf(k), worldOf(p));
     }
-    // B^-1 W for a constraint's base at its inputs' raw worlds (ConstraintBase::inputs; the anchor's motion from its
-    // rest world).
+    // B^-1 W for a constraint's base at its inputs' raw worlds (ConstraintBase::frameInputs; the anchor's and the
+    // orient output's motions from their rest worlds).
     Eigen::Matrix4d inConstraintFrame(const ConstraintBase& base, const Eigen::Matrix4d& world,
                                       const Eigen::Matrix4d& anchorWorld, const Eigen::Matrix4d& secondWorld,
-                                      const Eigen::Matrix4d& thirdWorld) const;
+                                      const Eigen::Matrix4d& thirdWorld, const Eigen::Matrix4d& orientWorld) const;
 
 private:
     RigFunction& rig_;

@@ -85,6 +85,7 @@ std::array<int, 5> ConstraintBase::frameInputs() const
 {
     const std::array<int, 3> in = inputs();
     if (kind == ConstraintKind::blend) return {in[0], in[1], in[2], ikParent, fkParent};
+    if (kind == ConstraintKind::planarChain) return {in[0], in[1], in[2], orient, -1};
     return {in[0], in[1], in[2], -1, -1};
 }
 
@@ -267,8 +268,30 @@ Affine twistVelocity(const TwistLinearization& l, const Affine& anchor, const Af
     return v;
 }
 
+Eigen::Matrix4d orientedBase(const ConstraintBase& base, const Eigen::Matrix4d& chain,
+                             const Eigen::Matrix4d& orientMotion)
+{
+    if (base.orient < 0) return chain;
+    const Eigen::Matrix3d q = polarOf(orientMotion);
+    const Eigen::Vector3d centre = chain.block<3, 3>(0, 0) * base.origin + chain.block<3, 1>(0, 3);
+    Eigen::Matrix4d b = Eigen::Matrix4d::Identity();
+    b.block<3, 3>(0, 0) = q;
+    b.block<3, 1>(0, 3) = centre - q * base.origin;
+    return b;
+}
+
+Affine orientedVelocity(const Affine& chain, const Affine& orient, const Eigen::Vector3d& centre)
+{
+    // B' = [Q | c - Q p0]: dB' B'^-1 = [dQ Q^T | dc - dQ Q^T c], with dc = dB B^-1 c.
+    Affine v;
+    v.leftCols<3>() = orient.leftCols<3>();
+    v.col(3) = chain.leftCols<3>() * centre + chain.col(3) - orient.leftCols<3>() * centre;
+    return v;
+}
+
 Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
-                               const Eigen::Matrix4d& second, const Eigen::Matrix4d& third)
+                               const Eigen::Matrix4d& second, const Eigen::Matrix4d& third,
+                               const Eigen::Matrix4d& orientMotion)
 {
     if (base.kind == ConstraintKind::twistShare) {
         // The base alone: no polar stretch parts and no twist gradient, which only its velocity needs.
@@ -281,7 +304,7 @@ Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d
             anchorMotion.block<3, 3>(0, 0) * base.root + anchorMotion.block<3, 1>(0, 3) - rotation * base.root;
         return b;
     }
-    return constraintBase(base, chainPoints(base, anchorMotion, second, third));
+    return orientedBase(base, constraintBase(base, chainPoints(base, anchorMotion, second, third)), orientMotion);
 }
 
 namespace {

@@ -103,12 +103,25 @@ struct ConstraintBase {
     int ik = -1, fk = -1, ikParent = -1, fkParent = -1;
     int weight = -1;
     BlendRule blend;
+    // A planar chain whose output turns as another output does (an IK hand or foot orient-constrained to its control,
+    // a joint whose rotation a constraint takes from a helper): `orient` is that output, whose motion's rotation
+    // replaces B's, and B's translation takes the output's rest origin `origin` (world) where the chain takes it.
+    // -1: B is the chain's alone.
+    int orient = -1;
+    Eigen::Vector3d origin = Eigen::Vector3d::Zero();
 
     // Its inputs (indices into the outputs, -1 for none): anchor, goal, pole for a chain; anchor, driver and the
     // driver's parent for a twist share. The solver and the orderer read them in this order.
     std::array<int, 3> inputs() const;
-    // Every output its frame reads, -1 where none: inputs() and, for a blend, its branches and their parents.
+    // Every output its frame reads, -1 where none: inputs() and, for a blend, its branches and their parents, for a
+    // chain its orient output.
     std::array<int, 5> frameInputs() const;
+
+    // Every field holding an output index (-1 for none), for whatever renumbers the outputs.
+    std::array<int*, 10> outputFields()
+    {
+        return {&anchor, &goal, &pole, &driver, &driverParent, &ik, &fk, &ikParent, &fkParent, &orient};
+    }
 
     // Sets the derived fields from the others and the goal's rest position. False when the rest points do not
     // span a plane (the goal on the root, or the pole on the root-goal line).
@@ -146,10 +159,23 @@ BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& p
 // dB B^-1 (its top three rows; B is rigid, so this is a twist [[omega]x, v]) for points moving at `rate`.
 Eigen::Matrix<double, 3, 4> baseVelocity(const BaseLinearization& at, const ChainPoints& rate);
 
-// B from its inputs, for either family: the anchor's motion, and the worlds of its second and third inputs (the
-// identity where there is none).
+// B from its inputs, for either family: the anchor's motion, the worlds of its second and third inputs, and the
+// orient output's motion (the identity where there is none).
 Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
-                               const Eigen::Matrix4d& second, const Eigen::Matrix4d& third);
+                               const Eigen::Matrix4d& second, const Eigen::Matrix4d& third,
+                               const Eigen::Matrix4d& orientMotion);
+
+// A chain's B (`chain`) with its rotation taken from the orient output's motion (ConstraintBase::orient):
+// [Q_o | c - Q_o p0], c = B p0 with p0 the output's rest origin and Q_o the motion's polar rotation. `chain` itself
+// where the base has no orient output.
+Eigen::Matrix4d orientedBase(const ConstraintBase& base, const Eigen::Matrix4d& chain,
+                             const Eigen::Matrix4d& orientMotion);
+
+// Its velocity (top three rows of d B' B'^-1) from the chain's (dB B^-1) and the orient output's (dM M^-1, M rigid)
+// at c = B p0: the orient output's angular velocity, and a translation keeping c where the chain moves it,
+// v' = v_B + (omega_B - omega_o) x c.
+Eigen::Matrix<double, 3, 4> orientedVelocity(const Eigen::Matrix<double, 3, 4>& chain,
+                                             const Eigen::Matrix<double, 3, 4>& orient, const Eigen::Vector3d& centre);
 
 // The driver's twist tau (radians) from its rotation relative to its parent's (Q_p^T Q_d), and its gradient with
 // respect to a turn of that rotation in its own frame (R exp([delta]x): d tau = gradient . delta; zero where the

@@ -149,12 +149,12 @@ ChainPoints ConstraintFitter::pointsAt(const ConstraintBase& base, const std::ve
 Eigen::Matrix4d ConstraintFitter::baseAt(const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds) const
 {
     const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
-    const auto [anchor, second, third] = base.inputs();
+    const auto [anchor, second, third, orient, unused] = base.frameInputs();
     const auto world = [&](int i) { return i < 0 ? identity : worlds[static_cast<std::size_t>(i)]; };
-    const Eigen::Matrix4d motion =
-        anchor < 0 ? identity
-                   : Eigen::Matrix4d(world(anchor) * probe_.rest()[static_cast<std::size_t>(anchor)].inverse());
-    return constraintBase(base, motion, world(second), world(third));
+    const auto motion = [&](int i) -> Eigen::Matrix4d {
+        return i < 0 ? identity : Eigen::Matrix4d(world(i) * probe_.rest()[static_cast<std::size_t>(i)].inverse());
+    };
+    return constraintBase(base, motion(anchor), world(second), world(third), motion(orient));
 }
 
 Eigen::Matrix4d ConstraintFitter::predicted(int k, const ConstraintBase& base,
@@ -501,7 +501,7 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
 
 std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int root, const std::vector<int>& varied,
                                                          const std::vector<int>& helpers, const std::vector<int>& goals,
-                                                         Closest& closest)
+                                                         Closest& closest, int orient)
 {
     const auto& rest = probe_.rest();
     const auto& names = probe_.rig().outputs();
@@ -534,6 +534,8 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                     base.anchor = anchor;
                     base.goal = goal;
                     base.root = rootRest;
+                    base.orient = orient;
+                    base.origin = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
                     const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
                     if (e <= exactShare * options_.epsilon) return base;
                     if (e <= options_.epsilon && !(within && within->second <= e)) within.emplace(base, e);
@@ -541,11 +543,12 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                     closest.error = e;
                     const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
                     closest.what =
-                        fmt::format("a planar chain (goal {}, pole {})", names[static_cast<std::size_t>(goal)],
+                        fmt::format("a planar chain (goal {}, pole {}{})", names[static_cast<std::size_t>(goal)],
                                     base.restPlane ? "none (the rest plane of " + fixedTo + ")"
                                     : base.worldUp ? std::string("a world up")
                                     : pole < 0     ? "fixed to " + fixedTo
-                                                   : names[static_cast<std::size_t>(pole)]);
+                                                   : names[static_cast<std::size_t>(pole)],
+                                    orient < 0 ? "" : ", turning as " + names[static_cast<std::size_t>(orient)]);
                 }
                 poles.clear();
                 return std::nullopt;
@@ -581,9 +584,34 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
         root = anchor;
         anchor = hierarchy_[static_cast<std::size_t>(anchor)];
     }
-    const std::vector<int> movers = moversOf(k), anchorMovers = anchor >= 0 ? moversOf(anchor) : std::vector<int>{};
     Closest closest;
-    if (std::optional<ConstraintBase> twist = fitTwist(k, movers, state, false, closest)) return twist;
+    if (std::optional<ConstraintBase> twist = fitTwist(k, moversOf(k), state, false, closest)) return twist;
+    bool candidates = false;
+    if (std::optional<ConstraintBase> chain = fitAnchored(k, anchor, root, state, closest, candidates)) return chain;
+    for (const int carrier : rootCarriers(k, anchor, root, state))
+        if (std::optional<ConstraintBase> chain = fitAnchored(k, carrier, root, state, closest, candidates))
+            return chain;
+    if (!candidates) {
+        // Without any helper frame (rig-learn --no-helpers) only twist shares were tried: say so only if one came
+        // close.
+        const bool anyHelper = std::any_of(helper_.begin(), helper_.end(), [](char h) { return h != 0; });
+        why = anyHelper ? "no helper frame is moved by what moves it apart from its anchor (rig-learn --helpers)" : "";
+        if (std::isfinite(closest.error))
+            why += fmt::format("{}the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}",
+                               why.empty() ? "" : "; ", closest.what, closest.error, options_.epsilon);
+        return std::nullopt;
+    }
+    why = std::isfinite(closest.error)
+              ? fmt::format("the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}", closest.what,
+                            closest.error, options_.epsilon)
+              : "no planar chain spans a plane from its helper frames";
+    return std::nullopt;
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fitAnchored(int k, int anchor, int root, const RigState& state,
+                                                            Closest& closest, bool& candidates)
+{
+    const std::vector<int> movers = moversOf(k), anchorMovers = anchor >= 0 ? moversOf(anchor) : std::vector<int>{};
     const auto movesAnchor = [&](int i) { return std::binary_search(anchorMovers.begin(), anchorMovers.end(), i); };
     const auto moves = [&](int i, int h) {
         const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
@@ -594,21 +622,13 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     std::vector<int> helpers, fixed;
     for (std::size_t h = 0; h < helper_.size(); ++h) {
         const int hh = static_cast<int>(h);
-        if (!helper_[h] || hh == k || !usableAnchor(hh, state)) continue;
+        if (!helper_[h] || hh == k || hh == anchor || !usableAnchor(hh, state)) continue;
         if (std::any_of(movers.begin(), movers.end(), [&](int i) { return !movesAnchor(i) && moves(i, hh); }))
             helpers.push_back(hh);
         else if (moversOf(hh).empty()) fixed.push_back(hh);
     }
-    if (helpers.empty() && fixed.empty()) {
-        // Without any helper frame (rig-learn --no-helpers) only twist shares were tried: say so only if one came
-        // close.
-        const bool anyHelper = std::any_of(helper_.begin(), helper_.end(), [](char h) { return h != 0; });
-        why = anyHelper ? "no helper frame is moved by what moves it apart from its anchor (rig-learn --helpers)" : "";
-        if (std::isfinite(closest.error))
-            why += fmt::format("{}the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}",
-                               why.empty() ? "" : "; ", closest.what, closest.error, options_.epsilon);
-        return std::nullopt;
-    }
+    if (helpers.empty() && fixed.empty()) return std::nullopt;
+    candidates = true;
     // The poses vary what moves k through its inputs; its own parameters stay at rest.
     std::vector<int> varied;
     for (const int i : movers)
@@ -617,11 +637,61 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     std::vector<int> goals = helpers;
     goals.insert(goals.end(), fixed.begin(), fixed.end());
     if (std::optional<ConstraintBase> chain = fitChain(k, anchor, root, varied, helpers, goals, closest)) return chain;
-    why = std::isfinite(closest.error)
-              ? fmt::format("the closest constraint, {}, is {:.3g} cm per unit off, over epsilon {:g}", closest.what,
-                            closest.error, options_.epsilon)
-              : "no planar chain spans a plane from its helper frames";
+    for (const int orient : orientSources(k, varied, helpers))
+        if (std::optional<ConstraintBase> chain = fitChain(k, anchor, root, varied, helpers, goals, closest, orient))
+            return chain;
     return std::nullopt;
+}
+
+std::vector<int> ConstraintFitter::rootCarriers(int k, int anchor, int root, const RigState& state)
+{
+    // The root's origin where the helper's motion takes it, to rounding, and moving on some pose.
+    constexpr double carried = 1e-7;
+    const auto& rest = probe_.rest();
+    const Eigen::Vector3d root0 = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
+    const std::vector<Pose>& checks = poses(moversOf(k), 0, rangePoses);
+    const auto origin = [&](int o, const Pose& pose) -> Eigen::Vector3d {
+        return pose.worlds[static_cast<std::size_t>(o)].block<3, 1>(0, 3);
+    };
+    std::vector<int> carriers;
+    if (std::none_of(checks.begin(), checks.end(),
+                     [&](const Pose& pose) { return (origin(root, pose) - root0).norm() > 1e3 * carried; }))
+        return carriers;
+    for (std::size_t h = 0; h < helper_.size(); ++h) {
+        const int hh = static_cast<int>(h);
+        if (!helper_[h] || hh == k || hh == anchor || !usableAnchor(hh, state)) continue;
+        const Eigen::Matrix4d restInverse = rest[h].inverse();
+        if (std::all_of(checks.begin(), checks.end(), [&](const Pose& pose) {
+                const Eigen::Matrix4d motion = pose.worlds[h] * restInverse;
+                const Eigen::Vector3d moved = motion.block<3, 3>(0, 0) * root0 + motion.block<3, 1>(0, 3);
+                return (moved - origin(root, pose)).norm() <= carried * std::max(1.0, root0.norm());
+            }))
+            carriers.push_back(hh);
+    }
+    return carriers;
+}
+
+std::vector<int> ConstraintFitter::orientSources(int k, const std::vector<int>& varied, const std::vector<int>& helpers)
+{
+    // Rotations agree (their difference's Frobenius norm, about the angle between them in radians, well under what
+    // epsilon allows at a frame's radius), and k turns (by a thousand times as much).
+    constexpr double sameTurn = 1e-6;
+    const auto& rest = probe_.rest();
+    const auto turn = [&](int o, const Pose& pose) -> Eigen::Matrix3d {
+        return polarRotation(pose.worlds[static_cast<std::size_t>(o)].block<3, 3>(0, 0)) *
+               polarRotation(rest[static_cast<std::size_t>(o)].block<3, 3>(0, 0)).transpose();
+    };
+    const std::vector<Pose>& checks = poses(varied, 0, rangePoses);
+    const bool turns = std::any_of(checks.begin(), checks.end(), [&](const Pose& pose) {
+        return (turn(k, pose) - Eigen::Matrix3d::Identity()).norm() > 1e3 * sameTurn;
+    });
+    std::vector<int> sources;
+    if (!turns) return sources;
+    for (const int h : helpers)
+        if (std::all_of(checks.begin(), checks.end(),
+                        [&](const Pose& pose) { return (turn(k, pose) - turn(h, pose)).norm() < sameTurn; }))
+            sources.push_back(h);
+    return sources;
 }
 
 std::vector<Eigen::Vector3d> ConstraintFitter::restNormals(int chainRoot, const Eigen::Vector3d& root,

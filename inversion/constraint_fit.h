@@ -2,10 +2,13 @@
 // Fitting constraint operators (inversion/constraint.h) to the outputs the learner found non-compositional:
 // internal to the learner. For an output k, the planar chain is tried with every pair of candidate inputs:
 //
-//   anchor  the nearest ancestor of k (RigFunction::outputParents) modelled by operators alone;
+//   anchor  the nearest ancestor of k (RigFunction::outputParents) modelled by operators alone, or else a helper
+//           whose motion carries the root (an IK start joint point-constrained to a control);
 //   root    the origin of the topmost output between the anchor and k (k itself when it hangs from the anchor);
 //   goal    a helper moved by some parameter that moves k but not the anchor (an IK goal);
-//   pole    another such helper, or none (a pole carried by the anchor: the rotate-plane default).
+//   pole    another such helper, or none (a pole carried by the anchor: the rotate-plane default);
+//   orient  where no chain reproduces k, a helper whose rotation k's follows (an IK hand orient-constrained to its
+//           control): the chain then gives k's position alone.
 //
 // Before it, the twist share: every output moved with k (and its parent output) as the driver, each of its axes, and
 // its angles read in each pair of rotate orders; the share is the least-squares ratio of k's turn about its own axis
@@ -100,9 +103,20 @@ private:
     // The planar chain of k under `anchor` (its root output `root`) on poses of `varied`, over the goals and the poles
     // the helpers and the anchor give: the first within rounding (exactShare of epsilon), else the closest within
     // epsilon.
+    // The planar chain of k with this anchor (its root output `root`), over the helpers its movers move apart from the
+    // anchor and the fixed ones; `candidates` set when there was any.
+    std::optional<ConstraintBase> fitAnchored(int k, int anchor, int root, const RigState& state, Closest& closest,
+                                              bool& candidates);
+    // The helpers other than `anchor` whose motion carries the chain root's origin on the poses of k's movers (an IK
+    // start joint point-constrained to a control), where the root moves.
+    std::vector<int> rootCarriers(int k, int anchor, int root, const RigState& state);
+    // With `orient` (an output, else -1), k's rotation is that output's motion's (ConstraintBase::orient).
     std::optional<ConstraintBase> fitChain(int k, int anchor, int root, const std::vector<int>& varied,
                                            const std::vector<int>& helpers, const std::vector<int>& goals,
-                                           Closest& closest);
+                                           Closest& closest, int orient = -1);
+    // The helpers whose rotation k's follows on the poses of `varied` (R_k R_k(0)^T = R_h R_h(0)^T, k turning on
+    // some of them): an IK end orient-constrained to its control.
+    std::vector<int> orientSources(int k, const std::vector<int>& varied, const std::vector<int>& helpers);
     // The up direction (unit, world at rest) that the output's turns on the poses carry with the plane through the
     // root, the goal and it, in the anchor's axes or (inWorld) the world's; false when none does.
     bool fittedUp(int k, int anchor, const Eigen::Vector3d& root, int goal, const std::vector<Pose>& poses,

@@ -334,6 +334,7 @@ ResidualStructure::Base ResidualStructure::makeBase(int constraint, const std::a
     base.anchorNode = inputNodes[0];
     base.goalNode = inputNodes[1];
     base.poleNode = inputNodes[2];
+    base.orientNode = c.kind == ConstraintKind::planarChain ? inputNodes[3] : -1;
     base.goalRest = restOrigin(c.goal);
     base.poleRest = restOrigin(c.pole);
     const auto rest = [&](int k) -> Eigen::Matrix4d {
@@ -511,6 +512,7 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     velocity_.assign(s.nodes_.size(), Affine::Zero());
     baseVelocity_.assign(static_cast<std::size_t>(s.baseVelocities_), Affine::Zero());
     basePoints_.resize(s.bases_.size());
+    baseCentres_.assign(s.bases_.size(), Eigen::Vector3d::Zero());
     baseTwists_.resize(s.bases_.size());
     blends_.resize(s.bases_.size());
     slotOffset_.assign(s.slots_.size(), 0.0);
@@ -704,7 +706,12 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
         base.anchorNode < 0
             ? c.restNormal
             : Eigen::Vector3d(nodeMatrix_[static_cast<std::size_t>(base.anchorNode)].leftCols<3>() * c.restNormal);
-    return constraintBase(c, points).topRows<3>();
+    const Eigen::Matrix4d chain = constraintBase(c, points);
+    if (c.orient < 0) return chain.topRows<3>();
+    Eigen::Matrix4d orient = Eigen::Matrix4d::Identity();
+    if (base.orientNode >= 0) orient.topRows<3>() = nodeMatrix_[static_cast<std::size_t>(base.orientNode)];
+    baseCentres_[b] = chain.block<3, 3>(0, 0) * c.origin + chain.block<3, 1>(0, 3);
+    return orientedBase(c, chain, orient).topRows<3>();
 }
 
 ResidualWorkspace::Affine ResidualWorkspace::evaluateBlend(std::size_t b)
@@ -788,7 +795,9 @@ void ResidualWorkspace::baseVelocities()
                                                          : rate(x[0], points.pole);
             const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal), poleRate,
                                     x[0].leftCols<3>() * points.normal};
-            baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] = baseVelocity(at, rates);
+            const Affine chain = baseVelocity(at, rates);
+            baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
+                c.orient < 0 ? chain : orientedVelocity(chain, x[3], baseCentres_[b]);
         }
     }
 }

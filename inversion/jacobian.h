@@ -146,6 +146,7 @@ private:
         int constraint = -1;  // index into approximation.constraints
         int node = -1;
         int anchorNode = -1, goalNode = -1, poleNode = -1;  // the inputs' product nodes (-1: the identity)
+        int orientNode = -1;                                // a chain's orient output's (ConstraintBase::orient)
         Eigen::Vector3d goalRest, poleRest;                 // the goal's and pole's rest origins
         // A twist share's second and third inputs' rest worlds (the driver and its parent; identity for the world).
         Eigen::Matrix4d secondRest = Eigen::Matrix4d::Identity(), thirdRest = Eigen::Matrix4d::Identity();
@@ -165,7 +166,7 @@ private:
     static constexpr int blendWeightInput = 5;
     struct InputTerm {  // one velocity moving an input: an unknown node's, or an upstream base's for a column
         // ConstraintBase::frameInputs' index: 0 anchor, 1 goal or driver or ik, 2 pole or its parent or fk, 3 and 4
-        // a blend's branch parents; or blendWeightInput.
+        // a blend's branch parents, 3 a chain's orient output; or blendWeightInput.
         int input = 0;
         int node = -1;          // an unknown node on the input's path, or -1
         int baseVelocity = -1;  // else an index into ResidualWorkspace::baseVelocity_
@@ -344,6 +345,7 @@ private:
     std::vector<Affine> velocity_;                // per unknown node: Xi
     std::vector<Affine> baseVelocity_;            // per base and column: dB/da B^-1
     std::vector<ChainPoints> basePoints_;         // per base: its chain's points at the last evaluation
+    std::vector<Eigen::Vector3d> baseCentres_;    // per base with an orient output: c = B p0 (orientedBase)
     std::vector<TwistLinearization> baseTwists_;  // per base: a twist share's at the last evaluation
     struct BlendState {                           // a blend's at the last evaluation: what its velocity needs
         double weight = 0.0;

@@ -362,7 +362,8 @@ void addConstraints(const RigProbe& probe, const std::vector<int>& outputIndex, 
             k = outputIndex[static_cast<std::size_t>(k)];
             return k >= 0;
         };
-        if (!map(base.anchor) || !map(base.goal) || !map(base.pole) || !map(base.driver) || !map(base.driverParent)) {
+        const auto fields = base.outputFields();
+        if (!std::all_of(fields.begin(), fields.end(), [&](int* k) { return map(*k); })) {
             result.outputs[o].modelled = false;
             continue;
         }
@@ -631,7 +632,7 @@ bool constrainOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, Co
         std::string why;
         const std::optional<ConstraintBase> base = fitter.fit(k, state, why);
         if (!base) continue;
-        for (const int input : base->inputs())
+        for (const int input : base->frameInputs())
             if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
         probe.constraints[k] = *base;
         probe.parents[static_cast<std::size_t>(k)] = -1;
@@ -657,9 +658,31 @@ bool twistOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, Constr
             continue;
         const std::optional<ConstraintBase> base = fitter.twistShare(k, state);
         if (!base) continue;
-        for (const int input : base->inputs())
+        for (const int input : base->frameInputs())
             if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
         chain->second = *base;
+        changed = true;
+    }
+    return changed;
+}
+
+// An output that no constraint fitted when it was tried is tried as a twist share once more, once every other output
+// has had its try: a roll joint whose driver, a hand turned by an orient constraint, is fitted after it (siblings, in
+// rig order) reads the hand's constraint. True when one was found.
+bool twistWhereUnfitted(RigProbe& probe, RigState& state, ConstraintFitter& fitter, const std::set<int>& fitted,
+                        std::set<int>& retried)
+{
+    bool changed = false;
+    for (const int k : fitted) {
+        const auto i = static_cast<std::size_t>(k);
+        if (!state.nonCompositional[i] || probe.constraints.contains(k) || !retried.insert(k).second) continue;
+        const std::optional<ConstraintBase> base = fitter.twistShare(k, state);
+        if (!base) continue;
+        for (const int input : base->frameInputs())
+            if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
+        probe.constraints[k] = *base;
+        probe.parents[i] = -1;
+        state.nonCompositional[i] = 0;
         changed = true;
     }
     return changed;
@@ -704,7 +727,7 @@ bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hi
             history.constraint[k] = why;
             continue;
         }
-        for (const int input : base->inputs())
+        for (const int input : base->frameInputs())
             if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
         probe.constraints[k] = *base;
         probe.parents[i] = -1;
@@ -744,7 +767,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     std::vector<ParameterSamples> samples = firstSamples(pool, parameters.size(), rest, options);
     ConstraintFitter fitter(probe, samples, rig.outputParents(), helper, options);
     // Outputs a constraint was tried on; tried relative again; planar chains tried as twist shares again.
-    std::set<int> fitted, relativeAgain, twistAgain;
+    std::set<int> fitted, relativeAgain, twistAgain, twistUnfitted;
     ValidationPoses poses = drawPoses(parameters, options);
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
@@ -772,6 +795,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain))
             continue;
         if (options.perOutput && twistOverEpsilon(pass, probe, state, fitter, twistAgain)) continue;
+        if (options.perOutput && twistWhereUnfitted(probe, state, fitter, fitted, twistUnfitted)) continue;
         if (distrustOverEpsilon(pass, options, distrusted)) continue;
         if (options.perOutput && constrainOverEpsilon(pass, probe, state, fitter, fitted)) continue;
         if (!raiseBudgets(pass, options, budgets)) break;

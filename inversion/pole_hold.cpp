@@ -51,7 +51,11 @@ Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> v
     const ApproximationOutput& output = a.outputs[static_cast<std::size_t>(k)];
     if (output.constraint >= 0) {
         const ConstraintBase& c = a.constraints[static_cast<std::size_t>(output.constraint)];
-        m = constraintBase(c, pointsAt(a, c, values)) * m;
+        const Eigen::Matrix4d orient =
+            c.orient < 0 ? Eigen::Matrix4d::Identity()
+                         : Eigen::Matrix4d(worldOf(a, c.orient, values) *
+                                           a.outputs[static_cast<std::size_t>(c.orient)].rest.inverse());
+        m = orientedBase(c, constraintBase(c, pointsAt(a, c, values)), orient) * m;
     } else if (output.parent >= 0) {
         m = worldOf(a, output.parent, values) * a.outputs[static_cast<std::size_t>(output.parent)].rest.inverse() * m;
     }

@@ -38,15 +38,16 @@ bool globMatches(const std::string& glob, const std::string& name)
     return fnmatch(glob.c_str(), name.c_str(), 0) == 0;
 }
 
-// Why a scalar plug cannot be a parameter, or "" when it can.
-std::string whyNotParameter(const Graph& g, const Plug& p)
+// Why a scalar plug cannot be a parameter, or "" when it can: a time curve's channel can when `cutTimeCurves`.
+std::string whyNotParameter(const Graph& g, const Plug& p, bool cutTimeCurves)
 {
     const AttributeSpec& s = g.spec(p);
     if (!s.input) return "an output, computed by its node";
     if (g.plugType(p) != ValueType::Double)
         return fmt::format("a {} value, not a number", valueTypeName(g.plugType(p)));
     if (!s.keyable) return "not keyable (not an animator control)";
-    if (const Connection* c = g.incomingConnection(p)) return fmt::format("driven by {}", g.plugName(c->source));
+    if (const Connection* c = g.incomingConnection(p); c && !(cutTimeCurves && timeCurveInput(g, p)))
+        return fmt::format("driven by {}", g.plugName(c->source));
     return {};
 }
 
@@ -59,7 +60,7 @@ std::vector<Plug> scalars(const Graph& g, const Plug& p)
 
 // What to say about a glob that matches no plug: which half of node.attribute is wrong, and a
 // suggestion for a typo.
-std::string noPlugHint(const Graph& g, const std::string& glob)
+std::string noPlugHint(const Graph& g, const std::string& glob, bool cutTimeCurves)
 {
     const auto dot = glob.find('.');
     if (dot == std::string::npos) return "a parameter is node.attribute, e.g. 'L_arm_*.rotate?' or 'hips.translateX'";
@@ -73,7 +74,8 @@ std::string noPlugHint(const Graph& g, const std::string& glob)
     if (nodes.empty()) return fmt::format("no node matches '{}'{}", nodePart, didYouMean(nodePart, nodeNames));
     std::set<std::string> attributes;
     for (const Plug& p : allPlugs(g))
-        if (std::find(nodes.begin(), nodes.end(), p.node) != nodes.end() && whyNotParameter(g, p).empty()) {
+        if (std::find(nodes.begin(), nodes.end(), p.node) != nodes.end() &&
+            whyNotParameter(g, p, cutTimeCurves).empty()) {
             const std::string name = g.plugName(p);
             attributes.insert(name.substr(name.find('.') + 1));
         }
@@ -164,7 +166,8 @@ RigParameter parameterOf(Graph& g, const Plug& p, const std::vector<GraphRigOpti
 }
 
 // The plugs a parameter glob (or plug name) matches, vectors as they are; none is an error.
-std::vector<Plug> matchParameterGlob(const Graph& g, const std::string& glob, const std::string& rigName)
+std::vector<Plug> matchParameterGlob(const Graph& g, const std::string& glob, const std::string& rigName,
+                                     bool cutTimeCurves)
 {
     std::vector<Plug> matched;
     if (!isGlobPattern(glob)) {
@@ -179,7 +182,7 @@ std::vector<Plug> matchParameterGlob(const Graph& g, const std::string& glob, co
         for (const Plug& p : allPlugs(g))
             if (globMatches(glob, g.plugName(p))) matched.push_back(p);
     if (matched.empty()) {
-        const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, glob));
+        const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, glob, cutTimeCurves));
         throw RigSelectionError(fmt::format("{}: parameter glob '{}' {}", rigName, glob, reason), "parameter", glob,
                                 reason);
     }
@@ -195,16 +198,16 @@ struct SelectedParameters {
 
 SelectedParameters selectParameters(Graph& g, const GraphRigOptions& options, const std::string& rigName)
 {
-    if (options.parameterGlobs.empty())
+    if (options.parameterGlobs.empty() && !options.autoParameters)
         throw Error(
             fmt::format("{}: no parameters given; name them with plug globs such as 'L_arm_*.rotate?'", rigName));
     SelectedParameters selected;
     for (const std::string& glob : options.parameterGlobs) {
         std::size_t usable = 0;
         std::string refusedPlug, refusedWhy;  // the first plug matched that cannot be a parameter
-        for (const Plug& whole : matchParameterGlob(g, glob, rigName))
+        for (const Plug& whole : matchParameterGlob(g, glob, rigName, options.cutTimeCurves))
             for (const Plug& p : scalars(g, whole)) {
-                const std::string why = whyNotParameter(g, p);
+                const std::string why = whyNotParameter(g, p, options.cutTimeCurves);
                 if (!why.empty()) {
                     if (refusedPlug.empty()) {
                         refusedPlug = g.plugName(p);
@@ -325,8 +328,14 @@ std::set<NodeId> chooseOutputs(const Graph& g, const std::vector<std::string>& g
 bool isDagNode(const GraphModel& m, NodeId n)
 {
     const std::string& type = m.topology(n).type->name();
-    return type == "joint" || type == "transform";
+    return type == "joint" || type == "transform" || type == "mayaIkHandle";
 }
+
+// A Maya ikHandle: a transform whose world position is its solver's goal, read inside the node, not through a plug.
+bool isIkGoal(const GraphModel& m, NodeId n) { return m.topology(n).type->name() == "mayaIkHandle"; }
+
+// A constraint node (pointConstraint, poleVectorConstraint, ...): what reads its targets' channels is a target.
+bool isConstraint(const GraphModel& m, NodeId n) { return m.topology(n).type->name().ends_with("Constraint"); }
 
 // The helpers the globs name: transforms and joints that are not outputs, each glob matching at least one.
 std::set<NodeId> chooseHelpers(const Graph& g, const std::vector<std::string>& globs, const std::set<NodeId>& outputs,
@@ -367,29 +376,6 @@ std::set<NodeId> chooseHelpers(const Graph& g, const std::vector<std::string>& g
     return chosen;
 }
 
-// Nodes reachable from `start` through connections, downstream or upstream (`start` included).
-std::vector<char> reachable(const GraphModel& m, const std::vector<NodeId>& start, bool downstream)
-{
-    std::vector<char> seen(static_cast<std::size_t>(m.nodeCount()), 0);
-    std::vector<NodeId> stack;
-    const auto visit = [&](NodeId n) {
-        if (seen[static_cast<std::size_t>(n)]) return;
-        seen[static_cast<std::size_t>(n)] = 1;
-        stack.push_back(n);
-    };
-    for (NodeId n : start) visit(n);
-    while (!stack.empty()) {
-        const auto& topology = m.topology(stack.back());
-        stack.pop_back();
-        if (!downstream)
-            for (int c : topology.incoming) visit(m.connections()[static_cast<std::size_t>(c)].source.node);
-        else
-            for (const auto& attribute : topology.outgoing)
-                for (int c : attribute) visit(m.connections()[static_cast<std::size_t>(c)].destination.node);
-    }
-    return seen;
-}
-
 }  // namespace
 
 int parentOutput(const Graph& g, NodeId node, const std::map<NodeId, int>& outputOfNode)
@@ -415,8 +401,8 @@ std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<N
 {
     std::vector<NodeId> parameterNodes;
     for (const Plug& p : parameterPlugs) parameterNodes.push_back(p.node);
-    const std::vector<char> moved = reachable(model, parameterNodes, true);
-    const std::vector<char> upstreamOfOutput = reachable(model, outputs, false);
+    const std::vector<char> moved = reachableNodes(model, parameterNodes, true);
+    const std::vector<char> upstreamOfOutput = reachableNodes(model, outputs, false);
     std::vector<char> isOutput(static_cast<std::size_t>(model.nodeCount()), 0);  // a crowd has thousands
     for (NodeId n : outputs) isOutput[static_cast<std::size_t>(n)] = 1;
     std::map<std::string, NodeId> found;  // by name
@@ -426,13 +412,17 @@ std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<N
         // target), not as the parent of other transforms (a world control).
         const bool fixed = !moved[static_cast<std::size_t>(n)];
         const auto& topology = model.topology(n);
+        if (isIkGoal(model, n) && !fixed && upstreamOfOutput[static_cast<std::size_t>(n)])
+            found.emplace(topology.name, n);
         for (AttrId a = 0; a < static_cast<AttrId>(topology.outgoing.size()); ++a) {
+            // Its world matrix read anywhere, or its own channels read by a constraint or a solver (Maya's
+            // constraints read a target's translate, pivots and parent matrix apart).
             const std::string& attribute = topology.spec(a).name;
-            if (attribute != "worldMatrix" && attribute != "worldInverseMatrix") continue;
+            const bool world = attribute == "worldMatrix" || attribute == "worldInverseMatrix";
             for (int c : topology.outgoing[static_cast<std::size_t>(a)]) {
                 const NodeId destination = model.connections()[static_cast<std::size_t>(c)].destination.node;
-                if (upstreamOfOutput[static_cast<std::size_t>(destination)] &&
-                    !(fixed && isDagNode(model, destination)))
+                if (!upstreamOfOutput[static_cast<std::size_t>(destination)]) continue;
+                if (world ? !(fixed && isDagNode(model, destination)) : isConstraint(model, destination))
                     found.emplace(topology.name, n);
             }
         }
@@ -444,19 +434,136 @@ std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<N
 
 namespace {
 
-// The outputs' nodes: the joints the globs name in node order, then the helpers in name order.
-std::vector<NodeId> outputNodes(const Graph& g, const GraphRigOptions& options, const std::vector<Plug>& parameters,
-                                const std::string& rigName, std::size_t& jointCount)
+// The output joints: the globs' (every joint with neither globs nor auto) and auto's, in node order.
+std::vector<NodeId> outputJoints(const Graph& g, const GraphRigOptions& options, const MayaSceneInfo& info,
+                                 const std::string& rigName, AutoChoice& choice)
 {
-    const std::set<NodeId> joints = chooseOutputs(g, options.outputGlobs, rigName);
-    std::vector<NodeId> nodes(joints.begin(), joints.end());
-    jointCount = nodes.size();
+    std::set<NodeId> joints;
+    if (!options.outputGlobs.empty() || !options.autoOutputs) joints = chooseOutputs(g, options.outputGlobs, rigName);
+    if (options.autoOutputs) {
+        const AutoOutputs found = autoOutputJoints(g, info);
+        joints.insert(found.joints.begin(), found.joints.end());
+        choice.skins = found.skins;
+    }
+    if (joints.empty()) throw Error(fmt::format("{}: the rig has no joints to use as outputs", rigName));
+    return {joints.begin(), joints.end()};
+}
+
+// The helpers the globs name and, with autoHelpers, those the rig shows, in name order.
+std::vector<NodeId> helperNodes(const Graph& g, const GraphRigOptions& options, const std::vector<NodeId>& joints,
+                                const std::vector<Plug>& parameters, const std::string& rigName)
+{
     std::map<std::string, NodeId> helpers;
-    for (NodeId n : chooseHelpers(g, options.helperGlobs, joints, rigName)) helpers.emplace(g.nodeName(n), n);
+    for (NodeId n : chooseHelpers(g, options.helperGlobs, {joints.begin(), joints.end()}, rigName))
+        helpers.emplace(g.nodeName(n), n);
     if (options.autoHelpers)
-        for (NodeId n : discoverHelpers(g.model(), nodes, parameters)) helpers.emplace(g.nodeName(n), n);
+        for (NodeId n : discoverHelpers(g.model(), joints, parameters)) helpers.emplace(g.nodeName(n), n);
+    std::vector<NodeId> nodes;
     for (const auto& [name, n] : helpers) nodes.push_back(n);
     return nodes;
+}
+
+// Below this, a matrix entry moved by a probe is no movement (an output a channel does not reach is bitwise the same).
+constexpr double probeTolerance = 1e-9;
+
+// Moves each plug in `which` alone off its value by a tenth of its learning range each way (within it), from the
+// pose the graph holds, and marks in `moves` those that move one of the `worlds` matrices; each is put back.
+void probeFrom(Graph& g, const std::vector<Plug>& plugs, const std::vector<char>& which,
+               const std::vector<Plug>& worlds, const std::vector<GraphRigOptions::LearnRange>& ranges,
+               std::vector<char>& moves, std::uint64_t& evaluations)
+{
+    std::vector<Eigen::Matrix4d> read(worlds.size());
+    const auto evaluate = [&] {
+        g.evaluate(worlds);
+        ++evaluations;
+        for (std::size_t k = 0; k < worlds.size(); ++k) read[k] = std::get<Eigen::Matrix4d>(g.getValue(worlds[k]));
+    };
+    evaluate();
+    const std::vector<Eigen::Matrix4d> rest = read;
+    for (std::size_t i = 0; i < plugs.size(); ++i) {
+        if (!which[i]) continue;
+        const RigParameter param = parameterOf(g, plugs[i], ranges);
+        const double value = toDouble(g.getValue(plugs[i])), step = 0.1 * (param.max - param.min);
+        for (const double moved : {std::min(param.max, value + step), std::max(param.min, value - step)}) {
+            if (moved == value || moves[i]) continue;
+            g.setValue(plugs[i], moved);
+            evaluate();
+            for (std::size_t k = 0; k < read.size() && !moves[i]; ++k)
+                moves[i] = (read[k] - rest[k]).cwiseAbs().maxCoeff() > probeTolerance;
+        }
+        g.setValue(plugs[i], value);
+    }
+}
+
+// Whether each plug moves one of the joints' world matrices: probed alone at rest, then those that did not from two
+// poses where every one that did is moved by a fiftieth of its range, one way then the other (a pole control moves
+// a straight IK chain only once its goal comes closer and the chain bends). The plugs are put back and the graph's
+// history reset.
+std::vector<char> probeMoves(Graph& g, const std::vector<Plug>& plugs, const std::vector<NodeId>& joints,
+                             const std::vector<GraphRigOptions::LearnRange>& ranges, std::uint64_t& evaluations)
+{
+    std::vector<Plug> worlds;
+    for (NodeId j : joints) worlds.push_back(g.plug(g.nodeName(j) + ".worldMatrix"));
+    std::vector<char> moves(plugs.size(), 0);
+    probeFrom(g, plugs, std::vector<char>(plugs.size(), 1), worlds, ranges, moves, evaluations);
+    const std::vector<char> movedAtRest = moves;
+    std::vector<double> rest(plugs.size());
+    for (std::size_t i = 0; i < plugs.size(); ++i) rest[i] = toDouble(g.getValue(plugs[i]));
+    for (const double way : {1.0, -1.0}) {
+        std::vector<char> still(plugs.size(), 0);
+        for (std::size_t i = 0; i < plugs.size(); ++i) {
+            still[i] = !moves[i];
+            if (!movedAtRest[i]) continue;
+            const RigParameter param = parameterOf(g, plugs[i], ranges);
+            g.setValue(plugs[i], std::clamp(rest[i] + way * 0.02 * (param.max - param.min), param.min, param.max));
+        }
+        if (std::count(still.begin(), still.end(), 1) > 0 && std::count(movedAtRest.begin(), movedAtRest.end(), 1) > 0)
+            probeFrom(g, plugs, still, worlds, ranges, moves, evaluations);
+    }
+    for (std::size_t i = 0; i < plugs.size(); ++i) g.setValue(plugs[i], rest[i]);
+    g.resetState();
+    return moves;
+}
+
+// --params auto: the channels of the scene's controls that move an output joint, after the globs' parameters (their
+// time curves cut; put back on those that move nothing); the controls' settings held at the scene's values (after
+// `held`, the user's, which auto leaves alone).
+void addAutoParameters(Graph& g, const MayaSceneInfo& info, const std::vector<NodeId>& joints,
+                       const GraphRigOptions& options, SelectedParameters& selected, std::vector<HeldPlug>& held,
+                       AutoChoice& choice)
+{
+    const ControlChannels channels = controlChannels(g, info, joints);
+    choice.controls = channels.controls;
+    choice.passed = channels.passed;
+    std::set<Plug> taken;  // the globs' parameters and the user's held plugs
+    for (const auto& [p, glob] : selected.seen) taken.insert(p);
+    for (const HeldPlug& h : held) taken.insert(g.plug(h.plug));
+    for (const Plug& p : channels.settings)
+        if (!taken.contains(p)) {
+            held.push_back({g.plugName(p), userValue(g, p)});
+            choice.settings.push_back(g.plugName(p));
+        }
+    std::vector<Plug> candidates;
+    std::map<Plug, CutCurve> cuts;
+    for (const Plug& p : channels.candidates) {
+        if (taken.contains(p)) continue;
+        candidates.push_back(p);
+        if (g.incomingConnection(p)) cuts.emplace(p, cutTimeCurve(g, p));
+    }
+    const std::vector<char> moves = probeMoves(g, candidates, joints, options.ranges, choice.probeEvaluations);
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+        const Plug& p = candidates[i];
+        const auto cut = cuts.find(p);
+        if (!moves[i]) {
+            choice.passed.push_back({g.plugName(p), "moves no output"});
+            if (cut != cuts.end()) g.connect(cut->second.source, cut->second.destination, !cut->second.rawUnits);
+            continue;
+        }
+        selected.seen.emplace(p, "auto");
+        selected.parameters.push_back(parameterOf(g, p, options.ranges));
+        selected.plugs.push_back(p);
+        if (cut != cuts.end()) choice.cutCurves.push_back(g.plugName(p));
+    }
 }
 
 }  // namespace
@@ -470,6 +577,8 @@ GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<st
             (o.helper ? options.helperGlobs : options.outputGlobs).push_back(o.name);
     options.plugins = std::move(plugins);
     options.held = approximation.held;
+    // Parameters are named in full: one a time curve keys was learned with its curve cut.
+    options.cutTimeCurves = true;
     return options;
 }
 
@@ -478,35 +587,60 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
     auto registry = makeBuiltinRegistry();
     for (const auto& plugin : options.plugins) registry->loadPlugin(plugin);
     std::vector<std::filesystem::path> filesRead;
-    graph_ = loadRigFile(rigFile, registry, &filesRead);
+    MayaSceneInfo info;
+    graph_ = loadRigFile(rigFile, registry, &filesRead, &info);
     std::uint64_t hash = fnv1a64({});
     for (const auto& file : filesRead) hash = fnv1a64(readBytes(file), hash);
     files_ = filesRead;
     Graph& g = *graph_;
     const std::string rigName = rigFile.string();
+    if (options.autoParameters && !isMayaFile(rigFile))
+        throw Error(
+            fmt::format("{}: parameters 'auto' are the keyable channels of a Maya scene's controls (transforms with a "
+                        "nurbsCurve shape), and this is a YAML rig; name its parameters with plug globs such as "
+                        "'L_arm_*.rotate?'",
+                        rigName));
 
     SelectedParameters selected = selectParameters(g, options, rigName);
+    for (const Plug& p : selected.plugs)
+        if (options.cutTimeCurves && g.incomingConnection(p)) {
+            cutTimeCurve(g, p);
+            auto_.cutCurves.push_back(g.plugName(p));
+        }
+    std::vector<HeldPlug> held = options.held;
+    for (const auto& [name, h] : checkHeldPlugs(g, held, selected.seen, rigName)) g.setValue(h.plug, h.stored);
+    const std::vector<NodeId> joints = outputJoints(g, options, info, rigName, auto_);
+    if (options.autoParameters) addAutoParameters(g, info, joints, options, selected, held, auto_);
+    if (selected.parameters.empty())
+        throw Error(fmt::format(
+            "{}: parameters 'auto' found no channel that moves an output joint ({} controls: transforms with a "
+            "nurbsCurve shape or keyed by a time curve); name the parameters with plug globs",
+            rigName, auto_.controls.size()));
     parameters_ = std::move(selected.parameters);
     parameterPlugs_ = std::move(selected.plugs);
     for (const RigParameter& param : parameters_) current_.push_back(param.defaultValue);
-    for (const auto& [name, h] : checkHeldPlugs(g, options.held, selected.seen, rigName)) {
+    for (const auto& [name, h] : checkHeldPlugs(g, held, selected.seen, rigName)) {
         g.setValue(h.plug, h.stored);
         held_.push_back({name, h.value});
         hash = fnv1a64(fmt::format("\nheld {}={}", name, h.value), hash);
     }
     fingerprint_ = fmt::format("{:016x}", hash);
+    setOutputs(joints, helperNodes(g, options, joints, parameterPlugs_, rigName));
+}
 
-    std::size_t joints = 0;
-    const std::vector<NodeId> chosen = outputNodes(g, options, parameterPlugs_, rigName, joints);
+void GraphRigFunction::setOutputs(const std::vector<NodeId>& joints, const std::vector<NodeId>& helpers)
+{
+    const Graph& g = *graph_;
     std::map<NodeId, int> jointOutputOfNode;  // a joint's parent walk passes helpers by
-    for (std::size_t k = 0; k < chosen.size(); ++k) {
-        if (k < joints) jointOutputOfNode[chosen[k]] = static_cast<int>(k);
-        outputNames_.push_back(g.nodeName(chosen[k]));
-        outputPlugs_.push_back(g.plug(g.nodeName(chosen[k]) + ".worldMatrix"));
-        helperFlags_.push_back(k < joints ? 0 : 1);
+    for (std::size_t k = 0; k < joints.size(); ++k) jointOutputOfNode[joints[k]] = static_cast<int>(k);
+    for (std::size_t k = 0; k < joints.size() + helpers.size(); ++k) {
+        const bool joint = k < joints.size();
+        const NodeId n = joint ? joints[k] : helpers[k - joints.size()];
+        outputNames_.push_back(g.nodeName(n));
+        outputPlugs_.push_back(g.plug(g.nodeName(n) + ".worldMatrix"));
+        helperFlags_.push_back(joint ? 0 : 1);
+        outputParents_.push_back(joint ? parentOutput(g, n, jointOutputOfNode) : -1);
     }
-    for (std::size_t k = 0; k < chosen.size(); ++k)
-        outputParents_.push_back(k < joints ? parentOutput(g, chosen[k], jointOutputOfNode) : -1);
 }
 
 GraphRigFunction::GraphRigFunction(const GraphRigFunction& other)
@@ -522,7 +656,8 @@ GraphRigFunction::GraphRigFunction(const GraphRigFunction& other)
       computesSeen_(other.computesSeen_.size(), notRead),
       fingerprint_(other.fingerprint_),
       files_(other.files_),
-      held_(other.held_)
+      held_(other.held_),
+      auto_(other.auto_)
 {
 }
 

@@ -19,6 +19,7 @@
 #include "graph/graph.h"
 #include "inversion/approximation.h"
 #include "inversion/rig_function.h"
+#include "nodes/rig_auto.h"
 
 namespace rig {
 
@@ -49,6 +50,25 @@ struct GraphRigOptions {
     std::vector<std::string> helperGlobs{};
     // Also every helper the rig shows (discoverHelpers): with the globs', each helper once, in name order.
     bool autoHelpers = false;
+    // rig-learn --params auto (docs/rig-learn.md): after the globs' parameters, the channels of a Maya scene's
+    // controls (controlChannels) that move an output at rest, each probed on the rig, time curves cut; and the
+    // controls' settings (an ikFk switch) held at the scene's values. Refused for a YAML rig.
+    bool autoParameters = false;
+    // --outputs auto: also the joints the scene's skinClusters bind, or every joint where none binds one.
+    bool autoOutputs = false;
+    // A parameter that a time curve keys (timeCurveInput) is cut from its curve, keeping the value the curve gives
+    // it: the learner sets it, the curve is the clip. Else it is driven, and no parameter.
+    bool cutTimeCurves = false;
+};
+
+// What autoParameters and autoOutputs chose beside the parameters, outputs and held plugs, for a report and a spec.
+struct AutoChoice {
+    std::vector<std::string> controls;   // the scene's controls found (ControlChannels::controls)
+    std::vector<PassedChannel> passed;   // their channels passed by, with why ("moves no output" included)
+    std::vector<std::string> settings;   // the held plugs auto added (the controls' settings)
+    std::vector<std::string> cutCurves;  // the parameters whose time curve was cut
+    int skins = -1;                      // autoOutputs: the skinClusters binding them (0: every joint); -1: off
+    std::uint64_t probeEvaluations = 0;  // the rig evaluations of the probe (not evaluationCount's)
 };
 
 // The options that load the rig of an approximation in the state it was learned in: its parameters, its
@@ -110,6 +130,8 @@ public:
     void resetState() override;
     // The rig file and every file it includes, in reading order.
     const std::vector<std::filesystem::path>& files() const { return files_; }
+    // What auto chose (GraphRigOptions::autoParameters, autoOutputs), and the time curves cut.
+    const AutoChoice& autoChoice() const { return auto_; }
 
     // The instance, for tools that also read or set other plugs. Plugs set behind this object's back
     // are overwritten only when the parameter's value changes.
@@ -119,6 +141,8 @@ public:
 
 private:
     GraphRigFunction(const GraphRigFunction& other);
+    // The outputs' names, plugs, parents and helper flags: the joints, then the helpers.
+    void setOutputs(const std::vector<NodeId>& joints, const std::vector<NodeId>& helpers);
 
     std::unique_ptr<Graph> graph_;
     std::vector<RigParameter> parameters_;
@@ -136,6 +160,7 @@ private:
     std::string fingerprint_;
     std::vector<std::filesystem::path> files_;
     std::vector<HeldPlug> held_;
+    AutoChoice auto_;
 };
 
 // The helper frames a rig shows for these outputs and parameter plugs (GraphRigOptions::autoHelpers, rig-learn's

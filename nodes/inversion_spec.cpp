@@ -69,7 +69,40 @@ void readRanges(InversionSpec& spec, const YAML::Node& ranges, const At& at)
     }
 }
 
+// A name as a single-quoted YAML scalar: Maya's '|' and ':' and a glob's '[' stay text.
+std::string quoted(const std::string& text)
+{
+    std::string out = "'";
+    for (const char c : text) out += c == '\'' ? std::string("''") : std::string(1, c);
+    return out + "'";
+}
+
+std::string listYaml(const std::string& key, const std::vector<std::string>& names, bool automatic)
+{
+    if (automatic && names.empty()) return key + ": auto\n";
+    if (names.empty() && !automatic) return {};
+    std::string out = key + ":\n";
+    if (automatic) out += "  - auto\n";
+    for (const std::string& name : names) out += "  - " + quoted(name) + "\n";
+    return out;
+}
+
 }  // namespace
+
+std::string inversionSpecYaml(const InversionSpec& spec, const std::vector<std::string>& header)
+{
+    std::string out;
+    for (const std::string& line : header) out += line.empty() ? "#\n" : "# " + line + "\n";
+    out += listYaml("params", spec.params, spec.autoParams);
+    out += listYaml("outputs", spec.outputs, spec.autoOutputs);
+    if (spec.autoHelpers || spec.noHelpers) out += fmt::format("helpers: {}\n", spec.autoHelpers ? "auto" : "none");
+    else out += listYaml("helpers", spec.helpers, false);
+    if (!spec.set.empty()) out += "set:\n";
+    for (const HeldPlug& h : spec.set) out += fmt::format("  {}: {}\n", quoted(h.plug), h.value);
+    if (!spec.ranges.empty()) out += "ranges:\n";
+    for (const auto& r : spec.ranges) out += fmt::format("  {}: [{}, {}]\n", quoted(r.glob), r.min, r.max);
+    return out;
+}
 
 InversionSpec readInversionSpec(const std::filesystem::path& path)
 {
@@ -124,17 +157,25 @@ InversionSpec readInversionSpec(const std::filesystem::path& path)
             (entry.second.Scalar() == "auto" ? spec.autoHelpers : spec.noHelpers) = true;
             continue;
         }
+        bool* const autoFlag = key == "params" ? &spec.autoParams : key == "outputs" ? &spec.autoOutputs : nullptr;
+        if (autoFlag && entry.second.IsScalar() && entry.second.Scalar() == "auto") {
+            *autoFlag = true;
+            continue;
+        }
         auto* list = key == "params"    ? &spec.params
                      : key == "outputs" ? &spec.outputs
                      : key == "helpers" ? &spec.helpers
                                         : nullptr;
         if (!list) throw Error(fmt::format("{}: unknown key '{}'; {}", at(entry.first), messageExcerpt(key), keys));
         if (!entry.second.IsSequence())
-            throw Error(fmt::format("{}: '{}' must be a list of globs{}", at(entry.second), key,
-                                    key == "helpers" ? " or 'auto'" : ""));
+            throw Error(fmt::format("{}: '{}' must be a list of globs or 'auto'", at(entry.second), key));
         for (const auto& glob : entry.second) {
             if (!glob.IsScalar() || glob.Scalar().empty())
                 throw Error(fmt::format("{}: '{}' must be a list of globs", at(glob), key));
+            if (autoFlag && glob.Scalar() == "auto") {
+                *autoFlag = true;
+                continue;
+            }
             list->push_back(glob.Scalar());
             spec.places.emplace(glob.Scalar(), at(glob));
         }

@@ -17,6 +17,8 @@ namespace rig {
 struct InversionSpec {
     std::vector<std::string> params;   // parameter plug globs
     std::vector<std::string> outputs;  // output joint globs
+    bool autoParams = false;           // `params: auto` (or 'auto' in the list): GraphRigOptions::autoParameters
+    bool autoOutputs = false;          // `outputs: auto` (or 'auto' in the list): GraphRigOptions::autoOutputs
     std::vector<std::string> helpers;  // helper frame globs (GraphRigOptions::helperGlobs)
     bool autoHelpers = false;          // `helpers: auto` (GraphRigOptions::autoHelpers)
     bool noHelpers = false;            // `helpers: none`: no helper frame (rig-learn --no-helpers)
@@ -30,5 +32,9 @@ struct InversionSpec {
 
 // Throws rig::Error, one line naming the file (and line and column) and what to change.
 InversionSpec readInversionSpec(const std::filesystem::path& file);
+
+// The spec as a file readInversionSpec reads back the same: `header` as comment lines, then params, outputs,
+// helpers, set (values as they round-trip) and ranges, each name quoted, one a line.
+std::string inversionSpecYaml(const InversionSpec& spec, const std::vector<std::string>& header = {});
 
 }  // namespace rig

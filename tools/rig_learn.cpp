@@ -31,6 +31,8 @@ struct Options {
     bool autoHelpers = false;          // --auto-helpers or the spec's `helpers: auto`
     bool noHelpers = false;            // --no-helpers or the spec's `helpers: none`
     std::string output;
+    bool outputGiven = false;
+    std::string writeSpec;  // --write-spec: the parameters, outputs and held plugs chosen, as a spec
     std::string epsilon;
     bool epsilonGiven = false;
     std::string orderer = "structured";
@@ -56,6 +58,9 @@ void readSpec(Options& options)
     InversionSpec spec = readInversionSpec(options.spec);
     options.params.insert(options.params.end(), spec.params.begin(), spec.params.end());
     options.outputs.insert(options.outputs.end(), spec.outputs.begin(), spec.outputs.end());
+    // "auto" among the globs is what app::rigOptions reads as auto.
+    if (spec.autoParams) options.params.push_back("auto");
+    if (spec.autoOutputs) options.outputs.push_back("auto");
     options.helpers.insert(options.helpers.end(), spec.helpers.begin(), spec.helpers.end());
     options.autoHelpers = options.autoHelpers || spec.autoHelpers;
     options.noHelpers = options.noHelpers || spec.noHelpers;
@@ -183,13 +188,14 @@ std::string constraintsText(const Approximation& a)
         }
         const auto& knots = c.shape.rigid.knots();
         out += fmt::format(
-            "  {}: {}, root carried by {}, goal {}, pole {}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
+            "  {}: {}, root carried by {}, goal {}, pole {}{}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
             constraintKindName(c.kind), c.anchor < 0 ? "the world" : name(c.anchor), name(c.goal),
             c.restPlane  ? "none (its rest plane)"
             : c.worldUp  ? "a world axis from the root (a world up)"
             : c.pole < 0 ? "fixed to the anchor"
                          : name(c.pole),
-            knots.size(), c.restReach + knots.front(), c.restReach + knots.back());
+            c.orient < 0 ? "" : ", turning as " + name(c.orient), knots.size(), c.restReach + knots.front(),
+            c.restReach + knots.back());
     }
     // What the joints cannot decide of a chain: its pole's distance and place along the chain (pole_hold.h).
     for (const PoleHold& hold : poleHolds(a)) {
@@ -214,12 +220,34 @@ std::string constraintsText(const Approximation& a)
     return out;
 }
 
+// What auto chose (--params auto, --outputs auto) and the time curves cut, under the report's first line.
+std::string autoText(const AutoChoice& a)
+{
+    std::string out;
+    if (!a.controls.empty()) {
+        std::size_t moved = 0;
+        for (const PassedChannel& p : a.passed) moved += p.why == "moves no output" ? 1 : 0;
+        out += fmt::format(
+            "Auto parameters: the channels of {} controls that move an output ({} channels passed by: locked, not "
+            "keyable, driven by the rig, or moving no output ({}); --write-spec lists them)\n",
+            a.controls.size(), a.passed.size(), moved);
+    }
+    if (a.skins > 0)
+        out += fmt::format("Auto outputs: the joints {} skinCluster{} bind\n", a.skins, a.skins > 1 ? "s" : "");
+    else if (a.skins == 0) out += "Auto outputs: every joint (no skinCluster binds one)\n";
+    if (!a.cutCurves.empty())
+        out += fmt::format("Time curves cut (the learner sets these channels; the curves are the clip): {}\n",
+                           a.cutCurves.size());
+    return out;
+}
+
 std::string readableReport(const app::LearnOutcome& learned, const Options& options)
 {
     const Approximation& a = learned.approximation;
     std::string out =
         fmt::format("rig-learn {}: {} parameters, {} outputs, epsilon {:g} cm per unit, orderer {}\n", options.rig,
                     learned.rigParameters, learned.rigOutputs, a.epsilon, a.training.orderer);
+    out += autoText(learned.autoChoice);
     if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", app::heldText(a.held));
     if (!learned.helpers.empty())
         out += fmt::format("Helpers (kept where a constraint operator reads them; never targets): {}\n",
@@ -285,18 +313,37 @@ std::string readableReport(const app::LearnOutcome& learned, const Options& opti
     return out;
 }
 
+// --write-spec alone: the rig loaded with what auto chose, written as a spec, nothing learned.
+int writeSpecOnly(const Options& options, const app::LearnJob& job)
+{
+    const GraphRigFunction rig(job.rig, app::rigOptions(job));
+    std::vector<app::NamedFile> read;
+    for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
+    app::checkDistinctFiles(read, {{"--write-spec", options.writeSpec}});
+    app::writeFileAtomically(options.writeSpec, app::autoSpecText(rig, options.rig));
+    const std::vector<char> helper = rig.helperOutputs();
+    std::cout << fmt::format("rig-learn {}: {} parameters, {} output joints, {} held plugs\n", options.rig,
+                             rig.parameters().size(), std::count(helper.begin(), helper.end(), 0), rig.held().size())
+              << autoText(rig.autoChoice()) << fmt::format("Wrote {}\n", options.writeSpec);
+    return 0;
+}
+
 int run(Options& options)
 {
+    if (!options.outputGiven && options.writeSpec.empty())
+        throw Error("--output is required; run 'rig-learn --help' for usage");
     if (options.rig.empty())
         throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
     for (const std::string& assignment : options.sets) options.held.push_back(app::parseHeldPlug(assignment));
     if (!options.spec.empty()) readSpec(options);
     if (options.params.empty()) throw Error("--params is required; run 'rig-learn --help' for usage");
     // Bad outputs and flags are reported before any work.
-    app::checkOutputFile(options.output, "approximation.yaml");
+    if (options.outputGiven) app::checkOutputFile(options.output, "approximation.yaml");
     if (options.reportGiven) app::checkOutputFile(options.reportJson, "report.json", "--report-json");
+    if (!options.writeSpec.empty()) app::checkOutputFile(options.writeSpec, "spec.yaml", "--write-spec");
     const std::vector<app::NamedFile> outputs{{"-o", options.output},
-                                              {"--report-json", options.reportGiven ? options.reportJson : ""}};
+                                              {"--report-json", options.reportGiven ? options.reportJson : ""},
+                                              {"--write-spec", options.writeSpec}};
     app::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
     app::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
     job.held = options.held;
@@ -309,10 +356,13 @@ int run(Options& options)
     job.options.relativeFrames = !options.worldSpace;
     job.options.perOutput = !options.noPerOutput;
     job.options.threads = options.threads;
+    if (!options.outputGiven) return writeSpecOnly(options, job);
     job.rigLoaded = [&](const GraphRigFunction& rig) {
         std::vector<app::NamedFile> read;
         for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
         app::checkDistinctFiles(read, outputs);
+        if (!options.writeSpec.empty())
+            app::writeFileAtomically(options.writeSpec, app::autoSpecText(rig, options.rig));
     };
     app::ProgressBar bar("learning");
     job.options.progress = [&](std::string_view stage, double fraction) {
@@ -368,13 +418,17 @@ int main(int argc, char** argv)
         "Parameters are free keyable plugs named by globs; outputs are joints (default: all). Angles are\n"
         "degrees in the report, radians in the file. See docs/rig-learn.md.",
         "rig-learn"};
-    app.add_option("rig", options.rig, "Rig graph file (YAML)");
-    app.add_option("--params", options.params,
-                   "Parameter plug globs, e.g. 'L_arm_*.rotate?' 'hips.translate?' (one or more; repeatable)");
+    app.add_option("rig", options.rig, "Rig file: a YAML rig or a Maya ASCII scene");
+    app.add_option(
+        "--params", options.params,
+        "Parameter plug globs, e.g. 'L_arm_*.rotate?' 'hips.translate?' (one or more; repeatable); 'auto' in "
+        "a Maya scene: the keyable, unlocked channels of its controls that move an output");
     app.add_option("--spec", options.spec,
                    "YAML file with 'params:', 'outputs:' and 'helpers:' lists of globs (or 'helpers: auto'), added to "
                    "--params, --outputs and --helpers, and a 'set:' map of held plugs, added to --set");
-    app.add_option("--outputs", options.outputs, "Output joint-name globs (default: every joint of the rig)");
+    app.add_option("--outputs", options.outputs,
+                   "Output joint-name globs (default: every joint of a YAML rig; 'auto', a Maya scene's default: the "
+                   "joints its skinClusters bind, or every joint where none binds one)");
     app.add_option("--helpers", options.helpers,
                    "Helper frames: transforms or joints that are not outputs (IK goals, pole objects, aim targets), "
                    "learned but never targets, by name globs (repeatable; without --helpers or --auto-helpers "
@@ -390,7 +444,12 @@ int main(int argc, char** argv)
                    "Hold a plug at a value while learning, not inverted: PLUG=VALUE in the rig file's units, e.g. "
                    "L_leg_settings.ikFk=1 (repeatable; wins over the spec's 'set:')")
         ->allow_extra_args(false);
-    app.add_option("-o,--output", options.output, "Approximation file to write (YAML)")->required();
+    app.add_option("-o,--output", options.output,
+                   "Approximation file to write (YAML); required unless --write-spec is given, which then writes the "
+                   "spec alone");
+    app.add_option("--write-spec", options.writeSpec,
+                   "Write the parameters, outputs and held plugs chosen (what 'auto' found) as a spec to edit and "
+                   "learn with --spec");
     app.add_option("--epsilon", options.epsilon,
                    "Validation threshold, cm of frame-point error per unit of a parameter (default 0.001)");
     app.add_option("--orderer", options.orderer,
@@ -415,6 +474,7 @@ int main(int argc, char** argv)
         ->allow_extra_args(false);
     return rig::cli::runMain(app, argc, argv, [&] {
         options.epsilonGiven = app.count("--epsilon") > 0;
+        options.outputGiven = app.count("--output") > 0;
         options.reportGiven = app.count("--report-json") > 0;
         return rig::run(options);
     });

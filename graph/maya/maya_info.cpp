@@ -52,6 +52,25 @@ void readSkins(const Scene& scene, const std::function<std::string(int)>& graphN
     }
 }
 
+void readControls(const Scene& scene, const std::function<std::string(int)>& graphName, MayaSceneInfo& info)
+{
+    std::vector<char> isControl(scene.nodes.size(), 0);
+    for (const Node& n : scene.nodes) {
+        if (n.type != "nurbsCurve" || n.parent < 0) continue;
+        // A deformed curve's original shape (".io" yes) is hidden: it makes no control of its transform.
+        const bool intermediate = std::any_of(n.sets.begin(), n.sets.end(), [](const SetAttr& set) {
+            return (set.plug == "io" || set.plug == "intermediateObject") && set.values.size() == 1 &&
+                   (set.values.front().text == "yes" || set.values.front().text == "on" ||
+                    set.values.front().text == "true" || set.values.front().text == "1");
+        });
+        if (!intermediate) isControl[static_cast<std::size_t>(n.parent)] = 1;
+    }
+    for (std::size_t i = 0; i < scene.nodes.size(); ++i)
+        if (isControl[i])
+            if (std::string name = graphName(static_cast<int>(i)); !name.empty())
+                info.controls.push_back(std::move(name));
+}
+
 }  // namespace maya
 
 std::string mayaStatsText(const MayaSceneInfo& info)

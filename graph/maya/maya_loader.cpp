@@ -52,8 +52,9 @@ public:
         readTimeCurves();
         wireIk();
         checkReachesNoJoint();
-        maya::readSkins(
-            scene_, [this](int n) { return graphNode(n) < 0 ? std::string() : name(graphNode(n)); }, info_);
+        const auto graphName = [this](int n) { return graphNode(n) < 0 ? std::string() : name(graphNode(n)); };
+        maya::readSkins(scene_, graphName, info_);
+        maya::readControls(scene_, graphName, info_);
         info_.nodes = graph_->nodeCount();
         info_.connections = static_cast<int>(graph_->connections().size());
         graph_->setTime(info_.savedTime);

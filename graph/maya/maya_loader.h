@@ -66,6 +66,8 @@ struct MayaSceneInfo {
         std::optional<bool> keyable, locked, channelBox;
     };
     std::map<std::string, PlugState> plugStates;
+    // The graph nodes with a nurbsCurve shape (an animator's controls), in scene order (rig-learn --params auto).
+    std::vector<std::string> controls;
     std::vector<std::string> warnings;                  // one line each (a missing reference)
     std::map<std::string, int> skippedStatements;       // by command
     std::map<std::string, int> notEvaluatedTypes;       // nodes kept out of the graph, by Maya type

@@ -678,7 +678,16 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
           "twistShare and blend");
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restReach: 3\n") ==
           "f.yaml:18:5: constraints[0]: unknown field 'restReach'; the fields are kind, goal, root, restPole, shape, "
-          "anchor, pole, restNormal, worldUp");
+          "anchor, pole, restNormal, worldUp, orient, origin");
+    // An output turning as another: the orient output and the origin come together.
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n",
+                         "    restPole: [0, 55, 40]\n    orient: \"goal\"\n    origin: [0, 1, 2]\n") == "(no error)");
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    orient: \"goal\"\n") ==
+          "f.yaml:13:5: constraints[0]: the field 'origin' is missing");
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    origin: [0, 1, 2]\n") ==
+          "f.yaml:18:13: constraints[0].origin: an origin belongs to a chain with an orient output; remove it");
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    orient: \"elbow\"\n") ==
+          "f.yaml:18:13: constraints[0].orient: 'elbow' is not one of the outputs");
     // A chain without a pole output may keep its up in the world's axes: a boolean.
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    worldUp: true\n") ==
           "(no error)");

@@ -136,7 +136,7 @@ TEST_CASE("twist share: the base's velocity equals central differences, stretche
         const double h = 1e-6;
         const auto baseAt = [&](double t) {
             return constraintBase(base, moved(velocities[0], t, worlds[0]), moved(velocities[1], t, worlds[1]),
-                                  moved(velocities[2], t, worlds[2]));
+                                  moved(velocities[2], t, worlds[2]), Eigen::Matrix4d::Identity());
         };
         const Eigen::Matrix4d numeric = (baseAt(h) - baseAt(-h)) / (2.0 * h) * at.base.inverse();
         CHECK((analytic - numeric.topRows<3>()).cwiseAbs().maxCoeff() < 1e-6 * std::max(1.0, analytic.norm()));

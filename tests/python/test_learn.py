@@ -190,3 +190,18 @@ def test_numpy_numbers_are_numbers_and_bad_arguments_are_one_line_errors(tmp_pat
     # An int past the largest double is infinite, refused as rig-learn refuses --epsilon inf.
     raises_like("rig-learn", [BIPED, "--params", *params, "--epsilon", "inf", "-o", "/dev/null"],
                 lambda: riginv.learn(BIPED, params=params, epsilon=10**400))
+
+
+def test_auto_on_a_maya_scene_learns_as_rig_learn(tmp_path):
+    """params=["auto"] is rig-learn --params auto; a Maya scene's outputs are auto by default, as rig-learn's."""
+    scene = "tests/corpus/maya/auto_controls.ma"
+    cli_file, cli_json = tmp_path / "auto.yaml", tmp_path / "report.json"
+    code, _, _ = run("rig-learn", scene, "--params", "auto", "-o", cli_file, "--report-json", cli_json,
+                     "--allow-inexact")
+    assert code == 0
+    approx = riginv.learn(scene, params=["auto"])
+    assert approx.parameters == read_json(cli_json)["modelled"]
+    assert "elbow.rotateZ" in approx.parameters  # keyed by a time curve: cut, and learned
+    assert approx.held == {"arm_ctrl.mode": 1.0}
+    approx.save(tmp_path / "py.yaml", allow_inexact=True)
+    assert approximation_file(tmp_path / "py.yaml") == approximation_file(cli_file)
