@@ -126,6 +126,48 @@ TEST_CASE("maya clip: an animation scene of the project's arm inverts exactly, a
     CHECK(test::readFile(in("keys.ma")).size() < text.size());
 }
 
+TEST_CASE("maya clip: a rig scene keyed in place: OUT.ma disconnects its curves, so that the recovered ones drive it")
+{
+    const auto dir = test::scratchDir("maya_clip_keyed");
+    for (const char* scene : {"arm_keyed.ma", "arm_keyed_anim.ma"})
+        fs::copy_file(test::sourceDir() / "tests/corpus/maya" / scene, dir / scene);
+    const auto inDir = [&](const std::string& command) {
+        return test::run(fmt::format("cd '{}' && {}", dir.string(), command));
+    };
+    // The controls its own curves key are parameters all the same (the learner cuts the curves).
+    REQUIRE(inDir(fmt::format("{} arm_keyed.ma --params root_ctrl.translateX shoulder_ctrl.rotateZ elbow_ctrl.rotateZ "
+                              "-o a.yaml",
+                              test::tool("rig-learn")))
+                .exitCode == 0);
+    // The clip: an animation scene that disconnects the rig's curves (edits naming the attributes by their long names,
+    // the rig's connectAttr by their short ones) and drives the controls with its own.
+    const auto inverted =
+        inDir(fmt::format("{} a.yaml --rig arm_keyed.ma --clip arm_keyed_anim.ma -o out.ma --report-json r.json",
+                          test::tool("rig-invert")));
+    INFO(inverted.err);
+    REQUIRE(inverted.exitCode == 0);
+    const YAML::Node report = YAML::LoadFile((dir / "r.json").string());
+    CHECK(report["status_frames"]["reached"].as<int>() == 20);
+    for (const auto& control : report["scene_curves"]) CHECK(control.second["worst_difference"].as<double>() < 1e-9);
+
+    const std::string text = test::readFile(dir / "out.ma");
+    // The namespace is the animation scene's.
+    CHECK(text.find("\nfile -r -ns \"hero\" -rfn \"heroRN\" \"arm_keyed.ma\";\n") != std::string::npos);
+    CHECK(text.find("\n\t\t4 \"hero:elbow_ctrl_rotateZ.o\" \"|hero:arm_rig|hero:elbow_ctrl.rz\" \"\"\n") !=
+          std::string::npos);
+    // The joints compared by their names without namespaces ("hero:elbow_jnt" in the clip and OUT.ma, "elbow_jnt" in
+    // the rig).
+    const auto bare = [&](const char* scene) {
+        TargetClip clip = readMayaClip(dir / scene, {});
+        for (auto& joint : clip.joints) joint = withoutNamespaces(joint);
+        return clip;
+    };
+    const TargetClip clip = bare("arm_keyed_anim.ma");
+    CHECK(replayError(clip, bare("out.ma")).positionCm < 1e-9);
+    // Without the disconnections, the rig's own curves would play: 65.9 cm away at frame 1.
+    CHECK(replayError(clip, bare("arm_keyed.ma")).positionCm > 60.0);
+}
+
 TEST_CASE("maya clip: C_Robot_Run.ma inverted on C_Robot_Rig.ma, and OUT.ma replays it within the reported error")
 {
     const fs::path folder = test::sourceDir() / "../shared/maya/sweet4lorie__MonsterRobotRunner/ART/C_Robot";
