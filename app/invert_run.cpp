@@ -10,11 +10,13 @@
 #include "app/contacts_run.h"
 #include "app/frame_range.h"
 #include "core/error.h"
+#include "graph/rig_file.h"
 #include "inversion/approximation_io.h"
 #include "inversion/hybrid_solve.h"
 #include "inversion/residual_term.h"
 #include "inversion/rig_binding.h"
 #include "inversion/solver.h"
+#include "nodes/clips/maya_clip.h"
 #include "nodes/clips/retarget.h"
 
 namespace rig::app {
@@ -159,7 +161,21 @@ RigBinding bindRig(const InvertJob& job, const Approximation& approximation, Gra
 TargetClip readTargets(const InvertJob& job, const Approximation& approximation, TargetMap* mapOut)
 {
     const TargetMap map = job.map.empty() ? TargetMap{} : readTargetMap(job.map);
-    TargetClip clip = job.targets ? applyTargetMap(*job.targets, map) : readTargetClip(job.clip, map, job.take);
+    TargetClip clip;
+    if (job.targets) {
+        clip = applyTargetMap(*job.targets, map);
+    } else if (job.frames && job.take.empty() && isMayaFile(job.clip)) {
+        // A Maya scene's clip reaches the frames asked for, past its playback range or not.
+        const auto range = parseFrameRange(*job.frames, "--frames");
+        clip = readMayaClip(job.clip, map, std::pair{range.first, range.last});
+    } else {
+        clip = readTargetClip(job.clip, map, job.take);
+    }
+    // A scene that references the rig names its joints under the reference's namespace.
+    std::vector<std::string> joints;
+    for (const auto& output : approximation.outputs)
+        if (!output.helper) joints.push_back(output.name);
+    matchNamespaces(clip, joints);
     if (map.retarget.enabled) clip = retargetClip(clip, map, rigSkeleton(approximation));
     if (mapOut) *mapOut = map;
     return clip;

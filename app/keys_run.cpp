@@ -23,11 +23,11 @@ const RigParameter& parameter(const InvertOutcome& outcome, std::size_t p)
     return outcome.approximation->parameters[p].parameter;
 }
 
-// A curve of the .anim file for parameter `p`, named as Maya names its plug, without keys.
-AnimFileCurve animCurveFor(const InvertOutcome& outcome, std::size_t p)
+}  // namespace
+
+AnimFileCurve plugCurve(const Graph& graph, const std::string& name)
 {
-    const Graph& graph = outcome.rig->graph();
-    const Plug plug = graph.plug(parameter(outcome, p).name);
+    const Plug plug = graph.plug(name);
     const AttributeSpec& spec = graph.spec(plug);
     AnimFileCurve curve;
     curve.node = graph.nodeName(plug.node);
@@ -42,6 +42,8 @@ AnimFileCurve animCurveFor(const InvertOutcome& outcome, std::size_t p)
                                                  : AnimQuantity::unitless;
     return curve;
 }
+
+namespace {
 
 // Keys in user units (degrees, cm), as files hold them.
 std::vector<AnimKey> userKeys(const RigParameter& p, const std::vector<AnimKey>& keys)
@@ -138,6 +140,19 @@ std::string keyedCurvesCsv(const InvertOutcome& outcome, const KeysOutcome& keys
     return out;
 }
 
+std::vector<AnimFileCurve> outputCurves(const InvertOutcome& outcome, const KeysOutcome* keys, TangentType tangent)
+{
+    const auto frames = reportedFrames(outcome);
+    const auto dense = keys ? std::vector<std::vector<AnimKey>>{} : denseKeys(frames, outcome.values, tangent);
+    std::vector<AnimFileCurve> curves;
+    for (std::size_t p = 0; p < outcome.approximation->parameters.size(); ++p) {
+        AnimFileCurve curve = plugCurve(outcome.rig->graph(), parameter(outcome, p).name);
+        curve.keys = userKeys(parameter(outcome, p), keys ? keys->keyed.keys[p] : dense[p]);
+        curves.push_back(std::move(curve));
+    }
+    return curves;
+}
+
 std::string curvesAnim(const InvertOutcome& outcome, const KeysOutcome* keys, TangentType tangent)
 {
     const auto frames = reportedFrames(outcome);
@@ -147,12 +162,7 @@ std::string curvesAnim(const InvertOutcome& outcome, const KeysOutcome* keys, Ta
         if (const auto unit = mayaTimeUnit(1.0 / outcome.clip.frameTime)) file.timeUnit = *unit;
     file.startTime = frames.front();
     file.endTime = frames.back();
-    const auto dense = keys ? std::vector<std::vector<AnimKey>>{} : denseKeys(frames, outcome.values, tangent);
-    for (std::size_t p = 0; p < outcome.approximation->parameters.size(); ++p) {
-        AnimFileCurve curve = animCurveFor(outcome, p);
-        curve.keys = userKeys(parameter(outcome, p), keys ? keys->keyed.keys[p] : dense[p]);
-        file.curves.push_back(std::move(curve));
-    }
+    file.curves = outputCurves(outcome, keys, tangent);
     return formatAnimFile(file);
 }
 

@@ -46,6 +46,12 @@ KeysOutcome keyCurves(const InvertOutcome& outcome, const KeySettings& settings,
 std::string keyedCurvesJson(const InvertOutcome& outcome, const KeysOutcome& keys);
 std::string keyedCurvesCsv(const InvertOutcome& outcome, const KeysOutcome& keys);
 
+// The curve of a plug of `graph` as Maya names the plug (node, attribute, angular, linear or unitless), without keys.
+AnimFileCurve plugCurve(const Graph& graph, const std::string& plug);
+// Per parameter, its curve as Maya names the plug (node, attribute, angular, linear or unitless) with its keys in user
+// units (cm, degrees): the keys when given, else a key at every frame with `tangent`.
+std::vector<AnimFileCurve> outputCurves(const InvertOutcome& outcome, const KeysOutcome* keys, TangentType tangent);
+
 // The curves as a Maya .anim file: the keys when given, else a key at every frame with `tangent`.
 std::string curvesAnim(const InvertOutcome& outcome, const KeysOutcome* keys, TangentType tangent);
 

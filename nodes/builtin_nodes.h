@@ -8,6 +8,7 @@
 
 #include "graph/node_registry.h"
 #include "graph/value.h"
+#include "nodes/anim_curve_math.h"
 
 namespace rig {
 
@@ -21,6 +22,8 @@ std::shared_ptr<const NodeType> makeTimeType();
 std::shared_ptr<const NodeType> makeCharacterType();  // nodes/curves: Maya's character set (docs/maya.md)
 // animCurveTU, animCurveTA, animCurveTL, animCurveTT, animCurveUU, animCurveUA, animCurveUL, animCurveUT.
 std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName);
+// Maya's code of a tangent type in a scene's animCurve (.kit, .kot: 18 for auto, 9 for spline, ...).
+int mayaTangentCode(TangentType type);
 
 std::shared_ptr<const NodeType> makeMultiplyDivideType();
 std::shared_ptr<const NodeType> makePlusMinusAverageType();

@@ -10,6 +10,7 @@
 #include "app/html_report.h"
 #include "app/invert_run.h"
 #include "app/keys_run.h"
+#include "app/maya_scene_output.h"
 #include "app/output_file.h"
 #include "app/progress_bar.h"
 #include "core/error.h"
@@ -33,7 +34,8 @@ struct Options : app::InversionInputs {
     std::string html;
 };
 
-void printReport(const Options& o, const app::InvertOutcome& outcome, const app::KeysOutcome* keys)
+void printReport(const Options& o, const app::InvertOutcome& outcome, const app::KeysOutcome* keys,
+                 const std::vector<app::SceneCurveDifference>& sceneCurves)
 {
     const Approximation& a = *outcome.approximation;
     const TargetClip& clip = outcome.clip;
@@ -103,23 +105,27 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
     std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
                              s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
     if (keys) std::cout << app::keysText(outcome, *keys);
+    std::cout << app::sceneCurvesText(sceneCurves);
     std::cout << fmt::format("curves            {}\n", o.output);
     if (!o.html.empty()) std::cout << fmt::format("report page       {}\n", o.html);
 }
 
 // The curves, the report and the page of one run, given to `files`, which commits them together.
 void setOutputs(app::OutputFiles& files, const Options& o, const app::InvertOutcome& outcome,
-                const app::KeysOutcome* keys, TangentType tangent, const std::string& threeJs)
+                const app::KeysOutcome* keys, TangentType tangent, const std::string& threeJs,
+                const std::vector<app::SceneCurveDifference>& sceneCurves)
 {
     const auto extension = std::filesystem::path(o.output).extension();
     std::string curves;
     if (extension == ".anim") curves = app::curvesAnim(outcome, keys, tangent);
+    else if (extension == ".ma") curves = app::curvesMayaScene(outcome, keys, tangent, o.rig, o.output);
     else if (extension == ".csv") curves = keys ? app::keyedCurvesCsv(outcome, *keys) : app::curvesCsv(outcome);
     else curves = keys ? app::keyedCurvesJson(outcome, *keys) : app::curvesJson(outcome);
     if (!o.reportJson.empty()) {
         app::Json report =
             app::invertReport(outcome, o.approximation, o.rig, o.clip, o.output, app::fingerprintText(curves));
         if (keys) report["keys"] = app::keysReport(outcome, *keys);
+        if (outcome.clip.scene) report["scene_curves"] = app::sceneCurvesJson(sceneCurves);
         files.set(o.reportJson, app::jsonText(report, 2) + "\n");
     }
     files.set(o.output, std::move(curves));
@@ -131,9 +137,10 @@ int run(const Options& o)
     // Everything that can be checked before the work is.
     app::checkOutputFile(o.output, "curves.json");
     const auto extension = std::filesystem::path(o.output).extension();
-    if (extension != ".json" && extension != ".csv" && extension != ".anim")
-        throw Error(
-            fmt::format("-o {}: the curves are written as .json, .csv or .anim (Maya); give one of those", o.output));
+    if (extension != ".json" && extension != ".csv" && extension != ".anim" && extension != ".ma")
+        throw Error(fmt::format("-o {}: the curves are written as .json, .csv, .anim or .ma (Maya); give one of those",
+                                o.output));
+    if (extension == ".ma") app::checkMayaSceneOutput(o.rig, o.output);
     app::OutputFiles files;
     files.add(o.output, "curves.json");
     if (!o.reportJson.empty()) files.add(o.reportJson, "report.json", "--report-json");
@@ -171,10 +178,11 @@ int run(const Options& o)
     }
     const app::KeysOutcome* keyed = keys ? &*keys : nullptr;
 
-    setOutputs(files, o, outcome, keyed, tangent, threeJs);
+    const auto sceneCurves = app::sceneCurveDifferences(outcome);
+    setOutputs(files, o, outcome, keyed, tangent, threeJs, sceneCurves);
     files.commit();
     const ClipInversionSummary& summary = outcome.summary;
-    if (!o.quiet) printReport(o, outcome, keyed);
+    if (!o.quiet) printReport(o, outcome, keyed, sceneCurves);
     // Measured as wrong: never an exit code of success.
     if (summary.failedFrames() > 0) {
         std::cerr << "error: "
@@ -211,8 +219,9 @@ int main(int argc, char** argv)
     app.add_option("approximation", options.approximation, "Approximation file written by rig-learn")->required();
     app.add_option("--rig", options.rig, "The rig file the approximation was learned from")->required();
     app.add_option("--clip", options.clip,
-                   "Targets: a BVH file, an animation assimp reads (FBX, glTF, Collada, X, ...: docs/clips.md), or a "
-                   ".json file of world matrices (graph-eval); read by content")
+                   "Targets: a BVH file, an animation assimp reads (FBX, glTF, Collada, X, ...: docs/clips.md), a "
+                   "Maya ASCII scene (its joints over its playback range), or a .json file of world matrices "
+                   "(graph-eval); read by content")
         ->required();
     app.add_option("--take", options.take,
                    "The clip file's animation to invert: a name or 0-based index (default: the first)")
@@ -220,7 +229,8 @@ int main(int argc, char** argv)
     app.add_option("--map", options.map, "Map file: scale of the clip and target-to-rig joint names");
     app.add_option("--frames", options.frames, "Frames A:B of the clip, inclusive, in the clip's numbering");
     app.add_option("-o,--output", options.output,
-                   "Curves to write: .json, .csv or .anim (Maya's animImportExport), angles in degrees")
+                   "Curves to write: .json, .csv, .anim (Maya's animImportExport), angles in degrees, or .ma (a Maya "
+                   "scene that references the rig's scene and drives its controls)")
         ->required();
     app.add_option("--report-json", options.reportJson, "Write the report as JSON to this file");
     const rig::cli::SolveFlags solveFlags(app, rig::app::SolveSettings{});

@@ -49,6 +49,7 @@ public:
         readMessages();
         wireDag();  // first: DAG parenting is what a scene is, a stray connection must not close a cycle with it
         connectAll();
+        readTimeCurves();
         wireIk();
         checkReachesNoJoint();
         const auto graphName = [this](int n) { return graphNode(n) < 0 ? std::string() : name(graphNode(n)); };
@@ -451,8 +452,67 @@ private:
     // Connections out of outputs first, then those out of inputs: Maya evaluates per attribute, this engine per node,
     // and an input-to-input connection that would close a node-level cycle can be fed instead (connectOrFeed) only
     // when it is the one that closes it.
+    // Connections that a disconnectAttr or a reference edit removes: the same plugs, whichever of Maya's names spell
+    // them (an edit writes "ctrl.translateX" where the file's connectAttr wrote "ctrl.tx").
+    void dropDisconnected()
+    {
+        for (const maya::Connection& d : scene_.disconnections)
+            std::erase_if(scene_.connections, [&](const maya::Connection& c) {
+                return samePlug(c.source, d.source) && samePlug(c.destination, d.destination);
+            });
+    }
+
+    bool samePlug(const std::string& a, const std::string& b) const
+    {
+        if (a == b) return true;
+        const auto [nodeA, attrA] = maya::splitPlug(a);
+        const auto [nodeB, attrB] = maya::splitPlug(b);
+        if (nodeA != nodeB) return false;  // both are paths from the world, as the reader writes them
+        int n = -1;
+        try {
+            n = scene_.find(nodeA);
+        }
+        catch (const Error&) {
+            return false;
+        }
+        const NodeId g = graphNode(n);
+        if (g < 0) return false;
+        const auto plugA = resolve(g, splitAttr(attrA));
+        const auto plugB = resolve(g, splitAttr(attrB));
+        return plugA && plugB && *plugA == *plugB;
+    }
+
+    // The connections out of time curves, with the graph plug each drives (MayaSceneInfo::timeCurves).
+    void readTimeCurves()
+    {
+        const auto find = [&](const std::string& plug) {
+            try {
+                return scene_.find(maya::splitPlug(plug).first);
+            }
+            catch (const Error&) {
+                return -1;
+            }
+        };
+        for (const maya::Connection& c : scene_.connections) {
+            const int curve = find(c.source);
+            if (curve < 0 || !node(curve).type.starts_with("animCurveT")) continue;
+            MayaSceneInfo::TimeCurve t{node(curve).name, c.source, c.destination, ""};
+            std::string driven = c.destination;
+            if (const int dst = find(driven); dst >= 0 && node(dst).type == "unitConversion")
+                for (const maya::Connection& out : scene_.connections)
+                    if (find(out.source) == dst) driven = out.destination;
+            const int dst = find(driven);
+            if (const NodeId g = graphNode(dst); g >= 0)
+                if (const auto plug = resolve(g, splitAttr(maya::splitPlug(driven).second));
+                    plug && graph_->incomingConnection(*plug))
+                    t.plug = graph_->plugName(*plug);
+            info_.timeCurves.push_back(std::move(t));
+        }
+    }
+
     void connectAll()
     {
+        dropDisconnected();
         std::vector<const maya::Connection*> selfConnections;
         collectCharacterInputs();
         std::vector<const maya::Connection*> fromOutputs, fromInputs;
@@ -937,13 +997,23 @@ void Builder::checkReachesNoJoint()
 }
 
 std::unique_ptr<Graph> buildGraph(Scene& scene, std::shared_ptr<NodeRegistry> registry, MayaSceneInfo& info,
-                                  const std::vector<std::string>& missingNamespaces)
+                                  const maya::ReadResult& read)
 {
     info.skippedStatements = scene.skipped;
     info.playbackRange = scene.playbackRange;
-    info.framesPerSecond = scene.units.front().framesPerSecond;
+    const maya::Units& units = scene.units.front();
+    info.framesPerSecond = units.framesPerSecond;
+    info.linearUnit = units.linear;
+    info.angularUnit = units.angle;
+    info.timeUnit = units.time;
+    info.linearToCm = units.linearToCm;
+    info.angleToDegrees = units.angleToDegrees;
+    for (std::size_t r = 0; r < scene.references.size(); ++r) {
+        const maya::Reference& ref = scene.references[r];
+        if (ref.where.file == 0) info.references.push_back({ref.path, read.referenceFiles[r], ref.nameSpace, ref.node});
+    }
     Builder builder(scene, std::move(registry), info);
-    builder.missingNamespaces_ = missingNamespaces;
+    builder.missingNamespaces_ = read.missingNamespaces;
     return builder.build();
 }
 
@@ -963,7 +1033,7 @@ std::unique_ptr<Graph> loadMayaFile(const std::filesystem::path& file, std::shar
     maya::Scene scene;
     const maya::ReadResult read = maya::readSceneFile(scene, file, options.searchPath, out.warnings);
     if (filesRead) *filesRead = read.files;
-    return buildGraph(scene, std::move(registry), out, read.missingNamespaces);
+    return buildGraph(scene, std::move(registry), out, read);
 }
 
 std::unique_ptr<Graph> loadMayaText(std::string_view text, const std::string& fileName,
@@ -975,7 +1045,7 @@ std::unique_ptr<Graph> loadMayaText(std::string_view text, const std::string& fi
     out = MayaSceneInfo{};
     maya::Scene scene;
     const maya::ReadResult read = maya::readSceneText(scene, text, fileName, options.searchPath, out.warnings);
-    return buildGraph(scene, std::move(registry), out, read.missingNamespaces);
+    return buildGraph(scene, std::move(registry), out, read);
 }
 
 }  // namespace rig

@@ -30,6 +30,27 @@ struct MayaSceneInfo {
     double savedTime = 0.0;  // time1.outTime: the frame the scene was saved at
     std::optional<std::pair<double, double>> playbackRange;
     double framesPerSecond = 24.0;
+    // The scene's own units (its currentUnit), as Maya names them: what its values are written in.
+    std::string linearUnit = "centimeter", angularUnit = "degree", timeUnit = "film";
+    double linearToCm = 1.0, angleToDegrees = 1.0;  // their factors
+    // The references the scene itself makes (not those of the files it references).
+    struct Reference {
+        std::string path;            // as written
+        std::filesystem::path file;  // the file read for it; empty where it was not found
+        std::string nameSpace;       // -ns
+        std::string node;            // -rfn: the reference node
+    };
+    std::vector<Reference> references;
+    // Each connection out of a time curve (animCurveTA/TL/TU/TT): the curves an animator keyed.
+    struct TimeCurve {
+        std::string curve;  // the curve node's name with its namespace ("hero:L_arm_ctrl_rotateX")
+        // The connection as a disconnectAttr names it: node paths from the world, attributes as the file spelled them.
+        std::string source, destination;
+        // The graph's plug the curve drives, directly or through a unitConversion ("L_arm_ctrl.rotateX"); "" where it
+        // drives none (a character set, a node kept out of the graph).
+        std::string plug;
+    };
+    std::vector<TimeCurve> timeCurves;
     // The rotate (degrees, in the joint's rotate order) Maya saved on each joint an IK solver writes: Maya's answer at
     // savedTime.
     std::map<std::string, Eigen::Vector3d> savedIkRotate;

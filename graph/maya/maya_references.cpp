@@ -89,7 +89,10 @@ public:
         ancestry_.push_back({});
         canonical_.push_back(file.empty() ? std::filesystem::path() : std::filesystem::weakly_canonical(file));
         result_.files.push_back(file);
-        for (std::size_t r = 0; r < scene_.references.size(); ++r) readReference(r);
+        for (std::size_t r = 0; r < scene_.references.size(); ++r) {
+            result_.referenceFiles.resize(scene_.references.size());
+            readReference(r);
+        }
         applyEdits();
         readPlaybackRange();
         return result_;
@@ -133,6 +136,7 @@ private:
         if (scene_.files.size() >= maxReferences)
             throw Error(fmt::format("{}: more than {} references", formatWhere(scene_, ref.where), maxReferences));
         readOne(readText(*found), found->string(), ref.nameSpace);
+        result_.referenceFiles[r] = *found;
         ancestry_.push_back(std::move(ancestry));
         canonical_.push_back(*found);
         result_.files.push_back(*found);
@@ -278,12 +282,11 @@ void SceneReader::applyEdits()
         p = it->second;
         return true;
     };
+    // The disconnections are applied by the loader, which knows each attribute's names (an edit spells "translateX"
+    // what the file's connectAttr spelled "tx").
     std::vector<Connection> kept;
     for (Connection c : scene_.connections)
         if (substitute(c.source) && substitute(c.destination)) kept.push_back(std::move(c));
-    for (const Connection& d : scene_.disconnections)
-        std::erase_if(kept,
-                      [&](const Connection& c) { return c.source == d.source && c.destination == d.destination; });
     scene_.connections = std::move(kept);
 }
 

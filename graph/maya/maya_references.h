@@ -17,6 +17,8 @@ namespace rig::maya {
 struct ReadResult {
     std::vector<std::filesystem::path> files;    // the scene, then each reference read
     std::vector<std::string> missingNamespaces;  // references not found: connections into them are dropped
+    // Per entry of Scene::references, the file read for it ("" where it was not found).
+    std::vector<std::filesystem::path> referenceFiles;
 };
 
 // Throws rig::Error for a file that is not Maya ASCII (a binary .mb says so), a malformed statement or a reference

@@ -14,8 +14,10 @@
 
 #include "core/error.h"
 #include "core/input_file.h"
+#include "graph/rig_file.h"
 #include "nodes/clips/assimp_clip.h"
 #include "nodes/clips/bvh.h"
+#include "nodes/clips/maya_clip.h"
 
 namespace rig {
 namespace {
@@ -519,6 +521,12 @@ TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& ma
             fmt::format("{}: is a folder; give a clip file (BVH, FBX, glTF, Collada, ..., or .json of world "
                         "matrices)",
                         file.string()));
+    if (isMayaFile(file)) {
+        if (!take.empty() && take != "0")
+            throw Error(fmt::format("{}: no take '{}'; a Maya scene is one clip, its playback range; leave --take out",
+                                    file.string(), messageExcerpt(take, 60)));
+        return readMayaClip(file, map);
+    }
     // A JSON clip's file is read as before BVH and assimp came to share this path (its messages name it).
     const bool jsonByName = file.extension() == ".json";
     const std::string text = jsonByName ? readText(file, "JSON clip") : readInputFile(file, clipFileKind(file));
@@ -549,6 +557,8 @@ TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map)
     out.file = clip.file;
     out.frameNumbers = clip.frameNumbers;
     out.frameTime = clip.frameTime;
+    out.source = clip.source;
+    out.scene = clip.scene;
     const auto kept = applyMap(clip.joints, clip.file, map, out.joints);
     out.parents = keptParents(clip.parents, kept);
     if (!clip.restWorlds.empty())

@@ -25,12 +25,15 @@
 
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
+
+#include "graph/maya/maya_loader.h"
 
 namespace rig {
 
@@ -70,6 +73,14 @@ TargetMap readTargetMap(const std::filesystem::path& file);
 // The same from a map file's text; `fileName` is used in messages.
 TargetMap parseTargetMap(std::string_view text, const std::string& fileName);
 
+// What a clip read from a Maya scene holds beside its joints (nodes/clips/maya_clip.h).
+struct ClipScene {
+    MayaSceneInfo info;  // the scene's units, frame rate, references and time curves
+    // Per entry of info.timeCurves, the value the curve gives its plug at each frame of the clip, in internal units
+    // (radians, cm); empty where it drives no plug of the graph.
+    std::vector<std::vector<double>> curveValues;
+};
+
 struct TargetClip {
     std::string file;                                  // as given, for messages
     std::vector<std::string> joints;                   // rig joint names (after the map), file order
@@ -85,12 +96,13 @@ struct TargetClip {
     // What the file is and how it was normalised (ClipSource::describe: format, unit factor, up axis, take), for
     // reports; "" for targets made in memory.
     std::string source;
+    std::shared_ptr<const ClipScene> scene;  // a Maya scene's clip: what the scene holds beside its joints; else null
 };
 
-// Reads a target clip and applies the map. What the file is comes from its content: BVH text ("HIERARCHY"), a
-// JSON list of frames ('[', or '{' without glTF's "asset"), anything else through assimp. `take`: the
-// animation to read from a file that has several (a name or 0-based index; "": the first); a BVH or JSON file
-// has one, 0.
+// Reads a target clip and applies the map. What the file is comes from its content: a Maya ASCII scene
+// ("//Maya ASCII": nodes/clips/maya_clip.h), BVH text ("HIERARCHY"), a JSON list of frames ('[', or '{' without glTF's
+// "asset"), anything else through assimp. `take`: the animation to read from a file that has several (a name or 0-based
+// index; "": the first); a BVH or JSON file has one, 0.
 TargetClip readTargetClip(const std::filesystem::path& file, const TargetMap& map, const std::string& take = "");
 // A .json clip from its text; `fileName` is used in messages.
 TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileName, const TargetMap& map);
@@ -99,8 +111,9 @@ TargetClip parseJsonTargetClip(std::string_view text, const std::string& fileNam
 // trailing text as more of the file, or ignore them). Throws rig::Error "FILE:LINE:COL: JSON syntax error: WHAT;
 // SHAPE", SHAPE saying what the file holds ("a JSON clip is one list of frames, as graph-eval writes it").
 void checkStrictJson(std::string_view text, const std::string& file, std::string_view shape);
-// Targets made in memory (the Python module's arrays), with the map applied as to a file's joints:
-// `clip.joints` and `clip.worlds` are the given names and matrices, `clip.file` names them in messages.
+// Targets made in memory (the Python module's arrays, a Maya scene's joints), with the map applied as to a file's
+// joints: `clip.joints` and `clip.worlds` are the given names and matrices, `clip.file` names them in messages; the
+// rest of `clip` is kept.
 TargetClip applyTargetMap(const TargetClip& clip, const TargetMap& map);
 
 }  // namespace rig

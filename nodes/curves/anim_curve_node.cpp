@@ -447,6 +447,13 @@ void addMayaFields(NodeTypeBuilder& b, Unit outUnit)
 
 }  // namespace
 
+int mayaTangentCode(TangentType type)
+{
+    for (const MayaTangentCode& entry : mayaTangentCodes)
+        if (entry.type == type) return entry.code;
+    throw internalError(fmt::format("no Maya code for tangent type {}", tangentTypeName(type)));
+}
+
 std::shared_ptr<const NodeType> makeAnimCurveType(const char* typeName)
 {
     const std::string name(typeName);

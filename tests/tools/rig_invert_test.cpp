@@ -304,7 +304,7 @@ TEST_CASE("rig-invert: bad input is one line and exit code 2, and leaves outputs
     expectError(base + " --frames 5:9 -o " + out,
                 fmt::format("--frames 5:9: {} has no frame 5 (its frames are 1 to 3)", clip.string()));
     expectError(base + " -o " + (dir / "out.txt").string(),
-                fmt::format("-o {}: the curves are written as .json, .csv or .anim (Maya); give one of those",
+                fmt::format("-o {}: the curves are written as .json, .csv, .anim or .ma (Maya); give one of those",
                             (dir / "out.txt").string()));
     expectError(fmt::format("{} --rig rigs/examples/arm.yaml --clip {} -o {}", (dir / "none.yaml").string(),
                             clip.string(), out),
