@@ -186,10 +186,15 @@ bool ConstraintFitter::sweepFor(const ConstraintBase& base, const std::vector<in
     }
     Sweep& made = sweeps_[{base.goal, anchorOrPole}];
     sweep = &made;
-    // Each parameter's first-order effect on the goal, from its smallest first sample.
+    // Each parameter's first-order effect on the goal, from its smallest first sample. Those that carry the goal
+    // without turning it (its control's translations) are swept alone where they span the line: a turn of a control
+    // whose pivot is away from the goal moves it further per unit, so that a least-norm sweep would take the turn,
+    // and the goal would leave the line and come round.
     const auto& rest = probe_.rest();
     const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(base.goal)].block<3, 1>(0, 3);
+    const Eigen::Matrix3d restTurn = rest[static_cast<std::size_t>(base.goal)].block<3, 3>(0, 0);
     std::vector<Eigen::Vector3d> columns;
+    std::vector<char> turns;
     for (const int i : varied) {
         const ParameterSamples& sample = samples_[static_cast<std::size_t>(i)];
         if (!std::binary_search(sample.moved.begin(), sample.moved.end(), base.goal)) continue;
@@ -201,15 +206,21 @@ bool ConstraintFitter::sweepFor(const ConstraintBase& base, const std::vector<in
             if (a != 0.0 && (smallest == 0.0 || std::abs(a) < std::abs(smallest))) smallest = a;
         if (smallest == 0.0) continue;
         made.parameters.push_back(i);
-        columns.push_back((sample.world(base.goal, smallest, rest).block<3, 1>(0, 3) - restGoal) / smallest);
+        const Eigen::Matrix4d& moved = sample.world(base.goal, smallest, rest);
+        columns.push_back((moved.block<3, 1>(0, 3) - restGoal) / smallest);
+        turns.push_back((moved.block<3, 3>(0, 0) - restTurn).norm() > 1e-9 * std::abs(smallest));
     }
     if (made.parameters.empty()) return false;
-    Eigen::MatrixXd j(3, static_cast<Eigen::Index>(columns.size()));
-    for (std::size_t c = 0; c < columns.size(); ++c) j.col(static_cast<Eigen::Index>(c)) = columns[c];
     const Eigen::Vector3d along = (restGoal - base.root).normalized();
-    made.direction = j.completeOrthogonalDecomposition().solve(along);
-    if (!((j * made.direction - along).norm() < 1e-6)) made.parameters.clear();
-    return !made.parameters.empty();
+    for (const bool withTurns : {false, true}) {
+        Eigen::MatrixXd j = Eigen::MatrixXd::Zero(3, static_cast<Eigen::Index>(columns.size()));
+        for (std::size_t c = 0; c < columns.size(); ++c)
+            if (withTurns || !turns[c]) j.col(static_cast<Eigen::Index>(c)) = columns[c];
+        made.direction = j.completeOrthogonalDecomposition().solve(along);
+        if ((j * made.direction - along).norm() < 1e-6) return true;
+    }
+    made.parameters.clear();
+    return false;
 }
 
 const std::vector<Eigen::Matrix4d>& ConstraintFitter::sweepAt(Sweep& sweep, double t)
