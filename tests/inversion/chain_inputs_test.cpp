@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 #include <random>
 
+#include "ik_arm.h"
 #include "inversion/approximation.h"
 #include "inversion/approximation_io.h"
 #include "inversion/constraint.h"
@@ -25,43 +26,27 @@
 namespace rig {
 namespace {
 
-// A two-bone IK arm without stretch whose hand takes its IK control's rotation (an orientConstraint with the control
-// aligned to the hand at rest), with a finger below the hand.
-const std::string orientArm = R"(nodes:
-  - {name: root_ctrl, type: transform, translate: [0, 140, 0]}
-  - {name: clavicle, type: joint, parent: root_ctrl, translate: [5, 0, 0]}
-  - {name: shoulder, type: joint, parent: clavicle, translate: [15, 0, 0]}
-  - {name: elbow, type: joint, parent: shoulder}
-  - {name: hand, type: joint, parent: elbow, rotateOrder: zxy}
-  - {name: finger, type: joint, parent: hand, translate: [8, 1, 0]}
-  - {name: arm_ik_ctrl, type: transform, translate: [65, 130, 0], rotate: [0, 0, -11.3], rotateOrder: zxy}
-  - {name: arm_pole_ctrl, type: transform, translate: [45, 140, -40]}
-  - {name: arm_ik, type: ikHandle, startTranslate: [15, 0, 0], midTranslate: [30, 0, 0], endTranslate: [28, 0, -0.01]}
-  - {name: arm_pv, type: poleVectorConstraint, constraintRotatePivot: [15, 0, 0]}
-  - {name: hand_orient, type: orientConstraint, constraintRotateOrder: zxy}
-connections:
-  - clavicle.worldMatrix -> arm_ik.startParentMatrix
-  - clavicle.scale -> arm_ik.startInverseScale
-  - arm_ik_ctrl.worldMatrix -> arm_ik.goalMatrix
-  - arm_pole_ctrl.worldMatrix -> arm_pv.targetMatrix[0]
-  - clavicle.worldMatrix -> arm_pv.pivotSpace
-  - arm_pv.constraintTranslate -> arm_ik.poleVector
-  - arm_ik.startRotate -> shoulder.rotate
-  - arm_ik.midRotate -> elbow.rotate
-  - arm_ik.outMidTranslate -> elbow.translate
-  - arm_ik.outEndTranslate -> hand.translate
-  - arm_ik_ctrl.worldMatrix -> hand_orient.targetMatrix[0]
-  - elbow.worldInverseMatrix -> hand_orient.constraintParentInverseMatrix
-  - hand_orient.constraintRotate -> hand.rotate
-)";
+// tests/inversion/ik_arm.h's arm (a two-bone IK without stretch) whose wrist takes its IK control's rotation through
+// an orientConstraint, with a finger below the wrist.
+std::string orientArm()
+{
+    std::string rig = test::ikArm;
+    rig.insert(rig.find("connections:\n"),
+               "  - {name: finger, type: joint, parent: wrist, translate: [8, 1, 0]}\n"
+               "  - {name: wrist_orient, type: orientConstraint}\n");
+    return rig +
+           "  - arm_ik_ctrl.worldMatrix -> wrist_orient.targetMatrix[0]\n"
+           "  - elbow.worldInverseMatrix -> wrist_orient.constraintParentInverseMatrix\n"
+           "  - wrist_orient.constraintRotate -> wrist.rotate\n";
+}
 
 struct LearnedOrientArm {
     std::filesystem::path file =
-        test::writeFile(test::scratchDir(fmt::format("chain-inputs.{}", ::getpid())) / "orient_arm.yaml", orientArm);
+        test::writeFile(test::scratchDir(fmt::format("chain-inputs.{}", ::getpid())) / "orient_arm.yaml", orientArm());
     GraphRigFunction rig{file, [] {
                              GraphRigOptions options{{"root_ctrl.translate?", "arm_ik_ctrl.translate?",
                                                       "arm_ik_ctrl.rotate?", "arm_pole_ctrl.translate?"},
-                                                     {"clavicle", "shoulder", "elbow", "hand", "finger"},
+                                                     {"clavicle", "shoulder", "elbow", "wrist", "finger"},
                                                      {},
                                                      {}};
                              options.autoHelpers = true;
@@ -139,16 +124,16 @@ TEST_CASE("chain inputs: an IK hand orient-constrained to its control is a plana
     const Approximation& a = learnedOrientArm().approximation;
     CHECK_FALSE(a.hasUnmodelledOutputs());
     CHECK(a.validation.withinEpsilon);
-    const ApproximationOutput& hand = a.outputs[static_cast<std::size_t>(test::outputIndex(a, "hand"))];
+    const ApproximationOutput& hand = a.outputs[static_cast<std::size_t>(test::outputIndex(a, "wrist"))];
     REQUIRE(hand.constraint >= 0);
     const ConstraintBase& c = a.constraints[static_cast<std::size_t>(hand.constraint)];
     CHECK(c.kind == ConstraintKind::planarChain);
     CHECK(a.outputs[static_cast<std::size_t>(c.orient)].name == "arm_ik_ctrl");
     CHECK(a.outputs[static_cast<std::size_t>(c.goal)].name == "arm_ik_ctrl");
     CHECK((c.origin - hand.rest.block<3, 1>(0, 3)).norm() < 1e-12);
-    // The finger is the hand's child again once the hand is modelled.
+    // The finger is the wrist's child again once the wrist is modelled.
     const ApproximationOutput& finger = a.outputs[static_cast<std::size_t>(test::outputIndex(a, "finger"))];
-    CHECK(finger.parent == test::outputIndex(a, "hand"));
+    CHECK(finger.parent == test::outputIndex(a, "wrist"));
 
     // The file keeps the orient output and the origin: the same worlds after a round trip.
     const Approximation back = approximationFromYaml(approximationToYaml(a), "orient_arm.approx.yaml");
