@@ -8,7 +8,8 @@
 // the effector at the goal's distance from the start joint (2 bones: Maya's rotate-plane closed form, the mid
 // joint turning about (start->mid) x (mid->effector)); the start joint then turns the effector onto the goal by
 // the smallest rotation, then (ikRPsolver) about start->goal until the chain's plane holds the pole vector (its
-// normal kept from the reference pose where the goal is past the chain's reach and the solve straightens it),
+// normal kept from the reference pose where the goal is past the chain's reach and the solve straightens it, from
+// the preferred angles' pose where the reference is straight too),
 // then by the twist. Each world turn D_i is taken into joint i's rotate space, R_i' = (B_i^-1 D_i B_i) R_i,
 // B_i the frame its rotate acts in (the product-of-exponentials form of the chain: exact for rigid and uniformly
 // scaled chains).
@@ -287,7 +288,26 @@ struct Goal {
 // The start joint's turn: the effector onto the goal by the smallest rotation, then (rotate plane) about
 // start->goal until the chain's plane (start->mid; past 2 bones, the sum of the joints' offsets from the start)
 // holds the pole vector on its side, then by the twist.
-Eigen::Matrix3d startTurn(const Pose& pose, const std::vector<Turn>& bends, const Goal& goal)
+// The normal of a posed chain's plane (its joints' offsets from the start against the effector's), zero where the
+// chain is straight.
+Eigen::Vector3d planeNormal(const Pose& pose)
+{
+    Eigen::Vector3d offsets = Eigen::Vector3d::Zero();
+    for (std::size_t k = 1; k < pose.position.size(); ++k) offsets += pose.position[k] - pose.position[0];
+    return offsets.cross(pose.effector - pose.position[0]);
+}
+
+// A straight reference chain's plane: its preferred angles' (Maya's rule), carried by the start joint from the
+// preferred pose into the reference pose.
+Eigen::Vector3d preferredNormal(const Chain& chain, const Pose& pose)
+{
+    std::vector<Eigen::Vector3d> preferred;
+    for (const ChainJoint& j : chain.joints) preferred.push_back(j.preferred);
+    const Pose preferredPose = forward(chain, preferred);
+    return pose.world[0] * preferredPose.world[0].inverse() * planeNormal(preferredPose);
+}
+
+Eigen::Matrix3d startTurn(const Chain& chain, const Pose& pose, const std::vector<Turn>& bends, const Goal& goal)
 {
     const std::size_t n = pose.position.size();
     const Eigen::Vector3d start = pose.position[0];
@@ -311,11 +331,8 @@ Eigen::Matrix3d startTurn(const Pose& pose, const std::vector<Turn>& bends, cons
     // The chain's plane by its normal, which a chain straightened past its reach keeps from its reference pose (as
     // Maya's does: a straight arm still turns with its pole vector); h x (turn n) is the plane's side of h.
     Eigen::Vector3d normal = plane.cross(toEffector);
-    if (!(normal.norm() > parallelTolerance * scale * scale)) {
-        Eigen::Vector3d reference = Eigen::Vector3d::Zero();
-        for (std::size_t k = 1; k < n; ++k) reference += pose.position[k] - start;
-        normal = reference.cross(pose.effector - start);
-    }
+    if (!(normal.norm() > parallelTolerance * scale * scale)) normal = planeNormal(pose);
+    if (!(normal.norm() > parallelTolerance * scale * scale)) normal = preferredNormal(chain, pose);
     const Eigen::Vector3d side = h.cross(turn * normal);
     const Eigen::Vector3d pole = perpendicular(goal.pole, h);
     if (side.squaredNorm() > 0.0 && pole.squaredNorm() > 0.0)
@@ -341,7 +358,7 @@ std::vector<Eigen::Matrix3d> solve(const Chain& chain, const Goal& goal)
         if (f.bent)
             bends = bendTurns(pose, f, n == 2 ? twoBoneScale(pose, f, distance) : chainScale(pose, f, distance));
     }
-    bends[0].rotation = startTurn(pose, bends, goal);
+    bends[0].rotation = startTurn(chain, pose, bends, goal);
     std::vector<Eigen::Matrix3d> out;
     for (std::size_t i = 0; i < n; ++i) {
         const Eigen::Matrix3d& b = pose.frame[i];

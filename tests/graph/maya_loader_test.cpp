@@ -213,6 +213,34 @@ TEST_CASE("maya scene: a two-bone ikRPsolver chain reaches its handle and keeps 
     CHECK((mat(*g, "j1.worldMatrix").block<3, 3>(0, 0) - quarter * up).norm() < 1e-9);
 }
 
+TEST_CASE("maya scene: a chain straight at rest turns with its pole vector in its preferred angles' plane")
+{
+    // Straight along x; j2's preferred angle bends it toward +y. The goal past the reach keeps it straight: the pole
+    // a quarter turn about x turns the chain a quarter turn, as the plane its preferred angles give is turned.
+    const std::string scene =
+        header +
+        "createNode joint -n \"j1\";\n"
+        "createNode joint -n \"j2\" -p \"j1\";\n\tsetAttr \".t\" -type \"double3\" 5 0 0 ;\n"
+        "\tsetAttr \".pa\" -type \"double3\" 0 0 90 ;\n"
+        "createNode joint -n \"j3\" -p \"j2\";\n\tsetAttr \".t\" -type \"double3\" 3 0 0 ;\n"
+        "createNode ikEffector -n \"effector1\" -p \"j2\";\n"
+        "createNode ikHandle -n \"ikHandle1\";\n"
+        "\tsetAttr \".t\" -type \"double3\" 20 0 0 ;\n"
+        "\tsetAttr \".pv\" -type \"double3\" 0 1 0 ;\n"
+        "createNode ikRPsolver -n \"ikRPsolver\";\n"
+        "connectAttr \"j1.s\" \"j2.is\";\nconnectAttr \"j2.s\" \"j3.is\";\n"
+        "connectAttr \"j3.tx\" \"effector1.tx\";\nconnectAttr \"j3.ty\" \"effector1.ty\";\n"
+        "connectAttr \"j3.tz\" \"effector1.tz\";\n"
+        "connectAttr \"j1.msg\" \"ikHandle1.hsj\";\nconnectAttr \"effector1.hp\" \"ikHandle1.hee\";\n"
+        "connectAttr \"ikRPsolver.msg\" \"ikHandle1.hsv\";\n";
+    auto g = load(scene);
+    const Eigen::Matrix3d up = mat(*g, "j1.worldMatrix").block<3, 3>(0, 0);
+    CHECK((mat(*g, "j3.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(8, 0, 0)).norm() < 1e-9);
+    g->setValue(g->plug("ikHandle1.poleVector"), Eigen::Vector3d(0, 0, 1));
+    const Eigen::Matrix3d quarter = Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    CHECK((mat(*g, "j1.worldMatrix").block<3, 3>(0, 0) - quarter * up).norm() < 1e-9);
+}
+
 TEST_CASE("maya references: namespaces, placeholder edits, setAttr edits, a missing one, a loop")
 {
     const auto dir = test::scratchDir("maya_references");
