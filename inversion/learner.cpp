@@ -543,6 +543,16 @@ std::vector<ParameterSamples> firstSamples(RigPool& pool, std::size_t count, con
     return samples;
 }
 
+// Output k framed by a constraint's base from now on: what the base reads is no longer idle, and k hangs from no
+// parent output.
+void adopt(RigProbe& probe, RigState& state, int k, const ConstraintBase& base)
+{
+    for (const int input : base.frameInputs())
+        if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
+    probe.constraints[k] = base;
+    probe.parents[static_cast<std::size_t>(k)] = -1;
+}
+
 // With perOutput, an output with a parent output (`hierarchy`) where a pair has neither order, relative or in
 // world space, is non-compositional: it is set apart, in world space. True when one was.
 bool setApartConflicts(const Pass& pass, const LearnOptions& options, const std::vector<int>& hierarchy,
@@ -632,10 +642,7 @@ bool constrainOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, Co
         std::string why;
         const std::optional<ConstraintBase> base = fitter.fit(k, state, why);
         if (!base) continue;
-        for (const int input : base->frameInputs())
-            if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
-        probe.constraints[k] = *base;
-        probe.parents[static_cast<std::size_t>(k)] = -1;
+        adopt(probe, state, k, *base);
         changed = true;
     }
     return changed;
@@ -658,9 +665,7 @@ bool twistOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, Constr
             continue;
         const std::optional<ConstraintBase> base = fitter.twistShare(k, state);
         if (!base) continue;
-        for (const int input : base->frameInputs())
-            if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
-        chain->second = *base;
+        adopt(probe, state, k, *base);
         changed = true;
     }
     return changed;
@@ -678,10 +683,7 @@ bool twistWhereUnfitted(RigProbe& probe, RigState& state, ConstraintFitter& fitt
         if (!state.nonCompositional[i] || probe.constraints.contains(k) || !retried.insert(k).second) continue;
         const std::optional<ConstraintBase> base = fitter.twistShare(k, state);
         if (!base) continue;
-        for (const int input : base->frameInputs())
-            if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
-        probe.constraints[k] = *base;
-        probe.parents[i] = -1;
+        adopt(probe, state, k, *base);
         state.nonCompositional[i] = 0;
         changed = true;
     }
@@ -727,10 +729,7 @@ bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hi
             history.constraint[k] = why;
             continue;
         }
-        for (const int input : base->frameInputs())
-            if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
-        probe.constraints[k] = *base;
-        probe.parents[i] = -1;
+        adopt(probe, state, k, *base);
         state.nonCompositional[i] = 0;
         changed = true;
         changedNow.insert(k);
