@@ -176,26 +176,49 @@ TEST_CASE("maya scene: bad input is one line with file:line:col")
           mb.string() + ": a Maya binary scene (.mb) is not read; save it as Maya ASCII (.ma)");
 }
 
+namespace {
+
+// A two-bone ikRPsolver chain j1 -> j2 -> j3 (5 and 3 cm along x), j2's extra attribute lines `j2Lines`, its
+// handle at `handleAt` with its pole vector along +y.
+std::string ikChainScene(const std::string& j2Lines, const std::string& handleAt)
+{
+    return header +
+           "createNode joint -n \"j1\";\n"
+           "createNode joint -n \"j2\" -p \"j1\";\n\tsetAttr \".t\" -type \"double3\" 5 0 0 ;\n" +
+           j2Lines +
+           "createNode joint -n \"j3\" -p \"j2\";\n\tsetAttr \".t\" -type \"double3\" 3 0 0 ;\n"
+           "createNode ikEffector -n \"effector1\" -p \"j2\";\n"
+           "createNode ikHandle -n \"ikHandle1\";\n"
+           "\tsetAttr \".t\" -type \"double3\" " +
+           handleAt +
+           " ;\n"
+           "\tsetAttr \".pv\" -type \"double3\" 0 1 0 ;\n"
+           "createNode ikRPsolver -n \"ikRPsolver\";\n"
+           "connectAttr \"j1.s\" \"j2.is\";\nconnectAttr \"j2.s\" \"j3.is\";\n"
+           "connectAttr \"j3.tx\" \"effector1.tx\";\nconnectAttr \"j3.ty\" \"effector1.ty\";\n"
+           "connectAttr \"j3.tz\" \"effector1.tz\";\n"
+           "connectAttr \"j1.msg\" \"ikHandle1.hsj\";\nconnectAttr \"effector1.hp\" \"ikHandle1.hee\";\n"
+           "connectAttr \"ikRPsolver.msg\" \"ikHandle1.hsv\";\n";
+}
+
+// That chain with its handle at (20, 0, 0), past its reach: straight along x, and a pole vector a quarter turn about
+// x (+y to +z) turns it a quarter turn.
+void checkStraightChainTurnsWithPole(Graph& g)
+{
+    const Eigen::Matrix3d up = mat(g, "j1.worldMatrix").block<3, 3>(0, 0);
+    CHECK((mat(g, "j3.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(8, 0, 0)).norm() < 1e-9);
+    g.setValue(g.plug("ikHandle1.poleVector"), Eigen::Vector3d(0, 0, 1));
+    const Eigen::Matrix3d quarter = Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+    CHECK((mat(g, "j1.worldMatrix").block<3, 3>(0, 0) - quarter * up).norm() < 1e-9);
+}
+
+}  // namespace
+
 TEST_CASE("maya scene: a two-bone ikRPsolver chain reaches its handle and keeps its saved pose as a fixed point")
 {
     // A chain bent in its XY plane; the handle saved at the effector (the end joint at (4, 3, 0): the rest pose is
     // Maya's answer), then moved: the end joint follows it.
-    const std::string scene =
-        header +
-        "createNode joint -n \"j1\";\n"
-        "createNode joint -n \"j2\" -p \"j1\";\n\tsetAttr \".t\" -type \"double3\" 5 0 0 ;\n"
-        "\tsetAttr \".r\" -type \"double3\" 0 0 90 ;\n"
-        "createNode joint -n \"j3\" -p \"j2\";\n\tsetAttr \".t\" -type \"double3\" 3 0 0 ;\n"
-        "createNode ikEffector -n \"effector1\" -p \"j2\";\n"
-        "createNode ikHandle -n \"ikHandle1\";\n"
-        "\tsetAttr \".t\" -type \"double3\" 5 3 0 ;\n"
-        "\tsetAttr \".pv\" -type \"double3\" 0 1 0 ;\n"
-        "createNode ikRPsolver -n \"ikRPsolver\";\n"
-        "connectAttr \"j1.s\" \"j2.is\";\nconnectAttr \"j2.s\" \"j3.is\";\n"
-        "connectAttr \"j3.tx\" \"effector1.tx\";\nconnectAttr \"j3.ty\" \"effector1.ty\";\n"
-        "connectAttr \"j3.tz\" \"effector1.tz\";\n"
-        "connectAttr \"j1.msg\" \"ikHandle1.hsj\";\nconnectAttr \"effector1.hp\" \"ikHandle1.hee\";\n"
-        "connectAttr \"ikRPsolver.msg\" \"ikHandle1.hsv\";\n";
+    const std::string scene = ikChainScene("\tsetAttr \".r\" -type \"double3\" 0 0 90 ;\n", "5 3 0");
     MayaSceneInfo info;
     auto g = load(scene, &info);
     CHECK(info.savedIkRotate.count("j2") == 1);
@@ -206,39 +229,16 @@ TEST_CASE("maya scene: a two-bone ikRPsolver chain reaches its handle and keeps 
     // Past its reach the chain is straight, and still turns with its pole vector about the line to the goal: the
     // plane keeps the reference pose's normal (a pole a quarter turn about x turns the chain a quarter turn).
     g->setValue(g->plug("ikHandle1.translate"), Eigen::Vector3d(20, 0, 0));
-    const Eigen::Matrix3d up = mat(*g, "j1.worldMatrix").block<3, 3>(0, 0);
-    CHECK((mat(*g, "j3.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(8, 0, 0)).norm() < 1e-9);
-    g->setValue(g->plug("ikHandle1.poleVector"), Eigen::Vector3d(0, 0, 1));
-    const Eigen::Matrix3d quarter = Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
-    CHECK((mat(*g, "j1.worldMatrix").block<3, 3>(0, 0) - quarter * up).norm() < 1e-9);
+    checkStraightChainTurnsWithPole(*g);
 }
 
 TEST_CASE("maya scene: a chain straight at rest turns with its pole vector in its preferred angles' plane")
 {
     // Straight along x; j2's preferred angle bends it toward +y. The goal past the reach keeps it straight: the pole
     // a quarter turn about x turns the chain a quarter turn, as the plane its preferred angles give is turned.
-    const std::string scene =
-        header +
-        "createNode joint -n \"j1\";\n"
-        "createNode joint -n \"j2\" -p \"j1\";\n\tsetAttr \".t\" -type \"double3\" 5 0 0 ;\n"
-        "\tsetAttr \".pa\" -type \"double3\" 0 0 90 ;\n"
-        "createNode joint -n \"j3\" -p \"j2\";\n\tsetAttr \".t\" -type \"double3\" 3 0 0 ;\n"
-        "createNode ikEffector -n \"effector1\" -p \"j2\";\n"
-        "createNode ikHandle -n \"ikHandle1\";\n"
-        "\tsetAttr \".t\" -type \"double3\" 20 0 0 ;\n"
-        "\tsetAttr \".pv\" -type \"double3\" 0 1 0 ;\n"
-        "createNode ikRPsolver -n \"ikRPsolver\";\n"
-        "connectAttr \"j1.s\" \"j2.is\";\nconnectAttr \"j2.s\" \"j3.is\";\n"
-        "connectAttr \"j3.tx\" \"effector1.tx\";\nconnectAttr \"j3.ty\" \"effector1.ty\";\n"
-        "connectAttr \"j3.tz\" \"effector1.tz\";\n"
-        "connectAttr \"j1.msg\" \"ikHandle1.hsj\";\nconnectAttr \"effector1.hp\" \"ikHandle1.hee\";\n"
-        "connectAttr \"ikRPsolver.msg\" \"ikHandle1.hsv\";\n";
+    const std::string scene = ikChainScene("\tsetAttr \".pa\" -type \"double3\" 0 0 90 ;\n", "20 0 0");
     auto g = load(scene);
-    const Eigen::Matrix3d up = mat(*g, "j1.worldMatrix").block<3, 3>(0, 0);
-    CHECK((mat(*g, "j3.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(8, 0, 0)).norm() < 1e-9);
-    g->setValue(g->plug("ikHandle1.poleVector"), Eigen::Vector3d(0, 0, 1));
-    const Eigen::Matrix3d quarter = Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
-    CHECK((mat(*g, "j1.worldMatrix").block<3, 3>(0, 0) - quarter * up).norm() < 1e-9);
+    checkStraightChainTurnsWithPole(*g);
 }
 
 TEST_CASE("maya references: namespaces, placeholder edits, setAttr edits, a missing one, a loop")
