@@ -127,6 +127,7 @@ LearnOutcome learn(const LearnJob& job)
     if (job.rigLoaded) job.rigLoaded(rig);
     LearnOutcome out;
     out.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
+    out.absoluteTolerance = job.options.absoluteTolerance;
     out.rigParameters = rig.parameters().size();
     out.rigOutputs = rig.outputs().size();
     out.autoChoice = rig.autoChoice();
@@ -301,6 +302,7 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                 {"approximation", approximation ? Json(*approximation) : Json()},
                 {"fingerprint", a.rigFingerprint},
                 {"epsilon", numberJson(a.epsilon)},
+                {"absolute_tolerance_cm", numberJson(outcome.absoluteTolerance)},
                 {"orderer", a.training.orderer},
                 {"parameters", outcome.rigParameters},
                 {"outputs", outcome.rigOutputs},

@@ -68,7 +68,8 @@ struct LearnOutcome {
     double loadSeconds = 0.0;          // loading the rig
     // The non-compositional outputs with why (what the learner measured; the approximation file does not hold it).
     std::vector<UnmodelledOutput> unmodelled;
-    AutoChoice autoChoice{};  // what auto chose, and the time curves cut
+    AutoChoice autoChoice{};         // what auto chose, and the time curves cut
+    double absoluteTolerance = 0.0;  // cm: what sampled curves were refined to (LearnOptions::absoluteTolerance)
 };
 
 // A parameter's form as the approximation holds it, from its operators (the learner's classification, `form`,

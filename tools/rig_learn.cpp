@@ -160,8 +160,9 @@ std::string validationText(const app::LearnOutcome& learned)
     // Epsilon bounds the error per unit moved, not the error of a pose that moves many parameters far: said on the
     // line whose figure may be above epsilon, so that the two read together.
     out += fmt::format(
-        "  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm (whole poses; epsilon is per unit moved)\n",
-        v.maxPositionErrorCm, v.worstOutput, v.worstPose, v.meanPositionErrorCm);
+        "  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm (whole poses; epsilon is per unit moved; "
+        "sampled curves refined to {:g} cm)\n",
+        v.maxPositionErrorCm, v.worstOutput, v.worstPose, v.meanPositionErrorCm, learned.absoluteTolerance);
     out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg,
                        v.meanRotationErrorDeg);
     out += fmt::format("  per unit of the parameters moved: worst {:.3g} cm ({}), epsilon {:g} cm: {}\n",
