@@ -8,6 +8,7 @@ The docs' convention (docs/ARCHITECTURE.md, tests/):
               whatever it takes). A quoted line `...` stands for lines left out. A command that quotes an
               `error: ` line must fail as the docs say errors do: exit code 2 (bad input) or 3 (measured wrong).
   ```text     output, messages or command lines that are not meant to run (illustrations): never run.
+Every block says which it is (or its language: yaml, python, ...): an untagged block fails the test.
 A command on the line after `# untested: WHY` is not run (WHY says why: it takes minutes, it needs your own files).
 
 The commands run from a copy of the checkout's files (a fresh clone's layout) whose build/bin and build/python are the
@@ -56,9 +57,10 @@ def commands_of(doc, text):
     for match in FENCE.finditer(text):
         kind, body = match.group(1), match.group(2)
         line = text.count("\n", 0, match.start()) + 2
+        if kind == "":
+            found.append((line, "untagged", body.splitlines()[0] if body else "", [], None))
+            continue
         if kind not in ("sh", "console"):
-            if kind == "" and re.search(r"^\$ ", body, re.M):
-                found.append((line, "untagged", body.splitlines()[0], [], None))
             continue
         untested = None
         lines = logical_lines(body)
@@ -137,8 +139,8 @@ def run_doc(doc, tree, env, have_shared):
     for line, kind, command, expected, untested in commands_of(doc.name, doc.read_text()):
         where = f"{doc.relative_to(tree)}:{line}"
         if kind == "untagged":
-            failures.append(f"{where}: a block shows `$ ` commands without a tag: mark it ```console (run and "
-                            f"checked) or ```text (not run)")
+            failures.append(f"{where}: a block without a tag: mark it ```sh or ```console (run and checked), "
+                            f"```text (not run) or its language")
             continue
         if untested is not None or command.split("#")[0].strip() in NOT_RUN:
             skipped += 1
