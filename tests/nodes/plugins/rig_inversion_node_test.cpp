@@ -415,7 +415,8 @@ TEST_CASE("rigInversion: with hybrid on, the biped's IK legs give rig-invert --h
 }
 
 TEST_CASE(
-    "rigInversion: with `rig` its status is rig-invert's, model mismatches included; without, the approximation's")
+    "rigInversion: with `rig` its status is rig-invert's, model mismatches included, and without it the "
+    "approximation's")
 {
     if (!fs::exists(test::cmuClip)) {
         MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
