@@ -129,7 +129,7 @@ struct MismatchFix {
 // What a run that measured a failed frame says before exiting with code 3 (after "error: "): the count, the
 // first one (`frameNumber`: its number in the clip), its status and joint, and what it means: for a model mismatch
 // where a parameter left its learned range, which, and the rig-learn flags that learn the range the clip uses.
-std::string failedFramesLine(const ClipInversionSummary& summary, double frameNumber, const MismatchFix& fix = {});
+std::string failedFramesLine(const ClipInversionSummary& summary, double frameNumber, const MismatchFix& fix);
 // A first failure's parameter outside its learned range in the reports (rig-invert's, rig-batch's, Python's): its
 // name, unit ("deg", or "rig": the rig file's), learned, reached and suggested ranges (rig-learn --range); null for
 // none.
