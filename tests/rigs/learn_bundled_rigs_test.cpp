@@ -334,9 +334,11 @@ TEST_CASE("learning rigs/biped.yaml: the 79 inversion parameters within the talk
             a.validation.worstOutput, a.validation.worstPose, a.validation.meanPositionErrorCm,
             a.validation.maxRotationErrorDeg));
         // The talk's orderer tests every pair on the rig; the structured one only pairs sharing an output
-        // whose operators do not commute, within the goal of 1 000 evaluations for the whole training.
+        // whose operators do not commute, within 1 300 evaluations for the whole training (the talk's is about 3 000):
+        // 1 240 measured, the sliding knees' sampled operators refined to the absolute tolerance (LearnOptions;
+        // before it, under 1 000).
         if (orderer == Orderer::talk) CHECK(a.training.orderEvaluations == 79 * 78 / 2);
-        if (orderer == Orderer::structured) CHECK(a.training.evaluations <= 1000);
+        if (orderer == Orderer::structured) CHECK(a.training.evaluations <= 1300);
         CHECK(a.discarded.empty());
         CHECK(a.validation.withinEpsilon);
         CHECK(a.validation.poses == 60);
