@@ -4,7 +4,7 @@
 # The same names exist in the build tree as ALIAS targets, so that code links alike inside and outside.
 include(CMakePackageConfigHelpers)
 
-set(RIG_PACKAGE_TARGETS rig_core rig_graph rig_inversion rig_nodes rig_app)
+set(RIG_PACKAGE_TARGETS rig_core rig_graph rig_inversion rig_nodes rig_adapter rig_app)
 foreach(target ${RIG_PACKAGE_TARGETS})
   string(REPLACE "rig_" "" name ${target})
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})
@@ -20,7 +20,7 @@ install(TARGETS rigInversion LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
 install(TARGETS graph-eval skel2rig rig-learn rig-invert rig-batch RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # bvh2rig, skel2rig's former name, as a relative link beside it.
 install(CODE "file(CREATE_LINK skel2rig \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_BINDIR}/bvh2rig\" SYMBOLIC)")
-foreach(folder core graph inversion nodes app)
+foreach(folder core graph inversion nodes adapter app)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${folder} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/rig
           FILES_MATCHING PATTERN "*.h")
 endforeach()
