@@ -17,7 +17,6 @@
 #include "graph/rig_file.h"
 #include "graph/suggest.h"
 #include "graph/yaml_loader.h"
-#include "inversion/learn/blend_merge.h"
 #include "nodes/builtin_nodes.h"
 
 namespace rig {

@@ -15,7 +15,6 @@
 #include "app/learn/learn_run.h"
 #include "core/error.h"
 #include "core/table.h"
-#include "inversion/learn/blend_merge.h"
 #include "inversion/model/approximation_io.h"
 #include "inversion/solve/pole_hold.h"
 #include "tools/cli_common.h"

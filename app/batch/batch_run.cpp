@@ -23,7 +23,7 @@
 #include "app/common/output_file.h"
 #include "app/invert/contacts_run.h"
 #include "core/error.h"
-#include "inversion/solve/continuity.h"
+#include "inversion/clip/continuity.h"
 #include "nodes/clips/assimp_clip.h"
 
 namespace rig::app {

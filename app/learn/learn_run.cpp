@@ -13,7 +13,6 @@
 #include "core/error.h"
 #include "core/parse_number.h"
 #include "graph/rig_file.h"
-#include "inversion/learn/blend_merge.h"
 #include "inversion/solve/pole_hold.h"
 
 namespace rig::app {

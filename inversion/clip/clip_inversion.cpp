@@ -12,7 +12,7 @@
 #include "core/error.h"
 #include "core/rotation_math.h"
 #include "core/thread_clock.h"
-#include "inversion/solve/continuity.h"
+#include "inversion/clip/continuity.h"
 
 namespace rig {
 ClipTargets matchTargets(const Approximation& approximation, std::span<const std::string> joints,

@@ -9,7 +9,7 @@
 // without reporting them. Angular parameters move continuously inside a chain (the solver keeps a periodic control at
 // the equivalent value nearest its warm start, never whole turns away); a restart starts again from its targets, so the
 // values reported for each chain after the first are shifted as a whole by equivalences (whole turns, the other Euler
-// solution: inversion/solve/continuity.h) to meet the frame before it. The chain is unchanged, so chunks give, bit for
+// solution: inversion/clip/continuity.h) to meet the frame before it. The chain is unchanged, so chunks give, bit for
 // bit, the values and per-frame errors of one run over the whole clip, provided each chunk after the first continues
 // from the values reported for the frame before its lead-in (`continueFrom`).
 

@@ -10,7 +10,7 @@
 
 #include "core/error.h"
 #include "core/rotation_math.h"
-#include "inversion/solve/continuity.h"
+#include "inversion/clip/continuity.h"
 
 namespace rig {
 

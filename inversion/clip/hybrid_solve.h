@@ -13,7 +13,7 @@
 
 #include "inversion/clip/clip_inversion.h"
 #include "inversion/clip/real_rig_solve.h"
-#include "inversion/solve/continuity.h"
+#include "inversion/solve/equivalences.h"
 
 namespace rig {
 

@@ -8,7 +8,6 @@
 
 #include "core/error.h"
 #include "core/rotation_math.h"
-#include "inversion/learn/blend_merge.h"
 
 namespace rig {
 

@@ -32,24 +32,6 @@ struct SwitchBranches {
     std::vector<Switched> switched;
 };
 
-// What the targets cannot decide of a switch at a branch: with its weight at 1 the FK branch's own controls (those
-// that reach joints only through the FK copies of its blends) move no joint, and at 0 the IK branch's. A solve leaves
-// them at its warm start (Solver::solve), as pole_hold.h holds a chain's pole: minimum-norm steps would otherwise move
-// them by rounding whenever the weight left its limit by a rounding error.
-struct SwitchHold {
-    int weight = -1;           // index into Approximation::parameters
-    std::vector<int> fk;       // the FK branch's own controls: held while the weight is 1
-    std::vector<int> ik;       // the IK branch's: held while it is 0
-    std::vector<int> outputs;  // what the weight moves (Approximation::reach): a solve missing one tries the other
-                               // branch (Solver::solve)
-};
-// One per blend weight that has such controls.
-std::vector<SwitchHold> switchHolds(const Approximation& approximation);
-
-// The rig output a blend's branch copy stands for ("LeftUpLeg" for "LeftUpLeg@ik" or "LeftUpLeg@fk"); any other name
-// as it is. A copy is never a target, and the real rig has no such joint: rig-invert reads the joint in its place.
-std::string rigOutputName(const std::string& name);
-
 // The merged approximation, its held plugs the IK branch's but the weights, the parameters either branch discarded
 // and the merge does not model discarded. A switched output a branch leaves unmodelled (no helper frames, so no IK
 // chain) is not blended: it stays the IK branch's, not modelled, and its switch and the FK controls that move it

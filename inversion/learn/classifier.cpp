@@ -10,7 +10,6 @@
 
 #include "core/error.h"
 #include "core/rotation_math.h"
-#include "inversion/learn/constraint_fit.h"
 
 namespace rig {
 

@@ -11,7 +11,7 @@
 
 #include <Eigen/Core>
 
-#include "inversion/learn/learner.h"
+#include "inversion/learn/learn_options.h"
 #include "inversion/model/approximation.h"
 #include "inversion/model/constraint.h"
 #include "inversion/model/rig_function.h"

@@ -27,14 +27,10 @@
 #include <Eigen/Core>
 
 #include "inversion/learn/classifier.h"
-#include "inversion/learn/learner.h"
+#include "inversion/learn/learn_options.h"
 #include "inversion/model/constraint.h"
 
 namespace rig {
-
-// The share of epsilon per unit moved that a constraint's shape may miss by at the midpoints of its knots; the
-// classifier takes what a constraint's frame moves within it for no effect.
-inline constexpr double constraintFitShare = 0.5;
 
 // What fitting needs to know of the learner's state, and the rig evaluations it shares between outputs.
 class ConstraintFitter {

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "inversion/learn/classifier.h"
-#include "inversion/learn/learner.h"
+#include "inversion/learn/learn_options.h"
 
 namespace rig {
 

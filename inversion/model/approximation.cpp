@@ -161,4 +161,10 @@ std::vector<double> Approximation::defaults() const
     return values;
 }
 
+std::string rigOutputName(const std::string& name)
+{
+    if (name.size() > 3 && (name.ends_with("@ik") || name.ends_with("@fk"))) return name.substr(0, name.size() - 3);
+    return name;
+}
+
 }  // namespace rig

@@ -146,4 +146,9 @@ struct Approximation {
     std::vector<std::vector<int>> dependents() const;
 };
 
+// The rig output a blend's branch copy stands for ("LeftUpLeg" for "LeftUpLeg@ik" or "LeftUpLeg@fk", the copies
+// inversion/learn/blend_merge.h makes); any other name as it is. A copy is never a target, and the real rig has no
+// such joint: rig-invert reads the joint in its place.
+std::string rigOutputName(const std::string& name);
+
 }  // namespace rig

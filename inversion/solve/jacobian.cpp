@@ -81,13 +81,6 @@ constexpr double wholeDifferenceStep = 1e-6;
 
 }  // namespace
 
-std::string_view jacobianMethodName(JacobianMethod method)
-{
-    return method == JacobianMethod::analytic ? "analytic" : "finiteDifference";
-}
-
-bool nearlySingular(const Eigen::Vector3d& sigma) { return !(sigma[0] > 0) || !(sigma[2] > 1e-9 * sigma[0]); }
-
 bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTarget& prepared)
 {
     if (!target.world.topRows<3>().allFinite()) return false;

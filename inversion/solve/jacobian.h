@@ -24,12 +24,9 @@
 
 #include "inversion/model/approximation.h"
 #include "inversion/solve/residual_term.h"
+#include "inversion/solve/solver_options.h"
 
 namespace rig {
-
-enum class JacobianMethod { analytic, finiteDifference };
-
-std::string_view jacobianMethodName(JacobianMethod method);
 
 // What a solve should reach for one output of the approximation (one entry per Approximation::outputs).
 struct JointTarget {
@@ -57,10 +54,6 @@ struct PreparedTarget {
 // False when the target cannot be used: a non-finite entry or weight, a negative weight, or a 3x3
 // block too close to singular to have an orientation (smallest singular value below 1e-9 of the largest).
 bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTarget& prepared);
-
-// Whether a 3x3 block is too close to singular to have an orientation or an inverse: its singular values
-// (largest first) are not positive, or the smallest is below 1e-9 of the largest.
-bool nearlySingular(const Eigen::Vector3d& singularValues);
 
 // The six weighted residual rows of one target (the file's comment says which) for a world matrix: what a
 // black-box problem on the real rig measures, so that its cost is the solver's.

@@ -13,8 +13,8 @@
 #include <Eigen/Core>
 
 #include "inversion/model/approximation.h"
-#include "inversion/solve/continuity.h"
-#include "inversion/solve/solver.h"
+#include "inversion/solve/equivalences.h"
+#include "inversion/solve/solver_options.h"
 #include "inversion/solve/step_strategy.h"
 
 namespace rig {

@@ -17,7 +17,7 @@
 #include "core/pool.h"
 #include "inversion/model/approximation.h"
 #include "inversion/solve/block_elimination.h"
-#include "inversion/solve/continuity.h"
+#include "inversion/solve/equivalences.h"
 #include "inversion/solve/jacobian.h"
 #include "inversion/solve/minimizer.h"
 #include "inversion/solve/partition.h"

@@ -12,10 +12,10 @@
 
 #include <oneapi/tbb/task_arena.h>
 
-#include "inversion/learn/blend_merge.h"
 #include "inversion/solve/pole_hold.h"
 #include "inversion/solve/solve_plan.h"
 #include "inversion/solve/solver.h"
+#include "inversion/solve/switch_hold.h"
 
 namespace rig {
 

@@ -12,7 +12,7 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 
-#include "inversion/solve/solver.h"
+#include "inversion/solve/solver_options.h"
 
 namespace rig {
 

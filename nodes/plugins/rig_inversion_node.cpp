@@ -11,7 +11,7 @@
 // frames (t - startFrame a multiple of restartInterval); a start from rest is made a cold start
 // (Solver::initialGuess) unless `coldStart` is off, and a warm start that ends stuck after a jump in
 // cost is solved again from the guess (solveChainFrame). A chain that starts at a restart frame played in
-// order is shifted by equivalences to meet the frame before it (inversion/solve/continuity.h). rig-invert
+// order is shifted by equivalences to meet the frame before it (inversion/clip/continuity.h). rig-invert
 // follows the same rules, so the node played frame after frame gives rig-invert's curves.
 #include <cmath>
 #include <filesystem>
@@ -34,9 +34,9 @@
 #include "graph/plug_glob.h"
 #include "inversion/clip/clip_inversion.h"
 #include "inversion/clip/contacts.h"
+#include "inversion/clip/continuity.h"
 #include "inversion/clip/hybrid_solve.h"
 #include "inversion/model/approximation_io.h"
-#include "inversion/solve/continuity.h"
 #include "inversion/solve/residual_term.h"
 #include "inversion/solve/solver.h"
 #include "nodes/clips/target_clip.h"
@@ -449,7 +449,7 @@ private:
     ChainLead startLead_;  // whether the rotations lead the frame start_ starts (clip_inversion.h), as start_
     ChainFrame frame_;
     std::vector<double> solution_;  // the chain's, as solved
-    ChunkShift shift_;              // of the current chain (inversion/solve/continuity.h)
+    ChunkShift shift_;              // of the current chain (inversion/clip/continuity.h)
     std::vector<double> reported_;  // solution_ shifted: the values output
     // `contacts`: the file's ranges (scene time), each contact's hold once entered, the multipliers of the frame
     // solved and of the frame the next solve starts from (as start_ and solution_).

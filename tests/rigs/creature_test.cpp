@@ -21,7 +21,7 @@
 #include "graph/yaml_loader.h"
 #include "inversion/clip/rig_binding.h"
 #include "inversion/learn/learner.h"
-#include "inversion/solve/continuity.h"
+#include "inversion/solve/equivalences.h"
 #include "inversion/solve/solver.h"
 #include "nodes/builtin_nodes.h"
 #include "test_support.h"

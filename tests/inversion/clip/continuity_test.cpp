@@ -1,4 +1,4 @@
-// Curves without flips across restarts (inversion/solve/continuity.h): free rotate channels that wind past a
+// Curves without flips across restarts (inversion/clip/continuity.h): free rotate channels that wind past a
 // half turn and a restart inside gimbal lock are shifted by equivalences to meet the frame before, the
 // pose unchanged, and chunks continued from the frame before their lead-in equal one run bit for bit.
 #include <doctest/doctest.h>
@@ -6,7 +6,7 @@
 #include <numbers>
 
 #include "inversion/clip/clip_inversion.h"
-#include "inversion/solve/continuity.h"
+#include "inversion/clip/continuity.h"
 #include "inversion/solver_rigs.h"
 
 using namespace rig;

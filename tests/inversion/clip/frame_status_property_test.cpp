@@ -20,7 +20,7 @@
 #include "inversion/clip/rig_binding.h"
 #include "inversion/learn/learner.h"
 #include "inversion/random_fk.h"
-#include "inversion/solve/continuity.h"
+#include "inversion/solve/equivalences.h"
 #include "inversion/solver_rigs.h"
 
 using namespace rig;

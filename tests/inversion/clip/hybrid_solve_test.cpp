@@ -16,6 +16,7 @@
 #include "adapter/inversion_spec.h"
 #include "core/rotation_math.h"
 #include "inversion/clip/clip_inversion.h"
+#include "inversion/clip/continuity.h"
 #include "inversion/clip/hybrid_solve.h"
 #include "inversion/ik_arm.h"
 #include "inversion/learn/learner.h"

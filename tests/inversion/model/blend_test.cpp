@@ -23,6 +23,7 @@
 #include "inversion/solve/jacobian.h"
 #include "inversion/solve/partition.h"
 #include "inversion/solve/solver.h"
+#include "inversion/solve/switch_hold.h"
 #include "inversion/solver_rigs.h"
 #include "test_support.h"
 

@@ -1,13 +1,10 @@
 #pragma once
-// Values that give the same pose, and curves kept continuous across a chain's restarts (docs/solver.md,
-// Curves without flips).
+// Curves kept continuous across a clip's restarts (docs/solver.md, Curves without flips).
 //
-// An unlimited rotate channel repeats every whole turn, and three rotate channels of one joint (Euler
-// angles) reach each rotation twice: R1(x) R2(y) R3(z) = R1(x + pi) R2(pi - y) R3(z + pi). Inside a
-// warm-start chain the solver keeps the equivalent nearest the warm start. A restart frame starts again
-// from its targets alone, so its values may be another equivalent than the frame before it: a jump in
-// the curve, with the same pose. Each chunk of a chain (a restart frame up to the next) is therefore
-// shifted as a whole, by equivalences only, to meet the frame before it. The chain that was solved is
+// Inside a warm-start chain the solver keeps the equivalent values (inversion/solve/equivalences.h) nearest the warm
+// start. A restart frame starts again from its targets alone, so its values may be another equivalent than the frame
+// before it: a jump in the curve, with the same pose. Each chunk of a chain (a restart frame up to the next) is
+// therefore shifted as a whole, by equivalences only, to meet the frame before it. The chain that was solved is
 // unchanged, so a run that continues another chunk's output reproduces one run over both.
 
 #include <array>
@@ -15,34 +12,11 @@
 #include <vector>
 
 #include "inversion/model/approximation.h"
+#include "inversion/solve/equivalences.h"
 
 namespace rig {
 
 class RigBinding;
-
-// The period of a control whose every operator is a rotation with a linear magnitude of the same size
-// (a rotate channel, possibly read with another sign): 2 pi / |slope|. 0 when it has none (a curve
-// magnitude, a translation, a sampled operator).
-double rotationPeriod(const ModelledParameter& m);
-
-// Three periodic controls that may be Euler angles of one rotation: on the same outputs, rotations
-// through one pivot about mutually orthogonal axes. Whether they compose in a row (and which one is in
-// the middle) is for the caller to check on the pose.
-bool eulerTriple(const ModelledParameter& a, const ModelledParameter& b, const ModelledParameter& c);
-
-// Which values of an approximation's parameters give the same pose. Built once per approximation (a few
-// evaluations of it per candidate triple).
-struct Equivalences {
-    explicit Equivalences(const Approximation& approximation);
-
-    // Per parameter: x and x + period give the same pose (rotationPeriod); 0 for none and for limited
-    // controls (a limit is not periodic).
-    std::vector<double> period;
-    // Parameters that are Euler angles of one rotation, in composition order, checked on the pose: the
-    // other solution of (a, b, c) is (a + period_a / 2, 2 default_b + period_b / 2 - b, c + period_c / 2).
-    std::vector<std::array<int, 3>> triples;
-    std::vector<double> defaults;
-};
 
 // How one chunk is carried to meet the frame before it; the same for every frame of the chunk.
 struct ChunkShift {
