@@ -206,7 +206,7 @@ MergedClip mergeClip(const fs::path& folder, const BatchManifest& manifest, int 
     const std::unique_ptr<RigFunction> instance = rig.instance();
     RigBinding binding(approximation, *instance);
     PoseCheck samePose(approximation, &binding);
-    ChainContinuity continuity(equivalences, {}, &samePose);
+    ChainContinuity continuity(equivalences, {}, false, &samePose);
     std::string frames;
     for (int i = firstShard; i < endShard; ++i) {
         const BatchShard& shard = manifest.shards[static_cast<std::size_t>(i)];

@@ -430,10 +430,11 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     values.clear();
     if (solvedValues) solvedValues->clear();
     std::vector<double> current = rest;
-    // Each chunk shifted by equivalences to meet the frame before it (continuity.h), where the approximation and
-    // the real rig find the same pose; the chain itself, `current`, is what was solved.
+    // Each chunk shifted by equivalences to meet the warm frame before it (continuity.h), where the approximation and
+    // the real rig find the same pose; the chain itself, `current`, is what was solved. The frame before the lead-in
+    // (a restart frame) is a warm one unless every frame restarts.
     PoseCheck samePose(approximation, &rig);
-    ChainContinuity continuity(solver.equivalences(), options.continueFrom, &samePose);
+    ChainContinuity continuity(solver.equivalences(), options.continueFrom, options.restartInterval > 1, &samePose);
     ChainScratch chainScratch;
     ChainFrame solved;
     double previousCost = 0.0;

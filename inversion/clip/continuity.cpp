@@ -109,14 +109,15 @@ void applyShift(const Equivalences& e, const ChunkShift& shift, std::span<const 
         if (shift.turns[p] != 0.0) out[p] += shift.turns[p] * e.period[p];
 }
 
-ChainContinuity::ChainContinuity(const Equivalences& equivalences, std::span<const double> before, PoseCheck* check)
+ChainContinuity::ChainContinuity(const Equivalences& equivalences, std::span<const double> before, bool beforeWarm,
+                                 PoseCheck* check)
     : equivalences_(equivalences),
       check_(check),
       shift_(noShift(equivalences)),
       reported_(before.begin(), before.end()),
-      continuing_(!before.empty())
+      afterWarm_(!before.empty() && beforeWarm)
 {
-    if (continuing_ && before.size() != equivalences.period.size())
+    if (!before.empty() && before.size() != equivalences.period.size())
         throw Error(
             fmt::format("the frame before has {} values for {} parameters", before.size(), equivalences.period.size()));
     reported_.resize(equivalences.period.size());
@@ -125,10 +126,9 @@ ChainContinuity::ChainContinuity(const Equivalences& equivalences, std::span<con
 std::span<const double> ChainContinuity::next(std::span<const double> solved, bool restart)
 {
     if (restart)
-        shift_ =
-            continuing_ ? checkedContinuityShift(equivalences_, reported_, solved, check_) : noShift(equivalences_);
+        shift_ = afterWarm_ ? checkedContinuityShift(equivalences_, reported_, solved, check_) : noShift(equivalences_);
     applyShift(equivalences_, shift_, solved, reported_);
-    continuing_ = true;
+    afterWarm_ = !restart;
     return reported_;
 }
 

@@ -62,15 +62,19 @@ ChunkShift checkedContinuityShift(const Equivalences& equivalences, std::span<co
                                   std::span<const double> first, PoseCheck* check);
 
 // The values reported along a clip's warm-start chains: each chain, from its restart frame on, shifted as a
-// whole to meet the values reported for the frame before it. invertClip reports through it, and rig-batch
-// replays it over the chains its shards solved apart, which is why its curves equal one run's.
+// whole to meet the values reported for the frame before it where that frame was a warm one (a chain's
+// continuation, so that the curve goes on through the restart); a chain after another restart frame, or after none,
+// is reported as solved, as a clip of its own would report it (with a restart every frame, every frame as it is
+// alone, never wound by the poses before it). invertClip reports through it, and rig-batch replays it over the
+// chains its shards solved apart, which is why its curves equal one run's.
 class ChainContinuity {
 public:
     // `before`: the values reported for the frame before the first one given (the chunk before); empty:
-    // none, the first chain is reported as solved. Throws rig::Error when its size is not the
-    // parameters'. `equivalences` and `check` (may be null) must outlive this object; each chain's shift is
-    // checkedContinuityShift's.
-    ChainContinuity(const Equivalences& equivalences, std::span<const double> before, PoseCheck* check = nullptr);
+    // none. `beforeWarm`: that frame was a warm one (not a restart frame); where it was not, or there is none,
+    // the first chain is reported as solved. Throws rig::Error when its size is not the parameters'. `equivalences`
+    // and `check` (may be null) must outlive this object; each chain's shift is checkedContinuityShift's.
+    ChainContinuity(const Equivalences& equivalences, std::span<const double> before, bool beforeWarm,
+                    PoseCheck* check = nullptr);
 
     // The values to report for the next frame of the clip, from its values as solved; `restart`: that frame
     // starts a chain. Valid until the next call.
@@ -83,7 +87,7 @@ private:
     PoseCheck* check_;
     ChunkShift shift_;
     std::vector<double> reported_;
-    bool continuing_ = false;
+    bool afterWarm_ = false;  // reported_ holds a warm frame's values: a chain starting next meets them
 };
 
 }  // namespace rig

@@ -123,12 +123,34 @@ struct HingeChain {
         return std::atan2(upper.dot(axis.cross(across)), upper.dot(across));
     }
 
-    // The angle on the bending branch, phi to phi + pi, that puts the end `reach` from the start: Newton from
+    // The end of the bending branch: the angle past phi, up to phi + pi, where the end is nearest the start. A sliding
+    // mid joint can bring the end nearest a little before the fold is complete (the biped's knee, 0.2 degrees before):
+    // the branch ends there, so that the distance falls all along it and a goal nearer than any reach clamps to the
+    // nearest pose, not to the complete fold, which a goal just past that reach would jump back from.
+    double folded(double phi) const
+    {
+        const auto falling = [&](double angle) { return residual(angle, 0.0).second < 0.0; };
+        double hi = phi + std::numbers::pi;
+        if (falling(hi)) return hi;
+        // The distance rises at the complete fold: the nearest angle is where its slope changes sign, found by
+        // stepping back from the fold to a falling angle, then by bisection.
+        constexpr int steps = 64;
+        double lo = hi;
+        for (int step = 1; step <= steps && !falling(lo); ++step) lo = hi - std::numbers::pi * step / steps;
+        if (!falling(lo)) return hi;
+        for (int iteration = 0; iteration < 60 && hi - lo > 1e-15 * (1.0 + std::abs(hi)); ++iteration) {
+            const double mid = 0.5 * (lo + hi);
+            (falling(mid) ? lo : hi) = mid;
+        }
+        return lo;
+    }
+
+    // The angle on the bending branch, phi to folded(phi), that puts the end `reach` from the start: Newton from
     // the rigid hinge's closed form, kept inside a shrinking bracket (the distance falls along the branch); a
     // reach beyond the branch's ends clamps to them.
     double angle(double phi, double reach) const
     {
-        double lo = phi, hi = phi + std::numbers::pi;
+        double lo = phi, hi = folded(phi);
         if (!(residual(lo, reach).first > 0.0)) return lo;
         if (!(residual(hi, reach).first < 0.0)) return hi;
         const Eigen::Vector3d along = restLower.dot(axis) * axis;
@@ -471,7 +493,8 @@ std::shared_ptr<const NodeType> makeIkHandleType()
             "the chain. Zero (the default): the rest chain plane's normal n, Maya's rotate-plane solver. A given "
             "axis makes the IK bend the mid joint as an FK hinge about that axis does (the knee of a leg whose FK "
             "control turns about X), with the angle found by Newton's method on the branch from the straightest "
-            "chain to the fully folded one.");
+            "chain to the one whose end is nearest the start (the fully folded one, or a little before it where a "
+            "sliding mid joint brings the end nearest sooner); a nearer goal clamps to that pose.");
     b.input(MidSlide, "midSlide", ValueType::Double)
         .unit(Unit::Distance)
         .doc(

@@ -11,7 +11,8 @@
 // frames (t - startFrame a multiple of restartInterval); a start from rest is made a cold start
 // (Solver::initialGuess) unless `coldStart` is off, and a warm start that ends stuck after a jump in
 // cost is solved again from the guess (solveChainFrame). A chain that starts at a restart frame played in
-// order is shifted by equivalences to meet the frame before it (inversion/clip/continuity.h). rig-invert
+// order is shifted by equivalences to meet the frame before it where that one was warm (inversion/clip/continuity.h;
+// after another restart frame it is reported as solved, as a clip of that frame alone). rig-invert
 // follows the same rules, so the node played frame after frame gives rig-invert's curves.
 #include <cmath>
 #include <filesystem>
@@ -307,9 +308,11 @@ private:
         const double sinceStart = t - c.getDouble(startFrame);
         const bool restartFrame =
             sinceStart == std::floor(sinceStart) && std::fmod(sinceStart, static_cast<double>(interval)) == 0.0;
-        // What was reported for the frame before this one, when played in order (continuity shifts).
+        // What was reported for the frame before this one, when played in order and that frame was a warm one
+        // (continuity shifts: a chain meets a warm frame before it, never a restart frame).
         const bool advanced = !solution_.empty() && t == previousTime_ + 1.0;
-        if (advanced) before_ = reported_;
+        if (advanced && previousWarm_) before_ = reported_;
+        else if (advanced) before_.clear();
         else if (solution_.empty() || t != previousTime_) before_.clear();
         const bool chainStart = solution_.empty() || restartFrame || !(t == previousTime_ || t == previousTime_ + 1.0);
         if (chainStart) {
@@ -340,6 +343,7 @@ private:
         const SolveSummary& summary = frame_.summary;
         solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
         previousTime_ = t;
+        previousWarm_ = !chainStart;
         // A chain after a restart frame played in order meets the frame before it, as rig-invert reports it.
         // The shift is checked on the real rig where the node has one (`hybrid`), on the approximation otherwise.
         const Equivalences& equivalences = loaded_->solver->equivalences();
@@ -442,6 +446,7 @@ private:
     double scale_ = 1.0;
     std::vector<TargetWeight> weights_;  // per output, from the map
     double previousTime_ = 0.0;
+    bool previousWarm_ = false;  // the frame at previousTime_ continued a chain (was not its first frame)
     std::vector<double> start_;
     double startCost_ = retryNever;     // the cost of the frame start_ came from (retryNever: from rest)
     double solutionCost_ = retryNever;  // the cost of solution_

@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 #include <Eigen/Geometry>
 
+#include "core/rotation_math.h"
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
@@ -434,6 +435,21 @@ TEST_CASE("ikHandle: a hinge knee that slides (bendAxis, midSlide) reaches every
     CHECK((r.position("ankle") - start).normalized().dot((far - start).normalized()) > 1.0 - 1e-12);
     r.set("leg_ik.stretch", true);
     CHECK((r.position("ankle") - far).norm() < 1e-9);
+    // A goal nearer than any reach folds the leg to the pose whose ankle is nearest the hip; from there the pose moves
+    // on continuously as the goal moves out. The sliding knee brings the ankle nearest 0.2 degrees before the complete
+    // fold: a branch ending at the complete fold jumped 0.4 degrees as the goal crossed that fold's reach.
+    r.set("leg_ik.stretch", false);
+    const Eigen::Vector3d out = (v3(36, 14, 4) - start).normalized();
+    r.set("leg_ik_ctrl.translate", Eigen::Vector3d(start + 1.0 * out));
+    const double nearest = (r.position("ankle") - start).norm();
+    const Eigen::Matrix4d folded = r.mat("knee.worldMatrix");
+    for (const double beyond : {1e-9, 1e-7, 1e-5}) {
+        CAPTURE(beyond);
+        r.set("leg_ik_ctrl.translate", Eigen::Vector3d(start + (nearest + beyond) * out));
+        CHECK(std::abs((r.position("ankle") - start).norm() - (nearest + beyond)) < 1e-9);
+        CHECK(rig::orientationAngle(r.mat("knee.worldMatrix").block<3, 3>(0, 0), folded.block<3, 3>(0, 0)) <
+              std::sqrt(beyond));
+    }
     // Equal bones folded onto each other (the goal at the start, then just off it): finite, folded as far as the
     // hinge goes.
     for (const Eigen::Vector3d& goal : {start, Eigen::Vector3d(start + v3(0.01, 0, 0))}) {

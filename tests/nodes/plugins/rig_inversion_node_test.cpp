@@ -196,6 +196,50 @@ TEST_CASE("rigInversion: with contacts, the node's values equal rig-invert --con
                                    contacts.string())) != std::string::npos);
 }
 
+TEST_CASE("rigInversion: with a restart every frame, the node's values are rig-invert's, each frame its own clip's")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto approximation = test::bipedApproximation();
+    const auto dir = test::scratchDir("rig_inversion_node_restarts");
+    const auto graph = test::writeFile(dir / "biped_mocap.yaml",
+                                       graphFile(test::sourceDir() / "rigs/biped.yaml", approximation,
+                                                 (test::sourceDir() / "rigs/maps/cmu_to_biped.yaml").string(),
+                                                 "{targets: clip, parameters: true}\n    restartInterval: 1"));
+    const int count = parameterCount(approximation);
+    const auto node = test::run(fmt::format("{} {} --frames 1:12{} -o {}", test::tool("graph-eval"), graph.string(),
+                                            valueGets(count), (dir / "node.json").string()));
+    INFO(node.err);
+    REQUIRE(node.exitCode == 0);
+    const auto invert = [&](const std::string& frames, const fs::path& out) {
+        return test::run(fmt::format("{} {} --rig rigs/biped.yaml --map rigs/maps/cmu_to_biped.yaml --clip {} "
+                                     "--frames {} --restart-every 1 -o {} -q",
+                                     test::tool("rig-invert"), approximation.string(), test::cmuClip.string(), frames,
+                                     out.string()))
+            .exitCode;
+    };
+    REQUIRE(invert("1:12", dir / "curves.json") == 0);
+    checkSameCurves(dir / "node.json", dir / "curves.json", 12, count);
+    // Each frame as a clip of its own: the same curves.
+    const YAML::Node whole = YAML::LoadFile((dir / "curves.json").string());
+    for (const int frame : {2, 7, 12}) {
+        CAPTURE(frame);
+        const fs::path alone = dir / fmt::format("frame{}.json", frame);
+        REQUIRE(invert(fmt::format("{}:{}", frame, frame), alone) == 0);
+        const YAML::Node one = YAML::LoadFile(alone.string());
+        REQUIRE(one.size() == 1);
+        const YAML::Node same = whole[static_cast<std::size_t>(frame - 1)];
+        int equal = 0, compared = 0;
+        for (const auto& entry : one[0]) {
+            equal += same[entry.first.as<std::string>()].Scalar() == entry.second.Scalar();
+            ++compared;
+        }
+        CHECK(equal == compared);
+    }
+}
+
 TEST_CASE("rigInversion: a missing file, another rig, a bad map and a cycle are one-line errors")
 {
     const auto dir = test::scratchDir("rig_inversion_node_errors");
