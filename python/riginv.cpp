@@ -21,6 +21,7 @@
 #include "app/common/solve_settings.h"
 #include "app/eval/eval_run.h"
 #include "app/invert/invert_run.h"
+#include "app/learn/learn_ranges.h"
 #include "app/learn/learn_run.h"
 #include "core/error.h"
 #include "graph/rig_file.h"
@@ -432,6 +433,44 @@ private:
     std::chrono::steady_clock::time_point lastCheck_ = std::chrono::steady_clock::now();
 };
 
+// learn(ranges=): {parameter glob: [min, max]}, as a spec's ranges: reads them.
+std::vector<GraphRigOptions::LearnRange> learnRanges(const py::object& rangesArgument)
+{
+    std::vector<GraphRigOptions::LearnRange> out;
+    if (const auto ranges = dictArgument(rangesArgument, "ranges"))
+        for (const auto& [key, value] : *ranges) {
+            const std::string glob = py::isinstance<py::str>(key) ? std::string(py::str(key)) : std::string();
+            std::optional<double> low, high;
+            if (py::isinstance<py::sequence>(value) && !py::isinstance<py::str>(value) && py::len(value) == 2) {
+                low = numberOf(value[py::int_(0)]);
+                high = numberOf(value[py::int_(1)]);
+            }
+            if (glob.empty() || !low || !high || !std::isfinite(*low) || !std::isfinite(*high) || !(*low < *high))
+                throw Error(
+                    fmt::format("ranges: give {{parameter glob: [min, max]}} with finite min < max in the "
+                                "rig file's units (a spec's ranges:), got a {} for '{}'",
+                                typeName(value), messageExcerpt(glob)));
+            out.push_back({glob, *low, *high});
+        }
+    return out;
+}
+
+// learn(ranges_from=, ranges_map=, ranges_take=, ranges_frames=): rig-learn --ranges-from's clip, --map, --take and
+// --frames; none without ranges_from.
+std::optional<app::RangesFrom> rangesFromArguments(const py::object& clip, const py::object& map,
+                                                   const py::object& take, const py::object& frames)
+{
+    if (clip.is_none()) {
+        if (!map.is_none() || !take.is_none() || !frames.is_none())
+            throw Error("ranges_map, ranges_take and ranges_frames: give ranges_from, the clip they are about");
+        return std::nullopt;
+    }
+    app::RangesFrom from{pathText(clip, "ranges_from"), map.is_none() ? "" : pathText(map, "ranges_map"),
+                         take.is_none() ? "" : textArgument(take, "ranges_take"), std::nullopt};
+    if (!frames.is_none()) from.frames = textArgument(frames, "ranges_frames");
+    return from;
+}
+
 class PyApproximation {
 public:
     static PyApproximation load(const py::object& path)
@@ -445,7 +484,9 @@ public:
     static PyApproximation learn(const py::object& rig, const py::object& params, const py::object& outputs,
                                  const py::object& epsilon, const py::object& orderer, const py::object& progress,
                                  const py::object& plugins, const py::object& worldSpace, const py::object& setArgument,
-                                 const py::object& rangesArgument)
+                                 const py::object& rangesArgument, const py::object& rangesFrom,
+                                 const py::object& rangesMap, const py::object& rangesTake,
+                                 const py::object& rangesFrames)
     {
         app::LearnJob job{pathText(rig, "rig_path"),
                           textList(params, "params"),
@@ -472,21 +513,10 @@ public:
                                     plug, messageExcerpt(std::string(py::str(value)))));
                 job.held.push_back({plug, *x});
             }
-        if (const auto ranges = dictArgument(rangesArgument, "ranges"))
-            for (const auto& [key, value] : *ranges) {
-                const std::string glob = py::isinstance<py::str>(key) ? std::string(py::str(key)) : std::string();
-                std::optional<double> low, high;
-                if (py::isinstance<py::sequence>(value) && !py::isinstance<py::str>(value) && py::len(value) == 2) {
-                    low = numberOf(value[py::int_(0)]);
-                    high = numberOf(value[py::int_(1)]);
-                }
-                if (glob.empty() || !low || !high || !std::isfinite(*low) || !std::isfinite(*high) || !(*low < *high))
-                    throw Error(
-                        fmt::format("ranges: give {{parameter glob: [min, max]}} with finite min < max in the "
-                                    "rig file's units (a spec's ranges:), got a {} for '{}'",
-                                    typeName(value), messageExcerpt(glob)));
-                job.ranges.push_back({glob, *low, *high});
-            }
+        job.ranges = learnRanges(rangesArgument);
+        const std::optional<app::RangesFrom> from =
+            rangesFromArguments(rangesFrom, rangesMap, rangesTake, rangesFrames);
+        job.rigLoaded = [&](const GraphRigFunction& loaded) { app::checkLearnRanges(loaded, job.ranges, "ranges"); };
         job.options.epsilon = app::parseEpsilon(fmt::format("{}", numberArgument(epsilon, "epsilon")));
         job.options.orderer = app::ordererFromName(textArgument(orderer, "orderer"));
         job.options.relativeFrames = !flagArgument(worldSpace, "world_space");
@@ -497,7 +527,7 @@ public:
         std::shared_ptr<app::LearnOutcome> outcome;
         {
             py::gil_scoped_release release;
-            outcome = std::make_shared<app::LearnOutcome>(app::learn(job));
+            outcome = std::make_shared<app::LearnOutcome>(from ? app::learnCoveringClip(job, *from) : app::learn(job));
         }
         PyApproximation a;
         a.rig_ = job.rig;
@@ -806,13 +836,17 @@ PYBIND11_MODULE(riginv, m)
         "learn", &PyApproximation::learn, py::arg("rig_path"), py::arg("params"), py::arg("outputs") = py::list(),
         py::arg("epsilon") = 0.001, py::arg("orderer") = "structured", py::arg("progress") = py::none(), py::kw_only(),
         py::arg("plugins") = py::list(), py::arg("world_space") = false, py::arg("set") = py::none(),
-        py::arg("ranges") = py::none(),
+        py::arg("ranges") = py::none(), py::arg("ranges_from") = py::none(), py::arg("ranges_map") = py::none(),
+        py::arg("ranges_take") = py::none(), py::arg("ranges_frames") = py::none(),
         "Learns a rig's approximation, as rig-learn, and returns an Approximation.\n\n"
         "params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).\n"
         "epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk'; "
         "plugins, world_space: rig-learn's --plugin and --world-space; set: {plug: value}, plugs held at a "
         "value while learning, in the rig file's units (rig-learn --set); ranges: {parameter glob: [min, max]}, where "
-        "controls without declared limits are learned (a spec's ranges:).\n"
+        "controls without declared limits are learned (a spec's ranges:, rig-learn --range); ranges_from: a clip whose "
+        "motion "
+        "the ranges must cover (rig-learn --ranges-from), read with ranges_map, ranges_take and ranges_frames as "
+        "invert() reads map, take and frames; report['ranges_from'] says what was widened.\n"
         "progress: called as progress(fraction done, 1.0), with the GIL held.\n"
         "An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses it. "
         "The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s).");

@@ -135,13 +135,23 @@ def learn(
     world_space: bool = False,
     set: Optional[Mapping[str, float]] = None,
     ranges: Optional[Mapping[str, Sequence[float]]] = None,
+    ranges_from: Optional[_Path] = None,
+    ranges_map: Optional[_Path] = None,
+    ranges_take: Optional[str] = None,
+    ranges_frames: Optional[str] = None,
 ) -> Approximation:
     """Learns a rig's approximation, as rig-learn, and returns an Approximation.
 
     params: parameter plug globs ('L_arm_*.rotate?'); outputs: output joint globs (empty: every joint).
     epsilon: the validation threshold, cm per unit of a parameter; orderer: 'structured' or 'talk';
     plugins, world_space: rig-learn's --plugin and --world-space; set: {plug: value}, plugs held at a
-    value while learning, in the rig file's units (rig-learn --set).
+    value while learning, in the rig file's units (rig-learn --set); ranges: {parameter glob: (min, max)},
+    the range a control without declared limits is learned over, in the rig file's units (a spec's ranges:,
+    rig-learn --range; each glob must match such a parameter).
+    ranges_from: a clip whose motion the ranges must cover (rig-learn --ranges-from): learned once, the clip
+    inverted on it, each range the clip leaves widened (10% of its width past the values reached), learned
+    again; ranges_map, ranges_take, ranges_frames read the clip as invert()'s map, take and frames do.
+    report['ranges_from'] says what was widened.
     progress: called as progress(fraction done, 1.0), with the GIL held.
     An approximation over epsilon is returned (report['within_epsilon'] is False) but save() refuses
     it. The GIL is released while learning; Ctrl-C stops it (between learning steps, seen every 0.1 s)."""

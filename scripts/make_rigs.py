@@ -12,6 +12,7 @@ Debian's assimp-testmodels, e.g. 01_01.bvh), scaled from CMU units to centimetre
 """
 import argparse
 import math
+import os
 import sys
 
 # CMU's skeleton unit in centimetres: 1 unit = (1 / 0.45) inch.
@@ -468,6 +469,9 @@ def main():
     args = parser.parse_args()
     if args.what in ("crowd", "chain") and args.count < 1:
         parser.error(f"{args.what} needs a count of at least 1")
+    if args.output != "-":
+        # A fresh clone has no rigs/generated/: the folder the docs write the generated rigs into is made.
+        os.makedirs(os.path.dirname(args.output) or ".", exist_ok=True)
     out = sys.stdout if args.output == "-" else open(args.output, "w")
     if args.what == "biped":
         biped(args.leg_scale).write(out)

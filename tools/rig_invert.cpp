@@ -187,7 +187,8 @@ int run(const Options& o)
     if (summary.failedFrames() > 0) {
         std::cerr << "error: "
                   << oneLine(app::failedFramesLine(
-                         summary, outcome.clip.frameNumbers[static_cast<std::size_t>(summary.firstFailedFrame)]))
+                         summary, outcome.clip.frameNumbers[static_cast<std::size_t>(summary.firstFailedFrame)],
+                         {o.rig, o.clip, o.map, o.take, o.framesGiven ? o.frames : ""}))
                   << '\n';
         return 3;
     }

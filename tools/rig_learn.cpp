@@ -12,10 +12,12 @@
 #include "adapter/inversion_spec.h"
 #include "app/common/output_file.h"
 #include "app/common/progress_bar.h"
+#include "app/learn/learn_ranges.h"
 #include "app/learn/learn_run.h"
 #include "core/error.h"
 #include "core/table.h"
 #include "inversion/model/approximation_io.h"
+#include "inversion/model/learned_range.h"
 #include "inversion/solve/pole_hold.h"
 #include "tools/cli_common.h"
 
@@ -40,7 +42,10 @@ struct Options {
     std::vector<std::string> plugins;
     std::vector<std::string> sets;                    // --set PLUG=VALUE
     std::vector<HeldPlug> held;                       // --set's, then the spec's for other plugs
-    std::vector<GraphRigOptions::LearnRange> ranges;  // the spec's
+    std::vector<std::string> rangeFlags;              // --range PLUG=MIN:MAX
+    std::vector<GraphRigOptions::LearnRange> ranges;  // --range's, then the spec's
+    app::RangesFrom rangesFrom;                       // --ranges-from CLIP, --map, --take, --frames
+    std::string rangesFromFrames;
     std::string spec;
     std::map<std::string, std::string> specPlaces;     // glob -> its file:line:col in the spec, for messages
     std::map<std::string, std::string> specSetPlaces;  // held plug of the spec -> its file:line:col
@@ -64,7 +69,7 @@ void readSpec(Options& options)
     options.autoHelpers = options.autoHelpers || spec.autoHelpers;
     options.noHelpers = options.noHelpers || spec.noHelpers;
     options.specPlaces.merge(spec.places);
-    options.ranges = spec.ranges;
+    options.ranges.insert(options.ranges.end(), spec.ranges.begin(), spec.ranges.end());
     for (const HeldPlug& h : spec.set) {
         const bool overridden = std::any_of(options.held.begin(), options.held.end(),
                                             [&](const HeldPlug& given) { return given.plug == h.plug; });
@@ -159,8 +164,9 @@ std::string validationText(const app::LearnOutcome& learned)
     // Epsilon bounds the error per unit moved, not the error of a pose that moves many parameters far: said on the
     // line whose figure may be above epsilon, so that the two read together.
     out += fmt::format(
-        "  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm (whole poses; epsilon is per unit moved)\n",
-        v.maxPositionErrorCm, v.worstOutput, v.worstPose, v.meanPositionErrorCm);
+        "  position error: worst {:.3g} cm ({}, pose {}), mean {:.3g} cm (whole poses; epsilon is per unit moved; "
+        "sampled curves refined to {:g} cm)\n",
+        v.maxPositionErrorCm, v.worstOutput, v.worstPose, v.meanPositionErrorCm, learned.absoluteTolerance);
     out += fmt::format("  rotation error: worst {:.3g} deg, mean {:.3g} deg\n", v.maxRotationErrorDeg,
                        v.meanRotationErrorDeg);
     out += fmt::format("  per unit of the parameters moved: worst {:.3g} cm ({}), epsilon {:g} cm: {}\n",
@@ -260,6 +266,25 @@ std::string autoText(const AutoChoice& a)
     return out;
 }
 
+// --ranges-from: the clip's statuses on the first approximation, and each range widened to cover it.
+std::string clipRangesText(const app::ClipRanges& c)
+{
+    std::string out = fmt::format("Ranges from {}{}: on a first approximation {}; ", c.clip,
+                                  c.frames.empty() ? "" : " frames " + c.frames, c.firstStatuses);
+    if (c.widened.empty()) return out + "every control stayed within its learning range (learned once)\n";
+    out += fmt::format(
+        "{} learning range{} widened to the values reached and {:g}% of the range's width, then learned again\n",
+        c.widened.size(), c.widened.size() == 1 ? "" : "s", 100 * rangeMargin);
+    // A solve's rounding noise about a value of 0 (1e-10 degrees) prints as 0.
+    const auto shown = [](double x) { return std::abs(x) < 1e-6 ? 0.0 : x; };
+    for (const app::WidenedRange& w : c.widened) {
+        const char* unit = w.angular ? " deg" : "";
+        out += fmt::format("  {}: {:g}..{:g}{} -> {:g}..{:g}{} (reached {:.4g}..{:.4g})\n", w.parameter, w.learnedMin,
+                           w.learnedMax, unit, w.min, w.max, unit, shown(w.low), shown(w.high));
+    }
+    return out;
+}
+
 std::string readableReport(const app::LearnOutcome& learned, const Options& options)
 {
     const Approximation& a = learned.approximation;
@@ -273,6 +298,7 @@ std::string readableReport(const app::LearnOutcome& learned, const Options& opti
                     options.rig, learned.rigParameters, learned.rigOutputs, helpers, a.epsilon, a.training.orderer);
     out += autoText(learned.autoChoice);
     if (!a.held.empty()) out += fmt::format("Held (not inverted): {}\n", app::heldText(a.held));
+    if (learned.clipRanges) out += clipRangesText(*learned.clipRanges);
     if (!learned.helpers.empty()) {
         const std::vector<std::string> notKept = helpersNotKept(learned);
         out += fmt::format("Helpers (kept where a constraint operator reads them; never targets): {}{}\n",
@@ -365,6 +391,7 @@ int run(Options& options)
     if (options.rig.empty())
         throw Error("no rig file given; usage: rig-learn RIG.yaml --params GLOB... -o APPROX.yaml");
     for (const std::string& assignment : options.sets) options.held.push_back(app::parseHeldPlug(assignment));
+    for (const std::string& assignment : options.rangeFlags) options.ranges.push_back(app::parseLearnRange(assignment));
     if (!options.spec.empty()) readSpec(options);
     if (options.params.empty()) throw Error("--params is required; run 'rig-learn --help' for usage");
     // Bad outputs and flags are reported before any work.
@@ -375,7 +402,11 @@ int run(Options& options)
     const std::vector<app::NamedFile> outputs{{"-o", options.output},
                                               {"--report-json", options.reportGiven ? options.reportJson : ""},
                                               {"--write-spec", options.writeSpec}};
-    app::checkDistinctFiles({{"the rig file", options.rig}, {"the spec", options.spec}}, outputs);
+    app::checkDistinctFiles({{"the rig file", options.rig},
+                             {"the spec", options.spec},
+                             {"the clip", options.rangesFrom.clip},
+                             {"the map", options.rangesFrom.map}},
+                            outputs);
     app::LearnJob job{options.rig, options.params, options.outputs, options.plugins, {}, {}};
     job.held = options.held;
     job.ranges = options.ranges;
@@ -388,7 +419,10 @@ int run(Options& options)
     job.options.perOutput = !options.noPerOutput;
     job.options.threads = options.threads;
     if (!options.outputGiven) return writeSpecOnly(options, job);
+    const std::vector<GraphRigOptions::LearnRange> flagRanges(
+        options.ranges.begin(), options.ranges.begin() + static_cast<std::ptrdiff_t>(options.rangeFlags.size()));
     job.rigLoaded = [&](const GraphRigFunction& rig) {
+        app::checkLearnRanges(rig, flagRanges, "--range");
         std::vector<app::NamedFile> read;
         for (const auto& file : rig.files()) read.push_back({"a file the rig reads", file});
         app::checkDistinctFiles(read, outputs);
@@ -401,7 +435,8 @@ int run(Options& options)
     };
     std::optional<app::LearnOutcome> learned;
     try {
-        learned.emplace(app::learn(job));
+        learned.emplace(options.rangesFrom.clip.empty() ? app::learn(job)
+                                                        : app::learnCoveringClip(job, options.rangesFrom));
     }
     catch (const RigSelectionError& e) {
         // A glob or a held plug of the spec: say where it is written.
@@ -456,7 +491,8 @@ int main(int argc, char** argv)
         "a Maya scene: the keyable, unlocked channels of its controls that move an output");
     app.add_option("--spec", options.spec,
                    "YAML file with 'params:', 'outputs:' and 'helpers:' lists of globs (or 'helpers: auto'), added to "
-                   "--params, --outputs and --helpers, and a 'set:' map of held plugs, added to --set");
+                   "--params, --outputs and --helpers, a 'set:' map of held plugs, added to --set, and a 'ranges:' "
+                   "map of parameter globs to [MIN, MAX] learning ranges, after --range's");
     app.add_option("--outputs", options.outputs,
                    "Output joint-name globs (default: every joint of a YAML rig; 'auto', a Maya scene's default: the "
                    "joints its skinClusters bind, or every joint where none binds one)");
@@ -471,6 +507,22 @@ int main(int argc, char** argv)
                  "No helper frame, so no IK chain or aim (twist shares read joints only): what does not compose "
                  "stays unmodelled, for rig-invert --hybrid")
         ->excludes("--auto-helpers");
+    app.add_option(
+           "--range", options.rangeFlags,
+           "Learn a parameter without declared limits over MIN..MAX: PLUG=MIN:MAX, PLUG a glob, in the rig file's "
+           "units (degrees for angles), e.g. L_knee_fk_ctrl.rotateX=-90:160 (repeatable; as a spec's 'ranges:', "
+           "ahead of them)")
+        ->allow_extra_args(false);
+    auto* rangesFrom = app.add_option(
+        "--ranges-from", options.rangesFrom.clip,
+        "Learn over the ranges a clip's motion uses: learn, invert CLIP on it as rig-invert does, widen each range "
+        "the clip leaves (by 10% of its width past the values reached), learn again, and print what was widened");
+    app.add_option("--map", options.rangesFrom.map, "With --ranges-from: the map file of the clip (as rig-invert's)")
+        ->needs(rangesFrom);
+    app.add_option("--take", options.rangesFrom.take, "With --ranges-from: the clip's take, a name or 0-based index")
+        ->needs(rangesFrom);
+    app.add_option("--frames", options.rangesFromFrames, "With --ranges-from: the clip's frames A:B")
+        ->needs(rangesFrom);
     app.add_option("--set", options.sets,
                    "Hold a plug at a value while learning, not inverted: PLUG=VALUE in the rig file's units, e.g. "
                    "L_leg_settings.ikFk=1 (repeatable; wins over the spec's 'set:')")
@@ -507,6 +559,7 @@ int main(int argc, char** argv)
         options.epsilonGiven = app.count("--epsilon") > 0;
         options.outputGiven = app.count("--output") > 0;
         options.reportGiven = app.count("--report-json") > 0;
+        if (app.count("--frames") > 0) options.rangesFrom.frames = options.rangesFromFrames;
         return rig::run(options);
     });
 }

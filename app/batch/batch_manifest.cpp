@@ -16,7 +16,8 @@ namespace rig::app {
 namespace {
 
 constexpr std::string_view manifestFormat = "rig-batch manifest 3";
-constexpr std::string_view shardFormat = "rig-batch shard 4";  // 3: contacts; 4: residual cm and deg apart
+// 3: contacts; 4: residual cm and deg apart; 5: a model mismatch's parameter outside its learned range
+constexpr std::string_view shardFormat = "rig-batch shard 5";
 constexpr std::size_t shardFigures = 8;  // the summary's figures held as raw doubles (shardOutputBytes)
 
 // The settings' table (app/common/solve_settings.h) as fields: a count as a number, a flag as a bool, a choice as its
@@ -82,6 +83,19 @@ SolveSettings readSettings(const Json& settings, const std::string& file)
         throw bad(e);
     }
     return out;
+}
+
+// A first failure's parameter outside its learned range: [] for none, else its fields, numbers as text that strtod
+// reads back exactly (the contacts' way).
+Json rangeLeftFields(const RangeLeft& r)
+{
+    if (!r.found()) return Json::array();
+    return {r.parameter,
+            r.angular,
+            fmt::format("{}", r.learnedMin),
+            fmt::format("{}", r.learnedMax),
+            fmt::format("{}", r.low),
+            fmt::format("{}", r.high)};
 }
 
 // A shard output's contacts (shardOutputBytes), each within its frames.
@@ -413,28 +427,29 @@ std::string shardOutputBytes(const ShardOutput& o)
             for (int i = 0; i < 3; ++i) positions.push_back(fmt::format("{}", p[i]));
         contacts.push_back({c.output, c.first, c.last, c.measuredFrom, std::move(positions)});
     }
-    const Json header{
-        {"format", shardFormat},
-        {"byte_order", byteOrder()},
-        {"key", o.key},
-        {"first", o.first},
-        {"last", o.last},
-        {"frames", s.frames},
-        {"status_frames", std::move(statuses)},
-        {"first_failure", {s.firstFailedFrame, static_cast<int>(s.firstFailedStatus), s.firstFailedJoint}},
-        {"retried_frames", s.retriedFrames},
-        {"retries_kept", s.retriesKept},
-        {"residual_joints", std::move(residual)},
-        {"worst_joint", s.worstJoint},
-        {"worst_frame", s.worstFrame},
-        {"worst_rotation_joint", s.worstRotationJoint},
-        {"worst_rotation_frame", s.worstRotationFrame},
-        {"joint_frames", s.jointFrames},
-        {"real_rig_evaluations", s.realRigEvaluations},
-        {"contacts", std::move(contacts)},
-        {"multiplier_updates", s.multiplierUpdates},
-        {"curves_file_checksum", o.curvesChecksum},
-        {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
+    const Json header{{"format", shardFormat},
+                      {"byte_order", byteOrder()},
+                      {"key", o.key},
+                      {"first", o.first},
+                      {"last", o.last},
+                      {"frames", s.frames},
+                      {"status_frames", std::move(statuses)},
+                      {"first_failure",
+                       {s.firstFailedFrame, static_cast<int>(s.firstFailedStatus), s.firstFailedJoint,
+                        rangeLeftFields(s.firstFailedRange)}},
+                      {"retried_frames", s.retriedFrames},
+                      {"retries_kept", s.retriesKept},
+                      {"residual_joints", std::move(residual)},
+                      {"worst_joint", s.worstJoint},
+                      {"worst_frame", s.worstFrame},
+                      {"worst_rotation_joint", s.worstRotationJoint},
+                      {"worst_rotation_frame", s.worstRotationFrame},
+                      {"joint_frames", s.jointFrames},
+                      {"real_rig_evaluations", s.realRigEvaluations},
+                      {"contacts", std::move(contacts)},
+                      {"multiplier_updates", s.multiplierUpdates},
+                      {"curves_file_checksum", o.curvesChecksum},
+                      {"bytes", {figureBytes.size(), numbers.size(), values.size(), o.curvesFrames.size()}}};
     std::string out = header.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n";
     out.reserve(out.size() + figureBytes.size() + numbers.size() + values.size() + o.curvesFrames.size());
     return out.append(figureBytes).append(numbers).append(values).append(o.curvesFrames);
@@ -499,6 +514,13 @@ ShardOutput parseShardOutput(const std::string& bytes, const std::string& file, 
         s.retriedFrames = j.at("retried_frames").get<int>();
         s.retriesKept = j.at("retries_kept").get<int>();
         const auto figure = [](const Json& text) { return std::strtod(text.get<std::string>().c_str(), nullptr); };
+        if (const Json& range = failure.at(3); !range.empty())
+            s.firstFailedRange = {range.at(0).get<std::string>(),
+                                  range.at(1).get<bool>(),
+                                  figure(range.at(2)),
+                                  figure(range.at(3)),
+                                  figure(range.at(4)),
+                                  figure(range.at(5))};
         for (const Json& joint : j.at("residual_joints"))
             s.residualJoints.push_back({joint.at(0).get<std::string>(), joint.at(1).get<int>(), figure(joint.at(2)),
                                         figure(joint.at(3)), figure(joint.at(4))});

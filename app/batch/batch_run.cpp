@@ -284,7 +284,8 @@ Json clipReport(const BatchClip& clip, int shards, const MergedClip* merged, con
     j["failed_frames"] = s.failedFrames();
     j["first_failure"] = s.firstFailedFrame >= 0 ? Json{{"frame", frameNumber(s.firstFailedFrame)},
                                                         {"status", frameStatusName(s.firstFailedStatus)},
-                                                        {"joint", s.firstFailedJoint}}
+                                                        {"joint", s.firstFailedJoint},
+                                                        {"left_range", rangeLeftJson(s.firstFailedRange)}}
                                                  : Json();
     j["retried_frames"] = s.retriedFrames;
     j["retries_kept"] = s.retriesKept;
@@ -679,7 +680,8 @@ Json clipsReport(BatchManifest& manifest, std::vector<ClipMerge>& merges, const 
                         "{}: {}", clip.name,
                         failedFramesLine(
                             m.merged->summary,
-                            m.merged->frameNumbers[static_cast<std::size_t>(m.merged->summary.firstFailedFrame)]));
+                            m.merged->frameNumbers[static_cast<std::size_t>(m.merged->summary.firstFailedFrame)],
+                            {manifest.inputs.rig, clip.file, manifest.inputs.map, manifest.inputs.take, ""}));
             }
         }
         clips.push_back(clipReport(clip, static_cast<int>(m.end - m.first), m.merged ? &*m.merged : nullptr,

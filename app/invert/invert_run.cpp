@@ -15,8 +15,9 @@
 #include "inversion/clip/hybrid_solve.h"
 #include "inversion/clip/rig_binding.h"
 #include "inversion/model/approximation_io.h"
+#include "inversion/model/learned_range.h"
 #include "inversion/solve/residual_term.h"
-#include "inversion/solve/solver.h"
+#include "inversion/solve/solver_options.h"
 #include "nodes/clips/maya_clip.h"
 
 namespace rig::app {
@@ -357,17 +358,62 @@ std::string statusCountsText(const ClipInversionSummary& s)
     return text.empty() ? "none" : text;
 }
 
-std::string failedFramesLine(const ClipInversionSummary& s, double frameNumber)
+namespace {
+
+// "up to 93.15 deg", "down to -95 deg" or "from -95 to 93.15 deg": the values a parameter took past its range.
+std::string valuesLeft(const RangeLeft& r)
+{
+    const char* unit = r.angular ? " deg" : "";
+    if (r.low < r.learnedMin && r.high > r.learnedMax)
+        return fmt::format("from {:.4g} to {:.4g}{}", r.low, r.high, unit);
+    return r.high > r.learnedMax ? fmt::format("up to {:.4g}{}", r.high, unit)
+                                 : fmt::format("down to {:.4g}{}", r.low, unit);
+}
+
+// A model mismatch where a parameter left its learned range: which, and the rig-learn flags that learn over the range
+// the clip uses (rig-learn --range, --ranges-from: docs/rig-learn.md).
+std::string rangeFix(const RangeLeft& r, const std::string& joint, const MismatchFix& fix)
+{
+    const auto [min, max] = widenedRange(r.learnedMin, r.learnedMax, r.low, r.high);
+    const std::string from = fix.clip.empty() ? "CLIP"
+                                              : fix.clip + (fix.map.empty() ? "" : " --map " + fix.map) +
+                                                    (fix.take.empty() ? "" : " --take " + fix.take) +
+                                                    (fix.frames.empty() ? "" : " --frames " + fix.frames);
+    return fmt::format(
+        "the approximation disagrees with the real rig at {}, which {} moves, at {} on the failed frames, outside the "
+        "{:g}..{:g}{} it was learned over; learn the rig again over the range the clip uses: rig-learn {} ... --range "
+        "{}={:g}:{:g} (... your other flags), or rig-learn ... --ranges-from {} for every control",
+        joint, r.parameter, valuesLeft(r), r.learnedMin, r.learnedMax, r.angular ? " deg" : "",
+        fix.rig.empty() ? "RIG" : fix.rig, exactGlob(r.parameter), min, max, from);
+}
+
+}  // namespace
+
+std::string failedFramesLine(const ClipInversionSummary& s, double frameNumber, const MismatchFix& fix)
 {
     const FrameStatus status = s.firstFailedStatus;
-    const char* why = status == FrameStatus::modelMismatch
-                          ? "the approximation and the real rig disagree there, or a target it does not model was "
-                            "not fitted (--hybrid fits those; learn the rig again where it disagrees)"
-                      : status == FrameStatus::notConverged ? "the solve used its iterations"
-                      : status == FrameStatus::nonFinite ? "the real rig gives a non-finite matrix, error or cost there"
-                                                         : "a target there is not finite or is singular";
+    const std::string why =
+        status == FrameStatus::modelMismatch && s.firstFailedRange.found()
+            ? rangeFix(s.firstFailedRange, s.firstFailedJoint, fix)
+        : status == FrameStatus::modelMismatch
+            ? "the approximation and the real rig disagree there, or a target it does not model was not fitted "
+              "(--hybrid fits those; learn the rig again where it disagrees)"
+        : status == FrameStatus::notConverged ? "the solve used its iterations"
+        : status == FrameStatus::nonFinite    ? "the real rig gives a non-finite matrix, error or cost there"
+                                              : "a target there is not finite or is singular";
     return fmt::format("{} of {} frames are not an answer on the real rig (first: frame {}, {}, {}): {}",
                        s.failedFrames(), s.frames, frameNumber, frameStatusName(status), s.firstFailedJoint, why);
+}
+
+Json rangeLeftJson(const RangeLeft& r)
+{
+    if (!r.found()) return Json();
+    const auto [min, max] = widenedRange(r.learnedMin, r.learnedMax, r.low, r.high);
+    return {{"parameter", r.parameter},
+            {"unit", r.angular ? "deg" : "rig"},
+            {"learned", {numberJson(r.learnedMin), numberJson(r.learnedMax)}},
+            {"reached", {numberJson(r.low), numberJson(r.high)}},
+            {"suggested", {numberJson(min), numberJson(max)}}};
 }
 
 Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>& approximation, const std::string& rig,
@@ -412,7 +458,8 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
         {"failed_frames", s.failedFrames()},
         {"first_failure", s.firstFailedFrame >= 0 ? Json{{"frame", frameNumber(s.firstFailedFrame)},
                                                          {"status", frameStatusName(s.firstFailedStatus)},
-                                                         {"joint", s.firstFailedJoint}}
+                                                         {"joint", s.firstFailedJoint},
+                                                         {"left_range", rangeLeftJson(s.firstFailedRange)}}
                                                   : Json()},
         {"retried_frames", s.retriedFrames},
         {"retries_kept", s.retriesKept},

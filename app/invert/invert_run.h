@@ -121,9 +121,19 @@ Json statusCountsJson(const ClipInversionSummary& summary);
 Json residualJointsJson(const ClipInversionSummary& summary);
 // The words of the summary's status counts, for a text report: "1 reached, 239 best fit" (zero counts left out).
 std::string statusCountsText(const ClipInversionSummary& summary);
+// What a model mismatch's fix names (rig-learn --range and --ranges-from): the rig file, the clip, its map, take and
+// frames as the run was given them; "" where there is none (an empty rig or clip is said as RIG or CLIP).
+struct MismatchFix {
+    std::string rig, clip, map, take, frames;
+};
 // What a run that measured a failed frame says before exiting with code 3 (after "error: "): the count, the
-// first one (`frameNumber`: its number in the clip), its status and joint, and what it means.
-std::string failedFramesLine(const ClipInversionSummary& summary, double frameNumber);
+// first one (`frameNumber`: its number in the clip), its status and joint, and what it means: for a model mismatch
+// where a parameter left its learned range, which, and the rig-learn flags that learn the range the clip uses.
+std::string failedFramesLine(const ClipInversionSummary& summary, double frameNumber, const MismatchFix& fix);
+// A first failure's parameter outside its learned range in the reports (rig-invert's, rig-batch's, Python's): its
+// name, unit ("deg", or "rig": the rig file's), learned, reached and suggested ranges (rig-learn --range); null for
+// none.
+Json rangeLeftJson(const RangeLeft& range);
 
 // The --report-json report. `clip` names the targets (none for targets given in memory), `curvesFile` the
 // curves written (none when nothing was), `curvesFingerprint` the FNV-1a 64 of the curves' JSON text.

@@ -1,5 +1,6 @@
 #include "app/learn/learn_run.h"
 
+#include <fnmatch.h>
 #include <algorithm>
 #include <charconv>
 #include <chrono>
@@ -46,6 +47,48 @@ HeldPlug parseHeldPlug(const std::string& assignment)
                         "(degrees for angles), e.g. --set {}=1",
                         messageExcerpt(plug), messageExcerpt(text), messageExcerpt(plug)));
     return {plug, *value};
+}
+
+GraphRigOptions::LearnRange parseLearnRange(const std::string& assignment)
+{
+    const std::string example = "e.g. --range L_knee_fk_ctrl.rotateX=-90:160";
+    const auto eq = assignment.rfind('=');
+    if (eq == std::string::npos || eq == 0)
+        throw Error(fmt::format("--range '{}': expected PLUG=MIN:MAX (a parameter glob), {}",
+                                messageExcerpt(assignment), example));
+    const std::string glob = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+    const auto colon = text.find(':');
+    const auto low = colon == std::string::npos ? std::nullopt : parseFiniteNumber(text.substr(0, colon));
+    const auto high = colon == std::string::npos ? std::nullopt : parseFiniteNumber(text.substr(colon + 1));
+    if (!low || !high || !(*low < *high))
+        throw Error(
+            fmt::format("--range {}: '{}' is no MIN:MAX of two finite numbers with MIN < MAX (the rig file's units, "
+                        "degrees for angles), {}",
+                        messageExcerpt(glob), messageExcerpt(text), example));
+    return {glob, *low, *high};
+}
+
+void checkLearnRanges(const GraphRigFunction& rig, const std::vector<GraphRigOptions::LearnRange>& ranges,
+                      const std::string& where)
+{
+    for (const GraphRigOptions::LearnRange& range : ranges) {
+        bool matched = false, free = false;
+        for (const RigParameter& p : rig.parameters())
+            if (fnmatch(range.glob.c_str(), p.name.c_str(), 0) == 0) {
+                matched = true;
+                free = free || !p.limited;
+            }
+        if (!matched)
+            throw Error(
+                fmt::format("{} {}: matches no parameter; name one of those the parameter globs choose "
+                            "(--params, the spec's params:)",
+                            where, messageExcerpt(range.glob)));
+        if (!free)
+            throw Error(
+                fmt::format("{} {}: every parameter it matches declares its own limits (min, max), which "
+                            "learning uses; a range is for a control without limits",
+                            where, messageExcerpt(range.glob)));
+    }
 }
 
 Orderer ordererFromName(const std::string& name)
@@ -126,6 +169,7 @@ LearnOutcome learn(const LearnJob& job)
     if (job.rigLoaded) job.rigLoaded(rig);
     LearnOutcome out;
     out.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - loadStart).count();
+    out.absoluteTolerance = job.options.absoluteTolerance;
     out.rigParameters = rig.parameters().size();
     out.rigOutputs = rig.outputs().size();
     out.autoChoice = rig.autoChoice();
@@ -265,6 +309,24 @@ Json blendsJson(const Approximation& a)
     return blends;
 }
 
+// --ranges-from's clip, its statuses on the first approximation and the ranges widened (rig file's units); null
+// without it.
+Json clipRangesJson(const std::optional<ClipRanges>& c)
+{
+    if (!c) return Json();
+    Json widened = Json::array();
+    for (const WidenedRange& w : c->widened)
+        widened.push_back({{"parameter", w.parameter},
+                           {"unit", w.angular ? "deg" : "rig"},
+                           {"learned", {numberJson(w.learnedMin), numberJson(w.learnedMax)}},
+                           {"reached", {numberJson(w.low), numberJson(w.high)}},
+                           {"range", {numberJson(w.min), numberJson(w.max)}}});
+    return {{"clip", c->clip},
+            {"frames", c->frames.empty() ? Json() : Json(c->frames)},
+            {"first_statuses", c->firstStatuses},
+            {"widened", std::move(widened)}};
+}
+
 }  // namespace
 
 Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std::optional<std::string>& approximation,
@@ -300,6 +362,7 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                 {"approximation", approximation ? Json(*approximation) : Json()},
                 {"fingerprint", a.rigFingerprint},
                 {"epsilon", numberJson(a.epsilon)},
+                {"absolute_tolerance_cm", numberJson(outcome.absoluteTolerance)},
                 {"orderer", a.training.orderer},
                 {"parameters", outcome.rigParameters},
                 {"outputs", outcome.rigOutputs},
@@ -320,6 +383,7 @@ Json learnReport(const LearnOutcome& outcome, const std::string& rig, const std:
                 {"dropped_outputs", std::move(dropped)},
                 {"unmodelled_outputs", std::move(unmodelled)},
                 {"within_epsilon", v.withinEpsilon},
+                {"ranges_from", clipRangesJson(outcome.clipRanges)},
                 {"written", written},
                 {"validation",
                  {{"poses", v.poses},

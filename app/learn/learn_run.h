@@ -25,6 +25,15 @@ Orderer ordererFromName(const std::string& name);
 // saying what the flag expects.
 HeldPlug parseHeldPlug(const std::string& assignment);
 
+// --range PLUG=MIN:MAX: a learning range as a spec's `ranges:` entry gives one (the rig file's units, finite, min <
+// max; PLUG a glob), else rig::Error saying what the flag expects.
+GraphRigOptions::LearnRange parseLearnRange(const std::string& assignment);
+
+// Every range of `ranges` must match a parameter of the rig that declares no limits (a range applies to no other);
+// else rig::Error naming it, `where` (e.g. "--range") and what to give instead.
+void checkLearnRanges(const GraphRigFunction& rig, const std::vector<GraphRigOptions::LearnRange>& ranges,
+                      const std::string& where);
+
 // Overall fraction done from the learner's stage and the fraction of that stage (the first samples and
 // the classification are most of the work; ordering and validation share the rest).
 double learningFraction(std::string_view stage, double fraction);
@@ -60,6 +69,25 @@ GraphRigOptions rigOptions(const LearnJob& job);
 // parameters, joint outputs and held plugs by name, with comment lines saying what auto found and passed by.
 std::string autoSpecText(const GraphRigFunction& rig, const std::string& rigFile);
 
+// A learning range rig-learn --ranges-from widened to cover a clip (learn_ranges.h), in the rig file's units
+// (degrees for angles): the range learned first, the values the clip reached on it, the range learned then.
+struct WidenedRange {
+    std::string parameter;
+    bool angular = false;
+    double learnedMin = 0.0, learnedMax = 0.0;
+    double low = 0.0, high = 0.0;
+    double min = 0.0, max = 0.0;
+};
+
+// What --ranges-from did: the clip (and its frames, "" for all), its frames' statuses on the first approximation
+// (statusCountsText) and the ranges widened, in the approximation's parameter order.
+struct ClipRanges {
+    std::string clip;
+    std::string frames;
+    std::string firstStatuses;
+    std::vector<WidenedRange> widened;
+};
+
 struct LearnOutcome {
     Approximation approximation;
     std::size_t rigParameters = 0;     // what the globs gave
@@ -68,7 +96,9 @@ struct LearnOutcome {
     double loadSeconds = 0.0;          // loading the rig
     // The non-compositional outputs with why (what the learner measured; the approximation file does not hold it).
     std::vector<UnmodelledOutput> unmodelled;
-    AutoChoice autoChoice{};  // what auto chose, and the time curves cut
+    AutoChoice autoChoice{};                 // what auto chose, and the time curves cut
+    std::optional<ClipRanges> clipRanges{};  // with --ranges-from
+    double absoluteTolerance = 0.0;  // cm: what sampled curves were refined to (LearnOptions::absoluteTolerance)
 };
 
 // A parameter's form as the approximation holds it, from its operators (the learner's classification, `form`,

@@ -93,8 +93,14 @@ void ClipInversionSummary::add(const FrameInversion& f, const std::vector<Approx
         firstFailedStatus = f.status;
         firstFailedJoint = f.status == FrameStatus::invalidTargets && !f.invalidJoint.empty() ? f.invalidJoint
                            : !f.nonFiniteJoint.empty()                                        ? f.nonFiniteJoint
+                           : f.status == FrameStatus::modelMismatch && f.mismatchOutput >= 0
+                               ? outputs[static_cast<std::size_t>(f.mismatchOutput)].name
                            : !f.missed.empty() ? outputs[static_cast<std::size_t>(f.missed.front().output)].name
                                                : f.worstJoint;
+        firstFailedRange = f.rangeLeft;
+    } else if (f.rangeLeft.found() && f.rangeLeft.parameter == firstFailedRange.parameter) {
+        firstFailedRange.cover(f.rangeLeft.low);
+        firstFailedRange.cover(f.rangeLeft.high);
     }
     for (const auto& m : f.missed)
         addResidual({outputs[static_cast<std::size_t>(m.output)].name, 1, m.positionErrorCm, m.rotationErrorDeg,
@@ -126,6 +132,10 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
         firstFailedFrame = later.firstFailedFrame;
         firstFailedStatus = later.firstFailedStatus;
         firstFailedJoint = later.firstFailedJoint;
+        firstFailedRange = later.firstFailedRange;
+    } else if (later.firstFailedRange.found() && later.firstFailedRange.parameter == firstFailedRange.parameter) {
+        firstFailedRange.cover(later.firstFailedRange.low);
+        firstFailedRange.cover(later.firstFailedRange.high);
     }
     for (int k = 0; k < frameStatusCount; ++k)
         statusFrames[static_cast<std::size_t>(k)] += later.statusFrames[static_cast<std::size_t>(k)];
@@ -311,6 +321,7 @@ bool measureFrame(const Approximation& a, const SolverOptions& o, RealRigFit fit
 {
     constexpr double degrees = 180.0 / std::numbers::pi;
     bool unfitted = false;
+    double worstDisagreement = 0.0;  // the gap of f.mismatchOutput when it disagrees
     for (std::size_t k = 0; k < targets.size(); ++k) {
         const JointTarget& t = targets[k];
         if (!t.active) continue;
@@ -347,14 +358,22 @@ bool measureFrame(const Approximation& a, const SolverOptions& o, RealRigFit fit
             fit == RealRigFit::everyOutput || (fit == RealRigFit::unmodelledOutputs && !a.outputs[k].modelled);
         if (!(error <= o.targetTolerance)) {
             f.missed.push_back({static_cast<int>(k), p, r * degrees, error});
-            unfitted = unfitted || (!a.outputs[k].modelled && !onRealRig);
+            if (!a.outputs[k].modelled && !onRealRig && !unfitted) {
+                unfitted = true;
+                if (!f.disagrees) f.mismatchOutput = static_cast<int>(k);
+            }
         }
         if (onRealRig || !a.outputs[k].modelled) continue;
         const auto [gp, gr] = distance(modelled[k], real[k]);
         const double gap = worse(gp, o.rotationScaleCm * gr) ? gp : o.rotationScaleCm * gr;
         if (worse(gap, f.modelGapCm)) f.modelGapCm = gap;
         // The approximation's word on this output holds where its gap is small beside the error it leaves.
-        if (!(gap <= std::max(o.targetTolerance, modelAgreement * error))) f.disagrees = true;
+        if (!(gap <= std::max(o.targetTolerance, modelAgreement * error)) &&
+            (!f.disagrees || worse(gap, worstDisagreement))) {
+            f.disagrees = true;
+            f.mismatchOutput = static_cast<int>(k);
+            worstDisagreement = gap;
+        }
     }
     return unfitted;
 }
@@ -488,6 +507,8 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         rig.evaluate(reported, worlds);
         approximation.evaluate(reported, modelled);
         judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
+        if (result.status == FrameStatus::modelMismatch)
+            result.rangeLeft = rangeLeft(approximation, reported, result.mismatchOutput);
         summary.retriedFrames += solved.retried;
         summary.retriesKept += solved.kept;
         summary.multiplierUpdates += rounds;

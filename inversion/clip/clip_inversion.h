@@ -26,7 +26,8 @@
 #include "inversion/clip/contacts.h"
 #include "inversion/clip/rig_binding.h"
 #include "inversion/model/approximation.h"
-#include "inversion/solve/solver.h"
+#include "inversion/model/learned_range.h"
+#include "inversion/solve/solver_options.h"
 
 namespace rig {
 
@@ -207,6 +208,11 @@ struct FrameInversion {
     // Some counted output's gap is over max(targetTolerance, modelAgreement * its real-rig error): the
     // approximation's answer cannot be taken as the real rig's best fit there.
     bool disagrees = false;
+    // What makes it a modelMismatch: the output whose gap disagrees most, else a missed output the approximation
+    // does not model and no solve fitted; -1 for none. And with it, where invertClip judged it, the parameter
+    // outside its learned range that moves that output (learned_range.h; found() false for none).
+    int mismatchOutput = -1;
+    RangeLeft rangeLeft;
     // Outputs further than targetTolerance on the real rig, increasing, each with its errors there: position (cm) and
     // rotation (degrees) apart, and the larger of the position error and rotationScaleCm * the rotation in radians,
     // the one measure the tolerance judges (cm on the rotation scale: never shown as a distance).
@@ -234,10 +240,13 @@ struct ClipInversionSummary {
     std::array<int, frameStatusCount> statusFrames{};  // frames per FrameStatus
     int retriedFrames = 0;                             // solved again from the initial guess (retryStuck)
     int retriesKept = 0;                               // of which the second answer was cheaper and kept
-    // The first frame whose status fails (frameStatusFails), its status and the joint that shows it; -1: none.
+    // The first frame whose status fails (frameStatusFails), its status and the joint that shows it (a model
+    // mismatch's: FrameInversion::mismatchOutput); -1: none. A model mismatch's parameter outside its learned range,
+    // covering the values it took over the frames that blamed it too.
     int firstFailedFrame = -1;
     FrameStatus firstFailedStatus = FrameStatus::reached;
     std::string firstFailedJoint;
+    RangeLeft firstFailedRange;
     // The outputs frames left further than targetTolerance on the real rig, with how many frames did and their worst
     // position (cm) and rotation (degrees) errors on those frames, each its own worst: the joints that carry the
     // residual. Ordered by worstScaledErrorCm (FrameInversion::Missed::scaledErrorCm), the measure that missed them.

@@ -356,19 +356,23 @@ bool fitStructure(Context& c, OperatorKind kind, const std::vector<std::size_t>&
 }
 
 // Worst error over the samples at these offsets, per unit of the parameter.
+// The worst error per unit moved at `offsets`; into `failing`, the offsets where it is over epsilon or the frame
+// error itself over the absolute tolerance (LearnOptions::absoluteTolerance).
 double errorAt(Context& c, const Candidate& candidate, const std::vector<std::size_t>& entries,
                const std::vector<double>& offsets, std::vector<double>* failing = nullptr)
 {
     double worst = 0.0;
     for (double a : offsets) {
         if (a == 0.0) continue;
-        double here = 0.0;
+        double here = 0.0, absolute = 0.0;
         for (std::size_t e : entries) {
             const Operator& op = candidate.operators[static_cast<std::size_t>(candidate.operatorOfOutput[e])];
             const Eigen::Matrix4d predicted = op.matrix(a) * c.rest[e];
-            here = std::max(here, matrixError(predicted, c.sample(a)[e], c.options.frameRadius) / std::abs(a));
+            const double error = matrixError(predicted, c.sample(a)[e], c.options.frameRadius);
+            here = std::max(here, error / std::abs(a));
+            absolute = std::max(absolute, error);
         }
-        if (failing && here > c.options.epsilon) failing->push_back(a);
+        if (failing && (here > c.options.epsilon || absolute > c.options.absoluteTolerance)) failing->push_back(a);
         worst = std::max(worst, here);
     }
     return worst;
@@ -425,12 +429,14 @@ bool refineAndValidate(Context& c, const std::vector<std::size_t>& entries, bool
             bestError = error;
             best = candidate;
         }
-        if (error <= c.options.epsilon) return true;
+        // Within epsilon, a curve is refined on to the absolute tolerance where checks miss it and are not knots yet
+        // (new checks sampled while the budget allows).
+        const auto isKnot = [&](double a) { return std::find(knots.begin(), knots.end(), a) != knots.end(); };
+        if (error <= c.options.epsilon && (!curved || std::all_of(failing.begin(), failing.end(), isKnot))) return true;
         if (!curved) return false;
         // A curve goes through its knots: missing at one, the form itself misses (a pivot that moves,
         // an axis that turns), and more knots cannot help. Give up before spending the budget.
-        for (double a : failing)
-            if (std::find(knots.begin(), knots.end(), a) != knots.end()) return false;
+        if (std::any_of(failing.begin(), failing.end(), isKnot)) return false;
         knots.insert(knots.end(), failing.begin(), failing.end());
         std::sort(knots.begin(), knots.end());
     }

@@ -14,9 +14,10 @@ namespace rig {
 namespace {
 
 // A shape's knots: at most this many, refined until every midpoint is within a share of epsilon per unit of the goal's
-// parameters that move it one centimetre, wherever the reach is: an absolute bound, since a solve asks the joints
-// for 1e-3 cm at any reach (a bound growing with the reach left 5 of 300 random IK biped poses at 1-2e-3 cm). A
-// chain's reach has a kink where it straightens, which the refinement resolves with knots close around it.
+// parameters that move it one centimetre, and of the absolute tolerance (LearnOptions::absoluteTolerance), wherever
+// the reach is: an absolute bound, since a solve asks the joints for 1e-3 cm at any reach (a bound growing with the
+// reach left 5 of 300 random IK biped poses at 1-2e-3 cm). A chain's reach has a kink where it straightens, which the
+// refinement resolves with knots close around it.
 constexpr int maxShapeKnots = 1024;
 
 // Random poses that give the range of reaches a shape is swept over, and check it.
@@ -257,7 +258,8 @@ bool ConstraintFitter::makeBase(int k, Sweep& sweep, double lo, double hi, Const
             const double e =
                 matrixError(predicted(k, base, worlds), worlds[static_cast<std::size_t>(k)], options_.frameRadius);
             const double moved = sweep.direction.lpNorm<1>();
-            if (!(e <= constraintFitShare * options_.epsilon * moved)) missed.push_back(t);
+            if (!(e <= constraintFitShare * std::min(options_.epsilon * moved, options_.absoluteTolerance)))
+                missed.push_back(t);
         }
         if (missed.empty() || static_cast<int>(knots.size() + missed.size()) > maxShapeKnots) return true;
         for (const double t : missed)

@@ -21,6 +21,8 @@ void LearnOptions::validate() const
         fail("frameRadius", frameRadius, "must be a positive number");
     if (samples < 2) fail("samples", samples, "must be at least 2");
     if (maxSamples < samples) fail("maxSamples", maxSamples, "must be at least `samples`");
+    if (!(absoluteTolerance > 0) || !std::isfinite(absoluteTolerance))
+        fail("absoluteTolerance", absoluteTolerance, "must be a positive number");
     if (!(effectTolerance > 0) || !std::isfinite(effectTolerance))
         fail("effectTolerance", effectTolerance, "must be a positive number");
     if (validationPoses < 0) fail("validationPoses", validationPoses, "must not be negative");

@@ -31,6 +31,10 @@ struct LearnOptions {
     int samples = 6;
     // Most samples a parameter may use when its magnitude curve or sampled operator is refined.
     int maxSamples = 64;
+    // A magnitude curve or sampled operator is refined, while its sample budget allows, until its frame error at
+    // every check is under this too (cm), wherever its range is: epsilon bounds an error per unit moved, which a long
+    // range turns into more than the solver's target tolerance (1e-3 cm, what every frame is judged by); a tenth of it.
+    double absoluteTolerance = 1e-4;
     // An output moving less than this (cm) is not affected by a parameter.
     double effectTolerance = 1e-7;
     Orderer orderer = Orderer::structured;

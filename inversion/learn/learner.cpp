@@ -137,8 +137,10 @@ bool undefinedTwist(const Approximation& a, const std::vector<Eigen::Matrix4d>& 
 }
 
 // The approximation against the real rig on the poses, with only the modelled parameters moved.
+// `positionErrors` (may be null): per output, its worst position error, cm.
 ValidationSummary validate(RigProbe& probe, Approximation& approximation, const std::vector<int>& indices,
-                           const std::vector<int>& rigOutput, ValidationPoses& poses, const LearnOptions& options)
+                           const std::vector<int>& rigOutput, ValidationPoses& poses, const LearnOptions& options,
+                           std::vector<double>* positionErrors = nullptr)
 {
     ValidationSummary summary;
     summary.poses = static_cast<int>(poses.drawn.size());
@@ -148,6 +150,7 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
         for (const int k : reach[p]) reachedBy[static_cast<std::size_t>(k)].push_back(static_cast<int>(p));
     for (auto& o : approximation.outputs) o.validationError = 0.0;
     for (auto& m : approximation.parameters) m.validationError = 0.0;
+    if (positionErrors) positionErrors->assign(approximation.outputs.size(), 0.0);
     std::vector<Eigen::Matrix4d> approximated;
     double positionSum = 0.0, rotationSum = 0.0;
     std::size_t count = 0;
@@ -181,6 +184,7 @@ ValidationSummary validate(RigProbe& probe, Approximation& approximation, const 
             const double rotation =
                 orientationAngle(truth.topLeftCorner<3, 3>(), approximated[k].topLeftCorner<3, 3>()) * 180.0 /
                 std::numbers::pi;
+            if (positionErrors) (*positionErrors)[k] = std::max((*positionErrors)[k], position);
             positionSum += position;
             rotationSum += rotation;
             ++count;
@@ -350,8 +354,9 @@ struct Pass {
     Approximation approximation;
     std::vector<Classification> classes;
     OrderResult order;
-    std::vector<int> indices;    // per modelled parameter, its rig index
-    std::vector<int> rigOutput;  // per approximation output, its rig index
+    std::vector<int> indices;            // per modelled parameter, its rig index
+    std::vector<int> rigOutput;          // per approximation output, its rig index
+    std::vector<double> positionErrors;  // per approximation output, its worst position error at validation, cm
 };
 
 // `budgets`: per rig parameter, the most samples it may use (LearnOptions::maxSamples, raised by repairs).
@@ -409,7 +414,7 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
         result.parameters.push_back(std::move(m));
         pass.indices.push_back(p);
     }
-    result.validation = validate(probe, result, pass.indices, pass.rigOutput, poses, options);
+    result.validation = validate(probe, result, pass.indices, pass.rigOutput, poses, options, &pass.positionErrors);
     return pass;
 }
 
@@ -555,8 +560,9 @@ bool distrustOverEpsilon(const Pass& pass, const LearnOptions& options, std::set
     return newly;
 }
 
-// A parameter fitted by a curve or sampled operator that reaches an output over epsilon gets twice its sample
-// budget, up to 8 x maxSamples (its fit was exact at the samples, not between). True when one was raised.
+// A parameter fitted by a curve or sampled operator that reaches an output over epsilon, or over the absolute
+// tolerance at a validation pose, gets twice its sample budget, up to 8 x maxSamples (its fit was exact at the
+// samples, not between). True when one was raised.
 bool raiseBudgets(const Pass& pass, const LearnOptions& options, std::vector<int>& budgets)
 {
     const Approximation& a = pass.approximation;
@@ -566,7 +572,9 @@ bool raiseBudgets(const Pass& pass, const LearnOptions& options, std::vector<int
         int& budget = budgets[static_cast<std::size_t>(pass.indices[p])];
         if (!interpolated(a.parameters[p]) || budget >= 8 * options.maxSamples) continue;
         const bool over = std::any_of(reach[p].begin(), reach[p].end(), [&](int k) {
-            return !(a.outputs[static_cast<std::size_t>(k)].validationError <= options.epsilon);
+            const auto o = static_cast<std::size_t>(k);
+            return !(a.outputs[o].validationError <= options.epsilon) ||
+                   !(pass.positionErrors[o] <= options.absoluteTolerance);
         });
         if (!over) continue;
         budget *= 2;

@@ -72,6 +72,7 @@ enum Attr : AttrId {
     realRigEvaluations,
     residualTermName,
     contactsFile,
+    statusOnRealRig,
 };
 
 // An approximation and the solver built on it: read-only (Solver is const and thread-safe), so every node
@@ -184,6 +185,7 @@ public:
         const std::vector<JointTarget> targets = targetsOf(c, a);
         solve(c, node, targets);
         c.setOutput(status, static_cast<int>(judge(targets)));
+        c.setOutput(statusOnRealRig, binding_ != nullptr);
         writeOutputs(c, a);
     }
 
@@ -207,7 +209,7 @@ private:
         bool mapStale = false;
         if (newFile || loaded_->options.maxIterations != options.maxIterations ||
             loaded_->options.threads != options.threads || loaded_->options.partition != options.partition) {
-            dropHybrid();
+            dropRealRig();
             loaded_ = sharedModel(path, options, node);
             mapStale = true;  // its weights name the outputs of the model just read
             // A warm start is kept across new solver settings, unless the file changed under it.
@@ -330,7 +332,8 @@ private:
         solution_ = start_;
         shifts_ = startShifts_;
         scratch_.lead = startLead_;  // a frame solved again leads as it did the first time
-        HybridSolver* h = hybridSolver(c, node);
+        HybridSolver* h = hybridSolver(c, node, realRig(c, node));
+        hybridSolved_ = h != nullptr;
         const HeldSolve solveOnce = [&](std::span<const JointTarget> asked, std::vector<double>& v, double previous,
                                         ChainFrame& f) {
             if (h) h->solveFrame(asked, v, previous, scratch_, f);
@@ -345,7 +348,7 @@ private:
         previousTime_ = t;
         previousWarm_ = !chainStart;
         // A chain after a restart frame played in order meets the frame before it, as rig-invert reports it.
-        // The shift is checked on the real rig where the node has one (`hybrid`), on the approximation otherwise.
+        // The shift is checked on the real rig where the node has one (`rig`), on the approximation otherwise.
         const Equivalences& equivalences = loaded_->solver->equivalences();
         PoseCheck samePose(a, binding_.get());
         if (chainStart)
@@ -384,8 +387,9 @@ private:
         c.setOutput(heldNames, joinLines(names));
     }
 
-    // The frame's status at reported_ (clip_inversion.h, judgeFrame): on the real rig with the hybrid solve's, as
-    // rig-invert --hybrid judges it; otherwise on the approximation, where an output it does not model is a miss.
+    // The frame's status at reported_ (clip_inversion.h, judgeFrame): on the node's own rig where `rig` names one, as
+    // rig-invert judges it (with the hybrid solve's fit, as rig-invert --hybrid does); otherwise on the
+    // approximation, where an output it does not model is a miss and a gap to the real rig goes unseen.
     FrameStatus judge(std::span<const JointTarget> targets)
     {
         const Approximation& a = *loaded_->approximation;
@@ -393,44 +397,54 @@ private:
         judged.solve = frame_.summary;
         a.evaluate(reported_, modelled_);
         if (binding_) binding_->evaluate(reported_, real_);
-        judgeFrame(a, loaded_->options, binding_ ? RealRigFit::unmodelledOutputs : RealRigFit::none, targets,
+        judgeFrame(a, loaded_->options, hybridSolved_ ? RealRigFit::unmodelledOutputs : RealRigFit::none, targets,
                    binding_ ? real_ : modelled_, modelled_, judged);
         return judged.status;
     }
 
-    // With `hybrid` on and an approximation that leaves outputs unmodelled: the hybrid solve on the node's own
-    // instance of the rig file `rig` (in the approximation's held state), made again when the rig file, the
-    // approximation or the solver changes. Null otherwise.
-    HybridSolver* hybridSolver(ComputeContext& c, const std::string& node)
+    // The node's own instance of the rig file `rig` (relative to the rig file that names the node; in the
+    // approximation's held state) and its binding, loaded when `rig` names one and made again when it or the
+    // approximation changes: the hybrid solve fits on it, and the frame's status is judged on it as rig-invert judges
+    // it. Null when `rig` is empty.
+    RigBinding* realRig(ComputeContext& c, const std::string& node)
     {
-        const Approximation& a = *loaded_->approximation;
-        if (!c.getBool(hybrid) || !a.hasUnmodelledOutputs()) return nullptr;
         const std::string& path = c.getString(rigFile);
-        if (hybrid_ && path == hybridRigPath_) return hybrid_.get();
-        dropHybrid();
-        if (path.empty())
-            throw Error(
-                fmt::format("{}.rig is empty; the hybrid solve evaluates the rig the approximation was learned "
-                            "from ({}): give its file",
-                            node, a.rigFile));
+        if (binding_ && path == rigPath_) return binding_.get();
+        dropRealRig();
+        if (path.empty()) return nullptr;
         // The rig as rig-invert loads it: helpers as helpers, a blend's branch copies as the joints they copy.
-        const GraphRigOptions options = rigOptionsFor(a);
+        const GraphRigOptions options = rigOptionsFor(*loaded_->approximation);
         try {
             realRig_ = std::make_unique<GraphRigFunction>(path, options);
-            binding_ = std::make_unique<RigBinding>(a, *realRig_);
+            binding_ = std::make_unique<RigBinding>(*loaded_->approximation, *realRig_);
         }
         catch (const Error& e) {
             throw e.in(fmt::format("{}.rig", node));
         }
+        rigPath_ = path;
+        return binding_.get();
+    }
+
+    // With `hybrid` on and an approximation that leaves outputs unmodelled: the hybrid solve on `rig` (realRig),
+    // made again with it. Null otherwise.
+    HybridSolver* hybridSolver(ComputeContext& c, const std::string& node, RigBinding* rig)
+    {
+        const Approximation& a = *loaded_->approximation;
+        if (!c.getBool(hybrid) || !a.hasUnmodelledOutputs()) return nullptr;
+        if (!rig)
+            throw Error(
+                fmt::format("{}.rig is empty; the hybrid solve evaluates the rig the approximation was learned "
+                            "from ({}): give its file",
+                            node, a.rigFile));
+        if (hybrid_) return hybrid_.get();
         const int threads = loaded_->options.threads > 0
                                 ? loaded_->options.threads
                                 : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-        hybrid_ = std::make_unique<HybridSolver>(*loaded_->solver, *binding_, threads);
-        hybridRigPath_ = path;
+        hybrid_ = std::make_unique<HybridSolver>(*loaded_->solver, *rig, threads);
         return hybrid_.get();
     }
     // Before the approximation or the solver it refers to goes.
-    void dropHybrid()
+    void dropRealRig()
     {
         hybrid_.reset();
         binding_.reset();
@@ -438,10 +452,11 @@ private:
     }
 
     std::shared_ptr<const Loaded> loaded_;
-    std::unique_ptr<GraphRigFunction> realRig_;  // the hybrid solve's rig, its binding, and the solve
+    std::unique_ptr<GraphRigFunction> realRig_;  // the node's own rig (`rig`), its binding, and the hybrid solve
     std::unique_ptr<RigBinding> binding_;
     std::unique_ptr<HybridSolver> hybrid_;
-    std::string hybridRigPath_;
+    std::string rigPath_;
+    bool hybridSolved_ = false;  // whether the frame solved last was solved by hybrid_
     std::string mapPath_;
     double scale_ = 1.0;
     std::vector<TargetWeight> weights_;  // per output, from the map
@@ -680,8 +695,10 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
             "The frame's status as rig-invert names it (docs/rig-invert.md): reached (every target within 1e-3 cm), "
             "bestFit (stationary with a residual: out of the rig's reach, or a local minimum), modelMismatch, "
             "notConverged, nonFinite, "
-            "invalidTargets. Judged on the real rig with `hybrid` (the node's `rig`), on the approximation otherwise, "
-            "where a target the approximation does not model is a miss.");
+            "invalidTargets. Judged on the real rig where `rig` names it (the node's own instance; statusOnRealRig "
+            "on), "
+            "on the approximation otherwise, where a target it does not model is a miss and its gap to the real rig "
+            "(a control past its learned range) goes unseen.");
     b.output(iterations, "iterations", ValueType::Int).doc("Solver iterations of this evaluation.");
     b.output(worstErrorCm, "worstErrorCm", ValueType::Double)
         .doc("Worst target position error on the approximation, cm.");
@@ -701,8 +718,9 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
     b.input(rigFile, "rig", ValueType::String)
         .filePath()
         .doc(
-            "The rig file the approximation was learned from, relative to the rig file that names it: the hybrid "
-            "solve evaluates its own instance of it, in the approximation's held state.");
+            "The rig file the approximation was learned from, relative to the rig file that names it: the node "
+            "evaluates its own instance of it, in the approximation's held state, to judge `status` as rig-invert "
+            "does and for the hybrid solve; empty: no real rig, status is the approximation's judgement.");
     b.output(realRigEvaluations, "realRigEvaluations", ValueType::Int)
         .doc("Real-rig evaluations of this evaluation's hybrid solve (0 without it).");
     b.input(residualTermName, "term", ValueType::String)
@@ -716,6 +734,10 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
             "A contacts file (docs/retargeting.md, Contacts), relative to the rig file that names it: joints planted "
             "over frame ranges in scene time, each held at its target's position at the range's first frame with a "
             "priority above the other targets, as rig-invert --contacts FILE holds them when played in order.");
+    b.output(statusOnRealRig, "statusOnRealRig", ValueType::Bool)
+        .doc(
+            "Whether `status` was judged on the real rig (`rig` given), as rig-invert judges it; off: on the "
+            "approximation, which cannot see where it disagrees with the rig (a modelMismatch there reads bestFit).");
     b.affectsAll();
     b.stateful();
     b.yamlConnector("connect", connectField);

@@ -371,7 +371,7 @@ def test_targets_too_far_for_the_cost_fail_every_frame_with_their_error(shift):
     assert values.shape[0] == 4
     assert report["failed_frames"] == 4
     assert report["status_frames"]["non_finite"] == 4 and report["status_frames"]["best_fit"] == 0
-    assert report["first_failure"] == {"frame": 0, "status": "non-finite", "joint": "shoulder"}
+    assert report["first_failure"] == {"frame": 0, "status": "non-finite", "joint": "shoulder", "left_range": None}
     # sqrt(3) * shift: a shift on each axis, measured without overflow.
     assert 1.7 * shift <= report["max_position_error_cm"] <= 1.8 * shift
     assert all(f["termination"] == "noConvergence" for f in report["per_frame"])

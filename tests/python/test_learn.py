@@ -7,7 +7,8 @@ import pytest
 import yaml
 
 import riginv
-from conftest import ARM, ARM_PARAMS, BIPED, biped_spec, raises_like, read_json, run, share_of_time_another_thread_runs
+from conftest import (ARM, ARM_PARAMS, BIPED, CMU_CLIP, CMU_MAP, biped_spec, need_cmu_clip, raises_like, read_json, run,
+                      share_of_time_another_thread_runs)
 
 # Wall times: they differ from run to run.
 TIMES = ("seconds", "load_seconds")
@@ -205,3 +206,33 @@ def test_auto_on_a_maya_scene_learns_as_rig_learn(tmp_path):
     assert approx.held == {"arm_ctrl.mode": 1.0}
     approx.save(tmp_path / "py.yaml", allow_inexact=True)
     assert approximation_file(tmp_path / "py.yaml") == approximation_file(cli_file)
+
+
+def test_ranges_from_equals_rig_learn(tmp_path):
+    """learn(ranges_from=) is rig-learn --ranges-from: the same ranges widened, the same approximation."""
+    need_cmu_clip()
+    spec = biped_spec()
+    out, json_report = tmp_path / "cli.yaml", tmp_path / "cli.json"
+    spec_file = tmp_path / "spec.yaml"
+    spec_file.write_text(yaml.safe_dump({"params": spec["params"], "outputs": spec["outputs"]}))
+    code, _, err = run("rig-learn", BIPED, "--spec", spec_file, "--ranges-from", CMU_CLIP, "--map", CMU_MAP,
+                       "--frames", "1:240", "-o", out, "--report-json", json_report)
+    assert code == 0, err
+    approx = riginv.learn(BIPED, params=spec["params"], outputs=spec["outputs"], ranges_from=CMU_CLIP,
+                          ranges_map=CMU_MAP, ranges_frames="1:240")
+    cli = read_json(json_report)["ranges_from"]
+    assert approx.report["ranges_from"] == cli
+    widened = {w["parameter"]: w["range"] for w in cli["widened"]}
+    assert widened["L_knee_fk_ctrl.rotateX"] == [-90, 111] and widened["R_knee_fk_ctrl.rotateX"] == [-90, 112]
+    approx.save(tmp_path / "ours.yaml")
+    assert approximation_file(tmp_path / "ours.yaml") == approximation_file(out)
+
+
+def test_ranges_errors():
+    with pytest.raises(riginv.Error) as caught:
+        riginv.learn(ARM, params=ARM_PARAMS, ranges={"nothing.*": (0, 1)})
+    assert str(caught.value) == ("ranges nothing.*: matches no parameter; name one of those the parameter globs "
+                                 "choose (--params, the spec's params:)")
+    with pytest.raises(riginv.Error) as caught:
+        riginv.learn(ARM, params=ARM_PARAMS, ranges_map=CMU_MAP)
+    assert str(caught.value) == "ranges_map, ranges_take and ranges_frames: give ranges_from, the clip they are about"

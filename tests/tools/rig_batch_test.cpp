@@ -655,7 +655,7 @@ TEST_CASE(
     } edits[] = {
         {"worst_frame", 100000, "a frame index outside 120 to 239"},
         {"worst_rotation_frame", -7, "a frame index outside 120 to 239"},
-        {"first_failure", Json::array({100000, 2, "Hips"}), "a frame index outside 120 to 239"},
+        {"first_failure", Json::array({100000, 2, "Hips", Json::array()}), "a frame index outside 120 to 239"},
         {"frames", 1, "1 frames counted in frames 120 to 239"},
         {"status_frames", Json::array({1000, 0, 0, 0, 0, 0}), "a count of frames outside 0 to 120"},
         {"status_frames", Json::array({1, 0, 0, 0, 0, 0}), "frame statuses for 1 of 120 frames"},

@@ -457,3 +457,62 @@ TEST_CASE("rigInversion: with hybrid on, the biped's IK legs give rig-invert --h
     CHECK(r.err.find("inverter.rig is empty; the hybrid solve evaluates the rig the approximation was learned from "
                      "(rigs/biped.yaml): give its file") != std::string::npos);
 }
+
+TEST_CASE(
+    "rigInversion: with `rig` its status is rig-invert's, model mismatches included, and without it the "
+    "approximation's")
+{
+    if (!fs::exists(test::cmuClip)) {
+        MESSAGE("[skipped] " << test::cmuClip << " is not installed (Debian package assimp-testmodels)");
+        return;
+    }
+    const auto dir = test::scratchDir("rig_inversion_node_real_rig_status");
+    // The knees learned over the default +-90 degrees: CMU 01_01 bends them past it from frame 192 on, where the
+    // approximation extrapolates and disagrees with the rig.
+    std::string spec = test::readFile("rigs/biped_inversion.yaml");
+    spec.erase(spec.find("\nranges:"));
+    const auto specFile = test::writeFile(dir / "spec.yaml", spec + "\n");
+    const auto approximation = dir / "narrow.approx.yaml";
+    REQUIRE(test::run(fmt::format("{} rigs/biped.yaml --spec {} -o {}", test::tool("rig-learn"), specFile.string(),
+                                  approximation.string()))
+                .exitCode == 0);
+    const std::string map = (test::sourceDir() / "rigs/maps/cmu_to_biped.yaml").string();
+    const std::string rigPath = (test::sourceDir() / "rigs/biped.yaml").string();
+    const auto withRig = test::writeFile(
+        dir / "with_rig.yaml", graphFile(rigPath, approximation, map) + fmt::format("    rig: {}\n", rigPath));
+    const auto without = test::writeFile(dir / "without.yaml", graphFile(rigPath, approximation, map));
+    const int count = parameterCount(approximation);
+    const auto play = [&](const fs::path& graph, const std::string& name) {
+        const auto r =
+            test::run(fmt::format("{} {} --frames 1:240 --get inverter.status --get inverter.statusOnRealRig"
+                                  "{} -o {}",
+                                  test::tool("graph-eval"), graph.string(), valueGets(count), (dir / name).string()));
+        INFO(r.err);
+        REQUIRE(r.exitCode == 0);
+        return YAML::LoadFile((dir / name).string());
+    };
+    const YAML::Node real = play(withRig, "with_rig.json"), approximated = play(without, "without.json");
+    const auto invert =
+        test::run(fmt::format("{} {} --rig rigs/biped.yaml --map {} --clip {} --frames 1:240 -o {} "
+                              "--report-json {} -q",
+                              test::tool("rig-invert"), approximation.string(), map, test::cmuClip.string(),
+                              (dir / "curves.json").string(), (dir / "report.json").string()));
+    REQUIRE(invert.exitCode == 3);
+    checkSameCurves(dir / "with_rig.json", dir / "curves.json", 240, count);
+    const YAML::Node report = YAML::LoadFile((dir / "report.json").string());
+    const std::map<std::string, std::string> enumName{
+        {"reached", "reached"}, {"best fit", "bestFit"}, {"model mismatch", "modelMismatch"}};
+    int mismatches = 0;
+    for (std::size_t f = 0; f < 240; ++f) {
+        CAPTURE(f);
+        const std::string status = report["per_frame"][f]["status"].as<std::string>();
+        CHECK(real[f]["inverter.status"].as<std::string>() == enumName.at(status));
+        CHECK(real[f]["inverter.statusOnRealRig"].as<bool>());
+        CHECK(!approximated[f]["inverter.statusOnRealRig"].as<bool>());
+        mismatches += status == "model mismatch";
+    }
+    CHECK(mismatches == 11);
+    // The approximation cannot see its own gap to the rig: the same frame reads as a best fit.
+    CHECK(real[191]["inverter.status"].as<std::string>() == "modelMismatch");
+    CHECK(approximated[191]["inverter.status"].as<std::string>() == "bestFit");
+}
