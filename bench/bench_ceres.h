@@ -1,5 +1,5 @@
 #pragma once
-// A peer solver: Ceres Solver on the same residuals of the same approximation (inversion/jacobian.h),
+// A peer solver: Ceres Solver on the same residuals of the same approximation (inversion/solve/jacobian.h),
 // with the same analytic Jacobian, Levenberg-Marquardt and a dense linear solver. Built only when CMake
 // finds Ceres (Debian's libceres-dev); rig-bench reports null figures otherwise.
 
@@ -7,9 +7,9 @@
 #include <span>
 #include <string>
 
-#include "inversion/approximation.h"
-#include "inversion/jacobian.h"
-#include "inversion/solver.h"
+#include "inversion/model/approximation.h"
+#include "inversion/solve/jacobian.h"
+#include "inversion/solve/solver.h"
 
 namespace rig::bench {
 

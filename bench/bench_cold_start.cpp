@@ -5,7 +5,7 @@
 #include <random>
 #include <vector>
 
-#include "inversion/solver.h"
+#include "inversion/solve/solver.h"
 
 namespace rig::bench {
 

@@ -3,7 +3,7 @@
 // with Solver::initialGuess and without, as rig-invert's restart frames are (docs/solver.md, Cold starts).
 
 #include "bench/bench_common.h"
-#include "inversion/approximation.h"
+#include "inversion/model/approximation.h"
 
 namespace rig::bench {
 

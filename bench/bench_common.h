@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/thread_clock.h"
-#include "inversion/jacobian.h"
+#include "inversion/solve/jacobian.h"
 
 namespace rig::bench {
 

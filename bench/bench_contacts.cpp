@@ -5,14 +5,14 @@
 
 #include <fmt/format.h>
 
+#include "adapter/graph_rig_function.h"
+#include "adapter/inversion_spec.h"
+#include "adapter/retarget.h"
 #include "core/rotation_math.h"
-#include "inversion/clip_inversion.h"
-#include "inversion/contacts.h"
-#include "inversion/learner.h"
-#include "nodes/clips/retarget.h"
+#include "inversion/clip/clip_inversion.h"
+#include "inversion/clip/contacts.h"
+#include "inversion/learn/learner.h"
 #include "nodes/clips/target_clip.h"
-#include "nodes/graph_rig_function.h"
-#include "nodes/inversion_spec.h"
 
 namespace rig::bench {
 namespace {

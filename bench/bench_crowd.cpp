@@ -12,7 +12,7 @@
 #include <fmt/format.h>
 #include <Eigen/Geometry>
 
-#include "app/eval_run.h"
+#include "app/eval/eval_run.h"
 #include "core/error.h"
 #include "graph/yaml_loader.h"
 #include "nodes/clips/target_clip.h"

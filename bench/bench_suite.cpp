@@ -13,23 +13,23 @@
 #include <fmt/format.h>
 #include <oneapi/tbb/task_arena.h>
 
-#include "app/invert_run.h"
-#include "app/output_file.h"
+#include "adapter/graph_rig_function.h"
+#include "adapter/inversion_spec.h"
+#include "app/common/output_file.h"
+#include "app/invert/invert_run.h"
 #include "bench/bench_cold_start.h"
 #include "bench/bench_contacts.h"
 #include "bench/bench_crowd.h"
 #include "bench/bench_maya.h"
 #include "core/error.h"
-#include "inversion/approximation_io.h"
-#include "inversion/clip_inversion.h"
-#include "inversion/hybrid_solve.h"
-#include "inversion/learner.h"
-#include "inversion/real_rig_solve.h"
-#include "inversion/rig_binding.h"
-#include "inversion/solver.h"
+#include "inversion/clip/clip_inversion.h"
+#include "inversion/clip/hybrid_solve.h"
+#include "inversion/clip/real_rig_solve.h"
+#include "inversion/clip/rig_binding.h"
+#include "inversion/learn/learner.h"
+#include "inversion/model/approximation_io.h"
+#include "inversion/solve/solver.h"
 #include "nodes/clips/target_clip.h"
-#include "nodes/graph_rig_function.h"
-#include "nodes/inversion_spec.h"
 #ifdef RIG_BENCH_HAVE_CERES
 #include "bench/bench_ceres.h"
 #endif
@@ -481,7 +481,8 @@ void compareBlackBox(BipedBench& b, Json& report)
     blackJson["speedup_whole"] = black.cpuMsPerFrame() / sameWhole.run.cpuMsPerFrame();
     blackJson["note"] =
         "The solver's minimizer on the real graph with forward-difference Jacobians, serial, the real rig's step "
-        "policy (Gauss-Newton, backtracked, then damped: inversion/real_rig_solve.h), the solver's tolerances, the "
+        "policy (Gauss-Newton, backtracked, then damped: inversion/clip/real_rig_solve.h), the solver's tolerances, "
+        "the "
         "same unknowns, in the chains of invertClip; the first frames of the clip, the first from the initial guess";
     report["blackbox"] = blackJson;
     b.accuracy["blackbox"] = black.errorsJson();

@@ -14,7 +14,7 @@
 
 #include <fmt/format.h>
 
-#include "app/output_file.h"
+#include "app/common/output_file.h"
 #include "bench/bench_common.h"
 #include "bench/bench_suite.h"
 #include "core/error.h"

@@ -1,10 +1,12 @@
-# The installable package (docs/extending.md): the layers as rig::core, rig::graph, rig::inversion, rig::nodes and
-# rig::app, their headers under include/rig, the programs and the rigInversion plugin, and a rigConfig.cmake that
+# The installable package (docs/extending.md): the layers as rig::core, rig::graph, rig::inversion_model,
+# rig::inversion_learn, rig::inversion_solve, rig::inversion_clip (rig::inversion: all four), rig::nodes, rig::adapter
+# and rig::app, their headers under include/rig, the programs and the rigInversion plugin, and a rigConfig.cmake that
 # finds the dependencies, so that find_package(rig) builds a node plugin or a program against an installed rig.
 # The same names exist in the build tree as ALIAS targets, so that code links alike inside and outside.
 include(CMakePackageConfigHelpers)
 
-set(RIG_PACKAGE_TARGETS rig_core rig_graph rig_inversion rig_nodes rig_app)
+set(RIG_PACKAGE_TARGETS rig_core rig_graph rig_inversion_model rig_inversion_learn rig_inversion_solve
+    rig_inversion_clip rig_inversion rig_nodes rig_adapter rig_app)
 foreach(target ${RIG_PACKAGE_TARGETS})
   string(REPLACE "rig_" "" name ${target})
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})
@@ -20,7 +22,7 @@ install(TARGETS rigInversion LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
 install(TARGETS graph-eval skel2rig rig-learn rig-invert rig-batch RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # bvh2rig, skel2rig's former name, as a relative link beside it.
 install(CODE "file(CREATE_LINK skel2rig \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_BINDIR}/bvh2rig\" SYMBOLIC)")
-foreach(folder core graph inversion nodes app)
+foreach(folder core graph inversion nodes adapter app)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${folder} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/rig
           FILES_MATCHING PATTERN "*.h")
 endforeach()

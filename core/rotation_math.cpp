@@ -55,6 +55,8 @@ Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& a, Eigen::Matrix3d* symmetr
     return q;
 }
 
+bool nearlySingular(const Eigen::Vector3d& sigma) { return !(sigma[0] > 0) || !(sigma[2] > 1e-9 * sigma[0]); }
+
 bool nearlyOrthonormal(const Eigen::Matrix3d& a)
 {
     // Below this drift the polar decomposition (an SVD) would move the block by far less than any tolerance.

@@ -17,6 +17,10 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v);
 // symmetric (written to `symmetric` when given). A world matrix's 3x3 block may carry scale or shear.
 Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& a, Eigen::Matrix3d* symmetric = nullptr);
 
+// Whether a 3x3 block is too close to singular to have an orientation or an inverse: its singular values
+// (largest first) are not positive, or the smallest is below 1e-9 of the largest.
+bool nearlySingular(const Eigen::Vector3d& singularValues);
+
 // Whether a 3x3 block is orthonormal up to rounding (products of rigid operators drift by rounding only): its
 // polar decomposition would change it by less than any tolerance, so callers skip that SVD. A reflection passes.
 bool nearlyOrthonormal(const Eigen::Matrix3d& a);

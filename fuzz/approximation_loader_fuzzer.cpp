@@ -10,8 +10,8 @@
 #include <string_view>
 #include <vector>
 
-#include "inversion/approximation_io.h"
-#include "inversion/solver.h"
+#include "inversion/model/approximation_io.h"
+#include "inversion/solve/solver.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
 {

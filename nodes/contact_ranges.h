@@ -1,7 +1,7 @@
 #pragma once
 // Contacts files (docs/retargeting.md, Contacts): joints mapped to lists of frame ranges [first, last], inclusive, in
-// a clip's numbering, as rig-invert --contacts FILE (app/contacts_run.h) and the rigInversion node's `contacts` read
-// them. The file's shape is checked here; its joints and frames against an approximation and a clip by the reader.
+// a clip's numbering, as rig-invert --contacts FILE (app/invert/contacts_run.h) and the rigInversion node's `contacts`
+// read them. The file's shape is checked here; its joints and frames against an approximation and a clip by the reader.
 
 #include <string>
 #include <vector>

@@ -16,17 +16,17 @@
 #include <pybind11/stl.h>
 #include <yaml-cpp/yaml.h>
 
-#include "app/eval_run.h"
-#include "app/frame_range.h"
-#include "app/invert_run.h"
-#include "app/learn_ranges.h"
-#include "app/learn_run.h"
-#include "app/output_file.h"
-#include "app/solve_settings.h"
+#include "app/common/frame_range.h"
+#include "app/common/output_file.h"
+#include "app/common/solve_settings.h"
+#include "app/eval/eval_run.h"
+#include "app/invert/invert_run.h"
+#include "app/learn/learn_ranges.h"
+#include "app/learn/learn_run.h"
 #include "core/error.h"
 #include "graph/rig_file.h"
 #include "graph/yaml_loader.h"
-#include "inversion/approximation_io.h"
+#include "inversion/model/approximation_io.h"
 
 namespace py = pybind11;
 
@@ -178,8 +178,8 @@ int intArgument(const py::handle& value, std::string_view what)
     return static_cast<int>(x);
 }
 
-// The solve settings' keyword arguments (app/solve_settings.h), one per row of the table: converted as their kind
-// is, then checked by the table, so that a bad value is the table's one line naming the keyword.
+// The solve settings' keyword arguments (app/common/solve_settings.h), one per row of the table: converted as their
+// kind is, then checked by the table, so that a bad value is the table's one line naming the keyword.
 using SettingArguments = std::array<py::object, app::solveSettingCount>;
 app::SolveSettings settingsArgument(const SettingArguments& values)
 {

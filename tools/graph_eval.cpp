@@ -8,12 +8,12 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include "app/crowd_report.h"
-#include "app/eval_run.h"
-#include "app/frame_range.h"
-#include "app/output_file.h"
-#include "app/report_page.h"
-#include "app/value_output.h"
+#include "app/common/frame_range.h"
+#include "app/common/output_file.h"
+#include "app/common/value_output.h"
+#include "app/eval/crowd_report.h"
+#include "app/eval/eval_run.h"
+#include "app/report/report_page.h"
 #include "core/error.h"
 #include "core/table.h"
 #include "graph/dot_writer.h"

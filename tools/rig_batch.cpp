@@ -6,9 +6,9 @@
 
 #include <fmt/format.h>
 
-#include "app/batch_backend.h"
-#include "app/batch_run.h"
-#include "app/progress_bar.h"
+#include "app/batch/batch_backend.h"
+#include "app/batch/batch_run.h"
+#include "app/common/progress_bar.h"
 #include "core/error.h"
 #include "tools/cli_common.h"
 #include "tools/solve_flags.h"

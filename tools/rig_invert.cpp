@@ -7,12 +7,12 @@
 
 #include <fmt/format.h>
 
-#include "app/html_report.h"
-#include "app/invert_run.h"
-#include "app/keys_run.h"
-#include "app/maya_scene_output.h"
-#include "app/output_file.h"
-#include "app/progress_bar.h"
+#include "app/common/output_file.h"
+#include "app/common/progress_bar.h"
+#include "app/invert/invert_run.h"
+#include "app/invert/keys_run.h"
+#include "app/invert/maya_scene_output.h"
+#include "app/report/html_report.h"
 #include "core/error.h"
 #include "tools/cli_common.h"
 #include "tools/solve_flags.h"

@@ -9,17 +9,16 @@
 
 #include <fmt/format.h>
 
-#include "app/learn_ranges.h"
-#include "app/learn_run.h"
-#include "app/output_file.h"
-#include "app/progress_bar.h"
+#include "adapter/inversion_spec.h"
+#include "app/common/output_file.h"
+#include "app/common/progress_bar.h"
+#include "app/learn/learn_ranges.h"
+#include "app/learn/learn_run.h"
 #include "core/error.h"
 #include "core/table.h"
-#include "inversion/approximation_io.h"
-#include "inversion/blend_merge.h"
-#include "inversion/learned_range.h"
-#include "inversion/pole_hold.h"
-#include "nodes/inversion_spec.h"
+#include "inversion/model/approximation_io.h"
+#include "inversion/model/learned_range.h"
+#include "inversion/solve/pole_hold.h"
 #include "tools/cli_common.h"
 
 namespace rig {

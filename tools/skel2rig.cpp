@@ -6,11 +6,11 @@
 
 #include <fmt/format.h>
 
-#include "app/output_file.h"
+#include "adapter/first_map.h"
+#include "app/common/output_file.h"
 #include "core/error.h"
 #include "nodes/clips/assimp_clip.h"
 #include "nodes/clips/bvh_rig.h"
-#include "nodes/clips/first_map.h"
 #include "nodes/clips/target_clip.h"
 #include "tools/cli_common.h"
 
@@ -24,7 +24,7 @@ struct Options {
     std::string mapFor;  // write a first map onto this rig instead of a rig
 };
 
-// --map-for: a first map from the clip's skeleton to the rig's joints (nodes/clips/first_map.h).
+// --map-for: a first map from the clip's skeleton to the rig's joints (adapter/first_map.h).
 int writeMap(const Options& options)
 {
     app::checkOutputFile(options.output, "map.yaml");

@@ -1,6 +1,6 @@
 #pragma once
-// The solve settings' table (app/solve_settings.h) as flags of rig-invert and rig-batch (docs/rig-invert.md, Solver
-// flags; docs/cluster.md): each flag, its help, its default and its check come from the table, so that the two
+// The solve settings' table (app/common/solve_settings.h) as flags of rig-invert and rig-batch (docs/rig-invert.md,
+// Solver flags; docs/cluster.md): each flag, its help, its default and its check come from the table, so that the two
 // command lines, the batch manifest and Python cannot drift apart.
 
 #include <array>
@@ -8,7 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "app/solve_settings.h"
+#include "app/common/solve_settings.h"
 
 namespace rig::cli {
 

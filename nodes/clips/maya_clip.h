@@ -3,8 +3,8 @@
 // included) evaluated at each frame of its playback range, its joints' world matrices as the targets, in cm as every
 // graph here is (the scene's own units are converted where it is read). What else the scene says is kept with the
 // clip (TargetClip::scene): its units, frame rate and references (for writing curves back into a scene of the same
-// rig, app/maya_scene_output.h) and what its own time curves give the plugs they drive at each frame (for comparing
-// an inversion's controls with the animator's).
+// rig, app/invert/maya_scene_output.h) and what its own time curves give the plugs they drive at each frame (for
+// comparing an inversion's controls with the animator's).
 
 #include <filesystem>
 #include <optional>

@@ -7,13 +7,13 @@
 //     "JOINT.worldMatrix": [[4 numbers] x 4 rows], ...} (column-vector convention, cm; null, graph-eval's
 //     number that is not finite, reads as NaN: the solver reports that frame's target as invalid),
 // renamed and scaled by an optional map file (docs/retargeting.md; its `retarget:` and `weights:` need the
-// approximation, and nodes/clips/retarget.h applies them):
+// approximation, and adapter/retarget.h applies them):
 //
 //   scale: 5.644444444          # target units -> cm (a CMU clip: 2.54 / 0.45); 1 by default
 //   joints:                     # target joint -> rig joint; joints not listed keep their names
 //     LeftUpLeg: L_thigh
 //   ignore: [LHipJoint]         # target joints that must not be targets
-//   retarget:                   # a clip of other proportions onto the rig's (nodes/clips/retarget.h)
+//   retarget:                   # a clip of other proportions onto the rig's (adapter/retarget.h)
 //     rootScale: auto           # or a number; auto: the rig's leg length over the clip's, along `leg`
 //     leg: [LeftUpLeg, LeftLeg, LeftFoot]
 //     align: {LeftArm: [0, 0, -45]}   # degrees; default: the rest orientations' difference

@@ -11,7 +11,7 @@
 // frames (t - startFrame a multiple of restartInterval); a start from rest is made a cold start
 // (Solver::initialGuess) unless `coldStart` is off, and a warm start that ends stuck after a jump in
 // cost is solved again from the guess (solveChainFrame). A chain that starts at a restart frame played in
-// order is shifted by equivalences to meet the frame before it where that one was warm (inversion/continuity.h;
+// order is shifted by equivalences to meet the frame before it where that one was warm (inversion/clip/continuity.h;
 // after another restart frame it is reported as solved, as a clip of that frame alone). rig-invert
 // follows the same rules, so the node played frame after frame gives rig-invert's curves.
 #include <cmath>
@@ -28,20 +28,20 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "adapter/graph_rig_function.h"
 #include "core/error.h"
 #include "graph/graph.h"
 #include "graph/node_registry.h"
 #include "graph/plug_glob.h"
-#include "inversion/approximation_io.h"
-#include "inversion/clip_inversion.h"
-#include "inversion/contacts.h"
-#include "inversion/continuity.h"
-#include "inversion/hybrid_solve.h"
-#include "inversion/residual_term.h"
-#include "inversion/solver.h"
+#include "inversion/clip/clip_inversion.h"
+#include "inversion/clip/contacts.h"
+#include "inversion/clip/continuity.h"
+#include "inversion/clip/hybrid_solve.h"
+#include "inversion/model/approximation_io.h"
+#include "inversion/solve/residual_term.h"
+#include "inversion/solve/solver.h"
 #include "nodes/clips/target_clip.h"
 #include "nodes/contact_ranges.h"
-#include "nodes/graph_rig_function.h"
 
 namespace rig {
 namespace {
@@ -259,7 +259,7 @@ private:
         startShifts_ = shifts_;
     }
 
-    // The holds of the contacts that cover time `t` (inversion/contacts.h): each at its target's position at the
+    // The holds of the contacts that cover time `t` (inversion/clip/contacts.h): each at its target's position at the
     // contact's first frame, as rig-invert holds it when the node plays the frames in order (entered later, at
     // the first frame it evaluates inside the contact), with the multiplier carried along the chain.
     void contactHoldsAt(double t, std::span<const JointTarget> targets)
@@ -469,7 +469,7 @@ private:
     ChainLead startLead_;  // whether the rotations lead the frame start_ starts (clip_inversion.h), as start_
     ChainFrame frame_;
     std::vector<double> solution_;  // the chain's, as solved
-    ChunkShift shift_;              // of the current chain (inversion/continuity.h)
+    ChunkShift shift_;              // of the current chain (inversion/clip/continuity.h)
     std::vector<double> reported_;  // solution_ shifted: the values output
     // `contacts`: the file's ranges (scene time), each contact's hold once entered, the multipliers of the frame
     // solved and of the frame the next solve starts from (as start_ and solution_).

@@ -4,7 +4,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "app/eval_run.h"
+#include "app/eval/eval_run.h"
 #include "graph/type_reference.h"
 #include "test_support.h"
 

@@ -7,8 +7,8 @@
 
 #include <fmt/format.h>
 
-#include <rig/app/eval_run.h>
-#include <rig/app/value_output.h>
+#include <rig/app/common/value_output.h>
+#include <rig/app/eval/eval_run.h>
 #include <rig/core/error.h>
 #include <rig/graph/yaml_loader.h>
 

@@ -24,7 +24,8 @@ $3"
 
 cmake --install "$build_dir" --prefix "$prefix" >"$scratch/install.log"
 for file in bin/graph-eval bin/rig-invert bin/skel2rig bin/bvh2rig lib/rigInversion.so include/rig/graph/node.h \
-            include/rig/app/eval_run.h \
+            include/rig/app/eval/eval_run.h include/rig/inversion/model/approximation.h \
+            include/rig/adapter/graph_rig_function.h \
             lib/cmake/rig/rigConfig.cmake lib/cmake/rig/rigConfigVersion.cmake lib/cmake/rig/rigTargets.cmake; do
   [ -e "$prefix/$file" ] || fail "$file was not installed"
 done

@@ -1,11 +1,11 @@
 #pragma once
 // A small IK rig whose joints below the clavicle do not compose (per-output modelling, the hybrid solve, and
-// rig-learn's report of what it leaves unmodelled): tests/inversion/hybrid_solve_test.cpp,
-// tests/inversion/learner_test.cpp, tests/tools/rig_learn_test.cpp.
+// rig-learn's report of what it leaves unmodelled): tests/inversion/clip/hybrid_solve_test.cpp,
+// tests/inversion/learn/learner_test.cpp, tests/tools/rig_learn_test.cpp.
 
 #include <string>
 
-#include "nodes/graph_rig_function.h"
+#include "adapter/graph_rig_function.h"
 
 namespace rig::test {
 

@@ -8,7 +8,7 @@
 
 #include <Eigen/Geometry>
 
-#include "inversion/rig_function.h"
+#include "inversion/model/rig_function.h"
 
 namespace rig::test {
 

@@ -224,7 +224,7 @@ def test_errors_are_rig_invert_messages(learned_biped, tmp_path):
         f"{bad_map}:2: the map renames 'Nobody', which targets does not have; check the joint name"
 
 
-# The solve settings (app/solve_settings.h): each keyword and rig-invert's flag of the same name ('_' for '-').
+# The solve settings (app/common/solve_settings.h): each keyword and rig-invert's flag of the same name ('_' for '-').
 SETTINGS = [
     (["--threads", "3"], {"threads": 3}),
     (["--no-partition"], {"no_partition": True}),

@@ -15,15 +15,15 @@
 #include <fmt/format.h>
 #include <Eigen/Geometry>
 
+#include "adapter/graph_rig_function.h"
+#include "adapter/inversion_spec.h"
 #include "graph/plug_glob.h"
 #include "graph/yaml_loader.h"
-#include "inversion/continuity.h"
-#include "inversion/learner.h"
-#include "inversion/rig_binding.h"
-#include "inversion/solver.h"
+#include "inversion/clip/rig_binding.h"
+#include "inversion/learn/learner.h"
+#include "inversion/solve/equivalences.h"
+#include "inversion/solve/solver.h"
 #include "nodes/builtin_nodes.h"
-#include "nodes/graph_rig_function.h"
-#include "nodes/inversion_spec.h"
 #include "test_support.h"
 
 using namespace rig;

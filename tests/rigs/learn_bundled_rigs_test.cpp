@@ -10,9 +10,9 @@
 #include <fmt/format.h>
 #include <Eigen/Geometry>
 
-#include "inversion/learner.h"
+#include "adapter/graph_rig_function.h"
+#include "inversion/learn/learner.h"
 #include "nodes/clips/bvh.h"
-#include "nodes/graph_rig_function.h"
 #include "test_support.h"
 
 using namespace rig;

@@ -12,11 +12,11 @@
 
 #include <fmt/format.h>
 
+#include "adapter/graph_rig_function.h"
+#include "adapter/inversion_spec.h"
 #include "allocation_counter.h"
-#include "inversion/approximation_io.h"
-#include "inversion/learner.h"
-#include "nodes/graph_rig_function.h"
-#include "nodes/inversion_spec.h"
+#include "inversion/learn/learner.h"
+#include "inversion/model/approximation_io.h"
 #include "test_support.h"
 
 using namespace rig;

@@ -8,9 +8,9 @@
 
 #include <fmt/format.h>
 
-#include "inversion/learner.h"
-#include "inversion/solver.h"
-#include "nodes/graph_rig_function.h"
+#include "adapter/graph_rig_function.h"
+#include "inversion/learn/learner.h"
+#include "inversion/solve/solver.h"
 #include "test_support.h"
 
 using namespace rig;

@@ -11,7 +11,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include "app/eval_run.h"
+#include "app/eval/eval_run.h"
 #include "core/error.h"
 #include "graph/graph.h"
 #include "graph/yaml_loader.h"

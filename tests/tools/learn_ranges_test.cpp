@@ -8,8 +8,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "inversion/approximation_io.h"
-#include "inversion/learned_range.h"
+#include "inversion/model/approximation_io.h"
+#include "inversion/model/learned_range.h"
 #include "learned_fixtures.h"
 #include "test_support.h"
 

@@ -17,7 +17,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "nodes/graph_rig_function.h"
+#include "adapter/graph_rig_function.h"
 #include "test_support.h"
 
 using rig::test::run;

@@ -10,9 +10,9 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
-#include "inversion/approximation.h"
-#include "inversion/approximation_io.h"
 #include "inversion/ik_arm.h"
+#include "inversion/model/approximation.h"
+#include "inversion/model/approximation_io.h"
 #include "learned_fixtures.h"
 #include "test_support.h"
 

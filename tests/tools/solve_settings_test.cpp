@@ -1,5 +1,5 @@
-// The solve settings' table (app/solve_settings.h) against everything made from it: every row is a rig-invert flag,
-// a rig-batch flag, a manifest field and a Python keyword (the module's signature and riginv.pyi), each with the
+// The solve settings' table (app/common/solve_settings.h) against everything made from it: every row is a rig-invert
+// flag, a rig-batch flag, a manifest field and a Python keyword (the module's signature and riginv.pyi), each with the
 // table's default; non-default settings round-trip through the manifest; a bad value of each kind is the table's one
 // line with exit code 2 in both command lines and in a manifest.
 #include <doctest/doctest.h>
@@ -13,8 +13,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "app/batch_manifest.h"
-#include "app/solve_settings.h"
+#include "app/batch/batch_manifest.h"
+#include "app/common/solve_settings.h"
 #include "test_support.h"
 
 using namespace rig;

@@ -1,0 +1,525 @@
+#include "inversion/clip/clip_inversion.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+
+#include "core/error.h"
+#include "core/rotation_math.h"
+#include "core/thread_clock.h"
+#include "inversion/clip/continuity.h"
+
+namespace rig {
+ClipTargets matchTargets(const Approximation& approximation, std::span<const std::string> joints,
+                         std::span<const std::vector<Eigen::Matrix4d>> worlds)
+{
+    ClipTargets targets;
+    for (const auto& joint : joints) {
+        const auto it = std::find_if(approximation.outputs.begin(), approximation.outputs.end(),
+                                     [&](const ApproximationOutput& o) { return !o.helper && o.name == joint; });
+        targets.outputOfJoint.push_back(
+            it == approximation.outputs.end() ? -1 : static_cast<int>(it - approximation.outputs.begin()));
+        if (targets.outputOfJoint.back() >= 0) ++targets.matchedJoints;
+        else targets.unmatchedJoints.push_back(joint);
+    }
+    const auto first = [](const std::string& name) { return fmt::format("'{}', ...", name); };
+    if (targets.matchedJoints == 0)
+        throw Error(fmt::format(
+            "no joint of the clip is an output of the approximation (the clip has {}; the approximation {}); "
+            "rename them with a map file",
+            joints.empty() ? "none" : first(joints.front()),
+            approximation.outputs.empty() ? "none" : first(approximation.outputs.front().name)));
+    for (const auto& frame : worlds) {
+        auto& out = targets.frames.emplace_back(approximation.outputs.size());
+        for (std::size_t j = 0; j < joints.size(); ++j) {
+            const int o = targets.outputOfJoint[j];
+            if (o < 0) continue;
+            out[o].active = true;
+            out[o].world = frame[j];
+        }
+    }
+    return targets;
+}
+
+void ClipInversionOptions::validate() const
+{
+    solver.validate();
+    if (polishCorrections < 0) throw Error(fmt::format("polishCorrections must be >= 0, got {}", polishCorrections));
+    if (restartInterval <= 0) throw Error(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
+    for (const Contact& c : contacts)
+        if (c.output < 0 || c.first < 0 || c.first > c.last)
+            throw Error(
+                fmt::format("a contact must name an output and frames first <= last, got output {}, frames "
+                            "{} to {}",
+                            c.output, c.first, c.last));
+}
+
+std::string_view frameStatusName(FrameStatus status)
+{
+    return frameStatusSpellings.at(static_cast<std::size_t>(status)).words;
+}
+
+std::string frameStatusKey(FrameStatus status)
+{
+    return std::string(frameStatusSpellings.at(static_cast<std::size_t>(status)).key);
+}
+
+namespace {
+
+// Whether error a is worse than b: a NaN is worse than any number, so that no maximum drops one.
+bool worse(double a, double b) { return std::isnan(a) ? !std::isnan(b) : !std::isnan(b) && a > b; }
+
+}  // namespace
+
+int ClipInversionSummary::failedFrames() const
+{
+    int failed = 0;
+    for (int k = 0; k < frameStatusCount; ++k)
+        if (frameStatusFails(static_cast<FrameStatus>(k))) failed += statusFrames[static_cast<std::size_t>(k)];
+    return failed;
+}
+
+void ClipInversionSummary::add(const FrameInversion& f, const std::vector<ApproximationOutput>& outputs)
+{
+    ++frames;
+    ++statusFrames[static_cast<std::size_t>(f.status)];
+    if (frameStatusFails(f.status) && firstFailedFrame < 0) {
+        firstFailedFrame = f.frame;
+        firstFailedStatus = f.status;
+        firstFailedJoint = f.status == FrameStatus::invalidTargets && !f.invalidJoint.empty() ? f.invalidJoint
+                           : !f.nonFiniteJoint.empty()                                        ? f.nonFiniteJoint
+                           : f.status == FrameStatus::modelMismatch && f.mismatchOutput >= 0
+                               ? outputs[static_cast<std::size_t>(f.mismatchOutput)].name
+                           : !f.missed.empty() ? outputs[static_cast<std::size_t>(f.missed.front().output)].name
+                                               : f.worstJoint;
+        firstFailedRange = f.rangeLeft;
+    } else if (f.rangeLeft.found() && f.rangeLeft.parameter == firstFailedRange.parameter) {
+        firstFailedRange.cover(f.rangeLeft.low);
+        firstFailedRange.cover(f.rangeLeft.high);
+    }
+    for (const auto& m : f.missed)
+        addResidual({outputs[static_cast<std::size_t>(m.output)].name, 1, m.positionErrorCm, m.rotationErrorDeg,
+                     m.scaledErrorCm});
+    // A frame not measured has no error to be the worst: 0 there would make a run of invalid targets look exact.
+    if (f.measured() && (worse(f.positionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
+        maxPositionErrorCm = f.positionErrorCm;
+        worstJoint = f.worstJoint;
+        worstFrame = f.frame;
+    }
+    if (f.measured() && (worse(f.rotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0)) {
+        maxRotationErrorDeg = f.rotationErrorDeg;
+        worstRotationJoint = f.worstRotationJoint;
+        worstRotationFrame = f.frame;
+    }
+    if (worse(f.modelGapCm, maxModelGapCm)) maxModelGapCm = f.modelGapCm;
+    const double n = static_cast<double>(jointFrames), k = f.countedJoints;
+    if (f.countedJoints > 0) {
+        meanPositionErrorCm = (meanPositionErrorCm * n + f.positionErrorSumCm) / (n + k);
+        meanRotationErrorDeg = (meanRotationErrorDeg * n + f.rotationErrorSumDeg) / (n + k);
+    }
+    jointFrames += f.countedJoints;
+    realRigEvaluations += f.realRigEvaluations;
+}
+
+void ClipInversionSummary::merge(const ClipInversionSummary& later)
+{
+    if (later.firstFailedFrame >= 0 && firstFailedFrame < 0) {
+        firstFailedFrame = later.firstFailedFrame;
+        firstFailedStatus = later.firstFailedStatus;
+        firstFailedJoint = later.firstFailedJoint;
+        firstFailedRange = later.firstFailedRange;
+    } else if (later.firstFailedRange.found() && later.firstFailedRange.parameter == firstFailedRange.parameter) {
+        firstFailedRange.cover(later.firstFailedRange.low);
+        firstFailedRange.cover(later.firstFailedRange.high);
+    }
+    for (int k = 0; k < frameStatusCount; ++k)
+        statusFrames[static_cast<std::size_t>(k)] += later.statusFrames[static_cast<std::size_t>(k)];
+    for (const auto& joint : later.residualJoints) addResidual(joint);
+    sortResidualJoints();
+    if (later.measured() && (worse(later.maxPositionErrorCm, maxPositionErrorCm) || worstFrame < 0)) {
+        maxPositionErrorCm = later.maxPositionErrorCm;
+        worstJoint = later.worstJoint;
+        worstFrame = later.worstFrame;
+    }
+    if (later.measured() && (worse(later.maxRotationErrorDeg, maxRotationErrorDeg) || worstRotationFrame < 0)) {
+        maxRotationErrorDeg = later.maxRotationErrorDeg;
+        worstRotationJoint = later.worstRotationJoint;
+        worstRotationFrame = later.worstRotationFrame;
+    }
+    if (worse(later.maxModelGapCm, maxModelGapCm)) maxModelGapCm = later.maxModelGapCm;
+    const double n = static_cast<double>(jointFrames), k = static_cast<double>(later.jointFrames);
+    if (later.jointFrames > 0) {
+        meanPositionErrorCm = (meanPositionErrorCm * n + later.meanPositionErrorCm * k) / (n + k);
+        meanRotationErrorDeg = (meanRotationErrorDeg * n + later.meanRotationErrorDeg * k) / (n + k);
+    }
+    jointFrames += later.jointFrames;
+    joinSlides(contacts, later.contacts);
+    multiplierUpdates += later.multiplierUpdates;
+    frames += later.frames;
+    retriedFrames += later.retriedFrames;
+    retriesKept += later.retriesKept;
+    solveSeconds += later.solveSeconds;
+    solveCpuSeconds += later.solveCpuSeconds;
+    realRigEvaluations += later.realRigEvaluations;
+    msPerFrame = frames > 0 ? 1000.0 * solveSeconds / frames : 0.0;
+}
+
+void ClipInversionSummary::addResidual(const ResidualJoint& joint)
+{
+    auto it =
+        std::find_if(residualJoints.begin(), residualJoints.end(), [&](const auto& r) { return r.name == joint.name; });
+    if (it == residualJoints.end()) it = residualJoints.insert(residualJoints.end(), {joint.name});
+    it->frames += joint.frames;
+    if (worse(joint.worstPositionErrorCm, it->worstPositionErrorCm))
+        it->worstPositionErrorCm = joint.worstPositionErrorCm;
+    if (worse(joint.worstRotationErrorDeg, it->worstRotationErrorDeg))
+        it->worstRotationErrorDeg = joint.worstRotationErrorDeg;
+    if (worse(joint.worstScaledErrorCm, it->worstScaledErrorCm)) it->worstScaledErrorCm = joint.worstScaledErrorCm;
+}
+
+void ClipInversionSummary::sortResidualJoints()
+{
+    std::stable_sort(residualJoints.begin(), residualJoints.end(),
+                     [](const auto& a, const auto& b) { return worse(a.worstScaledErrorCm, b.worstScaledErrorCm); });
+}
+
+std::string ClipInversionSummary::briefReport() const
+{
+    std::string counts;
+    for (int k = 0; k < frameStatusCount; ++k)
+        if (statusFrames[static_cast<std::size_t>(k)] > 0 || k == 0)
+            counts += fmt::format("{}{} {}", counts.empty() ? "" : ", ", statusFrames[static_cast<std::size_t>(k)],
+                                  frameStatusName(static_cast<FrameStatus>(k)));
+    return fmt::format(
+        "{} frames: {}; real rig: worst {:.3g} cm ({}, frame index {}) and {:.3g} deg ({}, frame index {}), "
+        "mean {:.3g} cm and {:.3g} deg; {:.3g} ms per frame",
+        frames, counts, maxPositionErrorCm, worstJoint, worstFrame, maxRotationErrorDeg, worstRotationJoint,
+        worstRotationFrame, meanPositionErrorCm, meanRotationErrorDeg, msPerFrame);
+}
+
+namespace {
+
+// The frame solved with the positions weighed rotationsLeadPositionWeight times their own, from `values`; false (and
+// `values` unchanged) when no active target has a rotation to lead.
+bool solveRotationsFirst(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                         ChainScratch& scratch)
+{
+    scratch.led.assign(targets.begin(), targets.end());
+    bool rotations = false;
+    for (JointTarget& t : scratch.led) {
+        rotations = rotations || (t.active && t.rotationWeight > 0.0);
+        t.positionWeight *= rotationsLeadPositionWeight;
+    }
+    if (!rotations) return false;
+    solver.solve(scratch.led, values, scratch.second);
+    return true;
+}
+
+// Whether the rotations lead the next frame, from this one's solve (`led`: with the rotations leading, `summary` the
+// second solve's).
+void decideLead(bool led, const SolveSummary& summary, ChainLead& lead)
+{
+    if (!led) {
+        lead.wait = std::max(0, lead.wait - 1);
+        lead.rotations = summary.longFirstStep && lead.wait == 0;
+        return;
+    }
+    // It paid where the targets' own weights took one step from the rotations' answer.
+    lead.rotations = summary.converged() && summary.iterations <= 1;
+    if (lead.rotations) {
+        lead.backoff = ChainLead::firstWait;
+        return;
+    }
+    lead.wait = lead.backoff;
+    lead.backoff = std::min(2 * lead.backoff, 1 << 20);
+}
+
+}  // namespace
+
+void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                     double previousCost, ChainScratch& scratch, ChainFrame& frame)
+{
+    scratch.start.assign(values.begin(), values.end());  // the warm start
+    frame.retried = frame.kept = false;
+    frame.realRigEvaluations = 0;
+    scratch.led.reserve(targets.size());  // grown at the chain's first frame, whether or not the rotations lead
+    const bool chainStart = !(previousCost < retryNever);
+    if (chainStart) scratch.lead = ChainLead{};
+    const bool led = scratch.lead.rotations && solveRotationsFirst(solver, targets, values, scratch);
+    if (chainStart) solver.solveCold(targets, values, frame.summary);
+    else solver.solve(targets, values, frame.summary);
+    decideLead(led, frame.summary, scratch.lead);
+    if (led) {
+        frame.summary.iterations += scratch.second.iterations;
+        frame.summary.gaussNewtonIterations += scratch.second.gaussNewtonIterations;
+        frame.summary.levenbergMarquardtIterations += scratch.second.levenbergMarquardtIterations;
+    }
+    const double tolerance = solver.options().targetTolerance;
+    const double floor = 0.5 * tolerance * tolerance;
+    if (!(previousCost < retryNever) || frame.summary.termination != TerminationType::stuck ||
+        !(frame.summary.finalCost > 2.0 * previousCost + floor))
+        return;
+    frame.retried = true;
+    solver.initialGuess(targets, scratch.start);
+    SolveSummary& second = scratch.second;
+    solver.solveCold(targets, scratch.start, second);
+    if (!(second.finalCost < frame.summary.finalCost * (1.0 - 1e-9) - floor * 1e-6)) return;
+    frame.kept = true;
+    second.iterations += frame.summary.iterations;
+    second.gaussNewtonIterations += frame.summary.gaussNewtonIterations;
+    second.levenbergMarquardtIterations += frame.summary.levenbergMarquardtIterations;
+    second.initialCost = frame.summary.initialCost;
+    std::swap(frame.summary, second);
+    values.swap(scratch.start);
+}
+
+int solveHeldFrame(const Approximation& approximation, const HeldSolve& solveOnce, std::span<const JointTarget> targets,
+                   std::vector<ContactHold>& holds, std::vector<double>& values, double previousCost, ChainFrame& frame)
+{
+    std::vector<JointTarget> held;
+    std::vector<Eigen::Matrix4d> worlds;
+    ChainFrame round;
+    int updates = 0;
+    for (int k = 0;; ++k) {
+        applyHolds(holds, targets, held);
+        // Only the first solve may retry from the initial guess: later ones start at the answer they correct.
+        solveOnce(held, values, k == 0 ? previousCost : retryNever, k == 0 ? frame : round);
+        if (k > 0) {
+            frame.summary.iterations += round.summary.iterations;
+            frame.summary.gaussNewtonIterations += round.summary.gaussNewtonIterations;
+            frame.summary.levenbergMarquardtIterations += round.summary.levenbergMarquardtIterations;
+            frame.summary.termination = round.summary.termination;
+            frame.summary.finalCost = round.summary.finalCost;
+            frame.realRigEvaluations += round.realRigEvaluations;
+        }
+        if (frame.summary.termination == TerminationType::invalidTargets || k + 1 >= contactSolves) return updates;
+        approximation.evaluate(values, worlds);
+        double worst = 0.0;
+        for (const ContactHold& h : holds)
+            worst = std::max(worst, (worlds[static_cast<std::size_t>(h.output)].block<3, 1>(0, 3) - h.position).norm());
+        if (!(worst > contactToleranceCm)) return updates;  // met (or not finite: no update helps)
+        // The method of multipliers: the target moves past the hold by what the solve left, so the next solve's
+        // weighted rows carry the force the other targets pull with.
+        for (ContactHold& h : holds)
+            h.shift += h.position - worlds[static_cast<std::size_t>(h.output)].block<3, 1>(0, 3);
+        ++updates;
+    }
+}
+
+namespace {
+
+// The real rig (`real`) and the approximation (`modelled`) at a frame's reported values against its targets: the
+// errors, the missed outputs and the model's gap, into `f`; returns whether a missed output is one the
+// approximation does not model and no solve fitted on the real rig.
+bool measureFrame(const Approximation& a, const SolverOptions& o, RealRigFit fit, std::span<const JointTarget> targets,
+                  std::span<const Eigen::Matrix4d> real, std::span<const Eigen::Matrix4d> modelled, FrameInversion& f)
+{
+    constexpr double degrees = 180.0 / std::numbers::pi;
+    bool unfitted = false;
+    double worstDisagreement = 0.0;  // the gap of f.mismatchOutput when it disagrees
+    for (std::size_t k = 0; k < targets.size(); ++k) {
+        const JointTarget& t = targets[k];
+        if (!t.active) continue;
+        // An unusable target has no error to measure: the solve says invalidTargets.
+        if (!t.world.topRows<3>().allFinite()) {
+            if (f.invalidJoint.empty()) f.invalidJoint = a.outputs[k].name;
+            continue;
+        }
+        if (!real[k].topRows<3>().allFinite()) {
+            if (f.nonFiniteJoint.empty()) f.nonFiniteJoint = a.outputs[k].name;
+            continue;
+        }
+        const bool position = t.positionWeight > 0, rotation = t.rotationWeight > 0;
+        const auto distance = [&](const Eigen::Matrix4d& m, const Eigen::Matrix4d& n) {
+            const double p = position ? (m.block<3, 1>(0, 3) - n.block<3, 1>(0, 3)).stableNorm() : 0.0;
+            const double r = rotation ? orientationAngle(m.topLeftCorner<3, 3>(), n.topLeftCorner<3, 3>()) : 0.0;
+            return std::pair{p, r};
+        };
+        const auto [p, r] = distance(real[k], t.world);
+        const std::string& name = a.outputs[k].name;
+        f.positionErrorSumCm += p;
+        f.rotationErrorSumDeg += r * degrees;
+        ++f.countedJoints;
+        if (worse(p, f.positionErrorCm) || f.worstJoint.empty()) {
+            f.positionErrorCm = p;
+            f.worstJoint = name;
+        }
+        if (worse(r * degrees, f.rotationErrorDeg) || f.worstRotationJoint.empty()) {
+            f.rotationErrorDeg = r * degrees;
+            f.worstRotationJoint = name;
+        }
+        const double error = worse(p, o.rotationScaleCm * r) ? p : o.rotationScaleCm * r;
+        const bool onRealRig =
+            fit == RealRigFit::everyOutput || (fit == RealRigFit::unmodelledOutputs && !a.outputs[k].modelled);
+        if (!(error <= o.targetTolerance)) {
+            f.missed.push_back({static_cast<int>(k), p, r * degrees, error});
+            if (!a.outputs[k].modelled && !onRealRig && !unfitted) {
+                unfitted = true;
+                if (!f.disagrees) f.mismatchOutput = static_cast<int>(k);
+            }
+        }
+        if (onRealRig || !a.outputs[k].modelled) continue;
+        const auto [gp, gr] = distance(modelled[k], real[k]);
+        const double gap = worse(gp, o.rotationScaleCm * gr) ? gp : o.rotationScaleCm * gr;
+        if (worse(gap, f.modelGapCm)) f.modelGapCm = gap;
+        // The approximation's word on this output holds where its gap is small beside the error it leaves.
+        if (!(gap <= std::max(o.targetTolerance, modelAgreement * error)) &&
+            (!f.disagrees || worse(gap, worstDisagreement))) {
+            f.disagrees = true;
+            f.mismatchOutput = static_cast<int>(k);
+            worstDisagreement = gap;
+        }
+    }
+    return unfitted;
+}
+
+FrameStatus frameStatus(const FrameInversion& f, bool unfittedMiss)
+{
+    const TerminationType t = f.solve.termination;
+    if (t == TerminationType::invalidTargets || t == TerminationType::noTargets) return FrameStatus::invalidTargets;
+    // A solve whose cost overflowed (a target 1e160 cm away: its square is past a double's range) measured nothing.
+    if (!f.nonFiniteJoint.empty() || !std::isfinite(f.positionErrorCm) || !std::isfinite(f.rotationErrorDeg) ||
+        !std::isfinite(f.solve.finalCost))
+        return FrameStatus::nonFinite;
+    if (f.missed.empty()) return FrameStatus::reached;
+    if (t == TerminationType::noConvergence) return FrameStatus::notConverged;
+    if (unfittedMiss || f.disagrees) return FrameStatus::modelMismatch;
+    return FrameStatus::bestFit;
+}
+
+// The real rig's joints at reported frame `frame` against each covering contact's reference (its first reported
+// frame's position), into `slides` (a contact's entry made at its first reported frame, in the contacts' order).
+void measureSlides(std::span<const Contact> contacts, int frame, std::span<const Eigen::Matrix4d> real,
+                   std::vector<ContactSlide>& slides)
+{
+    for (const Contact& c : contacts) {
+        if (frame < c.first || frame > c.last) continue;
+        auto it = std::find_if(slides.begin(), slides.end(),
+                               [&](const ContactSlide& s) { return s.output == c.output && s.first == c.first; });
+        if (it == slides.end()) it = slides.insert(slides.end(), {c.output, c.first, c.last, frame, {}, 0.0});
+        it->add(real[static_cast<std::size_t>(c.output)].block<3, 1>(0, 3));
+    }
+}
+
+}  // namespace
+
+void judgeFrame(const Approximation& approximation, const SolverOptions& options, RealRigFit fit,
+                std::span<const JointTarget> targets, std::span<const Eigen::Matrix4d> real,
+                std::span<const Eigen::Matrix4d> modelled, FrameInversion& frame)
+{
+    const bool unfitted = measureFrame(approximation, options, fit, targets, real, modelled, frame);
+    frame.status = frameStatus(frame, unfitted);
+}
+
+namespace {
+
+// The callers' frames and contacts within the clip and the approximation: a caller's mistake, not a user's.
+void checkClipRange(const Approximation& approximation, const ClipTargets& targets, int first, int last,
+                    const ClipInversionOptions& options)
+{
+    options.validate();
+    const int frameCount = static_cast<int>(targets.frames.size());
+    if (first < 0 || last >= frameCount || first > last)
+        throw internalError(fmt::format("frames {}..{} are not within the clip's 0..{}", first, last, frameCount - 1));
+    for (const Contact& c : options.contacts)
+        if (c.last >= frameCount || c.output >= static_cast<int>(approximation.outputs.size()))
+            throw internalError(
+                fmt::format("a contact of output {} over frames {}..{} is not within the clip's "
+                            "0..{} and outputs",
+                            c.output, c.first, c.last, frameCount - 1));
+}
+
+}  // namespace
+
+ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first, int last,
+                                const ClipInversionOptions& options, std::vector<std::vector<double>>& values,
+                                std::vector<std::vector<double>>* solvedValues)
+{
+    checkClipRange(solver.approximation(), targets, first, last, options);
+    const Approximation& approximation = solver.approximation();
+    const std::vector<double> rest = approximation.defaults();
+
+    ClipInversionSummary summary;
+    summary.leadInFrames = first % options.restartInterval;
+    values.clear();
+    if (solvedValues) solvedValues->clear();
+    std::vector<double> current = rest;
+    // Each chunk shifted by equivalences to meet the warm frame before it (continuity.h), where the approximation and
+    // the real rig find the same pose; the chain itself, `current`, is what was solved. The frame before the lead-in
+    // (a restart frame) is a warm one unless every frame restarts.
+    PoseCheck samePose(approximation, &rig);
+    ChainContinuity continuity(solver.equivalences(), options.continueFrom, options.restartInterval > 1, &samePose);
+    ChainScratch chainScratch;
+    ChainFrame solved;
+    double previousCost = 0.0;
+    std::vector<Eigen::Matrix4d> worlds, modelled;
+    const HeldSolve solveOnce = [&](std::span<const JointTarget> t, std::vector<double>& v, double previous,
+                                    ChainFrame& f) {
+        if (options.frameSolve) options.frameSolve(t, v, previous, f);
+        else solveChainFrame(solver, t, v, previous, chainScratch, f);
+    };
+    std::vector<ContactHold> holds;
+    std::vector<Eigen::Vector3d> shifts(options.contacts.size(), Eigen::Vector3d::Zero());
+    std::vector<JointTarget> heldTargets;
+    using Clock = std::chrono::steady_clock;
+    for (int frame = first - summary.leadInFrames; frame <= last; ++frame) {
+        const auto& frameTargets = targets.frames[frame];
+        const auto start = Clock::now();
+        const double cpuStart = threadCpuSeconds();
+        const bool restart = frame % options.restartInterval == 0;
+        if (restart) {
+            current = rest;
+            if (options.coldStart) solver.initialGuess(frameTargets, current);
+        }
+        const double previous = restart ? retryNever : options.retryStuck ? previousCost : noRetry;
+        if (restart) std::fill(shifts.begin(), shifts.end(), Eigen::Vector3d::Zero());
+        if (options.holdContacts) contactHolds(options.contacts, targets, frame, shifts, holds);
+        const int rounds =
+            holds.empty() ? (solveOnce(frameTargets, current, previous, solved), 0)
+                          : solveHeldFrame(approximation, solveOnce, frameTargets, holds, current, previous, solved);
+        for (const ContactHold& h : holds) shifts[static_cast<std::size_t>(h.contact)] = h.shift;
+        const SolveSummary& solve = solved.summary;
+        if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
+        if (options.polishCorrections > 0 && !options.frameSolve &&
+            solve.termination != TerminationType::invalidTargets) {
+            // The polish keeps the holds as the solve left them (its targets the held ones).
+            applyHolds(holds, frameTargets, heldTargets);
+            polish(solver, rig, heldTargets, current, options.polishCorrections);
+        }
+        const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+        const double cpuSeconds = threadCpuSeconds() - cpuStart;
+        const std::span<const double> reported = continuity.next(current, restart);
+        if (frame < first) continue;
+
+        summary.solveSeconds += seconds;
+        summary.solveCpuSeconds += cpuSeconds;
+        values.emplace_back(reported.begin(), reported.end());
+        if (solvedValues) solvedValues->push_back(current);
+        FrameInversion result;
+        result.frame = frame;
+        result.solve = solve;
+        result.realRigEvaluations = solved.realRigEvaluations;
+        rig.evaluate(reported, worlds);
+        approximation.evaluate(reported, modelled);
+        judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
+        if (result.status == FrameStatus::modelMismatch)
+            result.rangeLeft = rangeLeft(approximation, reported, result.mismatchOutput);
+        summary.retriedFrames += solved.retried;
+        summary.retriesKept += solved.kept;
+        summary.multiplierUpdates += rounds;
+        measureSlides(options.contacts, frame, worlds, summary.contacts);
+        summary.add(result, approximation.outputs);
+        summary.perFrame.push_back(std::move(result));
+        if (options.progress) options.progress(static_cast<double>(frame - first + 1) / (last - first + 1));
+    }
+    summary.sortResidualJoints();
+    summary.msPerFrame = summary.frames > 0 ? 1000.0 * summary.solveSeconds / summary.frames : 0.0;
+    return summary;
+}
+
+}  // namespace rig

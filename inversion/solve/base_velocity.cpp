@@ -1,0 +1,163 @@
+#include "inversion/solve/jacobian.h"
+
+#include <Eigen/Dense>
+
+#include "inversion/model/constraint.h"
+#include "inversion/solve/jacobian_math.h"
+
+// The constraints' and blends' bases in a residual workspace (jacobian.h): each base's product evaluated from its
+// inputs' products, and its velocity per column, dB B^-1, from its inputs' velocities (inversion/model/constraint.h
+// differentiates each family), as twists where the normal equations fold through bases.
+
+namespace rig {
+
+using namespace jacobian_math;
+
+ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
+{
+    const auto& s = *structure_;
+    const ResidualStructure::Base& base = s.bases_[b];
+    const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
+    if (c.kind == ConstraintKind::blend) return evaluateBlend(b);
+    if (c.kind == ConstraintKind::twistShare) {
+        const auto motion = [&](int node) -> Eigen::Matrix4d {
+            Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+            if (node >= 0) m.topRows<3>() = nodeMatrix_[static_cast<std::size_t>(node)];
+            return m;
+        };
+        TwistLinearization& t = baseTwists_[b];
+        t = linearizeTwist(c, motion(base.anchorNode), motion(base.goalNode) * base.secondRest,
+                           motion(base.poleNode) * base.thirdRest);
+        return t.base.topRows<3>();
+    }
+    // An input's product is its node's (the identity without one): points move with it.
+    const auto moved = [&](int node, const Eigen::Vector3d& p) -> Eigen::Vector3d {
+        if (node < 0) return p;
+        const Affine& m = nodeMatrix_[static_cast<std::size_t>(node)];
+        return m.leftCols<3>() * p + m.col(3);
+    };
+    ChainPoints& points = basePoints_[b];
+    points.root = moved(base.anchorNode, c.root);
+    points.goal = moved(base.goalNode, base.goalRest);
+    points.pole = c.pole >= 0 ? moved(base.poleNode, base.poleRest)
+                  : c.worldUp ? Eigen::Vector3d(points.root + c.restPole - c.root)
+                              : moved(base.anchorNode, c.restPole);
+    points.normal =
+        base.anchorNode < 0
+            ? c.restNormal
+            : Eigen::Vector3d(nodeMatrix_[static_cast<std::size_t>(base.anchorNode)].leftCols<3>() * c.restNormal);
+    const Eigen::Matrix4d chain = constraintBase(c, points);
+    if (c.orient < 0) return chain.topRows<3>();
+    Eigen::Matrix4d orient = Eigen::Matrix4d::Identity();
+    if (base.orientNode >= 0) orient.topRows<3>() = nodeMatrix_[static_cast<std::size_t>(base.orientNode)];
+    baseCentres_[b] = chain.block<3, 3>(0, 0) * c.origin + chain.block<3, 1>(0, 3);
+    return orientedBase(c, chain, orient).topRows<3>();
+}
+
+ResidualWorkspace::Affine ResidualWorkspace::evaluateBlend(std::size_t b)
+{
+    // B = W_a blend(w, W_ikp^-1 W_ik, W_fkp^-1 W_fk) R^-1 (Approximation::evaluate), each input's world its node's
+    // product times its rest.
+    const ResidualStructure::Base& base = structure_->bases_[b];
+    BlendState& blend = blends_[b];
+    for (std::size_t i = 0; i < blend.worlds.size(); ++i) {
+        blend.worlds[i] = base.frameRest[i];
+        if (const int node = base.frameNodes[i]; node >= 0)
+            blend.worlds[i].topRows<3>() =
+                compose(nodeMatrix_[static_cast<std::size_t>(node)], base.frameRest[i].topRows<3>());
+    }
+    const BlendRule& rule = structure_->approximation_->constraints[static_cast<std::size_t>(base.constraint)].blend;
+    blend.ik = blend.worlds[3].inverse() * blend.worlds[1];
+    blend.fk = blend.worlds[4].inverse() * blend.worlds[2];
+    blend.moved = blend.worlds[0] * blendLocal(rule, blend.weight, blend.ik, blend.fk);
+    return (blend.moved * base.restInverse).topRows<3>();
+}
+
+ResidualWorkspace::Affine ResidualWorkspace::blendVelocity(std::size_t b, const std::array<Affine, 5>& x,
+                                                           double dw) const
+{
+    // dB B^-1 = Xi_a + W_a dL (W_a L)^-1, a branch's local moving at d(W_p^-1 W) = W_p^-1 (Xi - Xi_p) W.
+    const ResidualStructure::Base& base = structure_->bases_[b];
+    const BlendState& blend = blends_[b];
+    const auto full = [](const Affine& v) {
+        Eigen::Matrix4d m = Eigen::Matrix4d::Zero();
+        m.topRows<3>() = v;
+        return m;
+    };
+    const auto localRate = [&](std::size_t branch, std::size_t parent) -> Eigen::Matrix4d {
+        return blend.worlds[parent].inverse() * (full(x[branch]) - full(x[parent])) * blend.worlds[branch];
+    };
+    const BlendRule& rule = structure_->approximation_->constraints[static_cast<std::size_t>(base.constraint)].blend;
+    const Eigen::Matrix4d rate =
+        blendLocalRate(rule, blend.weight, blend.ik, blend.fk, dw, localRate(1, 3), localRate(2, 4));
+    return x[0] + (blend.worlds[0] * rate * blend.moved.inverse()).topRows<3>();
+}
+
+void ResidualWorkspace::baseVelocities()
+{
+    // Per base and column: each input's velocity (the sum of what moves it), its points' rates, then the base's.
+    const auto& s = *structure_;
+    for (std::size_t b = 0; b < s.bases_.size(); ++b) {
+        const ResidualStructure::Base& base = s.bases_[b];
+        const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
+        const ChainPoints& points = basePoints_[b];
+        const bool twist = c.kind == ConstraintKind::twistShare, blend = c.kind == ConstraintKind::blend;
+        const BaseLinearization at = twist || blend ? BaseLinearization{} : linearizeBase(c, points);
+        for (std::size_t j = 0; j < base.columns.size(); ++j) {
+            std::array<Affine, 5> x;
+            x.fill(Affine::Zero());
+            double dw = 0.0;
+            for (int t = base.termBegin[j]; t < base.termBegin[j + 1]; ++t) {
+                const ResidualStructure::InputTerm& term = s.inputTerms_[static_cast<std::size_t>(t)];
+                if (term.input == ResidualStructure::blendWeightInput) {
+                    dw = 1.0;
+                    continue;
+                }
+                x[static_cast<std::size_t>(term.input)] +=
+                    term.node >= 0 ? velocity_[static_cast<std::size_t>(term.node)]
+                                   : baseVelocity_[static_cast<std::size_t>(term.baseVelocity)];
+            }
+            if (blend) {
+                baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] = blendVelocity(b, x, dw);
+                continue;
+            }
+            if (twist) {
+                baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
+                    twistVelocity(baseTwists_[b], x[0], x[1], x[2]);
+                continue;
+            }
+            const auto rate = [](const Affine& v, const Eigen::Vector3d& p) -> Eigen::Vector3d {
+                return v.leftCols<3>() * p + v.col(3);
+            };
+            // A world up moves with the root only; a fixed pole with the anchor.
+            const Eigen::Vector3d poleRate = c.pole >= 0 ? rate(x[2], points.pole)
+                                             : c.worldUp ? rate(x[0], points.root)
+                                                         : rate(x[0], points.pole);
+            const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal), poleRate,
+                                    x[0].leftCols<3>() * points.normal};
+            const Affine chain = baseVelocity(at, rates);
+            baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
+                c.orient < 0 ? chain : orientedVelocity(chain, x[3], baseCentres_[b]);
+        }
+    }
+}
+
+void ResidualWorkspace::baseTwistVelocities()
+{
+    // An unknown node's velocity Xi = [[omega]x, v] from its twist; the bases' through their chains' points.
+    const auto& s = *structure_;
+    for (const int n : s.unknownNodes_) {
+        const Vector6d& t = twist_[static_cast<std::size_t>(n)];
+        Affine& xi = velocity_[static_cast<std::size_t>(n)];
+        xi.leftCols<3>() = skew(t.head<3>());
+        xi.col(3) = t.tail<3>();
+    }
+    baseVelocities();
+    for (std::size_t v = 0; v < baseVelocity_.size(); ++v) {
+        const Affine& xi = baseVelocity_[v];
+        baseTwist_[v] << 0.5 * (xi(2, 1) - xi(1, 2)), 0.5 * (xi(0, 2) - xi(2, 0)), 0.5 * (xi(1, 0) - xi(0, 1)),
+            xi.col(3);
+    }
+}
+
+}  // namespace rig

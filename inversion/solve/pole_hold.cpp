@@ -1,0 +1,292 @@
+#include "inversion/solve/pole_hold.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include <Eigen/Dense>
+
+namespace rig {
+namespace {
+
+// Below this distance from the chain's line the plane is not defined: the pole is left where it is.
+constexpr double degenerateAcross = 1e-6;
+
+Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> values,
+                        const std::vector<int>* controls = nullptr, Eigen::MatrixXd* columns = nullptr);
+
+// A chain's points at `values`: its anchor's motion carries the root.
+ChainPoints pointsAt(const Approximation& a, const ConstraintBase& c, std::span<const double> values)
+{
+    const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
+    const Eigen::Matrix4d anchor = c.anchor < 0
+                                       ? identity
+                                       : Eigen::Matrix4d(worldOf(a, c.anchor, values) *
+                                                         a.outputs[static_cast<std::size_t>(c.anchor)].rest.inverse());
+    return chainPoints(c, anchor, worldOf(a, c.goal, values), c.pole < 0 ? identity : worldOf(a, c.pole, values));
+}
+
+// Output k's world at `values`, evaluating only what it reads (its parents, its base's inputs). With `columns`, the
+// pole's own translations' columns d(origin)/da are set there as they are met (their operators' axes through the
+// product before them), in the order of `controls`.
+Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> values, const std::vector<int>* controls,
+                        Eigen::MatrixXd* columns)
+{
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    for (std::size_t p = 0; p < a.parameters.size(); ++p) {
+        const ModelledParameter& mp = a.parameters[p];
+        const auto e = std::find(mp.outputs.begin(), mp.outputs.end(), k);
+        if (e == mp.outputs.end()) continue;
+        const Operator& op = mp.operators[static_cast<std::size_t>(
+            mp.operatorOfOutput[static_cast<std::size_t>(e - mp.outputs.begin())])];
+        const double offset = values[p] - mp.parameter.defaultValue;
+        if (controls) {
+            const auto c = std::find(controls->begin(), controls->end(), static_cast<int>(p));
+            if (c != controls->end())
+                columns->col(c - controls->begin()) = m.block<3, 3>(0, 0) * (op.magnitudeDerivative(offset) * op.axis);
+        }
+        m = m * op.matrix(offset);
+    }
+    const ApproximationOutput& output = a.outputs[static_cast<std::size_t>(k)];
+    if (output.constraint >= 0) {
+        const ConstraintBase& c = a.constraints[static_cast<std::size_t>(output.constraint)];
+        const Eigen::Matrix4d orient =
+            c.orient < 0 ? Eigen::Matrix4d::Identity()
+                         : Eigen::Matrix4d(worldOf(a, c.orient, values) *
+                                           a.outputs[static_cast<std::size_t>(c.orient)].rest.inverse());
+        m = orientedBase(c, constraintBase(c, pointsAt(a, c, values)), orient) * m;
+    } else if (output.parent >= 0) {
+        m = worldOf(a, output.parent, values) * a.outputs[static_cast<std::size_t>(output.parent)].rest.inverse() * m;
+    }
+    return m * output.rest;
+}
+
+// The controls of a helper that are translations moving it alone, free of limits: where a cold start or a hold
+// may put it.
+std::vector<int> ownTranslations(const Approximation& approximation, int helper)
+{
+    std::vector<int> controls;
+    for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
+        const ModelledParameter& m = approximation.parameters[p];
+        if (m.outputs.size() != 1 || m.outputs.front() != helper || m.parameter.limited) continue;
+        if (std::all_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
+                return op.kind == OperatorKind::translation && op.linear() && !op.held();
+            }))
+            controls.push_back(static_cast<int>(p));
+    }
+    return controls;
+}
+
+// Moves `controls` (translations of helper k alone) so that k's origin is at `wanted`, as near as they can.
+void place(const Approximation& approximation, int k, const std::vector<int>& controls, const Eigen::Vector3d& wanted,
+           std::span<double> values)
+{
+    Eigen::MatrixXd j(3, static_cast<Eigen::Index>(controls.size()));
+    const Eigen::Vector3d now = worldOf(approximation, k, values, &controls, &j).block<3, 1>(0, 3);
+    const Eigen::VectorXd step = j.completeOrthogonalDecomposition().solve(wanted - now);
+    for (std::size_t i = 0; i < controls.size(); ++i)
+        values[static_cast<std::size_t>(controls[i])] += step[static_cast<Eigen::Index>(i)];
+}
+
+}  // namespace
+
+std::vector<PoleHold> poleHolds(const Approximation& approximation)
+{
+    std::vector<PoleHold> holds;
+    std::set<int> poles;
+    for (std::size_t i = 0; i < approximation.constraints.size(); ++i) {
+        const ConstraintBase& c = approximation.constraints[i];
+        if (c.kind != ConstraintKind::planarChain || c.pole < 0 || !poles.insert(c.pole).second) continue;
+        PoleHold hold;
+        hold.constraint = static_cast<int>(i);
+        hold.parameters = ownTranslations(approximation, c.pole);
+        if (hold.parameters.empty()) continue;
+        const Eigen::Vector3d x =
+            (approximation.outputs[static_cast<std::size_t>(c.goal)].rest.block<3, 1>(0, 3) - c.root).normalized();
+        const Eigen::Vector3d offset = c.restPole - c.root;
+        hold.along = offset.dot(x);
+        hold.across = (offset - hold.along * x).norm();
+        holds.push_back(std::move(hold));
+    }
+    return holds;
+}
+
+void holdPoles(const Approximation& approximation, std::span<const PoleHold> holds, std::span<double> values)
+{
+    for (const PoleHold& hold : holds) {
+        const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(hold.constraint)];
+        const ChainPoints points = pointsAt(approximation, c, values);
+        const Eigen::Vector3d x = (points.goal - points.root).normalized();
+        const Eigen::Vector3d offset = points.pole - points.root;
+        const Eigen::Vector3d w = offset - offset.dot(x) * x;
+        if (!(w.norm() > degenerateAcross) || !x.allFinite()) continue;
+        place(approximation, c.pole, hold.parameters, points.root + hold.along * x + hold.across * w.normalized(),
+              values);
+    }
+}
+
+void placeChain(const Approximation& approximation, int constraint, std::span<const PoleHold> holds,
+                std::span<const JointTarget> targets, std::span<double> values)
+{
+    const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(constraint)];
+    const auto origin = [&](int k) -> Eigen::Vector3d {
+        return approximation.outputs[static_cast<std::size_t>(k)].rest.block<3, 1>(0, 3);
+    };
+    // The chain's members: the outputs on a base with its goal and pole. Its end is the one nearest the goal at
+    // rest, its middle the one furthest from the root-goal line.
+    const Eigen::Vector3d restGoal = origin(c.goal);
+    const Eigen::Vector3d x0 = (restGoal - c.root).normalized();
+    int end = -1, middle = -1;
+    double nearest = 0.0, furthest = 0.0;
+    for (std::size_t k = 0; k < approximation.outputs.size(); ++k) {
+        const int b = approximation.outputs[k].constraint;
+        if (b < 0) continue;
+        const ConstraintBase& m = approximation.constraints[static_cast<std::size_t>(b)];
+        if (m.goal != c.goal || m.pole != c.pole || !targets[k].active) continue;
+        const Eigen::Vector3d o = origin(static_cast<int>(k)) - c.root;
+        const double toGoal = (origin(static_cast<int>(k)) - restGoal).norm();
+        const double across = (o - o.dot(x0) * x0).norm();
+        if (end < 0 || toGoal < nearest) end = static_cast<int>(k), nearest = toGoal;
+        if (middle < 0 || across > furthest) middle = static_cast<int>(k), furthest = across;
+    }
+    if (end < 0) return;
+    const std::vector<int> goalControls = ownTranslations(approximation, c.goal);
+    if (!goalControls.empty())
+        place(approximation, c.goal, goalControls,
+              targets[static_cast<std::size_t>(end)].world.block<3, 1>(0, 3) + (restGoal - origin(end)), values);
+    const auto hold = std::find_if(holds.begin(), holds.end(), [&](const PoleHold& h) {
+        return approximation.constraints[static_cast<std::size_t>(h.constraint)].pole == c.pole;
+    });
+    if (hold == holds.end() || middle == end) return;
+    const ChainPoints points = pointsAt(approximation, c, values);
+    const Eigen::Vector3d root = points.root;
+    const Eigen::Vector3d x = (points.goal - root).normalized();
+    const Eigen::Vector3d knee = targets[static_cast<std::size_t>(middle)].world.block<3, 1>(0, 3) - root;
+    const Eigen::Vector3d w = knee - knee.dot(x) * x;
+    if (!(w.norm() > degenerateAcross) || !x.allFinite()) return;
+    // The pole on the knee's side of the line, as it is at rest.
+    const Eigen::Vector3d restKnee = origin(middle) - c.root, restPole = c.restPole - c.root;
+    const double side = (restKnee - restKnee.dot(x0) * x0).dot(restPole - restPole.dot(x0) * x0) < 0.0 ? -1.0 : 1.0;
+    place(approximation, c.pole, hold->parameters, root + hold->along * x + side * hold->across * w.normalized(),
+          values);
+}
+
+namespace {
+
+// Knot values this close are the same shape (rotation vector in radians, translation in cm).
+constexpr double flatTolerance = 1e-9;
+// How far inside the flat reach a held goal sits, as a share of the rest reach: on the bend's side of the last knot
+// with a slope, and near enough that the joints do not move (a shape's slope times this is under 1e-6 cm).
+constexpr double insideReach = 1e-8;
+
+// The reach (the root-goal distance, cm) from which a chain's shape stays put: the first of the knots whose values are
+// all the same to the end, more than one of them, after knots where it changes; else infinity.
+double flatFrom(const ConstraintBase& c)
+{
+    const auto& knots = c.shape.rigid.knots();
+    const auto& y = c.shape.rigid.values();
+    if (knots.size() < 3) return std::numeric_limits<double>::infinity();
+    std::size_t first = knots.size() - 1;
+    while (first > 0 && (y[first - 1] - y.back()).cwiseAbs().maxCoeff() <= flatTolerance) --first;
+    // Still changing at its last knot (stretch), or never (an aim: its goal's distance is held by no reach).
+    if (first + 1 >= knots.size() || first == 0) return std::numeric_limits<double>::infinity();
+    return c.restReach + knots[first];
+}
+
+// An aim: a planar chain whose shape is the same at every knot.
+bool isAim(const ConstraintBase& c)
+{
+    const auto& y = c.shape.rigid.values();
+    return c.kind == ConstraintKind::planarChain && !y.empty() && std::all_of(y.begin(), y.end(), [&](const auto& v) {
+               return (v - y.front()).cwiseAbs().maxCoeff() <= flatTolerance;
+           });
+}
+
+}  // namespace
+
+std::vector<GoalHold> goalHolds(const Approximation& approximation)
+{
+    std::vector<GoalHold> holds;
+    std::set<int> goals;
+    for (std::size_t i = 0; i < approximation.constraints.size(); ++i) {
+        const ConstraintBase& c = approximation.constraints[i];
+        if (c.kind != ConstraintKind::planarChain || !goals.insert(c.goal).second) continue;
+        GoalHold hold;
+        hold.constraint = static_cast<int>(i);
+        hold.parameters = ownTranslations(approximation, c.goal);
+        // Every chain on this goal must be flat past the reach held: the furthest of their flat reaches.
+        hold.flatReach = 0.0;
+        for (const ConstraintBase& other : approximation.constraints)
+            if (other.kind == ConstraintKind::planarChain && other.goal == c.goal)
+                hold.flatReach = std::max(hold.flatReach, flatFrom(other));
+        if (hold.parameters.empty() || !std::isfinite(hold.flatReach)) continue;
+        holds.push_back(std::move(hold));
+    }
+    return holds;
+}
+
+bool holdGoals(const Approximation& approximation, std::span<const GoalHold> holds, std::span<double> values)
+{
+    bool moved = false;
+    for (const GoalHold& hold : holds) {
+        const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(hold.constraint)];
+        const ChainPoints points = pointsAt(approximation, c, values);
+        const Eigen::Vector3d line = points.goal - points.root;
+        const double reach = line.norm();
+        if (!(reach > hold.flatReach) || !std::isfinite(reach)) continue;
+        const double held = hold.flatReach - insideReach * c.restReach;
+        place(approximation, c.goal, hold.parameters, points.root + held / reach * line, values);
+        moved = true;
+    }
+    return moved;
+}
+
+std::vector<AimHold> aimHolds(const Approximation& approximation)
+{
+    std::vector<AimHold> holds;
+    std::set<int> targets;
+    for (std::size_t i = 0; i < approximation.constraints.size(); ++i) {
+        const ConstraintBase& c = approximation.constraints[i];
+        if (c.kind != ConstraintKind::planarChain || !targets.insert(c.goal).second) continue;
+        // Every chain on the target an aim from the same point, carried by the same anchor.
+        const bool oneEye = std::all_of(approximation.constraints.begin(), approximation.constraints.end(),
+                                        [&](const ConstraintBase& other) {
+                                            return other.kind != ConstraintKind::planarChain || other.goal != c.goal ||
+                                                   (isAim(other) && other.anchor == c.anchor &&
+                                                    (other.root - c.root).norm() <= 1e-9 * (1.0 + c.root.norm()));
+                                        });
+        AimHold hold{static_cast<int>(i), ownTranslations(approximation, c.goal)};
+        if (oneEye && !hold.parameters.empty()) holds.push_back(std::move(hold));
+    }
+    return holds;
+}
+
+void aimReaches(const Approximation& approximation, std::span<const AimHold> holds, std::span<const double> values,
+                std::vector<double>& reaches)
+{
+    reaches.resize(holds.size());
+    for (std::size_t h = 0; h < holds.size(); ++h) {
+        const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(holds[h].constraint)];
+        const ChainPoints points = pointsAt(approximation, c, values);
+        reaches[h] = (points.goal - points.root).norm();
+    }
+}
+
+void holdAims(const Approximation& approximation, std::span<const AimHold> holds, std::span<const double> reaches,
+              std::span<double> values)
+{
+    for (std::size_t h = 0; h < holds.size(); ++h) {
+        const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(holds[h].constraint)];
+        const ChainPoints points = pointsAt(approximation, c, values);
+        const Eigen::Vector3d line = points.goal - points.root;
+        const double reach = line.norm();
+        // On the root the line of sight is undefined: left where it is.
+        if (!(reach > degenerateAcross) || !std::isfinite(reach) || !std::isfinite(reaches[h]) ||
+            !(reaches[h] > degenerateAcross))
+            continue;
+        place(approximation, c.goal, holds[h].parameters, points.root + reaches[h] / reach * line, values);
+    }
+}
+
+}  // namespace rig

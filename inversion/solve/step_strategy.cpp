@@ -1,0 +1,123 @@
+#include "inversion/solve/step_strategy.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rig {
+
+StepControl::StepControl(const SolverOptions& options, StepPolicy policy)
+    : options_(options), policy_(policy), gaussNewton_(options.gaussNewtonIterations > 0)
+{
+}
+
+double StepControl::damping(double largestDiagonal)
+{
+    if (gaussNewton_) return 0.0;
+    if (mu_ == 0.0) {
+        const double scale = largestDiagonal > 0 ? largestDiagonal : 1.0;
+        mu_ = initialDamping * scale;
+        ceiling_ = policy_.maxDamping * scale;
+    }
+    return mu_;
+}
+
+bool StepControl::accept(double cost, double trialCost, bool smallStep, const std::function<double()>& predicted)
+{
+    const bool finite = std::isfinite(trialCost);
+    if (gaussNewton_) {
+        const bool taken = finite && (trialCost < cost || (smallStep && trialCost <= cost));
+        if (taken || smallStep) {
+            scale_ = 1.0;
+            return taken;
+        }
+        // Gauss-Newton failed to descend: shorter along its step, as the policy allows, else damp.
+        if (scale_ > std::ldexp(1.0, -policy_.backtracks)) {
+            scale_ *= 0.5;
+            return false;
+        }
+        scale_ = 1.0;
+        gaussNewton_ = false;
+        return false;
+    }
+    const double model = predicted();
+    const double actual = cost - trialCost;
+    if (finite && actual > 0 && model > 0) {
+        const double rho = actual / model;
+        mu_ *= std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3));
+        nu_ = 2.0;
+        return true;
+    }
+    if (!smallStep) {
+        mu_ *= nu_;
+        nu_ *= 2.0;
+    }
+    return false;
+}
+
+bool StepControl::exhausted() const { return !std::isfinite(mu_) || mu_ > ceiling_; }
+
+void StepControl::accepted(int gaussNewtonSteps)
+{
+    if (!gaussNewton_ && !policy_.persistentDamping) {
+        gaussNewton_ = true;  // the next step Gauss-Newton again, damped afresh if it must be
+        mu_ = 0.0;
+        nu_ = 2.0;
+    }
+    // Gauss-Newton's budget ends it for good only where damping persists (the real rig's steps return to it).
+    if (policy_.persistentDamping && gaussNewton_ && gaussNewtonSteps >= options_.gaussNewtonIterations)
+        gaussNewton_ = false;
+}
+
+DenseSystem::DenseSystem(Eigen::Index columns)
+    : H_(columns, columns), damped_(columns, columns), llt_(columns), eigen_(columns), projected_(columns)
+{
+}
+
+void DenseSystem::hold(Eigen::Index i)
+{
+    H_.row(i).head(i).setZero();
+    H_.col(i).tail(H_.rows() - i - 1).setZero();
+    H_(i, i) = 1.0;
+}
+
+bool DenseSystem::solve(const Eigen::VectorXd& gradient, double mu, std::span<const char> fixed, Eigen::VectorXd& delta)
+{
+    const Eigen::Index n = H_.rows();
+    double maxDiagonal = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i)
+        if (!fixed[static_cast<std::size_t>(i)]) maxDiagonal = std::max(maxDiagonal, H_(i, i));
+    if (!(maxDiagonal > 0)) {
+        delta.setZero();
+        return true;
+    }
+    damped_.triangularView<Eigen::Lower>() = H_;
+    damped_.diagonal().array() += mu;
+    llt_.compute(damped_);
+    bool wellConditioned = llt_.info() == Eigen::Success;
+    if (wellConditioned) {
+        const auto& l = llt_.matrixLLT();
+        for (Eigen::Index i = 0; i < n; ++i)
+            if (!(l(i, i) * l(i, i) > rankTolerance * maxDiagonal)) wellConditioned = false;
+    }
+    if (wellConditioned) {
+        delta = -gradient;
+        llt_.solveInPlace(delta);
+    } else {
+        eigen_.compute(damped_);
+        if (eigen_.info() != Eigen::Success) return false;
+        const auto& lambda = eigen_.eigenvalues();
+        const double largest = lambda.cwiseAbs().maxCoeff();
+        projected_.noalias() = eigen_.eigenvectors().transpose() * gradient;
+        for (Eigen::Index i = 0; i < n; ++i)
+            projected_[i] = lambda[i] > rankTolerance * largest ? projected_[i] / lambda[i] : 0.0;
+        delta.noalias() = -(eigen_.eigenvectors() * projected_);
+    }
+    return delta.allFinite();
+}
+
+void DenseSystem::multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) const
+{
+    out.noalias() = H_.selfadjointView<Eigen::Lower>() * v;
+}
+
+}  // namespace rig

@@ -1,0 +1,95 @@
+#pragma once
+// How the minimizer (minimizer.h) chooses and solves a step, as Ceres splits trust_region_strategy.h from its
+// minimizer: StepControl is the strategy (Gauss-Newton while it descends, then Levenberg-Marquardt with
+// Nielsen's damping); DenseSystem is the dense linear solve of a step (Cholesky, else the minimum-norm step).
+// A partition's coupled solve steps by block elimination instead (block_elimination.h).
+
+#include <functional>
+#include <limits>
+#include <span>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+#include "inversion/solve/solver_options.h"
+
+namespace rig {
+
+// Levenberg-Marquardt's first damping, relative to the largest diagonal entry of J^T J (Nielsen's tau).
+inline constexpr double initialDamping = 1e-4;
+// Directions whose curvature is below this fraction of the largest are left alone: the minimum-norm step.
+inline constexpr double rankTolerance = 1e-12;
+
+// How a problem's steps are chosen beyond SolverOptions: what suits a cheap, smooth model (the approximation)
+// and what suits a black box whose forward differences misjudge a kink (the real rig).
+struct StepPolicy {
+    // A Gauss-Newton step that does not lower the cost is halved up to this many times before damping is tried.
+    int backtracks = 0;
+    // Damping, once started, stays for the rest of the solve (Levenberg-Marquardt from then on); false: after a
+    // damped step is taken, the next one is Gauss-Newton again (undamped, then backtracked, then damped afresh).
+    bool persistentDamping = true;
+    // No step is found once the damping passes this multiple of J^T J's largest free diagonal entry.
+    double maxDamping = std::numeric_limits<double>::infinity();
+
+    // The approximation's: Gauss-Newton while it descends, then Levenberg-Marquardt to the end.
+    static StepPolicy approximation() { return {}; }
+    // The real rig's: each step Gauss-Newton first, halved up to 10 times, then damped from 1e-4 to 1e8 of the
+    // largest diagonal entry (an IK knee at full extension, where the bend grows as the square root of the goal's
+    // approach: Gauss-Newton's direction is poor there but short steps along it descend).
+    static StepPolicy realRig() { return {10, false, 1e8}; }
+};
+
+class StepControl {
+public:
+    StepControl(const SolverOptions& options, StepPolicy policy = StepPolicy::approximation());
+    bool gaussNewton() const { return gaussNewton_; }
+    // The length of the next trial along the step solved, 1 unless a Gauss-Newton step is being backtracked.
+    double scale() const { return scale_; }
+    // The damping of the next step; `largestDiagonal` (of the free columns' J^T J) scales the first one.
+    double damping(double largestDiagonal);
+    // Whether the trial point is taken; adapts the damping. `predicted` (the model's decrease) is asked for
+    // only in Levenberg-Marquardt.
+    bool accept(double cost, double trialCost, bool smallStep, const std::function<double()>& predicted);
+    // Damping that overflowed: no step can be found any more.
+    bool exhausted() const;
+    // After an accepted step: Gauss-Newton's iterations are counted against its budget.
+    void accepted(int gaussNewtonSteps);
+
+private:
+    const SolverOptions& options_;
+    StepPolicy policy_;
+    bool gaussNewton_;
+    double mu_ = 0.0, nu_ = 2.0;
+    double scale_ = 1.0;
+    double ceiling_ = std::numeric_limits<double>::infinity();  // the damping past which no step is found
+};
+
+// J^T J as a dense lower triangle, and the damped step from it.
+class DenseSystem {
+public:
+    explicit DenseSystem(Eigen::Index columns);
+    // Where the normal equations put J^T J (column-major, lower triangle).
+    std::span<double> entries() { return {H_.data(), static_cast<std::size_t>(H_.size())}; }
+    const Eigen::MatrixXd& matrix() const { return H_; }
+    Eigen::MatrixXd& matrix() { return H_; }
+    double diagonal(Eigen::Index i) const { return H_(i, i); }
+    // A held column's row and column replaced by the identity's.
+    void hold(Eigen::Index i);
+    // Gauss-Newton (mu = 0) or Levenberg-Marquardt step (J^T J + mu I) delta = -gradient, the held (`fixed`)
+    // columns' gradient zero. Cholesky when the system is well conditioned; otherwise an eigendecomposition that
+    // leaves the (near-)null directions alone, which is the minimum-norm step: redundant parameters split a
+    // change evenly, a parameter with no effect stays. False when no finite step is found.
+    bool solve(const Eigen::VectorXd& gradient, double mu, std::span<const char> fixed, Eigen::VectorXd& delta);
+    // out = J^T J v.
+    void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) const;
+
+private:
+    Eigen::MatrixXd H_;       // J^T J, lower triangle
+    Eigen::MatrixXd damped_;  // H + mu I, lower triangle: what is factorized
+    Eigen::LLT<Eigen::MatrixXd> llt_;
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen_;
+    Eigen::VectorXd projected_;
+};
+
+}  // namespace rig

@@ -1,0 +1,209 @@
+// The one minimizer (inversion/solve/minimizer.h): its trust region, limits and continuity on a problem of the test's
+// own, and the same on the real rig (solveOnRealRig), where the hybrid solve's second stage runs it.
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "inversion/clip/real_rig_solve.h"
+#include "inversion/clip/rig_binding.h"
+#include "inversion/solve/minimizer.h"
+#include "inversion/solve/step_strategy.h"
+#include "inversion/solver_rigs.h"
+
+using namespace rig;
+
+namespace {
+
+// Unknown 0 is an angle whose residual is a rotation's (sin, cos - 1 against angle a0: periodic, zero at a0 +
+// whole turns); unknown 1 a distance with residual x1 - a1.
+class AngleAndDistance final : public MinimizerProblem {
+public:
+    AngleAndDistance(double a0, double a1) : a0_(a0), a1_(a1), dense_(2) {}
+    bool linearize(std::span<const double> x, bool, Eigen::VectorXd& r, Eigen::VectorXd& g) override
+    {
+        residuals(x, r);
+        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
+        J(0, 0) = std::cos(x[0] - a0_);
+        J(1, 0) = -std::sin(x[0] - a0_);
+        J(2, 1) = 1.0;
+        dense_.matrix() = J.transpose() * J;
+        g = J.transpose() * r;
+        return true;
+    }
+    void residuals(std::span<const double> x, Eigen::VectorXd& r) override
+    {
+        r.resize(3);
+        r << std::sin(x[0] - a0_), std::cos(x[0] - a0_) - 1.0, x[1] - a1_;
+    }
+    double diagonal(Eigen::Index i) const override { return dense_.diagonal(i); }
+    void hold(Eigen::Index i) override { dense_.hold(i); }
+    bool solveStep(const Eigen::VectorXd& g, double mu, std::span<const char> fixed, Eigen::VectorXd& d) override
+    {
+        return dense_.solve(g, mu, fixed, d);
+    }
+    void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) override { dense_.multiply(v, out); }
+
+private:
+    double a0_, a1_;
+    DenseSystem dense_;
+};
+
+// Unknowns for AngleAndDistance: the angle periodic (a turn) and free, the distance within [lo, hi].
+Unknowns angleAndDistance(double lo, double hi)
+{
+    Approximation a;
+    for (const RigParameter& p : {test::angle("spin", -10, 10), test::distance("slide", lo, hi)}) {
+        ModelledParameter m;
+        m.parameter = p;
+        a.parameters.push_back(m);
+    }
+    a.parameters[0].parameter.limited = false;
+    Unknowns u(a, nullptr, {0, 1});
+    u.period = {2.0 * std::numbers::pi, 0.0};
+    return u;
+}
+
+}  // namespace
+
+TEST_CASE("minimizer: a step longer than maxAngularStep is shortened whole, direction kept")
+{
+    AngleAndDistance problem(1.2, 2.0);
+    const Unknowns u = angleAndDistance(-100, 100);
+    SolverOptions options;
+    options.maxIterations = 1;
+    options.maxAngularStep = 0.3;
+    MinimizerState state(3, 2);
+    state.x = {0.0, 0.0};
+    const std::vector<double> near{0.0, 0.0};
+    const MinimizerResult result = minimize(problem, u, options, state, near);
+    CHECK(result.gaussNewton == 1);
+    CHECK(result.longFirstStep);
+    // Gauss-Newton's step at 0 is (sin 1.2, 2): the angle's part is capped at 0.3, the distance's scaled alike.
+    CHECK(state.x[0] == doctest::Approx(0.3).epsilon(1e-14));
+    CHECK(state.x[1] == doctest::Approx(2.0 * 0.3 / std::sin(1.2)).epsilon(1e-12));
+}
+
+TEST_CASE("minimizer: a limit holds its unknown, and the solve converges there")
+{
+    AngleAndDistance problem(0.4, 5.0);
+    const Unknowns u = angleAndDistance(-1.0, 3.0);
+    MinimizerState state(3, 2);
+    state.x = {0.0, 0.0};
+    const std::vector<double> near{0.0, 0.0};
+    const MinimizerResult result = minimize(problem, u, SolverOptions{}, state, near);
+    CHECK(result.converged);
+    CHECK_FALSE(result.longFirstStep);  // 0.4 radians: within the default 0.5
+    CHECK(state.x[1] == 3.0);
+    CHECK(state.x[0] == doctest::Approx(0.4).epsilon(1e-6));
+    CHECK(result.cost == doctest::Approx(0.5 * 2.0 * 2.0).epsilon(1e-12));
+}
+
+TEST_CASE("minimizer: a periodic unknown ends at the equivalent value nearest the reference")
+{
+    // The answer 0.2 + whole turns; started a turn and a bit up, the solve lands on 0.2 + 2 pi, which is taken
+    // back to the value nearest the reference 0.1.
+    AngleAndDistance problem(0.2, 0.0);
+    const Unknowns u = angleAndDistance(-1.0, 1.0);
+    MinimizerState state(3, 2);
+    const double turn = 2.0 * std::numbers::pi;
+    state.x = {turn + 0.1, 0.0};
+    const std::vector<double> near{0.1, 0.0};
+    const MinimizerResult result = minimize(problem, u, SolverOptions{}, state, near);
+    CHECK(result.converged);
+    CHECK(state.x[0] == doctest::Approx(0.2).epsilon(1e-9));
+    CHECK_FALSE(result.evaluatedAtEnd);  // moved after its last evaluation
+}
+
+TEST_CASE("minimizer on the real rig: the trust region, the limits and the answer of solveOnRealRig")
+{
+    test::LambdaRig rig = test::twoArms();
+    const Approximation a = test::learn(rig, "twoArms");
+    RigBinding binding(a, rig);
+    const int elbow = test::parameterIndex(a, "L_elbow.rotateZ");
+    REQUIRE(elbow >= 0);
+    std::mt19937 rng(3);
+    std::vector<double> truth = test::randomValues(a, rng, 0.5);
+    std::vector<Eigen::Matrix4d> worlds;
+    binding.evaluate(truth, worlds);
+    std::vector<JointTarget> targets(worlds.size());
+    for (std::size_t k = 0; k < worlds.size(); ++k) targets[k] = {true, worlds[k], 1.0, 1.0};
+    RealRigProblem problem(binding, 10.0);
+    problem.setTargets(targets);
+    const std::vector<double> start = a.defaults();
+
+    SUBCASE("one iteration moves no angle further than realRigMaxAngularStep, and the largest exactly that far")
+    {
+        SolverOptions options;
+        options.maxIterations = 1;
+        options.realRigMaxAngularStep = 0.05;
+        std::vector<double> x = start;
+        solveOnRealRig(problem, x, options);
+        double largest = 0.0;
+        for (std::size_t p = 0; p < x.size(); ++p)
+            if (a.parameters[p].parameter.angular) largest = std::max(largest, std::abs(x[p] - start[p]));
+        CHECK(largest == doctest::Approx(0.05).epsilon(1e-12));
+    }
+    SUBCASE("a reachable pose is reached on the real rig")
+    {
+        std::vector<double> x = start;
+        const RealRigSolve s = solveOnRealRig(problem, x, SolverOptions{}, nullptr);
+        CHECK(s.converged);
+        CHECK(s.finalCost < 1e-16);
+        CHECK(s.evaluations > 0);
+        for (std::size_t p = 0; p < x.size(); ++p) CHECK(x[p] == doctest::Approx(truth[p]).epsilon(1e-6));
+    }
+    SUBCASE("a target past a limit: the control stays at the limit")
+    {
+        truth[static_cast<std::size_t>(elbow)] = -0.6;  // the elbow's limits are 0 .. 2.5
+        binding.evaluate(truth, worlds);
+        for (std::size_t k = 0; k < worlds.size(); ++k) targets[k].world = worlds[k];
+        problem.setTargets(targets);
+        std::vector<double> x = start;
+        const RealRigSolve s = solveOnRealRig(problem, x, SolverOptions{});
+        CHECK(s.converged);
+        CHECK(x[static_cast<std::size_t>(elbow)] == 0.0);
+        CHECK(s.finalCost > 1.0);
+    }
+}
+
+TEST_CASE("step policies: the approximation's damps after a failed Gauss-Newton step, the real rig's halves it first")
+{
+    const SolverOptions options;
+    const auto never = [] { return 1.0; };
+    StepControl approximation(options, StepPolicy::approximation());
+    CHECK(approximation.gaussNewton());
+    CHECK_FALSE(approximation.accept(1.0, 2.0, false, never));
+    CHECK_FALSE(approximation.gaussNewton());
+    CHECK(approximation.damping(10.0) == doctest::Approx(initialDamping * 10.0));
+
+    StepControl realRig(options, StepPolicy::realRig());
+    for (int halving = 1; halving <= 10; ++halving) {
+        CAPTURE(halving);
+        CHECK_FALSE(realRig.accept(1.0, 2.0, false, never));
+        CHECK(realRig.gaussNewton());
+        CHECK(realRig.scale() == std::ldexp(1.0, -halving));
+    }
+    CHECK_FALSE(realRig.accept(1.0, 2.0, false, never));  // the 11th failure: damping from now on
+    CHECK_FALSE(realRig.gaussNewton());
+    CHECK(realRig.scale() == 1.0);
+    CHECK(realRig.damping(10.0) == doctest::Approx(initialDamping * 10.0));
+    // A damped step taken: the next one is Gauss-Newton again, undamped.
+    CHECK(realRig.accept(1.0, 0.5, false, [] { return 0.5; }));
+    realRig.accepted(0);
+    CHECK(realRig.gaussNewton());
+    CHECK(realRig.damping(10.0) == 0.0);
+    // Rejected damped steps raise the damping until it passes 1e8 of the diagonal: exhausted.
+    CHECK_FALSE(realRig.accept(1.0, 2.0, false, never));
+    for (int i = 0; i < 10; ++i) realRig.accept(1.0, 2.0, false, never);
+    CHECK_FALSE(realRig.gaussNewton());
+    realRig.damping(10.0);
+    int rejections = 0;
+    while (!realRig.exhausted() && rejections < 100) {
+        realRig.accept(1.0, 2.0, false, never);
+        ++rejections;
+    }
+    CHECK(realRig.exhausted());
+    CHECK(rejections < 20);
+}
