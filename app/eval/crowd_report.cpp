@@ -75,8 +75,9 @@ constexpr std::string_view pageScript = R"page(<script>
       'worst ' + fmt(scale, 3) + ' cm';
   $('legend').innerHTML = 'joint error 0<span></span>' + fmt(scale, 2) + ' cm';
 
-  var crowdBox = kit.box(chars.reduce(function (all, c) { return all.concat(c.rig); }, []).concat(
-      markers.reduce(function (all, m) { return all.concat(m); }, [])));
+  // From above, the characters fill the view: the look-at target may be far off (a camera), where framing it too left
+  // them a few percent of the view; its gaze lines run out of the view towards it.
+  var crowdBox = kit.box(chars.reduce(function (all, c) { return all.concat(c.rig); }, []));
   var view = kit.view($('view'), crowdBox, function () { show(current); });
   var boxes = chars.map(function (c) { return kit.box(c.rig.concat(c.target)); });
   var height = Math.max(1, kit.box(chars[0].rig).getSize(new THREE.Vector3()).y);

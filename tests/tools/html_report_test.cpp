@@ -244,6 +244,7 @@ TEST_CASE("graph-eval --html: the crowd's page holds graph-eval's values and chr
     CHECK(status["frames"].as<int>() == 6);
     CHECK(status["characters"].as<int>() == 2);
     CHECK(status["mode"].as<std::string>() == "crowd");
+    MESSAGE("crowd from above: " << status["pixels"].as<int>() << " pixels");
     CHECK(status["pixels"].as<int>() > 200);
 
     // --character: the page opens on that character's view.
