@@ -116,6 +116,16 @@ struct HingeChain {
         return {end.squaredNorm() - reach * reach, 2.0 * end.dot(velocity)};
     }
 
+    // Half the slope of the squared distance in the angle, end . velocity, and its own derivative.
+    std::pair<double, double> slope(double angle) const
+    {
+        const Eigen::Vector3d l = lower(angle);
+        const Eigen::Vector3d end = mid(angle) + l;
+        const Eigen::Vector3d velocity = (slide + 2.0 * slideQuadratic * angle) * slideDirection + axis.cross(l);
+        const Eigen::Vector3d acceleration = 2.0 * slideQuadratic * slideDirection + axis.cross(axis.cross(l));
+        return {end.dot(velocity), velocity.squaredNorm() + end.dot(acceleration)};
+    }
+
     // upper . lower(angle) = p + m cos(angle - phi) for the rigid hinge: phi is where it is straightest.
     double straightest() const
     {
@@ -129,20 +139,27 @@ struct HingeChain {
     // nearest pose, not to the complete fold, which a goal just past that reach would jump back from.
     double folded(double phi) const
     {
-        const auto falling = [&](double angle) { return residual(angle, 0.0).second < 0.0; };
+        const auto falling = [&](double angle) { return slope(angle).first < 0.0; };
         double hi = phi + std::numbers::pi;
         if (falling(hi)) return hi;
-        // The distance rises at the complete fold: the nearest angle is where its slope changes sign, found by
-        // stepping back from the fold to a falling angle, then by bisection.
+        // The distance rises at the complete fold: the nearest angle is where its slope changes sign, bracketed by
+        // stepping back from the fold to a falling angle, then found by Newton's method inside the bracket (a few
+        // steps: the ikHandle solves every evaluation).
         constexpr int steps = 64;
         double lo = hi;
         for (int step = 1; step <= steps && !falling(lo); ++step) lo = hi - std::numbers::pi * step / steps;
         if (!falling(lo)) return hi;
-        for (int iteration = 0; iteration < 60 && hi - lo > 1e-15 * (1.0 + std::abs(hi)); ++iteration) {
-            const double mid = 0.5 * (lo + hi);
-            (falling(mid) ? lo : hi) = mid;
+        double x = hi;
+        for (int iteration = 0; iteration < 100; ++iteration) {
+            const auto [s, ds] = slope(x);
+            (s < 0.0 ? lo : hi) = x;
+            const double newton = x - s / ds;
+            const double next = ds > 0.0 && newton > lo && newton < hi ? newton : 0.5 * (lo + hi);
+            const bool done = std::abs(next - x) <= 1e-15 * (1.0 + std::abs(x));
+            x = next;
+            if (done) break;
         }
-        return lo;
+        return x;
     }
 
     // The angle on the bending branch, phi to folded(phi), that puts the end `reach` from the start: Newton from
