@@ -429,14 +429,15 @@ bool refineAndValidate(Context& c, const std::vector<std::size_t>& entries, bool
             bestError = error;
             best = candidate;
         }
-        // Within epsilon, a curve is refined on to the absolute tolerance where checks miss it and are not knots yet
-        // (new checks sampled while the budget allows).
+        // Within epsilon, a curve is refined on to the absolute tolerance while every check that misses it lies between
+        // knots (new checks sampled while the budget allows); a miss at a knot is the form's, which knots cannot help.
         const auto isKnot = [&](double a) { return std::find(knots.begin(), knots.end(), a) != knots.end(); };
-        if (error <= c.options.epsilon && (!curved || std::all_of(failing.begin(), failing.end(), isKnot))) return true;
+        const bool atKnot = std::any_of(failing.begin(), failing.end(), isKnot);
+        if (error <= c.options.epsilon && (!curved || failing.empty() || atKnot)) return true;
         if (!curved) return false;
         // A curve goes through its knots: missing at one, the form itself misses (a pivot that moves,
         // an axis that turns), and more knots cannot help. Give up before spending the budget.
-        if (std::any_of(failing.begin(), failing.end(), isKnot)) return false;
+        if (atKnot) return false;
         knots.insert(knots.end(), failing.begin(), failing.end());
         std::sort(knots.begin(), knots.end());
     }
