@@ -108,44 +108,48 @@ AttrData& Graph::data(const Plug& p)
     return nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)];
 }
 
-Value Graph::readStored(const Plug& p) const
+const Value& Graph::stored(const Plug& p) const
 {
     const GraphModel::NodeTopology& top = model_->topology(p.node);
-    const NodeState& rec = nodes_[static_cast<std::size_t>(p.node)];
-    const AttrData& d = rec.data[static_cast<std::size_t>(p.attr)];
-    const Value* v = &d.value;
-    if (top.spec(p.attr).array) {
-        const auto i = static_cast<std::size_t>(p.index);
-        v = i < d.present.size() && d.present[i] ? &d.elements[i] : &top.spec(p.attr).defaultValue;
+    const AttrData& d = nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)];
+    if (!top.spec(p.attr).array) return d.value;
+    const auto i = static_cast<std::size_t>(p.index);
+    return i < d.present.size() && d.present[i] ? d.elements[i] : top.spec(p.attr).defaultValue;
+}
+
+Value Graph::readStored(const Plug& p) const
+{
+    const Value& v = stored(p);
+    if (p.child >= 0) return std::get<Eigen::Vector3d>(v)[p.child];
+    return v;
+}
+
+Value& Graph::storage(const Plug& p)
+{
+    const GraphModel::NodeTopology& top = model_->topology(p.node);
+    AttrData& d = nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)];
+    if (!top.spec(p.attr).array) return d.value;
+    const auto i = static_cast<std::size_t>(p.index);
+    if (i >= d.elements.size()) {
+        const std::size_t growth = i + 1 - d.elements.size();
+        if (arrayElements_ + growth > maxArrayElements)
+            throw Error(
+                fmt::format("{}: the rig's array attributes would hold more than {} elements in all; "
+                            "elements are stored up to the highest index, so number them from 0",
+                            plugName(p), maxArrayElements));
+        arrayElements_ += growth;
+        d.elements.resize(i + 1, top.spec(p.attr).defaultValue);
+        d.present.resize(i + 1, false);
     }
-    if (p.child >= 0) return std::get<Eigen::Vector3d>(*v)[p.child];
-    return *v;
+    d.present[i] = true;
+    return d.elements[i];
 }
 
 void Graph::writeStored(const Plug& p, const Value& value)
 {
-    const GraphModel::NodeTopology& top = model_->topology(p.node);
-    NodeState& rec = nodes_[static_cast<std::size_t>(p.node)];
-    AttrData& d = rec.data[static_cast<std::size_t>(p.attr)];
-    Value* target = &d.value;
-    if (top.spec(p.attr).array) {
-        const auto i = static_cast<std::size_t>(p.index);
-        if (i >= d.elements.size()) {
-            const std::size_t growth = i + 1 - d.elements.size();
-            if (arrayElements_ + growth > maxArrayElements)
-                throw Error(
-                    fmt::format("{}: the rig's array attributes would hold more than {} elements in all; "
-                                "elements are stored up to the highest index, so number them from 0",
-                                plugName(p), maxArrayElements));
-            arrayElements_ += growth;
-            d.elements.resize(i + 1, top.spec(p.attr).defaultValue);
-            d.present.resize(i + 1, false);
-        }
-        d.present[i] = true;
-        target = &d.elements[i];
-    }
-    if (p.child >= 0) std::get<Eigen::Vector3d>(*target)[p.child] = std::get<double>(value);
-    else *target = value;
+    Value& target = storage(p);
+    if (p.child >= 0) std::get<Eigen::Vector3d>(target)[p.child] = std::get<double>(value);
+    else target = value;
 }
 
 // --- connections ------------------------------------------------------------------------------------
@@ -170,7 +174,8 @@ void Graph::dirtyAffectedBy(NodeId node, AttrId attr)
 {
     // Iterative: production chains are thousands of nodes deep. A plug already dirty has a dirty
     // downstream (the invariant pull keeps), so the walk stops there.
-    std::vector<std::pair<NodeId, AttrId>> stack{{node, attr}};
+    std::vector<std::pair<NodeId, AttrId>>& stack = dirtyStack_;
+    stack.assign(1, {node, attr});
     while (!stack.empty()) {
         const auto [n, a] = stack.back();
         stack.pop_back();
@@ -218,26 +223,27 @@ void Graph::setValue(const Plug& p, const Value& value)
 {
     model_->checkPlug(p);
     const AttributeSpec& s = spec(p);
-    const std::string name = plugName(p);
-    if (!s.input) throw Error(fmt::format("cannot set {}: it is an output, computed by its node", name));
+    // Named only for a message: setTime sets every member of a crowd each frame.
+    const auto name = [&] { return plugName(p); };
+    if (!s.input) throw Error(fmt::format("cannot set {}: it is an output, computed by its node", name()));
     if (const Connection* c = incomingConnection(p))
-        throw Error(fmt::format("cannot set {}: it is driven by {}; disconnect it first", name, plugName(c->source)));
+        throw Error(fmt::format("cannot set {}: it is driven by {}; disconnect it first", name(), plugName(c->source)));
     const ValueType type = plugType(p);
     if (value.index() != zeroValue(type).index())
-        throw Error(fmt::format("cannot set {}: expected a {} value", name, valueTypeName(type)));
-    if (!isFinite(value)) throw Error(fmt::format("cannot set {}: value is not a finite number", name));
+        throw Error(fmt::format("cannot set {}: expected a {} value", name(), valueTypeName(type)));
+    if (!isFinite(value)) throw Error(fmt::format("cannot set {}: value is not a finite number", name()));
     if (type == ValueType::Enum) {
         const int v = std::get<int>(value);
         if (v < 0 || static_cast<std::size_t>(v) >= s.enumNames.size())
             throw Error(
-                fmt::format("cannot set {}: enum index {} out of range 0..{}", name, v, s.enumNames.size() - 1));
+                fmt::format("cannot set {}: enum index {} out of range 0..{}", name(), v, s.enumNames.size() - 1));
     }
     auto checkRange = [&](double x) {
         const double k = userScale(s);
         if (s.min && x < *s.min)
-            throw Error(fmt::format("cannot set {}: {} is below its minimum {}", name, x * k, *s.min * k));
+            throw Error(fmt::format("cannot set {}: {} is below its minimum {}", name(), x * k, *s.min * k));
         if (s.max && x > *s.max)
-            throw Error(fmt::format("cannot set {}: {} is above its maximum {}", name, x * k, *s.max * k));
+            throw Error(fmt::format("cannot set {}: {} is above its maximum {}", name(), x * k, *s.max * k));
     };
     if (isNumeric(type)) checkRange(toDouble(value));
     else if (const auto* v = std::get_if<Eigen::Vector3d>(&value))
@@ -378,6 +384,18 @@ Value Graph::pulledValue(const Connection& c) const
     return convertValue(source, from, to, factor);
 }
 
+void Graph::pull(const Connection& c)
+{
+    // A value that crosses as it is (most of a rig's connections: matrices into matrices) is assigned in place,
+    // reusing the destination's storage, without the conversion's copies.
+    const ValueType type = plugType(c.source);
+    const bool asItIs = c.source.child < 0 && c.destination.child < 0 && type != ValueType::Enum &&
+                        type == plugType(c.destination) &&
+                        (c.rawUnits || unitFactor(spec(c.source).unit, spec(c.destination).unit) == 1.0);
+    if (asItIs) storage(c.destination) = stored(c.source);
+    else writeStored(c.destination, pulledValue(c));
+}
+
 void Graph::processNode(NodeId node)
 {
     const GraphModel::NodeTopology& top = model_->topology(node);
@@ -385,21 +403,20 @@ void Graph::processNode(NodeId node)
     NodeState& rec = nodes_[static_cast<std::size_t>(node)];
     for (int ci : top.incoming) {
         const Connection& c = connections[static_cast<std::size_t>(ci)];
-        if (!rec.data[static_cast<std::size_t>(c.destination.attr)].dirty) continue;
-        writeStored(c.destination, pulledValue(c));
+        if (rec.data[static_cast<std::size_t>(c.destination.attr)].dirty) pull(c);
     }
     for (int ci : top.incoming)
         rec.data[static_cast<std::size_t>(connections[static_cast<std::size_t>(ci)].destination.attr)].dirty = false;
 
-    bool outputsDirty = false;
-    for (std::size_t a = 0; a < rec.data.size(); ++a)
-        outputsDirty |= !top.spec(static_cast<AttrId>(a)).input && rec.data[a].dirty;
-    if (!outputsDirty) return;
+    // The type's list of outputs, not a pass over every attribute's spec: specs are large, and a crowd's frame
+    // processes thousands of nodes.
+    const std::vector<AttrId>& outputs = top.type->outputs();
+    const auto dirtyOutput = [&](AttrId a) { return rec.data[static_cast<std::size_t>(a)].dirty; };
+    if (std::none_of(outputs.begin(), outputs.end(), dirtyOutput)) return;
     ComputeContext context(top.name, top.specs(), rec.data);
     rec.impl->compute(context);
     ++rec.computes;
-    for (std::size_t a = 0; a < rec.data.size(); ++a)
-        if (!top.spec(static_cast<AttrId>(a)).input) rec.data[a].dirty = false;
+    for (AttrId a : outputs) rec.data[static_cast<std::size_t>(a)].dirty = false;
 }
 
 std::vector<std::string> Graph::checkEvaluation()

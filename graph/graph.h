@@ -126,9 +126,15 @@ private:
     GraphModel& editModel();
     void addNodeState(NodeId node);
     AttrData& data(const Plug& plug);
+    // A plug's stored value (an array element: the attribute's default where it does not exist), the plug's
+    // component aside; storage() makes the element.
+    const Value& stored(const Plug& plug) const;
+    Value& storage(const Plug& plug);
     Value readStored(const Plug& plug) const;
     Value pulledValue(const Connection& connection) const;
     void writeStored(const Plug& plug, const Value& value);
+    // Brings a connection's destination up to date from its source.
+    void pull(const Connection& connection);
 
     void dirtyInput(NodeId node, AttrId attr);
     void dirtyAffectedBy(NodeId node, AttrId attr);
@@ -138,7 +144,8 @@ private:
 
     std::shared_ptr<GraphModel> model_;
     std::vector<NodeState> nodes_;
-    std::size_t arrayElements_ = 0;  // input array elements allocated, all nodes
+    std::size_t arrayElements_ = 0;                      // input array elements allocated, all nodes
+    std::vector<std::pair<NodeId, AttrId>> dirtyStack_;  // dirtyAffectedBy's, kept: it runs per plug set
     double time_ = 0.0;
     int threads_ = 1;
     std::shared_ptr<const Schedule> schedule_;  // the model's, taken at the first evaluation after an edit

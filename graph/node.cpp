@@ -51,4 +51,25 @@ void ComputeContext::setOutputElements(AttrId a, std::vector<Value> elements)
     data_[i].elements = std::move(elements);
 }
 
+template <class T>
+void ComputeContext::assignElements(AttrId a, std::span<const T> elements)
+{
+    const auto i = static_cast<std::size_t>(a);
+    if (a < 0 || i >= specs_.size() || specs_[i].input || !specs_[i].array ||
+        !std::holds_alternative<T>(specs_[i].defaultValue))
+        throw internalError(fmt::format(
+            "node '{}': compute wrote attribute {} which is not an array output of that type", nodeName_, a));
+    AttrData& d = data_[i];
+    d.present.assign(elements.size(), true);
+    d.elements.resize(elements.size(), specs_[i].defaultValue);
+    for (std::size_t k = 0; k < elements.size(); ++k) d.elements[k] = elements[k];
+}
+
+void ComputeContext::assignOutputElements(AttrId a, std::span<const double> elements) { assignElements(a, elements); }
+
+void ComputeContext::assignOutputElements(AttrId a, std::span<const Eigen::Matrix4d> elements)
+{
+    assignElements(a, elements);
+}
+
 }  // namespace rig

@@ -2,6 +2,7 @@
 // The behaviour of one node instance (Maya's MPxNode) and the only window it has on the graph: its
 // own input values, through a ComputeContext. Reading anything else is impossible by construction.
 
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -51,9 +52,15 @@ public:
     void setOutput(AttrId a, Value value);
     // Array outputs: replaces all elements (logical indices 0..n-1).
     void setOutputElements(AttrId a, std::vector<Value> elements);
+    // The same, assigned in place: a node that writes as many elements every evaluation (a clip's joints)
+    // reuses their storage instead of allocating a new array each frame.
+    void assignOutputElements(AttrId a, std::span<const double> elements);
+    void assignOutputElements(AttrId a, std::span<const Eigen::Matrix4d> elements);
 
 private:
     const AttrData& input(AttrId a) const;
+    template <class T>
+    void assignElements(AttrId a, std::span<const T> elements);
 
     std::string_view nodeName_;
     const std::vector<AttributeSpec>& specs_;

@@ -281,6 +281,9 @@ std::shared_ptr<const NodeType> NodeTypeBuilder::build()
         if (!mayaNames.insert(group + a.name).second && !a.mayaCompound.empty())
             fail(fmt::format("attribute '{}' declared twice in Maya compound '{}'", a.name, a.mayaCompound));
     }
+    type_.outputs_.clear();
+    for (std::size_t i = 0; i < type_.attributes_.size(); ++i)
+        if (!type_.attributes_[i].input) type_.outputs_.push_back(static_cast<AttrId>(i));
     return std::make_shared<const NodeType>(std::move(type_));
 }
 

@@ -66,6 +66,8 @@ public:
     AttrId findAttribute(std::string_view name) const;
     // Outputs whose value depends on input `a` (Maya's attributeAffects).
     const std::vector<AttrId>& affects(AttrId a) const { return affects_[static_cast<std::size_t>(a)]; }
+    // The outputs, in order: a node's dynamic attributes are inputs, so these are every node's outputs.
+    const std::vector<AttrId>& outputs() const { return outputs_; }
     // History-dependent nodes give different results when recomputed; checked mode skips them.
     bool stateful() const { return stateful_; }
     const std::map<std::string, YamlFieldParser, std::less<>>& yamlFields() const { return yamlFields_; }
@@ -95,6 +97,7 @@ private:
     std::string description_;
     std::vector<AttributeSpec> attributes_;
     std::vector<std::vector<AttrId>> affects_;
+    std::vector<AttrId> outputs_;
     bool stateful_ = false;
     std::map<std::string, YamlFieldParser, std::less<>> yamlFields_;
     std::map<std::string, YamlConnector, std::less<>> yamlConnectors_;

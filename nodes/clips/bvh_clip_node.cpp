@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "core/shared_file.h"
 #include "nodes/builtin_nodes.h"
 #include "nodes/clips/assimp_clip.h"
 #include "nodes/clips/bvh.h"
@@ -27,6 +28,25 @@ std::string joinLines(const std::vector<std::string>& lines)
     return out;
 }
 
+// A clip as the nodes play it, shared by every node that plays the same file and take (core/shared_file.h):
+// a crowd's members each play the one clip.
+struct PlayedClip {
+    SkeletalClip clip;
+    std::string jointNames;
+    std::string channelNames;
+};
+
+PlayedClip played(SkeletalClip clip)
+{
+    std::vector<std::string> joints;
+    std::vector<std::string> channels;
+    for (const BvhJoint& j : clip.clip.joints) {
+        joints.push_back(j.name);
+        for (BvhChannel ch : j.channels) channels.push_back(fmt::format("{}.{}", j.name, bvhChannelName(ch)));
+    }
+    return PlayedClip{std::move(clip), joinLines(joints), joinLines(channels)};
+}
+
 // `General`: skeletonClip (any format, a take), else bvhClip (BVH only).
 template <bool General>
 class ClipNode : public Node {
@@ -35,53 +55,43 @@ public:
     {
         const std::string& path = c.getString(file);
         const std::string takeName = General ? c.getString(take) : std::string();
-        // The parsed file is cached: it is read again only when `file` (or `take`) names another one. A
-        // failed read leaves the cache as it was, so the next evaluation tries again.
-        if (!loaded_ || path != loadedPath_ || takeName != loadedTake_) {
-            clip_ = std::make_shared<const SkeletalClip>(load(path, takeName));
+        // The parsed file is kept: it is read again only when `file` (or `take`) names another one, and so are
+        // the outputs that only the file decides (the names, the frame count). A failed read leaves the node
+        // as it was, so the next evaluation tries again.
+        if (!clip_ || path != loadedPath_ || takeName != loadedTake_) {
+            clip_ = load(path, takeName);
             loadedPath_ = path;
             loadedTake_ = takeName;
-            loaded_ = true;
+            if constexpr (General)
+                c.setOutput(source, clip_->clip.source.format.empty() ? "" : clip_->clip.source.describe());
+            c.setOutput(jointNames, clip_->jointNames);
+            c.setOutput(channelNames, clip_->channelNames);
+            c.setOutput(frameCount, clip_->clip.clip.frameCount);
+            c.setOutput(frameTime, clip_->clip.clip.frameTime);
         }
-        const BvhClip& clip = clip_->clip;
-        if constexpr (General) c.setOutput(source, clip_->source.format.empty() ? "" : clip_->source.describe());
-
-        std::vector<std::string> joints;
-        std::vector<std::string> channels;
-        for (const BvhJoint& j : clip.joints) {
-            joints.push_back(j.name);
-            for (BvhChannel ch : j.channels) channels.push_back(fmt::format("{}.{}", j.name, bvhChannelName(ch)));
-        }
-        c.setOutput(jointNames, joinLines(joints));
-        c.setOutput(channelNames, joinLines(channels));
-        c.setOutput(frameCount, clip.frameCount);
-        c.setOutput(frameTime, clip.frameTime);
+        const BvhClip& clip = clip_->clip.clip;
         if (clip.frameCount == 0) {
             c.setOutputElements(worldMatrix, {});
             c.setOutputElements(channel, {});
             return;
         }
         const std::vector<double> values = bvhSample(clip, c.getDouble(time));
-        std::vector<Value> matrices;
-        for (const Eigen::Matrix4d& m : bvhWorldMatrices(clip, values)) matrices.emplace_back(m);
-        c.setOutputElements(worldMatrix, std::move(matrices));
-        std::vector<Value> numbers;
-        for (double x : bvhRigChannels(clip, values)) numbers.emplace_back(x);
-        c.setOutputElements(channel, std::move(numbers));
+        c.assignOutputElements(worldMatrix, bvhWorldMatrices(clip, values));
+        c.assignOutputElements(channel, bvhRigChannels(clip, values));
     }
 
 private:
-    static SkeletalClip load(const std::string& path, const std::string& takeName)
+    static std::shared_ptr<const PlayedClip> load(const std::string& path, const std::string& takeName)
     {
-        if (path.empty()) return {};
-        if (General) return readSkeletalClip(path, takeName);
-        return SkeletalClip{readBvhFile(path), {}};
+        if (path.empty()) return std::make_shared<const PlayedClip>();
+        return sharedFileValue<PlayedClip>(path, fmt::format("{}\n{}", General ? "take" : "bvh", takeName), [&] {
+            return played(General ? readSkeletalClip(path, takeName) : SkeletalClip{readBvhFile(path), {}});
+        });
     }
 
-    bool loaded_ = false;
     std::string loadedPath_;
     std::string loadedTake_;
-    std::shared_ptr<const SkeletalClip> clip_;
+    std::shared_ptr<const PlayedClip> clip_;
 };
 
 // The attributes the two types share; `what` names the file in the docs.

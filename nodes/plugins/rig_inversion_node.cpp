@@ -15,10 +15,7 @@
 // after another restart frame it is reported as solved, as a clip of that frame alone). rig-invert
 // follows the same rules, so the node played frame after frame gives rig-invert's curves.
 #include <cmath>
-#include <filesystem>
-#include <map>
 #include <memory>
-#include <mutex>
 #include <numbers>
 #include <optional>
 #include <span>
@@ -30,6 +27,7 @@
 
 #include "adapter/graph_rig_function.h"
 #include "core/error.h"
+#include "core/shared_file.h"
 #include "graph/graph.h"
 #include "graph/node_registry.h"
 #include "graph/plug_glob.h"
@@ -111,27 +109,18 @@ Approximation readApproximation(const std::string& path, std::string_view node)
     }
 }
 
-// The shared model for `path` and `options`, read when no node holds it; the file's size and modification
-// time are part of the key, so a file written again is read again.
+// The shared model for `path` and `options`, read when no node holds it (core/shared_file.h).
 std::shared_ptr<const Loaded> sharedModel(const std::string& path, const SolverOptions& options, std::string_view node)
 {
-    static std::mutex mutex;
-    static std::map<std::string, std::weak_ptr<const Loaded>> models;
-    std::error_code error;
-    const auto size = std::filesystem::file_size(path, error);
-    const auto time = error ? std::filesystem::file_time_type{} : std::filesystem::last_write_time(path, error);
-    const std::string key = fmt::format("{}\n{}\n{}\n{} {} {}", path, error ? 0 : size, time.time_since_epoch().count(),
-                                        options.maxIterations, options.threads, options.partition);
-    const std::lock_guard lock(mutex);
-    if (auto held = models[key].lock()) return held;
-    auto fresh = std::make_shared<Loaded>();
-    fresh->path = path;
-    fresh->approximation = std::make_unique<Approximation>(readApproximation(path, node));
-    fresh->solver = std::make_unique<Solver>(*fresh->approximation, options);
-    fresh->options = options;
-    std::erase_if(models, [](const auto& entry) { return entry.second.expired(); });
-    models[key] = fresh;
-    return fresh;
+    const std::string extra = fmt::format("{} {} {}", options.maxIterations, options.threads, options.partition);
+    return sharedFileValue<Loaded>(path, extra, [&] {
+        Loaded fresh;
+        fresh.path = path;
+        fresh.approximation = std::make_unique<Approximation>(readApproximation(path, node));
+        fresh.solver = std::make_unique<Solver>(*fresh.approximation, options);
+        fresh.options = options;
+        return fresh;
+    });
 }
 
 // The node's map: it scales, renames and weights the targets it is given frame by frame; retargeting needs the
