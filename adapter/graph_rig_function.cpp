@@ -37,14 +37,16 @@ bool globMatches(const std::string& glob, const std::string& name)
     return fnmatch(glob.c_str(), name.c_str(), 0) == 0;
 }
 
-// Why a scalar plug cannot be a parameter, or "" when it can: a time curve's channel can when `cutTimeCurves`.
-std::string whyNotParameter(const Graph& g, const Plug& p, bool cutTimeCurves)
+// Why a scalar plug cannot be a parameter, or "" when it can: a time curve's channel can when `cutTimeCurves`. Keyable
+// by its attribute or by the scene (a Maya scene's `setAttr -k on` on an added attribute, as --params auto reads it,
+// so that an approximation learned with auto parameters loads its rig by their names).
+std::string whyNotParameter(const Graph& g, const MayaSceneInfo& info, const Plug& p, bool cutTimeCurves)
 {
     const AttributeSpec& s = g.spec(p);
     if (!s.input) return "an output, computed by its node";
     if (g.plugType(p) != ValueType::Double)
         return fmt::format("a {} value, not a number", valueTypeName(g.plugType(p)));
-    if (!s.keyable) return "not keyable (not an animator control)";
+    if (!s.keyable && !sceneKeyable(g, info, p)) return "not keyable (not an animator control)";
     if (const Connection* c = g.incomingConnection(p); c && !(cutTimeCurves && timeCurveInput(g, p)))
         return fmt::format("driven by {}", g.plugName(c->source));
     return {};
@@ -59,7 +61,7 @@ std::vector<Plug> scalars(const Graph& g, const Plug& p)
 
 // What to say about a glob that matches no plug: which half of node.attribute is wrong, and a
 // suggestion for a typo.
-std::string noPlugHint(const Graph& g, const std::string& glob, bool cutTimeCurves)
+std::string noPlugHint(const Graph& g, const MayaSceneInfo& info, const std::string& glob, bool cutTimeCurves)
 {
     const auto dot = glob.find('.');
     if (dot == std::string::npos) return "a parameter is node.attribute, e.g. 'L_arm_*.rotate?' or 'hips.translateX'";
@@ -74,7 +76,7 @@ std::string noPlugHint(const Graph& g, const std::string& glob, bool cutTimeCurv
     std::set<std::string> attributes;
     for (const Plug& p : allPlugs(g))
         if (std::find(nodes.begin(), nodes.end(), p.node) != nodes.end() &&
-            whyNotParameter(g, p, cutTimeCurves).empty()) {
+            whyNotParameter(g, info, p, cutTimeCurves).empty()) {
             const std::string name = g.plugName(p);
             attributes.insert(name.substr(name.find('.') + 1));
         }
@@ -165,8 +167,8 @@ RigParameter parameterOf(Graph& g, const Plug& p, const std::vector<GraphRigOpti
 }
 
 // The plugs a parameter glob (or plug name) matches, vectors as they are; none is an error.
-std::vector<Plug> matchParameterGlob(const Graph& g, const std::string& glob, const std::string& rigName,
-                                     bool cutTimeCurves)
+std::vector<Plug> matchParameterGlob(const Graph& g, const MayaSceneInfo& info, const std::string& glob,
+                                     const std::string& rigName, bool cutTimeCurves)
 {
     std::vector<Plug> matched;
     if (!isGlobPattern(glob)) {
@@ -181,7 +183,7 @@ std::vector<Plug> matchParameterGlob(const Graph& g, const std::string& glob, co
         for (const Plug& p : allPlugs(g))
             if (globMatches(glob, g.plugName(p))) matched.push_back(p);
     if (matched.empty()) {
-        const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, glob, cutTimeCurves));
+        const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, info, glob, cutTimeCurves));
         throw RigSelectionError(fmt::format("{}: parameter glob '{}' {}", rigName, glob, reason), "parameter", glob,
                                 reason);
     }
@@ -195,7 +197,8 @@ struct SelectedParameters {
     std::map<Plug, std::string> seen;
 };
 
-SelectedParameters selectParameters(Graph& g, const GraphRigOptions& options, const std::string& rigName)
+SelectedParameters selectParameters(Graph& g, const MayaSceneInfo& info, const GraphRigOptions& options,
+                                    const std::string& rigName)
 {
     if (options.parameterGlobs.empty() && !options.autoParameters)
         throw Error(
@@ -204,9 +207,9 @@ SelectedParameters selectParameters(Graph& g, const GraphRigOptions& options, co
     for (const std::string& glob : options.parameterGlobs) {
         std::size_t usable = 0;
         std::string refusedPlug, refusedWhy;  // the first plug matched that cannot be a parameter
-        for (const Plug& whole : matchParameterGlob(g, glob, rigName, options.cutTimeCurves))
+        for (const Plug& whole : matchParameterGlob(g, info, glob, rigName, options.cutTimeCurves))
             for (const Plug& p : scalars(g, whole)) {
-                const std::string why = whyNotParameter(g, p, options.cutTimeCurves);
+                const std::string why = whyNotParameter(g, info, p, options.cutTimeCurves);
                 if (!why.empty()) {
                     if (refusedPlug.empty()) {
                         refusedPlug = g.plugName(p);
@@ -600,7 +603,7 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                         "'L_arm_*.rotate?'",
                         rigName));
 
-    SelectedParameters selected = selectParameters(g, options, rigName);
+    SelectedParameters selected = selectParameters(g, info, options, rigName);
     for (const Plug& p : selected.plugs)
         if (options.cutTimeCurves && g.incomingConnection(p)) {
             cutTimeCurve(g, p);
