@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -137,8 +138,34 @@ Value heldValue(const Graph& g, const Plug& p, double value, const Refuse& refus
     return convertValue(x, ValueType::Double, type, 1.0);
 }
 
+// The span of the key times of the set-driven-key curves plug p drives (Maya's animCurveU*, whose input is the driver's
+// value): a foot control's FootRoll keyed from -10 to 10. Nullopt where it drives none.
+std::optional<std::pair<double, double>> drivenKeySpan(Graph& g, const Plug& p)
+{
+    const GraphModel::NodeTopology& node = g.model().topology(p.node);
+    if (static_cast<std::size_t>(p.attr) >= node.outgoing.size()) return std::nullopt;
+    std::optional<std::pair<double, double>> span;
+    for (const int c : node.outgoing[static_cast<std::size_t>(p.attr)]) {
+        const Connection& connection = g.connections()[static_cast<std::size_t>(c)];
+        if (connection.source != p) continue;
+        const NodeId curve = connection.destination.node;
+        const GraphModel::NodeTopology& to = g.model().topology(curve);
+        if (!to.type->name().starts_with("animCurveU") || to.spec(connection.destination.attr).name != "input")
+            continue;
+        const AttrId keyTime = to.type->findAttribute("keyTime");
+        if (keyTime < 0) continue;
+        const Value value = g.getValue(Plug{curve, keyTime});
+        const auto* times = std::get_if<std::vector<double>>(&value);
+        if (!times || times->empty()) continue;
+        const auto [lo, hi] = std::minmax_element(times->begin(), times->end());
+        span = span ? std::pair{std::min(span->first, *lo), std::max(span->second, *hi)} : std::pair{*lo, *hi};
+    }
+    return span;
+}
+
 // Parameter plug p as a parameter: its default, and its range (declared limits, else `ranges`' first match, else
-// a default range around the default, a scale's from half to twice it).
+// a default range around the default, a scale's from half to twice it, a number's that drives set-driven keys widened
+// to their span).
 RigParameter parameterOf(Graph& g, const Plug& p, const std::vector<GraphRigOptions::LearnRange>& ranges)
 {
     const AttributeSpec& s = g.spec(p);
@@ -162,7 +189,13 @@ RigParameter parameterOf(Graph& g, const Plug& p, const std::vector<GraphRigOpti
         const double unit = param.angular ? std::numbers::pi / 180.0 : 1.0;
         param.min = range->min * unit;
         param.max = range->max * unit;
-    }
+    } else if (!param.limited && !param.angular && s.unit == Unit::None && !scale)
+        // A custom attribute driving set-driven keys (a foot roll): learned over the keys, where a sampled operator
+        // of its curve is exact, not extrapolated past +-1.
+        if (const auto span = drivenKeySpan(g, p)) {
+            param.min = std::min(param.min, span->first);
+            param.max = std::max(param.max, span->second);
+        }
     return param;
 }
 
