@@ -674,6 +674,9 @@ void GraphRigFunction::setOutputs(const std::vector<NodeId>& joints, const std::
         outputNames_.push_back(g.nodeName(n));
         outputPlugs_.push_back(g.plug(g.nodeName(n) + ".worldMatrix"));
         helperFlags_.push_back(joint ? 0 : 1);
+        const AttrId pivot = joint ? -1 : g.model().topology(n).type->findAttribute("rotatePivot");
+        pivotPlugs_.push_back(
+            pivot >= 0 && g.model().topology(n).spec(pivot).type == ValueType::Vector3 ? Plug{n, pivot} : Plug{});
         outputParents_.push_back(joint ? parentOutput(g, n, jointOutputOfNode) : -1);
     }
 }
@@ -687,6 +690,7 @@ GraphRigFunction::GraphRigFunction(const GraphRigFunction& other)
       outputPlugs_(other.outputPlugs_),
       outputParents_(other.outputParents_),
       helperFlags_(other.helperFlags_),
+      pivotPlugs_(other.pivotPlugs_),
       outputWorlds_(other.outputWorlds_.size()),
       computesSeen_(other.computesSeen_.size(), notRead),
       fingerprint_(other.fingerprint_),
@@ -725,6 +729,10 @@ void GraphRigFunction::evaluate(std::span<const double> values, std::vector<Eige
         const std::uint64_t computes = graph_->computeCount(outputPlugs_[k].node);
         if (computes == computesSeen_[k]) continue;
         outputWorlds_[k] = std::get<Eigen::Matrix4d>(graph_->getValue(outputPlugs_[k]));
+        if (pivotPlugs_[k].node >= 0) {
+            const Eigen::Vector3d pivot = std::get<Eigen::Vector3d>(graph_->getValue(pivotPlugs_[k]));
+            outputWorlds_[k].block<3, 1>(0, 3) += outputWorlds_[k].block<3, 3>(0, 0) * pivot;
+        }
         computesSeen_[k] = computes;
     }
     worlds = outputWorlds_;
