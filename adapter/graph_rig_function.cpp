@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -37,14 +38,16 @@ bool globMatches(const std::string& glob, const std::string& name)
     return fnmatch(glob.c_str(), name.c_str(), 0) == 0;
 }
 
-// Why a scalar plug cannot be a parameter, or "" when it can: a time curve's channel can when `cutTimeCurves`.
-std::string whyNotParameter(const Graph& g, const Plug& p, bool cutTimeCurves)
+// Why a scalar plug cannot be a parameter, or "" when it can: a time curve's channel can when `cutTimeCurves`. Keyable
+// by its attribute or by the scene (a Maya scene's `setAttr -k on` on an added attribute, as --params auto reads it,
+// so that an approximation learned with auto parameters loads its rig by their names).
+std::string whyNotParameter(const Graph& g, const MayaSceneInfo& info, const Plug& p, bool cutTimeCurves)
 {
     const AttributeSpec& s = g.spec(p);
     if (!s.input) return "an output, computed by its node";
     if (g.plugType(p) != ValueType::Double)
         return fmt::format("a {} value, not a number", valueTypeName(g.plugType(p)));
-    if (!s.keyable) return "not keyable (not an animator control)";
+    if (!s.keyable && !sceneKeyable(g, info, p)) return "not keyable (not an animator control)";
     if (const Connection* c = g.incomingConnection(p); c && !(cutTimeCurves && timeCurveInput(g, p)))
         return fmt::format("driven by {}", g.plugName(c->source));
     return {};
@@ -59,7 +62,7 @@ std::vector<Plug> scalars(const Graph& g, const Plug& p)
 
 // What to say about a glob that matches no plug: which half of node.attribute is wrong, and a
 // suggestion for a typo.
-std::string noPlugHint(const Graph& g, const std::string& glob, bool cutTimeCurves)
+std::string noPlugHint(const Graph& g, const MayaSceneInfo& info, const std::string& glob, bool cutTimeCurves)
 {
     const auto dot = glob.find('.');
     if (dot == std::string::npos) return "a parameter is node.attribute, e.g. 'L_arm_*.rotate?' or 'hips.translateX'";
@@ -74,7 +77,7 @@ std::string noPlugHint(const Graph& g, const std::string& glob, bool cutTimeCurv
     std::set<std::string> attributes;
     for (const Plug& p : allPlugs(g))
         if (std::find(nodes.begin(), nodes.end(), p.node) != nodes.end() &&
-            whyNotParameter(g, p, cutTimeCurves).empty()) {
+            whyNotParameter(g, info, p, cutTimeCurves).empty()) {
             const std::string name = g.plugName(p);
             attributes.insert(name.substr(name.find('.') + 1));
         }
@@ -135,8 +138,34 @@ Value heldValue(const Graph& g, const Plug& p, double value, const Refuse& refus
     return convertValue(x, ValueType::Double, type, 1.0);
 }
 
+// The span of the key times of the set-driven-key curves plug p drives (Maya's animCurveU*, whose input is the driver's
+// value): a foot control's FootRoll keyed from -10 to 10. Nullopt where it drives none.
+std::optional<std::pair<double, double>> drivenKeySpan(Graph& g, const Plug& p)
+{
+    const GraphModel::NodeTopology& node = g.model().topology(p.node);
+    if (static_cast<std::size_t>(p.attr) >= node.outgoing.size()) return std::nullopt;
+    std::optional<std::pair<double, double>> span;
+    for (const int c : node.outgoing[static_cast<std::size_t>(p.attr)]) {
+        const Connection& connection = g.connections()[static_cast<std::size_t>(c)];
+        if (connection.source != p) continue;
+        const NodeId curve = connection.destination.node;
+        const GraphModel::NodeTopology& to = g.model().topology(curve);
+        if (!to.type->name().starts_with("animCurveU") || to.spec(connection.destination.attr).name != "input")
+            continue;
+        const AttrId keyTime = to.type->findAttribute("keyTime");
+        if (keyTime < 0) continue;
+        const Value value = g.getValue(Plug{curve, keyTime});
+        const auto* times = std::get_if<std::vector<double>>(&value);
+        if (!times || times->empty()) continue;
+        const auto [lo, hi] = std::minmax_element(times->begin(), times->end());
+        span = span ? std::pair{std::min(span->first, *lo), std::max(span->second, *hi)} : std::pair{*lo, *hi};
+    }
+    return span;
+}
+
 // Parameter plug p as a parameter: its default, and its range (declared limits, else `ranges`' first match, else
-// a default range around the default, a scale's from half to twice it).
+// a default range around the default, a scale's from half to twice it, a number's that drives set-driven keys widened
+// to their span).
 RigParameter parameterOf(Graph& g, const Plug& p, const std::vector<GraphRigOptions::LearnRange>& ranges)
 {
     const AttributeSpec& s = g.spec(p);
@@ -160,13 +189,19 @@ RigParameter parameterOf(Graph& g, const Plug& p, const std::vector<GraphRigOpti
         const double unit = param.angular ? std::numbers::pi / 180.0 : 1.0;
         param.min = range->min * unit;
         param.max = range->max * unit;
-    }
+    } else if (!param.limited && !param.angular && s.unit == Unit::None && !scale)
+        // A custom attribute driving set-driven keys (a foot roll): learned over the keys, where a sampled operator
+        // of its curve is exact, not extrapolated past +-1.
+        if (const auto span = drivenKeySpan(g, p)) {
+            param.min = std::min(param.min, span->first);
+            param.max = std::max(param.max, span->second);
+        }
     return param;
 }
 
 // The plugs a parameter glob (or plug name) matches, vectors as they are; none is an error.
-std::vector<Plug> matchParameterGlob(const Graph& g, const std::string& glob, const std::string& rigName,
-                                     bool cutTimeCurves)
+std::vector<Plug> matchParameterGlob(const Graph& g, const MayaSceneInfo& info, const std::string& glob,
+                                     const std::string& rigName, bool cutTimeCurves)
 {
     std::vector<Plug> matched;
     if (!isGlobPattern(glob)) {
@@ -181,7 +216,7 @@ std::vector<Plug> matchParameterGlob(const Graph& g, const std::string& glob, co
         for (const Plug& p : allPlugs(g))
             if (globMatches(glob, g.plugName(p))) matched.push_back(p);
     if (matched.empty()) {
-        const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, glob, cutTimeCurves));
+        const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, info, glob, cutTimeCurves));
         throw RigSelectionError(fmt::format("{}: parameter glob '{}' {}", rigName, glob, reason), "parameter", glob,
                                 reason);
     }
@@ -195,7 +230,8 @@ struct SelectedParameters {
     std::map<Plug, std::string> seen;
 };
 
-SelectedParameters selectParameters(Graph& g, const GraphRigOptions& options, const std::string& rigName)
+SelectedParameters selectParameters(Graph& g, const MayaSceneInfo& info, const GraphRigOptions& options,
+                                    const std::string& rigName)
 {
     if (options.parameterGlobs.empty() && !options.autoParameters)
         throw Error(
@@ -204,9 +240,9 @@ SelectedParameters selectParameters(Graph& g, const GraphRigOptions& options, co
     for (const std::string& glob : options.parameterGlobs) {
         std::size_t usable = 0;
         std::string refusedPlug, refusedWhy;  // the first plug matched that cannot be a parameter
-        for (const Plug& whole : matchParameterGlob(g, glob, rigName, options.cutTimeCurves))
+        for (const Plug& whole : matchParameterGlob(g, info, glob, rigName, options.cutTimeCurves))
             for (const Plug& p : scalars(g, whole)) {
-                const std::string why = whyNotParameter(g, p, options.cutTimeCurves);
+                const std::string why = whyNotParameter(g, info, p, options.cutTimeCurves);
                 if (!why.empty()) {
                     if (refusedPlug.empty()) {
                         refusedPlug = g.plugName(p);
@@ -600,7 +636,7 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                         "'L_arm_*.rotate?'",
                         rigName));
 
-    SelectedParameters selected = selectParameters(g, options, rigName);
+    SelectedParameters selected = selectParameters(g, info, options, rigName);
     for (const Plug& p : selected.plugs)
         if (options.cutTimeCurves && g.incomingConnection(p)) {
             cutTimeCurve(g, p);
@@ -638,6 +674,9 @@ void GraphRigFunction::setOutputs(const std::vector<NodeId>& joints, const std::
         outputNames_.push_back(g.nodeName(n));
         outputPlugs_.push_back(g.plug(g.nodeName(n) + ".worldMatrix"));
         helperFlags_.push_back(joint ? 0 : 1);
+        const AttrId pivot = joint ? -1 : g.model().topology(n).type->findAttribute("rotatePivot");
+        pivotPlugs_.push_back(
+            pivot >= 0 && g.model().topology(n).spec(pivot).type == ValueType::Vector3 ? Plug{n, pivot} : Plug{});
         outputParents_.push_back(joint ? parentOutput(g, n, jointOutputOfNode) : -1);
     }
 }
@@ -651,6 +690,7 @@ GraphRigFunction::GraphRigFunction(const GraphRigFunction& other)
       outputPlugs_(other.outputPlugs_),
       outputParents_(other.outputParents_),
       helperFlags_(other.helperFlags_),
+      pivotPlugs_(other.pivotPlugs_),
       outputWorlds_(other.outputWorlds_.size()),
       computesSeen_(other.computesSeen_.size(), notRead),
       fingerprint_(other.fingerprint_),
@@ -689,6 +729,10 @@ void GraphRigFunction::evaluate(std::span<const double> values, std::vector<Eige
         const std::uint64_t computes = graph_->computeCount(outputPlugs_[k].node);
         if (computes == computesSeen_[k]) continue;
         outputWorlds_[k] = std::get<Eigen::Matrix4d>(graph_->getValue(outputPlugs_[k]));
+        if (pivotPlugs_[k].node >= 0) {
+            const Eigen::Vector3d pivot = std::get<Eigen::Vector3d>(graph_->getValue(pivotPlugs_[k]));
+            outputWorlds_[k].block<3, 1>(0, 3) += outputWorlds_[k].block<3, 3>(0, 0) * pivot;
+        }
         computesSeen_[k] = computes;
     }
     worlds = outputWorlds_;

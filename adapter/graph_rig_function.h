@@ -108,7 +108,12 @@ public:
     GraphRigFunction(const std::filesystem::path& rigFile, const GraphRigOptions& options);
 
     const std::vector<RigParameter>& parameters() const override { return parameters_; }
-    // The joints, in rig order, then the helpers, in name order.
+    // The joints, in rig order, then the helpers, in name order. A joint output is its worldMatrix; a helper is its
+    // worldMatrix moved to its rotate pivot, W [I | rp] (the same motion, its origin the point W rp): what a point,
+    // aim or pole-vector constraint reads as a target's position (its parentMatrix (translate + rotatePivot +
+    // rotatePivotTranslate), equal to W rp where the scale pivot is the rotate pivot or the scale is 1) and where an
+    // ikHandle's goal is. A control whose transforms were frozen (translate 0, its place in rotatePivot) has its
+    // worldMatrix's origin at its parent's, away from the point the rig reads (docs/maya.md).
     const std::vector<std::string>& outputs() const override { return outputNames_; }
     // A joint's: up the parentMatrix connections (a joint's `parent:`) through transforms and joints that are
     // not joint outputs (a helper is passed like any transform); a parentMatrix fed by anything else (a
@@ -152,6 +157,9 @@ private:
     std::vector<Plug> outputPlugs_;
     std::vector<int> outputParents_;
     std::vector<char> helperFlags_;
+    // Per output, a helper's rotatePivot plug (node -1: none, a joint output's too): the helper is read at its rotate
+    // pivot (outputs() below), the point the rig's constraints and IK handles read.
+    std::vector<Plug> pivotPlugs_;
     // The outputs as last read, and their node's compute count then (notRead before the first read).
     static constexpr std::uint64_t notRead = ~std::uint64_t{0};
     std::vector<Eigen::Matrix4d> outputWorlds_;

@@ -103,6 +103,11 @@ void sortChannel(const Graph& g, const MayaSceneInfo& info, const Plug& p, Contr
 
 }  // namespace
 
+bool sceneKeyable(const Graph& g, const MayaSceneInfo& info, const Plug& p)
+{
+    return stateOf(g, info, p).keyable.value_or(false);
+}
+
 std::vector<char> reachableNodes(const GraphModel& m, const std::vector<NodeId>& start, bool downstream)
 {
     std::vector<char> seen(static_cast<std::size_t>(m.nodeCount()), 0);

@@ -54,6 +54,9 @@ struct ControlChannels {
 };
 ControlChannels controlChannels(const Graph& g, const MayaSceneInfo& info, const std::vector<NodeId>& outputs);
 
+// Whether a Maya scene made the plug keyable (`setAttr -k on`, on it or on the vector it is a component of).
+bool sceneKeyable(const Graph& g, const MayaSceneInfo& info, const Plug& p);
+
 // A number plug's value in the rig file's units (degrees for an angle), as a held plug gives it.
 double userValue(Graph& g, const Plug& p);
 

@@ -185,7 +185,8 @@ TEST_CASE("maya clip: C_Robot_Run.ma inverted on C_Robot_Rig.ma, and OUT.ma repl
         fmt::format("{} {} --params '*_anim.rotate?' '*_anim.translate?' -o {}", test::tool("rig-learn"), rig, approx));
     INFO(learned.err);
     REQUIRE(learned.exitCode == 0);
-    // The legs are IK chains the learner leaves unmodelled: --hybrid fits them on the real rig.
+    // --hybrid: what the approximation leaves unmodelled is fitted on the real rig (the legs' IK chains were, before
+    // their frozen knee controls were read at their pivots; tests/inversion/learn/frozen_pivot_chain_test.cpp).
     const auto inverted =
         test::run(fmt::format("{} {} --rig {} --clip {} --hybrid -o {} --report-json {}", test::tool("rig-invert"),
                               approx, rig, anim, out, (dir / "r.json").string()));
