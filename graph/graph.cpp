@@ -33,6 +33,7 @@ std::unique_ptr<Graph> Graph::instance() const
     other->nodes_.resize(nodes_.size());
     for (std::size_t n = 0; n < nodes_.size(); ++n) {
         other->nodes_[n].data = nodes_[n].data;
+        other->nodes_[n].dirty.assign(nodes_[n].dirty.size(), 0);
         other->nodes_[n].impl = model_->topology(static_cast<NodeId>(n)).type->create();
     }
     other->dirtyAll();
@@ -48,8 +49,8 @@ void Graph::resetState()
         NodeState& state = nodes_[static_cast<std::size_t>(n)];
         state.impl = nodeType(n).create();
         for (std::size_t a = 0; a < state.data.size(); ++a) {
-            if (model_->topology(n).spec(static_cast<AttrId>(a)).input || state.data[a].dirty) continue;
-            state.data[a].dirty = true;
+            if (model_->topology(n).spec(static_cast<AttrId>(a)).input || state.dirty[a]) continue;
+            state.dirty[a] = 1;
             dirtyAffectedBy(n, static_cast<AttrId>(a));
         }
     }
@@ -70,8 +71,8 @@ void Graph::addNodeState(NodeId node)
     for (const AttributeSpec& spec : type.attributes()) {
         AttrData d;
         if (!spec.array) d.value = spec.sceneTime ? Value(time_) : spec.defaultValue;
-        d.dirty = !spec.input;  // never computed yet
         state.data.push_back(std::move(d));
+        state.dirty.push_back(spec.input ? 0 : 1);  // never computed yet
     }
     state.impl = type.create();
     nodes_.push_back(std::move(state));
@@ -91,6 +92,7 @@ AttrId Graph::addAttribute(NodeId node, AttributeSpec spec)
     AttrData d;
     d.value = defaultValue;
     nodes_[static_cast<std::size_t>(node)].data.push_back(std::move(d));
+    nodes_[static_cast<std::size_t>(node)].dirty.push_back(0);
     return attr;
 }
 
@@ -103,9 +105,9 @@ std::vector<int> Graph::elementIndices(NodeId node, AttrId attr) const
     return indices;
 }
 
-AttrData& Graph::data(const Plug& p)
+char& Graph::dirtyFlag(const Plug& p)
 {
-    return nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)];
+    return nodes_[static_cast<std::size_t>(p.node)].dirty[static_cast<std::size_t>(p.attr)];
 }
 
 const Value& Graph::stored(const Plug& p) const
@@ -180,17 +182,17 @@ void Graph::dirtyAffectedBy(NodeId node, AttrId attr)
         const auto [n, a] = stack.back();
         stack.pop_back();
         const GraphModel::NodeTopology& top = model_->topology(n);
+        std::vector<char>& dirty = nodes_[static_cast<std::size_t>(n)].dirty;
         for (AttrId o : top.affects(a)) {
-            AttrData& d = nodes_[static_cast<std::size_t>(n)].data[static_cast<std::size_t>(o)];
-            if (d.dirty) continue;
-            d.dirty = true;
+            if (dirty[static_cast<std::size_t>(o)]) continue;
+            dirty[static_cast<std::size_t>(o)] = 1;
             stack.emplace_back(n, o);
         }
         for (int ci : top.outgoing[static_cast<std::size_t>(a)]) {
             const Plug& dst = model_->connections()[static_cast<std::size_t>(ci)].destination;
-            AttrData& d = data(dst);
-            if (d.dirty) continue;
-            d.dirty = true;
+            char& d = dirtyFlag(dst);
+            if (d) continue;
+            d = 1;
             stack.emplace_back(dst.node, dst.attr);
         }
     }
@@ -198,9 +200,9 @@ void Graph::dirtyAffectedBy(NodeId node, AttrId attr)
 
 void Graph::dirtyInput(NodeId node, AttrId attr)
 {
-    AttrData& d = nodes_[static_cast<std::size_t>(node)].data[static_cast<std::size_t>(attr)];
-    if (d.dirty) return;
-    d.dirty = true;
+    char& d = nodes_[static_cast<std::size_t>(node)].dirty[static_cast<std::size_t>(attr)];
+    if (d) return;
+    d = 1;
     dirtyAffectedBy(node, attr);
 }
 
@@ -209,11 +211,10 @@ void Graph::dirtyAll()
     const auto& connections = model_->connections();
     for (NodeId n = 0; n < nodeCount(); ++n) {
         const GraphModel::NodeTopology& top = model_->topology(n);
-        std::vector<AttrData>& data = nodes_[static_cast<std::size_t>(n)].data;
-        for (std::size_t a = 0; a < data.size(); ++a)
-            if (!top.spec(static_cast<AttrId>(a)).input) data[a].dirty = true;
+        std::vector<char>& dirty = nodes_[static_cast<std::size_t>(n)].dirty;
+        for (AttrId a : top.type->outputs()) dirty[static_cast<std::size_t>(a)] = 1;
         for (int ci : top.incoming)
-            data[static_cast<std::size_t>(connections[static_cast<std::size_t>(ci)].destination.attr)].dirty = true;
+            dirty[static_cast<std::size_t>(connections[static_cast<std::size_t>(ci)].destination.attr)] = 1;
     }
 }
 
@@ -287,7 +288,7 @@ void Graph::evaluate(std::span<const Plug> plugs)
     std::vector<NodeId> roots;
     for (const Plug& p : plugs) {
         model_->checkPlug(p);
-        if (data(p).dirty) roots.push_back(p.node);
+        if (dirtyFlag(p)) roots.push_back(p.node);
     }
     // Reading clean plugs must not cost a pass over the whole graph: a rig reads every joint per evaluation.
     if (roots.empty()) return;
@@ -313,7 +314,7 @@ void Graph::evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots)
         for (int ci : model_->topology(list[i]).incoming) {
             const Connection& c = model_->connections()[static_cast<std::size_t>(ci)];
             const auto src = static_cast<std::size_t>(c.source.node);
-            if (needed[src] || !data(c.destination).dirty || !data(c.source).dirty) continue;
+            if (needed[src] || !dirtyFlag(c.destination) || !dirtyFlag(c.source)) continue;
             needed[src] = 1;
             list.push_back(c.source.node);
         }
@@ -403,20 +404,20 @@ void Graph::processNode(NodeId node)
     NodeState& rec = nodes_[static_cast<std::size_t>(node)];
     for (int ci : top.incoming) {
         const Connection& c = connections[static_cast<std::size_t>(ci)];
-        if (rec.data[static_cast<std::size_t>(c.destination.attr)].dirty) pull(c);
+        if (rec.dirty[static_cast<std::size_t>(c.destination.attr)]) pull(c);
     }
     for (int ci : top.incoming)
-        rec.data[static_cast<std::size_t>(connections[static_cast<std::size_t>(ci)].destination.attr)].dirty = false;
+        rec.dirty[static_cast<std::size_t>(connections[static_cast<std::size_t>(ci)].destination.attr)] = 0;
 
     // The type's list of outputs, not a pass over every attribute's spec: specs are large, and a crowd's frame
     // processes thousands of nodes.
     const std::vector<AttrId>& outputs = top.type->outputs();
-    const auto dirtyOutput = [&](AttrId a) { return rec.data[static_cast<std::size_t>(a)].dirty; };
+    const auto dirtyOutput = [&](AttrId a) { return rec.dirty[static_cast<std::size_t>(a)] != 0; };
     if (std::none_of(outputs.begin(), outputs.end(), dirtyOutput)) return;
     ComputeContext context(top.name, top.specs(), rec.data);
     rec.impl->compute(context);
     ++rec.computes;
-    for (AttrId a : outputs) rec.data[static_cast<std::size_t>(a)].dirty = false;
+    for (AttrId a : outputs) rec.dirty[static_cast<std::size_t>(a)] = 0;
 }
 
 std::vector<std::string> Graph::checkEvaluation()

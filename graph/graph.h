@@ -118,6 +118,9 @@ private:
     // One node's part of the state.
     struct NodeState {
         std::vector<AttrData> data;
+        // Outputs: need a compute; inputs: need a pull from their source. Apart from the values, packed: the
+        // push walks them over the whole downstream of the scene time every frame.
+        std::vector<char> dirty;
         std::unique_ptr<Node> impl;
         std::uint64_t computes = 0;
     };
@@ -125,7 +128,7 @@ private:
     // The model, copied first when other instances share it.
     GraphModel& editModel();
     void addNodeState(NodeId node);
-    AttrData& data(const Plug& plug);
+    char& dirtyFlag(const Plug& plug);
     // A plug's stored value (an array element: the attribute's default where it does not exist), the plug's
     // component aside; storage() makes the element.
     const Value& stored(const Plug& plug) const;

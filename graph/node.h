@@ -18,7 +18,6 @@ struct AttrData {
     Value value;                  // non-array attributes
     std::vector<Value> elements;  // array attributes, by logical index
     std::vector<bool> present;    // which logical indices exist
-    bool dirty = false;           // outputs: needs compute; inputs: needs a pull from its source
 };
 
 class ComputeContext {
