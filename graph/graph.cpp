@@ -100,8 +100,8 @@ std::vector<int> Graph::elementIndices(NodeId node, AttrId attr) const
 {
     const AttrData& d = nodes_.at(static_cast<std::size_t>(node)).data.at(static_cast<std::size_t>(attr));
     std::vector<int> indices;
-    for (std::size_t i = 0; i < d.present.size(); ++i)
-        if (d.present[i]) indices.push_back(static_cast<int>(i));
+    for (std::size_t i = 0; i < d.elementCount(); ++i)
+        if (d.hasElement(i)) indices.push_back(static_cast<int>(i));
     return indices;
 }
 
@@ -116,7 +116,7 @@ const Value& Graph::stored(const Plug& p) const
     const AttrData& d = nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)];
     if (!top.spec(p.attr).array) return d.value;
     const auto i = static_cast<std::size_t>(p.index);
-    return i < d.present.size() && d.present[i] ? d.elements[i] : top.spec(p.attr).defaultValue;
+    return d.hasElement(i) ? d.array->elements[i] : top.spec(p.attr).defaultValue;
 }
 
 Value Graph::readStored(const Plug& p) const
@@ -132,19 +132,20 @@ Value& Graph::storage(const Plug& p)
     AttrData& d = nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)];
     if (!top.spec(p.attr).array) return d.value;
     const auto i = static_cast<std::size_t>(p.index);
-    if (i >= d.elements.size()) {
-        const std::size_t growth = i + 1 - d.elements.size();
+    ArrayData& array = d.elements();
+    if (i >= array.elements.size()) {
+        const std::size_t growth = i + 1 - array.elements.size();
         if (arrayElements_ + growth > maxArrayElements)
             throw Error(
                 fmt::format("{}: the rig's array attributes would hold more than {} elements in all; "
                             "elements are stored up to the highest index, so number them from 0",
                             plugName(p), maxArrayElements));
         arrayElements_ += growth;
-        d.elements.resize(i + 1, top.spec(p.attr).defaultValue);
-        d.present.resize(i + 1, false);
+        array.elements.resize(i + 1, top.spec(p.attr).defaultValue);
+        array.present.resize(i + 1, false);
     }
-    d.present[i] = true;
-    return d.elements[i];
+    array.present[i] = true;
+    return array.elements[i];
 }
 
 void Graph::writeStored(const Plug& p, const Value& value)
@@ -444,9 +445,10 @@ std::vector<std::string> Graph::checkEvaluation()
         for (std::size_t a = 0; a < rec.data.size(); ++a) {
             const AttrData& before = cached[n][a];
             const AttrData& after = rec.data[a];
-            bool same = bitEqual(before.value, after.value) && before.present == after.present;
-            for (std::size_t i = 0; same && i < after.elements.size(); ++i)
-                same = bitEqual(before.elements[i], after.elements[i]);
+            bool same = bitEqual(before.value, after.value) && before.elementCount() == after.elementCount();
+            for (std::size_t i = 0; same && i < after.elementCount(); ++i)
+                same = before.hasElement(i) == after.hasElement(i) &&
+                       bitEqual(before.array->elements[i], after.array->elements[i]);
             if (!same) mismatches.push_back(fmt::format("{}.{}", top.name, top.spec(static_cast<AttrId>(a)).name));
         }
     }

@@ -47,8 +47,9 @@ void ComputeContext::setOutputElements(AttrId a, std::vector<Value> elements)
     if (a < 0 || i >= specs_.size() || specs_[i].input || !specs_[i].array)
         throw internalError(
             fmt::format("node '{}': compute wrote attribute {} which is not an array output", nodeName_, a));
-    data_[i].present.assign(elements.size(), true);
-    data_[i].elements = std::move(elements);
+    ArrayData& array = data_[i].elements();
+    array.present.assign(elements.size(), true);
+    array.elements = std::move(elements);
 }
 
 template <class T>
@@ -59,10 +60,10 @@ void ComputeContext::assignElements(AttrId a, std::span<const T> elements)
         !std::holds_alternative<T>(specs_[i].defaultValue))
         throw internalError(fmt::format(
             "node '{}': compute wrote attribute {} which is not an array output of that type", nodeName_, a));
-    AttrData& d = data_[i];
-    d.present.assign(elements.size(), true);
-    d.elements.resize(elements.size(), specs_[i].defaultValue);
-    for (std::size_t k = 0; k < elements.size(); ++k) d.elements[k] = elements[k];
+    ArrayData& array = data_[i].elements();
+    array.present.assign(elements.size(), true);
+    array.elements.resize(elements.size(), specs_[i].defaultValue);
+    for (std::size_t k = 0; k < elements.size(); ++k) array.elements[k] = elements[k];
 }
 
 void ComputeContext::assignOutputElements(AttrId a, std::span<const double> elements) { assignElements(a, elements); }

@@ -2,6 +2,7 @@
 // The behaviour of one node instance (Maya's MPxNode) and the only window it has on the graph: its
 // own input values, through a ComputeContext. Reading anything else is impossible by construction.
 
+#include <memory>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -13,11 +14,43 @@
 
 namespace rig {
 
-// Storage of one attribute of one node instance.
+// The elements of an array attribute, by logical index.
+struct ArrayData {
+    std::vector<Value> elements;
+    std::vector<bool> present;  // which logical indices exist
+};
+
+// Storage of one attribute of one node instance. An array's elements are apart, made with its first element:
+// a crowd holds thousands of attributes per character, few of them arrays.
 struct AttrData {
-    Value value;                  // non-array attributes
-    std::vector<Value> elements;  // array attributes, by logical index
-    std::vector<bool> present;    // which logical indices exist
+    Value value;                       // non-array attributes
+    std::unique_ptr<ArrayData> array;  // array attributes, once they have an element
+
+    AttrData() = default;
+    AttrData(const AttrData& other) : value(other.value), array(copyOf(other.array)) {}
+    AttrData& operator=(const AttrData& other)
+    {
+        value = other.value;
+        array = copyOf(other.array);
+        return *this;
+    }
+    AttrData(AttrData&&) noexcept = default;
+    AttrData& operator=(AttrData&&) noexcept = default;
+    ~AttrData() = default;
+
+    std::size_t elementCount() const { return array ? array->elements.size() : 0; }
+    bool hasElement(std::size_t i) const { return array && i < array->present.size() && array->present[i]; }
+    ArrayData& elements()
+    {
+        if (!array) array = std::make_unique<ArrayData>();
+        return *array;
+    }
+
+private:
+    static std::unique_ptr<ArrayData> copyOf(const std::unique_ptr<ArrayData>& a)
+    {
+        return a ? std::make_unique<ArrayData>(*a) : nullptr;
+    }
 };
 
 class ComputeContext {
@@ -44,8 +77,8 @@ public:
     void forEachElement(AttrId a, F&& f) const
     {
         const AttrData& d = input(a);
-        for (std::size_t i = 0; i < d.elements.size(); ++i)
-            if (d.present[i]) f(static_cast<int>(i), d.elements[i]);
+        for (std::size_t i = 0; i < d.elementCount(); ++i)
+            if (d.array->present[i]) f(static_cast<int>(i), d.array->elements[i]);
     }
 
     void setOutput(AttrId a, Value value);
