@@ -21,6 +21,7 @@
 #include "adapter/graph_rig_function.h"
 #include "inversion/clip/rig_binding.h"
 #include "inversion/learn/learner.h"
+#include "inversion/learn/maya_chain_scene.h"
 #include "inversion/model/approximation.h"
 #include "inversion/solve/solver.h"
 #include "inversion/solver_rigs.h"
@@ -95,47 +96,6 @@ createNode ikHandle -n "ikHandle1" -p "ankle";
 	setAttr ".roc" yes;
 )";
 
-// What both share: the handle's solver, the constraints and their targets' channels (translate, pivots, parent).
-const std::string chainConnections = R"(createNode poleVectorConstraint -n "pv1" -p "ikHandle1";
-	addAttr -ci true -k true -sn "w0" -ln "pole_ctrlW0" -dv 1 -min 0 -at "double";
-	setAttr -k on ".w0";
-createNode pointConstraint -n "pc1" -p "j1";
-	addAttr -ci true -k true -sn "w0" -ln "shoulder_ctrlW0" -dv 1 -min 0 -at "double";
-	setAttr -k on ".w0";
-createNode ikRPsolver -n "ikRPsolver";
-connectAttr "root_jnt.s" "j1.is";
-connectAttr "j1.s" "j2.is";
-connectAttr "j2.s" "j3.is";
-connectAttr "j3.tx" "effector1.tx";
-connectAttr "j3.ty" "effector1.ty";
-connectAttr "j3.tz" "effector1.tz";
-connectAttr "j1.msg" "ikHandle1.hsj";
-connectAttr "effector1.hp" "ikHandle1.hee";
-connectAttr "ikRPsolver.msg" "ikHandle1.hsv";
-connectAttr "pv1.ctx" "ikHandle1.pvx";
-connectAttr "pv1.cty" "ikHandle1.pvy";
-connectAttr "pv1.ctz" "ikHandle1.pvz";
-connectAttr "ikHandle1.pim" "pv1.cpim";
-connectAttr "j1.pm" "pv1.ps";
-connectAttr "j1.t" "pv1.crp";
-connectAttr "pole_ctrl.t" "pv1.tg[0].tt";
-connectAttr "pole_ctrl.rp" "pv1.tg[0].trp";
-connectAttr "pole_ctrl.rpt" "pv1.tg[0].trt";
-connectAttr "pole_ctrl.pm" "pv1.tg[0].tpm";
-connectAttr "pv1.w0" "pv1.tg[0].tw";
-connectAttr "pc1.ctx" "j1.tx";
-connectAttr "pc1.cty" "j1.ty";
-connectAttr "pc1.ctz" "j1.tz";
-connectAttr "j1.pim" "pc1.cpim";
-connectAttr "j1.rp" "pc1.crp";
-connectAttr "j1.rpt" "pc1.crt";
-connectAttr "shoulder_ctrl.t" "pc1.tg[0].tt";
-connectAttr "shoulder_ctrl.rp" "pc1.tg[0].trp";
-connectAttr "shoulder_ctrl.rpt" "pc1.tg[0].trt";
-connectAttr "shoulder_ctrl.pm" "pc1.tg[0].tpm";
-connectAttr "pc1.w0" "pc1.tg[0].tw";
-)";
-
 GraphRigOptions chainOptions(std::vector<std::string> parameters)
 {
     GraphRigOptions options{std::move(parameters), {"root_jnt", "j1", "j2", "j3"}, {}, {}};
@@ -151,7 +111,7 @@ struct Learned {
 
     Learned(const std::string& name, const std::string& scene, std::vector<std::string> parameters)
         : file(test::writeFile(test::scratchDir(fmt::format("frozen-pivot.{}", ::getpid())) / name,
-                               scene + chainConnections)),
+                               scene + test::mayaChainConnections)),
           rig(file, chainOptions(std::move(parameters))),
           approximation(learnApproximation(rig, LearnOptions{}, file.string()))
     {
@@ -197,7 +157,7 @@ void checkChain(Learned& learned, const std::vector<std::string>& goals)
 TEST_CASE("frozen pivots: a helper frame is read at its rotate pivot, where the rig's constraints read it")
 {
     const fs::path file = test::writeFile(test::scratchDir(fmt::format("frozen-pivot.{}", ::getpid())) / "pivots.ma",
-                                          straightChain + chainConnections);
+                                          straightChain + test::mayaChainConnections);
     GraphRigOptions options{{"pole_ctrl.translate?", "pole_ctrl.rotate?"}, {"root_jnt", "j1", "j2", "j3"}, {}, {}};
     options.autoHelpers = true;
     GraphRigFunction rig(file, options);
