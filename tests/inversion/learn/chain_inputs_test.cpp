@@ -177,15 +177,8 @@ TEST_CASE("chain inputs: poses of the arm whose hand turns with its control are 
     RigBinding binding(a, arm.rig);
     const Solver solver(a, SolverOptions{});
     std::mt19937 rng(5);
-    int reached = 0;
     const int poses = 20;
-    for (int pose = 0; pose < poses; ++pose) {
-        const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.6));
-        const double worst = test::solvedFromRest(a, solver, binding, targets);
-        if (worst < 1e-3) ++reached;
-        else MESSAGE("pose " << pose << " missed by " << worst << " cm");
-    }
-    CHECK(reached >= poses * 95 / 100);
+    CHECK(test::posesReachedFromRest(a, solver, binding, rng, poses, 0.6) >= poses * 95 / 100);
 }
 
 }  // namespace rig
@@ -253,15 +246,8 @@ TEST_CASE("chain inputs: a Maya chain's goal is its ikHandle, its pole the const
     RigBinding binding(a, rig);
     const Solver solver(a, SolverOptions{});
     std::mt19937 rng(3);
-    int reached = 0;
     const int poses = 20;
-    for (int pose = 0; pose < poses; ++pose) {
-        const std::vector<JointTarget> targets = test::realTargetsAt(a, binding, test::randomValues(a, rng, 0.5));
-        const double worst = test::solvedFromRest(a, solver, binding, targets);
-        if (worst < 1e-3) ++reached;
-        else MESSAGE("pose " << pose << " missed by " << worst << " cm");
-    }
-    CHECK(reached >= poses * 95 / 100);
+    CHECK(test::posesReachedFromRest(a, solver, binding, rng, poses, 0.5) >= poses * 95 / 100);
 }
 
 }  // namespace rig
