@@ -37,6 +37,8 @@ struct AttributeSpec {
     std::array<std::string, 3> childShortNames;
     std::string mayaCompound;
     std::string mayaCompoundShort;
+
+    bool operator==(const AttributeSpec&) const = default;
 };
 
 // Index of `name` among a vector3 spec's childNames, or -1.

@@ -102,10 +102,28 @@ AttrId GraphModel::addAttribute(NodeId node, AttributeSpec spec)
     // Copied, not edited in place: other models copied from this one share the list.
     auto specs = std::make_shared<std::vector<AttributeSpec>>(rec.specs());
     specs->push_back(std::move(spec));
-    rec.ownSpecs = std::move(specs);
+    rec.ownSpecs = sharedSpecs(*rec.type, std::move(specs));
     rec.outgoing.emplace_back();
     topologyChanged();  // a new plug: the time plugs are listed again
     return static_cast<AttrId>(rec.specs().size() - 1);
+}
+
+std::shared_ptr<const std::vector<AttributeSpec>> GraphModel::sharedSpecs(
+    const NodeType& type, std::shared_ptr<const std::vector<AttributeSpec>> specs)
+{
+    // A crowd adds the same attributes to each member's copy of a node: one list serves them all (a type's list
+    // with its descriptions is kilobytes, copied for each node that adds an attribute).
+    const auto sameDynamic = [&](const std::vector<AttributeSpec>& other) {
+        return other.size() == specs->size() &&
+               std::equal(other.begin() + static_cast<std::ptrdiff_t>(type.attributes().size()), other.end(),
+                          specs->begin() + static_cast<std::ptrdiff_t>(type.attributes().size()));
+    };
+    std::erase_if(dynamicSpecs_, [](const DynamicSpecs& d) { return d.specs.expired(); });
+    for (const DynamicSpecs& d : dynamicSpecs_)
+        if (d.type == &type)
+            if (auto held = d.specs.lock(); held && sameDynamic(*held)) return held;
+    dynamicSpecs_.push_back({&type, specs});
+    return specs;
 }
 
 NodeId GraphModel::findNode(std::string_view name) const

@@ -95,6 +95,14 @@ private:
     std::vector<NodeTopology> nodes_;
     std::unordered_map<std::string, NodeId> nodeIndex_;  // name -> node: loading stays linear in size
     std::vector<Connection> connections_;
+    // The lists of the nodes with dynamic attributes, per type: nodes that add the same attributes share one.
+    struct DynamicSpecs {
+        const NodeType* type;
+        std::weak_ptr<const std::vector<AttributeSpec>> specs;
+    };
+    std::vector<DynamicSpecs> dynamicSpecs_;
+    std::shared_ptr<const std::vector<AttributeSpec>> sharedSpecs(
+        const NodeType& type, std::shared_ptr<const std::vector<AttributeSpec>> specs);
     mutable std::mutex scheduleMutex_;
     mutable std::shared_ptr<const Schedule> schedule_;
     mutable std::shared_ptr<const std::vector<Plug>> timePlugs_;

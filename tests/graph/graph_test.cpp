@@ -205,6 +205,43 @@ TEST_CASE("dynamic attributes can be set, connected from and connected into")
     CHECK(errorOf([&] { g.addAttribute(ctrl, bend); }) == "node 'ctrl' (transform) already has an attribute 'bend'");
 }
 
+TEST_CASE("dynamic attributes: nodes of a type that add the same ones share one list, each keeps its own values")
+{
+    Graph g(testRegistry());
+    AttributeSpec bend;
+    bend.name = "bend";
+    bend.max = 10;
+    AttributeSpec roll = bend;
+    roll.name = "roll";
+    // A crowd's members each add the same attributes to their copy of a control.
+    std::vector<NodeId> members;
+    for (const char* name : {"c1:ctrl", "c2:ctrl", "c3:ctrl"}) {
+        members.push_back(g.addNode("transform", name));
+        g.addAttribute(members.back(), bend);
+        g.addAttribute(members.back(), roll);
+    }
+    CHECK(&g.attributes(members[0]) == &g.attributes(members[1]));
+    CHECK(&g.attributes(members[0]) == &g.attributes(members[2]));
+    g.setValue(g.plug("c2:ctrl.roll"), 3.0);
+    CHECK(std::get<double>(g.getValue(g.plug("c1:ctrl.roll"))) == 0.0);
+    CHECK(std::get<double>(g.getValue(g.plug("c2:ctrl.roll"))) == 3.0);
+    // Another attribute, or the same ones with another limit or in another order, is another list.
+    const NodeId other = g.addNode("transform", "other");
+    g.addAttribute(other, bend);
+    AttributeSpec wider = roll;
+    wider.max = 20;
+    g.addAttribute(other, wider);
+    CHECK(&g.attributes(other) != &g.attributes(members[0]));
+    CHECK(errorOf([&] { g.setValue(g.plug("c1:ctrl.roll"), 15.0); }) ==
+          "cannot set c1:ctrl.roll: 15 is above its maximum 10");
+    g.setValue(g.plug("other.roll"), 15.0);
+    const NodeId swapped = g.addNode("transform", "swapped");
+    g.addAttribute(swapped, roll);
+    g.addAttribute(swapped, bend);
+    CHECK(&g.attributes(swapped) != &g.attributes(members[0]));
+    CHECK(g.attributes(swapped)[g.attributes(swapped).size() - 1].name == "bend");
+}
+
 TEST_CASE("scene time drives unconnected time inputs")
 {
     Graph g(testRegistry());
