@@ -143,10 +143,9 @@ Value heldValue(const Graph& g, const Plug& p, double value, const Refuse& refus
 std::optional<std::pair<double, double>> drivenKeySpan(Graph& g, const Plug& p)
 {
     const GraphModel::NodeTopology& node = g.model().topology(p.node);
-    if (static_cast<std::size_t>(p.attr) >= node.outgoing.size()) return std::nullopt;
     std::optional<std::pair<double, double>> span;
-    for (const int c : node.outgoing[static_cast<std::size_t>(p.attr)]) {
-        const Connection& connection = g.connections()[static_cast<std::size_t>(c)];
+    for (const GraphModel::NodeTopology::Edge& e : node.outgoingFrom(p.attr)) {
+        const Connection& connection = g.connections()[static_cast<std::size_t>(e.connection)];
         if (connection.source != p) continue;
         const NodeId curve = connection.destination.node;
         const GraphModel::NodeTopology& to = g.model().topology(curve);
@@ -449,17 +448,14 @@ std::vector<NodeId> discoverHelpers(const GraphModel& model, const std::vector<N
         const auto& topology = model.topology(n);
         if (isIkGoal(model, n) && !fixed && upstreamOfOutput[static_cast<std::size_t>(n)])
             found.emplace(topology.name, n);
-        for (AttrId a = 0; a < static_cast<AttrId>(topology.outgoing.size()); ++a) {
+        for (const GraphModel::NodeTopology::Edge& e : topology.outgoing) {
             // Its world matrix read anywhere, or its own channels read by a constraint or a solver (Maya's
             // constraints read a target's translate, pivots and parent matrix apart).
-            const std::string& attribute = topology.spec(a).name;
+            const std::string& attribute = topology.spec(e.from).name;
             const bool world = attribute == "worldMatrix" || attribute == "worldInverseMatrix";
-            for (int c : topology.outgoing[static_cast<std::size_t>(a)]) {
-                const NodeId destination = model.connections()[static_cast<std::size_t>(c)].destination.node;
-                if (!upstreamOfOutput[static_cast<std::size_t>(destination)]) continue;
-                if (world ? !(fixed && isDagNode(model, destination)) : isConstraint(model, destination))
-                    found.emplace(topology.name, n);
-            }
+            if (!upstreamOfOutput[static_cast<std::size_t>(e.node)]) continue;
+            if (world ? !(fixed && isDagNode(model, e.node)) : isConstraint(model, e.node))
+                found.emplace(topology.name, n);
         }
     }
     std::vector<NodeId> helpers;

@@ -124,8 +124,7 @@ std::vector<char> reachableNodes(const GraphModel& m, const std::vector<NodeId>&
         if (!downstream)
             for (int c : topology.incoming) visit(m.connections()[static_cast<std::size_t>(c)].source.node);
         else
-            for (const auto& attribute : topology.outgoing)
-                for (int c : attribute) visit(m.connections()[static_cast<std::size_t>(c)].destination.node);
+            for (const GraphModel::NodeTopology::Edge& e : topology.outgoing) visit(e.node);
     }
     return seen;
 }

@@ -30,9 +30,10 @@ std::unique_ptr<Graph> Graph::instance() const
     other->schedule_ = schedule_;
     other->arrayElements_ = arrayElements_;
     other->time_ = time_;
+    other->store_ = store_;
     other->nodes_.resize(nodes_.size());
     for (std::size_t n = 0; n < nodes_.size(); ++n) {
-        other->nodes_[n].data = nodes_[n].data;
+        other->nodes_[n].slots = nodes_[n].slots;
         other->nodes_[n].dirty.assign(nodes_[n].dirty.size(), 0);
         other->nodes_[n].impl = model_->topology(static_cast<NodeId>(n)).type->create();
     }
@@ -48,7 +49,7 @@ void Graph::resetState()
         if (!model_->topology(n).type->stateful()) continue;
         NodeState& state = nodes_[static_cast<std::size_t>(n)];
         state.impl = nodeType(n).create();
-        for (std::size_t a = 0; a < state.data.size(); ++a) {
+        for (std::size_t a = 0; a < state.slots.size(); ++a) {
             if (model_->topology(n).spec(static_cast<AttrId>(a)).input || state.dirty[a]) continue;
             state.dirty[a] = 1;
             dirtyAffectedBy(n, static_cast<AttrId>(a));
@@ -69,9 +70,9 @@ void Graph::addNodeState(NodeId node)
     const NodeType& type = nodeType(node);
     NodeState state;
     for (const AttributeSpec& spec : type.attributes()) {
-        AttrData d;
-        if (!spec.array) d.value = spec.sceneTime ? Value(time_) : spec.defaultValue;
-        state.data.push_back(std::move(d));
+        state.slots.push_back(spec.array       ? store_.addArray()
+                              : spec.sceneTime ? store_.add(spec.type, time_)
+                                               : store_.add(spec.type, spec.defaultValue));
         state.dirty.push_back(spec.input ? 0 : 1);  // never computed yet
     }
     state.impl = type.create();
@@ -87,21 +88,20 @@ NodeId Graph::addNode(std::string_view typeName, std::string_view name)
 
 AttrId Graph::addAttribute(NodeId node, AttributeSpec spec)
 {
-    const Value defaultValue = spec.array ? Value() : spec.defaultValue;
+    const ValueStore::Slot slot = spec.array ? store_.addArray() : store_.add(spec.type, spec.defaultValue);
     const AttrId attr = editModel().addAttribute(node, std::move(spec));
-    AttrData d;
-    d.value = defaultValue;
-    nodes_[static_cast<std::size_t>(node)].data.push_back(std::move(d));
+    nodes_[static_cast<std::size_t>(node)].slots.push_back(slot);
     nodes_[static_cast<std::size_t>(node)].dirty.push_back(0);
     return attr;
 }
 
 std::vector<int> Graph::elementIndices(NodeId node, AttrId attr) const
 {
-    const AttrData& d = nodes_.at(static_cast<std::size_t>(node)).data.at(static_cast<std::size_t>(attr));
+    const ValueStore::Slot at = nodes_.at(static_cast<std::size_t>(node)).slots.at(static_cast<std::size_t>(attr));
     std::vector<int> indices;
-    for (std::size_t i = 0; i < d.elementCount(); ++i)
-        if (d.hasElement(i)) indices.push_back(static_cast<int>(i));
+    const ArrayData* d = model_->topology(node).spec(attr).array ? store_.array(at) : nullptr;
+    for (std::size_t i = 0; d && i < d->present.size(); ++i)
+        if (d->present[i]) indices.push_back(static_cast<int>(i));
     return indices;
 }
 
@@ -110,29 +110,38 @@ char& Graph::dirtyFlag(const Plug& p)
     return nodes_[static_cast<std::size_t>(p.node)].dirty[static_cast<std::size_t>(p.attr)];
 }
 
-const Value& Graph::stored(const Plug& p) const
+template <class T>
+const T& Graph::stored(const Plug& p) const
 {
-    const GraphModel::NodeTopology& top = model_->topology(p.node);
-    const AttrData& d = nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)];
-    if (!top.spec(p.attr).array) return d.value;
+    const AttributeSpec& s = spec(p);
+    if (!s.array) return store_.get<T>(slot(p));
+    const ArrayData* array = store_.array(slot(p));
     const auto i = static_cast<std::size_t>(p.index);
-    return d.hasElement(i) ? d.array->elements[i] : top.spec(p.attr).defaultValue;
+    return std::get<T>(array && i < array->present.size() && array->present[i] ? array->elements[i] : s.defaultValue);
 }
 
 Value Graph::readStored(const Plug& p) const
 {
-    const Value& v = stored(p);
-    if (p.child >= 0) return std::get<Eigen::Vector3d>(v)[p.child];
-    return v;
+    return visitValueType(spec(p).type, [&]<class T>(std::type_identity<T>) -> Value {
+        const T& v = stored<T>(p);
+        if constexpr (std::is_same_v<T, Eigen::Vector3d>)
+            if (p.child >= 0) return v[p.child];
+        return v;
+    });
 }
 
-Value& Graph::storage(const Plug& p)
+template <class T>
+T& Graph::storage(const Plug& p)
 {
-    const GraphModel::NodeTopology& top = model_->topology(p.node);
-    AttrData& d = nodes_[static_cast<std::size_t>(p.node)].data[static_cast<std::size_t>(p.attr)];
-    if (!top.spec(p.attr).array) return d.value;
+    if (!spec(p).array) return store_.get<T>(slot(p));
+    return std::get<T>(element(p));
+}
+
+Value& Graph::element(const Plug& p)
+{
+    const AttributeSpec& s = spec(p);
+    ArrayData& array = store_.elements(slot(p));
     const auto i = static_cast<std::size_t>(p.index);
-    ArrayData& array = d.elements();
     if (i >= array.elements.size()) {
         const std::size_t growth = i + 1 - array.elements.size();
         if (arrayElements_ + growth > maxArrayElements)
@@ -141,7 +150,7 @@ Value& Graph::storage(const Plug& p)
                             "elements are stored up to the highest index, so number them from 0",
                             plugName(p), maxArrayElements));
         arrayElements_ += growth;
-        array.elements.resize(i + 1, top.spec(p.attr).defaultValue);
+        array.elements.resize(i + 1, s.defaultValue);
         array.present.resize(i + 1, false);
     }
     array.present[i] = true;
@@ -150,9 +159,15 @@ Value& Graph::storage(const Plug& p)
 
 void Graph::writeStored(const Plug& p, const Value& value)
 {
-    Value& target = storage(p);
-    if (p.child >= 0) std::get<Eigen::Vector3d>(target)[p.child] = std::get<double>(value);
-    else target = value;
+    visitValueType(spec(p).type, [&]<class T>(std::type_identity<T>) {
+        T& target = storage<T>(p);
+        if constexpr (std::is_same_v<T, Eigen::Vector3d>)
+            if (p.child >= 0) {
+                target[p.child] = std::get<double>(value);
+                return;
+            }
+        target = std::get<T>(value);
+    });
 }
 
 // --- connections ------------------------------------------------------------------------------------
@@ -160,7 +175,7 @@ void Graph::writeStored(const Plug& p, const Value& value)
 void Graph::connect(const Plug& src, const Plug& dst, bool convertUnits)
 {
     editModel().connect(src, dst, convertUnits);
-    if (spec(dst).array && readStored(dst).index() == Value().index()) writeStored(dst, readStored(dst));
+    if (spec(dst).array) element(dst);  // the element exists from its connection on
     dirtyInput(dst.node, dst.attr);
 }
 
@@ -189,12 +204,11 @@ void Graph::dirtyAffectedBy(NodeId node, AttrId attr)
             dirty[static_cast<std::size_t>(o)] = 1;
             stack.emplace_back(n, o);
         }
-        for (int ci : top.outgoing[static_cast<std::size_t>(a)]) {
-            const Plug& dst = model_->connections()[static_cast<std::size_t>(ci)].destination;
-            char& d = dirtyFlag(dst);
+        for (const GraphModel::NodeTopology::Edge& e : top.outgoingFrom(a)) {
+            char& d = nodes_[static_cast<std::size_t>(e.node)].dirty[static_cast<std::size_t>(e.attr)];
             if (d) continue;
             d = 1;
-            stack.emplace_back(dst.node, dst.attr);
+            stack.emplace_back(e.node, e.attr);
         }
     }
 }
@@ -394,7 +408,8 @@ void Graph::pull(const Connection& c)
     const bool asItIs = c.source.child < 0 && c.destination.child < 0 && type != ValueType::Enum &&
                         type == plugType(c.destination) &&
                         (c.rawUnits || unitFactor(spec(c.source).unit, spec(c.destination).unit) == 1.0);
-    if (asItIs) storage(c.destination) = stored(c.source);
+    if (asItIs)
+        visitValueType(type, [&]<class T>(std::type_identity<T>) { storage<T>(c.destination) = stored<T>(c.source); });
     else writeStored(c.destination, pulledValue(c));
 }
 
@@ -415,17 +430,29 @@ void Graph::processNode(NodeId node)
     const std::vector<AttrId>& outputs = top.type->outputs();
     const auto dirtyOutput = [&](AttrId a) { return rec.dirty[static_cast<std::size_t>(a)] != 0; };
     if (std::none_of(outputs.begin(), outputs.end(), dirtyOutput)) return;
-    ComputeContext context(top.name, top.specs(), rec.data);
+    ComputeContext context(top.name, top.specs(), store_, rec.slots);
     rec.impl->compute(context);
     ++rec.computes;
     for (AttrId a : outputs) rec.dirty[static_cast<std::size_t>(a)] = 0;
 }
 
+namespace {
+
+bool sameElements(const ArrayData* a, const ArrayData* b)
+{
+    const std::size_t n = a ? a->present.size() : 0;
+    if (n != (b ? b->present.size() : 0)) return false;
+    for (std::size_t i = 0; i < n; ++i)
+        if (a->present[i] != b->present[i] || !bitEqual(a->elements[i], b->elements[i])) return false;
+    return true;
+}
+
+}  // namespace
+
 std::vector<std::string> Graph::checkEvaluation()
 {
     evaluateAll();
-    std::vector<std::vector<AttrData>> cached;
-    for (const auto& rec : nodes_) cached.push_back(rec.data);
+    const ValueStore cached = store_;
     dirtyAll();
     evaluateAll();
 
@@ -440,16 +467,13 @@ std::vector<std::string> Graph::checkEvaluation()
     std::vector<std::string> mismatches;
     for (std::size_t n = 0; n < nodes_.size(); ++n) {
         if (tainted[n]) continue;
-        const NodeState& rec = nodes_[n];
         const GraphModel::NodeTopology& top = model_->topology(static_cast<NodeId>(n));
-        for (std::size_t a = 0; a < rec.data.size(); ++a) {
-            const AttrData& before = cached[n][a];
-            const AttrData& after = rec.data[a];
-            bool same = bitEqual(before.value, after.value) && before.elementCount() == after.elementCount();
-            for (std::size_t i = 0; same && i < after.elementCount(); ++i)
-                same = before.hasElement(i) == after.hasElement(i) &&
-                       bitEqual(before.array->elements[i], after.array->elements[i]);
-            if (!same) mismatches.push_back(fmt::format("{}.{}", top.name, top.spec(static_cast<AttrId>(a)).name));
+        const std::vector<ValueStore::Slot>& slots = nodes_[n].slots;
+        for (std::size_t a = 0; a < slots.size(); ++a) {
+            const AttributeSpec& s = top.spec(static_cast<AttrId>(a));
+            const bool same = s.array ? sameElements(cached.array(slots[a]), store_.array(slots[a]))
+                                      : bitEqual(cached.value(s.type, slots[a]), store_.value(s.type, slots[a]));
+            if (!same) mismatches.push_back(fmt::format("{}.{}", top.name, s.name));
         }
     }
     return mismatches;

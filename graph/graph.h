@@ -16,6 +16,7 @@
 
 #include "graph/graph_model.h"
 #include "graph/plug.h"
+#include "graph/value_store.h"
 
 namespace rig {
 
@@ -117,7 +118,7 @@ public:
 private:
     // One node's part of the state.
     struct NodeState {
-        std::vector<AttrData> data;
+        std::vector<ValueStore::Slot> slots;  // where each attribute's value is in store_
         // Outputs: need a compute; inputs: need a pull from their source. Apart from the values, packed: the
         // push walks them over the whole downstream of the scene time every frame.
         std::vector<char> dirty;
@@ -129,10 +130,18 @@ private:
     GraphModel& editModel();
     void addNodeState(NodeId node);
     char& dirtyFlag(const Plug& plug);
-    // A plug's stored value (an array element: the attribute's default where it does not exist), the plug's
-    // component aside; storage() makes the element.
-    const Value& stored(const Plug& plug) const;
-    Value& storage(const Plug& plug);
+    ValueStore::Slot slot(const Plug& plug) const
+    {
+        return nodes_[static_cast<std::size_t>(plug.node)].slots[static_cast<std::size_t>(plug.attr)];
+    }
+    // A plug's stored value as its attribute's type T (an array element: the attribute's default where it does not
+    // exist), the plug's component aside; storage() makes the element.
+    template <class T>
+    const T& stored(const Plug& plug) const;
+    template <class T>
+    T& storage(const Plug& plug);
+    // Makes array element plug.index of the plug's attribute, the default where it is new.
+    Value& element(const Plug& plug);
     Value readStored(const Plug& plug) const;
     Value pulledValue(const Connection& connection) const;
     void writeStored(const Plug& plug, const Value& value);
@@ -147,6 +156,7 @@ private:
 
     std::shared_ptr<GraphModel> model_;
     std::vector<NodeState> nodes_;
+    ValueStore store_;
     std::size_t arrayElements_ = 0;                      // input array elements allocated, all nodes
     std::vector<std::pair<NodeId, AttrId>> dirtyStack_;  // dirtyAffectedBy's, kept: it runs per plug set
     double time_ = 0.0;

@@ -51,6 +51,13 @@ const std::vector<AttrId>& GraphModel::NodeTopology::affects(AttrId a) const
     return static_cast<std::size_t>(a) < type->attributes().size() ? type->affects(a) : none;
 }
 
+std::span<const GraphModel::NodeTopology::Edge> GraphModel::NodeTopology::outgoingFrom(AttrId a) const
+{
+    const auto [first, last] = std::equal_range(outgoing.begin(), outgoing.end(), Edge{a, 0, 0, 0},
+                                                [](const Edge& x, const Edge& y) { return x.from < y.from; });
+    return {first, last};
+}
+
 GraphModel::GraphModel(std::shared_ptr<NodeRegistry> registry) : registry_(std::move(registry)) {}
 
 GraphModel::GraphModel(const GraphModel& other)
@@ -77,7 +84,6 @@ NodeId GraphModel::addNode(std::string_view typeName, std::string_view name)
     NodeTopology rec;
     rec.name = std::string(name);
     rec.type = type;
-    rec.outgoing.resize(type->attributes().size());
     nodeIndex_.emplace(rec.name, static_cast<NodeId>(nodes_.size()));
     nodes_.push_back(std::move(rec));
     topologyChanged();
@@ -103,7 +109,6 @@ AttrId GraphModel::addAttribute(NodeId node, AttributeSpec spec)
     auto specs = std::make_shared<std::vector<AttributeSpec>>(rec.specs());
     specs->push_back(std::move(spec));
     rec.ownSpecs = sharedSpecs(*rec.type, std::move(specs));
-    rec.outgoing.emplace_back();
     topologyChanged();  // a new plug: the time plugs are listed again
     return static_cast<AttrId>(rec.specs().size() - 1);
 }
@@ -260,12 +265,8 @@ std::vector<int> GraphModel::cyclePath(NodeId from, NodeId to) const
         const NodeId n = queue.front();
         queue.pop_front();
         if (n == to) break;
-        for (const auto& list : topology(n).outgoing)
-            for (int ci : list) {
-                const NodeId next = connections_[static_cast<std::size_t>(ci)].destination.node;
-                if (!via.emplace(next, ci).second) continue;
-                queue.push_back(next);
-            }
+        for (const NodeTopology::Edge& e : topology(n).outgoing)
+            if (via.emplace(e.node, e.connection).second) queue.push_back(e.node);
     }
     std::vector<int> path;
     if (!via.contains(to)) return path;
@@ -312,7 +313,10 @@ void GraphModel::connect(const Plug& src, const Plug& dst, bool convertUnits)
     }
     connections_.push_back({src, dst, !convertUnits});
     const int ci = static_cast<int>(connections_.size() - 1);
-    nodes_[static_cast<std::size_t>(src.node)].outgoing[static_cast<std::size_t>(src.attr)].push_back(ci);
+    std::vector<NodeTopology::Edge>& out = nodes_[static_cast<std::size_t>(src.node)].outgoing;
+    const auto after = std::upper_bound(out.begin(), out.end(), src.attr,
+                                        [](AttrId a, const NodeTopology::Edge& e) { return a < e.from; });
+    out.insert(after, {src.attr, dst.node, dst.attr, ci});
     nodes_[static_cast<std::size_t>(dst.node)].incoming.push_back(ci);
     topologyChanged();
 }
@@ -326,14 +330,17 @@ void GraphModel::disconnect(const Plug& src, const Plug& dst)
     connections_.erase(it);
     for (auto& rec : nodes_) {
         rec.incoming.clear();
-        for (auto& list : rec.outgoing) list.clear();
+        rec.outgoing.clear();
     }
     for (std::size_t ci = 0; ci < connections_.size(); ++ci) {
         const Connection& c = connections_[ci];
-        nodes_[static_cast<std::size_t>(c.source.node)].outgoing[static_cast<std::size_t>(c.source.attr)].push_back(
-            static_cast<int>(ci));
+        nodes_[static_cast<std::size_t>(c.source.node)].outgoing.push_back(
+            {c.source.attr, c.destination.node, c.destination.attr, static_cast<int>(ci)});
         nodes_[static_cast<std::size_t>(c.destination.node)].incoming.push_back(static_cast<int>(ci));
     }
+    for (auto& rec : nodes_)
+        std::stable_sort(rec.outgoing.begin(), rec.outgoing.end(),
+                         [](const NodeTopology::Edge& a, const NodeTopology::Edge& b) { return a.from < b.from; });
     topologyChanged();
 }
 

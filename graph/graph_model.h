@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <string_view>
 #include <unordered_map>
@@ -33,12 +34,23 @@ public:
         std::shared_ptr<const NodeType> type;
         // The type's attributes and the node's dynamic ones; null while it has none of its own.
         std::shared_ptr<const std::vector<AttributeSpec>> ownSpecs;
-        std::vector<int> incoming;               // indices into connections()
-        std::vector<std::vector<int>> outgoing;  // per attribute, indices into connections()
+        // A connection out of this node: from its attribute `from` into `attr` of `node`, connections()[connection].
+        struct Edge {
+            AttrId from;
+            NodeId node;
+            AttrId attr;
+            int connection;
+        };
+        std::vector<int> incoming;  // indices into connections()
+        // Sorted by `from`, the destinations inline, in one list: the push walks them over the whole downstream of
+        // the scene time every frame.
+        std::vector<Edge> outgoing;
 
         const std::vector<AttributeSpec>& specs() const { return ownSpecs ? *ownSpecs : type->attributes(); }
         const AttributeSpec& spec(AttrId a) const { return specs()[static_cast<std::size_t>(a)]; }
         const std::vector<AttrId>& affects(AttrId a) const;
+        // The connections out of attribute a.
+        std::span<const Edge> outgoingFrom(AttrId a) const;
     };
 
     explicit GraphModel(std::shared_ptr<NodeRegistry> registry);

@@ -23,22 +23,29 @@ int mayaChildIndex(const AttributeSpec& spec, std::string_view name)
     return -1;
 }
 
-const AttrData& ComputeContext::input(AttrId a) const
+ValueStore::Slot ComputeContext::inputSlot(AttrId a, bool array) const
 {
     // Maya's rule: compute reads only its own node's inputs.
-    if (a < 0 || static_cast<std::size_t>(a) >= specs_.size() || !specs_[static_cast<std::size_t>(a)].input)
-        throw internalError(
-            fmt::format("node '{}': compute read attribute {} which is not one of its inputs", nodeName_, a));
-    return data_[static_cast<std::size_t>(a)];
+    const auto i = static_cast<std::size_t>(a);
+    if (a < 0 || i >= specs_.size() || !specs_[i].input || specs_[i].array != array)
+        throw internalError(fmt::format("node '{}': compute read attribute {} which is not one of its {}inputs",
+                                        nodeName_, a, array ? "array " : ""));
+    return slots_[i];
+}
+
+void ComputeContext::wrongType(AttrId a) const
+{
+    throw internalError(fmt::format("node '{}': compute read attribute {} as another type than its {}", nodeName_, a,
+                                    valueTypeName(specs_[static_cast<std::size_t>(a)].type)));
 }
 
 void ComputeContext::setOutput(AttrId a, Value value)
 {
     const auto i = static_cast<std::size_t>(a);
-    if (a < 0 || i >= specs_.size() || specs_[i].input || specs_[i].array)
-        throw internalError(
-            fmt::format("node '{}': compute wrote attribute {} which is not a plain output", nodeName_, a));
-    data_[i].value = std::move(value);
+    if (a < 0 || i >= specs_.size() || specs_[i].input || specs_[i].array ||
+        !store_.assign(specs_[i].type, slots_[i], std::move(value)))
+        throw internalError(fmt::format(
+            "node '{}': compute wrote attribute {} which is not a plain output of that type", nodeName_, a));
 }
 
 void ComputeContext::setOutputElements(AttrId a, std::vector<Value> elements)
@@ -47,7 +54,7 @@ void ComputeContext::setOutputElements(AttrId a, std::vector<Value> elements)
     if (a < 0 || i >= specs_.size() || specs_[i].input || !specs_[i].array)
         throw internalError(
             fmt::format("node '{}': compute wrote attribute {} which is not an array output", nodeName_, a));
-    ArrayData& array = data_[i].elements();
+    ArrayData& array = store_.elements(slots_[i]);
     array.present.assign(elements.size(), true);
     array.elements = std::move(elements);
 }
@@ -60,7 +67,7 @@ void ComputeContext::assignElements(AttrId a, std::span<const T> elements)
         !std::holds_alternative<T>(specs_[i].defaultValue))
         throw internalError(fmt::format(
             "node '{}': compute wrote attribute {} which is not an array output of that type", nodeName_, a));
-    ArrayData& array = data_[i].elements();
+    ArrayData& array = store_.elements(slots_[i]);
     array.present.assign(elements.size(), true);
     array.elements.resize(elements.size(), specs_[i].defaultValue);
     for (std::size_t k = 0; k < elements.size(); ++k) array.elements[k] = elements[k];

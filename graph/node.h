@@ -11,74 +11,39 @@
 
 #include "graph/attribute.h"
 #include "graph/value.h"
+#include "graph/value_store.h"
 
 namespace rig {
 
-// The elements of an array attribute, by logical index.
-struct ArrayData {
-    std::vector<Value> elements;
-    std::vector<bool> present;  // which logical indices exist
-};
-
-// Storage of one attribute of one node instance. An array's elements are apart, made with its first element:
-// a crowd holds thousands of attributes per character, few of them arrays.
-struct AttrData {
-    Value value;                       // non-array attributes
-    std::unique_ptr<ArrayData> array;  // array attributes, once they have an element
-
-    AttrData() = default;
-    AttrData(const AttrData& other) : value(other.value), array(copyOf(other.array)) {}
-    AttrData& operator=(const AttrData& other)
-    {
-        value = other.value;
-        array = copyOf(other.array);
-        return *this;
-    }
-    AttrData(AttrData&&) noexcept = default;
-    AttrData& operator=(AttrData&&) noexcept = default;
-    ~AttrData() = default;
-
-    std::size_t elementCount() const { return array ? array->elements.size() : 0; }
-    bool hasElement(std::size_t i) const { return array && i < array->present.size() && array->present[i]; }
-    ArrayData& elements()
-    {
-        if (!array) array = std::make_unique<ArrayData>();
-        return *array;
-    }
-
-private:
-    static std::unique_ptr<ArrayData> copyOf(const std::unique_ptr<ArrayData>& a)
-    {
-        return a ? std::make_unique<ArrayData>(*a) : nullptr;
-    }
-};
-
 class ComputeContext {
 public:
-    ComputeContext(std::string_view nodeName, const std::vector<AttributeSpec>& specs, std::vector<AttrData>& data)
-        : nodeName_(nodeName), specs_(specs), data_(data)
+    // `slots`: where each of the node's attributes is in `store`.
+    ComputeContext(std::string_view nodeName, const std::vector<AttributeSpec>& specs, ValueStore& store,
+                   std::span<const ValueStore::Slot> slots)
+        : nodeName_(nodeName), specs_(specs), store_(store), slots_(slots)
     {
     }
 
     std::string_view nodeName() const { return nodeName_; }
 
-    double getDouble(AttrId a) const { return std::get<double>(input(a).value); }
-    int getInt(AttrId a) const { return std::get<int>(input(a).value); }
-    int getEnum(AttrId a) const { return std::get<int>(input(a).value); }
-    bool getBool(AttrId a) const { return std::get<bool>(input(a).value); }
-    const std::string& getString(AttrId a) const { return std::get<std::string>(input(a).value); }
-    const Eigen::Vector3d& getVector3(AttrId a) const { return std::get<Eigen::Vector3d>(input(a).value); }
-    const Eigen::Matrix4d& getMatrix(AttrId a) const { return std::get<Eigen::Matrix4d>(input(a).value); }
-    const std::vector<double>& getDoubleArray(AttrId a) const { return std::get<std::vector<double>>(input(a).value); }
-    const Matrix4Array& getMatrixArray(AttrId a) const { return std::get<Matrix4Array>(input(a).value); }
+    double getDouble(AttrId a) const { return input<double>(a); }
+    int getInt(AttrId a) const { return input<int>(a); }
+    int getEnum(AttrId a) const { return input<int>(a); }
+    bool getBool(AttrId a) const { return input<bool>(a); }
+    const std::string& getString(AttrId a) const { return input<std::string>(a); }
+    const Eigen::Vector3d& getVector3(AttrId a) const { return input<Eigen::Vector3d>(a); }
+    const Eigen::Matrix4d& getMatrix(AttrId a) const { return input<Eigen::Matrix4d>(a); }
+    const std::vector<double>& getDoubleArray(AttrId a) const { return input<std::vector<double>>(a); }
+    const Matrix4Array& getMatrixArray(AttrId a) const { return input<Matrix4Array>(a); }
 
     // Array inputs: calls f(logicalIndex, value) for each existing element, in index order.
     template <class F>
     void forEachElement(AttrId a, F&& f) const
     {
-        const AttrData& d = input(a);
-        for (std::size_t i = 0; i < d.elementCount(); ++i)
-            if (d.array->present[i]) f(static_cast<int>(i), d.array->elements[i]);
+        const ArrayData* d = store_.array(inputSlot(a, true));
+        if (!d) return;
+        for (std::size_t i = 0; i < d->present.size(); ++i)
+            if (d->present[i]) f(static_cast<int>(i), d->elements[i]);
     }
 
     void setOutput(AttrId a, Value value);
@@ -90,13 +55,28 @@ public:
     void assignOutputElements(AttrId a, std::span<const Eigen::Matrix4d> elements);
 
 private:
-    const AttrData& input(AttrId a) const;
+    // The slot of input `a`, an array or not as asked; a node reading anything else is a defect of its type.
+    ValueStore::Slot inputSlot(AttrId a, bool array) const;
+    template <class T>
+    const T& input(AttrId a) const
+    {
+        const ValueStore::Slot slot = inputSlot(a, false);
+        if (!holds<T>(specs_[static_cast<std::size_t>(a)].type)) wrongType(a);
+        return store_.get<T>(slot);
+    }
+    template <class T>
+    static bool holds(ValueType type)
+    {
+        return visitValueType(type, []<class U>(std::type_identity<U>) { return std::is_same_v<T, U>; });
+    }
+    [[noreturn]] void wrongType(AttrId a) const;
     template <class T>
     void assignElements(AttrId a, std::span<const T> elements);
 
     std::string_view nodeName_;
     const std::vector<AttributeSpec>& specs_;
-    std::vector<AttrData>& data_;
+    ValueStore& store_;
+    std::span<const ValueStore::Slot> slots_;
 };
 
 class Node {

@@ -347,9 +347,8 @@ void Builder::detachInputs(NodeId joint)
 {
     const auto& top = graph_->model().topology(joint);
     std::vector<Connection> out;
-    for (std::size_t a = 0; a < top.outgoing.size(); ++a)
-        if (top.spec(static_cast<AttrId>(a)).input)
-            for (int ci : top.outgoing[a]) out.push_back(graph_->connections()[static_cast<std::size_t>(ci)]);
+    for (const GraphModel::NodeTopology::Edge& e : top.outgoing)
+        if (top.spec(e.from).input) out.push_back(graph_->connections()[static_cast<std::size_t>(e.connection)]);
     for (const Connection& c : out) {
         graph_->disconnect(c.source, c.destination);
         feed(c.destination, c.source);

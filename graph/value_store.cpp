@@ -1,0 +1,60 @@
+#include "graph/value_store.h"
+
+namespace rig {
+
+ValueStore::ValueStore(const ValueStore& other) : pools_(other.pools_)
+{
+    arrays_.reserve(other.arrays_.size());
+    for (const auto& a : other.arrays_) arrays_.push_back(a ? std::make_unique<ArrayData>(*a) : nullptr);
+}
+
+ValueStore& ValueStore::operator=(const ValueStore& other)
+{
+    if (this != &other) *this = ValueStore(other);
+    return *this;
+}
+
+ValueStore::Slot ValueStore::add(ValueType type, const Value& value)
+{
+    return visitValueType(type, [&]<class T>(std::type_identity<T>) {
+        if constexpr (std::is_same_v<T, bool>) {
+            auto& pool = std::get<std::vector<Flag>>(pools_);
+            pool.push_back({std::get<bool>(value)});
+            return static_cast<Slot>(pool.size() - 1);
+        } else {
+            auto& pool = std::get<std::vector<T>>(pools_);
+            pool.push_back(std::get<T>(value));
+            return static_cast<Slot>(pool.size() - 1);
+        }
+    });
+}
+
+ValueStore::Slot ValueStore::addArray()
+{
+    arrays_.emplace_back();
+    return static_cast<Slot>(arrays_.size() - 1);
+}
+
+Value ValueStore::value(ValueType type, Slot slot) const
+{
+    return visitValueType(type, [&]<class T>(std::type_identity<T>) { return Value(get<T>(slot)); });
+}
+
+bool ValueStore::assign(ValueType type, Slot slot, Value value)
+{
+    return visitValueType(type, [&]<class T>(std::type_identity<T>) {
+        T* v = std::get_if<T>(&value);
+        if (!v) return false;
+        get<T>(slot) = std::move(*v);
+        return true;
+    });
+}
+
+ArrayData& ValueStore::elements(Slot slot)
+{
+    std::unique_ptr<ArrayData>& a = arrays_[slot];
+    if (!a) a = std::make_unique<ArrayData>();
+    return *a;
+}
+
+}  // namespace rig

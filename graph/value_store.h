@@ -1,0 +1,101 @@
+#pragma once
+// One graph instance's attribute values, each in a slot of its own type's size: a pool per type (numbers, vectors,
+// matrices, strings, arrays of them), filled in the order the nodes are made. A Value is a variant as large as its
+// largest alternative (a matrix: 136 bytes), and a crowd holds thousands of attributes per character, most of them
+// numbers and vectors; in pools a frame also walks its characters' values in the order they were made, not through
+// one heap block per node.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "graph/value.h"
+
+namespace rig {
+
+// The elements of an array attribute, by logical index.
+struct ArrayData {
+    std::vector<Value> elements;
+    std::vector<bool> present;  // which logical indices exist
+};
+
+// Calls f(std::type_identity<T>{}) with T the Value alternative that holds a value of `type` (Int and Enum share int).
+template <class F>
+decltype(auto) visitValueType(ValueType type, F&& f)
+{
+    switch (type) {
+        case ValueType::Double:
+            return f(std::type_identity<double>{});
+        case ValueType::Int:
+        case ValueType::Enum:
+            return f(std::type_identity<int>{});
+        case ValueType::Bool:
+            return f(std::type_identity<bool>{});
+        case ValueType::String:
+            return f(std::type_identity<std::string>{});
+        case ValueType::Vector3:
+            return f(std::type_identity<Eigen::Vector3d>{});
+        case ValueType::Matrix4:
+            return f(std::type_identity<Eigen::Matrix4d>{});
+        case ValueType::DoubleArray:
+            return f(std::type_identity<std::vector<double>>{});
+        case ValueType::Matrix4Array:
+            break;
+    }
+    return f(std::type_identity<Matrix4Array>{});
+}
+
+class ValueStore {
+public:
+    using Slot = std::uint32_t;
+
+    ValueStore() = default;
+    ValueStore(const ValueStore& other);
+    ValueStore& operator=(const ValueStore& other);
+    ValueStore(ValueStore&&) noexcept = default;
+    ValueStore& operator=(ValueStore&&) noexcept = default;
+    ~ValueStore() = default;
+
+    // A new slot of `type` holding `value` (which holds that type's alternative).
+    Slot add(ValueType type, const Value& value);
+    // A new array attribute, without elements.
+    Slot addArray();
+
+    template <class T>
+    T& get(Slot slot)
+    {
+        if constexpr (std::is_same_v<T, bool>) return std::get<std::vector<Flag>>(pools_)[slot].value;
+        else return std::get<std::vector<T>>(pools_)[slot];
+    }
+    template <class T>
+    const T& get(Slot slot) const
+    {
+        return const_cast<ValueStore*>(this)->get<T>(slot);
+    }
+    // The slot's value as a Value (messages, getValue, checked mode).
+    Value value(ValueType type, Slot slot) const;
+    // Assigns a Value holding the slot type's alternative; false when it holds another.
+    bool assign(ValueType type, Slot slot, Value value);
+
+    // An array attribute's elements: null until it has one; elements() makes them.
+    const ArrayData* array(Slot slot) const { return arrays_[slot].get(); }
+    ArrayData& elements(Slot slot);
+
+private:
+    struct Flag {
+        bool value;
+    };
+    std::tuple<std::vector<double>, std::vector<int>, std::vector<Flag>, std::vector<std::string>,
+               std::vector<Eigen::Vector3d>, std::vector<Eigen::Matrix4d>, std::vector<std::vector<double>>,
+               std::vector<Matrix4Array>>
+        pools_;
+    std::vector<std::unique_ptr<ArrayData>> arrays_;
+};
+
+}  // namespace rig
