@@ -122,7 +122,7 @@ std::vector<char> reachableNodes(const GraphModel& m, const std::vector<NodeId>&
         const auto& topology = m.topology(stack.back());
         stack.pop_back();
         if (!downstream)
-            for (int c : topology.incoming) visit(m.connections()[static_cast<std::size_t>(c)].source.node);
+            for (const Connection& c : topology.incoming) visit(c.source.node);
         else
             for (const GraphModel::NodeTopology::Edge& e : topology.outgoing) visit(e.node);
     }

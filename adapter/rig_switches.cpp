@@ -20,8 +20,7 @@ bool isDag(const GraphModel& m, NodeId n)
 // The connection feeding `plug` (or its whole vector when `plug` is a component), or null.
 const Connection* feeding(const GraphModel& m, const Plug& plug)
 {
-    for (const int c : m.topology(plug.node).incoming) {
-        const Connection& connection = m.connections()[static_cast<std::size_t>(c)];
+    for (const Connection& connection : m.topology(plug.node).incoming) {
         const Plug& d = connection.destination;
         if (d == plug || (d.node == plug.node && d.attr == plug.attr && d.index == plug.index && d.child < 0))
             return &connection;
@@ -63,8 +62,7 @@ std::set<int> switchesOf(const GraphModel& m, NodeId joint, const std::map<NodeI
     std::set<int> found;
     std::vector<NodeId> stack;
     std::set<NodeId> seen;
-    for (const int c : m.topology(joint).incoming) {
-        const Connection& connection = m.connections()[static_cast<std::size_t>(c)];
+    for (const Connection& connection : m.topology(joint).incoming) {
         if (m.spec(connection.destination).name != "parentMatrix") stack.push_back(connection.source.node);
     }
     while (!stack.empty()) {
@@ -72,8 +70,7 @@ std::set<int> switchesOf(const GraphModel& m, NodeId joint, const std::map<NodeI
         stack.pop_back();
         if (!seen.insert(n).second || isDag(m, n)) continue;
         if (const auto b = blends.find(n); b != blends.end()) found.insert(b->second);
-        for (const int c : m.topology(n).incoming)
-            stack.push_back(m.connections()[static_cast<std::size_t>(c)].source.node);
+        for (const Connection& c : m.topology(n).incoming) stack.push_back(c.source.node);
     }
     return found;
 }

@@ -179,8 +179,9 @@ void Graph::connect(const Plug& src, const Plug& dst, bool convertUnits)
     dirtyInput(dst.node, dst.attr);
 }
 
-void Graph::disconnect(const Plug& src, const Plug& dst)
+void Graph::disconnect(const Plug src, const Plug dst)
 {
+    // By value: the caller's plugs may be the connection's own, which the model's edit removes.
     editModel().disconnect(src, dst);
     // The input keeps its last value, as in Maya; what it affects must see the change of source.
     dirtyAffectedBy(dst.node, dst.attr);
@@ -223,13 +224,11 @@ void Graph::dirtyInput(NodeId node, AttrId attr)
 
 void Graph::dirtyAll()
 {
-    const auto& connections = model_->connections();
     for (NodeId n = 0; n < nodeCount(); ++n) {
         const GraphModel::NodeTopology& top = model_->topology(n);
         std::vector<char>& dirty = nodes_[static_cast<std::size_t>(n)].dirty;
         for (AttrId a : top.type->outputs()) dirty[static_cast<std::size_t>(a)] = 1;
-        for (int ci : top.incoming)
-            dirty[static_cast<std::size_t>(connections[static_cast<std::size_t>(ci)].destination.attr)] = 1;
+        for (const Connection& c : top.incoming) dirty[static_cast<std::size_t>(c.destination.attr)] = 1;
     }
 }
 
@@ -326,8 +325,7 @@ void Graph::evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots)
     // A needed node pulls all of its dirty inputs, so the sources of those are needed too.
     std::vector<NodeId> list = roots;
     for (std::size_t i = 0; i < list.size(); ++i) {
-        for (int ci : model_->topology(list[i]).incoming) {
-            const Connection& c = model_->connections()[static_cast<std::size_t>(ci)];
+        for (const Connection& c : model_->topology(list[i]).incoming) {
             const auto src = static_cast<std::size_t>(c.source.node);
             if (needed[src] || !dirtyFlag(c.destination) || !dirtyFlag(c.source)) continue;
             needed[src] = 1;
@@ -416,14 +414,10 @@ void Graph::pull(const Connection& c)
 void Graph::processNode(NodeId node)
 {
     const GraphModel::NodeTopology& top = model_->topology(node);
-    const auto& connections = model_->connections();
     NodeState& rec = nodes_[static_cast<std::size_t>(node)];
-    for (int ci : top.incoming) {
-        const Connection& c = connections[static_cast<std::size_t>(ci)];
+    for (const Connection& c : top.incoming)
         if (rec.dirty[static_cast<std::size_t>(c.destination.attr)]) pull(c);
-    }
-    for (int ci : top.incoming)
-        rec.dirty[static_cast<std::size_t>(connections[static_cast<std::size_t>(ci)].destination.attr)] = 0;
+    for (const Connection& c : top.incoming) rec.dirty[static_cast<std::size_t>(c.destination.attr)] = 0;
 
     // The type's list of outputs, not a pass over every attribute's spec: specs are large, and a crowd's frame
     // processes thousands of nodes.
@@ -461,8 +455,7 @@ std::vector<std::string> Graph::checkEvaluation()
     for (NodeId n : model_->schedule()->order()) {
         auto& t = tainted[static_cast<std::size_t>(n)];
         t = model_->topology(n).type->stateful();
-        for (int ci : model_->topology(n).incoming)
-            t |= tainted[static_cast<std::size_t>(model_->connections()[static_cast<std::size_t>(ci)].source.node)];
+        for (const Connection& c : model_->topology(n).incoming) t |= tainted[static_cast<std::size_t>(c.source.node)];
     }
     std::vector<std::string> mismatches;
     for (std::size_t n = 0; n < nodes_.size(); ++n) {

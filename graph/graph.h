@@ -77,7 +77,7 @@ public:
     // Type-checked; refuses a second source for an input, outputs as destinations, and any
     // connection that would close a cycle (the message lists the whole cycle).
     void connect(const Plug& source, const Plug& destination, bool convertUnits = true);
-    void disconnect(const Plug& source, const Plug& destination);
+    void disconnect(Plug source, Plug destination);
     const std::vector<Connection>& connections() const { return model_->connections(); }
     // The connection driving `destination` (or a component or parent of it), if any.
     const Connection* incomingConnection(const Plug& destination) const

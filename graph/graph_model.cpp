@@ -45,19 +45,6 @@ std::string typeDescription(const AttributeSpec& spec, int child)
 
 }  // namespace
 
-const std::vector<AttrId>& GraphModel::NodeTopology::affects(AttrId a) const
-{
-    static const std::vector<AttrId> none;
-    return static_cast<std::size_t>(a) < type->attributes().size() ? type->affects(a) : none;
-}
-
-std::span<const GraphModel::NodeTopology::Edge> GraphModel::NodeTopology::outgoingFrom(AttrId a) const
-{
-    const auto [first, last] = std::equal_range(outgoing.begin(), outgoing.end(), Edge{a, 0, 0, 0},
-                                                [](const Edge& x, const Edge& y) { return x.from < y.from; });
-    return {first, last};
-}
-
 GraphModel::GraphModel(std::shared_ptr<NodeRegistry> registry) : registry_(std::move(registry)) {}
 
 GraphModel::GraphModel(const GraphModel& other)
@@ -246,8 +233,7 @@ void GraphModel::checkPlug(const Plug& p) const
 
 const Connection* GraphModel::incomingConnection(const Plug& dst) const
 {
-    for (int ci : topology(dst.node).incoming) {
-        const Connection& c = connections_[static_cast<std::size_t>(ci)];
+    for (const Connection& c : topology(dst.node).incoming) {
         const Plug& d = c.destination;
         if (d.attr == dst.attr && d.index == dst.index && (d.child < 0 || dst.child < 0 || d.child == dst.child))
             return &c;
@@ -317,12 +303,13 @@ void GraphModel::connect(const Plug& src, const Plug& dst, bool convertUnits)
     const auto after = std::upper_bound(out.begin(), out.end(), src.attr,
                                         [](AttrId a, const NodeTopology::Edge& e) { return a < e.from; });
     out.insert(after, {src.attr, dst.node, dst.attr, ci});
-    nodes_[static_cast<std::size_t>(dst.node)].incoming.push_back(ci);
+    nodes_[static_cast<std::size_t>(dst.node)].incoming.push_back(connections_.back());
     topologyChanged();
 }
 
-void GraphModel::disconnect(const Plug& src, const Plug& dst)
+void GraphModel::disconnect(const Plug src, const Plug dst)
 {
+    // By value: the caller's plugs may be the connection's own, in the lists rebuilt here.
     const auto it = std::find_if(connections_.begin(), connections_.end(),
                                  [&](const Connection& c) { return c.source == src && c.destination == dst; });
     if (it == connections_.end())
@@ -336,7 +323,7 @@ void GraphModel::disconnect(const Plug& src, const Plug& dst)
         const Connection& c = connections_[ci];
         nodes_[static_cast<std::size_t>(c.source.node)].outgoing.push_back(
             {c.source.attr, c.destination.node, c.destination.attr, static_cast<int>(ci)});
-        nodes_[static_cast<std::size_t>(c.destination.node)].incoming.push_back(static_cast<int>(ci));
+        nodes_[static_cast<std::size_t>(c.destination.node)].incoming.push_back(c);
     }
     for (auto& rec : nodes_)
         std::stable_sort(rec.outgoing.begin(), rec.outgoing.end(),

@@ -5,6 +5,7 @@
 // through a Graph, which copies it first when other instances share it; once shared it is read-only,
 // and any number of threads may read it.
 
+#include <algorithm>
 #include <memory>
 #include <mutex>
 #include <span>
@@ -41,16 +42,28 @@ public:
             AttrId attr;
             int connection;
         };
-        std::vector<int> incoming;  // indices into connections()
+        // The connections into this node, copies of connections()' entries, in their order: a frame pulls each,
+        // node by node, and the list stays with its node instead of reaching across the whole graph's.
+        std::vector<Connection> incoming;
         // Sorted by `from`, the destinations inline, in one list: the push walks them over the whole downstream of
         // the scene time every frame.
         std::vector<Edge> outgoing;
 
         const std::vector<AttributeSpec>& specs() const { return ownSpecs ? *ownSpecs : type->attributes(); }
         const AttributeSpec& spec(AttrId a) const { return specs()[static_cast<std::size_t>(a)]; }
-        const std::vector<AttrId>& affects(AttrId a) const;
+        // What attribute a affects on this node: its type's table (a dynamic attribute affects nothing).
+        const std::vector<AttrId>& affects(AttrId a) const
+        {
+            static const std::vector<AttrId> none;
+            return static_cast<std::size_t>(a) < type->attributes().size() ? type->affects(a) : none;
+        }
         // The connections out of attribute a.
-        std::span<const Edge> outgoingFrom(AttrId a) const;
+        std::span<const Edge> outgoingFrom(AttrId a) const
+        {
+            const auto [first, last] = std::equal_range(outgoing.begin(), outgoing.end(), Edge{a, 0, 0, 0},
+                                                        [](const Edge& x, const Edge& y) { return x.from < y.from; });
+            return {first, last};
+        }
     };
 
     explicit GraphModel(std::shared_ptr<NodeRegistry> registry);
@@ -70,7 +83,7 @@ public:
     // that would close a cycle (the message lists the whole cycle). convertUnits false: the value crosses as it is
     // stored (radians into a unitless plug), as in a Maya scene, which carries its own unitConversion nodes.
     void connect(const Plug& source, const Plug& destination, bool convertUnits = true);
-    void disconnect(const Plug& source, const Plug& destination);
+    void disconnect(Plug source, Plug destination);
 
     // --- queries -----------------------------------------------------------------------------------
     int nodeCount() const { return static_cast<int>(nodes_.size()); }

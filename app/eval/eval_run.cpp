@@ -188,6 +188,7 @@ std::vector<Value> evaluateFrame(Graph& graph, const std::string& rigName, doubl
         }
     }
     std::vector<Value> values;
+    values.reserve(plugs.size());
     evaluating(rigName, frame, [&] {
         for (const Plug& p : plugs) values.push_back(graph.getValue(p));
     });

@@ -470,8 +470,8 @@ void Builder::checkReachesNoJoint()
     while (!queue.empty()) {
         const NodeId g = queue.front();
         queue.pop_front();
-        for (int ci : model.topology(g).incoming) {
-            const NodeId from = model.connections()[static_cast<std::size_t>(ci)].source.node;
+        for (const Connection& c : model.topology(g).incoming) {
+            const NodeId from = c.source.node;
             if (reachesJoint[static_cast<std::size_t>(from)] >= 0) continue;
             reachesJoint[static_cast<std::size_t>(from)] = reachesJoint[static_cast<std::size_t>(g)];
             queue.push_back(from);

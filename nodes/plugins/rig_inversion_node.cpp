@@ -347,19 +347,22 @@ private:
         applyShift(equivalences, shift_, solution_, reported_);
     }
 
-    // The values as reported, the solve's figures, and the names and held values of the approximation.
+    // The values as reported and the solve's figures, assigned in place every frame; the names and held values of
+    // the approximation, written when it changes (a crowd solves every member every frame).
     void writeOutputs(ComputeContext& c, const Approximation& a)
     {
         const SolveSummary& summary = frame_.summary;
-        std::vector<Value> values;
-        for (std::size_t i = 0; i < a.parameters.size(); ++i) {
-            const auto& p = a.parameters[i].parameter;
-            values.emplace_back(p.angular ? reported_[i] * 180.0 / std::numbers::pi : reported_[i]);
-        }
-        c.setOutputElements(value, std::move(values));
+        outputValues_.resize(a.parameters.size());
+        for (std::size_t i = 0; i < a.parameters.size(); ++i)
+            outputValues_[i] =
+                a.parameters[i].parameter.angular ? reported_[i] * 180.0 / std::numbers::pi : reported_[i];
+        c.assignOutputElements(value, outputValues_);
         c.setOutput(iterations, summary.iterations);
         c.setOutput(worstErrorCm, summary.maxPositionErrorCm);
         c.setOutput(realRigEvaluations, frame_.realRigEvaluations);
+        if (namesWritten_ == loaded_.get()) return;
+        namesWritten_ = loaded_.get();
+        std::vector<Value> values;
         std::vector<std::string> names;
         for (const auto& p : a.parameters) names.push_back(p.parameter.name);
         c.setOutput(parameterNames, joinLines(names));
@@ -457,9 +460,11 @@ private:
     ChainScratch scratch_;
     ChainLead startLead_;  // whether the rotations lead the frame start_ starts (clip_inversion.h), as start_
     ChainFrame frame_;
-    std::vector<double> solution_;  // the chain's, as solved
-    ChunkShift shift_;              // of the current chain (inversion/clip/continuity.h)
-    std::vector<double> reported_;  // solution_ shifted: the values output
+    std::vector<double> solution_;          // the chain's, as solved
+    ChunkShift shift_;                      // of the current chain (inversion/clip/continuity.h)
+    std::vector<double> reported_;          // solution_ shifted: the values output
+    std::vector<double> outputValues_;      // reported_ in the outputs' units (degrees for angles)
+    const Loaded* namesWritten_ = nullptr;  // the model whose names and held values the outputs hold
     // `contacts`: the file's ranges (scene time), each contact's hold once entered, the multipliers of the frame
     // solved and of the frame the next solve starts from (as start_ and solution_).
     struct NodeContact {
