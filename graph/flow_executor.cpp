@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include <tbb/blocked_range.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 
@@ -62,7 +63,7 @@ void FlowExecutor::run(const std::vector<char>& active, const std::function<void
 }
 
 void FlowExecutor::runActive(std::vector<int> nodes, const std::vector<char>& active,
-                             const std::function<void(int)>& body)
+                             const std::function<void(int)>& body, const std::function<void(int)>& prefetch)
 {
     const auto& rank = schedule_->rank();
     std::sort(nodes.begin(), nodes.end(),
@@ -79,8 +80,15 @@ void FlowExecutor::runActive(std::vector<int> nodes, const std::vector<char>& ac
     body_ = &body;
     error_ = nullptr;
     arena_.execute([&] {
+        constexpr std::size_t ahead = 2;
         for (const auto& level : levels)
-            tbb::parallel_for(std::size_t{0}, level.size(), [&](std::size_t i) { runBody(level[i]); });
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.size()),
+                              [&](const tbb::blocked_range<std::size_t>& r) {
+                                  for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                                      if (i + ahead < r.end()) prefetch(level[i + ahead]);
+                                      runBody(level[i]);
+                                  }
+                              });
     });
     if (error_) std::rethrow_exception(error_);
 }

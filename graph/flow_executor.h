@@ -34,7 +34,9 @@ public:
     // The same for the active nodes `nodes` only, level by level (a node's level: one more than its active
     // predecessors' highest), each level's nodes in parallel: a frame that needs a small part of a large
     // graph (a crowd's curves) costs what it computes, where run() passes a message along every edge.
-    void runActive(std::vector<int> nodes, const std::vector<char>& active, const std::function<void(int)>& body);
+    // prefetch(node) is called a little ahead of body(node), on the same thread.
+    void runActive(std::vector<int> nodes, const std::vector<char>& active, const std::function<void(int)>& body,
+                   const std::function<void(int)>& prefetch);
 
 private:
     std::shared_ptr<const Schedule> schedule_;

@@ -342,14 +342,21 @@ void Graph::evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots)
         // A small part of a large graph (a crowd's curves) level by level over what is needed; most of it
         // through the flow graph, whose messages then cost less than the levels' barriers.
         if (list.size() * 4 < nodes_.size())
-            flow_->runActive(std::move(list), needed, [this](int n) { processNode(n); });
+            flow_->runActive(
+                std::move(list), needed, [this](int n) { processNode(n); }, [this](int n) { prefetchNode(n); });
         else flow_->run(needed, [this](int n) { processNode(n); });
         return;
     }
     std::sort(list.begin(), list.end(), [&](NodeId a, NodeId b) {
         return s->rank()[static_cast<std::size_t>(a)] < s->rank()[static_cast<std::size_t>(b)];
     });
-    for (NodeId n : list) processNode(n);
+    // The nodes of a crowd's frame are far apart in memory and each reached through several lists: the next ones'
+    // are fetched while this one computes.
+    constexpr std::size_t ahead = 2;
+    for (std::size_t i = 0; i < list.size(); ++i) {
+        if (i + ahead < list.size()) prefetchNode(list[i + ahead]);
+        processNode(list[i]);
+    }
 }
 
 namespace {
@@ -409,6 +416,16 @@ void Graph::pull(const Connection& c)
     if (asItIs)
         visitValueType(type, [&]<class T>(std::type_identity<T>) { storage<T>(c.destination) = stored<T>(c.source); });
     else writeStored(c.destination, pulledValue(c));
+}
+
+void Graph::prefetchNode(NodeId node) const
+{
+    const GraphModel::NodeTopology& top = model_->topology(node);
+    const NodeState& rec = nodes_[static_cast<std::size_t>(node)];
+    __builtin_prefetch(top.incoming.data());
+    __builtin_prefetch(rec.dirty.data());
+    __builtin_prefetch(rec.slots.data());
+    __builtin_prefetch(rec.impl.get());
 }
 
 void Graph::processNode(NodeId node)

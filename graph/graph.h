@@ -153,6 +153,7 @@ private:
 
     void evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots);
     void processNode(NodeId node);
+    void prefetchNode(NodeId node) const;
 
     std::shared_ptr<GraphModel> model_;
     std::vector<NodeState> nodes_;
