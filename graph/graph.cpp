@@ -8,6 +8,7 @@
 #include <tbb/info.h>
 
 #include "core/error.h"
+#include "core/prefetch.h"
 #include "graph/flow_executor.h"
 
 namespace rig {
@@ -422,10 +423,10 @@ void Graph::prefetchNode(NodeId node) const
 {
     const GraphModel::NodeTopology& top = model_->topology(node);
     const NodeState& rec = nodes_[static_cast<std::size_t>(node)];
-    __builtin_prefetch(top.incoming.data());
-    __builtin_prefetch(rec.dirty.data());
-    __builtin_prefetch(rec.slots.data());
-    __builtin_prefetch(rec.impl.get());
+    prefetch(top.incoming);
+    prefetch(rec.dirty);
+    prefetch(rec.slots);
+    prefetchBytes(rec.impl.get(), 1);  // its virtual table's address
 }
 
 void Graph::processNode(NodeId node)
