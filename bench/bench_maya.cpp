@@ -3,9 +3,19 @@
 #include <algorithm>
 #include <chrono>
 
+#include <array>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "app/common/output_file.h"
+#include "app/invert/invert_run.h"
+#include "app/invert/maya_scene_output.h"
+#include "app/learn/learn_run.h"
 #include "core/error.h"
 #include "graph/rig_file.h"
 #include "nodes/builtin_nodes.h"
+#include "nodes/clips/maya_clip.h"
 
 namespace rig::bench {
 
@@ -44,6 +54,111 @@ Json mayaLoadJson(const std::filesystem::path& folder)
         rows.push_back(std::move(row));
     }
     return Json{{"scenes", std::move(rows)}, {"largest_bytes", largestBytes}, {"largest_load_seconds", largestSeconds}};
+}
+
+namespace {
+
+// The animated scenes of ../shared/maya whose rig the reader evaluates (its README): the rig scene, and the scene
+// animating it (the same file where one scene holds both: its time curves are cut from the parameters they key).
+// Grunt_Run.ma is not among them: learning Grunt_Rig.ma with auto parameters takes over ten minutes (docs/maya.md).
+struct AnimatedScene {
+    const char* rig;
+    const char* clip;
+};
+constexpr std::array<AnimatedScene, 5> animatedScenes{{
+    {"I-LoveBees__Maya/mimic_RigTestAnim.ma", "I-LoveBees__Maya/mimic_RigTestAnim.ma"},
+    {"sweet4lorie__MonsterRobotRunner/ART/C_Robot/C_Robot_Rig.ma",
+     "sweet4lorie__MonsterRobotRunner/ART/C_Robot/C_Robot_Run.ma"},
+    {"Autodesk__maya-usd/test/lib/usd/translators/UsdExportSkeletonTest/UsdExportSkeleton.ma",
+     "Autodesk__maya-usd/test/lib/usd/translators/UsdExportSkeletonTest/UsdExportSkeleton.ma"},
+    {"Autodesk__maya-usd/test/lib/usd/translators/UsdExportEulerFilterTest/UsdExportEulerFilterTest.ma",
+     "Autodesk__maya-usd/test/lib/usd/translators/UsdExportEulerFilterTest/UsdExportEulerFilterTest.ma"},
+    {"Squamashii__UVUFall2008/Rigging/SpiderBot/Spencer_SpiderBot_Anim_001.ma",
+     "Squamashii__UVUFall2008/Rigging/SpiderBot/Spencer_SpiderBot_Anim_001.ma"},
+}};
+
+// OUT.ma's joints against the clip's, matched by name without namespaces (OUT.ma names the rig's joints under its
+// reference's namespace): the worst position difference, cm, over every frame and over the frames `reached`.
+std::pair<double, double> replayErrors(const TargetClip& clip, const TargetClip& replay, const std::vector<bool>& reached)
+{
+    std::map<std::string, std::size_t> replayed;
+    for (std::size_t j = 0; j < replay.joints.size(); ++j) replayed.emplace(withoutNamespaces(replay.joints[j]), j);
+    double all = 0.0, onReached = 0.0;
+    const std::size_t frames = std::min(clip.worlds.size(), replay.worlds.size());
+    for (std::size_t f = 0; f < frames; ++f)
+        for (std::size_t j = 0; j < clip.joints.size(); ++j) {
+            const auto r = replayed.find(withoutNamespaces(clip.joints[j]));
+            if (r == replayed.end()) continue;
+            const double d = (clip.worlds[f][j].block<3, 1>(0, 3) - replay.worlds[f][r->second].block<3, 1>(0, 3)).norm();
+            all = std::max(all, d);
+            if (f < reached.size() && reached[f]) onReached = std::max(onReached, d);
+        }
+    return {all, onReached};
+}
+
+// One scene: learned with auto parameters and outputs, its animation inverted with the default settings, OUT.ma
+// written and read back.
+Json sceneRow(const std::filesystem::path& rig, const std::filesystem::path& clip, const std::filesystem::path& out)
+{
+    app::LearnJob learnJob;
+    learnJob.rig = rig.string();
+    learnJob.params = {"auto"};
+    app::LearnOutcome learned = app::learn(learnJob);
+    const std::size_t unmodelled = learned.unmodelled.size();
+    auto approximation = std::make_shared<const Approximation>(std::move(learned.approximation));
+    app::InvertJob job;
+    job.approximation = rig.filename().string() + " (learned in memory)";
+    job.loadedApproximation = approximation;
+    job.rig = rig.string();
+    job.clip = clip.string();
+    const app::InvertOutcome inverted = app::invert(job);
+    const ClipInversionSummary& s = inverted.summary;
+    app::writeFileAtomically(out,
+                             app::curvesMayaScene(inverted, nullptr, app::keyTangent("auto"), job.rig, out.string()));
+    std::vector<bool> reached;
+    for (const FrameInversion& f : s.perFrame) reached.push_back(f.status == FrameStatus::reached);
+    const TargetClip sceneClip = readMayaClip(clip, {});
+    const auto [replayAll, replayReached] = replayErrors(sceneClip, readMayaClip(out, {}), reached);
+    return Json{{"clip", clip.filename().string()},
+                {"rig", rig.filename().string()},
+                {"joints", static_cast<int>(approximation->outputs.size() - learned.helpers.size())},
+                {"parameters_found", learned.rigParameters},
+                {"parameters_modelled", approximation->parameters.size()},
+                {"unmodelled_outputs", unmodelled},
+                {"training_evaluations", approximation->training.evaluations},
+                {"learn_seconds", approximation->training.seconds},
+                {"frames", s.frames},
+                {"reached", s.count(FrameStatus::reached)},
+                {"status_frames", app::statusCountsJson(s)},
+                {"ms_per_frame", s.msPerFrame},
+                {"real_rig_worst_cm", s.maxPositionErrorCm},
+                {"replay_worst_cm", replayAll},
+                {"replay_worst_reached_cm", replayReached}};
+}
+
+}  // namespace
+
+Json mayaScenesJson(const std::filesystem::path& folder, const std::filesystem::path& workDir,
+                    const std::function<void(std::string_view)>& log)
+{
+    if (!std::filesystem::is_directory(folder)) return Json();
+    Json rows = Json::array();
+    for (const AnimatedScene& scene : animatedScenes) {
+        const std::filesystem::path rig = folder / scene.rig, clip = folder / scene.clip;
+        if (!std::filesystem::exists(rig) || !std::filesystem::exists(clip)) continue;
+        if (log) log(fmt::format("Maya scenes: {} learned as it comes, its animation inverted", clip.filename().string()));
+        try {
+            rows.push_back(sceneRow(rig, clip, workDir / (clip.stem().string() + ".out.ma")));
+        }
+        catch (const Error& e) {
+            rows.push_back(Json{{"clip", clip.filename().string()}, {"error", e.what()}});
+        }
+    }
+    return Json{{"scenes", std::move(rows)},
+                {"note",
+                 "each animated scene of ../shared/maya whose rig the reader evaluates: rig-learn --params auto, "
+                 "then rig-invert --clip SCENE.ma with the default settings (no --hybrid), -o OUT.ma read back "
+                 "(replay: OUT.ma's joints against the scene's, worst over the frames and over those reached)"}};
 }
 
 }  // namespace rig::bench

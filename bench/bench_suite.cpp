@@ -50,6 +50,7 @@ BenchOptions quickOptions()
     o.scalingFrames = 10;
     o.realtimeFrames = 5;
     o.realtimeMaxAgents = 2;
+    o.mayaScenes = false;  // a minute and more of learning
     return o;
 }
 
@@ -791,6 +792,8 @@ void runBipedBench(const BenchOptions& o, Json& report)
     report["contacts"] = contactsBenchJson(o);
     say(o, "Maya scenes: each of ../shared/maya read into a graph");
     report["maya_load"] = mayaLoadJson(o.mayaFolder);
+    report["maya_scenes"] =
+        o.mayaScenes && !o.workDir.empty() ? mayaScenesJson(o.mayaFolder, o.workDir, o.log) : Json();
 
     // The look-at crowd played in real time, every member inverted with this approximation (written for the
     // graph's rigInversion nodes to read).

@@ -39,6 +39,7 @@ struct BenchOptions {
     bool scalingBlackBox = true;  // a black-box Jacobian per scaling row (serial graph evaluations)
     int realtimeFrames = 60;      // crowd_realtime: frames played per crowd (after an untimed first frame)
     int realtimeMaxAgents = 512;  // crowd_realtime: the largest crowd tried (0: no crowd_realtime row)
+    bool mayaScenes = true;       // the maya_scenes row: the animated public scenes learned and inverted
 
     std::function<void(std::string_view)> log;  // one line per step; may be empty
 };

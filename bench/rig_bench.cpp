@@ -34,6 +34,7 @@ struct Options {
     bool noScaling = false;
     bool noCrowd = false;
     bool noChain = false;
+    bool noMayaScenes = false;
     bool quiet = false;
 };
 
@@ -111,6 +112,17 @@ void printSummary(const bench::Json& r)
         std::cout << fmt::format("maya load   the largest scene ({} bytes) in {}; {} scenes\n",
                                  figure(maya->at("largest_bytes"), "", 9),
                                  figure(maya->at("largest_load_seconds"), "s"), maya->at("scenes").size());
+    if (const auto scenes = r.find("maya_scenes"); scenes != r.end() && !scenes->is_null())
+        for (const auto& s : scenes->at("scenes"))
+            std::cout << (s.contains("error")
+                              ? fmt::format("maya scene  {}: {}\n", text(s.at("clip")), text(s.at("error")))
+                              : fmt::format("maya scene  {}: {} joints, {} parameters ({} unmodelled outputs), {} "
+                                            "evaluations; {} of {} frames reached, {} per frame; OUT.ma replay {}\n",
+                                            text(s.at("clip")), figure(s.at("joints")),
+                                            figure(s.at("parameters_modelled")), figure(s.at("unmodelled_outputs")),
+                                            figure(s.at("training_evaluations"), "", 6), figure(s.at("reached")),
+                                            figure(s.at("frames")), figure(s.at("ms_per_frame"), "ms"),
+                                            figure(s.at("replay_worst_reached_cm"), "cm")));
     for (const auto& row : r.at("scaling"))
         std::cout << fmt::format("scaling     {} {}: {} parameters, {} per frame, jacobian {}, {} evaluations\n",
                                  text(row.at("rig")), figure(row.at("count"), "", 6),
@@ -195,6 +207,7 @@ bench::BenchOptions benchOptions(const Options& o)
     if (!o.chain.empty()) options.chainSizes = o.chain;
     if (o.noCrowd) options.crowdSizes.clear();
     if (o.noChain) options.chainSizes.clear();
+    if (o.noMayaScenes) options.mayaScenes = false;
     // Bounded before any work: 512 bipeds of about 290 nodes each stay within GraphModel::maxNodes (200 000);
     // a chain of 2000 joints has 6000 parameters, each moving every joint below it (n^2 / 2 Jacobian entries).
     for (const int n : options.crowdSizes)
@@ -305,6 +318,8 @@ int main(int argc, char** argv)
     app.add_option("--realtime-frames", options.realtimeFrames,
                    "Frames timed per crowd of the crowd_realtime row (default 60; --quick 5)");
     app.add_flag("--no-chain", options.noChain, "No chain rows");
+    app.add_flag("--no-maya-scenes", options.noMayaScenes,
+                 "No maya_scenes row (the animated scenes of ../shared/maya learned and inverted; not with --quick)");
     app.add_flag("--no-scaling", options.noScaling, "Measure the biped only");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors");
     return rig::cli::runMain(app, argc, argv, [&] {
