@@ -609,10 +609,6 @@ void recordDiscards(const Pass& pass, RigProbe& probe, const LearnOptions& optio
         result.discarded.push_back({probe.rig().parameters()[static_cast<std::size_t>(p)], reason});
 }
 
-// Constraint operators for the non-compositional outputs, parents before children (constraint_fit.h). An output
-// whose parent is now modelled by a constraint, or is itself back relative to its own parent, is first tried
-// relative to it again (a toe under an IK foot, a claw tip under a claw under an IK hand: it failed there only while
-// an ancestor was mispredicted); each output is fitted once. True when a frame changed.
 // The outputs below k (in the rig's output hierarchy) that no constraint fitted are tried again: each was fitted
 // while k looked modelled by operators, so k was its anchor and every parameter moving k was the anchor's, not a
 // goal's (an IK chain's mid joint, fitted before the start joint's operators failed validation and it got its own
@@ -629,6 +625,11 @@ void retryBelow(int k, const std::vector<int>& hierarchy, const RigProbe& probe,
     }
 }
 
+// Constraint operators for the non-compositional outputs, parents before children (constraint_fit.h). An output
+// whose parent is now modelled by a constraint, or is itself back relative to its own parent, is first tried
+// relative to it again (a toe under an IK foot, a claw tip under a claw under an IK hand: it failed there only while
+// an ancestor was mispredicted); each output is fitted once, and again where an ancestor got a constraint after it
+// was fitted (retryBelow). True when a frame changed.
 // An output still over epsilon once its order is decided on the rig, though each parameter alone fitted an operator
 // (a roll joint: each of the driver's angles alone turns it about its axis, together they do not compose), is tried
 // with a constraint, and the outputs below it that no constraint fitted are tried again. True when one was found.
