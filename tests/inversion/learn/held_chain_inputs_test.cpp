@@ -7,6 +7,9 @@
 //   composed after the chain as the start joint's own operators, turn it about the chain's line at rest, not about
 //   the line to the goal (0.19 cm per unit). The children are fitted again once the start joint has its chain, and the
 //   channels that do not compose with it are held at rest, each with why;
+// - a toe under a foot that is only point-constrained to its control: it left the foot while the world control's
+//   turns, which carry the foot along arcs without turning it, were still modelled (the spider's right toes, 0.07 to
+//   0.23 cm per unit off), and goes back relative to the foot once those are discarded and the foot validates;
 // - a chain under a body joint that a control scales, its start joint not compensating the body's scale: a scale
 //   channel shears the chain (a spider's legs under its body control's scale channels, 0.076 to 0.155 cm per unit
 //   off), which no rigid base carries: the chain is fitted without it, and it is held at rest.
@@ -106,6 +109,44 @@ connectAttr "effector1.hp" "ikHandle1.hee";
 connectAttr "ikRPsolver.msg" "ikHandle1.hsv";
 )";
 
+// A foot joint point-constrained to foot_ctrl, which hangs under world_ctrl, and a toe under the foot curled by the
+// control's `curl` attribute: the world control's turns carry the foot along arcs without turning it, so that they
+// have no order against the foot control's translations there, and the toe fails relative to the foot while they are
+// still modelled.
+const std::string pointConstrainedFoot = R"(//Maya ASCII 2023 scene
+requires maya "2023";
+currentUnit -l centimeter -a degree -t film;
+createNode transform -n "world_ctrl";
+createNode transform -n "foot_ctrl" -p "world_ctrl";
+	setAttr ".t" -type "double3" 4 1 2 ;
+	addAttr -ci true -sn "curl" -ln "curl" -min -90 -max 90 -at "double";
+	setAttr -k on ".curl";
+createNode joint -n "foot_jnt";
+	setAttr ".jo" -type "double3" 0 30 0 ;
+createNode joint -n "toe_jnt" -p "foot_jnt";
+	setAttr ".t" -type "double3" 2 -0.5 0.3 ;
+	setAttr ".jo" -type "double3" 10 0 -20 ;
+createNode unitConversion -n "unitConversion1";
+	setAttr ".cf" 0.017453292519943295;
+createNode pointConstraint -n "pc1" -p "foot_jnt";
+	addAttr -ci true -k true -sn "w0" -ln "foot_ctrlW0" -dv 1 -min 0 -at "double";
+	setAttr -k on ".w0";
+connectAttr "foot_jnt.s" "toe_jnt.is";
+connectAttr "foot_ctrl.curl" "unitConversion1.i";
+connectAttr "unitConversion1.o" "toe_jnt.rz";
+connectAttr "pc1.ctx" "foot_jnt.tx";
+connectAttr "pc1.cty" "foot_jnt.ty";
+connectAttr "pc1.ctz" "foot_jnt.tz";
+connectAttr "foot_jnt.pim" "pc1.cpim";
+connectAttr "foot_jnt.rp" "pc1.crp";
+connectAttr "foot_jnt.rpt" "pc1.crt";
+connectAttr "foot_ctrl.t" "pc1.tg[0].tt";
+connectAttr "foot_ctrl.rp" "pc1.tg[0].trp";
+connectAttr "foot_ctrl.rpt" "pc1.tg[0].trt";
+connectAttr "foot_ctrl.pm" "pc1.tg[0].tpm";
+connectAttr "pc1.w0" "pc1.tg[0].tw";
+)";
+
 GraphRigOptions autoOptions()
 {
     GraphRigOptions options;
@@ -176,6 +217,20 @@ TEST_CASE("held chain inputs: a body control's scale channels that shear the cha
     // The scale that shears the chain is held; the body's translation, which carries it rigidly, is modelled.
     CHECK(discardReason(a, "body_ctrl.scaleY").find("scales or shears") != std::string::npos);
     CHECK(discardReason(a, "body_ctrl.translateX").empty());
+}
+
+TEST_CASE("held chain inputs: a toe that left its foot while the foot was mispredicted goes back once it validates")
+{
+    const fs::path file = written("foot.ma", pointConstrainedFoot);
+    const GraphRigOptions options{
+        {"world_ctrl.rotate?", "foot_ctrl.translate?", "foot_ctrl.curl"}, {"foot_jnt", "toe_jnt"}, {}, {}};
+    GraphRigFunction rig(file, options);
+    const Approximation a = learnApproximation(rig, LearnOptions{}, file.string());
+    checkModelled(a);
+    // The world's turns are discarded (no order on the foot), and the toe is back relative to the foot.
+    CHECK(discardReason(a, "world_ctrl.rotateY").find("cannot be ordered") != std::string::npos);
+    const ApproximationOutput& toe = a.outputs[static_cast<std::size_t>(test::outputIndex(a, "toe_jnt"))];
+    CHECK(toe.parent == test::outputIndex(a, "foot_jnt"));
 }
 
 TEST_CASE("held chain inputs: the public scenes' spider legs and maya-usd's root chain are modelled, where present")
