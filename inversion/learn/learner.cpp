@@ -867,10 +867,10 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
             worldWhereParentUnusable(probe, state, history);
             continue;
         }
+        if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain))
+            continue;
         if (options.perOutput &&
             relativeWhereParentValidates(pass, probe, state, mispredicted, options.epsilon, relativeValidated, fitted))
-            continue;
-        if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain))
             continue;
         if (options.perOutput && twistOverEpsilon(pass, probe, state, fitter, twistAgain)) continue;
         if (options.perOutput && twistWhereUnfitted(probe, state, fitter, fitted, twistUnfitted)) continue;
