@@ -108,9 +108,44 @@ std::vector<int> ConstraintFitter::moversOf(int k) const
 {
     std::vector<int> movers;
     for (std::size_t i = 0; i < samples_.size(); ++i)
-        if (std::binary_search(samples_[i].moved.begin(), samples_[i].moved.end(), k))
+        if (std::binary_search(samples_[i].moved.begin(), samples_[i].moved.end(), k) &&
+            !held_.contains(static_cast<int>(i)))
             movers.push_back(static_cast<int>(i));
     return movers;
+}
+
+std::vector<int> ConstraintFitter::ownMovers(int k, const ConstraintBase& base) const
+{
+    std::vector<int> inputMovers;
+    for (const int input : base.frameInputs())
+        if (input >= 0)
+            for (const int i : moversOf(input)) inputMovers.push_back(i);
+    std::sort(inputMovers.begin(), inputMovers.end());
+    std::vector<int> own;
+    for (const int i : moversOf(k))
+        if (!std::binary_search(inputMovers.begin(), inputMovers.end(), i)) own.push_back(i);
+    return own;
+}
+
+std::vector<int> ConstraintFitter::stretchingAnchorMovers(int k, const std::vector<int>& varied, int anchor) const
+{
+    // A rigid motion keeps the Gram matrix L^T L of k's linear part; rounding moves it by about 1e-15.
+    constexpr double rigid = 1e-9;
+    const auto& rest = probe_.rest();
+    const Eigen::Matrix3d restLinear = rest[static_cast<std::size_t>(k)].block<3, 3>(0, 0);
+    const Eigen::Matrix3d restGram = restLinear.transpose() * restLinear;
+    std::vector<int> stretching;
+    for (const int i : varied) {
+        const ParameterSamples& sample = samples_[static_cast<std::size_t>(i)];
+        const auto moves = [&](int o) { return std::binary_search(sample.moved.begin(), sample.moved.end(), o); };
+        if (anchor < 0 || !moves(anchor)) continue;
+        const bool stretches = std::any_of(sample.worlds.begin(), sample.worlds.end(), [&](const auto& entry) {
+            const Eigen::Matrix3d linear = sample.world(k, entry.first, rest).template block<3, 3>(0, 0);
+            return (linear.transpose() * linear - restGram).norm() > rigid * std::max(1.0, restGram.norm());
+        });
+        if (stretches) stretching.push_back(i);
+    }
+    return stretching;
 }
 
 const std::vector<ConstraintFitter::Pose>& ConstraintFitter::poses(const std::vector<int>& varied, int set, int count)
@@ -647,6 +682,28 @@ std::optional<ConstraintBase> ConstraintFitter::fitAnchored(int k, int anchor, i
             varied.push_back(i);
     std::vector<int> goals = helpers;
     goals.insert(goals.end(), fixed.begin(), fixed.end());
+    if (std::optional<ConstraintBase> chain = fitVaried(k, anchor, root, varied, helpers, goals, closest)) return chain;
+    // Where none fits, the anchor's movers that stretch k are held at rest and the chain fitted on the others (a
+    // spider's legs under a body whose control's scale channels shear them: 0.076 to 0.155 cm per unit off with them).
+    const std::vector<int> stretching = stretchingAnchorMovers(k, varied, anchor);
+    if (stretching.empty()) return std::nullopt;
+    std::vector<int> rigid;
+    std::set_difference(varied.begin(), varied.end(), stretching.begin(), stretching.end(), std::back_inserter(rigid));
+    Closest without;
+    std::optional<ConstraintBase> chain = fitVaried(k, anchor, root, rigid, helpers, goals, without);
+    if (!chain) return std::nullopt;
+    const auto& names = probe_.rig().outputs();
+    for (const int i : stretching)
+        hold(i, fmt::format("it scales or shears {} (moving its chain's anchor {}), which a planar chain, a rigid "
+                            "motion, cannot carry; it is held at its rest value",
+                            names[static_cast<std::size_t>(k)], names[static_cast<std::size_t>(anchor)]));
+    return chain;
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fitVaried(int k, int anchor, int root, const std::vector<int>& varied,
+                                                          const std::vector<int>& helpers,
+                                                          const std::vector<int>& goals, Closest& closest)
+{
     if (std::optional<ConstraintBase> chain = fitChain(k, anchor, root, varied, helpers, goals, closest)) return chain;
     for (const int orient : orientSources(k, varied, helpers))
         if (std::optional<ConstraintBase> chain = fitChain(k, anchor, root, varied, helpers, goals, closest, orient))

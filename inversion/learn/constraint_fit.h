@@ -50,6 +50,13 @@ public:
     // epsilon.
     std::optional<ConstraintBase> twistShare(int k, const RigState& state);
 
+    // Parameters held at their rest value, each with why: a constraint cannot carry what they do to an output it
+    // frames. The learner models them nowhere; fitting leaves them at rest.
+    const std::map<int, std::string>& held() const { return held_; }
+    void hold(int parameter, std::string why) { held_.try_emplace(parameter, std::move(why)); }
+    // Output k's movers that move none of the base's inputs (its own operators, composed after the base).
+    std::vector<int> ownMovers(int k, const ConstraintBase& base) const;
+
     std::uint64_t evaluations() const { return evaluations_; }
     double epsilon() const { return options_.epsilon; }
 
@@ -64,7 +71,11 @@ private:
     };
     bool modelled(int a, const RigState& state) const;      // learned: by operators or a constraint
     bool usableAnchor(int a, const RigState& state) const;  // learned by operators alone
-    std::vector<int> moversOf(int k) const;                 // parameters whose first samples moved output k
+    std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k, but the held ones
+    // The parameters of `varied` that move the anchor and change k's world apart from a rigid motion (its scale or
+    // shear: a control's non-uniform scale that the legs' scale constraints turn into sheared chains), which no base
+    // can carry: each a rotation and a translation.
+    std::vector<int> stretchingAnchorMovers(int k, const std::vector<int>& varied, int anchor) const;
     const std::vector<Pose>& poses(const std::vector<int>& varied, int set, int count);
     // The goal's sweep: its free parameters (without limits: the goal's translations) moved together so that the goal
     // moves along the chain's line at rest by t (to first order), the rig's worlds there kept by t. False when no
@@ -103,6 +114,11 @@ private:
     // anchor and the fixed ones; `candidates` set when there was any.
     std::optional<ConstraintBase> fitAnchored(int k, int anchor, int root, const RigState& state, Closest& closest,
                                               bool& candidates);
+    // The chain of k on poses of `varied`, with the pole and goal candidates given, or with k turning as an orient
+    // source.
+    std::optional<ConstraintBase> fitVaried(int k, int anchor, int root, const std::vector<int>& varied,
+                                            const std::vector<int>& helpers, const std::vector<int>& goals,
+                                            Closest& closest);
     // The helpers other than `anchor` whose motion carries the chain root's origin on the poses of k's movers (an IK
     // start joint point-constrained to a control), where the root moves.
     std::vector<int> rootCarriers(int k, int anchor, int root, const RigState& state);
@@ -138,6 +154,7 @@ private:
     std::map<std::pair<std::vector<int>, int>, std::vector<Pose>> poses_;  // (varied, set) -> poses
     std::map<std::pair<int, int>, Sweep> sweeps_;                          // (goal, anchor) -> its sweep
     std::uint64_t evaluations_ = 0;
+    std::map<int, std::string> held_;
 };
 
 // The blend of an animated switch (constraint.h, BlendRule), found from samples: each the switch's weight, both

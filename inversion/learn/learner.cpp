@@ -361,9 +361,10 @@ struct Pass {
 
 // `budgets`: per rig parameter, the most samples it may use (LearnOptions::maxSamples, raised by repairs).
 // `distrusted`: rig outputs where every pair is tested on the rig (ordering.h).
+// `held`: parameters held at rest, each with why (ConstraintFitter::held): classified as not modelled.
 Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& samples, ValidationPoses& poses,
                const LearnOptions& options, const std::vector<int>& budgets, const std::set<int>& distrusted,
-               PairSamples& pairs, const std::string& rigFile)
+               const std::map<int, std::string>& held, PairSamples& pairs, const std::string& rigFile)
 {
     RigFunction& rig = probe.rig();
     const auto& parameters = rig.parameters();
@@ -374,6 +375,10 @@ Pass learnPass(RigProbe& probe, RigState& state, std::vector<ParameterSamples>& 
         raised.maxSamples = budgets[i];
         const LearnOptions& own = budgets[i] == options.maxSamples ? options : raised;
         pass.classes.push_back(classifyParameter(probe, static_cast<int>(i), state, samples[i], own));
+        if (const auto hold = held.find(static_cast<int>(i)); hold != held.end()) {
+            pass.classes.back().modelled = false;
+            pass.classes.back().reason = hold->second;
+        }
         if (options.progress)
             options.progress("classifying", static_cast<double>(i + 1) / static_cast<double>(parameters.size()));
     }
@@ -536,7 +541,10 @@ bool setApartConflicts(const Pass& pass, const LearnOptions& options, const std:
 {
     auto setApart = [&](int k, const std::string& why) {
         const auto o = static_cast<std::size_t>(k);
-        if (!options.perOutput || hierarchy[o] < 0 || state.nonCompositional[o]) return false;
+        // An output a constraint frames stays with it: the ordering discards one of the pair, and what its base
+        // cannot carry is held (holdOwnOverEpsilon).
+        if (!options.perOutput || hierarchy[o] < 0 || state.nonCompositional[o] || probe.constraints.contains(k))
+            return false;
         state.nonCompositional[o] = 1;
         probe.parents[o] = -1;
         history.world.try_emplace(k, why);
@@ -601,15 +609,32 @@ void recordDiscards(const Pass& pass, RigProbe& probe, const LearnOptions& optio
         result.discarded.push_back({probe.rig().parameters()[static_cast<std::size_t>(p)], reason});
 }
 
+// The outputs below k (in the rig's output hierarchy) that no constraint fitted are tried again: each was fitted
+// while k looked modelled by operators, so k was its anchor and every parameter moving k was the anchor's, not a
+// goal's (an IK chain's mid joint, fitted before the start joint's operators failed validation and it got its own
+// chain, saw no helper moved apart from the start joint).
+void retryBelow(int k, const std::vector<int>& hierarchy, const RigProbe& probe, const RigState& state,
+                std::set<int>& tried)
+{
+    for (std::size_t d = 0; d < hierarchy.size(); ++d) {
+        if (!state.nonCompositional[d] || probe.constraints.contains(static_cast<int>(d))) continue;
+        int up = hierarchy[d];
+        for (std::size_t steps = 0; up >= 0 && up != k && steps < hierarchy.size(); ++steps)
+            up = hierarchy[static_cast<std::size_t>(up)];
+        if (up == k) tried.erase(static_cast<int>(d));
+    }
+}
+
 // Constraint operators for the non-compositional outputs, parents before children (constraint_fit.h). An output
 // whose parent is now modelled by a constraint, or is itself back relative to its own parent, is first tried
 // relative to it again (a toe under an IK foot, a claw tip under a claw under an IK hand: it failed there only while
-// an ancestor was mispredicted); each output is fitted once. True when a frame changed.
+// an ancestor was mispredicted); each output is fitted once, and again where an ancestor got a constraint after it
+// was fitted (retryBelow). True when a frame changed.
 // An output still over epsilon once its order is decided on the rig, though each parameter alone fitted an operator
 // (a roll joint: each of the driver's angles alone turns it about its axis, together they do not compose), is tried
-// with a constraint. True when one was found.
+// with a constraint, and the outputs below it that no constraint fitted are tried again. True when one was found.
 bool constrainOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, ConstraintFitter& fitter,
-                          std::set<int>& tried)
+                          const std::vector<int>& hierarchy, std::set<int>& tried)
 {
     bool changed = false;
     const Approximation& a = pass.approximation;
@@ -622,6 +647,7 @@ bool constrainOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, Co
         const std::optional<ConstraintBase> base = fitter.fit(k, state, why);
         if (!base) continue;
         adopt(probe, state, k, *base);
+        retryBelow(k, hierarchy, probe, state, tried);
         changed = true;
     }
     return changed;
@@ -667,6 +693,74 @@ bool twistWhereUnfitted(RigProbe& probe, RigState& state, ConstraintFitter& fitt
         changed = true;
     }
     return changed;
+}
+
+// The approximation output of rig output k in this pass, or -1.
+int passOutput(const Pass& pass, int k)
+{
+    const auto it = std::find(pass.rigOutput.begin(), pass.rigOutput.end(), k);
+    return it == pass.rigOutput.end() ? -1 : static_cast<int>(it - pass.rigOutput.begin());
+}
+
+// The outputs of `failing` whose parent output was itself over epsilon in this pass, each with that parent: they
+// may have failed only because their parent was mispredicted (a parameter that pass kept and a later one discards).
+void noteMispredictedParents(const Pass& pass, const RigProbe& probe, const std::set<int>& failing, double epsilon,
+                             std::map<int, int>& mispredicted)
+{
+    for (const int k : failing) {
+        const int p = probe.parentOf(k), o = p < 0 ? -1 : passOutput(pass, p);
+        if (o >= 0 && !(pass.approximation.outputs[static_cast<std::size_t>(o)].validationError <= epsilon))
+            mispredicted.try_emplace(k, p);
+    }
+}
+
+// An output set apart after failing relative to a parent output that was mispredicted then, and that no constraint
+// fitted, is tried relative to that parent again, once, where the parent now validates (a toe under a foot while a
+// pair of the foot's parameters had no order: the foot validates once one is discarded). True when one was.
+bool relativeWhereParentValidates(const Pass& pass, RigProbe& probe, RigState& state,
+                                  const std::map<int, int>& mispredicted, double epsilon, std::set<int>& retried,
+                                  std::set<int>& tried)
+{
+    bool changed = false;
+    for (const auto& [k, p] : mispredicted) {
+        const auto i = static_cast<std::size_t>(k);
+        const int o = passOutput(pass, p);
+        if (!state.nonCompositional[i] || probe.constraints.contains(k) ||
+            state.nonCompositional[static_cast<std::size_t>(p)] || o < 0 ||
+            !(pass.approximation.outputs[static_cast<std::size_t>(o)].validationError <= epsilon) ||
+            !retried.insert(k).second)
+            continue;
+        state.nonCompositional[i] = 0;
+        probe.parents[i] = p;
+        tried.erase(k);
+        changed = true;
+    }
+    return changed;
+}
+
+// The last repair: an output a constraint frames that is still over epsilon has its own movers (parameters moving
+// it but none of the base's inputs, composed after the base) held at rest, where they do not compose with it (an
+// ikHandle's pole vector and twist channels turn the chain's plane about its line, not about the line at rest: 0.19
+// cm per unit on a 3-joint chain). True when one was held.
+bool holdOwnOverEpsilon(const Pass& pass, RigProbe& probe, ConstraintFitter& fitter)
+{
+    bool held = false;
+    const Approximation& a = pass.approximation;
+    const auto& names = probe.rig().outputs();
+    for (std::size_t o = 0; o < a.outputs.size(); ++o) {
+        const int k = pass.rigOutput[o];
+        const auto base = probe.constraints.find(k);
+        if (a.outputs[o].validationError <= fitter.epsilon() || base == probe.constraints.end()) continue;
+        for (const int i : fitter.ownMovers(k, base->second)) {
+            if (fitter.held().contains(i)) continue;
+            fitter.hold(i, fmt::format("it moves {} apart from the inputs of its {}, and does not compose with it ({} "
+                                       "validated {:.3g} cm per unit with it); it is held at its rest value",
+                                       names[static_cast<std::size_t>(k)], constraintKindName(base->second.kind),
+                                       names[static_cast<std::size_t>(k)], a.outputs[o].validationError));
+            held = true;
+        }
+    }
+    return held;
 }
 
 bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hierarchy, ConstraintFitter& fitter,
@@ -746,6 +840,8 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     ConstraintFitter fitter(probe, samples, rig.outputParents(), helper, options);
     // Outputs a constraint was tried on; tried relative again; planar chains tried as twist shares again.
     std::set<int> fitted, relativeAgain, twistAgain, twistUnfitted;
+    std::map<int, int> mispredicted;  // outputs that left a parent output mispredicted at the time -> that parent
+    std::set<int> relativeValidated;  // of those, tried relative again where the parent validates
     ValidationPoses poses = drawPoses(parameters, options);
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
@@ -759,11 +855,12 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     PairSamples pairs;
     std::uint64_t orderEvaluations = 0;  // over every pass
     while (true) {
-        pass = learnPass(probe, state, samples, poses, options, budgets, distrusted, pairs, rigFile);
+        pass = learnPass(probe, state, samples, poses, options, budgets, distrusted, fitter.held(), pairs, rigFile);
         orderEvaluations += pass.order.evaluations;
         // Learned relative to an output now dropped: learn those again.
         if (worldWhereParentUnusable(probe, state, history)) continue;
         const std::set<int> failing = failingRelativeOutputs(pass, probe, options, history);
+        noteMispredictedParents(pass, probe, failing, options.epsilon, mispredicted);
         for (const int k : failing) probe.parents[static_cast<std::size_t>(k)] = -1;
         if (!failing.empty()) continue;
         if (setApartConflicts(pass, options, hierarchy, state, probe, history)) {
@@ -772,11 +869,15 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
         }
         if (options.perOutput && fitConstraints(probe, state, hierarchy, fitter, history, fitted, relativeAgain))
             continue;
+        if (options.perOutput &&
+            relativeWhereParentValidates(pass, probe, state, mispredicted, options.epsilon, relativeValidated, fitted))
+            continue;
         if (options.perOutput && twistOverEpsilon(pass, probe, state, fitter, twistAgain)) continue;
         if (options.perOutput && twistWhereUnfitted(probe, state, fitter, fitted, twistUnfitted)) continue;
         if (distrustOverEpsilon(pass, options, distrusted)) continue;
-        if (options.perOutput && constrainOverEpsilon(pass, probe, state, fitter, fitted)) continue;
-        if (!raiseBudgets(pass, options, budgets)) break;
+        if (options.perOutput && constrainOverEpsilon(pass, probe, state, fitter, hierarchy, fitted)) continue;
+        if (raiseBudgets(pass, options, budgets)) continue;
+        if (!options.perOutput || !holdOwnOverEpsilon(pass, probe, fitter)) break;
     }
 
     Approximation result = std::move(pass.approximation);
