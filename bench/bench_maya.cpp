@@ -79,7 +79,8 @@ constexpr std::array<AnimatedScene, 5> animatedScenes{{
 
 // OUT.ma's joints against the clip's, matched by name without namespaces (OUT.ma names the rig's joints under its
 // reference's namespace): the worst position difference, cm, over every frame and over the frames `reached`.
-std::pair<double, double> replayErrors(const TargetClip& clip, const TargetClip& replay, const std::vector<bool>& reached)
+std::pair<double, double> replayErrors(const TargetClip& clip, const TargetClip& replay,
+                                       const std::vector<bool>& reached)
 {
     std::map<std::string, std::size_t> replayed;
     for (std::size_t j = 0; j < replay.joints.size(); ++j) replayed.emplace(withoutNamespaces(replay.joints[j]), j);
@@ -89,7 +90,8 @@ std::pair<double, double> replayErrors(const TargetClip& clip, const TargetClip&
         for (std::size_t j = 0; j < clip.joints.size(); ++j) {
             const auto r = replayed.find(withoutNamespaces(clip.joints[j]));
             if (r == replayed.end()) continue;
-            const double d = (clip.worlds[f][j].block<3, 1>(0, 3) - replay.worlds[f][r->second].block<3, 1>(0, 3)).norm();
+            const double d =
+                (clip.worlds[f][j].block<3, 1>(0, 3) - replay.worlds[f][r->second].block<3, 1>(0, 3)).norm();
             all = std::max(all, d);
             if (f < reached.size() && reached[f]) onReached = std::max(onReached, d);
         }
@@ -121,7 +123,8 @@ Json sceneRow(const std::filesystem::path& rig, const std::filesystem::path& cli
     const auto [replayAll, replayReached] = replayErrors(sceneClip, readMayaClip(out, {}), reached);
     return Json{{"clip", clip.filename().string()},
                 {"rig", rig.filename().string()},
-                {"joints", static_cast<int>(approximation->outputs.size() - learned.helpers.size())},
+                {"joints", std::count_if(approximation->outputs.begin(), approximation->outputs.end(),
+                                         [](const auto& o) { return !o.helper; })},
                 {"parameters_found", learned.rigParameters},
                 {"parameters_modelled", approximation->parameters.size()},
                 {"unmodelled_outputs", unmodelled},
@@ -146,7 +149,8 @@ Json mayaScenesJson(const std::filesystem::path& folder, const std::filesystem::
     for (const AnimatedScene& scene : animatedScenes) {
         const std::filesystem::path rig = folder / scene.rig, clip = folder / scene.clip;
         if (!std::filesystem::exists(rig) || !std::filesystem::exists(clip)) continue;
-        if (log) log(fmt::format("Maya scenes: {} learned as it comes, its animation inverted", clip.filename().string()));
+        if (log)
+            log(fmt::format("Maya scenes: {} learned as it comes, its animation inverted", clip.filename().string()));
         try {
             rows.push_back(sceneRow(rig, clip, workDir / (clip.stem().string() + ".out.ma")));
         }
