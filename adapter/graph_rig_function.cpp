@@ -19,6 +19,7 @@
 #include "graph/suggest.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
+#include "nodes/clips/maya_clip.h"
 
 namespace rig {
 
@@ -597,6 +598,46 @@ void addAutoParameters(Graph& g, const MayaSceneInfo& info, const std::vector<No
     }
 }
 
+// The values a scene's time curves give the plugs they key, lowest and highest over the frames a clip of the scene
+// plays (internal units); the graph back at its time after. Read before the curves are cut from the parameters.
+std::map<Plug, std::pair<double, double>> keyedSpans(Graph& g, const MayaSceneInfo& info, const std::string& rigName)
+{
+    std::map<Plug, std::pair<double, double>> spans;
+    std::vector<Plug> plugs;
+    for (const auto& curve : info.timeCurves)
+        if (!curve.plug.empty()) plugs.push_back(g.plug(curve.plug));
+    if (plugs.empty()) return spans;
+    const double time = g.time();
+    for (const double frame : sceneClipFrames(g, info, rigName)) {
+        g.setTime(frame);
+        for (const Plug& p : plugs) {
+            const double v = toDouble(g.getValue(p));
+            const auto [it, fresh] = spans.try_emplace(p, v, v);
+            if (!fresh) it->second = {std::min(it->second.first, v), std::max(it->second.second, v)};
+        }
+    }
+    g.setTime(time);
+    return spans;
+}
+
+// A parameter the scene's animation moves past its default range is learned over what the animation reaches (its
+// clip asks those values: a shoulder keyed to 160 degrees learned over +-90 mismatched 117 of 120 frames), unless it
+// has declared limits or the spec gives its range. A scale keeps its range above 0.
+void widenToKeyedSpans(std::vector<RigParameter>& parameters, const std::vector<Plug>& plugs,
+                       const std::map<Plug, std::pair<double, double>>& spans,
+                       const std::vector<GraphRigOptions::LearnRange>& ranges)
+{
+    for (std::size_t i = 0; i < parameters.size(); ++i) {
+        RigParameter& param = parameters[i];
+        const auto span = spans.find(plugs[i]);
+        if (param.limited || span == spans.end() ||
+            std::any_of(ranges.begin(), ranges.end(), [&](const auto& r) { return globMatches(r.glob, param.name); }))
+            continue;
+        if (!(param.min > 0.0) || span->second.first > 0.0) param.min = std::min(param.min, span->second.first);
+        param.max = std::max(param.max, span->second.second);
+    }
+}
+
 }  // namespace
 
 GraphRigOptions rigOptionsFor(const Approximation& approximation, std::vector<std::string> plugins)
@@ -632,6 +673,8 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
                         "'L_arm_*.rotate?'",
                         rigName));
 
+    const auto spans =
+        options.cutTimeCurves ? keyedSpans(g, info, rigName) : std::map<Plug, std::pair<double, double>>{};
     SelectedParameters selected = selectParameters(g, info, options, rigName);
     for (const Plug& p : selected.plugs)
         if (options.cutTimeCurves && g.incomingConnection(p)) {
@@ -647,6 +690,7 @@ GraphRigFunction::GraphRigFunction(const std::filesystem::path& rigFile, const G
             "{}: parameters 'auto' found no channel that moves an output joint ({} controls: transforms with a "
             "nurbsCurve shape or keyed by a time curve); name the parameters with plug globs",
             rigName, auto_.controls.size()));
+    widenToKeyedSpans(selected.parameters, selected.plugs, spans, options.ranges);
     parameters_ = std::move(selected.parameters);
     parameterPlugs_ = std::move(selected.plugs);
     for (const RigParameter& param : parameters_) current_.push_back(param.defaultValue);

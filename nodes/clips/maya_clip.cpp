@@ -57,6 +57,15 @@ std::vector<double> sceneFrames(Graph& graph, const MayaSceneInfo& info, const s
     return frames;
 }
 
+}  // namespace
+
+std::vector<double> sceneClipFrames(Graph& graph, const MayaSceneInfo& info, const std::string& file)
+{
+    return sceneFrames(graph, info, file, std::nullopt);
+}
+
+namespace {
+
 bool isJoint(const Graph& graph, NodeId node) { return graph.nodeType(node).name() == "joint"; }
 
 // Each joint's nearest joint above it in the DAG (an index into `joints`), -1 for none: a DAG parent drives a node's

@@ -12,7 +12,9 @@
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
+#include "graph/graph.h"
 #include "nodes/clips/target_clip.h"
 
 namespace rig {
@@ -25,6 +27,10 @@ namespace rig {
 // `frames`, when given (first and last: rig-invert's --frames), extend the frames to reach them.
 TargetClip readMayaClip(const std::filesystem::path& file, const TargetMap& map,
                         std::optional<std::pair<double, double>> frames = std::nullopt);
+
+// The frames a clip of the scene plays (as readMayaClip reads it): the whole frames of its playback range, of its time
+// curves' keys' span where it has none, else its saved time.
+std::vector<double> sceneClipFrames(Graph& graph, const MayaSceneInfo& info, const std::string& file);
 
 // `name` without the namespaces of its DAG components: "hero:grp|hero:hips" -> "grp|hips"; a plug's attribute
 // ("hero:ctrl.rotateX" -> "ctrl.rotateX") has none.

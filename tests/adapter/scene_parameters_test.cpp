@@ -5,6 +5,7 @@
 
 #include <unistd.h>
 
+#include <numbers>
 #include <string>
 
 #include <fmt/format.h>
@@ -35,7 +36,77 @@ connectAttr "foot_ctrl.roll" "ankle_rotateZ.i";
 connectAttr "ankle_rotateZ.o" "ankle.rz";
 )";
 
+// An arm whose shoulder control an animation keys from -20 to 150 degrees over frames 1 to 10 (and its elbow, keyed
+// within the default range, and its translateX, keyed up to 2 cm), the playback range 1 to 5: a clip of the scene plays
+// frames 1 to 5, where the shoulder reaches 78 degrees (linear keys); the saved time is frame 0 (no time node), where
+// the curves give their first keys' values.
+const std::string keyedArmScene = R"(//Maya ASCII 2023 scene
+requires maya "2023";
+currentUnit -l centimeter -a degree -t film;
+createNode transform -n "shoulder_ctrl";
+createNode joint -n "shoulder";
+createNode joint -n "elbow" -p "shoulder";
+	setAttr ".t" -type "double3" 10 0 0 ;
+createNode joint -n "wrist" -p "elbow";
+	setAttr ".t" -type "double3" 10 0 0 ;
+createNode animCurveTA -n "shoulder_ctrl_rotateZ";
+	setAttr ".tan" 2;
+	setAttr -s 3 ".ktv[0:2]"  1 -20 5 78 10 150;
+createNode animCurveTL -n "shoulder_ctrl_translateX";
+	setAttr ".tan" 2;
+	setAttr -s 2 ".ktv[0:1]"  1 0 5 2;
+createNode script -n "sceneConfigurationScriptNode";
+	setAttr ".b" -type "string" "playbackOptions -min 1 -max 5 -ast 1 -aet 10 ";
+	setAttr ".st" 6;
+connectAttr "shoulder_ctrl_rotateZ.o" "shoulder_ctrl.rz";
+connectAttr "shoulder_ctrl_translateX.o" "shoulder_ctrl.tx";
+connectAttr "shoulder_ctrl.r" "shoulder.r";
+connectAttr "shoulder_ctrl.t" "shoulder.t";
+)";
+
 }  // namespace
+
+TEST_CASE(
+    "scene parameters: a channel the scene's animation keys past its default range is learned over what a clip "
+    "of the scene reaches")
+{
+    const auto file =
+        test::writeFile(test::scratchDir(fmt::format("scene-keyed.{}", ::getpid())) / "arm.ma", keyedArmScene);
+    GraphRigOptions options{{"shoulder_ctrl.rotateZ", "shoulder_ctrl.translateX", "shoulder_ctrl.rotateY"},
+                            {"shoulder", "elbow", "wrist"},
+                            {},
+                            {}};
+    options.cutTimeCurves = true;
+    GraphRigFunction rig(file, options);
+    REQUIRE(rig.parameters().size() == 3);
+    constexpr double degree = std::numbers::pi / 180.0;
+    // The default range is +-90 degrees about the value at the saved time (-20: -110 to 70); the playback range
+    // (frames 1 to 5) reaches 78 degrees, past it.
+    const RigParameter& rotate = rig.parameters()[0];
+    CHECK(rotate.defaultValue == doctest::Approx(-20 * degree));
+    CHECK(rotate.min == doctest::Approx(-110 * degree));
+    CHECK(rotate.max == doctest::Approx(78 * degree));
+    // The translate reaches 2 cm, within its default range: the range stays.
+    const RigParameter& translate = rig.parameters()[1];
+    CHECK(translate.min == doctest::Approx(-50));
+    CHECK(translate.max == doctest::Approx(50));
+    // An unkeyed channel keeps its default range; the curve is cut, the value it gave at the saved time kept.
+    CHECK(rig.parameters()[2].max == doctest::Approx(90 * degree));
+
+    // Played to frame 10 (the keys' whole span, no playback range): up to 150 degrees.
+    std::string unbounded = keyedArmScene;
+    unbounded.erase(unbounded.find("createNode script"),
+                    unbounded.find("connectAttr") - unbounded.find("createNode script"));
+    const auto wide = test::writeFile(file.parent_path() / "arm_keys.ma", unbounded);
+    GraphRigFunction keyed(wide, options);
+    CHECK(keyed.parameters()[0].min == doctest::Approx(-110 * degree));
+    CHECK(keyed.parameters()[0].max == doctest::Approx(150 * degree));
+    // A range the spec gives comes first.
+    options.ranges = {{"shoulder_ctrl.rotateZ", -10.0, 20.0}};
+    GraphRigFunction ranged(wide, options);
+    CHECK(ranged.parameters()[0].min == doctest::Approx(-10 * degree));
+    CHECK(ranged.parameters()[0].max == doctest::Approx(20 * degree));
+}
 
 TEST_CASE("scene parameters: an added attribute the scene made keyable is a parameter by name, over its keys' span")
 {
