@@ -26,6 +26,7 @@
 
 #include "adapter/graph_rig_function.h"
 #include "inversion/learn/learner.h"
+#include "inversion/learn/maya_chain_scene.h"
 #include "inversion/model/approximation.h"
 #include "inversion/solver_rigs.h"
 #include "test_support.h"
@@ -60,15 +61,7 @@ createNode animCurveTL -n "ikHandle1_translateZ";
 	setAttr -s 2 ".ktv[0:1]"  1 2 3 2;
 select -ne :time1;
 	setAttr ".o" 1;
-connectAttr "j1.s" "j2.is";
-connectAttr "j2.s" "j3.is";
-connectAttr "j3.tx" "effector1.tx";
-connectAttr "j3.ty" "effector1.ty";
-connectAttr "j3.tz" "effector1.tz";
-connectAttr "j1.msg" "ikHandle1.hsj";
-connectAttr "effector1.hp" "ikHandle1.hee";
-connectAttr "ikRPsolver.msg" "ikHandle1.hsv";
-connectAttr "ikHandle1_translateX.o" "ikHandle1.tx";
+)" + test::mayaIkWiring + R"(connectAttr "ikHandle1_translateX.o" "ikHandle1.tx";
 connectAttr "ikHandle1_translateY.o" "ikHandle1.ty";
 connectAttr "ikHandle1_translateZ.o" "ikHandle1.tz";
 )";
@@ -99,15 +92,7 @@ createNode ikRPsolver -n "ikRPsolver";
 connectAttr "body_ctrl.t" "root_jnt.t";
 connectAttr "body_ctrl.s" "root_jnt.s";
 connectAttr "root_jnt.s" "j1.is";
-connectAttr "j1.s" "j2.is";
-connectAttr "j2.s" "j3.is";
-connectAttr "j3.tx" "effector1.tx";
-connectAttr "j3.ty" "effector1.ty";
-connectAttr "j3.tz" "effector1.tz";
-connectAttr "j1.msg" "ikHandle1.hsj";
-connectAttr "effector1.hp" "ikHandle1.hee";
-connectAttr "ikRPsolver.msg" "ikHandle1.hsv";
-)";
+)" + test::mayaIkWiring;
 
 // A foot joint point-constrained to foot_ctrl, which hangs under world_ctrl, and a toe under the foot curled by the
 // control's `curl` attribute: the world control's turns carry the foot along arcs without turning it, so that they

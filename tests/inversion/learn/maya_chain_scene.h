@@ -2,11 +2,24 @@
 // The wiring of a two-bone Maya chain j1 -> j2 -> j3 as Maya saves it (tests of the learner's chain inputs): an
 // ikRPsolver handle "ikHandle1" on effector1, its pole vector constrained to pole_ctrl, and j1 point-constrained
 // to shoulder_ctrl, the constraints reading their targets' translate, pivots and parent matrix apart. A scene
-// declares the joints, the effector, the handle and the controls, then appends this.
+// declares the joints, the effector, the handle and the controls, then appends this (or only the chain's own wiring,
+// mayaIkWiring, for a handle without constraints).
 
 #include <string>
 
 namespace rig::test {
+
+// The chain's own wiring: scale compensation down the chain, the effector on j3, the handle on j1 and effector1,
+// solved by a node "ikRPsolver" (which a scene creates).
+inline const std::string mayaIkWiring = R"(connectAttr "j1.s" "j2.is";
+connectAttr "j2.s" "j3.is";
+connectAttr "j3.tx" "effector1.tx";
+connectAttr "j3.ty" "effector1.ty";
+connectAttr "j3.tz" "effector1.tz";
+connectAttr "j1.msg" "ikHandle1.hsj";
+connectAttr "effector1.hp" "ikHandle1.hee";
+connectAttr "ikRPsolver.msg" "ikHandle1.hsv";
+)";
 
 inline const std::string mayaChainConnections = R"(createNode poleVectorConstraint -n "pv1" -p "ikHandle1";
 	addAttr -ci true -k true -sn "w0" -ln "pole_ctrlW0" -dv 1 -min 0 -at "double";
@@ -16,15 +29,7 @@ createNode pointConstraint -n "pc1" -p "j1";
 	setAttr -k on ".w0";
 createNode ikRPsolver -n "ikRPsolver";
 connectAttr "root_jnt.s" "j1.is";
-connectAttr "j1.s" "j2.is";
-connectAttr "j2.s" "j3.is";
-connectAttr "j3.tx" "effector1.tx";
-connectAttr "j3.ty" "effector1.ty";
-connectAttr "j3.tz" "effector1.tz";
-connectAttr "j1.msg" "ikHandle1.hsj";
-connectAttr "effector1.hp" "ikHandle1.hee";
-connectAttr "ikRPsolver.msg" "ikHandle1.hsv";
-connectAttr "pv1.ctx" "ikHandle1.pvx";
+)" + mayaIkWiring + R"(connectAttr "pv1.ctx" "ikHandle1.pvx";
 connectAttr "pv1.cty" "ikHandle1.pvy";
 connectAttr "pv1.ctz" "ikHandle1.pvz";
 connectAttr "ikHandle1.pim" "pv1.cpim";
