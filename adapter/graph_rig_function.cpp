@@ -176,10 +176,11 @@ RigParameter parameterOf(Graph& g, const Plug& p, const std::vector<GraphRigOpti
     const double half = param.angular              ? defaultAngleRangeDegrees * std::numbers::pi / 180.0
                         : s.unit == Unit::Distance ? defaultDistanceRangeCm
                                                    : defaultUnitlessRange;
-    // A scale through 0 is singular: every world matrix below it has no inverse.
-    const bool scale = s.unit == Unit::None && s.name.starts_with("scale") && param.defaultValue > 0;
-    param.min = s.min ? *s.min : scale ? param.defaultValue / defaultScaleFactor : param.defaultValue - half;
-    param.max = s.max ? *s.max : scale ? param.defaultValue * defaultScaleFactor : param.defaultValue + half;
+    // A scale through 0 is singular: every world matrix below it has no inverse. A mirrored one (-1) keeps its sign.
+    const bool scale = s.unit == Unit::None && s.name.starts_with("scale") && param.defaultValue != 0;
+    const double shrink = param.defaultValue / defaultScaleFactor, grow = param.defaultValue * defaultScaleFactor;
+    param.min = s.min ? *s.min : scale ? std::min(shrink, grow) : param.defaultValue - half;
+    param.max = s.max ? *s.max : scale ? std::max(shrink, grow) : param.defaultValue + half;
     // A declared limit binds the solver; a default range, or one the spec gives, is only where learning
     // samples.
     param.limited = s.min.has_value() || s.max.has_value();
@@ -621,8 +622,8 @@ std::map<Plug, std::pair<double, double>> keyedSpans(Graph& g, const MayaSceneIn
 }
 
 // A parameter the scene's animation moves past its default range is learned over what the animation reaches (its
-// clip asks those values: a shoulder keyed to 160 degrees learned over +-90 mismatched 117 of 120 frames), unless it
-// has declared limits or the spec gives its range. A scale keeps its range above 0.
+// clip asks those values), unless it has declared limits or the spec gives its range. A range on one side of 0 that is
+// not an angle's (a scale's, mirrored or not) stays there: through 0 a scale is singular.
 void widenToKeyedSpans(std::vector<RigParameter>& parameters, const std::vector<Plug>& plugs,
                        const std::map<Plug, std::pair<double, double>>& spans,
                        const std::vector<GraphRigOptions::LearnRange>& ranges)
@@ -633,8 +634,9 @@ void widenToKeyedSpans(std::vector<RigParameter>& parameters, const std::vector<
         if (param.limited || span == spans.end() ||
             std::any_of(ranges.begin(), ranges.end(), [&](const auto& r) { return globMatches(r.glob, param.name); }))
             continue;
-        if (!(param.min > 0.0) || span->second.first > 0.0) param.min = std::min(param.min, span->second.first);
-        param.max = std::max(param.max, span->second.second);
+        const bool positive = param.min > 0.0, negative = !param.angular && param.max < 0.0;
+        if (!positive || span->second.first > 0.0) param.min = std::min(param.min, span->second.first);
+        if (!negative || span->second.second < 0.0) param.max = std::max(param.max, span->second.second);
     }
 }
 

@@ -33,7 +33,7 @@ constexpr double tinyLength = 1e-12;
 // A judge compares thousands of joints a frame, nearly all rotations already: their SVD would be most of its time.
 Eigen::Matrix3d orientationOf(const Eigen::Matrix3d& a)
 {
-    return nearlyOrthonormal(a) && a.determinant() > 0 ? a : polarRotation(a);
+    return nearlyOrthonormal(a) ? orthonormalOrientation(a) : polarRotation(a);
 }
 
 }  // namespace
@@ -47,12 +47,21 @@ Eigen::Matrix3d skew(const Eigen::Vector3d& v)
 
 Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& a, Eigen::Matrix3d* symmetric)
 {
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    // A reflection's orientation is that of -A: removing the reflection along the smallest singular value's
+    // axis instead would jump by 180 degrees wherever two singular values cross (a uniform scale of -1, a
+    // mirrored joint whose scale drifts by 1e-7), so a target and its model could disagree by a half turn.
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a.determinant() < 0 ? Eigen::Matrix3d(-a) : a,
+                                                Eigen::ComputeFullU | Eigen::ComputeFullV);
     Eigen::Matrix3d u = svd.matrixU();
     if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) = -u.col(2);
     const Eigen::Matrix3d q = u * svd.matrixV().transpose();
     if (symmetric) *symmetric = q.transpose() * a;
     return q;
+}
+
+Eigen::Matrix3d orthonormalOrientation(const Eigen::Matrix3d& a)
+{
+    return a.determinant() < 0 ? Eigen::Matrix3d(-a) : a;
 }
 
 bool nearlySingular(const Eigen::Vector3d& sigma) { return !(sigma[0] > 0) || !(sigma[2] > 1e-9 * sigma[0]); }

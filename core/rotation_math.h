@@ -13,9 +13,13 @@ namespace rig {
 // [v]x: skew(v) * w = v x w.
 Eigen::Matrix3d skew(const Eigen::Vector3d& v);
 
-// The polar decomposition A = Q S: Q the rotation nearest A (a reflection removed, det Q = +1), S
-// symmetric (written to `symmetric` when given). A world matrix's 3x3 block may carry scale or shear.
+// The polar decomposition A = Q S: Q the rotation nearest A (det Q = +1), S symmetric (written to `symmetric`
+// when given). A world matrix's 3x3 block may carry scale or shear. A reflection (det A < 0) has the
+// orientation of -A, continuous in A: S is then negative definite.
 Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& a, Eigen::Matrix3d* symmetric = nullptr);
+
+// polarRotation of an orthonormal block without its SVD: the block, or its negation for a reflection.
+Eigen::Matrix3d orthonormalOrientation(const Eigen::Matrix3d& a);
 
 // Whether a 3x3 block is too close to singular to have an orientation or an inverse: its singular values
 // (largest first) are not positive, or the smallest is below 1e-9 of the largest.

@@ -40,7 +40,7 @@ bool prepareTarget(const JointTarget& target, double rotationScaleCm, PreparedTa
     if (target.positionWeight < 0 || target.rotationWeight < 0) return false;
     const Eigen::Matrix3d a = target.world.block<3, 3>(0, 0);
     if (nearlyOrthonormal(a)) {
-        prepared.rotation = a;
+        prepared.rotation = orthonormalOrientation(a);
     } else {
         if (nearlySingular(Eigen::JacobiSVD<Eigen::Matrix3d>(a).singularValues())) return false;
         prepared.rotation = polarRotation(a);
@@ -59,7 +59,7 @@ Eigen::Matrix<double, 6, 1> targetResidual(const Eigen::Matrix4d& world, const P
 TargetError targetError(const Eigen::Matrix4d& world, const PreparedTarget& target)
 {
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
-    const Eigen::Matrix3d q = nearlyOrthonormal(a) ? a : polarRotation(a);
+    const Eigen::Matrix3d q = nearlyOrthonormal(a) ? orthonormalOrientation(a) : polarRotation(a);
     // stableNorm: a target 1e160 cm away is 1e160 cm away, not an overflow to infinity.
     return {(world.block<3, 1>(0, 3) - target.position).stableNorm(),
             rotationVector(target.rotation.transpose() * q).norm()};
@@ -266,11 +266,12 @@ void ResidualWorkspace::residualRows(Eigen::Ref<Eigen::VectorXd> r)
             rows = residual6(worlds_[o], targets_[o]);
             continue;
         }
-        // A rigid world is its own rotation: its quaternion is kept for the normal equations' rows.
+        // A rigid world is its own rotation (or a reflection's negation): its quaternion is kept for the normal
+        // equations' rows.
         const PreparedTarget& t = targets_[o];
         rows.head<3>() = t.positionWeight * (worlds_[o].block<3, 1>(0, 3) - t.position);
         Eigen::Quaterniond& e = quaternion_[o];
-        e = Eigen::Quaterniond(t.rotation.transpose() * worlds_[o].block<3, 3>(0, 0));
+        e = Eigen::Quaterniond(t.rotation.transpose() * orthonormalOrientation(worlds_[o].block<3, 3>(0, 0)));
         if (e.w() < 0) e.coeffs() = -e.coeffs();
         rows.tail<3>() = (2.0 * t.rotationWeight) * e.vec();
     }
@@ -353,7 +354,7 @@ void ResidualWorkspace::treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian)
         const bool rigid = s.outputRigid_[o] || nearlyOrthonormal(a);
         Eigen::Matrix3d q, kInverse = Eigen::Matrix3d::Zero();  // kInverse: read only when not rigid
         if (rigid) {
-            q = a;
+            q = orthonormalOrientation(a);  // omega turns -A as it turns A
         } else {
             Eigen::Matrix3d sym;
             q = polarRotation(a, &sym);
@@ -482,8 +483,8 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
     Eigen::Matrix3d q, kInverse;
     if (nearlyOrthonormal(a)) {
-        q = a;
-        kInverse = 0.5 * Eigen::Matrix3d::Identity();
+        q = orthonormalOrientation(a);
+        kInverse = std::copysign(0.5, a.determinant()) * Eigen::Matrix3d::Identity();  // S = +-I
     } else {
         Eigen::Matrix3d sym;
         q = polarRotation(a, &sym);

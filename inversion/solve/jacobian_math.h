@@ -45,7 +45,8 @@ inline Vector6d residual6(const Eigen::Matrix4d& world, const PreparedTarget& t,
     Vector6d r;
     r.head<3>() = t.positionWeight * (world.block<3, 1>(0, 3) - t.position);
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
-    r.tail<3>() = t.rotationWeight * rotationResidual(rigid || nearlyOrthonormal(a) ? a : polarRotation(a), t);
+    r.tail<3>() = t.rotationWeight *
+                  rotationResidual(rigid || nearlyOrthonormal(a) ? orthonormalOrientation(a) : polarRotation(a), t);
     return r;
 }
 

@@ -1,6 +1,7 @@
 #include "inversion/solve/residual_term.h"
 
 #include <algorithm>
+#include <cmath>
 #include <mutex>
 
 #include <fmt/format.h>
@@ -24,7 +25,9 @@ struct Polar {
 Polar polarOf(const Eigen::Matrix4d& world)
 {
     const Eigen::Matrix3d a = world.block<3, 3>(0, 0);
-    if (nearlyOrthonormal(a)) return {a, 0.5 * Eigen::Matrix3d::Identity()};
+    // S = +-I: (tr(S) I - S)^-1 = +-I / 2, negative for a reflection (Q = -A).
+    if (nearlyOrthonormal(a))
+        return {orthonormalOrientation(a), std::copysign(0.5, a.determinant()) * Eigen::Matrix3d::Identity()};
     Polar p;
     Eigen::Matrix3d sym;
     p.q = polarRotation(a, &sym);

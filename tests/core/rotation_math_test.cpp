@@ -31,6 +31,21 @@ TEST_CASE("rotation math: the polar decomposition gives the rotation and the sym
     CHECK(polarRotation(mirrored).determinant() == doctest::Approx(1.0));
 }
 
+TEST_CASE("rotation math: a reflection's orientation is the negated block's, continuous where its scales cross")
+{
+    const Eigen::Matrix3d q = Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, -1).normalized()).toRotationMatrix();
+    // A scale of -1 drifting by 1e-7 between the axes, its smallest magnitude on z, then on x: removing the reflection
+    // along the smallest singular value's axis gave orientations a half turn apart.
+    const Eigen::Matrix3d zSmallest = -q * Eigen::Vector3d(1 + 8e-8, 1, 1 - 4e-8).asDiagonal();
+    const Eigen::Matrix3d xSmallest = -q * Eigen::Vector3d(1 - 4e-8, 1, 1 + 8e-8).asDiagonal();
+    Eigen::Matrix3d symmetric;
+    CHECK((polarRotation(zSmallest, &symmetric) - q).norm() < 1e-6);
+    CHECK((polarRotation(xSmallest) - q).norm() < 1e-6);
+    CHECK((q * symmetric - zSmallest).norm() < 1e-12);  // negative definite
+    CHECK(orientationAngle(zSmallest, xSmallest) < 1e-6);
+    CHECK((orthonormalOrientation(-q) - q).norm() == 0.0);
+}
+
 TEST_CASE("rotation math: the angle between orientations ignores scale and is accurate near zero")
 {
     const Eigen::Vector3d axis = Eigen::Vector3d(0.2, -1, 0.5).normalized();
@@ -51,10 +66,12 @@ TEST_CASE("rotation math: a rotation up to rounding is taken as it is, a mirrore
     CHECK(nearlyOrthonormal(drifted));
     CHECK_FALSE(nearlyOrthonormal(1.001 * drifted));
     CHECK(orientationAngle(a, drifted) == doctest::Approx(0.25).epsilon(1e-9));
-    // A reflection is orthonormal too: its orientation is its polar rotation's, as for any other block.
+    // A reflection is orthonormal too: its orientation (the negated block, without an SVD) is its polar rotation's,
+    // as for any other block.
     const Eigen::Matrix3d mirror = Eigen::Vector3d(1, 1, -1).asDiagonal();
     CHECK(nearlyOrthonormal(a * mirror));
-    CHECK(orientationAngle(a * mirror, polarRotation(a * mirror)) == 0.0);
+    CHECK((orthonormalOrientation(a * mirror) - polarRotation(a * mirror)).norm() < 1e-12);
+    CHECK(orientationAngle(a * mirror, polarRotation(a * mirror)) < 1e-12);
 }
 
 TEST_CASE("rotation math: an angle moved by whole turns to the one nearest a reference")
