@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 
-#include <array>
 #include <map>
 
 #include <fmt/format.h>
@@ -56,26 +55,24 @@ Json mayaLoadJson(const std::filesystem::path& folder)
     return Json{{"scenes", std::move(rows)}, {"largest_bytes", largestBytes}, {"largest_load_seconds", largestSeconds}};
 }
 
-namespace {
-
-// The animated scenes of ../shared/maya whose rig the reader evaluates (its README): the rig scene, and the scene
-// animating it (the same file where one scene holds both: its time curves are cut from the parameters they key).
 // Grunt_Run.ma is not among them: learning Grunt_Rig.ma with auto parameters takes over ten minutes (docs/maya.md).
-struct AnimatedScene {
-    const char* rig;
-    const char* clip;
-};
-constexpr std::array<AnimatedScene, 5> animatedScenes{{
-    {"I-LoveBees__Maya/mimic_RigTestAnim.ma", "I-LoveBees__Maya/mimic_RigTestAnim.ma"},
-    {"sweet4lorie__MonsterRobotRunner/ART/C_Robot/C_Robot_Rig.ma",
-     "sweet4lorie__MonsterRobotRunner/ART/C_Robot/C_Robot_Run.ma"},
-    {"Autodesk__maya-usd/test/lib/usd/translators/UsdExportSkeletonTest/UsdExportSkeleton.ma",
-     "Autodesk__maya-usd/test/lib/usd/translators/UsdExportSkeletonTest/UsdExportSkeleton.ma"},
-    {"Autodesk__maya-usd/test/lib/usd/translators/UsdExportEulerFilterTest/UsdExportEulerFilterTest.ma",
-     "Autodesk__maya-usd/test/lib/usd/translators/UsdExportEulerFilterTest/UsdExportEulerFilterTest.ma"},
-    {"Squamashii__UVUFall2008/Rigging/SpiderBot/Spencer_SpiderBot_Anim_001.ma",
-     "Squamashii__UVUFall2008/Rigging/SpiderBot/Spencer_SpiderBot_Anim_001.ma"},
-}};
+const std::vector<AnimatedScene>& publicAnimatedScenes()
+{
+    static const std::vector<AnimatedScene> scenes{
+        {"I-LoveBees__Maya/mimic_RigTestAnim.ma", "I-LoveBees__Maya/mimic_RigTestAnim.ma"},
+        {"sweet4lorie__MonsterRobotRunner/ART/C_Robot/C_Robot_Rig.ma",
+         "sweet4lorie__MonsterRobotRunner/ART/C_Robot/C_Robot_Run.ma"},
+        {"Autodesk__maya-usd/test/lib/usd/translators/UsdExportSkeletonTest/UsdExportSkeleton.ma",
+         "Autodesk__maya-usd/test/lib/usd/translators/UsdExportSkeletonTest/UsdExportSkeleton.ma"},
+        {"Autodesk__maya-usd/test/lib/usd/translators/UsdExportEulerFilterTest/UsdExportEulerFilterTest.ma",
+         "Autodesk__maya-usd/test/lib/usd/translators/UsdExportEulerFilterTest/UsdExportEulerFilterTest.ma"},
+        {"Squamashii__UVUFall2008/Rigging/SpiderBot/Spencer_SpiderBot_Anim_001.ma",
+         "Squamashii__UVUFall2008/Rigging/SpiderBot/Spencer_SpiderBot_Anim_001.ma"},
+    };
+    return scenes;
+}
+
+namespace {
 
 // OUT.ma's joints against the clip's, matched by name without namespaces (OUT.ma names the rig's joints under its
 // reference's namespace): the worst position difference, cm, over every frame and over the frames `reached`.
@@ -142,11 +139,11 @@ Json sceneRow(const std::filesystem::path& rig, const std::filesystem::path& cli
 }  // namespace
 
 Json mayaScenesJson(const std::filesystem::path& folder, const std::filesystem::path& workDir,
-                    const std::function<void(std::string_view)>& log)
+                    const std::function<void(std::string_view)>& log, const std::vector<AnimatedScene>& scenes)
 {
     if (!std::filesystem::is_directory(folder)) return Json();
     Json rows = Json::array();
-    for (const AnimatedScene& scene : animatedScenes) {
+    for (const AnimatedScene& scene : scenes) {
         const std::filesystem::path rig = folder / scene.rig, clip = folder / scene.clip;
         if (!std::filesystem::exists(rig) || !std::filesystem::exists(clip)) continue;
         if (log)

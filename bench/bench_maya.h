@@ -7,7 +7,9 @@
 
 #include <filesystem>
 #include <functional>
+#include <string>
 #include <string_view>
+#include <vector>
 
 #include "bench/bench_common.h"
 
@@ -16,8 +18,19 @@ namespace rig::bench {
 // Null when the folder is absent.
 Json mayaLoadJson(const std::filesystem::path& folder);
 
-// Null when the folder is absent; scratch files (OUT.ma) go to `workDir`; `log` says each step (may be empty).
+// An animated scene: the rig scene, and the scene animating it (the same file where one scene holds both: its time
+// curves are cut from the parameters they key), both relative to the folder.
+struct AnimatedScene {
+    std::string rig;
+    std::string clip;
+};
+// The animated scenes of ../shared/maya whose rig the reader evaluates (its README).
+const std::vector<AnimatedScene>& publicAnimatedScenes();
+
+// Null when the folder is absent; a scene absent from it is left out; scratch files (OUT.ma) go to `workDir`; `log`
+// says each step (may be empty).
 Json mayaScenesJson(const std::filesystem::path& folder, const std::filesystem::path& workDir,
-                    const std::function<void(std::string_view)>& log);
+                    const std::function<void(std::string_view)>& log,
+                    const std::vector<AnimatedScene>& scenes = publicAnimatedScenes());
 
 }  // namespace rig::bench
