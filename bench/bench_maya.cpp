@@ -116,8 +116,8 @@ Json sceneRow(const std::filesystem::path& rig, const std::filesystem::path& cli
                              app::curvesMayaScene(inverted, nullptr, app::keyTangent("auto"), job.rig, out.string()));
     std::vector<bool> reached;
     for (const FrameInversion& f : s.perFrame) reached.push_back(f.status == FrameStatus::reached);
-    const TargetClip sceneClip = readMayaClip(clip, {});
-    const auto [replayAll, replayReached] = replayErrors(sceneClip, readMayaClip(out, {}), reached);
+    // The scene's joints as rig-invert read them (no map: as the scene gives them), against OUT.ma's.
+    const auto [replayAll, replayReached] = replayErrors(inverted.clip, readMayaClip(out, {}), reached);
     return Json{{"clip", clip.filename().string()},
                 {"rig", rig.filename().string()},
                 {"joints", std::count_if(approximation->outputs.begin(), approximation->outputs.end(),
