@@ -62,26 +62,31 @@ void FlowExecutor::run(const std::vector<char>& active, const std::function<void
     if (error_) std::rethrow_exception(error_);
 }
 
-void FlowExecutor::runActive(std::vector<int> nodes, const std::vector<char>& active,
+void FlowExecutor::runActive(std::vector<int>& nodes, const std::vector<char>& active,
                              const std::function<void(int)>& body, const std::function<void(int)>& prefetch)
 {
     const auto& rank = schedule_->rank();
     std::sort(nodes.begin(), nodes.end(),
               [&](int a, int b) { return rank[static_cast<std::size_t>(a)] < rank[static_cast<std::size_t>(b)]; });
-    std::vector<std::vector<int>> levels;
+    // Kept from run to run, emptied but not freed: a crowd's frame allocates nothing.
+    std::vector<std::vector<int>>& levels = levels_;
+    for (auto& level : levels) level.clear();
+    std::size_t used = 0;
     for (const int n : nodes) {
         int level = 0;
         for (const int p : predecessors_[static_cast<std::size_t>(n)])
             if (active[static_cast<std::size_t>(p)]) level = std::max(level, level_[static_cast<std::size_t>(p)] + 1);
         level_[static_cast<std::size_t>(n)] = level;
-        if (static_cast<std::size_t>(level) >= levels.size()) levels.resize(static_cast<std::size_t>(level) + 1);
+        used = std::max(used, static_cast<std::size_t>(level) + 1);
+        if (used > levels.size()) levels.resize(used);
         levels[static_cast<std::size_t>(level)].push_back(n);
     }
     body_ = &body;
     error_ = nullptr;
     arena_.execute([&] {
         constexpr std::size_t ahead = 2;
-        for (const auto& level : levels)
+        for (std::size_t l = 0; l < used; ++l) {
+            const std::vector<int>& level = levels[l];
             tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.size()),
                               [&](const tbb::blocked_range<std::size_t>& r) {
                                   for (std::size_t i = r.begin(); i != r.end(); ++i) {
@@ -89,6 +94,7 @@ void FlowExecutor::runActive(std::vector<int> nodes, const std::vector<char>& ac
                                       runBody(level[i]);
                                   }
                               });
+        }
     });
     if (error_) std::rethrow_exception(error_);
 }

@@ -34,8 +34,8 @@ public:
     // The same for the active nodes `nodes` only, level by level (a node's level: one more than its active
     // predecessors' highest), each level's nodes in parallel: a frame that needs a small part of a large
     // graph (a crowd's curves) costs what it computes, where run() passes a message along every edge.
-    // prefetch(node) is called a little ahead of body(node), on the same thread.
-    void runActive(std::vector<int> nodes, const std::vector<char>& active, const std::function<void(int)>& body,
+    // prefetch(node) is called a little ahead of body(node), on the same thread. Sorts `nodes` in the schedule's order.
+    void runActive(std::vector<int>& nodes, const std::vector<char>& active, const std::function<void(int)>& body,
                    const std::function<void(int)>& prefetch);
 
 private:
@@ -50,9 +50,11 @@ private:
     std::mutex errorMutex_;
     std::exception_ptr error_;
     int errorRank_ = 0;
-    // runActive's: each node's predecessors (from the schedule's edges), and its level in the current run.
+    // runActive's: each node's predecessors (from the schedule's edges), its level in the current run, and the
+    // nodes of each level.
     std::vector<std::vector<int>> predecessors_;
     std::vector<int> level_;
+    std::vector<std::vector<int>> levels_;
 
     void runBody(int node);  // body(node), its exception kept as run() keeps them
 };

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <utility>
 
 #include <fmt/format.h>
@@ -32,12 +33,11 @@ std::unique_ptr<Graph> Graph::instance() const
     other->arrayElements_ = arrayElements_;
     other->time_ = time_;
     other->store_ = store_;
-    other->nodes_.resize(nodes_.size());
-    for (std::size_t n = 0; n < nodes_.size(); ++n) {
-        other->nodes_[n].slots = nodes_[n].slots;
-        other->nodes_[n].dirty.assign(nodes_[n].dirty.size(), 0);
-        other->nodes_[n].impl = model_->topology(static_cast<NodeId>(n)).type->create();
-    }
+    other->firstAttr_ = firstAttr_;
+    other->slots_ = slots_;
+    other->dirty_.assign(dirty_.size(), 0);
+    for (NodeId n = 0; n < nodeCount(); ++n) other->impls_.push_back(nodeType(n).create());
+    other->computes_.assign(computes_.size(), 0);
     other->dirtyAll();
     return other;
 }
@@ -48,12 +48,12 @@ void Graph::resetState()
     // would compute (checked mode holds the graph to that).
     for (NodeId n = 0; n < nodeCount(); ++n) {
         if (!model_->topology(n).type->stateful()) continue;
-        NodeState& state = nodes_[static_cast<std::size_t>(n)];
-        state.impl = nodeType(n).create();
-        for (std::size_t a = 0; a < state.slots.size(); ++a) {
-            if (model_->topology(n).spec(static_cast<AttrId>(a)).input || state.dirty[a]) continue;
-            state.dirty[a] = 1;
-            dirtyAffectedBy(n, static_cast<AttrId>(a));
+        impls_[static_cast<std::size_t>(n)] = nodeType(n).create();
+        for (AttrId a = 0; static_cast<std::size_t>(a) < attributeCount(n); ++a) {
+            char& dirty = dirty_[at(n, a)];
+            if (model_->topology(n).spec(a).input || dirty) continue;
+            dirty = 1;
+            dirtyAffectedBy(n, a);
         }
     }
 }
@@ -69,15 +69,15 @@ GraphModel& Graph::editModel()
 void Graph::addNodeState(NodeId node)
 {
     const NodeType& type = nodeType(node);
-    NodeState state;
     for (const AttributeSpec& spec : type.attributes()) {
-        state.slots.push_back(spec.array       ? store_.addArray()
-                              : spec.sceneTime ? store_.add(spec.type, time_)
-                                               : store_.add(spec.type, spec.defaultValue));
-        state.dirty.push_back(spec.input ? 0 : 1);  // never computed yet
+        slots_.push_back(spec.array       ? store_.addArray()
+                         : spec.sceneTime ? store_.add(spec.type, time_)
+                                          : store_.add(spec.type, spec.defaultValue));
+        dirty_.push_back(spec.input ? 0 : 1);  // never computed yet
     }
-    state.impl = type.create();
-    nodes_.push_back(std::move(state));
+    firstAttr_.push_back(static_cast<std::uint32_t>(slots_.size()));
+    impls_.push_back(type.create());
+    computes_.push_back(0);
 }
 
 NodeId Graph::addNode(std::string_view typeName, std::string_view name)
@@ -91,25 +91,27 @@ AttrId Graph::addAttribute(NodeId node, AttributeSpec spec)
 {
     const ValueStore::Slot slot = spec.array ? store_.addArray() : store_.add(spec.type, spec.defaultValue);
     const AttrId attr = editModel().addAttribute(node, std::move(spec));
-    nodes_[static_cast<std::size_t>(node)].slots.push_back(slot);
-    nodes_[static_cast<std::size_t>(node)].dirty.push_back(0);
+    // After the node's last attribute: the nodes after it move up by one (a scene adds attributes to the node it
+    // has just made, the last one, mostly).
+    const std::size_t end = firstAttr_[static_cast<std::size_t>(node) + 1];
+    slots_.insert(slots_.begin() + static_cast<std::ptrdiff_t>(end), slot);
+    dirty_.insert(dirty_.begin() + static_cast<std::ptrdiff_t>(end), 0);
+    for (std::size_t n = static_cast<std::size_t>(node) + 1; n < firstAttr_.size(); ++n) ++firstAttr_[n];
     return attr;
 }
 
 std::vector<int> Graph::elementIndices(NodeId node, AttrId attr) const
 {
-    const ValueStore::Slot at = nodes_.at(static_cast<std::size_t>(node)).slots.at(static_cast<std::size_t>(attr));
+    if (node < 0 || node >= nodeCount() || attr < 0 || static_cast<std::size_t>(attr) >= attributeCount(node))
+        throw internalError(fmt::format("elementIndices: no attribute {} on node {}", attr, node));
     std::vector<int> indices;
-    const ArrayData* d = model_->topology(node).spec(attr).array ? store_.array(at) : nullptr;
+    const ArrayData* d = model_->topology(node).spec(attr).array ? store_.array(slot(Plug{node, attr})) : nullptr;
     for (std::size_t i = 0; d && i < d->present.size(); ++i)
         if (d->present[i]) indices.push_back(static_cast<int>(i));
     return indices;
 }
 
-char& Graph::dirtyFlag(const Plug& p)
-{
-    return nodes_[static_cast<std::size_t>(p.node)].dirty[static_cast<std::size_t>(p.attr)];
-}
+char& Graph::dirtyFlag(const Plug& p) { return dirty_[at(p.node, p.attr)]; }
 
 template <class T>
 const T& Graph::stored(const Plug& p) const
@@ -200,14 +202,14 @@ void Graph::dirtyAffectedBy(NodeId node, AttrId attr)
         const auto [n, a] = stack.back();
         stack.pop_back();
         const GraphModel::NodeTopology& top = model_->topology(n);
-        std::vector<char>& dirty = nodes_[static_cast<std::size_t>(n)].dirty;
+        char* dirty = dirty_.data() + firstAttr_[static_cast<std::size_t>(n)];
         for (AttrId o : top.affects(a)) {
-            if (dirty[static_cast<std::size_t>(o)]) continue;
-            dirty[static_cast<std::size_t>(o)] = 1;
+            if (dirty[o]) continue;
+            dirty[o] = 1;
             stack.emplace_back(n, o);
         }
         for (const GraphModel::NodeTopology::Edge& e : top.outgoingFrom(a)) {
-            char& d = nodes_[static_cast<std::size_t>(e.node)].dirty[static_cast<std::size_t>(e.attr)];
+            char& d = dirty_[at(e.node, e.attr)];
             if (d) continue;
             d = 1;
             stack.emplace_back(e.node, e.attr);
@@ -217,7 +219,7 @@ void Graph::dirtyAffectedBy(NodeId node, AttrId attr)
 
 void Graph::dirtyInput(NodeId node, AttrId attr)
 {
-    char& d = nodes_[static_cast<std::size_t>(node)].dirty[static_cast<std::size_t>(attr)];
+    char& d = dirty_[at(node, attr)];
     if (d) return;
     d = 1;
     dirtyAffectedBy(node, attr);
@@ -227,9 +229,9 @@ void Graph::dirtyAll()
 {
     for (NodeId n = 0; n < nodeCount(); ++n) {
         const GraphModel::NodeTopology& top = model_->topology(n);
-        std::vector<char>& dirty = nodes_[static_cast<std::size_t>(n)].dirty;
-        for (AttrId a : top.type->outputs()) dirty[static_cast<std::size_t>(a)] = 1;
-        for (const Connection& c : top.incoming) dirty[static_cast<std::size_t>(c.destination.attr)] = 1;
+        char* dirty = dirty_.data() + firstAttr_[static_cast<std::size_t>(n)];
+        for (AttrId a : top.type->outputs()) dirty[a] = 1;
+        for (const Connection& c : top.incoming) dirty[c.destination.attr] = 1;
     }
 }
 
@@ -289,47 +291,54 @@ void Graph::setThreads(int threads)
 
 std::uint64_t Graph::computeCount() const
 {
-    std::uint64_t total = 0;
-    for (const auto& rec : nodes_) total += rec.computes;
-    return total;
+    return std::accumulate(computes_.begin(), computes_.end(), std::uint64_t{0});
 }
 
-std::uint64_t Graph::computeCount(NodeId node) const { return nodes_.at(static_cast<std::size_t>(node)).computes; }
+std::uint64_t Graph::computeCount(NodeId node) const { return computes_.at(static_cast<std::size_t>(node)); }
 
 // --- evaluation (pull) --------------------------------------------------------------------------------
 
 void Graph::evaluate(std::span<const Plug> plugs)
 {
-    std::vector<NodeId> roots;
+    roots_.clear();
     for (const Plug& p : plugs) {
         model_->checkPlug(p);
-        if (dirtyFlag(p)) roots.push_back(p.node);
+        if (dirtyFlag(p)) roots_.push_back(p.node);
     }
     // Reading clean plugs must not cost a pass over the whole graph: a rig reads every joint per evaluation.
-    if (roots.empty()) return;
-    std::vector<char> needed(nodes_.size(), 0);
-    std::erase_if(roots, [&](NodeId n) { return std::exchange(needed[static_cast<std::size_t>(n)], char{1}) != 0; });
-    evaluateNodes(needed, std::move(roots));
+    if (!roots_.empty()) evaluateNodes(roots_);
 }
 
 void Graph::evaluateAll()
 {
-    std::vector<char> needed(nodes_.size(), 1);
-    std::vector<NodeId> all(nodes_.size());
-    for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<NodeId>(i);
-    evaluateNodes(needed, std::move(all));
+    roots_.resize(static_cast<std::size_t>(nodeCount()));
+    std::iota(roots_.begin(), roots_.end(), NodeId{0});
+    evaluateNodes(roots_);
 }
 
-void Graph::evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots)
+void Graph::evaluateNodes(std::span<const NodeId> roots)
 {
-    if (roots.empty()) return;
+    // needed_ is all 0 between evaluations (kept, as list_ is: a crowd's frame allocates nothing); what this one
+    // marks, the nodes of list_, is unmarked on the way out, whether a node threw or not.
+    needed_.resize(static_cast<std::size_t>(nodeCount()), 0);
+    std::vector<NodeId>& list = list_;
+    list.clear();
+    for (const NodeId n : roots)
+        if (!std::exchange(needed_[static_cast<std::size_t>(n)], char{1})) list.push_back(n);
+    const struct Unmark {
+        std::vector<char>& needed;
+        const std::vector<NodeId>& list;
+        ~Unmark()
+        {
+            for (const NodeId n : list) needed[static_cast<std::size_t>(n)] = 0;
+        }
+    } unmark{needed_, list};
     // A needed node pulls all of its dirty inputs, so the sources of those are needed too.
-    std::vector<NodeId> list = roots;
     for (std::size_t i = 0; i < list.size(); ++i) {
         for (const Connection& c : model_->topology(list[i]).incoming) {
             const auto src = static_cast<std::size_t>(c.source.node);
-            if (needed[src] || !dirtyFlag(c.destination) || !dirtyFlag(c.source)) continue;
-            needed[src] = 1;
+            if (needed_[src] || !dirtyFlag(c.destination) || !dirtyFlag(c.source)) continue;
+            needed_[src] = 1;
             list.push_back(c.source.node);
         }
     }
@@ -342,10 +351,10 @@ void Graph::evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots)
             flow_ = std::make_unique<FlowExecutor>(s, threads_);
         // A small part of a large graph (a crowd's curves) level by level over what is needed; most of it
         // through the flow graph, whose messages then cost less than the levels' barriers.
-        if (list.size() * 4 < nodes_.size())
+        if (list.size() * 4 < static_cast<std::size_t>(nodeCount()))
             flow_->runActive(
-                std::move(list), needed, [this](int n) { processNode(n); }, [this](int n) { prefetchNode(n); });
-        else flow_->run(needed, [this](int n) { processNode(n); });
+                list, needed_, [this](int n) { processNode(n); }, [this](int n) { prefetchNode(n); });
+        else flow_->run(needed_, [this](int n) { processNode(n); });
         return;
     }
     std::sort(list.begin(), list.end(), [&](NodeId a, NodeId b) {
@@ -422,30 +431,31 @@ void Graph::pull(const Connection& c)
 void Graph::prefetchNode(NodeId node) const
 {
     const GraphModel::NodeTopology& top = model_->topology(node);
-    const NodeState& rec = nodes_[static_cast<std::size_t>(node)];
+    const std::size_t first = firstAttr_[static_cast<std::size_t>(node)], count = attributeCount(node);
     prefetch(top.incoming);
-    prefetch(rec.dirty);
-    prefetch(rec.slots);
-    prefetchBytes(rec.impl.get(), 1);  // its virtual table's address
+    prefetchBytes(dirty_.data() + first, count);
+    prefetchBytes(slots_.data() + first, count * sizeof(ValueStore::Slot));
+    prefetchBytes(impls_[static_cast<std::size_t>(node)].get(), 1);  // its virtual table's address
 }
 
 void Graph::processNode(NodeId node)
 {
     const GraphModel::NodeTopology& top = model_->topology(node);
-    NodeState& rec = nodes_[static_cast<std::size_t>(node)];
+    const std::size_t first = firstAttr_[static_cast<std::size_t>(node)];
+    char* dirty = dirty_.data() + first;
     for (const Connection& c : top.incoming)
-        if (rec.dirty[static_cast<std::size_t>(c.destination.attr)]) pull(c);
-    for (const Connection& c : top.incoming) rec.dirty[static_cast<std::size_t>(c.destination.attr)] = 0;
+        if (dirty[c.destination.attr]) pull(c);
+    for (const Connection& c : top.incoming) dirty[c.destination.attr] = 0;
 
     // The type's list of outputs, not a pass over every attribute's spec: specs are large, and a crowd's frame
     // processes thousands of nodes.
     const std::vector<AttrId>& outputs = top.type->outputs();
-    const auto dirtyOutput = [&](AttrId a) { return rec.dirty[static_cast<std::size_t>(a)] != 0; };
+    const auto dirtyOutput = [&](AttrId a) { return dirty[a] != 0; };
     if (std::none_of(outputs.begin(), outputs.end(), dirtyOutput)) return;
-    ComputeContext context(top.name, top.specs(), store_, rec.slots);
-    rec.impl->compute(context);
-    ++rec.computes;
-    for (AttrId a : outputs) rec.dirty[static_cast<std::size_t>(a)] = 0;
+    ComputeContext context(top.name, top.specs(), store_, std::span(slots_.data() + first, attributeCount(node)));
+    impls_[static_cast<std::size_t>(node)]->compute(context);
+    ++computes_[static_cast<std::size_t>(node)];
+    for (AttrId a : outputs) dirty[a] = 0;
 }
 
 namespace {
@@ -469,21 +479,21 @@ std::vector<std::string> Graph::checkEvaluation()
     evaluateAll();
 
     // Stateful nodes legitimately change when recomputed; so does everything they feed.
-    std::vector<char> tainted(nodes_.size(), 0);
+    std::vector<char> tainted(static_cast<std::size_t>(nodeCount()), 0);
     for (NodeId n : model_->schedule()->order()) {
         auto& t = tainted[static_cast<std::size_t>(n)];
         t = model_->topology(n).type->stateful();
         for (const Connection& c : model_->topology(n).incoming) t |= tainted[static_cast<std::size_t>(c.source.node)];
     }
     std::vector<std::string> mismatches;
-    for (std::size_t n = 0; n < nodes_.size(); ++n) {
-        if (tainted[n]) continue;
-        const GraphModel::NodeTopology& top = model_->topology(static_cast<NodeId>(n));
-        const std::vector<ValueStore::Slot>& slots = nodes_[n].slots;
-        for (std::size_t a = 0; a < slots.size(); ++a) {
-            const AttributeSpec& s = top.spec(static_cast<AttrId>(a));
-            const bool same = s.array ? sameElements(cached.array(slots[a]), store_.array(slots[a]))
-                                      : bitEqual(cached.value(s.type, slots[a]), store_.value(s.type, slots[a]));
+    for (NodeId n = 0; n < nodeCount(); ++n) {
+        if (tainted[static_cast<std::size_t>(n)]) continue;
+        const GraphModel::NodeTopology& top = model_->topology(n);
+        for (AttrId a = 0; static_cast<std::size_t>(a) < attributeCount(n); ++a) {
+            const AttributeSpec& s = top.spec(a);
+            const ValueStore::Slot slot = slots_[at(n, a)];
+            const bool same = s.array ? sameElements(cached.array(slot), store_.array(slot))
+                                      : bitEqual(cached.value(s.type, slot), store_.value(s.type, slot));
             if (!same) mismatches.push_back(fmt::format("{}.{}", top.name, s.name));
         }
     }

@@ -116,24 +116,20 @@ public:
     std::vector<std::string> checkEvaluation();
 
 private:
-    // One node's part of the state.
-    struct NodeState {
-        std::vector<ValueStore::Slot> slots;  // where each attribute's value is in store_
-        // Outputs: need a compute; inputs: need a pull from their source. Apart from the values, packed: the
-        // push walks them over the whole downstream of the scene time every frame.
-        std::vector<char> dirty;
-        std::unique_ptr<Node> impl;
-        std::uint64_t computes = 0;
-    };
-
     // The model, copied first when other instances share it.
     GraphModel& editModel();
     void addNodeState(NodeId node);
     char& dirtyFlag(const Plug& plug);
-    ValueStore::Slot slot(const Plug& plug) const
+    // Where attribute a of node n is in the flat per-attribute lists.
+    std::size_t at(NodeId n, AttrId a) const
     {
-        return nodes_[static_cast<std::size_t>(plug.node)].slots[static_cast<std::size_t>(plug.attr)];
+        return firstAttr_[static_cast<std::size_t>(n)] + static_cast<std::size_t>(a);
     }
+    std::size_t attributeCount(NodeId n) const
+    {
+        return firstAttr_[static_cast<std::size_t>(n) + 1] - firstAttr_[static_cast<std::size_t>(n)];
+    }
+    ValueStore::Slot slot(const Plug& plug) const { return slots_[at(plug.node, plug.attr)]; }
     // A plug's stored value as its attribute's type T (an array element: the attribute's default where it does not
     // exist), the plug's component aside; storage() makes the element.
     template <class T>
@@ -151,15 +147,28 @@ private:
     void dirtyInput(NodeId node, AttrId attr);
     void dirtyAffectedBy(NodeId node, AttrId attr);
 
-    void evaluateNodes(std::vector<char>& needed, std::vector<NodeId> roots);
+    // Computes what `roots` need (roots may be roots_).
+    void evaluateNodes(std::span<const NodeId> roots);
     void processNode(NodeId node);
     void prefetchNode(NodeId node) const;
 
     std::shared_ptr<GraphModel> model_;
-    std::vector<NodeState> nodes_;
+    // The instance's state per attribute, flat over the nodes in their order (node n's attribute a at
+    // firstAttr_[n] + a), so that a crowd member's flags and slots lie together: the push walks the flags over
+    // the whole downstream of the scene time every frame, the pull reads them and the slots node by node.
+    std::vector<std::uint32_t> firstAttr_{0};  // per node, and one past the last node's
+    std::vector<ValueStore::Slot> slots_;      // where each attribute's value is in store_
+    std::vector<char> dirty_;                  // outputs: need a compute; inputs: need a pull from their source
+    // Per node: its own state, and its computations.
+    std::vector<std::unique_ptr<Node>> impls_;
+    std::vector<std::uint64_t> computes_;
     ValueStore store_;
     std::size_t arrayElements_ = 0;                      // input array elements allocated, all nodes
     std::vector<std::pair<NodeId, AttrId>> dirtyStack_;  // dirtyAffectedBy's, kept: it runs per plug set
+    // evaluate()'s, kept: the nodes of the plugs asked for, the nodes they need, and a flag per node (all 0
+    // between evaluations).
+    std::vector<NodeId> roots_, list_;
+    std::vector<char> needed_;
     double time_ = 0.0;
     int threads_ = 1;
     std::shared_ptr<const Schedule> schedule_;  // the model's, taken at the first evaluation after an edit

@@ -174,6 +174,14 @@ std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const st
 std::vector<Value> evaluateFrame(Graph& graph, const std::string& rigName, double frame, bool setTime,
                                  std::span<const Plug> plugs, bool check)
 {
+    std::vector<Value> values;
+    evaluateFrame(graph, rigName, frame, setTime, plugs, values, check);
+    return values;
+}
+
+void evaluateFrame(Graph& graph, const std::string& rigName, double frame, bool setTime, std::span<const Plug> plugs,
+                   std::vector<Value>& values, bool check)
+{
     if (setTime) graph.setTime(frame);
     evaluating(rigName, frame, [&] { graph.evaluate(plugs); });
     if (check) {
@@ -187,12 +195,10 @@ std::vector<Value> evaluateFrame(Graph& graph, const std::string& rigName, doubl
                             frame, list));
         }
     }
-    std::vector<Value> values;
-    values.reserve(plugs.size());
+    values.resize(plugs.size());
     evaluating(rigName, frame, [&] {
-        for (const Plug& p : plugs) values.push_back(graph.getValue(p));
+        for (std::size_t i = 0; i < plugs.size(); ++i) values[i] = graph.getValue(plugs[i]);
     });
-    return values;
 }
 
 void checkOutputSize(double bytes, std::size_t frames, std::size_t plugs)

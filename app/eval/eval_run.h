@@ -48,6 +48,9 @@ std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const st
 // the frame.
 std::vector<Value> evaluateFrame(Graph& graph, const std::string& rigName, double frame, bool setTime,
                                  std::span<const Plug> plugs, bool check = false);
+// The same into `values` (a player's loop keeps it: a frame then allocates nothing for its values).
+void evaluateFrame(Graph& graph, const std::string& rigName, double frame, bool setTime, std::span<const Plug> plugs,
+                   std::vector<Value>& values, bool check = false);
 
 // graph-eval's output and the Python module's arrays are built in memory: past this size the request is
 // refused rather than exhausting the memory. A CSV of every joint matrix of the biped over 10000 frames is

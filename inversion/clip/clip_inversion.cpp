@@ -1,6 +1,7 @@
 #include "inversion/clip/clip_inversion.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -278,12 +279,12 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     values.swap(scratch.start);
 }
 
-int solveHeldFrame(const Approximation& approximation, const HeldSolve& solveOnce, std::span<const JointTarget> targets,
+int solveHeldFrame(HeldFrameScratch& scratch, const HeldSolve& solveOnce, std::span<const JointTarget> targets,
                    std::vector<ContactHold>& holds, std::vector<double>& values, double previousCost, ChainFrame& frame)
 {
-    std::vector<JointTarget> held;
-    std::vector<Eigen::Matrix4d> worlds;
-    ChainFrame round;
+    std::vector<JointTarget>& held = scratch.held;
+    std::vector<Eigen::Matrix4d>& worlds = scratch.worlds;
+    ChainFrame& round = scratch.round;
     int updates = 0;
     for (int k = 0;; ++k) {
         applyHolds(holds, targets, held);
@@ -298,7 +299,7 @@ int solveHeldFrame(const Approximation& approximation, const HeldSolve& solveOnc
             frame.realRigEvaluations += round.realRigEvaluations;
         }
         if (frame.summary.termination == TerminationType::invalidTargets || k + 1 >= contactSolves) return updates;
-        approximation.evaluate(values, worlds);
+        scratch.evaluator.evaluate(values, worlds);
         double worst = 0.0;
         for (const ContactHold& h : holds)
             worst = std::max(worst, (worlds[static_cast<std::size_t>(h.output)].block<3, 1>(0, 3) - h.position).norm());
@@ -408,6 +409,25 @@ void measureSlides(std::span<const Contact> contacts, int frame, std::span<const
 
 }  // namespace
 
+void FrameInversion::clear()
+{
+    std::array<std::string*, 6> names{&worstJoint,   &worstRotationJoint,  &nonFiniteJoint,
+                                      &invalidJoint, &rangeLeft.parameter, &solve.worstOutput};
+    std::array<std::string, 6> kept;
+    for (std::size_t i = 0; i < names.size(); ++i) kept[i] = std::move(*names[i]);
+    std::vector<Missed> missedKept = std::move(missed);
+    std::vector<int> missedOutputsKept = std::move(solve.missedOutputs);
+    *this = FrameInversion{};
+    for (std::size_t i = 0; i < names.size(); ++i) {
+        kept[i].clear();
+        *names[i] = std::move(kept[i]);
+    }
+    missedKept.clear();
+    missed = std::move(missedKept);
+    missedOutputsKept.clear();
+    solve.missedOutputs = std::move(missedOutputsKept);
+}
+
 void judgeFrame(const Approximation& approximation, const SolverOptions& options, RealRigFit fit,
                 std::span<const JointTarget> targets, std::span<const Eigen::Matrix4d> real,
                 std::span<const Eigen::Matrix4d> modelled, FrameInversion& frame)
@@ -466,6 +486,7 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     std::vector<ContactHold> holds;
     std::vector<Eigen::Vector3d> shifts(options.contacts.size(), Eigen::Vector3d::Zero());
     std::vector<JointTarget> heldTargets;
+    HeldFrameScratch heldScratch(approximation);
     using Clock = std::chrono::steady_clock;
     for (int frame = first - summary.leadInFrames; frame <= last; ++frame) {
         const auto& frameTargets = targets.frames[frame];
@@ -479,9 +500,9 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         const double previous = restart ? retryNever : options.retryStuck ? previousCost : noRetry;
         if (restart) std::fill(shifts.begin(), shifts.end(), Eigen::Vector3d::Zero());
         if (options.holdContacts) contactHolds(options.contacts, targets, frame, shifts, holds);
-        const int rounds =
-            holds.empty() ? (solveOnce(frameTargets, current, previous, solved), 0)
-                          : solveHeldFrame(approximation, solveOnce, frameTargets, holds, current, previous, solved);
+        const int rounds = holds.empty()
+                               ? (solveOnce(frameTargets, current, previous, solved), 0)
+                               : solveHeldFrame(heldScratch, solveOnce, frameTargets, holds, current, previous, solved);
         for (const ContactHold& h : holds) shifts[static_cast<std::size_t>(h.contact)] = h.shift;
         const SolveSummary& solve = solved.summary;
         if (solve.termination != TerminationType::invalidTargets) previousCost = solve.finalCost;
@@ -505,7 +526,7 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
         result.solve = solve;
         result.realRigEvaluations = solved.realRigEvaluations;
         rig.evaluate(reported, worlds);
-        approximation.evaluate(reported, modelled);
+        heldScratch.evaluator.evaluate(reported, modelled);
         judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
         if (result.status == FrameStatus::modelMismatch)
             result.rangeLeft = rangeLeft(approximation, reported, result.mismatchOutput);

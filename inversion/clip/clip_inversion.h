@@ -94,7 +94,16 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
 // `frame` sums the solves' iterations. Returns the multiplier updates made.
 using HeldSolve = std::function<void(std::span<const JointTarget> targets, std::vector<double>& values,
                                      double previousCost, ChainFrame& frame)>;
-int solveHeldFrame(const Approximation& approximation, const HeldSolve& solveOnce, std::span<const JointTarget> targets,
+// What solveHeldFrame reuses from frame to frame (a player holds contacts every frame): the approximation's evaluator
+// and the held targets, the worlds and the later rounds' figures.
+struct HeldFrameScratch {
+    explicit HeldFrameScratch(const Approximation& approximation) : evaluator(approximation) {}
+    ApproximationEvaluator evaluator;
+    std::vector<JointTarget> held;
+    std::vector<Eigen::Matrix4d> worlds;
+    ChainFrame round;
+};
+int solveHeldFrame(HeldFrameScratch& scratch, const HeldSolve& solveOnce, std::span<const JointTarget> targets,
                    std::vector<ContactHold>& holds, std::vector<double>& values, double previousCost,
                    ChainFrame& frame);
 
@@ -233,6 +242,8 @@ struct FrameInversion {
     // Whether the real rig was measured against some target here: a frame of invalid targets was not, and its
     // errors and joints are reported as null, never as 0.
     bool measured() const { return countedJoints > 0; }
+    // Back to a new frame's figures, the names' and the list's storage kept: a player judges every frame.
+    void clear();
 };
 
 struct ClipInversionSummary {

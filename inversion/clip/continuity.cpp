@@ -64,15 +64,18 @@ ChunkShift continuityShift(const Equivalences& e, std::span<const double> previo
     return shiftToward(e, previous, first, true);
 }
 
-PoseCheck::PoseCheck(const Approximation& approximation, RigBinding* rig) : approximation_(approximation), rig_(rig) {}
+PoseCheck::PoseCheck(const Approximation& approximation, RigBinding* rig)
+    : approximation_(approximation), evaluator_(approximation), rig_(rig)
+{
+}
 
 bool PoseCheck::operator()(std::span<const double> a, std::span<const double> b)
 {
     const auto& parameters = approximation_.parameters;
     for (std::size_t p = 0; p < parameters.size() && !rig_; ++p)
         if (a[p] != b[p] && !parameters[p].unmodelledOutputs.empty()) return false;
-    approximation_.evaluate(a, first_);
-    approximation_.evaluate(b, second_);
+    evaluator_.evaluate(a, first_);
+    evaluator_.evaluate(b, second_);
     for (std::size_t k = 0; k < first_.size(); ++k)
         if (!approximation_.outputs[k].modelled) first_[k] = second_[k];  // its matrix there is not meaningful
     if (!sameWorlds(first_, second_)) return false;

@@ -51,6 +51,7 @@ public:
 
 private:
     const Approximation& approximation_;
+    ApproximationEvaluator evaluator_;
     RigBinding* rig_;
     int realRigEvaluations_ = 0;
     std::vector<Eigen::Matrix4d> first_, second_;

@@ -11,6 +11,19 @@ namespace rig {
 
 void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) const
 {
+    ApproximationEvaluator(*this).evaluate(values, worlds);
+}
+
+ApproximationEvaluator::ApproximationEvaluator(const Approximation& approximation)
+    : approximation_(&approximation), order_(approximation.outputOrder())
+{
+}
+
+void ApproximationEvaluator::evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds)
+{
+    const std::vector<ApproximationOutput>& outputs = approximation_->outputs;
+    const std::vector<ModelledParameter>& parameters = approximation_->parameters;
+    const std::vector<ConstraintBase>& constraints = approximation_->constraints;
     if (values.size() != parameters.size())
         throw internalError("Approximation::evaluate: one value per modelled parameter");
     worlds.resize(outputs.size());
@@ -18,19 +31,19 @@ void Approximation::evaluate(std::span<const double> values, std::vector<Eigen::
     // Walking the parameters outermost first and multiplying on the right composes each output's own
     // operators in order (M_k); then each output's product is its parent's followed by M_k (or its base's), and
     // the rest matrix goes last.
-    std::vector<Eigen::Matrix4d> matrices;
     for (std::size_t p = 0; p < parameters.size(); ++p) {
         const ModelledParameter& m = parameters[p];
         const double a = values[p] - m.parameter.defaultValue;
-        matrices.clear();
-        for (const Operator& op : m.operators) matrices.push_back(op.matrix(a));
+        matrices_.clear();
+        for (const Operator& op : m.operators) matrices_.push_back(op.matrix(a));
         for (std::size_t e = 0; e < m.outputs.size(); ++e)
-            worlds[static_cast<std::size_t>(m.outputs[e])] *= matrices[static_cast<std::size_t>(m.operatorOfOutput[e])];
+            worlds[static_cast<std::size_t>(m.outputs[e])] *=
+                matrices_[static_cast<std::size_t>(m.operatorOfOutput[e])];
     }
     const auto world = [&](int i) -> Eigen::Matrix4d {
         return worlds[static_cast<std::size_t>(i)] * outputs[static_cast<std::size_t>(i)].rest;
     };
-    for (const int k : outputOrder()) {
+    for (const int k : order_) {
         const ApproximationOutput& output = outputs[static_cast<std::size_t>(k)];
         Eigen::Matrix4d& product = worlds[static_cast<std::size_t>(k)];
         if (output.constraint >= 0 &&

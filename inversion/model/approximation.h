@@ -127,7 +127,8 @@ struct Approximation {
     TrainingSummary training;
 
     // World matrices of every output for these parameter values (one per entry of `parameters`,
-    // absolute, internal units). `worlds` is resized.
+    // absolute, internal units). `worlds` is resized. A caller that evaluates every frame keeps an
+    // ApproximationEvaluator instead.
     void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds) const;
     // The rest values of `parameters`.
     std::vector<double> defaults() const;
@@ -144,6 +145,21 @@ struct Approximation {
     // The outputs that move when output k does (its children, and the outputs whose constraint reads it),
     // per output.
     std::vector<std::vector<int>> dependents() const;
+};
+
+// Approximation::evaluate again and again without allocating (a player's frame, a crowd member's): the output order
+// found once, the operators' matrices reused. Made for one approximation, which must outlive it and keep its outputs
+// and constraints.
+class ApproximationEvaluator {
+public:
+    explicit ApproximationEvaluator(const Approximation& approximation);
+    const Approximation& approximation() const { return *approximation_; }
+    void evaluate(std::span<const double> values, std::vector<Eigen::Matrix4d>& worlds);
+
+private:
+    const Approximation* approximation_;
+    std::vector<int> order_;  // Approximation::outputOrder()
+    std::vector<Eigen::Matrix4d> matrices_;
 };
 
 // The rig output a blend's branch copy stands for ("LeftUpLeg" for "LeftUpLeg@ik" or "LeftUpLeg@fk", the copies

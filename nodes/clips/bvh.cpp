@@ -517,7 +517,14 @@ Eigen::Vector3d bvhTranslation(const BvhClip& clip, int joint, std::span<const d
 
 std::vector<double> bvhRigChannels(const BvhClip& clip, std::span<const double> frame)
 {
-    std::vector<double> out(frame.begin(), frame.end());
+    std::vector<double> out;
+    bvhRigChannels(clip, frame, out);
+    return out;
+}
+
+void bvhRigChannels(const BvhClip& clip, std::span<const double> frame, std::vector<double>& out)
+{
+    out.assign(frame.begin(), frame.end());
     for (std::size_t j = 0; j < clip.joints.size(); ++j) {
         const BvhJoint& joint = clip.joints[j];
         const Eigen::Vector3d t = bvhTranslation(clip, static_cast<int>(j), frame);
@@ -525,10 +532,16 @@ std::vector<double> bvhRigChannels(const BvhClip& clip, std::span<const double> 
             if (!bvhIsRotation(joint.channels[k]))
                 out[static_cast<std::size_t>(joint.firstChannel) + k] = t[bvhChannelAxis(joint.channels[k])];
     }
-    return out;
 }
 
 std::vector<double> bvhSample(const BvhClip& clip, double time)
+{
+    std::vector<double> out;
+    bvhSample(clip, time, out);
+    return out;
+}
+
+void bvhSample(const BvhClip& clip, double time, std::vector<double>& out)
 {
     const double last = static_cast<double>(clip.frameCount);
     const double t = time >= last ? last : time >= 1.0 ? time : 1.0;  // NaN holds frame 1
@@ -536,8 +549,8 @@ std::vector<double> bvhSample(const BvhClip& clip, double time)
     const int i = static_cast<int>(below) - 1;
     const double u = t - below;
     const auto a = clip.frame(i);
-    std::vector<double> out(a.begin(), a.end());
-    if (u == 0.0 || i + 1 >= clip.frameCount) return out;
+    out.assign(a.begin(), a.end());
+    if (u == 0.0 || i + 1 >= clip.frameCount) return;
     const auto b = clip.frame(i + 1);
     for (const BvhJoint& joint : clip.joints)
         for (std::size_t k = 0; k < joint.channels.size(); ++k) {
@@ -546,12 +559,18 @@ std::vector<double> bvhSample(const BvhClip& clip, double time)
             if (bvhIsRotation(joint.channels[k])) d -= 360.0 * std::floor((d + 180.0) / 360.0);
             out[c] = a[c] + u * d;
         }
-    return out;
 }
 
 std::vector<Eigen::Matrix4d> bvhWorldMatrices(const BvhClip& clip, std::span<const double> frame)
 {
-    std::vector<Eigen::Matrix4d> world(clip.joints.size());
+    std::vector<Eigen::Matrix4d> world;
+    bvhWorldMatrices(clip, frame, world);
+    return world;
+}
+
+void bvhWorldMatrices(const BvhClip& clip, std::span<const double> frame, std::vector<Eigen::Matrix4d>& world)
+{
+    world.resize(clip.joints.size());
     for (std::size_t j = 0; j < clip.joints.size(); ++j) {
         const BvhJoint& joint = clip.joints[j];
         Eigen::Matrix4d local = Eigen::Matrix4d::Identity();
@@ -562,7 +581,6 @@ std::vector<Eigen::Matrix4d> bvhWorldMatrices(const BvhClip& clip, std::span<con
                                          frame[static_cast<std::size_t>(joint.firstChannel) + k]);
         world[j] = joint.parent < 0 ? local : Eigen::Matrix4d(world[static_cast<std::size_t>(joint.parent)] * local);
     }
-    return world;
 }
 
 std::vector<Eigen::Matrix4d> bvhWorldMatrices(const BvhClip& clip, int frameIndex)

@@ -96,6 +96,7 @@ Eigen::Vector3d bvhTranslation(const BvhClip& clip, int joint, std::span<const d
 // component of the whole local translation (cm), so that a joint with translate = that value and
 // rotate = the rotation channels reproduces the BVH joint.
 std::vector<double> bvhRigChannels(const BvhClip& clip, std::span<const double> frame);
+void bvhRigChannels(const BvhClip& clip, std::span<const double> frame, std::vector<double>& out);
 
 // The motion line at a scene time in frames (1 = the first motion line). Times before 1 or after
 // frameCount clamp to the ends. Between two lines each channel is interpolated linearly; rotation
@@ -103,11 +104,13 @@ std::vector<double> bvhRigChannels(const BvhClip& clip, std::span<const double> 
 // angle passing from 179 to -179 does not spin the other way. NaN gives frame 1. Needs frameCount >= 1
 // (every clip the reader returns has it).
 std::vector<double> bvhSample(const BvhClip& clip, double time);
+void bvhSample(const BvhClip& clip, double time, std::vector<double>& out);
 
 // Forward kinematics: the world matrix of every joint (file order) for one motion line, as
 // world = parentWorld * T(translation) * R1 * ... * Rn. An End Site's world position is
-// world[joint] * (endSite, 1).
+// world[joint] * (endSite, 1). The forms with `out` resize it in place (a player's frame allocates nothing).
 std::vector<Eigen::Matrix4d> bvhWorldMatrices(const BvhClip& clip, std::span<const double> frame);
+void bvhWorldMatrices(const BvhClip& clip, std::span<const double> frame, std::vector<Eigen::Matrix4d>& out);
 std::vector<Eigen::Matrix4d> bvhWorldMatrices(const BvhClip& clip, int frameIndex);
 
 }  // namespace rig

@@ -54,7 +54,8 @@ public:
     void compute(ComputeContext& c) override
     {
         const std::string& path = c.getString(file);
-        const std::string takeName = General ? c.getString(take) : std::string();
+        static const std::string noTake;
+        const std::string& takeName = General ? c.getString(take) : noTake;
         // The parsed file is kept: it is read again only when `file` (or `take`) names another one, and so are
         // the outputs that only the file decides (the names, the frame count). A failed read leaves the node
         // as it was, so the next evaluation tries again.
@@ -75,9 +76,11 @@ public:
             c.setOutputElements(channel, {});
             return;
         }
-        const std::vector<double> values = bvhSample(clip, c.getDouble(time));
-        c.assignOutputElements(worldMatrix, bvhWorldMatrices(clip, values));
-        c.assignOutputElements(channel, bvhRigChannels(clip, values));
+        bvhSample(clip, c.getDouble(time), values_);
+        bvhWorldMatrices(clip, values_, worlds_);
+        c.assignOutputElements(worldMatrix, worlds_);
+        bvhRigChannels(clip, values_, channels_);
+        c.assignOutputElements(channel, channels_);
     }
 
 private:
@@ -92,6 +95,9 @@ private:
     std::string loadedPath_;
     std::string loadedTake_;
     std::shared_ptr<const PlayedClip> clip_;
+    // The frame's motion line, worlds and channels, kept so that a frame allocates nothing.
+    std::vector<double> values_, channels_;
+    std::vector<Eigen::Matrix4d> worlds_;
 };
 
 // The attributes the two types share; `what` names the file in the docs.

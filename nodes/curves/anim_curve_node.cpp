@@ -100,19 +100,25 @@ public:
             fromFile_ = false;
             inputs_.fallback = -1;  // rebuilt from the keys below
         }
-        KeyInputs now{c.getDoubleArray(keyTime),
-                      c.getDoubleArray(keyValue),
-                      c.getDoubleArray(keyInTangent),
-                      c.getDoubleArray(keyOutTangent),
-                      c.getDoubleArray(keyTangentVectors),
-                      c.getEnum(tangents),
-                      c.getEnum(preInfinity),
-                      c.getEnum(postInfinity),
-                      c.getBool(weightedTangents),
-                      timeDriven() ? c.getDouble(framesPerSecond) : 1.0};
+        // Read into a kept copy (no allocation once the keys stop growing), compared with what built the curve.
+        const auto copy = [&](AttrId a, std::vector<double>& into) {
+            const std::vector<double>& from = c.getDoubleArray(a);
+            into.assign(from.begin(), from.end());
+        };
+        KeyInputs& now = read_;
+        copy(keyTime, now.times);
+        copy(keyValue, now.values);
+        copy(keyInTangent, now.ins);
+        copy(keyOutTangent, now.outs);
+        copy(keyTangentVectors, now.vectors);
+        now.fallback = c.getEnum(tangents);
+        now.pre = c.getEnum(preInfinity);
+        now.post = c.getEnum(postInfinity);
+        now.weighted = c.getBool(weightedTangents);
+        now.framesPerSecond = timeDriven() ? c.getDouble(framesPerSecond) : 1.0;
         if (!(now == inputs_)) {
             curve_ = build(c, now);
-            inputs_ = std::move(now);
+            std::swap(inputs_, now);
         }
         c.setOutput(output, curve_.evaluate(c.getDouble(input)));
     }
@@ -207,7 +213,8 @@ private:
     std::string typeName_;
     double yScale_ = 1.0;  // file units (degrees) to internal ones
     AnimCurve curve_;
-    KeyInputs inputs_;
+    KeyInputs inputs_;  // what curve_ was built from
+    KeyInputs read_;    // what this compute read, kept for its storage
     std::string file_, plug_;
     bool fromFile_ = false;  // curve_ holds the file's curve
 };

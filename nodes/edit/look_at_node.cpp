@@ -46,9 +46,11 @@ class LookAtNode final : public Node {
 public:
     void compute(ComputeContext& c) override
     {
-        LookAtSettings s;
+        LookAtSettings& s = settings_;
+        s.chain.clear();
         c.forEachElement(InMatrix, [&](int, const Value& v) { s.chain.push_back(std::get<Eigen::Matrix4d>(v)); });
-        s.share = c.getDoubleArray(Share);
+        const std::vector<double>& share = c.getDoubleArray(Share);
+        s.share.assign(share.begin(), share.end());
         checkPerJoint(c, "share", s.share, s.chain.size());
         for (std::size_t k = 0; k < s.share.size(); ++k)
             if (!(s.share[k] >= 0.0 && s.share[k] <= 1.0))
@@ -56,7 +58,8 @@ public:
                     fmt::format("{}.share[{}] is {}; a share is the fraction of the remaining turn the "
                                 "joint takes, from 0 to 1",
                                 c.nodeName(), k, s.share[k]));
-        s.limit = c.getDoubleArray(Limit);
+        const std::vector<double>& limit = c.getDoubleArray(Limit);
+        s.limit.assign(limit.begin(), limit.end());
         checkPerJoint(c, "limit", s.limit, s.chain.size());
         for (std::size_t k = 0; k < s.limit.size(); ++k) {
             if (!(s.limit[k] >= 0.0))
@@ -70,20 +73,19 @@ public:
         s.weight = c.getDouble(Weight);
         s.aimAxis = c.getVector3(AimAxis);
         s.upAxis = c.getVector3(UpAxis);
+        s.worldUp.reset();
         if (c.getEnum(UpMode) == World) s.worldUp = c.getVector3(WorldUp);
-        const LookAtResult r = lookAtChain(s);
-
+        lookAtChain(s, result_);
         // Output k is the chain's joint k: outputs as many as the joints given, however sparse their indices.
-        std::vector<Value> world, delta, turn;
-        for (std::size_t k = 0; k < s.chain.size(); ++k) {
-            world.emplace_back(r.world[k]);
-            delta.emplace_back(r.delta[k]);
-            turn.emplace_back(r.turn[k]);
-        }
-        c.setOutputElements(OutMatrix, std::move(world));
-        c.setOutputElements(DeltaMatrix, std::move(delta));
-        c.setOutputElements(Turn, std::move(turn));
+        c.assignOutputElements(OutMatrix, result_.world);
+        c.assignOutputElements(DeltaMatrix, result_.delta);
+        c.assignOutputElements(Turn, result_.turn);
     }
+
+private:
+    // Kept from frame to frame, so that a frame allocates nothing (a crowd turns every member's head).
+    LookAtSettings settings_;
+    LookAtResult result_;
 };
 
 void declareInputs(NodeTypeBuilder& b)

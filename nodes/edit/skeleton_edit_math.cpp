@@ -51,11 +51,11 @@ double shareOf(const LookAtSettings& s, std::size_t k)
 
 // The full edit (weight 1): joint k's turn, expressed in the input pose (about its input pivot, its axis
 // pulled back through the turns of the joints before it), root first.
-std::vector<Eigen::AngleAxisd> fullTurns(const LookAtSettings& s)
+void fullTurns(const LookAtSettings& s, std::vector<Eigen::AngleAxisd>& turns)
 {
     const std::size_t m = s.chain.size();
     const Eigen::Matrix3d lastInput = s.chain.back().topLeftCorner<3, 3>();
-    std::vector<Eigen::AngleAxisd> turns(m, Eigen::AngleAxisd(0.0, Eigen::Vector3d::UnitX()));
+    turns.assign(m, Eigen::AngleAxisd(0.0, Eigen::Vector3d::UnitX()));
     Eigen::Matrix4d carried = Eigen::Matrix4d::Identity();  // the rigid motion of the turns so far
     for (std::size_t k = 0; k < m; ++k) {
         const Eigen::Matrix3d carriedAxes = carried.topLeftCorner<3, 3>();
@@ -87,7 +87,6 @@ std::vector<Eigen::AngleAxisd> fullTurns(const LookAtSettings& s)
         turns[k] = Eigen::AngleAxisd(Eigen::Matrix3d(carriedAxes.transpose() * turn * carriedAxes));
         carried = rotationAbout(turn, pivot) * carried;
     }
-    return turns;
 }
 
 }  // namespace
@@ -98,13 +97,15 @@ Eigen::Matrix3d scaledRotation(const Eigen::Matrix3d& rotation, double fraction)
     return Eigen::AngleAxisd(fraction * angleAxis.angle(), angleAxis.axis()).toRotationMatrix();
 }
 
-LookAtResult lookAtChain(const LookAtSettings& s)
+void lookAtChain(const LookAtSettings& s, LookAtResult& result)
 {
     const std::size_t m = s.chain.size();
-    LookAtResult result{s.chain, std::vector<Eigen::Matrix4d>(m, Eigen::Matrix4d::Identity()),
-                        std::vector<double>(m, 0.0)};
+    result.world.assign(s.chain.begin(), s.chain.end());
+    result.delta.assign(m, Eigen::Matrix4d::Identity());
+    result.turn.assign(m, 0.0);
+    result.fullTurn.clear();
     const double weight = s.weight > 0.0 ? std::min(s.weight, 1.0) : 0.0;
-    if (m == 0 || weight == 0.0) return result;
+    if (m == 0 || weight == 0.0) return;
     // A target or an up that is not finite gives no direction. The unedited chain would pass for a target
     // straight ahead (what a rigInversion node downstream solves for, exit 0): NaN is taken through instead.
     if (!s.target.allFinite() || (s.worldUp && !s.worldUp->allFinite())) {
@@ -112,9 +113,10 @@ LookAtResult lookAtChain(const LookAtSettings& s)
         std::fill(result.world.begin(), result.world.end(), Eigen::Matrix4d::Constant(nan));
         std::fill(result.delta.begin(), result.delta.end(), Eigen::Matrix4d::Constant(nan));
         std::fill(result.turn.begin(), result.turn.end(), nan);
-        return result;
+        return;
     }
-    const std::vector<Eigen::AngleAxisd> turns = fullTurns(s);
+    std::vector<Eigen::AngleAxisd>& turns = result.fullTurn;
+    fullTurns(s, turns);
     // Weighted: each joint turns by weight times its angle about its own axis, re-composed root first, so
     // every later joint keeps its transform relative to the one before it.
     Eigen::Matrix4d composed = Eigen::Matrix4d::Identity();
@@ -125,7 +127,6 @@ LookAtResult lookAtChain(const LookAtSettings& s)
         result.world[k] = composed * s.chain[k];
         result.turn[k] = weight * turns[k].angle();
     }
-    return result;
 }
 
 Eigen::Matrix4d offsetMatrix(const Eigen::Matrix4d& matrix, const Eigen::Vector3d& rotateRadians, RotateOrder order,

@@ -33,11 +33,13 @@ struct LookAtResult {
     // delta[k] * chain[k] = world[k]: the rigid motion of joint k's frame, which also carries anything
     // parented under joint k.
     std::vector<Eigen::Matrix4d> delta;
-    std::vector<double> turn;  // each joint's own turn, radians (weight included)
+    std::vector<double> turn;                 // each joint's own turn, radians (weight included)
+    std::vector<Eigen::AngleAxisd> fullTurn;  // each joint's own turn at weight 1
 };
 
-// Sizes of share and limit must be 0 or chain.size(), and their values in range (the node checks them).
-LookAtResult lookAtChain(const LookAtSettings& settings);
+// Sizes of share and limit must be 0 or chain.size(), and their values in range (the node checks them). The
+// result's lists are resized in place: a node that looks every frame keeps one result and allocates nothing.
+void lookAtChain(const LookAtSettings& settings, LookAtResult& result);
 
 enum class OffsetSpace { local = 0, world = 1 };
 

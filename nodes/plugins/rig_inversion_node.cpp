@@ -171,9 +171,9 @@ public:
         const std::string node(c.nodeName());
         load(c, node);
         const Approximation& a = *loaded_->approximation;
-        const std::vector<JointTarget> targets = targetsOf(c, a);
-        solve(c, node, targets);
-        c.setOutput(status, static_cast<int>(judge(targets)));
+        targetsOf(c, a, targets_);
+        solve(c, node, targets_);
+        c.setOutput(status, static_cast<int>(judge(targets_)));
         c.setOutput(statusOnRealRig, binding_ != nullptr);
         writeOutputs(c, a);
     }
@@ -200,6 +200,8 @@ private:
             loaded_->options.threads != options.threads || loaded_->options.partition != options.partition) {
             dropRealRig();
             loaded_ = sharedModel(path, options, node);
+            held_.emplace(*loaded_->approximation);
+            rest_ = loaded_->approximation->defaults();
             mapStale = true;  // its weights name the outputs of the model just read
             // A warm start is kept across new solver settings, unless the file changed under it.
             if (newFile || solution_.size() != loaded_->approximation->parameters.size()) solution_.clear();
@@ -267,11 +269,11 @@ private:
         }
     }
 
-    // The connected targets, scaled to cm, with their weights (the map's times the node's attributes'); those past
-    // the outputs reach nothing.
-    std::vector<JointTarget> targetsOf(ComputeContext& c, const Approximation& a) const
+    // The connected targets, scaled to cm, with their weights (the map's times the node's attributes'), into
+    // `targets`; those past the outputs reach nothing.
+    void targetsOf(ComputeContext& c, const Approximation& a, std::vector<JointTarget>& targets) const
     {
-        std::vector<JointTarget> targets(a.outputs.size());
+        targets.assign(a.outputs.size(), JointTarget{});
         const ResidualTerm& term = targetTerm(c.getString(residualTermName), c.nodeName());
         const double rotation = c.getDouble(rotationWeight);
         c.forEachElement(target, [&](int k, const Value& v) {
@@ -286,7 +288,6 @@ private:
         c.forEachElement(targetWeight, [&](int k, const Value& v) {
             if (k < static_cast<int>(targets.size())) targets[k].positionWeight *= std::get<double>(v);
         });
-        return targets;
     }
 
     // The frame solved from where the warm-start rule (top of the file) starts it, into solution_, and shifted as
@@ -307,7 +308,7 @@ private:
         else if (solution_.empty() || t != previousTime_) before_.clear();
         const bool chainStart = solution_.empty() || restartFrame || !(t == previousTime_ || t == previousTime_ + 1.0);
         if (chainStart) {
-            start_ = a.defaults();
+            start_ = rest_;
             if (c.getBool(coldStart)) loaded_->solver->initialGuess(targets, start_);
             startCost_ = retryNever;  // a restart is not retried, as in rig-invert
             std::fill(startShifts_.begin(), startShifts_.end(), Eigen::Vector3d::Zero());
@@ -330,7 +331,7 @@ private:
         };
         contactHoldsAt(t, targets);
         if (frameHolds_.empty()) solveOnce(targets, solution_, startCost_, frame_);
-        else solveHeldFrame(a, solveOnce, targets, frameHolds_, solution_, startCost_, frame_);
+        else solveHeldFrame(*held_, solveOnce, targets, frameHolds_, solution_, startCost_, frame_);
         for (const ContactHold& held : frameHolds_) shifts_[static_cast<std::size_t>(held.contact)] = held.shift;
         const SolveSummary& summary = frame_.summary;
         solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
@@ -339,10 +340,11 @@ private:
         // A chain after a restart frame played in order meets the frame before it, as rig-invert reports it.
         // The shift is checked on the real rig where the node has one (`rig`), on the approximation otherwise.
         const Equivalences& equivalences = loaded_->solver->equivalences();
-        PoseCheck samePose(a, binding_.get());
-        if (chainStart)
-            shift_ = before_.empty() ? noShift(equivalences)
-                                     : checkedContinuityShift(equivalences, before_, solution_, &samePose);
+        if (chainStart && before_.empty()) shift_ = noShift(equivalences);
+        else if (chainStart) {
+            PoseCheck samePose(a, binding_.get());
+            shift_ = checkedContinuityShift(equivalences, before_, solution_, &samePose);
+        }
         reported_.resize(solution_.size());
         applyShift(equivalences, shift_, solution_, reported_);
     }
@@ -385,13 +387,13 @@ private:
     FrameStatus judge(std::span<const JointTarget> targets)
     {
         const Approximation& a = *loaded_->approximation;
-        FrameInversion judged;
-        judged.solve = frame_.summary;
-        a.evaluate(reported_, modelled_);
+        judged_.clear();
+        judged_.solve = frame_.summary;
+        held_->evaluator.evaluate(reported_, modelled_);
         if (binding_) binding_->evaluate(reported_, real_);
         judgeFrame(a, loaded_->options, hybridSolved_ ? RealRigFit::unmodelledOutputs : RealRigFit::none, targets,
-                   binding_ ? real_ : modelled_, modelled_, judged);
-        return judged.status;
+                   binding_ ? real_ : modelled_, modelled_, judged_);
+        return judged_.status;
     }
 
     // The node's own instance of the rig file `rig` (relative to the rig file that names the node; in the
@@ -479,6 +481,12 @@ private:
     std::vector<ContactHold> frameHolds_;
     std::vector<double> before_;  // reported_ of the frame before, when played in order; empty otherwise
     std::vector<Eigen::Matrix4d> modelled_, real_;  // the approximation's and the real rig's outputs at reported_
+    // Kept from frame to frame, so that a frame allocates nothing: the targets, the rest values, the frame's judgement,
+    // and the contacts' scratch with the approximation's evaluator (made with loaded_).
+    std::vector<JointTarget> targets_;
+    std::vector<double> rest_;  // the approximation's defaults
+    FrameInversion judged_;
+    std::optional<HeldFrameScratch> held_;
 };
 
 // connect: {targets: NODE_OR_GLOB, parameters: true, namespace: NS}
