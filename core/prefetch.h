@@ -3,7 +3,7 @@
 // another (a crowd's trees) is fetched into the cache while the current one is solved.
 
 #include <cstddef>
-#include <vector>
+#include <iterator>
 
 namespace rig {
 
@@ -14,10 +14,11 @@ inline void prefetchBytes(const void* data, std::size_t bytes)
     for (std::size_t i = 0; i < bytes; i += 64) __builtin_prefetch(p + i, 1, 3);
 }
 
-template <class T>
-void prefetch(const std::vector<T>& v)
+// Every cache line of a contiguous container's elements (a std::vector, whatever its allocator).
+template <class Container>
+void prefetch(const Container& v)
 {
-    prefetchBytes(v.data(), v.size() * sizeof(T));
+    prefetchBytes(std::data(v), std::size(v) * sizeof(*std::data(v)));
 }
 
 }  // namespace rig

@@ -63,7 +63,7 @@ void FlowExecutor::run(const std::vector<char>& active, const std::function<void
 }
 
 void FlowExecutor::runActive(std::vector<int>& nodes, const std::vector<char>& active,
-                             const std::function<void(int)>& body, const std::function<void(int)>& prefetch)
+                             const std::function<void(int)>& body, const std::function<void(int, bool)>& prefetch)
 {
     const auto& rank = schedule_->rank();
     std::sort(nodes.begin(), nodes.end(),
@@ -84,13 +84,13 @@ void FlowExecutor::runActive(std::vector<int>& nodes, const std::vector<char>& a
     body_ = &body;
     error_ = nullptr;
     arena_.execute([&] {
-        constexpr std::size_t ahead = 2;
         for (std::size_t l = 0; l < used; ++l) {
             const std::vector<int>& level = levels[l];
             tbb::parallel_for(tbb::blocked_range<std::size_t>(0, level.size()),
                               [&](const tbb::blocked_range<std::size_t>& r) {
                                   for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                                      if (i + ahead < r.end()) prefetch(level[i + ahead]);
+                                      if (i + recordsAhead < r.end()) prefetch(level[i + recordsAhead], true);
+                                      if (i + nodesAhead < r.end()) prefetch(level[i + nodesAhead], false);
                                       runBody(level[i]);
                                   }
                               });

@@ -34,9 +34,11 @@ public:
     // The same for the active nodes `nodes` only, level by level (a node's level: one more than its active
     // predecessors' highest), each level's nodes in parallel: a frame that needs a small part of a large
     // graph (a crowd's curves) costs what it computes, where run() passes a message along every edge.
-    // prefetch(node) is called a little ahead of body(node), on the same thread. Sorts `nodes` in the schedule's order.
+    // prefetch(node, true) is called recordsAhead nodes ahead of body(node) on the same thread, prefetch(node, false)
+    // nodesAhead (Graph::prefetchRecords and prefetchNode). Sorts `nodes` in the schedule's order.
+    static constexpr std::size_t recordsAhead = 8, nodesAhead = 3;
     void runActive(std::vector<int>& nodes, const std::vector<char>& active, const std::function<void(int)>& body,
-                   const std::function<void(int)>& prefetch);
+                   const std::function<void(int, bool)>& prefetch);
 
 private:
     std::shared_ptr<const Schedule> schedule_;

@@ -58,6 +58,13 @@ void Graph::resetState()
     }
 }
 
+void Graph::compact()
+{
+    // A copy of the model is made in node order; a model this instance alone holds is compacted where it is.
+    if (model_.use_count() > 1) editModel();
+    else model_->compactLists();
+}
+
 GraphModel& Graph::editModel()
 {
     // Shared with other instances: this one takes its own copy, theirs stays as it is.
@@ -353,7 +360,8 @@ void Graph::evaluateNodes(std::span<const NodeId> roots)
         // through the flow graph, whose messages then cost less than the levels' barriers.
         if (list.size() * 4 < static_cast<std::size_t>(nodeCount()))
             flow_->runActive(
-                list, needed_, [this](int n) { processNode(n); }, [this](int n) { prefetchNode(n); });
+                list, needed_, [this](int n) { processNode(n); },
+                [this](int n, bool records) { records ? prefetchRecords(n) : prefetchNode(n); });
         else flow_->run(needed_, [this](int n) { processNode(n); });
         return;
     }
@@ -362,9 +370,9 @@ void Graph::evaluateNodes(std::span<const NodeId> roots)
     });
     // The nodes of a crowd's frame are far apart in memory and each reached through several lists: the next ones'
     // are fetched while this one computes.
-    constexpr std::size_t ahead = 2;
     for (std::size_t i = 0; i < list.size(); ++i) {
-        if (i + ahead < list.size()) prefetchNode(list[i + ahead]);
+        if (i + FlowExecutor::recordsAhead < list.size()) prefetchRecords(list[i + FlowExecutor::recordsAhead]);
+        if (i + FlowExecutor::nodesAhead < list.size()) prefetchNode(list[i + FlowExecutor::nodesAhead]);
         processNode(list[i]);
     }
 }
@@ -428,13 +436,18 @@ void Graph::pull(const Connection& c)
     else writeStored(c.destination, pulledValue(c));
 }
 
-void Graph::prefetchNode(NodeId node) const
+void Graph::prefetchRecords(NodeId node) const
 {
-    const GraphModel::NodeTopology& top = model_->topology(node);
     const std::size_t first = firstAttr_[static_cast<std::size_t>(node)], count = attributeCount(node);
-    prefetch(top.incoming);
+    prefetchBytes(&model_->topology(node), sizeof(GraphModel::NodeTopology));
     prefetchBytes(dirty_.data() + first, count);
     prefetchBytes(slots_.data() + first, count * sizeof(ValueStore::Slot));
+    prefetchBytes(&impls_[static_cast<std::size_t>(node)], sizeof(impls_[0]));
+}
+
+void Graph::prefetchNode(NodeId node) const
+{
+    prefetch(model_->topology(node).incoming);
     prefetchBytes(impls_[static_cast<std::size_t>(node)].get(), 1);  // its virtual table's address
 }
 

@@ -108,6 +108,10 @@ public:
     std::uint64_t computeCount() const;
     std::uint64_t computeCount(NodeId node) const;
 
+    // Lays the model's lists out in node order (GraphModel::compactLists), a shared model in this instance's own
+    // copy: the loaders call it once a graph is built, before its frames are played.
+    void compact();
+
     // Marks every output and every connected input dirty, as if nothing had been computed.
     void dirtyAll();
     // Gaffer-style checked mode: evaluates everything, recomputes everything from scratch, and returns
@@ -150,6 +154,10 @@ private:
     // Computes what `roots` need (roots may be roots_).
     void evaluateNodes(std::span<const NodeId> roots);
     void processNode(NodeId node);
+    // A node about to be processed, fetched in two steps (FlowExecutor::recordsAhead and nodesAhead nodes ahead, serial
+    // or not): its records (the model's and the instance's), then what they point to (its incoming list, its Node
+    // object) once they have arrived.
+    void prefetchRecords(NodeId node) const;
     void prefetchNode(NodeId node) const;
 
     std::shared_ptr<GraphModel> model_;

@@ -48,8 +48,30 @@ std::string typeDescription(const AttributeSpec& spec, int child)
 GraphModel::GraphModel(std::shared_ptr<NodeRegistry> registry) : registry_(std::move(registry)) {}
 
 GraphModel::GraphModel(const GraphModel& other)
-    : registry_(other.registry_), nodes_(other.nodes_), nodeIndex_(other.nodeIndex_), connections_(other.connections_)
+    : registry_(other.registry_), nodeIndex_(other.nodeIndex_), connections_(other.connections_)
 {
+    nodes_.reserve(other.nodes_.size());
+    for (const NodeTopology& rec : other.nodes_)
+        nodes_.push_back({rec.name,
+                          rec.type,
+                          rec.ownSpecs,
+                          {rec.incoming.begin(), rec.incoming.end(), lists_.get()},
+                          {rec.outgoing.begin(), rec.outgoing.end(), lists_.get()}});
+}
+
+void GraphModel::compactLists()
+{
+    auto lists = std::make_unique<std::pmr::monotonic_buffer_resource>();
+    std::vector<NodeTopology> compact;
+    compact.reserve(nodes_.size());
+    for (NodeTopology& rec : nodes_)
+        compact.push_back({std::move(rec.name),
+                           std::move(rec.type),
+                           std::move(rec.ownSpecs),
+                           {rec.incoming.begin(), rec.incoming.end(), lists.get()},
+                           {rec.outgoing.begin(), rec.outgoing.end(), lists.get()}});
+    nodes_ = std::move(compact);  // the vector's block changes hands: each list keeps the new arena
+    lists_ = std::move(lists);    // the old blocks go, now that no list is in them
 }
 
 NodeId GraphModel::addNode(std::string_view typeName, std::string_view name)
@@ -68,11 +90,9 @@ NodeId GraphModel::addNode(std::string_view typeName, std::string_view name)
             fmt::format("more than {} nodes; this is not a rig (check includes that multiply, e.g. a file "
                         "included twice at every level)",
                         maxNodes));
-    NodeTopology rec;
-    rec.name = std::string(name);
-    rec.type = type;
-    nodeIndex_.emplace(rec.name, static_cast<NodeId>(nodes_.size()));
-    nodes_.push_back(std::move(rec));
+    nodeIndex_.emplace(std::string(name), static_cast<NodeId>(nodes_.size()));
+    nodes_.push_back({std::string(name), type, nullptr, std::pmr::vector<Connection>(lists_.get()),
+                      std::pmr::vector<NodeTopology::Edge>(lists_.get())});
     topologyChanged();
     return static_cast<NodeId>(nodes_.size() - 1);
 }
@@ -299,7 +319,7 @@ void GraphModel::connect(const Plug& src, const Plug& dst, bool convertUnits)
     }
     connections_.push_back({src, dst, !convertUnits});
     const int ci = static_cast<int>(connections_.size() - 1);
-    std::vector<NodeTopology::Edge>& out = nodes_[static_cast<std::size_t>(src.node)].outgoing;
+    std::pmr::vector<NodeTopology::Edge>& out = nodes_[static_cast<std::size_t>(src.node)].outgoing;
     const auto after = std::upper_bound(out.begin(), out.end(), src.attr,
                                         [](AttrId a, const NodeTopology::Edge& e) { return a < e.from; });
     out.insert(after, {src.attr, dst.node, dst.attr, ci});

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <memory_resource>
 #include <mutex>
 #include <span>
 #include <string>
@@ -44,10 +45,10 @@ public:
         };
         // The connections into this node, copies of connections()' entries, in their order: a frame pulls each,
         // node by node, and the list stays with its node instead of reaching across the whole graph's.
-        std::vector<Connection> incoming;
+        std::pmr::vector<Connection> incoming;
         // Sorted by `from`, the destinations inline, in one list: the push walks them over the whole downstream of
         // the scene time every frame.
-        std::vector<Edge> outgoing;
+        std::pmr::vector<Edge> outgoing;
 
         const std::vector<AttributeSpec>& specs() const { return ownSpecs ? *ownSpecs : type->attributes(); }
         const AttributeSpec& spec(AttrId a) const { return specs()[static_cast<std::size_t>(a)]; }
@@ -106,6 +107,11 @@ public:
     // The connection driving `destination` (or a component or parent of it), if any.
     const Connection* incomingConnection(const Plug& destination) const;
 
+    // Every node's lists made again one after the other, in node order, in one block: what a frame walks node by
+    // node then lies together, a crowd member's after the one before it, in place of blocks spread over the heap
+    // among the loader's (a loader calls it once the graph is built). Not while another thread reads the model.
+    void compactLists();
+
     // The evaluation order, built on first use after the topology changed (thread-safe).
     std::shared_ptr<const Schedule> schedule() const;
     // The plugs that take the scene time (AttributeSpec::sceneTime) and have no incoming connection, built on first
@@ -117,6 +123,10 @@ private:
     void topologyChanged();
 
     std::shared_ptr<NodeRegistry> registry_;
+    // Where the nodes' lists are allocated: in order, never freed until compactLists or the model goes (a list that
+    // grows leaves its old block behind), so that lists made together lie together. Before nodes_, which uses it.
+    std::unique_ptr<std::pmr::monotonic_buffer_resource> lists_ =
+        std::make_unique<std::pmr::monotonic_buffer_resource>();
     std::vector<NodeTopology> nodes_;
     std::unordered_map<std::string, NodeId> nodeIndex_;  // name -> node: loading stays linear in size
     std::vector<Connection> connections_;

@@ -705,6 +705,7 @@ std::unique_ptr<Graph> loadGraph(std::string_view text, const std::string& fileN
     LoadState state{{}, {std::filesystem::weakly_canonical(fileName, ec)}, filesRead, 0, text.size(), {}};
     Loader(fileName, *graph, "", state).load(text);
     for (const auto& d : state.deferred) (*d.connector)(*graph, d.node, d.value, YamlFieldContext{d.where});
+    graph->compact();
     return graph;
 }
 

@@ -48,6 +48,7 @@ std::unique_ptr<Graph> Builder::build()
     info_.nodes = graph_->nodeCount();
     info_.connections = static_cast<int>(graph_->connections().size());
     graph_->setTime(info_.savedTime);
+    graph_->compact();
     return std::move(graph_);
 }
 
