@@ -68,11 +68,13 @@ std::vector<std::string> infinityNames()
 // when one of them changes (the input changes every frame, the keys seldom).
 struct KeyInputs {
     std::vector<double> times, values, ins, outs, vectors;
-    int fallback = -1, pre = -1, post = -1;
-    bool weighted = false;
-    double framesPerSecond = 0.0;
-
-    bool operator==(const KeyInputs&) const = default;
+    // The settings, apart from the keys: compared on their own.
+    struct Settings {
+        int fallback = -1, pre = -1, post = -1;
+        bool weighted = false;
+        double framesPerSecond = 0.0;
+        bool operator==(const Settings&) const = default;
+    } settings;
 };
 
 class AnimCurveNode : public Node {
@@ -98,27 +100,20 @@ public:
         }
         if (fromFile_) {
             fromFile_ = false;
-            inputs_.fallback = -1;  // rebuilt from the keys below
+            inputs_.settings.fallback = -1;  // rebuilt from the keys below
         }
-        // Read into a kept copy (no allocation once the keys stop growing), compared with what built the curve.
-        const auto copy = [&](AttrId a, std::vector<double>& into) {
-            const std::vector<double>& from = c.getDoubleArray(a);
-            into.assign(from.begin(), from.end());
-        };
-        KeyInputs& now = read_;
-        copy(keyTime, now.times);
-        copy(keyValue, now.values);
-        copy(keyInTangent, now.ins);
-        copy(keyOutTangent, now.outs);
-        copy(keyTangentVectors, now.vectors);
-        now.fallback = c.getEnum(tangents);
-        now.pre = c.getEnum(preInfinity);
-        now.post = c.getEnum(postInfinity);
-        now.weighted = c.getBool(weightedTangents);
-        now.framesPerSecond = timeDriven() ? c.getDouble(framesPerSecond) : 1.0;
-        if (!(now == inputs_)) {
-            curve_ = build(c, now);
-            std::swap(inputs_, now);
+        // Compared where they are with what built the curve, and copied only when they differ (a frame then
+        // allocates nothing, and the node holds one copy of its keys).
+        const KeyInputs::Settings now = readSettings(c);
+        const auto same = [&](AttrId a, const std::vector<double>& kept) { return c.getDoubleArray(a) == kept; };
+        if (!(same(keyTime, inputs_.times) && same(keyValue, inputs_.values) && same(keyInTangent, inputs_.ins) &&
+              same(keyOutTangent, inputs_.outs) && same(keyTangentVectors, inputs_.vectors) &&
+              now == inputs_.settings)) {
+            KeyInputs read{c.getDoubleArray(keyTime),           c.getDoubleArray(keyValue),
+                           c.getDoubleArray(keyInTangent),      c.getDoubleArray(keyOutTangent),
+                           c.getDoubleArray(keyTangentVectors), now};
+            curve_ = build(c, read);
+            inputs_ = std::move(read);
         }
         c.setOutput(output, curve_.evaluate(c.getDouble(input)));
     }
@@ -174,7 +169,7 @@ private:
         const double t = i < types.size() ? types[i] : -1.0;
         if (t != -1.0 && (t != std::floor(t) || t < 0 || t >= keyTangentTypeCount))
             throw Error(fmt::format("node '{}': {}[{}] = {} is not a tangent type index", c.nodeName(), what, i, t));
-        const TangentType type = static_cast<TangentType>(t == -1.0 ? k.fallback : static_cast<int>(t));
+        const TangentType type = static_cast<TangentType>(t == -1.0 ? k.settings.fallback : static_cast<int>(t));
         const std::size_t at = vectorIndex(i, in, true);
         const double x = at < k.vectors.size() ? k.vectors[at] : notGiven;
         const double y = at + 1 < k.vectors.size() ? k.vectors[at + 1] : notGiven;
@@ -185,7 +180,7 @@ private:
                             "fixed tangent's x is > 0 (0: not fixed)",
                             c.nodeName(), at, x, i, in ? "in" : "out"));
         // Maya's tangent x is in seconds on a time-driven curve; keys are in frames.
-        return {TangentType::fixed, TangentVector{x * (timeDriven() ? k.framesPerSecond : 1.0), y}};
+        return {TangentType::fixed, TangentVector{x * (timeDriven() ? k.settings.framesPerSecond : 1.0), y}};
     }
 
     AnimCurve build(const ComputeContext& c, const KeyInputs& k) const
@@ -200,8 +195,8 @@ private:
             keys.push_back({k.times[i], k.values[i], inType, outType, inVector, outVector});
         }
         try {
-            return AnimCurve::build(std::move(keys), static_cast<Infinity>(k.pre), static_cast<Infinity>(k.post),
-                                    k.weighted);
+            return AnimCurve::build(std::move(keys), static_cast<Infinity>(k.settings.pre),
+                                    static_cast<Infinity>(k.settings.post), k.settings.weighted);
         }
         catch (const Error& e) {
             throw e.in(fmt::format("node '{}'", c.nodeName()));
@@ -209,12 +204,17 @@ private:
     }
 
     bool timeDriven() const { return typeName_[9] == 'T'; }
+    // The curve's settings, its keys aside.
+    KeyInputs::Settings readSettings(const ComputeContext& c) const
+    {
+        return {c.getEnum(tangents), c.getEnum(preInfinity), c.getEnum(postInfinity), c.getBool(weightedTangents),
+                timeDriven() ? c.getDouble(framesPerSecond) : 1.0};
+    }
 
     std::string typeName_;
     double yScale_ = 1.0;  // file units (degrees) to internal ones
     AnimCurve curve_;
     KeyInputs inputs_;  // what curve_ was built from
-    KeyInputs read_;    // what this compute read, kept for its storage
     std::string file_, plug_;
     bool fromFile_ = false;  // curve_ holds the file's curve
 };
