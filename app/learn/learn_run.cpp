@@ -255,6 +255,7 @@ Json outputsJson(const Approximation& a)
                               {"goal", nameOf(c.goal)},
                               {"pole", nameOf(c.pole)},
                               {"world_up", c.worldUp},
+                              {"pole_turns", c.poleTurns},
                               {"knots", c.shape.rigid.knots().size()}};
         }
         outputs.push_back({{"name", o.name},

@@ -496,7 +496,7 @@ double upMisfit(const Eigen::Vector3d& u, const std::vector<Eigen::Vector3d>& ai
 }  // namespace
 
 bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, int goal,
-                                const std::vector<Pose>& poses, bool inWorld, Eigen::Vector3d& up) const
+                                const std::vector<Pose>& poses, int carrier, Eigen::Vector3d& up) const
 {
     const auto& rest = probe_.rest();
     const auto at = [](const std::vector<Eigen::Matrix4d>& w, int i) { return w[static_cast<std::size_t>(i)]; };
@@ -507,7 +507,10 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
         const Eigen::Matrix4d motion =
             anchor < 0 ? Eigen::Matrix4d(Eigen::Matrix4d::Identity())
                        : Eigen::Matrix4d(at(pose.worlds, anchor) * rest[static_cast<std::size_t>(anchor)].inverse());
-        const Eigen::Matrix3d frame = inWorld ? Eigen::Matrix3d::Identity() : polarRotation(motion.block<3, 3>(0, 0));
+        const Eigen::Matrix3d frame =
+            carrier < 0 ? Eigen::Matrix3d::Identity()
+                        : polarRotation(at(pose.worlds, carrier).block<3, 3>(0, 0) *
+                                        rest[static_cast<std::size_t>(carrier)].block<3, 3>(0, 0).inverse());
         const Eigen::Vector3d r = motion.block<3, 3>(0, 0) * root + motion.block<3, 1>(0, 3);
         aims.push_back(frame.transpose() * (at(pose.worlds, goal).block<3, 1>(0, 3) - r).normalized());
         turns.push_back(frame.transpose() *
@@ -557,6 +560,14 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
     // epsilon but not to rounding is the rig's plane approximated (a point along a world axis a degree off a pole-less
     // chain's rest normal: 2e-4 cm per unit): the closest such is kept in case no later one is exact.
     std::optional<std::pair<ConstraintBase, double>> within;
+    // The outputs whose turns may carry a pole vector: the goal and the other helpers, where a parameter moves them.
+    const auto turningPoles = [&](int goal, const std::vector<int>& movedHelpers) {
+        std::vector<int> carriers;
+        for (const int h : movedHelpers)
+            if (h != goal && !moversOf(h).empty()) carriers.push_back(h);
+        if (!moversOf(goal).empty()) carriers.insert(carriers.begin(), goal);
+        return carriers;
+    };
     for (int pass = 0; pass < 2; ++pass)
         for (const int goal : goals) {
             const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
@@ -564,10 +575,12 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
             // the chain's joints at rest).
             std::vector<ConstraintBase> poles;
             const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
-                                    bool worldUp = false) {
+                                    bool worldUp = false, bool turns = false) {
                 ConstraintBase base;
                 base.worldUp = worldUp;
                 base.pole = pole;
+                base.poleTurns = turns;
+                if (turns) base.poleRest = rest[static_cast<std::size_t>(pole)].block<3, 3>(0, 0);
                 base.restPole = point;
                 base.restPlane = normal.squaredNorm() > 0.0;
                 base.restNormal = normal;
@@ -590,10 +603,11 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                     const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
                     closest.what =
                         fmt::format("a planar chain (goal {}, pole {}{})", names[static_cast<std::size_t>(goal)],
-                                    base.restPlane ? "none (the rest plane of " + fixedTo + ")"
-                                    : base.worldUp ? std::string("a world up")
-                                    : pole < 0     ? "fixed to " + fixedTo
-                                                   : names[static_cast<std::size_t>(pole)],
+                                    base.restPlane   ? "none (the rest plane of " + fixedTo + ")"
+                                    : base.worldUp   ? std::string("a world up")
+                                    : pole < 0       ? "fixed to " + fixedTo
+                                    : base.poleTurns ? "turned by " + names[static_cast<std::size_t>(pole)]
+                                                     : names[static_cast<std::size_t>(pole)],
                                     orient < 0 ? "" : ", turning as " + names[static_cast<std::size_t>(orient)]);
                 }
                 poles.clear();
@@ -613,10 +627,21 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
             const double length = std::max(1.0, (restGoal - rootRest).norm());
             for (const bool inWorld : {false, true}) {
                 Eigen::Vector3d up;
-                if (fittedUp(k, anchor, rootRest, goal, poses(varied, 0, rangePoses), inWorld, up))
+                if (fittedUp(k, anchor, rootRest, goal, poses(varied, 0, rangePoses), inWorld ? -1 : anchor, up))
                     choice(-1, rootRest + length * up, Eigen::Vector3d::Zero(), inWorld);
             }
-            for (const Eigen::Vector3d& normal : restNormals(root, rootRest, restGoal)) choice(-1, rootRest, normal);
+            const std::vector<Eigen::Vector3d> normals = restNormals(root, rootRest, restGoal);
+            // A pole vector in the axes of the goal or of a helper moved with it (a mayaIkHandle's, kept in the
+            // space of the foot it hangs under): fitted from the poses, or across the line in a rest plane.
+            const Eigen::Vector3d x0 = (restGoal - rootRest).normalized();
+            for (const int carrier : turningPoles(goal, helpers)) {
+                Eigen::Vector3d up;
+                if (fittedUp(k, anchor, rootRest, goal, poses(varied, 0, rangePoses), carrier, up))
+                    choice(carrier, rootRest + length * up, Eigen::Vector3d::Zero(), false, true);
+                for (const Eigen::Vector3d& normal : normals)
+                    choice(carrier, rootRest + length * normal.cross(x0), Eigen::Vector3d::Zero(), false, true);
+            }
+            for (const Eigen::Vector3d& normal : normals) choice(-1, rootRest, normal);
             if (std::optional<ConstraintBase> found = tryPoles()) return found;
         }
     if (within) return within->first;
@@ -767,19 +792,35 @@ std::vector<Eigen::Vector3d> ConstraintFitter::restNormals(int chainRoot, const 
 {
     // The chain's rest plane through its line and a joint off it: one below the chain's root output, in rig order,
     // each plane once.
+    // Then the plane through its line and the sum of the offsets from the root of the joints between it and the
+    // chain's end (the joint nearest the goal): the side a chain of three bones or more turns to its pole vector
+    // (mayaIkHandle's plane step; for two bones the mid joint's plane again).
     std::vector<Eigen::Vector3d> normals;
     const Eigen::Vector3d x = (goal - root).normalized();
-    for (std::size_t j = 0; j < hierarchy_.size(); ++j) {
-        int up = static_cast<int>(j);
-        while (up >= 0 && up != chainRoot) up = hierarchy_[static_cast<std::size_t>(up)];
-        if (up != chainRoot) continue;
-        const Eigen::Vector3d n = x.cross(probe_.rest()[j].block<3, 1>(0, 3) - root);
-        if (!(n.norm() > 1e-6)) continue;
+    const auto add = [&](const Eigen::Vector3d& n) {
+        if (!(n.norm() > 1e-6)) return;
         const Eigen::Vector3d unit = n.normalized();
         if (std::none_of(normals.begin(), normals.end(),
                          [&](const Eigen::Vector3d& m) { return (m - unit).norm() < 1e-9; }))
             normals.push_back(unit);
+    };
+    const auto origin = [&](int j) -> Eigen::Vector3d {
+        return probe_.rest()[static_cast<std::size_t>(j)].block<3, 1>(0, 3);
+    };
+    int end = -1;
+    for (std::size_t j = 0; j < hierarchy_.size(); ++j) {
+        int up = static_cast<int>(j);
+        while (up >= 0 && up != chainRoot) up = hierarchy_[static_cast<std::size_t>(up)];
+        if (up != chainRoot) continue;
+        add(x.cross(origin(static_cast<int>(j)) - root));
+        if (end < 0 || (origin(static_cast<int>(j)) - goal).norm() < (origin(end) - goal).norm())
+            end = static_cast<int>(j);
     }
+    Eigen::Vector3d side = Eigen::Vector3d::Zero();
+    for (int j = end < 0 ? -1 : hierarchy_[static_cast<std::size_t>(end)]; j >= 0 && j != chainRoot;
+         j = hierarchy_[static_cast<std::size_t>(j)])
+        side += origin(j) - root;
+    add(x.cross(side));
     return normals;
 }
 

@@ -130,9 +130,10 @@ private:
     // some of them): an IK end orient-constrained to its control.
     std::vector<int> orientSources(int k, const std::vector<int>& varied, const std::vector<int>& helpers);
     // The up direction (unit, world at rest) that the output's turns on the poses carry with the plane through the
-    // root, the goal and it, in the anchor's axes or (inWorld) the world's; false when none does.
-    bool fittedUp(int k, int anchor, const Eigen::Vector3d& root, int goal, const std::vector<Pose>& poses,
-                  bool inWorld, Eigen::Vector3d& up) const;
+    // root, the goal and it, in the axes of output `carrier` (its turn from rest: the anchor's, a helper's; -1 the
+    // world's); false when none does.
+    bool fittedUp(int k, int anchor, const Eigen::Vector3d& root, int goal, const std::vector<Pose>& poses, int carrier,
+                  Eigen::Vector3d& up) const;
     // Normals of the chain's rest plane: through its line and each joint off it below the chain's root output.
     std::vector<Eigen::Vector3d> restNormals(int chainRoot, const Eigen::Vector3d& root,
                                              const Eigen::Vector3d& goal) const;

@@ -221,7 +221,7 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
                     {"anchor", "driverParent"});
     else
         r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"},
-                    {"anchor", "pole", "restNormal", "worldUp", "orient", "origin"});
+                    {"anchor", "pole", "restNormal", "worldUp", "poleTurns", "orient", "origin"});
     const auto input = [&](std::string_view which) {
         const YAML::Node v = r.child(n, which);
         if (!v) return -1;
@@ -253,6 +253,13 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
         base.worldUp = r.boolean(up, field + ".worldUp");
         if (base.worldUp && base.pole >= 0)
             r.fail(up, field + ".worldUp", "a chain with a pole has no world up; remove one");
+    }
+    if (const YAML::Node turns = r.child(n, "poleTurns")) {
+        base.poleTurns = r.boolean(turns, field + ".poleTurns");
+        if (base.poleTurns && base.pole < 0)
+            r.fail(turns, field + ".poleTurns",
+                   "a pole turned by its output needs a pole output; add one or remove it");
+        if (base.poleTurns) base.poleRest = a.outputs[static_cast<std::size_t>(base.pole)].rest.block<3, 3>(0, 0);
     }
     if (const YAML::Node normal = r.child(n, "restNormal")) {
         if (base.pole >= 0) r.fail(normal, field + ".restNormal", "a chain with a pole has no rest plane; remove one");

@@ -229,6 +229,7 @@ std::string constraintsText(const Approximation& a)
         // A chain without a pole keeps its rest plane: its normal is written, and says so.
         if (base.restPlane) out += fmt::format("    restNormal: {}\n", vector3(base.restNormal, field + ".restNormal"));
         if (base.worldUp) out += "    worldUp: true\n";
+        if (base.poleTurns) out += "    poleTurns: true\n";
         // An output turning as another does: that output, and the rest origin the chain carries.
         if (base.orient >= 0)
             out += input("orient", base.orient, false) +

@@ -124,11 +124,13 @@ ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& ancho
     const auto carried = [&](const Eigen::Vector3d& p) -> Eigen::Vector3d {
         return anchorMotion.block<3, 3>(0, 0) * p + anchorMotion.block<3, 1>(0, 3);
     };
-    return {carried(base.root), goalWorld.block<3, 1>(0, 3),
-            base.pole >= 0 ? Eigen::Vector3d(poleWorld.block<3, 1>(0, 3))
-            : base.worldUp ? Eigen::Vector3d(carried(base.root) + base.restPole - base.root)
-                           : carried(base.restPole),
-            anchorMotion.block<3, 3>(0, 0) * base.restNormal};
+    const Eigen::Vector3d root = carried(base.root);
+    Eigen::Vector3d pole = carried(base.restPole);
+    if (base.pole >= 0 && base.poleTurns)
+        pole = root + poleWorld.block<3, 3>(0, 0) * base.poleRest.inverse() * (base.restPole - base.root);
+    else if (base.pole >= 0) pole = poleWorld.block<3, 1>(0, 3);
+    else if (base.worldUp) pole = root + base.restPole - base.root;
+    return {root, goalWorld.block<3, 1>(0, 3), pole, anchorMotion.block<3, 3>(0, 0) * base.restNormal};
 }
 
 Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& points)

@@ -80,6 +80,12 @@ struct ConstraintBase {
     // No pole output: `restPole` at its rest offset from the root in world axes, not turned by the anchor (an aim's up
     // vector fixed in the world: scene or vector up).
     bool worldUp = false;
+    // A pole output whose rotation carries the pole: the root plus restPole's rest offset from it, turned by the pole
+    // output's motion from rest (W_p poleRest^-1, its 3x3 parts), as a mayaIkHandle's pole vector, kept in its parent's
+    // space, turns with the foot it hangs under where no pole constraint drives it. poleRest is the 3x3 part of the
+    // pole output's rest world (derived: set with `pole`).
+    bool poleTurns = false;
+    Eigen::Matrix3d poleRest = Eigen::Matrix3d::Identity();
     // No pole: the plane through the chain's line nearest the rest plane, whose normal at rest is restNormal (unit).
     bool restPlane = false;
     Eigen::Vector3d restNormal = Eigen::Vector3d::Zero();

@@ -39,9 +39,16 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
     ChainPoints& points = basePoints_[b];
     points.root = moved(base.anchorNode, c.root);
     points.goal = moved(base.goalNode, base.goalRest);
-    points.pole = c.pole >= 0 ? moved(base.poleNode, base.poleRest)
-                  : c.worldUp ? Eigen::Vector3d(points.root + c.restPole - c.root)
-                              : moved(base.anchorNode, c.restPole);
+    // A pole carried by the pole output's rotation: its node's product turns the rest offset (a node's product is
+    // its motion from rest).
+    const auto turned = [&](const Eigen::Vector3d& offset) -> Eigen::Vector3d {
+        if (base.poleNode < 0) return offset;
+        return nodeMatrix_[static_cast<std::size_t>(base.poleNode)].leftCols<3>() * offset;
+    };
+    points.pole = c.pole >= 0 && c.poleTurns ? Eigen::Vector3d(points.root + turned(c.restPole - c.root))
+                  : c.pole >= 0              ? moved(base.poleNode, base.poleRest)
+                  : c.worldUp                ? Eigen::Vector3d(points.root + c.restPole - c.root)
+                                             : moved(base.anchorNode, c.restPole);
     points.normal =
         base.anchorNode < 0
             ? c.restNormal
@@ -129,10 +136,14 @@ void ResidualWorkspace::baseVelocities()
             const auto rate = [](const Affine& v, const Eigen::Vector3d& p) -> Eigen::Vector3d {
                 return v.leftCols<3>() * p + v.col(3);
             };
-            // A world up moves with the root only; a fixed pole with the anchor.
-            const Eigen::Vector3d poleRate = c.pole >= 0 ? rate(x[2], points.pole)
-                                             : c.worldUp ? rate(x[0], points.root)
-                                                         : rate(x[0], points.pole);
+            // A world up moves with the root only; a fixed pole with the anchor; a pole the pole output's rotation
+            // carries with the root, turning as that output does.
+            const Eigen::Vector3d poleRate =
+                c.pole >= 0 && c.poleTurns
+                    ? Eigen::Vector3d(rate(x[0], points.root) + x[2].leftCols<3>() * (points.pole - points.root))
+                : c.pole >= 0 ? rate(x[2], points.pole)
+                : c.worldUp   ? rate(x[0], points.root)
+                              : rate(x[0], points.pole);
             const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal), poleRate,
                                     x[0].leftCols<3>() * points.normal};
             const Affine chain = baseVelocity(at, rates);
