@@ -72,6 +72,7 @@ private:
     bool modelled(int a, const RigState& state) const;      // learned: by operators or a constraint
     bool usableAnchor(int a, const RigState& state) const;  // learned by operators alone
     std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k, but the held ones
+    bool turnedBy(int i, int o) const;       // whether parameter i's first samples turn output o
     // The parameters of `varied` that move the anchor and change k's world apart from a rigid motion (its scale or
     // shear: a control's non-uniform scale that the legs' scale constraints turn into sheared chains), which no base
     // can carry: each a rotation and a translation.
@@ -126,6 +127,13 @@ private:
     std::optional<ConstraintBase> fitChain(int k, int anchor, int root, const std::vector<int>& varied,
                                            const std::vector<int>& helpers, const std::vector<int>& goals,
                                            Closest& closest, int orient = -1);
+    // The pole candidates of one pass of fitChain for k's chain on `goal` (without their anchor, goal and orient).
+    std::vector<ConstraintBase> poleCandidates(int pass, int k, int anchor, int root, int goal,
+                                               const std::vector<int>& varied, const std::vector<int>& helpers);
+    // The outputs whose turns may carry a chain's pole vector (poleTurns): the goal and the other helpers that the
+    // poses of `varied` turn and that no parameter turns without moving k.
+    std::vector<int> poleCarriers(int k, int goal, const std::vector<int>& varied,
+                                  const std::vector<int>& helpers) const;
     // The helpers whose rotation k's follows on the poses of `varied` (R_k R_k(0)^T = R_h R_h(0)^T, k turning on
     // some of them): an IK end orient-constrained to its control.
     std::vector<int> orientSources(int k, const std::vector<int>& varied, const std::vector<int>& helpers);
