@@ -211,6 +211,11 @@ std::string constraintsText(const Approximation& a)
                                c.driverParent < 0 ? "the world" : name(c.driverParent), reading);
             continue;
         }
+        if (c.kind == ConstraintKind::oriented) {
+            out += fmt::format("  {}: {}, carried by {}, turning as {}\n", o.name, constraintKindName(c.kind),
+                               c.anchor < 0 ? "the world" : name(c.anchor), name(c.orient));
+            continue;
+        }
         const auto& knots = c.shape.rigid.knots();
         out += fmt::format(
             "  {}: {}, root carried by {}, goal {}, pole {}{}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,

@@ -249,6 +249,9 @@ Json outputsJson(const Approximation& a)
                               {"read_order", rotateOrderName(c.readOrder)},
                               {"twist_order", rotateOrderName(c.twistOrder)},
                               {"share", c.share}};
+            else if (c.kind == ConstraintKind::oriented)
+                constraint = {
+                    {"kind", constraintKindName(c.kind)}, {"anchor", nameOf(c.anchor)}, {"orient", nameOf(c.orient)}};
             else
                 constraint = {{"kind", constraintKindName(c.kind)},
                               {"anchor", nameOf(c.anchor)},

@@ -704,6 +704,7 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     for (const int carrier : rootCarriers(k, anchor, root, state))
         if (std::optional<ConstraintBase> chain = fitAnchored(k, carrier, root, state, closest, candidates))
             return chain;
+    if (std::optional<ConstraintBase> oriented = fitOriented(k, state, closest)) return oriented;
     if (!candidates) {
         // Without any helper frame (rig-learn --no-helpers) only twist shares were tried: say so only if one came
         // close.
@@ -775,6 +776,48 @@ std::optional<ConstraintBase> ConstraintFitter::fitVaried(int k, int anchor, int
     for (const int orient : orientSources(k, varied, helpers))
         if (std::optional<ConstraintBase> chain = fitChain(k, anchor, root, varied, helpers, goals, closest, orient))
             return chain;
+    return std::nullopt;
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fitOriented(int k, const RigState& state, Closest& closest)
+{
+    // Its position carried by its nearest modelled ancestor, whatever models it (a ball under an ankle that is itself
+    // a chain's end), and its rotation a helper's that what moves k moves.
+    int anchor = hierarchy_[static_cast<std::size_t>(k)];
+    while (anchor >= 0 && !modelled(anchor, state)) anchor = hierarchy_[static_cast<std::size_t>(anchor)];
+    const std::vector<int> movers = moversOf(k);
+    const auto moves = [&](int i, int o) {
+        const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
+        return o >= 0 && std::binary_search(moved.begin(), moved.end(), o);
+    };
+    std::vector<int> sources;
+    for (std::size_t h = 0; h < helper_.size(); ++h) {
+        const int hh = static_cast<int>(h);
+        if (helper_[h] && hh != k && hh != anchor && modelled(hh, state) &&
+            std::any_of(movers.begin(), movers.end(), [&](int i) { return moves(i, hh); }))
+            sources.push_back(hh);
+    }
+    // The poses vary what moves k through its anchor or a source; its own parameters compose after the base.
+    std::vector<int> varied;
+    for (const int i : movers)
+        if (moves(i, anchor) || std::any_of(sources.begin(), sources.end(), [&](int h) { return moves(i, h); }))
+            varied.push_back(i);
+    const auto& names = probe_.rig().outputs();
+    for (const int orient : orientSources(k, varied, sources)) {
+        ConstraintBase base;
+        base.kind = ConstraintKind::oriented;
+        base.anchor = anchor;
+        base.orient = orient;
+        base.origin = probe_.rest()[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
+        const double e =
+            std::max(error(k, base, poses(varied, 0, rangePoses)), error(k, base, poses(varied, 1, checkPoses)));
+        if (e <= options_.epsilon) return base;
+        if (!(e < closest.error)) continue;
+        closest.error = e;
+        closest.what = fmt::format("an oriented base (carried by {}, turning as {})",
+                                   anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)],
+                                   names[static_cast<std::size_t>(orient)]);
+    }
     return std::nullopt;
 }
 

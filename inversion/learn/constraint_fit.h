@@ -120,6 +120,9 @@ private:
     std::optional<ConstraintBase> fitVaried(int k, int anchor, int root, const std::vector<int>& varied,
                                             const std::vector<int>& helpers, const std::vector<int>& goals,
                                             Closest& closest);
+    // k's oriented base (ConstraintKind::oriented): carried by its nearest modelled ancestor, turning as a helper
+    // whose rotation k's follows on the poses of what moves k through either, if within epsilon.
+    std::optional<ConstraintBase> fitOriented(int k, const RigState& state, Closest& closest);
     // The helpers other than `anchor` whose motion carries the chain root's origin on the poses of k's movers (an IK
     // start joint point-constrained to a control), where the root moves.
     std::vector<int> rootCarriers(int k, int anchor, int root, const RigState& state);

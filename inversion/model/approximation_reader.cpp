@@ -210,12 +210,14 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
     const std::string kindName = r.text(kind, field + ".kind");
     const std::optional<ConstraintKind> known = constraintKindFromName(kindName);
     if (!known)
-        r.fail(kind, field + ".kind",
-               fmt::format("unknown constraint '{}'; the constraints are {}, {} and {}", kindName,
-                           constraintKindName(ConstraintKind::planarChain),
-                           constraintKindName(ConstraintKind::twistShare), constraintKindName(ConstraintKind::blend)));
+        r.fail(
+            kind, field + ".kind",
+            fmt::format("unknown constraint '{}'; the constraints are {}, {}, {} and {}", kindName,
+                        constraintKindName(ConstraintKind::planarChain), constraintKindName(ConstraintKind::twistShare),
+                        constraintKindName(ConstraintKind::blend), constraintKindName(ConstraintKind::oriented)));
     if (*known == ConstraintKind::blend)
         r.checkKeys(n, field, {"kind", "ik", "fk", "weight", "mode"}, {"anchor", "ikParent", "fkParent", "order"});
+    else if (*known == ConstraintKind::oriented) r.checkKeys(n, field, {"kind", "orient", "origin"}, {"anchor"});
     else if (*known == ConstraintKind::twistShare)
         r.checkKeys(n, field, {"kind", "driver", "root", "axis", "twistAxis", "readOrder", "twistOrder", "share"},
                     {"anchor", "driverParent"});
@@ -239,6 +241,13 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
     if (*known == ConstraintKind::twistShare) return readTwistShare(r, n, field, input, a);
     if (*known == ConstraintKind::blend) return readBlend(r, n, field, input);
     ConstraintBase base;
+    if (*known == ConstraintKind::oriented) {
+        base.kind = ConstraintKind::oriented;
+        base.anchor = input("anchor");
+        base.orient = input("orient");
+        base.origin = r.vector3(r.need(n, "origin", field), field + ".origin");
+        return base;
+    }
     base.kind = ConstraintKind::planarChain;
     base.anchor = input("anchor");
     base.goal = input("goal");

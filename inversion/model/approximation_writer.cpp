@@ -220,6 +220,11 @@ std::string constraintsText(const Approximation& a)
                 number(base.share, field + ".share"));
             continue;
         }
+        if (base.kind == ConstraintKind::oriented) {
+            out += input("anchor", base.anchor, true) + input("orient", base.orient, false) +
+                   fmt::format("    origin: {}\n", vector3(base.origin, field + ".origin"));
+            continue;
+        }
         if (base.shape.kind != OperatorKind::sampledRigid)
             throw internalError(fmt::format("approximationToYaml: {}.shape is {}, not sampledRigid", field,
                                             operatorKindName(base.shape.kind)));

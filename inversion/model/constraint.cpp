@@ -64,12 +64,14 @@ Eigen::Vector3d vee(const Eigen::Matrix3d& k)
 std::string_view constraintKindName(ConstraintKind kind)
 {
     if (kind == ConstraintKind::blend) return "blend";
+    if (kind == ConstraintKind::oriented) return "oriented";
     return kind == ConstraintKind::twistShare ? "twistShare" : "planarChain";
 }
 
 std::optional<ConstraintKind> constraintKindFromName(std::string_view name)
 {
-    for (const ConstraintKind kind : {ConstraintKind::planarChain, ConstraintKind::twistShare, ConstraintKind::blend})
+    for (const ConstraintKind kind :
+         {ConstraintKind::planarChain, ConstraintKind::twistShare, ConstraintKind::blend, ConstraintKind::oriented})
         if (constraintKindName(kind) == name) return kind;
     return std::nullopt;
 }
@@ -78,6 +80,7 @@ std::array<int, 3> ConstraintBase::inputs() const
 {
     if (kind == ConstraintKind::twistShare) return {anchor, driver, driverParent};
     if (kind == ConstraintKind::blend) return {anchor, ik, fk};
+    if (kind == ConstraintKind::oriented) return {anchor, -1, -1};
     return {anchor, goal, pole};
 }
 
@@ -85,7 +88,8 @@ std::array<int, 5> ConstraintBase::frameInputs() const
 {
     const std::array<int, 3> in = inputs();
     if (kind == ConstraintKind::blend) return {in[0], in[1], in[2], ikParent, fkParent};
-    if (kind == ConstraintKind::planarChain) return {in[0], in[1], in[2], orient, -1};
+    if (kind == ConstraintKind::planarChain || kind == ConstraintKind::oriented)
+        return {in[0], in[1], in[2], orient, -1};
     return {in[0], in[1], in[2], -1, -1};
 }
 
@@ -306,6 +310,8 @@ Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d
             anchorMotion.block<3, 3>(0, 0) * base.root + anchorMotion.block<3, 1>(0, 3) - rotation * base.root;
         return b;
     }
+    // An oriented base is a chain's orientation of the anchor's motion: the origin where the anchor carries it.
+    if (base.kind == ConstraintKind::oriented) return orientedBase(base, anchorMotion, orientMotion);
     return orientedBase(base, constraintBase(base, chainPoints(base, anchorMotion, second, third)), orientMotion);
 }
 

@@ -61,7 +61,11 @@ struct BlendRule {
     RotateOrder order = RotateOrder::xyz;  // eulerChannels: the order the angles are read and composed in
 };
 
-enum class ConstraintKind { planarChain, twistShare, blend };
+// The oriented base (issue #46): an output whose position its anchor carries and whose rotation is another output's
+// (a joint orient-constrained to a helper while its parent moves it: a ball turning as the toe pivot of a reverse foot,
+// a foot joint under an FK ankle turning as its IK control), B = [Q_o | M_a p0 - Q_o p0], with M_a the anchor's
+// motion, Q_o the orient output's polar rotation from rest and p0 the output's rest origin (`origin`).
+enum class ConstraintKind { planarChain, twistShare, blend, oriented };
 
 std::string_view constraintKindName(ConstraintKind kind);
 std::optional<ConstraintKind> constraintKindFromName(std::string_view name);
@@ -117,10 +121,11 @@ struct ConstraintBase {
     Eigen::Vector3d origin = Eigen::Vector3d::Zero();
 
     // Its inputs (indices into the outputs, -1 for none): anchor, goal, pole for a chain; anchor, driver and the
-    // driver's parent for a twist share. The solver and the orderer read them in this order.
+    // driver's parent for a twist share; the anchor alone for an oriented base (its orient output is a frame input).
+    // The solver and the orderer read them in this order.
     std::array<int, 3> inputs() const;
     // Every output its frame reads, -1 where none: inputs() and, for a blend, its branches and their parents, for a
-    // chain its orient output.
+    // chain or an oriented base its orient output (the fourth).
     std::array<int, 5> frameInputs() const;
 
     // Every field holding an output index (-1 for none), for whatever renumbers the outputs.

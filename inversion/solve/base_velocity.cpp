@@ -30,6 +30,7 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
                            motion(base.poleNode) * base.thirdRest);
         return t.base.topRows<3>();
     }
+    if (c.kind == ConstraintKind::oriented) return evaluateOriented(b);
     // An input's product is its node's (the identity without one): points move with it.
     const auto moved = [&](int node, const Eigen::Vector3d& p) -> Eigen::Vector3d {
         if (node < 0) return p;
@@ -59,6 +60,21 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
     if (base.orientNode >= 0) orient.topRows<3>() = nodeMatrix_[static_cast<std::size_t>(base.orientNode)];
     baseCentres_[b] = chain.block<3, 3>(0, 0) * c.origin + chain.block<3, 1>(0, 3);
     return orientedBase(c, chain, orient).topRows<3>();
+}
+
+ResidualWorkspace::Affine ResidualWorkspace::evaluateOriented(std::size_t b)
+{
+    // B = [Q_o | M_a p0 - Q_o p0] from the anchor's and the orient output's products (their motions from rest).
+    const ResidualStructure::Base& base = structure_->bases_[b];
+    const ConstraintBase& c = structure_->approximation_->constraints[static_cast<std::size_t>(base.constraint)];
+    const auto motion = [&](int node) -> Eigen::Matrix4d {
+        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+        if (node >= 0) m.topRows<3>() = nodeMatrix_[static_cast<std::size_t>(node)];
+        return m;
+    };
+    const Eigen::Matrix4d anchor = motion(base.anchorNode);
+    baseCentres_[b] = anchor.block<3, 3>(0, 0) * c.origin + anchor.block<3, 1>(0, 3);
+    return orientedBase(c, anchor, motion(base.orientNode)).topRows<3>();
 }
 
 ResidualWorkspace::Affine ResidualWorkspace::evaluateBlend(std::size_t b)
@@ -109,7 +125,8 @@ void ResidualWorkspace::baseVelocities()
         const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
         const ChainPoints& points = basePoints_[b];
         const bool twist = c.kind == ConstraintKind::twistShare, blend = c.kind == ConstraintKind::blend;
-        const BaseLinearization at = twist || blend ? BaseLinearization{} : linearizeBase(c, points);
+        const bool oriented = c.kind == ConstraintKind::oriented;
+        const BaseLinearization at = twist || blend || oriented ? BaseLinearization{} : linearizeBase(c, points);
         for (std::size_t j = 0; j < base.columns.size(); ++j) {
             std::array<Affine, 5> x;
             x.fill(Affine::Zero());
@@ -131,6 +148,12 @@ void ResidualWorkspace::baseVelocities()
             if (twist) {
                 baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
                     twistVelocity(baseTwists_[b], x[0], x[1], x[2]);
+                continue;
+            }
+            // An oriented base's origin moves with the anchor, its rotation with the orient output.
+            if (oriented) {
+                baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
+                    orientedVelocity(x[0], x[3], baseCentres_[b]);
                 continue;
             }
             const auto rate = [](const Affine& v, const Eigen::Vector3d& p) -> Eigen::Vector3d {

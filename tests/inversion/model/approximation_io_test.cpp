@@ -675,7 +675,7 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
     // The constraint entry.
     CHECK(chainErrorWith("kind: planarChain", "kind: twoBone") ==
           "f.yaml:13:11: constraints[0].kind: unknown constraint 'twoBone'; the constraints are planarChain, "
-          "twistShare and blend");
+          "twistShare, blend and oriented");
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restReach: 3\n") ==
           "f.yaml:18:5: constraints[0]: unknown field 'restReach'; the fields are kind, goal, root, restPole, shape, "
           "anchor, pole, restNormal, worldUp, poleTurns, orient, origin");
