@@ -211,14 +211,20 @@ std::string constraintsText(const Approximation& a)
                                c.driverParent < 0 ? "the world" : name(c.driverParent), reading);
             continue;
         }
+        if (c.kind == ConstraintKind::oriented) {
+            out += fmt::format("  {}: {}, carried by {}, turning as {}\n", o.name, constraintKindName(c.kind),
+                               c.anchor < 0 ? "the world" : name(c.anchor), name(c.orient));
+            continue;
+        }
         const auto& knots = c.shape.rigid.knots();
         out += fmt::format(
             "  {}: {}, root carried by {}, goal {}, pole {}{}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
             constraintKindName(c.kind), c.anchor < 0 ? "the world" : name(c.anchor), name(c.goal),
-            c.restPlane  ? "none (its rest plane)"
-            : c.worldUp  ? "a world axis from the root (a world up)"
-            : c.pole < 0 ? "fixed to the anchor"
-                         : name(c.pole),
+            c.restPlane   ? "none (its rest plane)"
+            : c.worldUp   ? "a world axis from the root (a world up)"
+            : c.pole < 0  ? "fixed to the anchor"
+            : c.poleTurns ? "turned by " + name(c.pole) + " (a direction in its axes)"
+                          : name(c.pole),
             c.orient < 0 ? "" : ", turning as " + name(c.orient), knots.size(), c.restReach + knots.front(),
             c.restReach + knots.back());
     }

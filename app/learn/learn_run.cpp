@@ -249,12 +249,16 @@ Json outputsJson(const Approximation& a)
                               {"read_order", rotateOrderName(c.readOrder)},
                               {"twist_order", rotateOrderName(c.twistOrder)},
                               {"share", c.share}};
+            else if (c.kind == ConstraintKind::oriented)
+                constraint = {
+                    {"kind", constraintKindName(c.kind)}, {"anchor", nameOf(c.anchor)}, {"orient", nameOf(c.orient)}};
             else
                 constraint = {{"kind", constraintKindName(c.kind)},
                               {"anchor", nameOf(c.anchor)},
                               {"goal", nameOf(c.goal)},
                               {"pole", nameOf(c.pole)},
                               {"world_up", c.worldUp},
+                              {"pole_turns", c.poleTurns},
                               {"knots", c.shape.rigid.knots().size()}};
         }
         outputs.push_back({{"name", o.name},

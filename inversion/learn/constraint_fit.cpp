@@ -35,6 +35,11 @@ constexpr double exactShare = 1e-2;
 // difference is rounding (1e-16 measured).
 constexpr double sameTwist = 1e-10;
 
+// The pattern search of an up direction stops after this many of its steps: an up the poses fit exactly was found in
+// at most 456 (random characters' aims and mayaIkHandle poles), where the search for one that does not exist crawled
+// along the misfit's valleys for up to 680,000, nine tenths of learning the creature's IK spec.
+constexpr int maxUpMoves = 5000;
+
 // Poses that check a candidate: the same for every candidate and sample count, apart from those it was fitted on.
 constexpr int checkPoses = 8;
 
@@ -112,6 +117,20 @@ std::vector<int> ConstraintFitter::moversOf(int k) const
             !held_.contains(static_cast<int>(i)))
             movers.push_back(static_cast<int>(i));
     return movers;
+}
+
+bool ConstraintFitter::turnedBy(int i, int o) const
+{
+    // A turn well above rounding (1e-15) at any first sample.
+    constexpr double turn = 1e-9;
+    const ParameterSamples& sample = samples_[static_cast<std::size_t>(i)];
+    if (!std::binary_search(sample.moved.begin(), sample.moved.end(), o)) return false;
+    const auto& rest = probe_.rest();
+    const Eigen::Matrix3d restTurn = polarRotation(rest[static_cast<std::size_t>(o)].block<3, 3>(0, 0));
+    return std::any_of(sample.worlds.begin(), sample.worlds.end(), [&](const auto& entry) {
+        const Eigen::Matrix3d moved = polarRotation(sample.world(o, entry.first, rest).template block<3, 3>(0, 0));
+        return (moved - restTurn).norm() > turn;
+    });
 }
 
 std::vector<int> ConstraintFitter::ownMovers(int k, const ConstraintBase& base) const
@@ -496,7 +515,7 @@ double upMisfit(const Eigen::Vector3d& u, const std::vector<Eigen::Vector3d>& ai
 }  // namespace
 
 bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, int goal,
-                                const std::vector<Pose>& poses, bool inWorld, Eigen::Vector3d& up) const
+                                const std::vector<Pose>& poses, int carrier, Eigen::Vector3d& up) const
 {
     const auto& rest = probe_.rest();
     const auto at = [](const std::vector<Eigen::Matrix4d>& w, int i) { return w[static_cast<std::size_t>(i)]; };
@@ -507,7 +526,10 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
         const Eigen::Matrix4d motion =
             anchor < 0 ? Eigen::Matrix4d(Eigen::Matrix4d::Identity())
                        : Eigen::Matrix4d(at(pose.worlds, anchor) * rest[static_cast<std::size_t>(anchor)].inverse());
-        const Eigen::Matrix3d frame = inWorld ? Eigen::Matrix3d::Identity() : polarRotation(motion.block<3, 3>(0, 0));
+        const Eigen::Matrix3d frame =
+            carrier < 0 ? Eigen::Matrix3d::Identity()
+                        : polarRotation(at(pose.worlds, carrier).block<3, 3>(0, 0) *
+                                        rest[static_cast<std::size_t>(carrier)].block<3, 3>(0, 0).inverse());
         const Eigen::Vector3d r = motion.block<3, 3>(0, 0) * root + motion.block<3, 1>(0, 3);
         aims.push_back(frame.transpose() * (at(pose.worlds, goal).block<3, 1>(0, 3) - r).normalized());
         turns.push_back(frame.transpose() *
@@ -528,7 +550,8 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
         }
     }
     if (!std::isfinite(best)) return false;
-    for (double step = 0.05; step > 1e-12;) {
+    int moves = 0;
+    for (double step = 0.05; step > 1e-12 && moves < maxUpMoves; ++moves) {
         const Eigen::Vector3d t1 = up.unitOrthogonal(), t2 = up.cross(t1);
         bool moved = false;
         for (const Eigen::Vector3d& d : {t1, Eigen::Vector3d(-t1), t2, Eigen::Vector3d(-t2)}) {
@@ -552,75 +575,119 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
     const auto& rest = probe_.rest();
     const auto& names = probe_.rig().outputs();
     const Eigen::Vector3d rootRest = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
-    // Two passes over the goals: first the poles the rig shows (helpers, points along the anchor's axes), then, only
-    // where none fits to rounding, the up directions fitted from the poses and the rest planes. A candidate within
-    // epsilon but not to rounding is the rig's plane approximated (a point along a world axis a degree off a pole-less
-    // chain's rest normal: 2e-4 cm per unit): the closest such is kept in case no later one is exact.
+    // Three passes over the goals: first the poles the rig shows (helpers, points along the anchor's axes), then, only
+    // where none fits to rounding, the up directions fitted from the poses and the rest planes, and last the poles
+    // turned by a helper (poleCarriers). A candidate within epsilon but not to rounding is the rig's plane
+    // approximated (a point along a world axis a degree off a pole-less chain's rest normal: 2e-4 cm per unit): the
+    // closest such is kept in case no later one is exact.
     std::optional<std::pair<ConstraintBase, double>> within;
-    for (int pass = 0; pass < 2; ++pass)
+    for (int pass = 0; pass < 3; ++pass)
         for (const int goal : goals) {
-            const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
-            // Poles: a helper's origin, a point carried by the anchor, or none (the rest plane kept, its normal from
-            // the chain's joints at rest).
-            std::vector<ConstraintBase> poles;
-            const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal,
-                                    bool worldUp = false) {
-                ConstraintBase base;
-                base.worldUp = worldUp;
-                base.pole = pole;
-                base.restPole = point;
-                base.restPlane = normal.squaredNorm() > 0.0;
-                base.restNormal = normal;
-                poles.push_back(base);
-            };
-            // The candidates so far, each made and checked: the first exact one returned, the closest kept.
-            const auto tryPoles = [&]() -> std::optional<ConstraintBase> {
-                for (ConstraintBase base : poles) {
-                    const int pole = base.pole;
-                    base.anchor = anchor;
-                    base.goal = goal;
-                    base.root = rootRest;
-                    base.orient = orient;
-                    base.origin = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
-                    const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
-                    if (e <= exactShare * options_.epsilon) return base;
-                    if (e <= options_.epsilon && !(within && within->second <= e)) within.emplace(base, e);
-                    if (!(e < closest.error)) continue;
-                    closest.error = e;
-                    const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
-                    closest.what =
-                        fmt::format("a planar chain (goal {}, pole {}{})", names[static_cast<std::size_t>(goal)],
-                                    base.restPlane ? "none (the rest plane of " + fixedTo + ")"
-                                    : base.worldUp ? std::string("a world up")
-                                    : pole < 0     ? "fixed to " + fixedTo
-                                                   : names[static_cast<std::size_t>(pole)],
-                                    orient < 0 ? "" : ", turning as " + names[static_cast<std::size_t>(orient)]);
-                }
-                poles.clear();
-                return std::nullopt;
-            };
-            if (pass == 0) {
-                for (const int pole : helpers)
-                    if (pole != goal)
-                        choice(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3), Eigen::Vector3d::Zero());
-                for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal))
-                    choice(-1, point, Eigen::Vector3d::Zero());
-                if (std::optional<ConstraintBase> found = tryPoles()) return found;
-                continue;
+            // Each candidate made and checked: the first exact one returned, the closest kept.
+            for (ConstraintBase base : poleCandidates(pass, k, anchor, root, goal, varied, helpers)) {
+                const int pole = base.pole;
+                base.anchor = anchor;
+                base.goal = goal;
+                base.root = rootRest;
+                base.orient = orient;
+                base.origin = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
+                const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
+                if (e <= exactShare * options_.epsilon) return base;
+                if (e <= options_.epsilon && !(within && within->second <= e)) within.emplace(base, e);
+                if (!(e < closest.error)) continue;
+                closest.error = e;
+                const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
+                closest.what = fmt::format("a planar chain (goal {}, pole {}{})", names[static_cast<std::size_t>(goal)],
+                                           base.restPlane   ? "none (the rest plane of " + fixedTo + ")"
+                                           : base.worldUp   ? std::string("a world up")
+                                           : pole < 0       ? "fixed to " + fixedTo
+                                           : base.poleTurns ? "turned by " + names[static_cast<std::size_t>(pole)]
+                                                            : names[static_cast<std::size_t>(pole)],
+                                           orient < 0 ? "" : ", turning as " + names[static_cast<std::size_t>(orient)]);
             }
-            // An up vector the poses show (an aim's up in the anchor's axes, or fixed in the world: scene or vector
-            // up), and the rest plane.
-            const double length = std::max(1.0, (restGoal - rootRest).norm());
-            for (const bool inWorld : {false, true}) {
-                Eigen::Vector3d up;
-                if (fittedUp(k, anchor, rootRest, goal, poses(varied, 0, rangePoses), inWorld, up))
-                    choice(-1, rootRest + length * up, Eigen::Vector3d::Zero(), inWorld);
-            }
-            for (const Eigen::Vector3d& normal : restNormals(root, rootRest, restGoal)) choice(-1, rootRest, normal);
-            if (std::optional<ConstraintBase> found = tryPoles()) return found;
         }
     if (within) return within->first;
     return std::nullopt;
+}
+
+std::vector<ConstraintBase> ConstraintFitter::poleCandidates(int pass, int k, int anchor, int root, int goal,
+                                                             const std::vector<int>& varied,
+                                                             const std::vector<int>& helpers)
+{
+    const auto& rest = probe_.rest();
+    const Eigen::Vector3d rootRest = rest[static_cast<std::size_t>(root)].block<3, 1>(0, 3);
+    const Eigen::Vector3d restGoal = rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3);
+    // Poles: a helper's origin, a point carried by the anchor, or none (the rest plane kept, its normal from the
+    // chain's joints at rest).
+    std::vector<ConstraintBase> poles;
+    const auto choice = [&](int pole, const Eigen::Vector3d& point, const Eigen::Vector3d& normal, bool worldUp = false,
+                            bool turns = false) {
+        ConstraintBase base;
+        base.worldUp = worldUp;
+        base.pole = pole;
+        base.poleTurns = turns;
+        if (turns) base.poleRest = rest[static_cast<std::size_t>(pole)].block<3, 3>(0, 0);
+        base.restPole = point;
+        base.restPlane = normal.squaredNorm() > 0.0;
+        base.restNormal = normal;
+        poles.push_back(base);
+    };
+    if (pass == 0) {
+        for (const int pole : helpers)
+            if (pole != goal)
+                choice(pole, rest[static_cast<std::size_t>(pole)].block<3, 1>(0, 3), Eigen::Vector3d::Zero());
+        for (const Eigen::Vector3d& point : fixedPoles(anchor, rootRest, restGoal))
+            choice(-1, point, Eigen::Vector3d::Zero());
+        return poles;
+    }
+    const double length = std::max(1.0, (restGoal - rootRest).norm());
+    const std::vector<Eigen::Vector3d> normals = restNormals(root, rootRest, restGoal);
+    if (pass == 1) {
+        // An up vector the poses show (an aim's up in the anchor's axes, or fixed in the world: scene or vector up),
+        // and the rest plane.
+        for (const bool inWorld : {false, true}) {
+            Eigen::Vector3d up;
+            if (fittedUp(k, anchor, rootRest, goal, poses(varied, 0, rangePoses), inWorld ? -1 : anchor, up))
+                choice(-1, rootRest + length * up, Eigen::Vector3d::Zero(), inWorld);
+        }
+        for (const Eigen::Vector3d& normal : normals) choice(-1, rootRest, normal);
+        return poles;
+    }
+    // A pole vector in the axes of the goal or of a helper moved with it (a mayaIkHandle's, kept in the space of the
+    // foot it hangs under): fitted from the poses, or across the line in a rest plane. Last, as the up's fit from the
+    // poses costs most of a chain's fit.
+    const Eigen::Vector3d x0 = (restGoal - rootRest).normalized();
+    for (const int carrier : poleCarriers(k, goal, varied, helpers)) {
+        Eigen::Vector3d up;
+        if (fittedUp(k, anchor, rootRest, goal, poses(varied, 0, rangePoses), carrier, up))
+            choice(carrier, rootRest + length * up, Eigen::Vector3d::Zero(), false, true);
+        for (const Eigen::Vector3d& normal : normals)
+            choice(carrier, rootRest + length * normal.cross(x0), Eigen::Vector3d::Zero(), false, true);
+    }
+    return poles;
+}
+
+std::vector<int> ConstraintFitter::poleCarriers(int k, int goal, const std::vector<int>& varied,
+                                                const std::vector<int>& helpers) const
+{
+    // A carrier must turn on the fit's poses, and nothing may turn it without moving k (a turn of an ikHandle's goal
+    // control that the chain ignores would move the pole). Without the second check a helper the fit's poses never
+    // turn passed them as a pole fixed in the world, and the validation, which turns it, found the chain centimetres
+    // off (FK/IK blends' thighs, issue #46); trying every moved helper also made learning the creature ten times
+    // slower.
+    const std::vector<int> kMovers = moversOf(k);
+    const auto carries = [&](int h) {
+        const auto turned = [&](int i) { return turnedBy(i, h); };
+        const std::vector<int> hMovers = moversOf(h);
+        return std::any_of(varied.begin(), varied.end(), turned) &&
+               std::none_of(hMovers.begin(), hMovers.end(),
+                            [&](int i) { return !std::binary_search(kMovers.begin(), kMovers.end(), i) && turned(i); });
+    };
+    std::vector<int> carriers;
+    if (carries(goal)) carriers.push_back(goal);
+    for (const int h : helpers)
+        if (h != goal && carries(h)) carriers.push_back(h);
+    return carriers;
 }
 
 std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state, std::string& why)
@@ -637,6 +704,7 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     for (const int carrier : rootCarriers(k, anchor, root, state))
         if (std::optional<ConstraintBase> chain = fitAnchored(k, carrier, root, state, closest, candidates))
             return chain;
+    if (std::optional<ConstraintBase> oriented = fitOriented(k, state, closest)) return oriented;
     if (!candidates) {
         // Without any helper frame (rig-learn --no-helpers) only twist shares were tried: say so only if one came
         // close.
@@ -711,6 +779,48 @@ std::optional<ConstraintBase> ConstraintFitter::fitVaried(int k, int anchor, int
     return std::nullopt;
 }
 
+std::optional<ConstraintBase> ConstraintFitter::fitOriented(int k, const RigState& state, Closest& closest)
+{
+    // Its position carried by its nearest modelled ancestor, whatever models it (a ball under an ankle that is itself
+    // a chain's end), and its rotation a helper's that what moves k moves.
+    int anchor = hierarchy_[static_cast<std::size_t>(k)];
+    while (anchor >= 0 && !modelled(anchor, state)) anchor = hierarchy_[static_cast<std::size_t>(anchor)];
+    const std::vector<int> movers = moversOf(k);
+    const auto moves = [&](int i, int o) {
+        const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
+        return o >= 0 && std::binary_search(moved.begin(), moved.end(), o);
+    };
+    std::vector<int> sources;
+    for (std::size_t h = 0; h < helper_.size(); ++h) {
+        const int hh = static_cast<int>(h);
+        if (helper_[h] && hh != k && hh != anchor && modelled(hh, state) &&
+            std::any_of(movers.begin(), movers.end(), [&](int i) { return moves(i, hh); }))
+            sources.push_back(hh);
+    }
+    // The poses vary what moves k through its anchor or a source; its own parameters compose after the base.
+    std::vector<int> varied;
+    for (const int i : movers)
+        if (moves(i, anchor) || std::any_of(sources.begin(), sources.end(), [&](int h) { return moves(i, h); }))
+            varied.push_back(i);
+    const auto& names = probe_.rig().outputs();
+    for (const int orient : orientSources(k, varied, sources)) {
+        ConstraintBase base;
+        base.kind = ConstraintKind::oriented;
+        base.anchor = anchor;
+        base.orient = orient;
+        base.origin = probe_.rest()[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
+        const double e =
+            std::max(error(k, base, poses(varied, 0, rangePoses)), error(k, base, poses(varied, 1, checkPoses)));
+        if (e <= options_.epsilon) return base;
+        if (!(e < closest.error)) continue;
+        closest.error = e;
+        closest.what = fmt::format("an oriented base (carried by {}, turning as {})",
+                                   anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)],
+                                   names[static_cast<std::size_t>(orient)]);
+    }
+    return std::nullopt;
+}
+
 std::vector<int> ConstraintFitter::rootCarriers(int k, int anchor, int root, const RigState& state)
 {
     // The root's origin where the helper's motion takes it, to rounding, and moving on some pose.
@@ -767,19 +877,35 @@ std::vector<Eigen::Vector3d> ConstraintFitter::restNormals(int chainRoot, const 
 {
     // The chain's rest plane through its line and a joint off it: one below the chain's root output, in rig order,
     // each plane once.
+    // Then the plane through its line and the sum of the offsets from the root of the joints between it and the
+    // chain's end (the joint nearest the goal): the side a chain of three bones or more turns to its pole vector
+    // (mayaIkHandle's plane step; for two bones the mid joint's plane again).
     std::vector<Eigen::Vector3d> normals;
     const Eigen::Vector3d x = (goal - root).normalized();
-    for (std::size_t j = 0; j < hierarchy_.size(); ++j) {
-        int up = static_cast<int>(j);
-        while (up >= 0 && up != chainRoot) up = hierarchy_[static_cast<std::size_t>(up)];
-        if (up != chainRoot) continue;
-        const Eigen::Vector3d n = x.cross(probe_.rest()[j].block<3, 1>(0, 3) - root);
-        if (!(n.norm() > 1e-6)) continue;
+    const auto add = [&](const Eigen::Vector3d& n) {
+        if (!(n.norm() > 1e-6)) return;
         const Eigen::Vector3d unit = n.normalized();
         if (std::none_of(normals.begin(), normals.end(),
                          [&](const Eigen::Vector3d& m) { return (m - unit).norm() < 1e-9; }))
             normals.push_back(unit);
+    };
+    const auto origin = [&](int j) -> Eigen::Vector3d {
+        return probe_.rest()[static_cast<std::size_t>(j)].block<3, 1>(0, 3);
+    };
+    int end = -1;
+    for (std::size_t j = 0; j < hierarchy_.size(); ++j) {
+        int up = static_cast<int>(j);
+        while (up >= 0 && up != chainRoot) up = hierarchy_[static_cast<std::size_t>(up)];
+        if (up != chainRoot) continue;
+        add(x.cross(origin(static_cast<int>(j)) - root));
+        if (end < 0 || (origin(static_cast<int>(j)) - goal).norm() < (origin(end) - goal).norm())
+            end = static_cast<int>(j);
     }
+    Eigen::Vector3d side = Eigen::Vector3d::Zero();
+    for (int j = end < 0 ? -1 : hierarchy_[static_cast<std::size_t>(end)]; j >= 0 && j != chainRoot;
+         j = hierarchy_[static_cast<std::size_t>(j)])
+        side += origin(j) - root;
+    add(x.cross(side));
     return normals;
 }
 

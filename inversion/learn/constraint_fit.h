@@ -72,6 +72,7 @@ private:
     bool modelled(int a, const RigState& state) const;      // learned: by operators or a constraint
     bool usableAnchor(int a, const RigState& state) const;  // learned by operators alone
     std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k, but the held ones
+    bool turnedBy(int i, int o) const;       // whether parameter i's first samples turn output o
     // The parameters of `varied` that move the anchor and change k's world apart from a rigid motion (its scale or
     // shear: a control's non-uniform scale that the legs' scale constraints turn into sheared chains), which no base
     // can carry: each a rotation and a translation.
@@ -119,6 +120,9 @@ private:
     std::optional<ConstraintBase> fitVaried(int k, int anchor, int root, const std::vector<int>& varied,
                                             const std::vector<int>& helpers, const std::vector<int>& goals,
                                             Closest& closest);
+    // k's oriented base (ConstraintKind::oriented): carried by its nearest modelled ancestor, turning as a helper
+    // whose rotation k's follows on the poses of what moves k through either, if within epsilon.
+    std::optional<ConstraintBase> fitOriented(int k, const RigState& state, Closest& closest);
     // The helpers other than `anchor` whose motion carries the chain root's origin on the poses of k's movers (an IK
     // start joint point-constrained to a control), where the root moves.
     std::vector<int> rootCarriers(int k, int anchor, int root, const RigState& state);
@@ -126,13 +130,21 @@ private:
     std::optional<ConstraintBase> fitChain(int k, int anchor, int root, const std::vector<int>& varied,
                                            const std::vector<int>& helpers, const std::vector<int>& goals,
                                            Closest& closest, int orient = -1);
+    // The pole candidates of one pass of fitChain for k's chain on `goal` (without their anchor, goal and orient).
+    std::vector<ConstraintBase> poleCandidates(int pass, int k, int anchor, int root, int goal,
+                                               const std::vector<int>& varied, const std::vector<int>& helpers);
+    // The outputs whose turns may carry a chain's pole vector (poleTurns): the goal and the other helpers that the
+    // poses of `varied` turn and that no parameter turns without moving k.
+    std::vector<int> poleCarriers(int k, int goal, const std::vector<int>& varied,
+                                  const std::vector<int>& helpers) const;
     // The helpers whose rotation k's follows on the poses of `varied` (R_k R_k(0)^T = R_h R_h(0)^T, k turning on
     // some of them): an IK end orient-constrained to its control.
     std::vector<int> orientSources(int k, const std::vector<int>& varied, const std::vector<int>& helpers);
     // The up direction (unit, world at rest) that the output's turns on the poses carry with the plane through the
-    // root, the goal and it, in the anchor's axes or (inWorld) the world's; false when none does.
-    bool fittedUp(int k, int anchor, const Eigen::Vector3d& root, int goal, const std::vector<Pose>& poses,
-                  bool inWorld, Eigen::Vector3d& up) const;
+    // root, the goal and it, in the axes of output `carrier` (its turn from rest: the anchor's, a helper's; -1 the
+    // world's); false when none does.
+    bool fittedUp(int k, int anchor, const Eigen::Vector3d& root, int goal, const std::vector<Pose>& poses, int carrier,
+                  Eigen::Vector3d& up) const;
     // Normals of the chain's rest plane: through its line and each joint off it below the chain's root output.
     std::vector<Eigen::Vector3d> restNormals(int chainRoot, const Eigen::Vector3d& root,
                                              const Eigen::Vector3d& goal) const;

@@ -210,18 +210,20 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
     const std::string kindName = r.text(kind, field + ".kind");
     const std::optional<ConstraintKind> known = constraintKindFromName(kindName);
     if (!known)
-        r.fail(kind, field + ".kind",
-               fmt::format("unknown constraint '{}'; the constraints are {}, {} and {}", kindName,
-                           constraintKindName(ConstraintKind::planarChain),
-                           constraintKindName(ConstraintKind::twistShare), constraintKindName(ConstraintKind::blend)));
+        r.fail(
+            kind, field + ".kind",
+            fmt::format("unknown constraint '{}'; the constraints are {}, {}, {} and {}", kindName,
+                        constraintKindName(ConstraintKind::planarChain), constraintKindName(ConstraintKind::twistShare),
+                        constraintKindName(ConstraintKind::blend), constraintKindName(ConstraintKind::oriented)));
     if (*known == ConstraintKind::blend)
         r.checkKeys(n, field, {"kind", "ik", "fk", "weight", "mode"}, {"anchor", "ikParent", "fkParent", "order"});
+    else if (*known == ConstraintKind::oriented) r.checkKeys(n, field, {"kind", "orient", "origin"}, {"anchor"});
     else if (*known == ConstraintKind::twistShare)
         r.checkKeys(n, field, {"kind", "driver", "root", "axis", "twistAxis", "readOrder", "twistOrder", "share"},
                     {"anchor", "driverParent"});
     else
         r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"},
-                    {"anchor", "pole", "restNormal", "worldUp", "orient", "origin"});
+                    {"anchor", "pole", "restNormal", "worldUp", "poleTurns", "orient", "origin"});
     const auto input = [&](std::string_view which) {
         const YAML::Node v = r.child(n, which);
         if (!v) return -1;
@@ -239,6 +241,13 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
     if (*known == ConstraintKind::twistShare) return readTwistShare(r, n, field, input, a);
     if (*known == ConstraintKind::blend) return readBlend(r, n, field, input);
     ConstraintBase base;
+    if (*known == ConstraintKind::oriented) {
+        base.kind = ConstraintKind::oriented;
+        base.anchor = input("anchor");
+        base.orient = input("orient");
+        base.origin = r.vector3(r.need(n, "origin", field), field + ".origin");
+        return base;
+    }
     base.kind = ConstraintKind::planarChain;
     base.anchor = input("anchor");
     base.goal = input("goal");
@@ -253,6 +262,13 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
         base.worldUp = r.boolean(up, field + ".worldUp");
         if (base.worldUp && base.pole >= 0)
             r.fail(up, field + ".worldUp", "a chain with a pole has no world up; remove one");
+    }
+    if (const YAML::Node turns = r.child(n, "poleTurns")) {
+        base.poleTurns = r.boolean(turns, field + ".poleTurns");
+        if (base.poleTurns && base.pole < 0)
+            r.fail(turns, field + ".poleTurns",
+                   "a pole turned by its output needs a pole output; add one or remove it");
+        if (base.poleTurns) base.poleRest = a.outputs[static_cast<std::size_t>(base.pole)].rest.block<3, 3>(0, 0);
     }
     if (const YAML::Node normal = r.child(n, "restNormal")) {
         if (base.pole >= 0) r.fail(normal, field + ".restNormal", "a chain with a pole has no rest plane; remove one");

@@ -220,6 +220,11 @@ std::string constraintsText(const Approximation& a)
                 number(base.share, field + ".share"));
             continue;
         }
+        if (base.kind == ConstraintKind::oriented) {
+            out += input("anchor", base.anchor, true) + input("orient", base.orient, false) +
+                   fmt::format("    origin: {}\n", vector3(base.origin, field + ".origin"));
+            continue;
+        }
         if (base.shape.kind != OperatorKind::sampledRigid)
             throw internalError(fmt::format("approximationToYaml: {}.shape is {}, not sampledRigid", field,
                                             operatorKindName(base.shape.kind)));
@@ -229,6 +234,7 @@ std::string constraintsText(const Approximation& a)
         // A chain without a pole keeps its rest plane: its normal is written, and says so.
         if (base.restPlane) out += fmt::format("    restNormal: {}\n", vector3(base.restNormal, field + ".restNormal"));
         if (base.worldUp) out += "    worldUp: true\n";
+        if (base.poleTurns) out += "    poleTurns: true\n";
         // An output turning as another does: that output, and the rest origin the chain carries.
         if (base.orient >= 0)
             out += input("orient", base.orient, false) +

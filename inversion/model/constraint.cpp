@@ -64,12 +64,14 @@ Eigen::Vector3d vee(const Eigen::Matrix3d& k)
 std::string_view constraintKindName(ConstraintKind kind)
 {
     if (kind == ConstraintKind::blend) return "blend";
+    if (kind == ConstraintKind::oriented) return "oriented";
     return kind == ConstraintKind::twistShare ? "twistShare" : "planarChain";
 }
 
 std::optional<ConstraintKind> constraintKindFromName(std::string_view name)
 {
-    for (const ConstraintKind kind : {ConstraintKind::planarChain, ConstraintKind::twistShare, ConstraintKind::blend})
+    for (const ConstraintKind kind :
+         {ConstraintKind::planarChain, ConstraintKind::twistShare, ConstraintKind::blend, ConstraintKind::oriented})
         if (constraintKindName(kind) == name) return kind;
     return std::nullopt;
 }
@@ -78,6 +80,7 @@ std::array<int, 3> ConstraintBase::inputs() const
 {
     if (kind == ConstraintKind::twistShare) return {anchor, driver, driverParent};
     if (kind == ConstraintKind::blend) return {anchor, ik, fk};
+    if (kind == ConstraintKind::oriented) return {anchor, -1, -1};
     return {anchor, goal, pole};
 }
 
@@ -85,7 +88,8 @@ std::array<int, 5> ConstraintBase::frameInputs() const
 {
     const std::array<int, 3> in = inputs();
     if (kind == ConstraintKind::blend) return {in[0], in[1], in[2], ikParent, fkParent};
-    if (kind == ConstraintKind::planarChain) return {in[0], in[1], in[2], orient, -1};
+    if (kind == ConstraintKind::planarChain || kind == ConstraintKind::oriented)
+        return {in[0], in[1], in[2], orient, -1};
     return {in[0], in[1], in[2], -1, -1};
 }
 
@@ -124,11 +128,13 @@ ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& ancho
     const auto carried = [&](const Eigen::Vector3d& p) -> Eigen::Vector3d {
         return anchorMotion.block<3, 3>(0, 0) * p + anchorMotion.block<3, 1>(0, 3);
     };
-    return {carried(base.root), goalWorld.block<3, 1>(0, 3),
-            base.pole >= 0 ? Eigen::Vector3d(poleWorld.block<3, 1>(0, 3))
-            : base.worldUp ? Eigen::Vector3d(carried(base.root) + base.restPole - base.root)
-                           : carried(base.restPole),
-            anchorMotion.block<3, 3>(0, 0) * base.restNormal};
+    const Eigen::Vector3d root = carried(base.root);
+    Eigen::Vector3d pole = carried(base.restPole);
+    if (base.pole >= 0 && base.poleTurns)
+        pole = root + poleWorld.block<3, 3>(0, 0) * base.poleRest.inverse() * (base.restPole - base.root);
+    else if (base.pole >= 0) pole = poleWorld.block<3, 1>(0, 3);
+    else if (base.worldUp) pole = root + base.restPole - base.root;
+    return {root, goalWorld.block<3, 1>(0, 3), pole, anchorMotion.block<3, 3>(0, 0) * base.restNormal};
 }
 
 Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& points)
@@ -304,6 +310,8 @@ Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d
             anchorMotion.block<3, 3>(0, 0) * base.root + anchorMotion.block<3, 1>(0, 3) - rotation * base.root;
         return b;
     }
+    // An oriented base is a chain's orientation of the anchor's motion: the origin where the anchor carries it.
+    if (base.kind == ConstraintKind::oriented) return orientedBase(base, anchorMotion, orientMotion);
     return orientedBase(base, constraintBase(base, chainPoints(base, anchorMotion, second, third)), orientMotion);
 }
 

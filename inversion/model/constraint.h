@@ -61,7 +61,11 @@ struct BlendRule {
     RotateOrder order = RotateOrder::xyz;  // eulerChannels: the order the angles are read and composed in
 };
 
-enum class ConstraintKind { planarChain, twistShare, blend };
+// The oriented base (issue #46): an output whose position its anchor carries and whose rotation is another output's
+// (a joint orient-constrained to a helper while its parent moves it: a ball turning as the toe pivot of a reverse foot,
+// a foot joint under an FK ankle turning as its IK control), B = [Q_o | M_a p0 - Q_o p0], with M_a the anchor's
+// motion, Q_o the orient output's polar rotation from rest and p0 the output's rest origin (`origin`).
+enum class ConstraintKind { planarChain, twistShare, blend, oriented };
 
 std::string_view constraintKindName(ConstraintKind kind);
 std::optional<ConstraintKind> constraintKindFromName(std::string_view name);
@@ -80,6 +84,12 @@ struct ConstraintBase {
     // No pole output: `restPole` at its rest offset from the root in world axes, not turned by the anchor (an aim's up
     // vector fixed in the world: scene or vector up).
     bool worldUp = false;
+    // A pole output whose rotation carries the pole: the root plus restPole's rest offset from it, turned by the pole
+    // output's motion from rest (W_p poleRest^-1, its 3x3 parts), as a mayaIkHandle's pole vector, kept in its parent's
+    // space, turns with the foot it hangs under where no pole constraint drives it. poleRest is the 3x3 part of the
+    // pole output's rest world (derived: set with `pole`).
+    bool poleTurns = false;
+    Eigen::Matrix3d poleRest = Eigen::Matrix3d::Identity();
     // No pole: the plane through the chain's line nearest the rest plane, whose normal at rest is restNormal (unit).
     bool restPlane = false;
     Eigen::Vector3d restNormal = Eigen::Vector3d::Zero();
@@ -111,10 +121,11 @@ struct ConstraintBase {
     Eigen::Vector3d origin = Eigen::Vector3d::Zero();
 
     // Its inputs (indices into the outputs, -1 for none): anchor, goal, pole for a chain; anchor, driver and the
-    // driver's parent for a twist share. The solver and the orderer read them in this order.
+    // driver's parent for a twist share; the anchor alone for an oriented base (its orient output is a frame input).
+    // The solver and the orderer read them in this order.
     std::array<int, 3> inputs() const;
     // Every output its frame reads, -1 where none: inputs() and, for a blend, its branches and their parents, for a
-    // chain its orient output.
+    // chain or an oriented base its orient output (the fourth).
     std::array<int, 5> frameInputs() const;
 
     // Every field holding an output index (-1 for none), for whatever renumbers the outputs.

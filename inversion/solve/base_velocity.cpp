@@ -30,6 +30,7 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
                            motion(base.poleNode) * base.thirdRest);
         return t.base.topRows<3>();
     }
+    if (c.kind == ConstraintKind::oriented) return evaluateOriented(b);
     // An input's product is its node's (the identity without one): points move with it.
     const auto moved = [&](int node, const Eigen::Vector3d& p) -> Eigen::Vector3d {
         if (node < 0) return p;
@@ -39,9 +40,16 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
     ChainPoints& points = basePoints_[b];
     points.root = moved(base.anchorNode, c.root);
     points.goal = moved(base.goalNode, base.goalRest);
-    points.pole = c.pole >= 0 ? moved(base.poleNode, base.poleRest)
-                  : c.worldUp ? Eigen::Vector3d(points.root + c.restPole - c.root)
-                              : moved(base.anchorNode, c.restPole);
+    // A pole carried by the pole output's rotation: its node's product turns the rest offset (a node's product is
+    // its motion from rest).
+    const auto turned = [&](const Eigen::Vector3d& offset) -> Eigen::Vector3d {
+        if (base.poleNode < 0) return offset;
+        return nodeMatrix_[static_cast<std::size_t>(base.poleNode)].leftCols<3>() * offset;
+    };
+    points.pole = c.pole >= 0 && c.poleTurns ? Eigen::Vector3d(points.root + turned(c.restPole - c.root))
+                  : c.pole >= 0              ? moved(base.poleNode, base.poleRest)
+                  : c.worldUp                ? Eigen::Vector3d(points.root + c.restPole - c.root)
+                                             : moved(base.anchorNode, c.restPole);
     points.normal =
         base.anchorNode < 0
             ? c.restNormal
@@ -52,6 +60,21 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
     if (base.orientNode >= 0) orient.topRows<3>() = nodeMatrix_[static_cast<std::size_t>(base.orientNode)];
     baseCentres_[b] = chain.block<3, 3>(0, 0) * c.origin + chain.block<3, 1>(0, 3);
     return orientedBase(c, chain, orient).topRows<3>();
+}
+
+ResidualWorkspace::Affine ResidualWorkspace::evaluateOriented(std::size_t b)
+{
+    // B = [Q_o | M_a p0 - Q_o p0] from the anchor's and the orient output's products (their motions from rest).
+    const ResidualStructure::Base& base = structure_->bases_[b];
+    const ConstraintBase& c = structure_->approximation_->constraints[static_cast<std::size_t>(base.constraint)];
+    const auto motion = [&](int node) -> Eigen::Matrix4d {
+        Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+        if (node >= 0) m.topRows<3>() = nodeMatrix_[static_cast<std::size_t>(node)];
+        return m;
+    };
+    const Eigen::Matrix4d anchor = motion(base.anchorNode);
+    baseCentres_[b] = anchor.block<3, 3>(0, 0) * c.origin + anchor.block<3, 1>(0, 3);
+    return orientedBase(c, anchor, motion(base.orientNode)).topRows<3>();
 }
 
 ResidualWorkspace::Affine ResidualWorkspace::evaluateBlend(std::size_t b)
@@ -102,7 +125,8 @@ void ResidualWorkspace::baseVelocities()
         const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
         const ChainPoints& points = basePoints_[b];
         const bool twist = c.kind == ConstraintKind::twistShare, blend = c.kind == ConstraintKind::blend;
-        const BaseLinearization at = twist || blend ? BaseLinearization{} : linearizeBase(c, points);
+        const bool oriented = c.kind == ConstraintKind::oriented;
+        const BaseLinearization at = twist || blend || oriented ? BaseLinearization{} : linearizeBase(c, points);
         for (std::size_t j = 0; j < base.columns.size(); ++j) {
             std::array<Affine, 5> x;
             x.fill(Affine::Zero());
@@ -126,13 +150,23 @@ void ResidualWorkspace::baseVelocities()
                     twistVelocity(baseTwists_[b], x[0], x[1], x[2]);
                 continue;
             }
+            // An oriented base's origin moves with the anchor, its rotation with the orient output.
+            if (oriented) {
+                baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
+                    orientedVelocity(x[0], x[3], baseCentres_[b]);
+                continue;
+            }
             const auto rate = [](const Affine& v, const Eigen::Vector3d& p) -> Eigen::Vector3d {
                 return v.leftCols<3>() * p + v.col(3);
             };
-            // A world up moves with the root only; a fixed pole with the anchor.
-            const Eigen::Vector3d poleRate = c.pole >= 0 ? rate(x[2], points.pole)
-                                             : c.worldUp ? rate(x[0], points.root)
-                                                         : rate(x[0], points.pole);
+            // A world up moves with the root only; a fixed pole with the anchor; a pole the pole output's rotation
+            // carries with the root, turning as that output does.
+            const Eigen::Vector3d poleRate =
+                c.pole >= 0 && c.poleTurns
+                    ? Eigen::Vector3d(rate(x[0], points.root) + x[2].leftCols<3>() * (points.pole - points.root))
+                : c.pole >= 0 ? rate(x[2], points.pole)
+                : c.worldUp   ? rate(x[0], points.root)
+                              : rate(x[0], points.pole);
             const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal), poleRate,
                                     x[0].leftCols<3>() * points.normal};
             const Affine chain = baseVelocity(at, rates);

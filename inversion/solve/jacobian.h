@@ -294,9 +294,10 @@ private:
         Eigen::Matrix<double, 3, 4>;  // the top rows of a 4x4 whose last row is 0 0 0 1 (or 0 for a derivative)
 
     void evaluateSlots(std::span<const double> x, bool derivatives);
-    void evaluateTree();                  // node products and worlds from the slot matrices
-    Affine evaluateBase(std::size_t b);   // base b's product, from its inputs' (basePoints_ too)
-    Affine evaluateBlend(std::size_t b);  // a blend's base, from its inputs' products and its weight (blends_ too)
+    void evaluateTree();                     // node products and worlds from the slot matrices
+    Affine evaluateBase(std::size_t b);      // base b's product, from its inputs' (basePoints_ too)
+    Affine evaluateBlend(std::size_t b);     // a blend's base, from its inputs' products and its weight (blends_ too)
+    Affine evaluateOriented(std::size_t b);  // an oriented base, from its anchor's and orient output's products
     // A blend's dB B^-1 for its inputs moving at x (ConstraintBase::frameInputs' order) and its weight at dw.
     Affine blendVelocity(std::size_t b, const std::array<Affine, 5>& x, double dw) const;
     void baseVelocities();  // baseVelocity_ from velocity_, bases in order

@@ -97,7 +97,9 @@ std::vector<PoleHold> poleHolds(const Approximation& approximation)
     std::set<int> poles;
     for (std::size_t i = 0; i < approximation.constraints.size(); ++i) {
         const ConstraintBase& c = approximation.constraints[i];
-        if (c.kind != ConstraintKind::planarChain || c.pole < 0 || !poles.insert(c.pole).second) continue;
+        // A pole its output's rotation carries (poleTurns) sits at a set distance from the root: nothing to hold.
+        if (c.kind != ConstraintKind::planarChain || c.pole < 0 || c.poleTurns || !poles.insert(c.pole).second)
+            continue;
         PoleHold hold;
         hold.constraint = static_cast<int>(i);
         hold.parameters = ownTranslations(approximation, c.pole);

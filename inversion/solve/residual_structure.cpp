@@ -233,7 +233,7 @@ ResidualStructure::Base ResidualStructure::makeBase(int constraint, const std::a
     base.anchorNode = inputNodes[0];
     base.goalNode = inputNodes[1];
     base.poleNode = inputNodes[2];
-    base.orientNode = c.kind == ConstraintKind::planarChain ? inputNodes[3] : -1;
+    base.orientNode = c.kind == ConstraintKind::planarChain || c.kind == ConstraintKind::oriented ? inputNodes[3] : -1;
     base.goalRest = restOrigin(c.goal);
     base.poleRest = restOrigin(c.pole);
     const auto rest = [&](int k) -> Eigen::Matrix4d {

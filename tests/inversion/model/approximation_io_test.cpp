@@ -675,10 +675,10 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
     // The constraint entry.
     CHECK(chainErrorWith("kind: planarChain", "kind: twoBone") ==
           "f.yaml:13:11: constraints[0].kind: unknown constraint 'twoBone'; the constraints are planarChain, "
-          "twistShare and blend");
+          "twistShare, blend and oriented");
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restReach: 3\n") ==
           "f.yaml:18:5: constraints[0]: unknown field 'restReach'; the fields are kind, goal, root, restPole, shape, "
-          "anchor, pole, restNormal, worldUp, orient, origin");
+          "anchor, pole, restNormal, worldUp, poleTurns, orient, origin");
     // An output turning as another: the orient output and the origin come together.
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n",
                          "    restPole: [0, 55, 40]\n    orient: \"goal\"\n    origin: [0, 1, 2]\n") == "(no error)");
