@@ -76,12 +76,13 @@ std::string noPlugHint(const Graph& g, const MayaSceneInfo& info, const std::str
     }
     if (nodes.empty()) return fmt::format("no node matches '{}'{}", nodePart, didYouMean(nodePart, nodeNames));
     std::set<std::string> attributes;
-    for (const Plug& p : allPlugs(g))
+    forEachPlug(g, [&](const Plug& p) {
         if (std::find(nodes.begin(), nodes.end(), p.node) != nodes.end() &&
             whyNotParameter(g, info, p, cutTimeCurves).empty()) {
             const std::string name = g.plugName(p);
             attributes.insert(name.substr(name.find('.') + 1));
         }
+    });
     const std::vector<std::string> candidates(attributes.begin(), attributes.end());
     const std::string suggestion = closestName(attrPart, candidates);
     const std::string where =
@@ -214,8 +215,9 @@ std::vector<Plug> matchParameterGlob(const Graph& g, const MayaSceneInfo& info, 
                                     e.what());
         }
     } else
-        for (const Plug& p : allPlugs(g))
+        forEachPlug(g, [&](const Plug& p) {
             if (globMatches(glob, g.plugName(p))) matched.push_back(p);
+        });
     if (matched.empty()) {
         const std::string reason = fmt::format("matches no plug: {}", noPlugHint(g, info, glob, cutTimeCurves));
         throw RigSelectionError(fmt::format("{}: parameter glob '{}' {}", rigName, glob, reason), "parameter", glob,

@@ -109,7 +109,8 @@ public:
     std::uint64_t computeCount(NodeId node) const;
 
     // Lays the model's lists out in node order (GraphModel::compactLists), a shared model in this instance's own
-    // copy: the loaders call it once a graph is built, before its frames are played.
+    // copy, and gives back what this instance's lists hold past their size: the loaders call it once a graph is
+    // built, before its frames are played.
     void compact();
 
     // Marks every output and every connected input dirty, as if nothing had been computed.

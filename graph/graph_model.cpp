@@ -72,6 +72,7 @@ void GraphModel::compactLists()
                            {rec.outgoing.begin(), rec.outgoing.end(), lists.get()}});
     nodes_ = std::move(compact);  // the vector's block changes hands: each list keeps the new arena
     lists_ = std::move(lists);    // the old blocks go, now that no list is in them
+    connections_.shrink_to_fit();
 }
 
 NodeId GraphModel::addNode(std::string_view typeName, std::string_view name)

@@ -13,20 +13,7 @@ namespace rig {
 std::vector<Plug> allPlugs(const Graph& graph)
 {
     std::vector<Plug> plugs;
-    for (NodeId n = 0; n < graph.nodeCount(); ++n) {
-        const auto& specs = graph.attributes(n);
-        for (AttrId a = 0; a < static_cast<AttrId>(specs.size()); ++a) {
-            const AttributeSpec& spec = specs[static_cast<std::size_t>(a)];
-            auto add = [&](int index) {
-                plugs.push_back({n, a, index, -1});
-                if (spec.type == ValueType::Vector3)
-                    for (int c = 0; c < 3; ++c) plugs.push_back({n, a, index, c});
-            };
-            if (!spec.array) add(-1);
-            else
-                for (int i : graph.elementIndices(n, a)) add(i);
-        }
-    }
+    forEachPlug(graph, [&](const Plug& p) { plugs.push_back(p); });
     return plugs;
 }
 
@@ -102,8 +89,9 @@ std::vector<Plug> matchPlugs(const Graph& graph, std::string_view pattern)
     if (!isGlobPattern(pattern)) return {graph.plug(pattern)};
     const std::string glob = fnmatchPattern(pattern);
     std::vector<Plug> matches;
-    for (const Plug& p : allPlugs(graph))
+    forEachPlug(graph, [&](const Plug& p) {
         if (fnmatch(glob.c_str(), graph.plugName(p).c_str(), 0) == 0) matches.push_back(p);
+    });
     if (matches.empty())
         throw Error(
             fmt::format("no plug matches '{}'; patterns look like '*.worldMatrix' or 'L_arm_*.rotate?'", pattern));

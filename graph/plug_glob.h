@@ -9,7 +9,28 @@
 
 namespace rig {
 
-// Every plug of the graph by name: attributes, vector3 components, existing array elements.
+// Calls f(plug) for every plug of the graph by name: attributes, vector3 components, existing array elements, in
+// node order. Without a list of them: a crowd of 256 bipeds has 1.6 million, 50 MB as a list (allPlugs).
+template <class F>
+void forEachPlug(const Graph& graph, F&& f)
+{
+    for (NodeId n = 0; n < graph.nodeCount(); ++n) {
+        const auto& specs = graph.attributes(n);
+        for (AttrId a = 0; a < static_cast<AttrId>(specs.size()); ++a) {
+            const AttributeSpec& spec = specs[static_cast<std::size_t>(a)];
+            auto visit = [&](int index) {
+                f(Plug{n, a, index, -1});
+                if (spec.type == ValueType::Vector3)
+                    for (int c = 0; c < 3; ++c) f(Plug{n, a, index, c});
+            };
+            if (!spec.array) visit(-1);
+            else
+                for (int i : graph.elementIndices(n, a)) visit(i);
+        }
+    }
+}
+
+// Every plug of the graph, as forEachPlug visits them.
 std::vector<Plug> allPlugs(const Graph& graph);
 
 // Plugs whose name matches `pattern` (fnmatch rules: * ? [set]), where an array index is not a set:

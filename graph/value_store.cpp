@@ -29,6 +29,12 @@ ValueStore::Slot ValueStore::add(ValueType type, const Value& value)
     });
 }
 
+void ValueStore::shrink()
+{
+    std::apply([](auto&... pool) { (pool.shrink_to_fit(), ...); }, pools_);
+    arrays_.shrink_to_fit();
+}
+
 ValueStore::Slot ValueStore::addArray()
 {
     arrays_.emplace_back();

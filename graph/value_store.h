@@ -83,6 +83,9 @@ public:
     // Assigns a Value holding the slot type's alternative; false when it holds another.
     bool assign(ValueType type, Slot slot, Value value);
 
+    // Gives back what the pools hold past their size (they grow by doubling while a graph is built).
+    void shrink();
+
     // An array attribute's elements: null until it has one; elements() makes them.
     const ArrayData* array(Slot slot) const { return arrays_[slot].get(); }
     ArrayData& elements(Slot slot);

@@ -9,6 +9,7 @@
 
 #include "app/common/value_output.h"
 #include "core/error.h"
+#include "core/huge_pages.h"
 #include "graph/plug_glob.h"
 #include "graph/yaml_loader.h"
 #include "nodes/builtin_nodes.h"
@@ -151,10 +152,14 @@ std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const st
 {
     if (firstFrame) graph.setTime(*firstFrame);
     evaluating(rigName, graph.time(), [&] { graph.evaluateAll(); });
+    // Built, and its nodes' state made by that evaluation: a crowd's memory goes into huge pages before its frames
+    // are played.
+    if (graph.nodeCount() >= hugePageNodes) collapseIntoHugePages();
     std::vector<Plug> plugs;
     if (patterns.empty()) {
-        for (const Plug& p : allPlugs(graph))
+        forEachPlug(graph, [&](const Plug& p) {
             if (!graph.spec(p).input && p.child < 0) plugs.push_back(p);
+        });
     }
     // A plug named by several patterns is listed once (JSON objects must not repeat a key).
     std::set<Plug> seen;

@@ -39,9 +39,13 @@ void applyAnimFile(Graph& graph, const std::string& file);
 
 // graph-eval --get PATTERN...: the plugs the patterns match, each once, in their order; no pattern: every
 // output plug (whole values). The graph is evaluated first (at `firstFrame` when given), since array
-// outputs have elements only once computed. `rigName` names the rig in errors.
+// outputs have elements only once computed; a graph of hugePageNodes nodes or more is then collapsed into huge
+// pages (core/huge_pages.h). `rigName` names the rig in errors.
 std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const std::vector<std::string>& patterns,
                               std::optional<double> firstFrame);
+// A crowd of 36 bipeds, 17 MB: below it a frame gained nothing from huge pages here, and collapsing fills the
+// unused rest of each 2 MB range.
+inline constexpr int hugePageNodes = 10'000;
 
 // The plugs' values at `frame`, the scene time set to it when `setTime`. `check`: graph-eval --check (a
 // value differing from a full recompute is an internal error). An error a node meets names the rig and
