@@ -153,6 +153,12 @@ Json machineDescription()
 double residentMb() { return kbIn("/proc/self/status", "VmRSS") / 1024.0; }
 double peakResidentMb() { return kbIn("/proc/self/status", "VmHWM") / 1024.0; }
 
+double heapInUseMb()
+{
+    const struct mallinfo2 info = mallinfo2();
+    return static_cast<double>(info.uordblks + info.hblkhd) / (1024.0 * 1024.0);
+}
+
 bool resetPeakResident()
 {
     malloc_trim(0);

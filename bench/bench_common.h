@@ -52,6 +52,9 @@ std::vector<double> loadAverage();
 // Memory of this process, MB, from /proc/self/status: resident now, and the peak since the last reset.
 double residentMb();
 double peakResidentMb();
+// The heap this process holds now, MB (malloc's blocks in use, mallinfo2): what stays of a structure once built,
+// without the pages a load touched and freed, which the peak counts.
+double heapInUseMb();
 // Returns freed memory to the system and sets the peak to the current resident size (Linux
 // /proc/self/clear_refs), so that the next peak belongs to the work that follows. False when the
 // kernel refuses (the peak then spans the whole run).

@@ -64,7 +64,8 @@ struct CrowdPlay {
     long long samples = 0;       // heads x frames measured
     long long limited = 0;       // of those, heads whose lookAt was stopped by a limit (not measured)
     double loadSeconds = 0.0;
-    double memoryMb = 0.0;
+    double memoryMb = 0.0;  // the peak resident growth, loading included
+    double heldMb = 0.0;    // the heap the crowd holds while it plays
 };
 
 // Each member's edited head (the lookAt's output, in the clip's units) against its real head (the biped's
@@ -92,7 +93,7 @@ CrowdPlay playCrowd(const fs::path& file, int count, int threads, int frames, do
 {
     CrowdPlay play;
     resetPeakResident();
-    const double before = residentMb();
+    const double before = residentMb(), heapBefore = heapInUseMb();
     const auto start = std::chrono::steady_clock::now();
     auto graph = loadGraphFile(file, app::nodeRegistry({}));
     graph->setThreads(threads);
@@ -118,6 +119,7 @@ CrowdPlay playCrowd(const fs::path& file, int count, int threads, int frames, do
     }
     play.cpuMsPerFrame = 1e3 * cpu / static_cast<double>(frames);
     play.memoryMb = peakResidentMb() - before;
+    play.heldMb = heapInUseMb() - heapBefore;
     return play;
 }
 
@@ -141,7 +143,8 @@ Json rowJson(int count, const CrowdPlay& p)
                 {"heads_measured", p.samples - p.limited},
                 {"heads_at_a_limit", p.limited},
                 {"load_seconds", p.loadSeconds},
-                {"memory_mb", p.memoryMb}};
+                {"memory_mb", p.memoryMb},
+                {"memory_held_mb", p.heldMb}};
 }
 
 // Crowds of 1, 2, 4, ... bipeds on `threads` threads, until a frame takes over twice the budget on average.

@@ -187,6 +187,7 @@ TEST_CASE("rig-bench --quick: every figure of issue 7, finite, with the machine 
         REQUIRE(t["rows"].size() == 2);
         CHECK(figure(t["rows"][1], "heads_measured") + figure(t["rows"][1], "heads_at_a_limit") == 2 * 5);
         positive(t["rows"][1], "memory_mb");
+        positive(t["rows"][1], "memory_held_mb");
     }
     CHECK(figure(crowd, "threads") == 2);
     CHECK(figure(crowd, "agents_at_30fps") == 2);
