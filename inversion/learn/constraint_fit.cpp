@@ -497,17 +497,19 @@ namespace {
 
 // How far the planes through the aims A_i and the up direction u turn from the one at rest by the output's turns D_i:
 // sum |n(A_i, u) - D_i n(A_0, u)|^2 with n(A, u) = A x u / |A x u| (for an up that is right, D_i carries the rest plane
-// onto each pose's).
+// onto each pose's). The search only asks whether a direction beats the best so far: the sum stops once it is past
+// `bound` (most directions of the sphere are, after a few poses), and a direction so stopped is not taken.
 double upMisfit(const Eigen::Vector3d& u, const std::vector<Eigen::Vector3d>& aims,
-                const std::vector<Eigen::Matrix3d>& turns, const Eigen::Vector3d& restAim)
+                const std::vector<Eigen::Matrix3d>& turns, const Eigen::Vector3d& restAim, double bound)
 {
     const Eigen::Vector3d n0 = restAim.cross(u);
     if (!(n0.norm() > 1e-9)) return std::numeric_limits<double>::infinity();
+    const Eigen::Vector3d plane = n0.normalized();
     double sum = 0.0;
-    for (std::size_t i = 0; i < aims.size(); ++i) {
+    for (std::size_t i = 0; i < aims.size() && sum < bound; ++i) {
         const Eigen::Vector3d n = aims[i].cross(u);
         if (!(n.norm() > 1e-9)) return std::numeric_limits<double>::infinity();
-        sum += (n.normalized() - turns[i] * n0.normalized()).squaredNorm();
+        sum += (n.normalized() - turns[i] * plane).squaredNorm();
     }
     return sum;
 }
@@ -543,7 +545,7 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
         const double z = 1.0 - (2.0 * i + 1.0) / directions, ring = std::sqrt(1.0 - z * z);
         const double angle = i * std::numbers::pi * (3.0 - std::sqrt(5.0));
         const Eigen::Vector3d u(ring * std::cos(angle), ring * std::sin(angle), z);
-        const double e = upMisfit(u, aims, turns, restAim);
+        const double e = upMisfit(u, aims, turns, restAim, best);
         if (e < best) {
             best = e;
             up = u;
@@ -556,7 +558,7 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
         bool moved = false;
         for (const Eigen::Vector3d& d : {t1, Eigen::Vector3d(-t1), t2, Eigen::Vector3d(-t2)}) {
             const Eigen::Vector3d u = (up + step * d).normalized();
-            const double e = upMisfit(u, aims, turns, restAim);
+            const double e = upMisfit(u, aims, turns, restAim, best);
             if (e < best) {
                 best = e;
                 up = u;
