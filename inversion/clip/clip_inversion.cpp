@@ -240,6 +240,20 @@ void decideLead(bool led, const SolveSummary& summary, ChainLead& lead)
     lead.backoff = std::min(2 * lead.backoff, 1 << 20);
 }
 
+// A retry's answer (`second`, from `start`) kept in `frame` and `values` where it is cheaper.
+void keepIfCheaper(SolveSummary& second, std::vector<double>& start, double floor, ChainFrame& frame,
+                   std::vector<double>& values)
+{
+    if (!(second.finalCost < frame.summary.finalCost * (1.0 - 1e-9) - floor * 1e-6)) return;
+    frame.kept = true;
+    second.iterations += frame.summary.iterations;
+    second.gaussNewtonIterations += frame.summary.gaussNewtonIterations;
+    second.levenbergMarquardtIterations += frame.summary.levenbergMarquardtIterations;
+    second.initialCost = frame.summary.initialCost;
+    std::swap(frame.summary, second);
+    values.swap(start);
+}
+
 }  // namespace
 
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
@@ -266,17 +280,21 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
         !(frame.summary.finalCost > 2.0 * previousCost + floor))
         return;
     frame.retried = true;
+    // First the guess at the warm start: it keeps what the chain chose where the targets leave a choice (the split
+    // of a pose between redundant controls: a body's world and root, a foot's roll, bank and rotation). Only where that
+    // one is stuck too, the guess from rest, as a restart's: taken first, its other split sent C_Robot_Run's later
+    // frames into slow solves that did not converge (docs/maya.md).
     solver.initialGuess(targets, scratch.start);
     SolveSummary& second = scratch.second;
     solver.solveCold(targets, scratch.start, second);
-    if (!(second.finalCost < frame.summary.finalCost * (1.0 - 1e-9) - floor * 1e-6)) return;
-    frame.kept = true;
-    second.iterations += frame.summary.iterations;
-    second.gaussNewtonIterations += frame.summary.gaussNewtonIterations;
-    second.levenbergMarquardtIterations += frame.summary.levenbergMarquardtIterations;
-    second.initialCost = frame.summary.initialCost;
-    std::swap(frame.summary, second);
-    values.swap(scratch.start);
+    keepIfCheaper(second, scratch.start, floor, frame, values);
+    if (frame.summary.converged()) return;
+    const std::vector<ModelledParameter>& parameters = solver.approximation().parameters;
+    scratch.rest.resize(parameters.size());
+    for (std::size_t i = 0; i < parameters.size(); ++i) scratch.rest[i] = parameters[i].parameter.defaultValue;
+    solver.initialGuess(targets, scratch.rest);
+    solver.solveCold(targets, scratch.rest, second);
+    keepIfCheaper(second, scratch.rest, floor, frame, values);
 }
 
 int solveHeldFrame(HeldFrameScratch& scratch, const HeldSolve& solveOnce, std::span<const JointTarget> targets,

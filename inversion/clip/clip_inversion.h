@@ -46,8 +46,9 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
 // One frame of a warm-start chain (invertClip and the rigInversion node): solve from `values` (the warm
 // start, out the solution). When it ends stuck at a cost above twice `previousCost` plus
 // 0.5 targetTolerance^2, it is solved again from Solver::initialGuess at the same warm start and the
-// cheaper answer is kept (ClipInversionOptions::retryStuck). `previousCost` = retryNever: a chain's first
-// frame (a restart), solved by Solver::solveCold and not retried; noRetry: a later frame never retried.
+// cheaper answer is kept (ClipInversionOptions::retryStuck); where that one does not converge either, once more from
+// Solver::initialGuess at the rest values (as a restart frame starts), the cheapest kept. `previousCost` = retryNever:
+// a chain's first frame (a restart), solved by Solver::solveCold and not retried; noRetry: a later frame never retried.
 // `frame` is the result; it and `scratch` keep their storage from frame to frame, so that a chain allocates
 // nothing once they have grown.
 //
@@ -81,6 +82,7 @@ struct ChainLead {
 };
 struct ChainScratch {
     std::vector<double> start;  // the warm start, for the second solve
+    std::vector<double> rest;   // the rest values, for a third
     SolveSummary second;
     ChainLead lead;                // reset at a chain's first frame (previousCost = retryNever)
     std::vector<JointTarget> led;  // a led frame's targets, positions weighed rotationsLeadPositionWeight times theirs
@@ -132,8 +134,9 @@ struct ClipInversionOptions {
     bool coldStart = true;
     // A warm-started frame that ends stuck with a cost above twice the previous frame's (a jump into
     // another basin: a gimbal lock passed, a fast turn) is solved again from Solver::initialGuess started
-    // at the warm start, and the cheaper answer kept. A clip the rig cannot reach exactly stays stuck
-    // at a steady cost and is not solved twice.
+    // at the warm start, and the cheaper answer kept; where that does not converge either, from
+    // Solver::initialGuess at the rest values too (solveChainFrame). A clip the rig cannot reach exactly stays
+    // stuck at a steady cost and is not solved again.
     bool retryStuck = true;
     // The values (internal units, one per parameter) reported for the frame just before the first frame
     // solved (the restart frame at or before `first`): the chunk before, as one run over both reported it.
