@@ -51,6 +51,8 @@ void ClipInversionOptions::validate() const
 {
     solver.validate();
     if (polishCorrections < 0) throw Error(fmt::format("polishCorrections must be >= 0, got {}", polishCorrections));
+    if (mismatchPolishCorrections < 0)
+        throw Error(fmt::format("mismatchPolishCorrections must be >= 0, got {}", mismatchPolishCorrections));
     if (restartInterval <= 0) throw Error(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
     for (const Contact& c : contacts)
         if (c.output < 0 || c.first < 0 || c.first > c.last)
@@ -472,6 +474,23 @@ void checkClipRange(const Approximation& approximation, const ClipTargets& targe
                             c.output, c.first, c.last, frameCount - 1));
 }
 
+// Whether invertClip polishes the frames the real rig judges small model mismatches (ClipInversionOptions).
+bool polishesMismatches(const ClipInversionOptions& o)
+{
+    return o.polishCorrections == 0 && o.mismatchPolishCorrections > 0 && !o.frameSolve;
+}
+
+// Whether frame `f`, as judged, is a model mismatch it polishes: missed by at most smallMismatch times `tolerance`.
+bool smallMismatch(const ClipInversionOptions& o, double tolerance, const FrameInversion& f)
+{
+    if (!polishesMismatches(o) || f.status != FrameStatus::modelMismatch ||
+        f.solve.termination == TerminationType::invalidTargets)
+        return false;
+    double worst = 0.0;
+    for (const FrameInversion::Missed& m : f.missed) worst = std::max(worst, m.scaledErrorCm);
+    return worst <= ClipInversionOptions::smallMismatch * tolerance;
+}
+
 }  // namespace
 
 ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first, int last,
@@ -530,22 +549,38 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
             applyHolds(holds, frameTargets, heldTargets);
             polish(solver, rig, heldTargets, current, options.polishCorrections);
         }
-        const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-        const double cpuSeconds = threadCpuSeconds() - cpuStart;
-        const std::span<const double> reported = continuity.next(current, restart);
+        double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+        double cpuSeconds = threadCpuSeconds() - cpuStart;
+        std::span<const double> reported = continuity.next(current, restart);
+        FrameInversion result;
+        const auto judge = [&] {
+            result.clear();
+            result.frame = frame;
+            result.solve = solve;
+            result.realRigEvaluations = solved.realRigEvaluations;
+            rig.evaluate(reported, worlds);
+            heldScratch.evaluator.evaluate(reported, modelled);
+            judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
+        };
+        // Judged at the lead-in frames too where a small mismatch may be polished: the chain goes on from the
+        // polished values, and a chunk's must be one run's.
+        if (frame >= first || polishesMismatches(options)) judge();
+        if (smallMismatch(options, solver.options().targetTolerance, result)) {
+            const auto polishStart = Clock::now();
+            const double polishCpuStart = threadCpuSeconds();
+            applyHolds(holds, frameTargets, heldTargets);
+            polish(solver, rig, heldTargets, current, options.mismatchPolishCorrections);
+            seconds += std::chrono::duration<double>(Clock::now() - polishStart).count();
+            cpuSeconds += threadCpuSeconds() - polishCpuStart;
+            reported = continuity.again(current);
+            judge();
+        }
         if (frame < first) continue;
 
         summary.solveSeconds += seconds;
         summary.solveCpuSeconds += cpuSeconds;
         values.emplace_back(reported.begin(), reported.end());
         if (solvedValues) solvedValues->push_back(current);
-        FrameInversion result;
-        result.frame = frame;
-        result.solve = solve;
-        result.realRigEvaluations = solved.realRigEvaluations;
-        rig.evaluate(reported, worlds);
-        heldScratch.evaluator.evaluate(reported, modelled);
-        judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
         if (result.status == FrameStatus::modelMismatch)
             result.rangeLeft = rangeLeft(approximation, reported, result.mismatchOutput);
         summary.retriedFrames += solved.retried;

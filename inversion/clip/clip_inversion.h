@@ -126,6 +126,14 @@ struct ClipInversionOptions {
     RealRigFit realRigFit = RealRigFit::none;
     // Real-rig polish corrections per frame (inversion/clip/rig_binding.h, polish()); 0: approximation only.
     int polishCorrections = 0;
+    // With polishCorrections 0, a frame the real rig judges a model mismatch missed by at most smallMismatch times
+    // targetTolerance (the larger of the position error and rotationScaleCm times the rotation's) is polished with
+    // mismatchPolishCorrections, and judged again: a gap that small is the learned curves' rounding (C_Robot_Rig's
+    // ToeRoll driven key, kinked at its rest value: 0.0033 cm and 0.064 degrees, 11 times the tolerance on the
+    // rotation scale), which the polish's correction by the gap at the answer takes out; a larger one is a model to
+    // learn again, polished only when asked. 0 corrections: never.
+    int mismatchPolishCorrections = 2;
+    static constexpr double smallMismatch = 20.0;
     // Frames between warm-start restarts (see above), > 0. 120 frames: one second of a 120 fps clip,
     // so a chunk re-solves at most 119 lead-in frames.
     int restartInterval = 120;
