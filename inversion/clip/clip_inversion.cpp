@@ -265,6 +265,7 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     frame.retried = frame.kept = false;
     frame.realRigEvaluations = 0;
     scratch.led.reserve(targets.size());  // grown at the chain's first frame, whether or not the rotations lead
+    scratch.rest.reserve(values.size());  // and the third start's, whether or not a frame needs it
     const bool chainStart = !(previousCost < retryNever);
     if (chainStart) scratch.lead = ChainLead{};
     const bool led = scratch.lead.rotations && solveRotationsFirst(solver, targets, values, scratch);

@@ -214,7 +214,7 @@ TEST_CASE("maya clip: C_Robot_Run.ma inverted on C_Robot_Rig.ma, and OUT.ma repl
                                                                     << " deg");
 }
 
-TEST_CASE("maya clip: C_Robot_Run.ma on C_Robot_Rig.ma learned with --params auto, every frame reached by default")
+TEST_CASE("maya clip: C_Robot_Run.ma on C_Robot_Rig.ma learned with auto parameters, every frame reached by default")
 {
     const fs::path folder = test::sourceDir() / "../shared/maya/sweet4lorie__MonsterRobotRunner/ART/C_Robot";
     if (!fs::exists(folder / "C_Robot_Run.ma")) {

@@ -191,7 +191,7 @@ TEST_CASE(
 
 TEST_CASE(
     "inversion on the real rig: a frame the real rig judges a model mismatch within a few tolerances is polished on it "
-    "and then reached; a larger one stays a mismatch")
+    "and then reached, a larger one stays a mismatch")
 {
     test::LambdaRig arm = test::fkArm();
     const Approximation a = test::learn(arm, "fk arm");
