@@ -279,7 +279,11 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     }
     const double tolerance = solver.options().targetTolerance;
     const double floor = 0.5 * tolerance * tolerance;
-    if (!(previousCost < retryNever) || frame.summary.termination != TerminationType::stuck ||
+    // A solve that used its iterations after such a jump is as far from the frame before as a stuck one (C_Robot_Run
+    // restarted every 2 or 4 frames: the frame after a restart, warm-started from the restart's other split of the
+    // pose, ends unconverged 1.3 cm off).
+    const TerminationType t = frame.summary.termination;
+    if (!(previousCost < retryNever) || (t != TerminationType::stuck && t != TerminationType::noConvergence) ||
         !(frame.summary.finalCost > 2.0 * previousCost + floor))
         return;
     frame.retried = true;

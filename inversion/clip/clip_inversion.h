@@ -44,7 +44,7 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
                          std::span<const std::vector<Eigen::Matrix4d>> worlds);
 
 // One frame of a warm-start chain (invertClip and the rigInversion node): solve from `values` (the warm
-// start, out the solution). When it ends stuck at a cost above twice `previousCost` plus
+// start, out the solution). When it ends stuck (or unconverged) at a cost above twice `previousCost` plus
 // 0.5 targetTolerance^2, it is solved again from Solver::initialGuess at the same warm start and the
 // cheaper answer is kept (ClipInversionOptions::retryStuck); where that one does not converge either, once more from
 // Solver::initialGuess at the rest values (as a restart frame starts), the cheapest kept. `previousCost` = retryNever:
@@ -140,7 +140,7 @@ struct ClipInversionOptions {
     // Restart frames start from Solver::initialGuess (the approximation's structure decomposes each
     // joint's target) rather than from the rest values, which can lie in another basin of the cost.
     bool coldStart = true;
-    // A warm-started frame that ends stuck with a cost above twice the previous frame's (a jump into
+    // A warm-started frame that ends stuck or unconverged with a cost above twice the previous frame's (a jump into
     // another basin: a gimbal lock passed, a fast turn) is solved again from Solver::initialGuess started
     // at the warm start, and the cheaper answer kept; where that does not converge either, from
     // Solver::initialGuess at the rest values too (solveChainFrame). A clip the rig cannot reach exactly stays
