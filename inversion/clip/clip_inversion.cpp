@@ -51,6 +51,8 @@ void ClipInversionOptions::validate() const
 {
     solver.validate();
     if (polishCorrections < 0) throw Error(fmt::format("polishCorrections must be >= 0, got {}", polishCorrections));
+    if (mismatchPolishCorrections < 0)
+        throw Error(fmt::format("mismatchPolishCorrections must be >= 0, got {}", mismatchPolishCorrections));
     if (restartInterval <= 0) throw Error(fmt::format("restartInterval must be > 0 frames, got {}", restartInterval));
     for (const Contact& c : contacts)
         if (c.output < 0 || c.first < 0 || c.first > c.last)
@@ -240,6 +242,20 @@ void decideLead(bool led, const SolveSummary& summary, ChainLead& lead)
     lead.backoff = std::min(2 * lead.backoff, 1 << 20);
 }
 
+// A retry's answer (`second`, from `start`) kept in `frame` and `values` where it is cheaper.
+void keepIfCheaper(SolveSummary& second, std::vector<double>& start, double floor, ChainFrame& frame,
+                   std::vector<double>& values)
+{
+    if (!(second.finalCost < frame.summary.finalCost * (1.0 - 1e-9) - floor * 1e-6)) return;
+    frame.kept = true;
+    second.iterations += frame.summary.iterations;
+    second.gaussNewtonIterations += frame.summary.gaussNewtonIterations;
+    second.levenbergMarquardtIterations += frame.summary.levenbergMarquardtIterations;
+    second.initialCost = frame.summary.initialCost;
+    std::swap(frame.summary, second);
+    values.swap(start);
+}
+
 }  // namespace
 
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
@@ -249,6 +265,7 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     frame.retried = frame.kept = false;
     frame.realRigEvaluations = 0;
     scratch.led.reserve(targets.size());  // grown at the chain's first frame, whether or not the rotations lead
+    scratch.rest.reserve(values.size());  // and the third start's, whether or not a frame needs it
     const bool chainStart = !(previousCost < retryNever);
     if (chainStart) scratch.lead = ChainLead{};
     const bool led = scratch.lead.rotations && solveRotationsFirst(solver, targets, values, scratch);
@@ -262,21 +279,29 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     }
     const double tolerance = solver.options().targetTolerance;
     const double floor = 0.5 * tolerance * tolerance;
-    if (!(previousCost < retryNever) || frame.summary.termination != TerminationType::stuck ||
+    // A solve that used its iterations after such a jump is as far from the frame before as a stuck one (C_Robot_Run
+    // restarted every 2 or 4 frames: the frame after a restart, warm-started from the restart's other split of the
+    // pose, ends unconverged 1.3 cm off).
+    const TerminationType t = frame.summary.termination;
+    if (!(previousCost < retryNever) || (t != TerminationType::stuck && t != TerminationType::noConvergence) ||
         !(frame.summary.finalCost > 2.0 * previousCost + floor))
         return;
     frame.retried = true;
+    // First the guess at the warm start: it keeps what the chain chose where the targets leave a choice (the split
+    // of a pose between redundant controls: a body's world and root, a foot's roll, bank and rotation). Only where that
+    // one is stuck too, the guess from rest, as a restart's: taken first, its other split sent C_Robot_Run's later
+    // frames into slow solves that did not converge (docs/maya.md).
     solver.initialGuess(targets, scratch.start);
     SolveSummary& second = scratch.second;
     solver.solveCold(targets, scratch.start, second);
-    if (!(second.finalCost < frame.summary.finalCost * (1.0 - 1e-9) - floor * 1e-6)) return;
-    frame.kept = true;
-    second.iterations += frame.summary.iterations;
-    second.gaussNewtonIterations += frame.summary.gaussNewtonIterations;
-    second.levenbergMarquardtIterations += frame.summary.levenbergMarquardtIterations;
-    second.initialCost = frame.summary.initialCost;
-    std::swap(frame.summary, second);
-    values.swap(scratch.start);
+    keepIfCheaper(second, scratch.start, floor, frame, values);
+    if (frame.summary.converged()) return;
+    const std::vector<ModelledParameter>& parameters = solver.approximation().parameters;
+    scratch.rest.resize(parameters.size());
+    for (std::size_t i = 0; i < parameters.size(); ++i) scratch.rest[i] = parameters[i].parameter.defaultValue;
+    solver.initialGuess(targets, scratch.rest);
+    solver.solveCold(targets, scratch.rest, second);
+    keepIfCheaper(second, scratch.rest, floor, frame, values);
 }
 
 int solveHeldFrame(HeldFrameScratch& scratch, const HeldSolve& solveOnce, std::span<const JointTarget> targets,
@@ -454,6 +479,23 @@ void checkClipRange(const Approximation& approximation, const ClipTargets& targe
                             c.output, c.first, c.last, frameCount - 1));
 }
 
+// Whether invertClip polishes the frames the real rig judges small model mismatches (ClipInversionOptions).
+bool polishesMismatches(const ClipInversionOptions& o)
+{
+    return o.polishCorrections == 0 && o.mismatchPolishCorrections > 0 && !o.frameSolve;
+}
+
+// Whether frame `f`, as judged, is a model mismatch it polishes: missed by at most smallMismatch times `tolerance`.
+bool smallMismatch(const ClipInversionOptions& o, double tolerance, const FrameInversion& f)
+{
+    if (!polishesMismatches(o) || f.status != FrameStatus::modelMismatch ||
+        f.solve.termination == TerminationType::invalidTargets)
+        return false;
+    double worst = 0.0;
+    for (const FrameInversion::Missed& m : f.missed) worst = std::max(worst, m.scaledErrorCm);
+    return worst <= ClipInversionOptions::smallMismatch * tolerance;
+}
+
 }  // namespace
 
 ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const ClipTargets& targets, int first, int last,
@@ -512,22 +554,38 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
             applyHolds(holds, frameTargets, heldTargets);
             polish(solver, rig, heldTargets, current, options.polishCorrections);
         }
-        const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-        const double cpuSeconds = threadCpuSeconds() - cpuStart;
-        const std::span<const double> reported = continuity.next(current, restart);
+        double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+        double cpuSeconds = threadCpuSeconds() - cpuStart;
+        std::span<const double> reported = continuity.next(current, restart);
+        FrameInversion result;
+        const auto judge = [&] {
+            result.clear();
+            result.frame = frame;
+            result.solve = solve;
+            result.realRigEvaluations = solved.realRigEvaluations;
+            rig.evaluate(reported, worlds);
+            heldScratch.evaluator.evaluate(reported, modelled);
+            judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
+        };
+        // Judged at the lead-in frames too where a small mismatch may be polished: the chain goes on from the
+        // polished values, and a chunk's must be one run's.
+        if (frame >= first || polishesMismatches(options)) judge();
+        if (smallMismatch(options, solver.options().targetTolerance, result)) {
+            const auto polishStart = Clock::now();
+            const double polishCpuStart = threadCpuSeconds();
+            applyHolds(holds, frameTargets, heldTargets);
+            polish(solver, rig, heldTargets, current, options.mismatchPolishCorrections);
+            seconds += std::chrono::duration<double>(Clock::now() - polishStart).count();
+            cpuSeconds += threadCpuSeconds() - polishCpuStart;
+            reported = continuity.again(current);
+            judge();
+        }
         if (frame < first) continue;
 
         summary.solveSeconds += seconds;
         summary.solveCpuSeconds += cpuSeconds;
         values.emplace_back(reported.begin(), reported.end());
         if (solvedValues) solvedValues->push_back(current);
-        FrameInversion result;
-        result.frame = frame;
-        result.solve = solve;
-        result.realRigEvaluations = solved.realRigEvaluations;
-        rig.evaluate(reported, worlds);
-        heldScratch.evaluator.evaluate(reported, modelled);
-        judgeFrame(approximation, solver.options(), options.realRigFit, frameTargets, worlds, modelled, result);
         if (result.status == FrameStatus::modelMismatch)
             result.rangeLeft = rangeLeft(approximation, reported, result.mismatchOutput);
         summary.retriedFrames += solved.retried;

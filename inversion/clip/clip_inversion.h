@@ -44,10 +44,11 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
                          std::span<const std::vector<Eigen::Matrix4d>> worlds);
 
 // One frame of a warm-start chain (invertClip and the rigInversion node): solve from `values` (the warm
-// start, out the solution). When it ends stuck at a cost above twice `previousCost` plus
+// start, out the solution). When it ends stuck (or unconverged) at a cost above twice `previousCost` plus
 // 0.5 targetTolerance^2, it is solved again from Solver::initialGuess at the same warm start and the
-// cheaper answer is kept (ClipInversionOptions::retryStuck). `previousCost` = retryNever: a chain's first
-// frame (a restart), solved by Solver::solveCold and not retried; noRetry: a later frame never retried.
+// cheaper answer is kept (ClipInversionOptions::retryStuck); where that one does not converge either, once more from
+// Solver::initialGuess at the rest values (as a restart frame starts), the cheapest kept. `previousCost` = retryNever:
+// a chain's first frame (a restart), solved by Solver::solveCold and not retried; noRetry: a later frame never retried.
 // `frame` is the result; it and `scratch` keep their storage from frame to frame, so that a chain allocates
 // nothing once they have grown.
 //
@@ -81,6 +82,7 @@ struct ChainLead {
 };
 struct ChainScratch {
     std::vector<double> start;  // the warm start, for the second solve
+    std::vector<double> rest;   // the rest values, for a third
     SolveSummary second;
     ChainLead lead;                // reset at a chain's first frame (previousCost = retryNever)
     std::vector<JointTarget> led;  // a led frame's targets, positions weighed rotationsLeadPositionWeight times theirs
@@ -124,16 +126,25 @@ struct ClipInversionOptions {
     RealRigFit realRigFit = RealRigFit::none;
     // Real-rig polish corrections per frame (inversion/clip/rig_binding.h, polish()); 0: approximation only.
     int polishCorrections = 0;
+    // With polishCorrections 0, a frame the real rig judges a model mismatch missed by at most smallMismatch times
+    // targetTolerance (the larger of the position error and rotationScaleCm times the rotation's) is polished with
+    // mismatchPolishCorrections, and judged again: a gap that small is the learned curves' rounding (C_Robot_Rig's
+    // ToeRoll driven key, kinked at its rest value: 0.0033 cm and 0.064 degrees, 11 times the tolerance on the
+    // rotation scale), which the polish's correction by the gap at the answer takes out; a larger one is a model to
+    // learn again, polished only when asked. 0 corrections: never.
+    int mismatchPolishCorrections = 2;
+    static constexpr double smallMismatch = 20.0;
     // Frames between warm-start restarts (see above), > 0. 120 frames: one second of a 120 fps clip,
     // so a chunk re-solves at most 119 lead-in frames.
     int restartInterval = 120;
     // Restart frames start from Solver::initialGuess (the approximation's structure decomposes each
     // joint's target) rather than from the rest values, which can lie in another basin of the cost.
     bool coldStart = true;
-    // A warm-started frame that ends stuck with a cost above twice the previous frame's (a jump into
+    // A warm-started frame that ends stuck or unconverged with a cost above twice the previous frame's (a jump into
     // another basin: a gimbal lock passed, a fast turn) is solved again from Solver::initialGuess started
-    // at the warm start, and the cheaper answer kept. A clip the rig cannot reach exactly stays stuck
-    // at a steady cost and is not solved twice.
+    // at the warm start, and the cheaper answer kept; where that does not converge either, from
+    // Solver::initialGuess at the rest values too (solveChainFrame). A clip the rig cannot reach exactly stays
+    // stuck at a steady cost and is not solved again.
     bool retryStuck = true;
     // The values (internal units, one per parameter) reported for the frame just before the first frame
     // solved (the restart frame at or before `first`): the chunk before, as one run over both reported it.

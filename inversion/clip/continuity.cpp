@@ -135,6 +135,12 @@ std::span<const double> ChainContinuity::next(std::span<const double> solved, bo
     return reported_;
 }
 
+std::span<const double> ChainContinuity::again(std::span<const double> solved)
+{
+    applyShift(equivalences_, shift_, solved, reported_);
+    return reported_;
+}
+
 bool ChainContinuity::shifted() const { return !isIdentity(shift_); }
 
 }  // namespace rig

@@ -80,6 +80,8 @@ public:
     // The values to report for the next frame of the clip, from its values as solved; `restart`: that frame
     // starts a chain. Valid until the next call.
     std::span<const double> next(std::span<const double> solved, bool restart);
+    // The values to report for the frame last given, solved again near where it was (a polish): shifted as it was.
+    std::span<const double> again(std::span<const double> solved);
     // Whether the chain of the last frame given is shifted (its reported values are not its solved ones).
     bool shifted() const;
 

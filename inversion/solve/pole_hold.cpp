@@ -63,13 +63,19 @@ Eigen::Matrix4d worldOf(const Approximation& a, int k, std::span<const double> v
 }
 
 // The controls of a helper that are translations moving it alone, free of limits: where a cold start or a hold
-// may put it.
-std::vector<int> ownTranslations(const Approximation& approximation, int helper)
+// may put it. With `helpersToo`, those moving other helpers along with it too (no joint): where a cold start may
+// put a goal whose control is also the frame an ankle's orient constraint reads (only its rotation counts there).
+std::vector<int> ownTranslations(const Approximation& approximation, int helper, bool helpersToo = false)
 {
     std::vector<int> controls;
     for (std::size_t p = 0; p < approximation.parameters.size(); ++p) {
         const ModelledParameter& m = approximation.parameters[p];
-        if (m.outputs.size() != 1 || m.outputs.front() != helper || m.parameter.limited) continue;
+        const bool moves = std::find(m.outputs.begin(), m.outputs.end(), helper) != m.outputs.end();
+        const bool alone =
+            m.outputs.size() == 1 || (helpersToo && std::all_of(m.outputs.begin(), m.outputs.end(), [&](int k) {
+                                          return approximation.outputs[static_cast<std::size_t>(k)].helper;
+                                      }));
+        if (!moves || !alone || m.parameter.limited) continue;
         if (std::all_of(m.operators.begin(), m.operators.end(), [](const Operator& op) {
                 return op.kind == OperatorKind::translation && op.linear() && !op.held();
             }))
@@ -141,10 +147,14 @@ void placeChain(const Approximation& approximation, int constraint, std::span<co
     const Eigen::Vector3d x0 = (restGoal - c.root).normalized();
     int end = -1, middle = -1;
     double nearest = 0.0, furthest = 0.0;
+    // An output on the goal turning as another output (an ankle orient-constrained to its foot: its own base, whose
+    // pole is that foot), whose target the guess turns the foot to.
+    bool turnedOutput = false;
     for (std::size_t k = 0; k < approximation.outputs.size(); ++k) {
         const int b = approximation.outputs[k].constraint;
         if (b < 0) continue;
         const ConstraintBase& m = approximation.constraints[static_cast<std::size_t>(b)];
+        turnedOutput = turnedOutput || (m.goal == c.goal && m.orient >= 0 && targets[k].active);
         if (m.goal != c.goal || m.pole != c.pole || !targets[k].active) continue;
         const Eigen::Vector3d o = origin(static_cast<int>(k)) - c.root;
         const double toGoal = (origin(static_cast<int>(k)) - restGoal).norm();
@@ -153,7 +163,14 @@ void placeChain(const Approximation& approximation, int constraint, std::span<co
         if (middle < 0 || across > furthest) middle = static_cast<int>(k), furthest = across;
     }
     if (end < 0) return;
-    const std::vector<int> goalControls = ownTranslations(approximation, c.goal);
+    // The goal's control may move other helpers too (the foot whose frame an ankle's or a ball's orient constraint
+    // reads, the pivots under it): their translation changes no rotation a constraint reads. Not for a pole that turns
+    // with the foot where no output on the goal turns as the foot: there the foot's rotation, which turns the chain's
+    // plane, is left to the step's solve from its rest while its translation is placed, and on random legs (a
+    // mayaIkHandle without a pole, the ball orient-constrained, the ankle under its own control) that start stuck 4 of
+    // 8 poses (tests/inversion/learn/random_character_test.cpp).
+    const bool helpersToo = !c.poleTurns || turnedOutput;
+    const std::vector<int> goalControls = ownTranslations(approximation, c.goal, helpersToo);
     if (!goalControls.empty())
         place(approximation, c.goal, goalControls,
               targets[static_cast<std::size_t>(end)].world.block<3, 1>(0, 3) + (restGoal - origin(end)), values);

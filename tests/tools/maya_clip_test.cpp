@@ -213,3 +213,39 @@ TEST_CASE("maya clip: C_Robot_Run.ma inverted on C_Robot_Rig.ma, and OUT.ma repl
     MESSAGE("C_Robot_Run: OUT.ma replays the clip's joints within " << e.positionCm << " cm and " << e.rotationDeg
                                                                     << " deg");
 }
+
+TEST_CASE("maya clip: C_Robot_Run.ma on C_Robot_Rig.ma learned with auto parameters, every frame reached by default")
+{
+    const fs::path folder = test::sourceDir() / "../shared/maya/sweet4lorie__MonsterRobotRunner/ART/C_Robot";
+    if (!fs::exists(folder / "C_Robot_Run.ma")) {
+        MESSAGE("[skipped] " << folder << " is absent");
+        return;
+    }
+    const auto dir = test::scratchDir("maya_clip_robot_auto");
+    const std::string rig = (folder / "C_Robot_Rig.ma").string(), anim = (folder / "C_Robot_Run.ma").string();
+    const std::string approx = (dir / "robot.approx.yaml").string();
+    const auto learned = test::run(fmt::format("{} {} --params auto -o {}", test::tool("rig-learn"), rig, approx));
+    INFO(learned.err);
+    REQUIRE(learned.exitCode == 0);
+    // The default settings, as rig-bench's maya_scenes row runs them. Frame 10's solve from frame 9 ends in a local
+    // minimum (the heel 37 degrees off), as does its retry from the guess at that warm start: the guess from rest
+    // reaches it. Frame -1, the first, misses by 3e-3 cm on the real rig where ToeRoll's driven key is kinked: the
+    // polish of a small mismatch takes it out.
+    const auto inverted =
+        test::run(fmt::format("{} {} --rig {} --clip {} -o {} --report-json {}", test::tool("rig-invert"), approx, rig,
+                              anim, (dir / "run.json").string(), (dir / "r.json").string()));
+    INFO(inverted.err);
+    CHECK(inverted.exitCode == 0);
+    const YAML::Node report = YAML::LoadFile((dir / "r.json").string());
+    CHECK(report["frames"].as<int>() == 14);
+    CHECK(report["status_frames"]["reached"].as<int>() == 14);
+    CHECK(report["max_position_error_cm"].as<double>() <= 1e-3);
+    // Restarted every 4 frames, the frame after a restart, warm-started from the restart guess's other split of the
+    // pose, ends unconverged 1.3 cm off: retried as a stuck frame is, it is reached.
+    const auto restarted = test::run(fmt::format("{} {} --rig {} --clip {} --restart-every 4 -o {} --report-json {}",
+                                                 test::tool("rig-invert"), approx, rig, anim,
+                                                 (dir / "run4.json").string(), (dir / "r4.json").string()));
+    INFO(restarted.err);
+    CHECK(restarted.exitCode == 0);
+    CHECK(YAML::LoadFile((dir / "r4.json").string())["status_frames"]["reached"].as<int>() == 14);
+}

@@ -1100,14 +1100,14 @@ ConstructionResult learnAndSolve(Construction construction, unsigned seed, int c
 }
 
 // Each construction on three random characters, 8 random poses each solved from rest on the real rig: every output
-// modelled within epsilon, `percent` of the poses reached within 1e-3 cm (issue #46 asks 95).
-ConstructionResult expectAll(Construction construction, unsigned seed, int percent = 95)
+// modelled within epsilon, 95% of the poses reached within 1e-3 cm (issue #46's goal).
+ConstructionResult expectAll(Construction construction, unsigned seed)
 {
     const ConstructionResult r = learnAndSolve(construction, seed, 3, 8);
     CHECK(r.restError < 1e-5);
     CHECK(r.withinEpsilon == r.characters);
     CHECK(r.modelled == r.characters);
-    CHECK(r.reached >= r.poses * percent / 100);
+    CHECK(r.reached * 100 >= r.poses * 95);
     CHECK(r.jacobianGap < 1e-5);
     CHECK(r.fileGap < 1e-9);
     return r;
@@ -1131,14 +1131,16 @@ TEST_CASE("random character: production leg constructions of Maya rigs (issue #4
     SUBCASE("ankles and balls orient-constrained to the foot or a pivot")
     {
         // Measured: 3 of 3 modelled, 4 ankles planar chains turning as their foot's goal, a ball under such an ankle an
-        // oriented base; 22 of 24 poses reached. The two misses (19.0 and 12.0 cm, the approximation as far off as
-        // the rig) are solves from rest stuck where the initial guess left the foot control 16 cm low, one on a
-        // mayaIkHandle whose pole vector turns with the foot: below the 95% asked. On 8 more characters (seed 4702)
-        // 8 of 8 were modelled and 54 of 64 poses reached: 4 such stuck solves (5 to 12 cm), and 6 misses of 0.001 to
-        // 0.019 cm where the solve moved a driven-key roll near its keys' kink, which the sampled curve rounds.
+        // oriented base; 24 of 24 poses reached. On 8 more characters (seed 4702) 8 of 8 were modelled and 58 of 64
+        // poses reached: the 6 misses, of 0.001 to 0.019 cm on one character, are where the solve moved a driven-key
+        // roll near its keys' kink, which the sampled curve rounds (the approximation's answer; a clip's frame polishes
+        // them on the real rig). Before the initial guess placed a goal whose control also moves the foot an orient
+        // constraint reads (pole_hold.h, placeChain), it left the foot control where the thigh's target alone put it,
+        // up to 16 cm low, and the solves from there stuck: 22 of 24 (19.0 and 12.0 cm), 54 of 64 on seed 4702 (4 of
+        // them 5 to 12 cm).
         // Before the oriented base, a ball orient-constrained under an FK ankle was left unmodelled (and, with the
         // generator's constraint writing angles in another rotate order than the ball's, it was no orient at all).
-        const ConstructionResult r = expectAll(Construction::orientEnd, 4602, 90);
+        const ConstructionResult r = expectAll(Construction::orientEnd, 4602);
         CHECK(r.orientedChains >= 3);
         CHECK(r.oriented >= 1);
     }
