@@ -35,10 +35,10 @@ constexpr double exactShare = 1e-2;
 // difference is rounding (1e-16 measured).
 constexpr double sameTwist = 1e-10;
 
-// The pattern search of an up direction stops after this many of its steps: an up the poses fit exactly was found in
-// at most 456 (random characters' aims and mayaIkHandle poles), where the search for one that does not exist crawled
-// along the misfit's valleys for up to 680,000, nine tenths of learning the creature's IK spec.
-constexpr int maxUpMoves = 5000;
+// The refinement of an up direction (Levenberg-Marquardt on the sphere) stops after this many steps. A pattern search
+// before it found the exact ups in at most 456 moves of 4 misfits each, and crawled along the misfit's curved valleys
+// for 5,000 (its cap) where there was none: 83% of learning Grunt_Rig.ma went there.
+constexpr int maxUpSteps = 50;
 
 // Poses that check a candidate: the same for every candidate and sample count, apart from those it was fitted on.
 constexpr int checkPoses = 8;
@@ -496,9 +496,24 @@ std::optional<ConstraintBase> ConstraintFitter::fitTwist(int k, const std::vecto
 namespace {
 
 // How far the planes through the aims A_i and the up direction u turn from the one at rest by the output's turns D_i:
-// sum |n(A_i, u) - D_i n(A_0, u)|^2 with n(A, u) = A x u / |A x u| (for an up that is right, D_i carries the rest plane
-// onto each pose's). The search only asks whether a direction beats the best so far: the sum stops once it is past
-// `bound` (most directions of the sphere are, after a few poses), and a direction so stopped is not taken.
+// r_i = n(A_i, u) - D_i n(A_0, u) with n(A, u) = A x u / |A x u| (for an up that is right, D_i carries the rest plane
+// onto each pose's), three residuals per pose into `r`. False where a plane is undefined (u along an aim).
+bool upResiduals(const Eigen::Vector3d& u, const std::vector<Eigen::Vector3d>& aims,
+                 const std::vector<Eigen::Matrix3d>& turns, const Eigen::Vector3d& restAim, Eigen::VectorXd& r)
+{
+    const Eigen::Vector3d n0 = restAim.cross(u);
+    if (!(n0.norm() > 1e-9)) return false;
+    const Eigen::Vector3d plane = n0.normalized();
+    for (std::size_t i = 0; i < aims.size(); ++i) {
+        const Eigen::Vector3d n = aims[i].cross(u);
+        if (!(n.norm() > 1e-9)) return false;
+        r.segment<3>(static_cast<Eigen::Index>(3 * i)) = n.normalized() - turns[i] * plane;
+    }
+    return true;
+}
+
+// Their sum of squares, stopped once past `bound` (most directions of the sphere are, after a few poses: the scan only
+// asks whether a direction beats the best so far, and one so stopped is not taken).
 double upMisfit(const Eigen::Vector3d& u, const std::vector<Eigen::Vector3d>& aims,
                 const std::vector<Eigen::Matrix3d>& turns, const Eigen::Vector3d& restAim, double bound)
 {
@@ -512,6 +527,47 @@ double upMisfit(const Eigen::Vector3d& u, const std::vector<Eigen::Vector3d>& ai
         sum += (n.normalized() - turns[i] * plane).squaredNorm();
     }
     return sum;
+}
+
+// Levenberg-Marquardt over the sphere from `up` (steps in its tangent plane, the Jacobian by central differences):
+// the misfit at the end.
+double refineUp(Eigen::Vector3d& up, const std::vector<Eigen::Vector3d>& aims,
+                const std::vector<Eigen::Matrix3d>& turns, const Eigen::Vector3d& restAim)
+{
+    const auto rows = static_cast<Eigen::Index>(3 * aims.size());
+    Eigen::VectorXd r(rows), plus(rows), minus(rows);
+    Eigen::MatrixXd jacobian(rows, 2);
+    if (!upResiduals(up, aims, turns, restAim, r)) return std::numeric_limits<double>::infinity();
+    double cost = r.squaredNorm(), lambda = 1e-3;
+    constexpr double h = 1e-6;
+    for (int step = 0; step < maxUpSteps && cost > 1e-30; ++step) {
+        const Eigen::Vector3d t1 = up.unitOrthogonal(), t2 = up.cross(t1);
+        for (int c = 0; c < 2; ++c) {
+            const Eigen::Vector3d t = c == 0 ? t1 : t2;
+            if (!upResiduals((up + h * t).normalized(), aims, turns, restAim, plus) ||
+                !upResiduals((up - h * t).normalized(), aims, turns, restAim, minus))
+                return cost;
+            jacobian.col(c) = (plus - minus) / (2.0 * h);
+        }
+        const Eigen::Matrix2d normal = jacobian.transpose() * jacobian;
+        const Eigen::Vector2d gradient = jacobian.transpose() * r;
+        bool moved = false;
+        for (; !moved && lambda < 1e12; lambda *= 10.0) {
+            Eigen::Matrix2d damped = normal;
+            damped.diagonal() += lambda * normal.diagonal() + Eigen::Vector2d::Constant(1e-15);
+            const Eigen::Vector2d d = -damped.ldlt().solve(gradient);
+            const Eigen::Vector3d u = (up + d[0] * t1 + d[1] * t2).normalized();
+            if (upResiduals(u, aims, turns, restAim, plus) && plus.squaredNorm() < cost) {
+                up = u;
+                r.swap(plus);
+                cost = r.squaredNorm();
+                moved = true;
+            }
+        }
+        if (!moved) break;
+        lambda = std::max(lambda / 100.0, 1e-12);  // the loop's last *10 undone, and one step bolder
+    }
+    return cost;
 }
 
 }  // namespace
@@ -538,7 +594,7 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
                         polarRotation(at(pose.worlds, k).block<3, 3>(0, 0) *
                                       rest[static_cast<std::size_t>(k)].block<3, 3>(0, 0).inverse()));
     }
-    // The best of directions spread over the sphere, then refined by a pattern search on it.
+    // The best of directions spread over the sphere, then refined on it.
     double best = std::numeric_limits<double>::infinity();
     constexpr int directions = 500;
     for (int i = 0; i < directions; ++i) {
@@ -552,22 +608,7 @@ bool ConstraintFitter::fittedUp(int k, int anchor, const Eigen::Vector3d& root, 
         }
     }
     if (!std::isfinite(best)) return false;
-    int moves = 0;
-    for (double step = 0.05; step > 1e-12 && moves < maxUpMoves; ++moves) {
-        const Eigen::Vector3d t1 = up.unitOrthogonal(), t2 = up.cross(t1);
-        bool moved = false;
-        for (const Eigen::Vector3d& d : {t1, Eigen::Vector3d(-t1), t2, Eigen::Vector3d(-t2)}) {
-            const Eigen::Vector3d u = (up + step * d).normalized();
-            const double e = upMisfit(u, aims, turns, restAim, best);
-            if (e < best) {
-                best = e;
-                up = u;
-                moved = true;
-            }
-        }
-        if (!moved) step *= 0.5;
-    }
-    return best < 1e-12 * static_cast<double>(poses.size());
+    return refineUp(up, aims, turns, restAim) < 1e-12 * static_cast<double>(poses.size());
 }
 
 std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int root, const std::vector<int>& varied,
