@@ -1187,6 +1187,17 @@ TEST_CASE("random character: production leg constructions of Maya rigs (issue #4
     SUBCASE("FK/IK blend through constraints") { expectAll(Construction::constraintBlend, 4605); }
     SUBCASE("ikSCsolver chains: one-bone ankles and balls, two-bone legs")
     {
+        // Measured: 3 of 3 modelled (the SC legs' thighs, knees and ankles planar chains on the rest plane turned
+        // minimally, the one-bone SC ankles and balls carried by their parent and turned minimally onto their
+        // handles), worst 3.7e-6 cm per unit; 23 of 24 poses reached (the miss 2.76 cm, a solve from rest stuck);
+        // the analytic Jacobian within 4.3e-10 of central differences. On 8 more characters (seed 4707, every goal
+        // kind drawn: own controls, the toe pivot, the foot control) 8 of 8 modelled and 57 of 64 poses reached: the 7
+        // misses, 0.15 to 10.4 cm, are solves from rest stuck on characters with an SC leg, the approximation within
+        // 6.7e-6 cm per unit there.
+        // Before the minimal turn, every SC leg's joints (and the foot below them) and every one-bone SC ankle or
+        // ball were unmodelled, 0 of 3 characters: the closest constraints, planar chains on the rest plane or a
+        // pole fixed to the pelvis, 0.13 to 0.42 cm per unit off on the legs, and planar chains on the handles 0.07
+        // to 0.17 cm per unit off on the ankles and balls.
         expectAll(Construction::singleChain, 4607);
     }
     SUBCASE("ankles and balls orient-constrained to the foot or a pivot")
