@@ -90,6 +90,16 @@ bool setShape(const std::map<double, std::pair<double, Eigen::Matrix4d>>& knots,
     return true;
 }
 
+// A minimalTurn chain's line turn before it is fitted: none (a rotation about the rest normal by zero).
+Operator lineTurnAt(const Eigen::Vector3d& root, const Eigen::Vector3d& normal)
+{
+    Operator turn;
+    turn.kind = OperatorKind::rotation;
+    turn.axis = normal;
+    turn.pivot = root;
+    return turn;
+}
+
 }  // namespace
 
 ConstraintFitter::ConstraintFitter(RigProbe& probe, const std::vector<ParameterSamples>& samples,
@@ -288,14 +298,38 @@ const std::vector<Eigen::Matrix4d>& ConstraintFitter::sweepAt(Sweep& sweep, doub
     return sweep.worlds.emplace(t, probe_.atValues(values)).first->second;
 }
 
-bool ConstraintFitter::makeBase(int k, Sweep& sweep, double lo, double hi, ConstraintBase& base)
+bool ConstraintFitter::makeBase(int k, int rootOutput, Sweep& sweep, double lo, double hi, ConstraintBase& base)
 {
     std::map<double, std::pair<double, Eigen::Matrix4d>> knots{{0.0, {0.0, Eigen::Matrix4d::Identity()}}};
+    std::map<double, std::pair<double, double>> turns{{0.0, {0.0, 0.0}}};  // t -> the reach offset, the line's turn
+    const Eigen::Matrix3d rootRest =
+        polarRotation(probe_.rest()[static_cast<std::size_t>(rootOutput)].block<3, 3>(0, 0));
     const auto add = [&](double t) {
         if (knots.contains(t)) return true;
         std::pair<double, Eigen::Matrix4d> knot;
-        if (!shapeAt(k, base, sweepAt(sweep, t), knot.first, knot.second)) return false;
+        const std::vector<Eigen::Matrix4d>& worlds = sweepAt(sweep, t);
+        if (!shapeAt(k, base, worlds, knot.first, knot.second)) return false;
         knots.emplace(t, knot);
+        // Along the line at rest the chain's start joint (its root output) turns about the rest normal alone, from
+        // the line to its end as it bent with the start joint unturned back onto the goal's: that turn's opposite.
+        const Eigen::Matrix3d turn =
+            polarRotation(worlds[static_cast<std::size_t>(rootOutput)].block<3, 3>(0, 0)) * rootRest.transpose();
+        turns.emplace(t, std::pair{knot.first, -rotationVector(turn).dot(base.restNormal)});
+        return true;
+    };
+    // A minimalTurn chain's line turn through the knots so far (the shape's frame at a knot does not depend on it:
+    // along the line at rest the plane is the rest plane, whatever the turn).
+    const auto setTurn = [&] {
+        if (!base.minimalTurn) return true;
+        std::vector<double> xs;
+        std::vector<CubicSpline<1>::Vector> ys;
+        for (const auto& [t, turn] : turns) {
+            if (!xs.empty() && !(turn.first > xs.back())) return false;
+            xs.push_back(turn.first);
+            ys.push_back(CubicSpline<1>::Vector::Constant(turn.second));
+        }
+        if (xs.size() < 2) return false;
+        base.lineTurn.curve = CubicSpline<1>(std::move(xs), std::move(ys));
         return true;
     };
     constexpr int firstKnots = 9;
@@ -303,7 +337,7 @@ bool ConstraintFitter::makeBase(int k, Sweep& sweep, double lo, double hi, Const
         if (!add(lo + (hi - lo) * i / (firstKnots - 1))) return false;
     // Halve every interval whose midpoint the spline misses by more than its share of epsilon (maxShapeKnots).
     while (true) {
-        if (!setShape(knots, base)) return false;
+        if (!setShape(knots, base) || !setTurn()) return false;
         std::vector<double> missed;
         for (auto a = knots.begin(), b = std::next(a); b != knots.end(); ++a, ++b) {
             const double t = 0.5 * (a->first + b->first);
@@ -333,7 +367,8 @@ double ConstraintFitter::error(int k, const ConstraintBase& base, const std::vec
     return worst;
 }
 
-double ConstraintFitter::tryCandidate(int k, const std::vector<int>& varied, bool fixedGoal, ConstraintBase& base)
+double ConstraintFitter::tryCandidate(int k, int rootOutput, const std::vector<int>& varied, bool fixedGoal,
+                                      ConstraintBase& base)
 {
     const Eigen::Vector3d restGoal = probe_.rest()[static_cast<std::size_t>(base.goal)].block<3, 1>(0, 3);
     const double failed = std::numeric_limits<double>::infinity();
@@ -358,7 +393,8 @@ double ConstraintFitter::tryCandidate(int k, const std::vector<int>& varied, boo
         if (!(hi > lo) || !setShape(flat, base)) return failed;
     } else {
         Sweep* sweep = nullptr;
-        if (!sweepFor(base, varied, base.anchor, sweep) || !makeBase(k, *sweep, lo, hi, base)) return failed;
+        if (!sweepFor(base, varied, base.anchor, sweep) || !makeBase(k, rootOutput, *sweep, lo, hi, base))
+            return failed;
     }
     return std::max(error(k, base, fitPoses), error(k, base, poses(varied, 1, checkPoses)));
 }
@@ -634,19 +670,21 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                 base.root = rootRest;
                 base.orient = orient;
                 base.origin = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
-                const double e = tryCandidate(k, varied, moversOf(goal).empty(), base);
+                const double e = tryCandidate(k, root, varied, moversOf(goal).empty(), base);
                 if (e <= exactShare * options_.epsilon) return base;
                 if (e <= options_.epsilon && !(within && within->second <= e)) within.emplace(base, e);
                 if (!(e < closest.error)) continue;
                 closest.error = e;
                 const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
-                closest.what = fmt::format("a planar chain (goal {}, pole {}{})", names[static_cast<std::size_t>(goal)],
-                                           base.restPlane   ? "none (the rest plane of " + fixedTo + ")"
-                                           : base.worldUp   ? std::string("a world up")
-                                           : pole < 0       ? "fixed to " + fixedTo
-                                           : base.poleTurns ? "turned by " + names[static_cast<std::size_t>(pole)]
-                                                            : names[static_cast<std::size_t>(pole)],
-                                           orient < 0 ? "" : ", turning as " + names[static_cast<std::size_t>(orient)]);
+                closest.what =
+                    fmt::format("a planar chain (goal {}, pole {}{})", names[static_cast<std::size_t>(goal)],
+                                base.minimalTurn ? "none (the rest plane of " + fixedTo + " turned minimally)"
+                                : base.restPlane ? "none (the rest plane of " + fixedTo + ")"
+                                : base.worldUp   ? std::string("a world up")
+                                : pole < 0       ? "fixed to " + fixedTo
+                                : base.poleTurns ? "turned by " + names[static_cast<std::size_t>(pole)]
+                                                 : names[static_cast<std::size_t>(pole)],
+                                orient < 0 ? "" : ", turning as " + names[static_cast<std::size_t>(orient)]);
             }
         }
     if (within) return within->first;
@@ -694,6 +732,14 @@ std::vector<ConstraintBase> ConstraintFitter::poleCandidates(int pass, int k, in
                 choice(-1, rootRest + length * up, Eigen::Vector3d::Zero(), inWorld);
         }
         for (const Eigen::Vector3d& normal : normals) choice(-1, rootRest, normal);
+        // Maya's ikSCsolver: no pole, the rest plane turned minimally onto the goal's line (any plane through the line
+        // of a chain straight at rest: its shape takes the constant turn from it).
+        const Eigen::Vector3d x0 = (restGoal - rootRest).normalized();
+        for (const Eigen::Vector3d& normal : normals.empty() ? std::vector{x0.unitOrthogonal()} : normals) {
+            choice(-1, rootRest, normal);
+            poles.back().minimalTurn = true;
+            poles.back().lineTurn = lineTurnAt(rootRest, normal);
+        }
         return poles;
     }
     // A pole vector in the axes of the goal or of a helper moved with it (a mayaIkHandle's, kept in the space of the
@@ -748,6 +794,7 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
         if (std::optional<ConstraintBase> chain = fitAnchored(k, carrier, root, state, closest, candidates))
             return chain;
     if (std::optional<ConstraintBase> oriented = fitOriented(k, state, closest)) return oriented;
+    if (std::optional<ConstraintBase> aimed = fitAimed(k, state, closest)) return aimed;
     if (!candidates) {
         // Without any helper frame (rig-learn --no-helpers) only twist shares were tried: say so only if one came
         // close.
@@ -860,6 +907,52 @@ std::optional<ConstraintBase> ConstraintFitter::fitOriented(int k, const RigStat
         closest.what = fmt::format("an oriented base (carried by {}, turning as {})",
                                    anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)],
                                    names[static_cast<std::size_t>(orient)]);
+    }
+    return std::nullopt;
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fitAimed(int k, const RigState& state, Closest& closest)
+{
+    // Its origin carried by its nearest modelled ancestor, whatever models it (an ankle under an IK knee), and its
+    // line from there turned minimally onto a helper that what moves k moves, or a fixed one.
+    int anchor = hierarchy_[static_cast<std::size_t>(k)];
+    while (anchor >= 0 && !modelled(anchor, state)) anchor = hierarchy_[static_cast<std::size_t>(anchor)];
+    const std::vector<int> movers = moversOf(k);
+    const auto moves = [&](int i, int o) {
+        const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
+        return o >= 0 && std::binary_search(moved.begin(), moved.end(), o);
+    };
+    std::vector<int> goals;
+    for (std::size_t h = 0; h < helper_.size(); ++h) {
+        const int hh = static_cast<int>(h);
+        if (helper_[h] && hh != k && hh != anchor && modelled(hh, state) &&
+            (moversOf(hh).empty() || std::any_of(movers.begin(), movers.end(), [&](int i) { return moves(i, hh); })))
+            goals.push_back(hh);
+    }
+    std::vector<int> varied;
+    for (const int i : movers)
+        if (moves(i, anchor) || std::any_of(goals.begin(), goals.end(), [&](int h) { return moves(i, h); }))
+            varied.push_back(i);
+    const auto& rest = probe_.rest();
+    const auto& names = probe_.rig().outputs();
+    const Eigen::Vector3d root = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
+    for (const int goal : goals) {
+        ConstraintBase base;
+        base.anchor = anchor;
+        base.goal = goal;
+        base.root = root;
+        base.restPlane = base.minimalTurn = true;
+        base.restNormal = (rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3) - root).normalized().unitOrthogonal();
+        base.lineTurn = lineTurnAt(root, base.restNormal);
+        base.origin = root;
+        // One bone does not bend: its shape is constant, as an aim's at a fixed point.
+        const double e = tryCandidate(k, k, varied, true, base);
+        if (e <= options_.epsilon) return base;
+        if (!(e < closest.error)) continue;
+        closest.error = e;
+        closest.what = fmt::format("a one-bone chain (carried by {}, turned minimally onto {})",
+                                   anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)],
+                                   names[static_cast<std::size_t>(goal)]);
     }
     return std::nullopt;
 }

@@ -90,13 +90,14 @@ private:
     const std::vector<Eigen::Matrix4d>& sweepAt(Sweep& sweep, double t);
     // The base's shape from the sweep over reaches [lo, hi] (offsets from the rest reach): knots where the goal
     // sits, halved where a midpoint misses; false when no shape can be made (a degenerate pose).
-    bool makeBase(int k, Sweep& sweep, double lo, double hi, ConstraintBase& base);
+    // A minimalTurn base's line turn is fitted there too, from the turns of the chain's start joint `rootOutput`.
+    bool makeBase(int k, int rootOutput, Sweep& sweep, double lo, double hi, ConstraintBase& base);
     // G = C^-1 W_k W_k(0)^-1 C0 at one set of worlds, with its reach offset; false where the points span no plane.
     bool shapeAt(int k, const ConstraintBase& base, const std::vector<Eigen::Matrix4d>& worlds, double& x,
                  Eigen::Matrix4d& g) const;
     // A candidate's shape (swept, or constant for a fixed goal) and its worst error per unit moved on random poses;
     // infinite where it cannot be made.
-    double tryCandidate(int k, const std::vector<int>& varied, bool fixedGoal, ConstraintBase& base);
+    double tryCandidate(int k, int rootOutput, const std::vector<int>& varied, bool fixedGoal, ConstraintBase& base);
     // The twist share of k that the poses of `movers` fit best, if within epsilon: its anchor the nearest usable
     // ancestor, its driver and the driver's parent usable outputs, where `constraintInputs` makes outputs learned
     // with a constraint usable too (else operators alone: what fit tries first, before the other chains are fitted).
@@ -123,6 +124,10 @@ private:
     // k's oriented base (ConstraintKind::oriented): carried by its nearest modelled ancestor, turning as a helper
     // whose rotation k's follows on the poses of what moves k through either, if within epsilon.
     std::optional<ConstraintBase> fitOriented(int k, const RigState& state, Closest& closest);
+    // k as a one-bone ikSCsolver chain: carried by its nearest modelled ancestor (operators or a constraint), its
+    // rest line to a helper turned minimally onto that helper's origin (minimalTurn, a constant shape), if within
+    // epsilon.
+    std::optional<ConstraintBase> fitAimed(int k, const RigState& state, Closest& closest);
     // The helpers other than `anchor` whose motion carries the chain root's origin on the poses of k's movers (an IK
     // start joint point-constrained to a control), where the root moves.
     std::vector<int> rootCarriers(int k, int anchor, int root, const RigState& state);

@@ -222,8 +222,9 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
         r.checkKeys(n, field, {"kind", "driver", "root", "axis", "twistAxis", "readOrder", "twistOrder", "share"},
                     {"anchor", "driverParent"});
     else
-        r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"},
-                    {"anchor", "pole", "restNormal", "worldUp", "poleTurns", "orient", "origin"});
+        r.checkKeys(
+            n, field, {"kind", "goal", "root", "restPole", "shape"},
+            {"anchor", "pole", "restNormal", "worldUp", "poleTurns", "minimalTurn", "lineTurn", "orient", "origin"});
     const auto input = [&](std::string_view which) {
         const YAML::Node v = r.child(n, which);
         if (!v) return -1;
@@ -276,6 +277,19 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
         if (!(std::abs(base.restNormal.norm() - 1.0) < 1e-9))
             r.fail(normal, field + ".restNormal", "must be a unit vector (re-run rig-learn)");
         base.restPlane = true;
+    }
+    if (const YAML::Node minimal = r.child(n, "minimalTurn")) {
+        base.minimalTurn = r.boolean(minimal, field + ".minimalTurn");
+        if (base.minimalTurn && !base.restPlane)
+            r.fail(minimal, field + ".minimalTurn", "a plane turned minimally is a rest plane's; add restNormal");
+    }
+    if (const YAML::Node turn = r.child(n, "lineTurn")) {
+        if (!base.minimalTurn) r.fail(turn, field + ".lineTurn", "a line's turn belongs to minimalTurn; remove it");
+        base.lineTurn = r.op(turn, field + ".lineTurn");
+        if (base.lineTurn.kind != OperatorKind::rotation)
+            r.fail(turn, field + ".lineTurn", "must be a rotation operator (re-run rig-learn)");
+    } else if (base.minimalTurn) {
+        r.fail(n, field, "minimalTurn needs its lineTurn (re-run rig-learn)");
     }
     const YAML::Node shape = r.child(n, "shape");
     const YAML::Node shapeKind = r.need(shape, "kind", field + ".shape");

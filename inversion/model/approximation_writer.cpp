@@ -235,6 +235,11 @@ std::string constraintsText(const Approximation& a)
         if (base.restPlane) out += fmt::format("    restNormal: {}\n", vector3(base.restNormal, field + ".restNormal"));
         if (base.worldUp) out += "    worldUp: true\n";
         if (base.poleTurns) out += "    poleTurns: true\n";
+        // The ikSCsolver's plane: the rest plane turned minimally, with the turn of the chain's line by the reach.
+        if (base.minimalTurn) {
+            out += "    minimalTurn: true\n    lineTurn:\n";
+            out += operatorText(base.lineTurn, field + ".lineTurn", "      ", "      ");
+        }
         // An output turning as another does: that output, and the rest origin the chain carries.
         if (base.orient >= 0)
             out += input("orient", base.orient, false) +

@@ -122,6 +122,37 @@ bool ConstraintBase::prepare(const Eigen::Vector3d& restGoal)
     return true;
 }
 
+void minimalTurnNormal(const ConstraintBase& base, const Eigen::Matrix3d& anchorLinear, ChainPoints& points)
+{
+    // R_min(e -> x) N = N - (x . N) / (1 + e . x) (e + x), for N across e.
+    const Eigen::Vector3d u = points.goal - points.root;
+    const double reach = u.norm();
+    const Eigen::Vector3d x = u / reach;
+    const Eigen::Vector3d x0 = base.restFrame.block<3, 1>(0, 0);
+    const double alpha = base.lineTurn.magnitude(reach - base.restReach);
+    points.carried = anchorLinear * base.restNormal;
+    points.line = anchorLinear * Eigen::AngleAxisd(alpha, base.restNormal).toRotationMatrix() * x0;
+    points.normal = points.carried - x.dot(points.carried) / (1.0 + points.line.dot(x)) * (points.line + x);
+}
+
+Eigen::Vector3d minimalTurnRate(const ConstraintBase& base, const ChainPoints& points, const ChainPoints& rate,
+                                const Eigen::Matrix3d& anchorRate)
+{
+    const Eigen::Vector3d u = points.goal - points.root, du = rate.goal - rate.root;
+    const double reach = u.norm();
+    const Eigen::Vector3d x = u / reach;
+    const Eigen::Vector3d dx = (du - x * x.dot(du)) / reach;
+    const Eigen::Vector3d& n = points.carried;
+    const Eigen::Vector3d& e = points.line;
+    const Eigen::Vector3d dn = anchorRate * n;
+    // e turns with the anchor and, as the reach changes, about the carried normal by the line's turn.
+    const Eigen::Vector3d de = anchorRate * e + base.lineTurn.magnitudeDerivative(reach - base.restReach) * x.dot(du) *
+                                                    n.normalized().cross(e);
+    const double c = 1.0 + e.dot(x), s = x.dot(n);
+    const double dc = de.dot(x) + e.dot(dx), ds = dx.dot(n) + x.dot(dn);
+    return dn - (ds * c - s * dc) / (c * c) * (e + x) - s / c * (de + dx);
+}
+
 ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
                         const Eigen::Matrix4d& goalWorld, const Eigen::Matrix4d& poleWorld)
 {
@@ -134,7 +165,9 @@ ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& ancho
         pole = root + poleWorld.block<3, 3>(0, 0) * base.poleRest.inverse() * (base.restPole - base.root);
     else if (base.pole >= 0) pole = poleWorld.block<3, 1>(0, 3);
     else if (base.worldUp) pole = root + base.restPole - base.root;
-    return {root, goalWorld.block<3, 1>(0, 3), pole, anchorMotion.block<3, 3>(0, 0) * base.restNormal};
+    ChainPoints points{root, goalWorld.block<3, 1>(0, 3), pole, anchorMotion.block<3, 3>(0, 0) * base.restNormal};
+    if (base.minimalTurn) minimalTurnNormal(base, anchorMotion.block<3, 3>(0, 0), points);
+    return points;
 }
 
 Eigen::Matrix4d constraintBase(const ConstraintBase& base, const ChainPoints& points)

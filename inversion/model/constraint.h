@@ -93,6 +93,12 @@ struct ConstraintBase {
     // No pole: the plane through the chain's line nearest the rest plane, whose normal at rest is restNormal (unit).
     bool restPlane = false;
     Eigen::Vector3d restNormal = Eigen::Vector3d::Zero();
+    // With restPlane, Maya's ikSCsolver: the rest plane turned by the smallest rotation that takes the chain's line
+    // onto the goal's, n = R_min(e -> x) N with N = Q_a restNormal and e the line from the root to the chain's end as
+    // the chain bends to the reach d with its start joint unturned (in the anchor's axes): x0 turned about restNormal
+    // by lineTurn's magnitude at d - d0 (a curve of the reach; zero for a one-bone chain, which does not bend).
+    bool minimalTurn = false;
+    Operator lineTurn;
     double restReach = 0.0;  // d0 = |g - r| at rest
     Operator shape;          // sampledRigid in d - d0: the output's motion within the chain's frame
     // C0, the chain frame at rest (chainFrame of the rest points): derived, set by `prepare`.
@@ -140,9 +146,19 @@ struct ConstraintBase {
 };
 
 // The three points of a chain and the rest plane's normal as the anchor carries it, and their rates of change.
+// A minimalTurn chain's normal is the turned one; `carried` and `line` are then N and e (minimalTurnNormal).
 struct ChainPoints {
     Eigen::Vector3d root, goal, pole, normal = Eigen::Vector3d::Zero();
+    Eigen::Vector3d carried = Eigen::Vector3d::Zero(), line = Eigen::Vector3d::Zero();
 };
+
+// A minimalTurn chain's plane normal at its points (root and goal set), from the anchor's motion's 3x3 part: sets
+// `carried`, `line` and `normal`.
+void minimalTurnNormal(const ConstraintBase& base, const Eigen::Matrix3d& anchorLinear, ChainPoints& points);
+
+// Its rate for the root and the goal moving at `rate` (its root and goal) and the anchor at dM = L M.
+Eigen::Vector3d minimalTurnRate(const ConstraintBase& base, const ChainPoints& points, const ChainPoints& rate,
+                                const Eigen::Matrix3d& anchorRate);
 
 // The chain frame of three points (or of the root, the goal and the normal, `restPlane`); false when they do not
 // span a plane (`frame` is then untouched).

@@ -50,10 +50,11 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
                   : c.pole >= 0              ? moved(base.poleNode, base.poleRest)
                   : c.worldUp                ? Eigen::Vector3d(points.root + c.restPole - c.root)
                                              : moved(base.anchorNode, c.restPole);
-    points.normal =
-        base.anchorNode < 0
-            ? c.restNormal
-            : Eigen::Vector3d(nodeMatrix_[static_cast<std::size_t>(base.anchorNode)].leftCols<3>() * c.restNormal);
+    const Eigen::Matrix3d anchorLinear =
+        base.anchorNode < 0 ? Eigen::Matrix3d(Eigen::Matrix3d::Identity())
+                            : Eigen::Matrix3d(nodeMatrix_[static_cast<std::size_t>(base.anchorNode)].leftCols<3>());
+    points.normal = anchorLinear * c.restNormal;
+    if (c.minimalTurn) minimalTurnNormal(c, anchorLinear, points);
     const Eigen::Matrix4d chain = constraintBase(c, points);
     if (c.orient < 0) return chain.topRows<3>();
     Eigen::Matrix4d orient = Eigen::Matrix4d::Identity();
@@ -167,8 +168,9 @@ void ResidualWorkspace::baseVelocities()
                 : c.pole >= 0 ? rate(x[2], points.pole)
                 : c.worldUp   ? rate(x[0], points.root)
                               : rate(x[0], points.pole);
-            const ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal), poleRate,
-                                    x[0].leftCols<3>() * points.normal};
+            ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal), poleRate,
+                              x[0].leftCols<3>() * points.normal};
+            if (c.minimalTurn) rates.normal = minimalTurnRate(c, points, rates, x[0].leftCols<3>());
             const Affine chain = baseVelocity(at, rates);
             baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
                 c.orient < 0 ? chain : orientedVelocity(chain, x[3], baseCentres_[b]);

@@ -678,7 +678,7 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
           "twistShare, blend and oriented");
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restReach: 3\n") ==
           "f.yaml:18:5: constraints[0]: unknown field 'restReach'; the fields are kind, goal, root, restPole, shape, "
-          "anchor, pole, restNormal, worldUp, poleTurns, orient, origin");
+          "anchor, pole, restNormal, worldUp, poleTurns, minimalTurn, lineTurn, orient, origin");
     // An output turning as another: the orient output and the origin come together.
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n",
                          "    restPole: [0, 55, 40]\n    orient: \"goal\"\n    origin: [0, 1, 2]\n") == "(no error)");
@@ -699,6 +699,19 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
               .ends_with("constraints[0].restNormal: must be a unit vector (re-run rig-learn)"));
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restNormal: [0, 0, 1]\n") ==
           "(no error)");
+    // The ikSCsolver's plane: a rest plane turned minimally, with its line's turn (a rotation operator).
+    const std::string normal = "    restPole: [0, 55, 40]\n    restNormal: [0, 0, 1]\n";
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n",
+                         normal + "    minimalTurn: true\n    lineTurn: {kind: rotation, axis: "
+                                  "[0, 0, 1], pivot: [0, 0, 0], slope: 0}\n") == "(no error)");
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    minimalTurn: true\n")
+              .ends_with("constraints[0].minimalTurn: a plane turned minimally is a rest plane's; add restNormal"));
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", normal + "    minimalTurn: true\n")
+              .ends_with("constraints[0]: minimalTurn needs its lineTurn (re-run rig-learn)"));
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", normal +
+                                                            "    minimalTurn: true\n    lineTurn: {kind: translation, "
+                                                            "axis: [0, 0, 1], pivot: [0, 0, 0], slope: 0}\n")
+              .ends_with("constraints[0].lineTurn: must be a rotation operator (re-run rig-learn)"));
     CHECK(chainErrorWith("goal: \"goal\"", "goal: \"ankle\"") ==
           "f.yaml:15:11: constraints[0].goal: 'ankle' is not one of the outputs");
     CHECK(chainErrorWith("anchor: \"hip\"", "anchor: [hip]") ==
