@@ -220,7 +220,8 @@ std::string constraintsText(const Approximation& a)
         out += fmt::format(
             "  {}: {}, root carried by {}, goal {}, pole {}{}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
             constraintKindName(c.kind), c.anchor < 0 ? "the world" : name(c.anchor), name(c.goal),
-            c.restPlane   ? "none (its rest plane)"
+            c.minimalTurn ? "none (its rest plane turned minimally onto the goal: an ikSCsolver)"
+            : c.restPlane ? "none (its rest plane)"
             : c.worldUp   ? "a world axis from the root (a world up)"
             : c.pole < 0  ? "fixed to the anchor"
             : c.poleTurns ? "turned by " + name(c.pole) + " (a direction in its axes)"

@@ -259,6 +259,7 @@ Json outputsJson(const Approximation& a)
                               {"pole", nameOf(c.pole)},
                               {"world_up", c.worldUp},
                               {"pole_turns", c.poleTurns},
+                              {"minimal_turn", c.minimalTurn},
                               {"knots", c.shape.rigid.knots().size()}};
         }
         outputs.push_back({{"name", o.name},
