@@ -2,7 +2,7 @@
 // A large graph's memory moved into 2 MB pages once it is built. A crowd of 512 bipeds spreads its frame over about
 // 300 MB in 4 KB pages, far past what the processor's translation cache maps (1536 pages, 6 MB, on the 2-core
 // Xeon here): nearly every read of another node's records or values also waits for a page-table walk. In 2 MB pages
-// the same frame took 11% less time there (docs/crowds.md).
+// the same frame took 6 to 7% less time there (docs/crowds.md).
 
 #include <cstddef>
 

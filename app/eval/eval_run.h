@@ -43,8 +43,8 @@ void applyAnimFile(Graph& graph, const std::string& file);
 // pages (core/huge_pages.h). `rigName` names the rig in errors.
 std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const std::vector<std::string>& patterns,
                               std::optional<double> firstFrame);
-// A crowd of 36 bipeds, 17 MB: below it a frame gained nothing from huge pages here, and collapsing fills the
-// unused rest of each 2 MB range.
+// A crowd of 36 bipeds: at 16 a frame gained nothing from huge pages here (its memory is within what 4 KB pages map),
+// and collapsing fills the unused rest of each 2 MB range.
 inline constexpr int hugePageNodes = 10'000;
 
 // The plugs' values at `frame`, the scene time set to it when `setTime`. `check`: graph-eval --check (a
