@@ -869,29 +869,35 @@ std::optional<ConstraintBase> ConstraintFitter::fitVaried(int k, int anchor, int
     return std::nullopt;
 }
 
-std::optional<ConstraintBase> ConstraintFitter::fitOriented(int k, const RigState& state, Closest& closest)
+ConstraintFitter::Carried ConstraintFitter::carried(int k, const RigState& state, bool fixedHelpers) const
 {
-    // Its position carried by its nearest modelled ancestor, whatever models it (a ball under an ankle that is itself
-    // a chain's end), and its rotation a helper's that what moves k moves.
-    int anchor = hierarchy_[static_cast<std::size_t>(k)];
-    while (anchor >= 0 && !modelled(anchor, state)) anchor = hierarchy_[static_cast<std::size_t>(anchor)];
+    Carried c;
+    // The nearest modelled ancestor, whatever models it (a ball under an ankle that is itself a chain's end).
+    c.anchor = hierarchy_[static_cast<std::size_t>(k)];
+    while (c.anchor >= 0 && !modelled(c.anchor, state)) c.anchor = hierarchy_[static_cast<std::size_t>(c.anchor)];
     const std::vector<int> movers = moversOf(k);
     const auto moves = [&](int i, int o) {
         const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
         return o >= 0 && std::binary_search(moved.begin(), moved.end(), o);
     };
-    std::vector<int> sources;
     for (std::size_t h = 0; h < helper_.size(); ++h) {
         const int hh = static_cast<int>(h);
-        if (helper_[h] && hh != k && hh != anchor && modelled(hh, state) &&
-            std::any_of(movers.begin(), movers.end(), [&](int i) { return moves(i, hh); }))
-            sources.push_back(hh);
+        if (helper_[h] && hh != k && hh != c.anchor && modelled(hh, state) &&
+            ((fixedHelpers && moversOf(hh).empty()) ||
+             std::any_of(movers.begin(), movers.end(), [&](int i) { return moves(i, hh); })))
+            c.helpers.push_back(hh);
     }
-    // The poses vary what moves k through its anchor or a source; its own parameters compose after the base.
-    std::vector<int> varied;
+    // The poses vary what moves k through its anchor or a helper; its own parameters compose after the base.
     for (const int i : movers)
-        if (moves(i, anchor) || std::any_of(sources.begin(), sources.end(), [&](int h) { return moves(i, h); }))
-            varied.push_back(i);
+        if (moves(i, c.anchor) || std::any_of(c.helpers.begin(), c.helpers.end(), [&](int h) { return moves(i, h); }))
+            c.varied.push_back(i);
+    return c;
+}
+
+std::optional<ConstraintBase> ConstraintFitter::fitOriented(int k, const RigState& state, Closest& closest)
+{
+    // Its position carried by its nearest modelled ancestor, and its rotation a helper's that what moves k moves.
+    const auto [anchor, sources, varied] = carried(k, state, false);
     const auto& names = probe_.rig().outputs();
     for (const int orient : orientSources(k, varied, sources)) {
         ConstraintBase base;
@@ -913,26 +919,9 @@ std::optional<ConstraintBase> ConstraintFitter::fitOriented(int k, const RigStat
 
 std::optional<ConstraintBase> ConstraintFitter::fitAimed(int k, const RigState& state, Closest& closest)
 {
-    // Its origin carried by its nearest modelled ancestor, whatever models it (an ankle under an IK knee), and its
-    // line from there turned minimally onto a helper that what moves k moves, or a fixed one.
-    int anchor = hierarchy_[static_cast<std::size_t>(k)];
-    while (anchor >= 0 && !modelled(anchor, state)) anchor = hierarchy_[static_cast<std::size_t>(anchor)];
-    const std::vector<int> movers = moversOf(k);
-    const auto moves = [&](int i, int o) {
-        const auto& moved = samples_[static_cast<std::size_t>(i)].moved;
-        return o >= 0 && std::binary_search(moved.begin(), moved.end(), o);
-    };
-    std::vector<int> goals;
-    for (std::size_t h = 0; h < helper_.size(); ++h) {
-        const int hh = static_cast<int>(h);
-        if (helper_[h] && hh != k && hh != anchor && modelled(hh, state) &&
-            (moversOf(hh).empty() || std::any_of(movers.begin(), movers.end(), [&](int i) { return moves(i, hh); })))
-            goals.push_back(hh);
-    }
-    std::vector<int> varied;
-    for (const int i : movers)
-        if (moves(i, anchor) || std::any_of(goals.begin(), goals.end(), [&](int h) { return moves(i, h); }))
-            varied.push_back(i);
+    // Its origin carried by its nearest modelled ancestor (an ankle under an IK knee), and its line from there turned
+    // minimally onto a helper that what moves k moves, or a fixed one.
+    const auto [anchor, goals, varied] = carried(k, state, true);
     const auto& rest = probe_.rest();
     const auto& names = probe_.rig().outputs();
     const Eigen::Vector3d root = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);

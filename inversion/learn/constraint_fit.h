@@ -121,6 +121,13 @@ private:
     std::optional<ConstraintBase> fitVaried(int k, int anchor, int root, const std::vector<int>& varied,
                                             const std::vector<int>& helpers, const std::vector<int>& goals,
                                             Closest& closest);
+    // What an output carried by its nearest modelled ancestor reads: that ancestor (-1: the world), the modelled
+    // helpers that what moves k moves (and, with fixedHelpers, those nothing moves), and k's movers that move either.
+    struct Carried {
+        int anchor = -1;
+        std::vector<int> helpers, varied;
+    };
+    Carried carried(int k, const RigState& state, bool fixedHelpers) const;
     // k's oriented base (ConstraintKind::oriented): carried by its nearest modelled ancestor, turning as a helper
     // whose rotation k's follows on the poses of what moves k through either, if within epsilon.
     std::optional<ConstraintBase> fitOriented(int k, const RigState& state, Closest& closest);
