@@ -700,7 +700,8 @@ extern "C" void initializePlugin(rig::NodeRegistry& registry)
             "invalidTargets. Judged on the real rig where `rig` names it (the node's own instance; statusOnRealRig "
             "on), "
             "on the approximation otherwise, where a target it does not model is a miss and its gap to the real rig "
-            "(a control past its learned range) goes unseen.");
+            "(a control past its learned range) goes unseen. A small model mismatch that rig-invert polishes on the "
+            "real rig by default stays a modelMismatch here: the node makes no corrections on the real rig.");
     b.output(iterations, "iterations", ValueType::Int).doc("Solver iterations of this evaluation.");
     b.output(worstErrorCm, "worstErrorCm", ValueType::Double)
         .doc("Worst target position error on the approximation, cm.");
