@@ -98,6 +98,7 @@ CrowdPlay playCrowd(const fs::path& file, int count, int threads, int frames, do
     auto graph = loadGraphFile(file, app::nodeRegistry({}));
     graph->setThreads(threads);
     std::vector<Plug> plugs = app::selectPlugs(*graph, file.string(), {"*:inverter.value[*]"}, 1.0);
+    app::settleLargeGraph(*graph);  // as graph-eval does before its frames
     const std::size_t first = plugs.size();
     plugs.push_back(graph->plug("camera.translate"));
     for (int i = 0; i < count; ++i) {

@@ -178,6 +178,7 @@ int run(const Options& options)
         else if (options.framesGiven) range = app::parseFrameRange(options.frames, "--frames");
         std::vector<Plug> plugs =
             app::selectPlugs(*graph, options.rig, options.gets, range ? std::optional(range->first) : std::nullopt);
+        app::settleLargeGraph(*graph);
         const std::set<Plug> seen(plugs.begin(), plugs.end());
         // CSV and table columns of a vector are its components: a component also selected whole
         // ('--get node.rotate*' matches rotate and rotateX) would be a second column of the same name.

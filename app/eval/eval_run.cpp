@@ -152,9 +152,6 @@ std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const st
 {
     if (firstFrame) graph.setTime(*firstFrame);
     evaluating(rigName, graph.time(), [&] { graph.evaluateAll(); });
-    // Built, and its nodes' state made by that evaluation: a crowd's memory goes into huge pages before its frames
-    // are played.
-    if (graph.nodeCount() >= hugePageNodes) collapseIntoHugePages();
     std::vector<Plug> plugs;
     if (patterns.empty()) {
         forEachPlug(graph, [&](const Plug& p) {
@@ -174,6 +171,11 @@ std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const st
             if (seen.insert(p).second) plugs.push_back(p);
         }
     return plugs;
+}
+
+void settleLargeGraph(const Graph& graph)
+{
+    if (graph.nodeCount() >= hugePageNodes) collapseIntoHugePages();
 }
 
 std::vector<Value> evaluateFrame(Graph& graph, const std::string& rigName, double frame, bool setTime,

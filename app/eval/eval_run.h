@@ -39,10 +39,15 @@ void applyAnimFile(Graph& graph, const std::string& file);
 
 // graph-eval --get PATTERN...: the plugs the patterns match, each once, in their order; no pattern: every
 // output plug (whole values). The graph is evaluated first (at `firstFrame` when given), since array
-// outputs have elements only once computed; a graph of hugePageNodes nodes or more is then collapsed into huge
-// pages (core/huge_pages.h). `rigName` names the rig in errors.
+// outputs have elements only once computed. `rigName` names the rig in errors.
 std::vector<Plug> selectPlugs(Graph& graph, const std::string& rigName, const std::vector<std::string>& patterns,
                               std::optional<double> firstFrame);
+
+// A player's step between selecting its plugs (the graph built, its nodes' state made by selectPlugs' evaluation) and
+// its frames: a graph of hugePageNodes nodes or more has the process's memory collapsed into huge pages
+// (core/huge_pages.h), once. graph-eval and rig-bench's crowd row call it; the Python module does not, since it would
+// collapse the whole interpreter's memory, the user's arrays with it.
+void settleLargeGraph(const Graph& graph);
 // A crowd of 36 bipeds: at 16 a frame gained nothing from huge pages here (its memory is within what 4 KB pages map),
 // and collapsing fills the unused rest of each 2 MB range.
 inline constexpr int hugePageNodes = 10'000;
