@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numeric>
 #include <utility>
 
@@ -77,6 +78,7 @@ GraphModel& Graph::editModel()
     // Shared with other instances: this one takes its own copy, theirs stays as it is.
     if (model_.use_count() > 1) model_ = std::make_shared<GraphModel>(*model_);
     schedule_.reset();  // the topology is about to change
+    timeDownstreamBuilt_ = false;
     return *model_;
 }
 
@@ -120,8 +122,8 @@ std::vector<int> Graph::elementIndices(NodeId node, AttrId attr) const
         throw internalError(fmt::format("elementIndices: no attribute {} on node {}", attr, node));
     std::vector<int> indices;
     const ArrayData* d = model_->topology(node).spec(attr).array ? store_.array(slot(Plug{node, attr})) : nullptr;
-    for (std::size_t i = 0; d && i < d->present.size(); ++i)
-        if (d->present[i]) indices.push_back(static_cast<int>(i));
+    for (std::size_t i = 0; d && i < d->size(); ++i)
+        if (d->has(i)) indices.push_back(static_cast<int>(i));
     return indices;
 }
 
@@ -134,7 +136,7 @@ const T& Graph::stored(const Plug& p) const
     if (!s.array) return store_.get<T>(slot(p));
     const ArrayData* array = store_.array(slot(p));
     const auto i = static_cast<std::size_t>(p.index);
-    return std::get<T>(array && i < array->present.size() && array->present[i] ? array->elements[i] : s.defaultValue);
+    return array && array->has(i) ? array->get<T>(i) : std::get<T>(s.defaultValue);
 }
 
 Value Graph::readStored(const Plug& p) const
@@ -151,27 +153,25 @@ template <class T>
 T& Graph::storage(const Plug& p)
 {
     if (!spec(p).array) return store_.get<T>(slot(p));
-    return std::get<T>(element(p));
+    return element(p).get<T>(static_cast<std::size_t>(p.index));
 }
 
-Value& Graph::element(const Plug& p)
+ArrayData& Graph::element(const Plug& p)
 {
     const AttributeSpec& s = spec(p);
-    ArrayData& array = store_.elements(slot(p));
+    ArrayData& array = store_.elements(slot(p), s.type);
     const auto i = static_cast<std::size_t>(p.index);
-    if (i >= array.elements.size()) {
-        const std::size_t growth = i + 1 - array.elements.size();
+    if (i >= array.size()) {
+        const std::size_t growth = i + 1 - array.size();
         if (arrayElements_ + growth > maxArrayElements)
             throw Error(
                 fmt::format("{}: the rig's array attributes would hold more than {} elements in all; "
                             "elements are stored up to the highest index, so number them from 0",
                             plugName(p), maxArrayElements));
         arrayElements_ += growth;
-        array.elements.resize(i + 1, s.defaultValue);
-        array.present.resize(i + 1, false);
     }
-    array.present[i] = true;
-    return array.elements[i];
+    array.make(i, s.defaultValue);
+    return array;
 }
 
 void Graph::writeStored(const Plug& p, const Value& value)
@@ -206,29 +206,46 @@ void Graph::disconnect(const Plug src, const Plug dst)
 
 // --- dirty propagation (push) --------------------------------------------------------------------------
 
-void Graph::dirtyAffectedBy(NodeId node, AttrId attr)
+void Graph::dirtyAffectedBy(NodeId node, AttrId attr) { markDownstream(dirty_, node, attr); }
+
+void Graph::markDownstream(std::vector<char>& flags, NodeId node, AttrId attr)
 {
-    // Iterative: production chains are thousands of nodes deep. A plug already dirty has a dirty
-    // downstream (the invariant pull keeps), so the walk stops there.
+    // Iterative: production chains are thousands of nodes deep. A plug already flagged has a flagged
+    // downstream (the invariant pull keeps for dirty flags), so the walk stops there.
     std::vector<std::pair<NodeId, AttrId>>& stack = dirtyStack_;
     stack.assign(1, {node, attr});
     while (!stack.empty()) {
         const auto [n, a] = stack.back();
         stack.pop_back();
         const GraphModel::NodeTopology& top = model_->topology(n);
-        char* dirty = dirty_.data() + firstAttr_[static_cast<std::size_t>(n)];
+        char* flag = flags.data() + firstAttr_[static_cast<std::size_t>(n)];
         for (AttrId o : top.affects(a)) {
-            if (dirty[o]) continue;
-            dirty[o] = 1;
+            if (flag[o]) continue;
+            flag[o] = 1;
             stack.emplace_back(n, o);
         }
         for (const GraphModel::NodeTopology::Edge& e : top.outgoingFrom(a)) {
-            char& d = dirty_[at(e.node, e.attr)];
-            if (d) continue;
-            d = 1;
+            char& f = flags[at(e.node, e.attr)];
+            if (f) continue;
+            f = 1;
             stack.emplace_back(e.node, e.attr);
         }
     }
+}
+
+void Graph::buildTimeDownstream()
+{
+    std::vector<char> reached(dirty_.size(), 0);
+    for (const Plug& p : *model_->timePlugs()) markDownstream(reached, p.node, p.attr);
+    timeDownstream_.clear();
+    for (std::size_t i = 0; i < reached.size(); ++i) {
+        if (!reached[i]) continue;
+        if (!timeDownstream_.empty() && timeDownstream_.back().first + timeDownstream_.back().count == i)
+            ++timeDownstream_.back().count;
+        else timeDownstream_.push_back({static_cast<std::uint32_t>(i), 1});
+    }
+    timeDownstream_.shrink_to_fit();
+    timeDownstreamBuilt_ = true;
 }
 
 void Graph::dirtyInput(NodeId node, AttrId attr)
@@ -252,6 +269,12 @@ void Graph::dirtyAll()
 // --- values -------------------------------------------------------------------------------------------
 
 void Graph::setValue(const Plug& p, const Value& value)
+{
+    assignInput(p, value);
+    dirtyAffectedBy(p.node, p.attr);
+}
+
+void Graph::assignInput(const Plug& p, const Value& value)
 {
     model_->checkPlug(p);
     const AttributeSpec& s = spec(p);
@@ -281,7 +304,6 @@ void Graph::setValue(const Plug& p, const Value& value)
     else if (const auto* v = std::get_if<Eigen::Vector3d>(&value))
         for (int i = 0; i < 3; ++i) checkRange((*v)[i]);
     writeStored(p, value);
-    dirtyAffectedBy(p.node, p.attr);
 }
 
 Value Graph::getValue(const Plug& p)
@@ -294,7 +316,10 @@ void Graph::setTime(double frame)
 {
     time_ = frame;
     const std::shared_ptr<const std::vector<Plug>> plugs = model_->timePlugs();
-    for (const Plug& p : *plugs) setValue(p, frame);
+    for (const Plug& p : *plugs) assignInput(p, frame);
+    // What the walks from each time plug would mark (the flags they stop at hold a marked downstream), in runs.
+    if (!timeDownstreamBuilt_) buildTimeDownstream();
+    for (const DirtyRun& r : timeDownstream_) std::memset(dirty_.data() + r.first, 1, r.count);
 }
 
 void Graph::setThreads(int threads)
@@ -482,11 +507,8 @@ namespace {
 
 bool sameElements(const ArrayData* a, const ArrayData* b)
 {
-    const std::size_t n = a ? a->present.size() : 0;
-    if (n != (b ? b->present.size() : 0)) return false;
-    for (std::size_t i = 0; i < n; ++i)
-        if (a->present[i] != b->present[i] || !bitEqual(a->elements[i], b->elements[i])) return false;
-    return true;
+    if (!a || !b) return (a ? a->size() : 0) == 0 && (b ? b->size() : 0) == 0;
+    return a->sameAs(*b);
 }
 
 }  // namespace

@@ -141,16 +141,23 @@ private:
     const T& stored(const Plug& plug) const;
     template <class T>
     T& storage(const Plug& plug);
-    // Makes array element plug.index of the plug's attribute, the default where it is new.
-    Value& element(const Plug& plug);
+    // Makes array element plug.index of the plug's attribute, the default where it is new; returns the attribute's
+    // elements.
+    ArrayData& element(const Plug& plug);
     Value readStored(const Plug& plug) const;
     Value pulledValue(const Connection& connection) const;
     void writeStored(const Plug& plug, const Value& value);
     // Brings a connection's destination up to date from its source.
     void pull(const Connection& connection);
 
+    // setValue's checks and store, without the push.
+    void assignInput(const Plug& plug, const Value& value);
     void dirtyInput(NodeId node, AttrId attr);
     void dirtyAffectedBy(NodeId node, AttrId attr);
+    // Sets `flags` (one per attribute, laid out as dirty_) on everything attribute `attr` of `node` affects, here and
+    // downstream, stopping at flags already set.
+    void markDownstream(std::vector<char>& flags, NodeId node, AttrId attr);
+    void buildTimeDownstream();
 
     // Computes what `roots` need (roots may be roots_).
     void evaluateNodes(std::span<const NodeId> roots);
@@ -173,7 +180,15 @@ private:
     std::vector<std::uint64_t> computes_;
     ValueStore store_;
     std::size_t arrayElements_ = 0;                      // input array elements allocated, all nodes
-    std::vector<std::pair<NodeId, AttrId>> dirtyStack_;  // dirtyAffectedBy's, kept: it runs per plug set
+    std::vector<std::pair<NodeId, AttrId>> dirtyStack_;  // markDownstream's, kept: it runs per plug set
+    // What setting the scene time makes dirty (the downstream of every time plug), as runs of dirty_: a crowd's frame
+    // marks them in a few streams instead of walking every member's records again. Built at the first setTime after
+    // an edit of the model.
+    struct DirtyRun {
+        std::uint32_t first, count;
+    };
+    std::vector<DirtyRun> timeDownstream_;
+    bool timeDownstreamBuilt_ = false;
     // evaluate()'s, kept: the nodes of the plugs asked for, the nodes they need, and a flag per node (all 0
     // between evaluations).
     std::vector<NodeId> roots_, list_;

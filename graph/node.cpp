@@ -54,23 +54,30 @@ void ComputeContext::setOutputElements(AttrId a, std::vector<Value> elements)
     if (a < 0 || i >= specs_.size() || specs_[i].input || !specs_[i].array)
         throw internalError(
             fmt::format("node '{}': compute wrote attribute {} which is not an array output", nodeName_, a));
-    ArrayData& array = store_.elements(slots_[i]);
-    array.present.assign(elements.size(), true);
-    array.elements = std::move(elements);
+    visitValueType(specs_[i].type, [&]<class T>(std::type_identity<T>) {
+        for (const Value& v : elements)
+            if (!std::holds_alternative<T>(v))
+                throw internalError(
+                    fmt::format("node '{}': compute wrote an element of attribute {} as another type "
+                                "than its {}",
+                                nodeName_, a, valueTypeName(specs_[i].type)));
+        store_.elements(slots_[i], specs_[i].type).assign<T>(elements.size(), [&](Cell<T>& cell, std::size_t k) {
+            if constexpr (std::is_same_v<T, bool>) cell.value = std::get<bool>(elements[k]);
+            else cell = std::move(std::get<T>(elements[k]));
+        });
+    });
 }
 
 template <class T>
 void ComputeContext::assignElements(AttrId a, std::span<const T> elements)
 {
     const auto i = static_cast<std::size_t>(a);
-    if (a < 0 || i >= specs_.size() || specs_[i].input || !specs_[i].array ||
-        !std::holds_alternative<T>(specs_[i].defaultValue))
+    if (a < 0 || i >= specs_.size() || specs_[i].input || !specs_[i].array || !holds<T>(specs_[i].type))
         throw internalError(fmt::format(
             "node '{}': compute wrote attribute {} which is not an array output of that type", nodeName_, a));
-    ArrayData& array = store_.elements(slots_[i]);
-    array.present.assign(elements.size(), true);
-    array.elements.resize(elements.size(), specs_[i].defaultValue);
-    for (std::size_t k = 0; k < elements.size(); ++k) array.elements[k] = elements[k];
+    store_.elements(slots_[i], specs_[i].type).assign<T>(elements.size(), [&](T& cell, std::size_t k) {
+        cell = elements[k];
+    });
 }
 
 void ComputeContext::assignOutputElements(AttrId a, std::span<const double> elements) { assignElements(a, elements); }

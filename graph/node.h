@@ -36,14 +36,42 @@ public:
     const std::vector<double>& getDoubleArray(AttrId a) const { return input<std::vector<double>>(a); }
     const Matrix4Array& getMatrixArray(AttrId a) const { return input<Matrix4Array>(a); }
 
-    // Array inputs: calls f(logicalIndex, value) for each existing element, in index order.
+    // An array input's elements as its attribute's type T (int for enums): has(i), [i], valueOr(i, fallback).
+    template <class T>
+    class Elements {
+    public:
+        explicit Elements(const ArrayData* data) : data_(data) {}
+        // One past the highest existing index.
+        std::size_t size() const { return data_ ? data_->size() : 0; }
+        bool has(int i) const { return i >= 0 && data_ && data_->has(static_cast<std::size_t>(i)); }
+        const T& operator[](int i) const { return data_->get<T>(static_cast<std::size_t>(i)); }
+        T valueOr(int i, const T& fallback) const { return has(i) ? (*this)[i] : fallback; }
+
+    private:
+        const ArrayData* data_;
+    };
+    template <class T>
+    Elements<T> elements(AttrId a) const
+    {
+        const ValueStore::Slot slot = inputSlot(a, true);
+        if (!holds<T>(specs_[static_cast<std::size_t>(a)].type)) wrongType(a);
+        return Elements<T>(store_.array(slot));
+    }
+    // Calls f(logicalIndex) for each existing element of array input `a`, in index order, whatever its type.
     template <class F>
-    void forEachElement(AttrId a, F&& f) const
+    void forEachIndex(AttrId a, F&& f) const
     {
         const ArrayData* d = store_.array(inputSlot(a, true));
-        if (!d) return;
-        for (std::size_t i = 0; i < d->present.size(); ++i)
-            if (d->present[i]) f(static_cast<int>(i), d->elements[i]);
+        for (std::size_t i = 0; d && i < d->size(); ++i)
+            if (d->has(i)) f(static_cast<int>(i));
+    }
+    // Calls f(logicalIndex, value) for each existing element of array input `a`, in index order, as T.
+    template <class T, class F>
+    void forEachElement(AttrId a, F&& f) const
+    {
+        const Elements<T> e = elements<T>(a);
+        for (int i = 0; static_cast<std::size_t>(i) < e.size(); ++i)
+            if (e.has(i)) f(i, e[i]);
     }
 
     void setOutput(AttrId a, Value value);

@@ -18,7 +18,7 @@ ValueStore::Slot ValueStore::add(ValueType type, const Value& value)
 {
     return visitValueType(type, [&]<class T>(std::type_identity<T>) {
         if constexpr (std::is_same_v<T, bool>) {
-            auto& pool = std::get<std::vector<Flag>>(pools_);
+            auto& pool = std::get<std::vector<BoolCell>>(pools_);
             pool.push_back({std::get<bool>(value)});
             return static_cast<Slot>(pool.size() - 1);
         } else {
@@ -56,11 +56,50 @@ bool ValueStore::assign(ValueType type, Slot slot, Value value)
     });
 }
 
-ArrayData& ValueStore::elements(Slot slot)
+ArrayData& ValueStore::elements(Slot slot, ValueType type)
 {
     std::unique_ptr<ArrayData>& a = arrays_[slot];
-    if (!a) a = std::make_unique<ArrayData>();
+    if (!a) a = std::make_unique<ArrayData>(type);
     return *a;
+}
+
+ArrayData::ArrayData(ValueType type)
+{
+    visitValueType(type, [&]<class T>(std::type_identity<T>) { column_.emplace<std::vector<Cell<T>>>(); });
+}
+
+Value ArrayData::value(std::size_t i) const
+{
+    return std::visit(
+        [&](const auto& c) -> Value {
+            const auto& x = c[i];
+            if constexpr (std::is_same_v<std::decay_t<decltype(x)>, BoolCell>) return x.value;
+            else return x;
+        },
+        column_);
+}
+
+void ArrayData::make(std::size_t i, const Value& fallback)
+{
+    std::visit(
+        [&](auto& c) {
+            using C = typename std::decay_t<decltype(c)>::value_type;
+            if (i >= c.size()) {
+                if constexpr (std::is_same_v<C, BoolCell>) c.resize(i + 1, BoolCell{std::get<bool>(fallback)});
+                else c.resize(i + 1, std::get<C>(fallback));
+            }
+        },
+        column_);
+    if (i >= present_.size()) present_.resize(i + 1, false);
+    present_[i] = true;
+}
+
+bool ArrayData::sameAs(const ArrayData& other) const
+{
+    if (present_ != other.present_) return false;
+    for (std::size_t i = 0; i < present_.size(); ++i)
+        if (present_[i] && !bitEqual(value(i), other.value(i))) return false;
+    return true;
 }
 
 }  // namespace rig

@@ -11,6 +11,7 @@
 #include <tuple>
 #include <type_traits>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include <Eigen/Core>
@@ -18,12 +19,6 @@
 #include "graph/value.h"
 
 namespace rig {
-
-// The elements of an array attribute, by logical index.
-struct ArrayData {
-    std::vector<Value> elements;
-    std::vector<bool> present;  // which logical indices exist
-};
 
 // Calls f(std::type_identity<T>{}) with T the Value alternative that holds a value of `type` (Int and Enum share int).
 template <class F>
@@ -51,6 +46,64 @@ decltype(auto) visitValueType(ValueType type, F&& f)
     return f(std::type_identity<Matrix4Array>{});
 }
 
+// How a value of type T is held in a pool: a bool in a struct of its own (std::vector<bool> packs bits, which have no
+// address to return).
+struct BoolCell {
+    bool value;
+};
+template <class T>
+using Cell = std::conditional_t<std::is_same_v<T, bool>, BoolCell, T>;
+
+// The elements of an array attribute, by logical index, held as the attribute's own type: a double array's elements
+// take 8 bytes each, not a 136-byte Value each (a crowd member's inverter writes 79 of them every frame).
+class ArrayData {
+public:
+    explicit ArrayData(ValueType type);
+
+    // One past the highest index made; elements below it that were never made are absent.
+    std::size_t size() const { return present_.size(); }
+    bool has(std::size_t i) const { return i < present_.size() && present_[i]; }
+    // Element i as T, the attribute's type: it must exist (has(i)).
+    template <class T>
+    const T& get(std::size_t i) const
+    {
+        return const_cast<ArrayData*>(this)->get<T>(i);
+    }
+    template <class T>
+    T& get(std::size_t i)
+    {
+        if constexpr (std::is_same_v<T, bool>) return column<bool>()[i].value;
+        else return column<T>()[i];
+    }
+    Value value(std::size_t i) const;
+    // Makes elements up to index i (`fallback`, holding the attribute's type, where new) and marks i present.
+    void make(std::size_t i, const Value& fallback);
+    // Replaces every element: `count` present elements, each assigned by set(T&, k).
+    template <class T, class Set>
+    void assign(std::size_t count, Set&& set)
+    {
+        auto& c = column<T>();
+        c.resize(count);
+        present_.assign(count, true);
+        for (std::size_t k = 0; k < count; ++k) set(c[k], k);
+    }
+    // Bit for bit, absent elements alike.
+    bool sameAs(const ArrayData& other) const;
+
+private:
+    template <class T>
+    std::vector<Cell<T>>& column()
+    {
+        return std::get<std::vector<Cell<T>>>(column_);
+    }
+
+    std::variant<std::vector<double>, std::vector<int>, std::vector<BoolCell>, std::vector<std::string>,
+                 std::vector<Eigen::Vector3d>, std::vector<Eigen::Matrix4d>, std::vector<std::vector<double>>,
+                 std::vector<Matrix4Array>>
+        column_;
+    std::vector<bool> present_;  // which logical indices exist
+};
+
 class ValueStore {
 public:
     using Slot = std::uint32_t;
@@ -70,7 +123,7 @@ public:
     template <class T>
     T& get(Slot slot)
     {
-        if constexpr (std::is_same_v<T, bool>) return std::get<std::vector<Flag>>(pools_)[slot].value;
+        if constexpr (std::is_same_v<T, bool>) return std::get<std::vector<BoolCell>>(pools_)[slot].value;
         else return std::get<std::vector<T>>(pools_)[slot];
     }
     template <class T>
@@ -86,15 +139,12 @@ public:
     // Gives back what the pools hold past their size (they grow by doubling while a graph is built).
     void shrink();
 
-    // An array attribute's elements: null until it has one; elements() makes them.
+    // An array attribute's elements: null until it has one; elements() makes them, of the attribute's type.
     const ArrayData* array(Slot slot) const { return arrays_[slot].get(); }
-    ArrayData& elements(Slot slot);
+    ArrayData& elements(Slot slot, ValueType type);
 
 private:
-    struct Flag {
-        bool value;
-    };
-    std::tuple<std::vector<double>, std::vector<int>, std::vector<Flag>, std::vector<std::string>,
+    std::tuple<std::vector<double>, std::vector<int>, std::vector<BoolCell>, std::vector<std::string>,
                std::vector<Eigen::Vector3d>, std::vector<Eigen::Matrix4d>, std::vector<std::vector<double>>,
                std::vector<Matrix4Array>>
         pools_;

@@ -8,19 +8,18 @@ namespace rig::constraint {
 
 namespace {
 
-// The existing elements of an array input, by logical index.
-std::map<int, const Value*> elementsOf(const ComputeContext& c, AttrId a)
+// An array input's elements; none where the node type has no such attribute (a < 0).
+template <class T>
+ComputeContext::Elements<T> elementsOf(const ComputeContext& c, AttrId a)
 {
-    std::map<int, const Value*> elements;
-    if (a >= 0) c.forEachElement(a, [&](int i, const Value& v) { elements[i] = &v; });
-    return elements;
+    return a >= 0 ? c.elements<T>(a) : ComputeContext::Elements<T>(nullptr);
 }
 
 template <class T>
-T elementOr(const std::map<int, const Value*>& elements, int index, T fallback)
+void addIndices(const ComputeContext::Elements<T>& elements, std::map<int, bool>& indices)
 {
-    const auto it = elements.find(index);
-    return it == elements.end() ? fallback : std::get<T>(*it->second);
+    for (int i = 0; static_cast<std::size_t>(i) < elements.size(); ++i)
+        if (elements.has(i)) indices.emplace(i, false);
 }
 
 Eigen::Matrix4d translation(const Eigen::Vector3d& t)
@@ -39,47 +38,53 @@ Eigen::Matrix4d linear(const Eigen::Matrix3d& l)
 
 // Maya's per-target arrays read at one index, with the defaults of absent elements.
 struct MayaTargetValues {
-    std::map<int, const Value*> translate, rotate, rotateOrder, rotatePivot, rotateTranslate, scale, parentMatrix,
-        jointOrient, scaleCompensate, inverseScale;
+    ComputeContext::Elements<Eigen::Vector3d> translate, rotate, rotatePivot, rotateTranslate, scale, jointOrient,
+        inverseScale;
+    ComputeContext::Elements<int> rotateOrder;
+    ComputeContext::Elements<Eigen::Matrix4d> parentMatrix;
+    ComputeContext::Elements<bool> scaleCompensate;
 
     MayaTargetValues(const ComputeContext& c, const MayaTargetIds& ids)
-        : translate(elementsOf(c, ids.translate)),
-          rotate(elementsOf(c, ids.rotate)),
-          rotateOrder(elementsOf(c, ids.rotateOrder)),
-          rotatePivot(elementsOf(c, ids.rotatePivot)),
-          rotateTranslate(elementsOf(c, ids.rotateTranslate)),
-          scale(elementsOf(c, ids.scale)),
-          parentMatrix(elementsOf(c, ids.parentMatrix)),
-          jointOrient(elementsOf(c, ids.jointOrient)),
-          scaleCompensate(elementsOf(c, ids.scaleCompensate)),
-          inverseScale(elementsOf(c, ids.inverseScale))
+        : translate(elementsOf<Eigen::Vector3d>(c, ids.translate)),
+          rotate(elementsOf<Eigen::Vector3d>(c, ids.rotate)),
+          rotatePivot(elementsOf<Eigen::Vector3d>(c, ids.rotatePivot)),
+          rotateTranslate(elementsOf<Eigen::Vector3d>(c, ids.rotateTranslate)),
+          scale(elementsOf<Eigen::Vector3d>(c, ids.scale)),
+          jointOrient(elementsOf<Eigen::Vector3d>(c, ids.jointOrient)),
+          inverseScale(elementsOf<Eigen::Vector3d>(c, ids.inverseScale)),
+          rotateOrder(elementsOf<int>(c, ids.rotateOrder)),
+          parentMatrix(elementsOf<Eigen::Matrix4d>(c, ids.parentMatrix)),
+          scaleCompensate(elementsOf<bool>(c, ids.scaleCompensate))
     {
     }
 
-    void addIndices(std::map<int, bool>& indices) const
+    void addAllIndices(std::map<int, bool>& indices) const
     {
-        for (const auto* array : {&translate, &rotate, &rotateOrder, &rotatePivot, &rotateTranslate, &scale,
-                                  &parentMatrix, &jointOrient, &scaleCompensate, &inverseScale})
-            for (const auto& element : *array) indices.emplace(element.first, false);
+        for (const auto* array :
+             {&translate, &rotate, &rotatePivot, &rotateTranslate, &scale, &jointOrient, &inverseScale})
+            addIndices(*array, indices);
+        addIndices(rotateOrder, indices);
+        addIndices(parentMatrix, indices);
+        addIndices(scaleCompensate, indices);
     }
 
     TargetFrame frame(int i) const
     {
         const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
-        const Eigen::Vector3d t = elementOr(translate, i, zero);
-        const Eigen::Vector3d rp = elementOr(rotatePivot, i, zero);
-        const Eigen::Vector3d rpt = elementOr(rotateTranslate, i, zero);
-        const Eigen::Matrix4d parent = elementOr(parentMatrix, i, Eigen::Matrix4d(Eigen::Matrix4d::Identity()));
-        const auto order = rotateOrderFromIndex(elementOr(rotateOrder, i, 0)).value_or(RotateOrder::xyz);
+        const Eigen::Vector3d t = translate.valueOr(i, zero);
+        const Eigen::Vector3d rp = rotatePivot.valueOr(i, zero);
+        const Eigen::Vector3d rpt = rotateTranslate.valueOr(i, zero);
+        const Eigen::Matrix4d parent = parentMatrix.valueOr(i, Eigen::Matrix4d(Eigen::Matrix4d::Identity()));
+        const auto order = rotateOrderFromIndex(rotateOrder.valueOr(i, 0)).value_or(RotateOrder::xyz);
         Eigen::Matrix3d inverseScaling = Eigen::Matrix3d::Identity();
-        if (elementOr(scaleCompensate, i, false)) {
-            const Eigen::Vector3d is = elementOr(inverseScale, i, Eigen::Vector3d(Eigen::Vector3d::Ones()));
+        if (scaleCompensate.valueOr(i, false)) {
+            const Eigen::Vector3d is = inverseScale.valueOr(i, Eigen::Vector3d(Eigen::Vector3d::Ones()));
             for (int k = 0; k < 3; ++k)
                 if (is[k] != 0.0) inverseScaling(k, k) = 1.0 / is[k];
         }
-        const Eigen::Matrix3d rotation = eulerToMatrix(elementOr(jointOrient, i, zero), RotateOrder::xyz) *
-                                         eulerToMatrix(elementOr(rotate, i, zero), order);
-        const Eigen::Vector3d s = elementOr(scale, i, Eigen::Vector3d(Eigen::Vector3d::Ones()));
+        const Eigen::Matrix3d rotation = eulerToMatrix(jointOrient.valueOr(i, zero), RotateOrder::xyz) *
+                                         eulerToMatrix(rotate.valueOr(i, zero), order);
+        const Eigen::Vector3d s = scale.valueOr(i, Eigen::Vector3d(Eigen::Vector3d::Ones()));
         TargetFrame f;
         f.index = i;
         // A transform's matrix with its scale pivot on its rotate pivot and no rotate axis or shear; a joint's
@@ -110,24 +115,25 @@ Eigen::Quaterniond slerpAlong(const Eigen::Quaterniond& a, const Eigen::Quaterni
 std::vector<TargetFrame> gatherFrames(const ComputeContext& c, AttrId matrices, AttrId weights,
                                       const MayaTargetIds& ids)
 {
-    const auto matrixOf = elementsOf(c, matrices);
-    const auto weightOf = elementsOf(c, weights);
+    const auto matrixOf = elementsOf<Eigen::Matrix4d>(c, matrices);
+    const auto weightOf = elementsOf<double>(c, weights);
     const MayaTargetValues maya(c, ids);
     std::map<int, bool> indices;  // index -> given by targetMatrix
-    for (const auto& element : matrixOf) indices[element.first] = true;
-    maya.addIndices(indices);
+    for (int i = 0; static_cast<std::size_t>(i) < matrixOf.size(); ++i)
+        if (matrixOf.has(i)) indices[i] = true;
+    maya.addAllIndices(indices);
     std::vector<TargetFrame> frames;
     for (const auto& [i, fromMatrix] : indices) {
         TargetFrame f;
         if (fromMatrix) {
             f.index = i;
-            f.world = std::get<Eigen::Matrix4d>(*matrixOf.at(i));
+            f.world = matrixOf[i];
             f.pivot = f.world.topRightCorner<3, 1>();
             f.fromMatrix = true;
         } else {
             f = maya.frame(i);
         }
-        f.weight = elementOr(weightOf, i, 1.0);
+        f.weight = weightOf.valueOr(i, 1.0);
         frames.push_back(f);
     }
     return frames;
@@ -170,11 +176,7 @@ std::optional<Eigen::Quaterniond> blendRotations(const std::vector<std::pair<Eig
 
 Eigen::Matrix4d matrixElement(const ComputeContext& c, AttrId matrices, int index)
 {
-    Eigen::Matrix4d result = Eigen::Matrix4d::Identity();
-    c.forEachElement(matrices, [&](int i, const Value& v) {
-        if (i == index) result = std::get<Eigen::Matrix4d>(v);
-    });
-    return result;
+    return c.elements<Eigen::Matrix4d>(matrices).valueOr(index, Eigen::Matrix4d::Identity());
 }
 
 Eigen::Quaterniond rotationOf(const Eigen::Matrix4d& matrix) { return decomposeMatrix(matrix, RotateOrder::xyz).quat; }

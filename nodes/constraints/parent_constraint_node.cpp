@@ -67,12 +67,8 @@ Placement placementOf(const ComputeContext& c, const constraint::TargetFrame& t)
     // order. (A control whose pivot was moved holds its joint where Maya does: the offset is from the pivot.)
     Eigen::Vector3d offsetTranslate = Eigen::Vector3d::Zero();
     Eigen::Vector3d offsetRotate = Eigen::Vector3d::Zero();
-    c.forEachElement(TargetOffsetTranslate, [&](int i, const Value& v) {
-        if (i == t.index) offsetTranslate = std::get<Eigen::Vector3d>(v);
-    });
-    c.forEachElement(TargetOffsetRotate, [&](int i, const Value& v) {
-        if (i == t.index) offsetRotate = std::get<Eigen::Vector3d>(v);
-    });
+    offsetTranslate = c.elements<Eigen::Vector3d>(TargetOffsetTranslate).valueOr(t.index, offsetTranslate);
+    offsetRotate = c.elements<Eigen::Vector3d>(TargetOffsetRotate).valueOr(t.index, offsetRotate);
     const auto order = rotateOrderFromIndex(c.getEnum(ConstraintRotateOrder)).value_or(RotateOrder::xyz);
     const Eigen::Quaterniond rotation(constraint::rotationOf(t.world).toRotationMatrix() *
                                       eulerToMatrix(offsetRotate, order));

@@ -18,10 +18,10 @@ enum Attr : AttrId { InMatrixA, InMatrixB, Weight, OutMatrix };
 std::vector<int> presentIndices(const ComputeContext& c, AttrId a, std::vector<Eigen::Matrix4d>& matrices)
 {
     std::vector<int> indices;
-    c.forEachElement(a, [&](int i, const Value& v) {
+    c.forEachElement<Eigen::Matrix4d>(a, [&](int i, const Eigen::Matrix4d& m) {
         indices.push_back(i);
         matrices.resize(static_cast<std::size_t>(i) + 1, Eigen::Matrix4d::Identity());
-        matrices[static_cast<std::size_t>(i)] = std::get<Eigen::Matrix4d>(v);
+        matrices[static_cast<std::size_t>(i)] = m;
     });
     return indices;
 }

@@ -48,7 +48,7 @@ public:
     {
         LookAtSettings& s = settings_;
         s.chain.clear();
-        c.forEachElement(InMatrix, [&](int, const Value& v) { s.chain.push_back(std::get<Eigen::Matrix4d>(v)); });
+        c.forEachElement<Eigen::Matrix4d>(InMatrix, [&](int, const Eigen::Matrix4d& m) { s.chain.push_back(m); });
         const std::vector<double>& share = c.getDoubleArray(Share);
         s.share.assign(share.begin(), share.end());
         checkPerJoint(c, "share", s.share, s.chain.size());

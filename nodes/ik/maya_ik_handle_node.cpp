@@ -375,17 +375,16 @@ RotateOrder orderOf(int index) { return rotateOrderFromIndex(index).value_or(Rot
 template <class T>
 std::vector<T> elements(const ComputeContext& c, AttrId a, std::size_t n, T fallback)
 {
+    const auto given = c.elements<T>(a);
     std::vector<T> out(n, fallback);
-    c.forEachElement(a, [&](int i, const Value& v) {
-        if (static_cast<std::size_t>(i) < n) out[static_cast<std::size_t>(i)] = std::get<T>(v);
-    });
+    for (std::size_t i = 0; i < n; ++i) out[i] = given.valueOr(static_cast<int>(i), fallback);
     return out;
 }
 
 Chain readChain(const ComputeContext& c)
 {
     std::size_t n = 0;
-    c.forEachElement(JointTranslate, [&](int i, const Value&) { n = std::max(n, static_cast<std::size_t>(i) + 1); });
+    c.forEachIndex(JointTranslate, [&](int i) { n = std::max(n, static_cast<std::size_t>(i) + 1); });
     const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
     const auto translate = elements(c, JointTranslate, n, zero);
     const auto rotate = elements(c, JointRotate, n, zero);

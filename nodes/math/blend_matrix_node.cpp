@@ -43,8 +43,8 @@ Eigen::Matrix4d blendTRS(const Eigen::Matrix4d& from, const Eigen::Matrix4d& to,
 std::vector<double> elements(const ComputeContext& context, AttrId attr, std::size_t count)
 {
     std::vector<double> values(count, 1.0);
-    context.forEachElement(attr, [&](int i, const Value& v) {
-        if (static_cast<std::size_t>(i) < count) values[static_cast<std::size_t>(i)] = std::get<double>(v);
+    context.forEachElement<double>(attr, [&](int i, double v) {
+        if (static_cast<std::size_t>(i) < count) values[static_cast<std::size_t>(i)] = v;
     });
     return values;
 }
@@ -54,8 +54,8 @@ public:
     void compute(ComputeContext& context) override
     {
         std::vector<std::pair<int, Eigen::Matrix4d>> targets;
-        context.forEachElement(TargetMatrix,
-                               [&](int i, const Value& v) { targets.emplace_back(i, std::get<Eigen::Matrix4d>(v)); });
+        context.forEachElement<Eigen::Matrix4d>(TargetMatrix,
+                                                [&](int i, const Eigen::Matrix4d& m) { targets.emplace_back(i, m); });
         const std::size_t count = targets.empty() ? 0 : static_cast<std::size_t>(targets.back().first) + 1;
         const auto weight = elements(context, TargetWeight, count);
         const auto tw = elements(context, TranslateWeight, count);

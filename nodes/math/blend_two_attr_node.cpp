@@ -13,8 +13,8 @@ public:
     void compute(ComputeContext& context) override
     {
         double in[2] = {0.0, 0.0};
-        context.forEachElement(Input, [&](int index, const Value& value) {
-            if (index < 2) in[index] = std::get<double>(value);
+        context.forEachElement<double>(Input, [&](int index, double value) {
+            if (index < 2) in[index] = value;
         });
         const double w = context.getDouble(AttributesBlender);
         context.setOutput(Output, in[0] + w * (in[1] - in[0]));

@@ -14,14 +14,14 @@ public:
     void compute(ComputeContext& context) override
     {
         std::vector<double> weights;
-        context.forEachElement(Weight, [&](int i, const Value& w) {
+        context.forEachElement<double>(Weight, [&](int i, double w) {
             if (weights.size() <= static_cast<std::size_t>(i)) weights.resize(static_cast<std::size_t>(i) + 1, 1.0);
-            weights[static_cast<std::size_t>(i)] = std::get<double>(w);
+            weights[static_cast<std::size_t>(i)] = w;
         });
         double sum = 0.0;
-        context.forEachElement(Input, [&](int i, const Value& x) {
+        context.forEachElement<double>(Input, [&](int i, double x) {
             const auto k = static_cast<std::size_t>(i);
-            sum += std::get<double>(x) * (k < weights.size() ? weights[k] : 1.0);
+            sum += x * (k < weights.size() ? weights[k] : 1.0);
         });
         context.setOutput(Output, sum);
     }

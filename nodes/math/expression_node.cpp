@@ -33,9 +33,9 @@ public:
             parsed_ = true;
         }
         inputs_.clear();
-        c.forEachElement(Input, [&](int i, const Value& v) {
+        c.forEachElement<double>(Input, [&](int i, double v) {
             if (static_cast<std::size_t>(i) >= inputs_.size()) inputs_.resize(static_cast<std::size_t>(i) + 1, 0.0);
-            inputs_[static_cast<std::size_t>(i)] = toDouble(v);
+            inputs_[static_cast<std::size_t>(i)] = v;
         });
         const double frame = c.getDouble(Time);
         // Maya's `time` is in seconds, `frame` in frames.

@@ -14,8 +14,7 @@ public:
     {
         // Column vectors: each later matrix multiplies from the left, so matrixIn[0] acts first.
         Eigen::Matrix4d sum = Eigen::Matrix4d::Identity();
-        context.forEachElement(MatrixIn,
-                               [&](int, const Value& value) { sum = std::get<Eigen::Matrix4d>(value) * sum; });
+        context.forEachElement<Eigen::Matrix4d>(MatrixIn, [&](int, const Eigen::Matrix4d& m) { sum = m * sum; });
         context.setOutput(MatrixSum, sum);
     }
 };

@@ -15,8 +15,7 @@ T combine(const ComputeContext& context, AttrId attr, int op, T zero)
 {
     T result = zero;
     int count = 0;
-    context.forEachElement(attr, [&](int, const Value& value) {
-        const T& x = std::get<T>(value);
+    context.forEachElement<T>(attr, [&](int, const T& x) {
         if (count == 0) result = x;
         else if (op == Sum || op == Average) result += x;
         else if (op == Subtract) result -= x;

@@ -52,10 +52,10 @@ struct RampEntry {
 
 // Sets field `field` of entry i for every element of an array input, creating the entries it names (an element of
 // Maya's compound multi value[i] exists once any of its fields is set).
-template <class F>
+template <class T, class F>
 void applyField(const ComputeContext& context, AttrId attr, std::vector<RampEntry>& entries, int interp, F field)
 {
-    context.forEachElement(attr, [&](int i, const Value& v) {
+    context.forEachElement<T>(attr, [&](int i, const T& v) {
         const auto k = static_cast<std::size_t>(i);
         if (entries.size() <= k) entries.resize(k + 1, RampEntry{0.0, 0.0, interp});
         field(entries[k], v);
@@ -78,17 +78,14 @@ std::vector<RampEntry> rampEntries(const ComputeContext& context)
     std::vector<bool> given(flat.size() / 2, true);
     for (std::size_t i = 0; i < flat.size(); i += 2) entries.push_back({flat[i], flat[i + 1], interp});
     auto mark = [&](AttrId attr) {
-        context.forEachElement(attr, [&](int i, const Value&) {
+        context.forEachIndex(attr, [&](int i) {
             if (given.size() <= static_cast<std::size_t>(i)) given.resize(static_cast<std::size_t>(i) + 1, false);
             given[static_cast<std::size_t>(i)] = true;
         });
     };
-    applyField(context, ValuePosition, entries, interp,
-               [](RampEntry& e, const Value& v) { e.position = std::get<double>(v); });
-    applyField(context, ValueFloatValue, entries, interp,
-               [](RampEntry& e, const Value& v) { e.value = std::get<double>(v); });
-    applyField(context, ValueInterp, entries, interp,
-               [](RampEntry& e, const Value& v) { e.interp = std::get<int>(v); });
+    applyField<double>(context, ValuePosition, entries, interp, [](RampEntry& e, double v) { e.position = v; });
+    applyField<double>(context, ValueFloatValue, entries, interp, [](RampEntry& e, double v) { e.value = v; });
+    applyField<int>(context, ValueInterp, entries, interp, [](RampEntry& e, int v) { e.interp = v; });
     for (AttrId attr : {ValuePosition, ValueFloatValue, ValueInterp}) mark(attr);
     std::vector<RampEntry> present;
     // An entry whose position or value is not a number (NaN or infinity through a connection) cannot be placed on

@@ -276,17 +276,17 @@ private:
         targets.assign(a.outputs.size(), JointTarget{});
         const ResidualTerm& term = targetTerm(c.getString(residualTermName), c.nodeName());
         const double rotation = c.getDouble(rotationWeight);
-        c.forEachElement(target, [&](int k, const Value& v) {
+        c.forEachElement<Eigen::Matrix4d>(target, [&](int k, const Eigen::Matrix4d& world) {
             if (k >= static_cast<int>(targets.size())) return;
             targets[k].active = true;
-            targets[k].world = std::get<Eigen::Matrix4d>(v);
+            targets[k].world = world;
             targets[k].world.block<3, 1>(0, 3) *= scale_;
             targets[k].positionWeight = weights_[static_cast<std::size_t>(k)].position;
             targets[k].rotationWeight = rotation * weights_[static_cast<std::size_t>(k)].rotation;
             setTerm(targets[k], term);
         });
-        c.forEachElement(targetWeight, [&](int k, const Value& v) {
-            if (k < static_cast<int>(targets.size())) targets[k].positionWeight *= std::get<double>(v);
+        c.forEachElement<double>(targetWeight, [&](int k, double w) {
+            if (k < static_cast<int>(targets.size())) targets[k].positionWeight *= w;
         });
     }
 

@@ -263,6 +263,46 @@ TEST_CASE("scene time drives unconnected time inputs")
     CHECK(std::get<double>(g.getValue(g.plug("time2.outTime"))) == 16.0);
 }
 
+TEST_CASE("scene time dirties its whole downstream, as the graph is when the time is set")
+{
+    // setTime marks the downstream of the time inputs from a list made at the first frame after an edit: a node
+    // connected later must follow the time from the next frame, and a node off the time's path never recomputes.
+    Graph g(testRegistry());
+    g.addNode("time", "time1");
+    g.addNode("add", "first");
+    g.addNode("add", "second");
+    g.addNode("add", "still");
+    g.connect(g.plug("time1.outTime"), g.plug("first.a"));
+    g.connect(g.plug("first.sum"), g.plug("second.a"));
+    g.setValue(g.plug("still.a"), 2.0);
+    g.setTime(1.0);
+    CHECK(std::get<double>(g.getValue(g.plug("second.sum"))) == 1.0);
+    CHECK(std::get<double>(g.getValue(g.plug("still.sum"))) == 2.0);
+    g.setTime(2.0);
+    CHECK(std::get<double>(g.getValue(g.plug("second.sum"))) == 2.0);
+    CHECK(std::get<double>(g.getValue(g.plug("still.sum"))) == 2.0);
+    CHECK(g.computeCount(g.node("second")) == 2);
+    CHECK(g.computeCount(g.node("still")) == 1);
+    // Edited after a frame: the path through `still` now starts at the time.
+    g.connect(g.plug("second.sum"), g.plug("still.b"));
+    g.setTime(3.0);
+    CHECK(std::get<double>(g.getValue(g.plug("still.sum"))) == 5.0);
+    g.setTime(4.0);
+    CHECK(std::get<double>(g.getValue(g.plug("still.sum"))) == 6.0);
+    // An instance plays the same model with its own flags.
+    const auto other = g.instance();
+    other->setTime(7.0);
+    CHECK(std::get<double>(other->getValue(other->plug("still.sum"))) == 9.0);
+    CHECK(std::get<double>(g.getValue(g.plug("still.sum"))) == 6.0);
+    g.disconnect(g.plug("second.sum"), g.plug("still.b"));
+    g.setTime(5.0);
+    CHECK(std::get<double>(g.getValue(g.plug("still.sum"))) == 6.0);  // the input keeps its last value, as in Maya
+    const auto computed = g.computeCount(g.node("still"));
+    g.setTime(6.0);
+    CHECK(std::get<double>(g.getValue(g.plug("second.sum"))) == 6.0);
+    CHECK(g.computeCount(g.node("still")) == computed);
+}
+
 TEST_CASE("scene time leaves a connected time input to its connection")
 {
     Graph g(testRegistry());

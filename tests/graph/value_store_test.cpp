@@ -50,15 +50,37 @@ TEST_CASE("value store: a slot per value in its type's pool, arrays apart, copie
 
     const ValueStore::Slot a = store.addArray();
     CHECK(store.array(a) == nullptr);  // no elements until the first
-    const Value first = 2.5;
-    store.elements(a).elements.assign(1, first);
-    store.elements(a).present.assign(1, true);
+    ArrayData& doubles = store.elements(a, ValueType::Double);
+    doubles.make(2, 0.5);  // index 2 made: 0 and 1 absent, held at the fallback
+    doubles.get<double>(2) = 2.5;
+    CHECK(doubles.size() == 3);
+    CHECK_FALSE(doubles.has(0));
+    CHECK(doubles.has(2));
+    CHECK(std::get<double>(doubles.value(2)) == 2.5);
     ValueStore copy = store;
-    copy.elements(a).elements[0] = 9.0;
+    copy.elements(a, ValueType::Double).get<double>(2) = 9.0;
     copy.get<double>(d0) = 8.0;
-    CHECK(std::get<double>(store.array(a)->elements[0]) == 2.5);
+    CHECK(store.array(a)->get<double>(2) == 2.5);
     CHECK(store.get<double>(d0) == 4.0);
-    CHECK(std::get<double>(copy.array(a)->elements[0]) == 9.0);
+    CHECK(copy.array(a)->get<double>(2) == 9.0);
+    CHECK_FALSE(copy.array(a)->sameAs(*store.array(a)));
+    copy.elements(a, ValueType::Double).get<double>(2) = 2.5;
+    CHECK(copy.array(a)->sameAs(*store.array(a)));
+
+    // Elements are held as their type: bools as cells, matrices as matrices; assign replaces them all.
+    const ValueStore::Slot bools = store.addArray();
+    ArrayData& flags = store.elements(bools, ValueType::Bool);
+    flags.assign<bool>(3, [](BoolCell& cell, std::size_t k) { cell.value = k == 1; });
+    CHECK(flags.size() == 3);
+    CHECK(flags.get<bool>(1));
+    CHECK_FALSE(flags.get<bool>(2));
+    CHECK(std::get<bool>(flags.value(1)));
+    const ValueStore::Slot mats = store.addArray();
+    ArrayData& matrices = store.elements(mats, ValueType::Matrix4);
+    matrices.assign<Eigen::Matrix4d>(2,
+                                     [&](Eigen::Matrix4d& cell, std::size_t k) { cell = m * static_cast<double>(k); });
+    CHECK(matrices.get<Eigen::Matrix4d>(1) == m);
+    CHECK(std::get<Eigen::Matrix4d>(matrices.value(0)) == Eigen::Matrix4d::Zero());
 }
 
 namespace {
