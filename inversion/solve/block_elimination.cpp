@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "core/prefetch.h"
+#include "inversion/solve/range_factor.h"
 
 namespace rig {
 namespace {
@@ -475,32 +476,13 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
 
 bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, double mu, double largestDiagonal)
 {
-    // S^+ = F^T F on S's range from a Cholesky factor with diagonal pivoting, P S P^T = L L^T with L n x r (r: the
-    // pivots above the rank tolerance): S = R^T R with R = L^T P, so S^+ = R^T G^-2 R with G = R R^T = L^T L, and
-    // F = G^-1 R (its last n - r rows zero). The same S^+ as an eigendecomposition's at a fraction of its cost.
+    // S^+ = F^T F on S's range (range_factor.h): S^+ = R^T G^-2 R, so F = G^-1 R (its last n - r rows zero).
     const Eigen::Index n = e_->size_[b];
-    std::iota(permutation_.begin(), permutation_.begin() + n, 0);
     auto a = pivoted_.topLeftCorner(n, n);
     a = ConstBlockMap(s, n, n).selfadjointView<Eigen::Lower>();
     a.diagonal().array() += mu;
-    Eigen::Index rank = 0;
-    for (Eigen::Index k = 0; k < n; ++k, ++rank) {
-        Eigen::Index p = 0;
-        const double pivot = a.diagonal().tail(n - k).maxCoeff(&p);
-        if (!(pivot > rankTolerance * largestDiagonal)) break;
-        p += k;
-        if (p != k) {
-            a.row(k).swap(a.row(p));
-            a.col(k).swap(a.col(p));
-            std::swap(permutation_[static_cast<std::size_t>(k)], permutation_[static_cast<std::size_t>(p)]);
-        }
-        a(k, k) = std::sqrt(pivot);
-        a.col(k).tail(n - k - 1) /= a(k, k);
-        a.bottomRightCorner(n - k - 1, n - k - 1).noalias() -=
-            a.col(k).tail(n - k - 1) * a.col(k).tail(n - k - 1).transpose();
-    }
+    const Eigen::Index rank = pivotedCholesky(a, permutation_, rankTolerance * largestDiagonal);
     auto l = a.leftCols(rank);
-    l.topRows(rank).triangularView<Eigen::StrictlyUpper>().setZero();
     auto gram = gram_.topLeftCorner(rank, rank);
     gram.noalias() = l.transpose() * l;
     Eigen::MatrixXd& f = factor_[b];

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "inversion/solve/range_factor.h"
+
 namespace rig {
 
 StepControl::StepControl(const SolverOptions& options, StepPolicy policy)
@@ -69,7 +71,14 @@ void StepControl::accepted(int gaussNewtonSteps)
 }
 
 DenseSystem::DenseSystem(Eigen::Index columns)
-    : H_(columns, columns), damped_(columns, columns), llt_(columns), eigen_(columns), projected_(columns)
+    : H_(columns, columns),
+      damped_(columns, columns),
+      llt_(columns),
+      pivoted_(columns, columns),
+      gram_(columns, columns),
+      permutation_(static_cast<std::size_t>(columns)),
+      permuted_(columns),
+      reduced_(columns)
 {
 }
 
@@ -103,16 +112,32 @@ bool DenseSystem::solve(const Eigen::VectorXd& gradient, double mu, std::span<co
         delta = -gradient;
         llt_.solveInPlace(delta);
     } else {
-        eigen_.compute(damped_);
-        if (eigen_.info() != Eigen::Success) return false;
-        const auto& lambda = eigen_.eigenvalues();
-        const double largest = lambda.cwiseAbs().maxCoeff();
-        projected_.noalias() = eigen_.eigenvectors().transpose() * gradient;
-        for (Eigen::Index i = 0; i < n; ++i)
-            projected_[i] = lambda[i] > rankTolerance * largest ? projected_[i] / lambda[i] : 0.0;
-        delta.noalias() = -(eigen_.eigenvectors() * projected_);
+        if (!rangeStep(gradient, rankTolerance * maxDiagonal, delta)) return false;
     }
     return delta.allFinite();
+}
+
+bool DenseSystem::rangeStep(const Eigen::VectorXd& gradient, double threshold, Eigen::VectorXd& delta)
+{
+    // delta = -S^+ g = -R^T G^-2 R g with R = L^T P and G = L^T L.
+    const Eigen::Index n = H_.rows();
+    pivoted_ = damped_.selfadjointView<Eigen::Lower>();
+    const Eigen::Index rank = pivotedCholesky(pivoted_, permutation_, threshold);
+    const auto l = pivoted_.leftCols(rank);
+    for (Eigen::Index i = 0; i < n; ++i) permuted_[i] = gradient[permutation_[static_cast<std::size_t>(i)]];
+    auto y = reduced_.head(rank);
+    y.noalias() = l.transpose() * permuted_;
+    auto gram = gram_.topLeftCorner(rank, rank);
+    gram.noalias() = l.transpose() * l;
+    Eigen::Ref<Eigen::MatrixXd> inPlace(gram);
+    const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(inPlace);
+    if (llt.info() != Eigen::Success) return false;
+    llt.solveInPlace(y);
+    llt.solveInPlace(y);
+    permuted_.noalias() = l * y;
+    delta.resize(n);
+    for (Eigen::Index i = 0; i < n; ++i) delta[permutation_[static_cast<std::size_t>(i)]] = -permuted_[i];
+    return true;
 }
 
 void DenseSystem::multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) const

@@ -7,10 +7,10 @@
 #include <functional>
 #include <limits>
 #include <span>
+#include <vector>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
 
 #include "inversion/solve/solver_options.h"
 
@@ -77,9 +77,9 @@ public:
     // A held column's row and column replaced by the identity's.
     void hold(Eigen::Index i);
     // Gauss-Newton (mu = 0) or Levenberg-Marquardt step (J^T J + mu I) delta = -gradient, the held (`fixed`)
-    // columns' gradient zero. Cholesky when the system is well conditioned; otherwise an eigendecomposition that
-    // leaves the (near-)null directions alone, which is the minimum-norm step: redundant parameters split a
-    // change evenly, a parameter with no effect stays. False when no finite step is found.
+    // columns' gradient zero. Cholesky when the system is well conditioned; otherwise the minimum-norm step on its
+    // range (range_factor.h), which leaves the (near-)null directions alone: redundant parameters split a change
+    // evenly, a parameter with no effect stays. False when no finite step is found.
     bool solve(const Eigen::VectorXd& gradient, double mu, std::span<const char> fixed, Eigen::VectorXd& delta);
     // out = J^T J v.
     void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) const;
@@ -88,8 +88,11 @@ private:
     Eigen::MatrixXd H_;       // J^T J, lower triangle
     Eigen::MatrixXd damped_;  // H + mu I, lower triangle: what is factorized
     Eigen::LLT<Eigen::MatrixXd> llt_;
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen_;
-    Eigen::VectorXd projected_;
+    // The singular case's: the pivoted factor L, G = L^T L, P, and the step's vectors.
+    bool rangeStep(const Eigen::VectorXd& gradient, double threshold, Eigen::VectorXd& delta);
+    Eigen::MatrixXd pivoted_, gram_;
+    std::vector<int> permutation_;
+    Eigen::VectorXd permuted_, reduced_;
 };
 
 }  // namespace rig
