@@ -89,13 +89,13 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
         const BlockPlan& block = step->plan;
         const std::vector<int>& columns = step->block.parameters;
         // A planar chain's first output: its goal and pole from its end and middle joints' targets (closed form),
-        // its anchor guessed already (parents first).
+        // its anchor guessed already (parents first), by the controls this step fixes first.
         for (const int k : step->block.outputs) {
             const int b = impl.approximation.outputs[static_cast<std::size_t>(k)].constraint;
             if (b < 0 || placed[static_cast<std::size_t>(b)] ||
                 impl.approximation.constraints[static_cast<std::size_t>(b)].kind != ConstraintKind::planarChain)
                 continue;
-            placeChain(impl.approximation, b, impl.poles, targets, values);
+            placeChain(impl.approximation, b, impl.poles, targets, step->own, values);
             for (std::size_t c = 0; c < impl.approximation.constraints.size(); ++c)
                 placed[c] = placed[c] || impl.approximation.constraints[c].goal ==
                                              impl.approximation.constraints[static_cast<std::size_t>(b)].goal;

@@ -135,8 +135,12 @@ void holdPoles(const Approximation& approximation, std::span<const PoleHold> hol
 }
 
 void placeChain(const Approximation& approximation, int constraint, std::span<const PoleHold> holds,
-                std::span<const JointTarget> targets, std::span<double> values)
+                std::span<const JointTarget> targets, std::span<const int> free, std::span<double> values)
 {
+    const auto freeOf = [&](std::vector<int> controls) {
+        std::erase_if(controls, [&](int p) { return !std::binary_search(free.begin(), free.end(), p); });
+        return controls;
+    };
     const ConstraintBase& c = approximation.constraints[static_cast<std::size_t>(constraint)];
     const auto origin = [&](int k) -> Eigen::Vector3d {
         return approximation.outputs[static_cast<std::size_t>(k)].rest.block<3, 1>(0, 3);
@@ -170,7 +174,7 @@ void placeChain(const Approximation& approximation, int constraint, std::span<co
     // mayaIkHandle without a pole, the ball orient-constrained, the ankle under its own control) that start stuck 4 of
     // 8 poses (tests/inversion/learn/random_character_test.cpp).
     const bool helpersToo = !c.poleTurns || turnedOutput;
-    const std::vector<int> goalControls = ownTranslations(approximation, c.goal, helpersToo);
+    const std::vector<int> goalControls = freeOf(ownTranslations(approximation, c.goal, helpersToo));
     if (!goalControls.empty())
         place(approximation, c.goal, goalControls,
               targets[static_cast<std::size_t>(end)].world.block<3, 1>(0, 3) + (restGoal - origin(end)), values);
@@ -178,6 +182,8 @@ void placeChain(const Approximation& approximation, int constraint, std::span<co
         return approximation.constraints[static_cast<std::size_t>(h.constraint)].pole == c.pole;
     });
     if (hold == holds.end() || middle == end) return;
+    const std::vector<int> poleControls = freeOf(hold->parameters);
+    if (poleControls.empty()) return;
     const ChainPoints points = pointsAt(approximation, c, values);
     const Eigen::Vector3d root = points.root;
     const Eigen::Vector3d x = (points.goal - root).normalized();
@@ -187,8 +193,7 @@ void placeChain(const Approximation& approximation, int constraint, std::span<co
     // The pole on the knee's side of the line, as it is at rest.
     const Eigen::Vector3d restKnee = origin(middle) - c.root, restPole = c.restPole - c.root;
     const double side = (restKnee - restKnee.dot(x0) * x0).dot(restPole - restPole.dot(x0) * x0) < 0.0 ? -1.0 : 1.0;
-    place(approximation, c.pole, hold->parameters, root + hold->along * x + side * hold->across * w.normalized(),
-          values);
+    place(approximation, c.pole, poleControls, root + hold->along * x + side * hold->across * w.normalized(), values);
 }
 
 namespace {

@@ -30,9 +30,12 @@ std::vector<PoleHold> poleHolds(const Approximation& approximation);
 // A cold start for a planar chain (Solver::initialGuess), before its first output is guessed: the goal's own
 // translation controls put the goal where the chain's end joint's target says (with its rest offset from that
 // joint), and the pole's (when held) in the plane of the middle joint's target, at its rest offset and distance.
-// `targets`: one per approximation output; inactive ones give nothing.
+// `targets`: one per approximation output; inactive ones give nothing. Only the controls in `free` (increasing: the
+// parameters the guess step fixes first, GuessStep::own) move: the others were fixed by outputs guessed before (the
+// foot control over a ball's ikSCsolver goal, which the leg's step placed and a placement of the ball's chain took
+// away from the leg's targets).
 void placeChain(const Approximation& approximation, int constraint, std::span<const PoleHold> holds,
-                std::span<const JointTarget> targets, std::span<double> values);
+                std::span<const JointTarget> targets, std::span<const int> free, std::span<double> values);
 
 // Moves each hold's controls in `values` (one per approximation parameter) so that its pole sits at its rest
 // offset and distance in the plane it spans now. Evaluates only the outputs the chain reads.

@@ -1,6 +1,7 @@
 #include "inversion/solve/solve_plan.h"
 
 #include <algorithm>
+#include <array>
 
 #include "core/prefetch.h"
 
@@ -192,50 +193,175 @@ void Plan::treeBlocks(const std::vector<int>& treeOf, int t, Partition& tree, Pa
     std::sort(all.outputs.begin(), all.outputs.end());
 }
 
+namespace {
+
+// The steps of Plan::guessSteps as they are drafted, output by output (parents first).
+class GuessDraft {
+public:
+    GuessDraft(const Approximation& approximation, std::span<const ResidualTerm* const> terms, std::vector<char> solved)
+        : approximation_(approximation),
+          terms_(terms),
+          solved_(std::move(solved)),
+          stepOf_(solved_.size(), -1),
+          reach_(approximation.reach()),
+          visited_(approximation.outputs.size(), 0)
+    {
+    }
+    void add(int k);
+    std::vector<PartitionBlock> steps;
+    std::vector<std::vector<int>> own;  // per step: the parameters first fixed there
+
+private:
+    bool reaches(int p, int k) const
+    {
+        const std::vector<int>& r = reach_[static_cast<std::size_t>(p)];
+        return std::binary_search(r.begin(), r.end(), k);
+    }
+    // Whether parameter p moves an input of output k's constraint other than its anchor (a chain's goal or pole, a
+    // twist's driver, a blend's branches, an orient output): information on p that k's target holds and no output
+    // it is relative to does.
+    bool movesInput(int p, int k) const;
+    // Whether the step's outputs leave some of its parameters free: fewer rows than parameters, or a parameter that
+    // moves none of them at rest (a foot control's rotation, which the thigh of an ikSCsolver leg under it, reading
+    // the goal's origin alone, does not see).
+    bool leavesFree(const PartitionBlock& step);
+    void push(PartitionBlock step, std::vector<int> first);
+    void resolve(std::size_t from, const std::vector<int>& moving);
+
+    const Approximation& approximation_;
+    std::span<const ResidualTerm* const> terms_;
+    std::vector<char> solved_;
+    std::vector<int> stepOf_;  // per parameter: the latest step solving it, -1 before any
+    std::vector<std::vector<int>> reach_;
+    std::vector<char> underdetermined_;  // per step: some of its parameters left free on its outputs
+    std::vector<char> visited_;          // per output: drafted already
+    std::vector<PreparedTarget> rest_;   // every output's rest world as a target, made when first needed
+    std::vector<double> defaults_;
+};
+
+bool GuessDraft::movesInput(int p, int k) const
+{
+    const int c = approximation_.outputs[static_cast<std::size_t>(k)].constraint;
+    if (c < 0) return false;
+    const ConstraintBase& base = approximation_.constraints[static_cast<std::size_t>(c)];
+    const std::array<int, 5> inputs = base.frameInputs();
+    return std::any_of(inputs.begin(), inputs.end(),
+                       [&](int input) { return input >= 0 && input != base.anchor && reaches(p, input); });
+}
+
+bool GuessDraft::leavesFree(const PartitionBlock& step)
+{
+    const ResidualStructure structure(approximation_, step.parameters, step.outputs, terms_);
+    const Eigen::Index columns = structure.columnCount();
+    if (structure.rows() < columns) return true;
+    if (rest_.empty()) {
+        rest_.resize(approximation_.outputs.size());
+        for (std::size_t k = 0; k < rest_.size(); ++k)
+            prepareTarget({true, approximation_.outputs[k].rest}, 1.0, rest_[k]);
+        defaults_ = approximation_.defaults();
+    }
+    ResidualWorkspace w(structure);
+    w.holdParameters(defaults_);
+    w.setTargets(rest_);
+    std::vector<double> x;
+    for (const int p : step.parameters) x.push_back(defaults_[static_cast<std::size_t>(p)]);
+    Eigen::VectorXd r(structure.rows());
+    Eigen::MatrixXd j(structure.rows(), columns);
+    w.jacobian(x, JacobianMethod::analytic, 0.0, false, r, j);
+    if (!j.allFinite()) return false;
+    // Rounding aside: a column that moves nothing is zero to the last bits.
+    const double zero = 1e-12 * std::max(1.0, j.cwiseAbs().maxCoeff());
+    for (Eigen::Index c = 0; c < columns; ++c)
+        if (j.col(c).cwiseAbs().maxCoeff() <= zero) return true;
+    return false;
+}
+
+void GuessDraft::push(PartitionBlock step, std::vector<int> first)
+{
+    underdetermined_.push_back(leavesFree(step));
+    for (const int p : step.parameters) stepOf_[static_cast<std::size_t>(p)] = static_cast<int>(steps.size());
+    steps.push_back(std::move(step));
+    own.push_back(std::move(first));
+}
+
+void GuessDraft::add(int k)
+{
+    PartitionBlock step;
+    step.outputs = {k};
+    // The steps that move k, and those among them moving an input of its constraint (movesInput).
+    std::vector<int> moving, inputs;
+    for (std::size_t p = 0; p < reach_.size(); ++p) {
+        if (!solved_[p] || !reaches(static_cast<int>(p), k)) continue;
+        if (stepOf_[p] < 0) step.parameters.push_back(static_cast<int>(p));
+        else moving.push_back(stepOf_[p]);
+        if (stepOf_[p] >= 0 && movesInput(static_cast<int>(p), k)) inputs.push_back(stepOf_[p]);
+    }
+    visited_[static_cast<std::size_t>(k)] = 1;
+    if (!step.parameters.empty()) {
+        std::vector<int> first = step.parameters;
+        push(std::move(step), std::move(first));
+        return;
+    }
+    if (moving.empty()) return;
+    // An output whose parameters were all fixed before it. When a step before the latest that moves it left some of
+    // them free and moves an input of its constraint (a ball aimed by an ikSCsolver at a goal under the foot control,
+    // which the leg's step placed but did not turn, before its ankle's own control), the steps from that one on that
+    // move it are solved again together with it. Else, when the latest left some free on its own outputs (a reverse
+    // foot's roll beside its translate and rotate, on the ankle alone), that step solves this output too; else the
+    // free ones stay where they started.
+    std::sort(moving.begin(), moving.end());
+    moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
+    std::sort(inputs.begin(), inputs.end());
+    const auto freeInput = std::find_if(inputs.begin(), inputs.end(),
+                                        [&](int s) { return underdetermined_[static_cast<std::size_t>(s)] != 0; });
+    if (freeInput != inputs.end() && *freeInput != moving.back()) {
+        resolve(static_cast<std::size_t>(std::lower_bound(moving.begin(), moving.end(), *freeInput) - moving.begin()),
+                moving);
+        return;
+    }
+    std::vector<int>& outputs = steps[static_cast<std::size_t>(moving.back())].outputs;
+    if (underdetermined_[static_cast<std::size_t>(moving.back())])
+        outputs.insert(std::upper_bound(outputs.begin(), outputs.end(), k), k);
+}
+
+// A step after the steps moving[from..] (those that move an output none of its own parameters reach): their
+// parameters solved again together, on every output drafted so far that they move, the output among them. Their free
+// parameters are this step's now.
+void GuessDraft::resolve(std::size_t from, const std::vector<int>& moving)
+{
+    PartitionBlock step;
+    for (std::size_t m = from; m < moving.size(); ++m) {
+        const std::size_t s = static_cast<std::size_t>(moving[m]);
+        step.parameters.insert(step.parameters.end(), steps[s].parameters.begin(), steps[s].parameters.end());
+        underdetermined_[s] = 0;
+    }
+    std::sort(step.parameters.begin(), step.parameters.end());
+    step.parameters.erase(std::unique(step.parameters.begin(), step.parameters.end()), step.parameters.end());
+    for (const int p : step.parameters)
+        for (const int o : reach_[static_cast<std::size_t>(p)])
+            if (visited_[static_cast<std::size_t>(o)]) step.outputs.push_back(o);
+    std::sort(step.outputs.begin(), step.outputs.end());
+    step.outputs.erase(std::unique(step.outputs.begin(), step.outputs.end()), step.outputs.end());
+    push(std::move(step), {});
+}
+
+}  // namespace
+
 const std::vector<std::unique_ptr<GuessStep>>& Plan::guessSteps(const Approximation& approximation,
                                                                 const Equivalences& equivalences) const
 {
     std::call_once(guessOnce, [&] {
-        std::vector<char> solved(approximation.parameters.size(), 0), assigned(solved.size(), 0);
+        std::vector<char> solved(approximation.parameters.size(), 0);
         for (const PartitionBlock& block : partition.blocks)
             for (const int p : block.parameters) solved[static_cast<std::size_t>(p)] = 1;
         std::vector<char> counted(approximation.outputs.size(), 0);
         for (const int k : whole.outputs()) counted[static_cast<std::size_t>(k)] = 1;
-        const std::vector<std::vector<int>> reach = approximation.reach();
-        const auto reaches = [&](int p, int k) {
-            return std::binary_search(reach[static_cast<std::size_t>(p)].begin(),
-                                      reach[static_cast<std::size_t>(p)].end(), k);
-        };
-        std::vector<PartitionBlock> steps;
-        std::vector<char> underdetermined;
-        for (const int k : approximation.outputOrder()) {
-            if (!counted[static_cast<std::size_t>(k)]) continue;
-            PartitionBlock step;
-            step.outputs = {k};
-            for (std::size_t p = 0; p < reach.size(); ++p)
-                if (solved[p] && !assigned[p] && reaches(static_cast<int>(p), k)) {
-                    step.parameters.push_back(static_cast<int>(p));
-                    assigned[p] = 1;
-                }
-            if (!step.parameters.empty()) {
-                const int rows = ResidualStructure(approximation, step.parameters, step.outputs, terms).rows();
-                underdetermined.push_back(rows < static_cast<int>(step.parameters.size()));
-                steps.push_back(std::move(step));
-                continue;
-            }
-            // An output whose parameters were all fixed before it: when the latest step that moves it left some
-            // of them free on its own output (a reverse foot's roll beside its translate and rotate, on the ankle
-            // alone), that step solves this output too, else the free ones stay where they started.
-            for (std::size_t s = steps.size(); s-- > 0;) {
-                const std::vector<int>& ps = steps[s].parameters;
-                if (std::none_of(ps.begin(), ps.end(), [&](int p) { return reaches(p, k); })) continue;
-                if (underdetermined[s])
-                    steps[s].outputs.insert(std::upper_bound(steps[s].outputs.begin(), steps[s].outputs.end(), k), k);
-                break;
-            }
-        }
-        for (const PartitionBlock& step : steps)
-            guess.push_back(std::make_unique<GuessStep>(approximation, equivalences, step, terms));
+        GuessDraft draft(approximation, terms, std::move(solved));
+        for (const int k : approximation.outputOrder())
+            if (counted[static_cast<std::size_t>(k)]) draft.add(k);
+        for (std::size_t s = 0; s < draft.steps.size(); ++s)
+            guess.push_back(std::make_unique<GuessStep>(approximation, equivalences, draft.steps[s],
+                                                        std::move(draft.own[s]), terms));
     });
     return guess;
 }

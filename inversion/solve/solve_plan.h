@@ -76,11 +76,14 @@ struct BlockPlan {
 // the later outputs only they move, where the one output leaves some of them free).
 struct GuessStep {
     GuessStep(const Approximation& approximation, const Equivalences& equivalences, const PartitionBlock& b,
-              std::span<const ResidualTerm* const> terms)
-        : block(b), plan(approximation, equivalences, b, terms)
+              std::vector<int> first, std::span<const ResidualTerm* const> terms)
+        : block(b), own(std::move(first)), plan(approximation, equivalences, b, terms)
     {
     }
     PartitionBlock block;
+    // The parameters first fixed at this step (all of them, but for a step solving earlier ones again): what the
+    // placement of its chains' goals and poles may move (placeChain).
+    std::vector<int> own;
     BlockPlan plan;
 };
 
@@ -124,7 +127,11 @@ struct Plan {
     }
     // The steps of initialGuess, made when first needed: parents first, each counted output with the
     // solved parameters that reach it and no output before it. A later output left with none joins the latest
-    // step that moves it when that step has fewer rows than parameters (a reverse foot's ankle, ball and toe).
+    // step that moves it when that step leaves some of its parameters free (fewer rows than parameters, or a
+    // parameter moving none of its outputs at rest: a reverse foot's ankle, ball and toe); where an earlier step
+    // that leaves some free moves an input of the output's constraint (an ikSCsolver ball's goal under the foot
+    // control, after the ankle's own control), a step after solves the steps from that one on that move it again,
+    // together with it.
     const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation,
                                                               const Equivalences& equivalences) const;
 
