@@ -221,10 +221,16 @@ private:
     // twist's driver, a blend's branches, an orient output): information on p that k's target holds and no output
     // it is relative to does.
     bool movesInput(int p, int k) const;
-    // Whether the step's outputs leave some of its parameters free: fewer rows than parameters, or a parameter that
-    // moves none of them at rest (a foot control's rotation, which the thigh of an ikSCsolver leg under it, reading
-    // the goal's origin alone, does not see).
-    bool leavesFree(const PartitionBlock& step);
+    // The step's parameters that move none of its outputs at rest (a foot control's rotation, which the thigh of an
+    // ikSCsolver leg under it, reading the goal's origin alone, does not see); `fewerRows` says whether its outputs'
+    // rows are fewer than its parameters.
+    std::vector<int> freeParameters(const PartitionBlock& step, bool& fewerRows);
+    // Whether parameter p moves none of its latest step's outputs at rest.
+    bool isFree(int p) const
+    {
+        const std::vector<int>& f = free_[static_cast<std::size_t>(stepOf_[static_cast<std::size_t>(p)])];
+        return std::find(f.begin(), f.end(), p) != f.end();
+    }
     void push(PartitionBlock step, std::vector<int> first);
     void resolve(std::size_t from, const std::vector<int>& moving);
 
@@ -233,9 +239,10 @@ private:
     std::vector<char> solved_;
     std::vector<int> stepOf_;  // per parameter: the latest step solving it, -1 before any
     std::vector<std::vector<int>> reach_;
-    std::vector<char> underdetermined_;  // per step: some of its parameters left free on its outputs
-    std::vector<char> visited_;          // per output: drafted already
-    std::vector<PreparedTarget> rest_;   // every output's rest world as a target, made when first needed
+    std::vector<char> underdetermined_;   // per step: some of its parameters left free on its outputs
+    std::vector<std::vector<int>> free_;  // per step: its parameters that move none of its outputs at rest
+    std::vector<char> visited_;           // per output: drafted already
+    std::vector<PreparedTarget> rest_;    // every output's rest world as a target, made when first needed
     std::vector<double> defaults_;
 };
 
@@ -249,11 +256,11 @@ bool GuessDraft::movesInput(int p, int k) const
                        [&](int input) { return input >= 0 && input != base.anchor && reaches(p, input); });
 }
 
-bool GuessDraft::leavesFree(const PartitionBlock& step)
+std::vector<int> GuessDraft::freeParameters(const PartitionBlock& step, bool& fewerRows)
 {
     const ResidualStructure structure(approximation_, step.parameters, step.outputs, terms_);
     const Eigen::Index columns = structure.columnCount();
-    if (structure.rows() < columns) return true;
+    fewerRows = structure.rows() < columns;
     if (rest_.empty()) {
         rest_.resize(approximation_.outputs.size());
         for (std::size_t k = 0; k < rest_.size(); ++k)
@@ -268,17 +275,20 @@ bool GuessDraft::leavesFree(const PartitionBlock& step)
     Eigen::VectorXd r(structure.rows());
     Eigen::MatrixXd j(structure.rows(), columns);
     w.jacobian(x, JacobianMethod::analytic, 0.0, false, r, j);
-    if (!j.allFinite()) return false;
+    std::vector<int> free;
+    if (!j.allFinite()) return free;
     // Rounding aside: a column that moves nothing is zero to the last bits.
     const double zero = 1e-12 * std::max(1.0, j.cwiseAbs().maxCoeff());
     for (Eigen::Index c = 0; c < columns; ++c)
-        if (j.col(c).cwiseAbs().maxCoeff() <= zero) return true;
-    return false;
+        if (j.col(c).cwiseAbs().maxCoeff() <= zero) free.push_back(step.parameters[static_cast<std::size_t>(c)]);
+    return free;
 }
 
 void GuessDraft::push(PartitionBlock step, std::vector<int> first)
 {
-    underdetermined_.push_back(leavesFree(step));
+    bool fewerRows = false;
+    free_.push_back(freeParameters(step, fewerRows));
+    underdetermined_.push_back(fewerRows || !free_.back().empty());
     for (const int p : step.parameters) stepOf_[static_cast<std::size_t>(p)] = static_cast<int>(steps.size());
     steps.push_back(std::move(step));
     own.push_back(std::move(first));
@@ -288,13 +298,15 @@ void GuessDraft::add(int k)
 {
     PartitionBlock step;
     step.outputs = {k};
-    // The steps that move k, and those among them moving an input of its constraint (movesInput).
+    // The steps that move k, and those among them whose free parameters move an input of its constraint (isFree,
+    // movesInput).
     std::vector<int> moving, inputs;
     for (std::size_t p = 0; p < reach_.size(); ++p) {
         if (!solved_[p] || !reaches(static_cast<int>(p), k)) continue;
         if (stepOf_[p] < 0) step.parameters.push_back(static_cast<int>(p));
         else moving.push_back(stepOf_[p]);
-        if (stepOf_[p] >= 0 && movesInput(static_cast<int>(p), k)) inputs.push_back(stepOf_[p]);
+        if (stepOf_[p] >= 0 && isFree(static_cast<int>(p)) && movesInput(static_cast<int>(p), k))
+            inputs.push_back(stepOf_[p]);
     }
     visited_[static_cast<std::size_t>(k)] = 1;
     if (!step.parameters.empty()) {
@@ -303,12 +315,12 @@ void GuessDraft::add(int k)
         return;
     }
     if (moving.empty()) return;
-    // An output whose parameters were all fixed before it. When a step before the latest that moves it left some of
-    // them free and moves an input of its constraint (a ball aimed by an ikSCsolver at a goal under the foot control,
-    // which the leg's step placed but did not turn, before its ankle's own control), the steps from that one on that
-    // move it are solved again together with it. Else, when the latest left some free on its own outputs (a reverse
-    // foot's roll beside its translate and rotate, on the ankle alone), that step solves this output too; else the
-    // free ones stay where they started.
+    // An output whose parameters were all fixed before it. When a step before the latest that moves it left one of its
+    // parameters free and that one moves an input of its constraint (a ball aimed by an ikSCsolver at a goal under the
+    // foot control, which the leg's step placed but did not turn, before its ankle's own control), the steps from that
+    // one on that move it are solved again together with it. Else, when the latest left some free on its own outputs (a
+    // reverse foot's roll beside its translate and rotate, on the ankle alone), that step solves this output too; else
+    // the free ones stay where they started.
     std::sort(moving.begin(), moving.end());
     moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
     std::sort(inputs.begin(), inputs.end());

@@ -1191,8 +1191,9 @@ TEST_CASE("random character: production leg constructions of Maya rigs (issue #4
         // minimally, the one-bone SC ankles and balls carried by their parent and turned minimally onto their
         // handles), worst 3.7e-6 cm per unit; 24 of 24 poses reached; the analytic Jacobian within 4.3e-10 of central
         // differences. On 8 more characters (seed 4707, every goal kind drawn: own controls, the toe pivot, the foot
-        // control) 8 of 8 modelled, worst 6.7e-6 cm per unit, and 64 of 64 poses reached (the run takes 12 s); on 8
-        // characters of seed 4607, 64 of 64.
+        // control) 8 of 8 modelled, worst 6.7e-6 cm per unit, and 62 of 64 poses reached (the run takes 12 s; 64 while
+        // the guess solved a step again for any parameter of a free step that moves the constraint's inputs, not only
+        // the free ones, which made the spider scene's guess solve its body's first step again with every leg).
         // Before the initial guess solved again the foot control's rotate and rolls with a ball or ankle aimed at a
         // goal under it (docs/solver.md, cold starts), 23 of 24 here (the miss 2.76 cm) and 57 of 64 on seed 4707
         // (57 of 64 on 8 characters of seed 4607): the 7 misses, 0.15 to 10.4 cm, were solves from rest stuck from

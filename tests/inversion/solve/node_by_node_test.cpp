@@ -9,11 +9,11 @@
 #include <random>
 
 #include <fmt/format.h>
-#include <Eigen/Eigenvalues>
 
 #include "inversion/learn/learner.h"
 #include "inversion/random_fk.h"
 #include "inversion/solve/block_elimination.h"
+#include "inversion/solve/minimum_norm_step.h"
 #include "inversion/solve/solver.h"
 #include "inversion/solver_rigs.h"
 
@@ -122,18 +122,6 @@ struct Systems {
     Eigen::MatrixXd full;  // J^T J
 };
 
-// The dense system's step: (H + mu I)^+ (-gradient), on the range of eigenvalues above 1e-12 of the largest.
-Eigen::VectorXd minimumNormStep(const Eigen::MatrixXd& h, double mu, const Eigen::VectorXd& gradient)
-{
-    const Eigen::Index n = h.rows();
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(h + mu * Eigen::MatrixXd::Identity(n, n));
-    const Eigen::VectorXd& lambda = eigen.eigenvalues();
-    Eigen::VectorXd inverse = Eigen::VectorXd::Zero(n);
-    for (Eigen::Index i = 0; i < n; ++i)
-        if (lambda[i] > 1e-12 * lambda.maxCoeff()) inverse[i] = 1.0 / lambda[i];
-    return -(eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose() * gradient);
-}
-
 // The elimination's J^T J v and damped steps, with held columns, against the dense system's.
 void checkAgainstDense(Systems& s)
 {
@@ -159,7 +147,7 @@ void checkAgainstDense(Systems& s)
             CAPTURE(mu);
             Eigen::VectorXd delta(n);
             REQUIRE(s.step.solve(gradient, mu, delta));
-            const Eigen::VectorXd expected = minimumNormStep(held, mu, gradient);
+            const Eigen::VectorXd expected = test::minimumNormStep(held, mu, gradient);
             CHECK((delta - expected).norm() <= 1e-9 * expected.norm());
             if (hold)
                 for (const int c : holds) CHECK(std::abs(delta[c]) <= 1e-12 * delta.norm());
@@ -317,7 +305,7 @@ TEST_CASE("node by node: a singular block's step is the minimum-norm step within
             const Eigen::VectorXd before = unfoldedStep(a, partition, targets, a.defaults());
             CHECK((delta - before).norm() <= 1e-8 * before.norm());
             CHECK((s.full * delta + s.g).norm() <= 1e-8 * s.g.norm());
-            if (!armed) CHECK((delta - minimumNormStep(s.full, 0.0, s.g)).norm() <= 1e-8 * delta.norm());
+            if (!armed) CHECK((delta - test::minimumNormStep(s.full, 0.0, s.g)).norm() <= 1e-8 * delta.norm());
             // Held columns, and the damped system (regular: node by node): the dense system's steps.
             if (!armed) checkAgainstDense(s);
         }

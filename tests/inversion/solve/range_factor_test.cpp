@@ -5,8 +5,7 @@
 #include <random>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
-
+#include "inversion/solve/minimum_norm_step.h"
 #include "inversion/solve/range_factor.h"
 #include "inversion/solve/step_strategy.h"
 
@@ -21,17 +20,6 @@ Eigen::MatrixXd singularNormalMatrix(std::mt19937& rng, Eigen::Index rows, Eigen
     for (Eigen::Index c = 0; c < columns; ++c)
         for (Eigen::Index r = 0; r < rows; ++r) j(r, c) = c < distinct ? normal(rng) : j(r, c % distinct);
     return j.transpose() * j;
-}
-
-Eigen::VectorXd eigenMinimumNorm(const Eigen::MatrixXd& h, double mu, const Eigen::VectorXd& gradient)
-{
-    const Eigen::Index n = h.rows();
-    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(h + mu * Eigen::MatrixXd::Identity(n, n));
-    const Eigen::VectorXd& lambda = eigen.eigenvalues();
-    Eigen::VectorXd inverse = Eigen::VectorXd::Zero(n);
-    for (Eigen::Index i = 0; i < n; ++i)
-        if (lambda[i] > 1e-12 * lambda.maxCoeff()) inverse[i] = 1.0 / lambda[i];
-    return -(eigen.eigenvectors() * inverse.asDiagonal() * eigen.eigenvectors().transpose() * gradient);
 }
 
 }  // namespace
@@ -74,7 +62,7 @@ TEST_CASE("range factor: the dense step of a singular system is the minimum-norm
             const std::vector<char> fixed(static_cast<std::size_t>(n), 0);
             Eigen::VectorXd delta(n);
             REQUIRE(dense.solve(gradient, mu, fixed, delta));
-            const Eigen::VectorXd expected = eigenMinimumNorm(h, mu, gradient);
+            const Eigen::VectorXd expected = test::minimumNormStep(h, mu, gradient);
             CHECK((delta - expected).norm() <= 1e-8 * expected.norm());
             // Column distinct + c repeats column c: the two share its change.
             for (Eigen::Index c = distinct; c < n; ++c)
