@@ -471,7 +471,7 @@ void Graph::pull(const Connection& c)
 void Graph::prefetchRecords(NodeId node) const
 {
     const std::size_t first = firstAttr_[static_cast<std::size_t>(node)], count = attributeCount(node);
-    prefetchBytes(&model_->topology(node), sizeof(GraphModel::NodeTopology));
+    prefetchBytes(&model_->topology(node), 64);  // the record's first line: what the marking and computing read
     prefetchBytes(dirty_.data() + first, count);
     prefetchBytes(slots_.data() + first, count * sizeof(ValueStore::Slot));
     prefetchBytes(&impls_[static_cast<std::size_t>(node)], sizeof(impls_[0]));

@@ -52,10 +52,10 @@ GraphModel::GraphModel(const GraphModel& other)
 {
     nodes_.reserve(other.nodes_.size());
     for (const NodeTopology& rec : other.nodes_)
-        nodes_.push_back({rec.name,
-                          rec.type,
+        nodes_.push_back({rec.type,
                           rec.ownSpecs,
                           {rec.incoming.begin(), rec.incoming.end(), lists_.get()},
+                          rec.name,
                           {rec.outgoing.begin(), rec.outgoing.end(), lists_.get()}});
 }
 
@@ -65,10 +65,10 @@ void GraphModel::compactLists()
     std::vector<NodeTopology> compact;
     compact.reserve(nodes_.size());
     for (NodeTopology& rec : nodes_)
-        compact.push_back({std::move(rec.name),
-                           std::move(rec.type),
+        compact.push_back({std::move(rec.type),
                            std::move(rec.ownSpecs),
                            {rec.incoming.begin(), rec.incoming.end(), lists.get()},
+                           std::move(rec.name),
                            {rec.outgoing.begin(), rec.outgoing.end(), lists.get()}});
     nodes_ = std::move(compact);  // the vector's block changes hands: each list keeps the new arena
     lists_ = std::move(lists);    // the old blocks go, now that no list is in them
@@ -92,7 +92,7 @@ NodeId GraphModel::addNode(std::string_view typeName, std::string_view name)
                         "included twice at every level)",
                         maxNodes));
     nodeIndex_.emplace(std::string(name), static_cast<NodeId>(nodes_.size()));
-    nodes_.push_back({std::string(name), type, nullptr, std::pmr::vector<Connection>(lists_.get()),
+    nodes_.push_back({type, nullptr, std::pmr::vector<Connection>(lists_.get()), std::string(name),
                       std::pmr::vector<NodeTopology::Edge>(lists_.get())});
     topologyChanged();
     return static_cast<NodeId>(nodes_.size() - 1);

@@ -31,8 +31,9 @@ public:
     // Array elements are stored densely: a typo like matrixIn[100000000] must not eat the memory.
     static constexpr int maxArrayIndex = 1 << 16;
 
-    struct NodeTopology {
-        std::string name;
+    // Two cache lines: what a frame's marking and computing read (type, specs, incoming) in the first, the name and
+    // the outgoing list (messages, pushes) in the second.
+    struct alignas(64) NodeTopology {
         std::shared_ptr<const NodeType> type;
         // The type's attributes and the node's dynamic ones; null while it has none of its own.
         std::shared_ptr<const std::vector<AttributeSpec>> ownSpecs;
@@ -46,6 +47,7 @@ public:
         // The connections into this node, copies of connections()' entries, in their order: a frame pulls each,
         // node by node, and the list stays with its node instead of reaching across the whole graph's.
         std::pmr::vector<Connection> incoming;
+        std::string name;
         // Sorted by `from`, the destinations inline, in one list: the push walks them over the whole downstream of
         // the scene time every frame.
         std::pmr::vector<Edge> outgoing;

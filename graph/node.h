@@ -18,13 +18,14 @@ namespace rig {
 class ComputeContext {
 public:
     // `slots`: where each of the node's attributes is in `store`.
-    ComputeContext(std::string_view nodeName, const std::vector<AttributeSpec>& specs, ValueStore& store,
+    // The name is read only for messages: a crowd's frame computes thousands of nodes without touching it.
+    ComputeContext(const std::string& nodeName, const std::vector<AttributeSpec>& specs, ValueStore& store,
                    std::span<const ValueStore::Slot> slots)
-        : nodeName_(nodeName), specs_(specs), store_(store), slots_(slots)
+        : nodeName_(&nodeName), specs_(specs), store_(store), slots_(slots)
     {
     }
 
-    std::string_view nodeName() const { return nodeName_; }
+    std::string_view nodeName() const { return *nodeName_; }
 
     double getDouble(AttrId a) const { return input<double>(a); }
     int getInt(AttrId a) const { return input<int>(a); }
@@ -101,7 +102,7 @@ private:
     template <class T>
     void assignElements(AttrId a, std::span<const T> elements);
 
-    std::string_view nodeName_;
+    const std::string* nodeName_;
     const std::vector<AttributeSpec>& specs_;
     ValueStore& store_;
     std::span<const ValueStore::Slot> slots_;
