@@ -78,7 +78,7 @@ public:
     Value value(std::size_t i) const;
     // Makes elements up to index i (`fallback`, holding the attribute's type, where new) and marks i present.
     void make(std::size_t i, const Value& fallback);
-    // Replaces every element: `count` present elements, each assigned by set(T&, k).
+    // Replaces every element: `count` present elements, each assigned by set(cell, k) (a BoolCell for bool).
     template <class T, class Set>
     void assign(std::size_t count, Set&& set)
     {
@@ -87,7 +87,7 @@ public:
         present_.assign(count, true);
         for (std::size_t k = 0; k < count; ++k) set(c[k], k);
     }
-    // Bit for bit, absent elements alike.
+    // The same indices present, each element the same to the bit.
     bool sameAs(const ArrayData& other) const;
 
 private:
