@@ -20,6 +20,14 @@ namespace {
 // Numbers are shown to users in their units (degrees for angles).
 double userScale(const AttributeSpec& spec) { return unitFactor(spec.unit, Unit::None); }
 
+// The schedule's order: every node after those it reads.
+void sortByRank(std::vector<NodeId>& nodes, const Schedule& s)
+{
+    std::sort(nodes.begin(), nodes.end(), [&](NodeId a, NodeId b) {
+        return s.rank()[static_cast<std::size_t>(a)] < s.rank()[static_cast<std::size_t>(b)];
+    });
+}
+
 }  // namespace
 
 Graph::Graph(std::shared_ptr<NodeRegistry> registry) : model_(std::make_shared<GraphModel>(std::move(registry))) {}
@@ -79,6 +87,7 @@ GraphModel& Graph::editModel()
     if (model_.use_count() > 1) model_ = std::make_shared<GraphModel>(*model_);
     schedule_.reset();  // the topology is about to change
     timeDownstreamBuilt_ = false;
+    ++epoch_;
     return *model_;
 }
 
@@ -206,7 +215,11 @@ void Graph::disconnect(const Plug src, const Plug dst)
 
 // --- dirty propagation (push) --------------------------------------------------------------------------
 
-void Graph::dirtyAffectedBy(NodeId node, AttrId attr) { markDownstream(dirty_, node, attr); }
+void Graph::dirtyAffectedBy(NodeId node, AttrId attr)
+{
+    ++epoch_;  // a change other than the scene time's: evaluations look again at what they need
+    markDownstream(dirty_, node, attr);
+}
 
 void Graph::markDownstream(std::vector<char>& flags, NodeId node, AttrId attr)
 {
@@ -258,6 +271,7 @@ void Graph::dirtyInput(NodeId node, AttrId attr)
 
 void Graph::dirtyAll()
 {
+    ++epoch_;
     for (NodeId n = 0; n < nodeCount(); ++n) {
         const GraphModel::NodeTopology& top = model_->topology(n);
         char* dirty = dirty_.data() + firstAttr_[static_cast<std::size_t>(n)];
@@ -361,9 +375,19 @@ void Graph::evaluateNodes(std::span<const NodeId> roots)
     // marks, the nodes of list_, is unmarked on the way out, whether a node threw or not.
     needed_.resize(static_cast<std::size_t>(nodeCount()), 0);
     std::vector<NodeId>& list = list_;
-    list.clear();
-    for (const NodeId n : roots)
-        if (!std::exchange(needed_[static_cast<std::size_t>(n)], char{1})) list.push_back(n);
+    // Only the scene time changed since the last evaluation: what these roots need is what they needed then, or less.
+    const bool steady = lastEpoch_ == epoch_;
+    lastEpoch_ = epoch_;
+    const bool planned = steady && plan_.epoch == epoch_ &&
+                         std::equal(roots.begin(), roots.end(), plan_.roots.begin(), plan_.roots.end());
+    if (planned) {
+        list.assign(plan_.list.begin(), plan_.list.end());  // in the schedule's order
+        for (const NodeId n : list) needed_[static_cast<std::size_t>(n)] = 1;
+    } else {
+        list.clear();
+        for (const NodeId n : roots)
+            if (!std::exchange(needed_[static_cast<std::size_t>(n)], char{1})) list.push_back(n);
+    }
     const struct Unmark {
         std::vector<char>& needed;
         const std::vector<NodeId>& list;
@@ -373,7 +397,7 @@ void Graph::evaluateNodes(std::span<const NodeId> roots)
         }
     } unmark{needed_, list};
     // A needed node pulls all of its dirty inputs, so the sources of those are needed too.
-    for (std::size_t i = 0; i < list.size(); ++i) {
+    for (std::size_t i = 0; !planned && i < list.size(); ++i) {
         for (const Connection& c : model_->topology(list[i]).incoming) {
             const auto src = static_cast<std::size_t>(c.source.node);
             if (needed_[src] || !dirtyFlag(c.destination) || !dirtyFlag(c.source)) continue;
@@ -385,6 +409,7 @@ void Graph::evaluateNodes(std::span<const NodeId> roots)
     // and evaluations on other threads do not meet at the model's lock.
     if (!schedule_) schedule_ = model_->schedule();
     const std::shared_ptr<const Schedule>& s = schedule_;
+    if (steady && !planned) keepPlan(roots, list, *s);
     if (threads_ > 1 && list.size() > 1) {
         if (!flow_ || flow_->schedule() != s.get() || flow_->threads() != threads_)
             flow_ = std::make_unique<FlowExecutor>(s, threads_);
@@ -397,9 +422,7 @@ void Graph::evaluateNodes(std::span<const NodeId> roots)
         else flow_->run(needed_, [this](int n) { processNode(n); });
         return;
     }
-    std::sort(list.begin(), list.end(), [&](NodeId a, NodeId b) {
-        return s->rank()[static_cast<std::size_t>(a)] < s->rank()[static_cast<std::size_t>(b)];
-    });
+    if (!planned) sortByRank(list, *s);
     // The nodes of a crowd's frame are far apart in memory and each reached through several lists: the next ones'
     // are fetched while this one computes.
     for (std::size_t i = 0; i < list.size(); ++i) {
@@ -466,6 +489,14 @@ void Graph::pull(const Connection& c)
     if (asItIs)
         visitValueType(type, [&]<class T>(std::type_identity<T>) { storage<T>(c.destination) = stored<T>(c.source); });
     else writeStored(c.destination, pulledValue(c));
+}
+
+void Graph::keepPlan(std::span<const NodeId> roots, const std::vector<NodeId>& list, const Schedule& s)
+{
+    plan_.roots.assign(roots.begin(), roots.end());
+    plan_.list = list;
+    sortByRank(plan_.list, s);
+    plan_.epoch = epoch_;
 }
 
 void Graph::prefetchRecords(NodeId node) const

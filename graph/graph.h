@@ -161,6 +161,8 @@ private:
 
     // Computes what `roots` need (roots may be roots_).
     void evaluateNodes(std::span<const NodeId> roots);
+    // Keeps what `roots` needed, in the schedule's order, for the next evaluation of the same roots.
+    void keepPlan(std::span<const NodeId> roots, const std::vector<NodeId>& list, const Schedule& schedule);
     void processNode(NodeId node);
     // A node about to be processed, fetched in two steps (FlowExecutor::recordsAhead and nodesAhead nodes ahead, serial
     // or not): its records (the model's and the instance's), then what they point to (its incoming list, its Node
@@ -193,6 +195,17 @@ private:
     // between evaluations).
     std::vector<NodeId> roots_, list_;
     std::vector<char> needed_;
+    // A player's frames change nothing but the scene time between two evaluations of the same plugs: dirty flags then
+    // grow only by the time's runs, the same each frame, and evaluations only clear them, so what the last such frame
+    // needed is what this one needs, or more (a node found clean computes nothing). Kept from the second evaluation
+    // after a change of anything else (epoch_: every other change of flags or topology), so that a frame skips the
+    // marking and the sort.
+    struct Plan {
+        std::vector<NodeId> roots, list;
+        std::uint64_t epoch = 0;
+    };
+    Plan plan_;
+    std::uint64_t epoch_ = 1, lastEpoch_ = 0;  // lastEpoch_: epoch_ at the last evaluation
     double time_ = 0.0;
     int threads_ = 1;
     std::shared_ptr<const Schedule> schedule_;  // the model's, taken at the first evaluation after an edit

@@ -303,6 +303,43 @@ TEST_CASE("scene time dirties its whole downstream, as the graph is when the tim
     CHECK(g.computeCount(g.node("still")) == computed);
 }
 
+TEST_CASE("a player's frames reuse what the last one needed, and see any other change")
+{
+    // Between two evaluations of the same plugs where only the scene time moved, the graph keeps what they needed
+    // (Graph::evaluateNodes); a value set or an edit in between, upstream of those plugs but off the time's path,
+    // must make it look again.
+    for (const int threads : {1, 2}) {
+        CAPTURE(threads);
+        Graph g(testRegistry());
+        g.setThreads(threads);
+        g.addNode("time", "time1");
+        g.addNode("add", "moving");
+        g.addNode("add", "held");
+        g.addNode("add", "sum");
+        g.connect(g.plug("time1.outTime"), g.plug("moving.a"));
+        g.connect(g.plug("moving.sum"), g.plug("sum.a"));
+        g.connect(g.plug("held.sum"), g.plug("sum.b"));
+        const std::vector<Plug> plugs{g.plug("sum.sum")};
+        const auto play = [&](double frame) {
+            g.setTime(frame);
+            g.evaluate(plugs);
+            return std::get<double>(g.getValue(plugs[0]));
+        };
+        for (int frame = 1; frame <= 4; ++frame) CHECK(play(frame) == frame);
+        CHECK(g.computeCount(g.node("held")) == 1);
+        g.setValue(g.plug("held.a"), 10.0);
+        CHECK(play(5.0) == 15.0);
+        CHECK(play(6.0) == 16.0);
+        CHECK(play(7.0) == 17.0);
+        g.addNode("add", "late");
+        g.connect(g.plug("late.sum"), g.plug("held.b"));
+        g.setValue(g.plug("late.a"), 100.0);
+        CHECK(play(8.0) == 118.0);
+        CHECK(play(9.0) == 119.0);
+        CHECK(g.computeCount(g.node("held")) == 3);
+    }
+}
+
 TEST_CASE("scene time leaves a connected time input to its connection")
 {
     Graph g(testRegistry());
