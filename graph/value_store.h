@@ -53,6 +53,12 @@ struct BoolCell {
 };
 template <class T>
 using Cell = std::conditional_t<std::is_same_v<T, bool>, BoolCell, T>;
+// A container of one vector per value type (a pool each, or one column of an array attribute): Of<...> is std::tuple
+// or std::variant.
+template <template <class...> class Of>
+using PerValueType = Of<std::vector<double>, std::vector<int>, std::vector<BoolCell>, std::vector<std::string>,
+                        std::vector<Eigen::Vector3d>, std::vector<Eigen::Matrix4d>, std::vector<std::vector<double>>,
+                        std::vector<Matrix4Array>>;
 
 // The elements of an array attribute, by logical index, held as the attribute's own type: a double array's elements
 // take 8 bytes each, not a 136-byte Value each (a crowd member's inverter writes 79 of them every frame).
@@ -97,10 +103,7 @@ private:
         return std::get<std::vector<Cell<T>>>(column_);
     }
 
-    std::variant<std::vector<double>, std::vector<int>, std::vector<BoolCell>, std::vector<std::string>,
-                 std::vector<Eigen::Vector3d>, std::vector<Eigen::Matrix4d>, std::vector<std::vector<double>>,
-                 std::vector<Matrix4Array>>
-        column_;
+    PerValueType<std::variant> column_;
     std::vector<bool> present_;  // which logical indices exist
 };
 
@@ -144,10 +147,7 @@ public:
     ArrayData& elements(Slot slot, ValueType type);
 
 private:
-    std::tuple<std::vector<double>, std::vector<int>, std::vector<BoolCell>, std::vector<std::string>,
-               std::vector<Eigen::Vector3d>, std::vector<Eigen::Matrix4d>, std::vector<std::vector<double>>,
-               std::vector<Matrix4Array>>
-        pools_;
+    PerValueType<std::tuple> pools_;
     std::vector<std::unique_ptr<ArrayData>> arrays_;
 };
 
