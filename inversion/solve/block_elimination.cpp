@@ -484,7 +484,8 @@ bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, doub
     const Eigen::Index rank = pivotedCholesky(a, permutation_, rankTolerance * largestDiagonal);
     auto l = a.leftCols(rank);
     auto gram = gram_.topLeftCorner(rank, rank);
-    gram.noalias() = l.transpose() * l;
+    gram.triangularView<Eigen::Lower>().setZero();
+    gram.selfadjointView<Eigen::Lower>().rankUpdate(l.transpose());  // the lower triangle, which LLT reads
     Eigen::MatrixXd& f = factor_[b];
     f.setZero();
     if (rank == 0) return true;

@@ -4,26 +4,50 @@
 #include <utility>
 
 namespace rig {
+namespace {
 
+// y -= c x over m entries: two columns of one matrix, never overlapping (restrict lets the compiler vectorize).
+void subtractScaled(double* __restrict y, const double* __restrict x, double c, Eigen::Index m)
+{
+    for (Eigen::Index i = 0; i < m; ++i) y[i] -= c * x[i];
+}
+
+}  // namespace
+
+// Left-looking, as LAPACK's dpstf2: column k of L is formed from S's column and the k columns before it, and the
+// trailing diagonal carries S's diagonal less the squares of L's rows so far (the pivots' candidates). Unlike the
+// right-looking form, no trailing square is updated: the work is n r^2 / 2 rather than n^3 / 3, and it stops at r.
 Eigen::Index pivotedCholesky(Eigen::Ref<Eigen::MatrixXd> a, std::span<int> permutation, double threshold)
 {
-    const Eigen::Index n = a.rows();
+    const Eigen::Index n = a.rows(), ld = a.outerStride();
+    double* const base = a.data();
+    const auto at = [&](Eigen::Index i, Eigen::Index j) -> double& { return base[i + j * ld]; };
     std::iota(permutation.begin(), permutation.begin() + n, 0);
     Eigen::Index rank = 0;
+    // Plain loops: the systems are mostly small (a joint's 3 to 20 columns), where expressions cost more than the
+    // arithmetic.
     for (Eigen::Index k = 0; k < n; ++k, ++rank) {
-        Eigen::Index p = 0;
-        const double pivot = a.diagonal().tail(n - k).maxCoeff(&p);
+        Eigen::Index p = k;
+        for (Eigen::Index j = k + 1; j < n; ++j)
+            if (at(j, j) > at(p, p)) p = j;
+        const double pivot = at(p, p);
         if (!(pivot > threshold)) break;
-        p += k;
         if (p != k) {
-            a.row(k).swap(a.row(p));
-            a.col(k).swap(a.col(p));
+            // L's rows so far, and S's trailing rows and columns (both triangles: a swap moves one into the other).
+            for (Eigen::Index l = 0; l < k; ++l) std::swap(at(k, l), at(p, l));
+            for (Eigen::Index i = k; i < n; ++i) std::swap(at(i, k), at(i, p));
+            for (Eigen::Index j = k; j < n; ++j) std::swap(at(k, j), at(p, j));
             std::swap(permutation[static_cast<std::size_t>(k)], permutation[static_cast<std::size_t>(p)]);
         }
-        a(k, k) = std::sqrt(pivot);
-        a.col(k).tail(n - k - 1) /= a(k, k);
-        a.bottomRightCorner(n - k - 1, n - k - 1).noalias() -=
-            a.col(k).tail(n - k - 1) * a.col(k).tail(n - k - 1).transpose();
+        const double diagonal = std::sqrt(pivot);
+        at(k, k) = diagonal;
+        double* const column = &at(k + 1, k);
+        const Eigen::Index m = n - k - 1;
+        for (Eigen::Index l = 0; l < k; ++l) subtractScaled(column, &at(k + 1, l), at(k, l), m);
+        for (Eigen::Index i = 0; i < m; ++i) {
+            column[i] /= diagonal;
+            at(k + 1 + i, k + 1 + i) -= column[i] * column[i];
+        }
     }
     a.topLeftCorner(rank, rank).triangularView<Eigen::StrictlyUpper>().setZero();
     return rank;

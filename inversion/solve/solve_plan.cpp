@@ -12,7 +12,7 @@ BlockWorkspace::BlockWorkspace(const ResidualStructure& structure, const BlockEl
       state(structure.rows(), structure.columnCount()),
       J(structure.rows(), structure.columnCount()),
       // Dense J^T J and its factorizations only where the step is not by elimination.
-      dense(coupled ? 0 : structure.columnCount())
+      dense(coupled ? 0 : structure.columnCount(), structure.rows())
 {
     if (coupled) {
         elimination = std::make_unique<BlockEliminationWorkspace>(*coupled, &residual);
@@ -25,6 +25,7 @@ void BlockWorkspace::configure(const SolverOptions& options, bool parallel)
     options_ = &options;
     parallel_ = parallel;
     reuse_ = options.jacobian == JacobianMethod::analytic && residual.structure().twistNormals();
+    dense.restart();
 }
 
 // At an accepted trial point the residuals and products are those of its evaluation (r).

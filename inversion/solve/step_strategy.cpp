@@ -70,8 +70,10 @@ void StepControl::accepted(int gaussNewtonSteps)
         gaussNewton_ = false;
 }
 
-DenseSystem::DenseSystem(Eigen::Index columns)
-    : H_(columns, columns),
+DenseSystem::DenseSystem(Eigen::Index columns, Eigen::Index rows)
+    : fewerRows_(rows >= 0 && rows < columns),
+      singular_(fewerRows_),
+      H_(columns, columns),
       damped_(columns, columns),
       llt_(columns),
       pivoted_(columns, columns),
@@ -99,6 +101,10 @@ bool DenseSystem::solve(const Eigen::VectorXd& gradient, double mu, std::span<co
         delta.setZero();
         return true;
     }
+    const double threshold = rankTolerance * maxDiagonal;
+    // Undamped and known singular, the pivoted factor at once rather than after a Cholesky that fails. Damped,
+    // J^T J + mu I is definite.
+    if (mu == 0.0 && singular_) return rangeStep(H_, gradient, threshold, delta) && delta.allFinite();
     damped_.triangularView<Eigen::Lower>() = H_;
     damped_.diagonal().array() += mu;
     llt_.compute(damped_);
@@ -106,35 +112,44 @@ bool DenseSystem::solve(const Eigen::VectorXd& gradient, double mu, std::span<co
     if (wellConditioned) {
         const auto& l = llt_.matrixLLT();
         for (Eigen::Index i = 0; i < n; ++i)
-            if (!(l(i, i) * l(i, i) > rankTolerance * maxDiagonal)) wellConditioned = false;
+            if (!(l(i, i) * l(i, i) > threshold)) wellConditioned = false;
     }
     if (wellConditioned) {
         delta = -gradient;
         llt_.solveInPlace(delta);
     } else {
-        if (!rangeStep(gradient, rankTolerance * maxDiagonal, delta)) return false;
+        singular_ = singular_ || mu == 0.0;
+        if (!rangeStep(damped_, gradient, threshold, delta)) return false;
     }
     return delta.allFinite();
 }
 
-bool DenseSystem::rangeStep(const Eigen::VectorXd& gradient, double threshold, Eigen::VectorXd& delta)
+bool DenseSystem::rangeStep(const Eigen::MatrixXd& s, const Eigen::VectorXd& gradient, double threshold,
+                            Eigen::VectorXd& delta)
 {
-    // delta = -S^+ g = -R^T G^-2 R g with R = L^T P and G = L^T L.
+    // delta = -S^+ g = -R^T G^-2 R g with R = L^T P and G = L^T L; of full rank, -P^T L^-T L^-1 P g.
     const Eigen::Index n = H_.rows();
-    pivoted_ = damped_.selfadjointView<Eigen::Lower>();
+    pivoted_ = s.selfadjointView<Eigen::Lower>();
     const Eigen::Index rank = pivotedCholesky(pivoted_, permutation_, threshold);
     const auto l = pivoted_.leftCols(rank);
     for (Eigen::Index i = 0; i < n; ++i) permuted_[i] = gradient[permutation_[static_cast<std::size_t>(i)]];
-    auto y = reduced_.head(rank);
-    y.noalias() = l.transpose() * permuted_;
-    auto gram = gram_.topLeftCorner(rank, rank);
-    gram.noalias() = l.transpose() * l;
-    Eigen::Ref<Eigen::MatrixXd> inPlace(gram);
-    const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(inPlace);
-    if (llt.info() != Eigen::Success) return false;
-    llt.solveInPlace(y);
-    llt.solveInPlace(y);
-    permuted_.noalias() = l * y;
+    if (rank == n) {
+        const auto lower = l.triangularView<Eigen::Lower>();
+        lower.solveInPlace(permuted_);
+        lower.transpose().solveInPlace(permuted_);
+    } else {
+        auto y = reduced_.head(rank);
+        y.noalias() = l.transpose() * permuted_;
+        auto gram = gram_.topLeftCorner(rank, rank);
+        gram.triangularView<Eigen::Lower>().setZero();
+        gram.selfadjointView<Eigen::Lower>().rankUpdate(l.transpose());  // the lower triangle, which LLT reads
+        Eigen::Ref<Eigen::MatrixXd> inPlace(gram);
+        const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(inPlace);
+        if (llt.info() != Eigen::Success) return false;
+        llt.solveInPlace(y);
+        llt.solveInPlace(y);
+        permuted_.noalias() = l * y;
+    }
     delta.resize(n);
     for (Eigen::Index i = 0; i < n; ++i) delta[permutation_[static_cast<std::size_t>(i)]] = -permuted_[i];
     return true;

@@ -68,7 +68,13 @@ private:
 // J^T J as a dense lower triangle, and the damped step from it.
 class DenseSystem {
 public:
-    explicit DenseSystem(Eigen::Index columns);
+    // `rows`: J's, where known (fewer than the columns: J^T J is singular whatever the values).
+    explicit DenseSystem(Eigen::Index columns, Eigen::Index rows = -1);
+    // Before a minimization: the undamped steps try Cholesky first again, unless the rows are too few. Within one,
+    // once an undamped Cholesky has failed the next undamped steps take the pivoted factor at once (a system
+    // singular at one point of a solve mostly stays so: redundant controls). Reset for each minimization so that
+    // a step depends on the minimization's own history only (a chunk of a clip solves as the whole clip does).
+    void restart() { singular_ = fewerRows_; }
     // Where the normal equations put J^T J (column-major, lower triangle).
     std::span<double> entries() { return {H_.data(), static_cast<std::size_t>(H_.size())}; }
     const Eigen::MatrixXd& matrix() const { return H_; }
@@ -77,19 +83,23 @@ public:
     // A held column's row and column replaced by the identity's.
     void hold(Eigen::Index i);
     // Gauss-Newton (mu = 0) or Levenberg-Marquardt step (J^T J + mu I) delta = -gradient, the held (`fixed`)
-    // columns' gradient zero. Cholesky when the system is well conditioned; otherwise the minimum-norm step on its
-    // range (range_factor.h), which leaves the (near-)null directions alone: redundant parameters split a change
-    // evenly, a parameter with no effect stays. False when no finite step is found.
+    // columns' gradient zero. From a pivoted Cholesky factor undamped, from Cholesky damped where that is well
+    // conditioned; a singular system's is the minimum-norm step on its range (range_factor.h), which leaves the
+    // (near-)null directions alone: redundant parameters split a change evenly, a parameter with no effect stays.
+    // False when no finite step is found.
     bool solve(const Eigen::VectorXd& gradient, double mu, std::span<const char> fixed, Eigen::VectorXd& delta);
     // out = J^T J v.
     void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) const;
 
 private:
+    bool fewerRows_;
+    bool singular_;           // an undamped step takes the pivoted factor at once (restart())
     Eigen::MatrixXd H_;       // J^T J, lower triangle
     Eigen::MatrixXd damped_;  // H + mu I, lower triangle: what is factorized
     Eigen::LLT<Eigen::MatrixXd> llt_;
-    // The singular case's: the pivoted factor L, G = L^T L, P, and the step's vectors.
-    bool rangeStep(const Eigen::VectorXd& gradient, double threshold, Eigen::VectorXd& delta);
+    // The step from a pivoted factor of S (`s`'s lower triangle, H or H + mu I): the minimum-norm one where S is
+    // singular. Its factor L, G = L^T L, P, and the step's vectors.
+    bool rangeStep(const Eigen::MatrixXd& s, const Eigen::VectorXd& gradient, double threshold, Eigen::VectorXd& delta);
     Eigen::MatrixXd pivoted_, gram_;
     std::vector<int> permutation_;
     Eigen::VectorXd permuted_, reduced_;

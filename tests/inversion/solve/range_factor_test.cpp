@@ -71,4 +71,37 @@ TEST_CASE("range factor: the dense step of a singular system is the minimum-norm
     }
 }
 
+TEST_CASE("range factor: a definite system's undamped step after a singular one is Cholesky's, from the pivoted factor")
+{
+    // Within one minimization, once an undamped Cholesky has failed, undamped steps take the pivoted factor at once:
+    // of full rank, it gives Cholesky's step.
+    std::mt19937 rng(5103);
+    const Eigen::Index n = 40;
+    const Eigen::MatrixXd singular = singularNormalMatrix(rng, 60, 25, n);
+    const Eigen::MatrixXd h = singularNormalMatrix(rng, 60, n, n);
+    const Eigen::VectorXd gradient = Eigen::VectorXd::Random(n);
+    for (const bool restarted : {false, true}) {
+        CAPTURE(restarted);
+        DenseSystem dense(n);
+        dense.matrix() = singular;
+        const std::vector<char> fixed(static_cast<std::size_t>(n), 0);
+        Eigen::VectorXd delta(n);
+        REQUIRE(dense.solve(singular * gradient, 0.0, fixed, delta));
+        if (restarted) dense.restart();
+        dense.matrix() = h;
+        REQUIRE(dense.solve(gradient, 0.0, fixed, delta));
+        const Eigen::VectorXd expected = -h.llt().solve(gradient);
+        CHECK((delta - expected).norm() <= 1e-10 * expected.norm());
+        CHECK((h * delta + gradient).norm() <= 1e-10 * gradient.norm());
+    }
+    // Fewer rows than columns: singular whatever the values, the pivoted factor from the first step.
+    DenseSystem wide(n, 30);
+    wide.matrix() = singularNormalMatrix(rng, 30, n, n);
+    const Eigen::VectorXd g = wide.matrix() * Eigen::VectorXd::Random(n);
+    Eigen::VectorXd delta(n);
+    REQUIRE(wide.solve(g, 0.0, std::vector<char>(static_cast<std::size_t>(n), 0), delta));
+    const Eigen::VectorXd expected = test::minimumNormStep(wide.matrix(), 0.0, g);
+    CHECK((delta - expected).norm() <= 1e-8 * expected.norm());
+}
+
 }  // namespace rig
