@@ -111,6 +111,9 @@ struct Context {
     // Offsets beyond which the control is saturated (Operator::low, high): fits use the range between.
     double low = -std::numeric_limits<double>::infinity();
     double high = std::numeric_limits<double>::infinity();
+    // The ends of the flat stretches inside the range (a foot roll's heel keyed below 0, its toe above 5: nothing
+    // moves between): kinks that every curve of the parameter takes as breaks (CubicSpline) instead of rounding.
+    std::vector<double> breaks{};
 
     bool acting(double a) const { return a >= low && a <= high; }
     std::vector<double> acting(const std::vector<double>& offsets) const
@@ -443,7 +446,26 @@ bool refineAndValidate(Context& c, const std::vector<std::size_t>& entries, bool
     }
 }
 
-CubicSpline<1> magnitudeCurve(const std::map<double, double>& magnitudes, const std::vector<double>& knots)
+// The spline through (x, y), x increasing, with a break at each knot of `breaks` inside its ends.
+template <int D>
+CubicSpline<D> withBreaks(const std::vector<double>& x, const std::vector<typename CubicSpline<D>::Vector>& y,
+                          const std::vector<double>& breaks)
+{
+    std::vector<double> xs;
+    std::vector<typename CubicSpline<D>::Vector> ys;
+    for (std::size_t j = 0; j < x.size(); ++j) {
+        const bool inside = j > 0 && j + 1 < x.size();
+        const int copies = inside && std::find(breaks.begin(), breaks.end(), x[j]) != breaks.end() ? 2 : 1;
+        for (int k = 0; k < copies; ++k) {
+            xs.push_back(x[j]);
+            ys.push_back(y[j]);
+        }
+    }
+    return CubicSpline<D>(std::move(xs), std::move(ys));
+}
+
+CubicSpline<1> magnitudeCurve(const std::map<double, double>& magnitudes, const std::vector<double>& knots,
+                              const std::vector<double>& breaks)
 {
     std::vector<double> x{0.0};
     std::vector<CubicSpline<1>::Vector> y{CubicSpline<1>::Vector::Zero()};
@@ -460,7 +482,7 @@ CubicSpline<1> magnitudeCurve(const std::map<double, double>& magnitudes, const 
         xs.push_back(x[i]);
         ys.push_back(y[i]);
     }
-    return CubicSpline<1>(std::move(xs), std::move(ys));
+    return withBreaks<1>(xs, ys, breaks);
 }
 
 // An analytic operator shared by `entries`, linear then with a curve magnitude.
@@ -496,7 +518,7 @@ bool tryAnalytic(Context& c, OperatorKind kind, const std::vector<std::size_t>& 
         Operator op;
         std::map<double, double> m;
         if (!fitStructure(c, kind, entries, op, m)) return false;
-        op.curve = magnitudeCurve(m, c.acting(knots));
+        op.curve = magnitudeCurve(m, c.acting(knots), c.breaks);
         c.hold(op);
         candidate = makeCandidate(op);
         return true;
@@ -540,7 +562,7 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
                 ys[static_cast<std::size_t>(i)] = value(i, ys[static_cast<std::size_t>(i - 1)].head<3>());
             for (auto i = zero - 1; i >= 0; --i)
                 ys[static_cast<std::size_t>(i)] = value(i, ys[static_cast<std::size_t>(i + 1)].head<3>());
-            op.rigid = CubicSpline<6>(xs, ys);
+            op.rigid = withBreaks<6>(xs, ys, c.breaks);
         } else {
             std::vector<CubicSpline<12>::Vector> ys;
             for (double a : xs) {
@@ -552,7 +574,7 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
                 }
                 ys.push_back(v);
             }
-            op.affine = CubicSpline<12>(xs, ys);
+            op.affine = withBreaks<12>(xs, ys, c.breaks);
         }
         c.hold(op);
         candidate.operators = {op};
@@ -562,9 +584,20 @@ bool trySampled(Context& c, std::size_t e, bool rigid, Candidate& best, double& 
     return refineAndValidate(c, entries, true, build, best, bestError);
 }
 
+// Bisection steps to a flat range's end: from the neighbouring samples' distance to 1/256 of it where the range
+// reaches an end of the parameter's range (the operators are held beyond, as they always were), and to 2^-24 of it
+// (1.5e-7 of a 2.5-unit spacing: 1.5e-5 cm at 100 cm per unit, negligible against the solver's 1e-3 cm) where the
+// range is inside it, since its ends become breaks of the curves and a break found off the kink leaves the curve off
+// by the slope times the distance (tests/inversion/learn/learner_test.cpp's foot: its toe moves the ankle 2.8 cm per
+// unit of roll, 0.04 cm at 1/256 of the 3.3-unit spacing). Each such range costs up to 32 more rig evaluations.
+constexpr int heldEndBisections = 8;
+constexpr int breakBisections = 24;
+
 // Ranges of offsets between neighbouring samples (0 included) over which no output moves: where the
-// control is saturated. The ends are found to 1/256 of the neighbouring samples' distance by bisection.
-std::vector<std::pair<double, double>> flatRanges(Context& c, const std::vector<Eigen::Matrix4d>& restFramed)
+// control is saturated, or a stretch in the middle of its range where it does nothing (a foot roll between the
+// heel's keys and the toe's). Their ends are found by bisection (above); lo and hi are the parameter's range.
+std::vector<std::pair<double, double>> flatRanges(Context& c, const std::vector<Eigen::Matrix4d>& restFramed, double lo,
+                                                  double hi)
 {
     // References stay valid: the samples are kept in a std::map, which never moves its elements.
     auto worldsAt = [&](double a) -> const std::vector<Eigen::Matrix4d>& {
@@ -586,27 +619,23 @@ std::vector<std::pair<double, double>> flatRanges(Context& c, const std::vector<
         if (!ranges.empty() && ranges.back().second == xs[j]) ranges.back().second = xs[j + 1];
         else ranges.emplace_back(xs[j], xs[j + 1]);
     }
+    // Where the movement stops, between a moving sample and the flat range's end `flat`, flat as `other` (its other
+    // end) is: a sampled offset, so that a curve's knot can be there.
+    auto bisect = [&](double moving, double flat, double other, int steps) {
+        for (int step = 0; step < steps; ++step) {
+            const double mid = 0.5 * (moving + flat);
+            (same(mid, other) ? flat : moving) = mid;
+        }
+        return flat;
+    };
     // A flat range that starts after a moving stretch: bisect where the movement stops (and likewise
     // at its other end).
-    for (auto& [lo, hi] : ranges) {
-        const auto below = std::find(xs.begin(), xs.end(), lo);
-        if (below != xs.begin()) {
-            double moving = *(below - 1), flat = lo;
-            for (int step = 0; step < 8; ++step) {
-                const double mid = 0.5 * (moving + flat);
-                (same(mid, hi) ? flat : moving) = mid;
-            }
-            lo = flat;
-        }
-        const auto above = std::find(xs.begin(), xs.end(), hi);
-        if (above + 1 != xs.end()) {
-            double moving = *(above + 1), flat = hi;
-            for (int step = 0; step < 8; ++step) {
-                const double mid = 0.5 * (moving + flat);
-                (same(mid, lo) ? flat : moving) = mid;
-            }
-            hi = flat;
-        }
+    for (auto& [from, to] : ranges) {
+        const int steps = (from == lo && from < 0.0) || (to == hi && to > 0.0) ? heldEndBisections : breakBisections;
+        const auto below = std::find(xs.begin(), xs.end(), from);
+        const auto above = std::find(xs.begin(), xs.end(), to);
+        if (below != xs.begin()) from = bisect(*(below - 1), from, to, steps);
+        if (above + 1 != xs.end()) to = bisect(*(above + 1), to, from, steps);
     }
     return ranges;
 }
@@ -738,7 +767,7 @@ bool frameOutputs(RigProbe& probe, Context& c, double lo, double hi, const RigSt
     }
     result.orderOffset = largestOffset(c);
     result.orderWorlds = c.sample(result.orderOffset);
-    result.model.noEffect = flatRanges(c, c.rest);
+    result.model.noEffect = flatRanges(c, c.rest, lo, hi);
     // Flat to the end of its range: the operators are held from where the effect stops, and fitted on
     // the range where the control acts (a spline would have to bend round the kink).
     for (const auto& [from, to] : result.model.noEffect) {
@@ -746,7 +775,16 @@ bool frameOutputs(RigProbe& probe, Context& c, double lo, double hi, const RigSt
         if (to == hi && to > 0.0) c.high = from;
     }
     if (c.low > c.high) c.low = c.high = 0.0;  // flat everywhere it was sampled: nothing left to fit
-    for (const double end : {c.low, c.high})
+    // Flat in the middle: the curves break at its ends inside the fitted range, where the effect starts or stops with
+    // a kink that a natural spline through samples on both sides would round (0.2 cm off beside a foot roll's keys).
+    for (const auto& [from, to] : result.model.noEffect)
+        for (const double end : {from, to})
+            if (end > std::max(lo, c.low) && end < std::min(hi, c.high)) c.breaks.push_back(end);
+    // Every curve's first knots hold the ends where the effect stops: sampled (bisection), so the curves are exact
+    // there. The rest offset 0 is a knot of every curve already.
+    std::vector<double> ends{c.low, c.high};
+    ends.insert(ends.end(), c.breaks.begin(), c.breaks.end());
+    for (const double end : ends)
         if (std::isfinite(end) && end != 0.0 && std::find(c.initial.begin(), c.initial.end(), end) == c.initial.end())
             c.initial.push_back(end);
     for (auto& [from, to] : result.model.noEffect) {

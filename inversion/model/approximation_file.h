@@ -152,8 +152,7 @@ public:
         if (knots.size() < 2) fail(knotsNode, field + ".knots", "a curve needs at least two knots");
         if (valuesNode.size() != knots.size())
             fail(valuesNode, field + ".values", fmt::format("{} values for {} knots", valuesNode.size(), knots.size()));
-        for (std::size_t j = 1; j < knots.size(); ++j)
-            if (!(knots[j] > knots[j - 1])) fail(knotsNode, field + ".knots", "the knots must increase");
+        checkKnots(knots, knotsNode, field + ".knots");
         std::vector<typename CubicSpline<D>::Vector> values;
         for (const auto& v : valuesNode) {
             typename CubicSpline<D>::Vector y;
@@ -164,7 +163,29 @@ public:
             }
             values.push_back(y);
         }
+        for (std::size_t j = 1; j < knots.size(); ++j)
+            if (knots[j] == knots[j - 1] && values[j] != values[j - 1])
+                fail(valuesNode, field + ".values",
+                     fmt::format("the two values at the break {} differ; a curve is continuous at its breaks",
+                                 knots[j]));
         return CubicSpline<D>(knots, std::move(values));
+    }
+
+    // Knots increase, but for a break (CubicSpline): one knot twice in a row, neither the first nor the last.
+    void checkKnots(const std::vector<double>& knots, const YAML::Node& n, const std::string& field) const
+    {
+        for (std::size_t j = 1; j < knots.size(); ++j) {
+            if (knots[j] > knots[j - 1]) continue;
+            if (knots[j] < knots[j - 1])
+                fail(n, field, fmt::format("the knots must increase ({} after {})", knots[j], knots[j - 1]));
+            if (j == 1 || j + 1 == knots.size())
+                fail(n, field,
+                     fmt::format("the {} knot {} is repeated; a break (a knot twice) is inside the curve",
+                                 j == 1 ? "first" : "last", knots[j]));
+            if (knots[j - 2] == knots[j])
+                fail(n, field,
+                     fmt::format("the knot {} is repeated more than once; a break is a knot twice", knots[j]));
+        }
     }
 
     RigParameter parameter(const YAML::Node& n, const std::string& field) const

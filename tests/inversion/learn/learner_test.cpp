@@ -278,3 +278,50 @@ TEST_CASE("learner: an IK arm's non-compositional outputs, each with its parent 
     learnApproximation(rig, talk, "arm.yaml", &unmodelled);
     CHECK(unmodelled.empty());
 }
+
+TEST_CASE("learner: a driven-key roll that does nothing in the middle of its range keeps its kinks (curve breaks)")
+{
+    // A reverse foot's roll: the heel keyed from -10 to 0, the toe from 5 to 10, nothing moves between. Its first
+    // samples (-10, -6.7, -3.3, 3.3, 6.7, 10) lie on both sides of the flat stretch: a natural spline through them
+    // rounds the kinks at 0 and 5, which the learner now keeps as breaks of the ankle's curve.
+    const std::string foot = R"(nodes:
+  - {name: foot_ctrl, type: transform, translate: [0, 10, 0], addAttr: [{name: roll, min: -10, max: 10, keyable: true}]}
+  - {name: heel_pivot, type: transform, parent: foot_ctrl, translate: [0, -10, -5]}
+  - {name: toe_pivot, type: transform, parent: heel_pivot, translate: [0, 0, 20]}
+  - {name: ankle, type: joint, parent: toe_pivot, translate: [0, 10, -15]}
+  - {name: heel_roll_sdk, type: animCurveUA, keys: [[-10, -30], [0, 0]], tangents: linear}
+  - {name: toe_roll_sdk, type: animCurveUA, keys: [[5, 0], [10, 45]], tangents: linear}
+connections:
+  - foot_ctrl.roll -> heel_roll_sdk.input
+  - foot_ctrl.roll -> toe_roll_sdk.input
+  - heel_roll_sdk.output -> heel_pivot.rotateX
+  - toe_roll_sdk.output -> toe_pivot.rotateX
+)";
+    const auto file = test::writeFile(test::scratchDir("learner-roll-breaks") / "foot.yaml", foot);
+    GraphRigFunction rig(file, GraphRigOptions{{"foot_ctrl.roll"}, {"ankle"}, {}, {}});
+    const Approximation a = learnApproximation(rig, LearnOptions{}, "foot.yaml");
+    REQUIRE(a.parameters.size() == 1);
+    REQUIRE(a.parameters[0].noEffect.size() == 1);
+    CHECK(a.parameters[0].noEffect[0].first == 0.0);
+    CHECK(a.parameters[0].noEffect[0].second == doctest::Approx(5.0).epsilon(1e-6));
+    std::vector<Eigen::Matrix4d> model, real;
+    double worst = 0.0;
+    for (const double roll : {-1.0, -0.01, -1e-4, 1e-4, 0.01, 2.5, 4.99, 4.9999, 5.0001, 5.01, 6.0}) {
+        CAPTURE(roll);
+        const std::vector<double> values{roll};
+        a.evaluate(values, model);
+        rig.evaluate(values, real);
+        REQUIRE(model.size() == 1);
+        const double error = (model[0].block<3, 1>(0, 3) - real[0].block<3, 1>(0, 3)).norm();
+        CHECK(error < 1e-4);
+        worst = std::max(worst, error);
+    }
+    MESSAGE("worst model error beside the flat stretch: " << worst << " cm; " << a.training.evaluations
+                                                          << " training evaluations");
+    // The flat stretch itself is flat exactly: the piece between the breaks goes through samples at rest alone.
+    for (const double roll : {0.7, 2.5, 4.3}) {
+        a.evaluate(std::vector<double>{roll}, model);
+        a.evaluate(std::vector<double>{0.0}, real);
+        CHECK(model[0] == real[0]);
+    }
+}

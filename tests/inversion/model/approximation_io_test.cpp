@@ -560,6 +560,42 @@ TEST_CASE("approximation files: what cannot be written is refused, naming the fi
                          "approximationToYaml: constraints[0].restPole is inf, not a finite number", Error);
 }
 
+TEST_CASE("approximation files: a knot given twice is a curve's break, read and written back bit for bit")
+{
+    Approximation a = everything();
+    using V1 = CubicSpline<1>::Vector;
+    bool broken = false;
+    for (ModelledParameter& p : a.parameters)
+        for (Operator& op : p.operators)
+            if (!broken && op.kind == OperatorKind::rotation && !op.linear()) {
+                op.curve = CubicSpline<1>({-1.0, 0.0, 0.5, 0.5, 2.0}, {V1(-0.7), V1(0.0), V1(0.0), V1(0.0), V1(0.9)});
+                broken = true;
+            }
+    REQUIRE(broken);
+    const std::string text = approximationToYaml(a);
+    CHECK(text.find("knots: [-1, 0, 0.5, 0.5, 2]") != std::string::npos);
+    const Approximation b = approximationFromYaml(text, "broken.yaml");
+    checkSame(a, b);
+    CHECK(approximationToYaml(b) == text);
+}
+
+TEST_CASE("approximation files: a curve's knots increase but for a break, one inner knot twice with one value")
+{
+    const std::string at = "f.yaml:23:76: parameters[0].operators[0].curve.knots: ";
+    CHECK(errorWith("slope: 1", "curve: {knots: [-1, 0, 0, 1], values: [-1, 0, 0, 2]}") == "(no error)");
+    CHECK(errorWith("slope: 1", "curve: {knots: [-1, 0, 0, 0, 1], values: [-1, 0, 0, 0, 2]}") ==
+          at + "the knot 0 is repeated more than once; a break is a knot twice");
+    CHECK(errorWith("slope: 1", "curve: {knots: [-1, -1, 0, 1], values: [-1, -1, 0, 2]}") ==
+          at + "the first knot -1 is repeated; a break (a knot twice) is inside the curve");
+    CHECK(errorWith("slope: 1", "curve: {knots: [-1, 0, 1, 1], values: [-1, 0, 2, 2]}") ==
+          at + "the last knot 1 is repeated; a break (a knot twice) is inside the curve");
+    CHECK(errorWith("slope: 1", "curve: {knots: [-1, 0, 2, 1], values: [-1, 0, 2, 3]}") ==
+          at + "the knots must increase (1 after 2)");
+    CHECK(errorWith("slope: 1", "curve: {knots: [-1, 0, 0, 1], values: [-1, 0, 0.5, 2]}") ==
+          "f.yaml:23:99: parameters[0].operators[0].curve.values: the two values at the break 0 differ; a curve is "
+          "continuous at its breaks");
+}
+
 TEST_CASE("approximation files: a damaged file is one line naming file:line:col and the field")
 {
     CHECK(errorWith("", "") == "(no error)");
@@ -596,7 +632,8 @@ TEST_CASE("approximation files: a damaged file is one line naming file:line:col 
           "f.yaml:23:16: parameters[0].operators[0].kind: unknown operator 'twist'; the operators are translation, "
           "rotation, axisScale, uniformScale, sampledRigid, sampledAffine");
     CHECK(errorWith("slope: 1", "curve: {knots: [0, 0], values: [0, 0]}") ==
-          "f.yaml:23:76: parameters[0].operators[0].curve.knots: the knots must increase");
+          "f.yaml:23:76: parameters[0].operators[0].curve.knots: the first knot 0 is repeated; a break (a knot twice) "
+          "is inside the curve");
     CHECK(errorWith("slope: 1", "slope: 1, curve: {knots: [0, 1], values: [0, 1]}") ==
           "f.yaml:23:9: parameters[0].operators[0]: give either slope (linear) or curve, not both");
     CHECK(errorWith("rest: [[1, 0, 0, 0], ", "rest: [") == "f.yaml:9:23: outputs[0].rest: expected 4 entries, found 3");
