@@ -36,6 +36,25 @@ Eigen::Matrix3d orientationOf(const Eigen::Matrix3d& a)
     return nearlyOrthonormal(a) ? orthonormalOrientation(a) : polarRotation(a);
 }
 
+// The rotation of A = Q S (det A > 0) by Newton's iteration X <- (X + X^-T) / 2 (Higham), from A scaled to
+// determinant 1: it converges quadratically to Q, in 2 or 3 steps for a world's block (a scale near uniform, a
+// small shear) and under 20 for a strong stretch, at a tenth of a 3x3 SVD's cost (a scaled joint's every residual
+// and Jacobian takes one). False for a block near singular (its determinant below 1e-9 of its norm cubed: Q is
+// then ill-determined) or one whose steps do not settle: the SVD decides those.
+bool polarByNewton(const Eigen::Matrix3d& a, double determinant, Eigen::Matrix3d& q)
+{
+    const double norm = a.norm();
+    if (!(determinant > 1e-9 * norm * norm * norm)) return false;
+    q = a / std::cbrt(determinant);
+    for (int step = 0; step < 40; ++step) {
+        const Eigen::Matrix3d next = 0.5 * (q + q.inverse().transpose());
+        const double change = (next - q).cwiseAbs().maxCoeff();
+        q = next;
+        if (change <= 1e-15) return true;  // Q's entries are at most 1: a change at rounding
+    }
+    return false;
+}
+
 }  // namespace
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& v)
@@ -50,11 +69,15 @@ Eigen::Matrix3d polarRotation(const Eigen::Matrix3d& a, Eigen::Matrix3d* symmetr
     // A reflection's orientation is that of -A: removing the reflection along the smallest singular value's
     // axis instead would jump by 180 degrees wherever two singular values cross (a uniform scale of -1, a
     // mirrored joint whose scale drifts by 1e-7), so a target and its model could disagree by a half turn.
-    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a.determinant() < 0 ? Eigen::Matrix3d(-a) : a,
-                                                Eigen::ComputeFullU | Eigen::ComputeFullV);
-    Eigen::Matrix3d u = svd.matrixU();
-    if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) = -u.col(2);
-    const Eigen::Matrix3d q = u * svd.matrixV().transpose();
+    const double determinant = a.determinant();
+    const Eigen::Matrix3d proper = determinant < 0 ? Eigen::Matrix3d(-a) : a;
+    Eigen::Matrix3d q;
+    if (!polarByNewton(proper, std::abs(determinant), q)) {
+        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(proper, Eigen::ComputeFullU | Eigen::ComputeFullV);
+        Eigen::Matrix3d u = svd.matrixU();
+        if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) = -u.col(2);
+        q = u * svd.matrixV().transpose();
+    }
     if (symmetric) *symmetric = q.transpose() * a;
     return q;
 }

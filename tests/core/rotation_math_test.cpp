@@ -1,10 +1,13 @@
 // The SO(3) and matrix helpers: closed-form expectations.
 #include <doctest/doctest.h>
 
+#include <array>
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 
 #include "core/rotation_math.h"
 
@@ -29,6 +32,44 @@ TEST_CASE("rotation math: the polar decomposition gives the rotation and the sym
     // A reflection is removed: the nearest proper rotation, determinant +1.
     const Eigen::Matrix3d mirrored = q * Eigen::Vector3d(1, 1, -1).asDiagonal();
     CHECK(polarRotation(mirrored).determinant() == doctest::Approx(1.0));
+}
+
+TEST_CASE("rotation math: the polar rotation by Newton's iteration is the SVD's, scaled, sheared, mirrored or singular")
+{
+    // The oracle: Q = U V^T of the SVD of A (of -A for a reflection), as polarRotation took it before Newton's steps.
+    const auto bySvd = [](const Eigen::Matrix3d& a) {
+        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a.determinant() < 0 ? Eigen::Matrix3d(-a) : a,
+                                                    Eigen::ComputeFullU | Eigen::ComputeFullV);
+        Eigen::Matrix3d u = svd.matrixU();
+        if ((u * svd.matrixV().transpose()).determinant() < 0) u.col(2) = -u.col(2);
+        return Eigen::Matrix3d(u * svd.matrixV().transpose());
+    };
+    std::mt19937 rng(7301);
+    std::normal_distribution<double> normal;
+    double worst = 0.0;
+    for (int i = 0; i < 2000; ++i) {
+        const Eigen::Matrix3d r =
+            Eigen::Quaterniond(Eigen::Vector4d(normal(rng), normal(rng), normal(rng), normal(rng)).normalized())
+                .toRotationMatrix();
+        // A uniform scale from 1e-3 to 1e3 (negative: a mirror), a stretch from none to strong.
+        const double scale = std::pow(10.0, 3.0 * std::uniform_real_distribution<double>(-1, 1)(rng));
+        const double stretch = std::array{0.0, 1e-7, 1e-3, 0.3}[static_cast<std::size_t>(i % 4)];
+        Eigen::Matrix3d s = Eigen::Matrix3d::Identity();
+        for (int k = 0; k < 3; ++k)
+            for (int l = 0; l < 3; ++l) s(k, l) += stretch * normal(rng);
+        s = 0.5 * (s + s.transpose());
+        const Eigen::Matrix3d a = (i % 3 == 0 ? -scale : scale) * r * s;
+        Eigen::Matrix3d symmetric;
+        const Eigen::Matrix3d q = polarRotation(a, &symmetric);
+        worst = std::max(worst, (q - bySvd(a)).cwiseAbs().maxCoeff());
+        CHECK((q * symmetric - a).cwiseAbs().maxCoeff() <= 1e-12 * a.cwiseAbs().maxCoeff());
+    }
+    CHECK(worst < 1e-13);
+    // A singular block (a joint scaled to zero on one axis): the SVD's answer, a proper rotation.
+    const Eigen::Matrix3d flat = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.3, 1, -0.2).normalized()).toRotationMatrix() *
+                                 Eigen::Vector3d(2, 1, 0).asDiagonal();
+    CHECK(polarRotation(flat) == bySvd(flat));
+    CHECK(polarRotation(flat).determinant() == doctest::Approx(1.0));
 }
 
 TEST_CASE("rotation math: a reflection's orientation is the negated block's, continuous where its scales cross")
