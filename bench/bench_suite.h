@@ -8,6 +8,7 @@
 #include <string_view>
 #include <vector>
 
+#include "bench/bench_characters.h"
 #include "bench/bench_common.h"
 
 namespace rig::bench {
@@ -40,6 +41,9 @@ struct BenchOptions {
     int realtimeFrames = 60;      // crowd_realtime: frames played per crowd (after an untimed first frame)
     int realtimeMaxAgents = 512;  // crowd_realtime: the largest crowd tried (0: no crowd_realtime row)
     bool mayaScenes = true;       // the maya_scenes row: the animated public scenes learned and inverted
+
+    // The random_characters row (none: no row).
+    CharactersBenchOptions characters;
 
     std::function<void(std::string_view)> log;  // one line per step; may be empty
 };

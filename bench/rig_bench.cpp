@@ -35,6 +35,7 @@ struct Options {
     bool noCrowd = false;
     bool noChain = false;
     bool noMayaScenes = false;
+    bool noCharacters = false;
     bool quiet = false;
 };
 
@@ -123,6 +124,21 @@ void printSummary(const bench::Json& r)
                                             figure(s.at("training_evaluations"), "", 6), figure(s.at("reached")),
                                             figure(s.at("frames")), figure(s.at("ms_per_frame"), "ms"),
                                             figure(s.at("replay_worst_reached_cm"), "cm")));
+    if (const auto characters = r.find("random_characters"); characters != r.end() && !characters->is_null()) {
+        const auto line = [](const std::string& name, const bench::Json& row) {
+            const auto& fk = row.at("fk_on_ik_clip");
+            const auto& ik = row.at("ik");
+            std::cout << fmt::format(
+                "characters  {}: {} unmodelled outputs FK, {} IK; IK's clip reached {} of {} frames FK, {} IK; {} "
+                "per frame FK, {} IK ({}x; FK on its own clip {})\n",
+                name, figure(row.at("fk").at("unmodelled_outputs")), figure(ik.at("unmodelled_outputs")),
+                figure(fk.at("reached"), "", 6), figure(fk.at("frames"), "", 6), figure(ik.at("reached"), "", 6),
+                figure(fk.at("cpu_ms_per_frame"), "ms"), figure(ik.at("cpu_ms_per_frame"), "ms"),
+                figure(row.at("ratio")), figure(row.at("fk").at("cpu_ms_per_frame"), "ms"));
+        };
+        for (const auto& row : characters->at("constructions")) line(text(row.at("construction")), row);
+        line("issue #46's constructions", *characters);
+    }
     for (const auto& row : r.at("scaling"))
         std::cout << fmt::format("scaling     {} {}: {} parameters, {} per frame, jacobian {}, {} evaluations\n",
                                  text(row.at("rig")), figure(row.at("count"), "", 6),
@@ -208,6 +224,7 @@ bench::BenchOptions benchOptions(const Options& o)
     if (o.noCrowd) options.crowdSizes.clear();
     if (o.noChain) options.chainSizes.clear();
     if (o.noMayaScenes) options.mayaScenes = false;
+    if (o.noCharacters) options.characters.perConstruction = options.characters.randomCharacters = 0;
     // Bounded before any work: 512 bipeds of about 290 nodes each stay within GraphModel::maxNodes (200 000);
     // a chain of 2000 joints has 6000 parameters, each moving every joint below it (n^2 / 2 Jacobian entries).
     for (const int n : options.crowdSizes)
@@ -320,6 +337,9 @@ int main(int argc, char** argv)
     app.add_flag("--no-chain", options.noChain, "No chain rows");
     app.add_flag("--no-maya-scenes", options.noMayaScenes,
                  "No maya_scenes row (the animated scenes of ../shared/maya learned and inverted; not with --quick)");
+    app.add_flag("--no-characters", options.noCharacters,
+                 "No random_characters row (random characters of issue #46 learned and inverted in FK and IK mode; "
+                 "not with --quick)");
     app.add_flag("--no-scaling", options.noScaling, "Measure the biped only");
     app.add_flag("-q,--quiet", options.quiet, "Print nothing but errors");
     return rig::cli::runMain(app, argc, argv, [&] {
