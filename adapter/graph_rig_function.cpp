@@ -712,6 +712,10 @@ void GraphRigFunction::setOutputs(const std::vector<NodeId>& joints, const std::
     const Graph& g = *graph_;
     std::map<NodeId, int> jointOutputOfNode;  // a joint's parent walk passes helpers by
     for (std::size_t k = 0; k < joints.size(); ++k) jointOutputOfNode[joints[k]] = static_cast<int>(k);
+    // A helper joint's walk stops at a helper too: the joints of a control chain that drives the bound joints through
+    // constraints (an IK leg's thigh, calf and foot) are learned relative to each other, as the bound joints are.
+    std::map<NodeId, int> anyOutputOfNode = jointOutputOfNode;
+    for (std::size_t k = 0; k < helpers.size(); ++k) anyOutputOfNode[helpers[k]] = static_cast<int>(joints.size() + k);
     for (std::size_t k = 0; k < joints.size() + helpers.size(); ++k) {
         const bool joint = k < joints.size();
         const NodeId n = joint ? joints[k] : helpers[k - joints.size()];
@@ -721,7 +725,10 @@ void GraphRigFunction::setOutputs(const std::vector<NodeId>& joints, const std::
         const AttrId pivot = joint ? -1 : g.model().topology(n).type->findAttribute("rotatePivot");
         pivotPlugs_.push_back(
             pivot >= 0 && g.model().topology(n).spec(pivot).type == ValueType::Vector3 ? Plug{n, pivot} : Plug{});
-        outputParents_.push_back(joint ? parentOutput(g, n, jointOutputOfNode) : -1);
+        const bool helperJoint = !joint && g.nodeType(n).name() == "joint";
+        outputParents_.push_back(joint         ? parentOutput(g, n, jointOutputOfNode)
+                                 : helperJoint ? parentOutput(g, n, anyOutputOfNode)
+                                               : -1);
     }
 }
 

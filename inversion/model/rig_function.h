@@ -33,8 +33,8 @@ public:
     // Names of the outputs (joints), in the order evaluate() writes them.
     virtual const std::vector<std::string>& outputs() const = 0;
     // For each output, its parent output: the nearest ancestor in the rig's joint hierarchy that is
-    // itself an output, or -1 (none, or a rig without a hierarchy). The learner may model an output
-    // relative to it (docs/rig-learn.md).
+    // itself an output (a joint's: a joint; a helper joint's: a joint or a helper), or -1 (none, a helper that is
+    // not a joint, or a rig without a hierarchy). The learner may model an output relative to it (docs/rig-learn.md).
     virtual std::vector<int> outputParents() const { return std::vector<int>(outputs().size(), -1); }
     // For each output, whether it is a helper frame: a transform that is not a joint to invert (an IK goal, a pole
     // object, an aim target, a space-switch parent) but that outputs which do not compose are functions of. The
