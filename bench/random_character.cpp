@@ -83,6 +83,17 @@ public:
                          : specText(std::min(set_.size(), setBeforeLegs_), 0, false, fkParams_);
     }
     CharacterParts parts;
+    // What was built: the rig, its specs and modes, and where the builder placed the outputs.
+    Character character() const
+    {
+        return {rigYaml(),
+                specYaml(),
+                {specYaml(0), specYaml(1)},
+                parts,
+                restWorlds(),
+                {modeRigYaml(0), modeRigYaml(1)},
+                {modeSpecYaml(0), modeSpecYaml(1)}};
+    }
     // The rest worlds the builder placed the outputs at, in output order.
     std::vector<Eigen::Matrix4d> restWorlds() const
     {
@@ -854,13 +865,7 @@ Character leggedCharacter(std::mt19937& rng, Construction forced)
         }
         b.leg(l == 0 ? "L_" : "R_", l == 0 ? 1.0 : -1.0, c);
     }
-    return {b.rigYaml(),
-            b.specYaml(),
-            {b.specYaml(0), b.specYaml(1)},
-            b.parts,
-            b.restWorlds(),
-            {b.modeRigYaml(0), b.modeRigYaml(1)},
-            {b.modeSpecYaml(0), b.modeSpecYaml(1)}};
+    return b.character();
 }
 
 Character randomCharacter(std::mt19937& rng)
@@ -871,13 +876,7 @@ Character randomCharacter(std::mt19937& rng)
     b.arm("L_", 1.0);
     if (twoArms) b.arm("R_", -1.0);
     b.eyes(std::bernoulli_distribution(0.7)(rng) ? 2 : 1);
-    return {b.rigYaml(),
-            b.specYaml(),
-            {b.specYaml(0), b.specYaml(1)},
-            b.parts,
-            b.restWorlds(),
-            {b.modeRigYaml(0), b.modeRigYaml(1)},
-            {b.modeSpecYaml(0), b.modeSpecYaml(1)}};
+    return b.character();
 }
 
 GraphRigFunction loadCharacterRig(const std::string& rig, const std::string& spec, const std::filesystem::path& dir,
