@@ -48,8 +48,10 @@ bool trialStep(MinimizerProblem& problem, const Unknowns& u, const SolverOptions
                double damping, double scale, bool& smallStep, bool& wholeStep, bool& shortened)
 {
     const std::size_t n = u.size();
-    if (!problem.solveStep(s.gFree, damping, s.fixed, s.delta)) return false;
-    if (scale != 1.0) s.delta *= scale;  // a Gauss-Newton step backtracked (StepPolicy::backtracks)
+    // A Gauss-Newton step backtracked (StepPolicy::backtracks) is the same step halved: x, g and the held columns
+    // are those it was solved at.
+    if (scale == 1.0 && !problem.solveStep(s.gFree, damping, s.fixed, s.direction)) return false;
+    s.delta = scale * s.direction;
     // The rotation trust region (SolverOptions::maxAngularStep): shorten the whole step, keeping its direction.
     double largestTurn = 0.0;
     for (std::size_t c = 0; c < n; ++c)
@@ -156,6 +158,7 @@ MinimizerState::MinimizerState(Eigen::Index rows, Eigen::Index columns)
       gFree(columns),
       delta(columns),
       step(columns),
+      direction(columns),
       fixed(x.size(), 0)
 {
 }
@@ -165,7 +168,7 @@ void MinimizerState::prefetch() const
     rig::prefetch(x);
     rig::prefetch(trial);
     rig::prefetch(fixed);
-    for (const Eigen::VectorXd* v : {&r, &rTrial, &hStep, &g, &gFree, &delta, &step})
+    for (const Eigen::VectorXd* v : {&r, &rTrial, &hStep, &g, &gFree, &delta, &step, &direction})
         prefetchBytes(v->data(), static_cast<std::size_t>(v->size()) * sizeof(double));
 }
 
@@ -199,7 +202,8 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
             problem.multiply(s.step, s.hStep);
             return -(s.g.dot(s.step) + 0.5 * s.step.dot(s.hStep));
         };
-        (gaussNewton ? result.gaussNewton : result.levenbergMarquardt) += 1;
+        // An iteration is a step solved; its halvings are its line search, not iterations of their own.
+        if (control.scale() == 1.0) (gaussNewton ? result.gaussNewton : result.levenbergMarquardt) += 1;
         // The undamped step whole, the model's minimum: J^T J s = -g makes its decrease -g.s / 2 (half the squared
         // Newton decrement). When that is within the function tolerance, so is any step's, and evaluating it
         // is not worth a residual pass.
@@ -224,7 +228,7 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
                 break;
             }
             finite = problem.linearize(s.x, true, s.r, s.g);
-            control.accepted(result.gaussNewton);
+            control.accepted();
         } else if (smallStep) {
             result.converged = true;  // a negligible step that does not help: nothing left to gain
             break;

@@ -63,7 +63,8 @@ struct MinimizerState {
     MinimizerState(Eigen::Index rows, Eigen::Index columns);
     std::vector<double> x, trial;  // in: x the start, within the limits; out: the answer
     Eigen::VectorXd r, rTrial, hStep, g, gFree, delta, step;
-    std::vector<char> fixed;  // per unknown: held at a limit for this step
+    Eigen::VectorXd direction;  // the last step solved: a Gauss-Newton step's halvings reuse it
+    std::vector<char> fixed;    // per unknown: held at a limit for this step
     // Hints the cache to fetch the vectors (core/prefetch.h).
     void prefetch() const;
 };

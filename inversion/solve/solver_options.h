@@ -26,8 +26,9 @@ std::string_view terminationName(TerminationType termination);
 // In the manner of Ceres' Solver::Options: every field has a documented default; validate() says
 // which field is wrong.
 struct SolverOptions {
-    // Gauss-Newton iterations before switching to Levenberg-Marquardt (the talk: 30). A Gauss-Newton
-    // step that does not lower the cost switches at once. 0: Levenberg-Marquardt from the start.
+    // Gauss-Newton steps taken before a block stays with Levenberg-Marquardt (the talk: 30). Until then a
+    // Gauss-Newton step that does not lower the cost is halved, then damped for one step (StepPolicy).
+    // 0: Levenberg-Marquardt from the start.
     int gaussNewtonIterations = 30;
     // Most iterations of both kinds together, per block. At least 1.
     int maxIterations = 100;

@@ -30,6 +30,7 @@ bool StepControl::accept(double cost, double trialCost, bool smallStep, const st
         const bool taken = finite && (trialCost < cost || (smallStep && trialCost <= cost));
         if (taken || smallStep) {
             scale_ = 1.0;
+            failedInARow_ = taken ? 0 : failedInARow_;
             return taken;
         }
         // Gauss-Newton failed to descend: shorter along its step, as the policy allows, else damp.
@@ -39,6 +40,7 @@ bool StepControl::accept(double cost, double trialCost, bool smallStep, const st
         }
         scale_ = 1.0;
         gaussNewton_ = false;
+        ++failedInARow_;
         return false;
     }
     const double model = predicted();
@@ -58,16 +60,20 @@ bool StepControl::accept(double cost, double trialCost, bool smallStep, const st
 
 bool StepControl::exhausted() const { return !std::isfinite(mu_) || mu_ > ceiling_; }
 
-void StepControl::accepted(int gaussNewtonSteps)
+void StepControl::accepted()
 {
-    if (!gaussNewton_ && !policy_.persistentDamping) {
+    if (gaussNewton_) ++gaussNewtonTaken_;
+    // Gauss-Newton steps taken, not tried: a step halved four times before it is damped costs the budget nothing.
+    // Two Gauss-Newton steps failed with a damped one between: the model does not hold this far from the answer, and
+    // trying it before every damped step only doubles their cost (C_Robot_Run.ma's stuck frames).
+    const bool budgetSpent =
+        policy_.budgetEndsGaussNewton && (gaussNewtonTaken_ >= options_.gaussNewtonIterations || failedInARow_ >= 2);
+    if (!gaussNewton_ && !budgetSpent) {
         gaussNewton_ = true;  // the next step Gauss-Newton again, damped afresh if it must be
         mu_ = 0.0;
         nu_ = 2.0;
     }
-    // Gauss-Newton's budget ends it for good only where damping persists (the real rig's steps return to it).
-    if (policy_.persistentDamping && gaussNewton_ && gaussNewtonSteps >= options_.gaussNewtonIterations)
-        gaussNewton_ = false;
+    if (gaussNewton_ && budgetSpent) gaussNewton_ = false;  // Levenberg-Marquardt to the end
 }
 
 DenseSystem::DenseSystem(Eigen::Index columns, Eigen::Index rows)

@@ -26,17 +26,21 @@ inline constexpr double rankTolerance = 1e-12;
 struct StepPolicy {
     // A Gauss-Newton step that does not lower the cost is halved up to this many times before damping is tried.
     int backtracks = 0;
-    // Damping, once started, stays for the rest of the solve (Levenberg-Marquardt from then on); false: after a
-    // damped step is taken, the next one is Gauss-Newton again (undamped, then backtracked, then damped afresh).
-    bool persistentDamping = true;
+    // After a damped step is taken, the next one is Gauss-Newton again (undamped, then backtracked, then damped
+    // afresh); true: while SolverOptions::gaussNewtonIterations last and Gauss-Newton has not failed twice with only
+    // damped steps between, then Levenberg-Marquardt to the end.
+    bool budgetEndsGaussNewton = true;
     // No step is found once the damping passes this multiple of J^T J's largest free diagonal entry.
     double maxDamping = std::numeric_limits<double>::infinity();
 
-    // The approximation's: Gauss-Newton while it descends, then Levenberg-Marquardt to the end.
-    static StepPolicy approximation() { return {}; }
+    // The approximation's: each step Gauss-Newton first, halved up to 4 times, then damped afresh, within the
+    // Gauss-Newton budget. Damping that persisted once started (Levenberg-Marquardt to the end) crawled where a pose
+    // turns a constrained end or a switched space far from the warm start: the random characters' IK clips were 1.4 to
+    // 3 times slower, and one space switch reached 18 of 60 frames (docs/solver.md, Accept or reject).
+    static StepPolicy approximation() { return {4, true, std::numeric_limits<double>::infinity()}; }
     // The real rig's: each step Gauss-Newton first, halved up to 10 times, then damped from 1e-4 to 1e8 of the
     // largest diagonal entry (an IK knee at full extension, where the bend grows as the square root of the goal's
-    // approach: Gauss-Newton's direction is poor there but short steps along it descend).
+    // approach: Gauss-Newton's direction is poor there but short steps along it descend), whatever the budget.
     static StepPolicy realRig() { return {10, false, 1e8}; }
 };
 
@@ -53,14 +57,17 @@ public:
     bool accept(double cost, double trialCost, bool smallStep, const std::function<double()>& predicted);
     // Damping that overflowed: no step can be found any more.
     bool exhausted() const;
-    // After an accepted step: Gauss-Newton's iterations are counted against its budget.
-    void accepted(int gaussNewtonSteps);
+    // After an accepted step: a Gauss-Newton one counts against its budget; after a damped one the next is
+    // Gauss-Newton again while the budget lasts (StepPolicy).
+    void accepted();
 
 private:
     const SolverOptions& options_;
     StepPolicy policy_;
     bool gaussNewton_;
     double mu_ = 0.0, nu_ = 2.0;
+    int gaussNewtonTaken_ = 0;  // accepted Gauss-Newton steps: the budget's count
+    int failedInARow_ = 0;      // Gauss-Newton steps that failed (halvings and all), none taken between
     double scale_ = 1.0;
     double ceiling_ = std::numeric_limits<double>::infinity();  // the damping past which no step is found
 };

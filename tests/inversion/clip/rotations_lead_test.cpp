@@ -152,15 +152,16 @@ TEST_CASE("rotations lead: not where the targets are out of reach, and the answe
         CHECK(plain.terminations[f] == TerminationType::stuck);
         CHECK(led.terminations[f] == TerminationType::stuck);
     }
-    // The same minimum, to the solver's function tolerance: the costs within it, the values within what a flat
-    // valley leaves (measured 7.3e-5 radians, the costs within 6.4e-9 of each other).
+    // The same minimum, to the solver's function tolerance: the costs within twice it (each solve stops within it of
+    // the minimum, from either side of the valley), the values within what a flat valley leaves (measured 7.3e-5
+    // radians, the costs within 1.02e-8 of each other; 6.4e-9 while damping persisted once started).
     for (std::size_t f = 0; f < clip.size(); ++f)
-        CHECK(std::abs(led.costs[f] - plain.costs[f]) <= 1e-8 * plain.costs[f]);
+        CHECK(std::abs(led.costs[f] - plain.costs[f]) <= 2e-8 * plain.costs[f]);
     CHECK(largestDifference(plain, led) < 1e-3);
     MESSAGE("targets 2 cm off: ", plain.iterations, " iterations plain, ", led.iterations, " with ", led.ledFrames,
             " frames led");
     // A frame led where the targets are out of reach converges past its first step: the next lead waits 4 frames,
-    // then 8, 16, ... Measured: 324 iterations plain, 346 with 4 frames led.
+    // then 8, 16, ... Measured: 321 iterations plain, 338 with 4 frames led.
     CHECK(led.ledFrames <= 4);
     CHECK(led.iterations <= 1.1 * plain.iterations);
 }

@@ -168,15 +168,49 @@ TEST_CASE("minimizer on the real rig: the trust region, the limits and the answe
     }
 }
 
-TEST_CASE("step policies: the approximation's damps after a failed Gauss-Newton step, the real rig's halves it first")
+TEST_CASE("step policies: a failed Gauss-Newton step is halved, then damped, the approximation's within its budget")
 {
     const SolverOptions options;
     const auto never = [] { return 1.0; };
     StepControl approximation(options, StepPolicy::approximation());
     CHECK(approximation.gaussNewton());
-    CHECK_FALSE(approximation.accept(1.0, 2.0, false, never));
+    for (int halving = 1; halving <= 4; ++halving) {
+        CAPTURE(halving);
+        CHECK_FALSE(approximation.accept(1.0, 2.0, false, never));
+        CHECK(approximation.gaussNewton());
+        CHECK(approximation.scale() == std::ldexp(1.0, -halving));
+    }
+    CHECK_FALSE(approximation.accept(1.0, 2.0, false, never));  // the 5th failure: damped
     CHECK_FALSE(approximation.gaussNewton());
     CHECK(approximation.damping(10.0) == doctest::Approx(initialDamping * 10.0));
+    // A damped step taken within Gauss-Newton's budget: the next one is Gauss-Newton again, undamped.
+    CHECK(approximation.accept(1.0, 0.5, false, [] { return 0.5; }));
+    approximation.accepted();
+    CHECK(approximation.gaussNewton());
+    CHECK(approximation.damping(10.0) == 0.0);
+    // The budget counts Gauss-Newton steps taken: spent, Levenberg-Marquardt to the end, its damping kept from step to
+    // step.
+    for (int step = 1; step <= options.gaussNewtonIterations; ++step) {
+        CAPTURE(step);
+        CHECK(approximation.gaussNewton());
+        CHECK(approximation.accept(1.0, 0.5, false, never));
+        approximation.accepted();
+    }
+    CHECK_FALSE(approximation.gaussNewton());
+    const double damping = approximation.damping(10.0);
+    CHECK(damping == doctest::Approx(initialDamping * 10.0));
+    CHECK(approximation.accept(1.0, 0.5, false, [] { return 0.5; }));
+    approximation.accepted();
+    CHECK_FALSE(approximation.gaussNewton());
+    CHECK(approximation.damping(10.0) < damping);  // Nielsen's rule on a good step, not afresh
+    // No budget (gaussNewtonIterations 0): Levenberg-Marquardt from the start to the end.
+    SolverOptions dampedOnly;
+    dampedOnly.gaussNewtonIterations = 0;
+    StepControl damped(dampedOnly, StepPolicy::approximation());
+    CHECK_FALSE(damped.gaussNewton());
+    CHECK(damped.accept(1.0, 0.5, false, [] { return 0.5; }));
+    damped.accepted();
+    CHECK_FALSE(damped.gaussNewton());
 
     StepControl realRig(options, StepPolicy::realRig());
     for (int halving = 1; halving <= 10; ++halving) {
@@ -191,7 +225,7 @@ TEST_CASE("step policies: the approximation's damps after a failed Gauss-Newton 
     CHECK(realRig.damping(10.0) == doctest::Approx(initialDamping * 10.0));
     // A damped step taken: the next one is Gauss-Newton again, undamped.
     CHECK(realRig.accept(1.0, 0.5, false, [] { return 0.5; }));
-    realRig.accepted(0);
+    realRig.accepted();
     CHECK(realRig.gaussNewton());
     CHECK(realRig.damping(10.0) == 0.0);
     // Rejected damped steps raise the damping until it passes 1e8 of the diagonal: exhausted.
