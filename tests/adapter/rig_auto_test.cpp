@@ -190,7 +190,7 @@ TEST_CASE("rig auto: the public Maya scenes' controls and joints, where ../share
 {
     const fs::path folder = test::sourceDir() / "../shared/maya";
     if (!fs::is_directory(folder)) {
-        MESSAGE("skipped: no ../shared/maya");
+        MESSAGE("[skipped] ../shared/maya is absent");
         return;
     }
     struct Expected {

@@ -18,7 +18,7 @@ TEST_CASE("helper chains: the joints of a control chain are learned relative to 
     const std::filesystem::path scene =
         test::sourceDir() / "../shared/maya/samuelmoores__Infinity/InfinityMaya/Scenes/Grunt_Rig.ma";
     if (!std::filesystem::exists(scene)) {
-        MESSAGE("skipped: no ../shared/maya");
+        MESSAGE("[skipped] ../shared/maya's Grunt_Rig.ma is absent");
         return;
     }
     app::LearnJob job;
