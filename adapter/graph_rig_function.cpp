@@ -174,6 +174,7 @@ RigParameter parameterOf(Graph& g, const Plug& p, const std::vector<GraphRigOpti
     param.name = g.plugName(p);
     param.defaultValue = toDouble(g.getValue(p));
     param.angular = s.unit == Unit::Angle;
+    param.scale = s.unit == Unit::None && s.name == "scale";
     const double half = param.angular              ? defaultAngleRangeDegrees * std::numbers::pi / 180.0
                         : s.unit == Unit::Distance ? defaultDistanceRangeCm
                                                    : defaultUnitlessRange;

@@ -157,7 +157,8 @@ private:
     void feed(const Plug& destination, const Plug& source);
     void setConverted(const Plug& destination, const Plug& source);
     bool connectOrValue(const Plug& from, const Plug& to);
-    void detachInputs(NodeId joint);
+    std::vector<Connection> detachInputs(NodeId joint);
+    void readSolvedRotate(const Connection& detached);
     void checkReachesNoJoint();
 
     struct IkLinks {

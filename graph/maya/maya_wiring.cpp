@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <iterator>
 #include <set>
 
 #include <fmt/format.h>
@@ -343,7 +344,7 @@ void Builder::setConverted(const Plug& destination, const Plug& source)
 
 // Connections out of a chain joint's inputs (its translate into a pole vector constraint) would close a node-level
 // cycle once the IK writes the joint's rotate: they take what drives those inputs, or their values.
-void Builder::detachInputs(NodeId joint)
+std::vector<Connection> Builder::detachInputs(NodeId joint)
 {
     const auto& top = graph_->model().topology(joint);
     std::vector<Connection> out;
@@ -353,6 +354,20 @@ void Builder::detachInputs(NodeId joint)
         graph_->disconnect(c.source, c.destination);
         feed(c.destination, c.source);
     }
+    return out;
+}
+
+// A connection detached from a chain joint's rotate (an orient constraint of a bound skeleton on the chain) reads
+// the solver's answer, as in Maya, where the joint's rotate is now the handle's outRotate; where that would close a
+// node-level cycle it keeps the value detachInputs fed it.
+void Builder::readSolvedRotate(const Connection& detached)
+{
+    const Plug& source = detached.source;
+    const Connection* in = graph_->incomingConnection(Plug{source.node, source.attr, -1, -1});
+    if (!in || in->destination.child >= 0 || graph_->nodeType(in->source.node).name() != "mayaIkHandle") return;
+    const Plug from{in->source.node, in->source.attr, in->source.index, source.child};
+    if (graph_->plugType(from) != graph_->plugType(detached.destination)) return;
+    connectOrValue(from, detached.destination);
 }
 
 void Builder::wireIk()
@@ -419,8 +434,9 @@ void Builder::wireChain(int handle, const std::vector<int>& chain, int effector)
     if (const Connection* pm = graph_->incomingConnection(Plug{start, attr(start, "parentMatrix"), -1, -1}))
         graph_->connect(pm->source, Plug{h, attr(h, "startParentMatrix"), -1, -1}, false);
     feed(Plug{h, attr(h, "startInverseScale"), -1, -1}, Plug{start, attr(start, "inverseScale"), -1, -1});
+    std::vector<Connection> detached;
     for (int joint : chain)
-        if (graphNode(joint) >= 0) detachInputs(graphNode(joint));
+        if (graphNode(joint) >= 0) std::ranges::move(detachInputs(graphNode(joint)), std::back_inserter(detached));
     for (std::size_t i = 0; i < chain.size(); ++i) {
         const NodeId j = graphNode(chain[i]);
         if (j < 0) throw Error(fmt::format("chain joint '{}' is not evaluated", node(chain[i]).name));
@@ -443,6 +459,8 @@ void Builder::wireChain(int handle, const std::vector<int>& chain, int effector)
                 graph_->disconnect(in->source, in->destination);
         graph_->connect(Plug{h, attr(h, "outRotate"), e, -1}, rotate, false);
     }
+    for (const Connection& c : detached)
+        if (c.source.attr == attr(c.source.node, "rotate")) readSolvedRotate(c);
     const NodeId eff = graphNode(effector);
     if (eff >= 0) {
         // The effector sits under the last chain joint and takes the end joint's translate: fed from the same.

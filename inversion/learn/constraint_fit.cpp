@@ -114,6 +114,16 @@ bool ConstraintFitter::modelled(int a, const RigState& state) const
     return !state.nonCompositional[i] && !state.unreliable[i];
 }
 
+bool ConstraintFitter::below(int h, int k) const
+{
+    int up = hierarchy_[static_cast<std::size_t>(h)];
+    for (std::size_t steps = 0; up >= 0 && steps < hierarchy_.size(); ++steps) {
+        if (up == k) return true;
+        up = hierarchy_[static_cast<std::size_t>(up)];
+    }
+    return false;
+}
+
 bool ConstraintFitter::usableAnchor(int a, const RigState& state) const
 {
     return modelled(a, state) && !probe_.constraints.contains(a);
@@ -826,7 +836,7 @@ std::optional<ConstraintBase> ConstraintFitter::fitAnchored(int k, int anchor, i
     std::vector<int> helpers, fixed;
     for (std::size_t h = 0; h < helper_.size(); ++h) {
         const int hh = static_cast<int>(h);
-        if (!helper_[h] || hh == k || hh == anchor || !usableAnchor(hh, state)) continue;
+        if (!helper_[h] || hh == k || hh == anchor || below(hh, k) || !usableAnchor(hh, state)) continue;
         if (std::any_of(movers.begin(), movers.end(), [&](int i) { return !movesAnchor(i) && moves(i, hh); }))
             helpers.push_back(hh);
         else if (moversOf(hh).empty()) fixed.push_back(hh);
@@ -882,7 +892,7 @@ ConstraintFitter::Carried ConstraintFitter::carried(int k, const RigState& state
     };
     for (std::size_t h = 0; h < helper_.size(); ++h) {
         const int hh = static_cast<int>(h);
-        if (helper_[h] && hh != k && hh != c.anchor && modelled(hh, state) &&
+        if (helper_[h] && hh != k && hh != c.anchor && !below(hh, k) && modelled(hh, state) &&
             ((fixedHelpers && moversOf(hh).empty()) ||
              std::any_of(movers.begin(), movers.end(), [&](int i) { return moves(i, hh); })))
             c.helpers.push_back(hh);
@@ -962,7 +972,7 @@ std::vector<int> ConstraintFitter::rootCarriers(int k, int anchor, int root, con
         return carriers;
     for (std::size_t h = 0; h < helper_.size(); ++h) {
         const int hh = static_cast<int>(h);
-        if (!helper_[h] || hh == k || hh == anchor || !usableAnchor(hh, state)) continue;
+        if (!helper_[h] || hh == k || hh == anchor || below(hh, k) || !usableAnchor(hh, state)) continue;
         const Eigen::Matrix4d restInverse = rest[h].inverse();
         if (std::all_of(checks.begin(), checks.end(), [&](const Pose& pose) {
                 const Eigen::Matrix4d motion = pose.worlds[h] * restInverse;

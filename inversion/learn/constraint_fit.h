@@ -71,6 +71,9 @@ private:
     };
     bool modelled(int a, const RigState& state) const;      // learned: by operators or a constraint
     bool usableAnchor(int a, const RigState& state) const;  // learned by operators alone
+    // Whether h is below k in the rig's output hierarchy: its frame follows k's, so no constraint of k reads it (a
+    // control chain's knee is no goal of its thigh).
+    bool below(int h, int k) const;
     std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k, but the held ones
     bool turnedBy(int i, int o) const;       // whether parameter i's first samples turn output o
     // The parameters of `varied` that move the anchor and change k's world apart from a rigid motion (its scale or

@@ -1,6 +1,7 @@
 #include "inversion/learn/learner.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -524,14 +525,39 @@ std::vector<ParameterSamples> firstSamples(RigPool& pool, std::size_t count, con
     return samples;
 }
 
-// Output k framed by a constraint's base from now on: what the base reads is no longer idle, and k hangs from no
-// parent output.
-void adopt(RigProbe& probe, RigState& state, int k, const ConstraintBase& base)
+// Whether a frame reading `inputs` would read output k: one of them framed by k, through parent outputs and
+// constraints (a control chain's helper whose closest chain reads a bound joint learned relative to that helper).
+// Such a frame would make the outputs' frames a cycle.
+template <typename Inputs>
+bool readsOutput(const RigProbe& probe, const Inputs& inputs, int k)
 {
+    std::vector<int> stack;
+    std::set<int> seen;
+    const auto push = [&](int o) {
+        if (o >= 0 && seen.insert(o).second) stack.push_back(o);
+    };
+    for (const int input : inputs) push(input);
+    while (!stack.empty()) {
+        const int o = stack.back();
+        stack.pop_back();
+        if (o == k) return true;
+        push(probe.parents[static_cast<std::size_t>(o)]);
+        if (const auto c = probe.constraints.find(o); c != probe.constraints.end())
+            for (const int input : c->second.frameInputs()) push(input);
+    }
+    return false;
+}
+
+// Output k framed by a constraint's base from now on: what the base reads is no longer idle, and k hangs from no
+// parent output. False, with nothing changed, where the base would read k itself (readsOutput).
+bool adopt(RigProbe& probe, RigState& state, int k, const ConstraintBase& base)
+{
+    if (readsOutput(probe, base.frameInputs(), k)) return false;
     for (const int input : base.frameInputs())
         if (input >= 0) state.idle[static_cast<std::size_t>(input)] = 0;
     probe.constraints[k] = base;
     probe.parents[static_cast<std::size_t>(k)] = -1;
+    return true;
 }
 
 // With perOutput, an output with a parent output (`hierarchy`) where a pair has neither order, relative or in
@@ -553,6 +579,19 @@ bool setApartConflicts(const Pass& pass, const LearnOptions& options, const std:
     bool any = false;
     for (const auto& [k, why] : pass.order.conflictOutputs) any = setApart(k, why) || any;
     return any;
+}
+
+// Scale channels the ordering gave way (OrderResult::held) are held at rest from now on, the constraint fits'
+// poses included. True when one newly was.
+bool holdScaleChannels(const Pass& pass, ConstraintFitter& fitter)
+{
+    bool newly = false;
+    for (const auto& [c, why] : pass.order.held)
+        if (const int i = pass.classes[static_cast<std::size_t>(c)].index; !fitter.held().contains(i)) {
+            fitter.hold(i, why);
+            newly = true;
+        }
+    return newly;
 }
 
 // The structured orderer took some pairs for commuting from their operators, which an output over epsilon
@@ -645,8 +684,7 @@ bool constrainOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, Co
             continue;
         std::string why;
         const std::optional<ConstraintBase> base = fitter.fit(k, state, why);
-        if (!base) continue;
-        adopt(probe, state, k, *base);
+        if (!base || !adopt(probe, state, k, *base)) continue;
         retryBelow(k, hierarchy, probe, state, tried);
         changed = true;
     }
@@ -669,8 +707,7 @@ bool twistOverEpsilon(const Pass& pass, RigProbe& probe, RigState& state, Constr
             chain->second.kind != ConstraintKind::planarChain || !retried.insert(k).second)
             continue;
         const std::optional<ConstraintBase> base = fitter.twistShare(k, state);
-        if (!base) continue;
-        adopt(probe, state, k, *base);
+        if (!base || !adopt(probe, state, k, *base)) continue;
         changed = true;
     }
     return changed;
@@ -687,8 +724,7 @@ bool twistWhereUnfitted(RigProbe& probe, RigState& state, ConstraintFitter& fitt
         const auto i = static_cast<std::size_t>(k);
         if (!state.nonCompositional[i] || probe.constraints.contains(k) || !retried.insert(k).second) continue;
         const std::optional<ConstraintBase> base = fitter.twistShare(k, state);
-        if (!base) continue;
-        adopt(probe, state, k, *base);
+        if (!base || !adopt(probe, state, k, *base)) continue;
         state.nonCompositional[i] = 0;
         changed = true;
     }
@@ -728,7 +764,7 @@ bool relativeWhereParentValidates(const Pass& pass, RigProbe& probe, RigState& s
         if (!state.nonCompositional[i] || probe.constraints.contains(k) ||
             state.nonCompositional[static_cast<std::size_t>(p)] || o < 0 ||
             !(pass.approximation.outputs[static_cast<std::size_t>(o)].validationError <= epsilon) ||
-            !retried.insert(k).second)
+            readsOutput(probe, std::array{p}, k) || !retried.insert(k).second)
             continue;
         state.nonCompositional[i] = 0;
         probe.parents[i] = p;
@@ -788,7 +824,7 @@ bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hi
                                     !state.unreliable[static_cast<std::size_t>(p)];
         if (p >= 0 && !parentModelled && !tried.contains(p)) continue;  // its parent first
         const bool parentBack = probe.constraints.contains(p) || relativeAgain.contains(p);
-        if (parentModelled && parentBack && relativeAgain.insert(k).second) {
+        if (parentModelled && parentBack && !readsOutput(probe, std::array{p}, k) && relativeAgain.insert(k).second) {
             state.nonCompositional[i] = 0;
             probe.parents[i] = p;
             changed = true;
@@ -798,11 +834,13 @@ bool fitConstraints(RigProbe& probe, RigState& state, const std::vector<int>& hi
         tried.insert(k);
         std::string why;
         const std::optional<ConstraintBase> base = fitter.fit(k, state, why);
-        if (!base) {
+        const bool adopted = base && adopt(probe, state, k, *base);
+        if (base && !adopted)
+            why = fmt::format("its {} would read an output framed by it", constraintKindName(base->kind));
+        if (!adopted) {
             history.constraint[k] = why;
             continue;
         }
-        adopt(probe, state, k, *base);
         state.nonCompositional[i] = 0;
         changed = true;
         changedNow.insert(k);
@@ -845,11 +883,11 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     ValidationPoses poses = drawPoses(parameters, options);
     Pass pass;
     // Repairs, each pass learning again from the samples already taken (DESIGN: validation decides).
-    // First, a relative output where learning failed moves to world space (an output never goes back).
-    // Then outputs where a pair has neither order are set apart (setApartConflicts), constraints are fitted
-    // (fitConstraints), a planar chain over epsilon is tried as a twist share (twistOverEpsilon), then the rig
-    // decides the order of every pair on an output still over epsilon (distrustOverEpsilon), then interpolated fits
-    // reaching one get more samples (raiseBudgets).
+    // First, scale channels the ordering gave way are held (holdScaleChannels). Then a relative output where learning
+    // failed moves to world space (an output never goes back). Then outputs where a pair has neither order are set
+    // apart (setApartConflicts), constraints are fitted (fitConstraints), a planar chain over epsilon is tried as a
+    // twist share (twistOverEpsilon), then the rig decides the order of every pair on an output still over epsilon
+    // (distrustOverEpsilon), then interpolated fits reaching one get more samples (raiseBudgets).
     std::vector<int> budgets(parameters.size(), options.maxSamples);
     std::set<int> distrusted;
     PairSamples pairs;
@@ -857,6 +895,7 @@ Approximation learnApproximation(RigFunction& rig, const LearnOptions& options, 
     while (true) {
         pass = learnPass(probe, state, samples, poses, options, budgets, distrusted, fitter.held(), pairs, rigFile);
         orderEvaluations += pass.order.evaluations;
+        if (holdScaleChannels(pass, fitter)) continue;
         // Learned relative to an output now dropped: learn those again.
         if (worldWhereParentUnusable(probe, state, history)) continue;
         const std::set<int> failing = failingRelativeOutputs(pass, probe, options, history);

@@ -186,6 +186,11 @@ const std::string& nameOf(const std::vector<Classification>& classes, int p)
 }
 
 // Of two parameters, the one to discard: the smaller effect.
+bool isScale(const std::vector<Classification>& classes, int p)
+{
+    return classes[static_cast<std::size_t>(p)].model.parameter.scale;
+}
+
 int smaller(const std::vector<Classification>& classes, int p, int q)
 {
     return classes[static_cast<std::size_t>(p)].effect <= classes[static_cast<std::size_t>(q)].effect ? p : q;
@@ -238,7 +243,17 @@ PairOrder testPairs(PairTests& tests, const std::vector<Classification>& classes
         if (v.relation == Relation::firstOuter) order.next[p].insert(q);
         if (v.relation == Relation::secondOuter) order.next[q].insert(p);
         if (v.relation != Relation::conflict) continue;
-        const int drop = smaller(classes, p, q), keep = drop == p ? q : p;
+        const bool pScale = isScale(classes, p), qScale = isScale(classes, q);
+        const int drop = pScale != qScale ? (pScale ? p : q) : smaller(classes, p, q), keep = drop == p ? q : p;
+        if (isScale(classes, drop)) {
+            // A scale channel gives way, whatever its effect, and sets no output apart (RigParameter::scale).
+            result.held.emplace_back(
+                drop, fmt::format("a scale channel that cannot be ordered with {}: {}; a joint target does not say how "
+                                  "a control was scaled, so it is held at its rest value",
+                                  nameOf(classes, keep), v.detail));
+            order.alive.erase(drop);
+            continue;
+        }
         result.discards.emplace_back(
             drop,
             fmt::format("cannot be ordered with {}: {}; the one with the smaller effect was discarded, {} was kept",

@@ -7,7 +7,8 @@
 // A pair that commutes constrains nothing, and commutation is not transitive: the order is a
 // topological order of the precedence graph whose edges are the non-commuting pairs' verdicts. A pair
 // ordered both ways (on two outputs), a pair with neither order, or a cycle of the graph costs one
-// parameter, the one with the smaller effect; the others keep their edges. Internal to the learner.
+// parameter, the one with the smaller effect (a scale channel before any other: OrderResult::held); the others
+// keep their edges. Internal to the learner.
 
 #include <cstdint>
 #include <map>
@@ -23,6 +24,9 @@ namespace rig {
 struct OrderResult {
     std::vector<int> order;                             // indices into the classifications, outermost first
     std::vector<std::pair<int, std::string>> discards;  // classification index, reason
+    // Scale channels (RigParameter::scale) that gave way in a pair with neither order, whatever their effect, with
+    // no output set apart for it: the learner holds them at rest from then on. Classification index, reason.
+    std::vector<std::pair<int, std::string>> held;
     // Rig outputs where a pair had neither order, each with the first such pair and its errors (for the
     // reason an output is set apart, learner.h's UnmodelledOutput).
     std::map<int, std::string> conflictOutputs;

@@ -24,6 +24,10 @@ struct RigParameter {
     // none (a free rotation or translation) and min..max is only a range to learn from: the solver
     // may go past it, as an animator may.
     bool limited = true;
+    // A transform's scale channel (Maya's scaleX, scaleY, scaleZ). A joint target never says how a control was
+    // scaled, so where such a channel cannot be ordered with another the learner holds it at its rest value
+    // (inversion/learn/ordering.h) instead of giving up the joints it moves. Read while learning; not in files.
+    bool scale = false;
 };
 
 class RigFunction {

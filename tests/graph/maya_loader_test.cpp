@@ -232,6 +232,30 @@ TEST_CASE("maya scene: a two-bone ikRPsolver chain reaches its handle and keeps 
     checkStraightChainTurnsWithPole(*g);
 }
 
+TEST_CASE("maya scene: a joint orient-constrained to an IK chain's joint follows the solve, not its saved rotate")
+{
+    // A bound joint `bind` whose orientConstraint reads j1's rotate, as Maya writes it (`j1.r` into `.tg[0].tr`): the
+    // solver's answer, not the rotation the scene saved on j1 (Grunt_Rig.ma's legs: their bound joints stayed at the
+    // rest pose while the control chain bent).
+    const std::string scene =
+        ikChainScene("\tsetAttr \".r\" -type \"double3\" 0 0 90 ;\n", "5 3 0") +
+        "createNode joint -n \"bind\";\n"
+        "createNode orientConstraint -n \"bind_OC\" -p \"bind\";\n"
+        "connectAttr \"j1.r\" \"bind_OC.tg[0].tr\";\nconnectAttr \"j1.ro\" \"bind_OC.tg[0].tro\";\n"
+        "connectAttr \"j1.pm\" \"bind_OC.tg[0].tpm\";\nconnectAttr \"j1.jo\" \"bind_OC.tg[0].tjo\";\n"
+        "connectAttr \"bind.pim\" \"bind_OC.cpim\";\nconnectAttr \"bind.jo\" \"bind_OC.cjo\";\n"
+        "connectAttr \"bind_OC.crx\" \"bind.rx\";\nconnectAttr \"bind_OC.cry\" \"bind.ry\";\n"
+        "connectAttr \"bind_OC.crz\" \"bind.rz\";\n";
+    auto g = load(scene);
+    const auto turnApart = [&] {
+        return (mat(*g, "bind.worldMatrix").block<3, 3>(0, 0) - mat(*g, "j1.worldMatrix").block<3, 3>(0, 0)).norm();
+    };
+    CHECK(turnApart() < 1e-12);
+    g->setValue(g->plug("ikHandle1.translate"), Eigen::Vector3d(4, 4, 1));
+    CHECK((mat(*g, "j3.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(4, 4, 1)).norm() < 1e-9);
+    CHECK(turnApart() < 1e-12);
+}
+
 TEST_CASE("maya scene: a chain straight at rest turns with its pole vector in its preferred angles' plane")
 {
     // Straight along x; j2's preferred angle bends it toward +y. The goal past the reach keeps it straight: the pole
