@@ -670,6 +670,10 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
     // approximated (a point along a world axis a degree off a pole-less chain's rest normal: 2e-4 cm per unit): the
     // closest such is kept in case no later one is exact.
     std::optional<std::pair<ConstraintBase, double>> within;
+    // An exact candidate whose goal keeps its distance from the root (a control chain's knee for a bound thigh) is an
+    // aim at a point the root carries: kept, in case no goal whose reach varies is exact too, which explains the chain
+    // by what moves it (the reverse foot) rather than by another helper's frame, learned with its own error.
+    std::optional<ConstraintBase> fixedReach;
     for (int pass = 0; pass < 3; ++pass)
         for (const int goal : goals) {
             // Each candidate made and checked: the first exact one returned, the closest kept.
@@ -681,7 +685,11 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                 base.orient = orient;
                 base.origin = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
                 const double e = tryCandidate(k, root, varied, moversOf(goal).empty(), base);
-                if (e <= exactShare * options_.epsilon) return base;
+                const auto& knots = base.shape.rigid.knots();
+                const bool fixed =
+                    knots.empty() || knots.back() - knots.front() <= 1e-6 * std::max(1.0, base.restReach);
+                if (e <= exactShare * options_.epsilon && !fixed) return base;
+                if (e <= exactShare * options_.epsilon && !fixedReach) fixedReach = base;
                 if (e <= options_.epsilon && !(within && within->second <= e)) within.emplace(base, e);
                 if (!(e < closest.error)) continue;
                 closest.error = e;
@@ -697,6 +705,7 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                                 orient < 0 ? "" : ", turning as " + names[static_cast<std::size_t>(orient)]);
             }
         }
+    if (fixedReach) return fixedReach;
     if (within) return within->first;
     return std::nullopt;
 }
