@@ -117,10 +117,11 @@ void printSummary(const bench::Json& r)
         for (const auto& s : scenes->at("scenes"))
             std::cout << (s.contains("error")
                               ? fmt::format("maya scene  {}: {}\n", text(s.at("clip")), text(s.at("error")))
-                              : fmt::format("maya scene  {}: {} joints, {} parameters ({} unmodelled outputs), {} "
+                              : fmt::format("maya scene  {}: {} joints, {} parameters ({} unmodelled outputs{}), {} "
                                             "evaluations; {} of {} frames reached, {} per frame; OUT.ma replay {}\n",
                                             text(s.at("clip")), figure(s.at("joints")),
                                             figure(s.at("parameters_modelled")), figure(s.at("unmodelled_outputs")),
+                                            s.value("within_epsilon", true) ? "" : ", over epsilon",
                                             figure(s.at("training_evaluations"), "", 6), figure(s.at("reached")),
                                             figure(s.at("frames")), figure(s.at("ms_per_frame"), "ms"),
                                             figure(s.at("replay_worst_reached_cm"), "cm")));

@@ -23,6 +23,8 @@ TEST_CASE("rig-bench maya_scenes: a keyed scene of our own is learned as it come
     CHECK(scene.at("joints") == 3);
     CHECK(scene.at("parameters_found") == 13);
     CHECK(scene.at("unmodelled_outputs") == 0);
+    CHECK(scene.at("within_epsilon") == true);
+    CHECK(scene.at("worst_relative_error_cm").get<double>() <= 1e-3);
     CHECK(scene.at("training_evaluations").get<int>() > 0);
     CHECK(scene.at("frames") == 20);
     CHECK(scene.at("reached") == 20);
