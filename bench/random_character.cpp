@@ -153,6 +153,14 @@ private:
     void orientTo(const std::string& jointName, const std::string& parent, const std::string& target,
                   const std::string& order);
     Eigen::Vector3d worldAt(const std::string& name) const { return world_.at(name).block<3, 1>(0, 3); }
+    // The rotate Maya's handle tool gives a handle under `parent`: its effector's world orientation at rest (`joint`'s,
+    // the chain's last), which an ikSCsolver's chain turns toward (docs/ik-and-deformers.md), so that the rest pose is
+    // the solver's. As a rig file's field, degrees in xyz order.
+    std::string handleRotate(const std::string& parent, const std::string& joint) const
+    {
+        const Eigen::Matrix3d r = world_.at(parent).block<3, 3>(0, 0).transpose() * world_.at(joint).block<3, 3>(0, 0);
+        return "rotate: " + v3(matrixToEuler(polarRotation(r), RotateOrder::xyz) * (180.0 / std::numbers::pi)) + ", ";
+    }
     // A control whose rotate drives `joint` (in the joint's rotate order).
     void fkControl(const std::string& control, const std::string& joint, const std::string& rotateOrder);
     void finger(const std::string& side, int index, double sign, const std::string& hand);
@@ -610,10 +618,11 @@ void CharacterBuilder::legIk(const std::string& side, const LegChoice& choice, c
         // is the world's at rest), and turns with the foot. The ikSCsolver reads no pole vector.
         node(
             fmt::format("{{name: {}, type: mayaIkHandle, parent: {}, translate: {}, solverType: {}, "
-                        "{}jointTranslate: [{}], jointOrient: [{}], jointRotateOrder: [{}], effectorTranslate: {}}}",
+                        "{}{}jointTranslate: [{}], jointOrient: [{}], jointRotateOrder: [{}], effectorTranslate: {}}}",
                         ik, goalParent, v3(goalFromParent), choice.scLeg ? "ikSCsolver" : "ikRPsolver",
-                        choice.pole || choice.scLeg ? "" : "poleVector: " + v3(across) + ", ", translates, orients,
-                        orders, v3(chain.back().translate)));
+                        choice.pole || choice.scLeg ? "" : "poleVector: " + v3(across) + ", ",
+                        choice.scLeg ? handleRotate(goalParent, side + chain[chain.size() - 2].name) : "", translates,
+                        orients, orders, v3(chain.back().translate)));
         for (std::size_t j = 0; j + 1 < chain.size(); ++j)
             connect(fmt::format("{}.outRotate[{}]", ik, j), side + chain[j].name + suffix + ".rotate");
     } else {
@@ -666,9 +675,9 @@ void CharacterBuilder::singleBoneIk(const std::string& side, const std::string& 
     }
     node(
         fmt::format("{{name: {}, type: mayaIkHandle, parent: {}, translate: {}, solverType: ikSCsolver, "
-                    "jointTranslate: [{}], jointOrient: [{}], jointRotateOrder: [{}], effectorTranslate: {}}}",
-                    ik, goal, v3(worldAt(end) - worldAt(goal)), v3(j.translate), v3(j.orient), j.order,
-                    v3(world_.at(name).inverse().block<3, 3>(0, 0) * (worldAt(end) - worldAt(name)))));
+                    "{}jointTranslate: [{}], jointOrient: [{}], jointRotateOrder: [{}], effectorTranslate: {}}}",
+                    ik, goal, v3(worldAt(end) - worldAt(goal)), handleRotate(goal, name), v3(j.translate), v3(j.orient),
+                    j.order, v3(world_.at(name).inverse().block<3, 3>(0, 0) * (worldAt(end) - worldAt(name)))));
     connect(parent + ".worldMatrix", ik + ".startParentMatrix");
     connect(parent + ".scale", ik + ".startInverseScale");
     connect(ik + ".outRotate[0]", name + ".rotate");

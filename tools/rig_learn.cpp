@@ -220,12 +220,14 @@ std::string constraintsText(const Approximation& a)
         out += fmt::format(
             "  {}: {}, root carried by {}, goal {}, pole {}{}; shape {} knots over reaches {:.4g}..{:.4g} cm\n", o.name,
             constraintKindName(c.kind), c.anchor < 0 ? "the world" : name(c.anchor), name(c.goal),
-            c.minimalTurn ? "none (its rest plane turned minimally onto the goal: an ikSCsolver)"
-            : c.restPlane ? "none (its rest plane)"
-            : c.worldUp   ? "a world axis from the root (a world up)"
-            : c.pole < 0  ? "fixed to the anchor"
-            : c.poleTurns ? "turned by " + name(c.pole) + " (a direction in its axes)"
-                          : name(c.pole),
+            c.goalTurns     ? "none (its rest plane turned by the goal's rotation, then minimally onto its line: an "
+                              "ikSCsolver turning toward its handle)"
+            : c.minimalTurn ? "none (its rest plane turned minimally onto the goal: an ikSCsolver)"
+            : c.restPlane   ? "none (its rest plane)"
+            : c.worldUp     ? "a world axis from the root (a world up)"
+            : c.pole < 0    ? "fixed to the anchor"
+            : c.poleTurns   ? "turned by " + name(c.pole) + " (a direction in its axes)"
+                            : name(c.pole),
             c.orient < 0 ? "" : ", turning as " + name(c.orient), knots.size(), c.restReach + knots.front(),
             c.restReach + knots.back());
     }

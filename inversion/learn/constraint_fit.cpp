@@ -124,6 +124,20 @@ bool ConstraintFitter::below(int h, int k) const
     return false;
 }
 
+int ConstraintFitter::effectorOf(int goal, int root) const
+{
+    // Maya's handle tool gives the handle its effector's orientation: the output below the root (or the root) turned
+    // as the goal at rest.
+    const auto& rest = probe_.rest();
+    const Eigen::Matrix3d turn = polarRotation(rest[static_cast<std::size_t>(goal)].block<3, 3>(0, 0));
+    for (std::size_t o = 0; o < rest.size(); ++o) {
+        const int oo = static_cast<int>(o);
+        if (oo == goal || (oo != root && !below(oo, root))) continue;
+        if ((polarRotation(rest[o].block<3, 3>(0, 0)) - turn).norm() < 1e-6) return oo;
+    }
+    return root;
+}
+
 bool ConstraintFitter::usableAnchor(int a, const RigState& state) const
 {
     return modelled(a, state) && !probe_.constraints.contains(a);
@@ -312,8 +326,10 @@ bool ConstraintFitter::makeBase(int k, int rootOutput, Sweep& sweep, double lo, 
 {
     std::map<double, std::pair<double, Eigen::Matrix4d>> knots{{0.0, {0.0, Eigen::Matrix4d::Identity()}}};
     std::map<double, std::pair<double, double>> turns{{0.0, {0.0, 0.0}}};  // t -> the reach offset, the line's turn
-    const Eigen::Matrix3d rootRest =
-        polarRotation(probe_.rest()[static_cast<std::size_t>(rootOutput)].block<3, 3>(0, 0));
+    // The line's turn is read from the chain's start joint, or for a plane the goal turns from the effector's joint
+    // (ConstraintBase::goalTurns).
+    const int turning = base.goalTurns ? effectorOf(base.goal, rootOutput) : rootOutput;
+    const Eigen::Matrix3d rootRest = polarRotation(probe_.rest()[static_cast<std::size_t>(turning)].block<3, 3>(0, 0));
     const auto add = [&](double t) {
         if (knots.contains(t)) return true;
         std::pair<double, Eigen::Matrix4d> knot;
@@ -323,14 +339,16 @@ bool ConstraintFitter::makeBase(int k, int rootOutput, Sweep& sweep, double lo, 
         // Along the line at rest the chain's start joint (its root output) turns about the rest normal alone, from
         // the line to its end as it bent with the start joint unturned back onto the goal's: that turn's opposite.
         const Eigen::Matrix3d turn =
-            polarRotation(worlds[static_cast<std::size_t>(rootOutput)].block<3, 3>(0, 0)) * rootRest.transpose();
+            polarRotation(worlds[static_cast<std::size_t>(turning)].block<3, 3>(0, 0)) * rootRest.transpose();
         turns.emplace(t, std::pair{knot.first, -rotationVector(turn).dot(base.restNormal)});
         return true;
     };
     // A minimalTurn chain's line turn through the knots so far (the shape's frame at a knot does not depend on it:
     // along the line at rest the plane is the rest plane, whatever the turn).
     const auto setTurn = [&] {
-        if (!base.minimalTurn) return true;
+        // One bone turned by its goal does not bend: its line does not turn (and a sweep that turns the goal would
+        // read the goal's own turn as the line's).
+        if (!base.minimalTurn || (base.goalTurns && turning == rootOutput)) return true;
         std::vector<double> xs;
         std::vector<CubicSpline<1>::Vector> ys;
         for (const auto& [t, turn] : turns) {
@@ -396,7 +414,8 @@ double ConstraintFitter::tryCandidate(int k, int rootOutput, const std::vector<i
     const double span = hi - lo;
     lo = std::max(lo - 0.25 * span, (nearestReach - 1.0) * base.restReach);
     hi += 0.25 * span;
-    if (fixedGoal) {
+    // One bone turned by its goal (an ikSCsolver's start joint aimed at its handle) does not bend either.
+    if (fixedGoal || (base.goalTurns && effectorOf(base.goal, rootOutput) == rootOutput && rootOutput == k)) {
         // An aim at a fixed point: what the output does cannot depend on its distance from it. G = I throughout.
         std::map<double, std::pair<double, Eigen::Matrix4d>> flat{{lo, {lo, Eigen::Matrix4d::Identity()}},
                                                                   {hi, {hi, Eigen::Matrix4d::Identity()}}};
@@ -696,12 +715,13 @@ std::optional<ConstraintBase> ConstraintFitter::fitChain(int k, int anchor, int 
                 const std::string fixedTo = anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)];
                 closest.what =
                     fmt::format("a planar chain (goal {}, pole {}{})", names[static_cast<std::size_t>(goal)],
-                                base.minimalTurn ? "none (the rest plane of " + fixedTo + " turned minimally)"
-                                : base.restPlane ? "none (the rest plane of " + fixedTo + ")"
-                                : base.worldUp   ? std::string("a world up")
-                                : pole < 0       ? "fixed to " + fixedTo
-                                : base.poleTurns ? "turned by " + names[static_cast<std::size_t>(pole)]
-                                                 : names[static_cast<std::size_t>(pole)],
+                                base.goalTurns     ? "none (the rest plane turned by the goal, then minimally)"
+                                : base.minimalTurn ? "none (the rest plane of " + fixedTo + " turned minimally)"
+                                : base.restPlane   ? "none (the rest plane of " + fixedTo + ")"
+                                : base.worldUp     ? std::string("a world up")
+                                : pole < 0         ? "fixed to " + fixedTo
+                                : base.poleTurns   ? "turned by " + names[static_cast<std::size_t>(pole)]
+                                                   : names[static_cast<std::size_t>(pole)],
                                 orient < 0 ? "" : ", turning as " + names[static_cast<std::size_t>(orient)]);
             }
         }
@@ -754,11 +774,16 @@ std::vector<ConstraintBase> ConstraintFitter::poleCandidates(int pass, int k, in
         // Maya's ikSCsolver: no pole, the rest plane turned minimally onto the goal's line (any plane through the line
         // of a chain straight at rest: its shape takes the constant turn from it).
         const Eigen::Vector3d x0 = (restGoal - rootRest).normalized();
-        for (const Eigen::Vector3d& normal : normals.empty() ? std::vector{x0.unitOrthogonal()} : normals) {
-            choice(-1, rootRest, normal);
-            poles.back().minimalTurn = true;
-            poles.back().lineTurn = lineTurnAt(rootRest, normal);
-        }
+        // Then as Maya solves it, the plane turned by the goal's rotation as well (the handle's orientation, which
+        // the chain turns toward about its line: a handle under a reverse foot's pivot turns the foot).
+        for (const bool goalTurns : {false, true})
+            for (const Eigen::Vector3d& normal : normals.empty() ? std::vector{x0.unitOrthogonal()} : normals) {
+                choice(-1, rootRest, normal);
+                poles.back().minimalTurn = true;
+                poles.back().lineTurn = lineTurnAt(rootRest, normal);
+                poles.back().goalTurns = goalTurns;
+                poles.back().goalRest = rest[static_cast<std::size_t>(goal)].block<3, 3>(0, 0);
+            }
         return poles;
     }
     // A pole vector in the axes of the goal or of a helper moved with it (a mayaIkHandle's, kept in the space of the
@@ -812,6 +837,15 @@ std::optional<ConstraintBase> ConstraintFitter::fit(int k, const RigState& state
     for (const int carrier : rootCarriers(k, anchor, root, state))
         if (std::optional<ConstraintBase> chain = fitAnchored(k, carrier, root, state, closest, candidates))
             return chain;
+    // A chain that starts at k itself under a parent another constraint frames (an ikSCsolver's ankle under an IK
+    // knee): rooted at k, carried by that parent.
+    if (root != k) {
+        int parent = hierarchy_[static_cast<std::size_t>(k)];
+        while (parent >= 0 && !modelled(parent, state)) parent = hierarchy_[static_cast<std::size_t>(parent)];
+        if (parent >= 0)
+            if (std::optional<ConstraintBase> chain = fitAnchored(k, parent, k, state, closest, candidates))
+                return chain;
+    }
     if (std::optional<ConstraintBase> oriented = fitOriented(k, state, closest)) return oriented;
     if (std::optional<ConstraintBase> aimed = fitAimed(k, state, closest)) return aimed;
     if (!candidates) {
@@ -944,24 +978,31 @@ std::optional<ConstraintBase> ConstraintFitter::fitAimed(int k, const RigState& 
     const auto& rest = probe_.rest();
     const auto& names = probe_.rig().outputs();
     const Eigen::Vector3d root = rest[static_cast<std::size_t>(k)].block<3, 1>(0, 3);
-    for (const int goal : goals) {
-        ConstraintBase base;
-        base.anchor = anchor;
-        base.goal = goal;
-        base.root = root;
-        base.restPlane = base.minimalTurn = true;
-        base.restNormal = (rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3) - root).normalized().unitOrthogonal();
-        base.lineTurn = lineTurnAt(root, base.restNormal);
-        base.origin = root;
-        // One bone does not bend: its shape is constant, as an aim's at a fixed point.
-        const double e = tryCandidate(k, k, varied, true, base);
-        if (e <= options_.epsilon) return base;
-        if (!(e < closest.error)) continue;
-        closest.error = e;
-        closest.what = fmt::format("a one-bone chain (carried by {}, turned minimally onto {})",
-                                   anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)],
-                                   names[static_cast<std::size_t>(goal)]);
-    }
+    // Turned minimally from the anchor's turn, or (Maya's ikSCsolver) from the goal's: the handle's orientation, which
+    // the bone turns toward about its line.
+    for (const bool goalTurns : {false, true})
+        for (const int goal : goals) {
+            ConstraintBase base;
+            base.anchor = anchor;
+            base.goal = goal;
+            base.root = root;
+            base.restPlane = base.minimalTurn = true;
+            base.goalTurns = goalTurns;
+            base.goalRest = rest[static_cast<std::size_t>(goal)].block<3, 3>(0, 0);
+            base.restNormal =
+                (rest[static_cast<std::size_t>(goal)].block<3, 1>(0, 3) - root).normalized().unitOrthogonal();
+            base.lineTurn = lineTurnAt(root, base.restNormal);
+            base.origin = root;
+            // One bone does not bend: its shape is constant, as an aim's at a fixed point.
+            const double e = tryCandidate(k, k, varied, true, base);
+            if (e <= options_.epsilon) return base;
+            if (!(e < closest.error)) continue;
+            closest.error = e;
+            closest.what = fmt::format("a one-bone chain (carried by {}, turned {} onto {})",
+                                       anchor < 0 ? "the world" : names[static_cast<std::size_t>(anchor)],
+                                       goalTurns ? "by its goal, then minimally," : "minimally",
+                                       names[static_cast<std::size_t>(goal)]);
+        }
     return std::nullopt;
 }
 

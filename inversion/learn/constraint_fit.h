@@ -74,6 +74,9 @@ private:
     // Whether h is below k in the rig's output hierarchy: its frame follows k's, so no constraint of k reads it (a
     // control chain's knee is no goal of its thigh).
     bool below(int h, int k) const;
+    // The output whose orientation a chain's goal took at rest (an ikSCsolver's effector joint, below the chain's
+    // root output or the root itself), or `root` where none did.
+    int effectorOf(int goal, int root) const;
     std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k, but the held ones
     bool turnedBy(int i, int o) const;       // whether parameter i's first samples turn output o
     // The parameters of `varied` that move the anchor and change k's world apart from a rigid motion (its scale or

@@ -222,9 +222,9 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
         r.checkKeys(n, field, {"kind", "driver", "root", "axis", "twistAxis", "readOrder", "twistOrder", "share"},
                     {"anchor", "driverParent"});
     else
-        r.checkKeys(
-            n, field, {"kind", "goal", "root", "restPole", "shape"},
-            {"anchor", "pole", "restNormal", "worldUp", "poleTurns", "minimalTurn", "lineTurn", "orient", "origin"});
+        r.checkKeys(n, field, {"kind", "goal", "root", "restPole", "shape"},
+                    {"anchor", "pole", "restNormal", "worldUp", "poleTurns", "minimalTurn", "goalTurns", "lineTurn",
+                     "orient", "origin"});
     const auto input = [&](std::string_view which) {
         const YAML::Node v = r.child(n, which);
         if (!v) return -1;
@@ -282,6 +282,13 @@ ConstraintBase readConstraint(const Reader& r, const YAML::Node& n, const std::s
         base.minimalTurn = r.boolean(minimal, field + ".minimalTurn");
         if (base.minimalTurn && !base.restPlane)
             r.fail(minimal, field + ".minimalTurn", "a plane turned minimally is a rest plane's; add restNormal");
+    }
+    if (const YAML::Node turns = r.child(n, "goalTurns")) {
+        base.goalTurns = r.boolean(turns, field + ".goalTurns");
+        if (base.goalTurns && !base.minimalTurn)
+            r.fail(turns, field + ".goalTurns", "a plane the goal turns is a minimalTurn plane's; add minimalTurn");
+        if (base.goalTurns && base.goal >= 0)
+            base.goalRest = a.outputs[static_cast<std::size_t>(base.goal)].rest.block<3, 3>(0, 0);
     }
     if (const YAML::Node turn = r.child(n, "lineTurn")) {
         if (!base.minimalTurn) r.fail(turn, field + ".lineTurn", "a line's turn belongs to minimalTurn; remove it");

@@ -237,7 +237,9 @@ std::string constraintsText(const Approximation& a)
         if (base.poleTurns) out += "    poleTurns: true\n";
         // The ikSCsolver's plane: the rest plane turned minimally, with the turn of the chain's line by the reach.
         if (base.minimalTurn) {
-            out += "    minimalTurn: true\n    lineTurn:\n";
+            out += "    minimalTurn: true\n";
+            if (base.goalTurns) out += "    goalTurns: true\n";
+            out += "    lineTurn:\n";
             out += operatorText(base.lineTurn, field + ".lineTurn", "      ", "      ");
         }
         // An output turning as another does: that output, and the rest origin the chain carries.

@@ -166,7 +166,11 @@ ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& ancho
     else if (base.pole >= 0) pole = poleWorld.block<3, 1>(0, 3);
     else if (base.worldUp) pole = root + base.restPole - base.root;
     ChainPoints points{root, goalWorld.block<3, 1>(0, 3), pole, anchorMotion.block<3, 3>(0, 0) * base.restNormal};
-    if (base.minimalTurn) minimalTurnNormal(base, anchorMotion.block<3, 3>(0, 0), points);
+    if (base.minimalTurn)
+        minimalTurnNormal(base,
+                          base.goalTurns ? Eigen::Matrix3d(goalWorld.block<3, 3>(0, 0) * base.goalRest.inverse())
+                                         : Eigen::Matrix3d(anchorMotion.block<3, 3>(0, 0)),
+                          points);
     return points;
 }
 

@@ -98,6 +98,16 @@ struct ConstraintBase {
     // the chain bends to the reach d with its start joint unturned (in the anchor's axes): x0 turned about restNormal
     // by lineTurn's magnitude at d - d0 (a curve of the reach; zero for a one-bone chain, which does not bend).
     bool minimalTurn = false;
+    // With minimalTurn, Maya's ikSCsolver as Maya solves it: the chain then turns about its line toward the goal's
+    // orientation (the handle's, which Maya's handle tool gives the effector's at rest). The plane is the rest plane
+    // carried by the goal's rotation from rest W instead of the anchor's, turned minimally onto the goal's line,
+    // n = R_min(t -> x) W N with t = W Rot(N, lineTurn) x0 (lineTurn: the effector's turn as the chain bends, the
+    // bend's line turn less the effector joint's own; zero for one bone): with the start joint's turn about the line
+    // that brings the effector's orientation nearest the handle's, the chain's frame is the one whose x column is
+    // the line and that is nearest W C0. goalRest is the 3x3 part of the goal output's rest world (derived: set with
+    // `goal`).
+    bool goalTurns = false;
+    Eigen::Matrix3d goalRest = Eigen::Matrix3d::Identity();
     Operator lineTurn;
     double restReach = 0.0;  // d0 = |g - r| at rest
     Operator shape;          // sampledRigid in d - d0: the output's motion within the chain's frame

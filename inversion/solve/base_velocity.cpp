@@ -54,7 +54,14 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
         base.anchorNode < 0 ? Eigen::Matrix3d(Eigen::Matrix3d::Identity())
                             : Eigen::Matrix3d(nodeMatrix_[static_cast<std::size_t>(base.anchorNode)].leftCols<3>());
     points.normal = anchorLinear * c.restNormal;
-    if (c.minimalTurn) minimalTurnNormal(c, anchorLinear, points);
+    // An ikSCsolver's plane turns with the goal's rotation (its node's product, a motion from rest).
+    if (c.minimalTurn)
+        minimalTurnNormal(c,
+                          c.goalTurns && base.goalNode >= 0
+                              ? Eigen::Matrix3d(nodeMatrix_[static_cast<std::size_t>(base.goalNode)].leftCols<3>())
+                          : c.goalTurns ? Eigen::Matrix3d(Eigen::Matrix3d::Identity())
+                                        : anchorLinear,
+                          points);
     const Eigen::Matrix4d chain = constraintBase(c, points);
     if (c.orient < 0) return chain.topRows<3>();
     Eigen::Matrix4d orient = Eigen::Matrix4d::Identity();
@@ -170,7 +177,8 @@ void ResidualWorkspace::baseVelocities()
                               : rate(x[0], points.pole);
             ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal), poleRate,
                               x[0].leftCols<3>() * points.normal};
-            if (c.minimalTurn) rates.normal = minimalTurnRate(c, points, rates, x[0].leftCols<3>());
+            if (c.minimalTurn)
+                rates.normal = minimalTurnRate(c, points, rates, c.goalTurns ? x[1].leftCols<3>() : x[0].leftCols<3>());
             const Affine chain = baseVelocity(at, rates);
             baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
                 c.orient < 0 ? chain : orientedVelocity(chain, x[3], baseCentres_[b]);

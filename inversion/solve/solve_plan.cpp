@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 
+#include <Eigen/QR>
+
 #include "core/prefetch.h"
 
 namespace rig {
@@ -222,28 +224,24 @@ private:
     // twist's driver, a blend's branches, an orient output): information on p that k's target holds and no output
     // it is relative to does.
     bool movesInput(int p, int k) const;
-    // The step's parameters that move none of its outputs at rest (a foot control's rotation, which the thigh of an
-    // ikSCsolver leg under it, reading the goal's origin alone, does not see); `fewerRows` says whether its outputs'
-    // rows are fewer than its parameters.
-    std::vector<int> freeParameters(const PartitionBlock& step, bool& fewerRows);
-    // Whether parameter p moves none of its latest step's outputs at rest.
-    bool isFree(int p) const
-    {
-        const std::vector<int>& f = free_[static_cast<std::size_t>(stepOf_[static_cast<std::size_t>(p)])];
-        return std::find(f.begin(), f.end(), p) != f.end();
-    }
+    // Whether the step's outputs have fewer rows than its parameters, or some of its parameters move none of them at
+    // rest (a foot control's roll beside its translate and rotate, on the ankle alone).
+    bool underdetermined(const PartitionBlock& step);
+    // Whether output k's rows fix some combination of step s's parameters that its outputs leave free: the rank of its
+    // Jacobian at rest grows with them.
+    bool informs(int k, std::size_t s);
+    Eigen::MatrixXd restJacobian(const PartitionBlock& step);  // the step's residuals' Jacobian at rest
     void push(PartitionBlock step, std::vector<int> first);
-    void resolve(std::size_t from, const std::vector<int>& moving);
+    void resolve(std::size_t from, const std::vector<int>& moving, std::vector<int> fresh);
 
     const Approximation& approximation_;
     std::span<const ResidualTerm* const> terms_;
     std::vector<char> solved_;
     std::vector<int> stepOf_;  // per parameter: the latest step solving it, -1 before any
     std::vector<std::vector<int>> reach_;
-    std::vector<char> underdetermined_;   // per step: some of its parameters left free on its outputs
-    std::vector<std::vector<int>> free_;  // per step: its parameters that move none of its outputs at rest
-    std::vector<char> visited_;           // per output: drafted already
-    std::vector<PreparedTarget> rest_;    // every output's rest world as a target, made when first needed
+    std::vector<char> underdetermined_;  // per step: some of its parameters left free on its outputs
+    std::vector<char> visited_;          // per output: drafted already
+    std::vector<PreparedTarget> rest_;   // every output's rest world as a target, made when first needed
     std::vector<double> defaults_;
 };
 
@@ -257,11 +255,9 @@ bool GuessDraft::movesInput(int p, int k) const
                        [&](int input) { return input >= 0 && input != base.anchor && reaches(p, input); });
 }
 
-std::vector<int> GuessDraft::freeParameters(const PartitionBlock& step, bool& fewerRows)
+Eigen::MatrixXd GuessDraft::restJacobian(const PartitionBlock& step)
 {
     const ResidualStructure structure(approximation_, step.parameters, step.outputs, terms_);
-    const Eigen::Index columns = structure.columnCount();
-    fewerRows = structure.rows() < columns;
     if (rest_.empty()) {
         rest_.resize(approximation_.outputs.size());
         for (std::size_t k = 0; k < rest_.size(); ++k)
@@ -274,22 +270,51 @@ std::vector<int> GuessDraft::freeParameters(const PartitionBlock& step, bool& fe
     std::vector<double> x;
     for (const int p : step.parameters) x.push_back(defaults_[static_cast<std::size_t>(p)]);
     Eigen::VectorXd r(structure.rows());
-    Eigen::MatrixXd j(structure.rows(), columns);
+    Eigen::MatrixXd j(structure.rows(), structure.columnCount());
     w.jacobian(x, JacobianMethod::analytic, 0.0, false, r, j);
-    std::vector<int> free;
-    if (!j.allFinite()) return free;
+    return j;
+}
+
+bool GuessDraft::underdetermined(const PartitionBlock& step)
+{
+    const Eigen::MatrixXd j = restJacobian(step);
+    if (j.rows() < j.cols()) return true;
+    if (!j.allFinite()) return false;
     // Rounding aside: a column that moves nothing is zero to the last bits.
     const double zero = 1e-12 * std::max(1.0, j.cwiseAbs().maxCoeff());
-    for (Eigen::Index c = 0; c < columns; ++c)
-        if (j.col(c).cwiseAbs().maxCoeff() <= zero) free.push_back(step.parameters[static_cast<std::size_t>(c)]);
-    return free;
+    for (Eigen::Index c = 0; c < j.cols(); ++c)
+        if (j.col(c).cwiseAbs().maxCoeff() <= zero) return true;
+    return false;
+}
+
+bool GuessDraft::informs(int k, std::size_t s)
+{
+    // A chain's later joints fix nothing its first one's step does not place already (the guess places the chain from
+    // its end's and middle's targets): an IK arm's forearm tells the arm's step no more.
+    const auto goalOf = [&](int o) {
+        const int c = approximation_.outputs[static_cast<std::size_t>(o)].constraint;
+        return c < 0 ? -1 : approximation_.constraints[static_cast<std::size_t>(c)].goal;
+    };
+    const int goal = goalOf(k);
+    if (goal >= 0 &&
+        std::any_of(steps[s].outputs.begin(), steps[s].outputs.end(), [&](int o) { return goalOf(o) == goal; }))
+        return false;
+    PartitionBlock with = steps[s];
+    with.outputs.insert(std::upper_bound(with.outputs.begin(), with.outputs.end(), k), k);
+    const Eigen::MatrixXd before = restJacobian(steps[s]), after = restJacobian(with);
+    if (!before.allFinite() || !after.allFinite()) return false;
+    // Rounding aside, a combination that moves nothing leaves a pivot zero to the last bits.
+    const auto rank = [](const Eigen::MatrixXd& j) {
+        Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j);
+        qr.setThreshold(1e-9);
+        return qr.rank();
+    };
+    return rank(after) > rank(before);
 }
 
 void GuessDraft::push(PartitionBlock step, std::vector<int> first)
 {
-    bool fewerRows = false;
-    free_.push_back(freeParameters(step, fewerRows));
-    underdetermined_.push_back(fewerRows || !free_.back().empty());
+    underdetermined_.push_back(underdetermined(step) ? 1 : 0);
     for (const int p : step.parameters) stepOf_[static_cast<std::size_t>(p)] = static_cast<int>(steps.size());
     steps.push_back(std::move(step));
     own.push_back(std::move(first));
@@ -299,50 +324,51 @@ void GuessDraft::add(int k)
 {
     PartitionBlock step;
     step.outputs = {k};
-    // The steps that move k, and those among them whose free parameters move an input of its constraint (isFree,
-    // movesInput).
+    // The steps that move k, and those among them whose parameters move an input of its constraint (movesInput).
     std::vector<int> moving, inputs;
     for (std::size_t p = 0; p < reach_.size(); ++p) {
         if (!solved_[p] || !reaches(static_cast<int>(p), k)) continue;
         if (stepOf_[p] < 0) step.parameters.push_back(static_cast<int>(p));
         else moving.push_back(stepOf_[p]);
-        if (stepOf_[p] >= 0 && isFree(static_cast<int>(p)) && movesInput(static_cast<int>(p), k))
-            inputs.push_back(stepOf_[p]);
+        if (stepOf_[p] >= 0 && movesInput(static_cast<int>(p), k)) inputs.push_back(stepOf_[p]);
     }
     visited_[static_cast<std::size_t>(k)] = 1;
-    if (!step.parameters.empty()) {
+    // When a step that moves k left some combination of its parameters free, one of them moves an input of k's
+    // constraint and k's target fixes some of that combination (a ball aimed by an ikSCsolver at a goal under the foot
+    // control, which the leg's step placed but did not turn), the steps from that one on that move k are solved again
+    // together with k's own parameters, if any (the latest alone, without them, solves k too). Else k's own parameters
+    // are a step of their own; else, when the latest step left some parameter free on its own outputs (a reverse
+    // foot's roll beside its translate and rotate, on the ankle alone), that step solves k too; else the free ones stay
+    // where they started.
+    std::sort(moving.begin(), moving.end());
+    moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
+    std::sort(inputs.begin(), inputs.end());
+    const auto informing =
+        std::find_if(inputs.begin(), inputs.end(), [&](int s) { return informs(k, static_cast<std::size_t>(s)); });
+    const bool own = !step.parameters.empty();
+    if (informing != inputs.end() && (own || *informing != moving.back())) {
+        resolve(static_cast<std::size_t>(std::lower_bound(moving.begin(), moving.end(), *informing) - moving.begin()),
+                moving, std::move(step.parameters));
+        return;
+    }
+    if (own) {
         std::vector<int> first = step.parameters;
         push(std::move(step), std::move(first));
         return;
     }
     if (moving.empty()) return;
-    // An output whose parameters were all fixed before it. When a step before the latest that moves it left one of its
-    // parameters free and that one moves an input of its constraint (a ball aimed by an ikSCsolver at a goal under the
-    // foot control, which the leg's step placed but did not turn, before its ankle's own control), the steps from that
-    // one on that move it are solved again together with it. Else, when the latest left some free on its own outputs (a
-    // reverse foot's roll beside its translate and rotate, on the ankle alone), that step solves this output too; else
-    // the free ones stay where they started.
-    std::sort(moving.begin(), moving.end());
-    moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
-    std::sort(inputs.begin(), inputs.end());
-    const auto freeInput = std::find_if(inputs.begin(), inputs.end(),
-                                        [&](int s) { return underdetermined_[static_cast<std::size_t>(s)] != 0; });
-    if (freeInput != inputs.end() && *freeInput != moving.back()) {
-        resolve(static_cast<std::size_t>(std::lower_bound(moving.begin(), moving.end(), *freeInput) - moving.begin()),
-                moving);
-        return;
-    }
     std::vector<int>& outputs = steps[static_cast<std::size_t>(moving.back())].outputs;
-    if (underdetermined_[static_cast<std::size_t>(moving.back())])
+    if (informing != inputs.end() || underdetermined_[static_cast<std::size_t>(moving.back())])
         outputs.insert(std::upper_bound(outputs.begin(), outputs.end(), k), k);
 }
 
-// A step after the steps moving[from..] (those that move an output none of its own parameters reach): their
-// parameters solved again together, on every output drafted so far that they move, the output among them. Their free
-// parameters are this step's now.
-void GuessDraft::resolve(std::size_t from, const std::vector<int>& moving)
+// A step after the steps moving[from..] (those that move an output none of its own parameters reach), with `fresh`,
+// parameters no step fixed before: all solved together, on every output drafted so far that they move, the output
+// among them. Their free parameters are this step's now.
+void GuessDraft::resolve(std::size_t from, const std::vector<int>& moving, std::vector<int> fresh)
 {
     PartitionBlock step;
+    step.parameters = fresh;
     for (std::size_t m = from; m < moving.size(); ++m) {
         const std::size_t s = static_cast<std::size_t>(moving[m]);
         step.parameters.insert(step.parameters.end(), steps[s].parameters.begin(), steps[s].parameters.end());
@@ -355,7 +381,7 @@ void GuessDraft::resolve(std::size_t from, const std::vector<int>& moving)
             if (visited_[static_cast<std::size_t>(o)]) step.outputs.push_back(o);
     std::sort(step.outputs.begin(), step.outputs.end());
     step.outputs.erase(std::unique(step.outputs.begin(), step.outputs.end()), step.outputs.end());
-    push(std::move(step), {});
+    push(std::move(step), std::move(fresh));
 }
 
 }  // namespace

@@ -10,9 +10,10 @@
 // the smallest rotation, then (ikRPsolver) about start->goal until the chain's plane holds the pole vector (its
 // normal kept from the reference pose where the goal is past the chain's reach and the solve straightens it, from
 // the preferred angles' pose where the reference is straight too),
-// then by the twist. Each world turn D_i is taken into joint i's rotate space, R_i' = (B_i^-1 D_i B_i) R_i,
-// B_i the frame its rotate acts in (the product-of-exponentials form of the chain: exact for rigid and uniformly
-// scaled chains).
+// then by the twist; the ikSCsolver's start joint turns about start->goal toward the handle's orientation instead
+// (history independent, as Maya's Nodes reference says of it). Each world turn D_i is taken into joint i's rotate
+// space, R_i' = (B_i^-1 D_i B_i) R_i, B_i the frame its rotate acts in (the product-of-exponentials form of the chain:
+// exact for rigid and uniformly scaled chains).
 
 #include <algorithm>
 #include <array>
@@ -283,6 +284,7 @@ struct Goal {
     Eigen::Vector3d position, pole;
     double twist;
     Solver solver;
+    Eigen::Matrix3d orientation;  // the handle's world rotation, which the ikSCsolver's effector turns toward
 };
 
 // The start joint's turn: the effector onto the goal by the smallest rotation, then (rotate plane) about
@@ -307,6 +309,18 @@ Eigen::Vector3d preferredNormal(const Chain& chain, const Pose& pose)
     return pose.world[0] * preferredPose.world[0].inverse() * planeNormal(preferredPose);
 }
 
+// Maya's ikSCsolver, history independent: with the effector on the line to the goal, the start joint turns about that
+// line (h) so that the effector's world orientation (its parent joint's, the last of the chain) comes as close as a
+// turn about h can to the handle's: the twist of their difference about h. `aimed`: the start joint's turn so far.
+Eigen::Matrix3d singleChainTwist(const Pose& pose, const std::vector<Turn>& bends, const Goal& goal,
+                                 const Eigen::Vector3d& h, const Eigen::Matrix3d& aimed)
+{
+    Eigen::Matrix3d effector = polarRotation(pose.world.back());
+    for (std::size_t k = bends.size(); k-- > 1;) effector = bends[k].rotation * effector;
+    const Eigen::Quaterniond apart(Eigen::Matrix3d(goal.orientation * (aimed * effector).transpose()));
+    return Eigen::AngleAxisd(2.0 * std::atan2(apart.vec().dot(h), apart.w()), h).toRotationMatrix();
+}
+
 Eigen::Matrix3d startTurn(const Chain& chain, const Pose& pose, const std::vector<Turn>& bends, const Goal& goal)
 {
     const std::size_t n = pose.position.size();
@@ -327,7 +341,7 @@ Eigen::Matrix3d startTurn(const Chain& chain, const Pose& pose, const std::vecto
     } else {
         turn = Eigen::Quaterniond::FromTwoVectors(e, h).toRotationMatrix();
     }
-    if (goal.solver == SingleChain) return turn;
+    if (goal.solver == SingleChain) return singleChainTwist(pose, bends, goal, h, turn) * turn;
     // The chain's plane by its normal, which a chain straightened past its reach keeps from its reference pose (as
     // Maya's does: a straight arm still turns with its pole vector); h x (turn n) is the plane's side of h.
     Eigen::Vector3d normal = plane.cross(toEffector);
@@ -443,7 +457,8 @@ public:
         // The goal: the handle's rotate pivot in world space; the pole vector: in the handle's parent space.
         const Goal goal{(parent * (in.translate + in.rotatePivotTranslate + in.rotatePivot).homogeneous()).head<3>(),
                         parent.topLeftCorner<3, 3>() * c.getVector3(PoleVector), c.getDouble(Twist),
-                        c.getEnum(SolverType) == SingleChain ? SingleChain : RotatePlane};
+                        c.getEnum(SolverType) == SingleChain ? SingleChain : RotatePlane,
+                        polarRotation(world.topLeftCorner<3, 3>())};
         const double weight = std::clamp(c.getDouble(IkBlend), 0.0, 1.0);
         std::vector<Eigen::Matrix3d> ik;
         if (weight > 0.0) ik = solve(chain, goal);
@@ -601,7 +616,9 @@ std::shared_ptr<const NodeType> makeMayaIkHandleType()
         "i = 0 the start joint) and the solve starts from jointRotate. 2 bones: the mid joint bends about "
         "(start->mid) x (mid->effector) so that |start->effector| = |start->goal| (clamped), the start joint "
         "turns the effector onto the goal, then (RP) about start->goal so that the mid joint lies on the pole "
-        "vector's side, then by twist. 3+ bones: every bend scaled by one factor. outRotate[i] drives joint i's "
+        "vector's side, then by twist, or (SC) about start->goal so that the effector's orientation (the last chain "
+        "joint's) comes as close as that turn can to the handle's world orientation. 3+ bones: every bend scaled by "
+        "one factor. outRotate[i] drives joint i's "
         "rotate, the Euler triple nearest jointRotate[i]; ikBlend slerps each joint from jointRotate.");
     declareTransform(b);
     declareHandle(b);
@@ -615,8 +632,9 @@ std::shared_ptr<const NodeType> makeMayaIkHandleType()
         .array()
         .unit(Unit::Angle)
         .doc("The solved rotate of chain joint i, in jointRotateOrder[i]: connect to the joint's rotate.");
-    for (AttrId a = Translate; a <= ParentMatrix; ++a) b.affects(a, {Matrix, WorldMatrix, WorldInverseMatrix});
-    for (AttrId a : {Translate, RotatePivot, RotatePivotTranslate, ParentMatrix}) b.affects(a, {OutRotate});
+    // Every transform input moves the goal or turns the handle, which an ikSCsolver's chain turns toward.
+    for (AttrId a = Translate; a <= ParentMatrix; ++a)
+        b.affects(a, {Matrix, WorldMatrix, WorldInverseMatrix, OutRotate});
     for (AttrId a = PoleVector; a <= EffectorTranslate; ++a)
         if (a != Roll && a != Offset) b.affects(a, {OutRotate});
     return b.factory<MayaIkHandleNode>().build();

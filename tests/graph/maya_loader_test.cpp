@@ -256,6 +256,38 @@ TEST_CASE("maya scene: a joint orient-constrained to an IK chain's joint follows
     CHECK(turnApart() < 1e-12);
 }
 
+TEST_CASE("maya scene: an ikSCsolver turns its chain toward the handle's orientation, whatever the saved pose")
+{
+    // One bone j1 -> j2 along x, its handle at the end; j1 saved twisted 45 degrees about the bone. Maya's ikSCsolver
+    // is history independent: with the effector on the line to the handle, the start joint turns about that line so
+    // that the effector's orientation comes as close as it can to the handle's (its Nodes reference, ikSCsolver).
+    const auto scene = [](const std::string& handleLines) {
+        return header +
+               "createNode joint -n \"j1\";\n\tsetAttr \".r\" -type \"double3\" 45 0 0 ;\n"
+               "createNode joint -n \"j2\" -p \"j1\";\n\tsetAttr \".t\" -type \"double3\" 5 0 0 ;\n"
+               "createNode ikEffector -n \"effector1\" -p \"j1\";\n"
+               "createNode ikHandle -n \"ikHandle1\";\n" +
+               handleLines +
+               "createNode ikSCsolver -n \"ikSCsolver\";\n"
+               "connectAttr \"j2.tx\" \"effector1.tx\";\nconnectAttr \"j2.ty\" \"effector1.ty\";\n"
+               "connectAttr \"j2.tz\" \"effector1.tz\";\n"
+               "connectAttr \"j1.msg\" \"ikHandle1.hsj\";\nconnectAttr \"effector1.hp\" \"ikHandle1.hee\";\n"
+               "connectAttr \"ikSCsolver.msg\" \"ikHandle1.hsv\";\n";
+    };
+    const auto turnOf = [](Graph& g) { return Eigen::Matrix3d(mat(g, "j1.worldMatrix").block<3, 3>(0, 0)); };
+    // The handle unturned at the end: the saved twist is undone.
+    auto g = load(scene("\tsetAttr \".t\" -type \"double3\" 5 0 0 ;\n"));
+    CHECK((turnOf(*g) - Eigen::Matrix3d::Identity()).norm() < 1e-12);
+    // The handle turned 30 degrees about the bone: the bone turns with it.
+    g->setValue(g->plug("ikHandle1.rotate"), Eigen::Vector3d(pi / 6, 0, 0));
+    CHECK((turnOf(*g) - Eigen::AngleAxisd(pi / 6, Eigen::Vector3d::UnitX()).toRotationMatrix()).norm() < 1e-12);
+    // Moved to +y and turned a quarter about z: the effector's orientation can match it exactly.
+    g->setValue(g->plug("ikHandle1.translate"), Eigen::Vector3d(0, 5, 0));
+    g->setValue(g->plug("ikHandle1.rotate"), Eigen::Vector3d(0, 0, pi / 2));
+    CHECK((turnOf(*g) - Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix()).norm() < 1e-12);
+    CHECK((mat(*g, "j2.worldMatrix").block<3, 1>(0, 3) - Eigen::Vector3d(0, 5, 0)).norm() < 1e-12);
+}
+
 TEST_CASE("maya scene: a chain straight at rest turns with its pole vector in its preferred angles' plane")
 {
     // Straight along x; j2's preferred angle bends it toward +y. The goal past the reach keeps it straight: the pole

@@ -715,7 +715,7 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
           "twistShare, blend and oriented");
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    restReach: 3\n") ==
           "f.yaml:18:5: constraints[0]: unknown field 'restReach'; the fields are kind, goal, root, restPole, shape, "
-          "anchor, pole, restNormal, worldUp, poleTurns, minimalTurn, lineTurn, orient, origin");
+          "anchor, pole, restNormal, worldUp, poleTurns, minimalTurn, goalTurns, lineTurn, orient, origin");
     // An output turning as another: the orient output and the origin come together.
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n",
                          "    restPole: [0, 55, 40]\n    orient: \"goal\"\n    origin: [0, 1, 2]\n") == "(no error)");
@@ -741,6 +741,12 @@ TEST_CASE("approximation files: a damaged constraint or helper field is one line
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n",
                          normal + "    minimalTurn: true\n    lineTurn: {kind: rotation, axis: "
                                   "[0, 0, 1], pivot: [0, 0, 0], slope: 0}\n") == "(no error)");
+    // Maya's own ikSCsolver: the plane turned by the goal's rotation, a minimalTurn plane's.
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n",
+                         normal + "    minimalTurn: true\n    goalTurns: true\n    lineTurn: {kind: rotation, axis: "
+                                  "[0, 0, 1], pivot: [0, 0, 0], slope: 0}\n") == "(no error)");
+    CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", normal + "    goalTurns: true\n")
+              .ends_with("constraints[0].goalTurns: a plane the goal turns is a minimalTurn plane's; add minimalTurn"));
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", "    restPole: [0, 55, 40]\n    minimalTurn: true\n")
               .ends_with("constraints[0].minimalTurn: a plane turned minimally is a rest plane's; add restNormal"));
     CHECK(chainErrorWith("    restPole: [0, 55, 40]\n", normal + "    minimalTurn: true\n")
