@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <span>
 
 #include <Eigen/QR>
 
@@ -227,9 +228,10 @@ private:
     // Whether the step's outputs have fewer rows than its parameters, or some of its parameters move none of them at
     // rest (a foot control's roll beside its translate and rotate, on the ankle alone).
     bool underdetermined(const PartitionBlock& step);
-    // Whether output k's rows fix some combination of step s's parameters that its outputs leave free: the rank of its
-    // Jacobian at rest grows with them.
-    bool informs(int k, std::size_t s);
+    // Whether output k's rows fix some combination of parameters that the steps `joined` leave free on their outputs:
+    // those steps and k, with its own parameters `fresh`, leave fewer combinations free at rest together than apart.
+    bool informs(int k, std::span<const int> joined, const std::vector<int>& fresh);
+    Eigen::Index freeAtRest(const PartitionBlock& step);       // the combinations of its parameters that move nothing
     Eigen::MatrixXd restJacobian(const PartitionBlock& step);  // the step's residuals' Jacobian at rest
     void push(PartitionBlock step, std::vector<int> first);
     void resolve(std::size_t from, const std::vector<int>& moving, std::vector<int> fresh);
@@ -240,6 +242,7 @@ private:
     std::vector<int> stepOf_;  // per parameter: the latest step solving it, -1 before any
     std::vector<std::vector<int>> reach_;
     std::vector<char> underdetermined_;  // per step: some of its parameters left free on its outputs
+    std::vector<Eigen::Index> free_;     // per step: the combinations of its parameters that move none of its outputs
     std::vector<char> visited_;          // per output: drafted already
     std::vector<PreparedTarget> rest_;   // every output's rest world as a target, made when first needed
     std::vector<double> defaults_;
@@ -287,7 +290,17 @@ bool GuessDraft::underdetermined(const PartitionBlock& step)
     return false;
 }
 
-bool GuessDraft::informs(int k, std::size_t s)
+Eigen::Index GuessDraft::freeAtRest(const PartitionBlock& step)
+{
+    const Eigen::MatrixXd j = restJacobian(step);
+    if (!j.allFinite()) return 0;
+    // Rounding aside, a combination that moves nothing leaves a pivot zero to the last bits.
+    Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j);
+    qr.setThreshold(1e-9);
+    return j.cols() - qr.rank();
+}
+
+bool GuessDraft::informs(int k, std::span<const int> joined, const std::vector<int>& fresh)
 {
     // A chain's later joints fix nothing its first one's step does not place already (the guess places the chain from
     // its end's and middle's targets): an IK arm's forearm tells the arm's step no more.
@@ -296,25 +309,32 @@ bool GuessDraft::informs(int k, std::size_t s)
         return c < 0 ? -1 : approximation_.constraints[static_cast<std::size_t>(c)].goal;
     };
     const int goal = goalOf(k);
-    if (goal >= 0 &&
-        std::any_of(steps[s].outputs.begin(), steps[s].outputs.end(), [&](int o) { return goalOf(o) == goal; }))
-        return false;
-    PartitionBlock with = steps[s];
-    with.outputs.insert(std::upper_bound(with.outputs.begin(), with.outputs.end(), k), k);
-    const Eigen::MatrixXd before = restJacobian(steps[s]), after = restJacobian(with);
-    if (!before.allFinite() || !after.allFinite()) return false;
-    // Rounding aside, a combination that moves nothing leaves a pivot zero to the last bits.
-    const auto rank = [](const Eigen::MatrixXd& j) {
-        Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j);
-        qr.setThreshold(1e-9);
-        return qr.rank();
-    };
-    return rank(after) > rank(before);
+    PartitionBlock with;
+    with.outputs = {k};
+    with.parameters = fresh;
+    Eigen::Index apart = fresh.empty() ? 0 : freeAtRest(with);
+    for (const int s : joined) {
+        const PartitionBlock& step = steps[static_cast<std::size_t>(s)];
+        if (goal >= 0 &&
+            std::any_of(step.outputs.begin(), step.outputs.end(), [&](int o) { return goalOf(o) == goal; }))
+            return false;
+        with.outputs.insert(with.outputs.end(), step.outputs.begin(), step.outputs.end());
+        with.parameters.insert(with.parameters.end(), step.parameters.begin(), step.parameters.end());
+        apart += free_[static_cast<std::size_t>(s)];
+    }
+    for (std::vector<int>* v : {&with.outputs, &with.parameters}) {
+        std::sort(v->begin(), v->end());
+        v->erase(std::unique(v->begin(), v->end()), v->end());
+    }
+    // A rig's own redundancy (a spider's world control against its body control, each leg's control under the first)
+    // stays free however the steps join: only fewer free combinations together than apart tell the steps something.
+    return freeAtRest(with) < apart;
 }
 
 void GuessDraft::push(PartitionBlock step, std::vector<int> first)
 {
     underdetermined_.push_back(underdetermined(step) ? 1 : 0);
+    free_.push_back(freeAtRest(step));
     for (const int p : step.parameters) stepOf_[static_cast<std::size_t>(p)] = static_cast<int>(steps.size());
     steps.push_back(std::move(step));
     own.push_back(std::move(first));
@@ -343,12 +363,15 @@ void GuessDraft::add(int k)
     std::sort(moving.begin(), moving.end());
     moving.erase(std::unique(moving.begin(), moving.end()), moving.end());
     std::sort(inputs.begin(), inputs.end());
-    const auto informing =
-        std::find_if(inputs.begin(), inputs.end(), [&](int s) { return informs(k, static_cast<std::size_t>(s)); });
+    const auto fromStep = [&](int s) {
+        return static_cast<std::size_t>(std::lower_bound(moving.begin(), moving.end(), s) - moving.begin());
+    };
+    const auto informing = std::find_if(inputs.begin(), inputs.end(), [&](int s) {
+        return informs(k, std::span<const int>(moving).subspan(fromStep(s)), step.parameters);
+    });
     const bool own = !step.parameters.empty();
     if (informing != inputs.end() && (own || *informing != moving.back())) {
-        resolve(static_cast<std::size_t>(std::lower_bound(moving.begin(), moving.end(), *informing) - moving.begin()),
-                moving, std::move(step.parameters));
+        resolve(fromStep(*informing), moving, std::move(step.parameters));
         return;
     }
     if (own) {
