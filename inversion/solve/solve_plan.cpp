@@ -366,11 +366,13 @@ void GuessDraft::add(int k)
     const auto fromStep = [&](int s) {
         return static_cast<std::size_t>(std::lower_bound(moving.begin(), moving.end(), s) - moving.begin());
     };
-    const auto informing = std::find_if(inputs.begin(), inputs.end(), [&](int s) {
+    // The fewest steps that k informs: from the latest input's step back (a forearm twist driven by the hand joins
+    // the arm's step, which left the reach free, not every step from the root's on).
+    const auto informing = std::find_if(inputs.rbegin(), inputs.rend(), [&](int s) {
         return informs(k, std::span<const int>(moving).subspan(fromStep(s)), step.parameters);
     });
     const bool own = !step.parameters.empty();
-    if (informing != inputs.end() && (own || *informing != moving.back())) {
+    if (informing != inputs.rend() && (own || *informing != moving.back())) {
         resolve(fromStep(*informing), moving, std::move(step.parameters));
         return;
     }
@@ -381,7 +383,7 @@ void GuessDraft::add(int k)
     }
     if (moving.empty()) return;
     std::vector<int>& outputs = steps[static_cast<std::size_t>(moving.back())].outputs;
-    if (informing != inputs.end() || underdetermined_[static_cast<std::size_t>(moving.back())])
+    if (informing != inputs.rend() || underdetermined_[static_cast<std::size_t>(moving.back())])
         outputs.insert(std::upper_bound(outputs.begin(), outputs.end(), k), k);
 }
 
