@@ -225,13 +225,9 @@ private:
     // twist's driver, a blend's branches, an orient output): information on p that k's target holds and no output
     // it is relative to does.
     bool movesInput(int p, int k) const;
-    // Whether the step's outputs have fewer rows than its parameters, or some of its parameters move none of them at
-    // rest (a foot control's roll beside its translate and rotate, on the ankle alone).
-    bool underdetermined(const PartitionBlock& step);
     // Whether output k's rows fix some combination of parameters that the steps `joined` leave free on their outputs:
     // those steps and k, with its own parameters `fresh`, leave fewer combinations free at rest together than apart.
     bool informs(int k, std::span<const int> joined, const std::vector<int>& fresh);
-    Eigen::Index freeAtRest(const PartitionBlock& step);       // the combinations of its parameters that move nothing
     Eigen::MatrixXd restJacobian(const PartitionBlock& step);  // the step's residuals' Jacobian at rest
     void push(PartitionBlock step, std::vector<int> first);
     void resolve(std::size_t from, const std::vector<int>& moving, std::vector<int> fresh);
@@ -241,10 +237,12 @@ private:
     std::vector<char> solved_;
     std::vector<int> stepOf_;  // per parameter: the latest step solving it, -1 before any
     std::vector<std::vector<int>> reach_;
-    std::vector<char> underdetermined_;  // per step: some of its parameters left free on its outputs
-    std::vector<Eigen::Index> free_;     // per step: the combinations of its parameters that move none of its outputs
-    std::vector<char> visited_;          // per output: drafted already
-    std::vector<PreparedTarget> rest_;   // every output's rest world as a target, made when first needed
+    // Per step: some of its parameters left free on its outputs (fewer rows than parameters, or a parameter moving
+    // none of them at rest: a foot control's roll beside its translate and rotate, on the ankle alone).
+    std::vector<char> underdetermined_;
+    std::vector<Eigen::Index> free_;    // per step: the combinations of its parameters that move none of its outputs
+    std::vector<char> visited_;         // per output: drafted already
+    std::vector<PreparedTarget> rest_;  // every output's rest world as a target, made when first needed
     std::vector<double> defaults_;
 };
 
@@ -278,23 +276,21 @@ Eigen::MatrixXd GuessDraft::restJacobian(const PartitionBlock& step)
     return j;
 }
 
-bool GuessDraft::underdetermined(const PartitionBlock& step)
+// Fewer rows than columns, or a column that moves nothing (zero to the last bits, rounding aside).
+bool hasFreeColumn(const Eigen::MatrixXd& j)
 {
-    const Eigen::MatrixXd j = restJacobian(step);
     if (j.rows() < j.cols()) return true;
     if (!j.allFinite()) return false;
-    // Rounding aside: a column that moves nothing is zero to the last bits.
     const double zero = 1e-12 * std::max(1.0, j.cwiseAbs().maxCoeff());
     for (Eigen::Index c = 0; c < j.cols(); ++c)
         if (j.col(c).cwiseAbs().maxCoeff() <= zero) return true;
     return false;
 }
 
-Eigen::Index GuessDraft::freeAtRest(const PartitionBlock& step)
+// The combinations of the columns that move nothing: a pivot zero to the last bits, rounding aside.
+Eigen::Index nullity(const Eigen::MatrixXd& j)
 {
-    const Eigen::MatrixXd j = restJacobian(step);
     if (!j.allFinite()) return 0;
-    // Rounding aside, a combination that moves nothing leaves a pivot zero to the last bits.
     Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(j);
     qr.setThreshold(1e-9);
     return j.cols() - qr.rank();
@@ -312,7 +308,7 @@ bool GuessDraft::informs(int k, std::span<const int> joined, const std::vector<i
     PartitionBlock with;
     with.outputs = {k};
     with.parameters = fresh;
-    Eigen::Index apart = fresh.empty() ? 0 : freeAtRest(with);
+    Eigen::Index apart = fresh.empty() ? 0 : nullity(restJacobian(with));
     for (const int s : joined) {
         const PartitionBlock& step = steps[static_cast<std::size_t>(s)];
         if (goal >= 0 &&
@@ -328,13 +324,14 @@ bool GuessDraft::informs(int k, std::span<const int> joined, const std::vector<i
     }
     // A rig's own redundancy (a spider's world control against its body control, each leg's control under the first)
     // stays free however the steps join: only fewer free combinations together than apart tell the steps something.
-    return freeAtRest(with) < apart;
+    return nullity(restJacobian(with)) < apart;
 }
 
 void GuessDraft::push(PartitionBlock step, std::vector<int> first)
 {
-    underdetermined_.push_back(underdetermined(step) ? 1 : 0);
-    free_.push_back(freeAtRest(step));
+    const Eigen::MatrixXd j = restJacobian(step);
+    underdetermined_.push_back(hasFreeColumn(j) ? 1 : 0);
+    free_.push_back(nullity(j));
     for (const int p : step.parameters) stepOf_[static_cast<std::size_t>(p)] = static_cast<int>(steps.size());
     steps.push_back(std::move(step));
     own.push_back(std::move(first));

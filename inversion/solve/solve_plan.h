@@ -128,10 +128,11 @@ struct Plan {
     // The steps of initialGuess, made when first needed: parents first, each counted output with the
     // solved parameters that reach it and no output before it. A later output left with none joins the latest
     // step that moves it when that step leaves some of its parameters free (fewer rows than parameters, or a
-    // parameter moving none of its outputs at rest: a reverse foot's ankle, ball and toe); where an earlier step
-    // that leaves some free moves an input of the output's constraint (an ikSCsolver ball's goal under the foot
-    // control, after the ankle's own control), a step after solves the steps from that one on that move it again,
-    // together with it.
+    // parameter moving none of its outputs at rest: a reverse foot's ankle, ball and toe). Where a step whose
+    // parameters move an input of the output's constraint leaves a combination free that the output's target fixes
+    // (together they leave fewer free at rest than apart: an ikSCsolver ball's goal under the foot control, after
+    // the ankle's own control), a step after solves the steps from that one on that move it again, together with
+    // it and its own parameters (docs/solver.md, Cold starts).
     const std::vector<std::unique_ptr<GuessStep>>& guessSteps(const Approximation& approximation,
                                                               const Equivalences& equivalences) const;
 
