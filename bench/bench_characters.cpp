@@ -33,6 +33,10 @@ struct ModeFigures {
     std::uint64_t evaluations = 0;
     double learnSeconds = 0.0;
     int frames = 0, reached = 0;
+    // Where a clip's time goes: frames solved again from the initial guess (a stuck jump), and every solve's
+    // iterations (Gauss-Newton and Levenberg-Marquardt, retries included).
+    int retried = 0;
+    long long iterations = 0;
     double solveSeconds = 0.0, solveCpuSeconds = 0.0;
 
     void add(const ModeFigures& m)
@@ -45,6 +49,8 @@ struct ModeFigures {
         learnSeconds += m.learnSeconds;
         frames += m.frames;
         reached += m.reached;
+        retried += m.retried;
+        iterations += m.iterations;
         solveSeconds += m.solveSeconds;
         solveCpuSeconds += m.solveCpuSeconds;
     }
@@ -54,6 +60,8 @@ struct ModeFigures {
     {
         return Json{{"frames", frames},
                     {"reached", reached},
+                    {"retried_frames", retried},
+                    {"mean_iterations", frames ? static_cast<double>(iterations) / frames : 0.0},
                     {"ms_per_frame", msPerFrame()},
                     {"cpu_ms_per_frame", cpuMsPerFrame()}};
     }
@@ -148,6 +156,9 @@ ModeFigures invertTimed(LearnedMode& l, const ClipTargets& targets)
         const ClipInversionSummary s = invertClip(solver, *l.binding, targets, 0, last, {}, values);
         m.frames = s.frames;
         m.reached = s.count(FrameStatus::reached);
+        m.retried = s.retriedFrames;
+        m.iterations = 0;
+        for (const FrameInversion& f : s.perFrame) m.iterations += f.solve.iterations;
         m.solveSeconds = std::min(m.solveSeconds, s.solveSeconds);
         m.solveCpuSeconds = std::min(m.solveCpuSeconds, s.solveCpuSeconds);
     }
@@ -242,6 +253,8 @@ void characterRow(Group& g, const Character& character, int index, const Charact
         return Json{{"unmodelled_outputs", m.unmodelled},
                     {"parameters", m.parameters},
                     {"reached", m.reached},
+                    {"retried_frames", m.retried},
+                    {"mean_iterations", m.frames ? static_cast<double>(m.iterations) / m.frames : 0.0},
                     {"cpu_ms_per_frame", m.cpuMsPerFrame()}};
     };
     g.rows.push_back(Json{{"character", index},

@@ -80,6 +80,8 @@ TEST_CASE("rig-bench random_characters: a character learned and its clip inverte
         CHECK(m.at("reached") == 10);  // each mode's own poses
         CHECK(m.at("parameters").get<int>() > 0);
         CHECK(m.at("cpu_ms_per_frame").get<double>() > 0.0);
+        CHECK(m.at("retried_frames").get<int>() >= 0);
+        CHECK(m.at("mean_iterations").get<double>() > 0.0);
     }
     CHECK(group.at("fk_on_ik_clip").at("frames") == 10);
     CHECK(group.at("ratio").get<double>() > 0.0);
