@@ -56,6 +56,15 @@ ReplayError replayError(const TargetClip& clip, const TargetClip& replay, const 
     return e;
 }
 
+// The outputs an approximation file inverts (its joints that are not helper frames).
+std::set<std::string> targetOutputs(const std::string& approximationFile)
+{
+    std::set<std::string> outputs;
+    for (const auto& output : YAML::LoadFile(approximationFile)["outputs"])
+        if (!output["helper"] || !output["helper"].as<bool>()) outputs.insert(output["name"].as<std::string>());
+    return outputs;
+}
+
 }  // namespace
 
 TEST_CASE("maya clip: an animation scene of the project's arm inverts exactly, and OUT.ma replays it")
@@ -203,9 +212,7 @@ TEST_CASE("maya clip: C_Robot_Run.ma inverted on C_Robot_Rig.ma, and OUT.ma repl
     const YAML::Node report = YAML::LoadFile((dir / "r.json").string());
     CHECK(report["frames"].as<int>() == 14);
     // Every joint the approximation inverts is a target: the clip's "C_Robot_Rig:hip_joint" is the rig's "hip_joint".
-    std::set<std::string> outputs;
-    for (const auto& output : YAML::LoadFile(approx)["outputs"])
-        if (!output["helper"] || !output["helper"].as<bool>()) outputs.insert(output["name"].as<std::string>());
+    const std::set<std::string> outputs = targetOutputs(approx);
     CHECK(!outputs.empty());
     CHECK(report["target_joints"].as<std::size_t>() == outputs.size());
     CHECK(report["scene_curves"].size() > 80);
@@ -284,9 +291,7 @@ TEST_CASE(
     CHECK(report["frames"].as<int>() == 25);
     CHECK(report["status_frames"]["reached"].as<int>() == 25);
     CHECK(report["max_position_error_cm"].as<double>() <= 1e-3);
-    std::set<std::string> outputs;
-    for (const auto& output : YAML::LoadFile(approx)["outputs"])
-        if (!output["helper"] || !output["helper"].as<bool>()) outputs.insert(output["name"].as<std::string>());
+    const std::set<std::string> outputs = targetOutputs(approx);
     CHECK(outputs.size() == 52);
     const ReplayError e = replayError(readMayaClip(anim, {}), readMayaClip(out, {}), outputs);
     CHECK(e.positionCm <= 1e-3);
