@@ -397,9 +397,9 @@ TEST_CASE("random character: production leg constructions of Maya rigs (issue #4
         // differences. On 8 more characters (seed 4707, every goal kind drawn: own controls, the toe pivot, the foot
         // control) 8 of 8 modelled, worst 5.8e-6 cm per unit, and 63 of 64 poses reached (the miss 12.8 cm, a solve
         // from rest stuck; the run takes 13 s).
-        // Before the one-bone chain carried by its parent was also tried turned by its goal, 5 of those 8 characters
-        // left their SC ankles or balls unmodelled (0.07 to 0.18 cm per unit off, turned minimally from the anchor's
-        // turn). Before the initial guess solved again a step whose free combination of parameters (the foot control's
+        // Before the one-bone chain carried by its parent was also tried turned by its goal, all 8 of those characters
+        // left SC ankles or balls unmodelled (0.07 to 0.27 cm per unit off, turned minimally from the anchor's turn).
+        // Before the initial guess solved again a step whose free combination of parameters (the foot control's
         // rotation and rolls, of which an SC leg reads the goal's origin and its turn about the line alone) an output's
         // target fixes (fewer free combinations at rest together than apart), 60 of 64 (the misses 2.7 to 12.8 cm,
         // rolls guessed at their limits) and 23 of 24 here.
