@@ -138,6 +138,11 @@ int ConstraintFitter::effectorOf(int goal, int root) const
     return root;
 }
 
+bool ConstraintFitter::oneBoneTurnedByGoal(const ConstraintBase& base, int root) const
+{
+    return base.goalTurns && effectorOf(base.goal, root) == root;
+}
+
 bool ConstraintFitter::usableAnchor(int a, const RigState& state) const
 {
     return modelled(a, state) && !probe_.constraints.contains(a);
@@ -329,6 +334,7 @@ bool ConstraintFitter::makeBase(int k, int rootOutput, Sweep& sweep, double lo, 
     // The line's turn is read from the chain's start joint, or for a plane the goal turns from the effector's joint
     // (ConstraintBase::goalTurns).
     const int turning = base.goalTurns ? effectorOf(base.goal, rootOutput) : rootOutput;
+    const bool oneBone = base.goalTurns && turning == rootOutput;
     const Eigen::Matrix3d rootRest = polarRotation(probe_.rest()[static_cast<std::size_t>(turning)].block<3, 3>(0, 0));
     const auto add = [&](double t) {
         if (knots.contains(t)) return true;
@@ -348,7 +354,7 @@ bool ConstraintFitter::makeBase(int k, int rootOutput, Sweep& sweep, double lo, 
     const auto setTurn = [&] {
         // One bone turned by its goal does not bend: its line does not turn (and a sweep that turns the goal would
         // read the goal's own turn as the line's).
-        if (!base.minimalTurn || (base.goalTurns && turning == rootOutput)) return true;
+        if (!base.minimalTurn || oneBone) return true;
         std::vector<double> xs;
         std::vector<CubicSpline<1>::Vector> ys;
         for (const auto& [t, turn] : turns) {
@@ -415,7 +421,7 @@ double ConstraintFitter::tryCandidate(int k, int rootOutput, const std::vector<i
     lo = std::max(lo - 0.25 * span, (nearestReach - 1.0) * base.restReach);
     hi += 0.25 * span;
     // One bone turned by its goal (an ikSCsolver's start joint aimed at its handle) does not bend either.
-    if (fixedGoal || (base.goalTurns && effectorOf(base.goal, rootOutput) == rootOutput && rootOutput == k)) {
+    if (fixedGoal || (rootOutput == k && oneBoneTurnedByGoal(base, rootOutput))) {
         // An aim at a fixed point: what the output does cannot depend on its distance from it. G = I throughout.
         std::map<double, std::pair<double, Eigen::Matrix4d>> flat{{lo, {lo, Eigen::Matrix4d::Identity()}},
                                                                   {hi, {hi, Eigen::Matrix4d::Identity()}}};

@@ -77,6 +77,8 @@ private:
     // The output whose orientation a chain's goal took at rest (an ikSCsolver's effector joint, below the chain's
     // root output or the root itself), or `root` where none did.
     int effectorOf(int goal, int root) const;
+    // Whether `base` turns with its goal and its effector is the root itself: one bone, which does not bend.
+    bool oneBoneTurnedByGoal(const ConstraintBase& base, int root) const;
     std::vector<int> moversOf(int k) const;  // parameters whose first samples moved output k, but the held ones
     bool turnedBy(int i, int o) const;       // whether parameter i's first samples turn output o
     // The parameters of `varied` that move the anchor and change k's world apart from a rigid motion (its scale or

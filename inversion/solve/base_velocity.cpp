@@ -55,13 +55,14 @@ ResidualWorkspace::Affine ResidualWorkspace::evaluateBase(std::size_t b)
                             : Eigen::Matrix3d(nodeMatrix_[static_cast<std::size_t>(base.anchorNode)].leftCols<3>());
     points.normal = anchorLinear * c.restNormal;
     // An ikSCsolver's plane turns with the goal's rotation (its node's product, a motion from rest).
-    if (c.minimalTurn)
-        minimalTurnNormal(c,
-                          c.goalTurns && base.goalNode >= 0
-                              ? Eigen::Matrix3d(nodeMatrix_[static_cast<std::size_t>(base.goalNode)].leftCols<3>())
-                          : c.goalTurns ? Eigen::Matrix3d(Eigen::Matrix3d::Identity())
-                                        : anchorLinear,
-                          points);
+    if (c.minimalTurn) {
+        Eigen::Matrix3d turn = anchorLinear;
+        if (c.goalTurns)
+            turn = base.goalNode < 0
+                       ? Eigen::Matrix3d(Eigen::Matrix3d::Identity())
+                       : Eigen::Matrix3d(nodeMatrix_[static_cast<std::size_t>(base.goalNode)].leftCols<3>());
+        minimalTurnNormal(c, turn, points);
+    }
     const Eigen::Matrix4d chain = constraintBase(c, points);
     if (c.orient < 0) return chain.topRows<3>();
     Eigen::Matrix4d orient = Eigen::Matrix4d::Identity();
