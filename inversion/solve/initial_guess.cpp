@@ -83,7 +83,7 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
     trial.assign(values.begin(), values.end());
     best.resize(values.size());
     // An output is reached when its cost is this far within targetTolerance: no start can do better.
-    const double reachedCost = 0.5 * std::pow(1e-3 * impl.options.targetTolerance, 2);
+    const double reachedCost = 0.5 * std::pow(1e-1 * impl.options.targetTolerance, 2);
     std::vector<char> placed(impl.approximation.constraints.size(), 0);
     for (const auto& step : plan->guessSteps(impl.approximation, *impl.equivalences)) {
         const BlockPlan& block = step->plan;
