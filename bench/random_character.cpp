@@ -909,4 +909,39 @@ GraphRigFunction loadCharacter(const Character& character, const std::filesystem
     return loadCharacterRig(character.rig, character.spec, dir, fmt::format("character{}", index), rigFile);
 }
 
+// The clip of random_character.h: two sines per parameter, the real rig's worlds as targets.
+ClipTargets smoothClip(const Approximation& a, RigBinding& binding, int frames, std::mt19937& rng)
+{
+    struct Wave {
+        double lo, hi, f1, f2, p1, p2;
+    };
+    std::vector<Wave> waves;
+    const auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+    for (const auto& m : a.parameters) {
+        const RigParameter& p = m.parameter;
+        const double lo = std::isfinite(p.min) ? p.defaultValue + 0.4 * (p.min - p.defaultValue) : p.defaultValue;
+        const double hi = std::isfinite(p.max) ? p.defaultValue + 0.4 * (p.max - p.defaultValue) : p.defaultValue;
+        waves.push_back({lo, hi, uniform(0.25, 0.75), uniform(0.5, 1.25), uniform(0.0, 2.0 * std::numbers::pi),
+                         uniform(0.0, 2.0 * std::numbers::pi)});
+    }
+    ClipTargets targets;
+    std::vector<double> values(waves.size());
+    std::vector<Eigen::Matrix4d> worlds;
+    for (int f = 0; f < frames; ++f) {
+        const double t = 2.0 * std::numbers::pi * f / std::max(frames - 1, 1);
+        for (std::size_t p = 0; p < waves.size(); ++p) {
+            const Wave& w = waves[p];
+            const double s = 0.5 * std::sin(w.f1 * t + w.p1) + 0.5 * std::sin(w.f2 * t + w.p2);  // in [-1, 1]
+            values[p] = w.lo + (w.hi - w.lo) * 0.5 * (s + 1.0);
+        }
+        binding.evaluate(values, worlds);
+        std::vector<JointTarget>& frame = targets.frames.emplace_back(a.outputs.size());
+        for (std::size_t k = 0; k < a.outputs.size(); ++k) {
+            frame[k].active = !a.outputs[k].helper;
+            frame[k].world = worlds[k];
+        }
+    }
+    return targets;
+}
+
 }  // namespace rig::bench

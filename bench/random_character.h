@@ -16,6 +16,8 @@
 #include <Eigen/Core>
 
 #include "adapter/graph_rig_function.h"
+#include "inversion/clip/clip_inversion.h"
+#include "inversion/clip/rig_binding.h"
 
 namespace rig::bench {
 
@@ -58,4 +60,9 @@ GraphRigFunction loadCharacterRig(const std::string& rig, const std::string& spe
 GraphRigFunction loadCharacter(const Character& character, const std::filesystem::path& dir, int index,
                                std::filesystem::path& rigFile);
 
+// A smooth random clip of `frames` poses of the real rig: each modelled parameter a sum of two slow sines (a quarter
+// to a cycle and a quarter over the clip, random phases) within 0.4 of its range about its default, the parameters
+// the approximation left out at their defaults (RigBinding). Targets on every joint output at the real rig's worlds,
+// as a clip of that rig's animation gives them.
+ClipTargets smoothClip(const Approximation& a, RigBinding& binding, int frames, std::mt19937& rng);
 }  // namespace rig::bench

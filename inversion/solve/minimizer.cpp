@@ -189,6 +189,11 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
     // flat valley of the cost the steps otherwise go on lowering it by more than the function tolerance's fraction
     // until maxIterations (a random character's ikSCsolver foot: frames within 1e-5 cm iterating 100 times).
     const double reachedCost = 0.5 * std::pow(1e-7 * o.targetTolerance, 2);
+    // A step that leaves the cost within the tolerance, lowering it by a negligible amount and a small fraction,
+    // creeps: where the approximation misses the targets a little, a redundant control otherwise slides along the
+    // valley of that miss to maxIterations (an ikSCsolver leg's goal along the leg). Quadratic convergence lowers it by
+    // far more.
+    const double creepCost = 0.5 * std::pow(o.targetTolerance, 2);
     const double creepDecrease = 0.5 * std::pow(1e-2 * o.targetTolerance, 2);
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
         if (cost <= reachedCost) {
@@ -232,7 +237,7 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
             s.r.swap(s.rTrial);
             evaluatedAtX = true;
             cost = trialCost;
-            const bool creeping = decrease <= creepDecrease && decrease <= 0.1 * (cost + decrease);
+            const bool creeping = cost <= creepCost && decrease <= creepDecrease && decrease <= 0.1 * (cost + decrease);
             if (smallStep || decrease <= o.functionTolerance * (cost + decrease) || creeping) {
                 result.converged = true;
                 break;

@@ -41,6 +41,7 @@ using bench::Construction;
 using bench::leggedCharacter;
 using bench::loadCharacter;
 using bench::randomCharacter;
+using bench::smoothClip;
 
 struct FamilyCounts {
     int chains = 0, aims = 0, shares = 0, oriented = 0, orientedChains = 0;
@@ -427,6 +428,44 @@ TEST_CASE("random character: production leg constructions of Maya rigs (issue #4
         const ConstructionResult more = expectAll(Construction::orientEnd, 4702, 8);
         CHECK(more.oriented >= 1);
     }
+}
+
+TEST_CASE("random character: smooth clips of ikSCsolver legs converge on every frame, none at the iteration limit")
+{
+    // A one-bone ikSCsolver chain only aims, so its goal moved along the chain's line changes no joint: the foot
+    // control is redundant there, and where the approximation misses the real rig's targets a little, the solve
+    // could slide that control along the valley of the miss, lowering a cost already far within the tolerance by
+    // fractions of a percent a step, to maxIterations (docs/solver.md, Stop tests).
+    std::mt19937 rng(4607);
+    const auto dir = test::scratchDir(fmt::format("random-character-sc-clips.{}", ::getpid()));
+    const int characters = 3, frames = 60;
+    int solved = 0, reached = 0, atLimit = 0, iterations = 0;
+    for (int c = 0; c < characters; ++c) {
+        const Character character = leggedCharacter(rng, Construction::singleChain);
+        CAPTURE(character.parts.summary);
+        std::filesystem::path rigFile;
+        GraphRigFunction rig = loadCharacter(character, dir, c, rigFile);
+        const Approximation a = learnApproximation(rig, LearnOptions{}, rigFile.string());
+        RigBinding binding(a, rig);
+        const Solver solver(a, SolverOptions{});
+        std::mt19937 clipRng(4607u * 31u + static_cast<unsigned>(c));
+        const ClipTargets clip = smoothClip(a, binding, frames, clipRng);
+        std::vector<std::vector<double>> values;
+        const ClipInversionSummary s = invertClip(solver, binding, clip, 0, frames - 1, {}, values);
+        for (const FrameInversion& f : s.perFrame) {
+            ++solved;
+            reached += f.status == FrameStatus::reached ? 1 : 0;
+            atLimit += f.solve.iterations >= SolverOptions{}.maxIterations ? 1 : 0;
+            iterations += f.solve.iterations;
+        }
+    }
+    MESSAGE(reached << " of " << solved << " frames reached on the real rig, " << atLimit << " at the iteration limit, "
+                    << static_cast<double>(iterations) / solved << " iterations a frame");
+    // Measured: 180 of 180 reached, none at the limit, 7.0 iterations a frame; without the creeping step's stop, 4
+    // frames at the limit and 10.2 a frame.
+    CHECK(reached == solved);
+    CHECK(atLimit == 0);
+    CHECK(iterations <= 8 * solved);
 }
 
 }  // namespace rig
