@@ -105,11 +105,11 @@ private:
     Eigen::MatrixXd damped_;  // H + mu I, lower triangle: what is factorized
     Eigen::LLT<Eigen::MatrixXd> llt_;
     // The step from a pivoted factor of S (`s`'s lower triangle, H or H + mu I): the minimum-norm one where S is
-    // singular. Its factor L, G = L^T L, P, and the step's vectors.
+    // singular. Its factor L and P, M = L2 L1^-1 and I + M M^T (rangeStep), and the step's vectors.
     bool rangeStep(const Eigen::MatrixXd& s, const Eigen::VectorXd& gradient, double threshold, Eigen::VectorXd& delta);
-    Eigen::MatrixXd pivoted_, gram_;
+    Eigen::MatrixXd pivoted_, nullityByRank_, nullSquare_;
     std::vector<int> permutation_;
-    Eigen::VectorXd permuted_, reduced_;
+    Eigen::VectorXd permuted_, reduced_, nullVector_;
 };
 
 }  // namespace rig
