@@ -29,8 +29,11 @@ bool StepControl::accept(double cost, double trialCost, bool smallStep, const st
     if (gaussNewton_) {
         const bool taken = finite && (trialCost < cost || (smallStep && trialCost <= cost));
         if (taken || smallStep) {
+            // Only a whole step clears the failures: one taken after halvings found the model poor as far as it went
+            // (a leg's goal near its reach, the random characters' orient-constrained hands: Gauss-Newton overshot
+            // by 1.5 cm, then descended at a sixteenth, again and again, between damped steps).
+            failedInARow_ = taken && scale_ == 1.0 ? 0 : failedInARow_;
             scale_ = 1.0;
-            failedInARow_ = taken ? 0 : failedInARow_;
             return taken;
         }
         // Gauss-Newton failed to descend: shorter along its step, as the policy allows, else damp.

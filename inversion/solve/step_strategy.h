@@ -67,7 +67,7 @@ private:
     bool gaussNewton_;
     double mu_ = 0.0, nu_ = 2.0;
     int gaussNewtonTaken_ = 0;  // accepted Gauss-Newton steps: the budget's count
-    int failedInARow_ = 0;      // Gauss-Newton steps that failed (halvings and all), none taken between
+    int failedInARow_ = 0;      // Gauss-Newton steps that failed (halvings and all), none taken whole between
     double scale_ = 1.0;
     double ceiling_ = std::numeric_limits<double>::infinity();  // the damping past which no step is found
 };

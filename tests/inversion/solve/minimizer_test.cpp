@@ -241,3 +241,30 @@ TEST_CASE("step policies: a failed Gauss-Newton step is halved, then damped, the
     CHECK(realRig.exhausted());
     CHECK(rejections < 20);
 }
+
+TEST_CASE("step policies: a Gauss-Newton step taken only after halvings leaves the failures counted")
+{
+    // Failed whole (5 trials), damped, taken at half, failed whole again, damped: two failures with only damped and
+    // halved steps between, so Levenberg-Marquardt to the end. Taken whole in the middle instead, Gauss-Newton goes on.
+    const SolverOptions options;
+    const auto never = [] { return 1.0; };
+    const auto good = [] { return 0.5; };
+    for (const bool halvedInTheMiddle : {true, false}) {
+        CAPTURE(halvedInTheMiddle);
+        StepControl control(options, StepPolicy::approximation());
+        const auto failWhole = [&] {
+            for (int trial = 0; trial < 5; ++trial) CHECK_FALSE(control.accept(1.0, 2.0, false, never));
+            CHECK_FALSE(control.gaussNewton());
+            CHECK(control.accept(1.0, 0.5, false, good));
+            control.accepted();
+        };
+        failWhole();
+        REQUIRE(control.gaussNewton());
+        if (halvedInTheMiddle) CHECK_FALSE(control.accept(1.0, 2.0, false, never));
+        CHECK(control.accept(1.0, 0.9, false, never));
+        control.accepted();
+        REQUIRE(control.gaussNewton());
+        failWhole();
+        CHECK(control.gaussNewton() == !halvedInTheMiddle);
+    }
+}
