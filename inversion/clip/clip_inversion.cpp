@@ -256,6 +256,26 @@ void keepIfCheaper(SolveSummary& second, std::vector<double>& start, double floo
     values.swap(start);
 }
 
+// A warm solve that gave up (Solver::solveOrGiveUp) gone on from where it stopped, as solve() would have, where the
+// fresh start did not converge; kept where it is cheaper than that start's answer.
+void goOnFromStall(const Solver& solver, std::span<const JointTarget> targets, double floor, ChainScratch& scratch,
+                   ChainFrame& frame, std::vector<double>& values)
+{
+    SolveSummary& again = scratch.second;
+    solver.solve(targets, scratch.stalled, again);
+    if (frame.summary.stalled) {
+        // No fresh start was kept: the stalled solve's iterations and the answer gone on from it, never costlier.
+        again.iterations += frame.summary.iterations;
+        again.gaussNewtonIterations += frame.summary.gaussNewtonIterations;
+        again.levenbergMarquardtIterations += frame.summary.levenbergMarquardtIterations;
+        again.initialCost = frame.summary.initialCost;
+        std::swap(frame.summary, again);
+        values.swap(scratch.stalled);
+        return;
+    }
+    keepIfCheaper(again, scratch.stalled, floor, frame, values);
+}
+
 }  // namespace
 
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
@@ -266,19 +286,23 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     frame.realRigEvaluations = 0;
     scratch.led.reserve(targets.size());  // grown at the chain's first frame, whether or not the rotations lead
     scratch.rest.reserve(values.size());  // and the third start's, whether or not a frame needs it
+    scratch.stalled.reserve(values.size());
     const bool chainStart = !(previousCost < retryNever);
     if (chainStart) scratch.lead = ChainLead{};
     const bool led = scratch.lead.rotations && solveRotationsFirst(solver, targets, values, scratch);
+    const double tolerance = solver.options().targetTolerance;
+    const double floor = 0.5 * tolerance * tolerance;
+    // A warm solve gives up only at a cost that a fresh start follows (below).
     if (chainStart) solver.solveCold(targets, values, frame.summary);
-    else solver.solve(targets, values, frame.summary);
+    else solver.solveOrGiveUp(targets, values, frame.summary, 2.0 * previousCost + floor);
+    const bool stalled = frame.summary.stalled;
+    if (stalled) scratch.stalled.assign(values.begin(), values.end());
     decideLead(led, frame.summary, scratch.lead);
     if (led) {
         frame.summary.iterations += scratch.second.iterations;
         frame.summary.gaussNewtonIterations += scratch.second.gaussNewtonIterations;
         frame.summary.levenbergMarquardtIterations += scratch.second.levenbergMarquardtIterations;
     }
-    const double tolerance = solver.options().targetTolerance;
-    const double floor = 0.5 * tolerance * tolerance;
     // A solve that used its iterations after such a jump is as far from the frame before as a stuck one (C_Robot_Run
     // restarted every 2 or 4 frames: the frame after a restart, warm-started from the restart's other split of the
     // pose, ends unconverged 1.3 cm off).
@@ -296,6 +320,10 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     solver.solveCold(targets, scratch.start, second);
     keepIfCheaper(second, scratch.start, floor, frame, values);
     if (frame.summary.converged()) return;
+    if (stalled) {
+        goOnFromStall(solver, targets, floor, scratch, frame, values);
+        if (frame.summary.converged()) return;
+    }
     const std::vector<ModelledParameter>& parameters = solver.approximation().parameters;
     scratch.rest.resize(parameters.size());
     for (std::size_t i = 0; i < parameters.size(); ++i) scratch.rest[i] = parameters[i].parameter.defaultValue;

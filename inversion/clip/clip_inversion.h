@@ -49,6 +49,8 @@ ClipTargets matchTargets(const Approximation& approximation, std::span<const std
 // cheaper answer is kept (ClipInversionOptions::retryStuck); where that one does not converge either, once more from
 // Solver::initialGuess at the rest values (as a restart frame starts), the cheapest kept. `previousCost` = retryNever:
 // a chain's first frame (a restart), solved by Solver::solveCold and not retried; noRetry: a later frame never retried.
+// The warm solve gives up where its cost stalls above that retry bound (Solver::solveOrGiveUp); where neither fresh
+// start converges, it goes on from where it stopped, and the cheapest answer is kept.
 // `frame` is the result; it and `scratch` keep their storage from frame to frame, so that a chain allocates
 // nothing once they have grown.
 //
@@ -81,8 +83,9 @@ struct ChainLead {
     static constexpr int firstWait = 4;
 };
 struct ChainScratch {
-    std::vector<double> start;  // the warm start, for the second solve
-    std::vector<double> rest;   // the rest values, for a third
+    std::vector<double> start;    // the warm start, for the second solve
+    std::vector<double> rest;     // the rest values, for a third
+    std::vector<double> stalled;  // where a warm solve gave up (Solver::solveOrGiveUp), to go on from
     SolveSummary second;
     ChainLead lead;                // reset at a chain's first frame (previousCost = retryNever)
     std::vector<JointTarget> led;  // a led frame's targets, positions weighed rotationsLeadPositionWeight times theirs

@@ -124,6 +124,16 @@ bool keepNear(MinimizerProblem& problem, const Unknowns& u, MinimizerState& s, s
     return evaluatedAtX;
 }
 
+// At the start of an iteration (not a halving): records the cost; whether it is above `floor` and more than nine
+// tenths of what it was `window` iterations ago.
+bool stalls(std::vector<double>& costs, bool iterationStarts, double cost, double floor, int window)
+{
+    if (!iterationStarts) return false;
+    costs.push_back(cost);
+    const std::size_t n = costs.size(), w = static_cast<std::size_t>(window);
+    return n > w && cost > floor && cost > 0.9 * costs[n - 1 - w];
+}
+
 }  // namespace
 
 Unknowns::Unknowns(const Approximation& approximation, const Equivalences* equivalences, std::vector<int> cols)
@@ -173,9 +183,11 @@ void MinimizerState::prefetch() const
 }
 
 MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const SolverOptions& o, MinimizerState& s,
-                         std::span<const double> near, StepPolicy policy)
+                         std::span<const double> near, StepPolicy policy, GiveUp giveUp)
 {
     MinimizerResult result;
+    s.costs.clear();
+    if (giveUp.window > 0) s.costs.reserve(static_cast<std::size_t>(o.maxIterations) + 1);
     bool finite = problem.linearize(s.x, false, s.r, s.g);
     double cost = 0.5 * s.r.squaredNorm();
     // A cost that overflows (targets 1e160 cm away: finite residuals, an infinite square) compares no step with
@@ -195,7 +207,12 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
     // far more.
     const double creepCost = 0.5 * std::pow(o.targetTolerance, 2);
     const double creepDecrease = 0.5 * std::pow(1e-2 * o.targetTolerance, 2);
+    const double stallCost = std::max(0.5 * o.targetTolerance * o.targetTolerance, giveUp.aboveCost);
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
+        if (giveUp.window > 0 && stalls(s.costs, control.scale() == 1.0, cost, stallCost, giveUp.window)) {
+            result.stalled = true;
+            break;
+        }
         if (cost <= reachedCost) {
             result.converged = true;
             break;

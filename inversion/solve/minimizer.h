@@ -65,6 +65,7 @@ struct MinimizerState {
     Eigen::VectorXd r, rTrial, hStep, g, gFree, delta, step;
     Eigen::VectorXd direction;  // the last step solved: a Gauss-Newton step's halvings reuse it
     std::vector<char> fixed;    // per unknown: held at a limit for this step
+    std::vector<double> costs;  // the cost at each iteration's start, where minimize tests for a stall
     // Hints the cache to fetch the vectors (core/prefetch.h).
     void prefetch() const;
 };
@@ -80,6 +81,8 @@ struct MinimizerResult {
     // start did not hold as far as the answer (a long chain's far joints, whose positions are far from linear in the
     // angles of the joints above them).
     bool longFirstStep = false;
+    // Given up (GiveUp): the cost above its bounds, and lowered by less than a tenth over the window's iterations.
+    bool stalled = false;
 };
 
 // Minimizes 1/2 |r(x)|^2 from state.x (within the limits) within the unknowns' limits: Gauss-Newton then
@@ -87,8 +90,16 @@ struct MinimizerResult {
 // every step shortened whole so that no angle moves more than options.maxAngularStep. Stops on options' tolerances and
 // maxIterations. At the end, periodic unknowns and Euler triples are moved to the equivalent values nearest `near`
 // (indexed by Unknowns::columns; an Euler flip only where the cost says it is the same pose).
+// When to give a minimization up (stalled, not converged): its cost above both 0.5 targetTolerance^2 and `aboveCost`,
+// and lowered by less than a tenth over the last `window` iterations (0: never). A start in another basin, grinding
+// against a kink or crawling along a valley, which a caller that would then start afresh leaves
+// (Solver::solveOrGiveUp).
+struct GiveUp {
+    int window = 0;
+    double aboveCost = 0.0;
+};
 MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& unknowns, const SolverOptions& options,
                          MinimizerState& state, std::span<const double> near,
-                         StepPolicy policy = StepPolicy::approximation());
+                         StepPolicy policy = StepPolicy::approximation(), GiveUp giveUp = {});
 
 }  // namespace rig

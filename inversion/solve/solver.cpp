@@ -21,6 +21,10 @@ namespace {
 constexpr std::size_t maxCachedPlans = 256;
 // A switch's weight this close to its branch after a solve that started there is on it: the solve moved it by rounding.
 constexpr double branchRounding = 1e-9;
+// solveOrGiveUp's window: ten iterations that lowered a cost above the tolerance by less than a tenth. On the random
+// characters' IK clips, the warm solves that ended stuck had ground 50 to 100 iterations against a kink or along a
+// valley before the chain started afresh (docs/solver.md, Clip inversion).
+constexpr int giveUpWindow = 10;
 
 // A non-compositional output's target is not counted: the approximation does not predict it. The rows a
 // target's term counts, and its kind (termRowsKey): plans differ by both.
@@ -94,16 +98,16 @@ Partition Solver::partition(std::span<const JointTarget> targets) const
 }
 
 MinimizerResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets,
-                                         std::span<double> values, bool parallel,
-                                         std::span<const double> reference) const
+                                         std::span<double> values, bool parallel, std::span<const double> reference,
+                                         GiveUp giveUp) const
 {
     Borrowed<BlockWorkspace> borrowed(block.pool, [&] { return block.makeWorkspace(); });
-    return solveBlock(block, *borrowed, targets, values, parallel, reference);
+    return solveBlock(block, *borrowed, targets, values, parallel, reference, giveUp);
 }
 
 MinimizerResult Solver::Impl::solveBlock(const BlockPlan& block, BlockWorkspace& w,
                                          std::span<const PreparedTarget> targets, std::span<double> values,
-                                         bool parallel, std::span<const double> reference) const
+                                         bool parallel, std::span<const double> reference, GiveUp giveUp) const
 {
     const auto& columns = block.structure.columns();
     const Unknowns& u = block.unknowns;
@@ -114,7 +118,8 @@ MinimizerResult Solver::Impl::solveBlock(const BlockPlan& block, BlockWorkspace&
         w.state.x[c] = clampTo(values[static_cast<std::size_t>(columns[c])], u.lower[c], u.upper[c]);
     w.configure(options, parallel);
     const MinimizerResult result =
-        minimize(w, u, options, w.state, reference.empty() ? std::span<const double>(values) : reference);
+        minimize(w, u, options, w.state, reference.empty() ? std::span<const double>(values) : reference,
+                 StepPolicy::approximation(), giveUp);
     for (std::size_t c = 0; c < columns.size(); ++c) values[static_cast<std::size_t>(columns[c])] = w.state.x[c];
     return result;
 }
@@ -156,8 +161,14 @@ namespace {
 class SolveRun {
 public:
     SolveRun(Solver::Impl& impl, std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary,
-             SolveScratch& scratch, const Plan& plan)
-        : impl_(impl), targets_(targets), values_(values), summary_(summary), scratch_(scratch), plan_(plan)
+             SolveScratch& scratch, const Plan& plan, GiveUp giveUp = {})
+        : impl_(impl),
+          targets_(targets),
+          values_(values),
+          summary_(summary),
+          scratch_(scratch),
+          plan_(plan),
+          giveUp_(giveUp)
     {
     }
     void run();
@@ -190,6 +201,7 @@ private:
     SolveScratch& scratch_;
     const Plan& plan_;
     bool parallel_ = true;
+    GiveUp giveUp_;                      // minimize's: a window of 0 never gives up
     const BlockPlan* system_ = nullptr;  // the one system whose evaluations are the whole's
     bool byTrees_ = false;               // several trees whose evaluations are the whole's, summed
     std::optional<Borrowed<BlockWorkspace>> systemWorkspace_;  // the one system's, read for the final errors
@@ -294,14 +306,14 @@ void SolveRun::solveTrees()
     };
     const auto solveIn = [&](std::size_t t, BlockWorkspace& w) {
         const BlockPlan& tree = plan_.tree(t);
-        results[t] = impl_.solveBlock(tree, w, scratch_.prepared, values_, parallel_);
+        results[t] = impl_.solveBlock(tree, w, scratch_.prepared, values_, parallel_, {}, giveUp_);
         if (byTrees_ && results[t].evaluatedAtEnd)
             errorsOf(tree.structure.outputs(), w.residual, w.state.r, scratch_.treeErrors[t]);
     };
     const std::size_t trees = plan_.trees.size();
     if (system_) {
         systemWorkspace_.emplace(system_->pool, [&] { return system_->makeWorkspace(); });
-        results[0] = impl_.solveBlock(*system_, **systemWorkspace_, scratch_.prepared, values_, parallel_);
+        results[0] = impl_.solveBlock(*system_, **systemWorkspace_, scratch_.prepared, values_, parallel_, {}, giveUp_);
     } else if (!parallel_ || trees == 1) {
         // One tree after another, the next one's workspace and data fetched into the cache while this one
         // is solved: a crowd's trees do not fit in the cache together, and each is otherwise missed anew
@@ -330,8 +342,8 @@ void SolveRun::solveBlocks()
 {
     const Partition& partition = plan_.partition;
     const auto solveOne = [&](int b) {
-        scratch_.results[static_cast<std::size_t>(b)] =
-            impl_.solveBlock(*plan_.blocks[static_cast<std::size_t>(b)], scratch_.prepared, values_, parallel_);
+        scratch_.results[static_cast<std::size_t>(b)] = impl_.solveBlock(
+            *plan_.blocks[static_cast<std::size_t>(b)], scratch_.prepared, values_, parallel_, {}, giveUp_);
     };
     if (!parallel_ || partition.blocks.size() == 1) {
         // Serially, in dependency order: the blocks are listed parents first.
@@ -407,6 +419,7 @@ void SolveRun::finish(bool initialFromSolve)
         summary_.levenbergMarquardtIterations += r.levenbergMarquardt;
         converged = converged && r.converged;
         summary_.longFirstStep = summary_.longFirstStep || r.longFirstStep;
+        summary_.stalled = summary_.stalled || r.stalled;
     }
     summary_.iterations = summary_.gaussNewtonIterations + summary_.levenbergMarquardtIterations;
     if (initialFromSolve && system_) summary_.initialCost = results[0].initialCost;
@@ -481,8 +494,14 @@ void Solver::solveCold(std::span<const JointTarget> targets, std::span<double> v
     solve(targets, values, summary, true);
 }
 
-void Solver::solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary,
-                   bool cold) const
+void Solver::solveOrGiveUp(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary,
+                           double aboveCost) const
+{
+    solve(targets, values, summary, false, GiveUp{giveUpWindow, aboveCost});
+}
+
+void Solver::solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary, bool cold,
+                   GiveUp giveUp) const
 {
     Impl& impl = *impl_;
     Borrowed<SolveScratch> scratch(impl.scratchPool, [] { return std::make_unique<SolveScratch>(); });
@@ -499,7 +518,8 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     if (summary.termination == TerminationType::invalidTargets) return;
     const bool branches = cold && !impl.switches.empty();
     if (branches) scratch->start.assign(values.begin(), values.end());
-    SolveRun(impl, targets, values, summary, *scratch, *plan).run();
+    SolveRun(impl, targets, values, summary, *scratch, *plan, giveUp).run();
+    if (summary.stalled) return;  // the caller starts afresh (solveOrGiveUp)
     if (!summary.converged() && branches)
         solveFromOtherBranches(*this, impl, targets, values, summary, *scratch, *plan);
     if (summary.converged() || impl.goals.empty()) return;

@@ -12,6 +12,7 @@
 #include "inversion/model/approximation.h"
 #include "inversion/solve/equivalences.h"
 #include "inversion/solve/jacobian.h"
+#include "inversion/solve/minimizer.h"
 #include "inversion/solve/partition.h"
 #include "inversion/solve/solver_options.h"
 
@@ -42,6 +43,11 @@ public:
     // the first joint they blend, the one the start favoured may not reach the rest (an FK leg does not stretch).
     // solve() never flips a switch: along a chain the weight follows the frames.
     void solveCold(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary) const;
+    // solve() that gives up a block whose cost, above 0.5 targetTolerance^2 and `aboveCost`, fell by less than a tenth
+    // over ten iterations (SolveSummary::stalled, noConvergence): a warm start in another basin, for a caller that
+    // starts afresh at such a cost, and goes on from where it stopped if that does no better (solveChainFrame).
+    void solveOrGiveUp(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary,
+                       double aboveCost) const;
 
     // A start found from the approximation's structure instead of from the warm start (DESIGN: cold
     // starts), for a solve far from the answer: the outputs are taken parents first, and each output's
@@ -65,7 +71,8 @@ public:
     struct Impl;  // the solver's state and plans (inversion/solve/solver_impl.h, internal)
 
 private:
-    void solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary, bool cold) const;
+    void solve(std::span<const JointTarget> targets, std::span<double> values, SolveSummary& summary, bool cold,
+               GiveUp giveUp = {}) const;
     std::unique_ptr<Impl> impl_;
 };
 

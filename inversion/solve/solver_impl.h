@@ -47,10 +47,12 @@ struct Solver::Impl {
     // `reference` (one value per parameter; empty: `values` as given) is what periodic controls and Euler
     // triples are kept nearest to.
     MinimizerResult solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets,
-                               std::span<double> values, bool parallel, std::span<const double> reference = {}) const;
+                               std::span<double> values, bool parallel, std::span<const double> reference = {},
+                               GiveUp giveUp = {}) const;
     // The same in a workspace of block.pool that the caller borrowed, and can read after.
     MinimizerResult solveBlock(const BlockPlan& block, BlockWorkspace& w, std::span<const PreparedTarget> targets,
-                               std::span<double> values, bool parallel, std::span<const double> reference = {}) const;
+                               std::span<double> values, bool parallel, std::span<const double> reference = {},
+                               GiveUp giveUp = {}) const;
     // Prepares the targets and finds their plan; false (with the termination) when there is nothing to solve.
     bool prepare(std::span<const JointTarget> targets, std::span<const double> values, SolveScratch& scratch,
                  std::shared_ptr<const Plan>& plan, TerminationType& termination);

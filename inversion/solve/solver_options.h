@@ -101,6 +101,8 @@ struct SolveSummary {
     // shortened: the linear model at the start did not hold as far as the answer (solveChainFrame lets the rotations
     // lead the next frame).
     bool longFirstStep = false;
+    // Solver::solveOrGiveUp gave up some block: its cost stalled above the tolerance (then noConvergence).
+    bool stalled = false;
 
     // One line: termination, iterations, blocks, costs, worst errors.
     std::string briefReport() const;

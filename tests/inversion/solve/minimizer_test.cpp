@@ -50,6 +50,40 @@ private:
     DenseSystem dense_;
 };
 
+// A curved valley with a miss: y = x^2 stiffly (weight 10), x = 1 along it by a slope `slope`, and a residual `miss`
+// no unknown moves. Levenberg-Marquardt follows the curve in short steps, lowering the cost by little each.
+class CurvedValley final : public MinimizerProblem {
+public:
+    CurvedValley(double slope, double miss) : slope_(slope), miss_(miss), dense_(2) {}
+    bool linearize(std::span<const double> x, bool, Eigen::VectorXd& r, Eigen::VectorXd& g) override
+    {
+        residuals(x, r);
+        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
+        J(0, 0) = -20.0 * x[0];
+        J(0, 1) = 10.0;
+        J(1, 0) = -slope_;
+        dense_.matrix() = J.transpose() * J;
+        g = J.transpose() * r;
+        return true;
+    }
+    void residuals(std::span<const double> x, Eigen::VectorXd& r) override
+    {
+        r.resize(3);
+        r << 10.0 * (x[1] - x[0] * x[0]), slope_ * (1.0 - x[0]), miss_;
+    }
+    double diagonal(Eigen::Index i) const override { return dense_.diagonal(i); }
+    void hold(Eigen::Index i) override { dense_.hold(i); }
+    bool solveStep(const Eigen::VectorXd& g, double mu, std::span<const char> fixed, Eigen::VectorXd& d) override
+    {
+        return dense_.solve(g, mu, fixed, d);
+    }
+    void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) override { dense_.multiply(v, out); }
+
+private:
+    double slope_, miss_;
+    DenseSystem dense_;
+};
+
 // Unknowns for AngleAndDistance: the angle periodic (a turn) and free, the distance within [lo, hi].
 Unknowns angleAndDistance(double lo, double hi)
 {
@@ -266,5 +300,36 @@ TEST_CASE("step policies: a Gauss-Newton step taken only after halvings leaves t
         REQUIRE(control.gaussNewton());
         failWhole();
         CHECK(control.gaussNewton() == !halvedInTheMiddle);
+    }
+}
+
+TEST_CASE("minimizer: given up where the cost stalls above the tolerance and the caller's bound")
+{
+    // Along the valley from x = -3 the damped steps lower a cost of about 0.5 (the miss's) by a fraction of a percent
+    // each: given up after the window's ten iterations, not converged; with the caller's bound above that cost, never,
+    // to maxIterations.
+    Approximation a;
+    for (const char* name : {"a.translateX", "a.translateY"}) {
+        ModelledParameter m;
+        m.parameter = test::distance(name);
+        a.parameters.push_back(m);
+    }
+    const Unknowns u(a, nullptr, {0, 1});
+    const auto run = [&](GiveUp giveUp) {
+        CurvedValley problem(1e-2, 1.0);
+        MinimizerState state(3, 2);
+        state.x = {-3.0, 9.0};
+        const std::vector<double> near{-3.0, 9.0};
+        return minimize(problem, u, SolverOptions{}, state, near, StepPolicy::approximation(), giveUp);
+    };
+    const MinimizerResult stalled = run(GiveUp{10, 0.0});
+    CHECK(stalled.stalled);
+    CHECK_FALSE(stalled.converged);
+    CHECK(stalled.gaussNewton + stalled.levenbergMarquardt == 10);
+    CHECK(stalled.cost > 0.5);
+    for (const GiveUp never : {GiveUp{10, 1e3}, GiveUp{}}) {
+        const MinimizerResult r = run(never);
+        CHECK_FALSE(r.stalled);
+        CHECK(r.gaussNewton + r.levenbergMarquardt == SolverOptions{}.maxIterations);
     }
 }
