@@ -16,72 +16,75 @@ using namespace rig;
 
 namespace {
 
-// Unknown 0 is an angle whose residual is a rotation's (sin, cos - 1 against angle a0: periodic, zero at a0 +
-// whole turns); unknown 1 a distance with residual x1 - a1.
-class AngleAndDistance final : public MinimizerProblem {
+// Two unknowns, three residuals: a problem of the test's own, its normal equations dense. A problem gives its
+// residuals and their Jacobian at x.
+class SmallProblem : public MinimizerProblem {
 public:
-    AngleAndDistance(double a0, double a1) : a0_(a0), a1_(a1), dense_(2) {}
     bool linearize(std::span<const double> x, bool, Eigen::VectorXd& r, Eigen::VectorXd& g) override
     {
         residuals(x, r);
-        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
-        J(0, 0) = std::cos(x[0] - a0_);
-        J(1, 0) = -std::sin(x[0] - a0_);
-        J(2, 1) = 1.0;
+        const Eigen::Matrix<double, 3, 2> J = jacobian(x);
         dense_.matrix() = J.transpose() * J;
         g = J.transpose() * r;
         return true;
     }
+    double diagonal(Eigen::Index i) const override { return dense_.diagonal(i); }
+    void hold(Eigen::Index i) override { dense_.hold(i); }
+    bool solveStep(const Eigen::VectorXd& g, double mu, std::span<const char> fixed, Eigen::VectorXd& d) override
+    {
+        return dense_.solve(g, mu, fixed, d);
+    }
+    void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) override { dense_.multiply(v, out); }
+
+private:
+    virtual Eigen::Matrix<double, 3, 2> jacobian(std::span<const double> x) const = 0;
+    DenseSystem dense_{2};
+};
+
+// Unknown 0 is an angle whose residual is a rotation's (sin, cos - 1 against angle a0: periodic, zero at a0 +
+// whole turns); unknown 1 a distance with residual x1 - a1.
+class AngleAndDistance final : public SmallProblem {
+public:
+    AngleAndDistance(double a0, double a1) : a0_(a0), a1_(a1) {}
     void residuals(std::span<const double> x, Eigen::VectorXd& r) override
     {
         r.resize(3);
         r << std::sin(x[0] - a0_), std::cos(x[0] - a0_) - 1.0, x[1] - a1_;
     }
-    double diagonal(Eigen::Index i) const override { return dense_.diagonal(i); }
-    void hold(Eigen::Index i) override { dense_.hold(i); }
-    bool solveStep(const Eigen::VectorXd& g, double mu, std::span<const char> fixed, Eigen::VectorXd& d) override
-    {
-        return dense_.solve(g, mu, fixed, d);
-    }
-    void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) override { dense_.multiply(v, out); }
 
 private:
+    Eigen::Matrix<double, 3, 2> jacobian(std::span<const double> x) const override
+    {
+        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
+        J(0, 0) = std::cos(x[0] - a0_);
+        J(1, 0) = -std::sin(x[0] - a0_);
+        J(2, 1) = 1.0;
+        return J;
+    }
     double a0_, a1_;
-    DenseSystem dense_;
 };
 
 // A curved valley with a miss: y = x^2 stiffly (weight 10), x = 1 along it by a slope `slope`, and a residual `miss`
 // no unknown moves. Levenberg-Marquardt follows the curve in short steps, lowering the cost by little each.
-class CurvedValley final : public MinimizerProblem {
+class CurvedValley final : public SmallProblem {
 public:
-    CurvedValley(double slope, double miss) : slope_(slope), miss_(miss), dense_(2) {}
-    bool linearize(std::span<const double> x, bool, Eigen::VectorXd& r, Eigen::VectorXd& g) override
-    {
-        residuals(x, r);
-        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
-        J(0, 0) = -20.0 * x[0];
-        J(0, 1) = 10.0;
-        J(1, 0) = -slope_;
-        dense_.matrix() = J.transpose() * J;
-        g = J.transpose() * r;
-        return true;
-    }
+    CurvedValley(double slope, double miss) : slope_(slope), miss_(miss) {}
     void residuals(std::span<const double> x, Eigen::VectorXd& r) override
     {
         r.resize(3);
         r << 10.0 * (x[1] - x[0] * x[0]), slope_ * (1.0 - x[0]), miss_;
     }
-    double diagonal(Eigen::Index i) const override { return dense_.diagonal(i); }
-    void hold(Eigen::Index i) override { dense_.hold(i); }
-    bool solveStep(const Eigen::VectorXd& g, double mu, std::span<const char> fixed, Eigen::VectorXd& d) override
-    {
-        return dense_.solve(g, mu, fixed, d);
-    }
-    void multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out) override { dense_.multiply(v, out); }
 
 private:
+    Eigen::Matrix<double, 3, 2> jacobian(std::span<const double> x) const override
+    {
+        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
+        J(0, 0) = -20.0 * x[0];
+        J(0, 1) = 10.0;
+        J(1, 0) = -slope_;
+        return J;
+    }
     double slope_, miss_;
-    DenseSystem dense_;
 };
 
 // Unknowns for AngleAndDistance: the angle periodic (a turn) and free, the distance within [lo, hi].
