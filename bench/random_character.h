@@ -65,4 +65,5 @@ GraphRigFunction loadCharacter(const Character& character, const std::filesystem
 // the approximation left out at their defaults (RigBinding). Targets on every joint output at the real rig's worlds,
 // as a clip of that rig's animation gives them.
 ClipTargets smoothClip(const Approximation& a, RigBinding& binding, int frames, std::mt19937& rng);
+
 }  // namespace rig::bench

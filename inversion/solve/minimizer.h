@@ -85,11 +85,6 @@ struct MinimizerResult {
     bool stalled = false;
 };
 
-// Minimizes 1/2 |r(x)|^2 from state.x (within the limits) within the unknowns' limits: Gauss-Newton then
-// Levenberg-Marquardt steps (StepControl, as `policy` says), the columns at a limit whose descent points out held,
-// every step shortened whole so that no angle moves more than options.maxAngularStep. Stops on options' tolerances and
-// maxIterations. At the end, periodic unknowns and Euler triples are moved to the equivalent values nearest `near`
-// (indexed by Unknowns::columns; an Euler flip only where the cost says it is the same pose).
 // When to give a minimization up (stalled, not converged): its cost above both 0.5 targetTolerance^2 and `aboveCost`,
 // and lowered by less than a tenth over the last `window` iterations (0: never). A start in another basin, grinding
 // against a kink or crawling along a valley, which a caller that would then start afresh leaves
@@ -98,6 +93,12 @@ struct GiveUp {
     int window = 0;
     double aboveCost = 0.0;
 };
+
+// Minimizes 1/2 |r(x)|^2 from state.x (within the limits) within the unknowns' limits: Gauss-Newton then
+// Levenberg-Marquardt steps (StepControl, as `policy` says), the columns at a limit whose descent points out held,
+// every step shortened whole so that no angle moves more than options.maxAngularStep. Stops on options' tolerances and
+// maxIterations. At the end, periodic unknowns and Euler triples are moved to the equivalent values nearest `near`
+// (indexed by Unknowns::columns; an Euler flip only where the cost says it is the same pose). `giveUp`: as above.
 MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& unknowns, const SolverOptions& options,
                          MinimizerState& state, std::span<const double> near,
                          StepPolicy policy = StepPolicy::approximation(), GiveUp giveUp = {});
