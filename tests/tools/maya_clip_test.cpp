@@ -24,6 +24,15 @@ using namespace rig;
 
 namespace {
 
+// ../shared/maya's `folder` where it holds `scene`, else empty after a skip message: a clone has no ../shared.
+fs::path sharedScenes(const std::string& folder, const std::string& scene)
+{
+    const fs::path path = test::sourceDir() / "../shared/maya" / folder;
+    if (fs::exists(path / scene)) return path;
+    MESSAGE("[skipped] " << path << " is absent");
+    return {};
+}
+
 struct ReplayError {
     double positionCm = 0.0;
     double rotationDeg = 0.0;
@@ -190,11 +199,8 @@ TEST_CASE("maya clip: a rig scene keyed in place: OUT.ma disconnects its curves,
 
 TEST_CASE("maya clip: C_Robot_Run.ma inverted on C_Robot_Rig.ma, and OUT.ma replays it within the reported error")
 {
-    const fs::path folder = test::sourceDir() / "../shared/maya/sweet4lorie__MonsterRobotRunner/ART/C_Robot";
-    if (!fs::exists(folder / "C_Robot_Run.ma")) {
-        MESSAGE("[skipped] " << folder << " is absent");
-        return;
-    }
+    const fs::path folder = sharedScenes("sweet4lorie__MonsterRobotRunner/ART/C_Robot", "C_Robot_Run.ma");
+    if (folder.empty()) return;
     const auto dir = test::scratchDir("maya_clip_robot");
     const std::string rig = (folder / "C_Robot_Rig.ma").string(), anim = (folder / "C_Robot_Run.ma").string();
     const std::string approx = (dir / "robot.approx.yaml").string(), out = (dir / "run.ma").string();
@@ -231,11 +237,8 @@ TEST_CASE("maya clip: C_Robot_Run.ma inverted on C_Robot_Rig.ma, and OUT.ma repl
 
 TEST_CASE("maya clip: C_Robot_Run.ma on C_Robot_Rig.ma learned with auto parameters, every frame reached by default")
 {
-    const fs::path folder = test::sourceDir() / "../shared/maya/sweet4lorie__MonsterRobotRunner/ART/C_Robot";
-    if (!fs::exists(folder / "C_Robot_Run.ma")) {
-        MESSAGE("[skipped] " << folder << " is absent");
-        return;
-    }
+    const fs::path folder = sharedScenes("sweet4lorie__MonsterRobotRunner/ART/C_Robot", "C_Robot_Run.ma");
+    if (folder.empty()) return;
     const auto dir = test::scratchDir("maya_clip_robot_auto");
     const std::string rig = (folder / "C_Robot_Rig.ma").string(), anim = (folder / "C_Robot_Run.ma").string();
     const std::string approx = (dir / "robot.approx.yaml").string();
@@ -269,11 +272,8 @@ TEST_CASE(
     "maya clip: Grunt_Run.ma on Grunt_Rig.ma learned with auto parameters: every bound joint modelled, every "
     "frame reached on the real rig, and OUT.ma replays it")
 {
-    const fs::path folder = test::sourceDir() / "../shared/maya/samuelmoores__Infinity/InfinityMaya/Scenes";
-    if (!fs::exists(folder / "Grunt_Run.ma")) {
-        MESSAGE("[skipped] " << folder << " is absent");
-        return;
-    }
+    const fs::path folder = sharedScenes("samuelmoores__Infinity/InfinityMaya/Scenes", "Grunt_Run.ma");
+    if (folder.empty()) return;
     const auto dir = test::scratchDir("maya_clip_grunt");
     const std::string rig = (folder / "Grunt_Rig.ma").string(), anim = (folder / "Grunt_Run.ma").string();
     const std::string approx = (dir / "grunt.approx.yaml").string(), out = (dir / "run.ma").string();
