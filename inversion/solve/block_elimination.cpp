@@ -271,7 +271,10 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
     const int largest = *std::max_element(elimination.size_.begin(), elimination.size_.end());
     scratch_.assign(static_cast<std::size_t>(largest), 0.0);
     pivoted_.resize(largest, largest);
-    gram_.resize(largest, largest);
+    rank_.assign(blocks, 0);
+    nullRows_.resize(largest, largest);
+    nullSolved_.resize(largest, largest);
+    nullSquare_.resize(largest, largest);
     permutation_.assign(static_cast<std::size_t>(largest), 0);
     for (std::size_t b = 0; b < blocks; ++b) {
         factor_.emplace_back(elimination.size_[b], elimination.size_[b]);
@@ -465,6 +468,7 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
         for (Eigen::Index i = j + 1; i < n; ++i) column[i] *= column[j];
     }
     triangular_[b] = wellConditioned;
+    rank_[b] = n;
     if (wellConditioned) {
         for (Eigen::Index j = 0; j < n; ++j)
             for (Eigen::Index i = j; i < n; ++i)
@@ -476,26 +480,76 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
 
 bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, double mu, double largestDiagonal)
 {
-    // S^+ = F^T F on S's range (range_factor.h): S^+ = R^T G^-2 R, so F = G^-1 R (its last n - r rows zero).
+    // S^+ = F^T F on S's range (range_factor.h): F = G^-1 R, its last n - r rows zero. With L = [L1; L2] (L1 the
+    // rank's triangle) and M = L2 L1^-1, G = L1^T (I + M^T M) L1, so G^-1 L^T = L1^-1 (I + M^T M)^-1 [I | M^T], which
+    // Woodbury's identity makes L1^-1 [I - M^T Q | Q^T] with Q = (I + M M^T)^-1 M: triangular solves and a factor
+    // of the null space's size (a pole's free directions: two or three), not G formed and factored.
     const Eigen::Index n = e_->size_[b];
     auto a = pivoted_.topLeftCorner(n, n);
     a = ConstBlockMap(s, n, n).selfadjointView<Eigen::Lower>();
     a.diagonal().array() += mu;
     const Eigen::Index rank = pivotedCholesky(a, permutation_, rankTolerance * largestDiagonal);
-    auto l = a.leftCols(rank);
-    auto gram = gram_.topLeftCorner(rank, rank);
-    gram.triangularView<Eigen::Lower>().setZero();
-    gram.selfadjointView<Eigen::Lower>().rankUpdate(l.transpose());  // the lower triangle, which LLT reads
+    rank_[b] = rank;
     Eigen::MatrixXd& f = factor_[b];
     f.setZero();
     if (rank == 0) return true;
-    for (Eigen::Index i = 0; i < n; ++i) f.col(permutation_[static_cast<std::size_t>(i)]).head(rank) = l.row(i);
-    Eigen::Ref<Eigen::MatrixXd> inPlace(gram);
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(inPlace);
-    if (llt.info() != Eigen::Success) return false;
-    auto rows = f.topRows(rank);
-    llt.solveInPlace(rows);
+    // Plain loops: the blocks are small (a limb's 6 to 20 columns), where Eigen's blocked triangular solves cost
+    // more in their set-up than in arithmetic.
+    const Eigen::Index nullity = n - rank;
+    auto m = nullRows_.topLeftCorner(nullity, rank);  // M L1 = L2, L1's columns from the last
+    for (Eigen::Index j = rank; j-- > 0;)
+        for (Eigen::Index p = 0; p < nullity; ++p) {
+            double v = a(rank + p, j);
+            for (Eigen::Index i = j + 1; i < rank; ++i) v -= m(p, i) * a(i, j);
+            m(p, j) = v / a(j, j);
+        }
+    auto q = nullSolved_.topLeftCorner(nullity, rank);
+    if (nullity > 0 && !solveNullSquare(m, q)) return false;
+    // Column i of F before the permutation: L1^-1 times column i of [I - M^T Q | Q^T], by forward substitution.
+    for (Eigen::Index i = 0; i < n; ++i) {
+        double* x = f.col(permutation_[static_cast<std::size_t>(i)]).data();
+        for (Eigen::Index r = 0; r < rank; ++r) {
+            double v = i < rank ? (r == i ? 1.0 : 0.0) : q(i - rank, r);
+            if (i < rank)
+                for (Eigen::Index p = 0; p < nullity; ++p) v -= m(p, r) * q(p, i);
+            x[r] = v;
+        }
+        for (Eigen::Index r = 0; r < rank; ++r) {
+            x[r] /= a(r, r);
+            for (Eigen::Index k = r + 1; k < rank; ++k) x[k] -= x[r] * a(k, r);
+        }
+    }
     return f.allFinite();
+}
+
+bool BlockEliminationWorkspace::solveNullSquare(const Eigen::Ref<const Eigen::MatrixXd>& m,
+                                                Eigen::Ref<Eigen::MatrixXd> q)
+{
+    // Q = C^-1 M with C = I + M M^T (k x k, k the nullity), by its Cholesky factor.
+    const Eigen::Index k = m.rows(), r = m.cols();
+    auto c = nullSquare_.topLeftCorner(k, k);
+    for (Eigen::Index j = 0; j < k; ++j)
+        for (Eigen::Index i = j; i < k; ++i) c(i, j) = (i == j ? 1.0 : 0.0) + m.row(i).dot(m.row(j));
+    for (Eigen::Index j = 0; j < k; ++j) {
+        for (Eigen::Index l = 0; l < j; ++l)
+            for (Eigen::Index i = j; i < k; ++i) c(i, j) -= c(i, l) * c(j, l);
+        if (!(c(j, j) > 0.0)) return false;
+        c(j, j) = std::sqrt(c(j, j));
+        for (Eigen::Index i = j + 1; i < k; ++i) c(i, j) /= c(j, j);
+    }
+    for (Eigen::Index col = 0; col < r; ++col) {
+        for (Eigen::Index i = 0; i < k; ++i) {
+            double v = m(i, col);
+            for (Eigen::Index l = 0; l < i; ++l) v -= c(i, l) * q(l, col);
+            q(i, col) = v / c(i, i);
+        }
+        for (Eigen::Index i = k; i-- > 0;) {
+            double v = q(i, col);
+            for (Eigen::Index l = i + 1; l < k; ++l) v -= c(l, i) * q(l, col);
+            q(i, col) = v / c(i, i);
+        }
+    }
+    return true;
 }
 
 void BlockEliminationWorkspace::applyF(std::size_t b, double* x)
@@ -509,9 +563,11 @@ void BlockEliminationWorkspace::applyF(std::size_t b, double* x)
         }
         return;
     }
+    // F's rows past its rank are zero.
+    const Eigen::Index rank = rank_[b];
     double* product = scratch_.data();
     std::fill(product, product + n, 0.0);
-    for (Eigen::Index k = 0; k < n; ++k) axpy(x[k], factor_[b].data() + k * n, product, n);
+    for (Eigen::Index k = 0; k < n; ++k) axpy(x[k], factor_[b].data() + k * n, product, rank);
     std::copy(product, product + n, x);
 }
 
@@ -524,7 +580,7 @@ void BlockEliminationWorkspace::applyFTransposed(std::size_t b, double* x)
         return;
     }
     double* product = scratch_.data();
-    for (Eigen::Index k = 0; k < n; ++k) product[k] = dot(factor_[b].data() + k * n, x, n);
+    for (Eigen::Index k = 0; k < n; ++k) product[k] = dot(factor_[b].data() + k * n, x, rank_[b]);
     std::copy(product, product + n, x);
 }
 
@@ -541,13 +597,11 @@ void BlockEliminationWorkspace::couplingRows(std::size_t b, const double* w, Eig
         }
         return;
     }
-    const Eigen::MatrixXd& f = factor_[b];
-    for (Eigen::Index r = 0; r < n; ++r) {
-        double* row = rows + r * m;
-        std::fill(row, row + m, 0.0);
-        for (Eigen::Index k = 0; k < n; ++k)
-            for (Eigen::Index c = 0; c < m; ++c) row[c] += f(r, k) * w[c * n + k];
-    }
+    // F's rows past its rank are zero, and so are T's.
+    const Eigen::Index rank = rank_[b];
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> t(rows, n, m);
+    t.topRows(rank).noalias() = factor_[b].topRows(rank).lazyProduct(ConstBlockMap(w, n, m));
+    t.bottomRows(n - rank).setZero();
 }
 
 void BlockEliminationWorkspace::prefetch() const
@@ -615,16 +669,17 @@ bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& g
         double* rows = couplings_.data() + e.coupling_[b];
         couplingRows(b, panel + nb * nb, m, rows);
         const auto& chain = e.chain_[b];
-        Eigen::Index offset = 0;  // the ancestor's first column in T
+        const Eigen::Index rank = rank_[b];  // T's and y's rows past it are zero
+        Eigen::Index offset = 0;             // the ancestor's first column in T
         for (std::size_t i = 1; i < chain.size(); ++i) {
             const std::size_t a = static_cast<std::size_t>(chain[i]);
             const Eigen::Index na = e.size_[a];
-            subtractMany(y, 1, rows + offset, m, nb, rhs_[a].data(), na);
+            subtractMany(y, 1, rows + offset, m, rank, rhs_[a].data(), na);
             // Column q loses sum_k T(k, q) T(k, its rows); the ancestor's own block keeps its lower triangle.
             double* target = work_.data() + e.base_[a][0];
             for (Eigen::Index q = 0; q < m - offset; ++q) {
                 const Eigen::Index from = q < na ? q : 0;
-                subtractMany(rows + offset + q, m, rows + offset + from, m, nb, target + q * na + from, na - from);
+                subtractMany(rows + offset + q, m, rows + offset + from, m, rank, target + q * na + from, na - from);
             }
             offset += na;
         }
@@ -641,7 +696,7 @@ bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& g
         for (std::size_t i = 1; i < chain.size(); ++i) {
             const Eigen::VectorXd& above = rhs_[static_cast<std::size_t>(chain[i])];  // its step by now
             for (Eigen::Index c = 0; c < above.size(); ++c)
-                for (Eigen::Index k = 0; k < nb; ++k) z[k] -= above[c] * rows[k * m + offset + c];
+                for (Eigen::Index k = 0; k < rank_[b]; ++k) z[k] -= above[c] * rows[k * m + offset + c];
             offset += above.size();
         }
         applyFTransposed(b, z);
@@ -727,6 +782,7 @@ bool BlockEliminationWorkspace::eliminateNode(std::size_t b, double mu, double s
     const double inverse = regular ? 1.0 / std::sqrt(s) : 0.0;  // F, L^-1 of the 1x1
     squares_[static_cast<std::size_t>(e.square_[b])] = inverse;
     triangular_[b] = 1;
+    rank_[b] = 1;
     y *= inverse;
     if (e.attach_[b] < 0) return true;
     Eigen::Map<Vector6> row(couplings_.data() + e.coupling_[b]);

@@ -149,6 +149,8 @@ private:
     bool factor(std::size_t b, const double* s, double mu);
     // factor's F where S_b + mu I is singular (a pivot at or below the rank tolerance of `largestDiagonal`).
     bool rangeFactor(std::size_t b, const double* s, double mu, double largestDiagonal);
+    // rangeFactor's Q = (I + M M^T)^-1 M; false when that matrix has no Cholesky factor.
+    bool solveNullSquare(const Eigen::Ref<const Eigen::MatrixXd>& m, Eigen::Ref<Eigen::MatrixXd> q);
     void applyF(std::size_t b, double* x);            // x <- F x, in place
     void applyFTransposed(std::size_t b, double* x);  // x <- F^T x, in place
     // T = F W into rows, row-major (W: m columns after S_b, column-major; a row of T per block column).
@@ -183,8 +185,10 @@ private:
     std::vector<double> couplings_;  // per block: T = F (its coupling columns), row-major, a row per block column
     std::vector<Eigen::MatrixXd> factor_;  // per block: F where S_b is singular
     std::vector<char> triangular_;         // per block: F = L^-1 (L in squares_)
-    Eigen::MatrixXd pivoted_, gram_;  // rangeFactor's: the pivoted factor L, then G = L^T L (the largest block's size)
-    std::vector<int> permutation_;    // rangeFactor's P
+    std::vector<Eigen::Index> rank_;       // per block: F's rows that are not zero
+    // rangeFactor's (the largest block's size): the pivoted factor L, M, Q and the factor of I + M M^T.
+    Eigen::MatrixXd pivoted_, nullRows_, nullSolved_, nullSquare_;
+    std::vector<int> permutation_;      // rangeFactor's P
     std::vector<Eigen::VectorXd> rhs_;  // per block: its right-hand side, then y, then its step
     std::vector<double> scratch_;
     // The fold's: per flat node, the folds below it (6x6 and load) and F t-products; per block, what its

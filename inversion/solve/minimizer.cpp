@@ -45,7 +45,7 @@ double holdAtLimits(MinimizerProblem& problem, const Unknowns& u, const SolverOp
 // and state.step; false when the system has no solution. `smallStep`: under parameterTolerance. `wholeStep`:
 // neither scaled, shortened nor projected. `shortened`: cut to the angular trust region.
 bool trialStep(MinimizerProblem& problem, const Unknowns& u, const SolverOptions& options, MinimizerState& s,
-               double damping, double scale, bool& smallStep, bool& wholeStep, bool& shortened)
+               double damping, double scale, bool& smallStep, bool& wholeStep, bool& shortened, bool& repeated)
 {
     const std::size_t n = u.size();
     // A Gauss-Newton step backtracked (StepPolicy::backtracks) is the same step halved: x, g and the held columns
@@ -58,6 +58,10 @@ bool trialStep(MinimizerProblem& problem, const Unknowns& u, const SolverOptions
         if (u.angular[c]) largestTurn = std::max(largestTurn, std::abs(s.delta[static_cast<Eigen::Index>(c)]));
     shortened = largestTurn > options.maxAngularStep;
     if (shortened) s.delta *= options.maxAngularStep / largestTurn;
+    // A halved step the region still shortens is the last trial again, to the bit (halving is exact): its cost is
+    // known. A foot swung by whole turns: four evaluations of one point before the damped step.
+    repeated = shortened && scale < 1.0;
+    if (repeated) return true;
     wholeStep = !shortened;
     wholeStep = wholeStep && scale == 1.0;
     // Projection onto the limits; the step actually taken is what the model and tolerances see.
@@ -208,6 +212,7 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
     const double creepCost = 0.5 * std::pow(o.targetTolerance, 2);
     const double creepDecrease = 0.5 * std::pow(1e-2 * o.targetTolerance, 2);
     const double stallCost = std::max(0.5 * o.targetTolerance * o.targetTolerance, giveUp.aboveCost);
+    double trialCost = cost;
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
         if (giveUp.window > 0 && stalls(s.costs, control.scale() == 1.0, cost, stallCost, giveUp.window)) {
             result.stalled = true;
@@ -223,9 +228,9 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
             break;
         }
         const bool gaussNewton = control.gaussNewton();
-        bool smallStep = false, wholeStep = false, shortened = false;
+        bool smallStep = false, wholeStep = false, shortened = false, repeated = false;
         if (!trialStep(problem, u, o, s, control.damping(largestDiagonal), control.scale(), smallStep, wholeStep,
-                       shortened))
+                       shortened, repeated))
             break;
         if (result.gaussNewton + result.levenbergMarquardt == 0) result.longFirstStep = shortened;
         // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
@@ -245,9 +250,11 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
                 break;
             }
         }
-        problem.residuals(s.trial, s.rTrial);
-        evaluatedAtX = false;
-        const double trialCost = 0.5 * s.rTrial.squaredNorm();
+        if (!repeated) {
+            problem.residuals(s.trial, s.rTrial);
+            evaluatedAtX = false;
+            trialCost = 0.5 * s.rTrial.squaredNorm();
+        }
         if (control.accept(cost, trialCost, smallStep, predicted)) {
             const double decrease = cost - trialCost;
             std::swap(s.x, s.trial);
