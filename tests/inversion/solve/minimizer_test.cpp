@@ -2,6 +2,8 @@
 // own, and the same on the real rig (solveOnRealRig), where the hybrid solve's second stage runs it.
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -87,6 +89,29 @@ private:
     double slope_, miss_;
 };
 
+// An angle whose residual barely moves with it at 0 and rises beyond (1 + x0 / 100 + x0^2), and a distance x1 - 2: the
+// Gauss-Newton step turns the angle by -100, so that the trust region shortens it and its halvings alike. Every
+// evaluation's point is kept.
+class FlatThenSteep final : public SmallProblem {
+public:
+    void residuals(std::span<const double> x, Eigen::VectorXd& r) override
+    {
+        evaluated.push_back({x[0], x[1]});
+        r.resize(3);
+        r << 1.0 + 0.01 * x[0] + x[0] * x[0], x[1] - 2.0, 0.0;
+    }
+    std::vector<std::array<double, 2>> evaluated;
+
+private:
+    Eigen::Matrix<double, 3, 2> jacobian(std::span<const double> x) const override
+    {
+        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
+        J(0, 0) = 0.01 + 2.0 * x[0];
+        J(1, 1) = 1.0;
+        return J;
+    }
+};
+
 // Unknowns for AngleAndDistance: the angle periodic (a turn) and free, the distance within [lo, hi].
 Unknowns angleAndDistance(double lo, double hi)
 {
@@ -120,6 +145,29 @@ TEST_CASE("minimizer: a step longer than maxAngularStep is shortened whole, dire
     // Gauss-Newton's step at 0 is (sin 1.2, 2): the angle's part is capped at 0.3, the distance's scaled alike.
     CHECK(state.x[0] == doctest::Approx(0.3).epsilon(1e-14));
     CHECK(state.x[1] == doctest::Approx(2.0 * 0.3 / std::sin(1.2)).epsilon(1e-12));
+}
+
+TEST_CASE("minimizer: a halved step the trust region shortens to the last trial is not evaluated again")
+{
+    // Gauss-Newton's step from 0, shortened to turn the angle by 0.3, raises the cost; its four halvings are shortened
+    // to the same point (halving is exact), which is not evaluated again: the next evaluation is the damped step's.
+    FlatThenSteep problem;
+    const Unknowns u = angleAndDistance(-100, 100);
+    SolverOptions options;
+    options.maxAngularStep = 0.3;
+    MinimizerState state(3, 2);
+    state.x = {0.0, 0.0};
+    const std::vector<double> near{0.0, 0.0};
+    minimize(problem, u, options, state, near);
+    REQUIRE(problem.evaluated.size() >= 3);
+    const std::array<double, 2> first = problem.evaluated[1];  // [0]: the start, linearized
+    CHECK(first[0] == doctest::Approx(-0.3).epsilon(1e-14));
+    CHECK(first[1] == doctest::Approx(0.006).epsilon(1e-12));
+    CHECK(std::count(problem.evaluated.begin(), problem.evaluated.end(), first) == 1);
+    // The damped step, (J^T J + 1e-4 I) d = -g, shortened alike: the angle by 0.3 again, the distance by 2 / 1.0001 of
+    // it over 50.
+    CHECK(problem.evaluated[2][0] == doctest::Approx(-0.3).epsilon(1e-14));
+    CHECK(problem.evaluated[2][1] == doctest::Approx(0.006 * 2.0 / 1.0001).epsilon(1e-12));
 }
 
 TEST_CASE("minimizer: a limit holds its unknown, and the solve converges there")
