@@ -138,6 +138,16 @@ bool stalls(std::vector<double>& costs, bool iterationStarts, double cost, doubl
     return n > w && cost > floor && cost > 0.9 * costs[n - 1 - w];
 }
 
+// Ten accepted steps that lowered the cost by at most a millionth of it, above the tolerance: a minimum of the model
+// the targets are out of reach of, which damped steps otherwise creep along at a ten-millionth of the cost each to
+// maxIterations (a random character's space switch: 100 iterations of one frame).
+bool stationary(const std::vector<double>& costs, double cost, double floor)
+{
+    constexpr std::size_t window = 10;
+    const std::size_t n = costs.size();
+    return n > window && cost > floor && costs[n - 1 - window] - cost <= 1e-6 * cost;
+}
+
 }  // namespace
 
 Unknowns::Unknowns(const Approximation& approximation, const Equivalences* equivalences, std::vector<int> cols)
@@ -191,7 +201,9 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
 {
     MinimizerResult result;
     s.costs.clear();
+    s.acceptedCosts.clear();
     if (giveUp.window > 0) s.costs.reserve(static_cast<std::size_t>(o.maxIterations) + 1);
+    s.acceptedCosts.reserve(static_cast<std::size_t>(o.maxIterations) + 1);
     bool finite = problem.linearize(s.x, false, s.r, s.g);
     double cost = 0.5 * s.r.squaredNorm();
     // A cost that overflows (targets 1e160 cm away: finite residuals, an infinite square) compares no step with
@@ -213,6 +225,7 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
     const double creepDecrease = 0.5 * std::pow(1e-2 * o.targetTolerance, 2);
     const double stallCost = std::max(0.5 * o.targetTolerance * o.targetTolerance, giveUp.aboveCost);
     double trialCost = cost;
+    s.acceptedCosts.push_back(cost);
     while (finite && result.gaussNewton + result.levenbergMarquardt < o.maxIterations) {
         if (giveUp.window > 0 && stalls(s.costs, control.scale() == 1.0, cost, stallCost, giveUp.window)) {
             result.stalled = true;
@@ -262,7 +275,9 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
             evaluatedAtX = true;
             cost = trialCost;
             const bool creeping = cost <= creepCost && decrease <= creepDecrease && decrease <= 0.1 * (cost + decrease);
-            if (smallStep || decrease <= o.functionTolerance * (cost + decrease) || creeping) {
+            s.acceptedCosts.push_back(cost);
+            if (smallStep || decrease <= o.functionTolerance * (cost + decrease) || creeping ||
+                stationary(s.acceptedCosts, cost, creepCost)) {
                 result.converged = true;
                 break;
             }

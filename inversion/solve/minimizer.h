@@ -63,9 +63,10 @@ struct MinimizerState {
     MinimizerState(Eigen::Index rows, Eigen::Index columns);
     std::vector<double> x, trial;  // in: x the start, within the limits; out: the answer
     Eigen::VectorXd r, rTrial, hStep, g, gFree, delta, step;
-    Eigen::VectorXd direction;  // the last step solved: a Gauss-Newton step's halvings reuse it
-    std::vector<char> fixed;    // per unknown: held at a limit for this step
-    std::vector<double> costs;  // the cost at each iteration's start, where minimize tests for a stall
+    Eigen::VectorXd direction;          // the last step solved: a Gauss-Newton step's halvings reuse it
+    std::vector<char> fixed;            // per unknown: held at a limit for this step
+    std::vector<double> costs;          // the cost at each iteration's start, where minimize tests for a stall
+    std::vector<double> acceptedCosts;  // the cost after each accepted step (the start's first): stationary or not
     // Hints the cache to fetch the vectors (core/prefetch.h).
     void prefetch() const;
 };

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <utility>
 
 #include "inversion/clip/real_rig_solve.h"
 #include "inversion/clip/rig_binding.h"
@@ -110,6 +111,27 @@ private:
         J(1, 1) = 1.0;
         return J;
     }
+};
+
+// A residual of 1 no unknown moves, a pull of the angle towards 100 radians with weight `pull`, and the distance to 0.
+class FarPull final : public SmallProblem {
+public:
+    explicit FarPull(double pull) : pull_(pull) {}
+    void residuals(std::span<const double> x, Eigen::VectorXd& r) override
+    {
+        r.resize(3);
+        r << 1.0, pull_ * (100.0 - x[0]), x[1];
+    }
+
+private:
+    Eigen::Matrix<double, 3, 2> jacobian(std::span<const double>) const override
+    {
+        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
+        J(1, 0) = -pull_;
+        J(2, 1) = 1.0;
+        return J;
+    }
+    double pull_;
 };
 
 // Unknowns for AngleAndDistance: the angle periodic (a turn) and free, the distance within [lo, hi].
@@ -383,4 +405,31 @@ TEST_CASE("minimizer: given up where the cost stalls above the tolerance and the
         CHECK_FALSE(r.stalled);
         CHECK(r.gaussNewton + r.levenbergMarquardt == SolverOptions{}.maxIterations);
     }
+}
+
+TEST_CASE("minimizer: ten accepted steps that lower the cost by a millionth of it end the solve, above the tolerance")
+{
+    // A miss of 1 no unknown moves, and a faint pull (weight 2.2e-5) of the angle towards 100 radians: each step the
+    // trust region lets through (0.5) lowers a cost of 0.5 by 5e-8 of it, more than the function tolerance's 1e-8, for
+    // the 200 steps to 100. A stationary point for any purpose: converged after ten such steps, not at maxIterations.
+    const Unknowns u = angleAndDistance(-100, 100);
+    const auto run = [&](bool faint) {
+        FarPull problem(faint ? std::sqrt(5e-10) : 1e-2);
+        MinimizerState state(3, 2);
+        state.x = {0.0, 0.0};
+        const std::vector<double> near{0.0, 0.0};
+        SolverOptions options;
+        options.maxAngularStep = 0.5;
+        return std::pair{minimize(problem, u, options, state, near), state.x[0]};
+    };
+    const auto [faint, angle] = run(true);
+    CHECK(faint.converged);
+    CHECK(faint.gaussNewton + faint.levenbergMarquardt == 10);
+    CHECK(std::remainder(angle - 5.0, 2.0 * std::numbers::pi) == doctest::Approx(0.0).scale(1.0).epsilon(1e-12));
+    CHECK(faint.cost == doctest::Approx(0.5).epsilon(1e-5));
+    // Pulled by 1e-2, each step gains 1e-2 of the cost: on to maxIterations (50 radians by then). The angle is a turn's
+    // period: it ends at the equivalent value nearest its start.
+    const auto [pulled, far] = run(false);
+    CHECK(pulled.gaussNewton + pulled.levenbergMarquardt == SolverOptions{}.maxIterations);
+    CHECK(std::remainder(far - 50.0, 2.0 * std::numbers::pi) == doctest::Approx(0.0).scale(1.0).epsilon(1e-12));
 }
