@@ -483,7 +483,7 @@ bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, doub
     // S^+ = F^T F on S's range (range_factor.h): F = G^-1 R, its last n - r rows zero. With L = [L1; L2] (L1 the
     // rank's triangle) and M = L2 L1^-1, G = L1^T (I + M^T M) L1, so G^-1 L^T = L1^-1 (I + M^T M)^-1 [I | M^T], which
     // Woodbury's identity makes L1^-1 [I - M^T Q | Q^T] with Q = (I + M M^T)^-1 M: triangular solves and a factor
-    // of the null space's size (a pole's free directions: two or three), not G formed and factored.
+    // of the null space's size, not G formed and factored.
     const Eigen::Index n = e_->size_[b];
     auto a = pivoted_.topLeftCorner(n, n);
     a = ConstBlockMap(s, n, n).selfadjointView<Eigen::Lower>();
@@ -493,61 +493,59 @@ bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, doub
     Eigen::MatrixXd& f = factor_[b];
     f.setZero();
     if (rank == 0) return true;
-    // Plain loops: the blocks are small (a limb's 6 to 20 columns), where Eigen's blocked triangular solves cost
-    // more in their set-up than in arithmetic.
-    const Eigen::Index nullity = n - rank;
-    auto m = nullRows_.topLeftCorner(nullity, rank);  // M L1 = L2, L1's columns from the last
-    for (Eigen::Index j = rank; j-- > 0;)
-        for (Eigen::Index p = 0; p < nullity; ++p) {
-            double v = a(rank + p, j);
-            for (Eigen::Index i = j + 1; i < rank; ++i) v -= m(p, i) * a(i, j);
-            m(p, j) = v / a(j, j);
-        }
-    auto q = nullSolved_.topLeftCorner(nullity, rank);
-    if (nullity > 0 && !solveNullSquare(m, q)) return false;
+    // Plain loops on columns: the blocks are small (a leg's 16 columns, of rank 9 or 10: its pole's and its foot
+    // pivots' redundant directions), where Eigen's blocked triangular solves cost more in set-up than in arithmetic.
+    const Eigen::Index k = n - rank, ld = pivoted_.outerStride();
+    const double* l = pivoted_.data();       // L(i, j) at l[i + j * ld]
+    double* m = nullRows_.data();            // M, k x rank, column-major: M(p, j) at m[p + j * k]
+    for (Eigen::Index j = rank; j-- > 0;) {  // M L1 = L2, L1's columns from the last
+        double* mj = m + j * k;
+        for (Eigen::Index p = 0; p < k; ++p) mj[p] = l[rank + p + j * ld];
+        for (Eigen::Index i = j + 1; i < rank; ++i) axpy(-l[i + j * ld], m + i * k, mj, k);
+        for (Eigen::Index p = 0; p < k; ++p) mj[p] /= l[j + j * ld];
+    }
+    double* q = nullSolved_.data();  // Q, as M
+    if (k > 0 && !solveNullSquare(m, k, rank, q)) return false;
     // Column i of F before the permutation: L1^-1 times column i of [I - M^T Q | Q^T], by forward substitution.
     for (Eigen::Index i = 0; i < n; ++i) {
         double* x = f.col(permutation_[static_cast<std::size_t>(i)]).data();
-        for (Eigen::Index r = 0; r < rank; ++r) {
-            double v = i < rank ? (r == i ? 1.0 : 0.0) : q(i - rank, r);
-            if (i < rank)
-                for (Eigen::Index p = 0; p < nullity; ++p) v -= m(p, r) * q(p, i);
-            x[r] = v;
-        }
-        for (Eigen::Index r = 0; r < rank; ++r) {
-            x[r] /= a(r, r);
-            for (Eigen::Index k = r + 1; k < rank; ++k) x[k] -= x[r] * a(k, r);
+        if (i < rank)
+            for (Eigen::Index c = 0; c < rank; ++c) x[c] = (c == i ? 1.0 : 0.0) - dot(m + c * k, q + i * k, k);
+        else
+            for (Eigen::Index c = 0; c < rank; ++c) x[c] = q[i - rank + c * k];
+        for (Eigen::Index c = 0; c < rank; ++c) {
+            x[c] /= l[c + c * ld];
+            axpy(-x[c], l + c + 1 + c * ld, x + c + 1, rank - c - 1);
         }
     }
     return f.allFinite();
 }
 
-bool BlockEliminationWorkspace::solveNullSquare(const Eigen::Ref<const Eigen::MatrixXd>& m,
-                                                Eigen::Ref<Eigen::MatrixXd> q)
+bool BlockEliminationWorkspace::solveNullSquare(const double* m, Eigen::Index k, Eigen::Index r, double* q)
 {
-    // Q = C^-1 M with C = I + M M^T (k x k, k the nullity), by its Cholesky factor.
-    const Eigen::Index k = m.rows(), r = m.cols();
-    auto c = nullSquare_.topLeftCorner(k, k);
+    // Q = C^-1 M with C = I + M M^T (k x k, k the nullity), by its Cholesky factor; M and Q k x r, column-major.
+    double* c = nullSquare_.data();  // C(i, j) at c[i + j * k], lower triangle
     for (Eigen::Index j = 0; j < k; ++j)
-        for (Eigen::Index i = j; i < k; ++i) c(i, j) = (i == j ? 1.0 : 0.0) + m.row(i).dot(m.row(j));
+        for (Eigen::Index i = j; i < k; ++i) c[i + j * k] = i == j ? 1.0 : 0.0;
+    for (Eigen::Index col = 0; col < r; ++col) {
+        const double* mc = m + col * k;
+        for (Eigen::Index j = 0; j < k; ++j) axpy(mc[j], mc + j, c + j + j * k, k - j);
+    }
     for (Eigen::Index j = 0; j < k; ++j) {
-        for (Eigen::Index l = 0; l < j; ++l)
-            for (Eigen::Index i = j; i < k; ++i) c(i, j) -= c(i, l) * c(j, l);
-        if (!(c(j, j) > 0.0)) return false;
-        c(j, j) = std::sqrt(c(j, j));
-        for (Eigen::Index i = j + 1; i < k; ++i) c(i, j) /= c(j, j);
+        double* cj = c + j * k;
+        for (Eigen::Index l = 0; l < j; ++l) axpy(-c[j + l * k], c + j + l * k, cj + j, k - j);
+        if (!(cj[j] > 0.0)) return false;
+        cj[j] = std::sqrt(cj[j]);
+        for (Eigen::Index i = j + 1; i < k; ++i) cj[i] /= cj[j];
     }
     for (Eigen::Index col = 0; col < r; ++col) {
-        for (Eigen::Index i = 0; i < k; ++i) {
-            double v = m(i, col);
-            for (Eigen::Index l = 0; l < i; ++l) v -= c(i, l) * q(l, col);
-            q(i, col) = v / c(i, i);
+        double* x = q + col * k;
+        std::copy(m + col * k, m + (col + 1) * k, x);
+        for (Eigen::Index i = 0; i < k; ++i) {  // C = N N^T: N^-1, then N^-T
+            x[i] /= c[i + i * k];
+            axpy(-x[i], c + i + 1 + i * k, x + i + 1, k - i - 1);
         }
-        for (Eigen::Index i = k; i-- > 0;) {
-            double v = q(i, col);
-            for (Eigen::Index l = i + 1; l < k; ++l) v -= c(l, i) * q(l, col);
-            q(i, col) = v / c(i, i);
-        }
+        for (Eigen::Index i = k; i-- > 0;) x[i] = (x[i] - dot(c + i + 1 + i * k, x + i + 1, k - i - 1)) / c[i + i * k];
     }
     return true;
 }

@@ -149,8 +149,9 @@ private:
     bool factor(std::size_t b, const double* s, double mu);
     // factor's F where S_b + mu I is singular (a pivot at or below the rank tolerance of `largestDiagonal`).
     bool rangeFactor(std::size_t b, const double* s, double mu, double largestDiagonal);
-    // rangeFactor's Q = (I + M M^T)^-1 M; false when that matrix has no Cholesky factor.
-    bool solveNullSquare(const Eigen::Ref<const Eigen::MatrixXd>& m, Eigen::Ref<Eigen::MatrixXd> q);
+    // rangeFactor's Q = (I + M M^T)^-1 M (M and Q: k x r, column-major); false when that matrix has no Cholesky
+    // factor.
+    bool solveNullSquare(const double* m, Eigen::Index k, Eigen::Index r, double* q);
     void applyF(std::size_t b, double* x);            // x <- F x, in place
     void applyFTransposed(std::size_t b, double* x);  // x <- F^T x, in place
     // T = F W into rows, row-major (W: m columns after S_b, column-major; a row of T per block column).

@@ -4,6 +4,11 @@
 #include <utility>
 
 namespace rig {
+namespace {
+
+constexpr Eigen::Index smallSystem = 24;
+
+}  // namespace
 
 // Left-looking, as LAPACK's dpstf2: column k of L is formed from S's column and the k columns before it, and the
 // trailing diagonal carries S's diagonal less the squares of L's rows so far (the pivots' candidates). Unlike the
@@ -19,7 +24,8 @@ Eigen::Index pivotedCholesky(Eigen::Ref<Eigen::MatrixXd> a, std::span<int> permu
     // expressions cost more than the arithmetic. A column's update by the columns before it is one matrix-vector
     // product, which keeps its sums in registers: as k updates of the column in turn, the factor of C_Robot_Rig's
     // 102 columns was a quarter of its clip's instructions (callgrind; with DenseSystem's step by Woodbury's identity,
-    // a third fewer an iteration; a small rig's clip the same to 0.3%).
+    // a third fewer an iteration; a small rig's clip the same to 0.3%). Up to smallSystem columns (a limb's block of
+    // the elimination) the update is a plain loop over the columns before it: the product's dispatch cost more there.
     for (Eigen::Index k = 0; k < n; ++k, ++rank) {
         Eigen::Index p = k;
         for (Eigen::Index j = k + 1; j < n; ++j)
@@ -37,7 +43,15 @@ Eigen::Index pivotedCholesky(Eigen::Ref<Eigen::MatrixXd> a, std::span<int> permu
         at(k, k) = diagonal;
         double* const column = &at(k + 1, k);
         const Eigen::Index m = n - k - 1;
-        if (k > 0 && m > 0) a.col(k).tail(m).noalias() -= a.block(k + 1, 0, m, k) * a.row(k).head(k).transpose();
+        if (k > 0 && m > 0 && n <= smallSystem) {
+            for (Eigen::Index l = 0; l < k; ++l) {
+                const double s = at(k, l);
+                const double* source = &at(k + 1, l);
+                for (Eigen::Index i = 0; i < m; ++i) column[i] -= s * source[i];
+            }
+        } else if (k > 0 && m > 0) {
+            a.col(k).tail(m).noalias() -= a.block(k + 1, 0, m, k) * a.row(k).head(k).transpose();
+        }
         for (Eigen::Index i = 0; i < m; ++i) {
             column[i] /= diagonal;
             at(k + 1 + i, k + 1 + i) -= column[i] * column[i];
