@@ -374,9 +374,10 @@ private:
     std::vector<TwistWeight> baseWeight_;
     std::vector<Matrix6> baseFullWeight_;
     std::vector<char> baseFresh_;
-    // Their entries in h: per base, [basePairBegin_[b], basePairBegin_[b + 1]) of two base velocities and the entry;
-    // [baseNodeBegin_[b], baseNodeBegin_[b + 1]) of a base velocity, an unknown node below, the entry, the factor.
-    std::vector<int> basePairBegin_, basePairFirst_, basePairSecond_, basePairTarget_;
+    // Their entries in h: per base, [basePairBegin_[b], basePairBegin_[b + 1]) the entries of its columns' pairs (i <=
+    // j, j outer); [baseNodeBegin_[b], baseNodeBegin_[b + 1]) of a base velocity, an unknown node below, the entry, the
+    // factor.
+    std::vector<int> basePairBegin_, basePairTarget_;
     std::vector<int> baseNodeBegin_, baseNodeVelocity_, baseNodeNode_, baseNodeTarget_;
     std::vector<double> baseNodeFactor_;
     std::vector<Eigen::Matrix4d> constants_;  // per chain, C_0 .. C_v

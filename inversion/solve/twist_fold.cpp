@@ -98,19 +98,13 @@ void ResidualWorkspace::useBaseLayout()
     };
     basePairBegin_.assign(1, 0);
     baseNodeBegin_.assign(1, 0);
-    for (auto* v :
-         {&basePairFirst_, &basePairSecond_, &basePairTarget_, &baseNodeVelocity_, &baseNodeNode_, &baseNodeTarget_})
-        v->clear();
+    for (auto* v : {&basePairTarget_, &baseNodeVelocity_, &baseNodeNode_, &baseNodeTarget_}) v->clear();
     baseNodeFactor_.clear();
     for (std::size_t b = 0; b < s.bases_.size() && s.twistNormals_; ++b) {
         const ResidualStructure::Base& base = s.bases_[b];
         for (std::size_t j = 0; j < base.columns.size(); ++j) {
             const int vj = base.velocityOffset + static_cast<int>(j);
-            for (std::size_t i = 0; i <= j; ++i) {
-                basePairFirst_.push_back(base.velocityOffset + static_cast<int>(i));
-                basePairSecond_.push_back(vj);
-                basePairTarget_.push_back(target(base.columns[i], base.columns[j]));
-            }
+            for (std::size_t i = 0; i <= j; ++i) basePairTarget_.push_back(target(base.columns[i], base.columns[j]));
             for (int u = s.baseUnknownBegin_[b]; u < s.baseUnknownBegin_[b + 1]; ++u) {
                 const int node = s.baseUnknown_[static_cast<std::size_t>(u)];
                 const int column =
@@ -254,11 +248,12 @@ void ResidualWorkspace::foldBases(const std::vector<Weight>& baseWeights, const 
             g[base.columns[j]] += baseTwist_[v].dot(baseLoad_[b]);
             baseWeighted_[v] = times(baseWeights[b], baseTwist_[v]);
         }
-        for (int p = basePairBegin_[b]; p < basePairBegin_[b + 1]; ++p) {
-            const std::size_t q = static_cast<std::size_t>(p);
-            entries[basePairTarget_[q]] += baseTwist_[static_cast<std::size_t>(basePairFirst_[q])].dot(
-                baseWeighted_[static_cast<std::size_t>(basePairSecond_[q])]);
-        }
+        // Its pairs (i <= j) in the order useBaseLayout listed their entries.
+        const Vector6d* twist = baseTwist_.data() + base.velocityOffset;
+        const Vector6d* weighted = baseWeighted_.data() + base.velocityOffset;
+        const int* target = basePairTarget_.data() + basePairBegin_[b];
+        for (std::size_t j = 0; j < base.columns.size(); ++j)
+            for (std::size_t i = 0; i <= j; ++i) entries[*target++] += twist[i].dot(weighted[j]);
         for (int p = baseNodeBegin_[b]; p < baseNodeBegin_[b + 1]; ++p) {
             const std::size_t q = static_cast<std::size_t>(p);
             entries[baseNodeTarget_[q]] +=
