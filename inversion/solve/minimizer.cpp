@@ -43,7 +43,8 @@ double holdAtLimits(MinimizerProblem& problem, const Unknowns& u, const SolverOp
 
 // The damped step from state.x, times `scale`, within the angular trust region and the limits, into state.trial
 // and state.step; false when the system has no solution. `smallStep`: under parameterTolerance. `wholeStep`:
-// neither scaled, shortened nor projected. `shortened`: cut to the angular trust region.
+// neither scaled, shortened nor projected. `shortened`: cut to the angular trust region. `repeated`: the trial is the
+// last one again (a halving the region cuts back to it), state.trial and state.step left as they were.
 bool trialStep(MinimizerProblem& problem, const Unknowns& u, const SolverOptions& options, MinimizerState& s,
                double damping, double scale, bool& smallStep, bool& wholeStep, bool& shortened, bool& repeated)
 {
