@@ -446,8 +446,8 @@ double dot(const double* x, const double* y, Eigen::Index n)
 
 bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu)
 {
-    // S_b^-1 = F^T F with F = L^-1 (S = L L^T), or S^+ = F^T F with F = diag(lambda^-1/2) V^T on the range.
-    // S is symmetric by construction; only its lower triangle is read.
+    // S_b^-1 = F^T F with F = L^-1 (S = L L^T), or S^+ = F^T F on the range (rangeFactor). S is symmetric by
+    // construction; only its lower triangle is read.
     const Eigen::Index n = e_->size_[b];
     double* l = squares_.data() + e_->square_[b];
     std::copy(s, s + n * n, l);
