@@ -495,6 +495,7 @@ bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, doub
     if (rank == 0) return true;
     // Plain loops on columns: the blocks are small (a leg's 16 columns, of rank 9 or 10: its pole's and its foot
     // pivots' redundant directions), where Eigen's blocked triangular solves cost more in set-up than in arithmetic.
+    // DenseSystem::rangeStep takes the same identity with them, for one large block (C_Robot_Rig's 102 columns).
     const Eigen::Index k = n - rank, ld = pivoted_.outerStride();
     const double* l = pivoted_.data();       // L(i, j) at l[i + j * ld]
     double* m = nullRows_.data();            // M, k x rank, column-major: M(p, j) at m[p + j * k]
