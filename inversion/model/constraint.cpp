@@ -135,24 +135,6 @@ void minimalTurnNormal(const ConstraintBase& base, const Eigen::Matrix3d& anchor
     points.normal = points.carried - x.dot(points.carried) / (1.0 + points.line.dot(x)) * (points.line + x);
 }
 
-Eigen::Vector3d minimalTurnRate(const ConstraintBase& base, const ChainPoints& points, const ChainPoints& rate,
-                                const Eigen::Matrix3d& anchorRate)
-{
-    const Eigen::Vector3d u = points.goal - points.root, du = rate.goal - rate.root;
-    const double reach = u.norm();
-    const Eigen::Vector3d x = u / reach;
-    const Eigen::Vector3d dx = (du - x * x.dot(du)) / reach;
-    const Eigen::Vector3d& n = points.carried;
-    const Eigen::Vector3d& e = points.line;
-    const Eigen::Vector3d dn = anchorRate * n;
-    // e turns with the anchor and, as the reach changes, about the carried normal by the line's turn.
-    const Eigen::Vector3d de = anchorRate * e + base.lineTurn.magnitudeDerivative(reach - base.restReach) * x.dot(du) *
-                                                    n.normalized().cross(e);
-    const double c = 1.0 + e.dot(x), s = x.dot(n);
-    const double dc = de.dot(x) + e.dot(dx), ds = dx.dot(n) + x.dot(dn);
-    return dn - (ds * c - s * dc) / (c * c) * (e + x) - s / c * (de + dx);
-}
-
 ChainPoints chainPoints(const ConstraintBase& base, const Eigen::Matrix4d& anchorMotion,
                         const Eigen::Matrix4d& goalWorld, const Eigen::Matrix4d& poleWorld)
 {
@@ -196,6 +178,8 @@ BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& p
     const Eigen::Vector3d w =
         l.restPlane ? Eigen::Vector3d(l.x.cross(l.normal)) : Eigen::Vector3d(l.pole - l.pole.dot(l.x) * l.x);
     l.across = w.norm();
+    l.inverseReach = 1.0 / l.reach;
+    l.inverseAcross = 1.0 / l.across;
     l.y = w / l.across;
     l.frame << l.x, l.y, l.x.cross(l.y);
     // The shape's own motion per unit of reach, dG G^-1 with G rigid, turned into world space by C.
@@ -204,29 +188,49 @@ BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& p
     const Eigen::Matrix4d dg = base.shape.derivative(a);
     const Eigen::Matrix3d omega = dg.block<3, 3>(0, 0) * g.block<3, 3>(0, 0).transpose();
     const Eigen::Vector3d v = dg.block<3, 1>(0, 3) - omega * g.block<3, 1>(0, 3);
-    const Eigen::Matrix3d omegaWorld = l.frame * omega * l.frame.transpose();
-    l.shape.leftCols<3>() = omegaWorld;
-    l.shape.col(3) = l.frame * v - omegaWorld * l.root;
+    const Eigen::Vector3d omegaWorld =
+        l.frame * Eigen::Vector3d(0.5 * (omega(2, 1) - omega(1, 2)), 0.5 * (omega(0, 2) - omega(2, 0)),
+                                  0.5 * (omega(1, 0) - omega(0, 1)));
+    l.shape << omegaWorld, l.frame * v - omegaWorld.cross(l.root);
+    if (base.minimalTurn) {
+        // e turns with the anchor and, as the reach changes, about the carried normal by the line's turn.
+        l.lineTurn = base.lineTurn.magnitudeDerivative(a) * points.carried.normalized().cross(points.line);
+        l.inverseTurnScale = 1.0 / (1.0 + points.line.dot(l.x));
+        l.turnDot = l.x.dot(points.carried);
+    }
     return l;
 }
 
-Affine baseVelocity(const BaseLinearization& l, const ChainPoints& rate)
+Eigen::Vector3d minimalTurnRate(const BaseLinearization& l, const ChainPoints& points, const ChainPoints& rate,
+                                const Eigen::Vector3d& carriedRate, const Eigen::Vector3d& lineRate)
+{
+    // The normal N - s / c (e + x), s = x . N and c = 1 + e . x (minimalTurnNormal), differentiated.
+    const Eigen::Vector3d du = rate.goal - rate.root;
+    const Eigen::Vector3d dx = (du - l.x * l.x.dot(du)) * l.inverseReach;
+    const Eigen::Vector3d de = lineRate + l.x.dot(du) * l.lineTurn;
+    const double ratio = l.turnDot * l.inverseTurnScale;  // s / c
+    const double dc = de.dot(l.x) + points.line.dot(dx), ds = dx.dot(points.carried) + l.x.dot(carriedRate);
+    return carriedRate - (ds - ratio * dc) * l.inverseTurnScale * (points.line + l.x) - ratio * (de + dx);
+}
+
+Eigen::Matrix<double, 6, 1> baseVelocity(const BaseLinearization& l, const ChainPoints& rate)
 {
     // dB B^-1 = dC C^-1 + C (dG G^-1) C^-1 (C0 is constant). The frame's columns change as unit vectors do:
-    // d(u / |u|) = (I - x x^T) du / |u|.
+    // d(u / |u|) = (I - x x^T) du / |u|. An orthonormal frame [f_i] turning at omega has df_i = omega x f_i, so
+    // omega = (sum of f_i x df_i) / 2.
     const Eigen::Vector3d du = rate.goal - rate.root;
-    const Eigen::Vector3d dx = (du - l.x * l.x.dot(du)) / l.reach;
+    const Eigen::Vector3d dx = (du - l.x * l.x.dot(du)) * l.inverseReach;
     const Eigen::Vector3d dp = rate.pole - rate.root;
     const Eigen::Vector3d dw = l.restPlane
                                    ? Eigen::Vector3d(dx.cross(l.normal) + l.x.cross(rate.normal))
                                    : Eigen::Vector3d(dp - (dp.dot(l.x) + l.pole.dot(dx)) * l.x - l.pole.dot(l.x) * dx);
-    const Eigen::Vector3d dy = (dw - l.y * l.y.dot(dw)) / l.across;
-    Eigen::Matrix3d dr;
-    dr << dx, dy, dx.cross(l.y) + l.x.cross(dy);
-    const Eigen::Matrix3d omega = dr * l.frame.transpose();
-    Affine v = l.x.dot(du) * l.shape;
-    v.leftCols<3>() += omega;
-    v.col(3) += rate.root - omega * l.root;
+    const Eigen::Vector3d dy = (dw - l.y * l.y.dot(dw)) * l.inverseAcross;
+    const Eigen::Vector3d dz = dx.cross(l.y) + l.x.cross(dy);
+    const Eigen::Vector3d omega =
+        0.5 * (l.frame.col(0).cross(dx) + l.frame.col(1).cross(dy) + l.frame.col(2).cross(dz));
+    Eigen::Matrix<double, 6, 1> v = l.x.dot(du) * l.shape;
+    v.head<3>() += omega;
+    v.tail<3>() += rate.root - omega.cross(l.root);
     return v;
 }
 
@@ -323,12 +327,12 @@ Eigen::Matrix4d orientedBase(const ConstraintBase& base, const Eigen::Matrix4d& 
     return b;
 }
 
-Affine orientedVelocity(const Affine& chain, const Affine& orient, const Eigen::Vector3d& centre)
+Eigen::Matrix<double, 6, 1> orientedVelocity(const Eigen::Vector3d& centreRate, const Eigen::Vector3d& orientOmega,
+                                             const Eigen::Vector3d& centre)
 {
-    // B' = [Q | c - Q p0]: dB' B'^-1 = [dQ Q^T | dc - dQ Q^T c], with dc = dB B^-1 c.
-    Affine v;
-    v.leftCols<3>() = orient.leftCols<3>();
-    v.col(3) = chain.leftCols<3>() * centre + chain.col(3) - orient.leftCols<3>() * centre;
+    // B' = [Q | c - Q p0]: dB' B'^-1 = [dQ Q^T | dc - dQ Q^T c].
+    Eigen::Matrix<double, 6, 1> v;
+    v << orientOmega, centreRate - orientOmega.cross(centre);
     return v;
 }
 

@@ -166,10 +166,6 @@ struct ChainPoints {
 // `carried`, `line` and `normal`.
 void minimalTurnNormal(const ConstraintBase& base, const Eigen::Matrix3d& anchorLinear, ChainPoints& points);
 
-// Its rate for the root and the goal moving at `rate` (its root and goal) and the anchor at dM = L M.
-Eigen::Vector3d minimalTurnRate(const ConstraintBase& base, const ChainPoints& points, const ChainPoints& rate,
-                                const Eigen::Matrix3d& anchorRate);
-
 // The chain frame of three points (or of the root, the goal and the normal, `restPlane`); false when they do not
 // span a plane (`frame` is then untouched).
 bool chainFrame(const ChainPoints& points, bool restPlane, Eigen::Matrix4d& frame);
@@ -188,13 +184,24 @@ struct BaseLinearization {
     bool restPlane = false;
     Eigen::Vector3d root, x, y, pole, normal;  // pole: q - r
     double reach = 0.0, across = 0.0;          // |g - r|, and the pole's distance from the chain's line (or |x × N|)
-    Eigen::Matrix3d frame;                     // [x y z]
-    Eigen::Matrix<double, 3, 4> shape;         // C (dG/dd G^-1) C^-1
+    // Their reciprocals: every column's velocity scales by them, and a multiplication costs a fraction of a division.
+    double inverseReach = 0.0, inverseAcross = 0.0;
+    Eigen::Matrix3d frame;              // [x y z]
+    Eigen::Matrix<double, 6, 1> shape;  // C (dG/dd G^-1) C^-1 as a twist (omega, v): G is rigid
+    // A minimalTurn chain's (minimalTurnNormal: N carried, e the line, x the chain's direction): the line's turn
+    // per unit of reach along x (the line turn's slope times N / |N| x e), 1 / (1 + e . x) and x . N.
+    Eigen::Vector3d lineTurn = Eigen::Vector3d::Zero();
+    double inverseTurnScale = 0.0, turnDot = 0.0;
 };
 BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& points);
 
-// dB B^-1 (its top three rows; B is rigid, so this is a twist [[omega]x, v]) for points moving at `rate`.
-Eigen::Matrix<double, 3, 4> baseVelocity(const BaseLinearization& at, const ChainPoints& rate);
+// A minimalTurn chain's normal's rate for its root and goal moving at `rate` and the anchor turning the carried
+// normal and the line at `carriedRate` and `lineRate` (dM M^-1 times each).
+Eigen::Vector3d minimalTurnRate(const BaseLinearization& at, const ChainPoints& points, const ChainPoints& rate,
+                                const Eigen::Vector3d& carriedRate, const Eigen::Vector3d& lineRate);
+
+// dB B^-1 for points moving at `rate`, as the twist (omega, v) it is (B is rigid: dB B^-1 = [[omega]x, v]).
+Eigen::Matrix<double, 6, 1> baseVelocity(const BaseLinearization& at, const ChainPoints& rate);
 
 // B from its inputs, for either family: the anchor's motion, the worlds of its second and third inputs, and the
 // orient output's motion (the identity where there is none).
@@ -208,11 +215,11 @@ Eigen::Matrix4d constraintBase(const ConstraintBase& base, const Eigen::Matrix4d
 Eigen::Matrix4d orientedBase(const ConstraintBase& base, const Eigen::Matrix4d& chain,
                              const Eigen::Matrix4d& orientMotion);
 
-// Its velocity (top three rows of d B' B'^-1) from the chain's (dB B^-1) and the orient output's (dM M^-1, M rigid)
-// at c = B p0: the orient output's angular velocity, and a translation keeping c where the chain moves it,
-// v' = v_B + (omega_B - omega_o) x c.
-Eigen::Matrix<double, 3, 4> orientedVelocity(const Eigen::Matrix<double, 3, 4>& chain,
-                                             const Eigen::Matrix<double, 3, 4>& orient, const Eigen::Vector3d& centre);
+// Its velocity d B' B'^-1 as a twist (omega, v), from the rate of c = B p0 (where the chain moves it) and the orient
+// output's angular velocity: that angular velocity, and a translation keeping c where the chain moves it,
+// v' = dc - omega_o x c.
+Eigen::Matrix<double, 6, 1> orientedVelocity(const Eigen::Vector3d& centreRate, const Eigen::Vector3d& orientOmega,
+                                             const Eigen::Vector3d& centre);
 
 // The driver's twist tau (radians) from its rotation relative to its parent's (Q_p^T Q_d), and its gradient with
 // respect to a turn of that rotation in its own frame (R exp([delta]x): d tau = gradient . delta; zero where the

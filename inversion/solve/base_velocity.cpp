@@ -1,5 +1,7 @@
 #include "inversion/solve/jacobian.h"
 
+#include <type_traits>
+
 #include <Eigen/Dense>
 
 #include "inversion/model/constraint.h"
@@ -125,20 +127,85 @@ ResidualWorkspace::Affine ResidualWorkspace::blendVelocity(std::size_t b, const 
     return x[0] + (blend.worlds[0] * rate * blend.moved.inverse()).topRows<3>();
 }
 
-void ResidualWorkspace::baseVelocities()
+namespace {
+
+// An input's velocity acting on a point and on a direction, and as the 3x4 rate blends and twist shares take: the
+// velocity dM M^-1 of any operators (an affine rate [L | t]), or the twist (omega, v) of rigid ones (the twist form).
+Eigen::Vector3d pointRate(const Affine& x, const Eigen::Vector3d& p) { return x.leftCols<3>() * p + x.col(3); }
+Eigen::Vector3d pointRate(const Vector6d& x, const Eigen::Vector3d& p) { return x.head<3>().cross(p) + x.tail<3>(); }
+Eigen::Vector3d directionRate(const Affine& x, const Eigen::Vector3d& d) { return x.leftCols<3>() * d; }
+Eigen::Vector3d directionRate(const Vector6d& x, const Eigen::Vector3d& d) { return x.head<3>().cross(d); }
+Vector6d twistOf(const Affine& x)
 {
-    // Per base and column: each input's velocity (the sum of what moves it), its points' rates, then the base's.
+    Vector6d t;
+    t << 0.5 * (x(2, 1) - x(1, 2)), 0.5 * (x(0, 2) - x(2, 0)), 0.5 * (x(1, 0) - x(0, 1)), x.col(3);
+    return t;
+}
+const Vector6d& twistOf(const Vector6d& x) { return x; }
+Affine affineOf(const Vector6d& x)
+{
+    Affine a;
+    a.leftCols<3>() = skew(x.head<3>());
+    a.col(3) = x.tail<3>();
+    return a;
+}
+const Affine& affineOf(const Affine& x) { return x; }
+// A base's velocity (rigid, so a twist) kept as the velocities it is computed from.
+template <class Velocity>
+Velocity kept(const Vector6d& t)
+{
+    if constexpr (std::is_same_v<Velocity, Vector6d>) return t;
+    else return affineOf(t);
+}
+template <class Velocity>
+Velocity kept(const Affine& a)
+{
+    if constexpr (std::is_same_v<Velocity, Affine>) return a;
+    else return twistOf(a);
+}
+
+// A planar chain's twist (with its orient output's where it has one) for its inputs moving at x.
+template <class Velocity>
+Vector6d chainVelocity(const ConstraintBase& c, const ChainPoints& points, const BaseLinearization& at,
+                       const std::array<Velocity, 5>& x, const Eigen::Vector3d& centre)
+{
+    // A world up moves with the root only; a fixed pole with the anchor; a pole the pole output's rotation carries
+    // with the root, turning as that output does.
+    const Eigen::Vector3d poleRate =
+        c.pole >= 0 && c.poleTurns
+            ? Eigen::Vector3d(pointRate(x[0], points.root) + directionRate(x[2], points.pole - points.root))
+        : c.pole >= 0 ? pointRate(x[2], points.pole)
+        : c.worldUp   ? pointRate(x[0], points.root)
+                      : pointRate(x[0], points.pole);
+    ChainPoints rates{pointRate(x[0], points.root), pointRate(x[1], points.goal), poleRate,
+                      directionRate(x[0], points.normal)};
+    if (c.minimalTurn) {
+        const Velocity& turn = c.goalTurns ? x[1] : x[0];
+        rates.normal =
+            minimalTurnRate(at, points, rates, directionRate(turn, points.carried), directionRate(turn, points.line));
+    }
+    const Vector6d velocity = baseVelocity(at, rates);
+    if (c.orient < 0) return velocity;
+    return orientedVelocity(velocity.head<3>().cross(centre) + velocity.tail<3>(), twistOf(x[3]).template head<3>(),
+                            centre);
+}
+
+}  // namespace
+
+template <class Velocity>
+void ResidualWorkspace::baseVelocities(const std::vector<Velocity>& nodeVelocity, std::vector<Velocity>& baseVelocity)
+{
+    // Per base and column: each input's velocity (the sum of what moves it), then the base's.
     const auto& s = *structure_;
     for (std::size_t b = 0; b < s.bases_.size(); ++b) {
         const ResidualStructure::Base& base = s.bases_[b];
         const ConstraintBase& c = s.approximation_->constraints[static_cast<std::size_t>(base.constraint)];
-        const ChainPoints& points = basePoints_[b];
-        const bool twist = c.kind == ConstraintKind::twistShare, blend = c.kind == ConstraintKind::blend;
-        const bool oriented = c.kind == ConstraintKind::oriented;
-        const BaseLinearization at = twist || blend || oriented ? BaseLinearization{} : linearizeBase(c, points);
+        const bool chain = c.kind != ConstraintKind::twistShare && c.kind != ConstraintKind::blend &&
+                           c.kind != ConstraintKind::oriented;
+        const BaseLinearization at = chain ? linearizeBase(c, basePoints_[b]) : BaseLinearization{};
         for (std::size_t j = 0; j < base.columns.size(); ++j) {
-            std::array<Affine, 5> x;
-            x.fill(Affine::Zero());
+            std::array<Velocity, 5> x;
+            x.fill(Velocity::Zero());
             double dw = 0.0;
             for (int t = base.termBegin[j]; t < base.termBegin[j + 1]; ++t) {
                 const ResidualStructure::InputTerm& term = s.inputTerms_[static_cast<std::size_t>(t)];
@@ -147,62 +214,26 @@ void ResidualWorkspace::baseVelocities()
                     continue;
                 }
                 x[static_cast<std::size_t>(term.input)] +=
-                    term.node >= 0 ? velocity_[static_cast<std::size_t>(term.node)]
-                                   : baseVelocity_[static_cast<std::size_t>(term.baseVelocity)];
+                    term.node >= 0 ? nodeVelocity[static_cast<std::size_t>(term.node)]
+                                   : baseVelocity[static_cast<std::size_t>(term.baseVelocity)];
             }
-            if (blend) {
-                baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] = blendVelocity(b, x, dw);
-                continue;
-            }
-            if (twist) {
-                baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
-                    twistVelocity(baseTwists_[b], x[0], x[1], x[2]);
-                continue;
-            }
-            // An oriented base's origin moves with the anchor, its rotation with the orient output.
-            if (oriented) {
-                baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
-                    orientedVelocity(x[0], x[3], baseCentres_[b]);
-                continue;
-            }
-            const auto rate = [](const Affine& v, const Eigen::Vector3d& p) -> Eigen::Vector3d {
-                return v.leftCols<3>() * p + v.col(3);
-            };
-            // A world up moves with the root only; a fixed pole with the anchor; a pole the pole output's rotation
-            // carries with the root, turning as that output does.
-            const Eigen::Vector3d poleRate =
-                c.pole >= 0 && c.poleTurns
-                    ? Eigen::Vector3d(rate(x[0], points.root) + x[2].leftCols<3>() * (points.pole - points.root))
-                : c.pole >= 0 ? rate(x[2], points.pole)
-                : c.worldUp   ? rate(x[0], points.root)
-                              : rate(x[0], points.pole);
-            ChainPoints rates{rate(x[0], points.root), rate(x[1], points.goal), poleRate,
-                              x[0].leftCols<3>() * points.normal};
-            if (c.minimalTurn)
-                rates.normal = minimalTurnRate(c, points, rates, c.goalTurns ? x[1].leftCols<3>() : x[0].leftCols<3>());
-            const Affine chain = baseVelocity(at, rates);
-            baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j] =
-                c.orient < 0 ? chain : orientedVelocity(chain, x[3], baseCentres_[b]);
+            Velocity& out = baseVelocity[static_cast<std::size_t>(base.velocityOffset) + j];
+            if (c.kind == ConstraintKind::blend)
+                out = kept<Velocity>(blendVelocity(
+                    b, {affineOf(x[0]), affineOf(x[1]), affineOf(x[2]), affineOf(x[3]), affineOf(x[4])}, dw));
+            else if (c.kind == ConstraintKind::twistShare)
+                out = kept<Velocity>(twistVelocity(baseTwists_[b], affineOf(x[0]), affineOf(x[1]), affineOf(x[2])));
+            else if (c.kind ==
+                     ConstraintKind::oriented)  // its origin moves with the anchor, its rotation as the orient
+                out = kept<Velocity>(orientedVelocity(pointRate(x[0], baseCentres_[b]),
+                                                      twistOf(x[3]).template head<3>(), baseCentres_[b]));
+            else out = kept<Velocity>(chainVelocity(c, basePoints_[b], at, x, baseCentres_[b]));
         }
     }
 }
 
-void ResidualWorkspace::baseTwistVelocities()
-{
-    // An unknown node's velocity Xi = [[omega]x, v] from its twist; the bases' through their chains' points.
-    const auto& s = *structure_;
-    for (const int n : s.unknownNodes_) {
-        const Vector6d& t = twist_[static_cast<std::size_t>(n)];
-        Affine& xi = velocity_[static_cast<std::size_t>(n)];
-        xi.leftCols<3>() = skew(t.head<3>());
-        xi.col(3) = t.tail<3>();
-    }
-    baseVelocities();
-    for (std::size_t v = 0; v < baseVelocity_.size(); ++v) {
-        const Affine& xi = baseVelocity_[v];
-        baseTwist_[v] << 0.5 * (xi(2, 1) - xi(1, 2)), 0.5 * (xi(0, 2) - xi(2, 0)), 0.5 * (xi(1, 0) - xi(0, 1)),
-            xi.col(3);
-    }
-}
+void ResidualWorkspace::baseVelocities() { baseVelocities(velocity_, baseVelocity_); }
+
+void ResidualWorkspace::baseTwistVelocities() { baseVelocities(twist_, baseTwist_); }
 
 }  // namespace rig

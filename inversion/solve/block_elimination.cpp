@@ -275,6 +275,8 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
     nullRows_.resize(largest, largest);
     nullSolved_.resize(largest, largest);
     nullSquare_.resize(largest, largest);
+    pivotInverse_.assign(static_cast<std::size_t>(largest), 0.0);
+    nullInverse_.assign(static_cast<std::size_t>(largest), 0.0);
     permutation_.assign(static_cast<std::size_t>(largest), 0);
     for (std::size_t b = 0; b < blocks; ++b) {
         factor_.emplace_back(elimination.size_[b], elimination.size_[b]);
@@ -497,13 +499,16 @@ bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, doub
     // pivots' redundant directions), where Eigen's blocked triangular solves cost more in set-up than in arithmetic.
     // DenseSystem::rangeStep takes the same identity with them, for one large block (C_Robot_Rig's 102 columns).
     const Eigen::Index k = n - rank, ld = pivoted_.outerStride();
-    const double* l = pivoted_.data();       // L(i, j) at l[i + j * ld]
-    double* m = nullRows_.data();            // M, k x rank, column-major: M(p, j) at m[p + j * k]
+    const double* l = pivoted_.data();  // L(i, j) at l[i + j * ld]
+    double* m = nullRows_.data();       // M, k x rank, column-major: M(p, j) at m[p + j * k]
+    // L1's diagonal inverted once: the solves below multiply by it (a division costs many multiplications).
+    double* inverse = pivotInverse_.data();
+    for (Eigen::Index j = 0; j < rank; ++j) inverse[j] = 1.0 / l[j + j * ld];
     for (Eigen::Index j = rank; j-- > 0;) {  // M L1 = L2, L1's columns from the last
         double* mj = m + j * k;
         for (Eigen::Index p = 0; p < k; ++p) mj[p] = l[rank + p + j * ld];
         for (Eigen::Index i = j + 1; i < rank; ++i) axpy(-l[i + j * ld], m + i * k, mj, k);
-        for (Eigen::Index p = 0; p < k; ++p) mj[p] /= l[j + j * ld];
+        for (Eigen::Index p = 0; p < k; ++p) mj[p] *= inverse[j];
     }
     double* q = nullSolved_.data();  // Q, as M
     if (k > 0 && !solveNullSquare(m, k, rank, q)) return false;
@@ -515,7 +520,7 @@ bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, doub
         else
             for (Eigen::Index c = 0; c < rank; ++c) x[c] = q[i - rank + c * k];
         for (Eigen::Index c = 0; c < rank; ++c) {
-            x[c] /= l[c + c * ld];
+            x[c] *= inverse[c];
             axpy(-x[c], l + c + 1 + c * ld, x + c + 1, rank - c - 1);
         }
     }
@@ -532,21 +537,23 @@ bool BlockEliminationWorkspace::solveNullSquare(const double* m, Eigen::Index k,
         const double* mc = m + col * k;
         for (Eigen::Index j = 0; j < k; ++j) axpy(mc[j], mc + j, c + j + j * k, k - j);
     }
+    double* inverse = nullInverse_.data();  // 1 / N(j, j): the solves multiply by it
     for (Eigen::Index j = 0; j < k; ++j) {
         double* cj = c + j * k;
         for (Eigen::Index l = 0; l < j; ++l) axpy(-c[j + l * k], c + j + l * k, cj + j, k - j);
         if (!(cj[j] > 0.0)) return false;
         cj[j] = std::sqrt(cj[j]);
-        for (Eigen::Index i = j + 1; i < k; ++i) cj[i] /= cj[j];
+        inverse[j] = 1.0 / cj[j];
+        for (Eigen::Index i = j + 1; i < k; ++i) cj[i] *= inverse[j];
     }
     for (Eigen::Index col = 0; col < r; ++col) {
         double* x = q + col * k;
         std::copy(m + col * k, m + (col + 1) * k, x);
         for (Eigen::Index i = 0; i < k; ++i) {  // C = N N^T: N^-1, then N^-T
-            x[i] /= c[i + i * k];
+            x[i] *= inverse[i];
             axpy(-x[i], c + i + 1 + i * k, x + i + 1, k - i - 1);
         }
-        for (Eigen::Index i = k; i-- > 0;) x[i] = (x[i] - dot(c + i + 1 + i * k, x + i + 1, k - i - 1)) / c[i + i * k];
+        for (Eigen::Index i = k; i-- > 0;) x[i] = (x[i] - dot(c + i + 1 + i * k, x + i + 1, k - i - 1)) * inverse[i];
     }
     return true;
 }

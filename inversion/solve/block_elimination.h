@@ -187,8 +187,10 @@ private:
     std::vector<Eigen::MatrixXd> factor_;  // per block: F where S_b is singular
     std::vector<char> triangular_;         // per block: F = L^-1 (L in squares_)
     std::vector<Eigen::Index> rank_;       // per block: F's rows that are not zero
-    // rangeFactor's (the largest block's size): the pivoted factor L, M, Q and the factor of I + M M^T.
+    // rangeFactor's (the largest block's size): the pivoted factor L, M, Q and the factor of I + M M^T; 1 / L(j, j)
+    // of L and of that factor.
     Eigen::MatrixXd pivoted_, nullRows_, nullSolved_, nullSquare_;
+    std::vector<double> pivotInverse_, nullInverse_;
     std::vector<int> permutation_;      // rangeFactor's P
     std::vector<Eigen::VectorXd> rhs_;  // per block: its right-hand side, then y, then its step
     std::vector<double> scratch_;

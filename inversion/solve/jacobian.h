@@ -301,6 +301,9 @@ private:
     // A blend's dB B^-1 for its inputs moving at x (ConstraintBase::frameInputs' order) and its weight at dw.
     Affine blendVelocity(std::size_t b, const std::array<Affine, 5>& x, double dw) const;
     void baseVelocities();  // baseVelocity_ from velocity_, bases in order
+    // Bases' velocities from their inputs' (an affine rate per node, Affine, or the twist form's twists, Vector6d).
+    template <class Velocity>
+    void baseVelocities(const std::vector<Velocity>& nodeVelocity, std::vector<Velocity>& baseVelocity);
     // Central differences of every column through whole evaluations (products that begin with a base).
     void wholeDifferences(std::span<const double> x, double step, Eigen::Ref<Eigen::VectorXd> r,
                           Eigen::Ref<Eigen::MatrixXd> jacobian);
@@ -324,7 +327,7 @@ private:
     template <class Weight, class Times>
     void foldBases(const std::vector<Weight>& baseWeights, const Times& times, Eigen::Ref<Eigen::VectorXd> g,
                    double* entries);
-    void baseTwistVelocities();  // bases' velocities from the unknown nodes' twists, and theirs as twists
+    void baseTwistVelocities();  // baseTwist_ from twist_: the bases' velocities as twists
     void useBaseLayout();        // the bases' entries in h (twist normals through bases)
     void holdChains();           // the flat chains' held products, computed when first needed after holdParameters
     // World of output o from the slot matrices, with column `perturbed` (if >= 0) at value `value`.

@@ -52,8 +52,9 @@ Eigen::Index pivotedCholesky(Eigen::Ref<Eigen::MatrixXd> a, std::span<int> permu
         } else if (k > 0 && m > 0) {
             a.col(k).tail(m).noalias() -= a.block(k + 1, 0, m, k) * a.row(k).head(k).transpose();
         }
+        const double inverse = 1.0 / diagonal;  // one division: the column's many multiply
         for (Eigen::Index i = 0; i < m; ++i) {
-            column[i] /= diagonal;
+            column[i] *= inverse;
             at(k + 1 + i, k + 1 + i) -= column[i] * column[i];
         }
     }

@@ -111,8 +111,14 @@ TEST_CASE("chain inputs: the oriented base's velocity is the derivative of the b
                                          orientedBase(base, moved(vChain, -h, chain), moved(vOrient, -h, orient))) /
                                         (2.0 * h) * b.inverse();
         const Eigen::Vector3d centre = chain.block<3, 3>(0, 0) * base.origin + chain.block<3, 1>(0, 3);
-        const Eigen::Matrix<double, 3, 4> analytic = orientedVelocity(vChain, vOrient, centre);
-        CHECK((analytic - numeric.topRows<3>()).cwiseAbs().maxCoeff() < 1e-6 * std::max(1.0, analytic.norm()));
+        const Eigen::Vector3d orientOmega(vOrient(2, 1), vOrient(0, 2), vOrient(1, 0));
+        const Eigen::Matrix<double, 6, 1> analytic =
+            orientedVelocity(vChain.leftCols<3>() * centre + vChain.col(3), orientOmega, centre);
+        Eigen::Matrix<double, 6, 1> expected;
+        expected << numeric(2, 1), numeric(0, 2), numeric(1, 0), numeric.block<3, 1>(0, 3);
+        CHECK((analytic - expected).cwiseAbs().maxCoeff() < 1e-6 * std::max(1.0, analytic.norm()));
+        // d B' B'^-1 is a twist: its rotation part is skew.
+        CHECK((numeric.block<3, 3>(0, 0) + numeric.block<3, 3>(0, 0).transpose()).norm() < 1e-6);
     }
     // Without an orient output, the chain's base is the base.
     base.orient = -1;
