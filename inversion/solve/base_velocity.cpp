@@ -217,14 +217,14 @@ void ResidualWorkspace::baseVelocities(const std::vector<Velocity>& nodeVelocity
                     term.node >= 0 ? nodeVelocity[static_cast<std::size_t>(term.node)]
                                    : baseVelocity[static_cast<std::size_t>(term.baseVelocity)];
             }
+            // An oriented base's origin moves with the anchor, its rotation as the orient output turns.
             Velocity& out = baseVelocity[static_cast<std::size_t>(base.velocityOffset) + j];
             if (c.kind == ConstraintKind::blend)
                 out = kept<Velocity>(blendVelocity(
                     b, {affineOf(x[0]), affineOf(x[1]), affineOf(x[2]), affineOf(x[3]), affineOf(x[4])}, dw));
             else if (c.kind == ConstraintKind::twistShare)
                 out = kept<Velocity>(twistVelocity(baseTwists_[b], affineOf(x[0]), affineOf(x[1]), affineOf(x[2])));
-            else if (c.kind ==
-                     ConstraintKind::oriented)  // its origin moves with the anchor, its rotation as the orient
+            else if (c.kind == ConstraintKind::oriented)
                 out = kept<Velocity>(orientedVelocity(pointRate(x[0], baseCentres_[b]),
                                                       twistOf(x[3]).template head<3>(), baseCentres_[b]));
             else out = kept<Velocity>(chainVelocity(c, basePoints_[b], at, x, baseCentres_[b]));
