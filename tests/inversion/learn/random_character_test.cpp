@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -268,8 +269,28 @@ struct ConstructionResult {
     std::uint64_t evaluations = 0;         // the rig evaluations learning took, over the characters
     double restError = 0.0;
     double jacobianGap = 0.0;  // the analytic Jacobian's largest difference from central differences, relative
-    double fileGap = 0.0;      // the largest difference of the worlds after a round trip through a file
+    // The normal equations' largest difference from J^T J and J^T r (relative), and the poses where they came from
+    // twists through the chains' bases (ResidualStructure::twistNormals: J never formed).
+    double normalGap = 0.0;
+    int twistNormalPoses = 0;
+    double fileGap = 0.0;  // the largest difference of the worlds after a round trip through a file
 };
+
+// J^T J and J^T r from the workspace's normal equations against the products of the analytic Jacobian.
+void checkNormalEquations(JacobianEvaluator& evaluator, const std::vector<double>& values,
+                          const Eigen::MatrixXd& analytic, const Eigen::VectorXd& residuals, ConstructionResult& r)
+{
+    Eigen::MatrixXd h;
+    Eigen::VectorXd g, again;
+    evaluator.normalEquations(values, JacobianMethod::analytic, 0.0, g, h, again);
+    const Eigen::MatrixXd product = analytic.transpose() * analytic;
+    const Eigen::VectorXd gradient = analytic.transpose() * residuals;
+    const Eigen::MatrixXd lower = product.triangularView<Eigen::Lower>();
+    const Eigen::MatrixXd formed = h.triangularView<Eigen::Lower>();
+    r.normalGap = std::max({r.normalGap, (formed - lower).norm() / std::max(1.0, product.norm()),
+                            (g - gradient).norm() / std::max(1.0, gradient.norm())});
+    r.twistNormalPoses += evaluator.structure().twistNormals() ? 1 : 0;
+}
 
 // What the approximation's analytic Jacobian and its file must keep: central differences (relative to the largest
 // entry) and the worlds read back, at random poses.
@@ -286,6 +307,7 @@ void checkJacobianAndFile(const Approximation& a, RigBinding& binding, std::mt19
         evaluator.jacobian(values, JacobianMethod::finiteDifference, 1e-5, numeric, r2);
         r.jacobianGap = std::max(
             r.jacobianGap, (analytic - numeric).cwiseAbs().maxCoeff() / std::max(1.0, analytic.cwiseAbs().maxCoeff()));
+        checkNormalEquations(evaluator, values, analytic, r1, r);
         std::vector<Eigen::Matrix4d> worlds, again;
         a.evaluate(values, worlds);
         read.evaluate(values, again);
@@ -362,7 +384,9 @@ ConstructionResult expectAll(Construction construction, unsigned seed, int chara
     CHECK(r.modelled == r.characters);
     CHECK(r.reached * 100 >= r.poses * 95);
     CHECK(r.jacobianGap < 1e-5);
+    CHECK(r.normalGap < 1e-10);
     CHECK(r.fileGap < 1e-9);
+    MESSAGE(r.twistNormalPoses << " poses' normal equations from twists through the bases");
     return r;
 }
 
