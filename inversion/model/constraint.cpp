@@ -180,7 +180,7 @@ BaseLinearization linearizeBase(const ConstraintBase& base, const ChainPoints& p
     l.across = w.norm();
     l.inverseReach = 1.0 / l.reach;
     l.inverseAcross = 1.0 / l.across;
-    l.y = w / l.across;
+    l.y = w / l.across;  // divided as chainFrame divides: the frame is the evaluated base's to the bit
     l.frame << l.x, l.y, l.x.cross(l.y);
     // The shape's own motion per unit of reach, dG G^-1 with G rigid, turned into world space by C.
     const double a = l.reach - base.restReach;
