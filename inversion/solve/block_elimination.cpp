@@ -15,9 +15,6 @@
 namespace rig {
 namespace {
 
-// Directions whose curvature is below this fraction of the block's largest are left alone.
-constexpr double rankTolerance = 1e-12;
-
 int positionOf(const std::vector<int>& sorted, int value)
 {
     const auto it = std::lower_bound(sorted.begin(), sorted.end(), value);
@@ -455,6 +452,10 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
     std::copy(s, s + n * n, l);
     double largestDiagonal = 0.0;
     for (Eigen::Index i = 0; i < n; ++i) largestDiagonal = std::max(largestDiagonal, l[i * n + i] += mu);
+    // Pivots are judged against the whole system's scale, as the dense factor's are: against the block's own, a
+    // redundant foot's null direction (a foot control's rotation against its heel and toe rolls, moved alike by its
+    // translation) kept its rounding, 1e-13 of the whole, as a curvature, and Gauss-Newton took half a turn along it.
+    const double scale = std::max(largestDiagonal, wholeScale_);
     // Cholesky in place, a column at a time: column j loses its products with the columns before it, then
     // is divided by its pivot's root. A pivot at or below the rank tolerance leaves it to the range. The
     // diagonal keeps 1 / L(j, j): the triangular solves multiply by it.
@@ -462,7 +463,7 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
     for (Eigen::Index j = 0; wellConditioned && j < n; ++j) {
         double* column = l + j * n;
         subtractMany(l + j, n, l + j, n, j, column + j, n - j);
-        if (!(column[j] > rankTolerance * largestDiagonal)) {
+        if (!(column[j] > rankTolerance * scale)) {
             wellConditioned = false;
             break;
         }
@@ -477,10 +478,10 @@ bool BlockEliminationWorkspace::factor(std::size_t b, const double* s, double mu
                 if (!std::isfinite(l[j * n + i])) return false;
         return true;
     }
-    return rangeFactor(b, s, mu, largestDiagonal);
+    return rangeFactor(b, s, mu, scale);
 }
 
-bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, double mu, double largestDiagonal)
+bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, double mu, double scale)
 {
     // S^+ = F^T F on S's range (range_factor.h): F = G^-1 R, its last n - r rows zero. With L = [L1; L2] (L1 the
     // rank's triangle) and M = L2 L1^-1, G = L1^T (I + M^T M) L1, so G^-1 L^T = L1^-1 (I + M^T M)^-1 [I | M^T], which
@@ -490,7 +491,7 @@ bool BlockEliminationWorkspace::rangeFactor(std::size_t b, const double* s, doub
     auto a = pivoted_.topLeftCorner(n, n);
     a = ConstBlockMap(s, n, n).selfadjointView<Eigen::Lower>();
     a.diagonal().array() += mu;
-    const Eigen::Index rank = pivotedCholesky(a, permutation_, rankTolerance * largestDiagonal);
+    const Eigen::Index rank = pivotedCholesky(a, permutation_, rankTolerance * scale);
     rank_[b] = rank;
     Eigen::MatrixXd& f = factor_[b];
     f.setZero();
@@ -642,8 +643,14 @@ void BlockEliminationWorkspace::prefetch() const
 }
 
 bool BlockEliminationWorkspace::solve(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu,
-                                      Eigen::Ref<Eigen::VectorXd> delta)
+                                      Eigen::Ref<Eigen::VectorXd> delta, std::span<const char> fixed)
 {
+    wholeScale_ = 0.0;
+    for (std::size_t c = 0; c < e_->diagonal_.size(); ++c) {
+        const bool free = !(c < fixed.size() && fixed[c]) && !held(static_cast<int>(c));
+        if (free) wholeScale_ = std::max(wholeScale_, diagonal(static_cast<int>(c)));
+    }
+    wholeScale_ += mu;
     if (e_->folded_) return solveFolded(gradient, mu, delta);
     const BlockElimination& e = *e_;
     const std::size_t blocks = e.size_.size();

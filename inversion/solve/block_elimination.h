@@ -131,9 +131,10 @@ public:
     void hold(int column);
     // out = J^T J v.
     void multiply(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> out) const;
-    // Solves (J^T J + mu I) delta = -gradient (gradient: zero on held columns). False when a block's
-    // matrix has no finite inverse.
-    bool solve(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
+    // Solves (J^T J + mu I) delta = -gradient (gradient: zero on held columns; `fixed`, where given, says which
+    // are held, as DenseSystem::solve takes it). False when a block's matrix has no finite inverse.
+    bool solve(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta,
+               std::span<const char> fixed = {});
     // Hints the cache to fetch what a solve touches (core/prefetch.h).
     void prefetch() const;
 
@@ -147,8 +148,8 @@ private:
     // S_b^-1 (or S_b^+) = F^T F for S_b (s: its panel's first columns) plus mu I: S_b = L L^T, F = L^-1 (L in
     // squares_), else F in factor_. False when S_b has no finite inverse.
     bool factor(std::size_t b, const double* s, double mu);
-    // factor's F where S_b + mu I is singular (a pivot at or below the rank tolerance of `largestDiagonal`).
-    bool rangeFactor(std::size_t b, const double* s, double mu, double largestDiagonal);
+    // factor's F where S_b + mu I is singular (a pivot at or below the rank tolerance of `scale`).
+    bool rangeFactor(std::size_t b, const double* s, double mu, double scale);
     // rangeFactor's Q = (I + M M^T)^-1 M (M and Q: k x r, column-major); false when that matrix has no Cholesky
     // factor.
     bool solveNullSquare(const double* m, Eigen::Index k, Eigen::Index r, double* q);
@@ -204,7 +205,9 @@ private:
     mutable std::vector<Vector6> motion_, force_;
     std::vector<char> folded_;
     std::vector<double> foldCoupling_;  // a block's W^T: its columns against the attach node's motion
-    std::vector<double> groupScale_;    // per group (node by node): its largest damped diagonal of J^T J
+    // The largest free diagonal of J^T J plus mu, this step's: what every block's pivots are judged against.
+    double wholeScale_ = 0.0;
+    std::vector<double> groupScale_;  // per group (node by node): its largest damped diagonal of J^T J
     std::unique_ptr<BlockEliminationWorkspace> whole_;  // solveWhole's, made on its first step
 };
 

@@ -11,6 +11,10 @@
 
 namespace rig {
 
+// Directions whose curvature is at or below this fraction of the whole system's largest diagonal entry are null: the
+// minimum-norm step leaves them alone (the dense step and the block elimination alike, docs/solver.md, Step).
+inline constexpr double rankTolerance = 1e-12;
+
 // `a` holds S in full (both triangles) and leaves with L in its first r columns, zero above their diagonal (the rest
 // is scratch); row i of L is row permutation[i] of S. Returns r. `permutation` has a's size.
 Eigen::Index pivotedCholesky(Eigen::Ref<Eigen::MatrixXd> a, std::span<int> permutation, double threshold);

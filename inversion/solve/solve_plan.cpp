@@ -54,7 +54,8 @@ void BlockWorkspace::hold(Eigen::Index i)
 bool BlockWorkspace::solveStep(const Eigen::VectorXd& gradient, double damping, std::span<const char> fixed,
                                Eigen::VectorXd& delta)
 {
-    return elimination ? elimination->solve(gradient, damping, delta) : dense.solve(gradient, damping, fixed, delta);
+    return elimination ? elimination->solve(gradient, damping, delta, fixed)
+                       : dense.solve(gradient, damping, fixed, delta);
 }
 
 void BlockWorkspace::multiply(const Eigen::VectorXd& v, Eigen::VectorXd& out)

@@ -18,8 +18,6 @@ namespace rig {
 
 // Levenberg-Marquardt's first damping, relative to the largest diagonal entry of J^T J (Nielsen's tau).
 inline constexpr double initialDamping = 1e-4;
-// Directions whose curvature is below this fraction of the largest are left alone: the minimum-norm step.
-inline constexpr double rankTolerance = 1e-12;
 
 // How a problem's steps are chosen beyond SolverOptions: what suits a cheap, smooth model (the approximation)
 // and what suits a black box whose forward differences misjudge a kink (the real rig).
