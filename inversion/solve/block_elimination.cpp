@@ -726,12 +726,13 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
     for (std::size_t b = 0; b < blocks; ++b)
         for (Eigen::Index l = 0; l < e.size_[b]; ++l)
             rhs_[b][l] = -gradient[e.columns_[b][static_cast<std::size_t>(l)]];
-    // A split block's pivots are judged against its whole matrix's scale, as its dense factor would be.
+    // A split block's pivots are judged as its dense factor's would be: against its matrix's scale or the whole
+    // system's, the larger.
     for (std::size_t g = 0; g < e.groupColumns_.size(); ++g) {
         double largest = 0.0;
         for (const int c : e.groupColumns_[g])
             if (!held(c)) largest = std::max(largest, diagonal(c));
-        groupScale_[g] = largest + mu;
+        groupScale_[g] = std::max(largest + mu, wholeScale_);
     }
     // Leaves first. A block's children have left, at their attach nodes (its nodes), what eliminating them
     // takes off J^T J and the right-hand side in twist space: K = W^T S^-1 W (6x6) and W^T S^-1 rhs (W: the
