@@ -53,6 +53,22 @@ ResidualStructure wholeStructure(const Approximation& a, const Partition& partit
     return ResidualStructure(a, columns, outputs);
 }
 
+// The targets as a ResidualWorkspace takes them, and `values` at the structure's columns.
+std::vector<PreparedTarget> preparedTargets(const std::vector<JointTarget>& targets)
+{
+    std::vector<PreparedTarget> prepared(targets.size());
+    for (std::size_t k = 0; k < targets.size(); ++k)
+        if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
+    return prepared;
+}
+
+std::vector<double> columnValues(const ResidualStructure& structure, const std::vector<double>& values)
+{
+    std::vector<double> x;
+    for (const int c : structure.columns()) x.push_back(values[static_cast<std::size_t>(c)]);
+    return x;
+}
+
 struct Costs {
     double coupled = 0.0, whole = 0.0, blockByBlock = 0.0;
 };
@@ -204,7 +220,62 @@ TEST_CASE("coupled blocks: a crowd's trees one after another (the next one prefe
     }
 }
 
-TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense system's, with held columns and damping")
+namespace {
+
+// The biped's J^T J (`h`, lower triangle, and `g`) with a leaf block's columns scaled by 1e-7 (J D, D = 1e-7 on them:
+// its curvatures 1e-14 of the rest's). To the dense factor those directions are null. Judged against the block's own
+// scale they were of full rank, and the step was 1e8 off: the rounding of a redundant foot's null
+// direction taken for a curvature. The block's step must be the step with those columns left out.
+void checkPivotsAtWholeScale(const Partition& partition, const ResidualStructure& structure,
+                             const BlockElimination& elimination, const Eigen::MatrixXd& h, const Eigen::VectorXd& g)
+{
+    const PartitionBlock& leaf = partition.blocks.back();  // parents come before their children
+    REQUIRE(leaf.children.empty());
+    REQUIRE_FALSE(elimination.folded());
+    const Eigen::Index n = structure.columnCount();
+    Eigen::VectorXd d = Eigen::VectorXd::Ones(n);
+    for (const int p : leaf.parameters) {
+        const auto& columns = structure.columns();
+        d[std::lower_bound(columns.begin(), columns.end(), p) - columns.begin()] = 1e-7;
+    }
+    const Eigen::MatrixXd scaled = d.asDiagonal() * Eigen::MatrixXd(h.selfadjointView<Eigen::Lower>()) * d.asDiagonal();
+    const Eigen::VectorXd gradient = d.asDiagonal() * g;
+
+    BlockEliminationWorkspace step(elimination);
+    const std::vector<int>& layout = elimination.layout();
+    for (Eigen::Index col = 0; col < n; ++col)
+        for (Eigen::Index row = col; row < n; ++row)
+            if (const int at = layout[static_cast<std::size_t>(col * n + row)]; at >= 0)
+                step.entries()[static_cast<std::size_t>(at)] = scaled(row, col);
+    DenseSystem system(n);
+    Eigen::Map<Eigen::MatrixXd>(system.entries().data(), n, n) = scaled;
+    const std::vector<char> fixed(static_cast<std::size_t>(n), 0);
+    Eigen::VectorXd denseStep(n), delta(n);
+    REQUIRE(system.solve(gradient, 0.0, fixed, denseStep));
+    REQUIRE(step.solve(gradient, 0.0, delta, fixed));
+    // The step with the scaled columns left out (held at zero): the other columns' system is of full rank.
+    std::vector<Eigen::Index> kept;
+    for (Eigen::Index c = 0; c < n; ++c)
+        if (d[c] == 1.0) kept.push_back(c);
+    const Eigen::Index m = static_cast<Eigen::Index>(kept.size());
+    Eigen::MatrixXd reduced(m, m);
+    Eigen::VectorXd reducedGradient(m), expected = Eigen::VectorXd::Zero(n);
+    for (Eigen::Index i = 0; i < m; ++i) {
+        reducedGradient[i] = gradient[kept[i]];
+        for (Eigen::Index k = 0; k < m; ++k) reduced(i, k) = scaled(kept[i], kept[k]);
+    }
+    const Eigen::VectorXd reducedStep = reduced.ldlt().solve(-reducedGradient);
+    for (Eigen::Index i = 0; i < m; ++i) expected[kept[i]] = reducedStep[i];
+    CHECK((delta - expected).norm() <= 1e-9 * expected.norm());
+    // The dense range factor keeps the null rows' 1e-7 couplings (its L2), which move its step by about as much.
+    CHECK((denseStep - expected).norm() <= 1e-5 * expected.norm());
+}
+
+}  // namespace
+
+TEST_CASE(
+    "block elimination: J^T J in blocks, and the step equal to the dense system's, with held columns and damping, "
+    "every block's pivots judged against the whole system's scale")
 {
     const Approximation a = readApproximationFile(test::bipedApproximation());
     std::mt19937 rng(5);
@@ -214,12 +285,9 @@ TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense s
     const ResidualStructure structure = wholeStructure(a, partition);
     REQUIRE(structure.twistForm());
     const BlockElimination elimination(partition, structure);
-    std::vector<PreparedTarget> prepared(targets.size());
-    for (std::size_t k = 0; k < targets.size(); ++k)
-        if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
+    const std::vector<PreparedTarget> prepared = preparedTargets(targets);
     const std::vector<double> values = test::randomValues(a, rng, 0.5);
-    std::vector<double> x;
-    for (const int c : structure.columns()) x.push_back(values[static_cast<std::size_t>(c)]);
+    const std::vector<double> x = columnValues(structure, values);
 
     const Eigen::Index n = structure.columnCount();
     ResidualWorkspace dense(structure), blocks(structure);
@@ -275,74 +343,7 @@ TEST_CASE("block elimination: J^T J in blocks, and the step equal to the dense s
         CHECK((delta - expected).norm() <= 1e-9 * expected.norm());
         CHECK(delta[4] == 0.0);
     }
-}
-
-TEST_CASE("block elimination: a block's pivots are judged against the whole system's scale, as the dense step's are")
-{
-    // The biped's J^T J with a leaf block's columns scaled by 1e-7 (J D, D = 1e-7 on them: its curvatures 1e-14 of
-    // the rest's). To the dense factor those directions are null and its minimum-norm step hardly moves them. Judged
-    // against the block's own scale, they were of full rank, and Gauss-Newton's step moved them by 1e7 times the
-    // unscaled step: the rounding of a redundant foot's null direction taken for a curvature.
-    const Approximation a = readApproximationFile(test::bipedApproximation());
-    std::mt19937 rng(11);
-    const std::vector<JointTarget> targets = unreachableTargets(a, rng, 2.0, 8.0);
-    const Partition partition = Solver(a, SolverOptions{}).partition(targets);
-    REQUIRE(partition.blocks.size() > 5);
-    const PartitionBlock& leaf = partition.blocks.back();
-    REQUIRE(leaf.children.empty());
-    const ResidualStructure structure = wholeStructure(a, partition);
-    const BlockElimination elimination(partition, structure);
-    REQUIRE_FALSE(elimination.folded());
-    std::vector<PreparedTarget> prepared(targets.size());
-    for (std::size_t k = 0; k < targets.size(); ++k)
-        if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
-    const std::vector<double> values = test::randomValues(a, rng, 0.5);
-    std::vector<double> x;
-    for (const int c : structure.columns()) x.push_back(values[static_cast<std::size_t>(c)]);
-
-    const Eigen::Index n = structure.columnCount();
-    ResidualWorkspace dense(structure);
-    dense.holdParameters(values);
-    dense.setTargets(prepared);
-    Eigen::VectorXd r(structure.rows()), g(n);
-    Eigen::MatrixXd h(n, n), j(structure.rows(), n);
-    dense.normalEquations(x, JacobianMethod::analytic, 1e-6, false, r, g, std::span<double>(h.data(), h.size()), j);
-    Eigen::VectorXd d = Eigen::VectorXd::Ones(n);
-    for (const int p : leaf.parameters) {
-        const auto& columns = structure.columns();
-        d[std::lower_bound(columns.begin(), columns.end(), p) - columns.begin()] = 1e-7;
-    }
-    const Eigen::MatrixXd scaled = d.asDiagonal() * Eigen::MatrixXd(h.selfadjointView<Eigen::Lower>()) * d.asDiagonal();
-    const Eigen::VectorXd gradient = d.asDiagonal() * g;
-
-    BlockEliminationWorkspace step(elimination);
-    const std::vector<int>& layout = elimination.layout();
-    for (Eigen::Index col = 0; col < n; ++col)
-        for (Eigen::Index row = col; row < n; ++row)
-            if (const int at = layout[static_cast<std::size_t>(col * n + row)]; at >= 0)
-                step.entries()[static_cast<std::size_t>(at)] = scaled(row, col);
-    DenseSystem system(n);
-    Eigen::Map<Eigen::MatrixXd>(system.entries().data(), n, n) = scaled;
-    const std::vector<char> fixed(static_cast<std::size_t>(n), 0);
-    Eigen::VectorXd denseStep(n), delta(n);
-    REQUIRE(system.solve(gradient, 0.0, fixed, denseStep));
-    REQUIRE(step.solve(gradient, 0.0, delta, fixed));
-    // The step with the scaled columns left out (held at zero): the other columns' system is of full rank.
-    std::vector<Eigen::Index> kept;
-    for (Eigen::Index c = 0; c < n; ++c)
-        if (d[c] == 1.0) kept.push_back(c);
-    const Eigen::Index m = static_cast<Eigen::Index>(kept.size());
-    Eigen::MatrixXd reduced(m, m);
-    Eigen::VectorXd reducedGradient(m), expected = Eigen::VectorXd::Zero(n);
-    for (Eigen::Index i = 0; i < m; ++i) {
-        reducedGradient[i] = gradient[kept[i]];
-        for (Eigen::Index k = 0; k < m; ++k) reduced(i, k) = scaled(kept[i], kept[k]);
-    }
-    const Eigen::VectorXd reducedStep = reduced.ldlt().solve(-reducedGradient);
-    for (Eigen::Index i = 0; i < m; ++i) expected[kept[i]] = reducedStep[i];
-    CHECK((delta - expected).norm() <= 1e-9 * expected.norm());
-    // The dense range factor keeps the null rows' 1e-7 couplings (its L2), which move its step by about as much.
-    CHECK((denseStep - expected).norm() <= 1e-5 * expected.norm());
+    checkPivotsAtWholeScale(partition, structure, elimination, h, g);
 }
 
 namespace {
@@ -355,11 +356,8 @@ bool eliminationMatchesDense(const Approximation& a, const Partition& partition,
 {
     const ResidualStructure structure = wholeStructure(a, partition);
     const BlockElimination elimination(partition, structure, twists);
-    std::vector<PreparedTarget> prepared(targets.size());
-    for (std::size_t k = 0; k < targets.size(); ++k)
-        if (targets[k].active) REQUIRE(prepareTarget(targets[k], SolverOptions{}.rotationScaleCm, prepared[k]));
-    std::vector<double> x;
-    for (const int c : structure.columns()) x.push_back(values[static_cast<std::size_t>(c)]);
+    const std::vector<PreparedTarget> prepared = preparedTargets(targets);
+    const std::vector<double> x = columnValues(structure, values);
 
     const Eigen::Index n = structure.columnCount();
     ResidualWorkspace dense(structure), blocks(structure);
