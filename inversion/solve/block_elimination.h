@@ -192,6 +192,7 @@ private:
     // of L and of that factor.
     Eigen::MatrixXd pivoted_, nullRows_, nullSolved_, nullSquare_;
     std::vector<double> pivotInverse_, nullInverse_;
+    std::vector<double> rangeRows_;     // rangeFactor's rows of F, row-major, before the permutation
     std::vector<int> permutation_;      // rangeFactor's P
     std::vector<Eigen::VectorXd> rhs_;  // per block: its right-hand side, then y, then its step
     std::vector<double> scratch_;
