@@ -38,12 +38,6 @@ BlockElimination::BlockElimination(const Partition& partition, const ResidualStr
     *this = std::move(recursive);
     whole_ = std::move(whole);
     groupOf_ = std::move(group);
-    for (std::size_t b = 0; b < groupOf_.size(); ++b) {
-        if (groupOf_[b] < 0) continue;
-        const std::size_t g = static_cast<std::size_t>(groupOf_[b]);
-        if (groupColumns_.size() <= g) groupColumns_.resize(g + 1);
-        groupColumns_[g].push_back(columns_[b][0]);
-    }
 }
 
 void BlockElimination::build(const Partition& partition, const ResidualStructure& structure, bool twists)
@@ -295,7 +289,6 @@ BlockEliminationWorkspace::BlockEliminationWorkspace(const BlockElimination& eli
     blockWeight_.assign(blocks, Matrix6::Zero());
     blockLoad_.assign(blocks, Vector6::Zero());
     foldCoupling_.assign(static_cast<std::size_t>(6 * largest), 0.0);
-    groupScale_.assign(elimination.groupColumns_.size(), 0.0);
 }
 
 BlockEliminationWorkspace::BlockMap BlockEliminationWorkspace::block(std::size_t b, std::size_t i)
@@ -735,14 +728,6 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
     for (std::size_t b = 0; b < blocks; ++b)
         for (Eigen::Index l = 0; l < e.size_[b]; ++l)
             rhs_[b][l] = -gradient[e.columns_[b][static_cast<std::size_t>(l)]];
-    // A split block's pivots are judged as its dense factor's would be: against its matrix's scale or the whole
-    // system's, the larger.
-    for (std::size_t g = 0; g < e.groupColumns_.size(); ++g) {
-        double largest = 0.0;
-        for (const int c : e.groupColumns_[g])
-            if (!held(c)) largest = std::max(largest, diagonal(c));
-        groupScale_[g] = std::max(largest + mu, wholeScale_);
-    }
     // Leaves first. A block's children have left, at their attach nodes (its nodes), what eliminating them
     // takes off J^T J and the right-hand side in twist space: K = W^T S^-1 W (6x6) and W^T S^-1 rhs (W: the
     // child's couplings with the attach node's motion), and theirs below. Summed up its nodes (Fold), they
@@ -753,8 +738,8 @@ bool BlockEliminationWorkspace::solveFolded(const Eigen::Ref<const Eigen::Vector
         const int group = e.groupOf_.empty() ? -1 : e.groupOf_[b];
         // A split block's pivot left out: its matrix is singular here, and its step is the minimum-norm one.
         if (group >= 0) {
-            if (!eliminateNode(b, mu, groupScale_[static_cast<std::size_t>(group)]))
-                return solveWhole(gradient, mu, delta);
+            // Its pivots judged against the whole system's scale, as every block's and the dense factor's are.
+            if (!eliminateNode(b, mu, wholeScale_)) return solveWhole(gradient, mu, delta);
             continue;
         }
         double* y = rhs_[b].data();

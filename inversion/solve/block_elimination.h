@@ -102,10 +102,9 @@ private:
     std::vector<std::vector<int>> children_;
     int heldBase_ = 0;
 
-    // Node by node: per block, the partition block it was split from (its group, numbered from 0), or -1; per
-    // group, its columns. Empty when no block is split.
+    // Node by node: per block, the partition block it was split from (its group, numbered from 0), or -1. Empty when
+    // no block is split.
     std::vector<int> groupOf_;
-    std::vector<std::vector<int>> groupColumns_;
     std::unique_ptr<BlockElimination> whole_;  // node by node: the partition's blocks unsplit, for singular steps
 
     void build(const Partition& partition, const ResidualStructure& structure, bool twists);
@@ -163,7 +162,7 @@ private:
     }
     bool solveFolded(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
     // Node by node: a split block's one column eliminated (its 1x1 S_b factored, T and K folded into its attach
-    // node). False when its pivot is at or below 1e-12 of `scale` (groupScale_): singular there.
+    // node). False when its pivot is at or below 1e-12 of `scale` (wholeScale_): singular there.
     bool eliminateNode(std::size_t b, double mu, double scale);
     // Node by node, where a split block is singular: the step of the blocks unsplit (BlockElimination::whole_).
     bool solveWhole(const Eigen::Ref<const Eigen::VectorXd>& gradient, double mu, Eigen::Ref<Eigen::VectorXd> delta);
@@ -208,7 +207,6 @@ private:
     std::vector<double> foldCoupling_;  // a block's W^T: its columns against the attach node's motion
     // The largest free diagonal of J^T J plus mu, this step's: what every block's pivots are judged against.
     double wholeScale_ = 0.0;
-    std::vector<double> groupScale_;  // per group (node by node): its largest damped diagonal, or wholeScale_
     std::unique_ptr<BlockEliminationWorkspace> whole_;  // solveWhole's, made on its first step
 };
 
