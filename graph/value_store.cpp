@@ -91,7 +91,8 @@ void ArrayData::make(std::size_t i, const Value& fallback)
         },
         column_);
     if (i >= present_.size()) present_.resize(i + 1, false);
-    present_[i] = true;
+    // Read before written: a pull makes its element every frame, and a line only read is not written back.
+    if (!present_[i]) present_[i] = true;
 }
 
 bool ArrayData::sameAs(const ArrayData& other) const

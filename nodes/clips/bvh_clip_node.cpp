@@ -76,14 +76,22 @@ public:
             c.setOutputElements(channel, {});
             return;
         }
-        bvhSample(clip, c.getDouble(time), values_);
-        bvhWorldMatrices(clip, values_, worlds_);
-        c.assignOutputElements(worldMatrix, worlds_);
-        bvhRigChannels(clip, values_, channels_);
-        c.assignOutputElements(channel, channels_);
+        // The frame's motion line, worlds and channels, on the computing thread's buffers: they are copied into the
+        // outputs at once, so a crowd's members reuse one set, warm in the cache, and a frame allocates nothing.
+        thread_local FrameScratch scratch;
+        bvhSample(clip, c.getDouble(time), scratch.values);
+        bvhWorldMatrices(clip, scratch.values, scratch.worlds);
+        c.assignOutputElements(worldMatrix, scratch.worlds);
+        bvhRigChannels(clip, scratch.values, scratch.channels);
+        c.assignOutputElements(channel, scratch.channels);
     }
 
 private:
+    struct FrameScratch {
+        std::vector<double> values, channels;
+        std::vector<Eigen::Matrix4d> worlds;
+    };
+
     static std::shared_ptr<const PlayedClip> load(const std::string& path, const std::string& takeName)
     {
         if (path.empty()) return std::make_shared<const PlayedClip>();
@@ -95,9 +103,6 @@ private:
     std::string loadedPath_;
     std::string loadedTake_;
     std::shared_ptr<const PlayedClip> clip_;
-    // The frame's motion line, worlds and channels, kept so that a frame allocates nothing.
-    std::vector<double> values_, channels_;
-    std::vector<Eigen::Matrix4d> worlds_;
 };
 
 // The attributes the two types share; `what` names the file in the docs.

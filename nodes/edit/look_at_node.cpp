@@ -46,7 +46,10 @@ class LookAtNode final : public Node {
 public:
     void compute(ComputeContext& c) override
     {
-        LookAtSettings& s = settings_;
+        // The settings and the result on the computing thread's buffers: the result is copied into the outputs at
+        // once, so a crowd's members reuse one set, warm in the cache, and a frame allocates nothing.
+        thread_local LookAtSettings s;
+        thread_local LookAtResult result;
         s.chain.clear();
         c.forEachElement<Eigen::Matrix4d>(InMatrix, [&](int, const Eigen::Matrix4d& m) { s.chain.push_back(m); });
         const std::vector<double>& share = c.getDoubleArray(Share);
@@ -75,17 +78,12 @@ public:
         s.upAxis = c.getVector3(UpAxis);
         s.worldUp.reset();
         if (c.getEnum(UpMode) == World) s.worldUp = c.getVector3(WorldUp);
-        lookAtChain(s, result_);
+        lookAtChain(s, result);
         // Output k is the chain's joint k: outputs as many as the joints given, however sparse their indices.
-        c.assignOutputElements(OutMatrix, result_.world);
-        c.assignOutputElements(DeltaMatrix, result_.delta);
-        c.assignOutputElements(Turn, result_.turn);
+        c.assignOutputElements(OutMatrix, result.world);
+        c.assignOutputElements(DeltaMatrix, result.delta);
+        c.assignOutputElements(Turn, result.turn);
     }
-
-private:
-    // Kept from frame to frame, so that a frame allocates nothing (a crowd turns every member's head).
-    LookAtSettings settings_;
-    LookAtResult result_;
 };
 
 void declareInputs(NodeTypeBuilder& b)

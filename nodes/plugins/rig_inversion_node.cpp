@@ -27,6 +27,7 @@
 
 #include "adapter/graph_rig_function.h"
 #include "core/error.h"
+#include "core/pool.h"
 #include "core/shared_file.h"
 #include "graph/graph.h"
 #include "graph/node_registry.h"
@@ -73,14 +74,30 @@ enum Attr : AttrId {
     statusOnRealRig,
 };
 
+// What a frame's compute writes and reads within itself: the targets, the solve's scratch and figures, the judgement,
+// the outputs' values, the contacts' scratch with the approximation's evaluator. Borrowed from the shared model's pool
+// for one compute, so that a crowd's members, solved one after the other on a thread, reuse one set warm in the cache
+// instead of each reading its own from memory; a frame allocates nothing.
+struct FrameScratch {
+    explicit FrameScratch(const Approximation& approximation) : held(approximation) {}
+    std::vector<JointTarget> targets;
+    ChainScratch chain;
+    ChainFrame frame;
+    FrameInversion judged;
+    std::vector<Eigen::Matrix4d> modelled, real;  // the approximation's and the real rig's outputs at the values
+    std::vector<double> outputValues;             // the values in the outputs' units (degrees for angles)
+    HeldFrameScratch held;
+};
+
 // An approximation and the solver built on it: read-only (Solver is const and thread-safe), so every node
 // that reads the same file with the same solver settings shares one (a crowd's members: the model is
-// shared, each node keeps its own state: warm start, scratch, hybrid solve).
+// shared, each node keeps its own state: warm start, hybrid solve), with a pool of frame scratch.
 struct Loaded {
     std::string path;
     std::unique_ptr<Approximation> approximation;
     std::unique_ptr<Solver> solver;
     SolverOptions options;
+    std::unique_ptr<Pool<FrameScratch>> scratch = std::make_unique<Pool<FrameScratch>>();
 };
 
 // The status attribute's names, from the statuses' one table (clip_inversion.h), in FrameStatus order.
@@ -171,11 +188,12 @@ public:
         const std::string node(c.nodeName());
         load(c, node);
         const Approximation& a = *loaded_->approximation;
-        targetsOf(c, a, targets_);
-        solve(c, node, targets_);
-        c.setOutput(status, static_cast<int>(judge(targets_)));
+        const Borrowed<FrameScratch> scratch(*loaded_->scratch, [&] { return std::make_unique<FrameScratch>(a); });
+        targetsOf(c, a, scratch->targets);
+        solve(c, node, *scratch);
+        c.setOutput(status, static_cast<int>(judge(*scratch)));
         c.setOutput(statusOnRealRig, binding_ != nullptr);
-        writeOutputs(c, a);
+        writeOutputs(c, a, *scratch);
     }
 
 private:
@@ -200,7 +218,6 @@ private:
             loaded_->options.threads != options.threads || loaded_->options.partition != options.partition) {
             dropRealRig();
             loaded_ = sharedModel(path, options, node);
-            held_.emplace(*loaded_->approximation);
             rest_ = loaded_->approximation->defaults();
             mapStale = true;  // its weights name the outputs of the model just read
             // A warm start is kept across new solver settings, unless the file changed under it.
@@ -292,8 +309,9 @@ private:
 
     // The frame solved from where the warm-start rule (top of the file) starts it, into solution_, and shifted as
     // rig-invert reports it into reported_.
-    void solve(ComputeContext& c, const std::string& node, const std::vector<JointTarget>& targets)
+    void solve(ComputeContext& c, const std::string& node, FrameScratch& scratch)
     {
+        const std::vector<JointTarget>& targets = scratch.targets;
         const Approximation& a = *loaded_->approximation;
         const double t = c.getDouble(sceneTime);
         const int interval = std::max(1, c.getInt(restartInterval));
@@ -317,23 +335,30 @@ private:
             start_ = solution_;
             startCost_ = solutionCost_;
             startShifts_ = shifts_;
-            startLead_ = scratch_.lead;
+            startLead_ = lead_;
         }
         solution_ = start_;
         shifts_ = startShifts_;
-        scratch_.lead = startLead_;  // a frame solved again leads as it did the first time
+        scratch.chain.lead = startLead_;  // a frame solved again leads as it did the first time
         HybridSolver* h = hybridSolver(c, node, realRig(c, node));
         hybridSolved_ = h != nullptr;
-        const HeldSolve solveOnce = [&](std::span<const JointTarget> asked, std::vector<double>& v, double previous,
-                                        ChainFrame& f) {
-            if (h) h->solveFrame(asked, v, previous, scratch_, f);
-            else solveChainFrame(*loaded_->solver, asked, v, previous, scratch_, f);
+        // Captured through one reference, so that the function holds it in place instead of allocating.
+        const struct {
+            const Solver& solver;
+            HybridSolver* hybrid;
+            ChainScratch& chain;
+        } with{*loaded_->solver, h, scratch.chain};
+        const HeldSolve solveOnce = [&with](std::span<const JointTarget> asked, std::vector<double>& v, double previous,
+                                            ChainFrame& f) {
+            if (with.hybrid) with.hybrid->solveFrame(asked, v, previous, with.chain, f);
+            else solveChainFrame(with.solver, asked, v, previous, with.chain, f);
         };
         contactHoldsAt(t, targets);
-        if (frameHolds_.empty()) solveOnce(targets, solution_, startCost_, frame_);
-        else solveHeldFrame(*held_, solveOnce, targets, frameHolds_, solution_, startCost_, frame_);
+        if (frameHolds_.empty()) solveOnce(targets, solution_, startCost_, scratch.frame);
+        else solveHeldFrame(scratch.held, solveOnce, targets, frameHolds_, solution_, startCost_, scratch.frame);
+        lead_ = scratch.chain.lead;
         for (const ContactHold& held : frameHolds_) shifts_[static_cast<std::size_t>(held.contact)] = held.shift;
-        const SolveSummary& summary = frame_.summary;
+        const SolveSummary& summary = scratch.frame.summary;
         solutionCost_ = summary.termination == TerminationType::invalidTargets ? startCost_ : summary.finalCost;
         previousTime_ = t;
         previousWarm_ = !chainStart;
@@ -351,49 +376,48 @@ private:
 
     // The values as reported and the solve's figures, assigned in place every frame; the names and held values of
     // the approximation, written when it changes (a crowd solves every member every frame).
-    void writeOutputs(ComputeContext& c, const Approximation& a)
+    void writeOutputs(ComputeContext& c, const Approximation& a, FrameScratch& scratch)
     {
-        const SolveSummary& summary = frame_.summary;
-        outputValues_.resize(a.parameters.size());
+        const SolveSummary& summary = scratch.frame.summary;
+        std::vector<double>& values = scratch.outputValues;
+        values.resize(a.parameters.size());
         for (std::size_t i = 0; i < a.parameters.size(); ++i)
-            outputValues_[i] =
-                a.parameters[i].parameter.angular ? reported_[i] * 180.0 / std::numbers::pi : reported_[i];
-        c.assignOutputElements(value, outputValues_);
+            values[i] = a.parameters[i].parameter.angular ? reported_[i] * 180.0 / std::numbers::pi : reported_[i];
+        c.assignOutputElements(value, values);
         c.setOutput(iterations, summary.iterations);
         c.setOutput(worstErrorCm, summary.maxPositionErrorCm);
-        c.setOutput(realRigEvaluations, frame_.realRigEvaluations);
+        c.setOutput(realRigEvaluations, scratch.frame.realRigEvaluations);
         if (namesWritten_ == loaded_.get()) return;
         namesWritten_ = loaded_.get();
-        std::vector<Value> values;
+        std::vector<Value> held;
         std::vector<std::string> names;
         for (const auto& p : a.parameters) names.push_back(p.parameter.name);
         c.setOutput(parameterNames, joinLines(names));
         names.clear();
         for (const auto& o : a.outputs) names.push_back(o.name);
         c.setOutput(outputNames, joinLines(names));
-        values.clear();
         names.clear();
         for (const HeldPlug& h : a.held) {
-            values.emplace_back(h.value);
+            held.emplace_back(h.value);
             names.push_back(h.plug);
         }
-        c.setOutputElements(heldValue, std::move(values));
+        c.setOutputElements(heldValue, std::move(held));
         c.setOutput(heldNames, joinLines(names));
     }
 
     // The frame's status at reported_ (clip_inversion.h, judgeFrame): on the node's own rig where `rig` names one, as
     // rig-invert judges it (with the hybrid solve's fit, as rig-invert --hybrid does); otherwise on the
     // approximation, where an output it does not model is a miss and a gap to the real rig goes unseen.
-    FrameStatus judge(std::span<const JointTarget> targets)
+    FrameStatus judge(FrameScratch& s)
     {
         const Approximation& a = *loaded_->approximation;
-        judged_.clear();
-        judged_.solve = frame_.summary;
-        held_->evaluator.evaluate(reported_, modelled_);
-        if (binding_) binding_->evaluate(reported_, real_);
-        judgeFrame(a, loaded_->options, hybridSolved_ ? RealRigFit::unmodelledOutputs : RealRigFit::none, targets,
-                   binding_ ? real_ : modelled_, modelled_, judged_);
-        return judged_.status;
+        s.judged.clear();
+        s.judged.solve = s.frame.summary;
+        s.held.evaluator.evaluate(reported_, s.modelled);
+        if (binding_) binding_->evaluate(reported_, s.real);
+        judgeFrame(a, loaded_->options, hybridSolved_ ? RealRigFit::unmodelledOutputs : RealRigFit::none, s.targets,
+                   binding_ ? s.real : s.modelled, s.modelled, s.judged);
+        return s.judged.status;
     }
 
     // The node's own instance of the rig file `rig` (relative to the rig file that names the node; in the
@@ -459,13 +483,11 @@ private:
     std::vector<double> start_;
     double startCost_ = retryNever;     // the cost of the frame start_ came from (retryNever: from rest)
     double solutionCost_ = retryNever;  // the cost of solution_
-    ChainScratch scratch_;
-    ChainLead startLead_;  // whether the rotations lead the frame start_ starts (clip_inversion.h), as start_
-    ChainFrame frame_;
-    std::vector<double> solution_;          // the chain's, as solved
-    ChunkShift shift_;                      // of the current chain (inversion/clip/continuity.h)
-    std::vector<double> reported_;          // solution_ shifted: the values output
-    std::vector<double> outputValues_;      // reported_ in the outputs' units (degrees for angles)
+    ChainLead startLead_;           // whether the rotations lead the frame start_ starts (clip_inversion.h), as start_
+    ChainLead lead_;                // whether they lead the frame after solution_'s, as solution_
+    std::vector<double> solution_;  // the chain's, as solved
+    ChunkShift shift_;              // of the current chain (inversion/clip/continuity.h)
+    std::vector<double> reported_;  // solution_ shifted: the values output
     const Loaded* namesWritten_ = nullptr;  // the model whose names and held values the outputs hold
     // `contacts`: the file's ranges (scene time), each contact's hold once entered, the multipliers of the frame
     // solved and of the frame the next solve starts from (as start_ and solution_).
@@ -480,13 +502,7 @@ private:
     std::vector<Eigen::Vector3d> shifts_, startShifts_;
     std::vector<ContactHold> frameHolds_;
     std::vector<double> before_;  // reported_ of the frame before, when played in order; empty otherwise
-    std::vector<Eigen::Matrix4d> modelled_, real_;  // the approximation's and the real rig's outputs at reported_
-    // Kept from frame to frame, so that a frame allocates nothing: the targets, the rest values, the frame's judgement,
-    // and the contacts' scratch with the approximation's evaluator (made with loaded_).
-    std::vector<JointTarget> targets_;
-    std::vector<double> rest_;  // the approximation's defaults
-    FrameInversion judged_;
-    std::optional<HeldFrameScratch> held_;
+    std::vector<double> rest_;    // the approximation's defaults
 };
 
 // connect: {targets: NODE_OR_GLOB, parameters: true, namespace: NS}
