@@ -224,6 +224,15 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
     // far more.
     const double creepCost = 0.5 * std::pow(o.targetTolerance, 2);
     const double creepDecrease = 0.5 * std::pow(1e-2 * o.targetTolerance, 2);
+    // A whole Gauss-Newton step that lands where its linear model said, on a cost the model leaves (its minimum: what
+    // no step of the linearization removes) and within the tolerance, is on the floor of the approximation's small
+    // miss of targets from the real rig: the next step, from a point the linearization predicted to within a
+    // thousandth of the cost, gains about that much, and the solve would form the Jacobian again to find that out
+    // (the random characters' IK clips: 3550 iterations, 3314 with the rule). Below floorCost an exact model's
+    // quadratic convergence is still under way, and a floor the linearization leaves there is no miss (a long FK
+    // chain's step from 1e-4 to 3.4e-13, predicted to 0.24%, went on to 1e-22).
+    const double floorCost = creepDecrease;
+    constexpr double floorMatch = 1e-3;
     const double stallCost = std::max(0.5 * o.targetTolerance * o.targetTolerance, giveUp.aboveCost);
     double trialCost = cost;
     s.acceptedCosts.push_back(cost);
@@ -269,6 +278,9 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
             evaluatedAtX = false;
             trialCost = 0.5 * s.rTrial.squaredNorm();
         }
+        // The cost the undamped whole step's model predicts: its minimum, the part of the residual no step of the
+        // linearization removes.
+        const double modelCost = gaussNewton && wholeStep ? cost + 0.5 * s.g.dot(s.step) : -1.0;
         if (control.accept(cost, trialCost, smallStep, predicted)) {
             const double decrease = cost - trialCost;
             std::swap(s.x, s.trial);
@@ -277,7 +289,9 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
             cost = trialCost;
             const bool creeping = cost <= creepCost && decrease <= creepDecrease && decrease <= 0.1 * (cost + decrease);
             s.acceptedCosts.push_back(cost);
-            if (smallStep || decrease <= o.functionTolerance * (cost + decrease) || creeping ||
+            const bool floor = modelCost > 0.0 && cost <= creepCost && cost >= floorCost &&
+                               std::abs(cost - modelCost) <= floorMatch * cost;
+            if (smallStep || decrease <= o.functionTolerance * (cost + decrease) || creeping || floor ||
                 stationary(s.acceptedCosts, cost, creepCost)) {
                 result.converged = true;
                 break;
