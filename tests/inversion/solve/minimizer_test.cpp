@@ -134,6 +134,28 @@ private:
     double pull_;
 };
 
+// Two unknowns each in a residual that Gauss-Newton meets quadratically (sin x0, sinh x1: zero at 0), and a miss no
+// unknown moves.
+class SineWithMiss final : public SmallProblem {
+public:
+    explicit SineWithMiss(double miss) : miss_(miss) {}
+    void residuals(std::span<const double> x, Eigen::VectorXd& r) override
+    {
+        r.resize(3);
+        r << std::sin(x[0]), std::sinh(x[1]), miss_;
+    }
+
+private:
+    Eigen::Matrix<double, 3, 2> jacobian(std::span<const double> x) const override
+    {
+        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
+        J(0, 0) = std::cos(x[0]);
+        J(1, 1) = std::cosh(x[1]);
+        return J;
+    }
+    double miss_;
+};
+
 // Unknowns for AngleAndDistance: the angle periodic (a turn) and free, the distance within [lo, hi].
 Unknowns angleAndDistance(double lo, double hi)
 {
@@ -432,4 +454,46 @@ TEST_CASE("minimizer: ten accepted steps that lower the cost by a millionth of i
     const auto [pulled, far] = run(false);
     CHECK(pulled.gaussNewton + pulled.levenbergMarquardt == SolverOptions{}.maxIterations);
     CHECK(std::remainder(far - 50.0, 2.0 * std::numbers::pi) == doctest::Approx(0.0).scale(1.0).epsilon(1e-12));
+}
+
+TEST_CASE("minimizer: a whole step that lands where its model said, on a floor within the tolerance, ends the solve")
+{
+    // A miss no unknown moves, the floor a frame's cost falls to where the approximation misses targets from the real
+    // rig by a little. A step that lands on the model's minimum to a thousandth of the cost ends the solve there, the
+    // other residuals then within about sqrt(2e-3) of the miss; without a miss, or with one below 1e-2 of the
+    // tolerance, the solve converges on, its other residuals to rounding.
+    Approximation a;
+    for (const char* name : {"a.translateX", "a.translateY"}) {
+        ModelledParameter m;
+        m.parameter = test::distance(name);
+        a.parameters.push_back(m);
+    }
+    const Unknowns u(a, nullptr, {0, 1});
+    struct Run {
+        MinimizerResult result;
+        double moved;  // the norm of the residuals the unknowns move, at the end
+    };
+    const auto run = [&](double miss) {
+        SineWithMiss problem(miss);
+        MinimizerState state(3, 2);
+        state.x = {0.9, -0.8};
+        const std::vector<double> near{0.9, -0.8};
+        const MinimizerResult result = minimize(problem, u, SolverOptions{}, state, near);
+        Eigen::VectorXd r;
+        problem.residuals(state.x, r);
+        return Run{result, r.head<2>().norm()};
+    };
+    const double tolerance = SolverOptions{}.targetTolerance;
+    const Run floor = run(0.2 * tolerance), exact = run(0.0), below = run(1e-3 * tolerance);
+    MESSAGE("on the floor: " << floor.result.gaussNewton << " iterations, the moved residuals " << floor.moved
+                             << "; without a miss: " << exact.result.gaussNewton << ", " << exact.moved
+                             << "; a miss of 1e-6 cm: " << below.result.gaussNewton << ", " << below.moved);
+    CHECK(floor.result.converged);
+    CHECK(floor.result.cost <= (1.0 + 1e-3) * 0.5 * std::pow(0.2 * tolerance, 2));
+    CHECK(floor.moved <= std::sqrt(2e-3) * 0.2 * tolerance);
+    CHECK(exact.result.converged);
+    CHECK(exact.moved < 1e-12);
+    CHECK(below.result.converged);
+    CHECK(below.moved < 1e-12);
+    CHECK(floor.result.gaussNewton < exact.result.gaussNewton);
 }
