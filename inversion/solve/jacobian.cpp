@@ -393,6 +393,22 @@ void ResidualWorkspace::forEachVelocity(std::size_t o, const Body& body) const
         body(baseVelocity_[static_cast<std::size_t>(base.velocityOffset) + j], base.columns[j]);
 }
 
+void ResidualWorkspace::clearTreeEntries(Eigen::Ref<Eigen::MatrixXd> jacobian)
+{
+    const FormedMatrix formed{jacobian.data(), jacobian.rows(), jacobian.cols(), jacobian.outerStride()};
+    if (!(formed == treeFormed_)) {
+        jacobian.setZero();
+        treeFormed_ = formed;
+        return;
+    }
+    const auto& s = *structure_;
+    for (std::size_t o = 0; o < worlds_.size(); ++o) {
+        const Eigen::Index rows = s.jointTarget(o) ? jointTargetRows : s.terms_[o]->rows();
+        forEachVelocity(
+            o, [&](const Affine&, Eigen::Index column) { jacobian.block(s.rowOffset_[o], column, rows, 1).setZero(); });
+    }
+}
+
 void ResidualWorkspace::termTreeJacobian(std::size_t o, Eigen::Ref<Eigen::MatrixXd> jacobian)
 {
     // A velocity Xi moves the world by dW = Xi W: a twist when rigid, any change of a stretch's.
@@ -530,23 +546,26 @@ void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod metho
                                  bool parallel, Eigen::Ref<Eigen::VectorXd> r, Eigen::Ref<Eigen::MatrixXd> jacobian)
 {
     const auto& s = *structure_;
-    jacobian.setZero();
     if (method == JacobianMethod::analytic) {
         evaluateSlots(x, true);
         evaluateTree();
         residualRows(r);
         if (velocities()) {
+            clearTreeEntries(jacobian);
             treeJacobian(jacobian);
             return;
         }
+        treeFormed_ = {};
         // A singular operator or product has no inverse: the prefix and suffix products need none.
         jacobianFromSuffixes(x, r, jacobian);
         return;
     }
+    treeFormed_ = {};
     if (s.hasBases()) {
         wholeDifferences(x, finiteDifferenceStep, r, jacobian);
         return;
     }
+    jacobian.setZero();
     holdChains();
     residuals(x, r);  // also leaves the slot matrices at x for the columns below
     const double h = finiteDifferenceStep;
