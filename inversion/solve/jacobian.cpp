@@ -395,10 +395,11 @@ void ResidualWorkspace::forEachVelocity(std::size_t o, const Body& body) const
 
 void ResidualWorkspace::clearTreeEntries(Eigen::Ref<Eigen::MatrixXd> jacobian)
 {
-    const FormedMatrix formed{jacobian.data(), jacobian.rows(), jacobian.cols(), jacobian.outerStride()};
-    if (!(formed == treeFormed_)) {
+    const bool inPlace = inPlace_ && jacobian.data() == inPlace_->data() && jacobian.rows() == inPlace_->rows() &&
+                         jacobian.cols() == inPlace_->cols() && jacobian.outerStride() == inPlace_->outerStride();
+    if (!inPlace || !treeFormed_) {
         jacobian.setZero();
-        treeFormed_ = formed;
+        treeFormed_ = inPlace;
         return;
     }
     const auto& s = *structure_;
@@ -522,6 +523,7 @@ void ResidualWorkspace::outputJacobian(int o, Eigen::Ref<Eigen::MatrixXd> jacobi
 void ResidualWorkspace::jacobianFromSuffixes(std::span<const double> x, Eigen::Ref<Eigen::VectorXd> r,
                                              Eigen::Ref<Eigen::MatrixXd> jacobian)
 {
+    treeFormed_ = false;
     if (structure_->hasBases()) {  // no flat chain holds a base: whole evaluations instead
         wholeDifferences(x, wholeDifferenceStep, r, jacobian);
         return;
@@ -555,12 +557,12 @@ void ResidualWorkspace::jacobian(std::span<const double> x, JacobianMethod metho
             treeJacobian(jacobian);
             return;
         }
-        treeFormed_ = {};
+        treeFormed_ = false;
         // A singular operator or product has no inverse: the prefix and suffix products need none.
         jacobianFromSuffixes(x, r, jacobian);
         return;
     }
-    treeFormed_ = {};
+    treeFormed_ = false;
     if (s.hasBases()) {
         wholeDifferences(x, finiteDifferenceStep, r, jacobian);
         return;
@@ -599,6 +601,7 @@ void ResidualWorkspace::wholeDifferences(std::span<const double> x, double step,
 {
     // One column at a time on this workspace (its products are shared state): serial, and the same for any thread
     // count.
+    treeFormed_ = false;
     jacobian.setZero();
     trial_.assign(x.begin(), x.end());
     const Eigen::Index rows = structure_->rows();

@@ -234,6 +234,9 @@ private:
 // scratch. Sized once; evaluating allocates nothing.
 class ResidualWorkspace {
 public:
+    // `jacobian` is the owner's own J, sized once and written only through this workspace (BlockWorkspace::J): where
+    // the analytic tree forms it again, only the entries it adds into are zeroed first (clearTreeEntries).
+    void formsInPlace(const Eigen::MatrixXd& jacobian) { inPlace_ = &jacobian; }
     explicit ResidualWorkspace(const ResidualStructure& structure);
 
     const ResidualStructure& structure() const { return *structure_; }
@@ -310,8 +313,9 @@ private:
     void residualRows(Eigen::Ref<Eigen::VectorXd> r);  // also the rigid outputs' quaternions
     bool velocities();                                 // Xi per unknown node; false: an operator or product is singular
     void treeJacobian(Eigen::Ref<Eigen::MatrixXd> jacobian);  // from velocities()
-    // The entries treeJacobian adds into zeroed: only those where it formed this matrix last, the rest being zero
-    // since (a block's J: zeroing it whole took 7% of a spider scene's solve), else the whole matrix.
+    // The entries treeJacobian adds into zeroed: only those where the matrix is the one formsInPlace named and the tree
+    // formed it last, the rest being zero since (a block's J: zeroing it whole took 7% of a spider scene's solve),
+    // else the whole matrix.
     void clearTreeEntries(Eigen::Ref<Eigen::MatrixXd> jacobian);
     void termTreeJacobian(std::size_t o, Eigen::Ref<Eigen::MatrixXd> jacobian);  // an output of another term
     // body(velocity, column) for every velocity that moves output position o: its unknown nodes' and its base's.
@@ -352,15 +356,10 @@ private:
         std::array<Eigen::Matrix4d, 5> worlds;  // its frame inputs' worlds
         Eigen::Matrix4d ik, fk, moved;          // the branches' locals, and W_a L
     };
-    std::vector<BlendState> blends_;  // per base (a blend's only used)
-    std::vector<double> trial_;       // wholeDifferences' shifted values
-    // The matrix treeJacobian formed last, while nothing else has written it since through this workspace.
-    struct FormedMatrix {
-        const double* data = nullptr;
-        Eigen::Index rows = 0, cols = 0, stride = 0;
-        bool operator==(const FormedMatrix&) const = default;
-    };
-    FormedMatrix treeFormed_;
+    std::vector<BlendState> blends_;                         // per base (a blend's only used)
+    std::vector<double> trial_;                              // wholeDifferences' shifted values
+    const Eigen::MatrixXd* inPlace_ = nullptr;               // formsInPlace's matrix
+    bool treeFormed_ = false;                                // the tree formed it last, and nothing has written J since
     std::vector<Eigen::Matrix<double, 6, 1>> twist_, load_;  // per unknown node: (omega, v); sum of B_k^T r_k below
     // Sum of B_k^T B_k over outputs: [[A, [m]x], [-[m]x, s I]], as each output's is (twistNormalEquations),
     // kept in its 13 numbers rather than 36: the sums up the tree move a third of the memory.

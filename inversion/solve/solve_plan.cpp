@@ -17,6 +17,7 @@ BlockWorkspace::BlockWorkspace(const ResidualStructure& structure, const BlockEl
       // Dense J^T J and its factorizations only where the step is not by elimination.
       dense(coupled ? 0 : structure.columnCount(), structure.rows())
 {
+    residual.formsInPlace(J);
     if (coupled) {
         elimination = std::make_unique<BlockEliminationWorkspace>(*coupled, &residual);
         residual.useLayout(coupled->layout());

@@ -29,6 +29,8 @@ namespace rig {
 // Everything one block's solve touches, sized once for the block: the approximation's side of the minimizer.
 struct BlockWorkspace final : MinimizerProblem {
     BlockWorkspace(const ResidualStructure& structure, const BlockElimination* coupled);
+    BlockWorkspace(const BlockWorkspace&) = delete;  // its residual workspace knows J by address (formsInPlace)
+    BlockWorkspace& operator=(const BlockWorkspace&) = delete;
 
     // Set before each minimize(): how the normal equations are formed.
     void configure(const SolverOptions& options, bool parallel);

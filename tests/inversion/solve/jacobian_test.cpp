@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 
 #include "inversion/solve/jacobian.h"
+#include "inversion/solve/solve_plan.h"
 #include "inversion/solver_rigs.h"
 
 using namespace rig;
@@ -279,6 +280,36 @@ TEST_CASE("jacobian: finite-difference columns in parallel equal them computed o
     }
     CHECK(parallel.cwiseAbs().maxCoeff() > 1.0);
     CHECK(parallel == serial);
+}
+
+TEST_CASE("jacobian: a block's own J formed again in place equals J formed afresh, bit for bit")
+{
+    // A block's J is zeroed only where the tree adds into it once the tree formed it last (clearTreeEntries): after
+    // another pose, and after finite differences wrote it, it must hold what a fresh matrix gets.
+    auto rig = test::twoArms();
+    const Approximation a = test::learn(rig, "two arms");
+    std::mt19937 rng(12);
+    const std::vector<JointTarget> targets = randomTargets(a, test::randomValues(a, rng), rng);
+    JacobianEvaluator evaluator(a, targets, rotationScale);
+    BlockWorkspace block(evaluator.structure(), nullptr);
+    block.residual.holdParameters(a.defaults());
+    for (std::size_t o = 0; o < evaluator.structure().outputs().size(); ++o) {
+        PreparedTarget prepared;
+        REQUIRE(prepareTarget(targets[static_cast<std::size_t>(evaluator.structure().outputs()[o])], rotationScale,
+                              prepared));
+        block.residual.setTarget(static_cast<int>(o), prepared);
+    }
+    Eigen::VectorXd r(evaluator.rows()), fresh_r;
+    Eigen::MatrixXd fresh;
+    for (int pose = 0; pose < 4; ++pose) {
+        CAPTURE(pose);
+        const std::vector<double> values = test::randomValues(a, rng);
+        if (pose == 2) block.residual.jacobian(values, JacobianMethod::finiteDifference, 1e-6, false, r, block.J);
+        block.residual.jacobian(values, JacobianMethod::analytic, 0.0, false, r, block.J);
+        evaluator.jacobian(values, JacobianMethod::analytic, 0.0, fresh, fresh_r);
+        CHECK(fresh.cwiseAbs().maxCoeff() > 1.0);
+        CHECK(block.J == fresh);
+    }
 }
 
 TEST_CASE("jacobian: columns of parameters that reach no active target are zero, and refused targets are named")

@@ -156,6 +156,18 @@ private:
     double miss_;
 };
 
+// An approximation of two distance controls, unlimited: unknowns for problems of two translations.
+Approximation twoDistances()
+{
+    Approximation a;
+    for (const char* name : {"a.translateX", "a.translateY"}) {
+        ModelledParameter m;
+        m.parameter = test::distance(name);
+        a.parameters.push_back(m);
+    }
+    return a;
+}
+
 // Unknowns for AngleAndDistance: the angle periodic (a turn) and free, the distance within [lo, hi].
 Unknowns angleAndDistance(double lo, double hi)
 {
@@ -403,12 +415,7 @@ TEST_CASE("minimizer: given up where the cost stalls above the tolerance and the
     // Along the valley from x = -3 the damped steps lower a cost of about 0.5 (the miss's) by a fraction of a percent
     // each: given up after the window's ten iterations, not converged; with the caller's bound above that cost, never,
     // to maxIterations.
-    Approximation a;
-    for (const char* name : {"a.translateX", "a.translateY"}) {
-        ModelledParameter m;
-        m.parameter = test::distance(name);
-        a.parameters.push_back(m);
-    }
+    const Approximation a = twoDistances();
     const Unknowns u(a, nullptr, {0, 1});
     const auto run = [&](GiveUp giveUp) {
         CurvedValley problem(1e-2, 1.0);
@@ -462,12 +469,7 @@ TEST_CASE("minimizer: a whole step that lands where its model said, on a floor w
     // rig by a little. A step that lands on the model's minimum to a thousandth of the cost ends the solve there, the
     // other residuals then within about sqrt(2e-3) of the miss; without a miss, or with one below 1e-2 of the
     // tolerance, the solve converges on, its other residuals to rounding.
-    Approximation a;
-    for (const char* name : {"a.translateX", "a.translateY"}) {
-        ModelledParameter m;
-        m.parameter = test::distance(name);
-        a.parameters.push_back(m);
-    }
+    const Approximation a = twoDistances();
     const Unknowns u(a, nullptr, {0, 1});
     struct Run {
         MinimizerResult result;
