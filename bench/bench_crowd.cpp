@@ -140,6 +140,7 @@ Json rowJson(int count, const CrowdPlay& p)
                 {"frame_ms_median", percentile(p.frameMs, 0.5)},
                 {"frame_ms_p99", percentile(p.frameMs, 0.99)},
                 {"cpu_ms_per_frame", p.cpuMsPerFrame},
+                {"cpu_ms_per_agent", p.cpuMsPerFrame / count},
                 {"lookat_max_error_deg", p.samples > p.limited ? Json(p.lookatMaxDeg) : Json()},
                 {"heads_measured", p.samples - p.limited},
                 {"heads_at_a_limit", p.limited},
@@ -168,6 +169,7 @@ Json threadsJson(const BenchOptions& o, const fs::path& approximation, int threa
     }
     return Json{{"threads", threads},
                 {"agents_at_30fps", best.is_null() ? 0 : best.at("agents").get<int>()},
+                {"per_agent_growth", perAgentGrowth(rows)},
                 {"frame_ms_median", best.is_null() ? Json() : best.at("frame_ms_median")},
                 {"frame_ms_p99", best.is_null() ? Json() : best.at("frame_ms_p99")},
                 {"lookat_max_error_deg", worstDeg},
@@ -197,6 +199,20 @@ Json crowdRealtimeJson(const BenchOptions& o, const fs::path& approximation)
                  "biped's curves and head joint per frame; agents_at_30fps: the largest crowd of 1, 2, 4, "
                  "... bipeds whose mean frame time is at most 33.3 ms; lookat_max_error_deg: the real "
                  "head's aim against the target where the lookAt's limits let it reach"}};
+}
+
+Json perAgentGrowth(const Json& rows)
+{
+    constexpr int from = 16;  // the smallest crowd: below it a crowd's state stays in the caches
+    double first = 0.0, largest = 0.0;
+    int crowds = 0;
+    for (const Json& row : rows) {
+        if (row.at("agents").get<int>() < from) continue;
+        const double perAgent = row.at("cpu_ms_per_agent").get<double>();
+        if (crowds++ == 0) first = perAgent;
+        largest = std::max(largest, perAgent);
+    }
+    return crowds >= 2 && first > 0.0 ? Json(largest / first) : Json();
 }
 
 }  // namespace rig::bench

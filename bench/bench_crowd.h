@@ -15,4 +15,9 @@ namespace rig::bench {
 // rig, and one row per crowd size. `approximation` is the biped's approximation file (rig-learn's defaults).
 Json crowdRealtimeJson(const BenchOptions& options, const std::filesystem::path& approximation);
 
+// Issue #45's flatness, over one thread count's rows (each with `agents` and `cpu_ms_per_agent`): the largest CPU
+// time per biped among the crowds of 16 bipeds and more over that of the smallest of them (1: flat); null when fewer
+// than two such crowds were played.
+Json perAgentGrowth(const Json& rows);
+
 }  // namespace rig::bench

@@ -127,10 +127,13 @@ Json sceneRow(const std::filesystem::path& rig, const std::filesystem::path& cli
     for (const FrameInversion& f : s.perFrame) reached.push_back(f.status == FrameStatus::reached);
     // The scene's joints as rig-invert read them (no map: as the scene gives them), against OUT.ma's.
     const auto [replayAll, replayReached] = replayErrors(inverted.clip, readMayaClip(out, {}), reached, *approximation);
+    const auto joints = std::count_if(approximation->outputs.begin(), approximation->outputs.end(),
+                                      [](const auto& o) { return !o.helper; });
+    // The thread's CPU time, as the FK biped's figure it is compared with per joint (bench_suite.cpp).
+    const double cpuMsPerFrame = s.frames > 0 ? 1e3 * s.solveCpuSeconds / static_cast<double>(s.frames) : 0.0;
     return Json{{"clip", clip.filename().string()},
                 {"rig", rig.filename().string()},
-                {"joints", std::count_if(approximation->outputs.begin(), approximation->outputs.end(),
-                                         [](const auto& o) { return !o.helper; })},
+                {"joints", joints},
                 {"parameters_found", learned.rigParameters},
                 {"parameters_modelled", approximation->parameters.size()},
                 {"unmodelled_outputs", unmodelled},
@@ -142,6 +145,8 @@ Json sceneRow(const std::filesystem::path& rig, const std::filesystem::path& cli
                 {"reached", s.count(FrameStatus::reached)},
                 {"status_frames", app::statusCountsJson(s)},
                 {"ms_per_frame", s.msPerFrame},
+                {"cpu_ms_per_frame", cpuMsPerFrame},
+                {"cpu_ms_per_joint", joints > 0 ? Json(cpuMsPerFrame / static_cast<double>(joints)) : Json()},
                 {"real_rig_worst_cm", s.maxPositionErrorCm},
                 {"replay_worst_cm", replayAll},
                 {"replay_worst_reached_cm", replayReached}};
@@ -171,6 +176,15 @@ Json mayaScenesJson(const std::filesystem::path& folder, const std::filesystem::
                  "each animated scene of ../shared/maya whose rig the reader evaluates: rig-learn --params auto, "
                  "then rig-invert --clip SCENE.ma with the default settings (no --hybrid), -o OUT.ma read back "
                  "(replay: OUT.ma's joints against the scene's, worst over the frames and over those reached)"}};
+}
+
+void compareWithBiped(Json& scenes, double bipedCpuMsPerFrame, int bipedJoints)
+{
+    const double perJoint = bipedCpuMsPerFrame / static_cast<double>(bipedJoints);
+    scenes["fk_biped_cpu_ms_per_joint"] = perJoint;
+    for (Json& row : scenes.at("scenes"))
+        if (const auto j = row.find("cpu_ms_per_joint"); j != row.end() && j->is_number())
+            row["times_fk_biped_per_joint"] = j->get<double>() / perJoint;
 }
 
 }  // namespace rig::bench

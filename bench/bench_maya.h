@@ -33,4 +33,9 @@ Json mayaScenesJson(const std::filesystem::path& folder, const std::filesystem::
                     const std::function<void(std::string_view)>& log,
                     const std::vector<AnimatedScene>& scenes = publicAnimatedScenes());
 
+// Issue #46's goal, per joint: `scenes` (mayaScenesJson's) given the FK biped's CPU time per frame over its target
+// joints in the same run (fk_biped_cpu_ms_per_joint), and each scene's CPU time per frame and joint over it
+// (times_fk_biped_per_joint).
+void compareWithBiped(Json& scenes, double bipedCpuMsPerFrame, int bipedJoints);
+
 }  // namespace rig::bench

@@ -762,7 +762,6 @@ Json accuracyJson(BipedBench& b)
     accuracy["note"] = "real rig re-evaluated with each method's parameters, against the clip's joints";
     return std::move(accuracy);
 }
-
 }  // namespace
 
 void runBipedBench(const BenchOptions& o, Json& report)
@@ -798,6 +797,9 @@ void runBipedBench(const BenchOptions& o, Json& report)
     report["maya_load"] = mayaLoadJson(o.mayaFolder);
     report["maya_scenes"] =
         o.mayaScenes && !o.workDir.empty() ? mayaScenesJson(o.mayaFolder, o.workDir, o.log) : Json();
+    if (!report.at("maya_scenes").is_null())
+        compareWithBiped(report["maya_scenes"], report.at("invert").at("ms_per_frame").get<double>(),
+                         report.at("biped").at("target_joints").get<int>());
     report["random_characters"] = o.workDir.empty() ? Json() : randomCharactersJson(o.characters, o.workDir, o.log);
 
     // The look-at crowd played in real time, every member inverted with this approximation (written for the

@@ -106,9 +106,10 @@ void printSummary(const bench::Json& r)
         for (const auto& t : crowd->at("by_threads"))
             std::cout << fmt::format(
                 "crowd       {} look-at bipeds at 30 fps on {} thread(s): frame median {}, p99 {}; real heads' aim "
-                "within {}\n",
+                "within {}; CPU per biped up to {}x that of 16\n",
                 figure(t.at("agents_at_30fps"), "", 4), figure(t.at("threads")), figure(t.at("frame_ms_median"), "ms"),
-                figure(t.at("frame_ms_p99"), "ms"), figure(t.at("lookat_max_error_deg"), "deg"));
+                figure(t.at("frame_ms_p99"), "ms"), figure(t.at("lookat_max_error_deg"), "deg"),
+                figure(t.value("per_agent_growth", bench::Json())));
     if (const auto maya = r.find("maya_load"); maya != r.end() && !maya->is_null())
         std::cout << fmt::format("maya load   the largest scene ({} bytes) in {}; {} scenes\n",
                                  figure(maya->at("largest_bytes"), "", 9),
@@ -118,12 +119,14 @@ void printSummary(const bench::Json& r)
             std::cout << (s.contains("error")
                               ? fmt::format("maya scene  {}: {}\n", text(s.at("clip")), text(s.at("error")))
                               : fmt::format("maya scene  {}: {} joints, {} parameters ({} unmodelled outputs{}), {} "
-                                            "evaluations; {} of {} frames reached, {} per frame; OUT.ma replay {}\n",
+                                            "evaluations; {} of {} frames reached, {} per frame ({}x the FK biped's "
+                                            "CPU time per joint); OUT.ma replay {}\n",
                                             text(s.at("clip")), figure(s.at("joints")),
                                             figure(s.at("parameters_modelled")), figure(s.at("unmodelled_outputs")),
                                             s.value("within_epsilon", true) ? "" : ", over epsilon",
                                             figure(s.at("training_evaluations"), "", 6), figure(s.at("reached")),
                                             figure(s.at("frames")), figure(s.at("ms_per_frame"), "ms"),
+                                            figure(s.value("times_fk_biped_per_joint", bench::Json())),
                                             figure(s.at("replay_worst_reached_cm"), "cm")));
     if (const auto characters = r.find("random_characters"); characters != r.end() && !characters->is_null()) {
         const auto line = [](const std::string& name, const bench::Json& row) {

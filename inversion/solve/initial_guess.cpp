@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include "inversion/solve/solver_impl.h"
 
@@ -112,9 +113,14 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
         }
         // Rotations that cannot move the output's position (every pivot at the joint, as a joint's own
         // rotate channels): its position cost is the same from every start, and a start that reaches the
-        // target's rotation is as good as any.
-        const double floorCost =
-            block.rotationsOnly ? impl.unmovedPositionCost(block, scratch->prepared, values) : -1.0;
+        // target's rotation is as good as any. Found once a start has missed (a warm or reachable frame's first
+        // start mostly reaches, and the test forms the block's Jacobian).
+        std::optional<double> floorCost;
+        const auto floor = [&] {
+            if (!floorCost)
+                floorCost = block.rotationsOnly ? impl.unmovedPositionCost(block, scratch->prepared, values) : -1.0;
+            return *floorCost;
+        };
         variedStarts(impl.approximation, block, columns, values, scratch->varied);
         int starts = 1;
         for (std::size_t i = 0; i < scratch->varied.size(); ++i) starts *= 3;
@@ -150,9 +156,9 @@ TerminationType Solver::initialGuess(std::span<const JointTarget> targets, std::
             // The earliest start that reaches it: the nearest the values given. The floor is reached within
             // what the solve converges to: its stop tests leave up to functionTolerance of the cost. A minimum that
             // sameMinimumStarts starts ended at is the step's, reached or not.
-            if (bestCost <= reachedCost ||
-                (floorCost >= 0.0 && bestCost <= floorCost * (1.0 + impl.options.functionTolerance) + reachedCost) ||
-                atBest >= sameMinimumStarts)
+            if (bestCost <= reachedCost || atBest >= sameMinimumStarts) break;
+            if (const double f = floor();
+                f >= 0.0 && bestCost <= f * (1.0 + impl.options.functionTolerance) + reachedCost)
                 break;
         }
         // No start gave a finite cost: these parameters are left alone. Else the best, which solveBlock kept

@@ -1,7 +1,10 @@
 #include "inversion/solve/jacobian.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 #include <fmt/format.h>
 #include <oneapi/tbb/parallel_for.h>
@@ -30,6 +33,12 @@ constexpr double singularDeterminant = 1e-12;
 // The step of the whole-evaluation differences that stand in for the suffix products where a product begins with
 // a base (ResidualWorkspace::jacobianFromSuffixes).
 constexpr double wholeDifferenceStep = 1e-6;
+
+// The same value to the bit (a signed zero is not the other zero), and not NaN: what a held matrix was made at.
+bool sameBits(double a, double b)
+{
+    return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b) && a == a;
+}
 
 }  // namespace
 
@@ -84,7 +93,10 @@ ResidualWorkspace::ResidualWorkspace(const ResidualStructure& structure) : struc
     worlds_.assign(s.outputs_.size(), Eigen::Matrix4d::Identity());
     prefix_.assign(static_cast<std::size_t>(s.maxVars_ + 1), Eigen::Matrix4d::Identity());
     suffix_.assign(static_cast<std::size_t>(s.maxVars_ + 1), Eigen::Matrix4d::Identity());
-    held_.assign(s.heldParameters_.size(), 0.0);
+    // NaN: no value yet, so that the first holdParameters makes every held matrix.
+    held_.assign(s.heldParameters_.size(), std::numeric_limits<double>::quiet_NaN());
+    heldValue_.assign(s.nodes_.size(), std::numeric_limits<double>::quiet_NaN());
+    heldMoved_.assign(s.nodes_.size(), 0);
     heldMatrix_.assign(s.nodes_.size(), Affine::Identity());
     nodeMatrix_.assign(s.nodes_.size(), Affine::Identity());
     velocity_.assign(s.nodes_.size(), Affine::Zero());
@@ -117,20 +129,33 @@ void ResidualWorkspace::holdParameters(std::span<const double> values)
     if (values.size() != approx.parameters.size())
         throw internalError("ResidualWorkspace::holdParameters: one value per modelled parameter");
     // Only the parameters this structure holds: a crowd's blocks must not each copy every value.
-    for (std::size_t i = 0; i < s.heldParameters_.size(); ++i)
-        held_[i] = values[static_cast<std::size_t>(s.heldParameters_[i])];
+    bool heldChanged = false;
+    for (std::size_t i = 0; i < s.heldParameters_.size(); ++i) {
+        const double v = values[static_cast<std::size_t>(s.heldParameters_[i])];
+        heldChanged = heldChanged || !sameBits(v, held_[i]);
+        held_[i] = v;
+    }
     for (std::size_t b = 0; b < s.bases_.size(); ++b)
         if (const ConstraintBase& c = approx.constraints[static_cast<std::size_t>(s.bases_[b].constraint)];
             c.kind == ConstraintKind::blend && s.bases_[b].weightColumn < 0)
             blends_[b].weight = values[static_cast<std::size_t>(c.weight)];
-    chainsHeld_ = false;
+    chainsHeld_ = chainsHeld_ && !heldChanged;
+    // A held node's matrix, and a constant node's product, are made again only where its value (or a constant
+    // ancestor's) changed since the last call: the initial guess holds the same values for every start of a step,
+    // and a sampled operator's matrix costs a curve's evaluation.
     for (std::size_t n = 0; n < s.nodes_.size(); ++n) {
         const auto& node = s.nodes_[n];
         if (node.slot >= 0 || node.base >= 0) continue;
         const ModelledParameter& m = approx.parameters[static_cast<std::size_t>(node.parameter)];
-        heldMatrix_[n] = m.operators[static_cast<std::size_t>(node.op)].affineRows(
-            values[static_cast<std::size_t>(node.parameter)] - m.parameter.defaultValue);
-        if (node.constant)
+        const double v = values[static_cast<std::size_t>(node.parameter)];
+        const bool same = sameBits(v, heldValue_[n]);
+        if (!same) {
+            heldMatrix_[n] = m.operators[static_cast<std::size_t>(node.op)].affineRows(v - m.parameter.defaultValue);
+            heldValue_[n] = v;
+        }
+        const bool parentMoved = node.parent >= 0 && heldMoved_[static_cast<std::size_t>(node.parent)];
+        heldMoved_[n] = !same || parentMoved;
+        if (node.constant && heldMoved_[n])
             nodeMatrix_[n] = node.parent < 0
                                  ? heldMatrix_[n]
                                  : compose(nodeMatrix_[static_cast<std::size_t>(node.parent)], heldMatrix_[n]);

@@ -345,6 +345,8 @@ private:
     std::vector<double> held_;  // per heldParameters_ entry: its value given to holdParameters
     bool chainsHeld_ = false;
     std::vector<Affine> heldMatrix_;              // per held node: its operator's matrix
+    std::vector<double> heldValue_;               // per held node: the value heldMatrix_ was made at
+    std::vector<char> heldMoved_;                 // per held node: made again (or a held ancestor) at the last hold
     std::vector<Affine> nodeMatrix_;              // per node: its product from the root
     std::vector<Affine> velocity_;                // per unknown node: Xi
     std::vector<Affine> baseVelocity_;            // per base and column: dB/da B^-1

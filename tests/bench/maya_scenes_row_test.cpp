@@ -34,6 +34,23 @@ TEST_CASE("rig-bench maya_scenes: a keyed scene of our own is learned as it come
     CHECK(scene.at("replay_worst_cm").get<double>() == doctest::Approx(scene.at("real_rig_worst_cm").get<double>()));
     CHECK(scene.at("replay_worst_reached_cm").get<double>() < 1e-3);
     CHECK(std::filesystem::exists(dir / "arm_keyed.out.ma"));
+    // Per joint, against the FK biped's per joint in the same run (rig-bench passes its figures).
+    const double perFrame = scene.at("cpu_ms_per_frame").get<double>();
+    CHECK(perFrame > 0.0);
+    CHECK(scene.at("cpu_ms_per_joint").get<double>() == doctest::Approx(perFrame / 3));
+    bench::Json compared = row;
+    bench::compareWithBiped(compared, 0.062, 31);
+    CHECK(compared.at("fk_biped_cpu_ms_per_joint").get<double>() == doctest::Approx(0.002));
+    CHECK(compared.at("scenes")[0].at("times_fk_biped_per_joint").get<double>() ==
+          doctest::Approx(perFrame / 3 / 0.002));
     // No folder, no row.
     CHECK(bench::mayaScenesJson(dir / "absent", dir, {}).is_null());
+}
+
+TEST_CASE("rig-bench maya_scenes: a scene that failed has no per-joint figure to compare")
+{
+    bench::Json scenes{{"scenes", bench::Json::array({bench::Json{{"clip", "broken.ma"}, {"error", "no rig"}}})}};
+    bench::compareWithBiped(scenes, 0.06, 30);
+    CHECK(scenes.at("fk_biped_cpu_ms_per_joint").get<double>() == doctest::Approx(0.002));
+    CHECK_FALSE(scenes.at("scenes")[0].contains("times_fk_biped_per_joint"));
 }

@@ -188,6 +188,9 @@ TEST_CASE("rig-bench --quick: every figure of issue 7, finite, with the machine 
         CHECK(figure(t["rows"][1], "heads_measured") + figure(t["rows"][1], "heads_at_a_limit") == 2 * 5);
         positive(t["rows"][1], "memory_mb");
         positive(t["rows"][1], "memory_held_mb");
+        CHECK(figure(t["rows"][1], "cpu_ms_per_agent") ==
+              doctest::Approx(figure(t["rows"][1], "cpu_ms_per_frame") / 2));
+        CHECK(t["per_agent_growth"].IsNull());  // crowds of 16 and more only: none in --quick
     }
     CHECK(figure(crowd, "threads") == 2);
     CHECK(figure(crowd, "agents_at_30fps") == 2);

@@ -312,6 +312,48 @@ TEST_CASE("jacobian: a block's own J formed again in place equals J formed afres
     }
 }
 
+TEST_CASE("jacobian: held matrices made again only where a held value changed give a fresh workspace's residuals")
+{
+    // holdParameters keeps each held operator's matrix and each constant product until its value, or a constant
+    // ancestor's, changes (the initial guess holds the same values for every start of a step). One column, the
+    // rest held: every held value is changed alone, then back, and the residuals must be a fresh workspace's to the
+    // bit (they are not if a constant product below the changed value is left as it was).
+    auto rig = test::twoArms();
+    const Approximation a = test::learn(rig, "two arms");
+    std::mt19937 rng(31);
+    const std::vector<double> pose = test::randomValues(a, rng);
+    const std::vector<JointTarget> targets = randomTargets(a, pose, rng);
+    const int column = static_cast<int>(a.parameters.size()) - 1;
+    std::vector<int> outputs(a.outputs.size());
+    for (std::size_t k = 0; k < outputs.size(); ++k) outputs[k] = static_cast<int>(k);
+    const ResidualStructure structure(a, {column}, outputs);
+    std::vector<PreparedTarget> prepared(outputs.size());
+    for (std::size_t k = 0; k < outputs.size(); ++k) REQUIRE(prepareTarget(targets[k], rotationScale, prepared[k]));
+    const auto residualsOf = [&](ResidualWorkspace& w, std::span<const double> values) {
+        w.holdParameters(values);
+        w.setTargets(prepared);
+        Eigen::VectorXd r(structure.rows());
+        w.residuals(std::span(values).subspan(static_cast<std::size_t>(column), 1), r);
+        return r;
+    };
+    ResidualWorkspace kept(structure);
+    residualsOf(kept, pose);
+    std::vector<double> values = pose;
+    int changed = 0;
+    for (int p = 0; p < column; ++p) {
+        CAPTURE(p);
+        values[static_cast<std::size_t>(p)] += 0.3;
+        ResidualWorkspace fresh(structure);
+        const Eigen::VectorXd expected = residualsOf(fresh, values);
+        const Eigen::VectorXd got = residualsOf(kept, values);
+        CHECK(got == expected);
+        changed += got != residualsOf(kept, pose);
+        values[static_cast<std::size_t>(p)] = pose[static_cast<std::size_t>(p)];
+        CHECK(residualsOf(kept, values) == residualsOf(fresh, values));
+    }
+    CHECK(changed > column / 2);  // the held values move the outputs: the comparisons see them
+}
+
 TEST_CASE("jacobian: columns of parameters that reach no active target are zero, and refused targets are named")
 {
     auto rig = test::twoArms();
