@@ -762,6 +762,7 @@ Json accuracyJson(BipedBench& b)
     accuracy["note"] = "real rig re-evaluated with each method's parameters, against the clip's joints";
     return std::move(accuracy);
 }
+
 }  // namespace
 
 void runBipedBench(const BenchOptions& o, Json& report)

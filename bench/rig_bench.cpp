@@ -48,6 +48,13 @@ std::string figure(const bench::Json& j, std::string_view unit = "", int digits 
 
 std::string text(const bench::Json& j) { return j.is_string() ? j.get<std::string>() : j.dump(); }
 
+// `clause` with the ratio `key` of `row` in it, or nothing where the row has no such figure (--quick's crowds).
+std::string ratioClause(std::string_view clause, const bench::Json& row, const char* key)
+{
+    const auto j = row.find(key);
+    return j != row.end() && j->is_number() ? fmt::format(fmt::runtime(clause), figure(*j)) : std::string();
+}
+
 void printSummary(const bench::Json& r)
 {
     const auto& jac = r.at("jacobian");
@@ -106,10 +113,10 @@ void printSummary(const bench::Json& r)
         for (const auto& t : crowd->at("by_threads"))
             std::cout << fmt::format(
                 "crowd       {} look-at bipeds at 30 fps on {} thread(s): frame median {}, p99 {}; real heads' aim "
-                "within {}; CPU per biped up to {}x that of 16\n",
+                "within {}{}\n",
                 figure(t.at("agents_at_30fps"), "", 4), figure(t.at("threads")), figure(t.at("frame_ms_median"), "ms"),
                 figure(t.at("frame_ms_p99"), "ms"), figure(t.at("lookat_max_error_deg"), "deg"),
-                figure(t.value("per_agent_growth", bench::Json())));
+                ratioClause("; CPU per biped up to {}x that of 16", t, "per_agent_growth"));
     if (const auto maya = r.find("maya_load"); maya != r.end() && !maya->is_null())
         std::cout << fmt::format("maya load   the largest scene ({} bytes) in {}; {} scenes\n",
                                  figure(maya->at("largest_bytes"), "", 9),
@@ -119,14 +126,14 @@ void printSummary(const bench::Json& r)
             std::cout << (s.contains("error")
                               ? fmt::format("maya scene  {}: {}\n", text(s.at("clip")), text(s.at("error")))
                               : fmt::format("maya scene  {}: {} joints, {} parameters ({} unmodelled outputs{}), {} "
-                                            "evaluations; {} of {} frames reached, {} per frame ({}x the FK biped's "
-                                            "CPU time per joint); OUT.ma replay {}\n",
+                                            "evaluations; {} of {} frames reached, {} per frame{}; OUT.ma replay {}\n",
                                             text(s.at("clip")), figure(s.at("joints")),
                                             figure(s.at("parameters_modelled")), figure(s.at("unmodelled_outputs")),
                                             s.value("within_epsilon", true) ? "" : ", over epsilon",
                                             figure(s.at("training_evaluations"), "", 6), figure(s.at("reached")),
                                             figure(s.at("frames")), figure(s.at("ms_per_frame"), "ms"),
-                                            figure(s.value("times_fk_biped_per_joint", bench::Json())),
+                                            ratioClause(" ({}x the FK biped's CPU time per joint)", s,
+                                                        "times_fk_biped_per_joint"),
                                             figure(s.at("replay_worst_reached_cm"), "cm")));
     if (const auto characters = r.find("random_characters"); characters != r.end() && !characters->is_null()) {
         const auto line = [](const std::string& name, const bench::Json& row) {
