@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -276,13 +278,11 @@ void goOnFromStall(const Solver& solver, std::span<const JointTarget> targets, d
     keepIfCheaper(again, scratch.stalled, floor, frame, values);
 }
 
-}  // namespace
-
-void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
-                     double previousCost, ChainScratch& scratch, ChainFrame& frame)
+void solveChainFrameOnce(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                         double previousCost, ChainScratch& scratch, ChainFrame& frame)
 {
     scratch.start.assign(values.begin(), values.end());  // the warm start
-    frame.retried = frame.kept = false;
+    frame.retried = frame.kept = frame.repeated = false;
     frame.realRigEvaluations = 0;
     scratch.led.reserve(targets.size());  // grown at the chain's first frame, whether or not the rotations lead
     scratch.rest.reserve(values.size());  // and the third start's, whether or not a frame needs it
@@ -330,6 +330,54 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
     solver.initialGuess(targets, scratch.rest);
     solver.solveCold(targets, scratch.rest, second);
     keepIfCheaper(second, scratch.rest, floor, frame, values);
+}
+
+bool sameBits(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
+
+bool sameBits(std::span<const double> a, std::span<const double> b)
+{
+    return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](double x, double y) { return sameBits(x, y); });
+}
+
+bool sameTarget(const JointTarget& a, const JointTarget& b)
+{
+    return a.active == b.active && a.term == b.term && sameBits(a.positionWeight, b.positionWeight) &&
+           sameBits(a.rotationWeight, b.rotationWeight) &&
+           sameBits(std::span(a.world.data(), 16), std::span(b.world.data(), 16));
+}
+
+// Whether solveChainFrame's call is the memo's (ChainMemo), to the bit.
+bool sameCall(const ChainMemo& memo, std::span<const JointTarget> targets, std::span<const double> start,
+              double previousCost, const ChainLead& lead)
+{
+    return memo.valid && sameBits(memo.previousCost, previousCost) && memo.leadIn.rotations == lead.rotations &&
+           memo.leadIn.wait == lead.wait && memo.leadIn.backoff == lead.backoff && sameBits(memo.start, start) &&
+           std::equal(memo.targets.begin(), memo.targets.end(), targets.begin(), targets.end(), sameTarget);
+}
+
+}  // namespace
+
+void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
+                     double previousCost, ChainScratch& scratch, ChainFrame& frame)
+{
+    ChainMemo& memo = scratch.memo;
+    if (sameCall(memo, targets, values, previousCost, scratch.lead)) {
+        values.assign(memo.answer.begin(), memo.answer.end());
+        frame = memo.frame;
+        frame.repeated = true;
+        scratch.lead = memo.leadOut;
+        return;
+    }
+    memo.valid = false;  // until the solve below has returned
+    memo.targets.assign(targets.begin(), targets.end());
+    memo.start.assign(values.begin(), values.end());
+    memo.previousCost = previousCost;
+    memo.leadIn = scratch.lead;
+    solveChainFrameOnce(solver, targets, values, previousCost, scratch, frame);
+    memo.answer.assign(values.begin(), values.end());
+    memo.frame = frame;
+    memo.leadOut = scratch.lead;
+    memo.valid = true;
 }
 
 int solveHeldFrame(HeldFrameScratch& scratch, const HeldSolve& solveOnce, std::span<const JointTarget> targets,

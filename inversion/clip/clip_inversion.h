@@ -70,6 +70,7 @@ struct ChainFrame {
     bool retried = false;
     bool kept = false;           // the second answer was cheaper
     int realRigEvaluations = 0;  // of a hybrid solve (hybrid_solve.h); 0 on the approximation alone
+    bool repeated = false;       // the call was the last one's: its answer taken, not solved again (ChainMemo)
 };
 inline constexpr double rotationsLeadPositionWeight = 0.01;
 // Whether the rotations lead a chain's next frame: state carried from frame to frame, as the values are (a caller that
@@ -82,6 +83,19 @@ struct ChainLead {
     int backoff = firstWait;
     static constexpr int firstWait = 4;
 };
+// A chain frame's last call and what it gave. A solve is a pure function of its targets and start (a Solver is const),
+// and solveChainFrame of those, the previous cost and the lead: a call the same as the last one to the bit (a held pose
+// of a clip, the same targets from the answer the same targets gave) gives the same answer, summary and all, and is not
+// solved again.
+struct ChainMemo {
+    bool valid = false;
+    std::vector<JointTarget> targets;
+    std::vector<double> start;
+    double previousCost = 0.0;
+    ChainLead leadIn, leadOut;
+    std::vector<double> answer;
+    ChainFrame frame;
+};
 struct ChainScratch {
     std::vector<double> start;    // the warm start, for the second solve
     std::vector<double> rest;     // the rest values, for a third
@@ -89,6 +103,7 @@ struct ChainScratch {
     SolveSummary second;
     ChainLead lead;                // reset at a chain's first frame (previousCost = retryNever)
     std::vector<JointTarget> led;  // a led frame's targets, positions weighed rotationsLeadPositionWeight times theirs
+    ChainMemo memo;
 };
 void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets, std::vector<double>& values,
                      double previousCost, ChainScratch& scratch, ChainFrame& frame);
