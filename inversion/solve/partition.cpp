@@ -50,8 +50,9 @@ public:
         uf_.assign(parameterCount, 0);
     }
 
-    Partition run(bool split)
+    Partition run(PartitionSplit split)
     {
+        split_ = split;
         Partition partition;
         Group all;
         for (std::size_t p = 0; p < outputsOf_.size(); ++p) {
@@ -65,7 +66,7 @@ public:
         }
         partition_ = &partition;
         if (!all.parameters.empty()) {
-            if (split) {
+            if (split != PartitionSplit::none) {
                 for (Group& g : components(all.parameters, all.outputs)) splitGroup(std::move(g), -1);
             } else {
                 addBlock(std::move(all), -1);
@@ -146,8 +147,8 @@ private:
     }
 
     // Grows the outer set T output by output (the output needing the fewest parameters not yet in T)
-    // until removing T leaves two or more independent groups; splits there if T's own outputs
-    // determine it, else keeps the group as one block.
+    // until removing T leaves two or more independent groups; splits there (PartitionSplit::determined: if T's own
+    // outputs determine it, else keeps the group as one block).
     void splitGroup(Group group, int parent)
     {
         const auto& P = group.parameters;
@@ -213,10 +214,12 @@ private:
             for (const int p : P) inP_[static_cast<std::size_t>(p)] = 1;
             if (groups.size() < 2) continue;
             // The first branching decides: growing T past it would tie the outer block to one branch
-            // (a root fitted to the left arm), so an undetermined T keeps the group whole.
+            // (a root fitted to the left arm), so an undetermined T keeps the group whole where T is solved first
+            // and held. Solved together, the blocks' step is the whole problem's: T need not be determined by its
+            // own outputs (a world control above a body control, C_Robot_Rig's and the spider's).
             std::sort(T.begin(), T.end());
             std::sort(KT.begin(), KT.end());
-            if (determined(T, KT)) inner = std::move(groups);
+            if (split_ == PartitionSplit::branching || determined(T, KT)) inner = std::move(groups);
             break;
         }
         cleanUp();
@@ -280,6 +283,7 @@ private:
     std::vector<int> remaining_;  // output: its parameters not yet in T
     std::vector<int> uf_;
     Partition* partition_ = nullptr;
+    PartitionSplit split_ = PartitionSplit::none;
 };
 
 void describeBlock(const Partition& partition, const Approximation& approximation, int b, int depth, std::string& out)
@@ -310,7 +314,8 @@ std::string Partition::describe(const Approximation& approximation) const
     return out;
 }
 
-Partition partitionProblem(const Approximation& approximation, std::span<const unsigned char> rows, bool split)
+Partition partitionProblem(const Approximation& approximation, std::span<const unsigned char> rows,
+                           PartitionSplit split)
 {
     if (rows.size() != approximation.outputs.size())
         throw internalError(

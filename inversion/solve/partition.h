@@ -7,13 +7,13 @@
 //  - independent groups (connected components of the parameter-output incidence) are separate blocks;
 //  - within a group, the outer set T of parameters (a root, a spine: grown from the outputs that need
 //    the fewest parameters until removing T first splits the rest into two or more independent groups,
-//    left arm and right arm) becomes a block of its own, solved first on the outputs only T reaches, if
-//    those outputs determine T (the Jacobian of T on them has full column rank at generic poses);
-//    otherwise the group stays one block. The inner groups are then split the same way and solved
-//    after T, in parallel, with T held.
-// On targets the rig reaches exactly, this block-triangular order gives the solution of the whole
-// problem; on unreachable ones it fits the outer block first and leaves the remaining error to the
-// inner blocks.
+//    left arm and right arm) becomes a block of its own, and the inner groups are split the same way.
+// How the blocks are solved decides where a group splits (PartitionSplit): together, by block elimination (the
+// default), a group splits at its first branching whatever T's own outputs say, since the step is the whole
+// problem's; one after another, T solved first on the outputs only T reaches and then held, only where those outputs
+// determine T (the Jacobian of T on them has full column rank at generic poses), else the group stays one block. On
+// targets the rig reaches exactly, that block-triangular order gives the solution of the whole problem; on
+// unreachable ones it fits the outer block first and leaves the remaining error to the inner blocks.
 
 #include <span>
 #include <string>
@@ -28,7 +28,8 @@ enum TargetRows : unsigned char { noRows = 0, positionRows = 1, rotationRows = 2
 
 struct PartitionBlock {
     std::vector<int> parameters;  // solved in this block: indices into Approximation::parameters, increasing
-    std::vector<int> outputs;     // the counted outputs whose residuals it minimizes, increasing
+    std::vector<int> outputs;     // the counted outputs only its parameters and its ancestors' move, increasing
+                                  // (PartitionSplit::branching: an outer block may have none)
     int parent = -1;              // the block solved before it (its parameters also move these outputs); -1: none
     std::vector<int> children;    // solved after it, independent of each other
 };
@@ -43,10 +44,17 @@ struct Partition {
     std::string describe(const Approximation& approximation) const;
 };
 
+// Where a group of parameters splits into an outer block and inner ones.
+enum class PartitionSplit {
+    none,        // one block holding every reached parameter and counted output (the whole solve)
+    determined,  // only where the outer block's own outputs determine it (blocks solved one after another)
+    branching,   // at its first branching (blocks solved together, by elimination)
+};
+
 // `rows`: one entry per Approximation::outputs (TargetRows flags; 0 for outputs without a target; bits above
 // the flags, a residual term's kind as termRowsKey puts it, are not read).
-// `split` false gives one block holding every reached parameter and counted output (the whole solve).
-// Deterministic: the same approximation and rows give the same partition.
-Partition partitionProblem(const Approximation& approximation, std::span<const unsigned char> rows, bool split);
+// Deterministic: the same approximation, rows and split give the same partition.
+Partition partitionProblem(const Approximation& approximation, std::span<const unsigned char> rows,
+                           PartitionSplit split);
 
 }  // namespace rig

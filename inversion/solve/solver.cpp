@@ -52,9 +52,12 @@ std::shared_ptr<const Plan> Solver::Impl::plan(const std::vector<unsigned char>&
         if (rows[k] >> 2 && terms.empty()) terms.assign(rows.size(), nullptr);
         if (!terms.empty()) terms[k] = rows[k] == noRows ? nullptr : &termOfKey(rows[k]);
     }
-    auto made = std::make_shared<const Plan>(
-        approximation, *equivalences, partitionProblem(approximation, rows, options.partition), std::move(counted),
-        std::move(terms), options.coupledBlocks, options.jacobian == JacobianMethod::analytic);
+    const PartitionSplit split = !options.partition      ? PartitionSplit::none
+                                 : options.coupledBlocks ? PartitionSplit::branching
+                                                         : PartitionSplit::determined;
+    auto made = std::make_shared<const Plan>(approximation, *equivalences, partitionProblem(approximation, rows, split),
+                                             std::move(counted), std::move(terms), options.coupledBlocks,
+                                             options.jacobian == JacobianMethod::analytic);
     std::lock_guard lock(plansMutex);
     if (plans.size() >= maxCachedPlans) return made;
     return plans.emplace(key, std::move(made)).first->second;  // another thread's, if it was first

@@ -479,7 +479,7 @@ TEST_CASE("blend: the partition solves a switch's weight with both branches' con
     // Targets on the hip, the thigh and the knee: the hip's control may be solved first, on the hip alone; the weight,
     // the IK and the FK controls move the thigh together (through the blend), so one block holds them.
     const std::vector<unsigned char> rows{allRows, 0, 0, allRows, allRows};
-    const Partition partition = partitionProblem(a, rows, true);
+    const Partition partition = partitionProblem(a, rows, PartitionSplit::determined);
     CHECK(partition.unreached.empty());
     const auto block = std::find_if(partition.blocks.begin(), partition.blocks.end(), [](const PartitionBlock& b) {
         return std::find(b.parameters.begin(), b.parameters.end(), 4) != b.parameters.end();

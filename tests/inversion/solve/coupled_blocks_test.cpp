@@ -566,3 +566,91 @@ TEST_CASE("continuity: a clip through gimbal lock is followed without a control 
         if (restart > frames) CHECK(largestStep < 1.5 * largestTargetStep);
     }
 }
+
+namespace {
+
+// A world control's translation above a root (translated and turned) and two arms that hang from the world control,
+// not the root, each with a translation of its own (as IK goals under a world control): the world's translation,
+// the root's opposite and the arms' opposite move nothing, a direction free across the blocks.
+test::LambdaRig worldArms()
+{
+    using test::angle, test::distance;
+    std::vector<RigParameter> parameters{distance("world.translateX"),    distance("world.translateY"),
+                                         distance("world.translateZ"),    distance("root.translateX"),
+                                         distance("root.translateY"),     distance("root.translateZ"),
+                                         angle("root.rotateY", -2.5, 2.5)};
+    for (const char* side : {"L", "R"})
+        for (const std::string name :
+             {"arm.translateX", "arm.translateY", "arm.translateZ", "arm.rotateX", "arm.rotateZ", "elbow.rotateZ"})
+            parameters.push_back(name.find("translate") != std::string::npos
+                                     ? distance(std::string(side) + "_" + name)
+                                     : angle(std::string(side) + "_" + name, -1.5, 1.5));
+    return test::LambdaRig(std::move(parameters), {"hips", "L_arm", "L_elbow", "L_hand", "R_arm", "R_elbow", "R_hand"},
+                           [](std::span<const double> v, std::vector<Eigen::Matrix4d>& w) {
+                               using test::translation, test::rotation;
+                               const Eigen::Vector3d x = Eigen::Vector3d::UnitX(), y = Eigen::Vector3d::UnitY(),
+                                                     z = Eigen::Vector3d::UnitZ();
+                               const Eigen::Matrix4d world = translation(v[0], v[1], v[2]);
+                               w[0] = world * translation(v[3], 100 + v[4], v[5]) * rotation(y, v[6]);
+                               for (std::size_t side = 0; side < 2; ++side) {
+                                   const double s = side == 0 ? 1.0 : -1.0;
+                                   const std::size_t p = 7 + 6 * side, o = 1 + 3 * side;
+                                   w[o] = world * translation(s * 15 + v[p], 140 + v[p + 1], v[p + 2]) *
+                                          rotation(x, v[p + 3]) * rotation(z, v[p + 4]);
+                                   w[o + 1] = w[o] * translation(s * 25, 0, 0) * rotation(z, v[p + 5]);
+                                   w[o + 2] = w[o + 1] * translation(s * 25, 0, 0);
+                               }
+                           });
+}
+
+}  // namespace
+
+TEST_CASE("coupled blocks: an outer block its own outputs do not determine splits, and the step is the whole's")
+{
+    // The root under two arms, with no target of its own or its rotation alone: the arms' outputs determine it
+    // together. Solved together, the partition splits it from them; the steps are the dense system's.
+    auto rig = test::twoArms();
+    const Approximation a = test::learn(rig, "two arms");
+    const int hips = test::outputIndex(a, "hips");
+    SolverOptions whole;
+    whole.partition = false;
+    const Solver coupled(a, SolverOptions{}), dense(a, whole);
+    std::mt19937 rng(5);
+    for (int pose = 0; pose < 10; ++pose) {
+        CAPTURE(pose);
+        std::vector<JointTarget> reachable = test::targetsAt(a, test::randomValues(a, rng, 0.5));
+        std::vector<JointTarget> unreachable = unreachableTargets(a, rng, 3.0, 10.0);
+        for (auto* targets : {&reachable, &unreachable}) {
+            if (pose % 2 == 0) (*targets)[static_cast<std::size_t>(hips)].active = false;
+            else (*targets)[static_cast<std::size_t>(hips)].positionWeight = 0.0;
+        }
+        REQUIRE(coupled.partition(reachable).blocks.size() == 3);
+        REQUIRE(dense.partition(reachable).blocks.size() == 1);
+        std::vector<double> x = a.defaults(), y = a.defaults();
+        const SolveSummary s = coupled.solve(reachable, x), t = dense.solve(reachable, y);
+        CHECK(s.converged());
+        CHECK(s.iterations == t.iterations);
+        for (std::size_t p = 0; p < x.size(); ++p) CHECK(x[p] == doctest::Approx(y[p]).epsilon(1e-7).scale(1.0));
+        x = y = a.defaults();
+        const double c = coupled.solve(unreachable, x).finalCost, d = dense.solve(unreachable, y).finalCost;
+        CHECK(c == doctest::Approx(d).epsilon(1e-6));
+    }
+}
+
+TEST_CASE("coupled blocks: a direction free across the blocks (a world control above the root and the arms)")
+{
+    // The world's translation against the root's and the arms' opposite ones moves nothing: the root's block does
+    // not determine it, and its null direction reaches the arms' blocks. The coupled step is then a Gauss-Newton
+    // step other than the dense system's minimum-norm one; every pose is reached all the same, on the real rig.
+    auto rig = worldArms();
+    const Approximation a = test::learn(rig, "world arms");
+    RigBinding binding(a, rig);
+    const Solver coupled(a, SolverOptions{});
+    SolverOptions sequential;
+    sequential.coupledBlocks = false;
+    std::mt19937 rng(9);
+    const std::vector<JointTarget> rest = test::realTargetsAt(a, binding, a.defaults());
+    CHECK(coupled.partition(rest).blocks.size() == 3);
+    CHECK(Solver(a, sequential).partition(rest).blocks.size() == 1);  // one after another: the root undetermined
+    CHECK(test::posesReachedFromRest(a, coupled, binding, rng, 20, 0.5) == 20);
+}

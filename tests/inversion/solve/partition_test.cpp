@@ -38,7 +38,9 @@ std::vector<unsigned char> rowsWhere(const Approximation& a, auto predicate, uns
 
 // What makes the order valid: every parameter reaching a block's outputs is in the block or in one
 // of its ancestors; every reached parameter is in exactly one block; each counted output in one block.
-void checkStructure(const Approximation& a, const Partition& partition, std::span<const unsigned char> rows)
+// `ownOutputs`: every block has outputs of its own (PartitionSplit::branching may leave an outer block none).
+void checkStructure(const Approximation& a, const Partition& partition, std::span<const unsigned char> rows,
+                    bool ownOutputs = true)
 {
     std::vector<int> blockOf(a.parameters.size(), -1);
     for (std::size_t b = 0; b < partition.blocks.size(); ++b)
@@ -51,7 +53,7 @@ void checkStructure(const Approximation& a, const Partition& partition, std::spa
         const PartitionBlock& block = partition.blocks[b];
         CHECK(block.parent < static_cast<int>(b));
         CHECK(!block.parameters.empty());
-        CHECK(!block.outputs.empty());
+        CHECK((!block.outputs.empty() || !ownOutputs));
         for (const int k : block.outputs) {
             CHECK(outputBlock[static_cast<std::size_t>(k)] == -1);
             outputBlock[static_cast<std::size_t>(k)] = static_cast<int>(b);
@@ -106,7 +108,7 @@ TEST_CASE("partition: two arms split into the root, then the left and the right 
     auto rig = test::twoArms();
     const Approximation a = test::learn(rig, "two arms");
     const auto rows = rowsWhere(a, [](const std::string&) { return true; });
-    const Partition p = partitionProblem(a, rows, true);
+    const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
     REQUIRE(p.blocks.size() == 3);
     CHECK(p.roots == std::vector<int>{0});
     CHECK(parameterNames(a, p.blocks[0]) ==
@@ -129,7 +131,7 @@ TEST_CASE("partition: two arms split into the root, then the left and the right 
           "  block 1: 5 parameters -> L_shoulder, L_elbow, L_wrist, L_hand\n"
           "  block 2: 5 parameters -> R_shoulder, R_elbow, R_wrist, R_hand\n");
     // The whole solve when asked.
-    const Partition whole = partitionProblem(a, rows, false);
+    const Partition whole = partitionProblem(a, rows, PartitionSplit::none);
     REQUIRE(whole.blocks.size() == 1);
     CHECK(whole.blocks[0].parameters.size() == 14);
     CHECK(whole.blocks[0].outputs.size() == 9);
@@ -143,7 +145,7 @@ TEST_CASE("partition: the root stays with the arms when its own outputs do not d
     SUBCASE("no target on the hips")
     {
         const auto rows = rowsWhere(a, [](const std::string& n) { return n != "hips"; });
-        const Partition p = partitionProblem(a, rows, true);
+        const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
         REQUIRE(p.blocks.size() == 1);
         CHECK(p.blocks[0].parameters.size() == 14);
         checkStructure(a, p, rows);
@@ -153,7 +155,7 @@ TEST_CASE("partition: the root stays with the arms when its own outputs do not d
     {
         auto rows = rowsWhere(a, [](const std::string&) { return true; });
         rows[static_cast<std::size_t>(test::outputIndex(a, "hips"))] = rotationRows;
-        const Partition p = partitionProblem(a, rows, true);
+        const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
         CHECK(p.blocks.size() == 1);
         checkStructure(a, p, rows);
     }
@@ -161,14 +163,14 @@ TEST_CASE("partition: the root stays with the arms when its own outputs do not d
     {
         auto rows = rowsWhere(a, [](const std::string&) { return true; });
         rows[static_cast<std::size_t>(test::outputIndex(a, "hips"))] = positionRows;
-        const Partition p = partitionProblem(a, rows, true);
+        const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
         CHECK(p.blocks.size() == 1);
         checkStructure(a, p, rows);
     }
     SUBCASE("targets on the left arm only: the right arm's parameters are not solved")
     {
         const auto rows = rowsWhere(a, [](const std::string& n) { return n.starts_with("L_"); });
-        const Partition p = partitionProblem(a, rows, true);
+        const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
         REQUIRE(p.blocks.size() == 1);
         CHECK(p.blocks[0].parameters.size() == 9);
         CHECK(p.unreached.size() == 5);
@@ -179,9 +181,29 @@ TEST_CASE("partition: the root stays with the arms when its own outputs do not d
     SUBCASE("no targets")
     {
         const auto rows = rowsWhere(a, [](const std::string&) { return false; });
-        const Partition p = partitionProblem(a, rows, true);
+        const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
         CHECK(p.blocks.empty());
         CHECK(p.unreached.size() == 14);
+    }
+}
+
+TEST_CASE("partition: solved together, the root splits from the arms whatever its own outputs determine")
+{
+    auto rig = test::twoArms();
+    const Approximation a = test::learn(rig, "two arms");
+    auto hipsRotation = rowsWhere(a, [](const std::string&) { return true; });
+    hipsRotation[static_cast<std::size_t>(test::outputIndex(a, "hips"))] = rotationRows;
+    for (const auto& rows : {rowsWhere(a, [](const std::string& n) { return n != "hips"; }), hipsRotation}) {
+        const Partition p = partitionProblem(a, rows, PartitionSplit::branching);
+        REQUIRE(p.blocks.size() == 3);
+        CHECK(p.blocks[0].children.size() == 2);
+        checkStructure(a, p, rows, false);
+        // With the hips' rotation, the root alone, then each arm below it; with no target on the hips, the outer set
+        // grows from the first shoulder (4 root and 3 shoulder parameters) to the first branching.
+        const bool hipsCounted = rows[static_cast<std::size_t>(test::outputIndex(a, "hips"))] != noRows;
+        CHECK(p.blocks[0].parameters.size() == (hipsCounted ? 4 : 7));
+        // Solved one after another, the root would be fitted on what does not determine it: one block.
+        CHECK(partitionProblem(a, rows, PartitionSplit::determined).blocks.size() == 1);
     }
 }
 
@@ -205,7 +227,7 @@ TEST_CASE("partition: independent groups, nested splits, outputs no parameter re
                                              {7}});
     std::vector<unsigned char> rows(8, positionRows);
     rows[7] = noRows;
-    const Partition p = partitionProblem(a, rows, true);
+    const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
     checkStructure(a, p, rows);
     CHECK(p.fixedOutputs == std::vector<int>{5});
     CHECK(p.unreached == std::vector<int>{12});
@@ -233,7 +255,7 @@ TEST_CASE("partition: a long chain stays one block, found without quadratic resc
         }
     const Approximation a = translations(joints, reaches);
     const std::vector<unsigned char> rows(joints, allRows);
-    const Partition p = partitionProblem(a, rows, true);
+    const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
     REQUIRE(p.blocks.size() == 1);
     CHECK(p.blocks[0].parameters.size() == 3 * joints);
 }
@@ -245,7 +267,7 @@ TEST_CASE("partition: bundled rigs are block-triangular, and the biped's root co
         test::GraphRig rig("rigs/biped.yaml", test::bipedInversionGlobs(), test::bipedCmuJoints());
         const Approximation a = test::learn(rig, "biped");
         const auto rows = rowsWhere(a, [](const std::string&) { return true; });
-        const Partition p = partitionProblem(a, rows, true);
+        const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
         checkStructure(a, p, rows);
         REQUIRE(p.roots.size() == 1);
         const PartitionBlock& root = p.blocks[static_cast<std::size_t>(p.roots[0])];
@@ -270,7 +292,7 @@ TEST_CASE("partition: bundled rigs are block-triangular, and the biped's root co
         test::GraphRig rig("rigs/nasty.yaml", test::nastyGlobs());
         const Approximation a = test::learn(rig, "nasty");
         const auto rows = rowsWhere(a, [](const std::string&) { return true; });
-        const Partition p = partitionProblem(a, rows, true);
+        const Partition p = partitionProblem(a, rows, PartitionSplit::determined);
         checkStructure(a, p, rows);
         // The root's translation first; every branch of the rig after it, on its own.
         REQUIRE(p.roots.size() == 1);
