@@ -21,8 +21,8 @@ double holdAtLimits(MinimizerProblem& problem, const Unknowns& u, const SolverOp
         const double gc = s.g[static_cast<Eigen::Index>(c)];
         projectedGradient =
             std::max(projectedGradient, std::abs(s.x[c] - clampTo(s.x[c] - gc, u.lower[c], u.upper[c])));
-        // At a limit with the descent direction pointing out: held for this step.
-        s.fixed[c] = (s.x[c] <= u.lower[c] && gc > 0) || (s.x[c] >= u.upper[c] && gc < 0);
+        // At a limit with the descent direction pointing out, or a step of this linearization: held for this step.
+        s.fixed[c] = (s.x[c] <= u.lower[c] && gc > 0) || (s.x[c] >= u.upper[c] && gc < 0) || s.pushedOut[c];
     }
     if (projectedGradient <= options.gradientTolerance) return projectedGradient;
     s.gFree = s.g;
@@ -77,6 +77,26 @@ bool trialStep(MinimizerProblem& problem, const Unknowns& u, const SolverOptions
     }
     smallStep = std::sqrt(stepNorm2) <= options.parameterTolerance * (std::sqrt(xNorm2) + options.parameterTolerance);
     return true;
+}
+
+// Columns at a limit that the step solved (state.direction) pushes out, though their gradient does not: held, as
+// holdAtLimits holds the others, until the next linearization; returns whether there were any, for the step to be
+// solved again. The step then taken is the Gauss-Newton step of the free columns (a projected Newton step), not one the
+// limit cuts: a reverse foot's roll at 0, its gradient 0 or pointing in, that the coupled step pushes below 0
+// (Grunt_Run's feet) cut every step and, the steps never whole, kept the stop tests of whole steps from ever ending a
+// frame.
+bool holdPushedOut(MinimizerProblem& problem, const Unknowns& u, MinimizerState& s)
+{
+    bool any = false;
+    for (std::size_t c = 0; c < u.size(); ++c) {
+        const double d = s.direction[static_cast<Eigen::Index>(c)];
+        if (s.fixed[c] || !((s.x[c] <= u.lower[c] && d < 0) || (s.x[c] >= u.upper[c] && d > 0))) continue;
+        s.fixed[c] = s.pushedOut[c] = 1;
+        s.gFree[static_cast<Eigen::Index>(c)] = 0.0;
+        problem.hold(static_cast<Eigen::Index>(c));
+        any = true;
+    }
+    return any;
 }
 
 // Periodic unknowns and Euler triples of state.x moved to the equivalent values nearest `near` where the
@@ -184,7 +204,8 @@ MinimizerState::MinimizerState(Eigen::Index rows, Eigen::Index columns)
       delta(columns),
       step(columns),
       direction(columns),
-      fixed(x.size(), 0)
+      fixed(x.size(), 0),
+      pushedOut(x.size(), 0)
 {
 }
 
@@ -206,6 +227,7 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
     if (giveUp.window > 0) s.costs.reserve(static_cast<std::size_t>(o.maxIterations) + 1);
     s.acceptedCosts.reserve(static_cast<std::size_t>(o.maxIterations) + 1);
     bool finite = problem.linearize(s.x, false, s.r, s.g);
+    std::fill(s.pushedOut.begin(), s.pushedOut.end(), 0);
     double cost = 0.5 * s.r.squaredNorm();
     // A cost that overflows (targets 1e160 cm away: finite residuals, an infinite square) compares no step with
     // another: left to run, the damping grows until the steps are negligible and the stop reads as a stationary
@@ -252,9 +274,13 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
         }
         const bool gaussNewton = control.gaussNewton();
         bool smallStep = false, wholeStep = false, shortened = false, repeated = false;
-        if (!trialStep(problem, u, o, s, control.damping(largestDiagonal), control.scale(), smallStep, wholeStep,
-                       shortened, repeated))
-            break;
+        const auto solveTrial = [&] {
+            return trialStep(problem, u, o, s, control.damping(largestDiagonal), control.scale(), smallStep, wholeStep,
+                             shortened, repeated);
+        };
+        bool solved = solveTrial();
+        while (solved && control.scale() == 1.0 && holdPushedOut(problem, u, s)) solved = solveTrial();
+        if (!solved) break;
         if (result.gaussNewton + result.levenbergMarquardt == 0) result.longFirstStep = shortened;
         // The model's decrease, -(g.s + s^T J^T J s / 2); held columns do not move (s = 0 there).
         const auto predicted = [&] {
@@ -297,6 +323,7 @@ MinimizerResult minimize(MinimizerProblem& problem, const Unknowns& u, const Sol
                 break;
             }
             finite = problem.linearize(s.x, true, s.r, s.g);
+            std::fill(s.pushedOut.begin(), s.pushedOut.end(), 0);
             control.accepted();
         } else if (smallStep) {
             result.converged = true;  // a negligible step that does not help: nothing left to gain

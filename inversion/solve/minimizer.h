@@ -65,6 +65,7 @@ struct MinimizerState {
     Eigen::VectorXd r, rTrial, hStep, g, gFree, delta, step;
     Eigen::VectorXd direction;          // the last step solved: a Gauss-Newton step's halvings reuse it
     std::vector<char> fixed;            // per unknown: held at a limit for this step
+    std::vector<char> pushedOut;        // per unknown: at a limit a step of this linearization pushed out (held)
     std::vector<double> costs;          // the cost at each iteration's start, where minimize tests for a stall
     std::vector<double> acceptedCosts;  // the cost after each accepted step (the start's first): stationary or not
     // Hints the cache to fetch the vectors (core/prefetch.h).

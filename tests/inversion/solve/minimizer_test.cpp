@@ -183,7 +183,61 @@ Unknowns angleAndDistance(double lo, double hi)
     return u;
 }
 
+// A roll at its lower limit and a distance: r = (x0 + x1 - 1, x1 - 2). At the start (0, 0) the roll's gradient points
+// in (-1), but the Gauss-Newton step of both (to (-1, 2)) pushes it out. Every evaluation's point is kept.
+class RollAtLimit final : public SmallProblem {
+public:
+    void residuals(std::span<const double> x, Eigen::VectorXd& r) override
+    {
+        evaluated.push_back({x[0], x[1]});
+        r.resize(3);
+        r << x[0] + x[1] - 1.0, x[1] - 2.0, 0.0;
+    }
+    std::vector<std::array<double, 2>> evaluated;
+
+private:
+    Eigen::Matrix<double, 3, 2> jacobian(std::span<const double>) const override
+    {
+        Eigen::Matrix<double, 3, 2> J = Eigen::Matrix<double, 3, 2>::Zero();
+        J(0, 0) = J(0, 1) = J(1, 1) = 1.0;
+        return J;
+    }
+};
+
+// The roll limited to [0, 1], the distance free.
+Unknowns rollAndDistance()
+{
+    Approximation a;
+    for (const RigParameter& p : {test::distance("roll", 0.0, 1.0), test::distance("slide")}) {
+        ModelledParameter m;
+        m.parameter = p;
+        a.parameters.push_back(m);
+    }
+    a.parameters[0].parameter.limited = true;
+    a.parameters[1].parameter.limited = false;
+    return Unknowns(a, nullptr, {0, 1});
+}
+
 }  // namespace
+
+TEST_CASE("minimizer: a column at its limit that the step pushes out is held, and the step solved again")
+{
+    // Held, the distance's own Gauss-Newton step lands on the optimum within the limit, (0, 1.5), at once; the step
+    // cut at the limit would land at (0, 2) and take a second.
+    RollAtLimit problem;
+    const Unknowns u = rollAndDistance();
+    MinimizerState state(3, 2);
+    state.x = {0.0, 0.0};
+    const MinimizerResult result = minimize(problem, u, SolverOptions{}, state, std::vector<double>{0.0, 0.0});
+    CHECK(result.converged);
+    REQUIRE(problem.evaluated.size() >= 2);
+    CHECK(problem.evaluated[1][0] == 0.0);  // the first trial (the start's evaluation before it)
+    CHECK(problem.evaluated[1][1] == doctest::Approx(1.5).epsilon(1e-15));
+    CHECK(state.x[0] == 0.0);
+    CHECK(state.x[1] == doctest::Approx(1.5).epsilon(1e-15));
+    CHECK(result.gaussNewton == 1);
+    CHECK(result.cost == doctest::Approx(0.25).epsilon(1e-15));
+}
 
 TEST_CASE("minimizer: a step longer than maxAngularStep is shortened whole, direction kept")
 {
