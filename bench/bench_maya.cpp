@@ -147,6 +147,7 @@ Json sceneRow(const std::filesystem::path& rig, const std::filesystem::path& cli
                 {"ms_per_frame", s.msPerFrame},
                 {"cpu_ms_per_frame", cpuMsPerFrame},
                 {"cpu_ms_per_joint", joints > 0 ? Json(cpuMsPerFrame / static_cast<double>(joints)) : Json()},
+                {"setup_cpu_ms", 1e3 * s.setupCpuSeconds},
                 {"real_rig_worst_cm", s.maxPositionErrorCm},
                 {"replay_worst_cm", replayAll},
                 {"replay_worst_reached_cm", replayReached}};

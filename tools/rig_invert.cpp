@@ -102,8 +102,9 @@ void printReport(const Options& o, const app::InvertOutcome& outcome, const app:
             std::cout << fmt::format("                  {} frames {} to {}: {:.4g} cm\n", a.outputs[c.output].name,
                                      clip.frameNumbers[c.first], clip.frameNumbers[c.last], c.slideCm);
     }
-    std::cout << fmt::format("time              {:.4g} ms per frame (solver only{})\n", s.msPerFrame,
-                             s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "");
+    std::cout << fmt::format(
+        "time              {:.4g} ms per frame (solver only{}); setup {:.3g} ms, once\n", s.msPerFrame,
+        s.leadInFrames ? fmt::format("; {} lead-in frames not counted", s.leadInFrames) : "", 1e3 * s.setupSeconds);
     if (keys) std::cout << app::keysText(outcome, *keys);
     std::cout << app::sceneCurvesText(sceneCurves);
     std::cout << fmt::format("curves            {}\n", o.output);

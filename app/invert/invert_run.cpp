@@ -474,6 +474,7 @@ Json invertReport(const InvertOutcome& outcome, const std::optional<std::string>
         {"mean_rotation_error_deg", measured(s.measured(), numberJson(s.meanRotationErrorDeg))},
         {"max_model_gap_cm", measured(s.measured(), numberJson(s.maxModelGapCm))},
         {"ms_per_frame", numberJson(s.msPerFrame)},
+        {"setup_ms", numberJson(1e3 * s.setupSeconds)},
         {"lead_in_frames", s.leadInFrames},
         {"unmodelled_outputs", unmodelledOutputs(a)},
         {"contacts", contactsJson(s, a, outcome.clip.frameNumbers, outcome.contactsAsked)},

@@ -170,6 +170,8 @@ void ClipInversionSummary::merge(const ClipInversionSummary& later)
     retriesKept += later.retriesKept;
     solveSeconds += later.solveSeconds;
     solveCpuSeconds += later.solveCpuSeconds;
+    setupSeconds += later.setupSeconds;
+    setupCpuSeconds += later.setupCpuSeconds;
     realRigEvaluations += later.realRigEvaluations;
     msPerFrame = frames > 0 ? 1000.0 * solveSeconds / frames : 0.0;
 }
@@ -606,6 +608,13 @@ ClipInversionSummary invertClip(const Solver& solver, RigBinding& rig, const Cli
     std::vector<JointTarget> heldTargets;
     HeldFrameScratch heldScratch(approximation);
     using Clock = std::chrono::steady_clock;
+    {
+        const auto setupStart = Clock::now();
+        const double setupCpuStart = threadCpuSeconds();
+        solver.prepare(targets.frames[static_cast<std::size_t>(first - summary.leadInFrames)]);
+        summary.setupSeconds = std::chrono::duration<double>(Clock::now() - setupStart).count();
+        summary.setupCpuSeconds = threadCpuSeconds() - setupCpuStart;
+    }
     for (int frame = first - summary.leadInFrames; frame <= last; ++frame) {
         const auto& frameTargets = targets.frames[frame];
         const auto start = Clock::now();

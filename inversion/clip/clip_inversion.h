@@ -312,8 +312,12 @@ struct ClipInversionSummary {
     double maxModelGapCm = 0.0;  // FrameInversion::modelGapCm, worst over frames
     double solveSeconds =
         0.0;  // solver and polish time of the reported frames (lead-in and the error measurement excluded)
-    double solveCpuSeconds = 0.0;      // the same span in this thread's CPU time (steadier on a busy machine)
-    double msPerFrame = 0.0;           // solveSeconds per reported frame, ms
+    double solveCpuSeconds = 0.0;  // the same span in this thread's CPU time (steadier on a busy machine)
+    double msPerFrame = 0.0;       // solveSeconds per reported frame, ms
+    // The solver's one-time setup for the clip's targets (Solver::prepare: its plan and the initial guess's steps),
+    // before the first frame and not in solveSeconds; wall-clock and this thread's CPU time.
+    double setupSeconds = 0.0;
+    double setupCpuSeconds = 0.0;
     int leadInFrames = 0;              // solved before `first` to join the warm-start chain
     long long realRigEvaluations = 0;  // by the solves of the reported frames (a hybrid solve's); 0 otherwise
     long long jointFrames = 0;         // the (joint, frame) pairs the means are over

@@ -89,15 +89,25 @@ const SolverOptions& Solver::options() const { return impl_->options; }
 const Approximation& Solver::approximation() const { return impl_->approximation; }
 const Equivalences& Solver::equivalences() const { return *impl_->equivalences; }
 
+std::shared_ptr<const Plan> Solver::Impl::planFor(std::span<const JointTarget> targets, const char* caller)
+{
+    if (targets.size() != approximation.outputs.size())
+        throw internalError(
+            fmt::format("Solver::{}: {} targets for {} outputs", caller, targets.size(), approximation.outputs.size()));
+    std::vector<unsigned char> rows(targets.size());
+    for (std::size_t k = 0; k < targets.size(); ++k) rows[k] = countedRows(approximation.outputs[k], targets[k]);
+    std::string key;
+    return plan(rows, key);
+}
+
 Partition Solver::partition(std::span<const JointTarget> targets) const
 {
-    if (targets.size() != impl_->approximation.outputs.size())
-        throw internalError(fmt::format("Solver::partition: {} targets for {} outputs", targets.size(),
-                                        impl_->approximation.outputs.size()));
-    std::vector<unsigned char> rows(targets.size());
-    for (std::size_t k = 0; k < targets.size(); ++k) rows[k] = countedRows(impl_->approximation.outputs[k], targets[k]);
-    std::string key;
-    return impl_->plan(rows, key)->partition;
+    return impl_->planFor(targets, "partition")->partition;
+}
+
+void Solver::prepare(std::span<const JointTarget> targets) const
+{
+    impl_->planFor(targets, "prepare")->guessSteps(impl_->approximation, *impl_->equivalences);
 }
 
 MinimizerResult Solver::Impl::solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets,

@@ -67,6 +67,10 @@ public:
     const Equivalences& equivalences() const;
     // The partition a solve with these targets uses (built once per set of counted rows, then cached).
     Partition partition(std::span<const JointTarget> targets) const;
+    // Builds what solves with these targets' counted rows use and would otherwise build at the first of them: the
+    // plan (partition, blocks, coupled trees) and the initial guess's steps. A caller that times its frames
+    // (invertClip) calls it first, so that the one-time setup is not counted as a frame's.
+    void prepare(std::span<const JointTarget> targets) const;
 
     struct Impl;  // the solver's state and plans (inversion/solve/solver_impl.h, internal)
 

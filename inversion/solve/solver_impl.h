@@ -44,6 +44,8 @@ struct Solver::Impl {
 
     // The plan of a set of counted rows (one entry per output), cached by `key` (scratch for the rows as a key).
     std::shared_ptr<const Plan> plan(const std::vector<unsigned char>& rows, std::string& key);
+    // The plan of the targets' counted rows (Solver::partition, Solver::prepare: `caller` names it in the error).
+    std::shared_ptr<const Plan> planFor(std::span<const JointTarget> targets, const char* caller);
     // `reference` (one value per parameter; empty: `values` as given) is what periodic controls and Euler
     // triples are kept nearest to.
     MinimizerResult solveBlock(const BlockPlan& block, std::span<const PreparedTarget> targets,

@@ -37,6 +37,7 @@ TEST_CASE("rig-bench maya_scenes: a keyed scene of our own is learned as it come
     // Per joint, against the FK biped's per joint in the same run (rig-bench passes its figures).
     const double perFrame = scene.at("cpu_ms_per_frame").get<double>();
     CHECK(perFrame > 0.0);
+    CHECK(scene.at("setup_cpu_ms").get<double>() > 0.0);  // the solver's plan, built before the first frame
     CHECK(scene.at("cpu_ms_per_joint").get<double>() == doctest::Approx(perFrame / 3));
     bench::Json compared = row;
     bench::compareWithBiped(compared, 0.062, 31);

@@ -18,7 +18,7 @@ from conftest import (ARM, BIPED, CMU_CLIP, CMU_MAP, SOURCE, biped_spec, error_l
                       read_json, run, share_of_time_another_thread_runs)
 
 # Differs from run to run (solver time per frame) or says where the curves were written.
-VOLATILE = ("ms_per_frame", "curves")
+VOLATILE = ("ms_per_frame", "setup_ms", "curves")
 
 
 def rig_invert(approximation, folder, *args):
@@ -48,6 +48,7 @@ def test_a_cmu_clip_equals_rig_invert(learned_biped, tmp_path):
     # The fingerprint of the curves rig-invert would write: the same text.
     assert our_report["curves"] == {"file": None, "fnv1a64": report["curves"]["fnv1a64"]}
     assert our_report["ms_per_frame"] > 0
+    assert our_report["setup_ms"] > 0
     # Each residual joint's worst position (cm) and rotation (deg) apart, in rig-invert's order (the largest error on
     # the target tolerance's scale first); the clip's worst rotation is its joint's own.
     assert list(our_report["residual_joints"]) == list(report["residual_joints"])

@@ -53,6 +53,7 @@ TEST_CASE("rig-invert: a CMU clip on its bvh2rig rig converges on every frame an
     CHECK(rep["max_position_error_cm"].as<double>() < 1e-3);
     CHECK(rep["max_rotation_error_deg"].as<double>() < 1e-3);
     CHECK(rep["ms_per_frame"].as<double>() > 0.0);
+    CHECK(rep["setup_ms"].as<double>() > 0.0);
     CHECK(rep["per_frame"].size() == 120);
 
     // The channels, up to equivalent Euler angles: the same local rotation in the joint's rotate order.

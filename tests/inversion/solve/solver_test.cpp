@@ -120,6 +120,26 @@ TEST_CASE("solver: two arms, partitioned into root then arms, recover known pose
     }
 }
 
+TEST_CASE("solver: prepare builds the plan a solve uses, and the solves after it are the same to the bit")
+{
+    auto rig = test::twoArms();
+    const Approximation a = test::learn(rig, "two arms");
+    const Solver prepared(a, SolverOptions{}), plain(a, SolverOptions{});
+    std::mt19937 rng(4);
+    const std::vector<JointTarget> targets = test::targetsAt(a, test::randomValues(a, rng, 0.9));
+    prepared.prepare(targets);
+    prepared.prepare(targets);  // once built, kept
+    CHECK(prepared.partition(targets).describe(a) == plain.partition(targets).describe(a));
+    std::vector<double> v1 = a.defaults(), v2 = a.defaults();
+    prepared.initialGuess(targets, v1);
+    plain.initialGuess(targets, v2);
+    const SolveSummary s1 = prepared.solve(targets, v1), s2 = plain.solve(targets, v2);
+    CHECK(std::memcmp(v1.data(), v2.data(), v1.size() * sizeof(double)) == 0);
+    CHECK(s1.iterations == s2.iterations);
+    const std::vector<JointTarget> fewer(targets.begin(), targets.end() - 1);
+    CHECK_THROWS_WITH(prepared.prepare(fewer), "Solver::prepare: 8 targets for 9 outputs");
+}
+
 TEST_CASE("solver: limits are respected, and a target past a limit ends on it")
 {
     auto rig = test::fkArm();
