@@ -349,11 +349,12 @@ bool sameTarget(const JointTarget& a, const JointTarget& b)
 }
 
 // Whether solveChainFrame's call is the memo's (ChainMemo), to the bit.
-bool sameCall(const ChainMemo& memo, std::span<const JointTarget> targets, std::span<const double> start,
-              double previousCost, const ChainLead& lead)
+bool sameCall(const ChainMemo& memo, const Solver& solver, std::span<const JointTarget> targets,
+              std::span<const double> start, double previousCost, const ChainLead& lead)
 {
-    return memo.valid && sameBits(memo.previousCost, previousCost) && memo.leadIn.rotations == lead.rotations &&
-           memo.leadIn.wait == lead.wait && memo.leadIn.backoff == lead.backoff && sameBits(memo.start, start) &&
+    return memo.valid && memo.solver == &solver && sameBits(memo.previousCost, previousCost) &&
+           memo.leadIn.rotations == lead.rotations && memo.leadIn.wait == lead.wait &&
+           memo.leadIn.backoff == lead.backoff && sameBits(memo.start, start) &&
            std::equal(memo.targets.begin(), memo.targets.end(), targets.begin(), targets.end(), sameTarget);
 }
 
@@ -363,7 +364,8 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
                      double previousCost, ChainScratch& scratch, ChainFrame& frame)
 {
     ChainMemo& memo = scratch.memo;
-    if (sameCall(memo, targets, values, previousCost, scratch.lead)) {
+    if (!memo.on) return solveChainFrameOnce(solver, targets, values, previousCost, scratch, frame);
+    if (sameCall(memo, solver, targets, values, previousCost, scratch.lead)) {
         values.assign(memo.answer.begin(), memo.answer.end());
         frame = memo.frame;
         frame.repeated = true;
@@ -371,6 +373,7 @@ void solveChainFrame(const Solver& solver, std::span<const JointTarget> targets,
         return;
     }
     memo.valid = false;  // until the solve below has returned
+    memo.solver = &solver;
     memo.targets.assign(targets.begin(), targets.end());
     memo.start.assign(values.begin(), values.end());
     memo.previousCost = previousCost;

@@ -85,10 +85,14 @@ struct ChainLead {
 };
 // A chain frame's last call and what it gave. A solve is a pure function of its targets and start (a Solver is const),
 // and solveChainFrame of those, the previous cost and the lead: a call the same as the last one to the bit (a held pose
-// of a clip, the same targets from the answer the same targets gave) gives the same answer, summary and all, and is not
-// solved again.
+// of a clip, the same targets from the answer the same targets gave) with the same solver gives the same answer,
+// summary and all, and is not solved again. Off (`on` false) where one scratch serves many chains in turn (the
+// rigInversion node's pool, shared by a crowd's members): the last call is then another chain's, and keeping it would
+// only add to what a frame writes.
 struct ChainMemo {
+    bool on = true;
     bool valid = false;
+    const Solver* solver = nullptr;
     std::vector<JointTarget> targets;
     std::vector<double> start;
     double previousCost = 0.0;

@@ -79,7 +79,7 @@ enum Attr : AttrId {
 // for one compute, so that a crowd's members, solved one after the other on a thread, reuse one set warm in the cache
 // instead of each reading its own from memory; a frame allocates nothing.
 struct FrameScratch {
-    explicit FrameScratch(const Approximation& approximation) : held(approximation) {}
+    explicit FrameScratch(const Approximation& approximation) : held(approximation) { chain.memo.on = false; }
     std::vector<JointTarget> targets;
     ChainScratch chain;
     ChainFrame frame;

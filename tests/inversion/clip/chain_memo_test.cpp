@@ -120,7 +120,7 @@ TEST_CASE("chain memo: a held pose's frames are the chain's answers to the bit, 
     }
 }
 
-TEST_CASE("chain memo: a call one bit away from the last is solved")
+TEST_CASE("chain memo: a call one bit away from the last, or with another solver, is solved")
 {
     const Approximation a = sixJointChain();
     const Solver solver(a, SolverOptions{});
@@ -156,6 +156,22 @@ TEST_CASE("chain memo: a call one bit away from the last is solved")
         values = start;
         solveChainFrame(solver, clip[5], values, 1.0, scratch, frame);
         CHECK_FALSE(frame.repeated);
+    }
+    SUBCASE("another solver (of the same approximation)")
+    {
+        const Solver other(a, SolverOptions{});
+        values = start;
+        solveChainFrame(other, clip[5], values, retryNever, scratch, frame);
+        CHECK_FALSE(frame.repeated);
+        CHECK(values == answer);
+    }
+    SUBCASE("the memo off (a scratch that serves many chains in turn)")
+    {
+        scratch.memo.on = false;
+        values = start;
+        solveChainFrame(solver, clip[5], values, retryNever, scratch, frame);
+        CHECK_FALSE(frame.repeated);
+        CHECK(values == answer);
     }
     SUBCASE("the lead")
     {
