@@ -1,7 +1,8 @@
 #include "graph/value.h"
 
+#include "core/same_bits.h"
+
 #include <cmath>
-#include <cstring>
 #include <numbers>
 
 namespace rig {
@@ -137,16 +138,6 @@ bool isFinite(const Value& value)
         value);
 }
 
-namespace {
-
-bool sameBits(const double* a, const double* b, std::size_t n)
-{
-    // An empty vector's data() may be null, which memcmp must not be given even for zero bytes.
-    return n == 0 || std::memcmp(a, b, n * sizeof(double)) == 0;
-}
-
-}  // namespace
-
 bool bitEqual(const Value& a, const Value& b)
 {
     if (a.index() != b.index()) return false;
@@ -154,15 +145,15 @@ bool bitEqual(const Value& a, const Value& b)
         [&](const auto& x) -> bool {
             using T = std::decay_t<decltype(x)>;
             const T& y = std::get<T>(b);
-            if constexpr (std::is_same_v<T, double>) return sameBits(&x, &y, 1);
+            if constexpr (std::is_same_v<T, double>) return sameBits({&x, 1}, {&y, 1});
             else if constexpr (std::is_same_v<T, Eigen::Vector3d> || std::is_same_v<T, Eigen::Matrix4d>)
-                return sameBits(x.data(), y.data(), static_cast<std::size_t>(x.size()));
-            else if constexpr (std::is_same_v<T, std::vector<double>>)
-                return x.size() == y.size() && sameBits(x.data(), y.data(), x.size());
+                return sameBits({x.data(), static_cast<std::size_t>(x.size())},
+                                {y.data(), static_cast<std::size_t>(y.size())});
+            else if constexpr (std::is_same_v<T, std::vector<double>>) return sameBits(x, y);
             else if constexpr (std::is_same_v<T, Matrix4Array>) {
                 if (x.size() != y.size()) return false;
                 for (std::size_t i = 0; i < x.size(); ++i)
-                    if (!sameBits(x[i].data(), y[i].data(), 16)) return false;
+                    if (!sameBits({x[i].data(), 16}, {y[i].data(), 16})) return false;
                 return true;
             } else return x == y;
         },

@@ -2,10 +2,8 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <chrono>
 #include <cmath>
-#include <cstdint>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -14,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/rotation_math.h"
+#include "core/same_bits.h"
 #include "core/thread_clock.h"
 #include "inversion/clip/continuity.h"
 
@@ -334,25 +333,18 @@ void solveChainFrameOnce(const Solver& solver, std::span<const JointTarget> targ
     keepIfCheaper(second, scratch.rest, floor, frame, values);
 }
 
-bool sameBits(double a, double b) { return std::bit_cast<std::uint64_t>(a) == std::bit_cast<std::uint64_t>(b); }
-
-bool sameBits(std::span<const double> a, std::span<const double> b)
-{
-    return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](double x, double y) { return sameBits(x, y); });
-}
-
 bool sameTarget(const JointTarget& a, const JointTarget& b)
 {
-    return a.active == b.active && a.term == b.term && sameBits(a.positionWeight, b.positionWeight) &&
-           sameBits(a.rotationWeight, b.rotationWeight) &&
-           sameBits(std::span(a.world.data(), 16), std::span(b.world.data(), 16));
+    return a.active == b.active && a.term == b.term && sameBits({&a.positionWeight, 1}, {&b.positionWeight, 1}) &&
+           sameBits({&a.rotationWeight, 1}, {&b.rotationWeight, 1}) &&
+           sameBits({a.world.data(), 16}, {b.world.data(), 16});
 }
 
 // Whether solveChainFrame's call is the memo's (ChainMemo), to the bit.
 bool sameCall(const ChainMemo& memo, const Solver& solver, std::span<const JointTarget> targets,
               std::span<const double> start, double previousCost, const ChainLead& lead)
 {
-    return memo.valid && memo.solver == &solver && sameBits(memo.previousCost, previousCost) &&
+    return memo.valid && memo.solver == &solver && sameBits({&memo.previousCost, 1}, {&previousCost, 1}) &&
            memo.leadIn.rotations == lead.rotations && memo.leadIn.wait == lead.wait &&
            memo.leadIn.backoff == lead.backoff && sameBits(memo.start, start) &&
            std::equal(memo.targets.begin(), memo.targets.end(), targets.begin(), targets.end(), sameTarget);
