@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <set>
 
 #include <Eigen/Dense>
@@ -108,6 +109,63 @@ bool under(const Approximation& approximation, int k, int ancestor)
     return false;
 }
 
+// A chain's targeted members: the outputs on a base with its goal and pole. Its end is the one nearest the goal at
+// rest, or an output under it nearer still; its middle the member furthest from the root-goal line.
+struct ChainMembers {
+    int end = -1;  // -1: no member has an active target
+    int middle = -1;
+    // An output on the goal turning as another output (an ankle orient-constrained to its foot: its own base, whose
+    // pole is that foot), whose target the guess turns the foot to.
+    bool turnedOutput = false;
+};
+
+ChainMembers chainMembers(const Approximation& approximation, const ConstraintBase& c,
+                          std::span<const JointTarget> targets)
+{
+    const auto origin = [&](std::size_t k) -> Eigen::Vector3d {
+        return approximation.outputs[k].rest.block<3, 1>(0, 3);
+    };
+    const Eigen::Vector3d restGoal = origin(static_cast<std::size_t>(c.goal));
+    const Eigen::Vector3d x0 = (restGoal - c.root).normalized();
+    ChainMembers members;
+    double nearest = 0.0, furthest = 0.0;
+    for (std::size_t k = 0; k < approximation.outputs.size(); ++k) {
+        const int b = approximation.outputs[k].constraint;
+        if (b < 0) continue;
+        const ConstraintBase& m = approximation.constraints[static_cast<std::size_t>(b)];
+        members.turnedOutput = members.turnedOutput || (m.goal == c.goal && m.orient >= 0 && targets[k].active);
+        if (m.goal != c.goal || m.pole != c.pole || !targets[k].active) continue;
+        const Eigen::Vector3d o = origin(k) - c.root;
+        const double toGoal = (origin(k) - restGoal).norm();
+        const double across = (o - o.dot(x0) * x0).norm();
+        if (members.end < 0 || toGoal < nearest) members.end = static_cast<int>(k), nearest = toGoal;
+        if (members.middle < 0 || across > furthest) members.middle = static_cast<int>(k), furthest = across;
+    }
+    if (members.end < 0) return members;
+    // The chain's effector may be no member: an ankle that the IK handle does not turn, a child of the knee (a space
+    // switch's leg). Placing the goal by the knee's target left such legs bent the wrong way from every start.
+    const int nearestMember = members.end;
+    for (std::size_t k = 0; k < approximation.outputs.size(); ++k) {
+        if (!targets[k].active || !under(approximation, static_cast<int>(k), nearestMember)) continue;
+        const double toGoal = (origin(k) - restGoal).norm();
+        if (toGoal < nearest) members.end = static_cast<int>(k), nearest = toGoal;
+    }
+    return members;
+}
+
+// Where the chain's end target puts its goal (with the goal's rest offset from the end): none without an end target.
+std::optional<Eigen::Vector3d> goalByEnd(const Approximation& approximation, const ConstraintBase& c,
+                                         std::span<const JointTarget> targets)
+{
+    const int end = chainMembers(approximation, c, targets).end;
+    if (end < 0) return std::nullopt;
+    const auto origin = [&](int k) -> Eigen::Vector3d {
+        return approximation.outputs[static_cast<std::size_t>(k)].rest.block<3, 1>(0, 3);
+    };
+    return Eigen::Vector3d(targets[static_cast<std::size_t>(end)].world.block<3, 1>(0, 3) +
+                           (origin(c.goal) - origin(end)));
+}
+
 }  // namespace
 
 std::vector<PoleHold> poleHolds(const Approximation& approximation)
@@ -158,43 +216,18 @@ void placeChain(const Approximation& approximation, int constraint, std::span<co
     const auto origin = [&](int k) -> Eigen::Vector3d {
         return approximation.outputs[static_cast<std::size_t>(k)].rest.block<3, 1>(0, 3);
     };
-    // The chain's members: the outputs on a base with its goal and pole. Its end is the one nearest the goal at
-    // rest, its middle the one furthest from the root-goal line.
+    const ChainMembers members = chainMembers(approximation, c, targets);
+    const int end = members.end, middle = members.middle;
+    if (end < 0) return;
     const Eigen::Vector3d restGoal = origin(c.goal);
     const Eigen::Vector3d x0 = (restGoal - c.root).normalized();
-    int end = -1, middle = -1;
-    double nearest = 0.0, furthest = 0.0;
-    // An output on the goal turning as another output (an ankle orient-constrained to its foot: its own base, whose
-    // pole is that foot), whose target the guess turns the foot to.
-    bool turnedOutput = false;
-    for (std::size_t k = 0; k < approximation.outputs.size(); ++k) {
-        const int b = approximation.outputs[k].constraint;
-        if (b < 0) continue;
-        const ConstraintBase& m = approximation.constraints[static_cast<std::size_t>(b)];
-        turnedOutput = turnedOutput || (m.goal == c.goal && m.orient >= 0 && targets[k].active);
-        if (m.goal != c.goal || m.pole != c.pole || !targets[k].active) continue;
-        const Eigen::Vector3d o = origin(static_cast<int>(k)) - c.root;
-        const double toGoal = (origin(static_cast<int>(k)) - restGoal).norm();
-        const double across = (o - o.dot(x0) * x0).norm();
-        if (end < 0 || toGoal < nearest) end = static_cast<int>(k), nearest = toGoal;
-        if (middle < 0 || across > furthest) middle = static_cast<int>(k), furthest = across;
-    }
-    if (end < 0) return;
-    // The chain's effector may be no member: an ankle that the IK handle does not turn, a child of the knee (a space
-    // switch's leg). Placing the goal by the knee's target left such legs bent the wrong way from every start.
-    const int nearestMember = end;
-    for (std::size_t k = 0; k < approximation.outputs.size(); ++k) {
-        if (!targets[k].active || !under(approximation, static_cast<int>(k), nearestMember)) continue;
-        const double toGoal = (origin(static_cast<int>(k)) - restGoal).norm();
-        if (toGoal < nearest) end = static_cast<int>(k), nearest = toGoal;
-    }
     // The goal's control may move other helpers too (the foot whose frame an ankle's or a ball's orient constraint
     // reads, the pivots under it): their translation changes no rotation a constraint reads. Not for a pole that turns
     // with the foot where no output on the goal turns as the foot: there the foot's rotation, which turns the chain's
     // plane, is left to the step's solve from its rest while its translation is placed, and on random legs (a
     // mayaIkHandle without a pole, the ball orient-constrained, the ankle under its own control) that start stuck 4 of
     // 8 poses (tests/inversion/learn/random_character_test.cpp).
-    const bool helpersToo = !c.poleTurns || turnedOutput;
+    const bool helpersToo = !c.poleTurns || members.turnedOutput;
     const std::vector<int> goalControls = freeOf(ownTranslations(approximation, c.goal, helpersToo));
     if (!goalControls.empty())
         place(approximation, c.goal, goalControls,
@@ -232,6 +265,9 @@ constexpr double insideReach = 1e-8;
 // clips; 5%: 3550, against 3591 with the goal placed by the knee's target).
 constexpr double straightReach = 1e-6;
 constexpr double pastReach = 5e-2;
+// An end target this far inside the flat reach (a share of the rest reach) bends the chain: a held goal goes there. A
+// straight target's end lies between the straightening and the first flat knot, closer than this.
+constexpr double bentReach = 1e-4;
 
 // The reach (the root-goal distance, cm) from which a chain's shape stays put: the first of the knots whose values are
 // all the same to the end, more than one of them, after knots where it changes; else infinity.
@@ -301,7 +337,8 @@ std::vector<GoalHold> goalHolds(const Approximation& approximation)
     return holds;
 }
 
-bool holdGoals(const Approximation& approximation, std::span<const GoalHold> holds, std::span<double> values)
+bool holdGoals(const Approximation& approximation, std::span<const GoalHold> holds,
+               std::span<const JointTarget> targets, std::span<double> values)
 {
     bool moved = false;
     for (const GoalHold& hold : holds) {
@@ -311,7 +348,13 @@ bool holdGoals(const Approximation& approximation, std::span<const GoalHold> hol
         const double reach = line.norm();
         if (!(reach > hold.flatReach) || !std::isfinite(reach)) continue;
         const double held = hold.flatReach - insideReach * c.restReach;
-        place(approximation, c.goal, hold.parameters, points.root + held / reach * line, values);
+        // Where the end's target bends the chain, the goal goes there: just inside the flat reach the bend's slope is
+        // unbounded, and the steps from there crawl (UsdExportEulerFilterTest.ma's second frame, 9 iterations halving
+        // their steps; 2 from its end's target).
+        const std::optional<Eigen::Vector3d> byEnd = goalByEnd(approximation, c, targets);
+        const bool bent = byEnd && (*byEnd - points.root).norm() < hold.flatReach - bentReach * c.restReach;
+        place(approximation, c.goal, hold.parameters,
+              bent ? *byEnd : Eigen::Vector3d(points.root + held / reach * line), values);
         moved = true;
     }
     return moved;

@@ -55,9 +55,12 @@ struct GoalHold {
 // flat over the last knots (a chain without stretch); none for a goal no chain holds still past some reach.
 std::vector<GoalHold> goalHolds(const Approximation& approximation);
 
-// Moves each hold's goal whose root-goal distance is past its flatReach back along the chain's line to just inside
-// it, where the shape's slope is the bend's (the joints move by under 1e-6 cm). True when a goal moved.
-bool holdGoals(const Approximation& approximation, std::span<const GoalHold> holds, std::span<double> values);
+// Moves each hold's goal whose root-goal distance is past its flatReach back inside it: where the chain's end target
+// puts it (with its rest offset from the end, as placeChain does) when that is inside, else along the chain's line to
+// just inside the flat reach, where the shape's slope is the bend's (the joints move by under 1e-6 cm). True when a
+// goal moved.
+bool holdGoals(const Approximation& approximation, std::span<const GoalHold> holds,
+               std::span<const JointTarget> targets, std::span<double> values);
 
 // An aim's target (a planar chain whose shape never changes: docs/rig-learn.md, aims): only its direction from the
 // aimed joint counts, so its distance along the line of sight is not identifiable. A solve's minimum-norm steps move

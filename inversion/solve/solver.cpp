@@ -540,7 +540,7 @@ void Solver::solve(std::span<const JointTarget> targets, std::span<double> value
     // its targets bend it): the goal held back inside the reach, and solved again from there once, the cheaper
     // answer kept.
     scratch->held.assign(values.begin(), values.end());
-    if (!holdGoals(impl.approximation, impl.goals, values)) return;
+    if (!holdGoals(impl.approximation, impl.goals, targets, values)) return;
     SolveSummary again;
     SolveRun(impl, targets, values, again, *scratch, *plan).run();
     again.initialCost = summary.initialCost;

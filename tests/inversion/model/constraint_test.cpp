@@ -623,7 +623,9 @@ std::string randomAimRig(std::mt19937& rng, std::string& upMode)
     return yaml;
 }
 
-TEST_CASE("constraints: a rigid chain's goal past its reach is held back inside it, where a missed solve restarts")
+TEST_CASE(
+    "constraints: a rigid chain's goal past its reach is held back inside it, where a missed solve restarts: at its "
+    "end's target where that bends the chain")
 {
     // Without stretch the limb straightens at the sum of its bones (21.0 + 18.3 cm from the upper joint): past it the
     // shape is flat, and the goal gets a hold there; a stretchy chain's shape never flattens, so it gets none.
@@ -657,9 +659,14 @@ TEST_CASE("constraints: a rigid chain's goal past its reach is held back inside 
             return static_cast<std::size_t>(test::parameterIndex(a, fmt::format("ik_ctrl.translate{}", "XYZ"[axis])));
         };
         for (int axis = 0; axis < 3; ++axis) values[goalIndex(axis)] = root[axis] + (bones + 20.0) * direction[axis];
+        const std::vector<double> past = values;
         std::vector<Eigen::Matrix4d> before, after;
         binding.evaluate(values, before);
-        REQUIRE(holdGoals(a, holds, values));
+        // Straight targets (the pose itself): the end's target is past the reach too.
+        std::vector<JointTarget> targets(a.outputs.size());
+        for (std::size_t k = 0; k < targets.size(); ++k)
+            if (!a.outputs[k].helper) targets[k] = JointTarget{true, before[k]};
+        REQUIRE(holdGoals(a, holds, targets, values));
         Eigen::Vector3d goal;
         for (int axis = 0; axis < 3; ++axis) goal[axis] = values[goalIndex(axis)];
         CHECK((goal - root).norm() < holds[0].flatReach);
@@ -668,7 +675,31 @@ TEST_CASE("constraints: a rigid chain's goal past its reach is held back inside 
         binding.evaluate(values, after);
         for (std::size_t k = 0; k < after.size(); ++k)
             if (!a.outputs[k].helper) CHECK((after[k].block<3, 1>(0, 3) - before[k].block<3, 1>(0, 3)).norm() < 1e-4);
-        CHECK_FALSE(holdGoals(a, holds, values));  // inside: left alone
+        CHECK_FALSE(holdGoals(a, holds, targets, values));  // inside: left alone
+
+        // Targets that bend the limb (its goal 0.9 of the way to the reach, in another direction): the goal goes where
+        // the end's target puts it, which is the answer, instead of just inside the flat reach, where the bend's slope
+        // is unbounded.
+        std::vector<double> bentValues = a.defaults();
+        const Eigen::Vector3d bentGoal = root + 0.9 * bones * Eigen::Vector3d(1.0, -2.5, 0.0).normalized();
+        for (int axis = 0; axis < 3; ++axis) bentValues[goalIndex(axis)] = bentGoal[axis];
+        std::vector<Eigen::Matrix4d> bent, held;
+        binding.evaluate(bentValues, bent);
+        for (std::size_t k = 0; k < targets.size(); ++k)
+            if (!a.outputs[k].helper) targets[k].world = bent[k];
+        values = past;
+        REQUIRE(holdGoals(a, holds, targets, values));
+        for (int axis = 0; axis < 3; ++axis)
+            CHECK(values[goalIndex(axis)] == doctest::Approx(bentGoal[axis]).epsilon(1e-9));
+        binding.evaluate(values, held);
+        for (std::size_t k = 0; k < held.size(); ++k)
+            if (!a.outputs[k].helper) CHECK((held[k].block<3, 1>(0, 3) - bent[k].block<3, 1>(0, 3)).norm() < 1e-9);
+        // Without an end target: along the line, as for straight targets.
+        for (JointTarget& t : targets) t.active = false;
+        values = past;
+        REQUIRE(holdGoals(a, holds, targets, values));
+        for (int axis = 0; axis < 3; ++axis) goal[axis] = values[goalIndex(axis)];
+        CHECK(((goal - root).normalized() - direction).norm() < 1e-9);
     }
 }
 
