@@ -362,6 +362,13 @@ void Graph::evaluate(std::span<const Plug> plugs)
     if (!roots_.empty()) evaluateNodes(roots_);
 }
 
+void Graph::evaluate(std::span<const Plug> plugs, std::vector<Value>& values)
+{
+    evaluate(plugs);
+    values.resize(plugs.size());
+    for (std::size_t i = 0; i < plugs.size(); ++i) values[i] = readStored(plugs[i]);
+}
+
 void Graph::evaluateAll()
 {
     roots_.resize(static_cast<std::size_t>(nodeCount()));

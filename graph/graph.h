@@ -92,6 +92,9 @@ public:
     Value getValue(const Plug& plug);
     // Brings all these plugs up to date in one evaluation (parallel when threads() > 1).
     void evaluate(std::span<const Plug> plugs);
+    // The same, then their values into `values` (resized to one per plug, its storage kept): what getValue gives each,
+    // each plug checked and its flag read once (a crowd's player reads a thousand plugs a frame).
+    void evaluate(std::span<const Plug> plugs, std::vector<Value>& values);
     // Brings every plug of the graph up to date.
     void evaluateAll();
 

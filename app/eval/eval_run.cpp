@@ -190,8 +190,8 @@ void evaluateFrame(Graph& graph, const std::string& rigName, double frame, bool 
                    std::vector<Value>& values, bool check)
 {
     if (setTime) graph.setTime(frame);
-    evaluating(rigName, frame, [&] { graph.evaluate(plugs); });
     if (check) {
+        evaluating(rigName, frame, [&] { graph.evaluate(plugs); });
         const auto mismatches = graph.checkEvaluation();
         if (!mismatches.empty()) {
             std::string list;
@@ -202,10 +202,8 @@ void evaluateFrame(Graph& graph, const std::string& rigName, double frame, bool 
                             frame, list));
         }
     }
-    values.resize(plugs.size());
-    evaluating(rigName, frame, [&] {
-        for (std::size_t i = 0; i < plugs.size(); ++i) values[i] = graph.getValue(plugs[i]);
-    });
+    // The values after the check's recompute where there is one (stateful nodes are not compared).
+    evaluating(rigName, frame, [&] { graph.evaluate(plugs, values); });
 }
 
 void checkOutputSize(double bytes, std::size_t frames, std::size_t plugs)

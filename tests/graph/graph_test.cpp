@@ -320,10 +320,12 @@ TEST_CASE("a player's frames reuse what the last one needed, and see any other c
         g.connect(g.plug("moving.sum"), g.plug("sum.a"));
         g.connect(g.plug("held.sum"), g.plug("sum.b"));
         const std::vector<Plug> plugs{g.plug("sum.sum")};
+        std::vector<Value> values;
         const auto play = [&](double frame) {
             g.setTime(frame);
-            g.evaluate(plugs);
-            return std::get<double>(g.getValue(plugs[0]));
+            g.evaluate(plugs, values);
+            REQUIRE(values.size() == 1);
+            return std::get<double>(values[0]);
         };
         for (int frame = 1; frame <= 4; ++frame) CHECK(play(frame) == frame);
         CHECK(g.computeCount(g.node("held")) == 1);
@@ -337,6 +339,33 @@ TEST_CASE("a player's frames reuse what the last one needed, and see any other c
         CHECK(play(8.0) == 118.0);
         CHECK(play(9.0) == 119.0);
         CHECK(g.computeCount(g.node("held")) == 3);
+    }
+}
+
+TEST_CASE("evaluating plugs with their values gives what getValue gives each, inputs, outputs and components")
+{
+    for (const int threads : {1, 2}) {
+        CAPTURE(threads);
+        Graph g(testRegistry());
+        g.setThreads(threads);
+        g.addNode("time", "time1");
+        g.addNode("add", "moving");
+        g.addNode("add", "sum");
+        g.connect(g.plug("time1.outTime"), g.plug("moving.a"));
+        g.connect(g.plug("moving.sum"), g.plug("sum.a"));
+        g.setValue(g.plug("sum.b"), 0.25);
+        const std::vector<Plug> plugs{g.plug("sum.sum"), g.plug("moving.a"), g.plug("sum.b"), g.plug("moving.sum"),
+                                      g.plug("sum.sum")};
+        std::vector<Value> values{Value(1.0)};  // replaced, not appended to
+        g.setTime(3.0);
+        g.evaluate(plugs, values);
+        REQUIRE(values.size() == plugs.size());
+        for (std::size_t i = 0; i < plugs.size(); ++i) CHECK(values[i] == g.getValue(plugs[i]));
+        CHECK(std::get<double>(values[0]) == 3.25);
+        g.setTime(4.0);
+        g.evaluate(plugs, values);
+        CHECK(std::get<double>(values[0]) == 4.25);
+        CHECK(std::get<double>(values[1]) == 4.0);
     }
 }
 
