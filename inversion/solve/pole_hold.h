@@ -56,9 +56,9 @@ struct GoalHold {
 std::vector<GoalHold> goalHolds(const Approximation& approximation);
 
 // Moves each hold's goal whose root-goal distance is past its flatReach back inside it: where the chain's end target
-// puts it (with its rest offset from the end, as placeChain does) when that is inside, else along the chain's line to
-// just inside the flat reach, where the shape's slope is the bend's (the joints move by under 1e-6 cm). True when a
-// goal moved.
+// puts it (with its rest offset from the end, as placeChain does) when that lies inside the flat reach by more than a
+// 1e-4 share of the rest reach (a bent target), else along the chain's line to just inside the flat reach, where the
+// shape's slope is the bend's (the joints move by under 1e-6 cm). True when a goal moved.
 bool holdGoals(const Approximation& approximation, std::span<const GoalHold> holds,
                std::span<const JointTarget> targets, std::span<double> values);
 
