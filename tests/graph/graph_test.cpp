@@ -1,6 +1,7 @@
 // The engine: plugs, connections, dirty propagation, pull evaluation, serial vs parallel, checked mode.
 #include <doctest/doctest.h>
 
+#include <memory>
 #include <numbers>
 
 #include <fmt/format.h>
@@ -303,6 +304,23 @@ TEST_CASE("scene time dirties its whole downstream, as the graph is when the tim
     CHECK(g.computeCount(g.node("still")) == computed);
 }
 
+namespace {
+
+// time1.outTime -> moving.a, moving.sum -> sum.a, on `threads` threads.
+std::unique_ptr<Graph> timeChain(int threads)
+{
+    auto g = std::make_unique<Graph>(testRegistry());
+    g->setThreads(threads);
+    g->addNode("time", "time1");
+    g->addNode("add", "moving");
+    g->addNode("add", "sum");
+    g->connect(g->plug("time1.outTime"), g->plug("moving.a"));
+    g->connect(g->plug("moving.sum"), g->plug("sum.a"));
+    return g;
+}
+
+}  // namespace
+
 TEST_CASE("a player's frames reuse what the last one needed, and see any other change")
 {
     // Between two evaluations of the same plugs where only the scene time moved, the graph keeps what they needed
@@ -310,14 +328,9 @@ TEST_CASE("a player's frames reuse what the last one needed, and see any other c
     // must make it look again.
     for (const int threads : {1, 2}) {
         CAPTURE(threads);
-        Graph g(testRegistry());
-        g.setThreads(threads);
-        g.addNode("time", "time1");
-        g.addNode("add", "moving");
+        const std::unique_ptr<Graph> chain = timeChain(threads);
+        Graph& g = *chain;
         g.addNode("add", "held");
-        g.addNode("add", "sum");
-        g.connect(g.plug("time1.outTime"), g.plug("moving.a"));
-        g.connect(g.plug("moving.sum"), g.plug("sum.a"));
         g.connect(g.plug("held.sum"), g.plug("sum.b"));
         const std::vector<Plug> plugs{g.plug("sum.sum")};
         std::vector<Value> values;
@@ -342,17 +355,12 @@ TEST_CASE("a player's frames reuse what the last one needed, and see any other c
     }
 }
 
-TEST_CASE("evaluating plugs with their values gives what getValue gives each, inputs, outputs and components")
+TEST_CASE("evaluating plugs with their values gives what getValue gives each, inputs and outputs")
 {
     for (const int threads : {1, 2}) {
         CAPTURE(threads);
-        Graph g(testRegistry());
-        g.setThreads(threads);
-        g.addNode("time", "time1");
-        g.addNode("add", "moving");
-        g.addNode("add", "sum");
-        g.connect(g.plug("time1.outTime"), g.plug("moving.a"));
-        g.connect(g.plug("moving.sum"), g.plug("sum.a"));
+        const std::unique_ptr<Graph> chain = timeChain(threads);
+        Graph& g = *chain;
         g.setValue(g.plug("sum.b"), 0.25);
         const std::vector<Plug> plugs{g.plug("sum.sum"), g.plug("moving.a"), g.plug("sum.b"), g.plug("moving.sum"),
                                       g.plug("sum.sum")};
